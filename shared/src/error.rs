@@ -1,0 +1,81 @@
+//! Errors of the shared crate: everything a blob or a parameter set can get wrong.
+
+/// What went wrong while decoding, validating or loading a model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Error {
+    /// The input ended before the named part was complete.
+    Truncated {
+        /// Part being read ("header", "payload", "crc").
+        part: &'static str,
+    },
+    /// The first four bytes are not `FBGM`.
+    BadMagic,
+    /// A format version this build does not read.
+    UnsupportedVersion {
+        /// Version found in the header.
+        found: u16,
+    },
+    /// A header dimension differs from what this build computes with.
+    WrongDims {
+        /// Which dimension ("inputs", "outputs", "poly_terms", "centres").
+        field: &'static str,
+        /// Value in the blob.
+        found: u16,
+        /// Value expected (for centres: the capacity).
+        expected: u16,
+    },
+    /// The CRC-32 trailer does not match header and payload.
+    BadCrc,
+    /// The payload does not decode as model parameters.
+    BadPayload,
+    /// Bytes left over after the CRC trailer.
+    TrailingBytes {
+        /// How many.
+        extra: usize,
+    },
+    /// More centres than the target's capacity.
+    TooManyCentres {
+        /// Centres in the model.
+        found: usize,
+        /// Capacity `K` of the receiving type.
+        capacity: usize,
+    },
+    /// A parameter is non-finite or out of its range.
+    BadParameter {
+        /// The parameter's field path.
+        field: &'static str,
+    },
+    /// The output buffer is too small for the encoded blob.
+    BufferTooSmall,
+}
+
+impl core::fmt::Display for Error {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Error::Truncated { part } => write!(f, "model blob truncated in the {part}"),
+            Error::BadMagic => f.write_str("not a model blob (magic is not FBGM)"),
+            Error::UnsupportedVersion { found } => {
+                write!(f, "unsupported model blob format version {found}")
+            }
+            Error::WrongDims { field, found, expected } => {
+                write!(f, "model blob dimension {field} is {found}, this build needs {expected}")
+            }
+            Error::BadCrc => f.write_str("model blob CRC-32 mismatch (corrupted)"),
+            Error::BadPayload => f.write_str("model blob payload does not decode"),
+            Error::TrailingBytes { extra } => {
+                write!(f, "model blob has {extra} unexpected bytes after its CRC")
+            }
+            Error::TooManyCentres { found, capacity } => {
+                write!(f, "model has {found} RBF centres, this target holds at most {capacity}")
+            }
+            Error::BadParameter { field } => {
+                write!(f, "model parameter {field} is non-finite or out of range")
+            }
+            Error::BufferTooSmall => f.write_str("output buffer too small for the model blob"),
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for Error {}

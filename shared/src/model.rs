@@ -1,0 +1,228 @@
+//! The auditable form of a trained compensator: every coefficient in the units a metrologist
+//! checks, exactly what the `.fbgm` blob carries.
+//!
+//! [`crate::Compensator`] derives its folded, per-sample form from this once at load time.
+
+use heapless::{String, Vec};
+use serde::{Deserialize, Serialize};
+
+use crate::error::Error;
+use crate::layout::{FeatureSet, N_ENVELOPE, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use crate::real::Real;
+
+/// Hyper-parameters chosen by blocked time-series cross-validation, plus the flag settings.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Hyper<F> {
+    /// Inputs of the RBF residual.
+    pub feature_set: FeatureSet,
+    /// σ as a multiple of the median nearest-neighbour distance between centres (for audit).
+    pub sigma_mult: F,
+    /// RBF width σ in standardised units.
+    pub sigma: F,
+    /// Ridge penalty α of Eq. 7.
+    pub alpha: F,
+    /// Direction-latch dead band [pm].
+    pub dead_band_pm: F,
+    /// Weak-support threshold on max_j ψ_j (0..1).
+    pub weak_support: F,
+    /// Envelope margin as a fraction of the calibration range (for audit; the envelope bounds
+    /// already include it).
+    pub envelope_margin: F,
+    /// Factor applied to the 95 % band of a flagged (envelope or support) sample (>= 1).
+    pub flagged_band_factor: F,
+}
+
+/// One RBF centre with its residual weights and variance eigen-components.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Centre<F> {
+    /// Position μ_j in standardised z units (0 on dimensions the feature set does not use).
+    pub mu: [F; Z_DIMS],
+    /// Residual weights W[:, j] for T [°C], ε [µε], p [kPa].
+    pub w: [F; N_OUTPUTS],
+    /// Component j of the `VAR_RANK` eigenvectors of `ΨᵀΨ + αI` with the smallest eigenvalues.
+    pub v: [F; VAR_RANK],
+}
+
+/// Where the model came from (DESIGN §6).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Provenance {
+    /// Scenario seed (0 for real data).
+    pub seed: u64,
+    /// Scenario preset or data source name.
+    pub scenario: String<24>,
+    /// Trainer version that wrote the model.
+    pub trainer_version: String<16>,
+    /// Training date as YYYYMMDD (UTC).
+    pub date_yyyymmdd: u32,
+    /// Calibration samples used.
+    pub n_cal: u32,
+}
+
+/// A trained Model-H (Model-P when it has no centres), generic over the scalar and with a
+/// capacity of `K` centres.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModelParams<F, const K: usize> {
+    /// Chosen hyper-parameters.
+    pub hyper: Hyper<F>,
+    /// Stage-1 linear inverse A: first guesses (T °C, ε µε, p kPa) = A · [Δλ1..3 pm, T_amb °C, 1].
+    pub stage1: [[F; N_STAGE1]; N_OUTPUTS],
+    /// Mean of the stage-1 guesses over the calibration batch (T °C, ε µε, p kPa).
+    pub guess_mean: [F; N_OUTPUTS],
+    /// Standard deviation of the stage-1 guesses (same units), > 0.
+    pub guess_std: [F; N_OUTPUTS],
+    /// Polynomial core B (paper Eq. 3) on standardised guesses, rows T, ε, p; columns in
+    /// [`crate::layout::POLY_NAMES`] order, values in output units.
+    pub poly: [[F; N_POLY]; N_OUTPUTS],
+    /// Mean of each RBF input over the calibration batch (units of [`crate::layout::Z_NAMES`]).
+    pub z_mean: [F; Z_DIMS],
+    /// Standard deviation of each RBF input (> 0 on used dimensions, ignored elsewhere).
+    pub z_std: [F; Z_DIMS],
+    /// RBF centres with weights (up to `K`).
+    pub centres: Vec<Centre<F>, K>,
+    /// `1/g_i` for the `VAR_RANK` smallest eigenvalues g_i of `ΨᵀΨ + αI` (0 when unused).
+    pub var_inv_g: [F; VAR_RANK],
+    /// `1/g` of the smallest eigenvalue not kept (0 when all are kept): bounds the rest.
+    pub var_inv_g_tail: F,
+    /// Per-output residual variance s² from cross-validation (°C², µε², kPa²).
+    pub resid_var: [F; N_OUTPUTS],
+    /// Lower envelope bound per input Δλ1..3 [pm], T_amb [°C], margin included.
+    pub envelope_lo: [F; N_ENVELOPE],
+    /// Upper envelope bound, margin included.
+    pub envelope_hi: [F; N_ENVELOPE],
+    /// Training provenance.
+    pub provenance: Provenance,
+}
+
+impl<F: Real, const K: usize> ModelParams<F, K> {
+    /// Number of centres in use (0 for a pure Model-P).
+    pub fn n_centres(&self) -> usize {
+        self.centres.len()
+    }
+
+    /// Check every number a device would rely on: finite values, positive scales, ordered
+    /// envelope, sane flag settings. Decoding calls this; so should anyone building params by
+    /// hand.
+    pub fn validate(&self) -> Result<(), Error> {
+        let h = &self.hyper;
+        let finite = |v: F| v.is_finite();
+        let all = |s: &[F]| s.iter().all(|&v| v.is_finite());
+        if !(finite(h.sigma) && h.sigma > F::ZERO) {
+            return Err(Error::BadParameter { field: "hyper.sigma" });
+        }
+        if !(finite(h.sigma_mult) && h.sigma_mult > F::ZERO) {
+            return Err(Error::BadParameter { field: "hyper.sigma_mult" });
+        }
+        if !(finite(h.alpha) && h.alpha >= F::ZERO) {
+            return Err(Error::BadParameter { field: "hyper.alpha" });
+        }
+        if !(finite(h.dead_band_pm) && h.dead_band_pm >= F::ZERO) {
+            return Err(Error::BadParameter { field: "hyper.dead_band_pm" });
+        }
+        if !(finite(h.weak_support) && h.weak_support >= F::ZERO && h.weak_support <= F::ONE) {
+            return Err(Error::BadParameter { field: "hyper.weak_support" });
+        }
+        if !(finite(h.envelope_margin) && h.envelope_margin >= F::ZERO) {
+            return Err(Error::BadParameter { field: "hyper.envelope_margin" });
+        }
+        if !(finite(h.flagged_band_factor) && h.flagged_band_factor >= F::ONE) {
+            return Err(Error::BadParameter { field: "hyper.flagged_band_factor" });
+        }
+        if !self.stage1.iter().all(|r| all(r)) {
+            return Err(Error::BadParameter { field: "stage1" });
+        }
+        if !all(&self.guess_mean) {
+            return Err(Error::BadParameter { field: "guess_mean" });
+        }
+        if !self.guess_std.iter().all(|&s| finite(s) && s > F::ZERO) {
+            return Err(Error::BadParameter { field: "guess_std" });
+        }
+        if !self.poly.iter().all(|r| all(r)) {
+            return Err(Error::BadParameter { field: "poly" });
+        }
+        if !all(&self.z_mean) {
+            return Err(Error::BadParameter { field: "z_mean" });
+        }
+        let active = h.feature_set.active();
+        if !self
+            .z_std
+            .iter()
+            .zip(active.iter())
+            .all(|(&s, &on)| finite(s) && (!on || s > F::ZERO))
+        {
+            return Err(Error::BadParameter { field: "z_std" });
+        }
+        if !self.centres.iter().all(|c| all(&c.mu) && all(&c.w) && all(&c.v)) {
+            return Err(Error::BadParameter { field: "centres" });
+        }
+        if !self.var_inv_g.iter().all(|&v| finite(v) && v >= F::ZERO) {
+            return Err(Error::BadParameter { field: "var_inv_g" });
+        }
+        if !(finite(self.var_inv_g_tail) && self.var_inv_g_tail >= F::ZERO) {
+            return Err(Error::BadParameter { field: "var_inv_g_tail" });
+        }
+        if !self.resid_var.iter().all(|&v| finite(v) && v >= F::ZERO) {
+            return Err(Error::BadParameter { field: "resid_var" });
+        }
+        if !self
+            .envelope_lo
+            .iter()
+            .zip(self.envelope_hi.iter())
+            .all(|(&lo, &hi)| finite(lo) && finite(hi) && lo <= hi)
+        {
+            return Err(Error::BadParameter { field: "envelope" });
+        }
+        Ok(())
+    }
+
+    /// The same model in another scalar type (f64 → f32 for export, f32 → f64 to audit a blob)
+    /// and capacity. Fails with [`Error::TooManyCentres`] when `K2` cannot hold the centres.
+    pub fn convert<G: Real, const K2: usize>(&self) -> Result<ModelParams<G, K2>, Error> {
+        fn c<F: Real, G: Real, const N: usize>(a: &[F; N]) -> [G; N] {
+            let mut out = [G::ZERO; N];
+            for (o, &v) in out.iter_mut().zip(a.iter()) {
+                *o = G::from_f64(v.to_f64());
+            }
+            out
+        }
+        fn m<F: Real, G: Real, const R: usize, const C: usize>(a: &[[F; C]; R]) -> [[G; C]; R] {
+            let mut out = [[G::ZERO; C]; R];
+            for (o, r) in out.iter_mut().zip(a.iter()) {
+                *o = c(r);
+            }
+            out
+        }
+        let g = |v: F| G::from_f64(v.to_f64());
+        let mut centres: Vec<Centre<G>, K2> = Vec::new();
+        for ce in self.centres.iter() {
+            centres
+                .push(Centre { mu: c(&ce.mu), w: c(&ce.w), v: c(&ce.v) })
+                .map_err(|_| Error::TooManyCentres { found: self.centres.len(), capacity: K2 })?;
+        }
+        let h = &self.hyper;
+        Ok(ModelParams {
+            hyper: Hyper {
+                feature_set: h.feature_set,
+                sigma_mult: g(h.sigma_mult),
+                sigma: g(h.sigma),
+                alpha: g(h.alpha),
+                dead_band_pm: g(h.dead_band_pm),
+                weak_support: g(h.weak_support),
+                envelope_margin: g(h.envelope_margin),
+                flagged_band_factor: g(h.flagged_band_factor),
+            },
+            stage1: m(&self.stage1),
+            guess_mean: c(&self.guess_mean),
+            guess_std: c(&self.guess_std),
+            poly: m(&self.poly),
+            z_mean: c(&self.z_mean),
+            z_std: c(&self.z_std),
+            centres,
+            var_inv_g: c(&self.var_inv_g),
+            var_inv_g_tail: g(self.var_inv_g_tail),
+            resid_var: c(&self.resid_var),
+            envelope_lo: c(&self.envelope_lo),
+            envelope_hi: c(&self.envelope_hi),
+            provenance: self.provenance.clone(),
+        })
+    }
+}

@@ -1,0 +1,122 @@
+//! `cargo xtask test|qemu|bench|size`: the project's task runner (matklad's xtask pattern).
+//!
+//! `cargo xtask test` is the README's test command and what CI runs: it installs what it needs
+//! (the thumb target comes from `rust-toolchain.toml`; `qemu-system-arm` with apt-get) or stops
+//! with a message that says exactly what to install.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{bail, Context, Result};
+
+mod qemu;
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let task = args.first().map(String::as_str).unwrap_or("help");
+    let rest = args.get(1..).unwrap_or(&[]);
+    match task {
+        "test" => test(rest),
+        "qemu" => qemu::run_all(&root()),
+        "help" | "--help" | "-h" => {
+            println!("{HELP}");
+            Ok(())
+        }
+        other => bail!("unknown task `{other}`\n{HELP}"),
+    }
+}
+
+const HELP: &str = "\
+cargo xtask <task>
+  test    host tests of the whole workspace, no_std build of fbg-shared for
+          thumbv7em-none-eabihf, firmware build and its QEMU tests (CI runs this)
+  qemu    only the firmware QEMU tests";
+
+/// Workspace root (the parent of this crate's directory).
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().map(Path::to_path_buf).unwrap_or_default()
+}
+
+/// Run a command, echoing it, and fail with its name if it fails.
+pub fn run(cmd: &mut Command) -> Result<()> {
+    eprintln!("xtask: $ {}", describe(cmd));
+    let status = cmd.status().with_context(|| format!("could not start `{}`", describe(cmd)))?;
+    if !status.success() {
+        bail!("`{}` failed with {status}", describe(cmd));
+    }
+    Ok(())
+}
+
+pub fn describe(cmd: &Command) -> String {
+    let mut s = cmd.get_program().to_string_lossy().into_owned();
+    for a in cmd.get_args() {
+        s.push(' ');
+        s.push_str(&a.to_string_lossy());
+    }
+    s
+}
+
+pub fn cargo() -> Command {
+    Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+}
+
+fn test(rest: &[String]) -> Result<()> {
+    let root = root();
+    let skip_qemu = rest.iter().any(|a| a == "--no-qemu");
+    ensure_thumb_target()?;
+
+    step("host tests (whole workspace)");
+    run(cargo().current_dir(&root).args(["test", "--workspace", "--release", "--locked"]))?;
+
+    step("fbg-shared: no_std build for thumbv7em-none-eabihf without default features");
+    run(cargo().current_dir(&root).args([
+        "build",
+        "-p",
+        "fbg-shared",
+        "--no-default-features",
+        "--target",
+        "thumbv7em-none-eabihf",
+        "--release",
+        "--locked",
+    ]))?;
+    run(cargo().current_dir(&root).args([
+        "clippy",
+        "-p",
+        "fbg-shared",
+        "--no-default-features",
+        "--target",
+        "thumbv7em-none-eabihf",
+        "--locked",
+        "--",
+        "-D",
+        "warnings",
+    ]))?;
+
+    if skip_qemu {
+        eprintln!("xtask: --no-qemu given, skipping the firmware and its QEMU tests");
+    } else {
+        qemu::run_all(&root)?;
+    }
+    eprintln!("xtask: all tests passed");
+    Ok(())
+}
+
+pub fn step(what: &str) {
+    eprintln!("\nxtask: ==== {what} ====");
+}
+
+/// The thumb target normally arrives through `rust-toolchain.toml`; make sure it is there.
+fn ensure_thumb_target() -> Result<()> {
+    let out = Command::new("rustup").args(["target", "list", "--installed"]).current_dir(root()).output();
+    match out {
+        Ok(o) if String::from_utf8_lossy(&o.stdout).contains("thumbv7em-none-eabihf") => Ok(()),
+        Ok(_) => run(Command::new("rustup")
+            .args(["target", "add", "thumbv7em-none-eabihf"])
+            .current_dir(root()))
+        .context("install the target with `rustup target add thumbv7em-none-eabihf`"),
+        Err(_) => {
+            eprintln!("xtask: rustup not found; assuming the thumbv7em-none-eabihf target is installed");
+            Ok(())
+        }
+    }
+}
