@@ -1,1 +1,11 @@
+//! `fbg-trainer`: simulate FBG installations, fit and evaluate the hybrid compensator, export
+//! models for the `fbg-shared` inference.
 
+pub mod dataset;
+pub mod error;
+pub mod metrics;
+pub mod rng;
+pub mod scenario;
+pub mod sim;
+
+pub use error::TrainerError;

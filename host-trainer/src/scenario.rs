@@ -1,0 +1,590 @@
+//! Scenario configuration (DESIGN §3): every parameter of the simulated installation, with the
+//! `paper` and `harsh` presets and TOML files where any parameter can be overridden.
+//!
+//! Unknown keys and out-of-range values are errors that name the key.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::TrainerError;
+
+/// Clock and split.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Clock {
+    /// Duration [days].
+    pub days: f64,
+    /// Sample interval [s].
+    pub dt_s: f64,
+    /// Fraction of samples (from the start) used for calibration; the rest is the hold-out.
+    pub cal_fraction: f64,
+}
+
+/// Temperature trajectory T(t) [°C].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Temperature {
+    pub mean_c: f64,
+    pub diurnal_amp_c: f64,
+    pub diurnal_phase_rad: f64,
+    pub weekly_amp_c: f64,
+    pub weekly_phase_rad: f64,
+    /// Slow seasonal excursion (0 in `paper`; `harsh` uses it to leave the calibration range).
+    pub seasonal_amp_c: f64,
+    pub seasonal_period_days: f64,
+    pub seasonal_phase_rad: f64,
+    pub ar_sigma_c: f64,
+    pub ar_tau_s: f64,
+}
+
+/// Strain trajectory ε(t) [µε].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Strain {
+    /// Quasi-static load levels, uniform in [level_lo_ue, level_hi_ue].
+    pub level_lo_ue: f64,
+    pub level_hi_ue: f64,
+    /// Time each level is held, ramp included [s].
+    pub hold_s: f64,
+    /// Linear ramp from the previous level [s].
+    pub ramp_s: f64,
+    pub sine1_amp_ue: f64,
+    pub sine1_period_s: f64,
+    pub sine2_amp_ue: f64,
+    pub sine2_period_s: f64,
+    pub ar_sigma_ue: f64,
+    pub ar_tau_s: f64,
+}
+
+/// Pressure trajectory p(t) [kPa].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Pressure {
+    pub mean_kpa: f64,
+    pub sine1_amp_kpa: f64,
+    pub sine1_period_s: f64,
+    pub sine2_amp_kpa: f64,
+    pub sine2_period_s: f64,
+    pub ar_sigma_kpa: f64,
+    pub ar_tau_s: f64,
+}
+
+/// Reference (ambient) thermometer T_amb(t) [°C].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Ambient {
+    /// First-order lag of the thermometer behind T [s].
+    pub lag_tau_s: f64,
+    pub offset_c: f64,
+    pub noise_sigma_c: f64,
+}
+
+/// Gratings and their physics (paper Eq. 2-3).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Gratings {
+    /// Nominal Bragg wavelengths [nm].
+    pub nominal_nm: [f64; 3],
+    /// Gauge matrix rows per grating: [pm/°C, pm/µε, pm/kPa].
+    pub gauge: [[f64; 3]; 3],
+    /// Relative manufacturing dispersion of every gauge entry (σ of the factor 1 + N(0, σ)).
+    pub dispersion: f64,
+    /// Cross-terms per grating [pm/°C²], [pm/(°C·µε)], [pm/(°C·kPa)], [pm/µε²], [pm/kPa²],
+    /// [pm/(µε·kPa)].
+    pub c_tt: [f64; 3],
+    pub c_te: [f64; 3],
+    pub c_tp: [f64; 3],
+    pub c_ee: [f64; 3],
+    pub c_pp: [f64; 3],
+    pub c_ep: [f64; 3],
+    /// Reference point of the Δ's: T [°C], ε [µε], p [kPa].
+    pub ref_t_c: f64,
+    pub ref_strain_ue: f64,
+    pub ref_p_kpa: f64,
+}
+
+/// Interrogator hysteresis: paper Eq. 9 followed by a play operator.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Hysteresis {
+    pub enabled: bool,
+    pub beta: f64,
+    pub gamma: f64,
+    pub rho: f64,
+    /// Play (backlash) half-width [pm].
+    pub play_half_width_pm: f64,
+}
+
+/// Scan nonlinearity of the tunable filter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Scan {
+    pub enabled: bool,
+    pub ripple_amp_pm: f64,
+    pub ripple_period_nm: f64,
+    /// Ripple phase per channel [rad].
+    pub ripple_phase_rad: [f64; 3],
+    /// Quadratic bow reaching `bow_pm` at ±`bow_half_span_nm` from `bow_centre_nm`.
+    pub bow_pm: f64,
+    pub bow_half_span_nm: f64,
+    pub bow_centre_nm: f64,
+}
+
+/// Random-walk drift (paper Eq. 8), common to the interrogator.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Drift {
+    pub enabled: bool,
+    /// σ_d per step [pm].
+    pub sigma_pm: f64,
+    pub channel_gain: [f64; 3],
+}
+
+/// Electronics thermal drift driven by the ambient temperature.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Electronics {
+    pub enabled: bool,
+    pub lin_pm_per_c: f64,
+    pub quad_pm_per_c2: f64,
+    pub ref_c: f64,
+}
+
+/// Per-channel additive noise.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Noise {
+    pub enabled: bool,
+    /// 1/f (pink) noise σ [pm] (Voss–McCartney).
+    pub pink_sigma_pm: f64,
+    /// Octaves of the pink generator (lowest frequency = fs / 2^octaves).
+    pub pink_octaves: u32,
+    pub white_sigma_pm: f64,
+}
+
+/// A whole scenario.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ScenarioConfig {
+    /// Name shown in reports and model provenance.
+    pub name: String,
+    pub clock: Clock,
+    pub temperature: Temperature,
+    pub strain: Strain,
+    pub pressure: Pressure,
+    pub ambient: Ambient,
+    pub gratings: Gratings,
+    pub hysteresis: Hysteresis,
+    pub scan: Scan,
+    pub drift: Drift,
+    pub electronics: Electronics,
+    pub noise: Noise,
+}
+
+impl Default for Clock {
+    fn default() -> Self {
+        Clock { days: 14.0, dt_s: 60.0, cal_fraction: 0.5 }
+    }
+}
+impl Default for Temperature {
+    fn default() -> Self {
+        Temperature {
+            mean_c: 20.0,
+            diurnal_amp_c: 4.0,
+            diurnal_phase_rad: 0.0,
+            weekly_amp_c: 2.0,
+            weekly_phase_rad: 0.0,
+            seasonal_amp_c: 0.0,
+            seasonal_period_days: 28.0,
+            seasonal_phase_rad: 0.0,
+            ar_sigma_c: 0.3,
+            ar_tau_s: 1800.0,
+        }
+    }
+}
+impl Default for Strain {
+    fn default() -> Self {
+        Strain {
+            level_lo_ue: -150.0,
+            level_hi_ue: 150.0,
+            hold_s: 6.0 * 3600.0,
+            ramp_s: 1800.0,
+            sine1_amp_ue: 60.0,
+            sine1_period_s: 3.0 * 3600.0,
+            sine2_amp_ue: 20.0,
+            sine2_period_s: 40.0 * 60.0,
+            ar_sigma_ue: 5.0,
+            ar_tau_s: 600.0,
+        }
+    }
+}
+impl Default for Pressure {
+    fn default() -> Self {
+        Pressure {
+            mean_kpa: 150.0,
+            sine1_amp_kpa: 25.0,
+            sine1_period_s: 12.0 * 3600.0,
+            sine2_amp_kpa: 8.0,
+            sine2_period_s: 2.5 * 3600.0,
+            ar_sigma_kpa: 1.0,
+            ar_tau_s: 1800.0,
+        }
+    }
+}
+impl Default for Ambient {
+    fn default() -> Self {
+        Ambient { lag_tau_s: 1200.0, offset_c: 0.5, noise_sigma_c: 0.1 }
+    }
+}
+impl Default for Gratings {
+    fn default() -> Self {
+        Gratings {
+            nominal_nm: [1535.0, 1545.0, 1555.0],
+            gauge: [[10.0, 1.20, 0.02], [9.8, 0.05, 0.01], [11.0, 0.10, 1.0]],
+            dispersion: 0.03,
+            c_tt: [0.012, 0.011, 0.013],
+            c_te: [1e-3, 0.0, 0.0],
+            c_tp: [0.0, 0.0, 4e-3],
+            c_ee: [0.0; 3],
+            c_pp: [0.0; 3],
+            c_ep: [0.0; 3],
+            ref_t_c: 20.0,
+            ref_strain_ue: 0.0,
+            ref_p_kpa: 150.0,
+        }
+    }
+}
+impl Default for Hysteresis {
+    fn default() -> Self {
+        Hysteresis { enabled: true, beta: 0.97, gamma: 0.03, rho: 0.05, play_half_width_pm: 4.0 }
+    }
+}
+impl Default for Scan {
+    fn default() -> Self {
+        Scan {
+            enabled: true,
+            ripple_amp_pm: 3.0,
+            ripple_period_nm: 0.8,
+            ripple_phase_rad: [0.0, 2.1, 4.2],
+            bow_pm: 2.0,
+            bow_half_span_nm: 10.0,
+            bow_centre_nm: 1545.0,
+        }
+    }
+}
+impl Default for Drift {
+    fn default() -> Self {
+        Drift { enabled: true, sigma_pm: 0.05, channel_gain: [1.0, 1.1, 1.2] }
+    }
+}
+impl Default for Electronics {
+    fn default() -> Self {
+        Electronics { enabled: true, lin_pm_per_c: 0.8, quad_pm_per_c2: 0.05, ref_c: 20.0 }
+    }
+}
+impl Default for Noise {
+    fn default() -> Self {
+        Noise { enabled: true, pink_sigma_pm: 1.0, pink_octaves: 16, white_sigma_pm: 0.8 }
+    }
+}
+impl Default for ScenarioConfig {
+    fn default() -> Self {
+        ScenarioConfig {
+            name: "paper".into(),
+            clock: Clock::default(),
+            temperature: Temperature::default(),
+            strain: Strain::default(),
+            pressure: Pressure::default(),
+            ambient: Ambient::default(),
+            gratings: Gratings::default(),
+            hysteresis: Hysteresis::default(),
+            scan: Scan::default(),
+            drift: Drift::default(),
+            electronics: Electronics::default(),
+            noise: Noise::default(),
+        }
+    }
+}
+
+/// Built-in presets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Preset {
+    /// DESIGN §3 defaults.
+    Paper,
+    /// Drift σ×4, play 8 pm, a ±15 °C seasonal swing so the hold-out leaves the calibration range.
+    Harsh,
+}
+
+impl Preset {
+    /// The preset's configuration.
+    pub fn config(self) -> ScenarioConfig {
+        match self {
+            Preset::Paper => ScenarioConfig::default(),
+            Preset::Harsh => {
+                let mut c = ScenarioConfig { name: "harsh".into(), ..ScenarioConfig::default() };
+                c.drift.sigma_pm *= 4.0;
+                c.hysteresis.play_half_width_pm = 8.0;
+                // Half a 28-day period over the 14 days: T climbs from −15 to +15 °C about the
+                // mean, so the hold-out (second week) lies above the calibration range.
+                c.temperature.seasonal_amp_c = 15.0;
+                c.temperature.seasonal_period_days = 28.0;
+                c.temperature.seasonal_phase_rad = -std::f64::consts::FRAC_PI_2;
+                c
+            }
+        }
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Paper => "paper",
+            Preset::Harsh => "harsh",
+        }
+    }
+}
+
+impl ScenarioConfig {
+    /// Load a TOML file: keys not given keep the `paper` defaults; unknown keys and
+    /// out-of-range values are errors naming the file and key.
+    pub fn from_toml_file(path: &Path) -> Result<Self, TrainerError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| TrainerError::io(path, e))?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// Parse TOML text; `origin` names the source in errors.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, TrainerError> {
+        let cfg: ScenarioConfig = toml::from_str(text).map_err(|e| TrainerError::Config {
+            origin: origin.to_string(),
+            key: e.span().map(|s| line_col(text, s.start)).unwrap_or_default(),
+            message: e.message().to_string(),
+        })?;
+        cfg.validate().map_err(|(key, message)| TrainerError::Config {
+            origin: origin.to_string(),
+            key,
+            message,
+        })?;
+        Ok(cfg)
+    }
+
+    /// Number of samples.
+    pub fn n_samples(&self) -> usize {
+        (self.clock.days * 86_400.0 / self.clock.dt_s).round() as usize
+    }
+
+    /// Number of calibration samples (the first ones).
+    pub fn n_cal(&self) -> usize {
+        (self.n_samples() as f64 * self.clock.cal_fraction).round() as usize
+    }
+
+    /// Check ranges; the error is (key path, message).
+    pub fn validate(&self) -> Result<(), (String, String)> {
+        let mut v = Checker::default();
+        let c = &self.clock;
+        v.range("clock.days", c.days, 1.0 / 24.0, 3650.0);
+        v.range("clock.dt_s", c.dt_s, 1e-3, 86_400.0);
+        v.range("clock.cal_fraction", c.cal_fraction, 0.05, 0.95);
+        if v.ok() && self.n_samples() < 100 {
+            v.fail("clock.days", "fewer than 100 samples: increase days or decrease dt_s");
+        }
+        if v.ok() && self.n_samples() > 50_000_000 {
+            v.fail("clock.days", "more than 5e7 samples");
+        }
+        let t = &self.temperature;
+        v.range("temperature.mean_c", t.mean_c, -100.0, 300.0);
+        v.nonneg("temperature.diurnal_amp_c", t.diurnal_amp_c, 100.0);
+        v.finite("temperature.diurnal_phase_rad", t.diurnal_phase_rad);
+        v.nonneg("temperature.weekly_amp_c", t.weekly_amp_c, 100.0);
+        v.finite("temperature.weekly_phase_rad", t.weekly_phase_rad);
+        v.nonneg("temperature.seasonal_amp_c", t.seasonal_amp_c, 100.0);
+        v.range("temperature.seasonal_period_days", t.seasonal_period_days, 0.1, 10_000.0);
+        v.finite("temperature.seasonal_phase_rad", t.seasonal_phase_rad);
+        v.nonneg("temperature.ar_sigma_c", t.ar_sigma_c, 50.0);
+        v.range("temperature.ar_tau_s", t.ar_tau_s, 1e-3, 1e8);
+        let s = &self.strain;
+        v.range("strain.level_lo_ue", s.level_lo_ue, -1e4, 1e4);
+        v.range("strain.level_hi_ue", s.level_hi_ue, -1e4, 1e4);
+        if s.level_hi_ue < s.level_lo_ue {
+            v.fail("strain.level_hi_ue", "must be >= strain.level_lo_ue");
+        }
+        v.range("strain.hold_s", s.hold_s, 1e-3, 1e8);
+        v.range("strain.ramp_s", s.ramp_s, 0.0, 1e8);
+        if s.ramp_s > s.hold_s {
+            v.fail("strain.ramp_s", "must not exceed strain.hold_s");
+        }
+        v.nonneg("strain.sine1_amp_ue", s.sine1_amp_ue, 1e4);
+        v.range("strain.sine1_period_s", s.sine1_period_s, 1e-3, 1e9);
+        v.nonneg("strain.sine2_amp_ue", s.sine2_amp_ue, 1e4);
+        v.range("strain.sine2_period_s", s.sine2_period_s, 1e-3, 1e9);
+        v.nonneg("strain.ar_sigma_ue", s.ar_sigma_ue, 1e4);
+        v.range("strain.ar_tau_s", s.ar_tau_s, 1e-3, 1e8);
+        let p = &self.pressure;
+        v.range("pressure.mean_kpa", p.mean_kpa, 0.0, 1e5);
+        v.nonneg("pressure.sine1_amp_kpa", p.sine1_amp_kpa, 1e5);
+        v.range("pressure.sine1_period_s", p.sine1_period_s, 1e-3, 1e9);
+        v.nonneg("pressure.sine2_amp_kpa", p.sine2_amp_kpa, 1e5);
+        v.range("pressure.sine2_period_s", p.sine2_period_s, 1e-3, 1e9);
+        v.nonneg("pressure.ar_sigma_kpa", p.ar_sigma_kpa, 1e5);
+        v.range("pressure.ar_tau_s", p.ar_tau_s, 1e-3, 1e8);
+        let a = &self.ambient;
+        v.range("ambient.lag_tau_s", a.lag_tau_s, 0.0, 1e8);
+        v.range("ambient.offset_c", a.offset_c, -50.0, 50.0);
+        v.nonneg("ambient.noise_sigma_c", a.noise_sigma_c, 50.0);
+        let g = &self.gratings;
+        for (i, nm) in g.nominal_nm.iter().enumerate() {
+            v.range(&format!("gratings.nominal_nm[{i}]"), *nm, 400.0, 2500.0);
+        }
+        for (i, row) in g.gauge.iter().enumerate() {
+            for (j, k) in row.iter().enumerate() {
+                v.range(&format!("gratings.gauge[{i}][{j}]"), *k, -1e3, 1e3);
+            }
+        }
+        v.nonneg("gratings.dispersion", g.dispersion, 0.5);
+        for (name, arr) in [
+            ("c_tt", g.c_tt),
+            ("c_te", g.c_te),
+            ("c_tp", g.c_tp),
+            ("c_ee", g.c_ee),
+            ("c_pp", g.c_pp),
+            ("c_ep", g.c_ep),
+        ] {
+            for (i, c) in arr.iter().enumerate() {
+                v.range(&format!("gratings.{name}[{i}]"), *c, -10.0, 10.0);
+            }
+        }
+        v.range("gratings.ref_t_c", g.ref_t_c, -100.0, 300.0);
+        v.range("gratings.ref_strain_ue", g.ref_strain_ue, -1e4, 1e4);
+        v.range("gratings.ref_p_kpa", g.ref_p_kpa, 0.0, 1e5);
+        if v.ok() {
+            let k = nalgebra::Matrix3::from_fn(|i, j| g.gauge[i][j]);
+            let svd = k.svd(false, false);
+            let (mx, mn) = (svd.singular_values.max(), svd.singular_values.min());
+            if !(mn > 0.0 && mx / mn < 1e6) {
+                v.fail("gratings.gauge", "gauge matrix is singular or too ill-conditioned to invert");
+            }
+        }
+        let h = &self.hysteresis;
+        v.range("hysteresis.beta", h.beta, 0.0, 2.0);
+        v.range("hysteresis.gamma", h.gamma, -1.0, 1.0);
+        v.range("hysteresis.rho", h.rho, -1.0, 1.0);
+        v.nonneg("hysteresis.play_half_width_pm", h.play_half_width_pm, 1e3);
+        let sc = &self.scan;
+        v.nonneg("scan.ripple_amp_pm", sc.ripple_amp_pm, 1e3);
+        v.range("scan.ripple_period_nm", sc.ripple_period_nm, 1e-3, 1e3);
+        for (i, ph) in sc.ripple_phase_rad.iter().enumerate() {
+            v.finite(&format!("scan.ripple_phase_rad[{i}]"), *ph);
+        }
+        v.range("scan.bow_pm", sc.bow_pm, -1e3, 1e3);
+        v.range("scan.bow_half_span_nm", sc.bow_half_span_nm, 1e-3, 1e3);
+        v.range("scan.bow_centre_nm", sc.bow_centre_nm, 400.0, 2500.0);
+        let d = &self.drift;
+        v.nonneg("drift.sigma_pm", d.sigma_pm, 100.0);
+        for (i, gn) in d.channel_gain.iter().enumerate() {
+            v.range(&format!("drift.channel_gain[{i}]"), *gn, -10.0, 10.0);
+        }
+        let e = &self.electronics;
+        v.range("electronics.lin_pm_per_c", e.lin_pm_per_c, -100.0, 100.0);
+        v.range("electronics.quad_pm_per_c2", e.quad_pm_per_c2, -10.0, 10.0);
+        v.range("electronics.ref_c", e.ref_c, -100.0, 300.0);
+        let n = &self.noise;
+        v.nonneg("noise.pink_sigma_pm", n.pink_sigma_pm, 1e3);
+        v.nonneg("noise.white_sigma_pm", n.white_sigma_pm, 1e3);
+        if !(1..=40).contains(&n.pink_octaves) {
+            v.fail("noise.pink_octaves", "must be in 1..=40");
+        }
+        if self.name.is_empty() || self.name.len() > 24 {
+            v.fail("name", "must be 1 to 24 characters");
+        }
+        v.result()
+    }
+}
+
+#[derive(Default)]
+struct Checker {
+    first: Option<(String, String)>,
+}
+
+impl Checker {
+    fn ok(&self) -> bool {
+        self.first.is_none()
+    }
+    fn fail(&mut self, key: &str, msg: &str) {
+        if self.first.is_none() {
+            self.first = Some((key.to_string(), msg.to_string()));
+        }
+    }
+    fn finite(&mut self, key: &str, x: f64) {
+        if !x.is_finite() {
+            self.fail(key, "must be a finite number");
+        }
+    }
+    fn range(&mut self, key: &str, x: f64, lo: f64, hi: f64) {
+        if !(x.is_finite() && x >= lo && x <= hi) {
+            self.fail(key, &format!("{x} is out of range [{lo}, {hi}]"));
+        }
+    }
+    fn nonneg(&mut self, key: &str, x: f64, hi: f64) {
+        self.range(key, x, 0.0, hi)
+    }
+    fn result(self) -> Result<(), (String, String)> {
+        match self.first {
+            None => Ok(()),
+            Some(e) => Err(e),
+        }
+    }
+}
+
+fn line_col(text: &str, offset: usize) -> String {
+    let before = text.get(..offset).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map(|l| l.chars().count() + 1).unwrap_or(1);
+    format!("line {line}, column {col}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_validate() {
+        assert!(Preset::Paper.config().validate().is_ok());
+        assert!(Preset::Harsh.config().validate().is_ok());
+        assert_eq!(Preset::Paper.config().n_samples(), 20_160);
+        assert_eq!(Preset::Paper.config().n_cal(), 10_080);
+    }
+
+    #[test]
+    fn partial_toml_keeps_defaults() {
+        let c = ScenarioConfig::from_toml_str("[drift]\nsigma_pm = 0.2\n", "x.toml").unwrap();
+        assert_eq!(c.drift.sigma_pm, 0.2);
+        assert_eq!(c.drift.channel_gain, [1.0, 1.1, 1.2]);
+        assert_eq!(c.temperature, Temperature::default());
+    }
+
+    #[test]
+    fn unknown_key_is_named() {
+        let e = ScenarioConfig::from_toml_str("[drift]\nsigma = 0.2\n", "x.toml").unwrap_err();
+        let s = e.to_string();
+        assert!(s.contains("x.toml") && s.contains("sigma") && s.contains("line 2"), "{s}");
+    }
+
+    #[test]
+    fn out_of_range_value_is_named() {
+        let e = ScenarioConfig::from_toml_str("[noise]\nwhite_sigma_pm = -1.0\n", "y.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("y.toml") && e.contains("noise.white_sigma_pm"), "{e}");
+        let e = ScenarioConfig::from_toml_str("[clock]\ncal_fraction = 1.5\n", "y.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("clock.cal_fraction"), "{e}");
+    }
+
+    #[test]
+    fn preset_round_trips_through_toml() {
+        let c = Preset::Harsh.config();
+        let text = toml::to_string(&c).unwrap();
+        let back = ScenarioConfig::from_toml_str(&text, "harsh.toml").unwrap();
+        assert_eq!(c, back);
+    }
+}
