@@ -9,7 +9,9 @@
 //! - [`model`]: the auditable parameters a blob carries;
 //! - [`blob`]: the `.fbgm` codec (magic, version, dims, postcard payload, CRC-32);
 //! - [`compensator`]: per-sample inference with band and flags;
-//! - [`flags`]: the fault flags.
+//! - [`flags`]: the fault flags;
+//! - [`protocol`]: the COBS-framed postcard messages of the host ↔ device serial link;
+//! - `link_client` (feature `std`): the host side of that link over any `Read + Write`.
 //!
 //! # Cost of one `step` (K centres, `Z_DIMS` = 8, `VAR_RANK` = 8)
 //!
@@ -44,10 +46,13 @@ pub mod error;
 pub mod flags;
 pub mod layout;
 pub mod model;
+pub mod protocol;
+#[cfg(feature = "std")]
+pub mod link_client;
 pub mod real;
 
 pub use compensator::{rbf_activation, Compensator, Estimate, Sample};
-pub use direction_latch::{DirectionLatch, LatchBank};
+pub use direction_latch::{ticks, DirectionLatch, LatchBank};
 pub use error::Error;
 pub use flags::Flags;
 pub use layout::FeatureSet;
