@@ -67,10 +67,11 @@ pub struct Compensator<F, const K: usize> {
     env_hi: [F; N_ENVELOPE],
     weak_support: F,
     flagged_band_factor: F,
-    dead_band_pm: F,
+    /// Latch dead band in ticks of 1/1024 pm.
+    dead_band: i32,
     uses_time: bool,
     uses_latch: bool,
-    latches: LatchBank<F>,
+    latches: LatchBank,
 }
 
 impl<F: Real, const K: usize> Compensator<F, K> {
@@ -173,7 +174,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             env_hi: conv(&params.envelope_hi),
             weak_support: F::from_f64(f(h.weak_support)),
             flagged_band_factor: F::from_f64(f(h.flagged_band_factor)),
-            dead_band_pm: F::from_f64(f(h.dead_band_pm)),
+            dead_band: crate::direction_latch::ticks(f(h.dead_band_pm)),
             uses_time: h.feature_set.uses_time(),
             uses_latch: h.feature_set.uses_latch(),
             latches: LatchBank::new(),
@@ -208,7 +209,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
                 flags: Flags::NON_FINITE,
             };
         }
-        let latch = self.latches.update(&s.dl_pm, self.dead_band_pm);
+        let latch: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
         let [d1, d2, d3] = s.dl_pm;
         let x_env = [d1, d2, d3, s.t_amb_c];
 

@@ -5,73 +5,78 @@
 //! direction and flips only when the signal retreats from that extreme by more than the dead
 //! band, so noise smaller than the band never toggles it. O(1) state, identical on host and
 //! device.
+//!
+//! Decisions are taken on integer ticks of 1/1024 pm ([`ticks`]): a wavelength representable
+//! in f32 converts to the same tick count in f32 and f64, so the device and the host reference
+//! flip their latches on exactly the same samples (a float comparison against the dead band
+//! could round differently in the two precisions and let the streams diverge).
 
 use crate::layout::N_GRATINGS;
 use crate::real::Real;
 
+/// Ticks per picometre of the latch arithmetic.
+pub const TICKS_PER_PM: f64 = 1024.0;
+
+/// A wavelength shift [pm] in latch ticks (1/1024 pm), rounded to nearest and saturating at
+/// ±2³¹ ticks (±2 µm); NaN gives 0 (callers screen non-finite input first).
+#[inline]
+pub fn ticks<F: Real>(pm: F) -> i32 {
+    pm.round_to_i32_scaled(TICKS_PER_PM)
+}
+
 /// Direction latch of one grating.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct DirectionLatch<F> {
-    /// Running extreme of the current direction [pm].
-    anchor_pm: F,
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DirectionLatch {
+    /// Running extreme of the current direction [ticks].
+    anchor: i32,
     /// −1 falling, +1 rising, 0 before the first move beyond the dead band.
     dir: i8,
     primed: bool,
 }
 
-impl<F: Real> DirectionLatch<F> {
+impl DirectionLatch {
     /// A latch that has seen no sample yet.
     pub const fn new() -> Self {
-        DirectionLatch { anchor_pm: F::ZERO, dir: 0, primed: false }
+        DirectionLatch { anchor: 0, dir: 0, primed: false }
     }
 
     /// Feed one measured shift `dl_pm` and return the latch value (−1, 0 or +1) after it.
-    /// `dead_band_pm` is the move needed to flip the direction. Non-finite input must not be
-    /// passed (the compensator screens it); the state is then left unchanged.
+    /// `dead_band` is the move needed to flip the direction, in [`ticks`]. Non-finite input
+    /// leaves the state unchanged (the compensator screens it before).
     #[inline]
-    pub fn update(&mut self, dl_pm: F, dead_band_pm: F) -> F {
+    pub fn update<F: Real>(&mut self, dl_pm: F, dead_band: i32) -> F {
         if !dl_pm.is_finite() {
             return self.value();
         }
+        let x = ticks(dl_pm);
         if !self.primed {
-            self.anchor_pm = dl_pm;
+            self.anchor = x;
             self.primed = true;
             return self.value();
         }
-        let a = self.anchor_pm;
+        // i64 so that no tick difference can overflow.
+        let (a, x64, db) = (self.anchor as i64, x as i64, dead_band as i64);
+        let rise = x64 > a + db;
+        let fall = x64 < a - db;
         match self.dir {
-            1 => {
-                if dl_pm > a {
-                    self.anchor_pm = dl_pm;
-                } else if dl_pm < a - dead_band_pm {
-                    self.dir = -1;
-                    self.anchor_pm = dl_pm;
-                }
+            1 if x64 > a => self.anchor = x,
+            -1 if x64 < a => self.anchor = x,
+            1 | 0 if fall => {
+                self.dir = -1;
+                self.anchor = x;
             }
-            -1 => {
-                if dl_pm < a {
-                    self.anchor_pm = dl_pm;
-                } else if dl_pm > a + dead_band_pm {
-                    self.dir = 1;
-                    self.anchor_pm = dl_pm;
-                }
+            -1 | 0 if rise => {
+                self.dir = 1;
+                self.anchor = x;
             }
-            _ => {
-                if dl_pm > a + dead_band_pm {
-                    self.dir = 1;
-                    self.anchor_pm = dl_pm;
-                } else if dl_pm < a - dead_band_pm {
-                    self.dir = -1;
-                    self.anchor_pm = dl_pm;
-                }
-            }
+            _ => {}
         }
         self.value()
     }
 
     /// Current latch value: −1, 0 or +1.
     #[inline]
-    pub fn value(&self) -> F {
+    pub fn value<F: Real>(&self) -> F {
         match self.dir {
             1 => F::ONE,
             -1 => -F::ONE,
@@ -86,27 +91,28 @@ impl<F: Real> DirectionLatch<F> {
 }
 
 /// One latch per grating.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LatchBank<F> {
-    latches: [DirectionLatch<F>; N_GRATINGS],
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LatchBank {
+    latches: [DirectionLatch; N_GRATINGS],
 }
 
-impl<F: Real> LatchBank<F> {
+impl LatchBank {
     /// Latches that have seen no sample.
     pub const fn new() -> Self {
         LatchBank { latches: [DirectionLatch::new(); N_GRATINGS] }
     }
-    /// Feed one sample's shifts [pm] and return the three latch values.
+    /// Feed one sample's shifts [pm] and return the three latch values; `dead_band` in
+    /// [`ticks`].
     #[inline]
-    pub fn update(&mut self, dl_pm: &[F; N_GRATINGS], dead_band_pm: F) -> [F; N_GRATINGS] {
+    pub fn update<F: Real>(&mut self, dl_pm: &[F; N_GRATINGS], dead_band: i32) -> [F; N_GRATINGS] {
         let mut out = [F::ZERO; N_GRATINGS];
         for ((o, l), &d) in out.iter_mut().zip(self.latches.iter_mut()).zip(dl_pm.iter()) {
-            *o = l.update(d, dead_band_pm);
+            *o = l.update(d, dead_band);
         }
         out
     }
     /// Current values without feeding a sample.
-    pub fn values(&self) -> [F; N_GRATINGS] {
+    pub fn values<F: Real>(&self) -> [F; N_GRATINGS] {
         let mut out = [F::ZERO; N_GRATINGS];
         for (o, l) in out.iter_mut().zip(self.latches.iter()) {
             *o = l.value();
@@ -125,39 +131,64 @@ mod tests {
 
     #[test]
     fn noise_inside_the_dead_band_never_flips() {
-        let mut l = DirectionLatch::<f64>::new();
-        let db = 3.0;
-        assert_eq!(l.update(0.0, db), 0.0);
+        let mut l = DirectionLatch::new();
+        let db = ticks(3.0f64);
+        assert_eq!(l.update(0.0f64, db), 0.0);
         for k in 0..100 {
-            let v = if k % 2 == 0 { 1.4 } else { -1.4 };
+            let v: f64 = if k % 2 == 0 { 1.4 } else { -1.4 };
             assert_eq!(l.update(v, db), 0.0);
         }
     }
 
     #[test]
     fn follows_direction_with_dead_band() {
-        let mut l = DirectionLatch::<f64>::new();
-        let db = 2.0;
-        l.update(0.0, db);
-        assert_eq!(l.update(2.5, db), 1.0);
-        assert_eq!(l.update(10.0, db), 1.0);
+        let mut l = DirectionLatch::new();
+        let db = ticks(2.0f64);
+        let mut up = |v: f64| -> f64 { l.update(v, db) };
+        up(0.0);
+        assert_eq!(up(2.5), 1.0);
+        assert_eq!(up(10.0), 1.0);
         // A retreat smaller than the band from the extreme (10) keeps rising.
-        assert_eq!(l.update(8.5, db), 1.0);
-        assert_eq!(l.update(7.9, db), -1.0);
-        assert_eq!(l.update(3.0, db), -1.0);
-        assert_eq!(l.update(4.9, db), -1.0);
-        assert_eq!(l.update(5.1, db), 1.0);
+        assert_eq!(up(8.5), 1.0);
+        assert_eq!(up(7.9), -1.0);
+        assert_eq!(up(3.0), -1.0);
+        assert_eq!(up(4.9), -1.0);
+        assert_eq!(up(5.1), 1.0);
     }
 
     #[test]
     fn non_finite_input_leaves_state() {
-        let mut l = DirectionLatch::<f32>::new();
-        l.update(0.0, 1.0);
-        l.update(5.0, 1.0);
+        let mut l = DirectionLatch::new();
+        let db = ticks(1.0f32);
+        l.update(0.0f32, db);
+        l.update(5.0f32, db);
         let before = l;
-        assert_eq!(l.update(f32::NAN, 1.0), 1.0);
+        assert_eq!(l.update(f32::NAN, db), 1.0f32);
         assert_eq!(l, before);
         l.reset();
-        assert_eq!(l.value(), 0.0);
+        assert_eq!(l.value::<f32>(), 0.0);
+    }
+
+    #[test]
+    fn f32_and_f64_decide_identically_on_f32_inputs() {
+        // Values that sit right at anchor ± dead band in one precision.
+        let mut a = DirectionLatch::new();
+        let mut b = DirectionLatch::new();
+        let db = ticks(2.0f32);
+        let mut x = 0.1f32;
+        for k in 0..20_000u32 {
+            x += if (k / 37) % 2 == 0 { 0.337 } else { -0.291 };
+            let va: f32 = a.update(x, db);
+            let vb: f64 = b.update(x as f64, db);
+            assert_eq!(va as f64, vb, "step {k}");
+        }
+    }
+
+    #[test]
+    fn ticks_saturate_and_round() {
+        assert_eq!(ticks(1.0f64), 1024);
+        assert_eq!(ticks(-0.5f32), -512);
+        assert_eq!(ticks(1e12f64), i32::MAX);
+        assert_eq!(ticks(-1e12f32), i32::MIN);
     }
 }

@@ -40,6 +40,8 @@ pub trait Real:
     fn exp_neg(self) -> Self;
     /// True for values other than NaN and ±∞.
     fn is_finite(self) -> bool;
+    /// `round(self · scale)` as i32, saturating; NaN gives 0.
+    fn round_to_i32_scaled(self, scale: f64) -> i32;
     /// Larger of two values (NaN-free inputs assumed).
     #[inline(always)]
     fn max(self, other: Self) -> Self {
@@ -86,6 +88,10 @@ impl Real for f64 {
     fn is_finite(self) -> bool {
         f64::is_finite(self)
     }
+    #[inline(always)]
+    fn round_to_i32_scaled(self, scale: f64) -> i32 {
+        libm::round(self * scale) as i32
+    }
 }
 
 impl Real for f32 {
@@ -116,6 +122,11 @@ impl Real for f32 {
     #[inline(always)]
     fn is_finite(self) -> bool {
         f32::is_finite(self)
+    }
+    #[inline(always)]
+    fn round_to_i32_scaled(self, scale: f64) -> i32 {
+        // Power-of-two scales are exact in f32, so an f32 input gives the same count as in f64.
+        libm::roundf(self * scale as f32) as i32
     }
 }
 
