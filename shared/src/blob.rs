@@ -12,13 +12,15 @@
 //! 14+n    4     CRC-32/ISCSI (postcard crc flavour) over bytes 0..14+n, u32 LE
 //! ```
 //!
-//! Decoding checks magic, version, dims, CRC and every parameter, and returns a typed
+//! The blob must be exactly `18 + n` bytes long: nothing may follow the CRC.
+//!
+//! Decoding checks magic, version, CRC, dims and every parameter, and returns a typed
 //! [`Error`]; it never panics and never allocates, whatever the bytes.
 
 use crc::{Crc, CRC_32_ISCSI};
 
 use crate::error::Error;
-use crate::layout::{N_INPUTS, N_OUTPUTS, N_POLY};
+use crate::layout::{N_ENVELOPE, N_INPUTS, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
 use crate::model::ModelParams;
 
 /// File magic.
@@ -48,39 +50,69 @@ pub struct Header {
 }
 
 impl Header {
-    /// Parse and check the header of `bytes` without touching the payload.
+    /// Parse and check the header of `bytes` (magic, version, the three fixed dims) without
+    /// touching the payload or the CRC. Input that does not start like `FBGM` is
+    /// [`Error::BadMagic`] even when it is shorter than a header.
     pub fn parse(bytes: &[u8]) -> Result<Header, Error> {
-        let head = bytes.get(..HEADER_LEN).ok_or(Error::Truncated { part: "header" })?;
-        let (magic, rest) = head.split_at(4);
-        if magic != MAGIC {
+        let header = Header::read(bytes)?;
+        header.check_version()?;
+        header.check_dims()?;
+        Ok(header)
+    }
+
+    /// Magic and the five fields, unchecked.
+    fn read(bytes: &[u8]) -> Result<Header, Error> {
+        if bytes.iter().zip(MAGIC.iter()).any(|(b, m)| b != m) {
             return Err(Error::BadMagic);
         }
+        let head = bytes.get(..HEADER_LEN).ok_or(Error::Truncated { part: "header" })?;
         let mut w = [0u16; 5];
-        for (o, ch) in w.iter_mut().zip(rest.chunks_exact(2)) {
+        for (o, ch) in w.iter_mut().zip(head.get(MAGIC.len()..).unwrap_or(&[]).chunks_exact(2)) {
             let mut b = [0u8; 2];
             b.copy_from_slice(ch);
             *o = u16::from_le_bytes(b);
         }
         let [version, inputs, outputs, poly_terms, centres] = w;
-        if version != FORMAT_VERSION {
-            return Err(Error::UnsupportedVersion { found: version });
+        Ok(Header { version, inputs, outputs, poly_terms, centres })
+    }
+
+    /// The version decides how the rest is read, so it is checked before anything else.
+    fn check_version(&self) -> Result<(), Error> {
+        if self.version == FORMAT_VERSION {
+            Ok(())
+        } else {
+            Err(Error::UnsupportedVersion { found: self.version })
         }
+    }
+
+    fn check_dims(&self) -> Result<(), Error> {
         let check = |field, found: u16, expected: usize| {
-            if found as usize == expected {
+            if usize::from(found) == expected {
                 Ok(())
             } else {
-                Err(Error::WrongDims { field, found, expected: expected as u16 })
+                Err(Error::WrongDims { field, found, expected: saturate_u16(expected) })
             }
         };
-        check("inputs", inputs, N_INPUTS)?;
-        check("outputs", outputs, N_OUTPUTS)?;
-        check("poly_terms", poly_terms, N_POLY)?;
-        Ok(Header { version, inputs, outputs, poly_terms, centres })
+        check("inputs", self.inputs, N_INPUTS)?;
+        check("outputs", self.outputs, N_OUTPUTS)?;
+        check("poly_terms", self.poly_terms, N_POLY)
+    }
+
+    fn check_capacity<const K: usize>(&self) -> Result<(), Error> {
+        if usize::from(self.centres) > K {
+            Err(Error::WrongDims {
+                field: "centres",
+                found: self.centres,
+                expected: saturate_u16(K),
+            })
+        } else {
+            Ok(())
+        }
     }
 
     fn to_bytes(self) -> [u8; HEADER_LEN] {
         let mut out = [0u8; HEADER_LEN];
-        let (magic, rest) = out.split_at_mut(4);
+        let (magic, rest) = out.split_at_mut(MAGIC.len());
         magic.copy_from_slice(&MAGIC);
         let w = [self.version, self.inputs, self.outputs, self.poly_terms, self.centres];
         for (ch, v) in rest.chunks_exact_mut(2).zip(w.iter()) {
@@ -90,12 +122,21 @@ impl Header {
     }
 }
 
+fn saturate_u16(v: usize) -> u16 {
+    u16::try_from(v).unwrap_or(u16::MAX)
+}
+
 /// Encode `params` into `buf`; returns the blob length. Invalid params are refused, so a
-/// blob that encodes always decodes.
-pub fn encode<const K: usize>(params: &ModelParams<f32, K>, buf: &mut [u8]) -> Result<usize, Error> {
+/// blob that encodes always decodes. A buffer of [`max_len`]`(K)` bytes always suffices.
+pub fn encode<const K: usize>(
+    params: &ModelParams<f32, K>,
+    buf: &mut [u8],
+) -> Result<usize, Error> {
     params.validate()?;
-    let centres = u16::try_from(params.centres.len())
-        .map_err(|_| Error::TooManyCentres { found: params.centres.len(), capacity: u16::MAX as usize })?;
+    let centres = u16::try_from(params.centres.len()).map_err(|_| Error::TooManyCentres {
+        found: params.centres.len(),
+        capacity: u16::MAX as usize,
+    })?;
     let header = Header {
         version: FORMAT_VERSION,
         inputs: N_INPUTS as u16,
@@ -111,80 +152,155 @@ pub fn encode<const K: usize>(params: &ModelParams<f32, K>, buf: &mut [u8]) -> R
     head.copy_from_slice(&header);
     let mut digest = CRC32.digest();
     digest.update(&header);
+    // The only failure of a heapless, fixed-shape value is running out of buffer.
     let used = postcard::to_slice_crc32(params, body, digest).map_err(|_| Error::BufferTooSmall)?;
     Ok(HEADER_LEN + used.len())
 }
 
 /// Decode and fully validate a blob into a model of capacity `K`.
 ///
-/// Order of checks: header (magic, version, dims), capacity, CRC, payload, leftover bytes,
-/// centre count against the header, parameter ranges.
+/// Order of checks:
+/// 1. magic and format version (they decide how everything else is read);
+/// 2. length and CRC over everything but the 4-byte trailer: a mismatch is reported as
+///    [`Error::BadCrc`], as [`Error::Truncated`] when the input is shorter than any blob with
+///    the header's centre count, or as [`Error::TrailingBytes`] when a complete blob with a
+///    valid CRC is followed by extra bytes;
+/// 3. the fixed dims, then the centre count against the capacity `K` (both now known to be
+///    what the writer wrote, so a mismatch is a real one, not corruption);
+/// 4. the payload, which must end exactly at the CRC trailer;
+/// 5. the payload's centre count against the header's, then every parameter range.
 pub fn decode<const K: usize>(bytes: &[u8]) -> Result<ModelParams<f32, K>, Error> {
-    let header = Header::parse(bytes)?;
-    if header.centres as usize > K {
-        return Err(Error::WrongDims { field: "centres", found: header.centres, expected: K as u16 });
+    let header = Header::read(bytes)?;
+    header.check_version()?;
+    let (head, body) =
+        bytes.split_at_checked(HEADER_LEN).ok_or(Error::Truncated { part: "header" })?;
+    // Guarded subtraction: `body` may be shorter than the trailer.
+    let payload_len =
+        body.len().checked_sub(CRC_LEN).ok_or(Error::Truncated { part: "payload" })?;
+    let (payload, trailer) =
+        body.split_at_checked(payload_len).ok_or(Error::Truncated { part: "payload" })?;
+    let crc_ok = crc_of(head, payload) == le_u32(trailer);
+    if crc_ok {
+        header.check_dims()?;
+        header.check_capacity::<K>()?;
     }
-    let body = bytes.get(HEADER_LEN..).ok_or(Error::Truncated { part: "header" })?;
-    if body.len() < CRC_LEN {
-        return Err(Error::Truncated { part: "crc" });
+    // One parse site (one `ModelParams` on the stack): the signed payload when the CRC holds,
+    // otherwise everything after the header, to tell a truncated or padded blob from a
+    // corrupted one. Parsing unauthenticated bytes is no extra exposure: anyone can write a
+    // valid CRC, so the parser is hardened against arbitrary payloads anyway.
+    let parsed =
+        postcard::take_from_bytes::<ModelParams<f32, K>>(if crc_ok { payload } else { body });
+    if !crc_ok {
+        return Err(diagnose_crc_mismatch(
+            bytes.len(),
+            header,
+            head,
+            body,
+            parsed.as_ref().map(|(_, r)| *r),
+        ));
     }
-    // Check the CRC over everything but the trailer first, so that a corrupted blob is named as
-    // such rather than as whatever its damaged payload happens to look like.
-    let (signed, trailer) = bytes.split_at(bytes.len() - CRC_LEN);
-    let mut t = [0u8; CRC_LEN];
-    t.copy_from_slice(trailer);
-    if CRC32.checksum(signed) != u32::from_le_bytes(t) {
-        return Err(crc_or_truncation(bytes, header));
-    }
-    let mut digest = CRC32.digest();
-    digest.update(bytes.get(..HEADER_LEN).ok_or(Error::Truncated { part: "header" })?);
-    let (params, rest): (ModelParams<f32, K>, &[u8]) =
-        postcard::take_from_bytes_crc32(body, digest).map_err(|e| match e {
-            postcard::Error::DeserializeUnexpectedEnd => Error::Truncated { part: "payload" },
-            postcard::Error::DeserializeBadCrc => Error::BadCrc,
-            _ => Error::BadPayload,
-        })?;
+    // With a valid CRC these bytes are what the writer wrote: a payload that does not decode
+    // (including one that claims more bytes than it has) is malformed, not truncated.
+    let (params, rest) = parsed.map_err(|_| Error::BadPayload)?;
     if !rest.is_empty() {
         return Err(Error::TrailingBytes { extra: rest.len() });
     }
-    if params.centres.len() != header.centres as usize {
+    if params.centres.len() != usize::from(header.centres) {
         return Err(Error::WrongDims {
             field: "centres",
             found: header.centres,
-            expected: params.centres.len() as u16,
+            expected: saturate_u16(params.centres.len()),
         });
     }
     params.validate()?;
     Ok(params)
 }
 
-/// A CRC mismatch over the whole input is either corruption or a blob cut short; tell which
-/// by checking whether a shorter prefix carries a valid trailer is not possible in general, so
-/// report truncation only when the input is too short for the smallest model with this
-/// header's centres.
-fn crc_or_truncation(bytes: &[u8], header: Header) -> Error {
-    if bytes.len() < min_len(header.centres as usize) {
-        Error::Truncated { part: "payload" }
-    } else {
-        Error::BadCrc
+fn crc_of(head: &[u8], payload: &[u8]) -> u32 {
+    let mut digest = CRC32.digest();
+    digest.update(head);
+    digest.update(payload);
+    digest.finalize()
+}
+
+/// Little-endian u32 of the first four bytes (0 when shorter; callers pass four).
+fn le_u32(b: &[u8]) -> u32 {
+    let mut t = [0u8; CRC_LEN];
+    for (o, &v) in t.iter_mut().zip(b.iter()) {
+        *o = v;
+    }
+    u32::from_le_bytes(t)
+}
+
+/// Name a CRC mismatch over the whole input. `parsed` is the remainder after parsing a
+/// payload from everything after the header (trailer included).
+///
+/// - The payload parses and the 4 bytes after it are its valid CRC, with more bytes after
+///   them: a complete blob with something appended ([`Error::TrailingBytes`]).
+/// - The input is shorter than the smallest blob with the header's centre count and the
+///   payload or its CRC runs out: a cut blob ([`Error::Truncated`]). A payload byte flip can
+///   also make the parse run out, so longer inputs are never called truncated.
+/// - Anything else is corruption ([`Error::BadCrc`]).
+fn diagnose_crc_mismatch(
+    len: usize,
+    header: Header,
+    head: &[u8],
+    body: &[u8],
+    parsed: Result<&[u8], &postcard::Error>,
+) -> Error {
+    let short = len < min_len(usize::from(header.centres));
+    match parsed {
+        Ok(rest) => {
+            let used = body.len().saturating_sub(rest.len());
+            match (body.get(..used), rest.get(..CRC_LEN)) {
+                (Some(payload), Some(trailer))
+                    if rest.len() > CRC_LEN && crc_of(head, payload) == le_u32(trailer) =>
+                {
+                    Error::TrailingBytes { extra: rest.len().saturating_sub(CRC_LEN) }
+                }
+                (_, None) if short => Error::Truncated { part: "crc" },
+                _ => Error::BadCrc,
+            }
+        }
+        Err(_) if short => Error::Truncated { part: "payload" },
+        Err(_) => Error::BadCrc,
     }
 }
 
-/// Smallest possible blob length for a model with `centres` centres: every f32 is 4 bytes in
-/// postcard, varints and strings at least 1.
-pub const fn min_len(centres: usize) -> usize {
-    use crate::layout::{N_ENVELOPE, N_STAGE1, VAR_RANK, Z_DIMS};
-    let hyper = 1 + 7 * 4;
-    let fixed = N_OUTPUTS * N_STAGE1 + 2 * N_OUTPUTS + N_OUTPUTS * N_POLY + 2 * Z_DIMS + VAR_RANK + 1
-        + N_OUTPUTS + 2 * N_ENVELOPE;
-    let per_centre = Z_DIMS + N_OUTPUTS + VAR_RANK;
-    let provenance = 1 + 1 + 1 + 1 + 1;
-    HEADER_LEN + hyper + 4 * fixed + 1 + 4 * per_centre * centres + provenance + CRC_LEN
+/// Bytes of postcard's varint encoding of `v` (canonical, as the encoder writes it).
+const fn varint_len(mut v: usize) -> usize {
+    let mut n = 1;
+    while v >= 0x80 {
+        v >>= 7;
+        n += 1;
+    }
+    n
 }
 
-/// Upper bound of the blob length for `centres` centres (for sizing buffers).
+/// Exact length of the shortest blob with `centres` centres: every f32 is 4 bytes in
+/// postcard; the feature-set tag, seed, date, sample count and both string lengths take one
+/// byte each with empty strings; the centre count is a varint. Saturates instead of
+/// overflowing for absurd `centres`.
+pub const fn min_len(centres: usize) -> usize {
+    let hyper = 1 + 7 * 4;
+    let fixed_f32 = N_OUTPUTS * N_STAGE1
+        + 2 * N_OUTPUTS
+        + N_OUTPUTS * N_POLY
+        + 2 * Z_DIMS
+        + VAR_RANK
+        + 1
+        + N_OUTPUTS
+        + 2 * N_ENVELOPE;
+    let per_centre = 4 * (Z_DIMS + N_OUTPUTS + VAR_RANK);
+    let provenance = 5;
+    let fixed = HEADER_LEN + hyper + 4 * fixed_f32 + provenance + CRC_LEN;
+    fixed.saturating_add(varint_len(centres)).saturating_add(per_centre.saturating_mul(centres))
+}
+
+/// Exact length of the longest blob [`encode`] writes for `centres` centres (for sizing
+/// buffers): [`min_len`] plus a 10-byte seed varint (+9), 5-byte date and sample-count
+/// varints (+4 each) and full provenance strings (24 + 16 bytes; their length varints stay
+/// one byte).
 pub const fn max_len(centres: usize) -> usize {
-    // Varints of the seed (10), date and count (5 each), string lengths and bodies (24 + 16 + 2),
-    // centre count (3) on top of the fixed floats.
-    min_len(centres) + 10 + 5 + 5 + 24 + 16 + 2 + 3
+    min_len(centres).saturating_add(9 + 4 + 4 + 24 + 16)
 }

@@ -6,7 +6,9 @@
 pub enum Error {
     /// The input ended before the named part was complete.
     Truncated {
-        /// Part being read ("header", "payload", "crc").
+        /// Part being read ("header", "payload", "crc"). Only reported when the input is
+        /// shorter than the smallest blob with its header's centre count; a longer input that
+        /// fails its CRC is [`Error::BadCrc`].
         part: &'static str,
     },
     /// The first four bytes are not `FBGM`.
@@ -22,14 +24,16 @@ pub enum Error {
         field: &'static str,
         /// Value in the blob.
         found: u16,
-        /// Value expected (for centres: the capacity).
+        /// Value expected. For "centres": the capacity `K` when the header's count exceeds
+        /// it, otherwise the payload's own centre count, which the header contradicts.
         expected: u16,
     },
     /// The CRC-32 trailer does not match header and payload.
     BadCrc,
     /// The payload does not decode as model parameters.
     BadPayload,
-    /// Bytes left over after the CRC trailer.
+    /// Bytes the payload does not account for: appended after a complete blob and its valid
+    /// CRC, or, under a CRC that covers them, between the end of the payload and the trailer.
     TrailingBytes {
         /// How many.
         extra: usize,
@@ -64,7 +68,7 @@ impl core::fmt::Display for Error {
             Error::BadCrc => f.write_str("model blob CRC-32 mismatch (corrupted)"),
             Error::BadPayload => f.write_str("model blob payload does not decode"),
             Error::TrailingBytes { extra } => {
-                write!(f, "model blob has {extra} unexpected bytes after its CRC")
+                write!(f, "model blob has {extra} unexpected bytes after its payload")
             }
             Error::TooManyCentres { found, capacity } => {
                 write!(f, "model has {found} RBF centres, this target holds at most {capacity}")

@@ -1,0 +1,756 @@
+//! The `.fbgm` codec: round trips, exact lengths, the golden v1 blob, typed errors for every
+//! kind of damage, and "never panics" on arbitrary bytes (DESIGN §6).
+
+mod common;
+
+use common::{any_model, encode_vec, long_provenance, model, short_provenance, Rng};
+use crc::{Crc, CRC_32_ISCSI};
+use fbg_shared::blob::{
+    self, decode, encode, max_len, min_len, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN,
+};
+use fbg_shared::layout::{N_INPUTS, N_OUTPUTS, N_POLY};
+use fbg_shared::{Centre, Compensator, Error, FeatureSet, Hyper, ModelParams, Provenance, Sample};
+use proptest::prelude::*;
+
+const ISCSI: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
+
+/// Recompute the CRC trailer of a (modified) blob in place.
+fn fix_crc(b: &mut [u8]) {
+    let n = b.len() - CRC_LEN;
+    let crc = ISCSI.checksum(&b[..n]);
+    b[n..].copy_from_slice(&crc.to_le_bytes());
+}
+
+/// A blob with a valid CRC for *any* params (no validation): header + postcard + CRC.
+fn encode_unchecked<const K: usize>(p: &ModelParams<f32, K>) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend_from_slice(b"FBGM");
+    for v in
+        [FORMAT_VERSION, N_INPUTS as u16, N_OUTPUTS as u16, N_POLY as u16, p.centres.len() as u16]
+    {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    let mut body = vec![0u8; max_len(K)];
+    let used = postcard::to_slice(p, &mut body).expect("fits").len();
+    out.extend_from_slice(&body[..used]);
+    out.extend_from_slice(&[0; CRC_LEN]);
+    fix_crc(&mut out);
+    out
+}
+
+/// Offset of the provenance in a blob (it is the last field of the payload).
+fn provenance_offset(blob: &[u8], prov: &Provenance) -> usize {
+    let mut buf = [0u8; 128];
+    let n = postcard::to_slice(prov, &mut buf).expect("fits").len();
+    blob.len() - CRC_LEN - n
+}
+
+/// Offset of the centre-count varint: header, hyper (1 + 7 × 4), 67 f32.
+const CENTRES_OFFSET: usize = HEADER_LEN + 1 + 7 * 4 + 4 * 67;
+
+fn samples(seed: u64, n: usize) -> Vec<Sample<f32>> {
+    let mut r = Rng(seed);
+    let mut dl = [0.0f64; 3];
+    (0..n)
+        .map(|k| {
+            for d in dl.iter_mut() {
+                *d = (*d + r.uniform(-6.0, 6.0)).clamp(-50.0, 50.0);
+            }
+            Sample {
+                dl_pm: [dl[0] as f32, dl[1] as f32, dl[2] as f32],
+                t_amb_c: r.f32(0.0, 40.0),
+                t_s: k as f32,
+            }
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------------
+// Round trips and lengths
+
+fn round_trip<const K: usize>(n: usize, seed: u64) {
+    let p: ModelParams<f32, K> = any_model(n, seed, seed % 2 == 0);
+    let b = encode_vec(&p);
+    let q = decode::<K>(&b).expect("round trip");
+    assert_eq!(p, q);
+    // Bit-identical parameters give bit-identical inference.
+    let mut a = Compensator::<f32, K>::new(&p).expect("loads");
+    let mut c = Compensator::<f32, K>::new(&q).expect("loads");
+    for s in samples(seed, 200) {
+        let (x, y) = (a.step(&s), c.step(&s));
+        assert_eq!(x.flags, y.flags);
+        for i in 0..3 {
+            assert_eq!(x.values[i].to_bits(), y.values[i].to_bits());
+            assert_eq!(x.band95[i].to_bits(), y.band95[i].to_bits());
+        }
+    }
+    // The blob does not depend on the writer's capacity: it loads into any K >= n.
+    let big = decode::<80>(&b).expect("larger capacity");
+    assert_eq!(big.centres.as_slice(), p.centres.as_slice());
+}
+
+#[test]
+fn round_trip_several_capacities() {
+    for seed in 0..4 {
+        round_trip::<0>(0, seed);
+        round_trip::<1>(1, seed);
+        round_trip::<2>(1, seed);
+        round_trip::<8>(8, seed);
+        round_trip::<8>(3, seed);
+        round_trip::<32>(32, seed);
+        round_trip::<64>(64, seed);
+        round_trip::<64>(17, seed);
+    }
+}
+
+fn lengths<const K: usize>() {
+    let short: ModelParams<f32, K> = model(K, 1, FeatureSet::HysteresisAware, short_provenance());
+    let long: ModelParams<f32, K> = model(K, 2, FeatureSet::HysteresisAwareTime, long_provenance());
+    assert_eq!(encode_vec(&short).len(), min_len(K), "min_len({K})");
+    assert_eq!(encode_vec(&long).len(), max_len(K), "max_len({K})");
+    // max_len is exact: one byte less does not do.
+    let mut buf = vec![0u8; max_len(K) - 1];
+    assert_eq!(encode(&long, &mut buf), Err(Error::BufferTooSmall));
+}
+
+#[test]
+fn min_len_and_max_len_are_exact() {
+    lengths::<0>();
+    lengths::<1>();
+    lengths::<8>();
+    lengths::<32>();
+    lengths::<64>();
+    // Two-byte centre-count varint.
+    lengths::<127>();
+    lengths::<128>();
+    lengths::<200>();
+    assert_eq!(min_len(0), 401);
+    assert_eq!(min_len(32), 401 + 76 * 32);
+    // No overflow on absurd inputs.
+    assert_eq!(min_len(usize::MAX), usize::MAX);
+    assert_eq!(max_len(usize::MAX), usize::MAX);
+}
+
+#[test]
+fn encode_into_every_short_buffer_fails_cleanly() {
+    let p: ModelParams<f32, 3> = model(3, 9, FeatureSet::Paper, long_provenance());
+    let b = encode_vec(&p);
+    let mut buf = vec![0u8; b.len()];
+    for n in 0..b.len() {
+        assert_eq!(encode(&p, &mut buf[..n]), Err(Error::BufferTooSmall), "buffer of {n}");
+    }
+    assert_eq!(encode(&p, &mut buf), Ok(b.len()));
+    assert_eq!(buf, b);
+}
+
+#[test]
+fn encode_refuses_invalid_params() {
+    let mut p: ModelParams<f32, 2> = model(2, 3, FeatureSet::Paper, short_provenance());
+    p.hyper.sigma = f32::NAN;
+    let mut buf = vec![0u8; max_len(2)];
+    assert_eq!(encode(&p, &mut buf), Err(Error::BadParameter { field: "hyper.sigma" }));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Golden blob
+
+/// The tiny model pinned by `tests/golden/tiny_v1.fbgm`: K = 2, exact binary numbers.
+fn tiny() -> ModelParams<f32, 2> {
+    let mut centres = heapless::Vec::new();
+    centres
+        .push(Centre {
+            mu: [0.5, -0.5, 1.0, 0.0, 0.0, 1.0, -1.0, 0.0],
+            w: [1.0, -2.0, 0.25],
+            v: [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        })
+        .unwrap();
+    centres
+        .push(Centre {
+            mu: [-1.0, 0.5, 0.0, 2.0, 0.0, -1.0, 1.0, 1.0],
+            w: [-0.5, 4.0, 0.0],
+            v: [0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        })
+        .unwrap();
+    ModelParams {
+        hyper: Hyper {
+            feature_set: FeatureSet::HysteresisAware,
+            sigma_mult: 1.5,
+            sigma: 0.5,
+            alpha: 0.125,
+            dead_band_pm: 2.0,
+            weak_support: 0.0625,
+            envelope_margin: 0.25,
+            flagged_band_factor: 2.0,
+        },
+        stage1: [
+            [0.5, 0.0, 0.0, 1.0, -2.0],
+            [0.0, 0.25, 0.0, 0.0, 0.0],
+            [0.0, 0.0, -0.5, 0.0, 1.0],
+        ],
+        guess_mean: [1.0, 0.0, -2.0],
+        guess_std: [2.0, 4.0, 0.5],
+        poly: [
+            [0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0, 0.0, 0.0, -0.25, 0.0, 0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.125, 0.0],
+        ],
+        z_mean: [0.0, 0.0, 0.0, 20.0, 0.0, 0.0, 0.0, 0.0],
+        z_std: [32.0, 32.0, 32.0, 8.0, 1.0, 1.0, 1.0, 1.0],
+        centres,
+        var_inv_g: [1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        var_inv_g_tail: 0.0,
+        resid_var: [0.25, 1.0, 4.0],
+        envelope_lo: [-64.0, -64.0, -64.0, -8.0],
+        envelope_hi: [64.0, 64.0, 64.0, 48.0],
+        provenance: Provenance {
+            seed: 42,
+            scenario: heapless::String::try_from("golden").unwrap(),
+            trainer_version: heapless::String::try_from("0.1.0").unwrap(),
+            date_yyyymmdd: 20240101,
+            n_cal: 1000,
+        },
+    }
+}
+
+/// GOLDEN: the exact bytes of format version 1.
+///
+/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v1 or reject it
+/// by name (`Error::UnsupportedVersion { found: 1 }`). Never regenerate this file to make the
+/// test pass.
+const GOLDEN_V1: &[u8] = include_bytes!("golden/tiny_v1.fbgm");
+
+#[test]
+fn golden_v1_bytes_are_pinned() {
+    let b = encode_vec(&tiny());
+    // Shortest 2-centre blob plus "golden" (6), "0.1.0" (5), date varint 4 bytes (+3),
+    // n_cal varint 2 bytes (+1).
+    assert_eq!(b.len(), min_len(2) + 6 + 5 + 3 + 1);
+    assert_eq!(
+        &b[..HEADER_LEN],
+        &[b'F', b'B', b'G', b'M', 1, 0, 5, 0, 3, 0, 10, 0, 2, 0],
+        "magic, version 1, dims 5/3/10, 2 centres (all u16 LE)"
+    );
+    // Payload: feature set tag 1 (HysteresisAware), then sigma_mult 1.5f32 LE.
+    assert_eq!(&b[14..19], &[1, 0x00, 0x00, 0xC0, 0x3F]);
+    // Centre count varint.
+    assert_eq!(b[CENTRES_OFFSET], 2);
+    // Trailer: CRC-32C over everything before it, little-endian.
+    let n = b.len() - CRC_LEN;
+    assert_eq!(b[n..], ISCSI.checksum(&b[..n]).to_le_bytes());
+    assert!(b == GOLDEN_V1, "encoder output differs from the v1 golden blob: format change?");
+    assert_eq!(decode::<2>(GOLDEN_V1), Ok(tiny()));
+    assert_eq!(decode::<32>(GOLDEN_V1).map(|p| p.provenance), Ok(tiny().provenance));
+}
+
+#[test]
+fn golden_blob_is_v1() {
+    assert_eq!(FORMAT_VERSION, 1, "a new format version needs its own golden blob");
+    assert_eq!(Header::parse(GOLDEN_V1).map(|h| h.version), Ok(1));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Typed errors, deterministic cases
+
+#[test]
+fn header_errors() {
+    assert_eq!(decode::<2>(&[]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(decode::<2>(b"FBG"), Err(Error::Truncated { part: "header" }));
+    assert_eq!(decode::<2>(b"{\"a\":1}"), Err(Error::BadMagic));
+    assert_eq!(decode::<2>(b"X"), Err(Error::BadMagic));
+    let mut b = GOLDEN_V1.to_vec();
+    b[0] = b'f';
+    assert_eq!(decode::<2>(&b), Err(Error::BadMagic));
+    assert_eq!(Header::parse(&b), Err(Error::BadMagic));
+    assert_eq!(decode::<2>(&GOLDEN_V1[..16]), Err(Error::Truncated { part: "payload" }));
+    assert_eq!(
+        Header::parse(GOLDEN_V1),
+        Ok(Header { version: 1, inputs: 5, outputs: 3, poly_terms: 10, centres: 2 })
+    );
+}
+
+#[test]
+fn k64_blob_into_capacity_32_is_wrong_dims() {
+    let p: ModelParams<f32, 64> = any_model(64, 5, true);
+    let b = encode_vec(&p);
+    assert_eq!(
+        decode::<32>(&b),
+        Err(Error::WrongDims { field: "centres", found: 64, expected: 32 })
+    );
+    assert_eq!(
+        decode::<63>(&b),
+        Err(Error::WrongDims { field: "centres", found: 64, expected: 63 })
+    );
+    assert_eq!(decode::<64>(&b), Ok(p));
+}
+
+#[test]
+fn header_count_must_match_payload_count() {
+    let p: ModelParams<f32, 8> = any_model(5, 6, false);
+    let mut b = encode_vec(&p);
+    b[12] = 4;
+    fix_crc(&mut b);
+    assert_eq!(decode::<8>(&b), Err(Error::WrongDims { field: "centres", found: 4, expected: 5 }));
+    b[12] = 6;
+    fix_crc(&mut b);
+    assert_eq!(decode::<8>(&b), Err(Error::WrongDims { field: "centres", found: 6, expected: 5 }));
+}
+
+#[test]
+fn every_cut_of_fixed_blobs_is_truncated_or_bad_crc() {
+    fn check<const K: usize>(p: &ModelParams<f32, K>) {
+        let b = encode_vec(p);
+        let min = min_len(p.centres.len());
+        for cut in 0..b.len() {
+            let r = decode::<K>(&b[..cut]);
+            if cut < HEADER_LEN {
+                assert_eq!(r, Err(Error::Truncated { part: "header" }), "cut {cut}");
+            } else if cut < min {
+                assert!(matches!(r, Err(Error::Truncated { .. })), "cut {cut}: {r:?}");
+            } else {
+                assert_eq!(r, Err(Error::BadCrc), "cut {cut}");
+            }
+        }
+        assert_eq!(decode::<K>(&b).as_ref(), Ok(p));
+    }
+    check(&tiny());
+    check::<0>(&any_model(0, 1, true));
+    check::<0>(&any_model(0, 1, false));
+    check::<8>(&any_model(8, 2, true));
+    check::<32>(&any_model(32, 3, true));
+    check::<32>(&any_model(7, 4, false));
+}
+
+#[test]
+fn trailing_bytes() {
+    let mut b = GOLDEN_V1.to_vec();
+    b.push(0xFF);
+    assert_eq!(decode::<2>(&b), Err(Error::TrailingBytes { extra: 1 }));
+    // Erased-flash padding after a stored blob.
+    b.extend_from_slice(&[0xFF; 99]);
+    assert_eq!(decode::<2>(&b), Err(Error::TrailingBytes { extra: 100 }));
+    // Junk under a recomputed CRC: old CRC + junk lie between payload and trailer.
+    b.extend_from_slice(&[0; 4]);
+    fix_crc(&mut b);
+    assert_eq!(decode::<2>(&b), Err(Error::TrailingBytes { extra: 104 }));
+}
+
+#[test]
+fn huge_lengths_with_valid_crc_are_bad_payload() {
+    let p = tiny();
+    let b = GOLDEN_V1.to_vec();
+    let prov = provenance_offset(&b, &p.provenance);
+    // Scenario string length: one byte after the 1-byte seed varint (42).
+    assert_eq!(b[prov], 42);
+    assert_eq!(b[prov + 1], 6);
+    let huge: [&[u8]; 4] = [
+        &[0xFF, 0xFF, 0xFF, 0xFF, 0x0F], // u32::MAX
+        &[0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01], // u64::MAX
+        &[0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F], // overflowing varint
+        &[0x80, 0x80, 0x80, 0x80, 0x80, 0x80, 0x80, 0x80, 0x80, 0x80, 0x80], // never ends
+    ];
+    for (pos, name) in [(prov + 1, "scenario length"), (CENTRES_OFFSET, "centre count")] {
+        for h in huge {
+            let mut m = b[..pos].to_vec();
+            m.extend_from_slice(h);
+            m.extend_from_slice(&b[pos + 1..]);
+            fix_crc(&mut m);
+            assert_eq!(decode::<2>(&m), Err(Error::BadPayload), "{name} {h:x?}");
+        }
+    }
+    // The seed is a u64: its longest varint is fine, an overflowing or endless one is not.
+    for (h, want) in [
+        (huge[1], Ok(u64::MAX)),
+        (huge[2], Err(Error::BadPayload)),
+        (huge[3], Err(Error::BadPayload)),
+    ] {
+        let mut m = b[..prov].to_vec();
+        m.extend_from_slice(h);
+        m.extend_from_slice(&b[prov + 1..]);
+        fix_crc(&mut m);
+        assert_eq!(decode::<2>(&m).map(|q| q.provenance.seed), want, "seed {h:x?}");
+    }
+    // A string longer than its capacity, bytes present.
+    let mut m = b[..prov + 1].to_vec();
+    m.push(25);
+    m.extend_from_slice(&[b'a'; 25]);
+    m.extend_from_slice(&b[prov + 2 + 6..]);
+    fix_crc(&mut m);
+    assert_eq!(decode::<2>(&m), Err(Error::BadPayload));
+    // Invalid UTF-8.
+    let mut m = b.clone();
+    m[prov + 2] = 0xFF;
+    fix_crc(&mut m);
+    assert_eq!(decode::<2>(&m), Err(Error::BadPayload));
+    // Unknown feature-set code.
+    let mut m = b.clone();
+    m[HEADER_LEN] = 3;
+    fix_crc(&mut m);
+    assert_eq!(decode::<2>(&m), Err(Error::BadPayload));
+    // Payload shorter than the signed region claims (CRC valid): the last provenance byte is
+    // gone and the trailer is reattached.
+    let mut m = b[..b.len() - CRC_LEN - 1].to_vec();
+    m.extend_from_slice(&[0; CRC_LEN]);
+    fix_crc(&mut m);
+    assert_eq!(decode::<2>(&m), Err(Error::BadPayload));
+}
+
+// ---------------------------------------------------------------------------------------------
+// validate(), field by field, directly and through a blob with a valid CRC
+
+type P = ModelParams<f32, 4>;
+type Case = (&'static str, fn(&mut P));
+
+fn case(field: &'static str, f: fn(&mut P)) -> Case {
+    (field, f)
+}
+
+fn bad_cases() -> Vec<Case> {
+    vec![
+        case("hyper.sigma", |p| p.hyper.sigma = f32::NAN),
+        case("hyper.sigma", |p| p.hyper.sigma = 0.0),
+        case("hyper.sigma", |p| p.hyper.sigma = -1.0),
+        case("hyper.sigma", |p| p.hyper.sigma = f32::INFINITY),
+        case("hyper.sigma_mult", |p| p.hyper.sigma_mult = 0.0),
+        case("hyper.sigma_mult", |p| p.hyper.sigma_mult = f32::NAN),
+        case("hyper.alpha", |p| p.hyper.alpha = -1e-6),
+        case("hyper.alpha", |p| p.hyper.alpha = f32::INFINITY),
+        case("hyper.dead_band_pm", |p| p.hyper.dead_band_pm = -0.5),
+        case("hyper.dead_band_pm", |p| p.hyper.dead_band_pm = f32::NAN),
+        case("hyper.weak_support", |p| p.hyper.weak_support = 1.5),
+        case("hyper.weak_support", |p| p.hyper.weak_support = -0.1),
+        case("hyper.weak_support", |p| p.hyper.weak_support = f32::NAN),
+        case("hyper.envelope_margin", |p| p.hyper.envelope_margin = -0.1),
+        case("hyper.envelope_margin", |p| p.hyper.envelope_margin = f32::NEG_INFINITY),
+        case("hyper.flagged_band_factor", |p| p.hyper.flagged_band_factor = 0.5),
+        case("hyper.flagged_band_factor", |p| p.hyper.flagged_band_factor = f32::INFINITY),
+        case("stage1", |p| p.stage1[2][4] = f32::NAN),
+        case("stage1", |p| p.stage1[0][0] = f32::INFINITY),
+        case("guess_mean", |p| p.guess_mean[1] = f32::NAN),
+        case("guess_std", |p| p.guess_std[0] = 0.0),
+        case("guess_std", |p| p.guess_std[2] = -1.0),
+        case("guess_std", |p| p.guess_std[1] = f32::INFINITY),
+        case("poly", |p| p.poly[1][9] = f32::NEG_INFINITY),
+        case("z_mean", |p| p.z_mean[7] = f32::NAN),
+        case("z_std", |p| p.z_std[0] = 0.0),
+        case("z_std", |p| p.z_std[3] = -2.0),
+        case("z_std", |p| p.z_std[6] = f32::NAN), // unused by Paper, but must be finite
+        case("centres", |p| p.centres[0].mu[0] = f32::NAN),
+        case("centres", |p| p.centres[3].w[2] = f32::INFINITY),
+        case("centres", |p| p.centres[1].v[7] = f32::NAN),
+        case("var_inv_g", |p| p.var_inv_g[0] = -1.0),
+        case("var_inv_g", |p| p.var_inv_g[5] = f32::NAN),
+        case("var_inv_g_tail", |p| p.var_inv_g_tail = -0.5),
+        case("var_inv_g_tail", |p| p.var_inv_g_tail = f32::INFINITY),
+        case("resid_var", |p| p.resid_var[2] = -1.0),
+        case("resid_var", |p| p.resid_var[0] = f32::NAN),
+        case("envelope", |p| p.envelope_lo[0] = 61.0),
+        case("envelope", |p| p.envelope_hi[3] = f32::INFINITY),
+        case("envelope", |p| p.envelope_lo[2] = f32::NAN),
+    ]
+}
+
+#[test]
+fn validate_names_each_bad_field() {
+    let good: P = model(4, 11, FeatureSet::Paper, long_provenance());
+    assert_eq!(good.validate(), Ok(()));
+    for (field, f) in bad_cases() {
+        let mut p = good.clone();
+        f(&mut p);
+        assert_eq!(p.validate(), Err(Error::BadParameter { field }), "{field}");
+        // The same parameters in a blob with a valid CRC: decoded, then refused by name.
+        assert_eq!(
+            decode::<4>(&encode_unchecked(&p)),
+            Err(Error::BadParameter { field }),
+            "{field}"
+        );
+        // And in f64.
+        let q: ModelParams<f64, 4> = p.convert().unwrap();
+        assert_eq!(q.validate(), Err(Error::BadParameter { field }), "{field} (f64)");
+    }
+}
+
+#[test]
+fn validate_accepts_boundary_values() {
+    let good: P = model(4, 12, FeatureSet::Paper, short_provenance());
+    let ok_cases: [fn(&mut P); 9] = [
+        |p| p.hyper.alpha = 0.0,
+        |p| p.hyper.dead_band_pm = 0.0,
+        |p| p.hyper.weak_support = 0.0,
+        |p| p.hyper.weak_support = 1.0,
+        |p| p.hyper.envelope_margin = 0.0,
+        |p| p.hyper.flagged_band_factor = 1.0,
+        |p| p.z_std[6] = 0.0, // latch dims unused by Paper
+        |p| p.envelope_lo[1] = p.envelope_hi[1],
+        |p| {
+            p.var_inv_g = [0.0; 8];
+            p.resid_var = [0.0; 3];
+        },
+    ];
+    for (i, f) in ok_cases.into_iter().enumerate() {
+        let mut p = good.clone();
+        f(&mut p);
+        assert_eq!(p.validate(), Ok(()), "case {i}");
+        assert_eq!(decode::<4>(&encode_vec(&p)), Ok(p), "case {i}");
+    }
+    // Unused z dimensions must still be > 0 when a feature set does use them.
+    let mut p = good.clone();
+    p.hyper.feature_set = FeatureSet::HysteresisAware;
+    p.z_std[6] = 0.0;
+    assert_eq!(p.validate(), Err(Error::BadParameter { field: "z_std" }));
+    p.hyper.feature_set = FeatureSet::Paper;
+    p.z_std[4] = 0.0;
+    assert_eq!(p.validate(), Err(Error::BadParameter { field: "z_std" }));
+}
+
+#[test]
+fn nan_sigma_under_valid_crc_by_byte_patch() {
+    let mut b = GOLDEN_V1.to_vec();
+    // sigma follows the feature-set tag and sigma_mult.
+    b[HEADER_LEN + 5..HEADER_LEN + 9].copy_from_slice(&f32::NAN.to_le_bytes());
+    fix_crc(&mut b);
+    assert_eq!(decode::<2>(&b), Err(Error::BadParameter { field: "hyper.sigma" }));
+}
+
+#[test]
+fn errors_display() {
+    for e in [
+        Error::Truncated { part: "payload" },
+        Error::BadMagic,
+        Error::UnsupportedVersion { found: 2 },
+        Error::WrongDims { field: "centres", found: 64, expected: 32 },
+        Error::BadCrc,
+        Error::BadPayload,
+        Error::TrailingBytes { extra: 3 },
+        Error::TooManyCentres { found: 9, capacity: 8 },
+        Error::BadParameter { field: "hyper.sigma" },
+        Error::BufferTooSmall,
+    ] {
+        assert!(!e.to_string().is_empty());
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Property tests: arbitrary and damaged input never panics and gets its typed error.
+
+const CAP: usize = 8;
+
+fn valid_blob() -> impl Strategy<Value = (ModelParams<f32, CAP>, Vec<u8>)> {
+    (0..=CAP, any::<u64>(), any::<bool>()).prop_map(|(n, seed, long)| {
+        let p: ModelParams<f32, CAP> = any_model(n, seed, long);
+        let b = encode_vec(&p);
+        (p, b)
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 512,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..1200)) {
+        let _ = decode::<CAP>(&bytes);
+        let _ = decode::<0>(&bytes);
+        let _ = Header::parse(&bytes);
+    }
+
+    #[test]
+    fn arbitrary_payload_after_a_valid_header(
+        centres in 0u16..12,
+        body in proptest::collection::vec(any::<u8>(), 0..1200),
+        with_crc in any::<bool>(),
+    ) {
+        let mut b = b"FBGM".to_vec();
+        for v in [FORMAT_VERSION, 5, 3, 10, centres] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.extend_from_slice(&body);
+        if with_crc && b.len() >= HEADER_LEN + CRC_LEN {
+            fix_crc(&mut b);
+        }
+        match decode::<CAP>(&b) {
+            // Vanishingly unlikely, but if random bytes do decode they are a valid model.
+            Ok(p) => prop_assert_eq!(p.validate(), Ok(())),
+            Err(Error::BadMagic | Error::UnsupportedVersion { .. }) => prop_assert!(false),
+            Err(_) => {}
+        }
+    }
+
+    #[test]
+    fn bit_flip((p, b) in valid_blob(), pos in any::<prop::sample::Index>(), bit in 0u8..8) {
+        let i = pos.index(b.len());
+        let mut m = b.clone();
+        m[i] ^= 1 << bit;
+        let r = decode::<CAP>(&m);
+        if i < 4 {
+            prop_assert_eq!(r, Err(Error::BadMagic));
+        } else if i < 6 {
+            prop_assert_eq!(r, Err(Error::UnsupportedVersion { found: u16::from_le_bytes([m[4], m[5]]) }));
+        } else {
+            // Dims, payload or trailer: CRC-32C catches every single-bit error.
+            prop_assert_eq!(r, Err(Error::BadCrc), "flip at {} of {}", i, b.len());
+        }
+        prop_assert_eq!(decode::<CAP>(&b), Ok(p));
+    }
+
+    #[test]
+    fn byte_replacement((_p, b) in valid_blob(), pos in any::<prop::sample::Index>(), v in any::<u8>()) {
+        let i = pos.index(b.len());
+        let mut m = b.clone();
+        m[i] = v;
+        let r = decode::<CAP>(&m);
+        if m == b {
+            prop_assert!(r.is_ok());
+        } else if i < 4 {
+            prop_assert_eq!(r, Err(Error::BadMagic));
+        } else if i < 6 {
+            prop_assert_eq!(r, Err(Error::UnsupportedVersion { found: u16::from_le_bytes([m[4], m[5]]) }));
+        } else {
+            // A single-byte error (burst of <= 8 bits) is always caught by CRC-32C.
+            prop_assert_eq!(r, Err(Error::BadCrc));
+        }
+    }
+
+    #[test]
+    fn truncation_at_every_length((p, b) in valid_blob()) {
+        let min = min_len(p.centres.len());
+        for cut in 0..b.len() {
+            let r = decode::<CAP>(&b[..cut]);
+            if cut < HEADER_LEN {
+                prop_assert_eq!(r, Err(Error::Truncated { part: "header" }));
+            } else if cut < min {
+                prop_assert!(matches!(r, Err(Error::Truncated { .. })), "cut {}: {:?}", cut, r);
+            } else {
+                prop_assert_eq!(r, Err(Error::BadCrc), "cut {}", cut);
+            }
+        }
+    }
+
+    #[test]
+    fn insertion((_p, b) in valid_blob(), pos in any::<prop::sample::Index>(), v in any::<u8>()) {
+        let i = pos.index(b.len() + 1);
+        let mut m = b.clone();
+        m.insert(i, v);
+        let r = decode::<CAP>(&m);
+        let mut appended = b.clone();
+        appended.push(v);
+        if m == appended {
+            prop_assert_eq!(r, Err(Error::TrailingBytes { extra: 1 }));
+        } else if i >= HEADER_LEN {
+            prop_assert_eq!(r, Err(Error::BadCrc), "insert at {}", i);
+        } else {
+            prop_assert!(r.is_err());
+        }
+    }
+
+    #[test]
+    fn appended_junk((_p, b) in valid_blob(), junk in proptest::collection::vec(any::<u8>(), 1..64), recrc in any::<bool>()) {
+        let mut m = b.clone();
+        m.extend_from_slice(&junk);
+        if recrc {
+            // Junk plus a new CRC over everything: the old CRC and the junk are unexplained.
+            m.extend_from_slice(&[0; CRC_LEN]);
+            fix_crc(&mut m);
+            prop_assert_eq!(decode::<CAP>(&m), Err(Error::TrailingBytes { extra: junk.len() + CRC_LEN }));
+        } else {
+            prop_assert_eq!(decode::<CAP>(&m), Err(Error::TrailingBytes { extra: junk.len() }));
+        }
+    }
+
+    #[test]
+    fn dims_changed_with_crc_recomputed((p, b) in valid_blob(), field in 0usize..4, v in any::<u16>()) {
+        let (name, expected) = [("inputs", 5u16), ("outputs", 3), ("poly_terms", 10), ("centres", 0)][field];
+        let off = 6 + 2 * field;
+        let n = p.centres.len() as u16;
+        let old = if field == 3 { n } else { expected };
+        prop_assume!(v != old);
+        let mut m = b.clone();
+        m[off..off + 2].copy_from_slice(&v.to_le_bytes());
+        fix_crc(&mut m);
+        let r = decode::<CAP>(&m);
+        if field < 3 {
+            prop_assert_eq!(r, Err(Error::WrongDims { field: name, found: v, expected }));
+            prop_assert_eq!(Header::parse(&m), Err(Error::WrongDims { field: name, found: v, expected }));
+        } else if usize::from(v) > CAP {
+            prop_assert_eq!(r, Err(Error::WrongDims { field: "centres", found: v, expected: CAP as u16 }));
+        } else {
+            prop_assert_eq!(r, Err(Error::WrongDims { field: "centres", found: v, expected: n }));
+        }
+        // Without the CRC fix the change is corruption.
+        let mut m = b.clone();
+        m[off..off + 2].copy_from_slice(&v.to_le_bytes());
+        prop_assert_eq!(decode::<CAP>(&m), Err(Error::BadCrc));
+    }
+
+    #[test]
+    fn version_changed((_p, b) in valid_blob(), v in any::<u16>(), recrc in any::<bool>()) {
+        prop_assume!(v != FORMAT_VERSION);
+        let mut m = b.clone();
+        m[4..6].copy_from_slice(&v.to_le_bytes());
+        if recrc {
+            fix_crc(&mut m);
+        }
+        prop_assert_eq!(decode::<CAP>(&m), Err(Error::UnsupportedVersion { found: v }));
+        prop_assert_eq!(Header::parse(&m), Err(Error::UnsupportedVersion { found: v }));
+    }
+
+    #[test]
+    fn huge_varints_with_valid_crc((p, b) in valid_blob(), which in 0usize..4, h in prop::collection::vec(0x80u8..=0xFF, 4..12), last in 1u8..0x80) {
+        // A long varint (>= 4 continuation bytes, then a non-zero terminator, so >= 2^28 or
+        // overflowing) in place of a length, count or enum tag.
+        let prov = provenance_offset(&b, &p.provenance);
+        let seed_len = {
+            let mut buf = [0u8; 16];
+            postcard::to_slice(&p.provenance.seed, &mut buf).unwrap().len()
+        };
+        let pos = match which {
+            0 => CENTRES_OFFSET,
+            1 => prov + seed_len,                       // scenario length
+            2 => prov + seed_len + 1 + p.provenance.scenario.len(), // trainer_version length
+            _ => HEADER_LEN,                            // feature-set tag
+        };
+        let mut m = b[..pos].to_vec();
+        m.extend_from_slice(&h);
+        m.push(last);
+        m.extend_from_slice(&b[pos + 1..]);
+        fix_crc(&mut m);
+        let r = decode::<CAP>(&m);
+        prop_assert_eq!(r, Err(Error::BadPayload), "which {}", which);
+    }
+
+    #[test]
+    fn mutations_under_valid_crc_never_panic(
+        (_p, b) in valid_blob(),
+        edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>(), 0u8..3), 1..8),
+    ) {
+        // Edit the payload freely, keep the header, re-sign: exercises the parser and validate.
+        let mut m = b.clone();
+        for (i, v, op) in edits {
+            let body_len = m.len().saturating_sub(HEADER_LEN + CRC_LEN);
+            if body_len == 0 { break; }
+            let at = HEADER_LEN + i.index(body_len);
+            match op {
+                0 => m[at] = v,
+                1 => m.insert(at, v),
+                _ => { m.remove(at); }
+            }
+        }
+        fix_crc(&mut m);
+        if let Ok(q) = decode::<CAP>(&m) {
+            prop_assert_eq!(q.validate(), Ok(()));
+            // Whatever decodes re-encodes and decodes to the same model.
+            prop_assert_eq!(decode::<CAP>(&encode_vec(&q)), Ok(q.clone()));
+            let mut c = Compensator::<f32, CAP>::new(&q).unwrap();
+            let _ = c.step(&Sample { dl_pm: [1.0, 2.0, 3.0], t_amb_c: 20.0, t_s: 0.0 });
+        }
+    }
+}
+
+#[test]
+fn decoded_blob_module_constants() {
+    assert_eq!(blob::MAGIC, *b"FBGM");
+    assert_eq!(HEADER_LEN, 14);
+    assert_eq!(CRC_LEN, 4);
+}

@@ -1,0 +1,147 @@
+//! Model builders shared by the integration tests of `fbg-shared`.
+#![allow(dead_code)]
+
+use fbg_shared::layout::{N_ENVELOPE, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use fbg_shared::{Centre, FeatureSet, Hyper, ModelParams, Provenance};
+use heapless::{String, Vec};
+
+/// SplitMix64: a tiny deterministic generator, enough for test fixtures.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [lo, hi).
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        let u = (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+        lo + (hi - lo) * u
+    }
+    pub fn f32(&mut self, lo: f64, hi: f64) -> f32 {
+        self.uniform(lo, hi) as f32
+    }
+}
+
+pub fn short_provenance() -> Provenance {
+    Provenance::default()
+}
+
+/// Provenance with every field at its longest encoding.
+pub fn long_provenance() -> Provenance {
+    Provenance {
+        seed: u64::MAX,
+        scenario: String::try_from("abcdefghijklmnopqrstuvwx").expect("24 bytes"),
+        trainer_version: String::try_from("0123456789abcdef").expect("16 bytes"),
+        date_yyyymmdd: u32::MAX,
+        n_cal: u32::MAX,
+    }
+}
+
+/// Sensible hyper-parameters for a generated model.
+pub fn hyper(feature_set: FeatureSet) -> Hyper<f32> {
+    Hyper {
+        feature_set,
+        sigma_mult: 1.5,
+        sigma: 1.0,
+        alpha: 0.01,
+        dead_band_pm: 2.0,
+        weak_support: 0.05,
+        envelope_margin: 0.1,
+        flagged_band_factor: 2.0,
+    }
+}
+
+/// A valid, well-conditioned random model with `n` centres (n <= K). Inputs it is meant for:
+/// Δλ in ±50 pm, T_amb in 0..40 °C, t in 0..1000 s; the envelope is ±60 pm, −5..45 °C.
+pub fn model<const K: usize>(
+    n: usize,
+    seed: u64,
+    fs: FeatureSet,
+    prov: Provenance,
+) -> ModelParams<f32, K> {
+    let mut r = Rng(seed);
+    let mut stage1 = [[0.0f32; N_STAGE1]; N_OUTPUTS];
+    for row in stage1.iter_mut() {
+        for (k, v) in row.iter_mut().enumerate() {
+            *v = if k == N_STAGE1 - 1 { r.f32(-5.0, 5.0) } else { r.f32(-0.5, 0.5) };
+        }
+    }
+    let mut guess_mean = [0.0f32; N_OUTPUTS];
+    let mut guess_std = [0.0f32; N_OUTPUTS];
+    for (m, s) in guess_mean.iter_mut().zip(guess_std.iter_mut()) {
+        *m = r.f32(-5.0, 5.0);
+        *s = r.f32(1.0, 20.0);
+    }
+    let mut poly = [[0.0f32; N_POLY]; N_OUTPUTS];
+    for row in poly.iter_mut() {
+        for v in row.iter_mut() {
+            *v = r.f32(-2.0, 2.0);
+        }
+    }
+    let z_mean = [0.0, 0.0, 0.0, 20.0, 500.0, 0.0, 0.0, 0.0];
+    let z_std = [30.0, 30.0, 30.0, 10.0, 300.0, 1.0, 1.0, 1.0];
+    let active = fs.active();
+    let mut centres: Vec<Centre<f32>, K> = Vec::new();
+    for _ in 0..n {
+        let mut c = Centre::<f32>::default();
+        for (m, &on) in c.mu.iter_mut().zip(active.iter()) {
+            *m = if on { r.f32(-1.5, 1.5) } else { 0.0 };
+        }
+        for w in c.w.iter_mut() {
+            *w = r.f32(-1.0, 1.0);
+        }
+        for v in c.v.iter_mut() {
+            *v = r.f32(-1.0, 1.0);
+        }
+        centres.push(c).expect("n <= K");
+    }
+    let mut var_inv_g = [0.0f32; VAR_RANK];
+    let mut g = 1.0f64;
+    for v in var_inv_g.iter_mut().take(n.min(VAR_RANK)) {
+        *v = g as f32;
+        g *= r.uniform(0.3, 0.9);
+    }
+    let var_inv_g_tail = if n > VAR_RANK { (g * 0.5) as f32 } else { 0.0 };
+    let mut resid_var = [0.0f32; N_OUTPUTS];
+    for v in resid_var.iter_mut() {
+        *v = r.f32(0.01, 1.0);
+    }
+    ModelParams {
+        hyper: hyper(fs),
+        stage1,
+        guess_mean,
+        guess_std,
+        poly,
+        z_mean,
+        z_std,
+        centres,
+        var_inv_g,
+        var_inv_g_tail,
+        resid_var,
+        envelope_lo: [-60.0, -60.0, -60.0, -5.0],
+        envelope_hi: [60.0, 60.0, 60.0, 45.0],
+        provenance: prov,
+    }
+}
+
+/// The same random model, with the feature set picked by `seed` too.
+pub fn any_model<const K: usize>(n: usize, seed: u64, long: bool) -> ModelParams<f32, K> {
+    let fs = FeatureSet::ALL[(seed % 3) as usize];
+    let prov = if long { long_provenance() } else { short_provenance() };
+    model(n, seed, fs, prov)
+}
+
+/// Encode into a fresh buffer of exactly `max_len(K)` bytes (so a too-small bound fails).
+pub fn encode_vec<const K: usize>(p: &ModelParams<f32, K>) -> std::vec::Vec<u8> {
+    let mut buf = vec![0u8; fbg_shared::blob::max_len(K)];
+    let n = fbg_shared::blob::encode(p, &mut buf).expect("valid model encodes into max_len(K)");
+    buf.truncate(n);
+    buf
+}
+
+pub const N_ENV: usize = N_ENVELOPE;
+pub const ZD: usize = Z_DIMS;
