@@ -2,7 +2,9 @@
 //! models for the `fbg-shared` inference.
 
 pub mod dataset;
+pub mod fit;
 pub mod error;
+pub mod evaluate;
 pub mod metrics;
 pub mod rng;
 pub mod scenario;

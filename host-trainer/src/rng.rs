@@ -21,6 +21,7 @@ pub enum Stream {
     PinkNoise = 7,
     WhiteNoise = 8,
     LoadLevels = 9,
+    Kmeans = 10,
 }
 
 /// A seeded random stream with uniform and normal deviates.

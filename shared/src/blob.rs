@@ -290,6 +290,9 @@ pub const fn min_len(centres: usize) -> usize {
         + VAR_RANK
         + 1
         + N_OUTPUTS
+        + N_OUTPUTS
+        + 1
+        + N_OUTPUTS
         + 2 * N_ENVELOPE;
     let per_centre = 4 * (Z_DIMS + N_OUTPUTS + VAR_RANK);
     let provenance = 5;

@@ -11,7 +11,7 @@ use crate::direction_latch::LatchBank;
 use crate::error::Error;
 use crate::flags::Flags;
 use crate::layout::{
-    N_ENVELOPE, N_GRATINGS, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z95, Z_DIMS, Z_LATCH, Z_TIME,
+    N_ENVELOPE, N_GRATINGS, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS, Z_LATCH, Z_TIME,
 };
 use crate::model::ModelParams;
 use crate::real::Real;
@@ -61,8 +61,13 @@ pub struct Compensator<F, const K: usize> {
     z_offset: [F; Z_DIMS],
     centres: Vec<PreparedCentre<F>, K>,
     inv_g_tail: F,
-    /// (1.96)² · s² per output.
+    /// k² · s² per output at the end of calibration.
     band_var: [F; N_OUTPUTS],
+    /// k² · ds²/dt per output [unit²/s].
+    band_var_growth: [F; N_OUTPUTS],
+    t_cal_end_s: F,
+    /// Whether the band grows with time (the time input is then required).
+    band_grows: bool,
     env_lo: [F; N_ENVELOPE],
     env_hi: [F; N_ENVELOPE],
     weak_support: F,
@@ -152,9 +157,18 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         }
 
         let mut band_var = [F::ZERO; N_OUTPUTS];
-        for (o, &s2) in band_var.iter_mut().zip(params.resid_var.iter()) {
-            *o = F::from_f64(Z95 * Z95 * f(s2));
+        let mut band_var_growth = [F::ZERO; N_OUTPUTS];
+        for (((o, og), (&s2, &q)), &k) in band_var
+            .iter_mut()
+            .zip(band_var_growth.iter_mut())
+            .zip(params.resid_var.iter().zip(params.resid_var_growth.iter()))
+            .zip(params.band_k.iter())
+        {
+            let k2 = f(k) * f(k);
+            *o = F::from_f64(k2 * f(s2));
+            *og = F::from_f64(k2 * f(q));
         }
+        let band_grows = params.resid_var_growth.iter().any(|&q| f(q) > 0.0);
         let conv = |a: &[G; N_ENVELOPE]| {
             let mut out = [F::ZERO; N_ENVELOPE];
             for (o, &v) in out.iter_mut().zip(a.iter()) {
@@ -170,6 +184,9 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             centres,
             inv_g_tail: F::from_f64(inv_tail),
             band_var,
+            band_var_growth,
+            t_cal_end_s: F::from_f64(f(params.t_cal_end_s)),
+            band_grows,
             env_lo: conv(&params.envelope_lo),
             env_hi: conv(&params.envelope_hi),
             weak_support: F::from_f64(f(h.weak_support)),
@@ -198,10 +215,19 @@ impl<F: Real, const K: usize> Compensator<F, K> {
 
     /// Compensate one sample. Never panics: non-finite inputs give NaN values, an infinite band
     /// and [`Flags::NON_FINITE`], leaving the stream state untouched.
+    #[inline]
     pub fn step(&mut self, s: &Sample<F>) -> Estimate<F> {
+        self.step_with(s, |_, _| {})
+    }
+
+    /// [`Compensator::step`] that also hands each RBF activation ψ_j to `sink(j, ψ_j)`: the
+    /// trainer builds its design matrix Ψ through the very code the device runs. Not called for
+    /// non-finite samples.
+    #[inline(always)]
+    pub fn step_with(&mut self, s: &Sample<F>, mut sink: impl FnMut(usize, F)) -> Estimate<F> {
         let finite = s.dl_pm.iter().all(|v| v.is_finite())
             && s.t_amb_c.is_finite()
-            && (!self.uses_time || s.t_s.is_finite());
+            && (!(self.uses_time || self.band_grows) || s.t_s.is_finite());
         if !finite {
             return Estimate {
                 values: [F::NAN; N_OUTPUTS],
@@ -253,8 +279,9 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         let mut proj = [F::ZERO; VAR_RANK];
         let mut psi_sq = F::ZERO;
         let mut psi_max = F::ZERO;
-        for c in self.centres.iter() {
+        for (j, c) in self.centres.iter().enumerate() {
             let psi = rbf_activation(&z, &c.mu);
+            sink(j, psi);
             for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
                 *yi = w.mul_add(psi, *yi);
             }
@@ -274,9 +301,10 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             lev = pi.mul_add(pi, lev);
         }
         let widen = if flags.is_ok() { F::ONE } else { self.flagged_band_factor };
+        let lead = if self.band_grows { (s.t_s - self.t_cal_end_s).max(F::ZERO) } else { F::ZERO };
         let mut band95 = [F::ZERO; N_OUTPUTS];
-        for (bi, &bv) in band95.iter_mut().zip(self.band_var.iter()) {
-            *bi = (bv * (F::ONE + lev)).sqrt() * widen;
+        for ((bi, &bv), &bg) in band95.iter_mut().zip(self.band_var.iter()).zip(self.band_var_growth.iter()) {
+            *bi = (bg.mul_add(lead, bv) * (F::ONE + lev)).sqrt() * widen;
         }
         Estimate { values: y, band95, flags }
     }

@@ -23,8 +23,9 @@ pub const Z_DIMS: usize = 8;
 pub const Z_TIME: usize = 4;
 /// Index of the first direction latch in the RBF layout.
 pub const Z_LATCH: usize = 5;
-/// Number of eigen-directions of `(ΨᵀΨ + αI)⁻¹` kept for the predictive variance; the rest is
-/// bounded from above by the smallest dropped eigenvalue (exact when `K <= VAR_RANK`).
+/// Number of eigen-directions of `(ΨᵀΨ + αI)⁻¹` kept for the predictive variance: those with
+/// the smallest eigenvalues g of `ΨᵀΨ + αI`, which carry the leverage out of distribution
+/// (exact when `K <= VAR_RANK`; see `ModelParams::var_inv_g_tail` for the rest).
 pub const VAR_RANK: usize = 8;
 /// Two-sided 95 % normal quantile used for the band.
 pub const Z95: f64 = 1.959_963_984_540_054;

@@ -81,10 +81,24 @@ pub struct ModelParams<F, const K: usize> {
     pub centres: Vec<Centre<F>, K>,
     /// `1/g_i` for the `VAR_RANK` smallest eigenvalues g_i of `ΨᵀΨ + αI` (0 when unused).
     pub var_inv_g: [F; VAR_RANK],
-    /// `1/g` of the smallest eigenvalue not kept (0 when all are kept): bounds the rest.
+    /// Optional charge per unit of ‖ψ‖² outside the kept directions (an upper bound when set to
+    /// `1/g` of the smallest eigenvalue not kept). The trainer writes 0: the kept directions
+    /// are the least determined ones, which carry the leverage out of distribution, and the
+    /// others add about dof/N (< 1 % of the band) in distribution.
     pub var_inv_g_tail: F,
-    /// Per-output residual variance s² from cross-validation (°C², µε², kPa²).
+    /// Per-output residual variance s² at the end of calibration, from cross-validation
+    /// (°C², µε², kPa²).
     pub resid_var: [F; N_OUTPUTS],
+    /// Growth of the residual variance per second after the end of calibration (°C²/s, µε²/s,
+    /// kPa²/s), fitted on the cross-validation residuals against their lead time: drift is a
+    /// random walk, so the error variance grows linearly with time since calibration.
+    pub resid_var_growth: [F; N_OUTPUTS],
+    /// End of the calibration batch on the sample clock `t_s` [s].
+    pub t_cal_end_s: F,
+    /// Band multiplier per output: the 95 % quantile of |error| / s(τ) over the
+    /// cross-validation residuals (1.96 for Gaussian errors; calibrated because hysteresis makes
+    /// the errors far from Gaussian).
+    pub band_k: [F; N_OUTPUTS],
     /// Lower envelope bound per input Δλ1..3 [pm], T_amb [°C], margin included.
     pub envelope_lo: [F; N_ENVELOPE],
     /// Upper envelope bound, margin included.
@@ -163,6 +177,15 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         if !self.resid_var.iter().all(|&v| finite(v) && v >= F::ZERO) {
             return Err(Error::BadParameter { field: "resid_var" });
         }
+        if !self.resid_var_growth.iter().all(|&v| finite(v) && v >= F::ZERO) {
+            return Err(Error::BadParameter { field: "resid_var_growth" });
+        }
+        if !finite(self.t_cal_end_s) {
+            return Err(Error::BadParameter { field: "t_cal_end_s" });
+        }
+        if !self.band_k.iter().all(|&k| finite(k) && k > F::ZERO) {
+            return Err(Error::BadParameter { field: "band_k" });
+        }
         if !self
             .envelope_lo
             .iter()
@@ -220,6 +243,9 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
             var_inv_g: c(&self.var_inv_g),
             var_inv_g_tail: g(self.var_inv_g_tail),
             resid_var: c(&self.resid_var),
+            resid_var_growth: c(&self.resid_var_growth),
+            t_cal_end_s: g(self.t_cal_end_s),
+            band_k: c(&self.band_k),
             envelope_lo: c(&self.envelope_lo),
             envelope_hi: c(&self.envelope_hi),
             provenance: self.provenance.clone(),

@@ -124,8 +124,8 @@ fn min_len_and_max_len_are_exact() {
     lengths::<127>();
     lengths::<128>();
     lengths::<200>();
-    assert_eq!(min_len(0), 401);
-    assert_eq!(min_len(32), 401 + 76 * 32);
+    assert_eq!(min_len(0), 429);
+    assert_eq!(min_len(32), 429 + 76 * 32);
     // No overflow on absurd inputs.
     assert_eq!(min_len(usize::MAX), usize::MAX);
     assert_eq!(max_len(usize::MAX), usize::MAX);
@@ -200,6 +200,9 @@ fn tiny() -> ModelParams<f32, 2> {
         var_inv_g: [1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         var_inv_g_tail: 0.0,
         resid_var: [0.25, 1.0, 4.0],
+        resid_var_growth: [0.5, 0.0, 2.0],
+        t_cal_end_s: 1024.0,
+        band_k: [1.96, 2.0, 2.5],
         envelope_lo: [-64.0, -64.0, -64.0, -8.0],
         envelope_hi: [64.0, 64.0, 64.0, 48.0],
         provenance: Provenance {
@@ -754,3 +757,5 @@ fn decoded_blob_module_constants() {
     assert_eq!(HEADER_LEN, 14);
     assert_eq!(CRC_LEN, 4);
 }
+
+

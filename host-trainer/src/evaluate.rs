@@ -1,0 +1,119 @@
+//! Hold-out evaluation (DESIGN §5): per channel and model RMSE, MAE, R², bias, max |error|,
+//! band coverage, flag counts; the gain of Model-H over Model-P; the hysteresis index.
+
+use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::{DirectionLatch, Estimate, Flags};
+
+use crate::dataset::Dataset;
+use crate::error::TrainerError;
+use crate::fit::{run, HostParams};
+
+/// Output names for tables and JSON.
+pub const CHANNELS: [&str; N_OUTPUTS] = ["T", "strain", "p"];
+/// Units of the outputs.
+pub const UNITS: [&str; N_OUTPUTS] = ["°C", "µε", "kPa"];
+/// The grating designed for each output (T ← FBG2, ε ← FBG1, p ← FBG3), used to tell rising
+/// from falling segments for the hysteresis index.
+pub const DOMINANT_GRATING: [usize; N_OUTPUTS] = [1, 0, 2];
+/// Dead band of the direction detector of the hysteresis index [pm].
+pub const HYSTERESIS_INDEX_DEAD_BAND_PM: f64 = 4.0;
+
+/// Error statistics of one output.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ChannelMetrics {
+    pub rmse: f64,
+    pub mae: f64,
+    pub r2: f64,
+    /// Mean error (estimate − truth).
+    pub bias: f64,
+    pub max_abs: f64,
+    /// Fraction of samples whose truth lies inside the 95 % band.
+    pub coverage: f64,
+    /// Mean half-width of the band.
+    pub mean_band: f64,
+    /// Mean error on rising minus falling segments of the output's grating.
+    pub hysteresis_index: f64,
+    pub n: usize,
+}
+
+/// A model's hold-out evaluation.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ModelEval {
+    pub channels: [ChannelMetrics; N_OUTPUTS],
+    /// Samples with each flag raised (non-finite, out-of-envelope, weak support).
+    pub flag_counts: [usize; 3],
+    /// Fraction of samples with any flag.
+    pub flagged_fraction: f64,
+}
+
+/// Estimates of `params` at `idx` (the compensator runs from the first sample, so the latches
+/// see the whole history).
+pub fn estimates(params: &HostParams, d: &Dataset, idx: &[usize]) -> Result<Vec<Estimate<f64>>, TrainerError> {
+    run(params, d, idx)
+}
+
+/// Direction (+1 rising, −1 falling, 0 undecided) of grating `g` at each of `idx`, from a
+/// direction latch on the measured shift.
+pub fn directions(d: &Dataset, g: usize, idx: &[usize]) -> Vec<f64> {
+    let mut latch = DirectionLatch::new();
+    let db = fbg_shared::ticks(HYSTERESIS_INDEX_DEAD_BAND_PM);
+    let all: Vec<f64> = d.dl_pm[g].iter().map(|&v| latch.update(v, db)).collect();
+    idx.iter().map(|&i| all[i]).collect()
+}
+
+/// Evaluate estimates against the truth at `idx`.
+pub fn score(d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> ModelEval {
+    let mut channels = [ChannelMetrics::default(); N_OUTPUTS];
+    for (c, m) in channels.iter_mut().enumerate() {
+        let truth: Vec<f64> = idx.iter().map(|&i| d.target(c)[i]).collect();
+        let err: Vec<f64> = est.iter().zip(&truth).map(|(e, t)| e.values[c] - t).collect();
+        let n = err.len() as f64;
+        let mean_t = truth.iter().sum::<f64>() / n;
+        let ss_tot: f64 = truth.iter().map(|t| (t - mean_t).powi(2)).sum();
+        let ss_res: f64 = err.iter().map(|e| e * e).sum();
+        let inside = est
+            .iter()
+            .zip(&truth)
+            .filter(|(e, t)| (e.values[c] - *t).abs() <= e.band95[c])
+            .count();
+        let dirs = directions(d, DOMINANT_GRATING[c], idx);
+        let mean_if = |want: f64| {
+            let v: Vec<f64> = err.iter().zip(&dirs).filter(|(_, d)| **d == want).map(|(e, _)| *e).collect();
+            if v.is_empty() {
+                0.0
+            } else {
+                v.iter().sum::<f64>() / v.len() as f64
+            }
+        };
+        *m = ChannelMetrics {
+            rmse: (ss_res / n).sqrt(),
+            mae: err.iter().map(|e| e.abs()).sum::<f64>() / n,
+            r2: if ss_tot > 0.0 { 1.0 - ss_res / ss_tot } else { f64::NAN },
+            bias: err.iter().sum::<f64>() / n,
+            max_abs: err.iter().fold(0.0, |a, e| a.max(e.abs())),
+            coverage: inside as f64 / n,
+            mean_band: est.iter().map(|e| e.band95[c]).filter(|b| b.is_finite()).sum::<f64>() / n,
+            hysteresis_index: mean_if(1.0) - mean_if(-1.0),
+            n: err.len(),
+        };
+    }
+    let bits = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT];
+    let flag_counts = bits.map(|b| est.iter().filter(|e| e.flags.contains(b)).count());
+    let flagged = est.iter().filter(|e| !e.flags.is_ok()).count();
+    ModelEval { channels, flag_counts, flagged_fraction: flagged as f64 / est.len().max(1) as f64 }
+}
+
+/// Evaluate `params` on the hold-out of `d`.
+pub fn evaluate_holdout(params: &HostParams, d: &Dataset) -> Result<(ModelEval, Vec<Estimate<f64>>), TrainerError> {
+    let idx = d.holdout_indices();
+    if idx.is_empty() {
+        return Err(TrainerError::Dataset { message: "no hold-out samples (split column has no `holdout`)".into() });
+    }
+    let est = estimates(params, d, &idx)?;
+    Ok((score(d, &idx, &est), est))
+}
+
+/// Gain of Model-H over Model-P in % of Model-P's RMSE.
+pub fn gain_pct(p: f64, h: f64) -> f64 {
+    100.0 * (p - h) / p
+}

@@ -1,0 +1,463 @@
+//! Fitting Model-P and Model-H (DESIGN §4) with hyper-parameter selection by blocked
+//! time-series cross-validation inside the calibration batch.
+//!
+//! All predictions go through `fbg_shared::Compensator<f64, _>`, the same code the device runs
+//! in f32: the trainer never implements inference a second time. The design matrix Ψ is
+//! collected from that code too (`Compensator::step_with`).
+
+pub mod kmeans;
+pub mod linalg;
+pub mod poly_core;
+pub mod select;
+
+use heapless::Vec as HVec;
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+
+use fbg_shared::layout::{FeatureSet, N_ENVELOPE, N_OUTPUTS, VAR_RANK, Z_DIMS};
+use fbg_shared::{Centre, Compensator, Estimate, Hyper, ModelParams, Provenance};
+
+use crate::dataset::Dataset;
+use crate::error::TrainerError;
+use crate::rng::{Rng, Stream};
+pub use poly_core::PolyCore;
+pub use select::{Selection, TrainOptions, VarModel};
+
+/// Centre capacity of host-side models (the device's capacity is its own const generic).
+pub const HOST_CAP: usize = 128;
+/// A model on the host: f64, up to [`HOST_CAP`] centres.
+pub type HostParams = ModelParams<f64, HOST_CAP>;
+/// A compensator on the host.
+pub type HostCompensator = Compensator<f64, HOST_CAP>;
+
+/// Envelope margin: fraction of the calibration range added on each side.
+pub const ENVELOPE_MARGIN: f64 = 0.10;
+/// Band factor for flagged samples.
+pub const FLAGGED_BAND_FACTOR: f64 = 2.0;
+/// At most this many points go into k-means (an even stride through the training set).
+pub const KMEANS_MAX_POINTS: usize = 20_000;
+
+/// One point of the hyper-parameter grid.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Config {
+    pub feature_set: FeatureSet,
+    /// Direction-latch dead band [pm] (irrelevant for the `paper` set).
+    pub dead_band_pm: f64,
+    /// RBF centres K.
+    pub k: usize,
+    /// σ as a multiple of the median nearest-neighbour distance between centres.
+    pub sigma_mult: f64,
+    /// Ridge penalty per sample: α of Eq. 7 = alpha_rel × n_train.
+    pub alpha_rel: f64,
+    /// Whether stage 2 keeps the quadratic and cross terms.
+    pub cross_terms: bool,
+}
+
+/// What the training knows about its data, for the model's provenance.
+#[derive(Clone, Debug, Default)]
+pub struct Origin {
+    pub scenario: String,
+    pub seed: u64,
+}
+
+/// The RBF inputs of every sample for one dead band: [Δλ1..3, T_amb, t, latch1..3].
+pub fn z_rows(d: &Dataset, dead_band_pm: f64) -> Vec<[f64; Z_DIMS]> {
+    let mut bank = fbg_shared::LatchBank::new();
+    let db = fbg_shared::ticks(dead_band_pm);
+    (0..d.len())
+        .map(|i| {
+            let s = d.sample(i);
+            let l: [f64; 3] = bank.update(&s.dl_pm, db);
+            [s.dl_pm[0], s.dl_pm[1], s.dl_pm[2], s.t_amb_c, s.t_s, l[0], l[1], l[2]]
+        })
+        .collect()
+}
+
+/// Mean and standard deviation of each RBF input over `idx` (0 / 1 on unused dimensions and
+/// 1 where an input is constant).
+pub fn z_stats(z: &[[f64; Z_DIMS]], idx: &[usize], fs: FeatureSet) -> ([f64; Z_DIMS], [f64; Z_DIMS]) {
+    let active = fs.active();
+    let mut mean = [0.0; Z_DIMS];
+    let mut std = [1.0; Z_DIMS];
+    for d in 0..Z_DIMS {
+        if !active[d] {
+            continue;
+        }
+        let m = idx.iter().map(|&i| z[i][d]).sum::<f64>() / idx.len() as f64;
+        let v = idx.iter().map(|&i| (z[i][d] - m).powi(2)).sum::<f64>() / idx.len() as f64;
+        mean[d] = m;
+        std[d] = if v > 0.0 { v.sqrt() } else { 1.0 };
+    }
+    (mean, std)
+}
+
+/// Centres by k-means++ over the standardised inputs of `idx`, seeded.
+pub fn centres(
+    z: &[[f64; Z_DIMS]],
+    idx: &[usize],
+    fs: FeatureSet,
+    mean: &[f64; Z_DIMS],
+    std: &[f64; Z_DIMS],
+    k: usize,
+    seed: u64,
+) -> Vec<[f64; Z_DIMS]> {
+    let active = fs.active();
+    let stride = idx.len().div_ceil(KMEANS_MAX_POINTS).max(1);
+    let pts: Vec<Vec<f64>> = idx
+        .iter()
+        .step_by(stride)
+        .map(|&i| {
+            (0..Z_DIMS).map(|d| if active[d] { (z[i][d] - mean[d]) / std[d] } else { 0.0 }).collect()
+        })
+        .collect();
+    let mut rng = Rng::new(seed ^ (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15), Stream::Kmeans);
+    kmeans::kmeans_pp(&pts, k.min(pts.len()), &mut rng, 100)
+        .into_iter()
+        .map(|c| std::array::from_fn(|d| c[d]))
+        .collect()
+}
+
+/// Median distance from each centre to its nearest other centre (standardised units).
+pub fn median_nn_distance(cs: &[[f64; Z_DIMS]]) -> f64 {
+    if cs.len() < 2 {
+        return 1.0;
+    }
+    let mut nn: Vec<f64> = cs
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            cs.iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, b)| a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    nn.sort_by(f64::total_cmp);
+    let m = nn[nn.len() / 2];
+    if m > 0.0 {
+        m
+    } else {
+        1.0
+    }
+}
+
+/// Calibration envelope of [Δλ1..3, T_amb] over `idx` with [`ENVELOPE_MARGIN`], rounded
+/// outwards to f32 so that host and device compare against the same bounds.
+pub fn envelope(d: &Dataset, idx: &[usize]) -> ([f64; N_ENVELOPE], [f64; N_ENVELOPE]) {
+    let cols: [&[f64]; N_ENVELOPE] = [&d.dl_pm[0], &d.dl_pm[1], &d.dl_pm[2], &d.t_amb_c];
+    let mut lo = [0.0; N_ENVELOPE];
+    let mut hi = [0.0; N_ENVELOPE];
+    for (c, col) in cols.iter().enumerate() {
+        let mn = idx.iter().map(|&i| col[i]).fold(f64::INFINITY, f64::min);
+        let mx = idx.iter().map(|&i| col[i]).fold(f64::NEG_INFINITY, f64::max);
+        let m = ENVELOPE_MARGIN * (mx - mn);
+        lo[c] = f32_down(mn - m);
+        hi[c] = f32_up(mx + m);
+    }
+    (lo, hi)
+}
+
+fn f32_down(v: f64) -> f64 {
+    let f = v as f32;
+    if (f as f64) > v { f.next_down() as f64 } else { f as f64 }
+}
+fn f32_up(v: f64) -> f64 {
+    let f = v as f32;
+    if (f as f64) < v { f.next_up() as f64 } else { f as f64 }
+}
+
+/// Everything that defines a model except the residual weights and variance terms.
+#[derive(Clone, Debug)]
+pub struct Skeleton {
+    pub core: PolyCore,
+    pub feature_set: FeatureSet,
+    pub dead_band_pm: f64,
+    pub z_mean: [f64; Z_DIMS],
+    pub z_std: [f64; Z_DIMS],
+    pub centres: Vec<[f64; Z_DIMS]>,
+    pub sigma_mult: f64,
+    pub sigma: f64,
+    pub envelope: ([f64; N_ENVELOPE], [f64; N_ENVELOPE]),
+}
+
+impl Skeleton {
+    /// Params with the given weights and variance terms (zeros where `None`).
+    pub fn params(
+        &self,
+        weights: Option<&DMatrix<f64>>,
+        alpha: f64,
+        variance: Option<&VarianceTerms>,
+        resid_var: [f64; N_OUTPUTS],
+        weak_support: f64,
+        provenance: &Provenance,
+    ) -> Result<HostParams, TrainerError> {
+        let band = resid_var.map(|a| VarModel { a, b: 0.0, k95: fbg_shared::layout::Z95 });
+        self.params_with_band(weights, alpha, variance, band, 0.0, weak_support, provenance)
+    }
+
+    /// [`Skeleton::params`] with a band that grows after `t_cal_end_s`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn params_with_band(
+        &self,
+        weights: Option<&DMatrix<f64>>,
+        alpha: f64,
+        variance: Option<&VarianceTerms>,
+        band: [VarModel; N_OUTPUTS],
+        t_cal_end_s: f64,
+        weak_support: f64,
+        provenance: &Provenance,
+    ) -> Result<HostParams, TrainerError> {
+        let mut cs: HVec<Centre<f64>, HOST_CAP> = HVec::new();
+        for (j, mu) in self.centres.iter().enumerate() {
+            let w = weights.map(|w| std::array::from_fn(|o| w[(j, o)])).unwrap_or([0.0; N_OUTPUTS]);
+            let v = variance.map(|v| v.v[j]).unwrap_or([0.0; VAR_RANK]);
+            cs.push(Centre { mu: *mu, w, v }).map_err(|_| {
+                TrainerError::fit(format!("{} centres exceed the host capacity {HOST_CAP}", self.centres.len()))
+            })?;
+        }
+        let p = ModelParams {
+            hyper: Hyper {
+                feature_set: self.feature_set,
+                sigma_mult: self.sigma_mult,
+                sigma: self.sigma,
+                alpha,
+                dead_band_pm: self.dead_band_pm,
+                weak_support,
+                envelope_margin: ENVELOPE_MARGIN,
+                flagged_band_factor: FLAGGED_BAND_FACTOR,
+            },
+            stage1: self.core.stage1,
+            guess_mean: self.core.guess_mean,
+            guess_std: self.core.guess_std,
+            poly: self.core.poly,
+            z_mean: self.z_mean,
+            z_std: self.z_std,
+            centres: cs,
+            var_inv_g: variance.map(|v| v.inv_g).unwrap_or([0.0; VAR_RANK]),
+            var_inv_g_tail: variance.map(|v| v.inv_g_tail).unwrap_or(0.0),
+            resid_var: band.map(|v| v.a),
+            resid_var_growth: band.map(|v| v.b),
+            t_cal_end_s,
+            band_k: band.map(|v| v.k95),
+            envelope_lo: self.envelope.0,
+            envelope_hi: self.envelope.1,
+            provenance: provenance.clone(),
+        };
+        p.validate().map_err(|e| TrainerError::fit(format!("assembled model is invalid: {e}")))?;
+        Ok(p)
+    }
+}
+
+/// The kept eigen-directions of (ΨᵀΨ + αI)⁻¹ for the predictive variance.
+#[derive(Clone, Debug)]
+pub struct VarianceTerms {
+    pub inv_g: [f64; VAR_RANK],
+    pub inv_g_tail: f64,
+    /// Per centre, its components of the kept eigenvectors.
+    pub v: Vec<[f64; VAR_RANK]>,
+}
+
+impl VarianceTerms {
+    pub fn from_ridge(sys: &linalg::RidgeSystem, alpha: f64) -> Self {
+        let (vals, vecs) = sys.regularised_spectrum(alpha);
+        let k = vals.len();
+        let kept = k.min(VAR_RANK);
+        let mut inv_g = [0.0; VAR_RANK];
+        for (o, g) in inv_g.iter_mut().zip(vals.iter()).take(kept) {
+            *o = 1.0 / g;
+        }
+        // The remaining directions are well determined by the calibration data (large g); on
+        // in-distribution samples they add about dof/N to the leverage (~0.002 on the paper
+        // preset, < 0.5 % of the band), and an upper bound on them is uselessly loose when many
+        // eigenvalues sit near α. So they are left out: the kept directions are the ones that
+        // grow out of distribution. `evaluate` reports the gap to the exact leverage.
+        let inv_g_tail = 0.0;
+        let v = (0..k).map(|j| std::array::from_fn(|r| if r < kept { vecs[(j, r)] } else { 0.0 })).collect();
+        VarianceTerms { inv_g, inv_g_tail, v }
+    }
+}
+
+/// Run `params` over samples `0..end` of `d` in time order (the latches need the whole
+/// history) and return the estimates at `want` (sorted ascending, all < end).
+pub fn run(params: &HostParams, d: &Dataset, want: &[usize]) -> Result<Vec<Estimate<f64>>, TrainerError> {
+    let mut comp = HostCompensator::new(params).map_err(|e| TrainerError::fit(e.to_string()))?;
+    let end = want.last().map(|&i| i + 1).unwrap_or(0);
+    let mut out = Vec::with_capacity(want.len());
+    let mut w = want.iter().peekable();
+    for i in 0..end {
+        let e = comp.step(&d.sample(i));
+        if w.peek() == Some(&&i) {
+            out.push(e);
+            w.next();
+        }
+    }
+    Ok(out)
+}
+
+/// Run `params` over `0..end` collecting the RBF activations at `rows` (sorted) into an
+/// `rows.len() × K` matrix, plus the estimates there.
+pub fn design_matrix(
+    params: &HostParams,
+    d: &Dataset,
+    rows: &[usize],
+) -> Result<(DMatrix<f64>, Vec<Estimate<f64>>), TrainerError> {
+    let k = params.centres.len();
+    let mut comp = HostCompensator::new(params).map_err(|e| TrainerError::fit(e.to_string()))?;
+    let mut psi = DMatrix::zeros(rows.len(), k);
+    let mut est = Vec::with_capacity(rows.len());
+    let end = rows.last().map(|&i| i + 1).unwrap_or(0);
+    let mut r = 0usize;
+    for i in 0..end {
+        let take = rows.get(r) == Some(&i);
+        let e = if take {
+            comp.step_with(&d.sample(i), |j, v| psi[(r, j)] = v)
+        } else {
+            comp.step(&d.sample(i))
+        };
+        if take {
+            est.push(e);
+            r += 1;
+        }
+    }
+    Ok((psi, est))
+}
+
+/// Build the skeleton of a model for `cfg` on the training samples `train`.
+pub fn skeleton(
+    d: &Dataset,
+    train: &[usize],
+    core: &PolyCore,
+    z: &[[f64; Z_DIMS]],
+    cfg: &Config,
+    seed: u64,
+) -> Skeleton {
+    let (z_mean, z_std) = z_stats(z, train, cfg.feature_set);
+    let cs = centres(z, train, cfg.feature_set, &z_mean, &z_std, cfg.k, seed);
+    let nn = median_nn_distance(&cs);
+    Skeleton {
+        core: core.clone(),
+        feature_set: cfg.feature_set,
+        dead_band_pm: cfg.dead_band_pm,
+        z_mean,
+        z_std,
+        centres: cs,
+        sigma_mult: cfg.sigma_mult,
+        sigma: cfg.sigma_mult * nn,
+        envelope: envelope(d, train),
+    }
+}
+
+/// Residual targets R = y − Model-P(x) on `rows` (n × 3), with the Model-P estimates.
+pub fn residual_targets(d: &Dataset, rows: &[usize], p_est: &[Estimate<f64>]) -> DMatrix<f64> {
+    DMatrix::from_fn(rows.len(), N_OUTPUTS, |r, c| d.target(c)[rows[r]] - p_est[r].values[c])
+}
+
+/// Weak-support threshold: half the 0.1 % quantile of max ψ over the calibration samples,
+/// clamped to [1e-6, 0.1], so that essentially no calibration sample is flagged and a
+/// sample less supported than 99.9 % of them is.
+pub fn weak_support_threshold(psi: &DMatrix<f64>) -> f64 {
+    if psi.ncols() == 0 || psi.nrows() == 0 {
+        return 0.0;
+    }
+    let mut mx: Vec<f64> = psi.row_iter().map(|r| r.max()).collect();
+    mx.sort_by(f64::total_cmp);
+    let q = mx[(mx.len() as f64 * 0.001) as usize];
+    (0.5 * q).clamp(1e-6, 0.1)
+}
+
+/// A trained pair of models and how they were chosen.
+#[derive(Clone, Debug)]
+pub struct Trained {
+    pub model_p: HostParams,
+    pub model_h: HostParams,
+    pub core: PolyCore,
+    pub selection: Selection,
+}
+
+/// Fit Model-P and Model-H on the calibration samples of `d`.
+pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Trained, TrainerError> {
+    let cal = d.cal_indices();
+    if cal.len() < 200 {
+        return Err(TrainerError::Dataset {
+            message: format!("{} calibration samples; at least 200 are needed", cal.len()),
+        });
+    }
+    let selection = select::select(d, &cal, opts)?;
+    let cfg = selection.chosen;
+    let provenance = provenance(origin, cal.len());
+
+    // Final fit on the whole calibration batch.
+    let core = poly_core::fit(d, &cal, cfg.cross_terms)?;
+    let core_p = if cfg.cross_terms { core.clone() } else { poly_core::fit(d, &cal, true)? };
+    let z = z_rows(d, cfg.dead_band_pm);
+    let sk = skeleton(d, &cal, &core, &z, &cfg, opts.seed);
+    let base = sk.params(None, 0.0, None, [0.0; 3], 0.0, &provenance)?;
+    let (psi, p_est) = design_matrix(&base, d, &cal)?;
+    let r = residual_targets(d, &cal, &p_est);
+    let sys = linalg::RidgeSystem::new(&psi, &r);
+    let alpha = cfg.alpha_rel * cal.len() as f64;
+    let w = sys.weights(alpha);
+    let var = VarianceTerms::from_ridge(&sys, alpha);
+    let thr = weak_support_threshold(&psi);
+    let t_end = cal.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
+    let model_h =
+        sk.params_with_band(Some(&w), alpha, Some(&var), selection.var_model_h, t_end, thr, &provenance)?;
+
+    let sk_p = Skeleton { core: core_p.clone(), centres: vec![], ..sk };
+    let model_p = sk_p.params_with_band(None, 0.0, None, selection.var_model_p, t_end, 0.0, &provenance)?;
+    Ok(Trained { model_p, model_h, core: core_p, selection })
+}
+
+fn provenance(origin: &Origin, n_cal: usize) -> Provenance {
+    let mut scenario = heapless::String::new();
+    for ch in origin.scenario.chars() {
+        if scenario.push(ch).is_err() {
+            break;
+        }
+    }
+    let mut trainer_version = heapless::String::new();
+    for ch in env!("CARGO_PKG_VERSION").chars() {
+        if trainer_version.push(ch).is_err() {
+            break;
+        }
+    }
+    Provenance {
+        seed: origin.seed,
+        scenario,
+        trainer_version,
+        date_yyyymmdd: today_yyyymmdd(),
+        n_cal: n_cal as u32,
+    }
+}
+
+/// Today's date (UTC) as YYYYMMDD, or `SOURCE_DATE_EPOCH`'s for reproducible builds.
+pub fn today_yyyymmdd() -> u32 {
+    let secs = std::env::var("SOURCE_DATE_EPOCH")
+        .ok()
+        .and_then(|s| s.parse::<u64>().ok())
+        .unwrap_or_else(|| {
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_secs())
+                .unwrap_or(0)
+        });
+    let days = (secs / 86_400) as i64;
+    // Civil-from-days (H. Hinnant).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let dd = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = if m <= 2 { y + 1 } else { y };
+    (y * 10_000 + m * 100 + dd) as u32
+}
+
+/// Parallel map helper used by selection and sweeps (rayon, order preserved).
+pub fn par_map<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync + Send) -> Vec<U> {
+    items.par_iter().map(f).collect()
+}

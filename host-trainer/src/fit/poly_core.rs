@@ -1,0 +1,146 @@
+//! Model-P (paper Eq. 3): stage 1, a linear least-squares inverse from [Δλ1..3, T_amb, 1] to
+//! first guesses of (T, ε, p); stage 2, the ten-term polynomial φ on the standardised guesses,
+//! fitted by least squares.
+
+use nalgebra::DMatrix;
+
+use fbg_shared::layout::{N_OUTPUTS, N_POLY, N_STAGE1};
+
+use crate::dataset::Dataset;
+use crate::error::TrainerError;
+use crate::fit::linalg::lstsq;
+
+/// A fitted polynomial core.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PolyCore {
+    /// First guesses = stage1 · [Δλ1, Δλ2, Δλ3, T_amb, 1].
+    pub stage1: [[f64; N_STAGE1]; N_OUTPUTS],
+    pub guess_mean: [f64; N_OUTPUTS],
+    pub guess_std: [f64; N_OUTPUTS],
+    /// B on standardised guesses.
+    pub poly: [[f64; N_POLY]; N_OUTPUTS],
+}
+
+/// φ of paper Eq. 3 on standardised guesses, with the cross/quadratic terms optionally zeroed
+/// (the "without cross-terms" ablation keeps [1, T, ε, p]).
+pub fn phi(g: [f64; 3], cross_terms: bool) -> [f64; N_POLY] {
+    let [t, e, p] = g;
+    if cross_terms {
+        [1.0, t, e, p, t * t, e * e, p * p, t * e, t * p, e * p]
+    } else {
+        [1.0, t, e, p, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    }
+}
+
+fn stage1_row(d: &Dataset, i: usize) -> [f64; N_STAGE1] {
+    [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.t_amb_c[i], 1.0]
+}
+
+/// Fit Model-P on the samples `idx` of `d`.
+pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, TrainerError> {
+    let n = idx.len();
+    let x = DMatrix::from_fn(n, N_STAGE1, |r, c| stage1_row(d, idx[r])[c]);
+    let y = DMatrix::from_fn(n, N_OUTPUTS, |r, c| d.target(c)[idx[r]]);
+    let a = lstsq(x.clone(), y.clone(), "Model-P stage 1 (linear inverse)")?;
+    let guesses = &x * &a; // n × 3
+    let mut stage1 = [[0.0; N_STAGE1]; N_OUTPUTS];
+    for (o, row) in stage1.iter_mut().enumerate() {
+        for (k, v) in row.iter_mut().enumerate() {
+            *v = a[(k, o)];
+        }
+    }
+    let mut guess_mean = [0.0; N_OUTPUTS];
+    let mut guess_std = [0.0; N_OUTPUTS];
+    for o in 0..N_OUTPUTS {
+        let col = guesses.column(o);
+        let m = col.mean();
+        let s = (col.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n as f64).sqrt();
+        if !(s > 0.0) {
+            return Err(TrainerError::fit(format!(
+                "Model-P: the first guess of output {o} does not vary over the calibration data"
+            )));
+        }
+        guess_mean[o] = m;
+        guess_std[o] = s;
+    }
+    let n_terms = if cross_terms { N_POLY } else { 4 };
+    let phis = DMatrix::from_fn(n, n_terms, |r, c| {
+        let g = std::array::from_fn(|o| (guesses[(r, o)] - guess_mean[o]) / guess_std[o]);
+        phi(g, cross_terms)[c]
+    });
+    let b = lstsq(phis, y, "Model-P stage 2 (polynomial core)")?;
+    let mut poly = [[0.0; N_POLY]; N_OUTPUTS];
+    for (o, row) in poly.iter_mut().enumerate() {
+        for (k, v) in row.iter_mut().enumerate().take(n_terms) {
+            *v = b[(k, o)];
+        }
+    }
+    Ok(PolyCore { stage1, guess_mean, guess_std, poly })
+}
+
+impl PolyCore {
+    /// B re-expressed on the *physical* first guesses (T °C, ε µε, p kPa): the coefficients a
+    /// metrologist reads, y = Σ c_k φ_k(g) with φ in [`fbg_shared::layout::POLY_NAMES`] order.
+    pub fn physical_coefficients(&self) -> [[f64; N_POLY]; N_OUTPUTS] {
+        let (m, s) = (self.guess_mean, self.guess_std);
+        let mut out = [[0.0; N_POLY]; N_OUTPUTS];
+        for (o, b) in self.poly.iter().enumerate() {
+            // u_i = (g_i − m_i)/s_i = g_i/s_i − m_i/s_i. Expand each term of B·φ(u).
+            let a: [f64; 3] = std::array::from_fn(|i| 1.0 / s[i]);
+            let c: [f64; 3] = std::array::from_fn(|i| -m[i] / s[i]);
+            let mut p = [0.0; N_POLY];
+            // constant
+            p[0] += b[0];
+            // linear terms u_i = a_i g_i + c_i
+            for i in 0..3 {
+                p[1 + i] += b[1 + i] * a[i];
+                p[0] += b[1 + i] * c[i];
+            }
+            // squares u_i² = a_i² g_i² + 2 a_i c_i g_i + c_i²
+            for i in 0..3 {
+                let bi = b[4 + i];
+                p[4 + i] += bi * a[i] * a[i];
+                p[1 + i] += bi * 2.0 * a[i] * c[i];
+                p[0] += bi * c[i] * c[i];
+            }
+            // products u_i u_j = a_i a_j g_i g_j + a_i c_j g_i + c_i a_j g_j + c_i c_j
+            for (k, (i, j)) in [(0usize, 1usize), (0, 2), (1, 2)].into_iter().enumerate() {
+                let bk = b[7 + k];
+                p[7 + k] += bk * a[i] * a[j];
+                p[1 + i] += bk * a[i] * c[j];
+                p[1 + j] += bk * c[i] * a[j];
+                p[0] += bk * c[i] * c[j];
+            }
+            out[o] = p;
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn physical_coefficients_evaluate_like_the_standardised_ones() {
+        let core = PolyCore {
+            stage1: [[0.0; 5]; 3],
+            guess_mean: [20.0, -5.0, 150.0],
+            guess_std: [3.0, 90.0, 18.0],
+            poly: [
+                [1.0, 2.0, 3.0, 4.0, 0.5, 0.25, 0.125, 0.1, 0.2, 0.3],
+                [-1.0, 0.5, 0.0, 2.0, 0.0, 1.0, 0.0, -0.4, 0.0, 0.7],
+                [0.0; 10],
+            ],
+        };
+        let phys = core.physical_coefficients();
+        for g in [[21.0, 40.0, 160.0], [15.5, -120.0, 130.0]] {
+            let u = std::array::from_fn(|i| (g[i] - core.guess_mean[i]) / core.guess_std[i]);
+            for o in 0..3 {
+                let a: f64 = core.poly[o].iter().zip(phi(u, true)).map(|(b, f)| b * f).sum();
+                let b: f64 = phys[o].iter().zip(phi(g, true)).map(|(b, f)| b * f).sum();
+                assert!((a - b).abs() < 1e-9 * (1.0 + a.abs()), "{a} vs {b}");
+            }
+        }
+    }
+}

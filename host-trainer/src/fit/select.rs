@@ -1,0 +1,410 @@
+//! Hyper-parameter selection by blocked time-series cross-validation inside the calibration
+//! batch (DESIGN §4). The hold-out is never touched here.
+//!
+//! The calibration samples are cut into `blocks` contiguous blocks in time; fold f trains on
+//! blocks 0..f and validates on all later blocks (forward chaining, f = min_train_blocks..
+//! blocks), so every validation lies later in time than its training data, as the hold-out
+//! does, and at lead times up to most of the calibration span. The score of a configuration
+//! is Σ_channels RMSE_H / RMSE_P over all validation samples (scale free, so no channel
+//! dominates).
+//!
+//! Band variances: drift is a random walk, so the error variance grows with the time since
+//! the end of training. For the chosen configuration (and for Model-P) the squared validation
+//! errors are regressed on their lead time τ, s²(τ) = a + b·τ (b >= 0); the model carries a and
+//! b and the device widens its band with the time since calibration.
+
+use std::collections::HashMap;
+
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+
+use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
+use fbg_shared::Provenance;
+
+use super::{design_matrix, linalg, poly_core, residual_targets, run, skeleton, z_rows, Config};
+use crate::dataset::Dataset;
+use crate::error::TrainerError;
+
+/// The grid and the CV layout.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct TrainOptions {
+    pub feature_sets: Vec<FeatureSet>,
+    pub centres: Vec<usize>,
+    pub sigma_mults: Vec<f64>,
+    pub alpha_rels: Vec<f64>,
+    pub dead_bands_pm: Vec<f64>,
+    /// Keep the quadratic and cross terms of stage 2 (false only for the ablation).
+    pub cross_terms: bool,
+    /// Contiguous blocks the calibration batch is cut into.
+    pub blocks: usize,
+    /// Blocks in the first fold's training set.
+    pub min_train_blocks: usize,
+    /// Seed of k-means++.
+    pub seed: u64,
+    /// Show a progress bar (only on a terminal).
+    #[serde(skip)]
+    pub progress: bool,
+}
+
+impl Default for TrainOptions {
+    fn default() -> Self {
+        TrainOptions {
+            feature_sets: FeatureSet::ALL.to_vec(),
+            centres: vec![8, 16, 32],
+            sigma_mults: vec![0.5, 1.0, 2.0, 4.0],
+            alpha_rels: vec![1e-6, 1e-5, 1e-4, 1e-3, 1e-2],
+            dead_bands_pm: vec![1.0, 2.0, 4.0, 8.0],
+            cross_terms: true,
+            blocks: 5,
+            min_train_blocks: 2,
+            seed: 1,
+            progress: false,
+        }
+    }
+}
+
+impl TrainOptions {
+    /// A one-point grid: no choice left to make (CV still runs, for s²).
+    pub fn fixed(cfg: &Config) -> Self {
+        TrainOptions {
+            feature_sets: vec![cfg.feature_set],
+            centres: vec![cfg.k],
+            sigma_mults: vec![cfg.sigma_mult],
+            alpha_rels: vec![cfg.alpha_rel],
+            dead_bands_pm: vec![cfg.dead_band_pm],
+            cross_terms: cfg.cross_terms,
+            ..TrainOptions::default()
+        }
+    }
+    /// Restrict the feature sets (`paper` → only the paper set; `hysteresis-aware` → the latch
+    /// sets, with time left to cross-validation).
+    pub fn with_features(mut self, sets: Vec<FeatureSet>) -> Self {
+        self.feature_sets = sets;
+        self
+    }
+}
+
+/// One evaluated grid point.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CvRow {
+    pub config: Config,
+    /// Pooled validation RMSE per output.
+    pub cv_rmse: [f64; N_OUTPUTS],
+    /// Σ_c RMSE_H,c / RMSE_P,c (lower is better; 3 = no gain).
+    pub score: f64,
+}
+
+/// Residual variance as a function of lead time after the end of training.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct VarModel {
+    /// Variance at lead 0 [unit²].
+    pub a: f64,
+    /// Growth [unit²/s].
+    pub b: f64,
+    /// 95 % quantile of |e| / s(τ) over the validation residuals: the band multiplier.
+    pub k95: f64,
+}
+
+impl VarModel {
+    /// Fit the variance model and calibrate its 95 % multiplier on the same residuals
+    /// (split-conformal on the normalised errors). `fold` labels each sample's CV fold, in
+    /// order of growing training sets.
+    pub fn fit(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
+        let mut m = Self::fit_variance(lead_s, sq_err, fold);
+        let mut u: Vec<f64> = lead_s.iter().zip(sq_err).map(|(&t, &e)| (e / m.at(t)).sqrt()).collect();
+        u.sort_by(f64::total_cmp);
+        // Finite-sample conformal quantile: the ceil((n+1)·0.95)-th smallest.
+        let n = u.len();
+        let r = (((n + 1) as f64) * 0.95).ceil() as usize;
+        m.k95 = u.get(r.saturating_sub(1).min(n.saturating_sub(1))).copied().unwrap_or(fbg_shared::layout::Z95);
+        if !(m.k95 > 0.0) {
+            m.k95 = fbg_shared::layout::Z95;
+        }
+        m
+    }
+
+    /// e² = a_f + b·τ with one intercept per fold and a common slope b >= 0 (the fixed-effects
+    /// estimator): early folds train on less data *and* validate at longer leads, so a pooled
+    /// slope would mistake the smaller training set for growth. `a` is the intercept of the
+    /// fold with the largest training set, the closest to the final fit.
+    fn fit_variance(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
+        let k95 = fbg_shared::layout::Z95;
+        let n_folds = fold.iter().copied().max().map(|m| m + 1).unwrap_or(0);
+        let mut mt = vec![0.0; n_folds];
+        let mut me = vec![0.0; n_folds];
+        let mut cnt = vec![0usize; n_folds];
+        for ((&t, &e), &f) in lead_s.iter().zip(sq_err).zip(fold) {
+            mt[f] += t;
+            me[f] += e;
+            cnt[f] += 1;
+        }
+        for f in 0..n_folds {
+            if cnt[f] > 0 {
+                mt[f] /= cnt[f] as f64;
+                me[f] /= cnt[f] as f64;
+            }
+        }
+        let (mut stt, mut ste) = (0.0, 0.0);
+        for ((&t, &e), &f) in lead_s.iter().zip(sq_err).zip(fold) {
+            stt += (t - mt[f]).powi(2);
+            ste += (t - mt[f]) * (e - me[f]);
+        }
+        let b = if stt > 0.0 { (ste / stt).max(0.0) } else { 0.0 };
+        let last = (0..n_folds).rev().find(|&f| cnt[f] > 0).unwrap_or(0);
+        let mean_all = sq_err.iter().sum::<f64>() / sq_err.len().max(1) as f64;
+        let floor = 1e-6 * mean_all.max(f64::MIN_POSITIVE);
+        let a = me.get(last).copied().unwrap_or(mean_all) - b * mt.get(last).copied().unwrap_or(0.0);
+        VarModel { a: a.max(floor), b, k95 }
+    }
+
+    /// Variance at lead time `tau_s`.
+    pub fn at(&self, tau_s: f64) -> f64 {
+        self.a + self.b * tau_s.max(0.0)
+    }
+}
+
+/// The outcome of selection.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Selection {
+    pub chosen: Config,
+    pub rows: Vec<CvRow>,
+    /// Pooled validation RMSE of Model-P and of the chosen Model-H.
+    pub cv_rmse_p: [f64; N_OUTPUTS],
+    pub cv_rmse_h: [f64; N_OUTPUTS],
+    /// Band variance model s²(τ) = a + b·τ per output (a in unit², b in unit²/s), Model-P and
+    /// Model-H.
+    pub var_model_p: [VarModel; N_OUTPUTS],
+    pub var_model_h: [VarModel; N_OUTPUTS],
+    /// Folds as (training samples, validation samples).
+    pub folds: Vec<(usize, usize)>,
+    /// Calibration samples used.
+    pub n_cal: usize,
+}
+
+struct Fold {
+    train: Vec<usize>,
+    val: Vec<usize>,
+}
+
+fn folds(cal: &[usize], blocks: usize, min_train: usize) -> Vec<Fold> {
+    let n = cal.len();
+    let edge = |b: usize| n * b / blocks;
+    (min_train..blocks)
+        .map(|f| Fold { train: cal[..edge(f)].to_vec(), val: cal[edge(f)..].to_vec() })
+        .collect()
+}
+
+/// Key of a grid point for pooling across folds.
+fn key(c: &Config) -> (u8, u64, usize, u64, u64) {
+    (c.feature_set.code(), c.dead_band_pm.to_bits(), c.k, c.sigma_mult.to_bits(), c.alpha_rel.to_bits())
+}
+
+/// Run the cross-validation and pick the best configuration.
+pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selection, TrainerError> {
+    if opts.blocks < 2 || opts.min_train_blocks == 0 || opts.min_train_blocks >= opts.blocks {
+        return Err(TrainerError::fit("cross-validation needs 1 <= min_train_blocks < blocks"));
+    }
+    let fs = folds(cal, opts.blocks, opts.min_train_blocks);
+    if fs.iter().any(|f| f.train.len() < 50 || f.val.is_empty()) {
+        return Err(TrainerError::Dataset {
+            message: format!("{} calibration samples are too few for {} CV blocks", cal.len(), opts.blocks),
+        });
+    }
+    let prov = Provenance::default();
+
+    // Model-P per fold: its validation errors and its estimates on train ∪ val.
+    struct FoldP {
+        core: poly_core::PolyCore,
+        rows: Vec<usize>,
+        n_train: usize,
+    }
+    let mut fold_p = Vec::new();
+    let mut sq_p = [0.0; N_OUTPUTS];
+    let mut n_val = 0usize;
+    let mut lead_p: Vec<f64> = Vec::new();
+    let mut fold_of_p: Vec<usize> = Vec::new();
+    let mut sqe_p: [Vec<f64>; N_OUTPUTS] = Default::default();
+    for (fi, f) in fs.iter().enumerate() {
+        let core = poly_core::fit(d, &f.train, opts.cross_terms)?;
+        let core_full = if opts.cross_terms { core.clone() } else { poly_core::fit(d, &f.train, true)? };
+        // Model-P proper (always with cross terms) for the reference errors.
+        let sk = super::Skeleton {
+            core: core_full,
+            feature_set: FeatureSet::HysteresisAware,
+            dead_band_pm: 1.0,
+            z_mean: [0.0; 8],
+            z_std: [1.0; 8],
+            centres: vec![],
+            sigma_mult: 1.0,
+            sigma: 1.0,
+            envelope: super::envelope(d, &f.train),
+        };
+        let p = sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)?;
+        let est = run(&p, d, &f.val)?;
+        let t_end = f.train.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
+        for (e, &i) in est.iter().zip(&f.val) {
+            lead_p.push(d.t_s[i] - t_end);
+            fold_of_p.push(fi);
+            for c in 0..N_OUTPUTS {
+                let sq = (e.values[c] - d.target(c)[i]).powi(2);
+                sq_p[c] += sq;
+                sqe_p[c].push(sq);
+            }
+        }
+        n_val += f.val.len();
+        let mut rows = f.train.clone();
+        rows.extend_from_slice(&f.val);
+        fold_p.push(FoldP { core, rows, n_train: f.train.len() });
+    }
+    let cv_rmse_p = sq_p.map(|s| (s / n_val as f64).sqrt());
+    let var_model_p: [VarModel; N_OUTPUTS] = std::array::from_fn(|c| VarModel::fit(&lead_p, &sqe_p[c], &fold_of_p));
+
+    // Latch inputs per dead band (the paper set ignores them: one pass suffices).
+    let mut bands: Vec<(FeatureSet, f64)> = Vec::new();
+    for &set in &opts.feature_sets {
+        if set.uses_latch() {
+            for &db in &opts.dead_bands_pm {
+                bands.push((set, db));
+            }
+        } else {
+            bands.push((set, opts.dead_bands_pm.first().copied().unwrap_or(2.0)));
+        }
+    }
+    let mut dbs: Vec<f64> = bands.iter().map(|b| b.1).collect();
+    dbs.sort_by(f64::total_cmp);
+    dbs.dedup();
+    let zs: HashMap<u64, Vec<[f64; 8]>> = dbs.par_iter().map(|&db| (db.to_bits(), z_rows(d, db))).collect();
+
+    let mut tasks = Vec::new();
+    for (fi, _) in fs.iter().enumerate() {
+        for &(set, db) in &bands {
+            for &k in &opts.centres {
+                tasks.push((fi, set, db, k));
+            }
+        }
+    }
+    let bar = progress_bar(opts.progress, tasks.len() as u64, "cross-validation");
+    type Acc = Vec<(Config, [f64; N_OUTPUTS], usize)>;
+    let results: Result<Vec<Acc>, TrainerError> = tasks
+        .par_iter()
+        .map(|&(fi, set, db, k)| {
+            let f = &fs[fi];
+            let fp = &fold_p[fi];
+            let z = &zs[&db.to_bits()];
+            let base_cfg = Config {
+                feature_set: set,
+                dead_band_pm: db,
+                k,
+                sigma_mult: 1.0,
+                alpha_rel: 0.0,
+                cross_terms: opts.cross_terms,
+            };
+            let mut sk = skeleton(d, &f.train, &fp.core, z, &base_cfg, opts.seed);
+            let nn = sk.sigma;
+            let mut out = Vec::new();
+            for &sm in &opts.sigma_mults {
+                sk.sigma_mult = sm;
+                sk.sigma = sm * nn;
+                let p = sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)?;
+                let (psi, est) = design_matrix(&p, d, &fp.rows)?;
+                let r = residual_targets(d, &fp.rows, &est);
+                let nt = fp.n_train;
+                let psi_t = psi.rows(0, nt).into_owned();
+                let r_t = r.rows(0, nt).into_owned();
+                let psi_v = psi.rows(nt, fp.rows.len() - nt).into_owned();
+                let r_v = r.rows(nt, fp.rows.len() - nt).into_owned();
+                let sys = linalg::RidgeSystem::new(&psi_t, &r_t);
+                for &ar in &opts.alpha_rels {
+                    let w = sys.weights(ar * nt as f64);
+                    let resid: DMatrix<f64> = &r_v - &psi_v * &w;
+                    let sq: [f64; N_OUTPUTS] = std::array::from_fn(|c| resid.column(c).norm_squared());
+                    out.push((Config { sigma_mult: sm, alpha_rel: ar, ..base_cfg }, sq, psi_v.nrows()));
+                }
+            }
+            bar.inc(1);
+            Ok(out)
+        })
+        .collect();
+    bar.finish_and_clear();
+
+    let mut pooled: HashMap<_, (Config, [f64; N_OUTPUTS], usize)> = HashMap::new();
+    for (cfg, sq, n) in results?.into_iter().flatten() {
+        let e = pooled.entry(key(&cfg)).or_insert((cfg, [0.0; N_OUTPUTS], 0));
+        for c in 0..N_OUTPUTS {
+            e.1[c] += sq[c];
+        }
+        e.2 += n;
+    }
+    let mut rows: Vec<CvRow> = pooled
+        .into_values()
+        .map(|(config, sq, n)| {
+            let cv_rmse = sq.map(|s| (s / n as f64).sqrt());
+            let score = (0..N_OUTPUTS).map(|c| cv_rmse[c] / cv_rmse_p[c]).sum();
+            CvRow { config, cv_rmse, score }
+        })
+        .collect();
+    // Deterministic order: by score, ties by the key.
+    rows.sort_by(|a, b| a.score.total_cmp(&b.score).then_with(|| key(&a.config).cmp(&key(&b.config))));
+    let best = rows.first().ok_or_else(|| TrainerError::fit("empty hyper-parameter grid"))?;
+    let chosen = best.config;
+    let cv_rmse_h = best.cv_rmse;
+
+    // Per-sample validation errors of the chosen configuration, against their lead time.
+    let per_fold: Result<Vec<(Vec<f64>, [Vec<f64>; N_OUTPUTS])>, TrainerError> = fs
+        .par_iter()
+        .zip(fold_p.par_iter())
+        .map(|(f, fp)| {
+            let z = &zs[&chosen.dead_band_pm.to_bits()];
+            let mut sk = skeleton(d, &f.train, &fp.core, z, &Config { sigma_mult: 1.0, ..chosen }, opts.seed);
+            sk.sigma = chosen.sigma_mult * sk.sigma;
+            sk.sigma_mult = chosen.sigma_mult;
+            let p = sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)?;
+            let (psi, est) = design_matrix(&p, d, &fp.rows)?;
+            let r = residual_targets(d, &fp.rows, &est);
+            let nt = fp.n_train;
+            let sys = linalg::RidgeSystem::new(&psi.rows(0, nt).into_owned(), &r.rows(0, nt).into_owned());
+            let w = sys.weights(chosen.alpha_rel * nt as f64);
+            let nv = fp.rows.len() - nt;
+            let resid: DMatrix<f64> = r.rows(nt, nv).into_owned() - psi.rows(nt, nv) * &w;
+            let t_end = f.train.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
+            let lead = f.val.iter().map(|&i| d.t_s[i] - t_end).collect();
+            let sq = std::array::from_fn(|c| resid.column(c).iter().map(|e| e * e).collect());
+            Ok((lead, sq))
+        })
+        .collect();
+    let mut lead_h = Vec::new();
+    let mut fold_of_h = Vec::new();
+    let mut sqe_h: [Vec<f64>; N_OUTPUTS] = Default::default();
+    for (fi, (lead, sq)) in per_fold?.into_iter().enumerate() {
+        fold_of_h.extend(std::iter::repeat_n(fi, lead.len()));
+        lead_h.extend(lead);
+        for c in 0..N_OUTPUTS {
+            sqe_h[c].extend_from_slice(&sq[c]);
+        }
+    }
+    let var_model_h: [VarModel; N_OUTPUTS] = std::array::from_fn(|c| VarModel::fit(&lead_h, &sqe_h[c], &fold_of_h));
+    Ok(Selection {
+        chosen,
+        cv_rmse_p,
+        cv_rmse_h,
+        var_model_p,
+        var_model_h,
+        rows,
+        folds: fs.iter().map(|f| (f.train.len(), f.val.len())).collect(),
+        n_cal: cal.len(),
+    })
+}
+
+/// A progress bar on a terminal, hidden otherwise.
+pub fn progress_bar(enabled: bool, len: u64, what: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if !enabled || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{msg:>18} [{bar:40}] {pos}/{len} {elapsed}") {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(what.to_string());
+    bar
+}
