@@ -9,6 +9,9 @@ use std::process::Command;
 
 use anyhow::{bail, Context, Result};
 
+mod device_bench;
+mod elf;
+mod fixtures;
 mod qemu;
 
 fn main() -> Result<()> {
@@ -18,6 +21,9 @@ fn main() -> Result<()> {
     match task {
         "test" => test(rest),
         "qemu" => qemu::run_all(&root()),
+        "size" => device_bench::size(&root()).map(|_| ()),
+        "bench" => device_bench::run(&root()).map(|_| ()),
+        "fixtures" => fixtures_task(rest),
         "help" | "--help" | "-h" => {
             println!("{HELP}");
             Ok(())
@@ -30,7 +36,26 @@ const HELP: &str = "\
 cargo xtask <task>
   test    host tests of the whole workspace, no_std build of fbg-shared for
           thumbv7em-none-eabihf, firmware build and its QEMU tests (CI runs this)
-  qemu    only the firmware QEMU tests";
+  qemu    only the firmware QEMU tests
+  size    firmware flash / static RAM from the ELF and the measured stack peak
+  bench   device part: instructions per step at K = 16/32/64 under QEMU -icount,
+          footprint; writes target/bench/device.json
+  fixtures [--write-default]
+          write the synthetic test fixtures to target/fixtures (and the firmware's
+          embedded default model firmware/model/default.fbgm)";
+
+fn fixtures_task(rest: &[String]) -> Result<()> {
+    let root = root();
+    let fx = fixtures::ensure(&root)?;
+    let dev = fixtures::ensure_device(&root)?;
+    println!("{fx:#?}\n{dev:#?}");
+    if rest.iter().any(|a| a == "--write-default") {
+        let path = root.join("firmware/model/default.fbgm");
+        fixtures::write_atomic(&path, &fixtures::synthetic_blob(32, 1)?)?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
 
 /// Workspace root (the parent of this crate's directory).
 pub fn root() -> PathBuf {

@@ -1,11 +1,542 @@
-//! Firmware build and QEMU tests (filled in by the firmware work).
+//! Firmware build and QEMU tests (`cargo xtask qemu`, part of `cargo xtask test`).
+//!
+//! 1. host unit tests of the device logic (`fbg-firmware-app`) and clippy of the firmware;
+//! 2. fault path: an image that executes UDF must end QEMU with a failure exit code;
+//! 3. golden vectors: the `golden` image compensates the fixture samples on the emulated
+//!    Cortex-M4F and sends its estimates over UART0 to a file; each is compared with the host's
+//!    f64 answer (|Δ| ≤ 1 % of the reference scale per channel, flags identical);
+//! 4. link: the product image serves a loopback TCP serial port; the host client streams
+//!    samples (checked against the host f64 path), sends garbage (counted, then served), a
+//!    corrupted and an oversized model (rejected with their reasons, old model answers
+//!    identically), then a valid model (accepted, answers change and match the new model).
+//!
+//! Every QEMU run has a time-out and QEMU is killed on any failure. defmt logs (QEMU's
+//! semihosting stdout) are kept in `target/qemu/*.defmt` and decoded with `defmt-print` when it
+//! is installed (`cargo install defmt-print --locked`; not installed by the tests because it takes
+//! minutes to build on two cores).
 
-use std::path::Path;
+use std::fs::{self, File};
+use std::io::Read as _;
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
 
-use anyhow::Result;
+use anyhow::{bail, ensure, Context, Result};
+use fbg_shared::link_client::LinkClient;
+use fbg_shared::protocol::{DeviceMsg, Feed, FrameReader, RejectReason, Status, UpdateResult, DEVICE_MAX_FRAME};
+use fbg_shared::{Compensator, Sample};
+
+use crate::fixtures::{self, DeviceFixtures, Fixtures, MAX_K};
+
+/// The product's centre capacity.
+pub const PRODUCT_K: usize = 32;
+/// Tolerance of device vs host, as a fraction of the reference scale (DESIGN §8).
+pub const REL_TOL: f64 = 0.01;
 
 /// Build the firmware and run every QEMU test.
-pub fn run_all(_root: &Path) -> Result<()> {
-    crate::step("firmware: not built yet (no firmware crate)");
+pub fn run_all(root: &Path) -> Result<()> {
+    crate::step("firmware: QEMU prerequisites and fixtures");
+    let qemu = ensure_qemu()?;
+    let fx = fixtures::ensure(root)?;
+    let dfx = fixtures::ensure_device(root)?;
+
+    crate::step("firmware: host tests of the device logic (fbg-firmware-app)");
+    let fw = firmware_dir(root);
+    crate::run(crate::cargo().current_dir(&fw).args([
+        "test",
+        "-p",
+        "fbg-firmware-app",
+        "--locked",
+        "--target",
+        &host_triple()?,
+    ]))?;
+
+    crate::step("firmware: build (thumbv7em-none-eabihf, K = 32) and clippy");
+    let bins = build(root, PRODUCT_K, &fx, None)?;
+    crate::run(
+        crate::cargo()
+            .current_dir(&fw)
+            .args(["clippy", "--release", "--locked", "--bins", "--", "-D", "warnings"])
+            .envs(build_env(root, PRODUCT_K, &fx, None)),
+    )?;
+
+    let started = Instant::now();
+    crate::step("QEMU: fault path (UDF → HardFault → semihosting exit failure)");
+    fault_test(root, &qemu, &bins)?;
+    crate::step("QEMU: golden vectors");
+    golden_test(root, &qemu, &bins, &fx)?;
+    crate::step("QEMU: streaming, garbage and model updates over a loopback TCP serial port");
+    link_test(root, &qemu, &bins, &dfx)?;
+    eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
+}
+
+/// Paths of the built images.
+#[derive(Clone, Debug)]
+pub struct Bins {
+    /// The product image.
+    pub product: PathBuf,
+    /// Golden-vector image.
+    pub golden: PathBuf,
+    /// Bench image.
+    pub bench: PathBuf,
+    /// Fault-path image.
+    pub fault: PathBuf,
+}
+
+/// The firmware workspace.
+pub fn firmware_dir(root: &Path) -> PathBuf {
+    root.join("firmware")
+}
+
+/// Environment of a firmware build.
+pub fn build_env(root: &Path, k: usize, fx: &Fixtures, bench: Option<(&Path, &Path)>) -> Vec<(String, String)> {
+    let s = |p: &Path| p.display().to_string();
+    let mut env = vec![
+        ("FBG_K".to_string(), k.to_string()),
+        ("FBG_GOLDEN_MODEL".to_string(), s(&fx.model)),
+        ("FBG_GOLDEN_INPUTS".to_string(), s(&fx.golden_inputs)),
+    ];
+    let d = fixtures::dir(root);
+    let (bm, bi) = match bench {
+        Some((m, i)) => (m.to_path_buf(), i.to_path_buf()),
+        None => (d.join(format!("bench_k{k}.fbgm")), d.join("bench_inputs.bin")),
+    };
+    env.push(("FBG_BENCH_MODEL".to_string(), s(&bm)));
+    env.push(("FBG_BENCH_INPUTS".to_string(), s(&bi)));
+    env
+}
+
+/// Build every firmware image with capacity `k` (release profile).
+pub fn build(root: &Path, k: usize, fx: &Fixtures, bench: Option<(&Path, &Path)>) -> Result<Bins> {
+    let fw = firmware_dir(root);
+    crate::run(
+        crate::cargo()
+            .current_dir(&fw)
+            .args(["build", "--release", "--locked", "--bins"])
+            .envs(build_env(root, k, fx, bench)),
+    )?;
+    let out = fw.join("target/thumbv7em-none-eabihf/release");
+    Ok(Bins {
+        product: out.join("fbg-firmware"),
+        golden: out.join("golden"),
+        bench: out.join("bench"),
+        fault: out.join("fault"),
+    })
+}
+
+/// The host's target triple (for the device-logic unit tests).
+pub fn host_triple() -> Result<String> {
+    let out = Command::new("rustc").arg("-vV").output().context("running `rustc -vV`")?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    text.lines()
+        .find_map(|l| l.strip_prefix("host: "))
+        .map(|s| s.trim().to_string())
+        .context("`rustc -vV` printed no host triple")
+}
+
+/// `qemu-system-arm`, installed with apt-get when missing and we are root.
+pub fn ensure_qemu() -> Result<PathBuf> {
+    let found = |p: &str| Command::new(p).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success());
+    if found("qemu-system-arm") {
+        return Ok(PathBuf::from("qemu-system-arm"));
+    }
+    let is_root = Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false);
+    if !is_root {
+        bail!(
+            "qemu-system-arm is not installed. Install it with `sudo apt-get install -y qemu-system-arm` \
+             (Debian/Ubuntu) and run `cargo xtask test` again; `cargo xtask test --no-qemu` skips the firmware tests"
+        );
+    }
+    eprintln!("xtask: qemu-system-arm missing, installing it with apt-get");
+    crate::run(Command::new("apt-get").arg("update").arg("-qq"))?;
+    crate::run(Command::new("apt-get").args(["install", "-y", "-qq", "qemu-system-arm"]).env("DEBIAN_FRONTEND", "noninteractive"))?;
+    ensure!(found("qemu-system-arm"), "apt-get ran but qemu-system-arm is still not on PATH");
+    Ok(PathBuf::from("qemu-system-arm"))
+}
+
+/// Directory of QEMU logs and outputs.
+pub fn out_dir(root: &Path) -> Result<PathBuf> {
+    let d = root.join("target").join("qemu");
+    fs::create_dir_all(&d)?;
+    Ok(d)
+}
+
+/// A running QEMU, killed when dropped.
+pub struct Qemu {
+    child: Child,
+    /// The image it runs.
+    pub elf: PathBuf,
+    /// Its semihosting (defmt) output.
+    pub log: PathBuf,
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+        }
+        let _ = self.child.wait();
+    }
+}
+
+impl Qemu {
+    /// Start `elf` on the mps2-an386 with serial0 on `serial` (a QEMU chardev spec).
+    pub fn start(qemu: &Path, elf: &Path, serial: &str, log: &Path, extra: &[&str]) -> Result<Qemu> {
+        ensure!(elf.exists(), "{} is not built", elf.display());
+        let stdout = File::create(log).with_context(|| format!("creating {}", log.display()))?;
+        let stderr = File::create(log.with_extension("stderr"))?;
+        let mut cmd = Command::new(qemu);
+        cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic", "-monitor", "none"])
+            .args(["-serial", serial])
+            .args(["-semihosting-config", "enable=on,target=native"])
+            .args(extra)
+            .arg("-kernel")
+            .arg(elf)
+            .stdin(Stdio::null())
+            .stdout(stdout)
+            .stderr(stderr);
+        eprintln!("xtask: $ {}", crate::describe(&cmd));
+        let child = cmd.spawn().with_context(|| format!("starting {}", qemu.display()))?;
+        Ok(Qemu { child, elf: elf.to_path_buf(), log: log.to_path_buf() })
+    }
+
+    /// Exit status if QEMU has ended.
+    pub fn try_exit(&mut self) -> Result<Option<ExitStatus>> {
+        Ok(self.child.try_wait()?)
+    }
+
+    /// Wait for QEMU to exit by itself, at most `timeout` (then kill it and fail).
+    pub fn wait(&mut self, timeout: Duration) -> Result<ExitStatus> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(s) = self.child.try_wait()? {
+                return Ok(s);
+            }
+            if Instant::now() >= deadline {
+                let _ = self.child.kill();
+                let _ = self.child.wait();
+                self.show_log();
+                bail!("QEMU running {} did not exit within {:?}; killed", self.elf.display(), timeout);
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Decode the defmt log next to the raw one (when defmt-print is installed) and print it.
+    pub fn show_log(&self) {
+        match decode_log(&self.elf, &self.log) {
+            Some(text) => eprintln!("xtask: device log ({}):\n{text}", self.log.display()),
+            None => eprintln!(
+                "xtask: raw defmt log in {} (install defmt-print: `cargo install defmt-print --locked`, then \
+                 `defmt-print -e {} < {}`)",
+                self.log.display(),
+                self.elf.display(),
+                self.log.display()
+            ),
+        }
+        if let Ok(err) = fs::read_to_string(self.log.with_extension("stderr")) {
+            if !err.trim().is_empty() {
+                eprintln!("xtask: QEMU stderr:\n{err}");
+            }
+        }
+    }
+}
+
+/// The defmt log decoded by `defmt-print`, when it is installed.
+pub fn decode_log(elf: &Path, log: &Path) -> Option<String> {
+    let input = File::open(log).ok()?;
+    let out = Command::new("defmt-print").arg("-e").arg(elf).stdin(input).output().ok()?;
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    let _ = fs::write(log.with_extension("log"), &text);
+    Some(text)
+}
+
+fn fault_test(root: &Path, qemu: &Path, bins: &Bins) -> Result<()> {
+    let log = out_dir(root)?.join("fault.defmt");
+    let mut q = Qemu::start(qemu, &bins.fault, "null", &log, &[])?;
+    let status = q.wait(Duration::from_secs(30))?;
+    if status.success() {
+        q.show_log();
+        bail!("the fault image exited with success; a HardFault must end the run with failure");
+    }
+    if let Some(text) = decode_log(&q.elf, &q.log) {
+        ensure!(text.contains("HardFault"), "the fault image's log does not name the HardFault:\n{text}");
+    }
+    eprintln!("xtask: fault image ended with {status} as it must");
+    Ok(())
+}
+
+/// Per-channel tolerance for a model: `REL_TOL` × √resid_var.
+pub fn tolerance(blob_bytes: &[u8]) -> Result<[f64; 3]> {
+    Ok(fixtures::reference_scale(blob_bytes)?.map(|s| REL_TOL * s))
+}
+
+/// All device messages in a byte stream.
+pub fn parse_frames(bytes: &[u8]) -> (Vec<DeviceMsg>, usize) {
+    let mut r = FrameReader::<DEVICE_MAX_FRAME>::new();
+    let mut out = Vec::new();
+    let mut bad = 0;
+    let mut w = bytes;
+    while !w.is_empty() {
+        let (ev, rest) = r.feed::<DeviceMsg>(w);
+        w = rest;
+        match ev {
+            Feed::Pending => {}
+            Feed::Message(m) => out.push(m),
+            Feed::Malformed(_) => bad += 1,
+        }
+    }
+    (out, bad)
+}
+
+fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<()> {
+    let dir = out_dir(root)?;
+    let uart = dir.join("golden.uart");
+    let _ = fs::remove_file(&uart);
+    let log = dir.join("golden.defmt");
+    let mut q = Qemu::start(qemu, &bins.golden, &format!("file:{}", uart.display()), &log, &[])?;
+    let status = q.wait(Duration::from_secs(60))?;
+    if !status.success() {
+        q.show_log();
+        bail!("golden image failed with {status}");
+    }
+    let model = fs::read(&fx.model)?;
+    let tol = tolerance(&model)?;
+    let inputs = fixtures::read_inputs(&fx.golden_inputs)?;
+    let expected = fixtures::read_expected(&fx.golden_expected)?;
+    ensure!(
+        inputs.len() == expected.len(),
+        "{} has {} samples but {} has {} rows",
+        fx.golden_inputs.display(),
+        inputs.len(),
+        fx.golden_expected.display(),
+        expected.len()
+    );
+    let (msgs, bad) = parse_frames(&fs::read(&uart)?);
+    ensure!(bad == 0, "{bad} malformed frames in the golden output {}", uart.display());
+    ensure!(msgs.len() == expected.len(), "device sent {} estimates for {} samples", msgs.len(), expected.len());
+    let scale = fixtures::reference_scale(&model)?;
+    let mut worst = [0.0f64; 3];
+    let mut failures = Vec::new();
+    for (i, (m, want)) in msgs.iter().zip(expected.iter()).enumerate() {
+        let DeviceMsg::Estimate(e) = m else { bail!("message {i} is {m:?}, not an estimate") };
+        ensure!(e.seq == i as u32, "estimate {i} carries seq {}", e.seq);
+        for c in 0..3 {
+            let d = (e.values[c] as f64 - want.values[c]).abs();
+            if d.is_finite() {
+                worst[c] = worst[c].max(d);
+            }
+        }
+        if let Some(why) = fixtures::compare(e.values, e.band, e.flags, want, tol) {
+            failures.push(format!("sample {i}: {why}"));
+        }
+    }
+    eprintln!(
+        "xtask: golden: {} samples; max |device − host| = {:.3e} °C, {:.3e} µε, {:.3e} kPa \
+         ({:.4} %, {:.4} %, {:.4} % of the reference scale; limit {} %)",
+        msgs.len(),
+        worst[0],
+        worst[1],
+        worst[2],
+        100.0 * worst[0] / scale[0],
+        100.0 * worst[1] / scale[1],
+        100.0 * worst[2] / scale[2],
+        100.0 * REL_TOL
+    );
+    if !failures.is_empty() {
+        let n = failures.len();
+        failures.truncate(10);
+        bail!("{n} golden samples differ beyond tolerance:\n  {}", failures.join("\n  "));
+    }
+    Ok(())
+}
+
+/// A QEMU serving the product image on a loopback TCP port, and the link client on it.
+pub struct LinkSession {
+    /// The emulator (killed on drop).
+    pub qemu: Qemu,
+    /// The connected client.
+    pub link: LinkClient<TcpStream>,
+}
+
+impl LinkSession {
+    /// Start the product image with serial0 connected to a fresh loopback listener.
+    pub fn start(root: &Path, qemu: &Path, elf: &Path, name: &str) -> Result<LinkSession> {
+        // We listen first (port 0: no race for a free port) and QEMU connects as a client.
+        let listener = TcpListener::bind("127.0.0.1:0").context("binding a loopback port")?;
+        let port = listener.local_addr()?.port();
+        let log = out_dir(root)?.join(format!("{name}.defmt"));
+        let mut q = Qemu::start(qemu, elf, &format!("tcp:127.0.0.1:{port}"), &log, &[])?;
+        listener.set_nonblocking(true)?;
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let stream = loop {
+            match listener.accept() {
+                Ok((s, _)) => break s,
+                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                    if let Some(st) = q.try_exit()? {
+                        q.show_log();
+                        bail!("QEMU exited with {st} before connecting its serial port");
+                    }
+                    ensure!(Instant::now() < deadline, "QEMU did not connect its serial port to 127.0.0.1:{port} in 20 s");
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                Err(e) => return Err(e.into()),
+            }
+        };
+        stream.set_nonblocking(false)?;
+        stream.set_read_timeout(Some(Duration::from_secs(15)))?;
+        stream.set_nodelay(true)?;
+        eprintln!("xtask: device serial port connected on 127.0.0.1:{port}");
+        Ok(LinkSession { qemu: q, link: LinkClient::new(stream) })
+    }
+
+    /// Fail with the device log when QEMU has exited (a crash shows as an exit).
+    pub fn check_alive(&mut self) -> Result<()> {
+        if let Some(st) = self.qemu.try_exit()? {
+            self.qemu.show_log();
+            bail!("the firmware exited with {st} while serving");
+        }
+        Ok(())
+    }
+}
+
+/// Host reference of a device stream: the f64 compensator fed the same samples.
+struct Reference {
+    comp: Compensator<f64, MAX_K>,
+    tol: [f64; 3],
+}
+
+impl Reference {
+    fn new(blob_bytes: &[u8]) -> Result<Reference> {
+        Ok(Reference { comp: fixtures::host_compensator(blob_bytes)?, tol: tolerance(blob_bytes)? })
+    }
+}
+
+/// Stream `samples` and check each answer against `reference`.
+fn stream_checked(
+    s: &mut LinkSession,
+    reference: &mut Reference,
+    samples: &[Sample<f32>],
+    seq0: u32,
+    what: &str,
+) -> Result<Vec<[f32; 3]>> {
+    let mut values = Vec::with_capacity(samples.len());
+    for (i, x) in samples.iter().enumerate() {
+        let e = match s.link.compensate(seq0 + i as u32, x) {
+            Ok(e) => e,
+            Err(err) => {
+                let _ = s.check_alive();
+                return Err(anyhow::anyhow!("{what}: sample {i}: {err}"));
+            }
+        };
+        let want = reference.comp.step(&fixtures::widen(x));
+        if let Some(why) = fixtures::compare(e.values, e.band, e.flags, &want, reference.tol) {
+            bail!("{what}: sample {i} ({x:?}): {why}");
+        }
+        values.push(e.values);
+    }
+    Ok(values)
+}
+
+fn expect_rejected(r: UpdateResult, reason: RejectReason, what: &str) -> Result<()> {
+    match r {
+        UpdateResult::Rejected(rej) if rej.reason == reason => {
+            eprintln!("xtask: {what}: rejected as expected: {rej}");
+            Ok(())
+        }
+        other => bail!("{what}: expected a rejection for {reason:?}, got {other:?}"),
+    }
+}
+
+fn link_test(root: &Path, qemu: &Path, bins: &Bins, dfx: &DeviceFixtures) -> Result<()> {
+    let default = fs::read(firmware_dir(root).join("model/default.fbgm"))?;
+    let update_b = fs::read(&dfx.update_model)?;
+    let k64 = fs::read(&dfx.k64_model)?;
+    let samples = fixtures::golden_samples(400, 31);
+    let mut s = LinkSession::start(root, qemu, &bins.product, "link")?;
+    let deadline = Instant::now() + Duration::from_secs(240);
+
+    s.link.ping(0xC0FFEE).context("ping")?;
+    let st0 = s.link.status()?;
+    ensure!(st0.model_crc == crate_blob_crc(&default), "active model crc {:#x} is not default.fbgm's", st0.model_crc);
+    ensure!(st0.model_capacity as usize == PRODUCT_K, "capacity {}", st0.model_capacity);
+
+    // 1. streaming end to end.
+    let mut old = Reference::new(&default)?;
+    let a1 = stream_checked(&mut s, &mut old, &samples[..200], 0, "stream (default model)")?;
+    eprintln!("xtask: link: 200 streamed estimates match the host f64 path");
+
+    // 2. garbage on the link.
+    let before = s.link.status()?;
+    let mut garbage = vec![0x01, 0x02, 0xFF, 0x00]; // framing error
+    garbage.extend(std::iter::repeat_n(0x5Au8, 1000)); // oversize frame
+    garbage.push(0);
+    garbage.extend([0x07, 0x13, 0x37, 0x00]); // another framing error
+    garbage.extend([0, 0, 0]); // idle fill, not counted
+    s.link.send_raw(&garbage)?;
+    s.link.ping(7).context("ping after garbage")?;
+    let after = s.link.status()?;
+    ensure!(
+        after.frames_malformed == before.frames_malformed + 3,
+        "malformed counter went from {} to {} (expected +3)",
+        before.frames_malformed,
+        after.frames_malformed
+    );
+    stream_checked(&mut s, &mut old, &samples[200..250], 200, "stream after garbage")?;
+    eprintln!("xtask: link: garbage counted ({} malformed) and the device kept serving", after.frames_malformed);
+
+    // 3. corrupted and unfit updates are rejected; the old model keeps answering identically.
+    let mut corrupt = update_b.clone();
+    let mid = corrupt.len() / 2;
+    corrupt[mid] ^= 0x20;
+    expect_rejected(s.link.update_model(&corrupt)?, RejectReason::BadCrc, "corrupted model")?;
+    // A 64-centre blob does not even fit the K = 32 staging buffer: refused at ModelBegin.
+    expect_rejected(s.link.update_model(&k64)?, RejectReason::TooLarge, "64-centre model on a K = 32 build")?;
+    let st = s.link.status()?;
+    ensure!(st.model_crc == crate_blob_crc(&default), "model changed after rejected updates");
+    ensure!(st.last_rejection.is_some(), "no rejection recorded");
+    stream_checked(&mut s, &mut old, &samples[250..300], 250, "stream after rejected updates")?;
+    eprintln!("xtask: link: rejected updates left the old model answering identically");
+
+    // 4. a valid update changes the answers.
+    match s.link.update_model(&update_b)? {
+        UpdateResult::Accepted { centres, crc } => {
+            ensure!(crc == crate_blob_crc(&update_b), "accepted crc {crc:#x} is not the update's");
+            eprintln!("xtask: link: valid update accepted ({centres} centres, crc {crc:#010x})");
+        }
+        other => bail!("valid update refused: {other:?}"),
+    }
+    let mut new = Reference::new(&update_b)?;
+    let b1 = stream_checked(&mut s, &mut new, &samples[..200], 300, "stream (updated model)")?;
+    let changed = a1.iter().zip(b1.iter()).filter(|(a, b)| a != b).count();
+    ensure!(changed > 0, "the updated model answers exactly like the old one");
+    eprintln!("xtask: link: the updated model answers differently on {changed}/200 samples and matches the host");
+
+    let fin: Status = s.link.status()?;
+    ensure!(fin.updates_accepted == 1, "updates_accepted = {}", fin.updates_accepted);
+    ensure!(fin.updates_rejected == 2, "updates_rejected = {}", fin.updates_rejected);
+    ensure!(fin.samples == 500, "samples = {}", fin.samples);
+    ensure!(s.link.malformed_from_device() == 0, "the device sent malformed frames");
+    ensure!(Instant::now() < deadline, "link test took too long");
+    s.check_alive()?;
+    eprintln!("xtask: link: final status {fin:?}");
+    Ok(())
+}
+
+/// CRC trailer of a blob.
+pub fn crate_blob_crc(bytes: &[u8]) -> u32 {
+    let n = bytes.len();
+    if n < 4 {
+        return 0;
+    }
+    u32::from_le_bytes([bytes[n - 4], bytes[n - 3], bytes[n - 2], bytes[n - 1]])
+}
+
+/// Read a whole file, for callers that want bytes (the UART outputs).
+pub fn read_all(path: &Path) -> Result<Vec<u8>> {
+    let mut v = Vec::new();
+    File::open(path).with_context(|| format!("opening {}", path.display()))?.read_to_end(&mut v)?;
+    Ok(v)
 }

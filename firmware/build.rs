@@ -1,0 +1,51 @@
+//! Build script of the firmware:
+//!
+//! - puts the top-level `memory.x` on the linker search path (cortex-m-rt's `link.x` includes
+//!   it), so a build that would not fit the co-processor fails to link;
+//! - writes `config.rs` with the centre capacity `K` (env `FBG_K`, default 32);
+//! - copies the test fixtures the test binaries embed into `OUT_DIR` (an empty file when a
+//!   fixture is absent, so the product binary always builds): `FBG_GOLDEN_MODEL`,
+//!   `FBG_GOLDEN_INPUTS`, `FBG_BENCH_MODEL`, `FBG_BENCH_INPUTS` (paths; defaults under
+//!   `../target/fixtures/`, which `cargo xtask fixtures` writes).
+
+use std::env;
+use std::fs;
+use std::path::PathBuf;
+
+fn main() {
+    let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+
+    let memory = manifest.join("../memory.x");
+    fs::copy(&memory, out.join("memory.x")).expect("copy ../memory.x (the top-level linker memory map)");
+    println!("cargo:rustc-link-search={}", out.display());
+    println!("cargo:rerun-if-changed={}", memory.display());
+    println!("cargo:rerun-if-changed=build.rs");
+
+    println!("cargo:rerun-if-env-changed=FBG_K");
+    let k: usize = match env::var("FBG_K") {
+        Ok(v) => v.trim().parse().unwrap_or_else(|_| panic!("FBG_K must be a number of centres, got `{v}`")),
+        Err(_) => 32,
+    };
+    assert!((1..=256).contains(&k), "FBG_K = {k} is outside 1..=256");
+    fs::write(
+        out.join("config.rs"),
+        format!("/// Centre capacity of this build (env `FBG_K` at build time).\npub const K: usize = {k};\n"),
+    )
+    .expect("write config.rs");
+
+    let fixtures = manifest.join("../target/fixtures");
+    for (var, default, name) in [
+        ("FBG_GOLDEN_MODEL", fixtures.join("model.fbgm"), "golden_model.fbgm"),
+        ("FBG_GOLDEN_INPUTS", fixtures.join("golden_inputs.bin"), "golden_inputs.bin"),
+        ("FBG_BENCH_MODEL", fixtures.join(format!("bench_k{k}.fbgm")), "bench_model.fbgm"),
+        ("FBG_BENCH_INPUTS", fixtures.join("bench_inputs.bin"), "bench_inputs.bin"),
+    ] {
+        println!("cargo:rerun-if-env-changed={var}");
+        let src = env::var_os(var).map(PathBuf::from).unwrap_or(default);
+        let bytes = fs::read(&src).unwrap_or_default();
+        // A missing file counts as changed, so the copy refreshes once it appears.
+        println!("cargo:rerun-if-changed={}", src.display());
+        fs::write(out.join(name), bytes).expect("write fixture copy");
+    }
+}

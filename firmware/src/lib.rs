@@ -1,0 +1,62 @@
+//! Board support of the FBG firmware on the MPS2 AN386 (Cortex-M4F), as QEMU's `mps2-an386`
+//! models it: the CMSDK APB UART driver (`embedded-io`), the FPGA IO LED as the alarm
+//! (`embedded-hal` `OutputPin`), SysTick/DWT counters, the stack high-water mark, and the
+//! fatal-error path (defmt log, then semihosting exit with failure).
+//!
+//! The application logic lives in the host-testable `fbg-firmware-app` crate.
+
+#![no_std]
+#![deny(missing_docs)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+
+pub mod counters;
+pub mod led;
+pub mod stack;
+pub mod uart;
+
+use core::panic::PanicInfo;
+
+use cortex_m_rt::{exception, ExceptionFrame};
+// The defmt global logger: frames go to the host over semihosting (stdout of QEMU).
+use defmt_semihosting as _;
+
+include!(concat!(env!("OUT_DIR"), "/config.rs"));
+
+/// Bytes needed to stage any model this build can hold.
+pub const STAGING_LEN: usize = fbg_shared::blob::max_len(K);
+
+/// The model embedded in the product image (replaced by the trainer's export).
+pub static DEFAULT_MODEL: &[u8] = include_bytes!("../model/default.fbgm");
+
+/// Leave the emulator (or the debug session) with success.
+pub fn exit_success() -> ! {
+    semihosting::process::exit(0)
+}
+
+/// Leave the emulator (or the debug session) with failure.
+pub fn exit_failure() -> ! {
+    semihosting::process::exit(1)
+}
+
+#[panic_handler]
+fn panic(info: &PanicInfo) -> ! {
+    // No `core::fmt` here: the location is enough and keeps the formatting machinery out of
+    // flash. The code is written not to panic; reaching this is a bug.
+    match info.location() {
+        Some(l) => defmt::error!("panic at {=str}:{=u32}", l.file(), l.line()),
+        None => defmt::error!("panic"),
+    }
+    exit_failure()
+}
+
+#[exception]
+unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
+    defmt::error!("HardFault at pc {=u32:#010x}, lr {=u32:#010x}", ef.pc(), ef.lr());
+    exit_failure()
+}
+
+#[exception]
+unsafe fn DefaultHandler(irqn: i16) {
+    defmt::error!("unexpected exception or interrupt {=i16}", irqn);
+    exit_failure()
+}

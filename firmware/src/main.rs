@@ -1,0 +1,57 @@
+//! The product firmware: boot the embedded default model, then serve the serial link (samples,
+//! status, model updates) and drive the alarm output, forever.
+
+#![no_std]
+#![no_main]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+
+use core::mem::MaybeUninit;
+
+use cortex_m_rt::entry;
+use fbg_firmware::led::FpgaioLed;
+use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
+use fbg_firmware::{exit_failure, stack, DEFAULT_MODEL, K, STAGING_LEN};
+use fbg_firmware_app::{load_into, Device};
+use fbg_shared::Compensator;
+
+/// Link speed on hardware (QEMU ignores it).
+const BAUD: u32 = 115_200;
+
+#[entry]
+fn main() -> ! {
+    // `static mut` at the top of `#[entry]` become `&'static mut` (cortex-m-rt), initialised at
+    // load time: the active model and the staging area live in .bss, never on the stack.
+    static mut MODEL: MaybeUninit<Compensator<f32, K>> = MaybeUninit::uninit();
+    static mut STAGING: [u8; STAGING_LEN] = [0; STAGING_LEN];
+
+    // SAFETY: UART0 and LED0 of the MPS2 board, each driven only from here.
+    let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
+    uart.init(MPS2_PCLK_HZ, BAUD);
+    let alarm = unsafe { FpgaioLed::new(0) };
+
+    let (comp, info) = match load_into(MODEL, DEFAULT_MODEL) {
+        Ok(loaded) => loaded,
+        Err(r) => {
+            defmt::error!(
+                "embedded default model rejected: {=str} (code {=u8}, detail {=u32})",
+                r.reason.describe(),
+                r.reason.code(),
+                r.detail
+            );
+            exit_failure()
+        }
+    };
+    defmt::info!(
+        "fbg-firmware up: K = {=usize}, model {=u16} centres, crc {=u32:#010x}, stack after boot {=u32} B",
+        K,
+        info.centres,
+        info.crc,
+        stack::peak_bytes()
+    );
+    let mut dev = Device::new(comp, info, STAGING, alarm);
+    dev.set_stack_probe(stack::peak_bytes);
+    match dev.serve(&mut uart) {
+        Ok(never) => match never {},
+        Err(never) => match never {},
+    }
+}

@@ -1,0 +1,544 @@
+//! Test fixtures of the firmware: a model blob, golden input samples and the host's f64 answers.
+//!
+//! Interface kept stable for the trainer to take over: [`ensure`] returns [`Fixtures`] with
+//!
+//! - `target/fixtures/model.fbgm`: the model the golden vectors use;
+//! - `target/fixtures/golden_inputs.bin`: raw little-endian f32, 5 per sample
+//!   (dl1_pm, dl2_pm, dl3_pm, T_amb_C, t_s);
+//! - `target/fixtures/golden_expected.csv`: header
+//!   `values_T,values_eps,values_p,band_T,band_eps,band_p,flags`, the f64 results of
+//!   `fbg_shared::Compensator<f64, _>` on the same model and samples.
+//!
+//! Until the trainer exports real ones, these are synthetic but realistic (a deterministic
+//! K = 32 hysteresis-aware model with the design's gauge-matrix numbers, and a trajectory with
+//! direction changes, out-of-envelope samples and one NaN). The same generator makes the bench
+//! models (K = 16, 32, 64), the second model of the update test, and
+//! `firmware/model/default.fbgm` (`cargo xtask fixtures --write-default`).
+
+use std::fmt::Write as _;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, ensure as check, Context, Result};
+use fbg_shared::blob;
+use fbg_shared::layout::{FeatureSet, N_OUTPUTS, VAR_RANK, Z_DIMS};
+use fbg_shared::{Centre, Compensator, Estimate, Flags, Hyper, LatchBank, ModelParams, Provenance, Sample};
+
+/// Largest centre count the fixture tools handle.
+pub const MAX_K: usize = 64;
+
+/// Paths of the golden-vector fixtures.
+#[derive(Clone, Debug)]
+pub struct Fixtures {
+    /// Model blob used by the golden vectors.
+    pub model: PathBuf,
+    /// Golden input samples (raw LE f32 × 5 per sample).
+    pub golden_inputs: PathBuf,
+    /// Host f64 results (CSV).
+    pub golden_expected: PathBuf,
+}
+
+/// Directory of the fixtures.
+pub fn dir(root: &Path) -> PathBuf {
+    root.join("target").join("fixtures")
+}
+
+/// Write the golden fixtures (synthetic for now) and return their paths.
+pub fn ensure(root: &Path) -> Result<Fixtures> {
+    let d = dir(root);
+    fs::create_dir_all(&d).with_context(|| format!("creating {}", d.display()))?;
+    let fx = Fixtures {
+        model: d.join("model.fbgm"),
+        golden_inputs: d.join("golden_inputs.bin"),
+        golden_expected: d.join("golden_expected.csv"),
+    };
+    let model = synthetic_blob(32, 1)?;
+    let samples = golden_samples(600, 11);
+    let expected = reference(&model, &samples)?;
+    write_atomic(&fx.model, &model)?;
+    write_atomic(&fx.golden_inputs, &inputs_bytes(&samples))?;
+    write_atomic(&fx.golden_expected, expected_csv(&expected).as_bytes())?;
+    Ok(fx)
+}
+
+/// Extra fixtures of the device tests and the bench.
+#[derive(Clone, Debug)]
+pub struct DeviceFixtures {
+    /// A second valid K = 32 model (different numbers) for the update test.
+    pub update_model: PathBuf,
+    /// A valid model with more centres than a K = 32 build holds.
+    pub k64_model: PathBuf,
+    /// Bench models per K.
+    pub bench_models: Vec<(usize, PathBuf)>,
+    /// In-envelope bench samples (same format as the golden inputs).
+    pub bench_inputs: PathBuf,
+}
+
+/// Write the device-test and bench fixtures.
+pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
+    let d = dir(root);
+    fs::create_dir_all(&d)?;
+    let update_model = d.join("update_b.fbgm");
+    write_atomic(&update_model, &synthetic_blob(32, 2)?)?;
+    let mut bench_models = Vec::new();
+    for k in [16, 32, 64] {
+        let p = d.join(format!("bench_k{k}.fbgm"));
+        write_atomic(&p, &synthetic_blob(k, 100 + k as u64)?)?;
+        bench_models.push((k, p));
+    }
+    let k64_model = d.join("bench_k64.fbgm");
+    let bench_inputs = d.join("bench_inputs.bin");
+    let samples: Vec<Sample<f32>> = golden_samples(256, 21)
+        .into_iter()
+        .filter(|s| s.dl_pm.iter().all(|v| v.is_finite()) && s.dl_pm[0].abs() < 250.0)
+        .collect();
+    write_atomic(&bench_inputs, &inputs_bytes(&samples))?;
+    Ok(DeviceFixtures { update_model, k64_model, bench_models, bench_inputs })
+}
+
+/// Write `bytes` to `path` through a temporary file and a rename (no half-written output).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let tmp = path.with_extension(format!(
+        "{}.tmp",
+        path.extension().and_then(|e| e.to_str()).unwrap_or("")
+    ));
+    fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
+    fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
+}
+
+// ---- deterministic random numbers ----------------------------------------------------------
+
+/// SplitMix64: tiny, deterministic on every machine.
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator for `seed`.
+    pub fn new(seed: u64) -> Self {
+        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
+    }
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Standard normal (Box-Muller).
+    pub fn normal(&mut self) -> f64 {
+        let u1 = self.uniform().max(1e-300);
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+}
+
+// ---- the synthetic installation ------------------------------------------------------------
+
+/// Nominal gauge matrix of DESIGN §3 (pm per °C, µε, kPa), rows FBG1..3.
+const GAUGE: [[f64; 3]; 3] = [[10.0, 1.20, 0.02], [9.8, 0.05, 0.01], [11.0, 0.10, 1.0]];
+/// Reference point of the shifts.
+const T0: f64 = 20.0;
+const P0: f64 = 150.0;
+/// Spread of the quantities over a calibration run (°C, µε, kPa).
+const Q_STD: [f64; 3] = [3.0, 80.0, 15.0];
+
+fn inverse3(m: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let [[a, b, c], [d, e, f], [g, h, i]] = *m;
+    let det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+    [
+        [(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det],
+        [(f * g - d * i) / det, (a * i - c * g) / det, (c * d - a * f) / det],
+        [(d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det],
+    ]
+}
+
+/// One simulated sample at index `i`: true (T, ε, p) trajectories with turning points, the
+/// measured shifts through the gauge matrix with a small cross-term and noise.
+fn simulate(i: usize, rng: &mut Rng) -> Sample<f32> {
+    let x = i as f64;
+    let tau = std::f64::consts::TAU;
+    let t = T0 + 4.0 * (tau * x / 300.0).sin() + 1.0 * (tau * x / 47.0).sin();
+    let e = 100.0 * (tau * x / 170.0).sin() + if (i / 90) % 2 == 0 { 30.0 } else { -30.0 };
+    let p = P0 + 20.0 * (tau * x / 230.0).sin();
+    let q = [t - T0, e, p - P0];
+    let mut dl = [0.0f64; 3];
+    for (d, row) in dl.iter_mut().zip(GAUGE.iter()) {
+        *d = row.iter().zip(q.iter()).map(|(k, v)| k * v).sum::<f64>() + 0.8 * rng.normal();
+    }
+    dl[0] += 1e-3 * q[0] * q[1]; // c_Tε cross-term
+    let t_amb = t + 0.5 + 0.1 * rng.normal();
+    Sample {
+        dl_pm: [dl[0] as f32, dl[1] as f32, dl[2] as f32],
+        t_amb_c: t_amb as f32,
+        t_s: (60.0 * x) as f32,
+    }
+}
+
+/// `n` golden samples: the trajectory, a stretch out of the Δλ1 envelope, two T_amb excursions
+/// and one NaN.
+pub fn golden_samples(n: usize, seed: u64) -> Vec<Sample<f32>> {
+    let mut rng = Rng::new(seed);
+    let mut out: Vec<Sample<f32>> = (0..n).map(|i| simulate(i, &mut rng)).collect();
+    let n = out.len();
+    for (i, s) in out.iter_mut().enumerate() {
+        if (n * 2 / 3..n * 2 / 3 + 10).contains(&i) {
+            s.dl_pm[0] += 400.0; // far outside the envelope: out-of-envelope and weak support
+        }
+        if i == n * 5 / 6 || i == n * 5 / 6 + 1 {
+            s.t_amb_c = 45.0;
+        }
+        if i == n * 3 / 4 {
+            s.dl_pm[1] = f32::NAN;
+        }
+    }
+    out
+}
+
+/// Mean and standard deviation of each RBF input of a feature set over a calibration run.
+struct Scaler {
+    mean: [f64; Z_DIMS],
+    std: [f64; Z_DIMS],
+}
+
+fn z_raw(s: &Sample<f32>, latch: [f64; 3]) -> [f64; Z_DIMS] {
+    [
+        s.dl_pm[0] as f64,
+        s.dl_pm[1] as f64,
+        s.dl_pm[2] as f64,
+        s.t_amb_c as f64,
+        s.t_s as f64,
+        latch[0],
+        latch[1],
+        latch[2],
+    ]
+}
+
+/// A synthetic, valid K-centre hysteresis-aware model (f32 blob), deterministic in `seed`.
+pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>> {
+    check!(k <= MAX_K, "at most {MAX_K} centres");
+    let mut rng = Rng::new(seed);
+    let dead_band = 2.0;
+    // A calibration run: centres are picked among its standardised inputs (as k-means++
+    // would), so they sit where data is.
+    let cal: Vec<Sample<f32>> = (0..2000).map(|i| simulate(i, &mut rng)).collect();
+    let mut latches = LatchBank::new();
+    let db_ticks = fbg_shared::direction_latch::ticks(dead_band);
+    let zs: Vec<[f64; Z_DIMS]> = cal
+        .iter()
+        .map(|s| {
+            let dl = [s.dl_pm[0] as f64, s.dl_pm[1] as f64, s.dl_pm[2] as f64];
+            z_raw(s, latches.update(&dl, db_ticks))
+        })
+        .collect();
+    let nf = zs.len() as f64;
+    let mut sc = Scaler { mean: [0.0; Z_DIMS], std: [1.0; Z_DIMS] };
+    for d in 0..Z_DIMS {
+        let m = zs.iter().map(|z| z[d]).sum::<f64>() / nf;
+        let v = zs.iter().map(|z| (z[d] - m).powi(2)).sum::<f64>() / nf;
+        sc.mean[d] = m;
+        sc.std[d] = if v > 0.0 { v.sqrt() } else { 1.0 };
+    }
+    let fs = FeatureSet::HysteresisAware;
+    let active = fs.active();
+
+    let mut centres: heapless::Vec<Centre<f64>, MAX_K> = heapless::Vec::new();
+    for j in 0..k {
+        let src = &zs[(j * zs.len() / k.max(1) + 37) % zs.len()];
+        let mut c = Centre::<f64>::default();
+        for d in 0..Z_DIMS {
+            if active[d] {
+                c.mu[d] = ((src[d] - sc.mean[d]) / sc.std[d] + 0.1 * rng.normal()).clamp(-2.5, 2.5);
+            }
+        }
+        c.w = [0.05 * rng.normal(), 2.0 * rng.normal(), 0.5 * rng.normal()];
+        for v in c.v.iter_mut() {
+            *v = rng.normal() / (k.max(1) as f64).sqrt();
+        }
+        if centres.push(c).is_err() {
+            bail!("centre capacity");
+        }
+    }
+
+    // Stage 1: the exact inverse of the nominal gauge matrix plus a small T_amb term.
+    let inv = inverse3(&GAUGE);
+    let offsets = [T0, 0.0, P0];
+    let amb = [0.002, -0.05, 0.01];
+    let mut stage1 = [[0.0; 5]; N_OUTPUTS];
+    for o in 0..N_OUTPUTS {
+        stage1[o] = [inv[o][0], inv[o][1], inv[o][2], amb[o], offsets[o] - amb[o] * (T0 + 0.5)];
+    }
+    let poly = [
+        [20.01, 3.0, 0.003, -0.002, 0.02, 0.0, 0.0, 0.004, 0.001, 0.0],
+        [0.3, 0.4, 80.0, 0.1, 0.2, 0.6, 0.0, 0.9, 0.0, 0.05],
+        [150.05, 0.1, 0.02, 15.0, 0.05, 0.0, 0.12, 0.0, 0.3, 0.02],
+    ];
+    let mut z_std = sc.std;
+    let mut z_mean = sc.mean;
+    for d in 0..Z_DIMS {
+        if !active[d] {
+            z_mean[d] = 0.0;
+            z_std[d] = 1.0;
+        }
+    }
+    let margin = 0.1;
+    let mut envelope_lo = [0.0; 4];
+    let mut envelope_hi = [0.0; 4];
+    for d in 0..4 {
+        let lo = zs.iter().map(|z| z[d]).fold(f64::INFINITY, f64::min);
+        let hi = zs.iter().map(|z| z[d]).fold(f64::NEG_INFINITY, f64::max);
+        let pad = margin * (hi - lo);
+        envelope_lo[d] = lo - pad;
+        envelope_hi[d] = hi + pad;
+    }
+    let var_inv_g = [0.8, 0.5, 0.3, 0.2, 0.12, 0.08, 0.05, 0.03];
+    debug_assert_eq!(var_inv_g.len(), VAR_RANK);
+    let params = ModelParams::<f64, MAX_K> {
+        hyper: Hyper {
+            feature_set: fs,
+            sigma_mult: 1.5,
+            sigma: 1.2,
+            alpha: 1e-2,
+            dead_band_pm: dead_band,
+            weak_support: 0.02,
+            envelope_margin: margin,
+            flagged_band_factor: 2.0,
+        },
+        stage1,
+        guess_mean: [T0, 0.0, P0],
+        guess_std: Q_STD,
+        poly,
+        z_mean,
+        z_std,
+        centres,
+        var_inv_g,
+        var_inv_g_tail: 0.02,
+        resid_var: [0.12f64.powi(2), 2.5f64.powi(2), 0.6f64.powi(2)],
+        resid_var_growth: [0.0; 3],
+        t_cal_end_s: 0.0,
+        band_k: [1.959_964; 3],
+        envelope_lo,
+        envelope_hi,
+        provenance: Provenance {
+            seed,
+            scenario: heapless::String::try_from("synthetic-fixture").unwrap_or_default(),
+            trainer_version: heapless::String::try_from("xtask").unwrap_or_default(),
+            date_yyyymmdd: 20260101,
+            n_cal: cal.len() as u32,
+        },
+    };
+    params.validate().map_err(|e| anyhow::anyhow!("synthetic model invalid: {e}"))?;
+    Ok(params)
+}
+
+/// [`synthetic_params`] encoded as a `.fbgm` blob.
+pub fn synthetic_blob(k: usize, seed: u64) -> Result<Vec<u8>> {
+    let p32: ModelParams<f32, MAX_K> =
+        synthetic_params(k, seed)?.convert().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut buf = vec![0u8; blob::max_len(MAX_K)];
+    let n = blob::encode(&p32, &mut buf).map_err(|e| anyhow::anyhow!("encoding: {e}"))?;
+    buf.truncate(n);
+    Ok(buf)
+}
+
+/// Decode a blob (any K up to [`MAX_K`]) for the host reference.
+pub fn decode(blob_bytes: &[u8]) -> Result<ModelParams<f32, MAX_K>> {
+    blob::decode::<MAX_K>(blob_bytes).map_err(|e| anyhow::anyhow!("model blob: {e}"))
+}
+
+/// A fresh f64 host compensator of a blob.
+pub fn host_compensator(blob_bytes: &[u8]) -> Result<Compensator<f64, MAX_K>> {
+    Compensator::new(&decode(blob_bytes)?).map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// The host f64 answers for `samples` on the model in `blob_bytes`.
+pub fn reference(blob_bytes: &[u8], samples: &[Sample<f32>]) -> Result<Vec<Estimate<f64>>> {
+    let mut c = host_compensator(blob_bytes)?;
+    Ok(samples.iter().map(|s| c.step(&widen(s))).collect())
+}
+
+/// A device sample in f64.
+pub fn widen(s: &Sample<f32>) -> Sample<f64> {
+    Sample {
+        dl_pm: [s.dl_pm[0] as f64, s.dl_pm[1] as f64, s.dl_pm[2] as f64],
+        t_amb_c: s.t_amb_c as f64,
+        t_s: s.t_s as f64,
+    }
+}
+
+/// Per-channel comparison scale: the square root of the blob's residual variance (to be replaced
+/// by Model-H's hold-out RMSE once the trainer exports it).
+pub fn reference_scale(blob_bytes: &[u8]) -> Result<[f64; N_OUTPUTS]> {
+    let p = decode(blob_bytes)?;
+    Ok(p.resid_var.map(|v| (v as f64).sqrt()))
+}
+
+/// Golden inputs as raw little-endian f32 × 5.
+pub fn inputs_bytes(samples: &[Sample<f32>]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(samples.len() * 20);
+    for s in samples {
+        for v in [s.dl_pm[0], s.dl_pm[1], s.dl_pm[2], s.t_amb_c, s.t_s] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// Read golden inputs.
+pub fn read_inputs(path: &Path) -> Result<Vec<Sample<f32>>> {
+    let bytes = fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    check!(
+        bytes.len() % 20 == 0,
+        "{}: {} bytes is not a whole number of 5 × f32 samples",
+        path.display(),
+        bytes.len()
+    );
+    Ok(bytes
+        .chunks_exact(20)
+        .map(|c| {
+            let f = |i: usize| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]]);
+            Sample { dl_pm: [f(0), f(1), f(2)], t_amb_c: f(3), t_s: f(4) }
+        })
+        .collect())
+}
+
+/// Header of the expected-results CSV.
+pub const EXPECTED_HEADER: &str = "values_T,values_eps,values_p,band_T,band_eps,band_p,flags";
+
+/// The expected-results CSV text.
+pub fn expected_csv(rows: &[Estimate<f64>]) -> String {
+    let mut s = String::from(EXPECTED_HEADER);
+    s.push('\n');
+    for e in rows {
+        let v = e.values;
+        let b = e.band95;
+        let _ = writeln!(s, "{:?},{:?},{:?},{:?},{:?},{:?},{}", v[0], v[1], v[2], b[0], b[1], b[2], e.flags.0);
+    }
+    s
+}
+
+/// Read the expected-results CSV (the trainer's or ours).
+pub fn read_expected(path: &Path) -> Result<Vec<Estimate<f64>>> {
+    let text = fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or("");
+    check!(
+        header.trim() == EXPECTED_HEADER,
+        "{}:1: header is `{header}`, expected `{EXPECTED_HEADER}`",
+        path.display()
+    );
+    let mut out = Vec::new();
+    for (i, line) in lines.enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let cols: Vec<&str> = line.split(',').map(str::trim).collect();
+        check!(cols.len() == 7, "{}:{}: expected 7 columns, found {}", path.display(), i + 2, cols.len());
+        let mut f = [0.0f64; 6];
+        for (k, (o, c)) in f.iter_mut().zip(cols.iter()).enumerate() {
+            *o = parse_f64(c).with_context(|| format!("{}:{}: column {}", path.display(), i + 2, k + 1))?;
+        }
+        let flags: u8 = cols[6]
+            .parse()
+            .with_context(|| format!("{}:{}: column 7 (flags)", path.display(), i + 2))?;
+        out.push(Estimate { values: [f[0], f[1], f[2]], band95: [f[3], f[4], f[5]], flags: Flags(flags) });
+    }
+    Ok(out)
+}
+
+fn parse_f64(s: &str) -> Result<f64> {
+    match s.to_ascii_lowercase().as_str() {
+        "nan" => Ok(f64::NAN),
+        "inf" | "+inf" | "infinity" => Ok(f64::INFINITY),
+        "-inf" | "-infinity" => Ok(f64::NEG_INFINITY),
+        _ => s.parse::<f64>().with_context(|| format!("`{s}` is not a number")),
+    }
+}
+
+/// Compare a device answer with the host reference: per channel |Δ| ≤ `tol` (NaN matches NaN,
+/// ∞ matches ∞), flags identical. Returns a description of the first mismatch.
+pub fn compare(
+    dev_values: [f32; 3],
+    dev_band: [f32; 3],
+    dev_flags: Flags,
+    want: &Estimate<f64>,
+    tol: [f64; 3],
+) -> Option<String> {
+    if dev_flags != want.flags {
+        return Some(format!("flags {} (device) vs {} (host)", dev_flags, want.flags));
+    }
+    let names = ["T", "eps", "p"];
+    for c in 0..3 {
+        for (what, d, h) in [("value", dev_values[c] as f64, want.values[c]), ("band", dev_band[c] as f64, want.band95[c])] {
+            let ok = if h.is_nan() || d.is_nan() {
+                h.is_nan() && d.is_nan()
+            } else if h.is_infinite() || d.is_infinite() {
+                h == d
+            } else {
+                (d - h).abs() <= tol[c]
+            };
+            if !ok {
+                return Some(format!(
+                    "{what} {}: device {d} vs host {h} (|Δ| {:e} > {:e})",
+                    names[c],
+                    (d - h).abs(),
+                    tol[c]
+                ));
+            }
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn synthetic_models_are_valid_deterministic_and_sized() {
+        for k in [16, 32, 64] {
+            let a = synthetic_blob(k, 7).unwrap();
+            assert_eq!(a, synthetic_blob(k, 7).unwrap());
+            let p = decode(&a).unwrap();
+            assert_eq!(p.centres.len(), k);
+            assert!(a.len() <= blob::max_len(k));
+        }
+        assert!(synthetic_blob(32, 1).unwrap().len() <= 4096, "blob target ≤ 4 KiB at K = 32");
+    }
+
+    #[test]
+    fn golden_samples_exercise_every_flag_and_the_csv_round_trips() {
+        let blob = synthetic_blob(32, 1).unwrap();
+        let s = golden_samples(600, 11);
+        let r = reference(&blob, &s).unwrap();
+        let any = |f: Flags| r.iter().filter(|e| e.flags.contains(f)).count();
+        assert_eq!(any(Flags::NON_FINITE), 1);
+        assert!(any(Flags::OUT_OF_ENVELOPE) >= 10);
+        assert!(any(Flags::WEAK_SUPPORT) >= 1);
+        assert!(r.iter().filter(|e| e.flags.is_ok()).count() > 500);
+        let dir = std::env::temp_dir().join(format!("fbg-fixtures-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("e.csv");
+        fs::write(&p, expected_csv(&r)).unwrap();
+        let back = read_expected(&p).unwrap();
+        assert_eq!(back.len(), r.len());
+        for (a, b) in back.iter().zip(r.iter()) {
+            assert!(compare(
+                a.values.map(|v| v as f32),
+                a.band95.map(|v| v as f32),
+                a.flags,
+                b,
+                [1e-3; 3]
+            )
+            .is_none());
+        }
+        let pi = dir.join("i.bin");
+        fs::write(&pi, inputs_bytes(&s)).unwrap();
+        let si = read_inputs(&pi).unwrap();
+        assert_eq!(format!("{si:?}"), format!("{s:?}"));
+        let _ = fs::remove_dir_all(&dir);
+    }
+}
