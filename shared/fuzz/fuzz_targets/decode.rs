@@ -1,0 +1,41 @@
+//! Fuzz the `.fbgm` decoder: no byte string may panic it, and whatever it accepts must load,
+//! run and re-encode to the same model.
+//!
+//! Each input is decoded twice: as is (header, length and CRC checks), and re-signed with a
+//! valid CRC trailer, so that mutations also reach the payload parser and `validate` instead
+//! of stopping at the CRC.
+#![no_main]
+
+use crc::{Crc, CRC_32_ISCSI};
+use fbg_shared::blob::{self, decode, encode, CRC_LEN};
+use fbg_shared::{Compensator, Flags, Sample};
+use libfuzzer_sys::fuzz_target;
+
+const K: usize = 32;
+const ISCSI: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
+
+fn check(data: &[u8]) {
+    let Ok(params) = decode::<K>(data) else {
+        return;
+    };
+    // Decoded params are validated and fit the capacity: loading cannot fail.
+    let mut c = Compensator::<f32, K>::new(&params).expect("a decoded model loads");
+    let e = c.step(&Sample { dl_pm: [1.0, -2.0, 3.0], t_amb_c: 20.0, t_s: 1.0 });
+    assert!(!e.flags.contains(Flags::NON_FINITE));
+    let e = c.step(&Sample { dl_pm: [f32::NAN, 0.0, 0.0], t_amb_c: 20.0, t_s: 1.0 });
+    assert_eq!(e.flags, Flags::NON_FINITE);
+    // Whatever decodes re-encodes (within max_len) and decodes to the same model.
+    let mut buf = [0u8; blob::max_len(K)];
+    let n = encode(&params, &mut buf).expect("a decoded model re-encodes");
+    assert_eq!(decode::<K>(buf.get(..n).unwrap_or(&[])).as_ref(), Ok(&params));
+}
+
+fuzz_target!(|data: &[u8]| {
+    check(data);
+    if let Some(signed_len) = data.len().checked_sub(CRC_LEN) {
+        let mut resigned = data.to_vec();
+        let crc = ISCSI.checksum(&data[..signed_len]);
+        resigned[signed_len..].copy_from_slice(&crc.to_le_bytes());
+        check(&resigned);
+    }
+});
