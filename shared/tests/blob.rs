@@ -446,6 +446,13 @@ fn bad_cases() -> Vec<Case> {
         case("var_inv_g_tail", |p| p.var_inv_g_tail = f32::INFINITY),
         case("resid_var", |p| p.resid_var[2] = -1.0),
         case("resid_var", |p| p.resid_var[0] = f32::NAN),
+        case("resid_var_growth", |p| p.resid_var_growth[1] = -1e-9),
+        case("resid_var_growth", |p| p.resid_var_growth[2] = f32::INFINITY),
+        case("t_cal_end_s", |p| p.t_cal_end_s = f32::NAN),
+        case("t_cal_end_s", |p| p.t_cal_end_s = f32::NEG_INFINITY),
+        case("band_k", |p| p.band_k[0] = 0.0),
+        case("band_k", |p| p.band_k[1] = -1.96),
+        case("band_k", |p| p.band_k[2] = f32::NAN),
         case("envelope", |p| p.envelope_lo[0] = 61.0),
         case("envelope", |p| p.envelope_hi[3] = f32::INFINITY),
         case("envelope", |p| p.envelope_lo[2] = f32::NAN),
@@ -475,7 +482,7 @@ fn validate_names_each_bad_field() {
 #[test]
 fn validate_accepts_boundary_values() {
     let good: P = model(4, 12, FeatureSet::Paper, short_provenance());
-    let ok_cases: [fn(&mut P); 9] = [
+    let ok_cases: [fn(&mut P); 11] = [
         |p| p.hyper.alpha = 0.0,
         |p| p.hyper.dead_band_pm = 0.0,
         |p| p.hyper.weak_support = 0.0,
@@ -484,6 +491,8 @@ fn validate_accepts_boundary_values() {
         |p| p.hyper.flagged_band_factor = 1.0,
         |p| p.z_std[6] = 0.0, // latch dims unused by Paper
         |p| p.envelope_lo[1] = p.envelope_hi[1],
+        |p| p.resid_var_growth = [0.0, 1e-3, 0.0],
+        |p| p.t_cal_end_s = -5.0, // any finite clock origin
         |p| {
             p.var_inv_g = [0.0; 8];
             p.resid_var = [0.0; 3];
@@ -759,3 +768,17 @@ fn decoded_blob_module_constants() {
 }
 
 
+
+#[test]
+fn fuzz_seeds_are_valid_blobs() {
+    // The seeds of `shared/fuzz` must stay decodable, or the fuzzer starts from nothing.
+    let seeds: [(&[u8], usize); 4] = [
+        (include_bytes!("../fuzz/corpus/decode/seed-tiny-k2.fbgm"), 2),
+        (include_bytes!("../fuzz/corpus/decode/seed-k0.fbgm"), 0),
+        (include_bytes!("../fuzz/corpus/decode/seed-k8-long-provenance.fbgm"), 8),
+        (include_bytes!("../fuzz/corpus/decode/seed-k32.fbgm"), 32),
+    ];
+    for (b, n) in seeds {
+        assert_eq!(decode::<32>(b).map(|p| p.centres.len()), Ok(n));
+    }
+}
