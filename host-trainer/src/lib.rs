@@ -5,9 +5,14 @@ pub mod dataset;
 pub mod fit;
 pub mod error;
 pub mod evaluate;
+pub mod meta;
 pub mod metrics;
 pub mod rng;
 pub mod scenario;
 pub mod sim;
+pub mod study;
+pub mod parity;
+pub mod tables;
+pub mod export;
 
 pub use error::TrainerError;

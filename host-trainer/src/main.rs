@@ -1,16 +1,28 @@
 //! `fbg-trainer`: the command line (DESIGN §10). Errors end here as `anyhow` messages that name
 //! the file, line, column or key.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
+use fbg_shared::blob;
+use fbg_trainer::dataset::{write_bytes_atomically, Dataset};
+use fbg_trainer::export;
+use fbg_trainer::fit::{self, HostParams, Origin, TrainOptions};
+use fbg_trainer::meta::SimMeta;
 use fbg_trainer::scenario::{Preset, ScenarioConfig};
 use fbg_trainer::sim;
+use fbg_trainer::study::{self, Metrics, Studies};
+use fbg_trainer::tables;
 
 #[derive(Parser)]
-#[command(name = "fbg-trainer", version, about = "Hybrid AI–polynomial compensation for FBG sensors: simulate, train, evaluate, report, export")]
+#[command(
+    name = "fbg-trainer",
+    version,
+    about = "Hybrid AI–polynomial compensation for FBG sensors: simulate, train, evaluate, report, export"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -41,7 +53,8 @@ impl ScenarioArgs {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Simulate an installation and write its CSV.
+    /// Simulate an installation; write its CSV and a `.meta.json` sidecar (scenario, seed,
+    /// oracle floor).
     Simulate {
         #[command(flatten)]
         scenario: ScenarioArgs,
@@ -54,6 +67,70 @@ enum Cmd {
         /// Also write the scenario as TOML (every parameter, for audit and editing).
         #[arg(long)]
         dump_config: Option<PathBuf>,
+    },
+    /// Fit Model-P and Model-H on the calibration part of a CSV; write the Model-H blob, the
+    /// Model-P blob beside it (`<stem>-p.fbgm`) and `coefficients.json`.
+    Train {
+        #[arg(long)]
+        data: PathBuf,
+        /// Feature sets cross-validation may choose from.
+        #[arg(long, value_parser = ["paper", "hysteresis-aware", "all"], default_value = "all")]
+        features: String,
+        /// Largest number of RBF centres to consider (the device capacity).
+        #[arg(long, default_value_t = 32)]
+        max_centres: usize,
+        #[arg(long, default_value = "model.fbgm")]
+        out: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Evaluate models on the hold-out of a CSV: Table 2 and Table 3 (and, for simulated data
+    /// with a `.meta.json`, the oracle floor, drift sweep and error budget); writes metrics.json.
+    Evaluate {
+        #[arg(long)]
+        data: PathBuf,
+        /// Model-H blob.
+        #[arg(long, default_value = "model.fbgm")]
+        model: PathBuf,
+        /// Model-P blob (default: `<model stem>-p.fbgm` beside the model).
+        #[arg(long)]
+        baseline: Option<PathBuf>,
+        /// Where to write metrics.json (default: beside the model).
+        #[arg(long)]
+        metrics: Option<PathBuf>,
+        /// Skip the studies that retrain (Table 3, drift sweep, error budget).
+        #[arg(long)]
+        quick: bool,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Print a blob's header, dimensions, hyper-parameters and provenance.
+    Inspect {
+        model: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Write golden vectors (device inputs and f64 expected outputs) for the firmware tests.
+    Golden {
+        #[arg(long)]
+        data: PathBuf,
+        #[arg(long, default_value = "model.fbgm")]
+        model: PathBuf,
+        /// Number of hold-out samples.
+        #[arg(long, default_value_t = 1000)]
+        samples: usize,
+        #[arg(long, default_value = "golden")]
+        out: PathBuf,
+    },
+    /// Simulate the `paper` preset, train both models, evaluate, run every study and write the
+    /// whole audit report into DIR.
+    Demo {
+        #[arg(long, default_value = "report")]
+        out: PathBuf,
+        #[command(flatten)]
+        scenario: ScenarioArgs,
+        #[arg(long)]
+        json: bool,
     },
 }
 
@@ -71,9 +148,10 @@ fn run() -> Result<()> {
             let cfg = scenario.load()?;
             let s = sim::simulate(&cfg, scenario.seed);
             s.data.write_csv(&out)?;
+            SimMeta::of(&s).write(&out)?;
             if let Some(p) = dump_config {
                 let text = toml::to_string(&cfg).context("serialising the scenario")?;
-                fbg_trainer::dataset::write_bytes_atomically(&p, text.as_bytes())?;
+                write_bytes_atomically(&p, text.as_bytes())?;
             }
             if json {
                 println!("{}", serde_json::to_string_pretty(&s.summary())?);
@@ -92,5 +170,212 @@ fn run() -> Result<()> {
             }
             Ok(())
         }
+        Cmd::Train { data, features, max_centres, out, json } => {
+            let d = Dataset::read_csv(&data)?;
+            let meta = SimMeta::read_for(&data)?;
+            let origin = origin_of(&data, meta.as_ref());
+            let opts = train_options(&features, max_centres, !json)?;
+            let t = Instant::now();
+            let tr = fit::train(&d, &opts, &origin)?;
+            let secs = t.elapsed().as_secs_f64();
+            let base = baseline_path(&out);
+            let nh = export::write_blob(&out, &tr.model_h)?;
+            let np = export::write_blob(&base, &tr.model_p)?;
+            let coef = out.with_file_name("coefficients.json");
+            export::write_coefficients(&coef, &tr.model_p, &tr.model_h, &tr.core, Some(&tr.selection))?;
+            let s = &tr.selection;
+            if json {
+                println!(
+                    "{}",
+                    serde_json::to_string_pretty(&serde_json::json!({
+                        "model_h": out, "model_p": base, "coefficients": coef,
+                        "model_h_bytes": nh, "model_p_bytes": np, "train_seconds": secs,
+                        "chosen": s.chosen, "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h,
+                        "grid_points": s.rows.len(),
+                    }))?
+                );
+            } else {
+                let c = s.chosen;
+                eprintln!(
+                    "trained in {secs:.1} s on {} calibration samples; chose {} features, K = {}, σ = {}×NN, α = {:e}·n, dead band {} pm ({} grid points)",
+                    s.n_cal, c.feature_set.name(), c.k, c.sigma_mult, c.alpha_rel, c.dead_band_pm, s.rows.len()
+                );
+                eprintln!(
+                    "CV RMSE Model-P: T {:.3} °C, ε {:.2} µε, p {:.2} kPa; Model-H: T {:.3}, ε {:.2}, p {:.2}",
+                    s.cv_rmse_p[0], s.cv_rmse_p[1], s.cv_rmse_p[2], s.cv_rmse_h[0], s.cv_rmse_h[1], s.cv_rmse_h[2]
+                );
+                eprintln!("wrote {} ({nh} B), {} ({np} B), {}", out.display(), base.display(), coef.display());
+            }
+            Ok(())
+        }
+        Cmd::Evaluate { data, model, baseline, metrics, quick, json } => {
+            let d = Dataset::read_csv(&data)?;
+            let meta = SimMeta::read_for(&data)?;
+            let h = export::read_blob(&model)?;
+            let base = baseline.unwrap_or_else(|| baseline_path(&model));
+            if !base.exists() {
+                bail!("{}: Model-P baseline not found (train writes it beside the model; or pass --baseline)", base.display());
+            }
+            let p = export::read_blob(&base)?;
+            let studies = if quick { Studies::NONE } else { Studies { parity: true, ..Studies::ALL } };
+            let log = |s: &str| {
+                if !json {
+                    eprintln!("{s}");
+                }
+            };
+            let m = study::evaluate_models(&p, &h, &d, meta.as_ref(), studies, !json, &log)?;
+            let out = metrics.unwrap_or_else(|| model.with_file_name("metrics.json"));
+            write_metrics(&out, &m)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&m)?);
+            } else {
+                print_tables(&m);
+                eprintln!("wrote {}", out.display());
+            }
+            Ok(())
+        }
+        Cmd::Inspect { model, json } => inspect(&model, json),
+        Cmd::Golden { data, model, samples, out } => {
+            let d = Dataset::read_csv(&data)?;
+            let h = export::read_blob(&model)?;
+            let hold = d.holdout_indices();
+            let idx: Vec<usize> = hold.into_iter().take(samples).collect();
+            let (eh, _) = fbg_trainer::evaluate::evaluate_holdout(&h, &d)?;
+            export::write_golden(&out, &h, &d, &idx, eh.channels.map(|c| c.rmse))?;
+            eprintln!("wrote {} golden samples into {}", idx.len(), out.display());
+            Ok(())
+        }
+        Cmd::Demo { out, scenario, json } => demo(&out, &scenario, json),
     }
+}
+
+fn origin_of(data: &Path, meta: Option<&SimMeta>) -> Origin {
+    match meta {
+        Some(m) => Origin { scenario: m.scenario.name.clone(), seed: m.seed },
+        None => Origin {
+            scenario: data.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+            seed: 0,
+        },
+    }
+}
+
+fn train_options(features: &str, max_centres: usize, progress: bool) -> Result<TrainOptions> {
+    let sets = export::feature_sets_for(features).with_context(|| format!("unknown feature set `{features}`"))?;
+    if max_centres == 0 || max_centres > fit::HOST_CAP {
+        bail!("--max-centres must be in 1..={}", fit::HOST_CAP);
+    }
+    let mut o = TrainOptions { progress, ..TrainOptions::default() }.with_features(sets);
+    o.centres.retain(|&k| k <= max_centres);
+    if o.centres.is_empty() {
+        o.centres.push(max_centres);
+    }
+    Ok(o)
+}
+
+/// `model.fbgm` → `model-p.fbgm`.
+fn baseline_path(model: &Path) -> PathBuf {
+    let stem = model.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into());
+    model.with_file_name(format!("{stem}-p.fbgm"))
+}
+
+fn write_metrics(path: &Path, m: &Metrics) -> Result<()> {
+    let text = serde_json::to_string_pretty(m)?;
+    write_bytes_atomically(path, text.as_bytes())?;
+    Ok(())
+}
+
+fn print_tables(m: &Metrics) {
+    println!("{}", tables::table2(m).text());
+    if let Some(a) = &m.ablation {
+        println!("{}", tables::table3(a, m).text());
+    }
+    if let Some(d) = &m.drift_sweep {
+        println!("{}", tables::drift(d, m).text());
+    }
+    if let Some(b) = &m.error_budget {
+        println!("{}", tables::budget(b, m).text());
+    }
+    if let Some(p) = &m.parity {
+        println!(
+            "Parity (f32 device path vs f64, {} hold-out samples): max |Δ| = {:.2e} °C, {:.2e} µε, {:.2e} kPa ({:.3} %, {:.3} %, {:.3} % of Model-H RMSE); flag mismatches {}; leverage band gap {:.2e}",
+            p.samples,
+            p.max_abs_diff[0], p.max_abs_diff[1], p.max_abs_diff[2],
+            100.0 * p.max_diff_over_rmse[0], 100.0 * p.max_diff_over_rmse[1], 100.0 * p.max_diff_over_rmse[2],
+            p.flag_mismatches, p.leverage_band_gap
+        );
+    }
+}
+
+fn inspect(path: &Path, json: bool) -> Result<()> {
+    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let header = blob::Header::parse(&bytes).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let p: HostParams = export::read_blob(path)?;
+    let v = serde_json::json!({
+        "file": path,
+        "bytes": bytes.len(),
+        "header": {"magic": "FBGM", "format_version": header.version, "inputs": header.inputs,
+                   "outputs": header.outputs, "poly_terms": header.poly_terms, "centres": header.centres},
+        "model": export::model_json(&p, None),
+    });
+    if json {
+        println!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(());
+    }
+    let h = &p.hyper;
+    println!("{}: {} bytes, FBGM format v{}", path.display(), bytes.len(), header.version);
+    println!("dims: inputs {}, outputs {}, poly terms {}, centres {}", header.inputs, header.outputs, header.poly_terms, header.centres);
+    println!(
+        "hyper-parameters: features {}, σ {:.4} (= {}×NN), α {:.4e}, dead band {} pm, weak support < {:.2e}, envelope margin {} , flagged band ×{}",
+        h.feature_set.name(), h.sigma, h.sigma_mult, h.alpha, h.dead_band_pm, h.weak_support, h.envelope_margin, h.flagged_band_factor
+    );
+    println!(
+        "band: k95 {:?}, s² at cal end {:?}, growth {:?} per s after t = {} s",
+        p.band_k, p.resid_var, p.resid_var_growth, p.t_cal_end_s
+    );
+    println!("envelope: lo {:?} hi {:?} (dl1..3 pm, T_amb °C)", p.envelope_lo, p.envelope_hi);
+    let pr = &p.provenance;
+    println!(
+        "provenance: scenario {}, seed {}, trainer {}, date {}, {} calibration samples",
+        pr.scenario, pr.seed, pr.trainer_version, pr.date_yyyymmdd, pr.n_cal
+    );
+    Ok(())
+}
+
+fn demo(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
+    let t0 = Instant::now();
+    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create the output directory", out.display()))?;
+    let cfg = scenario.load()?;
+    let log = |s: &str| {
+        if !json {
+            eprintln!("[{:5.1} s] {s}", t0.elapsed().as_secs_f64());
+        }
+    };
+    let s = sim::simulate(&cfg, scenario.seed);
+    let data = out.join("data.csv");
+    s.data.write_csv(&data)?;
+    SimMeta::of(&s).write(&data)?;
+    log(&format!("simulated {} samples of scenario `{}` (seed {}) into {}", s.data.len(), cfg.name, s.seed, data.display()));
+    let opts = TrainOptions { progress: !json, ..TrainOptions::default() };
+    let (tr, m) = study::run_all(&s, &opts, Studies::ALL, &log)?;
+    let model = out.join("model.fbgm");
+    let nh = export::write_blob(&model, &tr.model_h)?;
+    let np = export::write_blob(&baseline_path(&model), &tr.model_p)?;
+    export::write_coefficients(&out.join("coefficients.json"), &tr.model_p, &tr.model_h, &tr.core, Some(&tr.selection))?;
+    write_metrics(&out.join("metrics.json"), &m)?;
+    let hold = s.data.holdout_indices();
+    let idx: Vec<usize> = hold.into_iter().take(1000).collect();
+    export::write_golden(&out.join("golden"), &tr.model_h, &s.data, &idx, m.table2.model_h.channels.map(|c| c.rmse))?;
+    for (name, t) in study::all_tables(&m) {
+        write_bytes_atomically(&out.join(format!("{name}.md")), t.markdown().as_bytes())?;
+        write_bytes_atomically(&out.join(format!("{name}.csv")), t.csv().as_bytes())?;
+        write_bytes_atomically(&out.join(format!("{name}.txt")), t.text().as_bytes())?;
+    }
+    log(&format!("wrote model.fbgm ({nh} B), model-p.fbgm ({np} B), coefficients.json, metrics.json, tables, golden vectors"));
+    if json {
+        println!("{}", serde_json::to_string_pretty(&m)?);
+    } else {
+        print_tables(&m);
+        eprintln!("demo finished in {:.1} s; everything is in {}", t0.elapsed().as_secs_f64(), out.display());
+    }
+    Ok(())
 }

@@ -1,0 +1,184 @@
+//! What the trainer writes for others: the `.fbgm` blob (through `fbg_shared::blob`), the
+//! audit file `coefficients.json`, and golden vectors for the firmware's QEMU test.
+
+use std::io::Write;
+use std::path::Path;
+
+use fbg_shared::layout::{FeatureSet, N_OUTPUTS, POLY_NAMES, Z_NAMES};
+use fbg_shared::{blob, Compensator, ModelParams};
+
+use crate::dataset::{write_atomically, write_bytes_atomically, Dataset};
+use crate::error::TrainerError;
+use crate::fit::{HostParams, PolyCore, Selection, HOST_CAP};
+use crate::parity::{as_device_input, widen};
+
+/// Encode a host model as a blob (f32).
+pub fn blob_bytes(p: &HostParams) -> Result<Vec<u8>, TrainerError> {
+    let p32: ModelParams<f32, HOST_CAP> = p.convert().map_err(|e| TrainerError::fit(e.to_string()))?;
+    let mut buf = vec![0u8; blob::max_len(p32.centres.len())];
+    let n = blob::encode(&p32, &mut buf).map_err(|e| TrainerError::fit(format!("encoding the model: {e}")))?;
+    buf.truncate(n);
+    Ok(buf)
+}
+
+/// Write a model blob atomically.
+pub fn write_blob(path: &Path, p: &HostParams) -> Result<usize, TrainerError> {
+    let b = blob_bytes(p)?;
+    write_bytes_atomically(path, &b)?;
+    Ok(b.len())
+}
+
+/// Read and fully validate a model blob into a host model (f64).
+pub fn read_blob(path: &Path) -> Result<HostParams, TrainerError> {
+    let bytes = std::fs::read(path).map_err(|e| TrainerError::io(path, e))?;
+    let p32 = blob::decode::<HOST_CAP>(&bytes)
+        .map_err(|e| TrainerError::Model { path: path.display().to_string(), message: e.to_string() })?;
+    p32.convert().map_err(|e| TrainerError::Model { path: path.display().to_string(), message: e.to_string() })
+}
+
+/// The audit view of one model.
+pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value {
+    let fs = p.hyper.feature_set;
+    let active = fs.active();
+    let centres: Vec<serde_json::Value> = p
+        .centres
+        .iter()
+        .enumerate()
+        .map(|(j, c)| {
+            let physical: Vec<Option<f64>> = (0..c.mu.len())
+                .map(|d| if active[d] { Some(p.z_mean[d] + c.mu[d] * p.z_std[d]) } else { None })
+                .collect();
+            serde_json::json!({
+                "index": j,
+                "mu_standardised": c.mu,
+                "mu_physical": physical,
+                "w": {"T_C": c.w[0], "strain_ue": c.w[1], "p_kPa": c.w[2]},
+                "variance_eigvec_components": c.v,
+            })
+        })
+        .collect();
+    let poly_rows = |b: &[[f64; 10]; 3]| -> serde_json::Value {
+        let rows: Vec<serde_json::Value> = (0..N_OUTPUTS)
+            .map(|o| {
+                let m: serde_json::Map<String, serde_json::Value> =
+                    POLY_NAMES.iter().zip(b[o].iter()).map(|(n, v)| (n.to_string(), serde_json::json!(v))).collect();
+                serde_json::Value::Object(m)
+            })
+            .collect();
+        serde_json::json!({"T_C": rows[0], "strain_ue": rows[1], "p_kPa": rows[2]})
+    };
+    let physical = core.map(|c| poly_rows(&c.physical_coefficients()));
+    serde_json::json!({
+        "hyper_parameters": {
+            "feature_set": fs.name(),
+            "centres": p.centres.len(),
+            "sigma_multiplier": p.hyper.sigma_mult,
+            "sigma_standardised": p.hyper.sigma,
+            "alpha_eq7": p.hyper.alpha,
+            "dead_band_pm": p.hyper.dead_band_pm,
+            "weak_support_threshold": p.hyper.weak_support,
+            "envelope_margin": p.hyper.envelope_margin,
+            "flagged_band_factor": p.hyper.flagged_band_factor,
+        },
+        "stage1_linear_inverse": {
+            "columns": ["dl1_pm", "dl2_pm", "dl3_pm", "T_amb_C", "1"],
+            "T_C": p.stage1[0], "strain_ue": p.stage1[1], "p_kPa": p.stage1[2],
+        },
+        "first_guess_scalers": {"mean": p.guess_mean, "std": p.guess_std, "order": ["T_C", "strain_ue", "p_kPa"]},
+        "poly_B_standardised_guesses": poly_rows(&p.poly),
+        "poly_B_physical_units": physical,
+        "rbf_input_scalers": {"inputs": Z_NAMES, "active": active, "mean": p.z_mean, "std": p.z_std},
+        "rbf_centres": centres,
+        "band": {
+            "resid_var_at_cal_end": p.resid_var,
+            "resid_var_growth_per_s": p.resid_var_growth,
+            "t_cal_end_s": p.t_cal_end_s,
+            "k95": p.band_k,
+            "var_inv_g": p.var_inv_g,
+            "var_inv_g_tail": p.var_inv_g_tail,
+        },
+        "envelope": {"inputs": ["dl1_pm", "dl2_pm", "dl3_pm", "T_amb_C"], "lo": p.envelope_lo, "hi": p.envelope_hi},
+        "provenance": {
+            "seed": p.provenance.seed,
+            "scenario": p.provenance.scenario.as_str(),
+            "trainer_version": p.provenance.trainer_version.as_str(),
+            "date_yyyymmdd": p.provenance.date_yyyymmdd,
+            "n_cal": p.provenance.n_cal,
+        },
+    })
+}
+
+/// `coefficients.json`: both models with every number a metrologist audits.
+pub fn write_coefficients(
+    path: &Path,
+    model_p: &HostParams,
+    model_h: &HostParams,
+    core: &PolyCore,
+    selection: Option<&Selection>,
+) -> Result<(), TrainerError> {
+    let v = serde_json::json!({
+        "format": "fbg-trainer coefficients v1",
+        "units": {"T": "°C", "strain": "µε", "p": "kPa", "dl": "pm", "t": "s"},
+        "model_p": model_json(model_p, Some(core)),
+        "model_h": model_json(model_h, if model_h.poly == model_p.poly { Some(core) } else { None }),
+        "selection": selection.map(|s| serde_json::json!({
+            "chosen": s.chosen, "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h, "folds": s.folds,
+        })),
+    });
+    let text = serde_json::to_string_pretty(&v).map_err(|e| TrainerError::fit(e.to_string()))?;
+    write_bytes_atomically(path, text.as_bytes())
+}
+
+/// Golden vectors for the firmware: `golden_inputs.bin` (5 little-endian f32 per sample: dl1,
+/// dl2, dl3, T_amb, t), `golden_expected.csv` (the f64 reference on those same inputs) and
+/// `golden_meta.json` (tolerance scale: Model-H's hold-out RMSE). The reference is a fresh
+/// compensator fed the samples `idx` in order, exactly what a freshly booted device sees.
+pub fn write_golden(dir: &Path, model_h: &HostParams, d: &Dataset, idx: &[usize], holdout_rmse: [f64; 3]) -> Result<(), TrainerError> {
+    std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
+    let mut reference = Compensator::<f64, HOST_CAP>::new(model_h).map_err(|e| TrainerError::fit(e.to_string()))?;
+    let mut inputs = Vec::with_capacity(idx.len() * 20);
+    let mut rows = Vec::with_capacity(idx.len());
+    for &i in idx {
+        let x = as_device_input(&d.sample(i));
+        for v in [x.dl_pm[0], x.dl_pm[1], x.dl_pm[2], x.t_amb_c, x.t_s] {
+            inputs.extend_from_slice(&v.to_le_bytes());
+        }
+        rows.push(reference.step(&widen(&x)));
+    }
+    write_bytes_atomically(&dir.join("golden_inputs.bin"), &inputs)?;
+    write_atomically(&dir.join("golden_expected.csv"), |w| {
+        writeln!(w, "values_T,values_eps,values_p,band_T,band_eps,band_p,flags")?;
+        for e in &rows {
+            writeln!(
+                w,
+                "{:e},{:e},{:e},{:e},{:e},{:e},{}",
+                e.values[0], e.values[1], e.values[2], e.band95[0], e.band95[1], e.band95[2], e.flags.0
+            )?;
+        }
+        Ok(())
+    })?;
+    let meta = serde_json::json!({
+        "samples": idx.len(),
+        "holdout_rmse_h": holdout_rmse,
+        "tolerance_fraction": 0.01,
+        "feature_set": model_h.hyper.feature_set.name(),
+        "centres": model_h.centres.len(),
+        "note": "expected = fbg_shared::Compensator<f64> with the trainer's f64 model on these f32 inputs, streamed from the first sample",
+    });
+    write_bytes_atomically(&dir.join("golden_meta.json"), meta.to_string().as_bytes())
+}
+
+/// A Model-P-only host model is Model-H without centres; true when `p` has none.
+pub fn is_model_p(p: &HostParams) -> bool {
+    p.centres.is_empty()
+}
+
+/// Feature-set names for the CLI.
+pub fn feature_sets_for(name: &str) -> Option<Vec<FeatureSet>> {
+    match name {
+        "paper" => Some(vec![FeatureSet::Paper]),
+        "hysteresis-aware" => Some(vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime]),
+        "all" => Some(FeatureSet::ALL.to_vec()),
+        _ => None,
+    }
+}

@@ -1,0 +1,457 @@
+//! The whole evaluation of a scenario (DESIGN §5): Table 2 on the hold-out with the oracle
+//! floor, the drift sweep (paper Fig. 12), the ablation (Table 3, every channel), the error
+//! budget, and the checks that tie the device arithmetic to the f64 reference. Everything
+//! lands in one [`Metrics`] value, written as `metrics.json`.
+
+use std::time::Instant;
+
+use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::FeatureSet;
+
+use crate::dataset::Dataset;
+use crate::error::TrainerError;
+use crate::evaluate::{evaluate_holdout, gain_pct, ChannelMetrics, ModelEval, CHANNELS, UNITS};
+use crate::fit::{self, HostParams, Origin, Selection, TrainOptions, Trained};
+use crate::scenario::ScenarioConfig;
+use crate::sim::{simulate, Simulation, EFFECT_NAMES};
+
+/// Drift multipliers of the sweep (× σ_d of the scenario).
+pub const DRIFT_FACTORS: [f64; 6] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0];
+
+/// Table 2: both models on the hold-out.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Table2 {
+    pub model_p: ModelEval,
+    pub model_h: ModelEval,
+    /// Gain of Model-H over Model-P in % of Model-P's RMSE.
+    pub gain_pct: [f64; N_OUTPUTS],
+    /// Oracle-floor RMSE per output, when the data come from the simulator.
+    pub oracle_floor: Option<[f64; N_OUTPUTS]>,
+    /// Model-H RMSE above the floor as a multiple of the floor.
+    pub h_over_floor: Option<[f64; N_OUTPUTS]>,
+}
+
+/// The drift sweep: hold-out RMSE against σ_d with both models refitted each time.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DriftSweep {
+    pub factors: Vec<f64>,
+    /// σ_d [pm per step] of each point.
+    pub sigma_d_pm: Vec<f64>,
+    pub rmse_p: Vec<[f64; N_OUTPUTS]>,
+    pub rmse_h: Vec<[f64; N_OUTPUTS]>,
+    /// Least-squares slope of RMSE against σ_d [output unit per (pm/step)]: the
+    /// drift-sensitivity index.
+    pub slope_p: [f64; N_OUTPUTS],
+    pub slope_h: [f64; N_OUTPUTS],
+    /// Intercepts of those lines.
+    pub intercept_p: [f64; N_OUTPUTS],
+    pub intercept_h: [f64; N_OUTPUTS],
+}
+
+/// One ablation configuration (Table 3).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AblationRow {
+    pub name: String,
+    pub note: String,
+    pub channels: [ChannelMetrics; N_OUTPUTS],
+    /// Hyper-parameters the variant chose (absent for the polynomial only).
+    pub config: Option<fit::Config>,
+}
+
+/// One error-budget row: the scenario with one artefact switched off.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct BudgetRow {
+    /// Artefact switched off ("none" = full scenario, "all" = physics and nothing else).
+    pub effect_off: String,
+    pub rmse_p: [f64; N_OUTPUTS],
+    pub rmse_h: [f64; N_OUTPUTS],
+    /// Oracle floor of that scenario.
+    pub oracle_floor: [f64; N_OUTPUTS],
+}
+
+/// Everything measured about one scenario and seed.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Metrics {
+    pub trainer_version: String,
+    pub scenario: String,
+    pub seed: u64,
+    pub samples: usize,
+    pub cal_samples: usize,
+    pub holdout_samples: usize,
+    pub channels: [&'static str; N_OUTPUTS],
+    pub units: [&'static str; N_OUTPUTS],
+    pub selection: SelectionSummary,
+    pub table2: Table2,
+    pub drift_sweep: Option<DriftSweep>,
+    pub ablation: Option<Vec<AblationRow>>,
+    pub error_budget: Option<Vec<BudgetRow>>,
+    pub parity: Option<crate::parity::ParityReport>,
+    /// Wall time of each stage [s] (informational; speed is measured by `cargo xtask bench`).
+    pub timings_s: Vec<(String, f64)>,
+}
+
+/// The chosen hyper-parameters and the cross-validation figures behind them.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SelectionSummary {
+    pub chosen: fit::Config,
+    pub cv_rmse_p: [f64; N_OUTPUTS],
+    pub cv_rmse_h: [f64; N_OUTPUTS],
+    pub var_model_p: [fit::VarModel; N_OUTPUTS],
+    pub var_model_h: [fit::VarModel; N_OUTPUTS],
+    pub folds: Vec<(usize, usize)>,
+    pub grid_points: usize,
+    /// The best ten grid points.
+    pub top: Vec<fit::select::CvRow>,
+}
+
+impl SelectionSummary {
+    pub fn from(s: &Selection) -> Self {
+        SelectionSummary {
+            chosen: s.chosen,
+            cv_rmse_p: s.cv_rmse_p,
+            cv_rmse_h: s.cv_rmse_h,
+            var_model_p: s.var_model_p,
+            var_model_h: s.var_model_h,
+            folds: s.folds.clone(),
+            grid_points: s.rows.len(),
+            top: s.rows.iter().take(10).cloned().collect(),
+        }
+    }
+}
+
+/// Table 2 for a trained pair on `d`.
+pub fn table2(p: &HostParams, h: &HostParams, d: &Dataset, oracle: Option<[f64; 3]>) -> Result<Table2, TrainerError> {
+    let (ep, _) = evaluate_holdout(p, d)?;
+    let (eh, _) = evaluate_holdout(h, d)?;
+    let gain = std::array::from_fn(|c| gain_pct(ep.channels[c].rmse, eh.channels[c].rmse));
+    let over = oracle.map(|o| std::array::from_fn(|c| eh.channels[c].rmse / o[c]));
+    Ok(Table2 { model_p: ep, model_h: eh, gain_pct: gain, oracle_floor: oracle, h_over_floor: over })
+}
+
+fn fixed(opts: &TrainOptions, cfg: &fit::Config) -> TrainOptions {
+    TrainOptions { seed: opts.seed, progress: false, ..TrainOptions::fixed(cfg) }
+}
+
+/// Hold-out RMSE of both models retrained on a re-simulated scenario with fixed
+/// hyper-parameters.
+fn refit_rmse(cfg: &ScenarioConfig, seed: u64, opts: &TrainOptions) -> Result<([f64; 3], [f64; 3], [f64; 3]), TrainerError> {
+    let s = simulate(cfg, seed);
+    let tr = fit::train(&s.data, opts, &Origin { scenario: cfg.name.clone(), seed })?;
+    let (ep, _) = evaluate_holdout(&tr.model_p, &s.data)?;
+    let (eh, _) = evaluate_holdout(&tr.model_h, &s.data)?;
+    Ok((ep.channels.map(|c| c.rmse), eh.channels.map(|c| c.rmse), s.oracle_floor().rmse_holdout))
+}
+
+/// The drift sweep, refitting both models at each σ_d with the hyper-parameters chosen on
+/// the nominal scenario (so that only the drift changes).
+pub fn drift_sweep(cfg: &ScenarioConfig, seed: u64, chosen: &fit::Config, opts: &TrainOptions) -> Result<DriftSweep, TrainerError> {
+    let o = fixed(opts, chosen);
+    let pts: Vec<Result<_, TrainerError>> = fit::par_map(&DRIFT_FACTORS, |&f| {
+        let mut c = cfg.clone();
+        c.drift.sigma_pm = cfg.drift.sigma_pm * f;
+        c.drift.enabled = true;
+        refit_rmse(&c, seed, &o)
+    });
+    let mut rmse_p = Vec::new();
+    let mut rmse_h = Vec::new();
+    for r in pts {
+        let (p, h, _) = r?;
+        rmse_p.push(p);
+        rmse_h.push(h);
+    }
+    let x: Vec<f64> = DRIFT_FACTORS.iter().map(|f| f * cfg.drift.sigma_pm).collect();
+    let line = |ys: &[[f64; 3]], c: usize| {
+        let y: Vec<f64> = ys.iter().map(|v| v[c]).collect();
+        linear_fit(&x, &y)
+    };
+    let lp: [(f64, f64); 3] = std::array::from_fn(|c| line(&rmse_p, c));
+    let lh: [(f64, f64); 3] = std::array::from_fn(|c| line(&rmse_h, c));
+    Ok(DriftSweep {
+        factors: DRIFT_FACTORS.to_vec(),
+        sigma_d_pm: x,
+        rmse_p,
+        rmse_h,
+        slope_p: lp.map(|l| l.1),
+        slope_h: lh.map(|l| l.1),
+        intercept_p: lp.map(|l| l.0),
+        intercept_h: lh.map(|l| l.0),
+    })
+}
+
+/// (intercept, slope) of the least-squares line.
+pub fn linear_fit(x: &[f64], y: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    let mx = x.iter().sum::<f64>() / n;
+    let my = y.iter().sum::<f64>() / n;
+    let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    (my - slope * mx, slope)
+}
+
+/// Table 3 for all channels: polynomial only; hybrid without cross-terms; hybrid with the
+/// `paper` features; hybrid with the default features. Each hybrid variant runs its own
+/// selection over its own family.
+pub fn ablation(d: &Dataset, trained: &Trained, opts: &TrainOptions, origin: &Origin) -> Result<Vec<AblationRow>, TrainerError> {
+    let (ep, _) = evaluate_holdout(&trained.model_p, d)?;
+    let (eh, _) = evaluate_holdout(&trained.model_h, d)?;
+    let no_cross = TrainOptions { cross_terms: false, progress: false, ..opts.clone() };
+    let paper = TrainOptions { feature_sets: vec![FeatureSet::Paper], progress: false, ..opts.clone() };
+    let variants = [no_cross, paper];
+    let res: Vec<Result<(ModelEval, fit::Config), TrainerError>> = fit::par_map(&variants, |o| {
+        let t = fit::train(d, o, origin)?;
+        Ok((evaluate_holdout(&t.model_h, d)?.0, t.selection.chosen))
+    });
+    let mut it = res.into_iter();
+    let (e_nc, c_nc) = it.next().ok_or_else(|| TrainerError::fit("ablation"))??;
+    let (e_pa, c_pa) = it.next().ok_or_else(|| TrainerError::fit("ablation"))??;
+    Ok(vec![
+        AblationRow { name: "Polynomial only (Model-P)".into(), note: "baseline: Eq. 3 core".into(), channels: ep.channels, config: None },
+        AblationRow {
+            name: "Hybrid w/o cross-terms".into(),
+            note: "stage 2 keeps [1, T, ε, p]; RBF residual selected by CV".into(),
+            channels: e_nc.channels,
+            config: Some(c_nc),
+        },
+        AblationRow {
+            name: "Hybrid, paper features".into(),
+            note: "z = [Δλ, T_amb, t] (paper Eq. 5)".into(),
+            channels: e_pa.channels,
+            config: Some(c_pa),
+        },
+        AblationRow {
+            name: "Hybrid, default features".into(),
+            note: "z = [Δλ, T_amb, direction latches] (+t if CV keeps it)".into(),
+            channels: eh.channels,
+            config: Some(trained.selection.chosen),
+        },
+    ])
+}
+
+/// Error budget: both models' hold-out RMSE with each artefact switched off in turn (fixed
+/// hyper-parameters), plus the full scenario and physics only.
+pub fn error_budget(cfg: &ScenarioConfig, seed: u64, chosen: &fit::Config, opts: &TrainOptions) -> Result<Vec<BudgetRow>, TrainerError> {
+    let o = fixed(opts, chosen);
+    let mut names = vec!["none"];
+    names.extend(EFFECT_NAMES);
+    names.push("all");
+    let rows: Vec<Result<BudgetRow, TrainerError>> = fit::par_map(&names, |&name| {
+        let mut c = cfg.clone();
+        let all = name == "all";
+        if all || name == "hysteresis" {
+            c.hysteresis.enabled = false;
+        }
+        if all || name == "scan" {
+            c.scan.enabled = false;
+        }
+        if all || name == "drift" {
+            c.drift.enabled = false;
+        }
+        if all || name == "electronics" {
+            c.electronics.enabled = false;
+        }
+        if all || name == "noise" {
+            c.noise.enabled = false;
+        }
+        let (p, h, floor) = refit_rmse(&c, seed, &o)?;
+        Ok(BudgetRow { effect_off: name.to_string(), rmse_p: p, rmse_h: h, oracle_floor: floor })
+    });
+    rows.into_iter().collect()
+}
+
+/// Which studies to run.
+#[derive(Clone, Copy, Debug)]
+pub struct Studies {
+    pub drift_sweep: bool,
+    pub ablation: bool,
+    pub error_budget: bool,
+    pub parity: bool,
+}
+
+impl Studies {
+    pub const ALL: Studies = Studies { drift_sweep: true, ablation: true, error_budget: true, parity: true };
+    pub const NONE: Studies = Studies { drift_sweep: false, ablation: false, error_budget: false, parity: false };
+}
+
+/// Train on a simulation and measure everything.
+pub fn run_all(sim: &Simulation, opts: &TrainOptions, studies: Studies, log: &dyn Fn(&str)) -> Result<(Trained, Metrics), TrainerError> {
+    let mut timings = Vec::new();
+    let origin = Origin { scenario: sim.config.name.clone(), seed: sim.seed };
+    let t = Instant::now();
+    let trained = fit::train(&sim.data, opts, &origin)?;
+    timings.push(("train".to_string(), t.elapsed().as_secs_f64()));
+    log(&format!("trained Model-P and Model-H in {:.1} s ({} grid points)", t.elapsed().as_secs_f64(), trained.selection.rows.len()));
+    let oracle = sim.oracle_floor().rmse_holdout;
+    let t = Instant::now();
+    let t2 = table2(&trained.model_p, &trained.model_h, &sim.data, Some(oracle))?;
+    timings.push(("evaluate".to_string(), t.elapsed().as_secs_f64()));
+
+    let chosen = trained.selection.chosen;
+    let drift = if studies.drift_sweep {
+        let t = Instant::now();
+        let r = drift_sweep(&sim.config, sim.seed, &chosen, opts)?;
+        timings.push(("drift_sweep".to_string(), t.elapsed().as_secs_f64()));
+        log(&format!("drift sweep ({} refits of both models) in {:.1} s", DRIFT_FACTORS.len(), t.elapsed().as_secs_f64()));
+        Some(r)
+    } else {
+        None
+    };
+    let abl = if studies.ablation {
+        let t = Instant::now();
+        let r = ablation(&sim.data, &trained, opts, &origin)?;
+        timings.push(("ablation".to_string(), t.elapsed().as_secs_f64()));
+        log(&format!("ablation in {:.1} s", t.elapsed().as_secs_f64()));
+        Some(r)
+    } else {
+        None
+    };
+    let budget = if studies.error_budget {
+        let t = Instant::now();
+        let r = error_budget(&sim.config, sim.seed, &chosen, opts)?;
+        timings.push(("error_budget".to_string(), t.elapsed().as_secs_f64()));
+        log(&format!("error budget in {:.1} s", t.elapsed().as_secs_f64()));
+        Some(r)
+    } else {
+        None
+    };
+    let parity = if studies.parity {
+        Some(crate::parity::check(&trained.model_h, &sim.data, &t2.model_h)?)
+    } else {
+        None
+    };
+    let d = &sim.data;
+    let m = Metrics {
+        trainer_version: env!("CARGO_PKG_VERSION").to_string(),
+        scenario: sim.config.name.clone(),
+        seed: sim.seed,
+        samples: d.len(),
+        cal_samples: d.cal_indices().len(),
+        holdout_samples: d.holdout_indices().len(),
+        channels: CHANNELS,
+        units: UNITS,
+        selection: SelectionSummary::from(&trained.selection),
+        table2: t2,
+        drift_sweep: drift,
+        ablation: abl,
+        error_budget: budget,
+        parity,
+        timings_s: timings,
+    };
+    Ok((trained, m))
+}
+
+/// Every table of a metrics set with its file name.
+pub fn all_tables(m: &Metrics) -> Vec<(&'static str, crate::tables::Table)> {
+    let mut v = vec![("table2", crate::tables::table2(m))];
+    if let Some(a) = &m.ablation {
+        v.push(("table3", crate::tables::table3(a, m)));
+    }
+    if let Some(b) = &m.error_budget {
+        v.push(("error_budget", crate::tables::budget(b, m)));
+    }
+    if let Some(d) = &m.drift_sweep {
+        v.push(("drift_sweep", crate::tables::drift(d, m)));
+    }
+    v
+}
+
+/// The hyper-parameters a trained model carries, as a grid point.
+pub fn config_of(h: &HostParams) -> fit::Config {
+    let n_cal = h.provenance.n_cal.max(1) as f64;
+    fit::Config {
+        feature_set: h.hyper.feature_set,
+        dead_band_pm: h.hyper.dead_band_pm,
+        k: h.centres.len(),
+        sigma_mult: h.hyper.sigma_mult,
+        alpha_rel: h.hyper.alpha / n_cal,
+        cross_terms: true,
+    }
+}
+
+/// Evaluate given models (from blobs) on `d`: Table 2, and the studies that the data allow
+/// (Table 3 retrains on the calibration part; the drift sweep and error budget need the
+/// scenario of a simulated CSV).
+pub fn evaluate_models(
+    p: &HostParams,
+    h: &HostParams,
+    d: &Dataset,
+    meta: Option<&crate::meta::SimMeta>,
+    studies: Studies,
+    progress: bool,
+    log: &dyn Fn(&str),
+) -> Result<Metrics, TrainerError> {
+    let mut timings = Vec::new();
+    let t = Instant::now();
+    let oracle = meta.map(|m| m.oracle_floor_holdout);
+    let t2 = table2(p, h, d, oracle)?;
+    timings.push(("evaluate".to_string(), t.elapsed().as_secs_f64()));
+    let chosen = config_of(h);
+    let opts = TrainOptions { progress, seed: 1, ..TrainOptions::default() };
+    let origin = Origin {
+        scenario: meta.map(|m| m.scenario.name.clone()).unwrap_or_else(|| h.provenance.scenario.to_string()),
+        seed: meta.map(|m| m.seed).unwrap_or(h.provenance.seed),
+    };
+    let abl = if studies.ablation {
+        let t = Instant::now();
+        // The given models are the baseline and default rows; only the variants retrain.
+        let trained = Trained {
+            model_p: p.clone(),
+            model_h: h.clone(),
+            core: fit::PolyCore { stage1: p.stage1, guess_mean: p.guess_mean, guess_std: p.guess_std, poly: p.poly },
+            selection: fit::Selection {
+                chosen,
+                rows: vec![],
+                cv_rmse_p: [f64::NAN; 3],
+                cv_rmse_h: [f64::NAN; 3],
+                var_model_p: Default::default(),
+                var_model_h: Default::default(),
+                folds: vec![],
+                n_cal: h.provenance.n_cal as usize,
+            },
+        };
+        let r = ablation(d, &trained, &opts, &origin)?;
+        timings.push(("ablation".to_string(), t.elapsed().as_secs_f64()));
+        log(&format!("ablation in {:.1} s", t.elapsed().as_secs_f64()));
+        Some(r)
+    } else {
+        None
+    };
+    let (drift, budget) = match (meta, studies.drift_sweep || studies.error_budget) {
+        (Some(m), true) => {
+            let t = Instant::now();
+            let ds = if studies.drift_sweep { Some(drift_sweep(&m.scenario, m.seed, &chosen, &opts)?) } else { None };
+            let eb = if studies.error_budget { Some(error_budget(&m.scenario, m.seed, &chosen, &opts)?) } else { None };
+            timings.push(("drift_sweep+error_budget".to_string(), t.elapsed().as_secs_f64()));
+            log(&format!("drift sweep and error budget in {:.1} s", t.elapsed().as_secs_f64()));
+            (ds, eb)
+        }
+        _ => (None, None),
+    };
+    let parity = if studies.parity { Some(crate::parity::check(h, d, &t2.model_h)?) } else { None };
+    Ok(Metrics {
+        trainer_version: env!("CARGO_PKG_VERSION").to_string(),
+        scenario: origin.scenario.clone(),
+        seed: origin.seed,
+        samples: d.len(),
+        cal_samples: d.cal_indices().len(),
+        holdout_samples: d.holdout_indices().len(),
+        channels: CHANNELS,
+        units: UNITS,
+        selection: SelectionSummary {
+            chosen,
+            cv_rmse_p: [f64::NAN; 3],
+            cv_rmse_h: [f64::NAN; 3],
+            var_model_p: Default::default(),
+            var_model_h: Default::default(),
+            folds: vec![],
+            grid_points: 0,
+            top: vec![],
+        },
+        table2: t2,
+        drift_sweep: drift,
+        ablation: abl,
+        error_budget: budget,
+        parity,
+        timings_s: timings,
+    })
+}

@@ -1,0 +1,175 @@
+//! Tables 2 and 3, the error budget and the drift sweep as aligned text (terminal), Markdown
+//! and CSV (report). One renderer per table, three formats from the same rows, so the formats
+//! can never disagree.
+
+use crate::evaluate::{CHANNELS, UNITS};
+use crate::study::{AblationRow, BudgetRow, DriftSweep, Metrics};
+
+/// A rectangular table: header and rows of cells.
+#[derive(Clone, Debug, Default)]
+pub struct Table {
+    pub title: String,
+    pub header: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    /// Aligned plain text.
+    pub fn text(&self) -> String {
+        let n = self.header.len();
+        let mut w = vec![0usize; n];
+        for r in std::iter::once(&self.header).chain(self.rows.iter()) {
+            for (i, c) in r.iter().enumerate().take(n) {
+                w[i] = w[i].max(c.chars().count());
+            }
+        }
+        let line = |r: &Vec<String>| {
+            r.iter()
+                .enumerate()
+                .map(|(i, c)| {
+                    let pad = w[i] - c.chars().count();
+                    if i == 0 { format!("{c}{}", " ".repeat(pad)) } else { format!("{}{c}", " ".repeat(pad)) }
+                })
+                .collect::<Vec<_>>()
+                .join("  ")
+        };
+        let mut out = format!("{}\n{}\n", self.title, line(&self.header));
+        out.push_str(&"-".repeat(w.iter().sum::<usize>() + 2 * (n - 1)));
+        out.push('\n');
+        for r in &self.rows {
+            out.push_str(&line(r));
+            out.push('\n');
+        }
+        out
+    }
+    /// GitHub-flavoured Markdown.
+    pub fn markdown(&self) -> String {
+        let mut out = format!("| {} |\n|{}\n", self.header.join(" | "), "---|".repeat(self.header.len()));
+        for r in &self.rows {
+            out.push_str(&format!("| {} |\n", r.join(" | ")));
+        }
+        out
+    }
+    /// CSV (RFC 4180 quoting).
+    pub fn csv(&self) -> String {
+        let q = |c: &String| {
+            if c.contains([',', '"', '\n']) { format!("\"{}\"", c.replace('"', "\"\"")) } else { c.clone() }
+        };
+        let mut out = String::new();
+        for r in std::iter::once(&self.header).chain(self.rows.iter()) {
+            out.push_str(&r.iter().map(q).collect::<Vec<_>>().join(","));
+            out.push('\n');
+        }
+        out
+    }
+}
+
+fn f(v: f64, digits: usize) -> String {
+    if v.is_finite() { format!("{v:.digits$}") } else { "–".into() }
+}
+
+/// Decimals that suit each channel's magnitude.
+const DIGITS: [usize; 3] = [3, 2, 2];
+
+/// Table 2: hold-out performance, both models, with the oracle floor.
+pub fn table2(m: &Metrics) -> Table {
+    let t = &m.table2;
+    let mut rows = Vec::new();
+    for c in 0..3 {
+        let dg = DIGITS[c];
+        for (name, e) in [("Model-P", &t.model_p), ("Model-H", &t.model_h)] {
+            let ch = &e.channels[c];
+            rows.push(vec![
+                format!("{} [{}]", CHANNELS[c], UNITS[c]),
+                name.to_string(),
+                f(ch.rmse, dg),
+                f(ch.mae, dg),
+                f(ch.r2, 4),
+                f(ch.bias, dg),
+                f(ch.max_abs, dg),
+                f(100.0 * ch.coverage, 1),
+                f(ch.hysteresis_index, dg),
+                if name == "Model-H" { f(t.gain_pct[c], 1) } else { String::new() },
+                t.oracle_floor.map(|o| f(o[c], dg)).unwrap_or_default(),
+            ]);
+        }
+    }
+    Table {
+        title: format!("Table 2. Hold-out performance ({}, seed {}, {} hold-out samples)", m.scenario, m.seed, m.holdout_samples),
+        header: ["channel", "model", "RMSE", "MAE", "R²", "bias", "max|e|", "coverage %", "hyst. index", "gain %", "oracle floor"]
+            .map(String::from)
+            .to_vec(),
+        rows,
+    }
+}
+
+/// Table 3: ablation for every channel (RMSE).
+pub fn table3(rows: &[AblationRow], m: &Metrics) -> Table {
+    let base = rows.first().map(|r| r.channels);
+    let mut out = Vec::new();
+    for r in rows {
+        let mut cells = vec![r.name.clone()];
+        for c in 0..3 {
+            cells.push(f(r.channels[c].rmse, DIGITS[c]));
+            cells.push(base.map(|b| f(100.0 * (b[c].rmse - r.channels[c].rmse) / b[c].rmse, 1)).unwrap_or_default());
+        }
+        cells.push(r.note.clone());
+        out.push(cells);
+    }
+    Table {
+        title: format!("Table 3. Ablation, hold-out RMSE ({}, seed {})", m.scenario, m.seed),
+        header: [
+            "configuration", "T [°C]", "gain %", "strain [µε]", "gain %", "p [kPa]", "gain %", "notes",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: out,
+    }
+}
+
+/// Error budget: hold-out RMSE with each artefact switched off.
+pub fn budget(rows: &[BudgetRow], m: &Metrics) -> Table {
+    let mut out = Vec::new();
+    for r in rows {
+        let mut cells = vec![r.effect_off.clone()];
+        for c in 0..3 {
+            cells.push(f(r.rmse_p[c], DIGITS[c]));
+            cells.push(f(r.rmse_h[c], DIGITS[c]));
+            cells.push(f(r.oracle_floor[c], DIGITS[c]));
+        }
+        out.push(cells);
+    }
+    Table {
+        title: format!("Error budget: hold-out RMSE with one artefact switched off ({}, seed {})", m.scenario, m.seed),
+        header: [
+            "switched off", "T P", "T H", "T floor", "ε P", "ε H", "ε floor", "p P", "p H", "p floor",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: out,
+    }
+}
+
+/// Drift sweep points and slopes.
+pub fn drift(s: &DriftSweep, m: &Metrics) -> Table {
+    let mut rows = Vec::new();
+    for (i, x) in s.sigma_d_pm.iter().enumerate() {
+        let mut cells = vec![format!("{:.3}", x), format!("×{}", s.factors[i])];
+        for c in 0..3 {
+            cells.push(f(s.rmse_p[i][c], DIGITS[c]));
+            cells.push(f(s.rmse_h[i][c], DIGITS[c]));
+        }
+        rows.push(cells);
+    }
+    let mut slope = vec!["slope per pm/step".to_string(), String::new()];
+    for c in 0..3 {
+        slope.push(f(s.slope_p[c], DIGITS[c]));
+        slope.push(f(s.slope_h[c], DIGITS[c]));
+    }
+    rows.push(slope);
+    Table {
+        title: format!("Drift sweep: hold-out RMSE vs σ_d, both models refitted ({}, seed {})", m.scenario, m.seed),
+        header: ["σ_d [pm/step]", "factor", "T P", "T H", "ε P", "ε H", "p P", "p H"].map(String::from).to_vec(),
+        rows,
+    }
+}
