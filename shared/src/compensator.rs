@@ -176,6 +176,17 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             }
             out
         };
+        // Folding can overflow even when every stored number is finite (e.g. a tiny guess_std
+        // scales stage 1 to infinity in f32): refuse such a model rather than answer NaN later.
+        let folded_ok = a.iter().flatten().chain(b.iter().flatten()).all(|v| v.is_finite())
+            && z_gain.iter().chain(z_offset.iter()).all(|v| v.is_finite())
+            && band_var.iter().chain(band_var_growth.iter()).all(|v| v.is_finite())
+            && centres.iter().all(|c| {
+                c.mu.iter().chain(c.w.iter()).chain(c.v.iter()).all(|v| v.is_finite())
+            });
+        if !folded_ok {
+            return Err(Error::BadParameter { field: "folded coefficients (overflow in this precision)" });
+        }
         Ok(Compensator {
             a,
             b,
@@ -299,6 +310,15 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         let mut lev = psi_sq * self.inv_g_tail;
         for &pi in proj.iter() {
             lev = pi.mul_add(pi, lev);
+        }
+        // An overflow in this precision (finite inputs far outside anything calibrated) is
+        // reported like a non-finite input rather than passed on as a normal estimate.
+        if !y.iter().all(|v| v.is_finite()) {
+            return Estimate {
+                values: [F::NAN; N_OUTPUTS],
+                band95: [F::INFINITY; N_OUTPUTS],
+                flags: flags.union(Flags::NON_FINITE),
+            };
         }
         let widen = if flags.is_ok() { F::ONE } else { self.flagged_band_factor };
         let lead = if self.band_grows { (s.t_s - self.t_cal_end_s).max(F::ZERO) } else { F::ZERO };

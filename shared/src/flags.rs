@@ -8,8 +8,8 @@ pub struct Flags(pub u8);
 impl Flags {
     /// No flag raised.
     pub const OK: Flags = Flags(0);
-    /// An input the model uses was NaN or infinite: values are NaN, the band is infinite and
-    /// the direction latches were not advanced.
+    /// An input the model uses was NaN or infinite (the direction latches were then not
+    /// advanced), or the result overflowed: values are NaN and the band is infinite.
     pub const NON_FINITE: Flags = Flags(1 << 0);
     /// An input (Δλ or T_amb) lies outside the calibration envelope plus its margin.
     pub const OUT_OF_ENVELOPE: Flags = Flags(1 << 1);

@@ -346,10 +346,32 @@ proptest! {
         let v: Vec<f32> = raw.iter().map(|&(any, tame, pick)| if pick == 0 { any } else { tame }).collect();
         let s = sample([v[0], v[1], v[2]], v[3] / 2.0 + 20.0, v[4].abs());
         let e = c.step(&s);
-        prop_assert!(!e.flags.contains(Flags::NON_FINITE));
+        // Finite inputs raise NON_FINITE only when the result overflowed, and then say so.
+        if e.flags.contains(Flags::NON_FINITE) {
+            prop_assert!(e.values.iter().all(|v| v.is_nan()) && e.band95.iter().all(|b| b.is_infinite()));
+        }
         if e.values.iter().chain(e.band95.iter()).any(|x| !x.is_finite()) {
             prop_assert!(!e.flags.is_ok(), "{:?} -> {:?}", s, e);
         }
         prop_assert!(e.band95.iter().all(|&b| b >= 0.0));
     }
+}
+
+#[test]
+fn a_model_whose_folded_coefficients_overflow_is_refused() {
+    let mut p = model::<4>(4, 9, FeatureSet::HysteresisAware, short_provenance());
+    p.guess_std = [1e-39, 1.0, 1.0]; // subnormal: 1/σ overflows f32
+    assert!(p.validate().is_ok(), "every stored number is finite");
+    let e = Compensator::<f32, 4>::new(&p).unwrap_err();
+    assert!(matches!(e, fbg_shared::Error::BadParameter { .. }), "{e:?}");
+}
+
+#[test]
+fn an_overflowing_result_is_flagged_non_finite() {
+    let mut p = model::<4>(4, 9, FeatureSet::HysteresisAware, short_provenance());
+    p.poly[1][4] = 3e38; // T² term of the strain output
+    let mut c = Compensator::<f32, 4>::new(&p).unwrap();
+    let e = c.step(&Sample { dl_pm: [3e3, 3e3, 3e3], t_amb_c: 20.0, t_s: 0.0 });
+    assert!(e.flags.contains(Flags::NON_FINITE), "{:?}", e.flags);
+    assert!(e.values.iter().all(|v| v.is_nan()) && e.band95.iter().all(|b| b.is_infinite()));
 }

@@ -1,0 +1,116 @@
+//! Issue 3 acceptance: the models are fitted from the calibration batch only, deterministically,
+//! and behave as a calibration engineer expects on the `paper` preset.
+
+use fbg_shared::FeatureSet;
+use fbg_trainer::dataset::Split;
+use fbg_trainer::evaluate::evaluate_holdout;
+use fbg_trainer::fit::{train, Config, HostParams, Origin, TrainOptions};
+use fbg_trainer::scenario::Preset;
+use fbg_trainer::sim::simulate;
+
+fn short_paper(days: f64) -> fbg_trainer::scenario::ScenarioConfig {
+    let mut c = Preset::Paper.config();
+    c.clock.days = days;
+    c
+}
+
+fn small_grid() -> TrainOptions {
+    TrainOptions {
+        centres: vec![8, 16],
+        sigma_mults: vec![1.0, 2.0],
+        alpha_rels: vec![1e-5, 1e-3],
+        dead_bands_pm: vec![2.0, 4.0],
+        ..TrainOptions::default()
+    }
+}
+
+fn without_date(mut p: HostParams) -> HostParams {
+    p.provenance.date_yyyymmdd = 0;
+    p
+}
+
+#[test]
+fn changing_the_holdout_cannot_change_the_fitted_models() {
+    let s = simulate(&short_paper(4.0), 3);
+    let origin = Origin { scenario: "paper".into(), seed: 3 };
+    let a = train(&s.data, &small_grid(), &origin).unwrap();
+    let mut d = s.data.clone();
+    for i in 0..d.len() {
+        if d.split[i] == Split::Holdout {
+            d.dl_pm[0][i] += 1e3 * (i as f64).sin();
+            d.dl_pm[2][i] = -d.dl_pm[2][i];
+            d.t_amb_c[i] += 40.0;
+            d.temp_c[i] = 1e4;
+            d.strain_ue[i] *= -3.0;
+            d.p_kpa[i] = 0.0;
+        }
+    }
+    let b = train(&d, &small_grid(), &origin).unwrap();
+    assert_eq!(without_date(a.model_h), without_date(b.model_h));
+    assert_eq!(without_date(a.model_p), without_date(b.model_p));
+    assert_eq!(a.selection.chosen, b.selection.chosen);
+    // And the hold-out really was different.
+    assert_ne!(s.data, d);
+}
+
+#[test]
+fn training_is_deterministic() {
+    let s = simulate(&short_paper(3.0), 5);
+    let o = Origin::default();
+    let a = train(&s.data, &small_grid(), &o).unwrap();
+    let b = train(&s.data, &small_grid(), &o).unwrap();
+    assert_eq!(without_date(a.model_h), without_date(b.model_h));
+}
+
+#[test]
+fn too_few_calibration_samples_is_a_clear_error() {
+    let s = simulate(&short_paper(3.0), 5);
+    let idx: Vec<usize> = (0..150).chain(s.data.len() - 100..s.data.len()).collect();
+    let d = s.data.select(&idx);
+    let e = train(&d, &small_grid(), &Origin::default()).unwrap_err().to_string();
+    assert!(e.contains("calibration samples"), "{e}");
+}
+
+#[test]
+fn fixed_grid_point_is_honoured() {
+    let s = simulate(&short_paper(3.0), 5);
+    let cfg = Config {
+        feature_set: FeatureSet::HysteresisAware,
+        dead_band_pm: 3.0,
+        k: 12,
+        sigma_mult: 1.5,
+        alpha_rel: 1e-4,
+        cross_terms: true,
+    };
+    let t = train(&s.data, &TrainOptions::fixed(&cfg), &Origin::default()).unwrap();
+    assert_eq!(t.selection.chosen, cfg);
+    assert_eq!(t.model_h.centres.len(), 12);
+    assert_eq!(t.model_h.hyper.dead_band_pm, 3.0);
+    assert_eq!(t.model_p.centres.len(), 0);
+    // Model-P and Model-H share the polynomial core.
+    assert_eq!(t.model_p.poly, t.model_h.poly);
+    assert_eq!(t.model_p.stage1, t.model_h.stage1);
+}
+
+/// The default pipeline on the default scenario: the numbers DESIGN §5 asks for, with
+/// tolerances (seeded, so deterministic). The paper's ≥ 25 % gain is *not* asserted: on this
+/// physics the measured gains are 9 / 17 / 6 % (README, BENCHMARKS.md).
+#[test]
+fn paper_preset_model_h_beats_model_p_and_removes_the_hysteresis_bias() {
+    let s = simulate(&Preset::Paper.config(), 7);
+    let t = train(&s.data, &TrainOptions::default(), &Origin { scenario: "paper".into(), seed: 7 }).unwrap();
+    let (ep, _) = evaluate_holdout(&t.model_p, &s.data).unwrap();
+    let (eh, _) = evaluate_holdout(&t.model_h, &s.data).unwrap();
+    let floor = s.oracle_floor().rmse_holdout;
+    for c in 0..3 {
+        let (p, h) = (ep.channels[c], eh.channels[c]);
+        assert!(h.rmse < 0.97 * p.rmse, "channel {c}: H {} vs P {}", h.rmse, p.rmse);
+        assert!(h.rmse > floor[c], "channel {c} below the oracle floor");
+        assert!(h.r2 > 0.95, "channel {c}: R² {}", h.r2);
+        assert!((0.90..=0.995).contains(&h.coverage), "channel {c}: coverage {}", h.coverage);
+        assert!(h.hysteresis_index.abs() < 0.3 * p.hysteresis_index.abs(), "channel {c}: hysteresis index {} vs {}", h.hysteresis_index, p.hysteresis_index);
+    }
+    // The default feature set wins the cross-validation.
+    assert_ne!(t.selection.chosen.feature_set, FeatureSet::Paper);
+    assert!(t.model_h.centres.len() <= 32, "the device holds 32 centres");
+}
