@@ -43,14 +43,13 @@ pub fn run_all(root: &Path) -> Result<()> {
 
     crate::step("firmware: host tests of the device logic (fbg-firmware-app)");
     let fw = firmware_dir(root);
-    crate::run(crate::cargo().current_dir(&fw).args([
-        "test",
-        "-p",
-        "fbg-firmware-app",
-        "--locked",
-        "--target",
-        &host_triple()?,
-    ]))?;
+    crate::run(
+        crate::cargo()
+            .current_dir(&fw)
+            .args(["test", "-p", "fbg-firmware-app", "--locked", "--target", &host_triple()?])
+            .env("FBG_TEST_MODEL", &fx.model),
+    )?;
+    check_default_model(root)?;
 
     crate::step("firmware: build (thumbv7em-none-eabihf, K = 32) and clippy");
     let bins = build(root, PRODUCT_K, &fx, None)?;
@@ -69,6 +68,21 @@ pub fn run_all(root: &Path) -> Result<()> {
     crate::step("QEMU: streaming, garbage and model updates over a loopback TCP serial port");
     link_test(root, &qemu, &bins, &dfx)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// The product embeds `firmware/model/default.fbgm`: it must decode with this build of
+/// fbg-shared at the product's capacity, or the firmware would refuse to boot.
+pub fn check_default_model(root: &Path) -> Result<()> {
+    let path = firmware_dir(root).join("model/default.fbgm");
+    let bytes = fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+    fbg_shared::blob::decode::<PRODUCT_K>(&bytes).map_err(|e| {
+        anyhow::anyhow!(
+            "{} does not decode with the current fbg-shared ({e}); the blob format changed? \
+             Re-export it (the trainer's model, or `cargo xtask fixtures --write-default` for the synthetic one)",
+            path.display()
+        )
+    })?;
     Ok(())
 }
 

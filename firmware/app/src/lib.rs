@@ -27,7 +27,7 @@ use fbg_shared::protocol::{
     crc32, encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed,
     RejectReason, Rejection, Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
-use fbg_shared::{Compensator, Sample};
+use fbg_shared::{Compensator, ModelParams, Sample};
 
 /// Log through defmt when the `defmt` feature is on; nothing otherwise.
 macro_rules! log {
@@ -69,10 +69,14 @@ pub fn load_into<'s, const K: usize>(
     slot: &'s mut MaybeUninit<Compensator<f32, K>>,
     bytes: &[u8],
 ) -> Result<(&'s mut Compensator<f32, K>, ModelInfo), Rejection> {
-    let params = blob::decode::<K>(bytes)?;
-    let comp = Compensator::new(&params)?;
+    let decoded = blob::decode::<K>(bytes);
+    let params = match &decoded {
+        Ok(p) => p,
+        Err(e) => return Err(Rejection::from(*e)),
+    };
+    let comp = fold_into_uninit(slot, params)?;
     let info = ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob_crc(bytes) };
-    Ok((slot.write(comp), info))
+    Ok((comp, info))
 }
 
 /// Replace `comp` by the model in `bytes` when, and only when, it is entirely valid.
@@ -81,10 +85,33 @@ fn swap_model<const K: usize>(
     comp: &mut Compensator<f32, K>,
     bytes: &[u8],
 ) -> Result<ModelInfo, Rejection> {
-    let params = blob::decode::<K>(bytes)?;
-    let new = Compensator::new(&params)?;
-    *comp = new;
+    let decoded = blob::decode::<K>(bytes);
+    let params = match &decoded {
+        Ok(p) => p,
+        Err(e) => return Err(Rejection::from(*e)),
+    };
+    fold_into(comp, params)?;
     Ok(ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob_crc(bytes) })
+}
+
+// Decoding and folding are separate calls (folding never inlined) so that their temporaries
+// occupy the stack one after the other, and the decoded parameters are borrowed, not moved.
+
+#[inline(never)]
+fn fold_into<const K: usize>(
+    dst: &mut Compensator<f32, K>,
+    params: &ModelParams<f32, K>,
+) -> Result<(), Rejection> {
+    *dst = Compensator::new(params)?;
+    Ok(())
+}
+
+#[inline(never)]
+fn fold_into_uninit<'s, const K: usize>(
+    dst: &'s mut MaybeUninit<Compensator<f32, K>>,
+    params: &ModelParams<f32, K>,
+) -> Result<&'s mut Compensator<f32, K>, Rejection> {
+    Ok(dst.write(Compensator::new(params)?))
 }
 
 fn centres_u16(n: usize) -> u16 {

@@ -19,8 +19,18 @@ use super::*;
 const K: usize = 32;
 const STAGE: usize = blob::max_len(K);
 
-/// The firmware's embedded default model (a valid K = 32 blob).
-static DEFAULT: &[u8] = include_bytes!("../../model/default.fbgm");
+/// The firmware's embedded default model (a valid K = 32 blob), or the blob named by
+/// `FBG_TEST_MODEL` (xtask passes its freshly generated fixture, so these tests follow the
+/// current blob format even before `default.fbgm` is re-exported).
+static EMBEDDED: &[u8] = include_bytes!("../../model/default.fbgm");
+
+fn default_blob() -> &'static [u8] {
+    static CELL: std::sync::OnceLock<Vec<u8>> = std::sync::OnceLock::new();
+    CELL.get_or_init(|| match std::env::var_os("FBG_TEST_MODEL") {
+        Some(p) => std::fs::read(&p).unwrap_or_else(|e| panic!("FBG_TEST_MODEL {p:?}: {e}")),
+        None => EMBEDDED.to_vec(),
+    })
+}
 
 /// An alarm pin that records every level it was driven to.
 #[derive(Default)]
@@ -128,7 +138,7 @@ fn encode(p: &ModelParams<f32, K>) -> Vec<u8> {
 
 /// A second valid model: the default with other residual weights and intercepts.
 fn other_model() -> Vec<u8> {
-    let mut p = params(DEFAULT);
+    let mut p = params(default_blob());
     for c in p.centres.iter_mut() {
         c.w = [c.w[0] * -2.0 + 0.01, c.w[1] + 1.0, c.w[2] * 0.5];
     }
@@ -138,7 +148,7 @@ fn other_model() -> Vec<u8> {
 
 /// Samples along a smooth path with turning points, inside the default model's envelope.
 fn samples(n: usize) -> Vec<Sample<f32>> {
-    let p = params(DEFAULT);
+    let p = params(default_blob());
     (0..n)
         .map(|i| {
             let x = i as f32;
@@ -172,9 +182,9 @@ fn assert_serves(link: &mut LinkClient<Wire<'_>>, reference: &mut Compensator<f3
 #[test]
 fn boots_answers_pings_and_compensates_like_the_library() {
     let mut mem = Mem::new();
-    let mut link = mem.link(DEFAULT);
+    let mut link = mem.link(default_blob());
     link.ping(7).unwrap();
-    let mut reference = Compensator::<f32, K>::new(&params(DEFAULT)).unwrap();
+    let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     assert_serves(&mut link, &mut reference, &samples(50), 0);
     let st = link.status().unwrap();
     assert_eq!(st.samples, 50);
@@ -182,14 +192,14 @@ fn boots_answers_pings_and_compensates_like_the_library() {
     assert_eq!(st.frames_malformed, 0);
     assert_eq!(st.model_centres, 32);
     assert_eq!(st.model_capacity, K as u16);
-    assert_eq!(st.model_crc, blob_crc(DEFAULT));
+    assert_eq!(st.model_crc, blob_crc(default_blob()));
     assert_eq!(st.last_rejection, None);
 }
 
 #[test]
 fn the_alarm_follows_the_flags() {
     let mut mem = Mem::new();
-    let mut link = mem.link(DEFAULT);
+    let mut link = mem.link(default_blob());
     let good = samples(1)[0];
     assert!(link.compensate(0, &good).unwrap().flags.is_ok());
     assert!(!link.get_ref().dev.alarm().is_on());
@@ -209,7 +219,7 @@ fn the_alarm_follows_the_flags() {
 #[test]
 fn garbage_is_counted_and_the_device_keeps_serving() {
     let mut mem = Mem::new();
-    let mut link = mem.link(DEFAULT);
+    let mut link = mem.link(default_blob());
     let mut damaged = {
         let mut buf = [0u8; 64];
         encode_host(&HostMsg::Ping { nonce: 1 }, &mut buf).unwrap().to_vec()
@@ -225,16 +235,16 @@ fn garbage_is_counted_and_the_device_keeps_serving() {
     let st = link.status().unwrap();
     assert_eq!(st.frames_malformed, 3);
     assert_eq!(st.frames_ok, 2);
-    let mut reference = Compensator::<f32, K>::new(&params(DEFAULT)).unwrap();
+    let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     assert_serves(&mut link, &mut reference, &samples(5), 0);
 }
 
 #[test]
 fn a_valid_update_swaps_the_model_and_resets_the_stream() {
     let mut mem = Mem::new();
-    let mut link = mem.link(DEFAULT);
+    let mut link = mem.link(default_blob());
     let s = samples(40);
-    let mut old = Compensator::<f32, K>::new(&params(DEFAULT)).unwrap();
+    let mut old = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     assert_serves(&mut link, &mut old, &s[..20], 0);
     let b = other_model();
     let r = link.update_model(&b).unwrap();
@@ -242,7 +252,7 @@ fn a_valid_update_swaps_the_model_and_resets_the_stream() {
     let mut new = Compensator::<f32, K>::new(&params(&b)).unwrap();
     assert_serves(&mut link, &mut new, &s[20..], 20);
     // And the answers did change.
-    let mut old_again = Compensator::<f32, K>::new(&params(DEFAULT)).unwrap();
+    let mut old_again = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     let mut new_again = Compensator::<f32, K>::new(&params(&b)).unwrap();
     let differ = s.iter().any(|x| old_again.step(x).values != new_again.step(x).values);
     assert!(differ);
@@ -254,8 +264,8 @@ fn a_valid_update_swaps_the_model_and_resets_the_stream() {
 #[test]
 fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() {
     let mut mem = Mem::new();
-    let mut link = mem.link(DEFAULT);
-    let mut reference = Compensator::<f32, K>::new(&params(DEFAULT)).unwrap();
+    let mut link = mem.link(default_blob());
+    let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     let s = samples(100);
     let good = other_model();
 
@@ -270,7 +280,7 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
     nan_sigma[n - 4..].copy_from_slice(&c);
     let mut bad_version = good.clone();
     bad_version[4] = 9;
-    let mut too_many = params(DEFAULT);
+    let mut too_many = params(default_blob());
     too_many.centres.truncate(20);
     let small = encode(&too_many); // a valid, shorter model to cut short
     let cases: Vec<(&str, Vec<u8>, RejectReason)> = std::vec![
@@ -291,7 +301,7 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
         rejected += 1;
         let st = link.status().unwrap();
         assert_eq!(st.updates_rejected, rejected, "{name}");
-        assert_eq!(st.model_crc, blob_crc(DEFAULT), "{name}: old model still active");
+        assert_eq!(st.model_crc, blob_crc(default_blob()), "{name}: old model still active");
         assert_serves(&mut link, &mut reference, &s[i * 10..i * 10 + 10], i as u32 * 10);
     }
 
@@ -331,7 +341,7 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
 fn a_model_beyond_the_capacity_is_refused() {
     // A device built for 16 centres refuses the 32-centre default model.
     let mut slot = MaybeUninit::<Compensator<f32, 16>>::uninit();
-    let e = load_into(&mut slot, DEFAULT).err().unwrap();
+    let e = load_into(&mut slot, default_blob()).err().unwrap();
     assert_eq!(e.reason, RejectReason::WrongDims);
     assert_eq!(e.detail, 32 << 16 | 16);
 }
@@ -382,7 +392,7 @@ fn a_link_error_ends_serve() {
     let mut buf = [0u8; 64];
     let ping = encode_host(&HostMsg::Ping { nonce: 5 }, &mut buf).unwrap().to_vec();
     let mut mem = Mem::new();
-    let (comp, info) = load_into(&mut mem.slot, DEFAULT).unwrap();
+    let (comp, info) = load_into(&mut mem.slot, default_blob()).unwrap();
     let mut dev = Device::new(comp, info, &mut mem.staging, Pin::default());
     dev.set_stack_probe(|| 1234);
     let mut script = Script { input: ping.iter().copied().chain(ping.iter().copied()).collect(), out: Vec::new() };
