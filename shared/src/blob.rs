@@ -295,7 +295,8 @@ pub const fn min_len(centres: usize) -> usize {
         + N_OUTPUTS
         + 2 * N_ENVELOPE;
     let per_centre = 4 * (Z_DIMS + N_OUTPUTS + VAR_RANK);
-    let provenance = 5;
+    // `fitted`: one byte per output; provenance: five one-byte minimums.
+    let provenance = N_OUTPUTS + 5;
     let fixed = HEADER_LEN + hyper + 4 * fixed_f32 + provenance + CRC_LEN;
     fixed.saturating_add(varint_len(centres)).saturating_add(per_centre.saturating_mul(centres))
 }

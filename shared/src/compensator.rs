@@ -76,6 +76,7 @@ pub struct Compensator<F, const K: usize> {
     dead_band: i32,
     uses_time: bool,
     uses_latch: bool,
+    fitted: [bool; N_OUTPUTS],
     latches: LatchBank,
 }
 
@@ -205,6 +206,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             dead_band: crate::direction_latch::ticks(f(h.dead_band_pm)),
             uses_time: h.feature_set.uses_time(),
             uses_latch: h.feature_set.uses_latch(),
+            fitted: params.fitted,
             latches: LatchBank::new(),
         })
     }
@@ -313,7 +315,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         }
         // An overflow in this precision (finite inputs far outside anything calibrated) is
         // reported like a non-finite input rather than passed on as a normal estimate.
-        if !y.iter().all(|v| v.is_finite()) {
+        if !y.iter().zip(self.fitted.iter()).all(|(v, &fit)| !fit || v.is_finite()) {
             return Estimate {
                 values: [F::NAN; N_OUTPUTS],
                 band95: [F::INFINITY; N_OUTPUTS],
@@ -325,6 +327,12 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         let mut band95 = [F::ZERO; N_OUTPUTS];
         for ((bi, &bv), &bg) in band95.iter_mut().zip(self.band_var.iter()).zip(self.band_var_growth.iter()) {
             *bi = (bg.mul_add(lead, bv) * (F::ONE + lev)).sqrt() * widen;
+        }
+        for ((v, b), &fit) in y.iter_mut().zip(band95.iter_mut()).zip(self.fitted.iter()) {
+            if !fit {
+                *v = F::NAN;
+                *b = F::INFINITY;
+            }
         }
         Estimate { values: y, band95, flags }
     }

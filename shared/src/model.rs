@@ -103,6 +103,10 @@ pub struct ModelParams<F, const K: usize> {
     pub envelope_lo: [F; N_ENVELOPE],
     /// Upper envelope bound, margin included.
     pub envelope_hi: [F; N_ENVELOPE],
+    /// Which outputs were fitted (T, ε, p). An output without a reference in the calibration
+    /// data is not fitted: the compensator returns NaN for it with an infinite band, whatever
+    /// the flags say about the sample.
+    pub fitted: [bool; N_OUTPUTS],
     /// Training provenance.
     pub provenance: Provenance,
 }
@@ -186,6 +190,9 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         if !self.band_k.iter().all(|&k| finite(k) && k > F::ZERO) {
             return Err(Error::BadParameter { field: "band_k" });
         }
+        if !self.fitted.iter().any(|&f| f) {
+            return Err(Error::BadParameter { field: "fitted" });
+        }
         if !self
             .envelope_lo
             .iter()
@@ -248,6 +255,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
             band_k: c(&self.band_k),
             envelope_lo: c(&self.envelope_lo),
             envelope_hi: c(&self.envelope_hi),
+            fitted: self.fitted,
             provenance: self.provenance.clone(),
         })
     }

@@ -124,8 +124,8 @@ fn min_len_and_max_len_are_exact() {
     lengths::<127>();
     lengths::<128>();
     lengths::<200>();
-    assert_eq!(min_len(0), 429);
-    assert_eq!(min_len(32), 429 + 76 * 32);
+    assert_eq!(min_len(0), 432);
+    assert_eq!(min_len(32), 432 + 76 * 32);
     // No overflow on absurd inputs.
     assert_eq!(min_len(usize::MAX), usize::MAX);
     assert_eq!(max_len(usize::MAX), usize::MAX);
@@ -205,6 +205,7 @@ fn tiny() -> ModelParams<f32, 2> {
         band_k: [1.96, 2.0, 2.5],
         envelope_lo: [-64.0, -64.0, -64.0, -8.0],
         envelope_hi: [64.0, 64.0, 64.0, 48.0],
+        fitted: [true; 3],
         provenance: Provenance {
             seed: 42,
             scenario: heapless::String::try_from("golden").unwrap(),
@@ -787,3 +788,4 @@ fn fuzz_seeds_are_valid_blobs() {
         assert_eq!(decode::<32>(b).map(|p| p.centres.len()), Ok(n));
     }
 }
+

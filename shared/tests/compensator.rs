@@ -375,3 +375,16 @@ fn an_overflowing_result_is_flagged_non_finite() {
     assert!(e.flags.contains(Flags::NON_FINITE), "{:?}", e.flags);
     assert!(e.values.iter().all(|v| v.is_nan()) && e.band95.iter().all(|b| b.is_infinite()));
 }
+
+#[test]
+fn an_unfitted_output_reads_nan_with_an_infinite_band_and_no_flag() {
+    let mut p = model::<4>(4, 9, FeatureSet::HysteresisAware, short_provenance());
+    p.fitted = [true, false, true];
+    let mut c = Compensator::<f32, 4>::new(&p).unwrap();
+    let e = c.step(&Sample { dl_pm: [1.0, 2.0, 3.0], t_amb_c: 20.0, t_s: 0.0 });
+    assert!(e.values[1].is_nan() && e.band95[1].is_infinite());
+    assert!(e.values[0].is_finite() && e.values[2].is_finite());
+    assert!(!e.flags.contains(Flags::NON_FINITE), "{:?}", e.flags);
+    p.fitted = [false; 3];
+    assert_eq!(p.validate(), Err(fbg_shared::Error::BadParameter { field: "fitted" }));
+}

@@ -322,6 +322,7 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>> 
         band_k: [1.959_964; 3],
         envelope_lo,
         envelope_hi,
+        fitted: [true; 3],
         provenance: Provenance {
             seed,
             scenario: heapless::String::try_from("synthetic-fixture").unwrap_or_default(),

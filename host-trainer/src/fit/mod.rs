@@ -179,6 +179,8 @@ pub struct Skeleton {
     pub sigma_mult: f64,
     pub sigma: f64,
     pub envelope: ([f64; N_ENVELOPE], [f64; N_ENVELOPE]),
+    /// Outputs with a reference in the training data.
+    pub fitted: [bool; N_OUTPUTS],
 }
 
 impl Skeleton {
@@ -242,6 +244,7 @@ impl Skeleton {
             band_k: band.map(|v| v.k95),
             envelope_lo: self.envelope.0,
             envelope_hi: self.envelope.1,
+            fitted: self.fitted,
             provenance: provenance.clone(),
         };
         p.validate().map_err(|e| TrainerError::fit(format!("assembled model is invalid: {e}")))?;
@@ -345,6 +348,7 @@ pub fn skeleton(
         sigma_mult: cfg.sigma_mult,
         sigma: cfg.sigma_mult * nn,
         envelope: envelope(d, train),
+        fitted: [true; N_OUTPUTS],
     }
 }
 

@@ -238,6 +238,7 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             sigma_mult: 1.0,
             sigma: 1.0,
             envelope: super::envelope(d, &f.train),
+            fitted: [true; N_OUTPUTS],
         };
         let p = sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)?;
         let est = run(&p, d, &f.val)?;

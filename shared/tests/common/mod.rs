@@ -127,6 +127,7 @@ pub fn model<const K: usize>(
         band_k: [fbg_shared::layout::Z95 as f32; 3],
         envelope_lo: [-60.0, -60.0, -60.0, -5.0],
         envelope_hi: [60.0, 60.0, 60.0, 45.0],
+        fitted: [true; 3],
         provenance: prov,
     }
 }
