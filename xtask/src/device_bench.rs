@@ -151,7 +151,12 @@ fn bench_k(root: &Path, q: &Path, k: usize) -> Result<StepBench> {
     crate::step(&format!("bench: instructions per step at K = {k} (QEMU -icount shift=0)"));
     let fx = fixtures::ensure(root)?;
     let d = fixtures::ensure_device(root)?;
-    let model = fixtures::dir(root).join(format!("bench_k{k}.fbgm"));
+    let model = d
+        .bench_models
+        .iter()
+        .find(|(mk, _)| *mk == k)
+        .map(|(_, p)| p.clone())
+        .with_context(|| format!("no bench model for K = {k}"))?;
     let fw = qemu::firmware_dir(root);
     crate::run(
         crate::cargo()
@@ -251,7 +256,7 @@ fn to_json(steps: &[StepBench], size: &SizeReport) -> String {
     for (i, b) in steps.iter().enumerate() {
         let _ = write!(
             s,
-            "    {{\"k\": {}, \"instructions_per_step\": {:.1}, \"per_run\": [{}], \"instructions_per_systick_tick\": {:.4}, \"dwt_cycles_per_step\": {:.1}, \"stack_peak_bytes\": {}, \"blob_bytes\": {}}}{}\n",
+            "    {{\"k\": {}, \"instructions_per_step\": {:.1}, \"per_run\": [{}], \"instructions_per_systick_tick\": {:.4}, \"dwt_cycles_per_step\": {:.1}, \"stack_peak_bytes\": {}, \"blob_bytes\": {}}}{}",
             b.k,
             b.insns_per_step,
             b.per_run.iter().map(|(n, v)| format!("{{\"n\": {n}, \"instructions_per_step\": {v:.1}}}")).collect::<Vec<_>>().join(", "),
@@ -261,6 +266,7 @@ fn to_json(steps: &[StepBench], size: &SizeReport) -> String {
             b.blob_bytes,
             if i + 1 < steps.len() { "," } else { "" }
         );
+        s.push('\n');
     }
     let f = &size.footprint;
     let total = f.ram_static + size.stack_update as u64;
@@ -272,7 +278,7 @@ fn to_json(steps: &[StepBench], size: &SizeReport) -> String {
     );
     let _ = write!(
         s,
-        "  \"targets\": {{\"instructions_per_step_k32\": {{\"target\": {TARGET_INSNS_K32}, \"measured\": {k32:.1}, \"met\": {}}}, \"flash_bytes\": {{\"target\": {TARGET_FLASH}, \"measured\": {}, \"met\": {}}}, \"static_ram_plus_stack_bytes\": {{\"target\": {TARGET_RAM}, \"measured\": {total}, \"met\": {}}}, \"blob_bytes\": {{\"target\": {TARGET_BLOB}, \"measured\": {}, \"met\": {}}}}}\n}}\n",
+        "  \"targets\": {{\"instructions_per_step_k32\": {{\"target\": {TARGET_INSNS_K32}, \"measured\": {k32:.1}, \"met\": {}}}, \"flash_bytes\": {{\"target\": {TARGET_FLASH}, \"measured\": {}, \"met\": {}}}, \"static_ram_plus_stack_bytes\": {{\"target\": {TARGET_RAM}, \"measured\": {total}, \"met\": {}}}, \"blob_bytes\": {{\"target\": {TARGET_BLOB}, \"measured\": {}, \"met\": {}}}}}\n}}",
         k32 <= TARGET_INSNS_K32,
         f.flash,
         f.flash <= TARGET_FLASH,
@@ -280,5 +286,6 @@ fn to_json(steps: &[StepBench], size: &SizeReport) -> String {
         size.blob_bytes,
         size.blob_bytes <= TARGET_BLOB
     );
+    s.push('\n');
     s
 }

@@ -18,8 +18,6 @@ pub struct Section {
     pub kind: u32,
     /// `sh_flags`.
     pub flags: u32,
-    /// Run address.
-    pub addr: u32,
     /// Size in bytes.
     pub size: u32,
 }
@@ -70,7 +68,6 @@ pub fn sections(bytes: &[u8]) -> Result<Vec<Section>> {
             name: String::from_utf8_lossy(&tail[..end]).into_owned(),
             kind: u32_at(bytes, h + 4)?,
             flags: u32_at(bytes, h + 8)?,
-            addr: u32_at(bytes, h + 12)?,
             size: u32_at(bytes, h + 20)?,
         });
     }

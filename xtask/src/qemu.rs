@@ -16,7 +16,6 @@
 //! minutes to build on two cores).
 
 use std::fs::{self, File};
-use std::io::Read as _;
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
@@ -93,8 +92,6 @@ pub struct Bins {
     pub product: PathBuf,
     /// Golden-vector image.
     pub golden: PathBuf,
-    /// Bench image.
-    pub bench: PathBuf,
     /// Fault-path image.
     pub fault: PathBuf,
 }
@@ -135,7 +132,6 @@ pub fn build(root: &Path, k: usize, fx: &Fixtures, bench: Option<(&Path, &Path)>
     Ok(Bins {
         product: out.join("fbg-firmware"),
         golden: out.join("golden"),
-        bench: out.join("bench"),
         fault: out.join("fault"),
     })
 }
@@ -337,10 +333,10 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
     for (i, (m, want)) in msgs.iter().zip(expected.iter()).enumerate() {
         let DeviceMsg::Estimate(e) = m else { bail!("message {i} is {m:?}, not an estimate") };
         ensure!(e.seq == i as u32, "estimate {i} carries seq {}", e.seq);
-        for c in 0..3 {
-            let d = (e.values[c] as f64 - want.values[c]).abs();
+        for ((w, &dv), &hv) in worst.iter_mut().zip(e.values.iter()).zip(want.values.iter()) {
+            let d = (dv as f64 - hv).abs();
             if d.is_finite() {
-                worst[c] = worst[c].max(d);
+                *w = w.max(d);
             }
         }
         if let Some(why) = fixtures::compare(e.values, e.band, e.flags, want, tol) {
@@ -546,11 +542,4 @@ pub fn crate_blob_crc(bytes: &[u8]) -> u32 {
         return 0;
     }
     u32::from_le_bytes([bytes[n - 4], bytes[n - 3], bytes[n - 2], bytes[n - 1]])
-}
-
-/// Read a whole file, for callers that want bytes (the UART outputs).
-pub fn read_all(path: &Path) -> Result<Vec<u8>> {
-    let mut v = Vec::new();
-    File::open(path).with_context(|| format!("opening {}", path.display()))?.read_to_end(&mut v)?;
-    Ok(v)
 }
