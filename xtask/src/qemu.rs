@@ -283,6 +283,33 @@ pub fn tolerance(blob_bytes: &[u8]) -> Result<[f64; 3]> {
     Ok(fixtures::reference_scale(blob_bytes)?.map(|s| REL_TOL * s))
 }
 
+/// Per-channel scale of the golden tolerance: Model-H's hold-out RMSE from the trainer's
+/// `golden_meta.json` (`holdout_rmse_h`) next to the expected CSV when present, else the square
+/// root of the blob's residual variance.
+pub fn golden_scale(fx: &Fixtures, model: &[u8]) -> Result<([f64; 3], &'static str)> {
+    let meta = fx.golden_expected.with_file_name("golden_meta.json");
+    if let Ok(text) = fs::read_to_string(&meta) {
+        if let Some(v) = json_number_array(&text, "holdout_rmse_h") {
+            ensure!(
+                v.len() == 3 && v.iter().all(|x| x.is_finite() && *x > 0.0),
+                "{}: holdout_rmse_h must be three positive numbers, found {v:?}",
+                meta.display()
+            );
+            return Ok(([v[0], v[1], v[2]], "Model-H hold-out RMSE"));
+        }
+    }
+    Ok((fixtures::reference_scale(model)?, "sqrt(resid_var)"))
+}
+
+/// The numbers of `"key": [a, b, ...]` in a JSON text (enough for the trainer's metadata).
+fn json_number_array(text: &str, key: &str) -> Option<Vec<f64>> {
+    let at = text.find(&format!("\"{key}\""))?;
+    let rest = &text[at..];
+    let open = rest.find('[')?;
+    let close = rest[open..].find(']')? + open;
+    rest[open + 1..close].split(',').map(|x| x.trim().parse::<f64>().ok()).collect()
+}
+
 /// All device messages in a byte stream.
 pub fn parse_frames(bytes: &[u8]) -> (Vec<DeviceMsg>, usize) {
     let mut r = FrameReader::<DEVICE_MAX_FRAME>::new();
@@ -313,7 +340,8 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
         bail!("golden image failed with {status}");
     }
     let model = fs::read(&fx.model)?;
-    let tol = tolerance(&model)?;
+    let (scale, scale_name) = golden_scale(fx, &model)?;
+    let tol = scale.map(|s| REL_TOL * s);
     let inputs = fixtures::read_inputs(&fx.golden_inputs)?;
     let expected = fixtures::read_expected(&fx.golden_expected)?;
     ensure!(
@@ -327,7 +355,6 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
     let (msgs, bad) = parse_frames(&fs::read(&uart)?);
     ensure!(bad == 0, "{bad} malformed frames in the golden output {}", uart.display());
     ensure!(msgs.len() == expected.len(), "device sent {} estimates for {} samples", msgs.len(), expected.len());
-    let scale = fixtures::reference_scale(&model)?;
     let mut worst = [0.0f64; 3];
     let mut failures = Vec::new();
     for (i, (m, want)) in msgs.iter().zip(expected.iter()).enumerate() {
@@ -345,7 +372,7 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
     }
     eprintln!(
         "xtask: golden: {} samples; max |device − host| = {:.3e} °C, {:.3e} µε, {:.3e} kPa \
-         ({:.4} %, {:.4} %, {:.4} % of the reference scale; limit {} %)",
+         ({:.4} %, {:.4} %, {:.4} % of {scale_name}; limit {} %)",
         msgs.len(),
         worst[0],
         worst[1],
