@@ -1,5 +1,11 @@
 //! A time series of measured inputs and reference measurands, and its CSV form (DESIGN §3):
 //! `t_s,T_C,strain_ue,p_kPa,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split`.
+//!
+//! For real data (issue 8) the reference columns `T_C`, `strain_ue`, `p_kPa` and the `split`
+//! column are optional: an absent reference is an output that cannot be fitted, an empty cell
+//! is a missing reference at that time, an empty `dlN_pm` cell is a gap (a peak the
+//! interrogator did not report). Text that is not a number, or a non-finite number, is still an
+//! error naming file, line and column.
 
 use std::io::Write;
 use std::path::Path;
@@ -44,6 +50,8 @@ pub struct Dataset {
     /// Measured wavelength shifts [pm].
     pub dl_pm: [Vec<f64>; 3],
     pub split: Vec<Split>,
+    /// Which references (T, ε, p) the data carry; absent ones are NaN throughout.
+    pub has_target: [bool; 3],
 }
 
 impl Dataset {
@@ -77,6 +85,26 @@ impl Dataset {
     pub fn cal_indices(&self) -> Vec<usize> {
         (0..self.len()).filter(|&i| self.split[i] == Split::Cal).collect()
     }
+    /// True when sample `i` can be used for fitting: finite inputs and every available
+    /// reference present.
+    pub fn usable(&self, i: usize) -> bool {
+        self.dl_pm.iter().all(|c| c[i].is_finite())
+            && self.t_amb_c[i].is_finite()
+            && self.t_s[i].is_finite()
+            && (0..3).all(|c| !self.has_target[c] || self.target(c)[i].is_finite())
+    }
+    /// Assign the split by time: samples with `t_s <= cal_until_s` calibrate, later ones are
+    /// the hold-out.
+    pub fn split_at_time(&mut self, cal_until_s: f64) {
+        for (s, &t) in self.split.iter_mut().zip(&self.t_s) {
+            *s = if t <= cal_until_s { Split::Cal } else { Split::Holdout };
+        }
+    }
+    /// Assign the split by fraction of the record's duration.
+    pub fn split_at_fraction(&mut self, fraction: f64) {
+        let (t0, t1) = (self.t_s.first().copied().unwrap_or(0.0), self.t_s.last().copied().unwrap_or(0.0));
+        self.split_at_time(t0 + fraction * (t1 - t0));
+    }
     /// Indices of the hold-out samples.
     pub fn holdout_indices(&self) -> Vec<usize> {
         (0..self.len()).filter(|&i| self.split[i] == Split::Holdout).collect()
@@ -92,34 +120,44 @@ impl Dataset {
             t_amb_c: pick(&self.t_amb_c),
             dl_pm: [pick(&self.dl_pm[0]), pick(&self.dl_pm[1]), pick(&self.dl_pm[2])],
             split: idx.iter().map(|&i| self.split[i]).collect(),
+            has_target: self.has_target,
         }
     }
 
     /// Write the CSV atomically: a temporary file in the target directory, renamed into place
     /// only when complete.
     pub fn write_csv(&self, path: &Path) -> Result<(), TrainerError> {
+        // Absent references are left out; a missing value (gap) is an empty cell.
+        let cell = |v: f64, digits: usize| if v.is_finite() { format!("{v:.digits$}") } else { String::new() };
+        let refs: Vec<usize> = (0..3).filter(|&c| self.has_target[c]).collect();
         write_atomically(path, |w| {
-            writeln!(w, "{}", COLUMNS.join(","))?;
+            let mut head = vec!["t_s"];
+            head.extend(refs.iter().map(|&c| COLUMNS[1 + c]));
+            head.extend(["T_amb_C", "dl1_pm", "dl2_pm", "dl3_pm", "split"]);
+            writeln!(w, "{}", head.join(","))?;
+            let mut line = String::with_capacity(128);
             for i in 0..self.len() {
-                writeln!(
-                    w,
-                    "{:.3},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{}",
-                    self.t_s[i],
-                    self.temp_c[i],
-                    self.strain_ue[i],
-                    self.p_kpa[i],
-                    self.t_amb_c[i],
-                    self.dl_pm[0][i],
-                    self.dl_pm[1][i],
-                    self.dl_pm[2][i],
-                    self.split[i].as_str()
-                )?;
+                line.clear();
+                line.push_str(&format!("{:.3}", self.t_s[i]));
+                for &c in &refs {
+                    line.push(',');
+                    line.push_str(&cell(self.target(c)[i], 6));
+                }
+                for v in [self.t_amb_c[i], self.dl_pm[0][i], self.dl_pm[1][i], self.dl_pm[2][i]] {
+                    line.push(',');
+                    line.push_str(&cell(v, 6));
+                }
+                line.push(',');
+                line.push_str(self.split[i].as_str());
+                writeln!(w, "{line}")?;
             }
             Ok(())
         })
     }
 
-    /// Read a CSV with the columns of [`COLUMNS`] (any order, extra columns ignored). Errors
+    /// Read a CSV with the columns of [`COLUMNS`] (any order, extra columns ignored). `t_s`,
+    /// `T_amb_C` and `dl1_pm..dl3_pm` are required; the references and `split` are optional
+    /// (without `split` every row is calibration until the caller assigns a split). Errors
     /// name the file, line and column.
     pub fn read_csv(path: &Path) -> Result<Dataset, TrainerError> {
         let name = path.display().to_string();
@@ -129,26 +167,40 @@ impl Dataset {
             .headers()
             .map_err(|e| TrainerError::data(&name, 1, "-", format!("cannot read the header: {e}")))?
             .clone();
-        let mut col = [0usize; 9];
+        let find = |want: &str| headers.iter().position(|h| h == want);
+        let mut col = [None; 9];
         for (k, want) in COLUMNS.iter().enumerate() {
-            col[k] = headers.iter().position(|h| h == *want).ok_or_else(|| {
-                TrainerError::data(
+            col[k] = find(want);
+            let optional = matches!(k, 1..=3 | 8);
+            if col[k].is_none() && !optional {
+                return Err(TrainerError::data(
                     &name,
                     1,
                     want,
-                    format!("missing column `{want}` (expected columns: {})", COLUMNS.join(",")),
-                )
-            })?;
+                    format!("missing column `{want}` (required: t_s, T_amb_C, dl1_pm, dl2_pm, dl3_pm; optional: T_C, strain_ue, p_kPa, split)"),
+                ));
+            }
         }
-        let mut d = Dataset::default();
+        let mut d = Dataset { has_target: [col[1].is_some(), col[2].is_some(), col[3].is_some()], ..Dataset::default() };
         for rec in rdr.records() {
             let rec = rec.map_err(|e| {
                 let line = e.position().map(|p| p.line()).unwrap_or(0);
                 TrainerError::data(&name, line, "-", format!("malformed row: {e}"))
             })?;
             let line = rec.position().map(|p| p.line()).unwrap_or(0);
-            let num = |k: usize| -> Result<f64, TrainerError> {
-                let cell = rec.get(col[k]).unwrap_or("");
+            // `blank_ok`: an empty cell is a missing value (NaN) rather than an error.
+            let num = |k: usize, blank_ok: bool| -> Result<f64, TrainerError> {
+                let Some(c) = col[k] else { return Ok(f64::NAN) };
+                let cell = rec.get(c).ok_or_else(|| {
+                    TrainerError::data(&name, line, COLUMNS[k], format!("row has {} cells, column `{}` is number {}", rec.len(), COLUMNS[k], c + 1))
+                })?;
+                if cell.is_empty() {
+                    return if blank_ok {
+                        Ok(f64::NAN)
+                    } else {
+                        Err(TrainerError::data(&name, line, COLUMNS[k], "empty cell"))
+                    };
+                }
                 let v: f64 = cell.parse().map_err(|_| {
                     TrainerError::data(&name, line, COLUMNS[k], format!("`{cell}` is not a number"))
                 })?;
@@ -157,7 +209,7 @@ impl Dataset {
                 }
                 Ok(v)
             };
-            let t = num(0)?;
+            let t = num(0, false)?;
             if let Some(&prev) = d.t_s.last() {
                 if t <= prev {
                     return Err(TrainerError::data(
@@ -169,29 +221,35 @@ impl Dataset {
                 }
             }
             d.t_s.push(t);
-            d.temp_c.push(num(1)?);
-            d.strain_ue.push(num(2)?);
-            d.p_kpa.push(num(3)?);
-            d.t_amb_c.push(num(4)?);
+            d.temp_c.push(num(1, true)?);
+            d.strain_ue.push(num(2, true)?);
+            d.p_kpa.push(num(3, true)?);
+            d.t_amb_c.push(num(4, false)?);
             for g in 0..3 {
-                d.dl_pm[g].push(num(5 + g)?);
+                d.dl_pm[g].push(num(5 + g, true)?);
             }
-            let s = rec.get(col[8]).unwrap_or("");
-            d.split.push(match s {
-                "cal" => Split::Cal,
-                "holdout" => Split::Holdout,
-                other => {
-                    return Err(TrainerError::data(
-                        &name,
-                        line,
-                        "split",
-                        format!("`{other}` is neither `cal` nor `holdout`"),
-                    ))
-                }
-            });
+            let split = match col[8] {
+                None => Split::Cal,
+                Some(c) => match rec.get(c).unwrap_or("") {
+                    "cal" => Split::Cal,
+                    "holdout" => Split::Holdout,
+                    other => {
+                        return Err(TrainerError::data(
+                            &name,
+                            line,
+                            "split",
+                            format!("`{other}` is neither `cal` nor `holdout`"),
+                        ))
+                    }
+                },
+            };
+            d.split.push(split);
         }
         if d.is_empty() {
             return Err(TrainerError::data(&name, 2, "-", "no data rows"));
+        }
+        if !d.has_target.iter().any(|&h| h) {
+            return Err(TrainerError::data(&name, 1, "T_C", "no reference column (T_C, strain_ue or p_kPa): nothing to calibrate against"));
         }
         Ok(d)
     }

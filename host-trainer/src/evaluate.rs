@@ -65,6 +65,10 @@ pub fn directions(d: &Dataset, g: usize, idx: &[usize]) -> Vec<f64> {
 pub fn score(d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> ModelEval {
     let mut channels = [ChannelMetrics::default(); N_OUTPUTS];
     for (c, m) in channels.iter_mut().enumerate() {
+        if !d.has_target[c] {
+            *m = ChannelMetrics { rmse: f64::NAN, mae: f64::NAN, r2: f64::NAN, bias: f64::NAN, max_abs: f64::NAN, coverage: f64::NAN, mean_band: f64::NAN, hysteresis_index: f64::NAN, n: 0 };
+            continue;
+        }
         let truth: Vec<f64> = idx.iter().map(|&i| d.target(c)[i]).collect();
         let err: Vec<f64> = est.iter().zip(&truth).map(|(e, t)| e.values[c] - t).collect();
         let n = err.len() as f64;
@@ -103,9 +107,10 @@ pub fn score(d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> ModelEval {
     ModelEval { channels, flag_counts, flagged_fraction: flagged as f64 / est.len().max(1) as f64 }
 }
 
-/// Evaluate `params` on the hold-out of `d`.
+/// Evaluate `params` on the hold-out of `d` (the samples with finite inputs and references;
+/// gaps are counted in `skipped`).
 pub fn evaluate_holdout(params: &HostParams, d: &Dataset) -> Result<(ModelEval, Vec<Estimate<f64>>), TrainerError> {
-    let idx = d.holdout_indices();
+    let idx: Vec<usize> = d.holdout_indices().into_iter().filter(|&i| d.usable(i)).collect();
     if idx.is_empty() {
         return Err(TrainerError::Dataset { message: "no hold-out samples (split column has no `holdout`)".into() });
     }

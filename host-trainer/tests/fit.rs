@@ -114,3 +114,37 @@ fn paper_preset_model_h_beats_model_p_and_removes_the_hysteresis_bias() {
     assert_ne!(t.selection.chosen.feature_set, FeatureSet::Paper);
     assert!(t.model_h.centres.len() <= 32, "the device holds 32 centres");
 }
+
+/// Real data: a missing reference column is an unfitted output; gaps (empty cells) are skipped
+/// in fitting and flagged when compensating.
+#[test]
+fn missing_reference_and_gaps_are_handled() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = simulate(&short_paper(4.0), 11);
+    let mut d = s.data.clone();
+    d.has_target[2] = false;
+    d.p_kpa.iter_mut().for_each(|v| *v = f64::NAN);
+    for i in (50..d.len()).step_by(97) {
+        d.dl_pm[1][i] = f64::NAN; // a peak the interrogator missed
+    }
+    let csv = dir.path().join("real.csv");
+    d.write_csv(&csv).unwrap();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.starts_with("t_s,T_C,strain_ue,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split\n"), "{}", &text[..80]);
+    let back = fbg_trainer::dataset::Dataset::read_csv(&csv).unwrap();
+    assert_eq!(back.has_target, [true, true, false]);
+    assert!(back.dl_pm[1][50].is_nan());
+
+    let t = train(&back, &small_grid(), &Origin::default()).unwrap();
+    assert_eq!(t.model_h.fitted, [true, true, false]);
+    let (eh, est) = evaluate_holdout(&t.model_h, &back).unwrap();
+    assert!(eh.channels[2].rmse.is_nan() && eh.channels[2].n == 0);
+    assert!(eh.channels[0].rmse.is_finite() && eh.channels[1].rmse < 10.0);
+    assert!(est.iter().all(|e| e.values[2].is_nan()));
+    // A gap sample is flagged NON_FINITE by the compensator and the stream carries on.
+    let mut c = fbg_trainer::fit::HostCompensator::new(&t.model_h).unwrap();
+    let gap = back.sample(50 + 97 * 55);
+    assert!(gap.dl_pm[1].is_nan());
+    assert!(c.step(&gap).flags.contains(fbg_shared::Flags::NON_FINITE));
+    assert!(!c.step(&back.sample(1)).flags.contains(fbg_shared::Flags::NON_FINITE));
+}

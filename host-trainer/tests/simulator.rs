@@ -265,5 +265,5 @@ fn csv_round_trips_and_bad_cells_are_named() {
 
     std::fs::write(&bad, "t_s,T_C\n1,2\n").unwrap();
     let e = fbg_trainer::dataset::Dataset::read_csv(&bad).unwrap_err().to_string();
-    assert!(e.contains("missing column `strain_ue`"), "{e}");
+    assert!(e.contains("missing column `T_amb_C`"), "{e}");
 }

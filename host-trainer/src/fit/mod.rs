@@ -348,13 +348,16 @@ pub fn skeleton(
         sigma_mult: cfg.sigma_mult,
         sigma: cfg.sigma_mult * nn,
         envelope: envelope(d, train),
-        fitted: [true; N_OUTPUTS],
+        fitted: d.has_target,
     }
 }
 
-/// Residual targets R = y − Model-P(x) on `rows` (n × 3), with the Model-P estimates.
+/// Residual targets R = y − Model-P(x) on `rows` (n × 3), with the Model-P estimates (0 for
+/// an output without reference, so that its residual weights stay 0).
 pub fn residual_targets(d: &Dataset, rows: &[usize], p_est: &[Estimate<f64>]) -> DMatrix<f64> {
-    DMatrix::from_fn(rows.len(), N_OUTPUTS, |r, c| d.target(c)[rows[r]] - p_est[r].values[c])
+    DMatrix::from_fn(rows.len(), N_OUTPUTS, |r, c| {
+        if d.has_target[c] { d.target(c)[rows[r]] - p_est[r].values[c] } else { 0.0 }
+    })
 }
 
 /// Weak-support threshold: half the 0.1 % quantile of max ψ over the calibration samples,
@@ -381,10 +384,14 @@ pub struct Trained {
 
 /// Fit Model-P and Model-H on the calibration samples of `d`.
 pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Trained, TrainerError> {
-    let cal = d.cal_indices();
+    // Fit on the calibration rows with finite inputs and every available reference.
+    let cal: Vec<usize> = d.cal_indices().into_iter().filter(|&i| d.usable(i)).collect();
     if cal.len() < 200 {
         return Err(TrainerError::Dataset {
-            message: format!("{} calibration samples; at least 200 are needed", cal.len()),
+            message: format!(
+                "{} usable calibration samples (finite inputs and references); at least 200 are needed",
+                cal.len()
+            ),
         });
     }
     let selection = select::select(d, &cal, opts)?;

@@ -32,6 +32,9 @@ pub fn phi(g: [f64; 3], cross_terms: bool) -> [f64; N_POLY] {
     }
 }
 
+/// The first guesses (0 T, 1 ε, 2 p) each term of φ is built from.
+const TERM_USES: [&[usize]; N_POLY] = [&[], &[0], &[1], &[2], &[0], &[1], &[2], &[0, 1], &[0, 2], &[1, 2]];
+
 fn stage1_row(d: &Dataset, i: usize) -> [f64; N_STAGE1] {
     [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.t_amb_c[i], 1.0]
 }
@@ -40,7 +43,9 @@ fn stage1_row(d: &Dataset, i: usize) -> [f64; N_STAGE1] {
 pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, TrainerError> {
     let n = idx.len();
     let x = DMatrix::from_fn(n, N_STAGE1, |r, c| stage1_row(d, idx[r])[c]);
-    let y = DMatrix::from_fn(n, N_OUTPUTS, |r, c| d.target(c)[idx[r]]);
+    // An output without reference is not fitted: a zero target keeps the algebra square and
+    // gives it zero coefficients.
+    let y = DMatrix::from_fn(n, N_OUTPUTS, |r, c| if d.has_target[c] { d.target(c)[idx[r]] } else { 0.0 });
     let a = lstsq(x.clone(), y.clone(), "Model-P stage 1 (linear inverse)")?;
     let guesses = &x * &a; // n × 3
     let mut stage1 = [[0.0; N_STAGE1]; N_OUTPUTS];
@@ -52,6 +57,11 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
     let mut guess_mean = [0.0; N_OUTPUTS];
     let mut guess_std = [0.0; N_OUTPUTS];
     for o in 0..N_OUTPUTS {
+        if !d.has_target[o] {
+            guess_mean[o] = 0.0;
+            guess_std[o] = 1.0;
+            continue;
+        }
         let col = guesses.column(o);
         let m = col.mean();
         let s = (col.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n as f64).sqrt();
@@ -63,16 +73,20 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
         guess_mean[o] = m;
         guess_std[o] = s;
     }
-    let n_terms = if cross_terms { N_POLY } else { 4 };
-    let phis = DMatrix::from_fn(n, n_terms, |r, c| {
+    // Terms of φ that the data can support: within the ablation's linear set if asked, and
+    // built only from guesses of fitted outputs (an unfitted guess is identically 0).
+    let terms: Vec<usize> = (0..N_POLY)
+        .filter(|&k| (cross_terms || k < 4) && TERM_USES[k].iter().all(|&o| d.has_target[o]))
+        .collect();
+    let phis = DMatrix::from_fn(n, terms.len(), |r, c| {
         let g = std::array::from_fn(|o| (guesses[(r, o)] - guess_mean[o]) / guess_std[o]);
-        phi(g, cross_terms)[c]
+        phi(g, cross_terms)[terms[c]]
     });
     let b = lstsq(phis, y, "Model-P stage 2 (polynomial core)")?;
     let mut poly = [[0.0; N_POLY]; N_OUTPUTS];
     for (o, row) in poly.iter_mut().enumerate() {
-        for (k, v) in row.iter_mut().enumerate().take(n_terms) {
-            *v = b[(k, o)];
+        for (c, &k) in terms.iter().enumerate() {
+            row[k] = b[(c, o)];
         }
     }
     Ok(PolyCore { stage1, guess_mean, guess_std, poly })

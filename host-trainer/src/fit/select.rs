@@ -238,7 +238,7 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             sigma_mult: 1.0,
             sigma: 1.0,
             envelope: super::envelope(d, &f.train),
-            fitted: [true; N_OUTPUTS],
+            fitted: d.has_target,
         };
         let p = sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)?;
         let est = run(&p, d, &f.val)?;
@@ -247,7 +247,7 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             lead_p.push(d.t_s[i] - t_end);
             fold_of_p.push(fi);
             for c in 0..N_OUTPUTS {
-                let sq = (e.values[c] - d.target(c)[i]).powi(2);
+                let sq = if d.has_target[c] { (e.values[c] - d.target(c)[i]).powi(2) } else { 1.0 };
                 sq_p[c] += sq;
                 sqe_p[c].push(sq);
             }
@@ -340,7 +340,7 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         .into_values()
         .map(|(config, sq, n)| {
             let cv_rmse = sq.map(|s| (s / n as f64).sqrt());
-            let score = (0..N_OUTPUTS).map(|c| cv_rmse[c] / cv_rmse_p[c]).sum();
+            let score = (0..N_OUTPUTS).filter(|&c| d.has_target[c]).map(|c| cv_rmse[c] / cv_rmse_p[c]).sum();
             CvRow { config, cv_rmse, score }
         })
         .collect();

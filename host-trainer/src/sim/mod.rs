@@ -110,7 +110,7 @@ pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
     Simulation {
         config: cfg.clone(),
         seed,
-        data: Dataset { t_s, temp_c, strain_ue, p_kpa, t_amb_c, dl_pm, split },
+        data: Dataset { t_s, temp_c, strain_ue, p_kpa, t_amb_c, dl_pm, split, has_target: [true; 3] },
         physics,
         effects: Effects { physics: phys, hysteresis, scan, drift, electronics, noise },
         ambient_true_c,
