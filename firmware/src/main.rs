@@ -41,15 +41,19 @@ fn main() -> ! {
             exit_failure()
         }
     };
+    // Boot (decoding and folding the model) is the deepest the stack goes before serving;
+    // record it, then paint again so that the status reports the serving path on its own.
+    let boot_peak = stack::peak_bytes();
+    stack::repaint();
     defmt::info!(
-        "fbg-firmware up: K = {=usize}, model {=u16} centres, crc {=u32:#010x}, stack after boot {=u32} B",
+        "fbg-firmware up: K = {=usize}, model {=u16} centres, crc {=u32:#010x}, stack peak during boot {=u32} B",
         K,
         info.centres,
         info.crc,
-        stack::peak_bytes()
+        boot_peak
     );
     let mut dev = Device::new(comp, info, STAGING, alarm);
-    dev.set_stack_probe(stack::peak_bytes);
+    dev.set_stack_probe(stack::peak_bytes, boot_peak);
     match dev.serve(&mut uart) {
         Ok(never) => match never {},
         Err(never) => match never {},

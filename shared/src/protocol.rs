@@ -192,8 +192,12 @@ pub struct Status {
     pub model_crc: u32,
     /// The most recent refusal, if any.
     pub last_rejection: Option<Rejection>,
-    /// Deepest stack use since reset in bytes, by stack painting (0 when not measured).
+    /// Deepest stack use while serving (since boot finished) in bytes, by stack painting (0 when
+    /// not measured).
     pub stack_peak_bytes: u32,
+    /// Deepest stack use during boot (loading the embedded model) in bytes (0 when not
+    /// measured).
+    pub stack_boot_bytes: u32,
 }
 
 /// Stable reason codes of a refused model update. The numbers never change meaning; new reasons
@@ -659,6 +663,7 @@ mod tests {
                 model_crc: u32::MAX,
                 last_rejection: Some(rej),
                 stack_peak_bytes: u32::MAX,
+                stack_boot_bytes: u32::MAX,
             }),
             DeviceMsg::UpdateProgress { received: u32::MAX },
             DeviceMsg::UpdateResult(UpdateResult::Accepted {

@@ -172,9 +172,11 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
         }
     }
 
-    /// Report the deepest stack use through `probe` in [`Status::stack_peak_bytes`].
-    pub fn set_stack_probe(&mut self, probe: fn() -> u32) {
+    /// Report the deepest stack use through `probe` in [`Status::stack_peak_bytes`], and the
+    /// peak measured during boot in [`Status::stack_boot_bytes`].
+    pub fn set_stack_probe(&mut self, probe: fn() -> u32, boot_peak: u32) {
         self.core.stack_probe = Some(probe);
+        self.core.status.stack_boot_bytes = boot_peak;
     }
 
     /// The current counters and active model.

@@ -394,7 +394,7 @@ fn a_link_error_ends_serve() {
     let mut mem = Mem::new();
     let (comp, info) = load_into(&mut mem.slot, default_blob()).unwrap();
     let mut dev = Device::new(comp, info, &mut mem.staging, Pin::default());
-    dev.set_stack_probe(|| 1234);
+    dev.set_stack_probe(|| 1234, 4321);
     let mut script = Script { input: ping.iter().copied().chain(ping.iter().copied()).collect(), out: Vec::new() };
     assert!(dev.serve(&mut script).is_err());
     let mut r = FrameReader::<DEVICE_MAX_FRAME>::new();
@@ -409,5 +409,6 @@ fn a_link_error_ends_serve() {
     }
     assert_eq!(pongs, 2);
     assert_eq!(dev.status().stack_peak_bytes, 1234);
+    assert_eq!(dev.status().stack_boot_bytes, 4321);
     let _: Option<LinkError> = None;
 }
