@@ -9,7 +9,7 @@ use core::mem::MaybeUninit;
 
 use cortex_m_rt::entry;
 use fbg_firmware::led::FpgaioLed;
-use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
+use fbg_firmware::uart::{CmsdkUart, Uart0Rx, MPS2_PCLK_HZ, UART0_BASE};
 use fbg_firmware::{exit_failure, stack, DEFAULT_MODEL, K, STAGING_LEN};
 use fbg_firmware_app::{load_into, Device};
 use fbg_shared::Compensator;
@@ -27,6 +27,8 @@ fn main() -> ! {
     // SAFETY: UART0 and LED0 of the MPS2 board, each driven only from here.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     uart.init(MPS2_PCLK_HZ, BAUD);
+    // Sleep between received bytes instead of spinning.
+    uart.enable_rx_wakeup(Uart0Rx);
     let alarm = unsafe { FpgaioLed::new(0) };
 
     let (comp, info) = match load_into(MODEL, DEFAULT_MODEL) {

@@ -38,11 +38,37 @@ const STATE_TX_OVERRUN: u32 = 1 << 2;
 const STATE_RX_OVERRUN: u32 = 1 << 3;
 const CTRL_TX_EN: u32 = 1 << 0;
 const CTRL_RX_EN: u32 = 1 << 1;
+const CTRL_RX_INT_EN: u32 = 1 << 3;
+const INT_RX: u32 = 1 << 1;
+
+/// NVIC line of the UART0 receive interrupt on the MPS2 AN385/AN386 (QEMU `mps2-an386`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Uart0Rx;
+
+// SAFETY: 0 is a valid external interrupt number of this board (UART0 RX).
+unsafe impl cortex_m::interrupt::InterruptNumber for Uart0Rx {
+    fn number(self) -> u16 {
+        0
+    }
+}
 
 /// One CMSDK APB UART.
 pub struct CmsdkUart {
     base: usize,
     rx_overruns: u32,
+    /// Sleep with `wfi` while waiting for a byte (see [`CmsdkUart::enable_rx_wakeup`]).
+    rx_wakeup: Option<u16>,
+}
+
+/// The NVIC line number as the `InterruptNumber` trait wants it.
+#[derive(Clone, Copy)]
+struct Line(u16);
+
+// SAFETY: only built from the number of an `InterruptNumber` the caller vouched for.
+unsafe impl cortex_m::interrupt::InterruptNumber for Line {
+    fn number(self) -> u16 {
+        self.0
+    }
 }
 
 impl CmsdkUart {
@@ -51,11 +77,11 @@ impl CmsdkUart {
     /// # Safety
     /// `base` must be the address of a CMSDK APB UART and this must be its only driver.
     pub const unsafe fn new(base: usize) -> Self {
-        CmsdkUart { base, rx_overruns: 0 }
+        CmsdkUart { base, rx_overruns: 0, rx_wakeup: None }
     }
 
     /// Set the baud rate from the APB clock and enable transmitter and receiver, interrupts
-    /// off (the firmware polls).
+    /// off (see [`CmsdkUart::enable_rx_wakeup`] to sleep while waiting).
     pub fn init(&mut self, pclk_hz: u32, baud: u32) {
         let div = pclk_hz.checked_div(baud).unwrap_or(16).clamp(16, 0x000F_FFFF);
         self.write_reg(CTRL, 0);
@@ -63,6 +89,38 @@ impl CmsdkUart {
         self.write_reg(STATE, STATE_TX_OVERRUN | STATE_RX_OVERRUN);
         self.write_reg(INTSTATUS, 0xF);
         self.write_reg(CTRL, CTRL_TX_EN | CTRL_RX_EN);
+    }
+
+    /// Sleep (`wfi`) instead of spinning while a read waits for data: the UART's receive
+    /// interrupt is enabled and unmasked in the NVIC as a wake-up event only, and PRIMASK is set
+    /// so that no handler runs (a pending interrupt wakes `wfi` even when masked by PRIMASK,
+    /// ARMv7-M). `irq` is this UART's receive interrupt line. Call once, before serving.
+    pub fn enable_rx_wakeup<I: cortex_m::interrupt::InterruptNumber>(&mut self, irq: I) {
+        cortex_m::interrupt::disable();
+        let line = irq.number();
+        self.write_reg(INTSTATUS, INT_RX);
+        cortex_m::peripheral::NVIC::unpend(Line(line));
+        self.write_reg(CTRL, self.read_reg(CTRL) | CTRL_RX_INT_EN);
+        // SAFETY: PRIMASK is set above, so unmasking cannot run a handler; the line only wakes
+        // `wfi`.
+        unsafe { cortex_m::peripheral::NVIC::unmask(Line(line)) };
+        self.rx_wakeup = Some(line);
+    }
+
+    /// Wait for the next event: sleep when wake-ups are enabled, spin otherwise.
+    fn idle(&mut self) {
+        match self.rx_wakeup {
+            Some(line) => {
+                // Clear the previous wake-up, then sleep only if nothing arrived meanwhile (a
+                // byte arriving after this check pends the interrupt, and `wfi` returns at once).
+                self.write_reg(INTSTATUS, INT_RX);
+                cortex_m::peripheral::NVIC::unpend(Line(line));
+                if self.read_reg(STATE) & STATE_RX_FULL == 0 {
+                    cortex_m::asm::wfi();
+                }
+            }
+            None => core::hint::spin_loop(),
+        }
     }
 
     /// The baud divider in use.
@@ -125,7 +183,7 @@ impl Read for CmsdkUart {
                 match self.try_read_byte() {
                     Some(b) => break Some(b),
                     None if n > 0 => break None,
-                    None => core::hint::spin_loop(),
+                    None => self.idle(),
                 }
             };
             match byte {
