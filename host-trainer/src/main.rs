@@ -104,6 +104,24 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Field recalibration: refit the core's offset/gain and the residual weights (centres
+    /// kept) of an existing model on a short batch (the calibration rows of DATA, or its first
+    /// --batch-hours) and report hold-out RMSE before and after.
+    Recalibrate {
+        /// The model to recalibrate (its Model-P baseline `<stem>-p.fbgm` is recalibrated too
+        /// when present).
+        #[arg(long)]
+        model: PathBuf,
+        #[arg(long)]
+        data: PathBuf,
+        /// Use only the first H hours of the calibration rows as the batch.
+        #[arg(long)]
+        batch_hours: Option<f64>,
+        #[arg(long, default_value = "recalibrated.fbgm")]
+        out: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
     /// Print a blob's header, dimensions, hyper-parameters and provenance.
     Inspect {
         model: PathBuf,
@@ -217,7 +235,7 @@ fn run() -> Result<()> {
                 bail!("{}: Model-P baseline not found (train writes it beside the model; or pass --baseline)", base.display());
             }
             let p = export::read_blob(&base)?;
-            let studies = if quick { Studies::NONE } else { Studies { parity: true, ..Studies::ALL } };
+            let studies = if quick { Studies::NONE } else { Studies { recalibration: false, ..Studies::ALL } };
             let log = |s: &str| {
                 if !json {
                     eprintln!("{s}");
@@ -234,6 +252,7 @@ fn run() -> Result<()> {
             }
             Ok(())
         }
+        Cmd::Recalibrate { model, data, batch_hours, out, json } => recalibrate_cmd(&model, &data, batch_hours, &out, json),
         Cmd::Inspect { model, json } => inspect(&model, json),
         Cmd::Golden { data, model, samples, out } => {
             let d = Dataset::read_csv(&data)?;
@@ -304,6 +323,68 @@ fn print_tables(m: &Metrics) {
             p.flag_mismatches, p.leverage_band_gap
         );
     }
+}
+
+fn recalibrate_cmd(model: &Path, data: &Path, batch_hours: Option<f64>, out: &Path, json: bool) -> Result<()> {
+    use fbg_trainer::evaluate::evaluate_holdout;
+    use fbg_trainer::recalibrate::{first_hours, recalibrate};
+    let d = Dataset::read_csv(data)?;
+    let old = export::read_blob(model)?;
+    let batch = match batch_hours {
+        Some(h) if h > 0.0 => first_hours(&d, h),
+        Some(h) => bail!("--batch-hours must be positive (got {h})"),
+        None => d.cal_indices(),
+    };
+    let (new, what) = recalibrate(&old, &d, &batch)?;
+    let has_holdout = !d.holdout_indices().is_empty();
+    let (before, after) = if has_holdout {
+        (Some(evaluate_holdout(&old, &d)?.0), Some(evaluate_holdout(&new, &d)?.0))
+    } else {
+        (None, None)
+    };
+    let n = export::write_blob(out, &new)?;
+    let base = baseline_path(model);
+    let new_base = if base.exists() {
+        let (p, _) = recalibrate(&export::read_blob(&base)?, &d, &batch)?;
+        let path = baseline_path(out);
+        export::write_blob(&path, &p)?;
+        Some(path)
+    } else {
+        None
+    };
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "model": out, "baseline": new_base, "bytes": n, "recalibration": what,
+                "holdout_before": before, "holdout_after": after,
+            }))?
+        );
+        return Ok(());
+    }
+    eprintln!(
+        "recalibrated {} on {} batch samples: core updates {:?} (offset, gain) {:?}; residual weights {}",
+        model.display(),
+        what.n_batch,
+        what.core_update,
+        what.offset_gain,
+        if what.w_updated { "updated" } else { "kept (the batch did not support a change)" }
+    );
+    if let (Some(b), Some(a)) = (before, after) {
+        for c in 0..3 {
+            eprintln!(
+                "  {:>6} [{}]: hold-out RMSE {:.4} -> {:.4}",
+                fbg_trainer::evaluate::CHANNELS[c],
+                fbg_trainer::evaluate::UNITS[c],
+                b.channels[c].rmse,
+                a.channels[c].rmse
+            );
+        }
+    } else {
+        eprintln!("  (no hold-out rows in {}: nothing to compare before/after)", data.display());
+    }
+    eprintln!("wrote {} ({n} B){}", out.display(), new_base.map(|p| format!(" and {}", p.display())).unwrap_or_default());
+    Ok(())
 }
 
 fn inspect(path: &Path, json: bool) -> Result<()> {

@@ -86,6 +86,8 @@ pub struct Metrics {
     pub ablation: Option<Vec<AblationRow>>,
     pub error_budget: Option<Vec<BudgetRow>>,
     pub parity: Option<crate::parity::ParityReport>,
+    /// Field recalibration after the installation changes (short batches vs a full refit).
+    pub recalibration: Option<Vec<crate::recalibrate::RecalStudy>>,
     /// Wall time of each stage [s] (informational; speed is measured by `cargo xtask bench`).
     pub timings_s: Vec<(String, f64)>,
 }
@@ -266,12 +268,20 @@ pub struct Studies {
     pub ablation: bool,
     pub error_budget: bool,
     pub parity: bool,
+    pub recalibration: bool,
 }
 
 impl Studies {
-    pub const ALL: Studies = Studies { drift_sweep: true, ablation: true, error_budget: true, parity: true };
-    pub const NONE: Studies = Studies { drift_sweep: false, ablation: false, error_budget: false, parity: false };
+    pub const ALL: Studies =
+        Studies { drift_sweep: true, ablation: true, error_budget: true, parity: true, recalibration: true };
+    pub const NONE: Studies =
+        Studies { drift_sweep: false, ablation: false, error_budget: false, parity: false, recalibration: false };
 }
+
+/// Batch lengths of the recalibration study [h].
+pub const RECAL_BATCH_HOURS: [f64; 2] = [2.0, 24.0];
+/// The changed installation of the recalibration study uses this seed offset.
+pub const RECAL_SEED_OFFSET: u64 = 1;
 
 /// Train on a simulation and measure everything.
 pub fn run_all(sim: &Simulation, opts: &TrainOptions, studies: Studies, log: &dyn Fn(&str)) -> Result<(Trained, Metrics), TrainerError> {
@@ -319,6 +329,20 @@ pub fn run_all(sim: &Simulation, opts: &TrainOptions, studies: Studies, log: &dy
     } else {
         None
     };
+    let recal = if studies.recalibration {
+        let t = Instant::now();
+        let seed_new = sim.seed.wrapping_add(RECAL_SEED_OFFSET);
+        let r: Result<Vec<_>, TrainerError> = fit::par_map(&RECAL_BATCH_HOURS, |&h| {
+            crate::recalibrate::study(&sim.config, &trained.model_h, &trained.model_p, sim.seed, seed_new, h, &chosen)
+        })
+        .into_iter()
+        .collect();
+        timings.push(("recalibration".to_string(), t.elapsed().as_secs_f64()));
+        log(&format!("recalibration study in {:.1} s", t.elapsed().as_secs_f64()));
+        Some(r?)
+    } else {
+        None
+    };
     let d = &sim.data;
     let m = Metrics {
         trainer_version: env!("CARGO_PKG_VERSION").to_string(),
@@ -335,6 +359,7 @@ pub fn run_all(sim: &Simulation, opts: &TrainOptions, studies: Studies, log: &dy
         ablation: abl,
         error_budget: budget,
         parity,
+        recalibration: recal,
         timings_s: timings,
     };
     Ok((trained, m))
@@ -351,6 +376,9 @@ pub fn all_tables(m: &Metrics) -> Vec<(&'static str, crate::tables::Table)> {
     }
     if let Some(d) = &m.drift_sweep {
         v.push(("drift_sweep", crate::tables::drift(d, m)));
+    }
+    if let Some(r) = &m.recalibration {
+        v.push(("recalibration", crate::tables::recalibration(r, m)));
     }
     v
 }
@@ -452,6 +480,7 @@ pub fn evaluate_models(
         ablation: abl,
         error_budget: budget,
         parity,
+        recalibration: None,
         timings_s: timings,
     })
 }

@@ -173,3 +173,39 @@ pub fn drift(s: &DriftSweep, m: &Metrics) -> Table {
         rows,
     }
 }
+
+/// Field recalibration study: the old model, a short-batch recalibration and a full refit on a
+/// changed installation.
+pub fn recalibration(rs: &[crate::recalibrate::RecalStudy], m: &Metrics) -> Table {
+    let mut rows = Vec::new();
+    for r in rs {
+        for (name, h, p) in [
+            ("old model, no recalibration", r.h_old, r.p_old),
+            ("short-batch recalibration", r.h_short, r.p_short),
+            ("full recalibration", r.h_full, r.p_full),
+        ] {
+            let mut cells = vec![format!("{} h ({} samples)", r.batch_hours, r.batch_samples), name.to_string()];
+            for c in 0..3 {
+                cells.push(f(p[c], DIGITS[c]));
+                cells.push(f(h[c], DIGITS[c]));
+            }
+            rows.push(cells);
+        }
+        let mut cells = vec![String::new(), "gain recovered by the batch (Model-H) %".to_string()];
+        for c in 0..3 {
+            cells.push(String::new());
+            cells.push(f(100.0 * r.recovered_fraction_h[c], 0));
+        }
+        rows.push(cells);
+    }
+    Table {
+        title: format!(
+            "Field recalibration: hold-out RMSE on a changed installation (new dispersion, drift and environment; {}, seed {} → {})",
+            m.scenario,
+            m.seed,
+            rs.first().map(|r| r.seed_new).unwrap_or(0)
+        ),
+        header: ["batch", "model state", "T P", "T H", "ε P", "ε H", "p P", "p H"].map(String::from).to_vec(),
+        rows,
+    }
+}

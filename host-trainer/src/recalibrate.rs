@@ -1,0 +1,241 @@
+//! Field recalibration (the paper's future-scope items (i) and (iv); issue 8): refit only what
+//! a short batch can support — per output the offset and gain of the polynomial core, and the
+//! residual weights W on the kept centres — and measure how much of a full recalibration's
+//! gain that recovers when the installation changes.
+
+use nalgebra::DMatrix;
+
+use fbg_shared::layout::N_OUTPUTS;
+
+use crate::dataset::{Dataset, Split};
+use crate::error::TrainerError;
+use crate::evaluate::{evaluate_holdout, ModelEval};
+use crate::fit::{self, design_matrix, linalg, residual_targets, run, HostParams, Origin, TrainOptions};
+use crate::scenario::ScenarioConfig;
+use crate::sim::simulate;
+
+/// Prior standard deviation of a core gain change (gauge-factor dispersion is ~3 %).
+pub const GAIN_PRIOR_SIGMA: f64 = 0.05;
+/// Weight of the old residual weights in samples per centre.
+pub const PRIOR_SAMPLES_PER_CENTRE: f64 = 20.0;
+
+/// What a recalibration changed.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Recalibration {
+    /// Batch samples used.
+    pub n_batch: usize,
+    /// Per output: offset a and gain b applied to the polynomial core, y ≈ a + b·core(x).
+    pub offset_gain: [(f64, f64); N_OUTPUTS],
+    /// What was refitted per output.
+    pub core_update: [CoreUpdate; N_OUTPUTS],
+    /// Whether the residual weights were updated.
+    pub w_updated: bool,
+    /// In-sample RMS residual on the batch after the refit.
+    pub batch_rmse: [f64; N_OUTPUTS],
+}
+
+/// Which refits a recalibration applied to an output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum CoreUpdate {
+    /// The batch gave no evidence of a change: the old core is kept.
+    Keep,
+    /// Offset only.
+    Offset,
+    /// Offset and gain.
+    OffsetGain,
+}
+
+/// Refit offset/gain of the core and W of `old` on the batch rows `batch` of `d`.
+///
+/// A short batch can hurt as easily as help (two hours barely move the temperature, and
+/// errors are correlated over hours), so each refit must earn its place: the candidates are
+/// fitted on the first 70 % of the batch and compared on the last 30 % — per output: keep,
+/// offset, offset + gain; then W towards the old weights or not — and the winners are refitted
+/// on the whole batch. Model-P (no centres) gets the core refit only.
+pub fn recalibrate(old: &HostParams, d: &Dataset, batch: &[usize]) -> Result<(HostParams, Recalibration), TrainerError> {
+    let batch: Vec<usize> = batch.iter().copied().filter(|&i| d.usable(i)).collect();
+    if batch.len() < 20 {
+        return Err(TrainerError::Dataset {
+            message: format!("{} usable batch samples; a recalibration needs at least 20", batch.len()),
+        });
+    }
+    let cut = batch.len() * 7 / 10;
+    let (fit_part, val_part) = batch.split_at(cut);
+    let mse = |p: &HostParams, rows: &[usize], c: usize| -> Result<f64, TrainerError> {
+        let e = run(p, d, rows)?;
+        Ok(rows.iter().zip(&e).map(|(&i, e)| (e.values[c] - d.target(c)[i]).powi(2)).sum::<f64>() / rows.len() as f64)
+    };
+    // Choose the core update per output on the validation part.
+    let mut choice = [CoreUpdate::Keep; N_OUTPUTS];
+    for c in 0..N_OUTPUTS {
+        if !old.fitted[c] || !d.has_target[c] {
+            continue;
+        }
+        let mut best = (mse(old, val_part, c)?, CoreUpdate::Keep);
+        for cand in [CoreUpdate::Offset, CoreUpdate::OffsetGain] {
+            let mut p = old.clone();
+            apply_core(&mut p, d, fit_part, c, cand)?;
+            let m = mse(&p, val_part, c)?;
+            if m < best.0 {
+                best = (m, cand);
+            }
+        }
+        choice[c] = best.1;
+    }
+    let mut new = old.clone();
+    let mut offset_gain = [(0.0, 1.0); N_OUTPUTS];
+    for c in 0..N_OUTPUTS {
+        offset_gain[c] = apply_core(&mut new, d, &batch, c, choice[c])?;
+    }
+    // W towards the old weights, if it validates better than the core update alone.
+    let k = old.centres.len();
+    let mut w_updated = false;
+    if k > 0 {
+        let mut trial = new.clone();
+        update_w(&mut trial, old, d, fit_part)?;
+        let better = (0..N_OUTPUTS)
+            .filter(|&c| old.fitted[c] && d.has_target[c])
+            .map(|c| Ok(mse(&trial, val_part, c)? / mse(&new, val_part, c)?.max(f64::MIN_POSITIVE)))
+            .collect::<Result<Vec<f64>, TrainerError>>()?;
+        if !better.is_empty() && better.iter().sum::<f64>() < better.len() as f64 {
+            update_w(&mut new, old, d, &batch)?;
+            w_updated = true;
+        }
+    }
+    // Band: never narrower than before; widened if the batch residual says so (with a
+    // degrees-of-freedom correction for the refitted numbers).
+    let after = run(&new, d, &batch)?;
+    let p_eff = (2 + if w_updated { k } else { 0 }) as f64;
+    let n = batch.len() as f64;
+    let mut batch_rmse = [f64::NAN; N_OUTPUTS];
+    for c in 0..N_OUTPUTS {
+        if !old.fitted[c] || !d.has_target[c] {
+            continue;
+        }
+        let m = batch.iter().zip(&after).map(|(&i, e)| (e.values[c] - d.target(c)[i]).powi(2)).sum::<f64>() / n;
+        batch_rmse[c] = m.sqrt();
+        let corrected = if n > p_eff + 1.0 { m * n / (n - p_eff) } else { m * 2.0 };
+        new.resid_var[c] = new.resid_var[c].max(corrected);
+    }
+    new.t_cal_end_s = batch.last().map(|&i| d.t_s[i]).unwrap_or(new.t_cal_end_s);
+    new.provenance.n_cal = batch.len() as u32;
+    new.provenance.date_yyyymmdd = fit::today_yyyymmdd();
+    new.validate().map_err(|e| TrainerError::fit(format!("recalibrated model is invalid: {e}")))?;
+    Ok((new, Recalibration { n_batch: batch.len(), offset_gain, core_update: choice, w_updated, batch_rmse }))
+}
+
+/// Refit output `c`'s core offset (and gain) on `rows` and fold it into `p.poly[c]`.
+fn apply_core(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize, how: CoreUpdate) -> Result<(f64, f64), TrainerError> {
+    if how == CoreUpdate::Keep {
+        return Ok((0.0, 1.0));
+    }
+    let mut core = p.clone();
+    core.centres.clear();
+    let est = run(&core, d, rows)?;
+    let full = run(p, d, rows)?;
+    let n = rows.len() as f64;
+    // Regress the error of the full model on the core estimate: y − ŷ ≈ a + (b − 1)·core.
+    let xs: Vec<f64> = est.iter().map(|e| e.values[c]).collect();
+    let es: Vec<f64> = rows.iter().zip(&full).map(|(&i, e)| d.target(c)[i] - e.values[c]).collect();
+    let (mx, me) = (xs.iter().sum::<f64>() / n, es.iter().sum::<f64>() / n);
+    let db = if how == CoreUpdate::OffsetGain {
+        // Gain shrunk towards 1 (prior σ: gauge dispersion is a few %).
+        let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
+        let sxe: f64 = xs.iter().zip(&es).map(|(x, e)| (x - mx) * (e - me)).sum();
+        let s2 = p.resid_var[c].max(f64::MIN_POSITIVE);
+        sxe / (sxx + s2 / (GAIN_PRIOR_SIGMA * GAIN_PRIOR_SIGMA))
+    } else {
+        0.0
+    };
+    let (a, b) = (me - db * mx, 1.0 + db);
+    for v in p.poly[c].iter_mut() {
+        *v *= b;
+    }
+    p.poly[c][0] += a;
+    Ok((a, b))
+}
+
+/// Ridge W towards the old weights on `rows`: W = W_old + (ΨᵀΨ + α'I)⁻¹Ψᵀ(R − ΨW_old), with
+/// α' making the old calibration count like `PRIOR_SAMPLES_PER_CENTRE` samples per centre.
+fn update_w(p: &mut HostParams, old: &HostParams, d: &Dataset, rows: &[usize]) -> Result<(), TrainerError> {
+    let k = p.centres.len();
+    let mut zero_w = p.clone();
+    for ce in zero_w.centres.iter_mut() {
+        ce.w = [0.0; N_OUTPUTS];
+    }
+    let (psi, est) = design_matrix(&zero_w, d, rows)?;
+    let r = residual_targets(d, rows, &est);
+    let w_old = DMatrix::from_fn(k, N_OUTPUTS, |j, o| old.centres[j].w[o]);
+    let sys = linalg::RidgeSystem::new(&psi, &(&r - &psi * &w_old));
+    let mean_diag = (0..k).map(|j| psi.column(j).norm_squared()).sum::<f64>() / k as f64;
+    let alpha_prior = PRIOR_SAMPLES_PER_CENTRE * mean_diag / rows.len() as f64 * k as f64;
+    let w = &w_old + sys.weights(alpha_prior);
+    for (j, ce) in p.centres.iter_mut().enumerate() {
+        ce.w = std::array::from_fn(|o| if old.fitted[o] { w[(j, o)] } else { 0.0 });
+    }
+    Ok(())
+}
+
+/// The first `hours` of calibration samples of `d`.
+pub fn first_hours(d: &Dataset, hours: f64) -> Vec<usize> {
+    let cal = d.cal_indices();
+    let t0 = cal.first().map(|&i| d.t_s[i]).unwrap_or(0.0);
+    cal.into_iter().filter(|&i| d.t_s[i] - t0 < hours * 3600.0).collect()
+}
+
+/// How much of a full recalibration's gain a short batch recovers when the installation changes.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RecalStudy {
+    pub batch_hours: f64,
+    pub batch_samples: usize,
+    /// Seed of the original installation and of the changed one (new gratings' dispersion, new
+    /// drift, new environment).
+    pub seed_old: u64,
+    pub seed_new: u64,
+    /// Hold-out RMSE on the new installation (T, ε, p) of: the old model as is, the old model
+    /// recalibrated on the short batch, and a full recalibration (same hyper-parameters, the new
+    /// installation's whole calibration batch). Model-H and Model-P.
+    pub h_old: [f64; N_OUTPUTS],
+    pub h_short: [f64; N_OUTPUTS],
+    pub h_full: [f64; N_OUTPUTS],
+    pub p_old: [f64; N_OUTPUTS],
+    pub p_short: [f64; N_OUTPUTS],
+    pub p_full: [f64; N_OUTPUTS],
+    /// (old − short) / (old − full) for Model-H, per output.
+    pub recovered_fraction_h: [f64; N_OUTPUTS],
+}
+
+/// Train on `seed_old`, move to `seed_new`, recalibrate with the first `hours` and compare.
+pub fn study(cfg: &ScenarioConfig, old_h: &HostParams, old_p: &HostParams, seed_old: u64, seed_new: u64, hours: f64, chosen: &fit::Config) -> Result<RecalStudy, TrainerError> {
+    let new_site = simulate(cfg, seed_new);
+    let d = &new_site.data;
+    let batch = first_hours(d, hours);
+    let rmse = |e: &ModelEval| e.channels.map(|c| c.rmse);
+    let (h_short_p, _) = recalibrate(old_h, d, &batch)?;
+    let (p_short_p, _) = recalibrate(old_p, d, &batch)?;
+    let full = fit::train(d, &TrainOptions::fixed(chosen), &Origin { scenario: cfg.name.clone(), seed: seed_new })?;
+    let h_old = rmse(&evaluate_holdout(old_h, d)?.0);
+    let h_short = rmse(&evaluate_holdout(&h_short_p, d)?.0);
+    let h_full = rmse(&evaluate_holdout(&full.model_h, d)?.0);
+    let p_old = rmse(&evaluate_holdout(old_p, d)?.0);
+    let p_short = rmse(&evaluate_holdout(&p_short_p, d)?.0);
+    let p_full = rmse(&evaluate_holdout(&full.model_p, d)?.0);
+    Ok(RecalStudy {
+        batch_hours: hours,
+        batch_samples: batch.len(),
+        seed_old,
+        seed_new,
+        h_old,
+        h_short,
+        h_full,
+        p_old,
+        p_short,
+        p_full,
+        recovered_fraction_h: std::array::from_fn(|c| (h_old[c] - h_short[c]) / (h_old[c] - h_full[c])),
+    })
+}
+
+/// Split helper for the CLI: the batch is the calibration part, the rest is the hold-out.
+pub fn is_holdout(d: &Dataset, i: usize) -> bool {
+    d.split[i] == Split::Holdout
+}
