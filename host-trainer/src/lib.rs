@@ -4,6 +4,7 @@
 pub mod dataset;
 pub mod fit;
 pub mod error;
+pub mod import;
 pub mod evaluate;
 pub mod meta;
 pub mod metrics;

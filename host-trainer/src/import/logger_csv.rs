@@ -1,0 +1,288 @@
+//! A logger CSV read through the map's column mapping: the data file of `--format csv`, or the
+//! `--refs` file of `--format enlight`.
+
+use std::path::Path;
+
+use super::mapping::{check_ambient, check_wavelength, looks_absolute_nm, CsvGrating, Map, RefMap, WlUnit};
+use super::problems::{OnError, Problems, Reason, RowError};
+use super::time_axis::{parse_timestamp, TimeKind, TimeParser};
+use super::{number, read_text};
+use crate::error::TrainerError;
+
+/// Time column names tried when the map names none (case-insensitive).
+const TIME_NAMES: [&str; 5] = ["t_s", "time", "timestamp", "datetime", "date_time"];
+/// Delimiters tried on the header line when the map names none.
+const DELIMITERS: [u8; 4] = [b',', b'\t', b';', b'|'];
+/// Default reference columns: the dataset's own names.
+const REF_DEFAULTS: [(&str, &str); 3] = [("temperature", "T_C"), ("strain", "strain_ue"), ("pressure", "p_kPa")];
+
+/// One value column as read: header name, map key and values (NaN where missing).
+#[derive(Clone, Debug)]
+pub(crate) struct Column {
+    pub name: String,
+    pub values: Vec<f64>,
+}
+
+/// What a logger CSV gave.
+pub(crate) struct LoggerTable {
+    /// Physical line of each accepted row.
+    pub lines: Vec<u64>,
+    /// Time on the file's axis [s].
+    pub t: Vec<f64>,
+    pub time_column: String,
+    pub time_kind: TimeKind,
+    /// Calendar time (timestamps, or seconds with `time.start`).
+    pub absolute: bool,
+    pub ambient: Column,
+    /// T, ε, p references where the file has them.
+    pub refs: [Option<Column>; 3],
+    /// Wavelengths per requested grating: absolute nm, or shift pm for shift units.
+    pub gratings: Vec<Column>,
+    pub header_line: u64,
+    pub problems: Problems,
+}
+
+/// Read `path` with `map`'s columns; `gratings` are the wavelength columns wanted (none for a
+/// refs file).
+pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnError) -> Result<LoggerTable, TrainerError> {
+    let name = path.display().to_string();
+    let text = read_text(path)?;
+    let map_delim = match &map.delimiter {
+        Some(d) => Some(super::mapping::delimiter(d).map_err(|m| TrainerError::data(&name, 1, "-", m))?),
+        None => None,
+    };
+    let time_names: Vec<String> = match &map.time.column {
+        Some(c) => vec![c.clone()],
+        None => TIME_NAMES.iter().map(|s| s.to_string()).collect(),
+    };
+
+    // The header line and the delimiter.
+    let lines: Vec<&str> = text.split('\n').collect();
+    let (header_idx, delim) = match map.header_lines {
+        Some(n) => {
+            let Some(l) = lines.get(n) else {
+                return Err(TrainerError::data(&name, n as u64 + 1, "-", format!("the file has {} lines, so there is no header after header_lines = {n}", lines.len())));
+            };
+            (n, map_delim.unwrap_or_else(|| most_frequent_delimiter(l)))
+        }
+        None => find_header(&lines, &time_names, map_delim).ok_or_else(|| {
+            let what = match &map.time.column {
+                Some(c) => format!("`{c}` (map key time.column)"),
+                None => format!("any of {} (or name it with the map key time.column)", TIME_NAMES.join(", ")),
+            };
+            TrainerError::data(&name, 1, &time_names[0], format!("no header line has a cell naming the time column {what}"))
+        })?,
+    };
+    let header_line = header_idx as u64 + 1;
+    let offset: usize = lines[..header_idx].iter().map(|l| l.len() + 1).sum();
+    let body = &text[offset.min(text.len())..];
+
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .delimiter(delim)
+        .from_reader(body.as_bytes());
+    let mut records = rdr.records();
+    let header = match records.next() {
+        Some(Ok(h)) => h,
+        Some(Err(e)) => return Err(TrainerError::data(&name, header_line, "-", format!("cannot read the header: {e}"))),
+        None => return Err(TrainerError::data(&name, header_line, "-", "no header row")),
+    };
+    let cols: Vec<String> = header.iter().map(|s| s.to_string()).collect();
+    let find = |want: &str| cols.iter().position(|h| h == want).or_else(|| cols.iter().position(|h| h.eq_ignore_ascii_case(want)));
+    let missing = |want: &str, key: &str| {
+        TrainerError::data(&name, header_line, want, format!("no column `{want}` in the header (map key `{key}`); the header has: {}", cols.join(", ")))
+    };
+
+    let time_idx = time_names.iter().find_map(|n| find(n)).ok_or_else(|| missing(&time_names[0], "time.column"))?;
+    let default_ambient = RefMap { column: "T_amb_C".into(), gain: 1.0, offset: 0.0 };
+    let amb_map = map.ambient.as_ref().unwrap_or(&default_ambient);
+    let amb_idx = find(&amb_map.column).ok_or_else(|| missing(&amb_map.column, "ambient.column"))?;
+    let mut ref_cols: [Option<(usize, RefMap)>; 3] = [None, None, None];
+    for (c, r) in [&map.temperature, &map.strain, &map.pressure].into_iter().enumerate() {
+        ref_cols[c] = match r {
+            Some(r) => Some((find(&r.column).ok_or_else(|| missing(&r.column, &format!("{}.column", REF_DEFAULTS[c].0)))?, r.clone())),
+            None => find(REF_DEFAULTS[c].1).map(|i| (i, RefMap { column: REF_DEFAULTS[c].1.into(), gain: 1.0, offset: 0.0 })),
+        };
+    }
+    let mut g_idx = Vec::with_capacity(gratings.len());
+    for (i, g) in gratings.iter().enumerate() {
+        let key = if map.grating.is_empty() { format!("grating[{}].column (default `{}`)", i + 1, g.column) } else { format!("grating[{}].column", i + 1) };
+        g_idx.push(find(&g.column).ok_or_else(|| missing(&g.column, &key))?);
+    }
+
+    let start = map.time.start.as_deref().and_then(|s| parse_timestamp(s, None));
+    let mut clock = TimeParser::new(map.time.unit, map.time.format.clone(), start);
+    let check = map.check_units();
+    let mut problems = Problems::new(&name, policy);
+    let mut out = LoggerTable {
+        lines: Vec::new(),
+        t: Vec::new(),
+        time_column: cols[time_idx].clone(),
+        time_kind: TimeKind::Seconds,
+        absolute: false,
+        ambient: Column { name: cols[amb_idx].clone(), values: Vec::new() },
+        refs: std::array::from_fn(|c| ref_cols[c].as_ref().map(|(i, _)| Column { name: cols[*i].clone(), values: Vec::new() })),
+        gratings: g_idx.iter().map(|&i| Column { name: cols[i].clone(), values: Vec::new() }).collect(),
+        header_line,
+        problems: Problems::new(&name, policy),
+    };
+
+    for rec in records {
+        let rec = match rec {
+            Ok(r) => r,
+            Err(e) => {
+                let line = header_line + e.position().map_or(1, |p| p.line()) - 1;
+                problems.rows_read += 1;
+                problems.reject(RowError::new(Reason::RaggedRow, line, "-", format!("malformed row: {e}")))?;
+                continue;
+            }
+        };
+        if rec.len() == 1 && rec[0].is_empty() {
+            continue;
+        }
+        let line = header_line + rec.position().map_or(1, |p| p.line()) - 1;
+        problems.rows_read += 1;
+        let row = parse_row(&rec, line, &cols, time_idx, &mut clock, (amb_idx, amb_map), &ref_cols, gratings, &g_idx, check);
+        let row = row.and_then(|r| {
+            if let (Some(&prev), Some(&prev_line)) = (out.t.last(), out.lines.last()) {
+                if r.t < prev {
+                    return Err(RowError::new(Reason::TimeBackwards, line, &cols[time_idx], format!("time goes backwards: `{}` is earlier than line {prev_line}", rec[time_idx].trim())));
+                }
+                if r.t == prev {
+                    return Err(RowError::new(Reason::DuplicateTime, line, &cols[time_idx], format!("duplicated time `{}` (same as line {prev_line})", rec[time_idx].trim())));
+                }
+            }
+            Ok(r)
+        });
+        match row {
+            Ok(r) => {
+                out.lines.push(line);
+                out.t.push(r.t);
+                out.ambient.values.push(r.ambient);
+                for c in 0..3 {
+                    if let Some(col) = &mut out.refs[c] {
+                        col.values.push(r.refs[c]);
+                    }
+                }
+                for (col, v) in out.gratings.iter_mut().zip(&r.gratings) {
+                    col.values.push(*v);
+                }
+            }
+            Err(e) => problems.reject(e)?,
+        }
+    }
+    problems.refuse_wrong_unit_columns()?;
+    if check {
+        for (i, g) in gratings.iter().enumerate() {
+            if g.unit == WlUnit::ShiftPm && looks_absolute_nm(&out.gratings[i].values) {
+                let first = out.lines.first().copied().unwrap_or(header_line + 1);
+                return Err(TrainerError::data(
+                    &name,
+                    first,
+                    &g.column,
+                    format!(
+                        "the column is declared shift_pm but every value lies within 1 % of {:.1}, like absolute wavelengths in nm; map key `{}`: set it to \"nm\" (or check_units = false if these really are shifts)",
+                        out.gratings[i].values.iter().copied().find(|v| v.is_finite()).unwrap_or(f64::NAN),
+                        g.unit_key
+                    ),
+                ));
+            }
+        }
+    }
+    if out.t.is_empty() {
+        let why = if problems.rows_read == 0 { "no data rows after the header" } else { "every data row was skipped" };
+        return Err(TrainerError::data(&name, header_line + 1, "-", why));
+    }
+    out.time_kind = clock.kind.unwrap_or(TimeKind::Seconds);
+    out.absolute = clock.absolute();
+    out.problems = problems;
+    Ok(out)
+}
+
+struct Row {
+    t: f64,
+    ambient: f64,
+    refs: [f64; 3],
+    gratings: Vec<f64>,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn parse_row(
+    rec: &csv::StringRecord,
+    line: u64,
+    cols: &[String],
+    time_idx: usize,
+    clock: &mut TimeParser,
+    (amb_idx, amb): (usize, &RefMap),
+    refs: &[Option<(usize, RefMap)>; 3],
+    gratings: &[CsvGrating],
+    g_idx: &[usize],
+    check: bool,
+) -> Result<Row, RowError> {
+    if rec.len() != cols.len() {
+        let (col, what) = if rec.len() < cols.len() {
+            (cols[rec.len()].clone(), "truncated or ragged row")
+        } else {
+            (format!("{} (beyond the header)", rec.len()), "ragged row")
+        };
+        return Err(RowError::new(Reason::RaggedRow, line, col, format!("{what}: {} cells where the header has {}", rec.len(), cols.len())));
+    }
+    let bad = |i: usize, m: String| RowError::new(Reason::NonNumeric, line, &cols[i], m);
+    let t = clock.parse(&rec[time_idx]).map_err(|m| bad(time_idx, m))?;
+    let val = |i: usize| number(&rec[i]).map_err(|m| bad(i, m));
+    let ambient = match val(amb_idx)? {
+        Some(v) => {
+            let v = amb.gain * v + amb.offset;
+            if check {
+                check_ambient(v).map_err(|m| RowError::new(Reason::UnitMismatch, line, &cols[amb_idx], m))?;
+            }
+            v
+        }
+        None => f64::NAN,
+    };
+    let mut r = [f64::NAN; 3];
+    for (c, spec) in refs.iter().enumerate() {
+        if let Some((i, m)) = spec {
+            r[c] = val(*i)?.map_or(f64::NAN, |v| m.gain * v + m.offset);
+        }
+    }
+    let mut g = Vec::with_capacity(gratings.len());
+    for (spec, &i) in gratings.iter().zip(g_idx) {
+        g.push(match val(i)? {
+            Some(v) => {
+                if check {
+                    check_wavelength(spec.unit, v, &spec.unit_key).map_err(|m| RowError::new(Reason::UnitMismatch, line, &cols[i], m))?;
+                }
+                spec.unit.convert(v)
+            }
+            None => f64::NAN,
+        });
+    }
+    Ok(Row { t, ambient, refs: r, gratings: g })
+}
+
+/// Split a line for header detection (no quoting rules beyond trimming quotes).
+fn cells(line: &str, d: u8) -> Vec<&str> {
+    line.split(d as char).map(|c| c.trim().trim_matches('"').trim()).collect()
+}
+
+fn find_header(lines: &[&str], names: &[String], map_delim: Option<u8>) -> Option<(usize, u8)> {
+    let delims: Vec<u8> = map_delim.map_or_else(|| DELIMITERS.to_vec(), |d| vec![d]);
+    for (i, l) in lines.iter().enumerate() {
+        let best = delims
+            .iter()
+            .map(|&d| (d, cells(l, d)))
+            .filter(|(_, cs)| cs.iter().any(|c| names.iter().any(|n| c.eq_ignore_ascii_case(n))))
+            .max_by_key(|(_, cs)| cs.len());
+        if let Some((d, _)) = best {
+            return Some((i, d));
+        }
+    }
+    None
+}
+
+fn most_frequent_delimiter(line: &str) -> u8 {
+    DELIMITERS.iter().copied().max_by_key(|&d| line.bytes().filter(|&b| b == d).count()).unwrap_or(b',')
+}

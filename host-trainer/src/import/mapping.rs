@@ -1,0 +1,452 @@
+//! The import map (TOML): which column or peak is what, in which unit.
+//!
+//! One map format serves both importers. The top-level keys describe a CSV file (the logger
+//! file of `--format csv`, or the `--refs` file of `--format enlight`): `[time]`, `[ambient]`,
+//! `[temperature]`, `[strain]`, `[pressure]`, `delimiter`, `header_lines`. `[[grating]]` (three
+//! of them, for dl1..dl3) says where each grating's wavelength is: a `column` and `unit` for a
+//! CSV, a `channel` and `window_nm` for ENLIGHT. `[enlight]` holds the peaks file's own
+//! settings, `max_gap_s` the join of references onto peak times. See README-import.md.
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+use super::time_axis::{parse_timestamp, TimeUnit};
+use crate::error::TrainerError;
+
+/// Plausible absolute FBG wavelengths [nm].
+pub const NM_RANGE: (f64, f64) = (400.0, 2000.0);
+/// Largest plausible shift [pm]: 10 nm is beyond any grating's range in a WDM layout.
+pub const MAX_SHIFT_PM: f64 = 10_000.0;
+/// Plausible interrogator ambient temperatures [°C].
+pub const AMBIENT_RANGE_C: (f64, f64) = (-80.0, 200.0);
+
+/// The unit of a wavelength column.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WlUnit {
+    /// Absolute wavelength [nm].
+    Nm,
+    /// Absolute wavelength [pm].
+    Pm,
+    /// Shift from the reference condition [pm].
+    ShiftPm,
+    /// Shift from the reference condition [nm].
+    ShiftNm,
+}
+
+impl WlUnit {
+    pub fn name(self) -> &'static str {
+        match self {
+            WlUnit::Nm => "nm",
+            WlUnit::Pm => "pm",
+            WlUnit::ShiftPm => "shift_pm",
+            WlUnit::ShiftNm => "shift_nm",
+        }
+    }
+    pub fn is_shift(self) -> bool {
+        matches!(self, WlUnit::ShiftPm | WlUnit::ShiftNm)
+    }
+    /// A cell in this unit → absolute nm (absolute units) or shift pm (shift units).
+    pub fn convert(self, v: f64) -> f64 {
+        match self {
+            WlUnit::Nm | WlUnit::ShiftPm => v,
+            WlUnit::Pm => v * 1e-3,
+            WlUnit::ShiftNm => v * 1e3,
+        }
+    }
+}
+
+/// The whole map file.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Map {
+    /// CSV delimiter: `","`, `";"`, `"\t"` (or `"tab"`), `"|"`. Default: detected on the
+    /// header line.
+    pub delimiter: Option<String>,
+    /// Metadata lines before the CSV header row. Default: the header is the first line with a
+    /// cell naming the time column.
+    pub header_lines: Option<usize>,
+    /// Magnitude checks of wavelengths and ambient temperature (default true).
+    pub check_units: Option<bool>,
+    /// ENLIGHT: the largest time gap [s] between two reference samples across which a value is
+    /// interpolated; beyond it (or outside the refs' time range) the value is missing.
+    /// Default: 3 × the median spacing of the refs file.
+    pub max_gap_s: Option<f64>,
+    #[serde(default)]
+    pub time: TimeMap,
+    /// Interrogator ambient temperature [°C] (required, in the file or the refs).
+    pub ambient: Option<RefMap>,
+    /// Reference temperature [°C] (thermocouple, PT100, ...).
+    pub temperature: Option<RefMap>,
+    /// Reference strain [µε] (or a load cell with `gain` µε per unit).
+    pub strain: Option<RefMap>,
+    /// Reference pressure [kPa].
+    pub pressure: Option<RefMap>,
+    /// The three gratings, for dl1_pm, dl2_pm, dl3_pm in that order.
+    #[serde(default)]
+    pub grating: Vec<GratingMap>,
+    #[serde(default)]
+    pub enlight: EnlightMap,
+}
+
+/// The time column.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeMap {
+    /// Column name. Default: the first of t_s, time, timestamp, datetime (any case).
+    pub column: Option<String>,
+    /// `auto` (default), `s`, `ms`, `min`, `h`, `timestamp`.
+    #[serde(default)]
+    pub unit: TimeUnit,
+    /// chrono layout of the timestamps, e.g. `"%d.%m.%Y %H:%M:%S%.f"`. Default: ISO-8601 and
+    /// `YYYY-MM-DD hh:mm:ss[.fff]` (also with `/`).
+    pub format: Option<String>,
+    /// For a time column in seconds: the timestamp of t = 0, so the file can be joined with a
+    /// timestamped one.
+    pub start: Option<String>,
+}
+
+/// A reference or ambient column: value = gain × cell + offset.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RefMap {
+    pub column: String,
+    #[serde(default = "one")]
+    pub gain: f64,
+    #[serde(default)]
+    pub offset: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// One grating.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GratingMap {
+    /// CSV: the column holding this grating's wavelength.
+    pub column: Option<String>,
+    /// CSV: `nm`, `pm` (absolute), `shift_pm`, `shift_nm`.
+    pub unit: Option<WlUnit>,
+    /// ENLIGHT: channel number (1-based).
+    pub channel: Option<usize>,
+    /// ENLIGHT: the grating's wavelength window [lo, hi] in nm; exactly one peak of the
+    /// channel is expected inside it.
+    pub window_nm: Option<[f64; 2]>,
+    /// Absolute wavelength [nm] at the reference condition; Δλ = (λ − ref_nm) × 1000 pm.
+    /// Default: the first valid reading of the grating in the output.
+    pub ref_nm: Option<f64>,
+}
+
+/// Settings of an ENLIGHT / Hyperion peaks file.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnlightMap {
+    /// Number of channels (peak-count cells). Default: worked out from the first data row.
+    pub channels: Option<usize>,
+    /// Unit of the peak wavelengths: `nm` (default) or `pm`.
+    pub unit: Option<WlUnit>,
+    /// `"\t"` or `","`. Default: tab if the first data line has one, else comma.
+    pub delimiter: Option<String>,
+    /// chrono layout of the timestamps (default: as `[time]`'s default).
+    pub time_format: Option<String>,
+    /// Metadata lines before the table. Default: everything before the first line that starts
+    /// with a time and a peak count.
+    pub header_lines: Option<usize>,
+}
+
+/// A CSV grating after defaults: column, unit, reference.
+#[derive(Clone, Debug)]
+pub(crate) struct CsvGrating {
+    pub column: String,
+    pub unit: WlUnit,
+    pub ref_nm: Option<f64>,
+    /// Map key of the unit, for hints.
+    pub unit_key: String,
+}
+
+/// An ENLIGHT grating window after validation (channel 0-based).
+#[derive(Clone, Debug)]
+pub(crate) struct Window {
+    pub channel: usize,
+    pub lo: f64,
+    pub hi: f64,
+    pub key: String,
+}
+
+/// The importer a map is checked for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum For {
+    Csv,
+    Enlight,
+}
+
+impl Map {
+    /// Read and check a map file; errors name the file and the key (or TOML line/column).
+    pub fn load(path: &Path) -> Result<Map, TrainerError> {
+        let text = std::fs::read_to_string(path).map_err(|e| TrainerError::io(path, e))?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// Parse TOML text; `origin` names the source in errors.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Map, TrainerError> {
+        toml::from_str(text).map_err(|e| TrainerError::Config {
+            origin: origin.to_string(),
+            key: e.span().map(|s| line_col(text, s.start)).unwrap_or_default(),
+            message: e.message().to_string(),
+        })
+    }
+
+    pub fn check_units(&self) -> bool {
+        self.check_units.unwrap_or(true)
+    }
+
+    /// Check the keys that matter for one importer.
+    pub(crate) fn validate(&self, origin: &str, what: For) -> Result<(), TrainerError> {
+        let err = |key: String, message: String| TrainerError::Config { origin: origin.to_string(), key, message };
+        if let Some(d) = &self.delimiter {
+            delimiter(d).map_err(|m| err("delimiter".into(), m))?;
+        }
+        if let Some(d) = &self.enlight.delimiter {
+            delimiter(d).map_err(|m| err("enlight.delimiter".into(), m))?;
+        }
+        if let Some(s) = &self.time.start {
+            if parse_timestamp(s, None).is_none() {
+                return Err(err("time.start".into(), format!("`{s}` is not a timestamp (YYYY-MM-DD hh:mm:ss[.fff] or ISO-8601)")));
+            }
+            if self.time.unit == TimeUnit::Timestamp || self.time.format.is_some() {
+                return Err(err("time.start".into(), "only a time column in seconds needs a start".into()));
+            }
+        }
+        if let Some(g) = self.max_gap_s {
+            if !(g.is_finite() && g > 0.0) {
+                return Err(err("max_gap_s".into(), format!("{g} is not a positive number of seconds")));
+            }
+        }
+        for (name, r) in [("ambient", &self.ambient), ("temperature", &self.temperature), ("strain", &self.strain), ("pressure", &self.pressure)] {
+            if let Some(r) = r {
+                if !(r.gain.is_finite() && r.gain != 0.0) {
+                    return Err(err(format!("{name}.gain"), format!("{} is not a finite, non-zero gain", r.gain)));
+                }
+                if !r.offset.is_finite() {
+                    return Err(err(format!("{name}.offset"), format!("{} is not finite", r.offset)));
+                }
+            }
+        }
+        if !self.grating.is_empty() && self.grating.len() != 3 {
+            return Err(err(
+                "grating".into(),
+                format!("{} [[grating]] entries; exactly three are needed (dl1_pm, dl2_pm, dl3_pm, in that order)", self.grating.len()),
+            ));
+        }
+        for (i, g) in self.grating.iter().enumerate() {
+            let key = |k: &str| format!("grating[{}].{k}", i + 1);
+            if let Some(r) = g.ref_nm {
+                if !(NM_RANGE.0..=NM_RANGE.1).contains(&r) {
+                    return Err(err(key("ref_nm"), format!("{r} is not a wavelength in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1)));
+                }
+            }
+            match what {
+                For::Csv => {
+                    if g.channel.is_some() || g.window_nm.is_some() {
+                        let k = if g.channel.is_some() { "channel" } else { "window_nm" };
+                        return Err(err(key(k), "channel and window_nm belong to --format enlight; a CSV grating has `column` and `unit`".into()));
+                    }
+                    if g.column.is_none() {
+                        return Err(err(key("column"), "missing: the column holding this grating's wavelength".into()));
+                    }
+                    let Some(u) = g.unit else {
+                        return Err(err(key("unit"), "missing: one of nm, pm (absolute wavelengths), shift_pm, shift_nm (shifts)".into()));
+                    };
+                    if u.is_shift() && g.ref_nm.is_some() {
+                        return Err(err(key("ref_nm"), format!("the column holds shifts (unit {}), so it has no reference wavelength", u.name())));
+                    }
+                }
+                For::Enlight => {
+                    if g.column.is_some() || g.unit.is_some() {
+                        let k = if g.column.is_some() { "column" } else { "unit" };
+                        return Err(err(key(k), "column and unit belong to --format csv; an ENLIGHT grating has `channel` and `window_nm` (peaks are in [enlight] unit)".into()));
+                    }
+                    let Some(c) = g.channel else {
+                        return Err(err(key("channel"), "missing: the interrogator channel (1-based)".into()));
+                    };
+                    if c == 0 {
+                        return Err(err(key("channel"), "channels are numbered from 1".into()));
+                    }
+                    let Some([lo, hi]) = g.window_nm else {
+                        return Err(err(key("window_nm"), "missing: [lo, hi] in nm around the grating's wavelength".into()));
+                    };
+                    if !(NM_RANGE.0..=NM_RANGE.1).contains(&lo) || !(NM_RANGE.0..=NM_RANGE.1).contains(&hi) || lo >= hi {
+                        return Err(err(key("window_nm"), format!("[{lo}, {hi}] is not a window [lo < hi] in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1)));
+                    }
+                    if let Some(r) = g.ref_nm {
+                        if r < lo || r > hi {
+                            return Err(err(key("ref_nm"), format!("{r} nm lies outside the grating's window [{lo}, {hi}] nm")));
+                        }
+                    }
+                    for (j, o) in self.grating.iter().enumerate().take(i) {
+                        if let (Some(oc), Some([olo, ohi])) = (o.channel, o.window_nm) {
+                            if oc == c && lo <= ohi && olo <= hi {
+                                return Err(err(key("window_nm"), format!("[{lo}, {hi}] overlaps grating[{}].window_nm [{olo}, {ohi}] on channel {c}", j + 1)));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if what == For::Enlight {
+            if let Some(u) = self.enlight.unit {
+                if u.is_shift() {
+                    return Err(err("enlight.unit".into(), "ENLIGHT peaks are absolute wavelengths: nm or pm".into()));
+                }
+            }
+            if self.enlight.channels == Some(0) {
+                return Err(err("enlight.channels".into(), "at least one channel".into()));
+            }
+        }
+        Ok(())
+    }
+
+    /// The CSV gratings after defaults (`dl1_pm`..`dl3_pm` in pm shifts).
+    pub(crate) fn csv_gratings(&self) -> Vec<CsvGrating> {
+        if self.grating.is_empty() {
+            return (1..=3)
+                .map(|i| CsvGrating { column: format!("dl{i}_pm"), unit: WlUnit::ShiftPm, ref_nm: None, unit_key: format!("grating[{i}].unit") })
+                .collect();
+        }
+        self.grating
+            .iter()
+            .enumerate()
+            .map(|(i, g)| CsvGrating {
+                column: g.column.clone().unwrap_or_default(),
+                unit: g.unit.unwrap_or(WlUnit::Nm),
+                ref_nm: g.ref_nm,
+                unit_key: format!("grating[{}].unit", i + 1),
+            })
+            .collect()
+    }
+
+    /// The ENLIGHT windows (empty without `[[grating]]`).
+    pub(crate) fn windows(&self) -> Vec<Window> {
+        self.grating
+            .iter()
+            .enumerate()
+            .map(|(i, g)| {
+                let [lo, hi] = g.window_nm.unwrap_or([0.0, 0.0]);
+                Window { channel: g.channel.unwrap_or(1).saturating_sub(1), lo, hi, key: format!("grating[{}]", i + 1) }
+            })
+            .collect()
+    }
+}
+
+/// A delimiter key → its byte.
+pub(crate) fn delimiter(s: &str) -> Result<u8, String> {
+    match s {
+        "tab" | "\t" | "\\t" => Ok(b'\t'),
+        s if s.len() == 1 && s.is_ascii() && s != "\"" && s != "\n" && s != "\r" => Ok(s.as_bytes()[0]),
+        other => Err(format!("`{other}` is not a one-character delimiter (`,`, `;`, `\\t` or `tab`, `|`)")),
+    }
+}
+
+/// Check one wavelength cell (already in the column's unit) for magnitude; the error says what
+/// the value looks like and which map key to change.
+pub(crate) fn check_wavelength(unit: WlUnit, v: f64, key: &str) -> Result<(), String> {
+    let nm = |x: f64| (NM_RANGE.0..=NM_RANGE.1).contains(&x);
+    let pm = |x: f64| (NM_RANGE.0 * 1e3..=NM_RANGE.1 * 1e3).contains(&x);
+    let set = |u: &str| format!("map key `{key}`: set it to \"{u}\"");
+    match unit {
+        WlUnit::Nm if nm(v) => Ok(()),
+        WlUnit::Nm if pm(v) => Err(format!("{v} is declared nm but is pm-scale (absolute wavelengths are {}–{} nm); {}", NM_RANGE.0, NM_RANGE.1, set("pm"))),
+        WlUnit::Nm if v.abs() < NM_RANGE.0 => Err(format!(
+            "{v} is declared as an absolute wavelength in nm but looks like a shift (absolute wavelengths are {}–{} nm); {}",
+            NM_RANGE.0, NM_RANGE.1, set("shift_pm` or `shift_nm")
+        )),
+        WlUnit::Nm => Err(format!("{v} is not a wavelength in nm ({}–{} nm); check `{key}`", NM_RANGE.0, NM_RANGE.1)),
+        WlUnit::Pm if pm(v) => Ok(()),
+        WlUnit::Pm if nm(v) => Err(format!("{v} is declared pm but is nm-scale; {}", set("nm"))),
+        WlUnit::Pm if v.abs() < NM_RANGE.0 * 1e3 => Err(format!(
+            "{v} is declared as an absolute wavelength in pm but looks like a shift (absolute wavelengths are {}–{} pm); {}",
+            NM_RANGE.0 * 1e3, NM_RANGE.1 * 1e3, set("shift_pm")
+        )),
+        WlUnit::Pm => Err(format!("{v} is not a wavelength in pm; check `{key}`")),
+        WlUnit::ShiftPm if v.abs() <= MAX_SHIFT_PM => Ok(()),
+        WlUnit::ShiftNm if v.abs() * 1e3 <= MAX_SHIFT_PM => Ok(()),
+        WlUnit::ShiftPm | WlUnit::ShiftNm if nm(v) => Err(format!(
+            "{v} is declared as a shift ({}) but looks like an absolute wavelength in nm; {}",
+            unit.name(),
+            set("nm")
+        )),
+        WlUnit::ShiftPm | WlUnit::ShiftNm if pm(v) => Err(format!(
+            "{v} is declared as a shift ({}) but looks like an absolute wavelength in pm; {}",
+            unit.name(),
+            set("pm")
+        )),
+        WlUnit::ShiftPm | WlUnit::ShiftNm => Err(format!(
+            "{v} ({}) is a shift beyond {} nm, which no grating reaches; check `{key}`",
+            unit.name(),
+            MAX_SHIFT_PM / 1e3
+        )),
+    }
+}
+
+/// A whole shift column that never leaves the band of absolute wavelengths in nm, with a
+/// relative spread under 1 %, holds absolute wavelengths (per cell it cannot be told from a
+/// large shift).
+pub(crate) fn looks_absolute_nm(values: &[f64]) -> bool {
+    let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.len() < 3 || !v.iter().all(|x| (NM_RANGE.0..=NM_RANGE.1).contains(x)) {
+        return false;
+    }
+    let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    hi - lo < 0.01 * mean
+}
+
+/// Check an ambient temperature [°C] (after gain and offset).
+pub(crate) fn check_ambient(v: f64) -> Result<(), String> {
+    let (lo, hi) = AMBIENT_RANGE_C;
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else if (200.0..=400.0).contains(&v) {
+        Err(format!("ambient {v} °C looks like kelvin; map key `ambient.offset`: set it to -273.15"))
+    } else {
+        Err(format!("ambient {v} °C is outside {lo}–{hi} °C; check the map keys `ambient.column`, `ambient.gain`, `ambient.offset`"))
+    }
+}
+
+/// Byte offset → "line L, column C" (1-based).
+fn line_col(text: &str, offset: usize) -> String {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    format!("line {line}, column {col}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_checks() {
+        assert!(check_wavelength(WlUnit::Nm, 1545.1, "k").is_ok());
+        assert!(check_wavelength(WlUnit::Nm, 1_545_100.0, "k").unwrap_err().contains("\"pm\""));
+        assert!(check_wavelength(WlUnit::Nm, 12.5, "k").unwrap_err().contains("shift_pm"));
+        assert!(check_wavelength(WlUnit::ShiftPm, -250.0, "k").is_ok());
+        assert!(check_wavelength(WlUnit::ShiftPm, 1_545_100.0, "k").unwrap_err().contains("\"pm\""));
+        assert!(check_wavelength(WlUnit::ShiftNm, 1545.1, "k").unwrap_err().contains("\"nm\""));
+        assert!(looks_absolute_nm(&[1545.0, 1545.1, 1545.05]));
+        assert!(!looks_absolute_nm(&[600.0, 700.0, 650.0]));
+        assert!(check_ambient(296.0).unwrap_err().contains("-273.15"));
+    }
+
+    #[test]
+    fn map_errors_name_the_key() {
+        let m = Map::from_toml_str("[[grating]]\ncolumn = \"a\"\nunit = \"nm\"\n", "m.toml").unwrap();
+        let e = m.validate("m.toml", For::Csv).unwrap_err().to_string();
+        assert!(e.contains("m.toml") && e.contains("grating"), "{e}");
+        let e = Map::from_toml_str("[time]\ncolum = \"x\"\n", "m.toml").unwrap_err().to_string();
+        assert!(e.contains("line 2") && e.contains("colum"), "{e}");
+    }
+}

@@ -1,0 +1,633 @@
+//! `fbg-trainer import` (issue 8): real interrogator exports into the dataset CSV of DESIGN §3.
+//!
+//! - `--format enlight`: a Micron Optics ENLIGHT / Hyperion peaks export ([`enlight`]) plus a
+//!   `--refs` CSV with the ambient temperature and the references, joined onto the peak times
+//!   by linear interpolation ([`join`]);
+//! - `--format csv`: any logger CSV whose columns a map names ([`logger_csv`]).
+//!
+//! The map is described in [`mapping`]. Bad rows are an error naming file, line and column, or
+//! counted skips ([`problems`]); the output is written atomically (`Dataset::write_csv`).
+
+mod enlight;
+mod join;
+mod logger_csv;
+pub mod mapping;
+pub mod problems;
+pub mod time_axis;
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::dataset::{Dataset, Split};
+use crate::error::TrainerError;
+pub use mapping::{Map, WlUnit};
+pub use problems::{FileSkips, OnError, Reason, ReasonCount};
+pub use time_axis::TimeKind;
+
+use mapping::For;
+use time_axis::{format_timestamp, parse_timestamp};
+
+/// The input layout.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Format {
+    Enlight,
+    Csv,
+}
+
+impl std::str::FromStr for Format {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "enlight" => Ok(Format::Enlight),
+            "csv" => Ok(Format::Csv),
+            other => Err(format!("`{other}` is neither `enlight` nor `csv`")),
+        }
+    }
+}
+
+/// How the calibration / hold-out split is drawn.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SplitChoice {
+    /// Rows up to this fraction of the record's duration calibrate.
+    Fraction(f64),
+    /// Rows up to this time calibrate: seconds from the first written row, or a timestamp
+    /// (for files with calendar time).
+    Until(String),
+}
+
+impl Default for SplitChoice {
+    fn default() -> Self {
+        SplitChoice::Fraction(0.5)
+    }
+}
+
+/// Everything `import` needs.
+#[derive(Clone, Debug)]
+pub struct ImportOptions {
+    pub format: Format,
+    pub input: PathBuf,
+    pub map: Option<PathBuf>,
+    pub refs: Option<PathBuf>,
+    pub split: SplitChoice,
+    pub on_error: OnError,
+}
+
+/// Rows left out because no ambient temperature was known at their time.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Dropped {
+    pub count: usize,
+    pub first_lines: Vec<u64>,
+}
+
+/// One output grating.
+#[derive(Clone, Debug, Serialize)]
+pub struct GratingSummary {
+    /// Output column (`dl1_pm`, ...).
+    pub output: &'static str,
+    /// Where it comes from (column and unit, or channel and window).
+    pub source: String,
+    /// Reference wavelength [nm] the shift is taken from (absent for shift columns).
+    pub ref_nm: Option<f64>,
+    /// `map`, `first reading (line N)` or `shifts in the file`.
+    pub ref_source: String,
+    /// Rows with no reading (empty dl cell).
+    pub gaps: usize,
+    /// Range of the shifts written [pm].
+    pub min_pm: Option<f64>,
+    pub max_pm: Option<f64>,
+}
+
+/// One reference column found.
+#[derive(Clone, Debug, Serialize)]
+pub struct RefSummary {
+    /// The source column (in the input or the refs file).
+    pub column: String,
+    /// Written rows that have a value.
+    pub values: usize,
+}
+
+/// The ambient temperature and the references found.
+#[derive(Clone, Debug, Serialize)]
+pub struct References {
+    #[serde(rename = "T_amb_C")]
+    pub t_amb_c: RefSummary,
+    #[serde(rename = "T_C")]
+    pub temp_c: Option<RefSummary>,
+    pub strain_ue: Option<RefSummary>,
+    #[serde(rename = "p_kPa")]
+    pub p_kpa: Option<RefSummary>,
+}
+
+/// The written record's time span.
+#[derive(Clone, Debug, Serialize)]
+pub struct TimeSummary {
+    /// Timestamps or seconds in the input.
+    pub kind: TimeKind,
+    /// First and last written row as timestamps (calendar time only).
+    pub start: Option<String>,
+    pub end: Option<String>,
+    pub span_s: f64,
+    /// Median sampling interval [s].
+    pub median_dt_s: f64,
+}
+
+/// The split written.
+#[derive(Clone, Debug, Serialize)]
+pub struct SplitSummary {
+    /// `fraction 0.5` or `until <TIME>`.
+    pub rule: String,
+    /// Rows with t_s at or before this calibrate.
+    pub cal_until_s: f64,
+    pub cal_rows: usize,
+    pub holdout_rows: usize,
+}
+
+/// ENLIGHT file facts.
+#[derive(Clone, Debug, Serialize)]
+pub struct EnlightInfo {
+    pub channels: usize,
+    pub delimiter: String,
+    /// Lines before the first data row.
+    pub metadata_lines: usize,
+    /// Without a map: rows where a channel's peak count differed from its usual count (that
+    /// channel's gratings are gaps there).
+    pub unassigned_rows: usize,
+}
+
+/// How the references were joined onto the peak times.
+#[derive(Clone, Debug, Serialize)]
+pub struct JoinInfo {
+    pub max_gap_s: f64,
+    /// `map` or `3 × median refs spacing`.
+    pub max_gap_source: String,
+    pub refs_rows: usize,
+    pub refs_start: String,
+    pub refs_end: String,
+}
+
+/// What an import did; `--json` prints it.
+#[derive(Clone, Debug, Serialize)]
+pub struct ImportSummary {
+    pub format: Format,
+    pub input: String,
+    pub map: Option<String>,
+    pub refs: Option<String>,
+    pub out: Option<String>,
+    /// Data rows in the input.
+    pub rows_read: usize,
+    pub rows_written: usize,
+    /// Bad input rows left out (`--on-error skip`).
+    pub rows_skipped: usize,
+    /// Bad rows per file (the input, then the refs) and reason.
+    pub skipped: Vec<FileSkips>,
+    /// Rows without an ambient temperature (outside the refs, or in a gap longer than
+    /// max_gap_s, or an empty ambient cell).
+    pub dropped_no_ambient: Dropped,
+    /// Gaps per grating (dl1..dl3).
+    pub gaps: [usize; 3],
+    pub gratings: Vec<GratingSummary>,
+    pub references: References,
+    pub time: TimeSummary,
+    pub split: SplitSummary,
+    pub enlight: Option<EnlightInfo>,
+    pub join: Option<JoinInfo>,
+}
+
+/// Import and write `out` atomically; the summary names `out`.
+pub fn import_to_csv(opts: &ImportOptions, out: &Path) -> Result<ImportSummary, TrainerError> {
+    let (d, mut s) = import(opts)?;
+    d.write_csv(out)?;
+    s.out = Some(out.display().to_string());
+    Ok(s)
+}
+
+/// Read the input (and refs) into a dataset with its split, without writing anything.
+pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerError> {
+    let input_name = opts.input.display().to_string();
+    let map_origin = opts.map.as_ref().map(|p| p.display().to_string());
+    let map = match &opts.map {
+        Some(p) => Some(Map::load(p)?),
+        None => None,
+    };
+    let what = match opts.format {
+        Format::Csv => For::Csv,
+        Format::Enlight => For::Enlight,
+    };
+    if let (Some(m), Some(o)) = (&map, &map_origin) {
+        m.validate(o, what)?;
+    }
+    let default_map = Map::default();
+    let m = map.as_ref().unwrap_or(&default_map);
+
+    let merged = match opts.format {
+        Format::Csv => {
+            if opts.refs.is_some() {
+                return Err(TrainerError::Config {
+                    origin: input_name,
+                    key: "--refs".into(),
+                    message: "--refs is for --format enlight; a logger CSV carries its ambient temperature and references in its own columns (name them in the map)".into(),
+                });
+            }
+            let gratings = m.csv_gratings();
+            let tab = logger_csv::read(&opts.input, m, &gratings, opts.on_error)?;
+            let n = tab.t.len();
+            let skips = vec![tab.problems.summary()];
+            Merged {
+                input: input_name.clone(),
+                lines: tab.lines,
+                t: tab.t,
+                kind: tab.time_kind,
+                absolute: tab.absolute,
+                time_column: tab.time_column,
+                ambient: tab.ambient.values,
+                ambient_column: tab.ambient.name,
+                refs: tab.refs.map(|c| c.map(|c| (c.name, c.values))),
+                wl: std::array::from_fn(|g| tab.gratings[g].values.clone()),
+                is_shift: std::array::from_fn(|g| gratings[g].unit.is_shift()),
+                ref_nm: std::array::from_fn(|g| gratings[g].ref_nm),
+                sources: std::array::from_fn(|g| format!("column `{}` ({})", tab.gratings[g].name, gratings[g].unit.name())),
+                rows_read: skips[0].rows_read,
+                skips,
+                enlight: None,
+                join: None,
+                refs_header: (input_name.clone(), tab.header_line),
+                empty_hint: format!("{input_name}: every row lacks an ambient temperature (column `{}`)", m.ambient.as_ref().map_or("T_amb_C", |a| a.column.as_str())),
+                n_before_drop: n,
+            }
+        }
+        Format::Enlight => {
+            let Some(refs_path) = &opts.refs else {
+                return Err(TrainerError::Config {
+                    origin: input_name,
+                    key: "--refs".into(),
+                    message: "ENLIGHT exports carry no ambient temperature and no reference measurements: give them with --refs REFS, a CSV read with the same column mapping as --format csv (time, T_amb_C, and T_C / strain_ue / p_kPa, or the columns the map names), joined onto the peak times by linear interpolation".into(),
+                });
+            };
+            let peaks = enlight::read(&opts.input, map.as_ref(), map_origin.as_deref().unwrap_or("map"), opts.on_error)?;
+            let refs = logger_csv::read(refs_path, m, &[], opts.on_error)?;
+            let refs_name = refs_path.display().to_string();
+            if peaks.absolute != refs.absolute {
+                let (p, r) = (kind_words(peaks.absolute), kind_words(refs.absolute));
+                let fix = if refs.absolute {
+                    "export the peaks with timestamps"
+                } else {
+                    "set the map key time.start to the timestamp of t = 0 in the refs (or export the refs with timestamps)"
+                };
+                return Err(TrainerError::data(
+                    &refs_name,
+                    refs.header_line,
+                    &refs.time_column,
+                    format!("the peaks file's times are {p} but the refs' time column holds {r}, so they cannot be joined: {fix}"),
+                ));
+            }
+            let (max_gap_s, max_gap_source) = match m.max_gap_s {
+                Some(g) => (g, "map".to_string()),
+                None => (3.0 * join::median_spacing(&refs.t), "3 × median refs spacing".to_string()),
+            };
+            let at = |v: &[f64]| {
+                let s = join::Series::new(&refs.t, v);
+                peaks.t.iter().map(|&t| s.at(t, max_gap_s)).collect::<Vec<f64>>()
+            };
+            let show = |t: f64| if peaks.absolute { format_timestamp(t) } else { format!("{t} s") };
+            let join = JoinInfo {
+                max_gap_s,
+                max_gap_source,
+                refs_rows: refs.t.len(),
+                refs_start: show(refs.t[0]),
+                refs_end: show(refs.t[refs.t.len() - 1]),
+            };
+            let empty_hint = format!(
+                "{input_name}: no peak row has an ambient temperature from {refs_name}: the peaks span {} – {}, the refs {} – {} (max_gap_s = {max_gap_s})",
+                show(peaks.t[0]),
+                show(peaks.t[peaks.t.len() - 1]),
+                join.refs_start,
+                join.refs_end
+            );
+            let window_map = map.as_ref().is_some_and(|m| !m.grating.is_empty());
+            Merged {
+                input: input_name.clone(),
+                lines: peaks.lines.clone(),
+                t: peaks.t.clone(),
+                kind: peaks.time_kind,
+                absolute: peaks.absolute,
+                time_column: "1 (time)".into(),
+                ambient: at(&refs.ambient.values),
+                ambient_column: refs.ambient.name.clone(),
+                refs: std::array::from_fn(|c| refs.refs[c].as_ref().map(|col| (col.name.clone(), at(&col.values)))),
+                wl: peaks.nm.clone(),
+                is_shift: [false; 3],
+                ref_nm: std::array::from_fn(|g| if window_map { m.grating[g].ref_nm } else { None }),
+                sources: peaks.layout.clone(),
+                rows_read: peaks.problems.rows_read,
+                skips: vec![peaks.problems.summary(), refs.problems.summary()],
+                enlight: Some(EnlightInfo {
+                    channels: peaks.channels,
+                    delimiter: if peaks.delimiter == '\t' { "tab".into() } else { peaks.delimiter.to_string() },
+                    metadata_lines: peaks.metadata_lines,
+                    unassigned_rows: peaks.unassigned_rows,
+                }),
+                join: Some(join),
+                refs_header: (refs_name, refs.header_line),
+                empty_hint,
+                n_before_drop: peaks.t.len(),
+            }
+        }
+    };
+    finish(merged, opts, map_origin)
+}
+
+fn kind_words(absolute: bool) -> &'static str {
+    if absolute {
+        "calendar timestamps"
+    } else {
+        "plain seconds"
+    }
+}
+
+/// The rows of either importer before the common steps.
+struct Merged {
+    input: String,
+    lines: Vec<u64>,
+    t: Vec<f64>,
+    kind: TimeKind,
+    absolute: bool,
+    time_column: String,
+    ambient: Vec<f64>,
+    ambient_column: String,
+    refs: [Option<(String, Vec<f64>)>; 3],
+    /// Absolute nm, or shift pm where `is_shift`.
+    wl: [Vec<f64>; 3],
+    is_shift: [bool; 3],
+    ref_nm: [Option<f64>; 3],
+    sources: [String; 3],
+    rows_read: usize,
+    skips: Vec<FileSkips>,
+    enlight: Option<EnlightInfo>,
+    join: Option<JoinInfo>,
+    /// File and header line that should have had a reference column.
+    refs_header: (String, u64),
+    /// Error when no row has an ambient temperature.
+    empty_hint: String,
+    n_before_drop: usize,
+}
+
+/// Drop rows without ambient temperature, take shifts, build the dataset and its split.
+fn finish(m: Merged, opts: &ImportOptions, map_origin: Option<String>) -> Result<(Dataset, ImportSummary), TrainerError> {
+    if m.refs.iter().all(Option::is_none) {
+        let (file, line) = &m.refs_header;
+        return Err(TrainerError::data(
+            file,
+            *line,
+            "T_C",
+            "no reference column (T_C, strain_ue or p_kPa, or the map's [temperature], [strain], [pressure]): nothing to calibrate against",
+        ));
+    }
+    let keep: Vec<usize> = (0..m.n_before_drop).filter(|&i| m.ambient[i].is_finite()).collect();
+    let mut dropped = Dropped::default();
+    for i in (0..m.n_before_drop).filter(|&i| !m.ambient[i].is_finite()) {
+        dropped.count += 1;
+        if dropped.first_lines.len() < problems::FIRST_LINES {
+            dropped.first_lines.push(m.lines[i]);
+        }
+    }
+    if keep.is_empty() {
+        return Err(TrainerError::Dataset { message: m.empty_hint });
+    }
+    let pick = |v: &[f64]| keep.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+    let t0 = m.t[keep[0]];
+    let t_s: Vec<f64> = keep.iter().map(|&i| m.t[i] - t0).collect();
+    // The dataset CSV writes t_s with ms resolution; faster sampling would collide.
+    for w in 1..t_s.len() {
+        if (t_s[w] * 1e3).round() <= (t_s[w - 1] * 1e3).round() {
+            return Err(TrainerError::data(
+                &m.input,
+                m.lines[keep[w]],
+                &m.time_column,
+                format!("this row is {:.3} ms after the previous one; the dataset's t_s has millisecond resolution, so rows must be at least 1 ms apart", 1e3 * (t_s[w] - t_s[w - 1])),
+            ));
+        }
+    }
+
+    let mut dl: [Vec<f64>; 3] = Default::default();
+    let mut gratings = Vec::with_capacity(3);
+    for g in 0..3 {
+        let v = pick(&m.wl[g]);
+        let (ref_nm, ref_source) = if m.is_shift[g] {
+            (None, "shifts in the file".to_string())
+        } else if let Some(r) = m.ref_nm[g] {
+            (Some(r), "map".to_string())
+        } else {
+            match v.iter().position(|x| x.is_finite()) {
+                Some(k) => (Some(v[k]), format!("first reading (line {})", m.lines[keep[k]])),
+                None => (None, "no reading".to_string()),
+            }
+        };
+        dl[g] = match ref_nm {
+            Some(r) => v.iter().map(|&x| (x - r) * 1e3).collect(),
+            None => v,
+        };
+        let finite = dl[g].iter().copied().filter(|x| x.is_finite());
+        let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+        gratings.push(GratingSummary {
+            output: ["dl1_pm", "dl2_pm", "dl3_pm"][g],
+            source: m.sources[g].clone(),
+            ref_nm,
+            ref_source,
+            gaps: dl[g].iter().filter(|x| !x.is_finite()).count(),
+            min_pm: lo.is_finite().then_some(lo),
+            max_pm: hi.is_finite().then_some(hi),
+        });
+    }
+    let n = keep.len();
+    let refs: [Vec<f64>; 3] = std::array::from_fn(|c| m.refs[c].as_ref().map_or_else(|| vec![f64::NAN; n], |(_, v)| pick(v)));
+    let mut d = Dataset {
+        t_s,
+        temp_c: refs[0].clone(),
+        strain_ue: refs[1].clone(),
+        p_kpa: refs[2].clone(),
+        t_amb_c: pick(&m.ambient),
+        dl_pm: dl,
+        split: vec![Split::Cal; n],
+        has_target: std::array::from_fn(|c| m.refs[c].is_some()),
+    };
+
+    let (rule, cal_until_s) = match &opts.split {
+        SplitChoice::Fraction(f) => {
+            if !(f.is_finite() && *f > 0.0 && *f <= 1.0) {
+                return Err(TrainerError::Config { origin: "--cal-fraction".into(), key: String::new(), message: format!("{f} is not a fraction in (0, 1]") });
+            }
+            (format!("fraction {f}"), f * d.t_s[n - 1])
+        }
+        SplitChoice::Until(s) => {
+            let until = if let Ok(v) = s.trim().parse::<f64>() {
+                if !v.is_finite() {
+                    return Err(TrainerError::Config { origin: "--cal-until".into(), key: String::new(), message: format!("`{s}` is not a finite time") });
+                }
+                v
+            } else if let Some(ts) = parse_timestamp(s, None) {
+                if !m.absolute {
+                    return Err(TrainerError::Config {
+                        origin: "--cal-until".into(),
+                        key: String::new(),
+                        message: format!("`{s}` is a timestamp but the input's times are plain seconds: give seconds from the first row"),
+                    });
+                }
+                ts - t0
+            } else {
+                return Err(TrainerError::Config {
+                    origin: "--cal-until".into(),
+                    key: String::new(),
+                    message: format!("`{s}` is neither seconds from the first row nor a timestamp (YYYY-MM-DD hh:mm:ss[.fff])"),
+                });
+            };
+            (format!("until {s}"), until)
+        }
+    };
+    d.split_at_time(cal_until_s);
+    let cal_rows = d.split.iter().filter(|&&s| s == Split::Cal).count();
+
+    let mut dts: Vec<f64> = d.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    let time = TimeSummary {
+        kind: m.kind,
+        start: m.absolute.then(|| format_timestamp(t0)),
+        end: m.absolute.then(|| format_timestamp(t0 + d.t_s[n - 1])),
+        span_s: d.t_s[n - 1],
+        median_dt_s: dts.get(dts.len() / 2).copied().unwrap_or(0.0),
+    };
+    let count = |v: &[f64]| v.iter().filter(|x| x.is_finite()).count();
+    let ref_summary = |c: usize| m.refs[c].as_ref().map(|(name, _)| RefSummary { column: name.clone(), values: count(d.target(c)) });
+    let references = References {
+        t_amb_c: RefSummary { column: m.ambient_column.clone(), values: n },
+        temp_c: ref_summary(0),
+        strain_ue: ref_summary(1),
+        p_kpa: ref_summary(2),
+    };
+    let summary = ImportSummary {
+        format: opts.format,
+        input: m.input.clone(),
+        map: map_origin,
+        refs: opts.refs.as_ref().map(|p| p.display().to_string()),
+        out: None,
+        rows_read: m.rows_read,
+        rows_written: n,
+        rows_skipped: m.skips[0].rows_skipped,
+        skipped: m.skips,
+        dropped_no_ambient: dropped,
+        gaps: std::array::from_fn(|g| gratings[g].gaps),
+        gratings,
+        references,
+        time,
+        split: SplitSummary { rule, cal_until_s, cal_rows, holdout_rows: n - cal_rows },
+        enlight: m.enlight,
+        join: m.join,
+    };
+    Ok((d, summary))
+}
+
+impl ImportSummary {
+    /// A few lines for a terminal.
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        let out = self.out.as_deref().unwrap_or("(not written)");
+        s.push_str(&format!(
+            "imported {} ({}): {} rows read, {} written to {out}, {} skipped as bad, {} without ambient temperature\n",
+            self.input,
+            match self.format {
+                Format::Enlight => "ENLIGHT peaks",
+                Format::Csv => "logger CSV",
+            },
+            self.rows_read,
+            self.rows_written,
+            self.rows_skipped,
+            self.dropped_no_ambient.count
+        ));
+        for f in &self.skipped {
+            for (r, c) in &f.by_reason {
+                let lines: Vec<String> = c.first_lines.iter().map(u64::to_string).collect();
+                let more = if c.count > c.first_lines.len() { ", …" } else { "" };
+                s.push_str(&format!("  skipped {} × {} in {} (lines {}{more})\n", c.count, r.as_str(), f.file, lines.join(", ")));
+            }
+        }
+        if self.dropped_no_ambient.count > 0 {
+            let lines: Vec<String> = self.dropped_no_ambient.first_lines.iter().map(u64::to_string).collect();
+            s.push_str(&format!("  dropped {} rows with no ambient temperature (lines {}…)\n", self.dropped_no_ambient.count, lines.join(", ")));
+        }
+        if let Some(e) = &self.enlight {
+            s.push_str(&format!("  {} channels, {}-separated, {} metadata lines", e.channels, e.delimiter, e.metadata_lines));
+            if e.unassigned_rows > 0 {
+                s.push_str(&format!(", {} rows with an unusual peak count (gaps)", e.unassigned_rows));
+            }
+            s.push('\n');
+        }
+        for g in &self.gratings {
+            let r = match g.ref_nm {
+                Some(r) => format!("λ_ref {r:.4} nm from {}", g.ref_source),
+                None => g.ref_source.clone(),
+            };
+            let range = match (g.min_pm, g.max_pm) {
+                (Some(a), Some(b)) => format!("{a:.1} … {b:.1} pm"),
+                _ => "no values".into(),
+            };
+            s.push_str(&format!("  {}: {}; {r}; {range}; {} gaps\n", g.output, g.source, g.gaps));
+        }
+        let r = &self.references;
+        let show = |name: &str, x: &Option<RefSummary>| match x {
+            Some(x) => format!("{name} ← `{}` ({} values)", x.column, x.values),
+            None => format!("{name} absent (not fitted)"),
+        };
+        s.push_str(&format!(
+            "  references: T_amb_C ← `{}`; {}; {}; {}\n",
+            r.t_amb_c.column,
+            show("T_C", &r.temp_c),
+            show("strain_ue", &r.strain_ue),
+            show("p_kPa", &r.p_kpa)
+        ));
+        if let Some(j) = &self.join {
+            s.push_str(&format!(
+                "  refs joined by linear interpolation, max gap {} s ({}); refs {} – {}, {} rows\n",
+                j.max_gap_s, j.max_gap_source, j.refs_start, j.refs_end, j.refs_rows
+            ));
+        }
+        let t = &self.time;
+        let when = match (&t.start, &t.end) {
+            (Some(a), Some(b)) => format!("{a} – {b}, "),
+            _ => String::new(),
+        };
+        s.push_str(&format!("  time: {when}{:.3} s span, median step {:.3} s\n", t.span_s, t.median_dt_s));
+        let sp = &self.split;
+        s.push_str(&format!(
+            "  split ({}): cal up to t_s = {:.3} s: {} cal rows, {} hold-out rows",
+            sp.rule, sp.cal_until_s, sp.cal_rows, sp.holdout_rows
+        ));
+        s
+    }
+}
+
+/// A file as text (invalid UTF-8 replaced, byte-order mark removed).
+pub(crate) fn read_text(path: &Path) -> Result<String, TrainerError> {
+    let bytes = std::fs::read(path).map_err(|e| TrainerError::io(path, e))?;
+    let text = String::from_utf8_lossy(&bytes).into_owned();
+    Ok(match text.strip_prefix('\u{feff}') {
+        Some(t) => t.to_string(),
+        None => text,
+    })
+}
+
+/// A numeric cell: `Ok(None)` when empty or a missing marker (NaN, NA, N/A, null).
+pub(crate) fn number(cell: &str) -> Result<Option<f64>, String> {
+    let c = cell.trim();
+    if c.is_empty() || ["nan", "na", "n/a", "null"].iter().any(|m| c.eq_ignore_ascii_case(m)) {
+        return Ok(None);
+    }
+    match c.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(Some(v)),
+        Ok(_) => Err(format!("`{c}` is not a finite number")),
+        Err(_) if c.matches(',').count() == 1 && c.replace(',', ".").parse::<f64>().is_ok() => {
+            Err(format!("`{c}` is not a number (a decimal comma? use a point, or a delimiter other than the decimal mark)"))
+        }
+        Err(_) => Err(format!("`{c}` is not a number")),
+    }
+}
