@@ -11,6 +11,7 @@ use fbg_shared::blob;
 use fbg_trainer::dataset::{write_bytes_atomically, Dataset};
 use fbg_trainer::export;
 use fbg_trainer::fit::{self, HostParams, Origin, TrainOptions};
+use fbg_trainer::import::{self, ImportOptions, SplitChoice};
 use fbg_trainer::meta::SimMeta;
 use fbg_trainer::scenario::{Preset, ScenarioConfig};
 use fbg_trainer::sim;
@@ -150,6 +151,35 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Import a real interrogator export into the dataset CSV: an ENLIGHT / Hyperion peaks file
+    /// (with the references from --refs) or any logger CSV whose columns a map names.
+    Import {
+        /// Input layout.
+        #[arg(long, value_parser = ["enlight", "csv"])]
+        format: String,
+        /// The export (ENLIGHT peaks file or logger CSV).
+        file: PathBuf,
+        /// Map (TOML): which column or peak is what, in which unit (see README-import.md).
+        #[arg(long)]
+        map: Option<PathBuf>,
+        /// ENLIGHT: CSV with time, ambient temperature and references, read with the map's
+        /// column mapping and interpolated onto the peak times.
+        #[arg(long)]
+        refs: Option<PathBuf>,
+        #[arg(long, default_value = "data.csv")]
+        out: PathBuf,
+        /// Rows up to this time calibrate: seconds from the first row, or a timestamp.
+        #[arg(long, conflicts_with = "cal_fraction")]
+        cal_until: Option<String>,
+        /// Fraction of the record's duration that calibrates [default: 0.5].
+        #[arg(long)]
+        cal_fraction: Option<f64>,
+        /// Bad rows: stop with an error naming file, line and column, or skip and count them.
+        #[arg(long, value_parser = ["fail", "skip"], default_value = "fail")]
+        on_error: String,
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() {
@@ -265,6 +295,27 @@ fn run() -> Result<()> {
             Ok(())
         }
         Cmd::Demo { out, scenario, json } => demo(&out, &scenario, json),
+        Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, json } => {
+            let split = match cal_until {
+                Some(t) => SplitChoice::Until(t),
+                None => SplitChoice::Fraction(cal_fraction.unwrap_or(0.5)),
+            };
+            let opts = ImportOptions {
+                format: format.parse().map_err(anyhow::Error::msg)?,
+                input: file,
+                map,
+                refs,
+                split,
+                on_error: on_error.parse().map_err(anyhow::Error::msg)?,
+            };
+            let s = import::import_to_csv(&opts, &out)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&s)?);
+            } else {
+                eprintln!("{}", s.text());
+            }
+            Ok(())
+        }
     }
 }
 
