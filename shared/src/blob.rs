@@ -170,6 +170,16 @@ pub fn encode<const K: usize>(
 /// 4. the payload, which must end exactly at the CRC trailer;
 /// 5. the payload's centre count against the header's, then every parameter range.
 pub fn decode<const K: usize>(bytes: &[u8]) -> Result<ModelParams<f32, K>, Error> {
+    let mut out = ModelParams::default();
+    decode_into(bytes, &mut out)?;
+    Ok(out)
+}
+
+/// [`decode`] into caller-provided storage, without a model-sized temporary: the payload is
+/// parsed field by field straight into `out` (the largest temporary is one centre), so a device
+/// can decode an update into a static staging slot with a small stack. On error `out` holds a
+/// partial model and must not be used; on success it is fully validated.
+pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) -> Result<(), Error> {
     let header = Header::read(bytes)?;
     header.check_version()?;
     let (head, body) =
@@ -184,36 +194,68 @@ pub fn decode<const K: usize>(bytes: &[u8]) -> Result<ModelParams<f32, K>, Error
         header.check_dims()?;
         header.check_capacity::<K>()?;
     }
-    // One parse site (one `ModelParams` on the stack): the signed payload when the CRC holds,
-    // otherwise everything after the header, to tell a truncated or padded blob from a
-    // corrupted one. Parsing unauthenticated bytes is no extra exposure: anyone can write a
-    // valid CRC, so the parser is hardened against arbitrary payloads anyway.
-    let parsed =
-        postcard::take_from_bytes::<ModelParams<f32, K>>(if crc_ok { payload } else { body });
+    // One parse site: the signed payload when the CRC holds, otherwise everything after the
+    // header, to tell a truncated or padded blob from a corrupted one. Parsing unauthenticated
+    // bytes is no extra exposure: anyone can write a valid CRC, so the parser is hardened
+    // against arbitrary payloads anyway.
+    let parsed = parse_into(if crc_ok { payload } else { body }, out);
     if !crc_ok {
-        return Err(diagnose_crc_mismatch(
-            bytes.len(),
-            header,
-            head,
-            body,
-            parsed.as_ref().map(|(_, r)| *r),
-        ));
+        return Err(diagnose_crc_mismatch(bytes.len(), header, head, body, parsed.as_ref().map(|r| *r)));
     }
     // With a valid CRC these bytes are what the writer wrote: a payload that does not decode
     // (including one that claims more bytes than it has) is malformed, not truncated.
-    let (params, rest) = parsed.map_err(|_| Error::BadPayload)?;
+    let rest = parsed.map_err(|_| Error::BadPayload)?;
     if !rest.is_empty() {
         return Err(Error::TrailingBytes { extra: rest.len() });
     }
-    if params.centres.len() != usize::from(header.centres) {
+    if out.centres.len() != usize::from(header.centres) {
         return Err(Error::WrongDims {
             field: "centres",
             found: header.centres,
-            expected: saturate_u16(params.centres.len()),
+            expected: saturate_u16(out.centres.len()),
         });
     }
-    params.validate()?;
-    Ok(params)
+    out.validate()
+}
+
+/// Parse a postcard payload of `ModelParams<f32, K>` into `out`, one field at a time in
+/// declaration order (the encoding `encode` writes with serde), returning the unread rest.
+/// The round-trip and golden tests pin this to the serde layout.
+fn parse_into<'a, const K: usize>(
+    bytes: &'a [u8],
+    out: &mut ModelParams<f32, K>,
+) -> Result<&'a [u8], postcard::Error> {
+    fn take<'a, T: serde::Deserialize<'a>>(b: &mut &'a [u8]) -> Result<T, postcard::Error> {
+        let (v, rest) = postcard::take_from_bytes::<T>(b)?;
+        *b = rest;
+        Ok(v)
+    }
+    let mut b = bytes;
+    out.hyper = take(&mut b)?;
+    out.stage1 = take(&mut b)?;
+    out.guess_mean = take(&mut b)?;
+    out.guess_std = take(&mut b)?;
+    out.poly = take(&mut b)?;
+    out.z_mean = take(&mut b)?;
+    out.z_std = take(&mut b)?;
+    // heapless::Vec is a postcard sequence: a varint length, then the elements.
+    let n: u32 = take(&mut b)?;
+    out.centres.clear();
+    for _ in 0..n {
+        let c = take(&mut b)?;
+        out.centres.push(c).map_err(|_| postcard::Error::DeserializeBadEncoding)?;
+    }
+    out.var_inv_g = take(&mut b)?;
+    out.var_inv_g_tail = take(&mut b)?;
+    out.resid_var = take(&mut b)?;
+    out.resid_var_growth = take(&mut b)?;
+    out.t_cal_end_s = take(&mut b)?;
+    out.band_k = take(&mut b)?;
+    out.envelope_lo = take(&mut b)?;
+    out.envelope_hi = take(&mut b)?;
+    out.fitted = take(&mut b)?;
+    out.provenance = take(&mut b)?;
+    Ok(b)
 }
 
 fn crc_of(head: &[u8], payload: &[u8]) -> u32 {

@@ -1,19 +1,22 @@
 //! The per-sample inference (DESIGN §4): polynomial core + RBF residual + band + flags.
 //!
-//! [`Compensator::new`] folds the auditable [`ModelParams`] into a per-sample form once:
-//! scalers are folded into the stage-1 matrix and the RBF inputs, the RBF width into the
-//! centres, the variance eigenvalues into the eigenvectors. [`Compensator::step`] then does only
-//! the work that depends on the sample.
+//! Loading folds the auditable [`ModelParams`] into a per-sample form once, in the
+//! compensator's own precision (no f64 arithmetic on an f32 device): scalers are folded into
+//! the stage-1 matrix and the RBF inputs, the RBF width into the centres, the variance
+//! eigenvalues into the eigenvectors, and each centre carries −2μ and ‖μ‖² so that the squared
+//! distance costs one multiply-add per input. [`Compensator::step`] then does only the work
+//! that depends on the sample.
+//!
+//! [`Compensator::reload`] replaces the model in place and atomically: every folded number is
+//! checked before the first one is written, so a refused model leaves the old one serving.
 
 use heapless::Vec;
 
 use crate::direction_latch::LatchBank;
 use crate::error::Error;
 use crate::flags::Flags;
-use crate::layout::{
-    N_ENVELOPE, N_GRATINGS, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS, Z_LATCH, Z_TIME,
-};
-use crate::model::ModelParams;
+use crate::layout::{N_ENVELOPE, N_GRATINGS, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use crate::model::{Centre, ModelParams};
 use crate::real::Real;
 
 /// One measured sample.
@@ -23,7 +26,8 @@ pub struct Sample<F> {
     pub dl_pm: [F; N_GRATINGS],
     /// Ambient reference temperature T_amb [°C].
     pub t_amb_c: F,
-    /// Time since the start of the stream [s] (used only by feature sets with time).
+    /// Time on the calibration clock [s] (used by feature sets with time and by a band that
+    /// grows after calibration).
     pub t_s: F,
 }
 
@@ -41,8 +45,10 @@ pub struct Estimate<F> {
 /// A centre in per-sample form.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct PreparedCentre<F> {
-    /// μ_j / (σ√2): the squared distance to scaled z is the exponent directly.
-    mu: [F; Z_DIMS],
+    /// −2μ_j/(σ√2) (0 on unused inputs): ‖z − μ‖² = ‖z‖² + ‖μ‖² + z·(−2μ) in scaled units.
+    m2: [F; Z_DIMS],
+    /// ‖μ_j/(σ√2)‖².
+    mu_sq: F,
     w: [F; N_OUTPUTS],
     /// v_ij · sqrt(1/g_i − 1/g_tail).
     v: [F; VAR_RANK],
@@ -80,135 +86,195 @@ pub struct Compensator<F, const K: usize> {
     latches: LatchBank,
 }
 
-impl<F: Real, const K: usize> Compensator<F, K> {
-    /// Validate `params` and fold them into per-sample form. Any scalar type and capacity of
-    /// the params is accepted; centres beyond `K` are an error.
-    pub fn new<G: Real, const K2: usize>(params: &ModelParams<G, K2>) -> Result<Self, Error> {
-        params.validate()?;
-        if params.centres.len() > K {
-            return Err(Error::TooManyCentres { found: params.centres.len(), capacity: K });
-        }
-        let f = |v: G| v.to_f64();
-        let h = &params.hyper;
+/// The folded form of everything but the centres, computed in the compensator's precision.
+struct Folded<F> {
+    a: [[F; N_STAGE1]; N_OUTPUTS],
+    b: [[F; N_POLY]; N_OUTPUTS],
+    z_gain: [F; Z_DIMS],
+    z_offset: [F; Z_DIMS],
+    /// 1/(σ√2).
+    k_sigma: F,
+    v_scale: [F; VAR_RANK],
+    band_var: [F; N_OUTPUTS],
+    band_var_growth: [F; N_OUTPUTS],
+}
 
-        // Stage 1 with the guess standardisation folded in.
+fn all_finite<F: Real>(xs: &[F]) -> bool {
+    xs.iter().all(|v| v.is_finite())
+}
+
+impl<F: Real> Folded<F> {
+    fn of<G: Real, const K2: usize>(p: &ModelParams<G, K2>) -> Self {
+        let f = |v: G| F::from_real(v);
         let mut a = [[F::ZERO; N_STAGE1]; N_OUTPUTS];
-        for (((row, src), &m), &s) in a
-            .iter_mut()
-            .zip(params.stage1.iter())
-            .zip(params.guess_mean.iter())
-            .zip(params.guess_std.iter())
-        {
-            let inv = 1.0 / f(s);
+        for (((row, src), &m), &s) in a.iter_mut().zip(p.stage1.iter()).zip(p.guess_mean.iter()).zip(p.guess_std.iter()) {
+            let inv = F::ONE / f(s);
             for (k, (o, &v)) in row.iter_mut().zip(src.iter()).enumerate() {
                 let v = if k == N_STAGE1 - 1 { f(v) - f(m) } else { f(v) };
-                *o = F::from_f64(v * inv);
+                *o = v * inv;
             }
         }
         let mut b = [[F::ZERO; N_POLY]; N_OUTPUTS];
-        for (row, src) in b.iter_mut().zip(params.poly.iter()) {
+        for (row, src) in b.iter_mut().zip(p.poly.iter()) {
             for (o, &v) in row.iter_mut().zip(src.iter()) {
-                *o = F::from_f64(f(v));
+                *o = f(v);
             }
         }
-
-        // RBF input scaling with 1/(σ√2) folded in.
-        let k_sigma = 1.0 / (f(h.sigma) * core::f64::consts::SQRT_2);
-        let active = h.feature_set.active();
+        let k_sigma = F::ONE / (f(p.hyper.sigma) * F::SQRT_2);
+        let active = p.hyper.feature_set.active();
         let mut z_gain = [F::ZERO; Z_DIMS];
         let mut z_offset = [F::ZERO; Z_DIMS];
         for (((g, o), (&m, &s)), &on) in z_gain
             .iter_mut()
             .zip(z_offset.iter_mut())
-            .zip(params.z_mean.iter().zip(params.z_std.iter()))
+            .zip(p.z_mean.iter().zip(p.z_std.iter()))
             .zip(active.iter())
         {
             if on {
                 let gain = k_sigma / f(s);
-                *g = F::from_f64(gain);
-                *o = F::from_f64(-f(m) * gain);
+                *g = gain;
+                *o = -f(m) * gain;
             }
         }
-
-        let inv_tail = f(params.var_inv_g_tail);
-        let mut v_scale = [0.0f64; VAR_RANK];
-        for (o, &ig) in v_scale.iter_mut().zip(params.var_inv_g.iter()) {
+        let inv_tail = f(p.var_inv_g_tail);
+        let mut v_scale = [F::ZERO; VAR_RANK];
+        for (o, &ig) in v_scale.iter_mut().zip(p.var_inv_g.iter()) {
             let d = f(ig) - inv_tail;
-            *o = if d > 0.0 { libm::sqrt(d) } else { 0.0 };
+            *o = if d > F::ZERO { d.sqrt() } else { F::ZERO };
         }
-        let mut centres = Vec::new();
-        for c in params.centres.iter() {
-            let mut pc = PreparedCentre::<F>::default();
-            for ((o, &mu), &on) in pc.mu.iter_mut().zip(c.mu.iter()).zip(active.iter()) {
-                if on {
-                    *o = F::from_f64(f(mu) * k_sigma);
-                }
-            }
-            for (o, &w) in pc.w.iter_mut().zip(c.w.iter()) {
-                *o = F::from_f64(f(w));
-            }
-            for ((o, &v), &sc) in pc.v.iter_mut().zip(c.v.iter()).zip(v_scale.iter()) {
-                *o = F::from_f64(f(v) * sc);
-            }
-            // Capacity was checked above; a failed push cannot happen, but never panic.
-            centres.push(pc).map_err(|_| Error::TooManyCentres {
-                found: params.centres.len(),
-                capacity: K,
-            })?;
-        }
-
         let mut band_var = [F::ZERO; N_OUTPUTS];
         let mut band_var_growth = [F::ZERO; N_OUTPUTS];
         for (((o, og), (&s2, &q)), &k) in band_var
             .iter_mut()
             .zip(band_var_growth.iter_mut())
-            .zip(params.resid_var.iter().zip(params.resid_var_growth.iter()))
-            .zip(params.band_k.iter())
+            .zip(p.resid_var.iter().zip(p.resid_var_growth.iter()))
+            .zip(p.band_k.iter())
         {
             let k2 = f(k) * f(k);
-            *o = F::from_f64(k2 * f(s2));
-            *og = F::from_f64(k2 * f(q));
+            *o = k2 * f(s2);
+            *og = k2 * f(q);
         }
-        let band_grows = params.resid_var_growth.iter().any(|&q| f(q) > 0.0);
-        let conv = |a: &[G; N_ENVELOPE]| {
-            let mut out = [F::ZERO; N_ENVELOPE];
-            for (o, &v) in out.iter_mut().zip(a.iter()) {
-                *o = F::from_f64(f(v));
+        Folded { a, b, z_gain, z_offset, k_sigma, v_scale, band_var, band_var_growth }
+    }
+
+    fn is_finite(&self) -> bool {
+        self.a.iter().all(|r| all_finite(r))
+            && self.b.iter().all(|r| all_finite(r))
+            && all_finite(&self.z_gain)
+            && all_finite(&self.z_offset)
+            && all_finite(&self.v_scale)
+            && all_finite(&self.band_var)
+            && all_finite(&self.band_var_growth)
+            && self.k_sigma.is_finite()
+    }
+
+    fn centre<G: Real>(&self, c: &Centre<G>, active: &[bool; Z_DIMS]) -> PreparedCentre<F> {
+        let mut pc = PreparedCentre::<F>::default();
+        let two = F::ONE + F::ONE;
+        for ((o, &mu), &on) in pc.m2.iter_mut().zip(c.mu.iter()).zip(active.iter()) {
+            if on {
+                let m = F::from_real(mu) * self.k_sigma;
+                *o = -two * m;
+                pc.mu_sq = m.mul_add(m, pc.mu_sq);
             }
-            out
+        }
+        for (o, &w) in pc.w.iter_mut().zip(c.w.iter()) {
+            *o = F::from_real(w);
+        }
+        for ((o, &v), &sc) in pc.v.iter_mut().zip(c.v.iter()).zip(self.v_scale.iter()) {
+            *o = F::from_real(v) * sc;
+        }
+        pc
+    }
+}
+
+impl<F: Real> PreparedCentre<F> {
+    fn is_finite(&self) -> bool {
+        all_finite(&self.m2) && self.mu_sq.is_finite() && all_finite(&self.w) && all_finite(&self.v)
+    }
+}
+
+impl<F: Real, const K: usize> Compensator<F, K> {
+    /// A compensator for `params` (any scalar type and capacity), validated and folded. Centres
+    /// beyond `K` are an error; so is a model whose folded coefficients overflow this
+    /// precision.
+    pub fn new<G: Real, const K2: usize>(params: &ModelParams<G, K2>) -> Result<Self, Error> {
+        let mut c = Compensator {
+            a: [[F::ZERO; N_STAGE1]; N_OUTPUTS],
+            b: [[F::ZERO; N_POLY]; N_OUTPUTS],
+            z_gain: [F::ZERO; Z_DIMS],
+            z_offset: [F::ZERO; Z_DIMS],
+            centres: Vec::new(),
+            inv_g_tail: F::ZERO,
+            band_var: [F::ZERO; N_OUTPUTS],
+            band_var_growth: [F::ZERO; N_OUTPUTS],
+            t_cal_end_s: F::ZERO,
+            band_grows: false,
+            env_lo: [F::ZERO; N_ENVELOPE],
+            env_hi: [F::ZERO; N_ENVELOPE],
+            weak_support: F::ZERO,
+            flagged_band_factor: F::ONE,
+            dead_band: 0,
+            uses_time: false,
+            uses_latch: false,
+            fitted: [false; N_OUTPUTS],
+            latches: LatchBank::new(),
         };
+        c.reload(params)?;
+        Ok(c)
+    }
+
+    /// Replace the model in place, atomically: `params` is validated and every folded number
+    /// checked first; on error the compensator keeps its old model and stream state. On
+    /// success the stream state (direction latches) is reset.
+    pub fn reload<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) -> Result<(), Error> {
+        params.validate()?;
+        if params.centres.len() > K {
+            return Err(Error::TooManyCentres { found: params.centres.len(), capacity: K });
+        }
         // Folding can overflow even when every stored number is finite (e.g. a tiny guess_std
-        // scales stage 1 to infinity in f32): refuse such a model rather than answer NaN later.
-        let folded_ok = a.iter().flatten().chain(b.iter().flatten()).all(|v| v.is_finite())
-            && z_gain.iter().chain(z_offset.iter()).all(|v| v.is_finite())
-            && band_var.iter().chain(band_var_growth.iter()).all(|v| v.is_finite())
-            && centres.iter().all(|c| {
-                c.mu.iter().chain(c.w.iter()).chain(c.v.iter()).all(|v| v.is_finite())
-            });
-        if !folded_ok {
+        // scales stage 1 to infinity in f32): refuse such a model before touching anything.
+        let folded = Folded::<F>::of(params);
+        let active = params.hyper.feature_set.active();
+        let f = |v: G| F::from_real(v);
+        let env_ok = params.envelope_lo.iter().chain(params.envelope_hi.iter()).all(|&v| f(v).is_finite());
+        if !folded.is_finite()
+            || !env_ok
+            || !params.centres.iter().all(|c| folded.centre(c, &active).is_finite())
+            || !f(params.t_cal_end_s).is_finite()
+        {
             return Err(Error::BadParameter { field: "folded coefficients (overflow in this precision)" });
         }
-        Ok(Compensator {
-            a,
-            b,
-            z_gain,
-            z_offset,
-            centres,
-            inv_g_tail: F::from_f64(inv_tail),
-            band_var,
-            band_var_growth,
-            t_cal_end_s: F::from_f64(f(params.t_cal_end_s)),
-            band_grows,
-            env_lo: conv(&params.envelope_lo),
-            env_hi: conv(&params.envelope_hi),
-            weak_support: F::from_f64(f(h.weak_support)),
-            flagged_band_factor: F::from_f64(f(h.flagged_band_factor)),
-            dead_band: crate::direction_latch::ticks(f(h.dead_band_pm)),
-            uses_time: h.feature_set.uses_time(),
-            uses_latch: h.feature_set.uses_latch(),
-            fitted: params.fitted,
-            latches: LatchBank::new(),
-        })
+        // From here nothing can fail.
+        self.centres.clear();
+        for c in params.centres.iter() {
+            // Capacity was checked above; a failed push cannot happen.
+            let _ = self.centres.push(folded.centre(c, &active));
+        }
+        let h = &params.hyper;
+        self.a = folded.a;
+        self.b = folded.b;
+        self.z_gain = folded.z_gain;
+        self.z_offset = folded.z_offset;
+        self.inv_g_tail = f(params.var_inv_g_tail);
+        self.band_var = folded.band_var;
+        self.band_var_growth = folded.band_var_growth;
+        self.t_cal_end_s = f(params.t_cal_end_s);
+        self.band_grows = params.resid_var_growth.iter().any(|&q| q > G::ZERO);
+        for (o, &v) in self.env_lo.iter_mut().zip(params.envelope_lo.iter()) {
+            *o = f(v);
+        }
+        for (o, &v) in self.env_hi.iter_mut().zip(params.envelope_hi.iter()) {
+            *o = f(v);
+        }
+        self.weak_support = f(h.weak_support);
+        self.flagged_band_factor = f(h.flagged_band_factor);
+        self.dead_band = crate::direction_latch::ticks(h.dead_band_pm);
+        self.uses_time = h.feature_set.uses_time();
+        self.uses_latch = h.feature_set.uses_latch();
+        self.fitted = params.fitted;
+        self.latches.reset();
+        Ok(())
     }
 
     /// Number of RBF centres in use.
@@ -282,18 +348,19 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         let (l1, l2, l3) =
             if self.uses_latch { (latch[0], latch[1], latch[2]) } else { (F::ZERO, F::ZERO, F::ZERO) };
         let x_z = [d1, d2, d3, s.t_amb_c, t_in, l1, l2, l3];
-        let _ = (Z_TIME, Z_LATCH); // layout indices documented in `layout`
         let mut z = [F::ZERO; Z_DIMS];
+        let mut z_sq = F::ZERO;
         for (((zi, &x), &gn), &of) in
             z.iter_mut().zip(x_z.iter()).zip(self.z_gain.iter()).zip(self.z_offset.iter())
         {
             *zi = x.mul_add(gn, of);
+            z_sq = zi.mul_add(*zi, z_sq);
         }
         let mut proj = [F::ZERO; VAR_RANK];
         let mut psi_sq = F::ZERO;
         let mut psi_max = F::ZERO;
         for (j, c) in self.centres.iter().enumerate() {
-            let psi = rbf_activation(&z, &c.mu);
+            let psi = rbf_activation(&z, z_sq, &c.m2, c.mu_sq);
             sink(j, psi);
             for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
                 *yi = w.mul_add(psi, *yi);
@@ -338,14 +405,15 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     }
 }
 
-/// Gaussian RBF activation ψ = exp(−‖z − μ‖²) of inputs and a centre already scaled by
-/// 1/(σ√2). The trainer builds its design matrix with this same function.
+/// Gaussian RBF activation ψ = exp(−‖z − μ‖²) of inputs z and a centre μ already scaled by
+/// 1/(σ√2), with the distance expanded: ‖z‖² (`z_sq`) + ‖μ‖² (`mu_sq`) + z·(−2μ) (`m2`). A
+/// tiny negative d² from rounding is harmless (ψ slightly above 1 is impossible: see
+/// [`crate::real::exp_neg_f32`]'s clamp).
 #[inline(always)]
-pub fn rbf_activation<F: Real>(z: &[F; Z_DIMS], mu: &[F; Z_DIMS]) -> F {
-    let mut d2 = F::ZERO;
-    for (&zi, &mi) in z.iter().zip(mu.iter()) {
-        let d = zi - mi;
-        d2 = d.mul_add(d, d2);
+pub fn rbf_activation<F: Real>(z: &[F; Z_DIMS], z_sq: F, m2: &[F; Z_DIMS], mu_sq: F) -> F {
+    let mut d2 = z_sq + mu_sq;
+    for (&zi, &mi) in z.iter().zip(m2.iter()) {
+        d2 = zi.mul_add(mi, d2);
     }
     d2.exp_neg()
 }

@@ -26,7 +26,7 @@ pub const Z_LATCH: usize = 5;
 /// Number of eigen-directions of `(ΨᵀΨ + αI)⁻¹` kept for the predictive variance: those with
 /// the smallest eigenvalues g of `ΨᵀΨ + αI`, which carry the leverage out of distribution
 /// (exact when `K <= VAR_RANK`; see `ModelParams::var_inv_g_tail` for the rest).
-pub const VAR_RANK: usize = 8;
+pub const VAR_RANK: usize = 4;
 /// Two-sided 95 % normal quantile used for the band.
 pub const Z95: f64 = 1.959_963_984_540_054;
 
@@ -40,12 +40,13 @@ pub const Z_NAMES: [&str; Z_DIMS] = [
 pub const POLY_NAMES: [&str; N_POLY] = ["1", "T", "ε", "p", "T²", "ε²", "p²", "Tε", "Tp", "εp"];
 
 /// Which inputs feed the RBF residual (DESIGN §4).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[repr(u8)]
 pub enum FeatureSet {
     /// Paper Eq. 5: z = [Δλ1..3, T_amb, t].
     Paper = 0,
     /// z = [Δλ1..3, T_amb, latch1..3] (the default).
+    #[default]
     HysteresisAware = 1,
     /// z = [Δλ1..3, T_amb, t, latch1..3], when cross-validation keeps time.
     HysteresisAwareTime = 2,

@@ -11,7 +11,7 @@ use crate::layout::{FeatureSet, N_ENVELOPE, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RAN
 use crate::real::Real;
 
 /// Hyper-parameters chosen by blocked time-series cross-validation, plus the flag settings.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Hyper<F> {
     /// Inputs of the RBF residual.
     pub feature_set: FeatureSet,
@@ -59,8 +59,9 @@ pub struct Provenance {
 }
 
 /// A trained Model-H (Model-P when it has no centres), generic over the scalar and with a
-/// capacity of `K` centres.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// capacity of `K` centres. `Default` is an all-zero placeholder (it does not validate), the
+/// starting point of [`crate::blob::decode_into`].
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ModelParams<F, const K: usize> {
     /// Chosen hyper-parameters.
     pub hyper: Hyper<F>,

@@ -28,11 +28,19 @@ pub trait Real:
     const INFINITY: Self;
     /// Quiet NaN.
     const NAN: Self;
+    /// √2.
+    const SQRT_2: Self;
     /// Conversion from f64 (rounds to nearest for f32).
     fn from_f64(v: f64) -> Self;
     /// Widening conversion to f64.
     fn to_f64(self) -> f64;
-    /// `self * a + b`, fused where the hardware has it (Cortex-M4F `vfma.f32`).
+    /// Conversion to f32 (identity for f32).
+    fn to_f32(self) -> f32;
+    /// Conversion from another precision without passing through f64 when the target is f32
+    /// (so an f32 device never links software double arithmetic).
+    fn from_real<G: Real>(g: G) -> Self;
+    /// `self * a + b` with the product rounded (`vmla.f32` on a Cortex-M4F), identical on host
+    /// and device.
     fn mul_add(self, a: Self, b: Self) -> Self;
     /// Square root (IEEE-exact in both precisions).
     fn sqrt(self) -> Self;
@@ -58,6 +66,7 @@ impl Real for f64 {
     const ONE: Self = 1.0;
     const INFINITY: Self = f64::INFINITY;
     const NAN: Self = f64::NAN;
+    const SQRT_2: Self = core::f64::consts::SQRT_2;
     #[inline(always)]
     fn from_f64(v: f64) -> Self {
         v
@@ -67,9 +76,15 @@ impl Real for f64 {
         self
     }
     #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+    #[inline(always)]
+    fn from_real<G: Real>(g: G) -> Self {
+        g.to_f64()
+    }
+    #[inline(always)]
     fn mul_add(self, a: Self, b: Self) -> Self {
-        // Separate multiply and add: the host reference rounds the way plain code does, and
-        // f64 makes the difference to a fused operation irrelevant.
         self * a + b
     }
     #[inline(always)]
@@ -99,6 +114,7 @@ impl Real for f32 {
     const ONE: Self = 1.0;
     const INFINITY: Self = f32::INFINITY;
     const NAN: Self = f32::NAN;
+    const SQRT_2: Self = core::f32::consts::SQRT_2;
     #[inline(always)]
     fn from_f64(v: f64) -> Self {
         v as f32
@@ -108,8 +124,16 @@ impl Real for f32 {
         self as f64
     }
     #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self
+    }
+    #[inline(always)]
+    fn from_real<G: Real>(g: G) -> Self {
+        g.to_f32()
+    }
+    #[inline(always)]
     fn mul_add(self, a: Self, b: Self) -> Self {
-        fma_f32(self, a, b)
+        self * a + b
     }
     #[inline(always)]
     fn sqrt(self) -> Self {
@@ -125,50 +149,45 @@ impl Real for f32 {
     }
     #[inline(always)]
     fn round_to_i32_scaled(self, scale: f64) -> i32 {
-        // Power-of-two scales are exact in f32, so an f32 input gives the same count as in f64.
-        libm::roundf(self * scale as f32) as i32
+        // Round half away from zero without libm: truncate, then look at the exact remainder
+        // (v − trunc(v) is exact in f32). Power-of-two scales are exact too, so an f32 input
+        // gives the same count as `libm::round` in f64. `as` saturates and maps NaN to 0.
+        let v = self * scale as f32;
+        let t = v as i32;
+        let frac = v - t as f32;
+        if frac >= 0.5 {
+            t.saturating_add(1)
+        } else if frac <= -0.5 {
+            t.saturating_sub(1)
+        } else {
+            t
+        }
     }
 }
 
-/// One `vfma.f32` on an ARM core with a single-precision FPU.
-#[cfg(all(target_arch = "arm", target_feature = "vfp4"))]
-#[inline(always)]
-fn fma_f32(x: f32, a: f32, b: f32) -> f32 {
-    let mut acc = b;
-    // SAFETY: a register-only floating-point instruction with no memory or flag side effects.
-    unsafe {
-        core::arch::asm!(
-            "vfma.f32 {acc}, {x}, {a}",
-            acc = inout(sreg) acc,
-            x = in(sreg) x,
-            a = in(sreg) a,
-            options(pure, nomem, nostack, preserves_flags)
-        );
-    }
-    acc
-}
-
-/// Plain multiply-add where no fused instruction is available (the host's f32 path).
-#[cfg(not(all(target_arch = "arm", target_feature = "vfp4")))]
+/// Multiply-add in f32 as plain code (LLVM emits one `vmla.f32` on a Cortex-M4F).
 #[inline(always)]
 fn fma_f32(x: f32, a: f32, b: f32) -> f32 {
     x * a + b
 }
 
-/// `e^(-x)` in single precision for `x >= 0`, relative error below 5e-7; 0 from `x >= 80`
-/// (where `e^-x < 2e-35`) and for NaN.
+/// `e^(-x)` in single precision for `x >= -0.3`, relative error below 5e-7; 0 from `x >= 80`
+/// (where `e^-x < 2e-35`) and for NaN. (The RBF distance can come out a rounding error below
+/// zero; that gives a value a rounding error above 1, as `exp` would.)
 ///
 /// A branch-light replacement for `expf`: a rounded integer power of two placed in the exponent
 /// bits times a degree-6 polynomial for the remainder. About 20 instructions on a Cortex-M4F against roughly 40 for a general
 /// `expf`; the RBF layer calls it once per centre per sample.
 #[inline(always)]
 pub fn exp_neg_f32(x: f32) -> f32 {
-    // Written as `x >= 80 || NaN`: both give 0, the "no support" answer.
-    if x.is_nan() || x >= 80.0 {
+    // `!(x < 80)` is true for x >= 80 and for NaN: both give 0, the "no support" answer, with
+    // one comparison.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(x < 80.0) {
         return 0.0;
     }
-    let x = if x > 0.0 { x } else { 0.0 };
-    // e^-x = 2^-n · e^u with n = round(x·log2 e) in 0..=115 and u = n·ln2 − x, |u| <= 0.347.
+    // e^-x = 2^-n · e^u with n = round(x·log2 e) in 0..=115 and u = n·ln2 − x, |u| <= 0.347
+    // (for x in [-0.3, 0): n = 0 and u = -x).
     // ln 2 is split Cody-Waite style so that n·LN2_HI is exact and u keeps full precision.
     const LN2_HI: f32 = 0.693_145_75; // 0x3F31_7200, 16 significant bits
     const LN2_LO: f32 = 1.428_606_8e-6;
@@ -208,7 +227,7 @@ mod tests {
     #[test]
     fn exp_neg_f32_edges() {
         assert_eq!(exp_neg_f32(0.0), 1.0);
-        assert_eq!(exp_neg_f32(-1.0), 1.0, "negative arguments clamp to e^0");
+        assert!((exp_neg_f32(-1e-6) - 1.000_001).abs() < 1e-7, "a rounding-size negative distance");
         assert_eq!(exp_neg_f32(80.0), 0.0);
         assert_eq!(exp_neg_f32(f32::NAN), 0.0);
         assert_eq!(exp_neg_f32(f32::INFINITY), 0.0);

@@ -124,8 +124,8 @@ fn min_len_and_max_len_are_exact() {
     lengths::<127>();
     lengths::<128>();
     lengths::<200>();
-    assert_eq!(min_len(0), 432);
-    assert_eq!(min_len(32), 432 + 76 * 32);
+    assert_eq!(min_len(0), 416);
+    assert_eq!(min_len(32), 416 + 60 * 32);
     // No overflow on absurd inputs.
     assert_eq!(min_len(usize::MAX), usize::MAX);
     assert_eq!(max_len(usize::MAX), usize::MAX);
@@ -161,14 +161,14 @@ fn tiny() -> ModelParams<f32, 2> {
         .push(Centre {
             mu: [0.5, -0.5, 1.0, 0.0, 0.0, 1.0, -1.0, 0.0],
             w: [1.0, -2.0, 0.25],
-            v: [0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            v: [0.5, 0.0, 0.0, 0.0],
         })
         .unwrap();
     centres
         .push(Centre {
             mu: [-1.0, 0.5, 0.0, 2.0, 0.0, -1.0, 1.0, 1.0],
             w: [-0.5, 4.0, 0.0],
-            v: [0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            v: [0.0, 0.5, 0.0, 0.0],
         })
         .unwrap();
     ModelParams {
@@ -197,7 +197,7 @@ fn tiny() -> ModelParams<f32, 2> {
         z_mean: [0.0, 0.0, 0.0, 20.0, 0.0, 0.0, 0.0, 0.0],
         z_std: [32.0, 32.0, 32.0, 8.0, 1.0, 1.0, 1.0, 1.0],
         centres,
-        var_inv_g: [1.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        var_inv_g: [1.0, 0.5, 0.0, 0.0],
         var_inv_g_tail: 0.0,
         resid_var: [0.25, 1.0, 4.0],
         resid_var_growth: [0.5, 0.0, 2.0],
@@ -440,9 +440,9 @@ fn bad_cases() -> Vec<Case> {
         case("z_std", |p| p.z_std[6] = f32::NAN), // unused by Paper, but must be finite
         case("centres", |p| p.centres[0].mu[0] = f32::NAN),
         case("centres", |p| p.centres[3].w[2] = f32::INFINITY),
-        case("centres", |p| p.centres[1].v[7] = f32::NAN),
+        case("centres", |p| p.centres[1].v[3] = f32::NAN),
         case("var_inv_g", |p| p.var_inv_g[0] = -1.0),
-        case("var_inv_g", |p| p.var_inv_g[5] = f32::NAN),
+        case("var_inv_g", |p| p.var_inv_g[3] = f32::NAN),
         case("var_inv_g_tail", |p| p.var_inv_g_tail = -0.5),
         case("var_inv_g_tail", |p| p.var_inv_g_tail = f32::INFINITY),
         case("resid_var", |p| p.resid_var[2] = -1.0),
@@ -495,7 +495,7 @@ fn validate_accepts_boundary_values() {
         |p| p.resid_var_growth = [0.0, 1e-3, 0.0],
         |p| p.t_cal_end_s = -5.0, // any finite clock origin
         |p| {
-            p.var_inv_g = [0.0; 8];
+            p.var_inv_g = [0.0; 4];
             p.resid_var = [0.0; 3];
         },
     ];
@@ -788,4 +788,5 @@ fn fuzz_seeds_are_valid_blobs() {
         assert_eq!(decode::<32>(b).map(|p| p.centres.len()), Ok(n));
     }
 }
+
 

@@ -388,3 +388,46 @@ fn an_unfitted_output_reads_nan_with_an_infinite_band_and_no_flag() {
     p.fitted = [false; 3];
     assert_eq!(p.validate(), Err(fbg_shared::Error::BadParameter { field: "fitted" }));
 }
+
+#[test]
+fn a_refused_reload_keeps_the_old_model_and_its_stream_state() {
+    let good = model::<4>(4, 9, FeatureSet::HysteresisAware, short_provenance());
+    let mut c = Compensator::<f32, 4>::new(&good).unwrap();
+    let mut twin = c.clone();
+    for k in 0..30 {
+        let s = Sample { dl_pm: [k as f32, -(k as f32), 0.5 * k as f32], t_amb_c: 20.0, t_s: k as f32 };
+        c.step(&s);
+        twin.step(&s);
+    }
+    let mut bad = good.clone();
+    bad.guess_std = [1e-39, 1.0, 1.0]; // valid numbers, overflowing fold
+    assert!(c.reload(&bad).is_err());
+    let mut worse = good.clone();
+    worse.hyper.sigma = -1.0;
+    assert!(c.reload(&worse).is_err());
+    // Same answers as a twin that never saw the refused updates.
+    for k in 0..20 {
+        let s = Sample { dl_pm: [3.0 * k as f32, 1.0, -2.0], t_amb_c: 21.0, t_s: 100.0 + k as f32 };
+        assert_eq!(bits(&c.step(&s)), bits(&twin.step(&s)), "sample {k}");
+    }
+    // A good reload takes effect and restarts the stream state.
+    let other = model::<4>(3, 10, FeatureSet::HysteresisAware, short_provenance());
+    c.reload(&other).unwrap();
+    assert_eq!(c.n_centres(), 3);
+    assert_eq!(c.latch_values(), [0.0f32; 3]);
+}
+
+#[test]
+fn decode_into_matches_decode() {
+    let p = model::<8>(8, 4, FeatureSet::HysteresisAwareTime, long_provenance());
+    let bytes = common::encode_vec(&p);
+    let mut slot = ModelParams::<f32, 8>::default();
+    fbg_shared::blob::decode_into(&bytes, &mut slot).unwrap();
+    assert_eq!(slot, p);
+    assert_eq!(fbg_shared::blob::decode::<8>(&bytes).unwrap(), p);
+    // A refused blob reports the error; the slot is then not to be used, but the caller's
+    // live model was never touched.
+    let mut cut = bytes.clone();
+    cut.truncate(bytes.len() - 9);
+    assert!(fbg_shared::blob::decode_into(&cut, &mut slot).is_err());
+}

@@ -296,7 +296,7 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>> 
         envelope_lo[d] = lo - pad;
         envelope_hi[d] = hi + pad;
     }
-    let var_inv_g = [0.8, 0.5, 0.3, 0.2, 0.12, 0.08, 0.05, 0.03];
+    let var_inv_g = [0.8, 0.5, 0.3, 0.2];
     debug_assert_eq!(var_inv_g.len(), VAR_RANK);
     let params = ModelParams::<f64, MAX_K> {
         hyper: Hyper {
