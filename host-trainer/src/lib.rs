@@ -13,6 +13,7 @@ pub mod scenario;
 pub mod sim;
 pub mod study;
 pub mod parity;
+pub mod report;
 pub mod recalibrate;
 pub mod tables;
 pub mod export;

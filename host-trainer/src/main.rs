@@ -13,6 +13,7 @@ use fbg_trainer::export;
 use fbg_trainer::fit::{self, HostParams, Origin, TrainOptions};
 use fbg_trainer::import::{self, ImportOptions, SplitChoice};
 use fbg_trainer::meta::SimMeta;
+use fbg_trainer::report;
 use fbg_trainer::scenario::{Preset, ScenarioConfig};
 use fbg_trainer::sim;
 use fbg_trainer::study::{self, Metrics, Studies};
@@ -140,6 +141,14 @@ enum Cmd {
         samples: usize,
         #[arg(long, default_value = "golden")]
         out: PathBuf,
+    },
+    /// Regenerate the audit report (figures, tables, coefficient tables, index.html) in DIR from
+    /// the data.csv (+ data.meta.json), model.fbgm, model-p.fbgm and metrics.json there.
+    Report {
+        #[arg(long, default_value = "report")]
+        out: PathBuf,
+        #[arg(long)]
+        json: bool,
     },
     /// Simulate the `paper` preset, train both models, evaluate, run every study and write the
     /// whole audit report into DIR.
@@ -293,6 +302,10 @@ fn run() -> Result<()> {
             export::write_golden(&out, &h, &d, &idx, eh.channels.map(|c| c.rmse))?;
             eprintln!("wrote {} golden samples into {}", idx.len(), out.display());
             Ok(())
+        }
+        Cmd::Report { out, json } => {
+            let o = report::build(&out).with_context(|| format!("writing the report in {}", out.display()))?;
+            print_report_outcome(&out, &o, json)
         }
         Cmd::Demo { out, scenario, json } => demo(&out, &scenario, json),
         Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, json } => {
@@ -497,17 +510,48 @@ fn demo(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     let hold = s.data.holdout_indices();
     let idx: Vec<usize> = hold.into_iter().take(1000).collect();
     export::write_golden(&out.join("golden"), &tr.model_h, &s.data, &idx, m.table2.model_h.channels.map(|c| c.rmse))?;
-    for (name, t) in study::all_tables(&m) {
-        write_bytes_atomically(&out.join(format!("{name}.md")), t.markdown().as_bytes())?;
-        write_bytes_atomically(&out.join(format!("{name}.csv")), t.csv().as_bytes())?;
-        write_bytes_atomically(&out.join(format!("{name}.txt")), t.text().as_bytes())?;
+    log(&format!("wrote model.fbgm ({nh} B), model-p.fbgm ({np} B), coefficients.json, metrics.json, golden vectors"));
+    // The report reads back exactly what `fbg-trainer report` would, so the two never differ.
+    let r = report::build(out).context("writing the report")?;
+    log(&format!(
+        "wrote the report (tables, {} figures as PNG and SVG, coefficient tables, index.html) in {:.1} s",
+        r.files.iter().filter(|f| f.ends_with(".png")).count(),
+        r.seconds
+    ));
+    for w in &r.warnings {
+        eprintln!("warning: {w}");
     }
-    log(&format!("wrote model.fbgm ({nh} B), model-p.fbgm ({np} B), coefficients.json, metrics.json, tables, golden vectors"));
     if json {
         println!("{}", serde_json::to_string_pretty(&m)?);
     } else {
         print_tables(&m);
-        eprintln!("demo finished in {:.1} s; everything is in {}", t0.elapsed().as_secs_f64(), out.display());
+        eprintln!(
+            "demo finished in {:.1} s; everything is in {}, open {}",
+            t0.elapsed().as_secs_f64(),
+            out.display(),
+            out.join(report::INDEX_HTML).display()
+        );
     }
+    Ok(())
+}
+
+fn print_report_outcome(out: &Path, o: &report::Outcome, json: bool) -> Result<()> {
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "dir": out, "index": out.join(report::INDEX_HTML), "files": o.files,
+                "warnings": o.warnings, "notes": o.notes, "seconds": o.seconds,
+            }))?
+        );
+        return Ok(());
+    }
+    for n in &o.notes {
+        eprintln!("note: {n}");
+    }
+    for w in &o.warnings {
+        eprintln!("warning: {w}");
+    }
+    eprintln!("wrote {} files in {:.1} s; open {}", o.files.len(), o.seconds, out.join(report::INDEX_HTML).display());
     Ok(())
 }

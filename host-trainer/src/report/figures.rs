@@ -1,0 +1,600 @@
+//! The report's eight figures (DESIGN §5; the paper's Figs. 6–12), built from the data, the
+//! hold-out estimates of both models, the simulation (for the true wavelength) and the
+//! metrics. Long series are reduced by [`super::decimate`], and every caption says when.
+
+use fbg_shared::Estimate;
+
+use super::chart::{Band, Dots, Grid, Legend, Line, Panel, C_GREY, C_H, C_MEAS, C_P, C_TRUTH};
+use super::decimate::{envelope_columns, histogram, minmax_columns, stride_indices, thin_grid, Decimated};
+use super::window::{best_window, turning_points, window_len_for};
+use crate::dataset::{Dataset, Split};
+use crate::evaluate::UNITS;
+use crate::sim::Simulation;
+use crate::study::Metrics;
+
+/// Width of every figure [px].
+pub const WIDTH: u32 = 1400;
+/// Pixel columns of a full-width panel's plotting area (figure width less the label area).
+pub const COLUMNS: usize = (WIDTH - 130) as usize;
+/// Most points of a phase-plot path (loops) before it is strided.
+pub const MAX_PATH_POINTS: usize = 4000;
+
+/// Cells of the parity plots' thinning grid (about 3 px each).
+pub const PARITY_GRID: (usize, usize) = (200, 110);
+
+/// Channel names for titles.
+pub const LONG_NAMES: [&str; 3] = ["Temperature", "Strain", "Pressure"];
+/// Symbols for axis labels.
+pub const SYMBOLS: [&str; 3] = ["T", "ε", "p"];
+
+/// The unit of the time axes.
+#[derive(Clone, Copy, Debug)]
+pub struct TimeUnit {
+    pub seconds: f64,
+    pub name: &'static str,
+}
+
+impl TimeUnit {
+    /// Days for records of two days or more, hours down to two hours, else seconds.
+    pub fn for_span(span_s: f64) -> Self {
+        if span_s >= 2.0 * 86_400.0 {
+            TimeUnit { seconds: 86_400.0, name: "d" }
+        } else if span_s >= 7_200.0 {
+            TimeUnit { seconds: 3_600.0, name: "h" }
+        } else {
+            TimeUnit { seconds: 1.0, name: "s" }
+        }
+    }
+    pub fn label(&self) -> String {
+        format!("time since start [{}]", self.name)
+    }
+}
+
+/// What the figures are drawn from.
+pub struct Ctx<'a> {
+    pub data: &'a Dataset,
+    /// The re-simulated installation (true wavelengths); `None` without `data.meta.json`.
+    pub sim: Option<&'a Simulation>,
+    pub hold: &'a [usize],
+    pub est_p: &'a [Estimate<f64>],
+    pub est_h: &'a [Estimate<f64>],
+    pub metrics: &'a Metrics,
+    pub time: TimeUnit,
+}
+
+/// A figure ready to be written, with what the page says about it.
+pub struct FigSpec {
+    pub stem: &'static str,
+    pub title: String,
+    pub caption: String,
+    pub grid: Grid,
+}
+
+/// Thousands separated by thin spaces (10 080 → "10 080").
+pub fn count(n: usize) -> String {
+    let s = n.to_string();
+    let mut out = String::new();
+    for (i, c) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push('\u{2009}');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// A number with `d` decimals and a true minus sign.
+pub fn num(v: f64, d: usize) -> String {
+    if !v.is_finite() {
+        return "–".into();
+    }
+    let s = format!("{v:.d$}");
+    if let Some(rest) = s.strip_prefix('-') {
+        if rest.chars().all(|c| c == '0' || c == '.') {
+            rest.to_string()
+        } else {
+            format!("−{rest}")
+        }
+    } else {
+        s
+    }
+}
+
+/// Decimals that suit each channel's magnitude (as in the tables).
+pub const DIGITS: [usize; 3] = [3, 2, 2];
+
+fn pts(d: &Decimated) -> Vec<(f64, f64)> {
+    d.points().collect()
+}
+
+/// What the caption says about min/max decimation of `n` samples per trace.
+fn decimation_note(n: usize, out_max: usize) -> String {
+    if n > 2 * COLUMNS {
+        format!(
+            " Traces with more samples than pixel columns are drawn as each column's minimum and maximum ({} samples → at most {} points per trace): no extreme is lost, nothing is dropped.",
+            count(n),
+            count(out_max)
+        )
+    } else {
+        String::new()
+    }
+}
+
+/// Contiguous runs of hold-out samples as (start, end) times.
+fn holdout_spans(d: &Dataset, unit: f64) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let mut start: Option<usize> = None;
+    for i in 0..d.len() {
+        match (d.split[i], start) {
+            (Split::Holdout, None) => start = Some(i),
+            (Split::Cal, Some(s)) => {
+                out.push((d.t_s[s] / unit, d.t_s[i - 1] / unit));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        out.push((d.t_s[s] / unit, d.t_s[d.len() - 1] / unit));
+    }
+    out
+}
+
+fn mark_split(p: &mut Panel, spans: &[(f64, f64)], x0: f64, x1: f64) {
+    for &(a, b) in spans {
+        p.shade.push((a, b, 0.06));
+        if a > x0 {
+            p.vlines.push(a);
+        }
+    }
+    if let Some(&(a, _)) = spans.first() {
+        let span = (x1 - x0).max(1e-12);
+        if a > x0 {
+            p.note("calibration", (0.01, 0.99));
+            p.note("hold-out", (((a - x0) / span + 0.01).min(0.9), 0.99));
+        } else {
+            p.note("hold-out", (0.01, 0.99));
+        }
+    }
+}
+
+/// Fig. 1: the reference measurands over the whole record.
+pub fn fig1_inputs(c: &Ctx) -> FigSpec {
+    let d = c.data;
+    let u = c.time.seconds;
+    let t: Vec<f64> = d.t_s.iter().map(|v| v / u).collect();
+    let (x0, x1) = (t[0], t[t.len() - 1]);
+    let spans = holdout_spans(d, u);
+    let mut panels = Vec::new();
+    let ylabels = ["T [°C]", "ε [µε]", "p [kPa]"];
+    let caps = ["(a) temperature T(t) and the ambient reading T_amb(t)", "(b) strain ε(t)", "(c) pressure p(t)"];
+    for ch in 0..3 {
+        let mut p = Panel::new(caps[ch], c.time.label(), ylabels[ch]);
+        p.xr = Some((x0, x1));
+        mark_split(&mut p, &spans, x0, x1);
+        if ch == 0 {
+            let amb = minmax_columns(&t, &d.t_amb_c, COLUMNS);
+            p.lines.push(Line::new(C_MEAS, 1, pts(&amb)).label("T_amb reading (model input)"));
+        }
+        let y = minmax_columns(&t, d.target(ch), COLUMNS);
+        p.lines.push(Line::new(C_TRUTH, 1, pts(&y)).label(format!("reference {} (truth)", SYMBOLS[ch])));
+        p.legend = Legend::UpperRight;
+        p.legend_room = 0.3;
+        panels.push(p);
+    }
+    let hold_from = spans.first().map(|s| format!("from t = {} {}", num(s.0, 2), c.time.name)).unwrap_or_else(|| "none".into());
+    let dt = if d.len() > 1 { d.t_s[1] - d.t_s[0] } else { 0.0 };
+    FigSpec {
+        stem: "fig1_inputs",
+        title: "Fig. 1 — Inputs: the reference measurands T(t), ε(t), p(t)".into(),
+        caption: format!(
+            "The trajectories the compensators must reconstruct, over the whole record ({} samples, Δt = {} s, {} {}). The shaded part is the hold-out ({hold_from}); models are fitted on the calibration part only. The ambient thermometer reading (a model input) lags the temperature.{}",
+            count(d.len()),
+            num(dt, 1),
+            num(x1 - x0, 2),
+            c.time.name,
+            decimation_note(d.len(), 2 * COLUMNS)
+        ),
+        grid: Grid {
+            size: (WIDTH, 1150),
+            title: "Fig. 1 — Inputs: reference temperature, strain and pressure over the whole record".into(),
+            subtitle: "What to look for: the ranges the calibration part covers, and whether the hold-out (shaded) leaves them.".into(),
+            rows: 3,
+            cols: 1,
+            panels,
+        },
+    }
+}
+
+/// Fig. 2: measured vs true wavelength shift of FBG1 (the strain grating), its artefacts and
+/// the minor loops. Needs the simulation.
+pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
+    let s = c.sim?;
+    let d = c.data;
+    let u = c.time.seconds;
+    let t: Vec<f64> = d.t_s.iter().map(|v| v / u).collect();
+    let (x0, x1) = (t[0], t[t.len() - 1]);
+    let spans = holdout_spans(d, u);
+    let truth = &s.effects.physics[g];
+    let meas = &d.dl_pm[g];
+    let dev: Vec<f64> = meas.iter().zip(truth).map(|(m, t)| m - t).collect();
+
+    let mut a = Panel::new(format!("(a) FBG{} wavelength shift: measured and true", g + 1), c.time.label(), "Δλ [pm]");
+    a.xr = Some((x0, x1));
+    mark_split(&mut a, &spans, x0, x1);
+    a.lines.push(Line::new(C_MEAS, 1, pts(&minmax_columns(&t, meas, COLUMNS))).label("measured Δλ (interrogator)"));
+    a.lines.push(Line::new(C_TRUTH, 1, pts(&minmax_columns(&t, truth, COLUMNS))).label("true Δλ (physics only)"));
+    a.legend = Legend::UpperRight;
+    a.legend_room = 0.3;
+
+    let mut b = Panel::new("(b) measured − true: all interrogator artefacts, with the drift part", c.time.label(), "measured − true [pm]");
+    b.xr = Some((x0, x1));
+    mark_split(&mut b, &spans, x0, x1);
+    b.lines.push(Line::new(C_GREY, 1, pts(&minmax_columns(&t, &dev, COLUMNS))).label("measured − true"));
+    let slow: Vec<f64> = (0..d.len()).map(|i| s.effects.drift[g][i] + s.effects.electronics[g][i]).collect();
+    b.lines.push(Line::new(C_P, 3, pts(&minmax_columns(&t, &slow, COLUMNS))).label("drift + electronics part (slow)"));
+    b.legend = Legend::UpperRight;
+    b.legend_room = 0.3;
+
+    // Zoom: about 12 turning points of the true shift, where they are densest.
+    let db = crate::evaluate::HYSTERESIS_INDEX_DEAD_BAND_PM;
+    let tp = turning_points(truth, db);
+    let len = window_len_for(&tp, d.len(), 12, 50.min(d.len()));
+    let mut w = vec![0.0; d.len()];
+    for &i in &tp {
+        w[i] = 1.0;
+    }
+    let (wa, wb) = best_window(&w, len);
+    let idx: Vec<usize> = stride_indices(wb - wa, MAX_PATH_POINTS).into_iter().map(|k| wa + k).collect();
+    let strided = idx.len() < wb - wa;
+    let mut cpan = Panel::new(
+        format!("(c) minor loops: measured − true against true, t = {}–{} {}", num(t[wa], 2), num(t[wb - 1], 2), c.time.name),
+        format!("true Δλ of FBG{} [pm]", g + 1),
+        "measured − true [pm]",
+    );
+    cpan.x_pad = 0.03;
+    cpan.lines.push(Line::new(RGBA_GREY, 1, idx.iter().map(|&i| (truth[i], dev[i])).collect()).label("measured − true (with noise)"));
+    let hyst: Vec<(f64, f64)> =
+        idx.iter().map(|&i| (truth[i], s.effects.hysteresis[g][i] + s.effects.scan[g][i] + slow[i])).collect();
+    cpan.lines.push(Line::new(C_H, 2, hyst).label("hysteresis + scan + slow parts (no noise)"));
+    cpan.legend = Legend::UpperRight;
+    cpan.legend_room = 0.3;
+    let tp_in = tp.iter().filter(|&&i| i >= wa && i < wb).count();
+    // Shade the zoom window in (b).
+    b.shade.push((t[wa], t[wb - 1], 0.18));
+    b.note("(c)", (((t[wa] - x0) / (x1 - x0).max(1e-12)).clamp(0.0, 0.95), 0.12));
+
+    let rms = |v: &[f64]| crate::metrics::rms(v.iter().copied());
+    let e = &s.effects;
+    Some(FigSpec {
+        stem: "fig2_wavelength_fbg1",
+        title: format!("Fig. 2 — FBG{}: measured vs true wavelength shift", g + 1),
+        caption: format!(
+            "Grating FBG{} (the strain grating). (a) The interrogator's reading against the true physical shift, re-simulated from data.meta.json (the CSV holds only the measured shift). (b) Their difference: drift (random walk, Eq. 8) and electronics drift wander slowly; hysteresis, scan nonlinearity and noise ride on top. RMS over the record [pm]: hysteresis {}, scan {}, drift {}, electronics {}, noise {}. (c) The same difference against the true shift in the shaded window of (b) (chosen as the window of about 12 turning points where they are densest: {} turning points with a {} pm dead band, {} samples): the loops that open at each reversal are the hysteresis the models must undo.{}{}",
+            g + 1,
+            num(rms(&e.hysteresis[g]), 2),
+            num(rms(&e.scan[g]), 2),
+            num(rms(&e.drift[g]), 2),
+            num(rms(&e.electronics[g]), 2),
+            num(rms(&e.noise[g]), 2),
+            tp_in,
+            num(db, 0),
+            count(wb - wa),
+            if strided { format!(" The loop path is drawn through every {}th sample.", (wb - wa) / idx.len().max(1)) } else { String::new() },
+            decimation_note(d.len(), 2 * COLUMNS)
+        ),
+        grid: Grid {
+            size: (WIDTH, 1350),
+            title: format!("Fig. 2 — FBG{}: measured vs true wavelength shift (drift and minor hysteresis loops)", g + 1),
+            subtitle: "What to look for: the slow baseline wander in (b), and the narrow loops at the turning points in (c).".into(),
+            rows: 3,
+            cols: 1,
+            panels: vec![a, b, cpan],
+        },
+    })
+}
+
+const RGBA_GREY: plotters::style::RGBColor = plotters::style::RGBColor(150, 150, 150);
+
+fn finite_std(v: &[f64]) -> f64 {
+    crate::metrics::std_dev(v.iter().copied().filter(|x| x.is_finite()))
+}
+
+/// Figs. 3–5: one channel on the hold-out.
+pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
+    let d = c.data;
+    let u = c.time.seconds;
+    let n = c.hold.len();
+    let x: Vec<f64> = c.hold.iter().map(|&i| d.t_s[i] / u).collect();
+    let truth: Vec<f64> = c.hold.iter().map(|&i| d.target(ch)[i]).collect();
+    let vp: Vec<f64> = c.est_p.iter().map(|e| e.values[ch]).collect();
+    let vh: Vec<f64> = c.est_h.iter().map(|e| e.values[ch]).collect();
+    let bp: Vec<f64> = c.est_p.iter().map(|e| e.band95[ch]).collect();
+    let bh: Vec<f64> = c.est_h.iter().map(|e| e.band95[ch]).collect();
+    let ep: Vec<f64> = vp.iter().zip(&truth).map(|(a, b)| a - b).collect();
+    let eh: Vec<f64> = vh.iter().zip(&truth).map(|(a, b)| a - b).collect();
+    let m = &c.metrics.table2;
+    let (mp, mh) = (&m.model_p.channels[ch], &m.model_h.channels[ch]);
+    let unit = UNITS[ch];
+    let dg = DIGITS[ch];
+    let sym = SYMBOLS[ch];
+
+    // Zoom window: about 6 turning points of the truth (dead band half its standard
+    // deviation), placed where the two models' summed |error| is largest.
+    let db = 0.5 * finite_std(&truth);
+    let tp = turning_points(&truth, db);
+    let len = window_len_for(&tp, n, 6, 60);
+    let weight: Vec<f64> = ep.iter().zip(&eh).map(|(a, b)| a.abs() + b.abs()).collect();
+    let (wa, wb) = best_window(&weight, len);
+
+    let band = |xs: &[f64], v: &[f64], b: &[f64], color, label: &str| {
+        let lo: Vec<f64> = v.iter().zip(b).map(|(a, b)| a - b).collect();
+        let hi: Vec<f64> = v.iter().zip(b).map(|(a, b)| a + b).collect();
+        let (ex, el, eu) = envelope_columns(xs, &lo, &hi, COLUMNS);
+        Band::between(color, 0.16, &ex, &el, &eu).label(label)
+    };
+    let series = |xs: &[f64], v: &[f64]| pts(&minmax_columns(xs, v, COLUMNS));
+
+    let ylabel = format!("{sym} [{unit}]");
+    let lab_p = format!("Model-P (hold-out RMSE {} {unit})", num(mp.rmse, dg));
+    let lab_h = format!("Model-H (hold-out RMSE {} {unit})", num(mh.rmse, dg));
+    let mut a = Panel::new(
+        format!("(a) zoom on turning points, t = {}–{} {}", num(x[wa], 2), num(x[wb - 1], 2), c.time.name),
+        c.time.label(),
+        ylabel.clone(),
+    );
+    let r = wa..wb;
+    a.bands.push(band(&x[r.clone()], &vp[r.clone()], &bp[r.clone()], C_P, "Model-P 95 % band"));
+    a.bands.push(band(&x[r.clone()], &vh[r.clone()], &bh[r.clone()], C_H, "Model-H 95 % band"));
+    a.lines.push(Line::new(C_P, 2, series(&x[r.clone()], &vp[r.clone()])).label(lab_p.clone()));
+    a.lines.push(Line::new(C_H, 2, series(&x[r.clone()], &vh[r.clone()])).label(lab_h.clone()));
+    a.lines.push(Line::new(C_TRUTH, 2, series(&x[r.clone()], &truth[r.clone()])).label("truth"));
+    a.legend = Legend::UpperRight;
+    a.legend_room = 0.45;
+
+    let mut b = Panel::new("(b) the whole hold-out", c.time.label(), ylabel);
+    b.bands.push(band(&x, &vp, &bp, C_P, "Model-P 95 % band"));
+    b.bands.push(band(&x, &vh, &bh, C_H, "Model-H 95 % band"));
+    b.lines.push(Line::new(C_P, 1, series(&x, &vp)).label("Model-P"));
+    b.lines.push(Line::new(C_H, 1, series(&x, &vh)).label("Model-H"));
+    b.lines.push(Line::new(C_TRUTH, 1, series(&x, &truth)).label("truth"));
+    b.shade.push((x[wa], x[wb - 1], 0.12));
+    b.legend = Legend::None;
+
+    let mut e = Panel::new(
+        format!("(c) errors (estimate − truth) with ±95 % bands: coverage Model-P {} %, Model-H {} %", num(100.0 * mp.coverage, 1), num(100.0 * mh.coverage, 1)),
+        c.time.label(),
+        format!("error [{unit}]"),
+    );
+    let zeros = vec![0.0; n];
+    e.bands.push(band(&x, &zeros, &bp, C_P, "Model-P ±band"));
+    e.bands.push(band(&x, &zeros, &bh, C_H, "Model-H ±band"));
+    e.lines.push(Line::new(C_P, 1, series(&x, &ep)).label("Model-P error"));
+    e.lines.push(Line::new(C_H, 1, series(&x, &eh)).label("Model-H error"));
+    e.legend = Legend::UpperLeft;
+    e.legend_room = 0.35;
+
+    let flagged = c.est_h.iter().filter(|e| !e.flags.is_ok()).count();
+    let nonfinite = vp.iter().chain(&vh).filter(|v| !v.is_finite()).count();
+    let fig_no = 3 + ch;
+    let stems = ["fig3_temperature", "fig4_strain", "fig5_pressure"];
+    FigSpec {
+        stem: stems[ch],
+        title: format!("Fig. {fig_no} — {} on the hold-out", LONG_NAMES[ch]),
+        caption: format!(
+            "Hold-out {} ({} samples, never seen in fitting): the reference, Model-P (polynomial only) and Model-H (polynomial + RBF residual), each with its 95 % band. (a) The window of about 6 turning points of the truth (dead band {} {unit}) where the two models' summed |error| is largest ({} samples), shaded in (b). (c) The errors against ± the band half-widths; the band should hold the truth about 95 % of the time. Metrics from metrics.json: RMSE {} → {} {unit}, MAE {} → {} {unit}, hysteresis index {} → {} {unit} (Model-P → Model-H). Samples flagged by Model-H: {}{}.{}{}",
+            LONG_NAMES[ch].to_lowercase(),
+            count(n),
+            num(db, dg),
+            count(wb - wa),
+            num(mp.rmse, dg),
+            num(mh.rmse, dg),
+            num(mp.mae, dg),
+            num(mh.mae, dg),
+            num(mp.hysteresis_index, dg),
+            num(mh.hysteresis_index, dg),
+            count(flagged),
+            if flagged > 0 { " (their bands are widened, which shows as spikes of the band in (c))" } else { "" },
+            if nonfinite > 0 { format!(" {} non-finite estimates are not drawn.", count(nonfinite)) } else { String::new() },
+            decimation_note(n, 2 * COLUMNS)
+        ),
+        grid: Grid {
+            size: (WIDTH, 1350),
+            title: format!("Fig. {fig_no} — {} on the hold-out: truth, Model-P and Model-H with 95 % bands", LONG_NAMES[ch]),
+            subtitle: "What to look for: who tracks the truth at the turning points in (a); errors inside their bands in (c).".into(),
+            rows: 3,
+            cols: 1,
+            panels: vec![a, b, e],
+        },
+    }
+}
+
+/// Fig. 6: parity plots, every channel, both models.
+pub fn fig6_parity(c: &Ctx) -> FigSpec {
+    let d = c.data;
+    let m = &c.metrics.table2;
+    let mut panels = Vec::new();
+    let mut drawn = 0usize;
+    let mut total = 0usize;
+    for ch in 0..3 {
+        let truth: Vec<f64> = c.hold.iter().map(|&i| d.target(ch)[i]).collect();
+        let vp: Vec<f64> = c.est_p.iter().map(|e| e.values[ch]).collect();
+        let vh: Vec<f64> = c.est_h.iter().map(|e| e.values[ch]).collect();
+        let all = truth.iter().chain(&vp).chain(&vh).filter(|v| v.is_finite());
+        let (lo, hi) = all.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        let pad = 0.03 * (hi - lo).max(1e-9);
+        let (lo, hi) = (lo - pad, hi + pad);
+        let (unit, dg, sym) = (UNITS[ch], DIGITS[ch], SYMBOLS[ch]);
+        for (k, (name, v, color, me)) in [("Model-P", &vp, C_P, &m.model_p), ("Model-H", &vh, C_H, &m.model_h)].into_iter().enumerate() {
+            let thin = thin_grid(&truth, v, (lo, hi), (lo, hi), PARITY_GRID.0, PARITY_GRID.1);
+            drawn += thin.x.len();
+            total += thin.n_in;
+            let mut p = Panel::new(
+                format!("({}) {} — {name}", (b'a' + (2 * ch + k) as u8) as char, LONG_NAMES[ch]),
+                format!("true {sym} [{unit}]"),
+                format!("estimated {sym} [{unit}]"),
+            );
+            p.xr = Some((lo, hi));
+            p.yr = Some((lo, hi));
+            p.dots.push(Dots { label: None, color, alpha: 0.35, radius: 2, filled: true, pts: pts(&thin) });
+            p.lines.push(Line::new(C_TRUTH, 1, vec![(lo, lo), (hi, hi)]).dashed().label("ideal (estimate = truth)"));
+            let cm = &me.channels[ch];
+            p.note(format!("RMSE {} {unit}   MAE {} {unit}", num(cm.rmse, dg), num(cm.mae, dg)), (0.03, 0.96));
+            p.note(format!("R² {}   bias {} {unit}", num(cm.r2, 4), num(cm.bias, dg)), (0.03, 0.89));
+            p.legend = Legend::LowerRight;
+            panels.push(p);
+        }
+    }
+    FigSpec {
+        stem: "fig6_parity",
+        title: "Fig. 6 — Parity: estimate against truth on the hold-out".into(),
+        caption: format!(
+            "Every hold-out sample of every channel, Model-P (left) and Model-H (right), against the 45° line of a perfect estimate; RMSE, MAE, R² and bias are those of Table 2 (metrics.json). Points are drawn once per occupied cell of a {} × {} grid over each panel ({} estimates → {} points): every place the full cloud puts ink still gets ink, but the density of dense regions is not shown (Fig. 7 shows it).",
+            PARITY_GRID.0,
+            PARITY_GRID.1,
+            count(total),
+            count(drawn)
+        ),
+        grid: Grid {
+            size: (WIDTH, 1700),
+            title: "Fig. 6 — Parity plots: estimate vs truth on the hold-out, per channel and model".into(),
+            subtitle: "What to look for: tighter, more symmetric clouds around the diagonal for Model-H; a tilt means a proportional bias.".into(),
+            rows: 3,
+            cols: 2,
+            panels,
+        },
+    }
+}
+
+/// Fig. 7: error histograms per channel, both models.
+pub fn fig7_errors(c: &Ctx) -> FigSpec {
+    let d = c.data;
+    let m = &c.metrics.table2;
+    let bins = 80;
+    let mut panels = Vec::new();
+    for ch in 0..3 {
+        let truth: Vec<f64> = c.hold.iter().map(|&i| d.target(ch)[i]).collect();
+        let ep: Vec<f64> = c.est_p.iter().zip(&truth).map(|(e, t)| e.values[ch] - t).collect();
+        let eh: Vec<f64> = c.est_h.iter().zip(&truth).map(|(e, t)| e.values[ch] - t).collect();
+        let (lo, hi) = ep.iter().chain(&eh).filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        let (lo, hi) = if lo < hi { (lo, hi) } else { (lo - 1.0, hi + 1.0) };
+        let wbin = (hi - lo) / bins as f64;
+        let (unit, dg, sym) = (UNITS[ch], DIGITS[ch], SYMBOLS[ch]);
+        let mut p = Panel::new(format!("({}) {}", (b'a' + ch as u8) as char, LONG_NAMES[ch]), format!("error of {sym} [{unit}]"), "samples per bin");
+        p.xr = Some((lo, hi));
+        p.y_pad = 0.0;
+        let mut ymax: f64 = 0.0;
+        for (name, e, color, me) in [("Model-P", &ep, C_P, &m.model_p), ("Model-H", &eh, C_H, &m.model_h)] {
+            let (counts, _) = histogram(e, lo, hi, bins);
+            let mut step = Vec::with_capacity(2 * bins + 2);
+            step.push((lo, 0.0));
+            for (k, &n) in counts.iter().enumerate() {
+                let a = lo + k as f64 * wbin;
+                step.push((a, n as f64));
+                step.push((a + wbin, n as f64));
+                ymax = ymax.max(n as f64);
+            }
+            step.push((hi, 0.0));
+            let mut poly = step.clone();
+            poly.push((lo, 0.0));
+            p.bands.push(Band { label: None, color, alpha: 0.18, poly });
+            let cm = &me.channels[ch];
+            p.lines.push(Line::new(color, 2, step).label(format!("{name}: bias {} {unit}, RMSE {} {unit}", num(cm.bias, dg), num(cm.rmse, dg))));
+        }
+        p.yr = Some((0.0, 1.22 * ymax.max(1.0)));
+        p.lines.push(Line::new(C_TRUTH, 1, vec![(0.0, 0.0), (0.0, 1.22 * ymax.max(1.0))]).dashed());
+        p.legend = Legend::UpperRight;
+        panels.push(p);
+    }
+    FigSpec {
+        stem: "fig7_error_histograms",
+        title: "Fig. 7 — Error distributions on the hold-out".into(),
+        caption: format!(
+            "Histograms of estimate − truth over the {} hold-out samples, {bins} equal bins spanning the smallest to the largest error of either model (no sample is left out; the dashed line marks zero error). Bias and RMSE from metrics.json.",
+            count(c.hold.len())
+        ),
+        grid: Grid {
+            size: (WIDTH, 1500),
+            title: "Fig. 7 — Error distributions (estimate − truth) on the hold-out, both models".into(),
+            subtitle: "What to look for: a narrower, more centred distribution with lighter tails for Model-H.".into(),
+            rows: 3,
+            cols: 1,
+            panels,
+        },
+    }
+}
+
+/// Fig. 8: drift sensitivity (needs the drift sweep in the metrics).
+pub fn fig8_drift(c: &Ctx) -> Option<FigSpec> {
+    let s = c.metrics.drift_sweep.as_ref()?;
+    let mut panels = Vec::new();
+    let nominal = s.factors.iter().position(|&f| f == 1.0).map(|i| s.sigma_d_pm[i]);
+    let xs = &s.sigma_d_pm;
+    let xmin = xs.iter().cloned().fold(f64::INFINITY, f64::min);
+    let xmax = xs.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let pad = 0.05 * (xmax - xmin).max(1e-12);
+    let (lo, hi) = (xmin - pad, xmax + pad);
+    for ch in 0..3 {
+        let (unit, dg) = (UNITS[ch], DIGITS[ch]);
+        let mut p = Panel::new(format!("({}) {}", (b'a' + ch as u8) as char, LONG_NAMES[ch]), "drift amplitude σ_d [pm per step]", format!("hold-out RMSE [{unit}]"));
+        p.xr = Some((lo, hi));
+        p.y_pad = 0.15;
+        for (name, ys, slope, icpt, color, filled) in [
+            ("Model-P", &s.rmse_p, s.slope_p[ch], s.intercept_p[ch], C_P, true),
+            ("Model-H", &s.rmse_h, s.slope_h[ch], s.intercept_h[ch], C_H, false),
+        ] {
+            let pts: Vec<(f64, f64)> = xs.iter().zip(ys.iter()).map(|(&x, y)| (x, y[ch])).collect();
+            p.dots.push(Dots { label: Some(format!("{name} (refitted at each σ_d)")), color, alpha: 1.0, radius: 6, filled, pts });
+            p.lines.push(
+                Line::new(color, 2, vec![(xmin, icpt + slope * xmin), (xmax, icpt + slope * xmax)])
+                    .dashed()
+                    .label(format!("{name} fit: slope {} {unit} per pm/step", num(slope, dg))),
+            );
+        }
+        if let Some(x) = nominal {
+            p.vlines.push(x);
+            p.note("scenario σ_d", (((x - lo) / (hi - lo) + 0.01).min(0.85), 0.07));
+        }
+        p.legend = Legend::UpperLeft;
+        p.legend_room = 0.8;
+        panels.push(p);
+    }
+    Some(FigSpec {
+        stem: "fig8_drift_sensitivity",
+        title: "Fig. 8 — Drift sensitivity".into(),
+        caption: format!(
+            "Hold-out RMSE as the drift amplitude σ_d is scaled by {} (all else fixed; both models refitted each time with the hyper-parameters chosen on the nominal scenario), with least-squares lines; their slopes are the drift-sensitivity index (metrics.json, drift sweep). The dashed vertical line marks the scenario's own σ_d.",
+            s.factors.iter().map(|f| num(*f, 1)).collect::<Vec<_>>().join(", ")
+        ),
+        grid: Grid {
+            size: (WIDTH, 1500),
+            title: "Fig. 8 — Drift sensitivity: hold-out RMSE against drift amplitude σ_d".into(),
+            subtitle: "What to look for: a shallower slope means a model that is more robust to baseline wander.".into(),
+            rows: 3,
+            cols: 1,
+            panels,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_print_with_a_true_minus_and_thin_spaces() {
+        assert_eq!(num(-0.1234, 2), "−0.12");
+        assert_eq!(num(-0.0001, 2), "0.00");
+        assert_eq!(num(f64::NAN, 2), "–");
+        assert_eq!(count(10080), "10\u{2009}080");
+        assert_eq!(count(999), "999");
+        assert_eq!(count(1_000_000), "1\u{2009}000\u{2009}000");
+    }
+
+    #[test]
+    fn time_unit_suits_the_span() {
+        assert_eq!(TimeUnit::for_span(14.0 * 86_400.0).name, "d");
+        assert_eq!(TimeUnit::for_span(10.0 * 3600.0).name, "h");
+        assert_eq!(TimeUnit::for_span(100.0).name, "s");
+    }
+}

@@ -1,0 +1,493 @@
+//! The audit report (issue 4, DESIGN §5): from a directory holding `data.csv`
+//! (+ `data.meta.json`), `model.fbgm`, `model-p.fbgm` and `metrics.json`, write into the same
+//! directory the eight figures (PNG and SVG), the tables (Markdown, CSV, text), the
+//! coefficient tables and `index.html`, a static page that shows all of it with the scenario,
+//! the provenance and a summary generated from the numbers.
+//!
+//! The report recomputes the hold-out estimates from the models and the data (for the
+//! figures) and checks them against `metrics.json`; it re-simulates the scenario of
+//! `data.meta.json` for the true wavelengths and checks the CSV against it. Any disagreement
+//! is shown at the top of the page, never papered over.
+
+pub mod chart;
+pub mod coef;
+pub mod decimate;
+pub mod figures;
+pub mod fonts;
+pub mod html;
+pub mod load;
+pub mod summary;
+pub mod window;
+
+use std::path::Path;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use crate::dataset::{write_bytes_atomically, Dataset};
+use crate::error::TrainerError;
+use crate::evaluate::{evaluate_holdout, ModelEval, CHANNELS};
+use crate::export;
+use crate::fit::HostParams;
+use crate::meta::SimMeta;
+use crate::sim::{simulate, Simulation};
+use crate::study::{self, Metrics};
+use figures::{count, num, Ctx, FigSpec, TimeUnit};
+use html::{esc, FigEntry, Section};
+
+/// File names the report reads.
+pub const DATA_CSV: &str = "data.csv";
+pub const MODEL_H: &str = "model.fbgm";
+pub const MODEL_P: &str = "model-p.fbgm";
+pub const METRICS_JSON: &str = "metrics.json";
+/// The page.
+pub const INDEX_HTML: &str = "index.html";
+
+/// Relative tolerance when comparing metrics.json with the recomputed hold-out metrics (the
+/// CSV rounds to 1e-6, which moves the metrics by far less).
+pub const METRICS_REL_TOL: f64 = 1e-3;
+/// Largest |Δλ| [pm] between the CSV and the re-simulation still taken as the same data.
+pub const RESIM_TOL_PM: f64 = 1e-4;
+
+/// Everything the report is made from.
+pub struct Inputs {
+    pub data: Dataset,
+    pub meta: Option<SimMeta>,
+    pub model_p: HostParams,
+    pub model_h: HostParams,
+    pub metrics: Metrics,
+}
+
+impl Inputs {
+    /// Read the inputs from `dir` (`data.meta.json` is optional).
+    pub fn read_dir(dir: &Path) -> Result<Self, TrainerError> {
+        let csv = dir.join(DATA_CSV);
+        Ok(Inputs {
+            data: Dataset::read_csv(&csv)?,
+            meta: SimMeta::read_for(&csv)?,
+            model_h: export::read_blob(&dir.join(MODEL_H))?,
+            model_p: export::read_blob(&dir.join(MODEL_P))?,
+            metrics: load::read_metrics(&dir.join(METRICS_JSON))?,
+        })
+    }
+}
+
+/// What writing the report produced.
+#[derive(Clone, Debug, Default)]
+pub struct Outcome {
+    /// Files written, relative to the directory.
+    pub files: Vec<String>,
+    /// Disagreements shown at the top of the page.
+    pub warnings: Vec<String>,
+    /// Omissions shown at the top of the page (e.g. no data.meta.json).
+    pub notes: Vec<String>,
+    pub seconds: f64,
+}
+
+/// Read `dir` and write the report into it.
+pub fn build(dir: &Path) -> Result<Outcome, TrainerError> {
+    let t = Instant::now();
+    let inp = Inputs::read_dir(dir)?;
+    let mut o = write(dir, &inp)?;
+    o.seconds = t.elapsed().as_secs_f64();
+    Ok(o)
+}
+
+/// Check the CSV against the re-simulation of its sidecar.
+fn check_resim(s: &Simulation, d: &Dataset) -> Result<(), String> {
+    if s.data.len() != d.len() {
+        return Err(format!(
+            "data.csv has {} samples but re-simulating data.meta.json gives {}: Figure 2 (true wavelength) is omitted.",
+            d.len(),
+            s.data.len()
+        ));
+    }
+    let mut worst: f64 = 0.0;
+    for g in 0..3 {
+        for (a, b) in s.data.dl_pm[g].iter().zip(&d.dl_pm[g]) {
+            worst = worst.max((a - b).abs());
+        }
+    }
+    if !(worst <= RESIM_TOL_PM) {
+        return Err(format!(
+            "data.csv differs from a re-simulation of data.meta.json by up to {worst:.3e} pm (tolerance {RESIM_TOL_PM:e}): the CSV was edited or the simulator changed; Figure 2 (true wavelength) is omitted."
+        ));
+    }
+    Ok(())
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a.is_nan() && b.is_nan()) || (a - b).abs() <= METRICS_REL_TOL * b.abs().max(a.abs()) + 1e-12
+}
+
+/// Compare metrics.json with the hold-out metrics recomputed from the models and the data.
+fn check_metrics(m: &Metrics, p: &ModelEval, h: &ModelEval, hold: usize, n: usize, warnings: &mut Vec<String>) {
+    if m.samples != n || m.holdout_samples != hold {
+        warnings.push(format!(
+            "metrics.json describes {} samples ({} hold-out) but data.csv has {} ({} hold-out).",
+            m.samples, m.holdout_samples, n, hold
+        ));
+    }
+    let mut bad = Vec::new();
+    for (name, stored, fresh) in [("Model-P", &m.table2.model_p, p), ("Model-H", &m.table2.model_h, h)] {
+        for c in 0..3 {
+            let (s, f) = (&stored.channels[c], &fresh.channels[c]);
+            for (stat, a, b) in [("RMSE", s.rmse, f.rmse), ("MAE", s.mae, f.mae), ("bias", s.bias, f.bias), ("coverage", s.coverage, f.coverage)] {
+                if !close(a, b) {
+                    bad.push(format!("{name} {} {stat}: metrics.json {a:.6} vs recomputed {b:.6}", CHANNELS[c]));
+                }
+            }
+        }
+    }
+    if !bad.is_empty() {
+        warnings.push(format!(
+            "metrics.json does not match the models and data in this directory (tables and summary show metrics.json; figures show the recomputed estimates): {}.",
+            bad.join("; ")
+        ));
+    }
+    let g: [f64; 3] = std::array::from_fn(|c| crate::evaluate::gain_pct(m.table2.model_p.channels[c].rmse, m.table2.model_h.channels[c].rmse));
+    let gbad: Vec<String> = (0..3)
+        .filter(|&c| !close(g[c], m.table2.gain_pct[c]))
+        .map(|c| format!("{}: {:.2} % stored vs {:.2} % from its RMSEs", CHANNELS[c], m.table2.gain_pct[c], g[c]))
+        .collect();
+    if !gbad.is_empty() {
+        warnings.push(format!("metrics.json's gains disagree with its own RMSEs: {}.", gbad.join("; ")));
+    }
+}
+
+fn check_provenance(inp: &Inputs, warnings: &mut Vec<String>) {
+    let m = &inp.metrics;
+    for (name, p) in [("model.fbgm", &inp.model_h), ("model-p.fbgm", &inp.model_p)] {
+        let pr = &p.provenance;
+        if pr.scenario.as_str() != m.scenario || pr.seed != m.seed {
+            warnings.push(format!(
+                "{name} was trained on scenario “{}”, seed {}, but metrics.json describes “{}”, seed {}.",
+                pr.scenario, pr.seed, m.scenario, m.seed
+            ));
+        }
+    }
+    if let Some(meta) = &inp.meta {
+        if meta.scenario.name != m.scenario || meta.seed != m.seed {
+            warnings.push(format!(
+                "data.meta.json describes scenario “{}”, seed {}, but metrics.json describes “{}”, seed {}.",
+                meta.scenario.name, meta.seed, m.scenario, m.seed
+            ));
+        }
+    }
+    if !export::is_model_p(&inp.model_p) {
+        warnings.push(format!("model-p.fbgm has {} RBF centres: it is not a polynomial-only Model-P.", inp.model_p.centres.len()));
+    }
+}
+
+fn date(yyyymmdd: u32) -> String {
+    format!("{:04}-{:02}-{:02}", yyyymmdd / 10_000, yyyymmdd / 100 % 100, yyyymmdd % 100)
+}
+
+/// Write the report for `inp` into `dir`.
+pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
+    let t0 = Instant::now();
+    std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
+    fonts::ensure_registered();
+    let d = &inp.data;
+    let m = &inp.metrics;
+    let hold = d.holdout_indices();
+    if hold.is_empty() || d.len() < 2 {
+        return Err(TrainerError::Dataset { message: "the report needs a hold-out part (split column `holdout`)".into() });
+    }
+    let ((rp, rh), sim) = rayon::join(
+        || rayon::join(|| evaluate_holdout(&inp.model_p, d), || evaluate_holdout(&inp.model_h, d)),
+        || inp.meta.as_ref().map(|mm| simulate(&mm.scenario, mm.seed)),
+    );
+    let (ev_p, est_p) = rp?;
+    let (ev_h, est_h) = rh?;
+
+    let mut out = Outcome::default();
+    let sim = match sim {
+        Some(s) => match check_resim(&s, d) {
+            Ok(()) => Some(s),
+            Err(msg) => {
+                out.warnings.push(msg);
+                None
+            }
+        },
+        None => {
+            out.notes.push(
+                "data.meta.json is absent, so the data cannot be re-simulated: Figure 2 (true wavelength shift) and the oracle floor are omitted, and the scenario is known only by the name recorded in metrics.json."
+                    .into(),
+            );
+            None
+        }
+    };
+    check_metrics(m, &ev_p, &ev_h, hold.len(), d.len(), &mut out.warnings);
+    check_provenance(inp, &mut out.warnings);
+    if m.drift_sweep.is_none() {
+        out.notes.push("metrics.json has no drift sweep (e.g. `evaluate --quick` or data without data.meta.json): Figure 8 is omitted.".into());
+    }
+
+    let span = d.t_s[d.len() - 1] - d.t_s[0];
+    let ctx = Ctx {
+        data: d,
+        sim: sim.as_ref(),
+        hold: &hold,
+        est_p: &est_p,
+        est_h: &est_h,
+        metrics: m,
+        time: TimeUnit::for_span(span),
+    };
+    let mut specs: Vec<FigSpec> = vec![figures::fig1_inputs(&ctx)];
+    specs.extend(figures::fig2_wavelength(&ctx, 0));
+    for ch in 0..3 {
+        specs.push(figures::fig_channel(&ctx, ch));
+    }
+    specs.push(figures::fig6_parity(&ctx));
+    specs.push(figures::fig7_errors(&ctx));
+    specs.extend(figures::fig8_drift(&ctx));
+    specs.par_iter().map(|f| f.grid.write(dir, f.stem)).collect::<Result<Vec<()>, TrainerError>>()?;
+    for f in &specs {
+        out.files.push(format!("{}.png", f.stem));
+        out.files.push(format!("{}.svg", f.stem));
+    }
+
+    // Tables.
+    let results = study::all_tables(m);
+    for (name, t) in &results {
+        for (ext, body) in [("md", t.markdown()), ("csv", t.csv()), ("txt", t.text())] {
+            let f = format!("{name}.{ext}");
+            write_bytes_atomically(&dir.join(&f), body.as_bytes())?;
+            out.files.push(f);
+        }
+    }
+    let coefs = coef::tables(&inp.model_p, &inp.model_h, m);
+    for (name, t) in &coefs {
+        for (ext, body) in [("md", format!("**{}**\n\n{}", t.title, t.markdown())), ("csv", t.csv())] {
+            let f = format!("{name}.{ext}");
+            write_bytes_atomically(&dir.join(&f), body.as_bytes())?;
+            out.files.push(f);
+        }
+    }
+
+    // The page.
+    let page = page(dir, inp, &specs, &results, &coefs, &out, sim.is_some());
+    write_bytes_atomically(&dir.join(INDEX_HTML), page.as_bytes())?;
+    out.files.push(INDEX_HTML.into());
+    out.seconds = t0.elapsed().as_secs_f64();
+    Ok(out)
+}
+
+fn page(
+    dir: &Path,
+    inp: &Inputs,
+    specs: &[FigSpec],
+    results: &[(&'static str, crate::tables::Table)],
+    coefs: &[(String, crate::tables::Table)],
+    out: &Outcome,
+    resimulated: bool,
+) -> String {
+    let m = &inp.metrics;
+    let d = &inp.data;
+    let pr = &inp.model_h.provenance;
+    let today = crate::fit::today_yyyymmdd();
+    let title = format!("FBG compensation audit report — scenario “{}”, seed {}", m.scenario, m.seed);
+    let header = format!(
+        "<p>Model-P (polynomial core, paper Eq. 3) and Model-H (the same core plus an RBF residual, paper Eqs. 4–7) evaluated on the hold-out of {} samples. Report generated {} by fbg-trainer {} from the files in this directory; regenerate with <code>fbg-trainer report --out &lt;this directory&gt;</code>.</p>\n",
+        count(m.holdout_samples),
+        date(today),
+        env!("CARGO_PKG_VERSION")
+    );
+    let fig = |stem: &str| -> String {
+        specs
+            .iter()
+            .find(|f| f.stem == stem)
+            .map(|f| html::figure(&FigEntry { stem: f.stem.into(), title: f.title.clone(), caption: f.caption.clone() }))
+            .unwrap_or_default()
+    };
+    let table_of = |name: &str| -> String {
+        results.iter().find(|(n, _)| *n == name).map(|(n, t)| html::table(t, Some(n))).unwrap_or_default()
+    };
+    let mut sections = Vec::new();
+
+    // Summary.
+    let mut body = String::new();
+    for w in &out.warnings {
+        body.push_str(&format!("<p class=\"warn\"><strong>Check failed:</strong> {}</p>\n", esc(w)));
+    }
+    for n in &out.notes {
+        body.push_str(&format!("<p class=\"note\"><strong>Note:</strong> {}</p>\n", esc(n)));
+    }
+    body.push_str("<div class=\"summary\">\n");
+    for p in summary::paragraphs(m, inp.meta.is_some()) {
+        body.push_str(&format!("<p>{}</p>\n", esc(&p)));
+    }
+    body.push_str("</div>\n");
+    sections.push(Section { id: "summary".into(), title: "Summary".into(), body });
+
+    // Table 2.
+    sections.push(Section {
+        id: "table2".into(),
+        title: "Hold-out performance (Table 2)".into(),
+        body: format!(
+            "<p>Per channel and model on the hold-out: RMSE, MAE, R², bias (mean of estimate − truth), largest |error|, coverage of the 95 % band, hysteresis index (mean error rising − falling), Model-H's RMSE gain over Model-P and the oracle floor. Units are those of the channel.</p>\n{}",
+            table_of("table2")
+        ),
+    });
+
+    // Figures.
+    let omitted2 = if specs.iter().any(|f| f.stem.starts_with("fig2")) {
+        String::new()
+    } else {
+        format!(
+            "<p class=\"note\">Figure 2 (measured vs true wavelength) is omitted: {}</p>\n",
+            if inp.meta.is_none() { "data.meta.json is absent, and the true wavelength exists only in the simulator." } else { "the data do not match their re-simulation (see the check above)." }
+        )
+    };
+    sections.push(Section {
+        id: "inputs".into(),
+        title: "Inputs and raw measurements (Figs. 1–2)".into(),
+        body: format!("{}{}{}", fig("fig1_inputs"), omitted2, fig("fig2_wavelength_fbg1")),
+    });
+    sections.push(Section {
+        id: "reconstructions".into(),
+        title: "Reconstructions on the hold-out (Figs. 3–5)".into(),
+        body: format!("{}{}{}", fig("fig3_temperature"), fig("fig4_strain"), fig("fig5_pressure")),
+    });
+    sections.push(Section {
+        id: "parity".into(),
+        title: "Parity and error distributions (Figs. 6–7)".into(),
+        body: format!("{}{}", fig("fig6_parity"), fig("fig7_error_histograms")),
+    });
+    sections.push(Section {
+        id: "drift".into(),
+        title: "Drift sensitivity (Fig. 8)".into(),
+        body: if m.drift_sweep.is_some() {
+            format!("{}{}", fig("fig8_drift_sensitivity"), table_of("drift_sweep"))
+        } else {
+            "<p class=\"note\">No drift sweep in metrics.json: Figure 8 is omitted.</p>\n".into()
+        },
+    });
+    sections.push(Section {
+        id: "ablation".into(),
+        title: "Ablation (Table 3) and error budget".into(),
+        body: format!(
+            "{}{}",
+            if m.ablation.is_some() { table_of("table3") } else { "<p class=\"note\">No ablation in metrics.json.</p>\n".into() },
+            if m.error_budget.is_some() {
+                format!("<p>The error budget refits both models on the scenario with one artefact switched off at a time (“all”: physics and nothing else); the floor column is that scenario's oracle floor.</p>\n{}", table_of("error_budget"))
+            } else {
+                "<p class=\"note\">No error budget in metrics.json (it needs data.meta.json).</p>\n".into()
+            }
+        ),
+    });
+
+    // Any other study metrics.json carries, so that nothing it holds goes unshown.
+    let placed = ["table2", "table3", "error_budget", "drift_sweep"];
+    let others: Vec<&(&'static str, crate::tables::Table)> = results.iter().filter(|(n, _)| !placed.contains(n)).collect();
+    if !others.is_empty() {
+        let mut body = String::new();
+        for (n, t) in others {
+            body.push_str(&html::table(t, Some(n)));
+        }
+        sections.push(Section { id: "other-studies".into(), title: "Other studies in metrics.json".into(), body });
+    }
+
+    // Coefficients.
+    let mut body = String::from(
+        "<p>Every number the device uses, read back from the model blobs (f32 on disk, shown in f64). The polynomial core is also given in physical units, the form a metrologist can check against gauge factors or replace after service.</p>\n",
+    );
+    for (name, t) in coefs {
+        body.push_str(&html::table(t, Some(name)));
+    }
+    sections.push(Section { id: "coefficients".into(), title: "Coefficients".into(), body });
+
+    // Device parity.
+    if let Some(p) = &m.parity {
+        let rows: Vec<(String, String)> = vec![
+            ("hold-out samples compared".into(), count(p.samples)),
+            (
+                "max |f32 − f64| (T, ε, p)".into(),
+                format!("{:.3e} °C, {:.3e} µε, {:.3e} kPa", p.max_abs_diff[0], p.max_abs_diff[1], p.max_abs_diff[2]),
+            ),
+            (
+                "as a share of Model-H's RMSE".into(),
+                (0..3).map(|c| format!("{} %", num(100.0 * p.max_diff_over_rmse[c], 4))).collect::<Vec<_>>().join(", "),
+            ),
+            ("max relative band difference".into(), p.max_band_rel_diff.iter().map(|v| format!("{v:.2e}")).collect::<Vec<_>>().join(", ")),
+            ("flag mismatches".into(), p.flag_mismatches.to_string()),
+            ("leverage band gap (kept eigen-directions vs exact)".into(), format!("{:.3e} (largest exact leverage {:.3e})", p.leverage_band_gap, p.leverage_max)),
+        ];
+        sections.push(Section {
+            id: "device".into(),
+            title: "Device arithmetic (f32) against the f64 reference".into(),
+            body: html::facts(&rows),
+        });
+    }
+
+    // Provenance and scenario.
+    let dt = d.t_s[1] - d.t_s[0];
+    let mut rows: Vec<(String, String)> = vec![
+        ("scenario (preset or TOML name)".into(), m.scenario.clone()),
+        ("seed".into(), m.seed.to_string()),
+        ("samples (calibration / hold-out)".into(), format!("{} ({} / {})", count(d.len()), count(d.cal_indices().len()), count(d.holdout_indices().len()))),
+        ("record".into(), format!("{} s sampling, {} days", num(dt, 3), num((d.t_s[d.len() - 1] - d.t_s[0]) / 86_400.0, 2))),
+        ("trainer version (metrics.json / model.fbgm / this report)".into(), format!("{} / {} / {}", m.trainer_version, pr.trainer_version, env!("CARGO_PKG_VERSION"))),
+        ("models trained on".into(), date(pr.date_yyyymmdd)),
+        ("calibration samples recorded in the model".into(), count(pr.n_cal as usize)),
+        (
+            "model blobs".into(),
+            format!(
+                "model.fbgm {} B ({} centres), model-p.fbgm {} B",
+                export::blob_bytes(&inp.model_h).map(|b| b.len()).unwrap_or(0),
+                inp.model_h.centres.len(),
+                export::blob_bytes(&inp.model_p).map(|b| b.len()).unwrap_or(0)
+            ),
+        ),
+        ("report generated".into(), date(today)),
+        (
+            "data.meta.json".into(),
+            match (&inp.meta, resimulated) {
+                (None, _) => "absent".into(),
+                (Some(_), true) => "present; data.csv matches its re-simulation".into(),
+                (Some(_), false) => "present; data.csv does NOT match its re-simulation".into(),
+            },
+        ),
+    ];
+    for (k, v) in &m.timings_s {
+        rows.push((format!("wall time of `{k}` [s]"), num(*v, 1)));
+    }
+    let mut body = html::facts(&rows);
+    if let Some(meta) = &inp.meta {
+        let s = &meta.scenario;
+        let on = |b: bool| if b { "on" } else { "off" };
+        let srows: Vec<(String, String)> = vec![
+            ("clock".into(), format!("{} days at {} s, calibration fraction {}", num(s.clock.days, 2), num(s.clock.dt_s, 1), num(s.clock.cal_fraction, 2))),
+            ("temperature".into(), format!("mean {} °C, diurnal ±{} °C, weekly ±{} °C, seasonal ±{} °C, AR σ {} °C", num(s.temperature.mean_c, 1), num(s.temperature.diurnal_amp_c, 1), num(s.temperature.weekly_amp_c, 1), num(s.temperature.seasonal_amp_c, 1), num(s.temperature.ar_sigma_c, 2))),
+            ("strain".into(), format!("levels {} … {} µε held {} s, sines ±{} / ±{} µε, AR σ {} µε", num(s.strain.level_lo_ue, 0), num(s.strain.level_hi_ue, 0), num(s.strain.hold_s, 0), num(s.strain.sine1_amp_ue, 0), num(s.strain.sine2_amp_ue, 0), num(s.strain.ar_sigma_ue, 1))),
+            ("pressure".into(), format!("mean {} kPa, sines ±{} / ±{} kPa, AR σ {} kPa", num(s.pressure.mean_kpa, 0), num(s.pressure.sine1_amp_kpa, 1), num(s.pressure.sine2_amp_kpa, 1), num(s.pressure.ar_sigma_kpa, 2))),
+            ("hysteresis (Eq. 9 + play)".into(), format!("{}: β {}, γ {}, ρ {}, play ±{} pm", on(s.hysteresis.enabled), s.hysteresis.beta, s.hysteresis.gamma, s.hysteresis.rho, s.hysteresis.play_half_width_pm)),
+            ("scan nonlinearity".into(), format!("{}: ripple {} pm per {} nm, bow {} pm", on(s.scan.enabled), s.scan.ripple_amp_pm, s.scan.ripple_period_nm, s.scan.bow_pm)),
+            ("drift (Eq. 8)".into(), format!("{}: σ_d {} pm per step, channel gains {:?}", on(s.drift.enabled), s.drift.sigma_pm, s.drift.channel_gain)),
+            ("electronics drift".into(), format!("{}: {} pm/°C, {} pm/°C²", on(s.electronics.enabled), s.electronics.lin_pm_per_c, s.electronics.quad_pm_per_c2)),
+            ("noise".into(), format!("{}: pink σ {} pm, white σ {} pm", on(s.noise.enabled), s.noise.pink_sigma_pm, s.noise.white_sigma_pm)),
+        ];
+        body.push_str("<h3>Scenario</h3>\n");
+        body.push_str(&html::facts(&srows));
+        let toml = toml::to_string(s).unwrap_or_else(|e| format!("(cannot serialise the scenario: {e})"));
+        body.push_str(&format!("<details><summary>Every scenario parameter (TOML, usable with <code>--config</code>)</summary><pre>{}</pre></details>\n", esc(&toml)));
+    }
+    sections.push(Section { id: "provenance".into(), title: "Provenance and scenario".into(), body });
+
+    // Files.
+    let mut body = String::from("<p>Everything in this report, beside this page (no network access is needed to view it):</p>\n<ul>\n");
+    for f in &out.files {
+        body.push_str(&format!("<li><a href=\"{0}\">{0}</a></li>\n", esc(f)));
+    }
+    body.push_str(&format!("<li><a href=\"{INDEX_HTML}\">{INDEX_HTML}</a> (this page)</li>\n"));
+    for f in [DATA_CSV, "data.meta.json", METRICS_JSON, MODEL_H, MODEL_P, "coefficients.json"] {
+        if dir.join(f).is_file() {
+            body.push_str(&format!("<li><a href=\"{0}\">{0}</a> (input)</li>\n", f));
+        }
+    }
+    body.push_str("</ul>\n");
+    sections.push(Section { id: "files".into(), title: "Files".into(), body });
+
+    html::page(&title, &header, &sections)
+}
