@@ -4,7 +4,7 @@
 //! For real data (issue 8) the reference columns `T_C`, `strain_ue`, `p_kPa` and the `split`
 //! column are optional: an absent reference is an output that cannot be fitted, an empty cell
 //! is a missing reference at that time, an empty `dlN_pm` cell is a gap (a peak the
-//! interrogator did not report). Text that is not a number, or a non-finite number, is still an
+//! interrogator did not report), and so is an empty `T_amb_C`. Text that is not a number, or a non-finite number, is still an
 //! error naming file, line and column.
 
 use std::io::Write;
@@ -138,7 +138,8 @@ impl Dataset {
             let mut line = String::with_capacity(128);
             for i in 0..self.len() {
                 line.clear();
-                line.push_str(&format!("{:.3}", self.t_s[i]));
+                // Microseconds: enough for kHz interrogators.
+                line.push_str(&format!("{:.6}", self.t_s[i]));
                 for &c in &refs {
                     line.push(',');
                     line.push_str(&cell(self.target(c)[i], 6));
@@ -224,7 +225,8 @@ impl Dataset {
             d.temp_c.push(num(1, true)?);
             d.strain_ue.push(num(2, true)?);
             d.p_kpa.push(num(3, true)?);
-            d.t_amb_c.push(num(4, false)?);
+            // An empty ambient reading is a gap like an empty dl cell (not fitted, flagged).
+            d.t_amb_c.push(num(4, true)?);
             for g in 0..3 {
                 d.dl_pm[g].push(num(5 + g, true)?);
             }

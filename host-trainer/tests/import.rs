@@ -95,7 +95,7 @@ fn enlight_tab_export_with_a_map_finds_each_grating_by_window_despite_a_dropped_
     assert_eq!(s2.out.as_deref(), Some(out.to_str().unwrap()));
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(text.starts_with("t_s,T_C,strain_ue,p_kPa,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split\n"));
-    assert!(text.lines().nth(8).unwrap().starts_with("7.000,"), "{text}");
+    assert!(text.lines().nth(8).unwrap().starts_with("7.000000,"), "{text}");
     let back = Dataset::read_csv(&out).unwrap();
     assert_eq!(back.len(), 20);
     assert!(back.dl_pm[0][7].is_nan() && close(back.dl_pm[1][7], 19.5, 1e-6));
