@@ -277,6 +277,13 @@ pub fn write_atomically(
         w.flush().map_err(|e| TrainerError::io(path, e))?;
     }
     tmp.as_file().sync_all().map_err(|e| TrainerError::io(path, e))?;
+    // tempfile creates 0600; an output file should be readable like any other.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o644))
+            .map_err(|e| TrainerError::io(path, e))?;
+    }
     tmp.persist(path).map_err(|e| TrainerError::io(path, e.error))?;
     Ok(())
 }

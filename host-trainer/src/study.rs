@@ -435,6 +435,7 @@ pub fn evaluate_models(
                 var_model_h: Default::default(),
                 folds: vec![],
                 n_cal: h.provenance.n_cal as usize,
+                cv_stride: 1,
             },
         };
         let r = ablation(d, &trained, &opts, &origin)?;

@@ -292,6 +292,19 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.latches.values()
     }
 
+    /// Advance the stream state (direction latches) by one sample without compensating it:
+    /// what `step` does to the state, for samples whose estimate is not needed. Non-finite
+    /// samples leave the state as `step` would.
+    #[inline]
+    pub fn advance(&mut self, s: &Sample<F>) {
+        let finite = s.dl_pm.iter().all(|v| v.is_finite())
+            && s.t_amb_c.is_finite()
+            && (!(self.uses_time || self.band_grows) || s.t_s.is_finite());
+        if finite {
+            let _: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
+        }
+    }
+
     /// Compensate one sample. Never panics: non-finite inputs give NaN values, an infinite band
     /// and [`Flags::NON_FINITE`], leaving the stream state untouched.
     #[inline]

@@ -289,10 +289,12 @@ pub fn run(params: &HostParams, d: &Dataset, want: &[usize]) -> Result<Vec<Estim
     let mut out = Vec::with_capacity(want.len());
     let mut w = want.iter().peekable();
     for i in 0..end {
-        let e = comp.step(&d.sample(i));
         if w.peek() == Some(&&i) {
-            out.push(e);
+            out.push(comp.step(&d.sample(i)));
             w.next();
+        } else {
+            // Only the stream state matters for samples nobody asked about.
+            comp.advance(&d.sample(i));
         }
     }
     Ok(out)
@@ -313,14 +315,11 @@ pub fn design_matrix(
     let mut r = 0usize;
     for i in 0..end {
         let take = rows.get(r) == Some(&i);
-        let e = if take {
-            comp.step_with(&d.sample(i), |j, v| psi[(r, j)] = v)
-        } else {
-            comp.step(&d.sample(i))
-        };
         if take {
-            est.push(e);
+            est.push(comp.step_with(&d.sample(i), |j, v| psi[(r, j)] = v));
             r += 1;
+        } else {
+            comp.advance(&d.sample(i));
         }
     }
     Ok((psi, est))

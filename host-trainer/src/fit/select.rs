@@ -41,6 +41,10 @@ pub struct TrainOptions {
     pub min_train_blocks: usize,
     /// Seed of k-means++.
     pub seed: u64,
+    /// Largest number of calibration rows the cross-validation works on: beyond it the rows are
+    /// thinned by an even stride (time order and span kept; the latches still see every
+    /// sample). The final fit always uses every row.
+    pub cv_max_samples: usize,
     /// Show a progress bar (only on a terminal).
     #[serde(skip)]
     pub progress: bool,
@@ -58,6 +62,7 @@ impl Default for TrainOptions {
             blocks: 5,
             min_train_blocks: 2,
             seed: 1,
+            cv_max_samples: 40_000,
             progress: false,
         }
     }
@@ -179,6 +184,8 @@ pub struct Selection {
     pub folds: Vec<(usize, usize)>,
     /// Calibration samples used.
     pub n_cal: usize,
+    /// Stride of the rows the cross-validation used (1 = all).
+    pub cv_stride: usize,
 }
 
 struct Fold {
@@ -204,7 +211,9 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
     if opts.blocks < 2 || opts.min_train_blocks == 0 || opts.min_train_blocks >= opts.blocks {
         return Err(TrainerError::fit("cross-validation needs 1 <= min_train_blocks < blocks"));
     }
-    let fs = folds(cal, opts.blocks, opts.min_train_blocks);
+    let stride = cal.len().div_ceil(opts.cv_max_samples.max(1)).max(1);
+    let thinned: Vec<usize> = cal.iter().copied().step_by(stride).collect();
+    let fs = folds(&thinned, opts.blocks, opts.min_train_blocks);
     if fs.iter().any(|f| f.train.len() < 50 || f.val.is_empty()) {
         return Err(TrainerError::Dataset {
             message: format!("{} calibration samples are too few for {} CV blocks", cal.len(), opts.blocks),
@@ -393,6 +402,7 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         rows,
         folds: fs.iter().map(|f| (f.train.len(), f.val.len())).collect(),
         n_cal: cal.len(),
+        cv_stride: stride,
     })
 }
 
