@@ -240,6 +240,33 @@ fn an_edited_csv_is_not_passed_off_as_the_simulation() {
 }
 
 #[test]
+fn hold_out_rows_with_gaps_are_skipped_and_said() {
+    let dir = copy_inputs();
+    let p = dir.path().join("data.csv");
+    let text = std::fs::read_to_string(&p).unwrap();
+    let mut gaps = 0;
+    let lines: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i > 0 && i % 97 == 0 && l.ends_with("holdout") {
+                gaps += 1;
+                let mut c: Vec<&str> = l.split(',').collect();
+                c[6] = ""; // dl2 missing
+                c.join(",")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    assert!(gaps > 5);
+    std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+    let o = report::build(dir.path()).unwrap();
+    assert!(o.notes.iter().any(|n| n.contains(&format!("{gaps} of the")) && n.contains("have a gap")), "{:?}", o.notes);
+    assert_eq!(o.files.iter().filter(|f| f.ends_with(".png")).count(), 7, "Figure 2 needs the CSV to match the simulation");
+}
+
+#[test]
 fn metrics_json_round_trips_through_the_report_reader() {
     let text = std::fs::read_to_string(fixture().join("metrics.json")).unwrap();
     let m = load::metrics_from_str(&text, "metrics.json").unwrap();
@@ -278,7 +305,7 @@ fn same(a: &serde_json::Value, b: &serde_json::Value, at: &str) {
 fn a_million_samples_plot_in_seconds() {
     let n = 1_000_000;
     let dt = 1.2;
-    let mut d = Dataset::default();
+    let mut d = Dataset { has_target: [true; 3], ..Dataset::default() };
     for i in 0..n {
         let t = i as f64 * dt;
         d.t_s.push(t);

@@ -198,7 +198,7 @@ fn pe<E: std::fmt::Debug>(e: E) -> String {
 
 /// Decimals for tick labels on an axis spanning `span`.
 pub fn decimals_for(span: f64) -> usize {
-    if !(span > 0.0) || !span.is_finite() {
+    if span.is_nan() || span <= 0.0 || !span.is_finite() {
         return 2;
     }
     let step = span / 6.0;

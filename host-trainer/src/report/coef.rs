@@ -10,11 +10,18 @@ use crate::fit::{HostParams, PolyCore};
 use crate::study::Metrics;
 use crate::tables::Table;
 
+/// Scientific notation with a signed two-digit exponent: 6.844992e+00.
 fn e(v: f64) -> String {
-    if v.is_finite() {
-        format!("{v:.6e}")
-    } else {
-        "–".into()
+    if !v.is_finite() {
+        return "–".into();
+    }
+    let s = format!("{v:.6e}");
+    match s.split_once('e') {
+        Some((m, x)) => {
+            let x: i32 = x.parse().unwrap_or(0);
+            format!("{m}e{}{:02}", if x < 0 { '-' } else { '+' }, x.abs())
+        }
+        None => s,
     }
 }
 
@@ -24,7 +31,7 @@ fn g(v: f64) -> String {
     }
     let a = v.abs();
     if a != 0.0 && !(1e-3..1e5).contains(&a) {
-        format!("{v:.4e}")
+        e(v)
     } else {
         format!("{v:.6}")
     }
@@ -104,9 +111,9 @@ fn poly_standardised(p: &HostParams, who: &str) -> Table {
 
 fn scalers(h: &HostParams) -> Table {
     let mut rows = Vec::new();
-    for o in 0..N_OUTPUTS {
+    for (o, (name, unit)) in crate::evaluate::CHANNELS.iter().zip(UNITS).enumerate() {
         rows.push(vec![
-            format!("first guess {} [{}]", crate::evaluate::CHANNELS[o], UNITS[o]),
+            format!("first guess {name} [{unit}]"),
             g(h.guess_mean[o]),
             g(h.guess_std[o]),
             "yes".into(),
@@ -197,10 +204,10 @@ fn hyper(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
 fn band(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
     let mut rows = Vec::new();
     for (name, q, me) in [("Model-P", p, &m.table2.model_p), ("Model-H", h, &m.table2.model_h)] {
-        for o in 0..N_OUTPUTS {
+        for (o, (ch, unit)) in crate::evaluate::CHANNELS.iter().zip(UNITS).enumerate() {
             rows.push(vec![
                 name.to_string(),
-                format!("{} [{}]", crate::evaluate::CHANNELS[o], UNITS[o]),
+                format!("{ch} [{unit}]"),
                 g(q.resid_var[o]),
                 g(q.resid_var_growth[o]),
                 g(q.band_k[o]),
@@ -219,5 +226,19 @@ fn band(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
             .map(String::from)
             .to_vec(),
         rows,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scientific_cells_have_signed_exponents() {
+        assert_eq!(e(6.844992), "6.844992e+00");
+        assert_eq!(e(-1.392361e-3), "-1.392361e-03");
+        assert_eq!(e(f64::NAN), "–");
+        assert_eq!(g(0.5), "0.500000");
+        assert_eq!(g(3.9e-9), "3.900000e-09");
     }
 }

@@ -177,7 +177,11 @@ pub fn fig1_inputs(c: &Ctx) -> FigSpec {
             p.lines.push(Line::new(C_MEAS, 1, pts(&amb)).label("T_amb reading (model input)"));
         }
         let y = minmax_columns(&t, d.target(ch), COLUMNS);
-        p.lines.push(Line::new(C_TRUTH, 1, pts(&y)).label(format!("reference {} (truth)", SYMBOLS[ch])));
+        if d.has_target[ch] {
+            p.lines.push(Line::new(C_TRUTH, 1, pts(&y)).label(format!("reference {} (truth)", SYMBOLS[ch])));
+        } else {
+            p.note("no reference for this channel in data.csv", (0.3, 0.5));
+        }
         p.legend = Legend::UpperRight;
         p.legend_room = 0.3;
         panels.push(p);
@@ -338,8 +342,13 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     let ylabel = format!("{sym} [{unit}]");
     let lab_p = format!("Model-P (hold-out RMSE {} {unit})", num(mp.rmse, dg));
     let lab_h = format!("Model-H (hold-out RMSE {} {unit})", num(mh.rmse, dg));
+    let whole = wb - wa == n;
     let mut a = Panel::new(
-        format!("(a) zoom on turning points, t = {}–{} {}", num(x[wa], 2), num(x[wb - 1], 2), c.time.name),
+        if whole {
+            "(a) the whole hold-out (too few turning points to zoom on)".to_string()
+        } else {
+            format!("(a) zoom on turning points, t = {}–{} {}", num(x[wa], 2), num(x[wb - 1], 2), c.time.name)
+        },
         c.time.label(),
         ylabel.clone(),
     );
@@ -358,7 +367,9 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     b.lines.push(Line::new(C_P, 1, series(&x, &vp)).label("Model-P"));
     b.lines.push(Line::new(C_H, 1, series(&x, &vh)).label("Model-H"));
     b.lines.push(Line::new(C_TRUTH, 1, series(&x, &truth)).label("truth"));
-    b.shade.push((x[wa], x[wb - 1], 0.12));
+    if !whole {
+        b.shade.push((x[wa], x[wb - 1], 0.12));
+    }
     b.legend = Legend::None;
 
     let mut e = Panel::new(
@@ -374,6 +385,11 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     e.legend = Legend::UpperLeft;
     e.legend_room = 0.35;
 
+    if !d.has_target[ch] {
+        for p in [&mut a, &mut b, &mut e] {
+            p.note("no reference for this channel in data.csv: estimates only, no errors", (0.02, 0.08));
+        }
+    }
     let flagged = c.est_h.iter().filter(|e| !e.flags.is_ok()).count();
     let nonfinite = vp.iter().chain(&vh).filter(|v| !v.is_finite()).count();
     let fig_no = 3 + ch;

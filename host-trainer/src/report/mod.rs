@@ -105,10 +105,12 @@ fn check_resim(s: &Simulation, d: &Dataset) -> Result<(), String> {
     let mut worst: f64 = 0.0;
     for g in 0..3 {
         for (a, b) in s.data.dl_pm[g].iter().zip(&d.dl_pm[g]) {
-            worst = worst.max((a - b).abs());
+            let diff = (a - b).abs();
+            // A gap (NaN) in the CSV where the simulation has a value is a difference too.
+            worst = if diff.is_nan() { f64::INFINITY } else { worst.max(diff) };
         }
     }
-    if !(worst <= RESIM_TOL_PM) {
+    if worst.is_nan() || worst > RESIM_TOL_PM {
         return Err(format!(
             "data.csv differs from a re-simulation of data.meta.json by up to {worst:.3e} pm (tolerance {RESIM_TOL_PM:e}): the CSV was edited or the simulator changed; Figure 2 (true wavelength) is omitted."
         ));
@@ -130,11 +132,11 @@ fn check_metrics(m: &Metrics, p: &ModelEval, h: &ModelEval, hold: usize, n: usiz
     }
     let mut bad = Vec::new();
     for (name, stored, fresh) in [("Model-P", &m.table2.model_p, p), ("Model-H", &m.table2.model_h, h)] {
-        for c in 0..3 {
+        for (c, ch) in CHANNELS.iter().enumerate() {
             let (s, f) = (&stored.channels[c], &fresh.channels[c]);
             for (stat, a, b) in [("RMSE", s.rmse, f.rmse), ("MAE", s.mae, f.mae), ("bias", s.bias, f.bias), ("coverage", s.coverage, f.coverage)] {
                 if !close(a, b) {
-                    bad.push(format!("{name} {} {stat}: metrics.json {a:.6} vs recomputed {b:.6}", CHANNELS[c]));
+                    bad.push(format!("{name} {ch} {stat}: metrics.json {a:.6} vs recomputed {b:.6}"));
                 }
             }
         }
@@ -190,9 +192,12 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     fonts::ensure_registered();
     let d = &inp.data;
     let m = &inp.metrics;
-    let hold = d.holdout_indices();
+    // The hold-out rows the evaluation scores: finite inputs and references (as
+    // `evaluate_holdout`, whose estimates line up with these).
+    let all_hold = d.holdout_indices();
+    let hold: Vec<usize> = all_hold.iter().copied().filter(|&i| d.usable(i)).collect();
     if hold.is_empty() || d.len() < 2 {
-        return Err(TrainerError::Dataset { message: "the report needs a hold-out part (split column `holdout`)".into() });
+        return Err(TrainerError::Dataset { message: "the report needs usable hold-out rows (split column `holdout`, finite inputs and references)".into() });
     }
     let ((rp, rh), sim) = rayon::join(
         || rayon::join(|| evaluate_holdout(&inp.model_p, d), || evaluate_holdout(&inp.model_h, d)),
@@ -218,7 +223,26 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
             None
         }
     };
-    check_metrics(m, &ev_p, &ev_h, hold.len(), d.len(), &mut out.warnings);
+    if est_p.len() != hold.len() || est_h.len() != hold.len() {
+        return Err(TrainerError::Dataset {
+            message: format!("internal: {} / {} estimates for {} usable hold-out rows", est_p.len(), est_h.len(), hold.len()),
+        });
+    }
+    if hold.len() < all_hold.len() {
+        out.notes.push(format!(
+            "{} of the {} hold-out rows have a gap (a non-finite input or reference) and are neither evaluated nor drawn as estimates.",
+            count(all_hold.len() - hold.len()),
+            count(all_hold.len())
+        ));
+    }
+    let missing: Vec<&str> = (0..3).filter(|&c| !d.has_target[c]).map(|c| figures::LONG_NAMES[c]).collect();
+    if !missing.is_empty() {
+        out.notes.push(format!(
+            "data.csv has no reference for {}: those channels are estimated but cannot be scored, so their errors, parity and histograms are empty.",
+            missing.join(", ").to_lowercase()
+        ));
+    }
+    check_metrics(m, &ev_p, &ev_h, all_hold.len(), d.len(), &mut out.warnings);
     check_provenance(inp, &mut out.warnings);
     if m.drift_sweep.is_none() {
         out.notes.push("metrics.json has no drift sweep (e.g. `evaluate --quick` or data without data.meta.json): Figure 8 is omitted.".into());
