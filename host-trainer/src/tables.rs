@@ -42,11 +42,12 @@ impl Table {
         }
         out
     }
-    /// GitHub-flavoured Markdown.
+    /// GitHub-flavoured Markdown (a `|` inside a cell is escaped).
     pub fn markdown(&self) -> String {
-        let mut out = format!("| {} |\n|{}\n", self.header.join(" | "), "---|".repeat(self.header.len()));
+        let row = |r: &Vec<String>| r.iter().map(|c| c.replace('|', "\\|")).collect::<Vec<_>>().join(" | ");
+        let mut out = format!("| {} |\n|{}\n", row(&self.header), "---|".repeat(self.header.len()));
         for r in &self.rows {
-            out.push_str(&format!("| {} |\n", r.join(" | ")));
+            out.push_str(&format!("| {} |\n", row(r)));
         }
         out
     }
@@ -207,5 +208,23 @@ pub fn recalibration(rs: &[crate::recalibrate::RecalStudy], m: &Metrics) -> Tabl
         ),
         header: ["batch", "model state", "T P", "T H", "ε P", "ε H", "p P", "p H"].map(String::from).to_vec(),
         rows,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn markdown_escapes_pipes_and_csv_quotes() {
+        let t = Table {
+            title: "t".into(),
+            header: vec!["a".into(), "max|e|".into()],
+            rows: vec![vec!["x, y".into(), "\"q\"".into()]],
+        };
+        let md = t.markdown();
+        assert!(md.starts_with("| a | max\\|e\\| |\n|---|---|\n"), "{md}");
+        assert_eq!(t.csv(), "a,max|e|\n\"x, y\",\"\"\"q\"\"\"\n");
+        assert!(t.text().contains("max|e|"));
     }
 }
