@@ -17,5 +17,7 @@ pub mod report;
 pub mod recalibrate;
 pub mod tables;
 pub mod export;
+pub mod benchmark;
+pub mod fleet;
 
 pub use error::TrainerError;

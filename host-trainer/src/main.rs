@@ -189,6 +189,13 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Time the fit for benchmarks (`cargo xtask bench`): read a CSV once, fit it --repeats
+    /// times (each fit timed alone), evaluate the last fit on the hold-out.
+    BenchFit(fbg_trainer::benchmark::BenchFitArgs),
+    /// Calibrate many sensor groups in parallel from a TOML manifest (each group's data CSV and
+    /// output blob); resumes without redoing finished groups; a failing group does not stop the
+    /// others.
+    Fleet(fbg_trainer::fleet::FleetArgs),
 }
 
 fn main() {
@@ -308,6 +315,8 @@ fn run() -> Result<()> {
             print_report_outcome(&out, &o, json)
         }
         Cmd::Demo { out, scenario, json } => demo(&out, &scenario, json),
+        Cmd::BenchFit(a) => bench_fit(&a),
+        Cmd::Fleet(a) => fleet(&a),
         Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, json } => {
             let split = match cal_until {
                 Some(t) => SplitChoice::Until(t),
@@ -343,16 +352,8 @@ fn origin_of(data: &Path, meta: Option<&SimMeta>) -> Origin {
 }
 
 fn train_options(features: &str, max_centres: usize, progress: bool) -> Result<TrainOptions> {
-    let sets = export::feature_sets_for(features).with_context(|| format!("unknown feature set `{features}`"))?;
-    if max_centres == 0 || max_centres > fit::HOST_CAP {
-        bail!("--max-centres must be in 1..={}", fit::HOST_CAP);
-    }
-    let mut o = TrainOptions { progress, ..TrainOptions::default() }.with_features(sets);
-    o.centres.retain(|&k| k <= max_centres);
-    if o.centres.is_empty() {
-        o.centres.push(max_centres);
-    }
-    Ok(o)
+    let o = fbg_trainer::fleet::train_options(features, max_centres).map_err(|e| anyhow::anyhow!("--features/--max-centres: {e}"))?;
+    Ok(TrainOptions { progress, ..o })
 }
 
 /// `model.fbgm` → `model-p.fbgm`.
@@ -531,6 +532,29 @@ fn demo(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
             out.display(),
             out.join(report::INDEX_HTML).display()
         );
+    }
+    Ok(())
+}
+
+fn bench_fit(a: &fbg_trainer::benchmark::BenchFitArgs) -> Result<()> {
+    let b = a.run()?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&b)?);
+    } else {
+        eprintln!("{}", b.text());
+    }
+    Ok(())
+}
+
+fn fleet(a: &fbg_trainer::fleet::FleetArgs) -> Result<()> {
+    let r = a.run()?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        eprintln!("{}", r.text());
+    }
+    if r.failed > 0 {
+        bail!("{} of {} groups failed (the others were calibrated)", r.failed, r.groups.len());
     }
     Ok(())
 }

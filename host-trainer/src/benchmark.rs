@@ -1,0 +1,252 @@
+//! Timed fits for `cargo xtask bench` (DESIGN §8): `fbg-trainer bench-fit`.
+//!
+//! The task runner builds in the dev profile, so it cannot time the fit in-process; it runs this
+//! command of the release binary instead. The CSV is read once, then [`fit::train`] runs
+//! `repeats` times on it and each fit is timed on its own (reading and evaluating are outside
+//! the clock), so the figure is the fit alone, comparable with a peer that times its own fit
+//! the same way (`bench/sklearn_peer.py`). The last fit is evaluated on the hold-out, so every
+//! timing comes with the accuracy it bought.
+
+use std::time::Instant;
+
+use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
+
+use crate::dataset::Dataset;
+use crate::error::TrainerError;
+use crate::evaluate::{evaluate_holdout, ModelEval};
+use crate::export;
+use crate::fit::{self, Config, Origin, TrainOptions};
+
+/// Hyper-parameters of a fixed-configuration fit when none are given: what cross-validation
+/// chooses on the `paper` preset with the default features (K = 32, σ = 2 × the median
+/// nearest-neighbour distance of the centres, α = 1e-5 · n, dead band 4 pm).
+pub const DEFAULT_FIXED: Config = Config {
+    feature_set: FeatureSet::HysteresisAware,
+    dead_band_pm: 4.0,
+    k: 32,
+    sigma_mult: 2.0,
+    alpha_rel: 1e-5,
+    cross_terms: true,
+};
+
+/// Hold-out figures of one model.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct HoldoutFigures {
+    pub rmse: [f64; N_OUTPUTS],
+    pub coverage: [f64; N_OUTPUTS],
+    /// Size of the exported `.fbgm` blob [B].
+    pub blob_bytes: usize,
+}
+
+impl HoldoutFigures {
+    fn of(e: &ModelEval, blob_bytes: usize) -> Self {
+        HoldoutFigures {
+            rmse: e.channels.map(|c| c.rmse),
+            coverage: e.channels.map(|c| c.coverage),
+            blob_bytes,
+        }
+    }
+}
+
+/// What `bench-fit` measures.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FitBench {
+    /// `fixed` (one grid point: the CV still runs once, for the band) or `select` (the full
+    /// hyper-parameter grid).
+    pub mode: &'static str,
+    pub n_samples: usize,
+    pub n_cal: usize,
+    /// Worker threads of the pool the fits ran in.
+    pub threads: usize,
+    /// Seconds to read the CSV (not part of the fit).
+    pub read_seconds: f64,
+    /// Seconds of each fit, in run order.
+    pub fit_seconds: Vec<f64>,
+    pub fit_seconds_median: f64,
+    pub chosen: Config,
+    pub grid_points: usize,
+    pub model_p: HoldoutFigures,
+    pub model_h: HoldoutFigures,
+}
+
+/// Median of a non-empty sample (mean of the middle two for an even count); NaN when empty.
+pub fn median(xs: &[f64]) -> f64 {
+    let mut v: Vec<f64> = xs.to_vec();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+/// Read `data`, fit `repeats` times with `opts` on `threads` worker threads (0: rayon's
+/// default), evaluate the last fit on the hold-out.
+pub fn bench_fit(
+    data: &std::path::Path,
+    opts: &TrainOptions,
+    mode: &'static str,
+    repeats: usize,
+    threads: usize,
+) -> Result<FitBench, TrainerError> {
+    let t = Instant::now();
+    let d = Dataset::read_csv(data)?;
+    let read_seconds = t.elapsed().as_secs_f64();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| TrainerError::fit(format!("thread pool: {e}")))?;
+    let origin = Origin { scenario: "bench".into(), seed: 0 };
+    let (fit_seconds, tr) = pool.install(|| -> Result<_, TrainerError> {
+        let mut secs = Vec::with_capacity(repeats);
+        let mut last = None;
+        for _ in 0..repeats.max(1) {
+            let t = Instant::now();
+            let tr = fit::train(&d, opts, &origin)?;
+            secs.push(t.elapsed().as_secs_f64());
+            last = Some(tr);
+        }
+        Ok((secs, last))
+    })?;
+    let tr = tr.ok_or_else(|| TrainerError::fit("no fit ran"))?;
+    let (ep, _) = evaluate_holdout(&tr.model_p, &d)?;
+    let (eh, _) = evaluate_holdout(&tr.model_h, &d)?;
+    Ok(FitBench {
+        mode,
+        n_samples: d.len(),
+        n_cal: tr.selection.n_cal,
+        threads: pool.current_num_threads(),
+        read_seconds,
+        fit_seconds_median: median(&fit_seconds),
+        fit_seconds,
+        chosen: tr.selection.chosen,
+        grid_points: tr.selection.rows.len(),
+        model_p: HoldoutFigures::of(&ep, export::blob_bytes(&tr.model_p)?.len()),
+        model_h: HoldoutFigures::of(&eh, export::blob_bytes(&tr.model_h)?.len()),
+    })
+}
+
+/// `fbg-trainer bench-fit`: time the fit for benchmarks.
+#[derive(clap::Args, Clone, Debug)]
+pub struct BenchFitArgs {
+    /// Dataset CSV (DESIGN §3 columns).
+    #[arg(long)]
+    pub data: std::path::PathBuf,
+    /// Fits to time (each alone; the median is reported).
+    #[arg(long, default_value_t = 3)]
+    pub repeats: usize,
+    /// Fit one fixed configuration (--feature-set, --k, --sigma-mult, --alpha-rel,
+    /// --dead-band-pm); the cross-validation then runs once, for the band.
+    #[arg(long, conflicts_with = "select")]
+    pub fixed: bool,
+    /// Select the hyper-parameters by cross-validation over the full grid, as `train` does
+    /// (the default).
+    #[arg(long)]
+    pub select: bool,
+    /// --select: feature sets cross-validation may choose from.
+    #[arg(long, value_parser = ["paper", "hysteresis-aware", "all"], default_value = "all")]
+    pub features: String,
+    /// --select: largest number of RBF centres to consider.
+    #[arg(long, default_value_t = 32)]
+    pub max_centres: usize,
+    /// --fixed: feature set (paper, hysteresis-aware, hysteresis-aware+time).
+    #[arg(long, default_value = DEFAULT_FIXED.feature_set.name())]
+    pub feature_set: String,
+    /// --fixed: RBF centres K.
+    #[arg(long, default_value_t = DEFAULT_FIXED.k)]
+    pub k: usize,
+    /// --fixed: σ as a multiple of the median nearest-neighbour distance of the centres.
+    #[arg(long, default_value_t = DEFAULT_FIXED.sigma_mult)]
+    pub sigma_mult: f64,
+    /// --fixed: ridge penalty per calibration sample (α = alpha_rel · n).
+    #[arg(long, default_value_t = DEFAULT_FIXED.alpha_rel)]
+    pub alpha_rel: f64,
+    /// --fixed: direction-latch dead band [pm].
+    #[arg(long, default_value_t = DEFAULT_FIXED.dead_band_pm)]
+    pub dead_band_pm: f64,
+    /// Worker threads (0: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub threads: usize,
+    /// Print the figures as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl BenchFitArgs {
+    /// The training options these flags ask for, and the mode's name.
+    pub fn options(&self) -> Result<(TrainOptions, &'static str), TrainerError> {
+        if self.fixed {
+            let fs = feature_set_named(&self.feature_set).ok_or_else(|| {
+                TrainerError::fit(format!(
+                    "--feature-set: unknown feature set `{}` (paper, hysteresis-aware, hysteresis-aware+time)",
+                    self.feature_set
+                ))
+            })?;
+            if self.k == 0 || self.k > fit::HOST_CAP {
+                return Err(TrainerError::fit(format!("--k must be in 1..={}", fit::HOST_CAP)));
+            }
+            let cfg = Config {
+                feature_set: fs,
+                dead_band_pm: self.dead_band_pm,
+                k: self.k,
+                sigma_mult: self.sigma_mult,
+                alpha_rel: self.alpha_rel,
+                cross_terms: true,
+            };
+            Ok((TrainOptions::fixed(&cfg), "fixed"))
+        } else {
+            let opts = crate::fleet::train_options(&self.features, self.max_centres)
+                .map_err(TrainerError::fit)?;
+            Ok((opts, "select"))
+        }
+    }
+
+    /// Run the benchmark.
+    pub fn run(&self) -> Result<FitBench, TrainerError> {
+        let (opts, mode) = self.options()?;
+        bench_fit(&self.data, &opts, mode, self.repeats, self.threads)
+    }
+}
+
+impl FitBench {
+    /// One human-readable paragraph.
+    pub fn text(&self) -> String {
+        let c = &self.chosen;
+        format!(
+            "{} fit of {} calibration samples ({} in the file, {} threads): median {:.3} s over {} fits {:?} (CSV read {:.2} s)\n\
+             configuration: {} features, K = {}, σ = {}×NN, α = {:e}·n, dead band {} pm ({} grid points)\n\
+             hold-out RMSE Model-P: T {:.3} °C, ε {:.2} µε, p {:.2} kPa ({} B); Model-H: T {:.3}, ε {:.2}, p {:.2} ({} B)",
+            self.mode, self.n_cal, self.n_samples, self.threads, self.fit_seconds_median, self.fit_seconds.len(),
+            self.fit_seconds.iter().map(|s| (s * 1000.0).round() / 1000.0).collect::<Vec<_>>(), self.read_seconds,
+            c.feature_set.name(), c.k, c.sigma_mult, c.alpha_rel, c.dead_band_pm, self.grid_points,
+            self.model_p.rmse[0], self.model_p.rmse[1], self.model_p.rmse[2], self.model_p.blob_bytes,
+            self.model_h.rmse[0], self.model_h.rmse[1], self.model_h.rmse[2], self.model_h.blob_bytes,
+        )
+    }
+}
+
+/// A fixed configuration's feature set by its report name (`paper`, `hysteresis-aware`,
+/// `hysteresis-aware+time`).
+pub fn feature_set_named(name: &str) -> Option<FeatureSet> {
+    FeatureSet::ALL.into_iter().find(|f| f.name() == name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_of_odd_even_and_empty() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert!(median(&[]).is_nan());
+    }
+
+    #[test]
+    fn feature_sets_by_name() {
+        for f in FeatureSet::ALL {
+            assert_eq!(feature_set_named(f.name()), Some(f));
+        }
+        assert_eq!(feature_set_named("nope"), None);
+    }
+}

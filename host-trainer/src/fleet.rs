@@ -1,0 +1,440 @@
+//! `fbg-trainer fleet`: calibrate many sensor groups in parallel from one manifest.
+//!
+//! The manifest (TOML; relative paths are relative to the manifest's directory):
+//!
+//! ```toml
+//! [defaults]               # optional: what a group does not say itself
+//! features = "all"         # paper | hysteresis-aware | all (as `train --features`)
+//! max_centres = 32         # as `train --max-centres`
+//!
+//! [[group]]
+//! name = "pier-3"          # unique
+//! data = "pier-3.csv"      # dataset CSV (DESIGN §3 columns)
+//! out = "models/pier-3.fbgm"
+//! features = "paper"       # optional, overrides the default
+//! max_centres = 16         # optional
+//! ```
+//!
+//! Each group is trained as `train` would (Model-H blob `out`, Model-P blob `<stem>-p.fbgm`,
+//! `<stem>.coefficients.json`), every file written atomically, then a sidecar
+//! `<stem>.fleet.json` records the group's input digest (CRC-64/XZ over the CSV bytes and the
+//! group's options) and the digest of the blob written. The sidecar is written last: it marks
+//! the group finished. A later run skips a group whose blob exists, decodes, matches the
+//! sidecar's blob digest and whose input digest is unchanged; anything else (no sidecar, an
+//! interrupted run, a corrupt or replaced blob, changed data or options) is trained again.
+//!
+//! Groups run on a local rayon pool of `--jobs` threads (the fit's own parallel loops run in
+//! the same pool). A failing group is reported and the others go on.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::dataset::{write_bytes_atomically, Dataset};
+use crate::error::TrainerError;
+use crate::export;
+use crate::fit::{self, Origin, TrainOptions};
+use crate::meta::SimMeta;
+
+/// Default feature sets of a group: as `train`.
+pub const DEFAULT_FEATURES: &str = "all";
+/// Default largest K of a group: as `train`.
+pub const DEFAULT_MAX_CENTRES: usize = 32;
+/// Format tag of the per-group sidecar.
+pub const SIDECAR_FORMAT: &str = "fbg-trainer fleet group v1";
+
+/// Training options for a feature-set name (`paper`, `hysteresis-aware`, `all`) and a largest
+/// number of centres: the grid of `train --features F --max-centres K`.
+pub fn train_options(features: &str, max_centres: usize) -> Result<TrainOptions, String> {
+    let sets = export::feature_sets_for(features)
+        .ok_or_else(|| format!("unknown feature set `{features}` (paper, hysteresis-aware, all)"))?;
+    if max_centres == 0 || max_centres > fit::HOST_CAP {
+        return Err(format!("max centres must be in 1..={} (got {max_centres})", fit::HOST_CAP));
+    }
+    let mut o = TrainOptions::default().with_features(sets);
+    o.centres.retain(|&k| k <= max_centres);
+    if o.centres.is_empty() {
+        o.centres.push(max_centres);
+    }
+    Ok(o)
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ManifestFile {
+    #[serde(default)]
+    defaults: Defaults,
+    #[serde(default)]
+    group: Vec<GroupFile>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct Defaults {
+    features: Option<String>,
+    max_centres: Option<usize>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GroupFile {
+    name: String,
+    data: PathBuf,
+    out: PathBuf,
+    features: Option<String>,
+    max_centres: Option<usize>,
+}
+
+/// One sensor group of a manifest, paths resolved.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Group {
+    pub name: String,
+    pub data: PathBuf,
+    pub out: PathBuf,
+    pub features: String,
+    pub max_centres: usize,
+}
+
+impl Group {
+    /// The Model-P blob beside the Model-H blob (`<stem>-p.fbgm`, as `train`).
+    pub fn baseline_path(&self) -> PathBuf {
+        self.out.with_file_name(format!("{}-p.fbgm", self.stem()))
+    }
+    /// `<stem>.coefficients.json`.
+    pub fn coefficients_path(&self) -> PathBuf {
+        self.out.with_file_name(format!("{}.coefficients.json", self.stem()))
+    }
+    /// `<stem>.fleet.json`: the record that the group finished.
+    pub fn sidecar_path(&self) -> PathBuf {
+        self.out.with_file_name(format!("{}.fleet.json", self.stem()))
+    }
+    fn stem(&self) -> String {
+        self.out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into())
+    }
+}
+
+/// A parsed, validated manifest.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Manifest {
+    pub path: PathBuf,
+    pub groups: Vec<Group>,
+}
+
+fn config_error(origin: &Path, key: impl Into<String>, message: impl Into<String>) -> TrainerError {
+    TrainerError::Config { origin: origin.display().to_string(), key: key.into(), message: message.into() }
+}
+
+impl Manifest {
+    /// Read and validate a manifest file; errors name the file and the key
+    /// (`group[2].max_centres`, ...).
+    pub fn from_file(path: &Path) -> Result<Manifest, TrainerError> {
+        let text = std::fs::read_to_string(path).map_err(|e| TrainerError::io(path, e))?;
+        Self::from_str_at(&text, path)
+    }
+
+    /// Parse manifest text as if read from `path` (relative paths resolve against its
+    /// directory).
+    pub fn from_str_at(text: &str, path: &Path) -> Result<Manifest, TrainerError> {
+        let raw: ManifestFile = toml::from_str(text).map_err(|e| {
+            let at = e.span().map(|s| line_col(text, s.start)).unwrap_or_default();
+            config_error(path, at, e.message().trim_end().to_string())
+        })?;
+        if raw.group.is_empty() {
+            return Err(config_error(path, "group", "no [[group]] in the manifest"));
+        }
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let resolve = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
+        let mut groups: Vec<Group> = Vec::with_capacity(raw.group.len());
+        for (i, g) in raw.group.into_iter().enumerate() {
+            let key = |k: &str| format!("group[{i}].{k}");
+            if g.name.trim().is_empty() {
+                return Err(config_error(path, key("name"), "must not be empty"));
+            }
+            if let Some(j) = groups.iter().position(|o| o.name == g.name) {
+                return Err(config_error(path, key("name"), format!("`{}` is also the name of group[{j}]", g.name)));
+            }
+            if g.out.file_name().is_none() {
+                return Err(config_error(path, key("out"), "must name a file"));
+            }
+            let (own_features, own_max) = (g.features.is_some(), g.max_centres.is_some());
+            let features = g.features.or_else(|| raw.defaults.features.clone()).unwrap_or_else(|| DEFAULT_FEATURES.into());
+            let max_centres = g.max_centres.or(raw.defaults.max_centres).unwrap_or(DEFAULT_MAX_CENTRES);
+            let which = |k: &str, own: bool| if own { key(k) } else { format!("defaults.{k}") };
+            if let Err(m) = train_options(&features, DEFAULT_MAX_CENTRES) {
+                return Err(config_error(path, which("features", own_features), m));
+            }
+            if let Err(m) = train_options(DEFAULT_FEATURES, max_centres) {
+                return Err(config_error(path, which("max_centres", own_max), m));
+            }
+            let group = Group { name: g.name, data: resolve(&g.data), out: resolve(&g.out), features, max_centres };
+            for (j, o) in groups.iter().enumerate() {
+                let mine = [group.out.clone(), group.baseline_path()];
+                let theirs = [o.out.clone(), o.baseline_path()];
+                if mine.iter().any(|m| theirs.contains(m)) {
+                    return Err(config_error(path, key("out"), format!("writes the same file as group[{j}] (`{}`)", o.name)));
+                }
+            }
+            groups.push(group);
+        }
+        Ok(Manifest { path: path.to_path_buf(), groups })
+    }
+}
+
+fn line_col(text: &str, offset: usize) -> String {
+    let before = text.get(..offset).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map(|l| l.chars().count() + 1).unwrap_or(1);
+    format!("line {line}, column {col}")
+}
+
+const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
+
+/// Digest of a group's inputs: the CSV bytes and the options that shape the fit.
+pub fn input_digest(g: &Group, csv: &[u8]) -> String {
+    let mut d = CRC64.digest();
+    d.update(format!("features={};max_centres={};trainer={};", g.features, g.max_centres, env!("CARGO_PKG_VERSION")).as_bytes());
+    d.update(&(csv.len() as u64).to_le_bytes());
+    d.update(csv);
+    format!("crc64:{:016x}:{}", d.finalize(), csv.len())
+}
+
+/// Digest of a written blob.
+pub fn blob_digest(bytes: &[u8]) -> String {
+    format!("crc64:{:016x}:{}", CRC64.checksum(bytes), bytes.len())
+}
+
+/// The per-group record written after a successful fit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sidecar {
+    pub format: String,
+    pub name: String,
+    pub input_digest: String,
+    pub blob_digest: String,
+    pub model_h_bytes: usize,
+    pub model_p_bytes: usize,
+    pub chosen_k: usize,
+    pub chosen_features: String,
+    pub cv_rmse_h: [f64; 3],
+    pub train_seconds: f64,
+}
+
+/// What happened to one group.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "status")]
+pub enum Outcome {
+    /// Trained and written now.
+    Trained { seconds: f64, model_h_bytes: usize, chosen_k: usize, chosen_features: String, cv_rmse_h: [f64; 3] },
+    /// Finished by an earlier run: nothing redone.
+    Skipped,
+    /// Failed; the other groups went on.
+    Failed { error: String },
+}
+
+/// One group's line in the report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct GroupReport {
+    pub name: String,
+    pub out: PathBuf,
+    #[serde(flatten)]
+    pub outcome: Outcome,
+    /// Why the group was (re)trained, when it was: `no record`, `input changed`, ...
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+/// The whole run.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FleetReport {
+    pub manifest: PathBuf,
+    pub jobs: usize,
+    pub groups: Vec<GroupReport>,
+    pub trained: usize,
+    pub skipped: usize,
+    pub failed: usize,
+    pub seconds: f64,
+    /// Trained groups per second of wall time.
+    pub trained_per_second: f64,
+}
+
+impl FleetReport {
+    /// A human-readable summary, one line per group.
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        for g in &self.groups {
+            let line = match &g.outcome {
+                Outcome::Trained { seconds, model_h_bytes, chosen_k, chosen_features, .. } => format!(
+                    "trained in {seconds:.1} s ({}): {chosen_features} features, K = {chosen_k}, {} ({model_h_bytes} B)",
+                    g.reason.as_deref().unwrap_or("new"),
+                    g.out.display()
+                ),
+                Outcome::Skipped => format!("up to date, skipped ({})", g.out.display()),
+                Outcome::Failed { error } => format!("FAILED: {error}"),
+            };
+            s.push_str(&format!("{:>20}  {line}\n", g.name));
+        }
+        s.push_str(&format!(
+            "{} groups: {} trained, {} skipped (finished earlier), {} failed in {:.1} s on {} jobs ({:.2} trained groups/s)",
+            self.groups.len(),
+            self.trained,
+            self.skipped,
+            self.failed,
+            self.seconds,
+            self.jobs,
+            self.trained_per_second
+        ));
+        s
+    }
+}
+
+/// Why group `g` must be (re)trained, or `None` when its outputs are finished for `digest`.
+pub fn needs_training(g: &Group, digest: &str) -> Option<String> {
+    let side = g.sidecar_path();
+    let Ok(text) = std::fs::read_to_string(&side) else { return Some("no record of a finished run".into()) };
+    let Ok(rec) = serde_json::from_str::<Sidecar>(&text) else { return Some("unreadable record".into()) };
+    if rec.format != SIDECAR_FORMAT || rec.name != g.name {
+        return Some("record of another group".into());
+    }
+    if rec.input_digest != digest {
+        return Some("input changed".into());
+    }
+    let Ok(bytes) = std::fs::read(&g.out) else { return Some("output missing".into()) };
+    if blob_digest(&bytes) != rec.blob_digest || export::read_blob(&g.out).is_err() {
+        return Some("output corrupt or replaced".into());
+    }
+    if export::read_blob(&g.baseline_path()).is_err() {
+        return Some("Model-P output missing or corrupt".into());
+    }
+    None
+}
+
+fn train_group(g: &Group, digest: &str) -> Result<Sidecar, TrainerError> {
+    let t = Instant::now();
+    let opts = train_options(&g.features, g.max_centres).map_err(TrainerError::fit)?;
+    let d = Dataset::read_csv(&g.data)?;
+    let origin = match SimMeta::read_for(&g.data)? {
+        Some(m) => Origin { scenario: m.scenario.name.clone(), seed: m.seed },
+        None => Origin { scenario: g.name.clone(), seed: 0 },
+    };
+    let tr = fit::train(&d, &opts, &origin)?;
+    if let Some(dir) = g.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
+    }
+    // The record goes first out of the way, so a crash from here on cannot leave an old record
+    // beside new outputs.
+    let side = g.sidecar_path();
+    if side.exists() {
+        std::fs::remove_file(&side).map_err(|e| TrainerError::io(&side, e))?;
+    }
+    let np = export::write_blob(&g.baseline_path(), &tr.model_p)?;
+    export::write_coefficients(&g.coefficients_path(), &tr.model_p, &tr.model_h, &tr.core, Some(&tr.selection))?;
+    let blob = export::blob_bytes(&tr.model_h)?;
+    write_bytes_atomically(&g.out, &blob)?;
+    let rec = Sidecar {
+        format: SIDECAR_FORMAT.into(),
+        name: g.name.clone(),
+        input_digest: digest.to_string(),
+        blob_digest: blob_digest(&blob),
+        model_h_bytes: blob.len(),
+        model_p_bytes: np,
+        chosen_k: tr.selection.chosen.k,
+        chosen_features: tr.selection.chosen.feature_set.name().into(),
+        cv_rmse_h: tr.selection.cv_rmse_h,
+        train_seconds: t.elapsed().as_secs_f64(),
+    };
+    let text = serde_json::to_string_pretty(&rec).map_err(|e| TrainerError::fit(e.to_string()))?;
+    write_bytes_atomically(&side, text.as_bytes())?;
+    Ok(rec)
+}
+
+fn run_group(g: &Group) -> GroupReport {
+    let report = |outcome, reason| GroupReport { name: g.name.clone(), out: g.out.clone(), outcome, reason };
+    let csv = match std::fs::read(&g.data) {
+        Ok(b) => b,
+        Err(e) => return report(Outcome::Failed { error: TrainerError::io(&g.data, e).to_string() }, None),
+    };
+    let digest = input_digest(g, &csv);
+    let Some(reason) = needs_training(g, &digest) else { return report(Outcome::Skipped, None) };
+    let result = catch_unwind(AssertUnwindSafe(|| train_group(g, &digest)));
+    let outcome = match result {
+        Ok(Ok(r)) => Outcome::Trained {
+            seconds: r.train_seconds,
+            model_h_bytes: r.model_h_bytes,
+            chosen_k: r.chosen_k,
+            chosen_features: r.chosen_features,
+            cv_rmse_h: r.cv_rmse_h,
+        },
+        Ok(Err(e)) => Outcome::Failed { error: e.to_string() },
+        Err(p) => {
+            let msg = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".into());
+            Outcome::Failed { error: format!("internal error (panic): {msg}") }
+        }
+    };
+    report(outcome, Some(reason))
+}
+
+/// Calibrate every group of `m` on a pool of `jobs` threads (0: one per core), skipping the
+/// finished ones. Group failures are in the report, not an `Err`; `Err` is only for a pool
+/// that cannot start.
+pub fn run(m: &Manifest, jobs: usize, progress: bool) -> Result<FleetReport, TrainerError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .map_err(|e| TrainerError::fit(format!("thread pool: {e}")))?;
+    let bar = fit::select::progress_bar(progress, m.groups.len() as u64, "fleet");
+    let t = Instant::now();
+    let groups: Vec<GroupReport> = pool.install(|| {
+        m.groups
+            .par_iter()
+            .with_max_len(1)
+            .map(|g| {
+                let r = run_group(g);
+                bar.inc(1);
+                r
+            })
+            .collect()
+    });
+    bar.finish_and_clear();
+    let seconds = t.elapsed().as_secs_f64();
+    let count = |f: fn(&Outcome) -> bool| groups.iter().filter(|g| f(&g.outcome)).count();
+    let trained = count(|o| matches!(o, Outcome::Trained { .. }));
+    Ok(FleetReport {
+        manifest: m.path.clone(),
+        jobs: pool.current_num_threads(),
+        trained,
+        skipped: count(|o| matches!(o, Outcome::Skipped)),
+        failed: count(|o| matches!(o, Outcome::Failed { .. })),
+        trained_per_second: if seconds > 0.0 { trained as f64 / seconds } else { 0.0 },
+        seconds,
+        groups,
+    })
+}
+
+/// `fbg-trainer fleet`: calibrate the sensor groups of a manifest in parallel.
+#[derive(clap::Args, Clone, Debug)]
+pub struct FleetArgs {
+    /// Manifest (TOML): `[[group]]` tables with name, data, out and optional features /
+    /// max_centres; `[defaults]` for the options groups leave out.
+    #[arg(long)]
+    pub manifest: PathBuf,
+    /// Groups calibrated at once (threads of the pool; 0: one per core).
+    #[arg(long, default_value_t = 0)]
+    pub jobs: usize,
+    /// Print the report as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl FleetArgs {
+    /// Read the manifest and run the fleet.
+    pub fn run(&self) -> Result<FleetReport, TrainerError> {
+        let m = Manifest::from_file(&self.manifest)?;
+        run(&m, self.jobs, !self.json)
+    }
+}

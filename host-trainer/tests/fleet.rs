@@ -1,0 +1,156 @@
+//! `fbg-trainer fleet`: manifest errors name the key, finished groups are not redone, a corrupt
+//! or stale output is, and a failing group does not stop the others.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use fbg_trainer::fleet::{self, Manifest, Outcome};
+use fbg_trainer::scenario::Preset;
+use fbg_trainer::sim;
+
+/// A short scenario (one day at 60 s: 1 440 samples) as `dir/<name>.csv`.
+fn short_csv(dir: &Path, name: &str, seed: u64) -> PathBuf {
+    let mut cfg = Preset::Paper.config();
+    cfg.clock.days = 1.0;
+    let s = sim::simulate(&cfg, seed);
+    let p = dir.join(format!("{name}.csv"));
+    s.data.write_csv(&p).unwrap();
+    p
+}
+
+/// A manifest of `n` good groups (small grid: paper features, K <= 8) plus `extra` TOML.
+fn manifest(dir: &Path, n: usize, extra: &str) -> PathBuf {
+    let mut text = String::from("[defaults]\nfeatures = \"paper\"\nmax_centres = 8\n");
+    for i in 0..n {
+        short_csv(dir, &format!("g{i}"), 10 + i as u64);
+        text.push_str(&format!("\n[[group]]\nname = \"g{i}\"\ndata = \"g{i}.csv\"\nout = \"models/g{i}.fbgm\"\n"));
+    }
+    text.push_str(extra);
+    let p = dir.join("fleet.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn status(r: &fleet::FleetReport, name: &str) -> Outcome {
+    r.groups.iter().find(|g| g.name == name).unwrap().outcome.clone()
+}
+
+fn err_of(text: &str) -> String {
+    let d = tempfile::tempdir().unwrap();
+    Manifest::from_str_at(text, &d.path().join("m.toml")).unwrap_err().to_string()
+}
+
+#[test]
+fn manifest_errors_name_the_key() {
+    let g = "[[group]]\nname = \"a\"\ndata = \"a.csv\"\nout = \"a.fbgm\"\n";
+    let e = err_of("");
+    assert!(e.contains("m.toml") && e.contains("group"), "{e}");
+    let e = err_of("[[group]]\nname = \"a\"\nout = \"a.fbgm\"\n");
+    assert!(e.contains("m.toml") && e.contains("data") && e.contains("line"), "{e}");
+    let e = err_of(&format!("{g}colour = \"red\"\n"));
+    assert!(e.contains("colour"), "{e}");
+    let e = err_of(&format!("{g}features = \"magic\"\n"));
+    assert!(e.contains("group[0].features") && e.contains("magic"), "{e}");
+    let e = err_of(&format!("{g}max_centres = 0\n"));
+    assert!(e.contains("group[0].max_centres"), "{e}");
+    let e = err_of(&format!("[defaults]\nmax_centres = 1000\n{g}"));
+    assert!(e.contains("defaults.max_centres"), "{e}");
+    let e = err_of(&format!("{g}{}", g.replace("a.fbgm", "b.fbgm")));
+    assert!(e.contains("group[1].name") && e.contains("group[0]"), "{e}");
+    let e = err_of(&format!("{g}{}", g.replace("name = \"a\"", "name = \"b\"")));
+    assert!(e.contains("group[1].out"), "{e}");
+    let e = err_of("[[group]]\nname = \"\"\ndata = \"a.csv\"\nout = \"a.fbgm\"\n");
+    assert!(e.contains("group[0].name"), "{e}");
+}
+
+#[test]
+fn paths_resolve_against_the_manifest_and_defaults_apply() {
+    let d = tempfile::tempdir().unwrap();
+    let text = "[defaults]\nfeatures = \"paper\"\n\n[[group]]\nname = \"a\"\ndata = \"in/a.csv\"\nout = \"/abs/a.fbgm\"\nmax_centres = 16\n\n[[group]]\nname = \"b\"\ndata = \"b.csv\"\nout = \"b.fbgm\"\nfeatures = \"all\"\n";
+    let m = Manifest::from_str_at(text, &d.path().join("m.toml")).unwrap();
+    assert_eq!(m.groups[0].data, d.path().join("in/a.csv"));
+    assert_eq!(m.groups[0].out, PathBuf::from("/abs/a.fbgm"));
+    assert_eq!((m.groups[0].features.as_str(), m.groups[0].max_centres), ("paper", 16));
+    assert_eq!((m.groups[1].features.as_str(), m.groups[1].max_centres), ("all", fleet::DEFAULT_MAX_CENTRES));
+    assert_eq!(m.groups[1].baseline_path(), d.path().join("b-p.fbgm"));
+}
+
+#[test]
+fn resume_skips_finished_groups_and_redoes_corrupt_or_changed_ones() {
+    let d = tempfile::tempdir().unwrap();
+    let m = Manifest::from_file(&manifest(d.path(), 4, "")).unwrap();
+    let r1 = fleet::run(&m, 2, false).unwrap();
+    assert_eq!((r1.trained, r1.skipped, r1.failed), (4, 0, 0), "{}", r1.text());
+    for g in &m.groups {
+        assert!(fbg_trainer::export::read_blob(&g.out).is_ok());
+        assert!(fbg_trainer::export::read_blob(&g.baseline_path()).is_ok());
+        assert!(g.coefficients_path().exists() && g.sidecar_path().exists());
+    }
+    let before: Vec<Vec<u8>> = m.groups.iter().map(|g| std::fs::read(&g.out).unwrap()).collect();
+
+    // Nothing changed: nothing is redone and no output is touched.
+    let r2 = fleet::run(&m, 2, false).unwrap();
+    assert_eq!((r2.trained, r2.skipped, r2.failed), (0, 4, 0), "{}", r2.text());
+    let after: Vec<Vec<u8>> = m.groups.iter().map(|g| std::fs::read(&g.out).unwrap()).collect();
+    assert_eq!(before, after);
+
+    // A corrupt blob (one flipped byte), a run interrupted before its record was written, and
+    // changed input data are each redone; the rest is skipped.
+    let mut bytes = before[0].clone();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x40;
+    std::fs::write(&m.groups[0].out, &bytes).unwrap();
+    std::fs::remove_file(m.groups[1].sidecar_path()).unwrap();
+    short_csv(d.path(), "g2", 99);
+    let r3 = fleet::run(&m, 1, false).unwrap();
+    assert_eq!((r3.trained, r3.skipped, r3.failed), (3, 1, 0), "{}", r3.text());
+    assert_eq!(status(&r3, "g3"), Outcome::Skipped);
+    let reasons: Vec<_> = r3.groups.iter().map(|g| g.reason.clone().unwrap_or_default()).collect();
+    assert!(reasons[0].contains("corrupt"), "{reasons:?}");
+    assert!(reasons[1].contains("no record"), "{reasons:?}");
+    assert!(reasons[2].contains("input changed"), "{reasons:?}");
+    assert_eq!(std::fs::read(&m.groups[0].out).unwrap(), before[0], "the redone fit is deterministic");
+    assert!(fbg_trainer::export::read_blob(&m.groups[0].out).is_ok());
+
+    // Options are part of the input: a different K limit retrains that group.
+    let path = d.path().join("fleet.toml");
+    let text = std::fs::read_to_string(&path).unwrap().replacen("out = \"models/g3.fbgm\"", "out = \"models/g3.fbgm\"\nmax_centres = 16", 1);
+    std::fs::write(&path, text).unwrap();
+    let m = Manifest::from_file(&path).unwrap();
+    let r4 = fleet::run(&m, 2, false).unwrap();
+    assert_eq!((r4.trained, r4.skipped), (1, 3), "{}", r4.text());
+    assert!(matches!(status(&r4, "g3"), Outcome::Trained { .. }));
+}
+
+#[test]
+fn a_failing_group_does_not_stop_the_others() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::write(d.path().join("bad.csv"), "t_s,T_amb_C,dl1_pm,dl2_pm,dl3_pm\n0,20,1,2,oops\n").unwrap();
+    let extra = "\n[[group]]\nname = \"missing\"\ndata = \"nowhere.csv\"\nout = \"models/missing.fbgm\"\n\
+                 \n[[group]]\nname = \"bad\"\ndata = \"bad.csv\"\nout = \"models/bad.fbgm\"\n";
+    let path = manifest(d.path(), 3, extra);
+    let m = Manifest::from_file(&path).unwrap();
+    let r = fleet::run(&m, 2, false).unwrap();
+    assert_eq!((r.trained, r.failed), (3, 2), "{}", r.text());
+    match status(&r, "missing") {
+        Outcome::Failed { error } => assert!(error.contains("nowhere.csv"), "{error}"),
+        o => panic!("{o:?}"),
+    }
+    match status(&r, "bad") {
+        Outcome::Failed { error } => assert!(error.contains("bad.csv") && error.contains("line 2"), "{error}"),
+        o => panic!("{o:?}"),
+    }
+    assert!(!d.path().join("models/bad.fbgm").exists() && !d.path().join("models/bad.fleet.json").exists());
+
+    // The CLI reports every group and fails; a rerun redoes only the failures.
+    let o = Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))
+        .args(["fleet", "--jobs", "2", "--json", "--manifest"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((j["trained"].as_u64(), j["skipped"].as_u64(), j["failed"].as_u64()), (Some(0), Some(3), Some(2)), "{j}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("2 of 5 groups failed"), "{err}");
+}
