@@ -16,6 +16,7 @@ use crate::error::TrainerError;
 use crate::evaluate::{evaluate_holdout, ModelEval};
 use crate::export;
 use crate::fit::{self, Config, Origin, TrainOptions};
+use crate::parity::{self, ParityReport};
 
 /// Hyper-parameters of a fixed-configuration fit when none are given: what cross-validation
 /// chooses on the `paper` preset with the default features (K = 32, σ = 2 × the median
@@ -67,6 +68,8 @@ pub struct FitBench {
     pub grid_points: usize,
     pub model_p: HoldoutFigures,
     pub model_h: HoldoutFigures,
+    /// Model-H in f32 (the device path) against f64 on the hold-out.
+    pub parity: ParityReport,
 }
 
 /// Median of a non-empty sample (mean of the middle two for an even count); NaN when empty.
@@ -123,6 +126,7 @@ pub fn bench_fit(
         grid_points: tr.selection.rows.len(),
         model_p: HoldoutFigures::of(&ep, export::blob_bytes(&tr.model_p)?.len()),
         model_h: HoldoutFigures::of(&eh, export::blob_bytes(&tr.model_h)?.len()),
+        parity: parity::check(&tr.model_h, &d, &eh)?,
     })
 }
 

@@ -13,24 +13,31 @@
 //! - [`protocol`]: the COBS-framed postcard messages of the host ↔ device serial link;
 //! - `link_client` (feature `std`): the host side of that link over any `Read + Write`.
 //!
-//! # Cost of one `step` (K centres, `Z_DIMS` = 8, `VAR_RANK` = 8)
+//! # Cost of one `step` (K centres, `Z_DIMS` = 8, `VAR_RANK` = 4)
 //!
-//! Floating-point operations after load-time folding (a fused multiply-add counts as one):
+//! Floating-point operations of the current [`Compensator::step`] after load-time folding, in
+//! f32 as the device runs it (a multiply-add counts as one; every `Z_DIMS` input is visited,
+//! used or not):
 //!
 //! | part | operations | K = 32 |
 //! |---|---|---|
-//! | finiteness + envelope checks | 5 + 8 compares | 13 |
-//! | stage 1 (3 × 5, scalers folded) | 12 fma | 12 |
-//! | φ (6 products) + B (3 × 10) | 6 mul + 30 fma | 36 |
-//! | z scaling (8 inputs, σ folded) | 8 fma | 8 |
-//! | distance per centre | 8 sub + 8 fma | 512 |
-//! | `exp(−d²)` per centre | ≈ 10 (6 fma + 4) | 320 |
-//! | Wψ, variance projections, ‖ψ‖², max per centre | 3 + 8 + 1 fma + 1 max | 416 |
-//! | leverage + 3 bands | 8 fma + 3 × (2 mul + sqrt) | 17 |
-//! | **total** | ≈ 40 K + 100 | ≈ 1 330 |
+//! | finiteness checks (Δλ1..3, T_amb, t) | 5 | 5 |
+//! | direction latches: 3 × (scale, 2 converts, remainder, 2 compares, ≈ 4 integer compare/select) | 30 | 30 |
+//! | envelope checks | 8 compares | 8 |
+//! | stage 1 (3 × 5, scalers folded) | 12 mul-add | 12 |
+//! | φ (6 products) + B (3 × 10) | 6 mul + 30 mul-add | 36 |
+//! | z scaling (8 inputs, σ folded) and ‖z‖² | 8 + 8 mul-add | 16 |
+//! | distance per centre, expanded: ‖z‖² + ‖μ‖² + z·(−2μ) | 1 add + 8 mul-add | 288 |
+//! | `exp(−d²)` per centre ([`real::exp_neg_f32`]) | 1 compare, 2 converts, 1 negate, 9 mul-add, 3 exponent-field ops | 512 |
+//! | Wψ (3), variance projections (4), ‖ψ‖² (1), max (1) per centre | 8 mul-add + 1 compare | 288 |
+//! | weak-support check, leverage (1 mul + 4 mul-add) | 6 | 6 |
+//! | output finiteness, lead time, 3 bands (mul-add, add, mul, sqrt, mul) | 3 + 2 + 15 | 20 |
+//! | **total** | **34 K + 133** | **1 221** |
 //!
-//! Each operation costs about one instruction plus its operand load on a Cortex-M4F, so the
-//! count is the lower bound the firmware's measured instructions per step are compared with.
+//! (K = 16: 677; K = 64: 2 309.) Each centre also loads 16 words (−2μ, ‖μ‖², w, v). Each
+//! operation is at least one instruction on a Cortex-M4F, so the count is the arithmetic lower
+//! bound that the firmware's measured instructions per step are compared with
+//! (`cargo xtask bench`, `BENCHMARKS.md`).
 
 #![no_std]
 #![deny(missing_docs)]

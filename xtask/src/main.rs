@@ -9,6 +9,7 @@ use std::process::Command;
 
 use anyhow::{bail, Context, Result};
 
+mod bench;
 mod device_bench;
 mod elf;
 mod fixtures;
@@ -22,7 +23,7 @@ fn main() -> Result<()> {
         "test" => test(rest),
         "qemu" => qemu::run_all(&root()),
         "size" => device_bench::size(&root()).map(|_| ()),
-        "bench" => device_bench::run(&root()).map(|_| ()),
+        "bench" => bench::run_bench(&root(), rest),
         "fixtures" => fixtures_task(rest),
         "help" | "--help" | "-h" => {
             println!("{HELP}");
@@ -38,8 +39,11 @@ cargo xtask <task>
           thumbv7em-none-eabihf, firmware build and its QEMU tests (CI runs this)
   qemu    only the firmware QEMU tests
   size    firmware flash / static RAM from the ELF and the measured stack peak
-  bench   device part: instructions per step at K = 16/32/64 under QEMU -icount,
-          footprint; writes target/bench/device.json
+  bench [--quick] [--no-device]
+          every benchmark: host fit times (ours and the scikit-learn peer), host
+          inference throughput, accuracy peers, band coverage, fleet scaling and the
+          device part (instructions per step at K = 16/32/64 under QEMU -icount,
+          footprint); writes BENCHMARKS.md and BENCHMARKS.json
   fixtures [--write-default]
           write the synthetic test fixtures to target/fixtures (and the firmware's
           embedded default model firmware/model/default.fbgm)";

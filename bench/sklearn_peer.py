@@ -1,0 +1,272 @@
+#!/usr/bin/env python3
+"""scikit-learn peers of the FBG hybrid compensator, for `cargo xtask bench` (BENCHMARKS.md).
+
+Two sub-commands, each printing one JSON object on stdout:
+
+``fit``  The equivalent scikit-learn pipeline of a *fixed-hyper-parameter* Model-P + Model-H
+         fit (DESIGN §4), timed the way ``fbg-trainer bench-fit --fixed`` times ours: the CSV is
+         read once, outside the clock, then the fit runs ``--repeats`` times, each timed alone,
+         and the last fit is evaluated on the hold-out. What one fit computes, on the
+         calibration rows (``split == cal``) only:
+
+         1. stage 1: ``LinearRegression`` (with intercept) from [dl1, dl2, dl3, T_amb] to the
+            references [T, strain, p]: the first guesses g;
+         2. stage 2: ``StandardScaler`` -> ``PolynomialFeatures(2)`` (the ten terms 1, T, e, p,
+            T², Te, Tp, e², ep, p²) -> ``LinearRegression(fit_intercept=False)``: Model-P;
+         3. the RBF inputs z: ``paper`` = [dl1, dl2, dl3, T_amb, t]; ``hysteresis-aware`` =
+            [dl1, dl2, dl3, T_amb, latch1, latch2, latch3], where the direction latches are
+            computed by a Python loop that is a line-by-line port of
+            ``fbg_shared::DirectionLatch`` (ticks of 1/1024 pm, rounding half away from zero,
+            running extreme, dead band), run once over the whole record in time order *before*
+            the clock starts (its time is reported separately as ``latch_seconds``);
+         4. ``StandardScaler`` on z; ``KMeans(n_clusters=K, init="k-means++", n_init=1,
+            max_iter=100, random_state=seed)`` on every ceil(n/20000)-th standardised row (the
+            same subsample and iteration cap as ours);
+         5. sigma = sigma_mult x the median distance from each centre to its nearest other
+            centre (upper median, as ours); psi = ``rbf_kernel(z, centres, gamma=1/(2 sigma²))``;
+         6. ``Ridge(alpha=alpha_rel * n_cal, fit_intercept=False)`` from psi to the Model-P
+            residuals: Model-H = Model-P + psi W.
+
+         It does not compute what ours also does inside a fit: the blocked time-series
+         cross-validation that calibrates the 95 % band, the envelope, the weak-support
+         threshold and the variance eigen-directions.
+
+``blackbox``  Black-box accuracy peers on the same calibration rows and the same inputs:
+         ``HistGradientBoostingRegressor`` (one per output, defaults, random_state=0) and
+         ``MLPRegressor`` (two hidden layers of 64, early stopping, random_state=0, inputs and
+         targets standardised), on [dl1..3, T_amb], on [dl1..3, T_amb, t] (time-aware) and on
+         [dl1..3, T_amb, latch1..3] (the latches above). Model size = ``len(pickle.dumps(model))``.
+
+``versions`` prints the Python, numpy and scikit-learn versions.
+"""
+
+import argparse
+import json
+import math
+import pickle
+import platform
+import sys
+import time
+
+import numpy as np
+from sklearn.cluster import KMeans
+from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.metrics.pairwise import rbf_kernel
+from sklearn.pipeline import make_pipeline
+from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+
+COLUMNS = ["t_s", "T_C", "strain_ue", "p_kPa", "T_amb_C", "dl1_pm", "dl2_pm", "dl3_pm", "split"]
+KMEANS_MAX_POINTS = 20_000  # fbg_trainer::fit::KMEANS_MAX_POINTS
+TICKS_PER_PM = 1024.0  # fbg_shared::direction_latch::TICKS_PER_PM
+
+
+def read_csv(path):
+    with open(path) as f:
+        header = f.readline().strip().split(",")
+    if header != COLUMNS:
+        sys.exit(f"{path}: expected the columns {','.join(COLUMNS)}, found {','.join(header)}")
+    num = np.loadtxt(path, delimiter=",", skiprows=1, usecols=range(8), dtype=np.float64, ndmin=2)
+    split = np.loadtxt(path, delimiter=",", skiprows=1, usecols=[8], dtype="U8", ndmin=1)
+    cal = split == "cal"
+    return {
+        "t": num[:, 0],
+        "Y": num[:, 1:4],
+        "X4": np.column_stack([num[:, 5], num[:, 6], num[:, 7], num[:, 4]]),
+        "cal": cal,
+        "hold": split == "holdout",
+    }
+
+
+def ticks(pm):
+    """fbg_shared::ticks: round(pm * 1024) half away from zero, saturating to i32."""
+    v = pm * TICKS_PER_PM
+    r = math.floor(abs(v) + 0.5)
+    r = r if v >= 0 else -r
+    return int(max(-(2**31), min(2**31 - 1, r)))
+
+
+def latches(dl, dead_band_pm):
+    """fbg_shared::LatchBank over the whole record, in time order: (n, 3) of -1/0/+1."""
+    db = ticks(dead_band_pm)
+    out = np.zeros(dl.shape, dtype=np.float64)
+    for g in range(dl.shape[1]):
+        col = dl[:, g].tolist()
+        res = [0.0] * len(col)
+        anchor, direction, primed = 0, 0, False
+        for i, v in enumerate(col):
+            if math.isfinite(v):
+                x = ticks(v)
+                if not primed:
+                    anchor, primed = x, True
+                else:
+                    rise, fall = x > anchor + db, x < anchor - db
+                    if direction == 1 and x > anchor:
+                        anchor = x
+                    elif direction == -1 and x < anchor:
+                        anchor = x
+                    elif direction in (1, 0) and fall:
+                        direction, anchor = -1, x
+                    elif direction in (-1, 0) and rise:
+                        direction, anchor = 1, x
+            res[i] = float(direction)
+        out[:, g] = res
+    return out
+
+
+def median_nn_distance(c):
+    """fbg_trainer::fit::median_nn_distance: upper median of each centre's nearest other centre."""
+    if len(c) < 2:
+        return 1.0
+    d = np.sqrt(((c[:, None, :] - c[None, :, :]) ** 2).sum(-1))
+    np.fill_diagonal(d, np.inf)
+    nn = np.sort(d.min(axis=1))
+    m = nn[len(nn) // 2]
+    return m if m > 0 else 1.0
+
+
+def rbf_inputs(data, features, lat):
+    if features == "paper":
+        return np.column_stack([data["X4"], data["t"]])
+    return np.column_stack([data["X4"], lat])
+
+
+class HybridPeer:
+    """Model-P + Model-H as a scikit-learn pipeline (see the module doc)."""
+
+    def __init__(self, k, sigma_mult, alpha_rel, seed):
+        self.k, self.sigma_mult, self.alpha_rel, self.seed = k, sigma_mult, alpha_rel, seed
+
+    def fit(self, X4, Z, Y):
+        n = len(Y)
+        self.stage1 = LinearRegression().fit(X4, Y)
+        g = self.stage1.predict(X4)
+        self.stage2 = make_pipeline(StandardScaler(), PolynomialFeatures(2), LinearRegression(fit_intercept=False))
+        self.stage2.fit(g, Y)
+        resid = Y - self.stage2.predict(g)
+        self.zscale = StandardScaler().fit(Z)
+        zs = self.zscale.transform(Z)
+        stride = max(1, -(-n // KMEANS_MAX_POINTS))
+        km = KMeans(n_clusters=self.k, init="k-means++", n_init=1, max_iter=100, random_state=self.seed)
+        self.centres = km.fit(zs[::stride]).cluster_centers_
+        sigma = self.sigma_mult * median_nn_distance(self.centres)
+        self.gamma = 1.0 / (2.0 * sigma * sigma)
+        psi = rbf_kernel(zs, self.centres, gamma=self.gamma)
+        self.ridge = Ridge(alpha=self.alpha_rel * n, fit_intercept=False).fit(psi, resid)
+        return self
+
+    def predict_p(self, X4):
+        return self.stage2.predict(self.stage1.predict(X4))
+
+    def predict_h(self, X4, Z):
+        psi = rbf_kernel(self.zscale.transform(Z), self.centres, gamma=self.gamma)
+        return self.predict_p(X4) + self.ridge.predict(psi)
+
+
+def rmse(pred, Y):
+    return np.sqrt(((pred - Y) ** 2).mean(axis=0)).tolist()
+
+
+def cmd_fit(a):
+    data = read_csv(a.data)
+    t0 = time.perf_counter()
+    lat = latches(data["X4"][:, :3], a.dead_band_pm) if a.features == "hysteresis-aware" else None
+    latch_seconds = time.perf_counter() - t0 if lat is not None else 0.0
+    Z = rbf_inputs(data, a.features, lat)
+    cal, hold = data["cal"], data["hold"]
+    X4c, Zc, Yc = data["X4"][cal], Z[cal], data["Y"][cal]
+    secs, model = [], None
+    for _ in range(max(1, a.repeats)):
+        t = time.perf_counter()
+        model = HybridPeer(a.k, a.sigma_mult, a.alpha_rel, a.seed).fit(X4c, Zc, Yc)
+        secs.append(time.perf_counter() - t)
+    X4h, Zh, Yh = data["X4"][hold], Z[hold], data["Y"][hold]
+    out = {
+        "peer": "scikit-learn hybrid pipeline",
+        "features": a.features,
+        "k": a.k,
+        "sigma_mult": a.sigma_mult,
+        "alpha_rel": a.alpha_rel,
+        "dead_band_pm": a.dead_band_pm,
+        "n_samples": int(len(data["t"])),
+        "n_cal": int(cal.sum()),
+        "latch_seconds": latch_seconds,
+        "fit_seconds": secs,
+        "fit_seconds_median": float(np.median(secs)),
+        "model_p": {"rmse": rmse(model.predict_p(X4h), Yh)},
+        "model_h": {"rmse": rmse(model.predict_h(X4h, Zh), Yh), "pickle_bytes": len(pickle.dumps(model))},
+    }
+    print(json.dumps(out, indent=1))
+
+
+def cmd_blackbox(a):
+    from sklearn.compose import TransformedTargetRegressor
+    from sklearn.ensemble import HistGradientBoostingRegressor
+    from sklearn.multioutput import MultiOutputRegressor
+    from sklearn.neural_network import MLPRegressor
+
+    data = read_csv(a.data)
+    lat = latches(data["X4"][:, :3], a.dead_band_pm)
+    inputs = {
+        "dl+T_amb": data["X4"],
+        "dl+T_amb+t": np.column_stack([data["X4"], data["t"]]),
+        "dl+T_amb+latch": np.column_stack([data["X4"], lat]),
+    }
+    models = {
+        "HistGradientBoosting": lambda: MultiOutputRegressor(HistGradientBoostingRegressor(random_state=0)),
+        "MLP": lambda: TransformedTargetRegressor(
+            regressor=make_pipeline(
+                StandardScaler(),
+                MLPRegressor(hidden_layer_sizes=(64, 64), early_stopping=True, max_iter=1000, random_state=0),
+            ),
+            transformer=StandardScaler(),
+        ),
+    }
+    cal, hold = data["cal"], data["hold"]
+    rows = []
+    for mname, make in models.items():
+        for iname, X in inputs.items():
+            m = make()
+            t = time.perf_counter()
+            m.fit(X[cal], data["Y"][cal])
+            secs = time.perf_counter() - t
+            rows.append({
+                "model": mname,
+                "inputs": iname,
+                "fit_seconds": secs,
+                "rmse": rmse(m.predict(X[hold]), data["Y"][hold]),
+                "pickle_bytes": len(pickle.dumps(m)),
+            })
+    print(json.dumps({"n_samples": int(len(data["t"])), "n_cal": int(cal.sum()), "peers": rows}, indent=1))
+
+
+def cmd_versions(_a):
+    import sklearn
+
+    print(json.dumps({"python": platform.python_version(), "numpy": np.__version__, "scikit_learn": sklearn.__version__}))
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = p.add_subparsers(dest="cmd", required=True)
+    f = sub.add_parser("fit", help="time the equivalent fixed-hyper-parameter hybrid pipeline")
+    f.add_argument("--data", required=True)
+    f.add_argument("--repeats", type=int, default=3)
+    f.add_argument("--features", choices=["paper", "hysteresis-aware"], default="paper")
+    f.add_argument("--k", type=int, default=32)
+    f.add_argument("--sigma-mult", type=float, default=2.0)
+    f.add_argument("--alpha-rel", type=float, default=1e-5)
+    f.add_argument("--dead-band-pm", type=float, default=4.0)
+    f.add_argument("--seed", type=int, default=1)
+    f.set_defaults(func=cmd_fit)
+    b = sub.add_parser("blackbox", help="gradient boosting and MLP accuracy peers")
+    b.add_argument("--data", required=True)
+    b.add_argument("--dead-band-pm", type=float, default=4.0)
+    b.set_defaults(func=cmd_blackbox)
+    v = sub.add_parser("versions")
+    v.set_defaults(func=cmd_versions)
+    a = p.parse_args()
+    a.func(a)
+
+
+if __name__ == "__main__":
+    main()
