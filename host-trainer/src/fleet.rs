@@ -139,7 +139,7 @@ impl Manifest {
     /// directory).
     pub fn from_str_at(text: &str, path: &Path) -> Result<Manifest, TrainerError> {
         let raw: ManifestFile = toml::from_str(text).map_err(|e| {
-            let at = e.span().map(|s| line_col(text, s.start)).unwrap_or_default();
+            let at = e.span().map(|s| crate::scenario::line_col(text, s.start)).unwrap_or_default();
             config_error(path, at, e.message().trim_end().to_string())
         })?;
         if raw.group.is_empty() {
@@ -181,13 +181,6 @@ impl Manifest {
         }
         Ok(Manifest { path: path.to_path_buf(), groups })
     }
-}
-
-fn line_col(text: &str, offset: usize) -> String {
-    let before = text.get(..offset).unwrap_or(text);
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map(|l| l.chars().count() + 1).unwrap_or(1);
-    format!("line {line}, column {col}")
 }
 
 const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);

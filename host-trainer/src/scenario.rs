@@ -534,7 +534,8 @@ impl Checker {
     }
 }
 
-fn line_col(text: &str, offset: usize) -> String {
+/// "line L, column C" of a byte offset in `text` (for TOML errors).
+pub(crate) fn line_col(text: &str, offset: usize) -> String {
     let before = text.get(..offset).unwrap_or(text);
     let line = before.matches('\n').count() + 1;
     let col = before.rsplit('\n').next().map(|l| l.chars().count() + 1).unwrap_or(1);
