@@ -294,7 +294,7 @@ pub fn needs_training(g: &Group, digest: &str) -> Option<String> {
         return Some("input changed".into());
     }
     let Ok(bytes) = std::fs::read(&g.out) else { return Some("output missing".into()) };
-    if blob_digest(&bytes) != rec.blob_digest || export::read_blob(&g.out).is_err() {
+    if blob_digest(&bytes) != rec.blob_digest || fbg_shared::blob::decode::<{ fit::HOST_CAP }>(&bytes).is_err() {
         return Some("output corrupt or replaced".into());
     }
     if export::read_blob(&g.baseline_path()).is_err() {
