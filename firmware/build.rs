@@ -2,11 +2,14 @@
 //!
 //! - puts the top-level `memory.x` on the linker search path (cortex-m-rt's `link.x` includes
 //!   it), so a build that would not fit the co-processor fails to link;
-//! - writes `config.rs` with the centre capacity `K` (env `FBG_K`, default 32);
+//! - writes an empty `device.x` (cortex-m-rt's `device` feature; the interrupt table is the
+//!   image's own, `__INTERRUPTS` in `src/lib.rs`);
 //! - copies the test fixtures the test binaries embed into `OUT_DIR` (an empty file when a
 //!   fixture is absent, so the product binary always builds): `FBG_GOLDEN_MODEL`,
 //!   `FBG_GOLDEN_INPUTS`, `FBG_BENCH_MODEL`, `FBG_BENCH_INPUTS` (paths; defaults under
-//!   `../target/fixtures/`, which `cargo xtask fixtures` writes).
+//!   `../target/fixtures/`, which `cargo xtask fixtures` makes with the trainer).
+//!
+//! The centre capacity `K` (env `FBG_K`, default 32) is `fbg-firmware-kernel`'s.
 
 use std::env;
 use std::fs;
@@ -18,27 +21,20 @@ fn main() {
 
     let memory = manifest.join("../memory.x");
     fs::copy(&memory, out.join("memory.x")).expect("copy ../memory.x (the top-level linker memory map)");
+    // cortex-m-rt's `device` feature includes `device.x` (weak interrupt handler names, which a
+    // PAC would provide): this firmware names none, its table (`__INTERRUPTS`) points every
+    // line to `DefaultHandler`.
+    fs::write(out.join("device.x"), "/* no named device interrupt handlers: see __INTERRUPTS in src/lib.rs */\n")
+        .expect("write device.x");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed={}", memory.display());
     println!("cargo:rerun-if-changed=build.rs");
 
-    println!("cargo:rerun-if-env-changed=FBG_K");
-    let k: usize = match env::var("FBG_K") {
-        Ok(v) => v.trim().parse().unwrap_or_else(|_| panic!("FBG_K must be a number of centres, got `{v}`")),
-        Err(_) => 32,
-    };
-    assert!((1..=256).contains(&k), "FBG_K = {k} is outside 1..=256");
-    fs::write(
-        out.join("config.rs"),
-        format!("/// Centre capacity of this build (env `FBG_K` at build time).\npub const K: usize = {k};\n"),
-    )
-    .expect("write config.rs");
-
     let fixtures = manifest.join("../target/fixtures");
     for (var, default, name) in [
         ("FBG_GOLDEN_MODEL", fixtures.join("model.fbgm"), "golden_model.fbgm"),
-        ("FBG_GOLDEN_INPUTS", fixtures.join("golden_inputs.bin"), "golden_inputs.bin"),
-        ("FBG_BENCH_MODEL", fixtures.join(format!("bench_k{k}.fbgm")), "bench_model.fbgm"),
+        ("FBG_GOLDEN_INPUTS", fixtures.join("device_golden_inputs.bin"), "golden_inputs.bin"),
+        ("FBG_BENCH_MODEL", fixtures.join("model.fbgm"), "bench_model.fbgm"),
         ("FBG_BENCH_INPUTS", fixtures.join("bench_inputs.bin"), "bench_inputs.bin"),
     ] {
         println!("cargo:rerun-if-env-changed={var}");

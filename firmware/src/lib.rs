@@ -20,7 +20,9 @@ use cortex_m_rt::{exception, ExceptionFrame};
 // The defmt global logger: frames go to the host over semihosting (stdout of QEMU).
 use defmt_semihosting as _;
 
-include!(concat!(env!("OUT_DIR"), "/config.rs"));
+/// Centre capacity of this build (env `FBG_K` at build time, default 32), and the step and
+/// blob parser compiled for it for speed (`fbg-firmware-kernel`).
+pub use fbg_firmware_kernel::{step, K, KERNEL};
 
 /// Bytes needed to stage any model this build can hold.
 pub const STAGING_LEN: usize = fbg_shared::blob::max_len(K);
@@ -37,6 +39,27 @@ pub fn exit_success() -> ! {
 pub fn exit_failure() -> ! {
     semihosting::process::exit(1)
 }
+
+/// Device interrupt vectors in the image: the 32 lines of the MPS2's CMSDK subsystem
+/// (cortex-m-rt's generic table has 240, 832 bytes more flash). Every line goes to
+/// `DefaultHandler`; the only line this firmware unmasks is UART0's receive interrupt, as a
+/// wake-up event under PRIMASK (no handler runs). On another part, make this at least the
+/// number of its lines that can be enabled (README-firmware.md, real hardware).
+pub const N_IRQ: usize = 32;
+
+const _: () = assert!((uart::Uart0Rx::LINE as usize) < N_IRQ, "the UART wake-up line needs a vector");
+
+extern "C" {
+    fn DefaultHandler();
+}
+
+/// The device part of the vector table (cortex-m-rt's `device` feature: the image provides it,
+/// `build.rs` an empty `device.x`).
+#[doc(hidden)]
+#[link_section = ".vector_table.interrupts"]
+#[no_mangle]
+#[used]
+pub static __INTERRUPTS: [unsafe extern "C" fn(); N_IRQ] = [DefaultHandler; N_IRQ];
 
 #[panic_handler]
 fn panic(info: &PanicInfo) -> ! {

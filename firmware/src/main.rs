@@ -5,13 +5,11 @@
 #![no_main]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
-use core::mem::MaybeUninit;
-
 use cortex_m_rt::entry;
 use fbg_firmware::led::FpgaioLed;
 use fbg_firmware::uart::{CmsdkUart, Uart0Rx, MPS2_PCLK_HZ, UART0_BASE};
-use fbg_firmware::{exit_failure, stack, DEFAULT_MODEL, K, STAGING_LEN};
-use fbg_firmware_app::{load_into, Device};
+use fbg_firmware::{exit_failure, stack, DEFAULT_MODEL, K, KERNEL, STAGING_LEN};
+use fbg_firmware_app::{load_with, unloaded, Device, Scratch};
 use fbg_shared::Compensator;
 
 /// Link speed on hardware (QEMU ignores it).
@@ -20,8 +18,11 @@ const BAUD: u32 = 115_200;
 #[entry]
 fn main() -> ! {
     // `static mut` at the top of `#[entry]` become `&'static mut` (cortex-m-rt), initialised at
-    // load time: the active model and the staging area live in .bss, never on the stack.
-    static mut MODEL: MaybeUninit<Compensator<f32, K>> = MaybeUninit::uninit();
+    // load time: the active model, the scratch area (the staging parameter slot while a model
+    // loads, the frame reader while serving) and the blob staging area live in .bss, never on
+    // the stack.
+    static mut MODEL: Compensator<f32, K> = unloaded();
+    static mut SCRATCH: Scratch<K> = Scratch::new();
     static mut STAGING: [u8; STAGING_LEN] = [0; STAGING_LEN];
 
     // SAFETY: UART0 and LED0 of the MPS2 board, each driven only from here.
@@ -31,12 +32,14 @@ fn main() -> ! {
     uart.enable_rx_wakeup(Uart0Rx);
     let alarm = unsafe { FpgaioLed::new(0) };
 
-    let (comp, info) = match load_into(MODEL, DEFAULT_MODEL) {
-        Ok(loaded) => loaded,
+    // The embedded default goes the way of every update: parsed into the staging slot, then
+    // folded into the (unloaded) active compensator in place.
+    let info = match load_with(&KERNEL, MODEL, SCRATCH, DEFAULT_MODEL) {
+        Ok(info) => info,
         Err(r) => {
             defmt::error!(
-                "embedded default model rejected: {=str} (code {=u8}, detail {=u32})",
-                r.reason.describe(),
+                "embedded default model rejected: {=istr} (code {=u8}, detail {=u32})",
+                fbg_firmware_app::reason_name(r.reason),
                 r.reason.code(),
                 r.detail
             );
@@ -54,7 +57,7 @@ fn main() -> ! {
         info.crc,
         boot_peak
     );
-    let mut dev = Device::new(comp, info, STAGING, alarm);
+    let mut dev = Device::new(MODEL, KERNEL, SCRATCH, info, STAGING, alarm);
     dev.set_stack_probe(stack::peak_bytes, boot_peak);
     match dev.serve(&mut uart) {
         Ok(never) => match never {},

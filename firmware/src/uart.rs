@@ -45,10 +45,15 @@ const INT_RX: u32 = 1 << 1;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Uart0Rx;
 
+impl Uart0Rx {
+    /// Its line number.
+    pub const LINE: u16 = 0;
+}
+
 // SAFETY: 0 is a valid external interrupt number of this board (UART0 RX).
 unsafe impl cortex_m::interrupt::InterruptNumber for Uart0Rx {
     fn number(self) -> u16 {
-        0
+        Self::LINE
     }
 }
 

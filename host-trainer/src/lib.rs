@@ -19,5 +19,6 @@ pub mod tables;
 pub mod export;
 pub mod benchmark;
 pub mod fleet;
+pub mod stream;
 
 pub use error::TrainerError;

@@ -196,6 +196,32 @@ enum Cmd {
     /// output blob); resumes without redoing finished groups; a failing group does not stop the
     /// others.
     Fleet(fbg_trainer::fleet::FleetArgs),
+    /// Stream the hold-out samples of DATA to a running device (QEMU's serial port on TCP, or a
+    /// board behind a serial-to-TCP bridge) and check every estimate against the host's f64
+    /// compensator on the same model (1 % of the hold-out RMSE, flags identical).
+    Stream {
+        /// The model the device runs (sent first with --update-first).
+        #[arg(long)]
+        model: PathBuf,
+        #[arg(long)]
+        data: PathBuf,
+        /// TCP port of the device's serial link.
+        #[arg(long)]
+        port: u16,
+        #[arg(long, default_value = "127.0.0.1")]
+        host: String,
+        /// Send the model to the device over the link before streaming.
+        #[arg(long)]
+        update_first: bool,
+        /// Stream only the first N hold-out samples.
+        #[arg(long)]
+        max_samples: Option<usize>,
+        /// Seconds to wait for the connection and for each answer.
+        #[arg(long, default_value_t = 15.0)]
+        timeout: f64,
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() {
@@ -317,6 +343,9 @@ fn run() -> Result<()> {
         Cmd::Demo { out, scenario, json } => demo(&out, &scenario, json),
         Cmd::BenchFit(a) => bench_fit(&a),
         Cmd::Fleet(a) => fleet(&a),
+        Cmd::Stream { model, data, port, host, update_first, max_samples, timeout, json } => {
+            stream_cmd(model, data, port, host, update_first, max_samples, timeout, json)
+        }
         Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, json } => {
             let split = match cal_until {
                 Some(t) => SplitChoice::Until(t),
@@ -577,5 +606,45 @@ fn print_report_outcome(out: &Path, o: &report::Outcome, json: bool) -> Result<(
         eprintln!("warning: {w}");
     }
     eprintln!("wrote {} files in {:.1} s; open {}", o.files.len(), o.seconds, out.join(report::INDEX_HTML).display());
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
+fn stream_cmd(
+    model: PathBuf,
+    data: PathBuf,
+    port: u16,
+    host: String,
+    update_first: bool,
+    max_samples: Option<usize>,
+    timeout: f64,
+    json: bool,
+) -> Result<()> {
+    if !(timeout.is_finite() && timeout > 0.0) {
+        bail!("--timeout must be a positive number of seconds (got {timeout})");
+    }
+    let opts = fbg_trainer::stream::StreamOptions {
+        model,
+        data,
+        host,
+        port,
+        update_first,
+        max_samples,
+        timeout: std::time::Duration::from_secs_f64(timeout),
+    };
+    let r = fbg_trainer::stream::run(&opts)?;
+    if json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        eprint!("{}", r.text());
+    }
+    if !r.ok() {
+        bail!(
+            "{} of {} estimates differ from the host beyond tolerance ({} in flags)",
+            r.value_mismatches + r.flag_mismatches,
+            r.samples,
+            r.flag_mismatches
+        );
+    }
     Ok(())
 }

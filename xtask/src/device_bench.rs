@@ -69,7 +69,6 @@ pub struct StepBench {
 
 fn product_images(root: &Path) -> Result<qemu::Bins> {
     let fx = fixtures::ensure(root)?;
-    fixtures::ensure_device(root)?;
     qemu::build(root, PRODUCT_K, &fx, None)
 }
 
@@ -85,21 +84,40 @@ pub fn size(root: &Path) -> Result<SizeReport> {
 fn measure_size(root: &Path, q: &Path, bins: &qemu::Bins) -> Result<SizeReport> {
     crate::step("size: product image footprint and stack high-water mark");
     let footprint = elf::footprint(&bins.product)?;
+    let fx = fixtures::ensure(root)?;
+    let dfx = fixtures::ensure_device(root)?;
     let default = fs::read(qemu::firmware_dir(root).join("model/default.fbgm"))?;
-    let update = fs::read(fixtures::dir(root).join("update_b.fbgm"))?;
+    let update = fs::read(&dfx.update_model)?;
     let mut s = LinkSession::start(root, q, &bins.product, "size")?;
-    s.link.ping(1)?;
-    let stack_boot = s.link.status()?.stack_boot_bytes;
-    let samples = fixtures::golden_samples(200, 5);
+    s.link()?.ping(1)?;
+    let stack_boot = s.link()?.status()?.stack_boot_bytes;
+    // Serving: the golden samples (hold-out, then the flagged and non-finite edge cases).
+    let samples = fixtures::read_inputs(&fx.golden_inputs)?;
     for (i, x) in samples.iter().enumerate() {
-        s.link.compensate(i as u32, x)?;
+        s.link()?.compensate(i as u32, x)?;
     }
-    let stack_serving = s.link.status()?.stack_peak_bytes;
-    match s.link.update_model(&update)? {
+    let _ = s.link()?.status()?;
+    let stack_serving = s.link()?.status()?.stack_peak_bytes;
+    // Model updates: a refused one (it fails in the fold, after a full parse) and an accepted
+    // one (parse and fold), then serving again.
+    let mut p = fixtures::decode(&update)?;
+    p.hyper.sigma = 1e-38; // valid, but 1/σ overflows f32 when folded
+    let mut refused = vec![0u8; fbg_shared::blob::max_len(fixtures::MAX_K)];
+    let n = fbg_shared::blob::encode(&p, &mut refused).map_err(|e| anyhow::anyhow!("{e}"))?;
+    refused.truncate(n);
+    match s.link()?.update_model(&refused)? {
+        fbg_shared::protocol::UpdateResult::Rejected(_) => {}
+        other => bail!("the size run's corrupted update was accepted: {other:?}"),
+    }
+    match s.link()?.update_model(&update)? {
         fbg_shared::protocol::UpdateResult::Accepted { .. } => {}
         other => bail!("the size run's model update was refused: {other:?}"),
     }
-    let stack_update = s.link.status()?.stack_peak_bytes;
+    for (i, x) in samples.iter().take(50).enumerate() {
+        s.link()?.compensate(i as u32, x)?;
+    }
+    let stack_update = s.link()?.status()?.stack_peak_bytes;
+    s.disconnect()?;
     s.check_alive()?;
     Ok(SizeReport { footprint, stack_boot, stack_serving, stack_update, blob_bytes: default.len() as u64 })
 }
@@ -156,18 +174,15 @@ fn bench_k(root: &Path, q: &Path, k: usize) -> Result<StepBench> {
     crate::step(&format!("bench: instructions per step at K = {k} (QEMU -icount shift=0)"));
     let fx = fixtures::ensure(root)?;
     let d = fixtures::ensure_device(root)?;
-    let model = d
-        .bench_models
-        .iter()
-        .find(|(mk, _)| *mk == k)
-        .map(|(_, p)| p.clone())
-        .with_context(|| format!("no bench model for K = {k}"))?;
+    let b = d.bench.iter().find(|b| b.k == k).with_context(|| format!("no bench model for K = {k}"))?;
+    let model = b.model.clone();
+    eprintln!("xtask: K = {k} model: {}", b.source);
     let fw = qemu::firmware_dir(root);
     crate::run(
         crate::cargo()
             .current_dir(&fw)
             .args(["build", "--release", "--locked", "--bin", "bench"])
-            .envs(qemu::build_env(root, k, &fx, Some((&model, &d.bench_inputs)))),
+            .envs(qemu::build_env(k, &fx, Some((&model, &b.inputs)))),
     )?;
     let elf = fw.join("target/thumbv7em-none-eabihf/release/bench");
     let dir = qemu::out_dir(root)?;

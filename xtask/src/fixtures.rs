@@ -1,23 +1,32 @@
-//! Test fixtures of the firmware: a model blob, golden input samples and the host's f64 answers.
+//! Test fixtures of the firmware, made by the trainer.
 //!
-//! Interface kept stable for the trainer to take over: [`ensure`] returns [`Fixtures`] with
+//! [`ensure`] builds `fbg-trainer` (release) and runs it into `target/fixtures`:
 //!
-//! - `target/fixtures/model.fbgm`: the model the golden vectors use;
-//! - `target/fixtures/golden_inputs.bin`: raw little-endian f32, 5 per sample
-//!   (dl1_pm, dl2_pm, dl3_pm, T_amb_C, t_s);
-//! - `target/fixtures/golden_expected.csv`: header
-//!   `values_T,values_eps,values_p,band_T,band_eps,band_p,flags`, the f64 results of
-//!   `fbg_shared::Compensator<f64, _>` on the same model and samples.
+//! - `data.csv` (+ `data.meta.json`): `fbg-trainer simulate --seed 7` (the `paper` preset);
+//! - `model.fbgm` (+ `model-p.fbgm`, `coefficients.json`): `fbg-trainer train` on it, the
+//!   Model-H of the paper preset, seed 7, K = 32 — byte for byte what
+//!   `firmware/model/default.fbgm` must be (`SOURCE_DATE_EPOCH=0` pins the provenance date;
+//!   `cargo xtask fixtures --write-default` copies it there);
+//! - `golden_inputs.bin`, `golden_expected.csv`, `golden_meta.json`: `fbg-trainer golden
+//!   --samples 600` (raw LE f32 × 5 per sample: dl1_pm, dl2_pm, dl3_pm, T_amb_C, t_s; the f64
+//!   answers of `fbg_shared::Compensator<f64>`; Model-H's hold-out RMSE as the tolerance scale);
+//! - `device_golden_inputs.bin`, `device_golden_expected.csv`: what the QEMU golden test runs,
+//!   the trainer's 600 samples followed by [`edge_samples`] (out of the envelope, weak support,
+//!   NaN and ∞ inputs, which the hold-out never has) with their host answers; the first 600
+//!   expected rows must equal the trainer's (checked here).
 //!
-//! Until the trainer exports real ones, these are synthetic but realistic (a deterministic
-//! K = 32 hysteresis-aware model with the design's gauge-matrix numbers, and a trajectory with
-//! direction changes, out-of-envelope samples and one NaN). The same generator makes the bench
-//! models (K = 16, 32, 64), the second model of the update test, and
-//! `firmware/model/default.fbgm` (`cargo xtask fixtures --write-default`).
+//! [`ensure_device`] adds the models of the link test and the bench: `update/model.fbgm`
+//! (`train --features paper`, a second valid model with another feature set), `k16/model.fbgm`
+//! (`train --max-centres 16`), and the synthetic K = 64 model of this file (the trainer's grid
+//! stops at 32 centres), which also serves as the model a K = 32 build must refuse.
+//!
+//! Everything is regenerated when the trainer binary changes (a stamp in the directory), so
+//! repeated calls cost one `cargo build` check.
 
 use std::fmt::Write as _;
 use std::fs;
 use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
 
 use anyhow::{bail, ensure as check, Context, Result};
 use fbg_shared::blob;
@@ -26,16 +35,28 @@ use fbg_shared::{Centre, Compensator, Estimate, Flags, Hyper, LatchBank, ModelPa
 
 /// Largest centre count the fixture tools handle.
 pub const MAX_K: usize = 64;
+/// Seed of the simulated dataset (the paper preset).
+pub const SEED: u64 = 7;
+/// Golden samples the trainer exports.
+pub const GOLDEN_SAMPLES: usize = 600;
+/// Bump to regenerate the fixtures when this file changes what it writes.
+const FIXTURES_VERSION: u32 = 2;
 
-/// Paths of the golden-vector fixtures.
+/// Paths of the trainer-made fixtures.
 #[derive(Clone, Debug)]
 pub struct Fixtures {
-    /// Model blob used by the golden vectors.
+    /// The trainer binary.
+    pub trainer: PathBuf,
+    /// The simulated dataset (paper preset, seed 7).
+    pub data: PathBuf,
+    /// Model-H trained on it (K = 32): the golden model and the product's default.
     pub model: PathBuf,
-    /// Golden input samples (raw LE f32 × 5 per sample).
+    /// Golden inputs of the device run (raw LE f32 × 5 per sample): trainer + edge samples.
     pub golden_inputs: PathBuf,
-    /// Host f64 results (CSV).
+    /// Host f64 results for them (CSV).
     pub golden_expected: PathBuf,
+    /// The trainer's `golden_meta.json` (Model-H hold-out RMSE: the tolerance scale).
+    pub golden_meta: PathBuf,
 }
 
 /// Directory of the fixtures.
@@ -43,59 +64,184 @@ pub fn dir(root: &Path) -> PathBuf {
     root.join("target").join("fixtures")
 }
 
-/// Write the golden fixtures (synthetic for now) and return their paths.
+/// Build the trainer (release) and return its binary.
+pub fn trainer(root: &Path) -> Result<PathBuf> {
+    crate::run(crate::cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))
+        .context("building fbg-trainer (it makes the firmware's fixtures)")?;
+    let bin = root.join("target").join("release").join(format!("fbg-trainer{}", std::env::consts::EXE_SUFFIX));
+    check!(bin.exists(), "{} is missing after the build", bin.display());
+    Ok(bin)
+}
+
+/// Run the trainer with `args` (provenance date pinned; `--json` where the command has it,
+/// to keep progress bars out of the log, its report discarded).
+pub fn run_trainer(bin: &Path, args: &[&str]) -> Result<()> {
+    let mut cmd = Command::new(bin);
+    cmd.args(args).env("SOURCE_DATE_EPOCH", "0").stdout(Stdio::null());
+    if args.first().is_some_and(|c| *c == "simulate" || *c == "train") {
+        cmd.arg("--json");
+    }
+    crate::run(&mut cmd)
+}
+
+/// What the fixtures were made with: the trainer binary's size and time, and this file's
+/// version. Equal stamps mean the files are current.
+fn stamp_of(bin: &Path) -> Result<String> {
+    let m = fs::metadata(bin)?;
+    let t = m.modified()?.duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
+    Ok(format!("fixtures v{FIXTURES_VERSION}; trainer {} bytes, modified {t}\n", m.len()))
+}
+
+fn current(stamp: &Path, want: &str, files: &[&Path]) -> bool {
+    fs::read_to_string(stamp).is_ok_and(|s| s == want) && files.iter().all(|f| f.exists())
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap_or_default()
+}
+
+/// Make (or reuse) the trainer's fixtures and return their paths.
 pub fn ensure(root: &Path) -> Result<Fixtures> {
     let d = dir(root);
     fs::create_dir_all(&d).with_context(|| format!("creating {}", d.display()))?;
+    let bin = trainer(root)?;
     let fx = Fixtures {
+        trainer: bin.clone(),
+        data: d.join("data.csv"),
         model: d.join("model.fbgm"),
-        golden_inputs: d.join("golden_inputs.bin"),
-        golden_expected: d.join("golden_expected.csv"),
+        golden_inputs: d.join("device_golden_inputs.bin"),
+        golden_expected: d.join("device_golden_expected.csv"),
+        golden_meta: d.join("golden_meta.json"),
     };
-    let model = synthetic_blob(32, 1)?;
-    let samples = golden_samples(600, 11);
-    let expected = reference(&model, &samples)?;
-    write_atomic(&fx.model, &model)?;
-    write_atomic(&fx.golden_inputs, &inputs_bytes(&samples))?;
+    let stamp = d.join("stamp-main.txt");
+    let want = stamp_of(&bin)?;
+    if current(&stamp, &want, &[&fx.data, &fx.model, &fx.golden_inputs, &fx.golden_expected, &fx.golden_meta]) {
+        return Ok(fx);
+    }
+    crate::step("fixtures: simulate, train and export golden vectors with fbg-trainer");
+    let _ = fs::remove_file(&stamp);
+    let seed = SEED.to_string();
+    let n = GOLDEN_SAMPLES.to_string();
+    run_trainer(&bin, &["simulate", "--seed", &seed, "--out", p(&fx.data)])?;
+    run_trainer(&bin, &["train", "--data", p(&fx.data), "--out", p(&fx.model)])?;
+    run_trainer(&bin, &["golden", "--data", p(&fx.data), "--model", p(&fx.model), "--out", p(&d), "--samples", &n])?;
+    let model = fs::read(&fx.model)?;
+    let params = decode(&model)?;
+    check!(params.centres.len() == 32, "the trainer's Model-H has {} centres, the product holds 32", params.centres.len());
+
+    // The device run: the trainer's samples, then the edge cases, streamed in one go.
+    let trainer_inputs = read_inputs(&d.join("golden_inputs.bin"))?;
+    let trainer_expected = read_expected(&d.join("golden_expected.csv"))?;
+    check!(trainer_inputs.len() == trainer_expected.len(), "the trainer's golden inputs and expected rows differ in count");
+    let mut inputs = trainer_inputs.clone();
+    inputs.extend(edge_samples(&params, &trainer_inputs));
+    let expected = reference(&model, &inputs)?;
+    // Our host reference must reproduce the trainer's (same code, same f64 model).
+    for (i, (a, b)) in expected.iter().zip(trainer_expected.iter()).enumerate() {
+        let same = |x: f64, y: f64| (x.is_nan() && y.is_nan()) || x == y || (x - y).abs() <= 1e-9 * y.abs().max(1e-9);
+        check!(
+            a.flags == b.flags && (0..3).all(|c| same(a.values[c], b.values[c]) && same(a.band95[c], b.band95[c])),
+            "golden row {}: xtask's host reference {a:?} differs from the trainer's {b:?}",
+            i + 2
+        );
+    }
+    write_atomic(&fx.golden_inputs, &inputs_bytes(&inputs))?;
     write_atomic(&fx.golden_expected, expected_csv(&expected).as_bytes())?;
-    // A trainer export's metadata (tolerance scale) does not describe the synthetic model.
-    let _ = fs::remove_file(d.join("golden_meta.json"));
+    write_atomic(&stamp, want.as_bytes())?;
     Ok(fx)
+}
+
+/// Samples the hold-out does not contain, to run the device's flag paths against the host's:
+/// a stretch far outside the Δλ1 envelope (out of envelope, and weak support), T_amb beyond the
+/// envelope, a NaN and an infinite input, then ordinary samples again (from `base`).
+pub fn edge_samples(p: &ModelParams<f32, MAX_K>, base: &[Sample<f32>]) -> Vec<Sample<f32>> {
+    let mut out = Vec::new();
+    let pick = |i: usize| base.get(i % base.len().max(1)).copied().unwrap_or_default();
+    let span = |d: usize| p.envelope_hi[d] - p.envelope_lo[d];
+    for i in 0..10 {
+        let mut s = pick(i);
+        s.dl_pm[0] = p.envelope_hi[0] + 3.0 * span(0);
+        out.push(s);
+    }
+    for i in 10..12 {
+        let mut s = pick(i);
+        s.t_amb_c = p.envelope_hi[3] + 0.5 * span(3) + 5.0;
+        out.push(s);
+    }
+    let mut s = pick(12);
+    s.dl_pm[1] = f32::NAN;
+    out.push(s);
+    let mut s = pick(13);
+    s.t_amb_c = f32::INFINITY;
+    out.push(s);
+    out.extend((20..40).map(pick));
+    out
 }
 
 /// Extra fixtures of the device tests and the bench.
 #[derive(Clone, Debug)]
 pub struct DeviceFixtures {
-    /// A second valid K = 32 model (different numbers) for the update test.
+    /// A second valid model (the trainer's with the paper feature set) for the update test.
     pub update_model: PathBuf,
-    /// A valid model with more centres than a K = 32 build holds.
+    /// A valid model with more centres than a K = 32 build holds (synthetic K = 64).
     pub k64_model: PathBuf,
-    /// Bench models per K.
-    pub bench_models: Vec<(usize, PathBuf)>,
-    /// In-envelope bench samples (same format as the golden inputs).
-    pub bench_inputs: PathBuf,
+    /// Bench models and inputs per K.
+    pub bench: Vec<BenchFixture>,
 }
 
-/// Write the device-test and bench fixtures.
+/// The model and samples of the bench at one K.
+#[derive(Clone, Debug)]
+pub struct BenchFixture {
+    /// Centres.
+    pub k: usize,
+    /// Model blob.
+    pub model: PathBuf,
+    /// Samples (same format as the golden inputs; at most 64 are used).
+    pub inputs: PathBuf,
+    /// Where the model comes from.
+    pub source: &'static str,
+}
+
+/// Make (or reuse) the device-test and bench fixtures.
 pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
+    let fx = ensure(root)?;
     let d = dir(root);
-    fs::create_dir_all(&d)?;
-    let update_model = d.join("update_b.fbgm");
-    write_atomic(&update_model, &synthetic_blob(32, 2)?)?;
-    let mut bench_models = Vec::new();
-    for k in [16, 32, 64] {
-        let p = d.join(format!("bench_k{k}.fbgm"));
-        write_atomic(&p, &synthetic_blob(k, 100 + k as u64)?)?;
-        bench_models.push((k, p));
-    }
+    let update_model = d.join("update").join("model.fbgm");
+    let k16 = d.join("k16").join("model.fbgm");
     let k64_model = d.join("bench_k64.fbgm");
-    let bench_inputs = d.join("bench_inputs.bin");
-    let samples: Vec<Sample<f32>> = golden_samples(256, 21)
+    let trainer_inputs = d.join("bench_inputs.bin");
+    let k64_inputs = d.join("bench_inputs_k64.bin");
+    let bench = vec![
+        BenchFixture { k: 16, model: k16.clone(), inputs: trainer_inputs.clone(), source: "fbg-trainer train --max-centres 16 (paper preset, seed 7)" },
+        BenchFixture { k: 32, model: fx.model.clone(), inputs: trainer_inputs.clone(), source: "fbg-trainer train (paper preset, seed 7): the product's default model" },
+        BenchFixture { k: 64, model: k64_model.clone(), inputs: k64_inputs.clone(), source: "synthetic (xtask/src/fixtures.rs; the trainer's grid stops at 32 centres)" },
+    ];
+    let out = DeviceFixtures { update_model: update_model.clone(), k64_model: k64_model.clone(), bench };
+    let stamp = d.join("stamp-device.txt");
+    let want = stamp_of(&fx.trainer)?;
+    if current(&stamp, &want, &[&update_model, &k16, &k64_model, &trainer_inputs, &k64_inputs]) {
+        return Ok(out);
+    }
+    let _ = fs::remove_file(&stamp);
+    for sub in ["update", "k16"] {
+        fs::create_dir_all(d.join(sub))?;
+    }
+    run_trainer(&fx.trainer, &["train", "--data", p(&fx.data), "--features", "paper", "--out", p(&update_model)])?;
+    run_trainer(&fx.trainer, &["train", "--data", p(&fx.data), "--max-centres", "16", "--out", p(&k16)])?;
+    let n16 = decode(&fs::read(&k16)?)?.centres.len();
+    check!(n16 == 16, "`train --max-centres 16` chose {n16} centres; the K = 16 bench needs 16");
+    // In-envelope hold-out samples of the trainer's data (the golden ones carry no flag).
+    let samples: Vec<Sample<f32>> = read_inputs(&d.join("golden_inputs.bin"))?.into_iter().take(64).collect();
+    write_atomic(&trainer_inputs, &inputs_bytes(&samples))?;
+    write_atomic(&k64_model, &synthetic_blob(64, 100 + 64)?)?;
+    let synthetic: Vec<Sample<f32>> = golden_samples(256, 21)
         .into_iter()
         .filter(|s| s.dl_pm.iter().all(|v| v.is_finite()) && s.dl_pm[0].abs() < 250.0)
+        .take(64)
         .collect();
-    write_atomic(&bench_inputs, &inputs_bytes(&samples))?;
-    Ok(DeviceFixtures { update_model, k64_model, bench_models, bench_inputs })
+    write_atomic(&k64_inputs, &inputs_bytes(&synthetic))?;
+    write_atomic(&stamp, want.as_bytes())?;
+    Ok(out)
 }
 
 /// Write `bytes` to `path` through a temporary file and a rename (no half-written output).
@@ -138,7 +284,7 @@ impl Rng {
     }
 }
 
-// ---- the synthetic installation ------------------------------------------------------------
+// ---- the synthetic installation (the K = 64 bench model, which the trainer cannot make) -----
 
 /// Nominal gauge matrix of DESIGN §3 (pm per °C, µε, kPa), rows FBG1..3.
 const GAUGE: [[f64; 3]; 3] = [[10.0, 1.20, 0.02], [9.8, 0.05, 0.01], [11.0, 0.10, 1.0]];
@@ -372,8 +518,8 @@ pub fn widen(s: &Sample<f32>) -> Sample<f64> {
     }
 }
 
-/// Per-channel comparison scale: the square root of the blob's residual variance (to be replaced
-/// by Model-H's hold-out RMSE once the trainer exports it).
+/// Per-channel comparison scale when no hold-out RMSE is known: the square root of the blob's
+/// residual variance.
 pub fn reference_scale(blob_bytes: &[u8]) -> Result<[f64; N_OUTPUTS]> {
     let p = decode(blob_bytes)?;
     Ok(p.resid_var.map(|v| (v as f64).sqrt()))

@@ -23,6 +23,7 @@ fn main() -> Result<()> {
         "test" => test(rest),
         "qemu" => qemu::run_all(&root()),
         "size" => device_bench::size(&root()).map(|_| ()),
+        "device-bench" => device_bench::run(&root()).map(|_| ()),
         "bench" => bench::run_bench(&root(), rest),
         "fixtures" => fixtures_task(rest),
         "help" | "--help" | "-h" => {
@@ -39,14 +40,17 @@ cargo xtask <task>
           thumbv7em-none-eabihf, firmware build and its QEMU tests (CI runs this)
   qemu    only the firmware QEMU tests
   size    firmware flash / static RAM from the ELF and the measured stack peak
+  device-bench
+          only the device part of bench: instructions per step at K = 16/32/64
+          under QEMU -icount and the footprint; writes target/bench/device.json
   bench [--quick] [--no-device]
           every benchmark: host fit times (ours and the scikit-learn peer), host
           inference throughput, accuracy peers, band coverage, fleet scaling and the
           device part (instructions per step at K = 16/32/64 under QEMU -icount,
           footprint); writes BENCHMARKS.md and BENCHMARKS.json
   fixtures [--write-default]
-          write the synthetic test fixtures to target/fixtures (and the firmware's
-          embedded default model firmware/model/default.fbgm)";
+          make the firmware's test fixtures with fbg-trainer in target/fixtures (and
+          copy its Model-H, paper preset, seed 7, to firmware/model/default.fbgm)";
 
 fn fixtures_task(rest: &[String]) -> Result<()> {
     let root = root();
@@ -55,8 +59,8 @@ fn fixtures_task(rest: &[String]) -> Result<()> {
     println!("{fx:#?}\n{dev:#?}");
     if rest.iter().any(|a| a == "--write-default") {
         let path = root.join("firmware/model/default.fbgm");
-        fixtures::write_atomic(&path, &fixtures::synthetic_blob(32, 1)?)?;
-        println!("wrote {}", path.display());
+        fixtures::write_atomic(&path, &std::fs::read(&fx.model)?)?;
+        println!("wrote {} (the trainer's Model-H, paper preset, seed 7; commit it)", path.display());
     }
     Ok(())
 }

@@ -5,10 +5,12 @@
 //! 3. golden vectors: the `golden` image compensates the fixture samples on the emulated
 //!    Cortex-M4F and sends its estimates over UART0 to a file; each is compared with the host's
 //!    f64 answer (|Δ| ≤ 1 % of the reference scale per channel, flags identical);
-//! 4. link: the product image serves a loopback TCP serial port; the host client streams
-//!    samples (checked against the host f64 path), sends garbage (counted, then served), a
-//!    corrupted and an oversized model (rejected with their reasons, old model answers
-//!    identically), then a valid model (accepted, answers change and match the new model).
+//! 4. link: the product image serves its serial port on a loopback TCP port; `fbg-trainer
+//!    stream` (the real CLI) sends the paper hold-out and checks every estimate against the
+//!    host's f64 compensator; then garbage (counted, then served), a corrupted and an oversized
+//!    model (rejected with their reasons; the old model still answers like the host), and
+//!    `fbg-trainer stream --update-first` with a second model (accepted, and its answers match
+//!    the host on the new model).
 //!
 //! Every QEMU run has a time-out and QEMU is killed on any failure. defmt logs (QEMU's
 //! semihosting stdout) are kept in `target/qemu/*.defmt` and decoded with `defmt-print` when it
@@ -24,9 +26,8 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, ensure, Context, Result};
 use fbg_shared::link_client::LinkClient;
 use fbg_shared::protocol::{DeviceMsg, Feed, FrameReader, RejectReason, Status, UpdateResult, DEVICE_MAX_FRAME};
-use fbg_shared::{Compensator, Sample};
 
-use crate::fixtures::{self, DeviceFixtures, Fixtures, MAX_K};
+use crate::fixtures::{self, DeviceFixtures, Fixtures};
 
 /// The product's centre capacity.
 pub const PRODUCT_K: usize = 32;
@@ -48,7 +49,7 @@ pub fn run_all(root: &Path) -> Result<()> {
             .args(["test", "-p", "fbg-firmware-app", "--locked", "--target", &host_triple()?])
             .env("FBG_TEST_MODEL", &fx.model),
     )?;
-    check_default_model(root)?;
+    check_default_model(root, &fx)?;
 
     crate::step("firmware: build (thumbv7em-none-eabihf, K = 32) and clippy");
     let bins = build(root, PRODUCT_K, &fx, None)?;
@@ -56,7 +57,7 @@ pub fn run_all(root: &Path) -> Result<()> {
         crate::cargo()
             .current_dir(&fw)
             .args(["clippy", "--release", "--locked", "--bins", "--", "-D", "warnings"])
-            .envs(build_env(root, PRODUCT_K, &fx, None)),
+            .envs(build_env(PRODUCT_K, &fx, None)),
     )?;
 
     let started = Instant::now();
@@ -65,23 +66,37 @@ pub fn run_all(root: &Path) -> Result<()> {
     crate::step("QEMU: golden vectors");
     golden_test(root, &qemu, &bins, &fx)?;
     crate::step("QEMU: streaming, garbage and model updates over a loopback TCP serial port");
-    link_test(root, &qemu, &bins, &dfx)?;
+    link_test(root, &qemu, &bins, &fx, &dfx)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
 }
 
-/// The product embeds `firmware/model/default.fbgm`: it must decode with this build of
-/// fbg-shared at the product's capacity, or the firmware would refuse to boot.
-pub fn check_default_model(root: &Path) -> Result<()> {
+/// The product embeds `firmware/model/default.fbgm`, which must be exactly the trainer's
+/// Model-H for the paper preset, seed 7 (`target/fixtures/model.fbgm`, made just now by the
+/// current trainer): it can never go stale.
+pub fn check_default_model(root: &Path, fx: &Fixtures) -> Result<()> {
     let path = firmware_dir(root).join("model/default.fbgm");
-    let bytes = fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-    fbg_shared::blob::decode::<PRODUCT_K>(&bytes).map_err(|e| {
-        anyhow::anyhow!(
-            "{} does not decode with the current fbg-shared ({e}); the blob format changed? \
-             Re-export it (the trainer's model, or `cargo xtask fixtures --write-default` for the synthetic one)",
-            path.display()
-        )
-    })?;
+    let committed = fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+    let fresh = fs::read(&fx.model).with_context(|| format!("reading {}", fx.model.display()))?;
+    if committed != fresh {
+        let why = match fbg_shared::blob::decode::<PRODUCT_K>(&committed) {
+            Err(e) => format!("it does not even decode with the current fbg-shared ({e})"),
+            Ok(_) => format!(
+                "it decodes, but differs from what the trainer produces now ({} vs {} bytes, crc {:#010x} vs {:#010x})",
+                committed.len(),
+                fresh.len(),
+                crate_blob_crc(&committed),
+                crate_blob_crc(&fresh)
+            ),
+        };
+        bail!(
+            "{} is stale: {why}. It must be the trainer's Model-H for the paper preset, seed 7 \
+             ({}). Regenerate it with `cargo xtask fixtures --write-default` and commit it",
+            path.display(),
+            fx.model.display()
+        );
+    }
+    eprintln!("xtask: firmware/model/default.fbgm is the trainer's current Model-H (paper preset, seed 7)");
     Ok(())
 }
 
@@ -101,22 +116,18 @@ pub fn firmware_dir(root: &Path) -> PathBuf {
     root.join("firmware")
 }
 
-/// Environment of a firmware build.
-pub fn build_env(root: &Path, k: usize, fx: &Fixtures, bench: Option<(&Path, &Path)>) -> Vec<(String, String)> {
+/// Environment of a firmware build: capacity `k`, the golden fixtures, and the bench model and
+/// samples (`bench`; by default the golden model and inputs, for builds that do not run it).
+pub fn build_env(k: usize, fx: &Fixtures, bench: Option<(&Path, &Path)>) -> Vec<(String, String)> {
     let s = |p: &Path| p.display().to_string();
-    let mut env = vec![
+    let (bm, bi) = bench.unwrap_or((&fx.model, &fx.golden_inputs));
+    vec![
         ("FBG_K".to_string(), k.to_string()),
         ("FBG_GOLDEN_MODEL".to_string(), s(&fx.model)),
         ("FBG_GOLDEN_INPUTS".to_string(), s(&fx.golden_inputs)),
-    ];
-    let d = fixtures::dir(root);
-    let (bm, bi) = match bench {
-        Some((m, i)) => (m.to_path_buf(), i.to_path_buf()),
-        None => (d.join(format!("bench_k{k}.fbgm")), d.join("bench_inputs.bin")),
-    };
-    env.push(("FBG_BENCH_MODEL".to_string(), s(&bm)));
-    env.push(("FBG_BENCH_INPUTS".to_string(), s(&bi)));
-    env
+        ("FBG_BENCH_MODEL".to_string(), s(bm)),
+        ("FBG_BENCH_INPUTS".to_string(), s(bi)),
+    ]
 }
 
 /// Build every firmware image with capacity `k` (release profile).
@@ -126,7 +137,7 @@ pub fn build(root: &Path, k: usize, fx: &Fixtures, bench: Option<(&Path, &Path)>
         crate::cargo()
             .current_dir(&fw)
             .args(["build", "--release", "--locked", "--bins"])
-            .envs(build_env(root, k, fx, bench)),
+            .envs(build_env(k, fx, bench)),
     )?;
     let out = fw.join("target/thumbv7em-none-eabihf/release");
     Ok(Bins {
@@ -278,22 +289,15 @@ fn fault_test(root: &Path, qemu: &Path, bins: &Bins) -> Result<()> {
     Ok(())
 }
 
-/// Per-channel tolerance for a model: `REL_TOL` × √resid_var.
-pub fn tolerance(blob_bytes: &[u8]) -> Result<[f64; 3]> {
-    Ok(fixtures::reference_scale(blob_bytes)?.map(|s| REL_TOL * s))
-}
-
 /// Per-channel scale of the golden tolerance: Model-H's hold-out RMSE from the trainer's
-/// `golden_meta.json` (`holdout_rmse_h`) next to the expected CSV when present, else the square
-/// root of the blob's residual variance.
+/// `golden_meta.json` (`holdout_rmse_h`), else the square root of the blob's residual variance.
 pub fn golden_scale(fx: &Fixtures, model: &[u8]) -> Result<([f64; 3], &'static str)> {
-    let meta = fx.golden_expected.with_file_name("golden_meta.json");
-    if let Ok(text) = fs::read_to_string(&meta) {
+    if let Ok(text) = fs::read_to_string(&fx.golden_meta) {
         if let Some(v) = json_number_array(&text, "holdout_rmse_h") {
             ensure!(
                 v.len() == 3 && v.iter().all(|x| x.is_finite() && *x > 0.0),
                 "{}: holdout_rmse_h must be three positive numbers, found {v:?}",
-                meta.display()
+                fx.golden_meta.display()
             );
             return Ok(([v[0], v[1], v[2]], "Model-H hold-out RMSE"));
         }
@@ -356,10 +360,14 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
     ensure!(bad == 0, "{bad} malformed frames in the golden output {}", uart.display());
     ensure!(msgs.len() == expected.len(), "device sent {} estimates for {} samples", msgs.len(), expected.len());
     let mut worst = [0.0f64; 3];
+    let mut flagged = 0;
     let mut failures = Vec::new();
     for (i, (m, want)) in msgs.iter().zip(expected.iter()).enumerate() {
         let DeviceMsg::Estimate(e) = m else { bail!("message {i} is {m:?}, not an estimate") };
         ensure!(e.seq == i as u32, "estimate {i} carries seq {}", e.seq);
+        if !e.flags.is_ok() {
+            flagged += 1;
+        }
         for ((w, &dv), &hv) in worst.iter_mut().zip(e.values.iter()).zip(want.values.iter()) {
             let d = (dv as f64 - hv).abs();
             if d.is_finite() {
@@ -371,7 +379,7 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
         }
     }
     eprintln!(
-        "xtask: golden: {} samples; max |device − host| = {:.3e} °C, {:.3e} µε, {:.3e} kPa \
+        "xtask: golden: {} samples ({flagged} flagged, flags identical); max |device − host| = {:.3e} °C, {:.3e} µε, {:.3e} kPa \
          ({:.4} %, {:.4} %, {:.4} % of {scale_name}; limit {} %)",
         msgs.len(),
         worst[0],
@@ -390,43 +398,81 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
     Ok(())
 }
 
-/// A QEMU serving the product image on a loopback TCP port, and the link client on it.
+/// A QEMU serving the product image's serial port on a loopback TCP port (QEMU is the
+/// server, so that the link client of xtask and `fbg-trainer stream` can take turns), and
+/// xtask's link client on it while connected.
 pub struct LinkSession {
     /// The emulator (killed on drop).
     pub qemu: Qemu,
-    /// The connected client.
-    pub link: LinkClient<TcpStream>,
+    /// The port QEMU listens on.
+    pub port: u16,
+    link: Option<LinkClient<TcpStream>>,
+}
+
+/// A loopback port that was free a moment ago.
+fn free_port() -> Result<u16> {
+    let l = TcpListener::bind("127.0.0.1:0").context("binding a loopback port")?;
+    Ok(l.local_addr()?.port())
 }
 
 impl LinkSession {
-    /// Start the product image with serial0 connected to a fresh loopback listener.
+    /// Start the product image with serial0 on a loopback server port and connect to it.
     pub fn start(root: &Path, qemu: &Path, elf: &Path, name: &str) -> Result<LinkSession> {
-        // We listen first (port 0: no race for a free port) and QEMU connects as a client.
-        let listener = TcpListener::bind("127.0.0.1:0").context("binding a loopback port")?;
-        let port = listener.local_addr()?.port();
         let log = out_dir(root)?.join(format!("{name}.defmt"));
-        let mut q = Qemu::start(qemu, elf, &format!("tcp:127.0.0.1:{port}"), &log, &[])?;
-        listener.set_nonblocking(true)?;
+        let mut last = None;
+        // The port is picked free, then bound by QEMU: retry in the unlikely case another
+        // process took it in between.
+        for _ in 0..3 {
+            let port = free_port()?;
+            // nodelay: the UART writes a byte at a time; with Nagle on QEMU's socket each answer
+            // waits for the client's delayed ACK (≈ 40 ms per sample instead of ≈ 1 ms).
+            let serial = format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on");
+            let q = Qemu::start(qemu, elf, &serial, &log, &[])?;
+            let mut s = LinkSession { qemu: q, port, link: None };
+            match s.connect() {
+                Ok(()) => return Ok(s),
+                Err(e) => last = Some(e),
+            }
+        }
+        Err(last.unwrap_or_else(|| anyhow::anyhow!("QEMU did not start")))
+    }
+
+    /// Connect xtask's link client (QEMU serves one client at a time).
+    pub fn connect(&mut self) -> Result<()> {
         let deadline = Instant::now() + Duration::from_secs(20);
         let stream = loop {
-            match listener.accept() {
-                Ok((s, _)) => break s,
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                    if let Some(st) = q.try_exit()? {
-                        q.show_log();
-                        bail!("QEMU exited with {st} before connecting its serial port");
+            match TcpStream::connect(("127.0.0.1", self.port)) {
+                Ok(s) => break s,
+                Err(e) => {
+                    if let Some(st) = self.qemu.try_exit()? {
+                        self.qemu.show_log();
+                        bail!("QEMU exited with {st} before serving its serial port ({e})");
                     }
-                    ensure!(Instant::now() < deadline, "QEMU did not connect its serial port to 127.0.0.1:{port} in 20 s");
-                    std::thread::sleep(Duration::from_millis(10));
+                    ensure!(Instant::now() < deadline, "QEMU does not serve 127.0.0.1:{} after 20 s: {e}", self.port);
+                    std::thread::sleep(Duration::from_millis(20));
                 }
-                Err(e) => return Err(e.into()),
             }
         };
-        stream.set_nonblocking(false)?;
         stream.set_read_timeout(Some(Duration::from_secs(15)))?;
         stream.set_nodelay(true)?;
-        eprintln!("xtask: device serial port connected on 127.0.0.1:{port}");
-        Ok(LinkSession { qemu: q, link: LinkClient::new(stream) })
+        self.link = Some(LinkClient::new(stream));
+        eprintln!("xtask: connected to the device's serial port on 127.0.0.1:{}", self.port);
+        Ok(())
+    }
+
+    /// Disconnect xtask's client (so that another client can connect).
+    pub fn disconnect(&mut self) -> Result<()> {
+        if let Some(link) = self.link.take() {
+            ensure!(link.malformed_from_device() == 0, "the device sent {} malformed frames", link.malformed_from_device());
+        }
+        // Give QEMU a moment to notice and listen again.
+        std::thread::sleep(Duration::from_millis(50));
+        Ok(())
+    }
+
+    /// The connected client.
+    pub fn link(&mut self) -> Result<&mut LinkClient<TcpStream>> {
+        self.link.as_mut().context("not connected to the device")
     }
 
     /// Fail with the device log when QEMU has exited (a crash shows as an exit).
@@ -437,44 +483,31 @@ impl LinkSession {
         }
         Ok(())
     }
-}
 
-/// Host reference of a device stream: the f64 compensator fed the same samples.
-struct Reference {
-    comp: Compensator<f64, MAX_K>,
-    tol: [f64; 3],
-}
-
-impl Reference {
-    fn new(blob_bytes: &[u8]) -> Result<Reference> {
-        Ok(Reference { comp: fixtures::host_compensator(blob_bytes)?, tol: tolerance(blob_bytes)? })
-    }
-}
-
-/// Stream `samples` and check each answer against `reference`.
-fn stream_checked(
-    s: &mut LinkSession,
-    reference: &mut Reference,
-    samples: &[Sample<f32>],
-    seq0: u32,
-    what: &str,
-) -> Result<Vec<[f32; 3]>> {
-    let mut values = Vec::with_capacity(samples.len());
-    for (i, x) in samples.iter().enumerate() {
-        let e = match s.link.compensate(seq0 + i as u32, x) {
-            Ok(e) => e,
-            Err(err) => {
-                let _ = s.check_alive();
-                return Err(anyhow::anyhow!("{what}: sample {i}: {err}"));
-            }
-        };
-        let want = reference.comp.step(&fixtures::widen(x));
-        if let Some(why) = fixtures::compare(e.values, e.band, e.flags, &want, reference.tol) {
-            bail!("{what}: sample {i} ({x:?}): {why}");
+    /// Run `fbg-trainer stream` against the device (xtask's client disconnected meanwhile) and
+    /// return its JSON report.
+    pub fn trainer_stream(&mut self, fx: &Fixtures, model: &Path, extra: &[&str]) -> Result<serde_json::Value> {
+        self.disconnect()?;
+        let mut cmd = Command::new(&fx.trainer);
+        cmd.args(["stream", "--model"])
+            .arg(model)
+            .arg("--data")
+            .arg(&fx.data)
+            .args(["--port", &self.port.to_string(), "--json"])
+            .args(extra)
+            .stdin(Stdio::null())
+            .stderr(Stdio::inherit());
+        eprintln!("xtask: $ {}", crate::describe(&cmd));
+        let out = cmd.output().with_context(|| format!("starting {}", fx.trainer.display()))?;
+        if !out.status.success() {
+            let _ = self.check_alive();
+            bail!("`fbg-trainer stream` failed with {} (its report is above)", out.status);
         }
-        values.push(e.values);
+        let report: serde_json::Value =
+            serde_json::from_slice(&out.stdout).context("`fbg-trainer stream --json` printed no JSON report")?;
+        self.connect()?;
+        Ok(report)
     }
-    Ok(values)
 }
 
 fn expect_rejected(r: UpdateResult, reason: RejectReason, what: &str) -> Result<()> {
@@ -487,75 +520,86 @@ fn expect_rejected(r: UpdateResult, reason: RejectReason, what: &str) -> Result<
     }
 }
 
-fn link_test(root: &Path, qemu: &Path, bins: &Bins, dfx: &DeviceFixtures) -> Result<()> {
+fn stream_summary(r: &serde_json::Value) -> String {
+    let pct = |k: usize| r["max_diff_over_rmse"][k].as_f64().map(|v| format!("{:.4} %", 100.0 * v)).unwrap_or_default();
+    format!(
+        "{} samples, {} flagged, 0 mismatches; max |device − host| {} / {} / {} of the hold-out RMSE (T, ε, p) in {:.1} s",
+        r["samples"],
+        r["flagged"],
+        pct(0),
+        pct(1),
+        pct(2),
+        r["seconds"].as_f64().unwrap_or(f64::NAN)
+    )
+}
+
+fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceFixtures) -> Result<()> {
     let default = fs::read(firmware_dir(root).join("model/default.fbgm"))?;
-    let update_b = fs::read(&dfx.update_model)?;
+    let update = fs::read(&dfx.update_model)?;
     let k64 = fs::read(&dfx.k64_model)?;
-    let samples = fixtures::golden_samples(400, 31);
     let mut s = LinkSession::start(root, qemu, &bins.product, "link")?;
     let deadline = Instant::now() + Duration::from_secs(240);
 
-    s.link.ping(0xC0FFEE).context("ping")?;
-    let st0 = s.link.status()?;
+    s.link()?.ping(0xC0FFEE).context("ping")?;
+    let st0 = s.link()?.status()?;
     ensure!(st0.model_crc == crate_blob_crc(&default), "active model crc {:#x} is not default.fbgm's", st0.model_crc);
     ensure!(st0.model_capacity as usize == PRODUCT_K, "capacity {}", st0.model_capacity);
 
-    // 1. streaming end to end.
-    let mut old = Reference::new(&default)?;
-    let a1 = stream_checked(&mut s, &mut old, &samples[..200], 0, "stream (default model)")?;
-    eprintln!("xtask: link: 200 streamed estimates match the host f64 path");
+    // 1. streaming end to end: the whole paper hold-out through the trainer's CLI.
+    let r = s.trainer_stream(fx, &fx.model, &[])?;
+    let streamed = r["samples"].as_u64().context("stream report without `samples`")? as u32;
+    eprintln!("xtask: link: fbg-trainer stream (default model): {}", stream_summary(&r));
 
     // 2. garbage on the link.
-    let before = s.link.status()?;
+    let before = s.link()?.status()?;
     let mut garbage = vec![0x01, 0x02, 0xFF, 0x00]; // framing error
     garbage.extend(std::iter::repeat_n(0x5Au8, 1000)); // oversize frame
     garbage.push(0);
     garbage.extend([0x07, 0x13, 0x37, 0x00]); // another framing error
     garbage.extend([0, 0, 0]); // idle fill, not counted
-    s.link.send_raw(&garbage)?;
-    s.link.ping(7).context("ping after garbage")?;
-    let after = s.link.status()?;
+    s.link()?.send_raw(&garbage)?;
+    s.link()?.ping(7).context("ping after garbage")?;
+    let after = s.link()?.status()?;
     ensure!(
         after.frames_malformed == before.frames_malformed + 3,
         "malformed counter went from {} to {} (expected +3)",
         before.frames_malformed,
         after.frames_malformed
     );
-    stream_checked(&mut s, &mut old, &samples[200..250], 200, "stream after garbage")?;
     eprintln!("xtask: link: garbage counted ({} malformed) and the device kept serving", after.frames_malformed);
 
-    // 3. corrupted and unfit updates are rejected; the old model keeps answering identically.
-    let mut corrupt = update_b.clone();
+    // 3. corrupted and unfit updates are rejected; the old model keeps answering like the host.
+    let mut corrupt = update.clone();
     let mid = corrupt.len() / 2;
     corrupt[mid] ^= 0x20;
-    expect_rejected(s.link.update_model(&corrupt)?, RejectReason::BadCrc, "corrupted model")?;
+    expect_rejected(s.link()?.update_model(&corrupt)?, RejectReason::BadCrc, "corrupted model")?;
     // A 64-centre blob does not even fit the K = 32 staging buffer: refused at ModelBegin.
-    expect_rejected(s.link.update_model(&k64)?, RejectReason::TooLarge, "64-centre model on a K = 32 build")?;
-    let st = s.link.status()?;
+    expect_rejected(s.link()?.update_model(&k64)?, RejectReason::TooLarge, "64-centre model on a K = 32 build")?;
+    let st = s.link()?.status()?;
     ensure!(st.model_crc == crate_blob_crc(&default), "model changed after rejected updates");
     ensure!(st.last_rejection.is_some(), "no rejection recorded");
-    stream_checked(&mut s, &mut old, &samples[250..300], 250, "stream after rejected updates")?;
-    eprintln!("xtask: link: rejected updates left the old model answering identically");
+    let r = s.trainer_stream(fx, &fx.model, &["--max-samples", "300"])?;
+    let after_rejects = r["samples"].as_u64().unwrap_or(0) as u32;
+    eprintln!("xtask: link: after the rejected updates the old model still matches the host: {}", stream_summary(&r));
 
-    // 4. a valid update changes the answers.
-    match s.link.update_model(&update_b)? {
-        UpdateResult::Accepted { centres, crc } => {
-            ensure!(crc == crate_blob_crc(&update_b), "accepted crc {crc:#x} is not the update's");
-            eprintln!("xtask: link: valid update accepted ({centres} centres, crc {crc:#010x})");
-        }
-        other => bail!("valid update refused: {other:?}"),
-    }
-    let mut new = Reference::new(&update_b)?;
-    let b1 = stream_checked(&mut s, &mut new, &samples[..200], 300, "stream (updated model)")?;
-    let changed = a1.iter().zip(b1.iter()).filter(|(a, b)| a != b).count();
-    ensure!(changed > 0, "the updated model answers exactly like the old one");
-    eprintln!("xtask: link: the updated model answers differently on {changed}/200 samples and matches the host");
+    // 4. a valid update through the CLI, then its answers checked against the host.
+    let r = s.trainer_stream(fx, &dfx.update_model, &["--update-first", "--max-samples", "2000"])?;
+    let after_update = r["samples"].as_u64().unwrap_or(0) as u32;
+    eprintln!(
+        "xtask: link: fbg-trainer stream --update-first ({}, {} centres): {}",
+        dfx.update_model.display(),
+        r["centres"],
+        stream_summary(&r)
+    );
 
-    let fin: Status = s.link.status()?;
+    let fin: Status = s.link()?.status()?;
+    ensure!(fin.model_crc == crate_blob_crc(&update), "the active model is not the update after it was accepted");
     ensure!(fin.updates_accepted == 1, "updates_accepted = {}", fin.updates_accepted);
     ensure!(fin.updates_rejected == 2, "updates_rejected = {}", fin.updates_rejected);
-    ensure!(fin.samples == 500, "samples = {}", fin.samples);
-    ensure!(s.link.malformed_from_device() == 0, "the device sent malformed frames");
+    let total = streamed + after_rejects + after_update;
+    ensure!(fin.samples == total, "samples = {} (expected {total})", fin.samples);
+    ensure!(fin.frames_malformed == 3, "frames_malformed = {}", fin.frames_malformed);
+    s.disconnect()?;
     ensure!(Instant::now() < deadline, "link test took too long");
     s.check_alive()?;
     eprintln!("xtask: link: final status {fin:?}");

@@ -6,10 +6,21 @@
 //! unit-tested on the host with in-memory streams and a recording pin (`cargo test` in
 //! `firmware/` for the host target; `cargo xtask test` does it).
 //!
-//! Memory: the device borrows its two big buffers, the active [`Compensator`] and the blob
-//! staging area, from the caller (the firmware puts them in statics), so nothing large is moved
-//! or copied on the serving path. Loading a model ([`load_into`], and a committed update) needs
-//! a decoded `ModelParams` and the folded compensator on the stack for the duration of the load.
+//! # Memory
+//!
+//! The device borrows its three big buffers from the caller (the firmware puts them in
+//! statics, ≈ 2.4 KB each at K = 32):
+//!
+//! - the active [`Compensator`] (from [`unloaded`], then [`load`]ed in place);
+//! - the blob staging area, where `ModelChunk`s land;
+//! - a [`Scratch`]: the link's frame reader while serving, the one staging [`ModelParams`]
+//!   slot while a model is loaded. The two are never live together (the reader is between
+//!   frames when `ModelCommit` is handled, and a commit carries no data), so they share it.
+//!
+//! A model (the embedded default at boot, an update at commit) is parsed field by field with
+//! [`blob::decode_into`] into the staging slot, then [`Compensator::reload`] folds it into the
+//! active compensator in place: nothing model-sized is ever on the stack, and a refused model
+//! leaves the active one serving (reload checks everything before it writes).
 //!
 //! No heap, no panicking paths.
 
@@ -27,7 +38,7 @@ use fbg_shared::protocol::{
     crc32, encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed,
     RejectReason, Rejection, Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
-use fbg_shared::{Compensator, ModelParams, Sample};
+use fbg_shared::{Compensator, Estimate, ModelParams, Sample};
 
 /// Log through defmt when the `defmt` feature is on; nothing otherwise.
 macro_rules! log {
@@ -35,6 +46,27 @@ macro_rules! log {
         #[cfg(feature = "defmt")]
         defmt::$level!($($arg)*);
     };
+}
+
+/// The two library functions whose code generation matters more than their size, passed in
+/// as function pointers so that the firmware can compile them apart from the size-optimised
+/// rest (`fbg-firmware-kernel`): the per-sample step (instructions per step) and the blob
+/// parser (its stack depth during a model update). [`Kernel::LIBRARY`] is the plain library,
+/// what the host tests use; the firmware's kernel runs the very same code.
+#[derive(Clone, Copy)]
+pub struct Kernel<const K: usize> {
+    /// `Compensator::step`.
+    pub step: fn(&mut Compensator<f32, K>, &Sample<f32>) -> Estimate<f32>,
+    /// `blob::decode_into`.
+    pub decode: fn(&[u8], &mut ModelParams<f32, K>) -> Result<(), fbg_shared::Error>,
+    /// `Compensator::reload`.
+    pub reload: fn(&mut Compensator<f32, K>, &ModelParams<f32, K>) -> Result<(), fbg_shared::Error>,
+}
+
+impl<const K: usize> Kernel<K> {
+    /// The library functions, compiled wherever they are used.
+    pub const LIBRARY: Self =
+        Kernel { step: Compensator::step, decode: blob::decode_into, reload: Compensator::reload };
 }
 
 /// Identity of a loaded model.
@@ -59,59 +91,168 @@ pub fn blob_crc(bytes: &[u8]) -> u32 {
     }
 }
 
-/// Decode and fully validate `bytes` ([`blob::decode`]), fold it into a compensator in `slot`
-/// and return it with its identity. Nothing is written to `slot` on failure.
-///
-/// Never inlined: the decode temporaries then live only during the call, not in the caller's
-/// frame for the rest of its life (the firmware's `main` serves forever).
-#[inline(never)]
-pub fn load_into<'s, const K: usize>(
-    slot: &'s mut MaybeUninit<Compensator<f32, K>>,
-    bytes: &[u8],
-) -> Result<(&'s mut Compensator<f32, K>, ModelInfo), Rejection> {
-    let decoded = blob::decode::<K>(bytes);
-    let params = match &decoded {
-        Ok(p) => p,
-        Err(e) => return Err(Rejection::from(*e)),
-    };
-    let comp = fold_into_uninit(slot, params)?;
-    let info = ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob_crc(bytes) };
-    Ok((comp, info))
+/// A compensator with no model loaded, for a `static` that [`load`] then fills in place (the
+/// embedded default at boot): all bytes zero, so the static lands in `.bss` and no
+/// model-sized value is ever built on the stack (`Compensator::new` returns one by value,
+/// 2.4 KB of stack at K = 32, twice over with its `Result`). Until a model is loaded it
+/// answers every sample with NaN values and an infinite band (no output fitted).
+pub const fn unloaded<const K: usize>() -> Compensator<f32, K> {
+    // SAFETY: all-zero bytes are a valid `Compensator<f32, K>`: its fields are `f32` arrays
+    // and scalars (0.0), `i32` (0), `bool` (false), a `heapless::Vec` (length 0, storage
+    // `MaybeUninit`) and the direction latches (`i32`, `i8`, `bool`: a latch that has seen no
+    // sample). `tests::an_unloaded_compensator_is_usable` exercises it. A safe `const fn` in
+    // fbg-shared would make this unnecessary (README-firmware.md, proposals).
+    unsafe { MaybeUninit::zeroed().assume_init() }
 }
 
-/// Replace `comp` by the model in `bytes` when, and only when, it is entirely valid.
+/// An empty staging slot: all zero, so a `static` of it costs no flash (it lands in `.bss`).
+/// It does not validate until a blob is decoded into it.
+pub const fn empty_params<const K: usize>() -> ModelParams<f32, K> {
+    use fbg_shared::layout::{FeatureSet, N_ENVELOPE, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+    use fbg_shared::{Hyper, Provenance};
+    ModelParams {
+        hyper: Hyper {
+            feature_set: FeatureSet::Paper,
+            sigma_mult: 0.0,
+            sigma: 0.0,
+            alpha: 0.0,
+            dead_band_pm: 0.0,
+            weak_support: 0.0,
+            envelope_margin: 0.0,
+            flagged_band_factor: 0.0,
+        },
+        stage1: [[0.0; N_STAGE1]; N_OUTPUTS],
+        guess_mean: [0.0; N_OUTPUTS],
+        guess_std: [0.0; N_OUTPUTS],
+        poly: [[0.0; N_POLY]; N_OUTPUTS],
+        z_mean: [0.0; Z_DIMS],
+        z_std: [0.0; Z_DIMS],
+        centres: heapless::Vec::new(),
+        var_inv_g: [0.0; VAR_RANK],
+        var_inv_g_tail: 0.0,
+        resid_var: [0.0; N_OUTPUTS],
+        resid_var_growth: [0.0; N_OUTPUTS],
+        t_cal_end_s: 0.0,
+        band_k: [0.0; N_OUTPUTS],
+        envelope_lo: [0.0; N_ENVELOPE],
+        envelope_hi: [0.0; N_ENVELOPE],
+        fitted: [false; N_OUTPUTS],
+        provenance: Provenance {
+            seed: 0,
+            scenario: heapless::String::new(),
+            trainer_version: heapless::String::new(),
+            date_yyyymmdd: 0,
+            n_cal: 0,
+        },
+    }
+}
+
+/// The link's frame reader or the staging parameter slot, whichever is in use (see the
+/// crate docs): serving needs the reader, loading a model needs the slot, never both.
+///
+/// `repr(C, u8)`: a `u8` tag (`Params` = 0, `Reader` = 1) followed by the payloads, so that a
+/// switch can be made in place ([`Scratch::params`], [`Scratch::reader`]) instead of through
+/// a 2.4 KB value on the stack (which opt-level "s" does not elide).
+// The size difference is the point: the small reader borrows the big slot's memory.
+#[allow(clippy::large_enum_variant)]
+#[repr(C, u8)]
+pub enum Scratch<const K: usize> {
+    /// The staging slot of a model being loaded (its contents are only meaningful inside
+    /// [`load`]).
+    Params(ModelParams<f32, K>) = 0,
+    /// The frame reader of the link, between or inside frames.
+    Reader(FrameReader<HOST_MAX_FRAME>) = 1,
+}
+
+impl<const K: usize> Scratch<K> {
+    /// A scratch area holding an empty staging slot: all zero, `.bss` in a `static`.
+    pub const fn new() -> Self {
+        Scratch::Params(empty_params())
+    }
+
+    /// Become `tag`'s variant holding an all-zero payload: [`empty_params`] or
+    /// `FrameReader::new()`.
+    fn reset_to(&mut self, tag: u8) {
+        let p = (self as *mut Self).cast::<u8>();
+        // SAFETY: `repr(C, u8)` lays the enum out as a `u8` tag (the discriminant, 0 or 1 as
+        // declared) followed by a `repr(C)` union of the payloads. All-zero bytes are a valid
+        // payload of either variant: `ModelParams` is floats, integers, `bool`s, a fieldless
+        // `repr(u8)` enum whose discriminant 0 is `FeatureSet::Paper`, and heapless vectors and
+        // strings (a length of 0 and `MaybeUninit` storage) — exactly `empty_params()`; the
+        // frame reader is a byte buffer, an index and two `bool`s — exactly
+        // `FrameReader::new()`. Writing the tag last makes it the variant whose payload is
+        // now valid. `tests::the_scratch_area_switches_between_reader_and_staging_slot`
+        // checks both.
+        unsafe {
+            core::ptr::write_bytes(p, 0, core::mem::size_of::<Self>());
+            p.write(tag);
+        }
+    }
+
+    /// The staging slot, replacing the reader if it held one (any partial frame is dropped).
+    /// Always `Some`; an `Option` only so that no panicking path is needed to say so.
+    pub fn params(&mut self) -> Option<&mut ModelParams<f32, K>> {
+        if let Scratch::Reader(_) = self {
+            self.reset_to(0);
+        }
+        match self {
+            Scratch::Params(p) => Some(p),
+            Scratch::Reader(_) => None,
+        }
+    }
+
+    /// The frame reader, a fresh one if the slot was in use. Always `Some` (see
+    /// [`Scratch::params`]).
+    pub fn reader(&mut self) -> Option<&mut FrameReader<HOST_MAX_FRAME>> {
+        if let Scratch::Params(_) = self {
+            self.reset_to(1);
+        }
+        match self {
+            Scratch::Reader(r) => Some(r),
+            Scratch::Params(_) => None,
+        }
+    }
+}
+
+impl<const K: usize> Default for Scratch<K> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Load the model in `bytes` into `comp` (at boot, the embedded default into an [`unloaded`]
+/// compensator; later, a committed update) when, and only when, it is entirely valid: the
+/// blob is parsed into the staging slot `params` (`kernel.decode`, i.e.
+/// [`blob::decode_into`]), then folded into `comp` in place ([`Compensator::reload`], which
+/// checks every number before it writes one). On any error `comp` keeps its model and stream
+/// state; `params` then holds a partial model and must be decoded into again before use.
+///
+/// Parsing and folding are separate calls (folding never inlined), so their temporaries (one
+/// centre at a time while parsing, the folded scalars while reloading) occupy the stack one
+/// after the other, never together, and only during a load.
 #[inline(never)]
-fn swap_model<const K: usize>(
+pub fn load<const K: usize>(
+    kernel: &Kernel<K>,
     comp: &mut Compensator<f32, K>,
+    params: &mut ModelParams<f32, K>,
     bytes: &[u8],
 ) -> Result<ModelInfo, Rejection> {
-    let decoded = blob::decode::<K>(bytes);
-    let params = match &decoded {
-        Ok(p) => p,
-        Err(e) => return Err(Rejection::from(*e)),
-    };
-    fold_into(comp, params)?;
+    (kernel.decode)(bytes, params)?;
+    (kernel.reload)(comp, params)?;
     Ok(ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob_crc(bytes) })
 }
 
-// Decoding and folding are separate calls (folding never inlined) so that their temporaries
-// occupy the stack one after the other, and the decoded parameters are borrowed, not moved.
-
-#[inline(never)]
-fn fold_into<const K: usize>(
-    dst: &mut Compensator<f32, K>,
-    params: &ModelParams<f32, K>,
-) -> Result<(), Rejection> {
-    *dst = Compensator::new(params)?;
-    Ok(())
-}
-
-#[inline(never)]
-fn fold_into_uninit<'s, const K: usize>(
-    dst: &'s mut MaybeUninit<Compensator<f32, K>>,
-    params: &ModelParams<f32, K>,
-) -> Result<&'s mut Compensator<f32, K>, Rejection> {
-    Ok(dst.write(Compensator::new(params)?))
+/// [`load`] with the staging slot of `scratch` (at boot, before the device serves).
+pub fn load_with<const K: usize>(
+    kernel: &Kernel<K>,
+    comp: &mut Compensator<f32, K>,
+    scratch: &mut Scratch<K>,
+    bytes: &[u8],
+) -> Result<ModelInfo, Rejection> {
+    match scratch.params() {
+        Some(params) => load(kernel, comp, params, bytes),
+        None => Err(Rejection::new(RejectReason::Other)),
+    }
 }
 
 fn centres_u16(n: usize) -> u16 {
@@ -125,10 +266,11 @@ enum Transfer {
     Receiving { total: usize, crc: u32, received: usize },
 }
 
-/// Everything but the frame reader (split so that a decoded message, which borrows the
-/// reader's buffer, can be handled while the rest is mutated).
+/// Everything but the scratch area (split so that a decoded message, which borrows the
+/// frame reader's buffer, can be handled while the rest is mutated).
 struct Core<'a, P, const K: usize> {
     comp: &'a mut Compensator<f32, K>,
+    kernel: Kernel<K>,
     staging: &'a mut [u8],
     transfer: Transfer,
     model: ModelInfo,
@@ -142,15 +284,18 @@ struct Core<'a, P, const K: usize> {
 /// `K` is the centre capacity of this build; `P` the alarm output (on while the latest
 /// estimate carries any flag).
 pub struct Device<'a, P, const K: usize> {
-    reader: FrameReader<HOST_MAX_FRAME>,
+    scratch: &'a mut Scratch<K>,
     core: Core<'a, P, K>,
 }
 
 impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
-    /// A device serving `comp` (identified by `model`), staging updates in `staging` (at least
-    /// `blob::max_len(K)` bytes to accept any model this build can hold), driving `alarm`.
+    /// A device serving `comp` (identified by `model`) with `kernel`, receiving updates in
+    /// `staging` (at least `blob::max_len(K)` bytes to accept any model this build can hold),
+    /// reading frames and decoding updates in `scratch`, driving `alarm`.
     pub fn new(
         comp: &'a mut Compensator<f32, K>,
+        kernel: Kernel<K>,
+        scratch: &'a mut Scratch<K>,
         model: ModelInfo,
         staging: &'a mut [u8],
         mut alarm: P,
@@ -158,17 +303,11 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
         // Start with the alarm off; an output that cannot be driven is not fatal.
         let _ = alarm.set_low();
         let status = Status { model_capacity: centres_u16(K), ..Status::default() };
+        // Serving starts between frames.
+        let _ = scratch.reader();
         Device {
-            reader: FrameReader::new(),
-            core: Core {
-                comp,
-                staging,
-                transfer: Transfer::Idle,
-                model,
-                status,
-                alarm,
-                stack_probe: None,
-            },
+            scratch,
+            core: Core { comp, kernel, staging, transfer: Transfer::Idle, model, status, alarm, stack_probe: None },
         }
     }
 
@@ -196,37 +335,80 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
 
     /// Answer one decoded message.
     pub fn handle(&mut self, msg: &HostMsg<'_>) -> DeviceMsg {
-        self.core.handle(msg)
+        match msg {
+            HostMsg::ModelCommit => {
+                let loaded = self.commit();
+                self.core.commit_reply(loaded)
+            }
+            other => self.core.handle(other),
+        }
     }
 
     /// Consume received bytes: decode complete frames, answer each valid message on `tx`,
     /// count and drop malformed frames. Partial frames are kept for the next call.
     pub fn feed<W: Write>(&mut self, bytes: &[u8], tx: &mut W) -> Result<(), W::Error> {
         let mut window = bytes;
-        while !window.is_empty() {
-            let (ev, rest) = self.reader.feed::<HostMsg<'_>>(window);
+        // A commit is handled here, outside the frame decoding (`feed_until_commit` has
+        // returned, its temporaries are gone): loading a model is the deepest the stack goes.
+        while let Some(rest) = self.feed_until_commit(window, tx)? {
+            let loaded = self.commit();
+            self.core.answer_commit(loaded, tx)?;
             window = rest;
-            match ev {
-                Feed::Pending => {}
-                Feed::Malformed(why) => self.core.malformed(why),
-                Feed::Message(msg) => {
-                    self.core.status.frames_ok = self.core.status.frames_ok.wrapping_add(1);
-                    let reply = self.core.handle(&msg);
-                    send(tx, &reply)?;
-                }
-            }
         }
         Ok(())
     }
 
+    /// [`Device::feed`] up to and including a `ModelCommit` frame: returns the bytes after it
+    /// (`Some`, the commit still to be handled), or `None` once `bytes` are consumed.
+    #[inline(never)]
+    fn feed_until_commit<'b, W: Write>(&mut self, bytes: &'b [u8], tx: &mut W) -> Result<Option<&'b [u8]>, W::Error> {
+        let mut window = bytes;
+        while !window.is_empty() {
+            let Some(reader) = self.scratch.reader() else { return Ok(None) };
+            let (ev, rest) = reader.feed::<HostMsg<'_>>(window);
+            window = rest;
+            match ev {
+                Feed::Pending => {}
+                Feed::Malformed(why) => self.core.malformed(why),
+                // A commit borrows nothing from the reader, which is between frames now: the
+                // scratch area becomes the staging slot for the load.
+                Feed::Message(HostMsg::ModelCommit) => {
+                    self.core.count_frame();
+                    return Ok(Some(window));
+                }
+                Feed::Message(msg) => self.core.answer(&msg, tx)?,
+            }
+        }
+        Ok(None)
+    }
+
     /// Serve the link forever: read what arrives, answer it. Returns only on a link error.
     pub fn serve<U: Read + Write>(&mut self, link: &mut U) -> Result<Infallible, U::Error> {
-        let mut buf = [0u8; 64];
+        // The UART hands over what has arrived (at least one byte); a small buffer keeps the
+        // serving loop's frame small.
+        let mut buf = [0u8; 16];
         loop {
             let n = link.read(&mut buf)?;
             let got = buf.get(..n).unwrap_or(&[]);
             self.feed(got, link)?;
         }
+    }
+
+    /// Check the transfer, then [`load`] the staged blob through the scratch area's staging
+    /// slot. Cold: once per model update, never inlined into the serving loop; the answer is
+    /// built afterwards ([`Core::commit_reply`]), so that it takes no stack during the load.
+    #[inline(never)]
+    fn commit(&mut self) -> Result<ModelInfo, Rejection> {
+        let core = &mut self.core;
+        let total = core.finish_transfer()?;
+        let staged = core.staging.get(..total).unwrap_or(&[]);
+        let loaded = match self.scratch.params() {
+            Some(params) => load(&core.kernel, core.comp, params, staged),
+            None => Err(Rejection::new(RejectReason::Other)),
+        };
+        // Back to serving: a fresh reader (the last one was between frames).
+        let _ = self.scratch.reader();
+        loaded
     }
 }
 
@@ -240,12 +422,41 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
         }
     }
 
+    /// Count, handle and answer one message (not a commit). Never inlined into the serving
+    /// loop: the answer's temporaries then are not on the stack while a model loads.
+    #[inline(never)]
+    fn answer<W: Write>(&mut self, msg: &HostMsg<'_>, tx: &mut W) -> Result<(), W::Error> {
+        self.count_frame();
+        let reply = self.handle(msg);
+        send(tx, &reply)
+    }
+
+    /// The answer to a commit, and its accounting.
+    fn commit_reply(&mut self, loaded: Result<ModelInfo, Rejection>) -> DeviceMsg {
+        match loaded {
+            Ok(info) => self.accepted(info),
+            Err(r) => self.reject(r),
+        }
+    }
+
+    /// [`Core::commit_reply`], sent. Never inlined (see [`Core::answer`]).
+    #[inline(never)]
+    fn answer_commit<W: Write>(&mut self, loaded: Result<ModelInfo, Rejection>, tx: &mut W) -> Result<(), W::Error> {
+        let reply = self.commit_reply(loaded);
+        send(tx, &reply)
+    }
+
+    fn count_frame(&mut self) {
+        self.status.frames_ok = self.status.frames_ok.wrapping_add(1);
+    }
+
     fn malformed(&mut self, why: Malformed) {
         self.status.frames_malformed = self.status.frames_malformed.wrapping_add(1);
         let _ = why;
-        log!(warn, "dropped a malformed frame ({=str})", malformed_name(why));
+        log!(warn, "dropped a malformed frame ({=istr})", malformed_name(why));
     }
 
+    /// Everything but `ModelCommit` (which needs the scratch area: [`Device::commit`]).
     fn handle(&mut self, msg: &HostMsg<'_>) -> DeviceMsg {
         match *msg {
             HostMsg::Ping { nonce } => DeviceMsg::Pong { nonce },
@@ -257,12 +468,14 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
             HostMsg::GetStatus => DeviceMsg::Status(self.status()),
             HostMsg::ModelBegin { total_len, crc32 } => self.begin(total_len, crc32),
             HostMsg::ModelChunk { offset, data } => self.chunk(offset, data),
-            HostMsg::ModelCommit => self.commit(),
+            // Only reached through `Device::handle`'s caller contract being broken; refuse it
+            // like a commit without a transfer.
+            HostMsg::ModelCommit => self.reject(Rejection::new(RejectReason::NoUpdateInProgress)),
         }
     }
 
     fn step(&mut self, seq: u32, sample: &Sample<f32>) -> DeviceEstimate {
-        let e = self.comp.step(sample);
+        let e = (self.kernel.step)(self.comp, sample);
         self.status.samples = self.status.samples.wrapping_add(1);
         let _ = self.alarm.set_state(PinState::from(!e.flags.is_ok()));
         DeviceEstimate { seq, values: e.values, band: e.band95, flags: e.flags }
@@ -293,36 +506,37 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
         let Some(dst) = self.staging.get_mut(received..end).filter(|_| end <= total) else {
             return self.reject(Rejection { reason: RejectReason::Overrun, detail: offset });
         };
-        dst.copy_from_slice(data);
+        // Element-wise (the lengths are equal by construction): no length-mismatch panic path.
+        for (d, &b) in dst.iter_mut().zip(data.iter()) {
+            *d = b;
+        }
         self.transfer = Transfer::Receiving { total, crc, received: end };
         DeviceMsg::UpdateProgress { received: u32::try_from(end).unwrap_or(u32::MAX) }
     }
 
-    fn commit(&mut self) -> DeviceMsg {
+    /// End the transfer: its length when complete and intact.
+    fn finish_transfer(&mut self) -> Result<usize, Rejection> {
         let Transfer::Receiving { total, crc, received } = self.transfer else {
-            return self.reject(Rejection::new(RejectReason::NoUpdateInProgress));
+            return Err(Rejection::new(RejectReason::NoUpdateInProgress));
         };
         self.transfer = Transfer::Idle;
         if received != total {
             let detail = u32::try_from(received).unwrap_or(u32::MAX);
-            return self.reject(Rejection { reason: RejectReason::Incomplete, detail });
+            return Err(Rejection { reason: RejectReason::Incomplete, detail });
         }
-        let Some(staged) = self.staging.get(..total) else {
-            return self.reject(Rejection::new(RejectReason::TooLarge));
-        };
-        if crc32(staged) != crc {
-            return self.reject(Rejection::new(RejectReason::TransferCrc));
+        match self.staging.get(..total) {
+            Some(staged) if crc32(staged) == crc => Ok(total),
+            Some(_) => Err(Rejection::new(RejectReason::TransferCrc)),
+            None => Err(Rejection::new(RejectReason::TooLarge)),
         }
-        match swap_model(self.comp, staged) {
-            Ok(info) => {
-                self.model = info;
-                self.status.updates_accepted = self.status.updates_accepted.wrapping_add(1);
-                let _ = self.alarm.set_low();
-                log!(info, "model update accepted: {=u16} centres, crc {=u32:#010x}", info.centres, info.crc);
-                DeviceMsg::UpdateResult(UpdateResult::Accepted { centres: info.centres, crc: info.crc })
-            }
-            Err(r) => self.reject(r),
-        }
+    }
+
+    fn accepted(&mut self, info: ModelInfo) -> DeviceMsg {
+        self.model = info;
+        self.status.updates_accepted = self.status.updates_accepted.wrapping_add(1);
+        let _ = self.alarm.set_low();
+        log!(info, "model update accepted: {=u16} centres, crc {=u32:#010x}", info.centres, info.crc);
+        DeviceMsg::UpdateResult(UpdateResult::Accepted { centres: info.centres, crc: info.crc })
     }
 
     fn reject(&mut self, r: Rejection) -> DeviceMsg {
@@ -331,8 +545,8 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
         self.status.last_rejection = Some(r);
         log!(
             warn,
-            "model update rejected: {=str} (code {=u8}, detail {=u32}); keeping the active model",
-            r.reason.describe(),
+            "model update rejected: {=istr} (code {=u8}, detail {=u32}); keeping the active model",
+            reason_name(r.reason),
             r.reason.code(),
             r.detail
         );
@@ -340,20 +554,46 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
     }
 }
 
+/// The name of a rejection reason for a defmt log, interned: the text lives in the ELF's
+/// `.defmt` section, not in flash (`RejectReason::describe`'s sentences would cost ≈ 600 B).
 #[cfg(feature = "defmt")]
-fn malformed_name(m: Malformed) -> &'static str {
+pub fn reason_name(r: RejectReason) -> defmt::Str {
+    match r {
+        RejectReason::Truncated => defmt::intern!("model blob truncated"),
+        RejectReason::BadMagic => defmt::intern!("not a model blob (bad magic)"),
+        RejectReason::UnsupportedVersion => defmt::intern!("unsupported blob format version"),
+        RejectReason::WrongDims => defmt::intern!("blob dimensions do not fit this firmware"),
+        RejectReason::BadCrc => defmt::intern!("blob CRC-32 mismatch (corrupted)"),
+        RejectReason::BadPayload => defmt::intern!("blob payload does not decode"),
+        RejectReason::TrailingBytes => defmt::intern!("bytes after the blob CRC"),
+        RejectReason::TooManyCentres => defmt::intern!("more RBF centres than this firmware holds"),
+        RejectReason::BadParameter => defmt::intern!("a model parameter is non-finite or out of range"),
+        RejectReason::BufferTooSmall => defmt::intern!("buffer too small"),
+        RejectReason::NoUpdateInProgress => defmt::intern!("no model transfer in progress"),
+        RejectReason::TooLarge => defmt::intern!("announced blob length does not fit the staging buffer"),
+        RejectReason::OutOfOrder => defmt::intern!("chunk offset out of order"),
+        RejectReason::Overrun => defmt::intern!("chunk runs past the announced length"),
+        RejectReason::Incomplete => defmt::intern!("commit before the whole blob arrived"),
+        RejectReason::TransferCrc => defmt::intern!("staged bytes do not match the announced CRC"),
+        _ => defmt::intern!("other"),
+    }
+}
+
+#[cfg(feature = "defmt")]
+fn malformed_name(m: Malformed) -> defmt::Str {
     match m {
-        Malformed::Oversize => "oversize",
-        Malformed::Framing => "framing",
-        Malformed::Crc => "crc",
-        Malformed::Payload => "payload",
-        Malformed::TrailingBytes => "trailing bytes",
+        Malformed::Oversize => defmt::intern!("oversize"),
+        Malformed::Framing => defmt::intern!("framing"),
+        Malformed::Crc => defmt::intern!("crc"),
+        Malformed::Payload => defmt::intern!("payload"),
+        Malformed::TrailingBytes => defmt::intern!("trailing bytes"),
     }
 }
 
 /// Frame and write one answer. Every device message fits [`DEVICE_MAX_FRAME`] (tested in
 /// `fbg_shared::protocol`); a writer that accepts no more bytes ends the frame early rather
 /// than spinning (the host then sees a malformed frame).
+#[inline(never)]
 fn send<W: Write>(tx: &mut W, msg: &DeviceMsg) -> Result<(), W::Error> {
     let mut buf = [0u8; DEVICE_MAX_FRAME];
     let Ok(frame) = encode_device(msg, &mut buf) else {

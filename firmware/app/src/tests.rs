@@ -108,20 +108,32 @@ impl std::io::Read for Wire<'_> {
     }
 }
 
-/// Memory of one device under test.
+/// Memory of one device under test, as the firmware lays it out (there in statics; boxed
+/// here so that the test threads' stacks stay small).
 struct Mem {
-    slot: MaybeUninit<Compensator<f32, K>>,
+    comp: std::boxed::Box<Compensator<f32, K>>,
+    scratch: std::boxed::Box<Scratch<K>>,
     staging: Vec<u8>,
 }
 
 impl Mem {
     fn new() -> Self {
-        Mem { slot: MaybeUninit::uninit(), staging: std::vec![0u8; STAGE] }
+        Mem {
+            comp: std::boxed::Box::new(unloaded()),
+            scratch: std::boxed::Box::new(Scratch::new()),
+            staging: std::vec![0u8; STAGE],
+        }
+    }
+    /// Boot `blob_bytes` the way the firmware boots its default model.
+    fn boot(&mut self, blob_bytes: &[u8]) -> Result<ModelInfo, Rejection> {
+        load_with(&Kernel::LIBRARY, &mut self.comp, &mut self.scratch, blob_bytes)
+    }
+    fn device(&mut self, info: ModelInfo) -> Device<'_, Pin, K> {
+        Device::new(&mut self.comp, Kernel::LIBRARY, &mut self.scratch, info, &mut self.staging, Pin::default())
     }
     fn link(&mut self, blob_bytes: &[u8]) -> LinkClient<Wire<'_>> {
-        let (comp, info) = load_into(&mut self.slot, blob_bytes).unwrap();
-        let dev = Device::new(comp, info, &mut self.staging, Pin::default());
-        LinkClient::new(Wire { dev, out: VecDeque::new() })
+        let info = self.boot(blob_bytes).unwrap();
+        LinkClient::new(Wire { dev: self.device(info), out: VecDeque::new() })
     }
 }
 
@@ -340,10 +352,100 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
 #[test]
 fn a_model_beyond_the_capacity_is_refused() {
     // A device built for 16 centres refuses the 32-centre default model.
-    let mut slot = MaybeUninit::<Compensator<f32, 16>>::uninit();
-    let e = load_into(&mut slot, default_blob()).err().unwrap();
+    let mut comp = std::boxed::Box::new(unloaded::<16>());
+    let mut scratch = std::boxed::Box::new(Scratch::<16>::new());
+    let e = load_with(&Kernel::LIBRARY, &mut comp, &mut scratch, default_blob()).err().unwrap();
     assert_eq!(e.reason, RejectReason::WrongDims);
     assert_eq!(e.detail, 32 << 16 | 16);
+    assert_eq!(comp.n_centres(), 0, "still unloaded");
+}
+
+#[test]
+fn an_unloaded_compensator_is_usable() {
+    // All-zero bytes: no centres, no output fitted, latches that have seen nothing.
+    let mut comp = std::boxed::Box::new(unloaded::<K>());
+    assert_eq!(comp.n_centres(), 0);
+    assert_eq!(comp.latch_values(), [0.0; 3]);
+    let e = comp.step(&samples(1)[0]);
+    assert!(e.values.iter().all(|v| v.is_nan()), "{e:?}");
+    assert!(e.band95.iter().all(|b| b.is_infinite()), "{e:?}");
+    // Loading into it gives exactly `Compensator::new`.
+    let mut scratch = std::boxed::Box::new(Scratch::<K>::new());
+    let info = load_with(&Kernel::LIBRARY, &mut comp, &mut scratch, default_blob()).unwrap();
+    assert_eq!(info, ModelInfo { centres: 32, crc: blob_crc(default_blob()) });
+    let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
+    for x in samples(30) {
+        assert_eq!(format!("{:?}", comp.step(&x)), format!("{:?}", reference.step(&x)));
+    }
+}
+
+#[test]
+fn the_scratch_area_switches_between_reader_and_staging_slot() {
+    let mut scratch = std::boxed::Box::new(Scratch::<K>::new());
+    assert!(matches!(*scratch, Scratch::Params(_)));
+    // Switch to the reader and decode a frame with it.
+    let mut buf = [0u8; 64];
+    let ping = encode_host(&HostMsg::Ping { nonce: 9 }, &mut buf).unwrap().to_vec();
+    {
+        let r = scratch.reader().unwrap();
+        let (ev, rest) = r.feed::<HostMsg<'_>>(&ping);
+        assert_eq!(ev, Feed::Message(HostMsg::Ping { nonce: 9 }));
+        assert!(rest.is_empty());
+    }
+    assert!(matches!(*scratch, Scratch::Reader(_)));
+    // Fill the slot, switch away and back: it comes back exactly `empty_params()`.
+    *scratch.params().unwrap() = params(default_blob());
+    assert!(matches!(*scratch, Scratch::Params(_)));
+    let _ = scratch.reader().unwrap();
+    let p = scratch.params().unwrap();
+    assert_eq!(*p, empty_params::<K>());
+    assert_eq!(p.centres.len(), 0, "a fresh, empty slot");
+    // And a reader that held half a frame comes back empty too.
+    {
+        let r = scratch.reader().unwrap();
+        let (ev, _) = r.feed::<HostMsg<'_>>(&ping[..3]);
+        assert_eq!(ev, Feed::Pending);
+    }
+    let _ = scratch.params().unwrap();
+    let r = scratch.reader().unwrap();
+    let (ev, _) = r.feed::<HostMsg<'_>>(&ping);
+    assert_eq!(ev, Feed::Message(HostMsg::Ping { nonce: 9 }));
+    // Serving goes on across an update that switches it back and forth.
+    let mut mem = Mem::new();
+    let mut link = mem.link(default_blob());
+    link.ping(3).unwrap();
+    assert!(matches!(link.update_model(&other_model()).unwrap(), UpdateResult::Accepted { .. }));
+    link.ping(4).unwrap();
+    assert!(matches!(link.update_model(default_blob()).unwrap(), UpdateResult::Accepted { .. }));
+    assert_eq!(link.status().unwrap().frames_malformed, 0);
+}
+
+#[test]
+fn a_failed_load_keeps_the_old_model_and_its_stream_state() {
+    let mut mem = Mem::new();
+    let info = mem.boot(default_blob()).unwrap();
+    let s = samples(40);
+    let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
+    for x in &s[..20] {
+        assert_eq!(format!("{:?}", mem.comp.step(x)), format!("{:?}", reference.step(x)));
+    }
+    // A blob that parses but does not fold (σ so small that the f32 folding overflows) and one
+    // that does not parse: both leave the model and the latches as they were.
+    let mut p = params(other_model().as_slice());
+    p.hyper.sigma = 1e-38;
+    let tiny_sigma = encode(&p);
+    let mut corrupt = other_model();
+    corrupt[50] ^= 1;
+    for bad in [tiny_sigma, corrupt] {
+        let before = mem.comp.latch_values();
+        let params = mem.scratch.params().unwrap();
+        assert!(load(&Kernel::LIBRARY, &mut mem.comp, params, &bad).is_err());
+        assert_eq!(mem.comp.latch_values(), before);
+    }
+    for x in &s[20..] {
+        assert_eq!(format!("{:?}", mem.comp.step(x)), format!("{:?}", reference.step(x)));
+    }
+    let _ = info;
 }
 
 #[test]
@@ -392,8 +494,8 @@ fn a_link_error_ends_serve() {
     let mut buf = [0u8; 64];
     let ping = encode_host(&HostMsg::Ping { nonce: 5 }, &mut buf).unwrap().to_vec();
     let mut mem = Mem::new();
-    let (comp, info) = load_into(&mut mem.slot, default_blob()).unwrap();
-    let mut dev = Device::new(comp, info, &mut mem.staging, Pin::default());
+    let info = mem.boot(default_blob()).unwrap();
+    let mut dev = mem.device(info);
     dev.set_stack_probe(|| 1234, 4321);
     let mut script = Script { input: ping.iter().copied().chain(ping.iter().copied()).collect(), out: Vec::new() };
     assert!(dev.serve(&mut script).is_err());

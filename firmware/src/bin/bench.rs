@@ -13,14 +13,13 @@
 
 use core::fmt::Write as _;
 use core::hint::black_box;
-use core::mem::MaybeUninit;
 
 use cortex_m_rt::entry;
 use embedded_io::Write;
 use fbg_firmware::counters::{cycles_now, cycles_start, systick_elapsed, systick_now, systick_start};
 use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
-use fbg_firmware::{exit_failure, exit_success, stack, K};
-use fbg_firmware_app::load_into;
+use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL};
+use fbg_firmware_app::{load_with, unloaded, Scratch};
 use fbg_shared::{Compensator, Sample};
 
 static MODEL_BLOB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_model.fbgm"));
@@ -83,7 +82,7 @@ fn step_loop(comp: &mut Compensator<f32, K>, samples: &[Sample<f32>], n: u32) {
     let len = samples.len().max(1);
     for i in 0..n as usize {
         if let Some(s) = samples.get(i % len) {
-            black_box(comp.step(black_box(s)));
+            black_box(step(comp, black_box(s)));
         }
     }
 }
@@ -100,14 +99,15 @@ fn measure(f: impl FnOnce()) -> (u32, u32) {
 
 #[entry]
 fn main() -> ! {
-    static mut MODEL: MaybeUninit<Compensator<f32, K>> = MaybeUninit::uninit();
+    static mut MODEL: Compensator<f32, K> = unloaded();
+    static mut SCRATCH: Scratch<K> = Scratch::new();
     static mut SAMPLES: [Sample<f32>; MAX_SAMPLES] =
         [Sample { dl_pm: [0.0; 3], t_amb_c: 0.0, t_s: 0.0 }; MAX_SAMPLES];
 
     // SAFETY: UART0 of the MPS2 board, driven only from here.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     uart.init(MPS2_PCLK_HZ, 115_200);
-    let (comp, info) = match load_into(MODEL, MODEL_BLOB) {
+    let info = match load_with(&KERNEL, MODEL, SCRATCH, MODEL_BLOB) {
         Ok(x) => x,
         Err(r) => {
             emit(&mut uart, format_args!("error model rejected: {} (detail {})", r.reason.describe(), r.detail));
@@ -131,6 +131,7 @@ fn main() -> ! {
     }
     let samples = SAMPLES.get(..n_samples).unwrap_or(&[]);
 
+    let comp = MODEL;
     let Some(mut cp) = cortex_m::Peripherals::take() else { exit_failure() };
     systick_start(&mut cp.SYST);
     let has_cyccnt = cycles_start(&mut cp.DCB, &mut cp.DWT);

@@ -6,13 +6,12 @@
 #![no_std]
 #![no_main]
 
-use core::mem::MaybeUninit;
 
 use cortex_m_rt::entry;
 use embedded_io::Write;
 use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
-use fbg_firmware::{exit_failure, exit_success, stack, K};
-use fbg_firmware_app::load_into;
+use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL};
+use fbg_firmware_app::{load_with, unloaded, Scratch};
 use fbg_shared::protocol::{encode_device, DeviceEstimate, DeviceMsg, DEVICE_MAX_FRAME};
 use fbg_shared::{Compensator, Sample};
 
@@ -21,15 +20,16 @@ static INPUTS: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/golden_inputs.b
 
 #[entry]
 fn main() -> ! {
-    static mut MODEL: MaybeUninit<Compensator<f32, K>> = MaybeUninit::uninit();
+    static mut MODEL: Compensator<f32, K> = unloaded();
+    static mut SCRATCH: Scratch<K> = Scratch::new();
 
     // SAFETY: UART0 of the MPS2 board, driven only from here.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     uart.init(MPS2_PCLK_HZ, 115_200);
-    let comp = match load_into(MODEL, MODEL_BLOB) {
-        Ok((c, _)) => c,
+    let comp = match load_with(&KERNEL, MODEL, SCRATCH, MODEL_BLOB) {
+        Ok(_) => MODEL,
         Err(r) => {
-            defmt::error!("golden model rejected: {=str} (detail {=u32})", r.reason.describe(), r.detail);
+            defmt::error!("golden model rejected: {=istr} (detail {=u32})", fbg_firmware_app::reason_name(r.reason), r.detail);
             exit_failure()
         }
     };
@@ -44,7 +44,7 @@ fn main() -> ! {
             *o = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
         }
         let s = Sample { dl_pm: [f[0], f[1], f[2]], t_amb_c: f[3], t_s: f[4] };
-        let e = comp.step(&s);
+        let e = step(comp, &s);
         let msg = DeviceMsg::Estimate(DeviceEstimate { seq: n, values: e.values, band: e.band95, flags: e.flags });
         let mut buf = [0u8; DEVICE_MAX_FRAME];
         match encode_device(&msg, &mut buf) {

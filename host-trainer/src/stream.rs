@@ -1,0 +1,308 @@
+//! `fbg-trainer stream`: drive a running device (QEMU's serial port on a TCP socket, or a board
+//! behind a serial-to-TCP bridge) over the link protocol and check every answer.
+//!
+//! The hold-out samples of a dataset go to the device as it would receive them (every field
+//! rounded to f32), in order, from a reset stream state; each estimate is compared with
+//! `fbg_shared::Compensator<f64>` on the same model fed the same samples: per channel
+//! |device − host| ≤ 1 % of the model's hold-out RMSE (DESIGN §8) for the value and the 95 %
+//! band, NaN against NaN, ∞ against ∞, and identical flags.
+//!
+//! The device must run the model given: with `--update-first` it is sent over the link first
+//! (and must be accepted); otherwise the device's active model CRC must be the blob's.
+
+use std::io::ErrorKind;
+use std::net::{TcpStream, ToSocketAddrs};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::link_client::{LinkClient, LinkError};
+use fbg_shared::protocol::{DeviceEstimate, UpdateResult};
+use fbg_shared::{Compensator, Estimate};
+
+use crate::dataset::Dataset;
+use crate::evaluate::{evaluate_holdout, CHANNELS, UNITS};
+use crate::export::read_blob;
+use crate::fit::HOST_CAP;
+use crate::parity::{as_device_input, widen};
+
+/// Device vs host tolerance as a fraction of Model-H's hold-out RMSE (DESIGN §8).
+pub const REL_TOL: f64 = 0.01;
+
+/// What to stream where.
+#[derive(Clone, Debug)]
+pub struct StreamOptions {
+    /// The model blob the device runs (or is sent, with `update_first`).
+    pub model: PathBuf,
+    /// Dataset whose hold-out samples are streamed.
+    pub data: PathBuf,
+    /// Device address.
+    pub host: String,
+    /// Device TCP port.
+    pub port: u16,
+    /// Send the model to the device before streaming.
+    pub update_first: bool,
+    /// Stream at most this many hold-out samples (all when `None`).
+    pub max_samples: Option<usize>,
+    /// How long to wait for the device to accept the connection and for each answer.
+    pub timeout: Duration,
+}
+
+/// The outcome of a stream.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StreamReport {
+    /// The device address.
+    pub device: String,
+    /// The model's blob CRC (what the device reported as active).
+    pub model_crc: u32,
+    /// RBF centres of the model.
+    pub centres: usize,
+    /// Whether the model was sent first (and accepted).
+    pub updated: bool,
+    /// Samples streamed and checked.
+    pub samples: usize,
+    /// Samples with any value or band beyond tolerance.
+    pub value_mismatches: usize,
+    /// Samples whose flags differ from the host's.
+    pub flag_mismatches: usize,
+    /// Samples the device flagged (any flag).
+    pub flagged: usize,
+    /// max |device − host| of the values per channel (finite pairs).
+    pub max_abs_diff: [f64; N_OUTPUTS],
+    /// The same for the 95 % band half-widths.
+    pub max_band_diff: [f64; N_OUTPUTS],
+    /// The model's hold-out RMSE per channel (from evaluate).
+    pub holdout_rmse: [f64; N_OUTPUTS],
+    /// `max_abs_diff / holdout_rmse` (the limit is [`REL_TOL`]).
+    pub max_diff_over_rmse: [f64; N_OUTPUTS],
+    /// The tolerance used per channel.
+    pub tolerance: [f64; N_OUTPUTS],
+    /// The first few mismatches, described.
+    pub first_mismatches: Vec<String>,
+    /// Wall time of the stream [s].
+    pub seconds: f64,
+}
+
+impl StreamReport {
+    /// True when every estimate matched.
+    pub fn ok(&self) -> bool {
+        self.value_mismatches == 0 && self.flag_mismatches == 0
+    }
+
+    /// A human summary.
+    pub fn text(&self) -> String {
+        let mut s = format!(
+            "{} samples streamed to {} (model crc {:#010x}, {} centres{}) in {:.1} s: {} value/band mismatches, {} flag mismatches, {} flagged\n",
+            self.samples,
+            self.device,
+            self.model_crc,
+            self.centres,
+            if self.updated { ", sent first" } else { "" },
+            self.seconds,
+            self.value_mismatches,
+            self.flag_mismatches,
+            self.flagged
+        );
+        for c in 0..N_OUTPUTS {
+            s.push_str(&format!(
+                "  {:>6} [{}]: max |device − host| {:.3e} ({:.4} % of the hold-out RMSE {:.4}; limit {} %), band {:.3e}\n",
+                CHANNELS[c],
+                UNITS[c],
+                self.max_abs_diff[c],
+                100.0 * self.max_diff_over_rmse[c],
+                self.holdout_rmse[c],
+                100.0 * REL_TOL,
+                self.max_band_diff[c]
+            ));
+        }
+        for m in &self.first_mismatches {
+            s.push_str(&format!("  mismatch: {m}\n"));
+        }
+        s
+    }
+}
+
+/// Compare one device answer with the host's: per channel |Δ| ≤ `tol` for value and band (NaN
+/// matches NaN, ∞ matches ∞ of the same sign), flags identical. Returns the first difference.
+pub fn compare(dev: &DeviceEstimate, host: &Estimate<f64>, tol: [f64; N_OUTPUTS]) -> Option<String> {
+    if dev.flags != host.flags {
+        return Some(format!("flags {} (device) vs {} (host)", dev.flags, host.flags));
+    }
+    for c in 0..N_OUTPUTS {
+        for (what, d, h) in [("value", f64::from(dev.values[c]), host.values[c]), ("band", f64::from(dev.band[c]), host.band95[c])] {
+            let ok = if d.is_nan() || h.is_nan() {
+                d.is_nan() && h.is_nan()
+            } else if d.is_infinite() || h.is_infinite() {
+                d == h
+            } else {
+                (d - h).abs() <= tol[c]
+            };
+            if !ok {
+                return Some(format!(
+                    "{what} {}: device {d} vs host {h} (|Δ| {:.3e} > {:.3e})",
+                    CHANNELS[c],
+                    (d - h).abs(),
+                    tol[c]
+                ));
+            }
+        }
+    }
+    None
+}
+
+fn connect(addr: &str, timeout: Duration) -> Result<TcpStream> {
+    let deadline = Instant::now() + timeout;
+    let sockets: Vec<_> = addr.to_socket_addrs().with_context(|| format!("resolving {addr}"))?.collect();
+    loop {
+        let mut last = None;
+        for a in &sockets {
+            match TcpStream::connect_timeout(a, Duration::from_secs(1)) {
+                Ok(s) => return Ok(s),
+                Err(e) => last = Some(e),
+            }
+        }
+        if Instant::now() >= deadline {
+            let e = last.map(|e| e.to_string()).unwrap_or_else(|| "no address".into());
+            bail!("cannot connect to the device at {addr} within {timeout:?}: {e}");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+fn link_err(what: &str, e: LinkError) -> anyhow::Error {
+    match &e {
+        LinkError::Io(io) if matches!(io.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
+            anyhow::anyhow!("{what}: the device did not answer in time ({e})")
+        }
+        _ => anyhow::anyhow!("{what}: {e}"),
+    }
+}
+
+/// Stream the hold-out of `opts.data` to the device and check every answer.
+pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
+    let bytes = std::fs::read(&opts.model).with_context(|| format!("{}: cannot read", opts.model.display()))?;
+    let model = read_blob(&opts.model)?;
+    let crc = fbg_shared::blob::Header::parse(&bytes)
+        .ok()
+        .and_then(|_| bytes.len().checked_sub(4).and_then(|at| bytes.get(at..)))
+        .map(|t| u32::from_le_bytes([t[0], t[1], t[2], t[3]]))
+        .unwrap_or(0);
+    let data = Dataset::read_csv(&opts.data)?;
+    let hold = data.holdout_indices();
+    if hold.is_empty() {
+        bail!("{}: no hold-out rows to stream", opts.data.display());
+    }
+    let (eval, _) = evaluate_holdout(&model, &data)?;
+    let holdout_rmse = eval.channels.map(|c| c.rmse);
+    // An unfitted channel has no RMSE: its values are NaN on both sides, compared as such.
+    let tolerance = holdout_rmse.map(|r| if r.is_finite() { REL_TOL * r } else { 0.0 });
+    let idx: Vec<usize> = match opts.max_samples {
+        Some(n) => hold.into_iter().take(n).collect(),
+        None => hold,
+    };
+
+    let device = format!("{}:{}", opts.host, opts.port);
+    let stream = connect(&device, opts.timeout)?;
+    stream.set_read_timeout(Some(opts.timeout))?;
+    stream.set_nodelay(true)?;
+    let mut link = LinkClient::new(stream);
+    link.ping(0x5EED).map_err(|e| link_err("ping", e))?;
+    if opts.update_first {
+        match link.update_model(&bytes).map_err(|e| link_err("model update", e))? {
+            UpdateResult::Accepted { crc: got, .. } if got == crc => {}
+            UpdateResult::Accepted { crc: got, .. } => {
+                bail!("the device accepted the model but reports crc {got:#010x}, not the blob's {crc:#010x}")
+            }
+            UpdateResult::Rejected(r) => bail!("the device refused {}: {r}", opts.model.display()),
+        }
+    }
+    let st = link.status().map_err(|e| link_err("status", e))?;
+    if st.model_crc != crc {
+        bail!(
+            "the device runs the model with crc {:#010x}, not {} ({crc:#010x}); pass --update-first to send it",
+            st.model_crc,
+            opts.model.display()
+        );
+    }
+    // Both sides start from a fresh stream state.
+    link.reset_stream(0x5EED + 1).map_err(|e| link_err("reset", e))?;
+    let mut reference = Compensator::<f64, HOST_CAP>::new(&model).map_err(|e| anyhow::anyhow!("{}: {e}", opts.model.display()))?;
+
+    let t0 = Instant::now();
+    let mut report = StreamReport {
+        device,
+        model_crc: crc,
+        centres: model.centres.len(),
+        updated: opts.update_first,
+        samples: 0,
+        value_mismatches: 0,
+        flag_mismatches: 0,
+        flagged: 0,
+        max_abs_diff: [0.0; N_OUTPUTS],
+        max_band_diff: [0.0; N_OUTPUTS],
+        holdout_rmse,
+        max_diff_over_rmse: [0.0; N_OUTPUTS],
+        tolerance,
+        first_mismatches: Vec::new(),
+        seconds: 0.0,
+    };
+    for (n, &i) in idx.iter().enumerate() {
+        let x = as_device_input(&data.sample(i));
+        let seq = n as u32;
+        let got = link.compensate(seq, &x).map_err(|e| link_err(&format!("sample {n} (data row {})", i + 2), e))?;
+        let want = reference.step(&widen(&x));
+        report.samples += 1;
+        if !got.flags.is_ok() {
+            report.flagged += 1;
+        }
+        for c in 0..N_OUTPUTS {
+            let dv = (f64::from(got.values[c]) - want.values[c]).abs();
+            if dv.is_finite() {
+                report.max_abs_diff[c] = report.max_abs_diff[c].max(dv);
+            }
+            let db = (f64::from(got.band[c]) - want.band95[c]).abs();
+            if db.is_finite() {
+                report.max_band_diff[c] = report.max_band_diff[c].max(db);
+            }
+        }
+        if let Some(why) = compare(&got, &want, tolerance) {
+            if got.flags != want.flags {
+                report.flag_mismatches += 1;
+            } else {
+                report.value_mismatches += 1;
+            }
+            if report.first_mismatches.len() < 10 {
+                report.first_mismatches.push(format!("sample {n} (data row {}): {why}", i + 2));
+            }
+        }
+    }
+    report.seconds = t0.elapsed().as_secs_f64();
+    report.max_diff_over_rmse = std::array::from_fn(|c| report.max_abs_diff[c] / holdout_rmse[c]);
+    if link.malformed_from_device() != 0 {
+        bail!("the device sent {} malformed frames", link.malformed_from_device());
+    }
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fbg_shared::Flags;
+
+    fn dev(values: [f32; 3], band: [f32; 3], flags: Flags) -> DeviceEstimate {
+        DeviceEstimate { seq: 0, values, band, flags }
+    }
+
+    #[test]
+    fn compare_applies_the_tolerance_nan_inf_and_flags() {
+        let host = Estimate { values: [1.0, 2.0, f64::NAN], band95: [0.5, f64::INFINITY, f64::INFINITY], flags: Flags::OK };
+        let tol = [0.01, 0.01, 0.01];
+        assert_eq!(compare(&dev([1.005, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol), None);
+        assert!(compare(&dev([1.02, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol).is_some());
+        assert!(compare(&dev([1.0, 2.0, 0.0], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol).is_some());
+        assert!(compare(&dev([1.0, 2.0, f32::NAN], [0.5, 1.0, f32::INFINITY], Flags::OK), &host, tol).is_some());
+        let flagged = dev([1.0, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OUT_OF_ENVELOPE);
+        assert!(compare(&flagged, &host, tol).unwrap().contains("flags"));
+    }
+}
