@@ -226,8 +226,9 @@ fn machine(root: &Path, peer: Option<&Value>, peer_err: Option<&anyhow::Error>, 
 /// The commit benchmarked, and the files that differed from it (others may be editing the
 /// same tree: the device part builds the firmware as it is on disk).
 fn git_state(root: &Path) -> Value {
+    // Only trailing whitespace goes: a porcelain line starts with its status columns.
     let out = |args: &[&str]| {
-        Command::new("git").args(args).current_dir(root).output().ok().map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string()).unwrap_or_default()
+        Command::new("git").args(args).current_dir(root).output().ok().map(|o| String::from_utf8_lossy(&o.stdout).trim_end().to_string()).unwrap_or_default()
     };
     let dirty: Vec<String> = out(&["status", "--porcelain", "--untracked-files=no"]).lines().map(|l| l.get(3..).unwrap_or(l).to_string()).collect();
     json!({"commit": out(&["rev-parse", "--short", "HEAD"]), "modified_files": dirty})
@@ -781,7 +782,7 @@ fn markdown(rep: &Value) -> String {
     } else {
         let _ = writeln!(
             s,
-            "{}. Models: the synthetic fixtures of `xtask/src/fixtures.rs` at each K. Lower bound: the arithmetic operations of one f32 `step` counted from the code ({} operations; table in `shared/src/lib.rs`), each at least one instruction.{}\n",
+            "{}. Models: the device bench's fixtures at each K (`xtask/src/fixtures.rs`). Lower bound: the arithmetic operations of one f32 `step` counted from the code ({} operations; table in `shared/src/lib.rs`), each at least one instruction.{}\n",
             dev["method"].as_str().unwrap_or(""),
             dev["arithmetic_lower_bound"]["formula"].as_str().unwrap_or(""),
             if dev["reused_existing_results"].as_bool() == Some(true) { " **Reused from an earlier run (--no-device).**" } else { "" }
