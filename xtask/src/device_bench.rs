@@ -65,6 +65,8 @@ pub struct StepBench {
     pub blob_bytes: u64,
     /// DWT cycles per step (0 under QEMU, which does not model cycles).
     pub cycles_per_step: f64,
+    /// Where the model comes from.
+    pub model_source: &'static str,
 }
 
 fn product_images(root: &Path) -> Result<qemu::Bins> {
@@ -176,7 +178,8 @@ fn bench_k(root: &Path, q: &Path, k: usize) -> Result<StepBench> {
     let d = fixtures::ensure_device(root)?;
     let b = d.bench.iter().find(|b| b.k == k).with_context(|| format!("no bench model for K = {k}"))?;
     let model = b.model.clone();
-    eprintln!("xtask: K = {k} model: {}", b.source);
+    let model_source = b.source;
+    eprintln!("xtask: K = {k} model: {model_source}");
     let fw = qemu::firmware_dir(root);
     crate::run(
         crate::cargo()
@@ -243,7 +246,7 @@ fn bench_k(root: &Path, q: &Path, k: usize) -> Result<StepBench> {
         "K = {k:>2}: {insns_per_step:>7.0} instructions per step ({:.0} / {:.0} over {n1} / {n2} steps; {ipt:.2} instructions per SysTick tick), stack peak {stack_peak} B, blob {blob_bytes} B",
         per_run[0].1, per_run[1].1
     );
-    Ok(StepBench { k, insns_per_tick: ipt, insns_per_step, per_run, stack_peak, blob_bytes, cycles_per_step })
+    Ok(StepBench { k, insns_per_tick: ipt, insns_per_step, per_run, stack_peak, blob_bytes, cycles_per_step, model_source })
 }
 
 /// `cargo xtask bench` (device part): step cost at K = 16, 32, 64 and the footprint; writes
@@ -276,8 +279,9 @@ fn to_json(steps: &[StepBench], size: &SizeReport) -> String {
     for (i, b) in steps.iter().enumerate() {
         let _ = write!(
             s,
-            "    {{\"k\": {}, \"instructions_per_step\": {:.1}, \"per_run\": [{}], \"instructions_per_systick_tick\": {:.4}, \"dwt_cycles_per_step\": {:.1}, \"stack_peak_bytes\": {}, \"blob_bytes\": {}}}{}",
+            "    {{\"k\": {}, \"model\": {:?}, \"instructions_per_step\": {:.1}, \"per_run\": [{}], \"instructions_per_systick_tick\": {:.4}, \"dwt_cycles_per_step\": {:.1}, \"stack_peak_bytes\": {}, \"blob_bytes\": {}}}{}",
             b.k,
+            b.model_source,
             b.insns_per_step,
             b.per_run.iter().map(|(n, v)| format!("{{\"n\": {n}, \"instructions_per_step\": {v:.1}}}")).collect::<Vec<_>>().join(", "),
             b.insns_per_tick,
