@@ -32,7 +32,8 @@ pub const HEADER_LEN: usize = 14;
 /// CRC trailer length in bytes.
 pub const CRC_LEN: usize = 4;
 
-static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
+/// CRC-32/ISCSI engine (also the link protocol's frame CRC: one table in the image).
+pub(crate) static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
 
 /// The fixed-size header of a blob.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -277,6 +277,26 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         Ok(())
     }
 
+    /// Whether max_j ψ_j < weak_support, decided from ‖ψ‖² when it can be: ψ_j ≥ 0, so
+    /// max ψ ≤ ‖ψ‖ (weak when ‖ψ‖² < w²) and max ψ ≥ ‖ψ‖/√n (not weak when ‖ψ‖² ≥ n·w², with
+    /// a margin for the rounding of the sum); otherwise ψ is computed again, identically, for
+    /// its maximum (rare: samples near the weak-support boundary).
+    #[inline(always)]
+    fn weak(&self, z: &[F; Z_DIMS], z_sq: F, psi_sq: F) -> bool {
+        let w = self.weak_support;
+        let w2 = w * w;
+        if psi_sq < w2 {
+            return true;
+        }
+        let n = F::from_f64(self.centres.len() as f64);
+        let margin = F::ONE + F::from_f64(1e-4);
+        if psi_sq > n * w2 * margin {
+            return false;
+        }
+        // All inputs: an unused one adds an exact zero (0 · 0), so ψ comes out identical.
+        psi_max_pass::<F, K, true, true>(&self.centres, z, z_sq) < w
+    }
+
     /// Number of RBF centres in use.
     pub fn n_centres(&self) -> usize {
         self.centres.len()
@@ -369,22 +389,16 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             *zi = x.mul_add(gn, of);
             z_sq = zi.mul_add(*zi, z_sq);
         }
-        let mut proj = [F::ZERO; VAR_RANK];
-        let mut psi_sq = F::ZERO;
-        let mut psi_max = F::ZERO;
-        for (j, c) in self.centres.iter().enumerate() {
-            let psi = rbf_activation(&z, z_sq, &c.m2, c.mu_sq);
-            sink(j, psi);
-            for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
-                *yi = w.mul_add(psi, *yi);
-            }
-            for (pi, &v) in proj.iter_mut().zip(c.v.iter()) {
-                *pi = v.mul_add(psi, *pi);
-            }
-            psi_sq = psi.mul_add(psi, psi_sq);
-            psi_max = psi_max.max(psi);
-        }
-        if !self.centres.is_empty() && psi_max < self.weak_support {
+        // The centre loop, specialised on the inputs the feature set uses (unused ones have
+        // zero weight in every centre, so skipping them is exact).
+        let acc = if !self.uses_time && self.uses_latch {
+            centre_pass::<F, K, false, true, true>(&self.centres, &z, z_sq, y, &mut sink)
+        } else {
+            centre_pass::<F, K, true, true, false>(&self.centres, &z, z_sq, y, &mut sink)
+        };
+        let (y2, proj, psi_sq) = acc;
+        let mut y = y2;
+        if !self.centres.is_empty() && self.weak(&z, z_sq, psi_sq) {
             flags.insert(Flags::WEAK_SUPPORT);
         }
 
@@ -416,6 +430,78 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         }
         Estimate { values: y, band95, flags }
     }
+}
+
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+fn centre_pass<F: Real, const K: usize, const TIME: bool, const LATCH: bool, const PAIRS: bool>(
+    centres: &Vec<PreparedCentre<F>, K>,
+    z: &[F; Z_DIMS],
+    z_sq: F,
+    mut y: [F; N_OUTPUTS],
+    sink: &mut impl FnMut(usize, F),
+) -> ([F; N_OUTPUTS], [F; VAR_RANK], F) {
+    let mut proj = [F::ZERO; VAR_RANK];
+    let mut psi_sq = F::ZERO;
+    let mut one = |j: usize, c: &PreparedCentre<F>, y: &mut [F; N_OUTPUTS], proj: &mut [F; VAR_RANK], psi_sq: &mut F| {
+        let psi = psi_of::<F, TIME, LATCH>(c, z, z_sq);
+        sink(j, psi);
+        for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
+            *yi = w.mul_add(psi, *yi);
+        }
+        for (pi, &v) in proj.iter_mut().zip(c.v.iter()) {
+            *pi = v.mul_add(psi, *pi);
+        }
+        *psi_sq = psi.mul_add(psi, *psi_sq);
+    };
+    // Two centres per iteration (same order of operations): half the loop overhead, for the
+    // default feature set only (the unrolled loop costs flash on the device).
+    if !PAIRS {
+        for (j, c) in centres.iter().enumerate() {
+            one(j, c, &mut y, &mut proj, &mut psi_sq);
+        }
+        return (y, proj, psi_sq);
+    }
+    let pairs = centres.chunks_exact(2);
+    let rest = pairs.remainder();
+    let mut j = 0;
+    for pair in pairs {
+        if let [a, b] = pair {
+            one(j, a, &mut y, &mut proj, &mut psi_sq);
+            one(j + 1, b, &mut y, &mut proj, &mut psi_sq);
+        }
+        j += 2;
+    }
+    for c in rest {
+        one(j, c, &mut y, &mut proj, &mut psi_sq);
+        j += 1;
+    }
+    (y, proj, psi_sq)
+}
+
+#[inline(always)]
+fn psi_of<F: Real, const TIME: bool, const LATCH: bool>(c: &PreparedCentre<F>, z: &[F; Z_DIMS], z_sq: F) -> F {
+    let mut d2 = z_sq + c.mu_sq;
+    for (i, (&zi, &mi)) in z.iter().zip(c.m2.iter()).enumerate() {
+        let used = if i == crate::layout::Z_TIME { TIME } else if i >= crate::layout::Z_LATCH { LATCH } else { true };
+        if used {
+            d2 = zi.mul_add(mi, d2);
+        }
+    }
+    d2.exp_neg()
+}
+
+#[inline(never)]
+fn psi_max_pass<F: Real, const K: usize, const TIME: bool, const LATCH: bool>(
+    centres: &Vec<PreparedCentre<F>, K>,
+    z: &[F; Z_DIMS],
+    z_sq: F,
+) -> F {
+    let mut m = F::ZERO;
+    for c in centres.iter() {
+        m = m.max(psi_of::<F, TIME, LATCH>(c, z, z_sq));
+    }
+    m
 }
 
 /// Gaussian RBF activation ψ = exp(−‖z − μ‖²) of inputs z and a centre μ already scaled by

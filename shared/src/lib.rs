@@ -16,8 +16,9 @@
 //! # Cost of one `step` (K centres, `Z_DIMS` = 8, `VAR_RANK` = 4)
 //!
 //! Floating-point operations of the current [`Compensator::step`] after load-time folding, in
-//! f32 as the device runs it (a multiply-add counts as one; every `Z_DIMS` input is visited,
-//! used or not):
+//! f32 as the device runs it, with the default (hysteresis-aware) feature set (a multiply-add
+//! counts as one; the centre loop skips the time input that set does not use, so the `paper`
+//! set costs one more multiply-add per centre):
 //!
 //! | part | operations | K = 32 |
 //! |---|---|---|
@@ -27,16 +28,16 @@
 //! | stage 1 (3 × 5, scalers folded) | 12 mul-add | 12 |
 //! | φ (6 products) + B (3 × 10) | 6 mul + 30 mul-add | 36 |
 //! | z scaling (8 inputs, σ folded) and ‖z‖² | 8 + 8 mul-add | 16 |
-//! | distance per centre, expanded: ‖z‖² + ‖μ‖² + z·(−2μ) | 1 add + 8 mul-add | 288 |
-//! | `exp(−d²)` per centre ([`real::exp_neg_f32`]) | 1 compare, 2 converts, 1 negate, 9 mul-add, 3 exponent-field ops | 512 |
-//! | Wψ (3), variance projections (4), ‖ψ‖² (1), max (1) per centre | 8 mul-add + 1 compare | 288 |
-//! | weak-support check, leverage (1 mul + 4 mul-add) | 6 | 6 |
+//! | distance per centre, expanded: ‖z‖² + ‖μ‖² + z·(−2μ) over the 7 used inputs | 1 add + 7 mul-add | 256 |
+//! | `exp(−d²)` per centre ([`real::exp_neg_f32`]: magic-number rounding, degree-5 polynomial) | 1 compare, 9 mul-add, 1 subtract, 1 negate, 2 exponent-field ops | 448 |
+//! | Wψ (3), variance projections (4), ‖ψ‖² (1) per centre | 8 mul-add | 256 |
+//! | weak support from ‖ψ‖² (2 products, 2 compares; a second ψ pass only near the threshold), leverage (1 mul + 4 mul-add) | 9 | 9 |
 //! | output finiteness, lead time, 3 bands (mul-add, add, mul, sqrt, mul) | 3 + 2 + 15 | 20 |
-//! | **total** | **34 K + 133** | **1 221** |
+//! | **total** | **30 K + 136** | **1 096** |
 //!
-//! (K = 16: 677; K = 64: 2 309.) Each centre also loads 16 words (−2μ, ‖μ‖², w, v). Each
-//! operation is at least one instruction on a Cortex-M4F, so the count is the arithmetic lower
-//! bound that the firmware's measured instructions per step are compared with
+//! (K = 16: 616; K = 64: 2 056.) Each centre also loads 15 words (−2μ without time, ‖μ‖², w,
+//! v). Each operation is at least one instruction on a Cortex-M4F, so the count is the
+//! arithmetic lower bound that the firmware's measured instructions per step are compared with
 //! (`cargo xtask bench`, `BENCHMARKS.md`).
 
 #![no_std]

@@ -39,10 +39,11 @@
 //! failure aborts the transfer, keeps the old model and answers with a [`Rejection`] whose
 //! [`RejectReason`] codes are stable across versions.
 
-use crc::{Crc, CRC_32_ISCSI};
 use postcard::accumulator::{CobsAccumulator, FeedResult};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
+// The blob's CRC engine: one CRC-32/ISCSI table in the image for blobs and frames.
+use crate::blob::CRC32 as FRAME_CRC;
 use crate::compensator::Sample;
 use crate::error::Error;
 use crate::flags::Flags;
@@ -59,8 +60,6 @@ pub const DEVICE_MAX_PAYLOAD: usize = 64;
 pub const HOST_MAX_FRAME: usize = 256;
 /// Receive buffer a host needs for one device frame, delimiter included.
 pub const DEVICE_MAX_FRAME: usize = 96;
-
-static FRAME_CRC: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
 
 /// CRC-32/ISCSI of `bytes`: the frame check and the whole-blob check of
 /// [`HostMsg::ModelBegin`] (the same flavour as the blob trailer).

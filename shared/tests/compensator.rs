@@ -194,6 +194,42 @@ fn far_sample_has_weak_support_and_a_wide_band() {
     }
 }
 
+/// The step decides weak support from ‖ψ‖² where it can and from max ψ near the threshold; the
+/// flag must equal `max_j ψ_j < weak_support` exactly, also at thresholds placed on (and one ulp
+/// around) the maxima that occur.
+#[test]
+fn weak_support_flag_is_exactly_max_psi_below_the_threshold() {
+    for fs in FeatureSet::ALL {
+        for seed in 20..24 {
+            let p = params(K, seed, fs);
+            let ss = stream(seed, 200);
+            let mut maxima = Vec::new();
+            let mut c = Compensator::<f32, K>::new(&p).unwrap();
+            for s in &ss {
+                let mut m = 0.0f32;
+                c.step_with(s, |_, psi| m = m.max(psi));
+                maxima.push(m);
+            }
+            let mut sorted = maxima.clone();
+            sorted.sort_by(f32::total_cmp);
+            let mut thresholds = Vec::new();
+            for q in [0, 10, 50, 100, 150, 199] {
+                let m = sorted[q];
+                thresholds.extend([m, f32::from_bits(m.to_bits() + 1), f32::from_bits(m.to_bits().saturating_sub(1))]);
+            }
+            for w in thresholds.into_iter().filter(|w| (0.0..=1.0).contains(w)) {
+                let mut q = p.clone();
+                q.hyper.weak_support = w;
+                let mut c = Compensator::<f32, K>::new(&q).unwrap();
+                for (s, &m) in ss.iter().zip(&maxima) {
+                    let e = c.step(s);
+                    assert_eq!(e.flags.contains(Flags::WEAK_SUPPORT), m < w, "{fs:?} seed {seed}: max ψ {m}, threshold {w}");
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn pure_polynomial_never_has_weak_support() {
     for fs in FeatureSet::ALL {

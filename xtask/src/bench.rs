@@ -314,15 +314,16 @@ fn device_part(root: &Path, opts: &Opts) -> Result<Value> {
 /// Arithmetic operations of one f32 `Compensator::step` with `k` centres, counted from the
 /// current code (the table in the `fbg-shared` crate docs): a multiply-add counts as one.
 pub fn step_ops(k: usize) -> usize {
-    let exp_neg = 16; // compare, 2 converts, negate, 9 multiply-adds, 3 exponent-field ops
-    let per_centre = (1 + Z_DIMS) + exp_neg + (N_OUTPUTS + VAR_RANK + 1) + 1;
+    let exp_neg = 14; // compare, 9 multiply-adds, subtract, negate, 2 exponent-field ops
+    // Distance over the inputs the default (hysteresis-aware) set uses: all but time.
+    let per_centre = (1 + Z_DIMS - 1) + exp_neg + (N_OUTPUTS + VAR_RANK + 1);
     let fixed = (N_GRATINGS + 2) // finiteness
         + N_GRATINGS * 10 // direction latches
         + 2 * N_ENVELOPE // envelope
         + N_OUTPUTS * (N_STAGE1 - 1) // stage 1
         + 6 + N_OUTPUTS * N_POLY // φ and B
         + 2 * Z_DIMS // z and ‖z‖²
-        + 2 + VAR_RANK // weak support, leverage
+        + 4 + 1 + VAR_RANK // weak support from ‖ψ‖² (2 compares, 2 products), leverage
         + N_OUTPUTS + 2 + 5 * N_OUTPUTS; // finiteness of y, lead time, bands
     fixed + per_centre * k
 }
