@@ -64,6 +64,8 @@ pub struct FitBench {
     /// Seconds of each fit, in run order.
     pub fit_seconds: Vec<f64>,
     pub fit_seconds_median: f64,
+    /// Median wall time of each phase of the fit [s], in order.
+    pub phase_seconds: Vec<(String, f64)>,
     pub chosen: Config,
     pub grid_points: usize,
     pub model_p: HoldoutFigures,
@@ -100,18 +102,32 @@ pub fn bench_fit(
         .build()
         .map_err(|e| TrainerError::fit(format!("thread pool: {e}")))?;
     let origin = Origin { scenario: "bench".into(), seed: 0 };
-    let (fit_seconds, tr) = pool.install(|| -> Result<_, TrainerError> {
+    let (fit_seconds, mut fits) = pool.install(|| -> Result<_, TrainerError> {
         let mut secs = Vec::with_capacity(repeats);
-        let mut last = None;
+        let mut fits = Vec::with_capacity(repeats);
         for _ in 0..repeats.max(1) {
             let t = Instant::now();
             let tr = fit::train(&d, opts, &origin)?;
             secs.push(t.elapsed().as_secs_f64());
-            last = Some(tr);
+            fits.push(tr);
         }
-        Ok((secs, last))
+        Ok((secs, fits))
     })?;
-    let tr = tr.ok_or_else(|| TrainerError::fit("no fit ran"))?;
+    // Median of each phase over the fits (every fit has the same phases, in order).
+    let phase_seconds = fits
+        .first()
+        .map(|f| {
+            f.phase_seconds
+                .iter()
+                .enumerate()
+                .map(|(k, &(name, _))| {
+                    let times: Vec<f64> = fits.iter().filter_map(|f| f.phase_seconds.get(k)).map(|p| p.1).collect();
+                    (name.to_string(), median(&times))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let tr = fits.pop().ok_or_else(|| TrainerError::fit("no fit ran"))?;
     let (ep, _) = evaluate_holdout(&tr.model_p, &d)?;
     let (eh, _) = evaluate_holdout(&tr.model_h, &d)?;
     Ok(FitBench {
@@ -122,6 +138,7 @@ pub fn bench_fit(
         read_seconds,
         fit_seconds_median: median(&fit_seconds),
         fit_seconds,
+        phase_seconds,
         chosen: tr.selection.chosen,
         grid_points: tr.selection.rows.len(),
         model_p: HoldoutFigures::of(&ep, export::blob_bytes(&tr.model_p)?.len()),

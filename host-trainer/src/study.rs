@@ -437,6 +437,7 @@ pub fn evaluate_models(
                 n_cal: h.provenance.n_cal as usize,
                 cv_stride: 1,
             },
+            phase_seconds: vec![],
         };
         let r = ablation(d, &trained, &opts, &origin)?;
         timings.push(("ablation".to_string(), t.elapsed().as_secs_f64()));

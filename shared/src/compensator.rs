@@ -307,6 +307,27 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.latches.reset();
     }
 
+    /// The stream state (the direction latches): with [`Compensator::set_stream_state`], a
+    /// stream can be checkpointed and resumed, e.g. to evaluate stretches of a long record in
+    /// parallel with exactly the answers of one sequential pass.
+    pub fn stream_state(&self) -> LatchBank {
+        self.latches
+    }
+
+    /// Resume from a state taken by [`Compensator::stream_state`] (of a compensator with the
+    /// same dead band, at the sample before the one to be compensated next).
+    pub fn set_stream_state(&mut self, state: LatchBank) {
+        self.latches = state;
+    }
+
+    /// Whether `other` moves its stream state exactly as this one does on every sample (same
+    /// dead band, same rule for which samples are finite), so that a state taken from one can
+    /// resume the other.
+    pub fn same_stream<const K2: usize>(&self, other: &Compensator<F, K2>) -> bool {
+        self.dead_band == other.dead_band
+            && (self.uses_time || self.band_grows) == (other.uses_time || other.band_grows)
+    }
+
     /// Current direction-latch values (−1, 0, +1 per grating).
     pub fn latch_values(&self) -> [F; N_GRATINGS] {
         self.latches.values()

@@ -3,21 +3,81 @@
 //! (one decomposition serves every α of the cross-validation grid and the predictive variance).
 
 use nalgebra::{DMatrix, SymmetricEigen};
+use rayon::prelude::*;
 
 use crate::error::TrainerError;
+
+/// Rows per block of the tall-skinny QR.
+const TSQR_BLOCK: usize = 8192;
 
 /// Solve min ‖X·B − Y‖ by Householder QR of X (n × p, n ≥ p) and an SVD of the p × p factor R,
 /// so that a rank-deficient design is reported rather than silently amplified.
 /// Returns B (p × m).
+///
+/// Tall systems are factored as a tall-skinny QR: each block of [`TSQR_BLOCK`] rows of the
+/// augmented [X | Y] is reduced to its triangular factor in parallel, and the stacked factors
+/// are reduced once more. That is a Householder QR of the whole system (R and QᵀY are the same
+/// up to the signs of R's rows), with fixed blocks so the result does not depend on the number
+/// of threads.
 pub fn lstsq(x: DMatrix<f64>, y: DMatrix<f64>, what: &str) -> Result<DMatrix<f64>, TrainerError> {
-    let (n, p) = x.shape();
+    let (p, m) = (x.ncols(), y.ncols());
+    lstsq_rows(x.nrows(), p, m, what, |i, row| {
+        for (c, v) in row.iter_mut().enumerate() {
+            *v = if c < p { x[(i, c)] } else { y[(i, c - p)] };
+        }
+    })
+}
+
+/// [`lstsq`] for a system given row by row: `row(i, buf)` writes the p regressors of row i
+/// followed by its m targets into `buf` (length p + m). Nothing n-sized is held.
+pub fn lstsq_rows(
+    n: usize,
+    p: usize,
+    m: usize,
+    what: &str,
+    row: impl Fn(usize, &mut [f64]) + Sync,
+) -> Result<DMatrix<f64>, TrainerError> {
     if n < p {
         return Err(TrainerError::fit(format!("{what}: {n} samples for {p} unknowns")));
     }
-    // Equilibrate columns so that the rank test is scale-free.
+    let q = p + m;
+    // The triangular factor of one block of rows of [X | Y], as its top min(rows, q) rows.
+    let reduce = |rows: std::ops::Range<usize>| -> DMatrix<f64> {
+        let mut a = DMatrix::zeros(rows.len(), q);
+        let mut buf = vec![0.0; q];
+        for (r, i) in rows.enumerate() {
+            row(i, &mut buf);
+            for (c, &v) in buf.iter().enumerate() {
+                a[(r, c)] = v;
+            }
+        }
+        triangular_factor(a)
+    };
+    let blocks: Vec<std::ops::Range<usize>> =
+        (0..n.div_ceil(TSQR_BLOCK)).map(|b| b * TSQR_BLOCK..((b + 1) * TSQR_BLOCK).min(n)).collect();
+    let r_aug = if blocks.len() <= 1 {
+        reduce(0..n)
+    } else {
+        let parts: Vec<DMatrix<f64>> = blocks.into_par_iter().map(reduce).collect();
+        let total: usize = parts.iter().map(|r| r.nrows()).sum();
+        let mut stacked = DMatrix::zeros(total, q);
+        let mut r0 = 0;
+        for part in &parts {
+            stacked.rows_mut(r0, part.nrows()).copy_from(part);
+            r0 += part.nrows();
+        }
+        triangular_factor(stacked)
+    };
+    if r_aug.nrows() < p {
+        return Err(TrainerError::fit(format!("{what}: {n} samples for {p} unknowns")));
+    }
+    let r = r_aug.view((0, 0), (p, p)).into_owned();
+    let qty = r_aug.view((0, p), (p, m)).into_owned();
+    // Equilibrate columns so that the rank test is scale-free: the columns of R have the norms
+    // of the columns of X (Q is orthogonal).
     let scale: Vec<f64> = (0..p)
         .map(|j| {
-            let c = x.column(j).norm();
+            let c = r.column(j).norm();
             if c > 0.0 {
                 c
             } else {
@@ -25,16 +85,11 @@ pub fn lstsq(x: DMatrix<f64>, y: DMatrix<f64>, what: &str) -> Result<DMatrix<f64
             }
         })
         .collect();
-    let mut xs = x;
+    let mut rs = r;
     for (j, s) in scale.iter().enumerate() {
-        xs.column_mut(j).scale_mut(1.0 / s);
+        rs.column_mut(j).scale_mut(1.0 / s);
     }
-    let qr = xs.qr();
-    let mut qty = y;
-    qr.q_tr_mul(&mut qty);
-    let r = qr.r();
-    let qty = qty.rows(0, p).into_owned();
-    let svd = r.svd(true, true);
+    let svd = rs.svd(true, true);
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
     if !(smin > smax * 1e-10) {
@@ -52,6 +107,13 @@ pub fn lstsq(x: DMatrix<f64>, y: DMatrix<f64>, what: &str) -> Result<DMatrix<f64
     Ok(b)
 }
 
+/// The upper-triangular Householder factor of `a` (rows × q), as its top min(rows, q) rows.
+fn triangular_factor(a: DMatrix<f64>) -> DMatrix<f64> {
+    let k = a.nrows().min(a.ncols());
+    let r = a.qr().r();
+    r.rows(0, k).into_owned()
+}
+
 /// The ridge system of paper Eq. 7 in eigen form: G = ΨᵀΨ = V Λ Vᵀ and Ψᵀ R, so that
 /// W(α) = V (Λ + αI)⁻¹ Vᵀ ΨᵀR costs O(K²) per α.
 pub struct RidgeSystem {
@@ -64,10 +126,14 @@ pub struct RidgeSystem {
 impl RidgeSystem {
     /// Build from the design Ψ (n × K) and residual targets R (n × m).
     pub fn new(psi: &DMatrix<f64>, r: &DMatrix<f64>) -> Self {
-        let g = psi.tr_mul(psi);
+        Self::from_gram(psi.tr_mul(psi), &psi.tr_mul(r), psi.nrows())
+    }
+
+    /// Build from G = ΨᵀΨ (K × K), ΨᵀR (K × m) and the number of rows they sum.
+    pub fn from_gram(g: DMatrix<f64>, psi_r: &DMatrix<f64>, n: usize) -> Self {
         let eigen = SymmetricEigen::new(g);
-        let vt_psi_r = eigen.eigenvectors.tr_mul(&psi.tr_mul(r));
-        RidgeSystem { eigen, vt_psi_r, n: psi.nrows() }
+        let vt_psi_r = eigen.eigenvectors.tr_mul(psi_r);
+        RidgeSystem { eigen, vt_psi_r, n }
     }
 
     /// Ridge weights W (K × m) for penalty `alpha` (the α of Eq. 7, in ΨᵀΨ units).
@@ -107,6 +173,23 @@ mod tests {
         let y = &x * &b_true;
         let b = lstsq(x, y, "test").unwrap();
         assert!((b - b_true).amax() < 1e-8);
+    }
+
+    #[test]
+    fn tall_lstsq_matches_the_single_block_solution() {
+        // Several TSQR blocks (and a ragged last one) against the normal equations on a
+        // well-conditioned system.
+        let n = 3 * TSQR_BLOCK + 123;
+        let x = DMatrix::from_fn(n, 4, |i, j| match j {
+            0 => 1.0,
+            1 => (i as f64 * 0.001).sin() * 50.0,
+            2 => ((i * 7919) % 1000) as f64 * 0.01,
+            _ => (i as f64 * 0.0003).cos(),
+        });
+        let y = DMatrix::from_fn(n, 2, |i, j| (i as f64 * 0.013 + j as f64).sin() + x[(i, 1)] * 0.3);
+        let b = lstsq(x.clone(), y.clone(), "tall").unwrap();
+        let direct = (x.tr_mul(&x)).cholesky().unwrap().solve(&x.tr_mul(&y));
+        assert!((&b - &direct).amax() < 1e-9 * direct.amax(), "{b} vs {direct}");
     }
 
     #[test]

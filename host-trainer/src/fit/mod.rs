@@ -5,6 +5,7 @@
 //! in f32: the trainer never implements inference a second time. The design matrix Ψ is
 //! collected from that code too (`Compensator::step_with`).
 
+pub mod design;
 pub mod kmeans;
 pub mod linalg;
 pub mod poly_core;
@@ -20,6 +21,7 @@ use fbg_shared::{Centre, Compensator, Estimate, Hyper, ModelParams, Provenance};
 use crate::dataset::Dataset;
 use crate::error::TrainerError;
 use crate::rng::{Rng, Stream};
+pub use design::{design_matrix, run, CheckpointCache, Checkpoints, Gram};
 pub use poly_core::PolyCore;
 pub use select::{Selection, TrainOptions, VarModel};
 
@@ -60,61 +62,66 @@ pub struct Origin {
     pub seed: u64,
 }
 
-/// The RBF inputs of every sample for one dead band: [Δλ1..3, T_amb, t, latch1..3].
-pub fn z_rows(d: &Dataset, dead_band_pm: f64) -> Vec<[f64; Z_DIMS]> {
-    let mut bank = fbg_shared::LatchBank::new();
-    let db = fbg_shared::ticks(dead_band_pm);
-    (0..d.len())
-        .map(|i| {
-            let s = d.sample(i);
-            let l: [f64; 3] = bank.update(&s.dl_pm, db);
-            [s.dl_pm[0], s.dl_pm[1], s.dl_pm[2], s.t_amb_c, s.t_s, l[0], l[1], l[2]]
-        })
-        .collect()
+/// The RBF inputs [Δλ1..3, T_amb, t, latch1..3] of sample `i` with its latch values.
+pub fn z_of(d: &Dataset, i: usize, latch: [f64; 3]) -> [f64; Z_DIMS] {
+    [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.t_amb_c[i], d.t_s[i], latch[0], latch[1], latch[2]]
 }
 
-/// Mean and standard deviation of each RBF input over `idx` (0 / 1 on unused dimensions and
-/// 1 where an input is constant).
-pub fn z_stats(z: &[[f64; Z_DIMS]], idx: &[usize], fs: FeatureSet) -> ([f64; Z_DIMS], [f64; Z_DIMS]) {
-    let active = fs.active();
-    let mut mean = [0.0; Z_DIMS];
-    let mut std = [1.0; Z_DIMS];
-    for d in 0..Z_DIMS {
-        if !active[d] {
-            continue;
+/// What the RBF layer learns from a training set before any centre exists: the mean and
+/// standard deviation of every RBF input over the training rows, and the raw inputs of the
+/// rows k-means clusters (every `stride`-th training row, at most [`KMEANS_MAX_POINTS`]).
+#[derive(Clone, Debug)]
+pub struct ZSample {
+    pub mean: [f64; Z_DIMS],
+    /// Population standard deviation (1 where an input is constant).
+    pub std: [f64; Z_DIMS],
+    pub points: Vec<[f64; Z_DIMS]>,
+}
+
+/// [`ZSample`] of the training rows `train` (sorted), the latches moved by `stream` (a model
+/// with the dead band in question) over every sample from the first, exactly as the
+/// compensator moves them.
+pub fn z_sample(stream: &HostParams, d: &Dataset, train: &[usize], ck: Option<&Checkpoints>) -> Result<ZSample, TrainerError> {
+    let stride = train.len().div_ceil(KMEANS_MAX_POINTS).max(1);
+    // Per stretch: count, mean and sum of squared deviations (combined below in stretch order
+    // by Chan's formula), and the k-means points.
+    type Part = (f64, [f64; Z_DIMS], [f64; Z_DIMS], Vec<[f64; Z_DIMS]>);
+    let parts: Vec<Part> = design::map_stretches(stream, d, train, ck, |o| {
+        let p0 = train.partition_point(|&i| i < o.rows[0]);
+        let zs: Vec<[f64; Z_DIMS]> = o.rows.iter().zip(o.latches).map(|(&i, &l)| z_of(d, i, l)).collect();
+        let n = zs.len() as f64;
+        let mean: [f64; Z_DIMS] = std::array::from_fn(|k| zs.iter().map(|z| z[k]).sum::<f64>() / n);
+        let m2: [f64; Z_DIMS] = std::array::from_fn(|k| zs.iter().map(|z| (z[k] - mean[k]).powi(2)).sum::<f64>());
+        let pts = zs.iter().enumerate().filter(|(r, _)| (p0 + r) % stride == 0).map(|(_, z)| *z).collect();
+        (n, mean, m2, pts)
+    })?;
+    let (mut n, mut mean, mut m2) = (0.0f64, [0.0; Z_DIMS], [0.0; Z_DIMS]);
+    let mut points = Vec::new();
+    for (nb, mb, m2b, pts) in parts {
+        let tot = n + nb;
+        for k in 0..Z_DIMS {
+            let delta = mb[k] - mean[k];
+            mean[k] += delta * nb / tot;
+            m2[k] += m2b[k] + delta * delta * n * nb / tot;
         }
-        let m = idx.iter().map(|&i| z[i][d]).sum::<f64>() / idx.len() as f64;
-        let v = idx.iter().map(|&i| (z[i][d] - m).powi(2)).sum::<f64>() / idx.len() as f64;
-        mean[d] = m;
-        std[d] = if v > 0.0 { v.sqrt() } else { 1.0 };
+        n = tot;
+        points.extend(pts);
     }
-    (mean, std)
+    let std = std::array::from_fn(|k| if m2[k] > 0.0 { (m2[k] / n).sqrt() } else { 1.0 });
+    Ok(ZSample { mean, std, points })
 }
 
-/// Centres by k-means++ over the standardised inputs of `idx`, seeded.
-pub fn centres(
-    z: &[[f64; Z_DIMS]],
-    idx: &[usize],
-    fs: FeatureSet,
-    mean: &[f64; Z_DIMS],
-    std: &[f64; Z_DIMS],
-    k: usize,
-    seed: u64,
-) -> Vec<[f64; Z_DIMS]> {
+/// Centres by k-means++ (seeded) over the standardised k-means points of `zs`, on the inputs
+/// the feature set uses.
+pub fn centres(zs: &ZSample, fs: FeatureSet, k: usize, seed: u64) -> Vec<[f64; Z_DIMS]> {
     let active = fs.active();
-    let stride = idx.len().div_ceil(KMEANS_MAX_POINTS).max(1);
-    let pts: Vec<Vec<f64>> = idx
+    let pts: Vec<[f64; Z_DIMS]> = zs
+        .points
         .iter()
-        .step_by(stride)
-        .map(|&i| {
-            (0..Z_DIMS).map(|d| if active[d] { (z[i][d] - mean[d]) / std[d] } else { 0.0 }).collect()
-        })
+        .map(|z| std::array::from_fn(|d| if active[d] { (z[d] - zs.mean[d]) / zs.std[d] } else { 0.0 }))
         .collect();
     let mut rng = Rng::new(seed ^ (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15), Stream::Kmeans);
     kmeans::kmeans_pp(&pts, k.min(pts.len()), &mut rng, 100)
-        .into_iter()
-        .map(|c| std::array::from_fn(|d| c[d]))
-        .collect()
 }
 
 /// Median distance from each centre to its nearest other centre (standardised units).
@@ -146,14 +153,29 @@ pub fn median_nn_distance(cs: &[[f64; Z_DIMS]]) -> f64 {
 /// outwards to f32 so that host and device compare against the same bounds.
 pub fn envelope(d: &Dataset, idx: &[usize]) -> ([f64; N_ENVELOPE], [f64; N_ENVELOPE]) {
     let cols: [&[f64]; N_ENVELOPE] = [&d.dl_pm[0], &d.dl_pm[1], &d.dl_pm[2], &d.t_amb_c];
+    let (mn, mx) = idx
+        .par_chunks(16_384)
+        .map(|ch| {
+            let mut mn = [f64::INFINITY; N_ENVELOPE];
+            let mut mx = [f64::NEG_INFINITY; N_ENVELOPE];
+            for &i in ch {
+                for (c, col) in cols.iter().enumerate() {
+                    mn[c] = mn[c].min(col[i]);
+                    mx[c] = mx[c].max(col[i]);
+                }
+            }
+            (mn, mx)
+        })
+        .reduce(
+            || ([f64::INFINITY; N_ENVELOPE], [f64::NEG_INFINITY; N_ENVELOPE]),
+            |a, b| (std::array::from_fn(|c| a.0[c].min(b.0[c])), std::array::from_fn(|c| a.1[c].max(b.1[c]))),
+        );
     let mut lo = [0.0; N_ENVELOPE];
     let mut hi = [0.0; N_ENVELOPE];
-    for (c, col) in cols.iter().enumerate() {
-        let mn = idx.iter().map(|&i| col[i]).fold(f64::INFINITY, f64::min);
-        let mx = idx.iter().map(|&i| col[i]).fold(f64::NEG_INFINITY, f64::max);
-        let m = ENVELOPE_MARGIN * (mx - mn);
-        lo[c] = f32_down(mn - m);
-        hi[c] = f32_up(mx + m);
+    for c in 0..N_ENVELOPE {
+        let m = ENVELOPE_MARGIN * (mx[c] - mn[c]);
+        lo[c] = f32_down(mn[c] - m);
+        hi[c] = f32_up(mx[c] + m);
     }
     (lo, hi)
 }
@@ -281,61 +303,12 @@ impl VarianceTerms {
     }
 }
 
-/// Run `params` over samples `0..end` of `d` in time order (the latches need the whole
-/// history) and return the estimates at `want` (sorted ascending, all < end).
-pub fn run(params: &HostParams, d: &Dataset, want: &[usize]) -> Result<Vec<Estimate<f64>>, TrainerError> {
-    let mut comp = HostCompensator::new(params).map_err(|e| TrainerError::fit(e.to_string()))?;
-    let end = want.last().map(|&i| i + 1).unwrap_or(0);
-    let mut out = Vec::with_capacity(want.len());
-    let mut w = want.iter().peekable();
-    for i in 0..end {
-        if w.peek() == Some(&&i) {
-            out.push(comp.step(&d.sample(i)));
-            w.next();
-        } else {
-            // Only the stream state matters for samples nobody asked about.
-            comp.advance(&d.sample(i));
-        }
-    }
-    Ok(out)
-}
-
-/// Run `params` over `0..end` collecting the RBF activations at `rows` (sorted) into an
-/// `rows.len() × K` matrix, plus the estimates there.
-pub fn design_matrix(
-    params: &HostParams,
-    d: &Dataset,
-    rows: &[usize],
-) -> Result<(DMatrix<f64>, Vec<Estimate<f64>>), TrainerError> {
-    let k = params.centres.len();
-    let mut comp = HostCompensator::new(params).map_err(|e| TrainerError::fit(e.to_string()))?;
-    let mut psi = DMatrix::zeros(rows.len(), k);
-    let mut est = Vec::with_capacity(rows.len());
-    let end = rows.last().map(|&i| i + 1).unwrap_or(0);
-    let mut r = 0usize;
-    for i in 0..end {
-        let take = rows.get(r) == Some(&i);
-        if take {
-            est.push(comp.step_with(&d.sample(i), |j, v| psi[(r, j)] = v));
-            r += 1;
-        } else {
-            comp.advance(&d.sample(i));
-        }
-    }
-    Ok((psi, est))
-}
-
 /// Build the skeleton of a model for `cfg` on the training samples `train`.
-pub fn skeleton(
-    d: &Dataset,
-    train: &[usize],
-    core: &PolyCore,
-    z: &[[f64; Z_DIMS]],
-    cfg: &Config,
-    seed: u64,
-) -> Skeleton {
-    let (z_mean, z_std) = z_stats(z, train, cfg.feature_set);
-    let cs = centres(z, train, cfg.feature_set, &z_mean, &z_std, cfg.k, seed);
+pub fn skeleton(d: &Dataset, train: &[usize], core: &PolyCore, zs: &ZSample, cfg: &Config, seed: u64) -> Skeleton {
+    let active = cfg.feature_set.active();
+    let z_mean = std::array::from_fn(|k| if active[k] { zs.mean[k] } else { 0.0 });
+    let z_std = std::array::from_fn(|k| if active[k] { zs.std[k] } else { 1.0 });
+    let cs = centres(zs, cfg.feature_set, cfg.k, seed);
     let nn = median_nn_distance(&cs);
     Skeleton {
         core: core.clone(),
@@ -354,21 +327,19 @@ pub fn skeleton(
 /// Residual targets R = y − Model-P(x) on `rows` (n × 3), with the Model-P estimates (0 for
 /// an output without reference, so that its residual weights stay 0).
 pub fn residual_targets(d: &Dataset, rows: &[usize], p_est: &[Estimate<f64>]) -> DMatrix<f64> {
-    DMatrix::from_fn(rows.len(), N_OUTPUTS, |r, c| {
-        if d.has_target[c] { d.target(c)[rows[r]] - p_est[r].values[c] } else { 0.0 }
-    })
+    DMatrix::from_fn(rows.len(), N_OUTPUTS, |r, c| design::residual(d, rows[r], c, &p_est[r]))
 }
 
 /// Weak-support threshold: half the 0.1 % quantile of max ψ over the calibration samples,
 /// clamped to [1e-6, 0.1], so that essentially no calibration sample is flagged and a
 /// sample less supported than 99.9 % of them is.
-pub fn weak_support_threshold(psi: &DMatrix<f64>) -> f64 {
-    if psi.ncols() == 0 || psi.nrows() == 0 {
+pub fn weak_support_threshold(max_psi: &[f64]) -> f64 {
+    if max_psi.is_empty() {
         return 0.0;
     }
-    let mut mx: Vec<f64> = psi.row_iter().map(|r| r.max()).collect();
-    mx.sort_by(f64::total_cmp);
-    let q = mx[(mx.len() as f64 * 0.001) as usize];
+    let mut mx = max_psi.to_vec();
+    let at = (mx.len() as f64 * 0.001) as usize;
+    let (_, &mut q, _) = mx.select_nth_unstable_by(at, f64::total_cmp);
     (0.5 * q).clamp(1e-6, 0.1)
 }
 
@@ -379,6 +350,8 @@ pub struct Trained {
     pub model_h: HostParams,
     pub core: PolyCore,
     pub selection: Selection,
+    /// Wall time of each phase of the fit [s], in order (empty when not fitted here).
+    pub phase_seconds: Vec<(&'static str, f64)>,
 }
 
 /// Fit Model-P and Model-H on the calibration samples of `d`.
@@ -393,30 +366,69 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
             ),
         });
     }
+    let mut phases = PhaseClock::start();
     let selection = select::select(d, &cal, opts)?;
+    phases.lap("cross-validation");
     let cfg = selection.chosen;
     let provenance = provenance(origin, cal.len());
 
     // Final fit on the whole calibration batch.
     let core = poly_core::fit(d, &cal, cfg.cross_terms)?;
     let core_p = if cfg.cross_terms { core.clone() } else { poly_core::fit(d, &cal, true)? };
-    let z = z_rows(d, cfg.dead_band_pm);
-    let sk = skeleton(d, &cal, &core, &z, &cfg, opts.seed);
+    phases.lap("polynomial core");
+    // The latch stream of the chosen dead band, once for the RBF inputs and the design.
+    let stream = Skeleton {
+        core: core.clone(),
+        feature_set: cfg.feature_set,
+        dead_band_pm: cfg.dead_band_pm,
+        z_mean: [0.0; Z_DIMS],
+        z_std: [1.0; Z_DIMS],
+        centres: vec![],
+        sigma_mult: 1.0,
+        sigma: 1.0,
+        envelope: envelope(d, &cal),
+        fitted: d.has_target,
+    }
+    .params(None, 0.0, None, [0.0; 3], 0.0, &provenance)?;
+    let end = cal.last().map(|&i| i + 1).unwrap_or(0);
+    let ck = Checkpoints::new(&stream, d, end, &[])?;
+    let zs = z_sample(&stream, d, &cal, Some(&ck))?;
+    let sk = skeleton(d, &cal, &core, &zs, &cfg, opts.seed);
+    phases.lap("RBF inputs and centres");
     let base = sk.params(None, 0.0, None, [0.0; 3], 0.0, &provenance)?;
-    let (psi, p_est) = design_matrix(&base, d, &cal)?;
-    let r = residual_targets(d, &cal, &p_est);
-    let sys = linalg::RidgeSystem::new(&psi, &r);
+    let gram = design::gram(&base, d, &cal, Some(&ck))?;
+    phases.lap("RBF design and ridge");
+    let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r, gram.n);
     let alpha = cfg.alpha_rel * cal.len() as f64;
     let w = sys.weights(alpha);
     let var = VarianceTerms::from_ridge(&sys, alpha);
-    let thr = weak_support_threshold(&psi);
+    let thr = if sk.centres.is_empty() { 0.0 } else { weak_support_threshold(&gram.max_psi) };
     let t_end = cal.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
     let model_h =
         sk.params_with_band(Some(&w), alpha, Some(&var), selection.var_model_h, t_end, thr, &provenance)?;
 
     let sk_p = Skeleton { core: core_p.clone(), centres: vec![], ..sk };
     let model_p = sk_p.params_with_band(None, 0.0, None, selection.var_model_p, t_end, 0.0, &provenance)?;
-    Ok(Trained { model_p, model_h, core: core_p, selection })
+    phases.lap("assembly");
+    Ok(Trained { model_p, model_h, core: core_p, selection, phase_seconds: phases.laps })
+}
+
+/// Wall time per phase.
+struct PhaseClock {
+    last: std::time::Instant,
+    laps: Vec<(&'static str, f64)>,
+}
+
+impl PhaseClock {
+    fn start() -> Self {
+        PhaseClock { last: std::time::Instant::now(), laps: Vec::new() }
+    }
+    /// Close the phase that ran since the last lap.
+    fn lap(&mut self, what: &'static str) {
+        let now = std::time::Instant::now();
+        self.laps.push((what, (now - self.last).as_secs_f64()));
+        self.last = now;
+    }
 }
 
 fn provenance(origin: &Origin, n_cal: usize) -> Provenance {

@@ -2,13 +2,13 @@
 //! first guesses of (T, ε, p); stage 2, the ten-term polynomial φ on the standardised guesses,
 //! fitted by least squares.
 
-use nalgebra::DMatrix;
-
 use fbg_shared::layout::{N_OUTPUTS, N_POLY, N_STAGE1};
 
 use crate::dataset::Dataset;
 use crate::error::TrainerError;
-use crate::fit::linalg::lstsq;
+use rayon::prelude::*;
+
+use crate::fit::linalg::lstsq_rows;
 
 /// A fitted polynomial core.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -39,21 +39,50 @@ fn stage1_row(d: &Dataset, i: usize) -> [f64; N_STAGE1] {
     [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.t_amb_c[i], 1.0]
 }
 
+/// The references (T, ε, p) of sample `i`; an output without reference reads 0, which keeps
+/// the algebra square and gives it zero coefficients.
+fn targets(d: &Dataset, i: usize) -> [f64; N_OUTPUTS] {
+    std::array::from_fn(|c| if d.has_target[c] { d.target(c)[i] } else { 0.0 })
+}
+
 /// Fit Model-P on the samples `idx` of `d`.
 pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, TrainerError> {
     let n = idx.len();
-    let x = DMatrix::from_fn(n, N_STAGE1, |r, c| stage1_row(d, idx[r])[c]);
-    // An output without reference is not fitted: a zero target keeps the algebra square and
-    // gives it zero coefficients.
-    let y = DMatrix::from_fn(n, N_OUTPUTS, |r, c| if d.has_target[c] { d.target(c)[idx[r]] } else { 0.0 });
-    let a = lstsq(x.clone(), y.clone(), "Model-P stage 1 (linear inverse)")?;
-    let guesses = &x * &a; // n × 3
+    let a = lstsq_rows(n, N_STAGE1, N_OUTPUTS, "Model-P stage 1 (linear inverse)", |r, buf| {
+        let i = idx[r];
+        buf[..N_STAGE1].copy_from_slice(&stage1_row(d, i));
+        buf[N_STAGE1..].copy_from_slice(&targets(d, i));
+    })?;
     let mut stage1 = [[0.0; N_STAGE1]; N_OUTPUTS];
     for (o, row) in stage1.iter_mut().enumerate() {
         for (k, v) in row.iter_mut().enumerate() {
             *v = a[(k, o)];
         }
     }
+    let guess = |i: usize| -> [f64; N_OUTPUTS] {
+        let x = stage1_row(d, i);
+        std::array::from_fn(|o| x.iter().zip(&stage1[o]).map(|(x, a)| x * a).sum())
+    };
+    // Mean and standard deviation of the first guesses (two passes, in parallel blocks summed
+    // in order).
+    let sums = |f: &(dyn Fn([f64; N_OUTPUTS]) -> [f64; N_OUTPUTS] + Sync)| -> [f64; N_OUTPUTS] {
+        let parts: Vec<[f64; N_OUTPUTS]> = idx
+            .par_chunks(8192)
+            .map(|ch| {
+                let mut s = [0.0; N_OUTPUTS];
+                for &i in ch {
+                    let v = f(guess(i));
+                    for o in 0..N_OUTPUTS {
+                        s[o] += v[o];
+                    }
+                }
+                s
+            })
+            .collect();
+        parts.iter().fold([0.0; N_OUTPUTS], |a, b| std::array::from_fn(|o| a[o] + b[o]))
+    };
+    let mean_all = sums(&|g| g).map(|s| s / n as f64);
+    let var_all = sums(&|g| std::array::from_fn(|o| (g[o] - mean_all[o]) * (g[o] - mean_all[o])));
     let mut guess_mean = [0.0; N_OUTPUTS];
     let mut guess_std = [0.0; N_OUTPUTS];
     for o in 0..N_OUTPUTS {
@@ -62,15 +91,13 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
             guess_std[o] = 1.0;
             continue;
         }
-        let col = guesses.column(o);
-        let m = col.mean();
-        let s = (col.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / n as f64).sqrt();
+        let s = (var_all[o] / n as f64).sqrt();
         if !(s > 0.0) {
             return Err(TrainerError::fit(format!(
                 "Model-P: the first guess of output {o} does not vary over the calibration data"
             )));
         }
-        guess_mean[o] = m;
+        guess_mean[o] = mean_all[o];
         guess_std[o] = s;
     }
     // Terms of φ that the data can support: within the ablation's linear set if asked, and
@@ -78,11 +105,17 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
     let terms: Vec<usize> = (0..N_POLY)
         .filter(|&k| (cross_terms || k < 4) && TERM_USES[k].iter().all(|&o| d.has_target[o]))
         .collect();
-    let phis = DMatrix::from_fn(n, terms.len(), |r, c| {
-        let g = std::array::from_fn(|o| (guesses[(r, o)] - guess_mean[o]) / guess_std[o]);
-        phi(g, cross_terms)[terms[c]]
-    });
-    let b = lstsq(phis, y, "Model-P stage 2 (polynomial core)")?;
+    let nt = terms.len();
+    let b = lstsq_rows(n, nt, N_OUTPUTS, "Model-P stage 2 (polynomial core)", |r, buf| {
+        let i = idx[r];
+        let g = guess(i);
+        let u = std::array::from_fn(|o| (g[o] - guess_mean[o]) / guess_std[o]);
+        let ph = phi(u, cross_terms);
+        for (v, &k) in buf.iter_mut().zip(&terms) {
+            *v = ph[k];
+        }
+        buf[nt..].copy_from_slice(&targets(d, i));
+    })?;
     let mut poly = [[0.0; N_POLY]; N_OUTPUTS];
     for (o, row) in poly.iter_mut().enumerate() {
         for (c, &k) in terms.iter().enumerate() {

@@ -18,10 +18,10 @@ use std::collections::HashMap;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
+use fbg_shared::layout::{FeatureSet, N_OUTPUTS, Z_DIMS};
 use fbg_shared::Provenance;
 
-use super::{design_matrix, linalg, poly_core, residual_targets, run, skeleton, z_rows, Config};
+use super::{design, linalg, poly_core, residual_targets, skeleton, z_sample, CheckpointCache, Config, HostParams, ZSample};
 use crate::dataset::Dataset;
 use crate::error::TrainerError;
 
@@ -206,6 +206,17 @@ fn key(c: &Config) -> (u8, u64, usize, u64, u64) {
     (c.feature_set.code(), c.dead_band_pm.to_bits(), c.k, c.sigma_mult.to_bits(), c.alpha_rel.to_bits())
 }
 
+/// One fold's Model-P and what the RBF layer needs of its training rows.
+struct FoldCore {
+    core: poly_core::PolyCore,
+    /// Model-P's stream-only model (no centres) per dead band, for checkpoints and z.
+    t_end: f64,
+}
+
+/// Validation residuals of one configuration on one fold: per output the squared errors of
+/// every validation sample.
+type FoldErrors = [Vec<f64>; N_OUTPUTS];
+
 /// Run the cross-validation and pick the best configuration.
 pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selection, TrainerError> {
     if opts.blocks < 2 || opts.min_train_blocks == 0 || opts.min_train_blocks >= opts.blocks {
@@ -220,56 +231,12 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         });
     }
     let prov = Provenance::default();
+    // Every fold works on the thinned rows: checkpoints before each of them spare the tasks
+    // from moving the latches over the samples in between.
+    let cache = CheckpointCache::new(cal.last().map(|&i| i + 1).unwrap_or(0), thinned.clone());
 
-    // Model-P per fold: its validation errors and its estimates on train ∪ val.
-    struct FoldP {
-        core: poly_core::PolyCore,
-        rows: Vec<usize>,
-        n_train: usize,
-    }
-    let mut fold_p = Vec::new();
-    let mut sq_p = [0.0; N_OUTPUTS];
-    let mut n_val = 0usize;
-    let mut lead_p: Vec<f64> = Vec::new();
-    let mut fold_of_p: Vec<usize> = Vec::new();
-    let mut sqe_p: [Vec<f64>; N_OUTPUTS] = Default::default();
-    for (fi, f) in fs.iter().enumerate() {
-        let core = poly_core::fit(d, &f.train, opts.cross_terms)?;
-        let core_full = if opts.cross_terms { core.clone() } else { poly_core::fit(d, &f.train, true)? };
-        // Model-P proper (always with cross terms) for the reference errors.
-        let sk = super::Skeleton {
-            core: core_full,
-            feature_set: FeatureSet::HysteresisAware,
-            dead_band_pm: 1.0,
-            z_mean: [0.0; 8],
-            z_std: [1.0; 8],
-            centres: vec![],
-            sigma_mult: 1.0,
-            sigma: 1.0,
-            envelope: super::envelope(d, &f.train),
-            fitted: d.has_target,
-        };
-        let p = sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)?;
-        let est = run(&p, d, &f.val)?;
-        let t_end = f.train.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
-        for (e, &i) in est.iter().zip(&f.val) {
-            lead_p.push(d.t_s[i] - t_end);
-            fold_of_p.push(fi);
-            for c in 0..N_OUTPUTS {
-                let sq = if d.has_target[c] { (e.values[c] - d.target(c)[i]).powi(2) } else { 1.0 };
-                sq_p[c] += sq;
-                sqe_p[c].push(sq);
-            }
-        }
-        n_val += f.val.len();
-        let mut rows = f.train.clone();
-        rows.extend_from_slice(&f.val);
-        fold_p.push(FoldP { core, rows, n_train: f.train.len() });
-    }
-    let cv_rmse_p = sq_p.map(|s| (s / n_val as f64).sqrt());
-    let var_model_p: [VarModel; N_OUTPUTS] = std::array::from_fn(|c| VarModel::fit(&lead_p, &sqe_p[c], &fold_of_p));
-
-    // Latch inputs per dead band (the paper set ignores them: one pass suffices).
+    // The (feature set, dead band) pairs of the grid (the paper set ignores the dead band: one
+    // suffices) and the grid size.
     let mut bands: Vec<(FeatureSet, f64)> = Vec::new();
     for &set in &opts.feature_sets {
         if set.uses_latch() {
@@ -280,119 +247,181 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             bands.push((set, opts.dead_bands_pm.first().copied().unwrap_or(2.0)));
         }
     }
+    let grid_points = bands.len() * opts.centres.len() * opts.sigma_mults.len() * opts.alpha_rels.len();
+    if grid_points == 0 {
+        return Err(TrainerError::fit("empty hyper-parameter grid"));
+    }
     let mut dbs: Vec<f64> = bands.iter().map(|b| b.1).collect();
     dbs.sort_by(f64::total_cmp);
     dbs.dedup();
-    let zs: HashMap<u64, Vec<[f64; 8]>> = dbs.par_iter().map(|&db| (db.to_bits(), z_rows(d, db))).collect();
 
-    let mut tasks = Vec::new();
-    for (fi, _) in fs.iter().enumerate() {
-        for &(set, db) in &bands {
-            for &k in &opts.centres {
-                tasks.push((fi, set, db, k));
-            }
+    // A model without centres moves the latches like every model of its dead band: it stands
+    // for the stream (checkpoints, z) and, with a fold's core, is that fold's Model-P.
+    let stream_model = |core: &poly_core::PolyCore, train: &[usize], db: f64| -> Result<HostParams, TrainerError> {
+        let sk = super::Skeleton {
+            core: core.clone(),
+            feature_set: FeatureSet::HysteresisAware,
+            dead_band_pm: db,
+            z_mean: [0.0; Z_DIMS],
+            z_std: [1.0; Z_DIMS],
+            centres: vec![],
+            sigma_mult: 1.0,
+            sigma: 1.0,
+            envelope: super::envelope(d, train),
+            fitted: d.has_target,
+        };
+        sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)
+    };
+
+    // Model-P per fold (always with cross terms: the reference errors) and the fold's core
+    // (without them for the ablation), with Model-P's validation errors.
+    let per_fold_p: Result<Vec<(FoldCore, FoldErrors)>, TrainerError> = fs
+        .par_iter()
+        .map(|f| {
+            let core = poly_core::fit(d, &f.train, opts.cross_terms)?;
+            let core_full = if opts.cross_terms { core.clone() } else { poly_core::fit(d, &f.train, true)? };
+            // Model-P's answers do not depend on the dead band: take the grid's first, whose
+            // checkpoints the RBF tasks need anyway.
+            let p = stream_model(&core_full, &f.train, dbs[0])?;
+            let ck = cache.get(&p, d)?;
+            let est = design::run_with(&p, d, &f.val, Some(&ck))?;
+            let sq = std::array::from_fn(|c| {
+                est.iter()
+                    .zip(&f.val)
+                    .map(|(e, &i)| if d.has_target[c] { (e.values[c] - d.target(c)[i]).powi(2) } else { 1.0 })
+                    .collect()
+            });
+            let t_end = f.train.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
+            Ok((FoldCore { core, t_end }, sq))
+        })
+        .collect();
+    let (fold_core, sq_p): (Vec<FoldCore>, Vec<FoldErrors>) = per_fold_p?.into_iter().unzip();
+    let n_val: usize = fs.iter().map(|f| f.val.len()).sum();
+    let cv_rmse_p = std::array::from_fn(|c| (sq_p.iter().map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n_val as f64).sqrt());
+    let (lead, fold_of) = leads(d, &fs, &fold_core);
+    let var_model_p: [VarModel; N_OUTPUTS] =
+        std::array::from_fn(|c| VarModel::fit(&lead, &sq_p.iter().flat_map(|e| e[c].iter().copied()).collect::<Vec<_>>(), &fold_of));
+
+    // What the RBF layer learns from each fold's training rows, per dead band.
+    let mut zjobs = Vec::new();
+    for fi in 0..fs.len() {
+        for &db in &dbs {
+            zjobs.push((fi, db));
         }
     }
-    let bar = progress_bar(opts.progress, tasks.len() as u64, "cross-validation");
-    type Acc = Vec<(Config, [f64; N_OUTPUTS], usize)>;
-    let results: Result<Vec<Acc>, TrainerError> = tasks
+    let zsamples: Result<Vec<ZSample>, TrainerError> = zjobs
         .par_iter()
-        .map(|&(fi, set, db, k)| {
+        .map(|&(fi, db)| {
             let f = &fs[fi];
-            let fp = &fold_p[fi];
-            let z = &zs[&db.to_bits()];
-            let base_cfg = Config {
-                feature_set: set,
-                dead_band_pm: db,
-                k,
-                sigma_mult: 1.0,
-                alpha_rel: 0.0,
-                cross_terms: opts.cross_terms,
-            };
-            let mut sk = skeleton(d, &f.train, &fp.core, z, &base_cfg, opts.seed);
-            let nn = sk.sigma;
-            let mut out = Vec::new();
-            for &sm in &opts.sigma_mults {
-                sk.sigma_mult = sm;
-                sk.sigma = sm * nn;
-                let p = sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)?;
-                let (psi, est) = design_matrix(&p, d, &fp.rows)?;
-                let r = residual_targets(d, &fp.rows, &est);
-                let nt = fp.n_train;
-                let psi_t = psi.rows(0, nt).into_owned();
-                let r_t = r.rows(0, nt).into_owned();
-                let psi_v = psi.rows(nt, fp.rows.len() - nt).into_owned();
-                let r_v = r.rows(nt, fp.rows.len() - nt).into_owned();
-                let sys = linalg::RidgeSystem::new(&psi_t, &r_t);
-                for &ar in &opts.alpha_rels {
-                    let w = sys.weights(ar * nt as f64);
-                    let resid: DMatrix<f64> = &r_v - &psi_v * &w;
-                    let sq: [f64; N_OUTPUTS] = std::array::from_fn(|c| resid.column(c).norm_squared());
-                    out.push((Config { sigma_mult: sm, alpha_rel: ar, ..base_cfg }, sq, psi_v.nrows()));
+            let sm = stream_model(&fold_core[fi].core, &f.train, db)?;
+            let ck = cache.get(&sm, d)?;
+            z_sample(&sm, d, &f.train, Some(&ck))
+        })
+        .collect();
+    let zsamples: HashMap<(usize, u64), ZSample> =
+        zjobs.iter().map(|&(fi, db)| (fi, db.to_bits())).zip(zsamples?).collect();
+
+    // Validation errors of every (σ, α) of one fold, feature set, dead band and K. With
+    // `keep`, the per-sample squared errors of the first grid point are kept too.
+    let fold_task = |fi: usize, set: FeatureSet, db: f64, k: usize, sigma_mults: &[f64], alpha_rels: &[f64]| {
+        let f = &fs[fi];
+        let fc = &fold_core[fi];
+        let zs = &zsamples[&(fi, db.to_bits())];
+        let base_cfg = Config { feature_set: set, dead_band_pm: db, k, sigma_mult: 1.0, alpha_rel: 0.0, cross_terms: opts.cross_terms };
+        let mut sk = skeleton(d, &f.train, &fc.core, zs, &base_cfg, opts.seed);
+        let nn = sk.sigma;
+        let mut out: Vec<(Config, FoldErrors)> = Vec::new();
+        for &sm in sigma_mults {
+            sk.sigma_mult = sm;
+            sk.sigma = sm * nn;
+            let p = sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)?;
+            let ck = cache.get(&p, d)?;
+            let gram = design::gram(&p, d, &f.train, Some(&ck))?;
+            let (psi_v, est_v) = design::design_matrix_with(&p, d, &f.val, Some(&ck))?;
+            let r_v = residual_targets(d, &f.val, &est_v);
+            let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r, gram.n);
+            for &ar in alpha_rels {
+                let w = sys.weights(ar * f.train.len() as f64);
+                let resid: DMatrix<f64> = &r_v - &psi_v * &w;
+                let sq = std::array::from_fn(|c| resid.column(c).iter().map(|e| e * e).collect());
+                out.push((Config { sigma_mult: sm, alpha_rel: ar, ..base_cfg }, sq));
+            }
+        }
+        Ok::<_, TrainerError>(out)
+    };
+
+    let pool = |sq: &[f64]| sq.iter().sum::<f64>();
+    let (rows, chosen) = if grid_points > 1 {
+        let mut tasks = Vec::new();
+        for fi in 0..fs.len() {
+            for &(set, db) in &bands {
+                for &k in &opts.centres {
+                    tasks.push((fi, set, db, k));
                 }
             }
-            bar.inc(1);
-            Ok(out)
-        })
-        .collect();
-    bar.finish_and_clear();
-
-    let mut pooled: HashMap<_, (Config, [f64; N_OUTPUTS], usize)> = HashMap::new();
-    for (cfg, sq, n) in results?.into_iter().flatten() {
-        let e = pooled.entry(key(&cfg)).or_insert((cfg, [0.0; N_OUTPUTS], 0));
-        for c in 0..N_OUTPUTS {
-            e.1[c] += sq[c];
         }
-        e.2 += n;
-    }
-    let mut rows: Vec<CvRow> = pooled
-        .into_values()
-        .map(|(config, sq, n)| {
-            let cv_rmse = sq.map(|s| (s / n as f64).sqrt());
-            let score = (0..N_OUTPUTS).filter(|&c| d.has_target[c]).map(|c| cv_rmse[c] / cv_rmse_p[c]).sum();
-            CvRow { config, cv_rmse, score }
-        })
-        .collect();
-    // Deterministic order: by score, ties by the key.
-    rows.sort_by(|a, b| a.score.total_cmp(&b.score).then_with(|| key(&a.config).cmp(&key(&b.config))));
-    let best = rows.first().ok_or_else(|| TrainerError::fit("empty hyper-parameter grid"))?;
-    let chosen = best.config;
-    let cv_rmse_h = best.cv_rmse;
+        let bar = progress_bar(opts.progress, tasks.len() as u64, "cross-validation");
+        type Acc = Vec<(Config, [f64; N_OUTPUTS], usize)>;
+        let results: Result<Vec<Acc>, TrainerError> = tasks
+            .par_iter()
+            .map(|&(fi, set, db, k)| {
+                let out = fold_task(fi, set, db, k, &opts.sigma_mults, &opts.alpha_rels)?;
+                bar.inc(1);
+                Ok(out.into_iter().map(|(cfg, sq)| (cfg, sq.each_ref().map(|v| pool(v)), sq[0].len())).collect())
+            })
+            .collect();
+        bar.finish_and_clear();
+        let mut pooled: HashMap<_, (Config, [f64; N_OUTPUTS], usize)> = HashMap::new();
+        for (cfg, sq, n) in results?.into_iter().flatten() {
+            let e = pooled.entry(key(&cfg)).or_insert((cfg, [0.0; N_OUTPUTS], 0));
+            for c in 0..N_OUTPUTS {
+                e.1[c] += sq[c];
+            }
+            e.2 += n;
+        }
+        let mut rows: Vec<CvRow> = pooled
+            .into_values()
+            .map(|(config, sq, n)| {
+                let cv_rmse = sq.map(|s| (s / n as f64).sqrt());
+                let score = (0..N_OUTPUTS).filter(|&c| d.has_target[c]).map(|c| cv_rmse[c] / cv_rmse_p[c]).sum();
+                CvRow { config, cv_rmse, score }
+            })
+            .collect();
+        // Deterministic order: by score, ties by the key.
+        rows.sort_by(|a, b| a.score.total_cmp(&b.score).then_with(|| key(&a.config).cmp(&key(&b.config))));
+        let chosen = rows.first().map(|r| r.config).ok_or_else(|| TrainerError::fit("empty hyper-parameter grid"))?;
+        (rows, chosen)
+    } else {
+        let (set, db) = bands[0];
+        let chosen = Config {
+            feature_set: set,
+            dead_band_pm: db,
+            k: opts.centres[0],
+            sigma_mult: opts.sigma_mults[0],
+            alpha_rel: opts.alpha_rels[0],
+            cross_terms: opts.cross_terms,
+        };
+        (Vec::new(), chosen)
+    };
 
     // Per-sample validation errors of the chosen configuration, against their lead time.
-    let per_fold: Result<Vec<(Vec<f64>, [Vec<f64>; N_OUTPUTS])>, TrainerError> = fs
-        .par_iter()
-        .zip(fold_p.par_iter())
-        .map(|(f, fp)| {
-            let z = &zs[&chosen.dead_band_pm.to_bits()];
-            let mut sk = skeleton(d, &f.train, &fp.core, z, &Config { sigma_mult: 1.0, ..chosen }, opts.seed);
-            sk.sigma = chosen.sigma_mult * sk.sigma;
-            sk.sigma_mult = chosen.sigma_mult;
-            let p = sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)?;
-            let (psi, est) = design_matrix(&p, d, &fp.rows)?;
-            let r = residual_targets(d, &fp.rows, &est);
-            let nt = fp.n_train;
-            let sys = linalg::RidgeSystem::new(&psi.rows(0, nt).into_owned(), &r.rows(0, nt).into_owned());
-            let w = sys.weights(chosen.alpha_rel * nt as f64);
-            let nv = fp.rows.len() - nt;
-            let resid: DMatrix<f64> = r.rows(nt, nv).into_owned() - psi.rows(nt, nv) * &w;
-            let t_end = f.train.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
-            let lead = f.val.iter().map(|&i| d.t_s[i] - t_end).collect();
-            let sq = std::array::from_fn(|c| resid.column(c).iter().map(|e| e * e).collect());
-            Ok((lead, sq))
+    let per_fold: Result<Vec<FoldErrors>, TrainerError> = (0..fs.len())
+        .into_par_iter()
+        .map(|fi| {
+            let mut out = fold_task(fi, chosen.feature_set, chosen.dead_band_pm, chosen.k, &[chosen.sigma_mult], &[chosen.alpha_rel])?;
+            out.pop().map(|(_, sq)| sq).ok_or_else(|| TrainerError::fit("no validation errors"))
         })
         .collect();
-    let mut lead_h = Vec::new();
-    let mut fold_of_h = Vec::new();
-    let mut sqe_h: [Vec<f64>; N_OUTPUTS] = Default::default();
-    for (fi, (lead, sq)) in per_fold?.into_iter().enumerate() {
-        fold_of_h.extend(std::iter::repeat_n(fi, lead.len()));
-        lead_h.extend(lead);
-        for c in 0..N_OUTPUTS {
-            sqe_h[c].extend_from_slice(&sq[c]);
-        }
-    }
-    let var_model_h: [VarModel; N_OUTPUTS] = std::array::from_fn(|c| VarModel::fit(&lead_h, &sqe_h[c], &fold_of_h));
+    let per_fold = per_fold?;
+    let sqe_h: [Vec<f64>; N_OUTPUTS] = std::array::from_fn(|c| per_fold.iter().flat_map(|e| e[c].iter().copied()).collect());
+    let cv_rmse_h: [f64; N_OUTPUTS] = std::array::from_fn(|c| (pool(&sqe_h[c]) / n_val as f64).sqrt());
+    let rows = if rows.is_empty() {
+        let score = (0..N_OUTPUTS).filter(|&c| d.has_target[c]).map(|c| cv_rmse_h[c] / cv_rmse_p[c]).sum();
+        vec![CvRow { config: chosen, cv_rmse: cv_rmse_h, score }]
+    } else {
+        rows
+    };
+    let var_model_h: [VarModel; N_OUTPUTS] = std::array::from_fn(|c| VarModel::fit(&lead, &sqe_h[c], &fold_of));
     Ok(Selection {
         chosen,
         cv_rmse_p,
@@ -404,6 +433,20 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         n_cal: cal.len(),
         cv_stride: stride,
     })
+}
+
+/// Lead time of every validation sample after the end of its fold's training, and its fold,
+/// in fold order.
+fn leads(d: &Dataset, fs: &[Fold], cores: &[FoldCore]) -> (Vec<f64>, Vec<usize>) {
+    let mut lead = Vec::new();
+    let mut fold_of = Vec::new();
+    for (fi, (f, c)) in fs.iter().zip(cores).enumerate() {
+        for &i in &f.val {
+            lead.push(d.t_s[i] - c.t_end);
+            fold_of.push(fi);
+        }
+    }
+    (lead, fold_of)
 }
 
 /// A progress bar on a terminal, hidden otherwise.

@@ -1,0 +1,342 @@
+//! A model run over a record, in parallel stretches: estimates, the RBF design Ψ, and the
+//! ridge system's sums ΨᵀΨ and ΨᵀR without Ψ ever being held whole.
+//!
+//! The direction latches make the compensator a stream: its answer at sample i depends on
+//! every sample before. One cheap sequential pass (latches only) records the stream state at
+//! the start of every stretch of [`STRETCH`] samples ([`Checkpoints`]); the stretches are then
+//! compensated in parallel, each resuming from its checkpoint, and give exactly the answers of
+//! one sequential pass. Stretch boundaries do not depend on the number of threads and partial
+//! sums are added in stretch order, so every result is the same on any machine and pool size.
+//!
+//! All of it goes through `fbg_shared::Compensator<f64, _>::step_with`, the code the device
+//! runs: the trainer never implements inference a second time.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+
+use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::{Estimate, LatchBank};
+
+use super::{HostCompensator, HostParams};
+use crate::dataset::Dataset;
+use crate::error::TrainerError;
+
+/// Samples per stretch (the unit of parallel work and of checkpointing).
+pub const STRETCH: usize = 4096;
+
+/// The stream state at the start of every stretch of a record and before chosen samples, for
+/// one way of moving the latches (dead band and finiteness rule, see
+/// [`fbg_shared::Compensator::same_stream`]).
+pub struct Checkpoints {
+    /// A compensator of the kind these states belong to (only its stream rule matters).
+    rule: HostCompensator,
+    /// Sample positions, ascending: every multiple of [`STRETCH`] below `end` and the extra
+    /// samples asked for.
+    pos: Vec<usize>,
+    /// `states[j]` is the state before sample `pos[j]`.
+    states: Vec<LatchBank>,
+    /// Samples covered.
+    end: usize,
+}
+
+impl Checkpoints {
+    /// One sequential pass of `params`' stream state over samples `0..end`, keeping the state
+    /// at every stretch start and before each of `extra` (sorted ascending): work later asked
+    /// of exactly those samples resumes there instead of moving the latches again.
+    pub fn new(params: &HostParams, d: &Dataset, end: usize, extra: &[usize]) -> Result<Self, TrainerError> {
+        let mut comp = compensator(params)?;
+        let end = end.min(d.len());
+        let mut pos = Vec::with_capacity(end.div_ceil(STRETCH) + extra.len());
+        let mut states = Vec::with_capacity(pos.capacity());
+        let mut x = extra.iter().copied().filter(|&i| i < end).peekable();
+        for i in 0..end {
+            let wanted = x.peek() == Some(&i);
+            if wanted {
+                x.next();
+            }
+            if i % STRETCH == 0 || wanted {
+                pos.push(i);
+                states.push(comp.stream_state());
+            }
+            comp.advance(&d.sample(i));
+        }
+        comp.reset();
+        Ok(Checkpoints { rule: comp, pos, states, end })
+    }
+
+    /// Whether these checkpoints serve `comp` up to sample `end`.
+    fn serves(&self, comp: &HostCompensator, end: usize) -> bool {
+        self.rule.same_stream(comp) && end <= self.end
+    }
+}
+
+/// Checkpoints shared between the tasks of one fit: computed once per stream rule, on first
+/// use, and reused by every task that needs the same rule (concurrent users of one rule wait
+/// for the first to finish, users of other rules do not).
+pub struct CheckpointCache {
+    end: usize,
+    extra: Vec<usize>,
+    slots: Mutex<HashMap<(u64, bool), Arc<Slot>>>,
+}
+
+/// One stream rule's checkpoints, computed at most once (the error as text: shared by waiters).
+type Slot = OnceLock<Result<Arc<Checkpoints>, String>>;
+
+impl CheckpointCache {
+    /// A cache of checkpoints over samples `0..end`, with states before each of `extra`.
+    pub fn new(end: usize, extra: Vec<usize>) -> Self {
+        CheckpointCache { end, extra, slots: Mutex::default() }
+    }
+
+    /// Checkpoints for `params` over samples `0..end` of `d`.
+    pub fn get(&self, params: &HostParams, d: &Dataset) -> Result<Arc<Checkpoints>, TrainerError> {
+        let key = (params.hyper.dead_band_pm.to_bits(), params.hyper.feature_set.uses_time());
+        let slot = {
+            let mut slots = self.slots.lock().map_err(|_| TrainerError::fit("checkpoint cache poisoned"))?;
+            slots.entry(key).or_default().clone()
+        };
+        slot.get_or_init(|| Checkpoints::new(params, d, self.end, &self.extra).map(Arc::new).map_err(|e| e.to_string()))
+            .clone()
+            .map_err(TrainerError::fit)
+    }
+}
+
+fn compensator(params: &HostParams) -> Result<HostCompensator, TrainerError> {
+    HostCompensator::new(params).map_err(|e| TrainerError::fit(e.to_string()))
+}
+
+/// One stretch's share of the wanted rows, compensated.
+pub struct StretchOut<'a> {
+    /// The rows (sample indices, ascending).
+    pub rows: &'a [usize],
+    /// ψ of each row, row-major (`rows.len() × K`); empty when the model has no centres.
+    pub psi: &'a [f64],
+    /// The estimate at each row.
+    pub est: &'a [Estimate<f64>],
+    /// The direction-latch values after each row.
+    pub latches: &'a [[f64; 3]],
+}
+
+/// Run `params` over the record and hand each stretch's wanted rows (sorted ascending) to
+/// `f`, in parallel; the results come back in stretch order. `ck` must come from a model with
+/// the same stream rule (else the checkpoints are computed here).
+pub fn map_stretches<T: Send>(
+    params: &HostParams,
+    d: &Dataset,
+    rows: &[usize],
+    ck: Option<&Checkpoints>,
+    f: impl Fn(StretchOut<'_>) -> T + Sync + Send,
+) -> Result<Vec<T>, TrainerError> {
+    debug_assert!(rows.windows(2).all(|w| w[0] < w[1]), "rows must be sorted and distinct");
+    let comp = compensator(params)?;
+    let end = rows.last().map(|&i| i + 1).unwrap_or(0);
+    let own;
+    let ck = match ck {
+        Some(c) if c.serves(&comp, end) => c,
+        _ => {
+            own = Checkpoints::new(params, d, end, &[])?;
+            &own
+        }
+    };
+    // The wanted rows of each stretch that has any.
+    let mut jobs: Vec<(usize, &[usize])> = Vec::new();
+    let mut rest = rows;
+    while let Some(&first) = rest.first() {
+        let s = first / STRETCH;
+        let n = rest.partition_point(|&i| i < (s + 1) * STRETCH);
+        jobs.push((s, &rest[..n]));
+        rest = &rest[n..];
+    }
+    let k = params.centres.len();
+    Ok(jobs
+        .par_iter()
+        // Buffers reused across the stretches a worker takes (a fresh megabyte per stretch
+        // would cost more in page faults than the arithmetic).
+        .map_init(
+            || (Vec::new(), Vec::new(), Vec::new()),
+            |(psi, est, latches): &mut (Vec<f64>, Vec<Estimate<f64>>, Vec<[f64; 3]>), &(_, want)| {
+                let mut c = comp.clone();
+                psi.clear();
+                psi.resize(want.len() * k, 0.0);
+                est.clear();
+                latches.clear();
+                // Position of `c`'s stream: the next sample it expects (None: not yet placed),
+                // and the checkpoint index to look from (checkpoints only move forward).
+                let mut cur: Option<usize> = None;
+                let mut j = ck.pos.partition_point(|&p| p <= want[0]).saturating_sub(1);
+                for (w, &i) in want.iter().enumerate() {
+                    while ck.pos.get(j + 1).is_some_and(|&p| p <= i) {
+                        j += 1;
+                    }
+                    let p = ck.pos[j];
+                    if cur.is_none_or(|c| p > c) {
+                        c.set_stream_state(ck.states[j]);
+                        cur = Some(p);
+                    }
+                    // Only the stream state matters for samples nobody asked about.
+                    for s in cur.unwrap_or(p)..i {
+                        c.advance(&d.sample(s));
+                    }
+                    let row = &mut psi[w * k..(w + 1) * k];
+                    est.push(c.step_with(&d.sample(i), |j, v| row[j] = v));
+                    latches.push(c.latch_values());
+                    cur = Some(i + 1);
+                }
+                f(StretchOut { rows: want, psi, est, latches })
+            },
+        )
+        .collect())
+}
+
+/// Estimates of `params` at `want` (sorted ascending), the compensator having seen every
+/// sample from the first.
+pub fn run(params: &HostParams, d: &Dataset, want: &[usize]) -> Result<Vec<Estimate<f64>>, TrainerError> {
+    run_with(params, d, want, None)
+}
+
+/// [`run`] with checkpoints at hand.
+pub fn run_with(
+    params: &HostParams,
+    d: &Dataset,
+    want: &[usize],
+    ck: Option<&Checkpoints>,
+) -> Result<Vec<Estimate<f64>>, TrainerError> {
+    let parts = map_stretches(params, d, want, ck, |o| o.est.to_vec())?;
+    Ok(parts.concat())
+}
+
+/// The RBF activations at `rows` (sorted ascending) as a `rows.len() × K` matrix, plus the
+/// estimates there.
+pub fn design_matrix(
+    params: &HostParams,
+    d: &Dataset,
+    rows: &[usize],
+) -> Result<(DMatrix<f64>, Vec<Estimate<f64>>), TrainerError> {
+    design_matrix_with(params, d, rows, None)
+}
+
+/// [`design_matrix`] with checkpoints at hand.
+pub fn design_matrix_with(
+    params: &HostParams,
+    d: &Dataset,
+    rows: &[usize],
+    ck: Option<&Checkpoints>,
+) -> Result<(DMatrix<f64>, Vec<Estimate<f64>>), TrainerError> {
+    let k = params.centres.len();
+    let parts = map_stretches(params, d, rows, ck, |o| (o.psi.to_vec(), o.est.to_vec()))?;
+    let mut psi = DMatrix::zeros(rows.len(), k);
+    let mut est = Vec::with_capacity(rows.len());
+    let mut r0 = 0;
+    for (p, e) in parts {
+        for (r, row) in p.chunks_exact(k.max(1)).enumerate().take(e.len()) {
+            for (j, &v) in row.iter().enumerate() {
+                psi[(r0 + r, j)] = v;
+            }
+        }
+        r0 += e.len();
+        est.extend(e);
+    }
+    Ok((psi, est))
+}
+
+/// The sums of the ridge system of paper Eq. 7 over a set of rows, accumulated stretch by
+/// stretch: G = ΨᵀΨ, ΨᵀR with R = reference − estimate (the residual of a model whose RBF
+/// weights are zero, i.e. of its polynomial core), and max_j ψ_j per row.
+pub struct Gram {
+    /// ΨᵀΨ (K × K, symmetric).
+    pub g: DMatrix<f64>,
+    /// ΨᵀR (K × outputs).
+    pub psi_r: DMatrix<f64>,
+    /// Rows summed.
+    pub n: usize,
+    /// max_j ψ_j of each row, in row order.
+    pub max_psi: Vec<f64>,
+}
+
+/// Residual target of output `c` at sample `i` given the core's estimate: reference −
+/// estimate, 0 for an output without reference (so that its residual weights stay 0).
+#[inline]
+pub fn residual(d: &Dataset, i: usize, c: usize, est: &Estimate<f64>) -> f64 {
+    if d.has_target[c] {
+        d.target(c)[i] - est.values[c]
+    } else {
+        0.0
+    }
+}
+
+/// [`Gram`] of `params` (whose RBF weights should be zero) over `rows` (sorted ascending).
+pub fn gram(params: &HostParams, d: &Dataset, rows: &[usize], ck: Option<&Checkpoints>) -> Result<Gram, TrainerError> {
+    let k = params.centres.len();
+    let parts = map_stretches(params, d, rows, ck, |o| {
+        let mut g = vec![0.0; k * k];
+        let mut pr = vec![0.0; k * N_OUTPUTS];
+        let r: Vec<[f64; N_OUTPUTS]> =
+            o.rows.iter().zip(o.est).map(|(&i, e)| std::array::from_fn(|c| residual(d, i, c, e))).collect();
+        if k > 0 {
+            add_outer_products(&mut g, &mut pr, o.psi, &r, k);
+        }
+        let mx: Vec<f64> = if k == 0 {
+            vec![0.0; o.rows.len()]
+        } else {
+            o.psi.chunks_exact(k).map(|p| p.iter().copied().fold(0.0, f64::max)).collect()
+        };
+        (g, pr, mx)
+    })?;
+    let mut g = DMatrix::zeros(k, k);
+    let mut psi_r = DMatrix::zeros(k, N_OUTPUTS);
+    let mut max_psi = Vec::with_capacity(rows.len());
+    for (pg, pr, mx) in parts {
+        for a in 0..k {
+            for b in a..k {
+                g[(a, b)] += pg[a * k + b];
+            }
+            for c in 0..N_OUTPUTS {
+                psi_r[(a, c)] += pr[a * N_OUTPUTS + c];
+            }
+        }
+        max_psi.extend(mx);
+    }
+    for a in 0..k {
+        for b in 0..a {
+            g[(a, b)] = g[(b, a)];
+        }
+    }
+    Ok(Gram { g, psi_r, n: rows.len(), max_psi })
+}
+
+/// G += Σ_r ψ_r ψ_rᵀ (upper triangle, row-major K × K) and PR += Σ_r ψ_r r_rᵀ over the rows of
+/// `psi` (row-major, K per row), four rows at a time: each pass over G then carries four
+/// products per element, and the inner loop over b is a contiguous, vectorisable update.
+fn add_outer_products(g: &mut [f64], pr: &mut [f64], psi: &[f64], r: &[[f64; N_OUTPUTS]], k: usize) {
+    let mut quads = psi.chunks_exact(4 * k);
+    let mut rq = r.chunks_exact(4);
+    for (q, rr) in (&mut quads).zip(&mut rq) {
+        let (p0, rest) = q.split_at(k);
+        let (p1, rest) = rest.split_at(k);
+        let (p2, p3) = rest.split_at(k);
+        for a in 0..k {
+            let (a0, a1, a2, a3) = (p0[a], p1[a], p2[a], p3[a]);
+            let row = &mut g[a * k + a..(a + 1) * k];
+            for ((((gv, &b0), &b1), &b2), &b3) in row.iter_mut().zip(&p0[a..]).zip(&p1[a..]).zip(&p2[a..]).zip(&p3[a..]) {
+                *gv += a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3;
+            }
+            for c in 0..N_OUTPUTS {
+                pr[a * N_OUTPUTS + c] += a0 * rr[0][c] + a1 * rr[1][c] + a2 * rr[2][c] + a3 * rr[3][c];
+            }
+        }
+    }
+    for (p, rr) in quads.remainder().chunks_exact(k).zip(rq.remainder()) {
+        for a in 0..k {
+            let pa = p[a];
+            for (gv, &pb) in g[a * k + a..(a + 1) * k].iter_mut().zip(&p[a..]) {
+                *gv += pa * pb;
+            }
+            for c in 0..N_OUTPUTS {
+                pr[a * N_OUTPUTS + c] += pa * rr[c];
+            }
+        }
+    }
+}
