@@ -148,3 +148,68 @@ fn missing_reference_and_gaps_are_handled() {
     assert!(c.step(&gap).flags.contains(fbg_shared::Flags::NON_FINITE));
     assert!(!c.step(&back.sample(1)).flags.contains(fbg_shared::Flags::NON_FINITE));
 }
+
+/// The parallel, checkpointed passes over a record give exactly what one sequential pass of
+/// the compensator gives, on any pool size.
+#[test]
+fn stretches_resumed_from_checkpoints_answer_as_one_sequential_pass() {
+    use fbg_trainer::fit::design::{self, CheckpointCache, Checkpoints};
+    use fbg_trainer::fit::HostCompensator;
+    // Long enough for several stretches; a gap in the middle of the calibration batch.
+    let mut s = simulate(&short_paper(7.0), 9);
+    s.data.dl_pm[1][3000] = f64::NAN;
+    let d = &s.data;
+    let cfg = Config {
+        feature_set: FeatureSet::HysteresisAware,
+        dead_band_pm: 4.0,
+        k: 16,
+        sigma_mult: 2.0,
+        alpha_rel: 1e-4,
+        cross_terms: true,
+    };
+    let tr = train(d, &TrainOptions::fixed(&cfg), &Origin::default()).unwrap();
+    let h = &tr.model_h;
+    // Every third calibration row, and a few hold-out rows.
+    let mut rows: Vec<usize> = d.cal_indices().into_iter().step_by(3).collect();
+    rows.extend([d.len() - 7, d.len() - 1]);
+
+    // Sequential reference.
+    let mut c = HostCompensator::new(h).unwrap();
+    let mut want_est = Vec::new();
+    let mut want_psi = Vec::new();
+    let mut r = rows.iter().peekable();
+    for i in 0..d.len() {
+        let mut psi = vec![0.0; h.centres.len()];
+        let e = c.step_with(&d.sample(i), |j, v| psi[j] = v);
+        if r.peek() == Some(&&i) {
+            r.next();
+            want_est.push(e);
+            want_psi.push(psi);
+        }
+    }
+    let bits = |e: &fbg_shared::Estimate<f64>| (e.values.map(f64::to_bits), e.band95.map(f64::to_bits), e.flags);
+    for threads in [1, 3] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let cache = CheckpointCache::new(d.len(), rows.clone());
+            let ck = cache.get(h, d).unwrap();
+            for ck in [None, Some(&*ck), Some(&Checkpoints::new(h, d, d.len(), &[]).unwrap())] {
+                let est = design::run_with(h, d, &rows, ck).unwrap();
+                assert_eq!(est.iter().map(bits).collect::<Vec<_>>(), want_est.iter().map(bits).collect::<Vec<_>>());
+                let (psi, _) = design::design_matrix_with(h, d, &rows, ck).unwrap();
+                for (r, want) in want_psi.iter().enumerate() {
+                    for (j, w) in want.iter().enumerate() {
+                        assert_eq!(psi[(r, j)].to_bits(), w.to_bits(), "row {r} centre {j}");
+                    }
+                }
+            }
+            // The ridge sums, accumulated stretch by stretch, against ΨᵀΨ of the whole Ψ.
+            let usable: Vec<usize> = rows.iter().copied().filter(|&i| d.usable(i)).collect();
+            let (psi, _) = design::design_matrix(h, d, &usable).unwrap();
+            let g = design::gram(h, d, &usable, None).unwrap();
+            let want = psi.tr_mul(&psi);
+            assert!((&g.g - &want).amax() <= 1e-12 * want.amax());
+            assert_eq!(g.n, usable.len());
+        });
+    }
+}

@@ -338,12 +338,80 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// samples leave the state as `step` would.
     #[inline]
     pub fn advance(&mut self, s: &Sample<F>) {
-        let finite = s.dl_pm.iter().all(|v| v.is_finite())
-            && s.t_amb_c.is_finite()
-            && (!(self.uses_time || self.band_grows) || s.t_s.is_finite());
-        if finite {
+        if self.accepts(s) {
             let _: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
         }
+    }
+
+    /// Whether a sample is finite where this model reads it (Δλ, T_amb, and t when the
+    /// feature set or the band uses time); other samples are answered as non-finite and leave
+    /// the stream state untouched.
+    #[inline(always)]
+    fn accepts(&self, s: &Sample<F>) -> bool {
+        s.dl_pm.iter().all(|v| v.is_finite())
+            && s.t_amb_c.is_finite()
+            && (!(self.uses_time || self.band_grows) || s.t_s.is_finite())
+    }
+
+    /// The polynomial core (Model-P): stage-1 standardised first guesses, then paper Eq. 3.
+    #[inline(always)]
+    fn core(&self, s: &Sample<F>) -> [F; N_OUTPUTS] {
+        let [d1, d2, d3] = s.dl_pm;
+        let mut g = [F::ZERO; N_OUTPUTS];
+        for (gi, row) in g.iter_mut().zip(self.a.iter()) {
+            let [a0, a1, a2, a3, a4] = *row;
+            *gi = d1.mul_add(a0, d2.mul_add(a1, d3.mul_add(a2, s.t_amb_c.mul_add(a3, a4))));
+        }
+        let [t, e, p] = g;
+        let phi = [F::ONE, t, e, p, t * t, e * e, p * p, t * e, t * p, e * p];
+        let mut y = [F::ZERO; N_OUTPUTS];
+        for (yi, row) in y.iter_mut().zip(self.b.iter()) {
+            let mut acc = F::ZERO;
+            for (&c, &ph) in row.iter().zip(phi.iter()) {
+                acc = c.mul_add(ph, acc);
+            }
+            *yi = acc;
+        }
+        y
+    }
+
+    /// The scaled RBF inputs z (unused inputs 0) and ‖z‖².
+    #[inline(always)]
+    fn rbf_inputs(&self, s: &Sample<F>, latch: [F; N_GRATINGS]) -> ([F; Z_DIMS], F) {
+        let [d1, d2, d3] = s.dl_pm;
+        let t_in = if self.uses_time { s.t_s } else { F::ZERO };
+        let (l1, l2, l3) =
+            if self.uses_latch { (latch[0], latch[1], latch[2]) } else { (F::ZERO, F::ZERO, F::ZERO) };
+        let x_z = [d1, d2, d3, s.t_amb_c, t_in, l1, l2, l3];
+        let mut z = [F::ZERO; Z_DIMS];
+        let mut z_sq = F::ZERO;
+        for (((zi, &x), &gn), &of) in
+            z.iter_mut().zip(x_z.iter()).zip(self.z_gain.iter()).zip(self.z_offset.iter())
+        {
+            *zi = x.mul_add(gn, of);
+            z_sq = zi.mul_add(*zi, z_sq);
+        }
+        (z, z_sq)
+    }
+
+    /// What a trainer needs of one sample to build the ridge system (paper Eq. 7): the
+    /// polynomial core's estimate and every RBF activation ψ_j (into `psi`, one per centre),
+    /// computed by the same code as [`Compensator::step`] and moving the stream state as it
+    /// does, but without the residual, band or flags. `None` for a sample `step` would answer
+    /// as non-finite (`psi` untouched).
+    #[inline]
+    pub fn core_and_activations(&mut self, s: &Sample<F>, psi: &mut [F]) -> Option<[F; N_OUTPUTS]> {
+        if !self.accepts(s) {
+            return None;
+        }
+        let latch: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
+        let y = self.core(s);
+        let (z, z_sq) = self.rbf_inputs(s, latch);
+        for (o, c) in psi.iter_mut().zip(self.centres.iter()) {
+            // All inputs: an unused one adds an exact zero, so ψ is the one `step` computes.
+            *o = psi_of::<F, true, true>(c, &z, z_sq);
+        }
+        Some(y)
     }
 
     /// Compensate one sample. Never panics: non-finite inputs give NaN values, an infinite band
@@ -358,10 +426,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// non-finite samples.
     #[inline(always)]
     pub fn step_with(&mut self, s: &Sample<F>, mut sink: impl FnMut(usize, F)) -> Estimate<F> {
-        let finite = s.dl_pm.iter().all(|v| v.is_finite())
-            && s.t_amb_c.is_finite()
-            && (!(self.uses_time || self.band_grows) || s.t_s.is_finite());
-        if !finite {
+        if !self.accepts(s) {
             return Estimate {
                 values: [F::NAN; N_OUTPUTS],
                 band95: [F::INFINITY; N_OUTPUTS],
@@ -379,37 +444,9 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             }
         }
 
-        // Stage 1: standardised first guesses.
-        let mut g = [F::ZERO; N_OUTPUTS];
-        for (gi, row) in g.iter_mut().zip(self.a.iter()) {
-            let [a0, a1, a2, a3, a4] = *row;
-            *gi = d1.mul_add(a0, d2.mul_add(a1, d3.mul_add(a2, s.t_amb_c.mul_add(a3, a4))));
-        }
-        // Stage 2: polynomial core (paper Eq. 3).
-        let [t, e, p] = g;
-        let phi = [F::ONE, t, e, p, t * t, e * e, p * p, t * e, t * p, e * p];
-        let mut y = [F::ZERO; N_OUTPUTS];
-        for (yi, row) in y.iter_mut().zip(self.b.iter()) {
-            let mut acc = F::ZERO;
-            for (&c, &ph) in row.iter().zip(phi.iter()) {
-                acc = c.mul_add(ph, acc);
-            }
-            *yi = acc;
-        }
-
+        let y = self.core(s);
         // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
-        let t_in = if self.uses_time { s.t_s } else { F::ZERO };
-        let (l1, l2, l3) =
-            if self.uses_latch { (latch[0], latch[1], latch[2]) } else { (F::ZERO, F::ZERO, F::ZERO) };
-        let x_z = [d1, d2, d3, s.t_amb_c, t_in, l1, l2, l3];
-        let mut z = [F::ZERO; Z_DIMS];
-        let mut z_sq = F::ZERO;
-        for (((zi, &x), &gn), &of) in
-            z.iter_mut().zip(x_z.iter()).zip(self.z_gain.iter()).zip(self.z_offset.iter())
-        {
-            *zi = x.mul_add(gn, of);
-            z_sq = zi.mul_add(*zi, z_sq);
-        }
+        let (z, z_sq) = self.rbf_inputs(s, latch);
         // The centre loop, specialised on the inputs the feature set uses (unused ones have
         // zero weight in every centre, so skipping them is exact).
         let acc = if !self.uses_time && self.uses_latch {

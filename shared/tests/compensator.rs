@@ -467,3 +467,63 @@ fn decode_into_matches_decode() {
     cut.truncate(bytes.len() - 9);
     assert!(fbg_shared::blob::decode_into(&cut, &mut slot).is_err());
 }
+
+// ---------------------------------------------------------------------------------------------
+// The trainer's entry points: core and activations, stream checkpoints
+
+#[test]
+fn core_and_activations_are_what_step_computes() {
+    for fs in FeatureSet::ALL {
+        let mut p = params(K, 21, fs);
+        // With zero residual weights a step's values are the polynomial core's.
+        for c in p.centres.iter_mut() {
+            c.w = [0.0; 3];
+        }
+        let mut a = Compensator::<f32, K>::new(&p).unwrap();
+        let mut b = a.clone();
+        let mut ss = stream(21, 300);
+        ss[40].dl_pm[1] = f32::NAN;
+        for s in &ss {
+            let mut psi_step = [0.0f32; K];
+            let e = a.step_with(s, |j, v| psi_step[j] = v);
+            let mut psi = [-1.0f32; K];
+            match b.core_and_activations(s, &mut psi) {
+                Some(v) => {
+                    assert_eq!(v.map(f32::to_bits), e.values.map(f32::to_bits), "{fs:?}");
+                    assert_eq!(psi.map(f32::to_bits), psi_step.map(f32::to_bits), "{fs:?}");
+                }
+                None => {
+                    assert!(e.flags.contains(Flags::NON_FINITE));
+                    assert_eq!(psi, [-1.0; K], "psi untouched");
+                }
+            }
+            assert_eq!(a.latch_values(), b.latch_values());
+        }
+    }
+}
+
+#[test]
+fn a_stream_resumed_from_its_state_answers_as_the_whole_stream() {
+    let p = params(K, 22, FeatureSet::HysteresisAware);
+    let ss = stream(22, 400);
+    let mut whole = Compensator::<f32, K>::new(&p).unwrap();
+    let mut state = None;
+    let mut expected = Vec::new();
+    for (i, s) in ss.iter().enumerate() {
+        if i == 250 {
+            state = Some(whole.stream_state());
+        }
+        expected.push(bits(&whole.step(s)));
+    }
+    // Another compensator of the same model resumes at sample 250.
+    let mut resumed = Compensator::<f32, K>::new(&p).unwrap();
+    assert!(resumed.same_stream(&whole));
+    resumed.set_stream_state(state.unwrap());
+    for (s, want) in ss[250..].iter().zip(&expected[250..]) {
+        assert_eq!(&bits(&resumed.step(s)), want);
+    }
+    // A model with another dead band moves its latches differently.
+    let mut q = p.clone();
+    q.hyper.dead_band_pm *= 2.0;
+    assert!(!Compensator::<f32, K>::new(&q).unwrap().same_stream(&whole));
+}

@@ -108,16 +108,39 @@ fn compensator(params: &HostParams) -> Result<HostCompensator, TrainerError> {
     HostCompensator::new(params).map_err(|e| TrainerError::fit(e.to_string()))
 }
 
+/// What each wanted row is run for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pass {
+    /// `Compensator::step`: the whole estimate (values with the residual, band, flags) and ψ.
+    Estimates,
+    /// `Compensator::core_and_activations`: the polynomial core's values and ψ, all a ridge
+    /// system needs (about half the work of a step).
+    Design,
+}
+
 /// One stretch's share of the wanted rows, compensated.
 pub struct StretchOut<'a> {
     /// The rows (sample indices, ascending).
     pub rows: &'a [usize],
-    /// ψ of each row, row-major (`rows.len() × K`); empty when the model has no centres.
+    /// ψ of each row, row-major (`rows.len() × K`); empty when the model has no centres
+    /// (zeros for a row the model refuses as non-finite).
     pub psi: &'a [f64],
-    /// The estimate at each row.
+    /// The estimate at each row ([`Pass::Estimates`]; empty otherwise).
     pub est: &'a [Estimate<f64>],
+    /// The values at each row: the estimate's ([`Pass::Estimates`]) or the polynomial core's
+    /// ([`Pass::Design`]); NaN for a non-finite row.
+    pub values: &'a [[f64; N_OUTPUTS]],
     /// The direction-latch values after each row.
     pub latches: &'a [[f64; 3]],
+}
+
+/// Per-worker buffers of [`map_stretches`].
+#[derive(Default)]
+struct Buffers {
+    psi: Vec<f64>,
+    est: Vec<Estimate<f64>>,
+    values: Vec<[f64; N_OUTPUTS]>,
+    latches: Vec<[f64; 3]>,
 }
 
 /// Run `params` over the record and hand each stretch's wanted rows (sorted ascending) to
@@ -128,6 +151,7 @@ pub fn map_stretches<T: Send>(
     d: &Dataset,
     rows: &[usize],
     ck: Option<&Checkpoints>,
+    pass: Pass,
     f: impl Fn(StretchOut<'_>) -> T + Sync + Send,
 ) -> Result<Vec<T>, TrainerError> {
     debug_assert!(rows.windows(2).all(|w| w[0] < w[1]), "rows must be sorted and distinct");
@@ -142,12 +166,11 @@ pub fn map_stretches<T: Send>(
         }
     };
     // The wanted rows of each stretch that has any.
-    let mut jobs: Vec<(usize, &[usize])> = Vec::new();
+    let mut jobs: Vec<&[usize]> = Vec::new();
     let mut rest = rows;
     while let Some(&first) = rest.first() {
-        let s = first / STRETCH;
-        let n = rest.partition_point(|&i| i < (s + 1) * STRETCH);
-        jobs.push((s, &rest[..n]));
+        let n = rest.partition_point(|&i| i < (first / STRETCH + 1) * STRETCH);
+        jobs.push(&rest[..n]);
         rest = &rest[n..];
     }
     let k = params.centres.len();
@@ -155,39 +178,47 @@ pub fn map_stretches<T: Send>(
         .par_iter()
         // Buffers reused across the stretches a worker takes (a fresh megabyte per stretch
         // would cost more in page faults than the arithmetic).
-        .map_init(
-            || (Vec::new(), Vec::new(), Vec::new()),
-            |(psi, est, latches): &mut (Vec<f64>, Vec<Estimate<f64>>, Vec<[f64; 3]>), &(_, want)| {
-                let mut c = comp.clone();
-                psi.clear();
-                psi.resize(want.len() * k, 0.0);
-                est.clear();
-                latches.clear();
-                // Position of `c`'s stream: the next sample it expects (None: not yet placed),
-                // and the checkpoint index to look from (checkpoints only move forward).
-                let mut cur: Option<usize> = None;
-                let mut j = ck.pos.partition_point(|&p| p <= want[0]).saturating_sub(1);
-                for (w, &i) in want.iter().enumerate() {
-                    while ck.pos.get(j + 1).is_some_and(|&p| p <= i) {
-                        j += 1;
-                    }
-                    let p = ck.pos[j];
-                    if cur.is_none_or(|c| p > c) {
-                        c.set_stream_state(ck.states[j]);
-                        cur = Some(p);
-                    }
-                    // Only the stream state matters for samples nobody asked about.
-                    for s in cur.unwrap_or(p)..i {
-                        c.advance(&d.sample(s));
-                    }
-                    let row = &mut psi[w * k..(w + 1) * k];
-                    est.push(c.step_with(&d.sample(i), |j, v| row[j] = v));
-                    latches.push(c.latch_values());
-                    cur = Some(i + 1);
+        .map_init(Buffers::default, |b, &want| {
+            let mut c = comp.clone();
+            b.psi.clear();
+            b.psi.resize(want.len() * k, 0.0);
+            b.est.clear();
+            b.values.clear();
+            b.latches.clear();
+            // Position of `c`'s stream: the next sample it expects (None: not yet placed), and
+            // the checkpoint index to look from (checkpoints only move forward).
+            let mut cur: Option<usize> = None;
+            let mut j = ck.pos.partition_point(|&p| p <= want[0]).saturating_sub(1);
+            for (w, &i) in want.iter().enumerate() {
+                while ck.pos.get(j + 1).is_some_and(|&p| p <= i) {
+                    j += 1;
                 }
-                f(StretchOut { rows: want, psi, est, latches })
-            },
-        )
+                let p = ck.pos[j];
+                if cur.is_none_or(|c| p > c) {
+                    c.set_stream_state(ck.states[j]);
+                    cur = Some(p);
+                }
+                // Only the stream state matters for samples nobody asked about.
+                for s in cur.unwrap_or(p)..i {
+                    c.advance(&d.sample(s));
+                }
+                let row = &mut b.psi[w * k..(w + 1) * k];
+                match pass {
+                    Pass::Estimates => {
+                        let e = c.step_with(&d.sample(i), |j, v| row[j] = v);
+                        b.values.push(e.values);
+                        b.est.push(e);
+                    }
+                    Pass::Design => {
+                        let v = c.core_and_activations(&d.sample(i), row).unwrap_or([f64::NAN; N_OUTPUTS]);
+                        b.values.push(v);
+                    }
+                }
+                b.latches.push(c.latch_values());
+                cur = Some(i + 1);
+            }
+            f(StretchOut { rows: want, psi: &b.psi, est: &b.est, values: &b.values, latches: &b.latches })
+        })
         .collect())
 }
 
@@ -204,17 +235,17 @@ pub fn run_with(
     want: &[usize],
     ck: Option<&Checkpoints>,
 ) -> Result<Vec<Estimate<f64>>, TrainerError> {
-    let parts = map_stretches(params, d, want, ck, |o| o.est.to_vec())?;
+    let parts = map_stretches(params, d, want, ck, Pass::Estimates, |o| o.est.to_vec())?;
     Ok(parts.concat())
 }
 
 /// The RBF activations at `rows` (sorted ascending) as a `rows.len() × K` matrix, plus the
-/// estimates there.
+/// polynomial core's values there (the model's RBF weights play no part).
 pub fn design_matrix(
     params: &HostParams,
     d: &Dataset,
     rows: &[usize],
-) -> Result<(DMatrix<f64>, Vec<Estimate<f64>>), TrainerError> {
+) -> Result<(DMatrix<f64>, Vec<[f64; N_OUTPUTS]>), TrainerError> {
     design_matrix_with(params, d, rows, None)
 }
 
@@ -224,27 +255,27 @@ pub fn design_matrix_with(
     d: &Dataset,
     rows: &[usize],
     ck: Option<&Checkpoints>,
-) -> Result<(DMatrix<f64>, Vec<Estimate<f64>>), TrainerError> {
+) -> Result<(DMatrix<f64>, Vec<[f64; N_OUTPUTS]>), TrainerError> {
     let k = params.centres.len();
-    let parts = map_stretches(params, d, rows, ck, |o| (o.psi.to_vec(), o.est.to_vec()))?;
+    let parts = map_stretches(params, d, rows, ck, Pass::Design, |o| (o.psi.to_vec(), o.values.to_vec()))?;
     let mut psi = DMatrix::zeros(rows.len(), k);
-    let mut est = Vec::with_capacity(rows.len());
+    let mut values = Vec::with_capacity(rows.len());
     let mut r0 = 0;
-    for (p, e) in parts {
-        for (r, row) in p.chunks_exact(k.max(1)).enumerate().take(e.len()) {
-            for (j, &v) in row.iter().enumerate() {
-                psi[(r0 + r, j)] = v;
+    for (p, v) in parts {
+        for (r, row) in p.chunks_exact(k.max(1)).enumerate().take(v.len()) {
+            for (j, &x) in row.iter().enumerate() {
+                psi[(r0 + r, j)] = x;
             }
         }
-        r0 += e.len();
-        est.extend(e);
+        r0 += v.len();
+        values.extend(v);
     }
-    Ok((psi, est))
+    Ok((psi, values))
 }
 
 /// The sums of the ridge system of paper Eq. 7 over a set of rows, accumulated stretch by
-/// stretch: G = ΨᵀΨ, ΨᵀR with R = reference − estimate (the residual of a model whose RBF
-/// weights are zero, i.e. of its polynomial core), and max_j ψ_j per row.
+/// stretch: G = ΨᵀΨ, ΨᵀR with R = reference − the polynomial core's values (the model's RBF
+/// weights play no part), and max_j ψ_j per row.
 pub struct Gram {
     /// ΨᵀΨ (K × K, symmetric).
     pub g: DMatrix<f64>,
@@ -256,25 +287,25 @@ pub struct Gram {
     pub max_psi: Vec<f64>,
 }
 
-/// Residual target of output `c` at sample `i` given the core's estimate: reference −
-/// estimate, 0 for an output without reference (so that its residual weights stay 0).
+/// Residual target of output `c` at sample `i` given the core's values: reference − value,
+/// 0 for an output without reference (so that its residual weights stay 0).
 #[inline]
-pub fn residual(d: &Dataset, i: usize, c: usize, est: &Estimate<f64>) -> f64 {
+pub fn residual(d: &Dataset, i: usize, c: usize, values: &[f64; N_OUTPUTS]) -> f64 {
     if d.has_target[c] {
-        d.target(c)[i] - est.values[c]
+        d.target(c)[i] - values[c]
     } else {
         0.0
     }
 }
 
-/// [`Gram`] of `params` (whose RBF weights should be zero) over `rows` (sorted ascending).
+/// [`Gram`] of `params` over `rows` (sorted ascending).
 pub fn gram(params: &HostParams, d: &Dataset, rows: &[usize], ck: Option<&Checkpoints>) -> Result<Gram, TrainerError> {
     let k = params.centres.len();
-    let parts = map_stretches(params, d, rows, ck, |o| {
+    let parts = map_stretches(params, d, rows, ck, Pass::Design, |o| {
         let mut g = vec![0.0; k * k];
         let mut pr = vec![0.0; k * N_OUTPUTS];
         let r: Vec<[f64; N_OUTPUTS]> =
-            o.rows.iter().zip(o.est).map(|(&i, e)| std::array::from_fn(|c| residual(d, i, c, e))).collect();
+            o.rows.iter().zip(o.values).map(|(&i, v)| std::array::from_fn(|c| residual(d, i, c, v))).collect();
         if k > 0 {
             add_outer_products(&mut g, &mut pr, o.psi, &r, k);
         }

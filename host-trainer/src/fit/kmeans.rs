@@ -25,20 +25,6 @@ fn d2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
     s
 }
 
-/// Index and squared distance of the centre nearest to `p` (the first on ties).
-#[inline]
-fn nearest<const D: usize>(p: &[f64; D], centres: &[[f64; D]]) -> (usize, f64) {
-    let (mut bj, mut bd) = (0, f64::INFINITY);
-    for (j, c) in centres.iter().enumerate() {
-        let d = d2(p, c);
-        if d < bd {
-            bd = d;
-            bj = j;
-        }
-    }
-    (bj, bd)
-}
-
 /// Cluster `points` into `k` centres. Deterministic for a given `rng` state. Empty clusters
 /// are re-seeded at the point farthest from its centre.
 pub fn kmeans_pp<const D: usize>(points: &[[f64; D]], k: usize, rng: &mut Rng, max_iter: usize) -> Vec<[f64; D]> {
@@ -69,47 +55,82 @@ pub fn kmeans_pp<const D: usize>(points: &[[f64; D]], k: usize, rng: &mut Rng, m
         centres.push(c);
         best.par_iter_mut().zip(points.par_iter()).for_each(|(b, p)| *b = b.min(d2(p, &c)));
     }
+    lloyd(points, centres, max_iter)
+}
+
+/// Lloyd iterations from `centres` until no assignment changes, the centres move by less than
+/// the tolerance, or `max_iter`.
+fn lloyd<const D: usize>(points: &[[f64; D]], mut centres: Vec<[f64; D]>, max_iter: usize) -> Vec<[f64; D]> {
+    let (n, k) = (points.len(), centres.len());
     let tol = TOL * mean_variance(points);
-    // Lloyd iterations.
+    // Lloyd iterations, accelerated exactly by Hamerly's bounds (2010): per point an upper
+    // bound on the distance to its centre and a lower bound on the distance to every other;
+    // a point whose upper bound is below both its lower bound and half the distance from its
+    // centre to the nearest other centre keeps its centre without any distance computed.
     let mut assign = vec![usize::MAX; n];
+    let mut upper = vec![f64::INFINITY; n];
+    let mut lower = vec![0.0f64; n];
     for _ in 0..max_iter {
-        // Per block: label changes, farthest point, per-centre sums and counts.
-        type Part<const D: usize> = (bool, (usize, f64), Vec<[f64; D]>, Vec<usize>);
+        // Half the distance from each centre to its nearest other centre.
+        let half: Vec<f64> = (0..k)
+            .map(|j| {
+                let m = (0..k).filter(|&i| i != j).map(|i| d2(&centres[i], &centres[j])).fold(f64::INFINITY, f64::min);
+                0.5 * m.sqrt()
+            })
+            .collect();
+        // Per block: label changes, per-centre sums and counts.
+        type Part<const D: usize> = (bool, Vec<[f64; D]>, Vec<usize>);
         let parts: Vec<Part<D>> = assign
             .par_chunks_mut(BLOCK)
+            .zip(upper.par_chunks_mut(BLOCK))
+            .zip(lower.par_chunks_mut(BLOCK))
             .zip(points.par_chunks(BLOCK))
-            .enumerate()
-            .map(|(b, (labels, pts))| {
+            .map(|(((labels, up), lo), pts)| {
                 let mut changed = false;
-                let mut far = (0usize, -1.0f64);
                 let mut sums = vec![[0.0; D]; k];
                 let mut counts = vec![0usize; k];
-                for (r, (l, p)) in labels.iter_mut().zip(pts).enumerate() {
-                    let (bj, bd) = nearest(p, &centres);
-                    if *l != bj {
-                        *l = bj;
-                        changed = true;
+                for (((l, u), lb), p) in labels.iter_mut().zip(up.iter_mut()).zip(lo.iter_mut()).zip(pts) {
+                    let a = *l;
+                    let skip = a != usize::MAX && {
+                        let m = half[a].max(*lb);
+                        *u <= m || {
+                            *u = d2(p, &centres[a]).sqrt();
+                            *u <= m
+                        }
+                    };
+                    if !skip {
+                        // Nearest and second-nearest centre (the first on ties, as Lloyd).
+                        let (mut b1, mut d1, mut d2nd) = (0usize, f64::INFINITY, f64::INFINITY);
+                        for (j, c) in centres.iter().enumerate() {
+                            let d = d2(p, c);
+                            if d < d1 {
+                                d2nd = d1;
+                                d1 = d;
+                                b1 = j;
+                            } else if d < d2nd {
+                                d2nd = d;
+                            }
+                        }
+                        if *l != b1 {
+                            *l = b1;
+                            changed = true;
+                        }
+                        *u = d1.sqrt();
+                        *lb = d2nd.sqrt();
                     }
-                    if bd > far.1 {
-                        far = (b * BLOCK + r, bd);
-                    }
-                    counts[bj] += 1;
-                    for (s, v) in sums[bj].iter_mut().zip(p) {
+                    counts[*l] += 1;
+                    for (s, v) in sums[*l].iter_mut().zip(p) {
                         *s += v;
                     }
                 }
-                (changed, far, sums, counts)
+                (changed, sums, counts)
             })
             .collect();
         let mut changed = false;
-        let mut far = (0usize, -1.0f64);
         let mut sums = vec![[0.0; D]; k];
         let mut counts = vec![0usize; k];
-        for (ch, f, s, c) in parts {
+        for (ch, s, c) in parts {
             changed |= ch;
-            if f.1 > far.1 {
-                far = f;
-            }
             for j in 0..k {
                 counts[j] += c[j];
                 for (a, b) in sums[j].iter_mut().zip(&s[j]) {
@@ -117,20 +138,52 @@ pub fn kmeans_pp<const D: usize>(points: &[[f64; D]], k: usize, rng: &mut Rng, m
                 }
             }
         }
+        // An empty cluster is re-seeded at the point farthest from its centre (exact
+        // distances: the bounds are not enough to rank points).
+        let far = if counts.contains(&0) {
+            let (i, _) = points
+                .iter()
+                .zip(&assign)
+                .map(|(p, &a)| d2(p, &centres[a]))
+                .enumerate()
+                .fold((0usize, -1.0f64), |best, (i, d)| if d > best.1 { (i, d) } else { best });
+            Some(i)
+        } else {
+            None
+        };
         let mut shift = 0.0;
+        let mut moved = vec![0.0f64; k];
         for j in 0..k {
-            let new = if counts[j] == 0 {
-                changed = true;
-                points[far.0]
-            } else {
-                sums[j].map(|s| s / counts[j] as f64)
+            let new = match (counts[j], far) {
+                (0, Some(f)) => {
+                    changed = true;
+                    points[f]
+                }
+                _ => sums[j].map(|s| s / counts[j].max(1) as f64),
             };
-            shift += d2(&new, &centres[j]);
+            let dj = d2(&new, &centres[j]);
+            shift += dj;
+            moved[j] = dj.sqrt();
             centres[j] = new;
         }
         if !changed || shift <= tol {
             break;
         }
+        // Keep the bounds valid for the moved centres.
+        let (mut m1, mut j1, mut m2) = (0.0f64, usize::MAX, 0.0f64);
+        for (j, &m) in moved.iter().enumerate() {
+            if m > m1 {
+                m2 = m1;
+                m1 = m;
+                j1 = j;
+            } else if m > m2 {
+                m2 = m;
+            }
+        }
+        upper.par_iter_mut().zip(lower.par_iter_mut()).zip(assign.par_iter()).for_each(|((u, lb), &a)| {
+            *u += moved[a];
+            *lb -= if a == j1 { m2 } else { m1 };
+        });
     }
     centres
 }
@@ -173,6 +226,63 @@ mod tests {
         let mut cs = kmeans_pp(&pts, 3, &mut r2, 50);
         cs.sort_by(|a, b| (a[0] + 2.0 * a[1]).total_cmp(&(b[0] + 2.0 * b[1])));
         assert!((cs[0][0]).abs() < 0.1 && (cs[1][0] - 10.0).abs() < 0.1 && (cs[2][1] - 10.0).abs() < 0.1, "{cs:?}");
+    }
+
+    /// Plain Lloyd, every distance computed every iteration: what Hamerly's bounds must
+    /// reproduce.
+    fn lloyd_plain<const D: usize>(points: &[[f64; D]], mut centres: Vec<[f64; D]>, max_iter: usize) -> Vec<[f64; D]> {
+        let tol = TOL * mean_variance(points);
+        let mut assign = vec![usize::MAX; points.len()];
+        for _ in 0..max_iter {
+            let mut changed = false;
+            let mut sums = vec![[0.0; D]; centres.len()];
+            let mut counts = vec![0usize; centres.len()];
+            for (a, p) in assign.iter_mut().zip(points) {
+                let (mut bj, mut bd) = (0, f64::INFINITY);
+                for (j, c) in centres.iter().enumerate() {
+                    if d2(p, c) < bd {
+                        bd = d2(p, c);
+                        bj = j;
+                    }
+                }
+                changed |= *a != bj;
+                *a = bj;
+                counts[bj] += 1;
+                for (s, v) in sums[bj].iter_mut().zip(p) {
+                    *s += v;
+                }
+            }
+            let mut shift = 0.0;
+            for j in 0..centres.len() {
+                let new = sums[j].map(|s| s / counts[j].max(1) as f64);
+                shift += d2(&new, &centres[j]);
+                centres[j] = new;
+            }
+            if !changed || shift <= tol {
+                break;
+            }
+        }
+        centres
+    }
+
+    #[test]
+    fn hamerly_bounds_reproduce_plain_lloyd() {
+        let mut rng = Rng::new(5, Stream::Temperature);
+        // Overlapping clusters, so that many points sit near boundaries.
+        let pts: Vec<[f64; 4]> = (0..5000)
+            .map(|i| {
+                let c = (i % 7) as f64;
+                [c + rng.normal(), 0.5 * c + rng.normal(), rng.normal(), rng.uniform()]
+            })
+            .collect();
+        let start: Vec<[f64; 4]> = pts.iter().step_by(500).copied().collect();
+        let fast = lloyd(&pts, start.clone(), 200);
+        let plain = lloyd_plain(&pts, start, 200);
+        for (a, b) in fast.iter().zip(&plain) {
+            for (x, y) in a.iter().zip(b) {
+                assert!((x - y).abs() <= 1e-12 * (1.0 + y.abs()), "{fast:?}\nvs\n{plain:?}");
+            }
+        }
     }
 
     #[test]

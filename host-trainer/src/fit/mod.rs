@@ -16,7 +16,7 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 use fbg_shared::layout::{FeatureSet, N_ENVELOPE, N_OUTPUTS, VAR_RANK, Z_DIMS};
-use fbg_shared::{Centre, Compensator, Estimate, Hyper, ModelParams, Provenance};
+use fbg_shared::{Centre, Compensator, Hyper, ModelParams, Provenance};
 
 use crate::dataset::Dataset;
 use crate::error::TrainerError;
@@ -86,7 +86,7 @@ pub fn z_sample(stream: &HostParams, d: &Dataset, train: &[usize], ck: Option<&C
     // Per stretch: count, mean and sum of squared deviations (combined below in stretch order
     // by Chan's formula), and the k-means points.
     type Part = (f64, [f64; Z_DIMS], [f64; Z_DIMS], Vec<[f64; Z_DIMS]>);
-    let parts: Vec<Part> = design::map_stretches(stream, d, train, ck, |o| {
+    let parts: Vec<Part> = design::map_stretches(stream, d, train, ck, design::Pass::Design, |o| {
         let p0 = train.partition_point(|&i| i < o.rows[0]);
         let zs: Vec<[f64; Z_DIMS]> = o.rows.iter().zip(o.latches).map(|(&i, &l)| z_of(d, i, l)).collect();
         let n = zs.len() as f64;
@@ -324,10 +324,10 @@ pub fn skeleton(d: &Dataset, train: &[usize], core: &PolyCore, zs: &ZSample, cfg
     }
 }
 
-/// Residual targets R = y − Model-P(x) on `rows` (n × 3), with the Model-P estimates (0 for
+/// Residual targets R = y − Model-P(x) on `rows` (n × 3), from the core's values there (0 for
 /// an output without reference, so that its residual weights stay 0).
-pub fn residual_targets(d: &Dataset, rows: &[usize], p_est: &[Estimate<f64>]) -> DMatrix<f64> {
-    DMatrix::from_fn(rows.len(), N_OUTPUTS, |r, c| design::residual(d, rows[r], c, &p_est[r]))
+pub fn residual_targets(d: &Dataset, rows: &[usize], core_values: &[[f64; N_OUTPUTS]]) -> DMatrix<f64> {
+    DMatrix::from_fn(rows.len(), N_OUTPUTS, |r, c| design::residual(d, rows[r], c, &core_values[r]))
 }
 
 /// Weak-support threshold: half the 0.1 % quantile of max ψ over the calibration samples,
