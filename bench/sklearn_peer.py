@@ -19,9 +19,13 @@ Two sub-commands, each printing one JSON object on stdout:
             ``fbg_shared::DirectionLatch`` (ticks of 1/1024 pm, rounding half away from zero,
             running extreme, dead band), run once over the whole record in time order *before*
             the clock starts (its time is reported separately as ``latch_seconds``);
-         4. ``StandardScaler`` on z; ``KMeans(n_clusters=K, init="k-means++", n_init=1,
-            max_iter=100, random_state=seed)`` on every ceil(n/20000)-th standardised row (the
-            same subsample and iteration cap as ours);
+         4. ``StandardScaler`` on z; then, with ``--kmeans all`` (the pipeline as a notebook
+            writes it), ``KMeans(n_clusters=K, random_state=seed)`` with scikit-learn's defaults
+            (k-means++, one initialisation, up to 300 iterations, tol 1e-4) on every calibration
+            row; with ``--kmeans subsample`` (our algorithm ported to scikit-learn: the
+            implementations compared alone), ``KMeans(n_clusters=K, init="k-means++",
+            n_init=1, max_iter=100, random_state=seed)`` on every ceil(n/20000)-th row, the
+            subsample and iteration cap ours uses;
          5. sigma = sigma_mult x the median distance from each centre to its nearest other
             centre (upper median, as ours); psi = ``rbf_kernel(z, centres, gamma=1/(2 sigma²))``,
             values below 1e-150 set to 0 (their products would be subnormal and slow the BLAS
@@ -135,8 +139,9 @@ def rbf_inputs(data, features, lat):
 class HybridPeer:
     """Model-P + Model-H as a scikit-learn pipeline (see the module doc)."""
 
-    def __init__(self, k, sigma_mult, alpha_rel, seed):
+    def __init__(self, k, sigma_mult, alpha_rel, seed, kmeans="subsample"):
         self.k, self.sigma_mult, self.alpha_rel, self.seed = k, sigma_mult, alpha_rel, seed
+        self.kmeans = kmeans
 
     def fit(self, X4, Z, Y):
         n = len(Y)
@@ -147,9 +152,13 @@ class HybridPeer:
         resid = Y - self.stage2.predict(g)
         self.zscale = StandardScaler().fit(Z)
         zs = self.zscale.transform(Z)
-        stride = max(1, -(-n // KMEANS_MAX_POINTS))
-        km = KMeans(n_clusters=self.k, init="k-means++", n_init=1, max_iter=100, random_state=self.seed)
-        self.centres = km.fit(zs[::stride]).cluster_centers_
+        if self.kmeans == "all":
+            km = KMeans(n_clusters=self.k, random_state=self.seed)
+            self.centres = km.fit(zs).cluster_centers_
+        else:
+            stride = max(1, -(-n // KMEANS_MAX_POINTS))
+            km = KMeans(n_clusters=self.k, init="k-means++", n_init=1, max_iter=100, random_state=self.seed)
+            self.centres = km.fit(zs[::stride]).cluster_centers_
         sigma = self.sigma_mult * median_nn_distance(self.centres)
         self.gamma = 1.0 / (2.0 * sigma * sigma)
         psi = self.features(zs)
@@ -187,12 +196,13 @@ def cmd_fit(a):
     secs, model = [], None
     for _ in range(max(1, a.repeats)):
         t = time.perf_counter()
-        model = HybridPeer(a.k, a.sigma_mult, a.alpha_rel, a.seed).fit(X4c, Zc, Yc)
+        model = HybridPeer(a.k, a.sigma_mult, a.alpha_rel, a.seed, a.kmeans).fit(X4c, Zc, Yc)
         secs.append(time.perf_counter() - t)
     X4h, Zh, Yh = data["X4"][hold], Z[hold], data["Y"][hold]
     out = {
         "peer": "scikit-learn hybrid pipeline",
         "features": a.features,
+        "kmeans": a.kmeans,
         "k": a.k,
         "sigma_mult": a.sigma_mult,
         "alpha_rel": a.alpha_rel,
@@ -267,6 +277,8 @@ def main():
     f.add_argument("--alpha-rel", type=float, default=1e-5)
     f.add_argument("--dead-band-pm", type=float, default=4.0)
     f.add_argument("--seed", type=int, default=1)
+    f.add_argument("--kmeans", choices=["all", "subsample"], default="subsample",
+                   help="cluster every calibration row with KMeans' defaults (as a notebook does), or our subsample")
     f.set_defaults(func=cmd_fit)
     b = sub.add_parser("blackbox", help="gradient boosting and MLP accuracy peers")
     b.add_argument("--data", required=True)
