@@ -43,6 +43,16 @@ Two sub-commands, each printing one JSON object on stdout:
          targets standardised), on [dl1..3, T_amb], on [dl1..3, T_amb, t] (time-aware) and on
          [dl1..3, T_amb, latch1..3] (the latches above). Model size = ``len(pickle.dumps(model))``.
 
+         Also hybrids with a black-box residual learner: Model-P (as in ``fit``) plus a
+         ``HistGradientBoostingRegressor`` per output fitted to Model-P's calibration residuals,
+         on [dl1..3, T_amb, latch1..3] and on a much richer set of causal features (``history``:
+         per grating the direction latches at dead bands 1, 2, 4 and 6 pm, the changes over the
+         last 1..32 samples, the samples since the latch's running extreme last moved, the
+         deviations from exponential moving averages of 2..180 samples; the changes of T_amb
+         over the last 1..32 samples and its averages over 60..720 samples: 59 inputs, every one
+         computable on a stream). It bounds what more information and a far larger learner buy
+         over the compensator's own inputs.
+
 ``versions`` prints the Python, numpy and scikit-learn versions.
 """
 
@@ -243,6 +253,26 @@ def cmd_blackbox(a):
     }
     cal, hold = data["cal"], data["hold"]
     rows = []
+    # Hybrids with a gradient-boosting residual: Model-P, then one regressor per output on its
+    # calibration residuals.
+    hyb = HybridPeer(1, 1.0, 1.0, 0)
+    for iname, X in {"dl+T_amb+latch": inputs["dl+T_amb+latch"], "dl+T_amb+history": history_features(data)}.items():
+        t = time.perf_counter()
+        hyb.stage1 = LinearRegression().fit(data["X4"][cal], data["Y"][cal])
+        g = hyb.stage1.predict(data["X4"][cal])
+        hyb.stage2 = make_pipeline(StandardScaler(), PolynomialFeatures(2), LinearRegression(fit_intercept=False)).fit(g, data["Y"][cal])
+        resid = data["Y"][cal] - hyb.predict_p(data["X4"][cal])
+        gb = MultiOutputRegressor(HistGradientBoostingRegressor(random_state=0)).fit(X[cal], resid)
+        secs = time.perf_counter() - t
+        pred = hyb.predict_p(data["X4"][hold]) + gb.predict(X[hold])
+        rows.append({
+            "model": "Model-P + HistGradientBoosting residual",
+            "inputs": iname,
+            "n_inputs": int(X.shape[1]),
+            "fit_seconds": secs,
+            "rmse": rmse(pred, data["Y"][hold]),
+            "pickle_bytes": len(pickle.dumps((hyb.stage1, hyb.stage2, gb))),
+        })
     for mname, make in models.items():
         for iname, X in inputs.items():
             m = make()
@@ -257,6 +287,69 @@ def cmd_blackbox(a):
                 "pickle_bytes": len(pickle.dumps(m)),
             })
     print(json.dumps({"n_samples": int(len(data["t"])), "n_cal": int(cal.sum()), "peers": rows}, indent=1))
+
+
+def ema(x, samples):
+    """Exponential moving average with time constant `samples`, causal, started at x[0]."""
+    a = 1.0 / (1.0 + samples)
+    out = np.empty_like(x)
+    acc = x[0]
+    for i, v in enumerate(x.tolist()):
+        acc += a * (v - acc)
+        out[i] = acc
+    return out
+
+
+def samples_since_extreme(x, dead_band_pm):
+    """Samples since the latch's running extreme last moved (0 while the signal makes new
+    extremes, growing while it sits inside the dead band)."""
+    out = np.zeros(len(x))
+    anchor, direction, since = None, 0, 0
+    for i, v in enumerate(x.tolist()):
+        if anchor is None:
+            anchor = v
+            continue
+        moved = True
+        if direction == 1 and v > anchor:
+            anchor = v
+        elif direction == -1 and v < anchor:
+            anchor = v
+        elif direction in (1, 0) and v < anchor - dead_band_pm:
+            direction, anchor = -1, v
+        elif direction in (-1, 0) and v > anchor + dead_band_pm:
+            direction, anchor = 1, v
+        else:
+            moved = False
+        since = 0 if moved else since + 1
+        out[i] = since
+    return out
+
+
+def lagged_change(x, k):
+    out = np.zeros(len(x))
+    out[k:] = x[k:] - x[:-k]
+    return out
+
+
+def history_features(data):
+    """59 causal inputs (see the module doc): what a much richer residual learner could see."""
+    dl, t_amb = data["X4"][:, :3], data["X4"][:, 3]
+    cols = [data["X4"][:, c] for c in range(4)]
+    for g in range(3):
+        y = dl[:, g]
+        for db in (1.0, 2.0, 4.0, 6.0):
+            cols.append(latches(y[:, None], db)[:, 0])
+        for k in (1, 2, 4, 8, 16, 32):
+            cols.append(lagged_change(y, k))
+        for db in (2.0, 4.0):
+            cols.append(samples_since_extreme(y, db))
+        for tau in (2, 8, 60, 180):
+            cols.append(y - ema(y, tau))
+    for k in (1, 4, 16, 32):
+        cols.append(lagged_change(t_amb, k))
+    for tau in (60, 180, 720):
+        cols.append(ema(t_amb, tau))
+    return np.column_stack(cols)
 
 
 def cmd_versions(_a):

@@ -781,14 +781,18 @@ fn markdown(rep: &Value) -> String {
         s,
         "Hold-out RMSE per channel on the `paper` and `harsh` presets (seed 7, 14 days at 60 s, first half calibrates). Ours: `train`'s selection \
          (default features: cross-validation chooses among all feature sets; `--features paper`: only Eq. 5's). Black boxes: scikit-learn on the same \
-         calibration rows with the inputs named. Size: our `.fbgm` blob; scikit-learn: `len(pickle.dumps(model))`.\n"
+         calibration rows with the inputs named; *Model-P + HistGradientBoosting residual* is a hybrid whose residual learner is a gradient-boosting \
+         model instead of the RBF ridge, on the latches or on 59 causal history inputs (`bench/sklearn_peer.py`'s `history_features`): how far far more \
+         information and a far larger learner get. Size: our `.fbgm` blob; scikit-learn: `len(pickle.dumps(model))`.\n"
     );
     for p in acc["presets"].as_array().into_iter().flatten() {
         let _ = writeln!(s, "### `{}`\n", p["preset"].as_str().unwrap_or(""));
-        let _ = writeln!(s, "| model | inputs | T [°C] | ε [µε] | p [kPa] | size |\n|---|---|---|---|---|---|");
+        let _ = writeln!(s, "| model | inputs | T [°C] | ε [µε] | p [kPa] | below Model-P (T / ε / p) | size |\n|---|---|---|---|---|---|---|");
+        let base: Vec<f64> = (0..3).map(|c| num(p, &["model_p", "rmse", &c.to_string()])).collect();
         let row = |s: &mut String, name: &str, inputs: &str, rm: &Value, size: String| {
             let r = rmse3(rm);
-            let _ = writeln!(s, "| {name} | {inputs} | {} | {} | {} | {size} |", r[0], r[1], r[2]);
+            let gain: Vec<String> = (0..3).map(|c| format!("{:.0} %", 100.0 * (1.0 - num(rm, &[&c.to_string()]) / base[c]))).collect();
+            let _ = writeln!(s, "| {name} | {inputs} | {} | {} | {} | {} | {size} |", r[0], r[1], r[2], gain.join(" / "));
         };
         row(&mut s, "Model-P", "Δλ, T_amb", &p["model_p"]["rmse"], format!("{} B", p["model_p"]["bytes"]));
         let ch = &p["model_h_default"]["chosen"];
@@ -800,7 +804,11 @@ fn markdown(rep: &Value) -> String {
             for (c, bst) in best.iter_mut().enumerate() {
                 *bst = bst.min(num(b, &["rmse", &c.to_string()]));
             }
-            row(&mut s, &format!("scikit-learn {}", b["model"].as_str().unwrap_or("")), b["inputs"].as_str().unwrap_or(""), &b["rmse"], format!("{} B", b["pickle_bytes"]));
+            let inputs = match b["n_inputs"].as_u64() {
+                Some(n) => format!("{} ({n} inputs)", b["inputs"].as_str().unwrap_or("")),
+                None => b["inputs"].as_str().unwrap_or("").to_string(),
+            };
+            row(&mut s, &format!("scikit-learn {}", b["model"].as_str().unwrap_or("")), &inputs, &b["rmse"], format!("{} B", b["pickle_bytes"]));
         }
         row(&mut s, "oracle floor", "true physics, noise-only wavelengths", &p["oracle_floor"]["rmse"], "–".into());
         if best[0].is_finite() {
