@@ -101,7 +101,7 @@ pub const fn unloaded<const K: usize>() -> Compensator<f32, K> {
     // and scalars (0.0), `i32` (0), `bool` (false), a `heapless::Vec` (length 0, storage
     // `MaybeUninit`) and the direction latches (`i32`, `i8`, `bool`: a latch that has seen no
     // sample). `tests::an_unloaded_compensator_is_usable` exercises it. A safe `const fn` in
-    // fbg-shared would make this unnecessary (README-firmware.md, proposals).
+    // fbg-shared would make this unnecessary (README-firmware.md, "Not met / open").
     unsafe { MaybeUninit::zeroed().assume_init() }
 }
 
