@@ -791,7 +791,9 @@ fn markdown(rep: &Value) -> String {
         let base: Vec<f64> = (0..3).map(|c| num(p, &["model_p", "rmse", &c.to_string()])).collect();
         let row = |s: &mut String, name: &str, inputs: &str, rm: &Value, size: String| {
             let r = rmse3(rm);
-            let gain: Vec<String> = (0..3).map(|c| format!("{:.0} %", 100.0 * (1.0 - num(rm, &[&c.to_string()]) / base[c]))).collect();
+            // Rounded first, so that a gain of −0.3 % reads 0 %, not −0 %.
+            let gain: Vec<String> =
+                (0..3).map(|c| format!("{:.0} %", (100.0 * (1.0 - num(rm, &[&c.to_string()]) / base[c])).round() + 0.0)).collect();
             let _ = writeln!(s, "| {name} | {inputs} | {} | {} | {} | {} | {size} |", r[0], r[1], r[2], gain.join(" / "));
         };
         row(&mut s, "Model-P", "Δλ, T_amb", &p["model_p"]["rmse"], format!("{} B", p["model_p"]["bytes"]));
