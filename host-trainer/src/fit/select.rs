@@ -206,10 +206,10 @@ fn key(c: &Config) -> (u8, u64, usize, u64, u64) {
     (c.feature_set.code(), c.dead_band_pm.to_bits(), c.k, c.sigma_mult.to_bits(), c.alpha_rel.to_bits())
 }
 
-/// One fold's Model-P and what the RBF layer needs of its training rows.
+/// One fold's polynomial core and the end of its training.
 struct FoldCore {
     core: poly_core::PolyCore,
-    /// Model-P's stream-only model (no centres) per dead band, for checkpoints and z.
+    /// Time of the fold's last training sample [s] (validation leads count from it).
     t_end: f64,
 }
 
