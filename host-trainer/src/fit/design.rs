@@ -8,10 +8,10 @@
 //! one sequential pass. Stretch boundaries do not depend on the number of threads and partial
 //! sums are added in stretch order, so every result is the same on any machine and pool size.
 //!
-//! All of it goes through `fbg_shared::Compensator<f64, _>::step_with`, the code the device
-//! runs: the trainer never implements inference a second time.
+//! All of it goes through `fbg_shared::Compensator<f64, _>` (`step_with` for estimates,
+//! `core_and_activations` for the ridge system), the code the device runs: the trainer never
+//! implements inference a second time.
 
-use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use nalgebra::DMatrix;
@@ -79,7 +79,8 @@ impl Checkpoints {
 pub struct CheckpointCache {
     end: usize,
     extra: Vec<usize>,
-    slots: Mutex<HashMap<(u64, bool), Arc<Slot>>>,
+    /// One slot per stream rule, found by [`fbg_shared::Compensator::same_stream`].
+    slots: Mutex<Vec<(HostCompensator, Arc<Slot>)>>,
 }
 
 /// One stream rule's checkpoints, computed at most once (the error as text: shared by waiters).
@@ -93,10 +94,17 @@ impl CheckpointCache {
 
     /// Checkpoints for `params` over samples `0..end` of `d`.
     pub fn get(&self, params: &HostParams, d: &Dataset) -> Result<Arc<Checkpoints>, TrainerError> {
-        let key = (params.hyper.dead_band_pm.to_bits(), params.hyper.feature_set.uses_time());
+        let rule = compensator(params)?;
         let slot = {
             let mut slots = self.slots.lock().map_err(|_| TrainerError::fit("checkpoint cache poisoned"))?;
-            slots.entry(key).or_default().clone()
+            match slots.iter().find(|(r, _)| r.same_stream(&rule)) {
+                Some((_, slot)) => slot.clone(),
+                None => {
+                    let slot = Arc::new(Slot::new());
+                    slots.push((rule, slot.clone()));
+                    slot
+                }
+            }
         };
         slot.get_or_init(|| Checkpoints::new(params, d, self.end, &self.extra).map(Arc::new).map_err(|e| e.to_string()))
             .clone()

@@ -3,7 +3,7 @@
 //!
 //! All predictions go through `fbg_shared::Compensator<f64, _>`, the same code the device runs
 //! in f32: the trainer never implements inference a second time. The design matrix Ψ is
-//! collected from that code too (`Compensator::step_with`).
+//! collected from that code too (`Compensator::core_and_activations`, see [`design`]).
 
 pub mod design;
 pub mod kmeans;
@@ -206,6 +206,24 @@ pub struct Skeleton {
 }
 
 impl Skeleton {
+    /// A model without centres: the polynomial core `core` alone (Model-P), which moves the
+    /// direction latches like every model with dead band `dead_band_pm` and the finiteness rule
+    /// of `feature_set`, so it also stands for that latch stream (checkpoints, RBF inputs).
+    pub fn core_only(d: &Dataset, train: &[usize], core: &PolyCore, feature_set: FeatureSet, dead_band_pm: f64) -> Self {
+        Skeleton {
+            core: core.clone(),
+            feature_set,
+            dead_band_pm,
+            z_mean: [0.0; Z_DIMS],
+            z_std: [1.0; Z_DIMS],
+            centres: vec![],
+            sigma_mult: 1.0,
+            sigma: 1.0,
+            envelope: envelope(d, train),
+            fitted: d.has_target,
+        }
+    }
+
     /// Params with the given weights and variance terms (zeros where `None`).
     pub fn params(
         &self,
@@ -377,19 +395,14 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
     let core_p = if cfg.cross_terms { core.clone() } else { poly_core::fit(d, &cal, true)? };
     phases.lap("polynomial core");
     // The latch stream of the chosen dead band, once for the RBF inputs and the design.
-    let stream = Skeleton {
-        core: core.clone(),
-        feature_set: cfg.feature_set,
-        dead_band_pm: cfg.dead_band_pm,
-        z_mean: [0.0; Z_DIMS],
-        z_std: [1.0; Z_DIMS],
-        centres: vec![],
-        sigma_mult: 1.0,
-        sigma: 1.0,
-        envelope: envelope(d, &cal),
-        fitted: d.has_target,
-    }
-    .params(None, 0.0, None, [0.0; 3], 0.0, &provenance)?;
+    let stream = Skeleton::core_only(d, &cal, &core, cfg.feature_set, cfg.dead_band_pm).params(
+        None,
+        0.0,
+        None,
+        [0.0; 3],
+        0.0,
+        &provenance,
+    )?;
     let end = cal.last().map(|&i| i + 1).unwrap_or(0);
     let ck = Checkpoints::new(&stream, d, end, &[])?;
     let zs = z_sample(&stream, d, &cal, Some(&ck))?;

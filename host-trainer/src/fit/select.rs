@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use fbg_shared::layout::{FeatureSet, N_OUTPUTS, Z_DIMS};
+use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
 use fbg_shared::Provenance;
 
 use super::{design, linalg, poly_core, residual_targets, skeleton, z_sample, CheckpointCache, Config, HostParams, ZSample};
@@ -255,22 +255,9 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
     dbs.sort_by(f64::total_cmp);
     dbs.dedup();
 
-    // A model without centres moves the latches like every model of its dead band: it stands
-    // for the stream (checkpoints, z) and, with a fold's core, is that fold's Model-P.
+    // A fold's Model-P, which also stands for the latch stream of its dead band.
     let stream_model = |core: &poly_core::PolyCore, train: &[usize], db: f64| -> Result<HostParams, TrainerError> {
-        let sk = super::Skeleton {
-            core: core.clone(),
-            feature_set: FeatureSet::HysteresisAware,
-            dead_band_pm: db,
-            z_mean: [0.0; Z_DIMS],
-            z_std: [1.0; Z_DIMS],
-            centres: vec![],
-            sigma_mult: 1.0,
-            sigma: 1.0,
-            envelope: super::envelope(d, train),
-            fitted: d.has_target,
-        };
-        sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)
+        super::Skeleton::core_only(d, train, core, FeatureSet::HysteresisAware, db).params(None, 0.0, None, [0.0; 3], 0.0, &prov)
     };
 
     // Model-P per fold (always with cross terms: the reference errors) and the fold's core
@@ -321,8 +308,8 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
     let zsamples: HashMap<(usize, u64), ZSample> =
         zjobs.iter().map(|&(fi, db)| (fi, db.to_bits())).zip(zsamples?).collect();
 
-    // Validation errors of every (σ, α) of one fold, feature set, dead band and K. With
-    // `keep`, the per-sample squared errors of the first grid point are kept too.
+    // Per-sample squared validation errors of every (σ, α) of one fold, feature set, dead band
+    // and K.
     let fold_task = |fi: usize, set: FeatureSet, db: f64, k: usize, sigma_mults: &[f64], alpha_rels: &[f64]| {
         let f = &fs[fi];
         let fc = &fold_core[fi];
