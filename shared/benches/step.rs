@@ -71,6 +71,8 @@ fn model(k: usize) -> ModelParams<f64, CAP> {
         guess_mean: [0.0; N_OUTPUTS],
         guess_std: [1.0; N_OUTPUTS],
         poly: std::array::from_fn(|o| std::array::from_fn(|i| 0.1 * (i + o) as f64)),
+        memory: fbg_shared::MemorySpec::off(),
+        gamma: [[0.0; fbg_shared::layout::N_MEMORY]; N_OUTPUTS],
         z_mean,
         z_std,
         centres,

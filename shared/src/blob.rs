@@ -7,12 +7,18 @@
 //! 6       2     inputs       (5: Δλ1..3, T_amb, t)
 //! 8       2     outputs      (3: T, ε, p)
 //! 10      2     poly terms   (10)
-//! 12      2     centres      (K of this model)
-//! 14      n     postcard payload: ModelParams<f32, K>
-//! 14+n    4     CRC-32/ISCSI (postcard crc flavour) over bytes 0..14+n, u32 LE
+//! 12      2     memory terms (32: slots of the memory vector m, used or not)
+//! 14      2     centres      (K of this model)
+//! 16      n     postcard payload: ModelParams<f32, K>
+//! 16+n    4     CRC-32/ISCSI (postcard crc flavour) over bytes 0..16+n, u32 LE
 //! ```
 //!
-//! The blob must be exactly `18 + n` bytes long: nothing may follow the CRC.
+//! The blob must be exactly `20 + n` bytes long: nothing may follow the CRC.
+//!
+//! Version history: 1 had no memory terms (no memory field in the header, no memory spec or
+//! Γ in the payload); version 2 adds them. A version-1 blob is refused with
+//! [`Error::UnsupportedVersion`] naming both versions: retrain, or re-export with this
+//! trainer.
 //!
 //! Decoding checks magic, version, CRC, dims and every parameter, and returns a typed
 //! [`Error`]; it never panics and never allocates, whatever the bytes.
@@ -20,15 +26,18 @@
 use crc::{Crc, CRC_32_ISCSI};
 
 use crate::error::Error;
-use crate::layout::{N_ENVELOPE, N_INPUTS, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use crate::layout::{
+    N_AMBIENT_TAUS, N_ENVELOPE, N_GRATING_TAUS, N_INPUTS, N_MEMORY, N_OUTPUTS, N_PLAYS, N_POLY, N_STAGE1, VAR_RANK,
+    Z_DIMS,
+};
 use crate::model::ModelParams;
 
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"FBGM";
 /// Format version this build writes and reads.
-pub const FORMAT_VERSION: u16 = 1;
-/// Header length in bytes (magic, version, four dims).
-pub const HEADER_LEN: usize = 14;
+pub const FORMAT_VERSION: u16 = 2;
+/// Header length in bytes (magic, version, five dims).
+pub const HEADER_LEN: usize = 16;
 /// CRC trailer length in bytes.
 pub const CRC_LEN: usize = 4;
 
@@ -46,6 +55,8 @@ pub struct Header {
     pub outputs: u16,
     /// Polynomial terms.
     pub poly_terms: u16,
+    /// Memory-term slots.
+    pub memory_terms: u16,
     /// RBF centres.
     pub centres: u16,
 }
@@ -67,14 +78,14 @@ impl Header {
             return Err(Error::BadMagic);
         }
         let head = bytes.get(..HEADER_LEN).ok_or(Error::Truncated { part: "header" })?;
-        let mut w = [0u16; 5];
+        let mut w = [0u16; 6];
         for (o, ch) in w.iter_mut().zip(head.get(MAGIC.len()..).unwrap_or(&[]).chunks_exact(2)) {
             let mut b = [0u8; 2];
             b.copy_from_slice(ch);
             *o = u16::from_le_bytes(b);
         }
-        let [version, inputs, outputs, poly_terms, centres] = w;
-        Ok(Header { version, inputs, outputs, poly_terms, centres })
+        let [version, inputs, outputs, poly_terms, memory_terms, centres] = w;
+        Ok(Header { version, inputs, outputs, poly_terms, memory_terms, centres })
     }
 
     /// The version decides how the rest is read, so it is checked before anything else.
@@ -82,7 +93,7 @@ impl Header {
         if self.version == FORMAT_VERSION {
             Ok(())
         } else {
-            Err(Error::UnsupportedVersion { found: self.version })
+            Err(Error::UnsupportedVersion { found: self.version, supported: FORMAT_VERSION })
         }
     }
 
@@ -96,7 +107,8 @@ impl Header {
         };
         check("inputs", self.inputs, N_INPUTS)?;
         check("outputs", self.outputs, N_OUTPUTS)?;
-        check("poly_terms", self.poly_terms, N_POLY)
+        check("poly_terms", self.poly_terms, N_POLY)?;
+        check("memory_terms", self.memory_terms, N_MEMORY)
     }
 
     fn check_capacity<const K: usize>(&self) -> Result<(), Error> {
@@ -115,7 +127,7 @@ impl Header {
         let mut out = [0u8; HEADER_LEN];
         let (magic, rest) = out.split_at_mut(MAGIC.len());
         magic.copy_from_slice(&MAGIC);
-        let w = [self.version, self.inputs, self.outputs, self.poly_terms, self.centres];
+        let w = [self.version, self.inputs, self.outputs, self.poly_terms, self.memory_terms, self.centres];
         for (ch, v) in rest.chunks_exact_mut(2).zip(w.iter()) {
             ch.copy_from_slice(&v.to_le_bytes());
         }
@@ -143,6 +155,7 @@ pub fn encode<const K: usize>(
         inputs: N_INPUTS as u16,
         outputs: N_OUTPUTS as u16,
         poly_terms: N_POLY as u16,
+        memory_terms: N_MEMORY as u16,
         centres,
     }
     .to_bytes();
@@ -237,6 +250,8 @@ fn parse_into<'a, const K: usize>(
     out.guess_mean = take(&mut b)?;
     out.guess_std = take(&mut b)?;
     out.poly = take(&mut b)?;
+    out.memory = take(&mut b)?;
+    out.gamma = take(&mut b)?;
     out.z_mean = take(&mut b)?;
     out.z_std = take(&mut b)?;
     // heapless::Vec is a postcard sequence: a varint length, then the elements.
@@ -329,6 +344,8 @@ pub const fn min_len(centres: usize) -> usize {
     let fixed_f32 = N_OUTPUTS * N_STAGE1
         + 2 * N_OUTPUTS
         + N_OUTPUTS * N_POLY
+        + (N_GRATING_TAUS + N_AMBIENT_TAUS + N_PLAYS + 2 + N_STAGE1)
+        + N_OUTPUTS * N_MEMORY
         + 2 * Z_DIMS
         + VAR_RANK
         + 1

@@ -15,7 +15,8 @@ use heapless::Vec;
 use crate::direction_latch::LatchBank;
 use crate::error::Error;
 use crate::flags::Flags;
-use crate::layout::{N_ENVELOPE, N_GRATINGS, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use crate::layout::{N_ENVELOPE, N_GRATINGS, N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use crate::memory::{MemoryBank, MemoryState};
 use crate::model::{Centre, ModelParams};
 use crate::real::Real;
 
@@ -54,6 +55,21 @@ struct PreparedCentre<F> {
     v: [F; VAR_RANK],
 }
 
+/// The stream state of a [`Compensator`]: the direction latches and the memory bank's
+/// operators. `Copy`, so a stream can be checkpointed and resumed.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StreamState<F> {
+    latches: LatchBank,
+    memory: MemoryState<F>,
+}
+
+impl<F: Real> StreamState<F> {
+    /// The direction latches of this state.
+    pub fn latches(&self) -> LatchBank {
+        self.latches
+    }
+}
+
 /// A loaded model with its stream state, ready to compensate samples.
 ///
 /// `K` is the centre capacity; models with fewer centres load too and cost proportionally less.
@@ -62,6 +78,11 @@ pub struct Compensator<F, const K: usize> {
     /// Stage-1 rows producing *standardised* guesses.
     a: [[F; N_STAGE1]; N_OUTPUTS],
     b: [[F; N_POLY]; N_OUTPUTS],
+    /// Γ (output units per memory-term unit).
+    gamma: [[F; N_MEMORY]; N_OUTPUTS],
+    /// The memory operators and their state.
+    memory: MemoryBank<F>,
+    has_memory: bool,
     /// z_scaled = x · z_gain + z_offset (gain 0 on unused dimensions).
     z_gain: [F; Z_DIMS],
     z_offset: [F; Z_DIMS],
@@ -202,6 +223,9 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         let mut c = Compensator {
             a: [[F::ZERO; N_STAGE1]; N_OUTPUTS],
             b: [[F::ZERO; N_POLY]; N_OUTPUTS],
+            gamma: [[F::ZERO; N_MEMORY]; N_OUTPUTS],
+            memory: MemoryBank::default(),
+            has_memory: false,
             z_gain: [F::ZERO; Z_DIMS],
             z_offset: [F::ZERO; Z_DIMS],
             centres: Vec::new(),
@@ -237,7 +261,8 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         let folded = Folded::<F>::of(params);
         let active = params.hyper.feature_set.active();
         let f = |v: G| F::from_real(v);
-        let env_ok = params.envelope_lo.iter().chain(params.envelope_hi.iter()).all(|&v| f(v).is_finite());
+        let gamma_ok = params.gamma.iter().all(|r| r.iter().all(|&v| f(v).is_finite()));
+        let env_ok = gamma_ok && params.envelope_lo.iter().chain(params.envelope_hi.iter()).all(|&v| f(v).is_finite());
         if !folded.is_finite()
             || !env_ok
             || !params.centres.iter().all(|c| folded.centre(c, &active).is_finite())
@@ -254,6 +279,13 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         let h = &params.hyper;
         self.a = folded.a;
         self.b = folded.b;
+        for (o, r) in self.gamma.iter_mut().zip(params.gamma.iter()) {
+            for (o, &v) in o.iter_mut().zip(r.iter()) {
+                *o = f(v);
+            }
+        }
+        self.memory = MemoryBank::new(&params.memory);
+        self.has_memory = self.memory.is_active();
         self.z_gain = folded.z_gain;
         self.z_offset = folded.z_offset;
         self.inv_g_tail = f(params.var_inv_g_tail);
@@ -274,6 +306,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.uses_latch = h.feature_set.uses_latch();
         self.fitted = params.fitted;
         self.latches.reset();
+        self.memory.reset();
         Ok(())
     }
 
@@ -302,30 +335,68 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.centres.len()
     }
 
-    /// Forget the stream state (direction latches) before a new acquisition.
+    /// Forget the stream state (direction latches, memory operators) before a new acquisition.
     pub fn reset(&mut self) {
         self.latches.reset();
+        self.memory.reset();
     }
 
-    /// The stream state (the direction latches): with [`Compensator::set_stream_state`], a
-    /// stream can be checkpointed and resumed, e.g. to evaluate stretches of a long record in
-    /// parallel with exactly the answers of one sequential pass.
-    pub fn stream_state(&self) -> LatchBank {
-        self.latches
+    /// The stream state (direction latches and memory operators): with
+    /// [`Compensator::set_stream_state`], a stream can be checkpointed and resumed, e.g. to
+    /// evaluate stretches of a long record in parallel with exactly the answers of one
+    /// sequential pass.
+    pub fn stream_state(&self) -> StreamState<F> {
+        StreamState { latches: self.latches, memory: self.memory.state() }
     }
 
-    /// Resume from a state taken by [`Compensator::stream_state`] (of a compensator with the
-    /// same dead band, at the sample before the one to be compensated next).
-    pub fn set_stream_state(&mut self, state: LatchBank) {
-        self.latches = state;
+    /// Resume from a state taken by [`Compensator::stream_state`] (of a compensator for which
+    /// [`Compensator::same_stream`] holds, at the sample before the one to be compensated next).
+    pub fn set_stream_state(&mut self, state: StreamState<F>) {
+        self.latches = state.latches;
+        self.memory.set_state(state.memory);
     }
 
     /// Whether `other` moves its stream state exactly as this one does on every sample (same
-    /// dead band, same rule for which samples are finite), so that a state taken from one can
-    /// resume the other.
+    /// dead band, same memory operators, same rule for which samples are finite), so that a
+    /// state taken from one can resume the other.
     pub fn same_stream<const K2: usize>(&self, other: &Compensator<F, K2>) -> bool {
         self.dead_band == other.dead_band
-            && (self.uses_time || self.band_grows) == (other.uses_time || other.band_grows)
+            && self.memory.same_spec(&other.memory)
+            && self.needs_time() == other.needs_time()
+    }
+
+    /// Whether the model reads the time input (feature set, growing band or memory terms).
+    #[inline(always)]
+    fn needs_time(&self) -> bool {
+        self.uses_time || self.band_grows || self.has_memory
+    }
+
+    /// Whether the model has memory terms (Γm in the core).
+    pub fn has_memory(&self) -> bool {
+        self.has_memory
+    }
+
+    /// Advance the stream state by one accepted sample: the latch values and the memory terms.
+    #[inline(always)]
+    fn advance_state(&mut self, s: &Sample<F>) -> ([F; N_GRATINGS], [F; N_MEMORY]) {
+        let latch: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
+        let m = if self.has_memory { self.memory.update(&s.dl_pm, s.t_amb_c, s.t_s) } else { [F::ZERO; N_MEMORY] };
+        (latch, m)
+    }
+
+    /// Add Γm to the core's values.
+    #[inline(always)]
+    fn add_memory(&self, y: &mut [F; N_OUTPUTS], m: &[F; N_MEMORY]) {
+        if !self.has_memory {
+            return;
+        }
+        for (yi, row) in y.iter_mut().zip(self.gamma.iter()) {
+            let mut acc = *yi;
+            for (&g, &mk) in row.iter().zip(m.iter()) {
+                acc = g.mul_add(mk, acc);
+            }
+            *yi = acc;
+        }
     }
 
     /// Current direction-latch values (−1, 0, +1 per grating).
@@ -339,21 +410,20 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     #[inline]
     pub fn advance(&mut self, s: &Sample<F>) {
         if self.accepts(s) {
-            let _: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
+            let _ = self.advance_state(s);
         }
     }
 
     /// Whether a sample is finite where this model reads it (Δλ, T_amb, and t when the
-    /// feature set or the band uses time); other samples are answered as non-finite and leave
-    /// the stream state untouched.
+    /// feature set, the band or the memory terms use time); other samples are answered as
+    /// non-finite and leave the stream state untouched.
     #[inline(always)]
     fn accepts(&self, s: &Sample<F>) -> bool {
-        s.dl_pm.iter().all(|v| v.is_finite())
-            && s.t_amb_c.is_finite()
-            && (!(self.uses_time || self.band_grows) || s.t_s.is_finite())
+        s.dl_pm.iter().all(|v| v.is_finite()) && s.t_amb_c.is_finite() && (!self.needs_time() || s.t_s.is_finite())
     }
 
-    /// The polynomial core (Model-P): stage-1 standardised first guesses, then paper Eq. 3.
+    /// The polynomial core Bφ (Model-P's answer when the model has no memory terms):
+    /// stage-1 standardised first guesses, then paper Eq. 3.
     #[inline(always)]
     fn core(&self, s: &Sample<F>) -> [F; N_OUTPUTS] {
         let [d1, d2, d3] = s.dl_pm;
@@ -395,7 +465,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     }
 
     /// What a trainer needs of one sample to build the ridge system (paper Eq. 7): the
-    /// polynomial core's estimate and every RBF activation ψ_j (into `psi`, one per centre),
+    /// core's estimate Bφ + Γm and every RBF activation ψ_j (into `psi`, one per centre),
     /// computed by the same code as [`Compensator::step`] and moving the stream state as it
     /// does, but without the residual, band or flags. `None` for a sample `step` would answer
     /// as non-finite (`psi` untouched).
@@ -404,8 +474,9 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         if !self.accepts(s) {
             return None;
         }
-        let latch: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
-        let y = self.core(s);
+        let (latch, m) = self.advance_state(s);
+        let mut y = self.core(s);
+        self.add_memory(&mut y, &m);
         let (z, z_sq) = self.rbf_inputs(s, latch);
         for (o, c) in psi.iter_mut().zip(self.centres.iter()) {
             // All inputs: an unused one adds an exact zero, so ψ is the one `step` computes.
@@ -433,7 +504,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
                 flags: Flags::NON_FINITE,
             };
         }
-        let latch: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
+        let (latch, m) = self.advance_state(s);
         let [d1, d2, d3] = s.dl_pm;
         let x_env = [d1, d2, d3, s.t_amb_c];
 
@@ -444,7 +515,8 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             }
         }
 
-        let y = self.core(s);
+        let mut y = self.core(s);
+        self.add_memory(&mut y, &m);
         // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
         let (z, z_sq) = self.rbf_inputs(s, latch);
         // The centre loop, specialised on the inputs the feature set uses (unused ones have

@@ -17,10 +17,12 @@ pub enum Error {
     UnsupportedVersion {
         /// Version found in the header.
         found: u16,
+        /// The version this build reads and writes.
+        supported: u16,
     },
     /// A header dimension differs from what this build computes with.
     WrongDims {
-        /// Which dimension ("inputs", "outputs", "poly_terms", "centres").
+        /// Which dimension ("inputs", "outputs", "poly_terms", "memory_terms", "centres").
         field: &'static str,
         /// Value in the blob.
         found: u16,
@@ -59,8 +61,8 @@ impl core::fmt::Display for Error {
         match self {
             Error::Truncated { part } => write!(f, "model blob truncated in the {part}"),
             Error::BadMagic => f.write_str("not a model blob (magic is not FBGM)"),
-            Error::UnsupportedVersion { found } => {
-                write!(f, "unsupported model blob format version {found}")
+            Error::UnsupportedVersion { found, supported } => {
+                write!(f, "model blob format version {found} is not readable by this build, which reads version {supported}")
             }
             Error::WrongDims { field, found, expected } => {
                 write!(f, "model blob dimension {field} is {found}, this build needs {expected}")

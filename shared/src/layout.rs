@@ -23,6 +23,22 @@ pub const Z_DIMS: usize = 8;
 pub const Z_TIME: usize = 4;
 /// Index of the first direction latch in the RBF layout.
 pub const Z_LATCH: usize = 5;
+/// Time-constant slots of the grating high-passes Δλ_i − EMA_τ(Δλ_i).
+pub const N_GRATING_TAUS: usize = 6;
+/// Time-constant slots of the ambient high-passes T_amb − EMA_τ(T_amb).
+pub const N_AMBIENT_TAUS: usize = 4;
+/// Half-width slots of the stop terms Δλ_i − play_r(Δλ_i).
+pub const N_PLAYS: usize = 3;
+/// Index of the first grating high-pass in the memory vector m (τ slot major, grating minor).
+pub const MEM_GRATING: usize = 0;
+/// Index of the first ambient high-pass in m.
+pub const MEM_AMBIENT: usize = MEM_GRATING + N_GRATINGS * N_GRATING_TAUS;
+/// Index of the first stop term in m (r slot major, grating minor).
+pub const MEM_STOP: usize = MEM_AMBIENT + N_AMBIENT_TAUS;
+/// Index of the drift observer in m.
+pub const MEM_OBSERVER: usize = MEM_STOP + N_GRATINGS * N_PLAYS;
+/// Memory terms m of Model-H (see [`crate::memory`]); unused slots are 0.
+pub const N_MEMORY: usize = MEM_OBSERVER + 1;
 /// Number of eigen-directions of `(ΨᵀΨ + αI)⁻¹` kept for the predictive variance: those with
 /// the smallest eigenvalues g of `ΨᵀΨ + αI`, which carry the leverage out of distribution
 /// (exact when `K <= VAR_RANK`; see `ModelParams::var_inv_g_tail` for the rest).

@@ -6,6 +6,7 @@
 //!
 //! - [`layout`]: fixed dimensions and the feature layout;
 //! - [`direction_latch`]: the stateful hysteresis-aware feature;
+//! - [`memory`]: the instrument's memory, causal operators whose terms enter Model-H linearly;
 //! - [`model`]: the auditable parameters a blob carries;
 //! - [`blob`]: the `.fbgm` codec (magic, version, dims, postcard payload, CRC-32);
 //! - [`compensator`]: per-sample inference with band and flags;
@@ -53,16 +54,18 @@ pub mod direction_latch;
 pub mod error;
 pub mod flags;
 pub mod layout;
+pub mod memory;
 pub mod model;
 pub mod protocol;
 #[cfg(feature = "std")]
 pub mod link_client;
 pub mod real;
 
-pub use compensator::{rbf_activation, Compensator, Estimate, Sample};
+pub use compensator::{rbf_activation, Compensator, Estimate, Sample, StreamState};
 pub use direction_latch::{ticks, DirectionLatch, LatchBank};
 pub use error::Error;
 pub use flags::Flags;
 pub use layout::FeatureSet;
+pub use memory::{MemoryBank, MemoryGroup, MemorySpec, MemoryState};
 pub use model::{Centre, Hyper, ModelParams, Provenance};
 pub use real::Real;

@@ -7,7 +7,8 @@ use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
-use crate::layout::{FeatureSet, N_ENVELOPE, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use crate::layout::{FeatureSet, N_ENVELOPE, N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use crate::memory::MemorySpec;
 use crate::real::Real;
 
 /// Hyper-parameters chosen by blocked time-series cross-validation, plus the flag settings.
@@ -74,6 +75,12 @@ pub struct ModelParams<F, const K: usize> {
     /// Polynomial core B (paper Eq. 3) on standardised guesses, rows T, ε, p; columns in
     /// [`crate::layout::POLY_NAMES`] order, values in output units.
     pub poly: [[F; N_POLY]; N_OUTPUTS],
+    /// The memory operators (all slots 0 for the `paper` and `latch` variants).
+    pub memory: MemorySpec<F>,
+    /// Γ: per output, the coefficient of each memory term, in output units per term unit
+    /// (e.g. °C per pm for a grating high-pass on the T row); 0 for unused terms. Fitted
+    /// jointly with B.
+    pub gamma: [[F; N_MEMORY]; N_OUTPUTS],
     /// Mean of each RBF input over the calibration batch (units of [`crate::layout::Z_NAMES`]).
     pub z_mean: [F; Z_DIMS],
     /// Standard deviation of each RBF input (> 0 on used dimensions, ignored elsewhere).
@@ -113,6 +120,53 @@ pub struct ModelParams<F, const K: usize> {
 }
 
 impl<F: Real, const K: usize> ModelParams<F, K> {
+    /// An all-zero placeholder (it does not validate): a staging slot a blob is decoded into,
+    /// usable in a `static` (it lands in `.bss`).
+    pub const fn empty() -> Self {
+        ModelParams {
+            hyper: Hyper {
+                feature_set: FeatureSet::Paper,
+                sigma_mult: F::ZERO,
+                sigma: F::ZERO,
+                alpha: F::ZERO,
+                dead_band_pm: F::ZERO,
+                weak_support: F::ZERO,
+                envelope_margin: F::ZERO,
+                flagged_band_factor: F::ZERO,
+            },
+            stage1: [[F::ZERO; N_STAGE1]; N_OUTPUTS],
+            guess_mean: [F::ZERO; N_OUTPUTS],
+            guess_std: [F::ZERO; N_OUTPUTS],
+            poly: [[F::ZERO; N_POLY]; N_OUTPUTS],
+            memory: MemorySpec::off(),
+            gamma: [[F::ZERO; N_MEMORY]; N_OUTPUTS],
+            z_mean: [F::ZERO; Z_DIMS],
+            z_std: [F::ZERO; Z_DIMS],
+            centres: Vec::new(),
+            var_inv_g: [F::ZERO; VAR_RANK],
+            var_inv_g_tail: F::ZERO,
+            resid_var: [F::ZERO; N_OUTPUTS],
+            resid_var_growth: [F::ZERO; N_OUTPUTS],
+            t_cal_end_s: F::ZERO,
+            band_k: [F::ZERO; N_OUTPUTS],
+            envelope_lo: [F::ZERO; N_ENVELOPE],
+            envelope_hi: [F::ZERO; N_ENVELOPE],
+            fitted: [false; N_OUTPUTS],
+            provenance: Provenance {
+                seed: 0,
+                scenario: String::new(),
+                trainer_version: String::new(),
+                date_yyyymmdd: 0,
+                n_cal: 0,
+            },
+        }
+    }
+
+    /// Whether the model has memory terms.
+    pub fn has_memory(&self) -> bool {
+        self.memory.any()
+    }
+
     /// Number of centres in use (0 for a pure Model-P).
     pub fn n_centres(&self) -> usize {
         self.centres.len()
@@ -157,6 +211,14 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         }
         if !self.poly.iter().all(|r| all(r)) {
             return Err(Error::BadParameter { field: "poly" });
+        }
+        self.memory.validate()?;
+        for row in self.gamma.iter() {
+            for (k, &g) in row.iter().enumerate() {
+                if !g.is_finite() || (g != F::ZERO && !self.memory.term_active(k)) {
+                    return Err(Error::BadParameter { field: "gamma" });
+                }
+            }
         }
         if !all(&self.z_mean) {
             return Err(Error::BadParameter { field: "z_mean" });
@@ -245,6 +307,8 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
             guess_mean: c(&self.guess_mean),
             guess_std: c(&self.guess_std),
             poly: m(&self.poly),
+            memory: self.memory.convert(),
+            gamma: m(&self.gamma),
             z_mean: c(&self.z_mean),
             z_std: c(&self.z_std),
             centres,

@@ -346,7 +346,7 @@ impl From<Error> for Rejection {
         let (reason, detail) = match e {
             Error::Truncated { .. } => (RejectReason::Truncated, 0),
             Error::BadMagic => (RejectReason::BadMagic, 0),
-            Error::UnsupportedVersion { found } => (RejectReason::UnsupportedVersion, found as u32),
+            Error::UnsupportedVersion { found, .. } => (RejectReason::UnsupportedVersion, found as u32),
             Error::WrongDims {
                 found, expected, ..
             } => (

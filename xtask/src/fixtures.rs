@@ -459,6 +459,8 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>> 
         guess_mean: [T0, 0.0, P0],
         guess_std: Q_STD,
         poly,
+        memory: fbg_shared::MemorySpec::off(),
+        gamma: [[0.0; fbg_shared::layout::N_MEMORY]; N_OUTPUTS],
         z_mean,
         z_std,
         centres,

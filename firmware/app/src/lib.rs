@@ -125,6 +125,8 @@ pub const fn empty_params<const K: usize>() -> ModelParams<f32, K> {
         guess_mean: [0.0; N_OUTPUTS],
         guess_std: [0.0; N_OUTPUTS],
         poly: [[0.0; N_POLY]; N_OUTPUTS],
+        memory: fbg_shared::MemorySpec::off(),
+        gamma: [[0.0; fbg_shared::layout::N_MEMORY]; N_OUTPUTS],
         z_mean: [0.0; Z_DIMS],
         z_std: [0.0; Z_DIMS],
         centres: heapless::Vec::new(),

@@ -116,6 +116,8 @@ pub fn model<const K: usize>(
         guess_mean,
         guess_std,
         poly,
+        memory: fbg_shared::MemorySpec::off(),
+        gamma: [[0.0; fbg_shared::layout::N_MEMORY]; N_OUTPUTS],
         z_mean,
         z_std,
         centres,

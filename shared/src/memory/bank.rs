@@ -1,0 +1,231 @@
+//! Every memory operator of a model over one sample stream.
+
+use crate::layout::{
+    N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS, N_STAGE1, MEM_AMBIENT, MEM_OBSERVER, MEM_STOP,
+};
+use crate::memory::{DriftObserver, LowPass, MemorySpec, Play};
+use crate::real::Real;
+
+/// The stream state of a [`MemoryBank`]: every low-pass and play position, the observer and the
+/// last sample time. About 35 scalars; `Copy`, so a stream can be checkpointed and resumed.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MemoryState<F> {
+    grating: [[F; N_GRATINGS]; N_GRATING_TAUS],
+    ambient: [F; N_AMBIENT_TAUS],
+    play: [[F; N_GRATINGS]; N_PLAYS],
+    observer: [F; 2],
+    t_prev_s: F,
+    primed: bool,
+}
+
+impl<F: Real> MemoryState<F> {
+    /// A state that has seen no sample.
+    pub const fn new() -> Self {
+        MemoryState {
+            grating: [[F::ZERO; N_GRATINGS]; N_GRATING_TAUS],
+            ambient: [F::ZERO; N_AMBIENT_TAUS],
+            play: [[F::ZERO; N_GRATINGS]; N_PLAYS],
+            observer: [F::ZERO; 2],
+            t_prev_s: F::ZERO,
+            primed: false,
+        }
+    }
+}
+
+/// The memory operators of a [`MemorySpec`] with their stream state.
+///
+/// [`MemoryBank::update`] takes one sample and returns the memory vector m. O(1) work and state
+/// per sample. The smoothing factors are recomputed only when Δt changes, so a regularly
+/// sampled stream costs no exponential per step.
+///
+/// **Start and gaps.** The first sample primes every operator at its own value (high-pass and
+/// stop terms 0). A later sample Δt after the previous accepted one moves each low-pass by
+/// α = 1 − e^(−Δt/τ), as if the input had held the new value over the whole interval: a gap
+/// much longer than τ re-primes that low-pass (its high-pass restarts near 0), a short one is
+/// simply a longer step. The play operators do not depend on time. A repeated or backward time
+/// stamp gives Δt <= 0: the low-passes hold, the plays still move.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MemoryBank<F> {
+    grating_lp: [LowPass<F>; N_GRATING_TAUS],
+    ambient_lp: [LowPass<F>; N_AMBIENT_TAUS],
+    plays: [Play<F>; N_PLAYS],
+    observer: DriftObserver<F>,
+    observer_row: [F; N_STAGE1],
+    grating_on: [bool; N_GRATING_TAUS],
+    ambient_on: [bool; N_AMBIENT_TAUS],
+    play_on: [bool; N_PLAYS],
+    observer_on: bool,
+    any: bool,
+    /// Δt of the cached smoothing factors (NaN: none cached).
+    cached_dt: F,
+    alpha_grating: [F; N_GRATING_TAUS],
+    alpha_ambient: [F; N_AMBIENT_TAUS],
+    alpha_observer: [F; 2],
+    state: MemoryState<F>,
+}
+
+impl<F: Real> MemoryBank<F> {
+    /// A bank for `spec` (any precision; converted here) that has seen no sample.
+    pub fn new<G: Real>(spec: &MemorySpec<G>) -> Self {
+        let s: MemorySpec<F> = spec.convert();
+        let mut b = MemoryBank::<F> {
+            observer: DriftObserver::new(s.observer_lag_s, s.observer_smooth_s),
+            observer_row: s.observer_row,
+            observer_on: s.observer_lag_s > F::ZERO && s.observer_smooth_s > F::ZERO,
+            cached_dt: F::NAN,
+            ..Default::default()
+        };
+        for ((lp, on), &tau) in b.grating_lp.iter_mut().zip(b.grating_on.iter_mut()).zip(s.grating_tau_s.iter()) {
+            *lp = LowPass::new(tau);
+            *on = tau > F::ZERO;
+        }
+        for ((lp, on), &tau) in b.ambient_lp.iter_mut().zip(b.ambient_on.iter_mut()).zip(s.ambient_tau_s.iter()) {
+            *lp = LowPass::new(tau);
+            *on = tau > F::ZERO;
+        }
+        for ((op, on), &r) in b.plays.iter_mut().zip(b.play_on.iter_mut()).zip(s.play_half_width_pm.iter()) {
+            *op = Play::new(r);
+            *on = r > F::ZERO;
+        }
+        b.any = b.grating_on.iter().chain(b.ambient_on.iter()).chain(b.play_on.iter()).any(|&o| o) || b.observer_on;
+        b
+    }
+
+    /// Whether the bank computes any term (otherwise [`MemoryBank::update`] returns zeros).
+    pub fn is_active(&self) -> bool {
+        self.any
+    }
+
+    /// The stream state, to checkpoint a stream.
+    pub fn state(&self) -> MemoryState<F> {
+        self.state
+    }
+
+    /// Resume from a state taken by [`MemoryBank::state`] of a bank with the same spec.
+    pub fn set_state(&mut self, state: MemoryState<F>) {
+        self.state = state;
+    }
+
+    /// Forget the stream.
+    pub fn reset(&mut self) {
+        self.state = MemoryState::new();
+    }
+
+    /// Whether `other` computes the same terms from the same coefficients (so that a state of
+    /// one resumes the other).
+    pub fn same_spec(&self, other: &Self) -> bool {
+        self.grating_lp == other.grating_lp
+            && self.ambient_lp == other.ambient_lp
+            && self.plays == other.plays
+            && self.observer == other.observer
+            && self.observer_row == other.observer_row
+            && self.observer_on == other.observer_on
+    }
+
+    fn refresh_alphas(&mut self, dt: F) {
+        // Bitwise-equal Δt reuses the factors; NaN (nothing cached) never compares equal.
+        if dt == self.cached_dt {
+            return;
+        }
+        self.cached_dt = dt;
+        for ((a, lp), &on) in self.alpha_grating.iter_mut().zip(self.grating_lp.iter()).zip(self.grating_on.iter()) {
+            *a = if on { lp.alpha(dt) } else { F::ZERO };
+        }
+        for ((a, lp), &on) in self.alpha_ambient.iter_mut().zip(self.ambient_lp.iter()).zip(self.ambient_on.iter()) {
+            *a = if on { lp.alpha(dt) } else { F::ZERO };
+        }
+        if self.observer_on {
+            let (lag, smooth) = self.observer.low_passes();
+            self.alpha_observer = [lag.alpha(dt), smooth.alpha(dt)];
+        }
+    }
+
+    /// The grating temperature T_g [°C] the observer follows.
+    #[inline(always)]
+    fn grating_temperature(&self, dl_pm: &[F; N_GRATINGS], t_amb_c: F) -> F {
+        let [d1, d2, d3] = *dl_pm;
+        let [r0, r1, r2, r3, r4] = self.observer_row;
+        d1.mul_add(r0, d2.mul_add(r1, d3.mul_add(r2, t_amb_c.mul_add(r3, r4))))
+    }
+
+    /// Feed one finite sample (shifts Δλ [pm], ambient T_amb [°C], time t [s]) and return the
+    /// memory vector m (unused terms 0). The caller screens non-finite samples: they must not
+    /// reach the bank (the compensator leaves the whole stream state untouched for them).
+    #[inline]
+    pub fn update(&mut self, dl_pm: &[F; N_GRATINGS], t_amb_c: F, t_s: F) -> [F; N_MEMORY] {
+        let mut m = [F::ZERO; N_MEMORY];
+        if !self.any {
+            return m;
+        }
+        let t_g = if self.observer_on { self.grating_temperature(dl_pm, t_amb_c) } else { F::ZERO };
+        if !self.state.primed {
+            let st = &mut self.state;
+            for row in st.grating.iter_mut().chain(st.play.iter_mut()) {
+                *row = *dl_pm;
+            }
+            st.ambient = [t_amb_c; N_AMBIENT_TAUS];
+            DriftObserver::prime(&mut st.observer, t_g, t_amb_c);
+            st.t_prev_s = t_s;
+            st.primed = true;
+            if self.observer_on {
+                if let Some(o) = m.get_mut(MEM_OBSERVER) {
+                    *o = st.observer[1];
+                }
+            }
+            return m;
+        }
+        let dt = t_s - self.state.t_prev_s;
+        self.state.t_prev_s = t_s;
+        self.refresh_alphas(dt);
+        let st = &mut self.state;
+        let mut terms = m.iter_mut();
+        for (((lp, &on), &a), s) in
+            self.grating_lp.iter().zip(self.grating_on.iter()).zip(self.alpha_grating.iter()).zip(st.grating.iter_mut())
+        {
+            for (&x, si) in dl_pm.iter().zip(s.iter_mut()) {
+                let out = terms.next();
+                if on {
+                    let hp = x - lp.update(si, x, a);
+                    if let Some(o) = out {
+                        *o = hp;
+                    }
+                }
+            }
+        }
+        for (((lp, &on), &a), si) in
+            self.ambient_lp.iter().zip(self.ambient_on.iter()).zip(self.alpha_ambient.iter()).zip(st.ambient.iter_mut())
+        {
+            let out = terms.next();
+            if on {
+                let hp = t_amb_c - lp.update(si, t_amb_c, a);
+                if let Some(o) = out {
+                    *o = hp;
+                }
+            }
+        }
+        for ((op, &on), s) in self.plays.iter().zip(self.play_on.iter()).zip(st.play.iter_mut()) {
+            for (&x, si) in dl_pm.iter().zip(s.iter_mut()) {
+                let out = terms.next();
+                if on {
+                    let stop = op.stop(si, x);
+                    if let Some(o) = out {
+                        *o = stop;
+                    }
+                }
+            }
+        }
+        if self.observer_on {
+            let v = self.observer.update(&mut st.observer, t_g, t_amb_c, self.alpha_observer);
+            if let Some(o) = m.get_mut(MEM_OBSERVER) {
+                *o = v;
+            }
+        }
+        m
+    }
+}
+
+// The layout constants the loops above walk in order.
+const _: () = assert!(MEM_AMBIENT == N_GRATINGS * N_GRATING_TAUS);
+const _: () = assert!(MEM_STOP == MEM_AMBIENT + N_AMBIENT_TAUS);
+const _: () = assert!(MEM_OBSERVER == MEM_STOP + N_GRATINGS * N_PLAYS);
+const _: () = assert!(N_MEMORY == MEM_OBSERVER + 1);

@@ -1,0 +1,166 @@
+//! Which memory operators a model uses: the coefficients a blob carries.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::Error;
+use crate::layout::{
+    N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS, N_STAGE1, MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER,
+    MEM_STOP,
+};
+use crate::real::Real;
+
+/// The kinds of memory term, in the order of the memory vector m (see
+/// [`crate::layout::N_MEMORY`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum MemoryGroup {
+    /// Δλ_i − EMA_τ(Δλ_i) [pm]: thermal lag, slow drift and the slow part of hysteresis.
+    GratingHighPass,
+    /// T_amb − EMA_τ(T_amb) [°C]: the reference thermometer's own lag.
+    AmbientHighPass,
+    /// Δλ_i − play_r(Δλ_i) [pm]: where the play operator sits after a reversal.
+    Stop,
+    /// [`crate::memory::DriftObserver`] [°C]: the common drift, temperature outputs only.
+    DriftObserver,
+}
+
+impl MemoryGroup {
+    /// All groups in memory-vector order.
+    pub const ALL: [MemoryGroup; 4] =
+        [MemoryGroup::GratingHighPass, MemoryGroup::AmbientHighPass, MemoryGroup::Stop, MemoryGroup::DriftObserver];
+
+    /// Short name for reports and the command line.
+    pub const fn name(self) -> &'static str {
+        match self {
+            MemoryGroup::GratingHighPass => "grating-high-pass",
+            MemoryGroup::AmbientHighPass => "ambient-high-pass",
+            MemoryGroup::Stop => "stop",
+            MemoryGroup::DriftObserver => "drift-observer",
+        }
+    }
+
+    /// Unit of the group's terms.
+    pub const fn unit(self) -> &'static str {
+        match self {
+            MemoryGroup::GratingHighPass | MemoryGroup::Stop => "pm",
+            MemoryGroup::AmbientHighPass | MemoryGroup::DriftObserver => "°C",
+        }
+    }
+}
+
+/// The memory operators of a model. A slot whose parameter is 0 is unused: its term is 0 and
+/// its coefficients in Γ must be 0.
+///
+/// Memory vector layout (`N_MEMORY` terms): grating high-passes (τ slot major, grating minor),
+/// ambient high-passes, stop terms (r slot major, grating minor), the drift observer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MemorySpec<F> {
+    /// Time constants τ [s] of the grating high-passes Δλ_i − EMA_τ(Δλ_i) (0 = unused).
+    pub grating_tau_s: [F; N_GRATING_TAUS],
+    /// Time constants τ [s] of the ambient high-passes T_amb − EMA_τ(T_amb) (0 = unused).
+    pub ambient_tau_s: [F; N_AMBIENT_TAUS],
+    /// Half-widths r [pm] of the play operators of the stop terms (0 = unused).
+    pub play_half_width_pm: [F; N_PLAYS],
+    /// Drift observer: the thermometer's lag τl [s] (0 = no observer).
+    pub observer_lag_s: F,
+    /// Drift observer: smoothing τs [s] (> 0 when the observer is used).
+    pub observer_smooth_s: F,
+    /// Drift observer: grating temperature T_g [°C] = row · [Δλ1..3 pm, T_amb °C, 1].
+    pub observer_row: [F; N_STAGE1],
+}
+
+/// What one memory term is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TermInfo<F> {
+    /// Its group.
+    pub group: MemoryGroup,
+    /// Grating index (0-based) for grating terms, 0 otherwise.
+    pub grating: usize,
+    /// τ [s] for high-passes, r [pm] for stop terms, τs [s] for the observer; 0 = unused.
+    pub parameter: F,
+}
+
+impl<F: Real> MemorySpec<F> {
+    /// No memory terms (the `paper` and `latch` variants).
+    pub const fn off() -> Self {
+        MemorySpec {
+            grating_tau_s: [F::ZERO; N_GRATING_TAUS],
+            ambient_tau_s: [F::ZERO; N_AMBIENT_TAUS],
+            play_half_width_pm: [F::ZERO; N_PLAYS],
+            observer_lag_s: F::ZERO,
+            observer_smooth_s: F::ZERO,
+            observer_row: [F::ZERO; N_STAGE1],
+        }
+    }
+
+    /// What term `k` of the memory vector is (`None` beyond [`N_MEMORY`]).
+    pub fn term(&self, k: usize) -> Option<TermInfo<F>> {
+        let info = |group, grating, parameter| Some(TermInfo { group, grating, parameter });
+        if k < MEM_AMBIENT {
+            let slot = (k - MEM_GRATING) / N_GRATINGS;
+            info(MemoryGroup::GratingHighPass, k % N_GRATINGS, *self.grating_tau_s.get(slot)?)
+        } else if k < MEM_STOP {
+            info(MemoryGroup::AmbientHighPass, 0, *self.ambient_tau_s.get(k - MEM_AMBIENT)?)
+        } else if k < MEM_OBSERVER {
+            let slot = (k - MEM_STOP) / N_GRATINGS;
+            info(MemoryGroup::Stop, (k - MEM_STOP) % N_GRATINGS, *self.play_half_width_pm.get(slot)?)
+        } else if k == MEM_OBSERVER {
+            let on = self.observer_lag_s > F::ZERO;
+            info(MemoryGroup::DriftObserver, 0, if on { self.observer_smooth_s } else { F::ZERO })
+        } else {
+            None
+        }
+    }
+
+    /// Whether term `k` is computed (its slot is used).
+    pub fn term_active(&self, k: usize) -> bool {
+        self.term(k).is_some_and(|t| t.parameter > F::ZERO)
+    }
+
+    /// Whether any term is used.
+    pub fn any(&self) -> bool {
+        (0..N_MEMORY).any(|k| self.term_active(k))
+    }
+
+    /// Every parameter finite and >= 0; an observer with a lag has a smoothing and a finite row.
+    pub fn validate(&self) -> Result<(), Error> {
+        let ok = |v: F| v.is_finite() && v >= F::ZERO;
+        if !self.grating_tau_s.iter().all(|&v| ok(v)) {
+            return Err(Error::BadParameter { field: "memory.grating_tau_s" });
+        }
+        if !self.ambient_tau_s.iter().all(|&v| ok(v)) {
+            return Err(Error::BadParameter { field: "memory.ambient_tau_s" });
+        }
+        if !self.play_half_width_pm.iter().all(|&v| ok(v)) {
+            return Err(Error::BadParameter { field: "memory.play_half_width_pm" });
+        }
+        if !(ok(self.observer_lag_s) && ok(self.observer_smooth_s)) {
+            return Err(Error::BadParameter { field: "memory.observer" });
+        }
+        if self.observer_lag_s > F::ZERO && !(self.observer_smooth_s > F::ZERO) {
+            return Err(Error::BadParameter { field: "memory.observer_smooth_s" });
+        }
+        if !self.observer_row.iter().all(|v| v.is_finite()) {
+            return Err(Error::BadParameter { field: "memory.observer_row" });
+        }
+        Ok(())
+    }
+
+    /// The same spec in another precision.
+    pub fn convert<G: Real>(&self) -> MemorySpec<G> {
+        fn c<F: Real, G: Real, const N: usize>(a: &[F; N]) -> [G; N] {
+            let mut out = [G::ZERO; N];
+            for (o, &v) in out.iter_mut().zip(a.iter()) {
+                *o = G::from_real(v);
+            }
+            out
+        }
+        MemorySpec {
+            grating_tau_s: c(&self.grating_tau_s),
+            ambient_tau_s: c(&self.ambient_tau_s),
+            play_half_width_pm: c(&self.play_half_width_pm),
+            observer_lag_s: G::from_real(self.observer_lag_s),
+            observer_smooth_s: G::from_real(self.observer_smooth_s),
+            observer_row: c(&self.observer_row),
+        }
+    }
+}
