@@ -5,12 +5,17 @@
 //! [`BATCH`] samples through a compensator loaded with a synthetic hysteresis-aware model of K
 //! centres (the cost of `step` does not depend on the coefficients' values, only on K and on
 //! the exponentials being evaluated, which they are: the samples sit among the centres).
+//!
+//! The group `step_memory/<f32|f64>` measures the same model at K = 32 with every memory slot
+//! on (6 grating τ, 4 ambient τ, 3 plays, the drift observer: 32 terms and Γ): id `32` on the
+//! regular 60-s clock (smoothing factors cached), id `32-irregular-dt` with a different Δt on
+//! every sample (12 smoothing factors recomputed per step), the memory's worst case.
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use fbg_shared::layout::{FeatureSet, N_OUTPUTS, VAR_RANK, Z_DIMS};
-use fbg_shared::{Centre, Compensator, Hyper, ModelParams, Real, Sample};
+use fbg_shared::layout::{FeatureSet, N_MEMORY, N_OUTPUTS, VAR_RANK, Z_DIMS};
+use fbg_shared::{Centre, Compensator, Hyper, MemorySpec, ModelParams, Real, Sample};
 
 /// Samples per iteration.
 const BATCH: usize = 1024;
@@ -36,7 +41,21 @@ impl Rng {
 const MEAN: [f64; 4] = [0.0, 0.0, 0.0, 20.0];
 const STD: [f64; 4] = [150.0, 40.0, 60.0, 3.0];
 
-fn model(k: usize) -> ModelParams<f64, CAP> {
+/// Every memory slot on, with Γ non-zero on every term (its values do not change the cost).
+fn full_memory() -> (MemorySpec<f64>, [[f64; N_MEMORY]; N_OUTPUTS]) {
+    let spec = MemorySpec {
+        grating_tau_s: [60.0, 600.0, 3600.0, 21_600.0, 86_400.0, 604_800.0],
+        ambient_tau_s: [600.0, 3600.0, 21_600.0, 86_400.0],
+        play_half_width_pm: [5.0, 20.0, 80.0],
+        observer_lag_s: 600.0,
+        observer_smooth_s: 3600.0,
+        observer_row: [0.01, 0.002, -0.003, 0.5, 0.0],
+    };
+    let gamma = std::array::from_fn(|o| std::array::from_fn(|k| 1e-3 * (1 + (k + o) % 5) as f64));
+    (spec, gamma)
+}
+
+fn model(k: usize, memory: bool) -> ModelParams<f64, CAP> {
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15 ^ k as u64);
     let fs = FeatureSet::HysteresisAware;
     let active = fs.active();
@@ -71,8 +90,8 @@ fn model(k: usize) -> ModelParams<f64, CAP> {
         guess_mean: [0.0; N_OUTPUTS],
         guess_std: [1.0; N_OUTPUTS],
         poly: std::array::from_fn(|o| std::array::from_fn(|i| 0.1 * (i + o) as f64)),
-        memory: fbg_shared::MemorySpec::off(),
-        gamma: [[0.0; fbg_shared::layout::N_MEMORY]; N_OUTPUTS],
+        memory: if memory { full_memory().0 } else { MemorySpec::off() },
+        gamma: if memory { full_memory().1 } else { [[0.0; N_MEMORY]; N_OUTPUTS] },
         z_mean,
         z_std,
         centres,
@@ -89,8 +108,9 @@ fn model(k: usize) -> ModelParams<f64, CAP> {
     }
 }
 
-/// A stream of samples among the centres: a random walk of the inputs.
-fn samples<F: Real>() -> Vec<Sample<F>> {
+/// A stream of samples among the centres: a random walk of the inputs, every 60 s, or with a
+/// different Δt (60 ± up to 3 s) on every sample when `irregular`.
+fn samples<F: Real>(irregular: bool) -> Vec<Sample<F>> {
     let mut rng = Rng(42);
     let mut x = [0.0f64; 4];
     (0..BATCH)
@@ -101,30 +121,55 @@ fn samples<F: Real>() -> Vec<Sample<F>> {
             Sample {
                 dl_pm: std::array::from_fn(|d| F::from_f64(MEAN[d] + STD[d] * x[d])),
                 t_amb_c: F::from_f64(MEAN[3] + STD[3] * x[3]),
-                t_s: F::from_f64(60.0 * i as f64),
+                t_s: F::from_f64(60.0 * i as f64 + if irregular { (i % 7) as f64 } else { 0.0 }),
             }
         })
         .collect()
 }
 
+/// Step `xs` through `comp` once per iteration.
+fn bench_stream<F: Real>(
+    g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    id: BenchmarkId,
+    mut comp: Compensator<F, CAP>,
+    xs: &[Sample<F>],
+) {
+    g.bench_with_input(id, xs, |b, xs| {
+        b.iter(|| {
+            let mut acc = F::ZERO;
+            for s in xs {
+                let e = comp.step(black_box(s));
+                acc += e.values[1];
+            }
+            black_box(acc)
+        })
+    });
+}
+
+fn load<F: Real>(k: usize, memory: bool) -> Compensator<F, CAP> {
+    let Ok(comp) = Compensator::<F, CAP>::new(&model(k, memory)) else {
+        panic!("synthetic model with K = {k} (memory: {memory}) does not load");
+    };
+    assert_eq!(comp.has_memory(), memory);
+    comp
+}
+
 fn bench_precision<F: Real>(c: &mut Criterion, name: &str) {
     let mut g = c.benchmark_group(format!("step/{name}"));
     g.throughput(Throughput::Elements(BATCH as u64));
-    let xs = samples::<F>();
+    let xs = samples::<F>(false);
     for k in [16usize, 32, 64] {
-        let Ok(mut comp) = Compensator::<F, CAP>::new(&model(k)) else {
-            panic!("synthetic model with K = {k} does not load");
-        };
-        g.bench_with_input(BenchmarkId::from_parameter(k), &xs, |b, xs| {
-            b.iter(|| {
-                let mut acc = F::ZERO;
-                for s in xs {
-                    let e = comp.step(black_box(s));
-                    acc += e.values[1];
-                }
-                black_box(acc)
-            })
-        });
+        bench_stream(&mut g, BenchmarkId::from_parameter(k), load::<F>(k, false), &xs);
+    }
+    g.finish();
+}
+
+/// K = 32 with every memory slot on, on a regular and on an irregular clock.
+fn bench_memory<F: Real>(c: &mut Criterion, name: &str) {
+    let mut g = c.benchmark_group(format!("step_memory/{name}"));
+    g.throughput(Throughput::Elements(BATCH as u64));
+    for (id, irregular) in [("32", false), ("32-irregular-dt", true)] {
+        bench_stream(&mut g, BenchmarkId::from_parameter(id), load::<F>(32, true), &samples::<F>(irregular));
     }
     g.finish();
 }
@@ -132,6 +177,8 @@ fn bench_precision<F: Real>(c: &mut Criterion, name: &str) {
 fn benches(c: &mut Criterion) {
     bench_precision::<f32>(c, "f32");
     bench_precision::<f64>(c, "f64");
+    bench_memory::<f32>(c, "f32");
+    bench_memory::<f64>(c, "f64");
 }
 
 criterion_group!(step, benches);

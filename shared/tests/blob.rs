@@ -1,5 +1,6 @@
-//! The `.fbgm` codec: round trips, exact lengths, the golden v1 blob, typed errors for every
-//! kind of damage, and "never panics" on arbitrary bytes (DESIGN §6).
+//! The `.fbgm` codec: round trips, exact lengths, the golden v2 blob (and the v1 one refused by
+//! name), typed errors for every kind of damage, and "never panics" on arbitrary bytes
+//! (DESIGN §6).
 
 mod common;
 
@@ -8,8 +9,8 @@ use crc::{Crc, CRC_32_ISCSI};
 use fbg_shared::blob::{
     self, decode, encode, max_len, min_len, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN,
 };
-use fbg_shared::layout::{N_INPUTS, N_OUTPUTS, N_POLY};
-use fbg_shared::{Centre, Compensator, Error, FeatureSet, Hyper, ModelParams, Provenance, Sample};
+use fbg_shared::layout::{N_INPUTS, N_MEMORY, N_OUTPUTS, N_POLY, MEM_AMBIENT, MEM_OBSERVER, MEM_STOP};
+use fbg_shared::{Centre, Compensator, Error, FeatureSet, Hyper, MemorySpec, ModelParams, Provenance, Sample};
 use proptest::prelude::*;
 
 const ISCSI: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
@@ -25,9 +26,14 @@ fn fix_crc(b: &mut [u8]) {
 fn encode_unchecked<const K: usize>(p: &ModelParams<f32, K>) -> Vec<u8> {
     let mut out = Vec::new();
     out.extend_from_slice(b"FBGM");
-    for v in
-        [FORMAT_VERSION, N_INPUTS as u16, N_OUTPUTS as u16, N_POLY as u16, p.centres.len() as u16]
-    {
+    for v in [
+        FORMAT_VERSION,
+        N_INPUTS as u16,
+        N_OUTPUTS as u16,
+        N_POLY as u16,
+        N_MEMORY as u16,
+        p.centres.len() as u16,
+    ] {
         out.extend_from_slice(&v.to_le_bytes());
     }
     let mut body = vec![0u8; max_len(K)];
@@ -45,8 +51,13 @@ fn provenance_offset(blob: &[u8], prov: &Provenance) -> usize {
     blob.len() - CRC_LEN - n
 }
 
-/// Offset of the centre-count varint: header, hyper (1 + 7 × 4), 67 f32.
-const CENTRES_OFFSET: usize = HEADER_LEN + 1 + 7 * 4 + 4 * 67;
+/// Offset of the first f32 of the memory spec: header, hyper (1 + 7 × 4), stage 1 (15), guess
+/// mean and std (3 + 3), B (30).
+const MEMORY_OFFSET: usize = HEADER_LEN + 1 + 7 * 4 + 4 * 51;
+/// Offset of Γ: after the memory spec's 6 + 4 + 3 + 2 + 5 f32.
+const GAMMA_OFFSET: usize = MEMORY_OFFSET + 4 * 20;
+/// Offset of the centre-count varint: after Γ (3 × 32 f32) and the z scalers (8 + 8 f32).
+const CENTRES_OFFSET: usize = GAMMA_OFFSET + 4 * (3 * 32 + 16);
 
 fn samples(seed: u64, n: usize) -> Vec<Sample<f32>> {
     let mut r = Rng(seed);
@@ -124,8 +135,10 @@ fn min_len_and_max_len_are_exact() {
     lengths::<127>();
     lengths::<128>();
     lengths::<200>();
-    assert_eq!(min_len(0), 416);
-    assert_eq!(min_len(32), 416 + 60 * 32);
+    // Version 1 was 416 bytes; version 2 adds 2 header bytes and 116 f32 (memory spec 20, Γ 96).
+    assert_eq!(min_len(0), 416 + 2 + 4 * 116);
+    assert_eq!(min_len(0), 882);
+    assert_eq!(min_len(32), 882 + 60 * 32);
     // No overflow on absurd inputs.
     assert_eq!(min_len(usize::MAX), usize::MAX);
     assert_eq!(max_len(usize::MAX), usize::MAX);
@@ -154,7 +167,8 @@ fn encode_refuses_invalid_params() {
 // ---------------------------------------------------------------------------------------------
 // Golden blob
 
-/// The tiny model pinned by `tests/golden/tiny_v1.fbgm`: K = 2, exact binary numbers.
+/// The tiny model pinned by `tests/golden/tiny_v2.fbgm`: K = 2, exact binary numbers, memory
+/// terms on: one grating τ, one ambient τ, one play, the drift observer, and Γ on some of them.
 fn tiny() -> ModelParams<f32, 2> {
     let mut centres = heapless::Vec::new();
     centres
@@ -171,6 +185,11 @@ fn tiny() -> ModelParams<f32, 2> {
             v: [0.0, 0.5, 0.0, 0.0],
         })
         .unwrap();
+    let mut gamma = [[0.0f32; N_MEMORY]; N_OUTPUTS];
+    gamma[0][0] = 0.25; // T per pm of grating 1's 600-s high-pass
+    gamma[0][MEM_OBSERVER] = -1.0; // T per °C of observed drift
+    gamma[1][MEM_STOP + 1] = 2.0; // ε per pm of grating 2's stop term
+    gamma[2][MEM_AMBIENT + 1] = -0.5; // p per °C of the 3600-s ambient high-pass
     ModelParams {
         hyper: Hyper {
             feature_set: FeatureSet::HysteresisAware,
@@ -194,6 +213,15 @@ fn tiny() -> ModelParams<f32, 2> {
             [0.0, 0.0, 1.0, 0.0, 0.0, -0.25, 0.0, 0.0, 0.0, 0.0],
             [1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.125, 0.0],
         ],
+        memory: MemorySpec {
+            grating_tau_s: [600.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            ambient_tau_s: [0.0, 3600.0, 0.0, 0.0],
+            play_half_width_pm: [4.0, 0.0, 0.0],
+            observer_lag_s: 512.0,
+            observer_smooth_s: 2048.0,
+            observer_row: [0.125, -0.25, 0.0625, 0.5, -8.0],
+        },
+        gamma,
         z_mean: [0.0, 0.0, 0.0, 20.0, 0.0, 0.0, 0.0, 0.0],
         z_std: [32.0, 32.0, 32.0, 8.0, 1.0, 1.0, 1.0, 1.0],
         centres,
@@ -216,40 +244,85 @@ fn tiny() -> ModelParams<f32, 2> {
     }
 }
 
-/// GOLDEN: the exact bytes of format version 1.
+/// GOLDEN: the exact bytes of format version 2.
 ///
-/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v1 or reject it
-/// by name (`Error::UnsupportedVersion { found: 1 }`). Never regenerate this file to make the
-/// test pass.
+/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v2 or reject it
+/// by name (`Error::UnsupportedVersion { found: 2, .. }`). Never regenerate this file to make
+/// the test pass.
+const GOLDEN_V2: &[u8] = include_bytes!("golden/tiny_v2.fbgm");
+
+/// The version-1 golden blob (no memory terms), kept as the "old version refused" fixture.
 const GOLDEN_V1: &[u8] = include_bytes!("golden/tiny_v1.fbgm");
 
 #[test]
-fn golden_v1_bytes_are_pinned() {
+fn golden_v2_bytes_are_pinned() {
     let b = encode_vec(&tiny());
     // Shortest 2-centre blob plus "golden" (6), "0.1.0" (5), date varint 4 bytes (+3),
     // n_cal varint 2 bytes (+1).
     assert_eq!(b.len(), min_len(2) + 6 + 5 + 3 + 1);
+    assert_eq!(b.len(), 1017);
     assert_eq!(
         &b[..HEADER_LEN],
-        &[b'F', b'B', b'G', b'M', 1, 0, 5, 0, 3, 0, 10, 0, 2, 0],
-        "magic, version 1, dims 5/3/10, 2 centres (all u16 LE)"
+        &[b'F', b'B', b'G', b'M', 2, 0, 5, 0, 3, 0, 10, 0, 32, 0, 2, 0],
+        "magic, version 2, dims 5/3/10/32, 2 centres (all u16 LE)"
     );
     // Payload: feature set tag 1 (HysteresisAware), then sigma_mult 1.5f32 LE.
-    assert_eq!(&b[14..19], &[1, 0x00, 0x00, 0xC0, 0x3F]);
+    assert_eq!(&b[16..21], &[1, 0x00, 0x00, 0xC0, 0x3F]);
+    // Memory spec after B: grating τ 600 s (0x44160000), five unused slots, ...
+    assert_eq!(&b[MEMORY_OFFSET..MEMORY_OFFSET + 8], &[0x00, 0x00, 0x16, 0x44, 0, 0, 0, 0]);
+    // ... ambient τ slot 1 = 3600 s (0x45610000), play r = 4 pm (0x40800000), observer lag
+    // 512 s (0x44000000) and smoothing 2048 s (0x45000000), row ending with −8 (0xC1000000).
+    let f = |k: usize| &b[MEMORY_OFFSET + 4 * k..MEMORY_OFFSET + 4 * k + 4];
+    assert_eq!(f(7), &[0x00, 0x00, 0x61, 0x45]);
+    assert_eq!(f(10), &[0x00, 0x00, 0x80, 0x40]);
+    assert_eq!(f(13), &[0x00, 0x00, 0x00, 0x44]);
+    assert_eq!(f(14), &[0x00, 0x00, 0x00, 0x45]);
+    assert_eq!(f(19), &[0x00, 0x00, 0x00, 0xC1]);
+    // Γ row-major (output major, term minor): Γ[0][0] = 0.25, Γ[0][31] = −1, Γ[1][23] = 2.
+    let g = |i: usize, k: usize| &b[GAMMA_OFFSET + 4 * (N_MEMORY * i + k)..GAMMA_OFFSET + 4 * (N_MEMORY * i + k) + 4];
+    assert_eq!(g(0, 0), &[0x00, 0x00, 0x80, 0x3E]);
+    assert_eq!(g(0, MEM_OBSERVER), &[0x00, 0x00, 0x80, 0xBF]);
+    assert_eq!(g(1, MEM_STOP + 1), &[0x00, 0x00, 0x00, 0x40]);
+    assert_eq!(g(2, MEM_AMBIENT + 1), &[0x00, 0x00, 0x00, 0xBF]);
     // Centre count varint.
     assert_eq!(b[CENTRES_OFFSET], 2);
     // Trailer: CRC-32C over everything before it, little-endian.
     let n = b.len() - CRC_LEN;
     assert_eq!(b[n..], ISCSI.checksum(&b[..n]).to_le_bytes());
-    assert!(b == GOLDEN_V1, "encoder output differs from the v1 golden blob: format change?");
-    assert_eq!(decode::<2>(GOLDEN_V1), Ok(tiny()));
-    assert_eq!(decode::<32>(GOLDEN_V1).map(|p| p.provenance), Ok(tiny().provenance));
+    assert!(b == GOLDEN_V2, "encoder output differs from the v2 golden blob: format change?");
+    assert_eq!(decode::<2>(GOLDEN_V2), Ok(tiny()));
+    assert_eq!(decode::<32>(GOLDEN_V2).map(|p| p.provenance), Ok(tiny().provenance));
+    // It loads, with its memory terms.
+    let c = Compensator::<f32, 2>::new(&decode::<2>(GOLDEN_V2).unwrap()).unwrap();
+    assert!(c.has_memory());
 }
 
 #[test]
-fn golden_blob_is_v1() {
-    assert_eq!(FORMAT_VERSION, 1, "a new format version needs its own golden blob");
-    assert_eq!(Header::parse(GOLDEN_V1).map(|h| h.version), Ok(1));
+fn golden_blob_is_v2() {
+    assert_eq!(FORMAT_VERSION, 2, "a new format version needs its own golden blob");
+    assert_eq!(Header::parse(GOLDEN_V2).map(|h| h.version), Ok(2));
+}
+
+#[test]
+fn the_v1_golden_blob_is_refused_naming_both_versions() {
+    // The old fixture is what version 1 wrote: magic, version 1, the 14-byte header.
+    assert_eq!(&GOLDEN_V1[..6], &[b'F', b'B', b'G', b'M', 1, 0]);
+    assert_eq!(GOLDEN_V1.len(), 551, "the v1 tiny model: 536-byte minimum + 15 of provenance");
+    let want = Error::UnsupportedVersion { found: 1, supported: 2 };
+    assert_eq!(decode::<2>(GOLDEN_V1), Err(want));
+    assert_eq!(decode::<32>(GOLDEN_V1).err(), Some(want));
+    assert_eq!(decode::<0>(GOLDEN_V1).err(), Some(want));
+    assert_eq!(Header::parse(GOLDEN_V1), Err(want));
+    let mut slot = ModelParams::<f32, 2>::empty();
+    assert_eq!(blob::decode_into(GOLDEN_V1, &mut slot), Err(Error::UnsupportedVersion { found: 1, supported: 2 }));
+    // Cut or damaged, it is still refused for its version first.
+    assert_eq!(decode::<2>(&GOLDEN_V1[..20]), Err(Error::UnsupportedVersion { found: 1, supported: 2 }));
+    let mut m = GOLDEN_V1.to_vec();
+    m[100] ^= 0xFF;
+    assert_eq!(decode::<2>(&m), Err(Error::UnsupportedVersion { found: 1, supported: 2 }));
+    // The message names both versions.
+    let msg = Error::UnsupportedVersion { found: 1, supported: 2 }.to_string();
+    assert!(msg.contains("version 1") && msg.contains("version 2"), "{msg}");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -261,15 +334,19 @@ fn header_errors() {
     assert_eq!(decode::<2>(b"FBG"), Err(Error::Truncated { part: "header" }));
     assert_eq!(decode::<2>(b"{\"a\":1}"), Err(Error::BadMagic));
     assert_eq!(decode::<2>(b"X"), Err(Error::BadMagic));
-    let mut b = GOLDEN_V1.to_vec();
+    let mut b = GOLDEN_V2.to_vec();
     b[0] = b'f';
     assert_eq!(decode::<2>(&b), Err(Error::BadMagic));
     assert_eq!(Header::parse(&b), Err(Error::BadMagic));
-    assert_eq!(decode::<2>(&GOLDEN_V1[..16]), Err(Error::Truncated { part: "payload" }));
+    assert_eq!(decode::<2>(&GOLDEN_V2[..15]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(Header::parse(&GOLDEN_V2[..15]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(decode::<2>(&GOLDEN_V2[..16]), Err(Error::Truncated { part: "payload" }));
     assert_eq!(
-        Header::parse(GOLDEN_V1),
-        Ok(Header { version: 1, inputs: 5, outputs: 3, poly_terms: 10, centres: 2 })
+        Header::parse(GOLDEN_V2),
+        Ok(Header { version: 2, inputs: 5, outputs: 3, poly_terms: 10, memory_terms: 32, centres: 2 })
     );
+    // The header alone parses (the payload is not looked at).
+    assert_eq!(Header::parse(&GOLDEN_V2[..16]).map(|h| h.centres), Ok(2));
 }
 
 #[test]
@@ -291,10 +368,10 @@ fn k64_blob_into_capacity_32_is_wrong_dims() {
 fn header_count_must_match_payload_count() {
     let p: ModelParams<f32, 8> = any_model(5, 6, false);
     let mut b = encode_vec(&p);
-    b[12] = 4;
+    b[14] = 4;
     fix_crc(&mut b);
     assert_eq!(decode::<8>(&b), Err(Error::WrongDims { field: "centres", found: 4, expected: 5 }));
-    b[12] = 6;
+    b[14] = 6;
     fix_crc(&mut b);
     assert_eq!(decode::<8>(&b), Err(Error::WrongDims { field: "centres", found: 6, expected: 5 }));
 }
@@ -326,7 +403,7 @@ fn every_cut_of_fixed_blobs_is_truncated_or_bad_crc() {
 
 #[test]
 fn trailing_bytes() {
-    let mut b = GOLDEN_V1.to_vec();
+    let mut b = GOLDEN_V2.to_vec();
     b.push(0xFF);
     assert_eq!(decode::<2>(&b), Err(Error::TrailingBytes { extra: 1 }));
     // Erased-flash padding after a stored blob.
@@ -341,7 +418,7 @@ fn trailing_bytes() {
 #[test]
 fn huge_lengths_with_valid_crc_are_bad_payload() {
     let p = tiny();
-    let b = GOLDEN_V1.to_vec();
+    let b = GOLDEN_V2.to_vec();
     let prov = provenance_offset(&b, &p.provenance);
     // Scenario string length: one byte after the 1-byte seed varint (42).
     assert_eq!(b[prov], 42);
@@ -457,6 +534,24 @@ fn bad_cases() -> Vec<Case> {
         case("envelope", |p| p.envelope_lo[0] = 61.0),
         case("envelope", |p| p.envelope_hi[3] = f32::INFINITY),
         case("envelope", |p| p.envelope_lo[2] = f32::NAN),
+        // Memory terms (the model has none: every slot unused).
+        case("gamma", |p| p.gamma[0][0] = 0.5),
+        case("gamma", |p| p.gamma[2][MEM_OBSERVER] = -1e-30),
+        case("gamma", |p| {
+            p.memory.grating_tau_s[0] = 60.0;
+            p.gamma[1][0] = f32::INFINITY;
+        }),
+        case("gamma", |p| {
+            p.memory.play_half_width_pm[1] = 5.0;
+            p.gamma[1][MEM_STOP] = 1.0; // play slot 0, not 1
+        }),
+        case("memory.grating_tau_s", |p| p.memory.grating_tau_s[3] = -600.0),
+        case("memory.grating_tau_s", |p| p.memory.grating_tau_s[0] = f32::NAN),
+        case("memory.ambient_tau_s", |p| p.memory.ambient_tau_s[1] = f32::INFINITY),
+        case("memory.play_half_width_pm", |p| p.memory.play_half_width_pm[2] = -1.0),
+        case("memory.observer", |p| p.memory.observer_lag_s = -1.0),
+        case("memory.observer_smooth_s", |p| p.memory.observer_lag_s = 600.0),
+        case("memory.observer_row", |p| p.memory.observer_row[2] = f32::NAN),
     ]
 }
 
@@ -483,7 +578,7 @@ fn validate_names_each_bad_field() {
 #[test]
 fn validate_accepts_boundary_values() {
     let good: P = model(4, 12, FeatureSet::Paper, short_provenance());
-    let ok_cases: [fn(&mut P); 11] = [
+    let ok_cases: [fn(&mut P); 14] = [
         |p| p.hyper.alpha = 0.0,
         |p| p.hyper.dead_band_pm = 0.0,
         |p| p.hyper.weak_support = 0.0,
@@ -497,6 +592,14 @@ fn validate_accepts_boundary_values() {
         |p| {
             p.var_inv_g = [0.0; 4];
             p.resid_var = [0.0; 3];
+        },
+        // An observer smoothing without a lag is unused (and needs no Γ); so is a zero slot.
+        |p| p.memory.observer_smooth_s = 100.0,
+        |p| p.memory.observer_row = [1.0, -1.0, 0.5, 2.0, -40.0],
+        |p| {
+            p.memory.observer_lag_s = 1e-3;
+            p.memory.observer_smooth_s = 1e-3;
+            p.gamma[0][MEM_OBSERVER] = 1.0;
         },
     ];
     for (i, f) in ok_cases.into_iter().enumerate() {
@@ -517,7 +620,7 @@ fn validate_accepts_boundary_values() {
 
 #[test]
 fn nan_sigma_under_valid_crc_by_byte_patch() {
-    let mut b = GOLDEN_V1.to_vec();
+    let mut b = GOLDEN_V2.to_vec();
     // sigma follows the feature-set tag and sigma_mult.
     b[HEADER_LEN + 5..HEADER_LEN + 9].copy_from_slice(&f32::NAN.to_le_bytes());
     fix_crc(&mut b);
@@ -529,7 +632,7 @@ fn errors_display() {
     for e in [
         Error::Truncated { part: "payload" },
         Error::BadMagic,
-        Error::UnsupportedVersion { found: 2 },
+        Error::UnsupportedVersion { found: 1, supported: 2 },
         Error::WrongDims { field: "centres", found: 64, expected: 32 },
         Error::BadCrc,
         Error::BadPayload,
@@ -576,7 +679,7 @@ proptest! {
         with_crc in any::<bool>(),
     ) {
         let mut b = b"FBGM".to_vec();
-        for v in [FORMAT_VERSION, 5, 3, 10, centres] {
+        for v in [FORMAT_VERSION, 5, 3, 10, 32, centres] {
             b.extend_from_slice(&v.to_le_bytes());
         }
         b.extend_from_slice(&body);
@@ -600,7 +703,7 @@ proptest! {
         if i < 4 {
             prop_assert_eq!(r, Err(Error::BadMagic));
         } else if i < 6 {
-            prop_assert_eq!(r, Err(Error::UnsupportedVersion { found: u16::from_le_bytes([m[4], m[5]]) }));
+            prop_assert_eq!(r, Err(Error::UnsupportedVersion { found: u16::from_le_bytes([m[4], m[5]]), supported: FORMAT_VERSION }));
         } else {
             // Dims, payload or trailer: CRC-32C catches every single-bit error.
             prop_assert_eq!(r, Err(Error::BadCrc), "flip at {} of {}", i, b.len());
@@ -619,7 +722,7 @@ proptest! {
         } else if i < 4 {
             prop_assert_eq!(r, Err(Error::BadMagic));
         } else if i < 6 {
-            prop_assert_eq!(r, Err(Error::UnsupportedVersion { found: u16::from_le_bytes([m[4], m[5]]) }));
+            prop_assert_eq!(r, Err(Error::UnsupportedVersion { found: u16::from_le_bytes([m[4], m[5]]), supported: FORMAT_VERSION }));
         } else {
             // A single-byte error (burst of <= 8 bits) is always caught by CRC-32C.
             prop_assert_eq!(r, Err(Error::BadCrc));
@@ -673,17 +776,18 @@ proptest! {
     }
 
     #[test]
-    fn dims_changed_with_crc_recomputed((p, b) in valid_blob(), field in 0usize..4, v in any::<u16>()) {
-        let (name, expected) = [("inputs", 5u16), ("outputs", 3), ("poly_terms", 10), ("centres", 0)][field];
+    fn dims_changed_with_crc_recomputed((p, b) in valid_blob(), field in 0usize..5, v in any::<u16>()) {
+        let (name, expected) =
+            [("inputs", 5u16), ("outputs", 3), ("poly_terms", 10), ("memory_terms", 32), ("centres", 0)][field];
         let off = 6 + 2 * field;
         let n = p.centres.len() as u16;
-        let old = if field == 3 { n } else { expected };
+        let old = if field == 4 { n } else { expected };
         prop_assume!(v != old);
         let mut m = b.clone();
         m[off..off + 2].copy_from_slice(&v.to_le_bytes());
         fix_crc(&mut m);
         let r = decode::<CAP>(&m);
-        if field < 3 {
+        if field < 4 {
             prop_assert_eq!(r, Err(Error::WrongDims { field: name, found: v, expected }));
             prop_assert_eq!(Header::parse(&m), Err(Error::WrongDims { field: name, found: v, expected }));
         } else if usize::from(v) > CAP {
@@ -705,8 +809,8 @@ proptest! {
         if recrc {
             fix_crc(&mut m);
         }
-        prop_assert_eq!(decode::<CAP>(&m), Err(Error::UnsupportedVersion { found: v }));
-        prop_assert_eq!(Header::parse(&m), Err(Error::UnsupportedVersion { found: v }));
+        prop_assert_eq!(decode::<CAP>(&m), Err(Error::UnsupportedVersion { found: v, supported: FORMAT_VERSION }));
+        prop_assert_eq!(Header::parse(&m), Err(Error::UnsupportedVersion { found: v, supported: FORMAT_VERSION }));
     }
 
     #[test]
@@ -769,24 +873,24 @@ proptest! {
 #[test]
 fn decoded_blob_module_constants() {
     assert_eq!(blob::MAGIC, *b"FBGM");
-    assert_eq!(HEADER_LEN, 14);
+    assert_eq!(HEADER_LEN, 16);
+    assert_eq!(FORMAT_VERSION, 2);
     assert_eq!(CRC_LEN, 4);
 }
 
-
-
 #[test]
 fn fuzz_seeds_are_valid_blobs() {
-    // The seeds of `shared/fuzz` must stay decodable, or the fuzzer starts from nothing.
-    let seeds: [(&[u8], usize); 4] = [
-        (include_bytes!("../fuzz/corpus/decode/seed-tiny-k2.fbgm"), 2),
-        (include_bytes!("../fuzz/corpus/decode/seed-k0.fbgm"), 0),
-        (include_bytes!("../fuzz/corpus/decode/seed-k8-long-provenance.fbgm"), 8),
-        (include_bytes!("../fuzz/corpus/decode/seed-k32.fbgm"), 32),
+    // The seeds of `shared/fuzz` must stay decodable, or the fuzzer starts from nothing; three
+    // of them carry memory terms (the tiny golden model, K = 8 with `some_memory_spec`, K = 32
+    // with every slot on), so mutations reach the memory spec and Γ.
+    let seeds: [(&[u8], usize, bool); 4] = [
+        (include_bytes!("../fuzz/corpus/decode/seed-tiny-k2.fbgm"), 2, true),
+        (include_bytes!("../fuzz/corpus/decode/seed-k0.fbgm"), 0, false),
+        (include_bytes!("../fuzz/corpus/decode/seed-k8-long-provenance.fbgm"), 8, true),
+        (include_bytes!("../fuzz/corpus/decode/seed-k32.fbgm"), 32, true),
     ];
-    for (b, n) in seeds {
-        assert_eq!(decode::<32>(b).map(|p| p.centres.len()), Ok(n));
+    for (b, n, memory) in seeds {
+        assert_eq!(decode::<32>(b).map(|p| (p.centres.len(), p.has_memory())), Ok((n, memory)));
     }
+    assert_eq!(seeds[0].0, GOLDEN_V2);
 }
-
-

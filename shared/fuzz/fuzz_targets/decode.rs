@@ -34,6 +34,14 @@ fn check(data: &[u8]) {
     }
     let e = c.step(&Sample { dl_pm: [f32::NAN, 0.0, 0.0], t_amb_c: 20.0, t_s: 1.0 });
     assert_eq!(e.flags, Flags::NON_FINITE);
+    // A model with memory terms reads t: a NaN time is a non-finite sample and leaves the
+    // stream state (latches and memory operators) as it was.
+    let before = c.stream_state();
+    let e = c.step(&Sample { dl_pm: [1.0, -2.0, 3.0], t_amb_c: 20.0, t_s: f32::NAN });
+    if c.has_memory() {
+        assert_eq!(e.flags, Flags::NON_FINITE);
+        assert_eq!(c.stream_state(), before);
+    }
     // Whatever decodes re-encodes (within max_len) and decodes to the same model.
     let mut buf = [0u8; blob::max_len(K)];
     let n = encode(&params, &mut buf).expect("a decoded model re-encodes");

@@ -136,6 +136,7 @@ impl<F: Real> MemorySpec<F> {
         if !(ok(self.observer_lag_s) && ok(self.observer_smooth_s)) {
             return Err(Error::BadParameter { field: "memory.observer" });
         }
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if self.observer_lag_s > F::ZERO && !(self.observer_smooth_s > F::ZERO) {
             return Err(Error::BadParameter { field: "memory.observer_smooth_s" });
         }
@@ -162,5 +163,75 @@ impl<F: Real> MemorySpec<F> {
             observer_smooth_s: G::from_real(self.observer_smooth_s),
             observer_row: c(&self.observer_row),
         }
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+mod tests {
+    use super::*;
+
+    fn spec() -> MemorySpec<f64> {
+        MemorySpec {
+            grating_tau_s: [60.0, 0.0, 3600.0, 0.0, 0.0, 604_800.0],
+            ambient_tau_s: [0.0, 600.0, 0.0, 0.0],
+            play_half_width_pm: [0.0, 0.0, 7.5],
+            observer_lag_s: 300.0,
+            observer_smooth_s: 1800.0,
+            observer_row: [0.125, 0.25, -0.375, 1.0, -20.0],
+        }
+    }
+
+    #[test]
+    fn terms_follow_the_layout() {
+        let s = spec();
+        let active: [usize; 15] = [0, 1, 2, 6, 7, 8, 15, 16, 17, MEM_AMBIENT + 1, MEM_STOP + 6, MEM_STOP + 7, MEM_STOP + 8, MEM_OBSERVER, MEM_OBSERVER];
+        for k in 0..N_MEMORY {
+            assert_eq!(s.term_active(k), active.contains(&k), "term {k}");
+        }
+        assert_eq!(s.term(16), Some(TermInfo { group: MemoryGroup::GratingHighPass, grating: 1, parameter: 604_800.0 }));
+        assert_eq!(s.term(MEM_AMBIENT + 1), Some(TermInfo { group: MemoryGroup::AmbientHighPass, grating: 0, parameter: 600.0 }));
+        assert_eq!(s.term(MEM_STOP + 8), Some(TermInfo { group: MemoryGroup::Stop, grating: 2, parameter: 7.5 }));
+        assert_eq!(s.term(MEM_OBSERVER), Some(TermInfo { group: MemoryGroup::DriftObserver, grating: 0, parameter: 1800.0 }));
+        assert_eq!(s.term(N_MEMORY), None);
+        assert!(s.any());
+        // The observer is used only with a lag; its smoothing alone does not switch it on.
+        let mut t = MemorySpec::<f64>::off();
+        t.observer_smooth_s = 100.0;
+        assert!(!t.term_active(MEM_OBSERVER));
+        assert_eq!(t.term(MEM_OBSERVER).map(|i| i.parameter), Some(0.0));
+        assert!(!t.any());
+        assert_eq!(t.validate(), Ok(()));
+    }
+
+    #[test]
+    fn validate_names_each_bad_field() {
+        assert_eq!(spec().validate(), Ok(()));
+        assert_eq!(MemorySpec::<f32>::off().validate(), Ok(()));
+        let cases: [(&str, fn(&mut MemorySpec<f64>)); 10] = [
+            ("memory.grating_tau_s", |s| s.grating_tau_s[1] = -1.0),
+            ("memory.grating_tau_s", |s| s.grating_tau_s[5] = f64::INFINITY),
+            ("memory.ambient_tau_s", |s| s.ambient_tau_s[3] = f64::NAN),
+            ("memory.ambient_tau_s", |s| s.ambient_tau_s[0] = -600.0),
+            ("memory.play_half_width_pm", |s| s.play_half_width_pm[0] = -0.5),
+            ("memory.observer", |s| s.observer_lag_s = -1.0),
+            ("memory.observer", |s| s.observer_smooth_s = f64::NAN),
+            ("memory.observer_smooth_s", |s| s.observer_smooth_s = 0.0),
+            ("memory.observer_row", |s| s.observer_row[4] = f64::NEG_INFINITY),
+            ("memory.observer_row", |s| s.observer_row[0] = f64::NAN),
+        ];
+        for (field, f) in cases {
+            let mut s = spec();
+            f(&mut s);
+            assert_eq!(s.validate(), Err(Error::BadParameter { field }), "{field}");
+            assert_eq!(s.convert::<f32>().validate(), Err(Error::BadParameter { field }), "{field} (f32)");
+        }
+    }
+
+    #[test]
+    fn convert_round_trips_exact_values() {
+        let s = spec();
+        assert_eq!(s.convert::<f32>().convert::<f64>(), s);
+        assert_eq!(s.convert::<f64>(), s);
     }
 }

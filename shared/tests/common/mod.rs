@@ -1,8 +1,8 @@
 //! Model builders shared by the integration tests of `fbg-shared`.
 #![allow(dead_code)]
 
-use fbg_shared::layout::{N_ENVELOPE, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
-use fbg_shared::{Centre, FeatureSet, Hyper, ModelParams, Provenance};
+use fbg_shared::layout::{N_ENVELOPE, N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use fbg_shared::{Centre, FeatureSet, Hyper, MemorySpec, ModelParams, Provenance};
 use heapless::{String, Vec};
 
 /// SplitMix64: a tiny deterministic generator, enough for test fixtures.
@@ -116,8 +116,8 @@ pub fn model<const K: usize>(
         guess_mean,
         guess_std,
         poly,
-        memory: fbg_shared::MemorySpec::off(),
-        gamma: [[0.0; fbg_shared::layout::N_MEMORY]; N_OUTPUTS],
+        memory: MemorySpec::off(),
+        gamma: [[0.0; N_MEMORY]; N_OUTPUTS],
         z_mean,
         z_std,
         centres,
@@ -134,11 +134,64 @@ pub fn model<const K: usize>(
     }
 }
 
-/// The same random model, with the feature set picked by `seed` too.
+/// The same random model, with the feature set and the memory picked by `seed` too (no
+/// memory, [`some_memory_spec`] or [`full_memory_spec`]; the blob length does not depend on it).
 pub fn any_model<const K: usize>(n: usize, seed: u64, long: bool) -> ModelParams<f32, K> {
     let fs = FeatureSet::ALL[(seed % 3) as usize];
     let prov = if long { long_provenance() } else { short_provenance() };
-    model(n, seed, fs, prov)
+    match (seed / 3) % 3 {
+        0 => model(n, seed, fs, prov),
+        1 => memory_model(n, seed, fs, prov, some_memory_spec()),
+        _ => memory_model(n, seed, fs, prov, full_memory_spec()),
+    }
+}
+
+/// Every memory slot used: grating τ from 1 min to 1 week, ambient τ from 10 min to 1 day,
+/// plays of 2, 10 and 50 pm, and the drift observer (thermometer lag 10 min, smoothing 1 h,
+/// T_g ≈ a mix of the gratings plus half the ambient).
+pub fn full_memory_spec() -> MemorySpec<f32> {
+    MemorySpec {
+        grating_tau_s: [60.0, 600.0, 3600.0, 21_600.0, 86_400.0, 604_800.0],
+        ambient_tau_s: [600.0, 3600.0, 21_600.0, 86_400.0],
+        play_half_width_pm: [2.0, 10.0, 50.0],
+        observer_lag_s: 600.0,
+        observer_smooth_s: 3600.0,
+        observer_row: [0.1, -0.05, 0.02, 0.5, -3.0],
+    }
+}
+
+/// Some slots used, some not (τ in seconds of the 1-s test streams): two grating τ, one
+/// ambient τ, one play and the observer.
+pub fn some_memory_spec() -> MemorySpec<f32> {
+    let mut s = MemorySpec::off();
+    s.grating_tau_s[1] = 20.0;
+    s.grating_tau_s[4] = 300.0;
+    s.ambient_tau_s[2] = 50.0;
+    s.play_half_width_pm[0] = 4.0;
+    s.observer_lag_s = 30.0;
+    s.observer_smooth_s = 120.0;
+    s.observer_row = [0.05, -0.02, 0.03, 0.8, 4.0];
+    s
+}
+
+/// [`model`] with memory terms: `spec` and a random Γ on its used terms (0 elsewhere), of a
+/// size that moves the outputs by O(1) for terms of O(10) pm or °C.
+pub fn memory_model<const K: usize>(
+    n: usize,
+    seed: u64,
+    fs: FeatureSet,
+    prov: Provenance,
+    spec: MemorySpec<f32>,
+) -> ModelParams<f32, K> {
+    let mut p = model(n, seed, fs, prov);
+    let mut r = Rng(seed ^ 0x5EED_0F_6A33A);
+    p.memory = spec;
+    for row in p.gamma.iter_mut() {
+        for (k, g) in row.iter_mut().enumerate() {
+            *g = if spec.term_active(k) { r.f32(-0.2, 0.2) } else { 0.0 };
+        }
+    }
+    p
 }
 
 /// Encode into a fresh buffer of exactly `max_len(K)` bytes (so a too-small bound fails).
