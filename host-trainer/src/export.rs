@@ -68,6 +68,7 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
         serde_json::json!({"T_C": rows[0], "strain_ue": rows[1], "p_kPa": rows[2]})
     };
     let physical = core.map(|c| poly_rows(&c.physical_coefficients()));
+    let memory = memory_json(p);
     serde_json::json!({
         "hyper_parameters": {
             "feature_set": fs.name(),
@@ -87,6 +88,7 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
         "first_guess_scalers": {"mean": p.guess_mean, "std": p.guess_std, "order": ["T_C", "strain_ue", "p_kPa"]},
         "poly_B_standardised_guesses": poly_rows(&p.poly),
         "poly_B_physical_units": physical,
+        "memory_terms": memory,
         "rbf_input_scalers": {"inputs": Z_NAMES, "active": active, "mean": p.z_mean, "std": p.z_std},
         "rbf_centres": centres,
         "band": {
@@ -108,6 +110,60 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
     })
 }
 
+/// JSON keys of the outputs.
+const OUTPUT_KEYS: [&str; N_OUTPUTS] = ["T_C", "strain_ue", "p_kPa"];
+/// Output units, in output order.
+const OUTPUT_UNITS: [&str; N_OUTPUTS] = ["°C", "µε", "kPa"];
+
+/// What a memory term is, in words a metrologist checks: e.g. "FBG2 minus its 20-min average".
+pub fn memory_term_meaning(info: &fbg_shared::memory::TermInfo<f64>) -> String {
+    use fbg_shared::MemoryGroup as G;
+    let dur = |s: f64| if s >= 3600.0 && (s / 3600.0).fract() == 0.0 { format!("{}-h", s / 3600.0) } else { format!("{}-min", s / 60.0) };
+    match info.group {
+        G::GratingHighPass => format!("FBG{} shift minus its {} average", info.grating + 1, dur(info.parameter)),
+        G::AmbientHighPass => format!("T_amb minus its {} average", dur(info.parameter)),
+        G::Stop => format!("FBG{} shift minus its play operator of half-width {} pm", info.grating + 1, info.parameter),
+        G::DriftObserver => format!("drift observer: {} average of (grating temperature lagged like the thermometer − T_amb)", dur(info.parameter)),
+    }
+}
+
+/// Γ with a unit and a meaning per used term (the audit view of the memory terms).
+pub fn memory_json(p: &HostParams) -> serde_json::Value {
+    let spec = &p.memory;
+    let terms: Vec<serde_json::Value> = (0..fbg_shared::layout::N_MEMORY)
+        .filter_map(|k| spec.term(k).filter(|t| t.parameter > 0.0).map(|t| (k, t)))
+        .map(|(k, t)| {
+            let unit = t.group.unit();
+            let coef: serde_json::Map<String, serde_json::Value> = (0..N_OUTPUTS)
+                .map(|o| {
+                    (OUTPUT_KEYS[o].to_string(), serde_json::json!({
+                        "value": p.gamma[o][k],
+                        "unit": format!("{} per {}", OUTPUT_UNITS[o], unit),
+                    }))
+                })
+                .collect();
+            serde_json::json!({
+                "index": k,
+                "group": t.group.name(),
+                "meaning": memory_term_meaning(&t),
+                "term_unit": unit,
+                "gamma": coef,
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "spec": {
+            "grating_tau_s": spec.grating_tau_s,
+            "ambient_tau_s": spec.ambient_tau_s,
+            "play_half_width_pm": spec.play_half_width_pm,
+            "observer_lag_s": spec.observer_lag_s,
+            "observer_smooth_s": spec.observer_smooth_s,
+            "observer_row": {"columns": ["dl1_pm", "dl2_pm", "dl3_pm", "T_amb_C", "1"], "T_C": spec.observer_row},
+        },
+        "terms": terms,
+    })
+}
+
 /// `coefficients.json`: both models with every number a metrologist audits.
 pub fn write_coefficients(
     path: &Path,
@@ -120,9 +176,13 @@ pub fn write_coefficients(
         "format": "fbg-trainer coefficients v1",
         "units": {"T": "°C", "strain": "µε", "p": "kPa", "dl": "pm", "t": "s"},
         "model_p": model_json(model_p, Some(core)),
-        "model_h": model_json(model_h, if model_h.poly == model_p.poly { Some(core) } else { None }),
+        "model_h": model_json(model_h, Some(&PolyCore::of(model_h))),
         "selection": selection.map(|s| serde_json::json!({
             "chosen": s.chosen, "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h, "folds": s.folds,
+            "memory": (0..N_OUTPUTS).map(|o| serde_json::json!({
+                "output": OUTPUT_KEYS[o], "groups": s.memory.names(o), "lambda": s.memory.lambda[o],
+            })).collect::<Vec<_>>(),
+            "memory_cv": s.memory_rows,
         })),
     });
     let text = serde_json::to_string_pretty(&v).map_err(|e| TrainerError::fit(e.to_string()))?;
@@ -175,10 +235,20 @@ pub fn is_model_p(p: &HostParams) -> bool {
 
 /// Feature-set names for the CLI.
 pub fn feature_sets_for(name: &str) -> Option<Vec<FeatureSet>> {
+    variant_for(name).map(|(sets, _)| sets)
+}
+
+/// The model variant of a `--features` name: the RBF feature sets cross-validation may choose
+/// from and whether the memory bank is on the menu. `memory` (the default): memory terms fitted
+/// with the core plus an RBF residual on [Δλ, T_amb, latches]; `hysteresis-aware` (alias
+/// `latch`, the previous default): no memory terms, RBF on latches (and time if CV keeps it);
+/// `paper`: paper Eq. 5 exactly; `all`: memory terms and every feature set.
+pub fn variant_for(name: &str) -> Option<(Vec<FeatureSet>, bool)> {
     match name {
-        "paper" => Some(vec![FeatureSet::Paper]),
-        "hysteresis-aware" => Some(vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime]),
-        "all" => Some(FeatureSet::ALL.to_vec()),
+        "memory" => Some((vec![FeatureSet::HysteresisAware], true)),
+        "paper" => Some((vec![FeatureSet::Paper], false)),
+        "hysteresis-aware" | "latch" => Some((vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime], false)),
+        "all" => Some((FeatureSet::ALL.to_vec(), true)),
         _ => None,
     }
 }

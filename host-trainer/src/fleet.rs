@@ -4,7 +4,7 @@
 //!
 //! ```toml
 //! [defaults]               # optional: what a group does not say itself
-//! features = "all"         # paper | hysteresis-aware | all (as `train --features`)
+//! features = "memory"      # memory | hysteresis-aware | paper | all (as `train --features`)
 //! max_centres = 32         # as `train --max-centres`
 //!
 //! [[group]]
@@ -40,7 +40,7 @@ use crate::fit::{self, Origin, TrainOptions};
 use crate::meta::SimMeta;
 
 /// Default feature sets of a group: as `train`.
-pub const DEFAULT_FEATURES: &str = "all";
+pub const DEFAULT_FEATURES: &str = "memory";
 /// Default largest K of a group: as `train`.
 pub const DEFAULT_MAX_CENTRES: usize = 32;
 /// Format tag of the per-group sidecar.
@@ -49,12 +49,15 @@ pub const SIDECAR_FORMAT: &str = "fbg-trainer fleet group v1";
 /// Training options for a feature-set name (`paper`, `hysteresis-aware`, `all`) and a largest
 /// number of centres: the grid of `train --features F --max-centres K`.
 pub fn train_options(features: &str, max_centres: usize) -> Result<TrainOptions, String> {
-    let sets = export::feature_sets_for(features)
-        .ok_or_else(|| format!("unknown feature set `{features}` (paper, hysteresis-aware, all)"))?;
+    let (sets, memory) = export::variant_for(features)
+        .ok_or_else(|| format!("unknown feature set `{features}` (memory, hysteresis-aware, paper, all)"))?;
     if max_centres == 0 || max_centres > fit::HOST_CAP {
         return Err(format!("max centres must be in 1..={} (got {max_centres})", fit::HOST_CAP));
     }
     let mut o = TrainOptions::default().with_features(sets);
+    if !memory {
+        o.memory = fit::memory_core::MemoryOptions::off();
+    }
     o.centres.retain(|&k| k <= max_centres);
     if o.centres.is_empty() {
         o.centres.push(max_centres);

@@ -76,7 +76,7 @@ enum Cmd {
         #[arg(long)]
         data: PathBuf,
         /// Feature sets cross-validation may choose from.
-        #[arg(long, value_parser = ["paper", "hysteresis-aware", "all"], default_value = "all")]
+        #[arg(long, value_parser = ["memory", "hysteresis-aware", "latch", "paper", "all"], default_value = "memory")]
         features: String,
         /// Largest number of RBF centres to consider (the device capacity).
         #[arg(long, default_value_t = 32)]

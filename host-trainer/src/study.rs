@@ -131,7 +131,7 @@ pub fn table2(p: &HostParams, h: &HostParams, d: &Dataset, oracle: Option<[f64; 
 }
 
 fn fixed(opts: &TrainOptions, cfg: &fit::Config) -> TrainOptions {
-    TrainOptions { seed: opts.seed, progress: false, ..TrainOptions::fixed(cfg) }
+    TrainOptions { seed: opts.seed, progress: false, ..opts.fixed_like(cfg) }
 }
 
 /// Hold-out RMSE of both models retrained on a re-simulated scenario with fixed
@@ -191,43 +191,77 @@ pub fn linear_fit(x: &[f64], y: &[f64]) -> (f64, f64) {
     (my - slope * mx, slope)
 }
 
-/// Table 3 for all channels: polynomial only; hybrid without cross-terms; hybrid with the
-/// `paper` features; hybrid with the default features. Each hybrid variant runs its own
-/// selection over its own family.
+/// Table 3 for all channels: polynomial only; hybrid without cross-terms; the `paper`
+/// variant (z = [Δλ, T_amb, t], no memory terms); the `latch` variant (the previous default:
+/// RBF on the direction latches, no memory terms); the default (memory terms fitted with the
+/// core, RBF residual); and the default with each memory group removed in turn. Each variant
+/// runs its own selection over its own family, inside the calibration batch.
 pub fn ablation(d: &Dataset, trained: &Trained, opts: &TrainOptions, origin: &Origin) -> Result<Vec<AblationRow>, TrainerError> {
+    use fbg_shared::MemoryGroup;
     let (ep, _) = evaluate_holdout(&trained.model_p, d)?;
     let (eh, _) = evaluate_holdout(&trained.model_h, d)?;
-    let no_cross = TrainOptions { cross_terms: false, progress: false, ..opts.clone() };
-    let paper = TrainOptions { feature_sets: vec![FeatureSet::Paper], progress: false, ..opts.clone() };
-    let variants = [no_cross, paper];
-    let res: Vec<Result<(ModelEval, fit::Config), TrainerError>> = fit::par_map(&variants, |o| {
+    let base = TrainOptions { progress: false, ..opts.clone() };
+    let off = fit::memory_core::MemoryOptions::off();
+    let mut variants: Vec<(String, String, TrainOptions)> = vec![
+        (
+            "Hybrid w/o cross-terms".into(),
+            "stage 2 keeps [1, T, ε, p]; memory terms and RBF residual selected by CV".into(),
+            TrainOptions { cross_terms: false, ..base.clone() },
+        ),
+        (
+            "Hybrid, paper variant".into(),
+            "z = [Δλ, T_amb, t] (paper Eq. 5), no memory terms".into(),
+            TrainOptions { feature_sets: vec![FeatureSet::Paper], memory: off.clone(), ..base.clone() },
+        ),
+        (
+            "Hybrid, latch variant".into(),
+            "z = [Δλ, T_amb, direction latches] (+t if CV keeps it), no memory terms (previous default)".into(),
+            TrainOptions {
+                feature_sets: vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime],
+                memory: off,
+                ..base.clone()
+            },
+        ),
+    ];
+    if opts.memory.enabled() {
+        for g in MemoryGroup::ALL.into_iter().filter(|g| opts.memory.groups.contains(g)) {
+            variants.push((
+                format!("Default − {}", g.name()),
+                format!("the default with the {} memory group removed", g.name()),
+                TrainOptions { memory: opts.memory.without(g), ..base.clone() },
+            ));
+        }
+    }
+    let res: Vec<Result<(ModelEval, fit::Config), TrainerError>> = fit::par_map(&variants, |(_, _, o)| {
         let t = fit::train(d, o, origin)?;
         Ok((evaluate_holdout(&t.model_h, d)?.0, t.selection.chosen))
     });
-    let mut it = res.into_iter();
-    let (e_nc, c_nc) = it.next().ok_or_else(|| TrainerError::fit("ablation"))??;
-    let (e_pa, c_pa) = it.next().ok_or_else(|| TrainerError::fit("ablation"))??;
-    Ok(vec![
-        AblationRow { name: "Polynomial only (Model-P)".into(), note: "baseline: Eq. 3 core".into(), channels: ep.channels, config: None },
-        AblationRow {
-            name: "Hybrid w/o cross-terms".into(),
-            note: "stage 2 keeps [1, T, ε, p]; RBF residual selected by CV".into(),
-            channels: e_nc.channels,
-            config: Some(c_nc),
+    let mut rows = vec![AblationRow {
+        name: "Polynomial only (Model-P)".into(),
+        note: "baseline: Eq. 3 core".into(),
+        channels: ep.channels,
+        config: None,
+    }];
+    let mut res = res.into_iter();
+    for (name, note, _) in variants.iter().take(3) {
+        let (e, c) = res.next().ok_or_else(|| TrainerError::fit("ablation"))??;
+        rows.push(AblationRow { name: name.clone(), note: note.clone(), channels: e.channels, config: Some(c) });
+    }
+    rows.push(AblationRow {
+        name: "Hybrid, default".into(),
+        note: if opts.memory.enabled() {
+            "memory terms fitted with the core (groups and λ by CV) + RBF residual on [Δλ, T_amb, latches]".into()
+        } else {
+            "the trained Model-H".into()
         },
-        AblationRow {
-            name: "Hybrid, paper features".into(),
-            note: "z = [Δλ, T_amb, t] (paper Eq. 5)".into(),
-            channels: e_pa.channels,
-            config: Some(c_pa),
-        },
-        AblationRow {
-            name: "Hybrid, default features".into(),
-            note: "z = [Δλ, T_amb, direction latches] (+t if CV keeps it)".into(),
-            channels: eh.channels,
-            config: Some(trained.selection.chosen),
-        },
-    ])
+        channels: eh.channels,
+        config: Some(trained.selection.chosen),
+    });
+    for (name, note, _) in variants.iter().skip(3) {
+        let (e, c) = res.next().ok_or_else(|| TrainerError::fit("ablation"))??;
+        rows.push(AblationRow { name: name.clone(), note: note.clone(), channels: e.channels, config: Some(c) });
+    }
+    Ok(rows)
 }
 
 /// Error budget: both models' hold-out RMSE with each artefact switched off in turn (fixed
@@ -425,9 +459,11 @@ pub fn evaluate_models(
         let trained = Trained {
             model_p: p.clone(),
             model_h: h.clone(),
-            core: fit::PolyCore { stage1: p.stage1, guess_mean: p.guess_mean, guess_std: p.guess_std, poly: p.poly },
+            core: fit::PolyCore::of(p),
             selection: fit::Selection {
                 chosen,
+                memory: fit::memory_core::MemoryChoice::none(),
+                memory_rows: vec![],
                 rows: vec![],
                 cv_rmse_p: [f64::NAN; 3],
                 cv_rmse_h: [f64::NAN; 3],

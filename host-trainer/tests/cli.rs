@@ -66,10 +66,20 @@ fn train_on_a_bad_csv_names_line_and_column_and_writes_nothing() {
 fn inspect_rejects_a_corrupt_blob_by_name() {
     let d = tempfile::tempdir().unwrap();
     let p = d.path().join("junk.fbgm");
-    std::fs::write(&p, b"FBGM\x01\x00\x05\x00\x03\x00\x0a\x00\x02\x00junkjunk").unwrap();
+    std::fs::write(&p, b"FBGM\x02\x00\x05\x00\x03\x00\x0a\x00\x20\x00\x02\x00junkjunk").unwrap();
     let (ok, _, err) = run(bin().arg("inspect").arg(&p));
     assert!(!ok);
     assert!(err.contains("junk.fbgm") && (err.contains("CRC") || err.contains("truncated")), "{err}");
+}
+
+#[test]
+fn inspect_refuses_an_old_format_naming_both_versions() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("old.fbgm");
+    std::fs::write(&p, b"FBGM\x01\x00\x05\x00\x03\x00\x0a\x00\x02\x00junkjunk").unwrap();
+    let (ok, _, err) = run(bin().arg("inspect").arg(&p));
+    assert!(!ok);
+    assert!(err.contains("old.fbgm") && err.contains("version 1") && err.contains("version 2"), "{err}");
 }
 
 #[test]
@@ -88,7 +98,7 @@ fn train_evaluate_inspect_round_trip_on_a_short_scenario() {
     let (ok, out, err) = run(bin().args(["inspect", "--json"]).arg(&model));
     assert!(ok, "{err}");
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
-    assert_eq!(j["header"]["format_version"], 1);
+    assert_eq!(j["header"]["format_version"], 2);
     assert_eq!(j["model"]["provenance"]["scenario"], "short");
     assert_eq!(j["model"]["provenance"]["seed"], 2);
     let (ok, _, err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(&csv).arg("--model").arg(&model));

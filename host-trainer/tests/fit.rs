@@ -87,14 +87,20 @@ fn fixed_grid_point_is_honoured() {
     assert_eq!(t.model_h.centres.len(), 12);
     assert_eq!(t.model_h.hyper.dead_band_pm, 3.0);
     assert_eq!(t.model_p.centres.len(), 0);
-    // Model-P and Model-H share the polynomial core.
-    assert_eq!(t.model_p.poly, t.model_h.poly);
+    // Model-P and Model-H share stage 1; B is refitted jointly with Γ when memory terms are
+    // chosen, and shared otherwise.
     assert_eq!(t.model_p.stage1, t.model_h.stage1);
+    assert!(!t.model_p.has_memory());
+    if !t.model_h.has_memory() {
+        assert_eq!(t.model_p.poly, t.model_h.poly);
+    }
+    // The memory terms were chosen inside the calibration batch and are in the model.
+    assert_eq!(t.model_h.has_memory(), t.selection.memory.any());
 }
 
 /// The default pipeline on the default scenario: the numbers DESIGN §5 asks for, with
-/// tolerances (seeded, so deterministic). The paper's ≥ 25 % gain is *not* asserted: on this
-/// physics the measured gains are 9 / 17 / 6 % (README, BENCHMARKS.md).
+/// tolerances (seeded, so deterministic), including the paper's ≥ 25 % gain on every channel
+/// on this seed (the 20-seed figures are `cargo xtask bench`'s).
 #[test]
 fn paper_preset_model_h_beats_model_p_and_removes_the_hysteresis_bias() {
     let s = simulate(&Preset::Paper.config(), 7);
@@ -104,14 +110,15 @@ fn paper_preset_model_h_beats_model_p_and_removes_the_hysteresis_bias() {
     let floor = s.oracle_floor().rmse_holdout;
     for c in 0..3 {
         let (p, h) = (ep.channels[c], eh.channels[c]);
-        assert!(h.rmse < 0.97 * p.rmse, "channel {c}: H {} vs P {}", h.rmse, p.rmse);
+        assert!(h.rmse < 0.75 * p.rmse, "channel {c}: H {} vs P {}", h.rmse, p.rmse);
         assert!(h.rmse > floor[c], "channel {c} below the oracle floor");
         assert!(h.r2 > 0.95, "channel {c}: R² {}", h.r2);
         assert!((0.90..=0.995).contains(&h.coverage), "channel {c}: coverage {}", h.coverage);
         assert!(h.hysteresis_index.abs() < 0.3 * p.hysteresis_index.abs(), "channel {c}: hysteresis index {} vs {}", h.hysteresis_index, p.hysteresis_index);
     }
-    // The default feature set wins the cross-validation.
+    // The default variant: memory terms on every channel, the RBF on the latch inputs.
     assert_ne!(t.selection.chosen.feature_set, FeatureSet::Paper);
+    assert!((0..3).all(|o| t.selection.memory.groups[o] != 0), "{:?}", t.selection.memory);
     assert!(t.model_h.centres.len() <= 32, "the device holds 32 centres");
 }
 

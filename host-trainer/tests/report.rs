@@ -116,7 +116,12 @@ fn the_page_references_only_files_that_exist_and_are_not_trivial() {
         assert!(html.contains(&format!("<img src=\"{stem}.svg\"")), "{stem} is not shown");
     }
     // The tables, as Markdown and CSV, and the coefficient tables.
-    for t in ["table2", "table3", "error_budget", "drift_sweep", "coef_poly_physical", "coef_rbf_physical", "coef_rbf_standardised", "coef_scalers", "coef_hyper", "coef_band", "coef_stage1"] {
+    // Model-H with memory terms has its own B (fitted jointly with Γ): its core tables carry a
+    // `_h` suffix beside Model-P's `_p`.
+    let core = if refs.contains(&"coef_poly_physical_h.md".to_string()) { "_h" } else { "" };
+    let (poly, stage1) = (format!("coef_poly_physical{core}"), format!("coef_stage1{core}"));
+    assert!(core.is_empty() || refs.contains(&"coef_memory.md".to_string()), "a memory model shows its Γ");
+    for t in ["table2", "table3", "error_budget", "drift_sweep", poly.as_str(), "coef_rbf_physical", "coef_rbf_standardised", "coef_scalers", "coef_hyper", "coef_band", stage1.as_str()] {
         assert!(refs.contains(&format!("{t}.md")) && refs.contains(&format!("{t}.csv")), "{t}");
     }
     // Everything the outcome lists exists.
@@ -175,6 +180,9 @@ fn a_changed_metric_changes_the_tables_and_the_page() {
     let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     set(&mut v, &["table2", "model_h", "channels", "1", "rmse"], 1.2345);
     set(&mut v, &["table2", "gain_pct", "1"], 41.76);
+    // Pin the other gains too, so the verdict sentence does not depend on the trained models.
+    set(&mut v, &["table2", "gain_pct", "0"], 60.0);
+    set(&mut v, &["table2", "gain_pct", "2"], 10.0);
     set(&mut v, &["table2", "model_h", "channels", "0", "coverage"], 0.5);
     std::fs::write(&path, serde_json::to_string_pretty(&v).unwrap()).unwrap();
     let o = report::build(dir.path()).unwrap();

@@ -18,7 +18,7 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 use fbg_shared::layout::N_OUTPUTS;
-use fbg_shared::{Estimate, LatchBank};
+use fbg_shared::{Estimate, StreamState};
 
 use super::{HostCompensator, HostParams};
 use crate::dataset::Dataset;
@@ -37,7 +37,7 @@ pub struct Checkpoints {
     /// samples asked for.
     pos: Vec<usize>,
     /// `states[j]` is the state before sample `pos[j]`.
-    states: Vec<LatchBank>,
+    states: Vec<StreamState<f64>>,
     /// Samples covered.
     end: usize,
 }

@@ -8,6 +8,7 @@
 pub mod design;
 pub mod kmeans;
 pub mod linalg;
+pub mod memory_core;
 pub mod poly_core;
 pub mod select;
 
@@ -273,6 +274,8 @@ impl Skeleton {
             guess_mean: self.core.guess_mean,
             guess_std: self.core.guess_std,
             poly: self.core.poly,
+            memory: self.core.memory,
+            gamma: self.core.gamma,
             z_mean: self.z_mean,
             z_std: self.z_std,
             centres: cs,
@@ -391,8 +394,9 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
     let provenance = provenance(origin, cal.len());
 
     // Final fit on the whole calibration batch.
-    let core = poly_core::fit(d, &cal, cfg.cross_terms)?;
-    let core_p = if cfg.cross_terms { core.clone() } else { poly_core::fit(d, &cal, true)? };
+    let core0 = poly_core::fit(d, &cal, cfg.cross_terms)?;
+    let core = memory_core::fit(d, &cal, &core0, &opts.memory.menu, &selection.memory)?;
+    let core_p = if cfg.cross_terms { core0 } else { poly_core::fit(d, &cal, true)? };
     phases.lap("polynomial core");
     // The latch stream of the chosen dead band, once for the RBF inputs and the design.
     let stream = Skeleton::core_only(d, &cal, &core, cfg.feature_set, cfg.dead_band_pm).params(

@@ -2,7 +2,8 @@
 //! first guesses of (T, ε, p); stage 2, the ten-term polynomial φ on the standardised guesses,
 //! fitted by least squares.
 
-use fbg_shared::layout::{N_OUTPUTS, N_POLY, N_STAGE1};
+use fbg_shared::layout::{N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1};
+use fbg_shared::MemorySpec;
 
 use crate::dataset::Dataset;
 use crate::error::TrainerError;
@@ -19,6 +20,10 @@ pub struct PolyCore {
     pub guess_std: [f64; N_OUTPUTS],
     /// B on standardised guesses.
     pub poly: [[f64; N_POLY]; N_OUTPUTS],
+    /// Memory operators of the core (off for Model-P; see [`crate::fit::memory_core`]).
+    pub memory: MemorySpec<f64>,
+    /// Γ: per output, the coefficient of each memory term (output unit per term unit).
+    pub gamma: [[f64; N_MEMORY]; N_OUTPUTS],
 }
 
 /// φ of paper Eq. 3 on standardised guesses, with the cross/quadratic terms optionally zeroed
@@ -122,10 +127,27 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
             row[k] = b[(c, o)];
         }
     }
-    Ok(PolyCore { stage1, guess_mean, guess_std, poly })
+    Ok(PolyCore { stage1, guess_mean, guess_std, poly, memory: MemorySpec::off(), gamma: [[0.0; N_MEMORY]; N_OUTPUTS] })
 }
 
 impl PolyCore {
+    /// The core of a model's parameters (B, Γ and what they act on).
+    pub fn of(p: &crate::fit::HostParams) -> Self {
+        PolyCore {
+            stage1: p.stage1,
+            guess_mean: p.guess_mean,
+            guess_std: p.guess_std,
+            poly: p.poly,
+            memory: p.memory,
+            gamma: p.gamma,
+        }
+    }
+
+    /// The same core without memory terms (B unchanged).
+    pub fn without_memory(&self) -> Self {
+        PolyCore { memory: MemorySpec::off(), gamma: [[0.0; N_MEMORY]; N_OUTPUTS], ..self.clone() }
+    }
+
     /// B re-expressed on the *physical* first guesses (T °C, ε µε, p kPa): the coefficients a
     /// metrologist reads, y = Σ c_k φ_k(g) with φ in [`fbg_shared::layout::POLY_NAMES`] order.
     pub fn physical_coefficients(&self) -> [[f64; N_POLY]; N_OUTPUTS] {
@@ -179,6 +201,8 @@ mod tests {
                 [-1.0, 0.5, 0.0, 2.0, 0.0, 1.0, 0.0, -0.4, 0.0, 0.7],
                 [0.0; 10],
             ],
+            memory: MemorySpec::off(),
+            gamma: [[0.0; N_MEMORY]; N_OUTPUTS],
         };
         let phys = core.physical_coefficients();
         for g in [[21.0, 40.0, 160.0], [15.5, -120.0, 130.0]] {

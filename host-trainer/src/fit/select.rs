@@ -21,6 +21,7 @@ use rayon::prelude::*;
 use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
 use fbg_shared::Provenance;
 
+use super::memory_core::{self, MemoryChoice, MemoryCvRow, MemoryOptions};
 use super::{design, linalg, poly_core, residual_targets, skeleton, z_sample, CheckpointCache, Config, HostParams, ZSample};
 use crate::dataset::Dataset;
 use crate::error::TrainerError;
@@ -35,6 +36,8 @@ pub struct TrainOptions {
     pub dead_bands_pm: Vec<f64>,
     /// Keep the quadratic and cross terms of stage 2 (false only for the ablation).
     pub cross_terms: bool,
+    /// The memory menu (off for the `paper` and `latch` variants).
+    pub memory: MemoryOptions,
     /// Contiguous blocks the calibration batch is cut into.
     pub blocks: usize,
     /// Blocks in the first fold's training set.
@@ -53,12 +56,13 @@ pub struct TrainOptions {
 impl Default for TrainOptions {
     fn default() -> Self {
         TrainOptions {
-            feature_sets: FeatureSet::ALL.to_vec(),
+            feature_sets: vec![FeatureSet::HysteresisAware],
             centres: vec![8, 16, 32],
             sigma_mults: vec![0.5, 1.0, 2.0, 4.0],
             alpha_rels: vec![1e-6, 1e-5, 1e-4, 1e-3, 1e-2],
             dead_bands_pm: vec![1.0, 2.0, 4.0, 8.0],
             cross_terms: true,
+            memory: MemoryOptions::default_menu(),
             blocks: 5,
             min_train_blocks: 2,
             seed: 1,
@@ -80,6 +84,12 @@ impl TrainOptions {
             cross_terms: cfg.cross_terms,
             ..TrainOptions::default()
         }
+    }
+
+    /// [`TrainOptions::fixed`] keeping this grid's memory menu (cross-validation still chooses
+    /// the memory terms: it costs one pass of the bank per fold).
+    pub fn fixed_like(&self, cfg: &Config) -> Self {
+        TrainOptions { memory: self.memory.clone(), ..TrainOptions::fixed(cfg) }
     }
     /// Restrict the feature sets (`paper` → only the paper set; `hysteresis-aware` → the latch
     /// sets, with time left to cross-validation).
@@ -115,7 +125,7 @@ impl VarModel {
     /// (split-conformal on the normalised errors). `fold` labels each sample's CV fold, in
     /// order of growing training sets.
     pub fn fit(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
-        let mut m = Self::fit_variance(lead_s, sq_err, fold);
+        let (mut m, _) = Self::fit_variance(lead_s, sq_err, fold);
         let mut u: Vec<f64> = lead_s.iter().zip(sq_err).map(|(&t, &e)| (e / m.at(t)).sqrt()).collect();
         u.sort_by(f64::total_cmp);
         // Finite-sample conformal quantile: the ceil((n+1)·0.95)-th smallest.
@@ -132,7 +142,7 @@ impl VarModel {
     /// estimator): early folds train on less data *and* validate at longer leads, so a pooled
     /// slope would mistake the smaller training set for growth. `a` is the intercept of the
     /// fold with the largest training set, the closest to the final fit.
-    fn fit_variance(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
+    fn fit_variance(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> (VarModel, Vec<f64>) {
         let k95 = fbg_shared::layout::Z95;
         let n_folds = fold.iter().copied().max().map(|m| m + 1).unwrap_or(0);
         let mut mt = vec![0.0; n_folds];
@@ -159,7 +169,8 @@ impl VarModel {
         let mean_all = sq_err.iter().sum::<f64>() / sq_err.len().max(1) as f64;
         let floor = 1e-6 * mean_all.max(f64::MIN_POSITIVE);
         let a = me.get(last).copied().unwrap_or(mean_all) - b * mt.get(last).copied().unwrap_or(0.0);
-        VarModel { a: a.max(floor), b, k95 }
+        let intercepts = (0..n_folds).map(|f| (me[f] - b * mt[f]).max(floor)).collect();
+        (VarModel { a: a.max(floor), b, k95 }, intercepts)
     }
 
     /// Variance at lead time `tau_s`.
@@ -172,6 +183,10 @@ impl VarModel {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Selection {
     pub chosen: Config,
+    /// The memory terms each output uses (none for the `paper` and `latch` variants).
+    pub memory: MemoryChoice,
+    /// Every memory menu point evaluated, per output, with its pooled validation RMSE.
+    pub memory_rows: Vec<MemoryCvRow>,
     pub rows: Vec<CvRow>,
     /// Pooled validation RMSE of Model-P and of the chosen Model-H.
     pub cv_rmse_p: [f64; N_OUTPUTS],
@@ -283,6 +298,25 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         })
         .collect();
     let (fold_core, sq_p): (Vec<FoldCore>, Vec<FoldErrors>) = per_fold_p?.into_iter().unzip();
+    // The memory terms, chosen on the folds' own cores, then each fold's core refitted with
+    // them (B and Γ jointly): the RBF layer below learns what that core leaves.
+    let mem_folds: Vec<memory_core::FoldInput<'_>> = fs
+        .iter()
+        .zip(&fold_core)
+        .map(|(f, fc)| memory_core::FoldInput { core: &fc.core, train: &f.train, val: &f.val })
+        .collect();
+    // Memory terms are scored on the folds whose training spans most of the batch (long time
+    // constants and the drift observer need the span; see `MemoryOptions::min_train_fraction`).
+    let long = (opts.memory.min_train_fraction * thinned.len() as f64).ceil() as usize;
+    let first_long = mem_folds.iter().position(|f| f.train.len() >= long).unwrap_or(mem_folds.len().saturating_sub(1));
+    let (memory, memory_rows) = memory_core::select(d, &mem_folds[first_long..], &opts.memory)?;
+    let fold_core: Vec<FoldCore> = fold_core
+        .into_par_iter()
+        .zip(fs.par_iter())
+        .map(|(fc, f)| {
+            Ok(FoldCore { core: memory_core::fit(d, &f.train, &fc.core, &opts.memory.menu, &memory)?, t_end: fc.t_end })
+        })
+        .collect::<Result<_, TrainerError>>()?;
     let n_val: usize = fs.iter().map(|f| f.val.len()).sum();
     let cv_rmse_p = std::array::from_fn(|c| (sq_p.iter().map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n_val as f64).sqrt());
     let (lead, fold_of) = leads(d, &fs, &fold_core);
@@ -408,9 +442,21 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
     } else {
         rows
     };
-    let var_model_h: [VarModel; N_OUTPUTS] = std::array::from_fn(|c| VarModel::fit(&lead, &sqe_h[c], &fold_of));
+    // With memory terms, Model-H's band is calibrated on the same long folds that scored them:
+    // the short folds' memory coefficients are poorly determined, and their larger errors
+    // would widen the band of a final model fitted on the whole batch.
+    let band_from = if memory.any() { first_long } else { 0 };
+    let keep: Vec<usize> = (0..fold_of.len()).filter(|&r| fold_of[r] >= band_from).collect();
+    let lead_h: Vec<f64> = keep.iter().map(|&r| lead[r]).collect();
+    let fold_h: Vec<usize> = keep.iter().map(|&r| fold_of[r] - band_from).collect();
+    let var_model_h: [VarModel; N_OUTPUTS] = std::array::from_fn(|c| {
+        let sq: Vec<f64> = keep.iter().map(|&r| sqe_h[c][r]).collect();
+        VarModel::fit(&lead_h, &sq, &fold_h)
+    });
     Ok(Selection {
         chosen,
+        memory,
+        memory_rows,
         cv_rmse_p,
         cv_rmse_h,
         var_model_p,

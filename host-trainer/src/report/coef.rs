@@ -39,7 +39,7 @@ fn g(v: f64) -> String {
 
 /// The polynomial core of a model (as read from its blob).
 pub fn core_of(p: &HostParams) -> PolyCore {
-    PolyCore { stage1: p.stage1, guess_mean: p.guess_mean, guess_std: p.guess_std, poly: p.poly }
+    PolyCore::of(p)
 }
 
 /// Units of the polynomial terms φ_k on physical first guesses.
@@ -55,6 +55,9 @@ pub fn tables(p: &HostParams, h: &HostParams, m: &Metrics) -> Vec<(String, Table
         out.push((format!("coef_stage1{suffix}"), stage1(params, who)));
         out.push((format!("coef_poly_physical{suffix}"), poly_physical(params, who)));
         out.push((format!("coef_poly_standardised{suffix}"), poly_standardised(params, who)));
+    }
+    if h.has_memory() {
+        out.push(("coef_memory".into(), memory(h)));
     }
     out.push(("coef_scalers".into(), scalers(h)));
     if !h.centres.is_empty() {
@@ -104,6 +107,31 @@ fn poly_standardised(p: &HostParams, who: &str) -> Table {
         .collect();
     Table {
         title: format!("Polynomial core B of {who} as stored in the blob (on standardised first guesses (ĝ − mean)/std)"),
+        header,
+        rows,
+    }
+}
+
+/// Γ of Model-H: every used memory term with its meaning, unit and coefficient per output.
+fn memory(h: &HostParams) -> Table {
+    let header = ["term", "meaning", "unit", "Γ → T [°C per unit]", "Γ → strain [µε per unit]", "Γ → p [kPa per unit]"]
+        .map(String::from)
+        .to_vec();
+    let rows = (0..fbg_shared::layout::N_MEMORY)
+        .filter_map(|k| h.memory.term(k).filter(|t| t.parameter > 0.0).map(|t| (k, t)))
+        .map(|(k, t)| {
+            vec![
+                format!("m{k} ({})", t.group.name()),
+                crate::export::memory_term_meaning(&t),
+                t.group.unit().to_string(),
+                e(h.gamma[0][k]),
+                e(h.gamma[1][k]),
+                e(h.gamma[2][k]),
+            ]
+        })
+        .collect();
+    Table {
+        title: "Memory terms of Model-H: ŷ = Bφ + Γm + Wψ; each term m_k is level-free (a signal minus its own low-pass or play operator), Γ was fitted jointly with B (ridge on the standardised terms); 0 where cross-validation left a group out for that output".into(),
         header,
         rows,
     }

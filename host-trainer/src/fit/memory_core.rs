@@ -1,0 +1,423 @@
+//! The core with memory: ŷ_core = Bφ(g) + Γm, B and Γ fitted jointly (DESIGN §4).
+//!
+//! The memory terms m come from `fbg_shared::MemoryBank`, the code the device runs, moved over
+//! every accepted sample from the first. Γ is fitted with B by least squares with a ridge
+//! penalty λ on the memory terms only (on their standardised scale, so λ is unit free); B is
+//! not penalised.
+//!
+//! Which terms each output may use is restricted by physics before cross-validation sees it
+//! (the menu below): only level-free terms (high-passes, stop terms, the drift observer) are
+//! offered, because absolute levels extrapolate into a later hold-out in a way that
+//! cross-validation inside one calibration batch does not catch; and the drift observer is
+//! offered to the temperature output only (a drift common to every grating looks like a
+//! temperature change to each of them). Within that menu, blocked time-series
+//! cross-validation chooses per output which groups to use and λ, from closed-form validation
+//! errors (Gram matrices of the training and validation rows), so the whole menu costs one
+//! pass of the bank per fold.
+
+use nalgebra::{DMatrix, DVector};
+
+use fbg_shared::layout::{N_MEMORY, N_OUTPUTS, N_POLY};
+use fbg_shared::{MemoryBank, MemoryGroup, MemorySpec};
+
+use super::poly_core::{self, PolyCore};
+use crate::dataset::Dataset;
+use crate::error::TrainerError;
+
+/// Output index of temperature (the only one offered the drift observer).
+const TEMPERATURE: usize = 0;
+
+/// The memory menu cross-validation chooses from.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MemoryOptions {
+    /// Every operator that may be used (the observer's row is set from the stage-1 inverse of
+    /// each fit). All slots 0: no memory terms (the `paper` and `latch` variants).
+    pub menu: MemorySpec<f64>,
+    /// Groups offered to cross-validation.
+    pub groups: Vec<MemoryGroup>,
+    /// Ridge penalties λ per sample on the standardised memory terms.
+    pub lambdas: Vec<f64>,
+    /// Only folds whose training set holds at least this fraction of the calibration rows
+    /// score the memory menu (at least the last fold always does). Forward-chaining folds that
+    /// train on a third of the batch cannot determine the 4-hour high-passes or the drift
+    /// observer and so systematically under-rate them against a final fit on the whole batch.
+    pub min_train_fraction: f64,
+}
+
+impl MemoryOptions {
+    /// No memory terms.
+    pub fn off() -> Self {
+        MemoryOptions { menu: MemorySpec::off(), groups: Vec::new(), lambdas: vec![0.0], min_train_fraction: 0.75 }
+    }
+
+    /// The physics-restricted default menu: grating high-passes at τ = 5 min … 4 h (thermal
+    /// lag, the slow part of drift and hysteresis; the long ones carry pressure), ambient
+    /// high-passes at 5 min … 1 h (the thermometer's own lag), stop terms at r = 2, 4, 8 pm
+    /// (the play operator's hidden position), and the drift observer (thermometer lag 20 min,
+    /// smoothing 40 min) for temperature.
+    pub fn default_menu() -> Self {
+        let min = 60.0;
+        let menu = MemorySpec {
+            grating_tau_s: [5.0 * min, 15.0 * min, 30.0 * min, 60.0 * min, 120.0 * min, 240.0 * min],
+            ambient_tau_s: [5.0 * min, 15.0 * min, 30.0 * min, 60.0 * min],
+            play_half_width_pm: [2.0, 4.0, 8.0],
+            observer_lag_s: 20.0 * min,
+            observer_smooth_s: 40.0 * min,
+            observer_row: [0.0; 5],
+        };
+        MemoryOptions {
+            menu,
+            groups: MemoryGroup::ALL.to_vec(),
+            lambdas: vec![1e-7, 1e-6, 1e-5, 1e-4, 1e-3],
+            min_train_fraction: 0.75,
+        }
+    }
+
+    /// Whether any memory term is on the menu.
+    pub fn enabled(&self) -> bool {
+        !self.groups.is_empty() && self.menu.any()
+    }
+
+    /// The same menu without `group` (Table 3's "memory group removed" rows).
+    pub fn without(&self, group: MemoryGroup) -> Self {
+        MemoryOptions { groups: self.groups.iter().copied().filter(|&g| g != group).collect(), ..self.clone() }
+    }
+}
+
+/// What each output uses: a set of groups and its ridge penalty.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct MemoryChoice {
+    /// Per output, a bit per [`MemoryGroup::ALL`] entry.
+    pub groups: [u8; N_OUTPUTS],
+    /// Per output, λ per sample on the standardised memory terms.
+    pub lambda: [f64; N_OUTPUTS],
+}
+
+impl MemoryChoice {
+    /// No memory terms on any output.
+    pub fn none() -> Self {
+        MemoryChoice::default()
+    }
+
+    /// Whether output `o` uses `g`.
+    pub fn uses(&self, o: usize, g: MemoryGroup) -> bool {
+        let bit = MemoryGroup::ALL.iter().position(|&x| x == g).unwrap_or(0);
+        self.groups.get(o).is_some_and(|&b| b & (1 << bit) != 0)
+    }
+
+    /// Whether any output uses any memory term.
+    pub fn any(&self) -> bool {
+        self.groups.iter().any(|&g| g != 0)
+    }
+
+    /// The groups output `o` uses, by name (for reports).
+    pub fn names(&self, o: usize) -> Vec<&'static str> {
+        MemoryGroup::ALL.iter().filter(|&&g| self.uses(o, g)).map(|g| g.name()).collect()
+    }
+
+    /// The spec that computes exactly the terms some output uses (others 0), with the
+    /// observer's row from `core`'s stage 1.
+    pub fn spec(&self, menu: &MemorySpec<f64>, core: &PolyCore) -> MemorySpec<f64> {
+        let any = |g| (0..N_OUTPUTS).any(|o| self.uses(o, g));
+        let mut s = MemorySpec::off();
+        if any(MemoryGroup::GratingHighPass) {
+            s.grating_tau_s = menu.grating_tau_s;
+        }
+        if any(MemoryGroup::AmbientHighPass) {
+            s.ambient_tau_s = menu.ambient_tau_s;
+        }
+        if any(MemoryGroup::Stop) {
+            s.play_half_width_pm = menu.play_half_width_pm;
+        }
+        if any(MemoryGroup::DriftObserver) && menu.observer_lag_s > 0.0 {
+            s.observer_lag_s = menu.observer_lag_s;
+            s.observer_smooth_s = menu.observer_smooth_s;
+            s.observer_row = core.stage1[TEMPERATURE];
+        }
+        s
+    }
+}
+
+/// The full menu's spec with the observer row from `core` (every term the menu allows).
+fn menu_spec(opts: &MemoryOptions, core: &PolyCore) -> MemorySpec<f64> {
+    let mut all = MemoryChoice::none();
+    for o in 0..N_OUTPUTS {
+        for (bit, g) in MemoryGroup::ALL.iter().enumerate() {
+            if opts.groups.contains(g) && offered(o, *g) {
+                all.groups[o] |= 1 << bit;
+            }
+        }
+    }
+    all.spec(&opts.menu, core)
+}
+
+/// Physics restriction: the drift observer is offered to temperature only.
+fn offered(o: usize, g: MemoryGroup) -> bool {
+    g != MemoryGroup::DriftObserver || o == TEMPERATURE
+}
+
+/// The memory vector at each of `rows` (sorted ascending), the bank having seen every sample
+/// the compensator would accept (finite Δλ, T_amb and t) from the first.
+pub fn memory_terms(spec: &MemorySpec<f64>, d: &Dataset, rows: &[usize]) -> Vec<[f64; N_MEMORY]> {
+    let mut bank = MemoryBank::<f64>::new(spec);
+    let mut out = Vec::with_capacity(rows.len());
+    let end = rows.last().map(|&i| i + 1).unwrap_or(0);
+    let mut want = rows.iter().peekable();
+    for i in 0..end {
+        let s = d.sample(i);
+        let finite = s.dl_pm.iter().all(|v| v.is_finite()) && s.t_amb_c.is_finite() && s.t_s.is_finite();
+        let m = if finite { bank.update(&s.dl_pm, s.t_amb_c, s.t_s) } else { [f64::NAN; N_MEMORY] };
+        if want.peek() == Some(&&i) {
+            want.next();
+            out.push(m);
+        }
+    }
+    out
+}
+
+/// Columns of output `o`'s joint system: the φ terms the core fits, then the memory terms of
+/// the groups in `groups` that `spec` computes.
+fn columns(core: &PolyCore, spec: &MemorySpec<f64>, o: usize, groups: &[MemoryGroup]) -> (Vec<usize>, Vec<usize>) {
+    let poly: Vec<usize> = (0..N_POLY).filter(|&k| k == 0 || core.poly.iter().any(|r| r[k] != 0.0)).collect();
+    let mem = (0..N_MEMORY)
+        .filter(|&k| spec.term(k).is_some_and(|t| t.parameter > 0.0 && groups.contains(&t.group) && offered(o, t.group)))
+        .collect();
+    (poly, mem)
+}
+
+/// φ of the standardised first guesses of sample `i`.
+fn phi_row(core: &PolyCore, d: &Dataset, i: usize) -> [f64; N_POLY] {
+    let x = [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.t_amb_c[i], 1.0];
+    let g: [f64; N_OUTPUTS] = std::array::from_fn(|o| x.iter().zip(&core.stage1[o]).map(|(x, a)| x * a).sum());
+    let u = std::array::from_fn(|o| (g[o] - core.guess_mean[o]) / core.guess_std[o]);
+    poly_core::phi(u, true)
+}
+
+/// Refit B and Γ jointly on `rows` for `choice`: the returned core has the memory spec of the
+/// choice and every output's B row and Γ row from one penalised least squares (QR of the
+/// system augmented by the penalty rows). Outputs without reference keep zeros.
+pub fn fit(d: &Dataset, rows: &[usize], core: &PolyCore, menu: &MemorySpec<f64>, choice: &MemoryChoice) -> Result<PolyCore, TrainerError> {
+    let mut out = core.clone();
+    if !choice.any() {
+        return Ok(out);
+    }
+    let spec = choice.spec(menu, core);
+    let m = memory_terms(&spec, d, rows);
+    let n = rows.len();
+    for o in 0..N_OUTPUTS {
+        if !d.has_target[o] {
+            continue;
+        }
+        let groups: Vec<MemoryGroup> = MemoryGroup::ALL.iter().copied().filter(|&g| choice.uses(o, g)).collect();
+        let (pc, mc) = columns(core, &spec, o, &groups);
+        if mc.is_empty() {
+            continue;
+        }
+        // Standard deviation of each memory column: the ridge acts on the standardised terms.
+        let sd: Vec<f64> = mc
+            .iter()
+            .map(|&k| {
+                let mean = m.iter().map(|r| r[k]).sum::<f64>() / n as f64;
+                let var = m.iter().map(|r| (r[k] - mean).powi(2)).sum::<f64>() / n as f64;
+                if var > 0.0 { var.sqrt() } else { 1.0 }
+            })
+            .collect();
+        let pen = (choice.lambda[o] * n as f64).sqrt();
+        let p = pc.len() + mc.len();
+        let target = d.target(o);
+        let beta = super::linalg::lstsq_rows(n + mc.len(), p, 1, "Model-H core with memory terms", |r, buf| {
+            buf.iter_mut().for_each(|v| *v = 0.0);
+            if r < n {
+                let i = rows[r];
+                let ph = phi_row(core, d, i);
+                for (c, &k) in pc.iter().enumerate() {
+                    buf[c] = ph[k];
+                }
+                for (c, &k) in mc.iter().enumerate() {
+                    buf[pc.len() + c] = m[r][k];
+                }
+                buf[p] = target[i];
+            } else {
+                let j = r - n;
+                buf[pc.len() + j] = pen * sd[j];
+            }
+        })?;
+        out.poly[o] = [0.0; N_POLY];
+        for (c, &k) in pc.iter().enumerate() {
+            out.poly[o][k] = beta[(c, 0)];
+        }
+        for (c, &k) in mc.iter().enumerate() {
+            out.gamma[o][k] = beta[(pc.len() + c, 0)];
+        }
+    }
+    out.memory = spec;
+    Ok(out)
+}
+
+/// Sufficient statistics of one fold for one output: Gram matrices of [φ | m] over the
+/// training and the validation rows.
+struct FoldStats {
+    /// Per output: (XᵀX, Xᵀy) over training rows, (XᵀX, Xᵀy, yᵀy, n) over validation rows.
+    train: Vec<(DMatrix<f64>, DVector<f64>)>,
+    val: Vec<(DMatrix<f64>, DVector<f64>, f64)>,
+    n_train: usize,
+    n_val: usize,
+}
+
+/// One fold for the memory cross-validation: its training core and rows.
+pub struct FoldInput<'a> {
+    pub core: &'a PolyCore,
+    pub train: &'a [usize],
+    pub val: &'a [usize],
+}
+
+/// One evaluated menu point (for the audit).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct MemoryCvRow {
+    pub output: usize,
+    pub groups: Vec<&'static str>,
+    pub lambda: f64,
+    /// Pooled validation RMSE of the core with these memory terms.
+    pub cv_rmse: f64,
+}
+
+/// The layout of the full-menu design: φ (10) then every memory slot (32).
+const P_ALL: usize = N_POLY + N_MEMORY;
+
+fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats {
+    let spec = menu_spec(opts, f.core);
+    let mut rows: Vec<usize> = f.train.iter().chain(f.val.iter()).copied().collect();
+    rows.sort_unstable();
+    rows.dedup();
+    let m = memory_terms(&spec, d, &rows);
+    let pos = |i: usize| rows.binary_search(&i).unwrap_or(0);
+    // XᵀX is shared by every output; Xᵀy and yᵀy are per output.
+    let gram = |set: &[usize]| {
+        let mut a = DMatrix::<f64>::zeros(P_ALL, P_ALL);
+        let mut b: [DVector<f64>; N_OUTPUTS] = std::array::from_fn(|_| DVector::<f64>::zeros(P_ALL));
+        let mut yy = [0.0; N_OUTPUTS];
+        let mut x = [0.0; P_ALL];
+        for &i in set {
+            let ph = phi_row(f.core, d, i);
+            x[..N_POLY].copy_from_slice(&ph);
+            x[N_POLY..].copy_from_slice(&m[pos(i)]);
+            for r in 0..P_ALL {
+                let xr = x[r];
+                for c in r..P_ALL {
+                    a[(r, c)] += xr * x[c];
+                }
+            }
+            for o in 0..N_OUTPUTS {
+                if d.has_target[o] {
+                    let y = d.target(o)[i];
+                    for r in 0..P_ALL {
+                        b[o][r] += x[r] * y;
+                    }
+                    yy[o] += y * y;
+                }
+            }
+        }
+        for r in 0..P_ALL {
+            for c in 0..r {
+                a[(r, c)] = a[(c, r)];
+            }
+        }
+        (a, b, yy)
+    };
+    let (ta, tb, _) = gram(f.train);
+    let (va, vb, vyy) = gram(f.val);
+    let train = tb.into_iter().map(|b| (ta.clone(), b)).collect();
+    let val = vb.into_iter().zip(vyy).map(|(b, yy)| (va.clone(), b, yy)).collect();
+    FoldStats { train, val, n_train: f.train.len(), n_val: f.val.len() }
+}
+
+/// Validation SSE of output `o` with columns `cols` (indices into the full design) and
+/// penalty `lambda` on the memory columns.
+fn val_sse(st: &FoldStats, o: usize, cols: &[usize], lambda: f64) -> Option<f64> {
+    let (a, b) = &st.train[o];
+    let (av, bv, yy) = &st.val[o];
+    let n = st.n_train as f64;
+    let p = cols.len();
+    let mut h = DMatrix::<f64>::zeros(p, p);
+    let mut g = DVector::<f64>::zeros(p);
+    for (r, &i) in cols.iter().enumerate() {
+        for (c, &j) in cols.iter().enumerate() {
+            h[(r, c)] = a[(i, j)];
+        }
+        g[r] = b[i];
+        if i >= N_POLY {
+            // Penalty on the standardised term: λ·n·var(column).
+            let mean = a[(0, i)] / n;
+            let var = (a[(i, i)] / n - mean * mean).max(0.0);
+            h[(r, r)] += lambda * n * if var > 0.0 { var } else { 1.0 };
+        }
+    }
+    // A tiny relative jitter keeps an exactly collinear menu solvable; it is far below λ.
+    let jitter = 1e-12 * (0..p).map(|r| h[(r, r)]).fold(0.0, f64::max);
+    for r in 0..p {
+        h[(r, r)] += jitter;
+    }
+    let beta = h.cholesky()?.solve(&g);
+    let mut sse = *yy;
+    for (r, &i) in cols.iter().enumerate() {
+        sse -= 2.0 * beta[r] * bv[i];
+        for (c, &j) in cols.iter().enumerate() {
+            sse += beta[r] * av[(i, j)] * beta[c];
+        }
+    }
+    Some(sse.max(0.0))
+}
+
+/// Choose, per output, the memory groups and λ with the lowest pooled validation error over
+/// the folds (ties: fewer groups, then larger λ). The hold-out is never seen: the folds are
+/// inside the calibration batch.
+pub fn select(d: &Dataset, folds: &[FoldInput<'_>], opts: &MemoryOptions) -> Result<(MemoryChoice, Vec<MemoryCvRow>), TrainerError> {
+    if !opts.enabled() || folds.is_empty() {
+        return Ok((MemoryChoice::none(), Vec::new()));
+    }
+    let stats: Vec<FoldStats> = super::par_map(folds, |f| fold_stats(d, f, opts));
+    let n_val: usize = stats.iter().map(|s| s.n_val).sum();
+    let offered_groups: Vec<MemoryGroup> = MemoryGroup::ALL.iter().copied().filter(|g| opts.groups.contains(g)).collect();
+    let mut choice = MemoryChoice::none();
+    let mut rows = Vec::new();
+    for o in 0..N_OUTPUTS {
+        if !d.has_target[o] {
+            continue;
+        }
+        let mine: Vec<MemoryGroup> = offered_groups.iter().copied().filter(|&g| offered(o, g)).collect();
+        // (sse, number of groups, -λ, mask, λ)
+        let mut best: Option<(f64, u32, f64, u8, f64)> = None;
+        for mask in 0u8..(1 << mine.len()) {
+            let groups: Vec<MemoryGroup> = mine.iter().enumerate().filter(|(b, _)| mask & (1 << b) != 0).map(|(_, &g)| g).collect();
+            let lambdas: &[f64] = if groups.is_empty() { &[0.0] } else { &opts.lambdas };
+            for &lambda in lambdas {
+                let mut sse = 0.0;
+                for (st, f) in stats.iter().zip(folds) {
+                    let spec = menu_spec(opts, f.core);
+                    let (pc, mc) = columns(f.core, &spec, o, &groups);
+                    let cols: Vec<usize> = pc.iter().copied().chain(mc.iter().map(|&k| N_POLY + k)).collect();
+                    sse += val_sse(st, o, &cols, lambda).unwrap_or(f64::INFINITY);
+                }
+                let rmse = (sse / n_val.max(1) as f64).sqrt();
+                rows.push(MemoryCvRow { output: o, groups: groups.iter().map(|g| g.name()).collect(), lambda, cv_rmse: rmse });
+                let full_mask: u8 = groups
+                    .iter()
+                    .map(|g| 1u8 << MemoryGroup::ALL.iter().position(|x| x == g).unwrap_or(0))
+                    .fold(0, |a, b| a | b);
+                let cand = (sse, groups.len() as u32, -lambda, full_mask, lambda);
+                let better = match &best {
+                    None => true,
+                    Some(b) => (cand.0, cand.1, cand.2).partial_cmp(&(b.0, b.1, b.2)) == Some(std::cmp::Ordering::Less),
+                };
+                if better && sse.is_finite() {
+                    best = Some(cand);
+                }
+            }
+        }
+        if let Some((_, _, _, mask, lambda)) = best {
+            choice.groups[o] = mask;
+            choice.lambda[o] = lambda;
+        }
+    }
+    Ok((choice, rows))
+}
