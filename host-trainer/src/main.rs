@@ -56,14 +56,14 @@ impl ScenarioArgs {
 #[derive(Subcommand)]
 enum Cmd {
     /// Simulate an installation; write its CSV and a `.meta.json` sidecar (scenario, seed,
-    /// oracle floor).
+    /// per-sample oracle).
     Simulate {
         #[command(flatten)]
         scenario: ScenarioArgs,
         /// Output CSV.
         #[arg(long, default_value = "data.csv")]
         out: PathBuf,
-        /// Print a JSON summary (samples, std of T/ε/p, oracle floor) on stdout.
+        /// Print a JSON summary (samples, std of T/ε/p, per-sample oracle) on stdout.
         #[arg(long)]
         json: bool,
         /// Also write the scenario as TOML (every parameter, for audit and editing).
@@ -87,7 +87,7 @@ enum Cmd {
         json: bool,
     },
     /// Evaluate models on the hold-out of a CSV: Table 2 and Table 3 (and, for simulated data
-    /// with a `.meta.json`, the oracle floor, drift sweep and error budget); writes metrics.json.
+    /// with a `.meta.json`, the per-sample oracle, drift sweep and error budget); writes metrics.json.
     Evaluate {
         #[arg(long)]
         data: PathBuf,
@@ -248,7 +248,7 @@ fn run() -> Result<()> {
             } else {
                 let o = s.oracle_floor();
                 eprintln!(
-                    "wrote {} ({} samples, scenario {}, seed {}); oracle floor on the hold-out: T {:.3} °C, ε {:.2} µε, p {:.2} kPa",
+                    "wrote {} ({} samples, scenario {}, seed {}); per-sample oracle on the hold-out: T {:.3} °C, ε {:.2} µε, p {:.2} kPa",
                     out.display(),
                     s.data.len(),
                     cfg.name,

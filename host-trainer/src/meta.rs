@@ -1,6 +1,6 @@
 //! The sidecar `<data>.meta.json` that `simulate` writes beside its CSV: the full scenario,
-//! the seed and the summary (oracle floor). With it, `train` records provenance and
-//! `evaluate` can show the oracle floor and re-run the drift sweep and error budget.
+//! the seed and the summary (per-sample oracle). With it, `train` records provenance and
+//! `evaluate` can show the per-sample oracle and re-run the drift sweep and error budget.
 
 use std::path::{Path, PathBuf};
 

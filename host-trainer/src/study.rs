@@ -65,7 +65,7 @@ pub struct BudgetRow {
     pub effect_off: String,
     pub rmse_p: [f64; N_OUTPUTS],
     pub rmse_h: [f64; N_OUTPUTS],
-    /// Oracle floor of that scenario.
+    /// Per-sample oracle of that scenario.
     pub oracle_floor: [f64; N_OUTPUTS],
 }
 

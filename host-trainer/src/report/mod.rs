@@ -217,7 +217,7 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
         },
         None => {
             out.notes.push(
-                "data.meta.json is absent, so the data cannot be re-simulated: Figure 2 (true wavelength shift) and the oracle floor are omitted, and the scenario is known only by the name recorded in metrics.json."
+                "data.meta.json is absent, so the data cannot be re-simulated: Figure 2 (true wavelength shift) and the per-sample oracle are omitted, and the scenario is known only by the name recorded in metrics.json."
                     .into(),
             );
             None
@@ -350,7 +350,7 @@ fn page(
         id: "table2".into(),
         title: "Hold-out performance (Table 2)".into(),
         body: format!(
-            "<p>Per channel and model on the hold-out: RMSE, MAE, R², bias (mean of estimate − truth), largest |error|, coverage of the 95 % band, hysteresis index (mean error rising − falling), Model-H's RMSE gain over Model-P and the oracle floor. Units are those of the channel.</p>\n{}",
+            "<p>Per channel and model on the hold-out: RMSE, MAE, R², bias (mean of estimate − truth), largest |error|, coverage of the 95 % band, hysteresis index (mean error rising − falling), Model-H's RMSE gain over Model-P and the per-sample oracle. Units are those of the channel.</p>\n{}",
             table_of("table2")
         ),
     });
@@ -395,7 +395,7 @@ fn page(
             "{}{}",
             if m.ablation.is_some() { table_of("table3") } else { "<p class=\"note\">No ablation in metrics.json.</p>\n".into() },
             if m.error_budget.is_some() {
-                format!("<p>The error budget refits both models on the scenario with one artefact switched off at a time (“all”: physics and nothing else); the floor column is that scenario's oracle floor.</p>\n{}", table_of("error_budget"))
+                format!("<p>The error budget refits both models on the scenario with one artefact switched off at a time (“all”: physics and nothing else); the oracle columns are that scenario's per-sample oracle.</p>\n{}", table_of("error_budget"))
             } else {
                 "<p class=\"note\">No error budget in metrics.json (it needs data.meta.json).</p>\n".into()
             }

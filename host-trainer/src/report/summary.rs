@@ -1,5 +1,5 @@
 //! The report's prose, generated from the numbers every time (never stored text that could go
-//! stale): gains against the paper's claim, distance to the oracle floor, band coverage,
+//! stale): gains against the paper's claim, distance to the per-sample oracle, band coverage,
 //! hysteresis, drift sensitivity, ablation, error budget, device parity and flags.
 
 use crate::evaluate::UNITS;
@@ -82,7 +82,7 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         if verdict.is_empty() { "not comparable (no finite gain)".to_string() } else { list(&verdict) }
     ));
 
-    // Oracle floor.
+    // Per-sample oracle.
     match t.oracle_floor {
         Some(f) => {
             let mult: Vec<String> = (0..3).map(|c| format!("{}×", num(t.model_h.channels[c].rmse / f[c], 2))).collect();
@@ -94,18 +94,25 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
                 })
                 .collect();
             let floor: Vec<String> = (0..3).map(|c| format!("{} {}", num(f[c], DIGITS[c]), UNITS[c])).collect();
+            let beaten: Vec<String> =
+                (0..3).filter(|&c| t.model_h.channels[c].rmse < f[c]).map(|c| NAMES[c].to_string()).collect();
             out.push(format!(
-                "The oracle floor (exact inversion of the true physics from wavelengths that carry only the sensor noise: no compensator can do better on average) is {}. Model-H's RMSE is {} that floor (Model-P: {}); the share of Model-H's mean-square error above the floor, which better compensation could still remove, is {}.",
+                "The per-sample oracle (exact inversion of the true physics, sample by sample, from wavelengths that carry only the sensor noise) is {}. Model-H's RMSE is {} the oracle's (Model-P: {}); the share of Model-H's mean-square error above the oracle's is {}.{}",
                 list(&floor),
                 list(&mult),
                 list(&p_mult),
-                list(&above)
+                list(&above),
+                if beaten.is_empty() {
+                    " It is not a floor for a model with memory: averaging over time can remove noise that a per-sample inversion keeps.".to_string()
+                } else {
+                    format!(" Model-H goes below it for {}: a model with memory averages noise over time, which no per-sample inversion can, so the oracle is a reference, not a floor.", list(&beaten))
+                }
             ));
         }
         None => out.push(if meta_present {
-            "metrics.json carries no oracle floor, so the distance to the best achievable accuracy is not shown.".into()
+            "metrics.json carries no per-sample oracle, so the distance to it is not shown.".into()
         } else {
-            "No oracle floor: data.meta.json is absent, so the data cannot be re-simulated and the distance to the best achievable accuracy is unknown.".into()
+            "No per-sample oracle: data.meta.json is absent, so the data cannot be re-simulated and the distance to it is unknown.".into()
         }),
     }
 

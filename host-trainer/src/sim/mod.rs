@@ -1,5 +1,5 @@
 //! The scenario simulator (DESIGN §3): measurands → gratings → interrogator artefacts →
-//! measured wavelengths, with every effect's contribution kept, and the oracle floor.
+//! measured wavelengths, with every effect's contribution kept, and the per-sample oracle.
 
 pub mod gauge_matrix;
 pub mod interrogator;
@@ -142,7 +142,7 @@ impl Simulation {
         out
     }
 
-    /// The oracle floor per output on the hold-out and calibration parts.
+    /// The per-sample oracle per output on the hold-out and calibration parts.
     pub fn oracle_floor(&self) -> OracleFloor {
         let est = self.oracle_estimates();
         let part = |want: Split| -> [f64; 3] {
