@@ -5,9 +5,9 @@
 //! - writes an empty `device.x` (cortex-m-rt's `device` feature; the interrupt table is the
 //!   image's own, `__INTERRUPTS` in `src/lib.rs`);
 //! - copies the test fixtures the test binaries embed into `OUT_DIR` (an empty file when a
-//!   fixture is absent, so the product binary always builds): `FBG_GOLDEN_MODEL`,
-//!   `FBG_GOLDEN_INPUTS`, `FBG_BENCH_MODEL`, `FBG_BENCH_INPUTS` (paths; defaults under
-//!   `../target/fixtures/`, which `cargo xtask fixtures` makes with the trainer).
+//!   fixture is absent, so the product binary always builds): `FBG_GOLDEN_PACK` and
+//!   `FBG_BENCH_PACK` (paths; defaults under `../target/fixtures/`, which `cargo xtask
+//!   fixtures` makes with the trainer), each a pack of models and samples (`src/pack.rs`).
 //!
 //! The centre capacity `K` (env `FBG_K`, default 32) is `fbg-firmware-kernel`'s.
 
@@ -32,10 +32,8 @@ fn main() {
 
     let fixtures = manifest.join("../target/fixtures");
     for (var, default, name) in [
-        ("FBG_GOLDEN_MODEL", fixtures.join("model.fbgm"), "golden_model.fbgm"),
-        ("FBG_GOLDEN_INPUTS", fixtures.join("device_golden_inputs.bin"), "golden_inputs.bin"),
-        ("FBG_BENCH_MODEL", fixtures.join("model.fbgm"), "bench_model.fbgm"),
-        ("FBG_BENCH_INPUTS", fixtures.join("bench_inputs.bin"), "bench_inputs.bin"),
+        ("FBG_GOLDEN_PACK", fixtures.join("golden_pack.bin"), "golden_pack.bin"),
+        ("FBG_BENCH_PACK", fixtures.join("bench_pack_k32.bin"), "bench_pack.bin"),
     ] {
         println!("cargo:rerun-if-env-changed={var}");
         let src = env::var_os(var).map(PathBuf::from).unwrap_or(default);

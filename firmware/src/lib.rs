@@ -1,7 +1,8 @@
 //! Board support of the FBG firmware on the MPS2 AN386 (Cortex-M4F), as QEMU's `mps2-an386`
 //! models it: the CMSDK APB UART driver (`embedded-io`), the FPGA IO LED as the alarm
-//! (`embedded-hal` `OutputPin`), SysTick/DWT counters, the stack high-water mark, and the
-//! fatal-error path (defmt log, then semihosting exit with failure).
+//! (`embedded-hal` `OutputPin`), SysTick/DWT counters, the stack high-water mark, the
+//! fatal-error path (defmt log, then semihosting exit with failure), and the packs of models
+//! and samples the test images embed.
 //!
 //! The application logic lives in the host-testable `fbg-firmware-app` crate.
 
@@ -11,6 +12,7 @@
 
 pub mod counters;
 pub mod led;
+pub mod pack;
 pub mod stack;
 pub mod uart;
 

@@ -9,7 +9,8 @@ use cortex_m_rt::entry;
 use fbg_firmware::led::FpgaioLed;
 use fbg_firmware::uart::{CmsdkUart, Uart0Rx, MPS2_PCLK_HZ, UART0_BASE};
 use fbg_firmware::{exit_failure, stack, DEFAULT_MODEL, K, KERNEL, STAGING_LEN};
-use fbg_firmware_app::{load_with, unloaded, Device, Scratch};
+use fbg_firmware_app::{load_blob, unloaded, Device};
+use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
 use fbg_shared::Compensator;
 
 /// Link speed on hardware (QEMU ignores it).
@@ -18,12 +19,12 @@ const BAUD: u32 = 115_200;
 #[entry]
 fn main() -> ! {
     // `static mut` at the top of `#[entry]` become `&'static mut` (cortex-m-rt), initialised at
-    // load time: the active model, the scratch area (the staging parameter slot while a model
-    // loads, the frame reader while serving) and the blob staging area live in .bss, never on
-    // the stack.
+    // load time: the active model, the blob staging area and the frame reader live in .bss
+    // (what must persist across messages); the parameter slot a model is parsed into is on
+    // the stack of the load only (`load_blob`).
     static mut MODEL: Compensator<f32, K> = unloaded();
-    static mut SCRATCH: Scratch<K> = Scratch::new();
     static mut STAGING: [u8; STAGING_LEN] = [0; STAGING_LEN];
+    static mut READER: FrameReader<HOST_MAX_FRAME> = FrameReader::new();
 
     // SAFETY: UART0 and LED0 of the MPS2 board, each driven only from here.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
@@ -32,9 +33,9 @@ fn main() -> ! {
     uart.enable_rx_wakeup(Uart0Rx);
     let alarm = unsafe { FpgaioLed::new(0) };
 
-    // The embedded default goes the way of every update: parsed into the staging slot, then
-    // folded into the (unloaded) active compensator in place.
-    let info = match load_with(&KERNEL, MODEL, SCRATCH, DEFAULT_MODEL) {
+    // The embedded default goes the way of every update: parsed into a parameter slot on the
+    // stack of `load_blob`, then folded into the (unloaded) active compensator in place.
+    let info = match load_blob(&KERNEL, MODEL, DEFAULT_MODEL) {
         Ok(info) => info,
         Err(r) => {
             defmt::error!(
@@ -57,7 +58,7 @@ fn main() -> ! {
         info.crc,
         boot_peak
     );
-    let mut dev = Device::new(MODEL, KERNEL, SCRATCH, info, STAGING, alarm);
+    let mut dev = Device::new(MODEL, KERNEL, READER, info, STAGING, alarm);
     dev.set_stack_probe(stack::peak_bytes, boot_peak);
     match dev.serve(&mut uart) {
         Ok(never) => match never {},

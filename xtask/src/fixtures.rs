@@ -10,15 +10,20 @@
 //! - `golden_inputs.bin`, `golden_expected.csv`, `golden_meta.json`: `fbg-trainer golden
 //!   --samples 600` (raw LE f32 × 5 per sample: dl1_pm, dl2_pm, dl3_pm, T_amb_C, t_s; the f64
 //!   answers of `fbg_shared::Compensator<f64>`; Model-H's hold-out RMSE as the tolerance scale);
-//! - `device_golden_inputs.bin`, `device_golden_expected.csv`: what the QEMU golden test runs,
-//!   the trainer's 600 samples followed by [`edge_samples`] (out of the envelope, weak support,
-//!   NaN and ∞ inputs, which the hold-out never has) with their host answers; the first 600
-//!   expected rows must equal the trainer's (checked here).
+//! - `device_golden_inputs.bin`, `device_golden_expected.csv`: what the QEMU golden test runs
+//!   on the trainer's model, the trainer's 600 samples followed by [`edge_samples`] (out of the
+//!   envelope, weak support, NaN and ∞ inputs, which the hold-out never has) with their host
+//!   answers; the first 600 expected rows must equal the trainer's (checked here);
+//! - `memory_model.fbgm`, `memory_golden_inputs.bin`, `memory_golden_expected.csv`: the second
+//!   golden set, the synthetic K = 32 model of this file with every slot of the memory bank in
+//!   use ([`synthetic_params`]) on [`golden_samples`] (an irregular clock with a 5 h gap, flags);
+//! - `golden_pack.bin`: both sets as the golden image embeds them ([`pack_bytes`]).
 //!
 //! [`ensure_device`] adds the models of the link test and the bench: `update/model.fbgm`
-//! (`train --features paper`, a second valid model with another feature set), `k16/model.fbgm`
-//! (`train --max-centres 16`), and the synthetic K = 64 model of this file (the trainer's grid
-//! stops at 32 centres), which also serves as the model a K = 32 build must refuse.
+//! (`train --features paper`, a second valid model with another feature set), the synthetic models of this file with and without the memory
+//! bank at K = 0, 16, 32 and 64 (the trainer's grid stops at 32 centres; the 64-centre one is
+//! also the model a K = 32 build must refuse), and the bench packs (`bench_pack_k32.bin`,
+//! `bench_pack_k64.bin`: every model a bench image of that capacity runs, with its samples).
 //!
 //! Everything is regenerated when the trainer binary changes (a stamp in the directory), so
 //! repeated calls cost one `cargo build` check.
@@ -30,8 +35,10 @@ use std::process::{Command, Stdio};
 
 use anyhow::{bail, ensure as check, Context, Result};
 use fbg_shared::blob;
-use fbg_shared::layout::{FeatureSet, N_OUTPUTS, VAR_RANK, Z_DIMS};
-use fbg_shared::{Centre, Compensator, Estimate, Flags, Hyper, LatchBank, ModelParams, Provenance, Sample};
+use fbg_shared::layout::{FeatureSet, N_MEMORY, N_OUTPUTS, N_STAGE1, VAR_RANK, Z_DIMS};
+use fbg_shared::{
+    Centre, Compensator, Estimate, Flags, Hyper, LatchBank, MemoryGroup, MemorySpec, ModelParams, Provenance, Sample,
+};
 
 /// Largest centre count the fixture tools handle.
 pub const MAX_K: usize = 64;
@@ -39,8 +46,10 @@ pub const MAX_K: usize = 64;
 pub const SEED: u64 = 7;
 /// Golden samples the trainer exports.
 pub const GOLDEN_SAMPLES: usize = 600;
+/// Samples of the synthetic memory golden set (≈ 30 h at 60 s: several of the longest τ, 4 h).
+pub const MEMORY_GOLDEN_SAMPLES: usize = 1500;
 /// Bump to regenerate the fixtures when this file changes what it writes.
-const FIXTURES_VERSION: u32 = 2;
+const FIXTURES_VERSION: u32 = 4;
 
 /// Paths of the trainer-made fixtures.
 #[derive(Clone, Debug)]
@@ -49,7 +58,7 @@ pub struct Fixtures {
     pub trainer: PathBuf,
     /// The simulated dataset (paper preset, seed 7).
     pub data: PathBuf,
-    /// Model-H trained on it (K = 32): the golden model and the product's default.
+    /// Model-H trained on it (K <= 32): the first golden model and the product's default.
     pub model: PathBuf,
     /// Golden inputs of the device run (raw LE f32 × 5 per sample): trainer + edge samples.
     pub golden_inputs: PathBuf,
@@ -57,6 +66,14 @@ pub struct Fixtures {
     pub golden_expected: PathBuf,
     /// The trainer's `golden_meta.json` (Model-H hold-out RMSE: the tolerance scale).
     pub golden_meta: PathBuf,
+    /// The second golden model: synthetic, K = 32, every memory slot in use.
+    pub memory_model: PathBuf,
+    /// Its golden inputs ([`golden_samples`]: irregular clock, a gap, flagged samples).
+    pub memory_inputs: PathBuf,
+    /// Host f64 results for them (CSV).
+    pub memory_expected: PathBuf,
+    /// Both golden sets as the golden image embeds them.
+    pub golden_pack: PathBuf,
 }
 
 /// Directory of the fixtures.
@@ -68,7 +85,8 @@ pub fn dir(root: &Path) -> PathBuf {
 pub fn trainer(root: &Path) -> Result<PathBuf> {
     crate::run(crate::cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))
         .context("building fbg-trainer (it makes the firmware's fixtures)")?;
-    let bin = root.join("target").join("release").join(format!("fbg-trainer{}", std::env::consts::EXE_SUFFIX));
+    let _ = root;
+    let bin = crate::target_dir().join("release").join(format!("fbg-trainer{}", std::env::consts::EXE_SUFFIX));
     check!(bin.exists(), "{} is missing after the build", bin.display());
     Ok(bin)
 }
@@ -112,10 +130,25 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
         golden_inputs: d.join("device_golden_inputs.bin"),
         golden_expected: d.join("device_golden_expected.csv"),
         golden_meta: d.join("golden_meta.json"),
+        memory_model: d.join("memory_model.fbgm"),
+        memory_inputs: d.join("memory_golden_inputs.bin"),
+        memory_expected: d.join("memory_golden_expected.csv"),
+        golden_pack: d.join("golden_pack.bin"),
     };
     let stamp = d.join("stamp-main.txt");
     let want = stamp_of(&bin)?;
-    if current(&stamp, &want, &[&fx.data, &fx.model, &fx.golden_inputs, &fx.golden_expected, &fx.golden_meta]) {
+    let files = [
+        &fx.data,
+        &fx.model,
+        &fx.golden_inputs,
+        &fx.golden_expected,
+        &fx.golden_meta,
+        &fx.memory_model,
+        &fx.memory_inputs,
+        &fx.memory_expected,
+        &fx.golden_pack,
+    ];
+    if current(&stamp, &want, &files.map(PathBuf::as_path)) {
         return Ok(fx);
     }
     crate::step("fixtures: simulate, train and export golden vectors with fbg-trainer");
@@ -127,7 +160,7 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
     run_trainer(&bin, &["golden", "--data", p(&fx.data), "--model", p(&fx.model), "--out", p(&d), "--samples", &n])?;
     let model = fs::read(&fx.model)?;
     let params = decode(&model)?;
-    check!(params.centres.len() == 32, "the trainer's Model-H has {} centres, the product holds 32", params.centres.len());
+    check!(params.centres.len() <= 32, "the trainer's Model-H has {} centres, the product holds 32", params.centres.len());
 
     // The device run: the trainer's samples, then the edge cases, streamed in one go.
     let trainer_inputs = read_inputs(&d.join("golden_inputs.bin"))?;
@@ -147,8 +180,31 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
     }
     write_atomic(&fx.golden_inputs, &inputs_bytes(&inputs))?;
     write_atomic(&fx.golden_expected, expected_csv(&expected).as_bytes())?;
+
+    // The second set: every operator of the memory bank, an irregular clock and a gap.
+    let memory_model = synthetic_blob(32, 1, true)?;
+    let memory_inputs = golden_samples(MEMORY_GOLDEN_SAMPLES, 11);
+    let memory_expected = reference(&memory_model, &memory_inputs)?;
+    write_atomic(&fx.memory_model, &memory_model)?;
+    write_atomic(&fx.memory_inputs, &inputs_bytes(&memory_inputs))?;
+    write_atomic(&fx.memory_expected, expected_csv(&memory_expected).as_bytes())?;
+    write_atomic(&fx.golden_pack, &pack_bytes(&[(&model, &inputs), (&memory_model, &memory_inputs)]))?;
     write_atomic(&stamp, want.as_bytes())?;
     Ok(fx)
+}
+
+/// Models and samples as one file for a test image to embed: per record a u32 LE blob length,
+/// the blob, a u32 LE sample count and the samples ([`inputs_bytes`]). Parsed on the device by
+/// `fbg_firmware::pack`.
+pub fn pack_bytes(records: &[(&[u8], &[Sample<f32>])]) -> Vec<u8> {
+    let mut out = Vec::new();
+    for (blob_bytes, samples) in records {
+        out.extend_from_slice(&(blob_bytes.len() as u32).to_le_bytes());
+        out.extend_from_slice(blob_bytes);
+        out.extend_from_slice(&(samples.len() as u32).to_le_bytes());
+        out.extend_from_slice(&inputs_bytes(samples));
+    }
+    out
 }
 
 /// Samples the hold-out does not contain, to run the device's flag paths against the host's:
@@ -185,21 +241,33 @@ pub struct DeviceFixtures {
     pub update_model: PathBuf,
     /// A valid model with more centres than a K = 32 build holds (synthetic K = 64).
     pub k64_model: PathBuf,
-    /// Bench models and inputs per K.
+    /// Bench models and inputs, in the order the bench images run them.
     pub bench: Vec<BenchFixture>,
+    /// The bench packs per build capacity (32: every model with up to 32 centres; 64).
+    pub bench_packs: Vec<(usize, PathBuf)>,
 }
 
-/// The model and samples of the bench at one K.
+/// The model and samples of one bench row.
 #[derive(Clone, Debug)]
 pub struct BenchFixture {
-    /// Centres.
+    /// Short name (JSON key and table row).
+    pub name: &'static str,
+    /// Centres of the model.
     pub k: usize,
-    /// Model blob.
+    /// Whether the model has memory terms (and how many slots are in use).
+    pub memory_terms: usize,
+    /// Capacity of the bench image that runs it.
+    pub capacity: usize,
+    /// Model blob (its samples, at most 64 used, are in the bench pack).
     pub model: PathBuf,
-    /// Samples (same format as the golden inputs; at most 64 are used).
-    pub inputs: PathBuf,
     /// Where the model comes from.
     pub source: &'static str,
+}
+
+/// Memory slots in use in a blob.
+pub fn memory_terms(blob_bytes: &[u8]) -> Result<usize> {
+    let p = decode(blob_bytes)?;
+    Ok((0..N_MEMORY).filter(|&k| p.memory.term_active(k)).count())
 }
 
 /// Make (or reuse) the device-test and bench fixtures.
@@ -207,41 +275,59 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
     let fx = ensure(root)?;
     let d = dir(root);
     let update_model = d.join("update").join("model.fbgm");
-    let k16 = d.join("k16").join("model.fbgm");
     let k64_model = d.join("bench_k64.fbgm");
     let trainer_inputs = d.join("bench_inputs.bin");
-    let k64_inputs = d.join("bench_inputs_k64.bin");
-    let bench = vec![
-        BenchFixture { k: 16, model: k16.clone(), inputs: trainer_inputs.clone(), source: "fbg-trainer train --max-centres 16 (paper preset, seed 7)" },
-        BenchFixture { k: 32, model: fx.model.clone(), inputs: trainer_inputs.clone(), source: "fbg-trainer train (paper preset, seed 7): the product's default model" },
-        BenchFixture { k: 64, model: k64_model.clone(), inputs: k64_inputs.clone(), source: "synthetic (xtask/src/fixtures.rs; the trainer's grid stops at 32 centres)" },
+    let synthetic_inputs = d.join("bench_inputs_synthetic.bin");
+    let syn = |k: usize, mem: bool| d.join(format!("bench_synthetic_k{k}{}.fbgm", if mem { "_memory" } else { "" }));
+    // (name, K, memory, capacity, model, inputs, source)
+    let rows: Vec<(&'static str, usize, bool, usize, PathBuf, PathBuf, &'static str)> = vec![
+        ("default", 0, false, 32, fx.model.clone(), trainer_inputs.clone(), "fbg-trainer train (paper preset, seed 7): the product's default model"),
+        ("memory_k0", 0, true, 32, syn(0, true), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms), no centres"),
+        ("memory_k16", 16, true, 32, syn(16, true), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)"),
+        ("memory_k32", 32, true, 32, syn(32, true), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)"),
+        ("plain_k16", 16, false, 32, syn(16, false), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), no memory terms"),
+        ("plain_k32", 32, false, 32, syn(32, false), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), no memory terms"),
+        ("plain_k64", 64, false, 64, k64_model.clone(), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), no memory terms; the trainer's grid stops at 32 centres"),
+        ("memory_k64", 64, true, 64, syn(64, true), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)"),
     ];
-    let out = DeviceFixtures { update_model: update_model.clone(), k64_model: k64_model.clone(), bench };
+    let bench_packs = vec![(32, d.join("bench_pack_k32.bin")), (64, d.join("bench_pack_k64.bin"))];
     let stamp = d.join("stamp-device.txt");
     let want = stamp_of(&fx.trainer)?;
-    if current(&stamp, &want, &[&update_model, &k16, &k64_model, &trainer_inputs, &k64_inputs]) {
-        return Ok(out);
+    let mut files: Vec<&Path> = vec![&update_model, &k64_model, &trainer_inputs, &synthetic_inputs];
+    files.extend(rows.iter().map(|r| r.4.as_path()));
+    files.extend(bench_packs.iter().map(|(_, p)| p.as_path()));
+    if !current(&stamp, &want, &files) {
+        let _ = fs::remove_file(&stamp);
+        fs::create_dir_all(d.join("update"))?;
+        run_trainer(&fx.trainer, &["train", "--data", p(&fx.data), "--features", "paper", "--out", p(&update_model)])?;
+        // In-envelope hold-out samples of the trainer's data (the golden ones carry no flag).
+        let samples: Vec<Sample<f32>> = read_inputs(&d.join("golden_inputs.bin"))?.into_iter().take(64).collect();
+        write_atomic(&trainer_inputs, &inputs_bytes(&samples))?;
+        for (_, k, mem, _, path, _, _) in rows.iter().filter(|r| r.0 != "default") {
+            write_atomic(path, &synthetic_blob(*k, 100 + *k as u64, *mem)?)?;
+        }
+        // In-envelope, unflagged samples of the synthetic installation on a regular 60 s clock
+        // (the bench image continues the clock across its passes over them).
+        let mut rng = Rng::new(21);
+        let synthetic: Vec<Sample<f32>> = (0..64).map(|i| simulate(i, &mut rng)).collect();
+        write_atomic(&synthetic_inputs, &inputs_bytes(&synthetic))?;
+        for (cap, pack) in &bench_packs {
+            let mut records: Vec<(Vec<u8>, Vec<Sample<f32>>)> = Vec::new();
+            for r in rows.iter().filter(|r| r.3 == *cap) {
+                records.push((fs::read(&r.4)?, read_inputs(&r.5)?));
+            }
+            let refs: Vec<(&[u8], &[Sample<f32>])> = records.iter().map(|(b, s)| (b.as_slice(), s.as_slice())).collect();
+            write_atomic(pack, &pack_bytes(&refs))?;
+        }
+        write_atomic(&stamp, want.as_bytes())?;
     }
-    let _ = fs::remove_file(&stamp);
-    for sub in ["update", "k16"] {
-        fs::create_dir_all(d.join(sub))?;
+    let mut bench = Vec::new();
+    for (name, _, _, capacity, model, _, source) in rows {
+        let bytes = fs::read(&model)?;
+        let k = decode(&bytes)?.centres.len();
+        bench.push(BenchFixture { name, k, memory_terms: memory_terms(&bytes)?, capacity, model, source });
     }
-    run_trainer(&fx.trainer, &["train", "--data", p(&fx.data), "--features", "paper", "--out", p(&update_model)])?;
-    run_trainer(&fx.trainer, &["train", "--data", p(&fx.data), "--max-centres", "16", "--out", p(&k16)])?;
-    let n16 = decode(&fs::read(&k16)?)?.centres.len();
-    check!(n16 == 16, "`train --max-centres 16` chose {n16} centres; the K = 16 bench needs 16");
-    // In-envelope hold-out samples of the trainer's data (the golden ones carry no flag).
-    let samples: Vec<Sample<f32>> = read_inputs(&d.join("golden_inputs.bin"))?.into_iter().take(64).collect();
-    write_atomic(&trainer_inputs, &inputs_bytes(&samples))?;
-    write_atomic(&k64_model, &synthetic_blob(64, 100 + 64)?)?;
-    let synthetic: Vec<Sample<f32>> = golden_samples(256, 21)
-        .into_iter()
-        .filter(|s| s.dl_pm.iter().all(|v| v.is_finite()) && s.dl_pm[0].abs() < 250.0)
-        .take(64)
-        .collect();
-    write_atomic(&k64_inputs, &inputs_bytes(&synthetic))?;
-    write_atomic(&stamp, want.as_bytes())?;
-    Ok(out)
+    Ok(DeviceFixtures { update_model, k64_model, bench, bench_packs })
 }
 
 /// Write `bytes` to `path` through a temporary file and a rename (no half-written output).
@@ -326,11 +412,43 @@ fn simulate(i: usize, rng: &mut Rng) -> Sample<f32> {
     }
 }
 
-/// `n` golden samples: the trajectory, a stretch out of the Δλ1 envelope, two T_amb excursions
-/// and one NaN.
+/// Time stamps of a realistic acquisition [s] from `t0`: 60 s steps, with irregular ones mixed
+/// in (every 7th step 60.5 s, every 53rd 23 s, every 89th 131 s, every 211th a repeated time
+/// stamp) and one 5 h gap at 3/5 of the stream. The memory bank recomputes its smoothing
+/// factors on every Δt change and holds its low-passes on a repeated stamp.
+pub fn irregular_clock(n: usize, t0: f64) -> Vec<f64> {
+    let mut t = t0;
+    (0..n)
+        .map(|i| {
+            if i > 0 {
+                t += if i == n * 3 / 5 {
+                    5.0 * 3600.0
+                } else if i % 211 == 0 {
+                    0.0
+                } else if i % 89 == 0 {
+                    131.0
+                } else if i % 53 == 0 {
+                    23.0
+                } else if i % 7 == 0 {
+                    60.5
+                } else {
+                    60.0
+                };
+            }
+            t
+        })
+        .collect()
+}
+
+/// `n` golden samples on [`irregular_clock`]: the trajectory, a stretch out of the Δλ1
+/// envelope, two T_amb excursions and one NaN.
 pub fn golden_samples(n: usize, seed: u64) -> Vec<Sample<f32>> {
     let mut rng = Rng::new(seed);
+    let clock = irregular_clock(n, 3600.0);
     let mut out: Vec<Sample<f32>> = (0..n).map(|i| simulate(i, &mut rng)).collect();
+    for (s, &t) in out.iter_mut().zip(clock.iter()) {
+        s.t_s = t as f32;
+    }
     let n = out.len();
     for (i, s) in out.iter_mut().enumerate() {
         if (n * 2 / 3..n * 2 / 3 + 10).contains(&i) {
@@ -365,7 +483,63 @@ fn z_raw(s: &Sample<f32>, latch: [f64; 3]) -> [f64; Z_DIMS] {
     ]
 }
 
-/// A synthetic, valid K-centre hysteresis-aware model (f32 blob), deterministic in `seed`.
+/// Every slot of the memory bank in use: grating high-passes at τ = 300 s … 4 h, ambient ones
+/// at 300 s … 1 h, plays of half-width 2, 4 and 8 pm, and the drift observer (the thermometer's
+/// lag 1 200 s, smoothing 2 400 s) on `observer_row` (T_g [°C] from [Δλ1..3, T_amb, 1]).
+pub fn full_memory_spec(observer_row: [f64; N_STAGE1]) -> MemorySpec<f64> {
+    MemorySpec {
+        grating_tau_s: [300.0, 900.0, 1800.0, 3600.0, 7200.0, 14400.0],
+        ambient_tau_s: [300.0, 900.0, 1800.0, 3600.0],
+        play_half_width_pm: [2.0, 4.0, 8.0],
+        observer_lag_s: 1200.0,
+        observer_smooth_s: 2400.0,
+        observer_row,
+    }
+}
+
+/// A small Γ, non-zero on every term `spec` uses: per output unit `scale[o]`, 1e-3·scale per pm
+/// (grating high-passes, stop terms), 1e-2·scale per °C (ambient high-passes), and 0.2 °C/°C
+/// for the drift observer on T only (the trainer offers it to temperature outputs only).
+pub fn small_gamma(spec: &MemorySpec<f64>, scale: [f64; N_OUTPUTS], seed: u64) -> [[f64; N_MEMORY]; N_OUTPUTS] {
+    let mut rng = Rng::new(seed);
+    let mut g = [[0.0; N_MEMORY]; N_OUTPUTS];
+    for (o, row) in g.iter_mut().enumerate() {
+        for (k, v) in row.iter_mut().enumerate() {
+            let Some(term) = spec.term(k).filter(|t| t.parameter > 0.0) else { continue };
+            let r = (0.5 + rng.uniform()) * if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
+            *v = match term.group {
+                MemoryGroup::GratingHighPass | MemoryGroup::Stop => 1e-3 * scale[o] * r,
+                MemoryGroup::AmbientHighPass => 1e-2 * scale[o] * r,
+                MemoryGroup::DriftObserver if o == 0 => 0.2,
+                MemoryGroup::DriftObserver => 0.0,
+            };
+        }
+    }
+    g
+}
+
+/// A model blob with the full memory bank ([`full_memory_spec`] on its stage-1 T row, and
+/// [`small_gamma`] scaled by its guess spread) in place of whatever memory it had: what the
+/// device's memory is checked with when the trainer's model has none.
+pub fn with_full_memory(blob_bytes: &[u8]) -> Result<Vec<u8>> {
+    let p: ModelParams<f64, MAX_K> = decode(blob_bytes)?.convert().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut p = p;
+    p.memory = full_memory_spec(p.stage1[0]);
+    p.gamma = small_gamma(&p.memory, p.guess_std, 5);
+    encode_f64(&p)
+}
+
+fn encode_f64(p: &ModelParams<f64, MAX_K>) -> Result<Vec<u8>> {
+    let p32: ModelParams<f32, MAX_K> = p.convert().map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut buf = vec![0u8; blob::max_len(MAX_K)];
+    let n = blob::encode(&p32, &mut buf).map_err(|e| anyhow::anyhow!("encoding: {e}"))?;
+    buf.truncate(n);
+    Ok(buf)
+}
+
+/// A synthetic, valid K-centre hysteresis-aware model, deterministic in `seed`, with every
+/// slot of the memory bank in use ([`full_memory_spec`], [`small_gamma`]); see
+/// [`without_memory`] for the same model without.
 pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>> {
     check!(k <= MAX_K, "at most {MAX_K} centres");
     let mut rng = Rng::new(seed);
@@ -459,8 +633,8 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>> 
         guess_mean: [T0, 0.0, P0],
         guess_std: Q_STD,
         poly,
-        memory: fbg_shared::MemorySpec::off(),
-        gamma: [[0.0; fbg_shared::layout::N_MEMORY]; N_OUTPUTS],
+        memory: MemorySpec::off(),
+        gamma: [[0.0; N_MEMORY]; N_OUTPUTS],
         z_mean,
         z_std,
         centres,
@@ -481,18 +655,26 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>> 
             n_cal: cal.len() as u32,
         },
     };
+    let mut params = params;
+    // T_g = T0 + (row 0 of the inverse gauge matrix)·Δλ: the grating temperature.
+    params.memory = full_memory_spec([inv[0][0], inv[0][1], inv[0][2], 0.0, T0]);
+    params.gamma = small_gamma(&params.memory, Q_STD, seed ^ 0x6d65_6d6f);
     params.validate().map_err(|e| anyhow::anyhow!("synthetic model invalid: {e}"))?;
     Ok(params)
 }
 
-/// [`synthetic_params`] encoded as a `.fbgm` blob.
-pub fn synthetic_blob(k: usize, seed: u64) -> Result<Vec<u8>> {
-    let p32: ModelParams<f32, MAX_K> =
-        synthetic_params(k, seed)?.convert().map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut buf = vec![0u8; blob::max_len(MAX_K)];
-    let n = blob::encode(&p32, &mut buf).map_err(|e| anyhow::anyhow!("encoding: {e}"))?;
-    buf.truncate(n);
-    Ok(buf)
+/// `p` without memory terms (spec off, Γ = 0).
+pub fn without_memory(mut p: ModelParams<f64, MAX_K>) -> ModelParams<f64, MAX_K> {
+    p.memory = MemorySpec::off();
+    p.gamma = [[0.0; N_MEMORY]; N_OUTPUTS];
+    p
+}
+
+/// [`synthetic_params`] (with the full memory bank when `memory`, else [`without_memory`])
+/// encoded as a `.fbgm` blob.
+pub fn synthetic_blob(k: usize, seed: u64, memory: bool) -> Result<Vec<u8>> {
+    let p = synthetic_params(k, seed)?;
+    encode_f64(&if memory { p } else { without_memory(p) })
 }
 
 /// Decode a blob (any K up to [`MAX_K`]) for the host reference.
@@ -650,19 +832,23 @@ mod tests {
 
     #[test]
     fn synthetic_models_are_valid_deterministic_and_sized() {
-        for k in [16, 32, 64] {
-            let a = synthetic_blob(k, 7).unwrap();
-            assert_eq!(a, synthetic_blob(k, 7).unwrap());
-            let p = decode(&a).unwrap();
-            assert_eq!(p.centres.len(), k);
-            assert!(a.len() <= blob::max_len(k));
+        for k in [0, 16, 32, 64] {
+            for mem in [false, true] {
+                let a = synthetic_blob(k, 7, mem).unwrap();
+                assert_eq!(a, synthetic_blob(k, 7, mem).unwrap());
+                let p = decode(&a).unwrap();
+                assert_eq!(p.centres.len(), k);
+                assert_eq!(p.has_memory(), mem);
+                assert_eq!(memory_terms(&a).unwrap(), if mem { N_MEMORY } else { 0 });
+                assert!(a.len() <= blob::max_len(k));
+            }
         }
-        assert!(synthetic_blob(32, 1).unwrap().len() <= 4096, "blob target ≤ 4 KiB at K = 32");
+        assert!(synthetic_blob(32, 1, true).unwrap().len() <= 4096, "blob target ≤ 4 KiB at K = 32");
     }
 
     #[test]
     fn golden_samples_exercise_every_flag_and_the_csv_round_trips() {
-        let blob = synthetic_blob(32, 1).unwrap();
+        let blob = synthetic_blob(32, 1, true).unwrap();
         let s = golden_samples(600, 11);
         let r = reference(&blob, &s).unwrap();
         let any = |f: Flags| r.iter().filter(|e| e.flags.contains(f)).count();
@@ -691,5 +877,24 @@ mod tests {
         let si = read_inputs(&pi).unwrap();
         assert_eq!(format!("{si:?}"), format!("{s:?}"));
         let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn the_memory_terms_move_the_answers_and_the_clock_is_irregular() {
+        let with = synthetic_blob(32, 1, true).unwrap();
+        let without = synthetic_blob(32, 1, false).unwrap();
+        let s = golden_samples(600, 11);
+        let a = reference(&with, &s).unwrap();
+        let b = reference(&without, &s).unwrap();
+        let moved = a.iter().zip(b.iter()).filter(|(x, y)| x.values[0].is_finite() && x.values != y.values).count();
+        assert!(moved > 500, "{moved}");
+        let dts: Vec<f32> = s.windows(2).map(|w| w[1].t_s - w[0].t_s).collect();
+        for want in [0.0, 23.0, 60.0, 60.5, 131.0, 18000.0] {
+            assert!(dts.contains(&want), "no step of {want} s");
+        }
+        let fm = with_full_memory(&without).unwrap();
+        assert_eq!(memory_terms(&fm).unwrap(), N_MEMORY);
+        let packed = pack_bytes(&[(&with, &s[..3])]);
+        assert_eq!(packed.len(), 4 + with.len() + 4 + 60);
     }
 }

@@ -93,6 +93,25 @@ pub fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
 }
 
+/// `cargo` for the firmware workspace (`firmware/`, its own `target/`): a `CARGO_TARGET_DIR`
+/// meant for the host workspace (e.g. `CARGO_TARGET_DIR=/tmp/t cargo xtask qemu`) must not
+/// move the firmware's build, whose images the tasks look for under `firmware/target`.
+pub fn firmware_cargo() -> Command {
+    let mut c = cargo();
+    c.env_remove("CARGO_TARGET_DIR");
+    c
+}
+
+/// The host workspace's target directory: `CARGO_TARGET_DIR` when set (relative to the
+/// workspace root, as cargo takes it), else `target/`. The trainer the fixtures run is built
+/// there.
+pub fn target_dir() -> PathBuf {
+    match std::env::var_os("CARGO_TARGET_DIR") {
+        Some(d) if !d.is_empty() => root().join(d),
+        _ => root().join("target"),
+    }
+}
+
 fn test(rest: &[String]) -> Result<()> {
     let root = root();
     let skip_qemu = rest.iter().any(|a| a == "--no-qemu");

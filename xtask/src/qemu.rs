@@ -4,13 +4,21 @@
 //! 2. fault path: an image that executes UDF must end QEMU with a failure exit code;
 //! 3. golden vectors: the `golden` image compensates the fixture samples on the emulated
 //!    Cortex-M4F and sends its estimates over UART0 to a file; each is compared with the host's
-//!    f64 answer (|Δ| ≤ 1 % of the reference scale per channel, flags identical);
+//!    f64 answer (|Δ| ≤ 1 % of the reference scale per channel, flags identical). Two sets:
+//!    the trainer's model on its golden samples plus edge cases, and the synthetic model with
+//!    every slot of the memory bank in use on an irregular clock with a gap;
 //! 4. link: the product image serves its serial port on a loopback TCP port; `fbg-trainer
 //!    stream` (the real CLI) sends the paper hold-out and checks every estimate against the
 //!    host's f64 compensator; then garbage (counted, then served), a corrupted and an oversized
 //!    model (rejected with their reasons; the old model still answers like the host), and
 //!    `fbg-trainer stream --update-first` with a second model (accepted, and its answers match
-//!    the host on the new model).
+//!    the host on the new model);
+//! 5. memory over 14 days: the product image, given a model with memory terms (the default
+//!    when it has them, else the default with the full memory bank added), compensates the
+//!    whole paper data set — 20 160 samples, 14 days — on an irregular clock with a 5 h gap;
+//!    every answer is compared with the host's f64 (≤ 1 % of Model-H's hold-out RMSE, flags
+//!    identical), and the largest difference of the last day with that of the first, so that
+//!    f32 memory state drifting over a long stream would show.
 //!
 //! Every QEMU run has a time-out and QEMU is killed on any failure. defmt logs (QEMU's
 //! semihosting stdout) are kept in `target/qemu/*.defmt` and decoded with `defmt-print` when it
@@ -44,7 +52,7 @@ pub fn run_all(root: &Path) -> Result<()> {
     crate::step("firmware: host tests of the device logic (fbg-firmware-app)");
     let fw = firmware_dir(root);
     crate::run(
-        crate::cargo()
+        crate::firmware_cargo()
             .current_dir(&fw)
             .args(["test", "-p", "fbg-firmware-app", "--locked", "--target", &host_triple()?])
             .env("FBG_TEST_MODEL", &fx.model),
@@ -54,7 +62,7 @@ pub fn run_all(root: &Path) -> Result<()> {
     crate::step("firmware: build (thumbv7em-none-eabihf, K = 32) and clippy");
     let bins = build(root, PRODUCT_K, &fx, None)?;
     crate::run(
-        crate::cargo()
+        crate::firmware_cargo()
             .current_dir(&fw)
             .args(["clippy", "--release", "--locked", "--bins", "--", "-D", "warnings"])
             .envs(build_env(PRODUCT_K, &fx, None)),
@@ -67,6 +75,8 @@ pub fn run_all(root: &Path) -> Result<()> {
     golden_test(root, &qemu, &bins, &fx)?;
     crate::step("QEMU: streaming, garbage and model updates over a loopback TCP serial port");
     link_test(root, &qemu, &bins, &fx, &dfx)?;
+    crate::step("QEMU: a memory model over the whole 14-day paper stream (f32 device vs f64 host)");
+    long_memory_test(root, &qemu, &bins, &fx)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
 }
@@ -116,25 +126,22 @@ pub fn firmware_dir(root: &Path) -> PathBuf {
     root.join("firmware")
 }
 
-/// Environment of a firmware build: capacity `k`, the golden fixtures, and the bench model and
-/// samples (`bench`; by default the golden model and inputs, for builds that do not run it).
-pub fn build_env(k: usize, fx: &Fixtures, bench: Option<(&Path, &Path)>) -> Vec<(String, String)> {
+/// Environment of a firmware build: capacity `k`, the golden pack, and the bench pack (`bench`;
+/// by default the golden pack, for builds that do not run the bench).
+pub fn build_env(k: usize, fx: &Fixtures, bench: Option<&Path>) -> Vec<(String, String)> {
     let s = |p: &Path| p.display().to_string();
-    let (bm, bi) = bench.unwrap_or((&fx.model, &fx.golden_inputs));
     vec![
         ("FBG_K".to_string(), k.to_string()),
-        ("FBG_GOLDEN_MODEL".to_string(), s(&fx.model)),
-        ("FBG_GOLDEN_INPUTS".to_string(), s(&fx.golden_inputs)),
-        ("FBG_BENCH_MODEL".to_string(), s(bm)),
-        ("FBG_BENCH_INPUTS".to_string(), s(bi)),
+        ("FBG_GOLDEN_PACK".to_string(), s(&fx.golden_pack)),
+        ("FBG_BENCH_PACK".to_string(), s(bench.unwrap_or(&fx.golden_pack))),
     ]
 }
 
 /// Build every firmware image with capacity `k` (release profile).
-pub fn build(root: &Path, k: usize, fx: &Fixtures, bench: Option<(&Path, &Path)>) -> Result<Bins> {
+pub fn build(root: &Path, k: usize, fx: &Fixtures, bench: Option<&Path>) -> Result<Bins> {
     let fw = firmware_dir(root);
     crate::run(
-        crate::cargo()
+        crate::firmware_cargo()
             .current_dir(&fw)
             .args(["build", "--release", "--locked", "--bins"])
             .envs(build_env(k, fx, bench)),
@@ -332,64 +339,106 @@ pub fn parse_frames(bytes: &[u8]) -> (Vec<DeviceMsg>, usize) {
     (out, bad)
 }
 
+/// One golden set: its model, inputs, expected host answers, tolerance scale and its name.
+struct GoldenSet {
+    name: &'static str,
+    inputs: Vec<fbg_shared::Sample<f32>>,
+    expected: Vec<fbg_shared::Estimate<f64>>,
+    scale: [f64; 3],
+    scale_name: &'static str,
+}
+
+fn golden_sets(fx: &Fixtures) -> Result<Vec<GoldenSet>> {
+    let model = fs::read(&fx.model)?;
+    let (scale, scale_name) = golden_scale(fx, &model)?;
+    let memory_model = fs::read(&fx.memory_model)?;
+    let sets = vec![
+        GoldenSet {
+            name: "trainer's Model-H (hold-out and edge samples)",
+            inputs: fixtures::read_inputs(&fx.golden_inputs)?,
+            expected: fixtures::read_expected(&fx.golden_expected)?,
+            scale,
+            scale_name,
+        },
+        GoldenSet {
+            name: "synthetic K = 32 with the full memory bank (irregular clock, 5 h gap)",
+            inputs: fixtures::read_inputs(&fx.memory_inputs)?,
+            expected: fixtures::read_expected(&fx.memory_expected)?,
+            scale: fixtures::reference_scale(&memory_model)?,
+            scale_name: "the model's residual σ",
+        },
+    ];
+    for g in &sets {
+        ensure!(g.inputs.len() == g.expected.len(), "golden set `{}`: {} inputs, {} expected rows", g.name, g.inputs.len(), g.expected.len());
+    }
+    Ok(sets)
+}
+
+/// Largest |device − host| per channel over finite values.
+fn max_abs_diff<'a>(pairs: impl Iterator<Item = (&'a [f32; 3], &'a [f64; 3])>) -> [f64; 3] {
+    let mut worst = [0.0f64; 3];
+    for (dev, host) in pairs {
+        for ((w, &dv), &hv) in worst.iter_mut().zip(dev.iter()).zip(host.iter()) {
+            let d = (dv as f64 - hv).abs();
+            if d.is_finite() {
+                *w = w.max(d);
+            }
+        }
+    }
+    worst
+}
+
 fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<()> {
     let dir = out_dir(root)?;
     let uart = dir.join("golden.uart");
     let _ = fs::remove_file(&uart);
     let log = dir.join("golden.defmt");
     let mut q = Qemu::start(qemu, &bins.golden, &format!("file:{}", uart.display()), &log, &[])?;
-    let status = q.wait(Duration::from_secs(60))?;
+    let status = q.wait(Duration::from_secs(120))?;
     if !status.success() {
         q.show_log();
         bail!("golden image failed with {status}");
     }
-    let model = fs::read(&fx.model)?;
-    let (scale, scale_name) = golden_scale(fx, &model)?;
-    let tol = scale.map(|s| REL_TOL * s);
-    let inputs = fixtures::read_inputs(&fx.golden_inputs)?;
-    let expected = fixtures::read_expected(&fx.golden_expected)?;
-    ensure!(
-        inputs.len() == expected.len(),
-        "{} has {} samples but {} has {} rows",
-        fx.golden_inputs.display(),
-        inputs.len(),
-        fx.golden_expected.display(),
-        expected.len()
-    );
+    let sets = golden_sets(fx)?;
+    let total: usize = sets.iter().map(|g| g.inputs.len()).sum();
     let (msgs, bad) = parse_frames(&fs::read(&uart)?);
     ensure!(bad == 0, "{bad} malformed frames in the golden output {}", uart.display());
-    ensure!(msgs.len() == expected.len(), "device sent {} estimates for {} samples", msgs.len(), expected.len());
-    let mut worst = [0.0f64; 3];
-    let mut flagged = 0;
+    ensure!(msgs.len() == total, "device sent {} estimates for {total} samples", msgs.len());
     let mut failures = Vec::new();
-    for (i, (m, want)) in msgs.iter().zip(expected.iter()).enumerate() {
-        let DeviceMsg::Estimate(e) = m else { bail!("message {i} is {m:?}, not an estimate") };
-        ensure!(e.seq == i as u32, "estimate {i} carries seq {}", e.seq);
-        if !e.flags.is_ok() {
-            flagged += 1;
-        }
-        for ((w, &dv), &hv) in worst.iter_mut().zip(e.values.iter()).zip(want.values.iter()) {
-            let d = (dv as f64 - hv).abs();
-            if d.is_finite() {
-                *w = w.max(d);
+    let mut at = 0usize;
+    for g in &sets {
+        let tol = g.scale.map(|s| REL_TOL * s);
+        let mut flagged = 0;
+        let mut got = Vec::new();
+        for (j, want) in g.expected.iter().enumerate() {
+            let i = at + j;
+            let DeviceMsg::Estimate(e) = &msgs[i] else { bail!("message {i} is {:?}, not an estimate", msgs[i]) };
+            ensure!(e.seq == i as u32, "estimate {i} carries seq {}", e.seq);
+            if !e.flags.is_ok() {
+                flagged += 1;
             }
+            if let Some(why) = fixtures::compare(e.values, e.band, e.flags, want, tol) {
+                failures.push(format!("{}: sample {j}: {why}", g.name));
+            }
+            got.push(e.values);
         }
-        if let Some(why) = fixtures::compare(e.values, e.band, e.flags, want, tol) {
-            failures.push(format!("sample {i}: {why}"));
-        }
+        let worst = max_abs_diff(got.iter().zip(g.expected.iter().map(|e| &e.values)));
+        eprintln!(
+            "xtask: golden, {}: {} samples ({flagged} flagged, flags identical); max |device − host| = {:.3e} °C, {:.3e} µε, {:.3e} kPa \
+             ({:.4} %, {:.4} %, {:.4} % of {}; limit {} %)",
+            g.name,
+            g.inputs.len(),
+            worst[0],
+            worst[1],
+            worst[2],
+            100.0 * worst[0] / g.scale[0],
+            100.0 * worst[1] / g.scale[1],
+            100.0 * worst[2] / g.scale[2],
+            g.scale_name,
+            100.0 * REL_TOL
+        );
+        at += g.inputs.len();
     }
-    eprintln!(
-        "xtask: golden: {} samples ({flagged} flagged, flags identical); max |device − host| = {:.3e} °C, {:.3e} µε, {:.3e} kPa \
-         ({:.4} %, {:.4} %, {:.4} % of {scale_name}; limit {} %)",
-        msgs.len(),
-        worst[0],
-        worst[1],
-        worst[2],
-        100.0 * worst[0] / scale[0],
-        100.0 * worst[1] / scale[1],
-        100.0 * worst[2] / scale[2],
-        100.0 * REL_TOL
-    );
     if !failures.is_empty() {
         let n = failures.len();
         failures.truncate(10);
@@ -603,6 +652,128 @@ fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceF
     ensure!(Instant::now() < deadline, "link test took too long");
     s.check_alive()?;
     eprintln!("xtask: link: final status {fin:?}");
+    Ok(())
+}
+
+/// Minimum length of the long memory stream: 14 days at 60 s (DESIGN §8, issue 14).
+pub const LONG_STREAM_MIN: usize = 20_160;
+
+/// The inputs of every row of a dataset CSV (`t_s`, `T_amb_C`, `dl1_pm`..`dl3_pm`; an empty or
+/// unreadable field is NaN, as the device would receive it), rounded to f32 as the link sends
+/// them.
+pub fn read_dataset_inputs(path: &Path) -> Result<Vec<fbg_shared::Sample<f32>>> {
+    let text = fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').map(str::trim).collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).with_context(|| format!("{}: no column `{name}`", path.display()));
+    let cols = [col("dl1_pm")?, col("dl2_pm")?, col("dl3_pm")?, col("T_amb_C")?, col("t_s")?];
+    let mut out = Vec::new();
+    for line in lines.filter(|l| !l.trim().is_empty()) {
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        let v = cols.map(|c| f.get(c).and_then(|x| x.parse::<f64>().ok()).unwrap_or(f64::NAN) as f32);
+        out.push(fbg_shared::Sample { dl_pm: [v[0], v[1], v[2]], t_amb_c: v[3], t_s: v[4] });
+    }
+    Ok(out)
+}
+
+/// `samples` with their time stamps made irregular: each keeps its own t plus the deviation of
+/// [`fixtures::irregular_clock`] from a regular 60 s clock (steps of 60.5, 23 and 131 s, repeated
+/// stamps, and a 5 h gap at 3/5 of the stream, after which every stamp is 5 h later).
+pub fn with_irregular_clock(samples: &[fbg_shared::Sample<f32>]) -> Vec<fbg_shared::Sample<f32>> {
+    let clock = fixtures::irregular_clock(samples.len(), 0.0);
+    samples
+        .iter()
+        .zip(clock.iter())
+        .enumerate()
+        .map(|(i, (s, &c))| {
+            let mut s = *s;
+            s.t_s = (s.t_s as f64 + (c - 60.0 * i as f64)) as f32;
+            s
+        })
+        .collect()
+}
+
+fn long_memory_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<()> {
+    let default = fs::read(firmware_dir(root).join("model/default.fbgm"))?;
+    let has_memory = fixtures::decode(&default)?.has_memory();
+    let (model, which) = if has_memory {
+        (default.clone(), "the default model (its own memory terms)")
+    } else {
+        (fixtures::with_full_memory(&default)?, "the default model with the full memory bank added (it has no memory terms)")
+    };
+    let terms = fixtures::memory_terms(&model)?;
+    let (scale, scale_name) = golden_scale(fx, &default)?;
+    let tol = scale.map(|s| REL_TOL * s);
+    let samples = with_irregular_clock(&read_dataset_inputs(&fx.data)?);
+    ensure!(
+        samples.len() >= LONG_STREAM_MIN,
+        "{} has {} samples; the long memory test needs at least {LONG_STREAM_MIN} (14 days at 60 s)",
+        fx.data.display(),
+        samples.len()
+    );
+    let mut host = fixtures::host_compensator(&model)?;
+    let mut s = LinkSession::start(root, qemu, &bins.product, "memory")?;
+    if model != default {
+        match s.link()?.update_model(&model)? {
+            UpdateResult::Accepted { .. } => {}
+            other => bail!("the memory model was refused: {other:?}"),
+        }
+    }
+    s.link()?.reset_stream(1)?;
+    let started = Instant::now();
+    let day = 1440.min(samples.len() / 2);
+    let n = samples.len();
+    let mut worst = [0.0f64; 3];
+    let mut first_day = [0.0f64; 3];
+    let mut last_day = [0.0f64; 3];
+    let mut flagged = 0usize;
+    let mut failures = Vec::new();
+    for (i, x) in samples.iter().enumerate() {
+        let e = s.link()?.compensate(i as u32, x).with_context(|| format!("sample {i}"))?;
+        let want = host.step(&fixtures::widen(x));
+        if !e.flags.is_ok() {
+            flagged += 1;
+        }
+        if let Some(why) = fixtures::compare(e.values, e.band, e.flags, &want, tol) {
+            failures.push(format!("sample {i} (t = {} s): {why}", x.t_s));
+        }
+        let d = max_abs_diff(std::iter::once((&e.values, &want.values)));
+        for c in 0..3 {
+            worst[c] = worst[c].max(d[c]);
+            if i < day {
+                first_day[c] = first_day[c].max(d[c]);
+            }
+            if i >= n - day {
+                last_day[c] = last_day[c].max(d[c]);
+            }
+        }
+    }
+    let secs = started.elapsed().as_secs_f64();
+    let st = s.link()?.status()?;
+    s.disconnect()?;
+    s.check_alive()?;
+    let pct = |v: [f64; 3]| format!("{:.4} / {:.4} / {:.4} %", 100.0 * v[0] / scale[0], 100.0 * v[1] / scale[1], 100.0 * v[2] / scale[2]);
+    eprintln!(
+        "xtask: memory stream: {which}, {terms} memory terms, {} centres; {n} samples (14 days, irregular clock, 5 h gap), \
+         {flagged} flagged, flags identical; max |device − host| = {:.3e} °C, {:.3e} µε, {:.3e} kPa = {} of {scale_name} \
+         (limit {} %); first day {}, last day {}; {:.1} s ({:.2} ms per sample)",
+        fixtures::decode(&model)?.centres.len(),
+        worst[0],
+        worst[1],
+        worst[2],
+        pct(worst),
+        100.0 * REL_TOL,
+        pct(first_day),
+        pct(last_day),
+        secs,
+        1e3 * secs / n as f64
+    );
+    ensure!(st.samples as usize == n, "the device counted {} samples, {n} were sent", st.samples);
+    if !failures.is_empty() {
+        let k = failures.len();
+        failures.truncate(10);
+        bail!("{k} of {n} samples of the memory stream differ beyond tolerance:\n  {}", failures.join("\n  "));
+    }
     Ok(())
 }
 

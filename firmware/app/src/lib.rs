@@ -8,19 +8,21 @@
 //!
 //! # Memory
 //!
-//! The device borrows its three big buffers from the caller (the firmware puts them in
-//! statics, ≈ 2.4 KB each at K = 32):
+//! The device borrows from the caller (the firmware puts them in statics) what must live
+//! across messages:
 //!
-//! - the active [`Compensator`] (from [`unloaded`], then [`load`]ed in place);
-//! - the blob staging area, where `ModelChunk`s land;
-//! - a [`Scratch`]: the link's frame reader while serving, the one staging [`ModelParams`]
-//!   slot while a model is loaded. The two are never live together (the reader is between
-//!   frames when `ModelCommit` is handled, and a commit carries no data), so they share it.
+//! - the active [`Compensator`] (from [`unloaded`], then [`load`]ed in place; ≈ 3.1 KB at
+//!   K = 32 with the memory bank);
+//! - the blob staging area, where `ModelChunk`s land (`blob::max_len(K)`, ≈ 2.9 KB at K = 32);
+//! - the link's frame reader (≈ 0.3 KB).
 //!
-//! A model (the embedded default at boot, an update at commit) is parsed field by field with
-//! [`blob::decode_into`] into the staging slot, then [`Compensator::reload`] folds it into the
-//! active compensator in place: nothing model-sized is ever on the stack, and a refused model
-//! leaves the active one serving (reload checks everything before it writes).
+//! The one [`ModelParams`] slot a model is parsed into (≈ 2.8 KB at K = 32) is needed only
+//! while a model loads — at boot and during the handling of a `ModelCommit`, which carries no
+//! data and is handled outside the frame decoding — so it is a local of the never-inlined
+//! function that loads ([`load_blob`], `Device::commit`): on the stack during a load, free
+//! while the device serves. A model is parsed field by field with [`blob::decode_into`] into
+//! that slot, then [`Compensator::reload`] folds it into the active compensator in place; a
+//! refused model leaves the active one serving (reload checks everything before it writes).
 //!
 //! No heap, no panicking paths.
 
@@ -93,133 +95,24 @@ pub fn blob_crc(bytes: &[u8]) -> u32 {
 
 /// A compensator with no model loaded, for a `static` that [`load`] then fills in place (the
 /// embedded default at boot): all bytes zero, so the static lands in `.bss` and no
-/// model-sized value is ever built on the stack (`Compensator::new` returns one by value,
-/// 2.4 KB of stack at K = 32, twice over with its `Result`). Until a model is loaded it
+/// compensator-sized value is ever built on the stack (`Compensator::new` returns one by
+/// value, 3.1 KB of stack at K = 32, twice over with its `Result`). Until a model is loaded it
 /// answers every sample with NaN values and an infinite band (no output fitted).
 pub const fn unloaded<const K: usize>() -> Compensator<f32, K> {
-    // SAFETY: all-zero bytes are a valid `Compensator<f32, K>`: its fields are `f32` arrays
-    // and scalars (0.0), `i32` (0), `bool` (false), a `heapless::Vec` (length 0, storage
-    // `MaybeUninit`) and the direction latches (`i32`, `i8`, `bool`: a latch that has seen no
-    // sample). `tests::an_unloaded_compensator_is_usable` exercises it. A safe `const fn` in
-    // fbg-shared would make this unnecessary (README-firmware.md, "Not met / open").
+    // SAFETY: all-zero bytes are a valid `Compensator<f32, K>`. Its fields are `f32` arrays and
+    // scalars (0.0), `i32` (0), `bool` (false), a `heapless::Vec` (length 0, storage
+    // `MaybeUninit`), the direction latches (`i32`, `i8`, `bool`: a latch that has seen no
+    // sample) and the memory bank (`MemoryBank<f32>`: `LowPass`/`Play`/`DriftObserver`, which
+    // are single `f32` coefficients, `f32` arrays, `bool` arrays and a `MemoryState` of `f32`
+    // arrays and a `bool`: no enum, reference, `NonZero` or niche anywhere). The zeroed bank is
+    // exactly `MemoryBank::default()` (every operator off, `is_active()` false, a stream that
+    // has seen no sample; only its "no cached Δt" marker differs from `MemoryBank::new`'s NaN,
+    // and `reload` replaces the whole bank before it is ever used, so the value is never read).
+    // `tests::an_unloaded_compensator_is_usable` and
+    // `tests::a_zeroed_memory_bank_is_the_default_one` exercise it. A safe `const fn
+    // Compensator::unloaded()` in fbg-shared would make this unnecessary (README-firmware.md,
+    // "Not met / open").
     unsafe { MaybeUninit::zeroed().assume_init() }
-}
-
-/// An empty staging slot: all zero, so a `static` of it costs no flash (it lands in `.bss`).
-/// It does not validate until a blob is decoded into it.
-pub const fn empty_params<const K: usize>() -> ModelParams<f32, K> {
-    use fbg_shared::layout::{FeatureSet, N_ENVELOPE, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
-    use fbg_shared::{Hyper, Provenance};
-    ModelParams {
-        hyper: Hyper {
-            feature_set: FeatureSet::Paper,
-            sigma_mult: 0.0,
-            sigma: 0.0,
-            alpha: 0.0,
-            dead_band_pm: 0.0,
-            weak_support: 0.0,
-            envelope_margin: 0.0,
-            flagged_band_factor: 0.0,
-        },
-        stage1: [[0.0; N_STAGE1]; N_OUTPUTS],
-        guess_mean: [0.0; N_OUTPUTS],
-        guess_std: [0.0; N_OUTPUTS],
-        poly: [[0.0; N_POLY]; N_OUTPUTS],
-        memory: fbg_shared::MemorySpec::off(),
-        gamma: [[0.0; fbg_shared::layout::N_MEMORY]; N_OUTPUTS],
-        z_mean: [0.0; Z_DIMS],
-        z_std: [0.0; Z_DIMS],
-        centres: heapless::Vec::new(),
-        var_inv_g: [0.0; VAR_RANK],
-        var_inv_g_tail: 0.0,
-        resid_var: [0.0; N_OUTPUTS],
-        resid_var_growth: [0.0; N_OUTPUTS],
-        t_cal_end_s: 0.0,
-        band_k: [0.0; N_OUTPUTS],
-        envelope_lo: [0.0; N_ENVELOPE],
-        envelope_hi: [0.0; N_ENVELOPE],
-        fitted: [false; N_OUTPUTS],
-        provenance: Provenance {
-            seed: 0,
-            scenario: heapless::String::new(),
-            trainer_version: heapless::String::new(),
-            date_yyyymmdd: 0,
-            n_cal: 0,
-        },
-    }
-}
-
-/// The link's frame reader or the staging parameter slot, whichever is in use (see the
-/// crate docs): serving needs the reader, loading a model needs the slot, never both.
-///
-/// `repr(C, u8)`: a `u8` tag (`Params` = 0, `Reader` = 1) followed by the payloads, so that a
-/// switch can be made in place ([`Scratch::params`], [`Scratch::reader`]) instead of through
-/// a 2.4 KB value on the stack (which opt-level "s" does not elide).
-// The size difference is the point: the small reader borrows the big slot's memory.
-#[allow(clippy::large_enum_variant)]
-#[repr(C, u8)]
-pub enum Scratch<const K: usize> {
-    /// The staging slot of a model being loaded (its contents are only meaningful inside
-    /// [`load`]).
-    Params(ModelParams<f32, K>) = 0,
-    /// The frame reader of the link, between or inside frames.
-    Reader(FrameReader<HOST_MAX_FRAME>) = 1,
-}
-
-impl<const K: usize> Scratch<K> {
-    /// A scratch area holding an empty staging slot: all zero, `.bss` in a `static`.
-    pub const fn new() -> Self {
-        Scratch::Params(empty_params())
-    }
-
-    /// Become `tag`'s variant holding an all-zero payload: [`empty_params`] or
-    /// `FrameReader::new()`.
-    fn reset_to(&mut self, tag: u8) {
-        let p = (self as *mut Self).cast::<u8>();
-        // SAFETY: `repr(C, u8)` lays the enum out as a `u8` tag (the discriminant, 0 or 1 as
-        // declared) followed by a `repr(C)` union of the payloads. All-zero bytes are a valid
-        // payload of either variant: `ModelParams` is floats, integers, `bool`s, a fieldless
-        // `repr(u8)` enum whose discriminant 0 is `FeatureSet::Paper`, and heapless vectors and
-        // strings (a length of 0 and `MaybeUninit` storage) — exactly `empty_params()`; the
-        // frame reader is a byte buffer, an index and two `bool`s — exactly
-        // `FrameReader::new()`. Writing the tag last makes it the variant whose payload is
-        // now valid. `tests::the_scratch_area_switches_between_reader_and_staging_slot`
-        // checks both.
-        unsafe {
-            core::ptr::write_bytes(p, 0, core::mem::size_of::<Self>());
-            p.write(tag);
-        }
-    }
-
-    /// The staging slot, replacing the reader if it held one (any partial frame is dropped).
-    /// Always `Some`; an `Option` only so that no panicking path is needed to say so.
-    pub fn params(&mut self) -> Option<&mut ModelParams<f32, K>> {
-        if let Scratch::Reader(_) = self {
-            self.reset_to(0);
-        }
-        match self {
-            Scratch::Params(p) => Some(p),
-            Scratch::Reader(_) => None,
-        }
-    }
-
-    /// The frame reader, a fresh one if the slot was in use. Always `Some` (see
-    /// [`Scratch::params`]).
-    pub fn reader(&mut self) -> Option<&mut FrameReader<HOST_MAX_FRAME>> {
-        if let Scratch::Params(_) = self {
-            self.reset_to(1);
-        }
-        match self {
-            Scratch::Reader(r) => Some(r),
-            Scratch::Params(_) => None,
-        }
-    }
-}
-
-impl<const K: usize> Default for Scratch<K> {
-    fn default() -> Self {
-        Self::new()
-    }
 }
 
 /// Load the model in `bytes` into `comp` (at boot, the embedded default into an [`unloaded`]
@@ -228,6 +121,7 @@ impl<const K: usize> Default for Scratch<K> {
 /// [`blob::decode_into`]), then folded into `comp` in place ([`Compensator::reload`], which
 /// checks every number before it writes one). On any error `comp` keeps its model and stream
 /// state; `params` then holds a partial model and must be decoded into again before use.
+/// [`load_blob`] provides the slot itself.
 ///
 /// Parsing and folding are separate calls (folding never inlined), so their temporaries (one
 /// centre at a time while parsing, the folded scalars while reloading) occupy the stack one
@@ -244,17 +138,16 @@ pub fn load<const K: usize>(
     Ok(ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob_crc(bytes) })
 }
 
-/// [`load`] with the staging slot of `scratch` (at boot, before the device serves).
-pub fn load_with<const K: usize>(
+/// [`load`] with a staging slot of its own, on its stack frame (≈ 2.8 KB at K = 32) and only
+/// for the duration of the load: at boot, and for every commit of an update.
+#[inline(never)]
+pub fn load_blob<const K: usize>(
     kernel: &Kernel<K>,
     comp: &mut Compensator<f32, K>,
-    scratch: &mut Scratch<K>,
     bytes: &[u8],
 ) -> Result<ModelInfo, Rejection> {
-    match scratch.params() {
-        Some(params) => load(kernel, comp, params, bytes),
-        None => Err(Rejection::new(RejectReason::Other)),
-    }
+    let mut params = ModelParams::empty();
+    load(kernel, comp, &mut params, bytes)
 }
 
 fn centres_u16(n: usize) -> u16 {
@@ -268,7 +161,7 @@ enum Transfer {
     Receiving { total: usize, crc: u32, received: usize },
 }
 
-/// Everything but the scratch area (split so that a decoded message, which borrows the
+/// Everything but the frame reader (split so that a decoded message, which borrows the
 /// frame reader's buffer, can be handled while the rest is mutated).
 struct Core<'a, P, const K: usize> {
     comp: &'a mut Compensator<f32, K>,
@@ -286,18 +179,18 @@ struct Core<'a, P, const K: usize> {
 /// `K` is the centre capacity of this build; `P` the alarm output (on while the latest
 /// estimate carries any flag).
 pub struct Device<'a, P, const K: usize> {
-    scratch: &'a mut Scratch<K>,
+    reader: &'a mut FrameReader<HOST_MAX_FRAME>,
     core: Core<'a, P, K>,
 }
 
 impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
     /// A device serving `comp` (identified by `model`) with `kernel`, receiving updates in
     /// `staging` (at least `blob::max_len(K)` bytes to accept any model this build can hold),
-    /// reading frames and decoding updates in `scratch`, driving `alarm`.
+    /// reading frames with `reader`, driving `alarm`.
     pub fn new(
         comp: &'a mut Compensator<f32, K>,
         kernel: Kernel<K>,
-        scratch: &'a mut Scratch<K>,
+        reader: &'a mut FrameReader<HOST_MAX_FRAME>,
         model: ModelInfo,
         staging: &'a mut [u8],
         mut alarm: P,
@@ -306,9 +199,9 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
         let _ = alarm.set_low();
         let status = Status { model_capacity: centres_u16(K), ..Status::default() };
         // Serving starts between frames.
-        let _ = scratch.reader();
+        *reader = FrameReader::new();
         Device {
-            scratch,
+            reader,
             core: Core { comp, kernel, staging, transfer: Transfer::Idle, model, status, alarm, stack_probe: None },
         }
     }
@@ -366,14 +259,13 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
     fn feed_until_commit<'b, W: Write>(&mut self, bytes: &'b [u8], tx: &mut W) -> Result<Option<&'b [u8]>, W::Error> {
         let mut window = bytes;
         while !window.is_empty() {
-            let Some(reader) = self.scratch.reader() else { return Ok(None) };
-            let (ev, rest) = reader.feed::<HostMsg<'_>>(window);
+            let (ev, rest) = self.reader.feed::<HostMsg<'_>>(window);
             window = rest;
             match ev {
                 Feed::Pending => {}
                 Feed::Malformed(why) => self.core.malformed(why),
-                // A commit borrows nothing from the reader, which is between frames now: the
-                // scratch area becomes the staging slot for the load.
+                // A commit borrows nothing from the reader, which is between frames now: it
+                // is handled once this function's frames are gone.
                 Feed::Message(HostMsg::ModelCommit) => {
                     self.core.count_frame();
                     return Ok(Some(window));
@@ -396,21 +288,16 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
         }
     }
 
-    /// Check the transfer, then [`load`] the staged blob through the scratch area's staging
-    /// slot. Cold: once per model update, never inlined into the serving loop; the answer is
-    /// built afterwards ([`Core::commit_reply`]), so that it takes no stack during the load.
+    /// Check the transfer, then load the staged blob ([`load_blob`]: the parameter slot is on
+    /// the stack for the duration of the load only). Cold: once per model update, never
+    /// inlined into the serving loop; the answer is built afterwards ([`Core::commit_reply`]),
+    /// so that it takes no stack during the load.
     #[inline(never)]
     fn commit(&mut self) -> Result<ModelInfo, Rejection> {
         let core = &mut self.core;
         let total = core.finish_transfer()?;
         let staged = core.staging.get(..total).unwrap_or(&[]);
-        let loaded = match self.scratch.params() {
-            Some(params) => load(&core.kernel, core.comp, params, staged),
-            None => Err(Rejection::new(RejectReason::Other)),
-        };
-        // Back to serving: a fresh reader (the last one was between frames).
-        let _ = self.scratch.reader();
-        loaded
+        load_blob(&core.kernel, core.comp, staged)
     }
 }
 
@@ -458,7 +345,7 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
         log!(warn, "dropped a malformed frame ({=istr})", malformed_name(why));
     }
 
-    /// Everything but `ModelCommit` (which needs the scratch area: [`Device::commit`]).
+    /// Everything but `ModelCommit` (handled outside the frame decoding: [`Device::commit`]).
     fn handle(&mut self, msg: &HostMsg<'_>) -> DeviceMsg {
         match *msg {
             HostMsg::Ping { nonce } => DeviceMsg::Pong { nonce },

@@ -12,7 +12,8 @@ use std::vec::Vec;
 use embedded_hal::digital::{ErrorType, OutputPin};
 use fbg_shared::link_client::{LinkClient, LinkError};
 use fbg_shared::protocol::{encode_host, RejectReason, MAX_CHUNK};
-use fbg_shared::{blob, Flags, ModelParams};
+use fbg_shared::layout::{N_MEMORY, N_OUTPUTS};
+use fbg_shared::{blob, Centre, Flags, MemoryBank, MemorySpec, ModelParams};
 
 use super::*;
 
@@ -112,7 +113,7 @@ impl std::io::Read for Wire<'_> {
 /// here so that the test threads' stacks stay small).
 struct Mem {
     comp: std::boxed::Box<Compensator<f32, K>>,
-    scratch: std::boxed::Box<Scratch<K>>,
+    reader: std::boxed::Box<FrameReader<HOST_MAX_FRAME>>,
     staging: Vec<u8>,
 }
 
@@ -120,16 +121,16 @@ impl Mem {
     fn new() -> Self {
         Mem {
             comp: std::boxed::Box::new(unloaded()),
-            scratch: std::boxed::Box::new(Scratch::new()),
+            reader: std::boxed::Box::new(FrameReader::new()),
             staging: std::vec![0u8; STAGE],
         }
     }
     /// Boot `blob_bytes` the way the firmware boots its default model.
     fn boot(&mut self, blob_bytes: &[u8]) -> Result<ModelInfo, Rejection> {
-        load_with(&Kernel::LIBRARY, &mut self.comp, &mut self.scratch, blob_bytes)
+        load_blob(&Kernel::LIBRARY, &mut self.comp, blob_bytes)
     }
     fn device(&mut self, info: ModelInfo) -> Device<'_, Pin, K> {
-        Device::new(&mut self.comp, Kernel::LIBRARY, &mut self.scratch, info, &mut self.staging, Pin::default())
+        Device::new(&mut self.comp, Kernel::LIBRARY, &mut self.reader, info, &mut self.staging, Pin::default())
     }
     fn link(&mut self, blob_bytes: &[u8]) -> LinkClient<Wire<'_>> {
         let info = self.boot(blob_bytes).unwrap();
@@ -146,6 +147,72 @@ fn encode(p: &ModelParams<f32, K>) -> Vec<u8> {
     let n = blob::encode(p, &mut buf).unwrap();
     buf.truncate(n);
     buf
+}
+
+/// Centres of the default model.
+fn n_default() -> u16 {
+    params(default_blob()).centres.len() as u16
+}
+
+/// `p` with exactly `n` centres: its own, then copies of them (or of a centre at the origin
+/// when it has none) shifted a little, so that the model stays valid.
+fn with_centres(mut p: ModelParams<f32, K>, n: usize) -> ModelParams<f32, K> {
+    p.centres.truncate(n);
+    let base: Vec<Centre<f32>> = if p.centres.is_empty() { std::vec![Centre::default()] } else { p.centres.to_vec() };
+    let mut i = 0;
+    while p.centres.len() < n {
+        let mut c = base[i % base.len()];
+        for m in c.mu.iter_mut() {
+            *m += 0.01 * (i + 1) as f32;
+        }
+        p.centres.push(c).unwrap();
+        i += 1;
+    }
+    p
+}
+
+/// The default model with every memory operator of the bank on (grating high-passes at six
+/// time constants, ambient at four, three plays, the drift observer on the stage-1 T row) and
+/// a small Γ on every term: the device's memory bank in full, whatever the trainer chose.
+fn memory_model() -> Vec<u8> {
+    let mut p = params(default_blob());
+    p.memory = MemorySpec {
+        grating_tau_s: [300.0, 900.0, 1800.0, 3600.0, 7200.0, 14400.0],
+        ambient_tau_s: [300.0, 900.0, 1800.0, 3600.0],
+        play_half_width_pm: [2.0, 4.0, 8.0],
+        observer_lag_s: 1200.0,
+        observer_smooth_s: 2400.0,
+        observer_row: p.stage1[0],
+    };
+    for (o, row) in p.gamma.iter_mut().enumerate() {
+        for (k, g) in row.iter_mut().enumerate() {
+            *g = 1e-3 * (1 + o) as f32 * if k % 2 == 0 { 1.0 } else { -0.5 };
+        }
+    }
+    assert!(p.memory.any() && (0..N_MEMORY).all(|k| p.memory.term_active(k)));
+    let _ = N_OUTPUTS;
+    encode(&p)
+}
+
+/// `samples(n)` on an irregular clock: 60 s steps, some 17 s and 95 s steps, a repeated time
+/// stamp and a 6 h gap, so that the memory bank recomputes its smoothing factors.
+fn timed_samples(n: usize) -> Vec<Sample<f32>> {
+    let mut t = 1.0e5f32;
+    samples(n)
+        .into_iter()
+        .enumerate()
+        .map(|(i, mut s)| {
+            t += match i % 37 {
+                _ if i == n / 2 => 6.0 * 3600.0,
+                5 => 17.0,
+                11 => 95.0,
+                23 => 0.0,
+                _ => 60.0,
+            };
+            s.t_s = t;
+            s
+        })
+        .collect()
 }
 
 /// A second valid model: the default with other residual weights and intercepts.
@@ -202,7 +269,7 @@ fn boots_answers_pings_and_compensates_like_the_library() {
     assert_eq!(st.samples, 50);
     assert_eq!(st.frames_ok, 52);
     assert_eq!(st.frames_malformed, 0);
-    assert_eq!(st.model_centres, 32);
+    assert_eq!(st.model_centres, n_default());
     assert_eq!(st.model_capacity, K as u16);
     assert_eq!(st.model_crc, blob_crc(default_blob()));
     assert_eq!(st.last_rejection, None);
@@ -260,7 +327,7 @@ fn a_valid_update_swaps_the_model_and_resets_the_stream() {
     assert_serves(&mut link, &mut old, &s[..20], 0);
     let b = other_model();
     let r = link.update_model(&b).unwrap();
-    assert_eq!(r, UpdateResult::Accepted { centres: 32, crc: blob_crc(&b) });
+    assert_eq!(r, UpdateResult::Accepted { centres: n_default(), crc: blob_crc(&b) });
     let mut new = Compensator::<f32, K>::new(&params(&b)).unwrap();
     assert_serves(&mut link, &mut new, &s[20..], 20);
     // And the answers did change.
@@ -283,10 +350,11 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
 
     let mut corrupt = good.clone();
     corrupt[100] ^= 0x10;
-    // `encode` refuses invalid params, so patch a NaN into σ (header 14 B, feature-set tag 1 B,
+    // `encode` refuses invalid params, so patch a NaN into σ (header, feature-set tag 1 B,
     // σ_mult 4 B, then σ) and re-sign the blob.
     let mut nan_sigma = good.clone();
-    nan_sigma[19..23].copy_from_slice(&f32::NAN.to_le_bytes());
+    let at = blob::HEADER_LEN + 1 + 4;
+    nan_sigma[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
     let n = nan_sigma.len();
     let c = crc32(&nan_sigma[..n - 4]).to_le_bytes();
     nan_sigma[n - 4..].copy_from_slice(&c);
@@ -351,10 +419,10 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
 
 #[test]
 fn a_model_beyond_the_capacity_is_refused() {
-    // A device built for 16 centres refuses the 32-centre default model.
+    // A device built for 16 centres refuses a 32-centre model.
+    let b32 = encode(&with_centres(params(default_blob()), 32));
     let mut comp = std::boxed::Box::new(unloaded::<16>());
-    let mut scratch = std::boxed::Box::new(Scratch::<16>::new());
-    let e = load_with(&Kernel::LIBRARY, &mut comp, &mut scratch, default_blob()).err().unwrap();
+    let e = load_blob(&Kernel::LIBRARY, &mut comp, &b32).err().unwrap();
     assert_eq!(e.reason, RejectReason::WrongDims);
     assert_eq!(e.detail, 32 << 16 | 16);
     assert_eq!(comp.n_centres(), 0, "still unloaded");
@@ -370,9 +438,8 @@ fn an_unloaded_compensator_is_usable() {
     assert!(e.values.iter().all(|v| v.is_nan()), "{e:?}");
     assert!(e.band95.iter().all(|b| b.is_infinite()), "{e:?}");
     // Loading into it gives exactly `Compensator::new`.
-    let mut scratch = std::boxed::Box::new(Scratch::<K>::new());
-    let info = load_with(&Kernel::LIBRARY, &mut comp, &mut scratch, default_blob()).unwrap();
-    assert_eq!(info, ModelInfo { centres: 32, crc: blob_crc(default_blob()) });
+    let info = load_blob(&Kernel::LIBRARY, &mut comp, default_blob()).unwrap();
+    assert_eq!(info, ModelInfo { centres: n_default(), crc: blob_crc(default_blob()) });
     let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     for x in samples(30) {
         assert_eq!(format!("{:?}", comp.step(&x)), format!("{:?}", reference.step(&x)));
@@ -380,44 +447,28 @@ fn an_unloaded_compensator_is_usable() {
 }
 
 #[test]
-fn the_scratch_area_switches_between_reader_and_staging_slot() {
-    let mut scratch = std::boxed::Box::new(Scratch::<K>::new());
-    assert!(matches!(*scratch, Scratch::Params(_)));
-    // Switch to the reader and decode a frame with it.
-    let mut buf = [0u8; 64];
-    let ping = encode_host(&HostMsg::Ping { nonce: 9 }, &mut buf).unwrap().to_vec();
-    {
-        let r = scratch.reader().unwrap();
-        let (ev, rest) = r.feed::<HostMsg<'_>>(&ping);
-        assert_eq!(ev, Feed::Message(HostMsg::Ping { nonce: 9 }));
-        assert!(rest.is_empty());
-    }
-    assert!(matches!(*scratch, Scratch::Reader(_)));
-    // Fill the slot, switch away and back: it comes back exactly `empty_params()`.
-    *scratch.params().unwrap() = params(default_blob());
-    assert!(matches!(*scratch, Scratch::Params(_)));
-    let _ = scratch.reader().unwrap();
-    let p = scratch.params().unwrap();
-    assert_eq!(*p, empty_params::<K>());
-    assert_eq!(p.centres.len(), 0, "a fresh, empty slot");
-    // And a reader that held half a frame comes back empty too.
-    {
-        let r = scratch.reader().unwrap();
-        let (ev, _) = r.feed::<HostMsg<'_>>(&ping[..3]);
-        assert_eq!(ev, Feed::Pending);
-    }
-    let _ = scratch.params().unwrap();
-    let r = scratch.reader().unwrap();
-    let (ev, _) = r.feed::<HostMsg<'_>>(&ping);
-    assert_eq!(ev, Feed::Message(HostMsg::Ping { nonce: 9 }));
-    // Serving goes on across an update that switches it back and forth.
+fn serving_goes_on_across_updates_and_a_partial_frame_does_not_survive_a_new_device() {
+    // Updates do not disturb the frame reader: pings before, between and after them.
     let mut mem = Mem::new();
     let mut link = mem.link(default_blob());
     link.ping(3).unwrap();
     assert!(matches!(link.update_model(&other_model()).unwrap(), UpdateResult::Accepted { .. }));
     link.ping(4).unwrap();
     assert!(matches!(link.update_model(default_blob()).unwrap(), UpdateResult::Accepted { .. }));
+    link.ping(5).unwrap();
     assert_eq!(link.status().unwrap().frames_malformed, 0);
+    drop(link);
+    // A reader left inside a frame is reset when a device starts serving with it.
+    let mut buf = [0u8; 64];
+    let ping = encode_host(&HostMsg::Ping { nonce: 9 }, &mut buf).unwrap().to_vec();
+    let (ev, _) = mem.reader.feed::<HostMsg<'_>>(&ping[..3]);
+    assert_eq!(ev, Feed::Pending);
+    let info = mem.boot(default_blob()).unwrap();
+    let mut dev = mem.device(info);
+    let mut tx = Tx::default();
+    dev.feed(&ping, &mut tx).unwrap();
+    assert_eq!(dev.status().frames_malformed, 0);
+    assert_eq!(dev.status().frames_ok, 1);
 }
 
 #[test]
@@ -438,8 +489,8 @@ fn a_failed_load_keeps_the_old_model_and_its_stream_state() {
     corrupt[50] ^= 1;
     for bad in [tiny_sigma, corrupt] {
         let before = mem.comp.latch_values();
-        let params = mem.scratch.params().unwrap();
-        assert!(load(&Kernel::LIBRARY, &mut mem.comp, params, &bad).is_err());
+        let mut params = std::boxed::Box::new(ModelParams::empty());
+        assert!(load(&Kernel::LIBRARY, &mut mem.comp, &mut params, &bad).is_err());
         assert_eq!(mem.comp.latch_values(), before);
     }
     for x in &s[20..] {
@@ -513,4 +564,63 @@ fn a_link_error_ends_serve() {
     assert_eq!(dev.status().stack_peak_bytes, 1234);
     assert_eq!(dev.status().stack_boot_bytes, 4321);
     let _: Option<LinkError> = None;
+}
+
+#[test]
+fn a_zeroed_memory_bank_is_the_default_one() {
+    // What `unloaded()` relies on for the memory bank inside the compensator.
+    let zeroed: MemoryBank<f32> = unsafe { core::mem::MaybeUninit::zeroed().assume_init() };
+    assert_eq!(zeroed, MemoryBank::default());
+    assert!(!zeroed.is_active());
+    assert_eq!(zeroed.state(), fbg_shared::MemoryState::new());
+}
+
+#[test]
+fn a_memory_model_is_served_like_the_library_across_gaps_resets_and_updates() {
+    let mem_blob = memory_model();
+    let s = timed_samples(400);
+    // Booted with the memory model.
+    let mut mem = Mem::new();
+    let mut link = mem.link(&mem_blob);
+    let mut reference = Compensator::<f32, K>::new(&params(&mem_blob)).unwrap();
+    assert!(reference.has_memory());
+    assert_serves(&mut link, &mut reference, &s[..250], 0);
+    // ResetStream forgets the memory (and the latches), on the device as in the library.
+    assert_eq!(link.request(&HostMsg::ResetStream { nonce: 4 }).unwrap(), DeviceMsg::Pong { nonce: 4 });
+    reference.reset();
+    assert_serves(&mut link, &mut reference, &s[250..], 250);
+    // Swapped in by an update from a model without memory, and back.
+    let mut mem2 = Mem::new();
+    let mut link2 = mem2.link(default_blob());
+    assert!(matches!(link2.update_model(&mem_blob).unwrap(), UpdateResult::Accepted { .. }));
+    let mut reference2 = Compensator::<f32, K>::new(&params(&mem_blob)).unwrap();
+    assert_serves(&mut link2, &mut reference2, &s, 0);
+    assert!(matches!(link2.update_model(default_blob()).unwrap(), UpdateResult::Accepted { .. }));
+    let mut plain = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
+    assert_serves(&mut link2, &mut plain, &s[..50], 400);
+    // The memory terms do move the answers.
+    let mut a = Compensator::<f32, K>::new(&params(&mem_blob)).unwrap();
+    let mut b = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
+    assert!(s.iter().any(|x| a.step(x).values != b.step(x).values));
+}
+
+#[test]
+fn a_failed_load_keeps_the_memory_state() {
+    let mem_blob = memory_model();
+    let mut mem = Mem::new();
+    mem.boot(&mem_blob).unwrap();
+    let s = timed_samples(80);
+    let mut reference = Compensator::<f32, K>::new(&params(&mem_blob)).unwrap();
+    for x in &s[..40] {
+        assert_eq!(format!("{:?}", mem.comp.step(x)), format!("{:?}", reference.step(x)));
+    }
+    let mut p = params(&mem_blob);
+    p.hyper.sigma = 1e-38; // parses, does not fold in f32
+    let tiny_sigma = encode(&p);
+    let before = mem.comp.stream_state();
+    assert!(load_blob(&Kernel::LIBRARY, &mut mem.comp, &tiny_sigma).is_err());
+    assert_eq!(mem.comp.stream_state(), before);
+    for x in &s[40..] {
+        assert_eq!(format!("{:?}", mem.comp.step(x)), format!("{:?}", reference.step(x)));
+    }
 }

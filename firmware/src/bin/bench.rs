@@ -1,12 +1,16 @@
-//! Bench image: cost of one `Compensator::step` with the model embedded at build time
-//! (`FBG_BENCH_MODEL`, K = `FBG_K`) on the samples of `FBG_BENCH_INPUTS`.
+//! Bench image: cost of one `Compensator::step` for every model of the pack embedded at build
+//! time (`FBG_BENCH_PACK`, `src/pack.rs`; capacity K = `FBG_K`) on its samples.
 //!
 //! Under QEMU `-icount shift=0` SysTick counts virtual time that advances exactly one ns per
 //! instruction, so SysTick deltas count instructions (the ratio is calibrated with a loop of
 //! known length). Each measurement runs `n` steps and, separately, the same loop without the
 //! step; the difference over `n` is the cost of one step, and two values of `n` check it is
-//! linear. On hardware the same image also reports DWT CYCCNT cycles (QEMU reads 0).
-//! Results go out as text lines on UART0; the run ends with a semihosting exit.
+//! linear. The samples (at most 64) are replayed in order with the clock continued across
+//! passes, so that the memory bank sees a regular stream (mode `regular`: the sampling clock as
+//! given, its smoothing factors cached); mode `jitter` adds ±0.25 s to every other time stamp,
+//! so that every step has a new Δt and recomputes the factors. On hardware the same image also
+//! reports DWT CYCCNT cycles (QEMU reads 0). Results go out as text lines on UART0 (with the
+//! sizes of the device's types); the run ends with a semihosting exit.
 
 #![no_std]
 #![no_main]
@@ -18,16 +22,18 @@ use cortex_m_rt::entry;
 use embedded_io::Write;
 use fbg_firmware::counters::{cycles_now, cycles_start, systick_elapsed, systick_now, systick_start};
 use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
-use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL};
-use fbg_firmware_app::{load_with, unloaded, Scratch};
-use fbg_shared::{Compensator, Sample};
+use fbg_firmware::{exit_failure, exit_success, pack, stack, step, K, KERNEL, STAGING_LEN};
+use fbg_firmware_app::{load_blob, unloaded};
+use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
+use fbg_shared::{Compensator, MemoryBank, MemoryState, ModelParams, Sample, StreamState};
 
-static MODEL_BLOB: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_model.fbgm"));
-static INPUTS: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_inputs.bin"));
+static PACK: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_pack.bin"));
 
 const MAX_SAMPLES: usize = 64;
 const CALIB_ITERS: u32 = 100_000;
 const RUNS: [u32; 2] = [200, 800];
+/// Modes: (name, time-stamp jitter on every other step [s]).
+const MODES: [(&str, f32); 2] = [("regular", 0.0), ("jitter", 0.25)];
 
 /// A tiny line buffer so the report can use `core::fmt` without a heap.
 struct Line {
@@ -69,21 +75,38 @@ fn known_loop(iters: u32) {
     black_box(n);
 }
 
-#[inline(never)]
-fn empty_loop(samples: &[Sample<f32>], n: u32) {
-    let len = samples.len().max(1);
-    for i in 0..n as usize {
-        black_box(samples.get(i % len));
+/// The samples replayed: sample `i % len`, its clock moved on by a whole period per pass, and
+/// `jitter` added to every other time stamp.
+#[derive(Clone, Copy)]
+struct Replay<'a> {
+    samples: &'a [Sample<f32>],
+    period: f32,
+    jitter: f32,
+}
+
+impl Replay<'_> {
+    #[inline(always)]
+    fn nth(&self, i: usize) -> Sample<f32> {
+        let len = self.samples.len().max(1);
+        let mut s = self.samples.get(i % len).copied().unwrap_or_default();
+        let odd = if i & 1 == 1 { self.jitter } else { 0.0 };
+        s.t_s += (i / len) as f32 * self.period + odd;
+        s
     }
 }
 
 #[inline(never)]
-fn step_loop(comp: &mut Compensator<f32, K>, samples: &[Sample<f32>], n: u32) {
-    let len = samples.len().max(1);
+fn empty_loop(r: &Replay<'_>, n: u32) {
     for i in 0..n as usize {
-        if let Some(s) = samples.get(i % len) {
-            black_box(step(comp, black_box(s)));
-        }
+        black_box(r.nth(i));
+    }
+}
+
+#[inline(never)]
+fn step_loop(comp: &mut Compensator<f32, K>, r: &Replay<'_>, n: u32) {
+    for i in 0..n as usize {
+        let s = r.nth(i);
+        black_box(step(comp, black_box(&s)));
     }
 }
 
@@ -100,52 +123,96 @@ fn measure(f: impl FnOnce()) -> (u32, u32) {
 #[entry]
 fn main() -> ! {
     static mut MODEL: Compensator<f32, K> = unloaded();
-    static mut SCRATCH: Scratch<K> = Scratch::new();
     static mut SAMPLES: [Sample<f32>; MAX_SAMPLES] =
         [Sample { dl_pm: [0.0; 3], t_amb_c: 0.0, t_s: 0.0 }; MAX_SAMPLES];
 
     // SAFETY: UART0 of the MPS2 board, driven only from here.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     uart.init(MPS2_PCLK_HZ, 115_200);
-    let info = match load_with(&KERNEL, MODEL, SCRATCH, MODEL_BLOB) {
-        Ok(x) => x,
-        Err(r) => {
-            emit(&mut uart, format_args!("error model rejected: {} (detail {})", r.reason.describe(), r.detail));
-            exit_failure()
-        }
-    };
-    let mut n_samples = 0;
-    for (dst, rec) in SAMPLES.iter_mut().zip(INPUTS.chunks_exact(20)) {
-        let mut f = [0f32; 5];
-        for (o, b) in f.iter_mut().zip(rec.chunks_exact(4)) {
-            let mut w = [0u8; 4];
-            w.copy_from_slice(b);
-            *o = f32::from_le_bytes(w);
-        }
-        *dst = Sample { dl_pm: [f[0], f[1], f[2]], t_amb_c: f[3], t_s: f[4] };
-        n_samples += 1;
-    }
-    if n_samples == 0 {
-        emit(&mut uart, format_args!("error no bench inputs"));
+    if PACK.is_empty() {
+        emit(&mut uart, format_args!("error no bench pack (FBG_BENCH_PACK)"));
         exit_failure()
     }
-    let samples = SAMPLES.get(..n_samples).unwrap_or(&[]);
-
-    let comp = MODEL;
     let Some(mut cp) = cortex_m::Peripherals::take() else { exit_failure() };
     systick_start(&mut cp.SYST);
     let has_cyccnt = cycles_start(&mut cp.DCB, &mut cp.DWT);
-
-    emit(&mut uart, format_args!("model k={} centres={} crc={:#010x} samples={}", K, info.centres, info.crc, n_samples));
+    use core::mem::size_of;
+    emit(
+        &mut uart,
+        format_args!(
+            "sizes k={} memory_state={} stream_state={} memory_bank={} compensator={} model_params={} reader={} staging={}",
+            K,
+            size_of::<MemoryState<f32>>(),
+            size_of::<StreamState<f32>>(),
+            size_of::<MemoryBank<f32>>(),
+            size_of::<Compensator<f32, K>>(),
+            size_of::<ModelParams<f32, K>>(),
+            size_of::<FrameReader<HOST_MAX_FRAME>>(),
+            STAGING_LEN
+        ),
+    );
     let (t, c) = measure(|| known_loop(CALIB_ITERS));
     emit(&mut uart, format_args!("calib iters={} insns={} ticks={} cycles={} cyccnt={}", CALIB_ITERS, 2 * CALIB_ITERS, t, c, has_cyccnt as u8));
-    // Warm up once (first-touch effects do not exist here, but keep runs identical).
-    step_loop(comp, samples, 8);
-    for n in RUNS {
-        comp.reset();
-        let (te, ce) = measure(|| empty_loop(samples, n));
-        let (ts, cs) = measure(|| step_loop(comp, samples, n));
-        emit(&mut uart, format_args!("run n={} empty_ticks={} step_ticks={} empty_cycles={} step_cycles={}", n, te, ts, ce, cs));
+
+    for (idx, rec) in pack::records(PACK).enumerate() {
+        let Some(rec) = rec else {
+            emit(&mut uart, format_args!("error bench pack malformed at record {}", idx));
+            exit_failure()
+        };
+        let info = match load_blob(&KERNEL, MODEL, rec.blob) {
+            Ok(x) => x,
+            Err(r) => {
+                emit(&mut uart, format_args!("error model {} rejected: {} (detail {})", idx, r.reason.describe(), r.detail));
+                exit_failure()
+            }
+        };
+        let mut n_samples = 0;
+        for (dst, s) in SAMPLES.iter_mut().zip(rec.iter()) {
+            *dst = s;
+            n_samples += 1;
+        }
+        if n_samples == 0 {
+            emit(&mut uart, format_args!("error no samples for model {}", idx));
+            exit_failure()
+        }
+        let samples = SAMPLES.get(..n_samples).unwrap_or(&[]);
+        // One pass lasts from the first time stamp to the last plus one more step.
+        let period = match samples {
+            [first, .., before, last] => last.t_s - first.t_s + (last.t_s - before.t_s),
+            _ => 60.0,
+        };
+        let comp = &mut *MODEL;
+        emit(
+            &mut uart,
+            format_args!(
+                "model idx={} k={} centres={} memory={} crc={:#010x} samples={} period={}",
+                idx,
+                K,
+                info.centres,
+                comp.has_memory() as u8,
+                info.crc,
+                n_samples,
+                period
+            ),
+        );
+        for (mode, jitter) in MODES {
+            let replay = Replay { samples, period, jitter };
+            // Warm up once (first-touch effects do not exist here, but keep runs identical).
+            comp.reset();
+            step_loop(comp, &replay, 8);
+            for n in RUNS {
+                comp.reset();
+                let (te, ce) = measure(|| empty_loop(&replay, n));
+                let (ts, cs) = measure(|| step_loop(comp, &replay, n));
+                emit(
+                    &mut uart,
+                    format_args!(
+                        "run idx={} mode={} n={} empty_ticks={} step_ticks={} empty_cycles={} step_cycles={}",
+                        idx, mode, n, te, ts, ce, cs
+                    ),
+                );
+            }
+        }
     }
     emit(&mut uart, format_args!("stack peak={} size={}", stack::peak_bytes(), stack::size()));
     emit(&mut uart, format_args!("done"));
