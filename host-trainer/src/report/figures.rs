@@ -60,6 +60,9 @@ pub struct Ctx<'a> {
     pub est_h: &'a [Estimate<f64>],
     pub metrics: &'a Metrics,
     pub time: TimeUnit,
+    /// Model-H's answer split into its parts at each hold-out row: [core Bφ, memory Γm, RBF Wψ]
+    /// per channel (from `fbg_shared` with the other parts removed).
+    pub parts_h: &'a [[[f64; 3]; 3]],
 }
 
 /// A figure ready to be written, with what the page says about it.
@@ -586,6 +589,67 @@ pub fn fig8_drift(c: &Ctx) -> Option<FigSpec> {
             size: (WIDTH, 1500),
             title: "Fig. 8 — Drift sensitivity: hold-out RMSE against drift amplitude σ_d".into(),
             subtitle: "What to look for: a shallower slope means a model that is more robust to baseline wander.".into(),
+            rows: 3,
+            cols: 1,
+            panels,
+        },
+    })
+}
+
+/// Fig. 9: what each part of Model-H contributes on the hold-out.
+pub fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
+    if c.parts_h.len() != c.hold.len() || c.parts_h.is_empty() {
+        return None;
+    }
+    let d = c.data;
+    let u = c.time.seconds;
+    let x: Vec<f64> = c.hold.iter().map(|&i| d.t_s[i] / u).collect();
+    let rms = |v: &[f64]| (v.iter().map(|a| a * a).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    let mut panels = Vec::new();
+    let mut notes = Vec::new();
+    for ch in 0..3 {
+        let (unit, dg) = (UNITS[ch], DIGITS[ch]);
+        let part = |k: usize| -> Vec<f64> { c.parts_h.iter().map(|p| p[k][ch]).collect() };
+        let (core, mem, rbf) = (part(0), part(1), part(2));
+        let left: Vec<f64> = c.hold.iter().zip(&core).map(|(&i, v)| d.target(ch)[i] - v).collect();
+        let after_mem: Vec<f64> = left.iter().zip(&mem).map(|(a, b)| a - b).collect();
+        let after_all: Vec<f64> = after_mem.iter().zip(&rbf).map(|(a, b)| a - b).collect();
+        let mut p = Panel::new(
+            format!("({}) {}: RMS of Γm {} {unit}, of Wψ {} {unit}", (b'a' + ch as u8) as char, LONG_NAMES[ch], num(rms(&mem), dg), num(rms(&rbf), dg)),
+            c.time.label(),
+            format!("{} contribution [{unit}]", SYMBOLS[ch]),
+        );
+        let series = |v: &[f64]| pts(&minmax_columns(&x, v, COLUMNS));
+        if d.has_target[ch] {
+            p.lines.push(Line::new(C_GREY, 1, series(&left)).label("truth − core Bφ (what memory and RBF must explain)"));
+        }
+        p.lines.push(Line::new(C_H, 1, series(&mem)).label("memory terms Γm"));
+        p.lines.push(Line::new(C_P, 1, series(&rbf)).label("RBF residual Wψ"));
+        p.legend = Legend::UpperLeft;
+        p.legend_room = 0.35;
+        panels.push(p);
+        if d.has_target[ch] {
+            notes.push(format!(
+                "{}: hold-out RMS of truth − Bφ {} {unit}, after Γm {} {unit}, after Wψ {} {unit}",
+                LONG_NAMES[ch].to_lowercase(),
+                num(rms(&left), dg),
+                num(rms(&after_mem), dg),
+                num(rms(&after_all), dg)
+            ));
+        }
+    }
+    Some(FigSpec {
+        stem: "fig9_contributions",
+        title: "Fig. 9 — What each part of Model-H contributes".into(),
+        caption: format!(
+            "Model-H = Bφ + Γm + Wψ, split by running `fbg-shared` with parts removed on the hold-out: the core Bφ is fitted jointly with the memory terms Γm, so it is not Model-P; the RBF residual Wψ learns what both leave. Grey: the truth minus the core alone. {}.{}",
+            notes.join("; "),
+            decimation_note(c.hold.len(), 2 * COLUMNS)
+        ),
+        grid: Grid {
+            size: (WIDTH, 1500),
+            title: "Fig. 9 — Contributions of the memory terms and the RBF residual on the hold-out".into(),
+            subtitle: "What to look for: how much of truth − core the memory terms follow, and what the RBF adds.".into(),
             rows: 3,
             cols: 1,
             panels,

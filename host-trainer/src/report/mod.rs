@@ -185,6 +185,34 @@ fn date(yyyymmdd: u32) -> String {
     format!("{:04}-{:02}-{:02}", yyyymmdd / 10_000, yyyymmdd / 100 % 100, yyyymmdd % 100)
 }
 
+/// Model-H's answer at each of `hold` split into [core Bφ, memory terms Γm, RBF Wψ] per
+/// channel, each part from `fbg_shared` with the later parts removed (empty for a model with
+/// neither memory nor centres).
+fn contributions(
+    h: &HostParams,
+    d: &Dataset,
+    hold: &[usize],
+    est_h: &[fbg_shared::Estimate<f64>],
+) -> Result<Vec<[[f64; 3]; 3]>, TrainerError> {
+    if !h.has_memory() && h.centres.is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut no_rbf = h.clone();
+    no_rbf.centres.clear();
+    let mut core_only = no_rbf.clone();
+    core_only.memory = fbg_shared::MemorySpec::off();
+    core_only.gamma = [[0.0; fbg_shared::layout::N_MEMORY]; 3];
+    let (a, b) = rayon::join(|| crate::fit::run(&core_only, d, hold), || crate::fit::run(&no_rbf, d, hold));
+    let (a, b) = (a?, b?);
+    Ok(a.iter()
+        .zip(&b)
+        .zip(est_h)
+        .map(|((c, m), f)| {
+            [c.values, std::array::from_fn(|k| m.values[k] - c.values[k]), std::array::from_fn(|k| f.values[k] - m.values[k])]
+        })
+        .collect())
+}
+
 /// Write the report for `inp` into `dir`.
 pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     let t0 = Instant::now();
@@ -205,6 +233,7 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     );
     let (ev_p, est_p) = rp?;
     let (ev_h, est_h) = rh?;
+    let parts_h = contributions(&inp.model_h, d, &hold, &est_h)?;
 
     let mut out = Outcome::default();
     let sim = match sim {
@@ -257,6 +286,7 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
         est_h: &est_h,
         metrics: m,
         time: TimeUnit::for_span(span),
+        parts_h: &parts_h,
     };
     let mut specs: Vec<FigSpec> = vec![figures::fig1_inputs(&ctx)];
     specs.extend(figures::fig2_wavelength(&ctx, 0));
@@ -266,6 +296,7 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     specs.push(figures::fig6_parity(&ctx));
     specs.push(figures::fig7_errors(&ctx));
     specs.extend(figures::fig8_drift(&ctx));
+    specs.extend(figures::fig9_contributions(&ctx));
     specs.par_iter().map(|f| f.grid.write(dir, f.stem)).collect::<Result<Vec<()>, TrainerError>>()?;
     for f in &specs {
         out.files.push(format!("{}.png", f.stem));
@@ -378,6 +409,15 @@ fn page(
         id: "parity".into(),
         title: "Parity and error distributions (Figs. 6–7)".into(),
         body: format!("{}{}", fig("fig6_parity"), fig("fig7_error_histograms")),
+    });
+    sections.push(Section {
+        id: "contributions".into(),
+        title: "What the memory terms and the RBF residual contribute (Fig. 9)".into(),
+        body: if inp.model_h.has_memory() || !inp.model_h.centres.is_empty() {
+            fig("fig9_contributions")
+        } else {
+            "<p class=\"note\">Model-H has neither memory terms nor RBF centres: Figure 9 is omitted.</p>\n".into()
+        },
     });
     sections.push(Section {
         id: "drift".into(),
