@@ -346,6 +346,7 @@ fn a_million_samples_plot_in_seconds() {
         est_h: &eh,
         metrics: &m,
         time: figures::TimeUnit::for_span(n as f64 * dt),
+        parts_h: &[],
     };
     let out = tempfile::tempdir().unwrap();
     let t = std::time::Instant::now();
