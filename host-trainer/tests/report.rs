@@ -138,7 +138,7 @@ fn the_page_references_only_files_that_exist_and_are_not_trivial() {
 fn every_png_decodes_at_its_size_and_shows_text() {
     let (dir, o) = built();
     let pngs: Vec<&String> = o.files.iter().filter(|f| f.ends_with(".png")).collect();
-    assert_eq!(pngs.len(), 8);
+    assert_eq!(pngs.len(), 9, "Figs. 1–9");
     for f in pngs {
         let file = std::fs::File::open(dir.join(f)).unwrap();
         let mut dec = png::Decoder::new(std::io::BufReader::new(file)).read_info().unwrap();
@@ -225,7 +225,7 @@ fn without_the_sidecar_figure_2_and_the_oracle_floor_are_omitted_visibly() {
     assert!(html.contains("data.meta.json is absent"));
     assert!(o.notes.iter().any(|n| n.contains("data.meta.json is absent")));
     // Every other figure is still there, and every reference still resolves.
-    assert_eq!(o.files.iter().filter(|f| f.ends_with(".png")).count(), 7);
+    assert_eq!(o.files.iter().filter(|f| f.ends_with(".png")).count(), 8);
     for r in references(&html) {
         assert!(dir.path().join(&r).is_file(), "{r}");
     }
@@ -271,7 +271,7 @@ fn hold_out_rows_with_gaps_are_skipped_and_said() {
     std::fs::write(&p, lines.join("\n") + "\n").unwrap();
     let o = report::build(dir.path()).unwrap();
     assert!(o.notes.iter().any(|n| n.contains(&format!("{gaps} of the")) && n.contains("have a gap")), "{:?}", o.notes);
-    assert_eq!(o.files.iter().filter(|f| f.ends_with(".png")).count(), 7, "Figure 2 needs the CSV to match the simulation");
+    assert_eq!(o.files.iter().filter(|f| f.ends_with(".png")).count(), 8, "Figure 2 needs the CSV to match the simulation");
 }
 
 #[test]
