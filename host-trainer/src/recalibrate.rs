@@ -43,6 +43,8 @@ pub enum CoreUpdate {
     Offset,
     /// Offset and gain.
     OffsetGain,
+    /// B and Γ refitted jointly, shrunk towards the old ones (memory models only).
+    CoreAndMemory,
 }
 
 /// Refit offset/gain of the core and W of `old` on the batch rows `batch` of `d`.
@@ -72,7 +74,12 @@ pub fn recalibrate(old: &HostParams, d: &Dataset, batch: &[usize]) -> Result<(Ho
             continue;
         }
         let mut best = (mse(old, val_part, c)?, CoreUpdate::Keep);
-        for cand in [CoreUpdate::Offset, CoreUpdate::OffsetGain] {
+        let cands: &[CoreUpdate] = if old.has_memory() {
+            &[CoreUpdate::Offset, CoreUpdate::OffsetGain, CoreUpdate::CoreAndMemory]
+        } else {
+            &[CoreUpdate::Offset, CoreUpdate::OffsetGain]
+        };
+        for &cand in cands {
             let mut p = old.clone();
             apply_core(&mut p, d, fit_part, c, cand)?;
             let m = mse(&p, val_part, c)?;
@@ -129,6 +136,10 @@ fn apply_core(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize, how: Co
     if how == CoreUpdate::Keep {
         return Ok((0.0, 1.0));
     }
+    if how == CoreUpdate::CoreAndMemory {
+        refit_core_and_memory(p, d, rows, c)?;
+        return Ok((0.0, 1.0));
+    }
     let mut core = p.clone();
     core.centres.clear();
     let est = run(&core, d, rows)?;
@@ -148,11 +159,62 @@ fn apply_core(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize, how: Co
         0.0
     };
     let (a, b) = (me - db * mx, 1.0 + db);
-    for v in p.poly[c].iter_mut() {
+    // The core is Bφ + Γm: the gain scales both.
+    for v in p.poly[c].iter_mut().chain(p.gamma[c].iter_mut()) {
         *v *= b;
     }
     p.poly[c][0] += a;
     Ok((a, b))
+}
+
+/// Refit output `c`'s B row and Γ row jointly on `rows`, shrunk towards the old ones: Δ solves
+/// (XᵀX + κ·diag(XᵀX))Δ = Xᵀ(y − ŷ) over X = [φ | the memory terms the output uses], with κ
+/// making the old calibration count as its own sample count of the batch's design (so a day's
+/// batch moves a week's calibration by about a seventh of what it alone would say).
+fn refit_core_and_memory(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize) -> Result<(), TrainerError> {
+    use fbg_shared::layout::{N_MEMORY, N_POLY};
+    let core = fit::PolyCore::of(p);
+    let m = fit::memory_core::memory_terms(&p.memory, d, rows);
+    let full = run(p, d, rows)?;
+    let pc: Vec<usize> = (0..N_POLY).filter(|&k| k == 0 || p.poly[c][k] != 0.0).collect();
+    let mc: Vec<usize> = (0..N_MEMORY).filter(|&k| p.gamma[c][k] != 0.0).collect();
+    let q = pc.len() + mc.len();
+    let mut xtx = DMatrix::<f64>::zeros(q, q);
+    let mut xtr = DMatrix::<f64>::zeros(q, 1);
+    let mut x = vec![0.0; q];
+    for (r, (&i, e)) in rows.iter().zip(&full).enumerate() {
+        let ph = fit::memory_core::phi_row(&core, d, i);
+        for (j, &k) in pc.iter().enumerate() {
+            x[j] = ph[k];
+        }
+        for (j, &k) in mc.iter().enumerate() {
+            x[pc.len() + j] = m[r][k];
+        }
+        let res = d.target(c)[i] - e.values[c];
+        for a in 0..q {
+            for b in 0..q {
+                xtx[(a, b)] += x[a] * x[b];
+            }
+            xtr[(a, 0)] += x[a] * res;
+        }
+    }
+    let n = rows.len() as f64;
+    let kappa = (p.provenance.n_cal.max(1) as f64) / n;
+    let mut h = xtx.clone();
+    for a in 0..q {
+        h[(a, a)] += kappa * xtx[(a, a)].max(f64::MIN_POSITIVE);
+    }
+    let delta = h
+        .cholesky()
+        .ok_or_else(|| TrainerError::fit("recalibration: the core-and-memory system is singular"))?
+        .solve(&xtr);
+    for (j, &k) in pc.iter().enumerate() {
+        p.poly[c][k] += delta[(j, 0)];
+    }
+    for (j, &k) in mc.iter().enumerate() {
+        p.gamma[c][k] += delta[(pc.len() + j, 0)];
+    }
+    Ok(())
 }
 
 /// Ridge W towards the old weights on `rows`: W = W_old + (ΨᵀΨ + α'I)⁻¹Ψᵀ(R − ΨW_old), with

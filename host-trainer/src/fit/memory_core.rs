@@ -186,7 +186,7 @@ fn columns(core: &PolyCore, spec: &MemorySpec<f64>, o: usize, groups: &[MemoryGr
 }
 
 /// φ of the standardised first guesses of sample `i`.
-fn phi_row(core: &PolyCore, d: &Dataset, i: usize) -> [f64; N_POLY] {
+pub fn phi_row(core: &PolyCore, d: &Dataset, i: usize) -> [f64; N_POLY] {
     let x = [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.t_amb_c[i], 1.0];
     let g: [f64; N_OUTPUTS] = std::array::from_fn(|o| x.iter().zip(&core.stage1[o]).map(|(x, a)| x * a).sum());
     let u = std::array::from_fn(|o| (g[o] - core.guess_mean[o]) / core.guess_std[o]);
