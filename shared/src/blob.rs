@@ -251,7 +251,11 @@ fn parse_into<'a, const K: usize>(
     out.guess_std = take(&mut b)?;
     out.poly = take(&mut b)?;
     out.memory = take(&mut b)?;
-    out.gamma = take(&mut b)?;
+    // Row by row: postcard writes an array as its elements, and a whole-Γ temporary would
+    // double the parser's stack frame on the device.
+    for row in out.gamma.iter_mut() {
+        *row = take(&mut b)?;
+    }
     out.z_mean = take(&mut b)?;
     out.z_std = take(&mut b)?;
     // heapless::Vec is a postcard sequence: a varint length, then the elements.

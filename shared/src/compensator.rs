@@ -376,41 +376,38 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.has_memory
     }
 
-    /// Advance the stream state by one accepted sample: the latch values and the memory terms.
-    #[inline(always)]
-    fn advance_state(&mut self, s: &Sample<F>) -> ([F; N_GRATINGS], [F; N_MEMORY]) {
-        let latch: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
-        let m = if self.has_memory { self.memory.update(&s.dl_pm, s.t_amb_c, s.t_s) } else { [F::ZERO; N_MEMORY] };
-        (latch, m)
-    }
-
-    /// Add Γm to the core's values.
-    #[inline(always)]
-    fn add_memory(&self, y: &mut [F; N_OUTPUTS], m: &[F; N_MEMORY]) {
-        if !self.has_memory {
-            return;
-        }
-        for (yi, row) in y.iter_mut().zip(self.gamma.iter()) {
-            let mut acc = *yi;
-            for (&g, &mk) in row.iter().zip(m.iter()) {
-                acc = g.mul_add(mk, acc);
-            }
-            *yi = acc;
-        }
-    }
-
     /// Current direction-latch values (−1, 0, +1 per grating).
     pub fn latch_values(&self) -> [F; N_GRATINGS] {
         self.latches.values()
     }
 
-    /// Advance the stream state (direction latches) by one sample without compensating it:
-    /// what `step` does to the state, for samples whose estimate is not needed. Non-finite
-    /// samples leave the state as `step` would.
+    /// Advance the stream state by one accepted sample and add the memory terms Γm to `y`;
+    /// returns the latch values.
+    #[inline(always)]
+    fn advance_state(&mut self, s: &Sample<F>, y: &mut [F; N_OUTPUTS]) -> [F; N_GRATINGS] {
+        let latch: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
+        if self.has_memory {
+            self.memory.accumulate(&s.dl_pm, s.t_amb_c, s.t_s, &self.gamma, y);
+        }
+        latch
+    }
+
+    /// Advance the stream state and compute the core's estimate Bφ + Γm.
+    #[inline(always)]
+    fn advance_with_core(&mut self, s: &Sample<F>) -> ([F; N_GRATINGS], [F; N_OUTPUTS]) {
+        let mut y = self.core(s);
+        let latch = self.advance_state(s, &mut y);
+        (latch, y)
+    }
+
+    /// Advance the stream state (direction latches, memory operators) by one sample without
+    /// compensating it: what `step` does to the state, for samples whose estimate is not
+    /// needed. Non-finite samples leave the state as `step` would.
     #[inline]
     pub fn advance(&mut self, s: &Sample<F>) {
         if self.accepts(s) {
-            let _ = self.advance_state(s);
+            let mut sink = [F::ZERO; N_OUTPUTS];
+            let _ = self.advance_state(s, &mut sink);
         }
     }
 
@@ -474,9 +471,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         if !self.accepts(s) {
             return None;
         }
-        let (latch, m) = self.advance_state(s);
-        let mut y = self.core(s);
-        self.add_memory(&mut y, &m);
+        let (latch, y) = self.advance_with_core(s);
         let (z, z_sq) = self.rbf_inputs(s, latch);
         for (o, c) in psi.iter_mut().zip(self.centres.iter()) {
             // All inputs: an unused one adds an exact zero, so ψ is the one `step` computes.
@@ -504,7 +499,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
                 flags: Flags::NON_FINITE,
             };
         }
-        let (latch, m) = self.advance_state(s);
+        let (latch, y) = self.advance_with_core(s);
         let [d1, d2, d3] = s.dl_pm;
         let x_env = [d1, d2, d3, s.t_amb_c];
 
@@ -515,8 +510,6 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             }
         }
 
-        let mut y = self.core(s);
-        self.add_memory(&mut y, &m);
         // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
         let (z, z_sq) = self.rbf_inputs(s, latch);
         // The centre loop, specialised on the inputs the feature set uses (unused ones have

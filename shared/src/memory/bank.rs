@@ -1,7 +1,7 @@
 //! Every memory operator of a model over one sample stream.
 
 use crate::layout::{
-    N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS, N_STAGE1, MEM_AMBIENT, MEM_OBSERVER, MEM_STOP,
+    N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS, N_STAGE1, MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP,
 };
 use crate::memory::{DriftObserver, LowPass, MemorySpec, Play};
 use crate::real::Real;
@@ -122,11 +122,17 @@ impl<F: Real> MemoryBank<F> {
             && self.observer_on == other.observer_on
     }
 
+    #[inline(always)]
     fn refresh_alphas(&mut self, dt: F) {
         // Bitwise-equal Δt reuses the factors; NaN (nothing cached) never compares equal.
-        if dt == self.cached_dt {
-            return;
+        if dt != self.cached_dt {
+            self.recompute_alphas(dt);
         }
+    }
+
+    /// The smoothing factors for a new Δt: rare on a regular clock, so kept out of line.
+    #[inline(never)]
+    fn recompute_alphas(&mut self, dt: F) {
         self.cached_dt = dt;
         for ((a, lp), &on) in self.alpha_grating.iter_mut().zip(self.grating_lp.iter()).zip(self.grating_on.iter()) {
             *a = if on { lp.alpha(dt) } else { F::ZERO };
@@ -154,8 +160,42 @@ impl<F: Real> MemoryBank<F> {
     #[inline]
     pub fn update(&mut self, dl_pm: &[F; N_GRATINGS], t_amb_c: F, t_s: F) -> [F; N_MEMORY] {
         let mut m = [F::ZERO; N_MEMORY];
+        self.run(dl_pm, t_amb_c, t_s, |k, v| {
+            if let Some(o) = m.get_mut(k) {
+                *o = v;
+            }
+        });
+        m
+    }
+
+    /// [`MemoryBank::update`] that adds Γm to `y` instead of returning m (`gamma[o][k]` is the
+    /// coefficient of term k on output o): what the compensator runs per sample, without the
+    /// memory vector's round trip through memory.
+    // Out of line: one copy serves the compensator's step and stream advances.
+    #[inline(never)]
+    pub fn accumulate<const O: usize>(
+        &mut self,
+        dl_pm: &[F; N_GRATINGS],
+        t_amb_c: F,
+        t_s: F,
+        gamma: &[[F; N_MEMORY]; O],
+        y: &mut [F; O],
+    ) {
+        self.run(dl_pm, t_amb_c, t_s, |k, v| {
+            for (yo, row) in y.iter_mut().zip(gamma.iter()) {
+                if let Some(&g) = row.get(k) {
+                    *yo = g.mul_add(v, *yo);
+                }
+            }
+        });
+    }
+
+    /// Move every operator by one sample and hand each used term to `sink(k, m_k)` in
+    /// memory-vector order (unused terms are not handed over).
+    #[inline(always)]
+    fn run(&mut self, dl_pm: &[F; N_GRATINGS], t_amb_c: F, t_s: F, mut sink: impl FnMut(usize, F)) {
         if !self.any {
-            return m;
+            return;
         }
         let t_g = if self.observer_on { self.grating_temperature(dl_pm, t_amb_c) } else { F::ZERO };
         if !self.state.primed {
@@ -168,59 +208,47 @@ impl<F: Real> MemoryBank<F> {
             st.t_prev_s = t_s;
             st.primed = true;
             if self.observer_on {
-                if let Some(o) = m.get_mut(MEM_OBSERVER) {
-                    *o = st.observer[1];
-                }
+                sink(MEM_OBSERVER, st.observer[1]);
             }
-            return m;
+            return;
         }
         let dt = t_s - self.state.t_prev_s;
         self.state.t_prev_s = t_s;
         self.refresh_alphas(dt);
         let st = &mut self.state;
-        let mut terms = m.iter_mut();
+        let mut k = MEM_GRATING;
         for (((lp, &on), &a), s) in
             self.grating_lp.iter().zip(self.grating_on.iter()).zip(self.alpha_grating.iter()).zip(st.grating.iter_mut())
         {
-            for (&x, si) in dl_pm.iter().zip(s.iter_mut()) {
-                let out = terms.next();
-                if on {
-                    let hp = x - lp.update(si, x, a);
-                    if let Some(o) = out {
-                        *o = hp;
-                    }
+            if on {
+                for (j, (&x, si)) in dl_pm.iter().zip(s.iter_mut()).enumerate() {
+                    sink(k + j, x - lp.update(si, x, a));
                 }
             }
+            k += N_GRATINGS;
         }
+        let mut k = MEM_AMBIENT;
         for (((lp, &on), &a), si) in
             self.ambient_lp.iter().zip(self.ambient_on.iter()).zip(self.alpha_ambient.iter()).zip(st.ambient.iter_mut())
         {
-            let out = terms.next();
             if on {
-                let hp = t_amb_c - lp.update(si, t_amb_c, a);
-                if let Some(o) = out {
-                    *o = hp;
-                }
+                sink(k, t_amb_c - lp.update(si, t_amb_c, a));
             }
+            k += 1;
         }
+        let mut k = MEM_STOP;
         for ((op, &on), s) in self.plays.iter().zip(self.play_on.iter()).zip(st.play.iter_mut()) {
-            for (&x, si) in dl_pm.iter().zip(s.iter_mut()) {
-                let out = terms.next();
-                if on {
-                    let stop = op.stop(si, x);
-                    if let Some(o) = out {
-                        *o = stop;
-                    }
+            if on {
+                for (j, (&x, si)) in dl_pm.iter().zip(s.iter_mut()).enumerate() {
+                    sink(k + j, op.stop(si, x));
                 }
             }
+            k += N_GRATINGS;
         }
         if self.observer_on {
             let v = self.observer.update(&mut st.observer, t_g, t_amb_c, self.alpha_observer);
-            if let Some(o) = m.get_mut(MEM_OBSERVER) {
-                *o = v;
-            }
+            sink(MEM_OBSERVER, v);
         }
-        m
     }
 }
 

@@ -19,7 +19,8 @@ const SERIES_BELOW: f64 = 0.125;
 /// assert!((a - (1.0 - (-0.1f64).exp())).abs() < 1e-15);
 /// assert_eq!(smoothing_factor(-1.0f32, 0.01), 0.0);
 /// ```
-#[inline]
+// Out of line: it runs only when Δt changes, and twelve inlined copies cost device flash.
+#[inline(never)]
 pub fn smoothing_factor<F: Real>(dt_s: F, inv_tau: F) -> F {
     let x = dt_s * inv_tau;
     // Negated on purpose: NaN (e.g. ∞ · 0) holds the state too.
