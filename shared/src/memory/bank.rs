@@ -227,14 +227,12 @@ impl<F: Real> MemoryBank<F> {
             }
             k += N_GRATINGS;
         }
-        let mut k = MEM_AMBIENT;
-        for (((lp, &on), &a), si) in
-            self.ambient_lp.iter().zip(self.ambient_on.iter()).zip(self.alpha_ambient.iter()).zip(st.ambient.iter_mut())
-        {
+        for (k, (((lp, &on), &a), si)) in (MEM_AMBIENT..).zip(
+            self.ambient_lp.iter().zip(self.ambient_on.iter()).zip(self.alpha_ambient.iter()).zip(st.ambient.iter_mut()),
+        ) {
             if on {
                 sink(k, t_amb_c - lp.update(si, t_amb_c, a));
             }
-            k += 1;
         }
         let mut k = MEM_STOP;
         for ((op, &on), s) in self.plays.iter().zip(self.play_on.iter()).zip(st.play.iter_mut()) {
