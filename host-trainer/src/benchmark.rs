@@ -164,9 +164,14 @@ pub struct BenchFitArgs {
     /// (the default).
     #[arg(long)]
     pub select: bool,
-    /// --select: feature sets cross-validation may choose from.
-    #[arg(long, value_parser = ["paper", "hysteresis-aware", "all"], default_value = "all")]
+    /// --select: the model variant, as `train --features` (memory, hysteresis-aware, latch,
+    /// paper, all).
+    #[arg(long, value_parser = ["memory", "hysteresis-aware", "latch", "paper", "all"], default_value = "memory")]
     pub features: String,
+    /// --fixed: also fit the memory terms (cross-validated menu, as `train`). Off by default so
+    /// that the fixed fit is the scikit-learn peer's pipeline, which has no memory terms.
+    #[arg(long)]
+    pub memory: bool,
     /// --select: largest number of RBF centres to consider.
     #[arg(long, default_value_t = 32)]
     pub max_centres: usize,
@@ -214,7 +219,11 @@ impl BenchFitArgs {
                 alpha_rel: self.alpha_rel,
                 cross_terms: true,
             };
-            Ok((TrainOptions::fixed(&cfg), "fixed"))
+            let mut opts = TrainOptions::fixed(&cfg);
+            if !self.memory {
+                opts.memory = fit::memory_core::MemoryOptions::off();
+            }
+            Ok((opts, "fixed"))
         } else {
             let opts = crate::fleet::train_options(&self.features, self.max_centres)
                 .map_err(TrainerError::fit)?;

@@ -436,7 +436,14 @@ fn training_part(r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Value> {
         let (oh, cmd_oh) = r.json(TRAINER, &fixed("hysteresis-aware"), &[])?;
         let (ph, cmd_ph) = if peer_ok { r.json(VENV_PY, &peer("hysteresis-aware"), &[])? } else { (Value::Null, String::new()) };
         let (sel, cmd_sel) = r.trainer(&["bench-fit", "--data", &csv, "--select", "--repeats", &reps_s, "--json"])?;
+        // The default model's own terms: memory terms (cross-validated menu) fitted with the core.
+        // The scikit-learn peer has no memory terms, so this is timed without a peer.
+        let mut with_memory = fixed("hysteresis-aware");
+        with_memory.push("--memory".into());
+        let (om, cmd_om) = r.json(TRAINER, &with_memory, &[])?;
         sizes.push(json!({
+            "fixed_memory": {"command": cmd_om, "fit_seconds": om["fit_seconds"], "median": om["fit_seconds_median"],
+                             "rmse_p": om["model_p"]["rmse"], "rmse_h": om["model_h"]["rmse"], "phase_seconds": om["phase_seconds"]},
             "n_samples": n,
             "n_cal": last_ours["n_cal"],
             "repeats_per_process": reps,
@@ -749,7 +756,7 @@ fn markdown(rep: &Value) -> String {
     );
     let _ = writeln!(
         s,
-        "| samples | calibration rows | ours, select | ours, fixed | scikit-learn notebook, fixed | ratio notebook / ours | scikit-learn with our k-means subsample | ratio subsampled / ours | ours, fixed, default features | sklearn (subsample), latch features | ratio |\n|---|---|---|---|---|---|---|---|---|---|---|"
+        "| samples | calibration rows | ours, select (default: memory terms) | ours, fixed | scikit-learn notebook, fixed | ratio notebook / ours | scikit-learn with our k-means subsample | ratio subsampled / ours | ours, fixed, latch features | sklearn (subsample), latch features | ratio | ours, fixed, latch RBF + memory terms (no peer) |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
     );
     for z in tr["sizes"].as_array().into_iter().flatten() {
         let fp = &z["fixed_paper"];
@@ -757,11 +764,12 @@ fn markdown(rep: &Value) -> String {
         let rounds = |key: &str| f64s(&fp[key]).iter().map(|x| format!("{x:.2}")).collect::<Vec<_>>().join(", ");
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | **{}×** (rounds: {}) | {} | **{}×** (rounds: {}) | {} | {} (+ {} latch loop) | {}× |",
+            "| {} | {} | {} | {} | {} | **{}×** (rounds: {}) | {} | **{}×** (rounds: {}) | {} | {} (+ {} latch loop) | {}× | {} |",
             z["n_samples"], z["n_cal"], secs(num(z, &["ours_select", "median"])), secs(num(fp, &["ours", "median"])),
             secs(num(fp, &["notebook", "median"])), fx(num(fp, &["notebook_ratio_median"]), 2), rounds("notebook_ratio_per_round"),
             secs(num(fp, &["peer", "median"])), fx(num(fp, &["ratio_median"]), 2), rounds("ratio_per_round"),
-            secs(num(fd, &["ours", "median"])), secs(num(fd, &["peer", "median"])), secs(num(fd, &["peer", "latch_seconds"])), fx(num(fd, &["ratio"]), 2)
+            secs(num(fd, &["ours", "median"])), secs(num(fd, &["peer", "median"])), secs(num(fd, &["peer", "latch_seconds"])), fx(num(fd, &["ratio"]), 2),
+            secs(num(z, &["fixed_memory", "median"]))
         );
     }
     // Where our fixed fit spends its time at the largest size (median over rounds per phase).
@@ -841,7 +849,7 @@ fn markdown(rep: &Value) -> String {
     let _ = writeln!(
         s,
         "Hold-out RMSE per channel on the `paper` and `harsh` presets (seed 7, 14 days at 60 s, first half calibrates). Ours: `train`'s selection \
-         (default features: cross-validation chooses among all feature sets; `--features paper`: only Eq. 5's). Black boxes: scikit-learn on the same \
+         (default: memory terms fitted with the core, groups and λ by cross-validation, plus the RBF residual on the latches; `--features paper`: only Eq. 5's inputs, no memory terms). Black boxes: scikit-learn on the same \
          calibration rows with the inputs named; *Model-P + HistGradientBoosting residual* is a hybrid whose residual learner is a gradient-boosting \
          model instead of the RBF ridge, on the latches or on 59 causal history inputs (`bench/sklearn_peer.py`'s `history_features`): how far far more \
          information and a far larger learner get. Size: our `.fbgm` blob; scikit-learn: `len(pickle.dumps(model))`.\n"
@@ -859,7 +867,7 @@ fn markdown(rep: &Value) -> String {
         };
         row(&mut s, "Model-P", "Δλ, T_amb", &p["model_p"]["rmse"], format!("{} B", p["model_p"]["bytes"]));
         let ch = &p["model_h_default"]["chosen"];
-        row(&mut s, "Model-H (default features)", &format!("chosen: {}, K = {}", ch["feature_set"].as_str().unwrap_or("?"), ch["k"]), &p["model_h_default"]["rmse"], format!("{} B", p["model_h_default"]["bytes"]));
+        row(&mut s, "Model-H (default: memory terms + RBF)", &format!("chosen: {}, K = {}", ch["feature_set"].as_str().unwrap_or("?"), ch["k"]), &p["model_h_default"]["rmse"], format!("{} B", p["model_h_default"]["bytes"]));
         let cp = &p["model_h_paper"]["chosen"];
         row(&mut s, "Model-H (`--features paper`)", &format!("Δλ, T_amb, t; K = {}", cp["k"]), &p["model_h_paper"]["rmse"], format!("{} B", p["model_h_paper"]["bytes"]));
         let mut best = [f64::INFINITY; 3];
