@@ -46,6 +46,9 @@ fn changing_the_holdout_cannot_change_the_fitted_models() {
         }
     }
     let b = train(&d, &small_grid(), &origin).unwrap();
+    // The memory terms (groups and λ per output) are chosen inside the calibration batch too.
+    assert!(a.model_h.has_memory(), "the default model has memory terms");
+    assert_eq!(a.selection.memory, b.selection.memory);
     assert_eq!(without_date(a.model_h), without_date(b.model_h));
     assert_eq!(without_date(a.model_p), without_date(b.model_p));
     assert_eq!(a.selection.chosen, b.selection.chosen);
