@@ -267,6 +267,7 @@ pub fn write_atomically(
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => std::path::PathBuf::from("."),
     };
+    refuse_non_regular(path)?;
     let mut tmp = tempfile::Builder::new()
         .prefix(".fbg-tmp-")
         .tempfile_in(&dir)
@@ -284,7 +285,33 @@ pub fn write_atomically(
         std::fs::set_permissions(tmp.path(), std::fs::Permissions::from_mode(0o644))
             .map_err(|e| TrainerError::io(path, e))?;
     }
+    // Checked again just before the rename: a rename would replace a device, FIFO or socket
+    // that appeared meanwhile with a regular file.
+    refuse_non_regular(path)?;
     tmp.persist(path).map_err(|e| TrainerError::io(path, e.error))?;
+    Ok(())
+}
+
+/// An output that exists and is not a regular file (a device such as `/dev/null`, a FIFO, a
+/// socket, a directory) is refused, never renamed over (DESIGN §9). A symbolic link is judged
+/// by what it points to.
+pub fn refuse_non_regular(path: &Path) -> Result<(), TrainerError> {
+    let Ok(m) = std::fs::metadata(path) else { return Ok(()) };
+    if m.is_file() {
+        return Ok(());
+    }
+    let what = if m.is_dir() { "a directory" } else { "not a regular file (a device, FIFO or socket)" };
+    Err(TrainerError::Output {
+        path: path.to_path_buf(),
+        message: format!("the output exists and is {what}; refusing to replace it (choose a file name)"),
+    })
+}
+
+/// Check the outputs of a command before any work is done (DESIGN §9).
+pub fn check_outputs(outputs: &[&Path], _inputs: &[&Path]) -> Result<(), TrainerError> {
+    for o in outputs {
+        refuse_non_regular(o)?;
+    }
     Ok(())
 }
 

@@ -18,6 +18,9 @@ pub enum TrainerError {
     Fit { message: String },
     /// A model file problem.
     Model { path: String, message: String },
+    /// An output that must not be written (DESIGN §9): not a regular file, one of the inputs,
+    /// or a directory that cannot be created or written.
+    Output { path: PathBuf, message: String },
 }
 
 impl TrainerError {
@@ -49,6 +52,7 @@ impl std::fmt::Display for TrainerError {
             TrainerError::Dataset { message } => write!(f, "dataset: {message}"),
             TrainerError::Fit { message } => write!(f, "fit: {message}"),
             TrainerError::Model { path, message } => write!(f, "{path}: {message}"),
+            TrainerError::Output { path, message } => write!(f, "{}: {message}", path.display()),
         }
     }
 }

@@ -8,11 +8,11 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 use fbg_shared::blob;
-use fbg_trainer::dataset::{write_bytes_atomically, Dataset};
+use fbg_trainer::dataset::{check_outputs, write_bytes_atomically, Dataset};
 use fbg_trainer::export;
 use fbg_trainer::fit::{self, HostParams, Origin, TrainOptions};
 use fbg_trainer::import::{self, ImportOptions, SplitChoice};
-use fbg_trainer::meta::SimMeta;
+use fbg_trainer::meta::{meta_path, SimMeta};
 use fbg_trainer::report;
 use fbg_trainer::scenario::{Preset, ScenarioConfig};
 use fbg_trainer::sim;
@@ -235,6 +235,10 @@ fn run() -> Result<()> {
     let cli = Cli::parse();
     match cli.cmd {
         Cmd::Simulate { scenario, out, json, dump_config } => {
+            let side = meta_path(&out);
+            let mut outputs = vec![out.as_path(), side.as_path()];
+            outputs.extend(dump_config.as_deref());
+            check_outputs(&outputs, &scenario.config.iter().map(|p| p.as_path()).collect::<Vec<_>>())?;
             let cfg = scenario.load()?;
             let s = sim::simulate(&cfg, scenario.seed);
             s.data.write_csv(&out)?;
@@ -261,6 +265,8 @@ fn run() -> Result<()> {
             Ok(())
         }
         Cmd::Train { data, features, max_centres, out, json } => {
+            let (base, coef) = (baseline_path(&out), out.with_file_name("coefficients.json"));
+            check_outputs(&[&out, &base, &coef], &[&data, &meta_path(&data)])?;
             let d = Dataset::read_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
             let origin = origin_of(&data, meta.as_ref());
@@ -268,10 +274,8 @@ fn run() -> Result<()> {
             let t = Instant::now();
             let tr = fit::train(&d, &opts, &origin)?;
             let secs = t.elapsed().as_secs_f64();
-            let base = baseline_path(&out);
             let nh = export::write_blob(&out, &tr.model_h)?;
             let np = export::write_blob(&base, &tr.model_p)?;
-            let coef = out.with_file_name("coefficients.json");
             export::write_coefficients(&coef, &tr.model_p, &tr.model_h, &tr.core, Some(&tr.selection))?;
             let s = &tr.selection;
             if json {
@@ -299,10 +303,12 @@ fn run() -> Result<()> {
             Ok(())
         }
         Cmd::Evaluate { data, model, baseline, metrics, quick, json } => {
+            let base = baseline.unwrap_or_else(|| baseline_path(&model));
+            let out = metrics.unwrap_or_else(|| model.with_file_name("metrics.json"));
+            check_outputs(&[&out], &[&data, &meta_path(&data), &model, &base])?;
             let d = Dataset::read_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
             let h = export::read_blob(&model)?;
-            let base = baseline.unwrap_or_else(|| baseline_path(&model));
             if !base.exists() {
                 bail!("{}: Model-P baseline not found (train writes it beside the model; or pass --baseline)", base.display());
             }
@@ -314,7 +320,6 @@ fn run() -> Result<()> {
                 }
             };
             let m = study::evaluate_models(&p, &h, &d, meta.as_ref(), studies, !json, &log)?;
-            let out = metrics.unwrap_or_else(|| model.with_file_name("metrics.json"));
             write_metrics(&out, &m)?;
             if json {
                 println!("{}", serde_json::to_string_pretty(&m)?);
@@ -359,6 +364,10 @@ fn run() -> Result<()> {
                 split,
                 on_error: on_error.parse().map_err(anyhow::Error::msg)?,
             };
+            let mut inputs = vec![opts.input.as_path()];
+            inputs.extend(opts.map.as_deref());
+            inputs.extend(opts.refs.as_deref());
+            check_outputs(&[&out], &inputs)?;
             let s = import::import_to_csv(&opts, &out)?;
             if json {
                 println!("{}", serde_json::to_string_pretty(&s)?);
@@ -422,6 +431,8 @@ fn print_tables(m: &Metrics) {
 fn recalibrate_cmd(model: &Path, data: &Path, batch_hours: Option<f64>, out: &Path, json: bool) -> Result<()> {
     use fbg_trainer::evaluate::evaluate_holdout;
     use fbg_trainer::recalibrate::{first_hours, recalibrate};
+    let (base, new_base_path) = (baseline_path(model), baseline_path(out));
+    check_outputs(&[out, &new_base_path], &[model, data, &base])?;
     let d = Dataset::read_csv(data)?;
     let old = export::read_blob(model)?;
     let batch = match batch_hours {
@@ -437,12 +448,10 @@ fn recalibrate_cmd(model: &Path, data: &Path, batch_hours: Option<f64>, out: &Pa
         (None, None)
     };
     let n = export::write_blob(out, &new)?;
-    let base = baseline_path(model);
     let new_base = if base.exists() {
         let (p, _) = recalibrate(&export::read_blob(&base)?, &d, &batch)?;
-        let path = baseline_path(out);
-        export::write_blob(&path, &p)?;
-        Some(path)
+        export::write_blob(&new_base_path, &p)?;
+        Some(new_base_path)
     } else {
         None
     };

@@ -1,0 +1,100 @@
+//! Issue 15: nothing the user had is lost (DESIGN §9). An output that exists and is not a
+//! regular file is refused, an output that is one of the inputs is refused, and a missing or
+//! unwritable output directory is found before the work with one clean message.
+
+use std::os::unix::fs::FileTypeExt;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))
+}
+
+fn run(cmd: &mut Command) -> (bool, String, String) {
+    let o = cmd.output().unwrap();
+    (o.status.success(), String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+/// A short simulated record (3 days) in `dir`.
+fn short_csv(dir: &Path) -> PathBuf {
+    let cfg = dir.join("short.toml");
+    std::fs::write(&cfg, "name = \"short\"\n[clock]\ndays = 3.0\n").unwrap();
+    let csv = dir.join("data.csv");
+    let (ok, _, err) = run(bin().args(["simulate", "--seed", "2", "--config"]).arg(&cfg).arg("--out").arg(&csv));
+    assert!(ok, "{err}");
+    csv
+}
+
+fn mkfifo(p: &Path) {
+    let ok = Command::new("mkfifo").arg(p).status().map(|s| s.success()).unwrap_or(false);
+    assert!(ok, "mkfifo {} failed", p.display());
+}
+
+fn is_fifo(p: &Path) -> bool {
+    std::fs::symlink_metadata(p).map(|m| m.file_type().is_fifo()).unwrap_or(false)
+}
+
+fn is_root() -> bool {
+    Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false)
+}
+
+#[test]
+fn simulate_onto_a_fifo_is_refused_and_the_fifo_survives() {
+    let d = tempfile::tempdir().unwrap();
+    let fifo = d.path().join("pipe.csv");
+    mkfifo(&fifo);
+    let (ok, _, err) = run(bin().args(["simulate", "--seed", "7", "--out"]).arg(&fifo));
+    assert!(!ok, "writing onto a FIFO must be refused");
+    assert!(err.contains("pipe.csv") && err.contains("not a regular file"), "{err}");
+    assert!(is_fifo(&fifo), "the FIFO was replaced");
+    assert!(!d.path().join("pipe.meta.json").exists(), "no sidecar beside a refused output");
+}
+
+#[test]
+fn train_onto_a_fifo_is_refused_before_the_fit() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let fifo = d.path().join("model.fbgm");
+    mkfifo(&fifo);
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&csv).arg("--out").arg(&fifo));
+    assert!(!ok);
+    assert!(err.contains("model.fbgm") && err.contains("not a regular file"), "{err}");
+    assert!(!err.contains("trained"), "refused before the fit: {err}");
+    assert!(is_fifo(&fifo));
+    assert!(!d.path().join("model-p.fbgm").exists() && !d.path().join("coefficients.json").exists());
+}
+
+#[test]
+fn import_onto_a_directory_is_refused_by_name() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let out = d.path().join("out.csv");
+    std::fs::create_dir(&out).unwrap();
+    let (ok, _, err) = run(bin().args(["import", "--format", "csv"]).arg(&csv).arg("--out").arg(&out));
+    assert!(!ok);
+    assert!(err.contains("out.csv") && err.contains("directory") && err.contains("refusing"), "{err}");
+    assert!(out.is_dir());
+}
+
+/// As root, a device node (made in a temporary directory, never `/dev/null` itself) must
+/// survive `--out` just like a FIFO.
+#[test]
+fn a_device_node_output_is_refused_when_root() {
+    if !is_root() {
+        eprintln!("skipped: mknod needs root");
+        return;
+    }
+    let d = tempfile::tempdir().unwrap();
+    let null = d.path().join("null");
+    let ok = Command::new("mknod").arg(&null).args(["c", "1", "3"]).status().map(|s| s.success()).unwrap_or(false);
+    if !ok {
+        eprintln!("skipped: mknod failed (no device nodes in this file system)");
+        return;
+    }
+    let (ok, _, err) = run(bin().args(["simulate", "--seed", "7", "--out"]).arg(&null));
+    assert!(!ok);
+    assert!(err.contains("not a regular file"), "{err}");
+    assert!(std::fs::symlink_metadata(&null).unwrap().file_type().is_char_device(), "the device node was replaced");
+    assert!(!d.path().join("null.meta.json").exists());
+}
+
