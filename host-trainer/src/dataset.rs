@@ -307,12 +307,36 @@ pub fn refuse_non_regular(path: &Path) -> Result<(), TrainerError> {
     })
 }
 
-/// Check the outputs of a command before any work is done (DESIGN §9).
-pub fn check_outputs(outputs: &[&Path], _inputs: &[&Path]) -> Result<(), TrainerError> {
+/// Check the outputs of a command before any work is done (DESIGN §9): none may exist as
+/// something other than a regular file, and none may be one of the inputs (the same file by
+/// device and inode, so a hard link or another spelling of the path counts too).
+pub fn check_outputs(outputs: &[&Path], inputs: &[&Path]) -> Result<(), TrainerError> {
     for o in outputs {
         refuse_non_regular(o)?;
+        if let Some(i) = inputs.iter().find(|i| same_file(o, i)) {
+            let also = if i.as_os_str() == o.as_os_str() { String::new() } else { format!(" ({})", i.display()) };
+            return Err(TrainerError::Output {
+                path: o.to_path_buf(),
+                message: format!("the output is also an input{also}; refusing to overwrite it (choose another output name)"),
+            });
+        }
     }
     Ok(())
+}
+
+/// True when both paths exist and name the same file.
+fn same_file(a: &Path, b: &Path) -> bool {
+    let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) else { return false };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        x.dev() == y.dev() && x.ino() == y.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (x, y);
+        matches!((a.canonicalize(), b.canonicalize()), (Ok(p), Ok(q)) if p == q)
+    }
 }
 
 /// Write bytes atomically.

@@ -98,3 +98,41 @@ fn a_device_node_output_is_refused_when_root() {
     assert!(!d.path().join("null.meta.json").exists());
 }
 
+#[test]
+fn import_onto_its_own_input_is_refused_and_the_input_kept() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let before = std::fs::read(&csv).unwrap();
+    let (ok, _, err) = run(bin().args(["import", "--format", "csv"]).arg(&csv).arg("--out").arg(&csv));
+    assert!(!ok, "import over its own input must be refused");
+    assert!(err.contains("data.csv") && err.contains("also an input"), "{err}");
+    // Another spelling of the same path, and a hard link, are the same file too.
+    let sub = d.path().join("sub");
+    std::fs::create_dir(&sub).unwrap();
+    let other = sub.join("..").join("data.csv");
+    let (ok, _, err) = run(bin().args(["import", "--format", "csv"]).arg(&csv).arg("--out").arg(&other));
+    assert!(!ok && err.contains("also an input"), "{err}");
+    let link = d.path().join("link.csv");
+    std::fs::hard_link(&csv, &link).unwrap();
+    let (ok, _, err) = run(bin().args(["import", "--format", "csv"]).arg(&csv).arg("--out").arg(&link));
+    assert!(!ok && err.contains("also an input"), "{err}");
+    assert_eq!(std::fs::read(&csv).unwrap(), before, "the input is unchanged");
+}
+
+#[test]
+fn train_evaluate_recalibrate_refuse_an_output_that_is_an_input() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let before = std::fs::read(&csv).unwrap();
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&csv).arg("--out").arg(&csv));
+    assert!(!ok && err.contains("data.csv") && err.contains("also an input"), "train: {err}");
+    let model = d.path().join("m.fbgm");
+    std::fs::write(&model, b"not checked before the refusal").unwrap();
+    let (ok, _, err) =
+        run(bin().args(["evaluate", "--data"]).arg(&csv).arg("--model").arg(&model).arg("--metrics").arg(&csv));
+    assert!(!ok && err.contains("also an input"), "evaluate: {err}");
+    let (ok, _, err) = run(bin().args(["recalibrate", "--data"]).arg(&csv).arg("--model").arg(&model).arg("--out").arg(&model));
+    assert!(!ok && err.contains("m.fbgm") && err.contains("also an input"), "recalibrate: {err}");
+    assert_eq!(std::fs::read(&csv).unwrap(), before);
+    assert_eq!(std::fs::read(&model).unwrap(), b"not checked before the refusal");
+}
