@@ -271,7 +271,7 @@ pub fn write_atomically(
     let mut tmp = tempfile::Builder::new()
         .prefix(".fbg-tmp-")
         .tempfile_in(&dir)
-        .map_err(|e| TrainerError::io(path, e))?;
+        .map_err(|e| TrainerError::io(path, clean_io(e)))?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file_mut());
         body(&mut w).map_err(|e| TrainerError::io(path, e))?;
@@ -288,7 +288,7 @@ pub fn write_atomically(
     // Checked again just before the rename: a rename would replace a device, FIFO or socket
     // that appeared meanwhile with a regular file.
     refuse_non_regular(path)?;
-    tmp.persist(path).map_err(|e| TrainerError::io(path, e.error))?;
+    tmp.persist(path).map_err(|e| TrainerError::io(path, clean_io(e.error)))?;
     Ok(())
 }
 
@@ -309,7 +309,8 @@ pub fn refuse_non_regular(path: &Path) -> Result<(), TrainerError> {
 
 /// Check the outputs of a command before any work is done (DESIGN §9): none may exist as
 /// something other than a regular file, and none may be one of the inputs (the same file by
-/// device and inode, so a hard link or another spelling of the path counts too).
+/// device and inode, so a hard link or another spelling of the path counts too); then their
+/// directories are created when missing and checked for writing.
 pub fn check_outputs(outputs: &[&Path], inputs: &[&Path]) -> Result<(), TrainerError> {
     for o in outputs {
         refuse_non_regular(o)?;
@@ -321,7 +322,46 @@ pub fn check_outputs(outputs: &[&Path], inputs: &[&Path]) -> Result<(), TrainerE
             });
         }
     }
+    prepare_output_dirs(outputs)
+}
+
+/// Create the directory of every output (as `fleet` does) and check that it can be written,
+/// before any work: one message naming the directory, never a temporary file's name.
+pub fn prepare_output_dirs(outputs: &[&Path]) -> Result<(), TrainerError> {
+    for o in outputs {
+        match o.parent() {
+            Some(p) if !p.as_os_str().is_empty() => prepare_output_dir(p)?,
+            _ => prepare_output_dir(Path::new("."))?,
+        }
+    }
     Ok(())
+}
+
+/// Create `dir` (and its parents) when missing and check that a file can be created in it.
+pub fn prepare_output_dir(dir: &Path) -> Result<(), TrainerError> {
+    let fail = |what: &str, e: std::io::Error| TrainerError::Output {
+        path: dir.to_path_buf(),
+        message: format!("{what}: {}", clean_io(e)),
+    };
+    if dir.exists() && !dir.is_dir() {
+        return Err(TrainerError::Output { path: dir.to_path_buf(), message: "the output directory exists and is not a directory".into() });
+    }
+    std::fs::create_dir_all(dir).map_err(|e| fail("cannot create the output directory", e))?;
+    tempfile::Builder::new()
+        .prefix(".fbg-tmp-")
+        .tempfile_in(dir)
+        .map_err(|e| fail("the output directory is not writable", e))?;
+    Ok(())
+}
+
+/// An I/O error without tempfile's `at path ".fbg-tmp-…"` suffix, which names a file the user
+/// never asked for.
+fn clean_io(e: std::io::Error) -> std::io::Error {
+    let text = e.to_string();
+    match text.find(" at path ") {
+        Some(k) => std::io::Error::new(e.kind(), text[..k].to_string()),
+        None => e,
+    }
 }
 
 /// True when both paths exist and name the same file.

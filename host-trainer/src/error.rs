@@ -59,9 +59,8 @@ impl std::fmt::Display for TrainerError {
 
 impl std::error::Error for TrainerError {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            TrainerError::Io { source, .. } => Some(source),
-            _ => None,
-        }
+        // `Io` already prints its cause in its message; returning it here too would make
+        // anyhow's `{:#}` print the cause twice.
+        None
     }
 }

@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 use fbg_shared::blob;
-use fbg_trainer::dataset::{check_outputs, write_bytes_atomically, Dataset};
+use fbg_trainer::dataset::{check_outputs, prepare_output_dir, write_bytes_atomically, Dataset};
 use fbg_trainer::export;
 use fbg_trainer::fit::{self, HostParams, Origin, TrainOptions};
 use fbg_trainer::import::{self, ImportOptions, SplitChoice};
@@ -332,6 +332,7 @@ fn run() -> Result<()> {
         Cmd::Recalibrate { model, data, batch_hours, out, json } => recalibrate_cmd(&model, &data, batch_hours, &out, json),
         Cmd::Inspect { model, json } => inspect(&model, json),
         Cmd::Golden { data, model, samples, out } => {
+            prepare_output_dir(&out)?;
             let d = Dataset::read_csv(&data)?;
             let h = export::read_blob(&model)?;
             let hold = d.holdout_indices();
@@ -527,7 +528,7 @@ fn inspect(path: &Path, json: bool) -> Result<()> {
 
 fn demo(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     let t0 = Instant::now();
-    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create the output directory", out.display()))?;
+    prepare_output_dir(out)?;
     let cfg = scenario.load()?;
     let log = |s: &str| {
         if !json {

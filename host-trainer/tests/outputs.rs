@@ -136,3 +136,35 @@ fn train_evaluate_recalibrate_refuse_an_output_that_is_an_input() {
     assert_eq!(std::fs::read(&csv).unwrap(), before);
     assert_eq!(std::fs::read(&model).unwrap(), b"not checked before the refusal");
 }
+
+#[test]
+fn a_missing_output_directory_is_created_before_the_work() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let model = d.path().join("models").join("run1").join("m.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&csv).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    assert!(model.exists() && d.path().join("models/run1/m-p.fbgm").exists());
+    let golden = d.path().join("g").join("h");
+    let (ok, _, err) = run(bin().args(["golden", "--samples", "5", "--data"]).arg(&csv).arg("--model").arg(&model).arg("--out").arg(&golden));
+    assert!(ok, "{err}");
+    assert!(golden.join("golden_meta.json").exists());
+}
+
+#[test]
+fn an_output_directory_that_cannot_be_made_fails_first_with_one_clean_message() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    // A regular file where a directory is needed: fails even as root.
+    let file = d.path().join("plain.txt");
+    std::fs::write(&file, "x").unwrap();
+    for model in [file.join("m.fbgm"), file.join("sub").join("m.fbgm")] {
+        let (ok, out, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&csv).arg("--out").arg(&model));
+        assert!(!ok);
+        assert!(err.contains("plain.txt"), "names the directory: {err}");
+        assert!(!err.contains(".fbg-tmp"), "no temporary file name: {err}");
+        assert!(!err.contains("trained") && out.is_empty(), "fails before the fit: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
+        assert_eq!(err.to_lowercase().matches("not a directory").count(), 1, "the cause once: {err}");
+    }
+}
