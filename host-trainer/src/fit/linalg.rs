@@ -40,34 +40,7 @@ pub fn lstsq_rows(
     if n < p {
         return Err(TrainerError::fit(format!("{what}: {n} samples for {p} unknowns")));
     }
-    let q = p + m;
-    // The triangular factor of one block of rows of [X | Y], as its top min(rows, q) rows.
-    let reduce = |rows: std::ops::Range<usize>| -> DMatrix<f64> {
-        let mut a = DMatrix::zeros(rows.len(), q);
-        let mut buf = vec![0.0; q];
-        for (r, i) in rows.enumerate() {
-            row(i, &mut buf);
-            for (c, &v) in buf.iter().enumerate() {
-                a[(r, c)] = v;
-            }
-        }
-        triangular_factor(a)
-    };
-    let blocks: Vec<std::ops::Range<usize>> =
-        (0..n.div_ceil(TSQR_BLOCK)).map(|b| b * TSQR_BLOCK..((b + 1) * TSQR_BLOCK).min(n)).collect();
-    let r_aug = if blocks.len() <= 1 {
-        reduce(0..n)
-    } else {
-        let parts: Vec<DMatrix<f64>> = blocks.into_par_iter().map(reduce).collect();
-        let total: usize = parts.iter().map(|r| r.nrows()).sum();
-        let mut stacked = DMatrix::zeros(total, q);
-        let mut r0 = 0;
-        for part in &parts {
-            stacked.rows_mut(r0, part.nrows()).copy_from(part);
-            r0 += part.nrows();
-        }
-        triangular_factor(stacked)
-    };
+    let r_aug = triangular_rows(n, p + m, row);
     if r_aug.nrows() < p {
         return Err(TrainerError::fit(format!("{what}: {n} samples for {p} unknowns")));
     }
@@ -105,6 +78,40 @@ pub fn lstsq_rows(
         b.row_mut(j).scale_mut(1.0 / s);
     }
     Ok(b)
+}
+
+/// The upper-triangular factor R of a tall system given row by row (`row(i, buf)` writes the q
+/// columns of row i), as its top min(n, q) rows, by the tall-skinny QR of [`lstsq_rows`]:
+/// RᵀR = AᵀA, so any least-squares problem on a subset of A's columns can be solved from R
+/// alone (see `fit::memory_core`). Nothing n-sized is held.
+pub fn triangular_rows(n: usize, q: usize, row: impl Fn(usize, &mut [f64]) + Sync) -> DMatrix<f64> {
+    // The triangular factor of one block of rows, as its top min(rows, q) rows.
+    let reduce = |rows: std::ops::Range<usize>| -> DMatrix<f64> {
+        let mut a = DMatrix::zeros(rows.len(), q);
+        let mut buf = vec![0.0; q];
+        for (r, i) in rows.enumerate() {
+            row(i, &mut buf);
+            for (c, &v) in buf.iter().enumerate() {
+                a[(r, c)] = v;
+            }
+        }
+        triangular_factor(a)
+    };
+    let blocks: Vec<std::ops::Range<usize>> =
+        (0..n.div_ceil(TSQR_BLOCK)).map(|b| b * TSQR_BLOCK..((b + 1) * TSQR_BLOCK).min(n)).collect();
+    if blocks.len() <= 1 {
+        reduce(0..n)
+    } else {
+        let parts: Vec<DMatrix<f64>> = blocks.into_par_iter().map(reduce).collect();
+        let total: usize = parts.iter().map(|r| r.nrows()).sum();
+        let mut stacked = DMatrix::zeros(total, q);
+        let mut r0 = 0;
+        for part in &parts {
+            stacked.rows_mut(r0, part.nrows()).copy_from(part);
+            r0 += part.nrows();
+        }
+        triangular_factor(stacked)
+    }
 }
 
 /// The upper-triangular Householder factor of `a` (rows × q), as its top min(rows, q) rows.

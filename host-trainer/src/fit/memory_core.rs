@@ -194,8 +194,12 @@ pub fn phi_row(core: &PolyCore, d: &Dataset, i: usize) -> [f64; N_POLY] {
 }
 
 /// Refit B and Γ jointly on `rows` for `choice`: the returned core has the memory spec of the
-/// choice and every output's B row and Γ row from one penalised least squares (QR of the
-/// system augmented by the penalty rows). Outputs without reference keep zeros.
+/// choice and every output's B row and Γ row from one penalised least squares. Outputs without
+/// reference keep zeros.
+///
+/// One tall-skinny QR of [φ | m | y_T y_ε y_p] over the union of every output's columns serves
+/// all outputs: for output o with columns S, ‖y − X_S β‖² = ‖(Qᵀy)_o − R_S β‖² + const, so its
+/// problem is the small one [R_S; penalty rows] β ≈ [(Qᵀy)_o; 0], solved by QR and SVD.
 pub fn fit(d: &Dataset, rows: &[usize], core: &PolyCore, menu: &MemorySpec<f64>, choice: &MemoryChoice) -> Result<PolyCore, TrainerError> {
     let mut out = core.clone();
     if !choice.any() {
@@ -204,44 +208,71 @@ pub fn fit(d: &Dataset, rows: &[usize], core: &PolyCore, menu: &MemorySpec<f64>,
     let spec = choice.spec(menu, core);
     let m = memory_terms(&spec, d, rows);
     let n = rows.len();
+    // Per output: its φ and memory columns (indices into φ and m).
+    let cols: Vec<(Vec<usize>, Vec<usize>)> = (0..N_OUTPUTS)
+        .map(|o| {
+            let groups: Vec<MemoryGroup> = MemoryGroup::ALL.iter().copied().filter(|&g| choice.uses(o, g)).collect();
+            columns(core, &spec, o, &groups)
+        })
+        .collect();
+    let poly_u: Vec<usize> = (0..N_POLY).filter(|k| cols.iter().any(|(pc, _)| pc.contains(k))).collect();
+    let mem_u: Vec<usize> = (0..N_MEMORY).filter(|k| cols.iter().any(|(_, mc)| mc.contains(k))).collect();
+    let p = poly_u.len() + mem_u.len();
+    if n < p {
+        return Err(TrainerError::fit(format!("Model-H core with memory terms: {n} samples for {p} unknowns")));
+    }
+    let targets: [&[f64]; N_OUTPUTS] = std::array::from_fn(|o| if d.has_target[o] { d.target(o) } else { &[][..] });
+    let r_aug = super::linalg::triangular_rows(n, p + N_OUTPUTS, |r, buf| {
+        let i = rows[r];
+        let ph = phi_row(core, d, i);
+        for (c, &k) in poly_u.iter().enumerate() {
+            buf[c] = ph[k];
+        }
+        for (c, &k) in mem_u.iter().enumerate() {
+            buf[poly_u.len() + c] = m[r][k];
+        }
+        for (o, t) in targets.iter().enumerate() {
+            buf[p + o] = t.get(i).copied().unwrap_or(0.0);
+        }
+    });
+    // Standard deviation of each memory column over the rows: the ridge acts on the
+    // standardised terms.
+    let sd: Vec<f64> = mem_u
+        .iter()
+        .map(|&k| {
+            let mean = m.iter().map(|r| r[k]).sum::<f64>() / n as f64;
+            let var = m.iter().map(|r| (r[k] - mean).powi(2)).sum::<f64>() / n as f64;
+            if var > 0.0 { var.sqrt() } else { 1.0 }
+        })
+        .collect();
+    let q = r_aug.nrows();
     for o in 0..N_OUTPUTS {
         if !d.has_target[o] {
             continue;
         }
-        let groups: Vec<MemoryGroup> = MemoryGroup::ALL.iter().copied().filter(|&g| choice.uses(o, g)).collect();
-        let (pc, mc) = columns(core, &spec, o, &groups);
+        let (pc, mc) = &cols[o];
         if mc.is_empty() {
             continue;
         }
-        // Standard deviation of each memory column: the ridge acts on the standardised terms.
-        let sd: Vec<f64> = mc
+        // Positions of this output's columns in the union.
+        let at: Vec<usize> = pc
             .iter()
-            .map(|&k| {
-                let mean = m.iter().map(|r| r[k]).sum::<f64>() / n as f64;
-                let var = m.iter().map(|r| (r[k] - mean).powi(2)).sum::<f64>() / n as f64;
-                if var > 0.0 { var.sqrt() } else { 1.0 }
-            })
+            .map(|k| poly_u.iter().position(|x| x == k).unwrap_or(0))
+            .chain(mc.iter().map(|k| poly_u.len() + mem_u.iter().position(|x| x == k).unwrap_or(0)))
             .collect();
         let pen = (choice.lambda[o] * n as f64).sqrt();
-        let p = pc.len() + mc.len();
-        let target = d.target(o);
-        let beta = super::linalg::lstsq_rows(n + mc.len(), p, 1, "Model-H core with memory terms", |r, buf| {
-            buf.iter_mut().for_each(|v| *v = 0.0);
-            if r < n {
-                let i = rows[r];
-                let ph = phi_row(core, d, i);
-                for (c, &k) in pc.iter().enumerate() {
-                    buf[c] = ph[k];
-                }
-                for (c, &k) in mc.iter().enumerate() {
-                    buf[pc.len() + c] = m[r][k];
-                }
-                buf[p] = target[i];
+        let ps = at.len();
+        let x = DMatrix::from_fn(q + mc.len(), ps, |r, c| {
+            if r < q {
+                r_aug[(r, at[c])]
+            } else if c == pc.len() + (r - q) {
+                pen * sd[at[c] - poly_u.len()]
             } else {
-                let j = r - n;
-                buf[pc.len() + j] = pen * sd[j];
+                0.0
             }
-        })?;
+        });
+        let y = DMatrix::from_fn(q + mc.len(), 1, |r, _| if r < q { r_aug[(r, p + o)] } else { 0.0 });
+        let beta = super::linalg::lstsq(x, y, "Model-H core with memory terms")?;
         out.poly[o] = [0.0; N_POLY];
         for (c, &k) in pc.iter().enumerate() {
             out.poly[o][k] = beta[(c, 0)];
