@@ -108,7 +108,8 @@ enum Cmd {
     },
     /// Field recalibration: refit the core's offset/gain and the residual weights (centres
     /// kept) of an existing model on a short batch (the calibration rows of DATA, or its first
-    /// --batch-hours) and report hold-out RMSE before and after.
+    /// --batch-hours) and report hold-out RMSE before and after. A channel the recalibration
+    /// makes worse on DATA's hold-out keeps the old model's coefficients (see --allow-worse).
     Recalibrate {
         /// The model to recalibrate (its Model-P baseline `<stem>-p.fbgm` is recalibrated too
         /// when present).
@@ -119,8 +120,14 @@ enum Cmd {
         /// Use only the first H hours of the calibration rows as the batch.
         #[arg(long)]
         batch_hours: Option<f64>,
+        /// Output blob (the recalibrated Model-P goes beside it as `<stem>-p.fbgm`).
         #[arg(long, default_value = "recalibrated.fbgm")]
         out: PathBuf,
+        /// Write every recalibrated channel even where the hold-out check scores it worse than
+        /// the old model (by default such a channel keeps the old coefficients).
+        #[arg(long)]
+        allow_worse: bool,
+        /// Print a JSON summary on stdout instead of text.
         #[arg(long)]
         json: bool,
     },
@@ -329,7 +336,9 @@ fn run() -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Recalibrate { model, data, batch_hours, out, json } => recalibrate_cmd(&model, &data, batch_hours, &out, json),
+        Cmd::Recalibrate { model, data, batch_hours, out, allow_worse, json } => {
+            recalibrate_cmd(&model, &data, batch_hours, &out, allow_worse, json)
+        }
         Cmd::Inspect { model, json } => inspect(&model, json),
         Cmd::Golden { data, model, samples, out } => {
             prepare_output_dir(&out)?;
@@ -429,9 +438,63 @@ fn print_tables(m: &Metrics) {
     }
 }
 
-fn recalibrate_cmd(model: &Path, data: &Path, batch_hours: Option<f64>, out: &Path, json: bool) -> Result<()> {
+/// A recalibrated model and its hold-out check.
+struct CheckedRecal {
+    params: HostParams,
+    what: fbg_trainer::recalibrate::Recalibration,
+    /// Hold-out of the old model and of the model written (none without hold-out rows).
+    before: Option<fbg_trainer::evaluate::ModelEval>,
+    after: Option<fbg_trainer::evaluate::ModelEval>,
+    /// Hold-out of the recalibration as fitted, before any channel was put back.
+    tried: Option<fbg_trainer::evaluate::ModelEval>,
+    /// Outputs that kept the old coefficients because the recalibration scored worse.
+    kept_old: Vec<usize>,
+    /// Outputs written although worse (only with --allow-worse).
+    worse: Vec<usize>,
+}
+
+/// Recalibrate `old` on `batch` and check it on the hold-out of `d`: unless `allow_worse`, every
+/// channel the check scores worse keeps the old coefficients (DESIGN §9).
+fn checked_recalibration(old: &HostParams, d: &Dataset, batch: &[usize], allow_worse: bool) -> Result<CheckedRecal> {
     use fbg_trainer::evaluate::evaluate_holdout;
-    use fbg_trainer::recalibrate::{first_hours, recalibrate};
+    use fbg_trainer::recalibrate::{keep_old_where_worse, recalibrate};
+    let (mut params, what) = recalibrate(old, d, batch)?;
+    if d.holdout_indices().is_empty() {
+        return Ok(CheckedRecal { params, what, before: None, after: None, tried: None, kept_old: vec![], worse: vec![] });
+    }
+    let before = evaluate_holdout(old, d)?.0;
+    let tried = evaluate_holdout(&params, d)?.0;
+    let mut after = tried.clone();
+    let mut kept_old = vec![];
+    if !allow_worse {
+        kept_old = keep_old_where_worse(&mut params, old, &before, &after);
+        if !kept_old.is_empty() {
+            after = evaluate_holdout(&params, d)?.0;
+        }
+    }
+    let worse: Vec<usize> = (0..3).filter(|&c| after.channels[c].rmse > before.channels[c].rmse).collect();
+    if !allow_worse && !worse.is_empty() {
+        bail!(
+            "recalibration: {} still scores worse on the hold-out after keeping the old coefficients; nothing written (--allow-worse writes it anyway)",
+            channel_list(&worse)
+        );
+    }
+    Ok(CheckedRecal { params, what, before: Some(before), after: Some(after), tried: Some(tried), kept_old, worse })
+}
+
+/// "T and p", "strain".
+fn channel_list(cs: &[usize]) -> String {
+    let names: Vec<&str> = cs.iter().map(|&c| fbg_trainer::evaluate::CHANNELS[c]).collect();
+    match names.len() {
+        0 => "no channel".into(),
+        1 => names[0].into(),
+        n => format!("{} and {}", names[..n - 1].join(", "), names[n - 1]),
+    }
+}
+
+fn recalibrate_cmd(model: &Path, data: &Path, batch_hours: Option<f64>, out: &Path, allow_worse: bool, json: bool) -> Result<()> {
+    use fbg_trainer::evaluate::{CHANNELS, UNITS};
+    use fbg_trainer::recalibrate::{first_hours, CoreUpdate};
     let (base, new_base_path) = (baseline_path(model), baseline_path(out));
     check_outputs(&[out, &new_base_path], &[model, data, &base])?;
     let d = Dataset::read_csv(data)?;
@@ -441,51 +504,68 @@ fn recalibrate_cmd(model: &Path, data: &Path, batch_hours: Option<f64>, out: &Pa
         Some(h) => bail!("--batch-hours must be positive (got {h})"),
         None => d.cal_indices(),
     };
-    let (new, what) = recalibrate(&old, &d, &batch)?;
-    let has_holdout = !d.holdout_indices().is_empty();
-    let (before, after) = if has_holdout {
-        (Some(evaluate_holdout(&old, &d)?.0), Some(evaluate_holdout(&new, &d)?.0))
-    } else {
-        (None, None)
+    let h = checked_recalibration(&old, &d, &batch, allow_worse)?;
+    let p = if base.exists() { Some(checked_recalibration(&export::read_blob(&base)?, &d, &batch, allow_worse)?) } else { None };
+    let n = export::write_blob(out, &h.params)?;
+    let new_base = match &p {
+        Some(p) => {
+            export::write_blob(&new_base_path, &p.params)?;
+            Some(new_base_path.clone())
+        }
+        None => None,
     };
-    let n = export::write_blob(out, &new)?;
-    let new_base = if base.exists() {
-        let (p, _) = recalibrate(&export::read_blob(&base)?, &d, &batch)?;
-        export::write_blob(&new_base_path, &p)?;
-        Some(new_base_path)
-    } else {
-        None
-    };
+    let names = |cs: &[usize]| cs.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>();
     if json {
         println!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
-                "model": out, "baseline": new_base, "bytes": n, "recalibration": what,
-                "holdout_before": before, "holdout_after": after,
+                "model": out, "baseline": new_base, "bytes": n, "recalibration": h.what,
+                "holdout_before": h.before, "holdout_after": h.after,
+                "kept_old_channels": names(&h.kept_old), "worse_channels_written": names(&h.worse),
+                "baseline_kept_old_channels": p.as_ref().map(|p| names(&p.kept_old)),
             }))?
         );
         return Ok(());
     }
+    let w = &h.what;
     eprintln!(
-        "recalibrated {} on {} batch samples: core updates {:?} (offset, gain) {:?}; residual weights {}",
+        "recalibrated {} on {} batch samples; residual weights {}",
         model.display(),
-        what.n_batch,
-        what.core_update,
-        what.offset_gain,
-        if what.w_updated { "updated" } else { "kept (the batch did not support a change)" }
+        w.n_batch,
+        if w.w_updated { "updated" } else { "kept (the batch did not support a change)" }
     );
-    if let (Some(b), Some(a)) = (before, after) {
-        for c in 0..3 {
-            eprintln!(
-                "  {:>6} [{}]: hold-out RMSE {:.4} -> {:.4}",
-                fbg_trainer::evaluate::CHANNELS[c],
-                fbg_trainer::evaluate::UNITS[c],
-                b.channels[c].rmse,
-                a.channels[c].rmse
-            );
+    for c in 0..3 {
+        let (a, b) = w.offset_gain[c];
+        let detail = match w.core_update[c] {
+            CoreUpdate::Offset => format!(" (offset {a:+.4} {})", UNITS[c]),
+            CoreUpdate::OffsetGain => format!(" (offset {a:+.4} {}, gain {b:.4})", UNITS[c]),
+            _ => String::new(),
+        };
+        let check = match (&h.before, &h.after, &h.tried) {
+            (Some(bf), _, Some(tr)) if h.kept_old.contains(&c) => format!(
+                "; hold-out RMSE {:.4} -> {:.4} is worse, so the old coefficients are kept (RMSE {:.4})",
+                bf.channels[c].rmse, tr.channels[c].rmse, bf.channels[c].rmse
+            ),
+            (Some(bf), Some(af), _) if h.worse.contains(&c) => format!(
+                "; hold-out RMSE {:.4} -> {:.4} (WORSE, written because of --allow-worse)",
+                bf.channels[c].rmse, af.channels[c].rmse
+            ),
+            (Some(bf), Some(af), _) => format!("; hold-out RMSE {:.4} -> {:.4}", bf.channels[c].rmse, af.channels[c].rmse),
+            _ => String::new(),
+        };
+        eprintln!("  {:>6} [{}]: {}{detail}{check}", CHANNELS[c], UNITS[c], w.core_update[c].text());
+    }
+    if h.before.is_none() {
+        eprintln!("  (no hold-out rows in {}: nothing to check the recalibration against)", data.display());
+    } else if !h.kept_old.is_empty() {
+        eprintln!("kept the old model's {} (--allow-worse writes the recalibrated ones)", channel_list(&h.kept_old));
+    }
+    if let Some(p) = &p {
+        if !p.kept_old.is_empty() {
+            eprintln!("Model-P baseline: kept the old {} (worse on the hold-out)", channel_list(&p.kept_old));
+        } else if !p.worse.is_empty() {
+            eprintln!("Model-P baseline: {} WORSE on the hold-out, written because of --allow-worse", channel_list(&p.worse));
         }
-    } else {
-        eprintln!("  (no hold-out rows in {}: nothing to compare before/after)", data.display());
     }
     eprintln!("wrote {} ({n} B){}", out.display(), new_base.map(|p| format!(" and {}", p.display())).unwrap_or_default());
     Ok(())

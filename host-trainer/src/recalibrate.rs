@@ -238,6 +238,35 @@ fn update_w(p: &mut HostParams, old: &HostParams, d: &Dataset, rows: &[usize]) -
     Ok(())
 }
 
+/// Put back, in `new`, the old model's core row, memory row and residual weights of every
+/// output whose hold-out RMSE the recalibration made worse (`after` > `before`), so a
+/// recalibration never replaces a channel with one its own check scores worse (DESIGN §9).
+/// The band stays as `recalibrate` set it (never narrower than before). Returns the outputs
+/// put back.
+pub fn keep_old_where_worse(new: &mut HostParams, old: &HostParams, before: &ModelEval, after: &ModelEval) -> Vec<usize> {
+    let worse: Vec<usize> = (0..N_OUTPUTS).filter(|&c| after.channels[c].rmse > before.channels[c].rmse).collect();
+    for &c in &worse {
+        new.poly[c] = old.poly[c];
+        new.gamma[c] = old.gamma[c];
+        for (n, o) in new.centres.iter_mut().zip(old.centres.iter()) {
+            n.w[c] = o.w[c];
+        }
+    }
+    worse
+}
+
+impl CoreUpdate {
+    /// Human text for the CLI.
+    pub fn text(self) -> &'static str {
+        match self {
+            CoreUpdate::Keep => "core kept",
+            CoreUpdate::Offset => "core offset refitted",
+            CoreUpdate::OffsetGain => "core offset and gain refitted",
+            CoreUpdate::CoreAndMemory => "core and memory terms refitted",
+        }
+    }
+}
+
 /// The first `hours` of calibration samples of `d`.
 pub fn first_hours(d: &Dataset, hours: f64) -> Vec<usize> {
     let cal = d.cal_indices();
