@@ -193,6 +193,10 @@ enum Cmd {
         /// Bad rows: stop with an error naming file, line and column, or skip and count them.
         #[arg(long, value_parser = ["fail", "skip"], default_value = "fail")]
         on_error: String,
+        /// With --on-error skip: the largest share of a file's rows, in percent, that may be
+        /// skipped; above it the import fails with the counts by reason.
+        #[arg(long, default_value_t = 100.0 * import::DEFAULT_MAX_SKIPPED)]
+        max_skipped: f64,
         #[arg(long)]
         json: bool,
     },
@@ -361,7 +365,10 @@ fn run() -> Result<()> {
         Cmd::Stream { model, data, port, host, update_first, max_samples, timeout, json } => {
             stream_cmd(model, data, port, host, update_first, max_samples, timeout, json)
         }
-        Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, json } => {
+        Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, max_skipped, json } => {
+            if !(0.0..=100.0).contains(&max_skipped) {
+                bail!("--max-skipped must be a percentage from 0 to 100 (got {max_skipped})");
+            }
             let split = match cal_until {
                 Some(t) => SplitChoice::Until(t),
                 None => SplitChoice::Fraction(cal_fraction.unwrap_or(0.5)),
@@ -373,6 +380,7 @@ fn run() -> Result<()> {
                 refs,
                 split,
                 on_error: on_error.parse().map_err(anyhow::Error::msg)?,
+                max_skipped: max_skipped / 100.0,
             };
             let mut inputs = vec![opts.input.as_path()];
             inputs.extend(opts.map.as_deref());

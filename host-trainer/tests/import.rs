@@ -7,7 +7,7 @@ use std::process::Command;
 
 use fbg_trainer::dataset::{Dataset, Split};
 use fbg_trainer::fit::{train, Origin, TrainOptions};
-use fbg_trainer::import::{import, import_to_csv, Format, ImportOptions, ImportSummary, OnError, Reason, SplitChoice};
+use fbg_trainer::import::{import, import_to_csv, Format, ImportOptions, ImportSummary, OnError, Reason, SplitChoice, DEFAULT_MAX_SKIPPED};
 use fbg_trainer::scenario::Preset;
 use fbg_trainer::sim::simulate;
 
@@ -23,15 +23,26 @@ fn enlight(file: &str, map: Option<&str>, refs: Option<&str>) -> ImportOptions {
         refs: refs.map(data),
         split: SplitChoice::default(),
         on_error: OnError::Fail,
+        max_skipped: DEFAULT_MAX_SKIPPED,
     }
 }
 
 fn logger(file: &str, map: Option<&str>) -> ImportOptions {
-    ImportOptions { format: Format::Csv, input: data(file), map: map.map(data), refs: None, split: SplitChoice::default(), on_error: OnError::Fail }
+    ImportOptions {
+        format: Format::Csv,
+        input: data(file),
+        map: map.map(data),
+        refs: None,
+        split: SplitChoice::default(),
+        on_error: OnError::Fail,
+        max_skipped: DEFAULT_MAX_SKIPPED,
+    }
 }
 
+/// `--on-error skip` with no cap on the skipped share (the bad-case files are a dozen rows).
 fn skipping(mut o: ImportOptions) -> ImportOptions {
     o.on_error = OnError::Skip;
+    o.max_skipped = 1.0;
     o
 }
 
@@ -417,7 +428,7 @@ fn cli_import_prints_a_json_summary_and_fails_cleanly() {
     assert!(!o.status.success() && err.contains("logger_duplicate.csv: line 5, column time"), "{err}");
     assert!(!out2.exists());
     let o = bin()
-        .args(["import", "--format", "csv", "--on-error", "skip"])
+        .args(["import", "--format", "csv", "--on-error", "skip", "--max-skipped", "50"])
         .arg(data("bad/logger_duplicate.csv"))
         .arg("--out")
         .arg(&out2)
@@ -479,7 +490,7 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
     std::fs::write(&map, text).unwrap();
 
     let out = dir.path().join("data.csv");
-    let o = ImportOptions { format: Format::Enlight, input: peaks, map: Some(map), refs: Some(refs), split: SplitChoice::Fraction(0.5), on_error: OnError::Fail };
+    let o = ImportOptions { format: Format::Enlight, input: peaks, map: Some(map), refs: Some(refs), split: SplitChoice::Fraction(0.5), on_error: OnError::Fail, max_skipped: DEFAULT_MAX_SKIPPED };
     let s = import_to_csv(&o, &out).unwrap();
     assert_eq!((s.rows_read, s.rows_written, s.gaps), (n, n, [0, 1, 0]));
     let back = Dataset::read_csv(&out).unwrap();

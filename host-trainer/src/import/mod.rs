@@ -72,7 +72,13 @@ pub struct ImportOptions {
     pub refs: Option<PathBuf>,
     pub split: SplitChoice,
     pub on_error: OnError,
+    /// `--on-error skip`: the largest fraction of a file's rows that may be skipped as bad;
+    /// above it the import fails with the counts by reason ([`DEFAULT_MAX_SKIPPED`]).
+    pub max_skipped: f64,
 }
+
+/// Default of [`ImportOptions::max_skipped`]: 5 % of a file's rows.
+pub const DEFAULT_MAX_SKIPPED: f64 = 0.05;
 
 /// Rows left out because no ambient temperature was known at their time.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
@@ -335,7 +341,40 @@ pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerE
             }
         }
     };
+    refuse_too_many_skipped(&merged.skips, opts.max_skipped)?;
     finish(merged, opts, map_origin)
+}
+
+/// Under `--on-error skip`, a file that loses more than `max` of its rows is not imported: so
+/// large a loss means a wrong map or a damaged export, not a few bad rows.
+fn refuse_too_many_skipped(skips: &[FileSkips], max: f64) -> Result<(), TrainerError> {
+    for f in skips {
+        if f.rows_read == 0 || (f.rows_skipped as f64) <= max * f.rows_read as f64 {
+            continue;
+        }
+        let reasons: Vec<String> = f
+            .by_reason
+            .iter()
+            .map(|(r, c)| {
+                let lines: Vec<String> = c.first_lines.iter().map(u64::to_string).collect();
+                let more = if c.count > c.first_lines.len() { ", …" } else { "" };
+                format!("{} × {} (lines {}{more})", c.count, r.as_str(), lines.join(", "))
+            })
+            .collect();
+        return Err(TrainerError::Config {
+            origin: f.file.clone(),
+            key: "--max-skipped".into(),
+            message: format!(
+                "{} of {} rows ({:.1} %) would be skipped as bad, more than the {} % allowed: {}; nothing written (fix the export or the map, or raise --max-skipped)",
+                f.rows_skipped,
+                f.rows_read,
+                100.0 * f.rows_skipped as f64 / f.rows_read as f64,
+                100.0 * max,
+                reasons.join(", ")
+            ),
+        });
+    }
+    Ok(())
 }
 
 fn kind_words(absolute: bool) -> &'static str {

@@ -1,0 +1,71 @@
+//! Issue 15: the checks a new user relies on, the same in every command — a cap on what
+//! `--on-error skip` may drop, the unit checks of `import` in `train` and `evaluate`, a
+//! truncated last line, and help texts.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))
+}
+
+fn run(cmd: &mut Command) -> (bool, String, String) {
+    let o = cmd.output().unwrap();
+    (o.status.success(), String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+/// A short simulated record (3 days, 4320 rows) in `dir`.
+fn short_csv(dir: &Path) -> PathBuf {
+    let cfg = dir.join("short.toml");
+    std::fs::write(&cfg, "name = \"short\"\n[clock]\ndays = 3.0\n").unwrap();
+    let csv = dir.join("data.csv");
+    let (ok, _, err) = run(bin().args(["simulate", "--seed", "2", "--config"]).arg(&cfg).arg("--out").arg(&csv));
+    assert!(ok, "{err}");
+    csv
+}
+
+/// `csv` with the ambient cell of every `every`-th data row replaced by `x`.
+fn spoil_ambient(csv: &Path, out: &Path, every: usize) -> usize {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let mut n = 0;
+    let lines: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i > 0 && i % every == 0 {
+                n += 1;
+                let mut cells: Vec<&str> = l.split(',').collect();
+                cells[4] = "x";
+                cells.join(",")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    std::fs::write(out, lines.join("\n") + "\n").unwrap();
+    n
+}
+
+#[test]
+fn on_error_skip_fails_above_the_skipped_fraction_with_counts_by_reason() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    // One row in 4 is bad: 25 % > the default 5 %.
+    let bad = d.path().join("bad.csv");
+    let n_bad = spoil_ambient(&csv, &bad, 4);
+    let out = d.path().join("out.csv");
+    let (ok, _, err) = run(bin().args(["import", "--format", "csv", "--on-error", "skip"]).arg(&bad).arg("--out").arg(&out));
+    assert!(!ok, "a 25 % loss must not pass silently");
+    assert!(err.contains("bad.csv") && err.contains(&format!("{n_bad} of 4320 rows")), "{err}");
+    assert!(err.contains("non_numeric") && err.contains("5 %"), "{err}");
+    assert!(!out.exists(), "nothing written");
+    // The cap is configurable ...
+    let (ok, _, err) =
+        run(bin().args(["import", "--format", "csv", "--on-error", "skip", "--max-skipped", "30"]).arg(&bad).arg("--out").arg(&out));
+    assert!(ok && err.contains(&format!("skipped {n_bad} × non_numeric")), "{err}");
+    // ... and a few bad rows (1 in 100) pass under the default.
+    let few = d.path().join("few.csv");
+    let n_few = spoil_ambient(&csv, &few, 100);
+    let (ok, _, err) = run(bin().args(["import", "--format", "csv", "--on-error", "skip"]).arg(&few).arg("--out").arg(&out));
+    assert!(ok && err.contains(&format!("{n_few} skipped as bad")), "{err}");
+}
