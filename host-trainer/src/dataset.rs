@@ -13,6 +13,10 @@ use std::path::Path;
 use fbg_shared::Sample;
 
 use crate::error::TrainerError;
+use crate::import::mapping::{absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, WlUnit};
+
+/// Appended to a unit-check message on a dataset CSV: the check and its words are `import`'s.
+const REIMPORT: &str = " (the unit check of `fbg-trainer import`: convert the column, or re-import the export with that map key)";
 
 /// The CSV header, in column order.
 pub const COLUMNS: [&str; 9] =
@@ -183,12 +187,16 @@ impl Dataset {
             }
         }
         let mut d = Dataset { has_target: [col[1].is_some(), col[2].is_some(), col[3].is_some()], ..Dataset::default() };
+        let mut first_line = 0;
         for rec in rdr.records() {
             let rec = rec.map_err(|e| {
                 let line = e.position().map(|p| p.line()).unwrap_or(0);
                 TrainerError::data(&name, line, "-", format!("malformed row: {e}"))
             })?;
             let line = rec.position().map(|p| p.line()).unwrap_or(0);
+            if first_line == 0 {
+                first_line = line;
+            }
             // `blank_ok`: an empty cell is a missing value (NaN) rather than an error.
             let num = |k: usize, blank_ok: bool| -> Result<f64, TrainerError> {
                 let Some(c) = col[k] else { return Ok(f64::NAN) };
@@ -226,9 +234,20 @@ impl Dataset {
             d.strain_ue.push(num(2, true)?);
             d.p_kpa.push(num(3, true)?);
             // An empty ambient reading is a gap like an empty dl cell (not fitted, flagged).
-            d.t_amb_c.push(num(4, true)?);
+            // Magnitudes get the unit checks of `import` (kelvin for °C, nm or absolute
+            // wavelengths for shifts in pm), with its messages.
+            let amb = num(4, true)?;
+            if amb.is_finite() {
+                check_ambient(amb).map_err(|m| TrainerError::data(&name, line, "T_amb_C", format!("{m}{REIMPORT}")))?;
+            }
+            d.t_amb_c.push(amb);
             for g in 0..3 {
-                d.dl_pm[g].push(num(5 + g, true)?);
+                let v = num(5 + g, true)?;
+                if v.is_finite() {
+                    check_wavelength(WlUnit::ShiftPm, v, &format!("grating[{}].unit", g + 1))
+                        .map_err(|m| TrainerError::data(&name, line, COLUMNS[5 + g], format!("{m}{REIMPORT}")))?;
+                }
+                d.dl_pm[g].push(v);
             }
             let split = match col[8] {
                 None => Split::Cal,
@@ -249,6 +268,16 @@ impl Dataset {
         }
         if d.is_empty() {
             return Err(TrainerError::data(&name, 2, "-", "no data rows"));
+        }
+        for g in 0..3 {
+            if looks_absolute_nm(&d.dl_pm[g]) {
+                return Err(TrainerError::data(
+                    &name,
+                    first_line,
+                    COLUMNS[5 + g],
+                    format!("{}{REIMPORT}", absolute_nm_column_message(&d.dl_pm[g], &format!("grating[{}].unit", g + 1))),
+                ));
+            }
         }
         if !d.has_target.iter().any(|&h| h) {
             return Err(TrainerError::data(&name, 1, "T_C", "no reference column (T_C, strain_ue or p_kPa): nothing to calibrate against"));

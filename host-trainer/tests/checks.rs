@@ -69,3 +69,46 @@ fn on_error_skip_fails_above_the_skipped_fraction_with_counts_by_reason() {
     let (ok, _, err) = run(bin().args(["import", "--format", "csv", "--on-error", "skip"]).arg(&few).arg("--out").arg(&out));
     assert!(ok && err.contains(&format!("{n_few} skipped as bad")), "{err}");
 }
+
+/// `csv` with column `col` rewritten by `f`.
+fn map_column(csv: &Path, out: &Path, col: usize, f: impl Fn(f64) -> f64) {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let mut lines = text.lines();
+    let mut s = lines.next().unwrap().to_string() + "\n";
+    for l in lines {
+        let mut cells: Vec<String> = l.split(',').map(str::to_string).collect();
+        cells[col] = format!("{:.6}", f(cells[col].parse::<f64>().unwrap()));
+        s.push_str(&cells.join(","));
+        s.push('\n');
+    }
+    std::fs::write(out, s).unwrap();
+}
+
+#[test]
+fn train_and_evaluate_run_the_unit_checks_of_import_with_its_messages() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let model = d.path().join("m.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&csv).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    // Ambient in kelvin; a shift column holding absolute wavelengths in nm.
+    let kelvin = d.path().join("kelvin.csv");
+    map_column(&csv, &kelvin, 4, |v| v + 273.15);
+    let nm = d.path().join("nm.csv");
+    map_column(&csv, &nm, 5, |v| 1545.0 + v * 1e-3);
+    for (bad, column, says) in [(&kelvin, "T_amb_C", "looks like kelvin"), (&nm, "dl1_pm", "like absolute wavelengths in nm")] {
+        let out = d.path().join("imported.csv");
+        let (ok, _, import_err) = run(bin().args(["import", "--format", "csv"]).arg(bad).arg("--out").arg(&out));
+        assert!(!ok && import_err.contains(says), "import: {import_err}");
+        let (ok, _, train_err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(bad).arg("--out").arg(d.path().join("x.fbgm")));
+        assert!(!ok, "train accepted {}", bad.display());
+        assert!(train_err.contains(says) && train_err.contains(column) && train_err.contains("line 2"), "train: {train_err}");
+        let (ok, _, eval_err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(bad).arg("--model").arg(&model));
+        assert!(!ok && eval_err.contains(says) && eval_err.contains(column), "evaluate: {eval_err}");
+        // The same words as import's message (up to its own file name and line).
+        let core = |e: &str| e.split(": ").skip(2).collect::<Vec<_>>().join(": ");
+        let i = core(&import_err);
+        let key_advice = i.split(';').nth(1).unwrap_or_default().trim().to_string();
+        assert!(!key_advice.is_empty() && train_err.contains(&key_advice), "import says `{key_advice}`; train: {train_err}");
+    }
+}

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::mapping::{check_ambient, check_wavelength, looks_absolute_nm, CsvGrating, Map, RefMap, WlUnit};
+use super::mapping::{absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, CsvGrating, Map, RefMap, WlUnit};
 use super::problems::{OnError, Problems, Reason, RowError};
 use super::time_axis::{parse_timestamp, TimeKind, TimeParser};
 use super::{number, read_text};
@@ -182,11 +182,7 @@ pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnEr
                     &name,
                     first,
                     &g.column,
-                    format!(
-                        "the column is declared shift_pm but every value lies within 1 % of {:.1}, like absolute wavelengths in nm; map key `{}`: set it to \"nm\" (or check_units = false if these really are shifts)",
-                        out.gratings[i].values.iter().copied().find(|v| v.is_finite()).unwrap_or(f64::NAN),
-                        g.unit_key
-                    ),
+                    absolute_nm_column_message(&out.gratings[i].values, &g.unit_key),
                 ));
             }
         }

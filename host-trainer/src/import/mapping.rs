@@ -404,6 +404,14 @@ pub(crate) fn looks_absolute_nm(values: &[f64]) -> bool {
     hi - lo < 0.01 * mean
 }
 
+/// The message for a shift column that [`looks_absolute_nm`], naming the map key to change.
+pub(crate) fn absolute_nm_column_message(values: &[f64], key: &str) -> String {
+    format!(
+        "the column is declared shift_pm but every value lies within 1 % of {:.1}, like absolute wavelengths in nm; map key `{key}`: set it to \"nm\" (or check_units = false if these really are shifts)",
+        values.iter().copied().find(|v| v.is_finite()).unwrap_or(f64::NAN)
+    )
+}
+
 /// Check an ambient temperature [°C] (after gain and offset).
 pub(crate) fn check_ambient(v: f64) -> Result<(), String> {
     let (lo, hi) = AMBIENT_RANGE_C;
