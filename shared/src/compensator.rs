@@ -220,11 +220,21 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// beyond `K` are an error; so is a model whose folded coefficients overflow this
     /// precision.
     pub fn new<G: Real, const K2: usize>(params: &ModelParams<G, K2>) -> Result<Self, Error> {
-        let mut c = Compensator {
+        let mut c = Self::unloaded();
+        c.reload(params)?;
+        Ok(c)
+    }
+
+    /// A compensator with no model loaded, usable in a `static` that [`Compensator::reload`]
+    /// then fills in place (so a device never builds a compensator-sized value on its stack).
+    /// Until a model is loaded it answers every sample with NaN values, an infinite band and no
+    /// output fitted.
+    pub const fn unloaded() -> Self {
+        Compensator {
             a: [[F::ZERO; N_STAGE1]; N_OUTPUTS],
             b: [[F::ZERO; N_POLY]; N_OUTPUTS],
             gamma: [[F::ZERO; N_MEMORY]; N_OUTPUTS],
-            memory: MemoryBank::default(),
+            memory: MemoryBank::off(),
             has_memory: false,
             z_gain: [F::ZERO; Z_DIMS],
             z_offset: [F::ZERO; Z_DIMS],
@@ -237,15 +247,15 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             env_lo: [F::ZERO; N_ENVELOPE],
             env_hi: [F::ZERO; N_ENVELOPE],
             weak_support: F::ZERO,
-            flagged_band_factor: F::ONE,
+            // Never read before a model is loaded (no output is fitted); 0 keeps the value all
+            // zero bytes, so a `static` of it lands in `.bss` and costs no flash.
+            flagged_band_factor: F::ZERO,
             dead_band: 0,
             uses_time: false,
             uses_latch: false,
             fitted: [false; N_OUTPUTS],
             latches: LatchBank::new(),
-        };
-        c.reload(params)?;
-        Ok(c)
+        }
     }
 
     /// Replace the model in place, atomically: `params` is validated and every folded number

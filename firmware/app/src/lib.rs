@@ -31,7 +31,6 @@
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use core::convert::Infallible;
-use core::mem::MaybeUninit;
 
 use embedded_hal::digital::{OutputPin, PinState};
 use embedded_io::{Read, Write};
@@ -99,20 +98,7 @@ pub fn blob_crc(bytes: &[u8]) -> u32 {
 /// value, 3.1 KB of stack at K = 32, twice over with its `Result`). Until a model is loaded it
 /// answers every sample with NaN values and an infinite band (no output fitted).
 pub const fn unloaded<const K: usize>() -> Compensator<f32, K> {
-    // SAFETY: all-zero bytes are a valid `Compensator<f32, K>`. Its fields are `f32` arrays and
-    // scalars (0.0), `i32` (0), `bool` (false), a `heapless::Vec` (length 0, storage
-    // `MaybeUninit`), the direction latches (`i32`, `i8`, `bool`: a latch that has seen no
-    // sample) and the memory bank (`MemoryBank<f32>`: `LowPass`/`Play`/`DriftObserver`, which
-    // are single `f32` coefficients, `f32` arrays, `bool` arrays and a `MemoryState` of `f32`
-    // arrays and a `bool`: no enum, reference, `NonZero` or niche anywhere). The zeroed bank is
-    // exactly `MemoryBank::default()` (every operator off, `is_active()` false, a stream that
-    // has seen no sample; only its "no cached Δt" marker differs from `MemoryBank::new`'s NaN,
-    // and `reload` replaces the whole bank before it is ever used, so the value is never read).
-    // `tests::an_unloaded_compensator_is_usable` and
-    // `tests::a_zeroed_memory_bank_is_the_default_one` exercise it. A safe `const fn
-    // Compensator::unloaded()` in fbg-shared would make this unnecessary (README-firmware.md,
-    // "Not met / open").
-    unsafe { MaybeUninit::zeroed().assume_init() }
+    Compensator::unloaded()
 }
 
 /// Load the model in `bytes` into `comp` (at boot, the embedded default into an [`unloaded`]

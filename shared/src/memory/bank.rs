@@ -65,6 +65,28 @@ pub struct MemoryBank<F> {
 }
 
 impl<F: Real> MemoryBank<F> {
+    /// A bank with no operator in use (every term 0), usable in a `static`: all its bytes are
+    /// zero (the cached Δt is 0, whose smoothing factors are the zeros already cached).
+    pub const fn off() -> Self {
+        MemoryBank {
+            grating_lp: [LowPass::off(); N_GRATING_TAUS],
+            ambient_lp: [LowPass::off(); N_AMBIENT_TAUS],
+            plays: [Play::off(); N_PLAYS],
+            observer: DriftObserver::off(),
+            observer_row: [F::ZERO; N_STAGE1],
+            grating_on: [false; N_GRATING_TAUS],
+            ambient_on: [false; N_AMBIENT_TAUS],
+            play_on: [false; N_PLAYS],
+            observer_on: false,
+            any: false,
+            cached_dt: F::ZERO,
+            alpha_grating: [F::ZERO; N_GRATING_TAUS],
+            alpha_ambient: [F::ZERO; N_AMBIENT_TAUS],
+            alpha_observer: [F::ZERO; 2],
+            state: MemoryState::new(),
+        }
+    }
+
     /// A bank for `spec` (any precision; converted here) that has seen no sample.
     pub fn new<G: Real>(spec: &MemorySpec<G>) -> Self {
         let s: MemorySpec<F> = spec.convert();

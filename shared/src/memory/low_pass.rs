@@ -77,6 +77,11 @@ pub struct LowPass<F> {
 }
 
 impl<F: Real> LowPass<F> {
+    /// An unused slot (α is always 0).
+    pub const fn off() -> Self {
+        LowPass { inv_tau: F::ZERO }
+    }
+
     /// A low-pass with time constant `tau_s` [s] (> 0; 0 or less gives a pass-through whose
     /// α is 0, i.e. an unused slot).
     pub fn new(tau_s: F) -> Self {

@@ -24,6 +24,11 @@ pub struct Play<F> {
 }
 
 impl<F: Real> Play<F> {
+    /// An unused slot (half-width 0: the play output is the input).
+    pub const fn off() -> Self {
+        Play { half_width: F::ZERO }
+    }
+
     /// A play operator of half-width `half_width` (>= 0, in the input's unit).
     pub fn new(half_width: F) -> Self {
         Play { half_width: if half_width > F::ZERO { half_width } else { F::ZERO } }
