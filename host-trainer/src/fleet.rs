@@ -56,7 +56,9 @@ pub fn train_options(features: &str, max_centres: usize) -> Result<TrainOptions,
     }
     let mut o = TrainOptions::default().with_features(sets);
     if !memory {
+        // Without memory terms the RBF residual carries the model: the grid goes to 32.
         o.memory = fit::memory_core::MemoryOptions::off();
+        o.centres = vec![8, 16, 32];
     }
     o.centres.retain(|&k| k <= max_centres);
     if o.centres.is_empty() {
