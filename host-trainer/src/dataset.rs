@@ -166,7 +166,8 @@ impl Dataset {
     /// name the file, line and column.
     pub fn read_csv(path: &Path) -> Result<Dataset, TrainerError> {
         let name = path.display().to_string();
-        let file = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
+        let mut file = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
+        let ends_with_newline = last_byte(&mut file).map_err(|e| TrainerError::io(path, e))? == Some(b'\n');
         let mut rdr = csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).from_reader(file);
         let headers = rdr
             .headers()
@@ -188,7 +189,8 @@ impl Dataset {
         }
         let mut d = Dataset { has_target: [col[1].is_some(), col[2].is_some(), col[3].is_some()], ..Dataset::default() };
         let mut first_line = 0;
-        for rec in rdr.records() {
+        let mut records = rdr.records().peekable();
+        while let Some(rec) = records.next() {
             let rec = rec.map_err(|e| {
                 let line = e.position().map(|p| p.line()).unwrap_or(0);
                 TrainerError::data(&name, line, "-", format!("malformed row: {e}"))
@@ -196,6 +198,17 @@ impl Dataset {
             let line = rec.position().map(|p| p.line()).unwrap_or(0);
             if first_line == 0 {
                 first_line = line;
+            }
+            if !ends_with_newline && records.peek().is_none() {
+                // The file ends inside this row, so its last cell may be cut short
+                // (`1545.0440` read as `1545.04`): `ragged_row`, as `import` says.
+                let last = headers.get(rec.len().saturating_sub(1)).unwrap_or("-");
+                return Err(TrainerError::data(
+                    &name,
+                    line,
+                    last,
+                    format!("truncated last row (no line end): the file ends inside this row, so its last cell `{}` may be cut short (ragged_row)", rec.get(rec.len().saturating_sub(1)).unwrap_or("")),
+                ));
             }
             // `blank_ok`: an empty cell is a missing value (NaN) rather than an error.
             let num = |k: usize, blank_ok: bool| -> Result<f64, TrainerError> {
@@ -284,6 +297,20 @@ impl Dataset {
         }
         Ok(d)
     }
+}
+
+/// The last byte of a file (`None` when empty); the read position is restored to the start.
+fn last_byte(f: &mut std::fs::File) -> std::io::Result<Option<u8>> {
+    use std::io::{Read, Seek, SeekFrom};
+    let len = f.metadata()?.len();
+    if len == 0 {
+        return Ok(None);
+    }
+    let mut b = [0u8];
+    f.seek(SeekFrom::Start(len - 1))?;
+    f.read_exact(&mut b)?;
+    f.seek(SeekFrom::Start(0))?;
+    Ok(Some(b[0]))
 }
 
 /// Write `path` through a temporary file in the same directory and rename it into place, so

@@ -112,3 +112,66 @@ fn train_and_evaluate_run_the_unit_checks_of_import_with_its_messages() {
         assert!(!key_advice.is_empty() && train_err.contains(&key_advice), "import says `{key_advice}`; train: {train_err}");
     }
 }
+
+fn import_data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/import").join(name)
+}
+
+/// `src` cut `cut` bytes before its end (inside the last number, no final line end).
+fn cut_copy(src: &Path, dst: &Path, cut: usize) {
+    let b = std::fs::read(src).unwrap();
+    std::fs::write(dst, &b[..b.len() - cut]).unwrap();
+}
+
+#[test]
+fn a_last_line_without_a_line_end_is_a_truncated_ragged_row() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("out.csv");
+    // ENLIGHT peaks cut inside the last wavelength: `…1550.5019\t\n` -> `…1550.50`.
+    let peaks = d.path().join("cut.txt");
+    cut_copy(&import_data("enlight_tab.txt"), &peaks, 4);
+    let enlight = |extra: &[&str]| {
+        run(bin()
+            .args(["import", "--format", "enlight"])
+            .arg(&peaks)
+            .arg("--map")
+            .arg(import_data("enlight_map.toml"))
+            .arg("--refs")
+            .arg(import_data("refs.csv"))
+            .arg("--out")
+            .arg(&out)
+            .args(extra))
+    };
+    let (ok, _, err) = enlight(&[]);
+    assert!(!ok, "a cut last row must not import silently: {err}");
+    assert!(err.contains("cut.txt") && err.contains("truncated last row") && err.contains("1550.50"), "{err}");
+    assert!(!out.exists());
+    let (ok, _, err) = enlight(&["--on-error", "skip", "--max-skipped", "100"]);
+    assert!(ok && err.contains("skipped 1 × ragged_row"), "{err}");
+    // A logger CSV cut inside its last number.
+    std::fs::remove_file(&out).unwrap();
+    let logger = d.path().join("cut.csv");
+    cut_copy(&import_data("logger.csv"), &logger, 3);
+    let (ok, _, err) = run(bin().args(["import", "--format", "csv", "--map"]).arg(import_data("logger_map.toml")).arg(&logger).arg("--out").arg(&out));
+    assert!(!ok && err.contains("cut.csv") && err.contains("truncated last row"), "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn train_refuses_a_dataset_csv_cut_inside_its_last_row() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let cut = d.path().join("cut.csv");
+    // `…,3.760623,holdout\n` -> `…,3.760623,hold`: the split cell cut short.
+    cut_copy(&csv, &cut, 4);
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&cut).arg("--out").arg(d.path().join("m.fbgm")));
+    assert!(!ok);
+    assert!(err.contains("cut.csv") && err.contains("line 4321") && err.contains("truncated last row"), "{err}");
+    // Cut inside the last number instead (the split column removed, so dl3_pm is last).
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let no_split: String = text.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n").collect();
+    let nosplit = d.path().join("nosplit.csv");
+    std::fs::write(&nosplit, &no_split[..no_split.len() - 4]).unwrap();
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&nosplit).arg("--out").arg(d.path().join("m.fbgm")));
+    assert!(!ok && err.contains("dl3_pm") && err.contains("truncated last row"), "{err}");
+}

@@ -290,6 +290,16 @@ fn parse_row(cs: &[String], line: u64, channels: usize, clock: &mut TimeParser, 
             format!("peak counts {} = {total} disagree with the {found} wavelengths on the row", listed.join("+")),
         ));
     }
+    if truncated_tail {
+        // Complete in cells, but the file ends inside the row: its last number may be cut
+        // short (`1555.0440` read as `1555.04`), which no magnitude check would catch.
+        return Err(RowError::new(
+            Reason::RaggedRow,
+            line,
+            label(cs.len() - 1, &counts),
+            format!("truncated last row (no line end): the file ends inside this row, so its last value `{}` may be cut short", cs[cs.len() - 1]),
+        ));
+    }
     let mut peaks = Vec::with_capacity(channels);
     let mut idx = 1 + channels;
     for &n in &counts {

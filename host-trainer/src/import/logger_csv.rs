@@ -74,6 +74,12 @@ pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnEr
         })?,
     };
     let header_line = header_idx as u64 + 1;
+    // A last line without a line end is truncated: the file ends inside the row, so its last
+    // cell may be cut short (`ragged_row`).
+    let truncated_line = match lines.last() {
+        Some(l) if !l.trim().is_empty() => Some(lines.len() as u64),
+        _ => None,
+    };
     let offset: usize = lines[..header_idx].iter().map(|l| l.len() + 1).sum();
     let body = &text[offset.min(text.len())..];
 
@@ -144,6 +150,17 @@ pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnEr
         }
         let line = header_line + rec.position().map_or(1, |p| p.line()) - 1;
         problems.rows_read += 1;
+        if truncated_line == Some(line) {
+            let last = rec.len().saturating_sub(1);
+            let col = cols.get(last).cloned().unwrap_or_else(|| format!("{} (beyond the header)", last + 1));
+            problems.reject(RowError::new(
+                Reason::RaggedRow,
+                line,
+                col,
+                format!("truncated last row (no line end): the file ends inside this row, so its last cell `{}` may be cut short", rec.get(last).unwrap_or("")),
+            ))?;
+            continue;
+        }
         let row = parse_row(&rec, line, &cols, time_idx, &mut clock, (amb_idx, amb_map), &ref_cols, gratings, &g_idx, check);
         let row = row.and_then(|r| {
             if let (Some(&prev), Some(&prev_line)) = (out.t.last(), out.lines.last()) {
