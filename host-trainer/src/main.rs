@@ -73,6 +73,8 @@ enum Cmd {
     /// Fit Model-P and Model-H on the calibration part of a CSV; write the Model-H blob, the
     /// Model-P blob beside it (`<stem>-p.fbgm`) and `coefficients.json`.
     Train {
+        /// Dataset CSV (DESIGN §3 columns, e.g. from `simulate` or `import`); its `.meta.json`
+        /// sidecar, when present, gives the provenance.
         #[arg(long)]
         data: PathBuf,
         /// Feature sets cross-validation may choose from.
@@ -81,14 +83,19 @@ enum Cmd {
         /// Largest number of RBF centres to consider (the device capacity).
         #[arg(long, default_value_t = 32)]
         max_centres: usize,
+        /// Model-H blob; Model-P goes beside it as `<stem>-p.fbgm`, the coefficients as
+        /// `coefficients.json` in the same directory (created when missing).
         #[arg(long, default_value = "model.fbgm")]
         out: PathBuf,
+        /// Print a JSON summary (outputs, sizes, chosen hyper-parameters, CV RMSE) on stdout.
         #[arg(long)]
         json: bool,
     },
     /// Evaluate models on the hold-out of a CSV: Table 2 and Table 3 (and, for simulated data
     /// with a `.meta.json`, the per-sample oracle, drift sweep and error budget); writes metrics.json.
     Evaluate {
+        /// Dataset CSV whose hold-out rows are scored (its `.meta.json`, when present, adds the
+        /// per-sample oracle and the studies that re-simulate).
         #[arg(long)]
         data: PathBuf,
         /// Model-H blob.
@@ -103,6 +110,7 @@ enum Cmd {
         /// Skip the studies that retrain (Table 3, drift sweep, error budget).
         #[arg(long)]
         quick: bool,
+        /// Print metrics.json on stdout instead of the tables.
         #[arg(long)]
         json: bool,
     },
@@ -115,6 +123,8 @@ enum Cmd {
         /// when present).
         #[arg(long)]
         model: PathBuf,
+        /// Dataset CSV from the installation: its calibration rows are the batch, its hold-out
+        /// rows the check before and after.
         #[arg(long)]
         data: PathBuf,
         /// Use only the first H hours of the calibration rows as the batch.
@@ -133,37 +143,48 @@ enum Cmd {
     },
     /// Print a blob's header, dimensions, hyper-parameters and provenance.
     Inspect {
+        /// The `.fbgm` blob.
         model: PathBuf,
+        /// Print the header and the whole model as JSON on stdout.
         #[arg(long)]
         json: bool,
     },
     /// Write golden vectors (device inputs and f64 expected outputs) for the firmware tests.
     Golden {
+        /// Dataset CSV whose first hold-out samples become the vectors.
         #[arg(long)]
         data: PathBuf,
+        /// Model-H blob the expected outputs come from.
         #[arg(long, default_value = "model.fbgm")]
         model: PathBuf,
         /// Number of hold-out samples.
         #[arg(long, default_value_t = 1000)]
         samples: usize,
+        /// Output directory (created when missing): golden_inputs.bin, golden_expected.csv,
+        /// golden_meta.json.
         #[arg(long, default_value = "golden")]
         out: PathBuf,
     },
     /// Regenerate the audit report (figures, tables, coefficient tables, index.html) in DIR from
     /// the data.csv (+ data.meta.json), model.fbgm, model-p.fbgm and metrics.json there.
     Report {
+        /// The directory read and written (as `demo --out` left it).
         #[arg(long, default_value = "report")]
         out: PathBuf,
+        /// Print the files written, warnings and notes as JSON on stdout.
         #[arg(long)]
         json: bool,
     },
     /// Simulate the `paper` preset, train both models, evaluate, run every study and write the
     /// whole audit report into DIR.
     Demo {
+        /// Output directory (created when missing) for the data, models, tables, figures and
+        /// index.html.
         #[arg(long, default_value = "report")]
         out: PathBuf,
         #[command(flatten)]
         scenario: ScenarioArgs,
+        /// Print metrics.json on stdout instead of the tables and progress.
         #[arg(long)]
         json: bool,
     },
@@ -175,13 +196,15 @@ enum Cmd {
         format: String,
         /// The export (ENLIGHT peaks file or logger CSV).
         file: PathBuf,
-        /// Map (TOML): which column or peak is what, in which unit (see README-import.md).
+        /// Map (TOML): which column or peak is what, in which unit (README.md, "Real data:
+        /// import and field recalibration").
         #[arg(long)]
         map: Option<PathBuf>,
         /// ENLIGHT: CSV with time, ambient temperature and references, read with the map's
         /// column mapping and interpolated onto the peak times.
         #[arg(long)]
         refs: Option<PathBuf>,
+        /// Output dataset CSV (DESIGN §3 columns; directory created when missing).
         #[arg(long, default_value = "data.csv")]
         out: PathBuf,
         /// Rows up to this time calibrate: seconds from the first row, or a timestamp.
@@ -197,6 +220,8 @@ enum Cmd {
         /// skipped; above it the import fails with the counts by reason.
         #[arg(long, default_value_t = 100.0 * import::DEFAULT_MAX_SKIPPED)]
         max_skipped: f64,
+        /// Print the import summary (rows, skips by reason, gratings, references, split) as
+        /// JSON on stdout.
         #[arg(long)]
         json: bool,
     },
@@ -214,11 +239,13 @@ enum Cmd {
         /// The model the device runs (sent first with --update-first).
         #[arg(long)]
         model: PathBuf,
+        /// Dataset CSV whose hold-out samples are streamed.
         #[arg(long)]
         data: PathBuf,
         /// TCP port of the device's serial link.
         #[arg(long)]
         port: u16,
+        /// Host of the device's serial link.
         #[arg(long, default_value = "127.0.0.1")]
         host: String,
         /// Send the model to the device over the link before streaming.
@@ -230,6 +257,7 @@ enum Cmd {
         /// Seconds to wait for the connection and for each answer.
         #[arg(long, default_value_t = 15.0)]
         timeout: f64,
+        /// Print the comparison as JSON on stdout.
         #[arg(long)]
         json: bool,
     },

@@ -175,3 +175,32 @@ fn train_refuses_a_dataset_csv_cut_inside_its_last_row() {
     let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&nosplit).arg("--out").arg(d.path().join("m.fbgm")));
     assert!(!ok && err.contains("dl3_pm") && err.contains("truncated last row"), "{err}");
 }
+
+/// Issue 15 item 12: every `--data`, `--out`, `--json` (and every other option) of every
+/// subcommand has a description, and no help text names a file that does not exist.
+#[test]
+fn every_option_of_every_subcommand_is_described() {
+    let subcommands =
+        ["simulate", "train", "evaluate", "recalibrate", "inspect", "golden", "report", "demo", "import", "bench-fit", "fleet", "stream"];
+    for sub in subcommands {
+        // `--help` (long help) puts each description on the lines below its option.
+        let (ok, help, err) = run(bin().args([sub, "--help"]));
+        assert!(ok, "{sub}: {err}");
+        assert!(!help.contains("README-import.md"), "{sub} --help names README-import.md:\n{help}");
+        let lines: Vec<&str> = help.lines().collect();
+        for (i, l) in lines.iter().enumerate() {
+            let t = l.trim_start();
+            let is_option = (t.starts_with("--") || (t.starts_with('<') && l.starts_with("  "))) && !t.starts_with("--help");
+            if !is_option || t.starts_with("-h") {
+                continue;
+            }
+            // Short form: `--out <OUT>   Output …` on one line; long form: description below.
+            let head_end = t.find("  ").unwrap_or(t.len());
+            let inline = t[head_end..].trim();
+            let inline_doc = !inline.is_empty() && !inline.starts_with("[default") && !inline.starts_with("[possible");
+            let next = lines.get(i + 1).map(|n| n.trim()).unwrap_or("");
+            let below_doc = inline.is_empty() && !next.is_empty() && !next.starts_with('[') && !next.starts_with("--");
+            assert!(inline_doc || below_doc, "`fbg-trainer {sub}`: `{}` has no description:\n{help}", t[..head_end].trim());
+        }
+    }
+}

@@ -5,7 +5,8 @@
 //! `[temperature]`, `[strain]`, `[pressure]`, `delimiter`, `header_lines`. `[[grating]]` (three
 //! of them, for dl1..dl3) says where each grating's wavelength is: a `column` and `unit` for a
 //! CSV, a `channel` and `window_nm` for ENLIGHT. `[enlight]` holds the peaks file's own
-//! settings, `max_gap_s` the join of references onto peak times. See README-import.md.
+//! settings, `max_gap_s` the join of references onto peak times. See README.md, "Real data:
+//! import and field recalibration".
 
 use std::path::Path;
 
