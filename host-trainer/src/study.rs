@@ -211,7 +211,7 @@ pub fn ablation(d: &Dataset, trained: &Trained, opts: &TrainOptions, origin: &Or
         (
             "Hybrid, paper variant".into(),
             "z = [Δλ, T_amb, t] (paper Eq. 5), no memory terms".into(),
-            TrainOptions { feature_sets: vec![FeatureSet::Paper], memory: off.clone(), ..base.clone() },
+            TrainOptions { feature_sets: vec![FeatureSet::Paper], memory: off.clone(), centres: vec![8, 16, 32], ..base.clone() },
         ),
         (
             "Hybrid, latch variant".into(),
@@ -219,6 +219,7 @@ pub fn ablation(d: &Dataset, trained: &Trained, opts: &TrainOptions, origin: &Or
             TrainOptions {
                 feature_sets: vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime],
                 memory: off,
+                centres: vec![8, 16, 32],
                 ..base.clone()
             },
         ),
