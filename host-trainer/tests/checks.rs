@@ -204,3 +204,38 @@ fn every_option_of_every_subcommand_is_described() {
         }
     }
 }
+
+/// Issue 15 item 9: on recorded data with gaps, `evaluate` says how many hold-out samples it
+/// scored (not only how many there were), and nothing calls the record "seed 0".
+#[test]
+fn evaluate_on_recorded_data_with_gaps_labels_what_it_scored() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    // A recorded file: no .meta.json sidecar, and 30 hold-out rows with a gap in dl2_pm.
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut gaps = 0;
+    let rec: String = text
+        .lines()
+        .map(|l| {
+            if l.ends_with(",holdout") && gaps < 30 && l.len() % 3 == 0 {
+                gaps += 1;
+                let mut c: Vec<&str> = l.split(',').collect();
+                c[6] = "";
+                c.join(",") + "\n"
+            } else {
+                l.to_string() + "\n"
+            }
+        })
+        .collect();
+    assert_eq!(gaps, 30);
+    let site = d.path().join("site3.csv");
+    std::fs::write(&site, rec).unwrap();
+    let model = d.path().join("m.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&site).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    let (ok, out, err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(&site).arg("--model").arg(&model));
+    assert!(ok, "{err}");
+    let holdout = text.lines().filter(|l| l.ends_with(",holdout")).count();
+    assert!(out.contains(&format!("{holdout} hold-out samples, {} scored: 30 with gaps skipped", holdout - 30)), "{out}");
+    assert!(out.contains("recorded data") && !out.contains("seed 0"), "{out}");
+}

@@ -342,7 +342,11 @@ fn page(
     let d = &inp.data;
     let pr = &inp.model_h.provenance;
     let today = crate::fit::today_yyyymmdd();
-    let title = format!("FBG compensation audit report — scenario “{}”, seed {}", m.scenario, m.seed);
+    let title = if m.table2.oracle_floor.is_some() {
+        format!("FBG compensation audit report — scenario “{}”, seed {}", m.scenario, m.seed)
+    } else {
+        format!("FBG compensation audit report — “{}” (recorded data)", m.scenario)
+    };
     let header = format!(
         "<p>Model-P (polynomial core, paper Eq. 3) and Model-H (the same core plus an RBF residual, paper Eqs. 4–7) evaluated on the hold-out of {} samples. Report generated {} by fbg-trainer {} from the files in this directory; regenerate with <code>fbg-trainer report --out &lt;this directory&gt;</code>.</p>\n",
         count(m.holdout_samples),

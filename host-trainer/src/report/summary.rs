@@ -71,10 +71,9 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         verdict.push(format!("above it for {}", list(&above)));
     }
     out.push(format!(
-        "On the hold-out ({} samples of scenario “{}”, seed {}, never used in fitting), Model-H's RMSE is {} than Model-P's. The paper claims a reduction of {}–{} % on every channel (its Table 2 implies {}); this run is {}.",
-        count(m.holdout_samples),
-        m.scenario,
-        m.seed,
+        "On the hold-out ({}; {}, never used in fitting), Model-H's RMSE is {} than Model-P's. The paper claims a reduction of {}–{} % on every channel (its Table 2 implies {}); this run is {}.",
+        crate::tables::holdout_label(m),
+        if m.table2.oracle_floor.is_some() { format!("scenario “{}”, seed {}", m.scenario, m.seed) } else { crate::tables::origin_label(m) },
         list(&gains),
         num(lo, 0),
         num(hi, 0),
