@@ -337,6 +337,15 @@ fn run() -> Result<()> {
                     "CV RMSE Model-P: T {:.3} °C, ε {:.2} µε, p {:.2} kPa; Model-H: T {:.3}, ε {:.2}, p {:.2}",
                     s.cv_rmse_p[0], s.cv_rmse_p[1], s.cv_rmse_p[2], s.cv_rmse_h[0], s.cv_rmse_h[1], s.cv_rmse_h[2]
                 );
+                let worse: Vec<&str> =
+                    (0..3).filter(|&c| s.cv_rmse_h[c] > s.cv_rmse_p[c]).map(|c| fbg_trainer::evaluate::CHANNELS[c]).collect();
+                if !worse.is_empty() {
+                    eprintln!(
+                        "warning: in cross-validation Model-H is worse than Model-P on {}; check the hold-out with `evaluate` and consider Model-P for {}",
+                        worse.join(", "),
+                        if worse.len() == 1 { "that channel" } else { "those channels" }
+                    );
+                }
                 eprintln!("wrote {} ({nh} B), {} ({np} B), {}", out.display(), base.display(), coef.display());
             }
             Ok(())
@@ -454,6 +463,9 @@ fn write_metrics(path: &Path, m: &Metrics) -> Result<()> {
 
 fn print_tables(m: &Metrics) {
     println!("{}", tables::table2(m).text());
+    for l in tables::flag_lines(m) {
+        eprintln!("{l}");
+    }
     if let Some(a) = &m.ablation {
         println!("{}", tables::table3(a, m).text());
     }

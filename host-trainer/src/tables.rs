@@ -98,6 +98,37 @@ pub fn holdout_label(m: &Metrics) -> String {
     }
 }
 
+/// The flags raised on the hold-out, per flag, and what to do when Model-H is worse than
+/// Model-P on some channel (issue 15): lines for a terminal, the warnings starting "warning:".
+pub fn flag_lines(m: &Metrics) -> Vec<String> {
+    let t = &m.table2;
+    let n = t.model_h.channels.iter().map(|c| c.n).max().unwrap_or(0).max(1) as f64;
+    let pct = |k: usize| 100.0 * k as f64 / n;
+    let fc = t.model_h.flag_counts;
+    let mut out = vec![format!(
+        "Model-H flags on the hold-out: {:.1} % of samples flagged — {:.1} % non-finite, {:.1} % outside the calibration envelope, {:.1} % weak RBF support",
+        100.0 * t.model_h.flagged_fraction,
+        pct(fc[0]),
+        pct(fc[1]),
+        pct(fc[2])
+    )];
+    let worse: Vec<usize> = (0..3).filter(|&c| t.gain_pct[c] < 0.0).collect();
+    if !worse.is_empty() {
+        let which: Vec<String> = worse.iter().map(|&c| format!("{} ({:+.1} %)", CHANNELS[c], t.gain_pct[c])).collect();
+        let why = if pct(fc[1]) >= 10.0 {
+            format!(
+                "{:.0} % of the hold-out lies outside the calibration envelope, where the residual has no data: calibrate over the range the sensor will see, or use Model-P for {}",
+                pct(fc[1]),
+                worse.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>().join(", ")
+            )
+        } else {
+            format!("use Model-P for {}, or recalibrate on recent data", worse.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>().join(", "))
+        };
+        out.push(format!("warning: Model-H is worse than Model-P on {} of the hold-out; {why}", which.join(", ")));
+    }
+    out
+}
+
 pub fn table2(m: &Metrics) -> Table {
     let t = &m.table2;
     let mut rows = Vec::new();
