@@ -31,9 +31,35 @@ pub fn write_blob(path: &Path, p: &HostParams) -> Result<usize, TrainerError> {
 /// Read and fully validate a model blob into a host model (f64).
 pub fn read_blob(path: &Path) -> Result<HostParams, TrainerError> {
     let bytes = std::fs::read(path).map_err(|e| TrainerError::io(path, e))?;
-    let p32 = blob::decode::<HOST_CAP>(&bytes)
-        .map_err(|e| TrainerError::Model { path: path.display().to_string(), message: e.to_string() })?;
+    let p32 = blob::decode::<HOST_CAP>(&bytes).map_err(|e| TrainerError::Model {
+        path: path.display().to_string(),
+        message: blob_error_text(&bytes, &e),
+    })?;
     p32.convert().map_err(|e| TrainerError::Model { path: path.display().to_string(), message: e.to_string() })
+}
+
+/// The CRC-32/ISCSI over everything but the 4-byte trailer, and the trailer itself (`None`
+/// for input too short to hold a header and a trailer).
+pub fn blob_crc(bytes: &[u8]) -> Option<(u32, u32)> {
+    if bytes.len() < blob::HEADER_LEN + blob::CRC_LEN {
+        return None;
+    }
+    let (body, trailer) = bytes.split_at(bytes.len() - blob::CRC_LEN);
+    let stored = u32::from_le_bytes([trailer[0], trailer[1], trailer[2], trailer[3]]);
+    Some((crc::Crc::<u32>::new(&crc::CRC_32_ISCSI).checksum(body), stored))
+}
+
+/// A decode error as the user should read it: the decoder checks the format version first
+/// (it decides how the rest is read), so a flipped bit in the header reads as "format version
+/// 0"; when the CRC over the whole blob does not hold either, the blob is corrupt, and that is
+/// what is reported (issue 15).
+pub fn blob_error_text(bytes: &[u8], e: &fbg_shared::Error) -> String {
+    match (e, blob_crc(bytes)) {
+        (fbg_shared::Error::UnsupportedVersion { found, .. }, Some((computed, stored))) if computed != stored => format!(
+            "model blob corrupted: CRC-32 mismatch over the whole blob (stored {stored:08x}, computed {computed:08x}); its header reads format version {found}, which the corruption may have changed"
+        ),
+        _ => e.to_string(),
+    }
 }
 
 /// The audit view of one model.

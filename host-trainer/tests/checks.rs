@@ -275,3 +275,31 @@ fn evaluate_prints_flags_per_flag_and_warns_when_model_h_is_worse() {
     }
     assert!(warned > 0 && cv_warned > 0, "no seed exercised a warning ({warned} evaluate, {cv_warned} train)");
 }
+
+/// Issue 15 item 13: a flipped bit in the header's version field is corruption (the CRC over
+/// the whole blob fails), not a version mismatch; `inspect` shows the CRC and prints the f32
+/// values at f32 precision.
+#[test]
+fn a_flipped_header_bit_is_corruption_and_inspect_prints_f32_values_as_f32() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let model = d.path().join("m.fbgm");
+    assert!(run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&csv).arg("--out").arg(&model)).0);
+    let (ok, out, err) = run(bin().arg("inspect").arg(&model));
+    assert!(ok, "{err}");
+    assert!(out.contains("CRC-32 "), "{out}");
+    assert!(out.contains("envelope margin 0.1,"), "{out}");
+    // No f32 widened to f64 digits such as 0.10000000149011612.
+    let long_digits = out.split(|c: char| !(c.is_ascii_digit() || c == '.')).any(|w| w.split('.').nth(1).is_some_and(|f| f.len() > 9));
+    assert!(!long_digits, "{out}");
+    let mut b = std::fs::read(&model).unwrap();
+    b[4] ^= 0x02; // format version 2 -> 0
+    let flipped = d.path().join("flipped.fbgm");
+    std::fs::write(&flipped, &b).unwrap();
+    for cmd in [vec!["inspect"], vec!["evaluate", "--quick", "--data", csv.to_str().unwrap(), "--model"]] {
+        let (ok, _, err) = run(bin().args(&cmd).arg(&flipped));
+        assert!(!ok);
+        assert!(err.contains("flipped.fbgm") && err.contains("corrupt") && err.contains("CRC"), "{cmd:?}: {err}");
+        assert!(!err.contains("not readable by this build"), "{cmd:?}: {err}");
+    }
+}

@@ -76,7 +76,11 @@ fn inspect_rejects_a_corrupt_blob_by_name() {
 fn inspect_refuses_an_old_format_naming_both_versions() {
     let d = tempfile::tempdir().unwrap();
     let p = d.path().join("old.fbgm");
-    std::fs::write(&p, b"FBGM\x01\x00\x05\x00\x03\x00\x0a\x00\x02\x00junkjunk").unwrap();
+    // A genuine old blob has a valid CRC (a header with a bad CRC is reported as corruption).
+    let mut b = b"FBGM\x01\x00\x05\x00\x03\x00\x0a\x00\x02\x00junkjunk".to_vec();
+    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISCSI).checksum(&b);
+    b.extend_from_slice(&crc.to_le_bytes());
+    std::fs::write(&p, b).unwrap();
     let (ok, _, err) = run(bin().arg("inspect").arg(&p));
     assert!(!ok);
     assert!(err.contains("old.fbgm") && err.contains("version 1") && err.contains("version 2"), "{err}");
