@@ -303,3 +303,37 @@ fn a_flipped_header_bit_is_corruption_and_inspect_prints_f32_values_as_f32() {
         assert!(!err.contains("not readable by this build"), "{cmd:?}: {err}");
     }
 }
+
+/// Issue 15 item 15 (the summary part): the report judges coverage on the value it shows, so a
+/// coverage printed as 93.0 % is not called "too narrow" under its own 93–97 % rule (the demo's
+/// Model-P temperature band covers 92.98 %).
+#[test]
+fn the_summary_judges_coverage_as_shown() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("report");
+    let (ok, _, err) = run(bin().args(["demo", "--json", "--out"]).arg(&out));
+    assert!(ok, "{err}");
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let names = ["temperature", "strain", "pressure"];
+    let start = html.find("Counting 93–97 % as on target:").expect("coverage sentence");
+    let sentence = &html[start..start + html[start..].find('.').unwrap()];
+    for (model, key) in [("Model-P", "model_p"), ("Model-H", "model_h")] {
+        let clause = |what: &str| -> String {
+            let tag = format!("{model}'s bands are {what} for ");
+            match sentence.find(&tag) {
+                Some(i) => {
+                    let rest = &sentence[i + tag.len()..];
+                    rest[..rest.find("Model-").unwrap_or(rest.len())].to_string()
+                }
+                None => String::new(),
+            }
+        };
+        let (narrow, wide) = (clause("too narrow"), clause("wider than needed"));
+        for (c, name) in names.iter().enumerate() {
+            let shown = (1000.0 * m["table2"][key]["channels"][c]["coverage"].as_f64().unwrap()).round() / 10.0;
+            assert_eq!(narrow.contains(name), shown < 93.0, "{model} {name} shown as {shown:.1} %: {sentence}");
+            assert_eq!(wide.contains(name), shown > 97.0, "{model} {name} shown as {shown:.1} %: {sentence}");
+        }
+    }
+}

@@ -119,9 +119,12 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     let cov = |e: &crate::evaluate::ModelEval| -> Vec<String> { (0..3).map(|c| pct(100.0 * e.channels[c].coverage)).collect() };
     let (clo, chi) = COVERAGE_OK_PCT;
     let mut judge = Vec::new();
+    // Judged on the value as shown (one decimal), so a coverage printed as 93.0 % is never
+    // called too narrow under a 93–97 % rule.
+    let shown = |e: &crate::evaluate::ModelEval, c: usize| (1000.0 * e.channels[c].coverage).round() / 10.0;
     for (name, e) in [("Model-P", &t.model_p), ("Model-H", &t.model_h)] {
-        let under: Vec<String> = (0..3).filter(|&c| 100.0 * e.channels[c].coverage < clo).map(|c| NAMES[c].to_string()).collect();
-        let over: Vec<String> = (0..3).filter(|&c| 100.0 * e.channels[c].coverage > chi).map(|c| NAMES[c].to_string()).collect();
+        let under: Vec<String> = (0..3).filter(|&c| shown(e, c) < clo).map(|c| NAMES[c].to_string()).collect();
+        let over: Vec<String> = (0..3).filter(|&c| shown(e, c) > chi).map(|c| NAMES[c].to_string()).collect();
         if !under.is_empty() {
             judge.push(format!("{name}'s bands are too narrow for {}", list(&under)));
         }
