@@ -15,6 +15,9 @@ use fbg_shared::Sample;
 use crate::error::TrainerError;
 use crate::import::mapping::{absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, WlUnit};
 
+/// The import map keys of the three gratings' units (named in unit-check messages).
+const UNIT_KEYS: [&str; 3] = ["grating[1].unit", "grating[2].unit", "grating[3].unit"];
+
 /// Appended to a unit-check message on a dataset CSV: the check and its words are `import`'s.
 const REIMPORT: &str = " (the unit check of `fbg-trainer import`: convert the column, or re-import the export with that map key)";
 
@@ -257,7 +260,7 @@ impl Dataset {
             for g in 0..3 {
                 let v = num(5 + g, true)?;
                 if v.is_finite() {
-                    check_wavelength(WlUnit::ShiftPm, v, &format!("grating[{}].unit", g + 1))
+                    check_wavelength(WlUnit::ShiftPm, v, UNIT_KEYS[g])
                         .map_err(|m| TrainerError::data(&name, line, COLUMNS[5 + g], format!("{m}{REIMPORT}")))?;
                 }
                 d.dl_pm[g].push(v);
@@ -288,7 +291,7 @@ impl Dataset {
                     &name,
                     first_line,
                     COLUMNS[5 + g],
-                    format!("{}{REIMPORT}", absolute_nm_column_message(&d.dl_pm[g], &format!("grating[{}].unit", g + 1))),
+                    format!("{}{REIMPORT}", absolute_nm_column_message(&d.dl_pm[g], UNIT_KEYS[g])),
                 ));
             }
         }
