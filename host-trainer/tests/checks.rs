@@ -337,3 +337,17 @@ fn the_summary_judges_coverage_as_shown() {
         }
     }
 }
+
+/// Issue 15 item 8 (in part): `report` names every missing input at once.
+#[test]
+fn report_names_every_missing_input_at_once() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    assert!(csv.ends_with("data.csv"));
+    let (ok, _, err) = run(bin().args(["report", "--out"]).arg(d.path()));
+    assert!(!ok);
+    for f in ["model.fbgm", "model-p.fbgm", "metrics.json"] {
+        assert!(err.contains(f), "{f} not named: {err}");
+    }
+    assert!(!err.contains("missing data.csv"), "{err}");
+}

@@ -61,6 +61,15 @@ pub struct Inputs {
 impl Inputs {
     /// Read the inputs from `dir` (`data.meta.json` is optional).
     pub fn read_dir(dir: &Path) -> Result<Self, TrainerError> {
+        // Every missing input at once, not one per run (issue 15).
+        let missing: Vec<&str> = [DATA_CSV, MODEL_H, MODEL_P, METRICS_JSON].into_iter().filter(|f| !dir.join(f).exists()).collect();
+        if !missing.is_empty() {
+            let msg = format!(
+                "missing {} (`demo --out DIR` writes them all; or simulate, train and evaluate into DIR with these names)",
+                missing.join(", ")
+            );
+            return Err(TrainerError::io(dir, std::io::Error::new(std::io::ErrorKind::NotFound, msg)));
+        }
         let csv = dir.join(DATA_CSV);
         Ok(Inputs {
             data: Dataset::read_csv(&csv)?,
