@@ -673,10 +673,13 @@ fn demo(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
             eprintln!("[{:5.1} s] {s}", t0.elapsed().as_secs_f64());
         }
     };
-    let s = sim::simulate(&cfg, scenario.seed);
+    let mut s = sim::simulate(&cfg, scenario.seed);
     let data = out.join("data.csv");
     s.data.write_csv(&data)?;
     SimMeta::of(&s).write(&data)?;
+    // Fit and score the record as written (6 decimals), so `train --data DIR/data.csv` rebuilds
+    // DIR/model.fbgm byte for byte (issue 15).
+    s.data = Dataset::read_csv(&data)?;
     log(&format!("simulated {} samples of scenario `{}` (seed {}) into {}", s.data.len(), cfg.name, s.seed, data.display()));
     let opts = TrainOptions { progress: !json, ..TrainOptions::default() };
     let (tr, m) = study::run_all(&s, &opts, Studies::ALL, &log)?;

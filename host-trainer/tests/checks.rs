@@ -351,3 +351,22 @@ fn report_names_every_missing_input_at_once() {
     }
     assert!(!err.contains("missing data.csv"), "{err}");
 }
+
+/// Issue 15 item 14: the demo's model is rebuilt byte for byte by `train` from the demo's own
+/// CSV (same data, same options ⇒ same bytes, whichever command trained it).
+#[test]
+fn train_on_the_demo_csv_rebuilds_the_demo_model() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("report");
+    let (ok, _, err) = run(bin().args(["demo", "--json", "--out"]).arg(&out));
+    assert!(ok, "{err}");
+    std::fs::create_dir(d.path().join("again")).unwrap();
+    let again = d.path().join("again").join("model.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--data"]).arg(out.join("data.csv")).arg("--out").arg(&again));
+    assert!(ok, "{err}");
+    for (a, b) in [("model.fbgm", "model.fbgm"), ("model-p.fbgm", "model-p.fbgm")] {
+        let (x, y) = (std::fs::read(out.join(a)).unwrap(), std::fs::read(again.with_file_name(b)).unwrap());
+        let diff = x.iter().zip(&y).filter(|(p, q)| p != q).count() + x.len().abs_diff(y.len());
+        assert_eq!(diff, 0, "{a}: {diff} bytes differ");
+    }
+}
