@@ -191,7 +191,8 @@ pub struct Selection {
     /// Every memory menu point evaluated, per output, with its pooled validation RMSE.
     pub memory_rows: Vec<MemoryCvRow>,
     pub rows: Vec<CvRow>,
-    /// Pooled validation RMSE of Model-P and of the chosen Model-H.
+    /// Pooled validation RMSE of Model-P and of the chosen Model-H (with memory terms: over the
+    /// folds that scored them).
     pub cv_rmse_p: [f64; N_OUTPUTS],
     pub cv_rmse_h: [f64; N_OUTPUTS],
     /// Band variance model s²(τ) = a + b·τ per output (a in unit², b in unit²/s), Model-P and
@@ -456,6 +457,17 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         let sq: Vec<f64> = keep.iter().map(|&r| sqe_h[c][r]).collect();
         VarModel::fit(&lead_h, &sq, &fold_h)
     });
+    // The reported validation RMSE of both models (what `train` prints and warns on) comes
+    // from the same folds, so that it describes a model fitted on most of the batch.
+    let (cv_rmse_p, cv_rmse_h) = if band_from > 0 {
+        let n: usize = fs.iter().skip(band_from).map(|f| f.val.len()).sum();
+        let p: [f64; N_OUTPUTS] =
+            std::array::from_fn(|c| (sq_p.iter().skip(band_from).map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n.max(1) as f64).sqrt());
+        let h: [f64; N_OUTPUTS] = std::array::from_fn(|c| (keep.iter().map(|&r| sqe_h[c][r]).sum::<f64>() / n.max(1) as f64).sqrt());
+        (p, h)
+    } else {
+        (cv_rmse_p, cv_rmse_h)
+    };
     Ok(Selection {
         chosen,
         memory,
