@@ -782,6 +782,7 @@ fn stream_cmd(
         update_first,
         max_samples,
         timeout: std::time::Duration::from_secs_f64(timeout),
+        progress: !json,
     };
     let r = fbg_trainer::stream::run(&opts)?;
     if json {

@@ -45,6 +45,8 @@ pub struct StreamOptions {
     pub update_first: bool,
     /// Stream at most this many hold-out samples (all when `None`).
     pub max_samples: Option<usize>,
+    /// A progress bar on stderr (shown on a terminal only).
+    pub progress: bool,
     /// How long to wait for the device to accept the connection and for each answer.
     pub timeout: Duration,
 }
@@ -247,7 +249,9 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
         first_mismatches: Vec::new(),
         seconds: 0.0,
     };
+    let bar = crate::fit::select::progress_bar(opts.progress, idx.len() as u64, "stream").with_finish(indicatif::ProgressFinish::AndClear);
     for (n, &i) in idx.iter().enumerate() {
+        bar.inc(1);
         let x = as_device_input(&data.sample(i));
         let seq = n as u32;
         let got = link.compensate(seq, &x).map_err(|e| link_err(&format!("sample {n} (data row {})", i + 2), e))?;
@@ -277,6 +281,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
             }
         }
     }
+    bar.finish_and_clear();
     report.seconds = t0.elapsed().as_secs_f64();
     report.max_diff_over_rmse = std::array::from_fn(|c| report.max_abs_diff[c] / holdout_rmse[c]);
     if link.malformed_from_device() != 0 {

@@ -444,9 +444,21 @@ pub fn evaluate_models(
     log: &dyn Fn(&str),
 ) -> Result<Metrics, TrainerError> {
     let mut timings = Vec::new();
+    // One step per phase (on a terminal only); the phases that retrain draw their own
+    // cross-validation bars, so this one is suspended while they run.
+    let with_meta = meta.is_some();
+    let steps = 1
+        + usize::from(studies.ablation)
+        + usize::from(with_meta && studies.drift_sweep)
+        + usize::from(with_meta && studies.error_budget)
+        + usize::from(studies.parity);
+    let bar = fit::select::progress_bar(progress, steps as u64, "evaluate").with_finish(indicatif::ProgressFinish::AndClear);
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    bar.set_message("hold-out (Table 2)");
     let t = Instant::now();
     let oracle = meta.map(|m| m.oracle_floor_holdout);
     let t2 = table2(p, h, d, oracle)?;
+    bar.inc(1);
     timings.push(("evaluate".to_string(), t.elapsed().as_secs_f64()));
     let chosen = config_of(h);
     let opts = TrainOptions { progress, seed: 1, ..TrainOptions::default() };
@@ -476,9 +488,11 @@ pub fn evaluate_models(
             },
             phase_seconds: vec![],
         };
-        let r = ablation(d, &trained, &opts, &origin)?;
+        bar.set_message("ablation");
+        let r = bar.suspend(|| ablation(d, &trained, &opts, &origin))?;
+        bar.inc(1);
         timings.push(("ablation".to_string(), t.elapsed().as_secs_f64()));
-        log(&format!("ablation in {:.1} s", t.elapsed().as_secs_f64()));
+        bar.suspend(|| log(&format!("ablation in {:.1} s", t.elapsed().as_secs_f64())));
         Some(r)
     } else {
         None
@@ -486,15 +500,31 @@ pub fn evaluate_models(
     let (drift, budget) = match (meta, studies.drift_sweep || studies.error_budget) {
         (Some(m), true) => {
             let t = Instant::now();
-            let ds = if studies.drift_sweep { Some(drift_sweep(&m.scenario, m.seed, &chosen, &opts)?) } else { None };
-            let eb = if studies.error_budget { Some(error_budget(&m.scenario, m.seed, &chosen, &opts)?) } else { None };
+            bar.set_message("drift sweep");
+            let ds = if studies.drift_sweep {
+                let r = bar.suspend(|| drift_sweep(&m.scenario, m.seed, &chosen, &opts))?;
+                bar.inc(1);
+                Some(r)
+            } else {
+                None
+            };
+            bar.set_message("error budget");
+            let eb = if studies.error_budget {
+                let r = bar.suspend(|| error_budget(&m.scenario, m.seed, &chosen, &opts))?;
+                bar.inc(1);
+                Some(r)
+            } else {
+                None
+            };
             timings.push(("drift_sweep+error_budget".to_string(), t.elapsed().as_secs_f64()));
-            log(&format!("drift sweep and error budget in {:.1} s", t.elapsed().as_secs_f64()));
+            bar.suspend(|| log(&format!("drift sweep and error budget in {:.1} s", t.elapsed().as_secs_f64())));
             (ds, eb)
         }
         _ => (None, None),
     };
+    bar.set_message("parity");
     let parity = if studies.parity { Some(crate::parity::check(h, d, &t2.model_h)?) } else { None };
+    bar.finish_and_clear();
     Ok(Metrics {
         trainer_version: env!("CARGO_PKG_VERSION").to_string(),
         scenario: origin.scenario.clone(),

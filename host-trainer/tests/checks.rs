@@ -372,3 +372,40 @@ fn train_on_the_demo_csv_rebuilds_the_demo_model() {
         assert_eq!(diff, 0, "{a}: {diff} bytes differ");
     }
 }
+
+/// Runs `args` of the built binary on a pseudo-terminal (util-linux `script`), returning what
+/// the terminal showed; `None` where `script` is not installed.
+fn on_a_terminal(args: &[&std::ffi::OsStr]) -> Option<String> {
+    let mut line = String::new();
+    for a in std::iter::once(std::ffi::OsStr::new(env!("CARGO_BIN_EXE_fbg-trainer"))).chain(args.iter().copied()) {
+        line.push_str(&format!("'{}' ", a.to_str().unwrap().replace('\'', "'\\''")));
+    }
+    let o = Command::new("script").args(["-qec", &line, "/dev/null"]).env("COLUMNS", "100").output().ok()?;
+    Some(String::from_utf8_lossy(&o.stdout).into_owned())
+}
+
+#[test]
+fn evaluate_shows_a_progress_bar_on_a_terminal_only() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let model = d.path().join("m.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&csv).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    // Captured (not a terminal): no bar, no escape codes, the usual lines.
+    let (ok, _, err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(&csv).arg("--model").arg(&model));
+    assert!(ok, "{err}");
+    assert!(!err.contains('\u{1b}') && !err.contains("hold-out (Table 2)"), "{err:?}");
+    assert!(err.contains("wrote "), "{err}");
+    // On a terminal: the bar is drawn (and cleared).
+    let args = [
+        "evaluate".as_ref(),
+        "--quick".as_ref(),
+        "--data".as_ref(),
+        csv.as_os_str(),
+        "--model".as_ref(),
+        model.as_os_str(),
+    ];
+    if let Some(tty) = on_a_terminal(&args) {
+        assert!(tty.contains("hold-out (Table 2)") && tty.contains('\u{1b}'), "{tty:?}");
+    }
+}
