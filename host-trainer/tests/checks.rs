@@ -409,3 +409,64 @@ fn evaluate_shows_a_progress_bar_on_a_terminal_only() {
         assert!(tty.contains("hold-out (Table 2)") && tty.contains('\u{1b}'), "{tty:?}");
     }
 }
+
+/// The `points` of every `<polyline>` of `svg` drawn in `stroke` at `width`.
+fn polylines(svg: &str, stroke: &str, width: u32) -> Vec<Vec<(i64, i64)>> {
+    let tag = format!("stroke=\"{stroke}\" stroke-width=\"{width}\" points=\"");
+    svg.lines()
+        .filter(|l| l.starts_with("<polyline") && l.contains(&tag))
+        .map(|l| {
+            let p = &l[l.find(&tag).unwrap() + tag.len()..];
+            p[..p.find('"').unwrap()]
+                .split_whitespace()
+                .map(|xy| {
+                    let (x, y) = xy.split_once(',').unwrap();
+                    (x.parse().unwrap(), y.parse().unwrap())
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Issue 15 item 15 (figures): dashed lines are dashed in the legends of Figs. 6 and 8; the
+/// bands of Figs. 3–5 are hatched (no blended fill where they overlap) and the zoom window is
+/// tinted, not grey; Fig. 2a zooms so the measured and true traces can be told apart.
+#[test]
+fn figure_legends_bands_and_zoom_windows_show_what_is_drawn() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("report");
+    let (ok, _, err) = run(bin().args(["demo", "--json", "--out"]).arg(&out));
+    assert!(ok, "{err}");
+    let svg = |stem: &str| std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap();
+    // Legend strokes are 3 px wide (data lines of these figures are 1-2 px): a dashed entry is
+    // several short horizontal dashes on one row, a solid one a single 24 px stroke.
+    let dashes = |s: &str, stroke: &str| {
+        let short: Vec<i64> = polylines(s, stroke, 3)
+            .into_iter()
+            .filter(|p| p.len() == 2 && p[0].1 == p[1].1 && (p[1].0 - p[0].0).abs() < 12)
+            .map(|p| p[0].1)
+            .collect();
+        short.iter().map(|y| short.iter().filter(|v| *v == y).count()).max().unwrap_or(0)
+    };
+    let f8 = svg("fig8_drift_sensitivity");
+    assert!(f8.contains("Model-P fit: slope"));
+    assert!(dashes(&f8, "#D55E00") >= 3 && dashes(&f8, "#0072B2") >= 3, "Fig. 8: the fit lines' legend entries are not dashed");
+    let f6 = svg("fig6_parity");
+    assert!(f6.contains("ideal (estimate = truth)"));
+    assert!(dashes(&f6, "#141414") >= 3, "Fig. 6: the ideal line's legend entry is not dashed");
+    for stem in ["fig3_temperature", "fig4_strain", "fig5_pressure"] {
+        let s = svg(stem);
+        let filled_band = s.lines().any(|l| l.starts_with("<polygon") && (l.contains("#D55E00") || l.contains("#0072B2")));
+        assert!(!filled_band, "{stem}: a band is a blended fill");
+        assert!(s.contains("95 % band (hatched)"), "{stem}: the legend does not say how bands are drawn");
+        assert!(s.contains("fill=\"#F0E442\""), "{stem}: no tinted zoom window");
+        assert!(!s.contains("opacity=\"0.12\" fill=\"#000000\""), "{stem}: the zoom window is grey");
+    }
+    let f2 = svg("fig2_wavelength_fbg1");
+    assert!(f2.contains("measured and true, zoomed on t ="), "Fig. 2a does not zoom");
+    assert!(f2.contains("fill=\"#F0E442\"") && !f2.contains("opacity=\"0.18\" fill=\"#000000\""));
+    for stem in ["fig2_wavelength_fbg1", "fig3_temperature", "fig4_strain", "fig5_pressure", "fig6_parity", "fig8_drift_sensitivity"] {
+        let png = std::fs::read(out.join(format!("{stem}.png"))).unwrap();
+        assert!(png.len() > 10_000 && png.starts_with(b"\x89PNG\r\n\x1a\n"), "{stem}.png");
+    }
+}

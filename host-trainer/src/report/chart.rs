@@ -19,6 +19,8 @@ pub const C_H: RGBColor = RGBColor(0, 114, 178);
 pub const C_MEAS: RGBColor = RGBColor(230, 159, 0);
 pub const C_AUX: RGBColor = RGBColor(0, 158, 115);
 pub const C_GREY: RGBColor = RGBColor(110, 110, 110);
+/// The tint of a zoom window (Okabe–Ito yellow), distinct from the grey of the hold-out shade.
+pub const C_ZOOM: RGBColor = RGBColor(240, 228, 66);
 
 /// Where a panel's legend goes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,6 +63,11 @@ pub struct Band {
     pub color: RGBColor,
     pub alpha: f64,
     pub poly: Vec<(f64, f64)>,
+    /// Drawn as vertical hatch lines at every `period`-th point of the upper edge, starting at
+    /// `offset`, instead of a fill: two bands hatched with different offsets interleave where
+    /// they overlap, so no blended colour appears that the legend does not show. Only for
+    /// bands built by [`Band::between`].
+    pub hatch: Option<(usize, usize)>,
 }
 
 impl Band {
@@ -68,11 +75,21 @@ impl Band {
     pub fn between(color: RGBColor, alpha: f64, x: &[f64], lo: &[f64], hi: &[f64]) -> Self {
         let mut poly: Vec<(f64, f64)> = x.iter().copied().zip(hi.iter().copied()).collect();
         poly.extend(x.iter().copied().zip(lo.iter().copied()).rev());
-        Band { label: None, color, alpha, poly }
+        Band { label: None, color, alpha, poly, hatch: None }
     }
     pub fn label(mut self, s: impl Into<String>) -> Self {
         self.label = Some(s.into());
         self
+    }
+    /// Hatch instead of fill (see [`Band::hatch`]).
+    pub fn hatched(mut self, period: usize, offset: usize) -> Self {
+        self.hatch = Some((period.max(1), offset));
+        self
+    }
+    /// The hatch segments: (x, hi) to (x, lo) at every `period`-th x from `offset`.
+    fn hatch_segments(&self, period: usize, offset: usize) -> Vec<[(f64, f64); 2]> {
+        let n = self.poly.len() / 2;
+        (offset..n).step_by(period).map(|i| [self.poly[i], self.poly[2 * n - 1 - i]]).collect()
     }
 }
 
@@ -113,6 +130,8 @@ pub struct Panel {
     pub legend_room: f64,
     /// Shaded x intervals (e.g. the hold-out) with their grey level (alpha of black).
     pub shade: Vec<(f64, f64, f64)>,
+    /// Zoom windows shown elsewhere in the figure, tinted [`C_ZOOM`] (not grey).
+    pub zoom: Vec<(f64, f64)>,
     /// Vertical dashed lines.
     pub vlines: Vec<f64>,
     pub bands: Vec<Band>,
@@ -134,6 +153,7 @@ impl Panel {
             y_pad: 0.05,
             legend_room: 0.0,
             shade: vec![],
+            zoom: vec![],
             vlines: vec![],
             bands: vec![],
             lines: vec![],
@@ -261,8 +281,32 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, segm
             .draw_series(std::iter::once(Rectangle::new([(a, y0), (b, y1)], BLACK.mix(g).filled())))
             .map_err(pe)?;
     }
+    for &(a, b) in &p.zoom {
+        chart
+            .draw_series(std::iter::once(Rectangle::new([(a, y0), (b, y1)], C_ZOOM.mix(0.35).filled())))
+            .map_err(pe)?;
+    }
     let mut labelled = false;
     for b in &p.bands {
+        if let Some((period, offset)) = b.hatch {
+            let st = b.color.mix(b.alpha).stroke_width(1);
+            let anno = chart
+                .draw_series(b.hatch_segments(period, offset).into_iter().map(|s| PathElement::new(s.to_vec(), st)))
+                .map_err(pe)?;
+            if let Some(l) = &b.label {
+                labelled = true;
+                // The swatch is hatched the same way: vertical strokes of the band's colour.
+                anno.label(l.clone()).legend(move |(x, y)| {
+                    EmptyElement::at((x, y))
+                        + PathElement::new(vec![(0, -6), (0, 6)], st)
+                        + PathElement::new(vec![(6, -6), (6, 6)], st)
+                        + PathElement::new(vec![(12, -6), (12, 6)], st)
+                        + PathElement::new(vec![(18, -6), (18, 6)], st)
+                        + PathElement::new(vec![(24, -6), (24, 6)], st)
+                });
+            }
+            continue;
+        }
         let st = b.color.mix(b.alpha).filled();
         let anno = chart.draw_series(std::iter::once(Polygon::new(b.poly.clone(), st))).map_err(pe)?;
         if let Some(l) = &b.label {
@@ -284,7 +328,17 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, segm
             labelled = true;
             let lw = st.stroke_width.max(3);
             let c = l.color;
-            anno.label(lab.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(lw)));
+            if l.dashed {
+                // Dashed in the legend too: three dashes with two gaps.
+                anno.label(lab.clone()).legend(move |(x, y)| {
+                    EmptyElement::at((x, y))
+                        + PathElement::new(vec![(0, 0), (6, 0)], c.stroke_width(lw))
+                        + PathElement::new(vec![(10, 0), (15, 0)], c.stroke_width(lw))
+                        + PathElement::new(vec![(19, 0), (24, 0)], c.stroke_width(lw))
+                });
+            } else {
+                anno.label(lab.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(lw)));
+            }
         }
     }
     for d in &p.dots {

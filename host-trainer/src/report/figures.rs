@@ -226,11 +226,26 @@ pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
     let meas = &d.dl_pm[g];
     let dev: Vec<f64> = meas.iter().zip(truth).map(|(m, t)| m - t).collect();
 
-    let mut a = Panel::new(format!("(a) FBG{} wavelength shift: measured and true", g + 1), c.time.label(), "Δλ [pm]");
-    a.xr = Some((x0, x1));
-    mark_split(&mut a, &spans, x0, x1);
-    a.lines.push(Line::new(C_MEAS, 1, pts(&minmax_columns(&t, meas, COLUMNS))).label("measured Δλ (interrogator)"));
-    a.lines.push(Line::new(C_TRUTH, 1, pts(&minmax_columns(&t, truth, COLUMNS))).label("true Δλ (physics only)"));
+    // Zoom: about 12 turning points of the true shift, where they are densest. Over the whole
+    // record the measured and true traces lie on top of each other (the artefacts are a few pm
+    // on a range of hundreds), so (a) shows this window and (b) the difference everywhere.
+    let db = crate::evaluate::HYSTERESIS_INDEX_DEAD_BAND_PM;
+    let tp = turning_points(truth, db);
+    let len = window_len_for(&tp, d.len(), 12, 50.min(d.len()));
+    let mut w = vec![0.0; d.len()];
+    for &i in &tp {
+        w[i] = 1.0;
+    }
+    let (wa, wb) = best_window(&w, len);
+
+    let mut a = Panel::new(
+        format!("(a) FBG{} wavelength shift, measured and true, zoomed on t = {}–{} {}", g + 1, num(t[wa], 2), num(t[wb - 1], 2), c.time.name),
+        c.time.label(),
+        "Δλ [pm]",
+    );
+    a.xr = Some((t[wa], t[wb - 1]));
+    a.lines.push(Line::new(C_MEAS, 2, pts(&minmax_columns(&t[wa..wb], &meas[wa..wb], COLUMNS))).label("measured Δλ (interrogator)"));
+    a.lines.push(Line::new(C_TRUTH, 1, pts(&minmax_columns(&t[wa..wb], &truth[wa..wb], COLUMNS))).label("true Δλ (physics only)"));
     a.legend = Legend::UpperRight;
     a.legend_room = 0.3;
 
@@ -243,15 +258,6 @@ pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
     b.legend = Legend::UpperRight;
     b.legend_room = 0.3;
 
-    // Zoom: about 12 turning points of the true shift, where they are densest.
-    let db = crate::evaluate::HYSTERESIS_INDEX_DEAD_BAND_PM;
-    let tp = turning_points(truth, db);
-    let len = window_len_for(&tp, d.len(), 12, 50.min(d.len()));
-    let mut w = vec![0.0; d.len()];
-    for &i in &tp {
-        w[i] = 1.0;
-    }
-    let (wa, wb) = best_window(&w, len);
     let idx: Vec<usize> = stride_indices(wb - wa, MAX_PATH_POINTS).into_iter().map(|k| wa + k).collect();
     let strided = idx.len() < wb - wa;
     let mut cpan = Panel::new(
@@ -267,9 +273,9 @@ pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
     cpan.legend = Legend::UpperRight;
     cpan.legend_room = 0.3;
     let tp_in = tp.iter().filter(|&&i| i >= wa && i < wb).count();
-    // Shade the zoom window in (b).
-    b.shade.push((t[wa], t[wb - 1], 0.18));
-    b.note("(c)", (((t[wa] - x0) / (x1 - x0).max(1e-12)).clamp(0.0, 0.95), 0.12));
+    // Tint the zoom window in (b).
+    b.zoom.push((t[wa], t[wb - 1]));
+    b.note("(a), (c)", (((t[wa] - x0) / (x1 - x0).max(1e-12)).clamp(0.0, 0.95), 0.12));
 
     let rms = |v: &[f64]| crate::metrics::rms(v.iter().copied());
     let e = &s.effects;
@@ -277,7 +283,7 @@ pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
         stem: "fig2_wavelength_fbg1",
         title: format!("Fig. 2 — FBG{}: measured vs true wavelength shift", g + 1),
         caption: format!(
-            "Grating FBG{} (the strain grating). (a) The interrogator's reading against the true physical shift, re-simulated from data.meta.json (the CSV holds only the measured shift). (b) Their difference: drift (random walk, Eq. 8) and electronics drift wander slowly; hysteresis, scan nonlinearity and noise ride on top. RMS over the record [pm]: hysteresis {}, scan {}, drift {}, electronics {}, noise {}. (c) The same difference against the true shift in the shaded window of (b) (chosen as the window of about 12 turning points where they are densest: {} turning points with a {} pm dead band, {} samples): the loops that open at each reversal are the hysteresis the models must undo.{}{}",
+            "Grating FBG{} (the strain grating). (a) The interrogator's reading against the true physical shift, re-simulated from data.meta.json (the CSV holds only the measured shift), in the window tinted yellow in (b): over the whole record the two traces would lie on top of each other. (b) Their difference: drift (random walk, Eq. 8) and electronics drift wander slowly; hysteresis, scan nonlinearity and noise ride on top. RMS over the record [pm]: hysteresis {}, scan {}, drift {}, electronics {}, noise {}. (c) The same difference against the true shift in the tinted window of (b) (chosen as the window of about 12 turning points where they are densest: {} turning points with a {} pm dead band, {} samples): the loops that open at each reversal are the hysteresis the models must undo.{}{}",
             g + 1,
             num(rms(&e.hysteresis[g]), 2),
             num(rms(&e.scan[g]), 2),
@@ -334,11 +340,15 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     let weight: Vec<f64> = ep.iter().zip(&eh).map(|(a, b)| a.abs() + b.abs()).collect();
     let (wa, wb) = best_window(&weight, len);
 
+    // Bands are hatched, not filled: Model-P's strokes and Model-H's interleave (half a period
+    // apart) where the bands overlap, so no blended colour appears that the legend lacks.
     let band = |xs: &[f64], v: &[f64], b: &[f64], color, label: &str| {
         let lo: Vec<f64> = v.iter().zip(b).map(|(a, b)| a - b).collect();
         let hi: Vec<f64> = v.iter().zip(b).map(|(a, b)| a + b).collect();
         let (ex, el, eu) = envelope_columns(xs, &lo, &hi, COLUMNS);
-        Band::between(color, 0.16, &ex, &el, &eu).label(label)
+        let period = (ex.len() * 8 / COLUMNS).max(2);
+        let offset = if color == C_H { period / 2 } else { 0 };
+        Band::between(color, 0.45, &ex, &el, &eu).hatched(period, offset).label(format!("{label} (hatched)"))
     };
     let series = |xs: &[f64], v: &[f64]| pts(&minmax_columns(xs, v, COLUMNS));
 
@@ -371,7 +381,7 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     b.lines.push(Line::new(C_H, 1, series(&x, &vh)).label("Model-H"));
     b.lines.push(Line::new(C_TRUTH, 1, series(&x, &truth)).label("truth"));
     if !whole {
-        b.shade.push((x[wa], x[wb - 1], 0.12));
+        b.zoom.push((x[wa], x[wb - 1]));
     }
     b.legend = Legend::None;
 
@@ -401,7 +411,7 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
         stem: stems[ch],
         title: format!("Fig. {fig_no} — {} on the hold-out", LONG_NAMES[ch]),
         caption: format!(
-            "Hold-out {} ({} samples, never seen in fitting): the reference, Model-P (polynomial only) and Model-H (polynomial + RBF residual), each with its 95 % band. (a) The window of about 6 turning points of the truth (dead band {} {unit}) where the two models' summed |error| is largest ({} samples), shaded in (b). (c) The errors against ± the band half-widths; the band should hold the truth about 95 % of the time. Metrics from metrics.json: RMSE {} → {} {unit}, MAE {} → {} {unit}, hysteresis index {} → {} {unit} (Model-P → Model-H). Samples flagged by Model-H: {}{}.{}{}",
+            "Hold-out {} ({} samples, never seen in fitting): the reference, Model-P (polynomial only) and Model-H (polynomial + RBF residual), each with its 95 % band. (a) The window of about 6 turning points of the truth (dead band {} {unit}) where the two models' summed |error| is largest ({} samples), shaded yellow in (b). Bands are hatched in the model's colour (vertical strokes), so where they overlap the strokes of both interleave. (c) The errors against ± the band half-widths; the band should hold the truth about 95 % of the time. Metrics from metrics.json: RMSE {} → {} {unit}, MAE {} → {} {unit}, hysteresis index {} → {} {unit} (Model-P → Model-H). Samples flagged by Model-H: {}{}.{}{}",
             LONG_NAMES[ch].to_lowercase(),
             count(n),
             num(db, dg),
@@ -516,7 +526,7 @@ pub fn fig7_errors(c: &Ctx) -> FigSpec {
             step.push((hi, 0.0));
             let mut poly = step.clone();
             poly.push((lo, 0.0));
-            p.bands.push(Band { label: None, color, alpha: 0.18, poly });
+            p.bands.push(Band { label: None, color, alpha: 0.18, poly, hatch: None });
             let cm = &me.channels[ch];
             p.lines.push(Line::new(color, 2, step).label(format!("{name}: bias {} {unit}, RMSE {} {unit}", num(cm.bias, dg), num(cm.rmse, dg))));
         }
