@@ -166,11 +166,24 @@ enum Cmd {
         out: PathBuf,
     },
     /// Regenerate the audit report (figures, tables, coefficient tables, index.html) in DIR from
-    /// the data.csv (+ data.meta.json), model.fbgm, model-p.fbgm and metrics.json there.
+    /// the data.csv (+ data.meta.json), model.fbgm, model-p.fbgm and metrics.json there, or from
+    /// the files named by --data, --model, --model-p and --metrics.
     Report {
         /// The directory read and written (as `demo --out` left it).
         #[arg(long, default_value = "report")]
         out: PathBuf,
+        /// The dataset CSV (its .meta.json is read beside it when present) [default: DIR/data.csv].
+        #[arg(long)]
+        data: Option<PathBuf>,
+        /// Model-H blob [default: DIR/model.fbgm].
+        #[arg(long)]
+        model: Option<PathBuf>,
+        /// Model-P blob [default: <model stem>-p.fbgm beside --model, else DIR/model-p.fbgm].
+        #[arg(long)]
+        model_p: Option<PathBuf>,
+        /// The metrics written by evaluate [default: DIR/metrics.json].
+        #[arg(long)]
+        metrics: Option<PathBuf>,
         /// Print the files written, warnings and notes as JSON on stdout.
         #[arg(long)]
         json: bool,
@@ -392,8 +405,16 @@ fn run() -> Result<()> {
             eprintln!("wrote {} golden samples into {}", idx.len(), out.display());
             Ok(())
         }
-        Cmd::Report { out, json } => {
-            let o = report::build(&out).with_context(|| format!("writing the report in {}", out.display()))?;
+        Cmd::Report { out, data, model, model_p, metrics, json } => {
+            let d = report::InputPaths::in_dir(&out);
+            let model_p = model_p.or_else(|| model.as_deref().map(baseline_path)).unwrap_or(d.model_p);
+            let paths = report::InputPaths {
+                data: data.unwrap_or(d.data),
+                model_h: model.unwrap_or(d.model_h),
+                model_p,
+                metrics: metrics.unwrap_or(d.metrics),
+            };
+            let o = report::build_from(&out, &paths).with_context(|| format!("writing the report in {}", out.display()))?;
             print_report_outcome(&out, &o, json)
         }
         Cmd::Demo { out, scenario, json } => demo(&out, &scenario, json),

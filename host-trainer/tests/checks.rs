@@ -470,3 +470,43 @@ fn figure_legends_bands_and_zoom_windows_show_what_is_drawn() {
         assert!(png.len() > 10_000 && png.starts_with(b"\x89PNG\r\n\x1a\n"), "{stem}.png");
     }
 }
+
+/// Issue 15 item 8 (report's inputs): `report` reads inputs named by --data, --model,
+/// --model-p and --metrics (the fixed names in DIR stay the default) and names a missing one.
+#[test]
+fn report_reads_the_inputs_named_by_its_options() {
+    let d = tempfile::tempdir().unwrap();
+    let demo = d.path().join("demo");
+    let (ok, _, err) = run(bin().args(["demo", "--json", "--out"]).arg(&demo));
+    assert!(ok, "{err}");
+    // The same inputs under other names, in another directory.
+    let inp = d.path().join("inputs");
+    std::fs::create_dir(&inp).unwrap();
+    for (from, to) in [
+        ("data.csv", "rec.csv"),
+        ("data.meta.json", "rec.meta.json"),
+        ("model.fbgm", "h.fbgm"),
+        ("model-p.fbgm", "h-p.fbgm"),
+        ("metrics.json", "h.metrics.json"),
+    ] {
+        std::fs::copy(demo.join(from), inp.join(to)).unwrap();
+    }
+    assert!(inp.join("rec.meta.json").exists());
+    let out = d.path().join("out");
+    let (ok, stdout, err) = run(bin()
+        .args(["report", "--json", "--out"])
+        .arg(&out)
+        .arg("--data")
+        .arg(inp.join("rec.csv"))
+        .arg("--model")
+        .arg(inp.join("h.fbgm"))
+        .arg("--metrics")
+        .arg(inp.join("h.metrics.json")));
+    assert!(ok, "{err}");
+    let o: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(o["warnings"].as_array().map(Vec::len), Some(0), "{stdout}");
+    assert!(out.join("index.html").is_file() && out.join("fig3_temperature.png").is_file());
+    // A named input that is missing is named, with its path.
+    let (ok, _, err) = run(bin().args(["report", "--out"]).arg(&out).arg("--model-p").arg(inp.join("nope-p.fbgm")).arg("--data").arg(inp.join("rec.csv")));
+    assert!(!ok && err.contains("nope-p.fbgm"), "{err}");
+}

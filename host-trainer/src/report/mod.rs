@@ -19,7 +19,7 @@ pub mod load;
 pub mod summary;
 pub mod window;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -58,25 +58,50 @@ pub struct Inputs {
     pub metrics: Metrics,
 }
 
+/// Where the report's inputs are read from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InputPaths {
+    /// The dataset (its `.meta.json` sidecar, when present, is read beside it).
+    pub data: PathBuf,
+    pub model_h: PathBuf,
+    pub model_p: PathBuf,
+    pub metrics: PathBuf,
+}
+
+impl InputPaths {
+    /// The fixed names in `dir`: data.csv, model.fbgm, model-p.fbgm, metrics.json.
+    pub fn in_dir(dir: &Path) -> Self {
+        InputPaths { data: dir.join(DATA_CSV), model_h: dir.join(MODEL_H), model_p: dir.join(MODEL_P), metrics: dir.join(METRICS_JSON) }
+    }
+}
+
 impl Inputs {
     /// Read the inputs from `dir` (`data.meta.json` is optional).
     pub fn read_dir(dir: &Path) -> Result<Self, TrainerError> {
+        Self::read(dir, &InputPaths::in_dir(dir))
+    }
+
+    /// Read the inputs from `paths` (names in `dir` are shown relative to it).
+    pub fn read(dir: &Path, paths: &InputPaths) -> Result<Self, TrainerError> {
         // Every missing input at once, not one per run (issue 15).
-        let missing: Vec<&str> = [DATA_CSV, MODEL_H, MODEL_P, METRICS_JSON].into_iter().filter(|f| !dir.join(f).exists()).collect();
+        let missing: Vec<String> = [&paths.data, &paths.model_h, &paths.model_p, &paths.metrics]
+            .into_iter()
+            .filter(|f| !f.exists())
+            .map(|f| f.strip_prefix(dir).unwrap_or(f).display().to_string())
+            .collect();
         if !missing.is_empty() {
             let msg = format!(
-                "missing {} (`demo --out DIR` writes them all; or simulate, train and evaluate into DIR with these names)",
+                "missing {} (`demo --out DIR` writes them all; or simulate, train and evaluate into DIR with these names; or name them with --data, --model, --model-p, --metrics)",
                 missing.join(", ")
             );
             return Err(TrainerError::io(dir, std::io::Error::new(std::io::ErrorKind::NotFound, msg)));
         }
-        let csv = dir.join(DATA_CSV);
         Ok(Inputs {
-            data: Dataset::read_csv(&csv)?,
-            meta: SimMeta::read_for(&csv)?,
-            model_h: export::read_blob(&dir.join(MODEL_H))?,
-            model_p: export::read_blob(&dir.join(MODEL_P))?,
-            metrics: load::read_metrics(&dir.join(METRICS_JSON))?,
+            data: Dataset::read_csv(&paths.data)?,
+            meta: SimMeta::read_for(&paths.data)?,
+            model_h: export::read_blob(&paths.model_h)?,
+            model_p: export::read_blob(&paths.model_p)?,
+            metrics: load::read_metrics(&paths.metrics)?,
         })
     }
 }
@@ -95,8 +120,13 @@ pub struct Outcome {
 
 /// Read `dir` and write the report into it.
 pub fn build(dir: &Path) -> Result<Outcome, TrainerError> {
+    build_from(dir, &InputPaths::in_dir(dir))
+}
+
+/// Read `paths` and write the report into `dir`.
+pub fn build_from(dir: &Path, paths: &InputPaths) -> Result<Outcome, TrainerError> {
     let t = Instant::now();
-    let inp = Inputs::read_dir(dir)?;
+    let inp = Inputs::read(dir, paths)?;
     let mut o = write(dir, &inp)?;
     o.seconds = t.elapsed().as_secs_f64();
     Ok(o)
