@@ -3,27 +3,11 @@
 //! unwritable output directory is found before the work with one clean message.
 
 use std::os::unix::fs::FileTypeExt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))
-}
-
-fn run(cmd: &mut Command) -> (bool, String, String) {
-    let o = cmd.output().unwrap();
-    (o.status.success(), String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
-}
-
-/// A short simulated record (3 days) in `dir`.
-fn short_csv(dir: &Path) -> PathBuf {
-    let cfg = dir.join("short.toml");
-    std::fs::write(&cfg, "name = \"short\"\n[clock]\ndays = 3.0\n").unwrap();
-    let csv = dir.join("data.csv");
-    let (ok, _, err) = run(bin().args(["simulate", "--seed", "2", "--config"]).arg(&cfg).arg("--out").arg(&csv));
-    assert!(ok, "{err}");
-    csv
-}
+mod common;
+use common::{bin, run, short_csv};
 
 fn mkfifo(p: &Path) {
     let ok = Command::new("mkfifo").arg(p).status().map(|s| s.success()).unwrap_or(false);
