@@ -32,6 +32,15 @@ pub struct Sample<F> {
     pub t_s: F,
 }
 
+impl<F: Real> Sample<F> {
+    /// Whether the shifts and the ambient temperature are finite: what every model reads (a
+    /// model that reads time also needs a finite `t_s`).
+    #[inline(always)]
+    pub fn inputs_finite(&self) -> bool {
+        self.dl_pm.iter().all(|v| v.is_finite()) && self.t_amb_c.is_finite()
+    }
+}
+
 /// One compensated estimate.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Estimate<F> {
@@ -63,13 +72,6 @@ pub struct StreamState<F> {
     memory: MemoryState<F>,
 }
 
-impl<F: Real> StreamState<F> {
-    /// The direction latches of this state.
-    pub fn latches(&self) -> LatchBank {
-        self.latches
-    }
-}
-
 /// A loaded model with its stream state, ready to compensate samples.
 ///
 /// `K` is the centre capacity; models with fewer centres load too and cost proportionally less.
@@ -82,7 +84,6 @@ pub struct Compensator<F, const K: usize> {
     gamma: [[F; N_MEMORY]; N_OUTPUTS],
     /// The memory operators and their state.
     memory: MemoryBank<F>,
-    has_memory: bool,
     /// z_scaled = x · z_gain + z_offset (gain 0 on unused dimensions).
     z_gain: [F; Z_DIMS],
     z_offset: [F; Z_DIMS],
@@ -235,7 +236,6 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             b: [[F::ZERO; N_POLY]; N_OUTPUTS],
             gamma: [[F::ZERO; N_MEMORY]; N_OUTPUTS],
             memory: MemoryBank::off(),
-            has_memory: false,
             z_gain: [F::ZERO; Z_DIMS],
             z_offset: [F::ZERO; Z_DIMS],
             centres: Vec::new(),
@@ -271,10 +271,15 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         let folded = Folded::<F>::of(params);
         let active = params.hyper.feature_set.active();
         let f = |v: G| F::from_real(v);
+        let env_ok = params.envelope_lo.iter().chain(params.envelope_hi.iter()).all(|&v| f(v).is_finite());
         let gamma_ok = params.gamma.iter().all(|r| r.iter().all(|&v| f(v).is_finite()));
-        let env_ok = gamma_ok && params.envelope_lo.iter().chain(params.envelope_hi.iter()).all(|&v| f(v).is_finite());
+        // A τ or r that overflows this precision would switch its slot off here but not in the
+        // trainer's precision.
+        let memory_ok = params.memory.convert::<F>().validate().is_ok();
         if !folded.is_finite()
             || !env_ok
+            || !gamma_ok
+            || !memory_ok
             || !params.centres.iter().all(|c| folded.centre(c, &active).is_finite())
             || !f(params.t_cal_end_s).is_finite()
         {
@@ -295,7 +300,6 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             }
         }
         self.memory = MemoryBank::new(&params.memory);
-        self.has_memory = self.memory.is_active();
         self.z_gain = folded.z_gain;
         self.z_offset = folded.z_offset;
         self.inv_g_tail = f(params.var_inv_g_tail);
@@ -378,12 +382,12 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// Whether the model reads the time input (feature set, growing band or memory terms).
     #[inline(always)]
     fn needs_time(&self) -> bool {
-        self.uses_time || self.band_grows || self.has_memory
+        self.uses_time || self.band_grows || self.memory.is_active()
     }
 
     /// Whether the model has memory terms (Γm in the core).
     pub fn has_memory(&self) -> bool {
-        self.has_memory
+        self.memory.is_active()
     }
 
     /// Current direction-latch values (−1, 0, +1 per grating).
@@ -396,7 +400,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     #[inline(always)]
     fn advance_state(&mut self, s: &Sample<F>, y: &mut [F; N_OUTPUTS]) -> [F; N_GRATINGS] {
         let latch: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
-        if self.has_memory {
+        if self.memory.is_active() {
             self.memory.accumulate(&s.dl_pm, s.t_amb_c, s.t_s, &self.gamma, y);
         }
         latch
@@ -416,8 +420,8 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     #[inline]
     pub fn advance(&mut self, s: &Sample<F>) {
         if self.accepts(s) {
-            let mut sink = [F::ZERO; N_OUTPUTS];
-            let _ = self.advance_state(s, &mut sink);
+            let _: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
+            self.memory.advance(&s.dl_pm, s.t_amb_c, s.t_s);
         }
     }
 
@@ -426,7 +430,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// non-finite and leave the stream state untouched.
     #[inline(always)]
     fn accepts(&self, s: &Sample<F>) -> bool {
-        s.dl_pm.iter().all(|v| v.is_finite()) && s.t_amb_c.is_finite() && (!self.needs_time() || s.t_s.is_finite())
+        s.inputs_finite() && (!self.needs_time() || s.t_s.is_finite())
     }
 
     /// The polynomial core Bφ (Model-P's answer when the model has no memory terms):

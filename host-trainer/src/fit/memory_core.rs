@@ -165,8 +165,8 @@ pub fn memory_terms(spec: &MemorySpec<f64>, d: &Dataset, rows: &[usize]) -> Vec<
     let mut want = rows.iter().peekable();
     for i in 0..end {
         let s = d.sample(i);
-        let finite = s.dl_pm.iter().all(|v| v.is_finite()) && s.t_amb_c.is_finite() && s.t_s.is_finite();
-        let m = if finite { bank.update(&s.dl_pm, s.t_amb_c, s.t_s) } else { [f64::NAN; N_MEMORY] };
+        // The compensator's rule for a model with memory terms (it reads time).
+        let m = if s.inputs_finite() && s.t_s.is_finite() { bank.update(&s.dl_pm, s.t_amb_c, s.t_s) } else { [f64::NAN; N_MEMORY] };
         if want.peek() == Some(&&i) {
             want.next();
             out.push(m);

@@ -95,7 +95,7 @@ impl<F: Real> MemoryBank<F> {
             observer_row: s.observer_row,
             observer_on: s.observer_lag_s > F::ZERO && s.observer_smooth_s > F::ZERO,
             cached_dt: F::NAN,
-            ..Default::default()
+            ..Self::off()
         };
         for ((lp, on), &tau) in b.grating_lp.iter_mut().zip(b.grating_on.iter_mut()).zip(s.grating_tau_s.iter()) {
             *lp = LowPass::new(tau);
@@ -188,6 +188,12 @@ impl<F: Real> MemoryBank<F> {
             }
         });
         m
+    }
+
+    /// [`MemoryBank::update`] without the terms: moves the stream only (a checkpoint pass).
+    #[inline]
+    pub fn advance(&mut self, dl_pm: &[F; N_GRATINGS], t_amb_c: F, t_s: F) {
+        self.run(dl_pm, t_amb_c, t_s, |_, _| {});
     }
 
     /// [`MemoryBank::update`] that adds Γm to `y` instead of returning m (`gamma[o][k]` is the
