@@ -111,7 +111,7 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
             "columns": ["dl1_pm", "dl2_pm", "dl3_pm", "T_amb_C", "1"],
             "T_C": p.stage1[0], "strain_ue": p.stage1[1], "p_kPa": p.stage1[2],
         },
-        "first_guess_scalers": {"mean": p.guess_mean, "std": p.guess_std, "order": ["T_C", "strain_ue", "p_kPa"]},
+        "first_guess_scalers": {"mean": p.guess_mean, "std": p.guess_std, "order": OUTPUT_KEYS},
         "poly_B_standardised_guesses": poly_rows(&p.poly),
         "poly_B_physical_units": physical,
         "memory_terms": memory,
@@ -138,8 +138,6 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
 
 /// JSON keys of the outputs.
 const OUTPUT_KEYS: [&str; N_OUTPUTS] = ["T_C", "strain_ue", "p_kPa"];
-/// Output units, in output order.
-const OUTPUT_UNITS: [&str; N_OUTPUTS] = ["°C", "µε", "kPa"];
 
 /// What a memory term is, in words a metrologist checks: e.g. "FBG2 minus its 20-min average".
 pub fn memory_term_meaning(info: &fbg_shared::memory::TermInfo<f64>) -> String {
@@ -164,7 +162,7 @@ pub fn memory_json(p: &HostParams) -> serde_json::Value {
                 .map(|o| {
                     (OUTPUT_KEYS[o].to_string(), serde_json::json!({
                         "value": p.gamma[o][k],
-                        "unit": format!("{} per {}", OUTPUT_UNITS[o], unit),
+                        "unit": format!("{} per {}", crate::evaluate::UNITS[o], unit),
                     }))
                 })
                 .collect();

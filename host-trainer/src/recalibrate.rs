@@ -183,7 +183,7 @@ fn refit_core_and_memory(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usi
     let mut xtr = DMatrix::<f64>::zeros(q, 1);
     let mut x = vec![0.0; q];
     for (r, (&i, e)) in rows.iter().zip(&full).enumerate() {
-        let ph = fit::memory_core::phi_row(&core, d, i);
+        let ph = core.phi_at(d, i);
         for (j, &k) in pc.iter().enumerate() {
             x[j] = ph[k];
         }

@@ -20,7 +20,7 @@ use nalgebra::{DMatrix, DVector};
 use fbg_shared::layout::{N_MEMORY, N_OUTPUTS, N_POLY};
 use fbg_shared::{MemoryBank, MemoryGroup, MemorySpec};
 
-use super::poly_core::{self, PolyCore};
+use super::poly_core::PolyCore;
 use crate::dataset::Dataset;
 use crate::error::TrainerError;
 
@@ -93,6 +93,11 @@ pub struct MemoryChoice {
     pub lambda: [f64; N_OUTPUTS],
 }
 
+/// The bit of `g` in a [`MemoryChoice`] group mask (its place in [`MemoryGroup::ALL`]).
+fn bit(g: MemoryGroup) -> u8 {
+    1 << MemoryGroup::ALL.iter().position(|&x| x == g).unwrap_or(0)
+}
+
 impl MemoryChoice {
     /// No memory terms on any output.
     pub fn none() -> Self {
@@ -101,8 +106,7 @@ impl MemoryChoice {
 
     /// Whether output `o` uses `g`.
     pub fn uses(&self, o: usize, g: MemoryGroup) -> bool {
-        let bit = MemoryGroup::ALL.iter().position(|&x| x == g).unwrap_or(0);
-        self.groups.get(o).is_some_and(|&b| b & (1 << bit) != 0)
+        self.groups.get(o).is_some_and(|&b| b & bit(g) != 0)
     }
 
     /// Whether any output uses any memory term.
@@ -142,9 +146,9 @@ impl MemoryChoice {
 fn menu_spec(opts: &MemoryOptions, core: &PolyCore) -> MemorySpec<f64> {
     let mut all = MemoryChoice::none();
     for o in 0..N_OUTPUTS {
-        for (bit, g) in MemoryGroup::ALL.iter().enumerate() {
-            if opts.groups.contains(g) && offered(o, *g) {
-                all.groups[o] |= 1 << bit;
+        for &g in &opts.groups {
+            if offered(o, g) {
+                all.groups[o] |= bit(g);
             }
         }
     }
@@ -185,14 +189,6 @@ fn columns(core: &PolyCore, spec: &MemorySpec<f64>, o: usize, groups: &[MemoryGr
     (poly, mem)
 }
 
-/// φ of the standardised first guesses of sample `i`.
-pub fn phi_row(core: &PolyCore, d: &Dataset, i: usize) -> [f64; N_POLY] {
-    let x = [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.t_amb_c[i], 1.0];
-    let g: [f64; N_OUTPUTS] = std::array::from_fn(|o| x.iter().zip(&core.stage1[o]).map(|(x, a)| x * a).sum());
-    let u = std::array::from_fn(|o| (g[o] - core.guess_mean[o]) / core.guess_std[o]);
-    poly_core::phi(u, true)
-}
-
 /// Refit B and Γ jointly on `rows` for `choice`: the returned core has the memory spec of the
 /// choice and every output's B row and Γ row from one penalised least squares. Outputs without
 /// reference keep zeros.
@@ -224,7 +220,7 @@ pub fn fit(d: &Dataset, rows: &[usize], core: &PolyCore, menu: &MemorySpec<f64>,
     let targets: [&[f64]; N_OUTPUTS] = std::array::from_fn(|o| if d.has_target[o] { d.target(o) } else { &[][..] });
     let r_aug = super::linalg::triangular_rows(n, p + N_OUTPUTS, |r, buf| {
         let i = rows[r];
-        let ph = phi_row(core, d, i);
+        let ph = core.phi_at(d, i);
         for (c, &k) in poly_u.iter().enumerate() {
             buf[c] = ph[k];
         }
@@ -285,14 +281,20 @@ pub fn fit(d: &Dataset, rows: &[usize], core: &PolyCore, menu: &MemorySpec<f64>,
     Ok(out)
 }
 
-/// Sufficient statistics of one fold for one output: Gram matrices of [φ | m] over the
-/// training and the validation rows.
+/// Sufficient statistics of one part of a fold (its training or its validation rows) over the
+/// full-menu design X = [φ | m]: XᵀX, and per output Xᵀy and yᵀy.
+struct Gram {
+    xtx: DMatrix<f64>,
+    xty: [DVector<f64>; N_OUTPUTS],
+    yty: [f64; N_OUTPUTS],
+    n: usize,
+}
+
+/// One fold's [`Gram`]s and the full-menu spec its memory terms come from.
 struct FoldStats {
-    /// Per output: (XᵀX, Xᵀy) over training rows, (XᵀX, Xᵀy, yᵀy, n) over validation rows.
-    train: Vec<(DMatrix<f64>, DVector<f64>)>,
-    val: Vec<(DMatrix<f64>, DVector<f64>, f64)>,
-    n_train: usize,
-    n_val: usize,
+    spec: MemorySpec<f64>,
+    train: Gram,
+    val: Gram,
 }
 
 /// One fold for the memory cross-validation: its training core and rows.
@@ -322,52 +324,40 @@ fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats
     rows.dedup();
     let m = memory_terms(&spec, d, &rows);
     let pos = |i: usize| rows.binary_search(&i).unwrap_or(0);
-    // XᵀX is shared by every output; Xᵀy and yᵀy are per output.
     let gram = |set: &[usize]| {
-        let mut a = DMatrix::<f64>::zeros(P_ALL, P_ALL);
-        let mut b: [DVector<f64>; N_OUTPUTS] = std::array::from_fn(|_| DVector::<f64>::zeros(P_ALL));
-        let mut yy = [0.0; N_OUTPUTS];
+        let mut xtx = DMatrix::<f64>::zeros(P_ALL, P_ALL);
+        let mut xty: [DVector<f64>; N_OUTPUTS] = std::array::from_fn(|_| DVector::<f64>::zeros(P_ALL));
+        let mut yty = [0.0; N_OUTPUTS];
         let mut x = [0.0; P_ALL];
         for &i in set {
-            let ph = phi_row(f.core, d, i);
-            x[..N_POLY].copy_from_slice(&ph);
+            x[..N_POLY].copy_from_slice(&f.core.phi_at(d, i));
             x[N_POLY..].copy_from_slice(&m[pos(i)]);
             for r in 0..P_ALL {
                 let xr = x[r];
                 for c in r..P_ALL {
-                    a[(r, c)] += xr * x[c];
+                    xtx[(r, c)] += xr * x[c];
                 }
             }
-            for o in 0..N_OUTPUTS {
-                if d.has_target[o] {
-                    let y = d.target(o)[i];
-                    for r in 0..P_ALL {
-                        b[o][r] += x[r] * y;
-                    }
-                    yy[o] += y * y;
+            for o in (0..N_OUTPUTS).filter(|&o| d.has_target[o]) {
+                let y = d.target(o)[i];
+                for r in 0..P_ALL {
+                    xty[o][r] += x[r] * y;
                 }
+                yty[o] += y * y;
             }
         }
-        for r in 0..P_ALL {
-            for c in 0..r {
-                a[(r, c)] = a[(c, r)];
-            }
-        }
-        (a, b, yy)
+        xtx.fill_lower_triangle_with_upper_triangle();
+        Gram { xtx, xty, yty, n: set.len() }
     };
-    let (ta, tb, _) = gram(f.train);
-    let (va, vb, vyy) = gram(f.val);
-    let train = tb.into_iter().map(|b| (ta.clone(), b)).collect();
-    let val = vb.into_iter().zip(vyy).map(|(b, yy)| (va.clone(), b, yy)).collect();
-    FoldStats { train, val, n_train: f.train.len(), n_val: f.val.len() }
+    FoldStats { train: gram(f.train), val: gram(f.val), spec }
 }
 
 /// Validation SSE of output `o` with columns `cols` (indices into the full design) and
 /// penalty `lambda` on the memory columns.
 fn val_sse(st: &FoldStats, o: usize, cols: &[usize], lambda: f64) -> Option<f64> {
-    let (a, b) = &st.train[o];
-    let (av, bv, yy) = &st.val[o];
-    let n = st.n_train as f64;
+    let (a, b) = (&st.train.xtx, &st.train.xty[o]);
+    let (av, bv, yy) = (&st.val.xtx, &st.val.xty[o], st.val.yty[o]);
+    let n = st.train.n as f64;
     let p = cols.len();
     let mut h = DMatrix::<f64>::zeros(p, p);
     let mut g = DVector::<f64>::zeros(p);
@@ -389,7 +379,7 @@ fn val_sse(st: &FoldStats, o: usize, cols: &[usize], lambda: f64) -> Option<f64>
         h[(r, r)] += jitter;
     }
     let beta = h.cholesky()?.solve(&g);
-    let mut sse = *yy;
+    let mut sse = yy;
     for (r, &i) in cols.iter().enumerate() {
         sse -= 2.0 * beta[r] * bv[i];
         for (c, &j) in cols.iter().enumerate() {
@@ -407,7 +397,7 @@ pub fn select(d: &Dataset, folds: &[FoldInput<'_>], opts: &MemoryOptions) -> Res
         return Ok((MemoryChoice::none(), Vec::new()));
     }
     let stats: Vec<FoldStats> = super::par_map(folds, |f| fold_stats(d, f, opts));
-    let n_val: usize = stats.iter().map(|s| s.n_val).sum();
+    let n_val: usize = stats.iter().map(|s| s.val.n).sum();
     let offered_groups: Vec<MemoryGroup> = MemoryGroup::ALL.iter().copied().filter(|g| opts.groups.contains(g)).collect();
     let mut choice = MemoryChoice::none();
     let mut rows = Vec::new();
@@ -420,22 +410,23 @@ pub fn select(d: &Dataset, folds: &[FoldInput<'_>], opts: &MemoryOptions) -> Res
         let mut best: Option<(f64, u32, f64, u8, f64)> = None;
         for mask in 0u8..(1 << mine.len()) {
             let groups: Vec<MemoryGroup> = mine.iter().enumerate().filter(|(b, _)| mask & (1 << b) != 0).map(|(_, &g)| g).collect();
+            let group_mask = groups.iter().fold(0u8, |a, &g| a | bit(g));
+            // Each fold's columns (indices into its full design) for these groups.
+            let fold_cols: Vec<Vec<usize>> = stats
+                .iter()
+                .zip(folds)
+                .map(|(st, f)| {
+                    let (pc, mc) = columns(f.core, &st.spec, o, &groups);
+                    pc.into_iter().chain(mc.into_iter().map(|k| N_POLY + k)).collect()
+                })
+                .collect();
             let lambdas: &[f64] = if groups.is_empty() { &[0.0] } else { &opts.lambdas };
             for &lambda in lambdas {
-                let mut sse = 0.0;
-                for (st, f) in stats.iter().zip(folds) {
-                    let spec = menu_spec(opts, f.core);
-                    let (pc, mc) = columns(f.core, &spec, o, &groups);
-                    let cols: Vec<usize> = pc.iter().copied().chain(mc.iter().map(|&k| N_POLY + k)).collect();
-                    sse += val_sse(st, o, &cols, lambda).unwrap_or(f64::INFINITY);
-                }
+                let sse: f64 =
+                    stats.iter().zip(&fold_cols).map(|(st, cols)| val_sse(st, o, cols, lambda).unwrap_or(f64::INFINITY)).sum();
                 let rmse = (sse / n_val.max(1) as f64).sqrt();
                 rows.push(MemoryCvRow { output: o, groups: groups.iter().map(|g| g.name()).collect(), lambda, cv_rmse: rmse });
-                let full_mask: u8 = groups
-                    .iter()
-                    .map(|g| 1u8 << MemoryGroup::ALL.iter().position(|x| x == g).unwrap_or(0))
-                    .fold(0, |a, b| a | b);
-                let cand = (sse, groups.len() as u32, -lambda, full_mask, lambda);
+                let cand = (sse, groups.len() as u32, -lambda, group_mask, lambda);
                 let better = match &best {
                     None => true,
                     Some(b) => (cand.0, cand.1, cand.2).partial_cmp(&(b.0, b.1, b.2)) == Some(std::cmp::Ordering::Less),

@@ -44,6 +44,25 @@ fn stage1_row(d: &Dataset, i: usize) -> [f64; N_STAGE1] {
     [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.t_amb_c[i], 1.0]
 }
 
+/// The stage-1 first guesses (T °C, ε µε, p kPa) of sample `i`.
+fn first_guess(stage1: &[[f64; N_STAGE1]; N_OUTPUTS], d: &Dataset, i: usize) -> [f64; N_OUTPUTS] {
+    let x = stage1_row(d, i);
+    std::array::from_fn(|o| x.iter().zip(&stage1[o]).map(|(x, a)| x * a).sum())
+}
+
+/// φ of the standardised first guesses of sample `i` (see [`phi`]).
+fn phi_at(
+    stage1: &[[f64; N_STAGE1]; N_OUTPUTS],
+    mean: &[f64; N_OUTPUTS],
+    std: &[f64; N_OUTPUTS],
+    d: &Dataset,
+    i: usize,
+    cross_terms: bool,
+) -> [f64; N_POLY] {
+    let g = first_guess(stage1, d, i);
+    phi(std::array::from_fn(|o| (g[o] - mean[o]) / std[o]), cross_terms)
+}
+
 /// The references (T, ε, p) of sample `i`; an output without reference reads 0, which keeps
 /// the algebra square and gives it zero coefficients.
 fn targets(d: &Dataset, i: usize) -> [f64; N_OUTPUTS] {
@@ -64,10 +83,7 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
             *v = a[(k, o)];
         }
     }
-    let guess = |i: usize| -> [f64; N_OUTPUTS] {
-        let x = stage1_row(d, i);
-        std::array::from_fn(|o| x.iter().zip(&stage1[o]).map(|(x, a)| x * a).sum())
-    };
+    let guess = |i: usize| first_guess(&stage1, d, i);
     // Mean and standard deviation of the first guesses (two passes, in parallel blocks summed
     // in order).
     let sums = |f: &(dyn Fn([f64; N_OUTPUTS]) -> [f64; N_OUTPUTS] + Sync)| -> [f64; N_OUTPUTS] {
@@ -113,9 +129,7 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
     let nt = terms.len();
     let b = lstsq_rows(n, nt, N_OUTPUTS, "Model-P stage 2 (polynomial core)", |r, buf| {
         let i = idx[r];
-        let g = guess(i);
-        let u = std::array::from_fn(|o| (g[o] - guess_mean[o]) / guess_std[o]);
-        let ph = phi(u, cross_terms);
+        let ph = phi_at(&stage1, &guess_mean, &guess_std, d, i, cross_terms);
         for (v, &k) in buf.iter_mut().zip(&terms) {
             *v = ph[k];
         }
@@ -143,9 +157,10 @@ impl PolyCore {
         }
     }
 
-    /// The same core without memory terms (B unchanged).
-    pub fn without_memory(&self) -> Self {
-        PolyCore { memory: MemorySpec::off(), gamma: [[0.0; N_MEMORY]; N_OUTPUTS], ..self.clone() }
+    /// φ (all ten terms) of the standardised first guesses of sample `i`: the regressors B
+    /// multiplies.
+    pub fn phi_at(&self, d: &Dataset, i: usize) -> [f64; N_POLY] {
+        phi_at(&self.stage1, &self.guess_mean, &self.guess_std, d, i, true)
     }
 
     /// B re-expressed on the *physical* first guesses (T °C, ε µε, p kPa): the coefficients a

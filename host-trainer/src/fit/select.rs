@@ -128,7 +128,7 @@ impl VarModel {
     /// (split-conformal on the normalised errors). `fold` labels each sample's CV fold, in
     /// order of growing training sets.
     pub fn fit(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
-        let (mut m, _) = Self::fit_variance(lead_s, sq_err, fold);
+        let mut m = Self::fit_variance(lead_s, sq_err, fold);
         let mut u: Vec<f64> = lead_s.iter().zip(sq_err).map(|(&t, &e)| (e / m.at(t)).sqrt()).collect();
         u.sort_by(f64::total_cmp);
         // Finite-sample conformal quantile: the ceil((n+1)·0.95)-th smallest.
@@ -145,7 +145,7 @@ impl VarModel {
     /// estimator): early folds train on less data *and* validate at longer leads, so a pooled
     /// slope would mistake the smaller training set for growth. `a` is the intercept of the
     /// fold with the largest training set, the closest to the final fit.
-    fn fit_variance(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> (VarModel, Vec<f64>) {
+    fn fit_variance(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
         let k95 = fbg_shared::layout::Z95;
         let n_folds = fold.iter().copied().max().map(|m| m + 1).unwrap_or(0);
         let mut mt = vec![0.0; n_folds];
@@ -172,8 +172,7 @@ impl VarModel {
         let mean_all = sq_err.iter().sum::<f64>() / sq_err.len().max(1) as f64;
         let floor = 1e-6 * mean_all.max(f64::MIN_POSITIVE);
         let a = me.get(last).copied().unwrap_or(mean_all) - b * mt.get(last).copied().unwrap_or(0.0);
-        let intercepts = (0..n_folds).map(|f| (me[f] - b * mt[f]).max(floor)).collect();
-        (VarModel { a: a.max(floor), b, k95 }, intercepts)
+        VarModel { a: a.max(floor), b, k95 }
     }
 
     /// Variance at lead time `tau_s`.
