@@ -41,11 +41,7 @@ pub struct HoldoutFigures {
 
 impl HoldoutFigures {
     fn of(e: &ModelEval, blob_bytes: usize) -> Self {
-        HoldoutFigures {
-            rmse: e.channels.map(|c| c.rmse),
-            coverage: e.channels.map(|c| c.coverage),
-            blob_bytes,
-        }
+        HoldoutFigures { rmse: e.channels.map(|c| c.rmse), coverage: e.channels.map(|c| c.coverage), blob_bytes }
     }
 }
 
@@ -225,8 +221,7 @@ impl BenchFitArgs {
             }
             Ok((opts, "fixed"))
         } else {
-            let opts = crate::fleet::train_options(&self.features, self.max_centres)
-                .map_err(TrainerError::fit)?;
+            let opts = crate::fleet::train_options(&self.features, self.max_centres).map_err(TrainerError::fit)?;
             Ok((opts, "select"))
         }
     }

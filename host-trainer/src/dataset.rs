@@ -19,11 +19,11 @@ use crate::import::mapping::{absolute_nm_column_message, check_ambient, check_wa
 const UNIT_KEYS: [&str; 3] = ["grating[1].unit", "grating[2].unit", "grating[3].unit"];
 
 /// Appended to a unit-check message on a dataset CSV: the check and its words are `import`'s.
-const REIMPORT: &str = " (the unit check of `fbg-trainer import`: convert the column, or re-import the export with that map key)";
+const REIMPORT: &str =
+    " (the unit check of `fbg-trainer import`: convert the column, or re-import the export with that map key)";
 
 /// The CSV header, in column order.
-pub const COLUMNS: [&str; 9] =
-    ["t_s", "T_C", "strain_ue", "p_kPa", "T_amb_C", "dl1_pm", "dl2_pm", "dl3_pm", "split"];
+pub const COLUMNS: [&str; 9] = ["t_s", "T_C", "strain_ue", "p_kPa", "T_amb_C", "dl1_pm", "dl2_pm", "dl3_pm", "split"];
 
 /// Which part of the record a sample belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -190,7 +190,8 @@ impl Dataset {
                 ));
             }
         }
-        let mut d = Dataset { has_target: [col[1].is_some(), col[2].is_some(), col[3].is_some()], ..Dataset::default() };
+        let mut d =
+            Dataset { has_target: [col[1].is_some(), col[2].is_some(), col[3].is_some()], ..Dataset::default() };
         let mut first_line = 0;
         let mut records = rdr.records().peekable();
         while let Some(rec) = records.next() {
@@ -217,7 +218,12 @@ impl Dataset {
             let num = |k: usize, blank_ok: bool| -> Result<f64, TrainerError> {
                 let Some(c) = col[k] else { return Ok(f64::NAN) };
                 let cell = rec.get(c).ok_or_else(|| {
-                    TrainerError::data(&name, line, COLUMNS[k], format!("row has {} cells, column `{}` is number {}", rec.len(), COLUMNS[k], c + 1))
+                    TrainerError::data(
+                        &name,
+                        line,
+                        COLUMNS[k],
+                        format!("row has {} cells, column `{}` is number {}", rec.len(), COLUMNS[k], c + 1),
+                    )
                 })?;
                 if cell.is_empty() {
                     return if blank_ok {
@@ -226,9 +232,9 @@ impl Dataset {
                         Err(TrainerError::data(&name, line, COLUMNS[k], "empty cell"))
                     };
                 }
-                let v: f64 = cell.parse().map_err(|_| {
-                    TrainerError::data(&name, line, COLUMNS[k], format!("`{cell}` is not a number"))
-                })?;
+                let v: f64 = cell
+                    .parse()
+                    .map_err(|_| TrainerError::data(&name, line, COLUMNS[k], format!("`{cell}` is not a number")))?;
                 if !v.is_finite() {
                     return Err(TrainerError::data(&name, line, COLUMNS[k], format!("`{cell}` is not finite")));
                 }
@@ -296,7 +302,12 @@ impl Dataset {
             }
         }
         if !d.has_target.iter().any(|&h| h) {
-            return Err(TrainerError::data(&name, 1, "T_C", "no reference column (T_C, strain_ue or p_kPa): nothing to calibrate against"));
+            return Err(TrainerError::data(
+                &name,
+                1,
+                "T_C",
+                "no reference column (T_C, strain_ue or p_kPa): nothing to calibrate against",
+            ));
         }
         Ok(d)
     }
@@ -377,7 +388,9 @@ pub fn check_outputs(outputs: &[&Path], inputs: &[&Path]) -> Result<(), TrainerE
             let also = if i.as_os_str() == o.as_os_str() { String::new() } else { format!(" ({})", i.display()) };
             return Err(TrainerError::Output {
                 path: o.to_path_buf(),
-                message: format!("the output is also an input{also}; refusing to overwrite it (choose another output name)"),
+                message: format!(
+                    "the output is also an input{also}; refusing to overwrite it (choose another output name)"
+                ),
             });
         }
     }
@@ -403,7 +416,10 @@ pub fn prepare_output_dir(dir: &Path) -> Result<(), TrainerError> {
         message: format!("{what}: {}", clean_io(e)),
     };
     if dir.exists() && !dir.is_dir() {
-        return Err(TrainerError::Output { path: dir.to_path_buf(), message: "the output directory exists and is not a directory".into() });
+        return Err(TrainerError::Output {
+            path: dir.to_path_buf(),
+            message: "the output directory exists and is not a directory".into(),
+        });
     }
     std::fs::create_dir_all(dir).map_err(|e| fail("cannot create the output directory", e))?;
     tempfile::Builder::new()

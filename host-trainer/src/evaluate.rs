@@ -66,7 +66,17 @@ pub fn score(d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> ModelEval {
     let mut channels = [ChannelMetrics::default(); N_OUTPUTS];
     for (c, m) in channels.iter_mut().enumerate() {
         if !d.has_target[c] {
-            *m = ChannelMetrics { rmse: f64::NAN, mae: f64::NAN, r2: f64::NAN, bias: f64::NAN, max_abs: f64::NAN, coverage: f64::NAN, mean_band: f64::NAN, hysteresis_index: f64::NAN, n: 0 };
+            *m = ChannelMetrics {
+                rmse: f64::NAN,
+                mae: f64::NAN,
+                r2: f64::NAN,
+                bias: f64::NAN,
+                max_abs: f64::NAN,
+                coverage: f64::NAN,
+                mean_band: f64::NAN,
+                hysteresis_index: f64::NAN,
+                n: 0,
+            };
             continue;
         }
         let truth: Vec<f64> = idx.iter().map(|&i| d.target(c)[i]).collect();
@@ -75,11 +85,7 @@ pub fn score(d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> ModelEval {
         let mean_t = truth.iter().sum::<f64>() / n;
         let ss_tot: f64 = truth.iter().map(|t| (t - mean_t).powi(2)).sum();
         let ss_res: f64 = err.iter().map(|e| e * e).sum();
-        let inside = est
-            .iter()
-            .zip(&truth)
-            .filter(|(e, t)| (e.values[c] - *t).abs() <= e.band95[c])
-            .count();
+        let inside = est.iter().zip(&truth).filter(|(e, t)| (e.values[c] - *t).abs() <= e.band95[c]).count();
         let dirs = directions(d, DOMINANT_GRATING[c], idx);
         let mean_if = |want: f64| {
             let v: Vec<f64> = err.iter().zip(&dirs).filter(|(_, d)| **d == want).map(|(e, _)| *e).collect();

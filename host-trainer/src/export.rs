@@ -31,10 +31,8 @@ pub fn write_blob(path: &Path, p: &HostParams) -> Result<usize, TrainerError> {
 /// Read and fully validate a model blob into a host model (f64).
 pub fn read_blob(path: &Path) -> Result<HostParams, TrainerError> {
     let bytes = std::fs::read(path).map_err(|e| TrainerError::io(path, e))?;
-    let p32 = blob::decode::<HOST_CAP>(&bytes).map_err(|e| TrainerError::Model {
-        path: path.display().to_string(),
-        message: blob_error_text(&bytes, &e),
-    })?;
+    let p32 = blob::decode::<HOST_CAP>(&bytes)
+        .map_err(|e| TrainerError::Model { path: path.display().to_string(), message: blob_error_text(&bytes, &e) })?;
     p32.convert().map_err(|e| TrainerError::Model { path: path.display().to_string(), message: e.to_string() })
 }
 
@@ -142,12 +140,21 @@ const OUTPUT_KEYS: [&str; N_OUTPUTS] = ["T_C", "strain_ue", "p_kPa"];
 /// What a memory term is, in words a metrologist checks: e.g. "FBG2 minus its 20-min average".
 pub fn memory_term_meaning(info: &fbg_shared::memory::TermInfo<f64>) -> String {
     use fbg_shared::MemoryGroup as G;
-    let dur = |s: f64| if s >= 3600.0 && (s / 3600.0).fract() == 0.0 { format!("{}-h", s / 3600.0) } else { format!("{}-min", s / 60.0) };
+    let dur = |s: f64| {
+        if s >= 3600.0 && (s / 3600.0).fract() == 0.0 {
+            format!("{}-h", s / 3600.0)
+        } else {
+            format!("{}-min", s / 60.0)
+        }
+    };
     match info.group {
         G::GratingHighPass => format!("FBG{} shift minus its {} average", info.grating + 1, dur(info.parameter)),
         G::AmbientHighPass => format!("T_amb minus its {} average", dur(info.parameter)),
         G::Stop => format!("FBG{} shift minus its play operator of half-width {} pm", info.grating + 1, info.parameter),
-        G::DriftObserver => format!("drift observer: {} average of (grating temperature lagged like the thermometer − T_amb)", dur(info.parameter)),
+        G::DriftObserver => format!(
+            "drift observer: {} average of (grating temperature lagged like the thermometer − T_amb)",
+            dur(info.parameter)
+        ),
     }
 }
 
@@ -160,10 +167,13 @@ pub fn memory_json(p: &HostParams) -> serde_json::Value {
             let unit = t.group.unit();
             let coef: serde_json::Map<String, serde_json::Value> = (0..N_OUTPUTS)
                 .map(|o| {
-                    (OUTPUT_KEYS[o].to_string(), serde_json::json!({
-                        "value": p.gamma[o][k],
-                        "unit": format!("{} per {}", crate::evaluate::UNITS[o], unit),
-                    }))
+                    (
+                        OUTPUT_KEYS[o].to_string(),
+                        serde_json::json!({
+                            "value": p.gamma[o][k],
+                            "unit": format!("{} per {}", crate::evaluate::UNITS[o], unit),
+                        }),
+                    )
                 })
                 .collect();
             serde_json::json!({
@@ -217,7 +227,13 @@ pub fn write_coefficients(
 /// dl2, dl3, T_amb, t), `golden_expected.csv` (the f64 reference on those same inputs) and
 /// `golden_meta.json` (tolerance scale: Model-H's hold-out RMSE). The reference is a fresh
 /// compensator fed the samples `idx` in order, exactly what a freshly booted device sees.
-pub fn write_golden(dir: &Path, model_h: &HostParams, d: &Dataset, idx: &[usize], holdout_rmse: [f64; 3]) -> Result<(), TrainerError> {
+pub fn write_golden(
+    dir: &Path,
+    model_h: &HostParams,
+    d: &Dataset,
+    idx: &[usize],
+    holdout_rmse: [f64; 3],
+) -> Result<(), TrainerError> {
     std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
     let mut reference = Compensator::<f64, HOST_CAP>::new(model_h).map_err(|e| TrainerError::fit(e.to_string()))?;
     let mut inputs = Vec::with_capacity(idx.len() * 20);
@@ -271,7 +287,9 @@ pub fn variant_for(name: &str) -> Option<(Vec<FeatureSet>, bool)> {
     match name {
         "memory" => Some((vec![FeatureSet::HysteresisAware], true)),
         "paper" => Some((vec![FeatureSet::Paper], false)),
-        "hysteresis-aware" | "latch" => Some((vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime], false)),
+        "hysteresis-aware" | "latch" => {
+            Some((vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime], false))
+        }
         "all" => Some((FeatureSet::ALL.to_vec(), true)),
         _ => None,
     }

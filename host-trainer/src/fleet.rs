@@ -165,7 +165,8 @@ impl Manifest {
                 return Err(config_error(path, key("out"), "must name a file"));
             }
             let (own_features, own_max) = (g.features.is_some(), g.max_centres.is_some());
-            let features = g.features.or_else(|| raw.defaults.features.clone()).unwrap_or_else(|| DEFAULT_FEATURES.into());
+            let features =
+                g.features.or_else(|| raw.defaults.features.clone()).unwrap_or_else(|| DEFAULT_FEATURES.into());
             let max_centres = g.max_centres.or(raw.defaults.max_centres).unwrap_or(DEFAULT_MAX_CENTRES);
             let which = |k: &str, own: bool| if own { key(k) } else { format!("defaults.{k}") };
             if let Err(m) = train_options(&features, DEFAULT_MAX_CENTRES) {
@@ -179,7 +180,11 @@ impl Manifest {
                 let mine = [group.out.clone(), group.baseline_path()];
                 let theirs = [o.out.clone(), o.baseline_path()];
                 if mine.iter().any(|m| theirs.contains(m)) {
-                    return Err(config_error(path, key("out"), format!("writes the same file as group[{j}] (`{}`)", o.name)));
+                    return Err(config_error(
+                        path,
+                        key("out"),
+                        format!("writes the same file as group[{j}] (`{}`)", o.name),
+                    ));
                 }
             }
             groups.push(group);
@@ -193,7 +198,10 @@ const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
 /// Digest of a group's inputs: the CSV bytes and the options that shape the fit.
 pub fn input_digest(g: &Group, csv: &[u8]) -> String {
     let mut d = CRC64.digest();
-    d.update(format!("features={};max_centres={};trainer={};", g.features, g.max_centres, env!("CARGO_PKG_VERSION")).as_bytes());
+    d.update(
+        format!("features={};max_centres={};trainer={};", g.features, g.max_centres, env!("CARGO_PKG_VERSION"))
+            .as_bytes(),
+    );
     d.update(&(csv.len() as u64).to_le_bytes());
     d.update(csv);
     format!("crc64:{:016x}:{}", d.finalize(), csv.len())

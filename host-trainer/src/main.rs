@@ -350,8 +350,10 @@ fn run() -> Result<()> {
                     "CV RMSE Model-P: T {:.3} °C, ε {:.2} µε, p {:.2} kPa; Model-H: T {:.3}, ε {:.2}, p {:.2}",
                     s.cv_rmse_p[0], s.cv_rmse_p[1], s.cv_rmse_p[2], s.cv_rmse_h[0], s.cv_rmse_h[1], s.cv_rmse_h[2]
                 );
-                let worse: Vec<&str> =
-                    (0..3).filter(|&c| s.cv_rmse_h[c] > s.cv_rmse_p[c]).map(|c| fbg_trainer::evaluate::CHANNELS[c]).collect();
+                let worse: Vec<&str> = (0..3)
+                    .filter(|&c| s.cv_rmse_h[c] > s.cv_rmse_p[c])
+                    .map(|c| fbg_trainer::evaluate::CHANNELS[c])
+                    .collect();
                 if !worse.is_empty() {
                     eprintln!(
                         "warning: in cross-validation Model-H is worse than Model-P on {}; check the hold-out with `evaluate` and consider Model-P for {}",
@@ -371,7 +373,10 @@ fn run() -> Result<()> {
             let meta = SimMeta::read_for(&data)?;
             let h = export::read_blob(&model)?;
             if !base.exists() {
-                bail!("{}: Model-P baseline not found (train writes it beside the model; or pass --baseline)", base.display());
+                bail!(
+                    "{}: Model-P baseline not found (train writes it beside the model; or pass --baseline)",
+                    base.display()
+                );
             }
             let p = export::read_blob(&base)?;
             let studies = if quick { Studies::NONE } else { Studies { recalibration: false, ..Studies::ALL } };
@@ -414,7 +419,8 @@ fn run() -> Result<()> {
                 model_p,
                 metrics: metrics.unwrap_or(d.metrics),
             };
-            let o = report::build_from(&out, &paths).with_context(|| format!("writing the report in {}", out.display()))?;
+            let o =
+                report::build_from(&out, &paths).with_context(|| format!("writing the report in {}", out.display()))?;
             print_report_outcome(&out, &o, json)
         }
         Cmd::Demo { out, scenario, json } => demo(&out, &scenario, json),
@@ -458,15 +464,15 @@ fn run() -> Result<()> {
 fn origin_of(data: &Path, meta: Option<&SimMeta>) -> Origin {
     match meta {
         Some(m) => Origin { scenario: m.scenario.name.clone(), seed: m.seed },
-        None => Origin {
-            scenario: data.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
-            seed: 0,
-        },
+        None => {
+            Origin { scenario: data.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(), seed: 0 }
+        }
     }
 }
 
 fn train_options(features: &str, max_centres: usize, progress: bool) -> Result<TrainOptions> {
-    let o = fbg_trainer::fleet::train_options(features, max_centres).map_err(|e| anyhow::anyhow!("--features/--max-centres: {e}"))?;
+    let o = fbg_trainer::fleet::train_options(features, max_centres)
+        .map_err(|e| anyhow::anyhow!("--features/--max-centres: {e}"))?;
     Ok(TrainOptions { progress, ..o })
 }
 
@@ -529,7 +535,15 @@ fn checked_recalibration(old: &HostParams, d: &Dataset, batch: &[usize], allow_w
     use fbg_trainer::recalibrate::{keep_old_where_worse, recalibrate};
     let (mut params, what) = recalibrate(old, d, batch)?;
     if d.holdout_indices().is_empty() {
-        return Ok(CheckedRecal { params, what, before: None, after: None, tried: None, kept_old: vec![], worse: vec![] });
+        return Ok(CheckedRecal {
+            params,
+            what,
+            before: None,
+            after: None,
+            tried: None,
+            kept_old: vec![],
+            worse: vec![],
+        });
     }
     let before = evaluate_holdout(old, d)?.0;
     let tried = evaluate_holdout(&params, d)?.0;
@@ -561,7 +575,14 @@ fn channel_list(cs: &[usize]) -> String {
     }
 }
 
-fn recalibrate_cmd(model: &Path, data: &Path, batch_hours: Option<f64>, out: &Path, allow_worse: bool, json: bool) -> Result<()> {
+fn recalibrate_cmd(
+    model: &Path,
+    data: &Path,
+    batch_hours: Option<f64>,
+    out: &Path,
+    allow_worse: bool,
+    json: bool,
+) -> Result<()> {
     use fbg_trainer::evaluate::{CHANNELS, UNITS};
     use fbg_trainer::recalibrate::{first_hours, CoreUpdate};
     let (base, new_base_path) = (baseline_path(model), baseline_path(out));
@@ -574,7 +595,11 @@ fn recalibrate_cmd(model: &Path, data: &Path, batch_hours: Option<f64>, out: &Pa
         None => d.cal_indices(),
     };
     let h = checked_recalibration(&old, &d, &batch, allow_worse)?;
-    let p = if base.exists() { Some(checked_recalibration(&export::read_blob(&base)?, &d, &batch, allow_worse)?) } else { None };
+    let p = if base.exists() {
+        Some(checked_recalibration(&export::read_blob(&base)?, &d, &batch, allow_worse)?)
+    } else {
+        None
+    };
     let n = export::write_blob(out, &h.params)?;
     let new_base = match &p {
         Some(p) => {
@@ -619,7 +644,9 @@ fn recalibrate_cmd(model: &Path, data: &Path, batch_hours: Option<f64>, out: &Pa
                 "; hold-out RMSE {:.4} -> {:.4} (WORSE, written because of --allow-worse)",
                 bf.channels[c].rmse, af.channels[c].rmse
             ),
-            (Some(bf), Some(af), _) => format!("; hold-out RMSE {:.4} -> {:.4}", bf.channels[c].rmse, af.channels[c].rmse),
+            (Some(bf), Some(af), _) => {
+                format!("; hold-out RMSE {:.4} -> {:.4}", bf.channels[c].rmse, af.channels[c].rmse)
+            }
             _ => String::new(),
         };
         eprintln!("  {:>6} [{}]: {}{detail}{check}", CHANNELS[c], UNITS[c], w.core_update[c].text());
@@ -633,10 +660,17 @@ fn recalibrate_cmd(model: &Path, data: &Path, batch_hours: Option<f64>, out: &Pa
         if !p.kept_old.is_empty() {
             eprintln!("Model-P baseline: kept the old {} (worse on the hold-out)", channel_list(&p.kept_old));
         } else if !p.worse.is_empty() {
-            eprintln!("Model-P baseline: {} WORSE on the hold-out, written because of --allow-worse", channel_list(&p.worse));
+            eprintln!(
+                "Model-P baseline: {} WORSE on the hold-out, written because of --allow-worse",
+                channel_list(&p.worse)
+            );
         }
     }
-    eprintln!("wrote {} ({n} B){}", out.display(), new_base.map(|p| format!(" and {}", p.display())).unwrap_or_default());
+    eprintln!(
+        "wrote {} ({n} B){}",
+        out.display(),
+        new_base.map(|p| format!(" and {}", p.display())).unwrap_or_default()
+    );
     Ok(())
 }
 
@@ -644,7 +678,8 @@ fn inspect(path: &Path, json: bool) -> Result<()> {
     let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
     // The whole blob (CRC first) before the header, so corruption is named as such.
     let p: HostParams = export::read_blob(path)?;
-    let header = blob::Header::parse(&bytes).map_err(|e| anyhow::anyhow!("{}: {}", path.display(), export::blob_error_text(&bytes, &e)))?;
+    let header = blob::Header::parse(&bytes)
+        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), export::blob_error_text(&bytes, &e)))?;
     let crc = export::blob_crc(&bytes).map(|(c, _)| format!("{c:08x}")).unwrap_or_default();
     let v = serde_json::json!({
         "file": path,
@@ -660,7 +695,10 @@ fn inspect(path: &Path, json: bool) -> Result<()> {
     }
     let h = &p.hyper;
     println!("{}: {} bytes, FBGM format v{}, CRC-32 {crc} (valid)", path.display(), bytes.len(), header.version);
-    println!("dims: inputs {}, outputs {}, poly terms {}, centres {}", header.inputs, header.outputs, header.poly_terms, header.centres);
+    println!(
+        "dims: inputs {}, outputs {}, poly terms {}, centres {}",
+        header.inputs, header.outputs, header.poly_terms, header.centres
+    );
     println!(
         "hyper-parameters: features {}, σ {:.4} (= {}×NN), α {:.4e}, dead band {} pm, weak support < {:.2e}, envelope margin {}, flagged band ×{}",
         h.feature_set.name(), h.sigma, f32s(&[h.sigma_mult]), h.alpha, f32s(&[h.dead_band_pm]), h.weak_support, f32s(&[h.envelope_margin]), f32s(&[h.flagged_band_factor])
@@ -668,7 +706,10 @@ fn inspect(path: &Path, json: bool) -> Result<()> {
     // The blob stores f32: print what it holds (`0.1`, not `0.10000000149011612`).
     println!(
         "band: k95 [{}], s² at cal end [{}], growth [{}] per s after t = {} s",
-        f32s(&p.band_k), f32s(&p.resid_var), f32s(&p.resid_var_growth), f32s(&[p.t_cal_end_s])
+        f32s(&p.band_k),
+        f32s(&p.resid_var),
+        f32s(&p.resid_var_growth),
+        f32s(&[p.t_cal_end_s])
     );
     println!("envelope: lo [{}] hi [{}] (dl1..3 pm, T_amb °C)", f32s(&p.envelope_lo), f32s(&p.envelope_hi));
     let pr = &p.provenance;
@@ -701,13 +742,25 @@ fn demo(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     // Fit and score the record as written (6 decimals), so `train --data DIR/data.csv` rebuilds
     // DIR/model.fbgm byte for byte (issue 15).
     s.data = Dataset::read_csv(&data)?;
-    log(&format!("simulated {} samples of scenario `{}` (seed {}) into {}", s.data.len(), cfg.name, s.seed, data.display()));
+    log(&format!(
+        "simulated {} samples of scenario `{}` (seed {}) into {}",
+        s.data.len(),
+        cfg.name,
+        s.seed,
+        data.display()
+    ));
     let opts = TrainOptions { progress: !json, ..TrainOptions::default() };
     let (tr, m) = study::run_all(&s, &opts, Studies::ALL, &log)?;
     let model = out.join("model.fbgm");
     let nh = export::write_blob(&model, &tr.model_h)?;
     let np = export::write_blob(&baseline_path(&model), &tr.model_p)?;
-    export::write_coefficients(&out.join("coefficients.json"), &tr.model_p, &tr.model_h, &tr.core, Some(&tr.selection))?;
+    export::write_coefficients(
+        &out.join("coefficients.json"),
+        &tr.model_p,
+        &tr.model_h,
+        &tr.core,
+        Some(&tr.selection),
+    )?;
     write_metrics(&out.join("metrics.json"), &m)?;
     let hold = s.data.holdout_indices();
     let idx: Vec<usize> = hold.into_iter().take(1000).collect();

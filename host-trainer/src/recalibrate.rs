@@ -54,7 +54,11 @@ pub enum CoreUpdate {
 /// fitted on the first 70 % of the batch and compared on the last 30 % — per output: keep,
 /// offset, offset + gain; then W towards the old weights or not — and the winners are refitted
 /// on the whole batch. Model-P (no centres) gets the core refit only.
-pub fn recalibrate(old: &HostParams, d: &Dataset, batch: &[usize]) -> Result<(HostParams, Recalibration), TrainerError> {
+pub fn recalibrate(
+    old: &HostParams,
+    d: &Dataset,
+    batch: &[usize],
+) -> Result<(HostParams, Recalibration), TrainerError> {
     let batch: Vec<usize> = batch.iter().copied().filter(|&i| d.usable(i)).collect();
     if batch.len() < 20 {
         return Err(TrainerError::Dataset {
@@ -132,7 +136,13 @@ pub fn recalibrate(old: &HostParams, d: &Dataset, batch: &[usize]) -> Result<(Ho
 }
 
 /// Refit output `c`'s core offset (and gain) on `rows` and fold it into `p.poly[c]`.
-fn apply_core(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize, how: CoreUpdate) -> Result<(f64, f64), TrainerError> {
+fn apply_core(
+    p: &mut HostParams,
+    d: &Dataset,
+    rows: &[usize],
+    c: usize,
+    how: CoreUpdate,
+) -> Result<(f64, f64), TrainerError> {
     if how == CoreUpdate::Keep {
         return Ok((0.0, 1.0));
     }
@@ -243,7 +253,12 @@ fn update_w(p: &mut HostParams, old: &HostParams, d: &Dataset, rows: &[usize]) -
 /// recalibration never replaces a channel with one its own check scores worse (DESIGN §9).
 /// The band stays as `recalibrate` set it (never narrower than before). Returns the outputs
 /// put back.
-pub fn keep_old_where_worse(new: &mut HostParams, old: &HostParams, before: &ModelEval, after: &ModelEval) -> Vec<usize> {
+pub fn keep_old_where_worse(
+    new: &mut HostParams,
+    old: &HostParams,
+    before: &ModelEval,
+    after: &ModelEval,
+) -> Vec<usize> {
     let worse: Vec<usize> = (0..N_OUTPUTS).filter(|&c| after.channels[c].rmse > before.channels[c].rmse).collect();
     for &c in &worse {
         new.poly[c] = old.poly[c];
@@ -297,7 +312,15 @@ pub struct RecalStudy {
 }
 
 /// Train on `seed_old`, move to `seed_new`, recalibrate with the first `hours` and compare.
-pub fn study(cfg: &ScenarioConfig, old_h: &HostParams, old_p: &HostParams, seed_old: u64, seed_new: u64, hours: f64, chosen: &fit::Config) -> Result<RecalStudy, TrainerError> {
+pub fn study(
+    cfg: &ScenarioConfig,
+    old_h: &HostParams,
+    old_p: &HostParams,
+    seed_old: u64,
+    seed_new: u64,
+    hours: f64,
+    chosen: &fit::Config,
+) -> Result<RecalStudy, TrainerError> {
     let new_site = simulate(cfg, seed_new);
     let d = &new_site.data;
     let batch = first_hours(d, hours);

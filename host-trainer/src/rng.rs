@@ -69,18 +69,24 @@ mod tests {
 
     #[test]
     fn streams_are_reproducible_and_distinct() {
-        let a: Vec<f64> = (0..5).map({
-            let mut r = Rng::new(7, Stream::Drift);
-            move |_| r.normal()
-        }).collect();
-        let b: Vec<f64> = (0..5).map({
-            let mut r = Rng::new(7, Stream::Drift);
-            move |_| r.normal()
-        }).collect();
-        let c: Vec<f64> = (0..5).map({
-            let mut r = Rng::new(7, Stream::PinkNoise);
-            move |_| r.normal()
-        }).collect();
+        let a: Vec<f64> = (0..5)
+            .map({
+                let mut r = Rng::new(7, Stream::Drift);
+                move |_| r.normal()
+            })
+            .collect();
+        let b: Vec<f64> = (0..5)
+            .map({
+                let mut r = Rng::new(7, Stream::Drift);
+                move |_| r.normal()
+            })
+            .collect();
+        let c: Vec<f64> = (0..5)
+            .map({
+                let mut r = Rng::new(7, Stream::PinkNoise);
+                move |_| r.normal()
+            })
+            .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
     }

@@ -347,8 +347,7 @@ impl ScenarioConfig {
     /// Load a TOML file: keys not given keep the `paper` defaults; unknown keys and
     /// out-of-range values are errors naming the file and key.
     pub fn from_toml_file(path: &Path) -> Result<Self, TrainerError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| TrainerError::io(path, e))?;
+        let text = std::fs::read_to_string(path).map_err(|e| TrainerError::io(path, e))?;
         Self::from_toml_str(&text, &path.display().to_string())
     }
 
@@ -359,11 +358,7 @@ impl ScenarioConfig {
             key: e.span().map(|s| line_col(text, s.start)).unwrap_or_default(),
             message: e.message().to_string(),
         })?;
-        cfg.validate().map_err(|(key, message)| TrainerError::Config {
-            origin: origin.to_string(),
-            key,
-            message,
-        })?;
+        cfg.validate().map_err(|(key, message)| TrainerError::Config { origin: origin.to_string(), key, message })?;
         Ok(cfg)
     }
 
@@ -440,14 +435,9 @@ impl ScenarioConfig {
             }
         }
         v.nonneg("gratings.dispersion", g.dispersion, 0.5);
-        for (name, arr) in [
-            ("c_tt", g.c_tt),
-            ("c_te", g.c_te),
-            ("c_tp", g.c_tp),
-            ("c_ee", g.c_ee),
-            ("c_pp", g.c_pp),
-            ("c_ep", g.c_ep),
-        ] {
+        for (name, arr) in
+            [("c_tt", g.c_tt), ("c_te", g.c_te), ("c_tp", g.c_tp), ("c_ee", g.c_ee), ("c_pp", g.c_pp), ("c_ep", g.c_ep)]
+        {
             for (i, c) in arr.iter().enumerate() {
                 v.range(&format!("gratings.{name}[{i}]"), *c, -10.0, 10.0);
             }
@@ -571,13 +561,9 @@ mod tests {
 
     #[test]
     fn out_of_range_value_is_named() {
-        let e = ScenarioConfig::from_toml_str("[noise]\nwhite_sigma_pm = -1.0\n", "y.toml")
-            .unwrap_err()
-            .to_string();
+        let e = ScenarioConfig::from_toml_str("[noise]\nwhite_sigma_pm = -1.0\n", "y.toml").unwrap_err().to_string();
         assert!(e.contains("y.toml") && e.contains("noise.white_sigma_pm"), "{e}");
-        let e = ScenarioConfig::from_toml_str("[clock]\ncal_fraction = 1.5\n", "y.toml")
-            .unwrap_err()
-            .to_string();
+        let e = ScenarioConfig::from_toml_str("[clock]\ncal_fraction = 1.5\n", "y.toml").unwrap_err().to_string();
         assert!(e.contains("clock.cal_fraction"), "{e}");
     }
 

@@ -132,7 +132,9 @@ pub fn compare(dev: &DeviceEstimate, host: &Estimate<f64>, tol: [f64; N_OUTPUTS]
         return Some(format!("flags {} (device) vs {} (host)", dev.flags, host.flags));
     }
     for c in 0..N_OUTPUTS {
-        for (what, d, h) in [("value", f64::from(dev.values[c]), host.values[c]), ("band", f64::from(dev.band[c]), host.band95[c])] {
+        for (what, d, h) in
+            [("value", f64::from(dev.values[c]), host.values[c]), ("band", f64::from(dev.band[c]), host.band95[c])]
+        {
             let ok = if d.is_nan() || h.is_nan() {
                 d.is_nan() && h.is_nan()
             } else if d.is_infinite() || h.is_infinite() {
@@ -229,7 +231,8 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
     }
     // Both sides start from a fresh stream state.
     link.reset_stream(0x5EED + 1).map_err(|e| link_err("reset", e))?;
-    let mut reference = Compensator::<f64, HOST_CAP>::new(&model).map_err(|e| anyhow::anyhow!("{}: {e}", opts.model.display()))?;
+    let mut reference =
+        Compensator::<f64, HOST_CAP>::new(&model).map_err(|e| anyhow::anyhow!("{}: {e}", opts.model.display()))?;
 
     let t0 = Instant::now();
     let mut report = StreamReport {
@@ -249,7 +252,8 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
         first_mismatches: Vec::new(),
         seconds: 0.0,
     };
-    let bar = crate::fit::select::progress_bar(opts.progress, idx.len() as u64, "stream").with_finish(indicatif::ProgressFinish::AndClear);
+    let bar = crate::fit::select::progress_bar(opts.progress, idx.len() as u64, "stream")
+        .with_finish(indicatif::ProgressFinish::AndClear);
     for (n, &i) in idx.iter().enumerate() {
         bar.inc(1);
         let x = as_device_input(&data.sample(i));
@@ -301,10 +305,16 @@ mod tests {
 
     #[test]
     fn compare_applies_the_tolerance_nan_inf_and_flags() {
-        let host = Estimate { values: [1.0, 2.0, f64::NAN], band95: [0.5, f64::INFINITY, f64::INFINITY], flags: Flags::OK };
+        let host =
+            Estimate { values: [1.0, 2.0, f64::NAN], band95: [0.5, f64::INFINITY, f64::INFINITY], flags: Flags::OK };
         let tol = [0.01, 0.01, 0.01];
-        assert_eq!(compare(&dev([1.005, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol), None);
-        assert!(compare(&dev([1.02, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol).is_some());
+        assert_eq!(
+            compare(&dev([1.005, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol),
+            None
+        );
+        assert!(
+            compare(&dev([1.02, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol).is_some()
+        );
         assert!(compare(&dev([1.0, 2.0, 0.0], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol).is_some());
         assert!(compare(&dev([1.0, 2.0, f32::NAN], [0.5, 1.0, f32::INFINITY], Flags::OK), &host, tol).is_some());
         let flagged = dev([1.0, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OUT_OF_ENVELOPE);

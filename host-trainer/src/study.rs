@@ -136,7 +136,11 @@ fn fixed(opts: &TrainOptions, cfg: &fit::Config) -> TrainOptions {
 
 /// Hold-out RMSE of both models retrained on a re-simulated scenario with fixed
 /// hyper-parameters.
-fn refit_rmse(cfg: &ScenarioConfig, seed: u64, opts: &TrainOptions) -> Result<([f64; 3], [f64; 3], [f64; 3]), TrainerError> {
+fn refit_rmse(
+    cfg: &ScenarioConfig,
+    seed: u64,
+    opts: &TrainOptions,
+) -> Result<([f64; 3], [f64; 3], [f64; 3]), TrainerError> {
     let s = simulate(cfg, seed);
     let tr = fit::train(&s.data, opts, &Origin { scenario: cfg.name.clone(), seed })?;
     let (ep, _) = evaluate_holdout(&tr.model_p, &s.data)?;
@@ -146,7 +150,12 @@ fn refit_rmse(cfg: &ScenarioConfig, seed: u64, opts: &TrainOptions) -> Result<([
 
 /// The drift sweep, refitting both models at each σ_d with the hyper-parameters chosen on
 /// the nominal scenario (so that only the drift changes).
-pub fn drift_sweep(cfg: &ScenarioConfig, seed: u64, chosen: &fit::Config, opts: &TrainOptions) -> Result<DriftSweep, TrainerError> {
+pub fn drift_sweep(
+    cfg: &ScenarioConfig,
+    seed: u64,
+    chosen: &fit::Config,
+    opts: &TrainOptions,
+) -> Result<DriftSweep, TrainerError> {
     let o = fixed(opts, chosen);
     let pts: Vec<Result<_, TrainerError>> = fit::par_map(&DRIFT_FACTORS, |&f| {
         let mut c = cfg.clone();
@@ -196,7 +205,12 @@ pub fn linear_fit(x: &[f64], y: &[f64]) -> (f64, f64) {
 /// RBF on the direction latches, no memory terms); the default (memory terms fitted with the
 /// core, RBF residual); and the default with each memory group removed in turn. Each variant
 /// runs its own selection over its own family, inside the calibration batch.
-pub fn ablation(d: &Dataset, trained: &Trained, opts: &TrainOptions, origin: &Origin) -> Result<Vec<AblationRow>, TrainerError> {
+pub fn ablation(
+    d: &Dataset,
+    trained: &Trained,
+    opts: &TrainOptions,
+    origin: &Origin,
+) -> Result<Vec<AblationRow>, TrainerError> {
     use fbg_shared::MemoryGroup;
     let (ep, _) = evaluate_holdout(&trained.model_p, d)?;
     let (eh, _) = evaluate_holdout(&trained.model_h, d)?;
@@ -211,7 +225,12 @@ pub fn ablation(d: &Dataset, trained: &Trained, opts: &TrainOptions, origin: &Or
         (
             "Hybrid, paper variant".into(),
             "z = [Δλ, T_amb, t] (paper Eq. 5), no memory terms".into(),
-            TrainOptions { feature_sets: vec![FeatureSet::Paper], memory: off.clone(), centres: vec![8, 16, 32], ..base.clone() },
+            TrainOptions {
+                feature_sets: vec![FeatureSet::Paper],
+                memory: off.clone(),
+                centres: vec![8, 16, 32],
+                ..base.clone()
+            },
         ),
         (
             "Hybrid, latch variant".into(),
@@ -267,7 +286,12 @@ pub fn ablation(d: &Dataset, trained: &Trained, opts: &TrainOptions, origin: &Or
 
 /// Error budget: both models' hold-out RMSE with each artefact switched off in turn (fixed
 /// hyper-parameters), plus the full scenario and physics only.
-pub fn error_budget(cfg: &ScenarioConfig, seed: u64, chosen: &fit::Config, opts: &TrainOptions) -> Result<Vec<BudgetRow>, TrainerError> {
+pub fn error_budget(
+    cfg: &ScenarioConfig,
+    seed: u64,
+    chosen: &fit::Config,
+    opts: &TrainOptions,
+) -> Result<Vec<BudgetRow>, TrainerError> {
     let o = fixed(opts, chosen);
     let mut names = vec!["none"];
     names.extend(EFFECT_NAMES);
@@ -319,13 +343,22 @@ pub const RECAL_BATCH_HOURS: [f64; 2] = [2.0, 24.0];
 pub const RECAL_SEED_OFFSET: u64 = 1;
 
 /// Train on a simulation and measure everything.
-pub fn run_all(sim: &Simulation, opts: &TrainOptions, studies: Studies, log: &dyn Fn(&str)) -> Result<(Trained, Metrics), TrainerError> {
+pub fn run_all(
+    sim: &Simulation,
+    opts: &TrainOptions,
+    studies: Studies,
+    log: &dyn Fn(&str),
+) -> Result<(Trained, Metrics), TrainerError> {
     let mut timings = Vec::new();
     let origin = Origin { scenario: sim.config.name.clone(), seed: sim.seed };
     let t = Instant::now();
     let trained = fit::train(&sim.data, opts, &origin)?;
     timings.push(("train".to_string(), t.elapsed().as_secs_f64()));
-    log(&format!("trained Model-P and Model-H in {:.1} s ({} grid points)", t.elapsed().as_secs_f64(), trained.selection.rows.len()));
+    log(&format!(
+        "trained Model-P and Model-H in {:.1} s ({} grid points)",
+        t.elapsed().as_secs_f64(),
+        trained.selection.rows.len()
+    ));
     let oracle = sim.oracle_floor().rmse_holdout;
     let t = Instant::now();
     let t2 = table2(&trained.model_p, &trained.model_h, &sim.data, Some(oracle))?;
@@ -336,7 +369,11 @@ pub fn run_all(sim: &Simulation, opts: &TrainOptions, studies: Studies, log: &dy
         let t = Instant::now();
         let r = drift_sweep(&sim.config, sim.seed, &chosen, opts)?;
         timings.push(("drift_sweep".to_string(), t.elapsed().as_secs_f64()));
-        log(&format!("drift sweep ({} refits of both models) in {:.1} s", DRIFT_FACTORS.len(), t.elapsed().as_secs_f64()));
+        log(&format!(
+            "drift sweep ({} refits of both models) in {:.1} s",
+            DRIFT_FACTORS.len(),
+            t.elapsed().as_secs_f64()
+        ));
         Some(r)
     } else {
         None
@@ -359,11 +396,8 @@ pub fn run_all(sim: &Simulation, opts: &TrainOptions, studies: Studies, log: &dy
     } else {
         None
     };
-    let parity = if studies.parity {
-        Some(crate::parity::check(&trained.model_h, &sim.data, &t2.model_h)?)
-    } else {
-        None
-    };
+    let parity =
+        if studies.parity { Some(crate::parity::check(&trained.model_h, &sim.data, &t2.model_h)?) } else { None };
     let recal = if studies.recalibration {
         let t = Instant::now();
         let seed_new = sim.seed.wrapping_add(RECAL_SEED_OFFSET);
@@ -452,7 +486,8 @@ pub fn evaluate_models(
         + usize::from(with_meta && studies.drift_sweep)
         + usize::from(with_meta && studies.error_budget)
         + usize::from(studies.parity);
-    let bar = fit::select::progress_bar(progress, steps as u64, "evaluate").with_finish(indicatif::ProgressFinish::AndClear);
+    let bar =
+        fit::select::progress_bar(progress, steps as u64, "evaluate").with_finish(indicatif::ProgressFinish::AndClear);
     bar.enable_steady_tick(std::time::Duration::from_millis(200));
     bar.set_message("hold-out (Table 2)");
     let t = Instant::now();

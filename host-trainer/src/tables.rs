@@ -28,7 +28,11 @@ impl Table {
                 .enumerate()
                 .map(|(i, c)| {
                     let pad = w[i] - c.chars().count();
-                    if i == 0 { format!("{c}{}", " ".repeat(pad)) } else { format!("{}{c}", " ".repeat(pad)) }
+                    if i == 0 {
+                        format!("{c}{}", " ".repeat(pad))
+                    } else {
+                        format!("{}{c}", " ".repeat(pad))
+                    }
                 })
                 .collect::<Vec<_>>()
                 .join("  ")
@@ -54,7 +58,11 @@ impl Table {
     /// CSV (RFC 4180 quoting).
     pub fn csv(&self) -> String {
         let q = |c: &String| {
-            if c.contains([',', '"', '\n']) { format!("\"{}\"", c.replace('"', "\"\"")) } else { c.clone() }
+            if c.contains([',', '"', '\n']) {
+                format!("\"{}\"", c.replace('"', "\"\""))
+            } else {
+                c.clone()
+            }
         };
         let mut out = String::new();
         for r in std::iter::once(&self.header).chain(self.rows.iter()) {
@@ -66,7 +74,11 @@ impl Table {
 }
 
 fn f(v: f64, digits: usize) -> String {
-    if v.is_finite() { format!("{v:.digits$}") } else { "–".into() }
+    if v.is_finite() {
+        format!("{v:.digits$}")
+    } else {
+        "–".into()
+    }
 }
 
 /// Decimals that suit each channel's magnitude.
@@ -122,7 +134,10 @@ pub fn flag_lines(m: &Metrics) -> Vec<String> {
                 worse.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>().join(", ")
             )
         } else {
-            format!("use Model-P for {}, or recalibrate on recent data", worse.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>().join(", "))
+            format!(
+                "use Model-P for {}, or recalibrate on recent data",
+                worse.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>().join(", ")
+            )
         };
         out.push(format!("warning: Model-H is worse than Model-P on {} of the hold-out; {why}", which.join(", ")));
     }
@@ -153,9 +168,21 @@ pub fn table2(m: &Metrics) -> Table {
     }
     Table {
         title: format!("Table 2. Hold-out performance ({}, {})", origin_label(m), holdout_label(m)),
-        header: ["channel", "model", "RMSE", "MAE", "R²", "bias", "max|e|", "coverage %", "hyst. index", "gain %", "per-sample oracle"]
-            .map(String::from)
-            .to_vec(),
+        header: [
+            "channel",
+            "model",
+            "RMSE",
+            "MAE",
+            "R²",
+            "bias",
+            "max|e|",
+            "coverage %",
+            "hyst. index",
+            "gain %",
+            "per-sample oracle",
+        ]
+        .map(String::from)
+        .to_vec(),
         rows,
     }
 }
@@ -175,11 +202,9 @@ pub fn table3(rows: &[AblationRow], m: &Metrics) -> Table {
     }
     Table {
         title: format!("Table 3. Ablation, hold-out RMSE ({}, seed {})", m.scenario, m.seed),
-        header: [
-            "configuration", "T [°C]", "gain %", "strain [µε]", "gain %", "p [kPa]", "gain %", "notes",
-        ]
-        .map(String::from)
-        .to_vec(),
+        header: ["configuration", "T [°C]", "gain %", "strain [µε]", "gain %", "p [kPa]", "gain %", "notes"]
+            .map(String::from)
+            .to_vec(),
         rows: out,
     }
 }
@@ -198,11 +223,9 @@ pub fn budget(rows: &[BudgetRow], m: &Metrics) -> Table {
     }
     Table {
         title: format!("Error budget: hold-out RMSE with one artefact switched off ({}, seed {})", m.scenario, m.seed),
-        header: [
-            "switched off", "T P", "T H", "T oracle", "ε P", "ε H", "ε oracle", "p P", "p H", "p oracle",
-        ]
-        .map(String::from)
-        .to_vec(),
+        header: ["switched off", "T P", "T H", "T oracle", "ε P", "ε H", "ε oracle", "p P", "p H", "p oracle"]
+            .map(String::from)
+            .to_vec(),
         rows: out,
     }
 }

@@ -38,19 +38,24 @@ fn on_error_skip_fails_above_the_skipped_fraction_with_counts_by_reason() {
     let bad = d.path().join("bad.csv");
     let n_bad = spoil_ambient(&csv, &bad, 4);
     let out = d.path().join("out.csv");
-    let (ok, _, err) = run(bin().args(["import", "--format", "csv", "--on-error", "skip"]).arg(&bad).arg("--out").arg(&out));
+    let (ok, _, err) =
+        run(bin().args(["import", "--format", "csv", "--on-error", "skip"]).arg(&bad).arg("--out").arg(&out));
     assert!(!ok, "a 25 % loss must not pass silently");
     assert!(err.contains("bad.csv") && err.contains(&format!("{n_bad} of 4320 rows")), "{err}");
     assert!(err.contains("non_numeric") && err.contains("5 %"), "{err}");
     assert!(!out.exists(), "nothing written");
     // The cap is configurable ...
-    let (ok, _, err) =
-        run(bin().args(["import", "--format", "csv", "--on-error", "skip", "--max-skipped", "30"]).arg(&bad).arg("--out").arg(&out));
+    let (ok, _, err) = run(bin()
+        .args(["import", "--format", "csv", "--on-error", "skip", "--max-skipped", "30"])
+        .arg(&bad)
+        .arg("--out")
+        .arg(&out));
     assert!(ok && err.contains(&format!("skipped {n_bad} × non_numeric")), "{err}");
     // ... and a few bad rows (1 in 100) pass under the default.
     let few = d.path().join("few.csv");
     let n_few = spoil_ambient(&csv, &few, 100);
-    let (ok, _, err) = run(bin().args(["import", "--format", "csv", "--on-error", "skip"]).arg(&few).arg("--out").arg(&out));
+    let (ok, _, err) =
+        run(bin().args(["import", "--format", "csv", "--on-error", "skip"]).arg(&few).arg("--out").arg(&out));
     assert!(ok && err.contains(&format!("{n_few} skipped as bad")), "{err}");
 }
 
@@ -80,20 +85,32 @@ fn train_and_evaluate_run_the_unit_checks_of_import_with_its_messages() {
     map_column(&csv, &kelvin, 4, |v| v + 273.15);
     let nm = d.path().join("nm.csv");
     map_column(&csv, &nm, 5, |v| 1545.0 + v * 1e-3);
-    for (bad, column, says) in [(&kelvin, "T_amb_C", "looks like kelvin"), (&nm, "dl1_pm", "like absolute wavelengths in nm")] {
+    for (bad, column, says) in
+        [(&kelvin, "T_amb_C", "looks like kelvin"), (&nm, "dl1_pm", "like absolute wavelengths in nm")]
+    {
         let out = d.path().join("imported.csv");
         let (ok, _, import_err) = run(bin().args(["import", "--format", "csv"]).arg(bad).arg("--out").arg(&out));
         assert!(!ok && import_err.contains(says), "import: {import_err}");
-        let (ok, _, train_err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(bad).arg("--out").arg(d.path().join("x.fbgm")));
+        let (ok, _, train_err) = run(bin()
+            .args(["train", "--max-centres", "8", "--data"])
+            .arg(bad)
+            .arg("--out")
+            .arg(d.path().join("x.fbgm")));
         assert!(!ok, "train accepted {}", bad.display());
-        assert!(train_err.contains(says) && train_err.contains(column) && train_err.contains("line 2"), "train: {train_err}");
+        assert!(
+            train_err.contains(says) && train_err.contains(column) && train_err.contains("line 2"),
+            "train: {train_err}"
+        );
         let (ok, _, eval_err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(bad).arg("--model").arg(&model));
         assert!(!ok && eval_err.contains(says) && eval_err.contains(column), "evaluate: {eval_err}");
         // The same words as import's message (up to its own file name and line).
         let core = |e: &str| e.split(": ").skip(2).collect::<Vec<_>>().join(": ");
         let i = core(&import_err);
         let key_advice = i.split(';').nth(1).unwrap_or_default().trim().to_string();
-        assert!(!key_advice.is_empty() && train_err.contains(&key_advice), "import says `{key_advice}`; train: {train_err}");
+        assert!(
+            !key_advice.is_empty() && train_err.contains(&key_advice),
+            "import says `{key_advice}`; train: {train_err}"
+        );
     }
 }
 
@@ -136,7 +153,12 @@ fn a_last_line_without_a_line_end_is_a_truncated_ragged_row() {
     std::fs::remove_file(&out).unwrap();
     let logger = d.path().join("cut.csv");
     cut_copy(&import_data("logger.csv"), &logger, 3);
-    let (ok, _, err) = run(bin().args(["import", "--format", "csv", "--map"]).arg(import_data("logger_map.toml")).arg(&logger).arg("--out").arg(&out));
+    let (ok, _, err) = run(bin()
+        .args(["import", "--format", "csv", "--map"])
+        .arg(import_data("logger_map.toml"))
+        .arg(&logger)
+        .arg("--out")
+        .arg(&out));
     assert!(!ok && err.contains("cut.csv") && err.contains("truncated last row"), "{err}");
     assert!(!out.exists());
 }
@@ -148,7 +170,8 @@ fn train_refuses_a_dataset_csv_cut_inside_its_last_row() {
     let cut = d.path().join("cut.csv");
     // `…,3.760623,holdout\n` -> `…,3.760623,hold`: the split cell cut short.
     cut_copy(&csv, &cut, 4);
-    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&cut).arg("--out").arg(d.path().join("m.fbgm")));
+    let (ok, _, err) =
+        run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&cut).arg("--out").arg(d.path().join("m.fbgm")));
     assert!(!ok);
     assert!(err.contains("cut.csv") && err.contains("line 4321") && err.contains("truncated last row"), "{err}");
     // Cut inside the last number instead (the split column removed, so dl3_pm is last).
@@ -156,7 +179,11 @@ fn train_refuses_a_dataset_csv_cut_inside_its_last_row() {
     let no_split: String = text.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n").collect();
     let nosplit = d.path().join("nosplit.csv");
     std::fs::write(&nosplit, &no_split[..no_split.len() - 4]).unwrap();
-    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&nosplit).arg("--out").arg(d.path().join("m.fbgm")));
+    let (ok, _, err) = run(bin()
+        .args(["train", "--max-centres", "8", "--data"])
+        .arg(&nosplit)
+        .arg("--out")
+        .arg(d.path().join("m.fbgm")));
     assert!(!ok && err.contains("dl3_pm") && err.contains("truncated last row"), "{err}");
 }
 
@@ -164,8 +191,20 @@ fn train_refuses_a_dataset_csv_cut_inside_its_last_row() {
 /// subcommand has a description, and no help text names a file that does not exist.
 #[test]
 fn every_option_of_every_subcommand_is_described() {
-    let subcommands =
-        ["simulate", "train", "evaluate", "recalibrate", "inspect", "golden", "report", "demo", "import", "bench-fit", "fleet", "stream"];
+    let subcommands = [
+        "simulate",
+        "train",
+        "evaluate",
+        "recalibrate",
+        "inspect",
+        "golden",
+        "report",
+        "demo",
+        "import",
+        "bench-fit",
+        "fleet",
+        "stream",
+    ];
     for sub in subcommands {
         // `--help` (long help) puts each description on the lines below its option.
         let (ok, help, err) = run(bin().args([sub, "--help"]));
@@ -174,7 +213,8 @@ fn every_option_of_every_subcommand_is_described() {
         let lines: Vec<&str> = help.lines().collect();
         for (i, l) in lines.iter().enumerate() {
             let t = l.trim_start();
-            let is_option = (t.starts_with("--") || (t.starts_with('<') && l.starts_with("  "))) && !t.starts_with("--help");
+            let is_option =
+                (t.starts_with("--") || (t.starts_with('<') && l.starts_with("  "))) && !t.starts_with("--help");
             if !is_option || t.starts_with("-h") {
                 continue;
             }
@@ -184,7 +224,11 @@ fn every_option_of_every_subcommand_is_described() {
             let inline_doc = !inline.is_empty() && !inline.starts_with("[default") && !inline.starts_with("[possible");
             let next = lines.get(i + 1).map(|n| n.trim()).unwrap_or("");
             let below_doc = inline.is_empty() && !next.is_empty() && !next.starts_with('[') && !next.starts_with("--");
-            assert!(inline_doc || below_doc, "`fbg-trainer {sub}`: `{}` has no description:\n{help}", t[..head_end].trim());
+            assert!(
+                inline_doc || below_doc,
+                "`fbg-trainer {sub}`: `{}` has no description:\n{help}",
+                t[..head_end].trim()
+            );
         }
     }
 }
@@ -220,7 +264,10 @@ fn evaluate_on_recorded_data_with_gaps_labels_what_it_scored() {
     let (ok, out, err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(&site).arg("--model").arg(&model));
     assert!(ok, "{err}");
     let holdout = text.lines().filter(|l| l.ends_with(",holdout")).count();
-    assert!(out.contains(&format!("{holdout} hold-out samples, {} scored: 30 with gaps skipped", holdout - 30)), "{out}");
+    assert!(
+        out.contains(&format!("{holdout} hold-out samples, {} scored: 30 with gaps skipped", holdout - 30)),
+        "{out}"
+    );
     assert!(out.contains("recorded data") && !out.contains("seed 0"), "{out}");
 }
 
@@ -238,10 +285,12 @@ fn evaluate_prints_flags_per_flag_and_warns_when_model_h_is_worse() {
         assert!(run(bin().args(["simulate", "--preset", "harsh", "--seed", seed, "--out"]).arg(&csv)).0);
         // The `latch` variant (no memory terms) is the one that loses to Model-P on `harsh`, so
         // it exercises both warnings; the checks hold for any model.
-        let (ok, _, err) = run(bin().args(["train", "--features", "latch", "--data"]).arg(&csv).arg("--out").arg(&model));
+        let (ok, _, err) =
+            run(bin().args(["train", "--features", "latch", "--data"]).arg(&csv).arg("--out").arg(&model));
         assert!(ok, "{err}");
         // train warns when cross-validation already scores Model-H worse on some channel.
-        let (ok, js, _) = run(bin().args(["train", "--features", "latch", "--json", "--data"]).arg(&csv).arg("--out").arg(&model));
+        let (ok, js, _) =
+            run(bin().args(["train", "--features", "latch", "--json", "--data"]).arg(&csv).arg("--out").arg(&model));
         assert!(ok);
         let j: serde_json::Value = serde_json::from_str(&js).unwrap();
         let cv_worse = (0..3).any(|c| j["cv_rmse_h"][c].as_f64().unwrap() > j["cv_rmse_p"][c].as_f64().unwrap());
@@ -249,8 +298,14 @@ fn evaluate_prints_flags_per_flag_and_warns_when_model_h_is_worse() {
         cv_warned += usize::from(cv_worse);
         let (ok, _, err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(&csv).arg("--model").arg(&model));
         assert!(ok, "{err}");
-        assert!(err.contains("Model-H flags on the hold-out") && err.contains("% outside the calibration envelope") && err.contains("% weak RBF support"), "{err}");
-        let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path().join("metrics.json")).unwrap()).unwrap();
+        assert!(
+            err.contains("Model-H flags on the hold-out")
+                && err.contains("% outside the calibration envelope")
+                && err.contains("% weak RBF support"),
+            "{err}"
+        );
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.path().join("metrics.json")).unwrap()).unwrap();
         let worse: Vec<usize> = (0..3).filter(|&c| m["table2"]["gain_pct"][c].as_f64().unwrap() < 0.0).collect();
         let warning = err.lines().find(|l| l.starts_with("warning: Model-H is worse than Model-P"));
         assert_eq!(warning.is_some(), !worse.is_empty(), "seed {seed}: gains {} but: {err}", m["table2"]["gain_pct"]);
@@ -276,7 +331,9 @@ fn a_flipped_header_bit_is_corruption_and_inspect_prints_f32_values_as_f32() {
     assert!(out.contains("CRC-32 "), "{out}");
     assert!(out.contains("envelope margin 0.1,"), "{out}");
     // No f32 widened to f64 digits such as 0.10000000149011612.
-    let long_digits = out.split(|c: char| !(c.is_ascii_digit() || c == '.')).any(|w| w.split('.').nth(1).is_some_and(|f| f.len() > 9));
+    let long_digits = out
+        .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .any(|w| w.split('.').nth(1).is_some_and(|f| f.len() > 9));
     assert!(!long_digits, "{out}");
     let mut b = std::fs::read(&model).unwrap();
     b[4] ^= 0x02; // format version 2 -> 0
@@ -300,7 +357,8 @@ fn the_summary_judges_coverage_as_shown() {
     let (ok, _, err) = run(bin().args(["demo", "--json", "--out"]).arg(&out));
     assert!(ok, "{err}");
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
-    let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     let names = ["temperature", "strain", "pressure"];
     let start = html.find("Counting 93–97 % as on target:").expect("coverage sentence");
     let sentence = &html[start..start + html[start..].find('.').unwrap()];
@@ -434,13 +492,17 @@ fn figure_legends_bands_and_zoom_windows_show_what_is_drawn() {
     };
     let f8 = svg("fig8_drift_sensitivity");
     assert!(f8.contains("Model-P fit: slope"));
-    assert!(dashes(&f8, "#D55E00") >= 3 && dashes(&f8, "#0072B2") >= 3, "Fig. 8: the fit lines' legend entries are not dashed");
+    assert!(
+        dashes(&f8, "#D55E00") >= 3 && dashes(&f8, "#0072B2") >= 3,
+        "Fig. 8: the fit lines' legend entries are not dashed"
+    );
     let f6 = svg("fig6_parity");
     assert!(f6.contains("ideal (estimate = truth)"));
     assert!(dashes(&f6, "#141414") >= 3, "Fig. 6: the ideal line's legend entry is not dashed");
     for stem in ["fig3_temperature", "fig4_strain", "fig5_pressure"] {
         let s = svg(stem);
-        let filled_band = s.lines().any(|l| l.starts_with("<polygon") && (l.contains("#D55E00") || l.contains("#0072B2")));
+        let filled_band =
+            s.lines().any(|l| l.starts_with("<polygon") && (l.contains("#D55E00") || l.contains("#0072B2")));
         assert!(!filled_band, "{stem}: a band is a blended fill");
         assert!(s.contains("95 % band (hatched)"), "{stem}: the legend does not say how bands are drawn");
         assert!(s.contains("fill=\"#F0E442\""), "{stem}: no tinted zoom window");
@@ -449,7 +511,14 @@ fn figure_legends_bands_and_zoom_windows_show_what_is_drawn() {
     let f2 = svg("fig2_wavelength_fbg1");
     assert!(f2.contains("measured and true, zoomed on t ="), "Fig. 2a does not zoom");
     assert!(f2.contains("fill=\"#F0E442\"") && !f2.contains("opacity=\"0.18\" fill=\"#000000\""));
-    for stem in ["fig2_wavelength_fbg1", "fig3_temperature", "fig4_strain", "fig5_pressure", "fig6_parity", "fig8_drift_sensitivity"] {
+    for stem in [
+        "fig2_wavelength_fbg1",
+        "fig3_temperature",
+        "fig4_strain",
+        "fig5_pressure",
+        "fig6_parity",
+        "fig8_drift_sensitivity",
+    ] {
         let png = std::fs::read(out.join(format!("{stem}.png"))).unwrap();
         assert!(png.len() > 10_000 && png.starts_with(b"\x89PNG\r\n\x1a\n"), "{stem}.png");
     }
@@ -491,6 +560,12 @@ fn report_reads_the_inputs_named_by_its_options() {
     assert_eq!(o["warnings"].as_array().map(Vec::len), Some(0), "{stdout}");
     assert!(out.join("index.html").is_file() && out.join("fig3_temperature.png").is_file());
     // A named input that is missing is named, with its path.
-    let (ok, _, err) = run(bin().args(["report", "--out"]).arg(&out).arg("--model-p").arg(inp.join("nope-p.fbgm")).arg("--data").arg(inp.join("rec.csv")));
+    let (ok, _, err) = run(bin()
+        .args(["report", "--out"])
+        .arg(&out)
+        .arg("--model-p")
+        .arg(inp.join("nope-p.fbgm"))
+        .arg("--data")
+        .arg(inp.join("rec.csv")));
     assert!(!ok && err.contains("nope-p.fbgm"), "{err}");
 }

@@ -8,7 +8,11 @@ fn bin() -> Command {
 
 fn run(cmd: &mut Command) -> (bool, String, String) {
     let o = cmd.output().unwrap();
-    (o.status.success(), String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
 }
 
 #[test]
@@ -20,7 +24,8 @@ fn simulate_twice_gives_identical_bytes_and_a_meta_sidecar() {
         assert!(ok, "{err}");
     }
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
-    let meta: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path().join("a.meta.json")).unwrap()).unwrap();
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("a.meta.json")).unwrap()).unwrap();
     assert_eq!(meta["seed"], 7);
     let (ok, out, _) = run(bin().args(["simulate", "--seed", "7", "--json", "--out"]).arg(&a));
     assert!(ok);
@@ -94,7 +99,8 @@ fn train_evaluate_inspect_round_trip_on_a_short_scenario() {
     let csv = d.path().join("data.csv");
     assert!(run(bin().args(["simulate", "--seed", "2", "--config"]).arg(&cfg).arg("--out").arg(&csv)).0);
     let model = d.path().join("model.fbgm");
-    let (ok, out, err) = run(bin().args(["train", "--json", "--max-centres", "16", "--data"]).arg(&csv).arg("--out").arg(&model));
+    let (ok, out, err) =
+        run(bin().args(["train", "--json", "--max-centres", "16", "--data"]).arg(&csv).arg("--out").arg(&model));
     assert!(ok, "{err}");
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert!(j["chosen"]["k"].as_u64().unwrap() <= 16);
@@ -107,7 +113,8 @@ fn train_evaluate_inspect_round_trip_on_a_short_scenario() {
     assert_eq!(j["model"]["provenance"]["seed"], 2);
     let (ok, _, err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(&csv).arg("--model").arg(&model));
     assert!(ok, "{err}");
-    let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path().join("metrics.json")).unwrap()).unwrap();
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("metrics.json")).unwrap()).unwrap();
     assert!(m["table2"]["model_h"]["channels"][1]["rmse"].as_f64().unwrap() > 0.0);
     assert!(m["table2"]["oracle_floor"].is_array(), "the sidecar gives the oracle floor");
 }

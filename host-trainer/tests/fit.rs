@@ -119,7 +119,12 @@ fn paper_preset_model_h_beats_model_p_and_removes_the_hysteresis_bias() {
         assert!(h.rmse > 0.5 * floor[c], "channel {c}: {} vs per-sample oracle {}", h.rmse, floor[c]);
         assert!(h.r2 > 0.95, "channel {c}: R² {}", h.r2);
         assert!((0.90..=0.995).contains(&h.coverage), "channel {c}: coverage {}", h.coverage);
-        assert!(h.hysteresis_index.abs() < 0.3 * p.hysteresis_index.abs(), "channel {c}: hysteresis index {} vs {}", h.hysteresis_index, p.hysteresis_index);
+        assert!(
+            h.hysteresis_index.abs() < 0.3 * p.hysteresis_index.abs(),
+            "channel {c}: hysteresis index {} vs {}",
+            h.hysteresis_index,
+            p.hysteresis_index
+        );
     }
     // The default variant: memory terms on every channel, the RBF on the latch inputs.
     assert_ne!(t.selection.chosen.feature_set, FeatureSet::Paper);

@@ -114,7 +114,11 @@ fn resume_skips_finished_groups_and_redoes_corrupt_or_changed_ones() {
 
     // Options are part of the input: a different K limit retrains that group.
     let path = d.path().join("fleet.toml");
-    let text = std::fs::read_to_string(&path).unwrap().replacen("out = \"models/g3.fbgm\"", "out = \"models/g3.fbgm\"\nmax_centres = 16", 1);
+    let text = std::fs::read_to_string(&path).unwrap().replacen(
+        "out = \"models/g3.fbgm\"",
+        "out = \"models/g3.fbgm\"\nmax_centres = 16",
+        1,
+    );
     std::fs::write(&path, text).unwrap();
     let m = Manifest::from_file(&path).unwrap();
     let r4 = fleet::run(&m, 2, false).unwrap();
@@ -150,7 +154,11 @@ fn a_failing_group_does_not_stop_the_others() {
         .unwrap();
     assert!(!o.status.success());
     let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!((j["trained"].as_u64(), j["skipped"].as_u64(), j["failed"].as_u64()), (Some(0), Some(3), Some(2)), "{j}");
+    assert_eq!(
+        (j["trained"].as_u64(), j["skipped"].as_u64(), j["failed"].as_u64()),
+        (Some(0), Some(3), Some(2)),
+        "{j}"
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("2 of 5 groups failed"), "{err}");
 }

@@ -7,7 +7,9 @@ use std::process::Command;
 
 use fbg_trainer::dataset::{Dataset, Split};
 use fbg_trainer::fit::{train, Origin, TrainOptions};
-use fbg_trainer::import::{import, import_to_csv, Format, ImportOptions, ImportSummary, OnError, Reason, SplitChoice, DEFAULT_MAX_SKIPPED};
+use fbg_trainer::import::{
+    import, import_to_csv, Format, ImportOptions, ImportSummary, OnError, Reason, SplitChoice, DEFAULT_MAX_SKIPPED,
+};
 use fbg_trainer::scenario::Preset;
 use fbg_trainer::sim::simulate;
 
@@ -179,7 +181,10 @@ fn split_by_time_seconds_or_timestamp() {
 #[test]
 fn enlight_without_refs_says_where_the_references_must_come_from() {
     let e = failure(&enlight("enlight_tab.txt", Some("enlight_map.toml"), None));
-    assert!(e.contains("--refs") && e.contains("ENLIGHT") && e.contains("ambient temperature") && e.contains("reference"), "{e}");
+    assert!(
+        e.contains("--refs") && e.contains("ENLIGHT") && e.contains("ambient temperature") && e.contains("reference"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -282,10 +287,42 @@ struct Bad {
 fn bad_cases() -> Vec<Bad> {
     let e = |f: &str| enlight(f, None, Some("refs_plain.csv"));
     vec![
-        Bad { opts: e("bad/enlight_ragged.txt"), file: "enlight_ragged.txt", reason: Reason::RaggedRow, line: 6, column: "4 (peak count ch3)", says: "truncated", skipped: &[6, 11] },
-        Bad { opts: e("bad/enlight_non_numeric.txt"), file: "enlight_non_numeric.txt", reason: Reason::NonNumeric, line: 6, column: "6 (ch2 peak 1)", says: "1545.0x1", skipped: &[6, 9] },
-        Bad { opts: e("bad/enlight_backwards.txt"), file: "enlight_backwards.txt", reason: Reason::TimeBackwards, line: 8, column: "1 (time)", says: "backwards", skipped: &[8] },
-        Bad { opts: e("bad/enlight_duplicate.txt"), file: "enlight_duplicate.txt", reason: Reason::DuplicateTime, line: 7, column: "1 (time)", says: "line 6", skipped: &[7, 10] },
+        Bad {
+            opts: e("bad/enlight_ragged.txt"),
+            file: "enlight_ragged.txt",
+            reason: Reason::RaggedRow,
+            line: 6,
+            column: "4 (peak count ch3)",
+            says: "truncated",
+            skipped: &[6, 11],
+        },
+        Bad {
+            opts: e("bad/enlight_non_numeric.txt"),
+            file: "enlight_non_numeric.txt",
+            reason: Reason::NonNumeric,
+            line: 6,
+            column: "6 (ch2 peak 1)",
+            says: "1545.0x1",
+            skipped: &[6, 9],
+        },
+        Bad {
+            opts: e("bad/enlight_backwards.txt"),
+            file: "enlight_backwards.txt",
+            reason: Reason::TimeBackwards,
+            line: 8,
+            column: "1 (time)",
+            says: "backwards",
+            skipped: &[8],
+        },
+        Bad {
+            opts: e("bad/enlight_duplicate.txt"),
+            file: "enlight_duplicate.txt",
+            reason: Reason::DuplicateTime,
+            line: 7,
+            column: "1 (time)",
+            says: "line 6",
+            skipped: &[7, 10],
+        },
         Bad {
             opts: e("bad/enlight_count_mismatch.txt"),
             file: "enlight_count_mismatch.txt",
@@ -304,11 +341,51 @@ fn bad_cases() -> Vec<Bad> {
             says: "grating[2].window_nm",
             skipped: &[7],
         },
-        Bad { opts: e("bad/enlight_pm_row.txt"), file: "enlight_pm_row.txt", reason: Reason::UnitMismatch, line: 8, column: "7 (ch3 peak 1)", says: "enlight.unit", skipped: &[8] },
-        Bad { opts: logger("bad/logger_ragged.csv", None), file: "logger_ragged.csv", reason: Reason::RaggedRow, line: 4, column: "dl2_pm", says: "4 cells where the header has 6", skipped: &[4, 7] },
-        Bad { opts: logger("bad/logger_non_numeric.csv", None), file: "logger_non_numeric.csv", reason: Reason::NonNumeric, line: 4, column: "T_amb_C", says: "n/a?", skipped: &[4, 7] },
-        Bad { opts: logger("bad/logger_backwards.csv", None), file: "logger_backwards.csv", reason: Reason::TimeBackwards, line: 6, column: "time", says: "line 5", skipped: &[6] },
-        Bad { opts: logger("bad/logger_duplicate.csv", None), file: "logger_duplicate.csv", reason: Reason::DuplicateTime, line: 5, column: "time", says: "line 4", skipped: &[5] },
+        Bad {
+            opts: e("bad/enlight_pm_row.txt"),
+            file: "enlight_pm_row.txt",
+            reason: Reason::UnitMismatch,
+            line: 8,
+            column: "7 (ch3 peak 1)",
+            says: "enlight.unit",
+            skipped: &[8],
+        },
+        Bad {
+            opts: logger("bad/logger_ragged.csv", None),
+            file: "logger_ragged.csv",
+            reason: Reason::RaggedRow,
+            line: 4,
+            column: "dl2_pm",
+            says: "4 cells where the header has 6",
+            skipped: &[4, 7],
+        },
+        Bad {
+            opts: logger("bad/logger_non_numeric.csv", None),
+            file: "logger_non_numeric.csv",
+            reason: Reason::NonNumeric,
+            line: 4,
+            column: "T_amb_C",
+            says: "n/a?",
+            skipped: &[4, 7],
+        },
+        Bad {
+            opts: logger("bad/logger_backwards.csv", None),
+            file: "logger_backwards.csv",
+            reason: Reason::TimeBackwards,
+            line: 6,
+            column: "time",
+            says: "line 5",
+            skipped: &[6],
+        },
+        Bad {
+            opts: logger("bad/logger_duplicate.csv", None),
+            file: "logger_duplicate.csv",
+            reason: Reason::DuplicateTime,
+            line: 5,
+            column: "time",
+            says: "line 4",
+            skipped: &[5],
+        },
         Bad {
             opts: logger("bad/logger_nm_pm_row.csv", Some("bad/logger_nm_map.toml")),
             file: "logger_nm_pm_row.csv",
@@ -367,9 +444,27 @@ fn every_bad_case_is_counted_and_reported_when_skipping() {
 #[test]
 fn a_column_in_the_wrong_unit_is_refused_in_both_modes() {
     let cases = [
-        (logger("bad/logger_nm_all_pm.csv", Some("bad/logger_nm_map.toml")), "logger_nm_all_pm.csv", 3, "FBG2", "`grating[2].unit`: set it to \"pm\""),
-        (logger("bad/logger_shift_all.csv", Some("bad/logger_nm_map.toml")), "logger_shift_all.csv", 3, "FBG3", "shift_pm"),
-        (logger("bad/logger_abs_as_shift.csv", None), "logger_abs_as_shift.csv", 2, "dl2_pm", "`grating[2].unit`: set it to \"nm\""),
+        (
+            logger("bad/logger_nm_all_pm.csv", Some("bad/logger_nm_map.toml")),
+            "logger_nm_all_pm.csv",
+            3,
+            "FBG2",
+            "`grating[2].unit`: set it to \"pm\"",
+        ),
+        (
+            logger("bad/logger_shift_all.csv", Some("bad/logger_nm_map.toml")),
+            "logger_shift_all.csv",
+            3,
+            "FBG3",
+            "shift_pm",
+        ),
+        (
+            logger("bad/logger_abs_as_shift.csv", None),
+            "logger_abs_as_shift.csv",
+            2,
+            "dl2_pm",
+            "`grating[2].unit`: set it to \"nm\"",
+        ),
         (logger("bad/logger_kelvin.csv", None), "logger_kelvin.csv", 2, "T_amb_C", "ambient.offset"),
     ];
     for (o, file, line, column, says) in cases {
@@ -417,13 +512,25 @@ fn cli_import_prints_a_json_summary_and_fails_cleanly() {
 
     // Without --refs: an error, exit status 1, nothing written.
     let out2 = dir.path().join("none.csv");
-    let o = bin().args(["import", "--format", "enlight"]).arg(data("enlight_tab.txt")).arg("--out").arg(&out2).output().unwrap();
+    let o = bin()
+        .args(["import", "--format", "enlight"])
+        .arg(data("enlight_tab.txt"))
+        .arg("--out")
+        .arg(&out2)
+        .output()
+        .unwrap();
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--refs"));
     assert!(!out2.exists());
 
     // A bad row under the default policy; then skipped with --on-error skip.
-    let o = bin().args(["import", "--format", "csv"]).arg(data("bad/logger_duplicate.csv")).arg("--out").arg(&out2).output().unwrap();
+    let o = bin()
+        .args(["import", "--format", "csv"])
+        .arg(data("bad/logger_duplicate.csv"))
+        .arg("--out")
+        .arg(&out2)
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("logger_duplicate.csv: line 5, column time"), "{err}");
     assert!(!out2.exists());
@@ -479,18 +586,38 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
     let refs = dir.path().join("sim_refs.csv");
     let mut text = String::from("time,T_amb_C,T_C,strain_ue,p_kPa\n");
     for i in 0..n {
-        text.push_str(&format!("{},{:.9},{:.9},{:.9},{:.9}\n", stamp(d.t_s[i]), d.t_amb_c[i], d.temp_c[i], d.strain_ue[i], d.p_kpa[i]));
+        text.push_str(&format!(
+            "{},{:.9},{:.9},{:.9},{:.9}\n",
+            stamp(d.t_s[i]),
+            d.t_amb_c[i],
+            d.temp_c[i],
+            d.strain_ue[i],
+            d.p_kpa[i]
+        ));
     }
     std::fs::write(&refs, text).unwrap();
     let map = dir.path().join("sim_map.toml");
     let mut text = String::new();
     for (g, nm) in nominal.iter().enumerate() {
-        text.push_str(&format!("[[grating]]\nchannel = {}\nwindow_nm = [{}, {}]\nref_nm = {nm}\n\n", g + 1, nm - 2.0, nm + 2.0));
+        text.push_str(&format!(
+            "[[grating]]\nchannel = {}\nwindow_nm = [{}, {}]\nref_nm = {nm}\n\n",
+            g + 1,
+            nm - 2.0,
+            nm + 2.0
+        ));
     }
     std::fs::write(&map, text).unwrap();
 
     let out = dir.path().join("data.csv");
-    let o = ImportOptions { format: Format::Enlight, input: peaks, map: Some(map), refs: Some(refs), split: SplitChoice::Fraction(0.5), on_error: OnError::Fail, max_skipped: DEFAULT_MAX_SKIPPED };
+    let o = ImportOptions {
+        format: Format::Enlight,
+        input: peaks,
+        map: Some(map),
+        refs: Some(refs),
+        split: SplitChoice::Fraction(0.5),
+        on_error: OnError::Fail,
+        max_skipped: DEFAULT_MAX_SKIPPED,
+    };
     let s = import_to_csv(&o, &out).unwrap();
     assert_eq!((s.rows_read, s.rows_written, s.gaps), (n, n, [0, 1, 0]));
     let back = Dataset::read_csv(&out).unwrap();
@@ -502,10 +629,19 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
                 assert!(back.dl_pm[g][i].is_nan());
                 continue;
             }
-            assert!(close(back.dl_pm[g][i], d.dl_pm[g][i], 1e-3), "row {i} grating {g}: {} vs {}", back.dl_pm[g][i], d.dl_pm[g][i]);
+            assert!(
+                close(back.dl_pm[g][i], d.dl_pm[g][i], 1e-3),
+                "row {i} grating {g}: {} vs {}",
+                back.dl_pm[g][i],
+                d.dl_pm[g][i]
+            );
         }
         assert!(close(back.t_amb_c[i], d.t_amb_c[i], 1e-6));
-        assert!(close(back.temp_c[i], d.temp_c[i], 1e-6) && close(back.strain_ue[i], d.strain_ue[i], 1e-6) && close(back.p_kpa[i], d.p_kpa[i], 1e-6));
+        assert!(
+            close(back.temp_c[i], d.temp_c[i], 1e-6)
+                && close(back.strain_ue[i], d.strain_ue[i], 1e-6)
+                && close(back.p_kpa[i], d.p_kpa[i], 1e-6)
+        );
     }
     // The same split as the simulator's 50 %.
     assert_eq!(back.split, d.split);

@@ -115,7 +115,8 @@ fn train_evaluate_recalibrate_refuse_an_output_that_is_an_input() {
     let (ok, _, err) =
         run(bin().args(["evaluate", "--data"]).arg(&csv).arg("--model").arg(&model).arg("--metrics").arg(&csv));
     assert!(!ok && err.contains("also an input"), "evaluate: {err}");
-    let (ok, _, err) = run(bin().args(["recalibrate", "--data"]).arg(&csv).arg("--model").arg(&model).arg("--out").arg(&model));
+    let (ok, _, err) =
+        run(bin().args(["recalibrate", "--data"]).arg(&csv).arg("--model").arg(&model).arg("--out").arg(&model));
     assert!(!ok && err.contains("m.fbgm") && err.contains("also an input"), "recalibrate: {err}");
     assert_eq!(std::fs::read(&csv).unwrap(), before);
     assert_eq!(std::fs::read(&model).unwrap(), b"not checked before the refusal");
@@ -130,7 +131,13 @@ fn a_missing_output_directory_is_created_before_the_work() {
     assert!(ok, "{err}");
     assert!(model.exists() && d.path().join("models/run1/m-p.fbgm").exists());
     let golden = d.path().join("g").join("h");
-    let (ok, _, err) = run(bin().args(["golden", "--samples", "5", "--data"]).arg(&csv).arg("--model").arg(&model).arg("--out").arg(&golden));
+    let (ok, _, err) = run(bin()
+        .args(["golden", "--samples", "5", "--data"])
+        .arg(&csv)
+        .arg("--model")
+        .arg(&model)
+        .arg("--out")
+        .arg(&golden));
     assert!(ok, "{err}");
     assert!(golden.join("golden_meta.json").exists());
 }
@@ -143,7 +150,8 @@ fn an_output_directory_that_cannot_be_made_fails_first_with_one_clean_message() 
     let file = d.path().join("plain.txt");
     std::fs::write(&file, "x").unwrap();
     for model in [file.join("m.fbgm"), file.join("sub").join("m.fbgm")] {
-        let (ok, out, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&csv).arg("--out").arg(&model));
+        let (ok, out, err) =
+            run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&csv).arg("--out").arg(&model));
         assert!(!ok);
         assert!(err.contains("plain.txt"), "names the directory: {err}");
         assert!(!err.contains(".fbg-tmp"), "no temporary file name: {err}");
@@ -168,8 +176,14 @@ fn recalibrate_never_writes_a_channel_its_check_scores_worse_without_allow_worse
     assert!(ok, "{err}");
     let recal = |out: &str, extra: &[&str]| {
         let o = d.path().join(out);
-        let (ok, text, err) =
-            run(bin().args(["recalibrate", "--batch-hours", "24", "--json", "--model"]).arg(&model).arg("--data").arg(&b).arg("--out").arg(&o).args(extra));
+        let (ok, text, err) = run(bin()
+            .args(["recalibrate", "--batch-hours", "24", "--json", "--model"])
+            .arg(&model)
+            .arg("--data")
+            .arg(&b)
+            .arg("--out")
+            .arg(&o)
+            .args(extra));
         assert!(ok, "{err}");
         let j: serde_json::Value = serde_json::from_str(&text).unwrap();
         let rmse = |k: &str| -> Vec<f64> { (0..3).map(|c| j[k]["channels"][c]["rmse"].as_f64().unwrap()).collect() };
@@ -186,8 +200,20 @@ fn recalibrate_never_writes_a_channel_its_check_scores_worse_without_allow_worse
     assert!((0..3).any(|c| after[c] > before[c]), "the scenario must make some channel worse: {before:?} -> {after:?}");
     assert!(!j["worse_channels_written"].as_array().unwrap().is_empty());
     // Human text: names the kept channels; no `{:?}` output such as `[Keep, Offset` or `(0.0, 1.0)`.
-    let (ok, _, err) = run(bin().args(["recalibrate", "--batch-hours", "24", "--model"]).arg(&model).arg("--data").arg(&b).arg("--out").arg(d.path().join("t.fbgm")));
+    let (ok, _, err) = run(bin()
+        .args(["recalibrate", "--batch-hours", "24", "--model"])
+        .arg(&model)
+        .arg("--data")
+        .arg(&b)
+        .arg("--out")
+        .arg(d.path().join("t.fbgm")));
     assert!(ok, "{err}");
     assert!(err.contains("kept the old model's"), "{err}");
-    assert!(!err.contains("[Keep") && !err.contains("Offset,") && !err.contains("(0.0, 1.0)") && !err.contains("CoreAndMemory"), "{err}");
+    assert!(
+        !err.contains("[Keep")
+            && !err.contains("Offset,")
+            && !err.contains("(0.0, 1.0)")
+            && !err.contains("CoreAndMemory"),
+        "{err}"
+    );
 }

@@ -40,7 +40,12 @@ fn recalibrating_on_the_same_installation_changes_little() {
     let (before, _) = evaluate_holdout(&old.model_h, &s.data).unwrap();
     let (after, _) = evaluate_holdout(&new, &s.data).unwrap();
     for c in 0..3 {
-        assert!(after.channels[c].rmse < 1.15 * before.channels[c].rmse, "channel {c}: {} -> {}", before.channels[c].rmse, after.channels[c].rmse);
+        assert!(
+            after.channels[c].rmse < 1.15 * before.channels[c].rmse,
+            "channel {c}: {} -> {}",
+            before.channels[c].rmse,
+            after.channels[c].rmse
+        );
         let (_, gain) = what.offset_gain[c];
         assert!((gain - 1.0).abs() < 0.1, "channel {c}: gain {gain}");
     }

@@ -121,7 +121,19 @@ fn the_page_references_only_files_that_exist_and_are_not_trivial() {
     let core = if refs.contains(&"coef_poly_physical_h.md".to_string()) { "_h" } else { "" };
     let (poly, stage1) = (format!("coef_poly_physical{core}"), format!("coef_stage1{core}"));
     assert!(core.is_empty() || refs.contains(&"coef_memory.md".to_string()), "a memory model shows its Γ");
-    for t in ["table2", "table3", "error_budget", "drift_sweep", poly.as_str(), "coef_rbf_physical", "coef_rbf_standardised", "coef_scalers", "coef_hyper", "coef_band", stage1.as_str()] {
+    for t in [
+        "table2",
+        "table3",
+        "error_budget",
+        "drift_sweep",
+        poly.as_str(),
+        "coef_rbf_physical",
+        "coef_rbf_standardised",
+        "coef_scalers",
+        "coef_hyper",
+        "coef_band",
+        stage1.as_str(),
+    ] {
         assert!(refs.contains(&format!("{t}.md")) && refs.contains(&format!("{t}.csv")), "{t}");
     }
     // Everything the outcome lists exists.
@@ -204,10 +216,11 @@ fn a_changed_metric_changes_the_tables_and_the_page() {
     assert!(o.warnings.iter().any(|w| w.contains("strain RMSE")), "{:?}", o.warnings);
     assert!(o.warnings.iter().any(|w| w.contains("gains disagree")), "{:?}", o.warnings);
     // The old gain is gone from the summary.
-    let old: f64 = serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(fixture().join("metrics.json")).unwrap())
-        .unwrap()["table2"]["gain_pct"][1]
-        .as_f64()
-        .unwrap();
+    let old: f64 =
+        serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(fixture().join("metrics.json")).unwrap())
+            .unwrap()["table2"]["gain_pct"][1]
+            .as_f64()
+            .unwrap();
     let stale = format!("{} % lower for strain", figures::num(old, 1));
     assert!(before.contains(&stale), "the first page should state the original gain: {stale}");
     assert!(!after.contains(&stale), "stale gain {stale}");
@@ -271,7 +284,11 @@ fn hold_out_rows_with_gaps_are_skipped_and_said() {
     std::fs::write(&p, lines.join("\n") + "\n").unwrap();
     let o = report::build(dir.path()).unwrap();
     assert!(o.notes.iter().any(|n| n.contains(&format!("{gaps} of the")) && n.contains("have a gap")), "{:?}", o.notes);
-    assert_eq!(o.files.iter().filter(|f| f.ends_with(".png")).count(), 8, "Figure 2 needs the CSV to match the simulation");
+    assert_eq!(
+        o.files.iter().filter(|f| f.ends_with(".png")).count(),
+        8,
+        "Figure 2 needs the CSV to match the simulation"
+    );
 }
 
 #[test]
@@ -317,7 +334,8 @@ fn a_million_samples_plot_in_seconds() {
     for i in 0..n {
         let t = i as f64 * dt;
         d.t_s.push(t);
-        d.temp_c.push(20.0 + 4.0 * (t / 86_400.0 * std::f64::consts::TAU).sin() + 0.1 * ((i * 7919) % 101) as f64 / 101.0);
+        d.temp_c
+            .push(20.0 + 4.0 * (t / 86_400.0 * std::f64::consts::TAU).sin() + 0.1 * ((i * 7919) % 101) as f64 / 101.0);
         d.strain_ue.push(100.0 * (t / 10_800.0 * std::f64::consts::TAU).sin());
         d.p_kpa.push(150.0 + 25.0 * (t / 43_200.0 * std::f64::consts::TAU).sin());
         d.t_amb_c.push(20.5);
@@ -332,12 +350,17 @@ fn a_million_samples_plot_in_seconds() {
             .enumerate()
             .map(|(k, &i)| {
                 let w = ((k * 2_654_435_761) % 1000) as f64 / 1000.0 - 0.5;
-                Estimate { values: std::array::from_fn(|c| d.truth(i)[c] + bias + w), band95: [1.0; 3], flags: Flags::OK }
+                Estimate {
+                    values: std::array::from_fn(|c| d.truth(i)[c] + bias + w),
+                    band95: [1.0; 3],
+                    flags: Flags::OK,
+                }
             })
             .collect()
     };
     let (ep, eh) = (est(0.2), est(0.0));
-    let m = load::metrics_from_str(&std::fs::read_to_string(fixture().join("metrics.json")).unwrap(), "metrics.json").unwrap();
+    let m = load::metrics_from_str(&std::fs::read_to_string(fixture().join("metrics.json")).unwrap(), "metrics.json")
+        .unwrap();
     let ctx = figures::Ctx {
         data: &d,
         sim: None,
@@ -350,7 +373,12 @@ fn a_million_samples_plot_in_seconds() {
     };
     let out = tempfile::tempdir().unwrap();
     let t = std::time::Instant::now();
-    let specs = vec![figures::fig1_inputs(&ctx), figures::fig_channel(&ctx, 0), figures::fig6_parity(&ctx), figures::fig7_errors(&ctx)];
+    let specs = vec![
+        figures::fig1_inputs(&ctx),
+        figures::fig_channel(&ctx, 0),
+        figures::fig6_parity(&ctx),
+        figures::fig7_errors(&ctx),
+    ];
     for s in &specs {
         s.grid.write(out.path(), s.stem).unwrap();
         // Each time-series trace is reduced to at most two points per pixel column.

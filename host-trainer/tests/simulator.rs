@@ -206,7 +206,12 @@ fn measured_shift_is_the_sum_of_its_parts() {
     let e = &s.effects;
     for g in 0..3 {
         for i in (0..s.data.len()).step_by(101) {
-            let sum = e.physics[g][i] + e.hysteresis[g][i] + e.scan[g][i] + e.drift[g][i] + e.electronics[g][i] + e.noise[g][i];
+            let sum = e.physics[g][i]
+                + e.hysteresis[g][i]
+                + e.scan[g][i]
+                + e.drift[g][i]
+                + e.electronics[g][i]
+                + e.noise[g][i];
             assert!((sum - s.data.dl_pm[g][i]).abs() < 1e-9);
         }
     }

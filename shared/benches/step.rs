@@ -64,7 +64,15 @@ fn model(k: usize, memory: bool) -> ModelParams<f64, CAP> {
         let mut c = Centre::<f64>::default();
         for (d, mu) in c.mu.iter_mut().enumerate() {
             if active[d] {
-                *mu = if d >= 5 { if rng.uniform() < 0.5 { -1.0 } else { 1.0 } } else { rng.normal() };
+                *mu = if d >= 5 {
+                    if rng.uniform() < 0.5 {
+                        -1.0
+                    } else {
+                        1.0
+                    }
+                } else {
+                    rng.normal()
+                };
             }
         }
         c.w = std::array::from_fn(|_| rng.normal());

@@ -113,11 +113,7 @@ impl Header {
 
     fn check_capacity<const K: usize>(&self) -> Result<(), Error> {
         if usize::from(self.centres) > K {
-            Err(Error::WrongDims {
-                field: "centres",
-                found: self.centres,
-                expected: saturate_u16(K),
-            })
+            Err(Error::WrongDims { field: "centres", found: self.centres, expected: saturate_u16(K) })
         } else {
             Ok(())
         }
@@ -141,15 +137,10 @@ fn saturate_u16(v: usize) -> u16 {
 
 /// Encode `params` into `buf`; returns the blob length. Invalid params are refused, so a
 /// blob that encodes always decodes. A buffer of [`max_len`]`(K)` bytes always suffices.
-pub fn encode<const K: usize>(
-    params: &ModelParams<f32, K>,
-    buf: &mut [u8],
-) -> Result<usize, Error> {
+pub fn encode<const K: usize>(params: &ModelParams<f32, K>, buf: &mut [u8]) -> Result<usize, Error> {
     params.validate()?;
-    let centres = u16::try_from(params.centres.len()).map_err(|_| Error::TooManyCentres {
-        found: params.centres.len(),
-        capacity: u16::MAX as usize,
-    })?;
+    let centres = u16::try_from(params.centres.len())
+        .map_err(|_| Error::TooManyCentres { found: params.centres.len(), capacity: u16::MAX as usize })?;
     let header = Header {
         version: FORMAT_VERSION,
         inputs: N_INPUTS as u16,
@@ -196,13 +187,10 @@ pub fn decode<const K: usize>(bytes: &[u8]) -> Result<ModelParams<f32, K>, Error
 pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) -> Result<(), Error> {
     let header = Header::read(bytes)?;
     header.check_version()?;
-    let (head, body) =
-        bytes.split_at_checked(HEADER_LEN).ok_or(Error::Truncated { part: "header" })?;
+    let (head, body) = bytes.split_at_checked(HEADER_LEN).ok_or(Error::Truncated { part: "header" })?;
     // Guarded subtraction: `body` may be shorter than the trailer.
-    let payload_len =
-        body.len().checked_sub(CRC_LEN).ok_or(Error::Truncated { part: "payload" })?;
-    let (payload, trailer) =
-        body.split_at_checked(payload_len).ok_or(Error::Truncated { part: "payload" })?;
+    let payload_len = body.len().checked_sub(CRC_LEN).ok_or(Error::Truncated { part: "payload" })?;
+    let (payload, trailer) = body.split_at_checked(payload_len).ok_or(Error::Truncated { part: "payload" })?;
     let crc_ok = crc_of(head, payload) == le_u32(trailer);
     if crc_ok {
         header.check_dims()?;
@@ -235,10 +223,7 @@ pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) 
 /// Parse a postcard payload of `ModelParams<f32, K>` into `out`, one field at a time in
 /// declaration order (the encoding `encode` writes with serde), returning the unread rest.
 /// The round-trip and golden tests pin this to the serde layout.
-fn parse_into<'a, const K: usize>(
-    bytes: &'a [u8],
-    out: &mut ModelParams<f32, K>,
-) -> Result<&'a [u8], postcard::Error> {
+fn parse_into<'a, const K: usize>(bytes: &'a [u8], out: &mut ModelParams<f32, K>) -> Result<&'a [u8], postcard::Error> {
     fn take<'a, T: serde::Deserialize<'a>>(b: &mut &'a [u8]) -> Result<T, postcard::Error> {
         let (v, rest) = postcard::take_from_bytes::<T>(b)?;
         *b = rest;
@@ -315,9 +300,7 @@ fn diagnose_crc_mismatch(
         Ok(rest) => {
             let used = body.len().saturating_sub(rest.len());
             match (body.get(..used), rest.get(..CRC_LEN)) {
-                (Some(payload), Some(trailer))
-                    if rest.len() > CRC_LEN && crc_of(head, payload) == le_u32(trailer) =>
-                {
+                (Some(payload), Some(trailer)) if rest.len() > CRC_LEN && crc_of(head, payload) == le_u32(trailer) => {
                     Error::TrailingBytes { extra: rest.len().saturating_sub(CRC_LEN) }
                 }
                 (_, None) if short => Error::Truncated { part: "crc" },

@@ -129,7 +129,8 @@ impl<F: Real> Folded<F> {
     fn of<G: Real, const K2: usize>(p: &ModelParams<G, K2>) -> Self {
         let f = |v: G| F::from_real(v);
         let mut a = [[F::ZERO; N_STAGE1]; N_OUTPUTS];
-        for (((row, src), &m), &s) in a.iter_mut().zip(p.stage1.iter()).zip(p.guess_mean.iter()).zip(p.guess_std.iter()) {
+        for (((row, src), &m), &s) in a.iter_mut().zip(p.stage1.iter()).zip(p.guess_mean.iter()).zip(p.guess_std.iter())
+        {
             let inv = F::ONE / f(s);
             for (k, (o, &v)) in row.iter_mut().zip(src.iter()).enumerate() {
                 let v = if k == N_STAGE1 - 1 { f(v) - f(m) } else { f(v) };
@@ -146,11 +147,8 @@ impl<F: Real> Folded<F> {
         let active = p.hyper.feature_set.active();
         let mut z_gain = [F::ZERO; Z_DIMS];
         let mut z_offset = [F::ZERO; Z_DIMS];
-        for (((g, o), (&m, &s)), &on) in z_gain
-            .iter_mut()
-            .zip(z_offset.iter_mut())
-            .zip(p.z_mean.iter().zip(p.z_std.iter()))
-            .zip(active.iter())
+        for (((g, o), (&m, &s)), &on) in
+            z_gain.iter_mut().zip(z_offset.iter_mut()).zip(p.z_mean.iter().zip(p.z_std.iter())).zip(active.iter())
         {
             if on {
                 let gain = k_sigma / f(s);
@@ -461,14 +459,11 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     fn rbf_inputs(&self, s: &Sample<F>, latch: [F; N_GRATINGS]) -> ([F; Z_DIMS], F) {
         let [d1, d2, d3] = s.dl_pm;
         let t_in = if self.uses_time { s.t_s } else { F::ZERO };
-        let (l1, l2, l3) =
-            if self.uses_latch { (latch[0], latch[1], latch[2]) } else { (F::ZERO, F::ZERO, F::ZERO) };
+        let (l1, l2, l3) = if self.uses_latch { (latch[0], latch[1], latch[2]) } else { (F::ZERO, F::ZERO, F::ZERO) };
         let x_z = [d1, d2, d3, s.t_amb_c, t_in, l1, l2, l3];
         let mut z = [F::ZERO; Z_DIMS];
         let mut z_sq = F::ZERO;
-        for (((zi, &x), &gn), &of) in
-            z.iter_mut().zip(x_z.iter()).zip(self.z_gain.iter()).zip(self.z_offset.iter())
-        {
+        for (((zi, &x), &gn), &of) in z.iter_mut().zip(x_z.iter()).zip(self.z_gain.iter()).zip(self.z_offset.iter()) {
             *zi = x.mul_add(gn, of);
             z_sq = zi.mul_add(*zi, z_sq);
         }
@@ -580,17 +575,18 @@ fn centre_pass<F: Real, const K: usize, const TIME: bool, const LATCH: bool, con
 ) -> ([F; N_OUTPUTS], [F; VAR_RANK], F) {
     let mut proj = [F::ZERO; VAR_RANK];
     let mut psi_sq = F::ZERO;
-    let mut one = |j: usize, c: &PreparedCentre<F>, y: &mut [F; N_OUTPUTS], proj: &mut [F; VAR_RANK], psi_sq: &mut F| {
-        let psi = psi_of::<F, TIME, LATCH>(c, z, z_sq);
-        sink(j, psi);
-        for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
-            *yi = w.mul_add(psi, *yi);
-        }
-        for (pi, &v) in proj.iter_mut().zip(c.v.iter()) {
-            *pi = v.mul_add(psi, *pi);
-        }
-        *psi_sq = psi.mul_add(psi, *psi_sq);
-    };
+    let mut one =
+        |j: usize, c: &PreparedCentre<F>, y: &mut [F; N_OUTPUTS], proj: &mut [F; VAR_RANK], psi_sq: &mut F| {
+            let psi = psi_of::<F, TIME, LATCH>(c, z, z_sq);
+            sink(j, psi);
+            for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
+                *yi = w.mul_add(psi, *yi);
+            }
+            for (pi, &v) in proj.iter_mut().zip(c.v.iter()) {
+                *pi = v.mul_add(psi, *pi);
+            }
+            *psi_sq = psi.mul_add(psi, *psi_sq);
+        };
     // Two centres per iteration (same order of operations): half the loop overhead, for the
     // default feature set only (the unrolled loop costs flash on the device).
     if !PAIRS {
@@ -620,7 +616,13 @@ fn centre_pass<F: Real, const K: usize, const TIME: bool, const LATCH: bool, con
 fn psi_of<F: Real, const TIME: bool, const LATCH: bool>(c: &PreparedCentre<F>, z: &[F; Z_DIMS], z_sq: F) -> F {
     let mut d2 = z_sq + c.mu_sq;
     for (i, (&zi, &mi)) in z.iter().zip(c.m2.iter()).enumerate() {
-        let used = if i == crate::layout::Z_TIME { TIME } else if i >= crate::layout::Z_LATCH { LATCH } else { true };
+        let used = if i == crate::layout::Z_TIME {
+            TIME
+        } else if i >= crate::layout::Z_LATCH {
+            LATCH
+        } else {
+            true
+        };
         if used {
             d2 = zi.mul_add(mi, d2);
         }

@@ -62,7 +62,10 @@ impl core::fmt::Display for Error {
             Error::Truncated { part } => write!(f, "model blob truncated in the {part}"),
             Error::BadMagic => f.write_str("not a model blob (magic is not FBGM)"),
             Error::UnsupportedVersion { found, supported } => {
-                write!(f, "model blob format version {found} is not readable by this build, which reads version {supported}")
+                write!(
+                    f,
+                    "model blob format version {found} is not readable by this build, which reads version {supported}"
+                )
             }
             Error::WrongDims { field, found, expected } => {
                 write!(f, "model blob dimension {field} is {found}, this build needs {expected}")

@@ -49,9 +49,8 @@ pub const Z95: f64 = 1.959_963_984_540_054;
 /// Names of the outputs with units, in output order.
 pub const OUTPUT_NAMES: [&str; N_OUTPUTS] = ["T [°C]", "strain [µε]", "p [kPa]"];
 /// Names of the RBF inputs with units, in `Z_DIMS` order.
-pub const Z_NAMES: [&str; Z_DIMS] = [
-    "dl1 [pm]", "dl2 [pm]", "dl3 [pm]", "T_amb [°C]", "t [s]", "latch1", "latch2", "latch3",
-];
+pub const Z_NAMES: [&str; Z_DIMS] =
+    ["dl1 [pm]", "dl2 [pm]", "dl3 [pm]", "T_amb [°C]", "t [s]", "latch1", "latch2", "latch3"];
 /// Names of the polynomial terms (on standardised first guesses) in `N_POLY` order.
 pub const POLY_NAMES: [&str; N_POLY] = ["1", "T", "ε", "p", "T²", "ε²", "p²", "Tε", "Tp", "εp"];
 
@@ -70,8 +69,7 @@ pub enum FeatureSet {
 
 impl FeatureSet {
     /// All feature sets, in code order.
-    pub const ALL: [FeatureSet; 3] =
-        [FeatureSet::Paper, FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime];
+    pub const ALL: [FeatureSet; 3] = [FeatureSet::Paper, FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime];
 
     /// Whether each `Z_DIMS` input is used.
     pub const fn active(self) -> [bool; Z_DIMS] {

@@ -54,11 +54,11 @@ pub mod direction_latch;
 pub mod error;
 pub mod flags;
 pub mod layout;
+#[cfg(feature = "std")]
+pub mod link_client;
 pub mod memory;
 pub mod model;
 pub mod protocol;
-#[cfg(feature = "std")]
-pub mod link_client;
 pub mod real;
 
 pub use compensator::{rbf_activation, Compensator, Estimate, Sample, StreamState};

@@ -25,8 +25,8 @@ use std::vec::Vec;
 
 use crate::compensator::Sample;
 use crate::protocol::{
-    crc32, encode_host, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, Status,
-    UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME, MAX_CHUNK,
+    crc32, encode_host, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, Status, UpdateResult,
+    DEVICE_MAX_FRAME, HOST_MAX_FRAME, MAX_CHUNK,
 };
 
 /// What can go wrong talking to a device.
@@ -91,12 +91,7 @@ pub struct LinkClient<S> {
 impl<S: Read + Write> LinkClient<S> {
     /// Wrap a connected stream.
     pub fn new(io: S) -> Self {
-        LinkClient {
-            io,
-            reader: FrameReader::new(),
-            pending: Vec::new(),
-            malformed: 0,
-        }
+        LinkClient { io, reader: FrameReader::new(), pending: Vec::new(), malformed: 0 }
     }
 
     /// The underlying stream.
@@ -182,10 +177,7 @@ impl<S: Read + Write> LinkClient<S> {
     pub fn ping(&mut self, nonce: u32) -> Result<(), LinkError> {
         match self.request(&HostMsg::Ping { nonce })? {
             DeviceMsg::Pong { nonce: n } if n == nonce => Ok(()),
-            got => Err(LinkError::Unexpected {
-                expected: "Pong with the same nonce",
-                got,
-            }),
+            got => Err(LinkError::Unexpected { expected: "Pong with the same nonce", got }),
         }
     }
 
@@ -193,28 +185,15 @@ impl<S: Read + Write> LinkClient<S> {
     pub fn reset_stream(&mut self, nonce: u32) -> Result<(), LinkError> {
         match self.request(&HostMsg::ResetStream { nonce })? {
             DeviceMsg::Pong { nonce: n } if n == nonce => Ok(()),
-            got => Err(LinkError::Unexpected {
-                expected: "Pong after ResetStream",
-                got,
-            }),
+            got => Err(LinkError::Unexpected { expected: "Pong after ResetStream", got }),
         }
     }
 
     /// Compensate one sample on the device.
-    pub fn compensate(
-        &mut self,
-        seq: u32,
-        sample: &Sample<f32>,
-    ) -> Result<DeviceEstimate, LinkError> {
-        match self.request(&HostMsg::Sample {
-            seq,
-            sample: *sample,
-        })? {
+    pub fn compensate(&mut self, seq: u32, sample: &Sample<f32>) -> Result<DeviceEstimate, LinkError> {
+        match self.request(&HostMsg::Sample { seq, sample: *sample })? {
             DeviceMsg::Estimate(e) if e.seq == seq => Ok(e),
-            got => Err(LinkError::Unexpected {
-                expected: "Estimate with the same seq",
-                got,
-            }),
+            got => Err(LinkError::Unexpected { expected: "Estimate with the same seq", got }),
         }
     }
 
@@ -243,10 +222,7 @@ impl<S: Read + Write> LinkClient<S> {
     pub fn status(&mut self) -> Result<Status, LinkError> {
         match self.request(&HostMsg::GetStatus)? {
             DeviceMsg::Status(s) => Ok(s),
-            got => Err(LinkError::Unexpected {
-                expected: "Status",
-                got,
-            }),
+            got => Err(LinkError::Unexpected { expected: "Status", got }),
         }
     }
 
@@ -267,10 +243,7 @@ impl<S: Read + Write> LinkClient<S> {
     ) -> Result<UpdateResult, LinkError> {
         let total_len = u32::try_from(blob.len()).map_err(|_| LinkError::TooLarge)?;
         let chunk = chunk.clamp(1, MAX_CHUNK);
-        if let Some(r) = self.update_step(&HostMsg::ModelBegin {
-            total_len,
-            crc32: transfer_crc,
-        })? {
+        if let Some(r) = self.update_step(&HostMsg::ModelBegin { total_len, crc32: transfer_crc })? {
             return Ok(r);
         }
         let mut offset = 0u32;
@@ -282,10 +255,7 @@ impl<S: Read + Write> LinkClient<S> {
         }
         match self.request(&HostMsg::ModelCommit)? {
             DeviceMsg::UpdateResult(r) => Ok(r),
-            got => Err(LinkError::Unexpected {
-                expected: "UpdateResult",
-                got,
-            }),
+            got => Err(LinkError::Unexpected { expected: "UpdateResult", got }),
         }
     }
 
@@ -294,21 +264,13 @@ impl<S: Read + Write> LinkClient<S> {
         match self.request(msg)? {
             DeviceMsg::UpdateProgress { .. } => Ok(None),
             DeviceMsg::UpdateResult(r) => Ok(Some(r)),
-            got => Err(LinkError::Unexpected {
-                expected: "UpdateProgress",
-                got,
-            }),
+            got => Err(LinkError::Unexpected { expected: "UpdateProgress", got }),
         }
     }
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::indexing_slicing,
-    clippy::panic
-)]
+#[allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
 mod tests {
     use std::collections::VecDeque;
     use std::format;
@@ -335,8 +297,7 @@ mod tests {
                     self.seen.push(format!("{m:?}"));
                     if let Some(reply) = (self.answer)(m) {
                         let mut b = [0u8; DEVICE_MAX_FRAME];
-                        self.out
-                            .extend(encode_device(&reply, &mut b).unwrap().iter());
+                        self.out.extend(encode_device(&reply, &mut b).unwrap().iter());
                     }
                 }
             }
@@ -359,22 +320,14 @@ mod tests {
     }
 
     fn script<F: FnMut(HostMsg<'_>) -> Option<DeviceMsg>>(answer: F) -> Script<F> {
-        Script {
-            reader: FrameReader::new(),
-            answer,
-            out: VecDeque::new(),
-            seen: Vec::new(),
-        }
+        Script { reader: FrameReader::new(), answer, out: VecDeque::new(), seen: Vec::new() }
     }
 
     #[test]
     fn ping_status_and_samples() {
         let dev = script(|m| match m {
             HostMsg::Ping { nonce } => Some(DeviceMsg::Pong { nonce }),
-            HostMsg::GetStatus => Some(DeviceMsg::Status(Status {
-                samples: 2,
-                ..Status::default()
-            })),
+            HostMsg::GetStatus => Some(DeviceMsg::Status(Status { samples: 2, ..Status::default() })),
             HostMsg::Sample { seq, sample } => Some(DeviceMsg::Estimate(DeviceEstimate {
                 seq,
                 values: [sample.dl_pm[0], 0.0, 0.0],
@@ -384,11 +337,7 @@ mod tests {
         });
         let mut link = LinkClient::new(dev);
         link.ping(42).unwrap();
-        let samples = (0..2).map(|i| Sample {
-            dl_pm: [i as f32, 0.0, 0.0],
-            t_amb_c: 20.0,
-            t_s: 0.0,
-        });
+        let samples = (0..2).map(|i| Sample { dl_pm: [i as f32, 0.0, 0.0], t_amb_c: 20.0, t_s: 0.0 });
         let mut got = Vec::new();
         let n = link
             .stream(10, samples, |s, e| -> Result<(), LinkError> {
@@ -414,55 +363,30 @@ mod tests {
         let blob: Vec<u8> = (0..500u32).map(|i| (i % 251) as u8).collect();
         let mut staged = Vec::new();
         let dev = script(|m| match m {
-            HostMsg::ModelBegin {
-                total_len,
-                crc32: c,
-            } => {
+            HostMsg::ModelBegin { total_len, crc32: c } => {
                 assert_eq!(total_len, 500);
-                assert_eq!(
-                    c,
-                    crc32(&(0..500u32).map(|i| (i % 251) as u8).collect::<Vec<_>>())
-                );
+                assert_eq!(c, crc32(&(0..500u32).map(|i| (i % 251) as u8).collect::<Vec<_>>()));
                 Some(DeviceMsg::UpdateProgress { received: 0 })
             }
             HostMsg::ModelChunk { offset, data } => {
                 assert_eq!(offset as usize, staged.len());
                 assert!(data.len() <= MAX_CHUNK);
                 staged.extend_from_slice(data);
-                Some(DeviceMsg::UpdateProgress {
-                    received: staged.len() as u32,
-                })
+                Some(DeviceMsg::UpdateProgress { received: staged.len() as u32 })
             }
-            HostMsg::ModelCommit => Some(DeviceMsg::UpdateResult(UpdateResult::Accepted {
-                centres: staged.len() as u16,
-                crc: 7,
-            })),
+            HostMsg::ModelCommit => {
+                Some(DeviceMsg::UpdateResult(UpdateResult::Accepted { centres: staged.len() as u16, crc: 7 }))
+            }
             _ => None,
         });
         let mut link = LinkClient::new(dev);
-        assert_eq!(
-            link.update_model(&blob).unwrap(),
-            UpdateResult::Accepted {
-                centres: 500,
-                crc: 7
-            }
-        );
+        assert_eq!(link.update_model(&blob).unwrap(), UpdateResult::Accepted { centres: 500, crc: 7 });
         assert_eq!(link.get_ref().seen.len(), 1 + 3 + 1);
 
-        let rej = Rejection {
-            reason: RejectReason::TooLarge,
-            detail: 500,
-        };
+        let rej = Rejection { reason: RejectReason::TooLarge, detail: 500 };
         let dev = script(move |_| Some(DeviceMsg::UpdateResult(UpdateResult::Rejected(rej))));
         let mut link = LinkClient::new(dev);
-        assert_eq!(
-            link.update_model(&blob).unwrap(),
-            UpdateResult::Rejected(rej)
-        );
-        assert_eq!(
-            link.get_ref().seen.len(),
-            1,
-            "nothing sent after the rejection"
-        );
+        assert_eq!(link.update_model(&blob).unwrap(), UpdateResult::Rejected(rej));
+        assert_eq!(link.get_ref().seen.len(), 1, "nothing sent after the rejection");
     }
 }

@@ -224,12 +224,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
             return Err(Error::BadParameter { field: "z_mean" });
         }
         let active = h.feature_set.active();
-        if !self
-            .z_std
-            .iter()
-            .zip(active.iter())
-            .all(|(&s, &on)| finite(s) && (!on || s > F::ZERO))
-        {
+        if !self.z_std.iter().zip(active.iter()).all(|(&s, &on)| finite(s) && (!on || s > F::ZERO)) {
             return Err(Error::BadParameter { field: "z_std" });
         }
         if !self.centres.iter().all(|c| all(&c.mu) && all(&c.w) && all(&c.v)) {
@@ -256,11 +251,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         if !self.fitted.iter().any(|&f| f) {
             return Err(Error::BadParameter { field: "fitted" });
         }
-        if !self
-            .envelope_lo
-            .iter()
-            .zip(self.envelope_hi.iter())
-            .all(|(&lo, &hi)| finite(lo) && finite(hi) && lo <= hi)
+        if !self.envelope_lo.iter().zip(self.envelope_hi.iter()).all(|(&lo, &hi)| finite(lo) && finite(hi) && lo <= hi)
         {
             return Err(Error::BadParameter { field: "envelope" });
         }

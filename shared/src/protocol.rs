@@ -272,11 +272,7 @@ impl RejectReason {
 
     /// The reason for a wire code; unknown codes map to [`RejectReason::Other`].
     pub fn from_code(code: u8) -> RejectReason {
-        RejectReason::ALL
-            .iter()
-            .copied()
-            .find(|r| r.code() == code)
-            .unwrap_or(RejectReason::Other)
+        RejectReason::ALL.iter().copied().find(|r| r.code() == code).unwrap_or(RejectReason::Other)
     }
 
     /// Short human-readable description.
@@ -311,13 +307,7 @@ impl core::fmt::Display for RejectReason {
 
 impl core::fmt::Display for Rejection {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(
-            f,
-            "{} (code {}, detail {})",
-            self.reason,
-            self.reason.code(),
-            self.detail
-        )
+        write!(f, "{} (code {}, detail {})", self.reason, self.reason.code(), self.detail)
     }
 }
 
@@ -347,12 +337,9 @@ impl From<Error> for Rejection {
             Error::Truncated { .. } => (RejectReason::Truncated, 0),
             Error::BadMagic => (RejectReason::BadMagic, 0),
             Error::UnsupportedVersion { found, .. } => (RejectReason::UnsupportedVersion, found as u32),
-            Error::WrongDims {
-                found, expected, ..
-            } => (
-                RejectReason::WrongDims,
-                (found as u32) << 16 | expected as u32,
-            ),
+            Error::WrongDims { found, expected, .. } => {
+                (RejectReason::WrongDims, (found as u32) << 16 | expected as u32)
+            }
             Error::BadCrc => (RejectReason::BadCrc, 0),
             Error::BadPayload => (RejectReason::BadPayload, 0),
             Error::TrailingBytes { extra } => (RejectReason::TrailingBytes, sat_u32(extra)),
@@ -399,12 +386,8 @@ pub fn encode_into<'o, M: Serialize>(
     scratch: &mut [u8],
     out: &'o mut [u8],
 ) -> Result<&'o mut [u8], EncodeError> {
-    let payload: &[u8] =
-        postcard::to_slice(msg, scratch).map_err(|_| EncodeError::BufferTooSmall)?;
-    let env = Envelope {
-        payload,
-        crc: crc32(payload),
-    };
+    let payload: &[u8] = postcard::to_slice(msg, scratch).map_err(|_| EncodeError::BufferTooSmall)?;
+    let env = Envelope { payload, crc: crc32(payload) };
     postcard::to_slice_cobs(&env, out).map_err(|_| EncodeError::BufferTooSmall)
 }
 
@@ -478,11 +461,7 @@ impl<const N: usize> Default for FrameReader<N> {
 impl<const N: usize> FrameReader<N> {
     /// An empty reader.
     pub const fn new() -> Self {
-        FrameReader {
-            acc: CobsAccumulator::new(),
-            in_frame: false,
-            discarding: false,
-        }
+        FrameReader { acc: CobsAccumulator::new(), in_frame: false, discarding: false }
     }
 
     /// Drop any partial frame (e.g. after a link reset).
@@ -492,10 +471,7 @@ impl<const N: usize> FrameReader<N> {
 
     /// Consume a prefix of `input`; return what it completed and the unconsumed rest. Call
     /// again with the rest until it is empty. A returned message borrows from the reader.
-    pub fn feed<'de, 'a, T: Deserialize<'de>>(
-        &'de mut self,
-        input: &'a [u8],
-    ) -> (Feed<T>, &'a [u8]) {
+    pub fn feed<'de, 'a, T: Deserialize<'de>>(&'de mut self, input: &'a [u8]) -> (Feed<T>, &'a [u8]) {
         let Some(&first) = input.first() else {
             return (Feed::Pending, input);
         };
@@ -563,12 +539,7 @@ pub fn decode_frame<'de, T: Deserialize<'de>>(frame: &'de mut [u8]) -> Result<T,
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::indexing_slicing,
-    clippy::panic
-)]
+#[allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
 mod tests {
     extern crate std;
     use std::vec::Vec;
@@ -577,16 +548,12 @@ mod tests {
 
     fn frame_host(msg: &HostMsg<'_>) -> Vec<u8> {
         let mut out = [0u8; HOST_MAX_FRAME];
-        encode_host(msg, &mut out)
-            .map(|f| f.to_vec())
-            .expect("fits")
+        encode_host(msg, &mut out).map(|f| f.to_vec()).expect("fits")
     }
 
     fn frame_device(msg: &DeviceMsg) -> Vec<u8> {
         let mut out = [0u8; DEVICE_MAX_FRAME];
-        encode_device(msg, &mut out)
-            .map(|f| f.to_vec())
-            .expect("fits")
+        encode_device(msg, &mut out).map(|f| f.to_vec()).expect("fits")
     }
 
     /// Feed `bytes` in pieces of `piece` bytes and collect everything the reader produced.
@@ -612,26 +579,10 @@ mod tests {
         static DATA: [u8; MAX_CHUNK] = [0xA5; MAX_CHUNK];
         std::vec![
             HostMsg::Ping { nonce: 0xDEAD_BEEF },
-            HostMsg::Sample {
-                seq: 7,
-                sample: Sample {
-                    dl_pm: [12.5, -3.25, f32::NAN],
-                    t_amb_c: 21.0,
-                    t_s: 1.0e6,
-                },
-            },
-            HostMsg::ModelBegin {
-                total_len: 2900,
-                crc32: 0x1234_5678
-            },
-            HostMsg::ModelChunk {
-                offset: u32::MAX,
-                data: &DATA
-            },
-            HostMsg::ModelChunk {
-                offset: 0,
-                data: &[0, 0, 0]
-            },
+            HostMsg::Sample { seq: 7, sample: Sample { dl_pm: [12.5, -3.25, f32::NAN], t_amb_c: 21.0, t_s: 1.0e6 } },
+            HostMsg::ModelBegin { total_len: 2900, crc32: 0x1234_5678 },
+            HostMsg::ModelChunk { offset: u32::MAX, data: &DATA },
+            HostMsg::ModelChunk { offset: 0, data: &[0, 0, 0] },
             HostMsg::ModelCommit,
             HostMsg::GetStatus,
             HostMsg::ResetStream { nonce: 3 },
@@ -639,10 +590,7 @@ mod tests {
     }
 
     fn device_msgs() -> Vec<DeviceMsg> {
-        let rej = Rejection {
-            reason: RejectReason::WrongDims,
-            detail: u32::MAX,
-        };
+        let rej = Rejection { reason: RejectReason::WrongDims, detail: u32::MAX };
         std::vec![
             DeviceMsg::Pong { nonce: u32::MAX },
             DeviceMsg::Estimate(DeviceEstimate {
@@ -665,10 +613,7 @@ mod tests {
                 stack_boot_bytes: u32::MAX,
             }),
             DeviceMsg::UpdateProgress { received: u32::MAX },
-            DeviceMsg::UpdateResult(UpdateResult::Accepted {
-                centres: 64,
-                crc: u32::MAX
-            }),
+            DeviceMsg::UpdateResult(UpdateResult::Accepted { centres: 64, crc: u32::MAX }),
             DeviceMsg::UpdateResult(UpdateResult::Rejected(rej)),
         ]
     }
@@ -683,11 +628,7 @@ mod tests {
         for msg in host_msgs() {
             let mut f = frame_host(&msg);
             assert!(f.len() <= HOST_MAX_FRAME, "{msg:?} is {} bytes", f.len());
-            assert_eq!(
-                f.iter().filter(|&&b| b == 0).count(),
-                1,
-                "only the delimiter is zero"
-            );
+            assert_eq!(f.iter().filter(|&&b| b == 0).count(), 1, "only the delimiter is zero");
             assert_eq!(f.last(), Some(&0));
             let back: HostMsg<'_> = decode_frame(&mut f).expect("decodes");
             assert!(same(&back, &msg), "{back:?} != {msg:?}");
@@ -711,10 +652,7 @@ mod tests {
     #[test]
     fn the_biggest_host_frame_fits_the_device_buffer() {
         static DATA: [u8; MAX_CHUNK] = [0xFF; MAX_CHUNK];
-        let msg = HostMsg::ModelChunk {
-            offset: u32::MAX,
-            data: &DATA,
-        };
+        let msg = HostMsg::ModelChunk { offset: u32::MAX, data: &DATA };
         let mut scratch = [0u8; 512];
         assert!(postcard::to_slice(&msg, &mut scratch).expect("fits").len() <= HOST_MAX_PAYLOAD);
         let f = frame_host(&msg);
@@ -755,32 +693,19 @@ mod tests {
         let wrong_type = frame_host(&HostMsg::ModelCommit); // a host message is no DeviceMsg
         let mut with_trailing = {
             let mut scratch = [0u8; 64];
-            let n = postcard::to_slice(&DeviceMsg::Pong { nonce: 9 }, &mut scratch)
-                .unwrap()
-                .len();
+            let n = postcard::to_slice(&DeviceMsg::Pong { nonce: 9 }, &mut scratch).unwrap().len();
             scratch[n] = 0x55;
             let payload = &scratch[..n + 1];
-            let env = Envelope {
-                payload,
-                crc: crc32(payload),
-            };
+            let env = Envelope { payload, crc: crc32(payload) };
             let mut out = [0u8; 64];
             postcard::to_slice_cobs(&env, &mut out).unwrap().to_vec()
         };
         let cases: [(&str, Vec<u8>, Malformed); 5] = [
-            (
-                "garbage",
-                std::vec![0x01, 0x02, 0xFF, 0x00],
-                Malformed::Framing,
-            ),
+            ("garbage", std::vec![0x01, 0x02, 0xFF, 0x00], Malformed::Framing),
             ("bad cobs", std::vec![0x05, 0x11, 0x00], Malformed::Framing),
             ("crc", flipped, Malformed::Crc),
             ("wrong type", wrong_type, Malformed::Payload),
-            (
-                "trailing",
-                core::mem::take(&mut with_trailing),
-                Malformed::TrailingBytes,
-            ),
+            ("trailing", core::mem::take(&mut with_trailing), Malformed::TrailingBytes),
         ];
         for (name, bad, why) in cases {
             let mut stream = bad.clone();
@@ -795,11 +720,7 @@ mod tests {
     #[test]
     fn an_oversize_frame_counts_once_and_resynchronises() {
         let good = frame_device(&DeviceMsg::Pong { nonce: 1 });
-        for len in [
-            DEVICE_MAX_FRAME,
-            DEVICE_MAX_FRAME + 1,
-            3 * DEVICE_MAX_FRAME + 5,
-        ] {
+        for len in [DEVICE_MAX_FRAME, DEVICE_MAX_FRAME + 1, 3 * DEVICE_MAX_FRAME + 5] {
             let mut stream = std::vec![0x11u8; len];
             stream.push(0);
             stream.extend(&good);
@@ -839,10 +760,7 @@ mod tests {
     #[test]
     fn reject_codes_are_stable_and_round_trip() {
         let codes: Vec<u8> = RejectReason::ALL.iter().map(|r| r.code()).collect();
-        assert_eq!(
-            codes,
-            [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 20, 21, 22, 23, 24, 25, 255]
-        );
+        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 20, 21, 22, 23, 24, 25, 255]);
         for r in RejectReason::ALL {
             assert_eq!(RejectReason::from_code(r.code()), r);
             let mut buf = [0u8; 4];
@@ -851,26 +769,10 @@ mod tests {
             assert_eq!(postcard::from_bytes::<RejectReason>(b).unwrap(), r);
         }
         assert_eq!(RejectReason::from_code(99), RejectReason::Other);
-        let e = Rejection::from(Error::WrongDims {
-            field: "centres",
-            found: 64,
-            expected: 32,
-        });
-        assert_eq!(
-            e,
-            Rejection {
-                reason: RejectReason::WrongDims,
-                detail: 64 << 16 | 32
-            }
-        );
+        let e = Rejection::from(Error::WrongDims { field: "centres", found: 64, expected: 32 });
+        assert_eq!(e, Rejection { reason: RejectReason::WrongDims, detail: 64 << 16 | 32 });
         assert_eq!(Rejection::from(Error::BadCrc).reason, RejectReason::BadCrc);
-        assert_eq!(
-            Rejection::from(Error::BadParameter {
-                field: "hyper.sigma"
-            })
-            .reason,
-            RejectReason::BadParameter
-        );
+        assert_eq!(Rejection::from(Error::BadParameter { field: "hyper.sigma" }).reason, RejectReason::BadParameter);
     }
 
     #[test]

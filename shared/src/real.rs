@@ -274,7 +274,7 @@ pub fn exp_neg_f64(x: f64) -> f64 {
     odd = odd * u2 + 1.984_126_984_126_984e-4; // 1/7!
     odd = odd * u2 + 8.333_333_333_333_333e-3; // 1/5!
     odd = odd * u2 + 1.666_666_666_666_666_6e-1; // 1/3!
-    // e^u = 1 + u + u²·(even + u·odd)
+                                                 // e^u = 1 + u + u²·(even + u·odd)
     let p = 1.0 + (u + u2 * (even + u * odd));
     // Scale by 2^-n: t's bits are MAGIC's plus n (two's complement for n < 0), and MAGIC's low
     // 12 bits are zero, so `t_bits << 52` is `n << 52` (wrapping).
@@ -302,9 +302,29 @@ mod tests {
     #[test]
     fn f64_tick_rounding_is_libm_round_saturated() {
         let cases = [
-            0.0, -0.0, 0.5, -0.5, 1.5, 2.5, -2.5, 0.499_999_999_999_999_94, -0.499_999_999_999_999_94,
-            1e-300, 123.456, -987.654_321, 2_097_151.999_5, 4.5e15, 1e18, -1e18, 1e300, -1e300,
-            f64::INFINITY, f64::NEG_INFINITY, f64::NAN, f64::MAX, f64::MIN,
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            2.5,
+            -2.5,
+            0.499_999_999_999_999_94,
+            -0.499_999_999_999_999_94,
+            1e-300,
+            123.456,
+            -987.654_321,
+            2_097_151.999_5,
+            4.5e15,
+            1e18,
+            -1e18,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MAX,
+            f64::MIN,
         ];
         for v in cases {
             for scale in [1.0, 1024.0] {

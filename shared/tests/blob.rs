@@ -6,10 +6,8 @@ mod common;
 
 use common::{any_model, encode_vec, long_provenance, model, short_provenance, Rng};
 use crc::{Crc, CRC_32_ISCSI};
-use fbg_shared::blob::{
-    self, decode, encode, max_len, min_len, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN,
-};
-use fbg_shared::layout::{N_INPUTS, N_MEMORY, N_OUTPUTS, N_POLY, MEM_AMBIENT, MEM_OBSERVER, MEM_STOP};
+use fbg_shared::blob::{self, decode, encode, max_len, min_len, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};
+use fbg_shared::layout::{MEM_AMBIENT, MEM_OBSERVER, MEM_STOP, N_INPUTS, N_MEMORY, N_OUTPUTS, N_POLY};
 use fbg_shared::{Centre, Compensator, Error, FeatureSet, Hyper, MemorySpec, ModelParams, Provenance, Sample};
 use proptest::prelude::*;
 
@@ -26,14 +24,8 @@ fn fix_crc(b: &mut [u8]) {
 fn encode_unchecked<const K: usize>(p: &ModelParams<f32, K>) -> Vec<u8> {
     let mut out = Vec::new();
     out.extend_from_slice(b"FBGM");
-    for v in [
-        FORMAT_VERSION,
-        N_INPUTS as u16,
-        N_OUTPUTS as u16,
-        N_POLY as u16,
-        N_MEMORY as u16,
-        p.centres.len() as u16,
-    ] {
+    for v in [FORMAT_VERSION, N_INPUTS as u16, N_OUTPUTS as u16, N_POLY as u16, N_MEMORY as u16, p.centres.len() as u16]
+    {
         out.extend_from_slice(&v.to_le_bytes());
     }
     let mut body = vec![0u8; max_len(K)];
@@ -67,11 +59,7 @@ fn samples(seed: u64, n: usize) -> Vec<Sample<f32>> {
             for d in dl.iter_mut() {
                 *d = (*d + r.uniform(-6.0, 6.0)).clamp(-50.0, 50.0);
             }
-            Sample {
-                dl_pm: [dl[0] as f32, dl[1] as f32, dl[2] as f32],
-                t_amb_c: r.f32(0.0, 40.0),
-                t_s: k as f32,
-            }
+            Sample { dl_pm: [dl[0] as f32, dl[1] as f32, dl[2] as f32], t_amb_c: r.f32(0.0, 40.0), t_s: k as f32 }
         })
         .collect()
 }
@@ -172,18 +160,10 @@ fn encode_refuses_invalid_params() {
 fn tiny() -> ModelParams<f32, 2> {
     let mut centres = heapless::Vec::new();
     centres
-        .push(Centre {
-            mu: [0.5, -0.5, 1.0, 0.0, 0.0, 1.0, -1.0, 0.0],
-            w: [1.0, -2.0, 0.25],
-            v: [0.5, 0.0, 0.0, 0.0],
-        })
+        .push(Centre { mu: [0.5, -0.5, 1.0, 0.0, 0.0, 1.0, -1.0, 0.0], w: [1.0, -2.0, 0.25], v: [0.5, 0.0, 0.0, 0.0] })
         .unwrap();
     centres
-        .push(Centre {
-            mu: [-1.0, 0.5, 0.0, 2.0, 0.0, -1.0, 1.0, 1.0],
-            w: [-0.5, 4.0, 0.0],
-            v: [0.0, 0.5, 0.0, 0.0],
-        })
+        .push(Centre { mu: [-1.0, 0.5, 0.0, 2.0, 0.0, -1.0, 1.0, 1.0], w: [-0.5, 4.0, 0.0], v: [0.0, 0.5, 0.0, 0.0] })
         .unwrap();
     let mut gamma = [[0.0f32; N_MEMORY]; N_OUTPUTS];
     gamma[0][0] = 0.25; // T per pm of grating 1's 600-s high-pass
@@ -201,11 +181,7 @@ fn tiny() -> ModelParams<f32, 2> {
             envelope_margin: 0.25,
             flagged_band_factor: 2.0,
         },
-        stage1: [
-            [0.5, 0.0, 0.0, 1.0, -2.0],
-            [0.0, 0.25, 0.0, 0.0, 0.0],
-            [0.0, 0.0, -0.5, 0.0, 1.0],
-        ],
+        stage1: [[0.5, 0.0, 0.0, 1.0, -2.0], [0.0, 0.25, 0.0, 0.0, 0.0], [0.0, 0.0, -0.5, 0.0, 1.0]],
         guess_mean: [1.0, 0.0, -2.0],
         guess_std: [2.0, 4.0, 0.5],
         poly: [
@@ -353,14 +329,8 @@ fn header_errors() {
 fn k64_blob_into_capacity_32_is_wrong_dims() {
     let p: ModelParams<f32, 64> = any_model(64, 5, true);
     let b = encode_vec(&p);
-    assert_eq!(
-        decode::<32>(&b),
-        Err(Error::WrongDims { field: "centres", found: 64, expected: 32 })
-    );
-    assert_eq!(
-        decode::<63>(&b),
-        Err(Error::WrongDims { field: "centres", found: 64, expected: 63 })
-    );
+    assert_eq!(decode::<32>(&b), Err(Error::WrongDims { field: "centres", found: 64, expected: 32 }));
+    assert_eq!(decode::<63>(&b), Err(Error::WrongDims { field: "centres", found: 64, expected: 63 }));
     assert_eq!(decode::<64>(&b), Ok(p));
 }
 
@@ -424,9 +394,9 @@ fn huge_lengths_with_valid_crc_are_bad_payload() {
     assert_eq!(b[prov], 42);
     assert_eq!(b[prov + 1], 6);
     let huge: [&[u8]; 4] = [
-        &[0xFF, 0xFF, 0xFF, 0xFF, 0x0F], // u32::MAX
-        &[0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01], // u64::MAX
-        &[0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F], // overflowing varint
+        &[0xFF, 0xFF, 0xFF, 0xFF, 0x0F],                                     // u32::MAX
+        &[0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01],       // u64::MAX
+        &[0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F],       // overflowing varint
         &[0x80, 0x80, 0x80, 0x80, 0x80, 0x80, 0x80, 0x80, 0x80, 0x80, 0x80], // never ends
     ];
     for (pos, name) in [(prov + 1, "scenario length"), (CENTRES_OFFSET, "centre count")] {
@@ -439,11 +409,7 @@ fn huge_lengths_with_valid_crc_are_bad_payload() {
         }
     }
     // The seed is a u64: its longest varint is fine, an overflowing or endless one is not.
-    for (h, want) in [
-        (huge[1], Ok(u64::MAX)),
-        (huge[2], Err(Error::BadPayload)),
-        (huge[3], Err(Error::BadPayload)),
-    ] {
+    for (h, want) in [(huge[1], Ok(u64::MAX)), (huge[2], Err(Error::BadPayload)), (huge[3], Err(Error::BadPayload))] {
         let mut m = b[..prov].to_vec();
         m.extend_from_slice(h);
         m.extend_from_slice(&b[prov + 1..]);
@@ -564,11 +530,7 @@ fn validate_names_each_bad_field() {
         f(&mut p);
         assert_eq!(p.validate(), Err(Error::BadParameter { field }), "{field}");
         // The same parameters in a blob with a valid CRC: decoded, then refused by name.
-        assert_eq!(
-            decode::<4>(&encode_unchecked(&p)),
-            Err(Error::BadParameter { field }),
-            "{field}"
-        );
+        assert_eq!(decode::<4>(&encode_unchecked(&p)), Err(Error::BadParameter { field }), "{field}");
         // And in f64.
         let q: ModelParams<f64, 4> = p.convert().unwrap();
         assert_eq!(q.validate(), Err(Error::BadParameter { field }), "{field} (f64)");

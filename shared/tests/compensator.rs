@@ -188,8 +188,7 @@ fn far_sample_has_weak_support_and_a_wide_band() {
         for m in mu.iter_mut().skip(5) {
             *m = 0.0; // latches are 0 on the first sample
         }
-        let e =
-            Compensator::<f32, K>::new(&q).unwrap().step(&sample([x[0], x[1], x[2]], x[3], x[4]));
+        let e = Compensator::<f32, K>::new(&q).unwrap().step(&sample([x[0], x[1], x[2]], x[3], x[4]));
         assert_eq!(e.flags, Flags::OK, "{fs:?}");
     }
 }
@@ -223,7 +222,11 @@ fn weak_support_flag_is_exactly_max_psi_below_the_threshold() {
                 let mut c = Compensator::<f32, K>::new(&q).unwrap();
                 for (s, &m) in ss.iter().zip(&maxima) {
                     let e = c.step(s);
-                    assert_eq!(e.flags.contains(Flags::WEAK_SUPPORT), m < w, "{fs:?} seed {seed}: max ψ {m}, threshold {w}");
+                    assert_eq!(
+                        e.flags.contains(Flags::WEAK_SUPPORT),
+                        m < w,
+                        "{fs:?} seed {seed}: max ψ {m}, threshold {w}"
+                    );
                 }
             }
         }
@@ -239,11 +242,8 @@ fn pure_polynomial_never_has_weak_support() {
         assert_eq!(c.n_centres(), 0);
         let mut r = Rng(11);
         for _ in 0..2000 {
-            let s = sample(
-                [r.f32(-1e4, 1e4), r.f32(-1e4, 1e4), r.f32(-1e4, 1e4)],
-                r.f32(-100.0, 100.0),
-                r.f32(0.0, 1e6),
-            );
+            let s =
+                sample([r.f32(-1e4, 1e4), r.f32(-1e4, 1e4), r.f32(-1e4, 1e4)], r.f32(-100.0, 100.0), r.f32(0.0, 1e6));
             let e = c.step(&s);
             assert!(!e.flags.contains(Flags::WEAK_SUPPORT));
         }
@@ -267,16 +267,12 @@ fn f32_and_f64_agree() {
     let mut worst = 0.0f64;
     for fs in FeatureSet::ALL {
         for seed in 0..6 {
-            let p: ModelParams<f32, 32> =
-                model(if seed == 0 { 0 } else { 32 }, seed, fs, long_provenance());
+            let p: ModelParams<f32, 32> = model(if seed == 0 { 0 } else { 32 }, seed, fs, long_provenance());
             let mut a = Compensator::<f32, 32>::new(&p).unwrap();
             let mut b = Compensator::<f64, 32>::new(&p).unwrap();
             for s in stream(seed + 100, 500) {
-                let s64 = Sample {
-                    dl_pm: s.dl_pm.map(f64::from),
-                    t_amb_c: f64::from(s.t_amb_c),
-                    t_s: f64::from(s.t_s),
-                };
+                let s64 =
+                    Sample { dl_pm: s.dl_pm.map(f64::from), t_amb_c: f64::from(s.t_amb_c), t_s: f64::from(s.t_s) };
                 let (x, y) = (a.step(&s), b.step(&s64));
                 assert_eq!(x.flags, y.flags);
                 assert_eq!(a.latch_values().map(f64::from), b.latch_values());
@@ -287,12 +283,7 @@ fn f32_and_f64_agree() {
                     let db = (f64::from(x.band95[i]) - y.band95[i]).abs() / y.band95[i];
                     worst = worst.max(dv);
                     assert!(dv < 1e-4, "{fs:?} seed {seed}: {} vs {}", x.values[i], y.values[i]);
-                    assert!(
-                        db < 1e-4,
-                        "{fs:?} seed {seed}: band {} vs {}",
-                        x.band95[i],
-                        y.band95[i]
-                    );
+                    assert!(db < 1e-4, "{fs:?} seed {seed}: band {} vs {}", x.band95[i], y.band95[i]);
                 }
             }
         }
@@ -646,7 +637,8 @@ fn memory_resume<F: fbg_shared::Real>() {
                 t_s: F::from_f64(f64::from(s.t_s)),
             })
             .collect();
-        let key = |e: &Estimate<F>| (e.values.map(|v| v.to_f64().to_bits()), e.band95.map(|v| v.to_f64().to_bits()), e.flags);
+        let key =
+            |e: &Estimate<F>| (e.values.map(|v| v.to_f64().to_bits()), e.band95.map(|v| v.to_f64().to_bits()), e.flags);
         let mut whole = Compensator::<F, K>::new(&p).unwrap();
         let mut state = None;
         let mut expected = Vec::new();

@@ -6,7 +6,7 @@ mod common;
 
 use common::{full_memory_spec, Rng};
 use fbg_shared::layout::{
-    N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS, MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP,
+    MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP, N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS,
 };
 use fbg_shared::{MemoryBank, MemoryGroup, MemorySpec, Real};
 
@@ -169,10 +169,9 @@ fn the_layout_names_every_term() {
                 assert_eq!((t.grating, t.parameter), (k % 3, spec.grating_tau_s[k / 3]), "{k}")
             }
             MemoryGroup::AmbientHighPass => assert_eq!(t.parameter, spec.ambient_tau_s[k - MEM_AMBIENT]),
-            MemoryGroup::Stop => assert_eq!(
-                (t.grating, t.parameter),
-                ((k - MEM_STOP) % 3, spec.play_half_width_pm[(k - MEM_STOP) / 3])
-            ),
+            MemoryGroup::Stop => {
+                assert_eq!((t.grating, t.parameter), ((k - MEM_STOP) % 3, spec.play_half_width_pm[(k - MEM_STOP) / 3]))
+            }
             MemoryGroup::DriftObserver => assert_eq!((k, t.parameter), (MEM_OBSERVER, spec.observer_smooth_s)),
         }
     }
@@ -533,7 +532,10 @@ fn f32_and_f64_banks_agree_over_fourteen_days() {
             g[1],
             g[2],
             g[3],
-            worst[..18].chunks(3).map(|c| format!("{:.1e}", c.iter().fold(0.0f64, |a, &b| a.max(b)))).collect::<Vec<_>>()
+            worst[..18]
+                .chunks(3)
+                .map(|c| format!("{:.1e}", c.iter().fold(0.0f64, |a, &b| a.max(b))))
+                .collect::<Vec<_>>()
         );
         for (a, b) in all.iter_mut().zip(g) {
             *a = a.max(b);

@@ -125,13 +125,26 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
     for (n, dt) in SIZES {
         let toml = data_dir.join(format!("n{n}.toml"));
         fs::write(&toml, format!("# {n} samples over the 14 days of the paper clock\n[clock]\ndt_s = {dt}\n"))?;
-        let (_, c) = r.json(TRAINER, &strings(&["simulate", "--config", &rel(&toml, root), "--seed", "7", "--json", "--out", &data(n)]), &[])?;
+        let (_, c) = r.json(
+            TRAINER,
+            &strings(&["simulate", "--config", &rel(&toml, root), "--seed", "7", "--json", "--out", &data(n)]),
+            &[],
+        )?;
         data_cmds.push(c);
     }
     for preset in ["paper", "harsh"] {
         let seeds: &[u64] = if preset == "paper" { &COVERAGE_SEEDS } else { &[7] };
         for &seed in seeds {
-            let (_, c) = r.trainer(&["simulate", "--preset", preset, "--seed", &seed.to_string(), "--json", "--out", &preset_csv(preset, seed)])?;
+            let (_, c) = r.trainer(&[
+                "simulate",
+                "--preset",
+                preset,
+                "--seed",
+                &seed.to_string(),
+                "--json",
+                "--out",
+                &preset_csv(preset, seed),
+            ])?;
             data_cmds.push(c);
         }
     }
@@ -182,7 +195,9 @@ fn rel(p: &Path, root: &Path) -> String {
 }
 
 fn loadavg() -> String {
-    fs::read_to_string("/proc/loadavg").map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" ")).unwrap_or_default()
+    fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_default()
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -193,20 +208,48 @@ fn first_line(cmd: &str, args: &[&str]) -> String {
         .args(args)
         .output()
         .ok()
-        .map(|o| String::from_utf8_lossy(if o.stdout.is_empty() { &o.stderr } else { &o.stdout }).lines().next().unwrap_or("").trim().to_string())
+        .map(|o| {
+            String::from_utf8_lossy(if o.stdout.is_empty() { &o.stderr } else { &o.stdout })
+                .lines()
+                .next()
+                .unwrap_or("")
+                .trim()
+                .to_string()
+        })
         .unwrap_or_else(|| "unknown".into())
 }
 
-fn machine(root: &Path, peer: Option<&Value>, peer_err: Option<&anyhow::Error>, load_start: String, load_end: String) -> Value {
+fn machine(
+    root: &Path,
+    peer: Option<&Value>,
+    peer_err: Option<&anyhow::Error>,
+    load_start: String,
+    load_end: String,
+) -> Value {
     let cpu = fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|s| s.trim().to_string()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|s| s.trim().to_string())
+        })
         .unwrap_or_else(|| "unknown".into());
     let os = fs::read_to_string("/etc/os-release")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("PRETTY_NAME=")).map(|l| l.trim_start_matches("PRETTY_NAME=").trim_matches('"').to_string()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("PRETTY_NAME="))
+                .map(|l| l.trim_start_matches("PRETTY_NAME=").trim_matches('"').to_string())
+        })
         .unwrap_or_else(|| std::env::consts::OS.into());
-    let rustc = Command::new("rustc").arg("--version").current_dir(root).output().ok().map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string()).unwrap_or_default();
+    let rustc = Command::new("rustc")
+        .arg("--version")
+        .current_dir(root)
+        .output()
+        .ok()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_default();
     json!({
         "cpu": cpu,
         "cores": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
@@ -229,9 +272,18 @@ fn machine(root: &Path, peer: Option<&Value>, peer_err: Option<&anyhow::Error>, 
 fn git_state(root: &Path) -> Value {
     // Only trailing whitespace goes: a porcelain line starts with its status columns.
     let out = |args: &[&str]| {
-        Command::new("git").args(args).current_dir(root).output().ok().map(|o| String::from_utf8_lossy(&o.stdout).trim_end().to_string()).unwrap_or_default()
+        Command::new("git")
+            .args(args)
+            .current_dir(root)
+            .output()
+            .ok()
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim_end().to_string())
+            .unwrap_or_default()
     };
-    let dirty: Vec<String> = out(&["status", "--porcelain", "--untracked-files=no"]).lines().map(|l| l.get(3..).unwrap_or(l).to_string()).collect();
+    let dirty: Vec<String> = out(&["status", "--porcelain", "--untracked-files=no"])
+        .lines()
+        .map(|l| l.get(3..).unwrap_or(l).to_string())
+        .collect();
     json!({"commit": out(&["rev-parse", "--short", "HEAD"]), "modified_files": dirty})
 }
 
@@ -239,14 +291,23 @@ fn git_state(root: &Path) -> Value {
 fn python_env(root: &Path, r: &Runner) -> Result<Value> {
     let py = root.join(VENV_PY);
     let importable = |py: &Path| {
-        Command::new(py).args(["-c", "import sklearn, numpy"]).stdout(Stdio::null()).stderr(Stdio::null()).status().map(|s| s.success()).unwrap_or(false)
+        Command::new(py)
+            .args(["-c", "import sklearn, numpy"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false)
     };
     if !py.exists() {
-        run(Command::new("python3").args(["-m", "venv", "target/bench/venv"]).current_dir(root)).context("python3 -m venv")?;
+        run(Command::new("python3").args(["-m", "venv", "target/bench/venv"]).current_dir(root))
+            .context("python3 -m venv")?;
     }
     if !importable(&py) {
-        run(Command::new(root.join("target/bench/venv/bin/pip")).args(["install", "--quiet", "scikit-learn", "numpy"]).current_dir(root))
-            .context("pip install scikit-learn numpy")?;
+        run(Command::new(root.join("target/bench/venv/bin/pip"))
+            .args(["install", "--quiet", "scikit-learn", "numpy"])
+            .current_dir(root))
+        .context("pip install scikit-learn numpy")?;
     }
     Ok(r.peer(&["versions"])?.0)
 }
@@ -303,7 +364,11 @@ fn device_part(root: &Path, opts: &Opts) -> Result<Value> {
     let text = fs::read_to_string(&path).with_context(|| format!("{}: no device results", path.display()))?;
     let mut v: Value = serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
     v["reused_existing_results"] = json!(opts.no_device);
-    v["command"] = json!(if opts.no_device { "(earlier) cargo xtask bench" } else { "cargo xtask bench (device part: xtask/src/device_bench.rs)" });
+    v["command"] = json!(if opts.no_device {
+        "(earlier) cargo xtask bench"
+    } else {
+        "cargo xtask bench (device part: xtask/src/device_bench.rs)"
+    });
     let full = memory_ops(&MemorySpec::<f32>::off(), true);
     v["arithmetic_lower_bound"] = json!({
         "formula": format!("{} K + {} without memory terms; + {} with the full memory bank ({} terms), + M_ops in general", step_ops(1, 0) - step_ops(0, 0), step_ops(0, 0), full, N_MEMORY),
@@ -349,7 +414,7 @@ pub fn memory_ops(spec: &MemorySpec<f32>, full: bool) -> usize {
 /// `fbg-shared` crate docs): a multiply-add counts as one.
 pub fn step_ops(k: usize, memory: usize) -> usize {
     let exp_neg = 14; // compare, 9 multiply-adds, subtract, negate, 2 exponent-field ops
-    // Distance over the inputs the default (hysteresis-aware) set uses: all but time.
+                      // Distance over the inputs the default (hysteresis-aware) set uses: all but time.
     let per_centre = (1 + Z_DIMS - 1) + exp_neg + (N_OUTPUTS + VAR_RANK + 1);
     let fixed = (N_GRATINGS + 2) // finiteness
         + N_GRATINGS * 10 // direction latches
@@ -386,20 +451,31 @@ fn inference_part(root: &Path, opts: &Opts) -> Result<Value> {
                                                   num(&v, &["median", "confidence_interval", "upper_bound"]) / STEP_BATCH]}));
         }
     }
-    Ok(json!({"command": format!("cargo {}", args.join(" ")), "samples_per_iteration": STEP_BATCH, "criterion_samples": 100,
-              "statistic": "criterion median of 100 samples (each many iterations of 1024 steps)", "rows": rows}))
+    Ok(
+        json!({"command": format!("cargo {}", args.join(" ")), "samples_per_iteration": STEP_BATCH, "criterion_samples": 100,
+              "statistic": "criterion median of 100 samples (each many iterations of 1024 steps)", "rows": rows}),
+    )
 }
 
 fn training_part(r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Value> {
     let rounds = if opts.quick { 1 } else { 3 };
     let mut sizes = Vec::new();
     for (n, _) in SIZES {
-        let reps = if opts.quick { 1 } else if n >= 1_000_000 { 3 } else { 5 };
+        let reps = if opts.quick {
+            1
+        } else if n >= 1_000_000 {
+            3
+        } else {
+            5
+        };
         let reps_s = reps.to_string();
         let csv = data(n);
-        let fixed = |fs: &str| strings(&["bench-fit", "--data", &csv, "--fixed", "--feature-set", fs, "--repeats", &reps_s, "--json"]);
+        let fixed = |fs: &str| {
+            strings(&["bench-fit", "--data", &csv, "--fixed", "--feature-set", fs, "--repeats", &reps_s, "--json"])
+        };
         let peer = |fs: &str| strings(&[PEER, "fit", "--data", &csv, "--features", fs, "--repeats", &reps_s]);
-        let notebook = strings(&[PEER, "fit", "--data", &csv, "--features", "paper", "--kmeans", "all", "--repeats", &reps_s]);
+        let notebook =
+            strings(&[PEER, "fit", "--data", &csv, "--features", "paper", "--kmeans", "all", "--repeats", &reps_s]);
         // Like with like: the paper feature set (pure scikit-learn on the peer's side), fixed
         // hyper-parameters on both sides, alternating ours / the notebook pipeline / the
         // pipeline with our k-means subsample in each round.
@@ -434,7 +510,8 @@ fn training_part(r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Value> {
         // The default (hysteresis-aware) features: the peer computes the same latches with a
         // Python loop before its clock starts.
         let (oh, cmd_oh) = r.json(TRAINER, &fixed("hysteresis-aware"), &[])?;
-        let (ph, cmd_ph) = if peer_ok { r.json(VENV_PY, &peer("hysteresis-aware"), &[])? } else { (Value::Null, String::new()) };
+        let (ph, cmd_ph) =
+            if peer_ok { r.json(VENV_PY, &peer("hysteresis-aware"), &[])? } else { (Value::Null, String::new()) };
         let (sel, cmd_sel) = r.trainer(&["bench-fit", "--data", &csv, "--select", "--repeats", &reps_s, "--json"])?;
         // The default model's own terms: memory terms (cross-validated menu) fitted with the core.
         // The scikit-learn peer has no memory terms, so this is timed without a peer.
@@ -475,7 +552,11 @@ fn training_part(r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Value> {
     let ns: Vec<f64> = SIZES.iter().map(|(n, _)| *n as f64).collect();
     let slope = |path: &[&str]| {
         let t: Vec<f64> = sizes.iter().map(|s| num(s, path)).collect();
-        if t.iter().all(|v| v.is_finite() && *v > 0.0) { json!(log_slope(&ns, &t)) } else { Value::Null }
+        if t.iter().all(|v| v.is_finite() && *v > 0.0) {
+            json!(log_slope(&ns, &t))
+        } else {
+            Value::Null
+        }
     };
     Ok(json!({
         "fixed_config": {"k": 32, "sigma_mult": 2.0, "alpha_rel": 1e-5, "dead_band_pm": 4.0, "kmeans_seed": 1},
@@ -495,7 +576,8 @@ fn accuracy_part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Value> {
     for preset in ["paper", "harsh"] {
         let csv = preset_csv(preset, 7);
         let (def, c_def) = r.trainer(&["bench-fit", "--data", &csv, "--select", "--repeats", "1", "--json"])?;
-        let (pap, c_pap) = r.trainer(&["bench-fit", "--data", &csv, "--select", "--features", "paper", "--repeats", "1", "--json"])?;
+        let (pap, c_pap) =
+            r.trainer(&["bench-fit", "--data", &csv, "--select", "--features", "paper", "--repeats", "1", "--json"])?;
         let meta: Value = serde_json::from_str(&fs::read_to_string(root.join(csv.replace(".csv", ".meta.json")))?)?;
         let (bb, c_bb) = if peer_ok { r.peer(&["blackbox", "--data", &csv])? } else { (Value::Null, String::new()) };
         if preset == "paper" {
@@ -516,9 +598,11 @@ fn accuracy_part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Value> {
         coverage.push(json!({"seed": seed, "coverage_h": v["model_h"]["coverage"], "coverage_p": v["model_p"]["coverage"], "rmse_h": v["model_h"]["rmse"], "rmse_p": v["model_p"]["rmse"], "k": v["chosen"]["k"], "command": c}));
     }
     // Gain of Model-H over Model-P per seed and channel [%].
-    let gain = |s: &Value, c: usize| 100.0 * (1.0 - num(s, &["rmse_h", &c.to_string()]) / num(s, &["rmse_p", &c.to_string()]));
+    let gain =
+        |s: &Value, c: usize| 100.0 * (1.0 - num(s, &["rmse_h", &c.to_string()]) / num(s, &["rmse_p", &c.to_string()]));
     let gains: Vec<Vec<f64>> = coverage.iter().map(|s| (0..3).map(|c| gain(s, c)).collect()).collect();
-    let gain_mean: Vec<f64> = (0..3).map(|c| gains.iter().map(|g| g[c]).sum::<f64>() / gains.len().max(1) as f64).collect();
+    let gain_mean: Vec<f64> =
+        (0..3).map(|c| gains.iter().map(|g| g[c]).sum::<f64>() / gains.len().max(1) as f64).collect();
     let gain_min: Vec<f64> = (0..3).map(|c| gains.iter().map(|g| g[c]).fold(f64::INFINITY, f64::min)).collect();
     let seeds_all_25 = gains.iter().filter(|g| g.iter().all(|&v| v >= 25.0)).count();
     let per = |c: usize| -> Vec<f64> { coverage.iter().map(|s| num(s, &["coverage_h", &c.to_string()])).collect() };
@@ -544,11 +628,23 @@ fn fleet_part(root: &Path, r: &Runner, opts: &Opts) -> Result<Value> {
     let mut sim_cmd = String::new();
     for g in 0..FLEET_GROUPS {
         let csv = dir.join(format!("g{g:02}.csv"));
-        let (_, c) = r.trainer(&["simulate", "--config", &rel(&cfg, root), "--seed", &(100 + g).to_string(), "--json", "--out", &rel(&csv, root)])?;
+        let (_, c) = r.trainer(&[
+            "simulate",
+            "--config",
+            &rel(&cfg, root),
+            "--seed",
+            &(100 + g).to_string(),
+            "--json",
+            "--out",
+            &rel(&csv, root),
+        ])?;
         if g == 0 {
             sim_cmd = c;
         }
-        let _ = write!(manifest, "\n[[group]]\nname = \"g{g:02}\"\ndata = \"g{g:02}.csv\"\nout = \"models/g{g:02}.fbgm\"\n");
+        let _ = write!(
+            manifest,
+            "\n[[group]]\nname = \"g{g:02}\"\ndata = \"g{g:02}.csv\"\nout = \"models/g{g:02}.fbgm\"\n"
+        );
     }
     let m = dir.join("fleet.toml");
     fs::write(&m, manifest)?;
@@ -607,7 +703,15 @@ fn secs(x: f64) -> String {
     if !x.is_finite() {
         return "–".into();
     }
-    let d = if x >= 100.0 { 0 } else if x >= 10.0 { 1 } else if x >= 1.0 { 2 } else { 3 };
+    let d = if x >= 100.0 {
+        0
+    } else if x >= 10.0 {
+        1
+    } else if x >= 1.0 {
+        2
+    } else {
+        3
+    };
     format!("{x:.d$} s")
 }
 
@@ -644,7 +748,13 @@ fn markdown(rep: &Value) -> String {
     );
     let _ = writeln!(s, "## Machine\n");
     let _ = writeln!(s, "| | |\n|---|---|");
-    let _ = writeln!(s, "| CPU | {} ({} cores), {} RAM |", m["cpu"].as_str().unwrap_or("?"), m["cores"], m["memory"].as_str().unwrap_or("?"));
+    let _ = writeln!(
+        s,
+        "| CPU | {} ({} cores), {} RAM |",
+        m["cpu"].as_str().unwrap_or("?"),
+        m["cores"],
+        m["memory"].as_str().unwrap_or("?")
+    );
     let _ = writeln!(s, "| OS | {} |", m["os"].as_str().unwrap_or("?"));
     let _ = writeln!(s, "| Rust | {} |", m["rustc"].as_str().unwrap_or("?"));
     match m["scikit_learn"].as_str() {
@@ -652,24 +762,41 @@ fn markdown(rep: &Value) -> String {
             let _ = writeln!(s, "| Python peer | Python {}, numpy {}, scikit-learn {} (venv `target/bench/venv`, `pip install scikit-learn numpy`) |", m["python"].as_str().unwrap_or("?"), m["numpy"].as_str().unwrap_or("?"), v);
         }
         None => {
-            let _ = writeln!(s, "| Python peer | **skipped**: {} |", m["peer_skipped_because"].as_str().unwrap_or("python3/venv/pip unavailable"));
+            let _ = writeln!(
+                s,
+                "| Python peer | **skipped**: {} |",
+                m["peer_skipped_because"].as_str().unwrap_or("python3/venv/pip unavailable")
+            );
         }
     }
     let _ = writeln!(s, "| QEMU | {} |", m["qemu"].as_str().unwrap_or("?"));
-    let dirty: Vec<&str> = m["git"]["modified_files"].as_array().map(|a| a.iter().filter_map(Value::as_str).collect()).unwrap_or_default();
+    let dirty: Vec<&str> =
+        m["git"]["modified_files"].as_array().map(|a| a.iter().filter_map(Value::as_str).collect()).unwrap_or_default();
     let _ = writeln!(
         s,
         "| source | commit {}{} |",
         m["git"]["commit"].as_str().unwrap_or("?"),
         if dirty.is_empty() { String::new() } else { format!(" with uncommitted changes to {}", dirty.join(", ")) }
     );
-    let _ = writeln!(s, "| load average (1/5/15 min) | {} at the start, {} at the end |", m["loadavg_start"].as_str().unwrap_or("?"), m["loadavg_end"].as_str().unwrap_or("?"));
+    let _ = writeln!(
+        s,
+        "| load average (1/5/15 min) | {} at the start, {} at the end |",
+        m["loadavg_start"].as_str().unwrap_or("?"),
+        m["loadavg_end"].as_str().unwrap_or("?")
+    );
     let _ = writeln!(s, "| whole run | {:.0} s |\n", rep["wall_seconds"].as_f64().unwrap_or(0.0));
 
     // Headline.
     let _ = writeln!(s, "## Targets (DESIGN §8)\n");
     let _ = writeln!(s, "| target | measured | verdict | command |\n|---|---|---|---|");
-    let gains: Vec<f64> = (0..3).map(|c| 100.0 * (1.0 - num(paper, &["model_h_default", "rmse", &c.to_string()]) / num(paper, &["model_p", "rmse", &c.to_string()]))).collect();
+    let gains: Vec<f64> = (0..3)
+        .map(|c| {
+            100.0
+                * (1.0
+                    - num(paper, &["model_h_default", "rmse", &c.to_string()])
+                        / num(paper, &["model_p", "rmse", &c.to_string()]))
+        })
+        .collect();
     let _ = writeln!(
         s,
         "| accuracy, `paper` preset: Model-H hold-out RMSE ≥ 25 % below Model-P on every channel | {:.1} / {:.1} / {:.1} % below (T / ε / p); Model-H at {:.2} / {:.2} / {:.2} × the per-sample oracle | {} | `{}` |",
@@ -698,7 +825,8 @@ fn markdown(rep: &Value) -> String {
         "| f32 device path vs f64 host: max difference ≤ 1 % of Model-H's RMSE | {:.4} / {:.4} / {:.4} % ({} hold-out samples, {} flag mismatches) | {} | same run |",
         pmax[0], pmax[1], pmax[2], par["samples"], par["flag_mismatches"], yes(pmax.iter().all(|p| *p <= 1.0))
     );
-    let d0 = dev["step"].as_array().and_then(|a| a.iter().find(|x| x["name"] == "default")).cloned().unwrap_or(Value::Null);
+    let d0 =
+        dev["step"].as_array().and_then(|a| a.iter().find(|x| x["name"] == "default")).cloned().unwrap_or(Value::Null);
     let ins = num(&d0, &["instructions_per_step"]);
     let _ = writeln!(
         s,
@@ -710,13 +838,26 @@ fn markdown(rep: &Value) -> String {
     let ram = num(pr, &["static_ram_plus_stack_bytes"]);
     let ram_serving = num(pr, &["static_ram_plus_serving_stack_bytes"]);
     let blob = num(paper, &["model_h_default", "bytes"]);
-    let _ = writeln!(s, "| firmware flash ≤ 32 KiB | {} B ({:.1} KiB) | {} | device part |", fx(flash, 0), flash / 1024.0, yes(flash <= 32768.0));
+    let _ = writeln!(
+        s,
+        "| firmware flash ≤ 32 KiB | {} B ({:.1} KiB) | {} | device part |",
+        fx(flash, 0),
+        flash / 1024.0,
+        yes(flash <= 32768.0)
+    );
     let _ = writeln!(
         s,
         "| static RAM + measured stack ≤ 8 KiB serving (≤ 12 KiB at the model-load / verification peak) | {} B while serving; {} B at the peak (boot / model update) | {} (load peak ≤ 12 KiB: {}) | device part |",
         fx(ram_serving, 0), fx(ram, 0), yes(ram_serving <= 8192.0), if ram <= 12288.0 { "met" } else { "not met" }
     );
-    let _ = writeln!(s, "| blob ≤ 4 KiB | trained Model-H (K = {}) {} B; device default model {} B | {} | accuracy run; device part |", paper["model_h_default"]["chosen"]["k"], fx(blob, 0), f(&pr["default_blob_bytes"], 0), yes(blob <= 4096.0));
+    let _ = writeln!(
+        s,
+        "| blob ≤ 4 KiB | trained Model-H (K = {}) {} B; device default model {} B | {} | accuracy run; device part |",
+        paper["model_h_default"]["chosen"]["k"],
+        fx(blob, 0),
+        f(&pr["default_blob_bytes"], 0),
+        yes(blob <= 4096.0)
+    );
     let ratio = num(&big, &["fixed_paper", "ratio_median"]);
     let nb_ratio = num(&big, &["fixed_paper", "notebook_ratio_median"]);
     let agree = max_rel_diff(&big["fixed_paper"]["ours"]["rmse_h"], &big["fixed_paper"]["notebook"]["rmse_h"]);
@@ -774,11 +915,17 @@ fn markdown(rep: &Value) -> String {
     }
     // Where our fixed fit spends its time at the largest size (median over rounds per phase).
     if let Some(rounds) = big["fixed_paper"]["ours_phases_per_round"].as_array().filter(|a| !a.is_empty()) {
-        let names: Vec<String> = rounds[0].as_array().into_iter().flatten().map(|p| p[0].as_str().unwrap_or("").to_string()).collect();
-        let _ = writeln!(s, "\nOur fixed fit at {} samples, phase by phase (median over the rounds of each process's median):\n", big["n_samples"]);
+        let names: Vec<String> =
+            rounds[0].as_array().into_iter().flatten().map(|p| p[0].as_str().unwrap_or("").to_string()).collect();
+        let _ = writeln!(
+            s,
+            "\nOur fixed fit at {} samples, phase by phase (median over the rounds of each process's median):\n",
+            big["n_samples"]
+        );
         let _ = writeln!(s, "| phase | seconds |\n|---|---|");
         for (k, name) in names.iter().enumerate() {
-            let t: Vec<f64> = rounds.iter().filter_map(|r| r.get(k).and_then(|p| p.get(1)).and_then(Value::as_f64)).collect();
+            let t: Vec<f64> =
+                rounds.iter().filter_map(|r| r.get(k).and_then(|p| p.get(1)).and_then(Value::as_f64)).collect();
             let _ = writeln!(s, "| {name} | {} |", secs(median(&t)));
         }
     }
@@ -811,8 +958,14 @@ fn markdown(rep: &Value) -> String {
             let _ = writeln!(
                 s,
                 "| {} | {} | {} | {} | {} | {} | {} | {:.1} % |",
-                z["n_samples"], name, how, rmse3(&o["rmse_p"]).join(" / "), rmse3(&p["rmse_p"]).join(" / "),
-                rmse3(&o["rmse_h"]).join(" / "), rmse3(&p["rmse_h"]).join(" / "), 100.0 * max_rel_diff(&o["rmse_h"], &p["rmse_h"])
+                z["n_samples"],
+                name,
+                how,
+                rmse3(&o["rmse_p"]).join(" / "),
+                rmse3(&p["rmse_p"]).join(" / "),
+                rmse3(&o["rmse_h"]).join(" / "),
+                rmse3(&p["rmse_h"]).join(" / "),
+                100.0 * max_rel_diff(&o["rmse_h"], &p["rmse_h"])
             );
         }
     }
@@ -840,7 +993,14 @@ fn markdown(rep: &Value) -> String {
     let _ = writeln!(s, "`Compensator::step` on a stream of 1 024 samples per iteration, synthetic hysteresis-aware models (`shared/benches/step.rs`); criterion median of 100 samples, one core.\n");
     let _ = writeln!(s, "| precision | K | ns per step | samples per second |\n|---|---|---|---|");
     for row in inf["rows"].as_array().into_iter().flatten() {
-        let _ = writeln!(s, "| {} | {} | {} | {:.2} M |", row["precision"].as_str().unwrap_or(""), row["k"], f(&row["ns_per_step"], 0), num(row, &["samples_per_second"]) / 1e6);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.2} M |",
+            row["precision"].as_str().unwrap_or(""),
+            row["k"],
+            f(&row["ns_per_step"], 0),
+            num(row, &["samples_per_second"]) / 1e6
+        );
     }
     let _ = writeln!(s, "\n    {}\n", inf["command"].as_str().unwrap_or(""));
 
@@ -861,15 +1021,29 @@ fn markdown(rep: &Value) -> String {
         let row = |s: &mut String, name: &str, inputs: &str, rm: &Value, size: String| {
             let r = rmse3(rm);
             // Rounded first, so that a gain of −0.3 % reads 0 %, not −0 %.
-            let gain: Vec<String> =
-                (0..3).map(|c| format!("{:.0} %", (100.0 * (1.0 - num(rm, &[&c.to_string()]) / base[c])).round() + 0.0)).collect();
-            let _ = writeln!(s, "| {name} | {inputs} | {} | {} | {} | {} | {size} |", r[0], r[1], r[2], gain.join(" / "));
+            let gain: Vec<String> = (0..3)
+                .map(|c| format!("{:.0} %", (100.0 * (1.0 - num(rm, &[&c.to_string()]) / base[c])).round() + 0.0))
+                .collect();
+            let _ =
+                writeln!(s, "| {name} | {inputs} | {} | {} | {} | {} | {size} |", r[0], r[1], r[2], gain.join(" / "));
         };
         row(&mut s, "Model-P", "Δλ, T_amb", &p["model_p"]["rmse"], format!("{} B", p["model_p"]["bytes"]));
         let ch = &p["model_h_default"]["chosen"];
-        row(&mut s, "Model-H (default: memory terms + RBF)", &format!("chosen: {}, K = {}", ch["feature_set"].as_str().unwrap_or("?"), ch["k"]), &p["model_h_default"]["rmse"], format!("{} B", p["model_h_default"]["bytes"]));
+        row(
+            &mut s,
+            "Model-H (default: memory terms + RBF)",
+            &format!("chosen: {}, K = {}", ch["feature_set"].as_str().unwrap_or("?"), ch["k"]),
+            &p["model_h_default"]["rmse"],
+            format!("{} B", p["model_h_default"]["bytes"]),
+        );
         let cp = &p["model_h_paper"]["chosen"];
-        row(&mut s, "Model-H (`--features paper`)", &format!("Δλ, T_amb, t; K = {}", cp["k"]), &p["model_h_paper"]["rmse"], format!("{} B", p["model_h_paper"]["bytes"]));
+        row(
+            &mut s,
+            "Model-H (`--features paper`)",
+            &format!("Δλ, T_amb, t; K = {}", cp["k"]),
+            &p["model_h_paper"]["rmse"],
+            format!("{} B", p["model_h_paper"]["bytes"]),
+        );
         let mut best = [f64::INFINITY; 3];
         for b in p["blackbox"]["peers"].as_array().into_iter().flatten() {
             for (c, bst) in best.iter_mut().enumerate() {
@@ -879,9 +1053,21 @@ fn markdown(rep: &Value) -> String {
                 Some(n) => format!("{} ({n} inputs)", b["inputs"].as_str().unwrap_or("")),
                 None => b["inputs"].as_str().unwrap_or("").to_string(),
             };
-            row(&mut s, &format!("scikit-learn {}", b["model"].as_str().unwrap_or("")), &inputs, &b["rmse"], format!("{} B", b["pickle_bytes"]));
+            row(
+                &mut s,
+                &format!("scikit-learn {}", b["model"].as_str().unwrap_or("")),
+                &inputs,
+                &b["rmse"],
+                format!("{} B", b["pickle_bytes"]),
+            );
         }
-        row(&mut s, "per-sample oracle", "true physics inverted sample by sample, noise-only wavelengths", &p["oracle_floor"]["rmse"], "–".into());
+        row(
+            &mut s,
+            "per-sample oracle",
+            "true physics inverted sample by sample, noise-only wavelengths",
+            &p["oracle_floor"]["rmse"],
+            "–".into(),
+        );
         if best[0].is_finite() {
             let h: Vec<f64> = (0..3).map(|c| num(p, &["model_h_default", "rmse", &c.to_string()])).collect();
             let fl: Vec<f64> = (0..3).map(|c| num(p, &["oracle_floor", "rmse", &c.to_string()])).collect();
@@ -891,39 +1077,80 @@ fn markdown(rep: &Value) -> String {
                 h[0] / best[0], h[1] / best[1], h[2] / best[2], h[0] / fl[0], h[1] / fl[1], h[2] / fl[2], best[0] / fl[0], best[1] / fl[1], best[2] / fl[2]
             );
         }
-        let _ = writeln!(s, "\n    {}\n    {}", p["model_h_default"]["command"].as_str().unwrap_or(""), p["model_h_paper"]["command"].as_str().unwrap_or(""));
+        let _ = writeln!(
+            s,
+            "\n    {}\n    {}",
+            p["model_h_default"]["command"].as_str().unwrap_or(""),
+            p["model_h_paper"]["command"].as_str().unwrap_or("")
+        );
         if let Some(c) = p["blackbox"]["command"].as_str() {
             let _ = writeln!(s, "    {c}");
         }
         let _ = writeln!(s, "    (per-sample oracle: {})\n", p["oracle_floor"]["source"].as_str().unwrap_or(""));
     }
-    let _ = writeln!(s, "### Gain over Model-P and band coverage of Model-H, `paper` preset, seeds {}–{}\n", COVERAGE_SEEDS[0], COVERAGE_SEEDS[COVERAGE_SEEDS.len() - 1]);
+    let _ = writeln!(
+        s,
+        "### Gain over Model-P and band coverage of Model-H, `paper` preset, seeds {}–{}\n",
+        COVERAGE_SEEDS[0],
+        COVERAGE_SEEDS[COVERAGE_SEEDS.len() - 1]
+    );
     let _ = writeln!(s, "| seed | K | gain T | gain ε | gain p | coverage T | coverage ε | coverage p | command |\n|---|---|---|---|---|---|---|---|---|");
     for c in acc["coverage_paper"]["per_seed"].as_array().into_iter().flatten() {
-        let gain = |ch: usize| 100.0 * (1.0 - num(c, &["rmse_h", &ch.to_string()]) / num(c, &["rmse_p", &ch.to_string()]));
+        let gain =
+            |ch: usize| 100.0 * (1.0 - num(c, &["rmse_h", &ch.to_string()]) / num(c, &["rmse_p", &ch.to_string()]));
         let _ = writeln!(
             s,
             "| {} | {} | {:.1} % | {:.1} % | {:.1} % | {:.1} % | {:.1} % | {:.1} % | `{}` |",
-            c["seed"], c["k"], gain(0), gain(1), gain(2),
-            100.0 * num(c, &["coverage_h", "0"]), 100.0 * num(c, &["coverage_h", "1"]), 100.0 * num(c, &["coverage_h", "2"]), c["command"].as_str().unwrap_or("")
+            c["seed"],
+            c["k"],
+            gain(0),
+            gain(1),
+            gain(2),
+            100.0 * num(c, &["coverage_h", "0"]),
+            100.0 * num(c, &["coverage_h", "1"]),
+            100.0 * num(c, &["coverage_h", "2"]),
+            c["command"].as_str().unwrap_or("")
         );
     }
     let g = &acc["gain_paper"];
     let _ = writeln!(
         s,
         "| **gain mean** | | **{:.1} %** | **{:.1} %** | **{:.1} %** | | | | target ≥ 40 / 30 / 40 % |",
-        num(g, &["mean_pct", "0"]), num(g, &["mean_pct", "1"]), num(g, &["mean_pct", "2"])
+        num(g, &["mean_pct", "0"]),
+        num(g, &["mean_pct", "1"]),
+        num(g, &["mean_pct", "2"])
     );
     let _ = writeln!(
         s,
         "| gain smallest | | {:.1} % | {:.1} % | {:.1} % | | | | target ≥ 25 % on every seed |",
-        num(g, &["min_pct", "0"]), num(g, &["min_pct", "1"]), num(g, &["min_pct", "2"])
+        num(g, &["min_pct", "0"]),
+        num(g, &["min_pct", "1"]),
+        num(g, &["min_pct", "2"])
     );
-    let _ = writeln!(s, "| **coverage mean** | | | | | **{:.1} %** | **{:.1} %** | **{:.1} %** | target 95 ± 1 % |", 100.0 * num(mean, &["0"]), 100.0 * num(mean, &["1"]), 100.0 * num(mean, &["2"]));
+    let _ = writeln!(
+        s,
+        "| **coverage mean** | | | | | **{:.1} %** | **{:.1} %** | **{:.1} %** | target 95 ± 1 % |",
+        100.0 * num(mean, &["0"]),
+        100.0 * num(mean, &["1"]),
+        100.0 * num(mean, &["2"])
+    );
     let med = &acc["coverage_paper"]["median_h"];
-    let _ = writeln!(s, "| coverage median | | | | | {:.1} % | {:.1} % | {:.1} % | |", 100.0 * num(med, &["0"]), 100.0 * num(med, &["1"]), 100.0 * num(med, &["2"]));
+    let _ = writeln!(
+        s,
+        "| coverage median | | | | | {:.1} % | {:.1} % | {:.1} % | |",
+        100.0 * num(med, &["0"]),
+        100.0 * num(med, &["1"]),
+        100.0 * num(med, &["2"])
+    );
     let w = &acc["coverage_paper"]["seeds_within_95_pm_2"];
-    let _ = writeln!(s, "| seeds within 95 ± 2 % | | | | | {} of {n} | {} of {n} | {} of {n} | target ≥ 16 of {n} |\n", w[0], w[1], w[2], n = COVERAGE_SEEDS.len());
+    let _ = writeln!(
+        s,
+        "| seeds within 95 ± 2 % | | | | | {} of {n} | {} of {n} | {} of {n} | target ≥ 16 of {n} |\n",
+        w[0],
+        w[1],
+        w[2],
+        n = COVERAGE_SEEDS.len()
+    );
 
     // Device.
     let _ = writeln!(s, "## Device (Cortex-M4F under QEMU)\n");
@@ -944,7 +1171,15 @@ fn markdown(rep: &Value) -> String {
             let _ = writeln!(
                 s,
                 "| {} | {} | {} | {} | {} | {} | {:.2} | {} B | {} B |",
-                st["name"].as_str().unwrap_or("?"), st["k"], st["memory_terms"], fx(i, 0), f(&st["instructions_per_step_new_dt_every_step"], 0), fx(lb, 0), i / lb, st["blob_bytes"], st["stack_peak_bytes"]
+                st["name"].as_str().unwrap_or("?"),
+                st["k"],
+                st["memory_terms"],
+                fx(i, 0),
+                f(&st["instructions_per_step_new_dt_every_step"], 0),
+                fx(lb, 0),
+                i / lb,
+                st["blob_bytes"],
+                st["stack_peak_bytes"]
             );
         }
         let sz = &dev["sizes"];
@@ -964,13 +1199,17 @@ fn markdown(rep: &Value) -> String {
     // Fleet.
     let _ = writeln!(s, "## Fleet calibration (`fbg-trainer fleet`)\n");
     let _ = writeln!(s, "{} sensor groups, each {}, with `train`'s full selection; every run starts from no outputs; the two pool sizes alternate for {} rounds; time is the fleet's own wall clock (manifest parsed, every group read, fitted and written).\n", fl["groups"], fl["scenario"].as_str().unwrap_or(""), fl["rounds"]);
-    let _ = writeln!(s, "| jobs (cores) | median wall time | groups per second | runs | command |\n|---|---|---|---|---|");
+    let _ =
+        writeln!(s, "| jobs (cores) | median wall time | groups per second | runs | command |\n|---|---|---|---|---|");
     for run in fl["runs"].as_array().into_iter().flatten() {
         let _ = writeln!(
             s,
             "| {} | {} | {:.2} | {} | `{}` |",
-            run["jobs"], secs(num(run, &["median_seconds"])), num(run, &["groups_per_second"]),
-            f64s(&run["seconds"]).iter().map(|x| format!("{x:.2}")).collect::<Vec<_>>().join(", "), run["command"].as_str().unwrap_or("")
+            run["jobs"],
+            secs(num(run, &["median_seconds"])),
+            num(run, &["groups_per_second"]),
+            f64s(&run["seconds"]).iter().map(|x| format!("{x:.2}")).collect::<Vec<_>>().join(", "),
+            run["command"].as_str().unwrap_or("")
         );
     }
     let _ = writeln!(

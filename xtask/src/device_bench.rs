@@ -207,14 +207,14 @@ fn print_size(r: &SizeReport) {
 }
 
 fn parse_kv(line: &str) -> HashMap<String, String> {
-    line.split_whitespace()
-        .filter_map(|w| w.split_once('='))
-        .map(|(k, v)| (k.to_string(), v.to_string()))
-        .collect()
+    line.split_whitespace().filter_map(|w| w.split_once('=')).map(|(k, v)| (k.to_string(), v.to_string())).collect()
 }
 
 fn num(m: &HashMap<String, String>, key: &str) -> Result<f64> {
-    m.get(key).with_context(|| format!("bench output lacks `{key}`"))?.parse::<f64>().with_context(|| format!("bench `{key}`"))
+    m.get(key)
+        .with_context(|| format!("bench output lacks `{key}`"))?
+        .parse::<f64>()
+        .with_context(|| format!("bench `{key}`"))
 }
 
 fn bench_pack(root: &Path, q: &Path, capacity: usize, sizes: &mut Option<TypeSizes>) -> Result<Vec<StepBench>> {
@@ -222,7 +222,12 @@ fn bench_pack(root: &Path, q: &Path, capacity: usize, sizes: &mut Option<TypeSiz
     let fx = fixtures::ensure(root)?;
     let d = fixtures::ensure_device(root)?;
     let rows: Vec<&fixtures::BenchFixture> = d.bench.iter().filter(|b| b.capacity == capacity).collect();
-    let pack = &d.bench_packs.iter().find(|(c, _)| *c == capacity).with_context(|| format!("no bench pack for capacity {capacity}"))?.1;
+    let pack = &d
+        .bench_packs
+        .iter()
+        .find(|(c, _)| *c == capacity)
+        .with_context(|| format!("no bench pack for capacity {capacity}"))?
+        .1;
     for b in &rows {
         eprintln!("xtask: {} (K = {}, {} memory terms): {}", b.name, b.k, b.memory_terms, b.source);
     }
@@ -312,8 +317,10 @@ fn bench_pack(root: &Path, q: &Path, capacity: usize, sizes: &mut Option<TypeSiz
     for (idx, b) in rows.iter().enumerate() {
         let got = centres.get(&idx).copied().with_context(|| format!("the bench ran no model {idx} ({})", b.name))?;
         ensure!(got == b.k, "bench model {} has {got} centres, expected {}", b.name, b.k);
-        let regular = runs.get(&(idx, "regular".to_string())).with_context(|| format!("no regular runs for {}", b.name))?;
-        let jitter = runs.get(&(idx, "jitter".to_string())).with_context(|| format!("no jitter runs for {}", b.name))?;
+        let regular =
+            runs.get(&(idx, "regular".to_string())).with_context(|| format!("no regular runs for {}", b.name))?;
+        let jitter =
+            runs.get(&(idx, "jitter".to_string())).with_context(|| format!("no jitter runs for {}", b.name))?;
         let (per_run, insns_per_step, cycles_per_step) = cost(regular).with_context(|| b.name)?;
         let (_, insns_per_step_jitter, _) = cost(jitter).with_context(|| b.name)?;
         let blob = fs::read(&b.model)?;

@@ -160,12 +160,19 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
     run_trainer(&bin, &["golden", "--data", p(&fx.data), "--model", p(&fx.model), "--out", p(&d), "--samples", &n])?;
     let model = fs::read(&fx.model)?;
     let params = decode(&model)?;
-    check!(params.centres.len() <= 32, "the trainer's Model-H has {} centres, the product holds 32", params.centres.len());
+    check!(
+        params.centres.len() <= 32,
+        "the trainer's Model-H has {} centres, the product holds 32",
+        params.centres.len()
+    );
 
     // The device run: the trainer's samples, then the edge cases, streamed in one go.
     let trainer_inputs = read_inputs(&d.join("golden_inputs.bin"))?;
     let trainer_expected = read_expected(&d.join("golden_expected.csv"))?;
-    check!(trainer_inputs.len() == trainer_expected.len(), "the trainer's golden inputs and expected rows differ in count");
+    check!(
+        trainer_inputs.len() == trainer_expected.len(),
+        "the trainer's golden inputs and expected rows differ in count"
+    );
     let mut inputs = trainer_inputs.clone();
     inputs.extend(edge_samples(&params, &trainer_inputs));
     let expected = reference(&model, &inputs)?;
@@ -281,14 +288,78 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
     let syn = |k: usize, mem: bool| d.join(format!("bench_synthetic_k{k}{}.fbgm", if mem { "_memory" } else { "" }));
     // (name, K, memory, capacity, model, inputs, source)
     let rows: Vec<(&'static str, usize, bool, usize, PathBuf, PathBuf, &'static str)> = vec![
-        ("default", 0, false, 32, fx.model.clone(), trainer_inputs.clone(), "fbg-trainer train (paper preset, seed 7): the product's default model"),
-        ("memory_k0", 0, true, 32, syn(0, true), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms), no centres"),
-        ("memory_k16", 16, true, 32, syn(16, true), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)"),
-        ("memory_k32", 32, true, 32, syn(32, true), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)"),
-        ("plain_k16", 16, false, 32, syn(16, false), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), no memory terms"),
-        ("plain_k32", 32, false, 32, syn(32, false), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), no memory terms"),
-        ("plain_k64", 64, false, 64, k64_model.clone(), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), no memory terms; the trainer's grid stops at 32 centres"),
-        ("memory_k64", 64, true, 64, syn(64, true), synthetic_inputs.clone(), "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)"),
+        (
+            "default",
+            0,
+            false,
+            32,
+            fx.model.clone(),
+            trainer_inputs.clone(),
+            "fbg-trainer train (paper preset, seed 7): the product's default model",
+        ),
+        (
+            "memory_k0",
+            0,
+            true,
+            32,
+            syn(0, true),
+            synthetic_inputs.clone(),
+            "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms), no centres",
+        ),
+        (
+            "memory_k16",
+            16,
+            true,
+            32,
+            syn(16, true),
+            synthetic_inputs.clone(),
+            "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)",
+        ),
+        (
+            "memory_k32",
+            32,
+            true,
+            32,
+            syn(32, true),
+            synthetic_inputs.clone(),
+            "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)",
+        ),
+        (
+            "plain_k16",
+            16,
+            false,
+            32,
+            syn(16, false),
+            synthetic_inputs.clone(),
+            "synthetic (xtask/src/fixtures.rs), no memory terms",
+        ),
+        (
+            "plain_k32",
+            32,
+            false,
+            32,
+            syn(32, false),
+            synthetic_inputs.clone(),
+            "synthetic (xtask/src/fixtures.rs), no memory terms",
+        ),
+        (
+            "plain_k64",
+            64,
+            false,
+            64,
+            k64_model.clone(),
+            synthetic_inputs.clone(),
+            "synthetic (xtask/src/fixtures.rs), no memory terms; the trainer's grid stops at 32 centres",
+        ),
+        (
+            "memory_k64",
+            64,
+            true,
+            64,
+            syn(64, true),
+            synthetic_inputs.clone(),
+            "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)",
+        ),
     ];
     let bench_packs = vec![(32, d.join("bench_pack_k32.bin")), (64, d.join("bench_pack_k64.bin"))];
     let stamp = d.join("stamp-device.txt");
@@ -316,7 +387,8 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
             for r in rows.iter().filter(|r| r.3 == *cap) {
                 records.push((fs::read(&r.4)?, read_inputs(&r.5)?));
             }
-            let refs: Vec<(&[u8], &[Sample<f32>])> = records.iter().map(|(b, s)| (b.as_slice(), s.as_slice())).collect();
+            let refs: Vec<(&[u8], &[Sample<f32>])> =
+                records.iter().map(|(b, s)| (b.as_slice(), s.as_slice())).collect();
             write_atomic(pack, &pack_bytes(&refs))?;
         }
         write_atomic(&stamp, want.as_bytes())?;
@@ -332,10 +404,7 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
 
 /// Write `bytes` to `path` through a temporary file and a rename (no half-written output).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_extension(format!(
-        "{}.tmp",
-        path.extension().and_then(|e| e.to_str()).unwrap_or("")
-    ));
+    let tmp = path.with_extension(format!("{}.tmp", path.extension().and_then(|e| e.to_str()).unwrap_or("")));
     fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
     fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
 }
@@ -405,11 +474,7 @@ fn simulate(i: usize, rng: &mut Rng) -> Sample<f32> {
     }
     dl[0] += 1e-3 * q[0] * q[1]; // c_Tε cross-term
     let t_amb = t + 0.5 + 0.1 * rng.normal();
-    Sample {
-        dl_pm: [dl[0] as f32, dl[1] as f32, dl[2] as f32],
-        t_amb_c: t_amb as f32,
-        t_s: (60.0 * x) as f32,
-    }
+    Sample { dl_pm: [dl[0] as f32, dl[1] as f32, dl[2] as f32], t_amb_c: t_amb as f32, t_s: (60.0 * x) as f32 }
 }
 
 /// Time stamps of a realistic acquisition [s] from `t0`: 60 s steps, with irregular ones mixed
@@ -723,12 +788,7 @@ pub fn inputs_bytes(samples: &[Sample<f32>]) -> Vec<u8> {
 /// Read golden inputs.
 pub fn read_inputs(path: &Path) -> Result<Vec<Sample<f32>>> {
     let bytes = fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    check!(
-        bytes.len() % 20 == 0,
-        "{}: {} bytes is not a whole number of 5 × f32 samples",
-        path.display(),
-        bytes.len()
-    );
+    check!(bytes.len() % 20 == 0, "{}: {} bytes is not a whole number of 5 × f32 samples", path.display(), bytes.len());
     Ok(bytes
         .chunks_exact(20)
         .map(|c| {
@@ -774,9 +834,7 @@ pub fn read_expected(path: &Path) -> Result<Vec<Estimate<f64>>> {
         for (k, (o, c)) in f.iter_mut().zip(cols.iter()).enumerate() {
             *o = parse_f64(c).with_context(|| format!("{}:{}: column {}", path.display(), i + 2, k + 1))?;
         }
-        let flags: u8 = cols[6]
-            .parse()
-            .with_context(|| format!("{}:{}: column 7 (flags)", path.display(), i + 2))?;
+        let flags: u8 = cols[6].parse().with_context(|| format!("{}:{}: column 7 (flags)", path.display(), i + 2))?;
         out.push(Estimate { values: [f[0], f[1], f[2]], band95: [f[3], f[4], f[5]], flags: Flags(flags) });
     }
     Ok(out)
@@ -805,7 +863,9 @@ pub fn compare(
     }
     let names = ["T", "eps", "p"];
     for c in 0..3 {
-        for (what, d, h) in [("value", dev_values[c] as f64, want.values[c]), ("band", dev_band[c] as f64, want.band95[c])] {
+        for (what, d, h) in
+            [("value", dev_values[c] as f64, want.values[c]), ("band", dev_band[c] as f64, want.band95[c])]
+        {
             let ok = if h.is_nan() || d.is_nan() {
                 h.is_nan() && d.is_nan()
             } else if h.is_infinite() || d.is_infinite() {
@@ -863,14 +923,7 @@ mod tests {
         let back = read_expected(&p).unwrap();
         assert_eq!(back.len(), r.len());
         for (a, b) in back.iter().zip(r.iter()) {
-            assert!(compare(
-                a.values.map(|v| v as f32),
-                a.band95.map(|v| v as f32),
-                a.flags,
-                b,
-                [1e-3; 3]
-            )
-            .is_none());
+            assert!(compare(a.values.map(|v| v as f32), a.band95.map(|v| v as f32), a.flags, b, [1e-3; 3]).is_none());
         }
         let pi = dir.join("i.bin");
         fs::write(&pi, inputs_bytes(&s)).unwrap();

@@ -162,10 +162,8 @@ fn ensure_thumb_target() -> Result<()> {
     let out = Command::new("rustup").args(["target", "list", "--installed"]).current_dir(root()).output();
     match out {
         Ok(o) if String::from_utf8_lossy(&o.stdout).contains("thumbv7em-none-eabihf") => Ok(()),
-        Ok(_) => run(Command::new("rustup")
-            .args(["target", "add", "thumbv7em-none-eabihf"])
-            .current_dir(root()))
-        .context("install the target with `rustup target add thumbv7em-none-eabihf`"),
+        Ok(_) => run(Command::new("rustup").args(["target", "add", "thumbv7em-none-eabihf"]).current_dir(root()))
+            .context("install the target with `rustup target add thumbv7em-none-eabihf`"),
         Err(_) => {
             eprintln!("xtask: rustup not found; assuming the thumbv7em-none-eabihf target is installed");
             Ok(())

@@ -147,11 +147,7 @@ pub fn build(root: &Path, k: usize, fx: &Fixtures, bench: Option<&Path>) -> Resu
             .envs(build_env(k, fx, bench)),
     )?;
     let out = fw.join("target/thumbv7em-none-eabihf/release");
-    Ok(Bins {
-        product: out.join("fbg-firmware"),
-        golden: out.join("golden"),
-        fault: out.join("fault"),
-    })
+    Ok(Bins { product: out.join("fbg-firmware"), golden: out.join("golden"), fault: out.join("fault") })
 }
 
 /// The host's target triple (for the device-logic unit tests).
@@ -166,11 +162,17 @@ pub fn host_triple() -> Result<String> {
 
 /// `qemu-system-arm`, installed with apt-get when missing and we are root.
 pub fn ensure_qemu() -> Result<PathBuf> {
-    let found = |p: &str| Command::new(p).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success());
+    let found = |p: &str| {
+        Command::new(p).arg("--version").stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok_and(|s| s.success())
+    };
     if found("qemu-system-arm") {
         return Ok(PathBuf::from("qemu-system-arm"));
     }
-    let is_root = Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false);
+    let is_root = Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false);
     if !is_root {
         bail!(
             "qemu-system-arm is not installed. Install it with `sudo apt-get install -y qemu-system-arm` \
@@ -179,7 +181,11 @@ pub fn ensure_qemu() -> Result<PathBuf> {
     }
     eprintln!("xtask: qemu-system-arm missing, installing it with apt-get");
     crate::run(Command::new("apt-get").arg("update").arg("-qq"))?;
-    crate::run(Command::new("apt-get").args(["install", "-y", "-qq", "qemu-system-arm"]).env("DEBIAN_FRONTEND", "noninteractive"))?;
+    crate::run(
+        Command::new("apt-get")
+            .args(["install", "-y", "-qq", "qemu-system-arm"])
+            .env("DEBIAN_FRONTEND", "noninteractive"),
+    )?;
     ensure!(found("qemu-system-arm"), "apt-get ran but qemu-system-arm is still not on PATH");
     Ok(PathBuf::from("qemu-system-arm"))
 }
@@ -369,7 +375,13 @@ fn golden_sets(fx: &Fixtures) -> Result<Vec<GoldenSet>> {
         },
     ];
     for g in &sets {
-        ensure!(g.inputs.len() == g.expected.len(), "golden set `{}`: {} inputs, {} expected rows", g.name, g.inputs.len(), g.expected.len());
+        ensure!(
+            g.inputs.len() == g.expected.len(),
+            "golden set `{}`: {} inputs, {} expected rows",
+            g.name,
+            g.inputs.len(),
+            g.expected.len()
+        );
     }
     Ok(sets)
 }
@@ -512,7 +524,11 @@ impl LinkSession {
     /// Disconnect xtask's client (so that another client can connect).
     pub fn disconnect(&mut self) -> Result<()> {
         if let Some(link) = self.link.take() {
-            ensure!(link.malformed_from_device() == 0, "the device sent {} malformed frames", link.malformed_from_device());
+            ensure!(
+                link.malformed_from_device() == 0,
+                "the device sent {} malformed frames",
+                link.malformed_from_device()
+            );
         }
         // Give QEMU a moment to notice and listen again.
         std::thread::sleep(Duration::from_millis(50));
@@ -665,7 +681,9 @@ pub fn read_dataset_inputs(path: &Path) -> Result<Vec<fbg_shared::Sample<f32>>> 
     let text = fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap_or("").split(',').map(str::trim).collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).with_context(|| format!("{}: no column `{name}`", path.display()));
+    let col = |name: &str| {
+        header.iter().position(|h| *h == name).with_context(|| format!("{}: no column `{name}`", path.display()))
+    };
     let cols = [col("dl1_pm")?, col("dl2_pm")?, col("dl3_pm")?, col("T_amb_C")?, col("t_s")?];
     let mut out = Vec::new();
     for line in lines.filter(|l| !l.trim().is_empty()) {
@@ -699,7 +717,10 @@ fn long_memory_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Res
     let (model, which) = if has_memory {
         (default.clone(), "the default model (its own memory terms)")
     } else {
-        (fixtures::with_full_memory(&default)?, "the default model with the full memory bank added (it has no memory terms)")
+        (
+            fixtures::with_full_memory(&default)?,
+            "the default model with the full memory bank added (it has no memory terms)",
+        )
     };
     let terms = fixtures::memory_terms(&model)?;
     let (scale, scale_name) = golden_scale(fx, &default)?;
@@ -752,7 +773,9 @@ fn long_memory_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Res
     let st = s.link()?.status()?;
     s.disconnect()?;
     s.check_alive()?;
-    let pct = |v: [f64; 3]| format!("{:.4} / {:.4} / {:.4} %", 100.0 * v[0] / scale[0], 100.0 * v[1] / scale[1], 100.0 * v[2] / scale[2]);
+    let pct = |v: [f64; 3]| {
+        format!("{:.4} / {:.4} / {:.4} %", 100.0 * v[0] / scale[0], 100.0 * v[1] / scale[1], 100.0 * v[2] / scale[2])
+    };
     eprintln!(
         "xtask: memory stream: {which}, {terms} memory terms, {} centres; {n} samples (14 days, irregular clock, 5 h gap), \
          {flagged} flagged, flags identical; max |device − host| = {:.3e} °C, {:.3e} µε, {:.3e} kPa = {} of {scale_name} \

@@ -359,7 +359,8 @@ fn add_outer_products(g: &mut [f64], pr: &mut [f64], psi: &[f64], r: &[[f64; N_O
         for a in 0..k {
             let (a0, a1, a2, a3) = (p0[a], p1[a], p2[a], p3[a]);
             let row = &mut g[a * k + a..(a + 1) * k];
-            for ((((gv, &b0), &b1), &b2), &b3) in row.iter_mut().zip(&p0[a..]).zip(&p1[a..]).zip(&p2[a..]).zip(&p3[a..]) {
+            for ((((gv, &b0), &b1), &b2), &b3) in row.iter_mut().zip(&p0[a..]).zip(&p1[a..]).zip(&p2[a..]).zip(&p3[a..])
+            {
                 *gv += a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3;
             }
             for c in 0..N_OUTPUTS {

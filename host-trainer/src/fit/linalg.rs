@@ -71,9 +71,7 @@ pub fn lstsq_rows(
             smax / smin.max(f64::MIN_POSITIVE)
         )));
     }
-    let mut b = svd
-        .solve(&qty, 0.0)
-        .map_err(|e| TrainerError::fit(format!("{what}: {e}")))?;
+    let mut b = svd.solve(&qty, 0.0).map_err(|e| TrainerError::fit(format!("{what}: {e}")))?;
     for (j, s) in scale.iter().enumerate() {
         b.row_mut(j).scale_mut(1.0 / s);
     }

@@ -170,7 +170,11 @@ pub fn memory_terms(spec: &MemorySpec<f64>, d: &Dataset, rows: &[usize]) -> Vec<
     for i in 0..end {
         let s = d.sample(i);
         // The compensator's rule for a model with memory terms (it reads time).
-        let m = if s.inputs_finite() && s.t_s.is_finite() { bank.update(&s.dl_pm, s.t_amb_c, s.t_s) } else { [f64::NAN; N_MEMORY] };
+        let m = if s.inputs_finite() && s.t_s.is_finite() {
+            bank.update(&s.dl_pm, s.t_amb_c, s.t_s)
+        } else {
+            [f64::NAN; N_MEMORY]
+        };
         if want.peek() == Some(&&i) {
             want.next();
             out.push(m);
@@ -184,7 +188,9 @@ pub fn memory_terms(spec: &MemorySpec<f64>, d: &Dataset, rows: &[usize]) -> Vec<
 fn columns(core: &PolyCore, spec: &MemorySpec<f64>, o: usize, groups: &[MemoryGroup]) -> (Vec<usize>, Vec<usize>) {
     let poly: Vec<usize> = (0..N_POLY).filter(|&k| k == 0 || core.poly.iter().any(|r| r[k] != 0.0)).collect();
     let mem = (0..N_MEMORY)
-        .filter(|&k| spec.term(k).is_some_and(|t| t.parameter > 0.0 && groups.contains(&t.group) && offered(o, t.group)))
+        .filter(|&k| {
+            spec.term(k).is_some_and(|t| t.parameter > 0.0 && groups.contains(&t.group) && offered(o, t.group))
+        })
         .collect();
     (poly, mem)
 }
@@ -196,7 +202,13 @@ fn columns(core: &PolyCore, spec: &MemorySpec<f64>, o: usize, groups: &[MemoryGr
 /// One tall-skinny QR of [φ | m | y_T y_ε y_p] over the union of every output's columns serves
 /// all outputs: for output o with columns S, ‖y − X_S β‖² = ‖(Qᵀy)_o − R_S β‖² + const, so its
 /// problem is the small one [R_S; penalty rows] β ≈ [(Qᵀy)_o; 0], solved by QR and SVD.
-pub fn fit(d: &Dataset, rows: &[usize], core: &PolyCore, menu: &MemorySpec<f64>, choice: &MemoryChoice) -> Result<PolyCore, TrainerError> {
+pub fn fit(
+    d: &Dataset,
+    rows: &[usize],
+    core: &PolyCore,
+    menu: &MemorySpec<f64>,
+    choice: &MemoryChoice,
+) -> Result<PolyCore, TrainerError> {
     let mut out = core.clone();
     if !choice.any() {
         return Ok(out);
@@ -238,7 +250,11 @@ pub fn fit(d: &Dataset, rows: &[usize], core: &PolyCore, menu: &MemorySpec<f64>,
         .map(|&k| {
             let mean = m.iter().map(|r| r[k]).sum::<f64>() / n as f64;
             let var = m.iter().map(|r| (r[k] - mean).powi(2)).sum::<f64>() / n as f64;
-            if var > 0.0 { var.sqrt() } else { 1.0 }
+            if var > 0.0 {
+                var.sqrt()
+            } else {
+                1.0
+            }
         })
         .collect();
     let q = r_aug.nrows();
@@ -392,13 +408,18 @@ fn val_sse(st: &FoldStats, o: usize, cols: &[usize], lambda: f64) -> Option<f64>
 /// Choose, per output, the memory groups and λ with the lowest pooled validation error over
 /// the folds (ties: fewer groups, then larger λ). The hold-out is never seen: the folds are
 /// inside the calibration batch.
-pub fn select(d: &Dataset, folds: &[FoldInput<'_>], opts: &MemoryOptions) -> Result<(MemoryChoice, Vec<MemoryCvRow>), TrainerError> {
+pub fn select(
+    d: &Dataset,
+    folds: &[FoldInput<'_>],
+    opts: &MemoryOptions,
+) -> Result<(MemoryChoice, Vec<MemoryCvRow>), TrainerError> {
     if !opts.enabled() || folds.is_empty() {
         return Ok((MemoryChoice::none(), Vec::new()));
     }
     let stats: Vec<FoldStats> = super::par_map(folds, |f| fold_stats(d, f, opts));
     let n_val: usize = stats.iter().map(|s| s.val.n).sum();
-    let offered_groups: Vec<MemoryGroup> = MemoryGroup::ALL.iter().copied().filter(|g| opts.groups.contains(g)).collect();
+    let offered_groups: Vec<MemoryGroup> =
+        MemoryGroup::ALL.iter().copied().filter(|g| opts.groups.contains(g)).collect();
     let mut choice = MemoryChoice::none();
     let mut rows = Vec::new();
     for o in 0..N_OUTPUTS {
@@ -409,7 +430,8 @@ pub fn select(d: &Dataset, folds: &[FoldInput<'_>], opts: &MemoryOptions) -> Res
         // (sse, number of groups, -λ, mask, λ)
         let mut best: Option<(f64, u32, f64, u8, f64)> = None;
         for mask in 0u8..(1 << mine.len()) {
-            let groups: Vec<MemoryGroup> = mine.iter().enumerate().filter(|(b, _)| mask & (1 << b) != 0).map(|(_, &g)| g).collect();
+            let groups: Vec<MemoryGroup> =
+                mine.iter().enumerate().filter(|(b, _)| mask & (1 << b) != 0).map(|(_, &g)| g).collect();
             let group_mask = groups.iter().fold(0u8, |a, &g| a | bit(g));
             // Each fold's columns (indices into its full design) for these groups.
             let fold_cols: Vec<Vec<usize>> = stats
@@ -422,10 +444,18 @@ pub fn select(d: &Dataset, folds: &[FoldInput<'_>], opts: &MemoryOptions) -> Res
                 .collect();
             let lambdas: &[f64] = if groups.is_empty() { &[0.0] } else { &opts.lambdas };
             for &lambda in lambdas {
-                let sse: f64 =
-                    stats.iter().zip(&fold_cols).map(|(st, cols)| val_sse(st, o, cols, lambda).unwrap_or(f64::INFINITY)).sum();
+                let sse: f64 = stats
+                    .iter()
+                    .zip(&fold_cols)
+                    .map(|(st, cols)| val_sse(st, o, cols, lambda).unwrap_or(f64::INFINITY))
+                    .sum();
                 let rmse = (sse / n_val.max(1) as f64).sqrt();
-                rows.push(MemoryCvRow { output: o, groups: groups.iter().map(|g| g.name()).collect(), lambda, cv_rmse: rmse });
+                rows.push(MemoryCvRow {
+                    output: o,
+                    groups: groups.iter().map(|g| g.name()).collect(),
+                    lambda,
+                    cv_rmse: rmse,
+                });
                 let cand = (sse, groups.len() as u32, -lambda, group_mask, lambda);
                 let better = match &best {
                     None => true,

@@ -82,7 +82,12 @@ pub struct ZSample {
 /// [`ZSample`] of the training rows `train` (sorted), the latches moved by `stream` (a model
 /// with the dead band in question) over every sample from the first, exactly as the
 /// compensator moves them.
-pub fn z_sample(stream: &HostParams, d: &Dataset, train: &[usize], ck: Option<&Checkpoints>) -> Result<ZSample, TrainerError> {
+pub fn z_sample(
+    stream: &HostParams,
+    d: &Dataset,
+    train: &[usize],
+    ck: Option<&Checkpoints>,
+) -> Result<ZSample, TrainerError> {
     let stride = train.len().div_ceil(KMEANS_MAX_POINTS).max(1);
     // Per stretch: count, mean and sum of squared deviations (combined below in stretch order
     // by Chan's formula), and the k-means points.
@@ -183,11 +188,19 @@ pub fn envelope(d: &Dataset, idx: &[usize]) -> ([f64; N_ENVELOPE], [f64; N_ENVEL
 
 fn f32_down(v: f64) -> f64 {
     let f = v as f32;
-    if (f as f64) > v { f.next_down() as f64 } else { f as f64 }
+    if (f as f64) > v {
+        f.next_down() as f64
+    } else {
+        f as f64
+    }
 }
 fn f32_up(v: f64) -> f64 {
     let f = v as f32;
-    if (f as f64) < v { f.next_up() as f64 } else { f as f64 }
+    if (f as f64) < v {
+        f.next_up() as f64
+    } else {
+        f as f64
+    }
 }
 
 /// Everything that defines a model except the residual weights and variance terms.
@@ -210,7 +223,13 @@ impl Skeleton {
     /// A model without centres: the polynomial core `core` alone (Model-P), which moves the
     /// direction latches like every model with dead band `dead_band_pm` and the finiteness rule
     /// of `feature_set`, so it also stands for that latch stream (checkpoints, RBF inputs).
-    pub fn core_only(d: &Dataset, train: &[usize], core: &PolyCore, feature_set: FeatureSet, dead_band_pm: f64) -> Self {
+    pub fn core_only(
+        d: &Dataset,
+        train: &[usize],
+        core: &PolyCore,
+        feature_set: FeatureSet,
+        dead_band_pm: f64,
+    ) -> Self {
         Skeleton {
             core: core.clone(),
             feature_set,
@@ -421,8 +440,7 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
     let var = VarianceTerms::from_ridge(&sys, alpha);
     let thr = if sk.centres.is_empty() { 0.0 } else { weak_support_threshold(&gram.max_psi) };
     let t_end = cal.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
-    let model_h =
-        sk.params_with_band(Some(&w), alpha, Some(&var), selection.var_model_h, t_end, thr, &provenance)?;
+    let model_h = sk.params_with_band(Some(&w), alpha, Some(&var), selection.var_model_h, t_end, thr, &provenance)?;
 
     let sk_p = Skeleton { core: core_p.clone(), centres: vec![], ..sk };
     let model_p = sk_p.params_with_band(None, 0.0, None, selection.var_model_p, t_end, 0.0, &provenance)?;
@@ -461,26 +479,14 @@ fn provenance(origin: &Origin, n_cal: usize) -> Provenance {
             break;
         }
     }
-    Provenance {
-        seed: origin.seed,
-        scenario,
-        trainer_version,
-        date_yyyymmdd: today_yyyymmdd(),
-        n_cal: n_cal as u32,
-    }
+    Provenance { seed: origin.seed, scenario, trainer_version, date_yyyymmdd: today_yyyymmdd(), n_cal: n_cal as u32 }
 }
 
 /// Today's date (UTC) as YYYYMMDD, or `SOURCE_DATE_EPOCH`'s for reproducible builds.
 pub fn today_yyyymmdd() -> u32 {
-    let secs = std::env::var("SOURCE_DATE_EPOCH")
-        .ok()
-        .and_then(|s| s.parse::<u64>().ok())
-        .unwrap_or_else(|| {
-            std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map(|d| d.as_secs())
-                .unwrap_or(0)
-        });
+    let secs = std::env::var("SOURCE_DATE_EPOCH").ok().and_then(|s| s.parse::<u64>().ok()).unwrap_or_else(|| {
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0)
+    });
     let days = (secs / 86_400) as i64;
     // Civil-from-days (H. Hinnant).
     let z = days + 719_468;

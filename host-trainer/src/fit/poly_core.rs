@@ -123,9 +123,8 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
     }
     // Terms of φ that the data can support: within the ablation's linear set if asked, and
     // built only from guesses of fitted outputs (an unfitted guess is identically 0).
-    let terms: Vec<usize> = (0..N_POLY)
-        .filter(|&k| (cross_terms || k < 4) && TERM_USES[k].iter().all(|&o| d.has_target[o]))
-        .collect();
+    let terms: Vec<usize> =
+        (0..N_POLY).filter(|&k| (cross_terms || k < 4) && TERM_USES[k].iter().all(|&o| d.has_target[o])).collect();
     let nt = terms.len();
     let b = lstsq_rows(n, nt, N_OUTPUTS, "Model-P stage 2 (polynomial core)", |r, buf| {
         let i = idx[r];

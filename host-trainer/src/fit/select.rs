@@ -22,7 +22,9 @@ use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
 use fbg_shared::Provenance;
 
 use super::memory_core::{self, MemoryChoice, MemoryCvRow, MemoryOptions};
-use super::{design, linalg, poly_core, residual_targets, skeleton, z_sample, CheckpointCache, Config, HostParams, ZSample};
+use super::{
+    design, linalg, poly_core, residual_targets, skeleton, z_sample, CheckpointCache, Config, HostParams, ZSample,
+};
 use crate::dataset::Dataset;
 use crate::error::TrainerError;
 
@@ -214,9 +216,7 @@ struct Fold {
 fn folds(cal: &[usize], blocks: usize, min_train: usize) -> Vec<Fold> {
     let n = cal.len();
     let edge = |b: usize| n * b / blocks;
-    (min_train..blocks)
-        .map(|f| Fold { train: cal[..edge(f)].to_vec(), val: cal[edge(f)..].to_vec() })
-        .collect()
+    (min_train..blocks).map(|f| Fold { train: cal[..edge(f)].to_vec(), val: cal[edge(f)..].to_vec() }).collect()
 }
 
 /// Key of a grid point for pooling across folds.
@@ -275,7 +275,8 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
 
     // A fold's Model-P, which also stands for the latch stream of its dead band.
     let stream_model = |core: &poly_core::PolyCore, train: &[usize], db: f64| -> Result<HostParams, TrainerError> {
-        super::Skeleton::core_only(d, train, core, FeatureSet::HysteresisAware, db).params(None, 0.0, None, [0.0; 3], 0.0, &prov)
+        super::Skeleton::core_only(d, train, core, FeatureSet::HysteresisAware, db)
+            .params(None, 0.0, None, [0.0; 3], 0.0, &prov)
     };
 
     // Model-P per fold (always with cross terms: the reference errors) and the fold's core
@@ -321,10 +322,12 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         })
         .collect::<Result<_, TrainerError>>()?;
     let n_val: usize = fs.iter().map(|f| f.val.len()).sum();
-    let cv_rmse_p = std::array::from_fn(|c| (sq_p.iter().map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n_val as f64).sqrt());
+    let cv_rmse_p =
+        std::array::from_fn(|c| (sq_p.iter().map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n_val as f64).sqrt());
     let (lead, fold_of) = leads(d, &fs, &fold_core);
-    let var_model_p: [VarModel; N_OUTPUTS] =
-        std::array::from_fn(|c| VarModel::fit(&lead, &sq_p.iter().flat_map(|e| e[c].iter().copied()).collect::<Vec<_>>(), &fold_of));
+    let var_model_p: [VarModel; N_OUTPUTS] = std::array::from_fn(|c| {
+        VarModel::fit(&lead, &sq_p.iter().flat_map(|e| e[c].iter().copied()).collect::<Vec<_>>(), &fold_of)
+    });
 
     // What the RBF layer learns from each fold's training rows, per dead band.
     let mut zjobs = Vec::new();
@@ -351,7 +354,14 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         let f = &fs[fi];
         let fc = &fold_core[fi];
         let zs = &zsamples[&(fi, db.to_bits())];
-        let base_cfg = Config { feature_set: set, dead_band_pm: db, k, sigma_mult: 1.0, alpha_rel: 0.0, cross_terms: opts.cross_terms };
+        let base_cfg = Config {
+            feature_set: set,
+            dead_band_pm: db,
+            k,
+            sigma_mult: 1.0,
+            alpha_rel: 0.0,
+            cross_terms: opts.cross_terms,
+        };
         let mut sk = skeleton(d, &f.train, &fc.core, zs, &base_cfg, opts.seed);
         let nn = sk.sigma;
         let mut out: Vec<(Config, FoldErrors)> = Vec::new();
@@ -432,12 +442,20 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
     let per_fold: Result<Vec<FoldErrors>, TrainerError> = (0..fs.len())
         .into_par_iter()
         .map(|fi| {
-            let mut out = fold_task(fi, chosen.feature_set, chosen.dead_band_pm, chosen.k, &[chosen.sigma_mult], &[chosen.alpha_rel])?;
+            let mut out = fold_task(
+                fi,
+                chosen.feature_set,
+                chosen.dead_band_pm,
+                chosen.k,
+                &[chosen.sigma_mult],
+                &[chosen.alpha_rel],
+            )?;
             out.pop().map(|(_, sq)| sq).ok_or_else(|| TrainerError::fit("no validation errors"))
         })
         .collect();
     let per_fold = per_fold?;
-    let sqe_h: [Vec<f64>; N_OUTPUTS] = std::array::from_fn(|c| per_fold.iter().flat_map(|e| e[c].iter().copied()).collect());
+    let sqe_h: [Vec<f64>; N_OUTPUTS] =
+        std::array::from_fn(|c| per_fold.iter().flat_map(|e| e[c].iter().copied()).collect());
     let cv_rmse_h: [f64; N_OUTPUTS] = std::array::from_fn(|c| (pool(&sqe_h[c]) / n_val as f64).sqrt());
     let rows = if rows.is_empty() {
         let score = (0..N_OUTPUTS).filter(|&c| d.has_target[c]).map(|c| cv_rmse_h[c] / cv_rmse_p[c]).sum();
@@ -460,9 +478,11 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
     // from the same folds, so that it describes a model fitted on most of the batch.
     let (cv_rmse_p, cv_rmse_h) = if band_from > 0 {
         let n: usize = fs.iter().skip(band_from).map(|f| f.val.len()).sum();
-        let p: [f64; N_OUTPUTS] =
-            std::array::from_fn(|c| (sq_p.iter().skip(band_from).map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n.max(1) as f64).sqrt());
-        let h: [f64; N_OUTPUTS] = std::array::from_fn(|c| (keep.iter().map(|&r| sqe_h[c][r]).sum::<f64>() / n.max(1) as f64).sqrt());
+        let p: [f64; N_OUTPUTS] = std::array::from_fn(|c| {
+            (sq_p.iter().skip(band_from).map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n.max(1) as f64).sqrt()
+        });
+        let h: [f64; N_OUTPUTS] =
+            std::array::from_fn(|c| (keep.iter().map(|&r| sqe_h[c][r]).sum::<f64>() / n.max(1) as f64).sqrt());
         (p, h)
     } else {
         (cv_rmse_p, cv_rmse_h)

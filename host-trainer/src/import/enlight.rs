@@ -55,7 +55,14 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
     let m = map.unwrap_or(&default_map);
     let unit = m.enlight.unit.unwrap_or(WlUnit::Nm);
     let check = m.check_units();
-    let map_delim = m.enlight.delimiter.as_deref().map(super::mapping::delimiter).transpose().map_err(|e| TrainerError::data(&name, 1, "-", e))?.map(char::from);
+    let map_delim = m
+        .enlight
+        .delimiter
+        .as_deref()
+        .map(super::mapping::delimiter)
+        .transpose()
+        .map_err(|e| TrainerError::data(&name, 1, "-", e))?
+        .map(char::from);
     let mut clock = TimeParser::new(TimeUnit::Auto, m.enlight.time_format.clone(), None);
     let split_with = |l: &str, d: char| -> Vec<String> {
         let mut cs: Vec<String> = l.split(d).map(|c| c.trim().to_string()).collect();
@@ -76,7 +83,12 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
                 cs.len() >= 2 && clock.probe(&cs[0]) && cs[1].parse::<usize>().is_ok()
             })
             .ok_or_else(|| {
-                TrainerError::data(&name, 1, "1 (time)", "no data row found: a peaks row starts with a time and the peak count of the first channel")
+                TrainerError::data(
+                    &name,
+                    1,
+                    "1 (time)",
+                    "no data row found: a peaks row starts with a time and the peak count of the first channel",
+                )
             })?,
     };
     let Some(first_line) = lines.get(first) else {
@@ -122,10 +134,20 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         let row = parse_row(&cs, line, channels, &mut clock, unit, check, truncated_tail).and_then(|r| {
             if let (Some(&prev), Some(&prev_line)) = (out_t.last(), out_lines.last()) {
                 if r.t < prev {
-                    return Err(RowError::new(Reason::TimeBackwards, line, "1 (time)", format!("time goes backwards: `{}` is earlier than line {prev_line}", cs[0])));
+                    return Err(RowError::new(
+                        Reason::TimeBackwards,
+                        line,
+                        "1 (time)",
+                        format!("time goes backwards: `{}` is earlier than line {prev_line}", cs[0]),
+                    ));
                 }
                 if r.t == prev {
-                    return Err(RowError::new(Reason::DuplicateTime, line, "1 (time)", format!("duplicated timestamp `{}` (same as line {prev_line})", cs[0])));
+                    return Err(RowError::new(
+                        Reason::DuplicateTime,
+                        line,
+                        "1 (time)",
+                        format!("duplicated timestamp `{}` (same as line {prev_line})", cs[0]),
+                    ));
                 }
             }
             let assigned = if windows.is_empty() { [f64::NAN; 3] } else { assign(&r, &windows, line)? };
@@ -251,23 +273,37 @@ fn label(idx: usize, counts: &[usize]) -> String {
     format!("{} (beyond the peaks)", idx + 1)
 }
 
-fn parse_row(cs: &[String], line: u64, channels: usize, clock: &mut TimeParser, unit: WlUnit, check: bool, truncated_tail: bool) -> Result<RawRow, RowError> {
+fn parse_row(
+    cs: &[String],
+    line: u64,
+    channels: usize,
+    clock: &mut TimeParser,
+    unit: WlUnit,
+    check: bool,
+    truncated_tail: bool,
+) -> Result<RawRow, RowError> {
     if cs.len() < 1 + channels {
         return Err(RowError::new(
             Reason::RaggedRow,
             line,
             format!("{} (peak count ch{})", cs.len() + 1, cs.len().max(1)),
-            format!("truncated row: {} cells, but a row needs a time and {channels} peak counts before its wavelengths", cs.len()),
+            format!(
+                "truncated row: {} cells, but a row needs a time and {channels} peak counts before its wavelengths",
+                cs.len()
+            ),
         ));
     }
     let t = clock.parse(&cs[0]).map_err(|m| RowError::new(Reason::NonNumeric, line, "1 (time)", m))?;
     let mut counts = Vec::with_capacity(channels);
     for c in 0..channels {
-        let n: usize = cs[1 + c]
-            .parse()
-            .ok()
-            .filter(|&n| n <= MAX_PEAKS_PER_CHANNEL)
-            .ok_or_else(|| RowError::new(Reason::NonNumeric, line, format!("{} (peak count ch{})", 2 + c, 1 + c), format!("`{}` is not a peak count", cs[1 + c])))?;
+        let n: usize = cs[1 + c].parse().ok().filter(|&n| n <= MAX_PEAKS_PER_CHANNEL).ok_or_else(|| {
+            RowError::new(
+                Reason::NonNumeric,
+                line,
+                format!("{} (peak count ch{})", 2 + c, 1 + c),
+                format!("`{}` is not a peak count", cs[1 + c]),
+            )
+        })?;
         counts.push(n);
     }
     let total: usize = counts.iter().sum();
@@ -310,7 +346,8 @@ fn parse_row(cs: &[String], line: u64, channels: usize, clock: &mut TimeParser, 
                 .and_then(|v| v.ok_or_else(|| format!("`{cell}` where the peak count says a wavelength is")))
                 .map_err(|m| RowError::new(Reason::NonNumeric, line, label(idx, &counts), m))?;
             if check {
-                check_wavelength(unit, v, "enlight.unit").map_err(|m| RowError::new(Reason::UnitMismatch, line, label(idx, &counts), m))?;
+                check_wavelength(unit, v, "enlight.unit")
+                    .map_err(|m| RowError::new(Reason::UnitMismatch, line, label(idx, &counts), m))?;
             }
             p.push((unit.convert(v), idx));
             idx += 1;

@@ -3,7 +3,9 @@
 
 use std::path::Path;
 
-use super::mapping::{absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, CsvGrating, Map, RefMap, WlUnit};
+use super::mapping::{
+    absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, CsvGrating, Map, RefMap, WlUnit,
+};
 use super::problems::{OnError, Problems, Reason, RowError};
 use super::time_axis::{parse_timestamp, TimeKind, TimeParser};
 use super::{number, read_text};
@@ -44,7 +46,12 @@ pub(crate) struct LoggerTable {
 
 /// Read `path` with `map`'s columns; `gratings` are the wavelength columns wanted (none for a
 /// refs file).
-pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnError) -> Result<LoggerTable, TrainerError> {
+pub(crate) fn read(
+    path: &Path,
+    map: &Map,
+    gratings: &[CsvGrating],
+    policy: OnError,
+) -> Result<LoggerTable, TrainerError> {
     let name = path.display().to_string();
     let text = read_text(path)?;
     let map_delim = match &map.delimiter {
@@ -61,7 +68,12 @@ pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnEr
     let (header_idx, delim) = match map.header_lines {
         Some(n) => {
             let Some(l) = lines.get(n) else {
-                return Err(TrainerError::data(&name, n as u64 + 1, "-", format!("the file has {} lines, so there is no header after header_lines = {n}", lines.len())));
+                return Err(TrainerError::data(
+                    &name,
+                    n as u64 + 1,
+                    "-",
+                    format!("the file has {} lines, so there is no header after header_lines = {n}", lines.len()),
+                ));
             };
             (n, map_delim.unwrap_or_else(|| most_frequent_delimiter(l)))
         }
@@ -70,7 +82,12 @@ pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnEr
                 Some(c) => format!("`{c}` (map key time.column)"),
                 None => format!("any of {} (or name it with the map key time.column)", TIME_NAMES.join(", ")),
             };
-            TrainerError::data(&name, 1, &time_names[0], format!("no header line has a cell naming the time column {what}"))
+            TrainerError::data(
+                &name,
+                1,
+                &time_names[0],
+                format!("no header line has a cell naming the time column {what}"),
+            )
         })?,
     };
     let header_line = header_idx as u64 + 1;
@@ -92,13 +109,22 @@ pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnEr
     let mut records = rdr.records();
     let header = match records.next() {
         Some(Ok(h)) => h,
-        Some(Err(e)) => return Err(TrainerError::data(&name, header_line, "-", format!("cannot read the header: {e}"))),
+        Some(Err(e)) => {
+            return Err(TrainerError::data(&name, header_line, "-", format!("cannot read the header: {e}")))
+        }
         None => return Err(TrainerError::data(&name, header_line, "-", "no header row")),
     };
     let cols: Vec<String> = header.iter().map(|s| s.to_string()).collect();
-    let find = |want: &str| cols.iter().position(|h| h == want).or_else(|| cols.iter().position(|h| h.eq_ignore_ascii_case(want)));
+    let find = |want: &str| {
+        cols.iter().position(|h| h == want).or_else(|| cols.iter().position(|h| h.eq_ignore_ascii_case(want)))
+    };
     let missing = |want: &str, key: &str| {
-        TrainerError::data(&name, header_line, want, format!("no column `{want}` in the header (map key `{key}`); the header has: {}", cols.join(", ")))
+        TrainerError::data(
+            &name,
+            header_line,
+            want,
+            format!("no column `{want}` in the header (map key `{key}`); the header has: {}", cols.join(", ")),
+        )
     };
 
     let time_idx = time_names.iter().find_map(|n| find(n)).ok_or_else(|| missing(&time_names[0], "time.column"))?;
@@ -108,13 +134,21 @@ pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnEr
     let mut ref_cols: [Option<(usize, RefMap)>; 3] = [None, None, None];
     for (c, r) in [&map.temperature, &map.strain, &map.pressure].into_iter().enumerate() {
         ref_cols[c] = match r {
-            Some(r) => Some((find(&r.column).ok_or_else(|| missing(&r.column, &format!("{}.column", REF_DEFAULTS[c].0)))?, r.clone())),
-            None => find(REF_DEFAULTS[c].1).map(|i| (i, RefMap { column: REF_DEFAULTS[c].1.into(), gain: 1.0, offset: 0.0 })),
+            Some(r) => Some((
+                find(&r.column).ok_or_else(|| missing(&r.column, &format!("{}.column", REF_DEFAULTS[c].0)))?,
+                r.clone(),
+            )),
+            None => find(REF_DEFAULTS[c].1)
+                .map(|i| (i, RefMap { column: REF_DEFAULTS[c].1.into(), gain: 1.0, offset: 0.0 })),
         };
     }
     let mut g_idx = Vec::with_capacity(gratings.len());
     for (i, g) in gratings.iter().enumerate() {
-        let key = if map.grating.is_empty() { format!("grating[{}].column (default `{}`)", i + 1, g.column) } else { format!("grating[{}].column", i + 1) };
+        let key = if map.grating.is_empty() {
+            format!("grating[{}].column (default `{}`)", i + 1, g.column)
+        } else {
+            format!("grating[{}].column", i + 1)
+        };
         g_idx.push(find(&g.column).ok_or_else(|| missing(&g.column, &key))?);
     }
 
@@ -129,7 +163,9 @@ pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnEr
         time_kind: TimeKind::Seconds,
         absolute: false,
         ambient: Column { name: cols[amb_idx].clone(), values: Vec::new() },
-        refs: std::array::from_fn(|c| ref_cols[c].as_ref().map(|(i, _)| Column { name: cols[*i].clone(), values: Vec::new() })),
+        refs: std::array::from_fn(|c| {
+            ref_cols[c].as_ref().map(|(i, _)| Column { name: cols[*i].clone(), values: Vec::new() })
+        }),
         gratings: g_idx.iter().map(|&i| Column { name: cols[i].clone(), values: Vec::new() }).collect(),
         header_line,
         problems: Problems::new(&name, policy),
@@ -161,14 +197,25 @@ pub(crate) fn read(path: &Path, map: &Map, gratings: &[CsvGrating], policy: OnEr
             ))?;
             continue;
         }
-        let row = parse_row(&rec, line, &cols, time_idx, &mut clock, (amb_idx, amb_map), &ref_cols, gratings, &g_idx, check);
+        let row =
+            parse_row(&rec, line, &cols, time_idx, &mut clock, (amb_idx, amb_map), &ref_cols, gratings, &g_idx, check);
         let row = row.and_then(|r| {
             if let (Some(&prev), Some(&prev_line)) = (out.t.last(), out.lines.last()) {
                 if r.t < prev {
-                    return Err(RowError::new(Reason::TimeBackwards, line, &cols[time_idx], format!("time goes backwards: `{}` is earlier than line {prev_line}", rec[time_idx].trim())));
+                    return Err(RowError::new(
+                        Reason::TimeBackwards,
+                        line,
+                        &cols[time_idx],
+                        format!("time goes backwards: `{}` is earlier than line {prev_line}", rec[time_idx].trim()),
+                    ));
                 }
                 if r.t == prev {
-                    return Err(RowError::new(Reason::DuplicateTime, line, &cols[time_idx], format!("duplicated time `{}` (same as line {prev_line})", rec[time_idx].trim())));
+                    return Err(RowError::new(
+                        Reason::DuplicateTime,
+                        line,
+                        &cols[time_idx],
+                        format!("duplicated time `{}` (same as line {prev_line})", rec[time_idx].trim()),
+                    ));
                 }
             }
             Ok(r)
@@ -240,7 +287,12 @@ fn parse_row(
         } else {
             (format!("{} (beyond the header)", rec.len()), "ragged row")
         };
-        return Err(RowError::new(Reason::RaggedRow, line, col, format!("{what}: {} cells where the header has {}", rec.len(), cols.len())));
+        return Err(RowError::new(
+            Reason::RaggedRow,
+            line,
+            col,
+            format!("{what}: {} cells where the header has {}", rec.len(), cols.len()),
+        ));
     }
     let bad = |i: usize, m: String| RowError::new(Reason::NonNumeric, line, &cols[i], m);
     let t = clock.parse(&rec[time_idx]).map_err(|m| bad(time_idx, m))?;
@@ -266,7 +318,8 @@ fn parse_row(
         g.push(match val(i)? {
             Some(v) => {
                 if check {
-                    check_wavelength(spec.unit, v, &spec.unit_key).map_err(|m| RowError::new(Reason::UnitMismatch, line, &cols[i], m))?;
+                    check_wavelength(spec.unit, v, &spec.unit_key)
+                        .map_err(|m| RowError::new(Reason::UnitMismatch, line, &cols[i], m))?;
                 }
                 spec.unit.convert(v)
             }

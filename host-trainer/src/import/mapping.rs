@@ -215,7 +215,10 @@ impl Map {
         }
         if let Some(s) = &self.time.start {
             if parse_timestamp(s, None).is_none() {
-                return Err(err("time.start".into(), format!("`{s}` is not a timestamp (YYYY-MM-DD hh:mm:ss[.fff] or ISO-8601)")));
+                return Err(err(
+                    "time.start".into(),
+                    format!("`{s}` is not a timestamp (YYYY-MM-DD hh:mm:ss[.fff] or ISO-8601)"),
+                ));
             }
             if self.time.unit == TimeUnit::Timestamp || self.time.format.is_some() {
                 return Err(err("time.start".into(), "only a time column in seconds needs a start".into()));
@@ -226,7 +229,12 @@ impl Map {
                 return Err(err("max_gap_s".into(), format!("{g} is not a positive number of seconds")));
             }
         }
-        for (name, r) in [("ambient", &self.ambient), ("temperature", &self.temperature), ("strain", &self.strain), ("pressure", &self.pressure)] {
+        for (name, r) in [
+            ("ambient", &self.ambient),
+            ("temperature", &self.temperature),
+            ("strain", &self.strain),
+            ("pressure", &self.pressure),
+        ] {
             if let Some(r) = r {
                 if !(r.gain.is_finite() && r.gain != 0.0) {
                     return Err(err(format!("{name}.gain"), format!("{} is not a finite, non-zero gain", r.gain)));
@@ -239,30 +247,46 @@ impl Map {
         if !self.grating.is_empty() && self.grating.len() != 3 {
             return Err(err(
                 "grating".into(),
-                format!("{} [[grating]] entries; exactly three are needed (dl1_pm, dl2_pm, dl3_pm, in that order)", self.grating.len()),
+                format!(
+                    "{} [[grating]] entries; exactly three are needed (dl1_pm, dl2_pm, dl3_pm, in that order)",
+                    self.grating.len()
+                ),
             ));
         }
         for (i, g) in self.grating.iter().enumerate() {
             let key = |k: &str| format!("grating[{}].{k}", i + 1);
             if let Some(r) = g.ref_nm {
                 if !(NM_RANGE.0..=NM_RANGE.1).contains(&r) {
-                    return Err(err(key("ref_nm"), format!("{r} is not a wavelength in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1)));
+                    return Err(err(
+                        key("ref_nm"),
+                        format!("{r} is not a wavelength in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1),
+                    ));
                 }
             }
             match what {
                 For::Csv => {
                     if g.channel.is_some() || g.window_nm.is_some() {
                         let k = if g.channel.is_some() { "channel" } else { "window_nm" };
-                        return Err(err(key(k), "channel and window_nm belong to --format enlight; a CSV grating has `column` and `unit`".into()));
+                        return Err(err(
+                            key(k),
+                            "channel and window_nm belong to --format enlight; a CSV grating has `column` and `unit`"
+                                .into(),
+                        ));
                     }
                     if g.column.is_none() {
                         return Err(err(key("column"), "missing: the column holding this grating's wavelength".into()));
                     }
                     let Some(u) = g.unit else {
-                        return Err(err(key("unit"), "missing: one of nm, pm (absolute wavelengths), shift_pm, shift_nm (shifts)".into()));
+                        return Err(err(
+                            key("unit"),
+                            "missing: one of nm, pm (absolute wavelengths), shift_pm, shift_nm (shifts)".into(),
+                        ));
                     };
                     if u.is_shift() && g.ref_nm.is_some() {
-                        return Err(err(key("ref_nm"), format!("the column holds shifts (unit {}), so it has no reference wavelength", u.name())));
+                        return Err(err(
+                            key("ref_nm"),
+                            format!("the column holds shifts (unit {}), so it has no reference wavelength", u.name()),
+                        ));
                     }
                 }
                 For::Enlight => {
@@ -277,20 +301,36 @@ impl Map {
                         return Err(err(key("channel"), "channels are numbered from 1".into()));
                     }
                     let Some([lo, hi]) = g.window_nm else {
-                        return Err(err(key("window_nm"), "missing: [lo, hi] in nm around the grating's wavelength".into()));
+                        return Err(err(
+                            key("window_nm"),
+                            "missing: [lo, hi] in nm around the grating's wavelength".into(),
+                        ));
                     };
-                    if !(NM_RANGE.0..=NM_RANGE.1).contains(&lo) || !(NM_RANGE.0..=NM_RANGE.1).contains(&hi) || lo >= hi {
-                        return Err(err(key("window_nm"), format!("[{lo}, {hi}] is not a window [lo < hi] in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1)));
+                    if !(NM_RANGE.0..=NM_RANGE.1).contains(&lo) || !(NM_RANGE.0..=NM_RANGE.1).contains(&hi) || lo >= hi
+                    {
+                        return Err(err(
+                            key("window_nm"),
+                            format!("[{lo}, {hi}] is not a window [lo < hi] in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1),
+                        ));
                     }
                     if let Some(r) = g.ref_nm {
                         if r < lo || r > hi {
-                            return Err(err(key("ref_nm"), format!("{r} nm lies outside the grating's window [{lo}, {hi}] nm")));
+                            return Err(err(
+                                key("ref_nm"),
+                                format!("{r} nm lies outside the grating's window [{lo}, {hi}] nm"),
+                            ));
                         }
                     }
                     for (j, o) in self.grating.iter().enumerate().take(i) {
                         if let (Some(oc), Some([olo, ohi])) = (o.channel, o.window_nm) {
                             if oc == c && lo <= ohi && olo <= hi {
-                                return Err(err(key("window_nm"), format!("[{lo}, {hi}] overlaps grating[{}].window_nm [{olo}, {ohi}] on channel {c}", j + 1)));
+                                return Err(err(
+                                    key("window_nm"),
+                                    format!(
+                                        "[{lo}, {hi}] overlaps grating[{}].window_nm [{olo}, {ohi}] on channel {c}",
+                                        j + 1
+                                    ),
+                                ));
                             }
                         }
                     }
@@ -314,7 +354,12 @@ impl Map {
     pub(crate) fn csv_gratings(&self) -> Vec<CsvGrating> {
         if self.grating.is_empty() {
             return (1..=3)
-                .map(|i| CsvGrating { column: format!("dl{i}_pm"), unit: WlUnit::ShiftPm, ref_nm: None, unit_key: format!("grating[{i}].unit") })
+                .map(|i| CsvGrating {
+                    column: format!("dl{i}_pm"),
+                    unit: WlUnit::ShiftPm,
+                    ref_nm: None,
+                    unit_key: format!("grating[{i}].unit"),
+                })
                 .collect();
         }
         self.grating

@@ -253,13 +253,18 @@ pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerE
                 wl: std::array::from_fn(|g| tab.gratings[g].values.clone()),
                 is_shift: std::array::from_fn(|g| gratings[g].unit.is_shift()),
                 ref_nm: std::array::from_fn(|g| gratings[g].ref_nm),
-                sources: std::array::from_fn(|g| format!("column `{}` ({})", tab.gratings[g].name, gratings[g].unit.name())),
+                sources: std::array::from_fn(|g| {
+                    format!("column `{}` ({})", tab.gratings[g].name, gratings[g].unit.name())
+                }),
                 rows_read: skips[0].rows_read,
                 skips,
                 enlight: None,
                 join: None,
                 refs_header: (input_name.clone(), tab.header_line),
-                empty_hint: format!("{input_name}: every row lacks an ambient temperature (column `{}`)", m.ambient.as_ref().map_or("T_amb_C", |a| a.column.as_str())),
+                empty_hint: format!(
+                    "{input_name}: every row lacks an ambient temperature (column `{}`)",
+                    m.ambient.as_ref().map_or("T_amb_C", |a| a.column.as_str())
+                ),
                 n_before_drop: n,
             }
         }
@@ -271,7 +276,8 @@ pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerE
                     message: "ENLIGHT exports carry no ambient temperature and no reference measurements: give them with --refs REFS, a CSV read with the same column mapping as --format csv (time, T_amb_C, and T_C / strain_ue / p_kPa, or the columns the map names), joined onto the peak times by linear interpolation".into(),
                 });
             };
-            let peaks = enlight::read(&opts.input, map.as_ref(), map_origin.as_deref().unwrap_or("map"), opts.on_error)?;
+            let peaks =
+                enlight::read(&opts.input, map.as_ref(), map_origin.as_deref().unwrap_or("map"), opts.on_error)?;
             let refs = logger_csv::read(refs_path, m, &[], opts.on_error)?;
             let refs_name = refs_path.display().to_string();
             if peaks.absolute != refs.absolute {
@@ -413,7 +419,11 @@ struct Merged {
 }
 
 /// Drop rows without ambient temperature, take shifts, build the dataset and its split.
-fn finish(m: Merged, opts: &ImportOptions, map_origin: Option<String>) -> Result<(Dataset, ImportSummary), TrainerError> {
+fn finish(
+    m: Merged,
+    opts: &ImportOptions,
+    map_origin: Option<String>,
+) -> Result<(Dataset, ImportSummary), TrainerError> {
     if m.refs.iter().all(Option::is_none) {
         let (file, line) = &m.refs_header;
         return Err(TrainerError::data(
@@ -480,7 +490,8 @@ fn finish(m: Merged, opts: &ImportOptions, map_origin: Option<String>) -> Result
         });
     }
     let n = keep.len();
-    let refs: [Vec<f64>; 3] = std::array::from_fn(|c| m.refs[c].as_ref().map_or_else(|| vec![f64::NAN; n], |(_, v)| pick(v)));
+    let refs: [Vec<f64>; 3] =
+        std::array::from_fn(|c| m.refs[c].as_ref().map_or_else(|| vec![f64::NAN; n], |(_, v)| pick(v)));
     let mut d = Dataset {
         t_s,
         temp_c: refs[0].clone(),
@@ -495,14 +506,22 @@ fn finish(m: Merged, opts: &ImportOptions, map_origin: Option<String>) -> Result
     let (rule, cal_until_s) = match &opts.split {
         SplitChoice::Fraction(f) => {
             if !(f.is_finite() && *f > 0.0 && *f <= 1.0) {
-                return Err(TrainerError::Config { origin: "--cal-fraction".into(), key: String::new(), message: format!("{f} is not a fraction in (0, 1]") });
+                return Err(TrainerError::Config {
+                    origin: "--cal-fraction".into(),
+                    key: String::new(),
+                    message: format!("{f} is not a fraction in (0, 1]"),
+                });
             }
             (format!("fraction {f}"), f * d.t_s[n - 1])
         }
         SplitChoice::Until(s) => {
             let until = if let Ok(v) = s.trim().parse::<f64>() {
                 if !v.is_finite() {
-                    return Err(TrainerError::Config { origin: "--cal-until".into(), key: String::new(), message: format!("`{s}` is not a finite time") });
+                    return Err(TrainerError::Config {
+                        origin: "--cal-until".into(),
+                        key: String::new(),
+                        message: format!("`{s}` is not a finite time"),
+                    });
                 }
                 v
             } else if let Some(ts) = parse_timestamp(s, None) {
@@ -518,7 +537,9 @@ fn finish(m: Merged, opts: &ImportOptions, map_origin: Option<String>) -> Result
                 return Err(TrainerError::Config {
                     origin: "--cal-until".into(),
                     key: String::new(),
-                    message: format!("`{s}` is neither seconds from the first row nor a timestamp (YYYY-MM-DD hh:mm:ss[.fff])"),
+                    message: format!(
+                        "`{s}` is neither seconds from the first row nor a timestamp (YYYY-MM-DD hh:mm:ss[.fff])"
+                    ),
                 });
             };
             (format!("until {s}"), until)
@@ -537,7 +558,8 @@ fn finish(m: Merged, opts: &ImportOptions, map_origin: Option<String>) -> Result
         median_dt_s: dts.get(dts.len() / 2).copied().unwrap_or(0.0),
     };
     let count = |v: &[f64]| v.iter().filter(|x| x.is_finite()).count();
-    let ref_summary = |c: usize| m.refs[c].as_ref().map(|(name, _)| RefSummary { column: name.clone(), values: count(d.target(c)) });
+    let ref_summary =
+        |c: usize| m.refs[c].as_ref().map(|(name, _)| RefSummary { column: name.clone(), values: count(d.target(c)) });
     let references = References {
         t_amb_c: RefSummary { column: m.ambient_column.clone(), values: n },
         temp_c: ref_summary(0),
@@ -587,15 +609,28 @@ impl ImportSummary {
             for (r, c) in &f.by_reason {
                 let lines: Vec<String> = c.first_lines.iter().map(u64::to_string).collect();
                 let more = if c.count > c.first_lines.len() { ", …" } else { "" };
-                s.push_str(&format!("  skipped {} × {} in {} (lines {}{more})\n", c.count, r.as_str(), f.file, lines.join(", ")));
+                s.push_str(&format!(
+                    "  skipped {} × {} in {} (lines {}{more})\n",
+                    c.count,
+                    r.as_str(),
+                    f.file,
+                    lines.join(", ")
+                ));
             }
         }
         if self.dropped_no_ambient.count > 0 {
             let lines: Vec<String> = self.dropped_no_ambient.first_lines.iter().map(u64::to_string).collect();
-            s.push_str(&format!("  dropped {} rows with no ambient temperature (lines {}…)\n", self.dropped_no_ambient.count, lines.join(", ")));
+            s.push_str(&format!(
+                "  dropped {} rows with no ambient temperature (lines {}…)\n",
+                self.dropped_no_ambient.count,
+                lines.join(", ")
+            ));
         }
         if let Some(e) = &self.enlight {
-            s.push_str(&format!("  {} channels, {}-separated, {} metadata lines", e.channels, e.delimiter, e.metadata_lines));
+            s.push_str(&format!(
+                "  {} channels, {}-separated, {} metadata lines",
+                e.channels, e.delimiter, e.metadata_lines
+            ));
             if e.unassigned_rows > 0 {
                 s.push_str(&format!(", {} rows with an unusual peak count (gaps)", e.unassigned_rows));
             }
@@ -664,9 +699,9 @@ pub(crate) fn number(cell: &str) -> Result<Option<f64>, String> {
     match c.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(Some(v)),
         Ok(_) => Err(format!("`{c}` is not a finite number")),
-        Err(_) if c.matches(',').count() == 1 && c.replace(',', ".").parse::<f64>().is_ok() => {
-            Err(format!("`{c}` is not a number (a decimal comma? use a point, or a delimiter other than the decimal mark)"))
-        }
+        Err(_) if c.matches(',').count() == 1 && c.replace(',', ".").parse::<f64>().is_ok() => Err(format!(
+            "`{c}` is not a number (a decimal comma? use a point, or a delimiter other than the decimal mark)"
+        )),
         Err(_) => Err(format!("`{c}` is not a number")),
     }
 }

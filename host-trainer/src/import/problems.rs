@@ -162,7 +162,10 @@ impl Problems {
                     &self.file,
                     first.line,
                     &first.column,
-                    format!("{} of {} rows fail the unit check, so the column is declared in the wrong unit; first: {}", count, self.rows_read, first.message),
+                    format!(
+                        "{} of {} rows fail the unit check, so the column is declared in the wrong unit; first: {}",
+                        count, self.rows_read, first.message
+                    ),
                 ));
             }
         }

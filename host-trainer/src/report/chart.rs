@@ -183,7 +183,8 @@ impl Panel {
     }
 
     fn range(&self, axis: usize) -> (f64, f64) {
-        let (given, pad, room) = if axis == 0 { (self.xr, self.x_pad, 0.0) } else { (self.yr, self.y_pad, self.legend_room) };
+        let (given, pad, room) =
+            if axis == 0 { (self.xr, self.x_pad, 0.0) } else { (self.yr, self.y_pad, self.legend_room) };
         let (lo, hi) = given.unwrap_or_else(|| {
             let (lo, hi) = self.content_range(axis);
             let s = hi - lo;
@@ -277,9 +278,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, segm
         .draw()
         .map_err(pe)?;
     for &(a, b, g) in &p.shade {
-        chart
-            .draw_series(std::iter::once(Rectangle::new([(a, y0), (b, y1)], BLACK.mix(g).filled())))
-            .map_err(pe)?;
+        chart.draw_series(std::iter::once(Rectangle::new([(a, y0), (b, y1)], BLACK.mix(g).filled()))).map_err(pe)?;
     }
     for &(a, b) in &p.zoom {
         chart
@@ -337,7 +336,8 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, segm
                         + PathElement::new(vec![(19, 0), (24, 0)], c.stroke_width(lw))
                 });
             } else {
-                anno.label(lab.clone()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(lw)));
+                anno.label(lab.clone())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(lw)));
             }
         }
     }
@@ -352,9 +352,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, segm
         }
     }
     for &x in &p.vlines {
-        chart
-            .draw_series(DashedLineSeries::new(vec![(x, y0), (x, y1)], 7, 5, C_GREY.stroke_width(2)))
-            .map_err(pe)?;
+        chart.draw_series(DashedLineSeries::new(vec![(x, y0), (x, y1)], 7, 5, C_GREY.stroke_width(2))).map_err(pe)?;
     }
     for n in &p.notes {
         let pos = (x0 + n.at.0 * (x1 - x0), y0 + n.at.1 * (y1 - y0));
@@ -381,8 +379,12 @@ impl Grid {
         root.fill(&WHITE).map_err(pe)?;
         let (top, body) = root.split_vertically(78);
         top.draw_text(&self.title, &TextStyle::from((FAMILY, 26).into_font()).color(&BLACK), (16, 10)).map_err(pe)?;
-        top.draw_text(&self.subtitle, &TextStyle::from((FAMILY, 17).into_font()).color(&RGBColor(70, 70, 70)), (16, 46))
-            .map_err(pe)?;
+        top.draw_text(
+            &self.subtitle,
+            &TextStyle::from((FAMILY, 17).into_font()).color(&RGBColor(70, 70, 70)),
+            (16, 46),
+        )
+        .map_err(pe)?;
         let areas = body.split_evenly((self.rows, self.cols));
         for (a, p) in areas.iter().zip(&self.panels) {
             draw_panel(a, p, segmented)?;
@@ -454,7 +456,8 @@ mod tests {
     #[test]
     fn a_small_grid_renders_to_png_and_svg() {
         let mut p = Panel::new("a panel", "x [s]", "y [pm]");
-        p.lines.push(Line::new(C_H, 2, (0..100).map(|i| (i as f64, (i as f64 / 10.0).sin())).collect()).label("Model-H"));
+        p.lines
+            .push(Line::new(C_H, 2, (0..100).map(|i| (i as f64, (i as f64 / 10.0).sin())).collect()).label("Model-H"));
         p.note("RMSE 1.0 µε", (0.02, 0.95));
         let g = Grid { size: (400, 300), title: "T".into(), subtitle: "s".into(), rows: 1, cols: 1, panels: vec![p] };
         let png = g.png().unwrap();

@@ -49,8 +49,11 @@ const TERM_UNITS: [&str; 10] = ["1", "°C", "µε", "kPa", "°C²", "µε²", "k
 pub fn tables(p: &HostParams, h: &HostParams, m: &Metrics) -> Vec<(String, Table)> {
     let shared = p.stage1 == h.stage1 && p.poly == h.poly && p.guess_mean == h.guess_mean && p.guess_std == h.guess_std;
     let mut out = Vec::new();
-    let cores: Vec<(&str, &str, &HostParams)> =
-        if shared { vec![("", "Model-P and Model-H (shared core)", h)] } else { vec![("_p", "Model-P", p), ("_h", "Model-H", h)] };
+    let cores: Vec<(&str, &str, &HostParams)> = if shared {
+        vec![("", "Model-P and Model-H (shared core)", h)]
+    } else {
+        vec![("_p", "Model-P", p), ("_h", "Model-H", h)]
+    };
     for (suffix, who, params) in &cores {
         out.push((format!("coef_stage1{suffix}"), stage1(params, who)));
         out.push((format!("coef_poly_physical{suffix}"), poly_physical(params, who)));
@@ -70,7 +73,8 @@ pub fn tables(p: &HostParams, h: &HostParams, m: &Metrics) -> Vec<(String, Table
 }
 
 fn stage1(p: &HostParams, who: &str) -> Table {
-    let header = ["output", "× Δλ1 [pm]", "× Δλ2 [pm]", "× Δλ3 [pm]", "× T_amb [°C]", "constant"].map(String::from).to_vec();
+    let header =
+        ["output", "× Δλ1 [pm]", "× Δλ2 [pm]", "× Δλ3 [pm]", "× T_amb [°C]", "constant"].map(String::from).to_vec();
     let rows = (0..N_OUTPUTS)
         .map(|o| {
             let mut r = vec![format!("{} guess [{}]", crate::evaluate::CHANNELS[o], UNITS[o])];
@@ -106,7 +110,9 @@ fn poly_standardised(p: &HostParams, who: &str) -> Table {
         .map(|k| vec![POLY_NAMES[k].to_string(), e(p.poly[0][k]), e(p.poly[1][k]), e(p.poly[2][k])])
         .collect();
     Table {
-        title: format!("Polynomial core B of {who} as stored in the blob (on standardised first guesses (ĝ − mean)/std)"),
+        title: format!(
+            "Polynomial core B of {who} as stored in the blob (on standardised first guesses (ĝ − mean)/std)"
+        ),
         header,
         rows,
     }
@@ -140,19 +146,20 @@ fn memory(h: &HostParams) -> Table {
 fn scalers(h: &HostParams) -> Table {
     let mut rows = Vec::new();
     for (o, (name, unit)) in crate::evaluate::CHANNELS.iter().zip(UNITS).enumerate() {
-        rows.push(vec![
-            format!("first guess {name} [{unit}]"),
-            g(h.guess_mean[o]),
-            g(h.guess_std[o]),
-            "yes".into(),
-        ]);
+        rows.push(vec![format!("first guess {name} [{unit}]"), g(h.guess_mean[o]), g(h.guess_std[o]), "yes".into()]);
     }
     let active = h.hyper.feature_set.active();
     for d in 0..Z_DIMS {
-        rows.push(vec![format!("RBF input {}", Z_NAMES[d]), g(h.z_mean[d]), g(h.z_std[d]), if active[d] { "yes" } else { "no" }.into()]);
+        rows.push(vec![
+            format!("RBF input {}", Z_NAMES[d]),
+            g(h.z_mean[d]),
+            g(h.z_std[d]),
+            if active[d] { "yes" } else { "no" }.into(),
+        ]);
     }
     Table {
-        title: "Scalers: standardisation of the first guesses (polynomial core) and of the RBF inputs z (Model-H)".into(),
+        title: "Scalers: standardisation of the first guesses (polynomial core) and of the RBF inputs z (Model-H)"
+            .into(),
         header: ["quantity", "mean", "std", "used"].map(String::from).to_vec(),
         rows,
     }
@@ -210,14 +217,30 @@ fn hyper(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
         row("σ (standardised)", g(hh.sigma), ""),
         row("σ multiplier", g(hh.sigma_mult), "× median nearest-neighbour distance between centres"),
         row("ridge α (Eq. 7)", g(hh.alpha), &format!("= α_rel · n_cal, α_rel = {}, n_cal = {n_cal}", g(c.alpha_rel))),
-        row("direction-latch dead band", format!("{} pm", g(hh.dead_band_pm)), if hh.feature_set.uses_latch() { "" } else { "unused by this feature set" }),
+        row(
+            "direction-latch dead band",
+            format!("{} pm", g(hh.dead_band_pm)),
+            if hh.feature_set.uses_latch() { "" } else { "unused by this feature set" },
+        ),
         row("cross-terms in stage 2", c.cross_terms.to_string(), ""),
         row("weak-support threshold on max ψ", g(hh.weak_support), "flag WEAK_SUPPORT below it"),
         row("envelope margin", g(hh.envelope_margin), "fraction of the calibration range on each side"),
         row("band factor for flagged samples", g(hh.flagged_band_factor), ""),
-        row("envelope low (Δλ1..3 [pm], T_amb [°C])", h.envelope_lo.iter().map(|v| g(*v)).collect::<Vec<_>>().join(" / "), ""),
-        row("envelope high (Δλ1..3 [pm], T_amb [°C])", h.envelope_hi.iter().map(|v| g(*v)).collect::<Vec<_>>().join(" / "), ""),
-        row("CV grid points", m.selection.grid_points.to_string(), if m.selection.grid_points == 0 { "not recorded (metrics from `evaluate`)" } else { "" }),
+        row(
+            "envelope low (Δλ1..3 [pm], T_amb [°C])",
+            h.envelope_lo.iter().map(|v| g(*v)).collect::<Vec<_>>().join(" / "),
+            "",
+        ),
+        row(
+            "envelope high (Δλ1..3 [pm], T_amb [°C])",
+            h.envelope_hi.iter().map(|v| g(*v)).collect::<Vec<_>>().join(" / "),
+            "",
+        ),
+        row(
+            "CV grid points",
+            m.selection.grid_points.to_string(),
+            if m.selection.grid_points == 0 { "not recorded (metrics from `evaluate`)" } else { "" },
+        ),
         row("CV RMSE Model-P (T / ε / p)", cv(m.selection.cv_rmse_p), ""),
         row("CV RMSE Model-H (T / ε / p)", cv(m.selection.cv_rmse_h), ""),
         row("Model-P centres", p.centres.len().to_string(), "0 for a polynomial-only model"),

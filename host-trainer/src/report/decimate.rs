@@ -60,7 +60,8 @@ pub fn minmax_columns(x: &[f64], y: &[f64], columns: usize) -> Decimated {
         return Decimated { x: xs, y: ys, n_in, n_nonfinite };
     }
     let (x0, x1) = finite_range(x);
-    let mut out = Decimated { x: Vec::with_capacity(2 * columns), y: Vec::with_capacity(2 * columns), n_in, n_nonfinite };
+    let mut out =
+        Decimated { x: Vec::with_capacity(2 * columns), y: Vec::with_capacity(2 * columns), n_in, n_nonfinite };
     let mut i = 0;
     while i < n_in {
         if !ok(i) {
@@ -101,7 +102,11 @@ pub fn envelope_columns(x: &[f64], lo: &[f64], hi: &[f64], columns: usize) -> (V
     let idx: Vec<usize> = (0..x.len()).filter(|&i| ok(i)).collect();
     let columns = columns.max(1);
     if idx.len() <= columns {
-        return (idx.iter().map(|&i| x[i]).collect(), idx.iter().map(|&i| lo[i]).collect(), idx.iter().map(|&i| hi[i]).collect());
+        return (
+            idx.iter().map(|&i| x[i]).collect(),
+            idx.iter().map(|&i| lo[i]).collect(),
+            idx.iter().map(|&i| hi[i]).collect(),
+        );
     }
     let (x0, x1) = finite_range(x);
     let (mut xs, mut ls, mut hs) = (Vec::new(), Vec::new(), Vec::new());

@@ -189,7 +189,8 @@ pub fn fig1_inputs(c: &Ctx) -> FigSpec {
         p.legend_room = 0.3;
         panels.push(p);
     }
-    let hold_from = spans.first().map(|s| format!("from t = {} {}", num(s.0, 2), c.time.name)).unwrap_or_else(|| "none".into());
+    let hold_from =
+        spans.first().map(|s| format!("from t = {} {}", num(s.0, 2), c.time.name)).unwrap_or_else(|| "none".into());
     let dt = if d.len() > 1 { d.t_s[1] - d.t_s[0] } else { 0.0 };
     FigSpec {
         stem: "fig1_inputs",
@@ -239,17 +240,33 @@ pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
     let (wa, wb) = best_window(&w, len);
 
     let mut a = Panel::new(
-        format!("(a) FBG{} wavelength shift, measured and true, zoomed on t = {}–{} {}", g + 1, num(t[wa], 2), num(t[wb - 1], 2), c.time.name),
+        format!(
+            "(a) FBG{} wavelength shift, measured and true, zoomed on t = {}–{} {}",
+            g + 1,
+            num(t[wa], 2),
+            num(t[wb - 1], 2),
+            c.time.name
+        ),
         c.time.label(),
         "Δλ [pm]",
     );
     a.xr = Some((t[wa], t[wb - 1]));
-    a.lines.push(Line::new(C_MEAS, 2, pts(&minmax_columns(&t[wa..wb], &meas[wa..wb], COLUMNS))).label("measured Δλ (interrogator)"));
-    a.lines.push(Line::new(C_TRUTH, 1, pts(&minmax_columns(&t[wa..wb], &truth[wa..wb], COLUMNS))).label("true Δλ (physics only)"));
+    a.lines.push(
+        Line::new(C_MEAS, 2, pts(&minmax_columns(&t[wa..wb], &meas[wa..wb], COLUMNS)))
+            .label("measured Δλ (interrogator)"),
+    );
+    a.lines.push(
+        Line::new(C_TRUTH, 1, pts(&minmax_columns(&t[wa..wb], &truth[wa..wb], COLUMNS)))
+            .label("true Δλ (physics only)"),
+    );
     a.legend = Legend::UpperRight;
     a.legend_room = 0.3;
 
-    let mut b = Panel::new("(b) measured − true: all interrogator artefacts, with the drift part", c.time.label(), "measured − true [pm]");
+    let mut b = Panel::new(
+        "(b) measured − true: all interrogator artefacts, with the drift part",
+        c.time.label(),
+        "measured − true [pm]",
+    );
     b.xr = Some((x0, x1));
     mark_split(&mut b, &spans, x0, x1);
     b.lines.push(Line::new(C_GREY, 1, pts(&minmax_columns(&t, &dev, COLUMNS))).label("measured − true"));
@@ -261,12 +278,20 @@ pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
     let idx: Vec<usize> = stride_indices(wb - wa, MAX_PATH_POINTS).into_iter().map(|k| wa + k).collect();
     let strided = idx.len() < wb - wa;
     let mut cpan = Panel::new(
-        format!("(c) minor loops: measured − true against true, t = {}–{} {}", num(t[wa], 2), num(t[wb - 1], 2), c.time.name),
+        format!(
+            "(c) minor loops: measured − true against true, t = {}–{} {}",
+            num(t[wa], 2),
+            num(t[wb - 1], 2),
+            c.time.name
+        ),
         format!("true Δλ of FBG{} [pm]", g + 1),
         "measured − true [pm]",
     );
     cpan.x_pad = 0.03;
-    cpan.lines.push(Line::new(RGBA_GREY, 1, idx.iter().map(|&i| (truth[i], dev[i])).collect()).label("measured − true (with noise)"));
+    cpan.lines.push(
+        Line::new(RGBA_GREY, 1, idx.iter().map(|&i| (truth[i], dev[i])).collect())
+            .label("measured − true (with noise)"),
+    );
     let hyst: Vec<(f64, f64)> =
         idx.iter().map(|&i| (truth[i], s.effects.hysteresis[g][i] + s.effects.scan[g][i] + slow[i])).collect();
     cpan.lines.push(Line::new(C_H, 2, hyst).label("hysteresis + scan + slow parts (no noise)"));
@@ -386,7 +411,11 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     b.legend = Legend::None;
 
     let mut e = Panel::new(
-        format!("(c) errors (estimate − truth) with ±95 % bands: coverage Model-P {} %, Model-H {} %", num(100.0 * mp.coverage, 1), num(100.0 * mh.coverage, 1)),
+        format!(
+            "(c) errors (estimate − truth) with ±95 % bands: coverage Model-P {} %, Model-H {} %",
+            num(100.0 * mp.coverage, 1),
+            num(100.0 * mh.coverage, 1)
+        ),
         c.time.label(),
         format!("error [{unit}]"),
     );
@@ -454,7 +483,9 @@ pub fn fig6_parity(c: &Ctx) -> FigSpec {
         let pad = 0.03 * (hi - lo).max(1e-9);
         let (lo, hi) = (lo - pad, hi + pad);
         let (unit, dg, sym) = (UNITS[ch], DIGITS[ch], SYMBOLS[ch]);
-        for (k, (name, v, color, me)) in [("Model-P", &vp, C_P, &m.model_p), ("Model-H", &vh, C_H, &m.model_h)].into_iter().enumerate() {
+        for (k, (name, v, color, me)) in
+            [("Model-P", &vp, C_P, &m.model_p), ("Model-H", &vh, C_H, &m.model_h)].into_iter().enumerate()
+        {
             let thin = thin_grid(&truth, v, (lo, hi), (lo, hi), PARITY_GRID.0, PARITY_GRID.1);
             drawn += thin.x.len();
             total += thin.n_in;
@@ -505,11 +536,19 @@ pub fn fig7_errors(c: &Ctx) -> FigSpec {
         let truth: Vec<f64> = c.hold.iter().map(|&i| d.target(ch)[i]).collect();
         let ep: Vec<f64> = c.est_p.iter().zip(&truth).map(|(e, t)| e.values[ch] - t).collect();
         let eh: Vec<f64> = c.est_h.iter().zip(&truth).map(|(e, t)| e.values[ch] - t).collect();
-        let (lo, hi) = ep.iter().chain(&eh).filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        let (lo, hi) = ep
+            .iter()
+            .chain(&eh)
+            .filter(|v| v.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
         let (lo, hi) = if lo < hi { (lo, hi) } else { (lo - 1.0, hi + 1.0) };
         let wbin = (hi - lo) / bins as f64;
         let (unit, dg, sym) = (UNITS[ch], DIGITS[ch], SYMBOLS[ch]);
-        let mut p = Panel::new(format!("({}) {}", (b'a' + ch as u8) as char, LONG_NAMES[ch]), format!("error of {sym} [{unit}]"), "samples per bin");
+        let mut p = Panel::new(
+            format!("({}) {}", (b'a' + ch as u8) as char, LONG_NAMES[ch]),
+            format!("error of {sym} [{unit}]"),
+            "samples per bin",
+        );
         p.xr = Some((lo, hi));
         p.y_pad = 0.0;
         let mut ymax: f64 = 0.0;
@@ -528,7 +567,11 @@ pub fn fig7_errors(c: &Ctx) -> FigSpec {
             poly.push((lo, 0.0));
             p.bands.push(Band { label: None, color, alpha: 0.18, poly, hatch: None });
             let cm = &me.channels[ch];
-            p.lines.push(Line::new(color, 2, step).label(format!("{name}: bias {} {unit}, RMSE {} {unit}", num(cm.bias, dg), num(cm.rmse, dg))));
+            p.lines.push(Line::new(color, 2, step).label(format!(
+                "{name}: bias {} {unit}, RMSE {} {unit}",
+                num(cm.bias, dg),
+                num(cm.rmse, dg)
+            )));
         }
         p.yr = Some((0.0, 1.22 * ymax.max(1.0)));
         p.lines.push(Line::new(C_TRUTH, 1, vec![(0.0, 0.0), (0.0, 1.22 * ymax.max(1.0))]).dashed());
@@ -565,7 +608,11 @@ pub fn fig8_drift(c: &Ctx) -> Option<FigSpec> {
     let (lo, hi) = (xmin - pad, xmax + pad);
     for ch in 0..3 {
         let (unit, dg) = (UNITS[ch], DIGITS[ch]);
-        let mut p = Panel::new(format!("({}) {}", (b'a' + ch as u8) as char, LONG_NAMES[ch]), "drift amplitude σ_d [pm per step]", format!("hold-out RMSE [{unit}]"));
+        let mut p = Panel::new(
+            format!("({}) {}", (b'a' + ch as u8) as char, LONG_NAMES[ch]),
+            "drift amplitude σ_d [pm per step]",
+            format!("hold-out RMSE [{unit}]"),
+        );
         p.xr = Some((lo, hi));
         p.y_pad = 0.15;
         for (name, ys, slope, icpt, color, filled) in [
@@ -573,7 +620,14 @@ pub fn fig8_drift(c: &Ctx) -> Option<FigSpec> {
             ("Model-H", &s.rmse_h, s.slope_h[ch], s.intercept_h[ch], C_H, false),
         ] {
             let pts: Vec<(f64, f64)> = xs.iter().zip(ys.iter()).map(|(&x, y)| (x, y[ch])).collect();
-            p.dots.push(Dots { label: Some(format!("{name} (refitted at each σ_d)")), color, alpha: 1.0, radius: 6, filled, pts });
+            p.dots.push(Dots {
+                label: Some(format!("{name} (refitted at each σ_d)")),
+                color,
+                alpha: 1.0,
+                radius: 6,
+                filled,
+                pts,
+            });
             p.lines.push(
                 Line::new(color, 2, vec![(xmin, icpt + slope * xmin), (xmax, icpt + slope * xmax)])
                     .dashed()
@@ -625,13 +679,20 @@ pub fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
         let after_mem: Vec<f64> = left.iter().zip(&mem).map(|(a, b)| a - b).collect();
         let after_all: Vec<f64> = after_mem.iter().zip(&rbf).map(|(a, b)| a - b).collect();
         let mut p = Panel::new(
-            format!("({}) {}: RMS of Γm {} {unit}, of Wψ {} {unit}", (b'a' + ch as u8) as char, LONG_NAMES[ch], num(rms(&mem), dg), num(rms(&rbf), dg)),
+            format!(
+                "({}) {}: RMS of Γm {} {unit}, of Wψ {} {unit}",
+                (b'a' + ch as u8) as char,
+                LONG_NAMES[ch],
+                num(rms(&mem), dg),
+                num(rms(&rbf), dg)
+            ),
             c.time.label(),
             format!("{} contribution [{unit}]", SYMBOLS[ch]),
         );
         let series = |v: &[f64]| pts(&minmax_columns(&x, v, COLUMNS));
         if d.has_target[ch] {
-            p.lines.push(Line::new(C_GREY, 1, series(&left)).label("truth − core Bφ (what memory and RBF must explain)"));
+            p.lines
+                .push(Line::new(C_GREY, 1, series(&left)).label("truth − core Bφ (what memory and RBF must explain)"));
         }
         p.lines.push(Line::new(C_H, 1, series(&mem)).label("memory terms Γm"));
         p.lines.push(Line::new(C_P, 1, series(&rbf)).label("RBF residual Wψ"));

@@ -29,7 +29,9 @@ pub fn table(t: &Table, stem: Option<&str>) -> String {
     let mut o = String::from("<div class=\"table\"><table>\n");
     o.push_str(&format!("<caption>{}", esc(&t.title)));
     if let Some(s) = stem {
-        o.push_str(&format!(" <span class=\"files\">(<a href=\"{s}.md\">Markdown</a> · <a href=\"{s}.csv\">CSV</a>)</span>"));
+        o.push_str(&format!(
+            " <span class=\"files\">(<a href=\"{s}.md\">Markdown</a> · <a href=\"{s}.csv\">CSV</a>)</span>"
+        ));
     }
     o.push_str("</caption>\n<thead><tr>");
     for h in &t.header {
@@ -139,7 +141,11 @@ mod tests {
 
     #[test]
     fn tables_render_with_numeric_cells_right_aligned() {
-        let t = Table { title: "T<1>".into(), header: vec!["a".into(), "b".into()], rows: vec![vec!["x".into(), "−0.12".into()]] };
+        let t = Table {
+            title: "T<1>".into(),
+            header: vec!["a".into(), "b".into()],
+            rows: vec![vec!["x".into(), "−0.12".into()]],
+        };
         let h = table(&t, Some("table9"));
         assert!(h.contains("T&lt;1&gt;"));
         assert!(h.contains("<td class=\"n\">−0.12</td>"));

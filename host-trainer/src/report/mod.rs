@@ -71,7 +71,12 @@ pub struct InputPaths {
 impl InputPaths {
     /// The fixed names in `dir`: data.csv, model.fbgm, model-p.fbgm, metrics.json.
     pub fn in_dir(dir: &Path) -> Self {
-        InputPaths { data: dir.join(DATA_CSV), model_h: dir.join(MODEL_H), model_p: dir.join(MODEL_P), metrics: dir.join(METRICS_JSON) }
+        InputPaths {
+            data: dir.join(DATA_CSV),
+            model_h: dir.join(MODEL_H),
+            model_p: dir.join(MODEL_P),
+            metrics: dir.join(METRICS_JSON),
+        }
     }
 }
 
@@ -173,7 +178,12 @@ fn check_metrics(m: &Metrics, p: &ModelEval, h: &ModelEval, hold: usize, n: usiz
     for (name, stored, fresh) in [("Model-P", &m.table2.model_p, p), ("Model-H", &m.table2.model_h, h)] {
         for (c, ch) in CHANNELS.iter().enumerate() {
             let (s, f) = (&stored.channels[c], &fresh.channels[c]);
-            for (stat, a, b) in [("RMSE", s.rmse, f.rmse), ("MAE", s.mae, f.mae), ("bias", s.bias, f.bias), ("coverage", s.coverage, f.coverage)] {
+            for (stat, a, b) in [
+                ("RMSE", s.rmse, f.rmse),
+                ("MAE", s.mae, f.mae),
+                ("bias", s.bias, f.bias),
+                ("coverage", s.coverage, f.coverage),
+            ] {
                 if !close(a, b) {
                     bad.push(format!("{name} {ch} {stat}: metrics.json {a:.6} vs recomputed {b:.6}"));
                 }
@@ -186,7 +196,9 @@ fn check_metrics(m: &Metrics, p: &ModelEval, h: &ModelEval, hold: usize, n: usiz
             bad.join("; ")
         ));
     }
-    let g: [f64; 3] = std::array::from_fn(|c| crate::evaluate::gain_pct(m.table2.model_p.channels[c].rmse, m.table2.model_h.channels[c].rmse));
+    let g: [f64; 3] = std::array::from_fn(|c| {
+        crate::evaluate::gain_pct(m.table2.model_p.channels[c].rmse, m.table2.model_h.channels[c].rmse)
+    });
     let gbad: Vec<String> = (0..3)
         .filter(|&c| !close(g[c], m.table2.gain_pct[c]))
         .map(|c| format!("{}: {:.2} % stored vs {:.2} % from its RMSEs", CHANNELS[c], m.table2.gain_pct[c], g[c]))
@@ -216,7 +228,10 @@ fn check_provenance(inp: &Inputs, warnings: &mut Vec<String>) {
         }
     }
     if !export::is_model_p(&inp.model_p) {
-        warnings.push(format!("model-p.fbgm has {} RBF centres: it is not a polynomial-only Model-P.", inp.model_p.centres.len()));
+        warnings.push(format!(
+            "model-p.fbgm has {} RBF centres: it is not a polynomial-only Model-P.",
+            inp.model_p.centres.len()
+        ));
     }
 }
 
@@ -247,7 +262,11 @@ fn contributions(
         .zip(&b)
         .zip(est_h)
         .map(|((c, m), f)| {
-            [c.values, std::array::from_fn(|k| m.values[k] - c.values[k]), std::array::from_fn(|k| f.values[k] - m.values[k])]
+            [
+                c.values,
+                std::array::from_fn(|k| m.values[k] - c.values[k]),
+                std::array::from_fn(|k| f.values[k] - m.values[k]),
+            ]
         })
         .collect())
 }
@@ -264,7 +283,10 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     let all_hold = d.holdout_indices();
     let hold: Vec<usize> = all_hold.iter().copied().filter(|&i| d.usable(i)).collect();
     if hold.is_empty() || d.len() < 2 {
-        return Err(TrainerError::Dataset { message: "the report needs usable hold-out rows (split column `holdout`, finite inputs and references)".into() });
+        return Err(TrainerError::Dataset {
+            message: "the report needs usable hold-out rows (split column `holdout`, finite inputs and references)"
+                .into(),
+        });
     }
     let ((rp, rh), sim) = rayon::join(
         || rayon::join(|| evaluate_holdout(&inp.model_p, d), || evaluate_holdout(&inp.model_h, d)),
@@ -293,7 +315,12 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     };
     if est_p.len() != hold.len() || est_h.len() != hold.len() {
         return Err(TrainerError::Dataset {
-            message: format!("internal: {} / {} estimates for {} usable hold-out rows", est_p.len(), est_h.len(), hold.len()),
+            message: format!(
+                "internal: {} / {} estimates for {} usable hold-out rows",
+                est_p.len(),
+                est_h.len(),
+                hold.len()
+            ),
         });
     }
     if hold.len() < all_hold.len() {
@@ -396,7 +423,9 @@ fn page(
         specs
             .iter()
             .find(|f| f.stem == stem)
-            .map(|f| html::figure(&FigEntry { stem: f.stem.into(), title: f.title.clone(), caption: f.caption.clone() }))
+            .map(|f| {
+                html::figure(&FigEntry { stem: f.stem.into(), title: f.title.clone(), caption: f.caption.clone() })
+            })
             .unwrap_or_default()
     };
     let table_of = |name: &str| -> String {
@@ -435,7 +464,11 @@ fn page(
     } else {
         format!(
             "<p class=\"note\">Figure 2 (measured vs true wavelength) is omitted: {}</p>\n",
-            if inp.meta.is_none() { "data.meta.json is absent, and the true wavelength exists only in the simulator." } else { "the data do not match their re-simulation (see the check above)." }
+            if inp.meta.is_none() {
+                "data.meta.json is absent, and the true wavelength exists only in the simulator."
+            } else {
+                "the data do not match their re-simulation (see the check above)."
+            }
         )
     };
     sections.push(Section {
@@ -487,7 +520,8 @@ fn page(
 
     // Any other study metrics.json carries, so that nothing it holds goes unshown.
     let placed = ["table2", "table3", "error_budget", "drift_sweep"];
-    let others: Vec<&(&'static str, crate::tables::Table)> = results.iter().filter(|(n, _)| !placed.contains(n)).collect();
+    let others: Vec<&(&'static str, crate::tables::Table)> =
+        results.iter().filter(|(n, _)| !placed.contains(n)).collect();
     if !others.is_empty() {
         let mut body = String::new();
         for (n, t) in others {
@@ -517,9 +551,15 @@ fn page(
                 "as a share of Model-H's RMSE".into(),
                 (0..3).map(|c| format!("{} %", num(100.0 * p.max_diff_over_rmse[c], 4))).collect::<Vec<_>>().join(", "),
             ),
-            ("max relative band difference".into(), p.max_band_rel_diff.iter().map(|v| format!("{v:.2e}")).collect::<Vec<_>>().join(", ")),
+            (
+                "max relative band difference".into(),
+                p.max_band_rel_diff.iter().map(|v| format!("{v:.2e}")).collect::<Vec<_>>().join(", "),
+            ),
             ("flag mismatches".into(), p.flag_mismatches.to_string()),
-            ("leverage band gap (kept eigen-directions vs exact)".into(), format!("{:.3e} (largest exact leverage {:.3e})", p.leverage_band_gap, p.leverage_max)),
+            (
+                "leverage band gap (kept eigen-directions vs exact)".into(),
+                format!("{:.3e} (largest exact leverage {:.3e})", p.leverage_band_gap, p.leverage_max),
+            ),
         ];
         sections.push(Section {
             id: "device".into(),
@@ -533,9 +573,18 @@ fn page(
     let mut rows: Vec<(String, String)> = vec![
         ("scenario (preset or TOML name)".into(), m.scenario.clone()),
         ("seed".into(), m.seed.to_string()),
-        ("samples (calibration / hold-out)".into(), format!("{} ({} / {})", count(d.len()), count(d.cal_indices().len()), count(d.holdout_indices().len()))),
-        ("record".into(), format!("{} s sampling, {} days", num(dt, 3), num((d.t_s[d.len() - 1] - d.t_s[0]) / 86_400.0, 2))),
-        ("trainer version (metrics.json / model.fbgm / this report)".into(), format!("{} / {} / {}", m.trainer_version, pr.trainer_version, env!("CARGO_PKG_VERSION"))),
+        (
+            "samples (calibration / hold-out)".into(),
+            format!("{} ({} / {})", count(d.len()), count(d.cal_indices().len()), count(d.holdout_indices().len())),
+        ),
+        (
+            "record".into(),
+            format!("{} s sampling, {} days", num(dt, 3), num((d.t_s[d.len() - 1] - d.t_s[0]) / 86_400.0, 2)),
+        ),
+        (
+            "trainer version (metrics.json / model.fbgm / this report)".into(),
+            format!("{} / {} / {}", m.trainer_version, pr.trainer_version, env!("CARGO_PKG_VERSION")),
+        ),
         ("models trained on".into(), date(pr.date_yyyymmdd)),
         ("calibration samples recorded in the model".into(), count(pr.n_cal as usize)),
         (
@@ -565,15 +614,96 @@ fn page(
         let s = &meta.scenario;
         let on = |b: bool| if b { "on" } else { "off" };
         let srows: Vec<(String, String)> = vec![
-            ("clock".into(), format!("{} days at {} s, calibration fraction {}", num(s.clock.days, 2), num(s.clock.dt_s, 1), num(s.clock.cal_fraction, 2))),
-            ("temperature".into(), format!("mean {} °C, diurnal ±{} °C, weekly ±{} °C, seasonal ±{} °C, AR σ {} °C", num(s.temperature.mean_c, 1), num(s.temperature.diurnal_amp_c, 1), num(s.temperature.weekly_amp_c, 1), num(s.temperature.seasonal_amp_c, 1), num(s.temperature.ar_sigma_c, 2))),
-            ("strain".into(), format!("levels {} … {} µε held {} s, sines ±{} / ±{} µε, AR σ {} µε", num(s.strain.level_lo_ue, 0), num(s.strain.level_hi_ue, 0), num(s.strain.hold_s, 0), num(s.strain.sine1_amp_ue, 0), num(s.strain.sine2_amp_ue, 0), num(s.strain.ar_sigma_ue, 1))),
-            ("pressure".into(), format!("mean {} kPa, sines ±{} / ±{} kPa, AR σ {} kPa", num(s.pressure.mean_kpa, 0), num(s.pressure.sine1_amp_kpa, 1), num(s.pressure.sine2_amp_kpa, 1), num(s.pressure.ar_sigma_kpa, 2))),
-            ("hysteresis (Eq. 9 + play)".into(), format!("{}: β {}, γ {}, ρ {}, play ±{} pm", on(s.hysteresis.enabled), s.hysteresis.beta, s.hysteresis.gamma, s.hysteresis.rho, s.hysteresis.play_half_width_pm)),
-            ("scan nonlinearity".into(), format!("{}: ripple {} pm per {} nm, bow {} pm", on(s.scan.enabled), s.scan.ripple_amp_pm, s.scan.ripple_period_nm, s.scan.bow_pm)),
-            ("drift (Eq. 8)".into(), format!("{}: σ_d {} pm per step, channel gains {:?}", on(s.drift.enabled), s.drift.sigma_pm, s.drift.channel_gain)),
-            ("electronics drift".into(), format!("{}: {} pm/°C, {} pm/°C²", on(s.electronics.enabled), s.electronics.lin_pm_per_c, s.electronics.quad_pm_per_c2)),
-            ("noise".into(), format!("{}: pink σ {} pm, white σ {} pm", on(s.noise.enabled), s.noise.pink_sigma_pm, s.noise.white_sigma_pm)),
+            (
+                "clock".into(),
+                format!(
+                    "{} days at {} s, calibration fraction {}",
+                    num(s.clock.days, 2),
+                    num(s.clock.dt_s, 1),
+                    num(s.clock.cal_fraction, 2)
+                ),
+            ),
+            (
+                "temperature".into(),
+                format!(
+                    "mean {} °C, diurnal ±{} °C, weekly ±{} °C, seasonal ±{} °C, AR σ {} °C",
+                    num(s.temperature.mean_c, 1),
+                    num(s.temperature.diurnal_amp_c, 1),
+                    num(s.temperature.weekly_amp_c, 1),
+                    num(s.temperature.seasonal_amp_c, 1),
+                    num(s.temperature.ar_sigma_c, 2)
+                ),
+            ),
+            (
+                "strain".into(),
+                format!(
+                    "levels {} … {} µε held {} s, sines ±{} / ±{} µε, AR σ {} µε",
+                    num(s.strain.level_lo_ue, 0),
+                    num(s.strain.level_hi_ue, 0),
+                    num(s.strain.hold_s, 0),
+                    num(s.strain.sine1_amp_ue, 0),
+                    num(s.strain.sine2_amp_ue, 0),
+                    num(s.strain.ar_sigma_ue, 1)
+                ),
+            ),
+            (
+                "pressure".into(),
+                format!(
+                    "mean {} kPa, sines ±{} / ±{} kPa, AR σ {} kPa",
+                    num(s.pressure.mean_kpa, 0),
+                    num(s.pressure.sine1_amp_kpa, 1),
+                    num(s.pressure.sine2_amp_kpa, 1),
+                    num(s.pressure.ar_sigma_kpa, 2)
+                ),
+            ),
+            (
+                "hysteresis (Eq. 9 + play)".into(),
+                format!(
+                    "{}: β {}, γ {}, ρ {}, play ±{} pm",
+                    on(s.hysteresis.enabled),
+                    s.hysteresis.beta,
+                    s.hysteresis.gamma,
+                    s.hysteresis.rho,
+                    s.hysteresis.play_half_width_pm
+                ),
+            ),
+            (
+                "scan nonlinearity".into(),
+                format!(
+                    "{}: ripple {} pm per {} nm, bow {} pm",
+                    on(s.scan.enabled),
+                    s.scan.ripple_amp_pm,
+                    s.scan.ripple_period_nm,
+                    s.scan.bow_pm
+                ),
+            ),
+            (
+                "drift (Eq. 8)".into(),
+                format!(
+                    "{}: σ_d {} pm per step, channel gains {:?}",
+                    on(s.drift.enabled),
+                    s.drift.sigma_pm,
+                    s.drift.channel_gain
+                ),
+            ),
+            (
+                "electronics drift".into(),
+                format!(
+                    "{}: {} pm/°C, {} pm/°C²",
+                    on(s.electronics.enabled),
+                    s.electronics.lin_pm_per_c,
+                    s.electronics.quad_pm_per_c2
+                ),
+            ),
+            (
+                "noise".into(),
+                format!(
+                    "{}: pink σ {} pm, white σ {} pm",
+                    on(s.noise.enabled),
+                    s.noise.pink_sigma_pm,
+                    s.noise.white_sigma_pm
+                ),
+            ),
         ];
         body.push_str("<h3>Scenario</h3>\n");
         body.push_str(&html::facts(&srows));
@@ -583,7 +713,9 @@ fn page(
     sections.push(Section { id: "provenance".into(), title: "Provenance and scenario".into(), body });
 
     // Files.
-    let mut body = String::from("<p>Everything in this report, beside this page (no network access is needed to view it):</p>\n<ul>\n");
+    let mut body = String::from(
+        "<p>Everything in this report, beside this page (no network access is needed to view it):</p>\n<ul>\n",
+    );
     for f in &out.files {
         body.push_str(&format!("<li><a href=\"{0}\">{0}</a></li>\n", esc(f)));
     }

@@ -48,10 +48,10 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     // Gains against the paper's claim.
     let gains: Vec<String> = (0..3).map(|c| format!("{} for {}", change(t.gain_pct[c]), NAMES[c])).collect();
     let (lo, hi) = PAPER_GAIN_RANGE_PCT;
-    let paper_gains: Vec<String> =
-        PAPER_TABLE2_RMSE.iter().map(|(p, h)| pct(100.0 * (p - h) / p)).collect();
+    let paper_gains: Vec<String> = PAPER_TABLE2_RMSE.iter().map(|(p, h)| pct(100.0 * (p - h) / p)).collect();
     let below: Vec<String> = (0..3).filter(|&c| t.gain_pct[c] < lo).map(|c| NAMES[c].to_string()).collect();
-    let inside: Vec<String> = (0..3).filter(|&c| (lo..=hi).contains(&t.gain_pct[c])).map(|c| NAMES[c].to_string()).collect();
+    let inside: Vec<String> =
+        (0..3).filter(|&c| (lo..=hi).contains(&t.gain_pct[c])).map(|c| NAMES[c].to_string()).collect();
     let above: Vec<String> = (0..3).filter(|&c| t.gain_pct[c] > hi).map(|c| NAMES[c].to_string()).collect();
     let mut verdict = Vec::new();
     let all = |v: &Vec<String>| v.len() == 3;
@@ -116,7 +116,9 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     }
 
     // Coverage.
-    let cov = |e: &crate::evaluate::ModelEval| -> Vec<String> { (0..3).map(|c| pct(100.0 * e.channels[c].coverage)).collect() };
+    let cov = |e: &crate::evaluate::ModelEval| -> Vec<String> {
+        (0..3).map(|c| pct(100.0 * e.channels[c].coverage)).collect()
+    };
     let (clo, chi) = COVERAGE_OK_PCT;
     let mut judge = Vec::new();
     // Judged on the value as shown (one decimal), so a coverage printed as 93.0 % is never
@@ -156,9 +158,18 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     // Drift sweep.
     if let Some(s) = &m.drift_sweep {
         let slopes: Vec<String> = (0..3)
-            .map(|c| format!("{} vs {} {} per pm/step for {}", num(s.slope_p[c], DIGITS[c]), num(s.slope_h[c], DIGITS[c]), UNITS[c], NAMES[c]))
+            .map(|c| {
+                format!(
+                    "{} vs {} {} per pm/step for {}",
+                    num(s.slope_p[c], DIGITS[c]),
+                    num(s.slope_h[c], DIGITS[c]),
+                    UNITS[c],
+                    NAMES[c]
+                )
+            })
             .collect();
-        let shallower: Vec<String> = (0..3).filter(|&c| s.slope_h[c] < s.slope_p[c]).map(|c| NAMES[c].to_string()).collect();
+        let shallower: Vec<String> =
+            (0..3).filter(|&c| s.slope_h[c] < s.slope_p[c]).map(|c| NAMES[c].to_string()).collect();
         out.push(format!(
             "Drift sweep (σ_d × {}, both models refitted each time): the slope of hold-out RMSE against σ_d is {} (Model-P vs Model-H). The paper reports a shallower slope for the hybrid; here Model-H's slope is shallower {}.",
             s.factors.iter().map(|f| num(*f, 1)).collect::<Vec<_>>().join(", "),
@@ -193,7 +204,8 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     // Error budget: the artefact whose removal helps Model-H most.
     if let Some(rows) = &m.error_budget {
         if let Some(full) = rows.iter().find(|r| r.effect_off == "none") {
-            let single: Vec<&crate::study::BudgetRow> = rows.iter().filter(|r| r.effect_off != "none" && r.effect_off != "all").collect();
+            let single: Vec<&crate::study::BudgetRow> =
+                rows.iter().filter(|r| r.effect_off != "none" && r.effect_off != "all").collect();
             let worst: Vec<String> = (0..3)
                 .filter_map(|c| {
                     let r = single.iter().min_by(|a, b| a.rmse_h[c].total_cmp(&b.rmse_h[c]))?;

@@ -59,8 +59,8 @@ pub fn scan_nonlinearity(shift_pm: &[f64], nominal_nm: f64, phase_rad: f64, cfg:
         .iter()
         .map(|&s| {
             let lambda_nm = nominal_nm + s * 1e-3;
-            let ripple = cfg.ripple_amp_pm
-                * libm::sin(std::f64::consts::TAU * lambda_nm / cfg.ripple_period_nm + phase_rad);
+            let ripple =
+                cfg.ripple_amp_pm * libm::sin(std::f64::consts::TAU * lambda_nm / cfg.ripple_period_nm + phase_rad);
             let u = (lambda_nm - cfg.bow_centre_nm) / cfg.bow_half_span_nm;
             ripple + cfg.bow_pm * u * u
         })

@@ -48,8 +48,7 @@ pub fn load_steps(cfg: &Strain, t_s: &[f64], seed: u64) -> Vec<f64> {
     let mut rng = Rng::new(seed, Stream::LoadLevels);
     let t_end = t_s.last().copied().unwrap_or(0.0);
     let n_levels = (t_end / cfg.hold_s).floor() as usize + 2;
-    let levels: Vec<f64> =
-        (0..n_levels).map(|_| rng.uniform_in(cfg.level_lo_ue, cfg.level_hi_ue)).collect();
+    let levels: Vec<f64> = (0..n_levels).map(|_| rng.uniform_in(cfg.level_lo_ue, cfg.level_hi_ue)).collect();
     t_s.iter()
         .map(|&t| {
             let k = ((t / cfg.hold_s).floor() as usize).min(n_levels - 1);

@@ -12,7 +12,11 @@ pub fn bin() -> Command {
 /// Run `cmd`: (success, stdout, stderr).
 pub fn run(cmd: &mut Command) -> (bool, String, String) {
     let o = cmd.output().unwrap();
-    (o.status.success(), String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
 }
 
 /// A short simulated record (3 days, 4320 rows) in `dir`.

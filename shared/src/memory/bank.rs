@@ -1,7 +1,8 @@
 //! Every memory operator of a model over one sample stream.
 
 use crate::layout::{
-    N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS, N_STAGE1, MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP,
+    MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP, N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS,
+    N_STAGE1,
 };
 use crate::memory::{DriftObserver, LowPass, MemorySpec, Play};
 use crate::real::Real;
@@ -256,7 +257,11 @@ impl<F: Real> MemoryBank<F> {
             k += N_GRATINGS;
         }
         for (k, (((lp, &on), &a), si)) in (MEM_AMBIENT..).zip(
-            self.ambient_lp.iter().zip(self.ambient_on.iter()).zip(self.alpha_ambient.iter()).zip(st.ambient.iter_mut()),
+            self.ambient_lp
+                .iter()
+                .zip(self.ambient_on.iter())
+                .zip(self.alpha_ambient.iter())
+                .zip(st.ambient.iter_mut()),
         ) {
             if on {
                 sink(k, t_amb_c - lp.update(si, t_amb_c, a));

@@ -117,7 +117,9 @@ mod tests {
         for (lag, smooth, dt) in [(600.0, 3600.0, 60.0), (600.0, 3600.0, 10.0), (300.0, 1800.0, 60.0)] {
             let bound = max_rate * dt / 2.0;
             let worst = run(lag, smooth, dt, 5.0 * (lag + smooth), bound);
-            std::eprintln!("drift observer τl {lag} s, τs {smooth} s, dt {dt} s: worst error {worst:.1e} °C (bound {bound:.1e})");
+            std::eprintln!(
+                "drift observer τl {lag} s, τs {smooth} s, dt {dt} s: worst error {worst:.1e} °C (bound {bound:.1e})"
+            );
             assert!(worst < bound, "{worst} >= {bound}");
         }
     }

@@ -139,7 +139,8 @@ mod tests {
                 assert!(s.abs() <= hw + ulp(x.abs().max(hw)), "r = {hw}, x = {x}: stop {s}");
                 let x32 = x as f32;
                 let s32 = op32.stop(&mut p32, x32);
-                let tol32 = f64::from(f32::from_bits(x32.abs().max(hw as f32).to_bits() + 1) - x32.abs().max(hw as f32));
+                let tol32 =
+                    f64::from(f32::from_bits(x32.abs().max(hw as f32).to_bits() + 1) - x32.abs().max(hw as f32));
                 assert!(f64::from(s32.abs()) <= f64::from(hw as f32) + tol32, "f32 r = {hw}, x = {x32}: stop {s32}");
             }
         }

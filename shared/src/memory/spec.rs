@@ -4,8 +4,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
 use crate::layout::{
-    N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS, N_STAGE1, MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER,
-    MEM_STOP,
+    MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP, N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS,
+    N_STAGE1,
 };
 use crate::real::Real;
 
@@ -185,14 +185,39 @@ mod tests {
     #[test]
     fn terms_follow_the_layout() {
         let s = spec();
-        let active: [usize; 15] = [0, 1, 2, 6, 7, 8, 15, 16, 17, MEM_AMBIENT + 1, MEM_STOP + 6, MEM_STOP + 7, MEM_STOP + 8, MEM_OBSERVER, MEM_OBSERVER];
+        let active: [usize; 15] = [
+            0,
+            1,
+            2,
+            6,
+            7,
+            8,
+            15,
+            16,
+            17,
+            MEM_AMBIENT + 1,
+            MEM_STOP + 6,
+            MEM_STOP + 7,
+            MEM_STOP + 8,
+            MEM_OBSERVER,
+            MEM_OBSERVER,
+        ];
         for k in 0..N_MEMORY {
             assert_eq!(s.term_active(k), active.contains(&k), "term {k}");
         }
-        assert_eq!(s.term(16), Some(TermInfo { group: MemoryGroup::GratingHighPass, grating: 1, parameter: 604_800.0 }));
-        assert_eq!(s.term(MEM_AMBIENT + 1), Some(TermInfo { group: MemoryGroup::AmbientHighPass, grating: 0, parameter: 600.0 }));
+        assert_eq!(
+            s.term(16),
+            Some(TermInfo { group: MemoryGroup::GratingHighPass, grating: 1, parameter: 604_800.0 })
+        );
+        assert_eq!(
+            s.term(MEM_AMBIENT + 1),
+            Some(TermInfo { group: MemoryGroup::AmbientHighPass, grating: 0, parameter: 600.0 })
+        );
         assert_eq!(s.term(MEM_STOP + 8), Some(TermInfo { group: MemoryGroup::Stop, grating: 2, parameter: 7.5 }));
-        assert_eq!(s.term(MEM_OBSERVER), Some(TermInfo { group: MemoryGroup::DriftObserver, grating: 0, parameter: 1800.0 }));
+        assert_eq!(
+            s.term(MEM_OBSERVER),
+            Some(TermInfo { group: MemoryGroup::DriftObserver, grating: 0, parameter: 1800.0 })
+        );
         assert_eq!(s.term(N_MEMORY), None);
         assert!(s.any());
         // The observer is used only with a lag; its smoothing alone does not switch it on.

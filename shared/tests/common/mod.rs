@@ -57,12 +57,7 @@ pub fn hyper(feature_set: FeatureSet) -> Hyper<f32> {
 
 /// A valid, well-conditioned random model with `n` centres (n <= K). Inputs it is meant for:
 /// Δλ in ±50 pm, T_amb in 0..40 °C, t in 0..1000 s; the envelope is ±60 pm, −5..45 °C.
-pub fn model<const K: usize>(
-    n: usize,
-    seed: u64,
-    fs: FeatureSet,
-    prov: Provenance,
-) -> ModelParams<f32, K> {
+pub fn model<const K: usize>(n: usize, seed: u64, fs: FeatureSet, prov: Provenance) -> ModelParams<f32, K> {
     let mut r = Rng(seed);
     let mut stage1 = [[0.0f32; N_STAGE1]; N_OUTPUTS];
     for row in stage1.iter_mut() {
