@@ -10,10 +10,11 @@
 use std::time::Instant;
 
 use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
+use fbg_shared::Estimate;
 
 use crate::dataset::Dataset;
 use crate::error::TrainerError;
-use crate::evaluate::{evaluate_holdout, ModelEval};
+use crate::evaluate::{evaluate_holdout, ModelEval, CHANNELS};
 use crate::export;
 use crate::fit::{self, Config, Origin, TrainOptions};
 use crate::parity::{self, ParityReport};
@@ -82,13 +83,15 @@ pub fn median(xs: &[f64]) -> f64 {
 }
 
 /// Read `data`, fit `repeats` times with `opts` on `threads` worker threads (0: rayon's
-/// default), evaluate the last fit on the hold-out.
+/// default), evaluate the last fit on the hold-out (and write Model-H's per-sample errors and
+/// band to `holdout_errors` when given).
 pub fn bench_fit(
     data: &std::path::Path,
     opts: &TrainOptions,
     mode: &'static str,
     repeats: usize,
     threads: usize,
+    holdout_errors: Option<&std::path::Path>,
 ) -> Result<FitBench, TrainerError> {
     let t = Instant::now();
     let d = Dataset::read_csv(data)?;
@@ -125,7 +128,10 @@ pub fn bench_fit(
         .unwrap_or_default();
     let tr = fits.pop().ok_or_else(|| TrainerError::fit("no fit ran"))?;
     let (ep, _) = evaluate_holdout(&tr.model_p, &d)?;
-    let (eh, _) = evaluate_holdout(&tr.model_h, &d)?;
+    let (eh, esth) = evaluate_holdout(&tr.model_h, &d)?;
+    if let Some(path) = holdout_errors {
+        write_holdout_errors(path, &d, &esth)?;
+    }
     Ok(FitBench {
         mode,
         n_samples: d.len(),
@@ -192,6 +198,10 @@ pub struct BenchFitArgs {
     /// Print the figures as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Also write Model-H's per-sample hold-out errors and 95 % band half-widths to this CSV
+    /// (`t_s`, `err_<channel>`, `band_<channel>`), for band-coverage studies across seeds.
+    #[arg(long)]
+    pub holdout_errors: Option<std::path::PathBuf>,
 }
 
 impl BenchFitArgs {
@@ -229,8 +239,34 @@ impl BenchFitArgs {
     /// Run the benchmark.
     pub fn run(&self) -> Result<FitBench, TrainerError> {
         let (opts, mode) = self.options()?;
-        bench_fit(&self.data, &opts, mode, self.repeats, self.threads)
+        bench_fit(&self.data, &opts, mode, self.repeats, self.threads, self.holdout_errors.as_deref())
     }
+}
+
+/// Model-H's hold-out errors (estimate − truth) and band half-widths, one row per scored sample.
+fn write_holdout_errors(path: &std::path::Path, d: &Dataset, est: &[Estimate<f64>]) -> Result<(), TrainerError> {
+    use std::io::Write;
+    let idx: Vec<usize> = d.holdout_indices().into_iter().filter(|&i| d.usable(i)).collect();
+    crate::dataset::write_atomically(path, |w| {
+        write!(w, "t_s")?;
+        for name in ["err", "band"] {
+            for ch in CHANNELS {
+                write!(w, ",{name}_{ch}")?;
+            }
+        }
+        writeln!(w)?;
+        for (e, &i) in est.iter().zip(&idx) {
+            write!(w, "{}", d.t_s[i])?;
+            for c in 0..N_OUTPUTS {
+                write!(w, ",{}", e.values[c] - d.target(c)[i])?;
+            }
+            for c in 0..N_OUTPUTS {
+                write!(w, ",{}", e.band95[c])?;
+            }
+            writeln!(w)?;
+        }
+        Ok(())
+    })
 }
 
 impl FitBench {
