@@ -2,7 +2,7 @@
 //! audit file `coefficients.json`, and golden vectors for the firmware's QEMU test.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use fbg_shared::layout::{FeatureSet, N_OUTPUTS, POLY_NAMES, Z_NAMES};
 use fbg_shared::{blob, Compensator, ModelParams};
@@ -198,7 +198,23 @@ pub fn memory_json(p: &HostParams) -> serde_json::Value {
     })
 }
 
-/// `coefficients.json`: both models with every number a metrologist audits.
+/// The audit sidecar of the model blob `model`: `<stem>.coefficients.json` beside it, so models
+/// trained into one directory never overwrite each other's coefficients (as `fleet` names them).
+pub fn coefficients_path(model: &Path) -> PathBuf {
+    sidecar(model, "coefficients.json")
+}
+
+/// Where `evaluate` writes the metrics of the model blob `model`: `<stem>.metrics.json` beside it.
+pub fn metrics_path(model: &Path) -> PathBuf {
+    sidecar(model, "metrics.json")
+}
+
+fn sidecar(model: &Path, suffix: &str) -> PathBuf {
+    let stem = model.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into());
+    model.with_file_name(format!("{stem}.{suffix}"))
+}
+
+/// `<stem>.coefficients.json`: both models with every number a metrologist audits.
 pub fn write_coefficients(
     path: &Path,
     model_p: &HostParams,

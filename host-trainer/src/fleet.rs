@@ -110,7 +110,7 @@ impl Group {
     }
     /// `<stem>.coefficients.json`.
     pub fn coefficients_path(&self) -> PathBuf {
-        self.out.with_file_name(format!("{}.coefficients.json", self.stem()))
+        crate::export::coefficients_path(&self.out)
     }
     /// `<stem>.fleet.json`: the record that the group finished.
     pub fn sidecar_path(&self) -> PathBuf {

@@ -71,7 +71,7 @@ enum Cmd {
         dump_config: Option<PathBuf>,
     },
     /// Fit Model-P and Model-H on the calibration part of a CSV; write the Model-H blob, the
-    /// Model-P blob beside it (`<stem>-p.fbgm`) and `coefficients.json`.
+    /// Model-P blob beside it (`<stem>-p.fbgm`) and `<stem>.coefficients.json`.
     Train {
         /// Dataset CSV (DESIGN §3 columns, e.g. from `simulate` or `import`); its `.meta.json`
         /// sidecar, when present, gives the provenance.
@@ -84,7 +84,7 @@ enum Cmd {
         #[arg(long, default_value_t = 32)]
         max_centres: usize,
         /// Model-H blob; Model-P goes beside it as `<stem>-p.fbgm`, the coefficients as
-        /// `coefficients.json` in the same directory (created when missing).
+        /// `<stem>.coefficients.json` in the same directory (created when missing).
         #[arg(long, default_value = "model.fbgm")]
         out: PathBuf,
         /// Print a JSON summary (outputs, sizes, chosen hyper-parameters, CV RMSE) on stdout.
@@ -92,7 +92,7 @@ enum Cmd {
         json: bool,
     },
     /// Evaluate models on the hold-out of a CSV: Table 2 and Table 3 (and, for simulated data
-    /// with a `.meta.json`, the per-sample oracle, drift sweep and error budget); writes metrics.json.
+    /// with a `.meta.json`, the per-sample oracle, drift sweep and error budget); writes `<model stem>.metrics.json`.
     Evaluate {
         /// Dataset CSV whose hold-out rows are scored (its `.meta.json`, when present, adds the
         /// per-sample oracle and the studies that re-simulate).
@@ -104,7 +104,7 @@ enum Cmd {
         /// Model-P blob (default: `<model stem>-p.fbgm` beside the model).
         #[arg(long)]
         baseline: Option<PathBuf>,
-        /// Where to write metrics.json (default: beside the model).
+        /// Where to write the metrics [default: `<model stem>.metrics.json` beside the model].
         #[arg(long)]
         metrics: Option<PathBuf>,
         /// Skip the studies that retrain (Table 3, drift sweep, error budget).
@@ -166,7 +166,7 @@ enum Cmd {
         out: PathBuf,
     },
     /// Regenerate the audit report (figures, tables, coefficient tables, index.html) in DIR from
-    /// the data.csv (+ data.meta.json), model.fbgm, model-p.fbgm and metrics.json there, or from
+    /// the data.csv (+ data.meta.json), model.fbgm, model-p.fbgm and model.metrics.json there, or from
     /// the files named by --data, --model, --model-p and --metrics.
     Report {
         /// The directory read and written (as `demo --out` left it).
@@ -181,7 +181,8 @@ enum Cmd {
         /// Model-P blob [default: <model stem>-p.fbgm beside --model, else DIR/model-p.fbgm].
         #[arg(long)]
         model_p: Option<PathBuf>,
-        /// The metrics written by evaluate [default: DIR/metrics.json].
+        /// The metrics written by evaluate [default: `<model stem>.metrics.json` beside --model, else
+        /// DIR/model.metrics.json].
         #[arg(long)]
         metrics: Option<PathBuf>,
         /// Print the files written, warnings and notes as JSON on stdout.
@@ -317,7 +318,7 @@ fn run() -> Result<()> {
             Ok(())
         }
         Cmd::Train { data, features, max_centres, out, json } => {
-            let (base, coef) = (baseline_path(&out), out.with_file_name("coefficients.json"));
+            let (base, coef) = (baseline_path(&out), export::coefficients_path(&out));
             check_outputs(&[&out, &base, &coef], &[&data, &meta_path(&data)])?;
             let d = Dataset::read_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
@@ -367,7 +368,7 @@ fn run() -> Result<()> {
         }
         Cmd::Evaluate { data, model, baseline, metrics, quick, json } => {
             let base = baseline.unwrap_or_else(|| baseline_path(&model));
-            let out = metrics.unwrap_or_else(|| model.with_file_name("metrics.json"));
+            let out = metrics.unwrap_or_else(|| export::metrics_path(&model));
             check_outputs(&[&out], &[&data, &meta_path(&data), &model, &base])?;
             let d = Dataset::read_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
@@ -415,9 +416,9 @@ fn run() -> Result<()> {
             let model_p = model_p.or_else(|| model.as_deref().map(baseline_path)).unwrap_or(d.model_p);
             let paths = report::InputPaths {
                 data: data.unwrap_or(d.data),
-                model_h: model.unwrap_or(d.model_h),
+                model_h: model.clone().unwrap_or(d.model_h),
                 model_p,
-                metrics: metrics.unwrap_or(d.metrics),
+                metrics: metrics.or_else(|| model.as_deref().map(export::metrics_path)).unwrap_or(d.metrics),
             };
             let o =
                 report::build_from(&out, &paths).with_context(|| format!("writing the report in {}", out.display()))?;
@@ -755,17 +756,21 @@ fn demo(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     let nh = export::write_blob(&model, &tr.model_h)?;
     let np = export::write_blob(&baseline_path(&model), &tr.model_p)?;
     export::write_coefficients(
-        &out.join("coefficients.json"),
+        &export::coefficients_path(&model),
         &tr.model_p,
         &tr.model_h,
         &tr.core,
         Some(&tr.selection),
     )?;
-    write_metrics(&out.join("metrics.json"), &m)?;
+    write_metrics(&export::metrics_path(&model), &m)?;
     let hold = s.data.holdout_indices();
     let idx: Vec<usize> = hold.into_iter().take(1000).collect();
     export::write_golden(&out.join("golden"), &tr.model_h, &s.data, &idx, m.table2.model_h.channels.map(|c| c.rmse))?;
-    log(&format!("wrote model.fbgm ({nh} B), model-p.fbgm ({np} B), coefficients.json, metrics.json, golden vectors"));
+    log(&format!(
+        "wrote model.fbgm ({nh} B), model-p.fbgm ({np} B), {}, {}, golden vectors",
+        report::COEFFICIENTS_JSON,
+        report::METRICS_JSON
+    ));
     // The report reads back exactly what `fbg-trainer report` would, so the two never differ.
     let r = report::build(out).context("writing the report")?;
     log(&format!(

@@ -305,7 +305,7 @@ fn evaluate_prints_flags_per_flag_and_warns_when_model_h_is_worse() {
             "{err}"
         );
         let m: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(d.path().join("metrics.json")).unwrap()).unwrap();
+            serde_json::from_str(&std::fs::read_to_string(d.path().join("model.metrics.json")).unwrap()).unwrap();
         let worse: Vec<usize> = (0..3).filter(|&c| m["table2"]["gain_pct"][c].as_f64().unwrap() < 0.0).collect();
         let warning = err.lines().find(|l| l.starts_with("warning: Model-H is worse than Model-P"));
         assert_eq!(warning.is_some(), !worse.is_empty(), "seed {seed}: gains {} but: {err}", m["table2"]["gain_pct"]);
@@ -358,7 +358,7 @@ fn the_summary_judges_coverage_as_shown() {
     assert!(ok, "{err}");
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out.join("model.metrics.json")).unwrap()).unwrap();
     let names = ["temperature", "strain", "pressure"];
     let start = html.find("Counting 93–97 % as on target:").expect("coverage sentence");
     let sentence = &html[start..start + html[start..].find('.').unwrap()];
@@ -390,7 +390,7 @@ fn report_names_every_missing_input_at_once() {
     assert!(csv.ends_with("data.csv"));
     let (ok, _, err) = run(bin().args(["report", "--out"]).arg(d.path()));
     assert!(!ok);
-    for f in ["model.fbgm", "model-p.fbgm", "metrics.json"] {
+    for f in ["model.fbgm", "model-p.fbgm", "model.metrics.json"] {
         assert!(err.contains(f), "{f} not named: {err}");
     }
     assert!(!err.contains("missing data.csv"), "{err}");
@@ -540,7 +540,7 @@ fn report_reads_the_inputs_named_by_its_options() {
         ("data.meta.json", "rec.meta.json"),
         ("model.fbgm", "h.fbgm"),
         ("model-p.fbgm", "h-p.fbgm"),
-        ("metrics.json", "h.metrics.json"),
+        ("model.metrics.json", "h.metrics.json"),
     ] {
         std::fs::copy(demo.join(from), inp.join(to)).unwrap();
     }
@@ -552,9 +552,7 @@ fn report_reads_the_inputs_named_by_its_options() {
         .arg("--data")
         .arg(inp.join("rec.csv"))
         .arg("--model")
-        .arg(inp.join("h.fbgm"))
-        .arg("--metrics")
-        .arg(inp.join("h.metrics.json")));
+        .arg(inp.join("h.fbgm")));
     assert!(ok, "{err}");
     let o: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(o["warnings"].as_array().map(Vec::len), Some(0), "{stdout}");

@@ -104,7 +104,7 @@ fn train_evaluate_inspect_round_trip_on_a_short_scenario() {
     assert!(ok, "{err}");
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert!(j["chosen"]["k"].as_u64().unwrap() <= 16);
-    assert!(d.path().join("model-p.fbgm").exists() && d.path().join("coefficients.json").exists());
+    assert!(d.path().join("model-p.fbgm").exists() && d.path().join("model.coefficients.json").exists());
     let (ok, out, err) = run(bin().args(["inspect", "--json"]).arg(&model));
     assert!(ok, "{err}");
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
@@ -114,7 +114,7 @@ fn train_evaluate_inspect_round_trip_on_a_short_scenario() {
     let (ok, _, err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(&csv).arg("--model").arg(&model));
     assert!(ok, "{err}");
     let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(d.path().join("metrics.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("model.metrics.json")).unwrap()).unwrap();
     assert!(m["table2"]["model_h"]["channels"][1]["rmse"].as_f64().unwrap() > 0.0);
     assert!(m["table2"]["oracle_floor"].is_array(), "the sidecar gives the oracle floor");
 }

@@ -45,7 +45,7 @@ fn train_onto_a_fifo_is_refused_before_the_fit() {
     assert!(err.contains("model.fbgm") && err.contains("not a regular file"), "{err}");
     assert!(!err.contains("trained"), "refused before the fit: {err}");
     assert!(is_fifo(&fifo));
-    assert!(!d.path().join("model-p.fbgm").exists() && !d.path().join("coefficients.json").exists());
+    assert!(!d.path().join("model-p.fbgm").exists() && !d.path().join("model.coefficients.json").exists());
 }
 
 #[test]
@@ -216,4 +216,32 @@ fn recalibrate_never_writes_a_channel_its_check_scores_worse_without_allow_worse
             && !err.contains("CoreAndMemory"),
         "{err}"
     );
+}
+
+#[test]
+fn sidecars_are_named_after_the_model_so_two_models_in_one_directory_keep_theirs() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let (a, b) = (d.path().join("pier-a.fbgm"), d.path().join("pier-b.fbgm"));
+    for (model, k) in [(&a, "8"), (&b, "4")] {
+        let (ok, _, err) = run(bin().args(["train", "--max-centres", k, "--data"]).arg(&csv).arg("--out").arg(model));
+        assert!(ok, "{err}");
+        let (ok, _, err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(&csv).arg("--model").arg(model));
+        assert!(ok, "{err}");
+    }
+    let read = |f: &str| std::fs::read_to_string(d.path().join(f)).unwrap();
+    for stem in ["pier-a", "pier-b"] {
+        for kind in ["coefficients", "metrics"] {
+            assert!(d.path().join(format!("{stem}.{kind}.json")).is_file(), "{stem}.{kind}.json missing");
+        }
+    }
+    assert!(!d.path().join("coefficients.json").exists() && !d.path().join("metrics.json").exists());
+    // Each model keeps its own numbers: the RBF capacities differ.
+    assert_ne!(read("pier-a.coefficients.json"), read("pier-b.coefficients.json"));
+    assert_ne!(read("pier-a.metrics.json"), read("pier-b.metrics.json"));
+    // `report --model` finds that model's metrics beside it without --metrics.
+    let out = d.path().join("rep");
+    let (ok, _, err) = run(bin().args(["report", "--out"]).arg(&out).arg("--data").arg(&csv).arg("--model").arg(&b));
+    assert!(ok, "{err}");
+    assert!(out.join("index.html").is_file());
 }

@@ -39,7 +39,7 @@ fn fixture() -> &'static Path {
         let (tr, m) = study::run_all(&s, &opts, Studies::ALL, &|_| {}).unwrap();
         export::write_blob(&dir.path().join("model.fbgm"), &tr.model_h).unwrap();
         export::write_blob(&dir.path().join("model-p.fbgm"), &tr.model_p).unwrap();
-        std::fs::write(dir.path().join("metrics.json"), serde_json::to_string_pretty(&m).unwrap()).unwrap();
+        std::fs::write(dir.path().join(report::METRICS_JSON), serde_json::to_string_pretty(&m).unwrap()).unwrap();
         dir
     })
     .path()
@@ -48,7 +48,7 @@ fn fixture() -> &'static Path {
 /// A copy of the fixture's inputs in a fresh directory.
 fn copy_inputs() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    for f in ["data.csv", "data.meta.json", "model.fbgm", "model-p.fbgm", "metrics.json"] {
+    for f in ["data.csv", "data.meta.json", "model.fbgm", "model-p.fbgm", report::METRICS_JSON] {
         std::fs::copy(fixture().join(f), dir.path().join(f)).unwrap();
     }
     dir
@@ -188,7 +188,7 @@ fn a_changed_metric_changes_the_tables_and_the_page() {
     let before_md = std::fs::read_to_string(dir.path().join("table2.md")).unwrap();
     assert!(!before.contains("Check failed"));
 
-    let path = dir.path().join("metrics.json");
+    let path = dir.path().join(report::METRICS_JSON);
     let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     set(&mut v, &["table2", "model_h", "channels", "1", "rmse"], 1.2345);
     set(&mut v, &["table2", "gain_pct", "1"], 41.76);
@@ -216,11 +216,12 @@ fn a_changed_metric_changes_the_tables_and_the_page() {
     assert!(o.warnings.iter().any(|w| w.contains("strain RMSE")), "{:?}", o.warnings);
     assert!(o.warnings.iter().any(|w| w.contains("gains disagree")), "{:?}", o.warnings);
     // The old gain is gone from the summary.
-    let old: f64 =
-        serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(fixture().join("metrics.json")).unwrap())
-            .unwrap()["table2"]["gain_pct"][1]
-            .as_f64()
-            .unwrap();
+    let old: f64 = serde_json::from_str::<serde_json::Value>(
+        &std::fs::read_to_string(fixture().join(report::METRICS_JSON)).unwrap(),
+    )
+    .unwrap()["table2"]["gain_pct"][1]
+        .as_f64()
+        .unwrap();
     let stale = format!("{} % lower for strain", figures::num(old, 1));
     assert!(before.contains(&stale), "the first page should state the original gain: {stale}");
     assert!(!after.contains(&stale), "stale gain {stale}");
@@ -293,7 +294,7 @@ fn hold_out_rows_with_gaps_are_skipped_and_said() {
 
 #[test]
 fn metrics_json_round_trips_through_the_report_reader() {
-    let text = std::fs::read_to_string(fixture().join("metrics.json")).unwrap();
+    let text = std::fs::read_to_string(fixture().join(report::METRICS_JSON)).unwrap();
     let m = load::metrics_from_str(&text, "metrics.json").unwrap();
     let again = serde_json::to_value(&m).unwrap();
     let orig: serde_json::Value = serde_json::from_str(&text).unwrap();
@@ -359,8 +360,9 @@ fn a_million_samples_plot_in_seconds() {
             .collect()
     };
     let (ep, eh) = (est(0.2), est(0.0));
-    let m = load::metrics_from_str(&std::fs::read_to_string(fixture().join("metrics.json")).unwrap(), "metrics.json")
-        .unwrap();
+    let m =
+        load::metrics_from_str(&std::fs::read_to_string(fixture().join(report::METRICS_JSON)).unwrap(), "metrics.json")
+            .unwrap();
     let ctx = figures::Ctx {
         data: &d,
         sim: None,
@@ -426,7 +428,7 @@ fn report_of_a_million_sample_directory() {
     let (tr, m) = study::run_all(&s, &opts, studies, &|_| {}).unwrap();
     export::write_blob(&dir.path().join("model.fbgm"), &tr.model_h).unwrap();
     export::write_blob(&dir.path().join("model-p.fbgm"), &tr.model_p).unwrap();
-    std::fs::write(dir.path().join("metrics.json"), serde_json::to_string_pretty(&m).unwrap()).unwrap();
+    std::fs::write(dir.path().join(report::METRICS_JSON), serde_json::to_string_pretty(&m).unwrap()).unwrap();
     eprintln!("set-up (simulate, CSV, fit, evaluate) took {:.1} s", t.elapsed().as_secs_f64());
     let t = std::time::Instant::now();
     let o = report::build(dir.path()).unwrap();

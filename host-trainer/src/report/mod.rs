@@ -39,7 +39,13 @@ use html::{esc, FigEntry, Section};
 pub const DATA_CSV: &str = "data.csv";
 pub const MODEL_H: &str = "model.fbgm";
 pub const MODEL_P: &str = "model-p.fbgm";
-pub const METRICS_JSON: &str = "metrics.json";
+/// `evaluate`'s and `demo`'s metrics of model.fbgm (`<model stem>.metrics.json`).
+pub const METRICS_JSON: &str = "model.metrics.json";
+/// `train`'s and `demo`'s audit sidecar of model.fbgm (`<model stem>.coefficients.json`).
+pub const COEFFICIENTS_JSON: &str = "model.coefficients.json";
+/// The metrics file name of report directories written before the sidecars were named after
+/// the model; read when [`METRICS_JSON`] is absent.
+pub const LEGACY_METRICS_JSON: &str = "metrics.json";
 /// The page.
 pub const INDEX_HTML: &str = "index.html";
 
@@ -69,13 +75,16 @@ pub struct InputPaths {
 }
 
 impl InputPaths {
-    /// The fixed names in `dir`: data.csv, model.fbgm, model-p.fbgm, metrics.json.
+    /// The fixed names in `dir`: data.csv, model.fbgm, model-p.fbgm, model.metrics.json (or an
+    /// older report's metrics.json when that is the one present).
     pub fn in_dir(dir: &Path) -> Self {
+        let metrics = dir.join(METRICS_JSON);
+        let legacy = dir.join(LEGACY_METRICS_JSON);
         InputPaths {
             data: dir.join(DATA_CSV),
             model_h: dir.join(MODEL_H),
             model_p: dir.join(MODEL_P),
-            metrics: dir.join(METRICS_JSON),
+            metrics: if !metrics.exists() && legacy.is_file() { legacy } else { metrics },
         }
     }
 }
@@ -720,7 +729,7 @@ fn page(
         body.push_str(&format!("<li><a href=\"{0}\">{0}</a></li>\n", esc(f)));
     }
     body.push_str(&format!("<li><a href=\"{INDEX_HTML}\">{INDEX_HTML}</a> (this page)</li>\n"));
-    for f in [DATA_CSV, "data.meta.json", METRICS_JSON, MODEL_H, MODEL_P, "coefficients.json"] {
+    for f in [DATA_CSV, "data.meta.json", METRICS_JSON, MODEL_H, MODEL_P, COEFFICIENTS_JSON] {
         if dir.join(f).is_file() {
             body.push_str(&format!("<li><a href=\"{0}\">{0}</a> (input)</li>\n", f));
         }
