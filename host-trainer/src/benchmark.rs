@@ -166,30 +166,30 @@ pub struct BenchFitArgs {
     /// (the default).
     #[arg(long)]
     pub select: bool,
-    /// --select: the model variant, as `train --features` (memory, hysteresis-aware, latch,
+    /// With --select: the model variant, as `train --features` (memory, hysteresis-aware, latch,
     /// paper, all).
     #[arg(long, value_parser = ["memory", "hysteresis-aware", "latch", "paper", "all"], default_value = "memory")]
     pub features: String,
-    /// --fixed: also fit the memory terms (cross-validated menu, as `train`). Off by default so
+    /// With --fixed: also fit the memory terms (cross-validated menu, as `train`). Off by default so
     /// that the fixed fit is the scikit-learn peer's pipeline, which has no memory terms.
     #[arg(long)]
     pub memory: bool,
-    /// --select: largest number of RBF centres to consider.
+    /// With --select: largest number of RBF centres to consider.
     #[arg(long, default_value_t = 32)]
     pub max_centres: usize,
-    /// --fixed: feature set (paper, hysteresis-aware, hysteresis-aware+time).
+    /// With --fixed: feature set (paper, hysteresis-aware, hysteresis-aware+time).
     #[arg(long, default_value = DEFAULT_FIXED.feature_set.name())]
     pub feature_set: String,
-    /// --fixed: RBF centres K.
+    /// With --fixed: RBF centres K.
     #[arg(long, default_value_t = DEFAULT_FIXED.k)]
     pub k: usize,
-    /// --fixed: σ as a multiple of the median nearest-neighbour distance of the centres.
+    /// With --fixed: σ as a multiple of the median nearest-neighbour distance of the centres.
     #[arg(long, default_value_t = DEFAULT_FIXED.sigma_mult)]
     pub sigma_mult: f64,
-    /// --fixed: ridge penalty per calibration sample (α = alpha_rel · n).
+    /// With --fixed: ridge penalty per calibration sample (α = alpha_rel · n).
     #[arg(long, default_value_t = DEFAULT_FIXED.alpha_rel)]
     pub alpha_rel: f64,
-    /// --fixed: direction-latch dead band [pm].
+    /// With --fixed: direction-latch dead band [pm].
     #[arg(long, default_value_t = DEFAULT_FIXED.dead_band_pm)]
     pub dead_band_pm: f64,
     /// Worker threads (0: one per core).

@@ -305,7 +305,8 @@ fn evaluate_prints_flags_per_flag_and_warns_when_model_h_is_worse() {
             "{err}"
         );
         let m: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(d.path().join("model.metrics.json")).unwrap()).unwrap();
+            serde_json::from_str(&std::fs::read_to_string(d.path().join(format!("h{seed}.metrics.json"))).unwrap())
+                .unwrap();
         let worse: Vec<usize> = (0..3).filter(|&c| m["table2"]["gain_pct"][c].as_f64().unwrap() < 0.0).collect();
         let warning = err.lines().find(|l| l.starts_with("warning: Model-H is worse than Model-P"));
         assert_eq!(warning.is_some(), !worse.is_empty(), "seed {seed}: gains {} but: {err}", m["table2"]["gain_pct"]);

@@ -3,7 +3,7 @@
 //! [`ensure`] builds `fbg-trainer` (release) and runs it into `target/fixtures`:
 //!
 //! - `data.csv` (+ `data.meta.json`): `fbg-trainer simulate --seed 7` (the `paper` preset);
-//! - `model.fbgm` (+ `model-p.fbgm`, `coefficients.json`): `fbg-trainer train` on it, the
+//! - `model.fbgm` (+ `model-p.fbgm`, `model.coefficients.json`): `fbg-trainer train` on it, the
 //!   Model-H of the paper preset, seed 7, K = 32 — byte for byte what
 //!   `firmware/model/default.fbgm` must be (`SOURCE_DATE_EPOCH=0` pins the provenance date;
 //!   `cargo xtask fixtures --write-default` copies it there);
