@@ -13,6 +13,7 @@ mod bench;
 mod device_bench;
 mod elf;
 mod fixtures;
+mod lint;
 mod qemu;
 
 fn main() -> Result<()> {
@@ -21,6 +22,7 @@ fn main() -> Result<()> {
     let rest = args.get(1..).unwrap_or(&[]);
     match task {
         "test" => test(rest),
+        "lint" => lint::run_all(&root()),
         "qemu" => qemu::run_all(&root()),
         "size" => device_bench::size(&root()).map(|_| ()),
         "device-bench" => device_bench::run(&root()).map(|_| ()),
@@ -36,8 +38,11 @@ fn main() -> Result<()> {
 
 const HELP: &str = "\
 cargo xtask <task>
-  test    host tests of the whole workspace, no_std build of fbg-shared for
-          thumbv7em-none-eabihf, firmware build and its QEMU tests (CI runs this)
+  test    lint, host tests of the whole workspace (doctests included), no_std build
+          of fbg-shared for thumbv7em-none-eabihf, firmware build and its QEMU tests
+          (CI runs this)
+  lint    rustfmt --check, clippy on every crate and target (-D warnings), rustdoc
+          (-D warnings) and the MSRV check, for both workspaces
   qemu    only the firmware QEMU tests
   size    firmware flash / static RAM from the ELF and the measured stack peak
   device-bench
@@ -116,8 +121,9 @@ fn test(rest: &[String]) -> Result<()> {
     let root = root();
     let skip_qemu = rest.iter().any(|a| a == "--no-qemu");
     ensure_thumb_target()?;
+    lint::run_all(&root)?;
 
-    step("host tests (whole workspace)");
+    step("host tests (whole workspace, doctests included)");
     run(cargo().current_dir(&root).args(["test", "--workspace", "--release", "--locked"]))?;
 
     step("fbg-shared: no_std build for thumbv7em-none-eabihf without default features");
@@ -130,18 +136,6 @@ fn test(rest: &[String]) -> Result<()> {
         "thumbv7em-none-eabihf",
         "--release",
         "--locked",
-    ]))?;
-    run(cargo().current_dir(&root).args([
-        "clippy",
-        "-p",
-        "fbg-shared",
-        "--no-default-features",
-        "--target",
-        "thumbv7em-none-eabihf",
-        "--locked",
-        "--",
-        "-D",
-        "warnings",
     ]))?;
 
     if skip_qemu {
