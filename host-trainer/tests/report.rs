@@ -329,7 +329,7 @@ fn same(a: &serde_json::Value, b: &serde_json::Value, at: &str) {
 /// figures (min/max decimation) stays in seconds.
 #[test]
 fn a_million_samples_plot_in_seconds() {
-    let n = 1_000_000;
+    let n: usize = 1_000_000;
     let dt = 1.2;
     let mut d = Dataset { has_target: [true; 3], ..Dataset::default() };
     for i in 0..n {
