@@ -15,6 +15,7 @@ mod elf;
 mod fixtures;
 mod lint;
 mod qemu;
+mod slurm;
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -23,6 +24,7 @@ fn main() -> Result<()> {
     match task {
         "test" => test(rest),
         "lint" => lint::run_all(&root()),
+        "slurm" => slurm::run_all(&root()),
         "qemu" => qemu::run_all(&root()),
         "size" => device_bench::size(&root()).map(|_| ()),
         "device-bench" => device_bench::run(&root()).map(|_| ()),
@@ -53,6 +55,10 @@ cargo xtask <task>
           inference throughput, accuracy peers, band coverage, fleet scaling and the
           device part (instructions per step at K = 16/32/64 under QEMU -icount,
           footprint); writes BENCHMARKS.md and BENCHMARKS.json
+  slurm   the sharded fleet on a single-node Slurm started here (installs
+          slurm-wlm and munge; needs root; not part of test): a 64-group array
+          job in 4 shards, one task cancelled and resubmitted, fleet status, every
+          blob equal to a single-machine run; writes target/slurm/slurm.json
   fixtures [--write-default]
           make the firmware's test fixtures with fbg-trainer in target/fixtures (and
           copy its Model-H, paper preset, seed 7, to firmware/model/default.fbgm)";
