@@ -16,6 +16,7 @@ pub mod recalibrate;
 pub mod report;
 pub mod rng;
 pub mod scenario;
+pub mod shard;
 pub mod sim;
 pub mod stream;
 pub mod study;
