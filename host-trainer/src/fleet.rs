@@ -24,7 +24,14 @@
 //! interrupted run, a corrupt or replaced blob, changed data or options) is trained again.
 //!
 //! Groups run on a local rayon pool of `--jobs` threads (the fit's own parallel loops run in
-//! the same pool). A failing group is reported and the others go on.
+//! the same pool). A failing group is reported and the others go on; its failure is recorded
+//! in `<stem>.fleet-failed.json` (removed when the group later succeeds).
+//!
+//! Beyond one machine, `--shard I/N` (or a batch engine's array index, see [`crate::shard`])
+//! runs only the groups of one shard. Shards write disjoint files, so any number can run at
+//! once on shared storage; each writes its report to `<manifest>.shard-I-of-N.json`.
+//! `fleet status` gathers every group's record into one table: done, failed (with the
+//! reason), stale (the inputs changed since it finished) or missing.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
@@ -38,6 +45,7 @@ use crate::error::TrainerError;
 use crate::export;
 use crate::fit::{self, Origin, TrainOptions};
 use crate::meta::SimMeta;
+use crate::shard::{Shard, ShardSource};
 
 /// Default feature sets of a group: as `train`.
 pub const DEFAULT_FEATURES: &str = "memory";
@@ -45,6 +53,8 @@ pub const DEFAULT_FEATURES: &str = "memory";
 pub const DEFAULT_MAX_CENTRES: usize = 32;
 /// Format tag of the per-group sidecar.
 pub const SIDECAR_FORMAT: &str = "fbg-trainer fleet group v1";
+/// Format tag of the per-group failure record.
+pub const FAILURE_FORMAT: &str = "fbg-trainer fleet failure v1";
 
 /// Training options for a feature-set name (`paper`, `hysteresis-aware`, `all`) and a largest
 /// number of centres: the grid of `train --features F --max-centres K`.
@@ -115,6 +125,10 @@ impl Group {
     /// `<stem>.fleet.json`: the record that the group finished.
     pub fn sidecar_path(&self) -> PathBuf {
         self.out.with_file_name(format!("{}.fleet.json", self.stem()))
+    }
+    /// `<stem>.fleet-failed.json`: the record of the group's last failure.
+    pub fn failure_path(&self) -> PathBuf {
+        self.out.with_file_name(format!("{}.fleet-failed.json", self.stem()))
     }
     fn stem(&self) -> String {
         self.out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into())
@@ -227,6 +241,16 @@ pub struct Sidecar {
     pub train_seconds: f64,
 }
 
+/// The record of a group's failed run (removed by its next successful run).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FailureRecord {
+    pub format: String,
+    pub name: String,
+    /// Digest of the inputs the run failed on.
+    pub input_digest: String,
+    pub error: String,
+}
+
 /// What happened to one group.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case", tag = "status")]
@@ -251,10 +275,26 @@ pub struct GroupReport {
     pub reason: Option<String>,
 }
 
+/// The shard a run covered.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ShardInfo {
+    pub index: usize,
+    pub count: usize,
+    /// `option`, `slurm` or `kubernetes`.
+    pub source: ShardSource,
+    /// Groups of the manifest in this shard, and in all.
+    pub groups_in_shard: usize,
+    pub groups_in_manifest: usize,
+    /// The report written for this shard.
+    pub summary: PathBuf,
+}
+
 /// The whole run.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FleetReport {
     pub manifest: PathBuf,
+    /// The shard this run covered (none: the whole manifest).
+    pub shard: Option<ShardInfo>,
     pub jobs: usize,
     pub groups: Vec<GroupReport>,
     pub trained: usize,
@@ -280,6 +320,21 @@ impl FleetReport {
                 Outcome::Failed { error } => format!("FAILED: {error}"),
             };
             s.push_str(&format!("{:>20}  {line}\n", g.name));
+        }
+        if let Some(sh) = &self.shard {
+            s.push_str(&format!(
+                "shard {}/{} (from {}): {} of the manifest's {} groups; report in {}\n",
+                sh.index,
+                sh.count,
+                match sh.source {
+                    ShardSource::Option => "--shard",
+                    ShardSource::Slurm => "the Slurm array task",
+                    ShardSource::Kubernetes => "the Kubernetes completion index",
+                },
+                sh.groups_in_shard,
+                sh.groups_in_manifest,
+                sh.summary.display()
+            ));
         }
         s.push_str(&format!(
             "{} groups: {} trained, {} skipped (finished earlier), {} failed in {:.1} s on {} jobs ({:.2} trained groups/s)",
@@ -352,6 +407,10 @@ fn train_group(g: &Group, digest: &str) -> Result<Sidecar, TrainerError> {
     };
     let text = serde_json::to_string_pretty(&rec).map_err(|e| TrainerError::fit(e.to_string()))?;
     write_bytes_atomically(&side, text.as_bytes())?;
+    let failed = g.failure_path();
+    if failed.exists() {
+        std::fs::remove_file(&failed).map_err(|e| TrainerError::io(&failed, e))?;
+    }
     Ok(rec)
 }
 
@@ -382,6 +441,18 @@ fn run_group(g: &Group) -> GroupReport {
             Outcome::Failed { error: format!("internal error (panic): {msg}") }
         }
     };
+    if let Outcome::Failed { error } = &outcome {
+        // Best effort: `fleet status` reads it; the run's report has the error either way.
+        let rec = FailureRecord {
+            format: FAILURE_FORMAT.into(),
+            name: g.name.clone(),
+            input_digest: digest.clone(),
+            error: error.clone(),
+        };
+        if let Ok(text) = serde_json::to_string_pretty(&rec) {
+            let _ = write_bytes_atomically(&g.failure_path(), text.as_bytes());
+        }
+    }
     report(outcome, Some(reason))
 }
 
@@ -389,15 +460,32 @@ fn run_group(g: &Group) -> GroupReport {
 /// finished ones. Group failures are in the report, not an `Err`; `Err` is only for a pool
 /// that cannot start.
 pub fn run(m: &Manifest, jobs: usize, progress: bool) -> Result<FleetReport, TrainerError> {
+    run_shard(m, jobs, progress, None)
+}
+
+/// `<manifest>.shard-I-of-N.json`, beside the manifest.
+pub fn shard_summary_path(manifest: &Path, shard: Shard) -> PathBuf {
+    let name = manifest.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "fleet".into());
+    manifest.with_file_name(format!("{name}.shard-{}-of-{}.json", shard.index, shard.count))
+}
+
+/// [`run`] restricted to the groups of `shard` (all groups when `None`); a sharded run also
+/// writes its report to [`shard_summary_path`] (atomically).
+pub fn run_shard(
+    m: &Manifest,
+    jobs: usize,
+    progress: bool,
+    shard: Option<(Shard, ShardSource)>,
+) -> Result<FleetReport, TrainerError> {
+    let mine: Vec<&Group> = m.groups.iter().filter(|g| shard.is_none_or(|(s, _)| s.contains(&g.name))).collect();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .build()
         .map_err(|e| TrainerError::fit(format!("thread pool: {e}")))?;
-    let bar = fit::select::progress_bar(progress, m.groups.len() as u64, "fleet");
+    let bar = fit::select::progress_bar(progress, mine.len() as u64, "fleet");
     let t = Instant::now();
     let groups: Vec<GroupReport> = pool.install(|| {
-        m.groups
-            .par_iter()
+        mine.par_iter()
             .with_max_len(1)
             .map(|g| {
                 let r = run_group(g);
@@ -410,8 +498,17 @@ pub fn run(m: &Manifest, jobs: usize, progress: bool) -> Result<FleetReport, Tra
     let seconds = t.elapsed().as_secs_f64();
     let count = |f: fn(&Outcome) -> bool| groups.iter().filter(|g| f(&g.outcome)).count();
     let trained = count(|o| matches!(o, Outcome::Trained { .. }));
-    Ok(FleetReport {
+    let shard = shard.map(|(s, source)| ShardInfo {
+        index: s.index,
+        count: s.count,
+        source,
+        groups_in_shard: mine.len(),
+        groups_in_manifest: m.groups.len(),
+        summary: shard_summary_path(&m.path, s),
+    });
+    let report = FleetReport {
         manifest: m.path.clone(),
+        shard,
         jobs: pool.current_num_threads(),
         trained,
         skipped: count(|o| matches!(o, Outcome::Skipped)),
@@ -419,28 +516,212 @@ pub fn run(m: &Manifest, jobs: usize, progress: bool) -> Result<FleetReport, Tra
         trained_per_second: if seconds > 0.0 { trained as f64 / seconds } else { 0.0 },
         seconds,
         groups,
-    })
+    };
+    if let Some(sh) = &report.shard {
+        let text = serde_json::to_string_pretty(&report).map_err(|e| TrainerError::fit(e.to_string()))?;
+        write_bytes_atomically(&sh.summary, text.as_bytes())?;
+    }
+    Ok(report)
+}
+
+/// A group's state for `fleet status`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GroupState {
+    /// Finished for its current inputs (outputs present and matching the record).
+    Done,
+    /// The last run on its current inputs failed.
+    Failed,
+    /// Finished once, but its data or options changed since.
+    Stale,
+    /// Never finished, or its outputs are gone or damaged.
+    Missing,
+}
+
+/// One group's line of `fleet status`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct GroupStatus {
+    pub name: String,
+    pub out: PathBuf,
+    /// Its shard, when a shard count was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shard: Option<usize>,
+    pub state: GroupState,
+    /// Why it is not done (the failure's error, what changed, what is missing).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+/// `fleet status`: every group of a manifest.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StatusReport {
+    pub manifest: PathBuf,
+    pub shards: Option<usize>,
+    pub groups: Vec<GroupStatus>,
+    /// Groups per state: done, failed, stale, missing.
+    pub counts: std::collections::BTreeMap<&'static str, usize>,
+    /// Every group done.
+    pub all_done: bool,
+}
+
+/// The state of every group of `m` from the files on disk (nothing is trained); `shards` adds
+/// each group's shard of that many.
+pub fn status(m: &Manifest, shards: Option<usize>) -> StatusReport {
+    let groups: Vec<GroupStatus> = m
+        .groups
+        .par_iter()
+        .map(|g| {
+            let (state, reason) = group_state(g);
+            GroupStatus {
+                name: g.name.clone(),
+                out: g.out.clone(),
+                shard: shards.map(|n| crate::shard::shard_of(&g.name, n)),
+                state,
+                reason,
+            }
+        })
+        .collect();
+    let mut counts = std::collections::BTreeMap::new();
+    for (k, s) in [
+        ("done", GroupState::Done),
+        ("failed", GroupState::Failed),
+        ("stale", GroupState::Stale),
+        ("missing", GroupState::Missing),
+    ] {
+        counts.insert(k, groups.iter().filter(|g| g.state == s).count());
+    }
+    let all_done = groups.iter().all(|g| g.state == GroupState::Done);
+    StatusReport { manifest: m.path.clone(), shards, groups, counts, all_done }
+}
+
+fn group_state(g: &Group) -> (GroupState, Option<String>) {
+    let csv = match std::fs::read(&g.data) {
+        Ok(b) => b,
+        Err(e) => return (GroupState::Failed, Some(TrainerError::io(&g.data, e).to_string())),
+    };
+    let digest = input_digest(g, &csv);
+    let Some(why) = needs_training(g, &digest) else { return (GroupState::Done, None) };
+    let failure = std::fs::read_to_string(g.failure_path())
+        .ok()
+        .and_then(|t| serde_json::from_str::<FailureRecord>(&t).ok())
+        .filter(|f| f.format == FAILURE_FORMAT && f.name == g.name && f.input_digest == digest);
+    if let Some(f) = failure {
+        return (GroupState::Failed, Some(f.error));
+    }
+    if why == "input changed" {
+        return (GroupState::Stale, Some("data or options changed since it finished".into()));
+    }
+    (GroupState::Missing, Some(why))
+}
+
+impl StatusReport {
+    /// One line per group that is not done (all of them with `all`), then the counts.
+    pub fn text(&self, all: bool) -> String {
+        let mut s = String::new();
+        for g in self.groups.iter().filter(|g| all || g.state != GroupState::Done) {
+            let state = match g.state {
+                GroupState::Done => "done",
+                GroupState::Failed => "FAILED",
+                GroupState::Stale => "stale",
+                GroupState::Missing => "missing",
+            };
+            let shard = g.shard.map(|i| format!(" [shard {i}]")).unwrap_or_default();
+            s.push_str(&format!(
+                "{:>20}{shard}  {state}{}\n",
+                g.name,
+                g.reason.as_deref().map(|r| format!(": {r}")).unwrap_or_default()
+            ));
+        }
+        let c = |k: &str| self.counts.get(k).copied().unwrap_or(0);
+        s.push_str(&format!(
+            "{} groups: {} done, {} failed, {} stale, {} missing{}",
+            self.groups.len(),
+            c("done"),
+            c("failed"),
+            c("stale"),
+            c("missing"),
+            if self.all_done { " — all done" } else { "" }
+        ));
+        s
+    }
 }
 
 /// `fbg-trainer fleet`: calibrate the sensor groups of a manifest in parallel.
 #[derive(clap::Args, Clone, Debug)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
 pub struct FleetArgs {
+    #[command(subcommand)]
+    pub command: Option<FleetCommand>,
     /// Manifest (TOML): `[[group]]` tables with name, data, out and optional features /
     /// max_centres; `[defaults]` for the options groups leave out.
-    #[arg(long)]
-    pub manifest: PathBuf,
+    #[arg(long, required = true)]
+    pub manifest: Option<PathBuf>,
     /// Groups calibrated at once (threads of the pool; 0: one per core).
     #[arg(long, default_value_t = 0)]
     pub jobs: usize,
+    /// Run only the groups of shard I of N (I from 0; a group's shard is CRC-64/XZ of its name
+    /// mod N). Without it, a Slurm array task or Kubernetes Indexed Job index is used when set.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// The shard count N for an index taken from the batch engine (Slurm's
+    /// SLURM_ARRAY_TASK_ID, Kubernetes' JOB_COMPLETION_INDEX); needed for Kubernetes and for a
+    /// resubmitted subset of a Slurm array.
+    #[arg(long, value_name = "N")]
+    pub shards: Option<usize>,
     /// Print the report as JSON on stdout.
     #[arg(long)]
     pub json: bool,
 }
 
+/// `fleet` subcommands.
+#[derive(clap::Subcommand, Clone, Debug)]
+pub enum FleetCommand {
+    /// Every group's state from the files on disk (done, failed with the reason, stale because
+    /// its inputs changed, missing); exits non-zero unless all are done. Trains nothing.
+    Status(StatusArgs),
+}
+
+/// `fbg-trainer fleet status`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct StatusArgs {
+    /// The manifest the groups come from.
+    #[arg(long)]
+    pub manifest: PathBuf,
+    /// Also show each group's shard of N.
+    #[arg(long, value_name = "N")]
+    pub shards: Option<usize>,
+    /// List every group, done ones included.
+    #[arg(long)]
+    pub all: bool,
+    /// Print the status as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
 impl FleetArgs {
-    /// Read the manifest and run the fleet.
+    /// Read the manifest and run the fleet (the shard this task runs, when there is one).
     pub fn run(&self) -> Result<FleetReport, TrainerError> {
-        let m = Manifest::from_file(&self.manifest)?;
-        run(&m, self.jobs, !self.json)
+        let path = self.manifest.as_deref().ok_or_else(|| TrainerError::Config {
+            origin: "fleet".into(),
+            key: "manifest".into(),
+            message: "--manifest is required".into(),
+        })?;
+        let m = Manifest::from_file(path)?;
+        let shard = Shard::resolve(self.shard.as_deref(), self.shards, |k| std::env::var(k).ok())?;
+        run_shard(&m, self.jobs, !self.json, shard)
+    }
+}
+
+impl StatusArgs {
+    /// Read the manifest and every group's records.
+    pub fn run(&self) -> Result<StatusReport, TrainerError> {
+        if self.shards == Some(0) {
+            return Err(TrainerError::Config {
+                origin: "fleet status".into(),
+                key: "shards".into(),
+                message: "must be at least 1".into(),
+            });
+        }
+        Ok(status(&Manifest::from_file(&self.manifest)?, self.shards))
     }
 }

@@ -806,6 +806,22 @@ fn bench_fit(a: &fbg_trainer::benchmark::BenchFitArgs) -> Result<()> {
 }
 
 fn fleet(a: &fbg_trainer::fleet::FleetArgs) -> Result<()> {
+    if let Some(fbg_trainer::fleet::FleetCommand::Status(s)) = &a.command {
+        let r = s.run()?;
+        if s.json {
+            println!("{}", serde_json::to_string_pretty(&r)?);
+        } else {
+            eprintln!("{}", r.text(s.all));
+        }
+        if !r.all_done {
+            bail!(
+                "{} of {} groups are not done",
+                r.groups.len() - r.counts.get("done").copied().unwrap_or(0),
+                r.groups.len()
+            );
+        }
+        return Ok(());
+    }
     let r = a.run()?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&r)?);

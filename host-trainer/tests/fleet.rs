@@ -162,3 +162,101 @@ fn a_failing_group_does_not_stop_the_others() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("2 of 5 groups failed"), "{err}");
 }
+
+/// Shards of one manifest run at once as separate processes into one directory: each trains
+/// only its groups, writes its own summary, and together they write exactly the bytes of one
+/// unsharded run; `fleet status` then reports every group done and exits 0.
+#[test]
+fn concurrent_shards_share_a_directory_without_clobbering() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path(), 6, "");
+    let n = 3;
+    let children: Vec<_> = (0..n)
+        .map(|i| {
+            Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))
+                .args(["fleet", "--json", "--jobs", "1", "--shard", &format!("{i}/{n}"), "--manifest"])
+                .arg(&m)
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    let mut trained = 0;
+    for (i, c) in children.into_iter().enumerate() {
+        let out = c.wait_with_output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(r["shard"]["index"], i);
+        let summary = d.path().join(format!("fleet.toml.shard-{i}-of-{n}.json"));
+        let on_disk: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&summary).unwrap()).unwrap();
+        assert_eq!(on_disk["groups"], r["groups"]);
+        for g in r["groups"].as_array().unwrap() {
+            assert_eq!(fbg_trainer::shard::shard_of(g["name"].as_str().unwrap(), n), i);
+        }
+        trained += r["trained"].as_u64().unwrap();
+    }
+    assert_eq!(trained, 6, "every group trained by exactly one shard");
+    let st = fleet::status(&Manifest::from_file(&m).unwrap(), Some(n));
+    assert!(st.all_done, "{st:?}");
+    // The same manifest unsharded, in another directory: the same bytes.
+    let d2 = tempfile::tempdir().unwrap();
+    for i in 0..6 {
+        std::fs::copy(d.path().join(format!("g{i}.csv")), d2.path().join(format!("g{i}.csv"))).unwrap();
+    }
+    std::fs::copy(&m, d2.path().join("fleet.toml")).unwrap();
+    let r = fleet::run(&Manifest::from_file(&d2.path().join("fleet.toml")).unwrap(), 2, false).unwrap();
+    assert_eq!(r.trained, 6);
+    for i in 0..6 {
+        for f in [format!("models/g{i}.fbgm"), format!("models/g{i}-p.fbgm")] {
+            assert_eq!(std::fs::read(d.path().join(&f)).unwrap(), std::fs::read(d2.path().join(&f)).unwrap(), "{f}");
+        }
+    }
+}
+
+/// `fleet status` tells done, failed (with the error), stale (inputs changed) and missing
+/// apart, and exits non-zero unless every group is done.
+#[test]
+fn status_reports_done_failed_stale_and_missing() {
+    let d = tempfile::tempdir().unwrap();
+    let m = manifest(d.path(), 4, "\n[[group]]\nname = \"bad\"\ndata = \"bad.csv\"\nout = \"models/bad.fbgm\"\n");
+    std::fs::write(d.path().join("bad.csv"), "not,a,dataset\n1,2,3\n").unwrap();
+    let man = Manifest::from_file(&m).unwrap();
+    // Before any run: everything missing.
+    let st = fleet::status(&man, None);
+    assert_eq!(st.counts["missing"], 5, "{st:?}");
+    let r = fleet::run(&man, 2, false).unwrap();
+    assert_eq!((r.trained, r.failed), (4, 1));
+    // g1's data changes (stale); g2's blob is deleted (missing); g0 and g3 stay done.
+    short_csv(d.path(), "g1", 99);
+    std::fs::remove_file(d.path().join("models/g2.fbgm")).unwrap();
+    let st = fleet::status(&man, Some(2));
+    let state = |n: &str| st.groups.iter().find(|g| g.name == n).unwrap().clone();
+    assert_eq!(state("g0").state, fleet::GroupState::Done);
+    assert_eq!(state("g3").state, fleet::GroupState::Done);
+    assert_eq!(state("g1").state, fleet::GroupState::Stale);
+    assert_eq!(state("g2").state, fleet::GroupState::Missing);
+    assert!(state("g2").reason.unwrap().contains("output missing"));
+    let bad = state("bad");
+    assert_eq!(bad.state, fleet::GroupState::Failed);
+    assert!(bad.reason.as_deref().unwrap_or("").contains("bad.csv"), "{bad:?}");
+    assert_eq!(bad.shard, Some(fbg_trainer::shard::shard_of("bad", 2)));
+    assert_eq!((st.counts["done"], st.counts["failed"], st.counts["stale"], st.counts["missing"]), (2, 1, 1, 1));
+    // The command exits non-zero and names the count; JSON on stdout.
+    let out = Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))
+        .args(["fleet", "status", "--json", "--manifest"])
+        .arg(&m)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("3 of 5 groups are not done"));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["counts"]["stale"], 1);
+    // A rerun redoes only what is not done; a fixed bad group then succeeds and its failure
+    // record goes away.
+    std::fs::copy(d.path().join("g0.csv"), d.path().join("bad.csv")).unwrap();
+    let r = fleet::run(&man, 2, false).unwrap();
+    assert_eq!((r.trained, r.skipped, r.failed), (3, 2, 0));
+    assert!(!d.path().join("models/bad.fleet-failed.json").exists());
+    assert!(fleet::status(&man, None).all_done);
+}
