@@ -58,7 +58,29 @@ pub fn run_all(root: &Path) -> Result<()> {
     let toolchain = rustc_version()?;
     check_msrv(&cargo_metadata(cargo().current_dir(root))?, toolchain, "host workspace")?;
     check_msrv(&cargo_metadata(firmware_cargo().current_dir(root.join("firmware")))?, toolchain, "firmware workspace")?;
+
+    step("lint: deploy files (Slurm job script syntax, Kubernetes Job against the API schema)");
+    deploy_files(root)?;
     Ok(())
+}
+
+/// The pinned offline validator of Kubernetes manifests (JSON schemas of every API version ship
+/// inside the package; no cluster or network at validation time).
+const KUBERNETES_VALIDATE: &str = "kubernetes-validate==1.37.0";
+
+fn deploy_files(root: &Path) -> Result<()> {
+    run(Command::new("bash").arg("-n").arg(root.join("deploy/slurm/fleet.sbatch")))?;
+    let venv = root.join("target/deploy-venv");
+    let tool = venv.join("bin/kubernetes-validate");
+    if !tool.exists() {
+        run(Command::new("python3").args(["-m", "venv"]).arg(&venv))
+            .context("creating a Python venv for kubernetes-validate (needs python3 with venv)")?;
+        run(Command::new(venv.join("bin/pip")).args(["install", "-q", KUBERNETES_VALIDATE]))
+            .context("installing kubernetes-validate from PyPI")?;
+    }
+    run(Command::new(&tool)
+        .args(["--strict", "--kubernetes-version", "1.33"])
+        .arg(root.join("deploy/kubernetes/fleet-job.yaml")))
 }
 
 /// A `major.minor[.patch]` version, compared numerically.

@@ -190,7 +190,7 @@ fn make_manifest(root: &Path, dir: &Path) -> Result<PathBuf> {
                 .stderr(Stdio::null()))?;
         }
     }
-    let mut m = String::from("# Written by `cargo xtask slurm`.\n[defaults]\nfeatures = \"memory\"\nmax_centres = 8\n");
+    let mut m = String::from("# Written by `cargo xtask slurm`: the full `train` grid per group, as the fleet bench.\n[defaults]\nfeatures = \"all\"\n");
     for g in 0..GROUPS {
         m.push_str(&format!(
             "\n[[group]]\nname = \"sensor-{g:03}\"\ndata = \"d{}.csv\"\nout = \"models/sensor-{g:03}.fbgm\"\n",
