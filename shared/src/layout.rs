@@ -46,8 +46,10 @@ pub const VAR_RANK: usize = 4;
 /// Two-sided 95 % normal quantile used for the band.
 pub const Z95: f64 = 1.959_963_984_540_054;
 
-/// Names of the outputs with units, in output order.
-pub const OUTPUT_NAMES: [&str; N_OUTPUTS] = ["T [°C]", "strain [µε]", "p [kPa]"];
+/// Short names of the outputs, in output order: table columns, JSON keys, messages.
+pub const CHANNELS: [&str; N_OUTPUTS] = ["T", "strain", "p"];
+/// Units of the outputs, in output order.
+pub const UNITS: [&str; N_OUTPUTS] = ["°C", "µε", "kPa"];
 /// Names of the RBF inputs with units, in `Z_DIMS` order.
 pub const Z_NAMES: [&str; Z_DIMS] =
     ["dl1 [pm]", "dl2 [pm]", "dl3 [pm]", "T_amb [°C]", "t [s]", "latch1", "latch2", "latch3"];

@@ -36,8 +36,8 @@ use embedded_hal::digital::{OutputPin, PinState};
 use embedded_io::{Read, Write};
 use fbg_shared::blob;
 use fbg_shared::protocol::{
-    crc32, encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed,
-    RejectReason, Rejection, Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
+    crc32, encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, RejectReason, Rejection,
+    Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
 use fbg_shared::{Compensator, Estimate, ModelParams, Sample};
 
@@ -79,19 +79,6 @@ pub struct ModelInfo {
     pub crc: u32,
 }
 
-/// The CRC trailer of a blob (its last four bytes, little-endian); 0 for a too-short input.
-pub fn blob_crc(bytes: &[u8]) -> u32 {
-    let tail = bytes.len().checked_sub(blob::CRC_LEN).and_then(|at| bytes.get(at..));
-    let mut t = [0u8; blob::CRC_LEN];
-    match tail {
-        Some(tail) if tail.len() == t.len() => {
-            t.copy_from_slice(tail);
-            u32::from_le_bytes(t)
-        }
-        _ => 0,
-    }
-}
-
 /// A compensator with no model loaded, for a `static` that [`load`] then fills in place (the
 /// embedded default at boot): all bytes zero, so the static lands in `.bss` and no
 /// compensator-sized value is ever built on the stack (`Compensator::new` returns one by
@@ -121,7 +108,8 @@ pub fn load<const K: usize>(
 ) -> Result<ModelInfo, Rejection> {
     (kernel.decode)(bytes, params)?;
     (kernel.reload)(comp, params)?;
-    Ok(ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob_crc(bytes) })
+    // The blob decoded, so it has a trailer.
+    Ok(ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob::stored_crc(bytes).unwrap_or(0) })
 }
 
 /// [`load`] with a staging slot of its own, on its stack frame (≈ 2.8 KB at K = 32) and only
