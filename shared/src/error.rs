@@ -2,6 +2,7 @@
 
 /// What went wrong while decoding, validating or loading a model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum Error {
     /// The input ended before the named part was complete.

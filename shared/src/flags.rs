@@ -3,6 +3,7 @@
 
 /// Bit set of sample flags. `Flags::OK` (no bit) means a normal, in-envelope estimate.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Flags(pub u8);
 
 impl Flags {

@@ -120,12 +120,11 @@ fn test(rest: &[String]) -> Result<()> {
     step("host tests (whole workspace)");
     run(cargo().current_dir(&root).args(["test", "--workspace", "--release", "--locked"]))?;
 
-    step("fbg-shared: no_std build for thumbv7em-none-eabihf without default features");
+    step("fbg-shared: no_std build for thumbv7em-none-eabihf, without and with its defmt feature");
     run(cargo().current_dir(&root).args([
         "build",
         "-p",
         "fbg-shared",
-        "--no-default-features",
         "--target",
         "thumbv7em-none-eabihf",
         "--release",
@@ -135,7 +134,20 @@ fn test(rest: &[String]) -> Result<()> {
         "clippy",
         "-p",
         "fbg-shared",
-        "--no-default-features",
+        "--target",
+        "thumbv7em-none-eabihf",
+        "--locked",
+        "--",
+        "-D",
+        "warnings",
+    ]))?;
+    // The defmt feature (derived `defmt::Format`), as firmware that logs with defmt builds it.
+    run(cargo().current_dir(&root).args([
+        "clippy",
+        "-p",
+        "fbg-shared",
+        "--features",
+        "defmt",
         "--target",
         "thumbv7em-none-eabihf",
         "--locked",

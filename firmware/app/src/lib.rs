@@ -316,7 +316,7 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
     fn malformed(&mut self, why: Malformed) {
         self.status.frames_malformed = self.status.frames_malformed.wrapping_add(1);
         let _ = why;
-        log!(warn, "dropped a malformed frame ({=istr})", malformed_name(why));
+        log!(warn, "dropped a malformed frame ({})", why);
     }
 
     /// Everything but `ModelCommit` (handled outside the frame decoding: [`Device::commit`]).
@@ -408,48 +408,12 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
         self.status.last_rejection = Some(r);
         log!(
             warn,
-            "model update rejected: {=istr} (code {=u8}, detail {=u32}); keeping the active model",
-            reason_name(r.reason),
+            "model update rejected: {} (code {=u8}, detail {=u32}); keeping the active model",
+            r.reason,
             r.reason.code(),
             r.detail
         );
         DeviceMsg::UpdateResult(UpdateResult::Rejected(r))
-    }
-}
-
-/// The name of a rejection reason for a defmt log, interned: the text lives in the ELF's
-/// `.defmt` section, not in flash (`RejectReason::describe`'s sentences would cost ≈ 600 B).
-#[cfg(feature = "defmt")]
-pub fn reason_name(r: RejectReason) -> defmt::Str {
-    match r {
-        RejectReason::Truncated => defmt::intern!("model blob truncated"),
-        RejectReason::BadMagic => defmt::intern!("not a model blob (bad magic)"),
-        RejectReason::UnsupportedVersion => defmt::intern!("unsupported blob format version"),
-        RejectReason::WrongDims => defmt::intern!("blob dimensions do not fit this firmware"),
-        RejectReason::BadCrc => defmt::intern!("blob CRC-32 mismatch (corrupted)"),
-        RejectReason::BadPayload => defmt::intern!("blob payload does not decode"),
-        RejectReason::TrailingBytes => defmt::intern!("bytes after the blob CRC"),
-        RejectReason::TooManyCentres => defmt::intern!("more RBF centres than this firmware holds"),
-        RejectReason::BadParameter => defmt::intern!("a model parameter is non-finite or out of range"),
-        RejectReason::BufferTooSmall => defmt::intern!("buffer too small"),
-        RejectReason::NoUpdateInProgress => defmt::intern!("no model transfer in progress"),
-        RejectReason::TooLarge => defmt::intern!("announced blob length does not fit the staging buffer"),
-        RejectReason::OutOfOrder => defmt::intern!("chunk offset out of order"),
-        RejectReason::Overrun => defmt::intern!("chunk runs past the announced length"),
-        RejectReason::Incomplete => defmt::intern!("commit before the whole blob arrived"),
-        RejectReason::TransferCrc => defmt::intern!("staged bytes do not match the announced CRC"),
-        _ => defmt::intern!("other"),
-    }
-}
-
-#[cfg(feature = "defmt")]
-fn malformed_name(m: Malformed) -> defmt::Str {
-    match m {
-        Malformed::Oversize => defmt::intern!("oversize"),
-        Malformed::Framing => defmt::intern!("framing"),
-        Malformed::Crc => defmt::intern!("crc"),
-        Malformed::Payload => defmt::intern!("payload"),
-        Malformed::TrailingBytes => defmt::intern!("trailing bytes"),
     }
 }
 

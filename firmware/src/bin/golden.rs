@@ -36,12 +36,7 @@ fn main() -> ! {
             exit_failure()
         };
         if let Err(r) = load_blob(&KERNEL, MODEL, rec.blob) {
-            defmt::error!(
-                "golden model {=usize} rejected: {=istr} (detail {=u32})",
-                i,
-                fbg_firmware_app::reason_name(r.reason),
-                r.detail
-            );
+            defmt::error!("golden model {=usize} rejected: {} (detail {=u32})", i, r.reason, r.detail);
             exit_failure()
         }
         for s in rec.iter() {

@@ -31,6 +31,7 @@ struct Envelope<'a> {
 
 /// Why a message could not be framed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum EncodeError {
     /// The payload scratch or the output buffer is too small for this message.
     BufferTooSmall,
@@ -70,6 +71,7 @@ pub fn encode_device<'o>(msg: &DeviceMsg, out: &'o mut [u8]) -> Result<&'o mut [
 
 /// Why a received frame was dropped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Malformed {
     /// Longer than the receive buffer; skipped up to its delimiter.
     Oversize,

@@ -109,6 +109,7 @@ pub enum UpdateResult {
 
 /// Why an update was refused, with a reason-specific detail number.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Rejection {
     /// Stable reason code.
     pub reason: RejectReason,

@@ -8,6 +8,7 @@ use crate::error::Error;
 /// Stable reason codes of a refused model update. The numbers never change meaning; new reasons
 /// get new numbers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[repr(u8)]
 #[non_exhaustive]
 pub enum RejectReason {
