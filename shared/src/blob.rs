@@ -1,4 +1,5 @@
-//! The `.fbgm` model blob (DESIGN §6).
+//! The `.fbgm` model blob: the one file a trained model travels in, from the trainer to a
+//! device.
 //!
 //! ```text
 //! offset  size  field

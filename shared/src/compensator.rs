@@ -1,4 +1,4 @@
-//! The per-sample inference (DESIGN §4): polynomial core + RBF residual + band + flags.
+//! The per-sample inference (Model-H): polynomial core + RBF residual + band + flags.
 //!
 //! Loading folds the auditable [`ModelParams`] into a per-sample form once, in the
 //! compensator's own precision (no f64 arithmetic on an f32 device): scalers are folded into
@@ -87,6 +87,21 @@ pub struct StreamState<F> {
 }
 
 /// A loaded model with its stream state, ready to compensate samples.
+///
+/// ```
+/// use fbg_shared::{Compensator, FeatureSet, ModelParams, Sample};
+/// # let params: ModelParams<f32, 8> =
+/// #     fbg_testkit::models::model(8, 1, FeatureSet::HysteresisAware, Default::default());
+/// // `params`: a trained model, e.g. `fbg_shared::blob::decode(&bytes)?`.
+/// let mut comp = Compensator::<f32, 8>::new(&params)?;
+/// let e = comp.step(&Sample { dl_pm: [10.0, -5.0, 2.0], t_amb_c: 21.0, t_s: 60.0 });
+/// assert!(e.values.iter().chain(e.band95.iter()).all(|v| v.is_finite()));
+/// // A non-finite input is flagged, never a panic.
+/// let bad = comp.step(&Sample { dl_pm: [f32::NAN, 0.0, 0.0], t_amb_c: 21.0, t_s: 120.0 });
+/// assert!(bad.flags.contains(fbg_shared::Flags::NON_FINITE));
+/// comp.reset(); // a new acquisition
+/// # Ok::<(), fbg_shared::Error>(())
+/// ```
 ///
 /// `K` is the centre capacity; models with fewer centres load too and cost proportionally less.
 #[derive(Clone, Debug)]

@@ -1,6 +1,6 @@
 //! Fixed dimensions of the compensator and the layout of its feature vectors.
 //!
-//! The gratings, outputs and polynomial terms are fixed by the physics (DESIGN §4); only the
+//! The gratings, outputs and polynomial terms are fixed by the physics; only the
 //! number of RBF centres `K` varies between models and is a const generic of the device types.
 
 /// Gratings (wavelength inputs) per sensor group.
@@ -56,7 +56,7 @@ pub const Z_NAMES: [&str; Z_DIMS] =
 /// Names of the polynomial terms (on standardised first guesses) in `N_POLY` order.
 pub const POLY_NAMES: [&str; N_POLY] = ["1", "T", "ε", "p", "T²", "ε²", "p²", "Tε", "Tp", "εp"];
 
-/// Which inputs feed the RBF residual (DESIGN §4).
+/// Which inputs feed the RBF residual.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[repr(u8)]
 pub enum FeatureSet {

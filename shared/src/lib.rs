@@ -63,7 +63,7 @@ pub mod real;
 pub use compensator::{Compensator, Estimate, Sample, StreamState};
 pub use direction_latch::{ticks, DirectionLatch, LatchBank};
 pub use error::Error;
-pub use flags::Flags;
+pub use flags::{Flags, UnknownFlags};
 pub use layout::FeatureSet;
 pub use memory::{MemoryBank, MemoryGroup, MemorySpec, MemoryState};
 pub use model::{Centre, Hyper, ModelParams, Provenance};

@@ -1,6 +1,5 @@
 //! The `.fbgm` codec: round trips, exact lengths, the golden v2 blob (and the v1 one refused by
-//! name), typed errors for every kind of damage, and "never panics" on arbitrary bytes
-//! (DESIGN §6).
+//! name), typed errors for every kind of damage, and "never panics" on arbitrary bytes.
 
 use crc::{Crc, CRC_32_ISCSI};
 use fbg_shared::blob::{self, decode, encode, max_len, min_len, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};

@@ -1,5 +1,5 @@
 //! Host tests of the compensator's behaviour: flags, band widening, stream state, feature
-//! sets, and f32/f64 agreement (DESIGN §4).
+//! sets, and f32/f64 agreement.
 
 use fbg_shared::layout::Z95;
 use fbg_shared::{Compensator, Estimate, FeatureSet, Flags, ModelParams, Sample};

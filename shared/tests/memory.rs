@@ -1,4 +1,4 @@
-//! The memory bank over whole streams (DESIGN §4): the memory vector against an independent
+//! The memory bank over whole streams: the memory vector against an independent
 //! reference, start, gaps and repeated time stamps, saved and resumed state, unused slots, and
 //! f32 against f64 over a 14-day record.
 

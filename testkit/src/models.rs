@@ -9,7 +9,6 @@ use heapless::{String, Vec};
 use crate::Rng;
 
 /// The shortest provenance (every field at its one-byte encoding).
-
 pub fn short_provenance() -> Provenance {
     Provenance::default()
 }
@@ -167,7 +166,7 @@ pub fn memory_model<const K: usize>(
     spec: MemorySpec<f32>,
 ) -> ModelParams<f32, K> {
     let mut p = model(n, seed, fs, prov);
-    let mut r = Rng(seed ^ 0x5EED_0F_6A33A);
+    let mut r = Rng(seed ^ 0x5EE_D0F6_A33A);
     p.memory = spec;
     for row in p.gamma.iter_mut() {
         for (k, g) in row.iter_mut().enumerate() {

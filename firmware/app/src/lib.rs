@@ -11,13 +11,14 @@
 //! The device borrows from the caller (the firmware puts them in statics) what must live
 //! across messages:
 //!
-//! - the active [`Compensator`] (from [`unloaded`], then [`load`]ed in place; ≈ 3.1 KB at
-//!   K = 32 with the memory bank);
-//! - the blob staging area, where `ModelChunk`s land (`blob::max_len(K)`, ≈ 2.9 KB at K = 32);
-//! - the link's frame reader (≈ 0.3 KB).
+//! - the active [`Compensator`] (from [`unloaded`], then [`load`]ed in place);
+//! - the blob staging area, where `ModelChunk`s land (`blob::max_len(K)` bytes);
+//! - the link's frame reader (`HOST_MAX_FRAME` bytes and a few flags).
 //!
-//! The one [`ModelParams`] slot a model is parsed into (≈ 2.8 KB at K = 32) is needed only
-//! while a model loads — at boot and during the handling of a `ModelCommit`, which carries no
+//! (BENCHMARKS.md has the footprint they add up to: flash, static RAM and stack at K = 32.)
+//!
+//! The one [`ModelParams`] slot a model is parsed into (about a compensator's size) is needed
+//! only while a model loads — at boot and during the handling of a `ModelCommit`, which carries no
 //! data and is handled outside the frame decoding — so it is a local of the never-inlined
 //! function that loads ([`load_blob`], `Device::commit`): on the stack during a load, free
 //! while the device serves. A model is parsed field by field with [`blob::decode_into`] into
@@ -82,7 +83,7 @@ pub struct ModelInfo {
 /// A compensator with no model loaded, for a `static` that [`load`] then fills in place (the
 /// embedded default at boot): all bytes zero, so the static lands in `.bss` and no
 /// compensator-sized value is ever built on the stack (`Compensator::new` returns one by
-/// value, 3.1 KB of stack at K = 32, twice over with its `Result`). Until a model is loaded it
+/// value, a compensator's size of stack, twice over with its `Result`). Until a model is loaded it
 /// answers every sample with NaN values and an infinite band (no output fitted).
 pub const fn unloaded<const K: usize>() -> Compensator<f32, K> {
     Compensator::unloaded()
@@ -112,7 +113,7 @@ pub fn load<const K: usize>(
     Ok(ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob::stored_crc(bytes).unwrap_or(0) })
 }
 
-/// [`load`] with a staging slot of its own, on its stack frame (≈ 2.8 KB at K = 32) and only
+/// [`load`] with a staging slot of its own, on its stack frame (a model's size) and only
 /// for the duration of the load: at boot, and for every commit of an update.
 #[inline(never)]
 pub fn load_blob<const K: usize>(

@@ -1,4 +1,4 @@
-//! The serial link between a host and the interrogator's co-processor (DESIGN §7).
+//! The serial link between a host and the interrogator's co-processor.
 //!
 //! # Wire format
 //!
@@ -38,6 +38,27 @@
 //! [`crate::blob::decode`] (magic, version, dims, CRC, every parameter) before swapping. Any
 //! failure aborts the transfer, keeps the old model and answers with a [`Rejection`] whose
 //! [`RejectReason`] codes are stable across versions.
+//!
+//! # Example
+//!
+//! A host frames a request; the device's [`FrameReader`] takes the bytes as they come, in any
+//! pieces, and yields each message once its frame is complete:
+//!
+//! ```
+//! use fbg_shared::protocol::{encode_host, Feed, FrameReader, HostMsg, HOST_MAX_FRAME};
+//!
+//! let mut out = [0u8; HOST_MAX_FRAME];
+//! let frame = encode_host(&HostMsg::Ping { nonce: 7 }, &mut out)?;
+//! assert_eq!(frame.last(), Some(&0)); // the delimiter
+//!
+//! let mut reader = FrameReader::<HOST_MAX_FRAME>::new();
+//! let (first, second) = frame.split_at(3);
+//! let (ev, rest) = reader.feed::<HostMsg<'_>>(first);
+//! assert!(matches!(ev, Feed::Pending) && rest.is_empty());
+//! let (ev, _) = reader.feed::<HostMsg<'_>>(second);
+//! assert_eq!(ev, Feed::Message(HostMsg::Ping { nonce: 7 }));
+//! # Ok::<(), fbg_shared::protocol::EncodeError>(())
+//! ```
 //!
 //! # Modules
 //!
