@@ -7,7 +7,7 @@
 //! - copies the test fixtures the test binaries embed into `OUT_DIR` (an empty file when a
 //!   fixture is absent, so the product binary always builds): `FBG_GOLDEN_PACK` and
 //!   `FBG_BENCH_PACK` (paths; defaults under `../target/fixtures/`, which `cargo xtask
-//!   fixtures` makes with the trainer), each a pack of models and samples (`src/pack.rs`).
+//!   fixtures` makes with the trainer), each a pack of models and samples (`fbg_shared::golden`).
 //!
 //! The centre capacity `K` (env `FBG_K`, default 32) is `fbg-firmware-kernel`'s.
 

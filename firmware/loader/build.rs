@@ -15,7 +15,9 @@ fn main() {
     assert!((1..=256).contains(&k), "FBG_K = {k} is outside 1..=256");
     fs::write(
         out.join("config.rs"),
-        format!("/// Centre capacity of this build (env `FBG_K` at build time, default 32).\npub const K: usize = {k};\n"),
+        format!(
+            "/// Centre capacity of this build (env `FBG_K` at build time, default 32).\npub const K: usize = {k};\n"
+        ),
     )
     .expect("write config.rs");
 }

@@ -1,8 +1,8 @@
 //! Board support of the FBG firmware on the MPS2 AN386 (Cortex-M4F), as QEMU's `mps2-an386`
 //! models it: the CMSDK APB UART driver (`embedded-io`), the FPGA IO LED as the alarm
 //! (`embedded-hal` `OutputPin`), SysTick/DWT counters, the stack high-water mark, the
-//! fatal-error path (defmt log, then semihosting exit with failure), and the packs of models
-//! and samples the test images embed.
+//! fatal-error path (defmt log, then semihosting exit with failure). The test images read the
+//! packs of models and samples they embed with `fbg_shared::golden::records`.
 //!
 //! The application logic lives in the host-testable `fbg-firmware-app` crate.
 
@@ -12,7 +12,6 @@
 
 pub mod counters;
 pub mod led;
-pub mod pack;
 pub mod stack;
 pub mod uart;
 

@@ -39,8 +39,8 @@ fn main() -> ! {
         Ok(info) => info,
         Err(r) => {
             defmt::error!(
-                "embedded default model rejected: {=istr} (code {=u8}, detail {=u32})",
-                fbg_firmware_app::reason_name(r.reason),
+                "embedded default model rejected: {} (code {=u8}, detail {=u32})",
+                r.reason,
                 r.reason.code(),
                 r.detail
             );

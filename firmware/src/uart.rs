@@ -128,11 +128,6 @@ impl CmsdkUart {
         }
     }
 
-    /// The baud divider in use.
-    pub fn bauddiv(&self) -> u32 {
-        self.read_reg(BAUDDIV)
-    }
-
     /// Received bytes lost because the RX buffer was full (hardware only; QEMU never loses).
     pub fn rx_overruns(&self) -> u32 {
         self.rx_overruns

@@ -8,10 +8,8 @@ use crate::dataset::Dataset;
 use crate::error::TrainerError;
 use crate::fit::{run, HostParams};
 
-/// Output names for tables and JSON.
-pub const CHANNELS: [&str; N_OUTPUTS] = ["T", "strain", "p"];
-/// Units of the outputs.
-pub const UNITS: [&str; N_OUTPUTS] = ["°C", "µε", "kPa"];
+/// Output names for tables and JSON, and their units.
+pub use fbg_shared::layout::{CHANNELS, UNITS};
 /// The grating designed for each output (T ← FBG2, ε ← FBG1, p ← FBG3), used to tell rising
 /// from falling segments for the hysteresis index.
 pub const DOMINANT_GRATING: [usize; N_OUTPUTS] = [1, 0, 2];

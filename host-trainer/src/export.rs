@@ -1,16 +1,15 @@
 //! What the trainer writes for others: the `.fbgm` blob (through `fbg_shared::blob`), the
 //! audit file `coefficients.json`, and golden vectors for the firmware's QEMU test.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use fbg_link::golden;
 use fbg_shared::layout::{FeatureSet, N_OUTPUTS, POLY_NAMES, Z_NAMES};
-use fbg_shared::{blob, Compensator, ModelParams};
+use fbg_shared::{blob, Compensator, ModelParams, Sample};
 
-use crate::dataset::{write_atomically, write_bytes_atomically, Dataset};
+use crate::dataset::{write_bytes_atomically, Dataset};
 use crate::error::TrainerError;
 use crate::fit::{HostParams, PolyCore, Selection, HOST_CAP};
-use crate::parity::{as_device_input, widen};
 
 /// Encode a host model as a blob (f32).
 pub fn blob_bytes(p: &HostParams) -> Result<Vec<u8>, TrainerError> {
@@ -39,12 +38,7 @@ pub fn read_blob(path: &Path) -> Result<HostParams, TrainerError> {
 /// The CRC-32/ISCSI over everything but the 4-byte trailer, and the trailer itself (`None`
 /// for input too short to hold a header and a trailer).
 pub fn blob_crc(bytes: &[u8]) -> Option<(u32, u32)> {
-    if bytes.len() < blob::HEADER_LEN + blob::CRC_LEN {
-        return None;
-    }
-    let (body, trailer) = bytes.split_at(bytes.len() - blob::CRC_LEN);
-    let stored = u32::from_le_bytes([trailer[0], trailer[1], trailer[2], trailer[3]]);
-    Some((crc::Crc::<u32>::new(&crc::CRC_32_ISCSI).checksum(body), stored))
+    Some((blob::computed_crc(bytes)?, blob::stored_crc(bytes)?))
 }
 
 /// A decode error as the user should read it: the decoder checks the format version first
@@ -239,8 +233,9 @@ pub fn write_coefficients(
     write_bytes_atomically(path, text.as_bytes())
 }
 
-/// Golden vectors for the firmware: `golden_inputs.bin` (5 little-endian f32 per sample: dl1,
-/// dl2, dl3, T_amb, t), `golden_expected.csv` (the f64 reference on those same inputs) and
+/// Golden vectors for the firmware (`fbg_link::golden`): `golden_inputs.bin` (5 little-endian
+/// f32 per sample: dl1, dl2, dl3, T_amb, t), `golden_expected.csv` (the f64 reference on those
+/// same inputs) and
 /// `golden_meta.json` (tolerance scale: Model-H's hold-out RMSE). The reference is a fresh
 /// compensator fed the samples `idx` in order, exactly what a freshly booted device sees.
 pub fn write_golden(
@@ -252,31 +247,14 @@ pub fn write_golden(
 ) -> Result<(), TrainerError> {
     std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
     let mut reference = Compensator::<f64, HOST_CAP>::new(model_h).map_err(|e| TrainerError::fit(e.to_string()))?;
-    let mut inputs = Vec::with_capacity(idx.len() * 20);
-    let mut rows = Vec::with_capacity(idx.len());
-    for &i in idx {
-        let x = as_device_input(&d.sample(i));
-        for v in [x.dl_pm[0], x.dl_pm[1], x.dl_pm[2], x.t_amb_c, x.t_s] {
-            inputs.extend_from_slice(&v.to_le_bytes());
-        }
-        rows.push(reference.step(&widen(&x)));
-    }
-    write_bytes_atomically(&dir.join("golden_inputs.bin"), &inputs)?;
-    write_atomically(&dir.join("golden_expected.csv"), |w| {
-        writeln!(w, "values_T,values_eps,values_p,band_T,band_eps,band_p,flags")?;
-        for e in &rows {
-            writeln!(
-                w,
-                "{:e},{:e},{:e},{:e},{:e},{:e},{}",
-                e.values[0], e.values[1], e.values[2], e.band95[0], e.band95[1], e.band95[2], e.flags.0
-            )?;
-        }
-        Ok(())
-    })?;
+    let inputs: Vec<Sample<f32>> = idx.iter().map(|&i| d.sample(i).cast()).collect();
+    let rows: Vec<_> = inputs.iter().map(|x| reference.step(&x.cast())).collect();
+    write_bytes_atomically(&dir.join("golden_inputs.bin"), &golden::inputs_bytes(&inputs))?;
+    write_bytes_atomically(&dir.join("golden_expected.csv"), golden::expected_csv(&rows).as_bytes())?;
     let meta = serde_json::json!({
         "samples": idx.len(),
         "holdout_rmse_h": holdout_rmse,
-        "tolerance_fraction": 0.01,
+        "tolerance_fraction": fbg_link::parity::REL_TOL,
         "feature_set": model_h.hyper.feature_set.name(),
         "centres": model_h.centres.len(),
         "note": "expected = fbg_shared::Compensator<f64> with the trainer's f64 model on these f32 inputs, streamed from the first sample",

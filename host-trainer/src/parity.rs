@@ -5,7 +5,7 @@
 use nalgebra::DMatrix;
 
 use fbg_shared::layout::N_OUTPUTS;
-use fbg_shared::{Compensator, Sample};
+use fbg_shared::Compensator;
 
 use crate::dataset::Dataset;
 use crate::error::TrainerError;
@@ -31,16 +31,6 @@ pub struct ParityReport {
     pub leverage_max: f64,
 }
 
-/// An input as the device receives it: every field rounded to f32.
-pub fn as_device_input(s: &Sample<f64>) -> Sample<f32> {
-    Sample { dl_pm: s.dl_pm.map(|v| v as f32), t_amb_c: s.t_amb_c as f32, t_s: s.t_s as f32 }
-}
-
-/// Widen a device input back to f64 (exactly).
-pub fn widen(s: &Sample<f32>) -> Sample<f64> {
-    Sample { dl_pm: s.dl_pm.map(f64::from), t_amb_c: f64::from(s.t_amb_c), t_s: f64::from(s.t_s) }
-}
-
 /// Run the f32 device path and the f64 reference side by side over the whole record and
 /// compare on the hold-out.
 pub fn check(model_h: &HostParams, d: &Dataset, eval_h: &ModelEval) -> Result<ParityReport, TrainerError> {
@@ -54,9 +44,10 @@ pub fn check(model_h: &HostParams, d: &Dataset, eval_h: &ModelEval) -> Result<Pa
     let mut mismatches = 0;
     let mut n = 0;
     for i in 0..d.len() {
-        let x32 = as_device_input(&d.sample(i));
+        // The input as the device receives it (rounded to f32), and exactly that in f64.
+        let x32 = d.sample(i).cast::<f32>();
         let a = dev.step(&x32);
-        let b = reference.step(&widen(&x32));
+        let b = reference.step(&x32.cast());
         if i < first || d.split[i] != crate::dataset::Split::Holdout {
             continue;
         }

@@ -16,19 +16,19 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
+use fbg_link::parity::{abs_diff, compare};
+use fbg_link::{LinkClient, LinkError};
 use fbg_shared::layout::N_OUTPUTS;
-use fbg_shared::link_client::{LinkClient, LinkError};
-use fbg_shared::protocol::{DeviceEstimate, UpdateResult};
-use fbg_shared::{Compensator, Estimate};
+use fbg_shared::protocol::UpdateResult;
+use fbg_shared::Compensator;
 
 use crate::dataset::Dataset;
 use crate::evaluate::{evaluate_holdout, CHANNELS, UNITS};
 use crate::export::read_blob;
 use crate::fit::HOST_CAP;
-use crate::parity::{as_device_input, widen};
 
-/// Device vs host tolerance as a fraction of Model-H's hold-out RMSE (DESIGN §8).
-pub const REL_TOL: f64 = 0.01;
+/// Device vs host tolerance as a fraction of Model-H's hold-out RMSE.
+pub use fbg_link::parity::REL_TOL;
 
 /// What to stream where.
 #[derive(Clone, Debug)]
@@ -125,36 +125,6 @@ impl StreamReport {
     }
 }
 
-/// Compare one device answer with the host's: per channel |Δ| ≤ `tol` for value and band (NaN
-/// matches NaN, ∞ matches ∞ of the same sign), flags identical. Returns the first difference.
-pub fn compare(dev: &DeviceEstimate, host: &Estimate<f64>, tol: [f64; N_OUTPUTS]) -> Option<String> {
-    if dev.flags != host.flags {
-        return Some(format!("flags {} (device) vs {} (host)", dev.flags, host.flags));
-    }
-    for c in 0..N_OUTPUTS {
-        for (what, d, h) in
-            [("value", f64::from(dev.values[c]), host.values[c]), ("band", f64::from(dev.band[c]), host.band95[c])]
-        {
-            let ok = if d.is_nan() || h.is_nan() {
-                d.is_nan() && h.is_nan()
-            } else if d.is_infinite() || h.is_infinite() {
-                d == h
-            } else {
-                (d - h).abs() <= tol[c]
-            };
-            if !ok {
-                return Some(format!(
-                    "{what} {}: device {d} vs host {h} (|Δ| {:.3e} > {:.3e})",
-                    CHANNELS[c],
-                    (d - h).abs(),
-                    tol[c]
-                ));
-            }
-        }
-    }
-    None
-}
-
 fn connect(addr: &str, timeout: Duration) -> Result<TcpStream> {
     let deadline = Instant::now() + timeout;
     let sockets: Vec<_> = addr.to_socket_addrs().with_context(|| format!("resolving {addr}"))?.collect();
@@ -187,11 +157,7 @@ fn link_err(what: &str, e: LinkError) -> anyhow::Error {
 pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
     let bytes = std::fs::read(&opts.model).with_context(|| format!("{}: cannot read", opts.model.display()))?;
     let model = read_blob(&opts.model)?;
-    let crc = fbg_shared::blob::Header::parse(&bytes)
-        .ok()
-        .and_then(|_| bytes.len().checked_sub(4).and_then(|at| bytes.get(at..)))
-        .map(|t| u32::from_le_bytes([t[0], t[1], t[2], t[3]]))
-        .unwrap_or(0);
+    let crc = fbg_shared::blob::stored_crc(&bytes).unwrap_or(0);
     let data = Dataset::read_csv(&opts.data)?;
     let hold = data.holdout_indices();
     if hold.is_empty() {
@@ -256,25 +222,20 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
         .with_finish(indicatif::ProgressFinish::AndClear);
     for (n, &i) in idx.iter().enumerate() {
         bar.inc(1);
-        let x = as_device_input(&data.sample(i));
+        let x = data.sample(i).cast::<f32>();
         let seq = n as u32;
         let got = link.compensate(seq, &x).map_err(|e| link_err(&format!("sample {n} (data row {})", i + 2), e))?;
-        let want = reference.step(&widen(&x));
+        let want = reference.step(&x.cast());
         report.samples += 1;
         if !got.flags.is_ok() {
             report.flagged += 1;
         }
+        let (dv, db) = (abs_diff(&got.values, &want.values), abs_diff(&got.band, &want.band95));
         for c in 0..N_OUTPUTS {
-            let dv = (f64::from(got.values[c]) - want.values[c]).abs();
-            if dv.is_finite() {
-                report.max_abs_diff[c] = report.max_abs_diff[c].max(dv);
-            }
-            let db = (f64::from(got.band[c]) - want.band95[c]).abs();
-            if db.is_finite() {
-                report.max_band_diff[c] = report.max_band_diff[c].max(db);
-            }
+            report.max_abs_diff[c] = report.max_abs_diff[c].max(dv[c]);
+            report.max_band_diff[c] = report.max_band_diff[c].max(db[c]);
         }
-        if let Some(why) = compare(&got, &want, tolerance) {
+        if let Err(why) = compare(&got, &want, &tolerance) {
             if got.flags != want.flags {
                 report.flag_mismatches += 1;
             } else {
@@ -292,32 +253,4 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
         bail!("the device sent {} malformed frames", link.malformed_from_device());
     }
     Ok(report)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use fbg_shared::Flags;
-
-    fn dev(values: [f32; 3], band: [f32; 3], flags: Flags) -> DeviceEstimate {
-        DeviceEstimate { seq: 0, values, band, flags }
-    }
-
-    #[test]
-    fn compare_applies_the_tolerance_nan_inf_and_flags() {
-        let host =
-            Estimate { values: [1.0, 2.0, f64::NAN], band95: [0.5, f64::INFINITY, f64::INFINITY], flags: Flags::OK };
-        let tol = [0.01, 0.01, 0.01];
-        assert_eq!(
-            compare(&dev([1.005, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol),
-            None
-        );
-        assert!(
-            compare(&dev([1.02, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol).is_some()
-        );
-        assert!(compare(&dev([1.0, 2.0, 0.0], [0.5, f32::INFINITY, f32::INFINITY], Flags::OK), &host, tol).is_some());
-        assert!(compare(&dev([1.0, 2.0, f32::NAN], [0.5, 1.0, f32::INFINITY], Flags::OK), &host, tol).is_some());
-        let flagged = dev([1.0, 2.0, f32::NAN], [0.5, f32::INFINITY, f32::INFINITY], Flags::OUT_OF_ENVELOPE);
-        assert!(compare(&flagged, &host, tol).unwrap().contains("flags"));
-    }
 }

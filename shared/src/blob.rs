@@ -1,4 +1,5 @@
-//! The `.fbgm` model blob (DESIGN §6).
+//! The `.fbgm` model blob: the one file a trained model travels in, from the trainer to a
+//! device.
 //!
 //! ```text
 //! offset  size  field
@@ -129,6 +130,36 @@ impl Header {
         }
         out
     }
+}
+
+/// The CRC trailer `bytes` carries: its last four bytes, little-endian, which identify a
+/// model (a device reports the active model by it). Unchecked; `None` when `bytes` is shorter
+/// than a trailer.
+///
+/// ```
+/// use fbg_shared::blob::{computed_crc, stored_crc};
+/// let mut blob = [0u8; 20];
+/// blob[16..].copy_from_slice(&0x1234_5678u32.to_le_bytes());
+/// assert_eq!(stored_crc(&blob), Some(0x1234_5678));
+/// assert_ne!(computed_crc(&blob), stored_crc(&blob)); // not a valid blob
+/// assert_eq!(computed_crc(&blob[..19]), None); // shorter than a header and a trailer
+/// assert_eq!(stored_crc(&blob[..3]), None);
+/// ```
+pub fn stored_crc(bytes: &[u8]) -> Option<u32> {
+    let tail = bytes.get(bytes.len().checked_sub(CRC_LEN)?..)?;
+    let mut t = [0u8; CRC_LEN];
+    if tail.len() != t.len() {
+        return None;
+    }
+    t.copy_from_slice(tail);
+    Some(u32::from_le_bytes(t))
+}
+
+/// The CRC-32/ISCSI of everything in `bytes` but the trailer: what [`stored_crc`] is for an
+/// intact blob. `None` when `bytes` is shorter than a header and a trailer.
+pub fn computed_crc(bytes: &[u8]) -> Option<u32> {
+    let at = bytes.len().checked_sub(CRC_LEN).filter(|&at| at >= HEADER_LEN)?;
+    bytes.get(..at).map(|body| CRC32.checksum(body))
 }
 
 fn saturate_u16(v: usize) -> u16 {

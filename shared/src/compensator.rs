@@ -1,4 +1,4 @@
-//! The per-sample inference (DESIGN §4): polynomial core + RBF residual + band + flags.
+//! The per-sample inference (Model-H): polynomial core + RBF residual + band + flags.
 //!
 //! Loading folds the auditable [`ModelParams`] into a per-sample form once, in the
 //! compensator's own precision (no f64 arithmetic on an f32 device): scalers are folded into
@@ -39,6 +39,20 @@ impl<F: Real> Sample<F> {
     pub fn inputs_finite(&self) -> bool {
         self.dl_pm.iter().all(|v| v.is_finite()) && self.t_amb_c.is_finite()
     }
+
+    /// The sample in another precision: exact from f32 to f64 (how a host replays what a
+    /// device received), rounded to nearest from f64 to f32 (what a device receives).
+    ///
+    /// ```
+    /// use fbg_shared::Sample;
+    /// let host = Sample { dl_pm: [0.1f64, 2.0, -3.0], t_amb_c: 20.0, t_s: 60.0 };
+    /// let device: Sample<f32> = host.cast();
+    /// assert_eq!(device.dl_pm[0], 0.1f32);
+    /// assert_eq!(device.cast::<f64>().dl_pm[0], f64::from(0.1f32));
+    /// ```
+    pub fn cast<G: Real>(&self) -> Sample<G> {
+        Sample { dl_pm: self.dl_pm.map(G::from_real), t_amb_c: G::from_real(self.t_amb_c), t_s: G::from_real(self.t_s) }
+    }
 }
 
 /// One compensated estimate.
@@ -73,6 +87,21 @@ pub struct StreamState<F> {
 }
 
 /// A loaded model with its stream state, ready to compensate samples.
+///
+/// ```
+/// use fbg_shared::{Compensator, FeatureSet, ModelParams, Sample};
+/// # let params: ModelParams<f32, 8> =
+/// #     fbg_testkit::models::model(8, 1, FeatureSet::HysteresisAware, Default::default());
+/// // `params`: a trained model, e.g. `fbg_shared::blob::decode(&bytes)?`.
+/// let mut comp = Compensator::<f32, 8>::new(&params)?;
+/// let e = comp.step(&Sample { dl_pm: [10.0, -5.0, 2.0], t_amb_c: 21.0, t_s: 60.0 });
+/// assert!(e.values.iter().chain(e.band95.iter()).all(|v| v.is_finite()));
+/// // A non-finite input is flagged, never a panic.
+/// let bad = comp.step(&Sample { dl_pm: [f32::NAN, 0.0, 0.0], t_amb_c: 21.0, t_s: 120.0 });
+/// assert!(bad.flags.contains(fbg_shared::Flags::NON_FINITE));
+/// comp.reset(); // a new acquisition
+/// # Ok::<(), fbg_shared::Error>(())
+/// ```
 ///
 /// `K` is the centre capacity; models with fewer centres load too and cost proportionally less.
 #[derive(Clone, Debug)]
@@ -641,17 +670,4 @@ fn psi_max_pass<F: Real, const K: usize, const TIME: bool, const LATCH: bool>(
         m = m.max(psi_of::<F, TIME, LATCH>(c, z, z_sq));
     }
     m
-}
-
-/// Gaussian RBF activation ψ = exp(−‖z − μ‖²) of inputs z and a centre μ already scaled by
-/// 1/(σ√2), with the distance expanded: ‖z‖² (`z_sq`) + ‖μ‖² (`mu_sq`) + z·(−2μ) (`m2`). A
-/// tiny negative d² from rounding is harmless (ψ slightly above 1 is impossible: see
-/// [`crate::real::exp_neg_f32`]'s clamp).
-#[inline(always)]
-pub fn rbf_activation<F: Real>(z: &[F; Z_DIMS], z_sq: F, m2: &[F; Z_DIMS], mu_sq: F) -> F {
-    let mut d2 = z_sq + mu_sq;
-    for (&zi, &mi) in z.iter().zip(m2.iter()) {
-        d2 = zi.mul_add(mi, d2);
-    }
-    d2.exp_neg()
 }

@@ -1,9 +1,44 @@
-//! Per-sample fault flags (DESIGN §4): the estimate is always returned; flags say how far to
+//! Per-sample fault flags: the estimate is always returned; flags say how far to
 //! trust it.
 
 /// Bit set of sample flags. `Flags::OK` (no bit) means a normal, in-envelope estimate.
+///
+/// On the wire (the link's estimates) it is one byte; deserialising refuses a byte with a bit
+/// this version does not define ([`UnknownFlags`]), so a newer device's flag is never silently
+/// read as a known one or dropped.
+///
+/// ```
+/// use fbg_shared::Flags;
+/// let mut f = Flags::OK;
+/// f.insert(Flags::OUT_OF_ENVELOPE);
+/// assert!(f.contains(Flags::OUT_OF_ENVELOPE) && !f.is_ok());
+/// assert_eq!(f.union(Flags::WEAK_SUPPORT).to_string(), "out-of-envelope|weak-support");
+/// assert_eq!(Flags::from_bits(0b1000), None);
+/// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "u8")]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Flags(pub u8);
+
+/// A flag byte with a bit [`Flags::ALL`] does not define.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct UnknownFlags(pub u8);
+
+impl core::fmt::Display for UnknownFlags {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "flag byte {:#04x} has bits this version does not define", self.0)
+    }
+}
+
+impl core::error::Error for UnknownFlags {}
+
+impl TryFrom<u8> for Flags {
+    type Error = UnknownFlags;
+    fn try_from(bits: u8) -> Result<Self, UnknownFlags> {
+        Flags::from_bits(bits).ok_or(UnknownFlags(bits))
+    }
+}
 
 impl Flags {
     /// No flag raised.
@@ -19,6 +54,14 @@ impl Flags {
     /// Every bit this version defines.
     pub const ALL: Flags = Flags(0b111);
 
+    /// The flags of `bits`, `None` when a bit is not one of [`Flags::ALL`].
+    pub const fn from_bits(bits: u8) -> Option<Flags> {
+        if bits & !Flags::ALL.0 == 0 {
+            Some(Flags(bits))
+        } else {
+            None
+        }
+    }
     /// True when no flag is raised.
     pub const fn is_ok(self) -> bool {
         self.0 == 0
@@ -57,5 +100,26 @@ impl core::fmt::Display for Flags {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_bits_do_not_deserialise() {
+        for bits in 0..=u8::MAX {
+            let got = postcard::from_bytes::<Flags>(&[bits]);
+            if bits <= Flags::ALL.0 {
+                assert_eq!(got, Ok(Flags(bits)));
+                let mut buf = [0u8; 1];
+                assert_eq!(postcard::to_slice(&Flags(bits), &mut buf).unwrap(), &[bits]);
+            } else {
+                assert!(got.is_err(), "{bits:#04x}");
+                assert_eq!(Flags::try_from(bits), Err(UnknownFlags(bits)));
+            }
+        }
     }
 }

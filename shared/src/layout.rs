@@ -1,6 +1,6 @@
 //! Fixed dimensions of the compensator and the layout of its feature vectors.
 //!
-//! The gratings, outputs and polynomial terms are fixed by the physics (DESIGN §4); only the
+//! The gratings, outputs and polynomial terms are fixed by the physics; only the
 //! number of RBF centres `K` varies between models and is a const generic of the device types.
 
 /// Gratings (wavelength inputs) per sensor group.
@@ -46,15 +46,17 @@ pub const VAR_RANK: usize = 4;
 /// Two-sided 95 % normal quantile used for the band.
 pub const Z95: f64 = 1.959_963_984_540_054;
 
-/// Names of the outputs with units, in output order.
-pub const OUTPUT_NAMES: [&str; N_OUTPUTS] = ["T [°C]", "strain [µε]", "p [kPa]"];
+/// Short names of the outputs, in output order: table columns, JSON keys, messages.
+pub const CHANNELS: [&str; N_OUTPUTS] = ["T", "strain", "p"];
+/// Units of the outputs, in output order.
+pub const UNITS: [&str; N_OUTPUTS] = ["°C", "µε", "kPa"];
 /// Names of the RBF inputs with units, in `Z_DIMS` order.
 pub const Z_NAMES: [&str; Z_DIMS] =
     ["dl1 [pm]", "dl2 [pm]", "dl3 [pm]", "T_amb [°C]", "t [s]", "latch1", "latch2", "latch3"];
 /// Names of the polynomial terms (on standardised first guesses) in `N_POLY` order.
 pub const POLY_NAMES: [&str; N_POLY] = ["1", "T", "ε", "p", "T²", "ε²", "p²", "Tε", "Tp", "εp"];
 
-/// Which inputs feed the RBF residual (DESIGN §4).
+/// Which inputs feed the RBF residual.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[repr(u8)]
 pub enum FeatureSet {

@@ -12,7 +12,7 @@
 //! - [`compensator`]: per-sample inference with band and flags;
 //! - [`flags`]: the fault flags;
 //! - [`protocol`]: the COBS-framed postcard messages of the host ↔ device serial link;
-//! - `link_client` (feature `std`): the host side of that link over any `Read + Write`.
+//! - [`golden`]: the byte layout of the golden samples and packs the device is tested with.
 //!
 //! # Cost of one `step` (K centres, `Z_DIMS` = 8, `VAR_RANK` = 4)
 //!
@@ -45,7 +45,7 @@
 #![deny(missing_docs)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
-#[cfg(feature = "std")]
+#[cfg(test)]
 extern crate std;
 
 pub mod blob;
@@ -53,18 +53,17 @@ pub mod compensator;
 pub mod direction_latch;
 pub mod error;
 pub mod flags;
+pub mod golden;
 pub mod layout;
-#[cfg(feature = "std")]
-pub mod link_client;
 pub mod memory;
 pub mod model;
 pub mod protocol;
 pub mod real;
 
-pub use compensator::{rbf_activation, Compensator, Estimate, Sample, StreamState};
+pub use compensator::{Compensator, Estimate, Sample, StreamState};
 pub use direction_latch::{ticks, DirectionLatch, LatchBank};
 pub use error::Error;
-pub use flags::Flags;
+pub use flags::{Flags, UnknownFlags};
 pub use layout::FeatureSet;
 pub use memory::{MemoryBank, MemoryGroup, MemorySpec, MemoryState};
 pub use model::{Centre, Hyper, ModelParams, Provenance};

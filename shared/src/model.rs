@@ -44,7 +44,7 @@ pub struct Centre<F> {
     pub v: [F; VAR_RANK],
 }
 
-/// Where the model came from (DESIGN §6).
+/// Where the model came from (carried in the blob for audit).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Provenance {
     /// Scenario seed (0 for real data).
@@ -62,6 +62,24 @@ pub struct Provenance {
 /// A trained Model-H (Model-P when it has no centres), generic over the scalar and with a
 /// capacity of `K` centres. `Default` is an all-zero placeholder (it does not validate), the
 /// starting point of [`crate::blob::decode_into`].
+///
+/// A model travels as a `.fbgm` blob ([`crate::blob`]), and any precision or capacity converts
+/// to any other that holds it:
+///
+/// ```
+/// use fbg_shared::{blob, FeatureSet, ModelParams};
+/// # let trained: ModelParams<f32, 8> =
+/// #     fbg_testkit::models::model(4, 1, FeatureSet::Paper, Default::default());
+/// let mut buf = [0u8; blob::max_len(8)];
+/// let n = blob::encode(&trained, &mut buf)?;
+/// let back: ModelParams<f32, 4> = blob::decode(&buf[..n])?; // every check passed
+/// assert_eq!(back.n_centres(), 4);
+/// let host: ModelParams<f64, 4> = back.convert()?;
+/// assert_eq!(host.hyper.feature_set, FeatureSet::Paper);
+/// buf[20] ^= 1; // one flipped bit
+/// assert_eq!(blob::decode::<4>(&buf[..n]), Err(fbg_shared::Error::BadCrc));
+/// # Ok::<(), fbg_shared::Error>(())
+/// ```
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ModelParams<F, const K: usize> {
     /// Chosen hyper-parameters.

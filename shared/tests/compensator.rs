@@ -1,11 +1,10 @@
 //! Host tests of the compensator's behaviour: flags, band widening, stream state, feature
-//! sets, and f32/f64 agreement (DESIGN §4).
+//! sets, and f32/f64 agreement.
 
-mod common;
-
-use common::{long_provenance, model, short_provenance, Rng};
 use fbg_shared::layout::Z95;
 use fbg_shared::{Compensator, Estimate, FeatureSet, Flags, ModelParams, Sample};
+use fbg_testkit::models::{encode_vec, long_provenance, model, short_provenance};
+use fbg_testkit::Rng;
 use proptest::prelude::*;
 
 const K: usize = 8;
@@ -447,7 +446,7 @@ fn a_refused_reload_keeps_the_old_model_and_its_stream_state() {
 #[test]
 fn decode_into_matches_decode() {
     let p = model::<8>(8, 4, FeatureSet::HysteresisAwareTime, long_provenance());
-    let bytes = common::encode_vec(&p);
+    let bytes = encode_vec(&p).unwrap();
     let mut slot = ModelParams::<f32, 8>::default();
     fbg_shared::blob::decode_into(&bytes, &mut slot).unwrap();
     assert_eq!(slot, p);
@@ -522,9 +521,9 @@ fn a_stream_resumed_from_its_state_answers_as_the_whole_stream() {
 // ---------------------------------------------------------------------------------------------
 // Memory terms: ŷ = Bφ + Γm + Wψ
 
-use common::{full_memory_spec, memory_model, some_memory_spec};
 use fbg_shared::layout::N_MEMORY;
 use fbg_shared::{Error, MemoryBank, MemorySpec};
+use fbg_testkit::models::{full_memory_spec, memory_model, some_memory_spec};
 
 fn memory_params(n: usize, seed: u64, fs: FeatureSet) -> ModelParams<f32, K> {
     memory_model(n, seed, fs, short_provenance(), some_memory_spec())

@@ -1,14 +1,13 @@
-//! The memory bank over whole streams (DESIGN §4): the memory vector against an independent
+//! The memory bank over whole streams: the memory vector against an independent
 //! reference, start, gaps and repeated time stamps, saved and resumed state, unused slots, and
 //! f32 against f64 over a 14-day record.
 
-mod common;
-
-use common::{full_memory_spec, Rng};
 use fbg_shared::layout::{
     MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP, N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS,
 };
 use fbg_shared::{MemoryBank, MemoryGroup, MemorySpec, Real};
+use fbg_testkit::models::full_memory_spec;
+use fbg_testkit::Rng;
 
 /// One input sample of the bank: Δλ [pm], T_amb [°C], t [s].
 #[derive(Clone, Copy, Debug)]

@@ -8,7 +8,6 @@ use fbg_trainer::dataset::Split;
 use fbg_trainer::evaluate::evaluate_holdout;
 use fbg_trainer::export::blob_bytes;
 use fbg_trainer::fit::{train, HostCompensator, Origin, TrainOptions};
-use fbg_trainer::parity::{as_device_input, widen};
 use fbg_trainer::scenario::Preset;
 use fbg_trainer::sim::simulate;
 
@@ -32,9 +31,9 @@ fn device_f32_path_matches_trainer_f64_within_one_percent_of_rmse() {
     let mut flagged = 0;
     let mut n = 0;
     for i in 0..s.data.len() {
-        let x: Sample<f32> = as_device_input(&s.data.sample(i));
+        let x: Sample<f32> = s.data.sample(i).cast();
         let a = device.step(&x);
-        let b = host.step(&widen(&x));
+        let b = host.step(&x.cast());
         if s.data.split[i] != Split::Holdout {
             continue;
         }

@@ -15,12 +15,14 @@
 //!   envelope, weak support, NaN and ∞ inputs, which the hold-out never has) with their host
 //!   answers; the first 600 expected rows must equal the trainer's (checked here);
 //! - `memory_model.fbgm`, `memory_golden_inputs.bin`, `memory_golden_expected.csv`: the second
-//!   golden set, the synthetic K = 32 model of this file with every slot of the memory bank in
-//!   use ([`synthetic_params`]) on [`golden_samples`] (an irregular clock with a 5 h gap, flags);
-//! - `golden_pack.bin`: both sets as the golden image embeds them ([`pack_bytes`]).
+//!   golden set, the synthetic K = 32 model of the test kit's installation with every slot of
+//!   the memory bank in use (`fbg_testkit::installation::synthetic_params`) on its
+//!   `golden_samples` (an irregular clock with a 5 h gap, flags);
+//! - `golden_pack.bin`: both sets as the golden image embeds them (`fbg_link::golden::pack_bytes`).
 //!
 //! [`ensure_device`] adds the models of the link test and the bench: `update/model.fbgm`
-//! (`train --features paper`, a second valid model with another feature set), the synthetic models of this file with and without the memory
+//! (`train --features paper`, a second valid model with another feature set), the synthetic
+//! models of the test kit's installation with and without the memory
 //! bank at K = 0, 16, 32 and 64 (the trainer's grid stops at 32 centres; the 64-centre one is
 //! also the model a K = 32 build must refuse), and the bench packs (`bench_pack_k32.bin`,
 //! `bench_pack_k64.bin`: every model a bench image of that capacity runs, with its samples).
@@ -28,20 +30,17 @@
 //! Everything is regenerated when the trainer binary changes (a stamp in the directory), so
 //! repeated calls cost one `cargo build` check.
 
-use std::fmt::Write as _;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
-use anyhow::{bail, ensure as check, Context, Result};
-use fbg_shared::blob;
-use fbg_shared::layout::{FeatureSet, N_MEMORY, N_OUTPUTS, N_STAGE1, VAR_RANK, Z_DIMS};
-use fbg_shared::{
-    Centre, Compensator, Estimate, Flags, Hyper, LatchBank, MemoryGroup, MemorySpec, ModelParams, Provenance, Sample,
-};
+use anyhow::{ensure as check, Context, Result};
+use fbg_link::golden::{expected_csv, inputs_bytes, pack_bytes, parse_expected, parse_inputs};
+use fbg_shared::layout::{N_MEMORY, N_OUTPUTS};
+use fbg_shared::{blob, Compensator, Estimate, ModelParams, Sample};
+pub use fbg_testkit::installation::MAX_K;
+use fbg_testkit::installation::{golden_samples, synthetic_blob};
 
-/// Largest centre count the fixture tools handle.
-pub const MAX_K: usize = 64;
 /// Seed of the simulated dataset (the paper preset).
 pub const SEED: u64 = 7;
 /// Golden samples the trainer exports.
@@ -49,7 +48,7 @@ pub const GOLDEN_SAMPLES: usize = 600;
 /// Samples of the synthetic memory golden set (≈ 30 h at 60 s: several of the longest τ, 4 h).
 pub const MEMORY_GOLDEN_SAMPLES: usize = 1500;
 /// Bump to regenerate the fixtures when this file changes what it writes.
-const FIXTURES_VERSION: u32 = 4;
+const FIXTURES_VERSION: u32 = 5;
 
 /// Paths of the trainer-made fixtures.
 #[derive(Clone, Debug)]
@@ -200,20 +199,6 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
     Ok(fx)
 }
 
-/// Models and samples as one file for a test image to embed: per record a u32 LE blob length,
-/// the blob, a u32 LE sample count and the samples ([`inputs_bytes`]). Parsed on the device by
-/// `fbg_firmware::pack`.
-pub fn pack_bytes(records: &[(&[u8], &[Sample<f32>])]) -> Vec<u8> {
-    let mut out = Vec::new();
-    for (blob_bytes, samples) in records {
-        out.extend_from_slice(&(blob_bytes.len() as u32).to_le_bytes());
-        out.extend_from_slice(blob_bytes);
-        out.extend_from_slice(&(samples.len() as u32).to_le_bytes());
-        out.extend_from_slice(&inputs_bytes(samples));
-    }
-    out
-}
-
 /// Samples the hold-out does not contain, to run the device's flag paths against the host's:
 /// a stretch far outside the Δλ1 envelope (out of envelope, and weak support), T_amb beyond the
 /// envelope, a NaN and an infinite input, then ordinary samples again (from `base`).
@@ -304,7 +289,7 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
             32,
             syn(0, true),
             synthetic_inputs.clone(),
-            "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms), no centres",
+            "synthetic (fbg_testkit::installation), the full memory bank (32 terms), no centres",
         ),
         (
             "memory_k16",
@@ -313,7 +298,7 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
             32,
             syn(16, true),
             synthetic_inputs.clone(),
-            "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)",
+            "synthetic (fbg_testkit::installation), the full memory bank (32 terms)",
         ),
         (
             "memory_k32",
@@ -322,7 +307,7 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
             32,
             syn(32, true),
             synthetic_inputs.clone(),
-            "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)",
+            "synthetic (fbg_testkit::installation), the full memory bank (32 terms)",
         ),
         (
             "plain_k16",
@@ -331,7 +316,7 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
             32,
             syn(16, false),
             synthetic_inputs.clone(),
-            "synthetic (xtask/src/fixtures.rs), no memory terms",
+            "synthetic (fbg_testkit::installation), no memory terms",
         ),
         (
             "plain_k32",
@@ -340,7 +325,7 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
             32,
             syn(32, false),
             synthetic_inputs.clone(),
-            "synthetic (xtask/src/fixtures.rs), no memory terms",
+            "synthetic (fbg_testkit::installation), no memory terms",
         ),
         (
             "plain_k64",
@@ -349,7 +334,7 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
             64,
             k64_model.clone(),
             synthetic_inputs.clone(),
-            "synthetic (xtask/src/fixtures.rs), no memory terms; the trainer's grid stops at 32 centres",
+            "synthetic (fbg_testkit::installation), no memory terms; the trainer's grid stops at 32 centres",
         ),
         (
             "memory_k64",
@@ -358,7 +343,7 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
             64,
             syn(64, true),
             synthetic_inputs.clone(),
-            "synthetic (xtask/src/fixtures.rs), the full memory bank (32 terms)",
+            "synthetic (fbg_testkit::installation), the full memory bank (32 terms)",
         ),
     ];
     let bench_packs = vec![(32, d.join("bench_pack_k32.bin")), (64, d.join("bench_pack_k64.bin"))];
@@ -379,8 +364,7 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
         }
         // In-envelope, unflagged samples of the synthetic installation on a regular 60 s clock
         // (the bench image continues the clock across its passes over them).
-        let mut rng = Rng::new(21);
-        let synthetic: Vec<Sample<f32>> = (0..64).map(|i| simulate(i, &mut rng)).collect();
+        let synthetic = fbg_testkit::installation::samples(64, 21);
         write_atomic(&synthetic_inputs, &inputs_bytes(&synthetic))?;
         for (cap, pack) in &bench_packs {
             let mut records: Vec<(Vec<u8>, Vec<Sample<f32>>)> = Vec::new();
@@ -409,339 +393,6 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
 }
 
-// ---- deterministic random numbers ----------------------------------------------------------
-
-/// SplitMix64: tiny, deterministic on every machine.
-pub struct Rng(u64);
-
-impl Rng {
-    /// A generator for `seed`.
-    pub fn new(seed: u64) -> Self {
-        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
-    }
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    /// Standard normal (Box-Muller).
-    pub fn normal(&mut self) -> f64 {
-        let u1 = self.uniform().max(1e-300);
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-}
-
-// ---- the synthetic installation (the K = 64 bench model, which the trainer cannot make) -----
-
-/// Nominal gauge matrix of DESIGN §3 (pm per °C, µε, kPa), rows FBG1..3.
-const GAUGE: [[f64; 3]; 3] = [[10.0, 1.20, 0.02], [9.8, 0.05, 0.01], [11.0, 0.10, 1.0]];
-/// Reference point of the shifts.
-const T0: f64 = 20.0;
-const P0: f64 = 150.0;
-/// Spread of the quantities over a calibration run (°C, µε, kPa).
-const Q_STD: [f64; 3] = [3.0, 80.0, 15.0];
-
-fn inverse3(m: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    let [[a, b, c], [d, e, f], [g, h, i]] = *m;
-    let det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
-    [
-        [(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det],
-        [(f * g - d * i) / det, (a * i - c * g) / det, (c * d - a * f) / det],
-        [(d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det],
-    ]
-}
-
-/// One simulated sample at index `i`: true (T, ε, p) trajectories with turning points, the
-/// measured shifts through the gauge matrix with a small cross-term and noise.
-fn simulate(i: usize, rng: &mut Rng) -> Sample<f32> {
-    let x = i as f64;
-    let tau = std::f64::consts::TAU;
-    let t = T0 + 4.0 * (tau * x / 300.0).sin() + 1.0 * (tau * x / 47.0).sin();
-    let e = 100.0 * (tau * x / 170.0).sin() + if (i / 90).is_multiple_of(2) { 30.0 } else { -30.0 };
-    let p = P0 + 20.0 * (tau * x / 230.0).sin();
-    let q = [t - T0, e, p - P0];
-    let mut dl = [0.0f64; 3];
-    for (d, row) in dl.iter_mut().zip(GAUGE.iter()) {
-        *d = row.iter().zip(q.iter()).map(|(k, v)| k * v).sum::<f64>() + 0.8 * rng.normal();
-    }
-    dl[0] += 1e-3 * q[0] * q[1]; // c_Tε cross-term
-    let t_amb = t + 0.5 + 0.1 * rng.normal();
-    Sample { dl_pm: [dl[0] as f32, dl[1] as f32, dl[2] as f32], t_amb_c: t_amb as f32, t_s: (60.0 * x) as f32 }
-}
-
-/// Time stamps of a realistic acquisition [s] from `t0`: 60 s steps, with irregular ones mixed
-/// in (every 7th step 60.5 s, every 53rd 23 s, every 89th 131 s, every 211th a repeated time
-/// stamp) and one 5 h gap at 3/5 of the stream. The memory bank recomputes its smoothing
-/// factors on every Δt change and holds its low-passes on a repeated stamp.
-pub fn irregular_clock(n: usize, t0: f64) -> Vec<f64> {
-    let mut t = t0;
-    (0..n)
-        .map(|i| {
-            if i > 0 {
-                t += if i == n * 3 / 5 {
-                    5.0 * 3600.0
-                } else if i % 211 == 0 {
-                    0.0
-                } else if i % 89 == 0 {
-                    131.0
-                } else if i % 53 == 0 {
-                    23.0
-                } else if i % 7 == 0 {
-                    60.5
-                } else {
-                    60.0
-                };
-            }
-            t
-        })
-        .collect()
-}
-
-/// `n` golden samples on [`irregular_clock`]: the trajectory, a stretch out of the Δλ1
-/// envelope, two T_amb excursions and one NaN.
-pub fn golden_samples(n: usize, seed: u64) -> Vec<Sample<f32>> {
-    let mut rng = Rng::new(seed);
-    let clock = irregular_clock(n, 3600.0);
-    let mut out: Vec<Sample<f32>> = (0..n).map(|i| simulate(i, &mut rng)).collect();
-    for (s, &t) in out.iter_mut().zip(clock.iter()) {
-        s.t_s = t as f32;
-    }
-    let n = out.len();
-    for (i, s) in out.iter_mut().enumerate() {
-        if (n * 2 / 3..n * 2 / 3 + 10).contains(&i) {
-            s.dl_pm[0] += 400.0; // far outside the envelope: out-of-envelope and weak support
-        }
-        if i == n * 5 / 6 || i == n * 5 / 6 + 1 {
-            s.t_amb_c = 45.0;
-        }
-        if i == n * 3 / 4 {
-            s.dl_pm[1] = f32::NAN;
-        }
-    }
-    out
-}
-
-/// Mean and standard deviation of each RBF input of a feature set over a calibration run.
-struct Scaler {
-    mean: [f64; Z_DIMS],
-    std: [f64; Z_DIMS],
-}
-
-fn z_raw(s: &Sample<f32>, latch: [f64; 3]) -> [f64; Z_DIMS] {
-    [
-        s.dl_pm[0] as f64,
-        s.dl_pm[1] as f64,
-        s.dl_pm[2] as f64,
-        s.t_amb_c as f64,
-        s.t_s as f64,
-        latch[0],
-        latch[1],
-        latch[2],
-    ]
-}
-
-/// Every slot of the memory bank in use: grating high-passes at τ = 300 s … 4 h, ambient ones
-/// at 300 s … 1 h, plays of half-width 2, 4 and 8 pm, and the drift observer (the thermometer's
-/// lag 1 200 s, smoothing 2 400 s) on `observer_row` (T_g [°C] from [Δλ1..3, T_amb, 1]).
-pub fn full_memory_spec(observer_row: [f64; N_STAGE1]) -> MemorySpec<f64> {
-    MemorySpec {
-        grating_tau_s: [300.0, 900.0, 1800.0, 3600.0, 7200.0, 14400.0],
-        ambient_tau_s: [300.0, 900.0, 1800.0, 3600.0],
-        play_half_width_pm: [2.0, 4.0, 8.0],
-        observer_lag_s: 1200.0,
-        observer_smooth_s: 2400.0,
-        observer_row,
-    }
-}
-
-/// A small Γ, non-zero on every term `spec` uses: per output unit `scale[o]`, 1e-3·scale per pm
-/// (grating high-passes, stop terms), 1e-2·scale per °C (ambient high-passes), and 0.2 °C/°C
-/// for the drift observer on T only (the trainer offers it to temperature outputs only).
-pub fn small_gamma(spec: &MemorySpec<f64>, scale: [f64; N_OUTPUTS], seed: u64) -> [[f64; N_MEMORY]; N_OUTPUTS] {
-    let mut rng = Rng::new(seed);
-    let mut g = [[0.0; N_MEMORY]; N_OUTPUTS];
-    for (o, row) in g.iter_mut().enumerate() {
-        for (k, v) in row.iter_mut().enumerate() {
-            let Some(term) = spec.term(k).filter(|t| t.parameter > 0.0) else { continue };
-            let r = (0.5 + rng.uniform()) * if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
-            *v = match term.group {
-                MemoryGroup::GratingHighPass | MemoryGroup::Stop => 1e-3 * scale[o] * r,
-                MemoryGroup::AmbientHighPass => 1e-2 * scale[o] * r,
-                MemoryGroup::DriftObserver if o == 0 => 0.2,
-                MemoryGroup::DriftObserver => 0.0,
-            };
-        }
-    }
-    g
-}
-
-/// A model blob with the full memory bank ([`full_memory_spec`] on its stage-1 T row, and
-/// [`small_gamma`] scaled by its guess spread) in place of whatever memory it had: what the
-/// device's memory is checked with when the trainer's model has none.
-pub fn with_full_memory(blob_bytes: &[u8]) -> Result<Vec<u8>> {
-    let p: ModelParams<f64, MAX_K> = decode(blob_bytes)?.convert().map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut p = p;
-    p.memory = full_memory_spec(p.stage1[0]);
-    p.gamma = small_gamma(&p.memory, p.guess_std, 5);
-    encode_f64(&p)
-}
-
-fn encode_f64(p: &ModelParams<f64, MAX_K>) -> Result<Vec<u8>> {
-    let p32: ModelParams<f32, MAX_K> = p.convert().map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut buf = vec![0u8; blob::max_len(MAX_K)];
-    let n = blob::encode(&p32, &mut buf).map_err(|e| anyhow::anyhow!("encoding: {e}"))?;
-    buf.truncate(n);
-    Ok(buf)
-}
-
-/// A synthetic, valid K-centre hysteresis-aware model, deterministic in `seed`, with every
-/// slot of the memory bank in use ([`full_memory_spec`], [`small_gamma`]); see
-/// [`without_memory`] for the same model without.
-pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>> {
-    check!(k <= MAX_K, "at most {MAX_K} centres");
-    let mut rng = Rng::new(seed);
-    let dead_band = 2.0;
-    // A calibration run: centres are picked among its standardised inputs (as k-means++
-    // would), so they sit where data is.
-    let cal: Vec<Sample<f32>> = (0..2000).map(|i| simulate(i, &mut rng)).collect();
-    let mut latches = LatchBank::new();
-    let db_ticks = fbg_shared::direction_latch::ticks(dead_band);
-    let zs: Vec<[f64; Z_DIMS]> = cal
-        .iter()
-        .map(|s| {
-            let dl = [s.dl_pm[0] as f64, s.dl_pm[1] as f64, s.dl_pm[2] as f64];
-            z_raw(s, latches.update(&dl, db_ticks))
-        })
-        .collect();
-    let nf = zs.len() as f64;
-    let mut sc = Scaler { mean: [0.0; Z_DIMS], std: [1.0; Z_DIMS] };
-    for d in 0..Z_DIMS {
-        let m = zs.iter().map(|z| z[d]).sum::<f64>() / nf;
-        let v = zs.iter().map(|z| (z[d] - m).powi(2)).sum::<f64>() / nf;
-        sc.mean[d] = m;
-        sc.std[d] = if v > 0.0 { v.sqrt() } else { 1.0 };
-    }
-    let fs = FeatureSet::HysteresisAware;
-    let active = fs.active();
-
-    let mut centres: heapless::Vec<Centre<f64>, MAX_K> = heapless::Vec::new();
-    for j in 0..k {
-        let src = &zs[(j * zs.len() / k.max(1) + 37) % zs.len()];
-        let mut c = Centre::<f64>::default();
-        for d in 0..Z_DIMS {
-            if active[d] {
-                c.mu[d] = ((src[d] - sc.mean[d]) / sc.std[d] + 0.1 * rng.normal()).clamp(-2.5, 2.5);
-            }
-        }
-        c.w = [0.05 * rng.normal(), 2.0 * rng.normal(), 0.5 * rng.normal()];
-        for v in c.v.iter_mut() {
-            *v = rng.normal() / (k.max(1) as f64).sqrt();
-        }
-        if centres.push(c).is_err() {
-            bail!("centre capacity");
-        }
-    }
-
-    // Stage 1: the exact inverse of the nominal gauge matrix plus a small T_amb term.
-    let inv = inverse3(&GAUGE);
-    let offsets = [T0, 0.0, P0];
-    let amb = [0.002, -0.05, 0.01];
-    let mut stage1 = [[0.0; 5]; N_OUTPUTS];
-    for o in 0..N_OUTPUTS {
-        stage1[o] = [inv[o][0], inv[o][1], inv[o][2], amb[o], offsets[o] - amb[o] * (T0 + 0.5)];
-    }
-    let poly = [
-        [20.01, 3.0, 0.003, -0.002, 0.02, 0.0, 0.0, 0.004, 0.001, 0.0],
-        [0.3, 0.4, 80.0, 0.1, 0.2, 0.6, 0.0, 0.9, 0.0, 0.05],
-        [150.05, 0.1, 0.02, 15.0, 0.05, 0.0, 0.12, 0.0, 0.3, 0.02],
-    ];
-    let mut z_std = sc.std;
-    let mut z_mean = sc.mean;
-    for d in 0..Z_DIMS {
-        if !active[d] {
-            z_mean[d] = 0.0;
-            z_std[d] = 1.0;
-        }
-    }
-    let margin = 0.1;
-    let mut envelope_lo = [0.0; 4];
-    let mut envelope_hi = [0.0; 4];
-    for d in 0..4 {
-        let lo = zs.iter().map(|z| z[d]).fold(f64::INFINITY, f64::min);
-        let hi = zs.iter().map(|z| z[d]).fold(f64::NEG_INFINITY, f64::max);
-        let pad = margin * (hi - lo);
-        envelope_lo[d] = lo - pad;
-        envelope_hi[d] = hi + pad;
-    }
-    let var_inv_g = [0.8, 0.5, 0.3, 0.2];
-    debug_assert_eq!(var_inv_g.len(), VAR_RANK);
-    let params = ModelParams::<f64, MAX_K> {
-        hyper: Hyper {
-            feature_set: fs,
-            sigma_mult: 1.5,
-            sigma: 1.2,
-            alpha: 1e-2,
-            dead_band_pm: dead_band,
-            weak_support: 0.02,
-            envelope_margin: margin,
-            flagged_band_factor: 2.0,
-        },
-        stage1,
-        guess_mean: [T0, 0.0, P0],
-        guess_std: Q_STD,
-        poly,
-        memory: MemorySpec::off(),
-        gamma: [[0.0; N_MEMORY]; N_OUTPUTS],
-        z_mean,
-        z_std,
-        centres,
-        var_inv_g,
-        var_inv_g_tail: 0.02,
-        resid_var: [0.12f64.powi(2), 2.5f64.powi(2), 0.6f64.powi(2)],
-        resid_var_growth: [0.0; 3],
-        t_cal_end_s: 0.0,
-        band_k: [1.959_964; 3],
-        envelope_lo,
-        envelope_hi,
-        fitted: [true; 3],
-        provenance: Provenance {
-            seed,
-            scenario: heapless::String::try_from("synthetic-fixture").unwrap_or_default(),
-            trainer_version: heapless::String::try_from("xtask").unwrap_or_default(),
-            date_yyyymmdd: 20260101,
-            n_cal: cal.len() as u32,
-        },
-    };
-    let mut params = params;
-    // T_g = T0 + (row 0 of the inverse gauge matrix)·Δλ: the grating temperature.
-    params.memory = full_memory_spec([inv[0][0], inv[0][1], inv[0][2], 0.0, T0]);
-    params.gamma = small_gamma(&params.memory, Q_STD, seed ^ 0x6d65_6d6f);
-    params.validate().map_err(|e| anyhow::anyhow!("synthetic model invalid: {e}"))?;
-    Ok(params)
-}
-
-/// `p` without memory terms (spec off, Γ = 0).
-pub fn without_memory(mut p: ModelParams<f64, MAX_K>) -> ModelParams<f64, MAX_K> {
-    p.memory = MemorySpec::off();
-    p.gamma = [[0.0; N_MEMORY]; N_OUTPUTS];
-    p
-}
-
-/// [`synthetic_params`] (with the full memory bank when `memory`, else [`without_memory`])
-/// encoded as a `.fbgm` blob.
-pub fn synthetic_blob(k: usize, seed: u64, memory: bool) -> Result<Vec<u8>> {
-    let p = synthetic_params(k, seed)?;
-    encode_f64(&if memory { p } else { without_memory(p) })
-}
-
 /// Decode a blob (any K up to [`MAX_K`]) for the host reference.
 pub fn decode(blob_bytes: &[u8]) -> Result<ModelParams<f32, MAX_K>> {
     blob::decode::<MAX_K>(blob_bytes).map_err(|e| anyhow::anyhow!("model blob: {e}"))
@@ -755,16 +406,7 @@ pub fn host_compensator(blob_bytes: &[u8]) -> Result<Compensator<f64, MAX_K>> {
 /// The host f64 answers for `samples` on the model in `blob_bytes`.
 pub fn reference(blob_bytes: &[u8], samples: &[Sample<f32>]) -> Result<Vec<Estimate<f64>>> {
     let mut c = host_compensator(blob_bytes)?;
-    Ok(samples.iter().map(|s| c.step(&widen(s))).collect())
-}
-
-/// A device sample in f64.
-pub fn widen(s: &Sample<f32>) -> Sample<f64> {
-    Sample {
-        dl_pm: [s.dl_pm[0] as f64, s.dl_pm[1] as f64, s.dl_pm[2] as f64],
-        t_amb_c: s.t_amb_c as f64,
-        t_s: s.t_s as f64,
-    }
+    Ok(samples.iter().map(|s| c.step(&s.cast())).collect())
 }
 
 /// Per-channel comparison scale when no hold-out RMSE is known: the square root of the blob's
@@ -774,121 +416,22 @@ pub fn reference_scale(blob_bytes: &[u8]) -> Result<[f64; N_OUTPUTS]> {
     Ok(p.resid_var.map(|v| (v as f64).sqrt()))
 }
 
-/// Golden inputs as raw little-endian f32 × 5.
-pub fn inputs_bytes(samples: &[Sample<f32>]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(samples.len() * 20);
-    for s in samples {
-        for v in [s.dl_pm[0], s.dl_pm[1], s.dl_pm[2], s.t_amb_c, s.t_s] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
-    }
-    out
-}
-
-/// Read golden inputs.
+/// Read golden inputs (`fbg_link::golden`).
 pub fn read_inputs(path: &Path) -> Result<Vec<Sample<f32>>> {
     let bytes = fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    check!(bytes.len() % 20 == 0, "{}: {} bytes is not a whole number of 5 × f32 samples", path.display(), bytes.len());
-    Ok(bytes
-        .chunks_exact(20)
-        .map(|c| {
-            let f = |i: usize| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]]);
-            Sample { dl_pm: [f(0), f(1), f(2)], t_amb_c: f(3), t_s: f(4) }
-        })
-        .collect())
+    parse_inputs(&bytes).with_context(|| format!("{}", path.display()))
 }
 
-/// Header of the expected-results CSV.
-pub const EXPECTED_HEADER: &str = "values_T,values_eps,values_p,band_T,band_eps,band_p,flags";
-
-/// The expected-results CSV text.
-pub fn expected_csv(rows: &[Estimate<f64>]) -> String {
-    let mut s = String::from(EXPECTED_HEADER);
-    s.push('\n');
-    for e in rows {
-        let v = e.values;
-        let b = e.band95;
-        let _ = writeln!(s, "{:?},{:?},{:?},{:?},{:?},{:?},{}", v[0], v[1], v[2], b[0], b[1], b[2], e.flags.0);
-    }
-    s
-}
-
-/// Read the expected-results CSV (the trainer's or ours).
+/// Read an expected-answers CSV (`fbg_link::golden`; the trainer's or ours).
 pub fn read_expected(path: &Path) -> Result<Vec<Estimate<f64>>> {
     let text = fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let mut lines = text.lines();
-    let header = lines.next().unwrap_or("");
-    check!(
-        header.trim() == EXPECTED_HEADER,
-        "{}:1: header is `{header}`, expected `{EXPECTED_HEADER}`",
-        path.display()
-    );
-    let mut out = Vec::new();
-    for (i, line) in lines.enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let cols: Vec<&str> = line.split(',').map(str::trim).collect();
-        check!(cols.len() == 7, "{}:{}: expected 7 columns, found {}", path.display(), i + 2, cols.len());
-        let mut f = [0.0f64; 6];
-        for (k, (o, c)) in f.iter_mut().zip(cols.iter()).enumerate() {
-            *o = parse_f64(c).with_context(|| format!("{}:{}: column {}", path.display(), i + 2, k + 1))?;
-        }
-        let flags: u8 = cols[6].parse().with_context(|| format!("{}:{}: column 7 (flags)", path.display(), i + 2))?;
-        out.push(Estimate { values: [f[0], f[1], f[2]], band95: [f[3], f[4], f[5]], flags: Flags(flags) });
-    }
-    Ok(out)
-}
-
-fn parse_f64(s: &str) -> Result<f64> {
-    match s.to_ascii_lowercase().as_str() {
-        "nan" => Ok(f64::NAN),
-        "inf" | "+inf" | "infinity" => Ok(f64::INFINITY),
-        "-inf" | "-infinity" => Ok(f64::NEG_INFINITY),
-        _ => s.parse::<f64>().with_context(|| format!("`{s}` is not a number")),
-    }
-}
-
-/// Compare a device answer with the host reference: per channel |Δ| ≤ `tol` (NaN matches NaN,
-/// ∞ matches ∞), flags identical. Returns a description of the first mismatch.
-pub fn compare(
-    dev_values: [f32; 3],
-    dev_band: [f32; 3],
-    dev_flags: Flags,
-    want: &Estimate<f64>,
-    tol: [f64; 3],
-) -> Option<String> {
-    if dev_flags != want.flags {
-        return Some(format!("flags {} (device) vs {} (host)", dev_flags, want.flags));
-    }
-    let names = ["T", "eps", "p"];
-    for c in 0..3 {
-        for (what, d, h) in
-            [("value", dev_values[c] as f64, want.values[c]), ("band", dev_band[c] as f64, want.band95[c])]
-        {
-            let ok = if h.is_nan() || d.is_nan() {
-                h.is_nan() && d.is_nan()
-            } else if h.is_infinite() || d.is_infinite() {
-                h == d
-            } else {
-                (d - h).abs() <= tol[c]
-            };
-            if !ok {
-                return Some(format!(
-                    "{what} {}: device {d} vs host {h} (|Δ| {:e} > {:e})",
-                    names[c],
-                    (d - h).abs(),
-                    tol[c]
-                ));
-            }
-        }
-    }
-    None
+    parse_expected(&text).with_context(|| format!("{}", path.display()))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fbg_shared::Flags;
 
     #[test]
     fn synthetic_models_are_valid_deterministic_and_sized() {
@@ -923,7 +466,13 @@ mod tests {
         let back = read_expected(&p).unwrap();
         assert_eq!(back.len(), r.len());
         for (a, b) in back.iter().zip(r.iter()) {
-            assert!(compare(a.values.map(|v| v as f32), a.band95.map(|v| v as f32), a.flags, b, [1e-3; 3]).is_none());
+            let dev = fbg_shared::protocol::DeviceEstimate {
+                seq: 0,
+                values: a.values.map(|v| v as f32),
+                band: a.band95.map(|v| v as f32),
+                flags: a.flags,
+            };
+            assert!(fbg_link::parity::compare(&dev, b, &[1e-3; 3]).is_ok());
         }
         let pi = dir.join("i.bin");
         fs::write(&pi, inputs_bytes(&s)).unwrap();
@@ -945,7 +494,7 @@ mod tests {
         for want in [0.0, 23.0, 60.0, 60.5, 131.0, 18000.0] {
             assert!(dts.contains(&want), "no step of {want} s");
         }
-        let fm = with_full_memory(&without).unwrap();
+        let fm = fbg_testkit::installation::with_full_memory(&without).unwrap();
         assert_eq!(memory_terms(&fm).unwrap(), N_MEMORY);
         let packed = pack_bytes(&[(&with, &s[..3])]);
         assert_eq!(packed.len(), 4 + with.len() + 4 + 60);

@@ -34,19 +34,15 @@ pub fn run_all(root: &Path) -> Result<()> {
         "-D",
         "warnings",
     ]))?;
-    // fbg-shared as the device sees it: no std, thumb target.
-    run(cargo().current_dir(root).args([
-        "clippy",
-        "-p",
-        "fbg-shared",
-        "--no-default-features",
-        "--target",
-        "thumbv7em-none-eabihf",
-        "--locked",
-        "--",
-        "-D",
-        "warnings",
-    ]))?;
+    // fbg-shared as the device sees it (thumb target), without and with the defmt feature
+    // (derived `defmt::Format`, as firmware that logs with defmt builds it).
+    for features in [&[][..], &["--features", "defmt"][..]] {
+        run(cargo()
+            .current_dir(root)
+            .args(["clippy", "-p", "fbg-shared", "--target", "thumbv7em-none-eabihf", "--locked"])
+            .args(features)
+            .args(["--", "-D", "warnings"]))?;
+    }
 
     step("lint: rustdoc of the host workspace, warnings denied");
     run(cargo()

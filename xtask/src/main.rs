@@ -132,12 +132,11 @@ fn test(rest: &[String]) -> Result<()> {
     step("host tests (whole workspace, doctests included)");
     run(cargo().current_dir(&root).args(["test", "--workspace", "--release", "--locked"]))?;
 
-    step("fbg-shared: no_std build for thumbv7em-none-eabihf without default features");
+    step("fbg-shared: no_std build for thumbv7em-none-eabihf, without and with its defmt feature");
     run(cargo().current_dir(&root).args([
         "build",
         "-p",
         "fbg-shared",
-        "--no-default-features",
         "--target",
         "thumbv7em-none-eabihf",
         "--release",

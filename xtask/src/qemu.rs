@@ -32,15 +32,15 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, ensure, Context, Result};
-use fbg_shared::link_client::LinkClient;
+use fbg_link::parity::{abs_diff, compare, REL_TOL};
+use fbg_link::LinkClient;
+use fbg_shared::blob::stored_crc;
 use fbg_shared::protocol::{DeviceMsg, Feed, FrameReader, RejectReason, Status, UpdateResult, DEVICE_MAX_FRAME};
 
 use crate::fixtures::{self, DeviceFixtures, Fixtures};
 
 /// The product's centre capacity.
 pub const PRODUCT_K: usize = 32;
-/// Tolerance of device vs host, as a fraction of the reference scale (DESIGN §8).
-pub const REL_TOL: f64 = 0.01;
 
 /// Build the firmware and run every QEMU test.
 pub fn run_all(root: &Path) -> Result<()> {
@@ -95,8 +95,8 @@ pub fn check_default_model(root: &Path, fx: &Fixtures) -> Result<()> {
                 "it decodes, but differs from what the trainer produces now ({} vs {} bytes, crc {:#010x} vs {:#010x})",
                 committed.len(),
                 fresh.len(),
-                crate_blob_crc(&committed),
-                crate_blob_crc(&fresh)
+                stored_crc(&committed).unwrap_or(0),
+                stored_crc(&fresh).unwrap_or(0)
             ),
         };
         bail!(
@@ -386,20 +386,6 @@ fn golden_sets(fx: &Fixtures) -> Result<Vec<GoldenSet>> {
     Ok(sets)
 }
 
-/// Largest |device − host| per channel over finite values.
-fn max_abs_diff<'a>(pairs: impl Iterator<Item = (&'a [f32; 3], &'a [f64; 3])>) -> [f64; 3] {
-    let mut worst = [0.0f64; 3];
-    for (dev, host) in pairs {
-        for ((w, &dv), &hv) in worst.iter_mut().zip(dev.iter()).zip(host.iter()) {
-            let d = (dv as f64 - hv).abs();
-            if d.is_finite() {
-                *w = w.max(d);
-            }
-        }
-    }
-    worst
-}
-
 fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<()> {
     let dir = out_dir(root)?;
     let uart = dir.join("golden.uart");
@@ -421,7 +407,7 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
     for g in &sets {
         let tol = g.scale.map(|s| REL_TOL * s);
         let mut flagged = 0;
-        let mut got = Vec::new();
+        let mut worst = [0.0f64; 3];
         for (j, want) in g.expected.iter().enumerate() {
             let i = at + j;
             let DeviceMsg::Estimate(e) = &msgs[i] else { bail!("message {i} is {:?}, not an estimate", msgs[i]) };
@@ -429,12 +415,13 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
             if !e.flags.is_ok() {
                 flagged += 1;
             }
-            if let Some(why) = fixtures::compare(e.values, e.band, e.flags, want, tol) {
+            if let Err(why) = compare(e, want, &tol) {
                 failures.push(format!("{}: sample {j}: {why}", g.name));
             }
-            got.push(e.values);
+            for (w, d) in worst.iter_mut().zip(abs_diff(&e.values, &want.values)) {
+                *w = w.max(d);
+            }
         }
-        let worst = max_abs_diff(got.iter().zip(g.expected.iter().map(|e| &e.values)));
         eprintln!(
             "xtask: golden, {}: {} samples ({flagged} flagged, flags identical); max |device − host| = {:.3e} °C, {:.3e} µε, {:.3e} kPa \
              ({:.4} %, {:.4} %, {:.4} % of {}; limit {} %)",
@@ -607,7 +594,7 @@ fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceF
 
     s.link()?.ping(0xC0FFEE).context("ping")?;
     let st0 = s.link()?.status()?;
-    ensure!(st0.model_crc == crate_blob_crc(&default), "active model crc {:#x} is not default.fbgm's", st0.model_crc);
+    ensure!(Some(st0.model_crc) == stored_crc(&default), "active model crc {:#x} is not default.fbgm's", st0.model_crc);
     ensure!(st0.model_capacity as usize == PRODUCT_K, "capacity {}", st0.model_capacity);
 
     // 1. streaming end to end: the whole paper hold-out through the trainer's CLI.
@@ -641,7 +628,7 @@ fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceF
     // A 64-centre blob does not even fit the K = 32 staging buffer: refused at ModelBegin.
     expect_rejected(s.link()?.update_model(&k64)?, RejectReason::TooLarge, "64-centre model on a K = 32 build")?;
     let st = s.link()?.status()?;
-    ensure!(st.model_crc == crate_blob_crc(&default), "model changed after rejected updates");
+    ensure!(Some(st.model_crc) == stored_crc(&default), "model changed after rejected updates");
     ensure!(st.last_rejection.is_some(), "no rejection recorded");
     let r = s.trainer_stream(fx, &fx.model, &["--max-samples", "300"])?;
     let after_rejects = r["samples"].as_u64().unwrap_or(0) as u32;
@@ -658,7 +645,7 @@ fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceF
     );
 
     let fin: Status = s.link()?.status()?;
-    ensure!(fin.model_crc == crate_blob_crc(&update), "the active model is not the update after it was accepted");
+    ensure!(Some(fin.model_crc) == stored_crc(&update), "the active model is not the update after it was accepted");
     ensure!(fin.updates_accepted == 1, "updates_accepted = {}", fin.updates_accepted);
     ensure!(fin.updates_rejected == 2, "updates_rejected = {}", fin.updates_rejected);
     let total = streamed + after_rejects + after_update;
@@ -695,10 +682,10 @@ pub fn read_dataset_inputs(path: &Path) -> Result<Vec<fbg_shared::Sample<f32>>> 
 }
 
 /// `samples` with their time stamps made irregular: each keeps its own t plus the deviation of
-/// [`fixtures::irregular_clock`] from a regular 60 s clock (steps of 60.5, 23 and 131 s, repeated
+/// `fbg_testkit::installation::irregular_clock` from a regular 60 s clock (steps of 60.5, 23 and 131 s, repeated
 /// stamps, and a 5 h gap at 3/5 of the stream, after which every stamp is 5 h later).
 pub fn with_irregular_clock(samples: &[fbg_shared::Sample<f32>]) -> Vec<fbg_shared::Sample<f32>> {
-    let clock = fixtures::irregular_clock(samples.len(), 0.0);
+    let clock = fbg_testkit::installation::irregular_clock(samples.len(), 0.0);
     samples
         .iter()
         .zip(clock.iter())
@@ -718,7 +705,7 @@ fn long_memory_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Res
         (default.clone(), "the default model (its own memory terms)")
     } else {
         (
-            fixtures::with_full_memory(&default)?,
+            fbg_testkit::installation::with_full_memory(&default)?,
             "the default model with the full memory bank added (it has no memory terms)",
         )
     };
@@ -751,14 +738,14 @@ fn long_memory_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Res
     let mut failures = Vec::new();
     for (i, x) in samples.iter().enumerate() {
         let e = s.link()?.compensate(i as u32, x).with_context(|| format!("sample {i}"))?;
-        let want = host.step(&fixtures::widen(x));
+        let want = host.step(&x.cast());
         if !e.flags.is_ok() {
             flagged += 1;
         }
-        if let Some(why) = fixtures::compare(e.values, e.band, e.flags, &want, tol) {
+        if let Err(why) = compare(&e, &want, &tol) {
             failures.push(format!("sample {i} (t = {} s): {why}", x.t_s));
         }
-        let d = max_abs_diff(std::iter::once((&e.values, &want.values)));
+        let d = abs_diff(&e.values, &want.values);
         for c in 0..3 {
             worst[c] = worst[c].max(d[c]);
             if i < day {
@@ -798,13 +785,4 @@ fn long_memory_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Res
         bail!("{k} of {n} samples of the memory stream differ beyond tolerance:\n  {}", failures.join("\n  "));
     }
     Ok(())
-}
-
-/// CRC trailer of a blob.
-pub fn crate_blob_crc(bytes: &[u8]) -> u32 {
-    let n = bytes.len();
-    if n < 4 {
-        return 0;
-    }
-    u32::from_le_bytes([bytes[n - 4], bytes[n - 3], bytes[n - 2], bytes[n - 1]])
 }

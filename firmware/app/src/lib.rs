@@ -11,13 +11,14 @@
 //! The device borrows from the caller (the firmware puts them in statics) what must live
 //! across messages:
 //!
-//! - the active [`Compensator`] (from [`unloaded`], then [`load`]ed in place; ≈ 3.1 KB at
-//!   K = 32 with the memory bank);
-//! - the blob staging area, where `ModelChunk`s land (`blob::max_len(K)`, ≈ 2.9 KB at K = 32);
-//! - the link's frame reader (≈ 0.3 KB).
+//! - the active [`Compensator`] (from [`unloaded`], then [`load`]ed in place);
+//! - the blob staging area, where `ModelChunk`s land (`blob::max_len(K)` bytes);
+//! - the link's frame reader (`HOST_MAX_FRAME` bytes and a few flags).
 //!
-//! The one [`ModelParams`] slot a model is parsed into (≈ 2.8 KB at K = 32) is needed only
-//! while a model loads — at boot and during the handling of a `ModelCommit`, which carries no
+//! (BENCHMARKS.md has the footprint they add up to: flash, static RAM and stack at K = 32.)
+//!
+//! The one [`ModelParams`] slot a model is parsed into (about a compensator's size) is needed
+//! only while a model loads — at boot and during the handling of a `ModelCommit`, which carries no
 //! data and is handled outside the frame decoding — so it is a local of the never-inlined
 //! function that loads ([`load_blob`], `Device::commit`): on the stack during a load, free
 //! while the device serves. A model is parsed field by field with [`blob::decode_into`] into
@@ -36,8 +37,8 @@ use embedded_hal::digital::{OutputPin, PinState};
 use embedded_io::{Read, Write};
 use fbg_shared::blob;
 use fbg_shared::protocol::{
-    crc32, encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed,
-    RejectReason, Rejection, Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
+    crc32, encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, RejectReason, Rejection,
+    Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
 use fbg_shared::{Compensator, Estimate, ModelParams, Sample};
 
@@ -79,23 +80,10 @@ pub struct ModelInfo {
     pub crc: u32,
 }
 
-/// The CRC trailer of a blob (its last four bytes, little-endian); 0 for a too-short input.
-pub fn blob_crc(bytes: &[u8]) -> u32 {
-    let tail = bytes.len().checked_sub(blob::CRC_LEN).and_then(|at| bytes.get(at..));
-    let mut t = [0u8; blob::CRC_LEN];
-    match tail {
-        Some(tail) if tail.len() == t.len() => {
-            t.copy_from_slice(tail);
-            u32::from_le_bytes(t)
-        }
-        _ => 0,
-    }
-}
-
 /// A compensator with no model loaded, for a `static` that [`load`] then fills in place (the
 /// embedded default at boot): all bytes zero, so the static lands in `.bss` and no
 /// compensator-sized value is ever built on the stack (`Compensator::new` returns one by
-/// value, 3.1 KB of stack at K = 32, twice over with its `Result`). Until a model is loaded it
+/// value, a compensator's size of stack, twice over with its `Result`). Until a model is loaded it
 /// answers every sample with NaN values and an infinite band (no output fitted).
 pub const fn unloaded<const K: usize>() -> Compensator<f32, K> {
     Compensator::unloaded()
@@ -121,10 +109,11 @@ pub fn load<const K: usize>(
 ) -> Result<ModelInfo, Rejection> {
     (kernel.decode)(bytes, params)?;
     (kernel.reload)(comp, params)?;
-    Ok(ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob_crc(bytes) })
+    // The blob decoded, so it has a trailer.
+    Ok(ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob::stored_crc(bytes).unwrap_or(0) })
 }
 
-/// [`load`] with a staging slot of its own, on its stack frame (≈ 2.8 KB at K = 32) and only
+/// [`load`] with a staging slot of its own, on its stack frame (a model's size) and only
 /// for the duration of the load: at boot, and for every commit of an update.
 #[inline(never)]
 pub fn load_blob<const K: usize>(
@@ -328,7 +317,7 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
     fn malformed(&mut self, why: Malformed) {
         self.status.frames_malformed = self.status.frames_malformed.wrapping_add(1);
         let _ = why;
-        log!(warn, "dropped a malformed frame ({=istr})", malformed_name(why));
+        log!(warn, "dropped a malformed frame ({})", why);
     }
 
     /// Everything but `ModelCommit` (handled outside the frame decoding: [`Device::commit`]).
@@ -420,48 +409,12 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
         self.status.last_rejection = Some(r);
         log!(
             warn,
-            "model update rejected: {=istr} (code {=u8}, detail {=u32}); keeping the active model",
-            reason_name(r.reason),
+            "model update rejected: {} (code {=u8}, detail {=u32}); keeping the active model",
+            r.reason,
             r.reason.code(),
             r.detail
         );
         DeviceMsg::UpdateResult(UpdateResult::Rejected(r))
-    }
-}
-
-/// The name of a rejection reason for a defmt log, interned: the text lives in the ELF's
-/// `.defmt` section, not in flash (`RejectReason::describe`'s sentences would cost ≈ 600 B).
-#[cfg(feature = "defmt")]
-pub fn reason_name(r: RejectReason) -> defmt::Str {
-    match r {
-        RejectReason::Truncated => defmt::intern!("model blob truncated"),
-        RejectReason::BadMagic => defmt::intern!("not a model blob (bad magic)"),
-        RejectReason::UnsupportedVersion => defmt::intern!("unsupported blob format version"),
-        RejectReason::WrongDims => defmt::intern!("blob dimensions do not fit this firmware"),
-        RejectReason::BadCrc => defmt::intern!("blob CRC-32 mismatch (corrupted)"),
-        RejectReason::BadPayload => defmt::intern!("blob payload does not decode"),
-        RejectReason::TrailingBytes => defmt::intern!("bytes after the blob CRC"),
-        RejectReason::TooManyCentres => defmt::intern!("more RBF centres than this firmware holds"),
-        RejectReason::BadParameter => defmt::intern!("a model parameter is non-finite or out of range"),
-        RejectReason::BufferTooSmall => defmt::intern!("buffer too small"),
-        RejectReason::NoUpdateInProgress => defmt::intern!("no model transfer in progress"),
-        RejectReason::TooLarge => defmt::intern!("announced blob length does not fit the staging buffer"),
-        RejectReason::OutOfOrder => defmt::intern!("chunk offset out of order"),
-        RejectReason::Overrun => defmt::intern!("chunk runs past the announced length"),
-        RejectReason::Incomplete => defmt::intern!("commit before the whole blob arrived"),
-        RejectReason::TransferCrc => defmt::intern!("staged bytes do not match the announced CRC"),
-        _ => defmt::intern!("other"),
-    }
-}
-
-#[cfg(feature = "defmt")]
-fn malformed_name(m: Malformed) -> defmt::Str {
-    match m {
-        Malformed::Oversize => defmt::intern!("oversize"),
-        Malformed::Framing => defmt::intern!("framing"),
-        Malformed::Crc => defmt::intern!("crc"),
-        Malformed::Payload => defmt::intern!("payload"),
-        Malformed::TrailingBytes => defmt::intern!("trailing bytes"),
     }
 }
 

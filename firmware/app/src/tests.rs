@@ -10,10 +10,10 @@ use std::format;
 use std::vec::Vec;
 
 use embedded_hal::digital::{ErrorType, OutputPin};
-use fbg_shared::link_client::{LinkClient, LinkError};
+use fbg_link::{LinkClient, LinkError};
+use fbg_shared::layout::N_MEMORY;
 use fbg_shared::protocol::{encode_host, RejectReason, MAX_CHUNK};
-use fbg_shared::layout::{N_MEMORY, N_OUTPUTS};
-use fbg_shared::{blob, Centre, Flags, MemoryBank, MemorySpec, ModelParams};
+use fbg_shared::{blob, Centre, Flags, MemoryBank, ModelParams};
 
 use super::*;
 
@@ -175,23 +175,10 @@ fn with_centres(mut p: ModelParams<f32, K>, n: usize) -> ModelParams<f32, K> {
 /// time constants, ambient at four, three plays, the drift observer on the stage-1 T row) and
 /// a small Γ on every term: the device's memory bank in full, whatever the trainer chose.
 fn memory_model() -> Vec<u8> {
-    let mut p = params(default_blob());
-    p.memory = MemorySpec {
-        grating_tau_s: [300.0, 900.0, 1800.0, 3600.0, 7200.0, 14400.0],
-        ambient_tau_s: [300.0, 900.0, 1800.0, 3600.0],
-        play_half_width_pm: [2.0, 4.0, 8.0],
-        observer_lag_s: 1200.0,
-        observer_smooth_s: 2400.0,
-        observer_row: p.stage1[0],
-    };
-    for (o, row) in p.gamma.iter_mut().enumerate() {
-        for (k, g) in row.iter_mut().enumerate() {
-            *g = 1e-3 * (1 + o) as f32 * if k % 2 == 0 { 1.0 } else { -0.5 };
-        }
-    }
+    let b = fbg_testkit::installation::with_full_memory(default_blob()).unwrap();
+    let p = params(&b);
     assert!(p.memory.any() && (0..N_MEMORY).all(|k| p.memory.term_active(k)));
-    let _ = N_OUTPUTS;
-    encode(&p)
+    b
 }
 
 /// `samples(n)` on an irregular clock: 60 s steps, some 17 s and 95 s steps, a repeated time
@@ -271,7 +258,7 @@ fn boots_answers_pings_and_compensates_like_the_library() {
     assert_eq!(st.frames_malformed, 0);
     assert_eq!(st.model_centres, n_default());
     assert_eq!(st.model_capacity, K as u16);
-    assert_eq!(st.model_crc, blob_crc(default_blob()));
+    assert_eq!(st.model_crc, blob::stored_crc(default_blob()).unwrap());
     assert_eq!(st.last_rejection, None);
 }
 
@@ -327,7 +314,7 @@ fn a_valid_update_swaps_the_model_and_resets_the_stream() {
     assert_serves(&mut link, &mut old, &s[..20], 0);
     let b = other_model();
     let r = link.update_model(&b).unwrap();
-    assert_eq!(r, UpdateResult::Accepted { centres: n_default(), crc: blob_crc(&b) });
+    assert_eq!(r, UpdateResult::Accepted { centres: n_default(), crc: blob::stored_crc(&b).unwrap() });
     let mut new = Compensator::<f32, K>::new(&params(&b)).unwrap();
     assert_serves(&mut link, &mut new, &s[20..], 20);
     // And the answers did change.
@@ -337,7 +324,7 @@ fn a_valid_update_swaps_the_model_and_resets_the_stream() {
     assert!(differ);
     let st = link.status().unwrap();
     assert_eq!((st.updates_accepted, st.updates_rejected), (1, 0));
-    assert_eq!(st.model_crc, blob_crc(&b));
+    assert_eq!(st.model_crc, blob::stored_crc(&b).unwrap());
 }
 
 #[test]
@@ -381,7 +368,7 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
         rejected += 1;
         let st = link.status().unwrap();
         assert_eq!(st.updates_rejected, rejected, "{name}");
-        assert_eq!(st.model_crc, blob_crc(default_blob()), "{name}: old model still active");
+        assert_eq!(st.model_crc, blob::stored_crc(default_blob()).unwrap(), "{name}: old model still active");
         assert_serves(&mut link, &mut reference, &s[i * 10..i * 10 + 10], i as u32 * 10);
     }
 
@@ -399,14 +386,23 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
         DeviceMsg::UpdateProgress { received: 0 }
     );
     let r = link.request(&HostMsg::ModelChunk { offset: 5, data: &good[5..10] }).unwrap();
-    assert_eq!(r, DeviceMsg::UpdateResult(UpdateResult::Rejected(Rejection { reason: RejectReason::OutOfOrder, detail: 0 })));
+    assert_eq!(
+        r,
+        DeviceMsg::UpdateResult(UpdateResult::Rejected(Rejection { reason: RejectReason::OutOfOrder, detail: 0 }))
+    );
     link.request(&HostMsg::ModelBegin { total_len: 20, crc32: crc }).unwrap();
     let r = link.request(&HostMsg::ModelChunk { offset: 0, data: &good[..30] }).unwrap();
-    assert!(matches!(r, DeviceMsg::UpdateResult(UpdateResult::Rejected(Rejection { reason: RejectReason::Overrun, .. }))));
+    assert!(matches!(
+        r,
+        DeviceMsg::UpdateResult(UpdateResult::Rejected(Rejection { reason: RejectReason::Overrun, .. }))
+    ));
     link.request(&HostMsg::ModelBegin { total_len, crc32: crc }).unwrap();
     link.request(&HostMsg::ModelChunk { offset: 0, data: &good[..100] }).unwrap();
     let r = link.request(&HostMsg::ModelCommit).unwrap();
-    assert_eq!(r, DeviceMsg::UpdateResult(UpdateResult::Rejected(Rejection { reason: RejectReason::Incomplete, detail: 100 })));
+    assert_eq!(
+        r,
+        DeviceMsg::UpdateResult(UpdateResult::Rejected(Rejection { reason: RejectReason::Incomplete, detail: 100 }))
+    );
 
     assert_serves(&mut link, &mut reference, &s[70..], 70);
     let st = link.status().unwrap();
@@ -439,7 +435,7 @@ fn an_unloaded_compensator_is_usable() {
     assert!(e.band95.iter().all(|b| b.is_infinite()), "{e:?}");
     // Loading into it gives exactly `Compensator::new`.
     let info = load_blob(&Kernel::LIBRARY, &mut comp, default_blob()).unwrap();
-    assert_eq!(info, ModelInfo { centres: n_default(), crc: blob_crc(default_blob()) });
+    assert_eq!(info, ModelInfo { centres: n_default(), crc: blob::stored_crc(default_blob()).unwrap() });
     let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     for x in samples(30) {
         assert_eq!(format!("{:?}", comp.step(&x)), format!("{:?}", reference.step(&x)));
@@ -568,8 +564,11 @@ fn a_link_error_ends_serve() {
 
 #[test]
 fn a_zeroed_memory_bank_is_the_default_one() {
-    // What `unloaded()` relies on for the memory bank inside the compensator.
+    // The bank of an unloaded compensator (`MemoryBank::off`) is all zero bytes, which is what
+    // keeps the firmware's static compensator in `.bss`.
+    // SAFETY: every field of the bank is a float, an integer or a bool, all valid as zeros.
     let zeroed: MemoryBank<f32> = unsafe { core::mem::MaybeUninit::zeroed().assume_init() };
+    assert_eq!(zeroed, MemoryBank::off());
     assert_eq!(zeroed, MemoryBank::default());
     assert!(!zeroed.is_active());
     assert_eq!(zeroed.state(), fbg_shared::MemoryState::new());

@@ -1,8 +1,8 @@
 //! The library code of the firmware whose code generation matters more than its size, alone in
 //! its crate so that it keeps a speed opt-level while the rest of the image is optimised for
 //! size (`firmware/Cargo.toml`, profile): [`step`], `Compensator<f32, K>::step` (at opt-level
-//! "s" ≈ 6 600 instructions per step at K = 32 instead of ≈ 2 900, measured before the memory
-//! bank).
+//! "s" it takes more than twice the instructions per step; README-firmware.md has the
+//! measurements, BENCHMARKS.md the current figures).
 //!
 //! Generic code is compiled, with that crate's opt-level, in the crate that instantiates it.
 //! `step` is generic, so here it is instantiated once, for this build's capacity [`K`], behind

@@ -1,5 +1,5 @@
 //! Bench image: cost of one `Compensator::step` for every model of the pack embedded at build
-//! time (`FBG_BENCH_PACK`, `src/pack.rs`; capacity K = `FBG_K`) on its samples.
+//! time (`FBG_BENCH_PACK`, read with `fbg_shared::golden::records`; capacity K = `FBG_K`) on its samples.
 //!
 //! Under QEMU `-icount shift=0` SysTick counts virtual time that advances exactly one ns per
 //! instruction, so SysTick deltas count instructions (the ratio is calibrated with a loop of
@@ -22,7 +22,7 @@ use cortex_m_rt::entry;
 use embedded_io::Write;
 use fbg_firmware::counters::{cycles_now, cycles_start, systick_elapsed, systick_now, systick_start};
 use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
-use fbg_firmware::{exit_failure, exit_success, pack, stack, step, K, KERNEL, STAGING_LEN};
+use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL, STAGING_LEN};
 use fbg_firmware_app::{load_blob, unloaded};
 use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
 use fbg_shared::{Compensator, MemoryBank, MemoryState, ModelParams, Sample, StreamState};
@@ -123,8 +123,7 @@ fn measure(f: impl FnOnce()) -> (u32, u32) {
 #[entry]
 fn main() -> ! {
     static mut MODEL: Compensator<f32, K> = unloaded();
-    static mut SAMPLES: [Sample<f32>; MAX_SAMPLES] =
-        [Sample { dl_pm: [0.0; 3], t_amb_c: 0.0, t_s: 0.0 }; MAX_SAMPLES];
+    static mut SAMPLES: [Sample<f32>; MAX_SAMPLES] = [Sample { dl_pm: [0.0; 3], t_amb_c: 0.0, t_s: 0.0 }; MAX_SAMPLES];
 
     // SAFETY: UART0 of the MPS2 board, driven only from here.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
@@ -152,9 +151,19 @@ fn main() -> ! {
         ),
     );
     let (t, c) = measure(|| known_loop(CALIB_ITERS));
-    emit(&mut uart, format_args!("calib iters={} insns={} ticks={} cycles={} cyccnt={}", CALIB_ITERS, 2 * CALIB_ITERS, t, c, has_cyccnt as u8));
+    emit(
+        &mut uart,
+        format_args!(
+            "calib iters={} insns={} ticks={} cycles={} cyccnt={}",
+            CALIB_ITERS,
+            2 * CALIB_ITERS,
+            t,
+            c,
+            has_cyccnt as u8
+        ),
+    );
 
-    for (idx, rec) in pack::records(PACK).enumerate() {
+    for (idx, rec) in fbg_shared::golden::records(PACK).enumerate() {
         let Some(rec) = rec else {
             emit(&mut uart, format_args!("error bench pack malformed at record {}", idx));
             exit_failure()
@@ -162,7 +171,10 @@ fn main() -> ! {
         let info = match load_blob(&KERNEL, MODEL, rec.blob) {
             Ok(x) => x,
             Err(r) => {
-                emit(&mut uart, format_args!("error model {} rejected: {} (detail {})", idx, r.reason.describe(), r.detail));
+                emit(
+                    &mut uart,
+                    format_args!("error model {} rejected: {} (detail {})", idx, r.reason.describe(), r.detail),
+                );
                 exit_failure()
             }
         };

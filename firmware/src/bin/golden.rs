@@ -1,5 +1,5 @@
 //! Golden-vector test image: for every record of the pack embedded at build time
-//! (`FBG_GOLDEN_PACK`, `src/pack.rs`: a model blob and its samples), loads the model the way
+//! (`FBG_GOLDEN_PACK`, read with `fbg_shared::golden::records`: a model blob and its samples), loads the model the way
 //! the product does (a fresh stream state each time) and compensates the samples, sending
 //! every estimate as a protocol `Estimate` frame on UART0, numbered across the records; the
 //! host compares them with its f64 answers. Exits through semihosting (success after the last
@@ -11,7 +11,7 @@
 use cortex_m_rt::entry;
 use embedded_io::Write;
 use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
-use fbg_firmware::{exit_failure, exit_success, pack, stack, step, K, KERNEL};
+use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL};
 use fbg_firmware_app::{load_blob, unloaded};
 use fbg_shared::protocol::{encode_device, DeviceEstimate, DeviceMsg, DEVICE_MAX_FRAME};
 use fbg_shared::Compensator;
@@ -30,18 +30,13 @@ fn main() -> ! {
         exit_failure()
     }
     let mut n = 0u32;
-    for (i, rec) in pack::records(PACK).enumerate() {
+    for (i, rec) in fbg_shared::golden::records(PACK).enumerate() {
         let Some(rec) = rec else {
             defmt::error!("golden pack malformed at record {=usize}", i);
             exit_failure()
         };
         if let Err(r) = load_blob(&KERNEL, MODEL, rec.blob) {
-            defmt::error!(
-                "golden model {=usize} rejected: {=istr} (detail {=u32})",
-                i,
-                fbg_firmware_app::reason_name(r.reason),
-                r.detail
-            );
+            defmt::error!("golden model {=usize} rejected: {} (detail {=u32})", i, r.reason, r.detail);
             exit_failure()
         }
         for s in rec.iter() {

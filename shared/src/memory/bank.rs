@@ -45,6 +45,22 @@ impl<F: Real> MemoryState<F> {
 /// much longer than τ re-primes that low-pass (its high-pass restarts near 0), a short one is
 /// simply a longer step. The play operators do not depend on time. A repeated or backward time
 /// stamp gives Δt <= 0: the low-passes hold, the plays still move.
+///
+/// ```
+/// use fbg_shared::layout::MEM_STOP;
+/// use fbg_shared::memory::{MemoryBank, MemorySpec};
+/// let mut spec = MemorySpec::<f32>::off();
+/// spec.grating_tau_s[0] = 600.0; // Δλ − EMA_600s(Δλ) of each grating
+/// spec.play_half_width_pm[0] = 2.0; // the stop term of half-width 2 pm
+/// let mut bank = MemoryBank::<f32>::new(&spec);
+/// assert!(bank.is_active());
+/// let m = bank.update(&[0.0; 3], 20.0, 0.0); // the first sample primes
+/// assert!(m.iter().all(|&v| v == 0.0));
+/// let m = bank.update(&[5.0, 0.0, 0.0], 20.0, 60.0);
+/// assert!(m[0] > 0.0 && m[0] < 5.0); // the high-pass of grating 1 follows the step
+/// assert_eq!(m[MEM_STOP], 2.0); // its stop term is pushed to +r
+/// assert!(!MemoryBank::<f32>::new(&MemorySpec::<f32>::off()).is_active());
+/// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MemoryBank<F> {
     grating_lp: [LowPass<F>; N_GRATING_TAUS],

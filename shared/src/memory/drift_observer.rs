@@ -14,6 +14,21 @@ use crate::real::Real;
 /// so the observer is offered to temperature outputs only.
 ///
 /// Coefficients only: the state is two scalars kept by the caller (`[lagged T_g, output]`).
+///
+/// ```
+/// use fbg_shared::memory::DriftObserver;
+/// let obs = DriftObserver::new(600.0f64, 3600.0);
+/// let (lag, smooth) = obs.low_passes();
+/// let alpha = [lag.alpha(60.0), smooth.alpha(60.0)];
+/// let mut state = [0.0; 2];
+/// DriftObserver::prime(&mut state, 20.0, 20.0); // no offset at the start
+/// // The gratings read 0.5 °C warmer than the thermometer from now on (a drift).
+/// let mut o = 0.0;
+/// for _ in 0..1000 {
+///     o = obs.update(&mut state, 20.5, 20.0, alpha);
+/// }
+/// assert!((o - 0.5).abs() < 1e-3, "the observer settles on the drift: {o}");
+/// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct DriftObserver<F> {
     lag: LowPass<F>,

@@ -111,22 +111,8 @@ impl<F: Real> LowPass<F> {
 #[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 mod tests {
     use super::*;
+    use fbg_testkit::Rng;
     use std::vec::Vec;
-
-    /// SplitMix64, for deterministic irregular clocks.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        }
-        fn pick<T: Copy>(&mut self, xs: &[T]) -> T {
-            xs[(self.next() % xs.len() as u64) as usize]
-        }
-    }
 
     /// The exact α = 1 − e^(−x), without cancellation.
     fn exact(x: f64) -> f64 {
@@ -240,7 +226,7 @@ mod tests {
         let (mut t, mut s) = (t0, F::ZERO);
         let mut worst = 0.0f64;
         while t - t0 < 12.0 * tau {
-            let dt = r.pick(&[1.0, 7.0, 60.0, 300.0]);
+            let dt = r.pick(&[1.0, 7.0, 60.0, 300.0]).unwrap();
             t += dt;
             lp.update(&mut s, F::ONE, lp.alpha(F::from_f64(dt)));
             let want = -libm::expm1(-(t - t0) / tau);
@@ -284,7 +270,7 @@ mod tests {
         for _ in 0..50 {
             // Fisher–Yates shuffle.
             for i in (1..steps.len()).rev() {
-                let j = (r.next() % (i as u64 + 1)) as usize;
+                let j = (r.next_u64() % (i as u64 + 1)) as usize;
                 steps.swap(i, j);
             }
             let mut s = 0.0;

@@ -1,5 +1,5 @@
 //! The instrument's memory: causal operators with O(1) state per input whose outputs, the
-//! memory terms m, enter Model-H linearly (ŷ = Bφ + Γm + Wψ, DESIGN §4).
+//! memory terms m, enter Model-H linearly (ŷ = Bφ + Γm + Wψ).
 //!
 //! Every term is *level-free*: a difference that stays bounded however far the inputs move, so
 //! a term learned on the calibration batch does not extrapolate a level into a later hold-out.

@@ -1,4 +1,4 @@
-//! The host side of the device link ([`crate::protocol`]) over any `std::io::Read + Write`:
+//! The host side of the device link ([`fbg_shared::protocol`]) over any `std::io::Read + Write`:
 //! a TCP socket to QEMU's serial port, a serial-port handle to a real board, or an in-memory
 //! pipe in tests.
 //!
@@ -8,8 +8,8 @@
 //! `WouldBlock`/`TimedOut` instead of a hang.
 //!
 //! ```no_run
-//! # fn main() -> Result<(), fbg_shared::link_client::LinkError> {
-//! use fbg_shared::link_client::LinkClient;
+//! # fn main() -> Result<(), fbg_link::LinkError> {
+//! use fbg_link::LinkClient;
 //! let stream = std::net::TcpStream::connect("127.0.0.1:4321")?;
 //! stream.set_read_timeout(Some(std::time::Duration::from_secs(5)))?;
 //! let mut link = LinkClient::new(stream);
@@ -21,13 +21,12 @@
 //! ```
 
 use std::io::{Read, Write};
-use std::vec::Vec;
 
-use crate::compensator::Sample;
-use crate::protocol::{
+use fbg_shared::protocol::{
     crc32, encode_host, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, Status, UpdateResult,
     DEVICE_MAX_FRAME, HOST_MAX_FRAME, MAX_CHUNK,
 };
+use fbg_shared::Sample;
 
 /// What can go wrong talking to a device.
 #[derive(Debug)]
@@ -270,14 +269,12 @@ impl<S: Read + Write> LinkClient<S> {
 }
 
 #[cfg(test)]
-#[allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
 mod tests {
     use std::collections::VecDeque;
-    use std::format;
-    use std::string::String;
+
+    use fbg_shared::protocol::{encode_device, RejectReason, Rejection};
 
     use super::*;
-    use crate::protocol::{encode_device, RejectReason, Rejection};
 
     /// A scripted device: answers each complete host frame from a closure.
     struct Script<F: FnMut(HostMsg<'_>) -> Option<DeviceMsg>> {

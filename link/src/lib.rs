@@ -1,0 +1,17 @@
+//! `fbg-link`: the host side of the host ↔ device contract of the FBG compensator.
+//!
+//! - [`LinkClient`]: the lock-step client of a device's serial link ([`fbg_shared::protocol`])
+//!   over any `std::io::Read + Write` (a TCP socket to QEMU, a serial port, a pipe in tests);
+//! - [`parity`]: when a device's answer counts as the host's ([`parity::compare`]: within a
+//!   tolerance per channel, NaN for NaN, ∞ for ∞, identical flags), for `fbg-trainer stream`
+//!   and the firmware's QEMU tests alike;
+//! - [`golden`]: the golden-vector files the trainer writes and the firmware tests read (the
+//!   samples' byte layout itself is [`fbg_shared::golden`], which the device reads too).
+//!
+//! `fbg-shared` stays device code (no_std, no heap); everything std lives here.
+
+mod client;
+pub mod golden;
+pub mod parity;
+
+pub use client::{LinkClient, LinkError};

@@ -1,0 +1,157 @@
+//! The messages of the link and their size limits.
+
+use serde::{Deserialize, Serialize};
+
+#[cfg(doc)]
+use super::framing::crc32;
+use super::reject::RejectReason;
+use crate::compensator::Sample;
+use crate::flags::Flags;
+use crate::layout::N_OUTPUTS;
+
+/// Largest `data` of one [`HostMsg::ModelChunk`] in bytes.
+pub const MAX_CHUNK: usize = 192;
+/// Largest postcard payload of any [`HostMsg`] (a full chunk: tag, offset, length, data).
+pub const HOST_MAX_PAYLOAD: usize = MAX_CHUNK + 16;
+/// Largest postcard payload of any [`DeviceMsg`] (a [`Status`] with a rejection).
+pub const DEVICE_MAX_PAYLOAD: usize = 64;
+
+/// A message from the host to the device.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum HostMsg<'a> {
+    /// Liveness check; answered by [`DeviceMsg::Pong`] with the same nonce.
+    Ping {
+        /// Echoed back.
+        nonce: u32,
+    },
+    /// One sample to compensate; answered by [`DeviceMsg::Estimate`] with the same `seq`.
+    Sample {
+        /// Host sequence number, echoed back.
+        seq: u32,
+        /// The measured sample (Δλ1..3 pm, T_amb °C, t s).
+        sample: Sample<f32>,
+    },
+    /// Start staging a model blob of `total_len` bytes whose CRC-32/ISCSI is `crc32`. Starting
+    /// again abandons a transfer in progress.
+    ModelBegin {
+        /// Blob length in bytes.
+        total_len: u32,
+        /// [`crc32`] of the whole blob (transfer check, on top of the blob's own trailer).
+        crc32: u32,
+    },
+    /// The next piece of the blob; `offset` must equal the bytes received so far.
+    ModelChunk {
+        /// Position of `data` in the blob.
+        offset: u32,
+        /// At most [`MAX_CHUNK`] bytes.
+        #[serde(borrow)]
+        data: &'a [u8],
+    },
+    /// Check and decode the staged blob and swap it in when valid.
+    ModelCommit,
+    /// Ask for the counters; answered by [`DeviceMsg::Status`].
+    GetStatus,
+    /// Forget the stream state (direction latches) before a new acquisition; answered by
+    /// [`DeviceMsg::Pong`] with the nonce.
+    ResetStream {
+        /// Echoed back.
+        nonce: u32,
+    },
+}
+
+/// One compensated sample as the device reports it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DeviceEstimate {
+    /// The request's sequence number.
+    pub seq: u32,
+    /// T [°C], ε [µε], p [kPa].
+    pub values: [f32; N_OUTPUTS],
+    /// Half-width of the 95 % band, same units.
+    pub band: [f32; N_OUTPUTS],
+    /// Fault flags (any flag also raises the alarm output).
+    pub flags: Flags,
+}
+
+/// A message from the device to the host.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum DeviceMsg {
+    /// Answer to [`HostMsg::Ping`] and [`HostMsg::ResetStream`].
+    Pong {
+        /// The request's nonce.
+        nonce: u32,
+    },
+    /// Answer to [`HostMsg::Sample`].
+    Estimate(DeviceEstimate),
+    /// Answer to [`HostMsg::GetStatus`].
+    Status(Status),
+    /// A transfer step was accepted; `received` bytes are staged.
+    UpdateProgress {
+        /// Bytes staged so far.
+        received: u32,
+    },
+    /// End of a model update: the new model is active, or the old one still is and why.
+    UpdateResult(UpdateResult),
+}
+
+/// Outcome of a model update.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum UpdateResult {
+    /// The new model passed every check and now answers samples.
+    Accepted {
+        /// Its RBF centres.
+        centres: u16,
+        /// Its blob CRC trailer.
+        crc: u32,
+    },
+    /// The update was refused; the previous model keeps answering.
+    Rejected(Rejection),
+}
+
+/// Why an update was refused, with a reason-specific detail number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Rejection {
+    /// Stable reason code.
+    pub reason: RejectReason,
+    /// Detail: found version for `UnsupportedVersion`; `found << 16 | expected` for
+    /// `WrongDims`; extra bytes for `TrailingBytes`; centres for `TooManyCentres`; the length for
+    /// `TooLarge`; the expected offset for `OutOfOrder`; bytes received for `Incomplete`;
+    /// 0 otherwise.
+    pub detail: u32,
+}
+
+/// Device counters and the active model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Status {
+    /// Frames that decoded into a valid message.
+    pub frames_ok: u32,
+    /// Frames dropped: bad COBS, oversize, CRC mismatch, undecodable or trailing bytes.
+    pub frames_malformed: u32,
+    /// Samples compensated.
+    pub samples: u32,
+    /// Model updates swapped in.
+    pub updates_accepted: u32,
+    /// Model updates refused (the old model kept).
+    pub updates_rejected: u32,
+    /// RBF centres of the active model.
+    pub model_centres: u16,
+    /// Centre capacity `K` of this firmware build.
+    pub model_capacity: u16,
+    /// CRC trailer of the active model's blob (identifies it).
+    pub model_crc: u32,
+    /// The most recent refusal, if any.
+    pub last_rejection: Option<Rejection>,
+    /// Deepest stack use while serving (since boot finished) in bytes, by stack painting (0 when
+    /// not measured).
+    pub stack_peak_bytes: u32,
+    /// Deepest stack use during boot (loading the embedded model) in bytes (0 when not
+    /// measured).
+    pub stack_boot_bytes: u32,
+}
+
+impl Rejection {
+    /// A rejection without detail.
+    pub const fn new(reason: RejectReason) -> Self {
+        Rejection { reason, detail: 0 }
+    }
+}

@@ -1,0 +1,185 @@
+//! Stable reason codes of a refused model update, and their mapping from blob errors.
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use super::messages::Rejection;
+use crate::error::Error;
+
+/// Stable reason codes of a refused model update. The numbers never change meaning; new reasons
+/// get new numbers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+#[non_exhaustive]
+pub enum RejectReason {
+    /// Blob ended early ([`Error::Truncated`]).
+    Truncated = 1,
+    /// Not `FBGM` ([`Error::BadMagic`]).
+    BadMagic = 2,
+    /// Unknown format version ([`Error::UnsupportedVersion`]).
+    UnsupportedVersion = 3,
+    /// A header dimension this build cannot use, e.g. more centres than `K`
+    /// ([`Error::WrongDims`]).
+    WrongDims = 4,
+    /// Blob CRC trailer mismatch ([`Error::BadCrc`]).
+    BadCrc = 5,
+    /// Payload does not decode ([`Error::BadPayload`]).
+    BadPayload = 6,
+    /// Bytes after the trailer ([`Error::TrailingBytes`]).
+    TrailingBytes = 7,
+    /// More centres than the capacity ([`Error::TooManyCentres`]).
+    TooManyCentres = 8,
+    /// A parameter is non-finite or out of range ([`Error::BadParameter`]).
+    BadParameter = 9,
+    /// Encoder buffer too small ([`Error::BufferTooSmall`]; not expected from a device).
+    BufferTooSmall = 10,
+    /// A chunk or commit arrived with no transfer in progress.
+    NoUpdateInProgress = 20,
+    /// The announced length exceeds the staging buffer of this build (or is shorter than any
+    /// blob).
+    TooLarge = 21,
+    /// A chunk's offset is not the number of bytes received so far.
+    OutOfOrder = 22,
+    /// A chunk runs past the announced length.
+    Overrun = 23,
+    /// Commit before all announced bytes arrived.
+    Incomplete = 24,
+    /// The staged bytes do not match the announced whole-blob CRC.
+    TransferCrc = 25,
+    /// A reason this build does not know (a newer device, or a future [`Error`] variant).
+    Other = 255,
+}
+
+impl RejectReason {
+    /// Every reason this version defines.
+    pub const ALL: [RejectReason; 17] = [
+        RejectReason::Truncated,
+        RejectReason::BadMagic,
+        RejectReason::UnsupportedVersion,
+        RejectReason::WrongDims,
+        RejectReason::BadCrc,
+        RejectReason::BadPayload,
+        RejectReason::TrailingBytes,
+        RejectReason::TooManyCentres,
+        RejectReason::BadParameter,
+        RejectReason::BufferTooSmall,
+        RejectReason::NoUpdateInProgress,
+        RejectReason::TooLarge,
+        RejectReason::OutOfOrder,
+        RejectReason::Overrun,
+        RejectReason::Incomplete,
+        RejectReason::TransferCrc,
+        RejectReason::Other,
+    ];
+
+    /// The stable wire code.
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The reason for a wire code; unknown codes map to [`RejectReason::Other`].
+    pub fn from_code(code: u8) -> RejectReason {
+        RejectReason::ALL.iter().copied().find(|r| r.code() == code).unwrap_or(RejectReason::Other)
+    }
+
+    /// Short human-readable description.
+    pub const fn describe(self) -> &'static str {
+        match self {
+            RejectReason::Truncated => "model blob truncated",
+            RejectReason::BadMagic => "not a model blob (bad magic)",
+            RejectReason::UnsupportedVersion => "unsupported blob format version",
+            RejectReason::WrongDims => "blob dimensions do not fit this firmware",
+            RejectReason::BadCrc => "blob CRC-32 mismatch (corrupted)",
+            RejectReason::BadPayload => "blob payload does not decode",
+            RejectReason::TrailingBytes => "bytes after the blob CRC",
+            RejectReason::TooManyCentres => "more RBF centres than this firmware holds",
+            RejectReason::BadParameter => "a model parameter is non-finite or out of range",
+            RejectReason::BufferTooSmall => "buffer too small",
+            RejectReason::NoUpdateInProgress => "no model transfer in progress",
+            RejectReason::TooLarge => "announced blob length does not fit the staging buffer",
+            RejectReason::OutOfOrder => "chunk offset out of order",
+            RejectReason::Overrun => "chunk runs past the announced length",
+            RejectReason::Incomplete => "commit before the whole blob arrived",
+            RejectReason::TransferCrc => "staged bytes do not match the announced CRC",
+            RejectReason::Other => "unknown reason",
+        }
+    }
+}
+
+impl core::fmt::Display for RejectReason {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.describe())
+    }
+}
+
+impl core::fmt::Display for Rejection {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "{} (code {}, detail {})", self.reason, self.reason.code(), self.detail)
+    }
+}
+
+impl Serialize for RejectReason {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u8(self.code())
+    }
+}
+
+impl<'de> Deserialize<'de> for RejectReason {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        u8::deserialize(d).map(RejectReason::from_code)
+    }
+}
+
+impl From<Error> for Rejection {
+    /// Map a blob error to its stable code and detail.
+    fn from(e: Error) -> Self {
+        let (reason, detail) = match e {
+            Error::Truncated { .. } => (RejectReason::Truncated, 0),
+            Error::BadMagic => (RejectReason::BadMagic, 0),
+            Error::UnsupportedVersion { found, .. } => (RejectReason::UnsupportedVersion, found as u32),
+            Error::WrongDims { found, expected, .. } => {
+                (RejectReason::WrongDims, (found as u32) << 16 | expected as u32)
+            }
+            Error::BadCrc => (RejectReason::BadCrc, 0),
+            Error::BadPayload => (RejectReason::BadPayload, 0),
+            Error::TrailingBytes { extra } => (RejectReason::TrailingBytes, sat_u32(extra)),
+            Error::TooManyCentres { found, .. } => (RejectReason::TooManyCentres, sat_u32(found)),
+            Error::BadParameter { .. } => (RejectReason::BadParameter, 0),
+            Error::BufferTooSmall => (RejectReason::BufferTooSmall, 0),
+            #[allow(unreachable_patterns)] // `Error` is non_exhaustive
+            _ => (RejectReason::Other, 0),
+        };
+        Rejection { reason, detail }
+    }
+}
+
+fn sat_u32(v: usize) -> u32 {
+    u32::try_from(v).unwrap_or(u32::MAX)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
+mod tests {
+    extern crate std;
+    use std::vec::Vec;
+
+    use super::*;
+
+    #[test]
+    fn reject_codes_are_stable_and_round_trip() {
+        let codes: Vec<u8> = RejectReason::ALL.iter().map(|r| r.code()).collect();
+        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 20, 21, 22, 23, 24, 25, 255]);
+        for r in RejectReason::ALL {
+            assert_eq!(RejectReason::from_code(r.code()), r);
+            let mut buf = [0u8; 4];
+            let b = postcard::to_slice(&r, &mut buf).unwrap();
+            assert_eq!(b, &[r.code()]);
+            assert_eq!(postcard::from_bytes::<RejectReason>(b).unwrap(), r);
+        }
+        assert_eq!(RejectReason::from_code(99), RejectReason::Other);
+        let e = Rejection::from(Error::WrongDims { field: "centres", found: 64, expected: 32 });
+        assert_eq!(e, Rejection { reason: RejectReason::WrongDims, detail: 64 << 16 | 32 });
+        assert_eq!(Rejection::from(Error::BadCrc).reason, RejectReason::BadCrc);
+        assert_eq!(Rejection::from(Error::BadParameter { field: "hyper.sigma" }).reason, RejectReason::BadParameter);
+    }
+}
