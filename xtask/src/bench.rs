@@ -11,7 +11,8 @@
 //!
 //! `cargo xtask bench [--quick] [--no-device]`: `--quick` takes one round of one repeat (for
 //! trying the task out, not for publishing); `--no-device` reuses `target/bench/device.json`
-//! instead of running QEMU.
+//! instead of running QEMU; `--markdown-only` renders BENCHMARKS.md again from BENCHMARKS.json
+//! and measures nothing.
 
 use std::fmt::Write as _;
 use std::fs;
@@ -96,9 +97,15 @@ fn command_line(program: &str, args: &[String], env: &[(&str, &str)]) -> String 
 
 /// `cargo xtask bench`.
 pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
+    if args.iter().any(|a| a == "--markdown-only") {
+        if let Some(a) = args.iter().find(|a| *a != "--markdown-only") {
+            bail!("cargo xtask bench --markdown-only takes no other option (got `{a}`)");
+        }
+        return markdown_only(root);
+    }
     let opts = Opts { quick: args.iter().any(|a| a == "--quick"), no_device: args.iter().any(|a| a == "--no-device") };
     if let Some(a) = args.iter().find(|a| *a != "--quick" && *a != "--no-device") {
-        bail!("cargo xtask bench: unknown option `{a}` (--quick, --no-device)");
+        bail!("cargo xtask bench: unknown option `{a}` (--quick, --no-device, --markdown-only)");
     }
     let r = Runner { root: root.to_path_buf() };
     let bench_dir = root.join("target/bench");
@@ -180,6 +187,17 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
     crate::fixtures::write_atomic(&root.join("BENCHMARKS.md"), md.as_bytes())?;
     eprintln!("bench: wrote BENCHMARKS.md and BENCHMARKS.json in {:.0} s", t0.elapsed().as_secs_f64());
     device.map(|_| ())
+}
+
+/// `cargo xtask bench --markdown-only`: BENCHMARKS.md again from BENCHMARKS.json, measuring
+/// nothing (after a change to the markdown writer).
+fn markdown_only(root: &Path) -> Result<()> {
+    let path = root.join("BENCHMARKS.json");
+    let text = fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let report: Value = serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
+    crate::fixtures::write_atomic(&root.join("BENCHMARKS.md"), markdown(&report).as_bytes())?;
+    eprintln!("bench: wrote BENCHMARKS.md from BENCHMARKS.json");
+    Ok(())
 }
 
 fn data(n: usize) -> String {

@@ -48,6 +48,8 @@ cargo xtask <task>
           inference throughput, accuracy peers, band coverage, fleet scaling and the
           device part (instructions per step at K = 16/32/64 under QEMU -icount,
           footprint); writes BENCHMARKS.md and BENCHMARKS.json
+  bench --markdown-only
+          only BENCHMARKS.md, rendered again from BENCHMARKS.json (measures nothing)
   fixtures [--write-default]
           make the firmware's test fixtures with fbg-trainer in target/fixtures (and
           copy its Model-H, paper preset, seed 7, to firmware/model/default.fbgm)";
