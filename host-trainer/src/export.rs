@@ -7,10 +7,11 @@ use std::path::{Path, PathBuf};
 use fbg_shared::layout::{FeatureSet, N_OUTPUTS, POLY_NAMES, Z_NAMES};
 use fbg_shared::{blob, Compensator, ModelParams};
 
-use crate::dataset::{write_atomically, write_bytes_atomically, Dataset};
+use crate::data::files::{write_atomically, write_bytes_atomically};
+use crate::data::Dataset;
 use crate::error::TrainerError;
+use crate::eval::parity::{as_device_input, widen};
 use crate::fit::{HostParams, PolyCore, Selection, HOST_CAP};
-use crate::parity::{as_device_input, widen};
 
 /// Encode a host model as a blob (f32).
 pub fn blob_bytes(p: &HostParams) -> Result<Vec<u8>, TrainerError> {
@@ -171,7 +172,7 @@ pub fn memory_json(p: &HostParams) -> serde_json::Value {
                         OUTPUT_KEYS[o].to_string(),
                         serde_json::json!({
                             "value": p.gamma[o][k],
-                            "unit": format!("{} per {}", crate::evaluate::UNITS[o], unit),
+                            "unit": format!("{} per {}", crate::eval::score::UNITS[o], unit),
                         }),
                     )
                 })

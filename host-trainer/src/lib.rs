@@ -1,24 +1,33 @@
 //! `fbg-trainer`: simulate FBG installations, fit and evaluate the hybrid compensator, export
 //! models for the `fbg-shared` inference.
+//!
+//! The modules follow the data (ARCHITECTURE.md):
+//!
+//! ```text
+//! data (CSV, import) ─┐
+//! sim (scenario) ─────┴─> fit ─> eval ─> export ─> report
+//!                                                  fleet, stream, benchmark
+//! ```
+//!
+//! Each module uses only the ones before it in this list; `error`, `rng` and `stats` are used by
+//! all. The command line (`src/cli/`) is the binary and uses the library only.
 
-pub mod benchmark;
-pub mod dataset;
+// Foundations.
 pub mod error;
-pub mod evaluate;
+pub mod rng;
+pub mod stats;
+
+// The pipeline.
+pub mod data;
+pub mod eval;
 pub mod export;
 pub mod fit;
-pub mod fleet;
-pub mod import;
-pub mod meta;
-pub mod metrics;
-pub mod parity;
-pub mod recalibrate;
 pub mod report;
-pub mod rng;
-pub mod scenario;
 pub mod sim;
+
+// Operations built on the pipeline.
+pub mod benchmark;
+pub mod fleet;
 pub mod stream;
-pub mod study;
-pub mod tables;
 
 pub use error::TrainerError;

@@ -21,11 +21,11 @@ use fbg_shared::link_client::{LinkClient, LinkError};
 use fbg_shared::protocol::{DeviceEstimate, UpdateResult};
 use fbg_shared::{Compensator, Estimate};
 
-use crate::dataset::Dataset;
-use crate::evaluate::{evaluate_holdout, CHANNELS, UNITS};
+use crate::data::Dataset;
+use crate::eval::parity::{as_device_input, widen};
+use crate::eval::score::{evaluate_holdout, CHANNELS, UNITS};
 use crate::export::read_blob;
 use crate::fit::HOST_CAP;
-use crate::parity::{as_device_input, widen};
 
 /// Device vs host tolerance as a fraction of Model-H's hold-out RMSE (DESIGN §8).
 pub const REL_TOL: f64 = 0.01;

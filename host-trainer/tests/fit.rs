@@ -2,13 +2,13 @@
 //! and behave as a calibration engineer expects on the `paper` preset.
 
 use fbg_shared::FeatureSet;
-use fbg_trainer::dataset::Split;
-use fbg_trainer::evaluate::evaluate_holdout;
+use fbg_trainer::data::Split;
+use fbg_trainer::eval::score::evaluate_holdout;
 use fbg_trainer::fit::{train, Config, HostParams, Origin, TrainOptions};
-use fbg_trainer::scenario::Preset;
+use fbg_trainer::sim::scenario::Preset;
 use fbg_trainer::sim::simulate;
 
-fn short_paper(days: f64) -> fbg_trainer::scenario::ScenarioConfig {
+fn short_paper(days: f64) -> fbg_trainer::sim::scenario::ScenarioConfig {
     let mut c = Preset::Paper.config();
     c.clock.days = days;
     c
@@ -148,7 +148,7 @@ fn missing_reference_and_gaps_are_handled() {
     d.write_csv(&csv).unwrap();
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text.starts_with("t_s,T_C,strain_ue,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split\n"), "{}", &text[..80]);
-    let back = fbg_trainer::dataset::Dataset::read_csv(&csv).unwrap();
+    let back = fbg_trainer::data::Dataset::read_csv(&csv).unwrap();
     assert_eq!(back.has_target, [true, true, false]);
     assert!(back.dl_pm[1][50].is_nan());
 

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use fbg_trainer::fleet::{self, Manifest, Outcome};
-use fbg_trainer::scenario::Preset;
 use fbg_trainer::sim;
+use fbg_trainer::sim::scenario::Preset;
 
 /// A short scenario (one day at 60 s: 1 440 samples) as `dir/<name>.csv`.
 fn short_csv(dir: &Path, name: &str, seed: u64) -> PathBuf {
@@ -70,8 +70,8 @@ fn paths_resolve_against_the_manifest_and_defaults_apply() {
     let m = Manifest::from_str_at(text, &d.path().join("m.toml")).unwrap();
     assert_eq!(m.groups[0].data, d.path().join("in/a.csv"));
     assert_eq!(m.groups[0].out, PathBuf::from("/abs/a.fbgm"));
-    assert_eq!((m.groups[0].features.as_str(), m.groups[0].max_centres), ("paper", 16));
-    assert_eq!((m.groups[1].features.as_str(), m.groups[1].max_centres), ("all", fleet::DEFAULT_MAX_CENTRES));
+    assert_eq!((m.groups[0].features.name(), m.groups[0].max_centres), ("paper", 16));
+    assert_eq!((m.groups[1].features.name(), m.groups[1].max_centres), ("all", fleet::DEFAULT_MAX_CENTRES));
     assert_eq!(m.groups[1].baseline_path(), d.path().join("b-p.fbgm"));
 }
 

@@ -7,9 +7,9 @@ use nalgebra::DMatrix;
 use fbg_shared::layout::N_OUTPUTS;
 use fbg_shared::{Compensator, Sample};
 
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
-use crate::evaluate::ModelEval;
+use crate::eval::score::ModelEval;
 use crate::fit::{design_matrix, HostCompensator, HostParams, HOST_CAP};
 
 /// The outcome of the parity check on the hold-out.
@@ -57,7 +57,7 @@ pub fn check(model_h: &HostParams, d: &Dataset, eval_h: &ModelEval) -> Result<Pa
         let x32 = as_device_input(&d.sample(i));
         let a = dev.step(&x32);
         let b = reference.step(&widen(&x32));
-        if i < first || d.split[i] != crate::dataset::Split::Holdout {
+        if i < first || d.split[i] != crate::data::Split::Holdout {
             continue;
         }
         n += 1;

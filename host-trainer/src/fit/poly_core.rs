@@ -5,7 +5,7 @@
 use fbg_shared::layout::{N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1};
 use fbg_shared::MemorySpec;
 
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
 use rayon::prelude::*;
 

@@ -25,7 +25,7 @@ use super::memory_core::{self, MemoryChoice, MemoryCvRow, MemoryOptions};
 use super::{
     design, linalg, poly_core, residual_targets, skeleton, z_sample, CheckpointCache, Config, HostParams, ZSample,
 };
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
 
 /// The grid and the CV layout.

@@ -4,7 +4,7 @@
 //! the simulator can keep every effect separately.
 
 use crate::rng::{Rng, Stream};
-use crate::scenario::{Drift, Electronics, Hysteresis, Noise, Scan};
+use crate::sim::scenario::{Drift, Electronics, Hysteresis, Noise, Scan};
 
 /// Paper Eq. 9: h(x_t) = β x_t + γ x_{t−1} + ρ sgn(ẋ_t)(x_t − x_{t−1}).
 ///
