@@ -111,12 +111,12 @@ fn paper_preset_model_h_beats_model_p_and_removes_the_hysteresis_bias() {
     let (ep, _) = evaluate_holdout(&t.model_p, &s.data).unwrap();
     let (eh, _) = evaluate_holdout(&t.model_h, &s.data).unwrap();
     let floor = s.oracle_floor().rmse_holdout;
-    for c in 0..3 {
+    for (c, &floor_c) in floor.iter().enumerate() {
         let (p, h) = (ep.channels[c], eh.channels[c]);
         assert!(h.rmse < 0.75 * p.rmse, "channel {c}: H {} vs P {}", h.rmse, p.rmse);
         // The per-sample oracle is a reference, not a floor, for a model with memory: only
         // check that it is the same order of magnitude.
-        assert!(h.rmse > 0.5 * floor[c], "channel {c}: {} vs per-sample oracle {}", h.rmse, floor[c]);
+        assert!(h.rmse > 0.5 * floor_c, "channel {c}: {} vs per-sample oracle {floor_c}", h.rmse);
         assert!(h.r2 > 0.95, "channel {c}: R² {}", h.r2);
         assert!((0.90..=0.995).contains(&h.coverage), "channel {c}: coverage {}", h.coverage);
         assert!(

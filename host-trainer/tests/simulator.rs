@@ -183,13 +183,13 @@ fn switching_an_effect_off_removes_exactly_its_contribution() {
         let off = simulate(&c, 21);
         let contrib = full.effects.by_name(name).unwrap();
         assert!(contrib[0].iter().any(|v| *v != 0.0), "{name} contributes nothing");
-        for g in 0..3 {
-            for i in 0..full.data.len() {
+        for (g, contrib_g) in contrib.iter().enumerate() {
+            assert_eq!(contrib_g.len(), full.data.len(), "{name}: channel {g}");
+            for (i, &part) in contrib_g.iter().enumerate() {
                 let diff = full.data.dl_pm[g][i] - off.data.dl_pm[g][i];
                 assert!(
-                    (diff - contrib[g][i]).abs() < 1e-9,
-                    "{name}: channel {g} sample {i}: removed {diff}, contribution {}",
-                    contrib[g][i]
+                    (diff - part).abs() < 1e-9,
+                    "{name}: channel {g} sample {i}: removed {diff}, contribution {part}"
                 );
             }
             // Everything else is untouched: the measurands and the other effects.

@@ -6,6 +6,7 @@
 
 use std::time::Instant;
 
+use fbg_shared::layout::N_OUTPUTS;
 use fbg_shared::FeatureSet;
 
 use crate::data::Dataset;
@@ -36,13 +37,12 @@ fn fixed(opts: &TrainOptions, cfg: &fit::Config) -> TrainOptions {
     TrainOptions { seed: opts.seed, progress: false, ..opts.fixed_like(cfg) }
 }
 
+/// Hold-out RMSE per output of Model-P, of Model-H and of the per-sample oracle.
+type RefitRmse = ([f64; N_OUTPUTS], [f64; N_OUTPUTS], [f64; N_OUTPUTS]);
+
 /// Hold-out RMSE of both models retrained on a re-simulated scenario with fixed
 /// hyper-parameters.
-fn refit_rmse(
-    cfg: &ScenarioConfig,
-    seed: u64,
-    opts: &TrainOptions,
-) -> Result<([f64; 3], [f64; 3], [f64; 3]), TrainerError> {
+fn refit_rmse(cfg: &ScenarioConfig, seed: u64, opts: &TrainOptions) -> Result<RefitRmse, TrainerError> {
     let s = simulate(cfg, seed);
     let tr = fit::train(&s.data, opts, &Origin { scenario: cfg.name.clone(), seed })?;
     let (ep, _) = evaluate_holdout(&tr.model_p, &s.data)?;

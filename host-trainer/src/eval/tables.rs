@@ -214,10 +214,10 @@ pub fn budget(rows: &[BudgetRow], m: &Metrics) -> Table {
     let mut out = Vec::new();
     for r in rows {
         let mut cells = vec![r.effect_off.clone()];
-        for c in 0..3 {
-            cells.push(f(r.rmse_p[c], DIGITS[c]));
-            cells.push(f(r.rmse_h[c], DIGITS[c]));
-            cells.push(f(r.oracle_floor[c], DIGITS[c]));
+        for (c, &digits) in DIGITS.iter().enumerate() {
+            cells.push(f(r.rmse_p[c], digits));
+            cells.push(f(r.rmse_h[c], digits));
+            cells.push(f(r.oracle_floor[c], digits));
         }
         out.push(cells);
     }
@@ -235,16 +235,16 @@ pub fn drift(s: &DriftSweep, m: &Metrics) -> Table {
     let mut rows = Vec::new();
     for (i, x) in s.sigma_d_pm.iter().enumerate() {
         let mut cells = vec![format!("{:.3}", x), format!("×{}", s.factors[i])];
-        for c in 0..3 {
-            cells.push(f(s.rmse_p[i][c], DIGITS[c]));
-            cells.push(f(s.rmse_h[i][c], DIGITS[c]));
+        for (c, &digits) in DIGITS.iter().enumerate() {
+            cells.push(f(s.rmse_p[i][c], digits));
+            cells.push(f(s.rmse_h[i][c], digits));
         }
         rows.push(cells);
     }
     let mut slope = vec!["slope per pm/step".to_string(), String::new()];
-    for c in 0..3 {
-        slope.push(f(s.slope_p[c], DIGITS[c]));
-        slope.push(f(s.slope_h[c], DIGITS[c]));
+    for (c, &digits) in DIGITS.iter().enumerate() {
+        slope.push(f(s.slope_p[c], digits));
+        slope.push(f(s.slope_h[c], digits));
     }
     rows.push(slope);
     Table {

@@ -70,7 +70,7 @@ pub fn recalibrate(
     };
     // Choose the core update per output on the validation part.
     let mut choice = [CoreUpdate::Keep; N_OUTPUTS];
-    for c in 0..N_OUTPUTS {
+    for (c, chosen) in choice.iter_mut().enumerate() {
         if !old.fitted[c] || !d.has_target[c] {
             continue;
         }
@@ -88,7 +88,7 @@ pub fn recalibrate(
                 best = (m, cand);
             }
         }
-        choice[c] = best.1;
+        *chosen = best.1;
     }
     let mut new = old.clone();
     let mut offset_gain = [(0.0, 1.0); N_OUTPUTS];
@@ -116,12 +116,12 @@ pub fn recalibrate(
     let p_eff = (2 + if w_updated { k } else { 0 }) as f64;
     let n = batch.len() as f64;
     let mut batch_rmse = [f64::NAN; N_OUTPUTS];
-    for c in 0..N_OUTPUTS {
+    for (c, rmse) in batch_rmse.iter_mut().enumerate() {
         if !old.fitted[c] || !d.has_target[c] {
             continue;
         }
         let m = batch.iter().zip(&after).map(|(&i, e)| (e.values[c] - d.target(c)[i]).powi(2)).sum::<f64>() / n;
-        batch_rmse[c] = m.sqrt();
+        *rmse = m.sqrt();
         let corrected = if n > p_eff + 1.0 { m * n / (n - p_eff) } else { m * 2.0 };
         new.resid_var[c] = new.resid_var[c].max(corrected);
     }
