@@ -1,16 +1,19 @@
 //! `fbg-trainer`: simulate FBG installations, fit and evaluate the hybrid compensator, export
 //! models for the `fbg-shared` inference.
 //!
-//! The modules follow the data (ARCHITECTURE.md):
+//! The modules follow the data, in layers: a module uses only modules of earlier layers
+//! (`tests/layout.rs` checks it), so there is no import cycle:
 //!
-//! ```text
-//! data (CSV, import) ─┐
-//! sim (scenario) ─────┴─> fit ─> eval ─> export ─> report
-//!                                                  fleet, stream, benchmark
-//! ```
+//! 1. `error`, `rng`, `stats`: used by all;
+//! 2. `data`: the dataset and its CSV, the import of interrogator exports, safe output files;
+//! 3. `sim` (scenarios, the simulator, its `.meta.json` sidecar) and `fit` (Model-P and
+//!    Model-H, the `--features` choice, field recalibration);
+//! 4. `eval`: scores, f32-vs-f64 parity, the studies, the `metrics.json` schema, the tables;
+//! 5. `export`: the `.fbgm` blob, `coefficients.json`, golden vectors;
+//! 6. `report`, `fleet`, `stream`, `benchmark`: the audit report and the operations built on
+//!    the pipeline.
 //!
-//! Each module uses only the ones before it in this list; `error`, `rng` and `stats` are used by
-//! all. The command line (`src/cli/`) is the binary and uses the library only.
+//! The command line (`src/cli/`) is the binary and uses this library only.
 
 // Foundations.
 pub mod error;
