@@ -12,12 +12,13 @@ use std::time::Instant;
 use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
 use fbg_shared::Estimate;
 
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
-use crate::evaluate::{evaluate_holdout, ModelEval, CHANNELS};
+use crate::eval::parity::{self, ParityReport};
+use crate::eval::score::{evaluate_holdout, ModelEval, CHANNELS};
 use crate::export;
-use crate::fit::{self, Config, Origin, TrainOptions};
-use crate::parity::{self, ParityReport};
+use crate::fit::{self, Config, FeatureChoice, Origin, TrainOptions};
+use crate::stats::median;
 
 /// Hyper-parameters of a fixed-configuration fit when none are given: what cross-validation
 /// chooses on the `paper` preset with the default features (K = 32, σ = 2 × the median
@@ -69,17 +70,6 @@ pub struct FitBench {
     pub model_h: HoldoutFigures,
     /// Model-H in f32 (the device path) against f64 on the hold-out.
     pub parity: ParityReport,
-}
-
-/// Median of a non-empty sample (mean of the middle two for an even count); NaN when empty.
-pub fn median(xs: &[f64]) -> f64 {
-    let mut v: Vec<f64> = xs.to_vec();
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
 }
 
 /// Read `data`, fit `repeats` times with `opts` on `threads` worker threads (0: rayon's
@@ -168,8 +158,8 @@ pub struct BenchFitArgs {
     pub select: bool,
     /// With --select: the model variant, as `train --features` (memory, hysteresis-aware, latch,
     /// paper, all).
-    #[arg(long, value_parser = ["memory", "hysteresis-aware", "latch", "paper", "all"], default_value = "memory")]
-    pub features: String,
+    #[arg(long, value_enum, default_value = "memory")]
+    pub features: FeatureChoice,
     /// With --fixed: also fit the memory terms (cross-validated menu, as `train`). Off by default so
     /// that the fixed fit is the scikit-learn peer's pipeline, which has no memory terms.
     #[arg(long)]
@@ -231,7 +221,7 @@ impl BenchFitArgs {
             }
             Ok((opts, "fixed"))
         } else {
-            let opts = crate::fleet::train_options(&self.features, self.max_centres).map_err(TrainerError::fit)?;
+            let opts = self.features.train_options(self.max_centres).map_err(TrainerError::fit)?;
             Ok((opts, "select"))
         }
     }
@@ -247,7 +237,7 @@ impl BenchFitArgs {
 fn write_holdout_errors(path: &std::path::Path, d: &Dataset, est: &[Estimate<f64>]) -> Result<(), TrainerError> {
     use std::io::Write;
     let idx: Vec<usize> = d.holdout_indices().into_iter().filter(|&i| d.usable(i)).collect();
-    crate::dataset::write_atomically(path, |w| {
+    crate::data::files::write_atomically(path, |w| {
         write!(w, "t_s")?;
         for name in ["err", "band"] {
             for ch in CHANNELS {
@@ -295,13 +285,6 @@ pub fn feature_set_named(name: &str) -> Option<FeatureSet> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn median_of_odd_even_and_empty() {
-        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
-        assert!(median(&[]).is_nan());
-    }
 
     #[test]
     fn feature_sets_by_name() {

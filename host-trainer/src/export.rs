@@ -4,10 +4,11 @@
 use std::path::{Path, PathBuf};
 
 use fbg_link::golden;
-use fbg_shared::layout::{FeatureSet, N_OUTPUTS, POLY_NAMES, Z_NAMES};
+use fbg_shared::layout::{N_OUTPUTS, POLY_NAMES, Z_NAMES};
 use fbg_shared::{blob, Compensator, ModelParams, Sample};
 
-use crate::dataset::{write_bytes_atomically, Dataset};
+use crate::data::files::write_bytes_atomically;
+use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::fit::{HostParams, PolyCore, Selection, HOST_CAP};
 
@@ -165,7 +166,7 @@ pub fn memory_json(p: &HostParams) -> serde_json::Value {
                         OUTPUT_KEYS[o].to_string(),
                         serde_json::json!({
                             "value": p.gamma[o][k],
-                            "unit": format!("{} per {}", crate::evaluate::UNITS[o], unit),
+                            "unit": format!("{} per {}", crate::eval::score::UNITS[o], unit),
                         }),
                     )
                 })
@@ -265,26 +266,4 @@ pub fn write_golden(
 /// A Model-P-only host model is Model-H without centres; true when `p` has none.
 pub fn is_model_p(p: &HostParams) -> bool {
     p.centres.is_empty()
-}
-
-/// Feature-set names for the CLI.
-pub fn feature_sets_for(name: &str) -> Option<Vec<FeatureSet>> {
-    variant_for(name).map(|(sets, _)| sets)
-}
-
-/// The model variant of a `--features` name: the RBF feature sets cross-validation may choose
-/// from and whether the memory bank is on the menu. `memory` (the default): memory terms fitted
-/// with the core plus an RBF residual on [Δλ, T_amb, latches]; `hysteresis-aware` (alias
-/// `latch`, the previous default): no memory terms, RBF on latches (and time if CV keeps it);
-/// `paper`: paper Eq. 5 exactly; `all`: memory terms and every feature set.
-pub fn variant_for(name: &str) -> Option<(Vec<FeatureSet>, bool)> {
-    match name {
-        "memory" => Some((vec![FeatureSet::HysteresisAware], true)),
-        "paper" => Some((vec![FeatureSet::Paper], false)),
-        "hysteresis-aware" | "latch" => {
-            Some((vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime], false))
-        }
-        "all" => Some((FeatureSet::ALL.to_vec(), true)),
-        _ => None,
-    }
 }

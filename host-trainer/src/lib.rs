@@ -1,25 +1,36 @@
 //! `fbg-trainer`: simulate FBG installations, fit and evaluate the hybrid compensator, export
 //! models for the `fbg-shared` inference.
+//!
+//! The modules follow the data, in layers: a module uses only modules of earlier layers
+//! (`tests/layout.rs` checks it), so there is no import cycle:
+//!
+//! 1. `error`, `rng`, `stats`: used by all;
+//! 2. `data`: the dataset and its CSV, the import of interrogator exports, safe output files;
+//! 3. `sim` (scenarios, the simulator, its `.meta.json` sidecar) and `fit` (Model-P and
+//!    Model-H, the `--features` choice, field recalibration);
+//! 4. `eval`: scores, f32-vs-f64 parity, the studies, the `metrics.json` schema, the tables;
+//! 5. `export`: the `.fbgm` blob, `coefficients.json`, golden vectors;
+//! 6. `report`, `fleet`, `stream`, `benchmark`: the audit report and the operations built on
+//!    the pipeline.
+//!
+//! The command line (`src/cli/`) is the binary and uses this library only.
 
-pub mod benchmark;
-pub mod dataset;
+// Foundations.
 pub mod error;
-pub mod evaluate;
+pub mod rng;
+pub mod stats;
+
+// The pipeline.
+pub mod data;
+pub mod eval;
 pub mod export;
 pub mod fit;
-pub mod fleet;
-pub mod import;
-pub mod meta;
-pub mod metrics;
-pub mod parity;
-pub mod recalibrate;
 pub mod report;
-pub mod rng;
-pub mod scenario;
-pub mod shard;
 pub mod sim;
+
+// Operations built on the pipeline.
+pub mod benchmark;
+pub mod fleet;
 pub mod stream;
-pub mod study;
-pub mod tables;
 
 pub use error::TrainerError;

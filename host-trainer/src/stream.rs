@@ -22,8 +22,8 @@ use fbg_shared::layout::N_OUTPUTS;
 use fbg_shared::protocol::UpdateResult;
 use fbg_shared::Compensator;
 
-use crate::dataset::Dataset;
-use crate::evaluate::{evaluate_holdout, CHANNELS, UNITS};
+use crate::data::Dataset;
+use crate::eval::score::{evaluate_holdout, CHANNELS, UNITS};
 use crate::export::read_blob;
 use crate::fit::HOST_CAP;
 

@@ -2,13 +2,13 @@
 //! and behave as a calibration engineer expects on the `paper` preset.
 
 use fbg_shared::FeatureSet;
-use fbg_trainer::dataset::Split;
-use fbg_trainer::evaluate::evaluate_holdout;
+use fbg_trainer::data::Split;
+use fbg_trainer::eval::score::evaluate_holdout;
 use fbg_trainer::fit::{train, Config, HostParams, Origin, TrainOptions};
-use fbg_trainer::scenario::Preset;
+use fbg_trainer::sim::scenario::Preset;
 use fbg_trainer::sim::simulate;
 
-fn short_paper(days: f64) -> fbg_trainer::scenario::ScenarioConfig {
+fn short_paper(days: f64) -> fbg_trainer::sim::scenario::ScenarioConfig {
     let mut c = Preset::Paper.config();
     c.clock.days = days;
     c
@@ -111,12 +111,12 @@ fn paper_preset_model_h_beats_model_p_and_removes_the_hysteresis_bias() {
     let (ep, _) = evaluate_holdout(&t.model_p, &s.data).unwrap();
     let (eh, _) = evaluate_holdout(&t.model_h, &s.data).unwrap();
     let floor = s.oracle_floor().rmse_holdout;
-    for c in 0..3 {
+    for (c, &floor_c) in floor.iter().enumerate() {
         let (p, h) = (ep.channels[c], eh.channels[c]);
         assert!(h.rmse < 0.75 * p.rmse, "channel {c}: H {} vs P {}", h.rmse, p.rmse);
         // The per-sample oracle is a reference, not a floor, for a model with memory: only
         // check that it is the same order of magnitude.
-        assert!(h.rmse > 0.5 * floor[c], "channel {c}: {} vs per-sample oracle {}", h.rmse, floor[c]);
+        assert!(h.rmse > 0.5 * floor_c, "channel {c}: {} vs per-sample oracle {floor_c}", h.rmse);
         assert!(h.r2 > 0.95, "channel {c}: R² {}", h.r2);
         assert!((0.90..=0.995).contains(&h.coverage), "channel {c}: coverage {}", h.coverage);
         assert!(
@@ -148,7 +148,7 @@ fn missing_reference_and_gaps_are_handled() {
     d.write_csv(&csv).unwrap();
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text.starts_with("t_s,T_C,strain_ue,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split\n"), "{}", &text[..80]);
-    let back = fbg_trainer::dataset::Dataset::read_csv(&csv).unwrap();
+    let back = fbg_trainer::data::Dataset::read_csv(&csv).unwrap();
     assert_eq!(back.has_target, [true, true, false]);
     assert!(back.dl_pm[1][50].is_nan());
 

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use fbg_trainer::fleet::{self, Manifest, Outcome};
-use fbg_trainer::scenario::Preset;
 use fbg_trainer::sim;
+use fbg_trainer::sim::scenario::Preset;
 
 /// A short scenario (one day at 60 s: 1 440 samples) as `dir/<name>.csv`.
 fn short_csv(dir: &Path, name: &str, seed: u64) -> PathBuf {
@@ -70,8 +70,8 @@ fn paths_resolve_against_the_manifest_and_defaults_apply() {
     let m = Manifest::from_str_at(text, &d.path().join("m.toml")).unwrap();
     assert_eq!(m.groups[0].data, d.path().join("in/a.csv"));
     assert_eq!(m.groups[0].out, PathBuf::from("/abs/a.fbgm"));
-    assert_eq!((m.groups[0].features.as_str(), m.groups[0].max_centres), ("paper", 16));
-    assert_eq!((m.groups[1].features.as_str(), m.groups[1].max_centres), ("all", fleet::DEFAULT_MAX_CENTRES));
+    assert_eq!((m.groups[0].features.name(), m.groups[0].max_centres), ("paper", 16));
+    assert_eq!((m.groups[1].features.name(), m.groups[1].max_centres), ("all", fleet::DEFAULT_MAX_CENTRES));
     assert_eq!(m.groups[1].baseline_path(), d.path().join("b-p.fbgm"));
 }
 
@@ -192,7 +192,7 @@ fn concurrent_shards_share_a_directory_without_clobbering() {
         let on_disk: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&summary).unwrap()).unwrap();
         assert_eq!(on_disk["groups"], r["groups"]);
         for g in r["groups"].as_array().unwrap() {
-            assert_eq!(fbg_trainer::shard::shard_of(g["name"].as_str().unwrap(), n), i);
+            assert_eq!(fbg_trainer::fleet::shard::shard_of(g["name"].as_str().unwrap(), n), i);
         }
         trained += r["trained"].as_u64().unwrap();
     }
@@ -240,7 +240,7 @@ fn status_reports_done_failed_stale_and_missing() {
     let bad = state("bad");
     assert_eq!(bad.state, fleet::GroupState::Failed);
     assert!(bad.reason.as_deref().unwrap_or("").contains("bad.csv"), "{bad:?}");
-    assert_eq!(bad.shard, Some(fbg_trainer::shard::shard_of("bad", 2)));
+    assert_eq!(bad.shard, Some(fbg_trainer::fleet::shard::shard_of("bad", 2)));
     assert_eq!((st.counts["done"], st.counts["failed"], st.counts["stale"], st.counts["missing"]), (2, 1, 1, 1));
     // The command exits non-zero and names the count; JSON on stdout.
     let out = Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))

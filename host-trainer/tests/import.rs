@@ -5,12 +5,12 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use fbg_trainer::dataset::{Dataset, Split};
-use fbg_trainer::fit::{train, Origin, TrainOptions};
-use fbg_trainer::import::{
+use fbg_trainer::data::import::{
     import, import_to_csv, Format, ImportOptions, ImportSummary, OnError, Reason, SplitChoice, DEFAULT_MAX_SKIPPED,
 };
-use fbg_trainer::scenario::Preset;
+use fbg_trainer::data::{Dataset, Split};
+use fbg_trainer::fit::{train, Origin, TrainOptions};
+use fbg_trainer::sim::scenario::Preset;
 use fbg_trainer::sim::simulate;
 
 fn data(name: &str) -> PathBuf {

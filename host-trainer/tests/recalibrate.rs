@@ -2,10 +2,11 @@
 //! full recalibration's gain for strain, and a batch with no evidence of change leaves the model
 //! alone.
 
-use fbg_trainer::evaluate::evaluate_holdout;
+use fbg_trainer::eval::score::evaluate_holdout;
+use fbg_trainer::eval::studies::recalibration;
+use fbg_trainer::fit::recalibrate::{first_hours, recalibrate, CoreUpdate};
 use fbg_trainer::fit::{train, Config, Origin, TrainOptions};
-use fbg_trainer::recalibrate::{first_hours, recalibrate, study, CoreUpdate};
-use fbg_trainer::scenario::Preset;
+use fbg_trainer::sim::scenario::Preset;
 use fbg_trainer::sim::simulate;
 
 fn cfg() -> Config {
@@ -23,7 +24,7 @@ fn cfg() -> Config {
 fn a_day_of_data_recovers_most_of_a_full_recalibration_for_strain() {
     let scen = Preset::Paper.config();
     let old = train(&simulate(&scen, 7).data, &TrainOptions::fixed(&cfg()), &Origin::default()).unwrap();
-    let r = study(&scen, &old.model_h, &old.model_p, 7, 8, 24.0, &cfg()).unwrap();
+    let r = recalibration(&scen, &old.model_h, &old.model_p, 7, 8, 24.0, &cfg()).unwrap();
     // The changed installation hurts the old model's strain (new dispersion and drift) ...
     assert!(r.h_old[1] > 1.5 * r.h_full[1], "{:?} vs {:?}", r.h_old, r.h_full);
     // ... and 24 h of new data recover most of what a full recalibration would.

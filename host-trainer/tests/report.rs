@@ -7,14 +7,14 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use fbg_shared::{Estimate, FeatureSet, Flags};
-use fbg_trainer::dataset::{Dataset, Split};
+use fbg_trainer::data::{Dataset, Split};
+use fbg_trainer::eval::studies::{self, Studies};
 use fbg_trainer::export;
 use fbg_trainer::fit::{Config, TrainOptions};
-use fbg_trainer::meta::SimMeta;
 use fbg_trainer::report::{self, figures, load};
-use fbg_trainer::scenario::Preset;
+use fbg_trainer::sim::meta::SimMeta;
+use fbg_trainer::sim::scenario::Preset;
 use fbg_trainer::sim::simulate;
-use fbg_trainer::study::{self, Studies};
 
 /// A demo-like directory for a 2-day scenario trained with fixed hyper-parameters (fast),
 /// built once; tests that change it work on a copy.
@@ -36,7 +36,7 @@ fn fixture() -> &'static Path {
             alpha_rel: 1e-4,
             cross_terms: true,
         });
-        let (tr, m) = study::run_all(&s, &opts, Studies::ALL, &|_| {}).unwrap();
+        let (tr, m) = studies::run_all(&s, &opts, Studies::ALL, &|_| {}).unwrap();
         export::write_blob(&dir.path().join("model.fbgm"), &tr.model_h).unwrap();
         export::write_blob(&dir.path().join("model-p.fbgm"), &tr.model_p).unwrap();
         std::fs::write(dir.path().join(report::METRICS_JSON), serde_json::to_string_pretty(&m).unwrap()).unwrap();
@@ -425,7 +425,7 @@ fn report_of_a_million_sample_directory() {
         cross_terms: true,
     });
     let studies = Studies { parity: true, ..Studies::NONE };
-    let (tr, m) = study::run_all(&s, &opts, studies, &|_| {}).unwrap();
+    let (tr, m) = studies::run_all(&s, &opts, studies, &|_| {}).unwrap();
     export::write_blob(&dir.path().join("model.fbgm"), &tr.model_h).unwrap();
     export::write_blob(&dir.path().join("model-p.fbgm"), &tr.model_p).unwrap();
     std::fs::write(dir.path().join(report::METRICS_JSON), serde_json::to_string_pretty(&m).unwrap()).unwrap();

@@ -1,9 +1,9 @@
 //! Issue 2 acceptance: the simulator is deterministic, each trajectory and effect has its
 //! configured statistics, and every effect can be removed exactly.
 
-use fbg_trainer::metrics::{mean, std_dev};
-use fbg_trainer::scenario::{Preset, ScenarioConfig};
+use fbg_trainer::sim::scenario::{Preset, ScenarioConfig};
 use fbg_trainer::sim::{interrogator, simulate, trajectories, EFFECT_NAMES};
+use fbg_trainer::stats::{mean, std_dev};
 
 fn quiet() -> ScenarioConfig {
     // Deterministic parts only, to check amplitudes exactly.
@@ -183,13 +183,13 @@ fn switching_an_effect_off_removes_exactly_its_contribution() {
         let off = simulate(&c, 21);
         let contrib = full.effects.by_name(name).unwrap();
         assert!(contrib[0].iter().any(|v| *v != 0.0), "{name} contributes nothing");
-        for g in 0..3 {
-            for i in 0..full.data.len() {
+        for (g, contrib_g) in contrib.iter().enumerate() {
+            assert_eq!(contrib_g.len(), full.data.len(), "{name}: channel {g}");
+            for (i, &part) in contrib_g.iter().enumerate() {
                 let diff = full.data.dl_pm[g][i] - off.data.dl_pm[g][i];
                 assert!(
-                    (diff - contrib[g][i]).abs() < 1e-9,
-                    "{name}: channel {g} sample {i}: removed {diff}, contribution {}",
-                    contrib[g][i]
+                    (diff - part).abs() < 1e-9,
+                    "{name}: channel {g} sample {i}: removed {diff}, contribution {part}"
                 );
             }
             // Everything else is untouched: the measurands and the other effects.
@@ -247,7 +247,7 @@ fn csv_round_trips_and_bad_cells_are_named() {
     let p = dir.path().join("d.csv");
     let s = simulate(&Preset::Paper.config(), 7);
     s.data.write_csv(&p).unwrap();
-    let back = fbg_trainer::dataset::Dataset::read_csv(&p).unwrap();
+    let back = fbg_trainer::data::Dataset::read_csv(&p).unwrap();
     assert_eq!(back.len(), s.data.len());
     assert!((back.dl_pm[2][100] - s.data.dl_pm[2][100]).abs() < 1e-6);
     assert_eq!(back.split, s.data.split);
@@ -257,7 +257,7 @@ fn csv_round_trips_and_bad_cells_are_named() {
     lines[5] = lines[5].replacen(",cal", ",banana", 1);
     let bad = dir.path().join("bad.csv");
     std::fs::write(&bad, lines.join("\n")).unwrap();
-    let e = fbg_trainer::dataset::Dataset::read_csv(&bad).unwrap_err().to_string();
+    let e = fbg_trainer::data::Dataset::read_csv(&bad).unwrap_err().to_string();
     assert!(e.contains("bad.csv") && e.contains("line 6") && e.contains("split"), "{e}");
 
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
@@ -265,10 +265,10 @@ fn csv_round_trips_and_bad_cells_are_named() {
     cells[6] = "x1";
     lines[3] = cells.join(",");
     std::fs::write(&bad, lines.join("\n")).unwrap();
-    let e = fbg_trainer::dataset::Dataset::read_csv(&bad).unwrap_err().to_string();
+    let e = fbg_trainer::data::Dataset::read_csv(&bad).unwrap_err().to_string();
     assert!(e.contains("line 4") && e.contains("dl2_pm") && e.contains("x1"), "{e}");
 
     std::fs::write(&bad, "t_s,T_C\n1,2\n").unwrap();
-    let e = fbg_trainer::dataset::Dataset::read_csv(&bad).unwrap_err().to_string();
+    let e = fbg_trainer::data::Dataset::read_csv(&bad).unwrap_err().to_string();
     assert!(e.contains("missing column `T_amb_C`"), "{e}");
 }

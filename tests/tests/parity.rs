@@ -4,11 +4,11 @@
 //! Model-H's hold-out RMSE per channel, identical flags.
 
 use fbg_shared::{blob, Compensator, Sample};
-use fbg_trainer::dataset::Split;
-use fbg_trainer::evaluate::evaluate_holdout;
+use fbg_trainer::data::Split;
+use fbg_trainer::eval::score::evaluate_holdout;
 use fbg_trainer::export::blob_bytes;
 use fbg_trainer::fit::{train, HostCompensator, Origin, TrainOptions};
-use fbg_trainer::scenario::Preset;
+use fbg_trainer::sim::scenario::Preset;
 use fbg_trainer::sim::simulate;
 
 /// The device's centre capacity (firmware default).

@@ -80,7 +80,7 @@ pub struct StepBench {
     pub stack_peak: u32,
     /// Blob size of the bench model [B].
     pub blob_bytes: u64,
-    /// Arithmetic operations of one step of this model (`bench::step_ops_of`).
+    /// Arithmetic operations of one step of this model (`bench::device::step_ops_of`).
     pub lower_bound_ops: usize,
     /// DWT cycles per step (0 under QEMU, which does not model cycles).
     pub cycles_per_step: f64,
@@ -325,7 +325,7 @@ fn bench_pack(root: &Path, q: &Path, capacity: usize, sizes: &mut Option<TypeSiz
         let (_, insns_per_step_jitter, _) = cost(jitter).with_context(|| b.name)?;
         let blob = fs::read(&b.model)?;
         let blob_bytes = blob.len() as u64;
-        let lower_bound_ops = crate::bench::step_ops_of(&blob)?;
+        let lower_bound_ops = crate::bench::device::step_ops_of(&blob)?;
         println!(
             "{:<12} K = {:>2}, {:>2} memory terms: {insns_per_step:>7.0} instructions per step ({:.0} / {:.0} over {} / {} steps; {ipt:.2} per SysTick tick); \
              {insns_per_step_jitter:.0} when every Δt differs; blob {blob_bytes} B",

@@ -55,6 +55,8 @@ cargo xtask <task>
           inference throughput, accuracy peers, band coverage, fleet scaling and the
           device part (instructions per step at K = 16/32/64 under QEMU -icount,
           footprint); writes BENCHMARKS.md and BENCHMARKS.json
+  bench --markdown-only
+          only BENCHMARKS.md, rendered again from BENCHMARKS.json (measures nothing)
   slurm   the sharded fleet on a single-node Slurm started here (installs
           slurm-wlm and munge; needs root; not part of test): a 64-group array
           job in 4 shards, one task cancelled and resubmitted, fleet status, every

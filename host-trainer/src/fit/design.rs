@@ -21,7 +21,7 @@ use fbg_shared::layout::N_OUTPUTS;
 use fbg_shared::{Estimate, StreamState};
 
 use super::{HostCompensator, HostParams};
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
 
 /// Samples per stretch (the unit of parallel work and of checkpointing).

@@ -65,7 +65,8 @@ pub fn lstsq_rows(
     let svd = rs.svd(true, true);
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
-    if !(smin > smax * 1e-10) {
+    // Also when a singular value is NaN.
+    if smin.partial_cmp(&(smax * 1e-10)) != Some(std::cmp::Ordering::Greater) {
         return Err(TrainerError::fit(format!(
             "{what}: the design is rank-deficient (condition number {:.1e}); the calibration data do not excite every term",
             smax / smin.max(f64::MIN_POSITIVE)

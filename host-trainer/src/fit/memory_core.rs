@@ -21,7 +21,7 @@ use fbg_shared::layout::{N_MEMORY, N_OUTPUTS, N_POLY};
 use fbg_shared::{MemoryBank, MemoryGroup, MemorySpec};
 
 use super::poly_core::PolyCore;
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
 
 /// Output index of temperature (the only one offered the drift observer).

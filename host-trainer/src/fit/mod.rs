@@ -6,10 +6,12 @@
 //! collected from that code too (`Compensator::core_and_activations`, see [`design`]).
 
 pub mod design;
+pub mod features;
 pub mod kmeans;
 pub mod linalg;
 pub mod memory_core;
 pub mod poly_core;
+pub mod recalibrate;
 pub mod select;
 
 use heapless::Vec as HVec;
@@ -19,10 +21,11 @@ use rayon::prelude::*;
 use fbg_shared::layout::{FeatureSet, N_ENVELOPE, N_OUTPUTS, VAR_RANK, Z_DIMS};
 use fbg_shared::{Centre, Compensator, Hyper, ModelParams, Provenance};
 
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::rng::{Rng, Stream};
 pub use design::{design_matrix, run, CheckpointCache, Checkpoints, Gram};
+pub use features::FeatureChoice;
 pub use poly_core::PolyCore;
 pub use select::{Selection, TrainOptions, VarModel};
 
@@ -130,12 +133,13 @@ pub fn centres(zs: &ZSample, fs: FeatureSet, k: usize, seed: u64) -> Vec<[f64; Z
     kmeans::kmeans_pp(&pts, k.min(pts.len()), &mut rng, 100)
 }
 
-/// Median distance from each centre to its nearest other centre (standardised units).
+/// Median (the upper one for an even count) distance from each centre to its nearest other
+/// centre (standardised units).
 pub fn median_nn_distance(cs: &[[f64; Z_DIMS]]) -> f64 {
     if cs.len() < 2 {
         return 1.0;
     }
-    let mut nn: Vec<f64> = cs
+    let nn: Vec<f64> = cs
         .iter()
         .enumerate()
         .map(|(i, a)| {
@@ -146,8 +150,7 @@ pub fn median_nn_distance(cs: &[[f64; Z_DIMS]]) -> f64 {
                 .fold(f64::INFINITY, f64::min)
         })
         .collect();
-    nn.sort_by(f64::total_cmp);
-    let m = nn[nn.len() / 2];
+    let m = crate::stats::upper_median(&nn);
     if m > 0.0 {
         m
     } else {

@@ -5,7 +5,7 @@
 use fbg_shared::layout::{N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1};
 use fbg_shared::MemorySpec;
 
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
 use rayon::prelude::*;
 
@@ -113,7 +113,7 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
             continue;
         }
         let s = (var_all[o] / n as f64).sqrt();
-        if !(s > 0.0) {
+        if s.is_nan() || s <= 0.0 {
             return Err(TrainerError::fit(format!(
                 "Model-P: the first guess of output {o} does not vary over the calibration data"
             )));
@@ -221,9 +221,9 @@ mod tests {
         let phys = core.physical_coefficients();
         for g in [[21.0, 40.0, 160.0], [15.5, -120.0, 130.0]] {
             let u = std::array::from_fn(|i| (g[i] - core.guess_mean[i]) / core.guess_std[i]);
-            for o in 0..3 {
+            for (o, phys_o) in phys.iter().enumerate() {
                 let a: f64 = core.poly[o].iter().zip(phi(u, true)).map(|(b, f)| b * f).sum();
-                let b: f64 = phys[o].iter().zip(phi(g, true)).map(|(b, f)| b * f).sum();
+                let b: f64 = phys_o.iter().zip(phi(g, true)).map(|(b, f)| b * f).sum();
                 assert!((a - b).abs() < 1e-9 * (1.0 + a.abs()), "{a} vs {b}");
             }
         }

@@ -25,7 +25,7 @@ use super::memory_core::{self, MemoryChoice, MemoryCvRow, MemoryOptions};
 use super::{
     design, linalg, poly_core, residual_targets, skeleton, z_sample, CheckpointCache, Config, HostParams, ZSample,
 };
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
 
 /// The grid and the CV layout.
@@ -137,7 +137,7 @@ impl VarModel {
         let n = u.len();
         let r = (((n + 1) as f64) * 0.95).ceil() as usize;
         m.k95 = u.get(r.saturating_sub(1).min(n.saturating_sub(1))).copied().unwrap_or(fbg_shared::layout::Z95);
-        if !(m.k95 > 0.0) {
+        if m.k95.is_nan() || m.k95 <= 0.0 {
             m.k95 = fbg_shared::layout::Z95;
         }
         m
@@ -408,8 +408,8 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         let mut pooled: HashMap<_, (Config, [f64; N_OUTPUTS], usize)> = HashMap::new();
         for (cfg, sq, n) in results?.into_iter().flatten() {
             let e = pooled.entry(key(&cfg)).or_insert((cfg, [0.0; N_OUTPUTS], 0));
-            for c in 0..N_OUTPUTS {
-                e.1[c] += sq[c];
+            for (acc, s) in e.1.iter_mut().zip(sq) {
+                *acc += s;
             }
             e.2 += n;
         }

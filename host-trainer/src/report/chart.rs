@@ -9,7 +9,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::fonts::{self, FAMILY};
-use crate::dataset::write_bytes_atomically;
+use crate::data::files::write_bytes_atomically;
 use crate::error::TrainerError;
 
 /// Okabe–Ito colours (distinguishable with the common colour-vision deficiencies).

@@ -5,10 +5,10 @@
 
 use fbg_shared::layout::{N_OUTPUTS, POLY_NAMES, Z_DIMS, Z_NAMES};
 
-use crate::evaluate::UNITS;
+use crate::eval::metrics::Metrics;
+use crate::eval::score::UNITS;
+use crate::eval::tables::Table;
 use crate::fit::{HostParams, PolyCore};
-use crate::study::Metrics;
-use crate::tables::Table;
 
 /// Scientific notation with a signed two-digit exponent: 6.844992e+00.
 fn e(v: f64) -> String {
@@ -77,7 +77,7 @@ fn stage1(p: &HostParams, who: &str) -> Table {
         ["output", "× Δλ1 [pm]", "× Δλ2 [pm]", "× Δλ3 [pm]", "× T_amb [°C]", "constant"].map(String::from).to_vec();
     let rows = (0..N_OUTPUTS)
         .map(|o| {
-            let mut r = vec![format!("{} guess [{}]", crate::evaluate::CHANNELS[o], UNITS[o])];
+            let mut r = vec![format!("{} guess [{}]", crate::eval::score::CHANNELS[o], UNITS[o])];
             r.extend(p.stage1[o].iter().map(|v| e(*v)));
             r
         })
@@ -145,7 +145,7 @@ fn memory(h: &HostParams) -> Table {
 
 fn scalers(h: &HostParams) -> Table {
     let mut rows = Vec::new();
-    for (o, (name, unit)) in crate::evaluate::CHANNELS.iter().zip(UNITS).enumerate() {
+    for (o, (name, unit)) in crate::eval::score::CHANNELS.iter().zip(UNITS).enumerate() {
         rows.push(vec![format!("first guess {name} [{unit}]"), g(h.guess_mean[o]), g(h.guess_std[o]), "yes".into()]);
     }
     let active = h.hyper.feature_set.active();
@@ -255,7 +255,7 @@ fn hyper(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
 fn band(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
     let mut rows = Vec::new();
     for (name, q, me) in [("Model-P", p, &m.table2.model_p), ("Model-H", h, &m.table2.model_h)] {
-        for (o, (ch, unit)) in crate::evaluate::CHANNELS.iter().zip(UNITS).enumerate() {
+        for (o, (ch, unit)) in crate::eval::score::CHANNELS.iter().zip(UNITS).enumerate() {
             rows.push(vec![
                 name.to_string(),
                 format!("{ch} [{unit}]"),

@@ -7,10 +7,10 @@ use fbg_shared::Estimate;
 use super::chart::{Band, Dots, Grid, Legend, Line, Panel, C_GREY, C_H, C_MEAS, C_P, C_TRUTH};
 use super::decimate::{envelope_columns, histogram, minmax_columns, stride_indices, thin_grid, Decimated};
 use super::window::{best_window, turning_points, window_len_for};
-use crate::dataset::{Dataset, Split};
-use crate::evaluate::UNITS;
+use crate::data::{Dataset, Split};
+use crate::eval::metrics::Metrics;
+use crate::eval::score::UNITS;
 use crate::sim::Simulation;
-use crate::study::Metrics;
 
 /// Width of every figure [px].
 pub const WIDTH: u32 = 1400;
@@ -230,7 +230,7 @@ pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
     // Zoom: about 12 turning points of the true shift, where they are densest. Over the whole
     // record the measured and true traces lie on top of each other (the artefacts are a few pm
     // on a range of hundreds), so (a) shows this window and (b) the difference everywhere.
-    let db = crate::evaluate::HYSTERESIS_INDEX_DEAD_BAND_PM;
+    let db = crate::eval::score::HYSTERESIS_INDEX_DEAD_BAND_PM;
     let tp = turning_points(truth, db);
     let len = window_len_for(&tp, d.len(), 12, 50.min(d.len()));
     let mut w = vec![0.0; d.len()];
@@ -302,7 +302,7 @@ pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
     b.zoom.push((t[wa], t[wb - 1]));
     b.note("(a), (c)", (((t[wa] - x0) / (x1 - x0).max(1e-12)).clamp(0.0, 0.95), 0.12));
 
-    let rms = |v: &[f64]| crate::metrics::rms(v.iter().copied());
+    let rms = |v: &[f64]| crate::stats::rms(v.iter().copied());
     let e = &s.effects;
     Some(FigSpec {
         stem: "fig2_wavelength_fbg1",
@@ -335,7 +335,7 @@ pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
 const RGBA_GREY: plotters::style::RGBColor = plotters::style::RGBColor(150, 150, 150);
 
 fn finite_std(v: &[f64]) -> f64 {
-    crate::metrics::std_dev(v.iter().copied().filter(|x| x.is_finite()))
+    crate::stats::std_dev(v.iter().copied().filter(|x| x.is_finite()))
 }
 
 /// Figs. 3–5: one channel on the hold-out.

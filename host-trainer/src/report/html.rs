@@ -2,7 +2,7 @@
 //! the page, PNG linked), every table, the scenario and the provenance, and the generated
 //! summary.
 
-use crate::tables::Table;
+use crate::eval::tables::Table;
 
 /// Escape text for HTML (element content and double-quoted attributes).
 pub fn esc(s: &str) -> String {

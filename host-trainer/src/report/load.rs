@@ -10,12 +10,12 @@ use std::path::Path;
 use serde::Deserialize;
 
 use crate::error::TrainerError;
-use crate::evaluate::{ChannelMetrics, ModelEval, CHANNELS, UNITS};
+use crate::eval::metrics::RecalStudy;
+use crate::eval::metrics::{AblationRow, BudgetRow, DriftSweep, Metrics, SelectionSummary, Table2};
+use crate::eval::parity::ParityReport;
+use crate::eval::score::{ChannelMetrics, ModelEval, CHANNELS, UNITS};
 use crate::fit::select::CvRow;
 use crate::fit::{Config, VarModel};
-use crate::parity::ParityReport;
-use crate::recalibrate::RecalStudy;
-use crate::study::{AblationRow, BudgetRow, DriftSweep, Metrics, SelectionSummary, Table2};
 
 /// A number that may have been written as `null` (NaN).
 #[derive(Clone, Copy, Debug)]

@@ -24,14 +24,16 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::dataset::{write_bytes_atomically, Dataset};
+use crate::data::files::write_bytes_atomically;
+use crate::data::Dataset;
 use crate::error::TrainerError;
-use crate::evaluate::{evaluate_holdout, ModelEval, CHANNELS};
+use crate::eval::metrics::Metrics;
+use crate::eval::score::{evaluate_holdout, ModelEval, CHANNELS};
+use crate::eval::tables;
 use crate::export;
 use crate::fit::HostParams;
-use crate::meta::SimMeta;
+use crate::sim::meta::SimMeta;
 use crate::sim::{simulate, Simulation};
-use crate::study::{self, Metrics};
 use figures::{count, num, Ctx, FigSpec, TimeUnit};
 use html::{esc, FigEntry, Section};
 
@@ -206,7 +208,7 @@ fn check_metrics(m: &Metrics, p: &ModelEval, h: &ModelEval, hold: usize, n: usiz
         ));
     }
     let g: [f64; 3] = std::array::from_fn(|c| {
-        crate::evaluate::gain_pct(m.table2.model_p.channels[c].rmse, m.table2.model_h.channels[c].rmse)
+        crate::eval::score::gain_pct(m.table2.model_p.channels[c].rmse, m.table2.model_h.channels[c].rmse)
     });
     let gbad: Vec<String> = (0..3)
         .filter(|&c| !close(g[c], m.table2.gain_pct[c]))
@@ -379,7 +381,7 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     }
 
     // Tables.
-    let results = study::all_tables(m);
+    let results = tables::all(m);
     for (name, t) in &results {
         for (ext, body) in [("md", t.markdown()), ("csv", t.csv()), ("txt", t.text())] {
             let f = format!("{name}.{ext}");
@@ -408,8 +410,8 @@ fn page(
     dir: &Path,
     inp: &Inputs,
     specs: &[FigSpec],
-    results: &[(&'static str, crate::tables::Table)],
-    coefs: &[(String, crate::tables::Table)],
+    results: &[(&'static str, crate::eval::tables::Table)],
+    coefs: &[(String, crate::eval::tables::Table)],
     out: &Outcome,
     resimulated: bool,
 ) -> String {
@@ -529,7 +531,7 @@ fn page(
 
     // Any other study metrics.json carries, so that nothing it holds goes unshown.
     let placed = ["table2", "table3", "error_budget", "drift_sweep"];
-    let others: Vec<&(&'static str, crate::tables::Table)> =
+    let others: Vec<&(&'static str, crate::eval::tables::Table)> =
         results.iter().filter(|(n, _)| !placed.contains(n)).collect();
     if !others.is_empty() {
         let mut body = String::new();

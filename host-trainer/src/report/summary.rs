@@ -2,8 +2,8 @@
 //! stale): gains against the paper's claim, distance to the per-sample oracle, band coverage,
 //! hysteresis, drift sensitivity, ablation, error budget, device parity and flags.
 
-use crate::evaluate::UNITS;
-use crate::study::Metrics;
+use crate::eval::metrics::Metrics;
+use crate::eval::score::UNITS;
 
 use super::figures::{count, num, DIGITS};
 
@@ -72,8 +72,8 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     }
     out.push(format!(
         "On the hold-out ({}; {}, never used in fitting), Model-H's RMSE is {} than Model-P's. The paper claims a reduction of {}–{} % on every channel (its Table 2 implies {}); this run is {}.",
-        crate::tables::holdout_label(m),
-        if m.table2.oracle_floor.is_some() { format!("scenario “{}”, seed {}", m.scenario, m.seed) } else { crate::tables::origin_label(m) },
+        crate::eval::tables::holdout_label(m),
+        if m.table2.oracle_floor.is_some() { format!("scenario “{}”, seed {}", m.scenario, m.seed) } else { crate::eval::tables::origin_label(m) },
         list(&gains),
         num(lo, 0),
         num(hi, 0),
@@ -116,14 +116,14 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     }
 
     // Coverage.
-    let cov = |e: &crate::evaluate::ModelEval| -> Vec<String> {
+    let cov = |e: &crate::eval::score::ModelEval| -> Vec<String> {
         (0..3).map(|c| pct(100.0 * e.channels[c].coverage)).collect()
     };
     let (clo, chi) = COVERAGE_OK_PCT;
     let mut judge = Vec::new();
     // Judged on the value as shown (one decimal), so a coverage printed as 93.0 % is never
     // called too narrow under a 93–97 % rule.
-    let shown = |e: &crate::evaluate::ModelEval, c: usize| (1000.0 * e.channels[c].coverage).round() / 10.0;
+    let shown = |e: &crate::eval::score::ModelEval, c: usize| (1000.0 * e.channels[c].coverage).round() / 10.0;
     for (name, e) in [("Model-P", &t.model_p), ("Model-H", &t.model_h)] {
         let under: Vec<String> = (0..3).filter(|&c| shown(e, c) < clo).map(|c| NAMES[c].to_string()).collect();
         let over: Vec<String> = (0..3).filter(|&c| shown(e, c) > chi).map(|c| NAMES[c].to_string()).collect();
@@ -193,7 +193,7 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
             let mut s = format!("Ablation (Table 3): the lowest hold-out RMSE comes from {}.", list(&best));
             if let Some(paper) = rows.iter().find(|r| r.name.to_lowercase().contains("paper")) {
                 let g: Vec<String> = (0..3)
-                    .map(|c| change(crate::evaluate::gain_pct(base.channels[c].rmse, paper.channels[c].rmse)))
+                    .map(|c| change(crate::eval::score::gain_pct(base.channels[c].rmse, paper.channels[c].rmse)))
                     .collect();
                 s.push_str(&format!(" With the paper's own RBF inputs (“{}”), the hybrid's RMSE is {} than Model-P's (temperature, strain, pressure).", paper.name, list(&g)));
             }
@@ -204,7 +204,7 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     // Error budget: the artefact whose removal helps Model-H most.
     if let Some(rows) = &m.error_budget {
         if let Some(full) = rows.iter().find(|r| r.effect_off == "none") {
-            let single: Vec<&crate::study::BudgetRow> =
+            let single: Vec<&crate::eval::metrics::BudgetRow> =
                 rows.iter().filter(|r| r.effect_off != "none" && r.effect_off != "all").collect();
             let worst: Vec<String> = (0..3)
                 .filter_map(|c| {

@@ -4,7 +4,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use crate::rng::{Rng, Stream};
-use crate::scenario::Gratings;
+use crate::sim::scenario::Gratings;
 
 /// The true physics of one installation (after dispersion).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]

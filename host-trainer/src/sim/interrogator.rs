@@ -4,7 +4,7 @@
 //! the simulator can keep every effect separately.
 
 use crate::rng::{Rng, Stream};
-use crate::scenario::{Drift, Electronics, Hysteresis, Noise, Scan};
+use crate::sim::scenario::{Drift, Electronics, Hysteresis, Noise, Scan};
 
 /// Paper Eq. 9: h(x_t) = β x_t + γ x_{t−1} + ρ sgn(ẋ_t)(x_t − x_{t−1}).
 ///
@@ -149,8 +149,8 @@ mod tests {
         assert!((y[80] - (x[80] + 4.0)).abs() < 1e-12);
         // At the turning point the output holds still while the input reverses by 2r.
         let top = y[49];
-        for k in 50..57 {
-            assert_eq!(y[k], top, "k={k}");
+        for (k, &yk) in y.iter().enumerate().take(57).skip(50) {
+            assert_eq!(yk, top, "k={k}");
         }
     }
 

@@ -1,13 +1,17 @@
 //! The scenario simulator (DESIGN §3): measurands → gratings → interrogator artefacts →
-//! measured wavelengths, with every effect's contribution kept, and the per-sample oracle.
+//! measured wavelengths, with every effect's contribution kept, and the per-sample oracle. The
+//! scenario it runs is [`scenario::ScenarioConfig`]; what it wrote a CSV from goes beside it as
+//! the [`meta::SimMeta`] sidecar.
 
 pub mod gauge_matrix;
 pub mod interrogator;
+pub mod meta;
+pub mod scenario;
 pub mod trajectories;
 
-use crate::dataset::{Dataset, Split};
-use crate::metrics::rmse;
-use crate::scenario::ScenarioConfig;
+use crate::data::{Dataset, Split};
+use crate::sim::scenario::ScenarioConfig;
+use crate::stats::rmse;
 pub use gauge_matrix::GaugePhysics;
 
 /// Names of the artefacts, in [`Effects`] order.
@@ -158,12 +162,12 @@ impl Simulation {
     /// Machine-readable summary (what `simulate --json` prints).
     pub fn summary(&self) -> serde_json::Value {
         let d = &self.data;
-        let std = |v: &[f64]| crate::metrics::std_dev(v.iter().copied());
+        let std = |v: &[f64]| crate::stats::std_dev(v.iter().copied());
         let oracle = self.oracle_floor();
         let mut effects = serde_json::Map::new();
         for name in EFFECT_NAMES {
             let Some(e) = self.effects.by_name(name) else { continue };
-            let rms: Vec<f64> = e.iter().map(|ch| crate::metrics::rms(ch.iter().copied())).collect();
+            let rms: Vec<f64> = e.iter().map(|ch| crate::stats::rms(ch.iter().copied())).collect();
             effects.insert(name.to_string(), serde_json::json!(rms));
         }
         serde_json::json!({

@@ -4,7 +4,7 @@
 use std::f64::consts::TAU;
 
 use crate::rng::{Rng, Stream};
-use crate::scenario::{Ambient, Pressure, Strain, Temperature};
+use crate::sim::scenario::{Ambient, Pressure, Strain, Temperature};
 
 /// Stationary first-order autoregressive wiggle with standard deviation `sigma` and
 /// correlation time `tau_s`, sampled every `dt_s` (exact discretisation of an

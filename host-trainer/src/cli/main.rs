@@ -1,5 +1,11 @@
 //! `fbg-trainer`: the command line (DESIGN §10). Errors end here as `anyhow` messages that name
-//! the file, line, column or key.
+//! the file, line, column or key. The binary uses the `fbg_trainer` library only; each bigger
+//! subcommand has its own module here.
+
+mod demo;
+mod inspect;
+mod recalibrate;
+mod stream;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -7,17 +13,18 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
-use fbg_shared::blob;
-use fbg_trainer::dataset::{check_outputs, prepare_output_dir, write_bytes_atomically, Dataset};
+use fbg_trainer::data::files::{check_outputs, prepare_output_dir, write_bytes_atomically};
+use fbg_trainer::data::import::{self, ImportOptions, SplitChoice};
+use fbg_trainer::data::Dataset;
+use fbg_trainer::eval::metrics::Metrics;
+use fbg_trainer::eval::score::{evaluate_holdout, CHANNELS};
+use fbg_trainer::eval::studies::{self, Studies};
+use fbg_trainer::eval::tables;
 use fbg_trainer::export;
-use fbg_trainer::fit::{self, HostParams, Origin, TrainOptions};
-use fbg_trainer::import::{self, ImportOptions, SplitChoice};
-use fbg_trainer::meta::{meta_path, SimMeta};
-use fbg_trainer::report;
-use fbg_trainer::scenario::{Preset, ScenarioConfig};
-use fbg_trainer::sim;
-use fbg_trainer::study::{self, Metrics, Studies};
-use fbg_trainer::tables;
+use fbg_trainer::fit::{self, FeatureChoice, Origin, TrainOptions};
+use fbg_trainer::sim::meta::{meta_path, SimMeta};
+use fbg_trainer::sim::scenario::{Preset, ScenarioConfig};
+use fbg_trainer::{report, sim};
 
 #[derive(Parser)]
 #[command(
@@ -78,8 +85,8 @@ enum Cmd {
         #[arg(long)]
         data: PathBuf,
         /// Feature sets cross-validation may choose from.
-        #[arg(long, value_parser = ["memory", "hysteresis-aware", "latch", "paper", "all"], default_value = "memory")]
-        features: String,
+        #[arg(long, value_enum, default_value = "memory")]
+        features: FeatureChoice,
         /// Largest number of RBF centres to consider (the device capacity).
         #[arg(long, default_value_t = 32)]
         max_centres: usize,
@@ -249,32 +256,7 @@ enum Cmd {
     /// Stream the hold-out samples of DATA to a running device (QEMU's serial port on TCP, or a
     /// board behind a serial-to-TCP bridge) and check every estimate against the host's f64
     /// compensator on the same model (1 % of the hold-out RMSE, flags identical).
-    Stream {
-        /// The model the device runs (sent first with --update-first).
-        #[arg(long)]
-        model: PathBuf,
-        /// Dataset CSV whose hold-out samples are streamed.
-        #[arg(long)]
-        data: PathBuf,
-        /// TCP port of the device's serial link.
-        #[arg(long)]
-        port: u16,
-        /// Host of the device's serial link.
-        #[arg(long, default_value = "127.0.0.1")]
-        host: String,
-        /// Send the model to the device over the link before streaming.
-        #[arg(long)]
-        update_first: bool,
-        /// Stream only the first N hold-out samples.
-        #[arg(long)]
-        max_samples: Option<usize>,
-        /// Seconds to wait for the connection and for each answer.
-        #[arg(long, default_value_t = 15.0)]
-        timeout: f64,
-        /// Print the comparison as JSON on stdout.
-        #[arg(long)]
-        json: bool,
-    },
+    Stream(stream::StreamArgs),
 }
 
 fn main() {
@@ -323,7 +305,7 @@ fn run() -> Result<()> {
             let d = Dataset::read_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
             let origin = origin_of(&data, meta.as_ref());
-            let opts = train_options(&features, max_centres, !json)?;
+            let opts = train_options(features, max_centres, !json)?;
             let t = Instant::now();
             let tr = fit::train(&d, &opts, &origin)?;
             let secs = t.elapsed().as_secs_f64();
@@ -351,10 +333,8 @@ fn run() -> Result<()> {
                     "CV RMSE Model-P: T {:.3} °C, ε {:.2} µε, p {:.2} kPa; Model-H: T {:.3}, ε {:.2}, p {:.2}",
                     s.cv_rmse_p[0], s.cv_rmse_p[1], s.cv_rmse_p[2], s.cv_rmse_h[0], s.cv_rmse_h[1], s.cv_rmse_h[2]
                 );
-                let worse: Vec<&str> = (0..3)
-                    .filter(|&c| s.cv_rmse_h[c] > s.cv_rmse_p[c])
-                    .map(|c| fbg_trainer::evaluate::CHANNELS[c])
-                    .collect();
+                let worse: Vec<&str> =
+                    (0..3).filter(|&c| s.cv_rmse_h[c] > s.cv_rmse_p[c]).map(|c| CHANNELS[c]).collect();
                 if !worse.is_empty() {
                     eprintln!(
                         "warning: in cross-validation Model-H is worse than Model-P on {}; check the hold-out with `evaluate` and consider Model-P for {}",
@@ -386,7 +366,7 @@ fn run() -> Result<()> {
                     eprintln!("{s}");
                 }
             };
-            let m = study::evaluate_models(&p, &h, &d, meta.as_ref(), studies, !json, &log)?;
+            let m = studies::evaluate_models(&p, &h, &d, meta.as_ref(), studies, !json, &log)?;
             write_metrics(&out, &m)?;
             if json {
                 println!("{}", serde_json::to_string_pretty(&m)?);
@@ -397,16 +377,16 @@ fn run() -> Result<()> {
             Ok(())
         }
         Cmd::Recalibrate { model, data, batch_hours, out, allow_worse, json } => {
-            recalibrate_cmd(&model, &data, batch_hours, &out, allow_worse, json)
+            recalibrate::run(&model, &data, batch_hours, &out, allow_worse, json)
         }
-        Cmd::Inspect { model, json } => inspect(&model, json),
+        Cmd::Inspect { model, json } => inspect::run(&model, json),
         Cmd::Golden { data, model, samples, out } => {
             prepare_output_dir(&out)?;
             let d = Dataset::read_csv(&data)?;
             let h = export::read_blob(&model)?;
             let hold = d.holdout_indices();
             let idx: Vec<usize> = hold.into_iter().take(samples).collect();
-            let (eh, _) = fbg_trainer::evaluate::evaluate_holdout(&h, &d)?;
+            let (eh, _) = evaluate_holdout(&h, &d)?;
             export::write_golden(&out, &h, &d, &idx, eh.channels.map(|c| c.rmse))?;
             eprintln!("wrote {} golden samples into {}", idx.len(), out.display());
             Ok(())
@@ -424,12 +404,10 @@ fn run() -> Result<()> {
                 report::build_from(&out, &paths).with_context(|| format!("writing the report in {}", out.display()))?;
             print_report_outcome(&out, &o, json)
         }
-        Cmd::Demo { out, scenario, json } => demo(&out, &scenario, json),
+        Cmd::Demo { out, scenario, json } => demo::run(&out, &scenario, json),
         Cmd::BenchFit(a) => bench_fit(&a),
         Cmd::Fleet(a) => fleet(&a),
-        Cmd::Stream { model, data, port, host, update_first, max_samples, timeout, json } => {
-            stream_cmd(model, data, port, host, update_first, max_samples, timeout, json)
-        }
+        Cmd::Stream(a) => a.run(),
         Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, max_skipped, json } => {
             if !(0.0..=100.0).contains(&max_skipped) {
                 bail!("--max-skipped must be a percentage from 0 to 100 (got {max_skipped})");
@@ -471,9 +449,8 @@ fn origin_of(data: &Path, meta: Option<&SimMeta>) -> Origin {
     }
 }
 
-fn train_options(features: &str, max_centres: usize, progress: bool) -> Result<TrainOptions> {
-    let o = fbg_trainer::fleet::train_options(features, max_centres)
-        .map_err(|e| anyhow::anyhow!("--features/--max-centres: {e}"))?;
+fn train_options(features: FeatureChoice, max_centres: usize, progress: bool) -> Result<TrainOptions> {
+    let o = features.train_options(max_centres).map_err(|e| anyhow::anyhow!("--features/--max-centres: {e}"))?;
     Ok(TrainOptions { progress, ..o })
 }
 
@@ -512,287 +489,6 @@ fn print_tables(m: &Metrics) {
             p.flag_mismatches, p.leverage_band_gap
         );
     }
-}
-
-/// A recalibrated model and its hold-out check.
-struct CheckedRecal {
-    params: HostParams,
-    what: fbg_trainer::recalibrate::Recalibration,
-    /// Hold-out of the old model and of the model written (none without hold-out rows).
-    before: Option<fbg_trainer::evaluate::ModelEval>,
-    after: Option<fbg_trainer::evaluate::ModelEval>,
-    /// Hold-out of the recalibration as fitted, before any channel was put back.
-    tried: Option<fbg_trainer::evaluate::ModelEval>,
-    /// Outputs that kept the old coefficients because the recalibration scored worse.
-    kept_old: Vec<usize>,
-    /// Outputs written although worse (only with --allow-worse).
-    worse: Vec<usize>,
-}
-
-/// Recalibrate `old` on `batch` and check it on the hold-out of `d`: unless `allow_worse`, every
-/// channel the check scores worse keeps the old coefficients (DESIGN §9).
-fn checked_recalibration(old: &HostParams, d: &Dataset, batch: &[usize], allow_worse: bool) -> Result<CheckedRecal> {
-    use fbg_trainer::evaluate::evaluate_holdout;
-    use fbg_trainer::recalibrate::{keep_old_where_worse, recalibrate};
-    let (mut params, what) = recalibrate(old, d, batch)?;
-    if d.holdout_indices().is_empty() {
-        return Ok(CheckedRecal {
-            params,
-            what,
-            before: None,
-            after: None,
-            tried: None,
-            kept_old: vec![],
-            worse: vec![],
-        });
-    }
-    let before = evaluate_holdout(old, d)?.0;
-    let tried = evaluate_holdout(&params, d)?.0;
-    let mut after = tried.clone();
-    let mut kept_old = vec![];
-    if !allow_worse {
-        kept_old = keep_old_where_worse(&mut params, old, &before, &after);
-        if !kept_old.is_empty() {
-            after = evaluate_holdout(&params, d)?.0;
-        }
-    }
-    let worse: Vec<usize> = (0..3).filter(|&c| after.channels[c].rmse > before.channels[c].rmse).collect();
-    if !allow_worse && !worse.is_empty() {
-        bail!(
-            "recalibration: {} still scores worse on the hold-out after keeping the old coefficients; nothing written (--allow-worse writes it anyway)",
-            channel_list(&worse)
-        );
-    }
-    Ok(CheckedRecal { params, what, before: Some(before), after: Some(after), tried: Some(tried), kept_old, worse })
-}
-
-/// "T and p", "strain".
-fn channel_list(cs: &[usize]) -> String {
-    let names: Vec<&str> = cs.iter().map(|&c| fbg_trainer::evaluate::CHANNELS[c]).collect();
-    match names.len() {
-        0 => "no channel".into(),
-        1 => names[0].into(),
-        n => format!("{} and {}", names[..n - 1].join(", "), names[n - 1]),
-    }
-}
-
-fn recalibrate_cmd(
-    model: &Path,
-    data: &Path,
-    batch_hours: Option<f64>,
-    out: &Path,
-    allow_worse: bool,
-    json: bool,
-) -> Result<()> {
-    use fbg_trainer::evaluate::{CHANNELS, UNITS};
-    use fbg_trainer::recalibrate::{first_hours, CoreUpdate};
-    let (base, new_base_path) = (baseline_path(model), baseline_path(out));
-    check_outputs(&[out, &new_base_path], &[model, data, &base])?;
-    let d = Dataset::read_csv(data)?;
-    let old = export::read_blob(model)?;
-    let batch = match batch_hours {
-        Some(h) if h > 0.0 => first_hours(&d, h),
-        Some(h) => bail!("--batch-hours must be positive (got {h})"),
-        None => d.cal_indices(),
-    };
-    let h = checked_recalibration(&old, &d, &batch, allow_worse)?;
-    let p = if base.exists() {
-        Some(checked_recalibration(&export::read_blob(&base)?, &d, &batch, allow_worse)?)
-    } else {
-        None
-    };
-    let n = export::write_blob(out, &h.params)?;
-    let new_base = match &p {
-        Some(p) => {
-            export::write_blob(&new_base_path, &p.params)?;
-            Some(new_base_path.clone())
-        }
-        None => None,
-    };
-    let names = |cs: &[usize]| cs.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>();
-    if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&serde_json::json!({
-                "model": out, "baseline": new_base, "bytes": n, "recalibration": h.what,
-                "holdout_before": h.before, "holdout_after": h.after,
-                "kept_old_channels": names(&h.kept_old), "worse_channels_written": names(&h.worse),
-                "baseline_kept_old_channels": p.as_ref().map(|p| names(&p.kept_old)),
-            }))?
-        );
-        return Ok(());
-    }
-    let w = &h.what;
-    eprintln!(
-        "recalibrated {} on {} batch samples; residual weights {}",
-        model.display(),
-        w.n_batch,
-        if w.w_updated { "updated" } else { "kept (the batch did not support a change)" }
-    );
-    for c in 0..3 {
-        let (a, b) = w.offset_gain[c];
-        let detail = match w.core_update[c] {
-            CoreUpdate::Offset => format!(" (offset {a:+.4} {})", UNITS[c]),
-            CoreUpdate::OffsetGain => format!(" (offset {a:+.4} {}, gain {b:.4})", UNITS[c]),
-            _ => String::new(),
-        };
-        let check = match (&h.before, &h.after, &h.tried) {
-            (Some(bf), _, Some(tr)) if h.kept_old.contains(&c) => format!(
-                "; hold-out RMSE {:.4} -> {:.4} is worse, so the old coefficients are kept (RMSE {:.4})",
-                bf.channels[c].rmse, tr.channels[c].rmse, bf.channels[c].rmse
-            ),
-            (Some(bf), Some(af), _) if h.worse.contains(&c) => format!(
-                "; hold-out RMSE {:.4} -> {:.4} (WORSE, written because of --allow-worse)",
-                bf.channels[c].rmse, af.channels[c].rmse
-            ),
-            (Some(bf), Some(af), _) => {
-                format!("; hold-out RMSE {:.4} -> {:.4}", bf.channels[c].rmse, af.channels[c].rmse)
-            }
-            _ => String::new(),
-        };
-        eprintln!("  {:>6} [{}]: {}{detail}{check}", CHANNELS[c], UNITS[c], w.core_update[c].text());
-    }
-    if h.before.is_none() {
-        eprintln!("  (no hold-out rows in {}: nothing to check the recalibration against)", data.display());
-    } else if !h.kept_old.is_empty() {
-        eprintln!("kept the old model's {} (--allow-worse writes the recalibrated ones)", channel_list(&h.kept_old));
-    }
-    if let Some(p) = &p {
-        if !p.kept_old.is_empty() {
-            eprintln!("Model-P baseline: kept the old {} (worse on the hold-out)", channel_list(&p.kept_old));
-        } else if !p.worse.is_empty() {
-            eprintln!(
-                "Model-P baseline: {} WORSE on the hold-out, written because of --allow-worse",
-                channel_list(&p.worse)
-            );
-        }
-    }
-    eprintln!(
-        "wrote {} ({n} B){}",
-        out.display(),
-        new_base.map(|p| format!(" and {}", p.display())).unwrap_or_default()
-    );
-    Ok(())
-}
-
-fn inspect(path: &Path, json: bool) -> Result<()> {
-    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    // The whole blob (CRC first) before the header, so corruption is named as such.
-    let p: HostParams = export::read_blob(path)?;
-    let header = blob::Header::parse(&bytes)
-        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), export::blob_error_text(&bytes, &e)))?;
-    let crc = export::blob_crc(&bytes).map(|(c, _)| format!("{c:08x}")).unwrap_or_default();
-    let v = serde_json::json!({
-        "file": path,
-        "bytes": bytes.len(),
-        "crc32": crc,
-        "header": {"magic": "FBGM", "format_version": header.version, "inputs": header.inputs,
-                   "outputs": header.outputs, "poly_terms": header.poly_terms, "centres": header.centres},
-        "model": export::model_json(&p, None),
-    });
-    if json {
-        println!("{}", serde_json::to_string_pretty(&v)?);
-        return Ok(());
-    }
-    let h = &p.hyper;
-    println!("{}: {} bytes, FBGM format v{}, CRC-32 {crc} (valid)", path.display(), bytes.len(), header.version);
-    println!(
-        "dims: inputs {}, outputs {}, poly terms {}, centres {}",
-        header.inputs, header.outputs, header.poly_terms, header.centres
-    );
-    println!(
-        "hyper-parameters: features {}, σ {:.4} (= {}×NN), α {:.4e}, dead band {} pm, weak support < {:.2e}, envelope margin {}, flagged band ×{}",
-        h.feature_set.name(), h.sigma, f32s(&[h.sigma_mult]), h.alpha, f32s(&[h.dead_band_pm]), h.weak_support, f32s(&[h.envelope_margin]), f32s(&[h.flagged_band_factor])
-    );
-    // The blob stores f32: print what it holds (`0.1`, not `0.10000000149011612`).
-    println!(
-        "band: k95 [{}], s² at cal end [{}], growth [{}] per s after t = {} s",
-        f32s(&p.band_k),
-        f32s(&p.resid_var),
-        f32s(&p.resid_var_growth),
-        f32s(&[p.t_cal_end_s])
-    );
-    println!("envelope: lo [{}] hi [{}] (dl1..3 pm, T_amb °C)", f32s(&p.envelope_lo), f32s(&p.envelope_hi));
-    let pr = &p.provenance;
-    println!(
-        "provenance: scenario {}, seed {}, trainer {}, date {}, {} calibration samples",
-        pr.scenario, pr.seed, pr.trainer_version, pr.date_yyyymmdd, pr.n_cal
-    );
-    Ok(())
-}
-
-/// Values stored as f32, printed at f32 precision: "0.1, 2.5, 1.6360161e-7".
-fn f32s(v: &[f64]) -> String {
-    let one = |x: f32| if x != 0.0 && (x.abs() < 1e-4 || x.abs() >= 1e7) { format!("{x:e}") } else { x.to_string() };
-    v.iter().map(|&x| one(x as f32)).collect::<Vec<_>>().join(", ")
-}
-
-fn demo(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
-    let t0 = Instant::now();
-    prepare_output_dir(out)?;
-    let cfg = scenario.load()?;
-    let log = |s: &str| {
-        if !json {
-            eprintln!("[{:5.1} s] {s}", t0.elapsed().as_secs_f64());
-        }
-    };
-    let mut s = sim::simulate(&cfg, scenario.seed);
-    let data = out.join("data.csv");
-    s.data.write_csv(&data)?;
-    SimMeta::of(&s).write(&data)?;
-    // Fit and score the record as written (6 decimals), so `train --data DIR/data.csv` rebuilds
-    // DIR/model.fbgm byte for byte (issue 15).
-    s.data = Dataset::read_csv(&data)?;
-    log(&format!(
-        "simulated {} samples of scenario `{}` (seed {}) into {}",
-        s.data.len(),
-        cfg.name,
-        s.seed,
-        data.display()
-    ));
-    let opts = TrainOptions { progress: !json, ..TrainOptions::default() };
-    let (tr, m) = study::run_all(&s, &opts, Studies::ALL, &log)?;
-    let model = out.join("model.fbgm");
-    let nh = export::write_blob(&model, &tr.model_h)?;
-    let np = export::write_blob(&baseline_path(&model), &tr.model_p)?;
-    export::write_coefficients(
-        &export::coefficients_path(&model),
-        &tr.model_p,
-        &tr.model_h,
-        &tr.core,
-        Some(&tr.selection),
-    )?;
-    write_metrics(&export::metrics_path(&model), &m)?;
-    let hold = s.data.holdout_indices();
-    let idx: Vec<usize> = hold.into_iter().take(1000).collect();
-    export::write_golden(&out.join("golden"), &tr.model_h, &s.data, &idx, m.table2.model_h.channels.map(|c| c.rmse))?;
-    log(&format!(
-        "wrote model.fbgm ({nh} B), model-p.fbgm ({np} B), {}, {}, golden vectors",
-        report::COEFFICIENTS_JSON,
-        report::METRICS_JSON
-    ));
-    // The report reads back exactly what `fbg-trainer report` would, so the two never differ.
-    let r = report::build(out).context("writing the report")?;
-    log(&format!(
-        "wrote the report (tables, {} figures as PNG and SVG, coefficient tables, index.html) in {:.1} s",
-        r.files.iter().filter(|f| f.ends_with(".png")).count(),
-        r.seconds
-    ));
-    for w in &r.warnings {
-        eprintln!("warning: {w}");
-    }
-    if json {
-        println!("{}", serde_json::to_string_pretty(&m)?);
-    } else {
-        print_tables(&m);
-        eprintln!(
-            "demo finished in {:.1} s; everything is in {}, open {}",
-            t0.elapsed().as_secs_f64(),
-            out.display(),
-            out.join(report::INDEX_HTML).display()
-        );
-    }
-    Ok(())
 }
 
 fn bench_fit(a: &fbg_trainer::benchmark::BenchFitArgs) -> Result<()> {
@@ -852,46 +548,5 @@ fn print_report_outcome(out: &Path, o: &report::Outcome, json: bool) -> Result<(
         eprintln!("warning: {w}");
     }
     eprintln!("wrote {} files in {:.1} s; open {}", o.files.len(), o.seconds, out.join(report::INDEX_HTML).display());
-    Ok(())
-}
-
-#[allow(clippy::too_many_arguments)]
-fn stream_cmd(
-    model: PathBuf,
-    data: PathBuf,
-    port: u16,
-    host: String,
-    update_first: bool,
-    max_samples: Option<usize>,
-    timeout: f64,
-    json: bool,
-) -> Result<()> {
-    if !(timeout.is_finite() && timeout > 0.0) {
-        bail!("--timeout must be a positive number of seconds (got {timeout})");
-    }
-    let opts = fbg_trainer::stream::StreamOptions {
-        model,
-        data,
-        host,
-        port,
-        update_first,
-        max_samples,
-        timeout: std::time::Duration::from_secs_f64(timeout),
-        progress: !json,
-    };
-    let r = fbg_trainer::stream::run(&opts)?;
-    if json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
-    } else {
-        eprint!("{}", r.text());
-    }
-    if !r.ok() {
-        bail!(
-            "{} of {} estimates differ from the host beyond tolerance ({} in flags)",
-            r.value_mismatches + r.flag_mismatches,
-            r.samples,
-            r.flag_mismatches
-        );
-    }
     Ok(())
 }

@@ -19,9 +19,9 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::dataset::{Dataset, Split};
+use crate::data::{Dataset, Split};
 use crate::error::TrainerError;
-pub use mapping::{Map, WlUnit};
+pub use mapping::Map;
 pub use problems::{FileSkips, OnError, Reason, ReasonCount};
 pub use time_axis::TimeKind;
 
@@ -548,14 +548,12 @@ fn finish(
     d.split_at_time(cal_until_s);
     let cal_rows = d.split.iter().filter(|&&s| s == Split::Cal).count();
 
-    let mut dts: Vec<f64> = d.t_s.windows(2).map(|w| w[1] - w[0]).collect();
-    dts.sort_by(f64::total_cmp);
     let time = TimeSummary {
         kind: m.kind,
         start: m.absolute.then(|| format_timestamp(t0)),
         end: m.absolute.then(|| format_timestamp(t0 + d.t_s[n - 1])),
         span_s: d.t_s[n - 1],
-        median_dt_s: dts.get(dts.len() / 2).copied().unwrap_or(0.0),
+        median_dt_s: join::median_spacing(&d.t_s),
     };
     let count = |v: &[f64]| v.iter().filter(|x| x.is_finite()).count();
     let ref_summary =

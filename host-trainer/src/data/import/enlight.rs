@@ -8,10 +8,11 @@
 
 use std::path::Path;
 
-use super::mapping::{check_wavelength, Map, WlUnit};
+use super::mapping::Map;
 use super::problems::{OnError, Problems, Reason, RowError};
 use super::read_text;
 use super::time_axis::{TimeKind, TimeParser, TimeUnit};
+use crate::data::units::{check_wavelength, WlUnit};
 use crate::error::TrainerError;
 
 /// Largest peak count a channel cell may hold.

@@ -4,7 +4,7 @@
 use fbg_shared::layout::N_OUTPUTS;
 use fbg_shared::{DirectionLatch, Estimate, Flags};
 
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::fit::{run, HostParams};
 

@@ -7,9 +7,9 @@ use nalgebra::DMatrix;
 use fbg_shared::layout::N_OUTPUTS;
 use fbg_shared::Compensator;
 
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
-use crate::evaluate::ModelEval;
+use crate::eval::score::ModelEval;
 use crate::fit::{design_matrix, HostCompensator, HostParams, HOST_CAP};
 
 /// The outcome of the parity check on the hold-out.
@@ -48,7 +48,7 @@ pub fn check(model_h: &HostParams, d: &Dataset, eval_h: &ModelEval) -> Result<Pa
         let x32 = d.sample(i).cast::<f32>();
         let a = dev.step(&x32);
         let b = reference.step(&x32.cast());
-        if i < first || d.split[i] != crate::dataset::Split::Holdout {
+        if i < first || d.split[i] != crate::data::Split::Holdout {
             continue;
         }
         n += 1;

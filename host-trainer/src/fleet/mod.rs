@@ -4,7 +4,7 @@
 //!
 //! ```toml
 //! [defaults]               # optional: what a group does not say itself
-//! features = "memory"      # memory | hysteresis-aware | paper | all (as `train --features`)
+//! features = "memory"      # memory | hysteresis-aware | latch | paper | all (as `train --features`)
 //! max_centres = 32         # as `train --max-centres`
 //!
 //! [[group]]
@@ -27,7 +27,7 @@
 //! the same pool). A failing group is reported and the others go on; its failure is recorded
 //! in `<stem>.fleet-failed.json` (removed when the group later succeeds).
 //!
-//! Beyond one machine, `--shard I/N` (or a batch engine's array index, see [`crate::shard`])
+//! Beyond one machine, `--shard I/N` (or a batch engine's array index, see [`shard`])
 //! runs only the groups of one shard. Shards write disjoint files, so any number can run at
 //! once on shared storage; each writes its report to `<manifest>.shard-I-of-N.json`.
 //! `fleet status` gathers every group's record into one table: done, failed (with the
@@ -40,42 +40,22 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::dataset::{write_bytes_atomically, Dataset};
-use crate::error::TrainerError;
+use crate::data::files::write_bytes_atomically;
+use crate::data::Dataset;
+use crate::error::{line_col, TrainerError};
 use crate::export;
-use crate::fit::{self, Origin, TrainOptions};
-use crate::meta::SimMeta;
-use crate::shard::{Shard, ShardSource};
+use crate::fit::{self, FeatureChoice, Origin};
+pub mod shard;
 
-/// Default feature sets of a group: as `train`.
-pub const DEFAULT_FEATURES: &str = "memory";
+use crate::sim::meta::SimMeta;
+use shard::{Shard, ShardSource};
+
 /// Default largest K of a group: as `train`.
 pub const DEFAULT_MAX_CENTRES: usize = 32;
 /// Format tag of the per-group sidecar.
 pub const SIDECAR_FORMAT: &str = "fbg-trainer fleet group v1";
 /// Format tag of the per-group failure record.
 pub const FAILURE_FORMAT: &str = "fbg-trainer fleet failure v1";
-
-/// Training options for a feature-set name (`paper`, `hysteresis-aware`, `all`) and a largest
-/// number of centres: the grid of `train --features F --max-centres K`.
-pub fn train_options(features: &str, max_centres: usize) -> Result<TrainOptions, String> {
-    let (sets, memory) = export::variant_for(features)
-        .ok_or_else(|| format!("unknown feature set `{features}` (memory, hysteresis-aware, paper, all)"))?;
-    if max_centres == 0 || max_centres > fit::HOST_CAP {
-        return Err(format!("max centres must be in 1..={} (got {max_centres})", fit::HOST_CAP));
-    }
-    let mut o = TrainOptions::default().with_features(sets);
-    if !memory {
-        // Without memory terms the RBF residual carries the model: the grid goes to 32.
-        o.memory = fit::memory_core::MemoryOptions::off();
-        o.centres = vec![8, 16, 32];
-    }
-    o.centres.retain(|&k| k <= max_centres);
-    if o.centres.is_empty() {
-        o.centres.push(max_centres);
-    }
-    Ok(o)
-}
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -109,7 +89,7 @@ pub struct Group {
     pub name: String,
     pub data: PathBuf,
     pub out: PathBuf,
-    pub features: String,
+    pub features: FeatureChoice,
     pub max_centres: usize,
 }
 
@@ -158,7 +138,7 @@ impl Manifest {
     /// directory).
     pub fn from_str_at(text: &str, path: &Path) -> Result<Manifest, TrainerError> {
         let raw: ManifestFile = toml::from_str(text).map_err(|e| {
-            let at = e.span().map(|s| crate::scenario::line_col(text, s.start)).unwrap_or_default();
+            let at = e.span().map(|s| line_col(text, s.start)).unwrap_or_default();
             config_error(path, at, e.message().trim_end().to_string())
         })?;
         if raw.group.is_empty() {
@@ -179,14 +159,19 @@ impl Manifest {
                 return Err(config_error(path, key("out"), "must name a file"));
             }
             let (own_features, own_max) = (g.features.is_some(), g.max_centres.is_some());
-            let features =
-                g.features.or_else(|| raw.defaults.features.clone()).unwrap_or_else(|| DEFAULT_FEATURES.into());
             let max_centres = g.max_centres.or(raw.defaults.max_centres).unwrap_or(DEFAULT_MAX_CENTRES);
             let which = |k: &str, own: bool| if own { key(k) } else { format!("defaults.{k}") };
-            if let Err(m) = train_options(&features, DEFAULT_MAX_CENTRES) {
-                return Err(config_error(path, which("features", own_features), m));
-            }
-            if let Err(m) = train_options(DEFAULT_FEATURES, max_centres) {
+            let features = match g.features.as_deref().or(raw.defaults.features.as_deref()) {
+                None => FeatureChoice::default(),
+                Some(name) => FeatureChoice::from_name(name).ok_or_else(|| {
+                    config_error(
+                        path,
+                        which("features", own_features),
+                        format!("unknown feature set `{name}` (memory, hysteresis-aware, paper, all)"),
+                    )
+                })?,
+            };
+            if let Err(m) = FeatureChoice::default().train_options(max_centres) {
                 return Err(config_error(path, which("max_centres", own_max), m));
             }
             let group = Group { name: g.name, data: resolve(&g.data), out: resolve(&g.out), features, max_centres };
@@ -213,7 +198,7 @@ const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
 pub fn input_digest(g: &Group, csv: &[u8]) -> String {
     let mut d = CRC64.digest();
     d.update(
-        format!("features={};max_centres={};trainer={};", g.features, g.max_centres, env!("CARGO_PKG_VERSION"))
+        format!("features={};max_centres={};trainer={};", g.features.name(), g.max_centres, env!("CARGO_PKG_VERSION"))
             .as_bytes(),
     );
     d.update(&(csv.len() as u64).to_le_bytes());
@@ -373,7 +358,7 @@ pub fn needs_training(g: &Group, digest: &str) -> Option<String> {
 
 fn train_group(g: &Group, digest: &str) -> Result<Sidecar, TrainerError> {
     let t = Instant::now();
-    let opts = train_options(&g.features, g.max_centres).map_err(TrainerError::fit)?;
+    let opts = g.features.train_options(g.max_centres).map_err(TrainerError::fit)?;
     let d = Dataset::read_csv(&g.data)?;
     let origin = match SimMeta::read_for(&g.data)? {
         Some(m) => Origin { scenario: m.scenario.name.clone(), seed: m.seed },
@@ -575,7 +560,7 @@ pub fn status(m: &Manifest, shards: Option<usize>) -> StatusReport {
             GroupStatus {
                 name: g.name.clone(),
                 out: g.out.clone(),
-                shard: shards.map(|n| crate::shard::shard_of(&g.name, n)),
+                shard: shards.map(|n| shard::shard_of(&g.name, n)),
                 state,
                 reason,
             }

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::TrainerError;
+use crate::error::{line_col, TrainerError};
 
 /// Clock and split.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -522,14 +522,6 @@ impl Checker {
             Some(e) => Err(e),
         }
     }
-}
-
-/// "line L, column C" of a byte offset in `text` (for TOML errors).
-pub(crate) fn line_col(text: &str, offset: usize) -> String {
-    let before = text.get(..offset).unwrap_or(text);
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map(|l| l.chars().count() + 1).unwrap_or(1);
-    format!("line {line}, column {col}")
 }
 
 #[cfg(test)]

@@ -2,8 +2,8 @@
 //! and CSV (report). One renderer per table, three formats from the same rows, so the formats
 //! can never disagree.
 
-use crate::evaluate::{CHANNELS, UNITS};
-use crate::study::{AblationRow, BudgetRow, DriftSweep, Metrics};
+use crate::eval::metrics::{AblationRow, BudgetRow, DriftSweep, Metrics, RecalStudy};
+use crate::eval::score::{CHANNELS, UNITS};
 
 /// A rectangular table: header and rows of cells.
 #[derive(Clone, Debug, Default)]
@@ -214,10 +214,10 @@ pub fn budget(rows: &[BudgetRow], m: &Metrics) -> Table {
     let mut out = Vec::new();
     for r in rows {
         let mut cells = vec![r.effect_off.clone()];
-        for c in 0..3 {
-            cells.push(f(r.rmse_p[c], DIGITS[c]));
-            cells.push(f(r.rmse_h[c], DIGITS[c]));
-            cells.push(f(r.oracle_floor[c], DIGITS[c]));
+        for (c, &digits) in DIGITS.iter().enumerate() {
+            cells.push(f(r.rmse_p[c], digits));
+            cells.push(f(r.rmse_h[c], digits));
+            cells.push(f(r.oracle_floor[c], digits));
         }
         out.push(cells);
     }
@@ -235,16 +235,16 @@ pub fn drift(s: &DriftSweep, m: &Metrics) -> Table {
     let mut rows = Vec::new();
     for (i, x) in s.sigma_d_pm.iter().enumerate() {
         let mut cells = vec![format!("{:.3}", x), format!("×{}", s.factors[i])];
-        for c in 0..3 {
-            cells.push(f(s.rmse_p[i][c], DIGITS[c]));
-            cells.push(f(s.rmse_h[i][c], DIGITS[c]));
+        for (c, &digits) in DIGITS.iter().enumerate() {
+            cells.push(f(s.rmse_p[i][c], digits));
+            cells.push(f(s.rmse_h[i][c], digits));
         }
         rows.push(cells);
     }
     let mut slope = vec!["slope per pm/step".to_string(), String::new()];
-    for c in 0..3 {
-        slope.push(f(s.slope_p[c], DIGITS[c]));
-        slope.push(f(s.slope_h[c], DIGITS[c]));
+    for (c, &digits) in DIGITS.iter().enumerate() {
+        slope.push(f(s.slope_p[c], digits));
+        slope.push(f(s.slope_h[c], digits));
     }
     rows.push(slope);
     Table {
@@ -256,7 +256,7 @@ pub fn drift(s: &DriftSweep, m: &Metrics) -> Table {
 
 /// Field recalibration study: the old model, a short-batch recalibration and a full refit on a
 /// changed installation.
-pub fn recalibration(rs: &[crate::recalibrate::RecalStudy], m: &Metrics) -> Table {
+pub fn recalibration(rs: &[RecalStudy], m: &Metrics) -> Table {
     let mut rows = Vec::new();
     for r in rs {
         for (name, h, p) in [
@@ -288,6 +288,24 @@ pub fn recalibration(rs: &[crate::recalibrate::RecalStudy], m: &Metrics) -> Tabl
         header: ["batch", "model state", "T P", "T H", "ε P", "ε H", "p P", "p H"].map(String::from).to_vec(),
         rows,
     }
+}
+
+/// Every table of a metrics set with its file name.
+pub fn all(m: &Metrics) -> Vec<(&'static str, Table)> {
+    let mut v = vec![("table2", table2(m))];
+    if let Some(a) = &m.ablation {
+        v.push(("table3", table3(a, m)));
+    }
+    if let Some(b) = &m.error_budget {
+        v.push(("error_budget", budget(b, m)));
+    }
+    if let Some(d) = &m.drift_sweep {
+        v.push(("drift_sweep", drift(d, m)));
+    }
+    if let Some(r) = &m.recalibration {
+        v.push(("recalibration", recalibration(r, m)));
+    }
+    v
 }
 
 #[cfg(test)]

@@ -3,12 +3,11 @@
 
 use std::path::Path;
 
-use super::mapping::{
-    absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, CsvGrating, Map, RefMap, WlUnit,
-};
+use super::mapping::{CsvGrating, Map, RefMap};
 use super::problems::{OnError, Problems, Reason, RowError};
 use super::time_axis::{parse_timestamp, TimeKind, TimeParser};
 use super::{number, read_text};
+use crate::data::units::{absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, WlUnit};
 use crate::error::TrainerError;
 
 /// Time column names tried when the map names none (case-insensitive).

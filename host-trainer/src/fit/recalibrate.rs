@@ -1,18 +1,15 @@
 //! Field recalibration (the paper's future-scope items (i) and (iv); issue 8): refit only what
 //! a short batch can support — per output the offset and gain of the polynomial core, and the
-//! residual weights W on the kept centres — and measure how much of a full recalibration's
-//! gain that recovers when the installation changes.
+//! residual weights W on the kept centres. How much of a full recalibration's gain that
+//! recovers when the installation changes is a study: `crate::eval::studies::recalibration`.
 
 use nalgebra::DMatrix;
 
 use fbg_shared::layout::N_OUTPUTS;
 
-use crate::dataset::{Dataset, Split};
+use crate::data::Dataset;
 use crate::error::TrainerError;
-use crate::evaluate::{evaluate_holdout, ModelEval};
-use crate::fit::{self, design_matrix, linalg, residual_targets, run, HostParams, Origin, TrainOptions};
-use crate::scenario::ScenarioConfig;
-use crate::sim::simulate;
+use crate::fit::{self, design_matrix, linalg, residual_targets, run, HostParams};
 
 /// Prior standard deviation of a core gain change (gauge-factor dispersion is ~3 %).
 pub const GAIN_PRIOR_SIGMA: f64 = 0.05;
@@ -73,7 +70,7 @@ pub fn recalibrate(
     };
     // Choose the core update per output on the validation part.
     let mut choice = [CoreUpdate::Keep; N_OUTPUTS];
-    for c in 0..N_OUTPUTS {
+    for (c, chosen) in choice.iter_mut().enumerate() {
         if !old.fitted[c] || !d.has_target[c] {
             continue;
         }
@@ -91,7 +88,7 @@ pub fn recalibrate(
                 best = (m, cand);
             }
         }
-        choice[c] = best.1;
+        *chosen = best.1;
     }
     let mut new = old.clone();
     let mut offset_gain = [(0.0, 1.0); N_OUTPUTS];
@@ -119,12 +116,12 @@ pub fn recalibrate(
     let p_eff = (2 + if w_updated { k } else { 0 }) as f64;
     let n = batch.len() as f64;
     let mut batch_rmse = [f64::NAN; N_OUTPUTS];
-    for c in 0..N_OUTPUTS {
+    for (c, rmse) in batch_rmse.iter_mut().enumerate() {
         if !old.fitted[c] || !d.has_target[c] {
             continue;
         }
         let m = batch.iter().zip(&after).map(|(&i, e)| (e.values[c] - d.target(c)[i]).powi(2)).sum::<f64>() / n;
-        batch_rmse[c] = m.sqrt();
+        *rmse = m.sqrt();
         let corrected = if n > p_eff + 1.0 { m * n / (n - p_eff) } else { m * 2.0 };
         new.resid_var[c] = new.resid_var[c].max(corrected);
     }
@@ -249,17 +246,17 @@ fn update_w(p: &mut HostParams, old: &HostParams, d: &Dataset, rows: &[usize]) -
 }
 
 /// Put back, in `new`, the old model's core row, memory row and residual weights of every
-/// output whose hold-out RMSE the recalibration made worse (`after` > `before`), so a
-/// recalibration never replaces a channel with one its own check scores worse (DESIGN §9).
-/// The band stays as `recalibrate` set it (never narrower than before). Returns the outputs
-/// put back.
+/// output whose hold-out RMSE the recalibration made worse (`rmse_after` > `rmse_before`, per
+/// output), so a recalibration never replaces a channel with one its own check scores worse
+/// (DESIGN §9). The band stays as `recalibrate` set it (never narrower than before). Returns the
+/// outputs put back.
 pub fn keep_old_where_worse(
     new: &mut HostParams,
     old: &HostParams,
-    before: &ModelEval,
-    after: &ModelEval,
+    rmse_before: &[f64; N_OUTPUTS],
+    rmse_after: &[f64; N_OUTPUTS],
 ) -> Vec<usize> {
-    let worse: Vec<usize> = (0..N_OUTPUTS).filter(|&c| after.channels[c].rmse > before.channels[c].rmse).collect();
+    let worse: Vec<usize> = (0..N_OUTPUTS).filter(|&c| rmse_after[c] > rmse_before[c]).collect();
     for &c in &worse {
         new.poly[c] = old.poly[c];
         new.gamma[c] = old.gamma[c];
@@ -287,69 +284,4 @@ pub fn first_hours(d: &Dataset, hours: f64) -> Vec<usize> {
     let cal = d.cal_indices();
     let t0 = cal.first().map(|&i| d.t_s[i]).unwrap_or(0.0);
     cal.into_iter().filter(|&i| d.t_s[i] - t0 < hours * 3600.0).collect()
-}
-
-/// How much of a full recalibration's gain a short batch recovers when the installation changes.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct RecalStudy {
-    pub batch_hours: f64,
-    pub batch_samples: usize,
-    /// Seed of the original installation and of the changed one (new gratings' dispersion, new
-    /// drift, new environment).
-    pub seed_old: u64,
-    pub seed_new: u64,
-    /// Hold-out RMSE on the new installation (T, ε, p) of: the old model as is, the old model
-    /// recalibrated on the short batch, and a full recalibration (same hyper-parameters, the new
-    /// installation's whole calibration batch). Model-H and Model-P.
-    pub h_old: [f64; N_OUTPUTS],
-    pub h_short: [f64; N_OUTPUTS],
-    pub h_full: [f64; N_OUTPUTS],
-    pub p_old: [f64; N_OUTPUTS],
-    pub p_short: [f64; N_OUTPUTS],
-    pub p_full: [f64; N_OUTPUTS],
-    /// (old − short) / (old − full) for Model-H, per output.
-    pub recovered_fraction_h: [f64; N_OUTPUTS],
-}
-
-/// Train on `seed_old`, move to `seed_new`, recalibrate with the first `hours` and compare.
-pub fn study(
-    cfg: &ScenarioConfig,
-    old_h: &HostParams,
-    old_p: &HostParams,
-    seed_old: u64,
-    seed_new: u64,
-    hours: f64,
-    chosen: &fit::Config,
-) -> Result<RecalStudy, TrainerError> {
-    let new_site = simulate(cfg, seed_new);
-    let d = &new_site.data;
-    let batch = first_hours(d, hours);
-    let rmse = |e: &ModelEval| e.channels.map(|c| c.rmse);
-    let (h_short_p, _) = recalibrate(old_h, d, &batch)?;
-    let (p_short_p, _) = recalibrate(old_p, d, &batch)?;
-    let full = fit::train(d, &TrainOptions::fixed(chosen), &Origin { scenario: cfg.name.clone(), seed: seed_new })?;
-    let h_old = rmse(&evaluate_holdout(old_h, d)?.0);
-    let h_short = rmse(&evaluate_holdout(&h_short_p, d)?.0);
-    let h_full = rmse(&evaluate_holdout(&full.model_h, d)?.0);
-    let p_old = rmse(&evaluate_holdout(old_p, d)?.0);
-    let p_short = rmse(&evaluate_holdout(&p_short_p, d)?.0);
-    let p_full = rmse(&evaluate_holdout(&full.model_p, d)?.0);
-    Ok(RecalStudy {
-        batch_hours: hours,
-        batch_samples: batch.len(),
-        seed_old,
-        seed_new,
-        h_old,
-        h_short,
-        h_full,
-        p_old,
-        p_short,
-        p_full,
-        recovered_fraction_h: std::array::from_fn(|c| (h_old[c] - h_short[c]) / (h_old[c] - h_full[c])),
-    })
-}
-
-/// Split helper for the CLI: the batch is the calibration part, the rest is the hold-out.
-pub fn is_holdout(d: &Dataset, i: usize) -> bool {
-    d.split[i] == Split::Holdout
 }

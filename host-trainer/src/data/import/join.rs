@@ -36,12 +36,11 @@ impl Series {
 
 /// Median spacing of increasing times (0 for fewer than two).
 pub(crate) fn median_spacing(t: &[f64]) -> f64 {
-    let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    let d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
     if d.is_empty() {
         return 0.0;
     }
-    d.sort_by(f64::total_cmp);
-    d[d.len() / 2]
+    crate::stats::upper_median(&d)
 }
 
 #[cfg(test)]

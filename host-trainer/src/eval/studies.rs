@@ -1,125 +1,28 @@
 //! The whole evaluation of a scenario (DESIGN §5): Table 2 on the hold-out with the oracle
 //! floor, the drift sweep (paper Fig. 12), the ablation (Table 3, every channel), the error
-//! budget, and the checks that tie the device arithmetic to the f64 reference. Everything
-//! lands in one [`Metrics`] value, written as `metrics.json`.
+//! budget, the field-recalibration study, and the checks that tie the device arithmetic to the
+//! f64 reference. Everything lands in one [`Metrics`] value, written as `metrics.json`
+//! (schema: [`crate::eval::metrics`]).
 
 use std::time::Instant;
 
 use fbg_shared::layout::N_OUTPUTS;
 use fbg_shared::FeatureSet;
 
-use crate::dataset::Dataset;
+use crate::data::Dataset;
 use crate::error::TrainerError;
-use crate::evaluate::{evaluate_holdout, gain_pct, ChannelMetrics, ModelEval, CHANNELS, UNITS};
-use crate::fit::{self, HostParams, Origin, Selection, TrainOptions, Trained};
-use crate::scenario::ScenarioConfig;
+use crate::eval::metrics::{AblationRow, BudgetRow, DriftSweep, Metrics, RecalStudy, SelectionSummary, Table2};
+use crate::eval::parity;
+use crate::eval::score::{evaluate_holdout, gain_pct, ModelEval, CHANNELS, UNITS};
+use crate::fit::recalibrate::{first_hours, recalibrate};
+use crate::fit::{self, HostParams, Origin, TrainOptions, Trained};
+use crate::sim::meta::SimMeta;
+use crate::sim::scenario::ScenarioConfig;
 use crate::sim::{simulate, Simulation, EFFECT_NAMES};
+use crate::stats::linear_fit;
 
 /// Drift multipliers of the sweep (× σ_d of the scenario).
 pub const DRIFT_FACTORS: [f64; 6] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0];
-
-/// Table 2: both models on the hold-out.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct Table2 {
-    pub model_p: ModelEval,
-    pub model_h: ModelEval,
-    /// Gain of Model-H over Model-P in % of Model-P's RMSE.
-    pub gain_pct: [f64; N_OUTPUTS],
-    /// Oracle-floor RMSE per output, when the data come from the simulator.
-    pub oracle_floor: Option<[f64; N_OUTPUTS]>,
-    /// Model-H RMSE above the floor as a multiple of the floor.
-    pub h_over_floor: Option<[f64; N_OUTPUTS]>,
-}
-
-/// The drift sweep: hold-out RMSE against σ_d with both models refitted each time.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct DriftSweep {
-    pub factors: Vec<f64>,
-    /// σ_d [pm per step] of each point.
-    pub sigma_d_pm: Vec<f64>,
-    pub rmse_p: Vec<[f64; N_OUTPUTS]>,
-    pub rmse_h: Vec<[f64; N_OUTPUTS]>,
-    /// Least-squares slope of RMSE against σ_d [output unit per (pm/step)]: the
-    /// drift-sensitivity index.
-    pub slope_p: [f64; N_OUTPUTS],
-    pub slope_h: [f64; N_OUTPUTS],
-    /// Intercepts of those lines.
-    pub intercept_p: [f64; N_OUTPUTS],
-    pub intercept_h: [f64; N_OUTPUTS],
-}
-
-/// One ablation configuration (Table 3).
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct AblationRow {
-    pub name: String,
-    pub note: String,
-    pub channels: [ChannelMetrics; N_OUTPUTS],
-    /// Hyper-parameters the variant chose (absent for the polynomial only).
-    pub config: Option<fit::Config>,
-}
-
-/// One error-budget row: the scenario with one artefact switched off.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct BudgetRow {
-    /// Artefact switched off ("none" = full scenario, "all" = physics and nothing else).
-    pub effect_off: String,
-    pub rmse_p: [f64; N_OUTPUTS],
-    pub rmse_h: [f64; N_OUTPUTS],
-    /// Per-sample oracle of that scenario.
-    pub oracle_floor: [f64; N_OUTPUTS],
-}
-
-/// Everything measured about one scenario and seed.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct Metrics {
-    pub trainer_version: String,
-    pub scenario: String,
-    pub seed: u64,
-    pub samples: usize,
-    pub cal_samples: usize,
-    pub holdout_samples: usize,
-    pub channels: [&'static str; N_OUTPUTS],
-    pub units: [&'static str; N_OUTPUTS],
-    pub selection: SelectionSummary,
-    pub table2: Table2,
-    pub drift_sweep: Option<DriftSweep>,
-    pub ablation: Option<Vec<AblationRow>>,
-    pub error_budget: Option<Vec<BudgetRow>>,
-    pub parity: Option<crate::parity::ParityReport>,
-    /// Field recalibration after the installation changes (short batches vs a full refit).
-    pub recalibration: Option<Vec<crate::recalibrate::RecalStudy>>,
-    /// Wall time of each stage [s] (informational; speed is measured by `cargo xtask bench`).
-    pub timings_s: Vec<(String, f64)>,
-}
-
-/// The chosen hyper-parameters and the cross-validation figures behind them.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct SelectionSummary {
-    pub chosen: fit::Config,
-    pub cv_rmse_p: [f64; N_OUTPUTS],
-    pub cv_rmse_h: [f64; N_OUTPUTS],
-    pub var_model_p: [fit::VarModel; N_OUTPUTS],
-    pub var_model_h: [fit::VarModel; N_OUTPUTS],
-    pub folds: Vec<(usize, usize)>,
-    pub grid_points: usize,
-    /// The best ten grid points.
-    pub top: Vec<fit::select::CvRow>,
-}
-
-impl SelectionSummary {
-    pub fn from(s: &Selection) -> Self {
-        SelectionSummary {
-            chosen: s.chosen,
-            cv_rmse_p: s.cv_rmse_p,
-            cv_rmse_h: s.cv_rmse_h,
-            var_model_p: s.var_model_p,
-            var_model_h: s.var_model_h,
-            folds: s.folds.clone(),
-            grid_points: s.rows.len(),
-            top: s.rows.iter().take(10).cloned().collect(),
-        }
-    }
-}
 
 /// Table 2 for a trained pair on `d`.
 pub fn table2(p: &HostParams, h: &HostParams, d: &Dataset, oracle: Option<[f64; 3]>) -> Result<Table2, TrainerError> {
@@ -134,13 +37,12 @@ fn fixed(opts: &TrainOptions, cfg: &fit::Config) -> TrainOptions {
     TrainOptions { seed: opts.seed, progress: false, ..opts.fixed_like(cfg) }
 }
 
+/// Hold-out RMSE per output of Model-P, of Model-H and of the per-sample oracle.
+type RefitRmse = ([f64; N_OUTPUTS], [f64; N_OUTPUTS], [f64; N_OUTPUTS]);
+
 /// Hold-out RMSE of both models retrained on a re-simulated scenario with fixed
 /// hyper-parameters.
-fn refit_rmse(
-    cfg: &ScenarioConfig,
-    seed: u64,
-    opts: &TrainOptions,
-) -> Result<([f64; 3], [f64; 3], [f64; 3]), TrainerError> {
+fn refit_rmse(cfg: &ScenarioConfig, seed: u64, opts: &TrainOptions) -> Result<RefitRmse, TrainerError> {
     let s = simulate(cfg, seed);
     let tr = fit::train(&s.data, opts, &Origin { scenario: cfg.name.clone(), seed })?;
     let (ep, _) = evaluate_holdout(&tr.model_p, &s.data)?;
@@ -187,17 +89,6 @@ pub fn drift_sweep(
         intercept_p: lp.map(|l| l.0),
         intercept_h: lh.map(|l| l.0),
     })
-}
-
-/// (intercept, slope) of the least-squares line.
-pub fn linear_fit(x: &[f64], y: &[f64]) -> (f64, f64) {
-    let n = x.len() as f64;
-    let mx = x.iter().sum::<f64>() / n;
-    let my = y.iter().sum::<f64>() / n;
-    let sxx: f64 = x.iter().map(|v| (v - mx).powi(2)).sum();
-    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
-    let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
-    (my - slope * mx, slope)
 }
 
 /// Table 3 for all channels: polynomial only; hybrid without cross-terms; the `paper`
@@ -320,6 +211,44 @@ pub fn error_budget(
     rows.into_iter().collect()
 }
 
+/// Train on `seed_old`, move to `seed_new`, recalibrate with the first `hours` and compare.
+pub fn recalibration(
+    cfg: &ScenarioConfig,
+    old_h: &HostParams,
+    old_p: &HostParams,
+    seed_old: u64,
+    seed_new: u64,
+    hours: f64,
+    chosen: &fit::Config,
+) -> Result<RecalStudy, TrainerError> {
+    let new_site = simulate(cfg, seed_new);
+    let d = &new_site.data;
+    let batch = first_hours(d, hours);
+    let rmse = |e: &ModelEval| e.channels.map(|c| c.rmse);
+    let (h_short_p, _) = recalibrate(old_h, d, &batch)?;
+    let (p_short_p, _) = recalibrate(old_p, d, &batch)?;
+    let full = fit::train(d, &TrainOptions::fixed(chosen), &Origin { scenario: cfg.name.clone(), seed: seed_new })?;
+    let h_old = rmse(&evaluate_holdout(old_h, d)?.0);
+    let h_short = rmse(&evaluate_holdout(&h_short_p, d)?.0);
+    let h_full = rmse(&evaluate_holdout(&full.model_h, d)?.0);
+    let p_old = rmse(&evaluate_holdout(old_p, d)?.0);
+    let p_short = rmse(&evaluate_holdout(&p_short_p, d)?.0);
+    let p_full = rmse(&evaluate_holdout(&full.model_p, d)?.0);
+    Ok(RecalStudy {
+        batch_hours: hours,
+        batch_samples: batch.len(),
+        seed_old,
+        seed_new,
+        h_old,
+        h_short,
+        h_full,
+        p_old,
+        p_short,
+        p_full,
+        recovered_fraction_h: std::array::from_fn(|c| (h_old[c] - h_short[c]) / (h_old[c] - h_full[c])),
+    })
+}
+
 /// Which studies to run.
 #[derive(Clone, Copy, Debug)]
 pub struct Studies {
@@ -396,13 +325,12 @@ pub fn run_all(
     } else {
         None
     };
-    let parity =
-        if studies.parity { Some(crate::parity::check(&trained.model_h, &sim.data, &t2.model_h)?) } else { None };
+    let parity = if studies.parity { Some(parity::check(&trained.model_h, &sim.data, &t2.model_h)?) } else { None };
     let recal = if studies.recalibration {
         let t = Instant::now();
         let seed_new = sim.seed.wrapping_add(RECAL_SEED_OFFSET);
         let r: Result<Vec<_>, TrainerError> = fit::par_map(&RECAL_BATCH_HOURS, |&h| {
-            crate::recalibrate::study(&sim.config, &trained.model_h, &trained.model_p, sim.seed, seed_new, h, &chosen)
+            recalibration(&sim.config, &trained.model_h, &trained.model_p, sim.seed, seed_new, h, &chosen)
         })
         .into_iter()
         .collect();
@@ -434,24 +362,6 @@ pub fn run_all(
     Ok((trained, m))
 }
 
-/// Every table of a metrics set with its file name.
-pub fn all_tables(m: &Metrics) -> Vec<(&'static str, crate::tables::Table)> {
-    let mut v = vec![("table2", crate::tables::table2(m))];
-    if let Some(a) = &m.ablation {
-        v.push(("table3", crate::tables::table3(a, m)));
-    }
-    if let Some(b) = &m.error_budget {
-        v.push(("error_budget", crate::tables::budget(b, m)));
-    }
-    if let Some(d) = &m.drift_sweep {
-        v.push(("drift_sweep", crate::tables::drift(d, m)));
-    }
-    if let Some(r) = &m.recalibration {
-        v.push(("recalibration", crate::tables::recalibration(r, m)));
-    }
-    v
-}
-
 /// The hyper-parameters a trained model carries, as a grid point.
 pub fn config_of(h: &HostParams) -> fit::Config {
     let n_cal = h.provenance.n_cal.max(1) as f64;
@@ -472,7 +382,7 @@ pub fn evaluate_models(
     p: &HostParams,
     h: &HostParams,
     d: &Dataset,
-    meta: Option<&crate::meta::SimMeta>,
+    meta: Option<&SimMeta>,
     studies: Studies,
     progress: bool,
     log: &dyn Fn(&str),
@@ -558,7 +468,7 @@ pub fn evaluate_models(
         _ => (None, None),
     };
     bar.set_message("parity");
-    let parity = if studies.parity { Some(crate::parity::check(h, d, &t2.model_h)?) } else { None };
+    let parity = if studies.parity { Some(parity::check(h, d, &t2.model_h)?) } else { None };
     bar.finish_and_clear();
     Ok(Metrics {
         trainer_version: env!("CARGO_PKG_VERSION").to_string(),

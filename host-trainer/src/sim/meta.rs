@@ -4,9 +4,9 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::dataset::write_bytes_atomically;
+use crate::data::files::write_bytes_atomically;
 use crate::error::TrainerError;
-use crate::scenario::ScenarioConfig;
+use crate::sim::scenario::ScenarioConfig;
 use crate::sim::Simulation;
 
 /// What a simulated CSV came from.

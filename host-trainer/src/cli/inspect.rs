@@ -1,0 +1,62 @@
+//! `fbg-trainer inspect`: a blob's header, dimensions, hyper-parameters and provenance.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+
+use fbg_shared::blob;
+use fbg_trainer::export;
+use fbg_trainer::fit::HostParams;
+
+/// `fbg-trainer inspect`.
+pub fn run(path: &Path, json: bool) -> Result<()> {
+    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    // The whole blob (CRC first) before the header, so corruption is named as such.
+    let p: HostParams = export::read_blob(path)?;
+    let header = blob::Header::parse(&bytes)
+        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), export::blob_error_text(&bytes, &e)))?;
+    let crc = export::blob_crc(&bytes).map(|(c, _)| format!("{c:08x}")).unwrap_or_default();
+    let v = serde_json::json!({
+        "file": path,
+        "bytes": bytes.len(),
+        "crc32": crc,
+        "header": {"magic": "FBGM", "format_version": header.version, "inputs": header.inputs,
+                   "outputs": header.outputs, "poly_terms": header.poly_terms, "centres": header.centres},
+        "model": export::model_json(&p, None),
+    });
+    if json {
+        println!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(());
+    }
+    let h = &p.hyper;
+    println!("{}: {} bytes, FBGM format v{}, CRC-32 {crc} (valid)", path.display(), bytes.len(), header.version);
+    println!(
+        "dims: inputs {}, outputs {}, poly terms {}, centres {}",
+        header.inputs, header.outputs, header.poly_terms, header.centres
+    );
+    println!(
+        "hyper-parameters: features {}, σ {:.4} (= {}×NN), α {:.4e}, dead band {} pm, weak support < {:.2e}, envelope margin {}, flagged band ×{}",
+        h.feature_set.name(), h.sigma, f32s(&[h.sigma_mult]), h.alpha, f32s(&[h.dead_band_pm]), h.weak_support, f32s(&[h.envelope_margin]), f32s(&[h.flagged_band_factor])
+    );
+    // The blob stores f32: print what it holds (`0.1`, not `0.10000000149011612`).
+    println!(
+        "band: k95 [{}], s² at cal end [{}], growth [{}] per s after t = {} s",
+        f32s(&p.band_k),
+        f32s(&p.resid_var),
+        f32s(&p.resid_var_growth),
+        f32s(&[p.t_cal_end_s])
+    );
+    println!("envelope: lo [{}] hi [{}] (dl1..3 pm, T_amb °C)", f32s(&p.envelope_lo), f32s(&p.envelope_hi));
+    let pr = &p.provenance;
+    println!(
+        "provenance: scenario {}, seed {}, trainer {}, date {}, {} calibration samples",
+        pr.scenario, pr.seed, pr.trainer_version, pr.date_yyyymmdd, pr.n_cal
+    );
+    Ok(())
+}
+
+/// Values stored as f32, printed at f32 precision: "0.1, 2.5, 1.6360161e-7".
+fn f32s(v: &[f64]) -> String {
+    let one = |x: f32| if x != 0.0 && (x.abs() < 1e-4 || x.abs() >= 1e7) { format!("{x:e}") } else { x.to_string() };
+    v.iter().map(|&x| one(x as f32)).collect::<Vec<_>>().join(", ")
+}

@@ -1,0 +1,72 @@
+//! `fbg-trainer stream`: the arguments and the exit status around `fbg_trainer::stream::run`.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Result};
+
+use fbg_trainer::stream::{run, StreamOptions};
+
+/// `fbg-trainer stream`: check a running device against the host, sample by sample.
+#[derive(clap::Args, Clone, Debug)]
+pub struct StreamArgs {
+    /// The model the device runs (sent first with --update-first).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Dataset CSV whose hold-out samples are streamed.
+    #[arg(long)]
+    pub data: PathBuf,
+    /// TCP port of the device's serial link.
+    #[arg(long)]
+    pub port: u16,
+    /// Host of the device's serial link.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: String,
+    /// Send the model to the device over the link before streaming.
+    #[arg(long)]
+    pub update_first: bool,
+    /// Stream only the first N hold-out samples.
+    #[arg(long)]
+    pub max_samples: Option<usize>,
+    /// Seconds to wait for the connection and for each answer.
+    #[arg(long, default_value_t = 15.0)]
+    pub timeout: f64,
+    /// Print the comparison as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl StreamArgs {
+    /// Stream, print the comparison (text on stderr, or JSON on stdout), and fail when an
+    /// estimate differs from the host beyond tolerance.
+    pub fn run(self) -> Result<()> {
+        if !(self.timeout.is_finite() && self.timeout > 0.0) {
+            bail!("--timeout must be a positive number of seconds (got {})", self.timeout);
+        }
+        let json = self.json;
+        let opts = StreamOptions {
+            model: self.model,
+            data: self.data,
+            host: self.host,
+            port: self.port,
+            update_first: self.update_first,
+            max_samples: self.max_samples,
+            timeout: std::time::Duration::from_secs_f64(self.timeout),
+            progress: !json,
+        };
+        let r = run(&opts)?;
+        if json {
+            println!("{}", serde_json::to_string_pretty(&r)?);
+        } else {
+            eprint!("{}", r.text());
+        }
+        if !r.ok() {
+            bail!(
+                "{} of {} estimates differ from the host beyond tolerance ({} in flags)",
+                r.value_mismatches + r.flag_mismatches,
+                r.samples,
+                r.flag_mismatches
+            );
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,140 @@
+//! Plausible magnitudes of what a dataset holds: wavelengths (absolute or shifts, in nm or pm)
+//! and the interrogator's ambient temperature. The importers check every cell against them
+//! (`check_units` in the map), and the dataset reader checks a CSV with the same words.
+
+use serde::Deserialize;
+
+/// Plausible absolute FBG wavelengths [nm].
+pub const NM_RANGE: (f64, f64) = (400.0, 2000.0);
+/// Largest plausible shift [pm]: 10 nm is beyond any grating's range in a WDM layout.
+pub const MAX_SHIFT_PM: f64 = 10_000.0;
+/// Plausible interrogator ambient temperatures [°C].
+pub const AMBIENT_RANGE_C: (f64, f64) = (-80.0, 200.0);
+
+/// The unit of a wavelength column.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WlUnit {
+    /// Absolute wavelength [nm].
+    Nm,
+    /// Absolute wavelength [pm].
+    Pm,
+    /// Shift from the reference condition [pm].
+    ShiftPm,
+    /// Shift from the reference condition [nm].
+    ShiftNm,
+}
+
+impl WlUnit {
+    pub fn name(self) -> &'static str {
+        match self {
+            WlUnit::Nm => "nm",
+            WlUnit::Pm => "pm",
+            WlUnit::ShiftPm => "shift_pm",
+            WlUnit::ShiftNm => "shift_nm",
+        }
+    }
+    pub fn is_shift(self) -> bool {
+        matches!(self, WlUnit::ShiftPm | WlUnit::ShiftNm)
+    }
+    /// A cell in this unit → absolute nm (absolute units) or shift pm (shift units).
+    pub fn convert(self, v: f64) -> f64 {
+        match self {
+            WlUnit::Nm | WlUnit::ShiftPm => v,
+            WlUnit::Pm => v * 1e-3,
+            WlUnit::ShiftNm => v * 1e3,
+        }
+    }
+}
+
+/// Check one wavelength cell (already in the column's unit) for magnitude; the error says what
+/// the value looks like and which map key to change.
+pub fn check_wavelength(unit: WlUnit, v: f64, key: &str) -> Result<(), String> {
+    let nm = |x: f64| (NM_RANGE.0..=NM_RANGE.1).contains(&x);
+    let pm = |x: f64| (NM_RANGE.0 * 1e3..=NM_RANGE.1 * 1e3).contains(&x);
+    let set = |u: &str| format!("map key `{key}`: set it to \"{u}\"");
+    match unit {
+        WlUnit::Nm if nm(v) => Ok(()),
+        WlUnit::Nm if pm(v) => Err(format!("{v} is declared nm but is pm-scale (absolute wavelengths are {}–{} nm); {}", NM_RANGE.0, NM_RANGE.1, set("pm"))),
+        WlUnit::Nm if v.abs() < NM_RANGE.0 => Err(format!(
+            "{v} is declared as an absolute wavelength in nm but looks like a shift (absolute wavelengths are {}–{} nm); {}",
+            NM_RANGE.0, NM_RANGE.1, set("shift_pm` or `shift_nm")
+        )),
+        WlUnit::Nm => Err(format!("{v} is not a wavelength in nm ({}–{} nm); check `{key}`", NM_RANGE.0, NM_RANGE.1)),
+        WlUnit::Pm if pm(v) => Ok(()),
+        WlUnit::Pm if nm(v) => Err(format!("{v} is declared pm but is nm-scale; {}", set("nm"))),
+        WlUnit::Pm if v.abs() < NM_RANGE.0 * 1e3 => Err(format!(
+            "{v} is declared as an absolute wavelength in pm but looks like a shift (absolute wavelengths are {}–{} pm); {}",
+            NM_RANGE.0 * 1e3, NM_RANGE.1 * 1e3, set("shift_pm")
+        )),
+        WlUnit::Pm => Err(format!("{v} is not a wavelength in pm; check `{key}`")),
+        WlUnit::ShiftPm if v.abs() <= MAX_SHIFT_PM => Ok(()),
+        WlUnit::ShiftNm if v.abs() * 1e3 <= MAX_SHIFT_PM => Ok(()),
+        WlUnit::ShiftPm | WlUnit::ShiftNm if nm(v) => Err(format!(
+            "{v} is declared as a shift ({}) but looks like an absolute wavelength in nm; {}",
+            unit.name(),
+            set("nm")
+        )),
+        WlUnit::ShiftPm | WlUnit::ShiftNm if pm(v) => Err(format!(
+            "{v} is declared as a shift ({}) but looks like an absolute wavelength in pm; {}",
+            unit.name(),
+            set("pm")
+        )),
+        WlUnit::ShiftPm | WlUnit::ShiftNm => Err(format!(
+            "{v} ({}) is a shift beyond {} nm, which no grating reaches; check `{key}`",
+            unit.name(),
+            MAX_SHIFT_PM / 1e3
+        )),
+    }
+}
+
+/// A whole shift column that never leaves the band of absolute wavelengths in nm, with a
+/// relative spread under 1 %, holds absolute wavelengths (per cell it cannot be told from a
+/// large shift).
+pub fn looks_absolute_nm(values: &[f64]) -> bool {
+    let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.len() < 3 || !v.iter().all(|x| (NM_RANGE.0..=NM_RANGE.1).contains(x)) {
+        return false;
+    }
+    let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    hi - lo < 0.01 * mean
+}
+
+/// The message for a shift column that [`looks_absolute_nm`], naming the map key to change.
+pub fn absolute_nm_column_message(values: &[f64], key: &str) -> String {
+    format!(
+        "the column is declared shift_pm but every value lies within 1 % of {:.1}, like absolute wavelengths in nm; map key `{key}`: set it to \"nm\" (or check_units = false if these really are shifts)",
+        values.iter().copied().find(|v| v.is_finite()).unwrap_or(f64::NAN)
+    )
+}
+
+/// Check an ambient temperature [°C] (after gain and offset).
+pub fn check_ambient(v: f64) -> Result<(), String> {
+    let (lo, hi) = AMBIENT_RANGE_C;
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else if (200.0..=400.0).contains(&v) {
+        Err(format!("ambient {v} °C looks like kelvin; map key `ambient.offset`: set it to -273.15"))
+    } else {
+        Err(format!("ambient {v} °C is outside {lo}–{hi} °C; check the map keys `ambient.column`, `ambient.gain`, `ambient.offset`"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_checks() {
+        assert!(check_wavelength(WlUnit::Nm, 1545.1, "k").is_ok());
+        assert!(check_wavelength(WlUnit::Nm, 1_545_100.0, "k").unwrap_err().contains("\"pm\""));
+        assert!(check_wavelength(WlUnit::Nm, 12.5, "k").unwrap_err().contains("shift_pm"));
+        assert!(check_wavelength(WlUnit::ShiftPm, -250.0, "k").is_ok());
+        assert!(check_wavelength(WlUnit::ShiftPm, 1_545_100.0, "k").unwrap_err().contains("\"pm\""));
+        assert!(check_wavelength(WlUnit::ShiftNm, 1545.1, "k").unwrap_err().contains("\"nm\""));
+        assert!(looks_absolute_nm(&[1545.0, 1545.1, 1545.05]));
+        assert!(!looks_absolute_nm(&[600.0, 700.0, 650.0]));
+        assert!(check_ambient(296.0).unwrap_err().contains("-273.15"));
+    }
+}

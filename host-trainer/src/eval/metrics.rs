@@ -1,0 +1,134 @@
+//! The schema of `<model stem>.metrics.json`: everything `evaluate` and `demo` measure about
+//! one scenario and seed, as [`Metrics`]. The studies fill it ([`super::studies`]), the tables
+//! render it ([`super::tables`]), the report reads it back (`crate::report::load`).
+
+use fbg_shared::layout::N_OUTPUTS;
+
+use crate::eval::parity::ParityReport;
+use crate::eval::score::{ChannelMetrics, ModelEval};
+use crate::fit::{self, Selection};
+
+/// Table 2: both models on the hold-out.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Table2 {
+    pub model_p: ModelEval,
+    pub model_h: ModelEval,
+    /// Gain of Model-H over Model-P in % of Model-P's RMSE.
+    pub gain_pct: [f64; N_OUTPUTS],
+    /// Oracle-floor RMSE per output, when the data come from the simulator.
+    pub oracle_floor: Option<[f64; N_OUTPUTS]>,
+    /// Model-H RMSE above the floor as a multiple of the floor.
+    pub h_over_floor: Option<[f64; N_OUTPUTS]>,
+}
+
+/// The drift sweep: hold-out RMSE against σ_d with both models refitted each time.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DriftSweep {
+    pub factors: Vec<f64>,
+    /// σ_d [pm per step] of each point.
+    pub sigma_d_pm: Vec<f64>,
+    pub rmse_p: Vec<[f64; N_OUTPUTS]>,
+    pub rmse_h: Vec<[f64; N_OUTPUTS]>,
+    /// Least-squares slope of RMSE against σ_d [output unit per (pm/step)]: the
+    /// drift-sensitivity index.
+    pub slope_p: [f64; N_OUTPUTS],
+    pub slope_h: [f64; N_OUTPUTS],
+    /// Intercepts of those lines.
+    pub intercept_p: [f64; N_OUTPUTS],
+    pub intercept_h: [f64; N_OUTPUTS],
+}
+
+/// One ablation configuration (Table 3).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AblationRow {
+    pub name: String,
+    pub note: String,
+    pub channels: [ChannelMetrics; N_OUTPUTS],
+    /// Hyper-parameters the variant chose (absent for the polynomial only).
+    pub config: Option<fit::Config>,
+}
+
+/// One error-budget row: the scenario with one artefact switched off.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct BudgetRow {
+    /// Artefact switched off ("none" = full scenario, "all" = physics and nothing else).
+    pub effect_off: String,
+    pub rmse_p: [f64; N_OUTPUTS],
+    pub rmse_h: [f64; N_OUTPUTS],
+    /// Per-sample oracle of that scenario.
+    pub oracle_floor: [f64; N_OUTPUTS],
+}
+
+/// Everything measured about one scenario and seed.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Metrics {
+    pub trainer_version: String,
+    pub scenario: String,
+    pub seed: u64,
+    pub samples: usize,
+    pub cal_samples: usize,
+    pub holdout_samples: usize,
+    pub channels: [&'static str; N_OUTPUTS],
+    pub units: [&'static str; N_OUTPUTS],
+    pub selection: SelectionSummary,
+    pub table2: Table2,
+    pub drift_sweep: Option<DriftSweep>,
+    pub ablation: Option<Vec<AblationRow>>,
+    pub error_budget: Option<Vec<BudgetRow>>,
+    pub parity: Option<ParityReport>,
+    /// Field recalibration after the installation changes (short batches vs a full refit).
+    pub recalibration: Option<Vec<RecalStudy>>,
+    /// Wall time of each stage [s] (informational; speed is measured by `cargo xtask bench`).
+    pub timings_s: Vec<(String, f64)>,
+}
+
+/// The chosen hyper-parameters and the cross-validation figures behind them.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SelectionSummary {
+    pub chosen: fit::Config,
+    pub cv_rmse_p: [f64; N_OUTPUTS],
+    pub cv_rmse_h: [f64; N_OUTPUTS],
+    pub var_model_p: [fit::VarModel; N_OUTPUTS],
+    pub var_model_h: [fit::VarModel; N_OUTPUTS],
+    pub folds: Vec<(usize, usize)>,
+    pub grid_points: usize,
+    /// The best ten grid points.
+    pub top: Vec<fit::select::CvRow>,
+}
+
+impl SelectionSummary {
+    pub fn from(s: &Selection) -> Self {
+        SelectionSummary {
+            chosen: s.chosen,
+            cv_rmse_p: s.cv_rmse_p,
+            cv_rmse_h: s.cv_rmse_h,
+            var_model_p: s.var_model_p,
+            var_model_h: s.var_model_h,
+            folds: s.folds.clone(),
+            grid_points: s.rows.len(),
+            top: s.rows.iter().take(10).cloned().collect(),
+        }
+    }
+}
+
+/// How much of a full recalibration's gain a short batch recovers when the installation changes.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RecalStudy {
+    pub batch_hours: f64,
+    pub batch_samples: usize,
+    /// Seed of the original installation and of the changed one (new gratings' dispersion, new
+    /// drift, new environment).
+    pub seed_old: u64,
+    pub seed_new: u64,
+    /// Hold-out RMSE on the new installation (T, ε, p) of: the old model as is, the old model
+    /// recalibrated on the short batch, and a full recalibration (same hyper-parameters, the new
+    /// installation's whole calibration batch). Model-H and Model-P.
+    pub h_old: [f64; N_OUTPUTS],
+    pub h_short: [f64; N_OUTPUTS],
+    pub h_full: [f64; N_OUTPUTS],
+    pub p_old: [f64; N_OUTPUTS],
+    pub p_short: [f64; N_OUTPUTS],
+    pub p_full: [f64; N_OUTPUTS],
+    /// (old − short) / (old − full) for Model-H, per output.
+    pub recovered_fraction_h: [f64; N_OUTPUTS],
+}

@@ -1,0 +1,10 @@
+//! Evaluation (DESIGN §5): scoring a model on the hold-out ([`score`]), the f32 device path
+//! against the f64 reference ([`parity`]), the studies that retrain or re-simulate
+//! ([`studies`]), the schema of `metrics.json` they fill ([`metrics`]), and the tables that
+//! render it ([`tables`]).
+
+pub mod metrics;
+pub mod parity;
+pub mod score;
+pub mod studies;
+pub mod tables;

@@ -1,0 +1,120 @@
+//! The model variant a user picks with `--features`: `train` and `bench-fit --select` on the
+//! command line, a group's `features` in a fleet manifest.
+
+use fbg_shared::layout::FeatureSet;
+
+use crate::fit::memory_core::MemoryOptions;
+use crate::fit::{TrainOptions, HOST_CAP};
+
+/// The model variant of a `--features` name: the RBF feature sets cross-validation may choose
+/// from and whether the memory bank is on the menu.
+///
+/// - `memory` (the default): memory terms fitted with the core plus an RBF residual on
+///   [Δλ, T_amb, latches];
+/// - `hysteresis-aware`: no memory terms, RBF on latches (and time if CV keeps it);
+/// - `latch`: the same as `hysteresis-aware` (its name when it was the default);
+/// - `paper`: paper Eq. 5 exactly;
+/// - `all`: memory terms and every feature set.
+///
+/// (The variants carry no doc comments of their own: clap would print them as a long list of
+/// possible values in `--help` instead of the one line `[possible values: memory, …]`.)
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum FeatureChoice {
+    #[default]
+    Memory,
+    HysteresisAware,
+    Latch,
+    Paper,
+    All,
+}
+
+impl FeatureChoice {
+    /// The name on the command line and in a manifest.
+    pub fn name(self) -> &'static str {
+        match self {
+            FeatureChoice::Memory => "memory",
+            FeatureChoice::HysteresisAware => "hysteresis-aware",
+            FeatureChoice::Latch => "latch",
+            FeatureChoice::Paper => "paper",
+            FeatureChoice::All => "all",
+        }
+    }
+
+    /// The variant of a name as [`FeatureChoice::name`] spells it (`None` for an unknown name).
+    pub fn from_name(name: &str) -> Option<FeatureChoice> {
+        <FeatureChoice as clap::ValueEnum>::value_variants().iter().copied().find(|c| c.name() == name)
+    }
+
+    /// The RBF feature sets cross-validation may choose from.
+    pub fn feature_sets(self) -> Vec<FeatureSet> {
+        match self {
+            FeatureChoice::Memory => vec![FeatureSet::HysteresisAware],
+            FeatureChoice::Paper => vec![FeatureSet::Paper],
+            FeatureChoice::HysteresisAware | FeatureChoice::Latch => {
+                vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime]
+            }
+            FeatureChoice::All => FeatureSet::ALL.to_vec(),
+        }
+    }
+
+    /// Whether memory terms are on the menu.
+    pub fn memory(self) -> bool {
+        matches!(self, FeatureChoice::Memory | FeatureChoice::All)
+    }
+
+    /// Training options for this variant and a largest number of centres: the grid of
+    /// `train --features F --max-centres K`.
+    pub fn train_options(self, max_centres: usize) -> Result<TrainOptions, String> {
+        if max_centres == 0 || max_centres > HOST_CAP {
+            return Err(format!("max centres must be in 1..={HOST_CAP} (got {max_centres})"));
+        }
+        let mut o = TrainOptions::default().with_features(self.feature_sets());
+        if !self.memory() {
+            // Without memory terms the RBF residual carries the model: the grid goes to 32.
+            o.memory = MemoryOptions::off();
+            o.centres = vec![8, 16, 32];
+        }
+        o.centres.retain(|&k| k <= max_centres);
+        if o.centres.is_empty() {
+            o.centres.push(max_centres);
+        }
+        Ok(o)
+    }
+}
+
+/// As its name (a fleet group's `features` in `fleet --json`).
+impl serde::Serialize for FeatureChoice {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::ValueEnum;
+
+    #[test]
+    fn names_round_trip_and_match_clap() {
+        for c in FeatureChoice::value_variants() {
+            assert_eq!(FeatureChoice::from_name(c.name()), Some(*c));
+            assert_eq!(c.to_possible_value().map(|v| v.get_name().to_string()).as_deref(), Some(c.name()));
+        }
+        assert_eq!(FeatureChoice::from_name("magic"), None);
+        assert_eq!(FeatureChoice::default(), FeatureChoice::Memory);
+    }
+
+    #[test]
+    fn latch_is_hysteresis_aware() {
+        assert_eq!(FeatureChoice::Latch.feature_sets(), FeatureChoice::HysteresisAware.feature_sets());
+        assert_eq!(FeatureChoice::Latch.memory(), FeatureChoice::HysteresisAware.memory());
+    }
+
+    #[test]
+    fn max_centres_bounds() {
+        assert!(FeatureChoice::Memory.train_options(0).is_err());
+        assert!(FeatureChoice::Memory.train_options(HOST_CAP + 1).is_err());
+        assert_eq!(FeatureChoice::Paper.train_options(16).unwrap().centres, vec![8, 16]);
+        assert_eq!(FeatureChoice::Paper.train_options(4).unwrap().centres, vec![4]);
+    }
+}

@@ -1,0 +1,159 @@
+//! Accuracy: our models against the scikit-learn black boxes and the per-sample oracle on the
+//! `paper` and `harsh` presets, and the gain and band coverage of Model-H over 20 seeds.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+
+use super::report::{
+    Accuracy, Blackbox, Coverage, EnsembleBand, EnsembleChannel, Gain, ModelHDefault, ModelHPaper, ModelRun,
+    OracleFloor, PresetRun, SeedRun,
+};
+use super::runner::{read_json, FitBench, PeerBlackbox, Runner, SimMeta};
+use super::stats::median;
+use super::{holdout_errors_csv, preset_csv, COVERAGE_SEEDS};
+use fbg_shared::layout::N_OUTPUTS;
+
+/// Width of the lead-time bins of the ensemble band [s].
+const ENSEMBLE_BIN_S: f64 = 7200.0;
+
+impl SeedRun {
+    fn of(seed: u64, v: &FitBench, command: String) -> SeedRun {
+        SeedRun {
+            seed,
+            k: v.chosen.k,
+            coverage_h: v.model_h.coverage,
+            coverage_p: v.model_p.coverage,
+            rmse_h: v.model_h.rmse,
+            rmse_p: v.model_p.rmse,
+            command,
+        }
+    }
+}
+
+/// `bench-fit --select` on the coverage run of `preset` and `seed`, writing Model-H's hold-out
+/// errors for the ensemble band.
+fn coverage_run(r: &Runner, preset: &str, seed: u64) -> Result<(FitBench, String)> {
+    let csv = preset_csv(preset, seed);
+    let errs = holdout_errors_csv(preset, seed);
+    r.trainer(&["bench-fit", "--data", &csv, "--select", "--repeats", "1", "--json", "--holdout-errors", &errs])
+}
+
+pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
+    fs::create_dir_all(root.join("target/bench/holdout"))?;
+    let mut presets = Vec::new();
+    let mut coverage = Vec::new();
+    for preset in ["paper", "harsh"] {
+        let csv = preset_csv(preset, 7);
+        let (def, c_def) = coverage_run(r, preset, 7)?;
+        let (pap, c_pap): (FitBench, _) =
+            r.trainer(&["bench-fit", "--data", &csv, "--select", "--features", "paper", "--repeats", "1", "--json"])?;
+        let meta_path = csv.replace(".csv", ".meta.json");
+        let meta: SimMeta = read_json(&root.join(&meta_path))?;
+        let blackbox = if peer_ok {
+            let (bb, c_bb): (PeerBlackbox, _) = r.peer(&["blackbox", "--data", &csv])?;
+            Some(Blackbox { command: c_bb, peers: bb.peers })
+        } else {
+            None
+        };
+        if preset == "paper" {
+            coverage.push(SeedRun::of(7, &def, c_def.clone()));
+        }
+        presets.push(PresetRun {
+            preset: preset.into(),
+            seed: 7,
+            data: csv.clone(),
+            model_p: ModelRun { rmse: def.model_p.rmse, bytes: def.model_p.blob_bytes, command: c_def.clone() },
+            model_h_default: ModelHDefault {
+                run: ModelRun { rmse: def.model_h.rmse, bytes: def.model_h.blob_bytes, command: c_def },
+                chosen: def.chosen.clone(),
+                coverage: def.model_h.coverage,
+                parity: def.parity.clone(),
+            },
+            model_h_paper: ModelHPaper {
+                run: ModelRun { rmse: pap.model_h.rmse, bytes: pap.model_h.blob_bytes, command: c_pap },
+                chosen: pap.chosen.clone(),
+            },
+            oracle_floor: OracleFloor {
+                rmse: meta.oracle_floor_holdout,
+                source: format!("{meta_path} (written by the simulate command)"),
+            },
+            blackbox,
+        });
+    }
+    for &seed in &COVERAGE_SEEDS[1..] {
+        let (v, c) = coverage_run(r, "paper", seed)?;
+        coverage.push(SeedRun::of(seed, &v, c));
+    }
+    // Gain of Model-H over Model-P per seed and channel [%].
+    let gains: Vec<[f64; 3]> = coverage.iter().map(|s| std::array::from_fn(|c| s.gain_pct(c))).collect();
+    let mean_pct = std::array::from_fn(|c| gains.iter().map(|g| g[c]).sum::<f64>() / gains.len().max(1) as f64);
+    let min_pct = std::array::from_fn(|c| gains.iter().map(|g| g[c]).fold(f64::INFINITY, f64::min));
+    let seeds_all_channels_25 = gains.iter().filter(|g| g.iter().all(|&v| v >= 25.0)).count();
+    let per = |c: usize| -> Vec<f64> { coverage.iter().map(|s| s.coverage_h[c]).collect() };
+    let mean_h = std::array::from_fn(|c| per(c).iter().sum::<f64>() / coverage.len() as f64);
+    let median_h = std::array::from_fn(|c| median(&per(c)));
+    let seeds_within_95_pm_2 = std::array::from_fn(|c| per(c).iter().filter(|v| (*v - 0.95).abs() <= 0.02).count());
+    let files: Vec<PathBuf> = COVERAGE_SEEDS.iter().map(|&s| root.join(holdout_errors_csv("paper", s))).collect();
+    let ensemble_band = Some(ensemble_band_coverage(&files)?);
+    Ok(Accuracy {
+        presets,
+        coverage_paper: Coverage { per_seed: coverage, mean_h, median_h, seeds_within_95_pm_2, ensemble_band },
+        gain_paper: Gain { per_seed: gains, mean_pct, min_pct, seeds_all_channels_25 },
+    })
+}
+
+/// The reference for per-seed band coverage: a band that depends on the lead time alone, set to
+/// the 95 % quantile of |error| over *all* seeds' hold-outs in each 2-hour lead bin (it reads the
+/// hold-outs, so no model can have it). Its per-seed coverage shows how much of the seed-to-seed
+/// spread comes from the hold-out week itself (one drift path per seed) rather than from the
+/// band a model estimated from its own calibration batch.
+fn ensemble_band_coverage(files: &[PathBuf]) -> Result<EnsembleBand> {
+    // Per seed: (lead from the first hold-out sample [s], |error| per channel).
+    let mut runs: Vec<Vec<(f64, [f64; N_OUTPUTS])>> = Vec::new();
+    for f in files {
+        let text = fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
+        let mut rows = Vec::new();
+        for (n, line) in text.lines().enumerate().skip(1) {
+            let v: Vec<f64> = line
+                .split(',')
+                .map(str::parse)
+                .collect::<Result<_, _>>()
+                .with_context(|| format!("{}:{}: not a number", f.display(), n + 1))?;
+            if v.len() < 1 + N_OUTPUTS {
+                bail!("{}:{}: expected {} columns, found {}", f.display(), n + 1, 1 + 2 * N_OUTPUTS, v.len());
+            }
+            rows.push((v[0], std::array::from_fn(|c| v[1 + c].abs())));
+        }
+        let t0 = rows.first().map(|r| r.0).unwrap_or(0.0);
+        runs.push(rows.into_iter().map(|(t, e)| (t - t0, e)).collect());
+    }
+    let bin = |lead: f64| (lead / ENSEMBLE_BIN_S).max(0.0) as usize;
+    let n_bins = runs.iter().flatten().map(|r| bin(r.0) + 1).max().unwrap_or(0);
+    let mut per_channel = Vec::new();
+    for c in 0..N_OUTPUTS {
+        let mut pooled: Vec<Vec<f64>> = vec![Vec::new(); n_bins];
+        for r in runs.iter().flatten() {
+            pooled[bin(r.0)].push(r.1[c]);
+        }
+        let q95: Vec<f64> = pooled
+            .iter_mut()
+            .map(|v| {
+                v.sort_by(f64::total_cmp);
+                v.get(((v.len() as f64) * 0.95) as usize).or(v.last()).copied().unwrap_or(f64::INFINITY)
+            })
+            .collect();
+        let cov: Vec<f64> = runs
+            .iter()
+            .map(|run| run.iter().filter(|r| r.1[c] <= q95[bin(r.0)]).count() as f64 / run.len().max(1) as f64)
+            .collect();
+        per_channel.push(EnsembleChannel {
+            mean: cov.iter().sum::<f64>() / cov.len().max(1) as f64,
+            seeds_within_95_pm_2: cov.iter().filter(|v| (*v - 0.95).abs() <= 0.02).count(),
+            min: cov.iter().copied().fold(f64::INFINITY, f64::min),
+            per_seed: cov,
+        });
+    }
+    Ok(EnsembleBand { bin_seconds: ENSEMBLE_BIN_S, channels: per_channel })
+}

@@ -1,0 +1,104 @@
+//! The device part: instructions per step and the footprint under QEMU (`device_bench`), and
+//! the arithmetic lower bound counted from the code.
+
+use std::path::Path;
+
+use anyhow::Result;
+
+use fbg_shared::layout::{N_ENVELOPE, N_GRATINGS, N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use fbg_shared::{MemoryGroup, MemorySpec};
+
+use super::report::{DeviceResults, LowerBound, LowerBoundAtK};
+use super::runner::read_json;
+use super::Opts;
+use crate::device_bench;
+
+/// Run the device bench (or, with `--no-device`, reuse `target/bench/device.json`) and add the
+/// arithmetic lower bound.
+pub fn part(root: &Path, opts: &Opts) -> Result<DeviceResults> {
+    let path = root.join("target/bench/device.json");
+    if opts.no_device {
+        eprintln!("bench: --no-device: reusing {}", path.display());
+    } else {
+        device_bench::run(root)?;
+    }
+    let mut v: DeviceResults =
+        read_json(&path).map_err(|e| e.context(format!("{}: no device results", path.display())))?;
+    v.reused_existing_results = opts.no_device;
+    v.command = if opts.no_device {
+        "(earlier) cargo xtask bench"
+    } else {
+        "cargo xtask bench (device part: xtask/src/device_bench.rs)"
+    }
+    .to_string();
+    let full = memory_ops(&MemorySpec::<f32>::off(), true);
+    v.arithmetic_lower_bound = Some(LowerBound {
+        formula: format!(
+            "{} K + {} without memory terms; + {} with the full memory bank ({} terms), + M_ops in general",
+            step_ops(1, 0) - step_ops(0, 0),
+            step_ops(0, 0),
+            full,
+            N_MEMORY
+        ),
+        per_k: [16, 32, 64]
+            .map(|k| LowerBoundAtK { k, operations: step_ops(k, 0), operations_full_memory: step_ops(k, full) })
+            .to_vec(),
+        memory_full_bank: full,
+        source: "shared/src/lib.rs, `Cost of one step`; memory bank: xtask/src/bench/device.rs, `memory_ops`".into(),
+    });
+    Ok(v)
+}
+
+/// Arithmetic operations of the memory bank and of Γm in one f32 `Compensator::step` on a
+/// sample whose Δt equals the previous one (smoothing factors cached), counted from the code
+/// (`shared/src/memory/bank.rs`, `Compensator::add_memory`; a multiply-add counts as one), for
+/// the terms `spec` uses (every slot when `full`): Δt and the cache test 2; per high-pass of a
+/// grating or of T_amb 3 (x − s, the multiply-add s + α(x − s), x − s'); per stop term 5
+/// (x − r, x + r, 2 compares, x − p); the drift observer 9 (T_g: 4 multiply-adds over
+/// [Δλ1..3, T_amb, 1]; lag 2; − T_amb 1; smoothing 2); Γm one multiply-add per output and
+/// used term. 0 without memory terms. A step with a new Δt adds one smoothing factor per used
+/// low-pass (a degree-5 series, or `exp` and a subtraction).
+pub fn memory_ops(spec: &MemorySpec<f32>, full: bool) -> usize {
+    let mut ops = 0;
+    let mut used = 0;
+    for k in 0..N_MEMORY {
+        let Some(t) = spec.term(k) else { continue };
+        if !(full || t.parameter > 0.0) {
+            continue;
+        }
+        used += 1;
+        ops += match t.group {
+            MemoryGroup::GratingHighPass | MemoryGroup::AmbientHighPass => 3,
+            MemoryGroup::Stop => 5,
+            MemoryGroup::DriftObserver => 9,
+        };
+    }
+    if used == 0 {
+        return 0;
+    }
+    2 + ops + N_OUTPUTS * used
+}
+
+/// Arithmetic operations of one f32 `Compensator::step` with `k` centres and `memory` operations
+/// of the memory bank ([`memory_ops`]), counted from the current code (the table in the
+/// `fbg-shared` crate docs): a multiply-add counts as one.
+pub fn step_ops(k: usize, memory: usize) -> usize {
+    let exp_neg = 14; // compare, 9 multiply-adds, subtract, negate, 2 exponent-field ops
+                      // Distance over the inputs the default (hysteresis-aware) set uses: all but time.
+    let per_centre = (1 + Z_DIMS - 1) + exp_neg + (N_OUTPUTS + VAR_RANK + 1);
+    let fixed = (N_GRATINGS + 2) // finiteness
+        + N_GRATINGS * 10 // direction latches
+        + 2 * N_ENVELOPE // envelope
+        + N_OUTPUTS * (N_STAGE1 - 1) // stage 1
+        + 6 + N_OUTPUTS * N_POLY // φ and B
+        + 2 * Z_DIMS // z and ‖z‖²
+        + 4 + 1 + VAR_RANK // weak support from ‖ψ‖² (2 compares, 2 products), leverage
+        + N_OUTPUTS + 2 + 5 * N_OUTPUTS; // finiteness of y, lead time, bands
+    fixed + per_centre * k + memory
+}
+
+/// [`step_ops`] of a model blob (its centres and memory terms).
+pub fn step_ops_of(blob_bytes: &[u8]) -> Result<usize> {
+    let p = crate::fixtures::decode(blob_bytes)?;
+    Ok(step_ops(p.centres.len(), memory_ops(&p.memory, false)))
+}

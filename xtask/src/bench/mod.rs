@@ -1,0 +1,185 @@
+//! `cargo xtask bench`: every figure of DESIGN §8 and issue 7, written to `BENCHMARKS.md` and its
+//! twin `BENCHMARKS.json` at the top of the workspace.
+//!
+//! xtask itself runs in the dev profile, so nothing is timed in this process: it builds the
+//! release trainer and times its `bench-fit` command (each fit timed alone inside the process,
+//! the CSV read outside the clock), runs the scikit-learn peer (`bench/sklearn_peer.py`, in a
+//! venv under `target/bench/venv`) the same way, the criterion bench of `fbg-shared`, the
+//! `fleet` command, and the device bench (`device_bench::run`, QEMU). Every figure is a median
+//! of repeated runs, and every ratio compares runs taken side by side, alternating, in the same
+//! invocation. The exact command behind each figure is recorded next to it.
+//!
+//! `cargo xtask bench [--quick] [--no-device]`: `--quick` takes one round of one repeat (for
+//! trying the task out, not for publishing); `--no-device` reuses `target/bench/device.json`
+//! instead of running QEMU; `--markdown-only` renders BENCHMARKS.md again from BENCHMARKS.json
+//! and measures nothing.
+
+use std::fs;
+use std::path::Path;
+
+use anyhow::{bail, Result};
+
+use crate::{cargo, run, step};
+use report::{Device, Report};
+use runner::{strings, Runner};
+
+pub mod accuracy;
+pub mod device;
+pub mod fleet;
+pub mod inference;
+pub mod machine;
+pub mod markdown;
+pub mod report;
+pub mod runner;
+pub mod stats;
+pub mod training;
+
+/// Sizes of the fit-time scaling study and their sample interval over the 14 days of the
+/// `paper` clock.
+const SIZES: [(usize, f64); 3] = [(10_000, 120.96), (100_000, 12.096), (1_000_000, 1.2096)];
+/// Seeds of the band-coverage study (`paper` preset).
+const COVERAGE_SEEDS: [u64; 20] = [7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26];
+/// Groups of the fleet study.
+const FLEET_GROUPS: usize = 16;
+/// Samples per criterion iteration (`shared/benches/step.rs`).
+const STEP_BATCH: f64 = 1024.0;
+const TRAINER: &str = "target/release/fbg-trainer";
+const PEER: &str = "bench/sklearn_peer.py";
+const VENV_PY: &str = "target/bench/venv/bin/python";
+
+pub struct Opts {
+    quick: bool,
+    no_device: bool,
+}
+
+/// `cargo xtask bench`.
+pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
+    if args.iter().any(|a| a == "--markdown-only") {
+        if let Some(a) = args.iter().find(|a| *a != "--markdown-only") {
+            bail!("cargo xtask bench --markdown-only takes no other option (got `{a}`)");
+        }
+        return markdown_only(root);
+    }
+    let opts = Opts { quick: args.iter().any(|a| a == "--quick"), no_device: args.iter().any(|a| a == "--no-device") };
+    if let Some(a) = args.iter().find(|a| *a != "--quick" && *a != "--no-device") {
+        bail!("cargo xtask bench: unknown option `{a}` (--quick, --no-device, --markdown-only)");
+    }
+    let r = Runner { root: root.to_path_buf() };
+    let data_dir = root.join("target/bench/data");
+    fs::create_dir_all(&data_dir)?;
+    let t0 = std::time::Instant::now();
+    let load_start = machine::loadavg();
+
+    step("bench: device (QEMU)");
+    let device = device::part(root, &opts);
+
+    step("bench: release build of the trainer");
+    run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))?;
+
+    step("bench: scikit-learn peer environment");
+    let peer_env = runner::python_env(root, &r);
+    if let Err(e) = &peer_env {
+        eprintln!("bench: scikit-learn peer skipped: {e:#}");
+    }
+    let peer_ok = peer_env.is_ok();
+
+    step("bench: datasets");
+    let datasets = simulate_datasets(root, &r)?;
+
+    step("bench: host inference throughput (criterion)");
+    let inference_host = inference::part(root, &opts)?;
+
+    step("bench: host training, ours and the scikit-learn peer");
+    let training = training::part(root, &r, &opts, peer_ok)?;
+
+    step("bench: accuracy peers and band coverage");
+    let accuracy = accuracy::part(root, &r, peer_ok)?;
+
+    step("bench: fleet scaling");
+    let fleet = fleet::part(root, &r, &opts)?;
+
+    let load_end = machine::loadavg();
+    let report = Report {
+        generated_by: "cargo xtask bench".into(),
+        quick: opts.quick,
+        wall_seconds: t0.elapsed().as_secs_f64(),
+        machine: machine::machine(root, peer_env.as_ref().ok(), peer_env.as_ref().err(), load_start, load_end),
+        datasets,
+        training,
+        inference_host,
+        accuracy,
+        fleet,
+        device: match &device {
+            Ok(v) => Device::Measured(Box::new(v.clone())),
+            Err(e) => Device::Failed { error: format!("{e:#}") },
+        },
+    };
+    // Through a `Value`, whose maps are sorted: the keys come out in alphabetical order.
+    let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
+    crate::fixtures::write_atomic(&root.join("BENCHMARKS.json"), json.as_bytes())?;
+    crate::fixtures::write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
+    eprintln!("bench: wrote BENCHMARKS.md and BENCHMARKS.json in {:.0} s", t0.elapsed().as_secs_f64());
+    device.map(|_| ())
+}
+
+/// The datasets every part reads: the three sizes of the training study, the `paper` preset
+/// for every coverage seed and `harsh` for seed 7. The commands that made them.
+fn simulate_datasets(root: &Path, r: &Runner) -> Result<Vec<String>> {
+    let data_dir = root.join("target/bench/data");
+    let mut cmds = Vec::new();
+    for (n, dt) in SIZES {
+        let toml = data_dir.join(format!("n{n}.toml"));
+        fs::write(&toml, format!("# {n} samples over the 14 days of the paper clock\n[clock]\ndt_s = {dt}\n"))?;
+        let (_, c) = r.json(
+            TRAINER,
+            &strings(&["simulate", "--config", &rel(&toml, root), "--seed", "7", "--json", "--out", &data(n)]),
+            &[],
+        )?;
+        cmds.push(c);
+    }
+    for preset in ["paper", "harsh"] {
+        let seeds: &[u64] = if preset == "paper" { &COVERAGE_SEEDS } else { &[7] };
+        for &seed in seeds {
+            let args = [
+                "simulate",
+                "--preset",
+                preset,
+                "--seed",
+                &seed.to_string(),
+                "--json",
+                "--out",
+                &preset_csv(preset, seed),
+            ];
+            let (_, c) = r.json(TRAINER, &strings(&args), &[])?;
+            cmds.push(c);
+        }
+    }
+    Ok(cmds)
+}
+
+/// `cargo xtask bench --markdown-only`: BENCHMARKS.md again from BENCHMARKS.json, measuring
+/// nothing (after a change to the markdown writer).
+fn markdown_only(root: &Path) -> Result<()> {
+    let path = root.join("BENCHMARKS.json");
+    let report: Report = runner::read_json(&path)?;
+    crate::fixtures::write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
+    eprintln!("bench: wrote BENCHMARKS.md from BENCHMARKS.json");
+    Ok(())
+}
+
+fn data(n: usize) -> String {
+    format!("target/bench/data/n{n}.csv")
+}
+
+fn preset_csv(preset: &str, seed: u64) -> String {
+    format!("target/bench/data/{preset}-s{seed}.csv")
+}
+
+/// Model-H's per-sample hold-out errors and bands of one coverage run (`bench-fit --holdout-errors`).
+fn holdout_errors_csv(preset: &str, seed: u64) -> String {
+    format!("target/bench/holdout/{preset}-s{seed}.csv")
+}
+
+fn rel(p: &Path, root: &Path) -> String {
+    p.strip_prefix(root).unwrap_or(p).display().to_string()
+}

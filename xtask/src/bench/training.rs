@@ -1,0 +1,176 @@
+//! Host training time: our fit (fixed and with selection) against the scikit-learn peer at
+//! three dataset sizes, and `train` end to end.
+
+use std::fs;
+use std::path::Path;
+
+use anyhow::{bail, Result};
+
+use super::report::{
+    FitRun, FixedConfig, FixedDefault, FixedMemory, FixedPaper, GrowthExponent, OursFixed, OursSelect, PeerFixed,
+    PeerLatch, SizeRun, TrainEndToEnd, Training,
+};
+use super::runner::{strings, FitBench, PeerFit, Runner, TrainOut};
+use super::stats::{log_slope, median};
+use super::{data, rel, Opts, PEER, SIZES, VENV_PY};
+
+impl FitBench {
+    /// As a row of the training tables, with the command that printed it.
+    fn run(&self, command: String) -> FitRun {
+        FitRun {
+            command,
+            fit_seconds: self.fit_seconds.clone(),
+            median: self.fit_seconds_median,
+            rmse_p: self.model_p.rmse,
+            rmse_h: self.model_h.rmse,
+        }
+    }
+}
+
+impl PeerFit {
+    fn run(&self, command: String, fit_seconds: Vec<f64>) -> FitRun {
+        FitRun {
+            command,
+            median: median(&fit_seconds),
+            fit_seconds,
+            rmse_p: self.model_p.rmse,
+            rmse_h: self.model_h.rmse,
+        }
+    }
+}
+
+pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Training> {
+    let rounds = if opts.quick { 1 } else { 3 };
+    let mut sizes = Vec::new();
+    for (n, _) in SIZES {
+        let reps = if opts.quick {
+            1
+        } else if n >= 1_000_000 {
+            3
+        } else {
+            5
+        };
+        let reps_s = reps.to_string();
+        let csv = data(n);
+        let fixed = |fs: &str| {
+            strings(&["bench-fit", "--data", &csv, "--fixed", "--feature-set", fs, "--repeats", &reps_s, "--json"])
+        };
+        let peer = |fs: &str| strings(&[PEER, "fit", "--data", &csv, "--features", fs, "--repeats", &reps_s]);
+        let notebook =
+            strings(&[PEER, "fit", "--data", &csv, "--features", "paper", "--kmeans", "all", "--repeats", &reps_s]);
+        // Like with like: the paper feature set (pure scikit-learn on the peer's side), fixed
+        // hyper-parameters on both sides, alternating ours / the notebook pipeline / the
+        // pipeline with our k-means subsample in each round.
+        let mut ours_p = Vec::new();
+        let mut ours_phases = Vec::new();
+        let mut peer_p = Vec::new();
+        let mut nb_p = Vec::new();
+        let mut ratios = Vec::new();
+        let mut nb_ratios = Vec::new();
+        let (mut cmd_ours, mut cmd_peer, mut cmd_nb) = (String::new(), String::new(), String::new());
+        let (mut last_ours, mut last_peer, mut last_nb) = (None, None, None);
+        for _ in 0..rounds {
+            let (o, c): (FitBench, _) = r.typed(super::TRAINER, &fixed("paper"))?;
+            cmd_ours = c;
+            let mo = o.fit_seconds_median;
+            ours_p.extend(o.fit_seconds.iter().copied());
+            ours_phases.push(o.phase_seconds.clone());
+            last_ours = Some(o);
+            if peer_ok {
+                let (p, c): (PeerFit, _) = r.typed(VENV_PY, &notebook)?;
+                cmd_nb = c;
+                nb_ratios.push(p.fit_seconds_median / mo);
+                nb_p.extend(p.fit_seconds.iter().copied());
+                last_nb = Some(p);
+                let (p, c): (PeerFit, _) = r.typed(VENV_PY, &peer("paper"))?;
+                cmd_peer = c;
+                ratios.push(p.fit_seconds_median / mo);
+                peer_p.extend(p.fit_seconds.iter().copied());
+                last_peer = Some(p);
+            }
+        }
+        let Some(last_ours) = last_ours else { bail!("bench: no training round ran") };
+        // The default (hysteresis-aware) features: the peer computes the same latches with a
+        // Python loop before its clock starts.
+        let (oh, cmd_oh): (FitBench, _) = r.typed(super::TRAINER, &fixed("hysteresis-aware"))?;
+        let ph: Option<(PeerFit, String)> =
+            if peer_ok { Some(r.typed(VENV_PY, &peer("hysteresis-aware"))?) } else { None };
+        let (sel, cmd_sel): (FitBench, _) =
+            r.trainer(&["bench-fit", "--data", &csv, "--select", "--repeats", &reps_s, "--json"])?;
+        // The default model's own terms: memory terms (cross-validated menu) fitted with the core.
+        // The scikit-learn peer has no memory terms, so this is timed without a peer.
+        let mut with_memory = fixed("hysteresis-aware");
+        with_memory.push("--memory".into());
+        let (om, cmd_om): (FitBench, _) = r.typed(super::TRAINER, &with_memory)?;
+        // What a user waits for: `train` end to end (read the CSV, select, fit, write the blobs
+        // and the coefficients), wall clock, once per size.
+        let train_dir = root.join("target/bench/train");
+        fs::create_dir_all(&train_dir)?;
+        let model = rel(&train_dir.join(format!("n{n}.fbgm")), root);
+        let t = std::time::Instant::now();
+        let (tj, cmd_train): (TrainOut, _) = r.trainer(&["train", "--data", &csv, "--out", &model, "--json"])?;
+        let train_wall = t.elapsed().as_secs_f64();
+        let csv_bytes = fs::metadata(root.join(&csv)).map(|m| m.len()).unwrap_or(0);
+        let read_s = last_ours.read_seconds;
+        sizes.push(SizeRun {
+            n_samples: n,
+            n_cal: last_ours.n_cal,
+            repeats_per_process: reps,
+            rounds,
+            train_end_to_end: Some(TrainEndToEnd {
+                command: cmd_train,
+                wall_seconds: train_wall,
+                fit_seconds: tj.train_seconds,
+                csv_bytes,
+                csv_read_seconds: read_s,
+                csv_read_mb_per_s: csv_bytes as f64 / 1e6 / read_s,
+            }),
+            fixed_memory: FixedMemory { fit: om.run(cmd_om), phase_seconds: om.phase_seconds.clone() },
+            ours_select: OursSelect { fit: sel.run(cmd_sel), chosen: sel.chosen.clone(), grid_points: sel.grid_points },
+            fixed_paper: FixedPaper {
+                ours: OursFixed {
+                    fit: FitRun { median: median(&ours_p), fit_seconds: ours_p, ..last_ours.run(cmd_ours) },
+                    blob_bytes: last_ours.model_h.blob_bytes,
+                    read_seconds: last_ours.read_seconds,
+                    threads: last_ours.threads,
+                },
+                ours_phases_per_round: ours_phases,
+                peer: last_peer
+                    .map(|p| PeerFixed { pickle_bytes: p.model_h.pickle_bytes, fit: p.run(cmd_peer, peer_p) }),
+                ratio_median: median(&ratios),
+                ratio_per_round: ratios,
+                notebook: last_nb.map(|p| p.run(cmd_nb, nb_p)),
+                notebook_ratio_median: median(&nb_ratios),
+                notebook_ratio_per_round: nb_ratios,
+            },
+            fixed_default: FixedDefault {
+                ratio: ph.as_ref().map_or(f64::NAN, |(p, _)| p.fit_seconds_median / oh.fit_seconds_median),
+                ours: oh.run(cmd_oh),
+                peer: ph.map(|(p, c)| PeerLatch {
+                    latch_seconds: p.latch_seconds,
+                    fit: FitRun { median: p.fit_seconds_median, ..p.run(c, p.fit_seconds.clone()) },
+                }),
+            },
+        });
+    }
+    let ns: Vec<f64> = SIZES.iter().map(|(n, _)| *n as f64).collect();
+    let slope = |time: &dyn Fn(&SizeRun) -> f64| {
+        let t: Vec<f64> = sizes.iter().map(time).collect();
+        if t.iter().all(|v| v.is_finite() && *v > 0.0) {
+            log_slope(&ns, &t)
+        } else {
+            f64::NAN
+        }
+    };
+    let growth_exponent = GrowthExponent {
+        ours_select: slope(&|s| s.ours_select.fit.median),
+        ours_fixed_paper: slope(&|s| s.fixed_paper.ours.fit.median),
+        peer_fixed_paper: slope(&|s| s.fixed_paper.peer.as_ref().map_or(f64::NAN, |p| p.fit.median)),
+        notebook_fixed_paper: slope(&|s| s.fixed_paper.notebook.as_ref().map_or(f64::NAN, |p| p.median)),
+    };
+    Ok(Training {
+        fixed_config: FixedConfig { k: 32, sigma_mult: 2.0, alpha_rel: 1e-5, dead_band_pm: 4.0, kmeans_seed: 1 },
+        sizes,
+        growth_exponent,
+    })
+}
