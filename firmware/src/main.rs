@@ -3,7 +3,6 @@
 
 #![no_std]
 #![no_main]
-#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use cortex_m_rt::entry;
 use fbg_firmware::led::FpgaioLed;

@@ -58,7 +58,7 @@ pub fn inputs_bytes(samples: &[Sample<f32>]) -> Vec<u8> {
 
 /// Golden inputs from bytes (a whole number of samples).
 pub fn parse_inputs(bytes: &[u8]) -> Result<Vec<Sample<f32>>, FormatError> {
-    if bytes.len() % SAMPLE_BYTES != 0 {
+    if !bytes.len().is_multiple_of(SAMPLE_BYTES) {
         return Err(FormatError {
             line: 0,
             message: format!("{} bytes is not a whole number of {SAMPLE_BYTES}-byte samples", bytes.len()),

@@ -13,6 +13,10 @@
 //! regular 60-s clock (smoothing factors cached), id `32-irregular-dt` with a different Δt on
 //! every sample (12 smoothing factors recomputed per step), the memory's worst case.
 
+// A bench crate: the panicking shorthand is fine here, and criterion's macros generate public
+// functions without docs.
+#![allow(missing_docs, clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};

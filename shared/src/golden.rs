@@ -121,7 +121,6 @@ pub fn record_lengths(blob_len: usize, n_samples: usize) -> ([u8; 4], [u8; 4]) {
 }
 
 #[cfg(test)]
-#[allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
 mod tests {
     use super::*;
 

@@ -1,6 +1,10 @@
 //! Host tests of the compensator's behaviour: flags, band widening, stream state, feature
 //! sets, and f32/f64 agreement.
 
+// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
+// the helpers around them.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+
 use fbg_shared::layout::Z95;
 use fbg_shared::{Compensator, Estimate, FeatureSet, Flags, ModelParams, Sample};
 use fbg_testkit::models::{encode_vec, long_provenance, model, short_provenance};
@@ -711,7 +715,8 @@ fn validate_refuses_bad_memory_parameters() {
     let good = memory_params(4, 37, FeatureSet::HysteresisAware);
     assert!(good.memory.term_active(MEM_FIRST_ACTIVE));
     assert_eq!(good.validate(), Ok(()));
-    let cases: [(&str, fn(&mut ModelParams<f32, K>)); 7] = [
+    type Edit = fn(&mut ModelParams<f32, K>);
+    let cases: [(&str, Edit); 7] = [
         ("gamma", |p| p.gamma[1][0] = 0.5), // τ slot 0 is unused
         ("gamma", |p| p.gamma[2][fbg_shared::layout::MEM_OBSERVER - 1] = -1e-30), // play slot 2 unused
         ("gamma", |p| {

@@ -42,7 +42,7 @@ pub fn simulate(i: usize, rng: &mut Rng) -> Sample<f32> {
     let x = i as f64;
     let tau = std::f64::consts::TAU;
     let t = T0 + 4.0 * (tau * x / 300.0).sin() + 1.0 * (tau * x / 47.0).sin();
-    let e = 100.0 * (tau * x / 170.0).sin() + if (i / 90) % 2 == 0 { 30.0 } else { -30.0 };
+    let e = 100.0 * (tau * x / 170.0).sin() + if (i / 90).is_multiple_of(2) { 30.0 } else { -30.0 };
     let p = P0 + 20.0 * (tau * x / 230.0).sin();
     let q = [t - T0, e, p - P0];
     let mut dl = [0.0f64; 3];

@@ -44,17 +44,17 @@ fn device_f32_path_matches_trainer_f64_within_one_percent_of_rmse() {
         if !b.flags.is_ok() {
             flagged += 1;
         }
-        for c in 0..3 {
-            max_diff[c] = max_diff[c].max((f64::from(a.values[c]) - b.values[c]).abs());
+        for (c, worst) in max_diff.iter_mut().enumerate() {
+            *worst = worst.max((f64::from(a.values[c]) - b.values[c]).abs());
             let rel = (f64::from(a.band95[c]) - b.band95[c]).abs() / b.band95[c];
             assert!(rel < 1e-3, "sample {i} channel {c}: band {} vs {}", a.band95[c], b.band95[c]);
         }
     }
     assert_eq!(n, 10_080);
     assert_eq!(flags_differ, 0, "flags must be identical ({flagged} flagged samples)");
-    for c in 0..3 {
+    for (c, worst) in max_diff.iter().enumerate() {
         let limit = 0.01 * eh.channels[c].rmse;
-        assert!(max_diff[c] <= limit, "channel {c}: max |f32 − f64| = {} > 1 % of RMSE ({limit})", max_diff[c]);
+        assert!(*worst <= limit, "channel {c}: max |f32 − f64| = {worst} > 1 % of RMSE ({limit})");
     }
 }
 

@@ -64,8 +64,16 @@ pub fn run_all(root: &Path) -> Result<()> {
     crate::run(
         crate::firmware_cargo()
             .current_dir(&fw)
-            .args(["clippy", "--release", "--locked", "--bins", "--", "-D", "warnings"])
+            .args(["clippy", "--workspace", "--release", "--locked", "--", "-D", "warnings"])
             .envs(build_env(PRODUCT_K, &fx, None)),
+    )?;
+    // The device logic's host tests too (every target of the app crate).
+    crate::run(
+        crate::firmware_cargo()
+            .current_dir(&fw)
+            .args(["clippy", "-p", "fbg-firmware-app", "--all-targets", "--locked", "--target", &host_triple()?])
+            .args(["--", "-D", "warnings"])
+            .env("FBG_TEST_MODEL", &fx.model),
     )?;
 
     let started = Instant::now();

@@ -1,8 +1,6 @@
 //! Host tests of the device logic: the same code as on the Cortex-M4F, driven through in-memory
 //! streams, the real host link client and a recording alarm pin.
 
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 extern crate std;
 
 use std::collections::VecDeque;

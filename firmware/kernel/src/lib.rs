@@ -12,8 +12,6 @@
 //! this very code.
 
 #![no_std]
-#![deny(missing_docs)]
-#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use fbg_firmware_app::Kernel;
 use fbg_shared::{Compensator, Estimate, Sample};

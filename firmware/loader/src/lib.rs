@@ -5,8 +5,6 @@
 //! matter, not their speed. `fbg-firmware-kernel` hands them to the application with the step.
 
 #![no_std]
-#![deny(missing_docs)]
-#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use fbg_shared::{blob, Compensator, Error, ModelParams};
 

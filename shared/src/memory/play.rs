@@ -60,7 +60,6 @@ impl<F: Real> Play<F> {
 }
 
 #[cfg(test)]
-#[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 mod tests {
     use super::*;
     use fbg_testkit::Rng;

@@ -167,7 +167,6 @@ impl<F: Real> MemorySpec<F> {
 }
 
 #[cfg(test)]
-#[allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 mod tests {
     use super::*;
 
@@ -233,7 +232,8 @@ mod tests {
     fn validate_names_each_bad_field() {
         assert_eq!(spec().validate(), Ok(()));
         assert_eq!(MemorySpec::<f32>::off().validate(), Ok(()));
-        let cases: [(&str, fn(&mut MemorySpec<f64>)); 10] = [
+        type Edit = fn(&mut MemorySpec<f64>);
+        let cases: [(&str, Edit); 10] = [
             ("memory.grating_tau_s", |s| s.grating_tau_s[1] = -1.0),
             ("memory.grating_tau_s", |s| s.grating_tau_s[5] = f64::INFINITY),
             ("memory.ambient_tau_s", |s| s.ambient_tau_s[3] = f64::NAN),

@@ -203,7 +203,6 @@ pub fn decode_frame<'de, T: Deserialize<'de>>(frame: &'de mut [u8]) -> Result<T,
 }
 
 #[cfg(test)]
-#[allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
 mod tests {
     extern crate std;
     use std::vec::Vec;
@@ -411,7 +410,7 @@ mod tests {
             x ^= x << 13;
             x ^= x >> 17;
             x ^= x << 5;
-            soup.push(if x % 29 == 0 { 0 } else { (x >> 8) as u8 });
+            soup.push(if x.is_multiple_of(29) { 0 } else { (x >> 8) as u8 });
         }
         soup.push(0);
         soup.extend(frame_device(&DeviceMsg::Pong { nonce: 5 }));

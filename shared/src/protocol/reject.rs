@@ -158,7 +158,6 @@ fn sat_u32(v: usize) -> u32 {
 }
 
 #[cfg(test)]
-#[allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
 mod tests {
     extern crate std;
     use std::vec::Vec;
