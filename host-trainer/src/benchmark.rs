@@ -37,7 +37,7 @@ pub const DEFAULT_FIXED: Config = Config {
 pub struct HoldoutFigures {
     pub rmse: [f64; N_OUTPUTS],
     pub coverage: [f64; N_OUTPUTS],
-    /// Size of the exported `.fbgm` blob [B].
+    /// Size of the exported `.fbgm` blob \[B\].
     pub blob_bytes: usize,
 }
 
@@ -62,7 +62,7 @@ pub struct FitBench {
     /// Seconds of each fit, in run order.
     pub fit_seconds: Vec<f64>,
     pub fit_seconds_median: f64,
-    /// Median wall time of each phase of the fit [s], in order.
+    /// Median wall time of each phase of the fit \[s\], in order.
     pub phase_seconds: Vec<(String, f64)>,
     pub chosen: Config,
     pub grid_points: usize,
@@ -179,7 +179,7 @@ pub struct BenchFitArgs {
     /// With --fixed: ridge penalty per calibration sample (α = alpha_rel · n).
     #[arg(long, default_value_t = DEFAULT_FIXED.alpha_rel)]
     pub alpha_rel: f64,
-    /// With --fixed: direction-latch dead band [pm].
+    /// With --fixed: direction-latch dead band \[pm\].
     #[arg(long, default_value_t = DEFAULT_FIXED.dead_band_pm)]
     pub dead_band_pm: f64,
     /// Worker threads (0: one per core).

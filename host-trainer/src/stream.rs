@@ -82,7 +82,7 @@ pub struct StreamReport {
     pub tolerance: [f64; N_OUTPUTS],
     /// The first few mismatches, described.
     pub first_mismatches: Vec<String>,
-    /// Wall time of the stream [s].
+    /// Wall time of the stream \[s\].
     pub seconds: f64,
 }
 

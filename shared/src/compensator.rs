@@ -23,11 +23,11 @@ use crate::real::Real;
 /// One measured sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Sample<F> {
-    /// Measured wavelength shifts Δλ1..3 [pm].
+    /// Measured wavelength shifts Δλ1..3 \[pm\].
     pub dl_pm: [F; N_GRATINGS],
     /// Ambient reference temperature T_amb [°C].
     pub t_amb_c: F,
-    /// Time on the calibration clock [s] (used by feature sets with time and by a band that
+    /// Time on the calibration clock \[s\] (used by feature sets with time and by a band that
     /// grows after calibration).
     pub t_s: F,
 }
@@ -58,7 +58,7 @@ impl<F: Real> Sample<F> {
 /// One compensated estimate.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Estimate<F> {
-    /// T [°C], ε [µε], p [kPa].
+    /// T [°C], ε \[µε\], p \[kPa\].
     pub values: [F; N_OUTPUTS],
     /// Half-width of the 95 % band, same units (infinite for non-finite input).
     pub band95: [F; N_OUTPUTS],

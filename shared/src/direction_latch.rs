@@ -17,7 +17,7 @@ use crate::real::Real;
 /// Ticks per picometre of the latch arithmetic.
 pub const TICKS_PER_PM: f64 = 1024.0;
 
-/// A wavelength shift [pm] in latch ticks (1/1024 pm), rounded to nearest and saturating at
+/// A wavelength shift \[pm\] in latch ticks (1/1024 pm), rounded to nearest and saturating at
 /// ±2³¹ ticks (±2 µm); NaN gives 0 (callers screen non-finite input first).
 #[inline]
 pub fn ticks<F: Real>(pm: F) -> i32 {
@@ -101,7 +101,7 @@ impl LatchBank {
     pub const fn new() -> Self {
         LatchBank { latches: [DirectionLatch::new(); N_GRATINGS] }
     }
-    /// Feed one sample's shifts [pm] and return the three latch values; `dead_band` in
+    /// Feed one sample's shifts \[pm\] and return the three latch values; `dead_band` in
     /// [`ticks`].
     #[inline]
     pub fn update<F: Real>(&mut self, dl_pm: &[F; N_GRATINGS], dead_band: i32) -> [F; N_GRATINGS] {

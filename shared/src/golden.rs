@@ -1,8 +1,8 @@
 //! Golden vectors: the byte layout of the samples a device is tested with, and of the packs
 //! (models with their samples) that the test images embed.
 //!
-//! A sample is [`SAMPLE_BYTES`] bytes, five little-endian f32: Δλ1, Δλ2, Δλ3 [pm], T_amb [°C],
-//! t [s] (the trainer's `golden_inputs.bin` is a run of them). A pack is a run of records, each
+//! A sample is [`SAMPLE_BYTES`] bytes, five little-endian f32: Δλ1, Δλ2, Δλ3 \[pm\], T_amb [°C],
+//! t \[s\] (the trainer's `golden_inputs.bin` is a run of them). A pack is a run of records, each
 //! a u32 LE blob length, the blob, a u32 LE sample count and the samples. The host side (files,
 //! the expected answers) is `fbg-link`'s `golden` module; the device reads packs with
 //! [`records`].

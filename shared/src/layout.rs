@@ -5,15 +5,15 @@
 
 /// Gratings (wavelength inputs) per sensor group.
 pub const N_GRATINGS: usize = 3;
-/// Outputs: temperature [°C], strain [µε], pressure [kPa], in that order.
+/// Outputs: temperature [°C], strain \[µε\], pressure \[kPa\], in that order.
 pub const N_OUTPUTS: usize = 3;
-/// Raw inputs per sample: Δλ1..3 [pm], T_amb [°C], t [s].
+/// Raw inputs per sample: Δλ1..3 \[pm\], T_amb [°C], t \[s\].
 pub const N_INPUTS: usize = 5;
-/// Stage-1 regressors: Δλ1..3 [pm], T_amb [°C], 1.
+/// Stage-1 regressors: Δλ1..3 \[pm\], T_amb [°C], 1.
 pub const N_STAGE1: usize = 5;
 /// Polynomial terms of paper Eq. 3: [1, T, ε, p, T², ε², p², Tε, Tp, εp].
 pub const N_POLY: usize = 10;
-/// Inputs checked against the calibration envelope: Δλ1..3 [pm], T_amb [°C] (time always
+/// Inputs checked against the calibration envelope: Δλ1..3 \[pm\], T_amb [°C] (time always
 /// extrapolates, so it is never checked).
 pub const N_ENVELOPE: usize = 4;
 /// RBF input layout: [Δλ1, Δλ2, Δλ3, T_amb, t, latch1, latch2, latch3]. Dimensions the

@@ -22,7 +22,7 @@ pub struct Hyper<F> {
     pub sigma: F,
     /// Ridge penalty α of Eq. 7.
     pub alpha: F,
-    /// Direction-latch dead band [pm].
+    /// Direction-latch dead band \[pm\].
     pub dead_band_pm: F,
     /// Weak-support threshold on max_j ψ_j (0..1).
     pub weak_support: F,
@@ -38,7 +38,7 @@ pub struct Hyper<F> {
 pub struct Centre<F> {
     /// Position μ_j in standardised z units (0 on dimensions the feature set does not use).
     pub mu: [F; Z_DIMS],
-    /// Residual weights W[:, j] for T [°C], ε [µε], p [kPa].
+    /// Residual weights W[:, j] for T [°C], ε \[µε\], p \[kPa\].
     pub w: [F; N_OUTPUTS],
     /// Component j of the `VAR_RANK` eigenvectors of `ΨᵀΨ + αI` with the smallest eigenvalues.
     pub v: [F; VAR_RANK],
@@ -119,13 +119,13 @@ pub struct ModelParams<F, const K: usize> {
     /// kPa²/s), fitted on the cross-validation residuals against their lead time: drift is a
     /// random walk, so the error variance grows linearly with time since calibration.
     pub resid_var_growth: [F; N_OUTPUTS],
-    /// End of the calibration batch on the sample clock `t_s` [s].
+    /// End of the calibration batch on the sample clock `t_s` \[s\].
     pub t_cal_end_s: F,
     /// Band multiplier per output: the 95 % quantile of |error| / s(τ) over the
     /// cross-validation residuals (1.96 for Gaussian errors; calibrated because hysteresis makes
     /// the errors far from Gaussian).
     pub band_k: [F; N_OUTPUTS],
-    /// Lower envelope bound per input Δλ1..3 [pm], T_amb [°C], margin included.
+    /// Lower envelope bound per input Δλ1..3 \[pm\], T_amb [°C], margin included.
     pub envelope_lo: [F; N_ENVELOPE],
     /// Upper envelope bound, margin included.
     pub envelope_hi: [F; N_ENVELOPE],

@@ -61,7 +61,7 @@ pub fn samples(n: usize, seed: u64) -> Vec<Sample<f32>> {
     (0..n).map(|i| simulate(i, &mut rng)).collect()
 }
 
-/// Time stamps of a realistic acquisition [s] from `t0`: 60 s steps, with irregular ones mixed
+/// Time stamps of a realistic acquisition \[s\] from `t0`: 60 s steps, with irregular ones mixed
 /// in (every 7th step 60.5 s, every 53rd 23 s, every 89th 131 s, every 211th a repeated time
 /// stamp) and one 5 h gap at 3/5 of the stream. The memory bank recomputes its smoothing
 /// factors on every Δt change and holds its low-passes on a repeated stamp.

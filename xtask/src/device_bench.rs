@@ -47,13 +47,13 @@ pub const TARGET_BLOB: u64 = 4 * 1024;
 pub struct SizeReport {
     /// ELF sections.
     pub footprint: Footprint,
-    /// Stack peak during boot (embedded model decoded and folded) [B].
+    /// Stack peak during boot (embedded model decoded and folded) \[B\].
     pub stack_boot: u32,
-    /// Stack peak while serving samples, status and pings (painted again after boot) [B].
+    /// Stack peak while serving samples, status and pings (painted again after boot) \[B\].
     pub stack_serving: u32,
-    /// Stack peak once a model update went through the link (includes serving) [B].
+    /// Stack peak once a model update went through the link (includes serving) \[B\].
     pub stack_update: u32,
-    /// Size of the embedded default blob [B].
+    /// Size of the embedded default blob \[B\].
     pub blob_bytes: u64,
 }
 
@@ -76,9 +76,9 @@ pub struct StepBench {
     pub per_run: Vec<(u32, f64)>,
     /// Instructions per step when every step has a new Δt (mode `jitter`).
     pub insns_per_step_jitter: f64,
-    /// Stack peak of the bench image [B] (all its models).
+    /// Stack peak of the bench image \[B\] (all its models).
     pub stack_peak: u32,
-    /// Blob size of the bench model [B].
+    /// Blob size of the bench model \[B\].
     pub blob_bytes: u64,
     /// Arithmetic operations of one step of this model (`bench::device::step_ops_of`).
     pub lower_bound_ops: usize,
@@ -88,7 +88,7 @@ pub struct StepBench {
     pub model_source: &'static str,
 }
 
-/// Sizes of the device's types [B], from the bench image (`size_of` on the target).
+/// Sizes of the device's types \[B\], from the bench image (`size_of` on the target).
 #[derive(Clone, Debug, Default)]
 pub struct TypeSizes {
     /// Capacity they were measured at.

@@ -167,7 +167,7 @@ fn check_msrv(meta: &Value, toolchain: Version, what: &str) -> Result<()> {
             if !seen.insert(id) {
                 continue;
             }
-            if let Some(p) = by_id.get(id) {
+            if let Some(p) = by_id.get(id).filter(|_| id != member) {
                 if let Some(v) = p["rust_version"].as_str().and_then(parse_version) {
                     if needs.as_ref().is_none_or(|n| v > n.0) {
                         needs = Some((

@@ -49,17 +49,17 @@ impl Split {
 /// Column-oriented samples.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Dataset {
-    /// Time since the start [s].
+    /// Time since the start \[s\].
     pub t_s: Vec<f64>,
     /// Reference temperature [°C].
     pub temp_c: Vec<f64>,
-    /// Reference strain [µε].
+    /// Reference strain \[µε\].
     pub strain_ue: Vec<f64>,
-    /// Reference pressure [kPa].
+    /// Reference pressure \[kPa\].
     pub p_kpa: Vec<f64>,
     /// Ambient thermometer reading [°C].
     pub t_amb_c: Vec<f64>,
-    /// Measured wavelength shifts [pm].
+    /// Measured wavelength shifts \[pm\].
     pub dl_pm: [Vec<f64>; 3],
     pub split: Vec<Split>,
     /// Which references (T, ε, p) the data carry; absent ones are NaN throughout.

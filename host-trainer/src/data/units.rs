@@ -4,9 +4,9 @@
 
 use serde::Deserialize;
 
-/// Plausible absolute FBG wavelengths [nm].
+/// Plausible absolute FBG wavelengths \[nm\].
 pub const NM_RANGE: (f64, f64) = (400.0, 2000.0);
-/// Largest plausible shift [pm]: 10 nm is beyond any grating's range in a WDM layout.
+/// Largest plausible shift \[pm\]: 10 nm is beyond any grating's range in a WDM layout.
 pub const MAX_SHIFT_PM: f64 = 10_000.0;
 /// Plausible interrogator ambient temperatures [°C].
 pub const AMBIENT_RANGE_C: (f64, f64) = (-80.0, 200.0);
@@ -15,13 +15,13 @@ pub const AMBIENT_RANGE_C: (f64, f64) = (-80.0, 200.0);
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum WlUnit {
-    /// Absolute wavelength [nm].
+    /// Absolute wavelength \[nm\].
     Nm,
-    /// Absolute wavelength [pm].
+    /// Absolute wavelength \[pm\].
     Pm,
-    /// Shift from the reference condition [pm].
+    /// Shift from the reference condition \[pm\].
     ShiftPm,
-    /// Shift from the reference condition [nm].
+    /// Shift from the reference condition \[nm\].
     ShiftNm,
 }
 

@@ -78,7 +78,7 @@ pub struct Metrics {
     pub parity: Option<ParityReport>,
     /// Field recalibration after the installation changes (short batches vs a full refit).
     pub recalibration: Option<Vec<RecalStudy>>,
-    /// Wall time of each stage [s] (informational; speed is measured by `cargo xtask bench`).
+    /// Wall time of each stage \[s\] (informational; speed is measured by `cargo xtask bench`).
     pub timings_s: Vec<(String, f64)>,
 }
 

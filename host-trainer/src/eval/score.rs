@@ -13,7 +13,7 @@ pub use fbg_shared::layout::{CHANNELS, UNITS};
 /// The grating designed for each output (T ← FBG2, ε ← FBG1, p ← FBG3), used to tell rising
 /// from falling segments for the hysteresis index.
 pub const DOMINANT_GRATING: [usize; N_OUTPUTS] = [1, 0, 2];
-/// Dead band of the direction detector of the hysteresis index [pm].
+/// Dead band of the direction detector of the hysteresis index \[pm\].
 pub const HYSTERESIS_INDEX_DEAD_BAND_PM: f64 = 4.0;
 
 /// Error statistics of one output.

@@ -266,7 +266,7 @@ impl Studies {
         Studies { drift_sweep: false, ablation: false, error_budget: false, parity: false, recalibration: false };
 }
 
-/// Batch lengths of the recalibration study [h].
+/// Batch lengths of the recalibration study \[h\].
 pub const RECAL_BATCH_HOURS: [f64; 2] = [2.0, 24.0];
 /// The changed installation of the recalibration study uses this seed offset.
 pub const RECAL_SEED_OFFSET: u64 = 1;

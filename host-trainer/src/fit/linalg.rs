@@ -14,7 +14,7 @@ const TSQR_BLOCK: usize = 8192;
 /// so that a rank-deficient design is reported rather than silently amplified.
 /// Returns B (p × m).
 ///
-/// Tall systems are factored as a tall-skinny QR: each block of [`TSQR_BLOCK`] rows of the
+/// Tall systems are factored as a tall-skinny QR: each block of `TSQR_BLOCK` rows of the
 /// augmented [X | Y] is reduced to its triangular factor in parallel, and the stacked factors
 /// are reduced once more. That is a Householder QR of the whole system (R and QᵀY are the same
 /// up to the signs of R's rows), with fixed blocks so the result does not depend on the number

@@ -47,7 +47,7 @@ pub const KMEANS_MAX_POINTS: usize = 20_000;
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Config {
     pub feature_set: FeatureSet,
-    /// Direction-latch dead band [pm] (irrelevant for the `paper` set).
+    /// Direction-latch dead band \[pm\] (irrelevant for the `paper` set).
     pub dead_band_pm: f64,
     /// RBF centres K.
     pub k: usize,
@@ -393,7 +393,7 @@ pub struct Trained {
     pub model_h: HostParams,
     pub core: PolyCore,
     pub selection: Selection,
-    /// Wall time of each phase of the fit [s], in order (empty when not fitted here).
+    /// Wall time of each phase of the fit \[s\], in order (empty when not fitted here).
     pub phase_seconds: Vec<(&'static str, f64)>,
 }
 

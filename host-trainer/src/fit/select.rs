@@ -117,7 +117,7 @@ pub struct CvRow {
 /// Residual variance as a function of lead time after the end of training.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct VarModel {
-    /// Variance at lead 0 [unit²].
+    /// Variance at lead 0 \[unit²\].
     pub a: f64,
     /// Growth [unit²/s].
     pub b: f64,

@@ -374,7 +374,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, segm
 }
 
 impl Grid {
-    /// Draw the figure on any backend (`segmented` for bitmaps, see [`draw_panel`]).
+    /// Draw the figure on any backend (`segmented` for bitmaps, see `draw_panel`).
     pub fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, segmented: bool) -> Result<(), String> {
         root.fill(&WHITE).map_err(pe)?;
         let (top, body) = root.split_vertically(78);

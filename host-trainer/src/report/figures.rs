@@ -12,7 +12,7 @@ use crate::eval::metrics::Metrics;
 use crate::eval::score::UNITS;
 use crate::sim::Simulation;
 
-/// Width of every figure [px].
+/// Width of every figure \[px\].
 pub const WIDTH: u32 = 1400;
 /// Pixel columns of a full-width panel's plotting area (figure width less the label area).
 pub const COLUMNS: usize = (WIDTH - 130) as usize;

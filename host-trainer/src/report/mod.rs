@@ -54,7 +54,7 @@ pub const INDEX_HTML: &str = "index.html";
 /// Relative tolerance when comparing metrics.json with the recomputed hold-out metrics (the
 /// CSV rounds to 1e-6, which moves the metrics by far less).
 pub const METRICS_REL_TOL: f64 = 1e-3;
-/// Largest |Δλ| [pm] between the CSV and the re-simulation still taken as the same data.
+/// Largest |Δλ| \[pm\] between the CSV and the re-simulation still taken as the same data.
 pub const RESIM_TOL_PM: f64 = 1e-4;
 
 /// Everything the report is made from.

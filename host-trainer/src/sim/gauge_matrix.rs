@@ -43,7 +43,7 @@ impl GaugePhysics {
         }
     }
 
-    /// Shifts [pm] of the three gratings for measurands (T °C, ε µε, p kPa).
+    /// Shifts \[pm\] of the three gratings for measurands (T °C, ε µε, p kPa).
     pub fn forward(&self, m: [f64; 3]) -> [f64; 3] {
         let d = self.delta(m);
         let mut out = [0.0; 3];
@@ -53,7 +53,7 @@ impl GaugePhysics {
         out
     }
 
-    /// Only the cross-term part of `forward` [pm].
+    /// Only the cross-term part of `forward` \[pm\].
     pub fn cross_terms(&self, m: [f64; 3]) -> [f64; 3] {
         let d = self.delta(m);
         let mut out = [0.0; 3];

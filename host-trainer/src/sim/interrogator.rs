@@ -43,13 +43,13 @@ pub fn play_operator(x: &[f64], r: f64) -> Vec<f64> {
         .collect()
 }
 
-/// Hysteresis contribution [pm]: play(Eq. 9(x)) − x.
+/// Hysteresis contribution \[pm\]: play(Eq. 9(x)) − x.
 pub fn hysteresis(x: &[f64], cfg: &Hysteresis) -> Vec<f64> {
     let y = play_operator(&eq9(x, cfg), cfg.play_half_width_pm);
     y.iter().zip(x).map(|(y, x)| y - x).collect()
 }
 
-/// Scan-nonlinearity contribution [pm] of one channel: ripple with a period in wavelength plus
+/// Scan-nonlinearity contribution \[pm\] of one channel: ripple with a period in wavelength plus
 /// a quadratic bow, evaluated at the grating's absolute wavelength `nominal_nm + shift`.
 ///
 /// Evaluated at the physical wavelength (not the hysteresis-shifted one) so that every effect's
@@ -67,7 +67,7 @@ pub fn scan_nonlinearity(shift_pm: &[f64], nominal_nm: f64, phase_rad: f64, cfg:
         .collect()
 }
 
-/// Paper Eq. 8 random walk d_{t+1} = d_t + ω_t, ω ~ N(0, σ_d²), starting at 0 [pm]; common to
+/// Paper Eq. 8 random walk d_{t+1} = d_t + ω_t, ω ~ N(0, σ_d²), starting at 0 \[pm\]; common to
 /// the interrogator (channel gains are applied by the caller).
 pub fn random_walk(n: usize, sigma_pm: f64, seed: u64) -> Vec<f64> {
     let mut rng = Rng::new(seed, Stream::Drift);
@@ -81,13 +81,13 @@ pub fn random_walk(n: usize, sigma_pm: f64, seed: u64) -> Vec<f64> {
         .collect()
 }
 
-/// Drift contribution per channel [pm].
+/// Drift contribution per channel \[pm\].
 pub fn drift(n: usize, cfg: &Drift, seed: u64) -> [Vec<f64>; 3] {
     let d = random_walk(n, cfg.sigma_pm, seed);
     cfg.channel_gain.map(|g| d.iter().map(|v| g * v).collect())
 }
 
-/// Electronics thermal drift [pm], the same on every channel, driven by the true ambient
+/// Electronics thermal drift \[pm\], the same on every channel, driven by the true ambient
 /// temperature of the interrogator.
 pub fn electronics(ambient_c: &[f64], cfg: &Electronics) -> Vec<f64> {
     ambient_c
@@ -124,7 +124,7 @@ pub fn pink_noise(n: usize, sigma: f64, octaves: u32, rng: &mut Rng) -> Vec<f64>
         .collect()
 }
 
-/// Noise contribution per channel [pm]: pink + white, each channel its own draws.
+/// Noise contribution per channel \[pm\]: pink + white, each channel its own draws.
 pub fn noise(n: usize, cfg: &Noise, seed: u64) -> [Vec<f64>; 3] {
     let mut pink = Rng::new(seed, Stream::PinkNoise);
     let mut white = Rng::new(seed, Stream::WhiteNoise);

@@ -17,7 +17,7 @@ pub use gauge_matrix::GaugePhysics;
 /// Names of the artefacts, in [`Effects`] order.
 pub const EFFECT_NAMES: [&str; 5] = ["hysteresis", "scan", "drift", "electronics", "noise"];
 
-/// Per-channel, per-sample contribution of each effect to the measured shift [pm].
+/// Per-channel, per-sample contribution of each effect to the measured shift \[pm\].
 #[derive(Clone, Debug, Default)]
 pub struct Effects {
     /// True physical shift (Eq. 2-3 with cross-terms).

@@ -13,9 +13,9 @@ use crate::error::{line_col, TrainerError};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Clock {
-    /// Duration [days].
+    /// Duration \[days\].
     pub days: f64,
-    /// Sample interval [s].
+    /// Sample interval \[s\].
     pub dt_s: f64,
     /// Fraction of samples (from the start) used for calibration; the rest is the hold-out.
     pub cal_fraction: f64,
@@ -38,16 +38,16 @@ pub struct Temperature {
     pub ar_tau_s: f64,
 }
 
-/// Strain trajectory ε(t) [µε].
+/// Strain trajectory ε(t) \[µε\].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Strain {
     /// Quasi-static load levels, uniform in [level_lo_ue, level_hi_ue].
     pub level_lo_ue: f64,
     pub level_hi_ue: f64,
-    /// Time each level is held, ramp included [s].
+    /// Time each level is held, ramp included \[s\].
     pub hold_s: f64,
-    /// Linear ramp from the previous level [s].
+    /// Linear ramp from the previous level \[s\].
     pub ramp_s: f64,
     pub sine1_amp_ue: f64,
     pub sine1_period_s: f64,
@@ -57,7 +57,7 @@ pub struct Strain {
     pub ar_tau_s: f64,
 }
 
-/// Pressure trajectory p(t) [kPa].
+/// Pressure trajectory p(t) \[kPa\].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Pressure {
@@ -74,7 +74,7 @@ pub struct Pressure {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Ambient {
-    /// First-order lag of the thermometer behind T [s].
+    /// First-order lag of the thermometer behind T \[s\].
     pub lag_tau_s: f64,
     pub offset_c: f64,
     pub noise_sigma_c: f64,
@@ -84,7 +84,7 @@ pub struct Ambient {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Gratings {
-    /// Nominal Bragg wavelengths [nm].
+    /// Nominal Bragg wavelengths \[nm\].
     pub nominal_nm: [f64; 3],
     /// Gauge matrix rows per grating: [pm/°C, pm/µε, pm/kPa].
     pub gauge: [[f64; 3]; 3],
@@ -98,7 +98,7 @@ pub struct Gratings {
     pub c_ee: [f64; 3],
     pub c_pp: [f64; 3],
     pub c_ep: [f64; 3],
-    /// Reference point of the Δ's: T [°C], ε [µε], p [kPa].
+    /// Reference point of the Δ's: T [°C], ε \[µε\], p \[kPa\].
     pub ref_t_c: f64,
     pub ref_strain_ue: f64,
     pub ref_p_kpa: f64,
@@ -112,7 +112,7 @@ pub struct Hysteresis {
     pub beta: f64,
     pub gamma: f64,
     pub rho: f64,
-    /// Play (backlash) half-width [pm].
+    /// Play (backlash) half-width \[pm\].
     pub play_half_width_pm: f64,
 }
 
@@ -123,7 +123,7 @@ pub struct Scan {
     pub enabled: bool,
     pub ripple_amp_pm: f64,
     pub ripple_period_nm: f64,
-    /// Ripple phase per channel [rad].
+    /// Ripple phase per channel \[rad\].
     pub ripple_phase_rad: [f64; 3],
     /// Quadratic bow reaching `bow_pm` at ±`bow_half_span_nm` from `bow_centre_nm`.
     pub bow_pm: f64,
@@ -136,7 +136,7 @@ pub struct Scan {
 #[serde(deny_unknown_fields, default)]
 pub struct Drift {
     pub enabled: bool,
-    /// σ_d per step [pm].
+    /// σ_d per step \[pm\].
     pub sigma_pm: f64,
     pub channel_gain: [f64; 3],
 }
@@ -156,7 +156,7 @@ pub struct Electronics {
 #[serde(deny_unknown_fields, default)]
 pub struct Noise {
     pub enabled: bool,
-    /// 1/f (pink) noise σ [pm] (Voss–McCartney).
+    /// 1/f (pink) noise σ \[pm\] (Voss–McCartney).
     pub pink_sigma_pm: f64,
     /// Octaves of the pink generator (lowest frequency = fs / 2^octaves).
     pub pink_octaves: u32,

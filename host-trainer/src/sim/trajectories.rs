@@ -43,7 +43,7 @@ pub fn temperature(cfg: &Temperature, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<
 }
 
 /// Quasi-static load levels, each held `hold_s` and reached by a linear ramp of `ramp_s`
-/// from the previous level [µε].
+/// from the previous level \[µε\].
 pub fn load_steps(cfg: &Strain, t_s: &[f64], seed: u64) -> Vec<f64> {
     let mut rng = Rng::new(seed, Stream::LoadLevels);
     let t_end = t_s.last().copied().unwrap_or(0.0);
@@ -64,7 +64,7 @@ pub fn load_steps(cfg: &Strain, t_s: &[f64], seed: u64) -> Vec<f64> {
         .collect()
 }
 
-/// ε(t) [µε]: load steps + two periodic loads + AR(1).
+/// ε(t) \[µε\]: load steps + two periodic loads + AR(1).
 pub fn strain(cfg: &Strain, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<f64> {
     let mut rng = Rng::new(seed, Stream::Strain);
     let w = ar1(t_s.len(), cfg.ar_sigma_ue, cfg.ar_tau_s, dt_s, &mut rng);
@@ -80,7 +80,7 @@ pub fn strain(cfg: &Strain, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<f64> {
         .collect()
 }
 
-/// p(t) [kPa]: mean + two periodic components + AR(1).
+/// p(t) \[kPa\]: mean + two periodic components + AR(1).
 pub fn pressure(cfg: &Pressure, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<f64> {
     let mut rng = Rng::new(seed, Stream::Pressure);
     let w = ar1(t_s.len(), cfg.ar_sigma_kpa, cfg.ar_tau_s, dt_s, &mut rng);

@@ -193,7 +193,7 @@ impl<F: Real> MemoryBank<F> {
         d1.mul_add(r0, d2.mul_add(r1, d3.mul_add(r2, t_amb_c.mul_add(r3, r4))))
     }
 
-    /// Feed one finite sample (shifts Δλ [pm], ambient T_amb [°C], time t [s]) and return the
+    /// Feed one finite sample (shifts Δλ \[pm\], ambient T_amb [°C], time t \[s\]) and return the
     /// memory vector m (unused terms 0). The caller screens non-finite samples: they must not
     /// reach the bank (the compensator leaves the whole stream state untouched for them).
     #[inline]

@@ -41,7 +41,7 @@ impl<F: Real> DriftObserver<F> {
         DriftObserver { lag: LowPass::off(), smooth: LowPass::off() }
     }
 
-    /// An observer with the thermometer's lag `lag_s` [s] and smoothing `smooth_s` [s].
+    /// An observer with the thermometer's lag `lag_s` \[s\] and smoothing `smooth_s` \[s\].
     pub fn new(lag_s: F, smooth_s: F) -> Self {
         DriftObserver { lag: LowPass::new(lag_s), smooth: LowPass::new(smooth_s) }
     }

@@ -6,7 +6,7 @@ use crate::real::Real;
 /// above it from `1 − e^(−Δt/τ)` (where the subtraction loses nothing that matters).
 const SERIES_BELOW: f64 = 0.125;
 
-/// The smoothing factor α = 1 − e^(−Δt/τ) of a first-order low-pass for a step of `dt_s` [s]
+/// The smoothing factor α = 1 − e^(−Δt/τ) of a first-order low-pass for a step of `dt_s` \[s\]
 /// with `inv_tau` = 1/τ [1/s], in 0..=1.
 ///
 /// This is the exact discretisation of `τ·ds/dt = x − s` when the input holds the new sample's
@@ -82,7 +82,7 @@ impl<F: Real> LowPass<F> {
         LowPass { inv_tau: F::ZERO }
     }
 
-    /// A low-pass with time constant `tau_s` [s] (> 0; 0 or less gives a pass-through whose
+    /// A low-pass with time constant `tau_s` \[s\] (> 0; 0 or less gives a pass-through whose
     /// α is 0, i.e. an unused slot).
     pub fn new(tau_s: F) -> Self {
         LowPass { inv_tau: if tau_s > F::ZERO { F::ONE / tau_s } else { F::ZERO } }

@@ -4,9 +4,9 @@
 //! Every term is *level-free*: a difference that stays bounded however far the inputs move, so
 //! a term learned on the calibration batch does not extrapolate a level into a later hold-out.
 //!
-//! - [`LowPass`]: first-order low-pass (EMA) with time constant τ [s] and the sample's own Δt;
+//! - [`LowPass`]: first-order low-pass (EMA) with time constant τ \[s\] and the sample's own Δt;
 //!   the terms are input − EMA (high-passes) of each Δλ and of T_amb;
-//! - [`Play`]: the play (backlash) operator of half-width r [pm]; the term is its stop
+//! - [`Play`]: the play (backlash) operator of half-width r \[pm\]; the term is its stop
 //!   complement x − play_r(x), a Prandtl–Ishlinskii hysteresis basis function;
 //! - [`DriftObserver`]: a smoothed difference between the temperature the gratings imply and
 //!   the thermometer, which follows the interrogator's common drift;

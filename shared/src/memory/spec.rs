@@ -13,11 +13,11 @@ use crate::real::Real;
 /// [`crate::layout::N_MEMORY`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum MemoryGroup {
-    /// Δλ_i − EMA_τ(Δλ_i) [pm]: thermal lag, slow drift and the slow part of hysteresis.
+    /// Δλ_i − EMA_τ(Δλ_i) \[pm\]: thermal lag, slow drift and the slow part of hysteresis.
     GratingHighPass,
     /// T_amb − EMA_τ(T_amb) [°C]: the reference thermometer's own lag.
     AmbientHighPass,
-    /// Δλ_i − play_r(Δλ_i) [pm]: where the play operator sits after a reversal.
+    /// Δλ_i − play_r(Δλ_i) \[pm\]: where the play operator sits after a reversal.
     Stop,
     /// [`crate::memory::DriftObserver`] [°C]: the common drift, temperature outputs only.
     DriftObserver,
@@ -54,15 +54,15 @@ impl MemoryGroup {
 /// ambient high-passes, stop terms (r slot major, grating minor), the drift observer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct MemorySpec<F> {
-    /// Time constants τ [s] of the grating high-passes Δλ_i − EMA_τ(Δλ_i) (0 = unused).
+    /// Time constants τ \[s\] of the grating high-passes Δλ_i − EMA_τ(Δλ_i) (0 = unused).
     pub grating_tau_s: [F; N_GRATING_TAUS],
-    /// Time constants τ [s] of the ambient high-passes T_amb − EMA_τ(T_amb) (0 = unused).
+    /// Time constants τ \[s\] of the ambient high-passes T_amb − EMA_τ(T_amb) (0 = unused).
     pub ambient_tau_s: [F; N_AMBIENT_TAUS],
-    /// Half-widths r [pm] of the play operators of the stop terms (0 = unused).
+    /// Half-widths r \[pm\] of the play operators of the stop terms (0 = unused).
     pub play_half_width_pm: [F; N_PLAYS],
-    /// Drift observer: the thermometer's lag τl [s] (0 = no observer).
+    /// Drift observer: the thermometer's lag τl \[s\] (0 = no observer).
     pub observer_lag_s: F,
-    /// Drift observer: smoothing τs [s] (> 0 when the observer is used).
+    /// Drift observer: smoothing τs \[s\] (> 0 when the observer is used).
     pub observer_smooth_s: F,
     /// Drift observer: grating temperature T_g [°C] = row · [Δλ1..3 pm, T_amb °C, 1].
     pub observer_row: [F; N_STAGE1],
@@ -75,7 +75,7 @@ pub struct TermInfo<F> {
     pub group: MemoryGroup,
     /// Grating index (0-based) for grating terms, 0 otherwise.
     pub grating: usize,
-    /// τ [s] for high-passes, r [pm] for stop terms, τs [s] for the observer; 0 = unused.
+    /// τ \[s\] for high-passes, r \[pm\] for stop terms, τs \[s\] for the observer; 0 = unused.
     pub parameter: F,
 }
 

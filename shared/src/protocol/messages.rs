@@ -64,7 +64,7 @@ pub enum HostMsg<'a> {
 pub struct DeviceEstimate {
     /// The request's sequence number.
     pub seq: u32,
-    /// T [°C], ε [µε], p [kPa].
+    /// T [°C], ε \[µε\], p \[kPa\].
     pub values: [f32; N_OUTPUTS],
     /// Half-width of the 95 % band, same units.
     pub band: [f32; N_OUTPUTS],

@@ -15,7 +15,7 @@ use super::stats::median;
 use super::{holdout_errors_csv, preset_csv, COVERAGE_SEEDS};
 use fbg_shared::layout::N_OUTPUTS;
 
-/// Width of the lead-time bins of the ensemble band [s].
+/// Width of the lead-time bins of the ensemble band \[s\].
 const ENSEMBLE_BIN_S: f64 = 7200.0;
 
 impl SeedRun {

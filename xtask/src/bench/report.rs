@@ -223,7 +223,7 @@ pub struct FixedMemory {
     pub phase_seconds: Vec<Phase>,
 }
 
-/// One phase of our fit and its median time [s], as `bench-fit` reports it: `[name, seconds]`.
+/// One phase of our fit and its median time \[s\], as `bench-fit` reports it: `[name, seconds]`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Phase(pub String, #[serde(deserialize_with = "nan::read")] pub f64);
 

@@ -28,7 +28,7 @@ pub struct Map {
     pub header_lines: Option<usize>,
     /// Magnitude checks of wavelengths and ambient temperature (default true).
     pub check_units: Option<bool>,
-    /// ENLIGHT: the largest time gap [s] between two reference samples across which a value is
+    /// ENLIGHT: the largest time gap \[s\] between two reference samples across which a value is
     /// interpolated; beyond it (or outside the refs' time range) the value is missing.
     /// Default: 3 × the median spacing of the refs file.
     pub max_gap_s: Option<f64>,
@@ -38,9 +38,9 @@ pub struct Map {
     pub ambient: Option<RefMap>,
     /// Reference temperature [°C] (thermocouple, PT100, ...).
     pub temperature: Option<RefMap>,
-    /// Reference strain [µε] (or a load cell with `gain` µε per unit).
+    /// Reference strain \[µε\] (or a load cell with `gain` µε per unit).
     pub strain: Option<RefMap>,
-    /// Reference pressure [kPa].
+    /// Reference pressure \[kPa\].
     pub pressure: Option<RefMap>,
     /// The three gratings, for dl1_pm, dl2_pm, dl3_pm in that order.
     #[serde(default)]
@@ -94,7 +94,7 @@ pub struct GratingMap {
     /// ENLIGHT: the grating's wavelength window [lo, hi] in nm; exactly one peak of the
     /// channel is expected inside it.
     pub window_nm: Option<[f64; 2]>,
-    /// Absolute wavelength [nm] at the reference condition; Δλ = (λ − ref_nm) × 1000 pm.
+    /// Absolute wavelength \[nm\] at the reference condition; Δλ = (λ − ref_nm) × 1000 pm.
     /// Default: the first valid reading of the grating in the output.
     pub ref_nm: Option<f64>,
 }

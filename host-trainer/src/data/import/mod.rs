@@ -1,9 +1,9 @@
 //! `fbg-trainer import` (issue 8): real interrogator exports into the dataset CSV of DESIGN §3.
 //!
-//! - `--format enlight`: a Micron Optics ENLIGHT / Hyperion peaks export ([`enlight`]) plus a
+//! - `--format enlight`: a Micron Optics ENLIGHT / Hyperion peaks export (`enlight.rs`) plus a
 //!   `--refs` CSV with the ambient temperature and the references, joined onto the peak times
-//!   by linear interpolation ([`join`]);
-//! - `--format csv`: any logger CSV whose columns a map names ([`logger_csv`]).
+//!   by linear interpolation (`join.rs`);
+//! - `--format csv`: any logger CSV whose columns a map names (`logger_csv.rs`).
 //!
 //! The map is described in [`mapping`]. Bad rows are an error naming file, line and column, or
 //! counted skips ([`problems`]); the output is written atomically (`Dataset::write_csv`).
@@ -94,13 +94,13 @@ pub struct GratingSummary {
     pub output: &'static str,
     /// Where it comes from (column and unit, or channel and window).
     pub source: String,
-    /// Reference wavelength [nm] the shift is taken from (absent for shift columns).
+    /// Reference wavelength \[nm\] the shift is taken from (absent for shift columns).
     pub ref_nm: Option<f64>,
     /// `map`, `first reading (line N)` or `shifts in the file`.
     pub ref_source: String,
     /// Rows with no reading (empty dl cell).
     pub gaps: usize,
-    /// Range of the shifts written [pm].
+    /// Range of the shifts written \[pm\].
     pub min_pm: Option<f64>,
     pub max_pm: Option<f64>,
 }
@@ -135,7 +135,7 @@ pub struct TimeSummary {
     pub start: Option<String>,
     pub end: Option<String>,
     pub span_s: f64,
-    /// Median sampling interval [s].
+    /// Median sampling interval \[s\].
     pub median_dt_s: f64,
 }
 
