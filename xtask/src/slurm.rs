@@ -9,8 +9,8 @@
 //! run had not finished. Then `fleet status` must report every group done, and every blob must
 //! be byte for byte what a single-machine `fleet` run writes. The daemons it started are
 //! stopped by their process ids, also on failure. Not part of `cargo xtask test`: it needs root
-//! and minutes. The figures go to `target/slurm/slurm.json`, which `cargo xtask bench` copies
-//! into BENCHMARKS.md/.json.
+//! and minutes. The figures go to `target/slurm/slurm.json` and into BENCHMARKS.json/.md
+//! (which `cargo xtask bench` carries over).
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -372,6 +372,7 @@ pub fn run_all(root: &Path) -> Result<()> {
         "blobs_identical_to_single_machine": true,
     });
     fs::write(figures_path(root), serde_json::to_string_pretty(&figures)?)?;
+    crate::bench::record_slurm(root, figures.clone())?;
     eprintln!("{}", serde_json::to_string_pretty(&figures)?);
     eprintln!("xtask: slurm passed; figures in {}", figures_path(root).display());
     Ok(())

@@ -78,6 +78,9 @@ pub fn markdown(rep: &Report) -> String {
     accuracy(&mut s, &rep.accuracy);
     device(&mut s, rep);
     fleet(&mut s, &rep.fleet);
+    if let Some(v) = &rep.slurm {
+        slurm(&mut s, v);
+    }
     s
 }
 
@@ -733,6 +736,42 @@ fn fleet(s: &mut String, fl: &Fleet) {
         secs(r.seconds),
         r.command,
         fl.simulate_command
+    );
+}
+
+fn slurm(s: &mut String, v: &serde_json::Value) {
+    let n = |k: &str| v[k].as_f64().unwrap_or(f64::NAN);
+    out!(s, "## Fleet on a real Slurm (`cargo xtask slurm`)\n");
+    out!(
+        s,
+        "A single-node Slurm started on this machine ({} CPUs): `deploy/slurm/fleet.sbatch` as an array of {} tasks (one shard each, `--cpus-per-task={}`) over {} groups (two-day records, `train`'s full grid). One task was cancelled after {} of its groups had finished; after the array, `fleet status` reported {} groups done and the rest missing; the resubmitted task trained {} and skipped {} (finished before the cancel). Every blob equals a single-machine `fleet` run's byte for byte: {}.\n",
+        v["cpus"], v["shards"], v["cpus_per_task"], v["groups"], v["done_when_cancelled"], v["done_after_first_submission"],
+        v["resubmitted"]["trained"], v["resubmitted"]["skipped"], v["blobs_identical_to_single_machine"]
+    );
+    out!(
+        s,
+        "| shard | groups | trained (last run) | skipped | seconds | trained groups/s |\n|---|---|---|---|---|---|"
+    );
+    for r in v["per_shard_last_run"].as_array().into_iter().flatten() {
+        out!(
+            s,
+            "| {} | {} | {} | {} | {} | {:.2} |",
+            r["shard"],
+            r["groups"],
+            r["trained"],
+            r["skipped"],
+            secs(r["seconds"].as_f64().unwrap_or(f64::NAN)),
+            r["groups_per_s"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
+    out!(
+        s,
+        "\nWall clock: first submission {} (including Slurm's scheduling), the resubmitted task {}, total {}; the same manifest by one `fleet` process on the whole machine: {}. Command: `{}` (root; installs slurm-wlm and munge when missing).\n",
+        secs(n("first_submission_wall_seconds")),
+        secs(v["resubmitted"]["wall_seconds"].as_f64().unwrap_or(f64::NAN)),
+        secs(n("total_wall_seconds")),
+        secs(n("single_machine_wall_seconds")),
+        v["command"].as_str().unwrap_or("cargo xtask slurm")
     );
 }
 

@@ -113,6 +113,7 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
             Ok(v) => Device::Measured(Box::new(v.clone())),
             Err(e) => Device::Failed { error: format!("{e:#}") },
         },
+        slurm: runner::read_json::<Report>(&root.join("BENCHMARKS.json")).ok().and_then(|old| old.slurm),
     };
     // Through a `Value`, whose maps are sorted: the keys come out in alphabetical order.
     let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
@@ -155,6 +156,16 @@ fn simulate_datasets(root: &Path, r: &Runner) -> Result<Vec<String>> {
         }
     }
     Ok(cmds)
+}
+
+/// Put the figures of `cargo xtask slurm` into BENCHMARKS.json and render BENCHMARKS.md again.
+pub fn record_slurm(root: &Path, figures: serde_json::Value) -> Result<()> {
+    let mut report: Report = runner::read_json(&root.join("BENCHMARKS.json"))?;
+    report.slurm = Some(figures);
+    let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
+    crate::fixtures::write_atomic(&root.join("BENCHMARKS.json"), json.as_bytes())?;
+    crate::fixtures::write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
+    Ok(())
 }
 
 /// `cargo xtask bench --markdown-only`: BENCHMARKS.md again from BENCHMARKS.json, measuring

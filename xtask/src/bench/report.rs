@@ -97,6 +97,10 @@ pub struct Report {
     pub accuracy: Accuracy,
     pub fleet: Fleet,
     pub device: Device,
+    /// The sharded fleet on a real Slurm (`cargo xtask slurm`, run on its own: it needs root);
+    /// carried over from the previous file by `cargo xtask bench`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slurm: Option<serde_json::Value>,
 }
 
 impl Report {
