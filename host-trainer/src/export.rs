@@ -45,7 +45,7 @@ pub fn blob_crc(bytes: &[u8]) -> Option<(u32, u32)> {
 /// A decode error as the user should read it: the decoder checks the format version first
 /// (it decides how the rest is read), so a flipped bit in the header reads as "format version
 /// 0"; when the CRC over the whole blob does not hold either, the blob is corrupt, and that is
-/// what is reported (issue 15).
+/// what is reported.
 pub fn blob_error_text(bytes: &[u8], e: &fbg_shared::Error) -> String {
     match (e, blob_crc(bytes)) {
         (fbg_shared::Error::UnsupportedVersion { found, .. }, Some((computed, stored))) if computed != stored => format!(

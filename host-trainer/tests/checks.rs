@@ -1,4 +1,4 @@
-//! Issue 15: the checks a new user relies on, the same in every command — a cap on what
+//! The checks a new user relies on, the same in every command — a cap on what
 //! `--on-error skip` may drop, the unit checks of `import` in `train` and `evaluate`, a
 //! truncated last line, and help texts.
 

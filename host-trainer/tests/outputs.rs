@@ -1,4 +1,4 @@
-//! Issue 15: nothing the user had is lost (DESIGN §9). An output that exists and is not a
+//! Nothing the user had is lost (DESIGN §9). An output that exists and is not a
 //! regular file is refused, an output that is one of the inputs is refused, and a missing or
 //! unwritable output directory is found before the work with one clean message.
 

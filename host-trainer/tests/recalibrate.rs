@@ -1,4 +1,4 @@
-//! Field recalibration (issue 8): on a changed installation a short batch recovers most of a
+//! Field recalibration: on a changed installation a short batch recovers most of a
 //! full recalibration's gain for strain, and a batch with no evidence of change leaves the model
 //! alone.
 

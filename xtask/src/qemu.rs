@@ -666,7 +666,7 @@ fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceF
     Ok(())
 }
 
-/// Minimum length of the long memory stream: 14 days at 60 s (DESIGN §8, issue 14).
+/// Minimum length of the long memory stream: 14 days at 60 s (DESIGN §8).
 pub const LONG_STREAM_MIN: usize = 20_160;
 
 /// The inputs of every row of a dataset CSV (`t_s`, `T_amb_C`, `dl1_pm`..`dl3_pm`; an empty or

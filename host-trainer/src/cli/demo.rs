@@ -30,7 +30,7 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     s.data.write_csv(&data)?;
     SimMeta::of(&s).write(&data)?;
     // Fit and score the record as written (6 decimals), so `train --data DIR/data.csv` rebuilds
-    // DIR/model.fbgm byte for byte (issue 15).
+    // DIR/model.fbgm byte for byte.
     s.data = Dataset::read_csv(&data)?;
     log(&format!(
         "simulated {} samples of scenario `{}` (seed {}) into {}",

@@ -1,7 +1,7 @@
 //! A time series of measured inputs and reference measurands, and its CSV form (DESIGN §3):
 //! `t_s,T_C,strain_ue,p_kPa,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split`.
 //!
-//! For real data (issue 8) the reference columns `T_C`, `strain_ue`, `p_kPa` and the `split`
+//! For real data the reference columns `T_C`, `strain_ue`, `p_kPa` and the `split`
 //! column are optional: an absent reference is an output that cannot be fitted, an empty cell
 //! is a missing reference at that time, an empty `dlN_pm` cell is a gap (a peak the
 //! interrogator did not report), and so is an empty `T_amb_C`. Text that is not a number, or a non-finite number, is still an

@@ -1,4 +1,4 @@
-//! Host/device parity (issue 5): the exported f32 model run through `fbg_shared` in f32 against
+//! Host/device parity: the exported f32 model run through `fbg_shared` in f32 against
 //! the trainer's f64 model, on the inputs a device receives (f32), plus the gap between the
 //! device's leverage (kept eigen-directions) and the exact ψᵀ(ΨᵀΨ + αI)⁻¹ψ.
 

@@ -111,7 +111,7 @@ pub fn holdout_label(m: &Metrics) -> String {
 }
 
 /// The flags raised on the hold-out, per flag, and what to do when Model-H is worse than
-/// Model-P on some channel (issue 15): lines for a terminal, the warnings starting "warning:".
+/// Model-P on some channel: lines for a terminal, the warnings starting "warning:".
 pub fn flag_lines(m: &Metrics) -> Vec<String> {
     let t = &m.table2;
     let n = t.model_h.channels.iter().map(|c| c.n).max().unwrap_or(0).max(1) as f64;

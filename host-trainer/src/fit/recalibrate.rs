@@ -1,4 +1,4 @@
-//! Field recalibration (the paper's future-scope items (i) and (iv); issue 8): refit only what
+//! Field recalibration (the paper's future-scope items (i) and (iv)): refit only what
 //! a short batch can support — per output the offset and gain of the polynomial core, and the
 //! residual weights W on the kept centres. How much of a full recalibration's gain that
 //! recovers when the installation changes is a study: `crate::eval::studies::recalibration`.

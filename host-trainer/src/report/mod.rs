@@ -1,4 +1,4 @@
-//! The audit report (issue 4, DESIGN §5): from a directory holding `data.csv`
+//! The audit report (DESIGN §5): from a directory holding `data.csv`
 //! (+ `data.meta.json`), `model.fbgm`, `model-p.fbgm` and `metrics.json`, write into the same
 //! directory the eight figures (PNG and SVG), the tables (Markdown, CSV, text), the
 //! coefficient tables and `index.html`, a static page that shows all of it with the scenario,
@@ -99,7 +99,7 @@ impl Inputs {
 
     /// Read the inputs from `paths` (names in `dir` are shown relative to it).
     pub fn read(dir: &Path, paths: &InputPaths) -> Result<Self, TrainerError> {
-        // Every missing input at once, not one per run (issue 15).
+        // Every missing input at once, not one per run.
         let missing: Vec<String> = [&paths.data, &paths.model_h, &paths.model_p, &paths.metrics]
             .into_iter()
             .filter(|f| !f.exists())

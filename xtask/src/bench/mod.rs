@@ -1,4 +1,4 @@
-//! `cargo xtask bench`: every figure of DESIGN §8 and issue 7, written to `BENCHMARKS.md` and its
+//! `cargo xtask bench`: every figure of DESIGN §8, written to `BENCHMARKS.md` and its
 //! twin `BENCHMARKS.json` at the top of the workspace.
 //!
 //! xtask itself runs in the dev profile, so nothing is timed in this process: it builds the

@@ -1,4 +1,4 @@
-//! `fbg-trainer import` (issue 8): real interrogator exports into the dataset CSV of DESIGN §3.
+//! `fbg-trainer import`: real interrogator exports into the dataset CSV of DESIGN §3.
 //!
 //! - `--format enlight`: a Micron Optics ENLIGHT / Hyperion peaks export (`enlight.rs`) plus a
 //!   `--refs` CSV with the ambient temperature and the references, joined onto the peak times
