@@ -30,6 +30,7 @@ pub mod sim;
 
 // Operations built on the pipeline.
 pub mod benchmark;
+pub mod compensate;
 pub mod fleet;
 pub mod stream;
 

@@ -204,6 +204,7 @@ fn every_option_of_every_subcommand_is_described() {
         "bench-fit",
         "fleet",
         "stream",
+        "compensate",
     ];
     for sub in subcommands {
         // `--help` (long help) puts each description on the lines below its option.

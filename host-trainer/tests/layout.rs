@@ -11,7 +11,7 @@ const LAYERS: &[&[&str]] = &[
     &["sim", "fit"],
     &["eval"],
     &["export"],
-    &["report", "fleet", "stream", "benchmark"],
+    &["report", "fleet", "stream", "benchmark", "compensate"],
 ];
 
 fn layer_of(module: &str) -> Option<usize> {

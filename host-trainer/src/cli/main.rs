@@ -13,6 +13,7 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
+use fbg_trainer::compensate::Precision;
 use fbg_trainer::data::files::{check_outputs, prepare_output_dir, write_bytes_atomically};
 use fbg_trainer::data::import::{self, ImportOptions, SplitChoice};
 use fbg_trainer::data::Dataset;
@@ -257,6 +258,27 @@ enum Cmd {
     /// board behind a serial-to-TCP bridge) and check every estimate against the host's f64
     /// compensator on the same model (1 % of the hold-out RMSE, flags identical).
     Stream(stream::StreamArgs),
+    /// Compensate a logged field record with a model, as the device would: every row's
+    /// measurands with their 95 % band and flags; gaps stay gaps; references are optional (when
+    /// present, their errors are printed).
+    Compensate {
+        /// The model blob (Model-H or Model-P).
+        #[arg(long)]
+        model: PathBuf,
+        /// The record: `t_s`, `T_amb_C`, `dl1_pm..dl3_pm` (references and `split` optional).
+        #[arg(long)]
+        data: PathBuf,
+        /// Output CSV: `t_s`, each measurand and its `_band95`, `flags` (bits: 1 non-finite, 2
+        /// out of the calibration envelope, 4 weak RBF support) and `flag_names`.
+        #[arg(long)]
+        out: PathBuf,
+        /// Run the device's f32 arithmetic instead of the host's f64.
+        #[arg(long)]
+        f32: bool,
+        /// Print the summary as JSON on stdout.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() {
@@ -408,6 +430,18 @@ fn run() -> Result<()> {
         Cmd::BenchFit(a) => bench_fit(&a),
         Cmd::Fleet(a) => fleet(&a),
         Cmd::Stream(a) => a.run(),
+        Cmd::Compensate { model, data, out, f32, json } => {
+            check_outputs(&[&out], &[&model, &data])?;
+            fbg_trainer::data::files::prepare_output_dirs(&[&out])?;
+            let precision = if f32 { Precision::F32 } else { Precision::F64 };
+            let s = fbg_trainer::compensate::run(&model, &data, &out, precision, !json)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&s)?);
+            } else {
+                eprintln!("{}", s.text());
+            }
+            Ok(())
+        }
         Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, max_skipped, json } => {
             if !(0.0..=100.0).contains(&max_skipped) {
                 bail!("--max-skipped must be a percentage from 0 to 100 (got {max_skipped})");

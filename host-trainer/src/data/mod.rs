@@ -170,9 +170,20 @@ impl Dataset {
 
     /// Read a CSV with the columns of [`COLUMNS`] (any order, extra columns ignored). `t_s`,
     /// `T_amb_C` and `dl1_pm..dl3_pm` are required; the references and `split` are optional
-    /// (without `split` every row is calibration until the caller assigns a split). Errors
-    /// name the file, line and column.
+    /// (without `split` every row is calibration until the caller assigns a split), but at
+    /// least one reference must be there to calibrate or evaluate against. Errors name the
+    /// file, line and column.
     pub fn read_csv(path: &Path) -> Result<Dataset, TrainerError> {
+        Self::read_csv_with(path, true)
+    }
+
+    /// [`read_csv`](Self::read_csv) for a field record to compensate: references are welcome
+    /// (the errors are then reported) but none is needed.
+    pub fn read_field_csv(path: &Path) -> Result<Dataset, TrainerError> {
+        Self::read_csv_with(path, false)
+    }
+
+    fn read_csv_with(path: &Path, need_reference: bool) -> Result<Dataset, TrainerError> {
         let name = path.display().to_string();
         let mut file = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
         let ends_with_newline = last_byte(&mut file).map_err(|e| TrainerError::io(path, e))? == Some(b'\n');
@@ -306,7 +317,7 @@ impl Dataset {
                 ));
             }
         }
-        if !d.has_target.iter().any(|&h| h) {
+        if need_reference && !d.has_target.iter().any(|&h| h) {
             return Err(TrainerError::data(
                 &name,
                 1,

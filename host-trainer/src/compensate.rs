@@ -1,0 +1,237 @@
+//! `fbg-trainer compensate`: run a model over a logged field record, as the device would.
+//!
+//! The record needs only the inputs (`t_s`, `T_amb_C`, `dl1_pm..dl3_pm`); references are
+//! optional. Every row is compensated in order through `fbg-shared` — in f64 by the same code
+//! path as `evaluate` (so the estimates are identical where both run), or with `--f32` by the
+//! device's `Compensator<f32, K>` on inputs rounded to f32 as the device receives them. Rows with
+//! a gap (an empty input cell) stay gaps: empty value cells and the non-finite flag. Where the
+//! record has references, the errors of the compensated values are reported too.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use fbg_shared::layout::{CHANNELS, N_OUTPUTS, UNITS};
+use fbg_shared::{Compensator, Estimate, Flags};
+
+use crate::data::files::write_atomically;
+use crate::data::Dataset;
+use crate::error::TrainerError;
+use crate::export;
+use crate::fit::{self, HostParams, HOST_CAP};
+
+/// The dataset column of each output.
+pub const OUTPUT_COLUMNS: [&str; N_OUTPUTS] = ["T_C", "strain_ue", "p_kPa"];
+
+/// Rows per progress-bar tick.
+const TICK: usize = 16_384;
+
+/// Which arithmetic runs the model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// The host's f64 path (as `evaluate`).
+    F64,
+    /// The device's f32 path.
+    F32,
+}
+
+/// Errors against references present in the record, per output (NaN where absent).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ReferenceErrors {
+    /// Rows with finite inputs and that reference.
+    pub rows: [usize; N_OUTPUTS],
+    pub rmse: [f64; N_OUTPUTS],
+    pub bias: [f64; N_OUTPUTS],
+    /// Fraction of those rows whose reference lies inside the 95 % band.
+    pub coverage: [f64; N_OUTPUTS],
+}
+
+/// What `compensate` did.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Summary {
+    pub model: PathBuf,
+    pub data: PathBuf,
+    pub out: PathBuf,
+    pub precision: Precision,
+    pub rows: usize,
+    /// Rows whose inputs had a gap (written as gaps).
+    pub gap_rows: usize,
+    /// Rows with any flag, and with each flag: non-finite, out of envelope, weak support.
+    pub flagged_rows: usize,
+    pub flag_rows: [usize; 3],
+    /// First and last time stamp [s].
+    pub t_first_s: f64,
+    pub t_last_s: f64,
+    pub seconds: f64,
+    /// Present when the record has at least one reference column.
+    pub reference_errors: Option<ReferenceErrors>,
+}
+
+/// Compensate every row of `d` with `params`.
+pub fn estimates(params: &HostParams, d: &Dataset, precision: Precision) -> Result<Vec<Estimate<f64>>, TrainerError> {
+    match precision {
+        Precision::F64 => {
+            let all: Vec<usize> = (0..d.len()).collect();
+            fit::run(params, d, &all)
+        }
+        Precision::F32 => {
+            let p32 = params.convert::<f32, HOST_CAP>().map_err(|e| TrainerError::fit(e.to_string()))?;
+            let mut dev = Compensator::<f32, HOST_CAP>::new(&p32).map_err(|e| TrainerError::fit(e.to_string()))?;
+            Ok((0..d.len())
+                .map(|i| {
+                    let e = dev.step(&d.sample(i).cast::<f32>());
+                    Estimate { values: e.values.map(f64::from), band95: e.band95.map(f64::from), flags: e.flags }
+                })
+                .collect())
+        }
+    }
+}
+
+fn cell(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x}")
+    } else {
+        String::new()
+    }
+}
+
+/// Read `data`, compensate it with the model in `model`, write `out` (atomically).
+pub fn run(
+    model: &Path,
+    data: &Path,
+    out: &Path,
+    precision: Precision,
+    progress: bool,
+) -> Result<Summary, TrainerError> {
+    let t0 = Instant::now();
+    let params = export::read_blob(model)?;
+    let d = Dataset::read_field_csv(data)?;
+    let est = estimates(&params, &d, precision)?;
+    let bar = fit::select::progress_bar(progress, d.len() as u64, "compensate");
+    write_atomically(out, |w| {
+        write!(w, "t_s")?;
+        for c in OUTPUT_COLUMNS {
+            write!(w, ",{c},{c}_band95")?;
+        }
+        writeln!(w, ",flags,flag_names")?;
+        for (i, e) in est.iter().enumerate() {
+            write!(w, "{}", d.t_s[i])?;
+            for c in 0..N_OUTPUTS {
+                write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
+            }
+            writeln!(w, ",{},{}", e.flags.0, flag_names(e.flags))?;
+            if i % TICK == TICK - 1 {
+                bar.inc(TICK as u64);
+            }
+        }
+        Ok(())
+    })?;
+    bar.finish_and_clear();
+    let gap_rows = (0..d.len()).filter(|&i| !d.sample(i).inputs_finite()).count();
+    let bits = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT];
+    let reference_errors = d.has_target.iter().any(|&h| h).then(|| reference_errors(&d, &est));
+    Ok(Summary {
+        model: model.to_path_buf(),
+        data: data.to_path_buf(),
+        out: out.to_path_buf(),
+        precision,
+        rows: d.len(),
+        gap_rows,
+        flagged_rows: est.iter().filter(|e| !e.flags.is_ok()).count(),
+        flag_rows: bits.map(|b| est.iter().filter(|e| e.flags.contains(b)).count()),
+        t_first_s: d.t_s.first().copied().unwrap_or(f64::NAN),
+        t_last_s: d.t_s.last().copied().unwrap_or(f64::NAN),
+        seconds: t0.elapsed().as_secs_f64(),
+        reference_errors,
+    })
+}
+
+/// `|`-separated names of the raised flags (empty when none).
+pub fn flag_names(f: Flags) -> String {
+    let names = [
+        (Flags::NON_FINITE, "non_finite"),
+        (Flags::OUT_OF_ENVELOPE, "out_of_envelope"),
+        (Flags::WEAK_SUPPORT, "weak_support"),
+    ];
+    names.iter().filter(|(b, _)| f.contains(*b)).map(|(_, n)| *n).collect::<Vec<_>>().join("|")
+}
+
+fn reference_errors(d: &Dataset, est: &[Estimate<f64>]) -> ReferenceErrors {
+    let mut r = ReferenceErrors {
+        rows: [0; N_OUTPUTS],
+        rmse: [f64::NAN; N_OUTPUTS],
+        bias: [f64::NAN; N_OUTPUTS],
+        coverage: [f64::NAN; N_OUTPUTS],
+    };
+    for c in 0..N_OUTPUTS {
+        if !d.has_target[c] {
+            continue;
+        }
+        let (mut n, mut s, mut s2, mut inside) = (0usize, 0.0, 0.0, 0usize);
+        for (i, e) in est.iter().enumerate() {
+            let truth = d.target(c)[i];
+            if !truth.is_finite() || !e.values[c].is_finite() {
+                continue;
+            }
+            let err = e.values[c] - truth;
+            n += 1;
+            s += err;
+            s2 += err * err;
+            inside += usize::from(err.abs() <= e.band95[c]);
+        }
+        if n > 0 {
+            r.rows[c] = n;
+            r.rmse[c] = (s2 / n as f64).sqrt();
+            r.bias[c] = s / n as f64;
+            r.coverage[c] = inside as f64 / n as f64;
+        }
+    }
+    r
+}
+
+impl Summary {
+    /// A few human-readable lines.
+    pub fn text(&self) -> String {
+        let mut s = format!(
+            "compensated {} rows ({:.1} h, {} with gaps kept as gaps) with {} in {:.2} s ({} arithmetic); wrote {}\n",
+            self.rows,
+            (self.t_last_s - self.t_first_s) / 3600.0,
+            self.gap_rows,
+            self.model.display(),
+            self.seconds,
+            match self.precision {
+                Precision::F64 => "f64",
+                Precision::F32 => "device f32",
+            },
+            self.out.display()
+        );
+        let pct = |n: usize| 100.0 * n as f64 / self.rows.max(1) as f64;
+        s.push_str(&format!(
+            "flagged rows: {} ({:.1} %): non-finite {} ({:.1} %), out of the calibration envelope {} ({:.1} %), weak RBF support {} ({:.1} %)",
+            self.flagged_rows,
+            pct(self.flagged_rows),
+            self.flag_rows[0],
+            pct(self.flag_rows[0]),
+            self.flag_rows[1],
+            pct(self.flag_rows[1]),
+            self.flag_rows[2],
+            pct(self.flag_rows[2]),
+        ));
+        if let Some(r) = &self.reference_errors {
+            s.push_str("\nagainst the references in the record (every row that has one):");
+            for c in (0..N_OUTPUTS).filter(|&c| r.rows[c] > 0) {
+                s.push_str(&format!(
+                    "\n  {}: RMSE {:.4} {u}, bias {:+.4} {u}, band coverage {:.1} % ({} rows)",
+                    CHANNELS[c],
+                    r.rmse[c],
+                    r.bias[c],
+                    100.0 * r.coverage[c],
+                    r.rows[c],
+                    u = UNITS[c]
+                ));
+            }
+        }
+        s
+    }
+}
