@@ -128,3 +128,36 @@ fn f32_runs_the_device_arithmetic_within_one_percent() {
         run(bin().args(["compensate", "--f32", "--model"]).arg(&model).arg("--data").arg(&csv).arg("--out").arg(&csv));
     assert!(!ok && err.contains("data.csv"), "{err}");
 }
+
+/// `train` names a reference that is constant, or a grating that never moves, over the
+/// calibration batch, before any fitting.
+#[test]
+fn train_refuses_a_constant_reference_or_a_dead_grating_by_column() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    let with_constant = |col: &str, value: &str| -> std::path::PathBuf {
+        let k = head.iter().position(|h| *h == col).unwrap();
+        let mut out = String::new();
+        for (r, l) in text.lines().enumerate() {
+            let mut cells: Vec<&str> = l.split(',').collect();
+            if r > 0 {
+                cells[k] = value;
+            }
+            out.push_str(&cells.join(","));
+            out.push('\n');
+        }
+        let p = d.path().join(format!("{col}.csv"));
+        std::fs::write(&p, out).unwrap();
+        p
+    };
+    for (col, value, want) in
+        [("strain_ue", "0", "`strain_ue` is constant"), ("dl3_pm", "12.5", "`dl3_pm` never moves")]
+    {
+        let bad = with_constant(col, value);
+        let (ok, _, err) = run(bin().args(["train", "--data"]).arg(&bad).arg("--out").arg(d.path().join("x.fbgm")));
+        assert!(!ok && err.contains(want), "{col}: {err}");
+        assert!(!err.contains("trained in"), "refused before the fit: {err}");
+    }
+}

@@ -398,6 +398,51 @@ pub struct Trained {
 }
 
 /// Fit Model-P and Model-H on the calibration samples of `d`.
+/// Largest span of a column over the calibration batch still taken as constant: the dataset
+/// CSV's resolution (6 decimals).
+pub const CONSTANT_SPAN: f64 = 1e-6;
+
+/// A reference that never changes, or a grating that never moves, over the calibration batch
+/// leaves the fit without the information it needs (a rank-deficient design whose failure would
+/// only name a condition number): refuse it by column name, before any work.
+pub fn refuse_constant_columns(d: &Dataset, cal: &[usize]) -> Result<(), TrainerError> {
+    let span = |v: &[f64]| {
+        let (lo, hi) =
+            cal.iter().map(|&i| v[i]).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+        (hi - lo, lo)
+    };
+    let refs = [("T_C", "°C"), ("strain_ue", "µε"), ("p_kPa", "kPa")];
+    for (c, (name, unit)) in refs.iter().enumerate() {
+        if !d.has_target[c] {
+            continue;
+        }
+        let (s, v) = span(d.target(c));
+        if s <= CONSTANT_SPAN {
+            return Err(TrainerError::Dataset {
+                message: format!(
+                    "column `{name}` is constant ({v} {unit}) over the {} calibration rows: nothing to calibrate that measurand against; \
+                     leave the column out (references are optional) or calibrate on a batch where it varies",
+                    cal.len()
+                ),
+            });
+        }
+    }
+    for (g, v) in d.dl_pm.iter().enumerate() {
+        let (s, x) = span(v);
+        if s <= CONSTANT_SPAN {
+            return Err(TrainerError::Dataset {
+                message: format!(
+                    "column `dl{}_pm` never moves ({x} pm on all {} calibration rows): the grating is dead, unplugged or not in the \
+                     map; fix the export or the map",
+                    g + 1,
+                    cal.len()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Trained, TrainerError> {
     // Fit on the calibration rows with finite inputs and every available reference.
     let cal: Vec<usize> = d.cal_indices().into_iter().filter(|&i| d.usable(i)).collect();
@@ -409,6 +454,7 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
             ),
         });
     }
+    refuse_constant_columns(d, &cal)?;
     let mut phases = PhaseClock::start();
     let selection = select::select(d, &cal, opts)?;
     phases.lap("cross-validation");
