@@ -79,7 +79,9 @@ fn keys_of(path: &std::path::Path) -> Vec<[u8; 32]> {
         .map(|t| t.chars().filter(|c| !c.is_whitespace()).collect())
         .filter(|t: &String| !t.is_empty() && t.len() % 64 == 0 && t.chars().all(|c| c.is_ascii_hexdigit()));
     let raw: Vec<u8> = match text {
-        Some(hex) => (0..hex.len()).step_by(2).map(|i| u8::from_str_radix(&hex[i..i + 2], 16).expect("hex digits")).collect(),
+        Some(hex) => {
+            (0..hex.len()).step_by(2).map(|i| u8::from_str_radix(&hex[i..i + 2], 16).expect("hex digits")).collect()
+        }
         None => bytes,
     };
     assert!(

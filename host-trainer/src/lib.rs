@@ -25,9 +25,9 @@ pub mod stats;
 pub mod data;
 pub mod eval;
 pub mod export;
-pub mod sign;
 pub mod fit;
 pub mod report;
+pub mod sign;
 pub mod sim;
 
 // Operations built on the pipeline.

@@ -232,8 +232,9 @@ impl BlobSigner {
         let state = &self.files.state;
         let last = match std::fs::read_to_string(state) {
             Ok(text) => {
-                let s: State = serde_json::from_str(&text)
-                    .map_err(|e| err(state, format!("unreadable serial state ({e}); it records the last serial issued")))?;
+                let s: State = serde_json::from_str(&text).map_err(|e| {
+                    err(state, format!("unreadable serial state ({e}); it records the last serial issued"))
+                })?;
                 if s.format != STATE_FORMAT || s.key_id != self.id.to_string() {
                     return Err(err(state, format!("is the serial state of key {}, not of {}", s.key_id, self.id)));
                 }
@@ -246,7 +247,10 @@ impl BlobSigner {
             (Some(s), Some(l)) if s < l => {
                 return Err(err(
                     state,
-                    format!("--serial {s} is below the last serial issued with key {} ({l}); serials only grow", self.id),
+                    format!(
+                        "--serial {s} is below the last serial issued with key {} ({l}); serials only grow",
+                        self.id
+                    ),
                 ))
             }
             (Some(s), _) => s,

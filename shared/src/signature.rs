@@ -27,9 +27,11 @@
 //! as a bad signature, not as unsigned); anything else is handed to the blob decoder as it is,
 //! which names the damage.
 //!
-//! The verifier ([`verify`], feature `verify`) is `ed25519-compact`: pure Rust without heap or
-//! dependencies, the same code on the host and on the Cortex-M4F, and strict (it refuses a
-//! non-canonical `S`, small-order points and non-canonical encodings).
+//! The verifier ([`verify`], feature `verify`) is `salty`'s Ed25519 (no heap, `no_std`; on a
+//! Cortex-M4F its field arithmetic is the `UMAAL` assembly of Haase's Curve25519 code, on other
+//! targets the portable TweetNaCl arithmetic), plus the RFC 8032 range check of `S` that
+//! `salty` leaves out (a non-canonical `S` is refused). README-firmware.md, "Signed model
+//! updates", says why `salty` and not `ed25519-compact`.
 
 use crate::blob::{computed_crc, stored_crc, CRC_LEN, HEADER_LEN};
 
@@ -327,8 +329,8 @@ pub fn find_key(keys: &[TrustedKey], id: KeyId) -> Option<&TrustedKey> {
     keys.iter().find(|k| k.id == id)
 }
 
-/// Check the Ed25519 signature of `signed` with `public` (RFC 8032 verification with
-/// `ed25519-compact`, which also refuses a non-canonical `S` and small-order keys or `R`).
+/// Check the Ed25519 signature of `signed` with `public` (RFC 8032 verification: `salty`, and
+/// `S` below the group order).
 #[cfg(feature = "verify")]
 pub fn verify_with(signed: &Signed<'_>, public: &[u8; PUBLIC_KEY_LEN]) -> Result<(), SignatureError> {
     verify_message(signed.message, &signed.signature, public)
@@ -343,9 +345,33 @@ pub fn verify_message(
     signature: &[u8; SIGNATURE_LEN],
     public: &[u8; PUBLIC_KEY_LEN],
 ) -> Result<(), SignatureError> {
-    let key = ed25519_compact::PublicKey::new(*public);
-    let sig = ed25519_compact::Signature::new(*signature);
+    // RFC 8032 section 5.1.7: S must be below the group order L, else a signature could be
+    // turned into another valid one (S + L); salty's `verify` does not check it itself.
+    if !s_is_canonical(signature) {
+        return Err(SignatureError::BadSignature);
+    }
+    let key = salty::PublicKey::try_from(public).map_err(|_| SignatureError::BadSignature)?;
+    let sig = salty::Signature::from(signature);
     key.verify(message, &sig).map_err(|_| SignatureError::BadSignature)
+}
+
+/// The group order L = 2^252 + 27742317777372353535851937790883648493, little-endian.
+#[cfg(feature = "verify")]
+const GROUP_ORDER: [u8; 32] = [
+    0xed, 0xd3, 0xf5, 0x5c, 0x1a, 0x63, 0x12, 0x58, 0xd6, 0x9c, 0xf7, 0xa2, 0xde, 0xf9, 0xde, 0x14, 0, 0, 0, 0, 0, 0,
+    0, 0, 0, 0, 0, 0, 0, 0, 0, 0x10,
+];
+
+/// Whether the `S` half of `signature` (little-endian, bytes 32..64) is below L.
+#[cfg(feature = "verify")]
+fn s_is_canonical(signature: &[u8; SIGNATURE_LEN]) -> bool {
+    // Compare from the most significant byte down.
+    for (s, l) in signature.iter().skip(32).rev().zip(GROUP_ORDER.iter().rev()) {
+        if s != l {
+            return s < l;
+        }
+    }
+    false
 }
 
 /// Check `signed` against `keys`: its key id must name one of them ([`SignatureError::UnknownKey`])

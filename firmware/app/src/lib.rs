@@ -122,7 +122,11 @@ pub struct Signer {
 /// Returns the blob inside and its signer. Never inlined: the verifier's stack is gone before
 /// the model loads.
 #[inline(never)]
-pub fn authenticate<'b>(policy: &Policy, bytes: &'b [u8], running_serial: u64) -> Result<(&'b [u8], Signer), Rejection> {
+pub fn authenticate<'b>(
+    policy: &Policy,
+    bytes: &'b [u8],
+    running_serial: u64,
+) -> Result<(&'b [u8], Signer), Rejection> {
     let signed = match signature::open(bytes)? {
         Envelope::Signed(s) => s,
         Envelope::Unsigned(_) => return Err(SignatureError::Unsigned.into()),
@@ -163,11 +167,7 @@ pub fn boot<const K: usize>(
 impl ModelInfo {
     /// This model as signed by `signer` (unsigned with `None`).
     pub fn signed_by(self, signer: Option<Signer>) -> ModelInfo {
-        ModelInfo {
-            serial: signer.map_or(0, |s| s.serial),
-            key_id: signer.map(|s| s.key_id),
-            ..self
-        }
+        ModelInfo { serial: signer.map_or(0, |s| s.serial), key_id: signer.map(|s| s.key_id), ..self }
     }
 }
 

@@ -166,7 +166,15 @@ impl Mem {
         load_blob(&Kernel::LIBRARY, &mut self.comp, blob_bytes)
     }
     fn device(&mut self, info: ModelInfo) -> Device<'_, Pin, K> {
-        Device::new(&mut self.comp, Kernel::LIBRARY, policy(), &mut self.reader, info, &mut self.staging, Pin::default())
+        Device::new(
+            &mut self.comp,
+            Kernel::LIBRARY,
+            policy(),
+            &mut self.reader,
+            info,
+            &mut self.staging,
+            Pin::default(),
+        )
     }
     fn link(&mut self, blob_bytes: &[u8]) -> LinkClient<Wire<'_>> {
         let info = self.boot(blob_bytes).unwrap();
@@ -711,7 +719,10 @@ fn updates_must_be_signed_by_a_trusted_key_and_not_roll_back() {
         assert_serves(&mut link, &mut running, &s[seq..seq + 10], seq as u32);
     }
     let st = link.status().unwrap();
-    assert_eq!(st.refused, fbg_shared::protocol::Refusals { unsigned: 1, bad_signature: 3, unknown_key: 1, rollback: 1 });
+    assert_eq!(
+        st.refused,
+        fbg_shared::protocol::Refusals { unsigned: 1, bad_signature: 3, unknown_key: 1, rollback: 1 }
+    );
     assert_eq!((st.updates_accepted, st.updates_rejected), (1, 6));
     assert_eq!(st.last_rejection.map(|r| (r.reason, r.detail)), Some((RejectReason::Rollback, 4)));
     let unknown = Rejection::from(SignatureError::UnknownKey { key_id: trusted(&stranger()).id });
@@ -758,9 +769,15 @@ fn the_embedded_model_is_trusted_or_must_be_signed() {
     assert_eq!(e.reason, RejectReason::Unsigned);
     let signed = sign(default_blob(), 3);
     let info = boot(&Kernel::LIBRARY, &policy(), true, &mut mem.comp, &signed).unwrap();
-    assert_eq!((info.serial, info.key_id, info.crc), (3, Some(trusted(&lab()).id), blob::stored_crc(default_blob()).unwrap()));
+    assert_eq!(
+        (info.serial, info.key_id, info.crc),
+        (3, Some(trusted(&lab()).id), blob::stored_crc(default_blob()).unwrap())
+    );
     let foreign = sign_with(&stranger(), default_blob(), 3, SignFlags::NONE);
-    assert_eq!(boot(&Kernel::LIBRARY, &policy(), true, &mut mem.comp, &foreign).unwrap_err().reason, RejectReason::UnknownKey);
+    assert_eq!(
+        boot(&Kernel::LIBRARY, &policy(), true, &mut mem.comp, &foreign).unwrap_err().reason,
+        RejectReason::UnknownKey
+    );
     let info = boot(&Kernel::LIBRARY, &policy(), false, &mut mem.comp, &foreign).unwrap();
     assert_eq!(info.serial, 3, "trusted as part of the image, its trailer names it");
 }
@@ -769,7 +786,9 @@ fn the_embedded_model_is_trusted_or_must_be_signed() {
 /// device's code path built for the host; the other vectors are in fbg-shared's tests).
 #[test]
 fn the_device_verifier_passes_rfc8032_test_1() {
-    let hex = |s: &str| -> Vec<u8> { (0..s.len()).step_by(2).map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap()).collect() };
+    let hex = |s: &str| -> Vec<u8> {
+        (0..s.len()).step_by(2).map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap()).collect()
+    };
     let pk: [u8; 32] = hex("d75a980182b10ab7d54bfed3c964073a0ee172f3daa62325af021a68f707511a").try_into().unwrap();
     let sig: [u8; 64] = hex("e5564300c360ac729086e2cc806e828a84877f1eb8e5d974d873e065224901555fb8821590a33bacc61e39701cf9b46bd25bf5f0595bbe24655141438e7a100b").try_into().unwrap();
     assert_eq!(signature::verify_message(&[], &sig, &pk), Ok(()));

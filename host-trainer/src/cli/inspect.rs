@@ -56,7 +56,8 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
             r.serial,
             if r.allow_rollback { ", allow-rollback flag set" } else { "" },
             match (v, pubkey) {
-                (Some(true), Some(k)) => format!("verifies with {} (key id {})", k.display(), check.checked_key_id.as_deref().unwrap_or("")),
+                (Some(true), Some(k)) =>
+                    format!("verifies with {} (key id {})", k.display(), check.checked_key_id.as_deref().unwrap_or("")),
                 (Some(false), Some(k)) => format!(
                     "does NOT verify with {} (key id {}): {}",
                     k.display(),

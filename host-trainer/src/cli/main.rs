@@ -22,8 +22,8 @@ use fbg_trainer::eval::studies::{self, Studies};
 use fbg_trainer::eval::tables;
 use fbg_trainer::export;
 use fbg_trainer::fit::{self, FeatureChoice, Origin, TrainOptions};
-use fbg_trainer::sim::meta::{meta_path, SimMeta};
 use fbg_trainer::sign::{self, SignArgs};
+use fbg_trainer::sim::meta::{meta_path, SimMeta};
 use fbg_trainer::sim::scenario::{Preset, ScenarioConfig};
 use fbg_trainer::{report, sim};
 
