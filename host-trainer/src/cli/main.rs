@@ -166,6 +166,21 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Sign an existing blob (or re-sign a signed one): the blob, a trailer with the key id, a
+    /// serial and flags, and the Ed25519 signature over both.
+    Sign {
+        /// The blob to sign.
+        #[arg(long)]
+        model: PathBuf,
+        /// The signed blob to write.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        sign: SignArgs,
+        /// Print the signature (key id, serial, flags) as JSON on stdout.
+        #[arg(long)]
+        json: bool,
+    },
     /// Make an Ed25519 signing key pair for signed model updates: the private key in OUT
     /// (PKCS#8 PEM, mode 0600, never overwritten), the public key beside it as `<stem>.pub`
     /// (raw 32 bytes: the file the firmware build trusts, `FBG_TRUSTED_KEYS`) and
@@ -426,6 +441,29 @@ fn run() -> Result<()> {
             recalibrate::run(&model, &data, batch_hours, &out, allow_worse, json, &sign)
         }
         Cmd::Inspect { model, pubkey, json } => inspect::run(&model, pubkey.as_deref(), json),
+        Cmd::Sign { model, out, sign: sign_args, json } => {
+            let Some(key) = sign_args.sign.as_deref() else { bail!("--sign KEY is required") };
+            check_outputs(&[&out], &[&model, key])?;
+            // Only a blob that decodes is signed: a signature vouches for a valid model.
+            export::read_blob(&model)?;
+            let bytes = std::fs::read(&model).with_context(|| format!("{}: cannot read", model.display()))?;
+            let signer = sign_args.signer()?.context("--sign KEY is required")?;
+            let (signed, rec) = signer.sign(&bytes)?;
+            write_bytes_atomically(&out, &signed)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&rec)?);
+            } else {
+                eprintln!(
+                    "wrote {} ({} B): key id {}, serial {}{}",
+                    out.display(),
+                    signed.len(),
+                    rec.key_id,
+                    rec.serial,
+                    if rec.allow_rollback { ", allow-rollback flag set" } else { "" }
+                );
+            }
+            Ok(())
+        }
         Cmd::Keygen { out, json } => {
             let k = sign::keygen(&out)?;
             if json {
