@@ -294,6 +294,9 @@ enum Cmd {
     /// board behind a serial-to-TCP bridge) and check every estimate against the host's f64
     /// compensator on the same model (1 % of the hold-out RMSE, flags identical).
     Stream(stream::StreamArgs),
+    /// Talk to a running device: `device status` prints its audit trail (active model, its
+    /// signature's serial and key id, updates accepted and refused by reason) and counters.
+    Device(stream::DeviceArgs),
 }
 
 fn main() {
@@ -508,6 +511,7 @@ fn run() -> Result<()> {
         Cmd::BenchFit(a) => bench_fit(&a),
         Cmd::Fleet(a) => fleet(&a),
         Cmd::Stream(a) => a.run(),
+        Cmd::Device(a) => a.run(),
         Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, max_skipped, json } => {
             if !(0.0..=100.0).contains(&max_skipped) {
                 bail!("--max-skipped must be a percentage from 0 to 100 (got {max_skipped})");
