@@ -7,7 +7,9 @@
 //! - copies the test fixtures the test binaries embed into `OUT_DIR` (an empty file when a
 //!   fixture is absent, so the product binary always builds): `FBG_GOLDEN_PACK` and
 //!   `FBG_BENCH_PACK` (paths; defaults under `../target/fixtures/`, which `cargo xtask
-//!   fixtures` makes with the trainer), each a pack of models and samples (`fbg_shared::golden`).
+//!   fixtures` makes with the trainer), each a pack of models and samples (`fbg_shared::golden`),
+//!   and `FBG_BENCH_SIGNED`, a model signed with the QEMU test key whose verification the bench
+//!   image times.
 //!
 //! - writes `trust.rs`, the signature policy compiled into the image: the trusted public keys
 //!   from the files named by `FBG_TRUSTED_KEYS` (comma-separated; each file holds one or more
@@ -45,6 +47,7 @@ fn main() {
     for (var, default, name) in [
         ("FBG_GOLDEN_PACK", fixtures.join("golden_pack.bin"), "golden_pack.bin"),
         ("FBG_BENCH_PACK", fixtures.join("bench_pack_k32.bin"), "bench_pack.bin"),
+        ("FBG_BENCH_SIGNED", fixtures.join("bench_signed.fbgm"), "bench_signed.fbgm"),
     ] {
         println!("cargo:rerun-if-env-changed={var}");
         let src = env::var_os(var).map(PathBuf::from).unwrap_or(default);
