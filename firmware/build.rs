@@ -80,7 +80,7 @@ fn keys_of(path: &std::path::Path) -> Vec<[u8; 32]> {
     let text: Option<String> = std::str::from_utf8(&bytes)
         .ok()
         .map(|t| t.chars().filter(|c| !c.is_whitespace()).collect())
-        .filter(|t: &String| !t.is_empty() && t.len() % 64 == 0 && t.chars().all(|c| c.is_ascii_hexdigit()));
+        .filter(|t: &String| !t.is_empty() && t.len().is_multiple_of(64) && t.chars().all(|c| c.is_ascii_hexdigit()));
     let raw: Vec<u8> = match text {
         Some(hex) => {
             (0..hex.len()).step_by(2).map(|i| u8::from_str_radix(&hex[i..i + 2], 16).expect("hex digits")).collect()
@@ -88,7 +88,7 @@ fn keys_of(path: &std::path::Path) -> Vec<[u8; 32]> {
         None => bytes,
     };
     assert!(
-        !raw.is_empty() && raw.len() % 32 == 0,
+        !raw.is_empty() && raw.len().is_multiple_of(32),
         "FBG_TRUSTED_KEYS: {} holds {} bytes; expected raw 32-byte Ed25519 public keys (lab.pub) or their hex",
         path.display(),
         raw.len()
