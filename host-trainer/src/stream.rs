@@ -99,13 +99,16 @@ pub fn status_text(st: &Status) -> String {
     let r = &st.refused;
     let last = st.last_rejection.map(|r| format!("; last refusal: {r}")).unwrap_or_default();
     format!(
-        "active model: crc {:#010x} (digest), {} centres (capacity {}), {signer}
-         model updates: {} accepted, {} refused ({} unsigned, {} bad signature, {} unknown key, {} rollback, {} other){last}
-         link: {} frames, {} malformed, {} samples compensated; stack peak {} B serving, {} B at boot
-",
+        concat!(
+            "active model: crc {:#010x} (digest), {} centres (capacity {}), {}\n",
+            "model updates: {} accepted, {} refused ({} unsigned, {} bad signature, {} unknown key, {} rollback, {} other){}\n",
+            "link: {} frames, {} malformed, {} samples compensated; stack peak {} B since boot (serving and updates), {} B during boot\n",
+        ),
+
         st.model_crc,
         st.model_centres,
         st.model_capacity,
+        signer,
         st.updates_accepted,
         st.updates_rejected,
         r.unsigned,
@@ -113,6 +116,7 @@ pub fn status_text(st: &Status) -> String {
         r.unknown_key,
         r.rollback,
         st.updates_rejected.saturating_sub(r.unsigned + r.bad_signature + r.unknown_key + r.rollback),
+        last,
         st.frames_ok,
         st.frames_malformed,
         st.samples,
