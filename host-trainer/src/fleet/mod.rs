@@ -608,8 +608,14 @@ pub struct StatusReport {
 
 /// The state of every group of `m` from the files on disk (nothing is trained); `shards` adds
 /// each group's shard of that many.
+/// A signing manifest's digests include the key id: an unreadable key reads as unsigned, so
+/// its groups show as stale.
 pub fn status(m: &Manifest, shards: Option<usize>) -> StatusReport {
-    status_of(m, &m.groups, shards)
+    let sign = m.sign.as_ref().map(|key| SignOptions { key: key.clone(), ..SignOptions::default() });
+    match signed_groups(m, sign.as_ref()) {
+        Ok((groups, _)) => status_of(m, &groups, shards),
+        Err(_) => status_of(m, &m.groups, shards),
+    }
 }
 
 fn status_of(m: &Manifest, groups: &[Group], shards: Option<usize>) -> StatusReport {
@@ -776,10 +782,6 @@ impl StatusArgs {
                 message: "must be at least 1".into(),
             });
         }
-        let m = Manifest::from_file(&self.manifest)?;
-        // A signing manifest's digests include the key id.
-        let sign = m.sign.as_ref().map(|key| SignOptions { key: key.clone(), ..SignOptions::default() });
-        let (groups, _) = signed_groups(&m, sign.as_ref())?;
-        Ok(status_of(&m, &groups, self.shards))
+        Ok(status(&Manifest::from_file(&self.manifest)?, self.shards))
     }
 }
