@@ -351,7 +351,7 @@ pub struct SignArgs {
     /// models only.
     #[arg(long, value_name = "KEY")]
     pub sign: Option<PathBuf>,
-    /// Serial of the signature [default: the next serial of the key, from `<KEY>.serial`].
+    /// Serial of the signature (default: the next serial of the key, kept in `<KEY>.serial`).
     #[arg(long, requires = "sign")]
     pub serial: Option<u64>,
     /// Set the signed allow-rollback flag: a device whose build allows rollback accepts this

@@ -69,7 +69,7 @@ pub struct VerifyBench {
     pub bytes: u64,
     /// Instructions of one `authenticate` call.
     pub instructions: f64,
-    /// Stack the check reached [B] (the bench's own frames included).
+    /// Stack the check reached, in bytes (the bench's own frames included).
     pub stack_peak: u32,
 }
 
