@@ -23,8 +23,18 @@ use defmt_semihosting as _;
 /// blob parser compiled for it for speed (`fbg-firmware-kernel`).
 pub use fbg_firmware_kernel::{step, K, KERNEL};
 
-/// Bytes needed to stage any model this build can hold.
-pub const STAGING_LEN: usize = fbg_shared::blob::max_len(K);
+/// Bytes needed to stage any signed model this build can hold.
+pub const STAGING_LEN: usize = fbg_shared::blob::max_len(K) + fbg_shared::signature::TRAILER_LEN;
+
+/// The signature policy compiled in by `build.rs` (`FBG_TRUSTED_KEYS`, `FBG_ALLOW_ROLLBACK`,
+/// `FBG_REQUIRE_SIGNED_DEFAULT`; README-firmware.md, "Signed model updates").
+pub mod trust {
+    include!(concat!(env!("OUT_DIR"), "/trust.rs"));
+}
+
+/// The image's [`fbg_firmware_app::Policy`].
+pub const POLICY: fbg_firmware_app::Policy =
+    fbg_firmware_app::Policy { trusted: trust::TRUSTED_KEYS, allow_rollback: trust::ALLOW_ROLLBACK };
 
 /// The model embedded in the product image (replaced by the trainer's export).
 pub static DEFAULT_MODEL: &[u8] = include_bytes!("../model/default.fbgm");

@@ -7,8 +7,8 @@
 use cortex_m_rt::entry;
 use fbg_firmware::led::FpgaioLed;
 use fbg_firmware::uart::{CmsdkUart, Uart0Rx, MPS2_PCLK_HZ, UART0_BASE};
-use fbg_firmware::{exit_failure, stack, DEFAULT_MODEL, K, KERNEL, STAGING_LEN};
-use fbg_firmware_app::{load_blob, unloaded, Device};
+use fbg_firmware::{exit_failure, stack, trust, DEFAULT_MODEL, K, KERNEL, POLICY, STAGING_LEN};
+use fbg_firmware_app::{boot, unloaded, Device};
 use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
 use fbg_shared::Compensator;
 
@@ -32,9 +32,13 @@ fn main() -> ! {
     uart.enable_rx_wakeup(Uart0Rx);
     let alarm = unsafe { FpgaioLed::new(0) };
 
+    if trust::TEST_KEY_ONLY {
+        defmt::warn!("this image trusts only the QEMU TEST key (firmware/keys/): not for production");
+    }
     // The embedded default goes the way of every update: parsed into a parameter slot on the
-    // stack of `load_blob`, then folded into the (unloaded) active compensator in place.
-    let info = match load_blob(&KERNEL, MODEL, DEFAULT_MODEL) {
+    // stack of `load_blob`, then folded into the (unloaded) active compensator in place. It is
+    // trusted as part of the image unless the build requires it to be signed.
+    let info = match boot(&KERNEL, &POLICY, trust::REQUIRE_SIGNED_DEFAULT, MODEL, DEFAULT_MODEL) {
         Ok(info) => info,
         Err(r) => {
             defmt::error!(
@@ -57,7 +61,7 @@ fn main() -> ! {
         info.crc,
         boot_peak
     );
-    let mut dev = Device::new(MODEL, KERNEL, READER, info, STAGING, alarm);
+    let mut dev = Device::new(MODEL, KERNEL, POLICY, READER, info, STAGING, alarm);
     dev.set_stack_probe(stack::peak_bytes, boot_peak);
     match dev.serve(&mut uart) {
         Ok(never) => match never {},

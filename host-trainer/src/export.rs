@@ -217,7 +217,21 @@ pub fn write_coefficients(
     core: &PolyCore,
     selection: Option<&Selection>,
 ) -> Result<(), TrainerError> {
-    let v = serde_json::json!({
+    write_coefficients_signed(path, model_p, model_h, core, selection, None)
+}
+
+/// [`write_coefficients`] with the signatures of the blobs written (`signatures`: key id,
+/// serial and flags per model, under the key `signatures`), so that the audit file names
+/// the release each blob is.
+pub fn write_coefficients_signed(
+    path: &Path,
+    model_p: &HostParams,
+    model_h: &HostParams,
+    core: &PolyCore,
+    selection: Option<&Selection>,
+    signatures: Option<serde_json::Value>,
+) -> Result<(), TrainerError> {
+    let mut v = serde_json::json!({
         "format": "fbg-trainer coefficients v1",
         "units": {"T": "°C", "strain": "µε", "p": "kPa", "dl": "pm", "t": "s"},
         "model_p": model_json(model_p, Some(core)),
@@ -230,6 +244,9 @@ pub fn write_coefficients(
             "memory_cv": s.memory_rows,
         })),
     });
+    if let (Some(sig), Some(obj)) = (signatures, v.as_object_mut()) {
+        obj.insert("signatures".into(), sig);
+    }
     let text = serde_json::to_string_pretty(&v).map_err(|e| TrainerError::fit(e.to_string()))?;
     write_bytes_atomically(path, text.as_bytes())
 }

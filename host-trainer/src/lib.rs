@@ -9,7 +9,8 @@
 //! 3. `sim` (scenarios, the simulator, its `.meta.json` sidecar) and `fit` (Model-P and
 //!    Model-H, the `--features` choice, field recalibration);
 //! 4. `eval`: scores, f32-vs-f64 parity, the studies, the `metrics.json` schema, the tables;
-//! 5. `export`: the `.fbgm` blob, `coefficients.json`, golden vectors;
+//! 5. `export`: the `.fbgm` blob, `coefficients.json`, golden vectors; `sign`: signing keys,
+//!    the serial per key and signed blobs (the trailer itself is `fbg_shared::signature`);
 //! 6. `report`, `fleet`, `stream`, `benchmark`: the audit report and the operations built on
 //!    the pipeline.
 //!
@@ -26,6 +27,7 @@ pub mod eval;
 pub mod export;
 pub mod fit;
 pub mod report;
+pub mod sign;
 pub mod sim;
 
 // Operations built on the pipeline.

@@ -19,7 +19,7 @@ use anyhow::{bail, Context, Result};
 use fbg_link::parity::{abs_diff, compare};
 use fbg_link::{LinkClient, LinkError};
 use fbg_shared::layout::N_OUTPUTS;
-use fbg_shared::protocol::UpdateResult;
+use fbg_shared::protocol::{Status, UpdateResult};
 use fbg_shared::Compensator;
 
 use crate::data::Dataset;
@@ -84,6 +84,55 @@ pub struct StreamReport {
     pub first_mismatches: Vec<String>,
     /// Wall time of the stream \[s\].
     pub seconds: f64,
+    /// The device's status after the stream (counters, active model and its signature, refused
+    /// updates by reason).
+    pub device_status: Option<Status>,
+}
+
+/// The device's status as the audit trail reads: the active model (digest, serial, signer)
+/// and the updates accepted and refused, by reason.
+pub fn status_text(st: &Status) -> String {
+    let signer = match st.model_key_id {
+        Some(id) => format!("serial {}, signed by key {id}", st.model_serial),
+        None => "unsigned (the embedded default, trusted as part of the firmware image)".to_string(),
+    };
+    let r = &st.refused;
+    let last = st.last_rejection.map(|r| format!("; last refusal: {r}")).unwrap_or_default();
+    format!(
+        concat!(
+            "active model: crc {:#010x} (digest), {} centres (capacity {}), {}\n",
+            "model updates: {} accepted, {} refused ({} unsigned, {} bad signature, {} unknown key, {} rollback, {} other){}\n",
+            "link: {} frames, {} malformed, {} samples compensated; stack peak {} B since boot (serving and updates), {} B during boot\n",
+        ),
+
+        st.model_crc,
+        st.model_centres,
+        st.model_capacity,
+        signer,
+        st.updates_accepted,
+        st.updates_rejected,
+        r.unsigned,
+        r.bad_signature,
+        r.unknown_key,
+        r.rollback,
+        st.updates_rejected.saturating_sub(r.unsigned + r.bad_signature + r.unknown_key + r.rollback),
+        last,
+        st.frames_ok,
+        st.frames_malformed,
+        st.samples,
+        st.stack_peak_bytes,
+        st.stack_boot_bytes
+    )
+}
+
+/// Connect to the device at `host:port` (waiting up to `timeout`) and read its status.
+pub fn device_status(host: &str, port: u16, timeout: Duration) -> Result<Status> {
+    let addr = format!("{host}:{port}");
+    let stream = connect(&addr, timeout)?;
+    stream.set_read_timeout(Some(timeout))?;
+    stream.set_nodelay(true)?;
+    let mut link = LinkClient::new(stream);
+    link.status().map_err(|e| link_err("status", e))
 }
 
 impl StreamReport {
@@ -121,6 +170,9 @@ impl StreamReport {
         for m in &self.first_mismatches {
             s.push_str(&format!("  mismatch: {m}\n"));
         }
+        if let Some(st) = &self.device_status {
+            s.push_str(&status_text(st));
+        }
         s
     }
 }
@@ -157,7 +209,8 @@ fn link_err(what: &str, e: LinkError) -> anyhow::Error {
 pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
     let bytes = std::fs::read(&opts.model).with_context(|| format!("{}: cannot read", opts.model.display()))?;
     let model = read_blob(&opts.model)?;
-    let crc = fbg_shared::blob::stored_crc(&bytes).unwrap_or(0);
+    // A signed model's digest is its blob's CRC, before the signature trailer.
+    let crc = fbg_shared::blob::stored_crc(fbg_shared::signature::strip(&bytes)).unwrap_or(0);
     let data = Dataset::read_csv(&opts.data)?;
     let hold = data.holdout_indices();
     if hold.is_empty() {
@@ -217,6 +270,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
         tolerance,
         first_mismatches: Vec::new(),
         seconds: 0.0,
+        device_status: None,
     };
     let bar = crate::fit::select::progress_bar(opts.progress, idx.len() as u64, "stream")
         .with_finish(indicatif::ProgressFinish::AndClear);
@@ -249,6 +303,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
     bar.finish_and_clear();
     report.seconds = t0.elapsed().as_secs_f64();
     report.max_diff_over_rmse = std::array::from_fn(|c| report.max_abs_diff[c] / holdout_rmse[c]);
+    report.device_status = Some(link.status().map_err(|e| link_err("status", e))?);
     if link.malformed_from_device() != 0 {
         bail!("the device sent {} malformed frames", link.malformed_from_device());
     }

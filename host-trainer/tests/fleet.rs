@@ -260,3 +260,43 @@ fn status_reports_done_failed_stale_and_missing() {
     assert!(!d.path().join("models/bad.fleet-failed.json").exists());
     assert!(fleet::status(&man, None).all_done);
 }
+
+/// `[defaults] sign`: every blob signed with its own serial of the key (issued under the key's
+/// lock), the signatures in `coefficients.json`, the key id in the input digest (a run that
+/// signs redoes groups finished unsigned; the same key again skips them).
+#[test]
+fn a_signing_manifest_signs_every_blob_with_its_own_serial() {
+    use fbg_shared::signature::{self, Envelope};
+    let d = tempfile::tempdir().unwrap();
+    let key = d.path().join("keys/lab.key");
+    fbg_trainer::sign::keygen(&key).unwrap();
+    let unsigned = manifest(d.path(), 2, "");
+    let r = fleet::run(&Manifest::from_file(&unsigned).unwrap(), 2, false).unwrap();
+    assert_eq!(r.trained, 2);
+    let text =
+        std::fs::read_to_string(&unsigned).unwrap().replace("[defaults]\n", "[defaults]\nsign = \"keys/lab.key\"\n");
+    std::fs::write(&unsigned, text).unwrap();
+    let m = Manifest::from_file(&unsigned).unwrap();
+    assert_eq!(m.sign.as_deref(), Some(key.as_path()));
+    let r = fleet::run(&m, 2, false).unwrap();
+    assert_eq!(r.trained, 2, "signing redoes the groups finished unsigned");
+    let public = fbg_trainer::sign::read_public_key(&d.path().join("keys/lab.pub")).unwrap();
+    let trusted = [signature::TrustedKey { id: signature::key_id(&public), public }];
+    let mut serials = Vec::new();
+    for g in &m.groups {
+        for blob in [g.out.clone(), g.baseline_path()] {
+            let bytes = std::fs::read(&blob).unwrap();
+            let Envelope::Signed(s) = signature::open(&bytes).unwrap() else { panic!("{} unsigned", blob.display()) };
+            assert_eq!(signature::verify(&s, &trusted), Ok(()), "{}", blob.display());
+            serials.push(s.head.serial);
+        }
+        let coef: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(g.coefficients_path()).unwrap()).unwrap();
+        assert_eq!(coef["signatures"]["model_h"]["key_id"], trusted[0].id.to_string());
+    }
+    serials.sort();
+    assert_eq!(serials, [1, 2, 3, 4], "one serial per blob");
+    let r = fleet::run(&m, 2, false).unwrap();
+    assert_eq!(r.skipped, 2, "signed with the same key: finished");
+    assert!(fleet::status(&m, None).all_done, "fleet status reads the signed groups as done");
+}

@@ -10,7 +10,7 @@ const LAYERS: &[&[&str]] = &[
     &["data"],
     &["sim", "fit"],
     &["eval"],
-    &["export"],
+    &["export", "sign"],
     &["report", "fleet", "stream", "benchmark", "compensate"],
 ];
 

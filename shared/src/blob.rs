@@ -14,7 +14,9 @@
 //! 16+n    4     CRC-32/ISCSI (postcard crc flavour) over bytes 0..16+n, u32 LE
 //! ```
 //!
-//! The blob must be exactly `20 + n` bytes long: nothing may follow the CRC.
+//! The blob must be exactly `20 + n` bytes long: nothing may follow the CRC, except the
+//! signature trailer of a signed model ([`crate::signature`]), which decoding skips (it does
+//! not verify it: that is the device's policy, [`crate::signature::verify`]).
 //!
 //! Version history: 1 had no memory terms (no memory field in the header, no memory spec or
 //! Γ in the payload); version 2 adds them. A version-1 blob is refused with
@@ -216,6 +218,8 @@ pub fn decode<const K: usize>(bytes: &[u8]) -> Result<ModelParams<f32, K>, Error
 /// can decode an update into a static staging slot with a small stack. On error `out` holds a
 /// partial model and must not be used; on success it is fully validated.
 pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) -> Result<(), Error> {
+    // A signed model is a blob followed by its signature trailer: the blob is what is decoded.
+    let bytes = crate::signature::strip(bytes);
     let header = Header::read(bytes)?;
     header.check_version()?;
     let (head, body) = bytes.split_at_checked(HEADER_LEN).ok_or(Error::Truncated { part: "header" })?;

@@ -9,6 +9,8 @@
 //! - [`memory`]: the instrument's memory, causal operators whose terms enter Model-H linearly;
 //! - [`model`]: the auditable parameters a blob carries;
 //! - [`blob`]: the `.fbgm` codec (magic, version, dims, postcard payload, CRC-32);
+//! - [`signature`]: the signature trailer of a signed blob (layout, parse, the signed message;
+//!   Ed25519 verification with the `verify` feature);
 //! - [`compensator`]: per-sample inference with band and flags;
 //! - [`flags`]: the fault flags;
 //! - [`protocol`]: the COBS-framed postcard messages of the host ↔ device serial link;
@@ -57,6 +59,7 @@ pub mod memory;
 pub mod model;
 pub mod protocol;
 pub mod real;
+pub mod signature;
 
 pub use compensator::{Compensator, Estimate, Sample, StreamState};
 pub use direction_latch::{ticks, DirectionLatch, LatchBank};

@@ -15,6 +15,7 @@ mod elf;
 mod fixtures;
 mod lint;
 mod qemu;
+mod signing;
 mod slurm;
 
 fn main() -> Result<()> {

@@ -13,7 +13,13 @@
 //!    model (rejected with their reasons; the old model still answers like the host), and
 //!    `fbg-trainer stream --update-first` with a second model (accepted, and its answers match
 //!    the host on the new model);
-//! 5. memory over 14 days: the product image, given a model with memory terms (the default
+//! 5. signed updates: a model signed by the trainer with the committed QEMU test key is
+//!    accepted; unsigned, signed by an unknown key, tampered after signing (one payload bit)
+//!    and an older serial replayed are each refused with their reason while the running model
+//!    answers bit for bit as before; the device's counters and audit fields say so, also
+//!    through `fbg-trainer device status`; an older model signed with the allow-rollback flag
+//!    is accepted (the default build allows it);
+//! 6. memory over 14 days: the product image, given a model with memory terms (the default
 //!    when it has them, else the default with the full memory bank added), compensates the
 //!    whole paper data set — 20 160 samples, 14 days — on an irregular clock with a 5 h gap;
 //!    every answer is compared with the host's f64 (≤ 1 % of Model-H's hold-out RMSE, flags
@@ -38,6 +44,7 @@ use fbg_shared::blob::stored_crc;
 use fbg_shared::protocol::{DeviceMsg, Feed, FrameReader, RejectReason, Status, UpdateResult, DEVICE_MAX_FRAME};
 
 use crate::fixtures::{self, DeviceFixtures, Fixtures};
+use crate::signing::{self, SignedFixtures};
 
 /// The product's centre capacity.
 pub const PRODUCT_K: usize = 32;
@@ -48,6 +55,7 @@ pub fn run_all(root: &Path) -> Result<()> {
     let qemu = ensure_qemu()?;
     let fx = fixtures::ensure(root)?;
     let dfx = fixtures::ensure_device(root)?;
+    let sfx = signing::ensure(root, &fx, &dfx)?;
 
     crate::step("firmware: host tests of the device logic (fbg-firmware-app)");
     let fw = firmware_dir(root);
@@ -82,7 +90,11 @@ pub fn run_all(root: &Path) -> Result<()> {
     crate::step("QEMU: golden vectors");
     golden_test(root, &qemu, &bins, &fx)?;
     crate::step("QEMU: streaming, garbage and model updates over a loopback TCP serial port");
-    link_test(root, &qemu, &bins, &fx, &dfx)?;
+    link_test(root, &qemu, &bins, &fx, &dfx, &sfx)?;
+    crate::step(
+        "QEMU: signed model updates (accepted; unsigned, unknown key, tampered, rollback refused) and the audit trail",
+    );
+    signed_update_test(root, &qemu, &bins, &fx, &sfx)?;
     crate::step("QEMU: a memory model over the whole 14-day paper stream (f32 device vs f64 host)");
     long_memory_test(root, &qemu, &bins, &fx)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());
@@ -142,6 +154,7 @@ pub fn build_env(k: usize, fx: &Fixtures, bench: Option<&Path>) -> Vec<(String, 
         ("FBG_K".to_string(), k.to_string()),
         ("FBG_GOLDEN_PACK".to_string(), s(&fx.golden_pack)),
         ("FBG_BENCH_PACK".to_string(), s(bench.unwrap_or(&fx.golden_pack))),
+        ("FBG_BENCH_SIGNED".to_string(), s(&fixtures::dir(&crate::root()).join("bench_signed.fbgm"))),
     ]
 }
 
@@ -593,7 +606,14 @@ fn stream_summary(r: &serde_json::Value) -> String {
     )
 }
 
-fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceFixtures) -> Result<()> {
+fn link_test(
+    root: &Path,
+    qemu: &Path,
+    bins: &Bins,
+    fx: &Fixtures,
+    dfx: &DeviceFixtures,
+    sfx: &SignedFixtures,
+) -> Result<()> {
     let default = fs::read(firmware_dir(root).join("model/default.fbgm"))?;
     let update = fs::read(&dfx.update_model)?;
     let k64 = fs::read(&dfx.k64_model)?;
@@ -629,10 +649,10 @@ fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceF
     eprintln!("xtask: link: garbage counted ({} malformed) and the device kept serving", after.frames_malformed);
 
     // 3. corrupted and unfit updates are rejected; the old model keeps answering like the host.
-    let mut corrupt = update.clone();
-    let mid = corrupt.len() / 2;
+    let mut corrupt = fs::read(&sfx.update)?;
+    let mid = update.len() / 2;
     corrupt[mid] ^= 0x20;
-    expect_rejected(s.link()?.update_model(&corrupt)?, RejectReason::BadCrc, "corrupted model")?;
+    expect_rejected(s.link()?.update_model(&corrupt)?, RejectReason::BadSignature, "corrupted signed model")?;
     // A 64-centre blob does not even fit the K = 32 staging buffer: refused at ModelBegin.
     expect_rejected(s.link()?.update_model(&k64)?, RejectReason::TooLarge, "64-centre model on a K = 32 build")?;
     let st = s.link()?.status()?;
@@ -642,8 +662,8 @@ fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceF
     let after_rejects = r["samples"].as_u64().unwrap_or(0) as u32;
     eprintln!("xtask: link: after the rejected updates the old model still matches the host: {}", stream_summary(&r));
 
-    // 4. a valid update through the CLI, then its answers checked against the host.
-    let r = s.trainer_stream(fx, &dfx.update_model, &["--update-first", "--max-samples", "2000"])?;
+    // 4. a valid (signed) update through the CLI, then its answers checked against the host.
+    let r = s.trainer_stream(fx, &sfx.update, &["--update-first", "--max-samples", "2000"])?;
     let after_update = r["samples"].as_u64().unwrap_or(0) as u32;
     eprintln!(
         "xtask: link: fbg-trainer stream --update-first ({}, {} centres): {}",
@@ -654,6 +674,7 @@ fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceF
 
     let fin: Status = s.link()?.status()?;
     ensure!(Some(fin.model_crc) == stored_crc(&update), "the active model is not the update after it was accepted");
+    ensure!(fin.model_serial == 1, "the active model's serial is {}, the update's is 1", fin.model_serial);
     ensure!(fin.updates_accepted == 1, "updates_accepted = {}", fin.updates_accepted);
     ensure!(fin.updates_rejected == 2, "updates_rejected = {}", fin.updates_rejected);
     let total = streamed + after_rejects + after_update;
@@ -663,6 +684,121 @@ fn link_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, dfx: &DeviceF
     ensure!(Instant::now() < deadline, "link test took too long");
     s.check_alive()?;
     eprintln!("xtask: link: final status {fin:?}");
+    Ok(())
+}
+
+/// The answers of the running model to `samples` from a fresh stream state, as bit patterns
+/// (values, band) and flags, to compare bit for bit.
+fn answers(s: &mut LinkSession, samples: &[fbg_shared::Sample<f32>]) -> Result<Vec<([u32; 6], String)>> {
+    s.link()?.reset_stream(0xA11)?;
+    samples
+        .iter()
+        .enumerate()
+        .map(|(i, x)| {
+            let e = s.link()?.compensate(i as u32, x)?;
+            let v = e.values.iter().chain(e.band.iter()).map(|f| f.to_bits()).collect::<Vec<_>>();
+            Ok(([v[0], v[1], v[2], v[3], v[4], v[5]], format!("{:?}", e.flags)))
+        })
+        .collect()
+}
+
+fn signed_update_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, sfx: &SignedFixtures) -> Result<()> {
+    let default = fs::read(firmware_dir(root).join("model/default.fbgm"))?;
+    let new = fs::read(&sfx.new)?;
+    let new_blob = fbg_shared::signature::strip(&new).to_vec();
+    let test_key: [u8; 32] =
+        fs::read(&sfx.test_pub)?.try_into().map_err(|_| anyhow::anyhow!("the test public key is not 32 bytes"))?;
+    let test_id = fbg_shared::signature::key_id(&test_key);
+    let samples: Vec<_> = fixtures::read_inputs(&fx.golden_inputs)?.into_iter().take(40).collect();
+    let mut s = LinkSession::start(root, qemu, &bins.product, "signed")?;
+    let st = s.link()?.status()?;
+    ensure!(st.model_serial == 0 && st.model_key_id.is_none(), "the embedded model should read as unsigned: {st:?}");
+    let embedded = answers(&mut s, &samples)?;
+
+    // Accepted: the default model signed with serial 3 (the same model, so the same answers),
+    // then the update model with serial 5.
+    let accepted = |s: &mut LinkSession, path: &Path, serial: u64, crc: Option<u32>| -> Result<()> {
+        let r = s.link()?.update_model(&fs::read(path)?)?;
+        ensure!(matches!(r, UpdateResult::Accepted { .. }), "{}: {r:?}", path.display());
+        let st = s.link()?.status()?;
+        ensure!(
+            (st.model_serial, st.model_key_id, Some(st.model_crc)) == (serial, Some(test_id), crc),
+            "after accepting {}: serial {}, key {:?}, crc {:#x}",
+            path.display(),
+            st.model_serial,
+            st.model_key_id,
+            st.model_crc
+        );
+        eprintln!("xtask: signed: {} accepted (serial {serial}, key {test_id})", path.display());
+        Ok(())
+    };
+    accepted(&mut s, &sfx.old, 3, stored_crc(&default))?;
+    ensure!(
+        answers(&mut s, &samples)? == embedded,
+        "the default model signed answers differently from the embedded one"
+    );
+    accepted(&mut s, &sfx.new, 5, stored_crc(&new_blob))?;
+    let running = answers(&mut s, &samples)?;
+    ensure!(running != embedded, "the update model answers like the default one; the test would prove nothing");
+
+    // Refused, each with its reason, the running model untouched.
+    let mut tampered = new.clone();
+    tampered[fbg_shared::blob::HEADER_LEN + 40] ^= 0x04; // one payload bit
+    let cases: [(&str, Vec<u8>, RejectReason); 4] = [
+        ("unsigned", new_blob.clone(), RejectReason::Unsigned),
+        ("unknown key", fs::read(&sfx.stranger)?, RejectReason::UnknownKey),
+        ("tampered after signing (one payload bit)", tampered, RejectReason::BadSignature),
+        ("older serial replayed (3 < 5)", fs::read(&sfx.old)?, RejectReason::Rollback),
+    ];
+    for (what, bytes, reason) in &cases {
+        expect_rejected(s.link()?.update_model(bytes)?, *reason, what)?;
+        let st = s.link()?.status()?;
+        ensure!(
+            (st.model_serial, Some(st.model_crc)) == (5, stored_crc(&new_blob)),
+            "{what}: the active model changed (serial {}, crc {:#x})",
+            st.model_serial,
+            st.model_crc
+        );
+        ensure!(
+            answers(&mut s, &samples)? == running,
+            "{what}: the running model no longer answers bit for bit as before"
+        );
+    }
+    let st = s.link()?.status()?;
+    let want = fbg_shared::protocol::Refusals { unsigned: 1, bad_signature: 1, unknown_key: 1, rollback: 1 };
+    ensure!(st.refused == want, "refusals by reason {:?}, expected {want:?}", st.refused);
+    ensure!(
+        (st.updates_accepted, st.updates_rejected) == (2, 4),
+        "accepted/refused {:?}",
+        (st.updates_accepted, st.updates_rejected)
+    );
+    eprintln!("xtask: signed: every bad update refused with its reason; the running model answered bit for bit as before each time");
+
+    // The audit trail through the CLI.
+    s.disconnect()?;
+    let out = Command::new(&fx.trainer)
+        .args(["device", "status", "--port", &s.port.to_string()])
+        .stdin(Stdio::null())
+        .output()
+        .context("running fbg-trainer device status")?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    ensure!(out.status.success(), "fbg-trainer device status failed: {}", String::from_utf8_lossy(&out.stderr));
+    for needle in [
+        format!("serial 5, signed by key {test_id}"),
+        "2 accepted, 4 refused (1 unsigned, 1 bad signature, 1 unknown key, 1 rollback, 0 other)".to_string(),
+    ] {
+        ensure!(text.contains(&needle), "`fbg-trainer device status` does not say `{needle}`:\n{text}");
+    }
+    eprint!("xtask: signed: fbg-trainer device status:\n{text}");
+    s.connect()?;
+
+    // A deliberate downgrade signed with the allow-rollback flag: accepted by the default build.
+    accepted(&mut s, &sfx.rollback, 4, stored_crc(&default))?;
+    ensure!(answers(&mut s, &samples)? == embedded, "the rolled-back default model answers differently");
+    let st = s.link()?.status()?;
+    ensure!(st.updates_accepted == 3 && st.refused == want, "after the rollback: {st:?}");
+    s.disconnect()?;
+    s.check_alive()?;
     Ok(())
 }
 

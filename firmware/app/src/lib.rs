@@ -25,6 +25,18 @@
 //! that slot, then [`Compensator::reload`] folds it into the active compensator in place; a
 //! refused model leaves the active one serving (reload checks everything before it writes).
 //!
+//! # Signed updates
+//!
+//! A model update must be signed ([`fbg_shared::signature`]): [`authenticate`] checks the
+//! staged bytes against the build's [`Policy`] — a trailer (else `Unsigned`), a trusted key id
+//! (else `UnknownKey`), an Ed25519 signature that verifies (else `BadSignature`), a serial not
+//! lower than the running model's unless the update's signed flags and the build both allow a
+//! rollback (else `Rollback`) — before a byte of the blob is parsed. The verification runs in
+//! its own never-inlined frame, before the load, so its stack and the parameter slot's are
+//! never on the stack together. Refusals are counted by reason in [`Status::refused`]. The
+//! embedded default model is trusted as part of the firmware image unless the build requires
+//! it to be signed too ([`boot`]).
+//!
 //! No heap, no panicking paths.
 
 #![no_std]
@@ -38,6 +50,7 @@ use fbg_shared::protocol::{
     crc32, encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, RejectReason, Rejection,
     Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
+use fbg_shared::signature::{self, Envelope, KeyId, SignFlags, SignatureError, TrustedKey};
 use fbg_shared::{Compensator, Estimate, ModelParams, Sample};
 
 /// Log through defmt when the `defmt` feature is on; nothing otherwise.
@@ -76,6 +89,84 @@ pub struct ModelInfo {
     pub centres: u16,
     /// The blob's CRC trailer.
     pub crc: u32,
+    /// Serial of its signature trailer (0 when unsigned).
+    pub serial: u64,
+    /// Its signer's key id (`None` when unsigned).
+    pub key_id: Option<KeyId>,
+}
+
+/// Who may change what this device measures: fixed when the firmware is built.
+#[derive(Clone, Copy, Debug)]
+pub struct Policy {
+    /// The public keys whose signatures are accepted.
+    pub trusted: &'static [TrustedKey],
+    /// Whether an update signed with [`SignFlags::ALLOW_ROLLBACK`] may carry a lower serial
+    /// than the running model's (without the flag a lower serial is always refused).
+    pub allow_rollback: bool,
+}
+
+/// Who signed an accepted model, and which release it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Signer {
+    /// The trailer's serial.
+    pub serial: u64,
+    /// The key that signed.
+    pub key_id: KeyId,
+}
+
+/// Check a model file against `policy` before anything of it is parsed: a signature trailer,
+/// a trusted key, a signature that verifies over blob, serial and flags, and a serial not
+/// lower than `running_serial` unless both the update's flags and the policy allow a rollback.
+/// Returns the blob inside and its signer. Never inlined: the verifier's stack is gone before
+/// the model loads.
+#[inline(never)]
+pub fn authenticate<'b>(
+    policy: &Policy,
+    bytes: &'b [u8],
+    running_serial: u64,
+) -> Result<(&'b [u8], Signer), Rejection> {
+    let signed = match signature::open(bytes)? {
+        Envelope::Signed(s) => s,
+        Envelope::Unsigned(_) => return Err(SignatureError::Unsigned.into()),
+    };
+    signature::verify(&signed, policy.trusted)?;
+    let head = signed.head;
+    let rollback_ok = policy.allow_rollback && head.flags.contains(SignFlags::ALLOW_ROLLBACK);
+    if head.serial < running_serial && !rollback_ok {
+        return Err(SignatureError::Rollback { serial: head.serial, running: running_serial }.into());
+    }
+    Ok((signed.blob, Signer { serial: head.serial, key_id: head.key_id }))
+}
+
+/// Load the embedded default model at boot. With `require_signed` it must pass
+/// [`authenticate`] like any update (the build option for images whose model is provisioned
+/// apart from the code); without, it is trusted as part of the firmware image, and a trailer
+/// it carries (if any) only names its serial and key.
+pub fn boot<const K: usize>(
+    kernel: &Kernel<K>,
+    policy: &Policy,
+    require_signed: bool,
+    comp: &mut Compensator<f32, K>,
+    bytes: &[u8],
+) -> Result<ModelInfo, Rejection> {
+    let (blob, signer) = if require_signed {
+        let (blob, s) = authenticate(policy, bytes, 0)?;
+        (blob, Some(s))
+    } else {
+        match signature::open(bytes) {
+            Ok(Envelope::Signed(s)) => (s.blob, Some(Signer { serial: s.head.serial, key_id: s.head.key_id })),
+            _ => (bytes, None),
+        }
+    };
+    let info = load_blob(kernel, comp, blob)?;
+    Ok(info.signed_by(signer))
+}
+
+impl ModelInfo {
+    /// This model as signed by `signer` (unsigned with `None`).
+    pub fn signed_by(self, signer: Option<Signer>) -> ModelInfo {
+        ModelInfo { serial: signer.map_or(0, |s| s.serial), key_id: signer.map(|s| s.key_id), ..self }
+    }
 }
 
 /// A compensator with no model loaded, for a `static` that [`load`] then fills in place (the
@@ -108,7 +199,12 @@ pub fn load<const K: usize>(
     (kernel.decode)(bytes, params)?;
     (kernel.reload)(comp, params)?;
     // The blob decoded, so it has a trailer.
-    Ok(ModelInfo { centres: centres_u16(comp.n_centres()), crc: blob::stored_crc(bytes).unwrap_or(0) })
+    Ok(ModelInfo {
+        centres: centres_u16(comp.n_centres()),
+        crc: blob::stored_crc(bytes).unwrap_or(0),
+        serial: 0,
+        key_id: None,
+    })
 }
 
 /// [`load`] with a staging slot of its own, on its stack frame (a model's size) and only
@@ -139,6 +235,7 @@ enum Transfer {
 struct Core<'a, P, const K: usize> {
     comp: &'a mut Compensator<f32, K>,
     kernel: Kernel<K>,
+    policy: Policy,
     staging: &'a mut [u8],
     transfer: Transfer,
     model: ModelInfo,
@@ -157,12 +254,14 @@ pub struct Device<'a, P, const K: usize> {
 }
 
 impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
-    /// A device serving `comp` (identified by `model`) with `kernel`, receiving updates in
-    /// `staging` (at least `blob::max_len(K)` bytes to accept any model this build can hold),
-    /// reading frames with `reader`, driving `alarm`.
+    /// A device serving `comp` (identified by `model`) with `kernel`, accepting updates that
+    /// pass `policy`, receiving them in `staging` (at least `blob::max_len(K)` bytes plus a
+    /// signature trailer to accept any model this build can hold), reading frames with
+    /// `reader`, driving `alarm`.
     pub fn new(
         comp: &'a mut Compensator<f32, K>,
         kernel: Kernel<K>,
+        policy: Policy,
         reader: &'a mut FrameReader<HOST_MAX_FRAME>,
         model: ModelInfo,
         staging: &'a mut [u8],
@@ -175,7 +274,17 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
         *reader = FrameReader::new();
         Device {
             reader,
-            core: Core { comp, kernel, staging, transfer: Transfer::Idle, model, status, alarm, stack_probe: None },
+            core: Core {
+                comp,
+                kernel,
+                policy,
+                staging,
+                transfer: Transfer::Idle,
+                model,
+                status,
+                alarm,
+                stack_probe: None,
+            },
         }
     }
 
@@ -261,16 +370,20 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
         }
     }
 
-    /// Check the transfer, then load the staged blob ([`load_blob`]: the parameter slot is on
-    /// the stack for the duration of the load only). Cold: once per model update, never
-    /// inlined into the serving loop; the answer is built afterwards ([`Core::commit_reply`]),
-    /// so that it takes no stack during the load.
+    /// Check the transfer, then the signature ([`authenticate`]), then load the staged blob
+    /// ([`load_blob`]: the parameter slot is on the stack for the duration of the load only).
+    /// The two checks and the load run one after the other, so the deepest of them sets the
+    /// stack peak, not their sum. Cold: once per model update, never inlined into the serving
+    /// loop; the answer is built afterwards ([`Core::commit_reply`]), so that it takes no stack
+    /// during the load.
     #[inline(never)]
     fn commit(&mut self) -> Result<ModelInfo, Rejection> {
         let core = &mut self.core;
         let total = core.finish_transfer()?;
         let staged = core.staging.get(..total).unwrap_or(&[]);
-        load_blob(&core.kernel, core.comp, staged)
+        let (blob, signer) = authenticate(&core.policy, staged, core.model.serial)?;
+        let info = load_blob(&core.kernel, core.comp, blob)?;
+        Ok(info.signed_by(Some(signer)))
     }
 }
 
@@ -279,6 +392,8 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
         Status {
             model_centres: self.model.centres,
             model_crc: self.model.crc,
+            model_serial: self.model.serial,
+            model_key_id: self.model.key_id,
             stack_peak_bytes: self.stack_probe.map_or(0, |p| p()),
             ..self.status
         }
@@ -397,7 +512,13 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
         self.model = info;
         self.status.updates_accepted = self.status.updates_accepted.wrapping_add(1);
         let _ = self.alarm.set_low();
-        log!(info, "model update accepted: {=u16} centres, crc {=u32:#010x}", info.centres, info.crc);
+        log!(
+            info,
+            "model update accepted: {=u16} centres, crc {=u32:#010x}, serial {=u64}",
+            info.centres,
+            info.crc,
+            info.serial
+        );
         DeviceMsg::UpdateResult(UpdateResult::Accepted { centres: info.centres, crc: info.crc })
     }
 
@@ -405,6 +526,7 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
         self.transfer = Transfer::Idle;
         self.status.updates_rejected = self.status.updates_rejected.wrapping_add(1);
         self.status.last_rejection = Some(r);
+        self.status.refused.count(r.reason);
         log!(
             warn,
             "model update rejected: {} (code {=u8}, detail {=u32}); keeping the active model",

@@ -11,12 +11,48 @@ use embedded_hal::digital::{ErrorType, OutputPin};
 use fbg_link::{LinkClient, LinkError};
 use fbg_shared::layout::N_MEMORY;
 use fbg_shared::protocol::{encode_host, RejectReason, MAX_CHUNK};
+use fbg_shared::signature::{key_id, TrailerHead, TRAILER_LEN};
 use fbg_shared::{blob, Centre, Flags, MemoryBank, ModelParams};
 
 use super::*;
 
 const K: usize = 32;
-const STAGE: usize = blob::max_len(K);
+const STAGE: usize = blob::max_len(K) + TRAILER_LEN;
+
+/// The test lab's key pair (seed fixed here; the QEMU tests use the committed test key).
+fn lab() -> ed25519_compact::KeyPair {
+    ed25519_compact::KeyPair::from_seed(ed25519_compact::Seed::new([0x5a; 32]))
+}
+
+/// Another key pair, trusted by nobody.
+fn stranger() -> ed25519_compact::KeyPair {
+    ed25519_compact::KeyPair::from_seed(ed25519_compact::Seed::new([0x77; 32]))
+}
+
+fn trusted(kp: &ed25519_compact::KeyPair) -> TrustedKey {
+    let public: [u8; 32] = *kp.pk;
+    TrustedKey { id: key_id(&public), public }
+}
+
+/// The policy of the test devices: the lab's key, rollback allowed when signed so.
+fn policy() -> Policy {
+    static KEYS: std::sync::OnceLock<[TrustedKey; 1]> = std::sync::OnceLock::new();
+    Policy { trusted: KEYS.get_or_init(|| [trusted(&lab())]), allow_rollback: true }
+}
+
+/// `blob_bytes` signed by `kp` with `serial` and `flags`, as the trainer writes it.
+fn sign_with(kp: &ed25519_compact::KeyPair, blob_bytes: &[u8], serial: u64, flags: SignFlags) -> Vec<u8> {
+    let mut out = blob_bytes.to_vec();
+    out.extend_from_slice(&TrailerHead { flags, serial, key_id: trusted(kp).id }.to_bytes());
+    let sig = kp.sk.sign(&out, None);
+    out.extend_from_slice(&sig[..]);
+    out
+}
+
+/// `blob_bytes` signed by the lab with `serial`.
+fn sign(blob_bytes: &[u8], serial: u64) -> Vec<u8> {
+    sign_with(&lab(), blob_bytes, serial, SignFlags::NONE)
+}
 
 /// The firmware's embedded default model (a valid K = 32 blob), or the blob named by
 /// `FBG_TEST_MODEL` (xtask passes its freshly generated fixture, so these tests follow the
@@ -128,7 +164,15 @@ impl Mem {
         load_blob(&Kernel::LIBRARY, &mut self.comp, blob_bytes)
     }
     fn device(&mut self, info: ModelInfo) -> Device<'_, Pin, K> {
-        Device::new(&mut self.comp, Kernel::LIBRARY, &mut self.reader, info, &mut self.staging, Pin::default())
+        Device::new(
+            &mut self.comp,
+            Kernel::LIBRARY,
+            policy(),
+            &mut self.reader,
+            info,
+            &mut self.staging,
+            Pin::default(),
+        )
     }
     fn link(&mut self, blob_bytes: &[u8]) -> LinkClient<Wire<'_>> {
         let info = self.boot(blob_bytes).unwrap();
@@ -311,7 +355,7 @@ fn a_valid_update_swaps_the_model_and_resets_the_stream() {
     let mut old = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     assert_serves(&mut link, &mut old, &s[..20], 0);
     let b = other_model();
-    let r = link.update_model(&b).unwrap();
+    let r = link.update_model(&sign(&b, 1)).unwrap();
     assert_eq!(r, UpdateResult::Accepted { centres: n_default(), crc: blob::stored_crc(&b).unwrap() });
     let mut new = Compensator::<f32, K>::new(&params(&b)).unwrap();
     assert_serves(&mut link, &mut new, &s[20..], 20);
@@ -323,6 +367,7 @@ fn a_valid_update_swaps_the_model_and_resets_the_stream() {
     let st = link.status().unwrap();
     assert_eq!((st.updates_accepted, st.updates_rejected), (1, 0));
     assert_eq!(st.model_crc, blob::stored_crc(&b).unwrap());
+    assert_eq!((st.model_serial, st.model_key_id), (1, Some(trusted(&lab()).id)));
 }
 
 #[test]
@@ -358,7 +403,9 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
     ];
     let mut rejected = 0;
     for (i, (name, bytes, reason)) in cases.iter().enumerate() {
-        let r = link.update_model(bytes).unwrap();
+        // Signed as they are: the signature holds, the blob inside does not.
+        let bytes = if *reason == RejectReason::TooLarge { bytes.clone() } else { sign(bytes, 1) };
+        let r = link.update_model(&bytes).unwrap();
         match r {
             UpdateResult::Rejected(rej) => assert_eq!(rej.reason, *reason, "{name}: {rej}"),
             other => panic!("{name}: {other:?}"),
@@ -371,6 +418,7 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
     }
 
     // Transfer-level errors.
+    let good = sign(&good, 1);
     let crc = crc32(&good);
     let r = link.update_model_with(&good, crc ^ 1, MAX_CHUNK).unwrap();
     assert_eq!(r, UpdateResult::Rejected(Rejection::new(RejectReason::TransferCrc)));
@@ -433,7 +481,10 @@ fn an_unloaded_compensator_is_usable() {
     assert!(e.band95.iter().all(|b| b.is_infinite()), "{e:?}");
     // Loading into it gives exactly `Compensator::new`.
     let info = load_blob(&Kernel::LIBRARY, &mut comp, default_blob()).unwrap();
-    assert_eq!(info, ModelInfo { centres: n_default(), crc: blob::stored_crc(default_blob()).unwrap() });
+    assert_eq!(
+        info,
+        ModelInfo { centres: n_default(), crc: blob::stored_crc(default_blob()).unwrap(), serial: 0, key_id: None }
+    );
     let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     for x in samples(30) {
         assert_eq!(format!("{:?}", comp.step(&x)), format!("{:?}", reference.step(&x)));
@@ -446,9 +497,9 @@ fn serving_goes_on_across_updates_and_a_partial_frame_does_not_survive_a_new_dev
     let mut mem = Mem::new();
     let mut link = mem.link(default_blob());
     link.ping(3).unwrap();
-    assert!(matches!(link.update_model(&other_model()).unwrap(), UpdateResult::Accepted { .. }));
+    assert!(matches!(link.update_model(&sign(&other_model(), 1)).unwrap(), UpdateResult::Accepted { .. }));
     link.ping(4).unwrap();
-    assert!(matches!(link.update_model(default_blob()).unwrap(), UpdateResult::Accepted { .. }));
+    assert!(matches!(link.update_model(&sign(default_blob(), 2)).unwrap(), UpdateResult::Accepted { .. }));
     link.ping(5).unwrap();
     assert_eq!(link.status().unwrap().frames_malformed, 0);
     drop(link);
@@ -589,10 +640,10 @@ fn a_memory_model_is_served_like_the_library_across_gaps_resets_and_updates() {
     // Swapped in by an update from a model without memory, and back.
     let mut mem2 = Mem::new();
     let mut link2 = mem2.link(default_blob());
-    assert!(matches!(link2.update_model(&mem_blob).unwrap(), UpdateResult::Accepted { .. }));
+    assert!(matches!(link2.update_model(&sign(&mem_blob, 1)).unwrap(), UpdateResult::Accepted { .. }));
     let mut reference2 = Compensator::<f32, K>::new(&params(&mem_blob)).unwrap();
     assert_serves(&mut link2, &mut reference2, &s, 0);
-    assert!(matches!(link2.update_model(default_blob()).unwrap(), UpdateResult::Accepted { .. }));
+    assert!(matches!(link2.update_model(&sign(default_blob(), 1)).unwrap(), UpdateResult::Accepted { .. }));
     let mut plain = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     assert_serves(&mut link2, &mut plain, &s[..50], 400);
     // The memory terms do move the answers.
@@ -620,4 +671,126 @@ fn a_failed_load_keeps_the_memory_state() {
     for x in &s[40..] {
         assert_eq!(format!("{:?}", mem.comp.step(x)), format!("{:?}", reference.step(x)));
     }
+}
+
+/// The signature check of an update: unsigned, unknown key, tampered after signing and an
+/// older serial are each refused with their reason and counted, the old model answering bit for
+/// bit as before; a signed update with a serial at least the running one's is accepted; an
+/// older one signed to allow the rollback is accepted where the build allows it.
+#[test]
+fn updates_must_be_signed_by_a_trusted_key_and_not_roll_back() {
+    let mut mem = Mem::new();
+    let mut link = mem.link(default_blob());
+    let st = link.status().unwrap();
+    assert_eq!((st.model_serial, st.model_key_id), (0, None), "the embedded default is unsigned");
+    let s = samples(120);
+    let other = other_model();
+    let v5 = sign(&other, 5);
+    assert!(matches!(link.update_model(&v5).unwrap(), UpdateResult::Accepted { .. }));
+    let mut running = Compensator::<f32, K>::new(&params(&other)).unwrap();
+    assert_serves(&mut link, &mut running, &s[..10], 0);
+
+    let mut tampered = v5.clone();
+    tampered[blob::HEADER_LEN + 40] ^= 0x04; // one payload bit
+    let mut tampered_fixed_crc = tampered.clone();
+    let n = other.len();
+    let c = crc32(&tampered_fixed_crc[..n - 4]).to_le_bytes();
+    tampered_fixed_crc[n - 4..n].copy_from_slice(&c);
+    let mut serial_raised = v5.clone();
+    serial_raised[n + 8] = 9; // serial 5 -> 9 without re-signing
+    let cases: Vec<(&str, Vec<u8>, RejectReason)> = std::vec![
+        ("unsigned", default_blob().to_vec(), RejectReason::Unsigned),
+        ("unknown key", sign_with(&stranger(), default_blob(), 6, SignFlags::NONE), RejectReason::UnknownKey),
+        ("tampered payload bit", tampered, RejectReason::BadSignature),
+        ("tampered, CRC made right again", tampered_fixed_crc, RejectReason::BadSignature),
+        ("serial raised after signing", serial_raised, RejectReason::BadSignature),
+        ("older serial replayed", sign(default_blob(), 4), RejectReason::Rollback),
+    ];
+    for (i, (name, bytes, reason)) in cases.iter().enumerate() {
+        match link.update_model(bytes).unwrap() {
+            UpdateResult::Rejected(r) => assert_eq!(r.reason, *reason, "{name}: {r}"),
+            other => panic!("{name}: accepted? {other:?}"),
+        }
+        let st = link.status().unwrap();
+        assert_eq!((st.model_crc, st.model_serial), (blob::stored_crc(&other).unwrap(), 5), "{name}");
+        let seq = 10 + 10 * i;
+        assert_serves(&mut link, &mut running, &s[seq..seq + 10], seq as u32);
+    }
+    let st = link.status().unwrap();
+    assert_eq!(
+        st.refused,
+        fbg_shared::protocol::Refusals { unsigned: 1, bad_signature: 3, unknown_key: 1, rollback: 1 }
+    );
+    assert_eq!((st.updates_accepted, st.updates_rejected), (1, 6));
+    assert_eq!(st.last_rejection.map(|r| (r.reason, r.detail)), Some((RejectReason::Rollback, 4)));
+    let unknown = Rejection::from(SignatureError::UnknownKey { key_id: trusted(&stranger()).id });
+    assert_eq!(unknown.reason, RejectReason::UnknownKey);
+
+    // The same serial again (a re-install) and a newer one are accepted.
+    assert!(matches!(link.update_model(&sign(&other, 5)).unwrap(), UpdateResult::Accepted { .. }));
+    assert!(matches!(link.update_model(&sign(default_blob(), 7)).unwrap(), UpdateResult::Accepted { .. }));
+    // A deliberate downgrade, signed so: accepted by a build that allows it.
+    let down = sign_with(&lab(), &other, 2, SignFlags::ALLOW_ROLLBACK);
+    assert!(matches!(link.update_model(&down).unwrap(), UpdateResult::Accepted { .. }));
+    let st = link.status().unwrap();
+    assert_eq!((st.model_serial, st.updates_accepted), (2, 4));
+    drop(link);
+
+    // A build that does not allow rollback refuses it even when signed so.
+    let strict = Policy { allow_rollback: false, ..policy() };
+    let info = ModelInfo { serial: 7, ..mem.boot(default_blob()).unwrap() };
+    let mut dev =
+        Device::new(&mut mem.comp, Kernel::LIBRARY, strict, &mut mem.reader, info, &mut mem.staging, Pin::default());
+    let down = sign_with(&lab(), &other, 2, SignFlags::ALLOW_ROLLBACK);
+    let crc = crc32(&down);
+    let mut tx = Tx::default();
+    let mut frame = [0u8; HOST_MAX_FRAME];
+    let begin = HostMsg::ModelBegin { total_len: down.len() as u32, crc32: crc };
+    dev.feed(encode_host(&begin, &mut frame).unwrap(), &mut tx).unwrap();
+    for (k, chunk) in down.chunks(MAX_CHUNK).enumerate() {
+        let msg = HostMsg::ModelChunk { offset: (k * MAX_CHUNK) as u32, data: chunk };
+        dev.feed(encode_host(&msg, &mut frame).unwrap(), &mut tx).unwrap();
+    }
+    dev.feed(encode_host(&HostMsg::ModelCommit, &mut frame).unwrap(), &mut tx).unwrap();
+    assert_eq!(dev.status().refused.rollback, 1);
+    assert_eq!(dev.status().model_serial, 7);
+}
+
+/// The embedded default: trusted as part of the image by default (a trailer it carries names
+/// its serial and key), or required to be signed by a build option.
+#[test]
+fn the_embedded_model_is_trusted_or_must_be_signed() {
+    let mut mem = Mem::new();
+    let info = boot(&Kernel::LIBRARY, &policy(), false, &mut mem.comp, default_blob()).unwrap();
+    assert_eq!((info.serial, info.key_id), (0, None));
+    let e = boot(&Kernel::LIBRARY, &policy(), true, &mut mem.comp, default_blob()).unwrap_err();
+    assert_eq!(e.reason, RejectReason::Unsigned);
+    let signed = sign(default_blob(), 3);
+    let info = boot(&Kernel::LIBRARY, &policy(), true, &mut mem.comp, &signed).unwrap();
+    assert_eq!(
+        (info.serial, info.key_id, info.crc),
+        (3, Some(trusted(&lab()).id), blob::stored_crc(default_blob()).unwrap())
+    );
+    let foreign = sign_with(&stranger(), default_blob(), 3, SignFlags::NONE);
+    assert_eq!(
+        boot(&Kernel::LIBRARY, &policy(), true, &mut mem.comp, &foreign).unwrap_err().reason,
+        RejectReason::UnknownKey
+    );
+    let info = boot(&Kernel::LIBRARY, &policy(), false, &mut mem.comp, &foreign).unwrap();
+    assert_eq!(info.serial, 3, "trusted as part of the image, its trailer names it");
+}
+
+/// RFC 8032 section 7.1 TEST 1 through the verifier this crate links (fbg-shared's `verify`, the
+/// device's code path built for the host; the other vectors are in fbg-shared's tests).
+#[test]
+fn the_device_verifier_passes_rfc8032_test_1() {
+    let hex = |s: &str| -> Vec<u8> {
+        (0..s.len()).step_by(2).map(|i| u8::from_str_radix(&s[i..i + 2], 16).unwrap()).collect()
+    };
+    let pk: [u8; 32] = hex("d75a980182b10ab7d54bfed3c964073a0ee172f3daa62325af021a68f707511a").try_into().unwrap();
+    let sig: [u8; 64] = hex("e5564300c360ac729086e2cc806e828a84877f1eb8e5d974d873e065224901555fb8821590a33bacc61e39701cf9b46bd25bf5f0595bbe24655141438e7a100b").try_into().unwrap();
+    assert_eq!(signature::verify_message(&[], &sig, &pk), Ok(()));
+    let mut bad = sig;
+    bad[0] ^= 1;
+    assert_eq!(signature::verify_message(&[], &bad, &pk), Err(SignatureError::BadSignature));
 }

@@ -11,6 +11,11 @@
 //! so that every step has a new Δt and recomputes the factors. On hardware the same image also
 //! reports DWT CYCCNT cycles (QEMU reads 0). Results go out as text lines on UART0 (with the
 //! sizes of the device's types); the run ends with a semihosting exit.
+//!
+//! With a signed model embedded (`FBG_BENCH_SIGNED`) it also times one signature check of a
+//! model update as the product runs it (`fbg_firmware_app::authenticate` with the image's
+//! policy: trailer, key lookup, Ed25519 verification, serial) and reports its instructions and
+//! the stack it reached.
 
 #![no_std]
 #![no_main]
@@ -22,12 +27,13 @@ use cortex_m_rt::entry;
 use embedded_io::Write;
 use fbg_firmware::counters::{cycles_now, cycles_start, systick_elapsed, systick_now, systick_start};
 use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
-use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL, STAGING_LEN};
-use fbg_firmware_app::{load_blob, unloaded};
+use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL, POLICY, STAGING_LEN};
+use fbg_firmware_app::{authenticate, load_blob, unloaded};
 use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
 use fbg_shared::{Compensator, MemoryBank, MemoryState, ModelParams, Sample, StreamState};
 
 static PACK: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_pack.bin"));
+static SIGNED: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_signed.fbgm"));
 
 const MAX_SAMPLES: usize = 64;
 const CALIB_ITERS: u32 = 100_000;
@@ -163,6 +169,26 @@ fn main() -> ! {
         ),
     );
 
+    if !SIGNED.is_empty() {
+        // Painted again first, so that the peak is the check's own (plus this frame).
+        stack::repaint();
+        let base = stack::peak_bytes();
+        let mut ok = false;
+        let (t, c) = measure(|| ok = black_box(authenticate(&POLICY, black_box(SIGNED), 0)).is_ok());
+        emit(
+            &mut uart,
+            format_args!(
+                "verify bytes={} ok={} ticks={} cycles={} stack_before={} stack_peak={}",
+                SIGNED.len(),
+                ok as u8,
+                t,
+                c,
+                base,
+                stack::peak_bytes()
+            ),
+        );
+        stack::repaint();
+    }
     for (idx, rec) in fbg_shared::golden::records(PACK).enumerate() {
         let Some(rec) = rec else {
             emit(&mut uart, format_args!("error bench pack malformed at record {}", idx));

@@ -2,34 +2,72 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 
-use fbg_shared::blob;
+use fbg_shared::{blob, signature};
 use fbg_trainer::export;
 use fbg_trainer::fit::HostParams;
+use fbg_trainer::sign;
 
 /// `fbg-trainer inspect`.
-pub fn run(path: &Path, json: bool) -> Result<()> {
-    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
+    let file = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
     // The whole blob (CRC first) before the header, so corruption is named as such.
     let p: HostParams = export::read_blob(path)?;
-    let header = blob::Header::parse(&bytes)
-        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), export::blob_error_text(&bytes, &e)))?;
-    let crc = export::blob_crc(&bytes).map(|(c, _)| format!("{c:08x}")).unwrap_or_default();
+    let bytes = signature::strip(&file);
+    let header = blob::Header::parse(bytes)
+        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), export::blob_error_text(bytes, &e)))?;
+    let crc = export::blob_crc(bytes).map(|(c, _)| format!("{c:08x}")).unwrap_or_default();
+    let key = pubkey.map(sign::read_public_key).transpose()?;
+    let check = sign::check(&file, key.as_ref());
     let v = serde_json::json!({
         "file": path,
-        "bytes": bytes.len(),
+        "bytes": file.len(),
+        "blob_bytes": bytes.len(),
         "crc32": crc,
         "header": {"magic": "FBGM", "format_version": header.version, "inputs": header.inputs,
                    "outputs": header.outputs, "poly_terms": header.poly_terms, "centres": header.centres},
+        "signature": check,
         "model": export::model_json(&p, None),
     });
+    let refuse = |check: &sign::SignatureCheck| -> Result<()> {
+        match (check.verifies, pubkey) {
+            (Some(false), Some(k)) => bail!(
+                "{}: the signature does not verify with {}: {}",
+                path.display(),
+                k.display(),
+                check.problem.as_deref().unwrap_or("unknown reason")
+            ),
+            _ => Ok(()),
+        }
+    };
     if json {
         println!("{}", serde_json::to_string_pretty(&v)?);
-        return Ok(());
+        return refuse(&check);
     }
     let h = &p.hyper;
     println!("{}: {} bytes, FBGM format v{}, CRC-32 {crc} (valid)", path.display(), bytes.len(), header.version);
+    match (&check.record, check.verifies) {
+        (None, _) if !check.signed => println!("signature: none (unsigned: valid on the host, refused by a device)"),
+        (None, _) => println!("signature: malformed trailer ({})", check.problem.as_deref().unwrap_or("")),
+        (Some(r), v) => println!(
+            "signature: key id {}, serial {}{}; {}",
+            r.key_id,
+            r.serial,
+            if r.allow_rollback { ", allow-rollback flag set" } else { "" },
+            match (v, pubkey) {
+                (Some(true), Some(k)) =>
+                    format!("verifies with {} (key id {})", k.display(), check.checked_key_id.as_deref().unwrap_or("")),
+                (Some(false), Some(k)) => format!(
+                    "does NOT verify with {} (key id {}): {}",
+                    k.display(),
+                    check.checked_key_id.as_deref().unwrap_or(""),
+                    check.problem.as_deref().unwrap_or("")
+                ),
+                _ => "not checked (pass --pubkey lab.pub)".to_string(),
+            }
+        ),
+    }
     println!(
         "dims: inputs {}, outputs {}, poly terms {}, centres {}",
         header.inputs, header.outputs, header.poly_terms, header.centres
@@ -52,7 +90,7 @@ pub fn run(path: &Path, json: bool) -> Result<()> {
         "provenance: scenario {}, seed {}, trainer {}, date {}, {} calibration samples",
         pr.scenario, pr.seed, pr.trainer_version, pr.date_yyyymmdd, pr.n_cal
     );
-    Ok(())
+    refuse(&check)
 }
 
 /// Values stored as f32, printed at f32 precision: "0.1, 2.5, 1.6360161e-7".

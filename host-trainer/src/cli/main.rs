@@ -23,6 +23,7 @@ use fbg_trainer::eval::studies::{self, Studies};
 use fbg_trainer::eval::tables;
 use fbg_trainer::export;
 use fbg_trainer::fit::{self, FeatureChoice, Origin, TrainOptions};
+use fbg_trainer::sign::{self, SignArgs};
 use fbg_trainer::sim::meta::{meta_path, SimMeta};
 use fbg_trainer::sim::scenario::{Preset, ScenarioConfig};
 use fbg_trainer::{report, sim};
@@ -98,6 +99,8 @@ enum Cmd {
         /// Print a JSON summary (outputs, sizes, chosen hyper-parameters, CV RMSE) on stdout.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        sign: SignArgs,
     },
     /// Evaluate models on the hold-out of a CSV: Table 2 and Table 3 (and, for simulated data
     /// with a `.meta.json`, the per-sample oracle, drift sweep and error budget); writes `<model stem>.metrics.json`.
@@ -148,12 +151,46 @@ enum Cmd {
         /// Print a JSON summary on stdout instead of text.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        sign: SignArgs,
     },
-    /// Print a blob's header, dimensions, hyper-parameters and provenance.
+    /// Print a blob's header, dimensions, hyper-parameters, provenance and signature (key id,
+    /// serial, and whether it verifies against --pubkey).
     Inspect {
         /// The `.fbgm` blob.
         model: PathBuf,
+        /// Check the signature against this public key (`lab.pub`, raw 32 bytes, or
+        /// `lab.pub.hex`) with the device's verifier; exits non-zero when it does not verify.
+        #[arg(long, value_name = "FILE")]
+        pubkey: Option<PathBuf>,
         /// Print the header and the whole model as JSON on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Sign an existing blob (or re-sign a signed one): the blob, a trailer with the key id, a
+    /// serial and flags, and the Ed25519 signature over both.
+    Sign {
+        /// The blob to sign.
+        #[arg(long)]
+        model: PathBuf,
+        /// The signed blob to write.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        sign: SignArgs,
+        /// Print the signature (key id, serial, flags) as JSON on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Make an Ed25519 signing key pair for signed model updates: the private key in OUT
+    /// (PKCS#8 PEM, mode 0600, never overwritten), the public key beside it as `<stem>.pub`
+    /// (raw 32 bytes: the file the firmware build trusts, `FBG_TRUSTED_KEYS`) and
+    /// `<stem>.pub.hex`; prints the key id (first 8 bytes of SHA-256 of the public key).
+    Keygen {
+        /// The private key file to create.
+        #[arg(long, default_value = "lab.key")]
+        out: PathBuf,
+        /// Print the files, key id and public key as JSON on stdout.
         #[arg(long)]
         json: bool,
     },
@@ -279,6 +316,9 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Talk to a running device: `device status` prints its audit trail (active model, its
+    /// signature's serial and key id, updates accepted and refused by reason) and counters.
+    Device(stream::DeviceArgs),
 }
 
 fn main() {
@@ -321,9 +361,13 @@ fn run() -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Train { data, features, max_centres, out, json } => {
+        Cmd::Train { data, features, max_centres, out, json, sign } => {
             let (base, coef) = (baseline_path(&out), export::coefficients_path(&out));
-            check_outputs(&[&out, &base, &coef], &[&data, &meta_path(&data)])?;
+            let meta_file = meta_path(&data);
+            let mut inputs = vec![data.as_path(), meta_file.as_path()];
+            inputs.extend(sign.sign.as_deref());
+            check_outputs(&[&out, &base, &coef], &inputs)?;
+            let signer = sign.signer()?;
             let d = Dataset::read_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
             let origin = origin_of(&data, meta.as_ref());
@@ -331,9 +375,20 @@ fn run() -> Result<()> {
             let t = Instant::now();
             let tr = fit::train(&d, &opts, &origin)?;
             let secs = t.elapsed().as_secs_f64();
-            let nh = export::write_blob(&out, &tr.model_h)?;
-            let np = export::write_blob(&base, &tr.model_p)?;
-            export::write_coefficients(&coef, &tr.model_p, &tr.model_h, &tr.core, Some(&tr.selection))?;
+            let (bh, sig_h) = sign::maybe_sign(export::blob_bytes(&tr.model_h)?, signer.as_ref())?;
+            let (bp, sig_p) = sign::maybe_sign(export::blob_bytes(&tr.model_p)?, signer.as_ref())?;
+            write_bytes_atomically(&out, &bh)?;
+            write_bytes_atomically(&base, &bp)?;
+            let (nh, np) = (bh.len(), bp.len());
+            let signatures = sig_h.as_ref().map(|h| serde_json::json!({"model_h": h, "model_p": sig_p}));
+            export::write_coefficients_signed(
+                &coef,
+                &tr.model_p,
+                &tr.model_h,
+                &tr.core,
+                Some(&tr.selection),
+                signatures.clone(),
+            )?;
             let s = &tr.selection;
             if json {
                 println!(
@@ -342,7 +397,7 @@ fn run() -> Result<()> {
                         "model_h": out, "model_p": base, "coefficients": coef,
                         "model_h_bytes": nh, "model_p_bytes": np, "train_seconds": secs,
                         "chosen": s.chosen, "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h,
-                        "grid_points": s.rows.len(),
+                        "grid_points": s.rows.len(), "signatures": signatures,
                     }))?
                 );
             } else {
@@ -365,6 +420,15 @@ fn run() -> Result<()> {
                     );
                 }
                 eprintln!("wrote {} ({nh} B), {} ({np} B), {}", out.display(), base.display(), coef.display());
+                if let (Some(h), Some(p)) = (&sig_h, &sig_p) {
+                    eprintln!(
+                        "signed with key {}: Model-H serial {}, Model-P serial {}{}",
+                        h.key_id,
+                        h.serial,
+                        p.serial,
+                        if h.allow_rollback { " (allow-rollback flag set)" } else { "" }
+                    );
+                }
             }
             Ok(())
         }
@@ -398,10 +462,49 @@ fn run() -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Recalibrate { model, data, batch_hours, out, allow_worse, json } => {
-            recalibrate::run(&model, &data, batch_hours, &out, allow_worse, json)
+        Cmd::Recalibrate { model, data, batch_hours, out, allow_worse, json, sign } => {
+            recalibrate::run(&model, &data, batch_hours, &out, allow_worse, json, &sign)
         }
-        Cmd::Inspect { model, json } => inspect::run(&model, json),
+        Cmd::Inspect { model, pubkey, json } => inspect::run(&model, pubkey.as_deref(), json),
+        Cmd::Sign { model, out, sign: sign_args, json } => {
+            let Some(key) = sign_args.sign.as_deref() else { bail!("--sign KEY is required") };
+            check_outputs(&[&out], &[&model, key])?;
+            // Only a blob that decodes is signed: a signature vouches for a valid model.
+            export::read_blob(&model)?;
+            let bytes = std::fs::read(&model).with_context(|| format!("{}: cannot read", model.display()))?;
+            let signer = sign_args.signer()?.context("--sign KEY is required")?;
+            let (signed, rec) = signer.sign(&bytes)?;
+            write_bytes_atomically(&out, &signed)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&rec)?);
+            } else {
+                eprintln!(
+                    "wrote {} ({} B): key id {}, serial {}{}",
+                    out.display(),
+                    signed.len(),
+                    rec.key_id,
+                    rec.serial,
+                    if rec.allow_rollback { ", allow-rollback flag set" } else { "" }
+                );
+            }
+            Ok(())
+        }
+        Cmd::Keygen { out, json } => {
+            let k = sign::keygen(&out)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&k)?);
+            } else {
+                println!("key id {}", k.key_id);
+                eprintln!(
+                    "wrote {} (private, mode 0600: keep it offline), {} (public, raw: FBG_TRUSTED_KEYS of the firmware build) and {}",
+                    k.files.private.display(),
+                    k.files.public.display(),
+                    k.files.public_hex.display()
+                );
+                eprintln!("public key {}", k.public_key);
+            }
+            Ok(())
+        }
         Cmd::Golden { data, model, samples, out } => {
             prepare_output_dir(&out)?;
             let d = Dataset::read_csv(&data)?;
@@ -442,6 +545,7 @@ fn run() -> Result<()> {
             }
             Ok(())
         }
+        Cmd::Device(a) => a.run(),
         Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, max_skipped, json } => {
             if !(0.0..=100.0).contains(&max_skipped) {
                 bail!("--max-skipped must be a percentage from 0 to 100 (got {max_skipped})");

@@ -5,12 +5,13 @@ use std::path::Path;
 
 use anyhow::{bail, Result};
 
-use fbg_trainer::data::files::check_outputs;
+use fbg_trainer::data::files::{check_outputs, write_bytes_atomically};
 use fbg_trainer::data::Dataset;
 use fbg_trainer::eval::score::{evaluate_holdout, ModelEval, CHANNELS, UNITS};
 use fbg_trainer::export;
 use fbg_trainer::fit::recalibrate::{first_hours, keep_old_where_worse, recalibrate, CoreUpdate, Recalibration};
 use fbg_trainer::fit::HostParams;
+use fbg_trainer::sign::{self, SignArgs};
 
 use crate::baseline_path;
 
@@ -83,9 +84,13 @@ pub fn run(
     out: &Path,
     allow_worse: bool,
     json: bool,
+    sign_args: &SignArgs,
 ) -> Result<()> {
     let (base, new_base_path) = (baseline_path(model), baseline_path(out));
-    check_outputs(&[out, &new_base_path], &[model, data, &base])?;
+    let mut inputs = vec![model, data, base.as_path()];
+    inputs.extend(sign_args.sign.as_deref());
+    check_outputs(&[out, &new_base_path], &inputs)?;
+    let signer = sign_args.signer()?;
     let d = Dataset::read_csv(data)?;
     let old = export::read_blob(model)?;
     let batch = match batch_hours {
@@ -99,10 +104,15 @@ pub fn run(
     } else {
         None
     };
-    let n = export::write_blob(out, &h.params)?;
+    let (bytes, signature) = sign::maybe_sign(export::blob_bytes(&h.params)?, signer.as_ref())?;
+    write_bytes_atomically(out, &bytes)?;
+    let n = bytes.len();
+    let mut base_signature = None;
     let new_base = match &p {
         Some(p) => {
-            export::write_blob(&new_base_path, &p.params)?;
+            let (b, s) = sign::maybe_sign(export::blob_bytes(&p.params)?, signer.as_ref())?;
+            write_bytes_atomically(&new_base_path, &b)?;
+            base_signature = s;
             Some(new_base_path.clone())
         }
         None => None,
@@ -116,6 +126,7 @@ pub fn run(
                 "holdout_before": h.before, "holdout_after": h.after,
                 "kept_old_channels": names(&h.kept_old), "worse_channels_written": names(&h.worse),
                 "baseline_kept_old_channels": p.as_ref().map(|p| names(&p.kept_old)),
+                "signature": signature, "baseline_signature": base_signature,
             }))?
         );
         return Ok(());
@@ -170,5 +181,13 @@ pub fn run(
         out.display(),
         new_base.map(|p| format!(" and {}", p.display())).unwrap_or_default()
     );
+    if let Some(s) = &signature {
+        eprintln!(
+            "signed with key {}: serial {}{}",
+            s.key_id,
+            s.serial,
+            base_signature.as_ref().map(|b| format!(" (Model-P baseline: serial {})", b.serial)).unwrap_or_default()
+        );
+    }
     Ok(())
 }

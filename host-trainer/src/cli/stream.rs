@@ -70,3 +70,53 @@ impl StreamArgs {
         Ok(())
     }
 }
+
+/// `fbg-trainer device status`: the device's audit trail and counters.
+#[derive(clap::Args, Clone, Debug)]
+pub struct DeviceArgs {
+    #[command(subcommand)]
+    pub command: DeviceCommand,
+}
+
+/// `fbg-trainer device` subcommands.
+#[derive(clap::Subcommand, Clone, Debug)]
+pub enum DeviceCommand {
+    /// Print the device's status: the active model (CRC digest, serial and key id of its
+    /// signature), model updates accepted and refused by reason (unsigned, bad signature,
+    /// unknown key, rollback, other), link counters and stack peaks. Nothing persists across a
+    /// reset on QEMU (README-firmware.md, "Audit trail").
+    Status {
+        /// TCP port of the device's serial link.
+        #[arg(long)]
+        port: u16,
+        /// Host of the device's serial link.
+        #[arg(long, default_value = "127.0.0.1")]
+        host: String,
+        /// Seconds to wait for the connection and the answer.
+        #[arg(long, default_value_t = 15.0)]
+        timeout: f64,
+        /// Print the status as JSON on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+impl DeviceArgs {
+    /// Run the subcommand.
+    pub fn run(self) -> Result<()> {
+        match self.command {
+            DeviceCommand::Status { port, host, timeout, json } => {
+                if !(timeout.is_finite() && timeout > 0.0) {
+                    bail!("--timeout must be a positive number of seconds (got {timeout})");
+                }
+                let st = fbg_trainer::stream::device_status(&host, port, std::time::Duration::from_secs_f64(timeout))?;
+                if json {
+                    println!("{}", serde_json::to_string_pretty(&st)?);
+                } else {
+                    print!("{}", fbg_trainer::stream::status_text(&st));
+                }
+                Ok(())
+            }
+        }
+    }
+}

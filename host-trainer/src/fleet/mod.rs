@@ -6,6 +6,7 @@
 //! [defaults]               # optional: what a group does not say itself
 //! features = "memory"      # memory | hysteresis-aware | latch | paper | all (as `train --features`)
 //! max_centres = 32         # as `train --max-centres`
+//! sign = "keys/lab.key"    # optional: sign every blob (as `train --sign`; `fleet --sign` overrides)
 //!
 //! [[group]]
 //! name = "pier-3"          # unique
@@ -22,6 +23,11 @@
 //! the group finished. A later run skips a group whose blob exists, decodes, matches the
 //! sidecar's blob digest and whose input digest is unchanged; anything else (no sidecar, an
 //! interrupted run, a corrupt or replaced blob, changed data or options) is trained again.
+//!
+//! With a signing key each blob is signed with the next serial of the key (one serial per blob,
+//! issued under the key's lock, so concurrent shards never share one) and the signatures are
+//! recorded in the group's `coefficients.json`; the key id is part of the input digest, so
+//! signing with another key (or starting to sign) redoes the group.
 //!
 //! Groups run on a local rayon pool of `--jobs` threads (the fit's own parallel loops run in
 //! the same pool). A failing group is reported and the others go on; its failure is recorded
@@ -45,6 +51,7 @@ use crate::data::Dataset;
 use crate::error::{line_col, TrainerError};
 use crate::export;
 use crate::fit::{self, FeatureChoice, Origin};
+use crate::sign::{self, BlobSigner, SignArgs, SignOptions};
 pub mod shard;
 
 use crate::sim::meta::SimMeta;
@@ -71,6 +78,7 @@ struct ManifestFile {
 struct Defaults {
     features: Option<String>,
     max_centres: Option<usize>,
+    sign: Option<PathBuf>,
 }
 
 #[derive(Deserialize)]
@@ -91,6 +99,9 @@ pub struct Group {
     pub out: PathBuf,
     pub features: FeatureChoice,
     pub max_centres: usize,
+    /// The key id the group's blobs are signed with (hex), when the run signs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub signed_by: Option<String>,
 }
 
 impl Group {
@@ -120,6 +131,8 @@ impl Group {
 pub struct Manifest {
     pub path: PathBuf,
     pub groups: Vec<Group>,
+    /// `[defaults] sign`: the private key every blob is signed with (resolved).
+    pub sign: Option<PathBuf>,
 }
 
 fn config_error(origin: &Path, key: impl Into<String>, message: impl Into<String>) -> TrainerError {
@@ -174,7 +187,14 @@ impl Manifest {
             if let Err(m) = FeatureChoice::default().train_options(max_centres) {
                 return Err(config_error(path, which("max_centres", own_max), m));
             }
-            let group = Group { name: g.name, data: resolve(&g.data), out: resolve(&g.out), features, max_centres };
+            let group = Group {
+                name: g.name,
+                data: resolve(&g.data),
+                out: resolve(&g.out),
+                features,
+                max_centres,
+                signed_by: None,
+            };
             for (j, o) in groups.iter().enumerate() {
                 let mine = [group.out.clone(), group.baseline_path()];
                 let theirs = [o.out.clone(), o.baseline_path()];
@@ -188,7 +208,8 @@ impl Manifest {
             }
             groups.push(group);
         }
-        Ok(Manifest { path: path.to_path_buf(), groups })
+        let sign = raw.defaults.sign.as_deref().map(resolve);
+        Ok(Manifest { path: path.to_path_buf(), groups, sign })
     }
 }
 
@@ -201,6 +222,10 @@ pub fn input_digest(g: &Group, csv: &[u8]) -> String {
         format!("features={};max_centres={};trainer={};", g.features.name(), g.max_centres, env!("CARGO_PKG_VERSION"))
             .as_bytes(),
     );
+    // Only when signing, so that the digests of unsigned runs stay what they were.
+    if let Some(id) = &g.signed_by {
+        d.update(format!("sign={id};").as_bytes());
+    }
     d.update(&(csv.len() as u64).to_le_bytes());
     d.update(csv);
     format!("crc64:{:016x}:{}", d.finalize(), csv.len())
@@ -356,7 +381,7 @@ pub fn needs_training(g: &Group, digest: &str) -> Option<String> {
     None
 }
 
-fn train_group(g: &Group, digest: &str) -> Result<Sidecar, TrainerError> {
+fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<Sidecar, TrainerError> {
     let t = Instant::now();
     let opts = g.features.train_options(g.max_centres).map_err(TrainerError::fit)?;
     let d = Dataset::read_csv(&g.data)?;
@@ -374,9 +399,19 @@ fn train_group(g: &Group, digest: &str) -> Result<Sidecar, TrainerError> {
     if side.exists() {
         std::fs::remove_file(&side).map_err(|e| TrainerError::io(&side, e))?;
     }
-    let np = export::write_blob(&g.baseline_path(), &tr.model_p)?;
-    export::write_coefficients(&g.coefficients_path(), &tr.model_p, &tr.model_h, &tr.core, Some(&tr.selection))?;
-    let blob = export::blob_bytes(&tr.model_h)?;
+    let (blob, sig_h) = sign::maybe_sign(export::blob_bytes(&tr.model_h)?, signer)?;
+    let (blob_p, sig_p) = sign::maybe_sign(export::blob_bytes(&tr.model_p)?, signer)?;
+    write_bytes_atomically(&g.baseline_path(), &blob_p)?;
+    let np = blob_p.len();
+    let signatures = sig_h.map(|h| serde_json::json!({"model_h": h, "model_p": sig_p}));
+    export::write_coefficients_signed(
+        &g.coefficients_path(),
+        &tr.model_p,
+        &tr.model_h,
+        &tr.core,
+        Some(&tr.selection),
+        signatures,
+    )?;
     write_bytes_atomically(&g.out, &blob)?;
     let rec = Sidecar {
         format: SIDECAR_FORMAT.into(),
@@ -399,7 +434,7 @@ fn train_group(g: &Group, digest: &str) -> Result<Sidecar, TrainerError> {
     Ok(rec)
 }
 
-fn run_group(g: &Group) -> GroupReport {
+fn run_group(g: &Group, signer: Option<&BlobSigner>) -> GroupReport {
     let report = |outcome, reason| GroupReport { name: g.name.clone(), out: g.out.clone(), outcome, reason };
     let csv = match std::fs::read(&g.data) {
         Ok(b) => b,
@@ -407,7 +442,7 @@ fn run_group(g: &Group) -> GroupReport {
     };
     let digest = input_digest(g, &csv);
     let Some(reason) = needs_training(g, &digest) else { return report(Outcome::Skipped, None) };
-    let result = catch_unwind(AssertUnwindSafe(|| train_group(g, &digest)));
+    let result = catch_unwind(AssertUnwindSafe(|| train_group(g, &digest, signer)));
     let outcome = match result {
         Ok(Ok(r)) => Outcome::Trained {
             seconds: r.train_seconds,
@@ -462,7 +497,29 @@ pub fn run_shard(
     progress: bool,
     shard: Option<(Shard, ShardSource)>,
 ) -> Result<FleetReport, TrainerError> {
-    let mine: Vec<&Group> = m.groups.iter().filter(|g| shard.is_none_or(|(s, _)| s.contains(&g.name))).collect();
+    let sign = m.sign.as_ref().map(|key| SignOptions { key: key.clone(), ..SignOptions::default() });
+    run_shard_signed(m, jobs, progress, shard, sign.as_ref())
+}
+
+/// The signer of a run (`sign`, else none) and the groups marked with its key id.
+fn signed_groups(m: &Manifest, sign: Option<&SignOptions>) -> Result<(Vec<Group>, Option<BlobSigner>), TrainerError> {
+    let signer = sign.map(BlobSigner::load).transpose()?;
+    let id = signer.as_ref().map(|s| s.key_id().to_string());
+    let groups = m.groups.iter().map(|g| Group { signed_by: id.clone(), ..g.clone() }).collect();
+    Ok((groups, signer))
+}
+
+/// [`run_shard`] signing every blob as `sign` says (overriding the manifest's key).
+pub fn run_shard_signed(
+    m: &Manifest,
+    jobs: usize,
+    progress: bool,
+    shard: Option<(Shard, ShardSource)>,
+    sign: Option<&SignOptions>,
+) -> Result<FleetReport, TrainerError> {
+    let (all, signer) = signed_groups(m, sign)?;
+    let signer = signer.as_ref();
+    let mine: Vec<&Group> = all.iter().filter(|g| shard.is_none_or(|(s, _)| s.contains(&g.name))).collect();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .build()
@@ -473,7 +530,7 @@ pub fn run_shard(
         mine.par_iter()
             .with_max_len(1)
             .map(|g| {
-                let r = run_group(g);
+                let r = run_group(g, signer);
                 bar.inc(1);
                 r
             })
@@ -551,9 +608,18 @@ pub struct StatusReport {
 
 /// The state of every group of `m` from the files on disk (nothing is trained); `shards` adds
 /// each group's shard of that many.
+/// A signing manifest's digests include the key id: an unreadable key reads as unsigned, so
+/// its groups show as stale.
 pub fn status(m: &Manifest, shards: Option<usize>) -> StatusReport {
-    let groups: Vec<GroupStatus> = m
-        .groups
+    let sign = m.sign.as_ref().map(|key| SignOptions { key: key.clone(), ..SignOptions::default() });
+    match signed_groups(m, sign.as_ref()) {
+        Ok((groups, _)) => status_of(m, &groups, shards),
+        Err(_) => status_of(m, &m.groups, shards),
+    }
+}
+
+fn status_of(m: &Manifest, groups: &[Group], shards: Option<usize>) -> StatusReport {
+    let groups: Vec<GroupStatus> = groups
         .par_iter()
         .map(|g| {
             let (state, reason) = group_state(g);
@@ -656,6 +722,8 @@ pub struct FleetArgs {
     /// Print the report as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub sign: SignArgs,
 }
 
 /// `fleet` subcommands.
@@ -693,7 +761,14 @@ impl FleetArgs {
         })?;
         let m = Manifest::from_file(path)?;
         let shard = Shard::resolve(self.shard.as_deref(), self.shards, |k| std::env::var(k).ok())?;
-        run_shard(&m, self.jobs, !self.json, shard)
+        let sign = self.sign.options().or_else(|| {
+            m.sign.as_ref().map(|key| SignOptions {
+                key: key.clone(),
+                serial: self.sign.serial,
+                allow_rollback: self.sign.allow_rollback,
+            })
+        });
+        run_shard_signed(&m, self.jobs, !self.json, shard, sign.as_ref())
     }
 }
 

@@ -12,7 +12,7 @@ use crate::blob::CRC32 as FRAME_CRC;
 /// oversize frame.
 pub const HOST_MAX_FRAME: usize = 256;
 /// Receive buffer a host needs for one device frame, delimiter included.
-pub const DEVICE_MAX_FRAME: usize = 96;
+pub const DEVICE_MAX_FRAME: usize = 160;
 
 /// CRC-32/ISCSI of `bytes`: the frame check and the whole-blob check of
 /// [`HostMsg::ModelBegin`] (the same flavour as the blob trailer).
@@ -210,7 +210,8 @@ mod tests {
     use super::*;
     use crate::compensator::Sample;
     use crate::flags::Flags;
-    use crate::protocol::{DeviceEstimate, RejectReason, Rejection, Status, UpdateResult, MAX_CHUNK};
+    use crate::protocol::{DeviceEstimate, Refusals, RejectReason, Rejection, Status, UpdateResult, MAX_CHUNK};
+    use crate::signature::KeyId;
 
     fn frame_host(msg: &HostMsg<'_>) -> Vec<u8> {
         let mut out = [0u8; HOST_MAX_FRAME];
@@ -274,6 +275,14 @@ mod tests {
                 model_centres: u16::MAX,
                 model_capacity: u16::MAX,
                 model_crc: u32::MAX,
+                model_serial: u64::MAX,
+                model_key_id: Some(KeyId([0xFF; 8])),
+                refused: Refusals {
+                    unsigned: u32::MAX,
+                    bad_signature: u32::MAX,
+                    unknown_key: u32::MAX,
+                    rollback: u32::MAX
+                },
                 last_rejection: Some(rej),
                 stack_peak_bytes: u32::MAX,
                 stack_boot_bytes: u32::MAX,

@@ -8,13 +8,15 @@ use super::reject::RejectReason;
 use crate::compensator::Sample;
 use crate::flags::Flags;
 use crate::layout::N_OUTPUTS;
+use crate::signature::KeyId;
 
 /// Largest `data` of one [`HostMsg::ModelChunk`] in bytes.
 pub const MAX_CHUNK: usize = 192;
 /// Largest postcard payload of any [`HostMsg`] (a full chunk: tag, offset, length, data).
 pub const HOST_MAX_PAYLOAD: usize = MAX_CHUNK + 16;
-/// Largest postcard payload of any [`DeviceMsg`] (a [`Status`] with a rejection).
-pub const DEVICE_MAX_PAYLOAD: usize = 64;
+/// Largest postcard payload of any [`DeviceMsg`] (a [`Status`] with a rejection and a signed
+/// model's serial and key id).
+pub const DEVICE_MAX_PAYLOAD: usize = 128;
 
 /// A message from the host to the device.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -137,8 +139,17 @@ pub struct Status {
     pub model_centres: u16,
     /// Centre capacity `K` of this firmware build.
     pub model_capacity: u16,
-    /// CRC trailer of the active model's blob (identifies it).
+    /// CRC trailer of the active model's blob: its digest (the signature covers it).
     pub model_crc: u32,
+    /// Serial of the active model's signature trailer (0 for an unsigned model: the embedded
+    /// default, trusted as part of the firmware image). Updates with a lower serial are
+    /// refused unless signed to allow a rollback.
+    pub model_serial: u64,
+    /// Key id of the active model's signer (`None` for an unsigned model).
+    pub model_key_id: Option<KeyId>,
+    /// Refused updates counted by the reason of the signature check (a part of
+    /// `updates_rejected`; the rest are transfer and integrity errors).
+    pub refused: Refusals,
     /// The most recent refusal, if any.
     pub last_rejection: Option<Rejection>,
     /// Deepest stack use while serving (since boot finished) in bytes, by stack painting (0 when
@@ -147,6 +158,34 @@ pub struct Status {
     /// Deepest stack use during boot (loading the embedded model) in bytes (0 when not
     /// measured).
     pub stack_boot_bytes: u32,
+}
+
+/// Model updates refused by the signature check, by reason (the audit trail's counters).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Refusals {
+    /// [`RejectReason::Unsigned`].
+    pub unsigned: u32,
+    /// [`RejectReason::BadSignature`].
+    pub bad_signature: u32,
+    /// [`RejectReason::UnknownKey`].
+    pub unknown_key: u32,
+    /// [`RejectReason::Rollback`].
+    pub rollback: u32,
+}
+
+impl Refusals {
+    /// Count one refusal for `reason` (reasons other than the signature check's are not
+    /// counted here).
+    pub fn count(&mut self, reason: RejectReason) {
+        let c = match reason {
+            RejectReason::Unsigned => &mut self.unsigned,
+            RejectReason::BadSignature => &mut self.bad_signature,
+            RejectReason::UnknownKey => &mut self.unknown_key,
+            RejectReason::Rollback => &mut self.rollback,
+            _ => return,
+        };
+        *c = c.wrapping_add(1);
+    }
 }
 
 impl Rejection {

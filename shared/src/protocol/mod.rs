@@ -37,7 +37,9 @@
 //! [`MAX_CHUNK`] bytes), then `ModelCommit` checks the transfer CRC and decodes the blob with
 //! [`crate::blob::decode`] (magic, version, dims, CRC, every parameter) before swapping. Any
 //! failure aborts the transfer, keeps the old model and answers with a [`Rejection`] whose
-//! [`RejectReason`] codes are stable across versions.
+//! [`RejectReason`] codes are stable across versions. A device that requires signed models
+//! checks the signature trailer ([`crate::signature`]) first: unsigned, unknown key, bad
+//! signature and rollback are refused before the blob is decoded.
 //!
 //! # Example
 //!
@@ -78,7 +80,7 @@ pub use framing::{
     DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
 pub use messages::{
-    DeviceEstimate, DeviceMsg, HostMsg, Rejection, Status, UpdateResult, DEVICE_MAX_PAYLOAD, HOST_MAX_PAYLOAD,
-    MAX_CHUNK,
+    DeviceEstimate, DeviceMsg, HostMsg, Refusals, Rejection, Status, UpdateResult, DEVICE_MAX_PAYLOAD,
+    HOST_MAX_PAYLOAD, MAX_CHUNK,
 };
 pub use reject::RejectReason;

@@ -4,6 +4,7 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::messages::Rejection;
 use crate::error::Error;
+use crate::signature::SignatureError;
 
 /// Stable reason codes of a refused model update. The numbers never change meaning; new reasons
 /// get new numbers.
@@ -46,13 +47,26 @@ pub enum RejectReason {
     Incomplete = 24,
     /// The staged bytes do not match the announced whole-blob CRC.
     TransferCrc = 25,
+    /// The model carries no signature trailer ([`SignatureError::Unsigned`]); this build accepts
+    /// signed models only.
+    Unsigned = 30,
+    /// The signature does not verify with the key it names, or the trailer is malformed
+    /// ([`SignatureError::BadSignature`] and the trailer errors; detail: the trailer version for
+    /// an unknown one, the flag byte for unknown flags).
+    BadSignature = 31,
+    /// The key id names no key this build trusts ([`SignatureError::UnknownKey`]; detail: the
+    /// key id's first four bytes, big-endian, as it prints).
+    UnknownKey = 32,
+    /// The serial is lower than the running model's and a rollback is not allowed
+    /// ([`SignatureError::Rollback`]; detail: the update's serial, saturated to u32).
+    Rollback = 33,
     /// A reason this build does not know (a newer device, or a future [`Error`] variant).
     Other = 255,
 }
 
 impl RejectReason {
     /// Every reason this version defines.
-    pub const ALL: [RejectReason; 17] = [
+    pub const ALL: [RejectReason; 21] = [
         RejectReason::Truncated,
         RejectReason::BadMagic,
         RejectReason::UnsupportedVersion,
@@ -69,6 +83,10 @@ impl RejectReason {
         RejectReason::Overrun,
         RejectReason::Incomplete,
         RejectReason::TransferCrc,
+        RejectReason::Unsigned,
+        RejectReason::BadSignature,
+        RejectReason::UnknownKey,
+        RejectReason::Rollback,
         RejectReason::Other,
     ];
 
@@ -101,6 +119,10 @@ impl RejectReason {
             RejectReason::Overrun => "chunk runs past the announced length",
             RejectReason::Incomplete => "commit before the whole blob arrived",
             RejectReason::TransferCrc => "staged bytes do not match the announced CRC",
+            RejectReason::Unsigned => "model not signed (this firmware accepts signed models only)",
+            RejectReason::BadSignature => "signature does not verify (or malformed signature trailer)",
+            RejectReason::UnknownKey => "signed by a key this firmware does not trust",
+            RejectReason::Rollback => "serial lower than the running model's (rollback not allowed)",
             RejectReason::Other => "unknown reason",
         }
     }
@@ -153,6 +175,28 @@ impl From<Error> for Rejection {
     }
 }
 
+impl From<SignatureError> for Rejection {
+    /// Map a signature check's failure to its stable code and detail.
+    fn from(e: SignatureError) -> Self {
+        let (reason, detail) = match e {
+            SignatureError::Unsigned => (RejectReason::Unsigned, 0),
+            SignatureError::UnsupportedTrailer { version } => (RejectReason::BadSignature, u32::from(version)),
+            SignatureError::UnknownFlags { bits } => (RejectReason::BadSignature, u32::from(bits)),
+            SignatureError::Reserved | SignatureError::BadSignature => (RejectReason::BadSignature, 0),
+            SignatureError::UnknownKey { key_id } => {
+                let [a, b, c, d, ..] = key_id.0;
+                (RejectReason::UnknownKey, u32::from_be_bytes([a, b, c, d]))
+            }
+            SignatureError::Rollback { serial, .. } => {
+                (RejectReason::Rollback, u32::try_from(serial).unwrap_or(u32::MAX))
+            }
+            #[allow(unreachable_patterns)] // `SignatureError` is non_exhaustive
+            _ => (RejectReason::Other, 0),
+        };
+        Rejection { reason, detail }
+    }
+}
+
 fn sat_u32(v: usize) -> u32 {
     u32::try_from(v).unwrap_or(u32::MAX)
 }
@@ -167,7 +211,7 @@ mod tests {
     #[test]
     fn reject_codes_are_stable_and_round_trip() {
         let codes: Vec<u8> = RejectReason::ALL.iter().map(|r| r.code()).collect();
-        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 20, 21, 22, 23, 24, 25, 255]);
+        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 20, 21, 22, 23, 24, 25, 30, 31, 32, 33, 255]);
         for r in RejectReason::ALL {
             assert_eq!(RejectReason::from_code(r.code()), r);
             let mut buf = [0u8; 4];
@@ -180,5 +224,16 @@ mod tests {
         assert_eq!(e, Rejection { reason: RejectReason::WrongDims, detail: 64 << 16 | 32 });
         assert_eq!(Rejection::from(Error::BadCrc).reason, RejectReason::BadCrc);
         assert_eq!(Rejection::from(Error::BadParameter { field: "hyper.sigma" }).reason, RejectReason::BadParameter);
+        let id = crate::signature::KeyId([0xde, 0xad, 0xbe, 0xef, 1, 2, 3, 4]);
+        assert_eq!(
+            Rejection::from(SignatureError::UnknownKey { key_id: id }),
+            Rejection { reason: RejectReason::UnknownKey, detail: 0xdead_beef }
+        );
+        assert_eq!(
+            Rejection::from(SignatureError::Rollback { serial: 3, running: 9 }),
+            Rejection { reason: RejectReason::Rollback, detail: 3 }
+        );
+        assert_eq!(Rejection::from(SignatureError::Unsigned).reason, RejectReason::Unsigned);
+        assert_eq!(Rejection::from(SignatureError::BadSignature).reason, RejectReason::BadSignature);
     }
 }

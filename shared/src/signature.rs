@@ -1,0 +1,445 @@
+//! The signature trailer of a signed model blob: the one definition of the host ↔ device
+//! contract that says who made a model and which release it is.
+//!
+//! A signed model is the unsigned `.fbgm` blob, byte for byte, followed by a fixed 88-byte
+//! trailer (little-endian):
+//!
+//! ```text
+//! offset  size  field
+//! 0       4     magic "FBGS"
+//! 4       1     trailer version (TRAILER_VERSION)
+//! 5       1     flags (SignFlags: bit 0 = allow rollback; other bits must be 0)
+//! 6       2     reserved, 0
+//! 8       8     serial, u64 LE (model release number, monotonic per key)
+//! 16      8     key id: the first 8 bytes of SHA-256 of the signer's Ed25519 public key
+//! 24      64    Ed25519 signature (RFC 8032, pure Ed25519) of the signed message
+//! ```
+//!
+//! The **signed message** is everything before the signature: the whole blob (header, version,
+//! payload and its CRC) followed by the first 24 bytes of the trailer. It is contiguous in the
+//! file, so a device verifies the staged bytes in place, and serial, flags and key id are
+//! covered as well as the model.
+//!
+//! Unsigned blobs stay valid and byte-identical: the trailer only ever follows a blob. To
+//! tell the two apart ([`open`]): bytes whose own last four bytes are their valid CRC are an
+//! unsigned blob; otherwise bytes whose 88th-from-last byte starts `FBGS` carry a trailer
+//! (whatever state the blob before it is in, so that a blob damaged after signing is reported
+//! as a bad signature, not as unsigned); anything else is handed to the blob decoder as it is,
+//! which names the damage.
+//!
+//! The verifier ([`verify`], feature `verify`) is `salty`'s Ed25519 (no heap, `no_std`; on a
+//! Cortex-M4F its field arithmetic is the `UMAAL` assembly of Haase's Curve25519 code, on other
+//! targets the portable TweetNaCl arithmetic), plus the RFC 8032 range check of `S` that
+//! `salty` leaves out (a non-canonical `S` is refused). README-firmware.md, "Signed model
+//! updates", says why `salty` and not `ed25519-compact`.
+
+use crate::blob::{computed_crc, stored_crc, CRC_LEN, HEADER_LEN};
+
+/// Trailer magic.
+pub const TRAILER_MAGIC: [u8; 4] = *b"FBGS";
+/// Trailer version this build writes and reads.
+pub const TRAILER_VERSION: u8 = 1;
+/// Bytes of the trailer.
+pub const TRAILER_LEN: usize = 88;
+/// Bytes of the trailer the signature covers (everything before the signature).
+pub const TRAILER_HEAD_LEN: usize = 24;
+/// Bytes of an Ed25519 signature.
+pub const SIGNATURE_LEN: usize = 64;
+/// Bytes of an Ed25519 public key.
+pub const PUBLIC_KEY_LEN: usize = 32;
+/// Bytes of a key id.
+pub const KEY_ID_LEN: usize = 8;
+
+const _: () = assert!(TRAILER_HEAD_LEN + SIGNATURE_LEN == TRAILER_LEN);
+
+/// Which key signed: the first 8 bytes of SHA-256 of its 32-byte Ed25519 public key
+/// ([`key_id`], feature `key-id`). An id names a key; it proves nothing by itself (the
+/// signature does).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct KeyId(pub [u8; KEY_ID_LEN]);
+
+impl core::fmt::Display for KeyId {
+    /// Lower-case hex, 16 digits.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        for b in self.0 {
+            write!(f, "{b:02x}")?;
+        }
+        Ok(())
+    }
+}
+
+/// The id of an Ed25519 public key: the first 8 bytes of its SHA-256.
+#[cfg(feature = "key-id")]
+pub fn key_id(public_key: &[u8; PUBLIC_KEY_LEN]) -> KeyId {
+    use sha2::Digest;
+    let digest = sha2::Sha256::digest(public_key);
+    let mut id = [0u8; KEY_ID_LEN];
+    for (o, b) in id.iter_mut().zip(digest.iter()) {
+        *o = *b;
+    }
+    KeyId(id)
+}
+
+/// The flags a signer sets in the trailer (covered by the signature).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SignFlags(u8);
+
+impl SignFlags {
+    /// No flag.
+    pub const NONE: SignFlags = SignFlags(0);
+    /// The signer allows this model to replace one with a higher serial (a deliberate
+    /// downgrade); a device accepts it only when its build allows rollback too.
+    pub const ALLOW_ROLLBACK: SignFlags = SignFlags(1);
+    /// Every bit this version defines.
+    pub const KNOWN: u8 = 1;
+
+    /// The flags of `bits`, or `None` when a bit this version does not define is set.
+    pub const fn from_bits(bits: u8) -> Option<SignFlags> {
+        if bits & !Self::KNOWN == 0 {
+            Some(SignFlags(bits))
+        } else {
+            None
+        }
+    }
+
+    /// The raw bits.
+    pub const fn bits(self) -> u8 {
+        self.0
+    }
+
+    /// Whether every flag of `other` is set.
+    pub const fn contains(self, other: SignFlags) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// `self` with the flags of `other` set too.
+    pub const fn with(self, other: SignFlags) -> SignFlags {
+        SignFlags(self.0 | other.0)
+    }
+}
+
+/// What a signer states about a model: serial, flags and key (the signed part of the
+/// trailer).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TrailerHead {
+    /// Flags.
+    pub flags: SignFlags,
+    /// Model release number (monotonic per key on the signing host).
+    pub serial: u64,
+    /// The signer's key id.
+    pub key_id: KeyId,
+}
+
+impl TrailerHead {
+    /// The 24 bytes of the trailer before the signature (magic, version, flags, reserved,
+    /// serial, key id). The signed message is the blob followed by these bytes.
+    pub fn to_bytes(&self) -> [u8; TRAILER_HEAD_LEN] {
+        let mut out = [0u8; TRAILER_HEAD_LEN];
+        let fields: [&[u8]; 6] = [
+            &TRAILER_MAGIC,
+            &[TRAILER_VERSION],
+            &[self.flags.bits()],
+            &[0, 0],
+            &self.serial.to_le_bytes(),
+            &self.key_id.0,
+        ];
+        let mut at = out.iter_mut();
+        for b in fields.iter().flat_map(|f| f.iter()) {
+            if let Some(o) = at.next() {
+                *o = *b;
+            }
+        }
+        out
+    }
+
+    /// Parse the signed part of a trailer (`bytes` of at least [`TRAILER_HEAD_LEN`]).
+    pub fn parse(bytes: &[u8]) -> Result<TrailerHead, SignatureError> {
+        let head = bytes.get(..TRAILER_HEAD_LEN).ok_or(SignatureError::Unsigned)?;
+        if head.get(..4) != Some(&TRAILER_MAGIC[..]) {
+            return Err(SignatureError::Unsigned);
+        }
+        let byte = |i: usize| head.get(i).copied().unwrap_or(0);
+        let version = byte(4);
+        if version != TRAILER_VERSION {
+            return Err(SignatureError::UnsupportedTrailer { version });
+        }
+        let flags = SignFlags::from_bits(byte(5)).ok_or(SignatureError::UnknownFlags { bits: byte(5) })?;
+        if byte(6) != 0 || byte(7) != 0 {
+            return Err(SignatureError::Reserved);
+        }
+        let mut serial = [0u8; 8];
+        let mut key_id = [0u8; KEY_ID_LEN];
+        for (o, b) in serial.iter_mut().zip(head.iter().skip(8)) {
+            *o = *b;
+        }
+        for (o, b) in key_id.iter_mut().zip(head.iter().skip(16)) {
+            *o = *b;
+        }
+        Ok(TrailerHead { flags, serial: u64::from_le_bytes(serial), key_id: KeyId(key_id) })
+    }
+}
+
+/// A signed model, split: the blob, the signed message, the trailer's fields and signature.
+/// Nothing is verified yet ([`verify`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Signed<'a> {
+    /// The `.fbgm` blob before the trailer (as [`crate::blob::decode`] reads it).
+    pub blob: &'a [u8],
+    /// The signed message: the blob and the trailer's head.
+    pub message: &'a [u8],
+    /// Serial, flags, key id.
+    pub head: TrailerHead,
+    /// The Ed25519 signature over `message`.
+    pub signature: [u8; SIGNATURE_LEN],
+}
+
+/// What a model file is, signature-wise ([`open`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Envelope<'a> {
+    /// No trailer: the bytes are a blob (or a damaged one, which decoding names).
+    Unsigned(&'a [u8]),
+    /// A blob with a signature trailer (not verified yet).
+    Signed(Signed<'a>),
+}
+
+impl<'a> Envelope<'a> {
+    /// The blob inside, whether signed or not.
+    pub fn blob(&self) -> &'a [u8] {
+        match self {
+            Envelope::Unsigned(b) => b,
+            Envelope::Signed(s) => s.blob,
+        }
+    }
+
+    /// The trailer's head, when signed.
+    pub fn head(&self) -> Option<TrailerHead> {
+        match self {
+            Envelope::Unsigned(_) => None,
+            Envelope::Signed(s) => Some(s.head),
+        }
+    }
+}
+
+/// Tell a signed model from an unsigned one and split it (see the module docs for the rule).
+/// A trailer that is there but malformed (unknown version, unknown flag, reserved bits set) is
+/// an error; the signature itself is not checked here.
+pub fn open(bytes: &[u8]) -> Result<Envelope<'_>, SignatureError> {
+    if computed_crc(bytes).is_some_and(|c| Some(c) == stored_crc(bytes)) {
+        return Ok(Envelope::Unsigned(bytes));
+    }
+    let Some(at) = bytes.len().checked_sub(TRAILER_LEN).filter(|&at| at >= HEADER_LEN + CRC_LEN) else {
+        return Ok(Envelope::Unsigned(bytes));
+    };
+    let (blob, trailer) = bytes.split_at_checked(at).unwrap_or((bytes, &[]));
+    if trailer.get(..4) != Some(&TRAILER_MAGIC[..]) {
+        return Ok(Envelope::Unsigned(bytes));
+    }
+    let head = TrailerHead::parse(trailer)?;
+    let (message, sig) = bytes.split_at_checked(at + TRAILER_HEAD_LEN).unwrap_or((bytes, &[]));
+    let mut signature = [0u8; SIGNATURE_LEN];
+    if sig.len() != SIGNATURE_LEN {
+        return Err(SignatureError::Unsigned);
+    }
+    for (o, b) in signature.iter_mut().zip(sig.iter()) {
+        *o = *b;
+    }
+    Ok(Envelope::Signed(Signed { blob, message, head, signature }))
+}
+
+/// The blob of a model file, with its trailer (if any) cut off: what the blob decoder reads.
+/// A malformed trailer leaves the bytes as they are (decoding then names what is wrong).
+pub fn strip(bytes: &[u8]) -> &[u8] {
+    match open(bytes) {
+        Ok(e) => e.blob(),
+        Err(_) => bytes,
+    }
+}
+
+/// A public key a device (or an inspector) trusts, with its id.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TrustedKey {
+    /// [`key_id`] of `public`.
+    pub id: KeyId,
+    /// The 32-byte Ed25519 public key.
+    pub public: [u8; PUBLIC_KEY_LEN],
+}
+
+/// Why a signed model is not accepted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum SignatureError {
+    /// No signature trailer.
+    Unsigned,
+    /// A trailer of a version this build does not read.
+    UnsupportedTrailer {
+        /// The version found.
+        version: u8,
+    },
+    /// A flag this version does not define is set.
+    UnknownFlags {
+        /// The flag byte.
+        bits: u8,
+    },
+    /// The reserved trailer bytes are not zero.
+    Reserved,
+    /// The key id names no trusted key.
+    UnknownKey {
+        /// The trailer's key id.
+        key_id: KeyId,
+    },
+    /// The signature does not verify with the key the trailer names (the blob, the serial or
+    /// the flags were changed after signing, or the key's public part is not the one that
+    /// signed), or the public key itself is not a valid Ed25519 key.
+    BadSignature,
+    /// The serial is lower than the running model's and a rollback is not allowed.
+    Rollback {
+        /// The update's serial.
+        serial: u64,
+        /// The running model's serial.
+        running: u64,
+    },
+}
+
+impl core::fmt::Display for SignatureError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            SignatureError::Unsigned => f.write_str("the model is not signed"),
+            SignatureError::UnsupportedTrailer { version } => {
+                write!(f, "signature trailer version {version} is not readable by this build (reads {TRAILER_VERSION})")
+            }
+            SignatureError::UnknownFlags { bits } => write!(f, "signature trailer has unknown flags {bits:#04x}"),
+            SignatureError::Reserved => f.write_str("signature trailer has reserved bytes set"),
+            SignatureError::UnknownKey { key_id } => write!(f, "signed by key {key_id}, which is not trusted"),
+            SignatureError::BadSignature => f.write_str("the signature does not verify (changed after signing?)"),
+            SignatureError::Rollback { serial, running } => {
+                write!(f, "serial {serial} is lower than the running model's {running} (rollback not allowed)")
+            }
+        }
+    }
+}
+
+impl core::error::Error for SignatureError {}
+
+/// The trusted key named by `id`.
+pub fn find_key(keys: &[TrustedKey], id: KeyId) -> Option<&TrustedKey> {
+    keys.iter().find(|k| k.id == id)
+}
+
+/// Check the Ed25519 signature of `signed` with `public` (RFC 8032 verification: `salty`, and
+/// `S` below the group order).
+#[cfg(feature = "verify")]
+pub fn verify_with(signed: &Signed<'_>, public: &[u8; PUBLIC_KEY_LEN]) -> Result<(), SignatureError> {
+    verify_message(signed.message, &signed.signature, public)
+}
+
+/// Check an Ed25519 signature of `message` with `public` (the primitive under
+/// [`verify_with`], exposed for the RFC 8032 test vectors).
+#[cfg(feature = "verify")]
+#[inline(never)]
+pub fn verify_message(
+    message: &[u8],
+    signature: &[u8; SIGNATURE_LEN],
+    public: &[u8; PUBLIC_KEY_LEN],
+) -> Result<(), SignatureError> {
+    // RFC 8032 section 5.1.7: S must be below the group order L, else a signature could be
+    // turned into another valid one (S + L); salty's `verify` does not check it itself.
+    if !s_is_canonical(signature) {
+        return Err(SignatureError::BadSignature);
+    }
+    let key = salty::PublicKey::try_from(public).map_err(|_| SignatureError::BadSignature)?;
+    let sig = salty::Signature::from(signature);
+    key.verify(message, &sig).map_err(|_| SignatureError::BadSignature)
+}
+
+/// The group order L = 2^252 + 27742317777372353535851937790883648493, little-endian.
+#[cfg(feature = "verify")]
+const GROUP_ORDER: [u8; 32] = [
+    0xed, 0xd3, 0xf5, 0x5c, 0x1a, 0x63, 0x12, 0x58, 0xd6, 0x9c, 0xf7, 0xa2, 0xde, 0xf9, 0xde, 0x14, 0, 0, 0, 0, 0, 0,
+    0, 0, 0, 0, 0, 0, 0, 0, 0, 0x10,
+];
+
+/// Whether the `S` half of `signature` (little-endian, bytes 32..64) is below L.
+#[cfg(feature = "verify")]
+fn s_is_canonical(signature: &[u8; SIGNATURE_LEN]) -> bool {
+    // Compare from the most significant byte down.
+    for (s, l) in signature.iter().skip(32).rev().zip(GROUP_ORDER.iter().rev()) {
+        if s != l {
+            return s < l;
+        }
+    }
+    false
+}
+
+/// Check `signed` against `keys`: its key id must name one of them ([`SignatureError::UnknownKey`])
+/// and the signature must verify with that key ([`SignatureError::BadSignature`]).
+#[cfg(feature = "verify")]
+pub fn verify(signed: &Signed<'_>, keys: &[TrustedKey]) -> Result<(), SignatureError> {
+    let key = find_key(keys, signed.head.key_id).ok_or(SignatureError::UnknownKey { key_id: signed.head.key_id })?;
+    verify_with(signed, &key.public)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::indexing_slicing, clippy::panic)]
+mod tests {
+    extern crate std;
+    use std::vec::Vec;
+
+    use super::*;
+
+    fn fake_blob() -> Vec<u8> {
+        let mut b = std::vec![0u8; 40];
+        b[..4].copy_from_slice(b"FBGM");
+        let crc = computed_crc(&b).unwrap();
+        let n = b.len();
+        b[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        b
+    }
+
+    #[test]
+    fn head_round_trips_and_unsigned_stays_unsigned() {
+        let head =
+            TrailerHead { flags: SignFlags::ALLOW_ROLLBACK, serial: 0x0102_0304_0506_0708, key_id: KeyId([7; 8]) };
+        let bytes = head.to_bytes();
+        assert_eq!(&bytes[..4], b"FBGS");
+        assert_eq!(bytes[4], TRAILER_VERSION);
+        assert_eq!(bytes[5], 1);
+        assert_eq!(&bytes[8..16], &0x0102_0304_0506_0708u64.to_le_bytes());
+        assert_eq!(TrailerHead::parse(&bytes), Ok(head));
+
+        let blob = fake_blob();
+        assert_eq!(open(&blob), Ok(Envelope::Unsigned(&blob[..])));
+        let mut signed = blob.clone();
+        signed.extend_from_slice(&bytes);
+        signed.extend_from_slice(&[9u8; SIGNATURE_LEN]);
+        let Envelope::Signed(s) = open(&signed).unwrap() else { panic!("not signed") };
+        assert_eq!(s.blob, &blob[..]);
+        assert_eq!(s.message.len(), blob.len() + TRAILER_HEAD_LEN);
+        assert_eq!(s.head, head);
+        assert_eq!(s.signature, [9u8; SIGNATURE_LEN]);
+        assert_eq!(strip(&signed), &blob[..]);
+
+        // A flipped payload bit: still a signed model (the signature check will refuse it).
+        signed[10] ^= 1;
+        assert!(matches!(open(&signed), Ok(Envelope::Signed(_))));
+        // Unknown flags, version, reserved bytes.
+        let at = blob.len();
+        let mut bad = signed.clone();
+        bad[at + 5] = 0x82;
+        assert_eq!(open(&bad), Err(SignatureError::UnknownFlags { bits: 0x82 }));
+        let mut bad = signed.clone();
+        bad[at + 4] = 9;
+        assert_eq!(open(&bad), Err(SignatureError::UnsupportedTrailer { version: 9 }));
+        let mut bad = signed.clone();
+        bad[at + 7] = 1;
+        assert_eq!(open(&bad), Err(SignatureError::Reserved));
+    }
+
+    #[test]
+    fn key_id_prints_as_hex() {
+        assert_eq!(std::format!("{}", KeyId([0xab, 0, 1, 2, 3, 4, 5, 0xff])), "ab000102030405ff");
+    }
+}
