@@ -60,7 +60,7 @@ pub struct Summary {
     /// Rows with any flag, and with each flag: non-finite, out of envelope, weak support.
     pub flagged_rows: usize,
     pub flag_rows: [usize; 3],
-    /// First and last time stamp [s].
+    /// First and last time stamp \[s\].
     pub t_first_s: f64,
     pub t_last_s: f64,
     pub seconds: f64,
