@@ -51,6 +51,8 @@ static RFC8032: [([u8; 32], &[u8], [u8; 64]); 3] = [
     ),
 ];
 
+// Only evaluated at compile time (the test-vector constants): a bad literal fails the build.
+#[allow(clippy::panic)]
 const fn nibble(c: u8) -> u8 {
     match c {
         b'0'..=b'9' => c - b'0',
@@ -59,6 +61,8 @@ const fn nibble(c: u8) -> u8 {
     }
 }
 
+// Only evaluated at compile time, like `nibble`.
+#[allow(clippy::indexing_slicing)]
 const fn hex<const N: usize>(s: &str) -> [u8; N] {
     let b = s.as_bytes();
     assert!(b.len() == 2 * N, "wrong hex length");
