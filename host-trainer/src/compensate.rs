@@ -17,6 +17,7 @@ use fbg_shared::{Compensator, Estimate, Flags};
 use crate::data::files::write_atomically;
 use crate::data::Dataset;
 use crate::error::TrainerError;
+use crate::eval::score;
 use crate::export;
 use crate::fit::{self, HostParams, HOST_CAP};
 
@@ -39,7 +40,7 @@ pub enum Precision {
 /// Errors against references present in the record, per output (NaN where absent).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ReferenceErrors {
-    /// Rows with finite inputs and that reference.
+    /// Rows with finite inputs and every reference of the record.
     pub rows: [usize; N_OUTPUTS],
     pub rmse: [f64; N_OUTPUTS],
     pub bias: [f64; N_OUTPUTS],
@@ -120,7 +121,7 @@ pub fn run(
             for c in 0..N_OUTPUTS {
                 write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
             }
-            writeln!(w, ",{},{}", e.flags.0, flag_names(e.flags))?;
+            writeln!(w, ",{},{}", e.flags.0, e.flags)?;
             if i % TICK == TICK - 1 {
                 bar.inc(TICK as u64);
             }
@@ -147,47 +148,18 @@ pub fn run(
     })
 }
 
-/// `|`-separated names of the raised flags (empty when none).
-pub fn flag_names(f: Flags) -> String {
-    let names = [
-        (Flags::NON_FINITE, "non_finite"),
-        (Flags::OUT_OF_ENVELOPE, "out_of_envelope"),
-        (Flags::WEAK_SUPPORT, "weak_support"),
-    ];
-    names.iter().filter(|(b, _)| f.contains(*b)).map(|(_, n)| *n).collect::<Vec<_>>().join("|")
-}
-
+/// `evaluate`'s statistics over the rows with finite inputs and every reference the record has.
 fn reference_errors(d: &Dataset, est: &[Estimate<f64>]) -> ReferenceErrors {
-    let mut r = ReferenceErrors {
-        rows: [0; N_OUTPUTS],
-        rmse: [f64::NAN; N_OUTPUTS],
-        bias: [f64::NAN; N_OUTPUTS],
-        coverage: [f64::NAN; N_OUTPUTS],
-    };
-    for c in 0..N_OUTPUTS {
-        if !d.has_target[c] {
-            continue;
-        }
-        let (mut n, mut s, mut s2, mut inside) = (0usize, 0.0, 0.0, 0usize);
-        for (i, e) in est.iter().enumerate() {
-            let truth = d.target(c)[i];
-            if !truth.is_finite() || !e.values[c].is_finite() {
-                continue;
-            }
-            let err = e.values[c] - truth;
-            n += 1;
-            s += err;
-            s2 += err * err;
-            inside += usize::from(err.abs() <= e.band95[c]);
-        }
-        if n > 0 {
-            r.rows[c] = n;
-            r.rmse[c] = (s2 / n as f64).sqrt();
-            r.bias[c] = s / n as f64;
-            r.coverage[c] = inside as f64 / n as f64;
-        }
+    let rows: Vec<usize> = (0..d.len()).filter(|&i| d.usable(i)).collect();
+    let at: Vec<Estimate<f64>> = rows.iter().map(|&i| est[i]).collect();
+    let ch = score::score(d, &rows, &at).channels;
+    let present = |c: usize| d.has_target[c] && !rows.is_empty();
+    ReferenceErrors {
+        rows: std::array::from_fn(|c| if present(c) { ch[c].n } else { 0 }),
+        rmse: std::array::from_fn(|c| if present(c) { ch[c].rmse } else { f64::NAN }),
+        bias: std::array::from_fn(|c| if present(c) { ch[c].bias } else { f64::NAN }),
+        coverage: std::array::from_fn(|c| if present(c) { ch[c].coverage } else { f64::NAN }),
     }
-    r
 }
 
 impl Summary {
@@ -219,7 +191,7 @@ impl Summary {
             pct(self.flag_rows[2]),
         ));
         if let Some(r) = &self.reference_errors {
-            s.push_str("\nagainst the references in the record (every row that has one):");
+            s.push_str("\nagainst the references in the record (the rows with finite inputs and every reference):");
             for c in (0..N_OUTPUTS).filter(|&c| r.rows[c] > 0) {
                 s.push_str(&format!(
                     "\n  {}: RMSE {:.4} {u}, bias {:+.4} {u}, band coverage {:.1} % ({} rows)",

@@ -97,7 +97,7 @@ fn a_record_without_references_is_compensated_with_gaps_kept() {
         let gap = (100..105).contains(&r);
         assert_eq!(row[1].is_empty(), gap, "row {r}: {row:?}");
         if gap {
-            assert!(row[8].contains("non_finite"), "row {r}: {row:?}");
+            assert!(row[8].contains("non-finite"), "row {r}: {row:?}");
         }
     }
     // Human text names the gaps and says there are no references to score against.

@@ -16,6 +16,7 @@
 
 use std::fmt;
 
+use super::CRC64;
 use crate::error::TrainerError;
 
 /// Shard `index` of `count` (0 ≤ index < count).
@@ -42,8 +43,6 @@ impl fmt::Display for Shard {
         write!(f, "{}/{}", self.index, self.count)
     }
 }
-
-const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
 
 /// The shard of the group named `name` among `count` shards.
 pub fn shard_of(name: &str, count: usize) -> usize {
