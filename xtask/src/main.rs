@@ -155,6 +155,11 @@ fn test(rest: &[String]) -> Result<()> {
     Ok(())
 }
 
+/// Whether this process runs as root (the tasks that install packages or start daemons need it).
+pub fn is_root() -> bool {
+    Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false)
+}
+
 pub fn step(what: &str) {
     eprintln!("\nxtask: ==== {what} ====");
 }

@@ -189,12 +189,7 @@ pub fn ensure_qemu() -> Result<PathBuf> {
     if found("qemu-system-arm") {
         return Ok(PathBuf::from("qemu-system-arm"));
     }
-    let is_root = Command::new("id")
-        .arg("-u")
-        .output()
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
-        .unwrap_or(false);
-    if !is_root {
+    if !crate::is_root() {
         bail!(
             "qemu-system-arm is not installed. Install it with `sudo apt-get install -y qemu-system-arm` \
              (Debian/Ubuntu) and run `cargo xtask test` again; `cargo xtask test --no-qemu` skips the firmware tests"

@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, ensure, Context, Result};
 use serde_json::{json, Value};
 
-use crate::{cargo, run, step};
+use crate::{run, step};
 
 /// Groups in the generated manifest.
 pub const GROUPS: usize = 64;
@@ -57,16 +57,12 @@ fn found(program: &str, arg: &str) -> bool {
     Command::new(program).arg(arg).stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok()
 }
 
-fn is_root() -> bool {
-    Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false)
-}
-
 fn ensure_packages() -> Result<()> {
     if found("/usr/sbin/slurmctld", "-V") && found("/usr/sbin/munged", "--version") && found("sbatch", "--version") {
         return Ok(());
     }
     ensure!(
-        is_root(),
+        crate::is_root(),
         "slurm-wlm and munge are not installed; run as root (this task starts daemons), or install them with \
          `sudo apt-get install -y slurm-wlm munge`"
     );
@@ -167,22 +163,14 @@ fn start_cluster(dir: &Path) -> Result<(Daemons, PathBuf)> {
     Ok((daemons, conf))
 }
 
-fn trainer(root: &Path) -> PathBuf {
-    crate::target_dir()
-        .join("release")
-        .join("fbg-trainer")
-        .canonicalize()
-        .unwrap_or_else(|_| root.join("target/release/fbg-trainer"))
-}
-
 /// A manifest of GROUPS groups over DATASETS short simulated records, its outputs under `models`.
-fn make_manifest(root: &Path, dir: &Path) -> Result<PathBuf> {
+fn make_manifest(trainer: &Path, dir: &Path) -> Result<PathBuf> {
     let cfg = dir.join("short.toml");
     fs::write(&cfg, "# 2 days at 60 s\n[clock]\ndays = 2.0\n")?;
     for k in 0..DATASETS {
         let csv = dir.join(format!("d{k}.csv"));
         if !csv.exists() {
-            run(Command::new(trainer(root))
+            run(Command::new(trainer)
                 .args(["simulate", "--seed", &(200 + k).to_string(), "--config"])
                 .arg(&cfg)
                 .arg("--out")
@@ -190,7 +178,7 @@ fn make_manifest(root: &Path, dir: &Path) -> Result<PathBuf> {
                 .stderr(Stdio::null()))?;
         }
     }
-    let mut m = String::from("# Written by `cargo xtask slurm`: the full `train` grid per group, as the fleet bench.\n[defaults]\nfeatures = \"all\"\n");
+    let mut m = String::from("# Written by `cargo xtask slurm`: every feature set and the memory terms per group.\n[defaults]\nfeatures = \"all\"\n");
     for g in 0..GROUPS {
         m.push_str(&format!(
             "\n[[group]]\nname = \"sensor-{g:03}\"\ndata = \"d{}.csv\"\nout = \"models/sensor-{g:03}.fbgm\"\n",
@@ -202,7 +190,7 @@ fn make_manifest(root: &Path, dir: &Path) -> Result<PathBuf> {
     Ok(path)
 }
 
-fn sbatch(root: &Path, conf: &Path, manifest: &Path, array: &str, log_dir: &Path) -> Result<String> {
+fn sbatch(root: &Path, trainer: &Path, conf: &Path, manifest: &Path, array: &str, log_dir: &Path) -> Result<String> {
     let out = output(
         Command::new("sbatch")
             .args(["--parsable", "--cpus-per-task=1", &format!("--array={array}")])
@@ -211,7 +199,7 @@ fn sbatch(root: &Path, conf: &Path, manifest: &Path, array: &str, log_dir: &Path
             .env("SLURM_CONF", conf)
             .env("FLEET_MANIFEST", manifest)
             .env("FLEET_SHARDS", SHARDS.to_string())
-            .env("FBG_TRAINER", trainer(root)),
+            .env("FBG_TRAINER", trainer),
     )?;
     let id = out.trim().split(';').next().unwrap_or("").to_string();
     ensure!(!id.is_empty(), "sbatch printed no job id");
@@ -232,8 +220,8 @@ fn wait_job(conf: &Path, id: &str, limit: Duration) -> Result<()> {
     Ok(())
 }
 
-fn fleet_status(root: &Path, manifest: &Path) -> Result<(bool, Value)> {
-    let o = Command::new(trainer(root))
+fn fleet_status(trainer: &Path, manifest: &Path) -> Result<(bool, Value)> {
+    let o = Command::new(trainer)
         .args(["fleet", "status", "--json", "--shards", &SHARDS.to_string(), "--manifest"])
         .arg(manifest)
         .output()?;
@@ -259,7 +247,7 @@ fn shard_summary(manifest: &Path, i: usize) -> Result<Value> {
 pub fn run_all(root: &Path) -> Result<()> {
     step("slurm: packages, trainer");
     ensure_packages()?;
-    run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))?;
+    let trainer = crate::fixtures::trainer(root)?;
     let dir = root.join("target/slurm");
     fs::create_dir_all(&dir)?;
     let work = dir.join("fleet");
@@ -271,7 +259,7 @@ pub fn run_all(root: &Path) -> Result<()> {
             fs::remove_file(p)?;
         }
     }
-    let manifest = make_manifest(root, &work)?;
+    let manifest = make_manifest(&trainer, &work)?;
 
     step("slurm: a single-node cluster (munged, slurmctld, slurmd)");
     let (_daemons, conf) = start_cluster(&dir)?;
@@ -279,20 +267,25 @@ pub fn run_all(root: &Path) -> Result<()> {
     step("slurm: the array job, one task cancelled mid-run");
     let logs = dir.join("logs");
     fs::create_dir_all(&logs)?;
+    let (_, shard_before) = fleet_status(&trainer, &manifest)?;
     let started = Instant::now();
-    let job = sbatch(root, &conf, &manifest, &format!("0-{}", SHARDS - 1), &logs)?;
+    let job = sbatch(root, &trainer, &conf, &manifest, &format!("0-{}", SHARDS - 1), &logs)?;
     // Cancel the chosen task once it has finished at least one group but not all of them.
     let task = format!("{job}_{KILLED_SHARD}");
     let per_shard = GROUPS.div_ceil(SHARDS);
+    // A group has finished when its record `<stem>.fleet.json` exists (written last), which is
+    // cheap to poll; `fleet status` (which reads and digests every CSV) runs once for the list.
+    let records: Vec<PathBuf> = shard_before["groups"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter(|g| g["shard"].as_u64() == Some(KILLED_SHARD as u64))
+        .filter_map(|g| g["out"].as_str().map(|o| work.join(Path::new(o).with_extension("fleet.json"))))
+        .collect();
+    ensure!(!records.is_empty(), "shard {KILLED_SHARD} has no group");
     let t = Instant::now();
     let done_before_kill = loop {
-        let (_, st) = fleet_status(root, &manifest)?;
-        let done = st["groups"]
-            .as_array()
-            .into_iter()
-            .flatten()
-            .filter(|g| g["shard"].as_u64() == Some(KILLED_SHARD as u64) && g["state"] == "done")
-            .count();
+        let done = records.iter().filter(|r| r.exists()).count();
         if done >= 1 {
             break done;
         }
@@ -303,7 +296,7 @@ pub fn run_all(root: &Path) -> Result<()> {
     eprintln!("xtask: cancelled task {task} after {done_before_kill} of about {per_shard} groups");
     wait_job(&conf, &job, Duration::from_secs(1800))?;
     let first_wall = started.elapsed().as_secs_f64();
-    let (ok, st) = fleet_status(root, &manifest)?;
+    let (ok, st) = fleet_status(&trainer, &manifest)?;
     ensure!(!ok, "fleet status exited 0 although task {task} was cancelled");
     let missing = count(&st, "missing");
     ensure!(missing > 0, "fleet status reports nothing missing after the cancel: {st}");
@@ -311,7 +304,7 @@ pub fn run_all(root: &Path) -> Result<()> {
 
     step("slurm: resubmit the cancelled shard only");
     let t2 = Instant::now();
-    let job2 = sbatch(root, &conf, &manifest, &KILLED_SHARD.to_string(), &logs)?;
+    let job2 = sbatch(root, &trainer, &conf, &manifest, &KILLED_SHARD.to_string(), &logs)?;
     wait_job(&conf, &job2, Duration::from_secs(1800))?;
     let resubmit_wall = t2.elapsed().as_secs_f64();
     let s = shard_summary(&manifest, KILLED_SHARD)?;
@@ -320,7 +313,7 @@ pub fn run_all(root: &Path) -> Result<()> {
         trained == missing && trained + skipped == s["groups"].as_array().map(Vec::len).unwrap_or(0),
         "the resubmitted shard trained {trained} and skipped {skipped}; {missing} were missing: {s}"
     );
-    let (ok, st) = fleet_status(root, &manifest)?;
+    let (ok, st) = fleet_status(&trainer, &manifest)?;
     ensure!(ok && count(&st, "done") == GROUPS, "fleet status after the resubmit: {st}");
 
     step("slurm: every blob equals a single-machine fleet run's");
@@ -336,10 +329,7 @@ pub fn run_all(root: &Path) -> Result<()> {
     }
     fs::copy(&manifest, single.join("fleet.toml"))?;
     let t3 = Instant::now();
-    run(Command::new(trainer(root))
-        .args(["fleet", "--manifest"])
-        .arg(single.join("fleet.toml"))
-        .stderr(Stdio::null()))?;
+    run(Command::new(&trainer).args(["fleet", "--manifest"]).arg(single.join("fleet.toml")).stderr(Stdio::null()))?;
     let single_wall = t3.elapsed().as_secs_f64();
     for g in 0..GROUPS {
         for name in [format!("sensor-{g:03}.fbgm"), format!("sensor-{g:03}-p.fbgm")] {
