@@ -5,6 +5,7 @@
 //! in f32: the trainer never implements inference a second time. The design matrix Ψ is
 //! collected from that code too (`Compensator::core_and_activations`, see [`design`]).
 
+pub mod band;
 pub mod design;
 pub mod features;
 pub mod kmeans;
@@ -24,10 +25,11 @@ use fbg_shared::{Centre, Compensator, Hyper, ModelParams, Provenance};
 use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::rng::{Rng, Stream};
+pub use band::VarModel;
 pub use design::{design_matrix, run, CheckpointCache, Checkpoints, Gram};
 pub use features::FeatureChoice;
 pub use poly_core::PolyCore;
-pub use select::{Selection, TrainOptions, VarModel};
+pub use select::{Selection, TrainOptions};
 
 /// Centre capacity of host-side models (the device's capacity is its own const generic).
 pub const HOST_CAP: usize = 128;
@@ -257,7 +259,7 @@ impl Skeleton {
         weak_support: f64,
         provenance: &Provenance,
     ) -> Result<HostParams, TrainerError> {
-        let band = resid_var.map(|a| VarModel { a, b: 0.0, k95: fbg_shared::layout::Z95 });
+        let band = resid_var.map(VarModel::constant);
         self.params_with_band(weights, alpha, variance, band, 0.0, weak_support, provenance)
     }
 

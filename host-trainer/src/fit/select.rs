@@ -8,10 +8,9 @@
 //! is Σ_channels RMSE_H / RMSE_P over all validation samples (scale free, so no channel
 //! dominates).
 //!
-//! Band variances: drift is a random walk, so the error variance grows with the time since
-//! the end of training. For the chosen configuration (and for Model-P) the squared validation
-//! errors are regressed on their lead time τ, s²(τ) = a + b·τ (b >= 0); the model carries a and
-//! b and the device widens its band with the time since calibration.
+//! Band variances: for the chosen configuration (and for Model-P) the squared validation errors
+//! and their lead times go to [`super::band::VarModel`]; the model carries its a and b and the
+//! device widens its band with the time since calibration.
 
 use std::collections::HashMap;
 
@@ -21,6 +20,7 @@ use rayon::prelude::*;
 use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
 use fbg_shared::Provenance;
 
+use super::band::VarModel;
 use super::memory_core::{self, MemoryChoice, MemoryCvRow, MemoryOptions};
 use super::{
     design, linalg, poly_core, residual_targets, skeleton, z_sample, CheckpointCache, Config, HostParams, ZSample,
@@ -112,75 +112,6 @@ pub struct CvRow {
     pub cv_rmse: [f64; N_OUTPUTS],
     /// Σ_c RMSE_H,c / RMSE_P,c (lower is better; 3 = no gain).
     pub score: f64,
-}
-
-/// Residual variance as a function of lead time after the end of training.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
-pub struct VarModel {
-    /// Variance at lead 0 \[unit²\].
-    pub a: f64,
-    /// Growth [unit²/s].
-    pub b: f64,
-    /// 95 % quantile of |e| / s(τ) over the validation residuals: the band multiplier.
-    pub k95: f64,
-}
-
-impl VarModel {
-    /// Fit the variance model and calibrate its 95 % multiplier on the same residuals
-    /// (split-conformal on the normalised errors). `fold` labels each sample's CV fold, in
-    /// order of growing training sets.
-    pub fn fit(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
-        let mut m = Self::fit_variance(lead_s, sq_err, fold);
-        let mut u: Vec<f64> = lead_s.iter().zip(sq_err).map(|(&t, &e)| (e / m.at(t)).sqrt()).collect();
-        u.sort_by(f64::total_cmp);
-        // Finite-sample conformal quantile: the ceil((n+1)·0.95)-th smallest.
-        let n = u.len();
-        let r = (((n + 1) as f64) * 0.95).ceil() as usize;
-        m.k95 = u.get(r.saturating_sub(1).min(n.saturating_sub(1))).copied().unwrap_or(fbg_shared::layout::Z95);
-        if m.k95.is_nan() || m.k95 <= 0.0 {
-            m.k95 = fbg_shared::layout::Z95;
-        }
-        m
-    }
-
-    /// e² = a_f + b·τ with one intercept per fold and a common slope b >= 0 (the fixed-effects
-    /// estimator): early folds train on less data *and* validate at longer leads, so a pooled
-    /// slope would mistake the smaller training set for growth. `a` is the intercept of the
-    /// fold with the largest training set, the closest to the final fit.
-    fn fit_variance(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
-        let k95 = fbg_shared::layout::Z95;
-        let n_folds = fold.iter().copied().max().map(|m| m + 1).unwrap_or(0);
-        let mut mt = vec![0.0; n_folds];
-        let mut me = vec![0.0; n_folds];
-        let mut cnt = vec![0usize; n_folds];
-        for ((&t, &e), &f) in lead_s.iter().zip(sq_err).zip(fold) {
-            mt[f] += t;
-            me[f] += e;
-            cnt[f] += 1;
-        }
-        for f in 0..n_folds {
-            if cnt[f] > 0 {
-                mt[f] /= cnt[f] as f64;
-                me[f] /= cnt[f] as f64;
-            }
-        }
-        let (mut stt, mut ste) = (0.0, 0.0);
-        for ((&t, &e), &f) in lead_s.iter().zip(sq_err).zip(fold) {
-            stt += (t - mt[f]).powi(2);
-            ste += (t - mt[f]) * (e - me[f]);
-        }
-        let b = if stt > 0.0 { (ste / stt).max(0.0) } else { 0.0 };
-        let last = (0..n_folds).rev().find(|&f| cnt[f] > 0).unwrap_or(0);
-        let mean_all = sq_err.iter().sum::<f64>() / sq_err.len().max(1) as f64;
-        let floor = 1e-6 * mean_all.max(f64::MIN_POSITIVE);
-        let a = me.get(last).copied().unwrap_or(mean_all) - b * mt.get(last).copied().unwrap_or(0.0);
-        VarModel { a: a.max(floor), b, k95 }
-    }
-
-    /// Variance at lead time `tau_s`.
-    pub fn at(&self, tau_s: f64) -> f64 {
-        self.a + self.b * tau_s.max(0.0)
-    }
 }
 
 /// The outcome of selection.

@@ -254,13 +254,19 @@ fn hyper(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
 
 fn band(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
     let mut rows = Vec::new();
-    for (name, q, me) in [("Model-P", p, &m.table2.model_p), ("Model-H", h, &m.table2.model_h)] {
+    let models = [
+        ("Model-P", p, &m.table2.model_p, &m.selection.var_model_p),
+        ("Model-H", h, &m.table2.model_h, &m.selection.var_model_h),
+    ];
+    for (name, q, me, vm) in models {
         for (o, (ch, unit)) in crate::eval::score::CHANNELS.iter().zip(UNITS).enumerate() {
+            let fitted = vm.get(o).map_or(String::from("–"), |v| format!("{} ± {}", g(v.b_fitted), g(v.b_se)));
             rows.push(vec![
                 name.to_string(),
                 format!("{ch} [{unit}]"),
                 g(q.resid_var[o]),
                 g(q.resid_var_growth[o]),
+                fitted,
                 g(q.band_k[o]),
                 g(q.resid_var[o].sqrt() * q.band_k[o]),
                 g(me.channels[o].mean_band),
@@ -270,10 +276,10 @@ fn band(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
     }
     Table {
         title: format!(
-            "95 % band parameters: half-width = k95 · sqrt(s²(τ) · (1 + leverage)) (× the flagged-band factor for flagged samples), s²(τ) = a + b·τ with τ the time since the end of calibration (t = {} s)",
+            "95 % band parameters: half-width = k95 · sqrt(s²(τ) · (1 + leverage)) (× the flagged-band factor for flagged samples), s²(τ) = a + b·τ with τ the time since the end of calibration (t = {} s); b is the fitted growth shrunk by t²/(1 + t²), t = fitted / se",
             g(h.t_cal_end_s)
         ),
-        header: ["model", "output", "a = s² at cal end [unit²]", "b = growth [unit²/s]", "k95", "half-width at τ = 0", "mean half-width on hold-out", "coverage %"]
+        header: ["model", "output", "a = s² at cal end [unit²]", "b = growth [unit²/s]", "growth as fitted ± se [unit²/s]", "k95", "half-width at τ = 0", "mean half-width on hold-out", "coverage %"]
             .map(String::from)
             .to_vec(),
         rows,

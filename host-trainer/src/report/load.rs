@@ -168,11 +168,22 @@ struct VarModelDe {
     a: F,
     b: F,
     k95: F,
+    /// Absent from metrics written before the slope was shrunk.
+    #[serde(default)]
+    b_fitted: Option<F>,
+    #[serde(default)]
+    b_se: Option<F>,
 }
 
 impl From<VarModelDe> for VarModel {
     fn from(v: VarModelDe) -> Self {
-        VarModel { a: v.a.0, b: v.b.0, k95: v.k95.0 }
+        VarModel {
+            a: v.a.0,
+            b: v.b.0,
+            k95: v.k95.0,
+            b_fitted: v.b_fitted.map_or(v.b.0, |x| x.0),
+            b_se: v.b_se.map_or(0.0, |x| x.0),
+        }
     }
 }
 

@@ -1,0 +1,216 @@
+//! The 95 % band's variance model: s²(τ) = a + b·τ over the lead time τ since the end of
+//! training, fitted on cross-validated errors, times a split-conformal multiplier (DESIGN §4).
+//!
+//! Drift is a random walk, so the error variance grows with the time since calibration. The
+//! cross-validation sees leads up to a day or two, the hold-out and the field a week or more:
+//! the slope b is extrapolated several times beyond the leads it was fitted on. A slope fitted
+//! on one or two strongly autocorrelated validation stretches is noisy, and clamping it at zero
+//! biases it upwards, so the band grew too fast where the estimate was noise. The slope is
+//! therefore shrunk by its signal-to-noise ratio, b = b̂·t²/(1 + t²) with t = b̂ / se(b̂) (the
+//! posterior mean of b under a zero-centred normal prior of variance b̂²): a growth the
+//! validation errors clearly show is kept, one within its own noise is mostly dropped. The
+//! validation errors are strongly autocorrelated (a minute apart, drift and weather change
+//! over hours), so se(b̂) is the ordinary least-squares one inflated by the AR(1)
+//! effective-sample-size factor √((1 + ρ)/(1 − ρ)), with ρ the lag-one autocorrelation of the
+//! regression residuals within each fold.
+
+/// Largest lag-one autocorrelation used in the inflation factor (keeps it finite).
+const RHO_MAX: f64 = 0.9999;
+
+/// Residual variance as a function of lead time after the end of training.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct VarModel {
+    /// Variance at lead 0 \[unit²\].
+    pub a: f64,
+    /// Growth, after shrinkage [unit²/s]: what the band uses.
+    pub b: f64,
+    /// 95 % quantile of |e| / s(τ) over the validation residuals: the band multiplier.
+    pub k95: f64,
+    /// Growth as fitted, before shrinkage (clamped at zero) [unit²/s]: for the audit.
+    pub b_fitted: f64,
+    /// Standard error of the fitted growth, allowing for autocorrelated errors [unit²/s].
+    pub b_se: f64,
+}
+
+impl VarModel {
+    /// A band of constant variance `a` \[unit²\] and the normal 95 % multiplier.
+    pub fn constant(a: f64) -> VarModel {
+        VarModel { a, k95: fbg_shared::layout::Z95, ..VarModel::default() }
+    }
+
+    /// Fit the variance model and calibrate its 95 % multiplier on the same residuals
+    /// (split-conformal on the normalised errors). `fold` labels each sample's CV fold, in
+    /// order of growing training sets.
+    pub fn fit(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
+        let mut m = Self::fit_variance(lead_s, sq_err, fold);
+        let mut u: Vec<f64> = lead_s.iter().zip(sq_err).map(|(&t, &e)| (e / m.at(t)).sqrt()).collect();
+        u.sort_by(f64::total_cmp);
+        // Finite-sample conformal quantile: the ceil((n+1)·0.95)-th smallest.
+        let n = u.len();
+        let r = (((n + 1) as f64) * 0.95).ceil() as usize;
+        m.k95 = u.get(r.saturating_sub(1).min(n.saturating_sub(1))).copied().unwrap_or(fbg_shared::layout::Z95);
+        if m.k95.is_nan() || m.k95 <= 0.0 {
+            m.k95 = fbg_shared::layout::Z95;
+        }
+        m
+    }
+
+    /// e² = a_f + b·τ with one intercept per fold and a common slope (the fixed-effects
+    /// estimator): early folds train on less data *and* validate at longer leads, so a pooled
+    /// slope would mistake the smaller training set for growth. The slope is then shrunk (see
+    /// the module doc). `a` is the intercept of the fold with the largest training set, the
+    /// closest to the final fit, refitted at the shrunk slope.
+    fn fit_variance(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
+        let n_folds = fold.iter().copied().max().map(|m| m + 1).unwrap_or(0);
+        let mut mt = vec![0.0; n_folds];
+        let mut me = vec![0.0; n_folds];
+        let mut cnt = vec![0usize; n_folds];
+        for ((&t, &e), &f) in lead_s.iter().zip(sq_err).zip(fold) {
+            mt[f] += t;
+            me[f] += e;
+            cnt[f] += 1;
+        }
+        for f in 0..n_folds {
+            if cnt[f] > 0 {
+                mt[f] /= cnt[f] as f64;
+                me[f] /= cnt[f] as f64;
+            }
+        }
+        let (mut stt, mut ste) = (0.0, 0.0);
+        for ((&t, &e), &f) in lead_s.iter().zip(sq_err).zip(fold) {
+            stt += (t - mt[f]).powi(2);
+            ste += (t - mt[f]) * (e - me[f]);
+        }
+        let slope = if stt > 0.0 { ste / stt } else { 0.0 };
+        let se = slope_se(lead_s, sq_err, fold, &mt, &me, slope, stt);
+        let b_fitted = slope.max(0.0);
+        let b = if b_fitted > 0.0 { b_fitted * b_fitted * b_fitted / (b_fitted * b_fitted + se * se) } else { 0.0 };
+        let last = (0..n_folds).rev().find(|&f| cnt[f] > 0).unwrap_or(0);
+        let mean_all = sq_err.iter().sum::<f64>() / sq_err.len().max(1) as f64;
+        let floor = 1e-6 * mean_all.max(f64::MIN_POSITIVE);
+        let a = me.get(last).copied().unwrap_or(mean_all) - b * mt.get(last).copied().unwrap_or(0.0);
+        VarModel { a: a.max(floor), b, k95: fbg_shared::layout::Z95, b_fitted, b_se: se }
+    }
+
+    /// Variance at lead time `tau_s`.
+    pub fn at(&self, tau_s: f64) -> f64 {
+        self.a + self.b * tau_s.max(0.0)
+    }
+}
+
+/// Standard error of the fixed-effects slope with AR(1)-correlated residuals:
+/// se² = σ²/Sττ · (1 + ρ)/(1 − ρ), σ² the residual variance, ρ the residuals' lag-one
+/// autocorrelation within folds (samples are in time order within each fold).
+fn slope_se(
+    lead_s: &[f64],
+    sq_err: &[f64],
+    fold: &[usize],
+    mean_lead: &[f64],
+    mean_sq: &[f64],
+    slope: f64,
+    stt: f64,
+) -> f64 {
+    if stt <= 0.0 || lead_s.len() < 3 {
+        return 0.0;
+    }
+    let resid: Vec<(usize, f64)> = lead_s
+        .iter()
+        .zip(sq_err)
+        .zip(fold)
+        .map(|((&t, &e), &f)| {
+            let (mt, me) = (mean_lead.get(f).copied().unwrap_or(0.0), mean_sq.get(f).copied().unwrap_or(0.0));
+            (f, (e - me) - slope * (t - mt))
+        })
+        .collect();
+    let ss: f64 = resid.iter().map(|&(_, r)| r * r).sum();
+    let lag1: f64 = resid
+        .windows(2)
+        .filter_map(|w| match w {
+            [(f0, r0), (f1, r1)] if f0 == f1 => Some(r0 * r1),
+            _ => None,
+        })
+        .sum();
+    let rho = if ss > 0.0 { (lag1 / ss).clamp(0.0, RHO_MAX) } else { 0.0 };
+    let sigma2 = ss / (resid.len() - 2) as f64;
+    (sigma2 / stt * (1.0 + rho) / (1.0 - rho)).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Squared errors of a deterministic series: variance `a + b·τ` times a fixed pattern of
+    /// mean one, with a slow wobble of `wobble` (relative) and period `period_s`.
+    fn series(a: f64, b: f64, wobble: f64, period_s: f64, n: usize) -> (Vec<f64>, Vec<f64>, Vec<usize>) {
+        let lead: Vec<f64> = (1..=n).map(|i| i as f64 * 60.0).collect();
+        let pattern = [0.2, 1.8, 0.6, 1.4, 1.0];
+        let sq = lead
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
+                let w = 1.0 + wobble * (std::f64::consts::TAU * t / period_s).sin();
+                (a + b * t) * w * pattern.get(i % pattern.len()).copied().unwrap_or(1.0)
+            })
+            .collect();
+        (lead, sq, vec![0; n])
+    }
+
+    #[test]
+    fn a_clear_growth_is_kept() {
+        // Variance doubles over one day with no wobble: the slope is many standard errors
+        // from zero and survives shrinkage within a percent.
+        let (lead, sq, fold) = series(1.0, 1.0 / 86_400.0, 0.0, 86_400.0, 2 * 1440);
+        let m = VarModel::fit(&lead, &sq, &fold);
+        assert!(m.b_se > 0.0);
+        assert!((m.b / m.b_fitted - 1.0).abs() < 0.01, "{m:?}");
+        assert!((m.b_fitted * 86_400.0 - 1.0).abs() < 0.05, "{m:?}");
+    }
+
+    /// Squared values of a stationary AR(1) series of unit variance and correlation time
+    /// `corr_s`, sampled every minute: no growth at all.
+    fn slow_noise(seed: u64, corr_s: f64, n: usize) -> (Vec<f64>, Vec<f64>, Vec<usize>) {
+        let mut rng = crate::rng::Rng::new(seed, crate::rng::Stream::Drift);
+        let rho = (-60.0 / corr_s).exp();
+        let mut x = rng.normal();
+        let mut sq = Vec::with_capacity(n);
+        for _ in 0..n {
+            x = rho * x + (1.0 - rho * rho).sqrt() * rng.normal();
+            sq.push(x * x);
+        }
+        ((1..=n).map(|i| i as f64 * 60.0).collect(), sq, vec![0; n])
+    }
+
+    #[test]
+    fn a_growth_within_its_own_noise_is_mostly_dropped() {
+        // No growth, errors correlated over hours, 1.4 days of leads. A clamped least-squares
+        // slope reports growth on some seeds; where that slope is within one standard error
+        // of zero the band keeps less than half of it, and it never keeps more than fitted.
+        let mut weak = 0;
+        for seed in 1..=20 {
+            let (lead, sq, fold) = slow_noise(seed, 6.0 * 3600.0, 2016);
+            let m = VarModel::fit(&lead, &sq, &fold);
+            assert!(m.b <= m.b_fitted, "seed {seed}: {m:?}");
+            if m.b_fitted > 0.0 && m.b_fitted < m.b_se {
+                weak += 1;
+                assert!(m.b < 0.5 * m.b_fitted, "seed {seed}: {m:?}");
+            }
+        }
+        assert!(weak >= 2, "only {weak} seeds with a weak positive slope");
+    }
+
+    #[test]
+    fn the_band_covers_its_own_validation_errors_at_95_percent() {
+        let (lead, sq, fold) = series(1.0, 1.0 / 86_400.0, 0.2, 86_400.0, 2016);
+        let m = VarModel::fit(&lead, &sq, &fold);
+        let covered = lead.iter().zip(&sq).filter(|&(&t, &e)| e.sqrt() <= m.k95 * m.at(t).sqrt()).count();
+        let frac = covered as f64 / lead.len() as f64;
+        assert!((0.95..=0.96).contains(&frac), "{frac}");
+    }
+
+    #[test]
+    fn a_constant_band_has_the_normal_multiplier() {
+        let m = VarModel::constant(2.0);
+        assert_eq!(m.at(1e6), 2.0);
+        assert_eq!(m.k95, fbg_shared::layout::Z95);
+    }
+}
