@@ -33,6 +33,21 @@ Two sub-commands, each printing one JSON object on stdout:
          6. ``Ridge(alpha=alpha_rel * n_cal, fit_intercept=False)`` from psi to the Model-P
             residuals: Model-H = Model-P + psi W.
 
+         With ``--features memory`` (the default model's inputs, ``fbg-trainer bench-fit --fixed
+         --memory``): the RBF inputs are the ``hysteresis-aware`` ones, and the polynomial
+         core is fitted jointly with the memory terms of each output (DESIGN §4): least squares
+         over [φ(g), m] with a ridge penalty on the standardised memory terms only, solved from
+         the normal equations. The terms are ours, ported to numpy (``memory_terms``): grating
+         high-passes Δλ − EMA_τ(Δλ) at τ = 5, 15, 30, 60, 120, 240 min, ambient high-passes at
+         5, 15, 30, 60 min, stop terms Δλ − play_r(Δλ) at r = 2, 4, 8 pm, and the drift
+         observer for temperature (its grating-temperature row is stage 1's, so it is computed
+         inside the clock). The groups and λ of each output are given (``--memory-groups``,
+         ``--memory-lambda``: ours as our cross-validation chose them), so this pipeline does
+         *less* than ours, which cross-validates them. The high-passes and stop terms depend on
+         no fitted number and are computed once, before the clock, like the latches (their time
+         is ``feature_seconds``); a record with an irregular clock is refused (the EMAs are run
+         as ``scipy.signal.lfilter`` with one smoothing factor).
+
          It does not compute what ours also does inside a fit: the blocked time-series
          cross-validation that calibrates the 95 % band, the envelope, the weak-support
          threshold and the variance eigen-directions.
@@ -65,6 +80,7 @@ import sys
 import time
 
 import numpy as np
+from scipy.signal import lfilter
 from sklearn.cluster import KMeans
 from sklearn.linear_model import LinearRegression, Ridge
 from sklearn.metrics.pairwise import rbf_kernel
@@ -140,6 +156,67 @@ def median_nn_distance(c):
     return m if m > 0 else 1.0
 
 
+GRATING_TAUS_S = [300.0, 900.0, 1800.0, 3600.0, 7200.0, 14400.0]  # MemoryOptions::default_menu
+AMBIENT_TAUS_S = [300.0, 900.0, 1800.0, 3600.0]
+PLAY_HALF_WIDTHS_PM = [2.0, 4.0, 8.0]
+OBSERVER_LAG_S, OBSERVER_SMOOTH_S = 1200.0, 2400.0
+MEMORY_GROUPS = ["grating-high-pass", "ambient-high-pass", "stop", "drift-observer"]
+
+
+def regular_step(t):
+    """The record's one sampling interval [s]; exits when the clock is irregular."""
+    dt = np.diff(t)
+    if len(dt) == 0 or not np.allclose(dt, dt[0], rtol=1e-6, atol=0.0):
+        sys.exit("memory features: the peer needs a regular clock (one smoothing factor per EMA)")
+    return float(dt[0])
+
+
+def low_pass(x, tau_s, dt_s):
+    """fbg_shared::LowPass over a whole record: primed at x[0], then s += a (x - s) with
+    a = 1 - exp(-dt/tau)."""
+    a = -math.expm1(-dt_s / tau_s)
+    out = np.empty_like(x)
+    out[0] = x[0]
+    if len(x) > 1:
+        out[1:], _ = lfilter([a], [1.0, a - 1.0], x[1:], zi=[(1.0 - a) * x[0]])
+    return out
+
+
+def stop_terms(x, r):
+    """fbg_shared::Play's stop complement x - play_r(x) over a whole record (primed at x[0])."""
+    out = np.zeros(len(x))
+    state = None
+    for i, v in enumerate(x.tolist()):
+        if state is None:
+            state = v
+        elif state < v - r:
+            state = v - r
+        elif state > v + r:
+            state = v + r
+        out[i] = v - state
+    return out
+
+
+def memory_terms(data, dt_s):
+    """The fixed memory terms (everything but the observer), by group: name -> (n, k) array."""
+    dl, t_amb = data["X4"][:, :3], data["X4"][:, 3]
+    grating = [dl[:, g] - low_pass(dl[:, g], tau, dt_s) for tau in GRATING_TAUS_S for g in range(3)]
+    ambient = [t_amb - low_pass(t_amb, tau, dt_s) for tau in AMBIENT_TAUS_S]
+    stop = [stop_terms(dl[:, g], r) for r in PLAY_HALF_WIDTHS_PM for g in range(3)]
+    return {
+        "grating-high-pass": np.column_stack(grating),
+        "ambient-high-pass": np.column_stack(ambient),
+        "stop": np.column_stack(stop),
+    }
+
+
+def drift_observer(X4, row, intercept, dt_s):
+    """fbg_shared::DriftObserver: EMA_smooth(EMA_lag(T_g) - T_amb), T_g = row . X4 + intercept."""
+    t_g = X4 @ row + intercept
+    lagged = low_pass(t_g, OBSERVER_LAG_S, dt_s)
+    return low_pass(lagged - X4[:, 3], OBSERVER_SMOOTH_S, dt_s)
+
+
 def rbf_inputs(data, features, lat):
     if features == "paper":
         return np.column_stack([data["X4"], data["t"]])
@@ -149,17 +226,22 @@ def rbf_inputs(data, features, lat):
 class HybridPeer:
     """Model-P + Model-H as a scikit-learn pipeline (see the module doc)."""
 
-    def __init__(self, k, sigma_mult, alpha_rel, seed, kmeans="subsample"):
+    def __init__(self, k, sigma_mult, alpha_rel, seed, kmeans="subsample", memory=None):
         self.k, self.sigma_mult, self.alpha_rel, self.seed = k, sigma_mult, alpha_rel, seed
         self.kmeans = kmeans
+        # memory: None, or (groups per output, lambda per output, dt_s).
+        self.memory = memory
 
-    def fit(self, X4, Z, Y):
+    def fit(self, X4, Z, Y, M=None):
         n = len(Y)
         self.stage1 = LinearRegression().fit(X4, Y)
         g = self.stage1.predict(X4)
         self.stage2 = make_pipeline(StandardScaler(), PolynomialFeatures(2), LinearRegression(fit_intercept=False))
         self.stage2.fit(g, Y)
-        resid = Y - self.stage2.predict(g)
+        if self.memory is None:
+            resid = Y - self.stage2.predict(g)
+        else:
+            resid = Y - self.fit_joint(X4, g, Y, M)
         self.zscale = StandardScaler().fit(Z)
         zs = self.zscale.transform(Z)
         if self.kmeans == "all":
@@ -175,6 +257,45 @@ class HybridPeer:
         self.ridge = Ridge(alpha=self.alpha_rel * n, fit_intercept=False).fit(psi, resid)
         return self
 
+    def memory_columns(self, X4, M, o):
+        """Output o's memory terms (unstandardised): its groups' precomputed terms, and the
+        drift observer from this fit's stage 1."""
+        groups, _, dt_s = self.memory
+        cols = [M[gr] for gr in MEMORY_GROUPS[:3] if gr in groups[o]]
+        if "drift-observer" in groups[o]:
+            obs = drift_observer(X4, self.stage1.coef_[0], self.stage1.intercept_[0], dt_s)
+            cols.append(obs[:, None])
+        return np.column_stack(cols) if cols else np.zeros((len(X4), 0))
+
+    def fit_joint(self, X4, g, Y, M):
+        """B and Gamma per output from one penalised least squares over [phi(g), m_o], ridge
+        lambda * n on the standardised memory terms only; returns the fitted values."""
+        groups, lambdas, _ = self.memory
+        phi = self.stage2[:2].transform(g)
+        self.joint, fitted = [], np.empty_like(Y)
+        for o in range(Y.shape[1]):
+            m = self.memory_columns(X4, M, o)
+            mu, sd = m.mean(axis=0), m.std(axis=0)
+            sd[sd == 0] = 1.0
+            X = np.hstack([phi, (m - mu) / sd])
+            pen = np.zeros(X.shape[1])
+            pen[phi.shape[1]:] = lambdas[o] * len(Y)
+            beta = np.linalg.solve(X.T @ X + np.diag(pen), X.T @ Y[:, o])
+            self.joint.append((mu, sd, beta))
+            fitted[:, o] = X @ beta
+        return fitted
+
+    def predict_core(self, X4, M=None):
+        """Model-P, or with memory terms the joint core."""
+        if self.memory is None:
+            return self.predict_p(X4)
+        g = self.stage1.predict(X4)
+        phi = self.stage2[:2].transform(g)
+        out = np.empty((len(X4), len(self.joint)))
+        for o, (mu, sd, beta) in enumerate(self.joint):
+            out[:, o] = np.hstack([phi, (self.memory_columns(X4, M, o) - mu) / sd]) @ beta
+        return out
+
     def features(self, zs):
         """psi, with activations below 1e-150 (far centres) set to 0: their products would be
         subnormal and slow the BLAS products of the ridge fit down tenfold; they change no
@@ -186,9 +307,9 @@ class HybridPeer:
     def predict_p(self, X4):
         return self.stage2.predict(self.stage1.predict(X4))
 
-    def predict_h(self, X4, Z):
+    def predict_h(self, X4, Z, M=None):
         psi = self.features(self.zscale.transform(Z))
-        return self.predict_p(X4) + self.ridge.predict(psi)
+        return self.predict_core(X4, M) + self.ridge.predict(psi)
 
 
 def rmse(pred, Y):
@@ -197,18 +318,36 @@ def rmse(pred, Y):
 
 def cmd_fit(a):
     data = read_csv(a.data)
+    memory = a.features == "memory"
     t0 = time.perf_counter()
-    lat = latches(data["X4"][:, :3], a.dead_band_pm) if a.features == "hysteresis-aware" else None
+    lat = latches(data["X4"][:, :3], a.dead_band_pm) if a.features != "paper" else None
     latch_seconds = time.perf_counter() - t0 if lat is not None else 0.0
     Z = rbf_inputs(data, a.features, lat)
     cal, hold = data["cal"], data["hold"]
+    M, spec, feature_seconds = None, None, 0.0
+    if memory:
+        groups = [g.split("+") if g else [] for g in a.memory_groups.split(",")]
+        lambdas = [float(x) for x in a.memory_lambda.split(",")]
+        if len(groups) != 3 or len(lambdas) != 3 or any(x not in MEMORY_GROUPS for gs in groups for x in gs):
+            sys.exit("--memory-groups needs three outputs' groups (a+b,c,...) and --memory-lambda three values")
+        n_cal = int(cal.sum())
+        if not cal[:n_cal].all():
+            sys.exit("memory features: the calibration rows must come first (the terms run over the record)")
+        t0 = time.perf_counter()
+        dt_s = regular_step(data["t"])
+        M = memory_terms(data, dt_s)
+        feature_seconds = time.perf_counter() - t0
+        spec = (groups, lambdas, dt_s)
     X4c, Zc, Yc = data["X4"][cal], Z[cal], data["Y"][cal]
+    Mc = {k: v[cal] for k, v in M.items()} if memory else None
     secs, model = [], None
     for _ in range(max(1, a.repeats)):
         t = time.perf_counter()
-        model = HybridPeer(a.k, a.sigma_mult, a.alpha_rel, a.seed, a.kmeans).fit(X4c, Zc, Yc)
+        model = HybridPeer(a.k, a.sigma_mult, a.alpha_rel, a.seed, a.kmeans, spec).fit(X4c, Zc, Yc, Mc)
         secs.append(time.perf_counter() - t)
-    X4h, Zh, Yh = data["X4"][hold], Z[hold], data["Y"][hold]
+    # Predict over the whole record (the memory terms and the observer are causal over it).
+    pred_h = model.predict_h(data["X4"], Z, M)[hold]
+    Yh = data["Y"][hold]
     out = {
         "peer": "scikit-learn hybrid pipeline",
         "features": a.features,
@@ -217,13 +356,16 @@ def cmd_fit(a):
         "sigma_mult": a.sigma_mult,
         "alpha_rel": a.alpha_rel,
         "dead_band_pm": a.dead_band_pm,
+        "memory_groups": spec[0] if memory else None,
+        "memory_lambda": spec[1] if memory else None,
         "n_samples": int(len(data["t"])),
         "n_cal": int(cal.sum()),
         "latch_seconds": latch_seconds,
+        "feature_seconds": feature_seconds,
         "fit_seconds": secs,
         "fit_seconds_median": float(np.median(secs)),
-        "model_p": {"rmse": rmse(model.predict_p(X4h), Yh)},
-        "model_h": {"rmse": rmse(model.predict_h(X4h, Zh), Yh), "pickle_bytes": len(pickle.dumps(model))},
+        "model_p": {"rmse": rmse(model.predict_p(data["X4"][hold]), Yh)},
+        "model_h": {"rmse": rmse(pred_h, Yh), "pickle_bytes": len(pickle.dumps(model))},
     }
     print(json.dumps(out, indent=1))
 
@@ -364,7 +506,10 @@ def main():
     f = sub.add_parser("fit", help="time the equivalent fixed-hyper-parameter hybrid pipeline")
     f.add_argument("--data", required=True)
     f.add_argument("--repeats", type=int, default=3)
-    f.add_argument("--features", choices=["paper", "hysteresis-aware"], default="paper")
+    f.add_argument("--features", choices=["paper", "hysteresis-aware", "memory"], default="paper")
+    f.add_argument("--memory-groups", default="",
+                   help="with --features memory: each output's groups, outputs by ',' and groups by '+'")
+    f.add_argument("--memory-lambda", default="", help="with --features memory: each output's lambda, by ','")
     f.add_argument("--k", type=int, default=32)
     f.add_argument("--sigma-mult", type=float, default=2.0)
     f.add_argument("--alpha-rel", type=float, default=1e-5)

@@ -65,6 +65,10 @@ pub struct FitBench {
     /// Median wall time of each phase of the fit \[s\], in order.
     pub phase_seconds: Vec<(String, f64)>,
     pub chosen: Config,
+    /// The memory groups each output uses, by name (empty without memory terms).
+    pub memory_groups: Vec<Vec<&'static str>>,
+    /// Each output's ridge penalty λ per sample on its standardised memory terms.
+    pub memory_lambda: Vec<f64>,
     pub grid_points: usize,
     pub model_p: HoldoutFigures,
     pub model_h: HoldoutFigures,
@@ -132,6 +136,8 @@ pub fn bench_fit(
         fit_seconds,
         phase_seconds,
         chosen: tr.selection.chosen,
+        memory_groups: (0..tr.selection.memory.groups.len()).map(|o| tr.selection.memory.names(o)).collect(),
+        memory_lambda: tr.selection.memory.lambda.to_vec(),
         grid_points: tr.selection.rows.len(),
         model_p: HoldoutFigures::of(&ep, export::blob_bytes(&tr.model_p)?.len()),
         model_h: HoldoutFigures::of(&eh, export::blob_bytes(&tr.model_h)?.len()),

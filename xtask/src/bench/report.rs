@@ -225,6 +225,27 @@ pub struct FixedMemory {
     #[serde(flatten)]
     pub fit: FitRun,
     pub phase_seconds: Vec<Phase>,
+    /// The scikit-learn pipeline with the same features (the memory terms of the groups and
+    /// ridge our cross-validation chose, the latch RBF inputs); absent without the peer.
+    #[serde(default)]
+    pub peer: Option<PeerMemory>,
+    /// Peer / ours, per round (ours and the peer alternate), and their median.
+    #[serde(default)]
+    pub ratio_per_round: Vec<f64>,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub ratio_median: f64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PeerMemory {
+    #[serde(flatten)]
+    pub fit: FitRun,
+    /// The peer's Python latch loop, before its clock starts.
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub latch_seconds: f64,
+    /// The peer's memory terms that depend on no fitted number, before its clock starts.
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub feature_seconds: f64,
 }
 
 /// One phase of our fit and its median time \[s\], as `bench-fit` reports it: `[name, seconds]`.

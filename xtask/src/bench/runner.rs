@@ -120,6 +120,12 @@ pub struct FitBench {
     pub fit_seconds_median: f64,
     pub phase_seconds: Vec<Phase>,
     pub chosen: Chosen,
+    /// The memory groups of each output (empty without memory terms).
+    #[serde(default)]
+    pub memory_groups: Vec<Vec<String>>,
+    /// Each output's ridge penalty per sample on its memory terms.
+    #[serde(default)]
+    pub memory_lambda: Vec<f64>,
     pub grid_points: usize,
     pub model_p: Holdout,
     pub model_h: Holdout,
@@ -172,6 +178,9 @@ pub struct PeerVersions {
 pub struct PeerFit {
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
     pub latch_seconds: f64,
+    /// The memory terms that depend on no fitted number, computed before the clock.
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub feature_seconds: f64,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
     pub fit_seconds: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]

@@ -8,7 +8,7 @@ use anyhow::{bail, Result};
 
 use super::report::{
     FitRun, FixedConfig, FixedDefault, FixedMemory, FixedPaper, GrowthExponent, OursFixed, OursSelect, PeerFixed,
-    PeerLatch, SizeRun, TrainEndToEnd, Training,
+    PeerLatch, PeerMemory, SizeRun, TrainEndToEnd, Training,
 };
 use super::runner::{strings, FitBench, PeerFit, Runner, TrainOut};
 use super::stats::{log_slope, median};
@@ -97,11 +97,41 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Train
             if peer_ok { Some(r.typed(VENV_PY, &peer("hysteresis-aware"))?) } else { None };
         let (sel, cmd_sel): (FitBench, _) =
             r.trainer(&["bench-fit", "--data", &csv, "--select", "--repeats", &reps_s, "--json"])?;
-        // The default model's own terms: memory terms (cross-validated menu) fitted with the core.
-        // The scikit-learn peer has no memory terms, so this is timed without a peer.
+        // The default model's own terms: memory terms (cross-validated menu) fitted with the
+        // core, against the peer given the same terms (the groups and ridge our CV chose; it
+        // does not cross-validate them), alternating in each round.
         let mut with_memory = fixed("hysteresis-aware");
         with_memory.push("--memory".into());
-        let (om, cmd_om): (FitBench, _) = r.typed(super::TRAINER, &with_memory)?;
+        let (mut om_p, mut pm_p, mut m_ratios) = (Vec::new(), Vec::new(), Vec::new());
+        let mut last_om = None;
+        let mut last_pm = None;
+        for _ in 0..rounds {
+            let (om, cmd_om): (FitBench, _) = r.typed(super::TRAINER, &with_memory)?;
+            om_p.extend(om.fit_seconds.iter().copied());
+            if peer_ok {
+                let groups: Vec<String> = om.memory_groups.iter().map(|g| g.join("+")).collect();
+                let lambdas: Vec<String> = om.memory_lambda.iter().map(|l| format!("{l:e}")).collect();
+                let mut args = peer("memory");
+                args.extend(strings(&["--memory-groups", &groups.join(","), "--memory-lambda", &lambdas.join(",")]));
+                let (p, c): (PeerFit, _) = r.typed(VENV_PY, &args)?;
+                m_ratios.push(p.fit_seconds_median / om.fit_seconds_median);
+                pm_p.extend(p.fit_seconds.iter().copied());
+                last_pm = Some((p, c));
+            }
+            last_om = Some((om, cmd_om));
+        }
+        let Some((om, cmd_om)) = last_om else { bail!("bench: no memory round ran") };
+        let fixed_memory = FixedMemory {
+            fit: FitRun { median: median(&om_p), fit_seconds: om_p, ..om.run(cmd_om) },
+            phase_seconds: om.phase_seconds.clone(),
+            peer: last_pm.map(|(p, c)| PeerMemory {
+                latch_seconds: p.latch_seconds,
+                feature_seconds: p.feature_seconds,
+                fit: p.run(c, pm_p),
+            }),
+            ratio_median: median(&m_ratios),
+            ratio_per_round: m_ratios,
+        };
         // What a user waits for: `train` end to end (read the CSV, select, fit, write the blobs
         // and the coefficients), wall clock, once per size.
         let train_dir = root.join("target/bench/train");
@@ -125,7 +155,7 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Train
                 csv_read_seconds: read_s,
                 csv_read_mb_per_s: csv_bytes as f64 / 1e6 / read_s,
             }),
-            fixed_memory: FixedMemory { fit: om.run(cmd_om), phase_seconds: om.phase_seconds.clone() },
+            fixed_memory,
             ours_select: OursSelect { fit: sel.run(cmd_sel), chosen: sel.chosen.clone(), grid_points: sel.grid_points },
             fixed_paper: FixedPaper {
                 ours: OursFixed {
