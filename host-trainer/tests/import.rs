@@ -91,9 +91,9 @@ fn enlight_tab_export_with_a_map_finds_each_grating_by_window_despite_a_dropped_
     // References interpolated from 5 s readings: at 10:00:02, 40 % of the way from 10:00:00 to
     // 10:00:05; the load cell through its gain (0.5 µε/N).
     assert!(close(d.ambient()[2], 21.514, 1e-9), "{}", d.ambient()[2]);
-    assert!(close(d.target(0)[2], 20.14, 1e-9));
-    assert!(close(d.target(1)[2], 0.5 * 140.0, 1e-9));
-    assert!(close(d.target(2)[2], 151.4, 1e-9));
+    assert!(close(d.target(0).as_slice()[2], 20.14, 1e-9));
+    assert!(close(d.target(1).as_slice()[2], 0.5 * 140.0, 1e-9));
+    assert!(close(d.target(2).as_slice()[2], 151.4, 1e-9));
     assert_eq!(d.has_target(), [true, true, true]);
     let j = s.join.as_ref().unwrap();
     assert_eq!((j.max_gap_s, j.max_gap_source.as_str()), (12.0, "map"));
@@ -136,7 +136,7 @@ fn enlight_comma_export_without_a_map_takes_channels_in_order_and_the_first_read
     let j = s.join.as_ref().unwrap();
     assert_eq!((j.max_gap_s, j.max_gap_source.as_str()), (15.0, "3 × median refs spacing"));
     assert!(close(d.ambient()[1], 22.044, 1e-9));
-    assert!(close(d.target(1)[1], 22.0, 1e-9));
+    assert!(close(d.target(1).as_slice()[1], 22.0, 1e-9));
     assert_eq!(s.references.get(Measurand::T).unwrap().column, "T_C");
 }
 
@@ -151,7 +151,7 @@ fn logger_csv_with_iso_timestamps_and_pm_shifts() {
     assert_eq!(s.gaps, [0, 1, 1]);
     assert!(s.gratings.iter().all(|g| g.ref_nm.is_none() && g.ref_source == "shifts in the file"));
     // Load cell × gain.
-    assert!(close(d.target(1)[2], 20.0, 1e-12));
+    assert!(close(d.target(1).as_slice()[2], 20.0, 1e-12));
     assert_eq!(d.has_target(), [true, true, true]);
     assert_eq!(s.time.start.as_deref(), Some("2024-03-01T10:00:00.000"));
     assert_eq!((s.split.cal_rows, s.split.holdout_rows), (6, 6));
@@ -613,9 +613,9 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
             "{},{:.9},{:.9},{:.9},{:.9}\n",
             stamp(d.t_s[i]),
             d.ambient()[i],
-            d.target(0)[i],
-            d.target(1)[i],
-            d.target(2)[i]
+            d.target(0).as_slice()[i],
+            d.target(1).as_slice()[i],
+            d.target(2).as_slice()[i]
         ));
     }
     std::fs::write(&refs, text).unwrap();
@@ -661,9 +661,9 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
         }
         assert!(close(back.ambient()[i], d.ambient()[i], 1e-6));
         assert!(
-            close(back.target(0)[i], d.target(0)[i], 1e-6)
-                && close(back.target(1)[i], d.target(1)[i], 1e-6)
-                && close(back.target(2)[i], d.target(2)[i], 1e-6)
+            close(back.target(0).as_slice()[i], d.target(0).as_slice()[i], 1e-6)
+                && close(back.target(1).as_slice()[i], d.target(1).as_slice()[i], 1e-6)
+                && close(back.target(2).as_slice()[i], d.target(2).as_slice()[i], 1e-6)
         );
     }
     // The same split as the simulator's 50 %.
@@ -773,5 +773,5 @@ fn ambient_is_optional_for_a_logger() {
     o.input = csv;
     let (d, s) = import(&o).unwrap();
     assert_eq!((s.rows_written, d.t_amb_c.is_none(), d.measurands()), (3, true, vec![Measurand::T]));
-    assert!(d.target(0)[2].is_nan());
+    assert!(d.target(0).as_slice()[2].is_nan());
 }

@@ -124,6 +124,32 @@ impl std::fmt::Display for Shape {
     }
 }
 
+/// A reference column of the paper's layout ([`Dataset::target`]): the values, or NaN at
+/// every row for a reference the dataset does not have.
+#[derive(Clone, Copy, Debug)]
+pub struct Column<'a>(Option<&'a [f64]>);
+
+impl<'a> Column<'a> {
+    /// The values; empty for an absent reference.
+    pub fn as_slice(&self) -> &'a [f64] {
+        self.0.unwrap_or(&[])
+    }
+    /// Whether the dataset has the reference.
+    pub fn is_present(&self) -> bool {
+        self.0.is_some()
+    }
+}
+
+impl std::ops::Index<usize> for Column<'_> {
+    type Output = f64;
+    fn index(&self, i: usize) -> &f64 {
+        match self.0 {
+            Some(v) => &v[i],
+            None => &f64::NAN,
+        }
+    }
+}
+
 /// Column-oriented samples.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Dataset {
@@ -237,10 +263,11 @@ impl Dataset {
     pub fn truth(&self, i: usize) -> [f64; 3] {
         Measurand::PAPER.map(|m| self.reference(m).map_or(f64::NAN, |v| v[i]))
     }
-    /// The paper's reference channel by output index (0 T, 1 ε, 2 p); empty when the dataset
-    /// does not have it (check [`has_target`](Self::has_target)).
-    pub fn target(&self, c: usize) -> &[f64] {
-        Measurand::PAPER.get(c).and_then(|&m| self.reference(m)).unwrap_or(&[])
+    /// The paper's reference channel by output index (0 T, 1 ε, 2 p): indexing it gives NaN
+    /// at every row when the dataset does not have that reference (as an absent reference
+    /// always read).
+    pub fn target(&self, c: usize) -> Column<'_> {
+        Column(Measurand::PAPER.get(c).and_then(|&m| self.reference(m)))
     }
     /// Indices of the calibration samples.
     pub fn cal_indices(&self) -> Vec<usize> {

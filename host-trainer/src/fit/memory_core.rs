@@ -229,7 +229,8 @@ pub fn fit(
     if n < p {
         return Err(TrainerError::fit(format!("Model-H core with memory terms: {n} samples for {p} unknowns")));
     }
-    let targets: [&[f64]; N_OUTPUTS] = std::array::from_fn(|o| if d.has_target()[o] { d.target(o) } else { &[][..] });
+    let targets: [&[f64]; N_OUTPUTS] =
+        std::array::from_fn(|o| if d.has_target()[o] { d.target(o).as_slice() } else { &[][..] });
     let r_aug = super::linalg::triangular_rows(n, p + N_OUTPUTS, |r, buf| {
         let i = rows[r];
         let ph = core.phi_at(d, i);

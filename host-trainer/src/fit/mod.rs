@@ -416,7 +416,7 @@ pub fn refuse_constant_columns(d: &Dataset, cal: &[usize]) -> Result<(), Trainer
         if !d.has_target()[c] {
             continue;
         }
-        let (s, v) = span(d.target(c));
+        let (s, v) = span(d.target(c).as_slice());
         if s <= CONSTANT_SPAN {
             return Err(TrainerError::Dataset {
                 message: format!(

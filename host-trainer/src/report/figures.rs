@@ -179,8 +179,8 @@ pub fn fig1_inputs(c: &Ctx) -> FigSpec {
             let amb = minmax_columns(&t, d.ambient(), COLUMNS);
             p.lines.push(Line::new(C_MEAS, 1, pts(&amb)).label("T_amb reading (model input)"));
         }
-        let y = minmax_columns(&t, d.target(ch), COLUMNS);
         if d.has_target()[ch] {
+            let y = minmax_columns(&t, d.target(ch).as_slice(), COLUMNS);
             p.lines.push(Line::new(C_TRUTH, 1, pts(&y)).label(format!("reference {} (truth)", SYMBOLS[ch])));
         } else {
             p.note("no reference for this channel in data.csv", (0.3, 0.5));
