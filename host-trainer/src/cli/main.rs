@@ -72,7 +72,7 @@ enum Cmd {
         /// Output CSV.
         #[arg(long, default_value = "data.csv")]
         out: PathBuf,
-        /// Print a JSON summary (samples, std of T/ε/p, per-sample oracle) on stdout.
+        /// Print a JSON summary (samples, shape, std of each measurand, per-sample oracle) on stdout.
         #[arg(long)]
         json: bool,
         /// Also write the scenario as TOML (every parameter, for audit and editing).
