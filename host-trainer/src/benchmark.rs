@@ -88,7 +88,7 @@ pub fn bench_fit(
     holdout_errors: Option<&std::path::Path>,
 ) -> Result<FitBench, TrainerError> {
     let t = Instant::now();
-    let d = Dataset::read_csv(data)?;
+    let d = Dataset::read_paper_csv(data, "bench-fit")?;
     let read_seconds = t.elapsed().as_secs_f64();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

@@ -108,6 +108,7 @@ pub fn run(
     let t0 = Instant::now();
     let params = export::read_blob(model)?;
     let d = Dataset::read_field_csv(data)?;
+    d.paper_inputs(&data.display().to_string(), "compensate")?;
     let est = estimates(&params, &d, precision)?;
     let bar = fit::select::progress_bar(progress, d.len() as u64, "compensate");
     write_atomically(out, |w| {
@@ -131,7 +132,7 @@ pub fn run(
     bar.finish_and_clear();
     let gap_rows = (0..d.len()).filter(|&i| !d.sample(i).inputs_finite()).count();
     let bits = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT];
-    let reference_errors = d.has_target.iter().any(|&h| h).then(|| reference_errors(&d, &est));
+    let reference_errors = d.has_target().iter().any(|&h| h).then(|| reference_errors(&d, &est));
     Ok(Summary {
         model: model.to_path_buf(),
         data: data.to_path_buf(),
@@ -153,7 +154,7 @@ fn reference_errors(d: &Dataset, est: &[Estimate<f64>]) -> ReferenceErrors {
     let rows: Vec<usize> = (0..d.len()).filter(|&i| d.usable(i)).collect();
     let at: Vec<Estimate<f64>> = rows.iter().map(|&i| est[i]).collect();
     let ch = score::score(d, &rows, &at).channels;
-    let present = |c: usize| d.has_target[c] && !rows.is_empty();
+    let present = |c: usize| d.has_target()[c] && !rows.is_empty();
     ReferenceErrors {
         rows: std::array::from_fn(|c| if present(c) { ch[c].n } else { 0 }),
         rmse: std::array::from_fn(|c| if present(c) { ch[c].rmse } else { f64::NAN }),

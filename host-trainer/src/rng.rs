@@ -22,6 +22,10 @@ pub enum Stream {
     WhiteNoise = 8,
     LoadLevels = 9,
     Kmeans = 10,
+    /// The second strain location's AR(1) (`strain2_ue`).
+    Strain2 = 11,
+    /// The second strain location's load levels.
+    LoadLevels2 = 12,
 }
 
 /// A seeded random stream with uniform and normal deviates.

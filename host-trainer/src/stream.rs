@@ -211,7 +211,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
     let model = read_blob(&opts.model)?;
     // A signed model's digest is its blob's CRC, before the signature trailer.
     let crc = fbg_shared::blob::stored_crc(fbg_shared::signature::strip(&bytes)).unwrap_or(0);
-    let data = Dataset::read_csv(&opts.data)?;
+    let data = Dataset::read_paper_csv(&opts.data, "stream")?;
     let hold = data.holdout_indices();
     if hold.is_empty() {
         bail!("{}: no hold-out rows to stream", opts.data.display());

@@ -2,7 +2,7 @@
 //! and behave as a calibration engineer expects on the `paper` preset.
 
 use fbg_shared::FeatureSet;
-use fbg_trainer::data::Split;
+use fbg_trainer::data::{Measurand, Split};
 use fbg_trainer::eval::score::evaluate_holdout;
 use fbg_trainer::fit::{train, Config, HostParams, Origin, TrainOptions};
 use fbg_trainer::sim::scenario::Preset;
@@ -39,10 +39,10 @@ fn changing_the_holdout_cannot_change_the_fitted_models() {
         if d.split[i] == Split::Holdout {
             d.dl_pm[0][i] += 1e3 * (i as f64).sin();
             d.dl_pm[2][i] = -d.dl_pm[2][i];
-            d.t_amb_c[i] += 40.0;
-            d.temp_c[i] = 1e4;
-            d.strain_ue[i] *= -3.0;
-            d.p_kpa[i] = 0.0;
+            d.t_amb_c.as_mut().unwrap()[i] += 40.0;
+            d.reference_mut(Measurand::T).unwrap()[i] = 1e4;
+            d.reference_mut(Measurand::STRAIN).unwrap()[i] *= -3.0;
+            d.reference_mut(Measurand::P).unwrap()[i] = 0.0;
         }
     }
     let b = train(&d, &small_grid(), &origin).unwrap();
@@ -139,8 +139,7 @@ fn missing_reference_and_gaps_are_handled() {
     let dir = tempfile::tempdir().unwrap();
     let s = simulate(&short_paper(4.0), 11);
     let mut d = s.data.clone();
-    d.has_target[2] = false;
-    d.p_kpa.iter_mut().for_each(|v| *v = f64::NAN);
+    assert!(d.remove_reference(Measurand::P));
     for i in (50..d.len()).step_by(97) {
         d.dl_pm[1][i] = f64::NAN; // a peak the interrogator missed
     }
@@ -149,7 +148,7 @@ fn missing_reference_and_gaps_are_handled() {
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text.starts_with("t_s,T_C,strain_ue,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split\n"), "{}", &text[..80]);
     let back = fbg_trainer::data::Dataset::read_csv(&csv).unwrap();
-    assert_eq!(back.has_target, [true, true, false]);
+    assert_eq!(back.has_target(), [true, true, false]);
     assert!(back.dl_pm[1][50].is_nan());
 
     let t = train(&back, &small_grid(), &Origin::default()).unwrap();

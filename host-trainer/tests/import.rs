@@ -6,9 +6,10 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use fbg_trainer::data::import::{
-    import, import_to_csv, Format, ImportOptions, ImportSummary, OnError, Reason, SplitChoice, DEFAULT_MAX_SKIPPED,
+    import, import_to_csv, Format, ImportOptions, ImportSummary, OnError, Purpose, Reason, SplitChoice,
+    DEFAULT_MAX_SKIPPED,
 };
-use fbg_trainer::data::{Dataset, Split};
+use fbg_trainer::data::{Dataset, Measurand, Split};
 use fbg_trainer::fit::{train, Origin, TrainOptions};
 use fbg_trainer::sim::scenario::Preset;
 use fbg_trainer::sim::simulate;
@@ -89,11 +90,11 @@ fn enlight_tab_export_with_a_map_finds_each_grating_by_window_despite_a_dropped_
     assert!(s.gratings.iter().all(|g| g.ref_source == "map"));
     // References interpolated from 5 s readings: at 10:00:02, 40 % of the way from 10:00:00 to
     // 10:00:05; the load cell through its gain (0.5 µε/N).
-    assert!(close(d.t_amb_c[2], 21.514, 1e-9), "{}", d.t_amb_c[2]);
-    assert!(close(d.temp_c[2], 20.14, 1e-9));
-    assert!(close(d.strain_ue[2], 0.5 * 140.0, 1e-9));
-    assert!(close(d.p_kpa[2], 151.4, 1e-9));
-    assert_eq!(d.has_target, [true, true, true]);
+    assert!(close(d.ambient()[2], 21.514, 1e-9), "{}", d.ambient()[2]);
+    assert!(close(d.target(0).as_slice()[2], 20.14, 1e-9));
+    assert!(close(d.target(1).as_slice()[2], 0.5 * 140.0, 1e-9));
+    assert!(close(d.target(2).as_slice()[2], 151.4, 1e-9));
+    assert_eq!(d.has_target(), [true, true, true]);
     let j = s.join.as_ref().unwrap();
     assert_eq!((j.max_gap_s, j.max_gap_source.as_str()), (12.0, "map"));
     assert_eq!(s.time.start.as_deref(), Some("2024-03-01T10:00:00.000"));
@@ -134,9 +135,9 @@ fn enlight_comma_export_without_a_map_takes_channels_in_order_and_the_first_read
     // Refs in the dataset's own column names, no map: 5 s spacing, so max gap 15 s.
     let j = s.join.as_ref().unwrap();
     assert_eq!((j.max_gap_s, j.max_gap_source.as_str()), (15.0, "3 × median refs spacing"));
-    assert!(close(d.t_amb_c[1], 22.044, 1e-9));
-    assert!(close(d.strain_ue[1], 22.0, 1e-9));
-    assert_eq!(s.references.temp_c.as_ref().unwrap().column, "T_C");
+    assert!(close(d.ambient()[1], 22.044, 1e-9));
+    assert!(close(d.target(1).as_slice()[1], 22.0, 1e-9));
+    assert_eq!(s.references.get(Measurand::T).unwrap().column, "T_C");
 }
 
 #[test]
@@ -150,8 +151,8 @@ fn logger_csv_with_iso_timestamps_and_pm_shifts() {
     assert_eq!(s.gaps, [0, 1, 1]);
     assert!(s.gratings.iter().all(|g| g.ref_nm.is_none() && g.ref_source == "shifts in the file"));
     // Load cell × gain.
-    assert!(close(d.strain_ue[2], 20.0, 1e-12));
-    assert_eq!(d.has_target, [true, true, true]);
+    assert!(close(d.target(1).as_slice()[2], 20.0, 1e-12));
+    assert_eq!(d.has_target(), [true, true, true]);
     assert_eq!(s.time.start.as_deref(), Some("2024-03-01T10:00:00.000"));
     assert_eq!((s.split.cal_rows, s.split.holdout_rows), (6, 6));
 }
@@ -179,19 +180,37 @@ fn split_by_time_seconds_or_timestamp() {
 // Refusals that do not depend on rows
 
 #[test]
-fn enlight_without_refs_says_where_the_references_must_come_from() {
-    let e = failure(&enlight("enlight_tab.txt", Some("enlight_map.toml"), None));
+fn enlight_without_refs_is_a_field_record_kept_row_for_row() {
+    let (d, s) = import(&enlight("enlight_tab.txt", Some("enlight_map.toml"), None)).unwrap();
+    assert_eq!((s.rows_read, s.rows_written, s.dropped_no_ambient.count), (20, 20, 0));
+    assert_eq!(s.purpose, Purpose::Compensation);
+    assert!(d.refs.is_empty() && d.t_amb_c.is_none() && d.n_gratings() == 3);
+    let text = s.text();
     assert!(
-        e.contains("--refs") && e.contains("ENLIGHT") && e.contains("ambient temperature") && e.contains("reference"),
-        "{e}"
+        text.contains("every row kept") && text.contains("compensate") && text.contains("not for training"),
+        "{text}"
     );
+    // Training refuses it, naming the file and saying what it is for.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("field.csv");
+    import_to_csv(&enlight("enlight_tab.txt", Some("enlight_map.toml"), None), &out).unwrap();
+    let e = Dataset::read_csv(&out).unwrap_err().to_string();
+    assert!(e.contains("field.csv") && e.contains("no reference column") && e.contains("compensate"), "{e}");
 }
 
 #[test]
-fn enlight_without_a_map_needs_exactly_three_peaks() {
-    let e = failure(&enlight("enlight_tab.txt", None, Some("refs.csv")));
-    assert_place(&e, "enlight_tab.txt", 11, "2-5 (peak counts)");
-    assert!(e.contains("2+1+1+0 = 4") && e.contains("[[grating]]"), "{e}");
+fn enlight_without_a_map_takes_each_channels_peaks_as_gratings() {
+    let (d, s) = import(&enlight("enlight_tab.txt", None, None)).unwrap();
+    // 2 + 1 + 1 + 0 peaks: four gratings, dl1..dl4, in channel order; the row whose channel 1
+    // lost a peak is a gap on both of its gratings.
+    assert_eq!(d.n_gratings(), 4);
+    assert_eq!(
+        s.gratings.iter().map(|g| g.output.as_str()).collect::<Vec<_>>(),
+        ["dl1_pm", "dl2_pm", "dl3_pm", "dl4_pm"]
+    );
+    assert!(s.gratings[3].source.contains("channel 3"), "{}", s.gratings[3].source);
+    assert_eq!(s.gaps, [1, 1, 0, 0]);
+    assert_eq!(s.purpose, Purpose::Compensation);
 }
 
 #[test]
@@ -234,7 +253,7 @@ fn map_mistakes_name_the_map_file_and_key() {
     let dir = tempfile::tempdir().unwrap();
     let cases = [
         ("[time]\ncolum = \"t\"\n", "line 2"),
-        ("[[grating]]\nchannel = 1\nwindow_nm = [1533.0, 1537.0]\n", "grating"),
+        (&"[[grating]]\nchannel = 1\nwindow_nm = [1533.0, 1537.0]\n".repeat(9), "9 [[grating]] entries"),
         (
             "[[grating]]\nchannel = 1\nwindow_nm = [1533.0, 1537.0]\n[[grating]]\nchannel = 1\nwindow_nm = [1536.0, 1540.0]\n[[grating]]\nchannel = 2\nwindow_nm = [1553.0, 1557.0]\n",
             "grating[2].window_nm",
@@ -510,18 +529,22 @@ fn cli_import_prints_a_json_summary_and_fails_cleanly() {
     assert_eq!(j["time"]["span_s"], 19.0);
     assert!(out.exists());
 
-    // Without --refs: an error, exit status 1, nothing written.
+    // Without --refs: a field record, every row kept, and the summary says what it is for.
     let out2 = dir.path().join("none.csv");
     let o = bin()
         .args(["import", "--format", "enlight"])
         .arg(data("enlight_tab.txt"))
+        .arg("--map")
+        .arg(data("enlight_map.toml"))
         .arg("--out")
         .arg(&out2)
         .output()
         .unwrap();
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--refs"));
-    assert!(!out2.exists());
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("20 written") && err.contains("for `fbg-trainer compensate`, not for training"), "{err}");
+    assert!(out2.exists());
+    std::fs::remove_file(&out2).unwrap();
 
     // A bad row under the default policy; then skipped with --on-error skip.
     let o = bin()
@@ -589,10 +612,10 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
         text.push_str(&format!(
             "{},{:.9},{:.9},{:.9},{:.9}\n",
             stamp(d.t_s[i]),
-            d.t_amb_c[i],
-            d.temp_c[i],
-            d.strain_ue[i],
-            d.p_kpa[i]
+            d.ambient()[i],
+            d.target(0).as_slice()[i],
+            d.target(1).as_slice()[i],
+            d.target(2).as_slice()[i]
         ));
     }
     std::fs::write(&refs, text).unwrap();
@@ -619,7 +642,7 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
         max_skipped: DEFAULT_MAX_SKIPPED,
     };
     let s = import_to_csv(&o, &out).unwrap();
-    assert_eq!((s.rows_read, s.rows_written, s.gaps), (n, n, [0, 1, 0]));
+    assert_eq!((s.rows_read, s.rows_written, s.gaps), (n, n, vec![0, 1, 0]));
     let back = Dataset::read_csv(&out).unwrap();
     assert_eq!(back.len(), n);
     for i in 0..n {
@@ -636,11 +659,11 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
                 d.dl_pm[g][i]
             );
         }
-        assert!(close(back.t_amb_c[i], d.t_amb_c[i], 1e-6));
+        assert!(close(back.ambient()[i], d.ambient()[i], 1e-6));
         assert!(
-            close(back.temp_c[i], d.temp_c[i], 1e-6)
-                && close(back.strain_ue[i], d.strain_ue[i], 1e-6)
-                && close(back.p_kpa[i], d.p_kpa[i], 1e-6)
+            close(back.target(0).as_slice()[i], d.target(0).as_slice()[i], 1e-6)
+                && close(back.target(1).as_slice()[i], d.target(1).as_slice()[i], 1e-6)
+                && close(back.target(2).as_slice()[i], d.target(2).as_slice()[i], 1e-6)
         );
     }
     // The same split as the simulator's 50 %.
@@ -657,4 +680,98 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
     assert_eq!(t.selection.n_cal, n / 2 - 1, "the gap row is not used for fitting");
     assert_eq!(t.model_h.fitted, [true, true, true]);
     assert!(t.selection.cv_rmse_h.iter().all(|r| r.is_finite()), "{:?}", t.selection.cv_rmse_h);
+}
+
+// ---------------------------------------------------------------------------------------------
+// 1 to 8 gratings, any measurands, no references (issue 17)
+
+/// A one-channel ENLIGHT export as an SM130 writes it (metadata lines, timestamps, a peak count
+/// per channel, no references): without a map the single grating is dl1_pm, referenced to its
+/// first reading; a dropped peak and a spurious second peak are gaps; every row is kept.
+#[test]
+fn single_grating_enlight_export_without_references_imports_row_for_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t1.csv");
+    let s = import_to_csv(&enlight("enlight_single.txt", None, None), &out).unwrap();
+    assert_eq!((s.rows_read, s.rows_written, s.rows_skipped), (16, 16, 0));
+    assert_eq!(s.purpose, Purpose::Compensation);
+    let e = s.enlight.as_ref().unwrap();
+    assert_eq!((e.channels, e.metadata_lines, e.unassigned_rows), (4, 10, 2));
+    assert_eq!(s.gaps, [2]);
+    assert_eq!(s.gratings[0].ref_nm, Some(1550.12));
+    assert!(s.gratings[0].ref_source.contains("line 11"), "{}", s.gratings[0].ref_source);
+    assert!(s.references.ambient.is_none() && s.references.measurands.is_empty());
+    let text = s.text();
+    assert!(text.contains("no ambient thermometer") && text.contains("every row kept"), "{text}");
+    let j = serde_json::to_value(&s).unwrap();
+    assert_eq!(j["purpose"], "compensation");
+    assert_eq!(j["references"]["T_amb_C"], serde_json::Value::Null);
+
+    let body = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(body.lines().next().unwrap(), "t_s,dl1_pm,split");
+    let d = Dataset::read_field_csv(&out).unwrap();
+    assert_eq!(d.len(), 16);
+    assert_eq!(d.t_s[15], 30.0);
+    assert!(close(d.dl_pm[0][3], 1.5, 1e-6), "{}", d.dl_pm[0][3]);
+    assert!(d.dl_pm[0][6].is_nan() && d.dl_pm[0][11].is_nan());
+    // A training command refuses it by name; compensating needs the paper's inputs so far.
+    assert!(Dataset::read_csv(&out).unwrap_err().to_string().contains("no reference column"));
+    let e = d.paper_inputs("t1.csv", "compensate").unwrap_err().to_string();
+    assert!(e.contains("t1.csv") && e.contains("column dl2_pm") && e.contains("1 grating (dl1_pm)"), "{e}");
+}
+
+/// The same export with a window map: the spurious peak lies outside the window, so only the
+/// dropped peak is a gap; the shift is taken from the map's ref_nm.
+#[test]
+fn single_grating_enlight_export_with_a_window_map() {
+    let (d, s) = import(&enlight("enlight_single.txt", Some("enlight_single_map.toml"), None)).unwrap();
+    assert_eq!((d.n_gratings(), s.rows_written), (1, 16));
+    assert_eq!(s.gaps, [1]);
+    assert!(close(d.dl_pm[0][0], 120.0, 1e-6) && close(d.dl_pm[0][11], 125.5, 1e-6), "{:?}", &d.dl_pm[0]);
+}
+
+/// A logger's single-grating file (metadata lines, `;`, timestamps, absolute nm, a missing
+/// cell, no ambient thermometer, no references): every row kept, the gap a gap.
+#[test]
+fn single_grating_logger_file_without_references_or_ambient() {
+    let (d, s) = import(&logger("logger_single.csv", Some("logger_single_map.toml"))).unwrap();
+    assert_eq!((s.rows_read, s.rows_written, s.gaps.clone()), (12, 12, vec![1]));
+    assert_eq!(s.purpose, Purpose::Compensation);
+    assert_eq!(d.shape().to_string(), "1 grating (dl1_pm), no reference columns, no ambient thermometer (T_amb_C)");
+    assert!(close(d.dl_pm[0][1], 0.6, 1e-6) && d.dl_pm[0][4].is_nan());
+    assert_eq!(s.time.start.as_deref(), Some("2024-06-12T14:30:00.000"));
+    assert!(close(s.time.span_s, 55.0, 1e-9));
+}
+
+/// The map names any measurand: `[strain]` and `[[measurand]] name = "strain2_ue"`; two
+/// gratings; the dataset writes and reads them back in canonical order.
+#[test]
+fn the_map_names_any_measurand_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("two.csv");
+    let s = import_to_csv(&logger("logger_two_strains.csv", Some("logger_two_strains_map.toml")), &out).unwrap();
+    assert_eq!(s.purpose, Purpose::Training);
+    let e2: Measurand = "strain2_ue".parse().unwrap();
+    assert_eq!(s.references.get(e2).unwrap().column, "SG2");
+    let body = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(body.lines().next().unwrap(), "t_s,strain_ue,strain2_ue,T_amb_C,dl1_pm,dl2_pm,split");
+    let d = Dataset::read_csv(&out).unwrap();
+    assert_eq!(d.measurands(), [Measurand::STRAIN, e2]);
+    assert!(close(d.reference(e2).unwrap()[3], -6.0, 1e-9) && close(d.dl_pm[1][3], -2.7, 1e-9));
+    let e = d.paper_shape("two.csv", "train").unwrap_err().to_string();
+    assert!(e.contains("two.csv") && e.contains("2 gratings") && e.contains("cannot be trained yet"), "{e}");
+}
+
+/// A logger file with references but no ambient column keeps every row; one with an ambient
+/// column drops (and counts) rows without it, as before.
+#[test]
+fn ambient_is_optional_for_a_logger() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("noamb.csv");
+    std::fs::write(&csv, "t_s,T_C,dl1_pm\n0,20.0,1.0\n1,20.1,2.0\n2,,3.0\n").unwrap();
+    let mut o = logger("logger.csv", None);
+    o.input = csv;
+    let (d, s) = import(&o).unwrap();
+    assert_eq!((s.rows_written, d.t_amb_c.is_none(), d.measurands()), (3, true, vec![Measurand::T]));
+    assert!(d.target(0).as_slice()[2].is_nan());
 }

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use fbg_shared::{Estimate, FeatureSet, Flags};
-use fbg_trainer::data::{Dataset, Split};
+use fbg_trainer::data::{Dataset, Measurand, Reference, Split};
 use fbg_trainer::eval::studies::{self, Studies};
 use fbg_trainer::export;
 use fbg_trainer::fit::{Config, TrainOptions};
@@ -331,20 +331,24 @@ fn same(a: &serde_json::Value, b: &serde_json::Value, at: &str) {
 fn a_million_samples_plot_in_seconds() {
     let n: usize = 1_000_000;
     let dt = 1.2;
-    let mut d = Dataset { has_target: [true; 3], ..Dataset::default() };
+    let (mut temp, mut strain, mut p) = (Vec::new(), Vec::new(), Vec::new());
+    let mut d = Dataset { t_amb_c: Some(Vec::new()), dl_pm: vec![Vec::new(); 3], ..Dataset::default() };
     for i in 0..n {
         let t = i as f64 * dt;
         d.t_s.push(t);
-        d.temp_c
-            .push(20.0 + 4.0 * (t / 86_400.0 * std::f64::consts::TAU).sin() + 0.1 * ((i * 7919) % 101) as f64 / 101.0);
-        d.strain_ue.push(100.0 * (t / 10_800.0 * std::f64::consts::TAU).sin());
-        d.p_kpa.push(150.0 + 25.0 * (t / 43_200.0 * std::f64::consts::TAU).sin());
-        d.t_amb_c.push(20.5);
+        temp.push(20.0 + 4.0 * (t / 86_400.0 * std::f64::consts::TAU).sin() + 0.1 * ((i * 7919) % 101) as f64 / 101.0);
+        strain.push(100.0 * (t / 10_800.0 * std::f64::consts::TAU).sin());
+        p.push(150.0 + 25.0 * (t / 43_200.0 * std::f64::consts::TAU).sin());
+        d.t_amb_c.as_mut().unwrap().push(20.5);
         for g in 0..3 {
             d.dl_pm[g].push(0.0);
         }
         d.split.push(if i < n / 2 { Split::Cal } else { Split::Holdout });
     }
+    d.refs = [(Measurand::T, temp), (Measurand::STRAIN, strain), (Measurand::P, p)]
+        .into_iter()
+        .map(|(measurand, values)| Reference { measurand, values })
+        .collect();
     let hold = d.holdout_indices();
     let est = |bias: f64| -> Vec<Estimate<f64>> {
         hold.iter()

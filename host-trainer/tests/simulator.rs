@@ -34,9 +34,9 @@ fn same_seed_gives_identical_bytes_and_other_seed_differs() {
 fn paper_preset_has_the_design_spreads() {
     let s = simulate(&Preset::Paper.config(), 7);
     let d = &s.data;
-    let st = std_dev(d.temp_c.iter().copied());
-    let se = std_dev(d.strain_ue.iter().copied());
-    let sp = std_dev(d.p_kpa.iter().copied());
+    let st = std_dev(d.target(0).as_slice().iter().copied());
+    let se = std_dev(d.target(1).as_slice().iter().copied());
+    let sp = std_dev(d.target(2).as_slice().iter().copied());
     // DESIGN §3 amplitudes: T √(4²/2 + 2²/2 + 0.3²) = 3.18 °C; ε ≈ √(86.6² + 42.4² + 14.1² + 5²)
     // = 97.6 µε (the load levels are random); p √(25²/2 + 8²/2 + 1) = 18.6 kPa.
     assert!((st - 3.18).abs() < 0.25, "T std {st}");
@@ -61,16 +61,16 @@ fn sine_amplitudes_match_configuration() {
         }
         2.0 * (ss * ss + cc * cc).sqrt() / n
     };
-    let tc: Vec<f64> = s.data.temp_c.iter().map(|v| v - 20.0).collect();
+    let tc: Vec<f64> = s.data.target(0).as_slice().iter().map(|v| v - 20.0).collect();
     assert!((amp(&tc, 86_400.0) - 4.0).abs() < 0.05, "diurnal {}", amp(&tc, 86_400.0));
     assert!((amp(&tc, 7.0 * 86_400.0) - 2.0).abs() < 0.05);
-    let pc: Vec<f64> = s.data.p_kpa.iter().map(|v| v - 150.0).collect();
+    let pc: Vec<f64> = s.data.target(2).as_slice().iter().map(|v| v - 150.0).collect();
     assert!((amp(&pc, 43_200.0) - 25.0).abs() < 0.2);
     assert!((amp(&pc, 9_000.0) - 8.0).abs() < 0.2);
-    assert!((mean(s.data.p_kpa.iter().copied()) - 150.0).abs() < 0.5);
+    assert!((mean(s.data.target(2).as_slice().iter().copied()) - 150.0).abs() < 0.5);
     // Strain: the periodic loads ride on random load steps; remove the steps first.
     let steps = trajectories::load_steps(&c.strain, t, 3);
-    let ec: Vec<f64> = s.data.strain_ue.iter().zip(&steps).map(|(e, l)| e - l).collect();
+    let ec: Vec<f64> = s.data.target(1).as_slice().iter().zip(&steps).map(|(e, l)| e - l).collect();
     assert!((amp(&ec, 10_800.0) - 60.0).abs() < 0.5);
     assert!((amp(&ec, 2_400.0) - 20.0).abs() < 0.5);
 }
@@ -115,10 +115,10 @@ fn ambient_lags_temperature_with_offset_and_noise() {
     let s = simulate(&Preset::Paper.config(), 4);
     let d = &s.data;
     // Offset: mean(T_amb − T) ≈ 0.5 °C (the lag averages out over whole cycles).
-    let off = mean(d.t_amb_c.iter().zip(&d.temp_c).map(|(a, t)| a - t));
+    let off = mean(d.ambient().iter().zip(d.target(0).as_slice()).map(|(a, t)| a - t));
     assert!((off - 0.5).abs() < 0.05, "offset {off}");
     // Reading noise: T_amb minus the noise-free ambient has σ 0.1 °C.
-    let n = std_dev(d.t_amb_c.iter().zip(&s.ambient_true_c).map(|(a, b)| a - b));
+    let n = std_dev(d.ambient().iter().zip(&s.ambient_true_c).map(|(a, b)| a - b));
     assert!((n - 0.1).abs() < 0.005, "reading noise {n}");
 }
 
@@ -195,7 +195,7 @@ fn switching_an_effect_off_removes_exactly_its_contribution() {
             // Everything else is untouched: the measurands and the other effects.
             assert_eq!(full.effects.physics[g], off.effects.physics[g]);
         }
-        assert_eq!(full.data.temp_c, off.data.temp_c);
+        assert_eq!(full.data.target(0).as_slice(), off.data.target(0).as_slice());
         assert_eq!(full.data.t_amb_c, off.data.t_amb_c);
     }
 }
@@ -236,8 +236,8 @@ fn oracle_floor_is_set_by_noise_only() {
 fn harsh_hold_out_leaves_the_calibration_temperature_range() {
     let s = simulate(&Preset::Harsh.config(), 7);
     let d = &s.data;
-    let cal_max = d.cal_indices().iter().map(|&i| d.temp_c[i]).fold(f64::MIN, f64::max);
-    let above = d.holdout_indices().iter().filter(|&&i| d.temp_c[i] > cal_max).count();
+    let cal_max = d.cal_indices().iter().map(|&i| d.target(0).as_slice()[i]).fold(f64::MIN, f64::max);
+    let above = d.holdout_indices().iter().filter(|&&i| d.target(0).as_slice()[i] > cal_max).count();
     assert!(above > d.holdout_indices().len() / 3, "{above} hold-out samples above the calibration range");
 }
 
@@ -270,5 +270,10 @@ fn csv_round_trips_and_bad_cells_are_named() {
 
     std::fs::write(&bad, "t_s,T_C\n1,2\n").unwrap();
     let e = fbg_trainer::data::Dataset::read_csv(&bad).unwrap_err().to_string();
-    assert!(e.contains("missing column `T_amb_C`"), "{e}");
+    assert!(e.contains("missing column `dl1_pm`"), "{e}");
+    // The ambient thermometer is optional in a dataset, required by the paper's model.
+    std::fs::write(&bad, "t_s,T_C,dl1_pm,dl2_pm,dl3_pm\n1,2,3,4,5\n").unwrap();
+    assert!(fbg_trainer::data::Dataset::read_csv(&bad).unwrap().t_amb_c.is_none());
+    let e = fbg_trainer::data::Dataset::read_paper_csv(&bad, "train").unwrap_err().to_string();
+    assert!(e.contains("bad.csv") && e.contains("column T_amb_C") && e.contains("`train`"), "{e}");
 }

@@ -18,20 +18,24 @@ use crate::{baseline_path, print_tables, write_metrics, ScenarioArgs};
 /// `fbg-trainer demo`.
 pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     let t0 = Instant::now();
-    prepare_output_dir(out)?;
     let cfg = scenario.load()?;
+    let mut s = sim::simulate(&cfg, scenario.seed);
+    // Refused before anything is written: the fit handles the paper's shape only so far.
+    if let Some((_, message)) = s.data.shape().paper_refusal("demo") {
+        anyhow::bail!("scenario `{}`: {message}", cfg.name);
+    }
+    prepare_output_dir(out)?;
     let log = |s: &str| {
         if !json {
             eprintln!("[{:5.1} s] {s}", t0.elapsed().as_secs_f64());
         }
     };
-    let mut s = sim::simulate(&cfg, scenario.seed);
     let data = out.join("data.csv");
     s.data.write_csv(&data)?;
     SimMeta::of(&s).write(&data)?;
     // Fit and score the record as written (6 decimals), so `train --data DIR/data.csv` rebuilds
     // DIR/model.fbgm byte for byte.
-    s.data = Dataset::read_csv(&data)?;
+    s.data = Dataset::read_paper_csv(&data, "demo")?;
     log(&format!(
         "simulated {} samples of scenario `{}` (seed {}) into {}",
         s.data.len(),

@@ -72,12 +72,16 @@ enum Cmd {
         /// Output CSV.
         #[arg(long, default_value = "data.csv")]
         out: PathBuf,
-        /// Print a JSON summary (samples, std of T/ε/p, per-sample oracle) on stdout.
+        /// Print a JSON summary (samples, shape, std of each measurand, per-sample oracle) on stdout.
         #[arg(long)]
         json: bool,
         /// Also write the scenario as TOML (every parameter, for audit and editing).
         #[arg(long)]
         dump_config: Option<PathBuf>,
+        /// An installation without an ambient thermometer: no `T_amb_C` column (the scenario
+        /// key `ambient = false` does the same).
+        #[arg(long)]
+        no_ambient: bool,
     },
     /// Fit Model-P and Model-H on the calibration part of a CSV; write the Model-H blob, the
     /// Model-P blob beside it (`<stem>-p.fbgm`) and `<stem>.coefficients.json`.
@@ -331,12 +335,15 @@ fn main() {
 fn run() -> Result<()> {
     let cli = Cli::parse();
     match cli.cmd {
-        Cmd::Simulate { scenario, out, json, dump_config } => {
+        Cmd::Simulate { scenario, out, json, dump_config, no_ambient } => {
             let side = meta_path(&out);
             let mut outputs = vec![out.as_path(), side.as_path()];
             outputs.extend(dump_config.as_deref());
             check_outputs(&outputs, &scenario.config.iter().map(|p| p.as_path()).collect::<Vec<_>>())?;
-            let cfg = scenario.load()?;
+            let mut cfg = scenario.load()?;
+            if no_ambient {
+                cfg.ambient.thermometer = false;
+            }
             let s = sim::simulate(&cfg, scenario.seed);
             s.data.write_csv(&out)?;
             SimMeta::of(&s).write(&out)?;
@@ -348,15 +355,23 @@ fn run() -> Result<()> {
                 println!("{}", serde_json::to_string_pretty(&s.summary())?);
             } else {
                 let o = s.oracle_floor();
+                let floor: Vec<String> = o
+                    .measurands
+                    .iter()
+                    .zip(&o.rmse_holdout)
+                    .map(|(m, v)| {
+                        let digits = if m.kind == fbg_trainer::data::Kind::Temperature { 3 } else { 2 };
+                        format!("{} {v:.digits$} {}", m.short_name(), m.unit())
+                    })
+                    .collect();
                 eprintln!(
-                    "wrote {} ({} samples, scenario {}, seed {}); per-sample oracle on the hold-out: T {:.3} °C, ε {:.2} µε, p {:.2} kPa",
+                    "wrote {} ({} samples, {}; scenario {}, seed {}); per-sample oracle on the hold-out: {}",
                     out.display(),
                     s.data.len(),
+                    s.data.shape(),
                     cfg.name,
                     scenario.seed,
-                    o.rmse_holdout[0],
-                    o.rmse_holdout[1],
-                    o.rmse_holdout[2]
+                    floor.join(", ")
                 );
             }
             Ok(())
@@ -368,7 +383,7 @@ fn run() -> Result<()> {
             inputs.extend(sign.sign.as_deref());
             check_outputs(&[&out, &base, &coef], &inputs)?;
             let signer = sign.signer()?;
-            let d = Dataset::read_csv(&data)?;
+            let d = Dataset::read_paper_csv(&data, "train")?;
             let meta = SimMeta::read_for(&data)?;
             let origin = origin_of(&data, meta.as_ref());
             let opts = train_options(features, max_centres, !json)?;
@@ -436,7 +451,7 @@ fn run() -> Result<()> {
             let base = baseline.unwrap_or_else(|| baseline_path(&model));
             let out = metrics.unwrap_or_else(|| export::metrics_path(&model));
             check_outputs(&[&out], &[&data, &meta_path(&data), &model, &base])?;
-            let d = Dataset::read_csv(&data)?;
+            let d = Dataset::read_paper_csv(&data, "evaluate")?;
             let meta = SimMeta::read_for(&data)?;
             let h = export::read_blob(&model)?;
             if !base.exists() {
@@ -507,7 +522,7 @@ fn run() -> Result<()> {
         }
         Cmd::Golden { data, model, samples, out } => {
             prepare_output_dir(&out)?;
-            let d = Dataset::read_csv(&data)?;
+            let d = Dataset::read_paper_csv(&data, "golden")?;
             let h = export::read_blob(&model)?;
             let hold = d.holdout_indices();
             let idx: Vec<usize> = hold.into_iter().take(samples).collect();

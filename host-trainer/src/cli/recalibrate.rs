@@ -91,7 +91,7 @@ pub fn run(
     inputs.extend(sign_args.sign.as_deref());
     check_outputs(&[out, &new_base_path], &inputs)?;
     let signer = sign_args.signer()?;
-    let d = Dataset::read_csv(data)?;
+    let d = Dataset::read_paper_csv(data, "recalibrate")?;
     let old = export::read_blob(model)?;
     let batch = match batch_hours {
         Some(h) if h > 0.0 => first_hours(&d, h),

@@ -1,14 +1,23 @@
 //! A time series of measured inputs and reference measurands, and its CSV form (DESIGN §3):
-//! `t_s,T_C,strain_ue,p_kPa,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split`.
+//! `t_s`, the reference columns (measurands, [`measurand`]), `T_amb_C`, `dl1_pm..dlN_pm`,
+//! `split` — the paper's file is `t_s,T_C,strain_ue,p_kPa,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split`.
 //!
-//! For real data the reference columns `T_C`, `strain_ue`, `p_kPa` and the `split`
-//! column are optional: an absent reference is an output that cannot be fitted, an empty cell
-//! is a missing reference at that time, an empty `dlN_pm` cell is a gap (a peak the
-//! interrogator did not report), and so is an empty `T_amb_C`. Text that is not a number, or a non-finite number, is still an
-//! error naming file, line and column.
+//! The header says everything: the gratings are the `dlN_pm` columns (1 to 8, numbered without
+//! holes), the measurands the reference columns it names (`T_C`, `strain_ue`, `strain2_ue`,
+//! `p_kPa`, `T2_C`, ...; at most 4), the ambient thermometer `T_amb_C` when the
+//! installation has one. Columns are found by name in any order, other columns are ignored,
+//! and the writer puts them in the canonical order (measurands by kind T, ε, p, then index).
+//! An empty reference cell is a missing reference at that time, an empty `dlN_pm` cell is a
+//! gap (a peak the interrogator did not report), and so is an empty `T_amb_C`. Text that is
+//! not a number, or a non-finite number, is an error naming file, line and column.
+//!
+//! The fitting code still works on the paper's layout only (three gratings, the ambient
+//! thermometer, references among T, ε, p): [`Dataset::paper_shape`] says whether a dataset
+//! has it, and the `sample`/`target`/`truth`/`has_target` accessors give that layout.
 
 pub mod files;
 pub mod import;
+pub mod measurand;
 pub mod units;
 
 use std::io::Write;
@@ -17,18 +26,20 @@ use std::path::Path;
 use fbg_shared::Sample;
 
 use crate::data::files::write_atomically;
+use crate::data::measurand::{grating_column, parse_grating_column};
+pub use crate::data::measurand::{Kind, Measurand, MAX_GRATINGS, MAX_MEASURANDS};
 use crate::data::units::{absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, WlUnit};
 use crate::error::TrainerError;
-
-/// The import map keys of the three gratings' units (named in unit-check messages).
-const UNIT_KEYS: [&str; 3] = ["grating[1].unit", "grating[2].unit", "grating[3].unit"];
 
 /// Appended to a unit-check message on a dataset CSV: the check and its words are `import`'s.
 const REIMPORT: &str =
     " (the unit check of `fbg-trainer import`: convert the column, or re-import the export with that map key)";
 
-/// The CSV header, in column order.
+/// The paper's CSV header, in column order.
 pub const COLUMNS: [&str; 9] = ["t_s", "T_C", "strain_ue", "p_kPa", "T_amb_C", "dl1_pm", "dl2_pm", "dl3_pm", "split"];
+
+/// The ambient thermometer's column.
+pub const T_AMB_COLUMN: &str = "T_amb_C";
 
 /// Which part of the record a sample belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -46,24 +57,112 @@ impl Split {
     }
 }
 
+/// One reference column: what it measures and its values (NaN where missing).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Reference {
+    pub measurand: Measurand,
+    pub values: Vec<f64>,
+}
+
+/// What a dataset carries: gratings, measurands, ambient thermometer.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Shape {
+    /// Number of gratings (`dl1_pm..dlN_pm`).
+    pub gratings: usize,
+    /// Reference columns, in canonical order (empty for a field record).
+    pub measurands: Vec<Measurand>,
+    /// Whether the ambient thermometer `T_amb_C` is there.
+    pub ambient: bool,
+}
+
+impl Shape {
+    /// The layout the fitting code handles today: three gratings, the ambient thermometer,
+    /// references among T_C, strain_ue, p_kPa (none for a record to compensate).
+    pub fn is_paper(&self) -> bool {
+        self.gratings == 3 && self.ambient && self.measurands.iter().all(|m| Measurand::PAPER.contains(m))
+    }
+}
+
+impl Shape {
+    /// Why `command` cannot take this shape: the first column that differs from the paper's
+    /// layout and a message saying what the data have; `None` for the paper's shape.
+    pub fn paper_refusal(&self, command: &str) -> Option<(String, String)> {
+        if self.is_paper() {
+            return None;
+        }
+        let column = if self.gratings != 3 {
+            grating_column(self.gratings.min(3) + 1)
+        } else if !self.ambient {
+            T_AMB_COLUMN.to_string()
+        } else {
+            self.measurands.iter().find(|m| !Measurand::PAPER.contains(m)).map_or("-".into(), |m| m.column())
+        };
+        Some((
+            column,
+            format!(
+                "the data have {self}; `{command}` handles only the paper's shape so far — 3 gratings (dl1_pm..dl3_pm), the ambient thermometer T_amb_C and references among T_C, strain_ue, p_kPa — so this shape cannot be trained yet (other shapes can be simulated and imported; fitting them is the next step of issue 17)"
+            ),
+        ))
+    }
+}
+
+impl std::fmt::Display for Shape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let g = match self.gratings {
+            1 => "1 grating (dl1_pm)".to_string(),
+            2 => "2 gratings (dl1_pm, dl2_pm)".to_string(),
+            n => format!("{n} gratings (dl1_pm..dl{n}_pm)"),
+        };
+        let m = if self.measurands.is_empty() {
+            "no reference columns".to_string()
+        } else {
+            let names: Vec<String> = self.measurands.iter().map(|m| m.column()).collect();
+            format!("measurands {}", names.join(", "))
+        };
+        let a = if self.ambient { "ambient T_amb_C" } else { "no ambient thermometer (T_amb_C)" };
+        write!(f, "{g}, {m}, {a}")
+    }
+}
+
+/// A reference column of the paper's layout ([`Dataset::target`]): the values, or NaN at
+/// every row for a reference the dataset does not have.
+#[derive(Clone, Copy, Debug)]
+pub struct Column<'a>(Option<&'a [f64]>);
+
+impl<'a> Column<'a> {
+    /// The values; empty for an absent reference.
+    pub fn as_slice(&self) -> &'a [f64] {
+        self.0.unwrap_or(&[])
+    }
+    /// Whether the dataset has the reference.
+    pub fn is_present(&self) -> bool {
+        self.0.is_some()
+    }
+}
+
+impl std::ops::Index<usize> for Column<'_> {
+    type Output = f64;
+    fn index(&self, i: usize) -> &f64 {
+        match self.0 {
+            Some(v) => &v[i],
+            None => &f64::NAN,
+        }
+    }
+}
+
 /// Column-oriented samples.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Dataset {
     /// Time since the start \[s\].
     pub t_s: Vec<f64>,
-    /// Reference temperature [°C].
-    pub temp_c: Vec<f64>,
-    /// Reference strain \[µε\].
-    pub strain_ue: Vec<f64>,
-    /// Reference pressure \[kPa\].
-    pub p_kpa: Vec<f64>,
-    /// Ambient thermometer reading [°C].
-    pub t_amb_c: Vec<f64>,
-    /// Measured wavelength shifts \[pm\].
-    pub dl_pm: [Vec<f64>; 3],
+    /// Reference measurands, in canonical order (sorted by [`Measurand`]), at most
+    /// [`MAX_MEASURANDS`]; empty for a field record without references.
+    pub refs: Vec<Reference>,
+    /// Ambient thermometer reading [°C]; `None` for an installation without one.
+    pub t_amb_c: Option<Vec<f64>>,
+    /// Measured wavelength shifts \[pm\] per grating (1 to [`MAX_GRATINGS`]).
+    pub dl_pm: Vec<Vec<f64>>,
     pub split: Vec<Split>,
-    /// Which references (T, ε, p) the data carry; absent ones are NaN throughout.
-    pub has_target: [bool; 3],
 }
 
 impl Dataset {
@@ -73,25 +172,102 @@ impl Dataset {
     pub fn is_empty(&self) -> bool {
         self.t_s.is_empty()
     }
-    /// The model inputs of sample `i`.
+    /// Number of gratings.
+    pub fn n_gratings(&self) -> usize {
+        self.dl_pm.len()
+    }
+    /// The measurands, in canonical order.
+    pub fn measurands(&self) -> Vec<Measurand> {
+        self.refs.iter().map(|r| r.measurand).collect()
+    }
+    /// The values of measurand `m`, if the dataset has that reference.
+    pub fn reference(&self, m: Measurand) -> Option<&[f64]> {
+        self.refs.iter().find(|r| r.measurand == m).map(|r| r.values.as_slice())
+    }
+    /// The values of measurand `m` to change, if the dataset has that reference.
+    pub fn reference_mut(&mut self, m: Measurand) -> Option<&mut Vec<f64>> {
+        self.refs.iter_mut().find(|r| r.measurand == m).map(|r| &mut r.values)
+    }
+    /// Remove the reference `m` (it becomes absent, not fitted); true if it was there.
+    pub fn remove_reference(&mut self, m: Measurand) -> bool {
+        let before = self.refs.len();
+        self.refs.retain(|r| r.measurand != m);
+        self.refs.len() != before
+    }
+    /// Gratings, measurands and ambient thermometer.
+    pub fn shape(&self) -> Shape {
+        Shape { gratings: self.n_gratings(), measurands: self.measurands(), ambient: self.t_amb_c.is_some() }
+    }
+    /// Put the references in canonical order (what the writer and the accessors expect).
+    pub fn sort_refs(&mut self) {
+        self.refs.sort_by_key(|r| r.measurand);
+    }
+
+    /// `Ok` when the dataset has the paper's layout ([`Shape::is_paper`]); otherwise an error
+    /// naming `origin` (the file), what it has, and that `command` cannot handle it yet.
+    pub fn paper_shape(&self, origin: &str, command: &str) -> Result<(), TrainerError> {
+        match self.shape().paper_refusal(command) {
+            None => Ok(()),
+            Some((column, message)) => Err(TrainerError::data(origin, 1, &column, message)),
+        }
+    }
+
+    /// `Ok` when the dataset carries the inputs of the paper's model (three gratings and the
+    /// ambient thermometer; references do not matter), which `compensate` and `stream` feed to
+    /// a model; otherwise an error naming `origin`, what it has and what the model needs.
+    pub fn paper_inputs(&self, origin: &str, command: &str) -> Result<(), TrainerError> {
+        let shape = self.shape();
+        if shape.gratings == 3 && shape.ambient {
+            return Ok(());
+        }
+        let column =
+            if shape.gratings != 3 { grating_column(shape.gratings.min(3) + 1) } else { T_AMB_COLUMN.to_string() };
+        Err(TrainerError::data(
+            origin,
+            1,
+            &column,
+            format!(
+                "the data have {shape}; `{command}` runs models of the paper's shape only so far, whose inputs are 3 gratings (dl1_pm..dl3_pm) and the ambient thermometer T_amb_C, so this record cannot be compensated yet"
+            ),
+        ))
+    }
+
+    /// Read a dataset CSV ([`read_csv`](Self::read_csv)) for a command that fits or scores the
+    /// paper's model, refusing any other shape ([`paper_shape`](Self::paper_shape)).
+    pub fn read_paper_csv(path: &Path, command: &str) -> Result<Dataset, TrainerError> {
+        let d = Self::read_csv(path)?;
+        d.paper_shape(&path.display().to_string(), command)?;
+        Ok(d)
+    }
+
+    /// The ambient readings; empty when the installation has no thermometer.
+    pub fn ambient(&self) -> &[f64] {
+        self.t_amb_c.as_deref().unwrap_or(&[])
+    }
+
+    /// The model inputs of sample `i` in the paper's layout: the first three gratings (NaN for
+    /// a grating the dataset does not have) and the ambient reading (NaN without one).
     pub fn sample(&self, i: usize) -> Sample<f64> {
+        let g = |k: usize| self.dl_pm.get(k).map_or(f64::NAN, |c| c[i]);
         Sample {
-            dl_pm: [self.dl_pm[0][i], self.dl_pm[1][i], self.dl_pm[2][i]],
-            t_amb_c: self.t_amb_c[i],
+            dl_pm: [g(0), g(1), g(2)],
+            t_amb_c: self.t_amb_c.as_ref().map_or(f64::NAN, |a| a[i]),
             t_s: self.t_s[i],
         }
     }
-    /// The reference measurands (T, ε, p) of sample `i`.
-    pub fn truth(&self, i: usize) -> [f64; 3] {
-        [self.temp_c[i], self.strain_ue[i], self.p_kpa[i]]
+    /// Which of the paper's references (T, ε, p) the dataset has.
+    pub fn has_target(&self) -> [bool; 3] {
+        Measurand::PAPER.map(|m| self.reference(m).is_some())
     }
-    /// Reference channel by output index (0 T, 1 ε, 2 p).
-    pub fn target(&self, c: usize) -> &[f64] {
-        match c {
-            0 => &self.temp_c,
-            1 => &self.strain_ue,
-            _ => &self.p_kpa,
-        }
+    /// The paper's reference measurands (T, ε, p) of sample `i`; NaN for an absent one.
+    pub fn truth(&self, i: usize) -> [f64; 3] {
+        Measurand::PAPER.map(|m| self.reference(m).map_or(f64::NAN, |v| v[i]))
+    }
+    /// The paper's reference channel by output index (0 T, 1 ε, 2 p): indexing it gives NaN
+    /// at every row when the dataset does not have that reference (as an absent reference
+    /// always read).
+    pub fn target(&self, c: usize) -> Column<'_> {
+        Column(Measurand::PAPER.get(c).and_then(|&m| self.reference(m)))
     }
     /// Indices of the calibration samples.
     pub fn cal_indices(&self) -> Vec<usize> {
@@ -101,9 +277,9 @@ impl Dataset {
     /// reference present.
     pub fn usable(&self, i: usize) -> bool {
         self.dl_pm.iter().all(|c| c[i].is_finite())
-            && self.t_amb_c[i].is_finite()
+            && self.t_amb_c.as_ref().is_none_or(|a| a[i].is_finite())
             && self.t_s[i].is_finite()
-            && (0..3).all(|c| !self.has_target[c] || self.target(c)[i].is_finite())
+            && self.refs.iter().all(|r| r.values[i].is_finite())
     }
     /// Assign the split by time: samples with `t_s <= cal_until_s` calibrate, later ones are
     /// the hold-out.
@@ -126,39 +302,56 @@ impl Dataset {
         let pick = |v: &Vec<f64>| idx.iter().map(|&i| v[i]).collect::<Vec<f64>>();
         Dataset {
             t_s: pick(&self.t_s),
-            temp_c: pick(&self.temp_c),
-            strain_ue: pick(&self.strain_ue),
-            p_kpa: pick(&self.p_kpa),
-            t_amb_c: pick(&self.t_amb_c),
-            dl_pm: [pick(&self.dl_pm[0]), pick(&self.dl_pm[1]), pick(&self.dl_pm[2])],
+            refs: self.refs.iter().map(|r| Reference { measurand: r.measurand, values: pick(&r.values) }).collect(),
+            t_amb_c: self.t_amb_c.as_ref().map(pick),
+            dl_pm: self.dl_pm.iter().map(pick).collect(),
             split: idx.iter().map(|&i| self.split[i]).collect(),
-            has_target: self.has_target,
         }
     }
 
+    /// The CSV header this dataset writes, in canonical order.
+    pub fn header(&self) -> Vec<String> {
+        let mut refs: Vec<Measurand> = self.measurands();
+        refs.sort();
+        let mut head = vec!["t_s".to_string()];
+        head.extend(refs.iter().map(|m| m.column()));
+        if self.t_amb_c.is_some() {
+            head.push(T_AMB_COLUMN.into());
+        }
+        head.extend((1..=self.n_gratings()).map(grating_column));
+        head.push("split".into());
+        head
+    }
+
     /// Write the CSV atomically: a temporary file in the target directory, renamed into place
-    /// only when complete.
+    /// only when complete. Columns in canonical order ([`header`](Self::header)).
     pub fn write_csv(&self, path: &Path) -> Result<(), TrainerError> {
-        // Absent references are left out; a missing value (gap) is an empty cell.
-        let cell = |v: f64, digits: usize| if v.is_finite() { format!("{v:.digits$}") } else { String::new() };
-        let refs: Vec<usize> = (0..3).filter(|&c| self.has_target[c]).collect();
+        // A missing value (gap) is an empty cell.
+        fn cell(line: &mut String, v: f64) {
+            use std::fmt::Write as _;
+            line.push(',');
+            if v.is_finite() {
+                let _ = write!(line, "{v:.6}");
+            }
+        }
+        let mut order: Vec<usize> = (0..self.refs.len()).collect();
+        order.sort_by_key(|&k| self.refs[k].measurand);
+        let head = self.header();
         write_atomically(path, |w| {
-            let mut head = vec!["t_s"];
-            head.extend(refs.iter().map(|&c| COLUMNS[1 + c]));
-            head.extend(["T_amb_C", "dl1_pm", "dl2_pm", "dl3_pm", "split"]);
             writeln!(w, "{}", head.join(","))?;
             let mut line = String::with_capacity(128);
             for i in 0..self.len() {
                 line.clear();
                 // Microseconds: enough for kHz interrogators.
                 line.push_str(&format!("{:.6}", self.t_s[i]));
-                for &c in &refs {
-                    line.push(',');
-                    line.push_str(&cell(self.target(c)[i], 6));
+                for &k in &order {
+                    cell(&mut line, self.refs[k].values[i]);
                 }
-                for v in [self.t_amb_c[i], self.dl_pm[0][i], self.dl_pm[1][i], self.dl_pm[2][i]] {
-                    line.push(',');
-                    line.push_str(&cell(v, 6));
+                if let Some(a) = &self.t_amb_c {
+                    cell(&mut line, a[i]);
+                }
+                for g in &self.dl_pm {
+                    cell(&mut line, g[i]);
                 }
                 line.push(',');
                 line.push_str(self.split[i].as_str());
@@ -168,11 +361,11 @@ impl Dataset {
         })
     }
 
-    /// Read a CSV with the columns of [`COLUMNS`] (any order, extra columns ignored). `t_s`,
-    /// `T_amb_C` and `dl1_pm..dl3_pm` are required; the references and `split` are optional
-    /// (without `split` every row is calibration until the caller assigns a split), but at
-    /// least one reference must be there to calibrate or evaluate against. Errors name the
-    /// file, line and column.
+    /// Read a dataset CSV (any column order, other columns ignored). `t_s` and `dl1_pm` are
+    /// required; further gratings, the references, `T_amb_C` and `split` are optional (without
+    /// `split` every row is calibration until the caller assigns a split), but at least one
+    /// reference must be there to calibrate or evaluate against. Errors name the file, line
+    /// and column.
     pub fn read_csv(path: &Path) -> Result<Dataset, TrainerError> {
         Self::read_csv_with(path, true)
     }
@@ -192,22 +385,15 @@ impl Dataset {
             .headers()
             .map_err(|e| TrainerError::data(&name, 1, "-", format!("cannot read the header: {e}")))?
             .clone();
-        let find = |want: &str| headers.iter().position(|h| h == want);
-        let mut col = [None; 9];
-        for (k, want) in COLUMNS.iter().enumerate() {
-            col[k] = find(want);
-            let optional = matches!(k, 1..=3 | 8);
-            if col[k].is_none() && !optional {
-                return Err(TrainerError::data(
-                    &name,
-                    1,
-                    want,
-                    format!("missing column `{want}` (required: t_s, T_amb_C, dl1_pm, dl2_pm, dl3_pm; optional: T_C, strain_ue, p_kPa, split)"),
-                ));
-            }
-        }
-        let mut d =
-            Dataset { has_target: [col[1].is_some(), col[2].is_some(), col[3].is_some()], ..Dataset::default() };
+        let layout = Layout::of(&headers).map_err(|(col, m)| TrainerError::data(&name, 1, &col, m))?;
+        let n_g = layout.gratings.len();
+        let unit_keys: Vec<String> = (1..=n_g).map(|g| format!("grating[{g}].unit")).collect();
+        let mut d = Dataset {
+            refs: layout.refs.iter().map(|&(m, _)| Reference { measurand: m, values: Vec::new() }).collect(),
+            t_amb_c: layout.ambient.map(|_| Vec::new()),
+            dl_pm: vec![Vec::new(); n_g],
+            ..Dataset::default()
+        };
         let mut first_line = 0;
         let mut records = rdr.records().peekable();
         while let Some(rec) = records.next() {
@@ -231,32 +417,32 @@ impl Dataset {
                 ));
             }
             // `blank_ok`: an empty cell is a missing value (NaN) rather than an error.
-            let num = |k: usize, blank_ok: bool| -> Result<f64, TrainerError> {
-                let Some(c) = col[k] else { return Ok(f64::NAN) };
+            let num = |c: usize, blank_ok: bool| -> Result<f64, TrainerError> {
+                let col = headers.get(c).unwrap_or("-");
                 let cell = rec.get(c).ok_or_else(|| {
                     TrainerError::data(
                         &name,
                         line,
-                        COLUMNS[k],
-                        format!("row has {} cells, column `{}` is number {}", rec.len(), COLUMNS[k], c + 1),
+                        col,
+                        format!("row has {} cells, column `{col}` is number {}", rec.len(), c + 1),
                     )
                 })?;
                 if cell.is_empty() {
                     return if blank_ok {
                         Ok(f64::NAN)
                     } else {
-                        Err(TrainerError::data(&name, line, COLUMNS[k], "empty cell"))
+                        Err(TrainerError::data(&name, line, col, "empty cell"))
                     };
                 }
                 let v: f64 = cell
                     .parse()
-                    .map_err(|_| TrainerError::data(&name, line, COLUMNS[k], format!("`{cell}` is not a number")))?;
+                    .map_err(|_| TrainerError::data(&name, line, col, format!("`{cell}` is not a number")))?;
                 if !v.is_finite() {
-                    return Err(TrainerError::data(&name, line, COLUMNS[k], format!("`{cell}` is not finite")));
+                    return Err(TrainerError::data(&name, line, col, format!("`{cell}` is not finite")));
                 }
                 Ok(v)
             };
-            let t = num(0, false)?;
+            let t = num(layout.t_s, false)?;
             if let Some(&prev) = d.t_s.last() {
                 if t <= prev {
                     return Err(TrainerError::data(
@@ -268,26 +454,30 @@ impl Dataset {
                 }
             }
             d.t_s.push(t);
-            d.temp_c.push(num(1, true)?);
-            d.strain_ue.push(num(2, true)?);
-            d.p_kpa.push(num(3, true)?);
+            for (r, &(_, c)) in d.refs.iter_mut().zip(&layout.refs) {
+                r.values.push(num(c, true)?);
+            }
             // An empty ambient reading is a gap like an empty dl cell (not fitted, flagged).
             // Magnitudes get the unit checks of `import` (kelvin for °C, nm or absolute
             // wavelengths for shifts in pm), with its messages.
-            let amb = num(4, true)?;
-            if amb.is_finite() {
-                check_ambient(amb).map_err(|m| TrainerError::data(&name, line, "T_amb_C", format!("{m}{REIMPORT}")))?;
+            if let (Some(c), Some(a)) = (layout.ambient, d.t_amb_c.as_mut()) {
+                let amb = num(c, true)?;
+                if amb.is_finite() {
+                    check_ambient(amb)
+                        .map_err(|m| TrainerError::data(&name, line, T_AMB_COLUMN, format!("{m}{REIMPORT}")))?;
+                }
+                a.push(amb);
             }
-            d.t_amb_c.push(amb);
-            for g in 0..3 {
-                let v = num(5 + g, true)?;
+            for (g, &c) in layout.gratings.iter().enumerate() {
+                let v = num(c, true)?;
                 if v.is_finite() {
-                    check_wavelength(WlUnit::ShiftPm, v, UNIT_KEYS[g])
-                        .map_err(|m| TrainerError::data(&name, line, COLUMNS[5 + g], format!("{m}{REIMPORT}")))?;
+                    check_wavelength(WlUnit::ShiftPm, v, &unit_keys[g]).map_err(|m| {
+                        TrainerError::data(&name, line, &grating_column(g + 1), format!("{m}{REIMPORT}"))
+                    })?;
                 }
                 d.dl_pm[g].push(v);
             }
-            let split = match col[8] {
+            let split = match layout.split {
                 None => Split::Cal,
                 Some(c) => match rec.get(c).unwrap_or("") {
                     "cal" => Split::Cal,
@@ -307,25 +497,96 @@ impl Dataset {
         if d.is_empty() {
             return Err(TrainerError::data(&name, 2, "-", "no data rows"));
         }
-        for g in 0..3 {
-            if looks_absolute_nm(&d.dl_pm[g]) {
+        for (g, (v, key)) in d.dl_pm.iter().zip(&unit_keys).enumerate() {
+            if looks_absolute_nm(v) {
                 return Err(TrainerError::data(
                     &name,
                     first_line,
-                    COLUMNS[5 + g],
-                    format!("{}{REIMPORT}", absolute_nm_column_message(&d.dl_pm[g], UNIT_KEYS[g])),
+                    &grating_column(g + 1),
+                    format!("{}{REIMPORT}", absolute_nm_column_message(v, key)),
                 ));
             }
         }
-        if need_reference && !d.has_target.iter().any(|&h| h) {
+        if need_reference && d.refs.is_empty() {
             return Err(TrainerError::data(
                 &name,
                 1,
                 "T_C",
-                "no reference column (T_C, strain_ue or p_kPa): nothing to calibrate against",
+                "no reference column (T_C, strain_ue, p_kPa, T2_C, strain2_ue, ...): nothing to calibrate against (a record without references is for `compensate`)",
             ));
         }
         Ok(d)
+    }
+}
+
+/// Where the dataset columns are in a header (0-based cell indices).
+struct Layout {
+    t_s: usize,
+    /// Canonical order.
+    refs: Vec<(Measurand, usize)>,
+    ambient: Option<usize>,
+    /// dl1_pm, dl2_pm, ... in order.
+    gratings: Vec<usize>,
+    split: Option<usize>,
+}
+
+impl Layout {
+    /// Classify the header's columns by name; the error is (column, message).
+    fn of(headers: &csv::StringRecord) -> Result<Layout, (String, String)> {
+        let mut t_s = None;
+        let mut refs: Vec<(Measurand, usize)> = Vec::new();
+        let mut ambient = None;
+        let mut gratings: Vec<(usize, usize)> = Vec::new();
+        let mut split = None;
+        let dup = |h: &str| (h.to_string(), format!("column `{h}` appears twice in the header"));
+        for (c, h) in headers.iter().enumerate() {
+            let set = |slot: &mut Option<usize>| if slot.replace(c).is_some() { Err(dup(h)) } else { Ok(()) };
+            match h {
+                "t_s" => set(&mut t_s)?,
+                T_AMB_COLUMN => set(&mut ambient)?,
+                "split" => set(&mut split)?,
+                _ => {
+                    if let Some(m) = Measurand::parse(h).map_err(|e| (h.to_string(), format!("column `{h}`: {e}")))? {
+                        if refs.iter().any(|&(o, _)| o == m) {
+                            return Err(dup(h));
+                        }
+                        refs.push((m, c));
+                    } else if let Some(g) =
+                        parse_grating_column(h).map_err(|e| (h.to_string(), format!("column `{h}`: {e}")))?
+                    {
+                        if gratings.iter().any(|&(o, _)| o == g) {
+                            return Err(dup(h));
+                        }
+                        gratings.push((g, c));
+                    }
+                }
+            }
+        }
+        let required = "required: t_s and the gratings dl1_pm..dlN_pm (N from 1 to 8); optional: T_amb_C, the references (T_C, strain_ue, p_kPa, T2_C, strain2_ue, ...), split";
+        let Some(t_s) = t_s else { return Err(("t_s".into(), format!("missing column `t_s` ({required})"))) };
+        gratings.sort();
+        for (k, &(g, _)) in gratings.iter().enumerate() {
+            if g != k + 1 {
+                let want = grating_column(k + 1);
+                return Err((want.clone(), format!("missing column `{want}` while `{}` is there: gratings are numbered dl1_pm..dlN_pm without holes", grating_column(g))));
+            }
+        }
+        if gratings.is_empty() {
+            return Err(("dl1_pm".into(), format!("missing column `dl1_pm` ({required})")));
+        }
+        refs.sort();
+        if refs.len() > MAX_MEASURANDS {
+            let names: Vec<String> = refs.iter().map(|(m, _)| m.column()).collect();
+            return Err((
+                refs[MAX_MEASURANDS].0.column(),
+                format!(
+                    "{} reference columns ({}); at most {MAX_MEASURANDS} measurands are supported",
+                    refs.len(),
+                    names.join(", ")
+                ),
+            ));
+        }
+        Ok(Layout { t_s, refs, ambient, gratings: gratings.into_iter().map(|(_, c)| c).collect(), split })
     }
 }
 

@@ -63,7 +63,7 @@ pub fn directions(d: &Dataset, g: usize, idx: &[usize]) -> Vec<f64> {
 pub fn score(d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> ModelEval {
     let mut channels = [ChannelMetrics::default(); N_OUTPUTS];
     for (c, m) in channels.iter_mut().enumerate() {
-        if !d.has_target[c] {
+        if !d.has_target()[c] {
             *m = ChannelMetrics {
                 rmse: f64::NAN,
                 mae: f64::NAN,

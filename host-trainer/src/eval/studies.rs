@@ -47,7 +47,7 @@ fn refit_rmse(cfg: &ScenarioConfig, seed: u64, opts: &TrainOptions) -> Result<Re
     let tr = fit::train(&s.data, opts, &Origin { scenario: cfg.name.clone(), seed })?;
     let (ep, _) = evaluate_holdout(&tr.model_p, &s.data)?;
     let (eh, _) = evaluate_holdout(&tr.model_h, &s.data)?;
-    Ok((ep.channels.map(|c| c.rmse), eh.channels.map(|c| c.rmse), s.oracle_floor().rmse_holdout))
+    Ok((ep.channels.map(|c| c.rmse), eh.channels.map(|c| c.rmse), s.oracle_floor().paper_holdout()))
 }
 
 /// The drift sweep, refitting both models at each σ_d with the hyper-parameters chosen on
@@ -288,7 +288,7 @@ pub fn run_all(
         t.elapsed().as_secs_f64(),
         trained.selection.rows.len()
     ));
-    let oracle = sim.oracle_floor().rmse_holdout;
+    let oracle = sim.oracle_floor().paper_holdout();
     let t = Instant::now();
     let t2 = table2(&trained.model_p, &trained.model_h, &sim.data, Some(oracle))?;
     timings.push(("evaluate".to_string(), t.elapsed().as_secs_f64()));
@@ -401,7 +401,7 @@ pub fn evaluate_models(
     bar.enable_steady_tick(std::time::Duration::from_millis(200));
     bar.set_message("hold-out (Table 2)");
     let t = Instant::now();
-    let oracle = meta.map(|m| m.oracle_floor_holdout);
+    let oracle = meta.map(|m| m.oracle_floor_paper());
     let t2 = table2(p, h, d, oracle)?;
     bar.inc(1);
     timings.push(("evaluate".to_string(), t.elapsed().as_secs_f64()));

@@ -299,7 +299,7 @@ pub struct Gram {
 /// 0 for an output without reference (so that its residual weights stay 0).
 #[inline]
 pub fn residual(d: &Dataset, i: usize, c: usize, values: &[f64; N_OUTPUTS]) -> f64 {
-    if d.has_target[c] {
+    if d.has_target()[c] {
         d.target(c)[i] - values[c]
     } else {
         0.0

@@ -229,7 +229,8 @@ pub fn fit(
     if n < p {
         return Err(TrainerError::fit(format!("Model-H core with memory terms: {n} samples for {p} unknowns")));
     }
-    let targets: [&[f64]; N_OUTPUTS] = std::array::from_fn(|o| if d.has_target[o] { d.target(o) } else { &[][..] });
+    let targets: [&[f64]; N_OUTPUTS] =
+        std::array::from_fn(|o| if d.has_target()[o] { d.target(o).as_slice() } else { &[][..] });
     let r_aug = super::linalg::triangular_rows(n, p + N_OUTPUTS, |r, buf| {
         let i = rows[r];
         let ph = core.phi_at(d, i);
@@ -259,7 +260,7 @@ pub fn fit(
         .collect();
     let q = r_aug.nrows();
     for o in 0..N_OUTPUTS {
-        if !d.has_target[o] {
+        if !d.has_target()[o] {
             continue;
         }
         let (pc, mc) = &cols[o];
@@ -354,7 +355,7 @@ fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats
                     xtx[(r, c)] += xr * x[c];
                 }
             }
-            for o in (0..N_OUTPUTS).filter(|&o| d.has_target[o]) {
+            for o in (0..N_OUTPUTS).filter(|&o| d.has_target()[o]) {
                 let y = d.target(o)[i];
                 for r in 0..P_ALL {
                     xty[o][r] += x[r] * y;
@@ -423,7 +424,7 @@ pub fn select(
     let mut choice = MemoryChoice::none();
     let mut rows = Vec::new();
     for o in 0..N_OUTPUTS {
-        if !d.has_target[o] {
+        if !d.has_target()[o] {
             continue;
         }
         let mine: Vec<MemoryGroup> = offered_groups.iter().copied().filter(|&g| offered(o, g)).collect();

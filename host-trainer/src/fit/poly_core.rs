@@ -41,7 +41,7 @@ pub fn phi(g: [f64; 3], cross_terms: bool) -> [f64; N_POLY] {
 const TERM_USES: [&[usize]; N_POLY] = [&[], &[0], &[1], &[2], &[0], &[1], &[2], &[0, 1], &[0, 2], &[1, 2]];
 
 fn stage1_row(d: &Dataset, i: usize) -> [f64; N_STAGE1] {
-    [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.t_amb_c[i], 1.0]
+    [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.ambient()[i], 1.0]
 }
 
 /// The stage-1 first guesses (T °C, ε µε, p kPa) of sample `i`.
@@ -66,7 +66,7 @@ fn phi_at(
 /// The references (T, ε, p) of sample `i`; an output without reference reads 0, which keeps
 /// the algebra square and gives it zero coefficients.
 fn targets(d: &Dataset, i: usize) -> [f64; N_OUTPUTS] {
-    std::array::from_fn(|c| if d.has_target[c] { d.target(c)[i] } else { 0.0 })
+    std::array::from_fn(|c| if d.has_target()[c] { d.target(c)[i] } else { 0.0 })
 }
 
 /// Fit Model-P on the samples `idx` of `d`.
@@ -107,7 +107,7 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
     let mut guess_mean = [0.0; N_OUTPUTS];
     let mut guess_std = [0.0; N_OUTPUTS];
     for o in 0..N_OUTPUTS {
-        if !d.has_target[o] {
+        if !d.has_target()[o] {
             guess_mean[o] = 0.0;
             guess_std[o] = 1.0;
             continue;
@@ -124,7 +124,7 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
     // Terms of φ that the data can support: within the ablation's linear set if asked, and
     // built only from guesses of fitted outputs (an unfitted guess is identically 0).
     let terms: Vec<usize> =
-        (0..N_POLY).filter(|&k| (cross_terms || k < 4) && TERM_USES[k].iter().all(|&o| d.has_target[o])).collect();
+        (0..N_POLY).filter(|&k| (cross_terms || k < 4) && TERM_USES[k].iter().all(|&o| d.has_target()[o])).collect();
     let nt = terms.len();
     let b = lstsq_rows(n, nt, N_OUTPUTS, "Model-P stage 2 (polynomial core)", |r, buf| {
         let i = idx[r];

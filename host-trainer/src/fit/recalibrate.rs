@@ -71,7 +71,7 @@ pub fn recalibrate(
     // Choose the core update per output on the validation part.
     let mut choice = [CoreUpdate::Keep; N_OUTPUTS];
     for (c, chosen) in choice.iter_mut().enumerate() {
-        if !old.fitted[c] || !d.has_target[c] {
+        if !old.fitted[c] || !d.has_target()[c] {
             continue;
         }
         let mut best = (mse(old, val_part, c)?, CoreUpdate::Keep);
@@ -102,7 +102,7 @@ pub fn recalibrate(
         let mut trial = new.clone();
         update_w(&mut trial, old, d, fit_part)?;
         let better = (0..N_OUTPUTS)
-            .filter(|&c| old.fitted[c] && d.has_target[c])
+            .filter(|&c| old.fitted[c] && d.has_target()[c])
             .map(|c| Ok(mse(&trial, val_part, c)? / mse(&new, val_part, c)?.max(f64::MIN_POSITIVE)))
             .collect::<Result<Vec<f64>, TrainerError>>()?;
         if !better.is_empty() && better.iter().sum::<f64>() < better.len() as f64 {
@@ -117,7 +117,7 @@ pub fn recalibrate(
     let n = batch.len() as f64;
     let mut batch_rmse = [f64::NAN; N_OUTPUTS];
     for (c, rmse) in batch_rmse.iter_mut().enumerate() {
-        if !old.fitted[c] || !d.has_target[c] {
+        if !old.fitted[c] || !d.has_target()[c] {
             continue;
         }
         let m = batch.iter().zip(&after).map(|(&i, e)| (e.values[c] - d.target(c)[i]).powi(2)).sum::<f64>() / n;

@@ -225,7 +225,7 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             let sq = std::array::from_fn(|c| {
                 est.iter()
                     .zip(&f.val)
-                    .map(|(e, &i)| if d.has_target[c] { (e.values[c] - d.target(c)[i]).powi(2) } else { 1.0 })
+                    .map(|(e, &i)| if d.has_target()[c] { (e.values[c] - d.target(c)[i]).powi(2) } else { 1.0 })
                     .collect()
             });
             let t_end = f.train.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
@@ -348,7 +348,7 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             .into_values()
             .map(|(config, sq, n)| {
                 let cv_rmse = sq.map(|s| (s / n as f64).sqrt());
-                let score = (0..N_OUTPUTS).filter(|&c| d.has_target[c]).map(|c| cv_rmse[c] / cv_rmse_p[c]).sum();
+                let score = (0..N_OUTPUTS).filter(|&c| d.has_target()[c]).map(|c| cv_rmse[c] / cv_rmse_p[c]).sum();
                 CvRow { config, cv_rmse, score }
             })
             .collect();
@@ -389,7 +389,7 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         std::array::from_fn(|c| per_fold.iter().flat_map(|e| e[c].iter().copied()).collect());
     let cv_rmse_h: [f64; N_OUTPUTS] = std::array::from_fn(|c| (pool(&sqe_h[c]) / n_val as f64).sqrt());
     let rows = if rows.is_empty() {
-        let score = (0..N_OUTPUTS).filter(|&c| d.has_target[c]).map(|c| cv_rmse_h[c] / cv_rmse_p[c]).sum();
+        let score = (0..N_OUTPUTS).filter(|&c| d.has_target()[c]).map(|c| cv_rmse_h[c] / cv_rmse_p[c]).sum();
         vec![CvRow { config: chosen, cv_rmse: cv_rmse_h, score }]
     } else {
         rows

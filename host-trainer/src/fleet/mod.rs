@@ -384,7 +384,7 @@ pub fn needs_training(g: &Group, digest: &str) -> Option<String> {
 fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<Sidecar, TrainerError> {
     let t = Instant::now();
     let opts = g.features.train_options(g.max_centres).map_err(TrainerError::fit)?;
-    let d = Dataset::read_csv(&g.data)?;
+    let d = Dataset::read_paper_csv(&g.data, "fleet")?;
     let origin = match SimMeta::read_for(&g.data)? {
         Some(m) => Origin { scenario: m.scenario.name.clone(), seed: m.seed },
         None => Origin { scenario: g.name.clone(), seed: 0 },

@@ -176,11 +176,11 @@ pub fn fig1_inputs(c: &Ctx) -> FigSpec {
         p.xr = Some((x0, x1));
         mark_split(&mut p, &spans, x0, x1);
         if ch == 0 {
-            let amb = minmax_columns(&t, &d.t_amb_c, COLUMNS);
+            let amb = minmax_columns(&t, d.ambient(), COLUMNS);
             p.lines.push(Line::new(C_MEAS, 1, pts(&amb)).label("T_amb reading (model input)"));
         }
-        let y = minmax_columns(&t, d.target(ch), COLUMNS);
-        if d.has_target[ch] {
+        if d.has_target()[ch] {
+            let y = minmax_columns(&t, d.target(ch).as_slice(), COLUMNS);
             p.lines.push(Line::new(C_TRUTH, 1, pts(&y)).label(format!("reference {} (truth)", SYMBOLS[ch])));
         } else {
             p.note("no reference for this channel in data.csv", (0.3, 0.5));
@@ -427,7 +427,7 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     e.legend = Legend::UpperLeft;
     e.legend_room = 0.35;
 
-    if !d.has_target[ch] {
+    if !d.has_target()[ch] {
         for p in [&mut a, &mut b, &mut e] {
             p.note("no reference for this channel in data.csv: estimates only, no errors", (0.02, 0.08));
         }
@@ -690,7 +690,7 @@ pub fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
             format!("{} contribution [{unit}]", SYMBOLS[ch]),
         );
         let series = |v: &[f64]| pts(&minmax_columns(&x, v, COLUMNS));
-        if d.has_target[ch] {
+        if d.has_target()[ch] {
             p.lines
                 .push(Line::new(C_GREY, 1, series(&left)).label("truth − core Bφ (what memory and RBF must explain)"));
         }
@@ -699,7 +699,7 @@ pub fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
         p.legend = Legend::UpperLeft;
         p.legend_room = 0.35;
         panels.push(p);
-        if d.has_target[ch] {
+        if d.has_target()[ch] {
             notes.push(format!(
                 "{}: hold-out RMS of truth − Bφ {} {unit}, after Γm {} {unit}, after Wψ {} {unit}",
                 LONG_NAMES[ch].to_lowercase(),

@@ -113,7 +113,7 @@ impl Inputs {
             return Err(TrainerError::io(dir, std::io::Error::new(std::io::ErrorKind::NotFound, msg)));
         }
         Ok(Inputs {
-            data: Dataset::read_csv(&paths.data)?,
+            data: Dataset::read_paper_csv(&paths.data, "report")?,
             meta: SimMeta::read_for(&paths.data)?,
             model_h: export::read_blob(&paths.model_h)?,
             model_p: export::read_blob(&paths.model_p)?,
@@ -341,7 +341,7 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
             count(all_hold.len())
         ));
     }
-    let missing: Vec<&str> = (0..3).filter(|&c| !d.has_target[c]).map(|c| figures::LONG_NAMES[c]).collect();
+    let missing: Vec<&str> = (0..3).filter(|&c| !d.has_target()[c]).map(|c| figures::LONG_NAMES[c]).collect();
     if !missing.is_empty() {
         out.notes.push(format!(
             "data.csv has no reference for {}: those channels are estimated but cannot be scored, so their errors, parity and histograms are empty.",

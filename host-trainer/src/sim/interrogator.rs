@@ -81,10 +81,10 @@ pub fn random_walk(n: usize, sigma_pm: f64, seed: u64) -> Vec<f64> {
         .collect()
 }
 
-/// Drift contribution per channel \[pm\].
-pub fn drift(n: usize, cfg: &Drift, seed: u64) -> [Vec<f64>; 3] {
+/// Drift contribution per grating \[pm\].
+pub fn drift(n: usize, cfg: &Drift, seed: u64) -> Vec<Vec<f64>> {
     let d = random_walk(n, cfg.sigma_pm, seed);
-    cfg.channel_gain.map(|g| d.iter().map(|v| g * v).collect())
+    cfg.channel_gain.iter().map(|g| d.iter().map(|v| g * v).collect()).collect()
 }
 
 /// Electronics thermal drift \[pm\], the same on every channel, driven by the true ambient
@@ -124,14 +124,18 @@ pub fn pink_noise(n: usize, sigma: f64, octaves: u32, rng: &mut Rng) -> Vec<f64>
         .collect()
 }
 
-/// Noise contribution per channel \[pm\]: pink + white, each channel its own draws.
-pub fn noise(n: usize, cfg: &Noise, seed: u64) -> [Vec<f64>; 3] {
+/// Noise contribution per grating \[pm\]: pink + white, each grating its own draws (grating
+/// after grating from the same two streams, so the first three gratings draw what the paper's
+/// three always did).
+pub fn noise(n: usize, gratings: usize, cfg: &Noise, seed: u64) -> Vec<Vec<f64>> {
     let mut pink = Rng::new(seed, Stream::PinkNoise);
     let mut white = Rng::new(seed, Stream::WhiteNoise);
-    std::array::from_fn(|_| {
-        let p = pink_noise(n, cfg.pink_sigma_pm, cfg.pink_octaves, &mut pink);
-        p.into_iter().map(|v| v + cfg.white_sigma_pm * white.normal()).collect()
-    })
+    (0..gratings)
+        .map(|_| {
+            let p = pink_noise(n, cfg.pink_sigma_pm, cfg.pink_octaves, &mut pink);
+            p.into_iter().map(|v| v + cfg.white_sigma_pm * white.normal()).collect()
+        })
+        .collect()
 }
 
 #[cfg(test)]

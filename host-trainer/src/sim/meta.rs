@@ -14,8 +14,8 @@ use crate::sim::Simulation;
 pub struct SimMeta {
     pub scenario: ScenarioConfig,
     pub seed: u64,
-    /// Oracle-floor hold-out RMSE (T, ε, p).
-    pub oracle_floor_holdout: [f64; 3],
+    /// Oracle-floor hold-out RMSE per measurand, in the dataset's (canonical) order.
+    pub oracle_floor_holdout: Vec<f64>,
     pub summary: serde_json::Value,
 }
 
@@ -25,6 +25,13 @@ pub fn meta_path(csv: &Path) -> PathBuf {
 }
 
 impl SimMeta {
+    /// The oracle-floor hold-out RMSE in the paper's layout (T, ε, p; NaN where absent).
+    pub fn oracle_floor_paper(&self) -> [f64; 3] {
+        let mut m = self.scenario.measurands.clone();
+        m.sort();
+        crate::sim::paper_layout(&m, &self.oracle_floor_holdout)
+    }
+
     pub fn of(sim: &Simulation) -> Self {
         SimMeta {
             scenario: sim.config.clone(),

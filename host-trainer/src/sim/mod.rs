@@ -9,7 +9,8 @@ pub mod meta;
 pub mod scenario;
 pub mod trajectories;
 
-use crate::data::{Dataset, Split};
+use crate::data::{Dataset, Kind, Measurand, Reference, Split};
+use crate::rng::Stream;
 use crate::sim::scenario::ScenarioConfig;
 use crate::stats::rmse;
 pub use gauge_matrix::GaugePhysics;
@@ -17,21 +18,21 @@ pub use gauge_matrix::GaugePhysics;
 /// Names of the artefacts, in [`Effects`] order.
 pub const EFFECT_NAMES: [&str; 5] = ["hysteresis", "scan", "drift", "electronics", "noise"];
 
-/// Per-channel, per-sample contribution of each effect to the measured shift \[pm\].
+/// Per-grating, per-sample contribution of each effect to the measured shift \[pm\].
 #[derive(Clone, Debug, Default)]
 pub struct Effects {
     /// True physical shift (Eq. 2-3 with cross-terms).
-    pub physics: [Vec<f64>; 3],
-    pub hysteresis: [Vec<f64>; 3],
-    pub scan: [Vec<f64>; 3],
-    pub drift: [Vec<f64>; 3],
-    pub electronics: [Vec<f64>; 3],
-    pub noise: [Vec<f64>; 3],
+    pub physics: Vec<Vec<f64>>,
+    pub hysteresis: Vec<Vec<f64>>,
+    pub scan: Vec<Vec<f64>>,
+    pub drift: Vec<Vec<f64>>,
+    pub electronics: Vec<Vec<f64>>,
+    pub noise: Vec<Vec<f64>>,
 }
 
 impl Effects {
     /// Contribution of artefact `name` (one of [`EFFECT_NAMES`]).
-    pub fn by_name(&self, name: &str) -> Option<&[Vec<f64>; 3]> {
+    pub fn by_name(&self, name: &str) -> Option<&Vec<Vec<f64>>> {
         match name {
             "hysteresis" => Some(&self.hysteresis),
             "scan" => Some(&self.scan),
@@ -55,66 +56,97 @@ pub struct Simulation {
     pub ambient_true_c: Vec<f64>,
 }
 
-/// Simulate `cfg` with `seed`. Deterministic: the same inputs give bit-identical output.
+/// The true trajectory of a simulated measurand.
+fn trajectory(cfg: &ScenarioConfig, m: Measurand, temp_c: &[f64], t_s: &[f64], seed: u64) -> Vec<f64> {
+    let dt = cfg.clock.dt_s;
+    match (m.kind, m.index) {
+        (Kind::Temperature, _) => temp_c.to_vec(),
+        (Kind::Strain, 1) => trajectories::strain(&cfg.strain, t_s, dt, seed),
+        (Kind::Strain, _) => {
+            trajectories::strain_on(&cfg.strain2(), t_s, dt, seed, (Stream::Strain2, Stream::LoadLevels2))
+        }
+        (Kind::Pressure, _) => trajectories::pressure(&cfg.pressure, t_s, dt, seed),
+    }
+}
+
+/// Simulate `cfg` with `seed`. Deterministic: the same inputs give bit-identical output. Every
+/// random effect draws from its own stream, and per-grating draws go grating after grating,
+/// so the `paper` and `harsh` presets give the bytes they always gave.
 pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
     let n = cfg.n_samples();
     let n_cal = cfg.n_cal();
+    let n_g = cfg.n_gratings();
     let dt = cfg.clock.dt_s;
     let t_s: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
 
+    // The temperature drives the ambient (and so the electronics) whether or not it is a
+    // measurand.
     let temp_c = trajectories::temperature(&cfg.temperature, &t_s, dt, seed);
-    let strain_ue = trajectories::strain(&cfg.strain, &t_s, dt, seed);
-    let p_kpa = trajectories::pressure(&cfg.pressure, &t_s, dt, seed);
+    let truth: Vec<Vec<f64>> = cfg.measurands.iter().map(|&m| trajectory(cfg, m, &temp_c, &t_s, seed)).collect();
     let ambient_true_c = trajectories::ambient_true(&cfg.ambient, &temp_c, dt);
     let t_amb_c = trajectories::ambient_reading(&cfg.ambient, &ambient_true_c, seed);
 
-    let physics = GaugePhysics::dispersed(&cfg.gratings, seed);
-    let mut phys: [Vec<f64>; 3] = Default::default();
+    let physics = GaugePhysics::dispersed(&cfg.gratings, &cfg.measurands, seed);
+    let mut phys: Vec<Vec<f64>> = vec![Vec::with_capacity(n); n_g];
+    let mut m = vec![0.0; truth.len()];
     for i in 0..n {
-        let dl = physics.forward([temp_c[i], strain_ue[i], p_kpa[i]]);
-        for g in 0..3 {
-            phys[g].push(dl[g]);
+        for (x, tr) in m.iter_mut().zip(&truth) {
+            *x = tr[i];
+        }
+        for (p, dl) in phys.iter_mut().zip(physics.forward(&m)) {
+            p.push(dl);
         }
     }
 
-    let zeros = || [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    let zeros = || vec![vec![0.0; n]; n_g];
     let hysteresis = if cfg.hysteresis.enabled {
-        std::array::from_fn(|g| interrogator::hysteresis(&phys[g], &cfg.hysteresis))
+        phys.iter().map(|p| interrogator::hysteresis(p, &cfg.hysteresis)).collect()
     } else {
         zeros()
     };
     let scan = if cfg.scan.enabled {
-        std::array::from_fn(|g| {
-            interrogator::scan_nonlinearity(
-                &phys[g],
-                cfg.gratings.nominal_nm[g],
-                cfg.scan.ripple_phase_rad[g],
-                &cfg.scan,
-            )
-        })
+        (0..n_g)
+            .map(|g| {
+                interrogator::scan_nonlinearity(
+                    &phys[g],
+                    cfg.gratings.nominal_nm[g],
+                    cfg.scan.ripple_phase_rad[g],
+                    &cfg.scan,
+                )
+            })
+            .collect()
     } else {
         zeros()
     };
     let drift = if cfg.drift.enabled { interrogator::drift(n, &cfg.drift, seed) } else { zeros() };
     let electronics = if cfg.electronics.enabled {
-        let e = interrogator::electronics(&ambient_true_c, &cfg.electronics);
-        [e.clone(), e.clone(), e]
+        vec![interrogator::electronics(&ambient_true_c, &cfg.electronics); n_g]
     } else {
         zeros()
     };
-    let noise = if cfg.noise.enabled { interrogator::noise(n, &cfg.noise, seed) } else { zeros() };
+    let noise = if cfg.noise.enabled { interrogator::noise(n, n_g, &cfg.noise, seed) } else { zeros() };
 
-    let dl_pm: [Vec<f64>; 3] = std::array::from_fn(|g| {
-        (0..n)
-            .map(|i| phys[g][i] + hysteresis[g][i] + scan[g][i] + drift[g][i] + electronics[g][i] + noise[g][i])
-            .collect()
-    });
+    let dl_pm: Vec<Vec<f64>> = (0..n_g)
+        .map(|g| {
+            (0..n)
+                .map(|i| phys[g][i] + hysteresis[g][i] + scan[g][i] + drift[g][i] + electronics[g][i] + noise[g][i])
+                .collect()
+        })
+        .collect();
     let split = (0..n).map(|i| if i < n_cal { Split::Cal } else { Split::Holdout }).collect();
+    let mut data = Dataset {
+        t_s,
+        refs: cfg.measurands.iter().zip(truth).map(|(&measurand, values)| Reference { measurand, values }).collect(),
+        t_amb_c: cfg.ambient.thermometer.then_some(t_amb_c),
+        dl_pm,
+        split,
+    };
+    data.sort_refs();
 
     Simulation {
         config: cfg.clone(),
         seed,
-        data: Dataset { t_s, temp_c, strain_ue, p_kpa, t_amb_c, dl_pm, split, has_target: [true; 3] },
+        data,
         physics,
         effects: Effects { physics: phys, hysteresis, scan, drift, electronics, noise },
         ambient_true_c,
@@ -125,38 +157,65 @@ pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
 /// that carry only the noise.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct OracleFloor {
-    /// Hold-out RMSE per output (T °C, ε µε, p kPa).
-    pub rmse_holdout: [f64; 3],
-    /// Calibration-part RMSE per output.
-    pub rmse_cal: [f64; 3],
+    /// The measurands, in the dataset's (canonical) order.
+    pub measurands: Vec<Measurand>,
+    /// Hold-out RMSE per measurand.
+    pub rmse_holdout: Vec<f64>,
+    /// Calibration-part RMSE per measurand.
+    pub rmse_cal: Vec<f64>,
+}
+
+impl OracleFloor {
+    /// The hold-out RMSE in the paper's layout (T, ε, p; NaN for a measurand not simulated).
+    pub fn paper_holdout(&self) -> [f64; 3] {
+        paper_layout(&self.measurands, &self.rmse_holdout)
+    }
+}
+
+/// Values per measurand → the paper's (T, ε, p), NaN where absent.
+pub fn paper_layout(measurands: &[Measurand], v: &[f64]) -> [f64; 3] {
+    Measurand::PAPER
+        .map(|p| measurands.iter().position(|m| *m == p).and_then(|k| v.get(k).copied()).unwrap_or(f64::NAN))
 }
 
 impl Simulation {
-    /// Oracle estimates (T, ε, p) for every sample.
-    pub fn oracle_estimates(&self) -> [Vec<f64>; 3] {
+    /// Oracle estimates for every sample, one column per measurand in the dataset's order.
+    pub fn oracle_estimates(&self) -> Vec<Vec<f64>> {
         let n = self.data.len();
-        let mut out: [Vec<f64>; 3] = [Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n)];
+        let n_g = self.physics.n_gratings();
+        // The physics' columns follow the configuration's order, the dataset's are canonical.
+        let order: Vec<usize> = self
+            .data
+            .measurands()
+            .iter()
+            .map(|m| self.physics.measurands.iter().position(|p| p == m).unwrap_or(0))
+            .collect();
+        let mut out: Vec<Vec<f64>> = vec![Vec::with_capacity(n); order.len()];
+        let mut dl = vec![0.0; n_g];
         for i in 0..n {
-            let dl = std::array::from_fn(|g| self.effects.physics[g][i] + self.effects.noise[g][i]);
-            let m = self.physics.invert(dl);
-            for c in 0..3 {
-                out[c].push(m[c]);
+            for (g, x) in dl.iter_mut().enumerate() {
+                *x = self.effects.physics[g][i] + self.effects.noise[g][i];
+            }
+            let m = self.physics.invert(&dl);
+            for (o, &k) in out.iter_mut().zip(&order) {
+                o.push(m[k]);
             }
         }
         out
     }
 
-    /// The per-sample oracle per output on the hold-out and calibration parts.
+    /// The per-sample oracle per measurand on the hold-out and calibration parts.
     pub fn oracle_floor(&self) -> OracleFloor {
         let est = self.oracle_estimates();
-        let part = |want: Split| -> [f64; 3] {
+        let part = |want: Split| -> Vec<f64> {
             let idx: Vec<usize> = (0..self.data.len()).filter(|&i| self.data.split[i] == want).collect();
-            std::array::from_fn(|c| {
-                let truth = self.data.target(c);
-                rmse(idx.iter().map(|&i| est[c][i] - truth[i]))
-            })
+            self.data.refs.iter().zip(&est).map(|(r, e)| rmse(idx.iter().map(|&i| e[i] - r.values[i]))).collect()
         };
-        OracleFloor { rmse_holdout: part(Split::Holdout), rmse_cal: part(Split::Cal) }
+        OracleFloor {
+            measurands: self.data.measurands(),
+            rmse_holdout: part(Split::Holdout),
+            rmse_cal: part(Split::Cal),
+        }
     }
 
     /// Machine-readable summary (what `simulate --json` prints).
@@ -170,16 +229,23 @@ impl Simulation {
             let rms: Vec<f64> = e.iter().map(|ch| crate::stats::rms(ch.iter().copied())).collect();
             effects.insert(name.to_string(), serde_json::json!(rms));
         }
+        let mut spread = serde_json::Map::new();
+        let mut floor = serde_json::Map::new();
+        for (k, r) in d.refs.iter().enumerate() {
+            spread.insert(r.measurand.column(), serde_json::json!(std(&r.values)));
+            floor.insert(r.measurand.column(), serde_json::json!(oracle.rmse_holdout[k]));
+        }
         serde_json::json!({
             "scenario": self.config.name,
             "seed": self.seed,
             "samples": d.len(),
             "cal_samples": d.cal_indices().len(),
             "holdout_samples": d.holdout_indices().len(),
-            "std": {"T_C": std(&d.temp_c), "strain_ue": std(&d.strain_ue), "p_kPa": std(&d.p_kpa)},
-            "oracle_floor_rmse_holdout": {
-                "T_C": oracle.rmse_holdout[0], "strain_ue": oracle.rmse_holdout[1], "p_kPa": oracle.rmse_holdout[2]
-            },
+            "gratings": d.n_gratings(),
+            "measurands": d.measurands(),
+            "ambient_thermometer": d.t_amb_c.is_some(),
+            "std": spread,
+            "oracle_floor_rmse_holdout": floor,
             "effect_rms_pm": effects,
             "gauge_matrix_pm": self.physics.k,
         })

@@ -1,5 +1,10 @@
 //! Scenario configuration (DESIGN §3): every parameter of the simulated installation, with the
-//! `paper` and `harsh` presets and TOML files where any parameter can be overridden.
+//! presets (`paper`, `harsh`, `temperature-1`, `strain-pair`, `array-8`) and TOML files where
+//! any parameter can be overridden.
+//!
+//! An installation has N gratings (1–8, the length of `gratings.nominal_nm`) and M measurands
+//! (1–4, `measurands`: `T_C`, `strain_ue`, `strain2_ue`, `p_kPa`); the gauge matrix has one
+//! row of M sensitivities per grating, in the order of `measurands`.
 //!
 //! Unknown keys and out-of-range values are errors that name the key.
 
@@ -7,6 +12,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::data::measurand::{Kind, Measurand, MAX_GRATINGS, MAX_MEASURANDS};
 use crate::error::{line_col, TrainerError};
 
 /// Clock and split.
@@ -70,34 +76,88 @@ pub struct Pressure {
     pub ar_tau_s: f64,
 }
 
-/// Reference (ambient) thermometer T_amb(t) [°C].
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+/// Reference (ambient) thermometer T_amb(t) [°C]. The ambient temperature drives the
+/// electronics drift whether or not a thermometer reads it; `thermometer = false` (or the
+/// top-level shorthand `ambient = false`) is an installation without the reading, whose CSV
+/// has no `T_amb_C` column.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Ambient {
+    /// Whether the installation has an ambient thermometer (default true).
+    pub thermometer: bool,
     /// First-order lag of the thermometer behind T \[s\].
     pub lag_tau_s: f64,
     pub offset_c: f64,
     pub noise_sigma_c: f64,
 }
 
+/// The `[ambient]` table as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct AmbientTable {
+    thermometer: bool,
+    lag_tau_s: f64,
+    offset_c: f64,
+    noise_sigma_c: f64,
+}
+
+impl Default for AmbientTable {
+    fn default() -> Self {
+        let a = Ambient::default();
+        AmbientTable {
+            thermometer: a.thermometer,
+            lag_tau_s: a.lag_tau_s,
+            offset_c: a.offset_c,
+            noise_sigma_c: a.noise_sigma_c,
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Ambient {
+    /// The `[ambient]` table, or `ambient = true|false` (the thermometer, defaults otherwise).
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Ambient;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("an [ambient] table or `ambient = false` (no ambient thermometer)")
+            }
+            fn visit_bool<E: serde::de::Error>(self, b: bool) -> Result<Ambient, E> {
+                Ok(Ambient { thermometer: b, ..Ambient::default() })
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Ambient, A::Error> {
+                let t = AmbientTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(Ambient {
+                    thermometer: t.thermometer,
+                    lag_tau_s: t.lag_tau_s,
+                    offset_c: t.offset_c,
+                    noise_sigma_c: t.noise_sigma_c,
+                })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
 /// Gratings and their physics (paper Eq. 2-3).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Gratings {
-    /// Nominal Bragg wavelengths \[nm\].
-    pub nominal_nm: [f64; 3],
-    /// Gauge matrix rows per grating: [pm/°C, pm/µε, pm/kPa].
-    pub gauge: [[f64; 3]; 3],
+    /// Nominal Bragg wavelengths \[nm\], one per grating (1 to 8 gratings).
+    pub nominal_nm: Vec<f64>,
+    /// Gauge matrix rows per grating, one sensitivity per measurand in the order of
+    /// `measurands`: pm/°C, pm/µε, pm/kPa.
+    pub gauge: Vec<Vec<f64>>,
     /// Relative manufacturing dispersion of every gauge entry (σ of the factor 1 + N(0, σ)).
     pub dispersion: f64,
-    /// Cross-terms per grating [pm/°C²], [pm/(°C·µε)], [pm/(°C·kPa)], [pm/µε²], [pm/kPa²],
-    /// [pm/(µε·kPa)].
-    pub c_tt: [f64; 3],
-    pub c_te: [f64; 3],
-    pub c_tp: [f64; 3],
-    pub c_ee: [f64; 3],
-    pub c_pp: [f64; 3],
-    pub c_ep: [f64; 3],
+    /// Cross-terms per grating (one entry per grating, or empty for none) [pm/°C²],
+    /// [pm/(°C·µε)], [pm/(°C·kPa)], [pm/µε²], [pm/kPa²], [pm/(µε·kPa)], on the first
+    /// measurand of each kind (`T_C`, `strain_ue`, `p_kPa`).
+    pub c_tt: Vec<f64>,
+    pub c_te: Vec<f64>,
+    pub c_tp: Vec<f64>,
+    pub c_ee: Vec<f64>,
+    pub c_pp: Vec<f64>,
+    pub c_ep: Vec<f64>,
     /// Reference point of the Δ's: T [°C], ε \[µε\], p \[kPa\].
     pub ref_t_c: f64,
     pub ref_strain_ue: f64,
@@ -123,8 +183,8 @@ pub struct Scan {
     pub enabled: bool,
     pub ripple_amp_pm: f64,
     pub ripple_period_nm: f64,
-    /// Ripple phase per channel \[rad\].
-    pub ripple_phase_rad: [f64; 3],
+    /// Ripple phase per grating \[rad\].
+    pub ripple_phase_rad: Vec<f64>,
     /// Quadratic bow reaching `bow_pm` at ±`bow_half_span_nm` from `bow_centre_nm`.
     pub bow_pm: f64,
     pub bow_half_span_nm: f64,
@@ -138,7 +198,8 @@ pub struct Drift {
     pub enabled: bool,
     /// σ_d per step \[pm\].
     pub sigma_pm: f64,
-    pub channel_gain: [f64; 3],
+    /// Gain of the common walk per grating.
+    pub channel_gain: Vec<f64>,
 }
 
 /// Electronics thermal drift driven by the ambient temperature.
@@ -169,9 +230,16 @@ pub struct Noise {
 pub struct ScenarioConfig {
     /// Name shown in reports and model provenance.
     pub name: String,
+    /// The measurands (reference columns) the installation measures, 1 to 4 of `T_C`,
+    /// `strain_ue`, `strain2_ue`, `p_kPa`; the gauge matrix's columns follow this order.
+    pub measurands: Vec<Measurand>,
     pub clock: Clock,
     pub temperature: Temperature,
     pub strain: Strain,
+    /// A second strain location (`strain2_ue`); default: `strain`'s defaults, drawn from
+    /// their own random streams.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub strain2: Option<Strain>,
     pub pressure: Pressure,
     pub ambient: Ambient,
     pub gratings: Gratings,
@@ -234,21 +302,21 @@ impl Default for Pressure {
 }
 impl Default for Ambient {
     fn default() -> Self {
-        Ambient { lag_tau_s: 1200.0, offset_c: 0.5, noise_sigma_c: 0.1 }
+        Ambient { thermometer: true, lag_tau_s: 1200.0, offset_c: 0.5, noise_sigma_c: 0.1 }
     }
 }
 impl Default for Gratings {
     fn default() -> Self {
         Gratings {
-            nominal_nm: [1535.0, 1545.0, 1555.0],
-            gauge: [[10.0, 1.20, 0.02], [9.8, 0.05, 0.01], [11.0, 0.10, 1.0]],
+            nominal_nm: vec![1535.0, 1545.0, 1555.0],
+            gauge: vec![vec![10.0, 1.20, 0.02], vec![9.8, 0.05, 0.01], vec![11.0, 0.10, 1.0]],
             dispersion: 0.03,
-            c_tt: [0.012, 0.011, 0.013],
-            c_te: [1e-3, 0.0, 0.0],
-            c_tp: [0.0, 0.0, 4e-3],
-            c_ee: [0.0; 3],
-            c_pp: [0.0; 3],
-            c_ep: [0.0; 3],
+            c_tt: vec![0.012, 0.011, 0.013],
+            c_te: vec![1e-3, 0.0, 0.0],
+            c_tp: vec![0.0, 0.0, 4e-3],
+            c_ee: vec![0.0; 3],
+            c_pp: vec![0.0; 3],
+            c_ep: vec![0.0; 3],
             ref_t_c: 20.0,
             ref_strain_ue: 0.0,
             ref_p_kpa: 150.0,
@@ -266,7 +334,7 @@ impl Default for Scan {
             enabled: true,
             ripple_amp_pm: 3.0,
             ripple_period_nm: 0.8,
-            ripple_phase_rad: [0.0, 2.1, 4.2],
+            ripple_phase_rad: vec![0.0, 2.1, 4.2],
             bow_pm: 2.0,
             bow_half_span_nm: 10.0,
             bow_centre_nm: 1545.0,
@@ -275,7 +343,7 @@ impl Default for Scan {
 }
 impl Default for Drift {
     fn default() -> Self {
-        Drift { enabled: true, sigma_pm: 0.05, channel_gain: [1.0, 1.1, 1.2] }
+        Drift { enabled: true, sigma_pm: 0.05, channel_gain: vec![1.0, 1.1, 1.2] }
     }
 }
 impl Default for Electronics {
@@ -292,9 +360,11 @@ impl Default for ScenarioConfig {
     fn default() -> Self {
         ScenarioConfig {
             name: "paper".into(),
+            measurands: Measurand::PAPER.to_vec(),
             clock: Clock::default(),
             temperature: Temperature::default(),
             strain: Strain::default(),
+            strain2: None,
             pressure: Pressure::default(),
             ambient: Ambient::default(),
             gratings: Gratings::default(),
@@ -311,10 +381,26 @@ impl Default for ScenarioConfig {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
-    /// DESIGN §3 defaults.
+    /// DESIGN §3 defaults: three gratings (strain, temperature reference, pressure diaphragm),
+    /// outputs T, ε, p.
     Paper,
     /// Drift σ×4, play 8 pm, a ±15 °C seasonal swing so the hold-out leaves the calibration range.
     Harsh,
+    /// One temperature grating (10 pm/°C), output T.
+    #[value(name = "temperature-1")]
+    #[serde(rename = "temperature-1")]
+    Temperature1,
+    /// A strain grating (1.2 pm/µε, 10 pm/°C) and a strain-free temperature-reference grating
+    /// beside it, outputs T and ε.
+    #[value(name = "strain-pair")]
+    #[serde(rename = "strain-pair")]
+    StrainPair,
+    /// Eight gratings on one fibre: an axial and a transverse (Poisson) strain grating and a
+    /// temperature reference at each of two locations, a pressure diaphragm and its
+    /// temperature reference; outputs T, ε, ε2, p.
+    #[value(name = "array-8")]
+    #[serde(rename = "array-8")]
+    Array8,
 }
 
 impl Preset {
@@ -333,14 +419,115 @@ impl Preset {
                 c.temperature.seasonal_phase_rad = -std::f64::consts::FRAC_PI_2;
                 c
             }
+            Preset::Temperature1 => {
+                let mut c = ScenarioConfig {
+                    name: "temperature-1".into(),
+                    measurands: vec![Measurand::T],
+                    ..ScenarioConfig::default()
+                };
+                c.gratings = Gratings {
+                    nominal_nm: vec![1550.0],
+                    gauge: vec![vec![10.0]],
+                    c_tt: vec![0.012],
+                    c_te: vec![],
+                    c_tp: vec![],
+                    c_ee: vec![],
+                    c_pp: vec![],
+                    c_ep: vec![],
+                    ..Gratings::default()
+                };
+                c.scan.ripple_phase_rad = vec![1.3];
+                c.drift.channel_gain = vec![1.0];
+                c
+            }
+            Preset::StrainPair => {
+                let mut c = ScenarioConfig {
+                    name: "strain-pair".into(),
+                    measurands: vec![Measurand::T, Measurand::STRAIN],
+                    ..ScenarioConfig::default()
+                };
+                // The strain grating is bonded (10 pm/°C + 1.2 pm/µε, its strain sensitivity
+                // rising with temperature); the reference sits loose in a tube beside it and
+                // sees almost no strain.
+                c.gratings = Gratings {
+                    nominal_nm: vec![1540.0, 1550.0],
+                    gauge: vec![vec![10.0, 1.20], vec![9.8, 0.02]],
+                    c_tt: vec![0.012, 0.011],
+                    c_te: vec![1e-3, 0.0],
+                    c_tp: vec![],
+                    c_ee: vec![],
+                    c_pp: vec![],
+                    c_ep: vec![],
+                    ..Gratings::default()
+                };
+                c.scan.ripple_phase_rad = vec![0.0, 2.1];
+                c.drift.channel_gain = vec![1.0, 1.1];
+                c
+            }
+            Preset::Array8 => {
+                let e2 = Measurand { kind: Kind::Strain, index: 2 };
+                let mut c = ScenarioConfig {
+                    name: "array-8".into(),
+                    measurands: vec![Measurand::T, Measurand::STRAIN, e2, Measurand::P],
+                    ..ScenarioConfig::default()
+                };
+                // Columns T [pm/°C], ε [pm/µε], ε2 [pm/µε], p [pm/kPa]. Location A (ε) and B
+                // (ε2) each carry an axial strain grating, a transverse one reading −ν·ε
+                // (ν ≈ 0.3) and a loose temperature reference; the pressure port a diaphragm
+                // grating (1 pm/kPa) and an unbonded reference. 5 nm apart on one fibre.
+                c.gratings = Gratings {
+                    nominal_nm: vec![1530.0, 1535.0, 1540.0, 1545.0, 1550.0, 1555.0, 1560.0, 1565.0],
+                    gauge: vec![
+                        vec![10.0, 1.20, 0.0, 0.02],
+                        vec![10.0, -0.36, 0.0, 0.02],
+                        vec![9.8, 0.05, 0.0, 0.01],
+                        vec![10.1, 0.0, 1.20, 0.02],
+                        vec![10.1, 0.0, -0.36, 0.02],
+                        vec![9.9, 0.0, 0.05, 0.01],
+                        vec![11.0, 0.10, 0.0, 1.0],
+                        vec![10.5, 0.0, 0.0, 0.05],
+                    ],
+                    c_tt: vec![0.012, 0.012, 0.011, 0.012, 0.012, 0.011, 0.013, 0.011],
+                    c_te: vec![1e-3, -3e-4, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                    c_tp: vec![0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 4e-3, 0.0],
+                    c_ee: vec![],
+                    c_pp: vec![],
+                    c_ep: vec![],
+                    ..Gratings::default()
+                };
+                c.strain2 = Some(Strain {
+                    level_lo_ue: -100.0,
+                    level_hi_ue: 100.0,
+                    hold_s: 8.0 * 3600.0,
+                    ramp_s: 2400.0,
+                    sine1_amp_ue: 40.0,
+                    sine1_period_s: 5.0 * 3600.0,
+                    sine2_amp_ue: 15.0,
+                    sine2_period_s: 25.0 * 60.0,
+                    ar_sigma_ue: 4.0,
+                    ar_tau_s: 900.0,
+                });
+                // The scan covers 1525–1570 nm: the bow reaches 2 pm at its ends.
+                c.scan.bow_centre_nm = 1547.5;
+                c.scan.bow_half_span_nm = 22.5;
+                c.scan.ripple_phase_rad = vec![0.0, 2.1, 4.2, 0.7, 2.8, 4.9, 1.4, 3.5];
+                c.drift.channel_gain = vec![1.0, 1.05, 1.1, 1.15, 1.2, 1.1, 1.2, 1.0];
+                c
+            }
         }
     }
     pub fn name(self) -> &'static str {
         match self {
             Preset::Paper => "paper",
             Preset::Harsh => "harsh",
+            Preset::Temperature1 => "temperature-1",
+            Preset::StrainPair => "strain-pair",
+            Preset::Array8 => "array-8",
         }
     }
+    /// Every preset.
+    pub const ALL: [Preset; 5] =
+        [Preset::Paper, Preset::Harsh, Preset::Temperature1, Preset::StrainPair, Preset::Array8];
 }
 
 impl ScenarioConfig {
@@ -365,6 +552,16 @@ impl ScenarioConfig {
     /// Number of samples.
     pub fn n_samples(&self) -> usize {
         (self.clock.days * 86_400.0 / self.clock.dt_s).round() as usize
+    }
+
+    /// Number of gratings.
+    pub fn n_gratings(&self) -> usize {
+        self.gratings.nominal_nm.len()
+    }
+
+    /// The second strain location's trajectory (`strain2_ue`).
+    pub fn strain2(&self) -> Strain {
+        self.strain2.clone().unwrap_or_default()
     }
 
     /// Number of calibration samples (the first ones).
@@ -421,11 +618,95 @@ impl ScenarioConfig {
         v.range("pressure.sine2_period_s", p.sine2_period_s, 1e-3, 1e9);
         v.nonneg("pressure.ar_sigma_kpa", p.ar_sigma_kpa, 1e5);
         v.range("pressure.ar_tau_s", p.ar_tau_s, 1e-3, 1e8);
+        if let Some(s) = &self.strain2 {
+            v.range("strain2.level_lo_ue", s.level_lo_ue, -1e4, 1e4);
+            v.range("strain2.level_hi_ue", s.level_hi_ue, -1e4, 1e4);
+            if s.level_hi_ue < s.level_lo_ue {
+                v.fail("strain2.level_hi_ue", "must be >= strain2.level_lo_ue");
+            }
+            v.range("strain2.hold_s", s.hold_s, 1e-3, 1e8);
+            v.range("strain2.ramp_s", s.ramp_s, 0.0, s.hold_s);
+            v.nonneg("strain2.sine1_amp_ue", s.sine1_amp_ue, 1e4);
+            v.range("strain2.sine1_period_s", s.sine1_period_s, 1e-3, 1e9);
+            v.nonneg("strain2.sine2_amp_ue", s.sine2_amp_ue, 1e4);
+            v.range("strain2.sine2_period_s", s.sine2_period_s, 1e-3, 1e9);
+            v.nonneg("strain2.ar_sigma_ue", s.ar_sigma_ue, 1e4);
+            v.range("strain2.ar_tau_s", s.ar_tau_s, 1e-3, 1e8);
+        }
+        let m = &self.measurands;
+        if m.is_empty() || m.len() > MAX_MEASURANDS {
+            v.fail("measurands", &format!("{} measurands; 1 to {MAX_MEASURANDS} are simulated", m.len()));
+        }
+        for (i, x) in m.iter().enumerate() {
+            if m[..i].contains(x) {
+                v.fail("measurands", &format!("`{x}` is listed twice"));
+            }
+            if !SIMULATED.contains(x) {
+                let names: Vec<String> = SIMULATED.iter().map(|m| m.column()).collect();
+                v.fail("measurands", &format!("`{x}` is not simulated; the simulator has {}", names.join(", ")));
+            }
+        }
+        let n_g = self.n_gratings();
+        if n_g == 0 || n_g > MAX_GRATINGS {
+            v.fail("gratings.nominal_nm", &format!("{n_g} gratings; 1 to {MAX_GRATINGS} are simulated"));
+        }
+        if v.ok() && n_g < m.len() {
+            v.fail("gratings.nominal_nm", &format!("{n_g} gratings cannot resolve {} measurands", m.len()));
+        }
+        let per_grating = |v: &mut Checker, key: &str, len: usize, empty_ok: bool| {
+            if len != n_g && !(empty_ok && len == 0) {
+                let also = if empty_ok { " (or none)" } else { "" };
+                v.fail(
+                    key,
+                    &format!("{len} entries; one per grating ({n_g}, the length of gratings.nominal_nm){also}"),
+                );
+            }
+        };
+        let g = &self.gratings;
+        per_grating(&mut v, "gratings.gauge", g.gauge.len(), false);
+        for (i, row) in g.gauge.iter().enumerate() {
+            if row.len() != m.len() {
+                v.fail(
+                    &format!("gratings.gauge[{i}]"),
+                    &format!("{} entries; one per measurand ({}: {})", row.len(), m.len(), {
+                        let names: Vec<String> = m.iter().map(|x| x.column()).collect();
+                        names.join(", ")
+                    }),
+                );
+            }
+        }
+        for (name, arr) in [
+            ("c_tt", &g.c_tt),
+            ("c_te", &g.c_te),
+            ("c_tp", &g.c_tp),
+            ("c_ee", &g.c_ee),
+            ("c_pp", &g.c_pp),
+            ("c_ep", &g.c_ep),
+        ] {
+            per_grating(&mut v, &format!("gratings.{name}"), arr.len(), true);
+            let needs: &[Measurand] = match name {
+                "c_tt" => &[Measurand::T],
+                "c_te" => &[Measurand::T, Measurand::STRAIN],
+                "c_tp" => &[Measurand::T, Measurand::P],
+                "c_ee" => &[Measurand::STRAIN],
+                "c_pp" => &[Measurand::P],
+                _ => &[Measurand::STRAIN, Measurand::P],
+            };
+            if arr.iter().any(|&c| c != 0.0) {
+                if let Some(x) = needs.iter().find(|x| !m.contains(x)) {
+                    v.fail(
+                        &format!("gratings.{name}"),
+                        &format!("a cross-term on `{x}`, which is not among the measurands"),
+                    );
+                }
+            }
+        }
+        per_grating(&mut v, "scan.ripple_phase_rad", self.scan.ripple_phase_rad.len(), false);
+        per_grating(&mut v, "drift.channel_gain", self.drift.channel_gain.len(), false);
         let a = &self.ambient;
         v.range("ambient.lag_tau_s", a.lag_tau_s, 0.0, 1e8);
         v.range("ambient.offset_c", a.offset_c, -50.0, 50.0);
         v.nonneg("ambient.noise_sigma_c", a.noise_sigma_c, 50.0);
-        let g = &self.gratings;
         for (i, nm) in g.nominal_nm.iter().enumerate() {
             v.range(&format!("gratings.nominal_nm[{i}]"), *nm, 400.0, 2500.0);
         }
@@ -435,9 +716,14 @@ impl ScenarioConfig {
             }
         }
         v.nonneg("gratings.dispersion", g.dispersion, 0.5);
-        for (name, arr) in
-            [("c_tt", g.c_tt), ("c_te", g.c_te), ("c_tp", g.c_tp), ("c_ee", g.c_ee), ("c_pp", g.c_pp), ("c_ep", g.c_ep)]
-        {
+        for (name, arr) in [
+            ("c_tt", &g.c_tt),
+            ("c_te", &g.c_te),
+            ("c_tp", &g.c_tp),
+            ("c_ee", &g.c_ee),
+            ("c_pp", &g.c_pp),
+            ("c_ep", &g.c_ep),
+        ] {
             for (i, c) in arr.iter().enumerate() {
                 v.range(&format!("gratings.{name}[{i}]"), *c, -10.0, 10.0);
             }
@@ -446,7 +732,7 @@ impl ScenarioConfig {
         v.range("gratings.ref_strain_ue", g.ref_strain_ue, -1e4, 1e4);
         v.range("gratings.ref_p_kpa", g.ref_p_kpa, 0.0, 1e5);
         if v.ok() {
-            let k = nalgebra::Matrix3::from_fn(|i, j| g.gauge[i][j]);
+            let k = nalgebra::DMatrix::from_fn(n_g, m.len(), |i, j| g.gauge[i][j]);
             let svd = k.svd(false, false);
             let (mx, mn) = (svd.singular_values.max(), svd.singular_values.min());
             if !(mn > 0.0 && mx / mn < 1e6) {
@@ -489,6 +775,10 @@ impl ScenarioConfig {
     }
 }
 
+/// The measurands the simulator has trajectories for.
+pub const SIMULATED: [Measurand; 4] =
+    [Measurand::T, Measurand::STRAIN, Measurand { kind: Kind::Strain, index: 2 }, Measurand::P];
+
 #[derive(Default)]
 struct Checker {
     first: Option<(String, String)>,
@@ -530,8 +820,10 @@ mod tests {
 
     #[test]
     fn presets_validate() {
-        assert!(Preset::Paper.config().validate().is_ok());
-        assert!(Preset::Harsh.config().validate().is_ok());
+        for p in Preset::ALL {
+            assert_eq!(p.config().validate(), Ok(()), "{}", p.name());
+            assert_eq!(p.config().name, p.name());
+        }
         assert_eq!(Preset::Paper.config().n_samples(), 20_160);
         assert_eq!(Preset::Paper.config().n_cal(), 10_080);
     }
@@ -541,6 +833,13 @@ mod tests {
         let c = ScenarioConfig::from_toml_str("[drift]\nsigma_pm = 0.2\n", "x.toml").unwrap();
         assert_eq!(c.drift.sigma_pm, 0.2);
         assert_eq!(c.drift.channel_gain, [1.0, 1.1, 1.2]);
+        let c = ScenarioConfig::from_toml_str("ambient = false\n", "x.toml").unwrap();
+        assert!(!c.ambient.thermometer);
+        assert_eq!(c.ambient.lag_tau_s, Ambient::default().lag_tau_s);
+        let c = ScenarioConfig::from_toml_str("[ambient]\nthermometer = false\noffset_c = 1.0\n", "x.toml").unwrap();
+        assert!(!c.ambient.thermometer && c.ambient.offset_c == 1.0);
+        let e = ScenarioConfig::from_toml_str("[ambient]\nthermo = false\n", "x.toml").unwrap_err().to_string();
+        assert!(e.contains("thermo") && e.contains("line 2"), "{e}");
         assert_eq!(c.temperature, Temperature::default());
     }
 
@@ -561,9 +860,24 @@ mod tests {
 
     #[test]
     fn preset_round_trips_through_toml() {
-        let c = Preset::Harsh.config();
-        let text = toml::to_string(&c).unwrap();
-        let back = ScenarioConfig::from_toml_str(&text, "harsh.toml").unwrap();
-        assert_eq!(c, back);
+        for p in Preset::ALL {
+            let mut c = p.config();
+            c.ambient.thermometer = false;
+            let text = toml::to_string(&c).unwrap();
+            let back = ScenarioConfig::from_toml_str(&text, "preset.toml").unwrap();
+            assert_eq!(c, back, "{}", p.name());
+        }
+    }
+
+    #[test]
+    fn shape_mistakes_name_the_key() {
+        let e = ScenarioConfig::from_toml_str("measurands = [\"T_C\"]\n", "z.toml").unwrap_err().to_string();
+        assert!(e.contains("gratings.gauge[0]"), "{e}");
+        let e = ScenarioConfig::from_toml_str("measurands = [\"T2_C\", \"strain_ue\", \"p_kPa\"]\n", "z.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("measurands") && e.contains("T2_C"), "{e}");
+        let e = ScenarioConfig::from_toml_str("[drift]\nchannel_gain = [1.0]\n", "z.toml").unwrap_err().to_string();
+        assert!(e.contains("drift.channel_gain"), "{e}");
     }
 }

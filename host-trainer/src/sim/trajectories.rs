@@ -45,7 +45,12 @@ pub fn temperature(cfg: &Temperature, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<
 /// Quasi-static load levels, each held `hold_s` and reached by a linear ramp of `ramp_s`
 /// from the previous level \[µε\].
 pub fn load_steps(cfg: &Strain, t_s: &[f64], seed: u64) -> Vec<f64> {
-    let mut rng = Rng::new(seed, Stream::LoadLevels);
+    load_steps_on(cfg, t_s, seed, Stream::LoadLevels)
+}
+
+/// [`load_steps`] drawn from the random stream `stream` (a second strain location has its own).
+pub fn load_steps_on(cfg: &Strain, t_s: &[f64], seed: u64, stream: Stream) -> Vec<f64> {
+    let mut rng = Rng::new(seed, stream);
     let t_end = t_s.last().copied().unwrap_or(0.0);
     let n_levels = (t_end / cfg.hold_s).floor() as usize + 2;
     let levels: Vec<f64> = (0..n_levels).map(|_| rng.uniform_in(cfg.level_lo_ue, cfg.level_hi_ue)).collect();
@@ -66,9 +71,14 @@ pub fn load_steps(cfg: &Strain, t_s: &[f64], seed: u64) -> Vec<f64> {
 
 /// ε(t) \[µε\]: load steps + two periodic loads + AR(1).
 pub fn strain(cfg: &Strain, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<f64> {
-    let mut rng = Rng::new(seed, Stream::Strain);
+    strain_on(cfg, t_s, dt_s, seed, (Stream::Strain, Stream::LoadLevels))
+}
+
+/// [`strain`] drawn from the random streams (AR(1), load levels) of one strain location.
+pub fn strain_on(cfg: &Strain, t_s: &[f64], dt_s: f64, seed: u64, (ar, levels): (Stream, Stream)) -> Vec<f64> {
+    let mut rng = Rng::new(seed, ar);
     let w = ar1(t_s.len(), cfg.ar_sigma_ue, cfg.ar_tau_s, dt_s, &mut rng);
-    let steps = load_steps(cfg, t_s, seed);
+    let steps = load_steps_on(cfg, t_s, seed, levels);
     t_s.iter()
         .zip(steps)
         .zip(w)

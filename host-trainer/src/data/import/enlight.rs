@@ -2,9 +2,9 @@
 //!
 //! Metadata lines may precede the table. Each data row is a timestamp, one peak count per
 //! channel, then that many wavelengths [nm] flattened channel by channel, so rows differ in
-//! length; cells are tab- or comma-separated. Peaks are assigned to the three gratings by the
-//! map's channel and wavelength window (a missing peak is a gap, never a shifted column), or
-//! without a map, each channel's peaks become gratings in order.
+//! length; cells are tab- or comma-separated. Peaks are assigned to the gratings (1 to 8) by
+//! the map's channel and wavelength window (a missing peak is a gap, never a shifted column),
+//! or without a map, each channel's peaks become gratings in order.
 
 use std::path::Path;
 
@@ -12,20 +12,21 @@ use super::mapping::Map;
 use super::problems::{OnError, Problems, Reason, RowError};
 use super::read_text;
 use super::time_axis::{TimeKind, TimeParser, TimeUnit};
+use crate::data::measurand::MAX_GRATINGS;
 use crate::data::units::{check_wavelength, WlUnit};
 use crate::error::TrainerError;
 
 /// Largest peak count a channel cell may hold.
 const MAX_PEAKS_PER_CHANNEL: usize = 1000;
 
-/// The peaks of one file, assigned to the three gratings.
+/// The peaks of one file, assigned to the gratings.
 pub(crate) struct PeaksFile {
     /// Physical line of each accepted row.
     pub lines: Vec<u64>,
     /// Time on the file's axis [s].
     pub t: Vec<f64>,
     /// Absolute wavelength [nm] per grating; NaN = gap.
-    pub nm: [Vec<f64>; 3],
+    pub nm: Vec<Vec<f64>>,
     pub channels: usize,
     pub delimiter: char,
     /// Lines before the first data row (metadata, column header).
@@ -33,7 +34,7 @@ pub(crate) struct PeaksFile {
     pub time_kind: TimeKind,
     pub absolute: bool,
     /// Where each grating comes from, in words.
-    pub layout: [String; 3],
+    pub layout: Vec<String>,
     /// Without a map: rows whose peak count on some channel differs from the usual one; that
     /// channel's gratings are gaps on those rows.
     pub unassigned_rows: usize,
@@ -122,7 +123,7 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
     let mut out_lines: Vec<u64> = Vec::new();
     let mut out_t: Vec<f64> = Vec::new();
     let mut raw: Vec<Vec<Vec<f64>>> = Vec::new();
-    let mut nm: [Vec<f64>; 3] = Default::default();
+    let mut nm: Vec<Vec<f64>> = vec![Vec::new(); windows.len()];
     let last_nonblank = lines.iter().rposition(|l| !l.trim().is_empty()).unwrap_or(0);
     for (i, l) in lines.iter().enumerate().skip(first) {
         if l.trim().is_empty() {
@@ -151,7 +152,7 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
                     ));
                 }
             }
-            let assigned = if windows.is_empty() { [f64::NAN; 3] } else { assign(&r, &windows, line)? };
+            let assigned = if windows.is_empty() { Vec::new() } else { assign(&r, &windows, line)? };
             Ok((r, assigned))
         });
         match row {
@@ -176,23 +177,24 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
     }
 
     let mut unassigned_rows = 0;
-    let layout: [String; 3] = if windows.is_empty() {
+    let layout: Vec<String> = if windows.is_empty() {
         // Each channel's usual peak count decides its gratings, in order.
         let usual: Vec<usize> = (0..channels).map(|c| mode(raw.iter().map(|r| r[c].len()))).collect();
         let gratings: Vec<(usize, usize)> = (0..channels).flat_map(|c| (0..usual[c]).map(move |k| (c, k))).collect();
-        if gratings.len() != 3 {
+        if gratings.is_empty() || gratings.len() > MAX_GRATINGS {
             let counts: Vec<String> = usual.iter().map(|n| n.to_string()).collect();
             return Err(TrainerError::data(
                 &name,
                 out_lines[0],
                 &format!("2-{} (peak counts)", channels + 1),
                 format!(
-                    "without --map each channel's peaks become gratings in order, and exactly three are needed; the rows usually hold {} = {} peaks: give a map with three [[grating]] entries (channel, window_nm)",
+                    "without --map each channel's peaks become gratings in order, and 1 to {MAX_GRATINGS} are supported; the rows usually hold {} = {} peaks: give a map with one [[grating]] entry (channel, window_nm) per grating",
                     counts.join("+"),
                     gratings.len()
                 ),
             ));
         }
+        nm = vec![Vec::with_capacity(raw.len()); gratings.len()];
         for r in &raw {
             let mut odd = false;
             for (g, &(c, k)) in gratings.iter().enumerate() {
@@ -202,15 +204,12 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
             }
             unassigned_rows += usize::from(odd);
         }
-        std::array::from_fn(|g| {
-            let (c, k) = gratings[g];
-            format!("channel {}, peak {} of {} (in order, no map)", c + 1, k + 1, usual[c])
-        })
+        gratings
+            .iter()
+            .map(|&(c, k)| format!("channel {}, peak {} of {} (in order, no map)", c + 1, k + 1, usual[c]))
+            .collect()
     } else {
-        std::array::from_fn(|g| {
-            let w = &windows[g];
-            format!("channel {}, window {}–{} nm", w.channel + 1, w.lo, w.hi)
-        })
+        windows.iter().map(|w| format!("channel {}, window {}–{} nm", w.channel + 1, w.lo, w.hi)).collect()
     };
 
     Ok(PeaksFile {
@@ -359,8 +358,8 @@ fn parse_row(
 }
 
 /// One peak per window: none is a gap, two are an error.
-fn assign(r: &RawRow, windows: &[super::mapping::Window], line: u64) -> Result<[f64; 3], RowError> {
-    let mut out = [f64::NAN; 3];
+fn assign(r: &RawRow, windows: &[super::mapping::Window], line: u64) -> Result<Vec<f64>, RowError> {
+    let mut out = vec![f64::NAN; windows.len()];
     for (g, w) in windows.iter().enumerate() {
         let inside: Vec<&(f64, usize)> = r.peaks[w.channel].iter().filter(|(v, _)| *v >= w.lo && *v <= w.hi).collect();
         match inside.as_slice() {

@@ -7,6 +7,7 @@ use super::mapping::{CsvGrating, Map, RefMap};
 use super::problems::{OnError, Problems, Reason, RowError};
 use super::time_axis::{parse_timestamp, TimeKind, TimeParser};
 use super::{number, read_text};
+use crate::data::measurand::{grating_column, parse_grating_column, Measurand, MAX_MEASURANDS};
 use crate::data::units::{absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, WlUnit};
 use crate::error::TrainerError;
 
@@ -14,8 +15,6 @@ use crate::error::TrainerError;
 const TIME_NAMES: [&str; 5] = ["t_s", "time", "timestamp", "datetime", "date_time"];
 /// Delimiters tried on the header line when the map names none.
 const DELIMITERS: [u8; 4] = [b',', b'\t', b';', b'|'];
-/// Default reference columns: the dataset's own names.
-const REF_DEFAULTS: [(&str, &str); 3] = [("temperature", "T_C"), ("strain", "strain_ue"), ("pressure", "p_kPa")];
 
 /// One value column as read: header name, map key and values (NaN where missing).
 #[derive(Clone, Debug)]
@@ -34,21 +33,24 @@ pub(crate) struct LoggerTable {
     pub time_kind: TimeKind,
     /// Calendar time (timestamps, or seconds with `time.start`).
     pub absolute: bool,
-    pub ambient: Column,
-    /// T, ε, p references where the file has them.
-    pub refs: [Option<Column>; 3],
-    /// Wavelengths per requested grating: absolute nm, or shift pm for shift units.
+    /// The ambient thermometer, where the file has one.
+    pub ambient: Option<Column>,
+    /// The references the file has (the map's, then columns named like dataset measurands).
+    pub refs: Vec<(Measurand, Column)>,
+    /// Wavelengths per grating: absolute nm, or shift pm for shift units.
     pub gratings: Vec<Column>,
+    /// The gratings read (the map's, or the file's `dl1_pm..dlN_pm`).
+    pub grating_specs: Vec<CsvGrating>,
     pub header_line: u64,
     pub problems: Problems,
 }
 
-/// Read `path` with `map`'s columns; `gratings` are the wavelength columns wanted (none for a
-/// refs file).
+/// Read `path` with `map`'s columns. `gratings`: the wavelength columns wanted (`None` for a
+/// refs file; an empty list takes the file's `dl1_pm..dlN_pm` columns as shifts in pm).
 pub(crate) fn read(
     path: &Path,
     map: &Map,
-    gratings: &[CsvGrating],
+    gratings: Option<&[CsvGrating]>,
     policy: OnError,
 ) -> Result<LoggerTable, TrainerError> {
     let name = path.display().to_string();
@@ -127,20 +129,71 @@ pub(crate) fn read(
     };
 
     let time_idx = time_names.iter().find_map(|n| find(n)).ok_or_else(|| missing(&time_names[0], "time.column"))?;
-    let default_ambient = RefMap { column: "T_amb_C".into(), gain: 1.0, offset: 0.0 };
-    let amb_map = map.ambient.as_ref().unwrap_or(&default_ambient);
-    let amb_idx = find(&amb_map.column).ok_or_else(|| missing(&amb_map.column, "ambient.column"))?;
-    let mut ref_cols: [Option<(usize, RefMap)>; 3] = [None, None, None];
-    for (c, r) in [&map.temperature, &map.strain, &map.pressure].into_iter().enumerate() {
-        ref_cols[c] = match r {
-            Some(r) => Some((
-                find(&r.column).ok_or_else(|| missing(&r.column, &format!("{}.column", REF_DEFAULTS[c].0)))?,
-                r.clone(),
-            )),
-            None => find(REF_DEFAULTS[c].1)
-                .map(|i| (i, RefMap { column: REF_DEFAULTS[c].1.into(), gain: 1.0, offset: 0.0 })),
-        };
+    // The ambient thermometer: the map's column (which must be there), else `T_amb_C` if the
+    // file has it; an installation without one has none.
+    let default_ambient = RefMap { column: crate::data::T_AMB_COLUMN.into(), gain: 1.0, offset: 0.0 };
+    let amb: Option<(usize, RefMap)> = match &map.ambient {
+        Some(a) => Some((find(&a.column).ok_or_else(|| missing(&a.column, "ambient.column"))?, a.clone())),
+        None => find(&default_ambient.column).map(|i| (i, default_ambient.clone())),
+    };
+    // The map's measurands (their columns must be there), then every column named like a
+    // dataset measurand (`T_C`, `strain2_ue`, ...) that the map does not already give.
+    let mut ref_cols: Vec<(Measurand, usize, RefMap)> = Vec::new();
+    for (m, r, key) in map.measurands() {
+        let i = find(&r.column).ok_or_else(|| missing(&r.column, &format!("{key}.column")))?;
+        ref_cols.push((m, i, r));
     }
+    for (i, h) in cols.iter().enumerate() {
+        if let Ok(Some(m)) = Measurand::parse(h) {
+            if !ref_cols.iter().any(|(o, oi, _)| *o == m || *oi == i) && amb.as_ref().is_none_or(|(a, _)| *a != i) {
+                ref_cols.push((m, i, RefMap { column: h.clone(), gain: 1.0, offset: 0.0 }));
+            }
+        }
+    }
+    ref_cols.sort_by_key(|(m, _, _)| *m);
+    if ref_cols.len() > MAX_MEASURANDS {
+        let names: Vec<String> = ref_cols.iter().map(|(m, i, _)| format!("{m} ← `{}`", cols[*i])).collect();
+        return Err(TrainerError::data(
+            &name,
+            header_line,
+            &cols[ref_cols[MAX_MEASURANDS].1],
+            format!(
+                "{} reference columns ({}); at most {MAX_MEASURANDS} measurands are supported",
+                ref_cols.len(),
+                names.join(", ")
+            ),
+        ));
+    }
+    // Without map gratings, the file's own dl1_pm..dlN_pm (shifts in pm).
+    let defaults: Vec<CsvGrating>;
+    let gratings: &[CsvGrating] = match gratings {
+        None => &[],
+        Some(g) if !g.is_empty() => g,
+        Some(_) => {
+            let mut found: Vec<usize> = Vec::new();
+            for h in &cols {
+                match parse_grating_column(h) {
+                    Ok(Some(g)) => found.push(g),
+                    Ok(None) => {}
+                    Err(e) => return Err(TrainerError::data(&name, header_line, h, format!("column `{h}`: {e}"))),
+                }
+            }
+            found.sort_unstable();
+            let n = found.iter().enumerate().take_while(|&(k, &g)| g == k + 1).count();
+            if n == 0 {
+                return Err(missing("dl1_pm", "grating[1].column (default `dl1_pm`, `dl2_pm`, ...)"));
+            }
+            defaults = (1..=n)
+                .map(|i| CsvGrating {
+                    column: grating_column(i),
+                    unit: WlUnit::ShiftPm,
+                    ref_nm: None,
+                    unit_key: format!("grating[{i}].unit"),
+                })
+                .collect();
+            &defaults
+        }
+    };
     let mut g_idx = Vec::with_capacity(gratings.len());
     for (i, g) in gratings.iter().enumerate() {
         let key = if map.grating.is_empty() {
@@ -161,11 +214,10 @@ pub(crate) fn read(
         time_column: cols[time_idx].clone(),
         time_kind: TimeKind::Seconds,
         absolute: false,
-        ambient: Column { name: cols[amb_idx].clone(), values: Vec::new() },
-        refs: std::array::from_fn(|c| {
-            ref_cols[c].as_ref().map(|(i, _)| Column { name: cols[*i].clone(), values: Vec::new() })
-        }),
+        ambient: amb.as_ref().map(|(i, _)| Column { name: cols[*i].clone(), values: Vec::new() }),
+        refs: ref_cols.iter().map(|(m, i, _)| (*m, Column { name: cols[*i].clone(), values: Vec::new() })).collect(),
         gratings: g_idx.iter().map(|&i| Column { name: cols[i].clone(), values: Vec::new() }).collect(),
+        grating_specs: gratings.to_vec(),
         header_line,
         problems: Problems::new(&name, policy),
     };
@@ -196,8 +248,7 @@ pub(crate) fn read(
             ))?;
             continue;
         }
-        let row =
-            parse_row(&rec, line, &cols, time_idx, &mut clock, (amb_idx, amb_map), &ref_cols, gratings, &g_idx, check);
+        let row = parse_row(&rec, line, &cols, time_idx, &mut clock, amb.as_ref(), &ref_cols, gratings, &g_idx, check);
         let row = row.and_then(|r| {
             if let (Some(&prev), Some(&prev_line)) = (out.t.last(), out.lines.last()) {
                 if r.t < prev {
@@ -223,11 +274,11 @@ pub(crate) fn read(
             Ok(r) => {
                 out.lines.push(line);
                 out.t.push(r.t);
-                out.ambient.values.push(r.ambient);
-                for c in 0..3 {
-                    if let Some(col) = &mut out.refs[c] {
-                        col.values.push(r.refs[c]);
-                    }
+                if let Some(a) = &mut out.ambient {
+                    a.values.push(r.ambient);
+                }
+                for ((_, col), v) in out.refs.iter_mut().zip(&r.refs) {
+                    col.values.push(*v);
                 }
                 for (col, v) in out.gratings.iter_mut().zip(&r.gratings) {
                     col.values.push(*v);
@@ -263,7 +314,7 @@ pub(crate) fn read(
 struct Row {
     t: f64,
     ambient: f64,
-    refs: [f64; 3],
+    refs: Vec<f64>,
     gratings: Vec<f64>,
 }
 
@@ -274,8 +325,8 @@ fn parse_row(
     cols: &[String],
     time_idx: usize,
     clock: &mut TimeParser,
-    (amb_idx, amb): (usize, &RefMap),
-    refs: &[Option<(usize, RefMap)>; 3],
+    amb: Option<&(usize, RefMap)>,
+    refs: &[(Measurand, usize, RefMap)],
     gratings: &[CsvGrating],
     g_idx: &[usize],
     check: bool,
@@ -296,21 +347,22 @@ fn parse_row(
     let bad = |i: usize, m: String| RowError::new(Reason::NonNumeric, line, &cols[i], m);
     let t = clock.parse(&rec[time_idx]).map_err(|m| bad(time_idx, m))?;
     let val = |i: usize| number(&rec[i]).map_err(|m| bad(i, m));
-    let ambient = match val(amb_idx)? {
-        Some(v) => {
-            let v = amb.gain * v + amb.offset;
-            if check {
-                check_ambient(v).map_err(|m| RowError::new(Reason::UnitMismatch, line, &cols[amb_idx], m))?;
+    let ambient = match amb {
+        Some((amb_idx, amb)) => match val(*amb_idx)? {
+            Some(v) => {
+                let v = amb.gain * v + amb.offset;
+                if check {
+                    check_ambient(v).map_err(|m| RowError::new(Reason::UnitMismatch, line, &cols[*amb_idx], m))?;
+                }
+                v
             }
-            v
-        }
+            None => f64::NAN,
+        },
         None => f64::NAN,
     };
-    let mut r = [f64::NAN; 3];
-    for (c, spec) in refs.iter().enumerate() {
-        if let Some((i, m)) = spec {
-            r[c] = val(*i)?.map_or(f64::NAN, |v| m.gain * v + m.offset);
-        }
+    let mut r = Vec::with_capacity(refs.len());
+    for (_, i, m) in refs {
+        r.push(val(*i)?.map_or(f64::NAN, |v| m.gain * v + m.offset));
     }
     let mut g = Vec::with_capacity(gratings.len());
     for (spec, &i) in gratings.iter().zip(g_idx) {

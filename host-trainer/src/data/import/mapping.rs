@@ -2,9 +2,11 @@
 //!
 //! One map format serves both importers. The top-level keys describe a CSV file (the logger
 //! file of `--format csv`, or the `--refs` file of `--format enlight`): `[time]`, `[ambient]`,
-//! `[temperature]`, `[strain]`, `[pressure]`, `delimiter`, `header_lines`. `[[grating]]` (three
-//! of them, for dl1..dl3) says where each grating's wavelength is: a `column` and `unit` for a
-//! CSV, a `channel` and `window_nm` for ENLIGHT. `[enlight]` holds the peaks file's own
+//! `[temperature]`, `[strain]`, `[pressure]` (the measurands `T_C`, `strain_ue`, `p_kPa`),
+//! `[[measurand]]` (any measurand by its column name, e.g. `strain2_ue`), `delimiter`,
+//! `header_lines`. `[[grating]]` (one to eight of them, for dl1..dlN) says where each
+//! grating's wavelength is: a `column` and `unit` for a CSV, a `channel` and `window_nm` for
+//! ENLIGHT. `[enlight]` holds the peaks file's own
 //! settings, `max_gap_s` the join of references onto peak times. See README.md, "Real data:
 //! import and field recalibration".
 
@@ -13,6 +15,7 @@ use std::path::Path;
 use serde::Deserialize;
 
 use super::time_axis::{parse_timestamp, TimeUnit};
+use crate::data::measurand::{Measurand, MAX_GRATINGS, MAX_MEASURANDS};
 use crate::data::units::{WlUnit, NM_RANGE};
 use crate::error::{line_col, TrainerError};
 
@@ -34,7 +37,8 @@ pub struct Map {
     pub max_gap_s: Option<f64>,
     #[serde(default)]
     pub time: TimeMap,
-    /// Interrogator ambient temperature [°C] (required, in the file or the refs).
+    /// Interrogator ambient temperature [°C]. Default: the column `T_amb_C` when there is
+    /// one; an installation without an ambient thermometer has none.
     pub ambient: Option<RefMap>,
     /// Reference temperature [°C] (thermocouple, PT100, ...).
     pub temperature: Option<RefMap>,
@@ -42,7 +46,11 @@ pub struct Map {
     pub strain: Option<RefMap>,
     /// Reference pressure \[kPa\].
     pub pressure: Option<RefMap>,
-    /// The three gratings, for dl1_pm, dl2_pm, dl3_pm in that order.
+    /// Further measurands by name (`strain2_ue`, `T2_C`, ...; also `T_C` etc. instead of the
+    /// tables above).
+    #[serde(default)]
+    pub measurand: Vec<MeasurandMap>,
+    /// The gratings (1 to 8), for dl1_pm, dl2_pm, ... in that order.
     #[serde(default)]
     pub grating: Vec<GratingMap>,
     #[serde(default)]
@@ -79,6 +87,19 @@ pub struct RefMap {
 
 fn one() -> f64 {
     1.0
+}
+
+/// A measurand named by its dataset column: value = gain × cell + offset.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasurandMap {
+    /// The dataset column it becomes: `T_C`, `T2_C`, `strain_ue`, `strain2_ue`, `p_kPa`, ...
+    pub name: Measurand,
+    pub column: String,
+    #[serde(default = "one")]
+    pub gain: f64,
+    #[serde(default)]
+    pub offset: f64,
 }
 
 /// One grating.
@@ -187,26 +208,31 @@ impl Map {
                 return Err(err("max_gap_s".into(), format!("{g} is not a positive number of seconds")));
             }
         }
-        for (name, r) in [
-            ("ambient", &self.ambient),
-            ("temperature", &self.temperature),
-            ("strain", &self.strain),
-            ("pressure", &self.pressure),
-        ] {
-            if let Some(r) = r {
-                if !(r.gain.is_finite() && r.gain != 0.0) {
-                    return Err(err(format!("{name}.gain"), format!("{} is not a finite, non-zero gain", r.gain)));
-                }
-                if !r.offset.is_finite() {
-                    return Err(err(format!("{name}.offset"), format!("{} is not finite", r.offset)));
-                }
+        let ambient = self.ambient.as_ref().map(|r| ("ambient".to_string(), r.gain, r.offset));
+        for (name, gain, offset) in
+            ambient.into_iter().chain(self.measurands().into_iter().map(|(_, r, k)| (k, r.gain, r.offset)))
+        {
+            if !(gain.is_finite() && gain != 0.0) {
+                return Err(err(format!("{name}.gain"), format!("{gain} is not a finite, non-zero gain")));
+            }
+            if !offset.is_finite() {
+                return Err(err(format!("{name}.offset"), format!("{offset} is not finite")));
             }
         }
-        if !self.grating.is_empty() && self.grating.len() != 3 {
+        let ms = self.measurands();
+        for (i, (m, _, key)) in ms.iter().enumerate() {
+            if let Some((_, _, first)) = ms[..i].iter().find(|(o, _, _)| o == m) {
+                return Err(err(format!("{key}.name"), format!("`{m}` is mapped twice (also by `{first}`)")));
+            }
+        }
+        if ms.len() > MAX_MEASURANDS {
+            return Err(err("measurand".into(), format!("{} measurands; at most {MAX_MEASURANDS}", ms.len())));
+        }
+        if self.grating.len() > MAX_GRATINGS {
             return Err(err(
                 "grating".into(),
                 format!(
-                    "{} [[grating]] entries; exactly three are needed (dl1_pm, dl2_pm, dl3_pm, in that order)",
+                    "{} [[grating]] entries; 1 to {MAX_GRATINGS} are supported (dl1_pm, dl2_pm, ..., in that order)",
                     self.grating.len()
                 ),
             ));
@@ -308,18 +334,28 @@ impl Map {
         Ok(())
     }
 
-    /// The CSV gratings after defaults (`dl1_pm`..`dl3_pm` in pm shifts).
-    pub(crate) fn csv_gratings(&self) -> Vec<CsvGrating> {
-        if self.grating.is_empty() {
-            return (1..=3)
-                .map(|i| CsvGrating {
-                    column: format!("dl{i}_pm"),
-                    unit: WlUnit::ShiftPm,
-                    ref_nm: None,
-                    unit_key: format!("grating[{i}].unit"),
-                })
-                .collect();
+    /// The measurands the map names: the `[temperature]`, `[strain]`, `[pressure]` tables and
+    /// every `[[measurand]]`, with the map key of each.
+    pub(crate) fn measurands(&self) -> Vec<(Measurand, RefMap, String)> {
+        let mut out = Vec::new();
+        for (name, m, r) in [
+            ("temperature", Measurand::T, &self.temperature),
+            ("strain", Measurand::STRAIN, &self.strain),
+            ("pressure", Measurand::P, &self.pressure),
+        ] {
+            if let Some(r) = r {
+                out.push((m, r.clone(), name.to_string()));
+            }
         }
+        for (i, x) in self.measurand.iter().enumerate() {
+            let r = RefMap { column: x.column.clone(), gain: x.gain, offset: x.offset };
+            out.push((x.name, r, format!("measurand[{}]", i + 1)));
+        }
+        out
+    }
+
+    /// The CSV gratings the map lists (empty: the file's `dl1_pm..dlN_pm` columns in pm shifts).
+    pub(crate) fn csv_gratings(&self) -> Vec<CsvGrating> {
         self.grating
             .iter()
             .enumerate()
@@ -360,9 +396,20 @@ mod tests {
 
     #[test]
     fn map_errors_name_the_key() {
-        let m = Map::from_toml_str("[[grating]]\ncolumn = \"a\"\nunit = \"nm\"\n", "m.toml").unwrap();
+        let m = Map::from_toml_str("[[grating]]\nchannel = 1\nunit = \"nm\"\n", "m.toml").unwrap();
         let e = m.validate("m.toml", For::Csv).unwrap_err().to_string();
-        assert!(e.contains("m.toml") && e.contains("grating"), "{e}");
+        assert!(e.contains("m.toml") && e.contains("grating[1].channel"), "{e}");
+        let m = Map::from_toml_str("[[grating]]\ncolumn = \"a\"\nunit = \"nm\"\n", "m.toml").unwrap();
+        assert!(m.validate("m.toml", For::Csv).is_ok());
+        let nine = "[[grating]]\ncolumn = \"a\"\nunit = \"nm\"\n".repeat(9);
+        let e = Map::from_toml_str(&nine, "m.toml").unwrap().validate("m.toml", For::Csv).unwrap_err().to_string();
+        assert!(e.contains("9 [[grating]]"), "{e}");
+        let twice = "[strain]\ncolumn = \"a\"\n[[measurand]]\nname = \"strain_ue\"\ncolumn = \"b\"\n";
+        let e = Map::from_toml_str(twice, "m.toml").unwrap().validate("m.toml", For::Csv).unwrap_err().to_string();
+        assert!(e.contains("measurand[1].name") && e.contains("twice"), "{e}");
+        let e =
+            Map::from_toml_str("[[measurand]]\nname = \"T1_C\"\ncolumn = \"b\"\n", "m.toml").unwrap_err().to_string();
+        assert!(e.contains("T1_C") && e.contains("line 2"), "{e}");
         let e = Map::from_toml_str("[time]\ncolum = \"x\"\n", "m.toml").unwrap_err().to_string();
         assert!(e.contains("line 2") && e.contains("colum"), "{e}");
     }

@@ -1,9 +1,13 @@
 //! `fbg-trainer import`: real interrogator exports into the dataset CSV of DESIGN §3.
 //!
-//! - `--format enlight`: a Micron Optics ENLIGHT / Hyperion peaks export (`enlight.rs`) plus a
-//!   `--refs` CSV with the ambient temperature and the references, joined onto the peak times
-//!   by linear interpolation (`join.rs`);
+//! - `--format enlight`: a Micron Optics ENLIGHT / Hyperion peaks export (`enlight.rs`),
+//!   optionally with a `--refs` CSV holding the ambient temperature and the references, joined
+//!   onto the peak times by linear interpolation (`join.rs`);
 //! - `--format csv`: any logger CSV whose columns a map names (`logger_csv.rs`).
+//!
+//! Both take 1 to 8 gratings and up to 4 measurands. References and the ambient thermometer are
+//! optional: a record without references is imported row for row (every row kept, gaps as
+//! gaps) for `compensate`, not for training, and the summary says so.
 //!
 //! The map is described in [`mapping`]. Bad rows are an error naming file, line and column, or
 //! counted skips ([`problems`]); the output is written atomically (`Dataset::write_csv`).
@@ -19,7 +23,8 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::data::{Dataset, Split};
+use crate::data::measurand::{grating_column, Measurand};
+use crate::data::{Dataset, Reference, Split, T_AMB_COLUMN};
 use crate::error::TrainerError;
 pub use mapping::Map;
 pub use problems::{FileSkips, OnError, Reason, ReasonCount};
@@ -91,7 +96,7 @@ pub struct Dropped {
 #[derive(Clone, Debug, Serialize)]
 pub struct GratingSummary {
     /// Output column (`dl1_pm`, ...).
-    pub output: &'static str,
+    pub output: String,
     /// Where it comes from (column and unit, or channel and window).
     pub source: String,
     /// Reference wavelength \[nm\] the shift is taken from (absent for shift columns).
@@ -114,16 +119,43 @@ pub struct RefSummary {
     pub values: usize,
 }
 
-/// The ambient temperature and the references found.
-#[derive(Clone, Debug, Serialize)]
+/// The ambient temperature and the references found. In JSON, one key per dataset column:
+/// `T_amb_C` (null without a thermometer) and each measurand found (`T_C`, `strain2_ue`, ...).
+#[derive(Clone, Debug)]
 pub struct References {
-    #[serde(rename = "T_amb_C")]
-    pub t_amb_c: RefSummary,
-    #[serde(rename = "T_C")]
-    pub temp_c: Option<RefSummary>,
-    pub strain_ue: Option<RefSummary>,
-    #[serde(rename = "p_kPa")]
-    pub p_kpa: Option<RefSummary>,
+    /// The ambient thermometer, if the record has one.
+    pub ambient: Option<RefSummary>,
+    /// The measurands found, in canonical order.
+    pub measurands: Vec<(Measurand, RefSummary)>,
+}
+
+impl References {
+    /// The source of measurand `m`, if found.
+    pub fn get(&self, m: Measurand) -> Option<&RefSummary> {
+        self.measurands.iter().find(|(x, _)| *x == m).map(|(_, r)| r)
+    }
+}
+
+impl Serialize for References {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut map = s.serialize_map(Some(1 + self.measurands.len()))?;
+        map.serialize_entry(T_AMB_COLUMN, &self.ambient)?;
+        for (m, r) in &self.measurands {
+            map.serialize_entry(&m.column(), r)?;
+        }
+        map.end()
+    }
+}
+
+/// What the imported record is good for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Purpose {
+    /// References present: `train`, `evaluate` (and `compensate`, which also scores).
+    Training,
+    /// No references: every row kept, for `compensate` only.
+    Compensation,
 }
 
 /// The written record's time span.
@@ -188,11 +220,15 @@ pub struct ImportSummary {
     pub rows_skipped: usize,
     /// Bad rows per file (the input, then the refs) and reason.
     pub skipped: Vec<FileSkips>,
+    /// What the record is for: training (references present) or compensation (none; every
+    /// row kept).
+    pub purpose: Purpose,
     /// Rows without an ambient temperature (outside the refs, or in a gap longer than
-    /// max_gap_s, or an empty ambient cell).
+    /// max_gap_s, or an empty ambient cell) — dropped only from a record with references and
+    /// an ambient thermometer.
     pub dropped_no_ambient: Dropped,
-    /// Gaps per grating (dl1..dl3).
-    pub gaps: [usize; 3],
+    /// Gaps per grating (dl1..dlN).
+    pub gaps: Vec<usize>,
     pub gratings: Vec<GratingSummary>,
     pub references: References,
     pub time: TimeSummary,
@@ -237,9 +273,10 @@ pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerE
                 });
             }
             let gratings = m.csv_gratings();
-            let tab = logger_csv::read(&opts.input, m, &gratings, opts.on_error)?;
+            let tab = logger_csv::read(&opts.input, m, Some(&gratings), opts.on_error)?;
             let n = tab.t.len();
             let skips = vec![tab.problems.summary()];
+            let specs = &tab.grating_specs;
             Merged {
                 input: input_name.clone(),
                 lines: tab.lines,
@@ -247,104 +284,114 @@ pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerE
                 kind: tab.time_kind,
                 absolute: tab.absolute,
                 time_column: tab.time_column,
-                ambient: tab.ambient.values,
-                ambient_column: tab.ambient.name,
-                refs: tab.refs.map(|c| c.map(|c| (c.name, c.values))),
-                wl: std::array::from_fn(|g| tab.gratings[g].values.clone()),
-                is_shift: std::array::from_fn(|g| gratings[g].unit.is_shift()),
-                ref_nm: std::array::from_fn(|g| gratings[g].ref_nm),
-                sources: std::array::from_fn(|g| {
-                    format!("column `{}` ({})", tab.gratings[g].name, gratings[g].unit.name())
-                }),
+                empty_hint: format!(
+                    "{input_name}: every row lacks an ambient temperature (column `{}`)",
+                    tab.ambient.as_ref().map_or(T_AMB_COLUMN, |a| a.name.as_str())
+                ),
+                ambient: tab.ambient.map(|a| (a.name, a.values)),
+                refs: tab.refs.into_iter().map(|(m, c)| (m, c.name, c.values)).collect(),
+                is_shift: specs.iter().map(|g| g.unit.is_shift()).collect(),
+                ref_nm: specs.iter().map(|g| g.ref_nm).collect(),
+                sources: tab
+                    .gratings
+                    .iter()
+                    .zip(specs)
+                    .map(|(c, g)| format!("column `{}` ({})", c.name, g.unit.name()))
+                    .collect(),
+                wl: tab.gratings.into_iter().map(|c| c.values).collect(),
                 rows_read: skips[0].rows_read,
                 skips,
                 enlight: None,
                 join: None,
-                refs_header: (input_name.clone(), tab.header_line),
-                empty_hint: format!(
-                    "{input_name}: every row lacks an ambient temperature (column `{}`)",
-                    m.ambient.as_ref().map_or("T_amb_C", |a| a.column.as_str())
-                ),
                 n_before_drop: n,
             }
         }
         Format::Enlight => {
-            let Some(refs_path) = &opts.refs else {
-                return Err(TrainerError::Config {
-                    origin: input_name,
-                    key: "--refs".into(),
-                    message: "ENLIGHT exports carry no ambient temperature and no reference measurements: give them with --refs REFS, a CSV read with the same column mapping as --format csv (time, T_amb_C, and T_C / strain_ue / p_kPa, or the columns the map names), joined onto the peak times by linear interpolation".into(),
-                });
-            };
             let peaks =
                 enlight::read(&opts.input, map.as_ref(), map_origin.as_deref().unwrap_or("map"), opts.on_error)?;
-            let refs = logger_csv::read(refs_path, m, &[], opts.on_error)?;
-            let refs_name = refs_path.display().to_string();
-            if peaks.absolute != refs.absolute {
-                let (p, r) = (kind_words(peaks.absolute), kind_words(refs.absolute));
-                let fix = if refs.absolute {
-                    "export the peaks with timestamps"
-                } else {
-                    "set the map key time.start to the timestamp of t = 0 in the refs (or export the refs with timestamps)"
-                };
-                return Err(TrainerError::data(
-                    &refs_name,
-                    refs.header_line,
-                    &refs.time_column,
-                    format!("the peaks file's times are {p} but the refs' time column holds {r}, so they cannot be joined: {fix}"),
-                ));
-            }
-            let (max_gap_s, max_gap_source) = match m.max_gap_s {
-                Some(g) => (g, "map".to_string()),
-                None => (3.0 * join::median_spacing(&refs.t), "3 × median refs spacing".to_string()),
-            };
-            let at = |v: &[f64]| {
-                let s = join::Series::new(&refs.t, v);
-                peaks.t.iter().map(|&t| s.at(t, max_gap_s)).collect::<Vec<f64>>()
-            };
-            let show = |t: f64| if peaks.absolute { format_timestamp(t) } else { format!("{t} s") };
-            let join = JoinInfo {
-                max_gap_s,
-                max_gap_source,
-                refs_rows: refs.t.len(),
-                refs_start: show(refs.t[0]),
-                refs_end: show(refs.t[refs.t.len() - 1]),
-            };
-            let empty_hint = format!(
-                "{input_name}: no peak row has an ambient temperature from {refs_name}: the peaks span {} – {}, the refs {} – {} (max_gap_s = {max_gap_s})",
-                show(peaks.t[0]),
-                show(peaks.t[peaks.t.len() - 1]),
-                join.refs_start,
-                join.refs_end
-            );
             let window_map = map.as_ref().is_some_and(|m| !m.grating.is_empty());
-            Merged {
+            let n_g = peaks.nm.len();
+            let mut merged = Merged {
                 input: input_name.clone(),
                 lines: peaks.lines.clone(),
                 t: peaks.t.clone(),
                 kind: peaks.time_kind,
                 absolute: peaks.absolute,
                 time_column: "1 (time)".into(),
-                ambient: at(&refs.ambient.values),
-                ambient_column: refs.ambient.name.clone(),
-                refs: std::array::from_fn(|c| refs.refs[c].as_ref().map(|col| (col.name.clone(), at(&col.values)))),
+                ambient: None,
+                refs: Vec::new(),
                 wl: peaks.nm.clone(),
-                is_shift: [false; 3],
-                ref_nm: std::array::from_fn(|g| if window_map { m.grating[g].ref_nm } else { None }),
+                is_shift: vec![false; n_g],
+                ref_nm: (0..n_g).map(|g| if window_map { m.grating[g].ref_nm } else { None }).collect(),
                 sources: peaks.layout.clone(),
                 rows_read: peaks.problems.rows_read,
-                skips: vec![peaks.problems.summary(), refs.problems.summary()],
+                skips: vec![peaks.problems.summary()],
                 enlight: Some(EnlightInfo {
                     channels: peaks.channels,
                     delimiter: if peaks.delimiter == '\t' { "tab".into() } else { peaks.delimiter.to_string() },
                     metadata_lines: peaks.metadata_lines,
                     unassigned_rows: peaks.unassigned_rows,
                 }),
-                join: Some(join),
-                refs_header: (refs_name, refs.header_line),
-                empty_hint,
+                join: None,
+                empty_hint: String::new(),
                 n_before_drop: peaks.t.len(),
+            };
+            // ENLIGHT files carry no ambient temperature and no references: they come from
+            // --refs when the installation has them; without, the peaks are a field record.
+            if let Some(refs_path) = &opts.refs {
+                let refs = logger_csv::read(refs_path, m, None, opts.on_error)?;
+                let refs_name = refs_path.display().to_string();
+                if refs.ambient.is_none() && refs.refs.is_empty() {
+                    return Err(TrainerError::data(
+                        &refs_name,
+                        refs.header_line,
+                        T_AMB_COLUMN,
+                        "the refs file has neither an ambient temperature (T_amb_C, or the map's [ambient]) nor a reference column (T_C, strain_ue, p_kPa, strain2_ue, ..., or the map's [temperature], [strain], [pressure], [[measurand]]): nothing to join",
+                    ));
+                }
+                if peaks.absolute != refs.absolute {
+                    let (p, r) = (kind_words(peaks.absolute), kind_words(refs.absolute));
+                    let fix = if refs.absolute {
+                        "export the peaks with timestamps"
+                    } else {
+                        "set the map key time.start to the timestamp of t = 0 in the refs (or export the refs with timestamps)"
+                    };
+                    return Err(TrainerError::data(
+                        &refs_name,
+                        refs.header_line,
+                        &refs.time_column,
+                        format!("the peaks file's times are {p} but the refs' time column holds {r}, so they cannot be joined: {fix}"),
+                    ));
+                }
+                let (max_gap_s, max_gap_source) = match m.max_gap_s {
+                    Some(g) => (g, "map".to_string()),
+                    None => (3.0 * join::median_spacing(&refs.t), "3 × median refs spacing".to_string()),
+                };
+                let at = |v: &[f64]| {
+                    let s = join::Series::new(&refs.t, v);
+                    peaks.t.iter().map(|&t| s.at(t, max_gap_s)).collect::<Vec<f64>>()
+                };
+                let show = |t: f64| if peaks.absolute { format_timestamp(t) } else { format!("{t} s") };
+                let join = JoinInfo {
+                    max_gap_s,
+                    max_gap_source,
+                    refs_rows: refs.t.len(),
+                    refs_start: show(refs.t[0]),
+                    refs_end: show(refs.t[refs.t.len() - 1]),
+                };
+                merged.empty_hint = format!(
+                    "{input_name}: no peak row has an ambient temperature from {refs_name}: the peaks span {} – {}, the refs {} – {} (max_gap_s = {max_gap_s})",
+                    show(peaks.t[0]),
+                    show(peaks.t[peaks.t.len() - 1]),
+                    join.refs_start,
+                    join.refs_end
+                );
+                merged.ambient = refs.ambient.as_ref().map(|a| (a.name.clone(), at(&a.values)));
+                merged.refs = refs.refs.iter().map(|(mm, c)| (*mm, c.name.clone(), at(&c.values))).collect();
+                merged.skips.push(refs.problems.summary());
+                merged.join = Some(join);
             }
+            merged
         }
     };
     refuse_too_many_skipped(&merged.skips, opts.max_skipped)?;
@@ -399,43 +446,39 @@ struct Merged {
     kind: TimeKind,
     absolute: bool,
     time_column: String,
-    ambient: Vec<f64>,
-    ambient_column: String,
-    refs: [Option<(String, Vec<f64>)>; 3],
-    /// Absolute nm, or shift pm where `is_shift`.
-    wl: [Vec<f64>; 3],
-    is_shift: [bool; 3],
-    ref_nm: [Option<f64>; 3],
-    sources: [String; 3],
+    /// The ambient thermometer (source column, values), if the record has one.
+    ambient: Option<(String, Vec<f64>)>,
+    /// The references (measurand, source column, values), in canonical order.
+    refs: Vec<(Measurand, String, Vec<f64>)>,
+    /// Absolute nm, or shift pm where `is_shift`; one per grating.
+    wl: Vec<Vec<f64>>,
+    is_shift: Vec<bool>,
+    ref_nm: Vec<Option<f64>>,
+    sources: Vec<String>,
     rows_read: usize,
     skips: Vec<FileSkips>,
     enlight: Option<EnlightInfo>,
     join: Option<JoinInfo>,
-    /// File and header line that should have had a reference column.
-    refs_header: (String, u64),
     /// Error when no row has an ambient temperature.
     empty_hint: String,
     n_before_drop: usize,
 }
 
-/// Drop rows without ambient temperature, take shifts, build the dataset and its split.
+/// Drop rows without ambient temperature (from a record with references), take shifts, build
+/// the dataset and its split.
 fn finish(
     m: Merged,
     opts: &ImportOptions,
     map_origin: Option<String>,
 ) -> Result<(Dataset, ImportSummary), TrainerError> {
-    if m.refs.iter().all(Option::is_none) {
-        let (file, line) = &m.refs_header;
-        return Err(TrainerError::data(
-            file,
-            *line,
-            "T_C",
-            "no reference column (T_C, strain_ue or p_kPa, or the map's [temperature], [strain], [pressure]): nothing to calibrate against",
-        ));
-    }
-    let keep: Vec<usize> = (0..m.n_before_drop).filter(|&i| m.ambient[i].is_finite()).collect();
+    // A record with references is for training: a row without its ambient reading cannot be
+    // fitted and is dropped (counted). A record without references is for `compensate`: every
+    // row is kept, a missing ambient reading a gap like a missing peak.
+    let purpose = if m.refs.is_empty() { Purpose::Compensation } else { Purpose::Training };
+    let drops = |i: usize| purpose == Purpose::Training && m.ambient.as_ref().is_some_and(|(_, a)| !a[i].is_finite());
+    let keep: Vec<usize> = (0..m.n_before_drop).filter(|&i| !drops(i)).collect();
     let mut dropped = Dropped::default();
-    for i in (0..m.n_before_drop).filter(|&i| !m.ambient[i].is_finite()) {
+    for i in (0..m.n_before_drop).filter(|&i| drops(i)) {
         dropped.count += 1;
         if dropped.first_lines.len() < problems::FIRST_LINES {
             dropped.first_lines.push(m.lines[i]);
@@ -459,9 +502,10 @@ fn finish(
         }
     }
 
-    let mut dl: [Vec<f64>; 3] = Default::default();
-    let mut gratings = Vec::with_capacity(3);
-    for g in 0..3 {
+    let n_g = m.wl.len();
+    let mut dl: Vec<Vec<f64>> = Vec::with_capacity(n_g);
+    let mut gratings = Vec::with_capacity(n_g);
+    for g in 0..n_g {
         let v = pick(&m.wl[g]);
         let (ref_nm, ref_source) = if m.is_shift[g] {
             (None, "shifts in the file".to_string())
@@ -473,35 +517,32 @@ fn finish(
                 None => (None, "no reading".to_string()),
             }
         };
-        dl[g] = match ref_nm {
+        let shifts: Vec<f64> = match ref_nm {
             Some(r) => v.iter().map(|&x| (x - r) * 1e3).collect(),
             None => v,
         };
-        let finite = dl[g].iter().copied().filter(|x| x.is_finite());
+        let finite = shifts.iter().copied().filter(|x| x.is_finite());
         let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
         gratings.push(GratingSummary {
-            output: ["dl1_pm", "dl2_pm", "dl3_pm"][g],
+            output: grating_column(g + 1),
             source: m.sources[g].clone(),
             ref_nm,
             ref_source,
-            gaps: dl[g].iter().filter(|x| !x.is_finite()).count(),
+            gaps: shifts.iter().filter(|x| !x.is_finite()).count(),
             min_pm: lo.is_finite().then_some(lo),
             max_pm: hi.is_finite().then_some(hi),
         });
+        dl.push(shifts);
     }
     let n = keep.len();
-    let refs: [Vec<f64>; 3] =
-        std::array::from_fn(|c| m.refs[c].as_ref().map_or_else(|| vec![f64::NAN; n], |(_, v)| pick(v)));
     let mut d = Dataset {
         t_s,
-        temp_c: refs[0].clone(),
-        strain_ue: refs[1].clone(),
-        p_kpa: refs[2].clone(),
-        t_amb_c: pick(&m.ambient),
+        refs: m.refs.iter().map(|(measurand, _, v)| Reference { measurand: *measurand, values: pick(v) }).collect(),
+        t_amb_c: m.ambient.as_ref().map(|(_, a)| pick(a)),
         dl_pm: dl,
         split: vec![Split::Cal; n],
-        has_target: std::array::from_fn(|c| m.refs[c].is_some()),
     };
+    d.sort_refs();
 
     let (rule, cal_until_s) = match &opts.split {
         SplitChoice::Fraction(f) => {
@@ -556,13 +597,15 @@ fn finish(
         median_dt_s: join::median_spacing(&d.t_s),
     };
     let count = |v: &[f64]| v.iter().filter(|x| x.is_finite()).count();
-    let ref_summary =
-        |c: usize| m.refs[c].as_ref().map(|(name, _)| RefSummary { column: name.clone(), values: count(d.target(c)) });
+    let mut found: Vec<(Measurand, RefSummary)> = m
+        .refs
+        .iter()
+        .map(|(mm, name, _)| (*mm, RefSummary { column: name.clone(), values: d.reference(*mm).map_or(0, count) }))
+        .collect();
+    found.sort_by_key(|(mm, _)| *mm);
     let references = References {
-        t_amb_c: RefSummary { column: m.ambient_column.clone(), values: n },
-        temp_c: ref_summary(0),
-        strain_ue: ref_summary(1),
-        p_kpa: ref_summary(2),
+        ambient: m.ambient.as_ref().map(|(name, _)| RefSummary { column: name.clone(), values: count(d.ambient()) }),
+        measurands: found,
     };
     let summary = ImportSummary {
         format: opts.format,
@@ -574,8 +617,9 @@ fn finish(
         rows_written: n,
         rows_skipped: m.skips[0].rows_skipped,
         skipped: m.skips,
+        purpose,
         dropped_no_ambient: dropped,
-        gaps: std::array::from_fn(|g| gratings[g].gaps),
+        gaps: gratings.iter().map(|g| g.gaps).collect(),
         gratings,
         references,
         time,
@@ -646,17 +690,19 @@ impl ImportSummary {
             s.push_str(&format!("  {}: {}; {r}; {range}; {} gaps\n", g.output, g.source, g.gaps));
         }
         let r = &self.references;
-        let show = |name: &str, x: &Option<RefSummary>| match x {
-            Some(x) => format!("{name} ← `{}` ({} values)", x.column, x.values),
-            None => format!("{name} absent (not fitted)"),
+        let ambient = match &r.ambient {
+            Some(a) => format!("T_amb_C ← `{}` ({} values)", a.column, a.values),
+            None => "no ambient thermometer (no T_amb_C column)".to_string(),
         };
-        s.push_str(&format!(
-            "  references: T_amb_C ← `{}`; {}; {}; {}\n",
-            r.t_amb_c.column,
-            show("T_C", &r.temp_c),
-            show("strain_ue", &r.strain_ue),
-            show("p_kPa", &r.p_kpa)
-        ));
+        let refs: Vec<String> =
+            r.measurands.iter().map(|(m, x)| format!("{m} ← `{}` ({} values)", x.column, x.values)).collect();
+        let refs = if refs.is_empty() { "no references".to_string() } else { refs.join("; ") };
+        s.push_str(&format!("  references: {ambient}; {refs}\n"));
+        if self.purpose == Purpose::Compensation {
+            s.push_str(
+                "  no reference columns: imported row for row (every row kept, gaps as gaps) — a field record for `fbg-trainer compensate`, not for training\n",
+            );
+        }
         if let Some(j) = &self.join {
             s.push_str(&format!(
                 "  refs joined by linear interpolation, max gap {} s ({}); refs {} – {}, {} rows\n",
