@@ -75,11 +75,7 @@ impl Dataset {
     }
     /// The model inputs of sample `i`.
     pub fn sample(&self, i: usize) -> Sample<f64> {
-        Sample {
-            dl_pm: [self.dl_pm[0][i], self.dl_pm[1][i], self.dl_pm[2][i]],
-            t_amb_c: self.t_amb_c[i],
-            t_s: self.t_s[i],
-        }
+        Sample::new([self.dl_pm[0][i], self.dl_pm[1][i], self.dl_pm[2][i]], self.t_amb_c[i], self.t_s[i])
     }
     /// The reference measurands (T, ε, p) of sample `i`.
     pub fn truth(&self, i: usize) -> [f64; 3] {
