@@ -178,11 +178,15 @@ impl<'de, F: Real + Deserialize<'de>> Deserialize<'de> for Estimate<F> {
     }
 }
 
+/// RBF inputs in per-sample form: [`MAX_Z`] rounded up to whole groups of four, so that the
+/// distance runs four inputs at a time (the padding is zero in both z and μ: exact).
+const ZP: usize = MAX_Z.div_ceil(4) * 4;
+
 /// A centre in per-sample form.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct PreparedCentre<F> {
     /// −2μ_j/(σ√2) (0 on unused inputs): ‖z − μ‖² = ‖z‖² + ‖μ‖² + z·(−2μ) in scaled units.
-    m2: [F; MAX_Z],
+    m2: [F; ZP],
     /// ‖μ_j/(σ√2)‖².
     mu_sq: F,
     w: [F; MAX_OUTPUTS],
@@ -231,11 +235,13 @@ pub struct Compensator<F, const K: usize> {
     n_poly: u8,
     /// RBF inputs (used or not).
     n_z: u8,
+    /// Groups of four RBF inputs that hold them.
+    z_groups: u8,
     /// Stage-1 rows producing *standardised* guesses.
     a: [[F; MAX_STAGE1]; MAX_OUTPUTS],
     b: [[F; MAX_POLY]; MAX_OUTPUTS],
-    /// Γ (output units per memory-term unit).
-    gamma: [[F; MAX_MEMORY]; MAX_OUTPUTS],
+    /// Γ (output units per memory-term unit), term-major: `gamma[k][o]`.
+    gamma: [[F; MAX_OUTPUTS]; MAX_MEMORY],
     /// The memory operators and their state.
     memory: MemoryBank<F>,
     /// z_scaled = x · z_gain + z_offset (gain 0 on unused dimensions).
@@ -393,9 +399,10 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             outputs: 0,
             n_poly: 0,
             n_z: 0,
+            z_groups: 0,
             a: [[F::ZERO; MAX_STAGE1]; MAX_OUTPUTS],
             b: [[F::ZERO; MAX_POLY]; MAX_OUTPUTS],
-            gamma: [[F::ZERO; MAX_MEMORY]; MAX_OUTPUTS],
+            gamma: [[F::ZERO; MAX_OUTPUTS]; MAX_MEMORY],
             memory: MemoryBank::off(),
             z_gain: [F::ZERO; MAX_Z],
             z_offset: [F::ZERO; MAX_Z],
@@ -460,12 +467,16 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.outputs = m_out as u8;
         self.n_poly = dims.poly_len() as u8;
         self.n_z = dims.z_len() as u8;
+        self.z_groups = dims.z_len().div_ceil(4) as u8;
         self.a = folded.a;
         self.b = folded.b;
         let n_mem = dims.memory_len();
-        for (i, (o, r)) in self.gamma.iter_mut().zip(params.gamma.iter()).enumerate() {
-            for (k, (o, &v)) in o.iter_mut().zip(r.iter()).enumerate() {
-                *o = if i < m_out && k < n_mem { f(v) } else { F::ZERO };
+        for (k, col) in self.gamma.iter_mut().enumerate() {
+            for (i, (o, row)) in col.iter_mut().zip(params.gamma.iter()).enumerate() {
+                *o = match row.get(k) {
+                    Some(&v) if i < m_out && k < n_mem => f(v),
+                    _ => F::ZERO,
+                };
             }
         }
         self.memory = MemoryBank::new(&params.memory, &dims);
@@ -501,7 +512,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// a margin for the rounding of the sum); otherwise ψ is computed again, identically, for
     /// its maximum (rare: samples near the weak-support boundary).
     #[inline(always)]
-    fn weak(&self, z: &[F; MAX_Z], z_sq: F, psi_sq: F) -> bool {
+    fn weak(&self, z: &[F; ZP], z_sq: F, psi_sq: F) -> bool {
         let w = self.weak_support;
         let w2 = w * w;
         if psi_sq < w2 {
@@ -512,7 +523,27 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         if psi_sq > n * w2 * margin {
             return false;
         }
-        psi_max_pass::<F, K>(&self.centres, z, z_sq, usize::from(self.n_z)) < w
+        psi_max_pass::<F, K>(&self.centres, z, z_sq, usize::from(self.z_groups)) < w
+    }
+
+    /// N: `G` when the step is specialised for it, the model's otherwise (`G` = 0).
+    #[inline(always)]
+    fn g<const G: usize>(&self) -> usize {
+        if G == 0 {
+            usize::from(self.gratings)
+        } else {
+            G
+        }
+    }
+
+    /// M: `M` when the step is specialised for it, the model's otherwise (`M` = 0).
+    #[inline(always)]
+    fn m<const M: usize>(&self) -> usize {
+        if M == 0 {
+            usize::from(self.outputs)
+        } else {
+            M
+        }
     }
 
     /// The model's grating count N, ambient input and output count M (0 gratings: no model
@@ -577,19 +608,22 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// Advance the stream state by one accepted sample and add the memory terms Γm to `y`;
     /// returns the latch values.
     #[inline(always)]
-    fn advance_state(&mut self, s: &Sample<F>, y: &mut [F; MAX_OUTPUTS]) -> [F; MAX_GRATINGS] {
-        let latch: [F; MAX_GRATINGS] = self.latches.update(&s.dl_pm, usize::from(self.gratings), self.dead_band);
+    fn advance_state<const G: usize>(&mut self, s: &Sample<F>, y: &mut [F; MAX_OUTPUTS]) -> [F; MAX_GRATINGS] {
+        let latch: [F; MAX_GRATINGS] = self.latches.update(&s.dl_pm, self.g::<G>(), self.dead_band);
         if self.memory.is_active() {
-            self.memory.accumulate(&s.dl_pm, s.t_amb_c, s.t_s, &self.gamma, usize::from(self.outputs), y);
+            self.memory.accumulate(&s.dl_pm, s.t_amb_c, s.t_s, &self.gamma, y);
         }
         latch
     }
 
     /// Advance the stream state and compute the core's estimate Bφ + Γm.
     #[inline(always)]
-    fn advance_with_core(&mut self, s: &Sample<F>) -> ([F; MAX_GRATINGS], [F; MAX_OUTPUTS]) {
-        let mut y = self.core(s);
-        let latch = self.advance_state(s, &mut y);
+    fn advance_with_core<const G: usize, const M: usize>(
+        &mut self,
+        s: &Sample<F>,
+    ) -> ([F; MAX_GRATINGS], [F; MAX_OUTPUTS]) {
+        let mut y = self.core::<G, M>(s);
+        let latch = self.advance_state::<G>(s, &mut y);
         (latch, y)
     }
 
@@ -610,8 +644,14 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// untouched.
     #[inline(always)]
     fn accepts(&self, s: &Sample<F>) -> bool {
+        self.accepts_shaped::<0>(s)
+    }
+
+    /// [`Compensator::accepts`] for a model of `G` gratings (0: any).
+    #[inline(always)]
+    fn accepts_shaped<const G: usize>(&self, s: &Sample<F>) -> bool {
         s.gratings == self.gratings
-            && s.dl().iter().all(|v| v.is_finite())
+            && head(&s.dl_pm, self.g::<G>()).iter().all(|v| v.is_finite())
             && (!self.ambient || s.t_amb_c.is_finite())
             && (!self.needs_time() || s.t_s.is_finite())
     }
@@ -619,16 +659,16 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// The polynomial core Bφ (Model-P's answer when the model has no memory terms):
     /// stage-1 standardised first guesses, then paper Eq. 3 generalised to M guesses.
     #[inline(always)]
-    fn core(&self, s: &Sample<F>) -> [F; MAX_OUTPUTS] {
-        let m = usize::from(self.outputs);
-        let (x, n_in) = affine_inputs(&s.dl_pm, usize::from(self.gratings), self.ambient, s.t_amb_c);
+    fn core<const G: usize, const M: usize>(&self, s: &Sample<F>) -> [F; MAX_OUTPUTS] {
+        let m = self.m::<M>();
+        let (x, n_in) = affine_inputs(&s.dl_pm, self.g::<G>(), self.ambient, s.t_amb_c);
         let mut g = [F::ZERO; MAX_OUTPUTS];
         for (gi, row) in g.iter_mut().zip(self.a.iter()).take(m) {
             *gi = affine(&x, n_in, row);
         }
         let phi = poly_features(&g, m);
         let mut y = [F::ZERO; MAX_OUTPUTS];
-        let n_poly = usize::from(self.n_poly);
+        let n_poly = if M == 0 { usize::from(self.n_poly) } else { crate::layout::poly_len(M) };
         for (yi, row) in y.iter_mut().zip(self.b.iter()).take(m) {
             let mut acc = F::ZERO;
             for (&c, &ph) in head(row, n_poly).iter().zip(phi.iter()) {
@@ -641,8 +681,8 @@ impl<F: Real, const K: usize> Compensator<F, K> {
 
     /// The scaled RBF inputs z (unused inputs 0) and ‖z‖².
     #[inline(always)]
-    fn rbf_inputs(&self, s: &Sample<F>, latch: [F; MAX_GRATINGS]) -> ([F; MAX_Z], F) {
-        let n = usize::from(self.gratings);
+    fn rbf_inputs<const G: usize>(&self, s: &Sample<F>, latch: [F; MAX_GRATINGS]) -> ([F; ZP], F) {
+        let n = self.g::<G>();
         let mut x_z = [F::ZERO; MAX_Z];
         let mut i = 0;
         for (o, &d) in x_z.iter_mut().zip(head(&s.dl_pm, n).iter()) {
@@ -666,7 +706,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
                 *o = l;
             }
         }
-        let mut z = [F::ZERO; MAX_Z];
+        let mut z = [F::ZERO; ZP];
         let mut z_sq = F::ZERO;
         let n_z = usize::from(self.n_z);
         for (((zi, &x), &gn), &of) in
@@ -688,11 +728,11 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         if !self.accepts(s) {
             return None;
         }
-        let (latch, y) = self.advance_with_core(s);
-        let (z, z_sq) = self.rbf_inputs(s, latch);
-        let n_z = usize::from(self.n_z);
+        let (latch, y) = self.advance_with_core::<0, 0>(s);
+        let (z, z_sq) = self.rbf_inputs::<0>(s, latch);
+        let groups = usize::from(self.z_groups);
         for (o, c) in psi.iter_mut().zip(self.centres.iter()) {
-            *o = psi_of::<F>(c, &z, z_sq, n_z);
+            *o = psi_of::<F>(c, &z, z_sq, groups);
         }
         Some(y)
     }
@@ -708,12 +748,30 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// trainer builds its design matrix Ψ through the very code the device runs. Not called for
     /// non-finite samples.
     #[inline(always)]
-    pub fn step_with(&mut self, s: &Sample<F>, mut sink: impl FnMut(usize, F)) -> Estimate<F> {
-        if !self.accepts(s) {
+    pub fn step_with(&mut self, s: &Sample<F>, sink: impl FnMut(usize, F)) -> Estimate<F> {
+        // The paper's shape (3 gratings, 3 outputs) with the loop bounds known at compile
+        // time, every other shape with them read from the model: the same operations in the
+        // same order either way.
+        if self.gratings == 3 && self.outputs == 3 {
+            self.step_shaped::<3, 3>(s, sink)
+        } else {
+            self.step_shaped::<0, 0>(s, sink)
+        }
+    }
+
+    /// [`Compensator::step_with`] for a model of `G` gratings and `M` outputs (0: read from
+    /// the model).
+    #[inline(always)]
+    fn step_shaped<const G: usize, const M: usize>(
+        &mut self,
+        s: &Sample<F>,
+        mut sink: impl FnMut(usize, F),
+    ) -> Estimate<F> {
+        if !self.accepts_shaped::<G>(s) {
             return Estimate::refused(self.outputs, Flags::NON_FINITE);
         }
-        let (latch, y) = self.advance_with_core(s);
-        let (x_env, n_env) = affine_inputs(&s.dl_pm, usize::from(self.gratings), self.ambient, s.t_amb_c);
+        let (latch, y) = self.advance_with_core::<G, M>(s);
+        let (x_env, n_env) = affine_inputs(&s.dl_pm, self.g::<G>(), self.ambient, s.t_amb_c);
 
         let mut flags = Flags::OK;
         for ((&x, &lo), &hi) in head(&x_env, n_env).iter().zip(self.env_lo.iter()).zip(self.env_hi.iter()) {
@@ -723,13 +781,13 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         }
 
         // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
-        let (z, z_sq) = self.rbf_inputs(s, latch);
-        let n_z = usize::from(self.n_z);
+        let (z, z_sq) = self.rbf_inputs::<G>(s, latch);
+        let groups = usize::from(self.z_groups);
         // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
         let acc = if !self.uses_time && self.uses_latch {
-            centre_pass::<F, K, true>(&self.centres, &z, z_sq, n_z, y, &mut sink)
+            centre_pass::<F, K, true>(&self.centres, &z, z_sq, groups, y, &mut sink)
         } else {
-            centre_pass::<F, K, false>(&self.centres, &z, z_sq, n_z, y, &mut sink)
+            centre_pass::<F, K, false>(&self.centres, &z, z_sq, groups, y, &mut sink)
         };
         let (y2, proj, psi_sq) = acc;
         let mut y = y2;
@@ -750,7 +808,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         let widen = if flags.is_ok() { F::ONE } else { self.flagged_band_factor };
         let lead = if self.band_grows { (s.t_s - self.t_cal_end_s).max(F::ZERO) } else { F::ZERO };
         let mut band95 = [F::ZERO; MAX_OUTPUTS];
-        let m = usize::from(self.outputs);
+        let m = self.m::<M>();
         for ((bi, &bv), &bg) in band95.iter_mut().zip(self.band_var.iter()).zip(self.band_var_growth.iter()).take(m) {
             *bi = (bg.mul_add(lead, bv) * (F::ONE + lev)).sqrt() * widen;
         }
@@ -795,9 +853,9 @@ fn poly_features<F: Real>(g: &[F; MAX_OUTPUTS], m: usize) -> [F; MAX_POLY] {
 #[allow(clippy::type_complexity)]
 fn centre_pass<F: Real, const K: usize, const PAIRS: bool>(
     centres: &Vec<PreparedCentre<F>, K>,
-    z: &[F; MAX_Z],
+    z: &[F; ZP],
     z_sq: F,
-    n_z: usize,
+    groups: usize,
     mut y: [F; MAX_OUTPUTS],
     sink: &mut impl FnMut(usize, F),
 ) -> ([F; MAX_OUTPUTS], [F; VAR_RANK], F) {
@@ -805,7 +863,7 @@ fn centre_pass<F: Real, const K: usize, const PAIRS: bool>(
     let mut psi_sq = F::ZERO;
     let mut one =
         |j: usize, c: &PreparedCentre<F>, y: &mut [F; MAX_OUTPUTS], proj: &mut [F; VAR_RANK], psi_sq: &mut F| {
-            let psi = psi_of::<F>(c, z, z_sq, n_z);
+            let psi = psi_of::<F>(c, z, z_sq, groups);
             sink(j, psi);
             for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
                 *yi = w.mul_add(psi, *yi);
@@ -840,12 +898,18 @@ fn centre_pass<F: Real, const K: usize, const PAIRS: bool>(
     (y, proj, psi_sq)
 }
 
-/// ψ_j = exp(−‖z − μ_j‖²/(2σ²)) over the first `n_z` inputs (an unused input adds an exact 0).
+/// ψ_j = exp(−‖z − μ_j‖²/(2σ²)) over the first `groups` groups of four inputs, in input order
+/// (an unused or padding input adds an exact 0).
 #[inline(always)]
-fn psi_of<F: Real>(c: &PreparedCentre<F>, z: &[F; MAX_Z], z_sq: F, n_z: usize) -> F {
+fn psi_of<F: Real>(c: &PreparedCentre<F>, z: &[F; ZP], z_sq: F, groups: usize) -> F {
     let mut d2 = z_sq + c.mu_sq;
-    for (&zi, &mi) in head(z, n_z).iter().zip(c.m2.iter()) {
-        d2 = zi.mul_add(mi, d2);
+    for (zc, mc) in z.chunks_exact(4).zip(c.m2.chunks_exact(4)).take(groups) {
+        if let ([z0, z1, z2, z3], [m0, m1, m2, m3]) = (zc, mc) {
+            d2 = z0.mul_add(*m0, d2);
+            d2 = z1.mul_add(*m1, d2);
+            d2 = z2.mul_add(*m2, d2);
+            d2 = z3.mul_add(*m3, d2);
+        }
     }
     d2.exp_neg()
 }
@@ -853,13 +917,13 @@ fn psi_of<F: Real>(c: &PreparedCentre<F>, z: &[F; MAX_Z], z_sq: F, n_z: usize) -
 #[inline(never)]
 fn psi_max_pass<F: Real, const K: usize>(
     centres: &Vec<PreparedCentre<F>, K>,
-    z: &[F; MAX_Z],
+    z: &[F; ZP],
     z_sq: F,
-    n_z: usize,
+    groups: usize,
 ) -> F {
     let mut m = F::ZERO;
     for c in centres.iter() {
-        m = m.max(psi_of::<F>(c, z, z_sq, n_z));
+        m = m.max(psi_of::<F>(c, z, z_sq, groups));
     }
     m
 }

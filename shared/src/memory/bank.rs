@@ -226,9 +226,10 @@ impl<F: Real> MemoryBank<F> {
         self.run(dl_pm, t_amb_c, t_s, |_, _| {});
     }
 
-    /// [`MemoryBank::update`] that adds Γm to the first `outputs` entries of `y` instead of
-    /// returning m (`gamma[o][k]` is the coefficient of term k on output o): what the
-    /// compensator runs per sample, without the memory vector's round trip through memory.
+    /// [`MemoryBank::update`] that adds Γm to `y` instead of returning m (`gamma[k][o]` is the
+    /// coefficient of term k on output o, term-major so that one term updates every output
+    /// at once; outputs a model does not have carry 0): what the compensator runs per sample,
+    /// without the memory vector's round trip through memory.
     // Out of line: one copy serves the compensator's step and stream advances.
     #[inline(never)]
     pub fn accumulate<const O: usize>(
@@ -236,13 +237,12 @@ impl<F: Real> MemoryBank<F> {
         dl_pm: &[F; MAX_GRATINGS],
         t_amb_c: F,
         t_s: F,
-        gamma: &[[F; MAX_MEMORY]; O],
-        outputs: usize,
+        gamma: &[[F; O]; MAX_MEMORY],
         y: &mut [F; O],
     ) {
         self.run(dl_pm, t_amb_c, t_s, |k, v| {
-            for (yo, row) in y.iter_mut().zip(gamma.iter()).take(outputs) {
-                if let Some(&g) = row.get(k) {
+            if let Some(col) = gamma.get(k) {
+                for (yo, &g) in y.iter_mut().zip(col.iter()) {
                     *yo = g.mul_add(v, *yo);
                 }
             }
