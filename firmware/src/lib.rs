@@ -25,7 +25,7 @@ pub use fbg_firmware_kernel::{step, K, KERNEL};
 
 /// The largest blob this build stages: the blob target of DESIGN §8 (4 KiB), or the longest
 /// blob of `K` centres at the capacity dims when that is smaller. A paper-dims model of 32
-/// centres fits; an 8 → 4 model with its memory bank fits up to 17 centres; a longer update is
+/// centres fits; an 8 → 4 model with its memory bank fits up to 18 centres; a longer update is
 /// refused at `ModelBegin` (`TooLarge`).
 pub const MAX_BLOB: usize = {
     let longest = fbg_shared::blob::max_len(K);

@@ -784,11 +784,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         let (z, z_sq) = self.rbf_inputs::<G>(s, latch);
         let groups = usize::from(self.z_groups);
         // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
-        let acc = if !self.uses_time && self.uses_latch {
-            centre_pass::<F, K, true>(&self.centres, &z, z_sq, groups, y, &mut sink)
-        } else {
-            centre_pass::<F, K, false>(&self.centres, &z, z_sq, groups, y, &mut sink)
-        };
+        let acc = centre_pass::<F, K>(&self.centres, &z, z_sq, groups, y, &mut sink);
         let (y2, proj, psi_sq) = acc;
         let mut y = y2;
         if !self.centres.is_empty() && self.weak(&z, z_sq, psi_sq) {
@@ -849,9 +845,11 @@ fn poly_features<F: Real>(g: &[F; MAX_OUTPUTS], m: usize) -> [F; MAX_POLY] {
     phi
 }
 
-#[inline(always)]
+// Out of line: one copy per variant serves every shape of the step (it does not depend on
+// the dims), with the per-centre work inlined in it.
+#[inline(never)]
 #[allow(clippy::type_complexity)]
-fn centre_pass<F: Real, const K: usize, const PAIRS: bool>(
+fn centre_pass<F: Real, const K: usize>(
     centres: &Vec<PreparedCentre<F>, K>,
     z: &[F; ZP],
     z_sq: F,
@@ -861,39 +859,33 @@ fn centre_pass<F: Real, const K: usize, const PAIRS: bool>(
 ) -> ([F; MAX_OUTPUTS], [F; VAR_RANK], F) {
     let mut proj = [F::ZERO; VAR_RANK];
     let mut psi_sq = F::ZERO;
-    let mut one =
-        |j: usize, c: &PreparedCentre<F>, y: &mut [F; MAX_OUTPUTS], proj: &mut [F; VAR_RANK], psi_sq: &mut F| {
-            let psi = psi_of::<F>(c, z, z_sq, groups);
-            sink(j, psi);
-            for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
-                *yi = w.mul_add(psi, *yi);
-            }
-            for (pi, &v) in proj.iter_mut().zip(c.v.iter()) {
-                *pi = v.mul_add(psi, *pi);
-            }
-            *psi_sq = psi.mul_add(psi, *psi_sq);
-        };
-    // Two centres per iteration (same order of operations): half the loop overhead, for the
-    // default feature set only (the unrolled loop costs flash on the device).
-    if !PAIRS {
-        for (j, c) in centres.iter().enumerate() {
-            one(j, c, &mut y, &mut proj, &mut psi_sq);
+    // Inlined into the loop below (as a closure the compiler kept it out of line: a call per
+    // centre).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn one<F: Real>(
+        j: usize,
+        c: &PreparedCentre<F>,
+        z: &[F; ZP],
+        z_sq: F,
+        groups: usize,
+        sink: &mut impl FnMut(usize, F),
+        y: &mut [F; MAX_OUTPUTS],
+        proj: &mut [F; VAR_RANK],
+        psi_sq: &mut F,
+    ) {
+        let psi = psi_of::<F>(c, z, z_sq, groups);
+        sink(j, psi);
+        for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
+            *yi = w.mul_add(psi, *yi);
         }
-        return (y, proj, psi_sq);
-    }
-    let pairs = centres.chunks_exact(2);
-    let rest = pairs.remainder();
-    let mut j = 0;
-    for pair in pairs {
-        if let [a, b] = pair {
-            one(j, a, &mut y, &mut proj, &mut psi_sq);
-            one(j + 1, b, &mut y, &mut proj, &mut psi_sq);
+        for (pi, &v) in proj.iter_mut().zip(c.v.iter()) {
+            *pi = v.mul_add(psi, *pi);
         }
-        j += 2;
+        *psi_sq = psi.mul_add(psi, *psi_sq);
     }
-    for c in rest {
-        one(j, c, &mut y, &mut proj, &mut psi_sq);
-        j += 1;
+    for (j, c) in centres.iter().enumerate() {
+        one(j, c, z, z_sq, groups, sink, &mut y, &mut proj, &mut psi_sq);
     }
     (y, proj, psi_sq)
 }
