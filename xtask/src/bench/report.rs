@@ -70,6 +70,11 @@ pub mod nan {
         }
     }
 
+    /// A figure that was not measured (serialised only when it was).
+    pub fn absent(x: &f64) -> bool {
+        x.is_nan()
+    }
+
     pub fn missing<T: Lenient>() -> T {
         T::missing()
     }
@@ -227,12 +232,13 @@ pub struct FixedMemory {
     pub phase_seconds: Vec<Phase>,
     /// The scikit-learn pipeline with the same features (the memory terms of the groups and
     /// ridge our cross-validation chose, the latch RBF inputs); absent without the peer.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub peer: Option<PeerMemory>,
-    /// Peer / ours, per round (ours and the peer alternate), and their median.
-    #[serde(default)]
+    /// Peer / ours, per round (ours and the peer alternate), and their median (absent from
+    /// runs before the peer had memory terms).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ratio_per_round: Vec<f64>,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    #[serde(default = "nan::missing", deserialize_with = "nan::read", skip_serializing_if = "nan::absent")]
     pub ratio_median: f64,
 }
 
