@@ -366,6 +366,8 @@ pub struct CentreReader<'a> {
     left: usize,
     nz: usize,
     m: usize,
+    /// Whether every number of every centre is finite (checked while parsing).
+    finite: bool,
 }
 
 impl CentreReader<'_> {
@@ -394,6 +396,8 @@ impl Iterator for CentreReader<'_> {
     }
 }
 
+impl ExactSizeIterator for CentreReader<'_> {}
+
 /// [`decode_into`] for a model of up to `K` centres that leaves the centres in `bytes`: every
 /// field but the centres is parsed into `head` (which holds none), and the centres come back
 /// as a [`CentreReader`] over the blob, checked as [`decode_into`] checks them (count against
@@ -414,16 +418,8 @@ pub fn decode_split<'a, const K: usize>(
         });
     }
     head.validate()?;
-    let fin = |a: &[f32]| a.iter().all(|v| v.is_finite());
-    let mut n = 0;
-    for c in reader.clone() {
-        if !(fin(&c.mu) && fin(&c.w) && fin(&c.v)) {
-            return Err(Error::BadParameter { field: "centres" });
-        }
-        n += 1;
-    }
-    if n != reader.remaining() {
-        return Err(Error::BadPayload);
+    if !reader.finite {
+        return Err(Error::BadParameter { field: "centres" });
     }
     Ok(reader)
 }
@@ -559,13 +555,16 @@ fn parse_into<'a, const K: usize>(
     vector(&mut b, &mut out.z_std, nz)?;
     let n: u32 = take(&mut b)?;
     out.centres.clear();
-    let mut centres = CentreReader { bytes: b, left: 0, nz, m };
+    let mut centres = CentreReader { bytes: b, left: 0, nz, m, finite: true };
     for _ in 0..n {
         let mut c = Centre::<f32>::default();
         b = parse_centre(b, &mut c, nz, m)?;
         centres.left += 1;
         if store {
             out.centres.push(c).map_err(|_| ParseError::Postcard)?;
+        } else {
+            let fin = |a: &[f32]| a.iter().all(|v| v.is_finite());
+            centres.finite &= fin(&c.mu) && fin(&c.w) && fin(&c.v);
         }
     }
     floats(&mut b, &mut out.var_inv_g)?;
@@ -598,7 +597,8 @@ fn floats(b: &mut &[u8], out: &mut [f32]) -> Result<(), postcard::Error> {
 }
 
 /// One centre (μ over the `nz` RBF inputs, `m` weights, the variance components) from the
-/// front of `bytes`; the rest after it.
+/// front of `bytes`; the rest after it. Out of line: one copy serves every reader.
+#[inline(never)]
 fn parse_centre<'a>(bytes: &'a [u8], c: &mut Centre<f32>, nz: usize, m: usize) -> Result<&'a [u8], postcard::Error> {
     let mut b = bytes;
     floats(&mut b, crate::layout::head_mut(&mut c.mu, nz))?;

@@ -438,13 +438,12 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// (validated, e.g. by [`crate::blob::decode_split`], and holding no centres itself) and
     /// its `centres`, read twice (once to check every folded number, once to write them), one
     /// at a time. The same folding, the same checks and the same atomicity as `reload`.
-    pub fn reload_split<G: Real, const K2: usize, I: Iterator<Item = Centre<G>> + Clone>(
+    pub fn reload_split<G: Real, const K2: usize, I: ExactSizeIterator<Item = Centre<G>> + Clone>(
         &mut self,
         head: &ModelParams<G, K2>,
         centres: I,
     ) -> Result<(), Error> {
-        let n = centres.clone().count();
-        self.reload_parts(head, n, || centres.clone())
+        self.reload_parts(head, centres.len(), || centres.clone())
     }
 
     /// Decode a blob ([`crate::blob::decode_split`]: everything but the centres into a
