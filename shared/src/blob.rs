@@ -347,6 +347,96 @@ pub fn decode<const K: usize>(bytes: &[u8]) -> Result<ModelParams<f32, K>, Error
 /// can decode an update into a staging slot with a small stack. On error `out` holds a
 /// partial model and must not be used; on success it is fully validated.
 pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) -> Result<(), Error> {
+    let parsed = decode_checked::<K, K>(bytes, out, true)?;
+    if out.centres.len() != usize::from(parsed.header.centres) {
+        return Err(Error::WrongDims {
+            field: "centres",
+            found: parsed.header.centres,
+            expected: saturate_u16(out.centres.len()),
+        });
+    }
+    out.validate()
+}
+
+/// The RBF centres of a blob decoded by [`decode_split`], read one at a time from the blob's
+/// own bytes (each read parses one centre: no centre array is ever materialised).
+#[derive(Clone, Debug)]
+pub struct CentreReader<'a> {
+    bytes: &'a [u8],
+    left: usize,
+    nz: usize,
+    m: usize,
+    /// Whether every number of every centre is finite (checked while parsing).
+    finite: bool,
+}
+
+impl CentreReader<'_> {
+    /// Centres not read yet.
+    pub fn remaining(&self) -> usize {
+        self.left
+    }
+}
+
+impl Iterator for CentreReader<'_> {
+    type Item = Centre<f32>;
+
+    fn next(&mut self) -> Option<Centre<f32>> {
+        if self.left == 0 {
+            return None;
+        }
+        let mut c = Centre::<f32>::default();
+        let rest = parse_centre(self.bytes, &mut c, self.nz, self.m).ok()?;
+        self.bytes = rest;
+        self.left -= 1;
+        Some(c)
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        (self.left, Some(self.left))
+    }
+}
+
+impl ExactSizeIterator for CentreReader<'_> {}
+
+/// [`decode_into`] for a model of up to `K` centres that leaves the centres in `bytes`: every
+/// field but the centres is parsed into `head` (which holds none), and the centres come back
+/// as a [`CentreReader`] over the blob, checked as [`decode_into`] checks them (count against
+/// the header and `K`, every number finite). With [`crate::Compensator::reload_split`] a
+/// device loads a model with one centre at a time on its stack instead of a whole
+/// [`ModelParams`].
+pub fn decode_split<'a, const K: usize>(
+    bytes: &'a [u8],
+    head: &mut ModelParams<f32, 0>,
+) -> Result<CentreReader<'a>, Error> {
+    let parsed = decode_checked::<K, 0>(bytes, head, false)?;
+    let reader = parsed.centres;
+    if reader.remaining() != usize::from(parsed.header.centres) {
+        return Err(Error::WrongDims {
+            field: "centres",
+            found: parsed.header.centres,
+            expected: saturate_u16(reader.remaining()),
+        });
+    }
+    head.validate()?;
+    if !reader.finite {
+        return Err(Error::BadParameter { field: "centres" });
+    }
+    Ok(reader)
+}
+
+/// What [`decode_checked`] found.
+struct Parsed<'a> {
+    header: Header,
+    centres: CentreReader<'a>,
+}
+
+/// Steps 1–4 of [`decode`] and the memory-term check of step 5 (not the centre count or the
+/// parameter ranges): the centres go into `out` when `store`, else only the reader sees them.
+fn decode_checked<'a, const K: usize, const K2: usize>(
+    bytes: &'a [u8],
+    out: &mut ModelParams<f32, K2>,
+    store: bool,
+) -> Result<Parsed<'a>, Error> {
     // A signed model is a blob followed by its signature trailer: the blob is what is decoded.
     let bytes = crate::signature::strip(bytes);
     let header = Header::read(bytes)?;
@@ -364,25 +454,18 @@ pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) 
     // header, to tell a truncated or padded blob from a corrupted one. Parsing unauthenticated
     // bytes is no extra exposure: anyone can write a valid CRC, so the parser is hardened
     // against arbitrary payloads anyway.
-    let parsed = parse_into(&header, if crc_ok { payload } else { body }, out);
+    let parsed = parse_into(&header, if crc_ok { payload } else { body }, out, store);
     if !crc_ok {
-        return Err(diagnose_crc_mismatch(bytes.len(), header, head, body, parsed.as_ref().map(|r| *r)));
+        return Err(diagnose_crc_mismatch(bytes.len(), header, head, body, parsed.as_ref().map(|r| r.0)));
     }
     // With a valid CRC these bytes are what the writer wrote: a payload that does not decode
     // (including one that claims more bytes than it has) is malformed, not truncated.
-    let rest = parsed.map_err(|e| match e {
+    let (rest, centres) = parsed.map_err(|e| match e {
         ParseError::Dims(e) => e,
         ParseError::Postcard => Error::BadPayload,
     })?;
     if !rest.is_empty() {
         return Err(Error::TrailingBytes { extra: rest.len() });
-    }
-    if out.centres.len() != usize::from(header.centres) {
-        return Err(Error::WrongDims {
-            field: "centres",
-            found: header.centres,
-            expected: saturate_u16(out.centres.len()),
-        });
     }
     if out.dims.memory_len() != usize::from(header.memory_terms) {
         return Err(Error::WrongDims {
@@ -391,7 +474,7 @@ pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) 
             expected: saturate_u16(out.dims.memory_len()),
         });
     }
-    out.validate()
+    Ok(Parsed { header, centres })
 }
 
 /// Why a payload did not parse.
@@ -412,22 +495,13 @@ impl From<postcard::Error> for ParseError {
 /// Parse a payload into `out`, one field at a time in the order `encode` writes, with the
 /// vector lengths of the header's dims, returning the unread rest. Every capacity-sized array
 /// is cleared first, so entries beyond the dims are 0.
+#[allow(clippy::type_complexity)]
 fn parse_into<'a, const K: usize>(
     header: &Header,
     bytes: &'a [u8],
     out: &mut ModelParams<f32, K>,
-) -> Result<&'a [u8], ParseError> {
-    fn take<'a, T: serde::Deserialize<'a>>(b: &mut &'a [u8]) -> Result<T, postcard::Error> {
-        let (v, rest) = postcard::take_from_bytes::<T>(b)?;
-        *b = rest;
-        Ok(v)
-    }
-    fn floats(b: &mut &[u8], out: &mut [f32]) -> Result<(), postcard::Error> {
-        for o in out.iter_mut() {
-            *o = take(b)?;
-        }
-        Ok(())
-    }
+    store: bool,
+) -> Result<(&'a [u8], CentreReader<'a>), ParseError> {
     fn rows<const C: usize>(
         b: &mut &[u8],
         out: &mut [[f32; C]; MAX_OUTPUTS],
@@ -481,12 +555,17 @@ fn parse_into<'a, const K: usize>(
     vector(&mut b, &mut out.z_std, nz)?;
     let n: u32 = take(&mut b)?;
     out.centres.clear();
+    let mut centres = CentreReader { bytes: b, left: 0, nz, m, finite: true };
     for _ in 0..n {
         let mut c = Centre::<f32>::default();
-        floats(&mut b, crate::layout::head_mut(&mut c.mu, nz))?;
-        floats(&mut b, crate::layout::head_mut(&mut c.w, m))?;
-        floats(&mut b, &mut c.v)?;
-        out.centres.push(c).map_err(|_| ParseError::Postcard)?;
+        b = parse_centre(b, &mut c, nz, m)?;
+        centres.left += 1;
+        if store {
+            out.centres.push(c).map_err(|_| ParseError::Postcard)?;
+        } else {
+            let fin = |a: &[f32]| a.iter().all(|v| v.is_finite());
+            centres.finite &= fin(&c.mu) && fin(&c.w) && fin(&c.v);
+        }
     }
     floats(&mut b, &mut out.var_inv_g)?;
     out.var_inv_g_tail = take(&mut b)?;
@@ -501,6 +580,30 @@ fn parse_into<'a, const K: usize>(
         *f = take(&mut b)?;
     }
     out.provenance = take(&mut b)?;
+    Ok((b, centres))
+}
+
+fn take<'a, T: serde::Deserialize<'a>>(b: &mut &'a [u8]) -> Result<T, postcard::Error> {
+    let (v, rest) = postcard::take_from_bytes::<T>(b)?;
+    *b = rest;
+    Ok(v)
+}
+
+fn floats(b: &mut &[u8], out: &mut [f32]) -> Result<(), postcard::Error> {
+    for o in out.iter_mut() {
+        *o = take(b)?;
+    }
+    Ok(())
+}
+
+/// One centre (μ over the `nz` RBF inputs, `m` weights, the variance components) from the
+/// front of `bytes`; the rest after it. Out of line: one copy serves every reader.
+#[inline(never)]
+fn parse_centre<'a>(bytes: &'a [u8], c: &mut Centre<f32>, nz: usize, m: usize) -> Result<&'a [u8], postcard::Error> {
+    let mut b = bytes;
+    floats(&mut b, crate::layout::head_mut(&mut c.mu, nz))?;
+    floats(&mut b, crate::layout::head_mut(&mut c.w, m))?;
+    floats(&mut b, &mut c.v)?;
     Ok(b)
 }
 

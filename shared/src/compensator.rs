@@ -431,8 +431,40 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// success the stream state (direction latches) is reset.
     pub fn reload<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) -> Result<(), Error> {
         params.validate()?;
-        if params.centres.len() > K {
-            return Err(Error::TooManyCentres { found: params.centres.len(), capacity: K });
+        self.reload_parts(params, params.centres.len(), || params.centres.iter().copied())
+    }
+
+    /// [`Compensator::reload`] from a model whose centres are read from elsewhere: `head`
+    /// (validated, e.g. by [`crate::blob::decode_split`], and holding no centres itself) and
+    /// its `centres`, read twice (once to check every folded number, once to write them), one
+    /// at a time. The same folding, the same checks and the same atomicity as `reload`.
+    pub fn reload_split<G: Real, const K2: usize, I: ExactSizeIterator<Item = Centre<G>> + Clone>(
+        &mut self,
+        head: &ModelParams<G, K2>,
+        centres: I,
+    ) -> Result<(), Error> {
+        self.reload_parts(head, centres.len(), || centres.clone())
+    }
+
+    /// Decode a blob ([`crate::blob::decode_split`]: everything but the centres into a
+    /// centre-less parameter slot on this frame, the centres read from `bytes` one at a time)
+    /// and [`Compensator::reload_split`] it: what a device does to load a model, with about
+    /// a third of a whole [`ModelParams`] on its stack. Atomic like [`Compensator::reload`].
+    pub fn reload_blob(&mut self, bytes: &[u8]) -> Result<(), Error> {
+        let mut head = ModelParams::<f32, 0>::empty();
+        let centres = crate::blob::decode_split::<K>(bytes, &mut head)?;
+        self.reload_split(&head, centres)
+    }
+
+    /// The shared part of the reloads: `n` centres, `centres()` yields them (each time anew).
+    fn reload_parts<G: Real, const K2: usize, I: Iterator<Item = Centre<G>>>(
+        &mut self,
+        params: &ModelParams<G, K2>,
+        n: usize,
+        centres: impl Fn() -> I,
+    ) -> Result<(), Error> {
+        if n > K {
+            return Err(Error::TooManyCentres { found: n, capacity: K });
         }
         // Folding can overflow even when every stored number is finite (e.g. a tiny guess_std
         // scales stage 1 to infinity in f32): refuse such a model before touching anything.
@@ -450,16 +482,16 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             || !env_ok
             || !gamma_ok
             || !memory_ok
-            || !params.centres.iter().all(|c| folded.centre(c, &active, m_out).is_finite())
+            || !centres().all(|c| folded.centre(&c, &active, m_out).is_finite())
             || !f(params.t_cal_end_s).is_finite()
         {
             return Err(Error::BadParameter { field: "folded coefficients (overflow in this precision)" });
         }
         // From here nothing can fail.
         self.centres.clear();
-        for c in params.centres.iter() {
+        for c in centres() {
             // Capacity was checked above; a failed push cannot happen.
-            let _ = self.centres.push(folded.centre(c, &active, m_out));
+            let _ = self.centres.push(folded.centre(&c, &active, m_out));
         }
         let h = &params.hyper;
         self.gratings = dims.gratings() as u8;

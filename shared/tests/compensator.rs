@@ -835,3 +835,38 @@ fn f32_and_f64_agree_with_memory() {
     }
     eprintln!("worst relative f32/f64 difference with memory: {worst:.2e}");
 }
+
+/// Loading from a blob with the centres read one at a time (`reload_blob`, what the device
+/// does) gives the very compensator `reload` of the decoded model gives: bit for bit the same
+/// answers, for the paper shape and other dims with their memory banks; a refused blob leaves
+/// the loaded model serving.
+#[test]
+fn reload_blob_answers_bit_for_bit_like_reload_of_the_decoded_model() {
+    const C: usize = 16;
+    use fbg_testkit::models::{dims, full_memory_spec_for, memory_model_dims, random_samples};
+    for (g, amb, m, k, seed) in [(3, true, 3, 8, 7u64), (2, false, 2, 8, 22), (8, true, 4, 16, 84)] {
+        let d = dims(g, amb, m).unwrap();
+        let p: ModelParams<f32, C> =
+            memory_model_dims(d, k, seed, FeatureSet::HysteresisAware, short_provenance(), full_memory_spec_for(&d));
+        let blob = encode_vec(&p).unwrap();
+        let mut a = Compensator::<f32, C>::new(&fbg_shared::blob::decode::<C>(&blob).unwrap()).unwrap();
+        let mut b = Compensator::<f32, C>::unloaded();
+        b.reload_blob(&blob).unwrap();
+        assert_eq!(b.n_centres(), k);
+        let samples = random_samples(&d, 200, seed);
+        for s in &samples {
+            assert_eq!(format!("{:?}", a.step(s)), format!("{:?}", b.step(s)));
+        }
+        // Refused (one flipped payload bit; more centres than the capacity): nothing changes.
+        let mut bad = blob.clone();
+        bad[30] ^= 1;
+        assert!(b.reload_blob(&bad).is_err());
+        let big: ModelParams<f32, 64> =
+            memory_model_dims(d, C + 1, seed, FeatureSet::Paper, short_provenance(), full_memory_spec_for(&d));
+        let e = b.reload_blob(&encode_vec(&big).unwrap()).unwrap_err();
+        assert!(matches!(e, fbg_shared::Error::WrongDims { field: "centres", .. }), "{e:?}");
+        for s in &samples {
+            assert_eq!(format!("{:?}", a.step(s)), format!("{:?}", b.step(s)));
+        }
+    }
+}

@@ -433,7 +433,7 @@ fn print_sizes(t: &TypeSizes) {
     println!("  StreamState<f32>     {:>6} B  (latches + memory state)", t.stream_state);
     println!("  MemoryBank<f32>      {:>6} B  (coefficients, cached factors, state)", t.memory_bank);
     println!("  Compensator<f32, {}> {:>6} B", t.k, t.compensator);
-    println!("  ModelParams<f32, {}> {:>6} B  (parameter slot, on the stack during a load)", t.k, t.model_params);
+    println!("  ModelParams<f32, 0> {:>6} B  (centre-less parameter slot, on the stack during a load)", t.model_params);
     println!("  FrameReader          {:>6} B  (the link's frame reader)", t.reader);
     println!("  blob staging buffer  {:>6} B  (blob::max_len({}))", t.staging, t.k);
 }

@@ -17,13 +17,13 @@
 //!
 //! (BENCHMARKS.md has the footprint they add up to: flash, static RAM and stack at K = 32.)
 //!
-//! The one [`ModelParams`] slot a model is parsed into (about a compensator's size) is needed
-//! only while a model loads — at boot and during the handling of a `ModelCommit`, which carries no
-//! data and is handled outside the frame decoding — so it is a local of the never-inlined
-//! function that loads ([`load_blob`], `Device::commit`): on the stack during a load, free
-//! while the device serves. A model is parsed field by field with [`blob::decode_into`] into
-//! that slot, then [`Compensator::reload`] folds it into the active compensator in place; a
-//! refused model leaves the active one serving (reload checks everything before it writes).
+//! A model is loaded — at boot and during the handling of a `ModelCommit`, which carries no
+//! data and is handled outside the frame decoding — by [`load_blob`]: everything but the
+//! centres is parsed into a centre-less parameter slot (`ModelParams<f32, 0>`, about a third
+//! of a whole one) on the loader's stack frame, the centres are read from the staged bytes
+//! one at a time, and [`Compensator::reload_split`] folds it all into the active compensator
+//! in place, checking every number before it writes one: a refused model leaves the active
+//! one serving.
 //!
 //! # Signed updates
 //!
@@ -51,7 +51,7 @@ use fbg_shared::protocol::{
     Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
 use fbg_shared::signature::{self, Envelope, KeyId, SignFlags, SignatureError, TrustedKey};
-use fbg_shared::{Compensator, Estimate, ModelParams, Sample};
+use fbg_shared::{Compensator, Estimate, Sample};
 
 /// Log through defmt when the `defmt` feature is on; nothing otherwise.
 macro_rules! log {
@@ -63,23 +63,20 @@ macro_rules! log {
 
 /// The two library functions whose code generation matters more than their size, passed in
 /// as function pointers so that the firmware can compile them apart from the size-optimised
-/// rest (`fbg-firmware-kernel`): the per-sample step (instructions per step) and the blob
-/// parser (its stack depth during a model update). [`Kernel::LIBRARY`] is the plain library,
+/// rest (`fbg-firmware-kernel`): the per-sample step (instructions per step) and the model
+/// loader (its stack depth during a model update). [`Kernel::LIBRARY`] is the plain library,
 /// what the host tests use; the firmware's kernel runs the very same code.
 #[derive(Clone, Copy)]
 pub struct Kernel<const K: usize> {
     /// `Compensator::step`.
     pub step: fn(&mut Compensator<f32, K>, &Sample<f32>) -> Estimate<f32>,
-    /// `blob::decode_into`.
-    pub decode: fn(&[u8], &mut ModelParams<f32, K>) -> Result<(), fbg_shared::Error>,
-    /// `Compensator::reload`.
-    pub reload: fn(&mut Compensator<f32, K>, &ModelParams<f32, K>) -> Result<(), fbg_shared::Error>,
+    /// `Compensator::reload_blob`: decode a blob and fold it in, atomically.
+    pub load: fn(&mut Compensator<f32, K>, &[u8]) -> Result<(), fbg_shared::Error>,
 }
 
 impl<const K: usize> Kernel<K> {
     /// The library functions, compiled wherever they are used.
-    pub const LIBRARY: Self =
-        Kernel { step: Compensator::step, decode: blob::decode_into, reload: Compensator::reload };
+    pub const LIBRARY: Self = Kernel { step: Compensator::step, load: Compensator::reload_blob };
 }
 
 /// Identity of a loaded model.
@@ -179,25 +176,18 @@ pub const fn unloaded<const K: usize>() -> Compensator<f32, K> {
 }
 
 /// Load the model in `bytes` into `comp` (at boot, the embedded default into an [`unloaded`]
-/// compensator; later, a committed update) when, and only when, it is entirely valid: the
-/// blob is parsed into the staging slot `params` (`kernel.decode`, i.e.
-/// [`blob::decode_into`]), then folded into `comp` in place ([`Compensator::reload`], which
-/// checks every number before it writes one). On any error `comp` keeps its model and stream
-/// state; `params` then holds a partial model and must be decoded into again before use.
-/// [`load_blob`] provides the slot itself.
-///
-/// Parsing and folding are separate calls (folding never inlined), so their temporaries (one
-/// centre at a time while parsing, the folded scalars while reloading) occupy the stack one
-/// after the other, never together, and only during a load.
+/// compensator; later, a committed update) when, and only when, it is entirely valid
+/// (`kernel.load`, i.e. [`Compensator::reload_blob`]): everything but the centres is parsed
+/// into a centre-less parameter slot on the loader's stack frame, the centres are read from
+/// `bytes` one at a time, and every folded number is checked before the first is written. On
+/// any error `comp` keeps its model and stream state.
 #[inline(never)]
 pub fn load<const K: usize>(
     kernel: &Kernel<K>,
     comp: &mut Compensator<f32, K>,
-    params: &mut ModelParams<f32, K>,
     bytes: &[u8],
 ) -> Result<ModelInfo, Rejection> {
-    (kernel.decode)(bytes, params)?;
-    (kernel.reload)(comp, params)?;
+    (kernel.load)(comp, bytes)?;
     // The blob decoded, so it has a trailer.
     Ok(ModelInfo {
         centres: centres_u16(comp.n_centres()),
@@ -207,16 +197,15 @@ pub fn load<const K: usize>(
     })
 }
 
-/// [`load`] with a staging slot of its own, on its stack frame (a model's size) and only
-/// for the duration of the load: at boot, and for every commit of an update.
+/// [`load`] (kept under its former name: the parameter slot is on the stack of the loader,
+/// during the load only).
 #[inline(never)]
 pub fn load_blob<const K: usize>(
     kernel: &Kernel<K>,
     comp: &mut Compensator<f32, K>,
     bytes: &[u8],
 ) -> Result<ModelInfo, Rejection> {
-    let mut params = ModelParams::empty();
-    load(kernel, comp, &mut params, bytes)
+    load(kernel, comp, bytes)
 }
 
 fn centres_u16(n: usize) -> u16 {

@@ -16,9 +16,9 @@
 use fbg_firmware_app::Kernel;
 use fbg_shared::{Compensator, Estimate, Sample};
 
+pub use fbg_firmware_loader::load;
 /// Centre capacity of this build (env `FBG_K` at build time, default 32).
 pub use fbg_firmware_loader::K;
-pub use fbg_firmware_loader::{decode, reload};
 
 /// `comp.step(s)` at opt-level 3 (see the crate docs).
 #[inline(never)]
@@ -26,5 +26,5 @@ pub fn step(comp: &mut Compensator<f32, K>, s: &Sample<f32>) -> Estimate<f32> {
     comp.step(s)
 }
 
-/// The step, the blob parser and the reload, for `fbg_firmware_app`.
-pub const KERNEL: Kernel<K> = Kernel { step, decode, reload };
+/// The step and the model loader, for `fbg_firmware_app`.
+pub const KERNEL: Kernel<K> = Kernel { step, load };

@@ -685,14 +685,13 @@ fn device(s: &mut String, rep: &Report) {
     let sz = &dev.sizes;
     out!(
         s,
-        "\nDevice types (`size_of` on the target, K = {}): memory state `MemoryState<f32>` {} B, stream state (latches + memory) {} B, `MemoryBank<f32>` {} B, `Compensator<f32, {}>` {} B, parameter slot `ModelParams<f32, {}>` (on the stack during a load) {} B, blob staging buffer {} B.",
+        "\nDevice types (`size_of` on the target, K = {}): memory state `MemoryState<f32>` {} B, stream state (latches + memory) {} B, `MemoryBank<f32>` {} B, `Compensator<f32, {}>` {} B, centre-less parameter slot `ModelParams<f32, 0>` (on the stack during a load; the centres are read from the blob one at a time) {} B, blob staging buffer {} B.",
         sz.k,
         sz.memory_state_bytes,
         sz.stream_state_bytes,
         sz.memory_bank_bytes,
         sz.k,
         sz.compensator_bytes,
-        sz.k,
         sz.model_params_bytes,
         sz.staging_bytes
     );
