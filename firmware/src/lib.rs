@@ -23,8 +23,21 @@ use defmt_semihosting as _;
 /// blob parser compiled for it for speed (`fbg-firmware-kernel`).
 pub use fbg_firmware_kernel::{step, K, KERNEL};
 
-/// Bytes needed to stage any signed model this build can hold.
-pub const STAGING_LEN: usize = fbg_shared::blob::max_len(K) + fbg_shared::signature::TRAILER_LEN;
+/// The largest blob this build stages: the blob target of DESIGN §8 (4 KiB), or the longest
+/// blob of `K` centres at the capacity dims when that is smaller. A paper-dims model of 32
+/// centres fits; an 8 → 4 model with its memory bank fits up to 17 centres; a longer update is
+/// refused at `ModelBegin` (`TooLarge`).
+pub const MAX_BLOB: usize = {
+    let longest = fbg_shared::blob::max_len(K);
+    if longest < 4096 {
+        longest
+    } else {
+        4096
+    }
+};
+
+/// Bytes needed to stage any signed model this build takes.
+pub const STAGING_LEN: usize = MAX_BLOB + fbg_shared::signature::TRAILER_LEN;
 
 /// The signature policy compiled in by `build.rs` (`FBG_TRUSTED_KEYS`, `FBG_ALLOW_ROLLBACK`,
 /// `FBG_REQUIRE_SIGNED_DEFAULT`; README-firmware.md, "Signed model updates").

@@ -9,7 +9,8 @@
 
 use std::time::Instant;
 
-use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
+use fbg_shared::layout::paper::N_OUTPUTS;
+use fbg_shared::layout::FeatureSet;
 use fbg_shared::Estimate;
 
 use crate::data::Dataset;

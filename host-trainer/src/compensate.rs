@@ -11,7 +11,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use fbg_shared::layout::{CHANNELS, N_OUTPUTS, UNITS};
+use fbg_shared::layout::paper::{CHANNELS, N_OUTPUTS, UNITS};
 use fbg_shared::{Compensator, Estimate, Flags};
 
 use crate::data::files::write_atomically;
@@ -82,7 +82,12 @@ pub fn estimates(params: &HostParams, d: &Dataset, precision: Precision) -> Resu
             Ok((0..d.len())
                 .map(|i| {
                     let e = dev.step(&d.sample(i).cast::<f32>());
-                    Estimate { values: e.values.map(f64::from), band95: e.band95.map(f64::from), flags: e.flags }
+                    Estimate {
+                        values: e.values.map(f64::from),
+                        band95: e.band95.map(f64::from),
+                        outputs: e.outputs,
+                        flags: e.flags,
+                    }
                 })
                 .collect())
         }

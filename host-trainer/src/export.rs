@@ -4,7 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use fbg_link::golden;
-use fbg_shared::layout::{N_OUTPUTS, POLY_NAMES, Z_NAMES};
+use fbg_shared::layout::paper::{N_ENVELOPE, N_OUTPUTS, N_POLY, N_STAGE1, POLY_NAMES, Z_DIMS, Z_NAMES};
+use fbg_shared::layout::{head, pad, pad2};
 use fbg_shared::{blob, Compensator, ModelParams, Sample};
 
 use crate::data::files::write_bytes_atomically;
@@ -64,19 +65,19 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
         .iter()
         .enumerate()
         .map(|(j, c)| {
-            let physical: Vec<Option<f64>> = (0..c.mu.len())
-                .map(|d| if active[d] { Some(p.z_mean[d] + c.mu[d] * p.z_std[d]) } else { None })
-                .collect();
+            let mu: [f64; Z_DIMS] = pad(&c.mu);
+            let physical: Vec<Option<f64>> =
+                (0..Z_DIMS).map(|d| if active[d] { Some(p.z_mean[d] + c.mu[d] * p.z_std[d]) } else { None }).collect();
             serde_json::json!({
                 "index": j,
-                "mu_standardised": c.mu,
+                "mu_standardised": mu,
                 "mu_physical": physical,
                 "w": {"T_C": c.w[0], "strain_ue": c.w[1], "p_kPa": c.w[2]},
                 "variance_eigvec_components": c.v,
             })
         })
         .collect();
-    let poly_rows = |b: &[[f64; 10]; 3]| -> serde_json::Value {
+    let poly_rows = |b: &[[f64; N_POLY]; N_OUTPUTS]| -> serde_json::Value {
         let rows: Vec<serde_json::Value> = (0..N_OUTPUTS)
             .map(|o| {
                 let m: serde_json::Map<String, serde_json::Value> =
@@ -102,23 +103,25 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
         },
         "stage1_linear_inverse": {
             "columns": ["dl1_pm", "dl2_pm", "dl3_pm", "T_amb_C", "1"],
-            "T_C": p.stage1[0], "strain_ue": p.stage1[1], "p_kPa": p.stage1[2],
+            "T_C": head(&p.stage1[0], N_STAGE1), "strain_ue": head(&p.stage1[1], N_STAGE1), "p_kPa": head(&p.stage1[2], N_STAGE1),
         },
-        "first_guess_scalers": {"mean": p.guess_mean, "std": p.guess_std, "order": OUTPUT_KEYS},
-        "poly_B_standardised_guesses": poly_rows(&p.poly),
+        "model_dims": {"gratings": p.dims.gratings(), "ambient": p.dims.ambient(),
+                       "measurands": p.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect::<Vec<_>>()},
+        "first_guess_scalers": {"mean": head(&p.guess_mean, N_OUTPUTS), "std": head(&p.guess_std, N_OUTPUTS), "order": OUTPUT_KEYS},
+        "poly_B_standardised_guesses": poly_rows(&pad2(&p.poly)),
         "poly_B_physical_units": physical,
         "memory_terms": memory,
-        "rbf_input_scalers": {"inputs": Z_NAMES, "active": active, "mean": p.z_mean, "std": p.z_std},
+        "rbf_input_scalers": {"inputs": Z_NAMES, "active": active, "mean": head(&p.z_mean, Z_DIMS), "std": head(&p.z_std, Z_DIMS)},
         "rbf_centres": centres,
         "band": {
-            "resid_var_at_cal_end": p.resid_var,
-            "resid_var_growth_per_s": p.resid_var_growth,
+            "resid_var_at_cal_end": head(&p.resid_var, N_OUTPUTS),
+            "resid_var_growth_per_s": head(&p.resid_var_growth, N_OUTPUTS),
             "t_cal_end_s": p.t_cal_end_s,
-            "k95": p.band_k,
+            "k95": head(&p.band_k, N_OUTPUTS),
             "var_inv_g": p.var_inv_g,
             "var_inv_g_tail": p.var_inv_g_tail,
         },
-        "envelope": {"inputs": ["dl1_pm", "dl2_pm", "dl3_pm", "T_amb_C"], "lo": p.envelope_lo, "hi": p.envelope_hi},
+        "envelope": {"inputs": ["dl1_pm", "dl2_pm", "dl3_pm", "T_amb_C"], "lo": head(&p.envelope_lo, N_ENVELOPE), "hi": head(&p.envelope_hi, N_ENVELOPE)},
         "provenance": {
             "seed": p.provenance.seed,
             "scenario": p.provenance.scenario.as_str(),
@@ -156,8 +159,8 @@ pub fn memory_term_meaning(info: &fbg_shared::memory::TermInfo<f64>) -> String {
 /// Γ with a unit and a meaning per used term (the audit view of the memory terms).
 pub fn memory_json(p: &HostParams) -> serde_json::Value {
     let spec = &p.memory;
-    let terms: Vec<serde_json::Value> = (0..fbg_shared::layout::N_MEMORY)
-        .filter_map(|k| spec.term(k).filter(|t| t.parameter > 0.0).map(|t| (k, t)))
+    let terms: Vec<serde_json::Value> = (0..fbg_shared::layout::paper::N_MEMORY)
+        .filter_map(|k| spec.term(&p.dims, k).filter(|t| t.parameter > 0.0).map(|t| (k, t)))
         .map(|(k, t)| {
             let unit = t.group.unit();
             let coef: serde_json::Map<String, serde_json::Value> = (0..N_OUTPUTS)

@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context, Result};
 use fbg_link::parity::{abs_diff, compare};
 use fbg_link::{LinkClient, LinkError};
-use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::layout::paper::N_OUTPUTS;
 use fbg_shared::protocol::{Status, UpdateResult};
 use fbg_shared::Compensator;
 

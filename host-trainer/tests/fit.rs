@@ -152,7 +152,7 @@ fn missing_reference_and_gaps_are_handled() {
     assert!(back.dl_pm[1][50].is_nan());
 
     let t = train(&back, &small_grid(), &Origin::default()).unwrap();
-    assert_eq!(t.model_h.fitted, [true, true, false]);
+    assert_eq!(t.model_h.fitted, [true, true, false, false]);
     let (eh, est) = evaluate_holdout(&t.model_h, &back).unwrap();
     assert!(eh.channels[2].rmse.is_nan() && eh.channels[2].n == 0);
     assert!(eh.channels[0].rmse.is_finite() && eh.channels[1].rmse < 10.0);

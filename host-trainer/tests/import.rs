@@ -678,7 +678,7 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
     };
     let t = train(&back, &grid, &Origin { scenario: "imported".into(), seed: 0 }).unwrap();
     assert_eq!(t.selection.n_cal, n / 2 - 1, "the gap row is not used for fitting");
-    assert_eq!(t.model_h.fitted, [true, true, true]);
+    assert_eq!(t.model_h.fitted, [true, true, true, false]);
     assert!(t.selection.cv_rmse_h.iter().all(|r| r.is_finite()), "{:?}", t.selection.cv_rmse_h);
 }
 

@@ -356,8 +356,9 @@ fn a_million_samples_plot_in_seconds() {
             .map(|(k, &i)| {
                 let w = ((k * 2_654_435_761) % 1000) as f64 / 1000.0 - 0.5;
                 Estimate {
-                    values: std::array::from_fn(|c| d.truth(i)[c] + bias + w),
-                    band95: [1.0; 3],
+                    values: fbg_shared::layout::pad(&d.truth(i).map(|t| t + bias + w)),
+                    band95: [1.0, 1.0, 1.0, 0.0],
+                    outputs: 3,
                     flags: Flags::OK,
                 }
             })

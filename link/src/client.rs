@@ -327,14 +327,15 @@ mod tests {
             HostMsg::GetStatus => Some(DeviceMsg::Status(Status { samples: 2, ..Status::default() })),
             HostMsg::Sample { seq, sample } => Some(DeviceMsg::Estimate(DeviceEstimate {
                 seq,
-                values: [sample.dl_pm[0], 0.0, 0.0],
+                values: [sample.dl_pm[0], 0.0, 0.0, 0.0],
+                outputs: 3,
                 ..DeviceEstimate::default()
             })),
             _ => None,
         });
         let mut link = LinkClient::new(dev);
         link.ping(42).unwrap();
-        let samples = (0..2).map(|i| Sample { dl_pm: [i as f32, 0.0, 0.0], t_amb_c: 20.0, t_s: 0.0 });
+        let samples = (0..2).map(|i| Sample::new([i as f32, 0.0, 0.0], 20.0, 0.0));
         let mut got = Vec::new();
         let n = link
             .stream(10, samples, |s, e| -> Result<(), LinkError> {

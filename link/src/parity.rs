@@ -9,11 +9,17 @@
 //! use fbg_shared::protocol::DeviceEstimate;
 //! use fbg_shared::{Estimate, Flags};
 //!
-//! let host = Estimate { values: [20.0, 100.0, f64::NAN], band95: [0.5, 3.0, f64::INFINITY], flags: Flags::OK };
+//! let host = Estimate {
+//!     values: [20.0, 100.0, f64::NAN, 0.0],
+//!     band95: [0.5, 3.0, f64::INFINITY, 0.0],
+//!     outputs: 3,
+//!     flags: Flags::OK,
+//! };
 //! let device = DeviceEstimate {
 //!     seq: 0,
-//!     values: [20.004, 100.0, f32::NAN],
-//!     band: [0.5, 3.0, f32::INFINITY],
+//!     values: [20.004, 100.0, f32::NAN, 0.0],
+//!     band: [0.5, 3.0, f32::INFINITY, 0.0],
+//!     outputs: 3,
 //!     flags: Flags::OK,
 //! };
 //! assert_eq!(compare(&device, &host, &[0.01; 3]), Ok(()));
@@ -21,7 +27,7 @@
 //! assert!(matches!(compare(&flagged, &host, &[0.01; 3]), Err(Mismatch::Flags { .. })));
 //! ```
 
-use fbg_shared::layout::{CHANNELS, N_OUTPUTS};
+use fbg_shared::layout::MAX_OUTPUTS;
 use fbg_shared::protocol::DeviceEstimate;
 use fbg_shared::{Estimate, Flags};
 
@@ -51,7 +57,7 @@ pub enum Mismatch {
     Number {
         /// Value or band.
         part: Part,
-        /// Output channel (index into [`CHANNELS`]).
+        /// Output channel (index in the model's output order).
         channel: usize,
         /// The device's number.
         device: f64,
@@ -73,7 +79,7 @@ impl core::fmt::Display for Mismatch {
                     Part::Value => "value",
                     Part::Band => "band",
                 },
-                CHANNELS.get(channel).copied().unwrap_or("?"),
+                format_args!("output {}", channel + 1),
                 (device - host).abs()
             ),
         }
@@ -96,12 +102,17 @@ pub fn agrees(device: f64, host: f64, tol: f64) -> bool {
 
 /// Compare a device's answer with the host's: flags identical, then per channel value and
 /// band within `tol` ([`agrees`]). Returns the first difference.
-pub fn compare(device: &DeviceEstimate, host: &Estimate<f64>, tol: &[f64; N_OUTPUTS]) -> Result<(), Mismatch> {
+pub fn compare(device: &DeviceEstimate, host: &Estimate<f64>, tol: &[f64]) -> Result<(), Mismatch> {
     if device.flags != host.flags {
         return Err(Mismatch::Flags { device: device.flags, host: host.flags });
     }
-    for channel in 0..N_OUTPUTS {
-        let tol = tol[channel];
+    if device.outputs != host.outputs {
+        // Another model's answer: its output count is compared as a value.
+        let (device, host) = (f64::from(device.outputs), f64::from(host.outputs));
+        return Err(Mismatch::Number { part: Part::Value, channel: 0, device, host, tol: 0.0 });
+    }
+    for channel in 0..usize::from(host.outputs).min(MAX_OUTPUTS) {
+        let tol = tol.get(channel).copied().unwrap_or(0.0);
         for (part, d, h) in [
             (Part::Value, device.values[channel], host.values[channel]),
             (Part::Band, device.band[channel], host.band95[channel]),
@@ -117,7 +128,7 @@ pub fn compare(device: &DeviceEstimate, host: &Estimate<f64>, tol: &[f64; N_OUTP
 
 /// |device − host| per channel, 0 where the difference is not finite (NaN or ∞ on a side:
 /// [`compare`] judges those): what the largest differences of a stream are taken over.
-pub fn abs_diff(device: &[f32; N_OUTPUTS], host: &[f64; N_OUTPUTS]) -> [f64; N_OUTPUTS] {
+pub fn abs_diff(device: &[f32; MAX_OUTPUTS], host: &[f64; MAX_OUTPUTS]) -> [f64; MAX_OUTPUTS] {
     core::array::from_fn(|c| {
         let d = (f64::from(device[c]) - host[c]).abs();
         if d.is_finite() {
@@ -133,19 +144,25 @@ mod tests {
     use super::*;
 
     fn dev(values: [f32; 3], band: [f32; 3], flags: Flags) -> DeviceEstimate {
-        DeviceEstimate { seq: 0, values, band, flags }
+        let [a, b, c] = values;
+        let [d, e, f] = band;
+        DeviceEstimate { seq: 0, values: [a, b, c, 0.0], band: [d, e, f, 0.0], outputs: 3, flags }
     }
 
     #[test]
     fn compare_applies_the_tolerance_nan_inf_and_flags() {
-        let host =
-            Estimate { values: [1.0, 2.0, f64::NAN], band95: [0.5, f64::INFINITY, f64::INFINITY], flags: Flags::OK };
+        let host = Estimate {
+            values: [1.0, 2.0, f64::NAN, 0.0],
+            band95: [0.5, f64::INFINITY, f64::INFINITY, 0.0],
+            outputs: 3,
+            flags: Flags::OK,
+        };
         let tol = [0.01, 0.01, 0.01];
         let inf = f32::INFINITY;
         assert_eq!(compare(&dev([1.005, 2.0, f32::NAN], [0.5, inf, inf], Flags::OK), &host, &tol), Ok(()));
         let e = compare(&dev([1.02, 2.0, f32::NAN], [0.5, inf, inf], Flags::OK), &host, &tol).unwrap_err();
         assert!(matches!(e, Mismatch::Number { part: Part::Value, channel: 0, .. }), "{e:?}");
-        assert!(e.to_string().starts_with("value T: device"), "{e}");
+        assert!(e.to_string().starts_with("value output 1: device"), "{e}");
         let e = compare(&dev([1.0, 2.0, 0.0], [0.5, inf, inf], Flags::OK), &host, &tol).unwrap_err();
         assert!(matches!(e, Mismatch::Number { part: Part::Value, channel: 2, .. }));
         let e = compare(&dev([1.0, 2.0, f32::NAN], [0.5, 1.0, inf], Flags::OK), &host, &tol).unwrap_err();
@@ -158,6 +175,6 @@ mod tests {
 
     #[test]
     fn abs_diff_skips_what_is_not_finite() {
-        assert_eq!(abs_diff(&[1.5, f32::NAN, 3.0], &[1.0, 2.0, f64::INFINITY]), [0.5, 0.0, 0.0]);
+        assert_eq!(abs_diff(&[1.5, f32::NAN, 3.0, 0.0], &[1.0, 2.0, f64::INFINITY, 0.0]), [0.5, 0.0, 0.0, 0.0]);
     }
 }

@@ -5,42 +5,56 @@
 //! offset  size  field
 //! 0       4     magic "FBGM"
 //! 4       2     format version, u16 LE (this build writes FORMAT_VERSION)
-//! 6       2     inputs       (5: Δλ1..3, T_amb, t)
-//! 8       2     outputs      (3: T, ε, p)
-//! 10      2     poly terms   (10)
-//! 12      2     memory terms (32: slots of the memory vector m, used or not)
-//! 14      2     centres      (K of this model)
-//! 16      n     postcard payload: ModelParams<f32, K>
-//! 16+n    4     CRC-32/ISCSI (postcard crc flavour) over bytes 0..16+n, u32 LE
+//! 6       2     gratings     N (1..=MAX_GRATINGS)
+//! 8       2     ambient      0 or 1
+//! 10      2     measurands   M (1..=MAX_OUTPUTS)
+//! 12      2     poly terms   1 + M + M(M+1)/2
+//! 14      2     memory terms (slots of the memory vector m of these dims, used or not)
+//! 16      2     centres      (K of this model)
+//! 18      n     payload (postcard encoding, see below)
+//! 18+n    4     CRC-32/ISCSI (postcard crc flavour) over bytes 0..18+n, u32 LE
 //! ```
 //!
-//! The blob must be exactly `20 + n` bytes long: nothing may follow the CRC, except the
+//! The payload carries only the entries the dims use (every f32 is 4 bytes LE): per output its
+//! quantity code and index (2 bytes each, [`crate::layout::Output`]); the hyper-parameters;
+//! stage 1 (M rows of N + ambient + 1); the guess means and deviations (M each); the
+//! polynomial core (M rows of the poly terms); the memory spec (6 grating τ, 4 ambient τ with
+//! ambient, 3 plays, and with the observer slot its lag, smoothing and stage-1-length row); Γ
+//! (M rows of the memory terms); z mean and deviation (2N + ambient + 1 each); the centres (a
+//! varint count, each μ over z, M weights, `VAR_RANK` variance components); `var_inv_g`, its
+//! tail; residual variance, its growth (M each); the end of calibration; band multipliers (M);
+//! envelope low and high (N + ambient each); fitted (M bools); provenance.
+//!
+//! The blob must be exactly `22 + n` bytes long: nothing may follow the CRC, except the
 //! signature trailer of a signed model ([`crate::signature`]), which decoding skips (it does
 //! not verify it: that is the device's policy, [`crate::signature::verify`]).
 //!
 //! Version history: 1 had no memory terms (no memory field in the header, no memory spec or
-//! Γ in the payload); version 2 adds them. A version-1 blob is refused with
+//! Γ in the payload); 2 adds them, for the fixed paper layout (3 gratings, ambient, T/ε/p);
+//! 3 makes the dimensions data (gratings, ambient and measurands in the header, output kinds
+//! in the payload, every vector only as long as the dims need). An older blob is refused with
 //! [`Error::UnsupportedVersion`] naming both versions: retrain, or re-export with this
-//! trainer.
+//! trainer. A blob whose gratings or measurands exceed this build's capacity is refused with
+//! [`Error::OverCapacity`] naming both.
 //!
 //! Decoding checks magic, version, CRC, dims and every parameter, and returns a typed
 //! [`Error`]; it never panics and never allocates, whatever the bytes.
 
 use crc::{Crc, CRC_32_ISCSI};
+use serde::Serialize;
 
 use crate::error::Error;
 use crate::layout::{
-    N_AMBIENT_TAUS, N_ENVELOPE, N_GRATING_TAUS, N_INPUTS, N_MEMORY, N_OUTPUTS, N_PLAYS, N_POLY, N_STAGE1, VAR_RANK,
-    Z_DIMS,
+    head, Dims, Output, Quantity, MAX_GRATINGS, MAX_OUTPUTS, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS, VAR_RANK,
 };
-use crate::model::ModelParams;
+use crate::model::{Centre, ModelParams};
 
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"FBGM";
 /// Format version this build writes and reads.
-pub const FORMAT_VERSION: u16 = 2;
-/// Header length in bytes (magic, version, five dims).
-pub const HEADER_LEN: usize = 16;
+pub const FORMAT_VERSION: u16 = 3;
+/// Header length in bytes (magic, version, six dims).
+pub const HEADER_LEN: usize = 18;
 /// CRC trailer length in bytes.
 pub const CRC_LEN: usize = 4;
 
@@ -52,10 +66,12 @@ pub(crate) static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
 pub struct Header {
     /// Format version.
     pub version: u16,
-    /// Raw inputs per sample.
-    pub inputs: u16,
-    /// Outputs.
-    pub outputs: u16,
+    /// Gratings N.
+    pub gratings: u16,
+    /// 1 with an ambient input, 0 without.
+    pub ambient: u16,
+    /// Measurands M.
+    pub measurands: u16,
     /// Polynomial terms.
     pub poly_terms: u16,
     /// Memory-term slots.
@@ -65,9 +81,9 @@ pub struct Header {
 }
 
 impl Header {
-    /// Parse and check the header of `bytes` (magic, version, the three fixed dims) without
-    /// touching the payload or the CRC. Input that does not start like `FBGM` is
-    /// [`Error::BadMagic`] even when it is shorter than a header.
+    /// Parse and check the header of `bytes` (magic, version, the dims against this build's
+    /// capacity and each other) without touching the payload or the CRC. Input that does not
+    /// start like `FBGM` is [`Error::BadMagic`] even when it is shorter than a header.
     pub fn parse(bytes: &[u8]) -> Result<Header, Error> {
         let header = Header::read(bytes)?;
         header.check_version()?;
@@ -75,20 +91,20 @@ impl Header {
         Ok(header)
     }
 
-    /// Magic and the five fields, unchecked.
+    /// Magic and the seven fields, unchecked.
     fn read(bytes: &[u8]) -> Result<Header, Error> {
         if bytes.iter().zip(MAGIC.iter()).any(|(b, m)| b != m) {
             return Err(Error::BadMagic);
         }
         let head = bytes.get(..HEADER_LEN).ok_or(Error::Truncated { part: "header" })?;
-        let mut w = [0u16; 6];
+        let mut w = [0u16; 7];
         for (o, ch) in w.iter_mut().zip(head.get(MAGIC.len()..).unwrap_or(&[]).chunks_exact(2)) {
             let mut b = [0u8; 2];
             b.copy_from_slice(ch);
             *o = u16::from_le_bytes(b);
         }
-        let [version, inputs, outputs, poly_terms, memory_terms, centres] = w;
-        Ok(Header { version, inputs, outputs, poly_terms, memory_terms, centres })
+        let [version, gratings, ambient, measurands, poly_terms, memory_terms, centres] = w;
+        Ok(Header { version, gratings, ambient, measurands, poly_terms, memory_terms, centres })
     }
 
     /// The version decides how the rest is read, so it is checked before anything else.
@@ -100,18 +116,45 @@ impl Header {
         }
     }
 
+    /// Gratings and measurands within this build's capacity (else [`Error::OverCapacity`]) and
+    /// at least 1; ambient 0 or 1; the poly terms those of M; the memory terms those of the
+    /// dims with or without the observer slot (which one the output kinds in the payload
+    /// decide).
     fn check_dims(&self) -> Result<(), Error> {
-        let check = |field, found: u16, expected: usize| {
-            if usize::from(found) == expected {
-                Ok(())
+        let over = |field, found: u16, capacity: usize| {
+            if usize::from(found) > capacity {
+                Err(Error::OverCapacity { field, found, capacity: saturate_u16(capacity) })
+            } else if found == 0 {
+                Err(Error::WrongDims { field, found, expected: 1 })
             } else {
-                Err(Error::WrongDims { field, found, expected: saturate_u16(expected) })
+                Ok(())
             }
         };
-        check("inputs", self.inputs, N_INPUTS)?;
-        check("outputs", self.outputs, N_OUTPUTS)?;
-        check("poly_terms", self.poly_terms, N_POLY)?;
-        check("memory_terms", self.memory_terms, N_MEMORY)
+        over("gratings", self.gratings, MAX_GRATINGS)?;
+        over("measurands", self.measurands, MAX_OUTPUTS)?;
+        if self.ambient > 1 {
+            return Err(Error::WrongDims { field: "ambient", found: self.ambient, expected: 1 });
+        }
+        let poly = crate::layout::poly_len(usize::from(self.measurands));
+        if usize::from(self.poly_terms) != poly {
+            return Err(Error::WrongDims { field: "poly_terms", found: self.poly_terms, expected: saturate_u16(poly) });
+        }
+        let (lo, hi) = self.memory_range();
+        if usize::from(self.memory_terms) != lo && usize::from(self.memory_terms) != hi {
+            return Err(Error::WrongDims {
+                field: "memory_terms",
+                found: self.memory_terms,
+                expected: saturate_u16(lo),
+            });
+        }
+        Ok(())
+    }
+
+    /// Memory terms without and with the observer slot.
+    fn memory_range(&self) -> (usize, usize) {
+        let n = usize::from(self.gratings);
+        let lo = n * (N_GRATING_TAUS + N_PLAYS) + if self.ambient == 1 { N_AMBIENT_TAUS } else { 0 };
+        (lo, if self.ambient == 1 { lo + 1 } else { lo })
     }
 
     fn check_capacity<const K: usize>(&self) -> Result<(), Error> {
@@ -126,7 +169,15 @@ impl Header {
         let mut out = [0u8; HEADER_LEN];
         let (magic, rest) = out.split_at_mut(MAGIC.len());
         magic.copy_from_slice(&MAGIC);
-        let w = [self.version, self.inputs, self.outputs, self.poly_terms, self.memory_terms, self.centres];
+        let w = [
+            self.version,
+            self.gratings,
+            self.ambient,
+            self.measurands,
+            self.poly_terms,
+            self.memory_terms,
+            self.centres,
+        ];
         for (ch, v) in rest.chunks_exact_mut(2).zip(w.iter()) {
             ch.copy_from_slice(&v.to_le_bytes());
         }
@@ -140,11 +191,11 @@ impl Header {
 ///
 /// ```
 /// use fbg_shared::blob::{computed_crc, stored_crc};
-/// let mut blob = [0u8; 20];
-/// blob[16..].copy_from_slice(&0x1234_5678u32.to_le_bytes());
+/// let mut blob = [0u8; 22];
+/// blob[18..].copy_from_slice(&0x1234_5678u32.to_le_bytes());
 /// assert_eq!(stored_crc(&blob), Some(0x1234_5678));
 /// assert_ne!(computed_crc(&blob), stored_crc(&blob)); // not a valid blob
-/// assert_eq!(computed_crc(&blob[..19]), None); // shorter than a header and a trailer
+/// assert_eq!(computed_crc(&blob[..21]), None); // shorter than a header and a trailer
 /// assert_eq!(stored_crc(&blob[..3]), None);
 /// ```
 pub fn stored_crc(bytes: &[u8]) -> Option<u32> {
@@ -168,31 +219,107 @@ fn saturate_u16(v: usize) -> u16 {
     u16::try_from(v).unwrap_or(u16::MAX)
 }
 
+/// Postcard writer over a caller's buffer.
+struct Writer<'a> {
+    buf: &'a mut [u8],
+    pos: usize,
+}
+
+impl Writer<'_> {
+    fn put<T: Serialize + ?Sized>(&mut self, v: &T) -> Result<(), Error> {
+        let rest = self.buf.get_mut(self.pos..).ok_or(Error::BufferTooSmall)?;
+        let n = postcard::to_slice(v, rest).map_err(|_| Error::BufferTooSmall)?.len();
+        self.pos += n;
+        Ok(())
+    }
+    fn floats(&mut self, a: &[f32]) -> Result<(), Error> {
+        a.iter().try_for_each(|v| self.put(v))
+    }
+}
+
 /// Encode `params` into `buf`; returns the blob length. Invalid params are refused, so a
 /// blob that encodes always decodes. A buffer of [`max_len`]`(K)` bytes always suffices.
 pub fn encode<const K: usize>(params: &ModelParams<f32, K>, buf: &mut [u8]) -> Result<usize, Error> {
     params.validate()?;
+    encode_unchecked(params, buf)
+}
+
+/// [`encode`] without [`ModelParams::validate`]: a blob with a valid CRC for any params, for
+/// tests of the decoder's checks.
+#[doc(hidden)]
+pub fn encode_unchecked<const K: usize>(params: &ModelParams<f32, K>, buf: &mut [u8]) -> Result<usize, Error> {
+    let d = &params.dims;
     let centres = u16::try_from(params.centres.len())
         .map_err(|_| Error::TooManyCentres { found: params.centres.len(), capacity: u16::MAX as usize })?;
     let header = Header {
         version: FORMAT_VERSION,
-        inputs: N_INPUTS as u16,
-        outputs: N_OUTPUTS as u16,
-        poly_terms: N_POLY as u16,
-        memory_terms: N_MEMORY as u16,
+        gratings: d.gratings() as u16,
+        ambient: u16::from(d.ambient()),
+        measurands: d.n_outputs() as u16,
+        poly_terms: d.poly_len() as u16,
+        memory_terms: d.memory_len() as u16,
         centres,
     }
     .to_bytes();
-    if buf.len() < HEADER_LEN + CRC_LEN {
-        return Err(Error::BufferTooSmall);
+    buf.get_mut(..HEADER_LEN).ok_or(Error::BufferTooSmall)?.copy_from_slice(&header);
+    let mut w = Writer { buf, pos: HEADER_LEN };
+    let (m, s1, np, nz, ne, nm) =
+        (d.n_outputs(), d.stage1_len(), d.poly_len(), d.z_len(), d.envelope_len(), d.memory_len());
+    for o in d.outputs() {
+        w.put(&(o.quantity.code(), o.index))?;
     }
-    let (head, body) = buf.split_at_mut(HEADER_LEN);
-    head.copy_from_slice(&header);
-    let mut digest = CRC32.digest();
-    digest.update(&header);
-    // The only failure of a heapless, fixed-shape value is running out of buffer.
-    let used = postcard::to_slice_crc32(params, body, digest).map_err(|_| Error::BufferTooSmall)?;
-    Ok(HEADER_LEN + used.len())
+    w.put(&params.hyper)?;
+    for row in head_rows(&params.stage1, m) {
+        w.floats(head(row, s1))?;
+    }
+    w.floats(head(&params.guess_mean, m))?;
+    w.floats(head(&params.guess_std, m))?;
+    for row in head_rows(&params.poly, m) {
+        w.floats(head(row, np))?;
+    }
+    let mem = &params.memory;
+    w.floats(&mem.grating_tau_s)?;
+    if d.ambient() {
+        w.floats(&mem.ambient_tau_s)?;
+    }
+    w.floats(&mem.play_half_width_pm)?;
+    if d.has_observer() {
+        w.put(&mem.observer_lag_s)?;
+        w.put(&mem.observer_smooth_s)?;
+        w.floats(head(&mem.observer_row, s1))?;
+    }
+    for row in head_rows(&params.gamma, m) {
+        w.floats(head(row, nm))?;
+    }
+    w.floats(head(&params.z_mean, nz))?;
+    w.floats(head(&params.z_std, nz))?;
+    w.put(&(params.centres.len() as u32))?;
+    for c in params.centres.iter() {
+        w.floats(head(&c.mu, nz))?;
+        w.floats(head(&c.w, m))?;
+        w.floats(&c.v)?;
+    }
+    w.floats(&params.var_inv_g)?;
+    w.put(&params.var_inv_g_tail)?;
+    w.floats(head(&params.resid_var, m))?;
+    w.floats(head(&params.resid_var_growth, m))?;
+    w.put(&params.t_cal_end_s)?;
+    w.floats(head(&params.band_k, m))?;
+    w.floats(head(&params.envelope_lo, ne))?;
+    w.floats(head(&params.envelope_hi, ne))?;
+    for f in head(&params.fitted, m) {
+        w.put(f)?;
+    }
+    w.put(&params.provenance)?;
+    let end = w.pos;
+    let body = buf.get(..end).ok_or(Error::BufferTooSmall)?;
+    let crc = CRC32.checksum(body).to_le_bytes();
+    buf.get_mut(end..end + CRC_LEN).ok_or(Error::BufferTooSmall)?.copy_from_slice(&crc);
+    Ok(end + CRC_LEN)
+}
+
+fn head_rows<T, const C: usize>(a: &[[T; C]; MAX_OUTPUTS], m: usize) -> &[[T; C]] {
+    head(a, m)
 }
 
 /// Decode and fully validate a blob into a model of capacity `K`.
@@ -201,12 +328,14 @@ pub fn encode<const K: usize>(params: &ModelParams<f32, K>, buf: &mut [u8]) -> R
 /// 1. magic and format version (they decide how everything else is read);
 /// 2. length and CRC over everything but the 4-byte trailer: a mismatch is reported as
 ///    [`Error::BadCrc`], as [`Error::Truncated`] when the input is shorter than any blob with
-///    the header's centre count, or as [`Error::TrailingBytes`] when a complete blob with a
-///    valid CRC is followed by extra bytes;
-/// 3. the fixed dims, then the centre count against the capacity `K` (both now known to be
-///    what the writer wrote, so a mismatch is a real one, not corruption);
+///    the header's dims and centre count, or as [`Error::TrailingBytes`] when a complete blob
+///    with a valid CRC is followed by extra bytes;
+/// 3. the dims against this build's capacity ([`Error::OverCapacity`]) and each other, then
+///    the centre count against the capacity `K` (all now known to be what the writer wrote, so
+///    a mismatch is a real one, not corruption);
 /// 4. the payload, which must end exactly at the CRC trailer;
-/// 5. the payload's centre count against the header's, then every parameter range.
+/// 5. the payload's output kinds, memory terms and centre count against the header's, then
+///    every parameter range.
 pub fn decode<const K: usize>(bytes: &[u8]) -> Result<ModelParams<f32, K>, Error> {
     let mut out = ModelParams::default();
     decode_into(bytes, &mut out)?;
@@ -214,8 +343,8 @@ pub fn decode<const K: usize>(bytes: &[u8]) -> Result<ModelParams<f32, K>, Error
 }
 
 /// [`decode`] into caller-provided storage, without a model-sized temporary: the payload is
-/// parsed field by field straight into `out` (the largest temporary is one centre), so a device
-/// can decode an update into a static staging slot with a small stack. On error `out` holds a
+/// parsed field by field straight into `out` (the largest temporary is one f32), so a device
+/// can decode an update into a staging slot with a small stack. On error `out` holds a
 /// partial model and must not be used; on success it is fully validated.
 pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) -> Result<(), Error> {
     // A signed model is a blob followed by its signature trailer: the blob is what is decoded.
@@ -235,13 +364,16 @@ pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) 
     // header, to tell a truncated or padded blob from a corrupted one. Parsing unauthenticated
     // bytes is no extra exposure: anyone can write a valid CRC, so the parser is hardened
     // against arbitrary payloads anyway.
-    let parsed = parse_into(if crc_ok { payload } else { body }, out);
+    let parsed = parse_into(&header, if crc_ok { payload } else { body }, out);
     if !crc_ok {
         return Err(diagnose_crc_mismatch(bytes.len(), header, head, body, parsed.as_ref().map(|r| *r)));
     }
     // With a valid CRC these bytes are what the writer wrote: a payload that does not decode
     // (including one that claims more bytes than it has) is malformed, not truncated.
-    let rest = parsed.map_err(|_| Error::BadPayload)?;
+    let rest = parsed.map_err(|e| match e {
+        ParseError::Dims(e) => e,
+        ParseError::Postcard => Error::BadPayload,
+    })?;
     if !rest.is_empty() {
         return Err(Error::TrailingBytes { extra: rest.len() });
     }
@@ -252,48 +384,122 @@ pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) 
             expected: saturate_u16(out.centres.len()),
         });
     }
+    if out.dims.memory_len() != usize::from(header.memory_terms) {
+        return Err(Error::WrongDims {
+            field: "memory_terms",
+            found: header.memory_terms,
+            expected: saturate_u16(out.dims.memory_len()),
+        });
+    }
     out.validate()
 }
 
-/// Parse a postcard payload of `ModelParams<f32, K>` into `out`, one field at a time in
-/// declaration order (the encoding `encode` writes with serde), returning the unread rest.
-/// The round-trip and golden tests pin this to the serde layout.
-fn parse_into<'a, const K: usize>(bytes: &'a [u8], out: &mut ModelParams<f32, K>) -> Result<&'a [u8], postcard::Error> {
+/// Why a payload did not parse.
+#[derive(Clone, Copy, Debug)]
+enum ParseError {
+    /// Not the postcard layout (or it ran out).
+    Postcard,
+    /// The output kinds make no valid dims.
+    Dims(Error),
+}
+
+impl From<postcard::Error> for ParseError {
+    fn from(_: postcard::Error) -> Self {
+        ParseError::Postcard
+    }
+}
+
+/// Parse a payload into `out`, one field at a time in the order `encode` writes, with the
+/// vector lengths of the header's dims, returning the unread rest. Every capacity-sized array
+/// is cleared first, so entries beyond the dims are 0.
+fn parse_into<'a, const K: usize>(
+    header: &Header,
+    bytes: &'a [u8],
+    out: &mut ModelParams<f32, K>,
+) -> Result<&'a [u8], ParseError> {
     fn take<'a, T: serde::Deserialize<'a>>(b: &mut &'a [u8]) -> Result<T, postcard::Error> {
         let (v, rest) = postcard::take_from_bytes::<T>(b)?;
         *b = rest;
         Ok(v)
     }
-    let mut b = bytes;
-    out.hyper = take(&mut b)?;
-    out.stage1 = take(&mut b)?;
-    out.guess_mean = take(&mut b)?;
-    out.guess_std = take(&mut b)?;
-    out.poly = take(&mut b)?;
-    out.memory = take(&mut b)?;
-    // Row by row: postcard writes an array as its elements, and a whole-Γ temporary would
-    // double the parser's stack frame on the device.
-    for row in out.gamma.iter_mut() {
-        *row = take(&mut b)?;
+    fn floats(b: &mut &[u8], out: &mut [f32]) -> Result<(), postcard::Error> {
+        for o in out.iter_mut() {
+            *o = take(b)?;
+        }
+        Ok(())
     }
-    out.z_mean = take(&mut b)?;
-    out.z_std = take(&mut b)?;
-    // heapless::Vec is a postcard sequence: a varint length, then the elements.
+    fn rows<const C: usize>(
+        b: &mut &[u8],
+        out: &mut [[f32; C]; MAX_OUTPUTS],
+        m: usize,
+        n: usize,
+    ) -> Result<(), postcard::Error> {
+        for row in out.iter_mut() {
+            *row = [0.0; C];
+        }
+        for row in crate::layout::head_mut(out, m) {
+            floats(b, crate::layout::head_mut(row, n))?;
+        }
+        Ok(())
+    }
+    fn vector<const C: usize>(b: &mut &[u8], out: &mut [f32; C], n: usize) -> Result<(), postcard::Error> {
+        *out = [0.0; C];
+        floats(b, crate::layout::head_mut(out, n))
+    }
+    let mut b = bytes;
+    let m = usize::from(header.measurands).min(MAX_OUTPUTS);
+    let mut kinds = [Output::default(); MAX_OUTPUTS];
+    for k in crate::layout::head_mut(&mut kinds, m) {
+        let (code, index): (u8, u8) = take(&mut b)?;
+        let quantity =
+            Quantity::from_code(code).ok_or(ParseError::Dims(Error::BadParameter { field: "dims.outputs" }))?;
+        *k = Output { quantity, index };
+    }
+    let d = Dims::new(usize::from(header.gratings), header.ambient == 1, head(&kinds, m)).map_err(ParseError::Dims)?;
+    out.dims = d;
+    let (s1, np, nz, ne, nm) = (d.stage1_len(), d.poly_len(), d.z_len(), d.envelope_len(), d.memory_len());
+    out.hyper = take(&mut b)?;
+    rows(&mut b, &mut out.stage1, m, s1)?;
+    vector(&mut b, &mut out.guess_mean, m)?;
+    vector(&mut b, &mut out.guess_std, m)?;
+    rows(&mut b, &mut out.poly, m, np)?;
+    let mem = &mut out.memory;
+    *mem = crate::memory::MemorySpec::off();
+    floats(&mut b, &mut mem.grating_tau_s)?;
+    if d.ambient() {
+        floats(&mut b, &mut mem.ambient_tau_s)?;
+    }
+    floats(&mut b, &mut mem.play_half_width_pm)?;
+    if d.has_observer() {
+        mem.observer_lag_s = take(&mut b)?;
+        mem.observer_smooth_s = take(&mut b)?;
+        floats(&mut b, crate::layout::head_mut(&mut mem.observer_row, s1))?;
+    }
+    // Row by row: a whole-Γ temporary would double the parser's stack frame on the device.
+    rows(&mut b, &mut out.gamma, m, nm)?;
+    vector(&mut b, &mut out.z_mean, nz)?;
+    vector(&mut b, &mut out.z_std, nz)?;
     let n: u32 = take(&mut b)?;
     out.centres.clear();
     for _ in 0..n {
-        let c = take(&mut b)?;
-        out.centres.push(c).map_err(|_| postcard::Error::DeserializeBadEncoding)?;
+        let mut c = Centre::<f32>::default();
+        floats(&mut b, crate::layout::head_mut(&mut c.mu, nz))?;
+        floats(&mut b, crate::layout::head_mut(&mut c.w, m))?;
+        floats(&mut b, &mut c.v)?;
+        out.centres.push(c).map_err(|_| ParseError::Postcard)?;
     }
-    out.var_inv_g = take(&mut b)?;
+    floats(&mut b, &mut out.var_inv_g)?;
     out.var_inv_g_tail = take(&mut b)?;
-    out.resid_var = take(&mut b)?;
-    out.resid_var_growth = take(&mut b)?;
+    vector(&mut b, &mut out.resid_var, m)?;
+    vector(&mut b, &mut out.resid_var_growth, m)?;
     out.t_cal_end_s = take(&mut b)?;
-    out.band_k = take(&mut b)?;
-    out.envelope_lo = take(&mut b)?;
-    out.envelope_hi = take(&mut b)?;
-    out.fitted = take(&mut b)?;
+    vector(&mut b, &mut out.band_k, m)?;
+    vector(&mut b, &mut out.envelope_lo, ne)?;
+    vector(&mut b, &mut out.envelope_hi, ne)?;
+    out.fitted = [false; MAX_OUTPUTS];
+    for f in crate::layout::head_mut(&mut out.fitted, m) {
+        *f = take(&mut b)?;
+    }
     out.provenance = take(&mut b)?;
     Ok(b)
 }
@@ -319,18 +525,27 @@ fn le_u32(b: &[u8]) -> u32 {
 ///
 /// - The payload parses and the 4 bytes after it are its valid CRC, with more bytes after
 ///   them: a complete blob with something appended ([`Error::TrailingBytes`]).
-/// - The input is shorter than the smallest blob with the header's centre count and the
-///   payload or its CRC runs out: a cut blob ([`Error::Truncated`]). A payload byte flip can
-///   also make the parse run out, so longer inputs are never called truncated.
+/// - The input is shorter than the smallest blob with the header's dims and centre count and
+///   the payload or its CRC runs out: a cut blob ([`Error::Truncated`]). A payload byte flip
+///   can also make the parse run out, so longer inputs are never called truncated.
 /// - Anything else is corruption ([`Error::BadCrc`]).
 fn diagnose_crc_mismatch(
     len: usize,
     header: Header,
     head: &[u8],
     body: &[u8],
-    parsed: Result<&[u8], &postcard::Error>,
+    parsed: Result<&[u8], &ParseError>,
 ) -> Error {
-    let short = len < min_len(usize::from(header.centres));
+    let (lo, hi) = header.memory_range();
+    let observer = usize::from(header.memory_terms) == hi && hi > lo;
+    let short = len
+        < min_len_of(
+            usize::from(header.gratings),
+            header.ambient == 1,
+            usize::from(header.measurands),
+            observer,
+            usize::from(header.centres),
+        );
     match parsed {
         Ok(rest) => {
             let used = body.len().saturating_sub(rest.len());
@@ -357,36 +572,47 @@ const fn varint_len(mut v: usize) -> usize {
     n
 }
 
-/// Exact length of the shortest blob with `centres` centres: every f32 is 4 bytes in
-/// postcard; the feature-set tag, seed, date, sample count and both string lengths take one
+/// Exact length of the shortest blob with these dims (`observer`: the memory vector has the
+/// drift observer's slot) and `centres` centres: every f32 is 4 bytes in postcard; the
+/// feature-set tag, the output kinds, seed, date, sample count and both string lengths take one
 /// byte each with empty strings; the centre count is a varint. Saturates instead of
 /// overflowing for absurd `centres`.
-pub const fn min_len(centres: usize) -> usize {
+pub const fn min_len_of(gratings: usize, ambient: bool, m: usize, observer: bool, centres: usize) -> usize {
+    let amb = ambient as usize;
+    let s1 = gratings + amb + 1;
+    let poly = crate::layout::poly_len(m);
+    let z = 2 * gratings + amb + 1;
+    let env = gratings + amb;
+    let mem_terms = gratings * (N_GRATING_TAUS + N_PLAYS) + amb * N_AMBIENT_TAUS + observer as usize;
+    let spec = N_GRATING_TAUS + amb * N_AMBIENT_TAUS + N_PLAYS + if observer { 2 + s1 } else { 0 };
     let hyper = 1 + 7 * 4;
-    let fixed_f32 = N_OUTPUTS * N_STAGE1
-        + 2 * N_OUTPUTS
-        + N_OUTPUTS * N_POLY
-        + (N_GRATING_TAUS + N_AMBIENT_TAUS + N_PLAYS + 2 + N_STAGE1)
-        + N_OUTPUTS * N_MEMORY
-        + 2 * Z_DIMS
-        + VAR_RANK
-        + 1
-        + N_OUTPUTS
-        + N_OUTPUTS
-        + 1
-        + N_OUTPUTS
-        + 2 * N_ENVELOPE;
-    let per_centre = 4 * (Z_DIMS + N_OUTPUTS + VAR_RANK);
-    // `fitted`: one byte per output; provenance: five one-byte minimums.
-    let provenance = N_OUTPUTS + 5;
-    let fixed = HEADER_LEN + hyper + 4 * fixed_f32 + provenance + CRC_LEN;
+    let fixed_f32 = m * s1 + 2 * m + m * poly + spec + m * mem_terms + 2 * z + VAR_RANK + 1 + m + m + 1 + m + 2 * env;
+    let per_centre = 4 * (z + m + VAR_RANK);
+    // Output kinds: two bytes each; `fitted`: one byte per output; provenance: five one-byte
+    // minimums.
+    let bytes = 2 * m + m + 5;
+    let fixed = HEADER_LEN + hyper + 4 * fixed_f32 + bytes + CRC_LEN;
     fixed.saturating_add(varint_len(centres)).saturating_add(per_centre.saturating_mul(centres))
 }
 
-/// Exact length of the longest blob [`encode`] writes for `centres` centres (for sizing
-/// buffers): [`min_len`] plus a 10-byte seed varint (+9), 5-byte date and sample-count
-/// varints (+4 each) and full provenance strings (24 + 16 bytes; their length varints stay
-/// one byte).
+/// [`min_len_of`] for a model's dims.
+pub fn min_len(dims: &Dims, centres: usize) -> usize {
+    min_len_of(dims.gratings(), dims.ambient(), dims.n_outputs(), dims.has_observer(), centres)
+}
+
+/// Extra bytes of the longest provenance over the shortest: a 10-byte seed varint (+9), 5-byte
+/// date and sample-count varints (+4 each) and full provenance strings (24 + 16 bytes; their
+/// length varints stay one byte).
+const LONG_PROVENANCE: usize = 9 + 4 + 4 + 24 + 16;
+
+/// Exact length of the longest blob [`encode`] writes for `centres` centres at any dims within
+/// the capacity (for sizing buffers): [`min_len_of`] at the capacity (every grating, ambient,
+/// every output, the observer) plus the longest provenance.
 pub const fn max_len(centres: usize) -> usize {
-    min_len(centres).saturating_add(9 + 4 + 4 + 24 + 16)
+    min_len_of(MAX_GRATINGS, true, MAX_OUTPUTS, true, centres).saturating_add(LONG_PROVENANCE)
+}
+
+/// Exact length of the longest blob of these dims with `centres` centres.
+pub fn max_len_for(dims: &Dims, centres: usize) -> usize {
+    min_len(dims, centres).saturating_add(LONG_PROVENANCE)
 }

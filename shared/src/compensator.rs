@@ -11,33 +11,79 @@
 //! checked before the first one is written, so a refused model leaves the old one serving.
 
 use heapless::Vec;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::direction_latch::LatchBank;
 use crate::error::Error;
 use crate::flags::Flags;
-use crate::layout::{N_ENVELOPE, N_GRATINGS, N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_MEMORY, MAX_OUTPUTS, MAX_POLY, MAX_STAGE1, MAX_Z, VAR_RANK};
+use crate::memory::bank::{affine, affine_inputs};
 use crate::memory::{MemoryBank, MemoryState};
 use crate::model::{Centre, ModelParams};
 use crate::real::Real;
 
-/// One measured sample.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+/// One measured sample: the shifts of its gratings, the ambient temperature and the time.
+///
+/// `dl_pm` holds up to [`MAX_GRATINGS`] shifts of which the first `gratings` are the sample's
+/// (the rest are 0); a model answers a sample with another grating count as non-finite. A model
+/// without an ambient input ignores `t_amb_c` (send NaN); a model with one needs it finite.
+///
+/// On the link (postcard, [`crate::protocol`]) a sample is its `gratings` shifts (a length and
+/// the values), then T_amb and t: the model's N values, not the capacity.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sample<F> {
-    /// Measured wavelength shifts Δλ1..3 \[pm\].
-    pub dl_pm: [F; N_GRATINGS],
-    /// Ambient reference temperature T_amb [°C].
+    /// Measured wavelength shifts Δλ_1..N \[pm\] (the rest 0).
+    pub dl_pm: [F; MAX_GRATINGS],
+    /// N, the number of shifts in `dl_pm`.
+    pub gratings: u8,
+    /// Ambient reference temperature T_amb [°C] (NaN, and ignored, without an ambient input).
     pub t_amb_c: F,
-    /// Time on the calibration clock \[s\] (used by feature sets with time and by a band that
-    /// grows after calibration).
+    /// Time on the calibration clock \[s\] (used by feature sets with time, by a band that
+    /// grows after calibration and by the memory terms).
     pub t_s: F,
 }
 
 impl<F: Real> Sample<F> {
-    /// Whether the shifts and the ambient temperature are finite: what every model reads (a
-    /// model that reads time also needs a finite `t_s`).
+    /// A sample of `N` gratings (at most [`MAX_GRATINGS`], checked at compile time).
+    ///
+    /// ```
+    /// use fbg_shared::Sample;
+    /// let s = Sample::new([0.1f64, 2.0, -3.0], 20.0, 60.0);
+    /// assert_eq!((s.gratings, s.dl(), s.dl_pm[3]), (3, &[0.1, 2.0, -3.0][..], 0.0));
+    /// ```
+    pub fn new<const N: usize>(dl_pm: [F; N], t_amb_c: F, t_s: F) -> Self {
+        const { assert!(N <= MAX_GRATINGS, "more gratings than MAX_GRATINGS") };
+        Sample { dl_pm: crate::layout::pad(&dl_pm), gratings: N as u8, t_amb_c, t_s }
+    }
+
+    /// A sample from a slice of shifts; more than [`MAX_GRATINGS`] is
+    /// [`Error::OverCapacity`].
+    pub fn from_slice(dl_pm: &[F], t_amb_c: F, t_s: F) -> Result<Self, Error> {
+        if dl_pm.len() > MAX_GRATINGS {
+            return Err(Error::OverCapacity {
+                field: "gratings",
+                found: u16::try_from(dl_pm.len()).unwrap_or(u16::MAX),
+                capacity: MAX_GRATINGS as u16,
+            });
+        }
+        let mut d = [F::ZERO; MAX_GRATINGS];
+        for (o, &v) in d.iter_mut().zip(dl_pm.iter()) {
+            *o = v;
+        }
+        Ok(Sample { dl_pm: d, gratings: dl_pm.len() as u8, t_amb_c, t_s })
+    }
+
+    /// Whether the shifts and the ambient temperature are finite: what a model with an ambient
+    /// input reads (one that reads time also needs a finite `t_s`; one without ambient ignores
+    /// `t_amb_c`).
     #[inline(always)]
     pub fn inputs_finite(&self) -> bool {
-        self.dl_pm.iter().all(|v| v.is_finite()) && self.t_amb_c.is_finite()
+        self.dl().iter().all(|v| v.is_finite()) && self.t_amb_c.is_finite()
+    }
+
+    /// The sample's shifts (the first `gratings` of `dl_pm`).
+    pub fn dl(&self) -> &[F] {
+        head(&self.dl_pm, usize::from(self.gratings))
     }
 
     /// The sample in another precision: exact from f32 to f64 (how a host replays what a
@@ -45,35 +91,101 @@ impl<F: Real> Sample<F> {
     ///
     /// ```
     /// use fbg_shared::Sample;
-    /// let host = Sample { dl_pm: [0.1f64, 2.0, -3.0], t_amb_c: 20.0, t_s: 60.0 };
+    /// let host = Sample::new([0.1f64, 2.0, -3.0], 20.0, 60.0);
     /// let device: Sample<f32> = host.cast();
     /// assert_eq!(device.dl_pm[0], 0.1f32);
     /// assert_eq!(device.cast::<f64>().dl_pm[0], f64::from(0.1f32));
     /// ```
     pub fn cast<G: Real>(&self) -> Sample<G> {
-        Sample { dl_pm: self.dl_pm.map(G::from_real), t_amb_c: G::from_real(self.t_amb_c), t_s: G::from_real(self.t_s) }
+        Sample {
+            dl_pm: self.dl_pm.map(G::from_real),
+            gratings: self.gratings,
+            t_amb_c: G::from_real(self.t_amb_c),
+            t_s: G::from_real(self.t_s),
+        }
     }
 }
 
-/// One compensated estimate.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+impl<F: Real + Serialize> Serialize for Sample<F> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        (self.dl(), self.t_amb_c, self.t_s).serialize(s)
+    }
+}
+
+impl<'de, F: Real + Deserialize<'de>> Deserialize<'de> for Sample<F> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (dl, t_amb_c, t_s): (Vec<F, MAX_GRATINGS>, F, F) = Deserialize::deserialize(d)?;
+        let mut dl_pm = [F::ZERO; MAX_GRATINGS];
+        for (o, &v) in dl_pm.iter_mut().zip(dl.iter()) {
+            *o = v;
+        }
+        Ok(Sample { dl_pm, gratings: dl.len() as u8, t_amb_c, t_s })
+    }
+}
+
+/// One compensated estimate: the model's M values and bands (in its output order and units)
+/// and the flags. Entries beyond M are 0 (use [`Estimate::values`] and [`Estimate::band`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Estimate<F> {
-    /// T [°C], ε \[µε\], p \[kPa\].
-    pub values: [F; N_OUTPUTS],
+    /// One value per output (unit of the output).
+    pub values: [F; MAX_OUTPUTS],
     /// Half-width of the 95 % band, same units (infinite for non-finite input).
-    pub band95: [F; N_OUTPUTS],
+    pub band95: [F; MAX_OUTPUTS],
+    /// M, the number of outputs.
+    pub outputs: u8,
     /// Fault flags.
     pub flags: Flags,
+}
+
+impl<F: Real> Estimate<F> {
+    /// The M values.
+    pub fn values(&self) -> &[F] {
+        head(&self.values, usize::from(self.outputs))
+    }
+    /// The M band half-widths.
+    pub fn band(&self) -> &[F] {
+        head(&self.band95, usize::from(self.outputs))
+    }
+    /// The answer to a sample the model cannot read: NaN values, infinite band, `flags`.
+    fn refused(outputs: u8, flags: Flags) -> Self {
+        let mut e = Estimate { values: [F::ZERO; MAX_OUTPUTS], band95: [F::ZERO; MAX_OUTPUTS], outputs, flags };
+        let m = usize::from(outputs);
+        for (v, b) in e.values.iter_mut().zip(e.band95.iter_mut()).take(m) {
+            *v = F::NAN;
+            *b = F::INFINITY;
+        }
+        e
+    }
+}
+
+impl<F: Real + Serialize> Serialize for Estimate<F> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        (self.values(), self.band(), self.flags).serialize(s)
+    }
+}
+
+impl<'de, F: Real + Deserialize<'de>> Deserialize<'de> for Estimate<F> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (v, b, flags): (Vec<F, MAX_OUTPUTS>, Vec<F, MAX_OUTPUTS>, Flags) = Deserialize::deserialize(d)?;
+        let mut e = Estimate::refused(v.len() as u8, flags);
+        for (o, &x) in e.values.iter_mut().zip(v.iter()) {
+            *o = x;
+        }
+        for (o, &x) in e.band95.iter_mut().zip(b.iter()) {
+            *o = x;
+        }
+        Ok(e)
+    }
 }
 
 /// A centre in per-sample form.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct PreparedCentre<F> {
     /// −2μ_j/(σ√2) (0 on unused inputs): ‖z − μ‖² = ‖z‖² + ‖μ‖² + z·(−2μ) in scaled units.
-    m2: [F; Z_DIMS],
+    m2: [F; MAX_Z],
     /// ‖μ_j/(σ√2)‖².
     mu_sq: F,
-    w: [F; N_OUTPUTS],
+    w: [F; MAX_OUTPUTS],
     /// v_ij · sqrt(1/g_i − 1/g_tail).
     v: [F; VAR_RANK],
 }
@@ -94,60 +206,73 @@ pub struct StreamState<F> {
 /// #     fbg_testkit::models::model(8, 1, FeatureSet::HysteresisAware, Default::default());
 /// // `params`: a trained model, e.g. `fbg_shared::blob::decode(&bytes)?`.
 /// let mut comp = Compensator::<f32, 8>::new(&params)?;
-/// let e = comp.step(&Sample { dl_pm: [10.0, -5.0, 2.0], t_amb_c: 21.0, t_s: 60.0 });
-/// assert!(e.values.iter().chain(e.band95.iter()).all(|v| v.is_finite()));
+/// let e = comp.step(&Sample::new([10.0, -5.0, 2.0], 21.0, 60.0));
+/// assert_eq!(e.values().len(), 3); // the model's M outputs
+/// assert!(e.values().iter().chain(e.band().iter()).all(|v| v.is_finite()));
 /// // A non-finite input is flagged, never a panic.
-/// let bad = comp.step(&Sample { dl_pm: [f32::NAN, 0.0, 0.0], t_amb_c: 21.0, t_s: 120.0 });
+/// let bad = comp.step(&Sample::new([f32::NAN, 0.0, 0.0], 21.0, 120.0));
 /// assert!(bad.flags.contains(fbg_shared::Flags::NON_FINITE));
 /// comp.reset(); // a new acquisition
 /// # Ok::<(), fbg_shared::Error>(())
 /// ```
 ///
 /// `K` is the centre capacity; models with fewer centres load too and cost proportionally less.
+/// Any [`crate::layout::Dims`] within the capacities of [`crate::layout`] loads; a sample whose grating count
+/// differs from the model's is answered as non-finite.
 #[derive(Clone, Debug)]
 pub struct Compensator<F, const K: usize> {
+    /// Gratings N of the model.
+    gratings: u8,
+    /// Whether the model reads T_amb.
+    ambient: bool,
+    /// M, outputs of the model.
+    outputs: u8,
+    /// Polynomial terms.
+    n_poly: u8,
+    /// RBF inputs (used or not).
+    n_z: u8,
     /// Stage-1 rows producing *standardised* guesses.
-    a: [[F; N_STAGE1]; N_OUTPUTS],
-    b: [[F; N_POLY]; N_OUTPUTS],
+    a: [[F; MAX_STAGE1]; MAX_OUTPUTS],
+    b: [[F; MAX_POLY]; MAX_OUTPUTS],
     /// Γ (output units per memory-term unit).
-    gamma: [[F; N_MEMORY]; N_OUTPUTS],
+    gamma: [[F; MAX_MEMORY]; MAX_OUTPUTS],
     /// The memory operators and their state.
     memory: MemoryBank<F>,
     /// z_scaled = x · z_gain + z_offset (gain 0 on unused dimensions).
-    z_gain: [F; Z_DIMS],
-    z_offset: [F; Z_DIMS],
+    z_gain: [F; MAX_Z],
+    z_offset: [F; MAX_Z],
     centres: Vec<PreparedCentre<F>, K>,
     inv_g_tail: F,
     /// k² · s² per output at the end of calibration.
-    band_var: [F; N_OUTPUTS],
+    band_var: [F; MAX_OUTPUTS],
     /// k² · ds²/dt per output [unit²/s].
-    band_var_growth: [F; N_OUTPUTS],
+    band_var_growth: [F; MAX_OUTPUTS],
     t_cal_end_s: F,
     /// Whether the band grows with time (the time input is then required).
     band_grows: bool,
-    env_lo: [F; N_ENVELOPE],
-    env_hi: [F; N_ENVELOPE],
+    env_lo: [F; MAX_ENVELOPE],
+    env_hi: [F; MAX_ENVELOPE],
     weak_support: F,
     flagged_band_factor: F,
     /// Latch dead band in ticks of 1/1024 pm.
     dead_band: i32,
     uses_time: bool,
     uses_latch: bool,
-    fitted: [bool; N_OUTPUTS],
+    fitted: [bool; MAX_OUTPUTS],
     latches: LatchBank,
 }
 
 /// The folded form of everything but the centres, computed in the compensator's precision.
 struct Folded<F> {
-    a: [[F; N_STAGE1]; N_OUTPUTS],
-    b: [[F; N_POLY]; N_OUTPUTS],
-    z_gain: [F; Z_DIMS],
-    z_offset: [F; Z_DIMS],
+    a: [[F; MAX_STAGE1]; MAX_OUTPUTS],
+    b: [[F; MAX_POLY]; MAX_OUTPUTS],
+    z_gain: [F; MAX_Z],
+    z_offset: [F; MAX_Z],
     /// 1/(σ√2).
     k_sigma: F,
     v_scale: [F; VAR_RANK],
-    band_var: [F; N_OUTPUTS],
-    band_var_growth: [F; N_OUTPUTS],
+    band_var: [F; MAX_OUTPUTS],
+    band_var_growth: [F; MAX_OUTPUTS],
 }
 
 fn all_finite<F: Real>(xs: &[F]) -> bool {
@@ -157,25 +282,28 @@ fn all_finite<F: Real>(xs: &[F]) -> bool {
 impl<F: Real> Folded<F> {
     fn of<G: Real, const K2: usize>(p: &ModelParams<G, K2>) -> Self {
         let f = |v: G| F::from_real(v);
-        let mut a = [[F::ZERO; N_STAGE1]; N_OUTPUTS];
-        for (((row, src), &m), &s) in a.iter_mut().zip(p.stage1.iter()).zip(p.guess_mean.iter()).zip(p.guess_std.iter())
+        let d = &p.dims;
+        let (m_out, n_s1, n_poly) = (d.n_outputs(), d.stage1_len(), d.poly_len());
+        let mut a = [[F::ZERO; MAX_STAGE1]; MAX_OUTPUTS];
+        for (((row, src), &m), &s) in
+            a.iter_mut().zip(p.stage1.iter()).zip(p.guess_mean.iter()).zip(p.guess_std.iter()).take(m_out)
         {
             let inv = F::ONE / f(s);
-            for (k, (o, &v)) in row.iter_mut().zip(src.iter()).enumerate() {
-                let v = if k == N_STAGE1 - 1 { f(v) - f(m) } else { f(v) };
+            for (k, (o, &v)) in row.iter_mut().zip(src.iter()).enumerate().take(n_s1) {
+                let v = if k == n_s1 - 1 { f(v) - f(m) } else { f(v) };
                 *o = v * inv;
             }
         }
-        let mut b = [[F::ZERO; N_POLY]; N_OUTPUTS];
-        for (row, src) in b.iter_mut().zip(p.poly.iter()) {
-            for (o, &v) in row.iter_mut().zip(src.iter()) {
+        let mut b = [[F::ZERO; MAX_POLY]; MAX_OUTPUTS];
+        for (row, src) in b.iter_mut().zip(p.poly.iter()).take(m_out) {
+            for (o, &v) in row.iter_mut().zip(src.iter()).take(n_poly) {
                 *o = f(v);
             }
         }
         let k_sigma = F::ONE / (f(p.hyper.sigma) * F::SQRT_2);
-        let active = p.hyper.feature_set.active();
-        let mut z_gain = [F::ZERO; Z_DIMS];
-        let mut z_offset = [F::ZERO; Z_DIMS];
+        let active = d.z_active(p.hyper.feature_set);
+        let mut z_gain = [F::ZERO; MAX_Z];
+        let mut z_offset = [F::ZERO; MAX_Z];
         for (((g, o), (&m, &s)), &on) in
             z_gain.iter_mut().zip(z_offset.iter_mut()).zip(p.z_mean.iter().zip(p.z_std.iter())).zip(active.iter())
         {
@@ -191,13 +319,14 @@ impl<F: Real> Folded<F> {
             let d = f(ig) - inv_tail;
             *o = if d > F::ZERO { d.sqrt() } else { F::ZERO };
         }
-        let mut band_var = [F::ZERO; N_OUTPUTS];
-        let mut band_var_growth = [F::ZERO; N_OUTPUTS];
+        let mut band_var = [F::ZERO; MAX_OUTPUTS];
+        let mut band_var_growth = [F::ZERO; MAX_OUTPUTS];
         for (((o, og), (&s2, &q)), &k) in band_var
             .iter_mut()
             .zip(band_var_growth.iter_mut())
             .zip(p.resid_var.iter().zip(p.resid_var_growth.iter()))
             .zip(p.band_k.iter())
+            .take(m_out)
         {
             let k2 = f(k) * f(k);
             *o = k2 * f(s2);
@@ -217,7 +346,7 @@ impl<F: Real> Folded<F> {
             && self.k_sigma.is_finite()
     }
 
-    fn centre<G: Real>(&self, c: &Centre<G>, active: &[bool; Z_DIMS]) -> PreparedCentre<F> {
+    fn centre<G: Real>(&self, c: &Centre<G>, active: &[bool; MAX_Z], outputs: usize) -> PreparedCentre<F> {
         let mut pc = PreparedCentre::<F>::default();
         let two = F::ONE + F::ONE;
         for ((o, &mu), &on) in pc.m2.iter_mut().zip(c.mu.iter()).zip(active.iter()) {
@@ -227,7 +356,7 @@ impl<F: Real> Folded<F> {
                 pc.mu_sq = m.mul_add(m, pc.mu_sq);
             }
         }
-        for (o, &w) in pc.w.iter_mut().zip(c.w.iter()) {
+        for (o, &w) in pc.w.iter_mut().zip(c.w.iter()).take(outputs) {
             *o = F::from_real(w);
         }
         for ((o, &v), &sc) in pc.v.iter_mut().zip(c.v.iter()).zip(self.v_scale.iter()) {
@@ -255,24 +384,29 @@ impl<F: Real, const K: usize> Compensator<F, K> {
 
     /// A compensator with no model loaded, usable in a `static` that [`Compensator::reload`]
     /// then fills in place (so a device never builds a compensator-sized value on its stack).
-    /// Until a model is loaded it answers every sample with NaN values, an infinite band and no
-    /// output fitted.
+    /// Until a model is loaded it has no output (0 gratings, M = 0) and answers every sample as
+    /// non-finite.
     pub const fn unloaded() -> Self {
         Compensator {
-            a: [[F::ZERO; N_STAGE1]; N_OUTPUTS],
-            b: [[F::ZERO; N_POLY]; N_OUTPUTS],
-            gamma: [[F::ZERO; N_MEMORY]; N_OUTPUTS],
+            gratings: 0,
+            ambient: false,
+            outputs: 0,
+            n_poly: 0,
+            n_z: 0,
+            a: [[F::ZERO; MAX_STAGE1]; MAX_OUTPUTS],
+            b: [[F::ZERO; MAX_POLY]; MAX_OUTPUTS],
+            gamma: [[F::ZERO; MAX_MEMORY]; MAX_OUTPUTS],
             memory: MemoryBank::off(),
-            z_gain: [F::ZERO; Z_DIMS],
-            z_offset: [F::ZERO; Z_DIMS],
+            z_gain: [F::ZERO; MAX_Z],
+            z_offset: [F::ZERO; MAX_Z],
             centres: Vec::new(),
             inv_g_tail: F::ZERO,
-            band_var: [F::ZERO; N_OUTPUTS],
-            band_var_growth: [F::ZERO; N_OUTPUTS],
+            band_var: [F::ZERO; MAX_OUTPUTS],
+            band_var_growth: [F::ZERO; MAX_OUTPUTS],
             t_cal_end_s: F::ZERO,
             band_grows: false,
-            env_lo: [F::ZERO; N_ENVELOPE],
-            env_hi: [F::ZERO; N_ENVELOPE],
+            env_lo: [F::ZERO; MAX_ENVELOPE],
+            env_hi: [F::ZERO; MAX_ENVELOPE],
             weak_support: F::ZERO,
             // Never read before a model is loaded (no output is fitted); 0 keeps the value all
             // zero bytes, so a `static` of it lands in `.bss` and costs no flash.
@@ -280,7 +414,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             dead_band: 0,
             uses_time: false,
             uses_latch: false,
-            fitted: [false; N_OUTPUTS],
+            fitted: [false; MAX_OUTPUTS],
             latches: LatchBank::new(),
         }
     }
@@ -296,18 +430,20 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         // Folding can overflow even when every stored number is finite (e.g. a tiny guess_std
         // scales stage 1 to infinity in f32): refuse such a model before touching anything.
         let folded = Folded::<F>::of(params);
-        let active = params.hyper.feature_set.active();
+        let dims = params.dims;
+        let m_out = dims.n_outputs();
+        let active = dims.z_active(params.hyper.feature_set);
         let f = |v: G| F::from_real(v);
         let env_ok = params.envelope_lo.iter().chain(params.envelope_hi.iter()).all(|&v| f(v).is_finite());
         let gamma_ok = params.gamma.iter().all(|r| r.iter().all(|&v| f(v).is_finite()));
         // A τ or r that overflows this precision would switch its slot off here but not in the
         // trainer's precision.
-        let memory_ok = params.memory.convert::<F>().validate().is_ok();
+        let memory_ok = params.memory.convert::<F>().validate(&dims).is_ok();
         if !folded.is_finite()
             || !env_ok
             || !gamma_ok
             || !memory_ok
-            || !params.centres.iter().all(|c| folded.centre(c, &active).is_finite())
+            || !params.centres.iter().all(|c| folded.centre(c, &active, m_out).is_finite())
             || !f(params.t_cal_end_s).is_finite()
         {
             return Err(Error::BadParameter { field: "folded coefficients (overflow in this precision)" });
@@ -316,17 +452,23 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.centres.clear();
         for c in params.centres.iter() {
             // Capacity was checked above; a failed push cannot happen.
-            let _ = self.centres.push(folded.centre(c, &active));
+            let _ = self.centres.push(folded.centre(c, &active, m_out));
         }
         let h = &params.hyper;
+        self.gratings = dims.gratings() as u8;
+        self.ambient = dims.ambient();
+        self.outputs = m_out as u8;
+        self.n_poly = dims.poly_len() as u8;
+        self.n_z = dims.z_len() as u8;
         self.a = folded.a;
         self.b = folded.b;
-        for (o, r) in self.gamma.iter_mut().zip(params.gamma.iter()) {
-            for (o, &v) in o.iter_mut().zip(r.iter()) {
-                *o = f(v);
+        let n_mem = dims.memory_len();
+        for (i, (o, r)) in self.gamma.iter_mut().zip(params.gamma.iter()).enumerate() {
+            for (k, (o, &v)) in o.iter_mut().zip(r.iter()).enumerate() {
+                *o = if i < m_out && k < n_mem { f(v) } else { F::ZERO };
             }
         }
-        self.memory = MemoryBank::new(&params.memory);
+        self.memory = MemoryBank::new(&params.memory, &dims);
         self.z_gain = folded.z_gain;
         self.z_offset = folded.z_offset;
         self.inv_g_tail = f(params.var_inv_g_tail);
@@ -334,18 +476,21 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.band_var_growth = folded.band_var_growth;
         self.t_cal_end_s = f(params.t_cal_end_s);
         self.band_grows = params.resid_var_growth.iter().any(|&q| q > G::ZERO);
-        for (o, &v) in self.env_lo.iter_mut().zip(params.envelope_lo.iter()) {
-            *o = f(v);
+        let n_env = dims.envelope_len();
+        for (k, (o, &v)) in self.env_lo.iter_mut().zip(params.envelope_lo.iter()).enumerate() {
+            *o = if k < n_env { f(v) } else { F::ZERO };
         }
-        for (o, &v) in self.env_hi.iter_mut().zip(params.envelope_hi.iter()) {
-            *o = f(v);
+        for (k, (o, &v)) in self.env_hi.iter_mut().zip(params.envelope_hi.iter()).enumerate() {
+            *o = if k < n_env { f(v) } else { F::ZERO };
         }
         self.weak_support = f(h.weak_support);
         self.flagged_band_factor = f(h.flagged_band_factor);
         self.dead_band = crate::direction_latch::ticks(h.dead_band_pm);
         self.uses_time = h.feature_set.uses_time();
         self.uses_latch = h.feature_set.uses_latch();
-        self.fitted = params.fitted;
+        for (k, (o, &v)) in self.fitted.iter_mut().zip(params.fitted.iter()).enumerate() {
+            *o = k < m_out && v;
+        }
         self.latches.reset();
         self.memory.reset();
         Ok(())
@@ -356,7 +501,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// a margin for the rounding of the sum); otherwise ψ is computed again, identically, for
     /// its maximum (rare: samples near the weak-support boundary).
     #[inline(always)]
-    fn weak(&self, z: &[F; Z_DIMS], z_sq: F, psi_sq: F) -> bool {
+    fn weak(&self, z: &[F; MAX_Z], z_sq: F, psi_sq: F) -> bool {
         let w = self.weak_support;
         let w2 = w * w;
         if psi_sq < w2 {
@@ -367,8 +512,13 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         if psi_sq > n * w2 * margin {
             return false;
         }
-        // All inputs: an unused one adds an exact zero (0 · 0), so ψ comes out identical.
-        psi_max_pass::<F, K, true, true>(&self.centres, z, z_sq) < w
+        psi_max_pass::<F, K>(&self.centres, z, z_sq, usize::from(self.n_z)) < w
+    }
+
+    /// The model's grating count N, ambient input and output count M (0 gratings: no model
+    /// loaded).
+    pub fn dims(&self) -> (usize, bool, usize) {
+        (usize::from(self.gratings), self.ambient, usize::from(self.outputs))
     }
 
     /// Number of RBF centres in use.
@@ -402,6 +552,8 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// state taken from one can resume the other.
     pub fn same_stream<const K2: usize>(&self, other: &Compensator<F, K2>) -> bool {
         self.dead_band == other.dead_band
+            && self.gratings == other.gratings
+            && self.ambient == other.ambient
             && self.memory.same_spec(&other.memory)
             && self.needs_time() == other.needs_time()
     }
@@ -417,25 +569,25 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.memory.is_active()
     }
 
-    /// Current direction-latch values (−1, 0, +1 per grating).
-    pub fn latch_values(&self) -> [F; N_GRATINGS] {
+    /// Current direction-latch values (−1, 0, +1 per grating; 0 beyond N).
+    pub fn latch_values(&self) -> [F; MAX_GRATINGS] {
         self.latches.values()
     }
 
     /// Advance the stream state by one accepted sample and add the memory terms Γm to `y`;
     /// returns the latch values.
     #[inline(always)]
-    fn advance_state(&mut self, s: &Sample<F>, y: &mut [F; N_OUTPUTS]) -> [F; N_GRATINGS] {
-        let latch: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
+    fn advance_state(&mut self, s: &Sample<F>, y: &mut [F; MAX_OUTPUTS]) -> [F; MAX_GRATINGS] {
+        let latch: [F; MAX_GRATINGS] = self.latches.update(&s.dl_pm, usize::from(self.gratings), self.dead_band);
         if self.memory.is_active() {
-            self.memory.accumulate(&s.dl_pm, s.t_amb_c, s.t_s, &self.gamma, y);
+            self.memory.accumulate(&s.dl_pm, s.t_amb_c, s.t_s, &self.gamma, usize::from(self.outputs), y);
         }
         latch
     }
 
     /// Advance the stream state and compute the core's estimate Bφ + Γm.
     #[inline(always)]
-    fn advance_with_core(&mut self, s: &Sample<F>) -> ([F; N_GRATINGS], [F; N_OUTPUTS]) {
+    fn advance_with_core(&mut self, s: &Sample<F>) -> ([F; MAX_GRATINGS], [F; MAX_OUTPUTS]) {
         let mut y = self.core(s);
         let latch = self.advance_state(s, &mut y);
         (latch, y)
@@ -447,35 +599,39 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     #[inline]
     pub fn advance(&mut self, s: &Sample<F>) {
         if self.accepts(s) {
-            let _: [F; N_GRATINGS] = self.latches.update(&s.dl_pm, self.dead_band);
+            let _: [F; MAX_GRATINGS] = self.latches.update(&s.dl_pm, usize::from(self.gratings), self.dead_band);
             self.memory.advance(&s.dl_pm, s.t_amb_c, s.t_s);
         }
     }
 
-    /// Whether a sample is finite where this model reads it (Δλ, T_amb, and t when the
-    /// feature set, the band or the memory terms use time); other samples are answered as
-    /// non-finite and leave the stream state untouched.
+    /// Whether a sample has the model's grating count and is finite where this model reads it
+    /// (Δλ, T_amb with an ambient input, and t when the feature set, the band or the memory
+    /// terms use time); other samples are answered as non-finite and leave the stream state
+    /// untouched.
     #[inline(always)]
     fn accepts(&self, s: &Sample<F>) -> bool {
-        s.inputs_finite() && (!self.needs_time() || s.t_s.is_finite())
+        s.gratings == self.gratings
+            && s.dl().iter().all(|v| v.is_finite())
+            && (!self.ambient || s.t_amb_c.is_finite())
+            && (!self.needs_time() || s.t_s.is_finite())
     }
 
     /// The polynomial core Bφ (Model-P's answer when the model has no memory terms):
-    /// stage-1 standardised first guesses, then paper Eq. 3.
+    /// stage-1 standardised first guesses, then paper Eq. 3 generalised to M guesses.
     #[inline(always)]
-    fn core(&self, s: &Sample<F>) -> [F; N_OUTPUTS] {
-        let [d1, d2, d3] = s.dl_pm;
-        let mut g = [F::ZERO; N_OUTPUTS];
-        for (gi, row) in g.iter_mut().zip(self.a.iter()) {
-            let [a0, a1, a2, a3, a4] = *row;
-            *gi = d1.mul_add(a0, d2.mul_add(a1, d3.mul_add(a2, s.t_amb_c.mul_add(a3, a4))));
+    fn core(&self, s: &Sample<F>) -> [F; MAX_OUTPUTS] {
+        let m = usize::from(self.outputs);
+        let (x, n_in) = affine_inputs(&s.dl_pm, usize::from(self.gratings), self.ambient, s.t_amb_c);
+        let mut g = [F::ZERO; MAX_OUTPUTS];
+        for (gi, row) in g.iter_mut().zip(self.a.iter()).take(m) {
+            *gi = affine(&x, n_in, row);
         }
-        let [t, e, p] = g;
-        let phi = [F::ONE, t, e, p, t * t, e * e, p * p, t * e, t * p, e * p];
-        let mut y = [F::ZERO; N_OUTPUTS];
-        for (yi, row) in y.iter_mut().zip(self.b.iter()) {
+        let phi = poly_features(&g, m);
+        let mut y = [F::ZERO; MAX_OUTPUTS];
+        let n_poly = usize::from(self.n_poly);
+        for (yi, row) in y.iter_mut().zip(self.b.iter()).take(m) {
             let mut acc = F::ZERO;
-            for (&c, &ph) in row.iter().zip(phi.iter()) {
+            for (&c, &ph) in head(row, n_poly).iter().zip(phi.iter()) {
                 acc = c.mul_add(ph, acc);
             }
             *yi = acc;
@@ -485,14 +641,37 @@ impl<F: Real, const K: usize> Compensator<F, K> {
 
     /// The scaled RBF inputs z (unused inputs 0) and ‖z‖².
     #[inline(always)]
-    fn rbf_inputs(&self, s: &Sample<F>, latch: [F; N_GRATINGS]) -> ([F; Z_DIMS], F) {
-        let [d1, d2, d3] = s.dl_pm;
-        let t_in = if self.uses_time { s.t_s } else { F::ZERO };
-        let (l1, l2, l3) = if self.uses_latch { (latch[0], latch[1], latch[2]) } else { (F::ZERO, F::ZERO, F::ZERO) };
-        let x_z = [d1, d2, d3, s.t_amb_c, t_in, l1, l2, l3];
-        let mut z = [F::ZERO; Z_DIMS];
+    fn rbf_inputs(&self, s: &Sample<F>, latch: [F; MAX_GRATINGS]) -> ([F; MAX_Z], F) {
+        let n = usize::from(self.gratings);
+        let mut x_z = [F::ZERO; MAX_Z];
+        let mut i = 0;
+        for (o, &d) in x_z.iter_mut().zip(head(&s.dl_pm, n).iter()) {
+            *o = d;
+            i += 1;
+        }
+        if self.ambient {
+            if let Some(o) = x_z.get_mut(i) {
+                *o = s.t_amb_c;
+            }
+            i += 1;
+        }
+        if self.uses_time {
+            if let Some(o) = x_z.get_mut(i) {
+                *o = s.t_s;
+            }
+        }
+        i += 1;
+        if self.uses_latch {
+            for (o, &l) in x_z.iter_mut().skip(i).zip(head(&latch, n).iter()) {
+                *o = l;
+            }
+        }
+        let mut z = [F::ZERO; MAX_Z];
         let mut z_sq = F::ZERO;
-        for (((zi, &x), &gn), &of) in z.iter_mut().zip(x_z.iter()).zip(self.z_gain.iter()).zip(self.z_offset.iter()) {
+        let n_z = usize::from(self.n_z);
+        for (((zi, &x), &gn), &of) in
+            z.iter_mut().zip(x_z.iter()).zip(self.z_gain.iter()).zip(self.z_offset.iter()).take(n_z)
+        {
             *zi = x.mul_add(gn, of);
             z_sq = zi.mul_add(*zi, z_sq);
         }
@@ -505,15 +684,15 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// does, but without the residual, band or flags. `None` for a sample `step` would answer
     /// as non-finite (`psi` untouched).
     #[inline]
-    pub fn core_and_activations(&mut self, s: &Sample<F>, psi: &mut [F]) -> Option<[F; N_OUTPUTS]> {
+    pub fn core_and_activations(&mut self, s: &Sample<F>, psi: &mut [F]) -> Option<[F; MAX_OUTPUTS]> {
         if !self.accepts(s) {
             return None;
         }
         let (latch, y) = self.advance_with_core(s);
         let (z, z_sq) = self.rbf_inputs(s, latch);
+        let n_z = usize::from(self.n_z);
         for (o, c) in psi.iter_mut().zip(self.centres.iter()) {
-            // All inputs: an unused one adds an exact zero, so ψ is the one `step` computes.
-            *o = psi_of::<F, true, true>(c, &z, z_sq);
+            *o = psi_of::<F>(c, &z, z_sq, n_z);
         }
         Some(y)
     }
@@ -531,18 +710,13 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     #[inline(always)]
     pub fn step_with(&mut self, s: &Sample<F>, mut sink: impl FnMut(usize, F)) -> Estimate<F> {
         if !self.accepts(s) {
-            return Estimate {
-                values: [F::NAN; N_OUTPUTS],
-                band95: [F::INFINITY; N_OUTPUTS],
-                flags: Flags::NON_FINITE,
-            };
+            return Estimate::refused(self.outputs, Flags::NON_FINITE);
         }
         let (latch, y) = self.advance_with_core(s);
-        let [d1, d2, d3] = s.dl_pm;
-        let x_env = [d1, d2, d3, s.t_amb_c];
+        let (x_env, n_env) = affine_inputs(&s.dl_pm, usize::from(self.gratings), self.ambient, s.t_amb_c);
 
         let mut flags = Flags::OK;
-        for ((&x, &lo), &hi) in x_env.iter().zip(self.env_lo.iter()).zip(self.env_hi.iter()) {
+        for ((&x, &lo), &hi) in head(&x_env, n_env).iter().zip(self.env_lo.iter()).zip(self.env_hi.iter()) {
             if x < lo || x > hi {
                 flags.insert(Flags::OUT_OF_ENVELOPE);
             }
@@ -550,12 +724,12 @@ impl<F: Real, const K: usize> Compensator<F, K> {
 
         // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
         let (z, z_sq) = self.rbf_inputs(s, latch);
-        // The centre loop, specialised on the inputs the feature set uses (unused ones have
-        // zero weight in every centre, so skipping them is exact).
+        let n_z = usize::from(self.n_z);
+        // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
         let acc = if !self.uses_time && self.uses_latch {
-            centre_pass::<F, K, false, true, true>(&self.centres, &z, z_sq, y, &mut sink)
+            centre_pass::<F, K, true>(&self.centres, &z, z_sq, n_z, y, &mut sink)
         } else {
-            centre_pass::<F, K, true, true, false>(&self.centres, &z, z_sq, y, &mut sink)
+            centre_pass::<F, K, false>(&self.centres, &z, z_sq, n_z, y, &mut sink)
         };
         let (y2, proj, psi_sq) = acc;
         let mut y = y2;
@@ -571,42 +745,67 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         // An overflow in this precision (finite inputs far outside anything calibrated) is
         // reported like a non-finite input rather than passed on as a normal estimate.
         if !y.iter().zip(self.fitted.iter()).all(|(v, &fit)| !fit || v.is_finite()) {
-            return Estimate {
-                values: [F::NAN; N_OUTPUTS],
-                band95: [F::INFINITY; N_OUTPUTS],
-                flags: flags.union(Flags::NON_FINITE),
-            };
+            return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
         }
         let widen = if flags.is_ok() { F::ONE } else { self.flagged_band_factor };
         let lead = if self.band_grows { (s.t_s - self.t_cal_end_s).max(F::ZERO) } else { F::ZERO };
-        let mut band95 = [F::ZERO; N_OUTPUTS];
-        for ((bi, &bv), &bg) in band95.iter_mut().zip(self.band_var.iter()).zip(self.band_var_growth.iter()) {
+        let mut band95 = [F::ZERO; MAX_OUTPUTS];
+        let m = usize::from(self.outputs);
+        for ((bi, &bv), &bg) in band95.iter_mut().zip(self.band_var.iter()).zip(self.band_var_growth.iter()).take(m) {
             *bi = (bg.mul_add(lead, bv) * (F::ONE + lev)).sqrt() * widen;
         }
-        for ((v, b), &fit) in y.iter_mut().zip(band95.iter_mut()).zip(self.fitted.iter()) {
+        for ((v, b), &fit) in y.iter_mut().zip(band95.iter_mut()).zip(self.fitted.iter()).take(m) {
             if !fit {
                 *v = F::NAN;
                 *b = F::INFINITY;
             }
         }
-        Estimate { values: y, band95, flags }
+        Estimate { values: y, band95, outputs: self.outputs, flags }
     }
+}
+
+/// φ(g): [1, g_1..g_M, g_1²..g_M², g_i·g_j for i < j] (the first [`crate::layout::Dims::poly_len`] entries).
+#[inline(always)]
+fn poly_features<F: Real>(g: &[F; MAX_OUTPUTS], m: usize) -> [F; MAX_POLY] {
+    let mut phi = [F::ZERO; MAX_POLY];
+    let g = head(g, m);
+    let mut k = 0;
+    let mut put = |v: F| {
+        if let Some(o) = phi.get_mut(k) {
+            *o = v;
+        }
+        k += 1;
+    };
+    put(F::ONE);
+    for &gi in g {
+        put(gi);
+    }
+    for &gi in g {
+        put(gi * gi);
+    }
+    for (i, &gi) in g.iter().enumerate() {
+        for &gj in g.iter().skip(i + 1) {
+            put(gi * gj);
+        }
+    }
+    phi
 }
 
 #[inline(always)]
 #[allow(clippy::type_complexity)]
-fn centre_pass<F: Real, const K: usize, const TIME: bool, const LATCH: bool, const PAIRS: bool>(
+fn centre_pass<F: Real, const K: usize, const PAIRS: bool>(
     centres: &Vec<PreparedCentre<F>, K>,
-    z: &[F; Z_DIMS],
+    z: &[F; MAX_Z],
     z_sq: F,
-    mut y: [F; N_OUTPUTS],
+    n_z: usize,
+    mut y: [F; MAX_OUTPUTS],
     sink: &mut impl FnMut(usize, F),
-) -> ([F; N_OUTPUTS], [F; VAR_RANK], F) {
+) -> ([F; MAX_OUTPUTS], [F; VAR_RANK], F) {
     let mut proj = [F::ZERO; VAR_RANK];
     let mut psi_sq = F::ZERO;
     let mut one =
-        |j: usize, c: &PreparedCentre<F>, y: &mut [F; N_OUTPUTS], proj: &mut [F; VAR_RANK], psi_sq: &mut F| {
-            let psi = psi_of::<F, TIME, LATCH>(c, z, z_sq);
+        |j: usize, c: &PreparedCentre<F>, y: &mut [F; MAX_OUTPUTS], proj: &mut [F; VAR_RANK], psi_sq: &mut F| {
+            let psi = psi_of::<F>(c, z, z_sq, n_z);
             sink(j, psi);
             for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
                 *yi = w.mul_add(psi, *yi);
@@ -641,33 +840,26 @@ fn centre_pass<F: Real, const K: usize, const TIME: bool, const LATCH: bool, con
     (y, proj, psi_sq)
 }
 
+/// ψ_j = exp(−‖z − μ_j‖²/(2σ²)) over the first `n_z` inputs (an unused input adds an exact 0).
 #[inline(always)]
-fn psi_of<F: Real, const TIME: bool, const LATCH: bool>(c: &PreparedCentre<F>, z: &[F; Z_DIMS], z_sq: F) -> F {
+fn psi_of<F: Real>(c: &PreparedCentre<F>, z: &[F; MAX_Z], z_sq: F, n_z: usize) -> F {
     let mut d2 = z_sq + c.mu_sq;
-    for (i, (&zi, &mi)) in z.iter().zip(c.m2.iter()).enumerate() {
-        let used = if i == crate::layout::Z_TIME {
-            TIME
-        } else if i >= crate::layout::Z_LATCH {
-            LATCH
-        } else {
-            true
-        };
-        if used {
-            d2 = zi.mul_add(mi, d2);
-        }
+    for (&zi, &mi) in head(z, n_z).iter().zip(c.m2.iter()) {
+        d2 = zi.mul_add(mi, d2);
     }
     d2.exp_neg()
 }
 
 #[inline(never)]
-fn psi_max_pass<F: Real, const K: usize, const TIME: bool, const LATCH: bool>(
+fn psi_max_pass<F: Real, const K: usize>(
     centres: &Vec<PreparedCentre<F>, K>,
-    z: &[F; Z_DIMS],
+    z: &[F; MAX_Z],
     z_sq: F,
+    n_z: usize,
 ) -> F {
     let mut m = F::ZERO;
     for c in centres.iter() {
-        m = m.max(psi_of::<F, TIME, LATCH>(c, z, z_sq));
+        m = m.max(psi_of::<F>(c, z, z_sq, n_z));
     }
     m
 }

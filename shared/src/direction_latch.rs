@@ -11,7 +11,7 @@
 //! flip their latches on exactly the same samples (a float comparison against the dead band
 //! could round differently in the two precisions and let the streams diverge).
 
-use crate::layout::N_GRATINGS;
+use crate::layout::MAX_GRATINGS;
 use crate::real::Real;
 
 /// Ticks per picometre of the latch arithmetic.
@@ -93,27 +93,27 @@ impl DirectionLatch {
 /// One latch per grating.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct LatchBank {
-    latches: [DirectionLatch; N_GRATINGS],
+    latches: [DirectionLatch; MAX_GRATINGS],
 }
 
 impl LatchBank {
     /// Latches that have seen no sample.
     pub const fn new() -> Self {
-        LatchBank { latches: [DirectionLatch::new(); N_GRATINGS] }
+        LatchBank { latches: [DirectionLatch::new(); MAX_GRATINGS] }
     }
-    /// Feed one sample's shifts \[pm\] and return the three latch values; `dead_band` in
-    /// [`ticks`].
+    /// Feed the first `gratings` shifts \[pm\] of a sample and return their latch values (the
+    /// rest 0); `dead_band` in [`ticks`].
     #[inline]
-    pub fn update<F: Real>(&mut self, dl_pm: &[F; N_GRATINGS], dead_band: i32) -> [F; N_GRATINGS] {
-        let mut out = [F::ZERO; N_GRATINGS];
-        for ((o, l), &d) in out.iter_mut().zip(self.latches.iter_mut()).zip(dl_pm.iter()) {
+    pub fn update<F: Real>(&mut self, dl_pm: &[F; MAX_GRATINGS], gratings: usize, dead_band: i32) -> [F; MAX_GRATINGS] {
+        let mut out = [F::ZERO; MAX_GRATINGS];
+        for ((o, l), &d) in out.iter_mut().zip(self.latches.iter_mut()).zip(dl_pm.iter()).take(gratings) {
             *o = l.update(d, dead_band);
         }
         out
     }
     /// Current values without feeding a sample.
-    pub fn values<F: Real>(&self) -> [F; N_GRATINGS] {
-        let mut out = [F::ZERO; N_GRATINGS];
+    pub fn values<F: Real>(&self) -> [F; MAX_GRATINGS] {
+        let mut out = [F::ZERO; MAX_GRATINGS];
         for (o, l) in out.iter_mut().zip(self.latches.iter()) {
             *o = l.value();
         }

@@ -23,13 +23,24 @@ pub enum Error {
     },
     /// A header dimension differs from what this build computes with.
     WrongDims {
-        /// Which dimension ("inputs", "outputs", "poly_terms", "memory_terms", "centres").
+        /// Which dimension ("ambient", "poly_terms", "memory_terms", "centres", or a payload
+        /// dimension that contradicts the header).
         field: &'static str,
         /// Value in the blob.
         found: u16,
         /// Value expected. For "centres": the capacity `K` when the header's count exceeds
         /// it, otherwise the payload's own centre count, which the header contradicts.
         expected: u16,
+    },
+    /// A model dimension exceeds this build's capacity (gratings, measurands), or a model's
+    /// dimensions do not fit the receiving type.
+    OverCapacity {
+        /// Which dimension ("gratings", "measurands").
+        field: &'static str,
+        /// Value in the model.
+        found: u16,
+        /// This build's capacity.
+        capacity: u16,
     },
     /// The CRC-32 trailer does not match header and payload.
     BadCrc,
@@ -70,6 +81,9 @@ impl core::fmt::Display for Error {
             }
             Error::WrongDims { field, found, expected } => {
                 write!(f, "model blob dimension {field} is {found}, this build needs {expected}")
+            }
+            Error::OverCapacity { field, found, capacity } => {
+                write!(f, "model has {found} {field}, this build holds at most {capacity}")
             }
             Error::BadCrc => f.write_str("model blob CRC-32 mismatch (corrupted)"),
             Error::BadPayload => f.write_str("model blob payload does not decode"),

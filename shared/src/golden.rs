@@ -11,12 +11,12 @@
 //! use fbg_shared::golden::{records, sample_bytes, samples};
 //! use fbg_shared::Sample;
 //!
-//! let s = Sample { dl_pm: [1.5, -2.0, 0.25], t_amb_c: 21.0, t_s: 60.0 };
+//! let s = Sample::new([1.5, -2.0, 0.25], 21.0, 60.0);
 //! let bytes = sample_bytes(&s);
 //! assert_eq!(samples(&bytes).next(), Some(s));
 //!
 //! // A pack of one record: a 3-byte "blob" and one sample.
-//! let mut pack = [0u8; 4 + 3 + 4 + 20];
+//! let mut pack = [0u8; 4 + 3 + 4 + fbg_shared::golden::SAMPLE_BYTES];
 //! pack[0] = 3;
 //! pack[7] = 1;
 //! pack[11..].copy_from_slice(&bytes);
@@ -26,29 +26,42 @@
 //! ```
 
 use crate::compensator::Sample;
+use crate::layout::MAX_GRATINGS;
 
-/// Bytes of one sample: five little-endian f32.
-pub const SAMPLE_BYTES: usize = 20;
+/// Bytes of one sample: the grating count (u32), `MAX_GRATINGS` shifts, T_amb and t (f32),
+/// little-endian.
+pub const SAMPLE_BYTES: usize = 4 + 4 * (MAX_GRATINGS + 2);
 
 /// The bytes of one sample.
 pub fn sample_bytes(s: &Sample<f32>) -> [u8; SAMPLE_BYTES] {
     let mut out = [0u8; SAMPLE_BYTES];
-    for (o, v) in out.chunks_exact_mut(4).zip([s.dl_pm[0], s.dl_pm[1], s.dl_pm[2], s.t_amb_c, s.t_s]) {
+    let (count, rest) = out.split_at_mut(4);
+    count.copy_from_slice(&u32::from(s.gratings).to_le_bytes());
+    let values = s.dl_pm.iter().copied().chain([s.t_amb_c, s.t_s]);
+    for (o, v) in rest.chunks_exact_mut(4).zip(values) {
         o.copy_from_slice(&v.to_le_bytes());
     }
     out
 }
 
-/// The sample in `bytes`.
+/// The sample in `bytes` (a count beyond [`MAX_GRATINGS`] is read as `MAX_GRATINGS`).
 pub fn sample_from_bytes(bytes: &[u8; SAMPLE_BYTES]) -> Sample<f32> {
-    let mut f = [0f32; 5];
-    for (o, b) in f.iter_mut().zip(bytes.chunks_exact(4)) {
+    let mut f = [0f32; MAX_GRATINGS + 2];
+    let (count, rest) = bytes.split_at(4);
+    for (o, b) in f.iter_mut().zip(rest.chunks_exact(4)) {
         let mut w = [0u8; 4];
         w.copy_from_slice(b);
         *o = f32::from_le_bytes(w);
     }
-    let [d1, d2, d3, t_amb_c, t_s] = f;
-    Sample { dl_pm: [d1, d2, d3], t_amb_c, t_s }
+    let mut c = [0u8; 4];
+    c.copy_from_slice(count);
+    let gratings = u32::from_le_bytes(c).min(MAX_GRATINGS as u32) as u8;
+    let mut dl_pm = [0f32; MAX_GRATINGS];
+    for (o, &v) in dl_pm.iter_mut().zip(f.iter()) {
+        *o = v;
+    }
+    let [.., t_amb_c, t_s] = f;
+    Sample { dl_pm, gratings, t_amb_c, t_s }
 }
 
 /// The samples of `bytes` in order (an incomplete last sample is not one).
@@ -126,19 +139,19 @@ mod tests {
 
     #[test]
     fn a_cut_pack_ends_with_none() {
-        let s = Sample { dl_pm: [1.0, 2.0, 3.0], t_amb_c: 4.0, t_s: f32::NAN };
+        let s = Sample::new([1.0, 2.0, 3.0], 4.0, f32::NAN);
         let (n, m) = record_lengths(2, 2);
-        let mut pack = [0u8; 4 + 2 + 4 + 40];
+        let mut pack = [0u8; 4 + 2 + 4 + 2 * SAMPLE_BYTES];
         pack[..4].copy_from_slice(&n);
         pack[6..10].copy_from_slice(&m);
-        pack[10..30].copy_from_slice(&sample_bytes(&s));
-        pack[30..].copy_from_slice(&sample_bytes(&s));
+        pack[10..10 + SAMPLE_BYTES].copy_from_slice(&sample_bytes(&s));
+        pack[10 + SAMPLE_BYTES..].copy_from_slice(&sample_bytes(&s));
         let rec = records(&pack).next().unwrap().unwrap();
         assert_eq!(rec.len(), 2);
         assert!(rec.iter().all(|x| x.t_s.is_nan() && x.dl_pm == s.dl_pm));
         let mut it = records(&pack[..pack.len() - 1]);
         assert!(it.next().unwrap().is_none());
         assert!(it.next().is_none());
-        assert_eq!(samples(&pack[10..29]).count(), 0);
+        assert_eq!(samples(&pack[10..9 + SAMPLE_BYTES]).count(), 0);
     }
 }

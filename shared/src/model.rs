@@ -7,7 +7,9 @@ use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
-use crate::layout::{FeatureSet, N_ENVELOPE, N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use crate::layout::{
+    head, Dims, FeatureSet, MAX_ENVELOPE, MAX_MEMORY, MAX_OUTPUTS, MAX_POLY, MAX_STAGE1, MAX_Z, VAR_RANK,
+};
 use crate::memory::MemorySpec;
 use crate::real::Real;
 
@@ -36,10 +38,11 @@ pub struct Hyper<F> {
 /// One RBF centre with its residual weights and variance eigen-components.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Centre<F> {
-    /// Position μ_j in standardised z units (0 on dimensions the feature set does not use).
-    pub mu: [F; Z_DIMS],
-    /// Residual weights W[:, j] for T [°C], ε \[µε\], p \[kPa\].
-    pub w: [F; N_OUTPUTS],
+    /// Position μ_j in standardised z units (0 on dimensions the feature set does not use and
+    /// beyond [`Dims::z_len`]).
+    pub mu: [F; MAX_Z],
+    /// Residual weights W[:, j] per output, in output units (0 beyond M).
+    pub w: [F; MAX_OUTPUTS],
     /// Component j of the `VAR_RANK` eigenvectors of `ΨᵀΨ + αI` with the smallest eigenvalues.
     pub v: [F; VAR_RANK],
 }
@@ -80,29 +83,35 @@ pub struct Provenance {
 /// assert_eq!(blob::decode::<4>(&buf[..n]), Err(fbg_shared::Error::BadCrc));
 /// # Ok::<(), fbg_shared::Error>(())
 /// ```
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+///
+/// Every array is sized to the capacity ([`crate::layout`]); only the entries of the model's
+/// [`Dims`] are used, the rest are 0 (the blob carries only the used ones).
+#[derive(Clone, Debug, PartialEq)]
 pub struct ModelParams<F, const K: usize> {
+    /// Gratings, ambient input and measurands.
+    pub dims: Dims,
     /// Chosen hyper-parameters.
     pub hyper: Hyper<F>,
-    /// Stage-1 linear inverse A: first guesses (T °C, ε µε, p kPa) = A · [Δλ1..3 pm, T_amb °C, 1].
-    pub stage1: [[F; N_STAGE1]; N_OUTPUTS],
+    /// Stage-1 linear inverse A: first guesses (one per output, in its unit) =
+    /// A · [Δλ_1..N pm, T_amb °C (with ambient), 1] (rows M, columns [`Dims::stage1_len`]).
+    pub stage1: [[F; MAX_STAGE1]; MAX_OUTPUTS],
     /// Mean of the stage-1 guesses over the calibration batch (T °C, ε µε, p kPa).
-    pub guess_mean: [F; N_OUTPUTS],
+    pub guess_mean: [F; MAX_OUTPUTS],
     /// Standard deviation of the stage-1 guesses (same units), > 0.
-    pub guess_std: [F; N_OUTPUTS],
-    /// Polynomial core B (paper Eq. 3) on standardised guesses, rows T, ε, p; columns in
-    /// [`crate::layout::POLY_NAMES`] order, values in output units.
-    pub poly: [[F; N_POLY]; N_OUTPUTS],
+    pub guess_std: [F; MAX_OUTPUTS],
+    /// Polynomial core B (paper Eq. 3) on standardised guesses, one row per output; columns in
+    /// [`Dims::poly_term`] order, values in output units.
+    pub poly: [[F; MAX_POLY]; MAX_OUTPUTS],
     /// The memory operators (all slots 0 for the `paper` and `latch` variants).
     pub memory: MemorySpec<F>,
     /// Γ: per output, the coefficient of each memory term, in output units per term unit
     /// (e.g. °C per pm for a grating high-pass on the T row); 0 for unused terms. Fitted
     /// jointly with B.
-    pub gamma: [[F; N_MEMORY]; N_OUTPUTS],
-    /// Mean of each RBF input over the calibration batch (units of [`crate::layout::Z_NAMES`]).
-    pub z_mean: [F; Z_DIMS],
+    pub gamma: [[F; MAX_MEMORY]; MAX_OUTPUTS],
+    /// Mean of each RBF input over the calibration batch (units of [`Dims::z_name`]; 0 beyond [`Dims::z_len`]).
+    pub z_mean: [F; MAX_Z],
     /// Standard deviation of each RBF input (> 0 on used dimensions, ignored elsewhere).
-    pub z_std: [F; Z_DIMS],
+    pub z_std: [F; MAX_Z],
     /// RBF centres with weights (up to `K`).
     pub centres: Vec<Centre<F>, K>,
     /// `1/g_i` for the `VAR_RANK` smallest eigenvalues g_i of `ΨᵀΨ + αI` (0 when unused).
@@ -114,27 +123,34 @@ pub struct ModelParams<F, const K: usize> {
     pub var_inv_g_tail: F,
     /// Per-output residual variance s² at the end of calibration, from cross-validation
     /// (°C², µε², kPa²).
-    pub resid_var: [F; N_OUTPUTS],
+    pub resid_var: [F; MAX_OUTPUTS],
     /// Growth of the residual variance per second after the end of calibration (°C²/s, µε²/s,
     /// kPa²/s), fitted on the cross-validation residuals against their lead time: drift is a
     /// random walk, so the error variance grows linearly with time since calibration.
-    pub resid_var_growth: [F; N_OUTPUTS],
+    pub resid_var_growth: [F; MAX_OUTPUTS],
     /// End of the calibration batch on the sample clock `t_s` \[s\].
     pub t_cal_end_s: F,
     /// Band multiplier per output: the 95 % quantile of |error| / s(τ) over the
     /// cross-validation residuals (1.96 for Gaussian errors; calibrated because hysteresis makes
     /// the errors far from Gaussian).
-    pub band_k: [F; N_OUTPUTS],
-    /// Lower envelope bound per input Δλ1..3 \[pm\], T_amb [°C], margin included.
-    pub envelope_lo: [F; N_ENVELOPE],
+    pub band_k: [F; MAX_OUTPUTS],
+    /// Lower envelope bound per input Δλ_1..N \[pm\], T_amb [°C] (with ambient), margin
+    /// included.
+    pub envelope_lo: [F; MAX_ENVELOPE],
     /// Upper envelope bound, margin included.
-    pub envelope_hi: [F; N_ENVELOPE],
-    /// Which outputs were fitted (T, ε, p). An output without a reference in the calibration
+    pub envelope_hi: [F; MAX_ENVELOPE],
+    /// Which outputs were fitted. An output without a reference in the calibration
     /// data is not fitted: the compensator returns NaN for it with an infinite band, whatever
     /// the flags say about the sample.
-    pub fitted: [bool; N_OUTPUTS],
+    pub fitted: [bool; MAX_OUTPUTS],
     /// Training provenance.
     pub provenance: Provenance,
+}
+
+impl<F: Real, const K: usize> Default for ModelParams<F, K> {
+    fn default() -> Self {
+        Self::empty()
+    }
 }
 
 impl<F: Real, const K: usize> ModelParams<F, K> {
@@ -142,6 +158,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
     /// usable in a `static` (it lands in `.bss`).
     pub const fn empty() -> Self {
         ModelParams {
+            dims: Dims::PAPER,
             hyper: Hyper {
                 feature_set: FeatureSet::Paper,
                 sigma_mult: F::ZERO,
@@ -152,24 +169,24 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
                 envelope_margin: F::ZERO,
                 flagged_band_factor: F::ZERO,
             },
-            stage1: [[F::ZERO; N_STAGE1]; N_OUTPUTS],
-            guess_mean: [F::ZERO; N_OUTPUTS],
-            guess_std: [F::ZERO; N_OUTPUTS],
-            poly: [[F::ZERO; N_POLY]; N_OUTPUTS],
+            stage1: [[F::ZERO; MAX_STAGE1]; MAX_OUTPUTS],
+            guess_mean: [F::ZERO; MAX_OUTPUTS],
+            guess_std: [F::ZERO; MAX_OUTPUTS],
+            poly: [[F::ZERO; MAX_POLY]; MAX_OUTPUTS],
             memory: MemorySpec::off(),
-            gamma: [[F::ZERO; N_MEMORY]; N_OUTPUTS],
-            z_mean: [F::ZERO; Z_DIMS],
-            z_std: [F::ZERO; Z_DIMS],
+            gamma: [[F::ZERO; MAX_MEMORY]; MAX_OUTPUTS],
+            z_mean: [F::ZERO; MAX_Z],
+            z_std: [F::ZERO; MAX_Z],
             centres: Vec::new(),
             var_inv_g: [F::ZERO; VAR_RANK],
             var_inv_g_tail: F::ZERO,
-            resid_var: [F::ZERO; N_OUTPUTS],
-            resid_var_growth: [F::ZERO; N_OUTPUTS],
+            resid_var: [F::ZERO; MAX_OUTPUTS],
+            resid_var_growth: [F::ZERO; MAX_OUTPUTS],
             t_cal_end_s: F::ZERO,
-            band_k: [F::ZERO; N_OUTPUTS],
-            envelope_lo: [F::ZERO; N_ENVELOPE],
-            envelope_hi: [F::ZERO; N_ENVELOPE],
-            fitted: [false; N_OUTPUTS],
+            band_k: [F::ZERO; MAX_OUTPUTS],
+            envelope_lo: [F::ZERO; MAX_ENVELOPE],
+            envelope_hi: [F::ZERO; MAX_ENVELOPE],
+            fitted: [false; MAX_OUTPUTS],
             provenance: Provenance {
                 seed: 0,
                 scenario: String::new(),
@@ -194,9 +211,11 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
     /// envelope, sane flag settings. Decoding calls this; so should anyone building params by
     /// hand.
     pub fn validate(&self) -> Result<(), Error> {
+        let d = &self.dims;
         let h = &self.hyper;
         let finite = |v: F| v.is_finite();
         let all = |s: &[F]| s.iter().all(|&v| v.is_finite());
+        let (m, n_s1, n_poly, n_z, n_env) = (d.n_outputs(), d.stage1_len(), d.poly_len(), d.z_len(), d.envelope_len());
         if !(finite(h.sigma) && h.sigma > F::ZERO) {
             return Err(Error::BadParameter { field: "hyper.sigma" });
         }
@@ -218,31 +237,31 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         if !(finite(h.flagged_band_factor) && h.flagged_band_factor >= F::ONE) {
             return Err(Error::BadParameter { field: "hyper.flagged_band_factor" });
         }
-        if !self.stage1.iter().all(|r| all(r)) {
+        if !self.stage1.iter().take(m).all(|r| all(head(r, n_s1))) {
             return Err(Error::BadParameter { field: "stage1" });
         }
-        if !all(&self.guess_mean) {
+        if !head(&self.guess_mean, m).iter().all(|&v| finite(v)) {
             return Err(Error::BadParameter { field: "guess_mean" });
         }
-        if !self.guess_std.iter().all(|&s| finite(s) && s > F::ZERO) {
+        if !head(&self.guess_std, m).iter().all(|&s| finite(s) && s > F::ZERO) {
             return Err(Error::BadParameter { field: "guess_std" });
         }
-        if !self.poly.iter().all(|r| all(r)) {
+        if !self.poly.iter().take(m).all(|r| all(head(r, n_poly))) {
             return Err(Error::BadParameter { field: "poly" });
         }
-        self.memory.validate()?;
-        for row in self.gamma.iter() {
+        self.memory.validate(d)?;
+        for row in self.gamma.iter().take(m) {
             for (k, &g) in row.iter().enumerate() {
-                if !g.is_finite() || (g != F::ZERO && !self.memory.term_active(k)) {
+                if !g.is_finite() || (g != F::ZERO && !self.memory.term_active(d, k)) {
                     return Err(Error::BadParameter { field: "gamma" });
                 }
             }
         }
-        if !all(&self.z_mean) {
+        if !all(head(&self.z_mean, n_z)) {
             return Err(Error::BadParameter { field: "z_mean" });
         }
-        let active = h.feature_set.active();
-        if !self.z_std.iter().zip(active.iter()).all(|(&s, &on)| finite(s) && (!on || s > F::ZERO)) {
+        let active = d.z_active(h.feature_set);
+        if !self.z_std.iter().zip(active.iter()).take(n_z).all(|(&s, &on)| finite(s) && (!on || s > F::ZERO)) {
             return Err(Error::BadParameter { field: "z_std" });
         }
         if !self.centres.iter().all(|c| all(&c.mu) && all(&c.w) && all(&c.v)) {
@@ -254,22 +273,27 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         if !(finite(self.var_inv_g_tail) && self.var_inv_g_tail >= F::ZERO) {
             return Err(Error::BadParameter { field: "var_inv_g_tail" });
         }
-        if !self.resid_var.iter().all(|&v| finite(v) && v >= F::ZERO) {
+        if !head(&self.resid_var, m).iter().all(|&v| finite(v) && v >= F::ZERO) {
             return Err(Error::BadParameter { field: "resid_var" });
         }
-        if !self.resid_var_growth.iter().all(|&v| finite(v) && v >= F::ZERO) {
+        if !head(&self.resid_var_growth, m).iter().all(|&v| finite(v) && v >= F::ZERO) {
             return Err(Error::BadParameter { field: "resid_var_growth" });
         }
         if !finite(self.t_cal_end_s) {
             return Err(Error::BadParameter { field: "t_cal_end_s" });
         }
-        if !self.band_k.iter().all(|&k| finite(k) && k > F::ZERO) {
+        if !head(&self.band_k, m).iter().all(|&k| finite(k) && k > F::ZERO) {
             return Err(Error::BadParameter { field: "band_k" });
         }
-        if !self.fitted.iter().any(|&f| f) {
+        if !self.fitted.iter().take(m).any(|&f| f) {
             return Err(Error::BadParameter { field: "fitted" });
         }
-        if !self.envelope_lo.iter().zip(self.envelope_hi.iter()).all(|(&lo, &hi)| finite(lo) && finite(hi) && lo <= hi)
+        if !self
+            .envelope_lo
+            .iter()
+            .zip(self.envelope_hi.iter())
+            .take(n_env)
+            .all(|(&lo, &hi)| finite(lo) && finite(hi) && lo <= hi)
         {
             return Err(Error::BadParameter { field: "envelope" });
         }
@@ -302,6 +326,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         }
         let h = &self.hyper;
         Ok(ModelParams {
+            dims: self.dims,
             hyper: Hyper {
                 feature_set: h.feature_set,
                 sigma_mult: g(h.sigma_mult),

@@ -1,13 +1,14 @@
-//! The `.fbgm` codec: round trips, exact lengths, the golden v2 blob (and the v1 one refused by
-//! name), typed errors for every kind of damage, and "never panics" on arbitrary bytes.
+//! The `.fbgm` codec: round trips (any dims), exact lengths, the golden v3 blob (and the v1 and
+//! v2 ones refused by name), over-capacity dims refused naming both, typed errors for every kind of damage, and "never panics" on arbitrary bytes.
 
 // A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
 // the helpers around them.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use crc::{Crc, CRC_32_ISCSI};
-use fbg_shared::blob::{self, decode, encode, max_len, min_len, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};
-use fbg_shared::layout::{MEM_AMBIENT, MEM_OBSERVER, MEM_STOP, N_INPUTS, N_MEMORY, N_OUTPUTS, N_POLY};
+use fbg_shared::blob::{self, decode, encode, max_len, max_len_for, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};
+use fbg_shared::layout::paper::{MEM_AMBIENT, MEM_OBSERVER, MEM_STOP, N_MEMORY};
+use fbg_shared::layout::{pad, pad2, Dims, MAX_GRATINGS, MAX_MEMORY, MAX_OUTPUTS};
 use fbg_shared::{Centre, Compensator, Error, FeatureSet, Hyper, MemorySpec, ModelParams, Provenance, Sample};
 use fbg_testkit::models::{any_model, encode_vec, long_provenance, model, short_provenance};
 use fbg_testkit::Rng;
@@ -22,20 +23,16 @@ fn fix_crc(b: &mut [u8]) {
     b[n..].copy_from_slice(&crc.to_le_bytes());
 }
 
-/// A blob with a valid CRC for *any* params (no validation): header + postcard + CRC.
+/// A blob with a valid CRC for *any* params (no validation).
 fn encode_unchecked<const K: usize>(p: &ModelParams<f32, K>) -> Vec<u8> {
-    let mut out = Vec::new();
-    out.extend_from_slice(b"FBGM");
-    for v in [FORMAT_VERSION, N_INPUTS as u16, N_OUTPUTS as u16, N_POLY as u16, N_MEMORY as u16, p.centres.len() as u16]
-    {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
     let mut body = vec![0u8; max_len(K)];
-    let used = postcard::to_slice(p, &mut body).expect("fits").len();
-    out.extend_from_slice(&body[..used]);
-    out.extend_from_slice(&[0; CRC_LEN]);
-    fix_crc(&mut out);
-    out
+    let n = blob::encode_unchecked(p, &mut body).expect("fits");
+    body.truncate(n);
+    body
+}
+
+fn min_len(centres: usize) -> usize {
+    blob::min_len(&Dims::PAPER, centres)
 }
 
 /// Offset of the provenance in a blob (it is the last field of the payload).
@@ -45,9 +42,9 @@ fn provenance_offset(blob: &[u8], prov: &Provenance) -> usize {
     blob.len() - CRC_LEN - n
 }
 
-/// Offset of the first f32 of the memory spec: header, hyper (1 + 7 × 4), stage 1 (15), guess
-/// mean and std (3 + 3), B (30).
-const MEMORY_OFFSET: usize = HEADER_LEN + 1 + 7 * 4 + 4 * 51;
+/// Offset of the first f32 of the memory spec: header, output kinds (3 × 2), hyper (1 + 7 × 4),
+/// stage 1 (15), guess mean and std (3 + 3), B (30).
+const MEMORY_OFFSET: usize = HEADER_LEN + 6 + 1 + 7 * 4 + 4 * 51;
 /// Offset of Γ: after the memory spec's 6 + 4 + 3 + 2 + 5 f32.
 const GAMMA_OFFSET: usize = MEMORY_OFFSET + 4 * 20;
 /// Offset of the centre-count varint: after Γ (3 × 32 f32) and the z scalers (8 + 8 f32).
@@ -61,7 +58,7 @@ fn samples(seed: u64, n: usize) -> Vec<Sample<f32>> {
             for d in dl.iter_mut() {
                 *d = (*d + r.uniform(-6.0, 6.0)).clamp(-50.0, 50.0);
             }
-            Sample { dl_pm: [dl[0] as f32, dl[1] as f32, dl[2] as f32], t_amb_c: r.f32(0.0, 40.0), t_s: k as f32 }
+            Sample::new([dl[0] as f32, dl[1] as f32, dl[2] as f32], r.f32(0.0, 40.0), k as f32)
         })
         .collect()
 }
@@ -108,9 +105,9 @@ fn lengths<const K: usize>() {
     let short: ModelParams<f32, K> = model(K, 1, FeatureSet::HysteresisAware, short_provenance());
     let long: ModelParams<f32, K> = model(K, 2, FeatureSet::HysteresisAwareTime, long_provenance());
     assert_eq!(encode_vec(&short).unwrap().len(), min_len(K), "min_len({K})");
-    assert_eq!(encode_vec(&long).unwrap().len(), max_len(K), "max_len({K})");
+    assert_eq!(encode_vec(&long).unwrap().len(), max_len_for(&Dims::PAPER, K), "max_len({K})");
     // max_len is exact: one byte less does not do.
-    let mut buf = vec![0u8; max_len(K) - 1];
+    let mut buf = vec![0u8; max_len_for(&Dims::PAPER, K) - 1];
     assert_eq!(encode(&long, &mut buf), Err(Error::BufferTooSmall));
 }
 
@@ -125,13 +122,23 @@ fn min_len_and_max_len_are_exact() {
     lengths::<127>();
     lengths::<128>();
     lengths::<200>();
-    // Version 1 was 416 bytes; version 2 adds 2 header bytes and 116 f32 (memory spec 20, Γ 96).
-    assert_eq!(min_len(0), 416 + 2 + 4 * 116);
-    assert_eq!(min_len(0), 882);
-    assert_eq!(min_len(32), 882 + 60 * 32);
+    // Version 1 was 416 bytes; version 2 added 2 header bytes and 116 f32 (memory spec 20,
+    // Γ 96); version 3 adds 2 header bytes and the output kinds (3 × 2 bytes).
+    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6);
+    assert_eq!(min_len(0), 890);
+    assert_eq!(min_len(32), 890 + 60 * 32);
     // No overflow on absurd inputs.
     assert_eq!(min_len(usize::MAX), usize::MAX);
     assert_eq!(max_len(usize::MAX), usize::MAX);
+    // The capacity's longest (8 gratings, ambient, 4 outputs) bounds every dims.
+    let big: ModelParams<f32, 8> = fbg_testkit::models::model_dims(
+        fbg_testkit::models::dims(MAX_GRATINGS, true, MAX_OUTPUTS).unwrap(),
+        8,
+        3,
+        FeatureSet::HysteresisAwareTime,
+        long_provenance(),
+    );
+    assert_eq!(encode_vec(&big).unwrap().len(), max_len(8));
 }
 
 #[test]
@@ -150,29 +157,38 @@ fn encode_into_every_short_buffer_fails_cleanly() {
 fn encode_refuses_invalid_params() {
     let mut p: ModelParams<f32, 2> = model(2, 3, FeatureSet::Paper, short_provenance());
     p.hyper.sigma = f32::NAN;
-    let mut buf = vec![0u8; max_len(2)];
+    let mut buf = vec![0u8; max_len_for(&Dims::PAPER, 2)];
     assert_eq!(encode(&p, &mut buf), Err(Error::BadParameter { field: "hyper.sigma" }));
 }
 
 // ---------------------------------------------------------------------------------------------
 // Golden blob
 
-/// The tiny model pinned by `tests/golden/tiny_v2.fbgm`: K = 2, exact binary numbers, memory
+/// The tiny model pinned by `tests/golden/tiny_v3.fbgm`: K = 2, exact binary numbers, memory
 /// terms on: one grating τ, one ambient τ, one play, the drift observer, and Γ on some of them.
 fn tiny() -> ModelParams<f32, 2> {
     let mut centres = heapless::Vec::new();
     centres
-        .push(Centre { mu: [0.5, -0.5, 1.0, 0.0, 0.0, 1.0, -1.0, 0.0], w: [1.0, -2.0, 0.25], v: [0.5, 0.0, 0.0, 0.0] })
+        .push(Centre {
+            mu: pad(&[0.5, -0.5, 1.0, 0.0, 0.0, 1.0, -1.0, 0.0]),
+            w: pad(&[1.0, -2.0, 0.25]),
+            v: [0.5, 0.0, 0.0, 0.0],
+        })
         .unwrap();
     centres
-        .push(Centre { mu: [-1.0, 0.5, 0.0, 2.0, 0.0, -1.0, 1.0, 1.0], w: [-0.5, 4.0, 0.0], v: [0.0, 0.5, 0.0, 0.0] })
+        .push(Centre {
+            mu: pad(&[-1.0, 0.5, 0.0, 2.0, 0.0, -1.0, 1.0, 1.0]),
+            w: pad(&[-0.5, 4.0, 0.0]),
+            v: [0.0, 0.5, 0.0, 0.0],
+        })
         .unwrap();
-    let mut gamma = [[0.0f32; N_MEMORY]; N_OUTPUTS];
+    let mut gamma = [[0.0f32; MAX_MEMORY]; MAX_OUTPUTS];
     gamma[0][0] = 0.25; // T per pm of grating 1's 600-s high-pass
     gamma[0][MEM_OBSERVER] = -1.0; // T per °C of observed drift
     gamma[1][MEM_STOP + 1] = 2.0; // ε per pm of grating 2's stop term
     gamma[2][MEM_AMBIENT + 1] = -0.5; // p per °C of the 3600-s ambient high-pass
     ModelParams {
+        dims: Dims::PAPER,
         hyper: Hyper {
             feature_set: FeatureSet::HysteresisAware,
             sigma_mult: 1.5,
@@ -183,35 +199,35 @@ fn tiny() -> ModelParams<f32, 2> {
             envelope_margin: 0.25,
             flagged_band_factor: 2.0,
         },
-        stage1: [[0.5, 0.0, 0.0, 1.0, -2.0], [0.0, 0.25, 0.0, 0.0, 0.0], [0.0, 0.0, -0.5, 0.0, 1.0]],
-        guess_mean: [1.0, 0.0, -2.0],
-        guess_std: [2.0, 4.0, 0.5],
-        poly: [
+        stage1: pad2(&[[0.5, 0.0, 0.0, 1.0, -2.0], [0.0, 0.25, 0.0, 0.0, 0.0], [0.0, 0.0, -0.5, 0.0, 1.0]]),
+        guess_mean: pad(&[1.0, 0.0, -2.0]),
+        guess_std: pad(&[2.0, 4.0, 0.5]),
+        poly: pad2(&[
             [0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0],
             [0.0, 0.0, 1.0, 0.0, 0.0, -0.25, 0.0, 0.0, 0.0, 0.0],
             [1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.125, 0.0],
-        ],
+        ]),
         memory: MemorySpec {
             grating_tau_s: [600.0, 0.0, 0.0, 0.0, 0.0, 0.0],
             ambient_tau_s: [0.0, 3600.0, 0.0, 0.0],
             play_half_width_pm: [4.0, 0.0, 0.0],
             observer_lag_s: 512.0,
             observer_smooth_s: 2048.0,
-            observer_row: [0.125, -0.25, 0.0625, 0.5, -8.0],
+            observer_row: pad(&[0.125, -0.25, 0.0625, 0.5, -8.0]),
         },
         gamma,
-        z_mean: [0.0, 0.0, 0.0, 20.0, 0.0, 0.0, 0.0, 0.0],
-        z_std: [32.0, 32.0, 32.0, 8.0, 1.0, 1.0, 1.0, 1.0],
+        z_mean: pad(&[0.0, 0.0, 0.0, 20.0, 0.0, 0.0, 0.0, 0.0]),
+        z_std: pad(&[32.0, 32.0, 32.0, 8.0, 1.0, 1.0, 1.0, 1.0]),
         centres,
         var_inv_g: [1.0, 0.5, 0.0, 0.0],
         var_inv_g_tail: 0.0,
-        resid_var: [0.25, 1.0, 4.0],
-        resid_var_growth: [0.5, 0.0, 2.0],
+        resid_var: pad(&[0.25, 1.0, 4.0]),
+        resid_var_growth: pad(&[0.5, 0.0, 2.0]),
         t_cal_end_s: 1024.0,
-        band_k: [1.96, 2.0, 2.5],
-        envelope_lo: [-64.0, -64.0, -64.0, -8.0],
-        envelope_hi: [64.0, 64.0, 64.0, 48.0],
-        fitted: [true; 3],
+        band_k: pad(&[1.96, 2.0, 2.5]),
+        envelope_lo: pad(&[-64.0, -64.0, -64.0, -8.0]),
+        envelope_hi: pad(&[64.0, 64.0, 64.0, 48.0]),
+        fitted: pad(&[true; 3]),
         provenance: Provenance {
             seed: 42,
             scenario: heapless::String::try_from("golden").unwrap(),
@@ -222,30 +238,39 @@ fn tiny() -> ModelParams<f32, 2> {
     }
 }
 
-/// GOLDEN: the exact bytes of format version 2.
+/// GOLDEN: the exact bytes of format version 3.
 ///
-/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v2 or reject it
-/// by name (`Error::UnsupportedVersion { found: 2, .. }`). Never regenerate this file to make
-/// the test pass.
+/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v3 or reject it
+/// by name (`Error::UnsupportedVersion { found: 3, .. }`). Never regenerate this file to make
+/// the test pass. (It was written once by the encoder when version 3 was introduced, with
+/// `FBG_WRITE_GOLDEN=1 cargo test -p fbg-shared --test blob golden`.)
+const GOLDEN_V3: &[u8] = include_bytes!("golden/tiny_v3.fbgm");
+
+/// The version-2 golden blob (fixed paper layout), kept as an "old version refused" fixture.
 const GOLDEN_V2: &[u8] = include_bytes!("golden/tiny_v2.fbgm");
 
 /// The version-1 golden blob (no memory terms), kept as the "old version refused" fixture.
 const GOLDEN_V1: &[u8] = include_bytes!("golden/tiny_v1.fbgm");
 
 #[test]
-fn golden_v2_bytes_are_pinned() {
+fn golden_v3_bytes_are_pinned() {
     let b = encode_vec(&tiny()).unwrap();
+    if std::env::var_os("FBG_WRITE_GOLDEN").is_some() && GOLDEN_V3.is_empty() {
+        std::fs::write(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/tiny_v3.fbgm"), &b).unwrap();
+    }
     // Shortest 2-centre blob plus "golden" (6), "0.1.0" (5), date varint 4 bytes (+3),
     // n_cal varint 2 bytes (+1).
     assert_eq!(b.len(), min_len(2) + 6 + 5 + 3 + 1);
-    assert_eq!(b.len(), 1017);
+    assert_eq!(b.len(), 1025);
     assert_eq!(
         &b[..HEADER_LEN],
-        &[b'F', b'B', b'G', b'M', 2, 0, 5, 0, 3, 0, 10, 0, 32, 0, 2, 0],
-        "magic, version 2, dims 5/3/10/32, 2 centres (all u16 LE)"
+        &[b'F', b'B', b'G', b'M', 3, 0, 3, 0, 1, 0, 3, 0, 10, 0, 32, 0, 2, 0],
+        "magic, version 3, dims 3 gratings / ambient / 3 measurands / 10 poly / 32 memory, 2 centres (u16 LE)"
     );
-    // Payload: feature set tag 1 (HysteresisAware), then sigma_mult 1.5f32 LE.
-    assert_eq!(&b[16..21], &[1, 0x00, 0x00, 0xC0, 0x3F]);
+    // Payload: the output kinds (T, ε, p: codes 0, 1, 2, index 1 each), feature set tag 1
+    // (HysteresisAware), then sigma_mult 1.5f32 LE.
+    assert_eq!(&b[HEADER_LEN..HEADER_LEN + 6], &[0, 1, 1, 1, 2, 1]);
+    assert_eq!(&b[HEADER_LEN + 6..HEADER_LEN + 11], &[1, 0x00, 0x00, 0xC0, 0x3F]);
     // Memory spec after B: grating τ 600 s (0x44160000), five unused slots, ...
     assert_eq!(&b[MEMORY_OFFSET..MEMORY_OFFSET + 8], &[0x00, 0x00, 0x16, 0x44, 0, 0, 0, 0]);
     // ... ambient τ slot 1 = 3600 s (0x45610000), play r = 4 pm (0x40800000), observer lag
@@ -264,43 +289,104 @@ fn golden_v2_bytes_are_pinned() {
     assert_eq!(g(2, MEM_AMBIENT + 1), &[0x00, 0x00, 0x00, 0xBF]);
     // Centre count varint.
     assert_eq!(b[CENTRES_OFFSET], 2);
+    // Apart from the header and the output kinds, the payload is the v2 payload byte for byte:
+    // the paper model's numbers are unchanged, only the encoding around them.
+    assert_eq!(&b[HEADER_LEN + 6..b.len() - CRC_LEN], &GOLDEN_V2[16..GOLDEN_V2.len() - CRC_LEN]);
     // Trailer: CRC-32C over everything before it, little-endian.
     let n = b.len() - CRC_LEN;
     assert_eq!(b[n..], ISCSI.checksum(&b[..n]).to_le_bytes());
-    assert!(b == GOLDEN_V2, "encoder output differs from the v2 golden blob: format change?");
-    assert_eq!(decode::<2>(GOLDEN_V2), Ok(tiny()));
-    assert_eq!(decode::<32>(GOLDEN_V2).map(|p| p.provenance), Ok(tiny().provenance));
+    assert!(b == GOLDEN_V3, "encoder output differs from the v3 golden blob: format change?");
+    assert_eq!(decode::<2>(GOLDEN_V3), Ok(tiny()));
+    assert_eq!(decode::<32>(GOLDEN_V3).map(|p| p.provenance), Ok(tiny().provenance));
     // It loads, with its memory terms.
-    let c = Compensator::<f32, 2>::new(&decode::<2>(GOLDEN_V2).unwrap()).unwrap();
+    let c = Compensator::<f32, 2>::new(&decode::<2>(GOLDEN_V3).unwrap()).unwrap();
     assert!(c.has_memory());
 }
 
 #[test]
-fn golden_blob_is_v2() {
-    assert_eq!(FORMAT_VERSION, 2, "a new format version needs its own golden blob");
-    assert_eq!(Header::parse(GOLDEN_V2).map(|h| h.version), Ok(2));
+fn golden_blob_is_v3() {
+    assert_eq!(FORMAT_VERSION, 3, "a new format version needs its own golden blob");
+    assert_eq!(Header::parse(GOLDEN_V3).map(|h| h.version), Ok(3));
 }
 
 #[test]
-fn the_v1_golden_blob_is_refused_naming_both_versions() {
-    // The old fixture is what version 1 wrote: magic, version 1, the 14-byte header.
+fn older_golden_blobs_are_refused_naming_both_versions() {
+    // The old fixtures are what versions 1 and 2 wrote.
     assert_eq!(&GOLDEN_V1[..6], &[b'F', b'B', b'G', b'M', 1, 0]);
     assert_eq!(GOLDEN_V1.len(), 551, "the v1 tiny model: 536-byte minimum + 15 of provenance");
-    let want = Error::UnsupportedVersion { found: 1, supported: 2 };
-    assert_eq!(decode::<2>(GOLDEN_V1), Err(want));
-    assert_eq!(decode::<32>(GOLDEN_V1).err(), Some(want));
-    assert_eq!(decode::<0>(GOLDEN_V1).err(), Some(want));
-    assert_eq!(Header::parse(GOLDEN_V1), Err(want));
-    let mut slot = ModelParams::<f32, 2>::empty();
-    assert_eq!(blob::decode_into(GOLDEN_V1, &mut slot), Err(Error::UnsupportedVersion { found: 1, supported: 2 }));
-    // Cut or damaged, it is still refused for its version first.
-    assert_eq!(decode::<2>(&GOLDEN_V1[..20]), Err(Error::UnsupportedVersion { found: 1, supported: 2 }));
-    let mut m = GOLDEN_V1.to_vec();
-    m[100] ^= 0xFF;
-    assert_eq!(decode::<2>(&m), Err(Error::UnsupportedVersion { found: 1, supported: 2 }));
-    // The message names both versions.
-    let msg = Error::UnsupportedVersion { found: 1, supported: 2 }.to_string();
-    assert!(msg.contains("version 1") && msg.contains("version 2"), "{msg}");
+    assert_eq!(&GOLDEN_V2[..6], &[b'F', b'B', b'G', b'M', 2, 0]);
+    assert_eq!(GOLDEN_V2.len(), 1017);
+    for (old, v) in [(GOLDEN_V1, 1u16), (GOLDEN_V2, 2)] {
+        let want = Error::UnsupportedVersion { found: v, supported: 3 };
+        assert_eq!(decode::<2>(old), Err(want));
+        assert_eq!(decode::<32>(old).err(), Some(want));
+        assert_eq!(decode::<0>(old).err(), Some(want));
+        assert_eq!(Header::parse(old), Err(want));
+        let mut slot = ModelParams::<f32, 2>::empty();
+        assert_eq!(blob::decode_into(old, &mut slot), Err(want));
+        // Cut or damaged, it is still refused for its version first.
+        assert_eq!(decode::<2>(&old[..20]), Err(want));
+        let mut m = old.to_vec();
+        m[100] ^= 0xFF;
+        assert_eq!(decode::<2>(&m), Err(want));
+        // The message names both versions.
+        let msg = want.to_string();
+        assert!(msg.contains(&format!("version {v}")) && msg.contains("version 3"), "{msg}");
+    }
+}
+
+#[test]
+fn over_capacity_dims_are_refused_naming_both() {
+    // 9 gratings or 5 measurands in the header (CRC valid): the capacity is named with them.
+    for (off, v, field, cap) in [(6, 9u16, "gratings", MAX_GRATINGS), (10, 5, "measurands", MAX_OUTPUTS)] {
+        let mut m = GOLDEN_V3.to_vec();
+        m[off..off + 2].copy_from_slice(&v.to_le_bytes());
+        fix_crc(&mut m);
+        let want = Error::OverCapacity { field, found: v, capacity: cap as u16 };
+        assert_eq!(decode::<2>(&m), Err(want));
+        assert_eq!(Header::parse(&m), Err(want));
+        let msg = want.to_string();
+        assert!(msg.contains(&v.to_string()) && msg.contains(&cap.to_string()), "{msg}");
+    }
+}
+
+fn dims_round_trip<const K: usize>(g: usize, ambient: bool, m: usize, n: usize, seed: u64) {
+    use fbg_testkit::models::{dims, full_memory_spec_for, memory_model_dims, random_samples};
+    let d = dims(g, ambient, m).unwrap();
+    let fs = FeatureSet::ALL[(seed % 3) as usize];
+    let p: ModelParams<f32, K> = memory_model_dims(d, n, seed, fs, long_provenance(), full_memory_spec_for(&d));
+    let b = encode_vec(&p).unwrap();
+    assert_eq!(b.len(), max_len_for(&d, n));
+    let h = Header::parse(&b).unwrap();
+    assert_eq!((h.gratings, h.ambient, h.measurands), (g as u16, u16::from(ambient), m as u16));
+    assert_eq!((usize::from(h.poly_terms), usize::from(h.memory_terms)), (d.poly_len(), d.memory_len()));
+    let q = decode::<K>(&b).unwrap();
+    assert_eq!(q, p);
+    let mut a = Compensator::<f32, K>::new(&p).unwrap();
+    let mut c = Compensator::<f64, K>::new(&q).unwrap();
+    for s in random_samples(&d, 100, seed) {
+        let (x, y) = (a.step(&s), c.step(&s.cast()));
+        assert_eq!(x.values().len(), m);
+        assert_eq!(x.flags, y.flags);
+        for (u, v) in x.values().iter().zip(y.values()) {
+            assert!(u.is_nan() == v.is_nan() && (u.is_nan() || (f64::from(*u) - v).abs() <= 1e-3 * (1.0 + v.abs())));
+        }
+    }
+    // A sample with another grating count is answered as non-finite.
+    let other = fbg_shared::Sample::from_slice(&vec![0.0f32; if g == 1 { 2 } else { g - 1 }], 20.0, 0.0).unwrap();
+    assert!(a.step(&other).flags.contains(fbg_shared::Flags::NON_FINITE));
+}
+
+#[test]
+fn every_dims_round_trips_and_runs() {
+    for g in 1..=MAX_GRATINGS {
+        for m in 1..=MAX_OUTPUTS {
+            for ambient in [false, true] {
+                dims_round_trip::<5>(g, ambient, m, 5, (g * 10 + m) as u64);
+            }
+        }
+    }
+    dims_round_trip::<0>(2, false, 2, 0, 1);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -312,19 +398,19 @@ fn header_errors() {
     assert_eq!(decode::<2>(b"FBG"), Err(Error::Truncated { part: "header" }));
     assert_eq!(decode::<2>(b"{\"a\":1}"), Err(Error::BadMagic));
     assert_eq!(decode::<2>(b"X"), Err(Error::BadMagic));
-    let mut b = GOLDEN_V2.to_vec();
+    let mut b = GOLDEN_V3.to_vec();
     b[0] = b'f';
     assert_eq!(decode::<2>(&b), Err(Error::BadMagic));
     assert_eq!(Header::parse(&b), Err(Error::BadMagic));
-    assert_eq!(decode::<2>(&GOLDEN_V2[..15]), Err(Error::Truncated { part: "header" }));
-    assert_eq!(Header::parse(&GOLDEN_V2[..15]), Err(Error::Truncated { part: "header" }));
-    assert_eq!(decode::<2>(&GOLDEN_V2[..16]), Err(Error::Truncated { part: "payload" }));
+    assert_eq!(decode::<2>(&GOLDEN_V3[..17]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(Header::parse(&GOLDEN_V3[..17]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(decode::<2>(&GOLDEN_V3[..18]), Err(Error::Truncated { part: "payload" }));
     assert_eq!(
-        Header::parse(GOLDEN_V2),
-        Ok(Header { version: 2, inputs: 5, outputs: 3, poly_terms: 10, memory_terms: 32, centres: 2 })
+        Header::parse(GOLDEN_V3),
+        Ok(Header { version: 3, gratings: 3, ambient: 1, measurands: 3, poly_terms: 10, memory_terms: 32, centres: 2 })
     );
     // The header alone parses (the payload is not looked at).
-    assert_eq!(Header::parse(&GOLDEN_V2[..16]).map(|h| h.centres), Ok(2));
+    assert_eq!(Header::parse(&GOLDEN_V3[..18]).map(|h| h.centres), Ok(2));
 }
 
 #[test]
@@ -340,10 +426,10 @@ fn k64_blob_into_capacity_32_is_wrong_dims() {
 fn header_count_must_match_payload_count() {
     let p: ModelParams<f32, 8> = any_model(5, 6, false);
     let mut b = encode_vec(&p).unwrap();
-    b[14] = 4;
+    b[16] = 4;
     fix_crc(&mut b);
     assert_eq!(decode::<8>(&b), Err(Error::WrongDims { field: "centres", found: 4, expected: 5 }));
-    b[14] = 6;
+    b[16] = 6;
     fix_crc(&mut b);
     assert_eq!(decode::<8>(&b), Err(Error::WrongDims { field: "centres", found: 6, expected: 5 }));
 }
@@ -375,7 +461,7 @@ fn every_cut_of_fixed_blobs_is_truncated_or_bad_crc() {
 
 #[test]
 fn trailing_bytes() {
-    let mut b = GOLDEN_V2.to_vec();
+    let mut b = GOLDEN_V3.to_vec();
     b.push(0xFF);
     assert_eq!(decode::<2>(&b), Err(Error::TrailingBytes { extra: 1 }));
     // Erased-flash padding after a stored blob.
@@ -390,7 +476,7 @@ fn trailing_bytes() {
 #[test]
 fn huge_lengths_with_valid_crc_are_bad_payload() {
     let p = tiny();
-    let b = GOLDEN_V2.to_vec();
+    let b = GOLDEN_V3.to_vec();
     let prov = provenance_offset(&b, &p.provenance);
     // Scenario string length: one byte after the 1-byte seed varint (42).
     assert_eq!(b[prov], 42);
@@ -432,7 +518,7 @@ fn huge_lengths_with_valid_crc_are_bad_payload() {
     assert_eq!(decode::<2>(&m), Err(Error::BadPayload));
     // Unknown feature-set code.
     let mut m = b.clone();
-    m[HEADER_LEN] = 3;
+    m[HEADER_LEN + 6] = 3;
     fix_crc(&mut m);
     assert_eq!(decode::<2>(&m), Err(Error::BadPayload));
     // Payload shorter than the signed region claims (CRC valid): the last provenance byte is
@@ -551,15 +637,15 @@ fn validate_accepts_boundary_values() {
         |p| p.hyper.flagged_band_factor = 1.0,
         |p| p.z_std[6] = 0.0, // latch dims unused by Paper
         |p| p.envelope_lo[1] = p.envelope_hi[1],
-        |p| p.resid_var_growth = [0.0, 1e-3, 0.0],
+        |p| p.resid_var_growth = pad(&[0.0, 1e-3, 0.0]),
         |p| p.t_cal_end_s = -5.0, // any finite clock origin
         |p| {
             p.var_inv_g = [0.0; 4];
-            p.resid_var = [0.0; 3];
+            p.resid_var = [0.0; 4];
         },
         // An observer smoothing without a lag is unused (and needs no Γ); so is a zero slot.
         |p| p.memory.observer_smooth_s = 100.0,
-        |p| p.memory.observer_row = [1.0, -1.0, 0.5, 2.0, -40.0],
+        |p| p.memory.observer_row = pad(&[1.0, -1.0, 0.5, 2.0, -40.0]),
         |p| {
             p.memory.observer_lag_s = 1e-3;
             p.memory.observer_smooth_s = 1e-3;
@@ -584,9 +670,9 @@ fn validate_accepts_boundary_values() {
 
 #[test]
 fn nan_sigma_under_valid_crc_by_byte_patch() {
-    let mut b = GOLDEN_V2.to_vec();
-    // sigma follows the feature-set tag and sigma_mult.
-    b[HEADER_LEN + 5..HEADER_LEN + 9].copy_from_slice(&f32::NAN.to_le_bytes());
+    let mut b = GOLDEN_V3.to_vec();
+    // sigma follows the output kinds, the feature-set tag and sigma_mult.
+    b[HEADER_LEN + 11..HEADER_LEN + 15].copy_from_slice(&f32::NAN.to_le_bytes());
     fix_crc(&mut b);
     assert_eq!(decode::<2>(&b), Err(Error::BadParameter { field: "hyper.sigma" }));
 }
@@ -668,8 +754,12 @@ proptest! {
             prop_assert_eq!(r, Err(Error::BadMagic));
         } else if i < 6 {
             prop_assert_eq!(r, Err(Error::UnsupportedVersion { found: u16::from_le_bytes([m[4], m[5]]), supported: FORMAT_VERSION }));
+        } else if i < HEADER_LEN {
+            // A damaged dim changes how the payload is read: a blob too short for the dims it
+            // claims reads as truncated; either way it is refused.
+            prop_assert!(matches!(r, Err(Error::BadCrc | Error::Truncated { .. })), "flip at {}: {:?}", i, r);
         } else {
-            // Dims, payload or trailer: CRC-32C catches every single-bit error.
+            // Payload or trailer: CRC-32C catches every single-bit error.
             prop_assert_eq!(r, Err(Error::BadCrc), "flip at {} of {}", i, b.len());
         }
         prop_assert_eq!(decode::<CAP>(&b), Ok(p));
@@ -687,6 +777,9 @@ proptest! {
             prop_assert_eq!(r, Err(Error::BadMagic));
         } else if i < 6 {
             prop_assert_eq!(r, Err(Error::UnsupportedVersion { found: u16::from_le_bytes([m[4], m[5]]), supported: FORMAT_VERSION }));
+        } else if i < HEADER_LEN {
+            // A damaged dim: refused as corrupted, or as too short for the dims it claims.
+            prop_assert!(matches!(r, Err(Error::BadCrc | Error::Truncated { .. })), "byte {}: {:?}", i, r);
         } else {
             // A single-byte error (burst of <= 8 bits) is always caught by CRC-32C.
             prop_assert_eq!(r, Err(Error::BadCrc));
@@ -740,18 +833,20 @@ proptest! {
     }
 
     #[test]
-    fn dims_changed_with_crc_recomputed((p, b) in valid_blob(), field in 0usize..5, v in any::<u16>()) {
-        let (name, expected) =
-            [("inputs", 5u16), ("outputs", 3), ("poly_terms", 10), ("memory_terms", 32), ("centres", 0)][field];
+    fn dims_changed_with_crc_recomputed((p, b) in valid_blob(), field in 3usize..6, v in any::<u16>()) {
+        // Poly terms, memory terms (with the paper's gratings, ambient and measurands) and the
+        // centre count; gratings and measurands beyond the capacity are
+        // `over_capacity_dims_are_refused_naming_both`.
+        let (name, expected) = [("", 0u16), ("", 0), ("", 0), ("poly_terms", 10), ("memory_terms", 31), ("centres", 0)][field];
         let off = 6 + 2 * field;
         let n = p.centres.len() as u16;
-        let old = if field == 4 { n } else { expected };
-        prop_assume!(v != old);
+        let old = if field == 5 { n } else if field == 4 { 32 } else { expected };
+        prop_assume!(v != old && !(field == 4 && v == 31));
         let mut m = b.clone();
         m[off..off + 2].copy_from_slice(&v.to_le_bytes());
         fix_crc(&mut m);
         let r = decode::<CAP>(&m);
-        if field < 4 {
+        if field < 5 {
             prop_assert_eq!(r, Err(Error::WrongDims { field: name, found: v, expected }));
             prop_assert_eq!(Header::parse(&m), Err(Error::WrongDims { field: name, found: v, expected }));
         } else if usize::from(v) > CAP {
@@ -790,7 +885,7 @@ proptest! {
             0 => CENTRES_OFFSET,
             1 => prov + seed_len,                       // scenario length
             2 => prov + seed_len + 1 + p.provenance.scenario.len(), // trainer_version length
-            _ => HEADER_LEN,                            // feature-set tag
+            _ => HEADER_LEN + 6,                        // feature-set tag
         };
         let mut m = b[..pos].to_vec();
         m.extend_from_slice(&h);
@@ -826,7 +921,7 @@ proptest! {
             // Loading may still refuse a model whose coefficients overflow once folded.
             match Compensator::<f32, CAP>::new(&q) {
                 Ok(mut c) => {
-                    let _ = c.step(&Sample { dl_pm: [1.0, 2.0, 3.0], t_amb_c: 20.0, t_s: 0.0 });
+                    let _ = c.step(&Sample::new([1.0, 2.0, 3.0], 20.0, 0.0));
                 }
                 Err(e) => prop_assert!(matches!(e, Error::BadParameter { .. }), "{:?}", e),
             }
@@ -837,8 +932,8 @@ proptest! {
 #[test]
 fn decoded_blob_module_constants() {
     assert_eq!(blob::MAGIC, *b"FBGM");
-    assert_eq!(HEADER_LEN, 16);
-    assert_eq!(FORMAT_VERSION, 2);
+    assert_eq!(HEADER_LEN, 18);
+    assert_eq!(FORMAT_VERSION, 3);
     assert_eq!(CRC_LEN, 4);
 }
 
@@ -853,8 +948,30 @@ fn fuzz_seeds_are_valid_blobs() {
         (include_bytes!("../fuzz/corpus/decode/seed-k8-long-provenance.fbgm"), 8, true),
         (include_bytes!("../fuzz/corpus/decode/seed-k32.fbgm"), 32, true),
     ];
+    if std::env::var_os("FBG_WRITE_GOLDEN").is_some() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/fuzz/corpus/decode/");
+        let k8: ModelParams<f32, 8> = fbg_testkit::models::memory_model(
+            8,
+            8,
+            FeatureSet::HysteresisAwareTime,
+            long_provenance(),
+            fbg_testkit::models::some_memory_spec(),
+        );
+        let k32: ModelParams<f32, 32> = fbg_testkit::models::memory_model(
+            32,
+            32,
+            FeatureSet::HysteresisAware,
+            short_provenance(),
+            fbg_testkit::models::full_memory_spec(),
+        );
+        let k0: ModelParams<f32, 0> = model(0, 0, FeatureSet::Paper, short_provenance());
+        std::fs::write(format!("{dir}seed-tiny-k2.fbgm"), GOLDEN_V3).unwrap();
+        std::fs::write(format!("{dir}seed-k0.fbgm"), encode_vec(&k0).unwrap()).unwrap();
+        std::fs::write(format!("{dir}seed-k8-long-provenance.fbgm"), encode_vec(&k8).unwrap()).unwrap();
+        std::fs::write(format!("{dir}seed-k32.fbgm"), encode_vec(&k32).unwrap()).unwrap();
+    }
     for (b, n, memory) in seeds {
         assert_eq!(decode::<32>(b).map(|p| (p.centres.len(), p.has_memory())), Ok((n, memory)));
     }
-    assert_eq!(seeds[0].0, GOLDEN_V2);
+    assert_eq!(seeds[0].0, GOLDEN_V3);
 }

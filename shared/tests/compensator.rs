@@ -5,7 +5,7 @@
 // the helpers around them.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
-use fbg_shared::layout::Z95;
+use fbg_shared::layout::{pad, Z95};
 use fbg_shared::{Compensator, Estimate, FeatureSet, Flags, ModelParams, Sample};
 use fbg_testkit::models::{encode_vec, long_provenance, model, short_provenance};
 use fbg_testkit::Rng;
@@ -14,7 +14,12 @@ use proptest::prelude::*;
 const K: usize = 8;
 
 fn sample(dl: [f32; 3], t_amb_c: f32, t_s: f32) -> Sample<f32> {
-    Sample { dl_pm: dl, t_amb_c, t_s }
+    Sample::new(dl, t_amb_c, t_s)
+}
+
+/// The first three shifts of a paper sample.
+fn dl3<F: Copy>(s: &Sample<F>) -> [F; 3] {
+    [s.dl_pm[0], s.dl_pm[1], s.dl_pm[2]]
 }
 
 /// A random walk inside the calibration range (±50 pm, 0..40 °C), t = 0, 1, 2, ... s.
@@ -37,7 +42,7 @@ fn ramp(up: bool, n: usize) -> Vec<Sample<f32>> {
     (0..n).map(|k| sample([s * k as f32 - 20.0 * s.signum(); 3], 20.0, k as f32)).collect()
 }
 
-fn bits(e: &Estimate<f32>) -> ([u32; 3], [u32; 3], Flags) {
+fn bits(e: &Estimate<f32>) -> ([u32; 4], [u32; 4], Flags) {
     (e.values.map(f32::to_bits), e.band95.map(f32::to_bits), e.flags)
 }
 
@@ -77,8 +82,8 @@ fn non_finite_input_is_flagged_and_leaves_the_latches() {
                 let latch = c.latch_values();
                 let e = c.step(&s);
                 assert_eq!(e.flags, Flags::NON_FINITE, "{fs:?} n={n} {s:?}");
-                assert!(e.values.iter().all(|v| v.is_nan()));
-                assert!(e.band95.iter().all(|&b| b == f32::INFINITY));
+                assert!(e.values().iter().all(|v| v.is_nan()));
+                assert!(e.band().iter().all(|&b| b == f32::INFINITY));
                 assert_eq!(c.latch_values(), latch);
                 // The whole stream state (anchors too) is untouched: the next finite sample
                 // gives exactly what it would have given without the bad one.
@@ -105,9 +110,9 @@ fn time_is_screened_only_when_used() {
             } else {
                 // HysteresisAware ignores t altogether: same as any finite t.
                 assert!(!e.flags.contains(Flags::NON_FINITE), "{fs:?}");
-                let finite_t = sample(s.dl_pm, s.t_amb_c, 123.0);
+                let finite_t = sample(dl3(&s), s.t_amb_c, 123.0);
                 assert_eq!(bits(&e), bits(&c.clone().step(&finite_t)));
-                assert!(e.values.iter().all(|v| v.is_finite()));
+                assert!(e.values().iter().all(|v| v.is_finite()));
             }
         }
     }
@@ -123,11 +128,11 @@ fn out_of_envelope_is_flagged_and_widens_the_band() {
             let mut wide = params(n, 9, fs);
             wide.hyper.weak_support = 0.0; // isolate the envelope flag
             wide.hyper.flagged_band_factor = 3.0;
-            wide.envelope_lo = [-1e6; 4];
-            wide.envelope_hi = [1e6; 4];
+            wide.envelope_lo = [-1e6; 9];
+            wide.envelope_hi = [1e6; 9];
             let mut narrow = wide.clone();
-            narrow.envelope_lo = [-10.0, -10.0, -10.0, 10.0];
-            narrow.envelope_hi = [10.0, 10.0, 10.0, 30.0];
+            narrow.envelope_lo = pad(&[-10.0, -10.0, -10.0, 10.0]);
+            narrow.envelope_hi = pad(&[10.0, 10.0, 10.0, 30.0]);
             let inside = sample([0.0, 0.0, 0.0], 20.0, 5.0);
             let mut outside = Vec::new();
             for i in 0..4 {
@@ -168,8 +173,8 @@ fn out_of_envelope_is_flagged_and_widens_the_band() {
 fn far_sample_has_weak_support_and_a_wide_band() {
     for fs in FeatureSet::ALL {
         let mut p = params(K, 10, fs);
-        p.envelope_lo = [-1e6; 4];
-        p.envelope_hi = [1e6; 4];
+        p.envelope_lo = [-1e6; 9];
+        p.envelope_hi = [1e6; 9];
         let factor = p.hyper.flagged_band_factor;
         let far = sample([5000.0, -5000.0, 5000.0], 20.0, 0.0);
         let e = Compensator::<f32, K>::new(&p).unwrap().step(&far);
@@ -274,8 +279,7 @@ fn f32_and_f64_agree() {
             let mut a = Compensator::<f32, 32>::new(&p).unwrap();
             let mut b = Compensator::<f64, 32>::new(&p).unwrap();
             for s in stream(seed + 100, 500) {
-                let s64 =
-                    Sample { dl_pm: s.dl_pm.map(f64::from), t_amb_c: f64::from(s.t_amb_c), t_s: f64::from(s.t_s) };
+                let s64 = s.cast::<f64>();
                 let (x, y) = (a.step(&s), b.step(&s64));
                 assert_eq!(x.flags, y.flags);
                 assert_eq!(a.latch_values().map(f64::from), b.latch_values());
@@ -299,13 +303,13 @@ fn reset_forgets_the_latches() {
     let p = params(K, 12, FeatureSet::HysteresisAware);
     let fresh = Compensator::<f32, K>::new(&p).unwrap();
     let mut c = fresh.clone();
-    assert_eq!(c.latch_values(), [0.0; 3]);
+    assert_eq!(c.latch_values()[..3], [0.0; 3]);
     run(&mut c, &ramp(true, 10));
-    assert_eq!(c.latch_values(), [1.0; 3]);
+    assert_eq!(c.latch_values()[..3], [1.0; 3]);
     run(&mut c, &ramp(false, 10));
-    assert_eq!(c.latch_values(), [-1.0; 3]);
+    assert_eq!(c.latch_values()[..3], [-1.0; 3]);
     c.reset();
-    assert_eq!(c.latch_values(), [0.0; 3]);
+    assert_eq!(c.latch_values()[..3], [0.0; 3]);
     // After reset the compensator behaves exactly like a fresh one.
     let mut f = fresh.clone();
     for s in stream(12, 100) {
@@ -320,12 +324,12 @@ fn paper_ignores_latches_and_uses_time() {
     let (mut up, mut down) = (fresh.clone(), fresh.clone());
     run(&mut up, &ramp(true, 10));
     run(&mut down, &ramp(false, 10));
-    assert_eq!(up.latch_values(), [1.0; 3]);
-    assert_eq!(down.latch_values(), [-1.0; 3]);
+    assert_eq!(up.latch_values()[..3], [1.0; 3]);
+    assert_eq!(down.latch_values()[..3], [-1.0; 3]);
     let s = sample([3.0, -4.0, 5.0], 18.0, 250.0);
     assert_eq!(bits(&up.step(&s)), bits(&down.step(&s)), "latches must not matter");
     // Time does.
-    let later = sample(s.dl_pm, s.t_amb_c, 900.0);
+    let later = sample(dl3(&s), s.t_amb_c, 900.0);
     let (x, y) = (fresh.clone().step(&s), fresh.clone().step(&later));
     assert_ne!(x.values, y.values, "time must matter");
 }
@@ -342,13 +346,13 @@ fn hysteresis_aware_uses_latches_and_ignores_time() {
         let s = sample([40.0, 40.0, 40.0], 18.0, 250.0);
         let (a, b) = (up.clone().step(&s), down.clone().step(&s));
         assert_ne!(a.values, b.values, "{fs:?}: latches must matter");
-        let later = sample(s.dl_pm, s.t_amb_c, 900.0);
+        let later = sample(dl3(&s), s.t_amb_c, 900.0);
         let (x, y) = (up.clone().step(&s), up.clone().step(&later));
         if fs.uses_time() {
             assert_ne!(x.values, y.values);
         } else {
             assert_eq!(bits(&x), bits(&y), "time must not matter");
-            let nan_t = sample(s.dl_pm, s.t_amb_c, f32::NAN);
+            let nan_t = sample(dl3(&s), s.t_amb_c, f32::NAN);
             assert_eq!(bits(&up.clone().step(&nan_t)), bits(&x), "a NaN t is ignored");
         }
     }
@@ -378,19 +382,19 @@ proptest! {
         let e = c.step(&s);
         // Finite inputs raise NON_FINITE only when the result overflowed, and then say so.
         if e.flags.contains(Flags::NON_FINITE) {
-            prop_assert!(e.values.iter().all(|v| v.is_nan()) && e.band95.iter().all(|b| b.is_infinite()));
+            prop_assert!(e.values().iter().all(|v| v.is_nan()) && e.band().iter().all(|b| b.is_infinite()));
         }
-        if e.values.iter().chain(e.band95.iter()).any(|x| !x.is_finite()) {
+        if e.values().iter().chain(e.band().iter()).any(|x| !x.is_finite()) {
             prop_assert!(!e.flags.is_ok(), "{:?} -> {:?}", s, e);
         }
-        prop_assert!(e.band95.iter().all(|&b| b >= 0.0));
+        prop_assert!(e.band().iter().all(|&b| b >= 0.0));
     }
 }
 
 #[test]
 fn a_model_whose_folded_coefficients_overflow_is_refused() {
     let mut p = model::<4>(4, 9, FeatureSet::HysteresisAware, short_provenance());
-    p.guess_std = [1e-39, 1.0, 1.0]; // subnormal: 1/σ overflows f32
+    p.guess_std = [1e-39, 1.0, 1.0, 0.0]; // subnormal: 1/σ overflows f32
     assert!(p.validate().is_ok(), "every stored number is finite");
     let e = Compensator::<f32, 4>::new(&p).unwrap_err();
     assert!(matches!(e, fbg_shared::Error::BadParameter { .. }), "{e:?}");
@@ -401,21 +405,21 @@ fn an_overflowing_result_is_flagged_non_finite() {
     let mut p = model::<4>(4, 9, FeatureSet::HysteresisAware, short_provenance());
     p.poly[1][4] = 3e38; // T² term of the strain output
     let mut c = Compensator::<f32, 4>::new(&p).unwrap();
-    let e = c.step(&Sample { dl_pm: [3e3, 3e3, 3e3], t_amb_c: 20.0, t_s: 0.0 });
+    let e = c.step(&Sample::new([3e3, 3e3, 3e3], 20.0, 0.0));
     assert!(e.flags.contains(Flags::NON_FINITE), "{:?}", e.flags);
-    assert!(e.values.iter().all(|v| v.is_nan()) && e.band95.iter().all(|b| b.is_infinite()));
+    assert!(e.values().iter().all(|v| v.is_nan()) && e.band().iter().all(|b| b.is_infinite()));
 }
 
 #[test]
 fn an_unfitted_output_reads_nan_with_an_infinite_band_and_no_flag() {
     let mut p = model::<4>(4, 9, FeatureSet::HysteresisAware, short_provenance());
-    p.fitted = [true, false, true];
+    p.fitted = [true, false, true, false];
     let mut c = Compensator::<f32, 4>::new(&p).unwrap();
-    let e = c.step(&Sample { dl_pm: [1.0, 2.0, 3.0], t_amb_c: 20.0, t_s: 0.0 });
+    let e = c.step(&Sample::new([1.0, 2.0, 3.0], 20.0, 0.0));
     assert!(e.values[1].is_nan() && e.band95[1].is_infinite());
     assert!(e.values[0].is_finite() && e.values[2].is_finite());
     assert!(!e.flags.contains(Flags::NON_FINITE), "{:?}", e.flags);
-    p.fitted = [false; 3];
+    p.fitted = [false; 4];
     assert_eq!(p.validate(), Err(fbg_shared::Error::BadParameter { field: "fitted" }));
 }
 
@@ -425,26 +429,26 @@ fn a_refused_reload_keeps_the_old_model_and_its_stream_state() {
     let mut c = Compensator::<f32, 4>::new(&good).unwrap();
     let mut twin = c.clone();
     for k in 0..30 {
-        let s = Sample { dl_pm: [k as f32, -(k as f32), 0.5 * k as f32], t_amb_c: 20.0, t_s: k as f32 };
+        let s = Sample::new([k as f32, -(k as f32), 0.5 * k as f32], 20.0, k as f32);
         c.step(&s);
         twin.step(&s);
     }
     let mut bad = good.clone();
-    bad.guess_std = [1e-39, 1.0, 1.0]; // valid numbers, overflowing fold
+    bad.guess_std = [1e-39, 1.0, 1.0, 0.0]; // valid numbers, overflowing fold
     assert!(c.reload(&bad).is_err());
     let mut worse = good.clone();
     worse.hyper.sigma = -1.0;
     assert!(c.reload(&worse).is_err());
     // Same answers as a twin that never saw the refused updates.
     for k in 0..20 {
-        let s = Sample { dl_pm: [3.0 * k as f32, 1.0, -2.0], t_amb_c: 21.0, t_s: 100.0 + k as f32 };
+        let s = Sample::new([3.0 * k as f32, 1.0, -2.0], 21.0, 100.0 + k as f32);
         assert_eq!(bits(&c.step(&s)), bits(&twin.step(&s)), "sample {k}");
     }
     // A good reload takes effect and restarts the stream state.
     let other = model::<4>(3, 10, FeatureSet::HysteresisAware, short_provenance());
     c.reload(&other).unwrap();
     assert_eq!(c.n_centres(), 3);
-    assert_eq!(c.latch_values(), [0.0f32; 3]);
+    assert_eq!(c.latch_values()[..3], [0.0f32; 3]);
 }
 
 #[test]
@@ -471,7 +475,7 @@ fn core_and_activations_are_what_step_computes() {
         let mut p = params(K, 21, fs);
         // With zero residual weights a step's values are the polynomial core's.
         for c in p.centres.iter_mut() {
-            c.w = [0.0; 3];
+            c.w = [0.0; 4];
         }
         let mut a = Compensator::<f32, K>::new(&p).unwrap();
         let mut b = a.clone();
@@ -525,7 +529,8 @@ fn a_stream_resumed_from_its_state_answers_as_the_whole_stream() {
 // ---------------------------------------------------------------------------------------------
 // Memory terms: ŷ = Bφ + Γm + Wψ
 
-use fbg_shared::layout::N_MEMORY;
+use fbg_shared::layout::paper::N_MEMORY;
+use fbg_shared::layout::{Dims, MAX_MEMORY};
 use fbg_shared::{Error, MemoryBank, MemorySpec};
 use fbg_testkit::models::{full_memory_spec, memory_model, some_memory_spec};
 
@@ -534,7 +539,7 @@ fn memory_params(n: usize, seed: u64, fs: FeatureSet) -> ModelParams<f32, K> {
 }
 
 fn to64(s: &Sample<f32>) -> Sample<f64> {
-    Sample { dl_pm: s.dl_pm.map(f64::from), t_amb_c: f64::from(s.t_amb_c), t_s: f64::from(s.t_s) }
+    s.cast::<f64>()
 }
 
 /// [`stream`] on an irregular clock: Δt from {1, 2, 5, 30} s, with a repeated time stamp and a
@@ -561,11 +566,11 @@ fn step_adds_gamma_times_the_memory_vector() {
         for (n, seed) in [(0, 31), (K, 32)] {
             let p = memory_params(n, seed, fs);
             let mut no_gamma = p.clone();
-            no_gamma.gamma = [[0.0; N_MEMORY]; 3];
+            no_gamma.gamma = [[0.0; MAX_MEMORY]; 4];
             let mut with = Compensator::<f64, K>::new(&p).unwrap();
             let mut without = Compensator::<f64, K>::new(&no_gamma).unwrap();
             assert!(with.has_memory() && without.has_memory());
-            let mut bank = MemoryBank::<f64>::new(&p.memory);
+            let mut bank = MemoryBank::<f64>::new(&p.memory, &Dims::PAPER);
             for s in irregular(seed, 600).iter().map(to64) {
                 let (y, y0) = (with.step(&s), without.step(&s));
                 let m = bank.update(&s.dl_pm, s.t_amb_c, s.t_s);
@@ -595,7 +600,7 @@ fn core_and_activations_include_the_memory_terms() {
     for fs in FeatureSet::ALL {
         let mut p = memory_params(K, 33, fs);
         for c in p.centres.iter_mut() {
-            c.w = [0.0; 3];
+            c.w = [0.0; 4];
         }
         let mut a = Compensator::<f32, K>::new(&p).unwrap();
         let mut b = a.clone();
@@ -632,14 +637,7 @@ fn advance_moves_the_memory_as_step_does() {
 fn memory_resume<F: fbg_shared::Real>() {
     for fs in FeatureSet::ALL {
         let p = memory_model::<K>(K, 35, fs, short_provenance(), full_memory_spec());
-        let ss: Vec<Sample<F>> = irregular(35, 1000)
-            .iter()
-            .map(|s| Sample {
-                dl_pm: s.dl_pm.map(|v| F::from_f64(f64::from(v))),
-                t_amb_c: F::from_f64(f64::from(s.t_amb_c)),
-                t_s: F::from_f64(f64::from(s.t_s)),
-            })
-            .collect();
+        let ss: Vec<Sample<F>> = irregular(35, 1000).iter().map(|s| s.cast::<F>()).collect();
         let key =
             |e: &Estimate<F>| (e.values.map(|v| v.to_f64().to_bits()), e.band95.map(|v| v.to_f64().to_bits()), e.flags);
         let mut whole = Compensator::<F, K>::new(&p).unwrap();
@@ -695,7 +693,7 @@ fn same_stream_compares_the_memory_operators() {
         f(&mut q.memory);
         for (row, src) in q.gamma.iter_mut().zip(p.gamma.iter()) {
             for (k, g) in row.iter_mut().enumerate() {
-                *g = if q.memory.term_active(k) { src[k] } else { 0.0 };
+                *g = if q.memory.term_active(&Dims::PAPER, k) { src[k] } else { 0.0 };
             }
         }
         assert!(!Compensator::<f32, K>::new(&q).unwrap().same_stream(&c), "change {i}");
@@ -703,7 +701,7 @@ fn same_stream_compares_the_memory_operators() {
     // No memory against memory (same dead band and feature set).
     let mut off = p.clone();
     off.memory = MemorySpec::off();
-    off.gamma = [[0.0; N_MEMORY]; 3];
+    off.gamma = [[0.0; MAX_MEMORY]; 4];
     assert!(!Compensator::<f32, K>::new(&off).unwrap().same_stream(&c));
 }
 
@@ -713,12 +711,12 @@ const MEM_FIRST_ACTIVE: usize = 3;
 #[test]
 fn validate_refuses_bad_memory_parameters() {
     let good = memory_params(4, 37, FeatureSet::HysteresisAware);
-    assert!(good.memory.term_active(MEM_FIRST_ACTIVE));
+    assert!(good.memory.term_active(&Dims::PAPER, MEM_FIRST_ACTIVE));
     assert_eq!(good.validate(), Ok(()));
     type Edit = fn(&mut ModelParams<f32, K>);
     let cases: [(&str, Edit); 7] = [
         ("gamma", |p| p.gamma[1][0] = 0.5), // τ slot 0 is unused
-        ("gamma", |p| p.gamma[2][fbg_shared::layout::MEM_OBSERVER - 1] = -1e-30), // play slot 2 unused
+        ("gamma", |p| p.gamma[2][fbg_shared::layout::paper::MEM_OBSERVER - 1] = -1e-30), // play slot 2 unused
         ("gamma", |p| {
             // An observer with its lag removed is unused, so its Γ must go too.
             p.memory.observer_lag_s = 0.0;
@@ -739,7 +737,7 @@ fn validate_refuses_bad_memory_parameters() {
     // An observer that is switched on has a Γ; one on an unused slot of a model without memory
     // is refused the same way.
     let mut p = params(4, 37, FeatureSet::Paper);
-    p.gamma[0][fbg_shared::layout::MEM_OBSERVER] = 1.0;
+    p.gamma[0][fbg_shared::layout::paper::MEM_OBSERVER] = 1.0;
     assert_eq!(p.validate(), Err(Error::BadParameter { field: "gamma" }));
 }
 
@@ -763,7 +761,7 @@ fn a_non_finite_time_is_refused_by_a_memory_model_and_leaves_its_state() {
             let twin = c.clone();
             let e = c.step(&bad);
             assert_eq!(e.flags, Flags::NON_FINITE, "{bad:?}");
-            assert!(e.values.iter().all(|v| v.is_nan()) && e.band95.iter().all(|b| b.is_infinite()));
+            assert!(e.values().iter().all(|v| v.is_nan()) && e.band().iter().all(|b| b.is_infinite()));
             assert_eq!(c.stream_state(), before, "{bad:?}");
             let mut psi = [0.0f32; K];
             assert_eq!(c.core_and_activations(&bad, &mut psi), None);

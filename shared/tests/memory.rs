@@ -6,9 +6,10 @@
 // the helpers around them.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
-use fbg_shared::layout::{
-    MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP, N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS,
-};
+use fbg_shared::layout::paper::{MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP, N_GRATINGS, N_MEMORY};
+use fbg_shared::layout::{pad, Dims, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS};
+
+const D: Dims = Dims::PAPER;
 use fbg_shared::{MemoryBank, MemoryGroup, MemorySpec, Real};
 use fbg_testkit::models::full_memory_spec;
 use fbg_testkit::Rng;
@@ -30,7 +31,9 @@ impl In {
 }
 
 fn update<F: Real>(b: &mut MemoryBank<F>, s: &In) -> [F; N_MEMORY] {
-    b.update(&s.dl.map(F::from_f64), F::from_f64(s.t_amb), F::from_f64(s.t))
+    let m = b.update(&pad(&s.dl.map(F::from_f64)), F::from_f64(s.t_amb), F::from_f64(s.t));
+    assert!(m[N_MEMORY..].iter().all(|&v| v == F::ZERO), "no term beyond the paper layout");
+    pad(&m)
 }
 
 /// A random-walk stream on an irregular clock: Δt from {1, 7, 60, 300} s, with a long gap
@@ -143,7 +146,7 @@ impl Reference {
 fn the_bank_computes_each_term_as_defined() {
     let spec = full_memory_spec();
     for seed in 0..3 {
-        let mut bank = MemoryBank::<f64>::new(&spec);
+        let mut bank = MemoryBank::<f64>::new(&spec, &D);
         let mut reference = Reference::new(spec.convert());
         let mut worst = 0.0f64;
         for s in irregular_stream(seed, 5000) {
@@ -152,7 +155,14 @@ fn the_bank_computes_each_term_as_defined() {
                 // Relative to the inputs' scale (terms are differences of O(100) pm values).
                 let err = (m[k] - want[k]).abs() / (1.0 + s.dl.iter().fold(s.t_amb.abs(), |a, v| a.max(v.abs())));
                 worst = worst.max(err);
-                assert!(err < 1e-13, "seed {seed} t {} term {k} ({:?}): {} vs {}", s.t, spec.term(k), m[k], want[k]);
+                assert!(
+                    err < 1e-13,
+                    "seed {seed} t {} term {k} ({:?}): {} vs {}",
+                    s.t,
+                    spec.term(&D, k),
+                    m[k],
+                    want[k]
+                );
             }
         }
         eprintln!("bank against its definition, seed {seed}: worst scaled difference {worst:.1e}");
@@ -164,8 +174,8 @@ fn the_layout_names_every_term() {
     let spec = full_memory_spec();
     let mut seen = [0usize; 4];
     for k in 0..N_MEMORY {
-        let t = spec.term(k).expect("every slot is a term");
-        assert!(spec.term_active(k), "the full spec uses slot {k}");
+        let t = spec.term(&D, k).expect("every slot is a term");
+        assert!(spec.term_active(&D, k), "the full spec uses slot {k}");
         seen[MemoryGroup::ALL.iter().position(|&g| g == t.group).unwrap()] += 1;
         match t.group {
             MemoryGroup::GratingHighPass => {
@@ -179,8 +189,8 @@ fn the_layout_names_every_term() {
         }
     }
     assert_eq!(seen, [N_GRATINGS * N_GRATING_TAUS, N_AMBIENT_TAUS, N_GRATINGS * N_PLAYS, 1]);
-    assert_eq!(spec.term(N_MEMORY), None);
-    assert_eq!(MemorySpec::<f32>::off().term(3).map(|t| t.parameter), Some(0.0));
+    assert_eq!(spec.term(&D, N_MEMORY), None);
+    assert_eq!(MemorySpec::<f32>::off().term(&D, 3).map(|t| t.parameter), Some(0.0));
     assert!(!MemorySpec::<f32>::off().any());
     assert_eq!(
         MemoryGroup::ALL.map(|g| (g.name(), g.unit())),
@@ -200,7 +210,7 @@ fn gap_spec() -> MemorySpec<f64> {
     s.play_half_width_pm[2] = 5.0;
     s.observer_lag_s = 300.0;
     s.observer_smooth_s = 600.0;
-    s.observer_row = [0.1, 0.0, -0.05, 0.5, 10.0];
+    s.observer_row = pad(&[0.1, 0.0, -0.05, 0.5, 10.0]);
     s
 }
 
@@ -221,7 +231,7 @@ fn walk(seed: u64, n: usize, t0: f64, dt: f64) -> Vec<In> {
 fn the_first_sample_primes_every_operator() {
     let spec = full_memory_spec();
     let s = In { dl: [12.0, -7.5, 300.0], t_amb: 21.5, t: 5e5 };
-    let m = update(&mut MemoryBank::<f64>::new(&spec), &s);
+    let m = update(&mut MemoryBank::<f64>::new(&spec, &D), &s);
     let row = spec.observer_row.map(f64::from);
     let t_g = row[0] * s.dl[0] + row[1] * s.dl[1] + row[2] * s.dl[2] + row[3] * s.t_amb + row[4];
     for (k, &v) in m.iter().enumerate() {
@@ -233,7 +243,7 @@ fn the_first_sample_primes_every_operator() {
         }
     }
     // A second identical sample at the same time changes nothing.
-    let mut b = MemoryBank::<f64>::new(&spec);
+    let mut b = MemoryBank::<f64>::new(&spec, &D);
     let first = update(&mut b, &s);
     assert_eq!(update(&mut b, &s), first);
 }
@@ -245,7 +255,7 @@ fn a_long_gap_re_primes_the_short_low_passes_only() {
     let t_end = before.last().unwrap().t;
     let gap = 1e5; // ≫ 60, 120, 300, 600 s; ≈ 1.16 × 86 400 s
     let after = walk(2, 200, t_end + gap, 60.0);
-    let mut bank = MemoryBank::<f64>::new(&spec);
+    let mut bank = MemoryBank::<f64>::new(&spec, &D);
     let mut reference = Reference::new(spec);
     for s in &before {
         update(&mut bank, s);
@@ -272,14 +282,14 @@ fn a_long_gap_re_primes_the_short_low_passes_only() {
         assert!((m[MEM_GRATING + 9 + i] - want).abs() < 1e-12, "grating {i}: {} vs {want}", m[MEM_GRATING + 9 + i]);
     }
     // The stop terms ignore the clock: exactly what a bank without the gap gives.
-    let mut no_gap = MemoryBank::<f64>::new(&spec);
+    let mut no_gap = MemoryBank::<f64>::new(&spec, &D);
     for s in &before {
         update(&mut no_gap, s);
     }
     let m_no_gap = update(&mut no_gap, &In { t: t_end + 60.0, ..first });
     assert_eq!(m[MEM_STOP + 6..MEM_STOP + 9], m_no_gap[MEM_STOP + 6..MEM_STOP + 9]);
     // After the gap the short-τ terms continue as a bank primed at the first sample after it.
-    let mut fresh = MemoryBank::<f64>::new(&spec);
+    let mut fresh = MemoryBank::<f64>::new(&spec, &D);
     update(&mut fresh, &first);
     for s in &after[1..] {
         let (a, b) = (update(&mut bank, s), update(&mut fresh, s));
@@ -293,7 +303,7 @@ fn a_long_gap_re_primes_the_short_low_passes_only() {
 fn repeated_and_backward_time_stamps_hold_the_low_passes() {
     let spec = gap_spec();
     let ss = walk(3, 100, 0.0, 60.0);
-    let mut bank = MemoryBank::<f64>::new(&spec);
+    let mut bank = MemoryBank::<f64>::new(&spec, &D);
     let mut reference = Reference::new(spec);
     let mut m_last = [0.0; N_MEMORY];
     for s in &ss {
@@ -349,7 +359,7 @@ fn resume_is_bit_identical<F: Real>() {
     let spec = full_memory_spec();
     for seed in 10..13 {
         let ss = irregular_stream(seed, 5000);
-        let mut whole = MemoryBank::<F>::new(&spec);
+        let mut whole = MemoryBank::<F>::new(&spec, &D);
         let mut state = None;
         let mut expected = Vec::new();
         for (i, s) in ss.iter().enumerate() {
@@ -360,8 +370,8 @@ fn resume_is_bit_identical<F: Real>() {
         }
         // A fresh bank of the same spec, and one that has already run another stream (so its
         // cached smoothing factors are for another Δt): both resume exactly.
-        let fresh = MemoryBank::<F>::new(&spec);
-        let mut used = MemoryBank::<F>::new(&spec);
+        let fresh = MemoryBank::<F>::new(&spec, &D);
+        let mut used = MemoryBank::<F>::new(&spec, &D);
         for s in irregular_stream(seed + 100, 77) {
             update(&mut used, &s);
         }
@@ -391,7 +401,7 @@ fn a_resumed_bank_continues_bit_identically_f32() {
 fn reset_forgets_the_stream() {
     let spec = full_memory_spec();
     let ss = irregular_stream(4, 600);
-    let fresh = MemoryBank::<f32>::new(&spec);
+    let fresh = MemoryBank::<f32>::new(&spec, &D);
     let mut b = fresh;
     for s in &ss[..300] {
         update(&mut b, s);
@@ -408,10 +418,10 @@ fn reset_forgets_the_stream() {
 #[test]
 fn same_spec_tells_specs_apart() {
     let spec = full_memory_spec();
-    let base = MemoryBank::<f32>::new(&spec);
-    assert!(base.same_spec(&MemoryBank::<f32>::new(&spec)));
+    let base = MemoryBank::<f32>::new(&spec, &D);
+    assert!(base.same_spec(&MemoryBank::<f32>::new(&spec, &D)));
     // Built from the f64 spec: the same f32 coefficients.
-    assert!(base.same_spec(&MemoryBank::<f32>::new(&spec.convert::<f64>())));
+    assert!(base.same_spec(&MemoryBank::<f32>::new(&spec.convert::<f64>(), &D)));
     let changes: [fn(&mut MemorySpec<f32>); 7] = [
         |s| s.grating_tau_s[2] *= 2.0,
         |s| s.grating_tau_s[5] = 0.0,
@@ -424,7 +434,7 @@ fn same_spec_tells_specs_apart() {
     for (i, f) in changes.into_iter().enumerate() {
         let mut s = spec;
         f(&mut s);
-        assert!(!base.same_spec(&MemoryBank::<f32>::new(&s)), "change {i}");
+        assert!(!base.same_spec(&MemoryBank::<f32>::new(&s, &D)), "change {i}");
     }
 }
 
@@ -440,14 +450,14 @@ fn unused_slots_give_exactly_zero() {
     partial.observer_lag_s = 0.0; // no observer, whatever its smoothing and row say
     let off = MemorySpec::<f32>::off();
     for spec in [partial, off] {
-        let mut b32 = MemoryBank::<f32>::new(&spec);
-        let mut b64 = MemoryBank::<f64>::new(&spec);
+        let mut b32 = MemoryBank::<f32>::new(&spec, &D);
+        let mut b64 = MemoryBank::<f64>::new(&spec, &D);
         assert_eq!(b32.is_active(), spec.any());
         let mut nonzero = [false; N_MEMORY];
         for s in irregular_stream(5, 3000) {
             let (m32, m64) = (update(&mut b32, &s), update(&mut b64, &s));
             for k in 0..N_MEMORY {
-                if !spec.term_active(k) {
+                if !spec.term_active(&D, k) {
                     assert_eq!(m32[k].to_bits(), 0, "f32 term {k}");
                     assert_eq!(m64[k].to_bits(), 0, "f64 term {k}");
                 } else {
@@ -457,7 +467,7 @@ fn unused_slots_give_exactly_zero() {
         }
         // ... and every used slot does move.
         for (k, moved) in nonzero.iter().enumerate() {
-            assert_eq!(*moved, spec.term_active(k), "term {k}");
+            assert_eq!(*moved, spec.term_active(&D, k), "term {k}");
         }
     }
 }
@@ -468,8 +478,8 @@ fn unused_slots_give_exactly_zero() {
 /// Largest |m32 − m64| per term over a stream fed to both banks (f32-representable inputs, so
 /// the difference is the arithmetic alone), and the largest |m64| per term.
 fn f32_f64_difference(spec: &MemorySpec<f32>, ss: impl Iterator<Item = In>) -> ([f64; N_MEMORY], [f64; N_MEMORY]) {
-    let mut b32 = MemoryBank::<f32>::new(spec);
-    let mut b64 = MemoryBank::<f64>::new(spec);
+    let mut b32 = MemoryBank::<f32>::new(spec, &D);
+    let mut b64 = MemoryBank::<f64>::new(spec, &D);
     let (mut worst, mut scale) = ([0.0f64; N_MEMORY], [0.0f64; N_MEMORY]);
     for s in ss {
         let s = s.f32_exact();
@@ -508,7 +518,7 @@ fn by_group(worst: &[f64; N_MEMORY]) -> [f64; 4] {
     let spec = full_memory_spec();
     let mut g = [0.0f64; 4];
     for (k, &w) in worst.iter().enumerate() {
-        let i = MemoryGroup::ALL.iter().position(|&x| x == spec.term(k).unwrap().group).unwrap();
+        let i = MemoryGroup::ALL.iter().position(|&x| x == spec.term(&D, k).unwrap().group).unwrap();
         g[i] = g[i].max(w);
     }
     g

@@ -10,7 +10,8 @@
 //! function of the seeds: the fixtures made from them are pinned by the firmware's tests and
 //! benchmarks, so changing anything here changes those.
 
-use fbg_shared::layout::{FeatureSet, N_MEMORY, N_OUTPUTS, N_STAGE1, VAR_RANK, Z_DIMS};
+use fbg_shared::layout::paper::{N_MEMORY, N_OUTPUTS, N_STAGE1, Z_DIMS};
+use fbg_shared::layout::{pad, pad2, Dims, FeatureSet, MAX_MEMORY, MAX_OUTPUTS, VAR_RANK};
 use fbg_shared::{Centre, Error, Hyper, LatchBank, MemoryGroup, MemorySpec, ModelParams, Provenance, Sample};
 
 use crate::Rng;
@@ -51,7 +52,7 @@ pub fn simulate(i: usize, rng: &mut Rng) -> Sample<f32> {
     }
     dl[0] += 1e-3 * q[0] * q[1]; // c_Tε cross-term
     let t_amb = t + 0.5 + 0.1 * rng.normal();
-    Sample { dl_pm: [dl[0] as f32, dl[1] as f32, dl[2] as f32], t_amb_c: t_amb as f32, t_s: (60.0 * x) as f32 }
+    Sample::new([dl[0] as f32, dl[1] as f32, dl[2] as f32], t_amb as f32, (60.0 * x) as f32)
 }
 
 /// `n` samples of the installation from sample 0 on its regular 60-s clock, noise from
@@ -141,19 +142,20 @@ pub fn full_memory_spec(observer_row: [f64; N_STAGE1]) -> MemorySpec<f64> {
         play_half_width_pm: [2.0, 4.0, 8.0],
         observer_lag_s: 1200.0,
         observer_smooth_s: 2400.0,
-        observer_row,
+        observer_row: pad(&observer_row),
     }
 }
 
 /// A small Γ, non-zero on every term `spec` uses: per output unit `scale[o]`, 1e-3·scale per pm
 /// (grating high-passes, stop terms), 1e-2·scale per °C (ambient high-passes), and 0.2 °C/°C
 /// for the drift observer on T only (the trainer offers it to temperature outputs only).
-pub fn small_gamma(spec: &MemorySpec<f64>, scale: [f64; N_OUTPUTS], seed: u64) -> [[f64; N_MEMORY]; N_OUTPUTS] {
+pub fn small_gamma(spec: &MemorySpec<f64>, scale: [f64; N_OUTPUTS], seed: u64) -> [[f64; MAX_MEMORY]; MAX_OUTPUTS] {
     let mut rng = Rng::new(seed);
-    let mut g = [[0.0; N_MEMORY]; N_OUTPUTS];
-    for (o, row) in g.iter_mut().enumerate() {
-        for (k, v) in row.iter_mut().enumerate() {
-            let Some(term) = spec.term(k).filter(|t| t.parameter > 0.0) else { continue };
+    let mut g = [[0.0; MAX_MEMORY]; MAX_OUTPUTS];
+    let dims = Dims::PAPER;
+    for (o, row) in g.iter_mut().enumerate().take(N_OUTPUTS) {
+        for (k, v) in row.iter_mut().enumerate().take(N_MEMORY) {
+            let Some(term) = spec.term(&dims, k).filter(|t| t.parameter > 0.0) else { continue };
             let r = (0.5 + rng.unit()) * if rng.unit() < 0.5 { -1.0 } else { 1.0 };
             *v = match term.group {
                 MemoryGroup::GratingHighPass | MemoryGroup::Stop => 1e-3 * scale[o] * r,
@@ -183,8 +185,9 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
     let zs: Vec<[f64; Z_DIMS]> = cal
         .iter()
         .map(|s| {
-            let dl = [s.dl_pm[0] as f64, s.dl_pm[1] as f64, s.dl_pm[2] as f64];
-            z_raw(s, latches.update(&dl, db_ticks))
+            let dl = s.dl_pm.map(f64::from);
+            let l = latches.update(&dl, 3, db_ticks);
+            z_raw(s, [l[0], l[1], l[2]])
         })
         .collect();
     let nf = zs.len() as f64;
@@ -207,7 +210,7 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
                 c.mu[d] = ((src[d] - sc.mean[d]) / sc.std[d] + 0.1 * rng.normal()).clamp(-2.5, 2.5);
             }
         }
-        c.w = [0.05 * rng.normal(), 2.0 * rng.normal(), 0.5 * rng.normal()];
+        c.w = pad(&[0.05 * rng.normal(), 2.0 * rng.normal(), 0.5 * rng.normal()]);
         for v in c.v.iter_mut() {
             *v = rng.normal() / (k.max(1) as f64).sqrt();
         }
@@ -248,6 +251,7 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
     let var_inv_g = [0.8, 0.5, 0.3, 0.2];
     debug_assert_eq!(var_inv_g.len(), VAR_RANK);
     let params = ModelParams::<f64, MAX_K> {
+        dims: Dims::PAPER,
         hyper: Hyper {
             feature_set: fs,
             sigma_mult: 1.5,
@@ -258,24 +262,24 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
             envelope_margin: margin,
             flagged_band_factor: 2.0,
         },
-        stage1,
-        guess_mean: [T0, 0.0, P0],
-        guess_std: Q_STD,
-        poly,
+        stage1: pad2(&stage1),
+        guess_mean: pad(&[T0, 0.0, P0]),
+        guess_std: pad(&Q_STD),
+        poly: pad2(&poly),
         memory: MemorySpec::off(),
-        gamma: [[0.0; N_MEMORY]; N_OUTPUTS],
-        z_mean,
-        z_std,
+        gamma: [[0.0; MAX_MEMORY]; MAX_OUTPUTS],
+        z_mean: pad(&z_mean),
+        z_std: pad(&z_std),
         centres,
         var_inv_g,
         var_inv_g_tail: 0.02,
-        resid_var: [0.12f64.powi(2), 2.5f64.powi(2), 0.6f64.powi(2)],
-        resid_var_growth: [0.0; 3],
+        resid_var: pad(&[0.12f64.powi(2), 2.5f64.powi(2), 0.6f64.powi(2)]),
+        resid_var_growth: [0.0; MAX_OUTPUTS],
         t_cal_end_s: 0.0,
-        band_k: [1.959_964; 3],
-        envelope_lo,
-        envelope_hi,
-        fitted: [true; 3],
+        band_k: pad(&[1.959_964; 3]),
+        envelope_lo: pad(&envelope_lo),
+        envelope_hi: pad(&envelope_hi),
+        fitted: pad(&[true; 3]),
         provenance: Provenance {
             seed,
             scenario: heapless::String::try_from("synthetic-fixture").unwrap_or_default(),
@@ -295,7 +299,7 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
 /// `p` without memory terms (spec off, Γ = 0).
 pub fn without_memory(mut p: ModelParams<f64, MAX_K>) -> ModelParams<f64, MAX_K> {
     p.memory = MemorySpec::off();
-    p.gamma = [[0.0; N_MEMORY]; N_OUTPUTS];
+    p.gamma = [[0.0; MAX_MEMORY]; MAX_OUTPUTS];
     p
 }
 
@@ -316,7 +320,9 @@ pub fn encode_f64(p: &ModelParams<f64, MAX_K>) -> Result<Vec<u8>, Error> {
 /// what the device's memory is checked with when the trainer's model has none.
 pub fn with_full_memory(blob_bytes: &[u8]) -> Result<Vec<u8>, Error> {
     let mut p: ModelParams<f64, MAX_K> = fbg_shared::blob::decode::<MAX_K>(blob_bytes)?.convert()?;
-    p.memory = full_memory_spec(p.stage1[0]);
-    p.gamma = small_gamma(&p.memory, p.guess_std, 5);
+    let [r0, r1, r2, r3, r4, ..] = p.stage1[0];
+    p.memory = full_memory_spec([r0, r1, r2, r3, r4]);
+    let [s0, s1, s2, _] = p.guess_std;
+    p.gamma = small_gamma(&p.memory, [s0, s1, s2], 5);
     encode_f64(&p)
 }

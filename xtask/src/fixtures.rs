@@ -36,7 +36,8 @@ use std::process::{Command, Stdio};
 
 use anyhow::{ensure as check, Context, Result};
 use fbg_link::golden::{expected_csv, inputs_bytes, pack_bytes, parse_expected, parse_inputs};
-use fbg_shared::layout::{N_MEMORY, N_OUTPUTS};
+#[cfg(test)]
+use fbg_shared::layout::paper::N_MEMORY;
 use fbg_shared::{blob, Compensator, Estimate, ModelParams, Sample};
 pub use fbg_testkit::installation::MAX_K;
 use fbg_testkit::installation::{golden_samples, synthetic_blob};
@@ -48,7 +49,7 @@ pub const GOLDEN_SAMPLES: usize = 600;
 /// Samples of the synthetic memory golden set (≈ 30 h at 60 s: several of the longest τ, 4 h).
 pub const MEMORY_GOLDEN_SAMPLES: usize = 1500;
 /// Bump to regenerate the fixtures when this file changes what it writes.
-const FIXTURES_VERSION: u32 = 5;
+const FIXTURES_VERSION: u32 = 6;
 
 /// Paths of the trainer-made fixtures.
 #[derive(Clone, Debug)]
@@ -71,8 +72,39 @@ pub struct Fixtures {
     pub memory_inputs: PathBuf,
     /// Host f64 results for them (CSV).
     pub memory_expected: PathBuf,
-    /// Both golden sets as the golden image embeds them.
+    /// The golden sets of other dims (model, inputs, expected): a random 2 → 2 model without
+    /// ambient and a random 8 → 4 one (`fbg_testkit::models`), each with the memory bank.
+    pub dims_sets: [(PathBuf, PathBuf, PathBuf); 2],
+    /// Every golden set as the golden image embeds them.
     pub golden_pack: PathBuf,
+}
+
+/// The random models of other dims the golden and bench images run: (name, gratings, ambient,
+/// measurands, centres, seed).
+pub const DIMS_MODELS: [(&str, usize, bool, usize, usize, u64); 2] =
+    [("dims_2x2", 2, false, 2, 8, 22), ("dims_8x4", 8, true, 4, 16, 84)];
+
+/// The random model of `DIMS_MODELS[i]` (hysteresis-aware features, every memory slot its dims
+/// have) as a blob, and its samples: `n` on a 60-s clock, then out-of-envelope, NaN and ∞ ones
+/// when `edges`.
+pub fn dims_model(i: usize, n: usize, edges: bool) -> Result<(Vec<u8>, Vec<Sample<f32>>)> {
+    use fbg_testkit::models::{dims, full_memory_spec_for, memory_model_dims, random_samples, short_provenance};
+    let (_, g, amb, m, k, seed) = DIMS_MODELS.get(i).copied().context("no such dims model")?;
+    let d = dims(g, amb, m).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let p: ModelParams<f32, MAX_K> = memory_model_dims(
+        d,
+        k,
+        seed,
+        fbg_shared::FeatureSet::HysteresisAware,
+        short_provenance(),
+        full_memory_spec_for(&d),
+    );
+    let blob = fbg_testkit::models::encode_vec(&p).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut s = random_samples(&d, n, seed);
+    if !edges {
+        s.truncate(n);
+    }
+    Ok((blob, s))
 }
 
 /// Directory of the fixtures.
@@ -132,6 +164,10 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
         memory_model: d.join("memory_model.fbgm"),
         memory_inputs: d.join("memory_golden_inputs.bin"),
         memory_expected: d.join("memory_golden_expected.csv"),
+        dims_sets: [0, 1].map(|i| {
+            let n = DIMS_MODELS[i].0;
+            (d.join(format!("{n}.fbgm")), d.join(format!("{n}_inputs.bin")), d.join(format!("{n}_expected.csv")))
+        }),
         golden_pack: d.join("golden_pack.bin"),
     };
     let stamp = d.join("stamp-main.txt");
@@ -146,6 +182,8 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
         &fx.memory_inputs,
         &fx.memory_expected,
         &fx.golden_pack,
+        &fx.dims_sets[0].0,
+        &fx.dims_sets[1].2,
     ];
     if current(&stamp, &want, &files.map(PathBuf::as_path)) {
         return Ok(fx);
@@ -194,7 +232,18 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
     write_atomic(&fx.memory_model, &memory_model)?;
     write_atomic(&fx.memory_inputs, &inputs_bytes(&memory_inputs))?;
     write_atomic(&fx.memory_expected, expected_csv(&memory_expected).as_bytes())?;
-    write_atomic(&fx.golden_pack, &pack_bytes(&[(&model, &inputs), (&memory_model, &memory_inputs)]))?;
+    // Other dims: a random 2 → 2 model without ambient and a random 8 → 4 one.
+    let mut dims_records = Vec::new();
+    for (i, (m_path, i_path, e_path)) in fx.dims_sets.iter().enumerate() {
+        let (blob_bytes, samples) = dims_model(i, 300, true)?;
+        write_atomic(m_path, &blob_bytes)?;
+        write_atomic(i_path, &inputs_bytes(&samples))?;
+        write_atomic(e_path, expected_csv(&reference(&blob_bytes, &samples)?).as_bytes())?;
+        dims_records.push((blob_bytes, samples));
+    }
+    let mut records: Vec<(&[u8], &[Sample<f32>])> = vec![(&model, &inputs), (&memory_model, &memory_inputs)];
+    records.extend(dims_records.iter().map(|(b, s)| (b.as_slice(), s.as_slice())));
+    write_atomic(&fx.golden_pack, &pack_bytes(&records))?;
     write_atomic(&stamp, want.as_bytes())?;
     Ok(fx)
 }
@@ -259,7 +308,7 @@ pub struct BenchFixture {
 /// Memory slots in use in a blob.
 pub fn memory_terms(blob_bytes: &[u8]) -> Result<usize> {
     let p = decode(blob_bytes)?;
-    Ok((0..N_MEMORY).filter(|&k| p.memory.term_active(k)).count())
+    Ok((0..p.dims.memory_len()).filter(|&k| p.memory.term_active(&p.dims, k)).count())
 }
 
 /// Make (or reuse) the device-test and bench fixtures.
@@ -345,6 +394,24 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
             synthetic_inputs.clone(),
             "synthetic (fbg_testkit::installation), the full memory bank (32 terms)",
         ),
+        (
+            "dims_2x2",
+            DIMS_MODELS[0].4,
+            true,
+            32,
+            fx.dims_sets[0].0.clone(),
+            d.join("bench_inputs_dims_2x2.bin"),
+            "random 2 gratings → 2 measurands, no ambient, every memory slot of its dims (18 terms) (fbg_testkit::models)",
+        ),
+        (
+            "dims_8x4",
+            DIMS_MODELS[1].4,
+            true,
+            32,
+            fx.dims_sets[1].0.clone(),
+            d.join("bench_inputs_dims_8x4.bin"),
+            "random 8 gratings + ambient → 4 measurands, every memory slot of its dims (77 terms) (fbg_testkit::models)",
+        ),
     ];
     let bench_packs = vec![(32, d.join("bench_pack_k32.bin")), (64, d.join("bench_pack_k64.bin"))];
     let stamp = d.join("stamp-device.txt");
@@ -359,8 +426,14 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
         // In-envelope hold-out samples of the trainer's data (the golden ones carry no flag).
         let samples: Vec<Sample<f32>> = read_inputs(&d.join("golden_inputs.bin"))?.into_iter().take(64).collect();
         write_atomic(&trainer_inputs, &inputs_bytes(&samples))?;
-        for (_, k, mem, _, path, _, _) in rows.iter().filter(|r| r.0 != "default") {
+        for (_, k, mem, _, path, _, _) in rows.iter().filter(|r| r.0 != "default" && !r.0.starts_with("dims_")) {
             write_atomic(path, &synthetic_blob(*k, 100 + *k as u64, *mem)?)?;
+        }
+        // The random models of other dims (written by `ensure` with their golden sets): their
+        // first 64 samples, in the envelope, on a regular 60 s clock.
+        for (i, r) in rows.iter().filter(|r| r.0.starts_with("dims_")).enumerate() {
+            let (_, samples) = dims_model(i, 64, false)?;
+            write_atomic(&r.5, &inputs_bytes(&samples))?;
         }
         // In-envelope, unflagged samples of the synthetic installation on a regular 60 s clock
         // (the bench image continues the clock across its passes over them).
@@ -410,10 +483,10 @@ pub fn reference(blob_bytes: &[u8], samples: &[Sample<f32>]) -> Result<Vec<Estim
 }
 
 /// Per-channel comparison scale when no hold-out RMSE is known: the square root of the blob's
-/// residual variance.
-pub fn reference_scale(blob_bytes: &[u8]) -> Result<[f64; N_OUTPUTS]> {
+/// residual variance (one per output of the model).
+pub fn reference_scale(blob_bytes: &[u8]) -> Result<Vec<f64>> {
     let p = decode(blob_bytes)?;
-    Ok(p.resid_var.map(|v| (v as f64).sqrt()))
+    Ok(p.resid_var.iter().take(p.dims.n_outputs()).map(|&v| (v as f64).sqrt()).collect())
 }
 
 /// Read golden inputs (`fbg_link::golden`).
@@ -444,6 +517,7 @@ mod tests {
                 assert_eq!(p.has_memory(), mem);
                 assert_eq!(memory_terms(&a).unwrap(), if mem { N_MEMORY } else { 0 });
                 assert!(a.len() <= blob::max_len(k));
+                assert!(a.len() <= blob::max_len_for(&fbg_shared::layout::Dims::PAPER, k));
             }
         }
         assert!(synthetic_blob(32, 1, true).unwrap().len() <= 4096, "blob target ≤ 4 KiB at K = 32");
@@ -470,6 +544,7 @@ mod tests {
                 seq: 0,
                 values: a.values.map(|v| v as f32),
                 band: a.band95.map(|v| v as f32),
+                outputs: a.outputs,
                 flags: a.flags,
             };
             assert!(fbg_link::parity::compare(&dev, b, &[1e-3; 3]).is_ok());
@@ -497,6 +572,6 @@ mod tests {
         let fm = fbg_testkit::installation::with_full_memory(&without).unwrap();
         assert_eq!(memory_terms(&fm).unwrap(), N_MEMORY);
         let packed = pack_bytes(&[(&with, &s[..3])]);
-        assert_eq!(packed.len(), 4 + with.len() + 4 + 60);
+        assert_eq!(packed.len(), 4 + with.len() + 4 + 3 * fbg_shared::golden::SAMPLE_BYTES);
     }
 }

@@ -173,7 +173,7 @@ impl ModelInfo {
 /// embedded default at boot): all bytes zero, so the static lands in `.bss` and no
 /// compensator-sized value is ever built on the stack (`Compensator::new` returns one by
 /// value, a compensator's size of stack, twice over with its `Result`). Until a model is loaded it
-/// answers every sample with NaN values and an infinite band (no output fitted).
+/// has no output and answers every sample as non-finite.
 pub const fn unloaded<const K: usize>() -> Compensator<f32, K> {
     Compensator::unloaded()
 }
@@ -455,7 +455,7 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
         let e = (self.kernel.step)(self.comp, sample);
         self.status.samples = self.status.samples.wrapping_add(1);
         let _ = self.alarm.set_state(PinState::from(!e.flags.is_ok()));
-        DeviceEstimate { seq, values: e.values, band: e.band95, flags: e.flags }
+        DeviceEstimate::new(seq, &e)
     }
 
     fn begin(&mut self, total_len: u32, crc: u32) -> DeviceMsg {

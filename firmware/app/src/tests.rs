@@ -9,7 +9,7 @@ use std::vec::Vec;
 
 use embedded_hal::digital::{ErrorType, OutputPin};
 use fbg_link::{LinkClient, LinkError};
-use fbg_shared::layout::N_MEMORY;
+use fbg_shared::layout::paper::N_MEMORY;
 use fbg_shared::protocol::{encode_host, RejectReason, MAX_CHUNK};
 use fbg_shared::signature::{key_id, TrailerHead, TRAILER_LEN};
 use fbg_shared::{blob, Centre, Flags, MemoryBank, ModelParams};
@@ -219,7 +219,7 @@ fn with_centres(mut p: ModelParams<f32, K>, n: usize) -> ModelParams<f32, K> {
 fn memory_model() -> Vec<u8> {
     let b = fbg_testkit::installation::with_full_memory(default_blob()).unwrap();
     let p = params(&b);
-    assert!(p.memory.any() && (0..N_MEMORY).all(|k| p.memory.term_active(k)));
+    assert!(p.memory.any() && (0..N_MEMORY).all(|k| p.memory.term_active(&p.dims, k)));
     b
 }
 
@@ -248,7 +248,7 @@ fn timed_samples(n: usize) -> Vec<Sample<f32>> {
 fn other_model() -> Vec<u8> {
     let mut p = params(default_blob());
     for c in p.centres.iter_mut() {
-        c.w = [c.w[0] * -2.0 + 0.01, c.w[1] + 1.0, c.w[2] * 0.5];
+        c.w = [c.w[0] * -2.0 + 0.01, c.w[1] + 1.0, c.w[2] * 0.5, 0.0];
     }
     p.poly[0][0] += 0.25;
     encode(&p)
@@ -262,15 +262,15 @@ fn samples(n: usize) -> Vec<Sample<f32>> {
             let x = i as f32;
             let mid = |d: usize| 0.5 * (p.envelope_lo[d] + p.envelope_hi[d]);
             let half = |d: usize| 0.25 * (p.envelope_hi[d] - p.envelope_lo[d]);
-            Sample {
-                dl_pm: [
+            Sample::new(
+                [
                     mid(0) + half(0) * (x / 9.0).sin(),
                     mid(1) + half(1) * (x / 13.0).sin(),
                     mid(2) + half(2) * (x / 7.0).cos(),
                 ],
-                t_amb_c: mid(3) + half(3) * (x / 11.0).sin(),
-                t_s: 60.0 * x,
-            }
+                mid(3) + half(3) * (x / 11.0).sin(),
+                60.0 * x,
+            )
         })
         .collect()
 }
@@ -380,16 +380,22 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
 
     let mut corrupt = good.clone();
     corrupt[100] ^= 0x10;
-    // `encode` refuses invalid params, so patch a NaN into σ (header, feature-set tag 1 B,
-    // σ_mult 4 B, then σ) and re-sign the blob.
+    // `encode` refuses invalid params, so patch a NaN into σ (header, output kinds 2 B each,
+    // feature-set tag 1 B, σ_mult 4 B, then σ) and re-sign the blob.
     let mut nan_sigma = good.clone();
-    let at = blob::HEADER_LEN + 1 + 4;
+    let at = blob::HEADER_LEN + 6 + 1 + 4;
     nan_sigma[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
     let n = nan_sigma.len();
     let c = crc32(&nan_sigma[..n - 4]).to_le_bytes();
     nan_sigma[n - 4..].copy_from_slice(&c);
     let mut bad_version = good.clone();
     bad_version[4] = 9;
+    // Nine gratings in the header (CRC recomputed): beyond the capacity of eight.
+    let mut nine = good.clone();
+    nine[6] = 9;
+    let n = nine.len();
+    let c = crc32(&nine[..n - 4]).to_le_bytes();
+    nine[n - 4..].copy_from_slice(&c);
     let mut too_many = params(default_blob());
     too_many.centres.truncate(20);
     let small = encode(&too_many); // a valid, shorter model to cut short
@@ -397,6 +403,7 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
         ("corrupt byte", corrupt, RejectReason::BadCrc),
         ("bad version", bad_version, RejectReason::UnsupportedVersion),
         ("nan sigma", nan_sigma, RejectReason::BadParameter),
+        ("nine gratings", nine, RejectReason::OverCapacity),
         ("truncated", small[..200].to_vec(), RejectReason::Truncated),
         ("not a blob", std::vec![0x42; 300], RejectReason::BadMagic),
         ("too large", std::vec![0; STAGE + 1], RejectReason::TooLarge),
@@ -407,7 +414,13 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
         let bytes = if *reason == RejectReason::TooLarge { bytes.clone() } else { sign(bytes, 1) };
         let r = link.update_model(&bytes).unwrap();
         match r {
-            UpdateResult::Rejected(rej) => assert_eq!(rej.reason, *reason, "{name}: {rej}"),
+            UpdateResult::Rejected(rej) => {
+                assert_eq!(rej.reason, *reason, "{name}: {rej}");
+                if *reason == RejectReason::OverCapacity {
+                    // The model's count and the capacity, both named.
+                    assert_eq!(rej.detail, 9 << 16 | 8, "{name}");
+                }
+            }
             other => panic!("{name}: {other:?}"),
         }
         rejected += 1;
@@ -436,7 +449,7 @@ fn bad_updates_are_rejected_with_the_reason_and_the_old_model_keeps_answering() 
         r,
         DeviceMsg::UpdateResult(UpdateResult::Rejected(Rejection { reason: RejectReason::OutOfOrder, detail: 0 }))
     );
-    link.request(&HostMsg::ModelBegin { total_len: 20, crc32: crc }).unwrap();
+    link.request(&HostMsg::ModelBegin { total_len: 24, crc32: crc }).unwrap();
     let r = link.request(&HostMsg::ModelChunk { offset: 0, data: &good[..30] }).unwrap();
     assert!(matches!(
         r,
@@ -475,10 +488,12 @@ fn an_unloaded_compensator_is_usable() {
     // All-zero bytes: no centres, no output fitted, latches that have seen nothing.
     let mut comp = std::boxed::Box::new(unloaded::<K>());
     assert_eq!(comp.n_centres(), 0);
-    assert_eq!(comp.latch_values(), [0.0; 3]);
+    assert_eq!(comp.latch_values(), [0.0; 8]);
+    // No model: no output, and every sample (its gratings are not the model's none) is
+    // answered as non-finite.
     let e = comp.step(&samples(1)[0]);
-    assert!(e.values.iter().all(|v| v.is_nan()), "{e:?}");
-    assert!(e.band95.iter().all(|b| b.is_infinite()), "{e:?}");
+    assert!(e.values().is_empty() && e.band().is_empty(), "{e:?}");
+    assert_eq!(e.flags, fbg_shared::Flags::NON_FINITE, "{e:?}");
     // Loading into it gives exactly `Compensator::new`.
     let info = load_blob(&Kernel::LIBRARY, &mut comp, default_blob()).unwrap();
     assert_eq!(

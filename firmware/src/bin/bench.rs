@@ -129,7 +129,8 @@ fn measure(f: impl FnOnce()) -> (u32, u32) {
 #[entry]
 fn main() -> ! {
     static mut MODEL: Compensator<f32, K> = unloaded();
-    static mut SAMPLES: [Sample<f32>; MAX_SAMPLES] = [Sample { dl_pm: [0.0; 3], t_amb_c: 0.0, t_s: 0.0 }; MAX_SAMPLES];
+    static mut SAMPLES: [Sample<f32>; MAX_SAMPLES] =
+        [Sample { dl_pm: [0.0; fbg_shared::layout::MAX_GRATINGS], gratings: 0, t_amb_c: 0.0, t_s: 0.0 }; MAX_SAMPLES];
 
     // SAFETY: UART0 of the MPS2 board, driven only from here.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };

@@ -130,7 +130,7 @@ fn main() -> ! {
         }
         for s in rec.iter() {
             let e = step(MODEL, &s);
-            let msg = DeviceMsg::Estimate(DeviceEstimate { seq: n, values: e.values, band: e.band95, flags: e.flags });
+            let msg = DeviceMsg::Estimate(DeviceEstimate::new(n, &e));
             let mut buf = [0u8; DEVICE_MAX_FRAME];
             match encode_device(&msg, &mut buf) {
                 Ok(frame) => {

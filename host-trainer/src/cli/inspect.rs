@@ -25,8 +25,9 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
         "bytes": file.len(),
         "blob_bytes": bytes.len(),
         "crc32": crc,
-        "header": {"magic": "FBGM", "format_version": header.version, "inputs": header.inputs,
-                   "outputs": header.outputs, "poly_terms": header.poly_terms, "centres": header.centres},
+        "header": {"magic": "FBGM", "format_version": header.version, "gratings": header.gratings,
+                   "ambient": header.ambient == 1, "measurands": header.measurands, "poly_terms": header.poly_terms,
+                   "memory_terms": header.memory_terms, "centres": header.centres},
         "signature": check,
         "model": export::model_json(&p, None),
     });
@@ -68,9 +69,16 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
             }
         ),
     }
+    let names: Vec<String> = p.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect();
     println!(
-        "dims: inputs {}, outputs {}, poly terms {}, centres {}",
-        header.inputs, header.outputs, header.poly_terms, header.centres
+        "dims: gratings {}, ambient {}, measurands {} ({}), poly terms {}, memory terms {}, centres {}",
+        header.gratings,
+        if header.ambient == 1 { "yes" } else { "no" },
+        header.measurands,
+        names.join(", "),
+        header.poly_terms,
+        header.memory_terms,
+        header.centres
     );
     println!(
         "hyper-parameters: features {}, σ {:.4} (= {}×NN), α {:.4e}, dead band {} pm, weak support < {:.2e}, envelope margin {}, flagged band ×{}",
@@ -79,12 +87,19 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
     // The blob stores f32: print what it holds (`0.1`, not `0.10000000149011612`).
     println!(
         "band: k95 [{}], s² at cal end [{}], growth [{}] per s after t = {} s",
-        f32s(&p.band_k),
-        f32s(&p.resid_var),
-        f32s(&p.resid_var_growth),
+        f32s(fbg_shared::layout::head(&p.band_k, p.dims.n_outputs())),
+        f32s(fbg_shared::layout::head(&p.resid_var, p.dims.n_outputs())),
+        f32s(fbg_shared::layout::head(&p.resid_var_growth, p.dims.n_outputs())),
         f32s(&[p.t_cal_end_s])
     );
-    println!("envelope: lo [{}] hi [{}] (dl1..3 pm, T_amb °C)", f32s(&p.envelope_lo), f32s(&p.envelope_hi));
+    let ne = p.dims.envelope_len();
+    println!(
+        "envelope: lo [{}] hi [{}] (dl1..{} pm{})",
+        f32s(fbg_shared::layout::head(&p.envelope_lo, ne)),
+        f32s(fbg_shared::layout::head(&p.envelope_hi, ne)),
+        p.dims.gratings(),
+        if p.dims.ambient() { ", T_amb °C" } else { "" }
+    );
     let pr = &p.provenance;
     println!(
         "provenance: scenario {}, seed {}, trainer {}, date {}, {} calibration samples",

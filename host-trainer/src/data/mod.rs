@@ -249,11 +249,7 @@ impl Dataset {
     /// a grating the dataset does not have) and the ambient reading (NaN without one).
     pub fn sample(&self, i: usize) -> Sample<f64> {
         let g = |k: usize| self.dl_pm.get(k).map_or(f64::NAN, |c| c[i]);
-        Sample {
-            dl_pm: [g(0), g(1), g(2)],
-            t_amb_c: self.t_amb_c.as_ref().map_or(f64::NAN, |a| a[i]),
-            t_s: self.t_s[i],
-        }
+        Sample::new([g(0), g(1), g(2)], self.t_amb_c.as_ref().map_or(f64::NAN, |a| a[i]), self.t_s[i])
     }
     /// Which of the paper's references (T, ε, p) the dataset has.
     pub fn has_target(&self) -> [bool; 3] {

@@ -2,7 +2,7 @@
 //! one scenario and seed, as [`Metrics`]. The studies fill it ([`super::studies`]), the tables
 //! render it ([`super::tables`]), the report reads it back (`crate::report::load`).
 
-use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::layout::paper::N_OUTPUTS;
 
 use crate::eval::parity::ParityReport;
 use crate::eval::score::{ChannelMetrics, ModelEval};

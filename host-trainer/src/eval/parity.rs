@@ -4,7 +4,7 @@
 
 use nalgebra::DMatrix;
 
-use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::layout::paper::N_OUTPUTS;
 use fbg_shared::Compensator;
 
 use crate::data::Dataset;

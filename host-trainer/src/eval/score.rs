@@ -1,7 +1,7 @@
 //! Hold-out evaluation (DESIGN §5): per channel and model RMSE, MAE, R², bias, max |error|,
 //! band coverage, flag counts; the gain of Model-H over Model-P; the hysteresis index.
 
-use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::layout::paper::N_OUTPUTS;
 use fbg_shared::{DirectionLatch, Estimate, Flags};
 
 use crate::data::Dataset;
@@ -9,7 +9,7 @@ use crate::error::TrainerError;
 use crate::fit::{run, HostParams};
 
 /// Output names for tables and JSON, and their units.
-pub use fbg_shared::layout::{CHANNELS, UNITS};
+pub use fbg_shared::layout::paper::{CHANNELS, UNITS};
 /// The grating designed for each output (T ← FBG2, ε ← FBG1, p ← FBG3), used to tell rising
 /// from falling segments for the hysteresis index.
 pub const DOMINANT_GRATING: [usize; N_OUTPUTS] = [1, 0, 2];

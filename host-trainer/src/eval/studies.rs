@@ -6,7 +6,7 @@
 
 use std::time::Instant;
 
-use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::layout::paper::N_OUTPUTS;
 use fbg_shared::FeatureSet;
 
 use crate::data::Dataset;

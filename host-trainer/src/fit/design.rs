@@ -17,7 +17,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::layout::paper::N_OUTPUTS;
 use fbg_shared::{Estimate, StreamState};
 
 use super::{HostCompensator, HostParams};
@@ -214,15 +214,17 @@ pub fn map_stretches<T: Send>(
                 match pass {
                     Pass::Estimates => {
                         let e = c.step_with(&d.sample(i), |j, v| row[j] = v);
-                        b.values.push(e.values);
+                        b.values.push(fbg_shared::layout::pad(&e.values));
                         b.est.push(e);
                     }
                     Pass::Design => {
-                        let v = c.core_and_activations(&d.sample(i), row).unwrap_or([f64::NAN; N_OUTPUTS]);
+                        let v = c
+                            .core_and_activations(&d.sample(i), row)
+                            .map_or([f64::NAN; N_OUTPUTS], |v| fbg_shared::layout::pad(&v));
                         b.values.push(v);
                     }
                 }
-                b.latches.push(c.latch_values());
+                b.latches.push(fbg_shared::layout::pad(&c.latch_values()));
                 cur = Some(i + 1);
             }
             f(StretchOut { rows: want, psi: &b.psi, est: &b.est, values: &b.values, latches: &b.latches })

@@ -17,7 +17,8 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use fbg_shared::layout::{N_MEMORY, N_OUTPUTS, N_POLY};
+use fbg_shared::layout::paper::{N_MEMORY, N_OUTPUTS, N_POLY};
+use fbg_shared::layout::Dims;
 use fbg_shared::{MemoryBank, MemoryGroup, MemorySpec};
 
 use super::poly_core::PolyCore;
@@ -63,7 +64,7 @@ impl MemoryOptions {
             play_half_width_pm: [2.0, 4.0, 8.0],
             observer_lag_s: 20.0 * min,
             observer_smooth_s: 40.0 * min,
-            observer_row: [0.0; 5],
+            observer_row: [0.0; fbg_shared::layout::MAX_STAGE1],
         };
         MemoryOptions {
             menu,
@@ -136,7 +137,7 @@ impl MemoryChoice {
         if any(MemoryGroup::DriftObserver) && menu.observer_lag_s > 0.0 {
             s.observer_lag_s = menu.observer_lag_s;
             s.observer_smooth_s = menu.observer_smooth_s;
-            s.observer_row = core.stage1[TEMPERATURE];
+            s.observer_row = fbg_shared::layout::pad(&core.stage1[TEMPERATURE]);
         }
         s
     }
@@ -163,15 +164,15 @@ fn offered(o: usize, g: MemoryGroup) -> bool {
 /// The memory vector at each of `rows` (sorted ascending), the bank having seen every sample
 /// the compensator would accept (finite Δλ, T_amb and t) from the first.
 pub fn memory_terms(spec: &MemorySpec<f64>, d: &Dataset, rows: &[usize]) -> Vec<[f64; N_MEMORY]> {
-    let mut bank = MemoryBank::<f64>::new(spec);
+    let mut bank = MemoryBank::<f64>::new(spec, &Dims::PAPER);
     let mut out = Vec::with_capacity(rows.len());
     let end = rows.last().map(|&i| i + 1).unwrap_or(0);
     let mut want = rows.iter().peekable();
     for i in 0..end {
         let s = d.sample(i);
         // The compensator's rule for a model with memory terms (it reads time).
-        let m = if s.inputs_finite() && s.t_s.is_finite() {
-            bank.update(&s.dl_pm, s.t_amb_c, s.t_s)
+        let m = if s.dl().iter().all(|v| v.is_finite()) && s.t_amb_c.is_finite() && s.t_s.is_finite() {
+            fbg_shared::layout::pad(&bank.update(&s.dl_pm, s.t_amb_c, s.t_s))
         } else {
             [f64::NAN; N_MEMORY]
         };
@@ -189,7 +190,8 @@ fn columns(core: &PolyCore, spec: &MemorySpec<f64>, o: usize, groups: &[MemoryGr
     let poly: Vec<usize> = (0..N_POLY).filter(|&k| k == 0 || core.poly.iter().any(|r| r[k] != 0.0)).collect();
     let mem = (0..N_MEMORY)
         .filter(|&k| {
-            spec.term(k).is_some_and(|t| t.parameter > 0.0 && groups.contains(&t.group) && offered(o, t.group))
+            spec.term(&Dims::PAPER, k)
+                .is_some_and(|t| t.parameter > 0.0 && groups.contains(&t.group) && offered(o, t.group))
         })
         .collect();
     (poly, mem)

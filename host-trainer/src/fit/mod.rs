@@ -19,7 +19,8 @@ use heapless::Vec as HVec;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use fbg_shared::layout::{FeatureSet, N_ENVELOPE, N_OUTPUTS, VAR_RANK, Z_DIMS};
+use fbg_shared::layout::paper::{N_ENVELOPE, N_OUTPUTS, Z_DIMS};
+use fbg_shared::layout::{pad, pad2, FeatureSet, VAR_RANK};
 use fbg_shared::{Centre, Compensator, Hyper, ModelParams, Provenance};
 
 use crate::data::Dataset;
@@ -279,11 +280,13 @@ impl Skeleton {
         for (j, mu) in self.centres.iter().enumerate() {
             let w = weights.map(|w| std::array::from_fn(|o| w[(j, o)])).unwrap_or([0.0; N_OUTPUTS]);
             let v = variance.map(|v| v.v[j]).unwrap_or([0.0; VAR_RANK]);
-            cs.push(Centre { mu: *mu, w, v }).map_err(|_| {
+            cs.push(Centre { mu: pad(mu), w: pad(&w), v }).map_err(|_| {
                 TrainerError::fit(format!("{} centres exceed the host capacity {HOST_CAP}", self.centres.len()))
             })?;
         }
+        // The trainer fits the paper's set-up only: 3 gratings, ambient, T/ε/p.
         let p = ModelParams {
+            dims: fbg_shared::layout::Dims::PAPER,
             hyper: Hyper {
                 feature_set: self.feature_set,
                 sigma_mult: self.sigma_mult,
@@ -294,24 +297,24 @@ impl Skeleton {
                 envelope_margin: ENVELOPE_MARGIN,
                 flagged_band_factor: FLAGGED_BAND_FACTOR,
             },
-            stage1: self.core.stage1,
-            guess_mean: self.core.guess_mean,
-            guess_std: self.core.guess_std,
-            poly: self.core.poly,
+            stage1: pad2(&self.core.stage1),
+            guess_mean: pad(&self.core.guess_mean),
+            guess_std: pad(&self.core.guess_std),
+            poly: pad2(&self.core.poly),
             memory: self.core.memory,
-            gamma: self.core.gamma,
-            z_mean: self.z_mean,
-            z_std: self.z_std,
+            gamma: pad2(&self.core.gamma),
+            z_mean: pad(&self.z_mean),
+            z_std: pad(&self.z_std),
             centres: cs,
             var_inv_g: variance.map(|v| v.inv_g).unwrap_or([0.0; VAR_RANK]),
             var_inv_g_tail: variance.map(|v| v.inv_g_tail).unwrap_or(0.0),
-            resid_var: band.map(|v| v.a),
-            resid_var_growth: band.map(|v| v.b),
+            resid_var: pad(&band.map(|v| v.a)),
+            resid_var_growth: pad(&band.map(|v| v.b)),
             t_cal_end_s,
-            band_k: band.map(|v| v.k95),
-            envelope_lo: self.envelope.0,
-            envelope_hi: self.envelope.1,
-            fitted: self.fitted,
+            band_k: pad(&band.map(|v| v.k95)),
+            envelope_lo: pad(&self.envelope.0),
+            envelope_hi: pad(&self.envelope.1),
+            fitted: pad(&self.fitted),
             provenance: provenance.clone(),
         };
         p.validate().map_err(|e| TrainerError::fit(format!("assembled model is invalid: {e}")))?;

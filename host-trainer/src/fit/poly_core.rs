@@ -2,7 +2,8 @@
 //! first guesses of (T, ε, p); stage 2, the ten-term polynomial φ on the standardised guesses,
 //! fitted by least squares.
 
-use fbg_shared::layout::{N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1};
+use fbg_shared::layout::paper::{N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1};
+use fbg_shared::layout::{pad, pad2};
 use fbg_shared::MemorySpec;
 
 use crate::data::Dataset;
@@ -147,12 +148,12 @@ impl PolyCore {
     /// The core of a model's parameters (B, Γ and what they act on).
     pub fn of(p: &crate::fit::HostParams) -> Self {
         PolyCore {
-            stage1: p.stage1,
-            guess_mean: p.guess_mean,
-            guess_std: p.guess_std,
-            poly: p.poly,
+            stage1: pad2(&p.stage1),
+            guess_mean: pad(&p.guess_mean),
+            guess_std: pad(&p.guess_std),
+            poly: pad2(&p.poly),
             memory: p.memory,
-            gamma: p.gamma,
+            gamma: pad2(&p.gamma),
         }
     }
 
@@ -163,7 +164,7 @@ impl PolyCore {
     }
 
     /// B re-expressed on the *physical* first guesses (T °C, ε µε, p kPa): the coefficients a
-    /// metrologist reads, y = Σ c_k φ_k(g) with φ in [`fbg_shared::layout::POLY_NAMES`] order.
+    /// metrologist reads, y = Σ c_k φ_k(g) with φ in [`fbg_shared::layout::paper::POLY_NAMES`] order.
     pub fn physical_coefficients(&self) -> [[f64; N_POLY]; N_OUTPUTS] {
         let (m, s) = (self.guess_mean, self.guess_std);
         let mut out = [[0.0; N_POLY]; N_OUTPUTS];

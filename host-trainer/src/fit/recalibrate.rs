@@ -5,7 +5,7 @@
 
 use nalgebra::DMatrix;
 
-use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::layout::paper::N_OUTPUTS;
 
 use crate::data::Dataset;
 use crate::error::TrainerError;
@@ -179,7 +179,7 @@ fn apply_core(
 /// making the old calibration count as its own sample count of the batch's design (so a day's
 /// batch moves a week's calibration by about a seventh of what it alone would say).
 fn refit_core_and_memory(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize) -> Result<(), TrainerError> {
-    use fbg_shared::layout::{N_MEMORY, N_POLY};
+    use fbg_shared::layout::paper::{N_MEMORY, N_POLY};
     let core = fit::PolyCore::of(p);
     let m = fit::memory_core::memory_terms(&p.memory, d, rows);
     let full = run(p, d, rows)?;
@@ -230,7 +230,7 @@ fn update_w(p: &mut HostParams, old: &HostParams, d: &Dataset, rows: &[usize]) -
     let k = p.centres.len();
     let mut zero_w = p.clone();
     for ce in zero_w.centres.iter_mut() {
-        ce.w = [0.0; N_OUTPUTS];
+        ce.w = [0.0; fbg_shared::layout::MAX_OUTPUTS];
     }
     let (psi, est) = design_matrix(&zero_w, d, rows)?;
     let r = residual_targets(d, rows, &est);

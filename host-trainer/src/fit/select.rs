@@ -17,7 +17,8 @@ use std::collections::HashMap;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use fbg_shared::layout::{FeatureSet, N_OUTPUTS};
+use fbg_shared::layout::paper::N_OUTPUTS;
+use fbg_shared::layout::FeatureSet;
 use fbg_shared::Provenance;
 
 use super::band::VarModel;

@@ -3,7 +3,7 @@
 //! units (and as stored), the scalers, the RBF centres (standardised and physical), σ, W, the
 //! hyper-parameters and the band parameters.
 
-use fbg_shared::layout::{N_OUTPUTS, POLY_NAMES, Z_DIMS, Z_NAMES};
+use fbg_shared::layout::paper::{N_OUTPUTS, POLY_NAMES, Z_DIMS, Z_NAMES};
 
 use crate::eval::metrics::Metrics;
 use crate::eval::score::UNITS;
@@ -123,8 +123,8 @@ fn memory(h: &HostParams) -> Table {
     let header = ["term", "meaning", "unit", "Γ → T [°C per unit]", "Γ → strain [µε per unit]", "Γ → p [kPa per unit]"]
         .map(String::from)
         .to_vec();
-    let rows = (0..fbg_shared::layout::N_MEMORY)
-        .filter_map(|k| h.memory.term(k).filter(|t| t.parameter > 0.0).map(|t| (k, t)))
+    let rows = (0..fbg_shared::layout::paper::N_MEMORY)
+        .filter_map(|k| h.memory.term(&h.dims, k).filter(|t| t.parameter > 0.0).map(|t| (k, t)))
         .map(|(k, t)| {
             vec![
                 format!("m{k} ({})", t.group.name()),

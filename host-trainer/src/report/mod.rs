@@ -266,7 +266,7 @@ fn contributions(
     no_rbf.centres.clear();
     let mut core_only = no_rbf.clone();
     core_only.memory = fbg_shared::MemorySpec::off();
-    core_only.gamma = [[0.0; fbg_shared::layout::N_MEMORY]; 3];
+    core_only.gamma = [[0.0; fbg_shared::layout::MAX_MEMORY]; fbg_shared::layout::MAX_OUTPUTS];
     let (a, b) = rayon::join(|| crate::fit::run(&core_only, d, hold), || crate::fit::run(&no_rbf, d, hold));
     let (a, b) = (a?, b?);
     Ok(a.iter()
@@ -274,7 +274,7 @@ fn contributions(
         .zip(est_h)
         .map(|((c, m), f)| {
             [
-                c.values,
+                fbg_shared::layout::pad(&c.values),
                 std::array::from_fn(|k| m.values[k] - c.values[k]),
                 std::array::from_fn(|k| f.values[k] - m.values[k]),
             ]

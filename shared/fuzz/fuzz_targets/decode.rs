@@ -27,17 +27,24 @@ fn check(data: &[u8]) {
             return;
         }
     };
-    let e = c.step(&Sample { dl_pm: [1.0, -2.0, 3.0], t_amb_c: 20.0, t_s: 1.0 });
+    let g = params.dims.gratings();
+    let dl = [1.0f32, -2.0, 3.0, 0.5, -0.5, 1.5, -1.5, 2.5];
+    let sample = |d0: f32, t_s: f32| {
+        let mut d = dl;
+        d[0] = d0;
+        Sample::from_slice(d.get(..g).unwrap_or(&[]), 20.0, t_s).expect("within the capacity")
+    };
+    let e = c.step(&sample(1.0, 1.0));
     // A finite sample is NON_FINITE only if the result overflowed, and then reads NaN.
     if e.flags.contains(Flags::NON_FINITE) {
         assert!(e.values.iter().all(|v| v.is_nan()));
     }
-    let e = c.step(&Sample { dl_pm: [f32::NAN, 0.0, 0.0], t_amb_c: 20.0, t_s: 1.0 });
+    let e = c.step(&sample(f32::NAN, 1.0));
     assert_eq!(e.flags, Flags::NON_FINITE);
     // A model with memory terms reads t: a NaN time is a non-finite sample and leaves the
     // stream state (latches and memory operators) as it was.
     let before = c.stream_state();
-    let e = c.step(&Sample { dl_pm: [1.0, -2.0, 3.0], t_amb_c: 20.0, t_s: f32::NAN });
+    let e = c.step(&sample(1.0, f32::NAN));
     if c.has_memory() {
         assert_eq!(e.flags, Flags::NON_FINITE);
         assert_eq!(c.stream_state(), before);

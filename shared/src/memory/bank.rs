@@ -1,19 +1,18 @@
 //! Every memory operator of a model over one sample stream.
 
 use crate::layout::{
-    MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP, N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS,
-    N_STAGE1,
+    head, Dims, MAX_ENVELOPE, MAX_GRATINGS, MAX_MEMORY, MAX_STAGE1, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS,
 };
 use crate::memory::{DriftObserver, LowPass, MemorySpec, Play};
 use crate::real::Real;
 
 /// The stream state of a [`MemoryBank`]: every low-pass and play position, the observer and the
-/// last sample time. About 35 scalars; `Copy`, so a stream can be checkpointed and resumed.
+/// last sample time (sized to the capacity of [`MAX_GRATINGS`] gratings); `Copy`, so a stream can be checkpointed and resumed.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MemoryState<F> {
-    grating: [[F; N_GRATINGS]; N_GRATING_TAUS],
+    grating: [[F; MAX_GRATINGS]; N_GRATING_TAUS],
     ambient: [F; N_AMBIENT_TAUS],
-    play: [[F; N_GRATINGS]; N_PLAYS],
+    play: [[F; MAX_GRATINGS]; N_PLAYS],
     observer: [F; 2],
     t_prev_s: F,
     primed: bool,
@@ -23,9 +22,9 @@ impl<F: Real> MemoryState<F> {
     /// A state that has seen no sample.
     pub const fn new() -> Self {
         MemoryState {
-            grating: [[F::ZERO; N_GRATINGS]; N_GRATING_TAUS],
+            grating: [[F::ZERO; MAX_GRATINGS]; N_GRATING_TAUS],
             ambient: [F::ZERO; N_AMBIENT_TAUS],
-            play: [[F::ZERO; N_GRATINGS]; N_PLAYS],
+            play: [[F::ZERO; MAX_GRATINGS]; N_PLAYS],
             observer: [F::ZERO; 2],
             t_prev_s: F::ZERO,
             primed: false,
@@ -47,19 +46,20 @@ impl<F: Real> MemoryState<F> {
 /// stamp gives Δt <= 0: the low-passes hold, the plays still move.
 ///
 /// ```
-/// use fbg_shared::layout::MEM_STOP;
+/// use fbg_shared::layout::{pad, Dims};
 /// use fbg_shared::memory::{MemoryBank, MemorySpec};
+/// let dims = Dims::PAPER;
 /// let mut spec = MemorySpec::<f32>::off();
 /// spec.grating_tau_s[0] = 600.0; // Δλ − EMA_600s(Δλ) of each grating
 /// spec.play_half_width_pm[0] = 2.0; // the stop term of half-width 2 pm
-/// let mut bank = MemoryBank::<f32>::new(&spec);
+/// let mut bank = MemoryBank::<f32>::new(&spec, &dims);
 /// assert!(bank.is_active());
-/// let m = bank.update(&[0.0; 3], 20.0, 0.0); // the first sample primes
+/// let m = bank.update(&[0.0; 8], 20.0, 0.0); // the first sample primes
 /// assert!(m.iter().all(|&v| v == 0.0));
-/// let m = bank.update(&[5.0, 0.0, 0.0], 20.0, 60.0);
+/// let m = bank.update(&pad(&[5.0, 0.0, 0.0]), 20.0, 60.0);
 /// assert!(m[0] > 0.0 && m[0] < 5.0); // the high-pass of grating 1 follows the step
-/// assert_eq!(m[MEM_STOP], 2.0); // its stop term is pushed to +r
-/// assert!(!MemoryBank::<f32>::new(&MemorySpec::<f32>::off()).is_active());
+/// assert_eq!(m[dims.mem_stop()], 2.0); // its stop term is pushed to +r
+/// assert!(!MemoryBank::<f32>::new(&MemorySpec::<f32>::off(), &dims).is_active());
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MemoryBank<F> {
@@ -67,7 +67,11 @@ pub struct MemoryBank<F> {
     ambient_lp: [LowPass<F>; N_AMBIENT_TAUS],
     plays: [Play<F>; N_PLAYS],
     observer: DriftObserver<F>,
-    observer_row: [F; N_STAGE1],
+    observer_row: [F; MAX_STAGE1],
+    /// Gratings N of the model.
+    gratings: u8,
+    /// Whether the model has the ambient input (the ambient high-passes read it).
+    ambient: bool,
     grating_on: [bool; N_GRATING_TAUS],
     ambient_on: [bool; N_AMBIENT_TAUS],
     play_on: [bool; N_PLAYS],
@@ -90,7 +94,9 @@ impl<F: Real> MemoryBank<F> {
             ambient_lp: [LowPass::off(); N_AMBIENT_TAUS],
             plays: [Play::off(); N_PLAYS],
             observer: DriftObserver::off(),
-            observer_row: [F::ZERO; N_STAGE1],
+            observer_row: [F::ZERO; MAX_STAGE1],
+            gratings: 0,
+            ambient: false,
             grating_on: [false; N_GRATING_TAUS],
             ambient_on: [false; N_AMBIENT_TAUS],
             play_on: [false; N_PLAYS],
@@ -104,13 +110,16 @@ impl<F: Real> MemoryBank<F> {
         }
     }
 
-    /// A bank for `spec` (any precision; converted here) that has seen no sample.
-    pub fn new<G: Real>(spec: &MemorySpec<G>) -> Self {
+    /// A bank for `spec` (any precision; converted here) of a model with `dims` that has seen
+    /// no sample. Slots the dims do not have (ambient, observer) stay off.
+    pub fn new<G: Real>(spec: &MemorySpec<G>, dims: &Dims) -> Self {
         let s: MemorySpec<F> = spec.convert();
         let mut b = MemoryBank::<F> {
             observer: DriftObserver::new(s.observer_lag_s, s.observer_smooth_s),
             observer_row: s.observer_row,
-            observer_on: s.observer_lag_s > F::ZERO && s.observer_smooth_s > F::ZERO,
+            observer_on: dims.has_observer() && s.observer_lag_s > F::ZERO && s.observer_smooth_s > F::ZERO,
+            gratings: dims.gratings() as u8,
+            ambient: dims.ambient(),
             cached_dt: F::NAN,
             ..Self::off()
         };
@@ -120,7 +129,7 @@ impl<F: Real> MemoryBank<F> {
         }
         for ((lp, on), &tau) in b.ambient_lp.iter_mut().zip(b.ambient_on.iter_mut()).zip(s.ambient_tau_s.iter()) {
             *lp = LowPass::new(tau);
-            *on = tau > F::ZERO;
+            *on = dims.ambient() && tau > F::ZERO;
         }
         for ((op, on), &r) in b.plays.iter_mut().zip(b.play_on.iter_mut()).zip(s.play_half_width_pm.iter()) {
             *op = Play::new(r);
@@ -159,6 +168,11 @@ impl<F: Real> MemoryBank<F> {
             && self.observer == other.observer
             && self.observer_row == other.observer_row
             && self.observer_on == other.observer_on
+            && self.gratings == other.gratings
+            && self.ambient == other.ambient
+            && self.grating_on == other.grating_on
+            && self.ambient_on == other.ambient_on
+            && self.play_on == other.play_on
     }
 
     #[inline(always)]
@@ -187,18 +201,17 @@ impl<F: Real> MemoryBank<F> {
 
     /// The grating temperature T_g [°C] the observer follows.
     #[inline(always)]
-    fn grating_temperature(&self, dl_pm: &[F; N_GRATINGS], t_amb_c: F) -> F {
-        let [d1, d2, d3] = *dl_pm;
-        let [r0, r1, r2, r3, r4] = self.observer_row;
-        d1.mul_add(r0, d2.mul_add(r1, d3.mul_add(r2, t_amb_c.mul_add(r3, r4))))
+    fn grating_temperature(&self, dl_pm: &[F; MAX_GRATINGS], t_amb_c: F) -> F {
+        let (x, n) = affine_inputs(dl_pm, usize::from(self.gratings), self.ambient, t_amb_c);
+        affine(&x, n, &self.observer_row)
     }
 
     /// Feed one finite sample (shifts Δλ \[pm\], ambient T_amb [°C], time t \[s\]) and return the
     /// memory vector m (unused terms 0). The caller screens non-finite samples: they must not
     /// reach the bank (the compensator leaves the whole stream state untouched for them).
     #[inline]
-    pub fn update(&mut self, dl_pm: &[F; N_GRATINGS], t_amb_c: F, t_s: F) -> [F; N_MEMORY] {
-        let mut m = [F::ZERO; N_MEMORY];
+    pub fn update(&mut self, dl_pm: &[F; MAX_GRATINGS], t_amb_c: F, t_s: F) -> [F; MAX_MEMORY] {
+        let mut m = [F::ZERO; MAX_MEMORY];
         self.run(dl_pm, t_amb_c, t_s, |k, v| {
             if let Some(o) = m.get_mut(k) {
                 *o = v;
@@ -209,25 +222,26 @@ impl<F: Real> MemoryBank<F> {
 
     /// [`MemoryBank::update`] without the terms: moves the stream only (a checkpoint pass).
     #[inline]
-    pub fn advance(&mut self, dl_pm: &[F; N_GRATINGS], t_amb_c: F, t_s: F) {
+    pub fn advance(&mut self, dl_pm: &[F; MAX_GRATINGS], t_amb_c: F, t_s: F) {
         self.run(dl_pm, t_amb_c, t_s, |_, _| {});
     }
 
-    /// [`MemoryBank::update`] that adds Γm to `y` instead of returning m (`gamma[o][k]` is the
-    /// coefficient of term k on output o): what the compensator runs per sample, without the
-    /// memory vector's round trip through memory.
+    /// [`MemoryBank::update`] that adds Γm to the first `outputs` entries of `y` instead of
+    /// returning m (`gamma[o][k]` is the coefficient of term k on output o): what the
+    /// compensator runs per sample, without the memory vector's round trip through memory.
     // Out of line: one copy serves the compensator's step and stream advances.
     #[inline(never)]
     pub fn accumulate<const O: usize>(
         &mut self,
-        dl_pm: &[F; N_GRATINGS],
+        dl_pm: &[F; MAX_GRATINGS],
         t_amb_c: F,
         t_s: F,
-        gamma: &[[F; N_MEMORY]; O],
+        gamma: &[[F; MAX_MEMORY]; O],
+        outputs: usize,
         y: &mut [F; O],
     ) {
         self.run(dl_pm, t_amb_c, t_s, |k, v| {
-            for (yo, row) in y.iter_mut().zip(gamma.iter()) {
+            for (yo, row) in y.iter_mut().zip(gamma.iter()).take(outputs) {
                 if let Some(&g) = row.get(k) {
                     *yo = g.mul_add(v, *yo);
                 }
@@ -238,11 +252,17 @@ impl<F: Real> MemoryBank<F> {
     /// Move every operator by one sample and hand each used term to `sink(k, m_k)` in
     /// memory-vector order (unused terms are not handed over).
     #[inline(always)]
-    fn run(&mut self, dl_pm: &[F; N_GRATINGS], t_amb_c: F, t_s: F, mut sink: impl FnMut(usize, F)) {
+    fn run(&mut self, dl_pm: &[F; MAX_GRATINGS], t_amb_c: F, t_s: F, mut sink: impl FnMut(usize, F)) {
         if !self.any {
             return;
         }
         let t_g = if self.observer_on { self.grating_temperature(dl_pm, t_amb_c) } else { F::ZERO };
+        let n = usize::from(self.gratings);
+        let dl = head(dl_pm, n);
+        // Memory-vector indices: the layout of `Dims` (grating high-passes, ambient, stop, observer).
+        let mem_ambient = n * N_GRATING_TAUS;
+        let mem_stop = mem_ambient + if self.ambient { N_AMBIENT_TAUS } else { 0 };
+        let mem_observer = mem_stop + n * N_PLAYS;
         if !self.state.primed {
             let st = &mut self.state;
             for row in st.grating.iter_mut().chain(st.play.iter_mut()) {
@@ -253,7 +273,7 @@ impl<F: Real> MemoryBank<F> {
             st.t_prev_s = t_s;
             st.primed = true;
             if self.observer_on {
-                sink(MEM_OBSERVER, st.observer[1]);
+                sink(mem_observer, st.observer[1]);
             }
             return;
         }
@@ -261,18 +281,18 @@ impl<F: Real> MemoryBank<F> {
         self.state.t_prev_s = t_s;
         self.refresh_alphas(dt);
         let st = &mut self.state;
-        let mut k = MEM_GRATING;
+        let mut k = 0;
         for (((lp, &on), &a), s) in
             self.grating_lp.iter().zip(self.grating_on.iter()).zip(self.alpha_grating.iter()).zip(st.grating.iter_mut())
         {
             if on {
-                for (j, (&x, si)) in dl_pm.iter().zip(s.iter_mut()).enumerate() {
+                for (j, (&x, si)) in dl.iter().zip(s.iter_mut()).enumerate() {
                     sink(k + j, x - lp.update(si, x, a));
                 }
             }
-            k += N_GRATINGS;
+            k += n;
         }
-        for (k, (((lp, &on), &a), si)) in (MEM_AMBIENT..).zip(
+        for (k, (((lp, &on), &a), si)) in (mem_ambient..).zip(
             self.ambient_lp
                 .iter()
                 .zip(self.ambient_on.iter())
@@ -283,24 +303,54 @@ impl<F: Real> MemoryBank<F> {
                 sink(k, t_amb_c - lp.update(si, t_amb_c, a));
             }
         }
-        let mut k = MEM_STOP;
+        let mut k = mem_stop;
         for ((op, &on), s) in self.plays.iter().zip(self.play_on.iter()).zip(st.play.iter_mut()) {
             if on {
-                for (j, (&x, si)) in dl_pm.iter().zip(s.iter_mut()).enumerate() {
+                for (j, (&x, si)) in dl.iter().zip(s.iter_mut()).enumerate() {
                     sink(k + j, op.stop(si, x));
                 }
             }
-            k += N_GRATINGS;
+            k += n;
         }
         if self.observer_on {
             let v = self.observer.update(&mut st.observer, t_g, t_amb_c, self.alpha_observer);
-            sink(MEM_OBSERVER, v);
+            sink(mem_observer, v);
         }
     }
 }
 
-// The layout constants the loops above walk in order.
-const _: () = assert!(MEM_AMBIENT == N_GRATINGS * N_GRATING_TAUS);
-const _: () = assert!(MEM_STOP == MEM_AMBIENT + N_AMBIENT_TAUS);
-const _: () = assert!(MEM_OBSERVER == MEM_STOP + N_GRATINGS * N_PLAYS);
-const _: () = assert!(N_MEMORY == MEM_OBSERVER + 1);
+/// The regressors [Δλ_1..N, T_amb (with ambient)] of an affine row, and their count.
+#[inline(always)]
+pub(crate) fn affine_inputs<F: Real>(
+    dl_pm: &[F; MAX_GRATINGS],
+    gratings: usize,
+    ambient: bool,
+    t_amb_c: F,
+) -> ([F; MAX_ENVELOPE], usize) {
+    let mut x = [F::ZERO; MAX_ENVELOPE];
+    for (o, &d) in x.iter_mut().zip(dl_pm.iter()) {
+        *o = d;
+    }
+    let n = gratings.min(MAX_GRATINGS);
+    if ambient {
+        if let Some(o) = x.get_mut(n) {
+            *o = t_amb_c;
+        }
+        (x, n + 1)
+    } else {
+        (x, n)
+    }
+}
+
+/// row · [x_0..x_{n-1}, 1], accumulated from the constant backwards (x_{n-1} first), the order
+/// of the paper layout's nested multiply-adds.
+#[inline(always)]
+pub(crate) fn affine<F: Real>(x: &[F; MAX_ENVELOPE], n: usize, row: &[F; MAX_STAGE1]) -> F {
+    let mut acc = row.get(n).copied().unwrap_or(F::ZERO);
+    for (&xi, &ri) in head(x, n).iter().zip(head(row, n).iter()).rev() {
+        acc = xi.mul_add(ri, acc);
+    }
+    acc
+}
+
+const _: () = assert!(MAX_STAGE1 == MAX_ENVELOPE + 1);

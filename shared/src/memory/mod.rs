@@ -17,7 +17,7 @@
 //! Coefficients (τ, r, the observer's row) are kept apart from the state, as idsp does: one
 //! spec can drive any number of streams.
 
-mod bank;
+pub(crate) mod bank;
 mod drift_observer;
 mod low_pass;
 mod play;

@@ -3,14 +3,11 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
-use crate::layout::{
-    MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP, N_AMBIENT_TAUS, N_GRATINGS, N_GRATING_TAUS, N_MEMORY, N_PLAYS,
-    N_STAGE1,
-};
+use crate::layout::{Dims, MAX_STAGE1, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS};
 use crate::real::Real;
 
 /// The kinds of memory term, in the order of the memory vector m (see
-/// [`crate::layout::N_MEMORY`]).
+/// [`Dims::memory_len`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum MemoryGroup {
     /// Δλ_i − EMA_τ(Δλ_i) \[pm\]: thermal lag, slow drift and the slow part of hysteresis.
@@ -50,8 +47,10 @@ impl MemoryGroup {
 /// The memory operators of a model. A slot whose parameter is 0 is unused: its term is 0 and
 /// its coefficients in Γ must be 0.
 ///
-/// Memory vector layout (`N_MEMORY` terms): grating high-passes (τ slot major, grating minor),
-/// ambient high-passes, stop terms (r slot major, grating minor), the drift observer.
+/// Memory vector layout ([`Dims::memory_len`] terms): grating high-passes (τ slot major,
+/// grating minor), ambient high-passes (with ambient), stop terms (r slot major, grating minor),
+/// the drift observer (with ambient and a temperature output). Slots the dims do not have must
+/// be 0.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct MemorySpec<F> {
     /// Time constants τ \[s\] of the grating high-passes Δλ_i − EMA_τ(Δλ_i) (0 = unused).
@@ -64,8 +63,9 @@ pub struct MemorySpec<F> {
     pub observer_lag_s: F,
     /// Drift observer: smoothing τs \[s\] (> 0 when the observer is used).
     pub observer_smooth_s: F,
-    /// Drift observer: grating temperature T_g [°C] = row · [Δλ1..3 pm, T_amb °C, 1].
-    pub observer_row: [F; N_STAGE1],
+    /// Drift observer: grating temperature T_g [°C] = row · [Δλ_1..N pm, T_amb °C, 1] (the
+    /// first [`Dims::stage1_len`] entries; the rest 0).
+    pub observer_row: [F; MAX_STAGE1],
 }
 
 /// What one memory term is.
@@ -88,22 +88,23 @@ impl<F: Real> MemorySpec<F> {
             play_half_width_pm: [F::ZERO; N_PLAYS],
             observer_lag_s: F::ZERO,
             observer_smooth_s: F::ZERO,
-            observer_row: [F::ZERO; N_STAGE1],
+            observer_row: [F::ZERO; MAX_STAGE1],
         }
     }
 
-    /// What term `k` of the memory vector is (`None` beyond [`N_MEMORY`]).
-    pub fn term(&self, k: usize) -> Option<TermInfo<F>> {
+    /// What term `k` of the memory vector of a model with `dims` is (`None` beyond
+    /// [`Dims::memory_len`]).
+    pub fn term(&self, dims: &Dims, k: usize) -> Option<TermInfo<F>> {
         let info = |group, grating, parameter| Some(TermInfo { group, grating, parameter });
-        if k < MEM_AMBIENT {
-            let slot = (k - MEM_GRATING) / N_GRATINGS;
-            info(MemoryGroup::GratingHighPass, k % N_GRATINGS, *self.grating_tau_s.get(slot)?)
-        } else if k < MEM_STOP {
-            info(MemoryGroup::AmbientHighPass, 0, *self.ambient_tau_s.get(k - MEM_AMBIENT)?)
-        } else if k < MEM_OBSERVER {
-            let slot = (k - MEM_STOP) / N_GRATINGS;
-            info(MemoryGroup::Stop, (k - MEM_STOP) % N_GRATINGS, *self.play_half_width_pm.get(slot)?)
-        } else if k == MEM_OBSERVER {
+        let n = dims.gratings().max(1);
+        if k < dims.mem_ambient() {
+            info(MemoryGroup::GratingHighPass, k % n, *self.grating_tau_s.get(k / n)?)
+        } else if k < dims.mem_stop() {
+            info(MemoryGroup::AmbientHighPass, 0, *self.ambient_tau_s.get(k - dims.mem_ambient())?)
+        } else if k < dims.mem_observer() {
+            let j = k - dims.mem_stop();
+            info(MemoryGroup::Stop, j % n, *self.play_half_width_pm.get(j / n)?)
+        } else if k == dims.mem_observer() && dims.has_observer() {
             let on = self.observer_lag_s > F::ZERO;
             info(MemoryGroup::DriftObserver, 0, if on { self.observer_smooth_s } else { F::ZERO })
         } else {
@@ -112,17 +113,23 @@ impl<F: Real> MemorySpec<F> {
     }
 
     /// Whether term `k` is computed (its slot is used).
-    pub fn term_active(&self, k: usize) -> bool {
-        self.term(k).is_some_and(|t| t.parameter > F::ZERO)
+    pub fn term_active(&self, dims: &Dims, k: usize) -> bool {
+        self.term(dims, k).is_some_and(|t| t.parameter > F::ZERO)
     }
 
-    /// Whether any term is used.
+    /// Whether any slot is used.
     pub fn any(&self) -> bool {
-        (0..N_MEMORY).any(|k| self.term_active(k))
+        let on = |v: &F| *v > F::ZERO;
+        self.grating_tau_s.iter().any(on)
+            || self.ambient_tau_s.iter().any(on)
+            || self.play_half_width_pm.iter().any(on)
+            || self.observer_lag_s > F::ZERO
     }
 
-    /// Every parameter finite and >= 0; an observer with a lag has a smoothing and a finite row.
-    pub fn validate(&self) -> Result<(), Error> {
+    /// Every parameter finite and >= 0; an observer with a lag has a smoothing and a finite row;
+    /// no ambient slot without the ambient input, no observer without its slot
+    /// ([`Dims::has_observer`]).
+    pub fn validate(&self, dims: &Dims) -> Result<(), Error> {
         let ok = |v: F| v.is_finite() && v >= F::ZERO;
         if !self.grating_tau_s.iter().all(|&v| ok(v)) {
             return Err(Error::BadParameter { field: "memory.grating_tau_s" });
@@ -130,10 +137,16 @@ impl<F: Real> MemorySpec<F> {
         if !self.ambient_tau_s.iter().all(|&v| ok(v)) {
             return Err(Error::BadParameter { field: "memory.ambient_tau_s" });
         }
+        if !dims.ambient() && self.ambient_tau_s.iter().any(|&v| v != F::ZERO) {
+            return Err(Error::BadParameter { field: "memory.ambient_tau_s" });
+        }
         if !self.play_half_width_pm.iter().all(|&v| ok(v)) {
             return Err(Error::BadParameter { field: "memory.play_half_width_pm" });
         }
         if !(ok(self.observer_lag_s) && ok(self.observer_smooth_s)) {
+            return Err(Error::BadParameter { field: "memory.observer" });
+        }
+        if self.observer_lag_s > F::ZERO && !dims.has_observer() {
             return Err(Error::BadParameter { field: "memory.observer" });
         }
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -169,6 +182,9 @@ impl<F: Real> MemorySpec<F> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::layout::paper::{MEM_AMBIENT, MEM_OBSERVER, MEM_STOP, N_MEMORY};
+
+    const D: Dims = Dims::PAPER;
 
     fn spec() -> MemorySpec<f64> {
         MemorySpec {
@@ -177,7 +193,7 @@ mod tests {
             play_half_width_pm: [0.0, 0.0, 7.5],
             observer_lag_s: 300.0,
             observer_smooth_s: 1800.0,
-            observer_row: [0.125, 0.25, -0.375, 1.0, -20.0],
+            observer_row: [0.125, 0.25, -0.375, 1.0, -20.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         }
     }
 
@@ -202,36 +218,36 @@ mod tests {
             MEM_OBSERVER,
         ];
         for k in 0..N_MEMORY {
-            assert_eq!(s.term_active(k), active.contains(&k), "term {k}");
+            assert_eq!(s.term_active(&D, k), active.contains(&k), "term {k}");
         }
         assert_eq!(
-            s.term(16),
+            s.term(&D, 16),
             Some(TermInfo { group: MemoryGroup::GratingHighPass, grating: 1, parameter: 604_800.0 })
         );
         assert_eq!(
-            s.term(MEM_AMBIENT + 1),
+            s.term(&D, MEM_AMBIENT + 1),
             Some(TermInfo { group: MemoryGroup::AmbientHighPass, grating: 0, parameter: 600.0 })
         );
-        assert_eq!(s.term(MEM_STOP + 8), Some(TermInfo { group: MemoryGroup::Stop, grating: 2, parameter: 7.5 }));
+        assert_eq!(s.term(&D, MEM_STOP + 8), Some(TermInfo { group: MemoryGroup::Stop, grating: 2, parameter: 7.5 }));
         assert_eq!(
-            s.term(MEM_OBSERVER),
+            s.term(&D, MEM_OBSERVER),
             Some(TermInfo { group: MemoryGroup::DriftObserver, grating: 0, parameter: 1800.0 })
         );
-        assert_eq!(s.term(N_MEMORY), None);
+        assert_eq!(s.term(&D, N_MEMORY), None);
         assert!(s.any());
         // The observer is used only with a lag; its smoothing alone does not switch it on.
         let mut t = MemorySpec::<f64>::off();
         t.observer_smooth_s = 100.0;
-        assert!(!t.term_active(MEM_OBSERVER));
-        assert_eq!(t.term(MEM_OBSERVER).map(|i| i.parameter), Some(0.0));
+        assert!(!t.term_active(&D, MEM_OBSERVER));
+        assert_eq!(t.term(&D, MEM_OBSERVER).map(|i| i.parameter), Some(0.0));
         assert!(!t.any());
-        assert_eq!(t.validate(), Ok(()));
+        assert_eq!(t.validate(&D), Ok(()));
     }
 
     #[test]
     fn validate_names_each_bad_field() {
-        assert_eq!(spec().validate(), Ok(()));
-        assert_eq!(MemorySpec::<f32>::off().validate(), Ok(()));
+        assert_eq!(spec().validate(&D), Ok(()));
+        assert_eq!(MemorySpec::<f32>::off().validate(&D), Ok(()));
         type Edit = fn(&mut MemorySpec<f64>);
         let cases: [(&str, Edit); 10] = [
             ("memory.grating_tau_s", |s| s.grating_tau_s[1] = -1.0),
@@ -248,8 +264,8 @@ mod tests {
         for (field, f) in cases {
             let mut s = spec();
             f(&mut s);
-            assert_eq!(s.validate(), Err(Error::BadParameter { field }), "{field}");
-            assert_eq!(s.convert::<f32>().validate(), Err(Error::BadParameter { field }), "{field} (f32)");
+            assert_eq!(s.validate(&D), Err(Error::BadParameter { field }), "{field}");
+            assert_eq!(s.convert::<f32>().validate(&D), Err(Error::BadParameter { field }), "{field} (f32)");
         }
     }
 

@@ -246,7 +246,12 @@ mod tests {
         static DATA: [u8; MAX_CHUNK] = [0xA5; MAX_CHUNK];
         std::vec![
             HostMsg::Ping { nonce: 0xDEAD_BEEF },
-            HostMsg::Sample { seq: 7, sample: Sample { dl_pm: [12.5, -3.25, f32::NAN], t_amb_c: 21.0, t_s: 1.0e6 } },
+            HostMsg::Sample { seq: 7, sample: Sample::new([12.5, -3.25, f32::NAN], 21.0, 1.0e6) },
+            HostMsg::Sample {
+                seq: u32::MAX,
+                sample: Sample::new([f32::MAX; crate::layout::MAX_GRATINGS], f32::NAN, 1.0)
+            },
+            HostMsg::Sample { seq: 0, sample: Sample::new([0.5], f32::NAN, 0.0) },
             HostMsg::ModelBegin { total_len: 2900, crc32: 0x1234_5678 },
             HostMsg::ModelChunk { offset: u32::MAX, data: &DATA },
             HostMsg::ModelChunk { offset: 0, data: &[0, 0, 0] },
@@ -262,8 +267,16 @@ mod tests {
             DeviceMsg::Pong { nonce: u32::MAX },
             DeviceMsg::Estimate(DeviceEstimate {
                 seq: u32::MAX,
-                values: [f32::NAN, -1.0e30, 3.0],
-                band: [f32::INFINITY, 0.0, 1.0],
+                values: [f32::NAN, -1.0e30, 3.0, 0.0],
+                band: [f32::INFINITY, 0.0, 1.0, 0.0],
+                outputs: 3,
+                flags: Flags::ALL,
+            }),
+            DeviceMsg::Estimate(DeviceEstimate {
+                seq: u32::MAX,
+                values: [f32::MAX; crate::layout::MAX_OUTPUTS],
+                band: [f32::INFINITY; crate::layout::MAX_OUTPUTS],
+                outputs: crate::layout::MAX_OUTPUTS as u8,
                 flags: Flags::ALL,
             }),
             DeviceMsg::Status(Status {

@@ -5,9 +5,9 @@ use serde::{Deserialize, Serialize};
 #[cfg(doc)]
 use super::framing::crc32;
 use super::reject::RejectReason;
-use crate::compensator::Sample;
+use crate::compensator::{Estimate, Sample};
 use crate::flags::Flags;
-use crate::layout::N_OUTPUTS;
+use crate::layout::{head, MAX_OUTPUTS};
 use crate::signature::KeyId;
 
 /// Largest `data` of one [`HostMsg::ModelChunk`] in bytes.
@@ -61,17 +61,57 @@ pub enum HostMsg<'a> {
     },
 }
 
-/// One compensated sample as the device reports it.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// One compensated sample as the device reports it: on the link, the sequence number, the
+/// model's M values, M band half-widths and the flags.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct DeviceEstimate {
     /// The request's sequence number.
     pub seq: u32,
-    /// T [°C], ε \[µε\], p \[kPa\].
-    pub values: [f32; N_OUTPUTS],
-    /// Half-width of the 95 % band, same units.
-    pub band: [f32; N_OUTPUTS],
+    /// One value per output of the model, in its output order and units (0 beyond M).
+    pub values: [f32; MAX_OUTPUTS],
+    /// Half-width of the 95 % band, same units (0 beyond M).
+    pub band: [f32; MAX_OUTPUTS],
+    /// M, the model's number of outputs.
+    pub outputs: u8,
     /// Fault flags (any flag also raises the alarm output).
     pub flags: Flags,
+}
+
+impl DeviceEstimate {
+    /// The device's answer `e` to sample `seq`.
+    pub fn new(seq: u32, e: &Estimate<f32>) -> Self {
+        DeviceEstimate { seq, values: e.values, band: e.band95, outputs: e.outputs, flags: e.flags }
+    }
+    /// The M values.
+    pub fn values(&self) -> &[f32] {
+        head(&self.values, usize::from(self.outputs))
+    }
+    /// The M band half-widths.
+    pub fn bands(&self) -> &[f32] {
+        head(&self.band, usize::from(self.outputs))
+    }
+}
+
+impl Serialize for DeviceEstimate {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        (self.seq, self.values(), self.bands(), self.flags).serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for DeviceEstimate {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        type Wire = (u32, heapless::Vec<f32, MAX_OUTPUTS>, heapless::Vec<f32, MAX_OUTPUTS>, Flags);
+        let (seq, v, b, flags): Wire = Deserialize::deserialize(d)?;
+        let mut e =
+            DeviceEstimate { seq, values: [0.0; MAX_OUTPUTS], band: [0.0; MAX_OUTPUTS], outputs: v.len() as u8, flags };
+        for (o, &x) in e.values.iter_mut().zip(v.iter()) {
+            *o = x;
+        }
+        for (o, &x) in e.band.iter_mut().zip(b.iter()) {
+            *o = x;
+        }
+        Ok(e)
+    }
 }
 
 /// A message from the device to the host.

@@ -34,6 +34,10 @@ pub enum RejectReason {
     BadParameter = 9,
     /// Encoder buffer too small ([`Error::BufferTooSmall`]; not expected from a device).
     BufferTooSmall = 10,
+    /// The model's gratings or measurands exceed this build's capacity
+    /// ([`Error::OverCapacity`]; detail: the model's count in the high 16 bits, the capacity in
+    /// the low 16).
+    OverCapacity = 11,
     /// A chunk or commit arrived with no transfer in progress.
     NoUpdateInProgress = 20,
     /// The announced length exceeds the staging buffer of this build (or is shorter than any
@@ -66,7 +70,7 @@ pub enum RejectReason {
 
 impl RejectReason {
     /// Every reason this version defines.
-    pub const ALL: [RejectReason; 21] = [
+    pub const ALL: [RejectReason; 22] = [
         RejectReason::Truncated,
         RejectReason::BadMagic,
         RejectReason::UnsupportedVersion,
@@ -77,6 +81,7 @@ impl RejectReason {
         RejectReason::TooManyCentres,
         RejectReason::BadParameter,
         RejectReason::BufferTooSmall,
+        RejectReason::OverCapacity,
         RejectReason::NoUpdateInProgress,
         RejectReason::TooLarge,
         RejectReason::OutOfOrder,
@@ -113,6 +118,7 @@ impl RejectReason {
             RejectReason::TooManyCentres => "more RBF centres than this firmware holds",
             RejectReason::BadParameter => "a model parameter is non-finite or out of range",
             RejectReason::BufferTooSmall => "buffer too small",
+            RejectReason::OverCapacity => "more gratings or measurands than this firmware holds",
             RejectReason::NoUpdateInProgress => "no model transfer in progress",
             RejectReason::TooLarge => "announced blob length does not fit the staging buffer",
             RejectReason::OutOfOrder => "chunk offset out of order",
@@ -168,6 +174,9 @@ impl From<Error> for Rejection {
             Error::TooManyCentres { found, .. } => (RejectReason::TooManyCentres, sat_u32(found)),
             Error::BadParameter { .. } => (RejectReason::BadParameter, 0),
             Error::BufferTooSmall => (RejectReason::BufferTooSmall, 0),
+            Error::OverCapacity { found, capacity, .. } => {
+                (RejectReason::OverCapacity, (found as u32) << 16 | capacity as u32)
+            }
             #[allow(unreachable_patterns)] // `Error` is non_exhaustive
             _ => (RejectReason::Other, 0),
         };
@@ -211,7 +220,7 @@ mod tests {
     #[test]
     fn reject_codes_are_stable_and_round_trip() {
         let codes: Vec<u8> = RejectReason::ALL.iter().map(|r| r.code()).collect();
-        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 20, 21, 22, 23, 24, 25, 30, 31, 32, 33, 255]);
+        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21, 22, 23, 24, 25, 30, 31, 32, 33, 255]);
         for r in RejectReason::ALL {
             assert_eq!(RejectReason::from_code(r.code()), r);
             let mut buf = [0u8; 4];
@@ -223,6 +232,8 @@ mod tests {
         let e = Rejection::from(Error::WrongDims { field: "centres", found: 64, expected: 32 });
         assert_eq!(e, Rejection { reason: RejectReason::WrongDims, detail: 64 << 16 | 32 });
         assert_eq!(Rejection::from(Error::BadCrc).reason, RejectReason::BadCrc);
+        let e = Rejection::from(Error::OverCapacity { field: "gratings", found: 9, capacity: 8 });
+        assert_eq!(e, Rejection { reason: RejectReason::OverCapacity, detail: 9 << 16 | 8 });
         assert_eq!(Rejection::from(Error::BadParameter { field: "hyper.sigma" }).reason, RejectReason::BadParameter);
         let id = crate::signature::KeyId([0xde, 0xad, 0xbe, 0xef, 1, 2, 3, 4]);
         assert_eq!(

@@ -13,7 +13,7 @@ use super::report::{
 use super::runner::{read_json, FitBench, PeerBlackbox, Runner, SimMeta};
 use super::stats::median;
 use super::{holdout_errors_csv, preset_csv, COVERAGE_SEEDS};
-use fbg_shared::layout::N_OUTPUTS;
+use fbg_shared::layout::paper::N_OUTPUTS;
 
 /// Width of the lead-time bins of the ensemble band \[s\].
 const ENSEMBLE_BIN_S: f64 = 7200.0;

@@ -5,7 +5,8 @@ use std::path::Path;
 
 use anyhow::Result;
 
-use fbg_shared::layout::{N_ENVELOPE, N_GRATINGS, N_MEMORY, N_OUTPUTS, N_POLY, N_STAGE1, VAR_RANK, Z_DIMS};
+use fbg_shared::layout::paper::N_MEMORY;
+use fbg_shared::layout::{Dims, VAR_RANK};
 use fbg_shared::{MemoryGroup, MemorySpec};
 
 use super::report::{DeviceResults, LowerBound, LowerBoundAtK};
@@ -31,7 +32,7 @@ pub fn part(root: &Path, opts: &Opts) -> Result<DeviceResults> {
         "cargo xtask bench (device part: xtask/src/device_bench.rs)"
     }
     .to_string();
-    let full = memory_ops(&MemorySpec::<f32>::off(), true);
+    let full = memory_ops(&Dims::PAPER, &MemorySpec::<f32>::off(), true);
     v.arithmetic_lower_bound = Some(LowerBound {
         formula: format!(
             "{} K + {} without memory terms; + {} with the full memory bank ({} terms), + M_ops in general",
@@ -55,14 +56,14 @@ pub fn part(root: &Path, opts: &Opts) -> Result<DeviceResults> {
 /// the terms `spec` uses (every slot when `full`): Δt and the cache test 2; per high-pass of a
 /// grating or of T_amb 3 (x − s, the multiply-add s + α(x − s), x − s'); per stop term 5
 /// (x − r, x + r, 2 compares, x − p); the drift observer 9 (T_g: 4 multiply-adds over
-/// [Δλ1..3, T_amb, 1]; lag 2; − T_amb 1; smoothing 2); Γm one multiply-add per output and
+/// [Δλ_1..N, T_amb, 1]; lag 2; − T_amb 1; smoothing 2); Γm one multiply-add per output and
 /// used term. 0 without memory terms. A step with a new Δt adds one smoothing factor per used
 /// low-pass (a degree-5 series, or `exp` and a subtraction).
-pub fn memory_ops(spec: &MemorySpec<f32>, full: bool) -> usize {
+pub fn memory_ops(dims: &Dims, spec: &MemorySpec<f32>, full: bool) -> usize {
     let mut ops = 0;
     let mut used = 0;
-    for k in 0..N_MEMORY {
-        let Some(t) = spec.term(k) else { continue };
+    for k in 0..dims.memory_len() {
+        let Some(t) = spec.term(dims, k) else { continue };
         if !(full || t.parameter > 0.0) {
             continue;
         }
@@ -70,35 +71,43 @@ pub fn memory_ops(spec: &MemorySpec<f32>, full: bool) -> usize {
         ops += match t.group {
             MemoryGroup::GratingHighPass | MemoryGroup::AmbientHighPass => 3,
             MemoryGroup::Stop => 5,
-            MemoryGroup::DriftObserver => 9,
+            MemoryGroup::DriftObserver => 5 + dims.stage1_len() - 1,
         };
     }
     if used == 0 {
         return 0;
     }
-    2 + ops + N_OUTPUTS * used
+    2 + ops + dims.n_outputs() * used
 }
 
 /// Arithmetic operations of one f32 `Compensator::step` with `k` centres and `memory` operations
 /// of the memory bank ([`memory_ops`]), counted from the current code (the table in the
 /// `fbg-shared` crate docs): a multiply-add counts as one.
 pub fn step_ops(k: usize, memory: usize) -> usize {
+    step_ops_dims(&Dims::PAPER, k, memory)
+}
+
+/// [`step_ops`] for a model of `dims` (N gratings, ambient, M outputs): the same terms with
+/// the dims' lengths (for the paper dims, the table of the crate docs).
+pub fn step_ops_dims(dims: &Dims, k: usize, memory: usize) -> usize {
+    let (n, m) = (dims.gratings(), dims.n_outputs());
+    let (n_s1, n_poly, n_env, n_z) = (dims.stage1_len(), dims.poly_len(), dims.envelope_len(), dims.z_len());
     let exp_neg = 14; // compare, 9 multiply-adds, subtract, negate, 2 exponent-field ops
                       // Distance over the inputs the default (hysteresis-aware) set uses: all but time.
-    let per_centre = (1 + Z_DIMS - 1) + exp_neg + (N_OUTPUTS + VAR_RANK + 1);
-    let fixed = (N_GRATINGS + 2) // finiteness
-        + N_GRATINGS * 10 // direction latches
-        + 2 * N_ENVELOPE // envelope
-        + N_OUTPUTS * (N_STAGE1 - 1) // stage 1
-        + 6 + N_OUTPUTS * N_POLY // φ and B
-        + 2 * Z_DIMS // z and ‖z‖²
+    let per_centre = (1 + n_z - 1) + exp_neg + (m + VAR_RANK + 1);
+    let fixed = (n + 2) // finiteness
+        + n * 10 // direction latches
+        + 2 * n_env // envelope
+        + m * (n_s1 - 1) // stage 1
+        + (n_poly - 1 - m) + m * n_poly // φ (squares and cross products) and B
+        + 2 * n_z // z and ‖z‖²
         + 4 + 1 + VAR_RANK // weak support from ‖ψ‖² (2 compares, 2 products), leverage
-        + N_OUTPUTS + 2 + 5 * N_OUTPUTS; // finiteness of y, lead time, bands
+        + m + 2 + 5 * m; // finiteness of y, lead time, bands
     fixed + per_centre * k + memory
 }
 
-/// [`step_ops`] of a model blob (its centres and memory terms).
+/// [`step_ops_dims`] of a model blob (its dims, centres and memory terms).
 pub fn step_ops_of(blob_bytes: &[u8]) -> Result<usize> {
     let p = crate::fixtures::decode(blob_bytes)?;
-    Ok(step_ops(p.centres.len(), memory_ops(&p.memory, false)))
+    Ok(step_ops_dims(&p.dims, p.centres.len(), memory_ops(&p.dims, &p.memory, false)))
 }
