@@ -9,14 +9,13 @@
 
 use std::time::Instant;
 
-use fbg_shared::layout::paper::N_OUTPUTS;
 use fbg_shared::layout::FeatureSet;
 use fbg_shared::Estimate;
 
 use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::eval::parity::{self, ParityReport};
-use crate::eval::score::{evaluate_holdout, ModelEval, CHANNELS};
+use crate::eval::score::{channels, evaluate_holdout, ModelEval};
 use crate::export;
 use crate::fit::{self, Config, FeatureChoice, Origin, TrainOptions};
 use crate::stats::median;
@@ -36,15 +35,19 @@ pub const DEFAULT_FIXED: Config = Config {
 /// Hold-out figures of one model.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct HoldoutFigures {
-    pub rmse: [f64; N_OUTPUTS],
-    pub coverage: [f64; N_OUTPUTS],
+    pub rmse: Vec<f64>,
+    pub coverage: Vec<f64>,
     /// Size of the exported `.fbgm` blob \[B\].
     pub blob_bytes: usize,
 }
 
 impl HoldoutFigures {
     fn of(e: &ModelEval, blob_bytes: usize) -> Self {
-        HoldoutFigures { rmse: e.channels.map(|c| c.rmse), coverage: e.channels.map(|c| c.coverage), blob_bytes }
+        HoldoutFigures {
+            rmse: e.channels.iter().map(|c| c.rmse).collect(),
+            coverage: e.channels.iter().map(|c| c.coverage).collect(),
+            blob_bytes,
+        }
     }
 }
 
@@ -89,7 +92,7 @@ pub fn bench_fit(
     holdout_errors: Option<&std::path::Path>,
 ) -> Result<FitBench, TrainerError> {
     let t = Instant::now();
-    let d = Dataset::read_paper_csv(data, "bench-fit")?;
+    let d = Dataset::read_csv(data)?;
     let read_seconds = t.elapsed().as_secs_f64();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -125,7 +128,7 @@ pub fn bench_fit(
     let (ep, _) = evaluate_holdout(&tr.model_p, &d)?;
     let (eh, esth) = evaluate_holdout(&tr.model_h, &d)?;
     if let Some(path) = holdout_errors {
-        write_holdout_errors(path, &d, &esth)?;
+        write_holdout_errors(path, &tr.model_h.dims, &d, &esth)?;
     }
     Ok(FitBench {
         mode,
@@ -137,8 +140,8 @@ pub fn bench_fit(
         fit_seconds,
         phase_seconds,
         chosen: tr.selection.chosen,
-        memory_groups: (0..tr.selection.memory.groups.len()).map(|o| tr.selection.memory.names(o)).collect(),
-        memory_lambda: tr.selection.memory.lambda.to_vec(),
+        memory_groups: (0..tr.model_h.dims.n_outputs()).map(|o| tr.selection.memory.names(o)).collect(),
+        memory_lambda: tr.selection.memory.lambda[..tr.model_h.dims.n_outputs()].to_vec(),
         grid_points: tr.selection.rows.len(),
         model_p: HoldoutFigures::of(&ep, export::blob_bytes(&tr.model_p)?.len()),
         model_h: HoldoutFigures::of(&eh, export::blob_bytes(&tr.model_h)?.len()),
@@ -241,23 +244,29 @@ impl BenchFitArgs {
 }
 
 /// Model-H's hold-out errors (estimate − truth) and band half-widths, one row per scored sample.
-fn write_holdout_errors(path: &std::path::Path, d: &Dataset, est: &[Estimate<f64>]) -> Result<(), TrainerError> {
+fn write_holdout_errors(
+    path: &std::path::Path,
+    dims: &fbg_shared::layout::Dims,
+    d: &Dataset,
+    est: &[Estimate<f64>],
+) -> Result<(), TrainerError> {
     use std::io::Write;
     let idx: Vec<usize> = d.holdout_indices().into_iter().filter(|&i| d.usable(i)).collect();
+    let refs = d.references_of(dims);
     crate::data::files::write_atomically(path, |w| {
         write!(w, "t_s")?;
         for name in ["err", "band"] {
-            for ch in CHANNELS {
+            for ch in channels(dims) {
                 write!(w, ",{name}_{ch}")?;
             }
         }
         writeln!(w)?;
         for (e, &i) in est.iter().zip(&idx) {
             write!(w, "{}", d.t_s[i])?;
-            for c in 0..N_OUTPUTS {
-                write!(w, ",{}", e.values[c] - d.target(c)[i])?;
+            for (c, r) in refs.iter().enumerate() {
+                write!(w, ",{}", e.values[c] - r[i])?;
             }
-            for c in 0..N_OUTPUTS {
+            for c in 0..dims.n_outputs() {
                 write!(w, ",{}", e.band95[c])?;
             }
             writeln!(w)?;
