@@ -57,6 +57,10 @@ pub struct FitBench {
     /// `fixed` (one grid point: the CV still runs once, for the band) or `select` (the full
     /// hyper-parameter grid).
     pub mode: &'static str,
+    /// The model's outputs (`T`, `strain`, …): the per-output lists below follow it.
+    pub channels: Vec<String>,
+    /// Their units.
+    pub units: Vec<String>,
     pub n_samples: usize,
     pub n_cal: usize,
     /// Worker threads of the pool the fits ran in.
@@ -132,6 +136,8 @@ pub fn bench_fit(
     }
     Ok(FitBench {
         mode,
+        channels: channels(&tr.model_h.dims),
+        units: crate::eval::score::units(&tr.model_h.dims),
         n_samples: d.len(),
         n_cal: tr.selection.n_cal,
         threads: pool.current_num_threads(),
@@ -277,17 +283,35 @@ fn write_holdout_errors(
 
 impl FitBench {
     /// One human-readable paragraph.
+    /// "T 0.123 °C, ε 1.23 µε" (units only when `units`).
+    fn rmse_text(&self, rmse: &[f64], units: bool) -> String {
+        self.channels
+            .iter()
+            .zip(&self.units)
+            .zip(rmse)
+            .map(|((ch, u), v)| {
+                let (sym, dg) = (ch.replacen("strain", "ε", 1), if u == "°C" { 3 } else { 2 });
+                if units {
+                    format!("{sym} {v:.dg$} {u}")
+                } else {
+                    format!("{sym} {v:.dg$}")
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
     pub fn text(&self) -> String {
         let c = &self.chosen;
         format!(
             "{} fit of {} calibration samples ({} in the file, {} threads): median {:.3} s over {} fits {:?} (CSV read {:.2} s)\n\
              configuration: {} features, K = {}, σ = {}×NN, α = {:e}·n, dead band {} pm ({} grid points)\n\
-             hold-out RMSE Model-P: T {:.3} °C, ε {:.2} µε, p {:.2} kPa ({} B); Model-H: T {:.3}, ε {:.2}, p {:.2} ({} B)",
+             hold-out RMSE Model-P: {} ({} B); Model-H: {} ({} B)",
             self.mode, self.n_cal, self.n_samples, self.threads, self.fit_seconds_median, self.fit_seconds.len(),
             self.fit_seconds.iter().map(|s| (s * 1000.0).round() / 1000.0).collect::<Vec<_>>(), self.read_seconds,
             c.feature_set.name(), c.k, c.sigma_mult, c.alpha_rel, c.dead_band_pm, self.grid_points,
-            self.model_p.rmse[0], self.model_p.rmse[1], self.model_p.rmse[2], self.model_p.blob_bytes,
-            self.model_h.rmse[0], self.model_h.rmse[1], self.model_h.rmse[2], self.model_h.blob_bytes,
+            self.rmse_text(&self.model_p.rmse, true), self.model_p.blob_bytes,
+            self.rmse_text(&self.model_h.rmse, false), self.model_h.blob_bytes,
         )
     }
 }

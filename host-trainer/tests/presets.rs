@@ -187,3 +187,35 @@ fn compensate_matches_evaluate_bit_for_bit_on_a_strain_pair() {
         assert_eq!(got[i][5], e.flags.0.to_string());
     }
 }
+
+/// `demo` runs every study on other installations: the drift sweep, Table 3, the error budget
+/// and the recalibration study carry one value per measurand, their tables name the
+/// measurands, and an error-budget row the scenario cannot support (array-8 with every
+/// artefact off: its temperature-only gratings are then exactly collinear) is a row marked
+/// "not fitted", not a failed demo.
+#[test]
+fn demo_runs_every_study_for_any_installation() {
+    for (preset, measurands) in [("strain-pair", 2usize), ("array-8", 4)] {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path().join("demo");
+        let (ok, _, err) = run(bin().args(["demo", "--preset", preset, "--out"]).arg(&out));
+        assert!(ok, "{preset}: {err}");
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("model.metrics.json")).unwrap()).unwrap();
+        let len = |v: &serde_json::Value| v.as_array().map(|a| a.len()).unwrap_or(0);
+        assert_eq!(len(&m["drift_sweep"]["slope_h"]), measurands, "{preset}");
+        assert!(m["drift_sweep"]["rmse_h"].as_array().unwrap().iter().all(|r| len(r) == measurands), "{preset}");
+        assert!(m["ablation"].as_array().unwrap().iter().all(|r| len(&r["channels"]) == measurands), "{preset}");
+        assert!(m["error_budget"].as_array().unwrap().iter().all(|r| len(&r["rmse_h"]) == measurands), "{preset}");
+        assert!(m["recalibration"].as_array().unwrap().iter().all(|r| len(&r["h_short"]) == measurands), "{preset}");
+        let t3 = std::fs::read_to_string(out.join("table3.md")).unwrap();
+        assert!(t3.contains("strain [µε]") && t3.contains("T [°C]"), "{preset}: {t3}");
+        assert_eq!(t3.contains("p [kPa]"), measurands == 4, "{preset}: {t3}");
+        let budget = std::fs::read_to_string(out.join("error_budget.md")).unwrap();
+        if preset == "array-8" {
+            assert!(budget.contains("all (not fitted)") && budget.contains("ε2 H"), "{budget}");
+        } else {
+            assert!(!budget.contains("not fitted") && !budget.contains("p H"), "{budget}");
+        }
+    }
+}

@@ -55,6 +55,10 @@ pub struct BudgetRow {
     pub rmse_h: Vec<f64>,
     /// Per-sample oracle of that scenario.
     pub oracle_floor: Vec<f64>,
+    /// Why the models could not be refitted for this row (its RMSEs are then NaN): e.g. with
+    /// noise off, gratings that respond only to temperature are exactly collinear.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_fitted: Option<String>,
 }
 
 /// Everything measured about one scenario and seed.

@@ -211,8 +211,28 @@ pub fn error_budget(
         if all || name == "noise" {
             c.noise.enabled = false;
         }
-        let (p, h, floor) = refit_rmse(&c, seed, &o)?;
-        Ok(BudgetRow { effect_off: name.to_string(), rmse_p: p, rmse_h: h, oracle_floor: floor })
+        match refit_rmse(&c, seed, &o) {
+            Ok((p, h, floor)) => Ok(BudgetRow {
+                effect_off: name.to_string(),
+                rmse_p: p,
+                rmse_h: h,
+                oracle_floor: floor,
+                not_fitted: None,
+            }),
+            // A fit the scenario without this artefact cannot support (e.g. collinear gratings
+            // once the noise is off) is a row without numbers, not a failed study.
+            Err(e @ TrainerError::Fit { .. }) => {
+                let nan = vec![f64::NAN; cfg.measurands.len()];
+                Ok(BudgetRow {
+                    effect_off: name.to_string(),
+                    rmse_p: nan.clone(),
+                    rmse_h: nan.clone(),
+                    oracle_floor: nan,
+                    not_fitted: Some(e.to_string()),
+                })
+            }
+            Err(e) => Err(e),
+        }
     });
     rows.into_iter().collect()
 }

@@ -236,7 +236,8 @@ pub fn table3(rows: &[AblationRow], m: &Metrics) -> Table {
 pub fn budget(rows: &[BudgetRow], m: &Metrics) -> Table {
     let mut out = Vec::new();
     for r in rows {
-        let mut cells = vec![r.effect_off.clone()];
+        let name = if r.not_fitted.is_some() { format!("{} (not fitted)", r.effect_off) } else { r.effect_off.clone() };
+        let mut cells = vec![name];
         for (c, &digits) in all_digits(m).iter().enumerate() {
             cells.push(f(r.rmse_p[c], digits));
             cells.push(f(r.rmse_h[c], digits));

@@ -135,6 +135,8 @@ struct BudgetDe {
     rmse_p: Vec<F>,
     rmse_h: Vec<F>,
     oracle_floor: Vec<F>,
+    #[serde(default)]
+    not_fitted: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -292,6 +294,7 @@ impl From<MetricsDe> for Metrics {
                         rmse_p: a3(r.rmse_p),
                         rmse_h: a3(r.rmse_h),
                         oracle_floor: a3(r.oracle_floor),
+                        not_fitted: r.not_fitted,
                     })
                     .collect()
             }),
