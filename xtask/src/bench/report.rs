@@ -229,8 +229,9 @@ pub struct FixedMemory {
     /// ridge our cross-validation chose, the latch RBF inputs); absent without the peer.
     #[serde(default)]
     pub peer: Option<PeerMemory>,
-    /// Peer / ours, per round (ours and the peer alternate), and their median.
-    #[serde(default)]
+    /// Peer / ours, per round (ours and the peer alternate), and their median (empty, and not
+    /// written, without the peer).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ratio_per_round: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
     pub ratio_median: f64,
