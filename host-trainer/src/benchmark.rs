@@ -9,14 +9,13 @@
 
 use std::time::Instant;
 
-use fbg_shared::layout::paper::N_OUTPUTS;
 use fbg_shared::layout::FeatureSet;
 use fbg_shared::Estimate;
 
 use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::eval::parity::{self, ParityReport};
-use crate::eval::score::{evaluate_holdout, ModelEval, CHANNELS};
+use crate::eval::score::{channels, evaluate_holdout, ModelEval};
 use crate::export;
 use crate::fit::{self, Config, FeatureChoice, Origin, TrainOptions};
 use crate::stats::median;
@@ -36,15 +35,19 @@ pub const DEFAULT_FIXED: Config = Config {
 /// Hold-out figures of one model.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct HoldoutFigures {
-    pub rmse: [f64; N_OUTPUTS],
-    pub coverage: [f64; N_OUTPUTS],
+    pub rmse: Vec<f64>,
+    pub coverage: Vec<f64>,
     /// Size of the exported `.fbgm` blob \[B\].
     pub blob_bytes: usize,
 }
 
 impl HoldoutFigures {
     fn of(e: &ModelEval, blob_bytes: usize) -> Self {
-        HoldoutFigures { rmse: e.channels.map(|c| c.rmse), coverage: e.channels.map(|c| c.coverage), blob_bytes }
+        HoldoutFigures {
+            rmse: e.channels.iter().map(|c| c.rmse).collect(),
+            coverage: e.channels.iter().map(|c| c.coverage).collect(),
+            blob_bytes,
+        }
     }
 }
 
@@ -54,6 +57,10 @@ pub struct FitBench {
     /// `fixed` (one grid point: the CV still runs once, for the band) or `select` (the full
     /// hyper-parameter grid).
     pub mode: &'static str,
+    /// The model's outputs (`T`, `strain`, …): the per-output lists below follow it.
+    pub channels: Vec<String>,
+    /// Their units.
+    pub units: Vec<String>,
     pub n_samples: usize,
     pub n_cal: usize,
     /// Worker threads of the pool the fits ran in.
@@ -89,7 +96,7 @@ pub fn bench_fit(
     holdout_errors: Option<&std::path::Path>,
 ) -> Result<FitBench, TrainerError> {
     let t = Instant::now();
-    let d = Dataset::read_paper_csv(data, "bench-fit")?;
+    let d = Dataset::read_csv(data)?;
     let read_seconds = t.elapsed().as_secs_f64();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -125,10 +132,12 @@ pub fn bench_fit(
     let (ep, _) = evaluate_holdout(&tr.model_p, &d)?;
     let (eh, esth) = evaluate_holdout(&tr.model_h, &d)?;
     if let Some(path) = holdout_errors {
-        write_holdout_errors(path, &d, &esth)?;
+        write_holdout_errors(path, &tr.model_h.dims, &d, &esth)?;
     }
     Ok(FitBench {
         mode,
+        channels: channels(&tr.model_h.dims),
+        units: crate::eval::score::units(&tr.model_h.dims),
         n_samples: d.len(),
         n_cal: tr.selection.n_cal,
         threads: pool.current_num_threads(),
@@ -137,8 +146,8 @@ pub fn bench_fit(
         fit_seconds,
         phase_seconds,
         chosen: tr.selection.chosen,
-        memory_groups: (0..tr.selection.memory.groups.len()).map(|o| tr.selection.memory.names(o)).collect(),
-        memory_lambda: tr.selection.memory.lambda.to_vec(),
+        memory_groups: (0..tr.model_h.dims.n_outputs()).map(|o| tr.selection.memory.names(o)).collect(),
+        memory_lambda: tr.selection.memory.lambda[..tr.model_h.dims.n_outputs()].to_vec(),
         grid_points: tr.selection.rows.len(),
         model_p: HoldoutFigures::of(&ep, export::blob_bytes(&tr.model_p)?.len()),
         model_h: HoldoutFigures::of(&eh, export::blob_bytes(&tr.model_h)?.len()),
@@ -241,23 +250,29 @@ impl BenchFitArgs {
 }
 
 /// Model-H's hold-out errors (estimate − truth) and band half-widths, one row per scored sample.
-fn write_holdout_errors(path: &std::path::Path, d: &Dataset, est: &[Estimate<f64>]) -> Result<(), TrainerError> {
+fn write_holdout_errors(
+    path: &std::path::Path,
+    dims: &fbg_shared::layout::Dims,
+    d: &Dataset,
+    est: &[Estimate<f64>],
+) -> Result<(), TrainerError> {
     use std::io::Write;
     let idx: Vec<usize> = d.holdout_indices().into_iter().filter(|&i| d.usable(i)).collect();
+    let refs = d.references_of(dims);
     crate::data::files::write_atomically(path, |w| {
         write!(w, "t_s")?;
         for name in ["err", "band"] {
-            for ch in CHANNELS {
+            for ch in channels(dims) {
                 write!(w, ",{name}_{ch}")?;
             }
         }
         writeln!(w)?;
         for (e, &i) in est.iter().zip(&idx) {
             write!(w, "{}", d.t_s[i])?;
-            for c in 0..N_OUTPUTS {
-                write!(w, ",{}", e.values[c] - d.target(c)[i])?;
+            for (c, r) in refs.iter().enumerate() {
+                write!(w, ",{}", e.values[c] - r[i])?;
             }
-            for c in 0..N_OUTPUTS {
+            for c in 0..dims.n_outputs() {
                 write!(w, ",{}", e.band95[c])?;
             }
             writeln!(w)?;
@@ -268,17 +283,35 @@ fn write_holdout_errors(path: &std::path::Path, d: &Dataset, est: &[Estimate<f64
 
 impl FitBench {
     /// One human-readable paragraph.
+    /// "T 0.123 °C, ε 1.23 µε" (units only when `units`).
+    fn rmse_text(&self, rmse: &[f64], units: bool) -> String {
+        self.channels
+            .iter()
+            .zip(&self.units)
+            .zip(rmse)
+            .map(|((ch, u), v)| {
+                let (sym, dg) = (ch.replacen("strain", "ε", 1), if u == "°C" { 3 } else { 2 });
+                if units {
+                    format!("{sym} {v:.dg$} {u}")
+                } else {
+                    format!("{sym} {v:.dg$}")
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
     pub fn text(&self) -> String {
         let c = &self.chosen;
         format!(
             "{} fit of {} calibration samples ({} in the file, {} threads): median {:.3} s over {} fits {:?} (CSV read {:.2} s)\n\
              configuration: {} features, K = {}, σ = {}×NN, α = {:e}·n, dead band {} pm ({} grid points)\n\
-             hold-out RMSE Model-P: T {:.3} °C, ε {:.2} µε, p {:.2} kPa ({} B); Model-H: T {:.3}, ε {:.2}, p {:.2} ({} B)",
+             hold-out RMSE Model-P: {} ({} B); Model-H: {} ({} B)",
             self.mode, self.n_cal, self.n_samples, self.threads, self.fit_seconds_median, self.fit_seconds.len(),
             self.fit_seconds.iter().map(|s| (s * 1000.0).round() / 1000.0).collect::<Vec<_>>(), self.read_seconds,
             c.feature_set.name(), c.k, c.sigma_mult, c.alpha_rel, c.dead_band_pm, self.grid_points,
-            self.model_p.rmse[0], self.model_p.rmse[1], self.model_p.rmse[2], self.model_p.blob_bytes,
-            self.model_h.rmse[0], self.model_h.rmse[1], self.model_h.rmse[2], self.model_h.blob_bytes,
+            self.rmse_text(&self.model_p.rmse, true), self.model_p.blob_bytes,
+            self.rmse_text(&self.model_h.rmse, false), self.model_h.blob_bytes,
         )
     }
 }

@@ -11,7 +11,6 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use fbg_shared::layout::paper::{CHANNELS, N_OUTPUTS, UNITS};
 use fbg_shared::{Compensator, Estimate, Flags};
 
 use crate::data::files::write_atomically;
@@ -21,8 +20,10 @@ use crate::eval::score;
 use crate::export;
 use crate::fit::{self, HostParams, HOST_CAP};
 
-/// The dataset column of each output.
-pub const OUTPUT_COLUMNS: [&str; N_OUTPUTS] = ["T_C", "strain_ue", "p_kPa"];
+/// The dataset column of each output of `params` (`T_C`, `strain_ue`, …).
+pub fn output_columns(params: &HostParams) -> Vec<String> {
+    params.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect()
+}
 
 /// Rows per progress-bar tick.
 const TICK: usize = 16_384;
@@ -40,12 +41,16 @@ pub enum Precision {
 /// Errors against references present in the record, per output (NaN where absent).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ReferenceErrors {
+    /// The model's outputs (`T`, `strain`, …), in output order: every list below follows it.
+    pub channels: Vec<String>,
+    /// Their units.
+    pub units: Vec<String>,
     /// Rows with finite inputs and every reference of the record.
-    pub rows: [usize; N_OUTPUTS],
-    pub rmse: [f64; N_OUTPUTS],
-    pub bias: [f64; N_OUTPUTS],
+    pub rows: Vec<usize>,
+    pub rmse: Vec<f64>,
+    pub bias: Vec<f64>,
     /// Fraction of those rows whose reference lies inside the 95 % band.
-    pub coverage: [f64; N_OUTPUTS],
+    pub coverage: Vec<f64>,
 }
 
 /// What `compensate` did.
@@ -113,18 +118,18 @@ pub fn run(
     let t0 = Instant::now();
     let params = export::read_blob(model)?;
     let d = Dataset::read_field_csv(data)?;
-    d.paper_inputs(&data.display().to_string(), "compensate")?;
+    d.inputs_for(&params.dims, &data.display().to_string(), "compensate")?;
     let est = estimates(&params, &d, precision)?;
     let bar = fit::select::progress_bar(progress, d.len() as u64, "compensate");
     write_atomically(out, |w| {
         write!(w, "t_s")?;
-        for c in OUTPUT_COLUMNS {
+        for c in output_columns(&params) {
             write!(w, ",{c},{c}_band95")?;
         }
         writeln!(w, ",flags,flag_names")?;
         for (i, e) in est.iter().enumerate() {
             write!(w, "{}", d.t_s[i])?;
-            for c in 0..N_OUTPUTS {
+            for c in 0..params.dims.n_outputs() {
                 write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
             }
             writeln!(w, ",{},{}", e.flags.0, e.flags)?;
@@ -137,7 +142,9 @@ pub fn run(
     bar.finish_and_clear();
     let gap_rows = (0..d.len()).filter(|&i| !d.sample(i).inputs_finite()).count();
     let bits = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT];
-    let reference_errors = d.has_target().iter().any(|&h| h).then(|| reference_errors(&d, &est));
+    let reference_errors = (0..params.dims.n_outputs())
+        .any(|c| d.reference_of(&params.dims, c).is_present())
+        .then(|| reference_errors(&params, &d, &est));
     Ok(Summary {
         model: model.to_path_buf(),
         data: data.to_path_buf(),
@@ -155,16 +162,20 @@ pub fn run(
 }
 
 /// `evaluate`'s statistics over the rows with finite inputs and every reference the record has.
-fn reference_errors(d: &Dataset, est: &[Estimate<f64>]) -> ReferenceErrors {
+fn reference_errors(params: &HostParams, d: &Dataset, est: &[Estimate<f64>]) -> ReferenceErrors {
+    let dims = &params.dims;
     let rows: Vec<usize> = (0..d.len()).filter(|&i| d.usable(i)).collect();
     let at: Vec<Estimate<f64>> = rows.iter().map(|&i| est[i]).collect();
-    let ch = score::score(d, &rows, &at).channels;
-    let present = |c: usize| d.has_target()[c] && !rows.is_empty();
+    let ch = score::score(dims, d, &rows, &at).channels;
+    let present = |c: usize| d.reference_of(dims, c).is_present() && !rows.is_empty();
+    let m = dims.n_outputs();
     ReferenceErrors {
-        rows: std::array::from_fn(|c| if present(c) { ch[c].n } else { 0 }),
-        rmse: std::array::from_fn(|c| if present(c) { ch[c].rmse } else { f64::NAN }),
-        bias: std::array::from_fn(|c| if present(c) { ch[c].bias } else { f64::NAN }),
-        coverage: std::array::from_fn(|c| if present(c) { ch[c].coverage } else { f64::NAN }),
+        channels: score::channels(dims),
+        units: score::units(dims),
+        rows: (0..m).map(|c| if present(c) { ch[c].n } else { 0 }).collect(),
+        rmse: (0..m).map(|c| if present(c) { ch[c].rmse } else { f64::NAN }).collect(),
+        bias: (0..m).map(|c| if present(c) { ch[c].bias } else { f64::NAN }).collect(),
+        coverage: (0..m).map(|c| if present(c) { ch[c].coverage } else { f64::NAN }).collect(),
     }
 }
 
@@ -198,15 +209,15 @@ impl Summary {
         ));
         if let Some(r) = &self.reference_errors {
             s.push_str("\nagainst the references in the record (the rows with finite inputs and every reference):");
-            for c in (0..N_OUTPUTS).filter(|&c| r.rows[c] > 0) {
+            for c in (0..r.rows.len()).filter(|&c| r.rows[c] > 0) {
                 s.push_str(&format!(
                     "\n  {}: RMSE {:.4} {u}, bias {:+.4} {u}, band coverage {:.1} % ({} rows)",
-                    CHANNELS[c],
+                    r.channels[c],
                     r.rmse[c],
                     r.bias[c],
                     100.0 * r.coverage[c],
                     r.rows[c],
-                    u = UNITS[c]
+                    u = r.units[c]
                 ));
             }
         }

@@ -4,11 +4,11 @@
 use std::path::{Path, PathBuf};
 
 use fbg_link::golden;
-use fbg_shared::layout::paper::{N_ENVELOPE, N_OUTPUTS, N_POLY, N_STAGE1, POLY_NAMES, Z_DIMS, Z_NAMES};
-use fbg_shared::layout::{head, pad, pad2};
+use fbg_shared::layout::{head, MAX_OUTPUTS, MAX_POLY};
 use fbg_shared::{blob, Compensator, ModelParams, Sample};
 
 use crate::data::files::write_bytes_atomically;
+use crate::data::measurand::{input_columns, poly_term_names, stage1_columns};
 use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::fit::{HostParams, PolyCore, Selection, HOST_CAP};
@@ -56,39 +56,57 @@ pub fn blob_error_text(bytes: &[u8], e: &fbg_shared::Error) -> String {
     }
 }
 
+/// A JSON object with one entry per output of `p`, keyed by its column name (`T_C`, …).
+fn per_output<T: serde::Serialize>(p: &HostParams, v: impl Fn(usize) -> T) -> serde_json::Value {
+    let m: serde_json::Map<String, serde_json::Value> =
+        output_keys(p).into_iter().enumerate().map(|(o, k)| (k, serde_json::json!(v(o)))).collect();
+    serde_json::Value::Object(m)
+}
+
+/// JSON keys of a model's outputs: their column names, in output order.
+pub fn output_keys(p: &HostParams) -> Vec<String> {
+    p.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect()
+}
+
 /// The audit view of one model.
 pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value {
     let fs = p.hyper.feature_set;
-    let active = fs.active();
+    let dims = &p.dims;
+    let (m, n_z, ns) = (dims.n_outputs(), dims.z_len(), dims.stage1_len());
+    let active: Vec<bool> = head(&dims.z_active(fs), n_z).to_vec();
     let centres: Vec<serde_json::Value> = p
         .centres
         .iter()
         .enumerate()
         .map(|(j, c)| {
-            let mu: [f64; Z_DIMS] = pad(&c.mu);
             let physical: Vec<Option<f64>> =
-                (0..Z_DIMS).map(|d| if active[d] { Some(p.z_mean[d] + c.mu[d] * p.z_std[d]) } else { None }).collect();
+                (0..n_z).map(|d| if active[d] { Some(p.z_mean[d] + c.mu[d] * p.z_std[d]) } else { None }).collect();
             serde_json::json!({
                 "index": j,
-                "mu_standardised": mu,
+                "mu_standardised": head(&c.mu, n_z),
                 "mu_physical": physical,
-                "w": {"T_C": c.w[0], "strain_ue": c.w[1], "p_kPa": c.w[2]},
+                "w": per_output(p, |o| c.w[o]),
                 "variance_eigvec_components": c.v,
             })
         })
         .collect();
-    let poly_rows = |b: &[[f64; N_POLY]; N_OUTPUTS]| -> serde_json::Value {
-        let rows: Vec<serde_json::Value> = (0..N_OUTPUTS)
-            .map(|o| {
-                let m: serde_json::Map<String, serde_json::Value> =
-                    POLY_NAMES.iter().zip(b[o].iter()).map(|(n, v)| (n.to_string(), serde_json::json!(v))).collect();
-                serde_json::Value::Object(m)
-            })
-            .collect();
-        serde_json::json!({"T_C": rows[0], "strain_ue": rows[1], "p_kPa": rows[2]})
+    let names = poly_term_names(dims);
+    let poly_rows = |b: &[[f64; MAX_POLY]; MAX_OUTPUTS]| -> serde_json::Value {
+        per_output(p, |o| {
+            let row: serde_json::Map<String, serde_json::Value> =
+                names.iter().zip(b[o].iter()).map(|(n, v)| (n.clone(), serde_json::json!(v))).collect();
+            serde_json::Value::Object(row)
+        })
     };
     let physical = core.map(|c| poly_rows(&c.physical_coefficients()));
     let memory = memory_json(p);
+    let z_names: Vec<String> = (0..n_z).map(|i| dims.z_name(i).as_str().to_string()).collect();
+    let mut stage1 = serde_json::json!({ "columns": stage1_columns(dims) });
+    if let (Some(obj), serde_json::Value::Object(rows)) =
+        (stage1.as_object_mut(), per_output(p, |o| head(&p.stage1[o], ns)))
+    {
+        obj.extend(rows);
+    }
     serde_json::json!({
         "hyper_parameters": {
             "feature_set": fs.name(),
@@ -101,27 +119,23 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
             "envelope_margin": p.hyper.envelope_margin,
             "flagged_band_factor": p.hyper.flagged_band_factor,
         },
-        "stage1_linear_inverse": {
-            "columns": ["dl1_pm", "dl2_pm", "dl3_pm", "T_amb_C", "1"],
-            "T_C": head(&p.stage1[0], N_STAGE1), "strain_ue": head(&p.stage1[1], N_STAGE1), "p_kPa": head(&p.stage1[2], N_STAGE1),
-        },
-        "model_dims": {"gratings": p.dims.gratings(), "ambient": p.dims.ambient(),
-                       "measurands": p.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect::<Vec<_>>()},
-        "first_guess_scalers": {"mean": head(&p.guess_mean, N_OUTPUTS), "std": head(&p.guess_std, N_OUTPUTS), "order": OUTPUT_KEYS},
-        "poly_B_standardised_guesses": poly_rows(&pad2(&p.poly)),
+        "stage1_linear_inverse": stage1,
+        "model_dims": {"gratings": dims.gratings(), "ambient": dims.ambient(), "measurands": output_keys(p)},
+        "first_guess_scalers": {"mean": head(&p.guess_mean, m), "std": head(&p.guess_std, m), "order": output_keys(p)},
+        "poly_B_standardised_guesses": poly_rows(&p.poly),
         "poly_B_physical_units": physical,
         "memory_terms": memory,
-        "rbf_input_scalers": {"inputs": Z_NAMES, "active": active, "mean": head(&p.z_mean, Z_DIMS), "std": head(&p.z_std, Z_DIMS)},
+        "rbf_input_scalers": {"inputs": z_names, "active": active, "mean": head(&p.z_mean, n_z), "std": head(&p.z_std, n_z)},
         "rbf_centres": centres,
         "band": {
-            "resid_var_at_cal_end": head(&p.resid_var, N_OUTPUTS),
-            "resid_var_growth_per_s": head(&p.resid_var_growth, N_OUTPUTS),
+            "resid_var_at_cal_end": head(&p.resid_var, m),
+            "resid_var_growth_per_s": head(&p.resid_var_growth, m),
             "t_cal_end_s": p.t_cal_end_s,
-            "k95": head(&p.band_k, N_OUTPUTS),
+            "k95": head(&p.band_k, m),
             "var_inv_g": p.var_inv_g,
             "var_inv_g_tail": p.var_inv_g_tail,
         },
-        "envelope": {"inputs": ["dl1_pm", "dl2_pm", "dl3_pm", "T_amb_C"], "lo": head(&p.envelope_lo, N_ENVELOPE), "hi": head(&p.envelope_hi, N_ENVELOPE)},
+        "envelope": {"inputs": input_columns(dims), "lo": head(&p.envelope_lo, dims.envelope_len()), "hi": head(&p.envelope_hi, dims.envelope_len())},
         "provenance": {
             "seed": p.provenance.seed,
             "scenario": p.provenance.scenario.as_str(),
@@ -131,9 +145,6 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
         },
     })
 }
-
-/// JSON keys of the outputs.
-const OUTPUT_KEYS: [&str; N_OUTPUTS] = ["T_C", "strain_ue", "p_kPa"];
 
 /// What a memory term is, in words a metrologist checks: e.g. "FBG2 minus its 20-min average".
 pub fn memory_term_meaning(info: &fbg_shared::memory::TermInfo<f64>) -> String {
@@ -159,21 +170,16 @@ pub fn memory_term_meaning(info: &fbg_shared::memory::TermInfo<f64>) -> String {
 /// Γ with a unit and a meaning per used term (the audit view of the memory terms).
 pub fn memory_json(p: &HostParams) -> serde_json::Value {
     let spec = &p.memory;
-    let terms: Vec<serde_json::Value> = (0..fbg_shared::layout::paper::N_MEMORY)
+    let terms: Vec<serde_json::Value> = (0..p.dims.memory_len())
         .filter_map(|k| spec.term(&p.dims, k).filter(|t| t.parameter > 0.0).map(|t| (k, t)))
         .map(|(k, t)| {
             let unit = t.group.unit();
-            let coef: serde_json::Map<String, serde_json::Value> = (0..N_OUTPUTS)
-                .map(|o| {
-                    (
-                        OUTPUT_KEYS[o].to_string(),
-                        serde_json::json!({
-                            "value": p.gamma[o][k],
-                            "unit": format!("{} per {}", crate::eval::score::UNITS[o], unit),
-                        }),
-                    )
+            let coef = per_output(p, |o| {
+                serde_json::json!({
+                    "value": p.gamma[o][k],
+                    "unit": format!("{} per {}", p.dims.outputs()[o].unit(), unit),
                 })
-                .collect();
+            });
             serde_json::json!({
                 "index": k,
                 "group": t.group.name(),
@@ -190,7 +196,7 @@ pub fn memory_json(p: &HostParams) -> serde_json::Value {
             "play_half_width_pm": spec.play_half_width_pm,
             "observer_lag_s": spec.observer_lag_s,
             "observer_smooth_s": spec.observer_smooth_s,
-            "observer_row": {"columns": ["dl1_pm", "dl2_pm", "dl3_pm", "T_amb_C", "1"], "T_C": spec.observer_row},
+            "observer_row": {"columns": stage1_columns(&p.dims), "values": head(&spec.observer_row, p.dims.stage1_len())},
         },
         "terms": terms,
     })
@@ -236,13 +242,13 @@ pub fn write_coefficients_signed(
 ) -> Result<(), TrainerError> {
     let mut v = serde_json::json!({
         "format": "fbg-trainer coefficients v1",
-        "units": {"T": "°C", "strain": "µε", "p": "kPa", "dl": "pm", "t": "s"},
+        "units": units_json(model_h),
         "model_p": model_json(model_p, Some(core)),
         "model_h": model_json(model_h, Some(&PolyCore::of(model_h))),
         "selection": selection.map(|s| serde_json::json!({
             "chosen": s.chosen, "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h, "folds": s.folds,
-            "memory": (0..N_OUTPUTS).map(|o| serde_json::json!({
-                "output": OUTPUT_KEYS[o], "groups": s.memory.names(o), "lambda": s.memory.lambda[o],
+            "memory": output_keys(model_h).iter().enumerate().map(|(o, k)| serde_json::json!({
+                "output": k, "groups": s.memory.names(o), "lambda": s.memory.lambda[o],
             })).collect::<Vec<_>>(),
             "memory_cv": s.memory_rows,
         })),
@@ -254,9 +260,20 @@ pub fn write_coefficients_signed(
     write_bytes_atomically(path, text.as_bytes())
 }
 
-/// Golden vectors for the firmware (`fbg_link::golden`): `golden_inputs.bin` (5 little-endian
-/// f32 per sample: dl1, dl2, dl3, T_amb, t), `golden_expected.csv` (the f64 reference on those
-/// same inputs) and
+/// The units of a model's outputs and inputs, by short channel name.
+fn units_json(p: &HostParams) -> serde_json::Value {
+    let mut m = serde_json::Map::new();
+    for o in p.dims.outputs() {
+        m.insert(o.channel().as_str().to_string(), serde_json::json!(o.unit()));
+    }
+    m.insert("dl".into(), serde_json::json!("pm"));
+    m.insert("t".into(), serde_json::json!("s"));
+    serde_json::Value::Object(m)
+}
+
+/// Golden vectors for the firmware (`fbg_link::golden`): `golden_inputs.bin` (the samples as
+/// the device receives them: the N shifts, T_amb and t, in f32), `golden_expected.csv` (the
+/// f64 reference on those same inputs) and
 /// `golden_meta.json` (tolerance scale: Model-H's hold-out RMSE). The reference is a fresh
 /// compensator fed the samples `idx` in order, exactly what a freshly booted device sees.
 pub fn write_golden(
@@ -264,7 +281,7 @@ pub fn write_golden(
     model_h: &HostParams,
     d: &Dataset,
     idx: &[usize],
-    holdout_rmse: [f64; 3],
+    holdout_rmse: &[f64],
 ) -> Result<(), TrainerError> {
     std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
     let mut reference = Compensator::<f64, HOST_CAP>::new(model_h).map_err(|e| TrainerError::fit(e.to_string()))?;

@@ -18,12 +18,11 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, Context, Result};
 use fbg_link::parity::{abs_diff, compare};
 use fbg_link::{LinkClient, LinkError};
-use fbg_shared::layout::paper::N_OUTPUTS;
 use fbg_shared::protocol::{Status, UpdateResult};
 use fbg_shared::Compensator;
 
 use crate::data::Dataset;
-use crate::eval::score::{evaluate_holdout, CHANNELS, UNITS};
+use crate::eval::score::{channels, evaluate_holdout, units};
 use crate::export::read_blob;
 use crate::fit::HOST_CAP;
 
@@ -70,16 +69,20 @@ pub struct StreamReport {
     pub flag_mismatches: usize,
     /// Samples the device flagged (any flag).
     pub flagged: usize,
+    /// The model's outputs (`T`, `strain`, …): every per-channel list below follows it.
+    pub channels: Vec<String>,
+    /// Their units.
+    pub units: Vec<String>,
     /// max |device − host| of the values per channel (finite pairs).
-    pub max_abs_diff: [f64; N_OUTPUTS],
+    pub max_abs_diff: Vec<f64>,
     /// The same for the 95 % band half-widths.
-    pub max_band_diff: [f64; N_OUTPUTS],
+    pub max_band_diff: Vec<f64>,
     /// The model's hold-out RMSE per channel (from evaluate).
-    pub holdout_rmse: [f64; N_OUTPUTS],
+    pub holdout_rmse: Vec<f64>,
     /// `max_abs_diff / holdout_rmse` (the limit is [`REL_TOL`]).
-    pub max_diff_over_rmse: [f64; N_OUTPUTS],
+    pub max_diff_over_rmse: Vec<f64>,
     /// The tolerance used per channel.
-    pub tolerance: [f64; N_OUTPUTS],
+    pub tolerance: Vec<f64>,
     /// The first few mismatches, described.
     pub first_mismatches: Vec<String>,
     /// Wall time of the stream \[s\].
@@ -155,11 +158,11 @@ impl StreamReport {
             self.flag_mismatches,
             self.flagged
         );
-        for c in 0..N_OUTPUTS {
+        for c in 0..self.channels.len() {
             s.push_str(&format!(
                 "  {:>6} [{}]: max |device − host| {:.3e} ({:.4} % of the hold-out RMSE {:.4}; limit {} %), band {:.3e}\n",
-                CHANNELS[c],
-                UNITS[c],
+                self.channels[c],
+                self.units[c],
                 self.max_abs_diff[c],
                 100.0 * self.max_diff_over_rmse[c],
                 self.holdout_rmse[c],
@@ -211,15 +214,17 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
     let model = read_blob(&opts.model)?;
     // A signed model's digest is its blob's CRC, before the signature trailer.
     let crc = fbg_shared::blob::stored_crc(fbg_shared::signature::strip(&bytes)).unwrap_or(0);
-    let data = Dataset::read_paper_csv(&opts.data, "stream")?;
+    let data = Dataset::read_csv(&opts.data)?;
+    data.inputs_for(&model.dims, &opts.data.display().to_string(), "stream")?;
+    let m = model.dims.n_outputs();
     let hold = data.holdout_indices();
     if hold.is_empty() {
         bail!("{}: no hold-out rows to stream", opts.data.display());
     }
     let (eval, _) = evaluate_holdout(&model, &data)?;
-    let holdout_rmse = eval.channels.map(|c| c.rmse);
+    let holdout_rmse: Vec<f64> = eval.channels.iter().map(|c| c.rmse).collect();
     // An unfitted channel has no RMSE: its values are NaN on both sides, compared as such.
-    let tolerance = holdout_rmse.map(|r| if r.is_finite() { REL_TOL * r } else { 0.0 });
+    let tolerance: Vec<f64> = holdout_rmse.iter().map(|&r| if r.is_finite() { REL_TOL * r } else { 0.0 }).collect();
     let idx: Vec<usize> = match opts.max_samples {
         Some(n) => hold.into_iter().take(n).collect(),
         None => hold,
@@ -263,11 +268,13 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
         value_mismatches: 0,
         flag_mismatches: 0,
         flagged: 0,
-        max_abs_diff: [0.0; N_OUTPUTS],
-        max_band_diff: [0.0; N_OUTPUTS],
-        holdout_rmse,
-        max_diff_over_rmse: [0.0; N_OUTPUTS],
-        tolerance,
+        channels: channels(&model.dims),
+        units: units(&model.dims),
+        max_abs_diff: vec![0.0; m],
+        max_band_diff: vec![0.0; m],
+        holdout_rmse: holdout_rmse.clone(),
+        max_diff_over_rmse: vec![0.0; m],
+        tolerance: tolerance.clone(),
         first_mismatches: Vec::new(),
         seconds: 0.0,
         device_status: None,
@@ -285,7 +292,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
             report.flagged += 1;
         }
         let (dv, db) = (abs_diff(&got.values, &want.values), abs_diff(&got.band, &want.band95));
-        for c in 0..N_OUTPUTS {
+        for c in 0..m {
             report.max_abs_diff[c] = report.max_abs_diff[c].max(dv[c]);
             report.max_band_diff[c] = report.max_band_diff[c].max(db[c]);
         }
@@ -302,7 +309,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
     }
     bar.finish_and_clear();
     report.seconds = t0.elapsed().as_secs_f64();
-    report.max_diff_over_rmse = std::array::from_fn(|c| report.max_abs_diff[c] / holdout_rmse[c]);
+    report.max_diff_over_rmse = (0..m).map(|c| report.max_abs_diff[c] / holdout_rmse[c]).collect();
     report.device_status = Some(link.status().map_err(|e| link_err("status", e))?);
     if link.malformed_from_device() != 0 {
         bail!("the device sent {} malformed frames", link.malformed_from_device());

@@ -94,7 +94,7 @@ fn enlight_tab_export_with_a_map_finds_each_grating_by_window_despite_a_dropped_
     assert!(close(d.target(0).as_slice()[2], 20.14, 1e-9));
     assert!(close(d.target(1).as_slice()[2], 0.5 * 140.0, 1e-9));
     assert!(close(d.target(2).as_slice()[2], 151.4, 1e-9));
-    assert_eq!(d.has_target(), [true, true, true]);
+    assert_eq!(d.measurands(), Measurand::PAPER);
     let j = s.join.as_ref().unwrap();
     assert_eq!((j.max_gap_s, j.max_gap_source.as_str()), (12.0, "map"));
     assert_eq!(s.time.start.as_deref(), Some("2024-03-01T10:00:00.000"));
@@ -152,7 +152,7 @@ fn logger_csv_with_iso_timestamps_and_pm_shifts() {
     assert!(s.gratings.iter().all(|g| g.ref_nm.is_none() && g.ref_source == "shifts in the file"));
     // Load cell × gain.
     assert!(close(d.target(1).as_slice()[2], 20.0, 1e-12));
-    assert_eq!(d.has_target(), [true, true, true]);
+    assert_eq!(d.measurands(), Measurand::PAPER);
     assert_eq!(s.time.start.as_deref(), Some("2024-03-01T10:00:00.000"));
     assert_eq!((s.split.cal_rows, s.split.holdout_rows), (6, 6));
 }
@@ -714,10 +714,11 @@ fn single_grating_enlight_export_without_references_imports_row_for_row() {
     assert_eq!(d.t_s[15], 30.0);
     assert!(close(d.dl_pm[0][3], 1.5, 1e-6), "{}", d.dl_pm[0][3]);
     assert!(d.dl_pm[0][6].is_nan() && d.dl_pm[0][11].is_nan());
-    // A training command refuses it by name; compensating needs the paper's inputs so far.
+    // A training command refuses it by name; a model of another shape refuses it naming both.
     assert!(Dataset::read_csv(&out).unwrap_err().to_string().contains("no reference column"));
-    let e = d.paper_inputs("t1.csv", "compensate").unwrap_err().to_string();
+    let e = d.inputs_for(&fbg_shared::layout::Dims::PAPER, "t1.csv", "compensate").unwrap_err().to_string();
     assert!(e.contains("t1.csv") && e.contains("column dl2_pm") && e.contains("1 grating (dl1_pm)"), "{e}");
+    assert!(e.contains("3 gratings (dl1_pm..dl3_pm) and the ambient thermometer T_amb_C"), "{e}");
 }
 
 /// The same export with a window map: the spurious peak lies outside the window, so only the
@@ -758,8 +759,10 @@ fn the_map_names_any_measurand_columns() {
     let d = Dataset::read_csv(&out).unwrap();
     assert_eq!(d.measurands(), [Measurand::STRAIN, e2]);
     assert!(close(d.reference(e2).unwrap()[3], -6.0, 1e-9) && close(d.dl_pm[1][3], -2.7, 1e-9));
-    let e = d.paper_shape("two.csv", "train").unwrap_err().to_string();
-    assert!(e.contains("two.csv") && e.contains("2 gratings") && e.contains("cannot be trained yet"), "{e}");
+    // Its model has 2 gratings, the ambient input and the outputs strain, strain 2.
+    let dims = d.dims("two.csv").unwrap();
+    assert_eq!((dims.gratings(), dims.ambient(), dims.n_outputs()), (2, true, 2));
+    assert_eq!(Measurand::of_dims(&dims), [Measurand::STRAIN, e2]);
 }
 
 /// A logger file with references but no ambient column keeps every row; one with an ambient

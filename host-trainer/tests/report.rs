@@ -356,7 +356,7 @@ fn a_million_samples_plot_in_seconds() {
             .map(|(k, &i)| {
                 let w = ((k * 2_654_435_761) % 1000) as f64 / 1000.0 - 0.5;
                 Estimate {
-                    values: fbg_shared::layout::pad(&d.truth(i).map(|t| t + bias + w)),
+                    values: std::array::from_fn(|c| d.truth(i).get(c).map_or(0.0, |t| t + bias + w)),
                     band95: [1.0, 1.0, 1.0, 0.0],
                     outputs: 3,
                     flags: Flags::OK,
@@ -377,6 +377,7 @@ fn a_million_samples_plot_in_seconds() {
         metrics: &m,
         time: figures::TimeUnit::for_span(n as f64 * dt),
         parts_h: &[],
+        dims: fbg_shared::layout::Dims::PAPER,
     };
     let out = tempfile::tempdir().unwrap();
     let t = std::time::Instant::now();
@@ -387,7 +388,7 @@ fn a_million_samples_plot_in_seconds() {
         figures::fig7_errors(&ctx),
     ];
     for s in &specs {
-        s.grid.write(out.path(), s.stem).unwrap();
+        s.grid.write(out.path(), &s.stem).unwrap();
         // Each time-series trace is reduced to at most two points per pixel column.
         for p in &s.grid.panels {
             for l in &p.lines {

@@ -271,9 +271,11 @@ fn csv_round_trips_and_bad_cells_are_named() {
     std::fs::write(&bad, "t_s,T_C\n1,2\n").unwrap();
     let e = fbg_trainer::data::Dataset::read_csv(&bad).unwrap_err().to_string();
     assert!(e.contains("missing column `dl1_pm`"), "{e}");
-    // The ambient thermometer is optional in a dataset, required by the paper's model.
+    // The ambient thermometer is optional in a dataset, required by a model that reads it.
     std::fs::write(&bad, "t_s,T_C,dl1_pm,dl2_pm,dl3_pm\n1,2,3,4,5\n").unwrap();
-    assert!(fbg_trainer::data::Dataset::read_csv(&bad).unwrap().t_amb_c.is_none());
-    let e = fbg_trainer::data::Dataset::read_paper_csv(&bad, "train").unwrap_err().to_string();
-    assert!(e.contains("bad.csv") && e.contains("column T_amb_C") && e.contains("`train`"), "{e}");
+    let d = fbg_trainer::data::Dataset::read_csv(&bad).unwrap();
+    assert!(d.t_amb_c.is_none());
+    assert!(!d.dims("bad.csv").unwrap().ambient());
+    let e = d.inputs_for(&fbg_shared::layout::Dims::PAPER, "bad.csv", "evaluate").unwrap_err().to_string();
+    assert!(e.contains("bad.csv") && e.contains("column T_amb_C") && e.contains("`evaluate`"), "{e}");
 }

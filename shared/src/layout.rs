@@ -18,8 +18,9 @@
 //!   (with ambient), stop terms (r slot major, grating minor), the drift observer (with ambient
 //!   and a temperature output).
 //!
-//! [`paper`] keeps the paper's fixed layout (3 gratings, ambient, T/ε/p) as constants for the
-//! trainer, which fits only that set-up for now.
+//! [`paper`] keeps the paper's fixed layout (3 gratings, ambient, T/ε/p) as constants for code
+//! that handles only that set-up (the paper-preset benchmarks, the test kit's synthetic
+//! installation).
 
 use serde::{Deserialize, Serialize};
 
@@ -463,7 +464,8 @@ fn sat_u16(v: usize) -> u16 {
 }
 
 /// The paper's fixed layout (3 gratings, ambient, outputs T, ε, p: [`Dims::PAPER`]) as
-/// constants, for code that handles only that set-up (the trainer, for now).
+/// constants, for code that handles only that set-up (the paper-preset benchmarks, the test
+/// kit's synthetic installation).
 pub mod paper {
     use super::{poly_len, Dims, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS};
 

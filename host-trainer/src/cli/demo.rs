@@ -20,10 +20,8 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     let t0 = Instant::now();
     let cfg = scenario.load()?;
     let mut s = sim::simulate(&cfg, scenario.seed);
-    // Refused before anything is written: the fit handles the paper's shape only so far.
-    if let Some((_, message)) = s.data.shape().paper_refusal("demo") {
-        anyhow::bail!("scenario `{}`: {message}", cfg.name);
-    }
+    // Refused before anything is written: a scenario without measurands has nothing to fit.
+    s.data.dims(&format!("scenario `{}`", cfg.name))?;
     prepare_output_dir(out)?;
     let log = |s: &str| {
         if !json {
@@ -35,7 +33,7 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     SimMeta::of(&s).write(&data)?;
     // Fit and score the record as written (6 decimals), so `train --data DIR/data.csv` rebuilds
     // DIR/model.fbgm byte for byte.
-    s.data = Dataset::read_paper_csv(&data, "demo")?;
+    s.data = Dataset::read_csv(&data)?;
     log(&format!(
         "simulated {} samples of scenario `{}` (seed {}) into {}",
         s.data.len(),
@@ -58,7 +56,13 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     write_metrics(&export::metrics_path(&model), &m)?;
     let hold = s.data.holdout_indices();
     let idx: Vec<usize> = hold.into_iter().take(1000).collect();
-    export::write_golden(&out.join("golden"), &tr.model_h, &s.data, &idx, m.table2.model_h.channels.map(|c| c.rmse))?;
+    export::write_golden(
+        &out.join("golden"),
+        &tr.model_h,
+        &s.data,
+        &idx,
+        &m.table2.model_h.channels.iter().map(|c| c.rmse).collect::<Vec<_>>(),
+    )?;
     log(&format!(
         "wrote model.fbgm ({nh} B), model-p.fbgm ({np} B), {}, {}, golden vectors",
         report::COEFFICIENTS_JSON,

@@ -18,7 +18,7 @@ use fbg_trainer::data::files::{check_outputs, prepare_output_dir, write_bytes_at
 use fbg_trainer::data::import::{self, ImportOptions, SplitChoice};
 use fbg_trainer::data::Dataset;
 use fbg_trainer::eval::metrics::Metrics;
-use fbg_trainer::eval::score::{evaluate_holdout, CHANNELS};
+use fbg_trainer::eval::score::evaluate_holdout;
 use fbg_trainer::eval::studies::{self, Studies};
 use fbg_trainer::eval::tables;
 use fbg_trainer::export;
@@ -383,7 +383,7 @@ fn run() -> Result<()> {
             inputs.extend(sign.sign.as_deref());
             check_outputs(&[&out, &base, &coef], &inputs)?;
             let signer = sign.signer()?;
-            let d = Dataset::read_paper_csv(&data, "train")?;
+            let d = Dataset::read_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
             let origin = origin_of(&data, meta.as_ref());
             let opts = train_options(features, max_centres, !json)?;
@@ -421,12 +421,27 @@ fn run() -> Result<()> {
                     "trained in {secs:.1} s on {} calibration samples; chose {} features, K = {}, σ = {}×NN, α = {:e}·n, dead band {} pm ({} grid points)",
                     s.n_cal, c.feature_set.name(), c.k, c.sigma_mult, c.alpha_rel, c.dead_band_pm, s.rows.len()
                 );
-                eprintln!(
-                    "CV RMSE Model-P: T {:.3} °C, ε {:.2} µε, p {:.2} kPa; Model-H: T {:.3}, ε {:.2}, p {:.2}",
-                    s.cv_rmse_p[0], s.cv_rmse_p[1], s.cv_rmse_p[2], s.cv_rmse_h[0], s.cv_rmse_h[1], s.cv_rmse_h[2]
-                );
-                let worse: Vec<&str> =
-                    (0..3).filter(|&c| s.cv_rmse_h[c] > s.cv_rmse_p[c]).map(|c| CHANNELS[c]).collect();
+                let outs = fbg_trainer::data::Measurand::of_dims(&tr.model_h.dims);
+                let dg = |m: &fbg_trainer::data::Measurand| {
+                    if m.kind == fbg_trainer::data::Kind::Temperature {
+                        3
+                    } else {
+                        2
+                    }
+                };
+                let with_units: Vec<String> = outs
+                    .iter()
+                    .zip(&s.cv_rmse_p)
+                    .map(|(m, v)| format!("{} {:.*} {}", m.short_name(), dg(m), v, m.unit()))
+                    .collect();
+                let bare: Vec<String> =
+                    outs.iter().zip(&s.cv_rmse_h).map(|(m, v)| format!("{} {:.*}", m.short_name(), dg(m), v)).collect();
+                eprintln!("CV RMSE Model-P: {}; Model-H: {}", with_units.join(", "), bare.join(", "));
+                let channels = fbg_trainer::eval::score::channels(&tr.model_h.dims);
+                let worse: Vec<&str> = (0..channels.len())
+                    .filter(|&c| s.cv_rmse_h[c] > s.cv_rmse_p[c])
+                    .map(|c| channels[c].as_str())
+                    .collect();
                 if !worse.is_empty() {
                     eprintln!(
                         "warning: in cross-validation Model-H is worse than Model-P on {}; check the hold-out with `evaluate` and consider Model-P for {}",
@@ -451,9 +466,10 @@ fn run() -> Result<()> {
             let base = baseline.unwrap_or_else(|| baseline_path(&model));
             let out = metrics.unwrap_or_else(|| export::metrics_path(&model));
             check_outputs(&[&out], &[&data, &meta_path(&data), &model, &base])?;
-            let d = Dataset::read_paper_csv(&data, "evaluate")?;
+            let d = Dataset::read_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
             let h = export::read_blob(&model)?;
+            d.inputs_for(&h.dims, &data.display().to_string(), "evaluate")?;
             if !base.exists() {
                 bail!(
                     "{}: Model-P baseline not found (train writes it beside the model; or pass --baseline)",
@@ -522,12 +538,14 @@ fn run() -> Result<()> {
         }
         Cmd::Golden { data, model, samples, out } => {
             prepare_output_dir(&out)?;
-            let d = Dataset::read_paper_csv(&data, "golden")?;
+            let d = Dataset::read_csv(&data)?;
             let h = export::read_blob(&model)?;
+            d.inputs_for(&h.dims, &data.display().to_string(), "golden")?;
             let hold = d.holdout_indices();
             let idx: Vec<usize> = hold.into_iter().take(samples).collect();
             let (eh, _) = evaluate_holdout(&h, &d)?;
-            export::write_golden(&out, &h, &d, &idx, eh.channels.map(|c| c.rmse))?;
+            let rmse: Vec<f64> = eh.channels.iter().map(|c| c.rmse).collect();
+            export::write_golden(&out, &h, &d, &idx, &rmse)?;
             eprintln!("wrote {} golden samples into {}", idx.len(), out.display());
             Ok(())
         }
@@ -634,12 +652,15 @@ fn print_tables(m: &Metrics) {
         println!("{}", tables::budget(b, m).text());
     }
     if let Some(p) = &m.parity {
+        let diffs: Vec<String> = p.max_abs_diff.iter().zip(&m.units).map(|(v, u)| format!("{v:.2e} {u}")).collect();
+        let shares: Vec<String> = p.max_diff_over_rmse.iter().map(|v| format!("{:.3} %", 100.0 * v)).collect();
         println!(
-            "Parity (f32 device path vs f64, {} hold-out samples): max |Δ| = {:.2e} °C, {:.2e} µε, {:.2e} kPa ({:.3} %, {:.3} %, {:.3} % of Model-H RMSE); flag mismatches {}; leverage band gap {:.2e}",
+            "Parity (f32 device path vs f64, {} hold-out samples): max |Δ| = {} ({} of Model-H RMSE); flag mismatches {}; leverage band gap {:.2e}",
             p.samples,
-            p.max_abs_diff[0], p.max_abs_diff[1], p.max_abs_diff[2],
-            100.0 * p.max_diff_over_rmse[0], 100.0 * p.max_diff_over_rmse[1], 100.0 * p.max_diff_over_rmse[2],
-            p.flag_mismatches, p.leverage_band_gap
+            diffs.join(", "),
+            shares.join(", "),
+            p.flag_mismatches,
+            p.leverage_band_gap
         );
     }
 }

@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 
 use fbg_trainer::data::files::{check_outputs, write_bytes_atomically};
 use fbg_trainer::data::Dataset;
-use fbg_trainer::eval::score::{evaluate_holdout, ModelEval, CHANNELS, UNITS};
+use fbg_trainer::eval::score::{channels, evaluate_holdout, units, ModelEval};
 use fbg_trainer::export;
 use fbg_trainer::fit::recalibrate::{first_hours, keep_old_where_worse, recalibrate, CoreUpdate, Recalibration};
 use fbg_trainer::fit::HostParams;
@@ -50,25 +50,26 @@ fn checked_recalibration(old: &HostParams, d: &Dataset, batch: &[usize], allow_w
     let mut after = tried.clone();
     let mut kept_old = vec![];
     if !allow_worse {
-        let rmse = |e: &ModelEval| e.channels.map(|c| c.rmse);
+        let rmse = |e: &ModelEval| -> Vec<f64> { e.channels.iter().map(|c| c.rmse).collect() };
         kept_old = keep_old_where_worse(&mut params, old, &rmse(&before), &rmse(&after));
         if !kept_old.is_empty() {
             after = evaluate_holdout(&params, d)?.0;
         }
     }
-    let worse: Vec<usize> = (0..3).filter(|&c| after.channels[c].rmse > before.channels[c].rmse).collect();
+    let worse: Vec<usize> =
+        (0..after.channels.len()).filter(|&c| after.channels[c].rmse > before.channels[c].rmse).collect();
     if !allow_worse && !worse.is_empty() {
         bail!(
             "recalibration: {} still scores worse on the hold-out after keeping the old coefficients; nothing written (--allow-worse writes it anyway)",
-            channel_list(&worse)
+            channel_list(&channels(&old.dims), &worse)
         );
     }
     Ok(CheckedRecal { params, what, before: Some(before), after: Some(after), tried: Some(tried), kept_old, worse })
 }
 
-/// "T and p", "strain".
-fn channel_list(cs: &[usize]) -> String {
-    let names: Vec<&str> = cs.iter().map(|&c| CHANNELS[c]).collect();
+/// "T and p", "strain": the outputs `cs` of a model whose outputs are `all`.
+fn channel_list(all: &[String], cs: &[usize]) -> String {
+    let names: Vec<&str> = cs.iter().map(|&c| all[c].as_str()).collect();
     match names.len() {
         0 => "no channel".into(),
         1 => names[0].into(),
@@ -91,8 +92,10 @@ pub fn run(
     inputs.extend(sign_args.sign.as_deref());
     check_outputs(&[out, &new_base_path], &inputs)?;
     let signer = sign_args.signer()?;
-    let d = Dataset::read_paper_csv(data, "recalibrate")?;
+    let d = Dataset::read_csv(data)?;
     let old = export::read_blob(model)?;
+    d.inputs_for(&old.dims, &data.display().to_string(), "recalibrate")?;
+    let (chs, us) = (channels(&old.dims), units(&old.dims));
     let batch = match batch_hours {
         Some(h) if h > 0.0 => first_hours(&d, h),
         Some(h) => bail!("--batch-hours must be positive (got {h})"),
@@ -117,7 +120,7 @@ pub fn run(
         }
         None => None,
     };
-    let names = |cs: &[usize]| cs.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>();
+    let names = |cs: &[usize]| cs.iter().map(|&c| chs[c].clone()).collect::<Vec<_>>();
     if json {
         println!(
             "{}",
@@ -138,11 +141,11 @@ pub fn run(
         w.n_batch,
         if w.w_updated { "updated" } else { "kept (the batch did not support a change)" }
     );
-    for c in 0..3 {
+    for c in 0..chs.len() {
         let (a, b) = w.offset_gain[c];
         let detail = match w.core_update[c] {
-            CoreUpdate::Offset => format!(" (offset {a:+.4} {})", UNITS[c]),
-            CoreUpdate::OffsetGain => format!(" (offset {a:+.4} {}, gain {b:.4})", UNITS[c]),
+            CoreUpdate::Offset => format!(" (offset {a:+.4} {})", us[c]),
+            CoreUpdate::OffsetGain => format!(" (offset {a:+.4} {}, gain {b:.4})", us[c]),
             _ => String::new(),
         };
         let check = match (&h.before, &h.after, &h.tried) {
@@ -159,20 +162,23 @@ pub fn run(
             }
             _ => String::new(),
         };
-        eprintln!("  {:>6} [{}]: {}{detail}{check}", CHANNELS[c], UNITS[c], w.core_update[c].text());
+        eprintln!("  {:>6} [{}]: {}{detail}{check}", chs[c], us[c], w.core_update[c].text());
     }
     if h.before.is_none() {
         eprintln!("  (no hold-out rows in {}: nothing to check the recalibration against)", data.display());
     } else if !h.kept_old.is_empty() {
-        eprintln!("kept the old model's {} (--allow-worse writes the recalibrated ones)", channel_list(&h.kept_old));
+        eprintln!(
+            "kept the old model's {} (--allow-worse writes the recalibrated ones)",
+            channel_list(&chs, &h.kept_old)
+        );
     }
     if let Some(p) = &p {
         if !p.kept_old.is_empty() {
-            eprintln!("Model-P baseline: kept the old {} (worse on the hold-out)", channel_list(&p.kept_old));
+            eprintln!("Model-P baseline: kept the old {} (worse on the hold-out)", channel_list(&chs, &p.kept_old));
         } else if !p.worse.is_empty() {
             eprintln!(
                 "Model-P baseline: {} WORSE on the hold-out, written because of --allow-worse",
-                channel_list(&p.worse)
+                channel_list(&chs, &p.worse)
             );
         }
     }

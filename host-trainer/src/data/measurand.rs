@@ -148,6 +148,33 @@ impl Measurand {
     }
 }
 
+impl Measurand {
+    /// The model output (`fbg_shared::layout::Output`) this measurand is.
+    pub fn output(self) -> fbg_shared::layout::Output {
+        use fbg_shared::layout::Quantity;
+        let quantity = match self.kind {
+            Kind::Temperature => Quantity::Temperature,
+            Kind::Strain => Quantity::Strain,
+            Kind::Pressure => Quantity::Pressure,
+        };
+        fbg_shared::layout::Output { quantity, index: self.index }
+    }
+    /// The measurand a model output stands for.
+    pub fn of_output(o: fbg_shared::layout::Output) -> Measurand {
+        use fbg_shared::layout::Quantity;
+        let kind = match o.quantity {
+            Quantity::Temperature => Kind::Temperature,
+            Quantity::Strain => Kind::Strain,
+            Quantity::Pressure => Kind::Pressure,
+        };
+        Measurand { kind, index: o.index }
+    }
+    /// The measurands of a model's outputs, in output order.
+    pub fn of_dims(dims: &fbg_shared::layout::Dims) -> Vec<Measurand> {
+        dims.outputs().iter().map(|&o| Measurand::of_output(o)).collect()
+    }
+}
+
 impl fmt::Display for Measurand {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.column())
@@ -182,6 +209,38 @@ impl std::str::FromStr for Measurand {
             Err(e) => Err(format!("`{s}`: {e}")),
         }
     }
+}
+
+/// Names of a model's polynomial terms in [`fbg_shared::layout::Dims::poly_term`] order, from
+/// the outputs' short names: `1`, `T`, `ε`, `p`, `T²`, …, `Tε`, … (the paper's
+/// [1, T, ε, p, T², ε², p², Tε, Tp, εp] for its three outputs).
+pub fn poly_term_names(dims: &fbg_shared::layout::Dims) -> Vec<String> {
+    let short: Vec<String> = Measurand::of_dims(dims).iter().map(|m| m.short_name()).collect();
+    (0..dims.poly_len())
+        .map(|k| match dims.poly_term(k) {
+            None => "1".to_string(),
+            Some((i, None)) => short[i].clone(),
+            Some((i, Some(j))) if i == j => format!("{}²", short[i]),
+            Some((i, Some(j))) => format!("{}{}", short[i], short[j]),
+        })
+        .collect()
+}
+
+/// The dataset columns of a model's envelope inputs: `dl1_pm..dlN_pm`, then `T_amb_C` with
+/// ambient.
+pub fn input_columns(dims: &fbg_shared::layout::Dims) -> Vec<String> {
+    let mut v: Vec<String> = (1..=dims.gratings()).map(grating_column).collect();
+    if dims.ambient() {
+        v.push("T_amb_C".into());
+    }
+    v
+}
+
+/// The stage-1 regressors of a model: its input columns, then `1`.
+pub fn stage1_columns(dims: &fbg_shared::layout::Dims) -> Vec<String> {
+    let mut v = input_columns(dims);
+    v.push("1".into());
+    v
 }
 
 /// The grating column `dl{g}_pm` (g 1-based).

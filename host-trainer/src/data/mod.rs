@@ -11,9 +11,11 @@
 //! gap (a peak the interrogator did not report), and so is an empty `T_amb_C`. Text that is
 //! not a number, or a non-finite number, is an error naming file, line and column.
 //!
-//! The fitting code still works on the paper's layout only (three gratings, the ambient
-//! thermometer, references among T, ε, p): [`Dataset::paper_shape`] says whether a dataset
-//! has it, and the `sample`/`target`/`truth`/`has_target` accessors give that layout.
+//! A model fitted on a dataset takes its dimensions from it ([`Dataset::dims`]): N gratings,
+//! the ambient input when `T_amb_C` is there, and one output per reference column in
+//! canonical order, so output `c` of such a model is reference `c` ([`Dataset::target`]).
+//! A model run over another record finds its references by measurand
+//! ([`Dataset::reference_of`]).
 
 pub mod files;
 pub mod import;
@@ -23,6 +25,7 @@ pub mod units;
 use std::io::Write;
 use std::path::Path;
 
+use fbg_shared::layout::Dims;
 use fbg_shared::Sample;
 
 use crate::data::files::write_atomically;
@@ -75,37 +78,6 @@ pub struct Shape {
     pub ambient: bool,
 }
 
-impl Shape {
-    /// The layout the fitting code handles today: three gratings, the ambient thermometer,
-    /// references among T_C, strain_ue, p_kPa (none for a record to compensate).
-    pub fn is_paper(&self) -> bool {
-        self.gratings == 3 && self.ambient && self.measurands.iter().all(|m| Measurand::PAPER.contains(m))
-    }
-}
-
-impl Shape {
-    /// Why `command` cannot take this shape: the first column that differs from the paper's
-    /// layout and a message saying what the data have; `None` for the paper's shape.
-    pub fn paper_refusal(&self, command: &str) -> Option<(String, String)> {
-        if self.is_paper() {
-            return None;
-        }
-        let column = if self.gratings != 3 {
-            grating_column(self.gratings.min(3) + 1)
-        } else if !self.ambient {
-            T_AMB_COLUMN.to_string()
-        } else {
-            self.measurands.iter().find(|m| !Measurand::PAPER.contains(m)).map_or("-".into(), |m| m.column())
-        };
-        Some((
-            column,
-            format!(
-                "the data have {self}; `{command}` handles only the paper's shape so far — 3 gratings (dl1_pm..dl3_pm), the ambient thermometer T_amb_C and references among T_C, strain_ue, p_kPa — so this shape cannot be trained yet (other shapes can be simulated and imported; fitting them is the next step of issue 17)"
-            ),
-        ))
-    }
-}
-
 impl std::fmt::Display for Shape {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let g = match self.gratings {
@@ -124,7 +96,7 @@ impl std::fmt::Display for Shape {
     }
 }
 
-/// A reference column of the paper's layout ([`Dataset::target`]): the values, or NaN at
+/// A reference column ([`Dataset::target`], [`Dataset::reference_of`]): the values, or NaN at
 /// every row for a reference the dataset does not have.
 #[derive(Clone, Copy, Debug)]
 pub struct Column<'a>(Option<&'a [f64]>);
@@ -203,41 +175,49 @@ impl Dataset {
         self.refs.sort_by_key(|r| r.measurand);
     }
 
-    /// `Ok` when the dataset has the paper's layout ([`Shape::is_paper`]); otherwise an error
-    /// naming `origin` (the file), what it has, and that `command` cannot handle it yet.
-    pub fn paper_shape(&self, origin: &str, command: &str) -> Result<(), TrainerError> {
-        match self.shape().paper_refusal(command) {
-            None => Ok(()),
-            Some((column, message)) => Err(TrainerError::data(origin, 1, &column, message)),
+    /// The dimensions of a model fitted on this dataset: its gratings, the ambient input when
+    /// the dataset has `T_amb_C`, and its measurands in canonical order. A dataset without a
+    /// reference column is an error naming `origin` (nothing to fit).
+    pub fn dims(&self, origin: &str) -> Result<Dims, TrainerError> {
+        if self.refs.is_empty() {
+            return Err(TrainerError::data(
+                origin,
+                1,
+                "T_C",
+                "no reference column (T_C, strain_ue, p_kPa, T2_C, strain2_ue, ...): nothing to calibrate against (a record without references is for `compensate`)",
+            ));
         }
+        let outputs: Vec<_> = self.refs.iter().map(|r| r.measurand.output()).collect();
+        Dims::new(self.n_gratings(), self.t_amb_c.is_some(), &outputs)
+            .map_err(|e| TrainerError::data(origin, 1, "-", format!("the data have {}: {e}", self.shape())))
     }
 
-    /// `Ok` when the dataset carries the inputs of the paper's model (three gratings and the
-    /// ambient thermometer; references do not matter), which `compensate` and `stream` feed to
-    /// a model; otherwise an error naming `origin`, what it has and what the model needs.
-    pub fn paper_inputs(&self, origin: &str, command: &str) -> Result<(), TrainerError> {
-        let shape = self.shape();
-        if shape.gratings == 3 && shape.ambient {
+    /// `Ok` when the dataset carries the inputs of a model of `dims` (its N gratings, and the
+    /// ambient thermometer when the model reads it; references do not matter); otherwise an
+    /// error naming `origin`, the first missing column, what the data have and what the model
+    /// needs.
+    pub fn inputs_for(&self, dims: &Dims, origin: &str, command: &str) -> Result<(), TrainerError> {
+        let n = dims.gratings();
+        let column = if self.n_gratings() != n {
+            grating_column(self.n_gratings().min(n) + 1)
+        } else if dims.ambient() && self.t_amb_c.is_none() {
+            T_AMB_COLUMN.to_string()
+        } else {
             return Ok(());
-        }
-        let column =
-            if shape.gratings != 3 { grating_column(shape.gratings.min(3) + 1) } else { T_AMB_COLUMN.to_string() };
+        };
+        let needs = match (n, dims.ambient()) {
+            (1, a) => format!("1 grating (dl1_pm){}", if a { " and the ambient thermometer T_amb_C" } else { "" }),
+            (n, a) => format!(
+                "{n} gratings (dl1_pm..dl{n}_pm){}",
+                if a { " and the ambient thermometer T_amb_C" } else { "" }
+            ),
+        };
         Err(TrainerError::data(
             origin,
             1,
             &column,
-            format!(
-                "the data have {shape}; `{command}` runs models of the paper's shape only so far, whose inputs are 3 gratings (dl1_pm..dl3_pm) and the ambient thermometer T_amb_C, so this record cannot be compensated yet"
-            ),
+            format!("the data have {}; `{command}` runs a model whose inputs are {needs}", self.shape()),
         ))
-    }
-
-    /// Read a dataset CSV ([`read_csv`](Self::read_csv)) for a command that fits or scores the
-    /// paper's model, refusing any other shape ([`paper_shape`](Self::paper_shape)).
-    pub fn read_paper_csv(path: &Path, command: &str) -> Result<Dataset, TrainerError> {
-        let d = Self::read_csv(path)?;
-        d.paper_shape(&path.display().to_string(), command)?;
-        Ok(d)
     }
 
     /// The ambient readings; empty when the installation has no thermometer.
@@ -245,25 +225,34 @@ impl Dataset {
         self.t_amb_c.as_deref().unwrap_or(&[])
     }
 
-    /// The model inputs of sample `i` in the paper's layout: the first three gratings (NaN for
-    /// a grating the dataset does not have) and the ambient reading (NaN without one).
+    /// The model inputs of sample `i`: every grating's shift and the ambient reading (NaN
+    /// without one).
     pub fn sample(&self, i: usize) -> Sample<f64> {
-        let g = |k: usize| self.dl_pm.get(k).map_or(f64::NAN, |c| c[i]);
-        Sample::new([g(0), g(1), g(2)], self.t_amb_c.as_ref().map_or(f64::NAN, |a| a[i]), self.t_s[i])
+        let mut dl = [f64::NAN; MAX_GRATINGS];
+        for (o, c) in dl.iter_mut().zip(&self.dl_pm) {
+            *o = c[i];
+        }
+        let n = self.n_gratings().min(MAX_GRATINGS);
+        Sample::from_slice(&dl[..n], self.t_amb_c.as_ref().map_or(f64::NAN, |a| a[i]), self.t_s[i]).unwrap_or_default()
     }
-    /// Which of the paper's references (T, ε, p) the dataset has.
-    pub fn has_target(&self) -> [bool; 3] {
-        Measurand::PAPER.map(|m| self.reference(m).is_some())
+    /// The reference measurands of sample `i`, in canonical order.
+    pub fn truth(&self, i: usize) -> Vec<f64> {
+        self.refs.iter().map(|r| r.values[i]).collect()
     }
-    /// The paper's reference measurands (T, ε, p) of sample `i`; NaN for an absent one.
-    pub fn truth(&self, i: usize) -> [f64; 3] {
-        Measurand::PAPER.map(|m| self.reference(m).map_or(f64::NAN, |v| v[i]))
-    }
-    /// The paper's reference channel by output index (0 T, 1 ε, 2 p): indexing it gives NaN
-    /// at every row when the dataset does not have that reference (as an absent reference
-    /// always read).
+    /// Reference `c` in canonical order: output `c` of a model fitted on this dataset
+    /// ([`Dataset::dims`]); indexing it gives NaN at every row beyond the references.
     pub fn target(&self, c: usize) -> Column<'_> {
-        Column(Measurand::PAPER.get(c).and_then(|&m| self.reference(m)))
+        Column(self.refs.get(c).map(|r| r.values.as_slice()))
+    }
+    /// The reference of output `c` of a model of `dims`, found by measurand (NaN at every row
+    /// when the dataset does not have it).
+    pub fn reference_of(&self, dims: &Dims, c: usize) -> Column<'_> {
+        Column(dims.outputs().get(c).and_then(|&o| self.reference(Measurand::of_output(o))))
+    }
+    /// The references of every output of a model of `dims`, found by measurand ([`Column`]s
+    /// that read NaN where the dataset lacks one).
+    pub fn references_of(&self, dims: &Dims) -> Vec<Column<'_>> {
+        (0..dims.n_outputs()).map(|c| self.reference_of(dims, c)).collect()
     }
     /// Indices of the calibration samples.
     pub fn cal_indices(&self) -> Vec<usize> {

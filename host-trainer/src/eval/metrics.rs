@@ -2,8 +2,6 @@
 //! one scenario and seed, as [`Metrics`]. The studies fill it ([`super::studies`]), the tables
 //! render it ([`super::tables`]), the report reads it back (`crate::report::load`).
 
-use fbg_shared::layout::paper::N_OUTPUTS;
-
 use crate::eval::parity::ParityReport;
 use crate::eval::score::{ChannelMetrics, ModelEval};
 use crate::fit::{self, Selection};
@@ -14,11 +12,11 @@ pub struct Table2 {
     pub model_p: ModelEval,
     pub model_h: ModelEval,
     /// Gain of Model-H over Model-P in % of Model-P's RMSE.
-    pub gain_pct: [f64; N_OUTPUTS],
+    pub gain_pct: Vec<f64>,
     /// Oracle-floor RMSE per output, when the data come from the simulator.
-    pub oracle_floor: Option<[f64; N_OUTPUTS]>,
+    pub oracle_floor: Option<Vec<f64>>,
     /// Model-H RMSE above the floor as a multiple of the floor.
-    pub h_over_floor: Option<[f64; N_OUTPUTS]>,
+    pub h_over_floor: Option<Vec<f64>>,
 }
 
 /// The drift sweep: hold-out RMSE against σ_d with both models refitted each time.
@@ -27,15 +25,15 @@ pub struct DriftSweep {
     pub factors: Vec<f64>,
     /// σ_d [pm per step] of each point.
     pub sigma_d_pm: Vec<f64>,
-    pub rmse_p: Vec<[f64; N_OUTPUTS]>,
-    pub rmse_h: Vec<[f64; N_OUTPUTS]>,
+    pub rmse_p: Vec<Vec<f64>>,
+    pub rmse_h: Vec<Vec<f64>>,
     /// Least-squares slope of RMSE against σ_d [output unit per (pm/step)]: the
     /// drift-sensitivity index.
-    pub slope_p: [f64; N_OUTPUTS],
-    pub slope_h: [f64; N_OUTPUTS],
+    pub slope_p: Vec<f64>,
+    pub slope_h: Vec<f64>,
     /// Intercepts of those lines.
-    pub intercept_p: [f64; N_OUTPUTS],
-    pub intercept_h: [f64; N_OUTPUTS],
+    pub intercept_p: Vec<f64>,
+    pub intercept_h: Vec<f64>,
 }
 
 /// One ablation configuration (Table 3).
@@ -43,7 +41,7 @@ pub struct DriftSweep {
 pub struct AblationRow {
     pub name: String,
     pub note: String,
-    pub channels: [ChannelMetrics; N_OUTPUTS],
+    pub channels: Vec<ChannelMetrics>,
     /// Hyper-parameters the variant chose (absent for the polynomial only).
     pub config: Option<fit::Config>,
 }
@@ -53,10 +51,14 @@ pub struct AblationRow {
 pub struct BudgetRow {
     /// Artefact switched off ("none" = full scenario, "all" = physics and nothing else).
     pub effect_off: String,
-    pub rmse_p: [f64; N_OUTPUTS],
-    pub rmse_h: [f64; N_OUTPUTS],
+    pub rmse_p: Vec<f64>,
+    pub rmse_h: Vec<f64>,
     /// Per-sample oracle of that scenario.
-    pub oracle_floor: [f64; N_OUTPUTS],
+    pub oracle_floor: Vec<f64>,
+    /// Why the models could not be refitted for this row (its RMSEs are then NaN): e.g. with
+    /// noise off, gratings that respond only to temperature are exactly collinear.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub not_fitted: Option<String>,
 }
 
 /// Everything measured about one scenario and seed.
@@ -68,8 +70,11 @@ pub struct Metrics {
     pub samples: usize,
     pub cal_samples: usize,
     pub holdout_samples: usize,
-    pub channels: [&'static str; N_OUTPUTS],
-    pub units: [&'static str; N_OUTPUTS],
+    /// Short names of the model's outputs (`T`, `strain`, `strain2`, `p`), in output order:
+    /// every per-output list below follows it.
+    pub channels: Vec<String>,
+    /// Their units.
+    pub units: Vec<String>,
     pub selection: SelectionSummary,
     pub table2: Table2,
     pub drift_sweep: Option<DriftSweep>,
@@ -86,10 +91,10 @@ pub struct Metrics {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct SelectionSummary {
     pub chosen: fit::Config,
-    pub cv_rmse_p: [f64; N_OUTPUTS],
-    pub cv_rmse_h: [f64; N_OUTPUTS],
-    pub var_model_p: [fit::VarModel; N_OUTPUTS],
-    pub var_model_h: [fit::VarModel; N_OUTPUTS],
+    pub cv_rmse_p: Vec<f64>,
+    pub cv_rmse_h: Vec<f64>,
+    pub var_model_p: Vec<fit::VarModel>,
+    pub var_model_h: Vec<fit::VarModel>,
     pub folds: Vec<(usize, usize)>,
     pub grid_points: usize,
     /// The best ten grid points.
@@ -100,10 +105,10 @@ impl SelectionSummary {
     pub fn from(s: &Selection) -> Self {
         SelectionSummary {
             chosen: s.chosen,
-            cv_rmse_p: s.cv_rmse_p,
-            cv_rmse_h: s.cv_rmse_h,
-            var_model_p: s.var_model_p,
-            var_model_h: s.var_model_h,
+            cv_rmse_p: s.cv_rmse_p.clone(),
+            cv_rmse_h: s.cv_rmse_h.clone(),
+            var_model_p: s.var_model_p.clone(),
+            var_model_h: s.var_model_h.clone(),
             folds: s.folds.clone(),
             grid_points: s.rows.len(),
             top: s.rows.iter().take(10).cloned().collect(),
@@ -120,15 +125,15 @@ pub struct RecalStudy {
     /// drift, new environment).
     pub seed_old: u64,
     pub seed_new: u64,
-    /// Hold-out RMSE on the new installation (T, ε, p) of: the old model as is, the old model
+    /// Hold-out RMSE on the new installation (per output) of: the old model as is, the old model
     /// recalibrated on the short batch, and a full recalibration (same hyper-parameters, the new
     /// installation's whole calibration batch). Model-H and Model-P.
-    pub h_old: [f64; N_OUTPUTS],
-    pub h_short: [f64; N_OUTPUTS],
-    pub h_full: [f64; N_OUTPUTS],
-    pub p_old: [f64; N_OUTPUTS],
-    pub p_short: [f64; N_OUTPUTS],
-    pub p_full: [f64; N_OUTPUTS],
+    pub h_old: Vec<f64>,
+    pub h_short: Vec<f64>,
+    pub h_full: Vec<f64>,
+    pub p_old: Vec<f64>,
+    pub p_short: Vec<f64>,
+    pub p_full: Vec<f64>,
     /// (old − short) / (old − full) for Model-H, per output.
-    pub recovered_fraction_h: [f64; N_OUTPUTS],
+    pub recovered_fraction_h: Vec<f64>,
 }

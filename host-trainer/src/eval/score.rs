@@ -1,18 +1,48 @@
 //! Hold-out evaluation (DESIGN §5): per channel and model RMSE, MAE, R², bias, max |error|,
 //! band coverage, flag counts; the gain of Model-H over Model-P; the hysteresis index.
 
-use fbg_shared::layout::paper::N_OUTPUTS;
+use fbg_shared::layout::Dims;
 use fbg_shared::{DirectionLatch, Estimate, Flags};
 
 use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::fit::{run, HostParams};
 
-/// Output names for tables and JSON, and their units.
-pub use fbg_shared::layout::paper::{CHANNELS, UNITS};
-/// The grating designed for each output (T ← FBG2, ε ← FBG1, p ← FBG3), used to tell rising
-/// from falling segments for the hysteresis index.
-pub const DOMINANT_GRATING: [usize; N_OUTPUTS] = [1, 0, 2];
+/// Short names of a model's outputs for tables and JSON (`T`, `strain`, `strain2`, `p`).
+pub fn channels(dims: &Dims) -> Vec<String> {
+    dims.outputs().iter().map(|o| o.channel().as_str().to_string()).collect()
+}
+/// Units of a model's outputs.
+pub fn units(dims: &Dims) -> Vec<String> {
+    dims.outputs().iter().map(|o| o.unit().to_string()).collect()
+}
+
+/// The grating that tells rising from falling segments of output `c` for the hysteresis
+/// index: for the paper's layout the grating designed for it (T ← FBG2, ε ← FBG1, p ← FBG3);
+/// otherwise the grating whose shift correlates most with the output's reference over `idx`.
+pub fn dominant_grating(dims: &Dims, d: &Dataset, truth: &[f64], idx: &[usize], c: usize) -> usize {
+    if *dims == Dims::PAPER {
+        return [1, 0, 2][c];
+    }
+    let corr = |g: &[f64]| {
+        let n = idx.len() as f64;
+        let (mx, my) = (idx.iter().map(|&i| g[i]).sum::<f64>() / n, truth.iter().sum::<f64>() / n);
+        let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+        for (&i, &y) in idx.iter().zip(truth) {
+            let (dx, dy) = (g[i] - mx, y - my);
+            sxy += dx * dy;
+            sxx += dx * dx;
+            syy += dy * dy;
+        }
+        let r = (sxy / (sxx * syy).sqrt()).abs();
+        if r.is_finite() {
+            r
+        } else {
+            0.0
+        }
+    };
+    (0..d.n_gratings()).max_by(|&a, &b| corr(&d.dl_pm[a]).total_cmp(&corr(&d.dl_pm[b])).then(b.cmp(&a))).unwrap_or(0)
+}
 /// Dead band of the direction detector of the hysteresis index \[pm\].
 pub const HYSTERESIS_INDEX_DEAD_BAND_PM: f64 = 4.0;
 
@@ -37,7 +67,8 @@ pub struct ChannelMetrics {
 /// A model's hold-out evaluation.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ModelEval {
-    pub channels: [ChannelMetrics; N_OUTPUTS],
+    /// Per output of the model, in output order.
+    pub channels: Vec<ChannelMetrics>,
     /// Samples with each flag raised (non-finite, out-of-envelope, weak support).
     pub flag_counts: [usize; 3],
     /// Fraction of samples with any flag.
@@ -59,11 +90,13 @@ pub fn directions(d: &Dataset, g: usize, idx: &[usize]) -> Vec<f64> {
     idx.iter().map(|&i| all[i]).collect()
 }
 
-/// Evaluate estimates against the truth at `idx`.
-pub fn score(d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> ModelEval {
-    let mut channels = [ChannelMetrics::default(); N_OUTPUTS];
+/// Evaluate estimates of a model of `dims` against the truth at `idx` (each output's
+/// reference found by measurand; NaN metrics for an output the data lack).
+pub fn score(dims: &Dims, d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> ModelEval {
+    let mut channels = vec![ChannelMetrics::default(); dims.n_outputs()];
     for (c, m) in channels.iter_mut().enumerate() {
-        if !d.has_target()[c] {
+        let reference = d.reference_of(dims, c);
+        if !reference.is_present() {
             *m = ChannelMetrics {
                 rmse: f64::NAN,
                 mae: f64::NAN,
@@ -77,14 +110,14 @@ pub fn score(d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> ModelEval {
             };
             continue;
         }
-        let truth: Vec<f64> = idx.iter().map(|&i| d.target(c)[i]).collect();
+        let truth: Vec<f64> = idx.iter().map(|&i| reference[i]).collect();
         let err: Vec<f64> = est.iter().zip(&truth).map(|(e, t)| e.values[c] - t).collect();
         let n = err.len() as f64;
         let mean_t = truth.iter().sum::<f64>() / n;
         let ss_tot: f64 = truth.iter().map(|t| (t - mean_t).powi(2)).sum();
         let ss_res: f64 = err.iter().map(|e| e * e).sum();
         let inside = est.iter().zip(&truth).filter(|(e, t)| (e.values[c] - *t).abs() <= e.band95[c]).count();
-        let dirs = directions(d, DOMINANT_GRATING[c], idx);
+        let dirs = directions(d, dominant_grating(dims, d, &truth, idx, c), idx);
         let mean_if = |want: f64| {
             let v: Vec<f64> = err.iter().zip(&dirs).filter(|(_, d)| **d == want).map(|(e, _)| *e).collect();
             if v.is_empty() {
@@ -114,12 +147,13 @@ pub fn score(d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> ModelEval {
 /// Evaluate `params` on the hold-out of `d` (the samples with finite inputs and references;
 /// gaps are counted in `skipped`).
 pub fn evaluate_holdout(params: &HostParams, d: &Dataset) -> Result<(ModelEval, Vec<Estimate<f64>>), TrainerError> {
+    d.inputs_for(&params.dims, "the dataset", "evaluate")?;
     let idx: Vec<usize> = d.holdout_indices().into_iter().filter(|&i| d.usable(i)).collect();
     if idx.is_empty() {
         return Err(TrainerError::Dataset { message: "no hold-out samples (split column has no `holdout`)".into() });
     }
     let est = estimates(params, d, &idx)?;
-    Ok((score(d, &idx, &est), est))
+    Ok((score(&params.dims, d, &idx, &est), est))
 }
 
 /// Gain of Model-H over Model-P in % of Model-P's RMSE.

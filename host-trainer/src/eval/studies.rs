@@ -6,14 +6,13 @@
 
 use std::time::Instant;
 
-use fbg_shared::layout::paper::N_OUTPUTS;
 use fbg_shared::FeatureSet;
 
-use crate::data::Dataset;
+use crate::data::{Dataset, Measurand};
 use crate::error::TrainerError;
 use crate::eval::metrics::{AblationRow, BudgetRow, DriftSweep, Metrics, RecalStudy, SelectionSummary, Table2};
 use crate::eval::parity;
-use crate::eval::score::{evaluate_holdout, gain_pct, ModelEval, CHANNELS, UNITS};
+use crate::eval::score::{channels, evaluate_holdout, gain_pct, units, ModelEval};
 use crate::fit::recalibrate::{first_hours, recalibrate};
 use crate::fit::{self, HostParams, Origin, TrainOptions, Trained};
 use crate::sim::meta::SimMeta;
@@ -25,11 +24,13 @@ use crate::stats::linear_fit;
 pub const DRIFT_FACTORS: [f64; 6] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0];
 
 /// Table 2 for a trained pair on `d`.
-pub fn table2(p: &HostParams, h: &HostParams, d: &Dataset, oracle: Option<[f64; 3]>) -> Result<Table2, TrainerError> {
+/// `oracle` holds the per-sample oracle's hold-out RMSE per output of the models.
+pub fn table2(p: &HostParams, h: &HostParams, d: &Dataset, oracle: Option<Vec<f64>>) -> Result<Table2, TrainerError> {
     let (ep, _) = evaluate_holdout(p, d)?;
     let (eh, _) = evaluate_holdout(h, d)?;
-    let gain = std::array::from_fn(|c| gain_pct(ep.channels[c].rmse, eh.channels[c].rmse));
-    let over = oracle.map(|o| std::array::from_fn(|c| eh.channels[c].rmse / o[c]));
+    let m = eh.channels.len();
+    let gain = (0..m).map(|c| gain_pct(ep.channels[c].rmse, eh.channels[c].rmse)).collect();
+    let over = oracle.as_ref().map(|o| (0..m).map(|c| eh.channels[c].rmse / o[c]).collect());
     Ok(Table2 { model_p: ep, model_h: eh, gain_pct: gain, oracle_floor: oracle, h_over_floor: over })
 }
 
@@ -38,7 +39,7 @@ fn fixed(opts: &TrainOptions, cfg: &fit::Config) -> TrainOptions {
 }
 
 /// Hold-out RMSE per output of Model-P, of Model-H and of the per-sample oracle.
-type RefitRmse = ([f64; N_OUTPUTS], [f64; N_OUTPUTS], [f64; N_OUTPUTS]);
+type RefitRmse = (Vec<f64>, Vec<f64>, Vec<f64>);
 
 /// Hold-out RMSE of both models retrained on a re-simulated scenario with fixed
 /// hyper-parameters.
@@ -47,7 +48,8 @@ fn refit_rmse(cfg: &ScenarioConfig, seed: u64, opts: &TrainOptions) -> Result<Re
     let tr = fit::train(&s.data, opts, &Origin { scenario: cfg.name.clone(), seed })?;
     let (ep, _) = evaluate_holdout(&tr.model_p, &s.data)?;
     let (eh, _) = evaluate_holdout(&tr.model_h, &s.data)?;
-    Ok((ep.channels.map(|c| c.rmse), eh.channels.map(|c| c.rmse), s.oracle_floor().paper_holdout()))
+    let rmse = |e: &ModelEval| e.channels.iter().map(|c| c.rmse).collect();
+    Ok((rmse(&ep), rmse(&eh), s.oracle_floor().holdout_for(&Measurand::of_dims(&tr.model_h.dims))))
 }
 
 /// The drift sweep, refitting both models at each σ_d with the hyper-parameters chosen on
@@ -73,21 +75,22 @@ pub fn drift_sweep(
         rmse_h.push(h);
     }
     let x: Vec<f64> = DRIFT_FACTORS.iter().map(|f| f * cfg.drift.sigma_pm).collect();
-    let line = |ys: &[[f64; 3]], c: usize| {
+    let line = |ys: &[Vec<f64>], c: usize| {
         let y: Vec<f64> = ys.iter().map(|v| v[c]).collect();
         linear_fit(&x, &y)
     };
-    let lp: [(f64, f64); 3] = std::array::from_fn(|c| line(&rmse_p, c));
-    let lh: [(f64, f64); 3] = std::array::from_fn(|c| line(&rmse_h, c));
+    let m = rmse_p.first().map_or(0, |v: &Vec<f64>| v.len());
+    let lp: Vec<(f64, f64)> = (0..m).map(|c| line(&rmse_p, c)).collect();
+    let lh: Vec<(f64, f64)> = (0..m).map(|c| line(&rmse_h, c)).collect();
     Ok(DriftSweep {
         factors: DRIFT_FACTORS.to_vec(),
         sigma_d_pm: x,
         rmse_p,
         rmse_h,
-        slope_p: lp.map(|l| l.1),
-        slope_h: lh.map(|l| l.1),
-        intercept_p: lp.map(|l| l.0),
-        intercept_h: lh.map(|l| l.0),
+        slope_p: lp.iter().map(|l| l.1).collect(),
+        slope_h: lh.iter().map(|l| l.1).collect(),
+        intercept_p: lp.iter().map(|l| l.0).collect(),
+        intercept_h: lh.iter().map(|l| l.0).collect(),
     })
 }
 
@@ -107,10 +110,13 @@ pub fn ablation(
     let (eh, _) = evaluate_holdout(&trained.model_h, d)?;
     let base = TrainOptions { progress: false, ..opts.clone() };
     let off = fit::memory_core::MemoryOptions::off();
+    let linear: Vec<String> = std::iter::once("1".to_string())
+        .chain(Measurand::of_dims(&trained.model_h.dims).iter().map(|m| m.short_name()))
+        .collect();
     let mut variants: Vec<(String, String, TrainOptions)> = vec![
         (
             "Hybrid w/o cross-terms".into(),
-            "stage 2 keeps [1, T, ε, p]; memory terms and RBF residual selected by CV".into(),
+            format!("stage 2 keeps [{}]; memory terms and RBF residual selected by CV", linear.join(", ")),
             TrainOptions { cross_terms: false, ..base.clone() },
         ),
         (
@@ -205,8 +211,28 @@ pub fn error_budget(
         if all || name == "noise" {
             c.noise.enabled = false;
         }
-        let (p, h, floor) = refit_rmse(&c, seed, &o)?;
-        Ok(BudgetRow { effect_off: name.to_string(), rmse_p: p, rmse_h: h, oracle_floor: floor })
+        match refit_rmse(&c, seed, &o) {
+            Ok((p, h, floor)) => Ok(BudgetRow {
+                effect_off: name.to_string(),
+                rmse_p: p,
+                rmse_h: h,
+                oracle_floor: floor,
+                not_fitted: None,
+            }),
+            // A fit the scenario without this artefact cannot support (e.g. collinear gratings
+            // once the noise is off) is a row without numbers, not a failed study.
+            Err(e @ TrainerError::Fit { .. }) => {
+                let nan = vec![f64::NAN; cfg.measurands.len()];
+                Ok(BudgetRow {
+                    effect_off: name.to_string(),
+                    rmse_p: nan.clone(),
+                    rmse_h: nan.clone(),
+                    oracle_floor: nan,
+                    not_fitted: Some(e.to_string()),
+                })
+            }
+            Err(e) => Err(e),
+        }
     });
     rows.into_iter().collect()
 }
@@ -224,7 +250,7 @@ pub fn recalibration(
     let new_site = simulate(cfg, seed_new);
     let d = &new_site.data;
     let batch = first_hours(d, hours);
-    let rmse = |e: &ModelEval| e.channels.map(|c| c.rmse);
+    let rmse = |e: &ModelEval| -> Vec<f64> { e.channels.iter().map(|c| c.rmse).collect() };
     let (h_short_p, _) = recalibrate(old_h, d, &batch)?;
     let (p_short_p, _) = recalibrate(old_p, d, &batch)?;
     let full = fit::train(d, &TrainOptions::fixed(chosen), &Origin { scenario: cfg.name.clone(), seed: seed_new })?;
@@ -234,6 +260,7 @@ pub fn recalibration(
     let p_old = rmse(&evaluate_holdout(old_p, d)?.0);
     let p_short = rmse(&evaluate_holdout(&p_short_p, d)?.0);
     let p_full = rmse(&evaluate_holdout(&full.model_p, d)?.0);
+    let recovered_fraction_h = (0..h_old.len()).map(|c| (h_old[c] - h_short[c]) / (h_old[c] - h_full[c])).collect();
     Ok(RecalStudy {
         batch_hours: hours,
         batch_samples: batch.len(),
@@ -245,7 +272,7 @@ pub fn recalibration(
         p_old,
         p_short,
         p_full,
-        recovered_fraction_h: std::array::from_fn(|c| (h_old[c] - h_short[c]) / (h_old[c] - h_full[c])),
+        recovered_fraction_h,
     })
 }
 
@@ -288,7 +315,7 @@ pub fn run_all(
         t.elapsed().as_secs_f64(),
         trained.selection.rows.len()
     ));
-    let oracle = sim.oracle_floor().paper_holdout();
+    let oracle = sim.oracle_floor().holdout_for(&Measurand::of_dims(&trained.model_h.dims));
     let t = Instant::now();
     let t2 = table2(&trained.model_p, &trained.model_h, &sim.data, Some(oracle))?;
     timings.push(("evaluate".to_string(), t.elapsed().as_secs_f64()));
@@ -348,8 +375,8 @@ pub fn run_all(
         samples: d.len(),
         cal_samples: d.cal_indices().len(),
         holdout_samples: d.holdout_indices().len(),
-        channels: CHANNELS,
-        units: UNITS,
+        channels: channels(&trained.model_h.dims),
+        units: units(&trained.model_h.dims),
         selection: SelectionSummary::from(&trained.selection),
         table2: t2,
         drift_sweep: drift,
@@ -401,7 +428,8 @@ pub fn evaluate_models(
     bar.enable_steady_tick(std::time::Duration::from_millis(200));
     bar.set_message("hold-out (Table 2)");
     let t = Instant::now();
-    let oracle = meta.map(|m| m.oracle_floor_paper());
+    let oracle = meta.map(|m| m.oracle_floor_for(&Measurand::of_dims(&h.dims)));
+    let n_out = h.dims.n_outputs();
     let t2 = table2(p, h, d, oracle)?;
     bar.inc(1);
     timings.push(("evaluate".to_string(), t.elapsed().as_secs_f64()));
@@ -423,8 +451,8 @@ pub fn evaluate_models(
                 memory: fit::memory_core::MemoryChoice::none(),
                 memory_rows: vec![],
                 rows: vec![],
-                cv_rmse_p: [f64::NAN; 3],
-                cv_rmse_h: [f64::NAN; 3],
+                cv_rmse_p: vec![f64::NAN; n_out],
+                cv_rmse_h: vec![f64::NAN; n_out],
                 var_model_p: Default::default(),
                 var_model_h: Default::default(),
                 folds: vec![],
@@ -477,12 +505,12 @@ pub fn evaluate_models(
         samples: d.len(),
         cal_samples: d.cal_indices().len(),
         holdout_samples: d.holdout_indices().len(),
-        channels: CHANNELS,
-        units: UNITS,
+        channels: channels(&h.dims),
+        units: units(&h.dims),
         selection: SelectionSummary {
             chosen,
-            cv_rmse_p: [f64::NAN; 3],
-            cv_rmse_h: [f64::NAN; 3],
+            cv_rmse_p: vec![f64::NAN; n_out],
+            cv_rmse_h: vec![f64::NAN; n_out],
             var_model_p: Default::default(),
             var_model_h: Default::default(),
             folds: vec![],

@@ -3,7 +3,6 @@
 //! can never disagree.
 
 use crate::eval::metrics::{AblationRow, BudgetRow, DriftSweep, Metrics, RecalStudy};
-use crate::eval::score::{CHANNELS, UNITS};
 
 /// A rectangular table: header and rows of cells.
 #[derive(Clone, Debug, Default)]
@@ -81,8 +80,29 @@ fn f(v: f64, digits: usize) -> String {
     }
 }
 
-/// Decimals that suit each channel's magnitude.
-const DIGITS: [usize; 3] = [3, 2, 2];
+/// Decimals that suit a channel's magnitude, by unit (°C: 3, µε and kPa: 2).
+fn digits(unit: &str) -> usize {
+    if unit == "°C" {
+        3
+    } else {
+        2
+    }
+}
+
+/// Decimals of each output of `m`.
+fn all_digits(m: &Metrics) -> Vec<usize> {
+    m.units.iter().map(|u| digits(u)).collect()
+}
+
+/// The symbol of a channel for compact headers: `T`, `ε`, `ε2`, `p`.
+fn symbol(channel: &str) -> String {
+    channel.replacen("strain", "ε", 1)
+}
+
+/// Per output, "{symbol} {suffix}" for each suffix: compact column headers.
+fn per_output_headers(m: &Metrics, suffixes: &[&str]) -> Vec<String> {
+    m.channels.iter().flat_map(|c| suffixes.iter().map(move |s| format!("{} {s}", symbol(c)))).collect()
+}
 
 /// Table 2: hold-out performance, both models, with the per-sample oracle.
 /// Where the record came from: "paper, seed 7" for a simulated one (its `.meta.json` gave the
@@ -124,19 +144,20 @@ pub fn flag_lines(m: &Metrics) -> Vec<String> {
         pct(fc[1]),
         pct(fc[2])
     )];
-    let worse: Vec<usize> = (0..3).filter(|&c| t.gain_pct[c] < 0.0).collect();
+    let worse: Vec<usize> = (0..t.gain_pct.len()).filter(|&c| t.gain_pct[c] < 0.0).collect();
     if !worse.is_empty() {
-        let which: Vec<String> = worse.iter().map(|&c| format!("{} ({:+.1} %)", CHANNELS[c], t.gain_pct[c])).collect();
+        let which: Vec<String> =
+            worse.iter().map(|&c| format!("{} ({:+.1} %)", m.channels[c], t.gain_pct[c])).collect();
         let why = if pct(fc[1]) >= 10.0 {
             format!(
                 "{:.0} % of the hold-out lies outside the calibration envelope, where the residual has no data: calibrate over the range the sensor will see, or use Model-P for {}",
                 pct(fc[1]),
-                worse.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>().join(", ")
+                worse.iter().map(|&c| m.channels[c].as_str()).collect::<Vec<_>>().join(", ")
             )
         } else {
             format!(
                 "use Model-P for {}, or recalibrate on recent data",
-                worse.iter().map(|&c| CHANNELS[c]).collect::<Vec<_>>().join(", ")
+                worse.iter().map(|&c| m.channels[c].as_str()).collect::<Vec<_>>().join(", ")
             )
         };
         out.push(format!("warning: Model-H is worse than Model-P on {} of the hold-out; {why}", which.join(", ")));
@@ -147,12 +168,12 @@ pub fn flag_lines(m: &Metrics) -> Vec<String> {
 pub fn table2(m: &Metrics) -> Table {
     let t = &m.table2;
     let mut rows = Vec::new();
-    for c in 0..3 {
-        let dg = DIGITS[c];
+    for c in 0..m.channels.len() {
+        let dg = digits(&m.units[c]);
         for (name, e) in [("Model-P", &t.model_p), ("Model-H", &t.model_h)] {
             let ch = &e.channels[c];
             rows.push(vec![
-                format!("{} [{}]", CHANNELS[c], UNITS[c]),
+                format!("{} [{}]", m.channels[c], m.units[c]),
                 name.to_string(),
                 f(ch.rmse, dg),
                 f(ch.mae, dg),
@@ -162,7 +183,7 @@ pub fn table2(m: &Metrics) -> Table {
                 f(100.0 * ch.coverage, 1),
                 f(ch.hysteresis_index, dg),
                 if name == "Model-H" { f(t.gain_pct[c], 1) } else { String::new() },
-                t.oracle_floor.map(|o| f(o[c], dg)).unwrap_or_default(),
+                t.oracle_floor.as_ref().map(|o| f(o[c], dg)).unwrap_or_default(),
             ]);
         }
     }
@@ -189,12 +210,13 @@ pub fn table2(m: &Metrics) -> Table {
 
 /// Table 3: ablation for every channel (RMSE).
 pub fn table3(rows: &[AblationRow], m: &Metrics) -> Table {
-    let base = rows.first().map(|r| r.channels);
+    let base = rows.first().map(|r| &r.channels);
+    let dg = all_digits(m);
     let mut out = Vec::new();
     for r in rows {
         let mut cells = vec![r.name.clone()];
-        for c in 0..3 {
-            cells.push(f(r.channels[c].rmse, DIGITS[c]));
+        for c in 0..m.channels.len() {
+            cells.push(f(r.channels[c].rmse, dg[c]));
             cells.push(base.map(|b| f(100.0 * (b[c].rmse - r.channels[c].rmse) / b[c].rmse, 1)).unwrap_or_default());
         }
         cells.push(r.note.clone());
@@ -202,9 +224,10 @@ pub fn table3(rows: &[AblationRow], m: &Metrics) -> Table {
     }
     Table {
         title: format!("Table 3. Ablation, hold-out RMSE ({}, seed {})", m.scenario, m.seed),
-        header: ["configuration", "T [°C]", "gain %", "strain [µε]", "gain %", "p [kPa]", "gain %", "notes"]
-            .map(String::from)
-            .to_vec(),
+        header: std::iter::once("configuration".to_string())
+            .chain(m.channels.iter().zip(&m.units).flat_map(|(c, u)| [format!("{c} [{u}]"), "gain %".to_string()]))
+            .chain(std::iter::once("notes".to_string()))
+            .collect(),
         rows: out,
     }
 }
@@ -213,8 +236,9 @@ pub fn table3(rows: &[AblationRow], m: &Metrics) -> Table {
 pub fn budget(rows: &[BudgetRow], m: &Metrics) -> Table {
     let mut out = Vec::new();
     for r in rows {
-        let mut cells = vec![r.effect_off.clone()];
-        for (c, &digits) in DIGITS.iter().enumerate() {
+        let name = if r.not_fitted.is_some() { format!("{} (not fitted)", r.effect_off) } else { r.effect_off.clone() };
+        let mut cells = vec![name];
+        for (c, &digits) in all_digits(m).iter().enumerate() {
             cells.push(f(r.rmse_p[c], digits));
             cells.push(f(r.rmse_h[c], digits));
             cells.push(f(r.oracle_floor[c], digits));
@@ -223,9 +247,9 @@ pub fn budget(rows: &[BudgetRow], m: &Metrics) -> Table {
     }
     Table {
         title: format!("Error budget: hold-out RMSE with one artefact switched off ({}, seed {})", m.scenario, m.seed),
-        header: ["switched off", "T P", "T H", "T oracle", "ε P", "ε H", "ε oracle", "p P", "p H", "p oracle"]
-            .map(String::from)
-            .to_vec(),
+        header: std::iter::once("switched off".to_string())
+            .chain(per_output_headers(m, &["P", "H", "oracle"]))
+            .collect(),
         rows: out,
     }
 }
@@ -235,21 +259,24 @@ pub fn drift(s: &DriftSweep, m: &Metrics) -> Table {
     let mut rows = Vec::new();
     for (i, x) in s.sigma_d_pm.iter().enumerate() {
         let mut cells = vec![format!("{:.3}", x), format!("×{}", s.factors[i])];
-        for (c, &digits) in DIGITS.iter().enumerate() {
+        for (c, &digits) in all_digits(m).iter().enumerate() {
             cells.push(f(s.rmse_p[i][c], digits));
             cells.push(f(s.rmse_h[i][c], digits));
         }
         rows.push(cells);
     }
     let mut slope = vec!["slope per pm/step".to_string(), String::new()];
-    for (c, &digits) in DIGITS.iter().enumerate() {
+    for (c, &digits) in all_digits(m).iter().enumerate() {
         slope.push(f(s.slope_p[c], digits));
         slope.push(f(s.slope_h[c], digits));
     }
     rows.push(slope);
     Table {
         title: format!("Drift sweep: hold-out RMSE vs σ_d, both models refitted ({}, seed {})", m.scenario, m.seed),
-        header: ["σ_d [pm/step]", "factor", "T P", "T H", "ε P", "ε H", "p P", "p H"].map(String::from).to_vec(),
+        header: ["σ_d [pm/step]".to_string(), "factor".to_string()]
+            .into_iter()
+            .chain(per_output_headers(m, &["P", "H"]))
+            .collect(),
         rows,
     }
 }
@@ -258,21 +285,22 @@ pub fn drift(s: &DriftSweep, m: &Metrics) -> Table {
 /// changed installation.
 pub fn recalibration(rs: &[RecalStudy], m: &Metrics) -> Table {
     let mut rows = Vec::new();
+    let dg = all_digits(m);
     for r in rs {
         for (name, h, p) in [
-            ("old model, no recalibration", r.h_old, r.p_old),
-            ("short-batch recalibration", r.h_short, r.p_short),
-            ("full recalibration", r.h_full, r.p_full),
+            ("old model, no recalibration", &r.h_old, &r.p_old),
+            ("short-batch recalibration", &r.h_short, &r.p_short),
+            ("full recalibration", &r.h_full, &r.p_full),
         ] {
             let mut cells = vec![format!("{} h ({} samples)", r.batch_hours, r.batch_samples), name.to_string()];
-            for c in 0..3 {
-                cells.push(f(p[c], DIGITS[c]));
-                cells.push(f(h[c], DIGITS[c]));
+            for c in 0..dg.len() {
+                cells.push(f(p[c], dg[c]));
+                cells.push(f(h[c], dg[c]));
             }
             rows.push(cells);
         }
         let mut cells = vec![String::new(), "gain recovered by the batch (Model-H) %".to_string()];
-        for c in 0..3 {
+        for c in 0..dg.len() {
             cells.push(String::new());
             cells.push(f(100.0 * r.recovered_fraction_h[c], 0));
         }
@@ -285,7 +313,10 @@ pub fn recalibration(rs: &[RecalStudy], m: &Metrics) -> Table {
             m.seed,
             rs.first().map(|r| r.seed_new).unwrap_or(0)
         ),
-        header: ["batch", "model state", "T P", "T H", "ε P", "ε H", "p P", "p H"].map(String::from).to_vec(),
+        header: ["batch".to_string(), "model state".to_string()]
+            .into_iter()
+            .chain(per_output_headers(m, &["P", "H"]))
+            .collect(),
         rows,
     }
 }

@@ -17,11 +17,11 @@ use std::sync::{Arc, Mutex, OnceLock};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use fbg_shared::layout::paper::N_OUTPUTS;
+use fbg_shared::layout::{MAX_GRATINGS, MAX_OUTPUTS};
 use fbg_shared::{Estimate, StreamState};
 
 use super::{HostCompensator, HostParams};
-use crate::data::Dataset;
+use crate::data::{Column, Dataset};
 use crate::error::TrainerError;
 
 /// Samples per stretch (the unit of parallel work and of checkpointing).
@@ -137,9 +137,9 @@ pub struct StretchOut<'a> {
     pub est: &'a [Estimate<f64>],
     /// The values at each row: the estimate's ([`Pass::Estimates`]) or the polynomial core's
     /// ([`Pass::Design`]); NaN for a non-finite row.
-    pub values: &'a [[f64; N_OUTPUTS]],
-    /// The direction-latch values after each row.
-    pub latches: &'a [[f64; 3]],
+    pub values: &'a [[f64; MAX_OUTPUTS]],
+    /// The direction-latch values after each row (0 beyond the model's gratings).
+    pub latches: &'a [[f64; MAX_GRATINGS]],
 }
 
 /// Per-worker buffers of [`map_stretches`].
@@ -147,8 +147,8 @@ pub struct StretchOut<'a> {
 struct Buffers {
     psi: Vec<f64>,
     est: Vec<Estimate<f64>>,
-    values: Vec<[f64; N_OUTPUTS]>,
-    latches: Vec<[f64; 3]>,
+    values: Vec<[f64; MAX_OUTPUTS]>,
+    latches: Vec<[f64; MAX_GRATINGS]>,
 }
 
 /// Run `params` over the record and hand each stretch's wanted rows (sorted ascending) to
@@ -214,17 +214,15 @@ pub fn map_stretches<T: Send>(
                 match pass {
                     Pass::Estimates => {
                         let e = c.step_with(&d.sample(i), |j, v| row[j] = v);
-                        b.values.push(fbg_shared::layout::pad(&e.values));
+                        b.values.push(e.values);
                         b.est.push(e);
                     }
                     Pass::Design => {
-                        let v = c
-                            .core_and_activations(&d.sample(i), row)
-                            .map_or([f64::NAN; N_OUTPUTS], |v| fbg_shared::layout::pad(&v));
+                        let v = c.core_and_activations(&d.sample(i), row).unwrap_or([f64::NAN; MAX_OUTPUTS]);
                         b.values.push(v);
                     }
                 }
-                b.latches.push(fbg_shared::layout::pad(&c.latch_values()));
+                b.latches.push(c.latch_values());
                 cur = Some(i + 1);
             }
             f(StretchOut { rows: want, psi: &b.psi, est: &b.est, values: &b.values, latches: &b.latches })
@@ -255,7 +253,7 @@ pub fn design_matrix(
     params: &HostParams,
     d: &Dataset,
     rows: &[usize],
-) -> Result<(DMatrix<f64>, Vec<[f64; N_OUTPUTS]>), TrainerError> {
+) -> Result<(DMatrix<f64>, Vec<[f64; MAX_OUTPUTS]>), TrainerError> {
     design_matrix_with(params, d, rows, None)
 }
 
@@ -265,7 +263,7 @@ pub fn design_matrix_with(
     d: &Dataset,
     rows: &[usize],
     ck: Option<&Checkpoints>,
-) -> Result<(DMatrix<f64>, Vec<[f64; N_OUTPUTS]>), TrainerError> {
+) -> Result<(DMatrix<f64>, Vec<[f64; MAX_OUTPUTS]>), TrainerError> {
     let k = params.centres.len();
     let parts = map_stretches(params, d, rows, ck, Pass::Design, |o| (o.psi.to_vec(), o.values.to_vec()))?;
     let mut psi = DMatrix::zeros(rows.len(), k);
@@ -297,27 +295,33 @@ pub struct Gram {
     pub max_psi: Vec<f64>,
 }
 
-/// Residual target of output `c` at sample `i` given the core's values: reference − value,
-/// 0 for an output without reference (so that its residual weights stay 0).
+/// Residual target of output `c` at sample `i` given the core's values and the outputs'
+/// references ([`Dataset::references_of`]): reference − value, 0 for an output without
+/// reference (so that its residual weights stay 0).
 #[inline]
-pub fn residual(d: &Dataset, i: usize, c: usize, values: &[f64; N_OUTPUTS]) -> f64 {
-    if d.has_target()[c] {
-        d.target(c)[i] - values[c]
-    } else {
-        0.0
+pub fn residual(refs: &[Column<'_>], i: usize, c: usize, values: &[f64; MAX_OUTPUTS]) -> f64 {
+    match refs.get(c) {
+        Some(r) if r.is_present() => r[i] - values[c],
+        _ => 0.0,
     }
 }
 
 /// [`Gram`] of `params` over `rows` (sorted ascending).
 pub fn gram(params: &HostParams, d: &Dataset, rows: &[usize], ck: Option<&Checkpoints>) -> Result<Gram, TrainerError> {
     let k = params.centres.len();
+    let m = params.dims.n_outputs();
+    let refs = d.references_of(&params.dims);
     let parts = map_stretches(params, d, rows, ck, Pass::Design, |o| {
         let mut g = vec![0.0; k * k];
-        let mut pr = vec![0.0; k * N_OUTPUTS];
-        let r: Vec<[f64; N_OUTPUTS]> =
-            o.rows.iter().zip(o.values).map(|(&i, v)| std::array::from_fn(|c| residual(d, i, c, v))).collect();
+        let mut pr = vec![0.0; k * m];
+        let r: Vec<[f64; MAX_OUTPUTS]> = o
+            .rows
+            .iter()
+            .zip(o.values)
+            .map(|(&i, v)| std::array::from_fn(|c| if c < m { residual(&refs, i, c, v) } else { 0.0 }))
+            .collect();
         if k > 0 {
-            add_outer_products(&mut g, &mut pr, o.psi, &r, k);
+            add_outer_products(&mut g, &mut pr, o.psi, &r, k, m);
         }
         let mx: Vec<f64> = if k == 0 {
             vec![0.0; o.rows.len()]
@@ -327,15 +331,15 @@ pub fn gram(params: &HostParams, d: &Dataset, rows: &[usize], ck: Option<&Checkp
         (g, pr, mx)
     })?;
     let mut g = DMatrix::zeros(k, k);
-    let mut psi_r = DMatrix::zeros(k, N_OUTPUTS);
+    let mut psi_r = DMatrix::zeros(k, m);
     let mut max_psi = Vec::with_capacity(rows.len());
     for (pg, pr, mx) in parts {
         for a in 0..k {
             for b in a..k {
                 g[(a, b)] += pg[a * k + b];
             }
-            for c in 0..N_OUTPUTS {
-                psi_r[(a, c)] += pr[a * N_OUTPUTS + c];
+            for c in 0..m {
+                psi_r[(a, c)] += pr[a * m + c];
             }
         }
         max_psi.extend(mx);
@@ -351,7 +355,7 @@ pub fn gram(params: &HostParams, d: &Dataset, rows: &[usize], ck: Option<&Checkp
 /// G += Σ_r ψ_r ψ_rᵀ (upper triangle, row-major K × K) and PR += Σ_r ψ_r r_rᵀ over the rows of
 /// `psi` (row-major, K per row), four rows at a time: each pass over G then carries four
 /// products per element, and the inner loop over b is a contiguous, vectorisable update.
-fn add_outer_products(g: &mut [f64], pr: &mut [f64], psi: &[f64], r: &[[f64; N_OUTPUTS]], k: usize) {
+fn add_outer_products(g: &mut [f64], pr: &mut [f64], psi: &[f64], r: &[[f64; MAX_OUTPUTS]], k: usize, m: usize) {
     let mut quads = psi.chunks_exact(4 * k);
     let mut rq = r.chunks_exact(4);
     for (q, rr) in (&mut quads).zip(&mut rq) {
@@ -365,8 +369,8 @@ fn add_outer_products(g: &mut [f64], pr: &mut [f64], psi: &[f64], r: &[[f64; N_O
             {
                 *gv += a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3;
             }
-            for c in 0..N_OUTPUTS {
-                pr[a * N_OUTPUTS + c] += a0 * rr[0][c] + a1 * rr[1][c] + a2 * rr[2][c] + a3 * rr[3][c];
+            for c in 0..m {
+                pr[a * m + c] += a0 * rr[0][c] + a1 * rr[1][c] + a2 * rr[2][c] + a3 * rr[3][c];
             }
         }
     }
@@ -376,8 +380,8 @@ fn add_outer_products(g: &mut [f64], pr: &mut [f64], psi: &[f64], r: &[[f64; N_O
             for (gv, &pb) in g[a * k + a..(a + 1) * k].iter_mut().zip(&p[a..]) {
                 *gv += pa * pb;
             }
-            for c in 0..N_OUTPUTS {
-                pr[a * N_OUTPUTS + c] += pa * rr[c];
+            for c in 0..m {
+                pr[a * m + c] += pa * rr[c];
             }
         }
     }

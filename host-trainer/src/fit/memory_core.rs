@@ -9,24 +9,20 @@
 //! (the menu below): only level-free terms (high-passes, stop terms, the drift observer) are
 //! offered, because absolute levels extrapolate into a later hold-out in a way that
 //! cross-validation inside one calibration batch does not catch; and the drift observer is
-//! offered to the temperature output only (a drift common to every grating looks like a
-//! temperature change to each of them). Within that menu, blocked time-series
+//! offered to temperature outputs only, and exists only with the ambient input (a drift common
+//! to every grating looks like a temperature change to each of them). Within that menu, blocked time-series
 //! cross-validation chooses per output which groups to use and λ, from closed-form validation
 //! errors (Gram matrices of the training and validation rows), so the whole menu costs one
 //! pass of the bank per fold.
 
 use nalgebra::{DMatrix, DVector};
 
-use fbg_shared::layout::paper::{N_MEMORY, N_OUTPUTS, N_POLY};
-use fbg_shared::layout::Dims;
+use fbg_shared::layout::{Dims, Quantity, MAX_MEMORY, MAX_OUTPUTS, MAX_POLY};
 use fbg_shared::{MemoryBank, MemoryGroup, MemorySpec};
 
 use super::poly_core::PolyCore;
 use crate::data::Dataset;
 use crate::error::TrainerError;
-
-/// Output index of temperature (the only one offered the drift observer).
-const TEMPERATURE: usize = 0;
 
 /// The memory menu cross-validation chooses from.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -88,10 +84,10 @@ impl MemoryOptions {
 /// What each output uses: a set of groups and its ridge penalty.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct MemoryChoice {
-    /// Per output, a bit per [`MemoryGroup::ALL`] entry.
-    pub groups: [u8; N_OUTPUTS],
+    /// Per output, a bit per [`MemoryGroup::ALL`] entry (0 beyond the model's outputs).
+    pub groups: [u8; MAX_OUTPUTS],
     /// Per output, λ per sample on the standardised memory terms.
-    pub lambda: [f64; N_OUTPUTS],
+    pub lambda: [f64; MAX_OUTPUTS],
 }
 
 /// The bit of `g` in a [`MemoryChoice`] group mask (its place in [`MemoryGroup::ALL`]).
@@ -123,7 +119,7 @@ impl MemoryChoice {
     /// The spec that computes exactly the terms some output uses (others 0), with the
     /// observer's row from `core`'s stage 1.
     pub fn spec(&self, menu: &MemorySpec<f64>, core: &PolyCore) -> MemorySpec<f64> {
-        let any = |g| (0..N_OUTPUTS).any(|o| self.uses(o, g));
+        let any = |g| (0..core.dims.n_outputs()).any(|o| self.uses(o, g));
         let mut s = MemorySpec::off();
         if any(MemoryGroup::GratingHighPass) {
             s.grating_tau_s = menu.grating_tau_s;
@@ -134,10 +130,12 @@ impl MemoryChoice {
         if any(MemoryGroup::Stop) {
             s.play_half_width_pm = menu.play_half_width_pm;
         }
-        if any(MemoryGroup::DriftObserver) && menu.observer_lag_s > 0.0 {
-            s.observer_lag_s = menu.observer_lag_s;
-            s.observer_smooth_s = menu.observer_smooth_s;
-            s.observer_row = fbg_shared::layout::pad(&core.stage1[TEMPERATURE]);
+        if let Some(t) = core.dims.position(Quantity::Temperature).filter(|_| core.dims.has_observer()) {
+            if any(MemoryGroup::DriftObserver) && menu.observer_lag_s > 0.0 {
+                s.observer_lag_s = menu.observer_lag_s;
+                s.observer_smooth_s = menu.observer_smooth_s;
+                s.observer_row = core.stage1[t];
+            }
         }
         s
     }
@@ -146,9 +144,9 @@ impl MemoryChoice {
 /// The full menu's spec with the observer row from `core` (every term the menu allows).
 fn menu_spec(opts: &MemoryOptions, core: &PolyCore) -> MemorySpec<f64> {
     let mut all = MemoryChoice::none();
-    for o in 0..N_OUTPUTS {
+    for o in 0..core.dims.n_outputs() {
         for &g in &opts.groups {
-            if offered(o, g) {
+            if offered(&core.dims, o, g) {
                 all.groups[o] |= bit(g);
             }
         }
@@ -156,42 +154,61 @@ fn menu_spec(opts: &MemoryOptions, core: &PolyCore) -> MemorySpec<f64> {
     all.spec(&opts.menu, core)
 }
 
-/// Physics restriction: the drift observer is offered to temperature only.
-fn offered(o: usize, g: MemoryGroup) -> bool {
-    g != MemoryGroup::DriftObserver || o == TEMPERATURE
+/// Physics restriction: the drift observer is offered to temperature outputs only, and only
+/// when the model has it (ambient input and a temperature output).
+fn offered(dims: &Dims, o: usize, g: MemoryGroup) -> bool {
+    g != MemoryGroup::DriftObserver
+        || (dims.has_observer() && dims.outputs().get(o).is_some_and(|x| x.quantity == Quantity::Temperature))
+}
+
+/// The memory vectors of a set of rows, [`Dims::memory_len`] values per row.
+pub struct MemoryTerms {
+    len: usize,
+    values: Vec<f64>,
+}
+
+impl MemoryTerms {
+    /// The memory vector of the `r`-th row.
+    pub fn row(&self, r: usize) -> &[f64] {
+        &self.values[r * self.len..(r + 1) * self.len]
+    }
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.values.len().checked_div(self.len).unwrap_or(0)
+    }
 }
 
 /// The memory vector at each of `rows` (sorted ascending), the bank having seen every sample
-/// the compensator would accept (finite Δλ, T_amb and t) from the first.
-pub fn memory_terms(spec: &MemorySpec<f64>, d: &Dataset, rows: &[usize]) -> Vec<[f64; N_MEMORY]> {
-    let mut bank = MemoryBank::<f64>::new(spec, &Dims::PAPER);
-    let mut out = Vec::with_capacity(rows.len());
+/// the compensator would accept (finite Δλ, T_amb with ambient, and t) from the first.
+pub fn memory_terms(spec: &MemorySpec<f64>, dims: &Dims, d: &Dataset, rows: &[usize]) -> MemoryTerms {
+    let mut bank = MemoryBank::<f64>::new(spec, dims);
+    let len = dims.memory_len();
+    let mut values = Vec::with_capacity(rows.len() * len);
     let end = rows.last().map(|&i| i + 1).unwrap_or(0);
     let mut want = rows.iter().peekable();
     for i in 0..end {
         let s = d.sample(i);
         // The compensator's rule for a model with memory terms (it reads time).
-        let m = if s.dl().iter().all(|v| v.is_finite()) && s.t_amb_c.is_finite() && s.t_s.is_finite() {
-            fbg_shared::layout::pad(&bank.update(&s.dl_pm, s.t_amb_c, s.t_s))
-        } else {
-            [f64::NAN; N_MEMORY]
-        };
+        let ok =
+            s.dl().iter().all(|v| v.is_finite()) && (!dims.ambient() || s.t_amb_c.is_finite()) && s.t_s.is_finite();
+        let m: [f64; MAX_MEMORY] = if ok { bank.update(&s.dl_pm, s.t_amb_c, s.t_s) } else { [f64::NAN; MAX_MEMORY] };
         if want.peek() == Some(&&i) {
             want.next();
-            out.push(m);
+            values.extend_from_slice(&m[..len]);
         }
     }
-    out
+    MemoryTerms { len, values }
 }
 
 /// Columns of output `o`'s joint system: the φ terms the core fits, then the memory terms of
 /// the groups in `groups` that `spec` computes.
 fn columns(core: &PolyCore, spec: &MemorySpec<f64>, o: usize, groups: &[MemoryGroup]) -> (Vec<usize>, Vec<usize>) {
-    let poly: Vec<usize> = (0..N_POLY).filter(|&k| k == 0 || core.poly.iter().any(|r| r[k] != 0.0)).collect();
-    let mem = (0..N_MEMORY)
+    let dims = &core.dims;
+    let poly: Vec<usize> = (0..dims.poly_len()).filter(|&k| k == 0 || core.poly.iter().any(|r| r[k] != 0.0)).collect();
+    let mem = (0..dims.memory_len())
         .filter(|&k| {
-            spec.term(&Dims::PAPER, k)
-                .is_some_and(|t| t.parameter > 0.0 && groups.contains(&t.group) && offered(o, t.group))
+            spec.term(dims, k)
+                .is_some_and(|t| t.parameter > 0.0 && groups.contains(&t.group) && offered(dims, o, t.group))
         })
         .collect();
     (poly, mem)
@@ -216,31 +233,32 @@ pub fn fit(
         return Ok(out);
     }
     let spec = choice.spec(menu, core);
-    let m = memory_terms(&spec, d, rows);
+    let dims = core.dims;
+    let n_out = dims.n_outputs();
+    let m = memory_terms(&spec, &dims, d, rows);
     let n = rows.len();
     // Per output: its φ and memory columns (indices into φ and m).
-    let cols: Vec<(Vec<usize>, Vec<usize>)> = (0..N_OUTPUTS)
+    let cols: Vec<(Vec<usize>, Vec<usize>)> = (0..n_out)
         .map(|o| {
             let groups: Vec<MemoryGroup> = MemoryGroup::ALL.iter().copied().filter(|&g| choice.uses(o, g)).collect();
             columns(core, &spec, o, &groups)
         })
         .collect();
-    let poly_u: Vec<usize> = (0..N_POLY).filter(|k| cols.iter().any(|(pc, _)| pc.contains(k))).collect();
-    let mem_u: Vec<usize> = (0..N_MEMORY).filter(|k| cols.iter().any(|(_, mc)| mc.contains(k))).collect();
+    let poly_u: Vec<usize> = (0..dims.poly_len()).filter(|k| cols.iter().any(|(pc, _)| pc.contains(k))).collect();
+    let mem_u: Vec<usize> = (0..dims.memory_len()).filter(|k| cols.iter().any(|(_, mc)| mc.contains(k))).collect();
     let p = poly_u.len() + mem_u.len();
     if n < p {
         return Err(TrainerError::fit(format!("Model-H core with memory terms: {n} samples for {p} unknowns")));
     }
-    let targets: [&[f64]; N_OUTPUTS] =
-        std::array::from_fn(|o| if d.has_target()[o] { d.target(o).as_slice() } else { &[][..] });
-    let r_aug = super::linalg::triangular_rows(n, p + N_OUTPUTS, |r, buf| {
+    let targets: Vec<&[f64]> = (0..n_out).map(|o| d.target(o).as_slice()).collect();
+    let r_aug = super::linalg::triangular_rows(n, p + n_out, |r, buf| {
         let i = rows[r];
         let ph = core.phi_at(d, i);
         for (c, &k) in poly_u.iter().enumerate() {
             buf[c] = ph[k];
         }
         for (c, &k) in mem_u.iter().enumerate() {
-            buf[poly_u.len() + c] = m[r][k];
+            buf[poly_u.len() + c] = m.row(r)[k];
         }
         for (o, t) in targets.iter().enumerate() {
             buf[p + o] = t.get(i).copied().unwrap_or(0.0);
@@ -251,8 +269,8 @@ pub fn fit(
     let sd: Vec<f64> = mem_u
         .iter()
         .map(|&k| {
-            let mean = m.iter().map(|r| r[k]).sum::<f64>() / n as f64;
-            let var = m.iter().map(|r| (r[k] - mean).powi(2)).sum::<f64>() / n as f64;
+            let mean = (0..m.rows()).map(|r| m.row(r)[k]).sum::<f64>() / n as f64;
+            let var = (0..m.rows()).map(|r| (m.row(r)[k] - mean).powi(2)).sum::<f64>() / n as f64;
             if var > 0.0 {
                 var.sqrt()
             } else {
@@ -261,10 +279,7 @@ pub fn fit(
         })
         .collect();
     let q = r_aug.nrows();
-    for o in 0..N_OUTPUTS {
-        if !d.has_target()[o] {
-            continue;
-        }
+    for o in 0..n_out {
         let (pc, mc) = &cols[o];
         if mc.is_empty() {
             continue;
@@ -288,7 +303,7 @@ pub fn fit(
         });
         let y = DMatrix::from_fn(q + mc.len(), 1, |r, _| if r < q { r_aug[(r, p + o)] } else { 0.0 });
         let beta = super::linalg::lstsq(x, y, "Model-H core with memory terms")?;
-        out.poly[o] = [0.0; N_POLY];
+        out.poly[o] = [0.0; MAX_POLY];
         for (c, &k) in pc.iter().enumerate() {
             out.poly[o][k] = beta[(c, 0)];
         }
@@ -304,14 +319,16 @@ pub fn fit(
 /// full-menu design X = [φ | m]: XᵀX, and per output Xᵀy and yᵀy.
 struct Gram {
     xtx: DMatrix<f64>,
-    xty: [DVector<f64>; N_OUTPUTS],
-    yty: [f64; N_OUTPUTS],
+    xty: Vec<DVector<f64>>,
+    yty: Vec<f64>,
     n: usize,
 }
 
 /// One fold's [`Gram`]s and the full-menu spec its memory terms come from.
 struct FoldStats {
     spec: MemorySpec<f64>,
+    /// φ terms at the start of the full design (the memory terms follow).
+    n_poly: usize,
     train: Gram,
     val: Gram,
 }
@@ -333,33 +350,35 @@ pub struct MemoryCvRow {
     pub cv_rmse: f64,
 }
 
-/// The layout of the full-menu design: φ (10) then every memory slot (32).
-const P_ALL: usize = N_POLY + N_MEMORY;
-
+/// The layout of the full-menu design: φ ([`Dims::poly_len`]) then every memory slot
+/// ([`Dims::memory_len`]).
 fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats {
+    let dims = f.core.dims;
+    let (np, n_out) = (dims.poly_len(), dims.n_outputs());
+    let p_all = np + dims.memory_len();
     let spec = menu_spec(opts, f.core);
     let mut rows: Vec<usize> = f.train.iter().chain(f.val.iter()).copied().collect();
     rows.sort_unstable();
     rows.dedup();
-    let m = memory_terms(&spec, d, &rows);
+    let m = memory_terms(&spec, &dims, d, &rows);
     let pos = |i: usize| rows.binary_search(&i).unwrap_or(0);
     let gram = |set: &[usize]| {
-        let mut xtx = DMatrix::<f64>::zeros(P_ALL, P_ALL);
-        let mut xty: [DVector<f64>; N_OUTPUTS] = std::array::from_fn(|_| DVector::<f64>::zeros(P_ALL));
-        let mut yty = [0.0; N_OUTPUTS];
-        let mut x = [0.0; P_ALL];
+        let mut xtx = DMatrix::<f64>::zeros(p_all, p_all);
+        let mut xty: Vec<DVector<f64>> = (0..n_out).map(|_| DVector::<f64>::zeros(p_all)).collect();
+        let mut yty = vec![0.0; n_out];
+        let mut x = vec![0.0; p_all];
         for &i in set {
-            x[..N_POLY].copy_from_slice(&f.core.phi_at(d, i));
-            x[N_POLY..].copy_from_slice(&m[pos(i)]);
-            for r in 0..P_ALL {
+            x[..np].copy_from_slice(&f.core.phi_at(d, i)[..np]);
+            x[np..].copy_from_slice(m.row(pos(i)));
+            for r in 0..p_all {
                 let xr = x[r];
-                for c in r..P_ALL {
+                for c in r..p_all {
                     xtx[(r, c)] += xr * x[c];
                 }
             }
-            for o in (0..N_OUTPUTS).filter(|&o| d.has_target()[o]) {
+            for o in 0..n_out {
                 let y = d.target(o)[i];
-                for r in 0..P_ALL {
+                for r in 0..p_all {
                     xty[o][r] += x[r] * y;
                 }
                 yty[o] += y * y;
@@ -368,7 +387,7 @@ fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats
         xtx.fill_lower_triangle_with_upper_triangle();
         Gram { xtx, xty, yty, n: set.len() }
     };
-    FoldStats { train: gram(f.train), val: gram(f.val), spec }
+    FoldStats { train: gram(f.train), val: gram(f.val), spec, n_poly: np }
 }
 
 /// Validation SSE of output `o` with columns `cols` (indices into the full design) and
@@ -385,7 +404,7 @@ fn val_sse(st: &FoldStats, o: usize, cols: &[usize], lambda: f64) -> Option<f64>
             h[(r, c)] = a[(i, j)];
         }
         g[r] = b[i];
-        if i >= N_POLY {
+        if i >= st.n_poly {
             // Penalty on the standardised term: λ·n·var(column).
             let mean = a[(0, i)] / n;
             let var = (a[(i, i)] / n - mean * mean).max(0.0);
@@ -425,11 +444,9 @@ pub fn select(
         MemoryGroup::ALL.iter().copied().filter(|g| opts.groups.contains(g)).collect();
     let mut choice = MemoryChoice::none();
     let mut rows = Vec::new();
-    for o in 0..N_OUTPUTS {
-        if !d.has_target()[o] {
-            continue;
-        }
-        let mine: Vec<MemoryGroup> = offered_groups.iter().copied().filter(|&g| offered(o, g)).collect();
+    let dims = folds[0].core.dims;
+    for o in 0..dims.n_outputs() {
+        let mine: Vec<MemoryGroup> = offered_groups.iter().copied().filter(|&g| offered(&dims, o, g)).collect();
         // (sse, number of groups, -λ, mask, λ)
         let mut best: Option<(f64, u32, f64, u8, f64)> = None;
         for mask in 0u8..(1 << mine.len()) {
@@ -442,7 +459,7 @@ pub fn select(
                 .zip(folds)
                 .map(|(st, f)| {
                     let (pc, mc) = columns(f.core, &st.spec, o, &groups);
-                    pc.into_iter().chain(mc.into_iter().map(|k| N_POLY + k)).collect()
+                    pc.into_iter().chain(mc.into_iter().map(|k| st.n_poly + k)).collect()
                 })
                 .collect();
             let lambdas: &[f64] = if groups.is_empty() { &[0.0] } else { &opts.lambdas };

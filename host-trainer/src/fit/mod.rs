@@ -19,8 +19,7 @@ use heapless::Vec as HVec;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use fbg_shared::layout::paper::{N_ENVELOPE, N_OUTPUTS, Z_DIMS};
-use fbg_shared::layout::{pad, pad2, FeatureSet, VAR_RANK};
+use fbg_shared::layout::{Dims, FeatureSet, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_Z, VAR_RANK};
 use fbg_shared::{Centre, Compensator, Hyper, ModelParams, Provenance};
 
 use crate::data::Dataset;
@@ -69,9 +68,20 @@ pub struct Origin {
     pub seed: u64,
 }
 
-/// The RBF inputs [Δλ1..3, T_amb, t, latch1..3] of sample `i` with its latch values.
-pub fn z_of(d: &Dataset, i: usize, latch: [f64; 3]) -> [f64; Z_DIMS] {
-    [d.dl_pm[0][i], d.dl_pm[1][i], d.dl_pm[2][i], d.ambient()[i], d.t_s[i], latch[0], latch[1], latch[2]]
+/// The RBF inputs [Δλ_1..N, T_amb (with ambient), t, latch_1..N] of sample `i` with its latch
+/// values (0 beyond [`Dims::z_len`]).
+pub fn z_of(dims: &Dims, d: &Dataset, i: usize, latch: &[f64; MAX_GRATINGS]) -> [f64; MAX_Z] {
+    let n = dims.gratings();
+    let mut z = [0.0; MAX_Z];
+    for (o, c) in z.iter_mut().zip(&d.dl_pm).take(n) {
+        *o = c[i];
+    }
+    if dims.ambient() {
+        z[n] = d.ambient()[i];
+    }
+    z[dims.z_time()] = d.t_s[i];
+    z[dims.z_latch()..dims.z_latch() + n].copy_from_slice(&latch[..n]);
+    z
 }
 
 /// What the RBF layer learns from a training set before any centre exists: the mean and
@@ -79,10 +89,12 @@ pub fn z_of(d: &Dataset, i: usize, latch: [f64; 3]) -> [f64; Z_DIMS] {
 /// rows k-means clusters (every `stride`-th training row, at most [`KMEANS_MAX_POINTS`]).
 #[derive(Clone, Debug)]
 pub struct ZSample {
-    pub mean: [f64; Z_DIMS],
-    /// Population standard deviation (1 where an input is constant).
-    pub std: [f64; Z_DIMS],
-    pub points: Vec<[f64; Z_DIMS]>,
+    /// The inputs' layout.
+    pub dims: Dims,
+    pub mean: [f64; MAX_Z],
+    /// Population standard deviation (1 where an input is constant or beyond the inputs).
+    pub std: [f64; MAX_Z],
+    pub points: Vec<[f64; MAX_Z]>,
 }
 
 /// [`ZSample`] of the training rows `train` (sorted), the latches moved by `stream` (a model
@@ -97,21 +109,22 @@ pub fn z_sample(
     let stride = train.len().div_ceil(KMEANS_MAX_POINTS).max(1);
     // Per stretch: count, mean and sum of squared deviations (combined below in stretch order
     // by Chan's formula), and the k-means points.
-    type Part = (f64, [f64; Z_DIMS], [f64; Z_DIMS], Vec<[f64; Z_DIMS]>);
+    type Part = (f64, [f64; MAX_Z], [f64; MAX_Z], Vec<[f64; MAX_Z]>);
+    let dims = stream.dims;
     let parts: Vec<Part> = design::map_stretches(stream, d, train, ck, design::Pass::Design, |o| {
         let p0 = train.partition_point(|&i| i < o.rows[0]);
-        let zs: Vec<[f64; Z_DIMS]> = o.rows.iter().zip(o.latches).map(|(&i, &l)| z_of(d, i, l)).collect();
+        let zs: Vec<[f64; MAX_Z]> = o.rows.iter().zip(o.latches).map(|(&i, l)| z_of(&dims, d, i, l)).collect();
         let n = zs.len() as f64;
-        let mean: [f64; Z_DIMS] = std::array::from_fn(|k| zs.iter().map(|z| z[k]).sum::<f64>() / n);
-        let m2: [f64; Z_DIMS] = std::array::from_fn(|k| zs.iter().map(|z| (z[k] - mean[k]).powi(2)).sum::<f64>());
+        let mean: [f64; MAX_Z] = std::array::from_fn(|k| zs.iter().map(|z| z[k]).sum::<f64>() / n);
+        let m2: [f64; MAX_Z] = std::array::from_fn(|k| zs.iter().map(|z| (z[k] - mean[k]).powi(2)).sum::<f64>());
         let pts = zs.iter().enumerate().filter(|(r, _)| (p0 + r) % stride == 0).map(|(_, z)| *z).collect();
         (n, mean, m2, pts)
     })?;
-    let (mut n, mut mean, mut m2) = (0.0f64, [0.0; Z_DIMS], [0.0; Z_DIMS]);
+    let (mut n, mut mean, mut m2) = (0.0f64, [0.0; MAX_Z], [0.0; MAX_Z]);
     let mut points = Vec::new();
     for (nb, mb, m2b, pts) in parts {
         let tot = n + nb;
-        for k in 0..Z_DIMS {
+        for k in 0..dims.z_len() {
             let delta = mb[k] - mean[k];
             mean[k] += delta * nb / tot;
             m2[k] += m2b[k] + delta * delta * n * nb / tot;
@@ -120,14 +133,14 @@ pub fn z_sample(
         points.extend(pts);
     }
     let std = std::array::from_fn(|k| if m2[k] > 0.0 { (m2[k] / n).sqrt() } else { 1.0 });
-    Ok(ZSample { mean, std, points })
+    Ok(ZSample { dims, mean, std, points })
 }
 
 /// Centres by k-means++ (seeded) over the standardised k-means points of `zs`, on the inputs
 /// the feature set uses.
-pub fn centres(zs: &ZSample, fs: FeatureSet, k: usize, seed: u64) -> Vec<[f64; Z_DIMS]> {
-    let active = fs.active();
-    let pts: Vec<[f64; Z_DIMS]> = zs
+pub fn centres(zs: &ZSample, fs: FeatureSet, k: usize, seed: u64) -> Vec<[f64; MAX_Z]> {
+    let active = zs.dims.z_active(fs);
+    let pts: Vec<[f64; MAX_Z]> = zs
         .points
         .iter()
         .map(|z| std::array::from_fn(|d| if active[d] { (z[d] - zs.mean[d]) / zs.std[d] } else { 0.0 }))
@@ -138,7 +151,7 @@ pub fn centres(zs: &ZSample, fs: FeatureSet, k: usize, seed: u64) -> Vec<[f64; Z
 
 /// Median (the upper one for an even count) distance from each centre to its nearest other
 /// centre (standardised units).
-pub fn median_nn_distance(cs: &[[f64; Z_DIMS]]) -> f64 {
+pub fn median_nn_distance(cs: &[[f64; MAX_Z]]) -> f64 {
     if cs.len() < 2 {
         return 1.0;
     }
@@ -161,15 +174,19 @@ pub fn median_nn_distance(cs: &[[f64; Z_DIMS]]) -> f64 {
     }
 }
 
-/// Calibration envelope of [Δλ1..3, T_amb] over `idx` with [`ENVELOPE_MARGIN`], rounded
-/// outwards to f32 so that host and device compare against the same bounds.
-pub fn envelope(d: &Dataset, idx: &[usize]) -> ([f64; N_ENVELOPE], [f64; N_ENVELOPE]) {
-    let cols: [&[f64]; N_ENVELOPE] = [&d.dl_pm[0], &d.dl_pm[1], &d.dl_pm[2], d.ambient()];
+/// Calibration envelope of [Δλ_1..N, T_amb (with ambient)] over `idx` with
+/// [`ENVELOPE_MARGIN`], rounded outwards to f32 so that host and device compare against the
+/// same bounds (0 beyond [`Dims::envelope_len`]).
+pub fn envelope(d: &Dataset, idx: &[usize]) -> ([f64; MAX_ENVELOPE], [f64; MAX_ENVELOPE]) {
+    let mut cols: Vec<&[f64]> = d.dl_pm.iter().map(|c| c.as_slice()).collect();
+    if let Some(a) = &d.t_amb_c {
+        cols.push(a);
+    }
     let (mn, mx) = idx
         .par_chunks(16_384)
         .map(|ch| {
-            let mut mn = [f64::INFINITY; N_ENVELOPE];
-            let mut mx = [f64::NEG_INFINITY; N_ENVELOPE];
+            let mut mn = [f64::INFINITY; MAX_ENVELOPE];
+            let mut mx = [f64::NEG_INFINITY; MAX_ENVELOPE];
             for &i in ch {
                 for (c, col) in cols.iter().enumerate() {
                     mn[c] = mn[c].min(col[i]);
@@ -179,12 +196,12 @@ pub fn envelope(d: &Dataset, idx: &[usize]) -> ([f64; N_ENVELOPE], [f64; N_ENVEL
             (mn, mx)
         })
         .reduce(
-            || ([f64::INFINITY; N_ENVELOPE], [f64::NEG_INFINITY; N_ENVELOPE]),
+            || ([f64::INFINITY; MAX_ENVELOPE], [f64::NEG_INFINITY; MAX_ENVELOPE]),
             |a, b| (std::array::from_fn(|c| a.0[c].min(b.0[c])), std::array::from_fn(|c| a.1[c].max(b.1[c]))),
         );
-    let mut lo = [0.0; N_ENVELOPE];
-    let mut hi = [0.0; N_ENVELOPE];
-    for c in 0..N_ENVELOPE {
+    let mut lo = [0.0; MAX_ENVELOPE];
+    let mut hi = [0.0; MAX_ENVELOPE];
+    for c in 0..cols.len() {
         let m = ENVELOPE_MARGIN * (mx[c] - mn[c]);
         lo[c] = f32_down(mn[c] - m);
         hi[c] = f32_up(mx[c] + m);
@@ -215,14 +232,12 @@ pub struct Skeleton {
     pub core: PolyCore,
     pub feature_set: FeatureSet,
     pub dead_band_pm: f64,
-    pub z_mean: [f64; Z_DIMS],
-    pub z_std: [f64; Z_DIMS],
-    pub centres: Vec<[f64; Z_DIMS]>,
+    pub z_mean: [f64; MAX_Z],
+    pub z_std: [f64; MAX_Z],
+    pub centres: Vec<[f64; MAX_Z]>,
     pub sigma_mult: f64,
     pub sigma: f64,
-    pub envelope: ([f64; N_ENVELOPE], [f64; N_ENVELOPE]),
-    /// Outputs with a reference in the training data.
-    pub fitted: [bool; N_OUTPUTS],
+    pub envelope: ([f64; MAX_ENVELOPE], [f64; MAX_ENVELOPE]),
 }
 
 impl Skeleton {
@@ -240,28 +255,28 @@ impl Skeleton {
             core: core.clone(),
             feature_set,
             dead_band_pm,
-            z_mean: [0.0; Z_DIMS],
-            z_std: [1.0; Z_DIMS],
+            z_mean: [0.0; MAX_Z],
+            z_std: std::array::from_fn(|k| if k < core.dims.z_len() { 1.0 } else { 0.0 }),
             centres: vec![],
             sigma_mult: 1.0,
             sigma: 1.0,
             envelope: envelope(d, train),
-            fitted: d.has_target(),
         }
     }
 
-    /// Params with the given weights and variance terms (zeros where `None`).
+    /// Params with the given weights and variance terms (zeros where `None`), and a constant
+    /// residual variance per output (0 for outputs beyond `resid_var`).
     pub fn params(
         &self,
         weights: Option<&DMatrix<f64>>,
         alpha: f64,
         variance: Option<&VarianceTerms>,
-        resid_var: [f64; N_OUTPUTS],
+        resid_var: &[f64],
         weak_support: f64,
         provenance: &Provenance,
     ) -> Result<HostParams, TrainerError> {
-        let band = resid_var.map(VarModel::constant);
-        self.params_with_band(weights, alpha, variance, band, 0.0, weak_support, provenance)
+        let band: Vec<VarModel> = resid_var.iter().map(|&v| VarModel::constant(v)).collect();
+        self.params_with_band(weights, alpha, variance, &band, 0.0, weak_support, provenance)
     }
 
     /// [`Skeleton::params`] with a band that grows after `t_cal_end_s`.
@@ -271,22 +286,30 @@ impl Skeleton {
         weights: Option<&DMatrix<f64>>,
         alpha: f64,
         variance: Option<&VarianceTerms>,
-        band: [VarModel; N_OUTPUTS],
+        band: &[VarModel],
         t_cal_end_s: f64,
         weak_support: f64,
         provenance: &Provenance,
     ) -> Result<HostParams, TrainerError> {
+        let dims = self.core.dims;
+        let m = dims.n_outputs();
         let mut cs: HVec<Centre<f64>, HOST_CAP> = HVec::new();
         for (j, mu) in self.centres.iter().enumerate() {
-            let w = weights.map(|w| std::array::from_fn(|o| w[(j, o)])).unwrap_or([0.0; N_OUTPUTS]);
+            let w = weights
+                .map(|w| std::array::from_fn(|o| if o < m { w[(j, o)] } else { 0.0 }))
+                .unwrap_or([0.0; MAX_OUTPUTS]);
             let v = variance.map(|v| v.v[j]).unwrap_or([0.0; VAR_RANK]);
-            cs.push(Centre { mu: pad(mu), w: pad(&w), v }).map_err(|_| {
+            cs.push(Centre { mu: *mu, w, v }).map_err(|_| {
                 TrainerError::fit(format!("{} centres exceed the host capacity {HOST_CAP}", self.centres.len()))
             })?;
         }
-        // The trainer fits the paper's set-up only: 3 gratings, ambient, T/ε/p.
+        // An output without a band model gets the constant one of zero variance.
+        let zero = VarModel::constant(0.0);
+        let per_output = |f: &dyn Fn(&VarModel) -> f64| -> [f64; MAX_OUTPUTS] {
+            std::array::from_fn(|o| if o < m { f(band.get(o).unwrap_or(&zero)) } else { 0.0 })
+        };
         let p = ModelParams {
-            dims: fbg_shared::layout::Dims::PAPER,
+            dims,
             hyper: Hyper {
                 feature_set: self.feature_set,
                 sigma_mult: self.sigma_mult,
@@ -297,24 +320,24 @@ impl Skeleton {
                 envelope_margin: ENVELOPE_MARGIN,
                 flagged_band_factor: FLAGGED_BAND_FACTOR,
             },
-            stage1: pad2(&self.core.stage1),
-            guess_mean: pad(&self.core.guess_mean),
-            guess_std: pad(&self.core.guess_std),
-            poly: pad2(&self.core.poly),
+            stage1: self.core.stage1,
+            guess_mean: self.core.guess_mean,
+            guess_std: self.core.guess_std,
+            poly: self.core.poly,
             memory: self.core.memory,
-            gamma: pad2(&self.core.gamma),
-            z_mean: pad(&self.z_mean),
-            z_std: pad(&self.z_std),
+            gamma: self.core.gamma,
+            z_mean: self.z_mean,
+            z_std: self.z_std,
             centres: cs,
             var_inv_g: variance.map(|v| v.inv_g).unwrap_or([0.0; VAR_RANK]),
             var_inv_g_tail: variance.map(|v| v.inv_g_tail).unwrap_or(0.0),
-            resid_var: pad(&band.map(|v| v.a)),
-            resid_var_growth: pad(&band.map(|v| v.b)),
+            resid_var: per_output(&|v| v.a),
+            resid_var_growth: per_output(&|v| v.b),
             t_cal_end_s,
-            band_k: pad(&band.map(|v| v.k95)),
-            envelope_lo: pad(&self.envelope.0),
-            envelope_hi: pad(&self.envelope.1),
-            fitted: pad(&self.fitted),
+            band_k: per_output(&|v| v.k95),
+            envelope_lo: self.envelope.0,
+            envelope_hi: self.envelope.1,
+            fitted: std::array::from_fn(|o| o < m),
             provenance: provenance.clone(),
         };
         p.validate().map_err(|e| TrainerError::fit(format!("assembled model is invalid: {e}")))?;
@@ -353,9 +376,18 @@ impl VarianceTerms {
 
 /// Build the skeleton of a model for `cfg` on the training samples `train`.
 pub fn skeleton(d: &Dataset, train: &[usize], core: &PolyCore, zs: &ZSample, cfg: &Config, seed: u64) -> Skeleton {
-    let active = cfg.feature_set.active();
+    let active = core.dims.z_active(cfg.feature_set);
+    let n_z = core.dims.z_len();
     let z_mean = std::array::from_fn(|k| if active[k] { zs.mean[k] } else { 0.0 });
-    let z_std = std::array::from_fn(|k| if active[k] { zs.std[k] } else { 1.0 });
+    let z_std = std::array::from_fn(|k| {
+        if active[k] {
+            zs.std[k]
+        } else if k < n_z {
+            1.0
+        } else {
+            0.0
+        }
+    });
     let cs = centres(zs, cfg.feature_set, cfg.k, seed);
     let nn = median_nn_distance(&cs);
     Skeleton {
@@ -368,14 +400,14 @@ pub fn skeleton(d: &Dataset, train: &[usize], core: &PolyCore, zs: &ZSample, cfg
         sigma_mult: cfg.sigma_mult,
         sigma: cfg.sigma_mult * nn,
         envelope: envelope(d, train),
-        fitted: d.has_target(),
     }
 }
 
-/// Residual targets R = y − Model-P(x) on `rows` (n × 3), from the core's values there (0 for
-/// an output without reference, so that its residual weights stay 0).
-pub fn residual_targets(d: &Dataset, rows: &[usize], core_values: &[[f64; N_OUTPUTS]]) -> DMatrix<f64> {
-    DMatrix::from_fn(rows.len(), N_OUTPUTS, |r, c| design::residual(d, rows[r], c, &core_values[r]))
+/// Residual targets R = y − Model-P(x) on `rows` (n × M) for a model of `dims`, from the core's
+/// values there (0 for an output whose reference `d` lacks).
+pub fn residual_targets(d: &Dataset, dims: &Dims, rows: &[usize], core_values: &[[f64; MAX_OUTPUTS]]) -> DMatrix<f64> {
+    let refs = d.references_of(dims);
+    DMatrix::from_fn(rows.len(), dims.n_outputs(), |r, c| design::residual(&refs, rows[r], c, &core_values[r]))
 }
 
 /// Weak-support threshold: half the 0.1 % quantile of max ψ over the calibration samples,
@@ -416,12 +448,9 @@ pub fn refuse_constant_columns(d: &Dataset, cal: &[usize]) -> Result<(), Trainer
             cal.iter().map(|&i| v[i]).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
         (hi - lo, lo)
     };
-    let refs = [("T_C", "°C"), ("strain_ue", "µε"), ("p_kPa", "kPa")];
-    for (c, (name, unit)) in refs.iter().enumerate() {
-        if !d.has_target()[c] {
-            continue;
-        }
-        let (s, v) = span(d.target(c).as_slice());
+    for r in &d.refs {
+        let (name, unit) = (r.measurand.column(), r.measurand.unit());
+        let (s, v) = span(&r.values);
         if s <= CONSTANT_SPAN {
             return Err(TrainerError::Dataset {
                 message: format!(
@@ -449,11 +478,8 @@ pub fn refuse_constant_columns(d: &Dataset, cal: &[usize]) -> Result<(), Trainer
 }
 
 pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Trained, TrainerError> {
-    // The fit handles the paper's shape only so far (the commands refuse other files first,
-    // naming them; this keeps a library caller from reaching the fixed-size code).
-    if let Some((_, message)) = d.shape().paper_refusal("train") {
-        return Err(TrainerError::Dataset { message });
-    }
+    // The model's dimensions are the data's: a dataset without references cannot be fitted.
+    d.dims("the dataset")?;
     // Fit on the calibration rows with finite inputs and every available reference.
     let cal: Vec<usize> = d.cal_indices().into_iter().filter(|&i| d.usable(i)).collect();
     if cal.len() < 200 {
@@ -481,7 +507,7 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
         None,
         0.0,
         None,
-        [0.0; 3],
+        &[],
         0.0,
         &provenance,
     )?;
@@ -490,7 +516,7 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
     let zs = z_sample(&stream, d, &cal, Some(&ck))?;
     let sk = skeleton(d, &cal, &core, &zs, &cfg, opts.seed);
     phases.lap("RBF inputs and centres");
-    let base = sk.params(None, 0.0, None, [0.0; 3], 0.0, &provenance)?;
+    let base = sk.params(None, 0.0, None, &[], 0.0, &provenance)?;
     let gram = design::gram(&base, d, &cal, Some(&ck))?;
     phases.lap("RBF design and ridge");
     let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r, gram.n);
@@ -499,10 +525,10 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
     let var = VarianceTerms::from_ridge(&sys, alpha);
     let thr = if sk.centres.is_empty() { 0.0 } else { weak_support_threshold(&gram.max_psi) };
     let t_end = cal.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
-    let model_h = sk.params_with_band(Some(&w), alpha, Some(&var), selection.var_model_h, t_end, thr, &provenance)?;
+    let model_h = sk.params_with_band(Some(&w), alpha, Some(&var), &selection.var_model_h, t_end, thr, &provenance)?;
 
     let sk_p = Skeleton { core: core_p.clone(), centres: vec![], ..sk };
-    let model_p = sk_p.params_with_band(None, 0.0, None, selection.var_model_p, t_end, 0.0, &provenance)?;
+    let model_p = sk_p.params_with_band(None, 0.0, None, &selection.var_model_p, t_end, 0.0, &provenance)?;
     phases.lap("assembly");
     Ok(Trained { model_p, model_h, core: core_p, selection, phase_seconds: phases.laps })
 }

@@ -5,7 +5,7 @@
 
 use nalgebra::DMatrix;
 
-use fbg_shared::layout::paper::N_OUTPUTS;
+use fbg_shared::layout::MAX_OUTPUTS;
 
 use crate::data::Dataset;
 use crate::error::TrainerError;
@@ -22,13 +22,14 @@ pub struct Recalibration {
     /// Batch samples used.
     pub n_batch: usize,
     /// Per output: offset a and gain b applied to the polynomial core, y ≈ a + b·core(x).
-    pub offset_gain: [(f64, f64); N_OUTPUTS],
+    pub offset_gain: Vec<(f64, f64)>,
     /// What was refitted per output.
-    pub core_update: [CoreUpdate; N_OUTPUTS],
+    pub core_update: Vec<CoreUpdate>,
     /// Whether the residual weights were updated.
     pub w_updated: bool,
-    /// In-sample RMS residual on the batch after the refit.
-    pub batch_rmse: [f64; N_OUTPUTS],
+    /// In-sample RMS residual on the batch after the refit (NaN for an output without
+    /// reference in the batch).
+    pub batch_rmse: Vec<f64>,
 }
 
 /// Which refits a recalibration applied to an output.
@@ -64,14 +65,18 @@ pub fn recalibrate(
     }
     let cut = batch.len() * 7 / 10;
     let (fit_part, val_part) = batch.split_at(cut);
+    let m_out = old.dims.n_outputs();
+    // The batch's reference of each of the model's outputs (by measurand).
+    let refs = d.references_of(&old.dims);
+    let has = |c: usize| old.fitted[c] && refs[c].is_present();
     let mse = |p: &HostParams, rows: &[usize], c: usize| -> Result<f64, TrainerError> {
         let e = run(p, d, rows)?;
-        Ok(rows.iter().zip(&e).map(|(&i, e)| (e.values[c] - d.target(c)[i]).powi(2)).sum::<f64>() / rows.len() as f64)
+        Ok(rows.iter().zip(&e).map(|(&i, e)| (e.values[c] - refs[c][i]).powi(2)).sum::<f64>() / rows.len() as f64)
     };
     // Choose the core update per output on the validation part.
-    let mut choice = [CoreUpdate::Keep; N_OUTPUTS];
+    let mut choice = vec![CoreUpdate::Keep; m_out];
     for (c, chosen) in choice.iter_mut().enumerate() {
-        if !old.fitted[c] || !d.has_target()[c] {
+        if !has(c) {
             continue;
         }
         let mut best = (mse(old, val_part, c)?, CoreUpdate::Keep);
@@ -91,8 +96,8 @@ pub fn recalibrate(
         *chosen = best.1;
     }
     let mut new = old.clone();
-    let mut offset_gain = [(0.0, 1.0); N_OUTPUTS];
-    for c in 0..N_OUTPUTS {
+    let mut offset_gain = vec![(0.0, 1.0); m_out];
+    for c in 0..m_out {
         offset_gain[c] = apply_core(&mut new, d, &batch, c, choice[c])?;
     }
     // W towards the old weights, if it validates better than the core update alone.
@@ -101,8 +106,8 @@ pub fn recalibrate(
     if k > 0 {
         let mut trial = new.clone();
         update_w(&mut trial, old, d, fit_part)?;
-        let better = (0..N_OUTPUTS)
-            .filter(|&c| old.fitted[c] && d.has_target()[c])
+        let better = (0..m_out)
+            .filter(|&c| has(c))
             .map(|c| Ok(mse(&trial, val_part, c)? / mse(&new, val_part, c)?.max(f64::MIN_POSITIVE)))
             .collect::<Result<Vec<f64>, TrainerError>>()?;
         if !better.is_empty() && better.iter().sum::<f64>() < better.len() as f64 {
@@ -115,12 +120,12 @@ pub fn recalibrate(
     let after = run(&new, d, &batch)?;
     let p_eff = (2 + if w_updated { k } else { 0 }) as f64;
     let n = batch.len() as f64;
-    let mut batch_rmse = [f64::NAN; N_OUTPUTS];
+    let mut batch_rmse = vec![f64::NAN; m_out];
     for (c, rmse) in batch_rmse.iter_mut().enumerate() {
-        if !old.fitted[c] || !d.has_target()[c] {
+        if !has(c) {
             continue;
         }
-        let m = batch.iter().zip(&after).map(|(&i, e)| (e.values[c] - d.target(c)[i]).powi(2)).sum::<f64>() / n;
+        let m = batch.iter().zip(&after).map(|(&i, e)| (e.values[c] - refs[c][i]).powi(2)).sum::<f64>() / n;
         *rmse = m.sqrt();
         let corrected = if n > p_eff + 1.0 { m * n / (n - p_eff) } else { m * 2.0 };
         new.resid_var[c] = new.resid_var[c].max(corrected);
@@ -154,7 +159,8 @@ fn apply_core(
     let n = rows.len() as f64;
     // Regress the error of the full model on the core estimate: y − ŷ ≈ a + (b − 1)·core.
     let xs: Vec<f64> = est.iter().map(|e| e.values[c]).collect();
-    let es: Vec<f64> = rows.iter().zip(&full).map(|(&i, e)| d.target(c)[i] - e.values[c]).collect();
+    let truth = d.reference_of(&p.dims, c);
+    let es: Vec<f64> = rows.iter().zip(&full).map(|(&i, e)| truth[i] - e.values[c]).collect();
     let (mx, me) = (xs.iter().sum::<f64>() / n, es.iter().sum::<f64>() / n);
     let db = if how == CoreUpdate::OffsetGain {
         // Gain shrunk towards 1 (prior σ: gauge dispersion is a few %).
@@ -179,12 +185,12 @@ fn apply_core(
 /// making the old calibration count as its own sample count of the batch's design (so a day's
 /// batch moves a week's calibration by about a seventh of what it alone would say).
 fn refit_core_and_memory(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize) -> Result<(), TrainerError> {
-    use fbg_shared::layout::paper::{N_MEMORY, N_POLY};
     let core = fit::PolyCore::of(p);
-    let m = fit::memory_core::memory_terms(&p.memory, d, rows);
+    let m = fit::memory_core::memory_terms(&p.memory, &p.dims, d, rows);
     let full = run(p, d, rows)?;
-    let pc: Vec<usize> = (0..N_POLY).filter(|&k| k == 0 || p.poly[c][k] != 0.0).collect();
-    let mc: Vec<usize> = (0..N_MEMORY).filter(|&k| p.gamma[c][k] != 0.0).collect();
+    let truth = d.reference_of(&p.dims, c);
+    let pc: Vec<usize> = (0..p.dims.poly_len()).filter(|&k| k == 0 || p.poly[c][k] != 0.0).collect();
+    let mc: Vec<usize> = (0..p.dims.memory_len()).filter(|&k| p.gamma[c][k] != 0.0).collect();
     let q = pc.len() + mc.len();
     let mut xtx = DMatrix::<f64>::zeros(q, q);
     let mut xtr = DMatrix::<f64>::zeros(q, 1);
@@ -195,9 +201,9 @@ fn refit_core_and_memory(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usi
             x[j] = ph[k];
         }
         for (j, &k) in mc.iter().enumerate() {
-            x[pc.len() + j] = m[r][k];
+            x[pc.len() + j] = m.row(r)[k];
         }
-        let res = d.target(c)[i] - e.values[c];
+        let res = truth[i] - e.values[c];
         for a in 0..q {
             for b in 0..q {
                 xtx[(a, b)] += x[a] * x[b];
@@ -230,17 +236,17 @@ fn update_w(p: &mut HostParams, old: &HostParams, d: &Dataset, rows: &[usize]) -
     let k = p.centres.len();
     let mut zero_w = p.clone();
     for ce in zero_w.centres.iter_mut() {
-        ce.w = [0.0; fbg_shared::layout::MAX_OUTPUTS];
+        ce.w = [0.0; MAX_OUTPUTS];
     }
     let (psi, est) = design_matrix(&zero_w, d, rows)?;
-    let r = residual_targets(d, rows, &est);
-    let w_old = DMatrix::from_fn(k, N_OUTPUTS, |j, o| old.centres[j].w[o]);
+    let r = residual_targets(d, &p.dims, rows, &est);
+    let w_old = DMatrix::from_fn(k, p.dims.n_outputs(), |j, o| old.centres[j].w[o]);
     let sys = linalg::RidgeSystem::new(&psi, &(&r - &psi * &w_old));
     let mean_diag = (0..k).map(|j| psi.column(j).norm_squared()).sum::<f64>() / k as f64;
     let alpha_prior = PRIOR_SAMPLES_PER_CENTRE * mean_diag / rows.len() as f64 * k as f64;
     let w = &w_old + sys.weights(alpha_prior);
     for (j, ce) in p.centres.iter_mut().enumerate() {
-        ce.w = std::array::from_fn(|o| if old.fitted[o] { w[(j, o)] } else { 0.0 });
+        ce.w = std::array::from_fn(|o| if o < w.ncols() && old.fitted[o] { w[(j, o)] } else { 0.0 });
     }
     Ok(())
 }
@@ -253,10 +259,12 @@ fn update_w(p: &mut HostParams, old: &HostParams, d: &Dataset, rows: &[usize]) -
 pub fn keep_old_where_worse(
     new: &mut HostParams,
     old: &HostParams,
-    rmse_before: &[f64; N_OUTPUTS],
-    rmse_after: &[f64; N_OUTPUTS],
+    rmse_before: &[f64],
+    rmse_after: &[f64],
 ) -> Vec<usize> {
-    let worse: Vec<usize> = (0..N_OUTPUTS).filter(|&c| rmse_after[c] > rmse_before[c]).collect();
+    let worse: Vec<usize> = (0..old.dims.n_outputs().min(rmse_before.len()).min(rmse_after.len()))
+        .filter(|&c| rmse_after[c] > rmse_before[c])
+        .collect();
     for &c in &worse {
         new.poly[c] = old.poly[c];
         new.gamma[c] = old.gamma[c];

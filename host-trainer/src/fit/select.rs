@@ -5,8 +5,8 @@
 //! blocks 0..f and validates on all later blocks (forward chaining, f = min_train_blocks..
 //! blocks), so every validation lies later in time than its training data, as the hold-out
 //! does, and at lead times up to most of the calibration span. The score of a configuration
-//! is Σ_channels RMSE_H / RMSE_P over all validation samples (scale free, so no channel
-//! dominates).
+//! is Σ over the model's outputs of RMSE_H / RMSE_P over all validation samples (scale free, so
+//! no channel dominates).
 //!
 //! Band variances: for the chosen configuration (and for Model-P) the squared validation errors
 //! and their lead times go to [`super::band::VarModel`]; the model carries its a and b and the
@@ -17,7 +17,6 @@ use std::collections::HashMap;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use fbg_shared::layout::paper::N_OUTPUTS;
 use fbg_shared::layout::FeatureSet;
 use fbg_shared::Provenance;
 
@@ -110,8 +109,8 @@ impl TrainOptions {
 pub struct CvRow {
     pub config: Config,
     /// Pooled validation RMSE per output.
-    pub cv_rmse: [f64; N_OUTPUTS],
-    /// Σ_c RMSE_H,c / RMSE_P,c (lower is better; 3 = no gain).
+    pub cv_rmse: Vec<f64>,
+    /// Σ_c RMSE_H,c / RMSE_P,c (lower is better; M = no gain).
     pub score: f64,
 }
 
@@ -126,12 +125,12 @@ pub struct Selection {
     pub rows: Vec<CvRow>,
     /// Pooled validation RMSE of Model-P and of the chosen Model-H (with memory terms: over the
     /// folds that scored them).
-    pub cv_rmse_p: [f64; N_OUTPUTS],
-    pub cv_rmse_h: [f64; N_OUTPUTS],
+    pub cv_rmse_p: Vec<f64>,
+    pub cv_rmse_h: Vec<f64>,
     /// Band variance model s²(τ) = a + b·τ per output (a in unit², b in unit²/s), Model-P and
     /// Model-H.
-    pub var_model_p: [VarModel; N_OUTPUTS],
-    pub var_model_h: [VarModel; N_OUTPUTS],
+    pub var_model_p: Vec<VarModel>,
+    pub var_model_h: Vec<VarModel>,
     /// Folds as (training samples, validation samples).
     pub folds: Vec<(usize, usize)>,
     /// Calibration samples used.
@@ -165,7 +164,7 @@ struct FoldCore {
 
 /// Validation residuals of one configuration on one fold: per output the squared errors of
 /// every validation sample.
-type FoldErrors = [Vec<f64>; N_OUTPUTS];
+type FoldErrors = Vec<Vec<f64>>;
 
 /// Run the cross-validation and pick the best configuration.
 pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selection, TrainerError> {
@@ -181,6 +180,8 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         });
     }
     let prov = Provenance::default();
+    let dims = d.dims("the dataset")?;
+    let m = dims.n_outputs();
     // Every fold works on the thinned rows: checkpoints before each of them spare the tasks
     // from moving the latches over the samples in between.
     let cache = CheckpointCache::new(cal.last().map(|&i| i + 1).unwrap_or(0), thinned.clone());
@@ -207,8 +208,14 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
 
     // A fold's Model-P, which also stands for the latch stream of its dead band.
     let stream_model = |core: &poly_core::PolyCore, train: &[usize], db: f64| -> Result<HostParams, TrainerError> {
-        super::Skeleton::core_only(d, train, core, FeatureSet::HysteresisAware, db)
-            .params(None, 0.0, None, [0.0; 3], 0.0, &prov)
+        super::Skeleton::core_only(d, train, core, FeatureSet::HysteresisAware, db).params(
+            None,
+            0.0,
+            None,
+            &[],
+            0.0,
+            &prov,
+        )
     };
 
     // Model-P per fold (always with cross terms: the reference errors) and the fold's core
@@ -223,12 +230,9 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             let p = stream_model(&core_full, &f.train, dbs[0])?;
             let ck = cache.get(&p, d)?;
             let est = design::run_with(&p, d, &f.val, Some(&ck))?;
-            let sq = std::array::from_fn(|c| {
-                est.iter()
-                    .zip(&f.val)
-                    .map(|(e, &i)| if d.has_target()[c] { (e.values[c] - d.target(c)[i]).powi(2) } else { 1.0 })
-                    .collect()
-            });
+            let sq = (0..m)
+                .map(|c| est.iter().zip(&f.val).map(|(e, &i)| (e.values[c] - d.target(c)[i]).powi(2)).collect())
+                .collect();
             let t_end = f.train.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
             Ok((FoldCore { core, t_end }, sq))
         })
@@ -254,12 +258,12 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         })
         .collect::<Result<_, TrainerError>>()?;
     let n_val: usize = fs.iter().map(|f| f.val.len()).sum();
-    let cv_rmse_p =
-        std::array::from_fn(|c| (sq_p.iter().map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n_val as f64).sqrt());
+    let cv_rmse_p: Vec<f64> =
+        (0..m).map(|c| (sq_p.iter().map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n_val as f64).sqrt()).collect();
     let (lead, fold_of) = leads(d, &fs, &fold_core);
-    let var_model_p: [VarModel; N_OUTPUTS] = std::array::from_fn(|c| {
-        VarModel::fit(&lead, &sq_p.iter().flat_map(|e| e[c].iter().copied()).collect::<Vec<_>>(), &fold_of)
-    });
+    let var_model_p: Vec<VarModel> = (0..m)
+        .map(|c| VarModel::fit(&lead, &sq_p.iter().flat_map(|e| e[c].iter().copied()).collect::<Vec<_>>(), &fold_of))
+        .collect();
 
     // What the RBF layer learns from each fold's training rows, per dead band.
     let mut zjobs = Vec::new();
@@ -300,16 +304,16 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         for &sm in sigma_mults {
             sk.sigma_mult = sm;
             sk.sigma = sm * nn;
-            let p = sk.params(None, 0.0, None, [0.0; 3], 0.0, &prov)?;
+            let p = sk.params(None, 0.0, None, &[], 0.0, &prov)?;
             let ck = cache.get(&p, d)?;
             let gram = design::gram(&p, d, &f.train, Some(&ck))?;
             let (psi_v, est_v) = design::design_matrix_with(&p, d, &f.val, Some(&ck))?;
-            let r_v = residual_targets(d, &f.val, &est_v);
+            let r_v = residual_targets(d, &dims, &f.val, &est_v);
             let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r, gram.n);
             for &ar in alpha_rels {
                 let w = sys.weights(ar * f.train.len() as f64);
                 let resid: DMatrix<f64> = &r_v - &psi_v * &w;
-                let sq = std::array::from_fn(|c| resid.column(c).iter().map(|e| e * e).collect());
+                let sq = (0..m).map(|c| resid.column(c).iter().map(|e| e * e).collect()).collect();
                 out.push((Config { sigma_mult: sm, alpha_rel: ar, ..base_cfg }, sq));
             }
         }
@@ -327,19 +331,25 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             }
         }
         let bar = progress_bar(opts.progress, tasks.len() as u64, "cross-validation");
-        type Acc = Vec<(Config, [f64; N_OUTPUTS], usize)>;
+        type Acc = Vec<(Config, Vec<f64>, usize)>;
         let results: Result<Vec<Acc>, TrainerError> = tasks
             .par_iter()
             .map(|&(fi, set, db, k)| {
                 let out = fold_task(fi, set, db, k, &opts.sigma_mults, &opts.alpha_rels)?;
                 bar.inc(1);
-                Ok(out.into_iter().map(|(cfg, sq)| (cfg, sq.each_ref().map(|v| pool(v)), sq[0].len())).collect())
+                Ok(out
+                    .into_iter()
+                    .map(|(cfg, sq)| {
+                        let n = sq[0].len();
+                        (cfg, sq.iter().map(|v| pool(v)).collect(), n)
+                    })
+                    .collect())
             })
             .collect();
         bar.finish_and_clear();
-        let mut pooled: HashMap<_, (Config, [f64; N_OUTPUTS], usize)> = HashMap::new();
+        let mut pooled: HashMap<_, (Config, Vec<f64>, usize)> = HashMap::new();
         for (cfg, sq, n) in results?.into_iter().flatten() {
-            let e = pooled.entry(key(&cfg)).or_insert((cfg, [0.0; N_OUTPUTS], 0));
+            let e = pooled.entry(key(&cfg)).or_insert((cfg, vec![0.0; m], 0));
             for (acc, s) in e.1.iter_mut().zip(sq) {
                 *acc += s;
             }
@@ -348,8 +358,8 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         let mut rows: Vec<CvRow> = pooled
             .into_values()
             .map(|(config, sq, n)| {
-                let cv_rmse = sq.map(|s| (s / n as f64).sqrt());
-                let score = (0..N_OUTPUTS).filter(|&c| d.has_target()[c]).map(|c| cv_rmse[c] / cv_rmse_p[c]).sum();
+                let cv_rmse: Vec<f64> = sq.iter().map(|s| (s / n as f64).sqrt()).collect();
+                let score = (0..m).map(|c| cv_rmse[c] / cv_rmse_p[c]).sum();
                 CvRow { config, cv_rmse, score }
             })
             .collect();
@@ -386,12 +396,11 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         })
         .collect();
     let per_fold = per_fold?;
-    let sqe_h: [Vec<f64>; N_OUTPUTS] =
-        std::array::from_fn(|c| per_fold.iter().flat_map(|e| e[c].iter().copied()).collect());
-    let cv_rmse_h: [f64; N_OUTPUTS] = std::array::from_fn(|c| (pool(&sqe_h[c]) / n_val as f64).sqrt());
+    let sqe_h: Vec<Vec<f64>> = (0..m).map(|c| per_fold.iter().flat_map(|e| e[c].iter().copied()).collect()).collect();
+    let cv_rmse_h: Vec<f64> = (0..m).map(|c| (pool(&sqe_h[c]) / n_val as f64).sqrt()).collect();
     let rows = if rows.is_empty() {
-        let score = (0..N_OUTPUTS).filter(|&c| d.has_target()[c]).map(|c| cv_rmse_h[c] / cv_rmse_p[c]).sum();
-        vec![CvRow { config: chosen, cv_rmse: cv_rmse_h, score }]
+        let score = (0..m).map(|c| cv_rmse_h[c] / cv_rmse_p[c]).sum();
+        vec![CvRow { config: chosen, cv_rmse: cv_rmse_h.clone(), score }]
     } else {
         rows
     };
@@ -402,19 +411,23 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
     let keep: Vec<usize> = (0..fold_of.len()).filter(|&r| fold_of[r] >= band_from).collect();
     let lead_h: Vec<f64> = keep.iter().map(|&r| lead[r]).collect();
     let fold_h: Vec<usize> = keep.iter().map(|&r| fold_of[r] - band_from).collect();
-    let var_model_h: [VarModel; N_OUTPUTS] = std::array::from_fn(|c| {
-        let sq: Vec<f64> = keep.iter().map(|&r| sqe_h[c][r]).collect();
-        VarModel::fit(&lead_h, &sq, &fold_h)
-    });
+    let var_model_h: Vec<VarModel> = (0..m)
+        .map(|c| {
+            let sq: Vec<f64> = keep.iter().map(|&r| sqe_h[c][r]).collect();
+            VarModel::fit(&lead_h, &sq, &fold_h)
+        })
+        .collect();
     // The reported validation RMSE of both models (what `train` prints and warns on) comes
     // from the same folds, so that it describes a model fitted on most of the batch.
     let (cv_rmse_p, cv_rmse_h) = if band_from > 0 {
         let n: usize = fs.iter().skip(band_from).map(|f| f.val.len()).sum();
-        let p: [f64; N_OUTPUTS] = std::array::from_fn(|c| {
-            (sq_p.iter().skip(band_from).map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n.max(1) as f64).sqrt()
-        });
-        let h: [f64; N_OUTPUTS] =
-            std::array::from_fn(|c| (keep.iter().map(|&r| sqe_h[c][r]).sum::<f64>() / n.max(1) as f64).sqrt());
+        let p: Vec<f64> = (0..m)
+            .map(|c| {
+                (sq_p.iter().skip(band_from).map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n.max(1) as f64).sqrt()
+            })
+            .collect();
+        let h: Vec<f64> =
+            (0..m).map(|c| (keep.iter().map(|&r| sqe_h[c][r]).sum::<f64>() / n.max(1) as f64).sqrt()).collect();
         (p, h)
     } else {
         (cv_rmse_p, cv_rmse_h)

@@ -247,7 +247,7 @@ pub struct Sidecar {
     pub model_p_bytes: usize,
     pub chosen_k: usize,
     pub chosen_features: String,
-    pub cv_rmse_h: [f64; 3],
+    pub cv_rmse_h: Vec<f64>,
     pub train_seconds: f64,
 }
 
@@ -266,7 +266,7 @@ pub struct FailureRecord {
 #[serde(rename_all = "snake_case", tag = "status")]
 pub enum Outcome {
     /// Trained and written now.
-    Trained { seconds: f64, model_h_bytes: usize, chosen_k: usize, chosen_features: String, cv_rmse_h: [f64; 3] },
+    Trained { seconds: f64, model_h_bytes: usize, chosen_k: usize, chosen_features: String, cv_rmse_h: Vec<f64> },
     /// Finished by an earlier run: nothing redone.
     Skipped,
     /// Failed; the other groups went on.
@@ -384,7 +384,7 @@ pub fn needs_training(g: &Group, digest: &str) -> Option<String> {
 fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<Sidecar, TrainerError> {
     let t = Instant::now();
     let opts = g.features.train_options(g.max_centres).map_err(TrainerError::fit)?;
-    let d = Dataset::read_paper_csv(&g.data, "fleet")?;
+    let d = Dataset::read_csv(&g.data)?;
     let origin = match SimMeta::read_for(&g.data)? {
         Some(m) => Origin { scenario: m.scenario.name.clone(), seed: m.seed },
         None => Origin { scenario: g.name.clone(), seed: 0 },

@@ -3,10 +3,10 @@
 //! units (and as stored), the scalers, the RBF centres (standardised and physical), σ, W, the
 //! hyper-parameters and the band parameters.
 
-use fbg_shared::layout::paper::{N_OUTPUTS, POLY_NAMES, Z_DIMS, Z_NAMES};
+use fbg_shared::layout::head;
 
+use crate::data::measurand::{input_columns, poly_term_names};
 use crate::eval::metrics::Metrics;
-use crate::eval::score::UNITS;
 use crate::eval::tables::Table;
 use crate::fit::{HostParams, PolyCore};
 
@@ -42,8 +42,28 @@ pub fn core_of(p: &HostParams) -> PolyCore {
     PolyCore::of(p)
 }
 
-/// Units of the polynomial terms φ_k on physical first guesses.
-const TERM_UNITS: [&str; 10] = ["1", "°C", "µε", "kPa", "°C²", "µε²", "kPa²", "°C·µε", "°C·kPa", "µε·kPa"];
+/// Units of the polynomial terms φ_k on physical first guesses (`1`, `°C`, …, `°C²`, `°C·µε`).
+fn term_units(p: &HostParams) -> Vec<String> {
+    let u: Vec<&str> = p.dims.outputs().iter().map(|o| o.unit()).collect();
+    (0..p.dims.poly_len())
+        .map(|k| match p.dims.poly_term(k) {
+            None => "1".to_string(),
+            Some((i, None)) => u[i].to_string(),
+            Some((i, Some(j))) if i == j => format!("{}²", u[i]),
+            Some((i, Some(j))) => format!("{}·{}", u[i], u[j]),
+        })
+        .collect()
+}
+
+/// "{channel} [{unit}]" of each output (`T [°C]`, `strain [µε]`, …).
+fn output_labels(p: &HostParams) -> Vec<String> {
+    p.dims.outputs().iter().map(|o| format!("{} [{}]", o.channel(), o.unit())).collect()
+}
+
+/// The RBF input names of a model (`dl1 [pm]`, …, `T_amb [°C]`, `t [s]`, `latch1`, …).
+fn z_names(p: &HostParams) -> Vec<String> {
+    (0..p.dims.z_len()).map(|i| p.dims.z_name(i).as_str().to_string()).collect()
+}
 
 /// The tables and their file stems.
 pub fn tables(p: &HostParams, h: &HostParams, m: &Metrics) -> Vec<(String, Table)> {
@@ -73,17 +93,29 @@ pub fn tables(p: &HostParams, h: &HostParams, m: &Metrics) -> Vec<(String, Table
 }
 
 fn stage1(p: &HostParams, who: &str) -> Table {
-    let header =
-        ["output", "× Δλ1 [pm]", "× Δλ2 [pm]", "× Δλ3 [pm]", "× T_amb [°C]", "constant"].map(String::from).to_vec();
-    let rows = (0..N_OUTPUTS)
-        .map(|o| {
-            let mut r = vec![format!("{} guess [{}]", crate::eval::score::CHANNELS[o], UNITS[o])];
-            r.extend(p.stage1[o].iter().map(|v| e(*v)));
+    let dims = &p.dims;
+    let mut inputs: Vec<String> = (1..=dims.gratings()).map(|g| format!("Δλ{g}")).collect();
+    if dims.ambient() {
+        inputs.push("T_amb".into());
+    }
+    let mut header = vec!["output".to_string()];
+    header.extend((1..=dims.gratings()).map(|g| format!("× Δλ{g} [pm]")));
+    if dims.ambient() {
+        header.push("× T_amb [°C]".into());
+    }
+    header.push("constant".into());
+    let rows = dims
+        .outputs()
+        .iter()
+        .enumerate()
+        .map(|(o, out)| {
+            let mut r = vec![format!("{} guess [{}]", out.channel(), out.unit())];
+            r.extend(head(&p.stage1[o], dims.stage1_len()).iter().map(|v| e(*v)));
             r
         })
         .collect();
     Table {
-        title: format!("Stage 1 (linear inverse) of {who}: first guess = A · [Δλ1, Δλ2, Δλ3, T_amb, 1]"),
+        title: format!("Stage 1 (linear inverse) of {who}: first guess = A · [{}, 1]", inputs.join(", ")),
         header,
         rows,
     }
@@ -91,13 +123,25 @@ fn stage1(p: &HostParams, who: &str) -> Table {
 
 fn poly_physical(p: &HostParams, who: &str) -> Table {
     let b = core_of(p).physical_coefficients();
-    let header = ["term φ_k", "unit of φ_k", "T [°C]", "strain [µε]", "p [kPa]"].map(String::from).to_vec();
-    let rows = (0..POLY_NAMES.len())
-        .map(|k| vec![POLY_NAMES[k].to_string(), TERM_UNITS[k].to_string(), e(b[0][k]), e(b[1][k]), e(b[2][k])])
+    let m = p.dims.n_outputs();
+    let mut header = vec!["term φ_k".to_string(), "unit of φ_k".to_string()];
+    header.extend(output_labels(p));
+    let (names, units) = (poly_term_names(&p.dims), term_units(p));
+    let rows = (0..names.len())
+        .map(|k| {
+            let mut r = vec![names[k].clone(), units[k].clone()];
+            r.extend((0..m).map(|o| e(b[o][k])));
+            r
+        })
         .collect();
+    let hats: Vec<String> =
+        crate::data::Measurand::of_dims(&p.dims).iter().map(|x| format!("{}̂", x.short_name())).collect();
+    let us: Vec<&str> = p.dims.outputs().iter().map(|o| o.unit()).collect();
     Table {
         title: format!(
-            "Polynomial core B of {who} in physical units: output = Σ_k c_k φ_k(T̂, ε̂, p̂) on the first guesses in °C, µε, kPa; a coefficient's unit is the output's unit divided by the unit of φ_k"
+            "Polynomial core B of {who} in physical units: output = Σ_k c_k φ_k({}) on the first guesses in {}; a coefficient's unit is the output's unit divided by the unit of φ_k",
+            hats.join(", "),
+            us.join(", ")
         ),
         header,
         rows,
@@ -105,9 +149,15 @@ fn poly_physical(p: &HostParams, who: &str) -> Table {
 }
 
 fn poly_standardised(p: &HostParams, who: &str) -> Table {
-    let header = ["term φ_k", "T [°C]", "strain [µε]", "p [kPa]"].map(String::from).to_vec();
-    let rows = (0..POLY_NAMES.len())
-        .map(|k| vec![POLY_NAMES[k].to_string(), e(p.poly[0][k]), e(p.poly[1][k]), e(p.poly[2][k])])
+    let mut header = vec!["term φ_k".to_string()];
+    header.extend(output_labels(p));
+    let names = poly_term_names(&p.dims);
+    let rows = (0..names.len())
+        .map(|k| {
+            let mut r = vec![names[k].clone()];
+            r.extend((0..p.dims.n_outputs()).map(|o| e(p.poly[o][k])));
+            r
+        })
         .collect();
     Table {
         title: format!(
@@ -120,20 +170,18 @@ fn poly_standardised(p: &HostParams, who: &str) -> Table {
 
 /// Γ of Model-H: every used memory term with its meaning, unit and coefficient per output.
 fn memory(h: &HostParams) -> Table {
-    let header = ["term", "meaning", "unit", "Γ → T [°C per unit]", "Γ → strain [µε per unit]", "Γ → p [kPa per unit]"]
-        .map(String::from)
-        .to_vec();
-    let rows = (0..fbg_shared::layout::paper::N_MEMORY)
+    let mut header = ["term", "meaning", "unit"].map(String::from).to_vec();
+    header.extend(h.dims.outputs().iter().map(|o| format!("Γ → {} [{} per unit]", o.channel(), o.unit())));
+    let rows = (0..h.dims.memory_len())
         .filter_map(|k| h.memory.term(&h.dims, k).filter(|t| t.parameter > 0.0).map(|t| (k, t)))
         .map(|(k, t)| {
-            vec![
+            let mut r = vec![
                 format!("m{k} ({})", t.group.name()),
                 crate::export::memory_term_meaning(&t),
                 t.group.unit().to_string(),
-                e(h.gamma[0][k]),
-                e(h.gamma[1][k]),
-                e(h.gamma[2][k]),
-            ]
+            ];
+            r.extend((0..h.dims.n_outputs()).map(|o| e(h.gamma[o][k])));
+            r
         })
         .collect();
     Table {
@@ -145,13 +193,14 @@ fn memory(h: &HostParams) -> Table {
 
 fn scalers(h: &HostParams) -> Table {
     let mut rows = Vec::new();
-    for (o, (name, unit)) in crate::eval::score::CHANNELS.iter().zip(UNITS).enumerate() {
-        rows.push(vec![format!("first guess {name} [{unit}]"), g(h.guess_mean[o]), g(h.guess_std[o]), "yes".into()]);
+    for (o, label) in output_labels(h).iter().enumerate() {
+        rows.push(vec![format!("first guess {label}"), g(h.guess_mean[o]), g(h.guess_std[o]), "yes".into()]);
     }
-    let active = h.hyper.feature_set.active();
-    for d in 0..Z_DIMS {
+    let active = h.dims.z_active(h.hyper.feature_set);
+    let names = z_names(h);
+    for d in 0..names.len() {
         rows.push(vec![
-            format!("RBF input {}", Z_NAMES[d]),
+            format!("RBF input {}", names[d]),
             g(h.z_mean[d]),
             g(h.z_std[d]),
             if active[d] { "yes" } else { "no" }.into(),
@@ -166,12 +215,13 @@ fn scalers(h: &HostParams) -> Table {
 }
 
 fn centres(h: &HostParams, physical: bool) -> Table {
-    let active = h.hyper.feature_set.active();
-    let dims: Vec<usize> = (0..Z_DIMS).filter(|&d| active[d]).collect();
+    let active = h.dims.z_active(h.hyper.feature_set);
+    let names = z_names(h);
+    let dims: Vec<usize> = (0..names.len()).filter(|&d| active[d]).collect();
     let mut header = vec!["centre j".to_string()];
-    header.extend(dims.iter().map(|&d| format!("μ {}", Z_NAMES[d])));
+    header.extend(dims.iter().map(|&d| format!("μ {}", names[d])));
     if physical {
-        header.extend(["w T [°C]", "w strain [µε]", "w p [kPa]"].map(String::from));
+        header.extend(output_labels(h).iter().map(|l| format!("w {l}")));
     }
     let rows = h
         .centres
@@ -184,7 +234,7 @@ fn centres(h: &HostParams, physical: bool) -> Table {
                 r.push(g(v));
             }
             if physical {
-                r.extend(c.w.iter().map(|v| e(*v)));
+                r.extend(head(&c.w, h.dims.n_outputs()).iter().map(|v| e(*v)));
             }
             r
         })
@@ -210,7 +260,17 @@ fn hyper(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
     let hh = &h.hyper;
     let n_cal = h.provenance.n_cal;
     let row = |a: &str, b: String, note: &str| vec![a.to_string(), b, note.to_string()];
-    let cv = |v: [f64; 3]| v.iter().map(|x| g(*x)).collect::<Vec<_>>().join(" / ");
+    let cv = |v: &[f64]| v.iter().map(|x| g(*x)).collect::<Vec<_>>().join(" / ");
+    let outs = m.channels.iter().map(|c| c.replacen("strain", "ε", 1)).collect::<Vec<_>>().join(" / ");
+    let env = format!(
+        "({})",
+        input_columns(&h.dims)
+            .iter()
+            .map(|c| c.replace("_pm", " [pm]").replace("T_amb_C", "T_amb [°C]"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let n_env = h.dims.envelope_len();
     let rows = vec![
         row("feature set (RBF inputs)", hh.feature_set.name().to_string(), "chosen by blocked forward-chaining CV"),
         row("RBF centres K", h.centres.len().to_string(), "k-means++ on the calibration inputs"),
@@ -227,13 +287,13 @@ fn hyper(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
         row("envelope margin", g(hh.envelope_margin), "fraction of the calibration range on each side"),
         row("band factor for flagged samples", g(hh.flagged_band_factor), ""),
         row(
-            "envelope low (Δλ1..3 [pm], T_amb [°C])",
-            h.envelope_lo.iter().map(|v| g(*v)).collect::<Vec<_>>().join(" / "),
+            &format!("envelope low {env}"),
+            head(&h.envelope_lo, n_env).iter().map(|v| g(*v)).collect::<Vec<_>>().join(" / "),
             "",
         ),
         row(
-            "envelope high (Δλ1..3 [pm], T_amb [°C])",
-            h.envelope_hi.iter().map(|v| g(*v)).collect::<Vec<_>>().join(" / "),
+            &format!("envelope high {env}"),
+            head(&h.envelope_hi, n_env).iter().map(|v| g(*v)).collect::<Vec<_>>().join(" / "),
             "",
         ),
         row(
@@ -241,8 +301,8 @@ fn hyper(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
             m.selection.grid_points.to_string(),
             if m.selection.grid_points == 0 { "not recorded (metrics from `evaluate`)" } else { "" },
         ),
-        row("CV RMSE Model-P (T / ε / p)", cv(m.selection.cv_rmse_p), ""),
-        row("CV RMSE Model-H (T / ε / p)", cv(m.selection.cv_rmse_h), ""),
+        row(&format!("CV RMSE Model-P ({outs})"), cv(&m.selection.cv_rmse_p), ""),
+        row(&format!("CV RMSE Model-H ({outs})"), cv(&m.selection.cv_rmse_h), ""),
         row("Model-P centres", p.centres.len().to_string(), "0 for a polynomial-only model"),
     ];
     Table {
@@ -259,11 +319,11 @@ fn band(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
         ("Model-H", h, &m.table2.model_h, &m.selection.var_model_h),
     ];
     for (name, q, me, vm) in models {
-        for (o, (ch, unit)) in crate::eval::score::CHANNELS.iter().zip(UNITS).enumerate() {
+        for (o, label) in output_labels(h).iter().enumerate() {
             let fitted = vm.get(o).map_or(String::from("–"), |v| format!("{} ± {}", g(v.b_fitted), g(v.b_se)));
             rows.push(vec![
                 name.to_string(),
-                format!("{ch} [{unit}]"),
+                label.clone(),
                 g(q.resid_var[o]),
                 g(q.resid_var_growth[o]),
                 fitted,

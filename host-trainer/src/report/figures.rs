@@ -7,10 +7,10 @@ use fbg_shared::Estimate;
 use super::chart::{Band, Dots, Grid, Legend, Line, Panel, C_GREY, C_H, C_MEAS, C_P, C_TRUTH};
 use super::decimate::{envelope_columns, histogram, minmax_columns, stride_indices, thin_grid, Decimated};
 use super::window::{best_window, turning_points, window_len_for};
-use crate::data::{Dataset, Split};
+use crate::data::{Column, Dataset, Measurand, Split};
 use crate::eval::metrics::Metrics;
-use crate::eval::score::UNITS;
 use crate::sim::Simulation;
+use fbg_shared::layout::{Dims, MAX_OUTPUTS};
 
 /// Width of every figure \[px\].
 pub const WIDTH: u32 = 1400;
@@ -22,10 +22,41 @@ pub const MAX_PATH_POINTS: usize = 4000;
 /// Cells of the parity plots' thinning grid (about 3 px each).
 pub const PARITY_GRID: (usize, usize) = (200, 110);
 
-/// Channel names for titles.
-pub const LONG_NAMES: [&str; 3] = ["Temperature", "Strain", "Pressure"];
-/// Symbols for axis labels.
-pub const SYMBOLS: [&str; 3] = ["T", "ε", "p"];
+/// How a model output is named and printed in the figures.
+#[derive(Clone, Debug)]
+pub struct ChannelNames {
+    /// For titles: `Temperature`, `Strain 2`.
+    pub long: String,
+    /// For axis labels: `T`, `ε2`.
+    pub sym: String,
+    pub unit: &'static str,
+    /// Decimals that suit its magnitude (as in the tables).
+    pub digits: usize,
+    /// For file names: `temperature`, `strain2`.
+    pub slug: String,
+}
+
+impl ChannelNames {
+    pub fn of(m: Measurand) -> Self {
+        let long = m.long_name();
+        let mut cap = long.clone();
+        if let Some(f) = cap.get_mut(0..1) {
+            f.make_ascii_uppercase();
+        }
+        ChannelNames {
+            long: cap,
+            sym: m.short_name(),
+            unit: m.unit(),
+            digits: if m.kind == crate::data::Kind::Temperature { 3 } else { 2 },
+            slug: long.replace(' ', ""),
+        }
+    }
+}
+
+/// "a", "b", … for panel `k`.
+fn letter(k: usize) -> char {
+    (b'a' + k as u8) as char
+}
 
 /// The unit of the time axes.
 #[derive(Clone, Copy, Debug)]
@@ -61,13 +92,58 @@ pub struct Ctx<'a> {
     pub metrics: &'a Metrics,
     pub time: TimeUnit,
     /// Model-H's answer split into its parts at each hold-out row: [core Bφ, memory Γm, RBF Wψ]
-    /// per channel (from `fbg_shared` with the other parts removed).
-    pub parts_h: &'a [[[f64; 3]; 3]],
+    /// per output (from `fbg_shared` with the other parts removed).
+    pub parts_h: &'a [[[f64; MAX_OUTPUTS]; 3]],
+    /// The models' dimensions: one channel per output.
+    pub dims: Dims,
+}
+
+impl Ctx<'_> {
+    /// Number of channels (the models' outputs).
+    pub fn n_channels(&self) -> usize {
+        self.dims.n_outputs()
+    }
+    /// Names of channel `ch`.
+    pub fn names(&self, ch: usize) -> ChannelNames {
+        ChannelNames::of(Measurand::of_output(self.dims.outputs()[ch]))
+    }
+    /// The data's reference of channel `ch` (NaN throughout when absent).
+    pub fn truth(&self, ch: usize) -> Column<'_> {
+        self.data.reference_of(&self.dims, ch)
+    }
+    /// The figure number of channel `ch`'s hold-out figure ([`channel_fig_no`]).
+    pub fn channel_fig_no(&self, ch: usize) -> String {
+        channel_fig_no(&self.dims, ch)
+    }
+    /// The stem of channel `ch`'s hold-out figure ([`channel_stem`]).
+    pub fn channel_stem(&self, ch: usize) -> String {
+        channel_stem(&self.dims, ch)
+    }
+}
+
+/// The figure number of output `ch`'s hold-out figure: 3, 4, 5 for up to three outputs,
+/// 3a–3d for four.
+pub fn channel_fig_no(dims: &Dims, ch: usize) -> String {
+    if dims.n_outputs() <= 3 {
+        (3 + ch).to_string()
+    } else {
+        format!("3{}", letter(ch))
+    }
+}
+
+/// The stem of output `ch`'s hold-out figure (`fig3_temperature`, `fig4_strain`, …).
+pub fn channel_stem(dims: &Dims, ch: usize) -> String {
+    format!("fig{}_{}", channel_fig_no(dims, ch), ChannelNames::of(Measurand::of_output(dims.outputs()[ch])).slug)
+}
+
+/// A figure height for `rows` stacked panels, scaled from the three-panel layout's `three`.
+fn height(three: u32, rows: usize) -> u32 {
+    (three * rows.max(1) as u32).div_ceil(3).max(three / 2)
 }
 
 /// A figure ready to be written, with what the page says about it.
 pub struct FigSpec {
-    pub stem: &'static str,
+    pub stem: String,
     pub title: String,
     pub caption: String,
     pub grid: Grid,
@@ -102,9 +178,6 @@ pub fn num(v: f64, d: usize) -> String {
         s
     }
 }
-
-/// Decimals that suit each channel's magnitude (as in the tables).
-pub const DIGITS: [usize; 3] = [3, 2, 2];
 
 fn pts(d: &Decimated) -> Vec<(f64, f64)> {
     d.points().collect()
@@ -169,19 +242,34 @@ pub fn fig1_inputs(c: &Ctx) -> FigSpec {
     let (x0, x1) = (t[0], t[t.len() - 1]);
     let spans = holdout_spans(d, u);
     let mut panels = Vec::new();
-    let ylabels = ["T [°C]", "ε [µε]", "p [kPa]"];
-    let caps = ["(a) temperature T(t) and the ambient reading T_amb(t)", "(b) strain ε(t)", "(c) pressure p(t)"];
-    for ch in 0..3 {
-        let mut p = Panel::new(caps[ch], c.time.label(), ylabels[ch]);
+    // The ambient reading goes with the first temperature channel.
+    let amb_ch = if d.t_amb_c.is_some() {
+        (0..c.n_channels()).find(|&ch| c.dims.outputs()[ch].quantity == fbg_shared::layout::Quantity::Temperature)
+    } else {
+        None
+    };
+    let mut syms = Vec::new();
+    let mut longs = Vec::new();
+    for ch in 0..c.n_channels() {
+        let nm = c.names(ch);
+        syms.push(format!("{}(t)", nm.sym));
+        longs.push(nm.long.to_lowercase());
+        let cap = if amb_ch == Some(ch) {
+            format!("({}) {} {}(t) and the ambient reading T_amb(t)", letter(ch), nm.long.to_lowercase(), nm.sym)
+        } else {
+            format!("({}) {} {}(t)", letter(ch), nm.long.to_lowercase(), nm.sym)
+        };
+        let mut p = Panel::new(cap, c.time.label(), format!("{} [{}]", nm.sym, nm.unit));
         p.xr = Some((x0, x1));
         mark_split(&mut p, &spans, x0, x1);
-        if ch == 0 {
+        if amb_ch == Some(ch) {
             let amb = minmax_columns(&t, d.ambient(), COLUMNS);
             p.lines.push(Line::new(C_MEAS, 1, pts(&amb)).label("T_amb reading (model input)"));
         }
-        if d.has_target()[ch] {
-            let y = minmax_columns(&t, d.target(ch).as_slice(), COLUMNS);
-            p.lines.push(Line::new(C_TRUTH, 1, pts(&y)).label(format!("reference {} (truth)", SYMBOLS[ch])));
+        let truth = c.truth(ch);
+        if truth.is_present() {
+            let y = minmax_columns(&t, truth.as_slice(), COLUMNS);
+            p.lines.push(Line::new(C_TRUTH, 1, pts(&y)).label(format!("reference {} (truth)", nm.sym)));
         } else {
             p.note("no reference for this channel in data.csv", (0.3, 0.5));
         }
@@ -192,29 +280,36 @@ pub fn fig1_inputs(c: &Ctx) -> FigSpec {
     let hold_from =
         spans.first().map(|s| format!("from t = {} {}", num(s.0, 2), c.time.name)).unwrap_or_else(|| "none".into());
     let dt = if d.len() > 1 { d.t_s[1] - d.t_s[0] } else { 0.0 };
+    let and_list = |v: &[String]| match v {
+        [] => String::new(),
+        [a] => a.clone(),
+        [init @ .., last] => format!("{} and {last}", init.join(", ")),
+    };
+    let n_rows = panels.len();
     FigSpec {
-        stem: "fig1_inputs",
-        title: "Fig. 1 — Inputs: the reference measurands T(t), ε(t), p(t)".into(),
+        stem: "fig1_inputs".into(),
+        title: format!("Fig. 1 — Inputs: the reference measurands {}", syms.join(", ")),
         caption: format!(
-            "The trajectories the compensators must reconstruct, over the whole record ({} samples, Δt = {} s, {} {}). The shaded part is the hold-out ({hold_from}); models are fitted on the calibration part only. The ambient thermometer reading (a model input) lags the temperature.{}",
+            "The trajectories the compensators must reconstruct, over the whole record ({} samples, Δt = {} s, {} {}). The shaded part is the hold-out ({hold_from}); models are fitted on the calibration part only.{}{}",
             count(d.len()),
             num(dt, 1),
             num(x1 - x0, 2),
             c.time.name,
+            if amb_ch.is_some() { " The ambient thermometer reading (a model input) lags the temperature." } else { "" },
             decimation_note(d.len(), 2 * COLUMNS)
         ),
         grid: Grid {
-            size: (WIDTH, 1150),
-            title: "Fig. 1 — Inputs: reference temperature, strain and pressure over the whole record".into(),
+            size: (WIDTH, height(1150, n_rows)),
+            title: format!("Fig. 1 — Inputs: reference {} over the whole record", and_list(&longs)),
             subtitle: "What to look for: the ranges the calibration part covers, and whether the hold-out (shaded) leaves them.".into(),
-            rows: 3,
+            rows: n_rows,
             cols: 1,
             panels,
         },
     }
 }
 
-/// Fig. 2: measured vs true wavelength shift of FBG1 (the strain grating), its artefacts and
+/// Fig. 2: measured vs true wavelength shift of FBG1 (the paper's strain grating), its artefacts and
 /// the minor loops. Needs the simulation.
 pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
     let s = c.sim?;
@@ -305,11 +400,12 @@ pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
     let rms = |v: &[f64]| crate::stats::rms(v.iter().copied());
     let e = &s.effects;
     Some(FigSpec {
-        stem: "fig2_wavelength_fbg1",
+        stem: "fig2_wavelength_fbg1".into(),
         title: format!("Fig. 2 — FBG{}: measured vs true wavelength shift", g + 1),
         caption: format!(
-            "Grating FBG{} (the strain grating). (a) The interrogator's reading against the true physical shift, re-simulated from data.meta.json (the CSV holds only the measured shift), in the window tinted yellow in (b): over the whole record the two traces would lie on top of each other. (b) Their difference: drift (random walk, Eq. 8) and electronics drift wander slowly; hysteresis, scan nonlinearity and noise ride on top. RMS over the record [pm]: hysteresis {}, scan {}, drift {}, electronics {}, noise {}. (c) The same difference against the true shift in the tinted window of (b) (chosen as the window of about 12 turning points where they are densest: {} turning points with a {} pm dead band, {} samples): the loops that open at each reversal are the hysteresis the models must undo.{}{}",
+            "Grating FBG{}{}. (a) The interrogator's reading against the true physical shift, re-simulated from data.meta.json (the CSV holds only the measured shift), in the window tinted yellow in (b): over the whole record the two traces would lie on top of each other. (b) Their difference: drift (random walk, Eq. 8) and electronics drift wander slowly; hysteresis, scan nonlinearity and noise ride on top. RMS over the record [pm]: hysteresis {}, scan {}, drift {}, electronics {}, noise {}. (c) The same difference against the true shift in the tinted window of (b) (chosen as the window of about 12 turning points where they are densest: {} turning points with a {} pm dead band, {} samples): the loops that open at each reversal are the hysteresis the models must undo.{}{}",
             g + 1,
+            if c.dims == Dims::PAPER && g == 0 { " (the strain grating)" } else { "" },
             num(rms(&e.hysteresis[g]), 2),
             num(rms(&e.scan[g]), 2),
             num(rms(&e.drift[g]), 2),
@@ -344,7 +440,8 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     let u = c.time.seconds;
     let n = c.hold.len();
     let x: Vec<f64> = c.hold.iter().map(|&i| d.t_s[i] / u).collect();
-    let truth: Vec<f64> = c.hold.iter().map(|&i| d.target(ch)[i]).collect();
+    let reference = c.truth(ch);
+    let truth: Vec<f64> = c.hold.iter().map(|&i| reference[i]).collect();
     let vp: Vec<f64> = c.est_p.iter().map(|e| e.values[ch]).collect();
     let vh: Vec<f64> = c.est_h.iter().map(|e| e.values[ch]).collect();
     let bp: Vec<f64> = c.est_p.iter().map(|e| e.band95[ch]).collect();
@@ -353,9 +450,8 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     let eh: Vec<f64> = vh.iter().zip(&truth).map(|(a, b)| a - b).collect();
     let m = &c.metrics.table2;
     let (mp, mh) = (&m.model_p.channels[ch], &m.model_h.channels[ch]);
-    let unit = UNITS[ch];
-    let dg = DIGITS[ch];
-    let sym = SYMBOLS[ch];
+    let nm = c.names(ch);
+    let (unit, dg, sym) = (nm.unit, nm.digits, nm.sym.as_str());
 
     // Zoom window: about 6 turning points of the truth (dead band half its standard
     // deviation), placed where the two models' summed |error| is largest.
@@ -427,21 +523,20 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     e.legend = Legend::UpperLeft;
     e.legend_room = 0.35;
 
-    if !d.has_target()[ch] {
+    if !reference.is_present() {
         for p in [&mut a, &mut b, &mut e] {
             p.note("no reference for this channel in data.csv: estimates only, no errors", (0.02, 0.08));
         }
     }
     let flagged = c.est_h.iter().filter(|e| !e.flags.is_ok()).count();
     let nonfinite = vp.iter().chain(&vh).filter(|v| !v.is_finite()).count();
-    let fig_no = 3 + ch;
-    let stems = ["fig3_temperature", "fig4_strain", "fig5_pressure"];
+    let fig_no = c.channel_fig_no(ch);
     FigSpec {
-        stem: stems[ch],
-        title: format!("Fig. {fig_no} — {} on the hold-out", LONG_NAMES[ch]),
+        stem: c.channel_stem(ch),
+        title: format!("Fig. {fig_no} — {} on the hold-out", nm.long),
         caption: format!(
             "Hold-out {} ({} samples, never seen in fitting): the reference, Model-P (polynomial only) and Model-H (polynomial + RBF residual), each with its 95 % band. (a) The window of about 6 turning points of the truth (dead band {} {unit}) where the two models' summed |error| is largest ({} samples), shaded yellow in (b). Bands are hatched in the model's colour (vertical strokes), so where they overlap the strokes of both interleave. (c) The errors against ± the band half-widths; the band should hold the truth about 95 % of the time. Metrics from metrics.json: RMSE {} → {} {unit}, MAE {} → {} {unit}, hysteresis index {} → {} {unit} (Model-P → Model-H). Samples flagged by Model-H: {}{}.{}{}",
-            LONG_NAMES[ch].to_lowercase(),
+            nm.long.to_lowercase(),
             count(n),
             num(db, dg),
             count(wb - wa),
@@ -458,7 +553,7 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
         ),
         grid: Grid {
             size: (WIDTH, 1350),
-            title: format!("Fig. {fig_no} — {} on the hold-out: truth, Model-P and Model-H with 95 % bands", LONG_NAMES[ch]),
+            title: format!("Fig. {fig_no} — {} on the hold-out: truth, Model-P and Model-H with 95 % bands", nm.long),
             subtitle: "What to look for: who tracks the truth at the turning points in (a); errors inside their bands in (c).".into(),
             rows: 3,
             cols: 1,
@@ -469,20 +564,21 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
 
 /// Fig. 6: parity plots, every channel, both models.
 pub fn fig6_parity(c: &Ctx) -> FigSpec {
-    let d = c.data;
     let m = &c.metrics.table2;
     let mut panels = Vec::new();
     let mut drawn = 0usize;
     let mut total = 0usize;
-    for ch in 0..3 {
-        let truth: Vec<f64> = c.hold.iter().map(|&i| d.target(ch)[i]).collect();
+    for ch in 0..c.n_channels() {
+        let reference = c.truth(ch);
+        let truth: Vec<f64> = c.hold.iter().map(|&i| reference[i]).collect();
         let vp: Vec<f64> = c.est_p.iter().map(|e| e.values[ch]).collect();
         let vh: Vec<f64> = c.est_h.iter().map(|e| e.values[ch]).collect();
         let all = truth.iter().chain(&vp).chain(&vh).filter(|v| v.is_finite());
         let (lo, hi) = all.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
         let pad = 0.03 * (hi - lo).max(1e-9);
         let (lo, hi) = (lo - pad, hi + pad);
-        let (unit, dg, sym) = (UNITS[ch], DIGITS[ch], SYMBOLS[ch]);
+        let nm = c.names(ch);
+        let (unit, dg, sym) = (nm.unit, nm.digits, nm.sym.as_str());
         for (k, (name, v, color, me)) in
             [("Model-P", &vp, C_P, &m.model_p), ("Model-H", &vh, C_H, &m.model_h)].into_iter().enumerate()
         {
@@ -490,7 +586,7 @@ pub fn fig6_parity(c: &Ctx) -> FigSpec {
             drawn += thin.x.len();
             total += thin.n_in;
             let mut p = Panel::new(
-                format!("({}) {} — {name}", (b'a' + (2 * ch + k) as u8) as char, LONG_NAMES[ch]),
+                format!("({}) {} — {name}", letter(2 * ch + k), nm.long),
                 format!("true {sym} [{unit}]"),
                 format!("estimated {sym} [{unit}]"),
             );
@@ -505,8 +601,9 @@ pub fn fig6_parity(c: &Ctx) -> FigSpec {
             panels.push(p);
         }
     }
+    let n_rows = c.n_channels();
     FigSpec {
-        stem: "fig6_parity",
+        stem: "fig6_parity".into(),
         title: "Fig. 6 — Parity: estimate against truth on the hold-out".into(),
         caption: format!(
             "Every hold-out sample of every channel, Model-P (left) and Model-H (right), against the 45° line of a perfect estimate; RMSE, MAE, R² and bias are those of Table 2 (metrics.json). Points are drawn once per occupied cell of a {} × {} grid over each panel ({} estimates → {} points): every place the full cloud puts ink still gets ink, but the density of dense regions is not shown (Fig. 7 shows it).",
@@ -516,10 +613,10 @@ pub fn fig6_parity(c: &Ctx) -> FigSpec {
             count(drawn)
         ),
         grid: Grid {
-            size: (WIDTH, 1700),
+            size: (WIDTH, height(1700, n_rows)),
             title: "Fig. 6 — Parity plots: estimate vs truth on the hold-out, per channel and model".into(),
             subtitle: "What to look for: tighter, more symmetric clouds around the diagonal for Model-H; a tilt means a proportional bias.".into(),
-            rows: 3,
+            rows: n_rows,
             cols: 2,
             panels,
         },
@@ -528,12 +625,12 @@ pub fn fig6_parity(c: &Ctx) -> FigSpec {
 
 /// Fig. 7: error histograms per channel, both models.
 pub fn fig7_errors(c: &Ctx) -> FigSpec {
-    let d = c.data;
     let m = &c.metrics.table2;
     let bins = 80;
     let mut panels = Vec::new();
-    for ch in 0..3 {
-        let truth: Vec<f64> = c.hold.iter().map(|&i| d.target(ch)[i]).collect();
+    for ch in 0..c.n_channels() {
+        let reference = c.truth(ch);
+        let truth: Vec<f64> = c.hold.iter().map(|&i| reference[i]).collect();
         let ep: Vec<f64> = c.est_p.iter().zip(&truth).map(|(e, t)| e.values[ch] - t).collect();
         let eh: Vec<f64> = c.est_h.iter().zip(&truth).map(|(e, t)| e.values[ch] - t).collect();
         let (lo, hi) = ep
@@ -543,12 +640,10 @@ pub fn fig7_errors(c: &Ctx) -> FigSpec {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
         let (lo, hi) = if lo < hi { (lo, hi) } else { (lo - 1.0, hi + 1.0) };
         let wbin = (hi - lo) / bins as f64;
-        let (unit, dg, sym) = (UNITS[ch], DIGITS[ch], SYMBOLS[ch]);
-        let mut p = Panel::new(
-            format!("({}) {}", (b'a' + ch as u8) as char, LONG_NAMES[ch]),
-            format!("error of {sym} [{unit}]"),
-            "samples per bin",
-        );
+        let nm = c.names(ch);
+        let (unit, dg, sym) = (nm.unit, nm.digits, nm.sym.as_str());
+        let mut p =
+            Panel::new(format!("({}) {}", letter(ch), nm.long), format!("error of {sym} [{unit}]"), "samples per bin");
         p.xr = Some((lo, hi));
         p.y_pad = 0.0;
         let mut ymax: f64 = 0.0;
@@ -578,18 +673,19 @@ pub fn fig7_errors(c: &Ctx) -> FigSpec {
         p.legend = Legend::UpperRight;
         panels.push(p);
     }
+    let n_rows = panels.len();
     FigSpec {
-        stem: "fig7_error_histograms",
+        stem: "fig7_error_histograms".into(),
         title: "Fig. 7 — Error distributions on the hold-out".into(),
         caption: format!(
             "Histograms of estimate − truth over the {} hold-out samples, {bins} equal bins spanning the smallest to the largest error of either model (no sample is left out; the dashed line marks zero error). Bias and RMSE from metrics.json.",
             count(c.hold.len())
         ),
         grid: Grid {
-            size: (WIDTH, 1500),
+            size: (WIDTH, height(1500, n_rows)),
             title: "Fig. 7 — Error distributions (estimate − truth) on the hold-out, both models".into(),
             subtitle: "What to look for: a narrower, more centred distribution with lighter tails for Model-H.".into(),
-            rows: 3,
+            rows: n_rows,
             cols: 1,
             panels,
         },
@@ -606,10 +702,11 @@ pub fn fig8_drift(c: &Ctx) -> Option<FigSpec> {
     let xmax = xs.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     let pad = 0.05 * (xmax - xmin).max(1e-12);
     let (lo, hi) = (xmin - pad, xmax + pad);
-    for ch in 0..3 {
-        let (unit, dg) = (UNITS[ch], DIGITS[ch]);
+    for ch in 0..c.n_channels().min(s.slope_p.len()) {
+        let nm = c.names(ch);
+        let (unit, dg) = (nm.unit, nm.digits);
         let mut p = Panel::new(
-            format!("({}) {}", (b'a' + ch as u8) as char, LONG_NAMES[ch]),
+            format!("({}) {}", letter(ch), nm.long),
             "drift amplitude σ_d [pm per step]",
             format!("hold-out RMSE [{unit}]"),
         );
@@ -642,18 +739,19 @@ pub fn fig8_drift(c: &Ctx) -> Option<FigSpec> {
         p.legend_room = 0.8;
         panels.push(p);
     }
+    let n_rows = panels.len();
     Some(FigSpec {
-        stem: "fig8_drift_sensitivity",
+        stem: "fig8_drift_sensitivity".into(),
         title: "Fig. 8 — Drift sensitivity".into(),
         caption: format!(
             "Hold-out RMSE as the drift amplitude σ_d is scaled by {} (all else fixed; both models refitted each time with the hyper-parameters chosen on the nominal scenario), with least-squares lines; their slopes are the drift-sensitivity index (metrics.json, drift sweep). The dashed vertical line marks the scenario's own σ_d.",
             s.factors.iter().map(|f| num(*f, 1)).collect::<Vec<_>>().join(", ")
         ),
         grid: Grid {
-            size: (WIDTH, 1500),
+            size: (WIDTH, height(1500, n_rows)),
             title: "Fig. 8 — Drift sensitivity: hold-out RMSE against drift amplitude σ_d".into(),
             subtitle: "What to look for: a shallower slope means a model that is more robust to baseline wander.".into(),
-            rows: 3,
+            rows: n_rows,
             cols: 1,
             panels,
         },
@@ -671,26 +769,28 @@ pub fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
     let rms = |v: &[f64]| (v.iter().map(|a| a * a).sum::<f64>() / v.len().max(1) as f64).sqrt();
     let mut panels = Vec::new();
     let mut notes = Vec::new();
-    for ch in 0..3 {
-        let (unit, dg) = (UNITS[ch], DIGITS[ch]);
+    for ch in 0..c.n_channels() {
+        let nm = c.names(ch);
+        let (unit, dg) = (nm.unit, nm.digits);
+        let reference = c.truth(ch);
         let part = |k: usize| -> Vec<f64> { c.parts_h.iter().map(|p| p[k][ch]).collect() };
         let (core, mem, rbf) = (part(0), part(1), part(2));
-        let left: Vec<f64> = c.hold.iter().zip(&core).map(|(&i, v)| d.target(ch)[i] - v).collect();
+        let left: Vec<f64> = c.hold.iter().zip(&core).map(|(&i, v)| reference[i] - v).collect();
         let after_mem: Vec<f64> = left.iter().zip(&mem).map(|(a, b)| a - b).collect();
         let after_all: Vec<f64> = after_mem.iter().zip(&rbf).map(|(a, b)| a - b).collect();
         let mut p = Panel::new(
             format!(
                 "({}) {}: RMS of Γm {} {unit}, of Wψ {} {unit}",
-                (b'a' + ch as u8) as char,
-                LONG_NAMES[ch],
+                letter(ch),
+                nm.long,
                 num(rms(&mem), dg),
                 num(rms(&rbf), dg)
             ),
             c.time.label(),
-            format!("{} contribution [{unit}]", SYMBOLS[ch]),
+            format!("{} contribution [{unit}]", nm.sym),
         );
         let series = |v: &[f64]| pts(&minmax_columns(&x, v, COLUMNS));
-        if d.has_target()[ch] {
+        if reference.is_present() {
             p.lines
                 .push(Line::new(C_GREY, 1, series(&left)).label("truth − core Bφ (what memory and RBF must explain)"));
         }
@@ -699,18 +799,19 @@ pub fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
         p.legend = Legend::UpperLeft;
         p.legend_room = 0.35;
         panels.push(p);
-        if d.has_target()[ch] {
+        if reference.is_present() {
             notes.push(format!(
                 "{}: hold-out RMS of truth − Bφ {} {unit}, after Γm {} {unit}, after Wψ {} {unit}",
-                LONG_NAMES[ch].to_lowercase(),
+                nm.long.to_lowercase(),
                 num(rms(&left), dg),
                 num(rms(&after_mem), dg),
                 num(rms(&after_all), dg)
             ));
         }
     }
+    let n_rows = panels.len();
     Some(FigSpec {
-        stem: "fig9_contributions",
+        stem: "fig9_contributions".into(),
         title: "Fig. 9 — What each part of Model-H contributes".into(),
         caption: format!(
             "Model-H = Bφ + Γm + Wψ, split by running `fbg-shared` with parts removed on the hold-out: the core Bφ is fitted jointly with the memory terms Γm, so it is not Model-P; the RBF residual Wψ learns what both leave. Grey: the truth minus the core alone. {}.{}",
@@ -718,10 +819,10 @@ pub fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
             decimation_note(c.hold.len(), 2 * COLUMNS)
         ),
         grid: Grid {
-            size: (WIDTH, 1500),
+            size: (WIDTH, height(1500, n_rows)),
             title: "Fig. 9 — Contributions of the memory terms and the RBF residual on the hold-out".into(),
             subtitle: "What to look for: how much of truth − core the memory terms follow, and what the RBF adds.".into(),
-            rows: 3,
+            rows: n_rows,
             cols: 1,
             panels,
         },

@@ -13,7 +13,7 @@ use crate::error::TrainerError;
 use crate::eval::metrics::RecalStudy;
 use crate::eval::metrics::{AblationRow, BudgetRow, DriftSweep, Metrics, SelectionSummary, Table2};
 use crate::eval::parity::ParityReport;
-use crate::eval::score::{ChannelMetrics, ModelEval, CHANNELS, UNITS};
+use crate::eval::score::{ChannelMetrics, ModelEval};
 use crate::fit::select::CvRow;
 use crate::fit::{Config, VarModel};
 
@@ -27,8 +27,8 @@ impl<'de> Deserialize<'de> for F {
     }
 }
 
-fn a3(v: [F; 3]) -> [f64; 3] {
-    v.map(|x| x.0)
+fn a3(v: Vec<F>) -> Vec<f64> {
+    v.into_iter().map(|x| x.0).collect()
 }
 
 #[derive(Deserialize)]
@@ -60,13 +60,13 @@ impl From<ChannelDe> for ChannelMetrics {
     }
 }
 
-fn channels(v: [ChannelDe; 3]) -> [ChannelMetrics; 3] {
-    v.map(ChannelMetrics::from)
+fn channels(v: Vec<ChannelDe>) -> Vec<ChannelMetrics> {
+    v.into_iter().map(ChannelMetrics::from).collect()
 }
 
 #[derive(Deserialize)]
 struct ModelEvalDe {
-    channels: [ChannelDe; 3],
+    channels: Vec<ChannelDe>,
     flag_counts: [usize; 3],
     flagged_fraction: F,
 }
@@ -81,21 +81,21 @@ impl From<ModelEvalDe> for ModelEval {
 struct Table2De {
     model_p: ModelEvalDe,
     model_h: ModelEvalDe,
-    gain_pct: [F; 3],
-    oracle_floor: Option<[F; 3]>,
-    h_over_floor: Option<[F; 3]>,
+    gain_pct: Vec<F>,
+    oracle_floor: Option<Vec<F>>,
+    h_over_floor: Option<Vec<F>>,
 }
 
 #[derive(Deserialize)]
 struct DriftDe {
     factors: Vec<F>,
     sigma_d_pm: Vec<F>,
-    rmse_p: Vec<[F; 3]>,
-    rmse_h: Vec<[F; 3]>,
-    slope_p: [F; 3],
-    slope_h: [F; 3],
-    intercept_p: [F; 3],
-    intercept_h: [F; 3],
+    rmse_p: Vec<Vec<F>>,
+    rmse_h: Vec<Vec<F>>,
+    slope_p: Vec<F>,
+    slope_h: Vec<F>,
+    intercept_p: Vec<F>,
+    intercept_h: Vec<F>,
 }
 
 #[derive(Deserialize)]
@@ -125,24 +125,26 @@ impl From<ConfigDe> for Config {
 struct AblationDe {
     name: String,
     note: String,
-    channels: [ChannelDe; 3],
+    channels: Vec<ChannelDe>,
     config: Option<ConfigDe>,
 }
 
 #[derive(Deserialize)]
 struct BudgetDe {
     effect_off: String,
-    rmse_p: [F; 3],
-    rmse_h: [F; 3],
-    oracle_floor: [F; 3],
+    rmse_p: Vec<F>,
+    rmse_h: Vec<F>,
+    oracle_floor: Vec<F>,
+    #[serde(default)]
+    not_fitted: Option<String>,
 }
 
 #[derive(Deserialize)]
 struct ParityDe {
     samples: usize,
-    max_abs_diff: [F; 3],
-    max_diff_over_rmse: [F; 3],
-    max_band_rel_diff: [F; 3],
+    max_abs_diff: Vec<F>,
+    max_diff_over_rmse: Vec<F>,
+    max_band_rel_diff: Vec<F>,
     flag_mismatches: usize,
     leverage_band_gap: F,
     leverage_max: F,
@@ -154,13 +156,13 @@ struct RecalDe {
     batch_samples: usize,
     seed_old: u64,
     seed_new: u64,
-    h_old: [F; 3],
-    h_short: [F; 3],
-    h_full: [F; 3],
-    p_old: [F; 3],
-    p_short: [F; 3],
-    p_full: [F; 3],
-    recovered_fraction_h: [F; 3],
+    h_old: Vec<F>,
+    h_short: Vec<F>,
+    h_full: Vec<F>,
+    p_old: Vec<F>,
+    p_short: Vec<F>,
+    p_full: Vec<F>,
+    recovered_fraction_h: Vec<F>,
 }
 
 #[derive(Deserialize)]
@@ -190,17 +192,17 @@ impl From<VarModelDe> for VarModel {
 #[derive(Deserialize)]
 struct CvRowDe {
     config: ConfigDe,
-    cv_rmse: [F; 3],
+    cv_rmse: Vec<F>,
     score: F,
 }
 
 #[derive(Deserialize)]
 struct SelectionDe {
     chosen: ConfigDe,
-    cv_rmse_p: [F; 3],
-    cv_rmse_h: [F; 3],
-    var_model_p: [VarModelDe; 3],
-    var_model_h: [VarModelDe; 3],
+    cv_rmse_p: Vec<F>,
+    cv_rmse_h: Vec<F>,
+    var_model_p: Vec<VarModelDe>,
+    var_model_h: Vec<VarModelDe>,
     #[serde(default)]
     folds: Vec<(usize, usize)>,
     #[serde(default)]
@@ -217,6 +219,8 @@ struct MetricsDe {
     samples: usize,
     cal_samples: usize,
     holdout_samples: usize,
+    channels: Vec<String>,
+    units: Vec<String>,
     selection: SelectionDe,
     table2: Table2De,
     drift_sweep: Option<DriftDe>,
@@ -240,14 +244,14 @@ impl From<MetricsDe> for Metrics {
             samples: m.samples,
             cal_samples: m.cal_samples,
             holdout_samples: m.holdout_samples,
-            channels: CHANNELS,
-            units: UNITS,
+            channels: m.channels,
+            units: m.units,
             selection: SelectionSummary {
                 chosen: s.chosen.into(),
                 cv_rmse_p: a3(s.cv_rmse_p),
                 cv_rmse_h: a3(s.cv_rmse_h),
-                var_model_p: s.var_model_p.map(VarModel::from),
-                var_model_h: s.var_model_h.map(VarModel::from),
+                var_model_p: s.var_model_p.into_iter().map(VarModel::from).collect(),
+                var_model_h: s.var_model_h.into_iter().map(VarModel::from).collect(),
                 folds: s.folds,
                 grid_points: s.grid_points,
                 top: s
@@ -290,6 +294,7 @@ impl From<MetricsDe> for Metrics {
                         rmse_p: a3(r.rmse_p),
                         rmse_h: a3(r.rmse_h),
                         oracle_floor: a3(r.oracle_floor),
+                        not_fitted: r.not_fitted,
                     })
                     .collect()
             }),
@@ -345,7 +350,7 @@ mod tests {
 
     #[test]
     fn null_reads_as_nan() {
-        let v: [F; 3] = serde_json::from_str("[1.5, null, -2]").unwrap();
+        let v: Vec<F> = serde_json::from_str("[1.5, null, -2]").unwrap();
         assert_eq!(v[0].0, 1.5);
         assert!(v[1].0.is_nan());
         assert_eq!(v[2].0, -2.0);

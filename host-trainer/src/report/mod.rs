@@ -28,7 +28,7 @@ use crate::data::files::write_bytes_atomically;
 use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::eval::metrics::Metrics;
-use crate::eval::score::{evaluate_holdout, ModelEval, CHANNELS};
+use crate::eval::score::{evaluate_holdout, ModelEval};
 use crate::eval::tables;
 use crate::export;
 use crate::fit::HostParams;
@@ -112,10 +112,13 @@ impl Inputs {
             );
             return Err(TrainerError::io(dir, std::io::Error::new(std::io::ErrorKind::NotFound, msg)));
         }
+        let data = Dataset::read_csv(&paths.data)?;
+        let model_h = export::read_blob(&paths.model_h)?;
+        data.inputs_for(&model_h.dims, &paths.data.display().to_string(), "report")?;
         Ok(Inputs {
-            data: Dataset::read_paper_csv(&paths.data, "report")?,
+            data,
             meta: SimMeta::read_for(&paths.data)?,
-            model_h: export::read_blob(&paths.model_h)?,
+            model_h,
             model_p: export::read_blob(&paths.model_p)?,
             metrics: load::read_metrics(&paths.metrics)?,
         })
@@ -158,7 +161,14 @@ fn check_resim(s: &Simulation, d: &Dataset) -> Result<(), String> {
         ));
     }
     let mut worst: f64 = 0.0;
-    for g in 0..3 {
+    if s.data.n_gratings() != d.n_gratings() {
+        return Err(format!(
+            "data.csv has {} gratings but re-simulating data.meta.json gives {}: Figure 2 (true wavelength) is omitted.",
+            d.n_gratings(),
+            s.data.n_gratings()
+        ));
+    }
+    for g in 0..d.n_gratings() {
         for (a, b) in s.data.dl_pm[g].iter().zip(&d.dl_pm[g]) {
             let diff = (a - b).abs();
             // A gap (NaN) in the CSV where the simulation has a value is a difference too.
@@ -187,7 +197,15 @@ fn check_metrics(m: &Metrics, p: &ModelEval, h: &ModelEval, hold: usize, n: usiz
     }
     let mut bad = Vec::new();
     for (name, stored, fresh) in [("Model-P", &m.table2.model_p, p), ("Model-H", &m.table2.model_h, h)] {
-        for (c, ch) in CHANNELS.iter().enumerate() {
+        if stored.channels.len() != fresh.channels.len() {
+            bad.push(format!(
+                "{name}: metrics.json has {} channels, the model {}",
+                stored.channels.len(),
+                fresh.channels.len()
+            ));
+            continue;
+        }
+        for (c, ch) in m.channels.iter().enumerate().take(fresh.channels.len()) {
             let (s, f) = (&stored.channels[c], &fresh.channels[c]);
             for (stat, a, b) in [
                 ("RMSE", s.rmse, f.rmse),
@@ -207,12 +225,16 @@ fn check_metrics(m: &Metrics, p: &ModelEval, h: &ModelEval, hold: usize, n: usiz
             bad.join("; ")
         ));
     }
-    let g: [f64; 3] = std::array::from_fn(|c| {
-        crate::eval::score::gain_pct(m.table2.model_p.channels[c].rmse, m.table2.model_h.channels[c].rmse)
-    });
-    let gbad: Vec<String> = (0..3)
+    let n = m.table2.gain_pct.len().min(m.table2.model_h.channels.len()).min(m.table2.model_p.channels.len());
+    let g: Vec<f64> = (0..n)
+        .map(|c| crate::eval::score::gain_pct(m.table2.model_p.channels[c].rmse, m.table2.model_h.channels[c].rmse))
+        .collect();
+    let gbad: Vec<String> = (0..n)
         .filter(|&c| !close(g[c], m.table2.gain_pct[c]))
-        .map(|c| format!("{}: {:.2} % stored vs {:.2} % from its RMSEs", CHANNELS[c], m.table2.gain_pct[c], g[c]))
+        .map(|c| {
+            let ch = m.channels.get(c).map_or("?", |s| s.as_str());
+            format!("{ch}: {:.2} % stored vs {:.2} % from its RMSEs", m.table2.gain_pct[c], g[c])
+        })
         .collect();
     if !gbad.is_empty() {
         warnings.push(format!("metrics.json's gains disagree with its own RMSEs: {}.", gbad.join("; ")));
@@ -258,7 +280,7 @@ fn contributions(
     d: &Dataset,
     hold: &[usize],
     est_h: &[fbg_shared::Estimate<f64>],
-) -> Result<Vec<[[f64; 3]; 3]>, TrainerError> {
+) -> Result<Vec<[[f64; fbg_shared::layout::MAX_OUTPUTS]; 3]>, TrainerError> {
     if !h.has_memory() && h.centres.is_empty() {
         return Ok(Vec::new());
     }
@@ -274,7 +296,7 @@ fn contributions(
         .zip(est_h)
         .map(|((c, m), f)| {
             [
-                fbg_shared::layout::pad(&c.values),
+                c.values,
                 std::array::from_fn(|k| m.values[k] - c.values[k]),
                 std::array::from_fn(|k| f.values[k] - m.values[k]),
             ]
@@ -341,7 +363,11 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
             count(all_hold.len())
         ));
     }
-    let missing: Vec<&str> = (0..3).filter(|&c| !d.has_target()[c]).map(|c| figures::LONG_NAMES[c]).collect();
+    let dims = inp.model_h.dims;
+    let missing: Vec<String> = (0..dims.n_outputs())
+        .filter(|&c| !d.reference_of(&dims, c).is_present())
+        .map(|c| figures::ChannelNames::of(crate::data::Measurand::of_output(dims.outputs()[c])).long)
+        .collect();
     if !missing.is_empty() {
         out.notes.push(format!(
             "data.csv has no reference for {}: those channels are estimated but cannot be scored, so their errors, parity and histograms are empty.",
@@ -364,17 +390,19 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
         metrics: m,
         time: TimeUnit::for_span(span),
         parts_h: &parts_h,
+        dims,
     };
     let mut specs: Vec<FigSpec> = vec![figures::fig1_inputs(&ctx)];
     specs.extend(figures::fig2_wavelength(&ctx, 0));
-    for ch in 0..3 {
+    for ch in 0..ctx.n_channels() {
         specs.push(figures::fig_channel(&ctx, ch));
     }
+
     specs.push(figures::fig6_parity(&ctx));
     specs.push(figures::fig7_errors(&ctx));
     specs.extend(figures::fig8_drift(&ctx));
     specs.extend(figures::fig9_contributions(&ctx));
-    specs.par_iter().map(|f| f.grid.write(dir, f.stem)).collect::<Result<Vec<()>, TrainerError>>()?;
+    specs.par_iter().map(|f| f.grid.write(dir, &f.stem)).collect::<Result<Vec<()>, TrainerError>>()?;
     for f in &specs {
         out.files.push(format!("{}.png", f.stem));
         out.files.push(format!("{}.svg", f.stem));
@@ -435,7 +463,7 @@ fn page(
             .iter()
             .find(|f| f.stem == stem)
             .map(|f| {
-                html::figure(&FigEntry { stem: f.stem.into(), title: f.title.clone(), caption: f.caption.clone() })
+                html::figure(&FigEntry { stem: f.stem.clone(), title: f.title.clone(), caption: f.caption.clone() })
             })
             .unwrap_or_default()
     };
@@ -489,8 +517,18 @@ fn page(
     });
     sections.push(Section {
         id: "reconstructions".into(),
-        title: "Reconstructions on the hold-out (Figs. 3–5)".into(),
-        body: format!("{}{}{}", fig("fig3_temperature"), fig("fig4_strain"), fig("fig5_pressure")),
+        title: match (0..inp.model_h.dims.n_outputs())
+            .map(|ch| figures::channel_fig_no(&inp.model_h.dims, ch))
+            .collect::<Vec<_>>()
+            .as_slice()
+        {
+            [one] => format!("Reconstruction on the hold-out (Fig. {one})"),
+            [first, .., last] => format!("Reconstructions on the hold-out (Figs. {first}–{last})"),
+            [] => "Reconstructions on the hold-out".into(),
+        },
+        body: (0..inp.model_h.dims.n_outputs())
+            .map(|ch| fig(&figures::channel_stem(&inp.model_h.dims, ch)))
+            .collect::<String>(),
     });
     sections.push(Section {
         id: "parity".into(),
@@ -555,12 +593,15 @@ fn page(
         let rows: Vec<(String, String)> = vec![
             ("hold-out samples compared".into(), count(p.samples)),
             (
-                "max |f32 − f64| (T, ε, p)".into(),
-                format!("{:.3e} °C, {:.3e} µε, {:.3e} kPa", p.max_abs_diff[0], p.max_abs_diff[1], p.max_abs_diff[2]),
+                format!(
+                    "max |f32 − f64| ({})",
+                    m.channels.iter().map(|c| c.replacen("strain", "ε", 1)).collect::<Vec<_>>().join(", ")
+                ),
+                p.max_abs_diff.iter().zip(&m.units).map(|(v, u)| format!("{v:.3e} {u}")).collect::<Vec<_>>().join(", "),
             ),
             (
                 "as a share of Model-H's RMSE".into(),
-                (0..3).map(|c| format!("{} %", num(100.0 * p.max_diff_over_rmse[c], 4))).collect::<Vec<_>>().join(", "),
+                p.max_diff_over_rmse.iter().map(|v| format!("{} %", num(100.0 * v, 4))).collect::<Vec<_>>().join(", "),
             ),
             (
                 "max relative band difference".into(),

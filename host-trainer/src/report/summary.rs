@@ -3,9 +3,8 @@
 //! hysteresis, drift sensitivity, ablation, error budget, device parity and flags.
 
 use crate::eval::metrics::Metrics;
-use crate::eval::score::UNITS;
 
-use super::figures::{count, num, DIGITS};
+use super::figures::{count, num};
 
 /// The paper's headline claim: Model-H lowers RMSE by 25–45 % on every channel.
 pub const PAPER_GAIN_RANGE_PCT: (f64, f64) = (25.0, 45.0);
@@ -15,7 +14,23 @@ pub const PAPER_TABLE2_RMSE: [(f64, f64); 3] = [(0.41, 0.27), (14.8, 9.3), (3.2,
 /// autocorrelated, so the binomial tolerance would be far too tight).
 pub const COVERAGE_OK_PCT: (f64, f64) = (93.0, 97.0);
 
-const NAMES: [&str; 3] = ["temperature", "strain", "pressure"];
+/// A channel's name in words: `T` → temperature, `strain2` → strain 2, `p` → pressure.
+fn long_name(channel: &str) -> String {
+    let (stem, word) = if let Some(r) = channel.strip_prefix("strain") {
+        (r, "strain")
+    } else if let Some(r) = channel.strip_prefix('T') {
+        (r, "temperature")
+    } else if let Some(r) = channel.strip_prefix('p') {
+        (r, "pressure")
+    } else {
+        return channel.to_string();
+    };
+    if stem.is_empty() {
+        word.to_string()
+    } else {
+        format!("{word} {stem}")
+    }
+}
 
 fn list(items: &[String]) -> String {
     match items.len() {
@@ -43,18 +58,22 @@ fn change(g: f64) -> String {
 /// Paragraphs (plain text) summarising `m`.
 pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     let t = &m.table2;
+    let nch = m.channels.len();
+    let names: Vec<String> = m.channels.iter().map(|c| long_name(c)).collect();
+    let units = &m.units;
+    let digits: Vec<usize> = units.iter().map(|u| if u == "°C" { 3 } else { 2 }).collect();
     let mut out = Vec::new();
 
     // Gains against the paper's claim.
-    let gains: Vec<String> = (0..3).map(|c| format!("{} for {}", change(t.gain_pct[c]), NAMES[c])).collect();
+    let gains: Vec<String> = (0..nch).map(|c| format!("{} for {}", change(t.gain_pct[c]), names[c])).collect();
     let (lo, hi) = PAPER_GAIN_RANGE_PCT;
     let paper_gains: Vec<String> = PAPER_TABLE2_RMSE.iter().map(|(p, h)| pct(100.0 * (p - h) / p)).collect();
-    let below: Vec<String> = (0..3).filter(|&c| t.gain_pct[c] < lo).map(|c| NAMES[c].to_string()).collect();
+    let below: Vec<String> = (0..nch).filter(|&c| t.gain_pct[c] < lo).map(|c| names[c].to_string()).collect();
     let inside: Vec<String> =
-        (0..3).filter(|&c| (lo..=hi).contains(&t.gain_pct[c])).map(|c| NAMES[c].to_string()).collect();
-    let above: Vec<String> = (0..3).filter(|&c| t.gain_pct[c] > hi).map(|c| NAMES[c].to_string()).collect();
+        (0..nch).filter(|&c| (lo..=hi).contains(&t.gain_pct[c])).map(|c| names[c].to_string()).collect();
+    let above: Vec<String> = (0..nch).filter(|&c| t.gain_pct[c] > hi).map(|c| names[c].to_string()).collect();
     let mut verdict = Vec::new();
-    let all = |v: &Vec<String>| v.len() == 3;
+    let all = |v: &Vec<String>| v.len() == nch;
     if all(&inside) {
         verdict.push("within it on every channel".to_string());
     } else if all(&below) {
@@ -82,19 +101,19 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     ));
 
     // Per-sample oracle.
-    match t.oracle_floor {
+    match &t.oracle_floor {
         Some(f) => {
-            let mult: Vec<String> = (0..3).map(|c| format!("{}×", num(t.model_h.channels[c].rmse / f[c], 2))).collect();
-            let p_mult: Vec<String> = (0..3).map(|c| format!("{}×", num(t.model_p.channels[c].rmse / f[c], 2))).collect();
-            let above: Vec<String> = (0..3)
+            let mult: Vec<String> = (0..nch).map(|c| format!("{}×", num(t.model_h.channels[c].rmse / f[c], 2))).collect();
+            let p_mult: Vec<String> = (0..nch).map(|c| format!("{}×", num(t.model_p.channels[c].rmse / f[c], 2))).collect();
+            let above: Vec<String> = (0..nch)
                 .map(|c| {
                     let r = t.model_h.channels[c].rmse;
                     pct(100.0 * (1.0 - (f[c] / r).powi(2)))
                 })
                 .collect();
-            let floor: Vec<String> = (0..3).map(|c| format!("{} {}", num(f[c], DIGITS[c]), UNITS[c])).collect();
+            let floor: Vec<String> = (0..nch).map(|c| format!("{} {}", num(f[c], digits[c]), units[c])).collect();
             let beaten: Vec<String> =
-                (0..3).filter(|&c| t.model_h.channels[c].rmse < f[c]).map(|c| NAMES[c].to_string()).collect();
+                (0..nch).filter(|&c| t.model_h.channels[c].rmse < f[c]).map(|c| names[c].to_string()).collect();
             out.push(format!(
                 "The per-sample oracle (exact inversion of the true physics, sample by sample, from wavelengths that carry only the sensor noise) is {}. Model-H's RMSE is {} the oracle's (Model-P: {}); the share of Model-H's mean-square error above the oracle's is {}.{}",
                 list(&floor),
@@ -117,7 +136,7 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
 
     // Coverage.
     let cov = |e: &crate::eval::score::ModelEval| -> Vec<String> {
-        (0..3).map(|c| pct(100.0 * e.channels[c].coverage)).collect()
+        (0..nch).map(|c| pct(100.0 * e.channels[c].coverage)).collect()
     };
     let (clo, chi) = COVERAGE_OK_PCT;
     let mut judge = Vec::new();
@@ -125,8 +144,8 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     // called too narrow under a 93–97 % rule.
     let shown = |e: &crate::eval::score::ModelEval, c: usize| (1000.0 * e.channels[c].coverage).round() / 10.0;
     for (name, e) in [("Model-P", &t.model_p), ("Model-H", &t.model_h)] {
-        let under: Vec<String> = (0..3).filter(|&c| shown(e, c) < clo).map(|c| NAMES[c].to_string()).collect();
-        let over: Vec<String> = (0..3).filter(|&c| shown(e, c) > chi).map(|c| NAMES[c].to_string()).collect();
+        let under: Vec<String> = (0..nch).filter(|&c| shown(e, c) < clo).map(|c| names[c].to_string()).collect();
+        let over: Vec<String> = (0..nch).filter(|&c| shown(e, c) > chi).map(|c| names[c].to_string()).collect();
         if !under.is_empty() {
             judge.push(format!("{name}'s bands are too narrow for {}", list(&under)));
         }
@@ -144,10 +163,10 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     ));
 
     // Hysteresis index.
-    let hy: Vec<String> = (0..3)
+    let hy: Vec<String> = (0..nch)
         .map(|c| {
             let (p, h) = (t.model_p.channels[c].hysteresis_index, t.model_h.channels[c].hysteresis_index);
-            format!("{} → {} {}", num(p.abs(), DIGITS[c]), num(h.abs(), DIGITS[c]), UNITS[c])
+            format!("{} → {} {}", num(p.abs(), digits[c]), num(h.abs(), digits[c]), units[c])
         })
         .collect();
     out.push(format!(
@@ -157,19 +176,19 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
 
     // Drift sweep.
     if let Some(s) = &m.drift_sweep {
-        let slopes: Vec<String> = (0..3)
+        let slopes: Vec<String> = (0..nch)
             .map(|c| {
                 format!(
                     "{} vs {} {} per pm/step for {}",
-                    num(s.slope_p[c], DIGITS[c]),
-                    num(s.slope_h[c], DIGITS[c]),
-                    UNITS[c],
-                    NAMES[c]
+                    num(s.slope_p[c], digits[c]),
+                    num(s.slope_h[c], digits[c]),
+                    units[c],
+                    names[c]
                 )
             })
             .collect();
         let shallower: Vec<String> =
-            (0..3).filter(|&c| s.slope_h[c] < s.slope_p[c]).map(|c| NAMES[c].to_string()).collect();
+            (0..nch).filter(|&c| s.slope_h[c] < s.slope_p[c]).map(|c| names[c].to_string()).collect();
         out.push(format!(
             "Drift sweep (σ_d × {}, both models refitted each time): the slope of hold-out RMSE against σ_d is {} (Model-P vs Model-H). The paper reports a shallower slope for the hybrid; here Model-H's slope is shallower {}.",
             s.factors.iter().map(|f| num(*f, 1)).collect::<Vec<_>>().join(", "),
@@ -181,18 +200,18 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     // Ablation.
     if let Some(rows) = &m.ablation {
         if let Some(base) = rows.first() {
-            let best: Vec<String> = (0..3)
+            let best: Vec<String> = (0..nch)
                 .map(|c| {
                     let r = rows
                         .iter()
                         .min_by(|a, b| a.channels[c].rmse.total_cmp(&b.channels[c].rmse))
                         .expect("non-empty");
-                    format!("“{}” for {} ({} {})", r.name, NAMES[c], num(r.channels[c].rmse, DIGITS[c]), UNITS[c])
+                    format!("“{}” for {} ({} {})", r.name, names[c], num(r.channels[c].rmse, digits[c]), units[c])
                 })
                 .collect();
             let mut s = format!("Ablation (Table 3): the lowest hold-out RMSE comes from {}.", list(&best));
             if let Some(paper) = rows.iter().find(|r| r.name.to_lowercase().contains("paper")) {
-                let g: Vec<String> = (0..3)
+                let g: Vec<String> = (0..nch)
                     .map(|c| change(crate::eval::score::gain_pct(base.channels[c].rmse, paper.channels[c].rmse)))
                     .collect();
                 s.push_str(&format!(" With the paper's own RBF inputs (“{}”), the hybrid's RMSE is {} than Model-P's (temperature, strain, pressure).", paper.name, list(&g)));
@@ -206,16 +225,16 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         if let Some(full) = rows.iter().find(|r| r.effect_off == "none") {
             let single: Vec<&crate::eval::metrics::BudgetRow> =
                 rows.iter().filter(|r| r.effect_off != "none" && r.effect_off != "all").collect();
-            let worst: Vec<String> = (0..3)
+            let worst: Vec<String> = (0..nch)
                 .filter_map(|c| {
                     let r = single.iter().min_by(|a, b| a.rmse_h[c].total_cmp(&b.rmse_h[c]))?;
                     Some(format!(
                         "{} for {} ({} → {} {})",
                         r.effect_off,
-                        NAMES[c],
-                        num(full.rmse_h[c], DIGITS[c]),
-                        num(r.rmse_h[c], DIGITS[c]),
-                        UNITS[c]
+                        names[c],
+                        num(full.rmse_h[c], digits[c]),
+                        num(r.rmse_h[c], digits[c]),
+                        units[c]
                     ))
                 })
                 .collect();
@@ -234,7 +253,7 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         s.push_str(&format!(
             "On the device path (f32), the largest deviation from the f64 reference over {} hold-out samples is {} of Model-H's RMSE (temperature, strain, pressure), with {} flag mismatches. ",
             count(p.samples),
-            list(&(0..3).map(|c| format!("{} %", num(100.0 * p.max_diff_over_rmse[c], 4))).collect::<Vec<_>>()),
+            list(&(0..nch).map(|c| format!("{} %", num(100.0 * p.max_diff_over_rmse[c], 4))).collect::<Vec<_>>()),
             p.flag_mismatches
         ));
     }

@@ -25,11 +25,11 @@ pub fn meta_path(csv: &Path) -> PathBuf {
 }
 
 impl SimMeta {
-    /// The oracle-floor hold-out RMSE in the paper's layout (T, ε, p; NaN where absent).
-    pub fn oracle_floor_paper(&self) -> [f64; 3] {
+    /// The oracle-floor hold-out RMSE per output of a model with `outputs` (NaN where absent).
+    pub fn oracle_floor_for(&self, outputs: &[crate::data::Measurand]) -> Vec<f64> {
         let mut m = self.scenario.measurands.clone();
         m.sort();
-        crate::sim::paper_layout(&m, &self.oracle_floor_holdout)
+        crate::sim::values_for(&m, &self.oracle_floor_holdout, outputs)
     }
 
     pub fn of(sim: &Simulation) -> Self {

@@ -166,16 +166,19 @@ pub struct OracleFloor {
 }
 
 impl OracleFloor {
-    /// The hold-out RMSE in the paper's layout (T, ε, p; NaN for a measurand not simulated).
-    pub fn paper_holdout(&self) -> [f64; 3] {
-        paper_layout(&self.measurands, &self.rmse_holdout)
+    /// The hold-out RMSE per output of a model with `outputs` (NaN for one not simulated).
+    pub fn holdout_for(&self, outputs: &[Measurand]) -> Vec<f64> {
+        values_for(&self.measurands, &self.rmse_holdout, outputs)
     }
 }
 
-/// Values per measurand → the paper's (T, ε, p), NaN where absent.
-pub fn paper_layout(measurands: &[Measurand], v: &[f64]) -> [f64; 3] {
-    Measurand::PAPER
-        .map(|p| measurands.iter().position(|m| *m == p).and_then(|k| v.get(k).copied()).unwrap_or(f64::NAN))
+/// Values per measurand (`v[k]` for `measurands[k]`) → per output of a model whose outputs
+/// are `outputs`, NaN where absent.
+pub fn values_for(measurands: &[Measurand], v: &[f64], outputs: &[Measurand]) -> Vec<f64> {
+    outputs
+        .iter()
+        .map(|p| measurands.iter().position(|m| m == p).and_then(|k| v.get(k).copied()).unwrap_or(f64::NAN))
+        .collect()
 }
 
 impl Simulation {
