@@ -757,11 +757,27 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// as non-finite (`psi` untouched).
     #[inline]
     pub fn core_and_activations(&mut self, s: &Sample<F>, psi: &mut [F]) -> Option<[F; MAX_OUTPUTS]> {
-        if !self.accepts(s) {
+        // The paper's shape with compile-time loop bounds, as in `step_with`.
+        if self.gratings == 3 && self.outputs == 3 {
+            self.core_and_activations_shaped::<3, 3>(s, psi)
+        } else {
+            self.core_and_activations_shaped::<0, 0>(s, psi)
+        }
+    }
+
+    /// [`Compensator::core_and_activations`] for a model of `G` gratings and `M` outputs (0:
+    /// read from the model).
+    #[inline(always)]
+    fn core_and_activations_shaped<const G: usize, const M: usize>(
+        &mut self,
+        s: &Sample<F>,
+        psi: &mut [F],
+    ) -> Option<[F; MAX_OUTPUTS]> {
+        if !self.accepts_shaped::<G>(s) {
             return None;
         }
-        let (latch, y) = self.advance_with_core::<0, 0>(s);
-        let (z, z_sq) = self.rbf_inputs::<0>(s, latch);
+        let (latch, y) = self.advance_with_core::<G, M>(s);
+        let (z, z_sq) = self.rbf_inputs::<G>(s, latch);
         let groups = usize::from(self.z_groups);
         for (o, c) in psi.iter_mut().zip(self.centres.iter()) {
             *o = psi_of::<F>(c, &z, z_sq, groups);
