@@ -140,13 +140,43 @@ pub fn z_sample(
 /// the feature set uses.
 pub fn centres(zs: &ZSample, fs: FeatureSet, k: usize, seed: u64) -> Vec<[f64; MAX_Z]> {
     let active = zs.dims.z_active(fs);
-    let pts: Vec<[f64; MAX_Z]> = zs
+    let used: Vec<usize> = (0..MAX_Z).filter(|&d| active[d]).collect();
+    let mut rng = Rng::new(seed ^ (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15), Stream::Kmeans);
+    // k-means on the used inputs only, packed in order (the unused ones would only add exact
+    // zeros to every distance): a paper-shaped model clusters in 8 dimensions, not MAX_Z.
+    if used.len() <= 8 {
+        packed_centres::<8>(zs, &used, k, &mut rng)
+    } else if used.len() <= 12 {
+        packed_centres::<12>(zs, &used, k, &mut rng)
+    } else {
+        packed_centres::<MAX_Z>(zs, &used, k, &mut rng)
+    }
+}
+
+/// [`centres`] with the `used` inputs packed into `D` dimensions, unpacked into the model's
+/// layout afterwards.
+fn packed_centres<const D: usize>(zs: &ZSample, used: &[usize], k: usize, rng: &mut Rng) -> Vec<[f64; MAX_Z]> {
+    let pts: Vec<[f64; D]> = zs
         .points
         .iter()
-        .map(|z| std::array::from_fn(|d| if active[d] { (z[d] - zs.mean[d]) / zs.std[d] } else { 0.0 }))
+        .map(|z| {
+            let mut p = [0.0; D];
+            for (o, &d) in p.iter_mut().zip(used) {
+                *o = (z[d] - zs.mean[d]) / zs.std[d];
+            }
+            p
+        })
         .collect();
-    let mut rng = Rng::new(seed ^ (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15), Stream::Kmeans);
-    kmeans::kmeans_pp(&pts, k.min(pts.len()), &mut rng, 100)
+    kmeans::kmeans_pp(&pts, k.min(pts.len()), rng, 100)
+        .into_iter()
+        .map(|c| {
+            let mut full = [0.0; MAX_Z];
+            for (&v, &d) in c.iter().zip(used) {
+                full[d] = v;
+            }
+            full
+        })
+        .collect()
 }
 
 /// Median (the upper one for an even count) distance from each centre to its nearest other
