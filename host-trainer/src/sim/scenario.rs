@@ -593,23 +593,7 @@ impl ScenarioConfig {
         v.finite("temperature.seasonal_phase_rad", t.seasonal_phase_rad);
         v.nonneg("temperature.ar_sigma_c", t.ar_sigma_c, 50.0);
         v.range("temperature.ar_tau_s", t.ar_tau_s, 1e-3, 1e8);
-        let s = &self.strain;
-        v.range("strain.level_lo_ue", s.level_lo_ue, -1e4, 1e4);
-        v.range("strain.level_hi_ue", s.level_hi_ue, -1e4, 1e4);
-        if s.level_hi_ue < s.level_lo_ue {
-            v.fail("strain.level_hi_ue", "must be >= strain.level_lo_ue");
-        }
-        v.range("strain.hold_s", s.hold_s, 1e-3, 1e8);
-        v.range("strain.ramp_s", s.ramp_s, 0.0, 1e8);
-        if s.ramp_s > s.hold_s {
-            v.fail("strain.ramp_s", "must not exceed strain.hold_s");
-        }
-        v.nonneg("strain.sine1_amp_ue", s.sine1_amp_ue, 1e4);
-        v.range("strain.sine1_period_s", s.sine1_period_s, 1e-3, 1e9);
-        v.nonneg("strain.sine2_amp_ue", s.sine2_amp_ue, 1e4);
-        v.range("strain.sine2_period_s", s.sine2_period_s, 1e-3, 1e9);
-        v.nonneg("strain.ar_sigma_ue", s.ar_sigma_ue, 1e4);
-        v.range("strain.ar_tau_s", s.ar_tau_s, 1e-3, 1e8);
+        validate_strain(&mut v, "strain", &self.strain);
         let p = &self.pressure;
         v.range("pressure.mean_kpa", p.mean_kpa, 0.0, 1e5);
         v.nonneg("pressure.sine1_amp_kpa", p.sine1_amp_kpa, 1e5);
@@ -619,19 +603,7 @@ impl ScenarioConfig {
         v.nonneg("pressure.ar_sigma_kpa", p.ar_sigma_kpa, 1e5);
         v.range("pressure.ar_tau_s", p.ar_tau_s, 1e-3, 1e8);
         if let Some(s) = &self.strain2 {
-            v.range("strain2.level_lo_ue", s.level_lo_ue, -1e4, 1e4);
-            v.range("strain2.level_hi_ue", s.level_hi_ue, -1e4, 1e4);
-            if s.level_hi_ue < s.level_lo_ue {
-                v.fail("strain2.level_hi_ue", "must be >= strain2.level_lo_ue");
-            }
-            v.range("strain2.hold_s", s.hold_s, 1e-3, 1e8);
-            v.range("strain2.ramp_s", s.ramp_s, 0.0, s.hold_s);
-            v.nonneg("strain2.sine1_amp_ue", s.sine1_amp_ue, 1e4);
-            v.range("strain2.sine1_period_s", s.sine1_period_s, 1e-3, 1e9);
-            v.nonneg("strain2.sine2_amp_ue", s.sine2_amp_ue, 1e4);
-            v.range("strain2.sine2_period_s", s.sine2_period_s, 1e-3, 1e9);
-            v.nonneg("strain2.ar_sigma_ue", s.ar_sigma_ue, 1e4);
-            v.range("strain2.ar_tau_s", s.ar_tau_s, 1e-3, 1e8);
+            validate_strain(&mut v, "strain2", s);
         }
         let m = &self.measurands;
         if m.is_empty() || m.len() > MAX_MEASURANDS {
@@ -778,6 +750,27 @@ impl ScenarioConfig {
 /// The measurands the simulator has trajectories for.
 pub const SIMULATED: [Measurand; 4] =
     [Measurand::T, Measurand::STRAIN, Measurand { kind: Kind::Strain, index: 2 }, Measurand::P];
+
+/// The checks of one strain trajectory (`strain` or `strain2`), its keys under `table`.
+fn validate_strain(v: &mut Checker, table: &str, s: &Strain) {
+    let key = |field: &str| format!("{table}.{field}");
+    v.range(&key("level_lo_ue"), s.level_lo_ue, -1e4, 1e4);
+    v.range(&key("level_hi_ue"), s.level_hi_ue, -1e4, 1e4);
+    if s.level_hi_ue < s.level_lo_ue {
+        v.fail(&key("level_hi_ue"), &format!("must be >= {}", key("level_lo_ue")));
+    }
+    v.range(&key("hold_s"), s.hold_s, 1e-3, 1e8);
+    v.range(&key("ramp_s"), s.ramp_s, 0.0, 1e8);
+    if s.ramp_s > s.hold_s {
+        v.fail(&key("ramp_s"), &format!("must not exceed {}", key("hold_s")));
+    }
+    v.nonneg(&key("sine1_amp_ue"), s.sine1_amp_ue, 1e4);
+    v.range(&key("sine1_period_s"), s.sine1_period_s, 1e-3, 1e9);
+    v.nonneg(&key("sine2_amp_ue"), s.sine2_amp_ue, 1e4);
+    v.range(&key("sine2_period_s"), s.sine2_period_s, 1e-3, 1e9);
+    v.nonneg(&key("ar_sigma_ue"), s.ar_sigma_ue, 1e4);
+    v.range(&key("ar_tau_s"), s.ar_tau_s, 1e-3, 1e8);
+}
 
 #[derive(Default)]
 struct Checker {
