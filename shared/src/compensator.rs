@@ -202,6 +202,24 @@ pub struct StreamState<F> {
     memory: MemoryState<F>,
 }
 
+impl<F: Real> StreamState<F> {
+    /// A state from its parts: the direction latches and the memory operators' state (e.g. a
+    /// [`MemoryState::unpack`]ed checkpoint).
+    pub fn from_parts(latches: LatchBank, memory: MemoryState<F>) -> Self {
+        StreamState { latches, memory }
+    }
+
+    /// The direction latches.
+    pub fn latches(&self) -> LatchBank {
+        self.latches
+    }
+
+    /// The memory operators' state (see [`MemoryState::pack`] for a compact copy).
+    pub fn memory(&self) -> &MemoryState<F> {
+        &self.memory
+    }
+}
+
 /// A loaded model with its stream state, ready to compensate samples.
 ///
 /// ```
@@ -608,6 +626,17 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     pub fn set_stream_state(&mut self, state: StreamState<F>) {
         self.latches = state.latches;
         self.memory.set_state(state.memory);
+    }
+
+    /// [`Compensator::set_stream_state`] from the parts of a compact checkpoint: the latches
+    /// and the memory operators packed by [`MemoryState::pack`] at the model's grating count
+    /// (empty for a model without memory terms). Nothing changes when `memory` is refused.
+    pub fn set_stream_packed(&mut self, latches: LatchBank, memory: &[F]) -> Result<(), Error> {
+        if self.memory.is_active() || !memory.is_empty() {
+            self.memory.set_packed_state(memory)?;
+        }
+        self.latches = latches;
+        Ok(())
     }
 
     /// Whether `other` moves its stream state exactly as this one does on every sample (same

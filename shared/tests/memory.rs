@@ -10,7 +10,7 @@ use fbg_shared::layout::paper::{MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP
 use fbg_shared::layout::{pad, Dims, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS};
 
 const D: Dims = Dims::PAPER;
-use fbg_shared::{MemoryBank, MemoryGroup, MemorySpec, Real};
+use fbg_shared::{MemoryBank, MemoryGroup, MemorySpec, MemoryState, Real};
 use fbg_testkit::models::full_memory_spec;
 use fbg_testkit::Rng;
 
@@ -385,6 +385,38 @@ fn resume_is_bit_identical<F: Real>() {
             assert_eq!(b.state(), whole.state());
         }
     }
+}
+
+fn packed_resume_is_bit_identical<F: Real>() {
+    let spec = full_memory_spec();
+    let n = D.gratings();
+    let ss = irregular_stream(21, 3000);
+    let mut whole = MemoryBank::<F>::new(&spec, &D);
+    let mut packed = vec![F::ZERO; MemoryState::<F>::packed_len(n)];
+    let mut expected = Vec::new();
+    for (i, s) in ss.iter().enumerate() {
+        if i == 1500 {
+            whole.state().pack(n, &mut packed).unwrap();
+        }
+        expected.push(update(&mut whole, s).map(|v| v.to_f64().to_bits()));
+    }
+    let mut b = MemoryBank::<F>::new(&spec, &D);
+    let state = MemoryState::unpack(n, &packed).unwrap();
+    b.set_state(state);
+    for (i, s) in ss.iter().enumerate().skip(1500) {
+        assert_eq!(update(&mut b, s).map(|v| v.to_f64().to_bits()), expected[i], "sample {i}");
+    }
+    assert_eq!(b.state(), whole.state());
+    // A packed state of the wrong length or beyond capacity is refused, not misread.
+    assert!(MemoryState::<F>::unpack(n, &packed[1..]).is_err());
+    assert!(MemoryState::<F>::unpack(9, &packed).is_err());
+    assert!(whole.state().pack(n + 1, &mut packed).is_err());
+}
+
+#[test]
+fn a_bank_resumed_from_a_packed_state_continues_bit_identically() {
+    packed_resume_is_bit_identical::<f64>();
+    packed_resume_is_bit_identical::<f32>();
 }
 
 #[test]

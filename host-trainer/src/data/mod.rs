@@ -228,12 +228,17 @@ impl Dataset {
     /// The model inputs of sample `i`: every grating's shift and the ambient reading (NaN
     /// without one).
     pub fn sample(&self, i: usize) -> Sample<f64> {
-        let mut dl = [f64::NAN; MAX_GRATINGS];
-        for (o, c) in dl.iter_mut().zip(&self.dl_pm) {
+        // Built in place (every compensator pass reads each row through here).
+        let mut s = Sample {
+            dl_pm: [0.0; MAX_GRATINGS],
+            gratings: self.n_gratings().min(MAX_GRATINGS) as u8,
+            t_amb_c: self.t_amb_c.as_ref().map_or(f64::NAN, |a| a[i]),
+            t_s: self.t_s[i],
+        };
+        for (o, c) in s.dl_pm.iter_mut().zip(&self.dl_pm) {
             *o = c[i];
         }
-        let n = self.n_gratings().min(MAX_GRATINGS);
-        Sample::from_slice(&dl[..n], self.t_amb_c.as_ref().map_or(f64::NAN, |a| a[i]), self.t_s[i]).unwrap_or_default()
+        s
     }
     /// The reference measurands of sample `i`, in canonical order.
     pub fn truth(&self, i: usize) -> Vec<f64> {

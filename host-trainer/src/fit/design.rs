@@ -18,7 +18,7 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 use fbg_shared::layout::{MAX_GRATINGS, MAX_OUTPUTS};
-use fbg_shared::{Estimate, StreamState};
+use fbg_shared::{Estimate, LatchBank, MemoryState};
 
 use super::{HostCompensator, HostParams};
 use crate::data::{Column, Dataset};
@@ -36,8 +36,14 @@ pub struct Checkpoints {
     /// Sample positions, ascending: every multiple of [`STRETCH`] below `end` and the extra
     /// samples asked for.
     pos: Vec<usize>,
-    /// `states[j]` is the state before sample `pos[j]`.
-    states: Vec<StreamState<f64>>,
+    /// `latches[j]` and `memory[j·memory_len..][..memory_len]` are the state before sample
+    /// `pos[j]`: the memory operators packed at the model's own grating count
+    /// ([`MemoryState::pack`]), a fraction of a capacity-sized state, so that a fold resuming at
+    /// every thinned row reads little.
+    latches: Vec<LatchBank>,
+    memory: Vec<f64>,
+    /// Numbers per packed memory state (0: the model has no memory terms).
+    memory_len: usize,
     /// Samples covered.
     end: usize,
 }
@@ -49,8 +55,11 @@ impl Checkpoints {
     pub fn new(params: &HostParams, d: &Dataset, end: usize, extra: &[usize]) -> Result<Self, TrainerError> {
         let mut comp = compensator(params)?;
         let end = end.min(d.len());
+        let gratings = comp.dims().0;
+        let memory_len = if comp.has_memory() { MemoryState::<f64>::packed_len(gratings) } else { 0 };
         let mut pos = Vec::with_capacity(end.div_ceil(STRETCH) + extra.len());
-        let mut states = Vec::with_capacity(pos.capacity());
+        let mut latches = Vec::with_capacity(pos.capacity());
+        let mut memory = Vec::with_capacity(pos.capacity() * memory_len);
         let mut x = extra.iter().copied().filter(|&i| i < end).peekable();
         for i in 0..end {
             let wanted = x.peek() == Some(&i);
@@ -59,12 +68,25 @@ impl Checkpoints {
             }
             if i % STRETCH == 0 || wanted {
                 pos.push(i);
-                states.push(comp.stream_state());
+                let state = comp.stream_state();
+                latches.push(state.latches());
+                if memory_len > 0 {
+                    let at = memory.len();
+                    memory.resize(at + memory_len, 0.0);
+                    state.memory().pack(gratings, &mut memory[at..]).map_err(|e| TrainerError::fit(e.to_string()))?;
+                }
             }
             comp.advance(&d.sample(i));
         }
         comp.reset();
-        Ok(Checkpoints { rule: comp, pos, states, end })
+        Ok(Checkpoints { rule: comp, pos, latches, memory, memory_len, end })
+    }
+
+    /// Put `comp` (of the same stream rule) in the stream state before sample `pos[j]`.
+    fn resume(&self, comp: &mut HostCompensator, j: usize) -> Result<(), TrainerError> {
+        let at = j * self.memory_len;
+        comp.set_stream_packed(self.latches[j], &self.memory[at..at + self.memory_len])
+            .map_err(|e| TrainerError::fit(e.to_string()))
     }
 
     /// Whether these checkpoints serve `comp` up to sample `end`.
@@ -182,8 +204,7 @@ pub fn map_stretches<T: Send>(
         rest = &rest[n..];
     }
     let k = params.centres.len();
-    Ok(jobs
-        .par_iter()
+    jobs.par_iter()
         // Buffers reused across the stretches a worker takes (a fresh megabyte per stretch
         // would cost more in page faults than the arithmetic).
         .map_init(Buffers::default, |b, &want| {
@@ -203,7 +224,7 @@ pub fn map_stretches<T: Send>(
                 }
                 let p = ck.pos[j];
                 if cur.is_none_or(|c| p > c) {
-                    c.set_stream_state(ck.states[j]);
+                    ck.resume(&mut c, j)?;
                     cur = Some(p);
                 }
                 // Only the stream state matters for samples nobody asked about.
@@ -225,9 +246,9 @@ pub fn map_stretches<T: Send>(
                 b.latches.push(c.latch_values());
                 cur = Some(i + 1);
             }
-            f(StretchOut { rows: want, psi: &b.psi, est: &b.est, values: &b.values, latches: &b.latches })
+            Ok(f(StretchOut { rows: want, psi: &b.psi, est: &b.est, values: &b.values, latches: &b.latches }))
         })
-        .collect())
+        .collect()
 }
 
 /// Estimates of `params` at `want` (sorted ascending), the compensator having seen every

@@ -1,5 +1,6 @@
 //! Every memory operator of a model over one sample stream.
 
+use crate::error::Error;
 use crate::layout::{
     head, Dims, MAX_ENVELOPE, MAX_GRATINGS, MAX_MEMORY, MAX_STAGE1, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS,
 };
@@ -29,6 +30,90 @@ impl<F: Real> MemoryState<F> {
             t_prev_s: F::ZERO,
             primed: false,
         }
+    }
+}
+
+impl<F: Real> MemoryState<F> {
+    /// Numbers in the packed form of the state of a bank over `gratings` gratings
+    /// ([`MemoryState::pack`]): every low-pass and play position of those gratings, the ambient
+    /// low-passes, the observer's two stages, the last sample time and whether the bank is primed.
+    pub const fn packed_len(gratings: usize) -> usize {
+        gratings * (N_GRATING_TAUS + N_PLAYS) + N_AMBIENT_TAUS + 4
+    }
+
+    /// Write the state of the first `gratings` gratings into `out` (exactly
+    /// [`MemoryState::packed_len`] numbers, exact in any precision): a checkpoint of a long
+    /// stream at the model's own size instead of the capacity's. Slots beyond `gratings` are not
+    /// kept (a bank over `gratings` never reads them).
+    pub fn pack(&self, gratings: usize, out: &mut [F]) -> Result<(), Error> {
+        let n = Self::check_packed(gratings, out.len())?;
+        let rows = self.grating.iter().chain(self.play.iter());
+        let (mut cells, rest) = out.split_at_mut(n * (N_GRATING_TAUS + N_PLAYS));
+        for row in rows {
+            let (here, later) = cells.split_at_mut(n);
+            here.copy_from_slice(head(row, n));
+            cells = later;
+        }
+        let (amb, tail) = rest.split_at_mut(N_AMBIENT_TAUS);
+        amb.copy_from_slice(&self.ambient);
+        for (o, v) in tail.iter_mut().zip([
+            self.observer[0],
+            self.observer[1],
+            self.t_prev_s,
+            if self.primed { F::ONE } else { F::ZERO },
+        ]) {
+            *o = v;
+        }
+        Ok(())
+    }
+
+    /// The state [`MemoryState::pack`] wrote into `from` (slots beyond `gratings` zero).
+    pub fn unpack(gratings: usize, from: &[F]) -> Result<Self, Error> {
+        let mut s = Self::new();
+        s.unpack_into(gratings, from)?;
+        Ok(s)
+    }
+
+    /// [`MemoryState::unpack`] in place: the slots of the first `gratings` gratings and the
+    /// rest of the state are overwritten, slots beyond `gratings` are left as they are (a bank
+    /// over `gratings` never reads them). Nothing is written when `from` is refused.
+    pub fn unpack_into(&mut self, gratings: usize, from: &[F]) -> Result<(), Error> {
+        let n = Self::check_packed(gratings, from.len())?;
+        let s = self;
+        let (mut cells, rest) = from.split_at(n * (N_GRATING_TAUS + N_PLAYS));
+        for row in s.grating.iter_mut().chain(s.play.iter_mut()) {
+            let (here, later) = cells.split_at(n);
+            row.iter_mut().zip(here).for_each(|(o, &v)| *o = v);
+            cells = later;
+        }
+        let (amb, tail) = rest.split_at(N_AMBIENT_TAUS);
+        s.ambient.iter_mut().zip(amb).for_each(|(o, &v)| *o = v);
+        if let [o0, o1, t, primed] = *tail {
+            s.observer = [o0, o1];
+            s.t_prev_s = t;
+            s.primed = primed != F::ZERO;
+        }
+        Ok(())
+    }
+
+    /// `gratings` within capacity and `len` its packed length; returns `gratings`.
+    fn check_packed(gratings: usize, len: usize) -> Result<usize, Error> {
+        if gratings > MAX_GRATINGS {
+            return Err(Error::OverCapacity {
+                field: "gratings",
+                found: u16::try_from(gratings).unwrap_or(u16::MAX),
+                capacity: MAX_GRATINGS as u16,
+            });
+        }
+        let want = Self::packed_len(gratings);
+        if len != want {
+            return Err(Error::WrongDims {
+                field: "packed memory state",
+                found: u16::try_from(len).unwrap_or(u16::MAX),
+                expected: u16::try_from(want).unwrap_or(u16::MAX),
+            });
+        }
+        Ok(gratings)
     }
 }
 
@@ -152,6 +237,12 @@ impl<F: Real> MemoryBank<F> {
     /// Resume from a state taken by [`MemoryBank::state`] of a bank with the same spec.
     pub fn set_state(&mut self, state: MemoryState<F>) {
         self.state = state;
+    }
+
+    /// Resume from a state packed by [`MemoryState::pack`] for this bank's gratings, in place
+    /// (see [`MemoryState::unpack_into`]).
+    pub fn set_packed_state(&mut self, from: &[F]) -> Result<(), Error> {
+        self.state.unpack_into(usize::from(self.gratings), from)
     }
 
     /// Forget the stream.
