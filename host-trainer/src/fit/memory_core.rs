@@ -315,6 +315,9 @@ pub fn fit(
     Ok(out)
 }
 
+/// Rows per block of the memory cross-validation's Gram sums.
+const GRAM_BLOCK: usize = 512;
+
 /// Sufficient statistics of one part of a fold (its training or its validation rows) over the
 /// full-menu design X = [φ | m]: XᵀX, and per output Xᵀy and yᵀy.
 struct Gram {
@@ -362,29 +365,32 @@ fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats
     rows.dedup();
     let m = memory_terms(&spec, &dims, d, &rows);
     let pos = |i: usize| rows.binary_search(&i).unwrap_or(0);
+    // Sums over blocks of rows as matrix products (XᵀX and Xᵀy of each block added in block
+    // order): the same sums as row by row, at matrix-product speed.
     let gram = |set: &[usize]| {
         let mut xtx = DMatrix::<f64>::zeros(p_all, p_all);
-        let mut xty: Vec<DVector<f64>> = (0..n_out).map(|_| DVector::<f64>::zeros(p_all)).collect();
+        let mut xty = DMatrix::<f64>::zeros(p_all, n_out);
         let mut yty = vec![0.0; n_out];
-        let mut x = vec![0.0; p_all];
-        for &i in set {
-            x[..np].copy_from_slice(&f.core.phi_at(d, i)[..np]);
-            x[np..].copy_from_slice(m.row(pos(i)));
-            for r in 0..p_all {
-                let xr = x[r];
-                for c in r..p_all {
-                    xtx[(r, c)] += xr * x[c];
+        for block in set.chunks(GRAM_BLOCK) {
+            let mut x = DMatrix::<f64>::zeros(p_all, block.len());
+            let mut y = DMatrix::<f64>::zeros(n_out, block.len());
+            for (r, &i) in block.iter().enumerate() {
+                let mut col = x.column_mut(r);
+                let ph = f.core.phi_at(d, i);
+                for (o, &v) in col.iter_mut().zip(ph[..np].iter().chain(m.row(pos(i)))) {
+                    *o = v;
+                }
+                for o in 0..n_out {
+                    let v = d.target(o)[i];
+                    y[(o, r)] = v;
+                    yty[o] += v * v;
                 }
             }
-            for o in 0..n_out {
-                let y = d.target(o)[i];
-                for r in 0..p_all {
-                    xty[o][r] += x[r] * y;
-                }
-                yty[o] += y * y;
-            }
+            // x holds Xᵀ (one row per column), so XᵀX = x·xᵀ and Xᵀy = x·yᵀ.
+            xtx.gemm(1.0, &x, &x.transpose(), 1.0);
+            xty.gemm(1.0, &x, &y.transpose(), 1.0);
         }
-        xtx.fill_lower_triangle_with_upper_triangle();
+        let xty = (0..n_out).map(|o| xty.column(o).into_owned()).collect();
         Gram { xtx, xty, yty, n: set.len() }
     };
     FoldStats { train: gram(f.train), val: gram(f.val), spec, n_poly: np }
