@@ -726,6 +726,35 @@ mod tests {
     }
 
     #[test]
+    fn edge_samples_flag_every_dims() {
+        use fbg_testkit::models::{dims, full_memory_spec_for, memory_model_dims, random_samples, short_provenance};
+        // One grating with ambient (temperature-1's shape), two without, the paper's, eight.
+        for (g, amb, m) in [(1, true, 1), (2, false, 2), (3, true, 3), (8, true, 4)] {
+            let d = dims(g, amb, m).unwrap();
+            let mut p: ModelParams<f32, MAX_K> = memory_model_dims(
+                d,
+                4,
+                5,
+                fbg_shared::FeatureSet::HysteresisAware,
+                short_provenance(),
+                full_memory_spec_for(&d),
+            );
+            p.hyper.weak_support = 1e-12;
+            let blob = fbg_testkit::models::encode_vec(&p).unwrap();
+            let p = decode(&blob).unwrap();
+            let base: Vec<_> = random_samples(&d, 40, 3).into_iter().take(40).collect();
+            let e = edge_samples(&p, &base);
+            assert_eq!(e.len(), 34);
+            assert!(e.iter().all(|s| usize::from(s.gratings) == g));
+            let r = reference(&blob, &e).unwrap();
+            for (i, a) in r.iter().enumerate().take(14) {
+                let want = if i < 12 { Flags::OUT_OF_ENVELOPE } else { Flags::NON_FINITE };
+                assert!(a.flags.contains(want), "{g} {amb} sample {i}: {:?}", a.flags);
+            }
+        }
+    }
+
+    #[test]
     fn the_memory_terms_move_the_answers_and_the_clock_is_irregular() {
         let with = synthetic_blob(32, 1, true).unwrap();
         let without = synthetic_blob(32, 1, false).unwrap();
