@@ -2,7 +2,9 @@
 //!
 //! - Instructions per `Compensator::step` for every bench model (`fixtures::ensure_device`):
 //!   the trainer's default model, the synthetic model with the full memory bank at K = 0, 16,
-//!   32 (and 64) and without memory at K = 16, 32, 64. The `bench` image (one build per
+//!   32 (and 64) and without memory at K = 16, 32, 64, the random models of other dims
+//!   (2 → 2, 8 → 4) and the trainer's Model-H of the other presets
+//!   (`fixtures::TRAINED_PRESETS`: strain-pair, temperature-1, array-8). The `bench` image (one build per
 //!   capacity, 32 and 64, each embedding its models) runs under `qemu-system-arm -icount
 //!   shift=0` (one instruction = 1 ns of virtual time), counts SysTick ticks around `n` steps
 //!   and around the same loop without the step, for n = 200 and 800. Ticks become instructions
@@ -362,7 +364,7 @@ fn bench_pack(
         let blob_bytes = blob.len() as u64;
         let lower_bound_ops = crate::bench::device::step_ops_of(&blob)?;
         println!(
-            "{:<12} K = {:>2}, {:>2} memory terms: {insns_per_step:>7.0} instructions per step ({:.0} / {:.0} over {} / {} steps; {ipt:.2} per SysTick tick); \
+            "{:<13} K = {:>2}, {:>2} memory terms: {insns_per_step:>7.0} instructions per step ({:.0} / {:.0} over {} / {} steps; {ipt:.2} per SysTick tick); \
              {insns_per_step_jitter:.0} when every Δt differs; blob {blob_bytes} B",
             b.name, b.k, b.memory_terms, per_run[0].1, per_run[1].1, per_run[0].0, per_run[1].0
         );
@@ -408,7 +410,7 @@ pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
             String::new()
         };
         println!(
-            "{:<12} K = {:>2}, {:>2} memory terms: {:>7.0} instructions per step ({:.0} with a new Δt every step){target}",
+            "{:<13} K = {:>2}, {:>2} memory terms: {:>7.0} instructions per step ({:.0} with a new Δt every step){target}",
             s.name, s.k, s.memory_terms, s.insns_per_step, s.insns_per_step_jitter
         );
     }

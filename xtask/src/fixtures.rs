@@ -18,14 +18,25 @@
 //!   golden set, the synthetic K = 32 model of the test kit's installation with every slot of
 //!   the memory bank in use (`fbg_testkit::installation::synthetic_params`) on its
 //!   `golden_samples` (an irregular clock with a 5 h gap, flags);
-//! - `golden_pack.bin`: both sets as the golden image embeds them (`fbg_link::golden::pack_bytes`).
+//! - the random models of other dims (`dims_2x2`, `dims_8x4`: [`DIMS_MODELS`]) with their
+//!   samples and host answers;
+//! - `preset-<name>/` for every preset of [`TRAINED_PRESETS`] (`strain-pair`, `temperature-1`,
+//!   `array-8`): the same chain as the paper set on that preset's record (`fbg-trainer simulate
+//!   --preset P --seed 7`, `train`, `golden`), i.e. a genuine trained Model-H of the preset's
+//!   dims, its `device_golden_inputs.bin` / `device_golden_expected.csv` (the trainer's hold-out
+//!   samples plus [`edge_samples`], cross-checked against the trainer's answers like the paper
+//!   set) and the trainer's `golden_meta.json` (that model's hold-out RMSE: its tolerance scale);
+//! - `golden_pack.bin`: every set as the golden image embeds them (`fbg_link::golden::pack_bytes`),
+//!   in the order of [`Fixtures`]' fields (paper, synthetic memory, dims, trained sets).
 //!
 //! [`ensure_device`] adds the models of the link test and the bench: `update/model.fbgm`
 //! (`train --features paper`, a second valid model with another feature set), the synthetic
 //! models of the test kit's installation with and without the memory
 //! bank at K = 0, 16, 32 and 64 (the trainer's grid stops at 32 centres; the 64-centre one is
 //! also the model a K = 32 build must refuse), and the bench packs (`bench_pack_k32.bin`,
-//! `bench_pack_k64.bin`: every model a bench image of that capacity runs, with its samples).
+//! `bench_pack_k64.bin`: every model a bench image of that capacity runs, with its samples;
+//! the K = 32 pack also has the trained models of [`TRAINED_PRESETS`] on their first 64
+//! hold-out samples).
 //!
 //! Everything is regenerated when the trainer binary changes (a stamp in the directory), so
 //! repeated calls cost one `cargo build` check.
@@ -49,7 +60,67 @@ pub const GOLDEN_SAMPLES: usize = 600;
 /// Samples of the synthetic memory golden set (≈ 30 h at 60 s: several of the longest τ, 4 h).
 pub const MEMORY_GOLDEN_SAMPLES: usize = 1500;
 /// Bump to regenerate the fixtures when this file changes what it writes.
-const FIXTURES_VERSION: u32 = 7;
+const FIXTURES_VERSION: u32 = 8;
+
+/// A preset besides `paper` whose trained Model-H the golden image runs (and the K = 32 bench
+/// image times): simulated with seed [`SEED`] and trained with the trainer's defaults, like the
+/// paper model.
+#[derive(Clone, Copy, Debug)]
+pub struct TrainedPreset {
+    /// Set name (directory `preset-<name>`, bench row).
+    pub name: &'static str,
+    /// The `--preset` of `fbg-trainer simulate`.
+    pub preset: &'static str,
+    /// Hold-out samples the trainer exports (the edge samples come on top). Kept small: the
+    /// golden pack is in the flash of the golden and bench images (256 KiB each), 44 B per
+    /// sample.
+    pub samples: usize,
+    /// Where the model comes from (bench rows).
+    pub source: &'static str,
+}
+
+/// The trained golden sets besides the paper one: a strain grating with its temperature
+/// reference (2 gratings + ambient → T, ε), one temperature grating (1 + ambient → T) and the
+/// eight-grating array (8 + ambient → T, ε, ε2, p).
+pub const TRAINED_PRESETS: [TrainedPreset; 3] = [
+    TrainedPreset {
+        name: "strain_pair",
+        preset: "strain-pair",
+        samples: 600,
+        source: "fbg-trainer train (strain-pair preset, seed 7): 2 gratings + ambient → T, ε",
+    },
+    TrainedPreset {
+        name: "temperature_1",
+        preset: "temperature-1",
+        samples: 300,
+        source: "fbg-trainer train (temperature-1 preset, seed 7): 1 grating + ambient → T",
+    },
+    TrainedPreset {
+        name: "array_8",
+        preset: "array-8",
+        samples: 300,
+        source: "fbg-trainer train (array-8 preset, seed 7): 8 gratings + ambient → T, ε, ε2, p",
+    },
+];
+
+/// The files of one golden set made by the trainer on a preset's record.
+#[derive(Clone, Debug)]
+pub struct TrainedSet {
+    /// Set name (`strain_pair`, …; the paper set is `paper`).
+    pub name: &'static str,
+    /// The trainer's `--preset`.
+    pub preset: &'static str,
+    /// The simulated record (seed 7).
+    pub data: PathBuf,
+    /// Model-H trained on it.
+    pub model: PathBuf,
+    /// Golden inputs of the device run: the trainer's hold-out samples, then [`edge_samples`].
+    pub inputs: PathBuf,
+    /// Host f64 results for them (CSV).
+    pub expected: PathBuf,
+    /// The trainer's `golden_meta.json` (Model-H's hold-out RMSE per measurand).
+    pub meta: PathBuf,
+}
 
 /// Paths of the trainer-made fixtures.
 #[derive(Clone, Debug)]
@@ -75,7 +146,10 @@ pub struct Fixtures {
     /// The golden sets of other dims (model, inputs, expected): a random 2 → 2 model without
     /// ambient and a random 8 → 4 one (`fbg_testkit::models`), each with the memory bank.
     pub dims_sets: [(PathBuf, PathBuf, PathBuf); 2],
-    /// Every golden set as the golden image embeds them.
+    /// The trained models of the other presets ([`TRAINED_PRESETS`], in that order).
+    pub trained_sets: Vec<TrainedSet>,
+    /// Every golden set as the golden image embeds them: the paper model, the synthetic
+    /// memory model, the dims models, then the trained sets.
     pub golden_pack: PathBuf,
 }
 
@@ -172,6 +246,21 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
             let n = DIMS_MODELS[i].0;
             (d.join(format!("{n}.fbgm")), d.join(format!("{n}_inputs.bin")), d.join(format!("{n}_expected.csv")))
         }),
+        trained_sets: TRAINED_PRESETS
+            .iter()
+            .map(|t| {
+                let sd = d.join(format!("preset-{}", t.name));
+                TrainedSet {
+                    name: t.name,
+                    preset: t.preset,
+                    data: sd.join("data.csv"),
+                    model: sd.join("model.fbgm"),
+                    inputs: sd.join("device_golden_inputs.bin"),
+                    expected: sd.join("device_golden_expected.csv"),
+                    meta: sd.join("golden_meta.json"),
+                }
+            })
+            .collect(),
         golden_pack: d.join("golden_pack.bin"),
     };
     let stamp = d.join("stamp-main.txt");
@@ -189,45 +278,30 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
         &fx.dims_sets[0].0,
         &fx.dims_sets[1].2,
     ];
-    if current(&stamp, &want, &files.map(PathBuf::as_path)) {
+    let mut files: Vec<&Path> = files.map(PathBuf::as_path).to_vec();
+    for t in &fx.trained_sets {
+        files.extend([t.data.as_path(), &t.model, &t.inputs, &t.expected, &t.meta]);
+    }
+    if current(&stamp, &want, &files) {
         return Ok(fx);
     }
     crate::step("fixtures: simulate, train and export golden vectors with fbg-trainer");
     let _ = fs::remove_file(&stamp);
-    let seed = SEED.to_string();
-    let n = GOLDEN_SAMPLES.to_string();
-    run_trainer(&bin, &["simulate", "--seed", &seed, "--out", p(&fx.data)])?;
-    run_trainer(&bin, &["train", "--data", p(&fx.data), "--out", p(&fx.model)])?;
-    run_trainer(&bin, &["golden", "--data", p(&fx.data), "--model", p(&fx.model), "--out", p(&d), "--samples", &n])?;
-    let model = fs::read(&fx.model)?;
-    let params = decode(&model)?;
-    check!(
-        params.centres.len() <= 32,
-        "the trainer's Model-H has {} centres, the product holds 32",
-        params.centres.len()
-    );
-
-    // The device run: the trainer's samples, then the edge cases, streamed in one go.
-    let trainer_inputs = read_inputs(&d.join("golden_inputs.bin"))?;
-    let trainer_expected = read_expected(&d.join("golden_expected.csv"))?;
-    check!(
-        trainer_inputs.len() == trainer_expected.len(),
-        "the trainer's golden inputs and expected rows differ in count"
-    );
-    let mut inputs = trainer_inputs.clone();
-    inputs.extend(edge_samples(&params, &trainer_inputs));
-    let expected = reference(&model, &inputs)?;
-    // Our host reference must reproduce the trainer's (same code, same f64 model).
-    for (i, (a, b)) in expected.iter().zip(trainer_expected.iter()).enumerate() {
-        let same = |x: f64, y: f64| (x.is_nan() && y.is_nan()) || x == y || (x - y).abs() <= 1e-9 * y.abs().max(1e-9);
-        check!(
-            a.flags == b.flags && (0..3).all(|c| same(a.values[c], b.values[c]) && same(a.band95[c], b.band95[c])),
-            "golden row {}: xtask's host reference {a:?} differs from the trainer's {b:?}",
-            i + 2
-        );
+    let paper = TrainedSet {
+        name: "paper",
+        preset: "paper",
+        data: fx.data.clone(),
+        model: fx.model.clone(),
+        inputs: fx.golden_inputs.clone(),
+        expected: fx.golden_expected.clone(),
+        meta: fx.golden_meta.clone(),
+    };
+    // The paper set with the trainer's default scenario (no `--preset`: the product's model).
+    let (model, inputs) = make_trained(&bin, &paper, GOLDEN_SAMPLES, false)?;
+    let mut trained_records = Vec::new();
+    for (set, t) in fx.trained_sets.iter().zip(TRAINED_PRESETS) {
+        trained_records.push(make_trained(&bin, set, t.samples, true)?);
     }
-    write_atomic(&fx.golden_inputs, &inputs_bytes(&inputs))?;
-    write_atomic(&fx.golden_expected, expected_csv(&expected).as_bytes())?;
 
     // The second set: every operator of the memory bank, an irregular clock and a gap.
     let memory_model = synthetic_blob(32, 1, true)?;
@@ -247,16 +321,85 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
     }
     let mut records: Vec<(&[u8], &[Sample<f32>])> = vec![(&model, &inputs), (&memory_model, &memory_inputs)];
     records.extend(dims_records.iter().map(|(b, s)| (b.as_slice(), s.as_slice())));
+    records.extend(trained_records.iter().map(|(b, s)| (b.as_slice(), s.as_slice())));
     write_atomic(&fx.golden_pack, &pack_bytes(&records))?;
     write_atomic(&stamp, want.as_bytes())?;
     Ok(fx)
 }
 
+/// The chain of one trained golden set in the directory of `set.meta`: `fbg-trainer simulate`
+/// (seed [`SEED`]; `--preset set.preset` when `with_preset`, else the trainer's default, the
+/// paper preset), `train` (its defaults), `golden --samples n`; then the device inputs (the
+/// trainer's samples followed by [`edge_samples`]) and xtask's host answers for them, whose
+/// first `n` rows must equal the trainer's. Returns the blob and the device inputs.
+fn make_trained(bin: &Path, set: &TrainedSet, n: usize, with_preset: bool) -> Result<(Vec<u8>, Vec<Sample<f32>>)> {
+    let what = format!("golden set `{}` (preset {})", set.name, set.preset);
+    let dir = set.meta.parent().with_context(|| format!("{what}: {} has no directory", set.meta.display()))?;
+    fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let seed = SEED.to_string();
+    let mut simulate = vec!["simulate", "--seed", &seed, "--out", p(&set.data)];
+    if with_preset {
+        simulate.extend(["--preset", set.preset]);
+    }
+    let samples = n.to_string();
+    (|| {
+        run_trainer(bin, &simulate)?;
+        run_trainer(bin, &["train", "--data", p(&set.data), "--out", p(&set.model)])?;
+        run_trainer(
+            bin,
+            &["golden", "--data", p(&set.data), "--model", p(&set.model), "--out", p(dir), "--samples", &samples],
+        )
+    })()
+    .with_context(|| format!("making {what} with fbg-trainer"))?;
+    let model = fs::read(&set.model).with_context(|| format!("reading {}", set.model.display()))?;
+    let params = decode(&model).with_context(|| what.clone())?;
+    check!(
+        params.centres.len() <= crate::qemu::PRODUCT_K && model.len() <= crate::device_bench::TARGET_BLOB as usize,
+        "{what}: the trainer's Model-H has {} centres and {} B; the product holds {} centres and a {} B blob",
+        params.centres.len(),
+        model.len(),
+        crate::qemu::PRODUCT_K,
+        crate::device_bench::TARGET_BLOB
+    );
+
+    // The device run: the trainer's samples, then the edge cases, streamed in one go.
+    let trainer_inputs = read_inputs(&dir.join("golden_inputs.bin"))?;
+    let trainer_expected = read_expected(&dir.join("golden_expected.csv"))?;
+    check!(
+        trainer_inputs.len() == n && trainer_expected.len() == n,
+        "{what}: the trainer wrote {} golden inputs and {} expected rows, {n} were asked for",
+        trainer_inputs.len(),
+        trainer_expected.len()
+    );
+    let mut inputs = trainer_inputs.clone();
+    inputs.extend(edge_samples(&params, &trainer_inputs));
+    let expected = reference(&model, &inputs)?;
+    // Our host reference must reproduce the trainer's (same code, same f64 model).
+    for (i, (a, b)) in expected.iter().zip(trainer_expected.iter()).enumerate() {
+        let same = |x: f64, y: f64| (x.is_nan() && y.is_nan()) || x == y || (x - y).abs() <= 1e-9 * y.abs().max(1e-9);
+        let m = usize::from(b.outputs).min(fbg_shared::layout::MAX_OUTPUTS);
+        check!(
+            a.flags == b.flags
+                && a.outputs == b.outputs
+                && (0..m).all(|c| same(a.values[c], b.values[c]) && same(a.band95[c], b.band95[c])),
+            "{what}: golden row {}: xtask's host reference {a:?} differs from the trainer's {b:?}",
+            i + 2
+        );
+    }
+    write_atomic(&set.inputs, &inputs_bytes(&inputs))?;
+    write_atomic(&set.expected, expected_csv(&expected).as_bytes())?;
+    Ok((model, inputs))
+}
+
 /// Samples the hold-out does not contain, to run the device's flag paths against the host's:
 /// a stretch far outside the Δλ1 envelope (out of envelope, and weak support), T_amb beyond the
-/// envelope, a NaN and an infinite input, then ordinary samples again (from `base`).
+/// envelope, a NaN and an infinite input, then ordinary samples again (from `base`). For any
+/// dims: the NaN goes to Δλ2 (Δλ1 with one grating); without an ambient input the last
+/// grating leaves its envelope instead of T_amb, and Δλ1 is the infinite input.
 pub fn edge_samples(p: &ModelParams<f32, MAX_K>, base: &[Sample<f32>]) -> Vec<Sample<f32>> {
     let mut out = Vec::new();
+    let g = p.dims.gratings().clamp(1, fbg_shared::layout::MAX_GRATINGS);
+    let ambient = p.dims.ambient();
     let pick = |i: usize| base.get(i % base.len().max(1)).copied().unwrap_or_default();
     let span = |d: usize| p.envelope_hi[d] - p.envelope_lo[d];
     for i in 0..10 {
@@ -264,16 +407,25 @@ pub fn edge_samples(p: &ModelParams<f32, MAX_K>, base: &[Sample<f32>]) -> Vec<Sa
         s.dl_pm[0] = p.envelope_hi[0] + 3.0 * span(0);
         out.push(s);
     }
+    // The envelope is [Δλ_1..N, T_amb (with ambient)].
     for i in 10..12 {
         let mut s = pick(i);
-        s.t_amb_c = p.envelope_hi[3] + 0.5 * span(3) + 5.0;
+        if ambient {
+            s.t_amb_c = p.envelope_hi[g] + 0.5 * span(g) + 5.0;
+        } else {
+            s.dl_pm[g - 1] = p.envelope_hi[g - 1] + 0.5 * span(g - 1) + 5.0;
+        }
         out.push(s);
     }
     let mut s = pick(12);
-    s.dl_pm[1] = f32::NAN;
+    s.dl_pm[1.min(g - 1)] = f32::NAN;
     out.push(s);
     let mut s = pick(13);
-    s.t_amb_c = f32::INFINITY;
+    if ambient {
+        s.t_amb_c = f32::INFINITY;
+    } else {
+        s.dl_pm[0] = f32::INFINITY;
+    }
     out.push(s);
     out.extend((20..40).map(pick));
     out
@@ -325,7 +477,7 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
     let synthetic_inputs = d.join("bench_inputs_synthetic.bin");
     let syn = |k: usize, mem: bool| d.join(format!("bench_synthetic_k{k}{}.fbgm", if mem { "_memory" } else { "" }));
     // (name, K, memory, capacity, model, inputs, source)
-    let rows: Vec<(&'static str, usize, bool, usize, PathBuf, PathBuf, &'static str)> = vec![
+    let mut rows: Vec<(&'static str, usize, bool, usize, PathBuf, PathBuf, &'static str)> = vec![
         (
             "default",
             0,
@@ -417,6 +569,10 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
             "random 8 gratings + ambient → 4 measurands, every memory slot of its dims (77 terms) (fbg_testkit::models)",
         ),
     ];
+    // The trained models of the other presets (their K is read from the blob below).
+    for (t, set) in TRAINED_PRESETS.iter().zip(&fx.trained_sets) {
+        rows.push((t.name, 0, true, 32, set.model.clone(), d.join(format!("bench_inputs_{}.bin", t.name)), t.source));
+    }
     let bench_packs = vec![(32, d.join("bench_pack_k32.bin")), (64, d.join("bench_pack_k64.bin"))];
     let stamp = d.join("stamp-device.txt");
     let want = stamp_of(&fx.trainer)?;
@@ -430,7 +586,8 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
         // In-envelope hold-out samples of the trainer's data (the golden ones carry no flag).
         let samples: Vec<Sample<f32>> = read_inputs(&d.join("golden_inputs.bin"))?.into_iter().take(64).collect();
         write_atomic(&trainer_inputs, &inputs_bytes(&samples))?;
-        for (_, k, mem, _, path, _, _) in rows.iter().filter(|r| r.0 != "default" && !r.0.starts_with("dims_")) {
+        let synthetic_row = |name: &str| name.starts_with("memory_") || name.starts_with("plain_");
+        for (_, k, mem, _, path, _, _) in rows.iter().filter(|r| synthetic_row(r.0)) {
             write_atomic(path, &synthetic_blob(*k, 100 + *k as u64, *mem)?)?;
         }
         // The random models of other dims (written by `ensure` with their golden sets): their
@@ -438,6 +595,14 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
         for (i, r) in rows.iter().filter(|r| r.0.starts_with("dims_")).enumerate() {
             let (_, samples) = dims_model(i, 64, false)?;
             write_atomic(&r.5, &inputs_bytes(&samples))?;
+        }
+        // The trained models of the other presets: their first 64 hold-out samples, as for the
+        // default model.
+        for (t, set) in TRAINED_PRESETS.iter().zip(&fx.trained_sets) {
+            let dir = set.meta.parent().context("a trained set without a directory")?;
+            let samples: Vec<Sample<f32>> = read_inputs(&dir.join("golden_inputs.bin"))?.into_iter().take(64).collect();
+            let path = rows.iter().find(|r| r.0 == t.name).map(|r| &r.5).context("no bench row of a trained set")?;
+            write_atomic(path, &inputs_bytes(&samples))?;
         }
         // In-envelope, unflagged samples of the synthetic installation on a regular 60 s clock
         // (the bench image continues the clock across its passes over them).
@@ -558,6 +723,35 @@ mod tests {
         let si = read_inputs(&pi).unwrap();
         assert_eq!(format!("{si:?}"), format!("{s:?}"));
         let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn edge_samples_flag_every_dims() {
+        use fbg_testkit::models::{dims, full_memory_spec_for, memory_model_dims, random_samples, short_provenance};
+        // One grating with ambient (temperature-1's shape), two without, the paper's, eight.
+        for (g, amb, m) in [(1, true, 1), (2, false, 2), (3, true, 3), (8, true, 4)] {
+            let d = dims(g, amb, m).unwrap();
+            let mut p: ModelParams<f32, MAX_K> = memory_model_dims(
+                d,
+                4,
+                5,
+                fbg_shared::FeatureSet::HysteresisAware,
+                short_provenance(),
+                full_memory_spec_for(&d),
+            );
+            p.hyper.weak_support = 1e-12;
+            let blob = fbg_testkit::models::encode_vec(&p).unwrap();
+            let p = decode(&blob).unwrap();
+            let base: Vec<_> = random_samples(&d, 40, 3).into_iter().take(40).collect();
+            let e = edge_samples(&p, &base);
+            assert_eq!(e.len(), 34);
+            assert!(e.iter().all(|s| usize::from(s.gratings) == g));
+            let r = reference(&blob, &e).unwrap();
+            for (i, a) in r.iter().enumerate().take(14) {
+                let want = if i < 12 { Flags::OUT_OF_ENVELOPE } else { Flags::NON_FINITE };
+                assert!(a.flags.contains(want), "{g} {amb} sample {i}: {:?}", a.flags);
+            }
+        }
     }
 
     #[test]

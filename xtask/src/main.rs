@@ -50,7 +50,8 @@ cargo xtask <task>
   size    firmware flash / static RAM from the ELF and the measured stack peak
   device-bench
           only the device part of bench: instructions per step at K = 16/32/64
-          under QEMU -icount and the footprint; writes target/bench/device.json
+          and of the trained models of other presets (strain-pair, temperature-1,
+          array-8) under QEMU -icount and the footprint; writes target/bench/device.json
   bench [--quick] [--no-device]
           every benchmark: host fit times (ours and the scikit-learn peer), host
           inference throughput, accuracy peers, band coverage, fleet scaling and the
@@ -63,8 +64,10 @@ cargo xtask <task>
           job in 4 shards, one task cancelled and resubmitted, fleet status, every
           blob equal to a single-machine run; writes target/slurm/slurm.json
   fixtures [--write-default]
-          make the firmware's test fixtures with fbg-trainer in target/fixtures (and
-          copy its Model-H, paper preset, seed 7, to firmware/model/default.fbgm)";
+          make the firmware's test fixtures with fbg-trainer in target/fixtures (the
+          paper preset's and, in preset-<name>/, the strain-pair, temperature-1 and
+          array-8 presets' trained Model-H with golden vectors) (and copy the paper
+          Model-H, seed 7, to firmware/model/default.fbgm)";
 
 fn fixtures_task(rest: &[String]) -> Result<()> {
     let root = root();

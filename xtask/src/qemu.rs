@@ -4,9 +4,15 @@
 //! 2. fault path: an image that executes UDF must end QEMU with a failure exit code;
 //! 3. golden vectors: the `golden` image compensates the fixture samples on the emulated
 //!    Cortex-M4F and sends its estimates over UART0 to a file; each is compared with the host's
-//!    f64 answer (|Δ| ≤ 1 % of the reference scale per channel, flags identical). Two sets:
-//!    the trainer's model on its golden samples plus edge cases, and the synthetic model with
-//!    every slot of the memory bank in use on an irregular clock with a gap;
+//!    f64 answer (|Δ| ≤ 1 % of the reference scale per channel, flags identical). The sets:
+//!    the trainer's paper model on its golden samples plus edge cases; the synthetic model
+//!    with every slot of the memory bank in use on an irregular clock with a gap; random
+//!    models of other dims (2 → 2 without ambient, 8 → 4); and the trainer's Model-H of each
+//!    other preset of `fixtures::TRAINED_PRESETS` (strain-pair, temperature-1, array-8) on its
+//!    own hold-out samples plus edge cases. The scale of every trained model is its hold-out
+//!    RMSE from the trainer's `golden_meta.json` (required for the presets' sets), of the
+//!    synthetic ones the square root of their residual variance. The test fails when a set is
+//!    missing, or the pack the image embeds does not hold exactly these sets in order;
 //! 4. link: the product image serves its serial port on a loopback TCP port; `fbg-trainer
 //!    stream` (the real CLI) sends the paper hold-out and checks every estimate against the
 //!    host's f64 compensator; then garbage (counted, then served), a corrupted and an oversized
@@ -334,6 +340,35 @@ pub fn golden_scale(fx: &Fixtures, model: &[u8]) -> Result<(Vec<f64>, &'static s
     Ok((fixtures::reference_scale(model)?, "sqrt(resid_var)"))
 }
 
+/// Per-channel scale of the golden tolerance of a trained set: Model-H's hold-out RMSE from the
+/// trainer's `golden_meta.json` beside it (`holdout_rmse_h`), which must be there, belong to
+/// `model` (same centre count) and give one positive number per output of the model.
+pub fn holdout_scale(meta: &Path, model: &[u8]) -> Result<Vec<f64>> {
+    let text = fs::read_to_string(meta).with_context(|| format!("reading {}", meta.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{}: not JSON", meta.display()))?;
+    let p = fixtures::decode(model)?;
+    let centres = v["centres"].as_u64().with_context(|| format!("{}: no `centres`", meta.display()))?;
+    ensure!(
+        centres as usize == p.centres.len(),
+        "{}: written for a model of {centres} centres, the set's model has {}",
+        meta.display(),
+        p.centres.len()
+    );
+    let rmse: Vec<f64> = v["holdout_rmse_h"]
+        .as_array()
+        .with_context(|| format!("{}: no `holdout_rmse_h` array", meta.display()))?
+        .iter()
+        .map(|x| x.as_f64().unwrap_or(f64::NAN))
+        .collect();
+    let m = p.dims.n_outputs();
+    ensure!(
+        rmse.len() == m && rmse.iter().all(|x| x.is_finite() && *x > 0.0),
+        "{}: holdout_rmse_h must be {m} positive numbers (one per output of the model), found {rmse:?}",
+        meta.display()
+    );
+    Ok(rmse)
+}
+
 /// The numbers of `"key": [a, b, ...]` in a JSON text (enough for the trainer's metadata).
 fn json_number_array(text: &str, key: &str) -> Option<Vec<f64>> {
     let at = text.find(&format!("\"{key}\""))?;
@@ -363,45 +398,77 @@ pub fn parse_frames(bytes: &[u8]) -> (Vec<DeviceMsg>, usize) {
 
 /// One golden set: its model, inputs, expected host answers, tolerance scale and its name.
 struct GoldenSet {
-    name: &'static str,
+    name: String,
+    model: Vec<u8>,
     inputs: Vec<fbg_shared::Sample<f32>>,
     expected: Vec<fbg_shared::Estimate<f64>>,
     scale: Vec<f64>,
     scale_name: &'static str,
 }
 
+/// The golden sets in the order of the golden pack: the paper model, the synthetic memory
+/// model, the random dims models, then the trained models of the other presets (every one of
+/// [`fixtures::TRAINED_PRESETS`] must be there).
 fn golden_sets(fx: &Fixtures) -> Result<Vec<GoldenSet>> {
     let model = fs::read(&fx.model)?;
     let (scale, scale_name) = golden_scale(fx, &model)?;
     let memory_model = fs::read(&fx.memory_model)?;
-    let sets = vec![
+    let mut sets = vec![
         GoldenSet {
-            name: "trainer's Model-H (hold-out and edge samples)",
+            name: "trainer's Model-H (hold-out and edge samples)".into(),
             inputs: fixtures::read_inputs(&fx.golden_inputs)?,
             expected: fixtures::read_expected(&fx.golden_expected)?,
+            model,
             scale,
             scale_name,
         },
         GoldenSet {
-            name: "synthetic K = 32 with the full memory bank (irregular clock, 5 h gap)",
+            name: "synthetic K = 32 with the full memory bank (irregular clock, 5 h gap)".into(),
             inputs: fixtures::read_inputs(&fx.memory_inputs)?,
             expected: fixtures::read_expected(&fx.memory_expected)?,
             scale: fixtures::reference_scale(&memory_model)?,
+            model: memory_model,
             scale_name: "the model's residual σ",
         },
     ];
-    let mut sets = sets;
     for (name, (model, inputs, expected)) in
         ["random 2 → 2 without ambient, K = 8, memory bank", "random 8 → 4 with ambient, K = 16, memory bank"]
             .into_iter()
             .zip(fx.dims_sets.iter())
     {
+        let model = fs::read(model)?;
         sets.push(GoldenSet {
-            name,
+            name: name.into(),
             inputs: fixtures::read_inputs(inputs)?,
             expected: fixtures::read_expected(expected)?,
-            scale: fixtures::reference_scale(&fs::read(model)?)?,
+            scale: fixtures::reference_scale(&model)?,
+            model,
             scale_name: "the model's residual σ",
+        });
+    }
+    ensure!(
+        fx.trained_sets.len() == fixtures::TRAINED_PRESETS.len()
+            && fx.trained_sets.iter().zip(fixtures::TRAINED_PRESETS).all(|(s, t)| s.preset == t.preset),
+        "the fixtures do not have a trained golden set for every preset of TRAINED_PRESETS"
+    );
+    for t in &fx.trained_sets {
+        let model = fs::read(&t.model).with_context(|| format!("the trained golden set `{}` is missing", t.name))?;
+        let p = fixtures::decode(&model)?;
+        sets.push(GoldenSet {
+            name: format!(
+                "trainer's Model-H, {} preset ({}{} → {}, K = {}, {} memory terms; hold-out and edge samples)",
+                t.preset,
+                p.dims.gratings(),
+                if p.dims.ambient() { " + ambient" } else { "" },
+                p.dims.n_outputs(),
+                p.centres.len(),
+                fixtures::memory_terms(&model)?
+            ),
+            inputs: fixtures::read_inputs(&t.inputs)?,
+            expected: fixtures::read_expected(&t.expected)?,
+            scale: holdout_scale(&t.meta, &model)?,
+            model,
+            scale_name: "Model-H hold-out RMSE",
         });
     }
     for g in &sets {
@@ -412,6 +479,33 @@ fn golden_sets(fx: &Fixtures) -> Result<Vec<GoldenSet>> {
             g.inputs.len(),
             g.expected.len()
         );
+        let m = fixtures::decode(&g.model)?.dims.n_outputs();
+        ensure!(
+            g.scale.len() == m && g.expected.iter().all(|e| usize::from(e.outputs) == m),
+            "golden set `{}`: the model has {m} outputs; {} tolerance scales, expected rows of other widths",
+            g.name,
+            g.scale.len()
+        );
+    }
+    // The pack the golden image embeds must hold exactly these sets, in this order.
+    let pack = fs::read(&fx.golden_pack).with_context(|| format!("reading {}", fx.golden_pack.display()))?;
+    let records: Vec<_> = fbg_shared::golden::records(&pack).collect();
+    ensure!(
+        records.len() == sets.len(),
+        "{} holds {} golden sets, the test has {}",
+        fx.golden_pack.display(),
+        records.len(),
+        sets.len()
+    );
+    for (i, (r, g)) in records.iter().zip(&sets).enumerate() {
+        let r = r.as_ref().with_context(|| format!("{}: record {i} is malformed", fx.golden_pack.display()))?;
+        // Bytes, not samples: NaN inputs compare unequal to themselves.
+        ensure!(
+            r.blob == g.model.as_slice() && r.samples == fbg_link::golden::inputs_bytes(&g.inputs).as_slice(),
+            "{}: record {i} is not golden set `{}` (its model or samples differ)",
+            fx.golden_pack.display(),
+            g.name
+        );
     }
     Ok(sets)
 }
@@ -421,8 +515,10 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
     let uart = dir.join("golden.uart");
     let _ = fs::remove_file(&uart);
     let log = dir.join("golden.defmt");
+    let started = Instant::now();
     let mut q = Qemu::start(qemu, &bins.golden, &format!("file:{}", uart.display()), &log, &[])?;
     let status = q.wait(Duration::from_secs(120))?;
+    let run_secs = started.elapsed().as_secs_f64();
     if !status.success() {
         q.show_log();
         bail!("golden image failed with {status}");
@@ -432,6 +528,7 @@ fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<(
     let (msgs, bad) = parse_frames(&fs::read(&uart)?);
     ensure!(bad == 0, "{bad} malformed frames in the golden output {}", uart.display());
     ensure!(msgs.len() == total, "device sent {} estimates for {total} samples", msgs.len());
+    eprintln!("xtask: golden: {} sets, {total} samples compensated by the device in {run_secs:.1} s", sets.len());
     let mut failures = Vec::new();
     let mut at = 0usize;
     for g in &sets {
