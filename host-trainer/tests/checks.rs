@@ -315,8 +315,36 @@ fn evaluate_prints_flags_per_flag_and_warns_when_model_h_is_worse() {
             warned += 1;
             assert!(w.contains("use Model-P for"), "a recommendation: {w}");
         }
+        let short: Vec<usize> =
+            (0..3).filter(|&c| m["table2"]["model_h"]["channels"][c]["coverage"].as_f64().unwrap() < 0.90).collect();
+        let band = err.lines().find(|l| l.starts_with("warning: Model-H's 95 % band covered less than 90 %"));
+        assert_eq!(band.is_some(), !short.is_empty(), "seed {seed}: {err}");
     }
     assert!(warned > 0 && cv_warned > 0, "no seed exercised a warning ({warned} evaluate, {cv_warned} train)");
+}
+
+/// Issue 17: a model with a temperature output and no ambient thermometer has no drift
+/// observer; `train` says what that means for its band, and `evaluate` warns when the band
+/// under-covers the hold-out (`paper --no-ambient`, seed 7: T covered 61.9 %).
+#[test]
+fn without_a_thermometer_train_and_evaluate_warn_about_the_temperature_band() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = d.path().join("na.csv");
+    let model = d.path().join("na.fbgm");
+    assert!(run(bin().args(["simulate", "--preset", "paper", "--no-ambient", "--seed", "7", "--out"]).arg(&csv)).0);
+    let (ok, _, err) = run(bin().args(["train", "--data"]).arg(&csv).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    assert!(err.contains("warning: no ambient thermometer: the temperature output cannot tell interrogator drift"), "{err}");
+    let (ok, _, err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(&csv).arg("--model").arg(&model));
+    assert!(ok, "{err}");
+    let w = err.lines().find(|l| l.starts_with("warning: Model-H's 95 % band covered less than 90 %"));
+    assert!(w.is_some_and(|w| w.contains("T (") && !w.contains("strain (")), "{err}");
+    // With the thermometer, train has nothing to say about it.
+    let csv = d.path().join("a.csv");
+    assert!(run(bin().args(["simulate", "--preset", "paper", "--seed", "7", "--out"]).arg(&csv)).0);
+    let (ok, _, err) = run(bin().args(["train", "--data"]).arg(&csv).arg("--out").arg(d.path().join("a.fbgm")));
+    assert!(ok, "{err}");
+    assert!(!err.contains("no ambient thermometer"), "{err}");
 }
 
 /// Issue 15 item 13: a flipped bit in the header's version field is corruption (the CRC over

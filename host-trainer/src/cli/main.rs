@@ -449,6 +449,15 @@ fn run() -> Result<()> {
                         if worse.len() == 1 { "that channel" } else { "those channels" }
                     );
                 }
+                let dims = &tr.model_h.dims;
+                if !dims.ambient() && dims.position(fbg_shared::layout::Quantity::Temperature).is_some() {
+                    // The band is calibrated on drift the batch shows; without a thermometer a
+                    // common-mode drift of the interrogator reads as a temperature change and
+                    // keeps growing after calibration.
+                    eprintln!(
+                        "warning: no ambient thermometer: the temperature output cannot tell interrogator drift from a temperature change (no drift observer), so its error can grow after calibration faster than its 95 % band; check T against a reference regularly or recalibrate"
+                    );
+                }
                 eprintln!("wrote {} ({nh} B), {} ({np} B), {}", out.display(), base.display(), coef.display());
                 if let (Some(h), Some(p)) = (&sig_h, &sig_p) {
                     eprintln!(

@@ -162,8 +162,27 @@ pub fn flag_lines(m: &Metrics) -> Vec<String> {
         };
         out.push(format!("warning: Model-H is worse than Model-P on {} of the hold-out; {why}", which.join(", ")));
     }
+    let short: Vec<String> = t
+        .model_h
+        .channels
+        .iter()
+        .zip(&m.channels)
+        .filter(|(ch, _)| ch.coverage < BAND_WARN_BELOW)
+        .map(|(ch, name)| format!("{name} ({:.1} %)", 100.0 * ch.coverage))
+        .collect();
+    if !short.is_empty() {
+        out.push(format!(
+            "warning: Model-H's 95 % band covered less than {:.0} % of the hold-out on {}: the error grew beyond what the calibration batch showed (drift, or conditions the batch did not contain); do not rely on that band, recalibrate on recent data",
+            100.0 * BAND_WARN_BELOW,
+            short.join(", ")
+        ));
+    }
     out
 }
+
+/// Hold-out coverage of the 95 % band below which `evaluate` warns: well below the sampling
+/// spread of an honest band over a week of autocorrelated errors.
+const BAND_WARN_BELOW: f64 = 0.90;
 
 pub fn table2(m: &Metrics) -> Table {
     let t = &m.table2;
