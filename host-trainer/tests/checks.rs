@@ -334,7 +334,10 @@ fn without_a_thermometer_train_and_evaluate_warn_about_the_temperature_band() {
     assert!(run(bin().args(["simulate", "--preset", "paper", "--no-ambient", "--seed", "7", "--out"]).arg(&csv)).0);
     let (ok, _, err) = run(bin().args(["train", "--data"]).arg(&csv).arg("--out").arg(&model));
     assert!(ok, "{err}");
-    assert!(err.contains("warning: no ambient thermometer: the temperature output cannot tell interrogator drift"), "{err}");
+    assert!(
+        err.contains("warning: no ambient thermometer: the temperature output cannot tell interrogator drift"),
+        "{err}"
+    );
     let (ok, _, err) = run(bin().args(["evaluate", "--quick", "--data"]).arg(&csv).arg("--model").arg(&model));
     assert!(ok, "{err}");
     let w = err.lines().find(|l| l.starts_with("warning: Model-H's 95 % band covered less than 90 %"));
