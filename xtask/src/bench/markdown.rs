@@ -156,15 +156,19 @@ fn targets(s: &mut String, rep: &Report) {
         out!(
             s,
             "| host training: 1 000 000 samples ≥ 5× faster than the scikit-learn pipeline with the same features, same accuracy | \
-             the default model's features (latch RBF + memory terms fitted with the core): fit time scikit-learn / ours = **{}×** \
-             (rounds: {}; ours {} including the cross-validation of the memory menu, the peer {} given the groups and ridge ours chose), \
-             Model-H hold-out RMSE within {} %. Paper features: **{}×** against the pipeline as a notebook writes it (`KMeans` with its defaults on every calibration row; ours {} vs {}), \
+             the default model's features (latch RBF + memory terms fitted with the core): scikit-learn pipeline / ours = **{}×** \
+             (rounds: {}; the pipeline computing its own inputs, {} of latch loop and memory terms + {} of fit, as ours computes them inside its {}; \
+             fit alone, the inputs handed over: **{}×**, rounds {}; ours includes the cross-validation of the memory menu and of the band, \
+             the peer is given the groups and ridge ours chose), Model-H hold-out RMSE within {} %. Paper features: **{}×** against the pipeline as a notebook writes it (`KMeans` with its defaults on every calibration row; ours {} vs {}), \
              RMSE within {:.1} %; **{}×** against the same pipeline given our k-means subsample ({}; RMSE within {:.1} %) | \
              {} with the default features; paper features: {} against the notebook pipeline, {} against the subsampled one | `{}` vs `{}`; `{}` vs `{}` and `{}` |",
+            f(fm.pipeline_ratio_median, 2),
+            list2(&fm.pipeline_ratio_per_round),
+            secs(fm.peer.as_ref().map_or(f64::NAN, |p| p.latch_seconds + p.feature_seconds)),
+            secs(median_of(peer_m)),
+            secs(fm.fit.median),
             f(fm.ratio_median, 2),
             list2(&fm.ratio_per_round),
-            secs(fm.fit.median),
-            secs(median_of(peer_m)),
             f(100.0 * agree_m, 1),
             f(nb_ratio, 2),
             secs(fp.ours.fit.median),
@@ -173,7 +177,7 @@ fn targets(s: &mut String, rep: &Report) {
             f(ratio, 2),
             secs(median_of(peer)),
             100.0 * agree_sub,
-            yes(fm.ratio_median >= 5.0 && agree_m <= 0.05),
+            yes(fm.pipeline_ratio_median >= 5.0 && agree_m <= 0.05),
             yes(nb_ratio >= 5.0 && agree <= 0.05),
             yes(ratio >= 5.0 && agree_sub <= 0.05),
             fm.fit.command,

@@ -240,6 +240,13 @@ pub struct FixedMemory {
     pub ratio_per_round: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read", skip_serializing_if = "nan::absent")]
     pub ratio_median: f64,
+    /// The peer as a pipeline that computes its own inputs (its latch loop and memory terms,
+    /// which it runs before its clock, added to its fit; ours computes them inside its fit) /
+    /// ours, per round, and their median (absent from runs before it was reported).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub pipeline_ratio_per_round: Vec<f64>,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read", skip_serializing_if = "nan::absent")]
+    pub pipeline_ratio_median: f64,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]

@@ -102,7 +102,7 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Train
         // does not cross-validate them), alternating in each round.
         let mut with_memory = fixed("hysteresis-aware");
         with_memory.push("--memory".into());
-        let (mut om_p, mut pm_p, mut m_ratios) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut om_p, mut pm_p, mut m_ratios, mut pipe_ratios) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut last_om = None;
         let mut last_pm = None;
         for _ in 0..rounds {
@@ -115,6 +115,8 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Train
                 args.extend(strings(&["--memory-groups", &groups.join(","), "--memory-lambda", &lambdas.join(",")]));
                 let (p, c): (PeerFit, _) = r.typed(VENV_PY, &args)?;
                 m_ratios.push(p.fit_seconds_median / om.fit_seconds_median);
+                pipe_ratios
+                    .push((p.fit_seconds_median + p.latch_seconds + p.feature_seconds) / om.fit_seconds_median);
                 pm_p.extend(p.fit_seconds.iter().copied());
                 last_pm = Some((p, c));
             }
@@ -131,6 +133,8 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Train
             }),
             ratio_median: median(&m_ratios),
             ratio_per_round: m_ratios,
+            pipeline_ratio_median: median(&pipe_ratios),
+            pipeline_ratio_per_round: pipe_ratios,
         };
         // What a user waits for: `train` end to end (read the CSV, select, fit, write the blobs
         // and the coefficients), wall clock, once per size.
