@@ -115,8 +115,7 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Train
                 args.extend(strings(&["--memory-groups", &groups.join(","), "--memory-lambda", &lambdas.join(",")]));
                 let (p, c): (PeerFit, _) = r.typed(VENV_PY, &args)?;
                 m_ratios.push(p.fit_seconds_median / om.fit_seconds_median);
-                pipe_ratios
-                    .push((p.fit_seconds_median + p.latch_seconds + p.feature_seconds) / om.fit_seconds_median);
+                pipe_ratios.push((p.fit_seconds_median + p.latch_seconds + p.feature_seconds) / om.fit_seconds_median);
                 pm_p.extend(p.fit_seconds.iter().copied());
                 last_pm = Some((p, c));
             }
