@@ -68,10 +68,9 @@ impl From<NorFlashErrorKind> for SlotError {
     }
 }
 
-/// The `STAGING` flash region as NOR flash.
+/// The `STAGING` flash region as NOR flash (no field: its bounds are the linker's symbols).
 pub struct FlashSlot {
-    base: *mut u8,
-    len: usize,
+    _only_through_new: (),
 }
 
 impl FlashSlot {
@@ -81,15 +80,18 @@ impl FlashSlot {
     ///
     /// At most one `FlashSlot` may exist: it is the only code that touches the region.
     pub unsafe fn new() -> FlashSlot {
-        // Only the addresses of the linker symbols are taken, never their contents.
-        let start = addr_of!(__staging_start) as usize;
-        let end = addr_of!(__staging_end) as usize;
-        FlashSlot { base: start as *mut u8, len: end.saturating_sub(start) }
+        FlashSlot { _only_through_new: () }
+    }
+
+    /// First byte of the slot.
+    fn base(&self) -> *mut u8 {
+        // Only the address of the linker symbol is taken, never its contents.
+        addr_of!(__staging_start) as *mut u8
     }
 
     /// Slot offset `at` as an address (the callers checked it against the length).
     fn at(&self, at: usize) -> *mut u8 {
-        self.base.wrapping_add(at)
+        self.base().wrapping_add(at)
     }
 }
 
@@ -110,7 +112,7 @@ impl ReadNorFlash for FlashSlot {
     }
 
     fn capacity(&self) -> usize {
-        self.len
+        (addr_of!(__staging_end) as usize).saturating_sub(addr_of!(__staging_start) as usize)
     }
 }
 
@@ -153,6 +155,6 @@ impl MappedFlash for FlashSlot {
     fn contents(&self) -> &[u8] {
         // SAFETY: the slot is `len` readable bytes of memory-mapped flash that only this
         // driver writes, through `&mut self`: no write happens while this borrow lives.
-        unsafe { core::slice::from_raw_parts(self.base, self.len) }
+        unsafe { core::slice::from_raw_parts(self.base(), self.capacity()) }
     }
 }

@@ -245,7 +245,9 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
     /// A device serving `comp` (identified by `model`) with `kernel`, accepting updates that
     /// pass `policy`, staging them in `staging` (a flash slot; at least `blob::max_len(K)`
     /// bytes plus a signature trailer to accept any model this build can hold), reading frames
-    /// with `reader`, driving `alarm`.
+    /// with `reader`, driving `alarm`. Inlined into its caller, so that the device is built in
+    /// place and not copied from a temporary (the firmware's `main` holds it on its stack).
+    #[inline(always)]
     pub fn new(
         comp: &'a mut Compensator<f32, K>,
         kernel: Kernel<K>,

@@ -58,6 +58,7 @@ pub struct Staging<F> {
 impl<F: MappedFlash> Staging<F> {
     /// Stage updates in `flash`, refusing any transfer longer than `limit` bytes or than the
     /// slot (whichever is smaller).
+    #[inline(always)]
     pub fn new(flash: F, limit: usize) -> Self {
         const {
             assert!(F::WRITE_SIZE > 0 && F::WRITE_SIZE <= MAX_WRITE_SIZE, "write granularity beyond MAX_WRITE_SIZE");
