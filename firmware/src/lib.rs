@@ -1,6 +1,7 @@
 //! Board support of the FBG firmware on the MPS2 AN386 (Cortex-M4F), as QEMU's `mps2-an386`
 //! models it: the CMSDK APB UART driver (`embedded-io`), the FPGA IO LED as the alarm
-//! (`embedded-hal` `OutputPin`), SysTick/DWT counters, the stack high-water mark, the
+//! (`embedded-hal` `OutputPin`), the flash slot model updates are staged in
+//! (`embedded-storage` `NorFlash`), SysTick/DWT counters, the stack high-water mark, the
 //! fatal-error path (defmt log, then semihosting exit with failure). The test images read the
 //! packs of models and samples they embed with `fbg_shared::golden::records`.
 //!
@@ -9,6 +10,7 @@
 #![no_std]
 
 pub mod counters;
+pub mod flash_slot;
 pub mod led;
 pub mod stack;
 pub mod uart;
@@ -36,7 +38,8 @@ pub const MAX_BLOB: usize = {
     }
 };
 
-/// Bytes needed to stage any signed model this build takes.
+/// The longest update this build stages (in the flash slot, [`flash_slot`]): any signed model
+/// it takes; a longer transfer is refused at `ModelBegin` (`TooLarge`).
 pub const STAGING_LEN: usize = MAX_BLOB + fbg_shared::signature::TRAILER_LEN;
 
 /// The signature policy compiled in by `build.rs` (`FBG_TRUSTED_KEYS`, `FBG_ALLOW_ROLLBACK`,

@@ -5,10 +5,11 @@
 #![no_main]
 
 use cortex_m_rt::entry;
+use fbg_firmware::flash_slot::FlashSlot;
 use fbg_firmware::led::FpgaioLed;
 use fbg_firmware::uart::{CmsdkUart, Uart0Rx, MPS2_PCLK_HZ, UART0_BASE};
 use fbg_firmware::{exit_failure, stack, trust, DEFAULT_MODEL, K, KERNEL, POLICY, STAGING_LEN};
-use fbg_firmware_app::{boot, unloaded, Device};
+use fbg_firmware_app::{boot, unloaded, Device, Staging};
 use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
 use fbg_shared::Compensator;
 
@@ -18,11 +19,10 @@ const BAUD: u32 = 115_200;
 #[entry]
 fn main() -> ! {
     // `static mut` at the top of `#[entry]` become `&'static mut` (cortex-m-rt), initialised at
-    // load time: the active model, the blob staging area and the frame reader live in .bss
-    // (what must persist across messages); the parameter slot a model is parsed into is on
-    // the stack of the load only (`load_blob`).
+    // load time: the active model and the frame reader live in .bss (what must persist across
+    // messages); an update is staged in the flash slot, not in RAM; the parameter slot a model
+    // is parsed into is on the stack of the load only (`load_blob`).
     static mut MODEL: Compensator<f32, K> = unloaded();
-    static mut STAGING: [u8; STAGING_LEN] = [0; STAGING_LEN];
     static mut READER: FrameReader<HOST_MAX_FRAME> = FrameReader::new();
 
     // SAFETY: UART0 and LED0 of the MPS2 board, each driven only from here.
@@ -31,6 +31,8 @@ fn main() -> ! {
     // Sleep between received bytes instead of spinning.
     uart.enable_rx_wakeup(Uart0Rx);
     let alarm = unsafe { FpgaioLed::new(0) };
+    // SAFETY: the one driver of the staging region of memory.x.
+    let slot = unsafe { FlashSlot::new() };
 
     if trust::TEST_KEY_ONLY {
         defmt::warn!("this image trusts only the QEMU TEST key (firmware/keys/): not for production");
@@ -61,7 +63,7 @@ fn main() -> ! {
         info.crc,
         boot_peak
     );
-    let mut dev = Device::new(MODEL, KERNEL, POLICY, READER, info, STAGING, alarm);
+    let mut dev = Device::new(MODEL, KERNEL, POLICY, READER, info, Staging::new(slot, STAGING_LEN), alarm);
     dev.set_stack_probe(stack::peak_bytes, boot_peak);
     match dev.serve(&mut uart) {
         Ok(never) => match never {},

@@ -40,9 +40,9 @@
 //! Decoding checks magic, version, CRC, dims and every parameter, and returns a typed
 //! [`Error`]; it never panics and never allocates, whatever the bytes.
 
-use crc::{Crc, CRC_32_ISCSI};
 use serde::Serialize;
 
+use crate::crc32c::{crc32c, Crc32c};
 use crate::error::Error;
 use crate::layout::{
     head, Dims, Output, Quantity, MAX_GRATINGS, MAX_OUTPUTS, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS, VAR_RANK,
@@ -57,9 +57,6 @@ pub const FORMAT_VERSION: u16 = 3;
 pub const HEADER_LEN: usize = 18;
 /// CRC trailer length in bytes.
 pub const CRC_LEN: usize = 4;
-
-/// CRC-32/ISCSI engine (also the link protocol's frame CRC: one table in the image).
-pub(crate) static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISCSI);
 
 /// The fixed-size header of a blob.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -212,7 +209,7 @@ pub fn stored_crc(bytes: &[u8]) -> Option<u32> {
 /// intact blob. `None` when `bytes` is shorter than a header and a trailer.
 pub fn computed_crc(bytes: &[u8]) -> Option<u32> {
     let at = bytes.len().checked_sub(CRC_LEN).filter(|&at| at >= HEADER_LEN)?;
-    bytes.get(..at).map(|body| CRC32.checksum(body))
+    bytes.get(..at).map(crc32c)
 }
 
 fn saturate_u16(v: usize) -> u16 {
@@ -313,7 +310,7 @@ pub fn encode_unchecked<const K: usize>(params: &ModelParams<f32, K>, buf: &mut 
     w.put(&params.provenance)?;
     let end = w.pos;
     let body = buf.get(..end).ok_or(Error::BufferTooSmall)?;
-    let crc = CRC32.checksum(body).to_le_bytes();
+    let crc = crc32c(body).to_le_bytes();
     buf.get_mut(end..end + CRC_LEN).ok_or(Error::BufferTooSmall)?.copy_from_slice(&crc);
     Ok(end + CRC_LEN)
 }
@@ -608,10 +605,10 @@ fn parse_centre<'a>(bytes: &'a [u8], c: &mut Centre<f32>, nz: usize, m: usize) -
 }
 
 fn crc_of(head: &[u8], payload: &[u8]) -> u32 {
-    let mut digest = CRC32.digest();
+    let mut digest = Crc32c::new();
     digest.update(head);
     digest.update(payload);
-    digest.finalize()
+    digest.finish()
 }
 
 /// Little-endian u32 of the first four bytes (0 when shorter; callers pass four).

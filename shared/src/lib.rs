@@ -9,6 +9,7 @@
 //! - [`memory`]: the instrument's memory, causal operators whose terms enter Model-H linearly;
 //! - [`model`]: the auditable parameters a blob carries;
 //! - [`blob`]: the `.fbgm` codec (magic, version, dims, postcard payload, CRC-32);
+//! - [`crc32c`]: the CRC-32/ISCSI of blobs and link frames;
 //! - [`signature`]: the signature trailer of a signed blob (layout, parse, the signed message;
 //!   Ed25519 verification with the `verify` feature);
 //! - [`compensator`]: per-sample inference with band and flags;
@@ -50,6 +51,7 @@ extern crate std;
 
 pub mod blob;
 pub mod compensator;
+pub mod crc32c;
 pub mod direction_latch;
 pub mod error;
 pub mod flags;

@@ -154,6 +154,14 @@ impl<F: Real, const K: usize> Default for ModelParams<F, K> {
 }
 
 impl<F: Real, const K: usize> ModelParams<F, K> {
+    /// The nested arrays of [`ModelParams::empty`] as constants: a constant of zero bytes is
+    /// written in place, where a nested repeat `[[F::ZERO; N]; M]` may be built in a temporary
+    /// and copied (at the firmware's opt-level "s" it was, deepening the loader's stack frame
+    /// by the size of the three arrays; README-firmware.md has the figures).
+    const ZERO_STAGE1: [[F; MAX_STAGE1]; MAX_OUTPUTS] = [[F::ZERO; MAX_STAGE1]; MAX_OUTPUTS];
+    const ZERO_POLY: [[F; MAX_POLY]; MAX_OUTPUTS] = [[F::ZERO; MAX_POLY]; MAX_OUTPUTS];
+    const ZERO_GAMMA: [[F; MAX_MEMORY]; MAX_OUTPUTS] = [[F::ZERO; MAX_MEMORY]; MAX_OUTPUTS];
+
     /// An all-zero placeholder (it does not validate): a staging slot a blob is decoded into,
     /// usable in a `static` (it lands in `.bss`).
     pub const fn empty() -> Self {
@@ -169,12 +177,12 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
                 envelope_margin: F::ZERO,
                 flagged_band_factor: F::ZERO,
             },
-            stage1: [[F::ZERO; MAX_STAGE1]; MAX_OUTPUTS],
+            stage1: Self::ZERO_STAGE1,
             guess_mean: [F::ZERO; MAX_OUTPUTS],
             guess_std: [F::ZERO; MAX_OUTPUTS],
-            poly: [[F::ZERO; MAX_POLY]; MAX_OUTPUTS],
+            poly: Self::ZERO_POLY,
             memory: MemorySpec::off(),
-            gamma: [[F::ZERO; MAX_MEMORY]; MAX_OUTPUTS],
+            gamma: Self::ZERO_GAMMA,
             z_mean: [F::ZERO; MAX_Z],
             z_std: [F::ZERO; MAX_Z],
             centres: Vec::new(),

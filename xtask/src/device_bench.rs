@@ -62,6 +62,9 @@ pub struct SizeReport {
     pub stack_update: u32,
     /// Size of the embedded default blob \[B\].
     pub blob_bytes: u64,
+    /// The flash slot model updates are staged in (`STAGING` of `memory.x`; flash outside the
+    /// image, neither RAM nor part of the image) \[B\].
+    pub staging_slot: u64,
 }
 
 /// One signature check of a model update, timed by the bench image.
@@ -123,7 +126,7 @@ pub struct TypeSizes {
     pub model_params: u64,
     /// `FrameReader<HOST_MAX_FRAME>`: the link's frame reader.
     pub reader: u64,
-    /// The blob staging buffer, `blob::max_len(K)`.
+    /// The longest update the build stages (in its flash slot, not in RAM): `STAGING_LEN`.
     pub staging: u64,
 }
 
@@ -183,7 +186,33 @@ fn measure_size(root: &Path, q: &Path, bins: &qemu::Bins) -> Result<SizeReport> 
     let stack_update = s.link()?.status()?.stack_peak_bytes;
     s.disconnect()?;
     s.check_alive()?;
-    Ok(SizeReport { footprint, stack_boot, stack_serving, stack_update, blob_bytes: default.len() as u64 })
+    let staging_slot = staging_slot(root)?;
+    Ok(SizeReport {
+        footprint,
+        stack_boot,
+        stack_serving,
+        stack_update,
+        blob_bytes: default.len() as u64,
+        staging_slot,
+    })
+}
+
+/// Length of the `STAGING` region of the top-level `memory.x` (`LENGTH = 8K` or a number of
+/// bytes), the flash slot model updates are staged in.
+fn staging_slot(root: &Path) -> Result<u64> {
+    let path = root.join("memory.x");
+    let text = fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let line = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("STAGING"))
+        .with_context(|| format!("{} has no STAGING region", path.display()))?;
+    let len = line.split("LENGTH").nth(1).and_then(|r| r.split('=').nth(1)).map(str::trim).unwrap_or_default();
+    let (digits, scale) = match len.strip_suffix('K') {
+        Some(d) => (d, 1024),
+        None => (len, 1),
+    };
+    let n: u64 = digits.trim().parse().with_context(|| format!("STAGING length `{len}` in {}", path.display()))?;
+    Ok(n * scale)
 }
 
 fn verdict(ok: bool) -> &'static str {
@@ -207,6 +236,10 @@ fn print_size(r: &SizeReport) {
         verdict(f.flash <= TARGET_FLASH)
     );
     println!("  static RAM       {:>7} B", f.ram_static);
+    println!(
+        "  staging slot     {:>7} B  flash outside the image (STAGING of memory.x): model updates are staged there, not in RAM",
+        r.staging_slot
+    );
     println!(
         "  stack peak       {:>7} B serving samples; {} B during a model update; {} B during boot",
         r.stack_serving, r.stack_update, r.stack_boot
@@ -437,7 +470,7 @@ fn print_sizes(t: &TypeSizes) {
     println!("  Compensator<f32, {}> {:>6} B", t.k, t.compensator);
     println!("  ModelParams<f32, 0> {:>6} B  (centre-less parameter slot, on the stack during a load)", t.model_params);
     println!("  FrameReader          {:>6} B  (the link's frame reader)", t.reader);
-    println!("  blob staging buffer  {:>6} B  (blob::max_len({}))", t.staging, t.k);
+    println!("  longest staged update {:>5} B  (in the flash slot, not RAM: STAGING_LEN)", t.staging);
 }
 
 fn to_json(steps: &[StepBench], t: &TypeSizes, size: &SizeReport, v: &VerifyBench) -> String {

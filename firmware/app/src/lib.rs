@@ -12,8 +12,11 @@
 //! across messages:
 //!
 //! - the active [`Compensator`] (from [`unloaded`], then [`load`]ed in place);
-//! - the blob staging area, where `ModelChunk`s land (`blob::max_len(K)` bytes);
 //! - the link's frame reader (`HOST_MAX_FRAME` bytes and a few flags).
+//!
+//! A model update is not staged in RAM: `ModelChunk`s are programmed into a slot of NOR
+//! flash as they arrive ([`staging`]: any `embedded-storage` [`NorFlash`] the CPU can also
+//! read in place, [`MappedFlash`]), and the commit checks and decodes the blob from there.
 //!
 //! (BENCHMARKS.md has the footprint they add up to: flash, static RAM and stack at K = 32.)
 //!
@@ -41,17 +44,21 @@
 
 #![no_std]
 
+pub mod staging;
+
 use core::convert::Infallible;
 
 use embedded_hal::digital::{OutputPin, PinState};
 use embedded_io::{Read, Write};
+pub use embedded_storage::nor_flash::NorFlash;
 use fbg_shared::blob;
 use fbg_shared::protocol::{
-    crc32, encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, RejectReason, Rejection,
-    Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
+    encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, RejectReason, Rejection, Status,
+    UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
 use fbg_shared::signature::{self, Envelope, KeyId, SignFlags, SignatureError, TrustedKey};
 use fbg_shared::{Compensator, Estimate, Sample};
+pub use staging::{MappedFlash, Staging};
 
 /// Log through defmt when the `defmt` feature is on; nothing otherwise.
 macro_rules! log {
@@ -212,21 +219,13 @@ fn centres_u16(n: usize) -> u16 {
     u16::try_from(n).unwrap_or(u16::MAX)
 }
 
-/// A model transfer in progress.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Transfer {
-    Idle,
-    Receiving { total: usize, crc: u32, received: usize },
-}
-
 /// Everything but the frame reader (split so that a decoded message, which borrows the
 /// frame reader's buffer, can be handled while the rest is mutated).
-struct Core<'a, P, const K: usize> {
+struct Core<'a, P, F, const K: usize> {
     comp: &'a mut Compensator<f32, K>,
     kernel: Kernel<K>,
     policy: Policy,
-    staging: &'a mut [u8],
-    transfer: Transfer,
+    staging: Staging<F>,
     model: ModelInfo,
     status: Status,
     alarm: P,
@@ -236,24 +235,26 @@ struct Core<'a, P, const K: usize> {
 /// The device: answers host frames with the active model.
 ///
 /// `K` is the centre capacity of this build; `P` the alarm output (on while the latest
-/// estimate carries any flag).
-pub struct Device<'a, P, const K: usize> {
+/// estimate carries any flag); `F` the flash slot updates are staged in.
+pub struct Device<'a, P, F, const K: usize> {
     reader: &'a mut FrameReader<HOST_MAX_FRAME>,
-    core: Core<'a, P, K>,
+    core: Core<'a, P, F, K>,
 }
 
-impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
+impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
     /// A device serving `comp` (identified by `model`) with `kernel`, accepting updates that
-    /// pass `policy`, receiving them in `staging` (at least `blob::max_len(K)` bytes plus a
-    /// signature trailer to accept any model this build can hold), reading frames with
-    /// `reader`, driving `alarm`.
+    /// pass `policy`, staging them in `staging` (a flash slot; at least `blob::max_len(K)`
+    /// bytes plus a signature trailer to accept any model this build can hold), reading frames
+    /// with `reader`, driving `alarm`. Inlined into its caller, so that the device is built in
+    /// place and not copied from a temporary (the firmware's `main` holds it on its stack).
+    #[inline(always)]
     pub fn new(
         comp: &'a mut Compensator<f32, K>,
         kernel: Kernel<K>,
         policy: Policy,
         reader: &'a mut FrameReader<HOST_MAX_FRAME>,
         model: ModelInfo,
-        staging: &'a mut [u8],
+        staging: Staging<F>,
         mut alarm: P,
     ) -> Self {
         // Start with the alarm off; an output that cannot be driven is not fatal.
@@ -261,20 +262,7 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
         let status = Status { model_capacity: centres_u16(K), ..Status::default() };
         // Serving starts between frames.
         *reader = FrameReader::new();
-        Device {
-            reader,
-            core: Core {
-                comp,
-                kernel,
-                policy,
-                staging,
-                transfer: Transfer::Idle,
-                model,
-                status,
-                alarm,
-                stack_probe: None,
-            },
-        }
+        Device { reader, core: Core { comp, kernel, policy, staging, model, status, alarm, stack_probe: None } }
     }
 
     /// Report the deepest stack use through `probe` in [`Status::stack_peak_bytes`], and the
@@ -297,6 +285,11 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
     /// The alarm output.
     pub fn alarm(&self) -> &P {
         &self.core.alarm
+    }
+
+    /// The staging slot of model updates.
+    pub fn staging(&self) -> &Staging<F> {
+        &self.core.staging
     }
 
     /// Answer one decoded message.
@@ -359,8 +352,10 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
         }
     }
 
-    /// Check the transfer, then the signature ([`authenticate`]), then load the staged blob
-    /// ([`load_blob`]: the parameter slot is on the stack for the duration of the load only).
+    /// Check the transfer (its last bytes written, the staged bytes read back from the flash
+    /// slot against the announced CRC), then the signature ([`authenticate`]), then load the
+    /// staged blob in place in the slot ([`load_blob`]: the parameter slot is on the stack for
+    /// the duration of the load only).
     /// The two checks and the load run one after the other, so the deepest of them sets the
     /// stack peak, not their sum. Cold: once per model update, never inlined into the serving
     /// loop; the answer is built afterwards ([`Core::commit_reply`]), so that it takes no stack
@@ -368,15 +363,14 @@ impl<'a, P: OutputPin, const K: usize> Device<'a, P, K> {
     #[inline(never)]
     fn commit(&mut self) -> Result<ModelInfo, Rejection> {
         let core = &mut self.core;
-        let total = core.finish_transfer()?;
-        let staged = core.staging.get(..total).unwrap_or(&[]);
+        let staged = core.staging.finish()?;
         let (blob, signer) = authenticate(&core.policy, staged, core.model.serial)?;
         let info = load_blob(&core.kernel, core.comp, blob)?;
         Ok(info.signed_by(Some(signer)))
     }
 }
 
-impl<P: OutputPin, const K: usize> Core<'_, P, K> {
+impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
     fn status(&self) -> Status {
         Status {
             model_centres: self.model.centres,
@@ -448,52 +442,17 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
     }
 
     fn begin(&mut self, total_len: u32, crc: u32) -> DeviceMsg {
-        let total = total_len as usize;
-        if total > self.staging.len() {
-            return self.reject(Rejection { reason: RejectReason::TooLarge, detail: total_len });
-        }
-        if total < blob::HEADER_LEN + blob::CRC_LEN {
-            return self.reject(Rejection { reason: RejectReason::Truncated, detail: total_len });
+        if let Err(r) = self.staging.begin(total_len as usize, crc) {
+            return self.reject(r);
         }
         log!(info, "model transfer: {=u32} bytes", total_len);
-        self.transfer = Transfer::Receiving { total, crc, received: 0 };
         DeviceMsg::UpdateProgress { received: 0 }
     }
 
     fn chunk(&mut self, offset: u32, data: &[u8]) -> DeviceMsg {
-        let Transfer::Receiving { total, crc, received } = self.transfer else {
-            return self.reject(Rejection::new(RejectReason::NoUpdateInProgress));
-        };
-        if offset as usize != received {
-            let detail = u32::try_from(received).unwrap_or(u32::MAX);
-            return self.reject(Rejection { reason: RejectReason::OutOfOrder, detail });
-        }
-        let end = received.saturating_add(data.len());
-        let Some(dst) = self.staging.get_mut(received..end).filter(|_| end <= total) else {
-            return self.reject(Rejection { reason: RejectReason::Overrun, detail: offset });
-        };
-        // Element-wise (the lengths are equal by construction): no length-mismatch panic path.
-        for (d, &b) in dst.iter_mut().zip(data.iter()) {
-            *d = b;
-        }
-        self.transfer = Transfer::Receiving { total, crc, received: end };
-        DeviceMsg::UpdateProgress { received: u32::try_from(end).unwrap_or(u32::MAX) }
-    }
-
-    /// End the transfer: its length when complete and intact.
-    fn finish_transfer(&mut self) -> Result<usize, Rejection> {
-        let Transfer::Receiving { total, crc, received } = self.transfer else {
-            return Err(Rejection::new(RejectReason::NoUpdateInProgress));
-        };
-        self.transfer = Transfer::Idle;
-        if received != total {
-            let detail = u32::try_from(received).unwrap_or(u32::MAX);
-            return Err(Rejection { reason: RejectReason::Incomplete, detail });
-        }
-        match self.staging.get(..total) {
-            Some(staged) if crc32(staged) == crc => Ok(total),
-            Some(_) => Err(Rejection::new(RejectReason::TransferCrc)),
-            None => Err(Rejection::new(RejectReason::TooLarge)),
+        match self.staging.chunk(offset, data) {
+            Ok(end) => DeviceMsg::UpdateProgress { received: u32::try_from(end).unwrap_or(u32::MAX) },
+            Err(r) => self.reject(r),
         }
     }
 
@@ -512,7 +471,7 @@ impl<P: OutputPin, const K: usize> Core<'_, P, K> {
     }
 
     fn reject(&mut self, r: Rejection) -> DeviceMsg {
-        self.transfer = Transfer::Idle;
+        self.staging.abort();
         self.status.updates_rejected = self.status.updates_rejected.wrapping_add(1);
         self.status.last_rejection = Some(r);
         self.status.refused.count(r.reason);

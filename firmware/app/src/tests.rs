@@ -8,9 +8,10 @@ use std::format;
 use std::vec::Vec;
 
 use embedded_hal::digital::{ErrorType, OutputPin};
+use embedded_storage::nor_flash::{check_erase, check_read, check_write, NorFlashErrorKind, ReadNorFlash};
 use fbg_link::{LinkClient, LinkError};
 use fbg_shared::layout::paper::N_MEMORY;
-use fbg_shared::protocol::{encode_host, RejectReason, MAX_CHUNK};
+use fbg_shared::protocol::{crc32, encode_host, RejectReason, MAX_CHUNK};
 use fbg_shared::signature::{key_id, TrailerHead, TRAILER_LEN};
 use fbg_shared::{blob, Centre, Flags, MemoryBank, ModelParams};
 
@@ -18,6 +19,10 @@ use super::*;
 
 const K: usize = 32;
 const STAGE: usize = blob::max_len(K) + TRAILER_LEN;
+
+/// The staging slot of the test devices: 8-byte flash words, 1 KiB erase units (the board's
+/// are 4 and 4 KiB; other granularities are tested on [`Staging`] directly).
+type Slot = Nor<8, 1024>;
 
 /// The test lab's key pair (seed fixed here; the QEMU tests use the committed test key).
 fn lab() -> ed25519_compact::KeyPair {
@@ -112,9 +117,94 @@ impl Write for Tx {
     }
 }
 
+/// NOR flash in memory for the tests, with the semantics of the real thing: an erase sets
+/// whole `E`-byte units to `0xFF`, a write covers whole `W`-byte units and only lands on erased
+/// bytes (anything else is an error, as on a part with ECC), and reads go through
+/// `ReadNorFlash` or in place. It starts out holding garbage, not erased, so a transfer that
+/// forgot to erase fails. `fault` makes the next erase, or the write that covers a given
+/// offset, fail.
+struct Nor<const W: usize, const E: usize> {
+    mem: Vec<u8>,
+    fault: core::cell::Cell<Fault>,
+    erases: usize,
+    writes: usize,
+}
+
+/// A flash failure to inject.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Fault {
+    None,
+    Erase,
+    WriteAt(usize),
+}
+
+impl<const W: usize, const E: usize> Nor<W, E> {
+    /// `units` erase units of garbage.
+    fn new(units: usize) -> Self {
+        let mem = (0..units * E).map(|i| (i as u8).wrapping_mul(37) ^ 0x5A).collect();
+        Nor { mem, fault: core::cell::Cell::new(Fault::None), erases: 0, writes: 0 }
+    }
+    /// Enough units for `len` bytes.
+    fn for_len(len: usize) -> Self {
+        Self::new(len.div_ceil(E))
+    }
+}
+
+impl<const W: usize, const E: usize> embedded_storage::nor_flash::ErrorType for Nor<W, E> {
+    type Error = NorFlashErrorKind;
+}
+
+impl<const W: usize, const E: usize> ReadNorFlash for Nor<W, E> {
+    const READ_SIZE: usize = 1;
+    fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), NorFlashErrorKind> {
+        check_read(self, offset, bytes.len())?;
+        let at = offset as usize;
+        bytes.copy_from_slice(&self.mem[at..at + bytes.len()]);
+        Ok(())
+    }
+    fn capacity(&self) -> usize {
+        self.mem.len()
+    }
+}
+
+impl<const W: usize, const E: usize> NorFlash for Nor<W, E> {
+    const WRITE_SIZE: usize = W;
+    const ERASE_SIZE: usize = E;
+    fn erase(&mut self, from: u32, to: u32) -> Result<(), NorFlashErrorKind> {
+        check_erase(self, from, to)?;
+        if self.fault.get() == Fault::Erase {
+            return Err(NorFlashErrorKind::Other);
+        }
+        self.mem[from as usize..to as usize].fill(0xFF);
+        self.erases += 1;
+        Ok(())
+    }
+    fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), NorFlashErrorKind> {
+        check_write(self, offset, bytes.len())?;
+        let range = offset as usize..offset as usize + bytes.len();
+        if matches!(self.fault.get(), Fault::WriteAt(at) if range.contains(&at)) {
+            return Err(NorFlashErrorKind::Other);
+        }
+        if self.mem[range.clone()].iter().any(|&b| b != 0xFF) {
+            return Err(NorFlashErrorKind::Other);
+        }
+        for (m, &b) in self.mem[range].iter_mut().zip(bytes) {
+            *m &= b;
+        }
+        self.writes += 1;
+        Ok(())
+    }
+}
+
+impl<const W: usize, const E: usize> MappedFlash for Nor<W, E> {
+    fn contents(&self) -> &[u8] {
+        &self.mem
+    }
+}
+
 /// A device in memory behind `std::io::{Read, Write}`, so the host's `LinkClient` can drive it.
 struct Wire<'d> {
-    dev: Device<'d, Pin, K>,
+    dev: Device<'d, Pin, &'d mut Slot, K>,
     out: VecDeque<u8>,
 }
 
@@ -148,7 +238,7 @@ impl std::io::Read for Wire<'_> {
 struct Mem {
     comp: std::boxed::Box<Compensator<f32, K>>,
     reader: std::boxed::Box<FrameReader<HOST_MAX_FRAME>>,
-    staging: Vec<u8>,
+    flash: Slot,
 }
 
 impl Mem {
@@ -156,21 +246,21 @@ impl Mem {
         Mem {
             comp: std::boxed::Box::new(unloaded()),
             reader: std::boxed::Box::new(FrameReader::new()),
-            staging: std::vec![0u8; STAGE],
+            flash: Slot::for_len(STAGE),
         }
     }
     /// Boot `blob_bytes` the way the firmware boots its default model.
     fn boot(&mut self, blob_bytes: &[u8]) -> Result<ModelInfo, Rejection> {
         load_blob(&Kernel::LIBRARY, &mut self.comp, blob_bytes)
     }
-    fn device(&mut self, info: ModelInfo) -> Device<'_, Pin, K> {
+    fn device(&mut self, info: ModelInfo) -> Device<'_, Pin, &mut Slot, K> {
         Device::new(
             &mut self.comp,
             Kernel::LIBRARY,
             policy(),
             &mut self.reader,
             info,
-            &mut self.staging,
+            Staging::new(&mut self.flash, STAGE),
             Pin::default(),
         )
     }
@@ -753,8 +843,8 @@ fn updates_must_be_signed_by_a_trusted_key_and_not_roll_back() {
     // A build that does not allow rollback refuses it even when signed so.
     let strict = Policy { allow_rollback: false, ..policy() };
     let info = ModelInfo { serial: 7, ..mem.boot(default_blob()).unwrap() };
-    let mut dev =
-        Device::new(&mut mem.comp, Kernel::LIBRARY, strict, &mut mem.reader, info, &mut mem.staging, Pin::default());
+    let staging = Staging::new(&mut mem.flash, STAGE);
+    let mut dev = Device::new(&mut mem.comp, Kernel::LIBRARY, strict, &mut mem.reader, info, staging, Pin::default());
     let down = sign_with(&lab(), &other, 2, SignFlags::ALLOW_ROLLBACK);
     let crc = crc32(&down);
     let mut tx = Tx::default();
@@ -807,4 +897,121 @@ fn the_device_verifier_passes_rfc8032_test_1() {
     let mut bad = sig;
     bad[0] ^= 1;
     assert_eq!(signature::verify_message(&[], &bad, &pk), Err(SignatureError::BadSignature));
+}
+
+#[test]
+fn the_test_flash_behaves_like_nor_flash() {
+    let mut f = Nor::<4, 256>::new(2);
+    assert_ne!(f.mem[0], 0xFF, "starts with garbage");
+    assert_eq!(f.write(0, &[1, 2, 3, 4]), Err(NorFlashErrorKind::Other), "not erased");
+    f.erase(0, 256).unwrap();
+    assert!(f.mem[..256].iter().all(|&b| b == 0xFF));
+    assert!(f.mem[256..].iter().any(|&b| b != 0xFF), "only the erased unit");
+    assert_eq!(f.erase(0, 100), Err(NorFlashErrorKind::NotAligned));
+    assert_eq!(f.erase(0, 1024), Err(NorFlashErrorKind::OutOfBounds));
+    assert_eq!(f.write(2, &[1, 2, 3, 4]), Err(NorFlashErrorKind::NotAligned));
+    assert_eq!(f.write(0, &[1, 2, 3]), Err(NorFlashErrorKind::NotAligned));
+    f.write(0, &[1, 2, 3, 4]).unwrap();
+    assert_eq!(f.write(0, &[1, 2, 3, 4]), Err(NorFlashErrorKind::Other), "written twice");
+    let mut back = [0u8; 4];
+    f.read(0, &mut back).unwrap();
+    assert_eq!(back, [1, 2, 3, 4]);
+    assert_eq!(&f.contents()[..4], &[1, 2, 3, 4]);
+}
+
+/// Stage `bytes` into a fresh `Nor<W, E>` in chunks of the lengths `sizes` (cycled) and check
+/// what the slot holds: the bytes, `0xFF` up to the end of the last write unit, and only the
+/// erase units the transfer needs erased.
+fn stage_in<const W: usize, const E: usize>(bytes: &[u8], sizes: &[usize]) {
+    let mut flash = Nor::<W, E>::for_len(STAGE);
+    let garbage = flash.mem.clone();
+    {
+        let mut st = Staging::new(&mut flash, STAGE);
+        st.begin(bytes.len(), crc32(bytes)).unwrap();
+        let (mut at, mut i) = (0, 0);
+        while at < bytes.len() {
+            let n = sizes[i % sizes.len()].min(bytes.len() - at);
+            assert_eq!(st.chunk(at as u32, &bytes[at..at + n]), Ok(at + n), "W {W}, chunks {sizes:?}");
+            at += n;
+            i += 1;
+        }
+        assert_eq!(st.finish().unwrap(), bytes, "W {W}, chunks {sizes:?}");
+    }
+    let unit_end = bytes.len().div_ceil(W) * W;
+    let erased_end = bytes.len().div_ceil(E) * E;
+    assert!(flash.mem[bytes.len()..erased_end].iter().all(|&b| b == 0xFF), "W {W}: padded with the erased value");
+    assert_eq!(flash.mem[erased_end..], garbage[erased_end..], "E {E}: the rest of the slot untouched");
+    assert_eq!(flash.erases, 1);
+    assert!(flash.writes <= unit_end / W, "W {W}: every unit written once at most");
+}
+
+#[test]
+fn an_update_is_staged_at_the_flash_granularity_whatever_the_chunks() {
+    let signed = sign(&other_model(), 1);
+    let odd = &signed[..signed.len() - 3];
+    for bytes in [&signed[..], odd] {
+        for sizes in [&[MAX_CHUNK][..], &[1], &[3, 7, 64], &[5, MAX_CHUNK, 2, 31]] {
+            stage_in::<1, 256>(bytes, sizes);
+            stage_in::<4, 4096>(bytes, sizes);
+            stage_in::<8, 2048>(bytes, sizes);
+            stage_in::<32, 128>(bytes, sizes);
+        }
+    }
+}
+
+#[test]
+fn staging_refuses_what_does_not_fit_or_comes_out_of_turn() {
+    let mut flash = Nor::<4, 256>::new(4);
+    let mut st = Staging::new(&mut flash, 5000);
+    assert_eq!(st.limit(), 1024, "at most the slot");
+    fn r<T>(reason: RejectReason, detail: u32) -> Result<T, Rejection> {
+        Err(Rejection { reason, detail })
+    }
+    assert_eq!(st.begin(1025, 0), r(RejectReason::TooLarge, 1025));
+    assert_eq!(st.begin(4, 0), r(RejectReason::Truncated, 4));
+    assert_eq!(st.chunk(0, &[1]), r(RejectReason::NoUpdateInProgress, 0));
+    const N: usize = 40;
+    st.begin(N, crc32(&[7; N])).unwrap();
+    assert_eq!(st.chunk(1, &[7]), r(RejectReason::OutOfOrder, 0));
+    assert_eq!(st.chunk(0, &[7; 26]), Ok(26));
+    assert_eq!(st.chunk(26, &[7; 15]), r(RejectReason::Overrun, 26));
+    assert_eq!(st.finish().map(<[u8]>::len), r(RejectReason::Incomplete, 26));
+    assert_eq!(st.finish().map(<[u8]>::len), r(RejectReason::NoUpdateInProgress, 0), "the transfer ended");
+    // Again from the start: the slot is erased anew, so the bytes written before are no obstacle.
+    st.begin(N, crc32(&[7; N]) ^ 1).unwrap();
+    assert_eq!(st.chunk(0, &[7; N]), Ok(N));
+    assert_eq!(st.finish().map(<[u8]>::len), r(RejectReason::TransferCrc, 0));
+    st.begin(N, crc32(&[7; N])).unwrap();
+    st.chunk(0, &[7; N]).unwrap();
+    assert_eq!(st.finish(), Ok(&[7u8; N][..]));
+}
+
+#[test]
+fn a_flash_failure_refuses_the_update_and_the_old_model_keeps_serving() {
+    let mut mem = Mem::new();
+    let mut link = mem.link(default_blob());
+    let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
+    let s = samples(40);
+    assert_serves(&mut link, &mut reference, &s[..10], 0);
+    let other = other_model();
+    let good = sign(&other, 1);
+    let inject = |link: &LinkClient<Wire<'_>>, f: Fault| link.get_ref().dev.staging().flash().fault.set(f);
+
+    inject(&link, Fault::Erase);
+    let r = link.update_model(&good).unwrap();
+    assert_eq!(r, UpdateResult::Rejected(Rejection { reason: RejectReason::Storage, detail: 0 }));
+    assert_serves(&mut link, &mut reference, &s[10..20], 10);
+    // A write that fails in the third chunk: refused with the offset of the failed write.
+    inject(&link, Fault::WriteAt(2 * MAX_CHUNK + 5));
+    let r = link.update_model(&good).unwrap();
+    assert_eq!(r, UpdateResult::Rejected(Rejection { reason: RejectReason::Storage, detail: (2 * MAX_CHUNK) as u32 }));
+    assert_serves(&mut link, &mut reference, &s[20..30], 20);
+    let st = link.status().unwrap();
+    assert_eq!((st.updates_accepted, st.updates_rejected), (0, 2));
+    assert_eq!(st.model_crc, blob::stored_crc(default_blob()).unwrap());
+    // The flash works again: the same update goes through.
+    inject(&link, Fault::None);
+    assert!(matches!(link.update_model(&good).unwrap(), UpdateResult::Accepted { .. }));
+    let mut new = Compensator::<f32, K>::new(&params(&other)).unwrap();
+    assert_serves(&mut link, &mut new, &s[30..], 30);
 }

@@ -5,8 +5,8 @@ use postcard::accumulator::{CobsAccumulator, FeedResult};
 use serde::{Deserialize, Serialize};
 
 use super::messages::{DeviceMsg, HostMsg, DEVICE_MAX_PAYLOAD, HOST_MAX_PAYLOAD};
-// The blob's CRC engine: one CRC-32/ISCSI table in the image for blobs and frames.
-use crate::blob::CRC32 as FRAME_CRC;
+// The blob's CRC: one CRC-32/ISCSI in the image for blobs and frames.
+use crate::crc32c::crc32c;
 
 /// Receive buffer a device needs for one host frame, delimiter included: anything longer is an
 /// oversize frame.
@@ -17,7 +17,7 @@ pub const DEVICE_MAX_FRAME: usize = 160;
 /// CRC-32/ISCSI of `bytes`: the frame check and the whole-blob check of
 /// [`HostMsg::ModelBegin`] (the same flavour as the blob trailer).
 pub fn crc32(bytes: &[u8]) -> u32 {
-    FRAME_CRC.checksum(bytes)
+    crc32c(bytes)
 }
 
 /// The CRC-protected envelope around a message's postcard bytes.

@@ -40,8 +40,8 @@ pub enum RejectReason {
     OverCapacity = 11,
     /// A chunk or commit arrived with no transfer in progress.
     NoUpdateInProgress = 20,
-    /// The announced length exceeds the staging buffer of this build (or is shorter than any
-    /// blob).
+    /// The announced length exceeds what this build stages (its staging slot, or the blob
+    /// limit; or it is shorter than any blob).
     TooLarge = 21,
     /// A chunk's offset is not the number of bytes received so far.
     OutOfOrder = 22,
@@ -51,6 +51,9 @@ pub enum RejectReason {
     Incomplete = 24,
     /// The staged bytes do not match the announced whole-blob CRC.
     TransferCrc = 25,
+    /// The device could not erase or program its staging flash slot (detail: the slot offset
+    /// of the failed operation); the running model is untouched.
+    Storage = 26,
     /// The model carries no signature trailer ([`SignatureError::Unsigned`]); this build accepts
     /// signed models only.
     Unsigned = 30,
@@ -70,7 +73,7 @@ pub enum RejectReason {
 
 impl RejectReason {
     /// Every reason this version defines.
-    pub const ALL: [RejectReason; 22] = [
+    pub const ALL: [RejectReason; 23] = [
         RejectReason::Truncated,
         RejectReason::BadMagic,
         RejectReason::UnsupportedVersion,
@@ -88,6 +91,7 @@ impl RejectReason {
         RejectReason::Overrun,
         RejectReason::Incomplete,
         RejectReason::TransferCrc,
+        RejectReason::Storage,
         RejectReason::Unsigned,
         RejectReason::BadSignature,
         RejectReason::UnknownKey,
@@ -120,11 +124,12 @@ impl RejectReason {
             RejectReason::BufferTooSmall => "buffer too small",
             RejectReason::OverCapacity => "more gratings or measurands than this firmware holds",
             RejectReason::NoUpdateInProgress => "no model transfer in progress",
-            RejectReason::TooLarge => "announced blob length does not fit the staging buffer",
+            RejectReason::TooLarge => "announced blob length does not fit the staging slot",
             RejectReason::OutOfOrder => "chunk offset out of order",
             RejectReason::Overrun => "chunk runs past the announced length",
             RejectReason::Incomplete => "commit before the whole blob arrived",
             RejectReason::TransferCrc => "staged bytes do not match the announced CRC",
+            RejectReason::Storage => "the staging flash could not be erased or programmed",
             RejectReason::Unsigned => "model not signed (this firmware accepts signed models only)",
             RejectReason::BadSignature => "signature does not verify (or malformed signature trailer)",
             RejectReason::UnknownKey => "signed by a key this firmware does not trust",
@@ -220,7 +225,7 @@ mod tests {
     #[test]
     fn reject_codes_are_stable_and_round_trip() {
         let codes: Vec<u8> = RejectReason::ALL.iter().map(|r| r.code()).collect();
-        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21, 22, 23, 24, 25, 30, 31, 32, 33, 255]);
+        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21, 22, 23, 24, 25, 26, 30, 31, 32, 33, 255]);
         for r in RejectReason::ALL {
             assert_eq!(RejectReason::from_code(r.code()), r);
             let mut buf = [0u8; 4];
