@@ -86,15 +86,12 @@ pub fn lstsq_rows(
 pub fn triangular_rows(n: usize, q: usize, row: impl Fn(usize, &mut [f64]) + Sync) -> DMatrix<f64> {
     // The triangular factor of one block of rows, as its top min(rows, q) rows.
     let reduce = |rows: std::ops::Range<usize>| -> DMatrix<f64> {
-        let mut a = DMatrix::zeros(rows.len(), q);
-        let mut buf = vec![0.0; q];
+        // Rows written as the columns of the transpose (contiguous), then transposed once.
+        let mut at = DMatrix::zeros(q, rows.len());
         for (r, i) in rows.enumerate() {
-            row(i, &mut buf);
-            for (c, &v) in buf.iter().enumerate() {
-                a[(r, c)] = v;
-            }
+            row(i, at.column_mut(r).as_mut_slice());
         }
-        triangular_factor(a)
+        triangular_factor(at.transpose())
     };
     let blocks: Vec<std::ops::Range<usize>> =
         (0..n.div_ceil(TSQR_BLOCK)).map(|b| b * TSQR_BLOCK..((b + 1) * TSQR_BLOCK).min(n)).collect();

@@ -266,11 +266,27 @@ pub fn fit(
     });
     // Standard deviation of each memory column over the rows: the ridge acts on the
     // standardised terms.
-    let sd: Vec<f64> = mem_u
+    // Two passes in row order (the terms are stored row by row), each summing every column in
+    // the same order as a pass per column would.
+    let mut mean = vec![0.0; mem_u.len()];
+    for r in 0..m.rows() {
+        let row = m.row(r);
+        for (acc, &k) in mean.iter_mut().zip(&mem_u) {
+            *acc += row[k];
+        }
+    }
+    mean.iter_mut().for_each(|v| *v /= n as f64);
+    let mut var = vec![0.0; mem_u.len()];
+    for r in 0..m.rows() {
+        let row = m.row(r);
+        for ((acc, &k), &mu) in var.iter_mut().zip(&mem_u).zip(&mean) {
+            *acc += (row[k] - mu).powi(2);
+        }
+    }
+    let sd: Vec<f64> = var
         .iter()
-        .map(|&k| {
-            let mean = (0..m.rows()).map(|r| m.row(r)[k]).sum::<f64>() / n as f64;
-            let var = (0..m.rows()).map(|r| (m.row(r)[k] - mean).powi(2)).sum::<f64>() / n as f64;
+        .map(|&v| {
+            let var = v / n as f64;
             if var > 0.0 {
                 var.sqrt()
             } else {
