@@ -814,6 +814,24 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         Some(y)
     }
 
+    /// The RBF activations ψ_j of sample `s` (into `psi`, one per centre) given the direction
+    /// latches after it (as [`Compensator::latch_values`] reads them once the sample is
+    /// compensated), without moving the stream state: the ψ of
+    /// [`Compensator::core_and_activations`], by the same code, for a trainer that has the
+    /// stream's latches already and tries several RBF layers on one stream. `false` (and `psi`
+    /// untouched) for a sample `step` would answer as non-finite.
+    pub fn activations(&self, s: &Sample<F>, latch: &[F; MAX_GRATINGS], psi: &mut [F]) -> bool {
+        if !self.accepts(s) {
+            return false;
+        }
+        let (z, z_sq) = self.rbf_inputs::<0>(s, *latch);
+        let groups = usize::from(self.z_groups);
+        for (o, c) in psi.iter_mut().zip(self.centres.iter()) {
+            *o = psi_of::<F>(c, &z, z_sq, groups);
+        }
+        true
+    }
+
     /// Compensate one sample. Never panics: non-finite inputs give NaN values, an infinite band
     /// and [`Flags::NON_FINITE`], leaving the stream state untouched.
     #[inline]

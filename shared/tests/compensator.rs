@@ -618,6 +618,36 @@ fn core_and_activations_include_the_memory_terms() {
     }
 }
 
+/// `activations` given the latches after a sample is `core_and_activations`' ψ bit for bit,
+/// for the paper's shape (the step's specialised path) and every feature set, and leaves the
+/// stream alone.
+fn activations_from_latches<F: fbg_shared::Real>() {
+    for fs in FeatureSet::ALL {
+        let p = memory_params(K, 37, fs);
+        let mut live = Compensator::<F, K>::new(&p).unwrap();
+        let side = live.clone();
+        let mut ss: Vec<Sample<F>> = irregular(37, 300).iter().map(|s| s.cast::<F>()).collect();
+        ss[40].t_s = F::from_f64(f64::NAN);
+        ss[41].dl_pm[1] = F::from_f64(f64::INFINITY);
+        for s in &ss {
+            let (mut want, mut got) = ([F::ZERO; K], [F::ZERO; K]);
+            let accepted = live.core_and_activations(s, &mut want).is_some();
+            let before = side.stream_state();
+            assert_eq!(side.activations(s, &live.latch_values(), &mut got), accepted, "{fs:?}");
+            assert_eq!(side.stream_state(), before);
+            if accepted {
+                assert_eq!(got.map(|v| v.to_f64().to_bits()), want.map(|v| v.to_f64().to_bits()), "{fs:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn activations_from_the_latches_are_core_and_activations_psi() {
+    activations_from_latches::<f32>();
+    activations_from_latches::<f64>();
+}
+
 #[test]
 fn advance_moves_the_memory_as_step_does() {
     let p = memory_params(K, 34, FeatureSet::HysteresisAware);

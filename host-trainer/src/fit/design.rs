@@ -251,6 +251,104 @@ pub fn map_stretches<T: Send>(
         .collect()
 }
 
+/// What a set of rows gives a model whatever its RBF layer: the polynomial core's values and
+/// the direction latches after each row (the centres, σ and weights play no part in them),
+/// kept so that several RBF layers on one stream ([`Rows::Cached`]) pay for the stream (the
+/// memory bank, the core) once and for each layer only its activations
+/// ([`fbg_shared::Compensator::activations`]).
+pub struct CoreStream {
+    /// A compensator of the stream rule these rows were run with.
+    rule: HostCompensator,
+    rows: Vec<usize>,
+    values: Vec<[f64; MAX_OUTPUTS]>,
+    latches: Vec<[f64; MAX_GRATINGS]>,
+}
+
+impl CoreStream {
+    /// Run `params`' core and stream over `rows` (sorted ascending), without its centres.
+    pub fn new(
+        params: &HostParams,
+        d: &Dataset,
+        rows: &[usize],
+        ck: Option<&Checkpoints>,
+    ) -> Result<Self, TrainerError> {
+        let mut core = params.clone();
+        core.centres.clear();
+        let rule = compensator(&core)?;
+        let parts = map_stretches(&core, d, rows, ck, Pass::Design, |o| (o.values.to_vec(), o.latches.to_vec()))?;
+        let (mut values, mut latches) = (Vec::with_capacity(rows.len()), Vec::with_capacity(rows.len()));
+        for (v, l) in parts {
+            values.extend(v);
+            latches.extend(l);
+        }
+        Ok(CoreStream { rule, rows: rows.to_vec(), values, latches })
+    }
+}
+
+/// The rows a ridge system or design matrix is built over: run live through the model's
+/// compensator (with checkpoints when at hand), or taken from a [`CoreStream`] of the same
+/// stream rule (a stream of another rule is run live, giving the same numbers slower).
+#[derive(Clone, Copy)]
+pub enum Rows<'a> {
+    Live(&'a [usize], Option<&'a Checkpoints>),
+    Cached(&'a CoreStream),
+}
+
+impl Rows<'_> {
+    fn rows(&self) -> &[usize] {
+        match self {
+            Rows::Live(rows, _) => rows,
+            Rows::Cached(cs) => &cs.rows,
+        }
+    }
+}
+
+/// [`map_stretches`] with [`Pass::Design`] over `src`: the same stretches, ψ, values and
+/// latches either way.
+fn map_rows<T: Send>(
+    params: &HostParams,
+    d: &Dataset,
+    src: Rows<'_>,
+    f: impl Fn(StretchOut<'_>) -> T + Sync + Send,
+) -> Result<Vec<T>, TrainerError> {
+    let cs = match src {
+        Rows::Live(rows, ck) => return map_stretches(params, d, rows, ck, Pass::Design, f),
+        Rows::Cached(cs) => cs,
+    };
+    let comp = compensator(params)?;
+    if !cs.rule.same_stream(&comp) {
+        return map_stretches(params, d, &cs.rows, None, Pass::Design, f);
+    }
+    // The stretches of `map_stretches`, as index ranges into the stream's rows.
+    let mut jobs: Vec<std::ops::Range<usize>> = Vec::new();
+    let mut at = 0;
+    while let Some(&first) = cs.rows.get(at) {
+        let n = cs.rows[at..].partition_point(|&i| i < (first / STRETCH + 1) * STRETCH);
+        jobs.push(at..at + n);
+        at += n;
+    }
+    let k = params.centres.len();
+    jobs.par_iter()
+        .map_init(Vec::new, |psi: &mut Vec<f64>, r| {
+            psi.clear();
+            psi.resize(r.len() * k, 0.0);
+            if k > 0 {
+                for ((row, &i), latch) in psi.chunks_exact_mut(k).zip(&cs.rows[r.clone()]).zip(&cs.latches[r.clone()]) {
+                    comp.activations(&d.sample(i), latch, row);
+                }
+            }
+            f(StretchOut {
+                rows: &cs.rows[r.clone()],
+                psi,
+                est: &[],
+                values: &cs.values[r.clone()],
+                latches: &cs.latches[r.clone()],
+            })
+        })
+        .map(Ok)
+        .collect()
+}
+
 /// Estimates of `params` at `want` (sorted ascending), the compensator having seen every
 /// sample from the first.
 pub fn run(params: &HostParams, d: &Dataset, want: &[usize]) -> Result<Vec<Estimate<f64>>, TrainerError> {
@@ -285,8 +383,18 @@ pub fn design_matrix_with(
     rows: &[usize],
     ck: Option<&Checkpoints>,
 ) -> Result<(DMatrix<f64>, Vec<[f64; MAX_OUTPUTS]>), TrainerError> {
+    design_rows(params, d, Rows::Live(rows, ck))
+}
+
+/// [`design_matrix`] over `src`.
+pub fn design_rows(
+    params: &HostParams,
+    d: &Dataset,
+    src: Rows<'_>,
+) -> Result<(DMatrix<f64>, Vec<[f64; MAX_OUTPUTS]>), TrainerError> {
     let k = params.centres.len();
-    let parts = map_stretches(params, d, rows, ck, Pass::Design, |o| (o.psi.to_vec(), o.values.to_vec()))?;
+    let rows = src.rows();
+    let parts = map_rows(params, d, src, |o| (o.psi.to_vec(), o.values.to_vec()))?;
     let mut psi = DMatrix::zeros(rows.len(), k);
     let mut values = Vec::with_capacity(rows.len());
     let mut r0 = 0;
@@ -329,10 +437,16 @@ pub fn residual(refs: &[Column<'_>], i: usize, c: usize, values: &[f64; MAX_OUTP
 
 /// [`Gram`] of `params` over `rows` (sorted ascending).
 pub fn gram(params: &HostParams, d: &Dataset, rows: &[usize], ck: Option<&Checkpoints>) -> Result<Gram, TrainerError> {
+    gram_rows(params, d, Rows::Live(rows, ck))
+}
+
+/// [`Gram`] of `params` over `src`.
+pub fn gram_rows(params: &HostParams, d: &Dataset, src: Rows<'_>) -> Result<Gram, TrainerError> {
     let k = params.centres.len();
     let m = params.dims.n_outputs();
     let refs = d.references_of(&params.dims);
-    let parts = map_stretches(params, d, rows, ck, Pass::Design, |o| {
+    let rows = src.rows();
+    let parts = map_rows(params, d, src, |o| {
         let mut g = vec![0.0; k * k];
         let mut pr = vec![0.0; k * m];
         let r: Vec<[f64; MAX_OUTPUTS]> = o

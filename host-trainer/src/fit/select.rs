@@ -301,13 +301,23 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         let mut sk = skeleton(d, &f.train, &fc.core, zs, &base_cfg, opts.seed);
         let nn = sk.sigma;
         let mut out: Vec<(Config, FoldErrors)> = Vec::new();
+        // The core's values and the latches at the fold's rows are the same for every σ: run
+        // the stream once, then only the activations per σ.
+        let mut streams: Option<(design::CoreStream, design::CoreStream)> = None;
         for &sm in sigma_mults {
             sk.sigma_mult = sm;
             sk.sigma = sm * nn;
             let p = sk.params(None, 0.0, None, &[], 0.0, &prov)?;
-            let ck = cache.get(&p, d)?;
-            let gram = design::gram(&p, d, &f.train, Some(&ck))?;
-            let (psi_v, est_v) = design::design_matrix_with(&p, d, &f.val, Some(&ck))?;
+            if streams.is_none() {
+                let ck = cache.get(&p, d)?;
+                streams = Some((
+                    design::CoreStream::new(&p, d, &f.train, Some(&ck))?,
+                    design::CoreStream::new(&p, d, &f.val, Some(&ck))?,
+                ));
+            }
+            let (train_s, val_s) = streams.as_ref().ok_or_else(|| TrainerError::fit("fold stream missing"))?;
+            let gram = design::gram_rows(&p, d, design::Rows::Cached(train_s))?;
+            let (psi_v, est_v) = design::design_rows(&p, d, design::Rows::Cached(val_s))?;
             let r_v = residual_targets(d, &dims, &f.val, &est_v);
             let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r, gram.n);
             for &ar in alpha_rels {
