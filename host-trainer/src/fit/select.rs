@@ -283,6 +283,23 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         .collect();
     let zsamples: HashMap<(usize, u64), ZSample> =
         zjobs.iter().map(|&(fi, db)| (fi, db.to_bits())).zip(zsamples?).collect();
+    // The core's values and the latches at each fold's training and validation rows, per dead
+    // band: the same for every feature set, K and σ of the grid (a set whose stream rule differs
+    // is run live by `design::map_rows`, with the same numbers).
+    let streams: Result<Vec<(design::CoreStream, design::CoreStream)>, TrainerError> = zjobs
+        .par_iter()
+        .map(|&(fi, db)| {
+            let f = &fs[fi];
+            let sm = stream_model(&fold_core[fi].core, &f.train, db)?;
+            let ck = cache.get(&sm, d)?;
+            Ok((
+                design::CoreStream::new(&sm, d, &f.train, Some(&ck))?,
+                design::CoreStream::new(&sm, d, &f.val, Some(&ck))?,
+            ))
+        })
+        .collect();
+    let streams: HashMap<(usize, u64), (design::CoreStream, design::CoreStream)> =
+        zjobs.iter().map(|&(fi, db)| (fi, db.to_bits())).zip(streams?).collect();
 
     // Per-sample squared validation errors of every (σ, α) of one fold, feature set, dead band
     // and K.
@@ -301,21 +318,12 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         let mut sk = skeleton(d, &f.train, &fc.core, zs, &base_cfg, opts.seed);
         let nn = sk.sigma;
         let mut out: Vec<(Config, FoldErrors)> = Vec::new();
-        // The core's values and the latches at the fold's rows are the same for every σ: run
-        // the stream once, then only the activations per σ.
-        let mut streams: Option<(design::CoreStream, design::CoreStream)> = None;
+        let (train_s, val_s) =
+            streams.get(&(fi, db.to_bits())).ok_or_else(|| TrainerError::fit("fold stream missing"))?;
         for &sm in sigma_mults {
             sk.sigma_mult = sm;
             sk.sigma = sm * nn;
             let p = sk.params(None, 0.0, None, &[], 0.0, &prov)?;
-            if streams.is_none() {
-                let ck = cache.get(&p, d)?;
-                streams = Some((
-                    design::CoreStream::new(&p, d, &f.train, Some(&ck))?,
-                    design::CoreStream::new(&p, d, &f.val, Some(&ck))?,
-                ));
-            }
-            let (train_s, val_s) = streams.as_ref().ok_or_else(|| TrainerError::fit("fold stream missing"))?;
             let gram = design::gram_rows(&p, d, design::Rows::Cached(train_s))?;
             let (psi_v, est_v) = design::design_rows(&p, d, design::Rows::Cached(val_s))?;
             let r_v = residual_targets(d, &dims, &f.val, &est_v);
