@@ -283,6 +283,11 @@ impl CoreStream {
         }
         Ok(CoreStream { rule, rows: rows.to_vec(), values, latches })
     }
+
+    /// Whether this stream is `params`' (same stream rule: [`fbg_shared::Compensator::same_stream`]).
+    pub fn serves(&self, params: &HostParams) -> Result<bool, TrainerError> {
+        Ok(self.rule.same_stream(&compensator(params)?))
+    }
 }
 
 /// The rows a ridge system or design matrix is built over: run live through the model's

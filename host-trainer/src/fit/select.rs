@@ -13,6 +13,7 @@
 //! device widens its band with the time since calibration.
 
 use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -284,22 +285,29 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
     let zsamples: HashMap<(usize, u64), ZSample> =
         zjobs.iter().map(|&(fi, db)| (fi, db.to_bits())).zip(zsamples?).collect();
     // The core's values and the latches at each fold's training and validation rows, per dead
-    // band: the same for every feature set, K and σ of the grid (a set whose stream rule differs
-    // is run live by `design::map_rows`, with the same numbers).
-    let streams: Result<Vec<(design::CoreStream, design::CoreStream)>, TrainerError> = zjobs
-        .par_iter()
-        .map(|&(fi, db)| {
-            let f = &fs[fi];
-            let sm = stream_model(&fold_core[fi].core, &f.train, db)?;
-            let ck = cache.get(&sm, d)?;
-            Ok((
-                design::CoreStream::new(&sm, d, &f.train, Some(&ck))?,
-                design::CoreStream::new(&sm, d, &f.val, Some(&ck))?,
-            ))
-        })
-        .collect();
-    let streams: HashMap<(usize, u64), (design::CoreStream, design::CoreStream)> =
-        zjobs.iter().map(|&(fi, db)| (fi, db.to_bits())).zip(streams?).collect();
+    // band and stream rule: the same for every K and σ of the grid, and for every feature set
+    // of the same rule. Made by the first task that needs one (two tasks racing may both make
+    // it: the same numbers either way).
+    type FoldStreams = Arc<(design::CoreStream, design::CoreStream)>;
+    let streams: HashMap<(usize, u64), Mutex<Vec<FoldStreams>>> =
+        zjobs.iter().map(|&(fi, db)| ((fi, db.to_bits()), Mutex::new(Vec::new()))).collect();
+    let fold_streams = |fi: usize, db: f64, p: &HostParams| -> Result<FoldStreams, TrainerError> {
+        let slot = streams.get(&(fi, db.to_bits())).ok_or_else(|| TrainerError::fit("fold stream missing"))?;
+        let lock = || slot.lock().map_err(|_| TrainerError::fit("fold stream cache poisoned"));
+        for s in lock()?.iter() {
+            if s.0.serves(p)? {
+                return Ok(s.clone());
+            }
+        }
+        let f = &fs[fi];
+        let ck = cache.get(p, d)?;
+        let made = Arc::new((
+            design::CoreStream::new(p, d, &f.train, Some(&ck))?,
+            design::CoreStream::new(p, d, &f.val, Some(&ck))?,
+        ));
+        lock()?.push(made.clone());
+        Ok(made)
+    };
 
     // Per-sample squared validation errors of every (σ, α) of one fold, feature set, dead band
     // and K.
@@ -318,12 +326,18 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         let mut sk = skeleton(d, &f.train, &fc.core, zs, &base_cfg, opts.seed);
         let nn = sk.sigma;
         let mut out: Vec<(Config, FoldErrors)> = Vec::new();
-        let (train_s, val_s) =
-            streams.get(&(fi, db.to_bits())).ok_or_else(|| TrainerError::fit("fold stream missing"))?;
+        let mut held: Option<FoldStreams> = None;
         for &sm in sigma_mults {
             sk.sigma_mult = sm;
             sk.sigma = sm * nn;
             let p = sk.params(None, 0.0, None, &[], 0.0, &prov)?;
+            // σ does not change the stream rule: one lookup per task.
+            let st = match &held {
+                Some(st) => st.clone(),
+                None => fold_streams(fi, db, &p)?,
+            };
+            held = Some(st.clone());
+            let (train_s, val_s) = (&st.0, &st.1);
             let gram = design::gram_rows(&p, d, design::Rows::Cached(train_s))?;
             let (psi_v, est_v) = design::design_rows(&p, d, design::Rows::Cached(val_s))?;
             let r_v = residual_targets(d, &dims, &f.val, &est_v);
