@@ -203,12 +203,6 @@ pub struct StreamState<F> {
 }
 
 impl<F: Real> StreamState<F> {
-    /// A state from its parts: the direction latches and the memory operators' state (e.g. a
-    /// [`MemoryState::unpack`]ed checkpoint).
-    pub fn from_parts(latches: LatchBank, memory: MemoryState<F>) -> Self {
-        StreamState { latches, memory }
-    }
-
     /// The direction latches.
     pub fn latches(&self) -> LatchBank {
         self.latches

@@ -300,7 +300,8 @@ pub enum Rows<'a> {
 }
 
 impl Rows<'_> {
-    fn rows(&self) -> &[usize] {
+    /// The rows, sorted ascending.
+    pub fn rows(&self) -> &[usize] {
         match self {
             Rows::Live(rows, _) => rows,
             Rows::Cached(cs) => &cs.rows,
@@ -310,7 +311,7 @@ impl Rows<'_> {
 
 /// [`map_stretches`] with [`Pass::Design`] over `src`: the same stretches, ψ, values and
 /// latches either way.
-fn map_rows<T: Send>(
+pub fn map_rows<T: Send>(
     params: &HostParams,
     d: &Dataset,
     src: Rows<'_>,

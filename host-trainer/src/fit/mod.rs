@@ -97,21 +97,17 @@ pub struct ZSample {
     pub points: Vec<[f64; MAX_Z]>,
 }
 
-/// [`ZSample`] of the training rows `train` (sorted), the latches moved by `stream` (a model
+/// [`ZSample`] of the training rows `src` (sorted), the latches moved by `stream` (a model
 /// with the dead band in question) over every sample from the first, exactly as the
-/// compensator moves them.
-pub fn z_sample(
-    stream: &HostParams,
-    d: &Dataset,
-    train: &[usize],
-    ck: Option<&Checkpoints>,
-) -> Result<ZSample, TrainerError> {
+/// compensator moves them (or taken from a [`design::CoreStream`] of that stream).
+pub fn z_sample(stream: &HostParams, d: &Dataset, src: design::Rows<'_>) -> Result<ZSample, TrainerError> {
+    let train = src.rows();
     let stride = train.len().div_ceil(KMEANS_MAX_POINTS).max(1);
     // Per stretch: count, mean and sum of squared deviations (combined below in stretch order
     // by Chan's formula), and the k-means points.
     type Part = (f64, [f64; MAX_Z], [f64; MAX_Z], Vec<[f64; MAX_Z]>);
     let dims = stream.dims;
-    let parts: Vec<Part> = design::map_stretches(stream, d, train, ck, design::Pass::Design, |o| {
+    let parts: Vec<Part> = design::map_rows(stream, d, src, |o| {
         let p0 = train.partition_point(|&i| i < o.rows[0]);
         let zs: Vec<[f64; MAX_Z]> = o.rows.iter().zip(o.latches).map(|(&i, l)| z_of(&dims, d, i, l)).collect();
         let n = zs.len() as f64;
@@ -543,7 +539,7 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
     )?;
     let end = cal.last().map(|&i| i + 1).unwrap_or(0);
     let ck = Checkpoints::new(&stream, d, end, &[])?;
-    let zs = z_sample(&stream, d, &cal, Some(&ck))?;
+    let zs = z_sample(&stream, d, design::Rows::Live(&cal, Some(&ck)))?;
     let sk = skeleton(d, &cal, &core, &zs, &cfg, opts.seed);
     phases.lap("RBF inputs and centres");
     let base = sk.params(None, 0.0, None, &[], 0.0, &provenance)?;

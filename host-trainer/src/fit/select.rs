@@ -273,26 +273,35 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             zjobs.push((fi, db));
         }
     }
-    let zsamples: Result<Vec<ZSample>, TrainerError> = zjobs
+    // Each fold's training stream per dead band (its core's values and latches, the stream
+    // rule of the Model-P that stands for the dead band), run once: the k-means sample comes
+    // from its latches, and grid tasks of the same rule take it as it is.
+    let seeded: Result<Vec<(Arc<design::CoreStream>, ZSample)>, TrainerError> = zjobs
         .par_iter()
         .map(|&(fi, db)| {
             let f = &fs[fi];
             let sm = stream_model(&fold_core[fi].core, &f.train, db)?;
             let ck = cache.get(&sm, d)?;
-            z_sample(&sm, d, &f.train, Some(&ck))
+            let train = Arc::new(design::CoreStream::new(&sm, d, &f.train, Some(&ck))?);
+            let zs = z_sample(&sm, d, design::Rows::Cached(&train))?;
+            Ok((train, zs))
         })
         .collect();
-    let zsamples: HashMap<(usize, u64), ZSample> =
-        zjobs.iter().map(|&(fi, db)| (fi, db.to_bits())).zip(zsamples?).collect();
+    let (train_streams, zsamples): (Vec<_>, Vec<_>) = seeded?.into_iter().unzip();
+    let keys: Vec<(usize, u64)> = zjobs.iter().map(|&(fi, db)| (fi, db.to_bits())).collect();
+    let zsamples: HashMap<(usize, u64), ZSample> = keys.iter().copied().zip(zsamples).collect();
+    let train_streams: HashMap<(usize, u64), Arc<design::CoreStream>> =
+        keys.iter().copied().zip(train_streams).collect();
     // The core's values and the latches at each fold's training and validation rows, per dead
     // band and stream rule: the same for every K and σ of the grid, and for every feature set
     // of the same rule. Made by the first task that needs one (two tasks racing may both make
     // it: the same numbers either way).
-    type FoldStreams = Arc<(design::CoreStream, design::CoreStream)>;
+    type FoldStreams = (Arc<design::CoreStream>, Arc<design::CoreStream>);
     let streams: HashMap<(usize, u64), Mutex<Vec<FoldStreams>>> =
-        zjobs.iter().map(|&(fi, db)| ((fi, db.to_bits()), Mutex::new(Vec::new()))).collect();
+        keys.iter().map(|&k| (k, Mutex::new(Vec::new()))).collect();
     let fold_streams = |fi: usize, db: f64, p: &HostParams| -> Result<FoldStreams, TrainerError> {
-        let slot = streams.get(&(fi, db.to_bits())).ok_or_else(|| TrainerError::fit("fold stream missing"))?;
+        let key = (fi, db.to_bits());
+        let slot = streams.get(&key).ok_or_else(|| TrainerError::fit("fold stream missing"))?;
         let lock = || slot.lock().map_err(|_| TrainerError::fit("fold stream cache poisoned"));
         for s in lock()?.iter() {
             if s.0.serves(p)? {
@@ -301,10 +310,11 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         }
         let f = &fs[fi];
         let ck = cache.get(p, d)?;
-        let made = Arc::new((
-            design::CoreStream::new(p, d, &f.train, Some(&ck))?,
-            design::CoreStream::new(p, d, &f.val, Some(&ck))?,
-        ));
+        let train = match train_streams.get(&key) {
+            Some(t) if t.serves(p)? => t.clone(),
+            _ => Arc::new(design::CoreStream::new(p, d, &f.train, Some(&ck))?),
+        };
+        let made = (train, Arc::new(design::CoreStream::new(p, d, &f.val, Some(&ck))?));
         lock()?.push(made.clone());
         Ok(made)
     };
@@ -332,12 +342,10 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             sk.sigma = sm * nn;
             let p = sk.params(None, 0.0, None, &[], 0.0, &prov)?;
             // σ does not change the stream rule: one lookup per task.
-            let st = match &held {
-                Some(st) => st.clone(),
-                None => fold_streams(fi, db, &p)?,
-            };
-            held = Some(st.clone());
-            let (train_s, val_s) = (&st.0, &st.1);
+            if held.is_none() {
+                held = Some(fold_streams(fi, db, &p)?);
+            }
+            let (train_s, val_s) = held.as_ref().ok_or_else(|| TrainerError::fit("fold stream missing"))?;
             let gram = design::gram_rows(&p, d, design::Rows::Cached(train_s))?;
             let (psi_v, est_v) = design::design_rows(&p, d, design::Rows::Cached(val_s))?;
             let r_v = residual_targets(d, &dims, &f.val, &est_v);
