@@ -68,6 +68,10 @@ Two sub-commands, each printing one JSON object on stdout:
          computable on a stream). It bounds what more information and a far larger learner buy
          over the compensator's own inputs.
 
+``hybrids``  Only those two gradient-boosting hybrids, for the comparison over every
+         coverage seed (`cargo xtask bench` runs it on seeds 8..26; seed 7's are in
+         ``blackbox``).
+
 ``versions`` prints the Python, numpy and scikit-learn versions.
 """
 
@@ -394,11 +398,33 @@ def cmd_blackbox(a):
         ),
     }
     cal, hold = data["cal"], data["hold"]
+    rows = gb_hybrids(data, inputs["dl+T_amb+latch"])
+    for mname, make in models.items():
+        for iname, X in inputs.items():
+            m = make()
+            t = time.perf_counter()
+            m.fit(X[cal], data["Y"][cal])
+            secs = time.perf_counter() - t
+            rows.append({
+                "model": mname,
+                "inputs": iname,
+                "fit_seconds": secs,
+                "rmse": rmse(m.predict(X[hold]), data["Y"][hold]),
+                "pickle_bytes": len(pickle.dumps(m)),
+            })
+    print(json.dumps({"n_samples": int(len(data["t"])), "n_cal": int(cal.sum()), "peers": rows}, indent=1))
+
+
+def gb_hybrids(data, latch_inputs):
+    """Model-P plus a gradient-boosting residual (one regressor per output on Model-P's
+    calibration residuals), on [dl, T_amb, latches] and on the 59 history inputs."""
+    from sklearn.ensemble import HistGradientBoostingRegressor
+    from sklearn.multioutput import MultiOutputRegressor
+
+    cal, hold = data["cal"], data["hold"]
     rows = []
-    # Hybrids with a gradient-boosting residual: Model-P, then one regressor per output on its
-    # calibration residuals.
     hyb = HybridPeer(1, 1.0, 1.0, 0)
-    for iname, X in {"dl+T_amb+latch": inputs["dl+T_amb+latch"], "dl+T_amb+history": history_features(data)}.items():
+    for iname, X in {"dl+T_amb+latch": latch_inputs, "dl+T_amb+history": history_features(data)}.items():
         t = time.perf_counter()
         hyb.stage1 = LinearRegression().fit(data["X4"][cal], data["Y"][cal])
         g = hyb.stage1.predict(data["X4"][cal])
@@ -415,20 +441,14 @@ def cmd_blackbox(a):
             "rmse": rmse(pred, data["Y"][hold]),
             "pickle_bytes": len(pickle.dumps((hyb.stage1, hyb.stage2, gb))),
         })
-    for mname, make in models.items():
-        for iname, X in inputs.items():
-            m = make()
-            t = time.perf_counter()
-            m.fit(X[cal], data["Y"][cal])
-            secs = time.perf_counter() - t
-            rows.append({
-                "model": mname,
-                "inputs": iname,
-                "fit_seconds": secs,
-                "rmse": rmse(m.predict(X[hold]), data["Y"][hold]),
-                "pickle_bytes": len(pickle.dumps(m)),
-            })
-    print(json.dumps({"n_samples": int(len(data["t"])), "n_cal": int(cal.sum()), "peers": rows}, indent=1))
+    return rows
+
+
+def cmd_hybrids(a):
+    data = read_csv(a.data)
+    lat = latches(data["X4"][:, :3], a.dead_band_pm)
+    rows = gb_hybrids(data, np.column_stack([data["X4"], lat]))
+    print(json.dumps({"n_samples": int(len(data["t"])), "n_cal": int(data["cal"].sum()), "peers": rows}, indent=1))
 
 
 def ema(x, samples):
@@ -522,6 +542,10 @@ def main():
     b.add_argument("--data", required=True)
     b.add_argument("--dead-band-pm", type=float, default=4.0)
     b.set_defaults(func=cmd_blackbox)
+    h = sub.add_parser("hybrids", help="only the gradient-boosting hybrids of blackbox (the per-seed comparison)")
+    h.add_argument("--data", required=True)
+    h.add_argument("--dead-band-pm", type=float, default=4.0)
+    h.set_defaults(func=cmd_hybrids)
     v = sub.add_parser("versions")
     v.set_defaults(func=cmd_versions)
     a = p.parse_args()

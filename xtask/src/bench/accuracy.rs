@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 
 use super::report::{
-    Accuracy, Blackbox, Coverage, EnsembleBand, EnsembleChannel, Gain, ModelHDefault, ModelHPaper, ModelRun,
-    OracleFloor, PresetRun, SeedRun,
+    Accuracy, Blackbox, BlackboxPeer, Coverage, EnsembleBand, EnsembleChannel, Gain, HybridComparison, ModelHDefault,
+    ModelHPaper, ModelRun, OracleFloor, PresetRun, SeedRun,
 };
 use super::runner::{read_json, FitBench, PeerBlackbox, Runner, SimMeta};
 use super::stats::median;
@@ -28,6 +28,7 @@ impl SeedRun {
             rmse_h: v.model_h.rmse,
             rmse_p: v.model_p.rmse,
             command,
+            gb_hybrids: Vec::new(),
         }
     }
 }
@@ -58,7 +59,9 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
             None
         };
         if preset == "paper" {
-            coverage.push(SeedRun::of(7, &def, c_def.clone()));
+            let mut run = SeedRun::of(7, &def, c_def.clone());
+            run.gb_hybrids = blackbox.iter().flat_map(|b| &b.peers).filter(|p| is_gb_hybrid(p)).cloned().collect();
+            coverage.push(run);
         }
         presets.push(PresetRun {
             preset: preset.into(),
@@ -84,8 +87,14 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
     }
     for &seed in &COVERAGE_SEEDS[1..] {
         let (v, c) = coverage_run(r, "paper", seed)?;
-        coverage.push(SeedRun::of(seed, &v, c));
+        let mut run = SeedRun::of(seed, &v, c);
+        if peer_ok {
+            let (h, _): (PeerBlackbox, _) = r.peer(&["hybrids", "--data", &preset_csv("paper", seed)])?;
+            run.gb_hybrids = h.peers;
+        }
+        coverage.push(run);
     }
+    let gb_hybrids_paper = hybrid_comparisons(&coverage);
     // Gain of Model-H over Model-P per seed and channel [%].
     let gains: Vec<[f64; 3]> = coverage.iter().map(|s| std::array::from_fn(|c| s.gain_pct(c))).collect();
     let mean_pct = std::array::from_fn(|c| gains.iter().map(|g| g[c]).sum::<f64>() / gains.len().max(1) as f64);
@@ -101,7 +110,40 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
         presets,
         coverage_paper: Coverage { per_seed: coverage, mean_h, median_h, seeds_within_95_pm_2, ensemble_band },
         gain_paper: Gain { per_seed: gains, mean_pct, min_pct, seeds_all_channels_25 },
+        gb_hybrids_paper,
     })
+}
+
+fn is_gb_hybrid(p: &BlackboxPeer) -> bool {
+    p.model.contains("HistGradientBoosting residual")
+}
+
+/// Model-H against each gradient-boosting hybrid, over the seeds that have it.
+fn hybrid_comparisons(runs: &[SeedRun]) -> Vec<HybridComparison> {
+    let mut inputs: Vec<(String, Option<u64>)> = Vec::new();
+    for p in runs.iter().flat_map(|r| &r.gb_hybrids) {
+        if !inputs.iter().any(|(i, _)| *i == p.inputs) {
+            inputs.push((p.inputs.clone(), p.n_inputs));
+        }
+    }
+    inputs
+        .into_iter()
+        .map(|(name, n_inputs)| {
+            let pairs: Vec<([f64; 3], [f64; 3])> = runs
+                .iter()
+                .filter_map(|r| r.gb_hybrids.iter().find(|p| p.inputs == name).map(|p| (r.rmse_h, p.rmse)))
+                .collect();
+            let n = pairs.len().max(1) as f64;
+            HybridComparison {
+                inputs: name,
+                n_inputs,
+                seeds: pairs.len(),
+                mean_rmse_h: std::array::from_fn(|c| pairs.iter().map(|p| p.0[c]).sum::<f64>() / n),
+                mean_rmse_peer: std::array::from_fn(|c| pairs.iter().map(|p| p.1[c]).sum::<f64>() / n),
+                seeds_ahead: std::array::from_fn(|c| pairs.iter().filter(|p| p.0[c] < p.1[c]).count()),
+            }
+        })
+        .collect()
 }
 
 /// The reference for per-seed band coverage: a band that depends on the lead time alone, set to

@@ -130,7 +130,7 @@ fn machine(s: &mut String, m: &Machine, wall_seconds: f64) {
 
 /// The targets of DESIGN §8, one row each.
 fn targets(s: &mut String, rep: &Report) {
-    out!(s, "## Targets (DESIGN §8)\n");
+    out!(s, "## Targets\n");
     out!(s, "| target | measured | verdict | command |\n|---|---|---|---|");
     let acc = &rep.accuracy;
     if let Some(paper) = acc.presets.first() {
@@ -192,7 +192,7 @@ fn targets(s: &mut String, rep: &Report) {
         let mean = acc.coverage_paper.mean_h;
         out!(
             s,
-            "| band coverage 95 ± 2 % on the `paper` hold-out | seed 7: {:.1} / {:.1} / {:.1} %; mean of seeds 7–26: {:.1} / {:.1} / {:.1} % | {} (seed 7) | accuracy run; coverage runs |\n",
+            "| band coverage 95 ± 2 % on the `paper` hold-out | seed 7: {:.1} / {:.1} / {:.1} %; mean of seeds 7–26: {:.1} / {:.1} / {:.1} % | {} (seed 7) | accuracy run; coverage runs |",
             covs[0],
             covs[1],
             covs[2],
@@ -201,7 +201,34 @@ fn targets(s: &mut String, rep: &Report) {
             100.0 * mean[2],
             yes(covs.iter().all(|c| (c - 95.0).abs() <= 2.0))
         );
+        let cp = &acc.coverage_paper;
+        let n = cp.per_seed.len();
+        let w = cp.seeds_within_95_pm_2;
+        let ok = (0..3).all(|c| (100.0 * cp.mean_h[c] - 95.0).abs() <= 1.0 && w[c] >= 16);
+        let reference = cp.ensemble_band.as_ref().filter(|e| e.channels.len() == 3).map_or(String::new(), |e| {
+            format!(
+                "; the reference band on the lead time alone, set on all {n} hold-outs at once: {} / {} / {} of {n}",
+                e.channels[0].seeds_within_95_pm_2,
+                e.channels[1].seeds_within_95_pm_2,
+                e.channels[2].seeds_within_95_pm_2
+            )
+        });
+        out!(
+            s,
+            "| band coverage, seeds {}–{}: mean within 95 ± 1 % per channel, ≥ 16 of {n} seeds within 95 ± 2 % | mean {:.1} / {:.1} / {:.1} %; within ± 2 %: {} / {} / {} of {n}{} | {} | coverage runs (below) |",
+            COVERAGE_SEEDS[0],
+            COVERAGE_SEEDS[COVERAGE_SEEDS.len() - 1],
+            100.0 * cp.mean_h[0],
+            100.0 * cp.mean_h[1],
+            100.0 * cp.mean_h[2],
+            w[0],
+            w[1],
+            w[2],
+            reference,
+            yes(ok)
+        );
     }
+    out!(s);
 }
 
 /// Accuracy and parity rows of the targets.
@@ -238,6 +265,22 @@ fn accuracy_targets(s: &mut String, paper: &PresetRun, acc: &Accuracy) {
         COVERAGE_SEEDS.len(),
         yes(n_all == COVERAGE_SEEDS.len() && gm[0] >= 40.0 && gm[1] >= 30.0 && gm[2] >= 40.0)
     );
+    gb_hybrid_target(s, paper, acc);
+    if let Some(harsh) = acc.presets.iter().find(|p| p.preset == "harsh") {
+        let (hh, hp) = (harsh.model_h_default.run.rmse, harsh.model_p.rmse);
+        out!(
+            s,
+            "| accuracy, `harsh` preset: Model-H never worse than Model-P on any channel | Model-H {} / {} / {} against Model-P {} / {} / {} (T [°C] / ε [µε] / p [kPa]) | {} | `{}` |",
+            f(hh[0], 3),
+            f(hh[1], 2),
+            f(hh[2], 2),
+            f(hp[0], 3),
+            f(hp[1], 2),
+            f(hp[2], 2),
+            yes((0..3).all(|c| hh[c] <= hp[c])),
+            harsh.model_h_default.run.command
+        );
+    }
     let par = &h.parity;
     let pmax = par.max_diff_over_rmse.map(|v| 100.0 * v);
     out!(
@@ -249,6 +292,68 @@ fn accuracy_targets(s: &mut String, paper: &PresetRun, acc: &Accuracy) {
         par.samples,
         par.flag_mismatches,
         yes(pmax.iter().all(|p| *p <= 1.0))
+    );
+}
+
+/// The target "ahead of the gradient-boosting hybrids on every channel": on seed 7 (the peers'
+/// table) and over the coverage seeds.
+fn gb_hybrid_target(s: &mut String, paper: &PresetRun, acc: &Accuracy) {
+    let h = paper.model_h_default.run.rmse;
+    let seed7: Vec<_> = paper
+        .blackbox
+        .iter()
+        .flat_map(|b| &b.peers)
+        .filter(|p| p.model.contains("HistGradientBoosting residual"))
+        .collect();
+    if seed7.is_empty() {
+        out!(s, "| accuracy, `paper` preset: ahead of the gradient-boosting hybrids on every channel | no Python peer in this run | – | accuracy run |");
+        return;
+    }
+    let seed7_ok = seed7.iter().all(|p| (0..3).all(|c| h[c] < p.rmse[c]));
+    let mut parts: Vec<String> = seed7
+        .iter()
+        .map(|p| {
+            format!(
+                "seed 7, against {} ({}): Model-H / hybrid = {} / {} / {}",
+                p.inputs,
+                p.n_inputs.map_or(String::from("?"), |n| format!("{n} inputs")),
+                f(h[0] / p.rmse[0], 3),
+                f(h[1] / p.rmse[1], 3),
+                f(h[2] / p.rmse[2], 3)
+            )
+        })
+        .collect();
+    let mut all_ok = true;
+    for g in &acc.gb_hybrids_paper {
+        all_ok &= (0..3).all(|c| g.mean_rmse_h[c] < g.mean_rmse_peer[c]);
+        parts.push(format!(
+            "mean over {} seeds against {}: Model-H {} / {} / {}, hybrid {} / {} / {}; Model-H ahead on {} / {} / {} of {} seeds",
+            g.seeds,
+            g.inputs,
+            f(g.mean_rmse_h[0], 3),
+            f(g.mean_rmse_h[1], 3),
+            f(g.mean_rmse_h[2], 3),
+            f(g.mean_rmse_peer[0], 3),
+            f(g.mean_rmse_peer[1], 3),
+            f(g.mean_rmse_peer[2], 3),
+            g.seeds_ahead[0],
+            g.seeds_ahead[1],
+            g.seeds_ahead[2],
+            g.seeds
+        ));
+    }
+    let verdict = match (seed7_ok, acc.gb_hybrids_paper.is_empty()) {
+        (true, _) => yes(true).to_string(),
+        (false, true) => format!("{} (seed 7)", yes(false)),
+        (false, false) => {
+            format!("{} on seed 7; on the mean over the seeds: {}", yes(false), if all_ok { "met" } else { "not met" })
+        }
+    };
+    out!(
+        s,
+        "| accuracy, `paper` preset: ahead of the gradient-boosting hybrids on every channel | {} | {} | accuracy run; coverage runs (`bench/sklearn_peer.py hybrids --data target/bench/data/paper-s<seed>.csv`) |",
+        parts.join("; "),
+        verdict
     );
 }
 
@@ -580,12 +685,31 @@ fn coverage(s: &mut String, acc: &Accuracy) {
         COVERAGE_SEEDS[0],
         COVERAGE_SEEDS[n - 1]
     );
-    out!(s, "| seed | K | gain T | gain ε | gain p | coverage T | coverage ε | coverage p | command |\n|---|---|---|---|---|---|---|---|---|");
+    // The richest gradient-boosting hybrid (most inputs), when the peer ran.
+    let richest = acc.gb_hybrids_paper.iter().max_by_key(|g| g.n_inputs.unwrap_or(0)).map(|g| g.inputs.clone());
+    let hyb_head = richest.as_ref().map_or(String::new(), |i| format!(" Model-H / GB hybrid ({i}), T / ε / p |"));
+    let hyb_rule = if richest.is_some() { "---|" } else { "" };
+    out!(
+        s,
+        "| seed | K | gain T | gain ε | gain p | coverage T | coverage ε | coverage p |{hyb_head} command |\n|---|---|---|---|---|---|---|---|{hyb_rule}---|"
+    );
     let cp = &acc.coverage_paper;
     for c in &cp.per_seed {
+        let hyb = match &richest {
+            Some(i) => match c.gb_hybrids.iter().find(|p| &p.inputs == i) {
+                Some(p) => format!(
+                    " {} / {} / {} |",
+                    f(c.rmse_h[0] / p.rmse[0], 2),
+                    f(c.rmse_h[1] / p.rmse[1], 2),
+                    f(c.rmse_h[2] / p.rmse[2], 2)
+                ),
+                None => " – |".to_string(),
+            },
+            None => String::new(),
+        };
         out!(
             s,
-            "| {} | {} | {:.1} % | {:.1} % | {:.1} % | {:.1} % | {:.1} % | {:.1} % | `{}` |",
+            "| {} | {} | {:.1} % | {:.1} % | {:.1} % | {:.1} % | {:.1} % | {:.1} % |{hyb} `{}` |",
             c.seed,
             c.k,
             c.gain_pct(0),
@@ -597,31 +721,45 @@ fn coverage(s: &mut String, acc: &Accuracy) {
             c.command
         );
     }
+    let gap = if richest.is_some() { " |" } else { "" };
+    if let Some(g) = richest.as_ref().and_then(|i| acc.gb_hybrids_paper.iter().find(|g| &g.inputs == i)) {
+        out!(
+            s,
+            "| mean RMSE, Model-H / GB hybrid | | | | | | | | {} / {} / {}; Model-H ahead on {} / {} / {} of {} seeds | target: ahead on every channel |",
+            f(g.mean_rmse_h[0] / g.mean_rmse_peer[0], 3),
+            f(g.mean_rmse_h[1] / g.mean_rmse_peer[1], 3),
+            f(g.mean_rmse_h[2] / g.mean_rmse_peer[2], 3),
+            g.seeds_ahead[0],
+            g.seeds_ahead[1],
+            g.seeds_ahead[2],
+            g.seeds
+        );
+    }
     let g = &acc.gain_paper;
     out!(
         s,
-        "| **gain mean** | | **{:.1} %** | **{:.1} %** | **{:.1} %** | | | | target ≥ 40 / 30 / 40 % |",
+        "| **gain mean** | | **{:.1} %** | **{:.1} %** | **{:.1} %** | | | |{gap} target ≥ 40 / 30 / 40 % |",
         g.mean_pct[0],
         g.mean_pct[1],
         g.mean_pct[2]
     );
     out!(
         s,
-        "| gain smallest | | {:.1} % | {:.1} % | {:.1} % | | | | target ≥ 25 % on every seed |",
+        "| gain smallest | | {:.1} % | {:.1} % | {:.1} % | | | |{gap} target ≥ 25 % on every seed |",
         g.min_pct[0],
         g.min_pct[1],
         g.min_pct[2]
     );
     out!(
         s,
-        "| **coverage mean** | | | | | **{:.1} %** | **{:.1} %** | **{:.1} %** | target 95 ± 1 % |",
+        "| **coverage mean** | | | | | **{:.1} %** | **{:.1} %** | **{:.1} %** |{gap} target 95 ± 1 % |",
         100.0 * cp.mean_h[0],
         100.0 * cp.mean_h[1],
         100.0 * cp.mean_h[2]
     );
     out!(
         s,
-        "| coverage median | | | | | {:.1} % | {:.1} % | {:.1} % | |",
+        "| coverage median | | | | | {:.1} % | {:.1} % | {:.1} % |{gap} |",
         100.0 * cp.median_h[0],
         100.0 * cp.median_h[1],
         100.0 * cp.median_h[2]
@@ -629,7 +767,7 @@ fn coverage(s: &mut String, acc: &Accuracy) {
     let w = &cp.seeds_within_95_pm_2;
     out!(
         s,
-        "| seeds within 95 ± 2 % | | | | | {} of {n} | {} of {n} | {} of {n} | target ≥ 16 of {n} |",
+        "| seeds within 95 ± 2 % | | | | | {} of {n} | {} of {n} | {} of {n} |{gap} target ≥ 16 of {n} |",
         w[0],
         w[1],
         w[2]
@@ -642,14 +780,14 @@ fn coverage(s: &mut String, acc: &Accuracy) {
     let ch = &ens.channels;
     out!(
         s,
-        "| *reference: ensemble band*, seeds within 95 ± 2 % | | | | | {} of {n} | {} of {n} | {} of {n} | |",
+        "| *reference: ensemble band*, seeds within 95 ± 2 % | | | | | {} of {n} | {} of {n} | {} of {n} |{gap} |",
         ch[0].seeds_within_95_pm_2,
         ch[1].seeds_within_95_pm_2,
         ch[2].seeds_within_95_pm_2
     );
     out!(
         s,
-        "| *reference: ensemble band*, lowest seed | | | | | {:.1} % | {:.1} % | {:.1} % | |\n",
+        "| *reference: ensemble band*, lowest seed | | | | | {:.1} % | {:.1} % | {:.1} % |{gap} |\n",
         100.0 * ch[0].min,
         100.0 * ch[1].min,
         100.0 * ch[2].min

@@ -371,6 +371,28 @@ pub struct Accuracy {
     pub presets: Vec<PresetRun>,
     pub coverage_paper: Coverage,
     pub gain_paper: Gain,
+    /// Model-H against each gradient-boosting hybrid over the coverage seeds (absent from files
+    /// written before it was measured, and when the Python peer is unavailable).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gb_hybrids_paper: Vec<HybridComparison>,
+}
+
+/// Model-H against one gradient-boosting hybrid (`sklearn_peer.py hybrids`) over the coverage
+/// seeds of the `paper` preset.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct HybridComparison {
+    pub inputs: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub n_inputs: Option<u64>,
+    /// Seeds compared (those with a hybrid result).
+    pub seeds: usize,
+    /// Mean hold-out RMSE over those seeds, Model-H and the hybrid.
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub mean_rmse_h: Rmse,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub mean_rmse_peer: Rmse,
+    /// Seeds on which Model-H's RMSE is below the hybrid's, per channel.
+    pub seeds_ahead: [usize; 3],
 }
 
 /// Our models, the black-box peers and the oracle on one preset (seed 7).
@@ -479,6 +501,9 @@ pub struct SeedRun {
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
     pub rmse_p: Rmse,
     pub command: String,
+    /// The gradient-boosting hybrids on this seed (empty without the Python peer).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gb_hybrids: Vec<BlackboxPeer>,
 }
 
 impl SeedRun {
