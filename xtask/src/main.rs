@@ -22,6 +22,11 @@ fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let task = args.first().map(String::as_str).unwrap_or("help");
     let rest = args.get(1..).unwrap_or(&[]);
+    // `cargo xtask <task> --help` prints the help, whatever the task takes.
+    if rest.iter().any(|a| a == "--help" || a == "-h") {
+        println!("{HELP}");
+        return Ok(());
+    }
     match task {
         "test" => test(rest),
         "lint" => lint::run_all(&root()),
