@@ -412,7 +412,7 @@ def cmd_blackbox(a):
                 "rmse": rmse(m.predict(X[hold]), data["Y"][hold]),
                 "pickle_bytes": len(pickle.dumps(m)),
             })
-    print(json.dumps({"n_samples": int(len(data["t"])), "n_cal": int(cal.sum()), "peers": rows}, indent=1))
+    print_peers(data, rows)
 
 
 def gb_hybrids(data, latch_inputs):
@@ -447,7 +447,11 @@ def gb_hybrids(data, latch_inputs):
 def cmd_hybrids(a):
     data = read_csv(a.data)
     lat = latches(data["X4"][:, :3], a.dead_band_pm)
-    rows = gb_hybrids(data, np.column_stack([data["X4"], lat]))
+    print_peers(data, gb_hybrids(data, np.column_stack([data["X4"], lat])))
+
+
+def print_peers(data, rows):
+    """The JSON object of ``blackbox`` and ``hybrids``: the record's sizes and one row a peer."""
     print(json.dumps({"n_samples": int(len(data["t"])), "n_cal": int(data["cal"].sum()), "peers": rows}, indent=1))
 
 

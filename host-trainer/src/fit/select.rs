@@ -342,10 +342,11 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
             sk.sigma = sm * nn;
             let p = sk.params(None, 0.0, None, &[], 0.0, &prov)?;
             // σ does not change the stream rule: one lookup per task.
-            if held.is_none() {
-                held = Some(fold_streams(fi, db, &p)?);
-            }
-            let (train_s, val_s) = held.as_ref().ok_or_else(|| TrainerError::fit("fold stream missing"))?;
+            let looked_up = match held.take() {
+                Some(h) => h,
+                None => fold_streams(fi, db, &p)?,
+            };
+            let (train_s, val_s) = held.insert(looked_up);
             let gram = design::gram_rows(&p, d, design::Rows::Cached(train_s))?;
             let (psi_v, est_v) = design::design_rows(&p, d, design::Rows::Cached(val_s))?;
             let r_v = residual_targets(d, &dims, &f.val, &est_v);

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 
 use super::report::{
-    Accuracy, Blackbox, BlackboxPeer, Coverage, EnsembleBand, EnsembleChannel, Gain, HybridComparison, ModelHDefault,
-    ModelHPaper, ModelRun, OracleFloor, PresetRun, SeedRun,
+    Accuracy, Blackbox, Coverage, EnsembleBand, EnsembleChannel, Gain, HybridComparison, ModelHDefault, ModelHPaper,
+    ModelRun, OracleFloor, PresetRun, SeedRun,
 };
 use super::runner::{read_json, FitBench, PeerBlackbox, Runner, SimMeta};
 use super::stats::median;
@@ -60,7 +60,7 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
         };
         if preset == "paper" {
             let mut run = SeedRun::of(7, &def, c_def.clone());
-            run.gb_hybrids = blackbox.iter().flat_map(|b| &b.peers).filter(|p| is_gb_hybrid(p)).cloned().collect();
+            run.gb_hybrids = blackbox.iter().flat_map(|b| &b.peers).filter(|p| p.is_gb_hybrid()).cloned().collect();
             coverage.push(run);
         }
         presets.push(PresetRun {
@@ -112,10 +112,6 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
         gain_paper: Gain { per_seed: gains, mean_pct, min_pct, seeds_all_channels_25 },
         gb_hybrids_paper,
     })
-}
-
-fn is_gb_hybrid(p: &BlackboxPeer) -> bool {
-    p.model.contains("HistGradientBoosting residual")
 }
 
 /// Model-H against each gradient-boosting hybrid, over the seeds that have it.

@@ -299,12 +299,7 @@ fn accuracy_targets(s: &mut String, paper: &PresetRun, acc: &Accuracy) {
 /// table) and over the coverage seeds.
 fn gb_hybrid_target(s: &mut String, paper: &PresetRun, acc: &Accuracy) {
     let h = paper.model_h_default.run.rmse;
-    let seed7: Vec<_> = paper
-        .blackbox
-        .iter()
-        .flat_map(|b| &b.peers)
-        .filter(|p| p.model.contains("HistGradientBoosting residual"))
-        .collect();
+    let seed7: Vec<_> = paper.blackbox.iter().flat_map(|b| &b.peers).filter(|p| p.is_gb_hybrid()).collect();
     if seed7.is_empty() {
         out!(s, "| accuracy, `paper` preset: ahead of the gradient-boosting hybrids on every channel | no Python peer in this run | – | accuracy run |");
         return;
@@ -686,8 +681,8 @@ fn coverage(s: &mut String, acc: &Accuracy) {
         COVERAGE_SEEDS[n - 1]
     );
     // The richest gradient-boosting hybrid (most inputs), when the peer ran.
-    let richest = acc.gb_hybrids_paper.iter().max_by_key(|g| g.n_inputs.unwrap_or(0)).map(|g| g.inputs.clone());
-    let hyb_head = richest.as_ref().map_or(String::new(), |i| format!(" Model-H / GB hybrid ({i}), T / ε / p |"));
+    let richest = acc.gb_hybrids_paper.iter().max_by_key(|g| g.n_inputs.unwrap_or(0));
+    let hyb_head = richest.map_or(String::new(), |g| format!(" Model-H / GB hybrid ({}), T / ε / p |", g.inputs));
     let hyb_rule = if richest.is_some() { "---|" } else { "" };
     out!(
         s,
@@ -695,8 +690,8 @@ fn coverage(s: &mut String, acc: &Accuracy) {
     );
     let cp = &acc.coverage_paper;
     for c in &cp.per_seed {
-        let hyb = match &richest {
-            Some(i) => match c.gb_hybrids.iter().find(|p| &p.inputs == i) {
+        let hyb = match richest {
+            Some(g) => match c.gb_hybrids.iter().find(|p| p.inputs == g.inputs) {
                 Some(p) => format!(
                     " {} / {} / {} |",
                     f(c.rmse_h[0] / p.rmse[0], 2),
@@ -722,7 +717,7 @@ fn coverage(s: &mut String, acc: &Accuracy) {
         );
     }
     let gap = if richest.is_some() { " |" } else { "" };
-    if let Some(g) = richest.as_ref().and_then(|i| acc.gb_hybrids_paper.iter().find(|g| &g.inputs == i)) {
+    if let Some(g) = richest {
         out!(
             s,
             "| mean RMSE, Model-H / GB hybrid | | | | | | | | {} / {} / {}; Model-H ahead on {} / {} / {} of {} seeds | target: ahead on every channel |",

@@ -473,6 +473,13 @@ pub struct BlackboxPeer {
     pub rest: Rest,
 }
 
+impl BlackboxPeer {
+    /// A Model-P + gradient-boosting-residual hybrid (`sklearn_peer.py`'s `gb_hybrids`).
+    pub fn is_gb_hybrid(&self) -> bool {
+        self.model.contains("HistGradientBoosting residual")
+    }
+}
+
 /// Band coverage of Model-H over the coverage seeds of the `paper` preset.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Coverage {
