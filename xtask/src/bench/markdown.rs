@@ -8,6 +8,9 @@ use super::report::{
 use super::stats::{max_rel_diff, median};
 use super::COVERAGE_SEEDS;
 
+/// The per-seed coverage target: at least this many coverage seeds within 95 ± 2 %.
+const SEEDS_WITHIN_2: usize = 16;
+
 /// `writeln!` into a `String`, which cannot fail.
 macro_rules! out {
     ($s:expr) => {{
@@ -204,7 +207,7 @@ fn targets(s: &mut String, rep: &Report) {
         let cp = &acc.coverage_paper;
         let n = cp.per_seed.len();
         let w = cp.seeds_within_95_pm_2;
-        let ok = (0..3).all(|c| (100.0 * cp.mean_h[c] - 95.0).abs() <= 1.0 && w[c] >= 16);
+        let ok = (0..3).all(|c| (100.0 * cp.mean_h[c] - 95.0).abs() <= 1.0 && w[c] >= SEEDS_WITHIN_2);
         let reference = cp.ensemble_band.as_ref().filter(|e| e.channels.len() == 3).map_or(String::new(), |e| {
             format!(
                 "; the reference band on the lead time alone, set on all {n} hold-outs at once: {} / {} / {} of {n}",
@@ -215,7 +218,7 @@ fn targets(s: &mut String, rep: &Report) {
         });
         out!(
             s,
-            "| band coverage, seeds {}–{}: mean within 95 ± 1 % per channel, ≥ 16 of {n} seeds within 95 ± 2 % | mean {:.1} / {:.1} / {:.1} %; within ± 2 %: {} / {} / {} of {n}{} | {} | coverage runs (below) |",
+            "| band coverage, seeds {}–{}: mean within 95 ± 1 % per channel, ≥ {SEEDS_WITHIN_2} of {n} seeds within 95 ± 2 % | mean {:.1} / {:.1} / {:.1} %; within ± 2 %: {} / {} / {} of {n}{} | {} | coverage runs (below) |",
             COVERAGE_SEEDS[0],
             COVERAGE_SEEDS[COVERAGE_SEEDS.len() - 1],
             100.0 * cp.mean_h[0],
@@ -762,7 +765,7 @@ fn coverage(s: &mut String, acc: &Accuracy) {
     let w = &cp.seeds_within_95_pm_2;
     out!(
         s,
-        "| seeds within 95 ± 2 % | | | | | {} of {n} | {} of {n} | {} of {n} |{gap} target ≥ 16 of {n} |",
+        "| seeds within 95 ± 2 % | | | | | {} of {n} | {} of {n} | {} of {n} |{gap} target ≥ {SEEDS_WITHIN_2} of {n} |",
         w[0],
         w[1],
         w[2]
@@ -793,7 +796,7 @@ fn coverage(s: &mut String, acc: &Accuracy) {
          set to the 95 % quantile of |error| of Model-H over all {n} seeds' hold-outs at once (2-hour lead bins). \
          Its per-seed coverage is the spread that comes from the hold-out week itself (each seed is one drift path; \
          a seed whose error keeps one sign for the whole week falls outside any band of the right average width), \
-         not from the band a model estimates from its own calibration batch. Where it stays below 16 of {n}, \
+         not from the band a model estimates from its own calibration batch. Where it stays below {SEEDS_WITHIN_2} of {n}, \
          no band that depends on the lead time alone meets the per-seed target. \
          Per-sample errors and bands: `target/bench/holdout/paper-s<seed>.csv` (`bench-fit --holdout-errors`).\n"
     );
