@@ -110,6 +110,6 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
 
 /// Values stored as f32, printed at f32 precision: "0.1, 2.5, 1.6360161e-7".
 fn f32s(v: &[f64]) -> String {
-    let one = |x: f32| if x != 0.0 && (x.abs() < 1e-4 || x.abs() >= 1e7) { format!("{x:e}") } else { x.to_string() };
+    let one = |x: f32| if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e7) { format!("{x:e}") } else { x.to_string() };
     v.iter().map(|&x| one(x as f32)).collect::<Vec<_>>().join(", ")
 }

@@ -6,5 +6,6 @@
 pub mod metrics;
 pub mod parity;
 pub mod score;
+pub mod static_gain;
 pub mod studies;
 pub mod tables;

@@ -1,9 +1,15 @@
-//! The core with memory: ŷ_core = Bφ(g) + Γm, B and Γ fitted jointly (DESIGN §4).
+//! The core with memory: ŷ_core = Bφ(g) + Γm, with B the static calibration and Γ fitted on
+//! what it leaves (DESIGN §4, static fidelity).
 //!
 //! The memory terms m come from `fbg_shared::MemoryBank`, the code the device runs, moved over
-//! every accepted sample from the first. Γ is fitted with B by least squares with a ridge
-//! penalty λ on the memory terms only (on their standardised scale, so λ is unit free); B is
-//! not penalised.
+//! every accepted sample from the first. B is Model-P's polynomial core, fitted without memory
+//! terms; Γ is then fitted on Model-P's residual by least squares with a ridge penalty λ on the
+//! standardised terms (so λ is unit free). The order matters: fitted jointly with B, the
+//! level-free terms (a high-pass Δλ − EMA_τ with τ of hours passes most of a 12-hour cycle)
+//! stand in for part of the static gain — they reject slow drift by also rejecting the slow
+//! part of the measurand — and the model reads low at any pace but the calibration week's.
+//! Fitted on the residual, every memory term settles to 0 once the inputs are constant, and the
+//! reading is Model-P's static calibration there.
 //!
 //! Which terms each output may use is restricted by physics before cross-validation sees it
 //! (the menu below): only level-free terms (high-passes, stop terms, the drift observer) are
@@ -47,11 +53,18 @@ impl MemoryOptions {
         MemoryOptions { menu: MemorySpec::off(), groups: Vec::new(), lambdas: vec![0.0], min_train_fraction: 0.75 }
     }
 
-    /// The physics-restricted default menu: grating high-passes at τ = 5 min … 4 h (thermal
-    /// lag, the slow part of drift and hysteresis; the long ones carry pressure), ambient
-    /// high-passes at 5 min … 1 h (the thermometer's own lag), stop terms at r = 2, 4, 8 pm
-    /// (the play operator's hidden position), and the drift observer (thermometer lag 20 min,
-    /// smoothing 40 min) for temperature.
+    /// The physics-restricted default menu: ambient high-passes at 5 min … 1 h (the
+    /// thermometer's own lag), stop terms at r = 2, 4, 8 pm (the play operator's hidden
+    /// position), and the drift observer (thermometer lag 20 min, smoothing 40 min) for
+    /// temperature.
+    ///
+    /// Grating high-passes (τ = 5 min … 4 h) stay on the menu's list of operators but are not
+    /// offered: fitted on a calibration batch that runs at one pace, their coefficients cannot
+    /// tell a lag of the gratings from the measurand's own cycle, and cross-validation inside
+    /// that batch rewards using them as a band-pass tuned to the cycle (they reject slow drift
+    /// by rejecting the slow part of the measurand too). The model then reads wrong at any
+    /// other pace (DESIGN §4, static fidelity). [`MemoryOptions::with_grating_high_pass`]
+    /// offers them for studies.
     pub fn default_menu() -> Self {
         let min = 60.0;
         let menu = MemorySpec {
@@ -64,10 +77,20 @@ impl MemoryOptions {
         };
         MemoryOptions {
             menu,
-            groups: MemoryGroup::ALL.to_vec(),
+            groups: MemoryGroup::ALL.iter().copied().filter(|&g| g != MemoryGroup::GratingHighPass).collect(),
             lambdas: vec![1e-7, 1e-6, 1e-5, 1e-4, 1e-3],
             min_train_fraction: 0.75,
         }
+    }
+
+    /// The same menu with the grating high-passes offered too (what the default was before
+    /// static fidelity; for the pace studies).
+    pub fn with_grating_high_pass(&self) -> Self {
+        let mut groups = self.groups.clone();
+        if !groups.contains(&MemoryGroup::GratingHighPass) {
+            groups.insert(0, MemoryGroup::GratingHighPass);
+        }
+        MemoryOptions { groups, ..self.clone() }
     }
 
     /// Whether any memory term is on the menu.
@@ -200,27 +223,38 @@ pub fn memory_terms(spec: &MemorySpec<f64>, dims: &Dims, d: &Dataset, rows: &[us
     MemoryTerms { len, values }
 }
 
-/// Columns of output `o`'s joint system: the φ terms the core fits, then the memory terms of
-/// the groups in `groups` that `spec` computes.
-fn columns(core: &PolyCore, spec: &MemorySpec<f64>, o: usize, groups: &[MemoryGroup]) -> (Vec<usize>, Vec<usize>) {
-    let dims = &core.dims;
-    let poly: Vec<usize> = (0..dims.poly_len()).filter(|&k| k == 0 || core.poly.iter().any(|r| r[k] != 0.0)).collect();
-    let mem = (0..dims.memory_len())
+/// The memory terms output `o` may use from the groups in `groups` that `spec` computes.
+fn columns(dims: &Dims, spec: &MemorySpec<f64>, o: usize, groups: &[MemoryGroup]) -> Vec<usize> {
+    (0..dims.memory_len())
         .filter(|&k| {
             spec.term(dims, k)
                 .is_some_and(|t| t.parameter > 0.0 && groups.contains(&t.group) && offered(dims, o, t.group))
         })
-        .collect();
-    (poly, mem)
+        .collect()
 }
 
-/// Refit B and Γ jointly on `rows` for `choice`: the returned core has the memory spec of the
-/// choice and every output's B row and Γ row from one penalised least squares. Outputs without
-/// reference keep zeros.
+/// The core's value B·φ of output `o` at sample `i` (its memory terms left out).
+fn static_value(core: &PolyCore, ph: &[f64; MAX_POLY], o: usize) -> f64 {
+    core.poly[o].iter().zip(ph).map(|(b, f)| b * f).sum()
+}
+
+/// What the static calibration `core` leaves of output `o` at sample `i`: y − Bφ (0 where the
+/// reference is missing).
+fn static_residual(d: &Dataset, core: &PolyCore, ph: &[f64; MAX_POLY], o: usize, i: usize) -> f64 {
+    match d.target(o).as_slice().get(i) {
+        Some(&y) if y.is_finite() => y - static_value(core, ph, o),
+        _ => 0.0,
+    }
+}
+
+/// Fit Γ for `choice` on `rows`, on what the static calibration `core` (B, no memory terms)
+/// leaves: the returned core has `core`'s B unchanged, the memory spec of the choice and every
+/// output's Γ row from a ridge least squares on its residual. Outputs without reference keep
+/// zeros.
 ///
-/// One tall-skinny QR of [φ | m | y_T y_ε y_p] over the union of every output's columns serves
-/// all outputs: for output o with columns S, ‖y − X_S β‖² = ‖(Qᵀy)_o − R_S β‖² + const, so its
-/// problem is the small one [R_S; penalty rows] β ≈ [(Qᵀy)_o; 0], solved by QR and SVD.
+/// One tall-skinny QR of [m | r_1 … r_M] over the union of every output's memory columns serves
+/// all outputs: for output o with columns S, ‖r_o − m_S γ‖² = ‖(Qᵀr)_o − R_S γ‖² + const, so its
+/// problem is the small one [R_S; penalty rows] γ ≈ [(Qᵀr)_o; 0], solved by QR and SVD.
 pub fn fit(
     d: &Dataset,
     rows: &[usize],
@@ -229,6 +263,7 @@ pub fn fit(
     choice: &MemoryChoice,
 ) -> Result<PolyCore, TrainerError> {
     let mut out = core.clone();
+    out.gamma = [[0.0; MAX_MEMORY]; MAX_OUTPUTS];
     if !choice.any() {
         return Ok(out);
     }
@@ -237,31 +272,26 @@ pub fn fit(
     let n_out = dims.n_outputs();
     let m = memory_terms(&spec, &dims, d, rows);
     let n = rows.len();
-    // Per output: its φ and memory columns (indices into φ and m).
-    let cols: Vec<(Vec<usize>, Vec<usize>)> = (0..n_out)
+    // Per output: its memory columns (indices into m).
+    let cols: Vec<Vec<usize>> = (0..n_out)
         .map(|o| {
             let groups: Vec<MemoryGroup> = MemoryGroup::ALL.iter().copied().filter(|&g| choice.uses(o, g)).collect();
-            columns(core, &spec, o, &groups)
+            columns(&dims, &spec, o, &groups)
         })
         .collect();
-    let poly_u: Vec<usize> = (0..dims.poly_len()).filter(|k| cols.iter().any(|(pc, _)| pc.contains(k))).collect();
-    let mem_u: Vec<usize> = (0..dims.memory_len()).filter(|k| cols.iter().any(|(_, mc)| mc.contains(k))).collect();
-    let p = poly_u.len() + mem_u.len();
-    if n < p {
-        return Err(TrainerError::fit(format!("Model-H core with memory terms: {n} samples for {p} unknowns")));
+    let mem_u: Vec<usize> = (0..dims.memory_len()).filter(|k| cols.iter().any(|mc| mc.contains(k))).collect();
+    let p = mem_u.len();
+    if n < p + 1 {
+        return Err(TrainerError::fit(format!("Model-H memory terms: {n} samples for {p} unknowns")));
     }
-    let targets: Vec<&[f64]> = (0..n_out).map(|o| d.target(o).as_slice()).collect();
     let r_aug = super::linalg::triangular_rows(n, p + n_out, |r, buf| {
         let i = rows[r];
         let ph = core.phi_at(d, i);
-        for (c, &k) in poly_u.iter().enumerate() {
-            buf[c] = ph[k];
-        }
         for (c, &k) in mem_u.iter().enumerate() {
-            buf[poly_u.len() + c] = m.row(r)[k];
+            buf[c] = m.row(r)[k];
         }
-        for (o, t) in targets.iter().enumerate() {
-            buf[p + o] = t.get(i).copied().unwrap_or(0.0);
+        for o in 0..n_out {
+            buf[p + o] = static_residual(d, core, &ph, o, i);
         }
     });
     // Standard deviation of each memory column over the rows: the ridge acts on the
@@ -295,36 +325,26 @@ pub fn fit(
         })
         .collect();
     let q = r_aug.nrows();
-    for o in 0..n_out {
-        let (pc, mc) = &cols[o];
+    for (o, mc) in cols.iter().enumerate() {
         if mc.is_empty() {
             continue;
         }
         // Positions of this output's columns in the union.
-        let at: Vec<usize> = pc
-            .iter()
-            .map(|k| poly_u.iter().position(|x| x == k).unwrap_or(0))
-            .chain(mc.iter().map(|k| poly_u.len() + mem_u.iter().position(|x| x == k).unwrap_or(0)))
-            .collect();
+        let at: Vec<usize> = mc.iter().map(|k| mem_u.iter().position(|x| x == k).unwrap_or(0)).collect();
         let pen = (choice.lambda[o] * n as f64).sqrt();
-        let ps = at.len();
-        let x = DMatrix::from_fn(q + mc.len(), ps, |r, c| {
+        let x = DMatrix::from_fn(q + mc.len(), mc.len(), |r, c| {
             if r < q {
                 r_aug[(r, at[c])]
-            } else if c == pc.len() + (r - q) {
-                pen * sd[at[c] - poly_u.len()]
+            } else if c == r - q {
+                pen * sd[at[c]]
             } else {
                 0.0
             }
         });
         let y = DMatrix::from_fn(q + mc.len(), 1, |r, _| if r < q { r_aug[(r, p + o)] } else { 0.0 });
-        let beta = super::linalg::lstsq(x, y, "Model-H core with memory terms")?;
-        out.poly[o] = [0.0; MAX_POLY];
-        for (c, &k) in pc.iter().enumerate() {
-            out.poly[o][k] = beta[(c, 0)];
-        }
+        let gamma = super::linalg::lstsq(x, y, "Model-H memory terms")?;
         for (c, &k) in mc.iter().enumerate() {
-            out.gamma[o][k] = beta[(pc.len() + c, 0)];
+            out.gamma[o][k] = gamma[(c, 0)];
         }
     }
     out.memory = spec;
@@ -335,9 +355,12 @@ pub fn fit(
 const GRAM_BLOCK: usize = 512;
 
 /// Sufficient statistics of one part of a fold (its training or its validation rows) over the
-/// full-menu design X = [φ | m]: XᵀX, and per output Xᵀy and yᵀy.
+/// full-menu memory terms X = m and the static calibration's residual r = y − Bφ: XᵀX, and per
+/// output Xᵀr and rᵀr.
 struct Gram {
     xtx: DMatrix<f64>,
+    /// Σ x per column (for the columns' variances).
+    sum: DVector<f64>,
     xty: Vec<DVector<f64>>,
     yty: Vec<f64>,
     n: usize,
@@ -346,8 +369,6 @@ struct Gram {
 /// One fold's [`Gram`]s and the full-menu spec its memory terms come from.
 struct FoldStats {
     spec: MemorySpec<f64>,
-    /// φ terms at the start of the full design (the memory terms follow).
-    n_poly: usize,
     train: Gram,
     val: Gram,
 }
@@ -369,12 +390,12 @@ pub struct MemoryCvRow {
     pub cv_rmse: f64,
 }
 
-/// The layout of the full-menu design: φ ([`Dims::poly_len`]) then every memory slot
-/// ([`Dims::memory_len`]).
+/// The layout of the full-menu design: every memory slot ([`Dims::memory_len`]); the targets
+/// are the residuals of the fold's static calibration.
 fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats {
     let dims = f.core.dims;
-    let (np, n_out) = (dims.poly_len(), dims.n_outputs());
-    let p_all = np + dims.memory_len();
+    let n_out = dims.n_outputs();
+    let p_all = dims.memory_len();
     let spec = menu_spec(opts, f.core);
     let mut rows: Vec<usize> = f.train.iter().chain(f.val.iter()).copied().collect();
     rows.sort_unstable();
@@ -387,17 +408,18 @@ fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats
         let mut xtx = DMatrix::<f64>::zeros(p_all, p_all);
         let mut xty = DMatrix::<f64>::zeros(p_all, n_out);
         let mut yty = vec![0.0; n_out];
+        let mut sum = DVector::<f64>::zeros(p_all);
         for block in set.chunks(GRAM_BLOCK) {
             let mut x = DMatrix::<f64>::zeros(p_all, block.len());
             let mut y = DMatrix::<f64>::zeros(n_out, block.len());
             for (r, &i) in block.iter().enumerate() {
                 let mut col = x.column_mut(r);
-                let ph = f.core.phi_at(d, i);
-                for (o, &v) in col.iter_mut().zip(ph[..np].iter().chain(m.row(pos(i)))) {
+                for (o, &v) in col.iter_mut().zip(m.row(pos(i))) {
                     *o = v;
                 }
+                let ph = f.core.phi_at(d, i);
                 for o in 0..n_out {
-                    let v = d.target(o)[i];
+                    let v = static_residual(d, f.core, &ph, o, i);
                     y[(o, r)] = v;
                     yty[o] += v * v;
                 }
@@ -405,20 +427,24 @@ fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats
             // x holds Xᵀ (one row per column), so XᵀX = x·xᵀ and Xᵀy = x·yᵀ.
             xtx.gemm(1.0, &x, &x.transpose(), 1.0);
             xty.gemm(1.0, &x, &y.transpose(), 1.0);
+            sum += x.column_sum();
         }
         let xty = (0..n_out).map(|o| xty.column(o).into_owned()).collect();
-        Gram { xtx, xty, yty, n: set.len() }
+        Gram { xtx, sum, xty, yty, n: set.len() }
     };
-    FoldStats { train: gram(f.train), val: gram(f.val), spec, n_poly: np }
+    FoldStats { train: gram(f.train), val: gram(f.val), spec }
 }
 
-/// Validation SSE of output `o` with columns `cols` (indices into the full design) and
-/// penalty `lambda` on the memory columns.
+/// Validation SSE of output `o` with memory columns `cols` (indices into the full menu) and
+/// penalty `lambda` on them.
 fn val_sse(st: &FoldStats, o: usize, cols: &[usize], lambda: f64) -> Option<f64> {
     let (a, b) = (&st.train.xtx, &st.train.xty[o]);
     let (av, bv, yy) = (&st.val.xtx, &st.val.xty[o], st.val.yty[o]);
     let n = st.train.n as f64;
     let p = cols.len();
+    if p == 0 {
+        return Some(yy);
+    }
     let mut h = DMatrix::<f64>::zeros(p, p);
     let mut g = DVector::<f64>::zeros(p);
     for (r, &i) in cols.iter().enumerate() {
@@ -426,12 +452,10 @@ fn val_sse(st: &FoldStats, o: usize, cols: &[usize], lambda: f64) -> Option<f64>
             h[(r, c)] = a[(i, j)];
         }
         g[r] = b[i];
-        if i >= st.n_poly {
-            // Penalty on the standardised term: λ·n·var(column).
-            let mean = a[(0, i)] / n;
-            let var = (a[(i, i)] / n - mean * mean).max(0.0);
-            h[(r, r)] += lambda * n * if var > 0.0 { var } else { 1.0 };
-        }
+        // Penalty on the standardised term: λ·n·var(column).
+        let mean = st.train.sum[i] / n;
+        let var = (a[(i, i)] / n - mean * mean).max(0.0);
+        h[(r, r)] += lambda * n * if var > 0.0 { var } else { 1.0 };
     }
     // A tiny relative jitter keeps an exactly collinear menu solvable; it is far below λ.
     let jitter = 1e-12 * (0..p).map(|r| h[(r, r)]).fold(0.0, f64::max);
@@ -476,14 +500,8 @@ pub fn select(
                 mine.iter().enumerate().filter(|(b, _)| mask & (1 << b) != 0).map(|(_, &g)| g).collect();
             let group_mask = groups.iter().fold(0u8, |a, &g| a | bit(g));
             // Each fold's columns (indices into its full design) for these groups.
-            let fold_cols: Vec<Vec<usize>> = stats
-                .iter()
-                .zip(folds)
-                .map(|(st, f)| {
-                    let (pc, mc) = columns(f.core, &st.spec, o, &groups);
-                    pc.into_iter().chain(mc.into_iter().map(|k| st.n_poly + k)).collect()
-                })
-                .collect();
+            let fold_cols: Vec<Vec<usize>> =
+                stats.iter().zip(folds).map(|(st, _)| columns(&dims, &st.spec, o, &groups)).collect();
             let lambdas: &[f64] = if groups.is_empty() { &[0.0] } else { &opts.lambdas };
             for &lambda in lambdas {
                 let sse: f64 = stats

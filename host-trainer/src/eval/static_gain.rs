@@ -1,0 +1,148 @@
+//! Static fidelity (DESIGN §4): the slope of a model's settled reading against the truth.
+//!
+//! Once every input has been constant long enough, the model's high-pass memory terms
+//! (Δλ − EMA_τ, T_amb − EMA_τ) are 0; what remains — the polynomial core, the stop terms (the
+//! branch of a hysteresis loop, which a constant input keeps), the drift observer and the RBF
+//! residual — is the model's static response. Its gain against the truth must be 1: a model
+//! whose memory terms carry part of the measurand reads wrong at any pace but its calibration
+//! week's.
+//!
+//! Two measures: [`static_gain`], from any record with references (the calibration batch, for
+//! the audit: the settled model run over it, its reading regressed on the truth), and
+//! [`settled_slope`], from a steps record (the mean reading over the settled part of each hold
+//! against the held level).
+
+use fbg_shared::MemoryGroup;
+
+use crate::data::Dataset;
+use crate::error::TrainerError;
+use crate::fit::{run, HostParams};
+
+/// Per output, the line `reading = offset + gain·truth` fitted by least squares.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct StaticGain {
+    /// Slope of the reading against the truth, per output (NaN without a reference).
+    pub gain: Vec<f64>,
+    /// Intercept, per output, in the output's unit.
+    pub offset: Vec<f64>,
+    /// Rows the line was fitted on, per output.
+    pub rows: Vec<usize>,
+}
+
+impl StaticGain {
+    /// The largest relative difference |g_a/g_b − 1| between two models' gains over the outputs
+    /// both have (0 when none).
+    pub fn max_relative_difference(&self, other: &StaticGain) -> f64 {
+        self.gain
+            .iter()
+            .zip(&other.gain)
+            .filter(|(a, b)| a.is_finite() && b.is_finite() && **b != 0.0)
+            .map(|(a, b)| (a / b - 1.0).abs())
+            .fold(0.0, f64::max)
+    }
+}
+
+/// `p` with every high-pass memory term (grating and ambient) switched off: the reading it
+/// gives once the inputs have settled.
+pub fn settled_model(p: &HostParams) -> HostParams {
+    let mut s = p.clone();
+    for k in 0..p.dims.memory_len() {
+        let settles = p
+            .memory
+            .term(&p.dims, k)
+            .is_some_and(|t| matches!(t.group, MemoryGroup::GratingHighPass | MemoryGroup::AmbientHighPass));
+        if settles {
+            for row in s.gamma.iter_mut() {
+                row[k] = 0.0;
+            }
+        }
+    }
+    s
+}
+
+/// Least-squares line of `reading` on `truth` over the pairs where both are finite.
+fn line(truth: impl Iterator<Item = (f64, f64)>) -> (f64, f64, usize) {
+    let pts: Vec<(f64, f64)> = truth.filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
+    let n = pts.len();
+    if n < 2 {
+        return (f64::NAN, f64::NAN, n);
+    }
+    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n as f64;
+    let my = pts.iter().map(|p| p.1).sum::<f64>() / n as f64;
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    if sxx <= 0.0 {
+        return (f64::NAN, f64::NAN, n);
+    }
+    let g = sxy / sxx;
+    (g, my - g * mx, n)
+}
+
+/// The static gain of `p` over `rows` of `d` (sorted): its settled model ([`settled_model`])
+/// run over the record, each output's reading regressed on its reference.
+pub fn static_gain(p: &HostParams, d: &Dataset, rows: &[usize]) -> Result<StaticGain, TrainerError> {
+    let settled = settled_model(p);
+    let est = run(&settled, d, rows)?;
+    let refs = d.references_of(&p.dims);
+    let mut out = StaticGain { gain: Vec::new(), offset: Vec::new(), rows: Vec::new() };
+    for (c, r) in refs.iter().enumerate().take(p.dims.n_outputs()) {
+        let (g, a, n) = if r.is_present() {
+            line(rows.iter().zip(&est).map(|(&i, e)| (r[i], e.values[c])))
+        } else {
+            (f64::NAN, f64::NAN, 0)
+        };
+        out.gain.push(g);
+        out.offset.push(a);
+        out.rows.push(n);
+    }
+    Ok(out)
+}
+
+/// One hold of a steps record: output `output` held at `level` (its unit) over `rows`, the
+/// settled part of the hold.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeldLevel {
+    pub output: usize,
+    pub level: f64,
+    pub rows: std::ops::Range<usize>,
+}
+
+/// The settled slope of `p` on a steps record: per output, the mean reading over each of its
+/// holds regressed on the held level (NaN for an output with fewer than two holds). The model
+/// runs over every row from the first, as a device would.
+pub fn settled_slope(p: &HostParams, d: &Dataset, holds: &[HeldLevel]) -> Result<StaticGain, TrainerError> {
+    let all: Vec<usize> = (0..d.len()).collect();
+    let est = run(p, d, &all)?;
+    let mut out = StaticGain { gain: Vec::new(), offset: Vec::new(), rows: Vec::new() };
+    for c in 0..p.dims.n_outputs() {
+        let means = holds.iter().filter(|h| h.output == c && !h.rows.is_empty()).map(|h| {
+            let v: Vec<f64> = h.rows.clone().map(|i| est[i].values[c]).filter(|v| v.is_finite()).collect();
+            (h.level, if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 })
+        });
+        let (g, a, n) = line(means);
+        out.gain.push(g);
+        out.offset.push(a);
+        out.rows.push(n);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_recovers_slope_and_offset() {
+        let (g, a, n) = line([(1.0, 3.0), (2.0, 5.0), (3.0, 7.0), (f64::NAN, 1.0)].into_iter());
+        assert_eq!(n, 3);
+        assert!((g - 2.0).abs() < 1e-12 && (a - 1.0).abs() < 1e-12);
+        assert!(line([(1.0, 1.0)].into_iter()).0.is_nan());
+    }
+
+    #[test]
+    fn relative_difference_skips_missing_outputs() {
+        let a = StaticGain { gain: vec![1.0, 0.5, f64::NAN], offset: vec![0.0; 3], rows: vec![1; 3] };
+        let b = StaticGain { gain: vec![1.0, 1.0, 1.0], offset: vec![0.0; 3], rows: vec![1; 3] };
+        assert!((a.max_relative_difference(&b) - 0.5).abs() < 1e-12);
+    }
+}
