@@ -11,6 +11,7 @@ use crate::data::files::write_bytes_atomically;
 use crate::data::measurand::{input_columns, poly_term_names, stage1_columns};
 use crate::data::Dataset;
 use crate::error::TrainerError;
+use crate::fit::static_fidelity::StaticAudit;
 use crate::fit::{HostParams, PolyCore, Selection, HOST_CAP};
 
 /// Encode a host model as a blob (f32).
@@ -225,8 +226,9 @@ pub fn write_coefficients(
     model_h: &HostParams,
     core: &PolyCore,
     selection: Option<&Selection>,
+    audit: Option<&StaticAudit>,
 ) -> Result<(), TrainerError> {
-    write_coefficients_signed(path, model_p, model_h, core, selection, None)
+    write_coefficients_signed(path, model_p, model_h, core, selection, audit, None)
 }
 
 /// [`write_coefficients`] with the signatures of the blobs written (`signatures`: key id,
@@ -238,6 +240,7 @@ pub fn write_coefficients_signed(
     model_h: &HostParams,
     core: &PolyCore,
     selection: Option<&Selection>,
+    audit: Option<&StaticAudit>,
     signatures: Option<serde_json::Value>,
 ) -> Result<(), TrainerError> {
     let mut v = serde_json::json!({
@@ -252,12 +255,35 @@ pub fn write_coefficients_signed(
             })).collect::<Vec<_>>(),
             "memory_cv": s.memory_rows,
         })),
+        "static_fidelity": audit.map(|a| static_fidelity_json(model_h, a)),
     });
     if let (Some(sig), Some(obj)) = (signatures, v.as_object_mut()) {
         obj.insert("signatures".into(), sig);
     }
     let text = serde_json::to_string_pretty(&v).map_err(|e| TrainerError::fit(e.to_string()))?;
     write_bytes_atomically(path, text.as_bytes())
+}
+
+/// The static-fidelity audit (DESIGN §4) as written in `coefficients.json`: per output both
+/// models' static gains (settled reading against the truth over the calibration batch) and the
+/// RMS of what each dynamic part of Model-H adds.
+pub fn static_fidelity_json(model_h: &HostParams, a: &StaticAudit) -> serde_json::Value {
+    let mut parts = serde_json::Map::new();
+    for (g, v) in &a.contributions.memory {
+        parts.insert((*g).to_string(), serde_json::json!(v));
+    }
+    parts.insert("rbf".into(), serde_json::json!(a.contributions.rbf));
+    serde_json::json!({
+        "what": "per output, the slope of each model's settled reading (high-pass memory terms at 0) against the truth over the calibration batch; 1 is right",
+        "outputs": output_keys(model_h),
+        "model_p_gain": a.model_p.gain,
+        "model_h_gain": a.model_h.gain,
+        "model_p_offset": a.model_p.offset,
+        "model_h_offset": a.model_h.offset,
+        "tolerance": crate::fit::static_fidelity::STATIC_GAIN_TOLERANCE,
+        "disagreements": a.disagreements().iter().map(|&(c, h, p)| serde_json::json!({"output": c, "model_h": h, "model_p": p})).collect::<Vec<_>>(),
+        "contributions_rms": parts,
+    })
 }
 
 /// The units of a model's outputs and inputs, by short channel name.

@@ -4,7 +4,7 @@
 use fbg_shared::FeatureSet;
 use fbg_trainer::data::{Measurand, Split};
 use fbg_trainer::eval::score::evaluate_holdout;
-use fbg_trainer::eval::static_gain::static_gain;
+use fbg_trainer::fit::static_fidelity::static_gain;
 use fbg_trainer::fit::{train, Config, HostParams, Origin, TrainOptions};
 use fbg_trainer::sim::scenario::Preset;
 use fbg_trainer::sim::simulate;
@@ -242,4 +242,25 @@ fn stretches_resumed_from_checkpoints_answer_as_one_sequential_pass() {
             assert_eq!(g.n, usable.len());
         });
     }
+}
+
+/// The audit `train` warns from: a Model-H whose core gain was cut (as a joint fit of B with
+/// level-free memory terms does at the calibration's pace) disagrees with Model-P on exactly
+/// that output, by the cut.
+#[test]
+fn static_audit_names_an_output_whose_core_gain_was_cut() {
+    let s = simulate(&short_paper(3.0), 5);
+    let t = train(&s.data, &small_grid(), &Origin::default()).unwrap();
+    let cal = s.data.cal_indices();
+    assert!(t.static_audit.disagreements().is_empty(), "{:?}", t.static_audit);
+    let mut cut = t.model_h.clone();
+    // Output 2 (p): every non-constant term of B at 60 %.
+    for v in cut.poly[2].iter_mut().skip(1) {
+        *v *= 0.6;
+    }
+    let a = fbg_trainer::fit::static_fidelity::StaticAudit::of(&t.model_p, &cut, &s.data, &cal).unwrap();
+    let d = a.disagreements();
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert_eq!(d[0].0, 2);
+    assert!((d[0].1 / d[0].2 - 0.6).abs() < 0.05, "{d:?}");
 }

@@ -52,6 +52,7 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
         &tr.model_h,
         &tr.core,
         Some(&tr.selection),
+        Some(&tr.static_audit),
     )?;
     write_metrics(&export::metrics_path(&model), &m)?;
     let hold = s.data.holdout_indices();

@@ -402,6 +402,7 @@ fn run() -> Result<()> {
                 &tr.model_h,
                 &tr.core,
                 Some(&tr.selection),
+                Some(&tr.static_audit),
                 signatures.clone(),
             )?;
             let s = &tr.selection;
@@ -413,6 +414,7 @@ fn run() -> Result<()> {
                         "model_h_bytes": nh, "model_p_bytes": np, "train_seconds": secs,
                         "chosen": s.chosen, "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h,
                         "grid_points": s.rows.len(), "signatures": signatures,
+                        "static_fidelity": export::static_fidelity_json(&tr.model_h, &tr.static_audit),
                     }))?
                 );
             } else {
@@ -447,6 +449,23 @@ fn run() -> Result<()> {
                         "warning: in cross-validation Model-H is worse than Model-P on {}; check the hold-out with `evaluate` and consider Model-P for {}",
                         worse.join(", "),
                         if worse.len() == 1 { "that channel" } else { "those channels" }
+                    );
+                }
+                let a = &tr.static_audit;
+                let gains = |g: &[f64]| -> String {
+                    outs.iter().zip(g).map(|(m, v)| format!("{} {v:.4}", m.short_name())).collect::<Vec<_>>().join(", ")
+                };
+                eprintln!(
+                    "static gain (settled reading against the truth, calibration batch; 1 is right): Model-P {}; Model-H {}",
+                    gains(&a.model_p.gain),
+                    gains(&a.model_h.gain)
+                );
+                for (c, h, p) in a.disagreements() {
+                    eprintln!(
+                        "warning: Model-H's static gain on {} is {h:.4}, Model-P's {p:.4} ({:+.1} %, more than {} %): its memory terms or residual carry part of the measurand, so it will read wrong at a pace other than the calibration's; use Model-P for that channel or recalibrate on a record with holds",
+                        channels[c].as_str(),
+                        100.0 * (h / p - 1.0),
+                        100.0 * fbg_trainer::fit::static_fidelity::STATIC_GAIN_TOLERANCE
                     );
                 }
                 let dims = &tr.model_h.dims;

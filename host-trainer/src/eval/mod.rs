@@ -6,6 +6,5 @@
 pub mod metrics;
 pub mod parity;
 pub mod score;
-pub mod static_gain;
 pub mod studies;
 pub mod tables;

@@ -460,6 +460,10 @@ pub fn evaluate_models(
                 cv_stride: 1,
             },
             phase_seconds: vec![],
+            static_audit: {
+                let cal: Vec<usize> = d.cal_indices().into_iter().filter(|&i| d.usable(i)).collect();
+                fit::static_fidelity::StaticAudit::of(p, h, d, &cal)?
+            },
         };
         bar.set_message("ablation");
         let r = bar.suspend(|| ablation(d, &trained, &opts, &origin))?;

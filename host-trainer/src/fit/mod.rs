@@ -15,6 +15,7 @@ pub mod memory_core;
 pub mod poly_core;
 pub mod recalibrate;
 pub mod select;
+pub mod static_fidelity;
 
 use heapless::Vec as HVec;
 use nalgebra::DMatrix;
@@ -459,6 +460,9 @@ pub struct Trained {
     pub selection: Selection,
     /// Wall time of each phase of the fit \[s\], in order (empty when not fitted here).
     pub phase_seconds: Vec<(&'static str, f64)>,
+    /// Both models' static gains and what Model-H's dynamic terms contribute, over the
+    /// calibration batch.
+    pub static_audit: static_fidelity::StaticAudit,
 }
 
 /// Fit Model-P and Model-H on the calibration samples of `d`.
@@ -558,15 +562,18 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
 
     let sk_p = Skeleton { core: core_p.clone(), centres: vec![], ..sk };
     let model_p = sk_p.params_with_band(None, 0.0, None, &selection.var_model_p, t_end, 0.0, &provenance)?;
-    phases.lap("assembly");
-    Ok(Trained { model_p, model_h, core: core_p, selection, phase_seconds: phases.laps })
+    let static_audit = static_fidelity::StaticAudit::of(&model_p, &model_h, d, &cal)?;
+    phases.lap("assembly and static audit");
+    Ok(Trained { model_p, model_h, core: core_p, selection, phase_seconds: phases.laps, static_audit })
 }
 
 /// Model-H's static gain made right (see [`classical`]): its memory terms and RBF residual are
 /// fitted by least squares on what the (corrected) core leaves, and dilute the gain again a
-/// little like any inverse fit; the correction is folded into B, Γ and W alike.
+/// little like any inverse fit. The gain is measured on the settled reading (high-passes at 0,
+/// [`static_fidelity::settled_model`]), the one static fidelity is about; the correction is
+/// folded into B, Γ and W alike.
 fn correct_gain(p: &mut HostParams, d: &Dataset, rows: &[usize]) -> Result<(), TrainerError> {
-    let est = run(p, d, rows)?;
+    let est = run(&static_fidelity::settled_model(p), d, rows)?;
     let readings: Vec<[f64; MAX_OUTPUTS]> = est.iter().map(|e| e.values).collect();
     if let Some(g) = classical::GainCorrection::fit(d, &p.dims, rows, &readings)? {
         g.apply(&mut p.poly);

@@ -41,8 +41,10 @@ pub enum CoreUpdate {
     Offset,
     /// Offset and gain.
     OffsetGain,
-    /// B and Γ refitted jointly, shrunk towards the old ones (memory models only).
-    CoreAndMemory,
+    /// Γ refitted on what the core leaves, shrunk towards the old one (memory models only; B,
+    /// the static calibration, is kept: a short batch moves the static response only through
+    /// the offset and gain refits).
+    Memory,
 }
 
 /// Refit offset/gain of the core and W of `old` on the batch rows `batch` of `d`.
@@ -81,7 +83,7 @@ pub fn recalibrate(
         }
         let mut best = (mse(old, val_part, c)?, CoreUpdate::Keep);
         let cands: &[CoreUpdate] = if old.has_memory() {
-            &[CoreUpdate::Offset, CoreUpdate::OffsetGain, CoreUpdate::CoreAndMemory]
+            &[CoreUpdate::Offset, CoreUpdate::OffsetGain, CoreUpdate::Memory]
         } else {
             &[CoreUpdate::Offset, CoreUpdate::OffsetGain]
         };
@@ -148,8 +150,8 @@ fn apply_core(
     if how == CoreUpdate::Keep {
         return Ok((0.0, 1.0));
     }
-    if how == CoreUpdate::CoreAndMemory {
-        refit_core_and_memory(p, d, rows, c)?;
+    if how == CoreUpdate::Memory {
+        refit_memory(p, d, rows, c)?;
         return Ok((0.0, 1.0));
     }
     let mut core = p.clone();
@@ -180,28 +182,27 @@ fn apply_core(
     Ok((a, b))
 }
 
-/// Refit output `c`'s B row and Γ row jointly on `rows`, shrunk towards the old ones: Δ solves
-/// (XᵀX + κ·diag(XᵀX))Δ = Xᵀ(y − ŷ) over X = [φ | the memory terms the output uses], with κ
-/// making the old calibration count as its own sample count of the batch's design (so a day's
-/// batch moves a week's calibration by about a seventh of what it alone would say).
-fn refit_core_and_memory(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize) -> Result<(), TrainerError> {
-    let core = fit::PolyCore::of(p);
+/// Refit output `c`'s Γ row on `rows`, shrunk towards the old one: Δ solves
+/// (XᵀX + κ·diag(XᵀX))Δ = Xᵀ(y − ŷ) over X = the memory terms the output uses, with κ making
+/// the old calibration count as its own sample count of the batch's design (so a day's batch
+/// moves a week's calibration by about a seventh of what it alone would say). B is not touched:
+/// refitted jointly with the memory terms on a batch at one pace, it would trade static gain
+/// for them (DESIGN §4, static fidelity).
+fn refit_memory(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize) -> Result<(), TrainerError> {
     let m = fit::memory_core::memory_terms(&p.memory, &p.dims, d, rows);
     let full = run(p, d, rows)?;
     let truth = d.reference_of(&p.dims, c);
-    let pc: Vec<usize> = (0..p.dims.poly_len()).filter(|&k| k == 0 || p.poly[c][k] != 0.0).collect();
     let mc: Vec<usize> = (0..p.dims.memory_len()).filter(|&k| p.gamma[c][k] != 0.0).collect();
-    let q = pc.len() + mc.len();
+    let q = mc.len();
+    if q == 0 {
+        return Ok(());
+    }
     let mut xtx = DMatrix::<f64>::zeros(q, q);
     let mut xtr = DMatrix::<f64>::zeros(q, 1);
     let mut x = vec![0.0; q];
     for (r, (&i, e)) in rows.iter().zip(&full).enumerate() {
-        let ph = core.phi_at(d, i);
-        for (j, &k) in pc.iter().enumerate() {
-            x[j] = ph[k];
-        }
         for (j, &k) in mc.iter().enumerate() {
-            x[pc.len() + j] = m.row(r)[k];
+            x[j] = m.row(r)[k];
         }
         let res = truth[i] - e.values[c];
         for a in 0..q {
@@ -217,15 +218,10 @@ fn refit_core_and_memory(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usi
     for a in 0..q {
         h[(a, a)] += kappa * xtx[(a, a)].max(f64::MIN_POSITIVE);
     }
-    let delta = h
-        .cholesky()
-        .ok_or_else(|| TrainerError::fit("recalibration: the core-and-memory system is singular"))?
-        .solve(&xtr);
-    for (j, &k) in pc.iter().enumerate() {
-        p.poly[c][k] += delta[(j, 0)];
-    }
+    let delta =
+        h.cholesky().ok_or_else(|| TrainerError::fit("recalibration: the memory-term system is singular"))?.solve(&xtr);
     for (j, &k) in mc.iter().enumerate() {
-        p.gamma[c][k] += delta[(pc.len() + j, 0)];
+        p.gamma[c][k] += delta[(j, 0)];
     }
     Ok(())
 }
@@ -282,7 +278,7 @@ impl CoreUpdate {
             CoreUpdate::Keep => "core kept",
             CoreUpdate::Offset => "core offset refitted",
             CoreUpdate::OffsetGain => "core offset and gain refitted",
-            CoreUpdate::CoreAndMemory => "core and memory terms refitted",
+            CoreUpdate::Memory => "memory terms refitted (static calibration kept)",
         }
     }
 }

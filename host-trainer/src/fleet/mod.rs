@@ -410,6 +410,7 @@ fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<S
         &tr.model_h,
         &tr.core,
         Some(&tr.selection),
+        Some(&tr.static_audit),
         signatures,
     )?;
     write_bytes_atomically(&g.out, &blob)?;

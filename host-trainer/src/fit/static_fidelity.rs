@@ -14,9 +14,9 @@
 
 use fbg_shared::MemoryGroup;
 
+use super::{run, HostParams};
 use crate::data::Dataset;
 use crate::error::TrainerError;
-use crate::fit::{run, HostParams};
 
 /// Per output, the line `reading = offset + gain·truth` fitted by least squares.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -96,6 +96,94 @@ pub fn static_gain(p: &HostParams, d: &Dataset, rows: &[usize]) -> Result<Static
         out.rows.push(n);
     }
     Ok(out)
+}
+
+/// RMS over the calibration rows of what each part of Model-H adds to its reading, per output:
+/// the memory terms by group and the RBF residual (the audit's "what the dynamic terms
+/// contribute").
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Contributions {
+    /// Per memory group used (by [`MemoryGroup::name`]), per output RMS in the output's unit.
+    pub memory: Vec<(&'static str, Vec<f64>)>,
+    /// The RBF residual's RMS per output.
+    pub rbf: Vec<f64>,
+}
+
+/// The RMS of `full − without` per output over the estimates.
+fn rms_diff(full: &[fbg_shared::Estimate<f64>], without: &[fbg_shared::Estimate<f64>], m: usize) -> Vec<f64> {
+    let n = full.len().max(1) as f64;
+    (0..m)
+        .map(|c| (full.iter().zip(without).map(|(a, b)| (a.values[c] - b.values[c]).powi(2)).sum::<f64>() / n).sqrt())
+        .collect()
+}
+
+/// What each part of `p` contributes over `rows` of `d` (each part is additive: the model
+/// without it, subtracted from the model).
+pub fn contributions(p: &HostParams, d: &Dataset, rows: &[usize]) -> Result<Contributions, TrainerError> {
+    let m = p.dims.n_outputs();
+    let full = run(p, d, rows)?;
+    let mut memory = Vec::new();
+    for g in MemoryGroup::ALL {
+        let terms: Vec<usize> = (0..p.dims.memory_len())
+            .filter(|&k| p.memory.term(&p.dims, k).is_some_and(|t| t.group == g && t.parameter > 0.0))
+            .filter(|&k| p.gamma.iter().take(m).any(|row| row[k] != 0.0))
+            .collect();
+        if terms.is_empty() {
+            continue;
+        }
+        let mut without = p.clone();
+        for row in without.gamma.iter_mut() {
+            for &k in &terms {
+                row[k] = 0.0;
+            }
+        }
+        memory.push((g.name(), rms_diff(&full, &run(&without, d, rows)?, m)));
+    }
+    let mut no_rbf = p.clone();
+    for c in no_rbf.centres.iter_mut() {
+        c.w = [0.0; fbg_shared::layout::MAX_OUTPUTS];
+    }
+    let rbf = rms_diff(&full, &run(&no_rbf, d, rows)?, m);
+    Ok(Contributions { memory, rbf })
+}
+
+/// The static-fidelity audit of a trained pair over its calibration batch.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct StaticAudit {
+    /// Model-P's static gain per output.
+    pub model_p: StaticGain,
+    /// Model-H's static gain per output (its settled reading: high-passes at 0).
+    pub model_h: StaticGain,
+    /// What Model-H's memory groups and RBF residual add, RMS per output.
+    pub contributions: Contributions,
+}
+
+/// Largest relative difference between the two models' static gains that `train` accepts
+/// without a warning.
+pub const STATIC_GAIN_TOLERANCE: f64 = 0.01;
+
+impl StaticAudit {
+    /// The audit of `model_p` and `model_h` over the calibration rows `cal` of `d`.
+    pub fn of(model_p: &HostParams, model_h: &HostParams, d: &Dataset, cal: &[usize]) -> Result<Self, TrainerError> {
+        Ok(StaticAudit {
+            model_p: static_gain(model_p, d, cal)?,
+            model_h: static_gain(model_h, d, cal)?,
+            contributions: contributions(model_h, d, cal)?,
+        })
+    }
+
+    /// The outputs whose two static gains differ by more than [`STATIC_GAIN_TOLERANCE`]
+    /// (relative), with both gains.
+    pub fn disagreements(&self) -> Vec<(usize, f64, f64)> {
+        self.model_h
+            .gain
+            .iter()
+            .zip(&self.model_p.gain)
+            .enumerate()
+            .filter(|(_, (h, p))| h.is_finite() && p.is_finite() && (*h / *p - 1.0).abs() > STATIC_GAIN_TOLERANCE)
+            .map(|(c, (h, p))| (c, *h, *p))
+            .collect()
+    }
 }
 
 /// One hold of a steps record: output `output` held at `level` (its unit) over `rows`, the
