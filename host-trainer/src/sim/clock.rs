@@ -10,7 +10,7 @@ use crate::sim::scenario::Clock;
 pub const MAX_JITTER_FRACTION: f64 = 0.45;
 
 /// The recorded time \[s\] of each of the `n` grid samples: k·dt_s, plus a Gaussian error of σ
-/// `jitter_s` clamped to ±[`MAX_JITTER_FRACTION`]·dt_s when jitter is on.
+/// `jitter_s` clamped to ±[`MAX_JITTER_FRACTION`]·dt_s when jitter is on (and to t ≥ 0).
 pub fn timestamps(clock: &Clock, n: usize, seed: u64) -> Vec<f64> {
     let dt = clock.dt_s;
     let grid = (0..n).map(|k| k as f64 * dt);
@@ -19,7 +19,8 @@ pub fn timestamps(clock: &Clock, n: usize, seed: u64) -> Vec<f64> {
     }
     let mut rng = Rng::new(seed, Stream::ClockJitter);
     let bound = MAX_JITTER_FRACTION * dt;
-    grid.map(|t| t + (clock.jitter_s * rng.normal()).clamp(-bound, bound)).collect()
+    // Never before the record's start.
+    grid.map(|t| (t + (clock.jitter_s * rng.normal()).clamp(-bound, bound)).max(0.0)).collect()
 }
 
 /// The recording gaps \[s\] over `duration_s`: starts a Poisson process of `gaps_per_day`,

@@ -789,7 +789,13 @@ impl ScenarioConfig {
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, TrainerError> {
         let cfg: ScenarioConfig = toml::from_str(text).map_err(|e| TrainerError::Config {
             origin: origin.to_string(),
-            key: e.span().map(|s| line_col(text, s.start)).unwrap_or_default(),
+            key: e
+                .span()
+                .map(|s| match key_at(text, s.start) {
+                    Some(k) => format!("{} ({k})", line_col(text, s.start)),
+                    None => line_col(text, s.start),
+                })
+                .unwrap_or_default(),
             message: e.message().to_string(),
         })?;
         cfg.validate().map_err(|(key, message)| TrainerError::Config { origin: origin.to_string(), key, message })?;
@@ -1106,6 +1112,30 @@ impl ScenarioConfig {
     }
 }
 
+/// The dotted key of the `key = value` line at byte `pos` of the TOML `text`, with the table
+/// header above it (`hysteresis.model`): a value of the wrong type is then named by its key,
+/// not only by its line.
+fn key_at(text: &str, pos: usize) -> Option<String> {
+    let before = text.get(..pos)?;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let line = text.get(line_start..)?.lines().next()?;
+    let (key, _) = line.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    if key.is_empty() || key.starts_with('#') || key.starts_with('[') {
+        return None;
+    }
+    let table = text[..line_start]
+        .lines()
+        .rev()
+        .map(str::trim)
+        .find(|l| l.starts_with('['))
+        .map(|l| l.trim_start_matches('[').trim_end_matches(']').trim());
+    Some(match table {
+        Some(t) if !t.is_empty() => format!("{t}.{key}"),
+        _ => key.to_string(),
+    })
+}
+
 /// Longest scenario name (the model blob's provenance holds 24 bytes).
 pub const MAX_NAME_LEN: usize = 24;
 
@@ -1124,13 +1154,17 @@ fn short_number(x: f64) -> String {
     }
 }
 
-/// `name` + `suffix`, the name shortened so that the whole fits [`MAX_NAME_LEN`] bytes.
+/// `name` + `suffix` in at most [`MAX_NAME_LEN`] bytes: the base name (before any earlier
+/// `@` suffix) is shortened first, down to one character, so that the suffixes stay readable;
+/// only then is the end cut.
 fn with_suffix(name: &str, suffix: &str) -> String {
-    let mut keep = MAX_NAME_LEN.saturating_sub(suffix.len()).min(name.len());
-    while !name.is_char_boundary(keep) {
+    let (base, earlier) = name.split_at(name.find('@').unwrap_or(name.len()));
+    let tail = format!("{earlier}{suffix}");
+    let mut keep = MAX_NAME_LEN.saturating_sub(tail.len()).max(1).min(base.len());
+    while !base.is_char_boundary(keep) {
         keep -= 1;
     }
-    let mut out = format!("{}{suffix}", &name[..keep]);
+    let mut out = format!("{}{tail}", &base[..keep]);
     let mut end = out.len().min(MAX_NAME_LEN);
     while !out.is_char_boundary(end) {
         end -= 1;
