@@ -83,6 +83,8 @@ fn pace_keeps_the_installation_and_the_instrument() {
     assert_eq!(only_p.name, "paper@x4(p_kPa)");
     assert_eq!(paper.paced(0.25, None).name, "paper@x0.25");
     assert_eq!(paper.steps().name, "paper@steps");
+    // A new pace replaces the earlier one; steps are named once.
+    assert_eq!(paper.paced(4.0, None).steps().paced(2.0, None).steps().name, "paper@x2@steps");
     let e2 = Measurand { kind: Kind::Strain, index: 2 };
     let long = Preset::Array8.config().paced(1.0 / 3.0, Some(e2)).steps();
     // Too long for the model blob's 24 bytes: the base name gives way to the suffixes first.

@@ -1,6 +1,9 @@
 //! Scenario configuration (DESIGN §3): every parameter of the simulated installation, with the
-//! presets (`paper`, `harsh`, `temperature-1`, `strain-pair`, `array-8`) and TOML files where
-//! any parameter can be overridden.
+//! presets (`paper`, `harsh`, `temperature-1`, `strain-pair`, `array-8`, `field`) and TOML
+//! files where any parameter can be overridden. Every effect added after the first five
+//! presets (other hysteresis models, the package's lag, creep and ageing, the thermometer's
+//! resolution, clock jitter and gaps, pace, steps) is off by default, so a file without its
+//! keys simulates what it always did.
 //!
 //! An installation has N gratings (1–8, the length of `gratings.nominal_nm`) and M measurands
 //! (1–4, `measurands`: `T_C`, `strain_ue`, `strain2_ue`, `p_kPa`); the gauge matrix has one
@@ -850,7 +853,9 @@ impl ScenarioConfig {
         if let Some(m) = only {
             suffix.push_str(&format!("({m})"));
         }
-        c.name = with_suffix(&self.name, &suffix);
+        // A pace replaces an earlier one, in the name as in `[pace]`.
+        let base = without_segments(&self.name, |seg| seg.starts_with('x'));
+        c.name = with_suffix(&base, &suffix);
         c
     }
 
@@ -859,7 +864,8 @@ impl ScenarioConfig {
     pub fn steps(&self) -> ScenarioConfig {
         let mut c = self.clone();
         c.steps.enabled = true;
-        c.name = with_suffix(&self.name, "@steps");
+        let base = without_segments(&self.name, |seg| seg == "steps");
+        c.name = with_suffix(&base, "@steps");
         c
     }
 
@@ -1152,6 +1158,18 @@ fn short_number(x: f64) -> String {
     } else {
         s.to_string()
     }
+}
+
+/// `name` without its `@` suffixes for which `drop` holds (`paper@x4@steps` without the pace
+/// is `paper@steps`).
+fn without_segments(name: &str, drop: impl Fn(&str) -> bool) -> String {
+    let mut parts = name.split('@');
+    let mut out = parts.next().unwrap_or("").to_string();
+    for seg in parts.filter(|seg| !drop(seg)) {
+        out.push('@');
+        out.push_str(seg);
+    }
+    out
 }
 
 /// `name` + `suffix` in at most [`MAX_NAME_LEN`] bytes: the base name (before any earlier
