@@ -396,6 +396,7 @@ fn bad_values_of_the_new_keys_name_the_key() {
         ("[steps]\nlevels = -1\n", "steps.levels"),
         ("[steps]\nenabled = true\nhold_s = 60.0\n", "steps.hold_s"),
         ("[steps]\nramp_s = 50000.0\n", "steps.ramp_s"),
+        ("[steps]\nenabled = true\nlevels = 1000\nhold_s = 1e7\nramp_s = 0.0\n", "steps.hold_s"),
         ("[steps]\nlevel = 5\n", "level"),
     ];
     for (text, key) in cases {

@@ -129,7 +129,7 @@ fn truth_on_grid(cfg: &ScenarioConfig, t_s: &[f64], seed: u64) -> (Vec<f64>, Vec
         return (temp_c, truth);
     }
     let n_cal = cfg.n_cal().min(grid.len());
-    // Series 0 is the temperature; a measurand other than T is series 1 + its position.
+    // Series 0 is the temperature, then the other measurands in their order.
     let t_pos = cfg.measurands.iter().position(|&m| m == Measurand::T);
     let mut series = vec![temp_c[..n_cal].to_vec()];
     for (k, tr) in truth.iter().enumerate() {

@@ -907,11 +907,14 @@ impl ScenarioConfig {
         // A hold needs samples only when the steps part is simulated.
         v.range("steps.hold_s", st.hold_s, if st.enabled { 4.0 * c.dt_s } else { 1e-3 }, 1e8);
         v.range("steps.ramp_s", st.ramp_s, 0.0, 0.5 * st.hold_s);
-        if v.ok() && self.n_samples() < 100 {
+        if v.ok() && self.n_native_samples() < 100 {
             v.fail("clock.days", "fewer than 100 samples: increase days or decrease dt_s");
         }
-        if v.ok() && self.n_samples() > 50_000_000 {
+        if v.ok() && self.n_native_samples() > 50_000_000 {
             v.fail("clock.days", "more than 5e7 samples");
+        }
+        if v.ok() && self.n_samples() > 50_000_000 {
+            v.fail("steps.hold_s", "the steps part makes the record more than 5e7 samples");
         }
         let t = &self.temperature;
         v.range("temperature.mean_c", t.mean_c, -100.0, 300.0);
