@@ -26,6 +26,10 @@ pub enum Stream {
     Strain2 = 11,
     /// The second strain location's load levels.
     LoadLevels2 = 12,
+    /// The logger's time-stamping jitter (`clock.jitter_s`).
+    ClockJitter = 13,
+    /// The recording gaps: their starts and lengths (`clock.gaps_per_day`).
+    ClockGaps = 14,
 }
 
 /// A seeded random stream with uniform and normal deviates.

@@ -82,6 +82,18 @@ enum Cmd {
         /// key `ambient = false` does the same).
         #[arg(long)]
         no_ambient: bool,
+        /// The same installation at another pace: the measurands' trajectories run F times
+        /// faster (periods, holds, ramps and AR times ÷ F; 0.25 = four times slower); the
+        /// instrument is unchanged (the scenario's `[pace] factor`).
+        #[arg(long, value_name = "F")]
+        pace: Option<f64>,
+        /// With --pace: pace only this measurand (a column such as `p_kPa`).
+        #[arg(long, value_name = "COLUMN", requires = "pace")]
+        pace_of: Option<fbg_trainer::data::Measurand>,
+        /// A steps record: the calibration part, then a hold-out stepping each measurand in
+        /// turn through held levels (the scenario's `[steps]`).
+        #[arg(long)]
+        steps: bool,
     },
     /// Fit Model-P and Model-H on the calibration part of a CSV; write the Model-H blob, the
     /// Model-P blob beside it (`<stem>-p.fbgm`) and `<stem>.coefficients.json`.
@@ -335,7 +347,7 @@ fn main() {
 fn run() -> Result<()> {
     let cli = Cli::parse();
     match cli.cmd {
-        Cmd::Simulate { scenario, out, json, dump_config, no_ambient } => {
+        Cmd::Simulate { scenario, out, json, dump_config, no_ambient, pace, pace_of, steps } => {
             let side = meta_path(&out);
             let mut outputs = vec![out.as_path(), side.as_path()];
             outputs.extend(dump_config.as_deref());
@@ -343,6 +355,19 @@ fn run() -> Result<()> {
             let mut cfg = scenario.load()?;
             if no_ambient {
                 cfg.ambient.thermometer = false;
+            }
+            if let Some(f) = pace {
+                cfg = cfg.paced(f, pace_of);
+            }
+            if steps {
+                cfg = cfg.steps();
+            }
+            if pace.is_some() || steps {
+                cfg.validate().map_err(|(key, message)| fbg_trainer::TrainerError::Config {
+                    origin: "--pace/--pace-of/--steps".into(),
+                    key,
+                    message,
+                })?;
             }
             let s = sim::simulate(&cfg, scenario.seed);
             s.data.write_csv(&out)?;

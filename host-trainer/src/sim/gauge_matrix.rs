@@ -76,6 +76,13 @@ impl GaugePhysics {
         (0..self.k.len()).map(|i| self.linear_row(i, &d) + self.cross_row(i, &d)).collect()
     }
 
+    /// The shift \[pm\] of grating `i` alone for the measurands `m` (the same arithmetic as
+    /// [`forward`](Self::forward)): a grating whose package lags or creeps sees its own `m`.
+    pub fn forward_row(&self, i: usize, m: &[f64]) -> f64 {
+        let d = self.delta(m);
+        self.linear_row(i, &d) + self.cross_row(i, &d)
+    }
+
     /// Only the cross-term part of `forward` \[pm\].
     pub fn cross_terms(&self, m: &[f64]) -> Vec<f64> {
         let d = self.delta(m);

@@ -1,52 +1,17 @@
-//! The interrogator's artefacts on a clean wavelength-shift series: hysteresis (paper Eq. 9
-//! followed by a play operator), scan nonlinearity, random-walk drift (Eq. 8), electronics
-//! thermal drift, and 1/f + white noise. Each function returns the *contribution* it adds, so
+//! The interrogator's artefacts on a clean wavelength-shift series: hysteresis (one of the
+//! models of [`crate::sim::hysteresis`]), scan nonlinearity, random-walk drift (Eq. 8),
+//! electronics thermal drift, and 1/f + white noise. Each function returns the *contribution* it adds, so
 //! the simulator can keep every effect separately.
 
 use crate::rng::{Rng, Stream};
 use crate::sim::scenario::{Drift, Electronics, Hysteresis, Noise, Scan};
 
-/// Paper Eq. 9: h(x_t) = β x_t + γ x_{t−1} + ρ sgn(ẋ_t)(x_t − x_{t−1}).
-///
-/// Taken literally, as DESIGN §3 asks. Note that sgn(ẋ)(x_t − x_{t−1}) = |x_t − x_{t−1}|, so
-/// the ρ term is a speed-dependent positive offset and β + γ = 1 makes the rest a one-step
-/// lag; the direction-dependent part of the hysteresis comes from [`play_operator`].
-pub fn eq9(x: &[f64], cfg: &Hysteresis) -> Vec<f64> {
-    let mut prev = x.first().copied().unwrap_or(0.0);
-    x.iter()
-        .map(|&xt| {
-            let dx = xt - prev;
-            let sgn = if dx > 0.0 {
-                1.0
-            } else if dx < 0.0 {
-                -1.0
-            } else {
-                0.0
-            };
-            let h = cfg.beta * xt + cfg.gamma * prev + cfg.rho * sgn * dx;
-            prev = xt;
-            h
-        })
-        .collect()
-}
+pub use crate::sim::hysteresis::eq9_play::{eq9, play_operator};
 
-/// Play (backlash) operator of half-width `r`: the output stays put until the input has moved
-/// `r` beyond it, then follows at distance `r`. Rising input reads `r` low, falling input reads
-/// `r` high, and every turning point draws a minor loop of width 2r.
-pub fn play_operator(x: &[f64], r: f64) -> Vec<f64> {
-    let mut y = x.first().copied().unwrap_or(0.0);
-    x.iter()
-        .map(|&xt| {
-            y = y.clamp(xt - r, xt + r);
-            y
-        })
-        .collect()
-}
-
-/// Hysteresis contribution \[pm\]: play(Eq. 9(x)) − x.
+/// Hysteresis contribution \[pm\] of the configured model (`hysteresis.model`; by default
+/// play(Eq. 9(x)) − x).
 pub fn hysteresis(x: &[f64], cfg: &Hysteresis) -> Vec<f64> {
-    let y = play_operator(&eq9(x, cfg), cfg.play_half_width_pm);
-    y.iter().zip(x).map(|(y, x)| y - x).collect()
+    crate::sim::hysteresis::contribution(x, cfg)
 }
 
 /// Scan-nonlinearity contribution \[pm\] of one channel: ripple with a period in wavelength plus
@@ -141,22 +106,6 @@ pub fn noise(n: usize, gratings: usize, cfg: &Noise, seed: u64) -> Vec<Vec<f64>>
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn play_operator_reads_low_rising_high_falling() {
-        let up: Vec<f64> = (0..50).map(|k| k as f64).collect();
-        let mut x = up.clone();
-        x.extend(up.iter().rev());
-        let y = play_operator(&x, 4.0);
-        // Well into the rise the output lags by r; well into the fall it leads by r.
-        assert!((y[30] - (x[30] - 4.0)).abs() < 1e-12);
-        assert!((y[80] - (x[80] + 4.0)).abs() < 1e-12);
-        // At the turning point the output holds still while the input reverses by 2r.
-        let top = y[49];
-        for (k, &yk) in y.iter().enumerate().take(57).skip(50) {
-            assert_eq!(yk, top, "k={k}");
-        }
-    }
 
     #[test]
     fn pink_noise_variance_and_spectrum_slope() {

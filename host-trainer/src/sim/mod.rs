@@ -1,12 +1,17 @@
-//! The scenario simulator (DESIGN §3): measurands → gratings → interrogator artefacts →
-//! measured wavelengths, with every effect's contribution kept, and the per-sample oracle. The
-//! scenario it runs is [`scenario::ScenarioConfig`]; what it wrote a CSV from goes beside it as
-//! the [`meta::SimMeta`] sidecar.
+//! The scenario simulator (DESIGN §3): measurands → gratings (and their packages) →
+//! interrogator artefacts → measured wavelengths → the logger's clock, with every effect's
+//! contribution kept, and the per-sample oracle. The scenario it runs is
+//! [`scenario::ScenarioConfig`]; what it wrote a CSV from goes beside it as the
+//! [`meta::SimMeta`] sidecar.
 
+pub mod clock;
 pub mod gauge_matrix;
+pub mod hysteresis;
 pub mod interrogator;
 pub mod meta;
+pub mod package;
 pub mod scenario;
+pub mod steps;
 pub mod trajectories;
 
 use crate::data::{Dataset, Kind, Measurand, Reference, Split};
@@ -15,14 +20,23 @@ use crate::sim::scenario::ScenarioConfig;
 use crate::stats::rmse;
 pub use gauge_matrix::GaugePhysics;
 
-/// Names of the artefacts, in [`Effects`] order.
+/// Names of the interrogator's artefacts, in [`Effects`] order.
 pub const EFFECT_NAMES: [&str; 5] = ["hysteresis", "scan", "drift", "electronics", "noise"];
 
-/// Per-grating, per-sample contribution of each effect to the measured shift \[pm\].
+/// Names of the grating package's effects ([`package`]), in [`Effects`] order: part of the
+/// installation, not of the interrogator, and zero unless the scenario has them.
+pub const PACKAGE_EFFECT_NAMES: [&str; 3] = ["thermal_lag", "creep", "ageing"];
+
+/// Per-grating, per-row contribution of each effect to the measured shift \[pm\]; the
+/// measured shift is their sum.
 #[derive(Clone, Debug, Default)]
 pub struct Effects {
-    /// True physical shift (Eq. 2-3 with cross-terms).
+    /// True physical shift (Eq. 2-3 with cross-terms) of the structure's measurands.
     pub physics: Vec<Vec<f64>>,
+    /// What the grating's package changes of it ([`package`]).
+    pub thermal_lag: Vec<Vec<f64>>,
+    pub creep: Vec<Vec<f64>>,
+    pub ageing: Vec<Vec<f64>>,
     pub hysteresis: Vec<Vec<f64>>,
     pub scan: Vec<Vec<f64>>,
     pub drift: Vec<Vec<f64>>,
@@ -31,15 +45,37 @@ pub struct Effects {
 }
 
 impl Effects {
-    /// Contribution of artefact `name` (one of [`EFFECT_NAMES`]).
+    /// Contribution of effect `name` (one of [`EFFECT_NAMES`] or [`PACKAGE_EFFECT_NAMES`]).
     pub fn by_name(&self, name: &str) -> Option<&Vec<Vec<f64>>> {
         match name {
+            "thermal_lag" => Some(&self.thermal_lag),
+            "creep" => Some(&self.creep),
+            "ageing" => Some(&self.ageing),
             "hysteresis" => Some(&self.hysteresis),
             "scan" => Some(&self.scan),
             "drift" => Some(&self.drift),
             "electronics" => Some(&self.electronics),
             "noise" => Some(&self.noise),
             _ => None,
+        }
+    }
+
+    /// Keep only the rows `rows` (in that order) of every contribution.
+    fn select(&mut self, rows: &[usize]) {
+        for e in [
+            &mut self.physics,
+            &mut self.thermal_lag,
+            &mut self.creep,
+            &mut self.ageing,
+            &mut self.hysteresis,
+            &mut self.scan,
+            &mut self.drift,
+            &mut self.electronics,
+            &mut self.noise,
+        ] {
+            for ch in e.iter_mut() {
+                *ch = rows.iter().map(|&i| ch[i]).collect();
+            }
         }
     }
 }
@@ -54,35 +90,78 @@ pub struct Simulation {
     pub effects: Effects,
     /// True ambient temperature of the interrogator (no reading noise) [°C].
     pub ambient_true_c: Vec<f64>,
+    /// The simulation-grid sample (time k·dt_s) of each row: all of them in order, unless
+    /// recording gaps dropped some.
+    pub grid_rows: Vec<usize>,
 }
 
-/// The true trajectory of a simulated measurand.
+/// The true trajectory of a simulated measurand, at its pace (`[pace]`).
 fn trajectory(cfg: &ScenarioConfig, m: Measurand, temp_c: &[f64], t_s: &[f64], seed: u64) -> Vec<f64> {
     let dt = cfg.clock.dt_s;
+    let f = cfg.pace_for(m);
     match (m.kind, m.index) {
         (Kind::Temperature, _) => temp_c.to_vec(),
-        (Kind::Strain, 1) => trajectories::strain(&cfg.strain, t_s, dt, seed),
+        (Kind::Strain, 1) => trajectories::strain(&cfg.strain.paced(f), t_s, dt, seed),
         (Kind::Strain, _) => {
-            trajectories::strain_on(&cfg.strain2(), t_s, dt, seed, (Stream::Strain2, Stream::LoadLevels2))
+            trajectories::strain_on(&cfg.strain2().paced(f), t_s, dt, seed, (Stream::Strain2, Stream::LoadLevels2))
         }
-        (Kind::Pressure, _) => trajectories::pressure(&cfg.pressure, t_s, dt, seed),
+        (Kind::Pressure, _) => trajectories::pressure(&cfg.pressure.paced(f), t_s, dt, seed),
     }
+}
+
+/// The structure's temperature and the measurands' truth (in `cfg.measurands` order) on the
+/// simulation grid `t_s`: the native trajectories, or for a steps record their calibration
+/// part followed by the steps part ([`steps`]).
+fn truth_on_grid(cfg: &ScenarioConfig, t_s: &[f64], seed: u64) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let dt = cfg.clock.dt_s;
+    let native_t: Vec<f64>;
+    let grid = if cfg.steps.enabled {
+        native_t = (0..cfg.n_native_samples()).map(|k| k as f64 * dt).collect();
+        &native_t
+    } else {
+        t_s
+    };
+    // The temperature drives the ambient (and so the electronics) whether or not it is a
+    // measurand.
+    let mut temp_c = trajectories::temperature_paced(&cfg.temperature, cfg.pace_for(Measurand::T), grid, dt, seed);
+    let mut truth: Vec<Vec<f64>> = cfg.measurands.iter().map(|&m| trajectory(cfg, m, &temp_c, grid, seed)).collect();
+    if !cfg.steps.enabled {
+        return (temp_c, truth);
+    }
+    let n_cal = cfg.n_cal().min(grid.len());
+    // Series 0 is the temperature, then the other measurands in their order.
+    let t_pos = cfg.measurands.iter().position(|&m| m == Measurand::T);
+    let mut series = vec![temp_c[..n_cal].to_vec()];
+    for (k, tr) in truth.iter().enumerate() {
+        if Some(k) != t_pos {
+            series.push(tr[..n_cal].to_vec());
+        }
+    }
+    let index_of = |k: usize| if Some(k) == t_pos { 0 } else { 1 + k - usize::from(t_pos.is_some_and(|p| p < k)) };
+    let mut canonical: Vec<usize> = (0..cfg.measurands.len()).collect();
+    canonical.sort_by_key(|&k| cfg.measurands[k]);
+    let stepped: Vec<usize> = canonical.into_iter().map(index_of).collect();
+    let ramp = (cfg.steps.ramp_s / dt).round() as usize;
+    steps::extend(&mut series, &stepped, &cfg.steps, cfg.steps_hold_samples(), ramp);
+    for (k, tr) in truth.iter_mut().enumerate() {
+        *tr = series[index_of(k)].clone();
+    }
+    temp_c = series.swap_remove(0);
+    (temp_c, truth)
 }
 
 /// Simulate `cfg` with `seed`. Deterministic: the same inputs give bit-identical output. Every
 /// random effect draws from its own stream, and per-grating draws go grating after grating,
-/// so the `paper` and `harsh` presets give the bytes they always gave.
+/// so the `paper` and `harsh` presets give the bytes they always gave; every effect added
+/// since is off in them and draws from streams of its own.
 pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
     let n = cfg.n_samples();
     let n_cal = cfg.n_cal();
     let n_g = cfg.n_gratings();
     let dt = cfg.clock.dt_s;
-    let t_s: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+    let grid_t: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
 
-    // The temperature drives the ambient (and so the electronics) whether or not it is a
-    // measurand.
-    let temp_c = trajectories::temperature(&cfg.temperature, &t_s, dt, seed);
-    let truth: Vec<Vec<f64>> = cfg.measurands.iter().map(|&m| trajectory(cfg, m, &temp_c, &t_s, seed)).collect();
+    let (temp_c, truth) = truth_on_grid(cfg, &grid_t, seed);
     let ambient_true_c = trajectories::ambient_true(&cfg.ambient, &temp_c, dt);
     let t_amb_c = trajectories::ambient_reading(&cfg.ambient, &ambient_true_c, seed);
 
@@ -99,8 +178,17 @@ pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
     }
 
     let zeros = || vec![vec![0.0; n]; n_g];
+    // What each grating reflects: the physics through its package. Without package effects it
+    // is the physics itself, untouched (the presets before them keep their bytes).
+    let pkg = package::contributions(cfg, &physics, &truth, &phys, &grid_t);
+    let seen: Vec<Vec<f64>> = match &pkg {
+        Some(p) => (0..n_g)
+            .map(|g| (0..n).map(|i| phys[g][i] + p.thermal_lag[g][i] + p.creep[g][i] + p.ageing[g][i]).collect())
+            .collect(),
+        None => phys.clone(),
+    };
     let hysteresis = if cfg.hysteresis.enabled {
-        phys.iter().map(|p| interrogator::hysteresis(p, &cfg.hysteresis)).collect()
+        seen.iter().map(|p| interrogator::hysteresis(p, &cfg.hysteresis)).collect()
     } else {
         zeros()
     };
@@ -108,7 +196,7 @@ pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
         (0..n_g)
             .map(|g| {
                 interrogator::scan_nonlinearity(
-                    &phys[g],
+                    &seen[g],
                     cfg.gratings.nominal_nm[g],
                     cfg.scan.ripple_phase_rad[g],
                     &cfg.scan,
@@ -129,28 +217,50 @@ pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
     let dl_pm: Vec<Vec<f64>> = (0..n_g)
         .map(|g| {
             (0..n)
-                .map(|i| phys[g][i] + hysteresis[g][i] + scan[g][i] + drift[g][i] + electronics[g][i] + noise[g][i])
+                .map(|i| {
+                    let dl = phys[g][i] + hysteresis[g][i] + scan[g][i] + drift[g][i] + electronics[g][i] + noise[g][i];
+                    match &pkg {
+                        Some(p) => dl + p.thermal_lag[g][i] + p.creep[g][i] + p.ageing[g][i],
+                        None => dl,
+                    }
+                })
                 .collect()
         })
         .collect();
+    // By grid time: the calibration part is the first n_cal samples (jitter stays below dt/2).
     let split = (0..n).map(|i| if i < n_cal { Split::Cal } else { Split::Holdout }).collect();
+    let pkg = pkg.unwrap_or_else(|| package::Package { thermal_lag: zeros(), creep: zeros(), ageing: zeros() });
     let mut data = Dataset {
-        t_s,
+        t_s: clock::timestamps(&cfg.clock, n, seed),
         refs: cfg.measurands.iter().zip(truth).map(|(&measurand, values)| Reference { measurand, values }).collect(),
         t_amb_c: cfg.ambient.thermometer.then_some(t_amb_c),
         dl_pm,
         split,
     };
     data.sort_refs();
+    let mut effects = Effects {
+        physics: phys,
+        thermal_lag: pkg.thermal_lag,
+        creep: pkg.creep,
+        ageing: pkg.ageing,
+        hysteresis,
+        scan,
+        drift,
+        electronics,
+        noise,
+    };
+    let mut ambient_true_c = ambient_true_c;
+    let grid_rows = match clock::kept_rows(&cfg.clock, n, seed) {
+        Some(rows) => {
+            data = data.select(&rows);
+            effects.select(&rows);
+            ambient_true_c = rows.iter().map(|&i| ambient_true_c[i]).collect();
+            rows
+        }
+        None => (0..n).collect(),
+    };
 
-    Simulation {
-        config: cfg.clone(),
-        seed,
-        data,
-        physics,
-        effects: Effects { physics: phys, hysteresis, scan, drift, electronics, noise },
-        ambient_true_c,
-    }
+    Simulation { config: cfg.clone(), seed, data, physics, effects, ambient_true_c, grid_rows }
 }
 
 /// The best any compensator could do: exact inversion of the true physics from wavelengths
@@ -227,7 +337,10 @@ impl Simulation {
         let std = |v: &[f64]| crate::stats::std_dev(v.iter().copied());
         let oracle = self.oracle_floor();
         let mut effects = serde_json::Map::new();
-        for name in EFFECT_NAMES {
+        // The package's effects only when the scenario has them (the summaries of the
+        // scenarios before them stay as they were).
+        let package = if package::active(&self.config) { &PACKAGE_EFFECT_NAMES[..] } else { &[] };
+        for name in EFFECT_NAMES.iter().chain(package) {
             let Some(e) = self.effects.by_name(name) else { continue };
             let rms: Vec<f64> = e.iter().map(|ch| crate::stats::rms(ch.iter().copied())).collect();
             effects.insert(name.to_string(), serde_json::json!(rms));
@@ -238,7 +351,7 @@ impl Simulation {
             spread.insert(r.measurand.column(), serde_json::json!(std(&r.values)));
             floor.insert(r.measurand.column(), serde_json::json!(oracle.rmse_holdout[k]));
         }
-        serde_json::json!({
+        let mut out = serde_json::json!({
             "scenario": self.config.name,
             "seed": self.seed,
             "samples": d.len(),
@@ -251,6 +364,11 @@ impl Simulation {
             "oracle_floor_rmse_holdout": floor,
             "effect_rms_pm": effects,
             "gauge_matrix_pm": self.physics.k,
-        })
+        });
+        if self.config.clock.gaps_per_day > 0.0 {
+            out["grid_samples"] = serde_json::json!(self.config.n_samples());
+            out["rows_dropped_in_gaps"] = serde_json::json!(self.config.n_samples() - d.len());
+        }
+        out
     }
 }

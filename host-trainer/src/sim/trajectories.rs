@@ -28,15 +28,21 @@ fn sine(amp: f64, period_s: f64, phase: f64, t: f64) -> f64 {
 
 /// T(t) [°C]: mean + diurnal + weekly (+ seasonal) sines + AR(1).
 pub fn temperature(cfg: &Temperature, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<f64> {
+    temperature_paced(cfg, 1.0, t_s, dt_s, seed)
+}
+
+/// [`temperature`] `pace` times faster: the diurnal, weekly and seasonal periods and the AR
+/// correlation time divided by `pace` (the same random draws).
+pub fn temperature_paced(cfg: &Temperature, pace: f64, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<f64> {
     let mut rng = Rng::new(seed, Stream::Temperature);
-    let w = ar1(t_s.len(), cfg.ar_sigma_c, cfg.ar_tau_s, dt_s, &mut rng);
+    let w = ar1(t_s.len(), cfg.ar_sigma_c, cfg.ar_tau_s / pace, dt_s, &mut rng);
     t_s.iter()
         .zip(w)
         .map(|(&t, w)| {
             cfg.mean_c
-                + sine(cfg.diurnal_amp_c, 86_400.0, cfg.diurnal_phase_rad, t)
-                + sine(cfg.weekly_amp_c, 7.0 * 86_400.0, cfg.weekly_phase_rad, t)
-                + sine(cfg.seasonal_amp_c, cfg.seasonal_period_days * 86_400.0, cfg.seasonal_phase_rad, t)
+                + sine(cfg.diurnal_amp_c, 86_400.0 / pace, cfg.diurnal_phase_rad, t)
+                + sine(cfg.weekly_amp_c, 7.0 * 86_400.0 / pace, cfg.weekly_phase_rad, t)
+                + sine(cfg.seasonal_amp_c, cfg.seasonal_period_days * 86_400.0 / pace, cfg.seasonal_phase_rad, t)
                 + w
         })
         .collect()
@@ -119,8 +125,20 @@ pub fn ambient_true(cfg: &Ambient, temp_c: &[f64], dt_s: f64) -> Vec<f64> {
         .collect()
 }
 
-/// The reference thermometer's reading T_amb [°C]: the true ambient plus white reading noise.
+/// The reference thermometer's reading T_amb [°C]: the true ambient plus white reading noise,
+/// rounded to `resolution_c` when it is set.
 pub fn ambient_reading(cfg: &Ambient, ambient: &[f64], seed: u64) -> Vec<f64> {
     let mut rng = Rng::new(seed, Stream::Ambient);
-    ambient.iter().map(|&a| a + cfg.noise_sigma_c * rng.normal()).collect()
+    let r = cfg.resolution_c;
+    ambient
+        .iter()
+        .map(|&a| {
+            let x = a + cfg.noise_sigma_c * rng.normal();
+            if r > 0.0 {
+                libm::round(x / r) * r
+            } else {
+                x
+            }
+        })
+        .collect()
 }
