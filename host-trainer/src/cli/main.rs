@@ -530,7 +530,11 @@ fn run() -> Result<()> {
                 );
             }
             let p = export::read_blob(&base)?;
-            let studies = if quick { Studies::NONE } else { Studies { recalibration: false, ..Studies::ALL } };
+            let studies = if quick {
+                Studies { pace: true, ..Studies::NONE }
+            } else {
+                Studies { recalibration: false, ..Studies::ALL }
+            };
             let log = |s: &str| {
                 if !json {
                     eprintln!("{s}");
@@ -703,6 +707,12 @@ fn print_tables(m: &Metrics) {
     }
     if let Some(b) = &m.error_budget {
         println!("{}", tables::budget(b, m).text());
+    }
+    if let Some(sf) = &m.static_fidelity {
+        println!("{}", tables::static_fidelity(sf, m).text());
+    }
+    if let Some(p) = &m.pace {
+        println!("{}", tables::pace(p, m).text());
     }
     if let Some(p) = &m.parity {
         let diffs: Vec<String> = p.max_abs_diff.iter().zip(&m.units).map(|(v, u)| format!("{v:.2e} {u}")).collect();

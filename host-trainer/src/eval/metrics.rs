@@ -83,8 +83,34 @@ pub struct Metrics {
     pub parity: Option<ParityReport>,
     /// Field recalibration after the installation changes (short batches vs a full refit).
     pub recalibration: Option<Vec<RecalStudy>>,
+    /// Both models' static gains over the calibration batch (DESIGN §4, static fidelity).
+    pub static_fidelity: Option<StaticFidelity>,
+    /// The installation at other paces and on a steps record (simulated data only).
+    pub pace: Option<crate::eval::pace::PaceStudy>,
     /// Wall time of each stage \[s\] (informational; speed is measured by `cargo xtask bench`).
     pub timings_s: Vec<(String, f64)>,
+}
+
+/// Per output, the slope of each model's settled reading against the truth over the
+/// calibration batch, and the RMS of what Model-H's memory groups and RBF residual add
+/// ([`crate::fit::static_fidelity::StaticAudit`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StaticFidelity {
+    #[serde(deserialize_with = "crate::eval::pace::nullable")]
+    pub gain_p: Vec<f64>,
+    #[serde(deserialize_with = "crate::eval::pace::nullable")]
+    pub gain_h: Vec<f64>,
+    /// (part, RMS per output): the memory groups Model-H uses, then `rbf`.
+    pub contributions: Vec<(String, Vec<f64>)>,
+}
+
+impl StaticFidelity {
+    pub fn of(a: &crate::fit::static_fidelity::StaticAudit) -> Self {
+        let mut contributions: Vec<(String, Vec<f64>)> =
+            a.contributions.memory.iter().map(|(g, v)| (g.to_string(), v.clone())).collect();
+        contributions.push(("rbf".into(), a.contributions.rbf.clone()));
+        StaticFidelity { gain_p: a.model_p.gain.clone(), gain_h: a.model_h.gain.clone(), contributions }
+    }
 }
 
 /// The chosen hyper-parameters and the cross-validation figures behind them.

@@ -4,6 +4,7 @@
 //! render it ([`tables`]).
 
 pub mod metrics;
+pub mod pace;
 pub mod parity;
 pub mod score;
 pub mod studies;

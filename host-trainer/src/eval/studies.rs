@@ -279,6 +279,8 @@ pub fn recalibration(
 /// Which studies to run.
 #[derive(Clone, Copy, Debug)]
 pub struct Studies {
+    /// The pace study (`eval::pace`): simulated data only, no refit.
+    pub pace: bool,
     pub drift_sweep: bool,
     pub ablation: bool,
     pub error_budget: bool,
@@ -287,10 +289,22 @@ pub struct Studies {
 }
 
 impl Studies {
-    pub const ALL: Studies =
-        Studies { drift_sweep: true, ablation: true, error_budget: true, parity: true, recalibration: true };
-    pub const NONE: Studies =
-        Studies { drift_sweep: false, ablation: false, error_budget: false, parity: false, recalibration: false };
+    pub const ALL: Studies = Studies {
+        pace: true,
+        drift_sweep: true,
+        ablation: true,
+        error_budget: true,
+        parity: true,
+        recalibration: true,
+    };
+    pub const NONE: Studies = Studies {
+        pace: false,
+        drift_sweep: false,
+        ablation: false,
+        error_budget: false,
+        parity: false,
+        recalibration: false,
+    };
 }
 
 /// Batch lengths of the recalibration study \[h\].
@@ -384,6 +398,15 @@ pub fn run_all(
         error_budget: budget,
         parity,
         recalibration: recal,
+        static_fidelity: Some(crate::eval::metrics::StaticFidelity::of(&trained.static_audit)),
+        pace: if studies.pace {
+            let t = Instant::now();
+            let r = crate::eval::pace::pace_study(&sim.config, sim.seed, &trained.model_p, &trained.model_h)?;
+            log(&format!("pace study ({} records) in {:.1} s", r.rows.len(), t.elapsed().as_secs_f64()));
+            Some(r)
+        } else {
+            None
+        },
         timings_s: timings,
     };
     Ok((trained, m))
@@ -527,6 +550,24 @@ pub fn evaluate_models(
         error_budget: budget,
         parity,
         recalibration: None,
+        static_fidelity: {
+            let cal: Vec<usize> = d.cal_indices().into_iter().filter(|&i| d.usable(i)).collect();
+            if cal.is_empty() {
+                None
+            } else {
+                let a = fit::static_fidelity::StaticAudit::of(p, h, d, &cal)?;
+                Some(crate::eval::metrics::StaticFidelity::of(&a))
+            }
+        },
+        pace: match meta {
+            Some(m) if studies.pace => {
+                let t = Instant::now();
+                let r = crate::eval::pace::pace_study(&m.scenario, m.seed, p, h)?;
+                timings.push(("pace".to_string(), t.elapsed().as_secs_f64()));
+                Some(r)
+            }
+            _ => None,
+        },
         timings_s: timings,
     })
 }

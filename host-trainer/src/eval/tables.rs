@@ -340,6 +340,69 @@ pub fn recalibration(rs: &[RecalStudy], m: &Metrics) -> Table {
     }
 }
 
+/// The pace study: both models on the installation at other paces and on a steps record.
+pub fn pace(s: &crate::eval::pace::PaceStudy, m: &Metrics) -> Table {
+    let dg = all_digits(m);
+    let mut rows = Vec::new();
+    for r in &s.rows {
+        let mut cells = vec![r.label.clone()];
+        for (c, &digits) in dg.iter().enumerate() {
+            cells.push(f(r.rmse_p[c], digits));
+            cells.push(f(r.rmse_h[c], digits));
+            cells.push(f(r.gain_pct(c), 1));
+            cells.push(f(100.0 * r.coverage_h[c], 1));
+        }
+        rows.push(cells);
+        if !r.slope_p.is_empty() {
+            let mut cells = vec![format!("steps: settled slope ({} holds)", r.holds)];
+            for c in 0..dg.len() {
+                cells.push(f(r.slope_p[c], 4));
+                cells.push(f(r.slope_h[c], 4));
+                cells.push(String::new());
+                cells.push(String::new());
+            }
+            rows.push(cells);
+        }
+    }
+    Table {
+        title: format!(
+            "Pace study: hold-out RMSE of the models calibrated at the native pace, on the same installation at other paces (×¼ = four times slower) and on a steps record ({}, seed {})",
+            s.scenario, s.seed
+        ),
+        header: std::iter::once("record".to_string()).chain(per_output_headers(m, &["P", "H", "gain %", "H cov %"])).collect(),
+        rows,
+    }
+}
+
+/// Static fidelity: both models' static gains over the calibration batch and what Model-H's
+/// dynamic parts add.
+pub fn static_fidelity(sf: &crate::eval::metrics::StaticFidelity, m: &Metrics) -> Table {
+    let dg = all_digits(m);
+    let mut rows = vec![
+        std::iter::once("static gain, Model-P".to_string())
+            .chain(sf.gain_p.iter().map(|&v| f(v, 4)))
+            .collect::<Vec<_>>(),
+        std::iter::once("static gain, Model-H".to_string()).chain(sf.gain_h.iter().map(|&v| f(v, 4))).collect(),
+    ];
+    for (part, v) in &sf.contributions {
+        rows.push(
+            std::iter::once(format!("RMS added by {part}"))
+                .chain(v.iter().zip(&dg).map(|(&x, &d)| f(x, d + 1)))
+                .collect(),
+        );
+    }
+    Table {
+        title: format!(
+            "Static fidelity: slope of the settled reading (high-pass memory terms at 0) against the truth over the calibration batch (1 is right), and what Model-H's dynamic parts add ({}, seed {})",
+            m.scenario, m.seed
+        ),
+        header: std::iter::once("".to_string())
+            .chain(m.channels.iter().zip(&m.units).map(|(c, u)| format!("{c} [{u}]")))
+            .collect(),
+        rows,
+    }
+}
+
 /// Every table of a metrics set with its file name.
 pub fn all(m: &Metrics) -> Vec<(&'static str, Table)> {
     let mut v = vec![("table2", table2(m))];
@@ -354,6 +417,12 @@ pub fn all(m: &Metrics) -> Vec<(&'static str, Table)> {
     }
     if let Some(r) = &m.recalibration {
         v.push(("recalibration", recalibration(r, m)));
+    }
+    if let Some(sf) = &m.static_fidelity {
+        v.push(("static_fidelity", static_fidelity(sf, m)));
+    }
+    if let Some(p) = &m.pace {
+        v.push(("pace", pace(p, m)));
     }
     v
 }

@@ -177,11 +177,20 @@ fn menu_spec(opts: &MemoryOptions, core: &PolyCore) -> MemorySpec<f64> {
     all.spec(&opts.menu, core)
 }
 
-/// Physics restriction: the drift observer is offered to temperature outputs only, and only
-/// when the model has it (ambient input and a temperature output).
+/// Physics restriction: the ambient high-passes and the drift observer are offered to
+/// temperature outputs only (the observer only when the model has it: ambient input and a
+/// temperature output). The high-passes correct the thermometer's lag, which matters where the
+/// thermometer carries the output: the temperature. For strain and pressure the gratings cancel
+/// the temperature at once, and a high-pass of T_amb is there only a measure of how fast the
+/// temperature moves — a rate, which cross-validation at one pace rewards as a proxy for the
+/// gratings' hysteresis and which is wrong at any other pace (DESIGN §4, static fidelity).
 fn offered(dims: &Dims, o: usize, g: MemoryGroup) -> bool {
-    g != MemoryGroup::DriftObserver
-        || (dims.has_observer() && dims.outputs().get(o).is_some_and(|x| x.quantity == Quantity::Temperature))
+    let temperature = dims.outputs().get(o).is_some_and(|x| x.quantity == Quantity::Temperature);
+    match g {
+        MemoryGroup::DriftObserver => dims.has_observer() && temperature,
+        MemoryGroup::AmbientHighPass => temperature,
+        _ => true,
+    }
 }
 
 /// The memory vectors of a set of rows, [`Dims::memory_len`] values per row.

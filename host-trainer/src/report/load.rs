@@ -229,6 +229,11 @@ struct MetricsDe {
     parity: Option<ParityDe>,
     #[serde(default)]
     recalibration: Option<Vec<RecalDe>>,
+    /// Absent from metrics written before static fidelity.
+    #[serde(default)]
+    static_fidelity: Option<crate::eval::metrics::StaticFidelity>,
+    #[serde(default)]
+    pace: Option<crate::eval::pace::PaceStudy>,
     #[serde(default)]
     timings_s: Vec<(String, F)>,
 }
@@ -324,6 +329,8 @@ impl From<MetricsDe> for Metrics {
                     })
                     .collect()
             }),
+            static_fidelity: m.static_fidelity,
+            pace: m.pace,
             timings_s: m.timings_s.into_iter().map(|(k, v)| (k, v.0)).collect(),
         }
     }

@@ -341,11 +341,12 @@ pub struct Pace {
 pub struct Steps {
     pub enabled: bool,
     /// Levels per measurand (≥ 5), evenly spaced from the 5th to the 95th percentile of its
-    /// calibration part, visited low, high, second-lowest, second-highest, …, middle.
+    /// calibration part, visited low, high, second-lowest, second-highest, …, middle, each
+    /// twice: approached from below, then from above (`sim::steps`).
     pub levels: u32,
-    /// Time each level is held, ramp included \[s\].
+    /// Length of each visit of a level \[s\]: the excursion and return ramps, then the hold.
     pub hold_s: f64,
-    /// Linear ramp from the previous setpoint \[s\] (at most half the hold).
+    /// Each of the two linear ramps of a visit \[s\] (at most a quarter of `hold_s`).
     pub ramp_s: f64,
 }
 
@@ -546,7 +547,7 @@ impl Default for Pace {
 }
 impl Default for Steps {
     fn default() -> Self {
-        Steps { enabled: false, levels: 5, hold_s: 86_400.0, ramp_s: 1800.0 }
+        Steps { enabled: false, levels: 5, hold_s: 43_200.0, ramp_s: 1800.0 }
     }
 }
 impl Default for Scan {
@@ -828,7 +829,10 @@ impl ScenarioConfig {
     /// Samples of the steps part (0 when it is off): every measurand through every level.
     pub fn n_steps_samples(&self) -> usize {
         if self.steps.enabled {
-            self.measurands.len() * self.steps.levels as usize * self.steps_hold_samples()
+            self.measurands.len()
+                * self.steps.levels as usize
+                * crate::sim::steps::APPROACHES
+                * self.steps_hold_samples()
         } else {
             0
         }
@@ -906,7 +910,7 @@ impl ScenarioConfig {
         }
         // A hold needs samples only when the steps part is simulated.
         v.range("steps.hold_s", st.hold_s, if st.enabled { 4.0 * c.dt_s } else { 1e-3 }, 1e8);
-        v.range("steps.ramp_s", st.ramp_s, 0.0, 0.5 * st.hold_s);
+        v.range("steps.ramp_s", st.ramp_s, 0.0, 0.25 * st.hold_s);
         if v.ok() && self.n_native_samples() < 100 {
             v.fail("clock.days", "fewer than 100 samples: increase days or decrease dt_s");
         }

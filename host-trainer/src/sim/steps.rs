@@ -3,7 +3,12 @@
 //! holds each for `hold_s`, while every other measurand stays at its calibration-part median.
 //! The levels span the 5th to the 95th percentile of the measurand's calibration part, evenly
 //! spaced, and are visited low, high, second-lowest, second-highest, …, middle, so that the
-//! level is not a trend in time. The holds carry no AR wiggle: the truth is exactly constant.
+//! level is not a trend in time. Each level is held twice, approached once from below and once
+//! from above (a ramp out to the neighbouring level, clamped to the calibration part's range,
+//! and back), as a calibration laboratory takes an ascending and a descending series: a
+//! hysteresis loop then shows as the difference of the two holds, not as a gain error (visited
+//! once, the low levels would all be reached falling and the high ones rising, and the loop's
+//! width would read as a slope). The holds carry no AR wiggle: the truth is exactly constant.
 //!
 //! [`holds`] finds the holds of such a record again from its truth columns alone (a CSV read
 //! back has no scenario), for scoring a model on settled, known levels.
@@ -57,30 +62,50 @@ pub fn levels_of(cal: &[f64], levels: usize) -> Vec<f64> {
     (0..levels).map(|i| lo + (hi - lo) * i as f64 / last).collect()
 }
 
+/// Visits of each level: approached from below, then from above.
+pub const APPROACHES: usize = 2;
+
 /// Append the steps part to `series` (each holding its calibration part): the series listed in
 /// `stepped` step in that order through their levels, every series not being stepped holds its
-/// calibration-part median. Each setpoint is reached by a linear ramp of `ramp_samples` from the
-/// previous one (the first from the last calibration sample) and held to the end of its
-/// `hold_samples`.
+/// calibration-part median. Each level is visited [`APPROACHES`] times, each visit
+/// `hold_samples` long: a linear ramp of `ramp_samples` out to the excursion point (one level
+/// spacing below, then above, the level, within the calibration part's range), a ramp of
+/// `ramp_samples` back to the level, and the level held to the end of the visit.
 pub fn extend(series: &mut [Vec<f64>], stepped: &[usize], steps: &Steps, hold_samples: usize, ramp_samples: usize) {
     let medians: Vec<f64> = series.iter().map(|s| crate::stats::median(s)).collect();
+    let range: Vec<(f64, f64)> = series
+        .iter()
+        .map(|s| s.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x))))
+        .collect();
     let levels: Vec<Vec<f64>> = stepped.iter().map(|&k| levels_of(&series[k], steps.levels as usize)).collect();
     let order = visit_order(steps.levels as usize);
+    let ramp = ramp_samples.max(1);
     let mut prev: Vec<f64> = series.iter().map(|s| s.last().copied().unwrap_or(f64::NAN)).collect();
     for (q, &k) in stepped.iter().enumerate() {
+        let lv = &levels[q];
+        let spacing = if lv.len() > 1 { (lv[lv.len() - 1] - lv[0]) / (lv.len() - 1) as f64 } else { 0.0 };
         for &l in &order {
-            let target: Vec<f64> = (0..series.len()).map(|s| if s == k { levels[q][l] } else { medians[s] }).collect();
-            for j in 0..hold_samples {
-                for (s, out) in series.iter_mut().enumerate() {
-                    // The setpoint itself once the ramp is over: holds are exactly constant.
-                    out.push(if j + 1 >= ramp_samples {
-                        target[s]
-                    } else {
-                        prev[s] + (target[s] - prev[s]) * (j + 1) as f64 / ramp_samples as f64
-                    });
+            for side in [-1.0, 1.0] {
+                let level = lv[l];
+                let excursion = (level + side * spacing).clamp(range[k].0, range[k].1);
+                let at =
+                    |v: f64| -> Vec<f64> { (0..series.len()).map(|s| if s == k { v } else { medians[s] }).collect() };
+                let (out_to, target) = (at(excursion), at(level));
+                for j in 0..hold_samples {
+                    for (s, out) in series.iter_mut().enumerate() {
+                        // Out to the excursion point, back, then the setpoint itself: holds are
+                        // exactly constant.
+                        out.push(if j < ramp {
+                            prev[s] + (out_to[s] - prev[s]) * (j + 1) as f64 / ramp as f64
+                        } else if j + 1 < 2 * ramp {
+                            out_to[s] + (target[s] - out_to[s]) * (j + 1 - ramp) as f64 / ramp as f64
+                        } else {
+                            target[s]
+                        });
+                    }
                 }
+                prev = target;
             }
-            prev = target;
         }
     }
 }
@@ -165,12 +190,17 @@ mod tests {
     fn extend_ramps_then_holds_exactly() {
         let mut s = vec![(0..100).map(f64::from).collect::<Vec<f64>>(), vec![7.0; 100]];
         let steps = Steps { enabled: true, levels: 5, hold_s: 0.0, ramp_s: 0.0 };
-        extend(&mut s, &[0, 1], &steps, 10, 4);
-        assert_eq!(s[0].len(), 100 + 2 * 5 * 10);
-        // First hold: measurand 0 ramps from 99 to its lowest level, measurand 1 to its median.
+        extend(&mut s, &[0, 1], &steps, 20, 4);
+        assert_eq!(s[0].len(), 100 + 2 * 5 * APPROACHES * 20);
+        // First visit: measurand 0 ramps from 99 down past its lowest level (clamped to the
+        // calibration minimum, 0), back up to it and holds; measurand 1 goes to its median.
         let lo = percentile(&s[0][..100], 5.0);
-        assert!((s[0][101] - (99.0 + (lo - 99.0) * 0.5)).abs() < 1e-12);
-        assert!(s[0][103..110].iter().all(|&v| v == lo));
-        assert!(s[1][100..150].iter().all(|&v| v == 7.0));
+        assert!((s[0][101] - (99.0 + (0.0 - 99.0) * 0.5)).abs() < 1e-12);
+        assert_eq!(s[0][103], 0.0);
+        assert!(s[0][107..120].iter().all(|&v| v == lo));
+        // Second visit of the same level: from above (one level spacing, 22.5).
+        assert_eq!(s[0][123], lo + 22.5);
+        assert!(s[0][127..140].iter().all(|&v| v == lo));
+        assert!(s[1][100..300].iter().all(|&v| v == 7.0));
     }
 }

@@ -1,0 +1,155 @@
+//! The pace study (DESIGN §4 static fidelity, §5): the calibration's installation run at other
+//! paces and through a steps record, compensated by the models calibrated at its own pace.
+//!
+//! Cross-validation inside one calibration batch cannot see a model that is right only at the
+//! batch's pace: every fold has the same pace. This study can. The same scenario and seed (the
+//! same installation: dispersed gauge matrix, drift and noise realisations) is simulated with
+//! every measurand trajectory ×¼ (four times slower), ×4 and ×8 faster — all measurands at
+//! once, and each alone — and as a steps record (each measurand held at levels across its
+//! range, each level approached from below and from above). Each record's hold-out is scored
+//! with both models; on the steps record the settled slope (mean reading over the settled half
+//! of each hold against the held level) is the static gain, which must be 1.
+
+use crate::data::{Dataset, Measurand};
+use crate::error::TrainerError;
+use crate::eval::score::evaluate_holdout;
+use crate::fit::static_fidelity::{settled_slope, HeldLevel};
+use crate::fit::HostParams;
+use crate::sim::scenario::ScenarioConfig;
+use crate::sim::{simulate, steps};
+
+/// Pace factors of the study (speed multipliers: ¼ is four times slower).
+pub const PACES: [f64; 3] = [0.25, 4.0, 8.0];
+
+/// Numbers that serde_json wrote as `null` (NaN) read back as NaN.
+pub fn nullable<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    let v: Vec<Option<f64>> = serde::Deserialize::deserialize(d)?;
+    Ok(v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())
+}
+
+/// One record of the study: both models' hold-out figures, per output of the models.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PaceRow {
+    /// What the record is: `×0.25`, `×4 (p_kPa)`, `steps`.
+    pub label: String,
+    /// Pace factor (1 for the steps record).
+    pub factor: f64,
+    /// The measurand paced alone (column name), or `None` for all of them.
+    pub only: Option<String>,
+    /// Hold-out samples scored.
+    pub samples: usize,
+    #[serde(deserialize_with = "nullable")]
+    pub rmse_p: Vec<f64>,
+    #[serde(deserialize_with = "nullable")]
+    pub rmse_h: Vec<f64>,
+    /// 95 % band coverage (fraction).
+    #[serde(deserialize_with = "nullable")]
+    pub coverage_p: Vec<f64>,
+    #[serde(deserialize_with = "nullable")]
+    pub coverage_h: Vec<f64>,
+    /// Settled slope against the truth (steps record only; empty otherwise).
+    #[serde(default, deserialize_with = "nullable")]
+    pub slope_p: Vec<f64>,
+    #[serde(default, deserialize_with = "nullable")]
+    pub slope_h: Vec<f64>,
+    /// Holds behind each slope (steps record only).
+    #[serde(default)]
+    pub holds: usize,
+}
+
+impl PaceRow {
+    /// Gain of Model-H over Model-P on output `c` [%].
+    pub fn gain_pct(&self, c: usize) -> f64 {
+        100.0 * (1.0 - self.rmse_h[c] / self.rmse_p[c])
+    }
+}
+
+/// The whole study.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PaceStudy {
+    pub scenario: String,
+    pub seed: u64,
+    /// Every paced record, then the steps record.
+    pub rows: Vec<PaceRow>,
+}
+
+impl PaceStudy {
+    /// The steps record's row.
+    pub fn steps(&self) -> Option<&PaceRow> {
+        self.rows.iter().find(|r| !r.slope_p.is_empty())
+    }
+}
+
+/// Score both models on `d`'s hold-out.
+fn score(
+    label: String,
+    factor: f64,
+    only: Option<String>,
+    p: &HostParams,
+    h: &HostParams,
+    d: &Dataset,
+) -> Result<PaceRow, TrainerError> {
+    let (ep, _) = evaluate_holdout(p, d)?;
+    let (eh, _) = evaluate_holdout(h, d)?;
+    Ok(PaceRow {
+        label,
+        factor,
+        only,
+        samples: d.holdout_indices().len(),
+        rmse_p: ep.channels.iter().map(|c| c.rmse).collect(),
+        rmse_h: eh.channels.iter().map(|c| c.rmse).collect(),
+        coverage_p: ep.channels.iter().map(|c| c.coverage).collect(),
+        coverage_h: eh.channels.iter().map(|c| c.coverage).collect(),
+        slope_p: vec![],
+        slope_h: vec![],
+        holds: 0,
+    })
+}
+
+/// The holds of a steps record as levels of the models' outputs (holds of a measurand the
+/// models do not output are left out).
+pub fn held_levels(d: &Dataset, outputs: &[Measurand]) -> Vec<HeldLevel> {
+    steps::holds(d)
+        .into_iter()
+        .filter_map(|h| {
+            let m = d.refs.get(h.measurand)?.measurand;
+            let output = outputs.iter().position(|o| *o == m)?;
+            Some(HeldLevel { output, level: h.level, rows: h.rows })
+        })
+        .collect()
+}
+
+/// Run the study for the installation `cfg` (its native pace) with `seed`, compensated by
+/// `model_p` and `model_h` (calibrated on that installation at its own pace).
+pub fn pace_study(
+    cfg: &ScenarioConfig,
+    seed: u64,
+    model_p: &HostParams,
+    model_h: &HostParams,
+) -> Result<PaceStudy, TrainerError> {
+    let mut records: Vec<(String, f64, Option<Measurand>)> = Vec::new();
+    for &f in &PACES {
+        records.push((format!("×{f}"), f, None));
+    }
+    if cfg.measurands.len() > 1 {
+        for &m in &cfg.measurands {
+            for &f in &PACES {
+                records.push((format!("×{f} ({})", m.column()), f, Some(m)));
+            }
+        }
+    }
+    let mut rows = crate::fit::par_map(&records, |(label, f, only)| {
+        let sim = simulate(&cfg.paced(*f, *only), seed);
+        score(label.clone(), *f, only.map(|m| m.column().to_string()), model_p, model_h, &sim.data)
+    })
+    .into_iter()
+    .collect::<Result<Vec<_>, _>>()?;
+    let st = simulate(&cfg.steps(), seed);
+    let mut row = score("steps".into(), 1.0, None, model_p, model_h, &st.data)?;
+    let holds = held_levels(&st.data, &Measurand::of_dims(&model_h.dims));
+    row.slope_p = settled_slope(model_p, &st.data, &holds)?.gain;
+    row.slope_h = settled_slope(model_h, &st.data, &holds)?.gain;
+    row.holds = holds.len();
+    rows.push(row);
+    Ok(PaceStudy { scenario: cfg.name.clone(), seed, rows })
+}
