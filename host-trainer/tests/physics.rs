@@ -150,8 +150,9 @@ fn steps_record_continues_the_calibration_part_with_held_levels() {
     let native = simulate(&paper, 7);
     let cfg = paper.steps();
     let s = simulate(&cfg, 7);
-    let (n_cal, hold) = (10_080, 1_440);
-    assert_eq!(s.data.len(), n_cal + 3 * 5 * hold);
+    // 12 h visits, each level visited twice (from below, from above).
+    let (n_cal, hold) = (10_080, 720);
+    assert_eq!(s.data.len(), n_cal + 3 * 5 * 2 * hold);
     assert_eq!(cfg.n_samples(), s.data.len());
     assert_eq!(s.physics, native.physics);
     for (a, b) in s.data.refs.iter().zip(&native.data.refs) {
@@ -162,21 +163,37 @@ fn steps_record_continues_the_calibration_part_with_held_levels() {
     assert_eq!(*s.data.t_s.last().unwrap(), (s.data.len() - 1) as f64 * 60.0);
 
     let found = holds(&s.data);
-    assert_eq!(found.len(), 15, "{found:?}");
-    // In the dataset's order, each measurand in turn, low, high, second-lowest, …, middle.
+    assert_eq!(found.len(), 30, "{found:?}");
+    // In the dataset's order, each measurand in turn, low, high, second-lowest, …, middle,
+    // each level twice in a row.
     let order: Vec<usize> = found.iter().map(|h| h.measurand).collect();
-    assert_eq!(order, [0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 2, 2, 2, 2, 2]);
+    assert_eq!(order, [[0; 10], [1; 10], [2; 10]].concat());
     for c in 0..3 {
         let cal = &s.data.refs[c].values[..n_cal];
         let (lo, hi) = (percentile(cal, 5.0), percentile(cal, 95.0));
-        let lv: Vec<f64> = found.iter().filter(|h| h.measurand == c).map(|h| h.level).collect();
+        let all: Vec<f64> = found.iter().filter(|h| h.measurand == c).map(|h| h.level).collect();
+        assert!(all.chunks(2).all(|p| p[0] == p[1]), "{all:?}");
+        let lv: Vec<f64> = all.iter().step_by(2).copied().collect();
         assert_eq!(lv[0], lo);
         assert!((lv[1] - hi).abs() < 1e-9 * hi.abs().max(1.0));
         assert!(lv[0] < lv[2] && lv[2] < lv[4] && lv[4] < lv[3] && lv[3] < lv[1], "{lv:?}");
+        // The first visit of a level comes from below, the second from above: the sample
+        // before each hold is below, then above, the level.
+        for pair in found.iter().filter(|h| h.measurand == c).collect::<Vec<_>>().chunks(2) {
+            let before = |h: &fbg_trainer::sim::steps::Hold| {
+                let v = &s.data.refs[c].values;
+                let mut i = h.rows.start;
+                while v[i - 1] == h.level {
+                    i -= 1;
+                }
+                v[i - 1]
+            };
+            assert!(before(pair[0]) < pair[0].level && before(pair[1]) > pair[1].level, "{pair:?}");
+        }
     }
     for h in &found {
-        // The settled last half of a 24 h hold after its 30 min ramp.
-        let held = hold - 30 + 1;
+        // The settled last half of a 12 h visit after its two 30 min ramps.
+        let held = hold - 60 + 1;
         assert_eq!(h.rows.len(), held - held / 2);
         for (c, r) in s.data.refs.iter().enumerate() {
             let v = &r.values[h.rows.clone()];

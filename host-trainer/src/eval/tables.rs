@@ -393,8 +393,8 @@ pub fn static_fidelity(sf: &crate::eval::metrics::StaticFidelity, m: &Metrics) -
     }
     Table {
         title: format!(
-            "Static fidelity: slope of the settled reading (high-pass memory terms at 0) against the truth over the calibration batch (1 is right), and what Model-H's dynamic parts add ({}, seed {})",
-            m.scenario, m.seed
+            "Static fidelity: slope of the settled reading (high-pass memory terms at 0) against the truth over the calibration batch (1 is right), and what Model-H's dynamic parts add ({})",
+            origin_label(m)
         ),
         header: std::iter::once("".to_string())
             .chain(m.channels.iter().zip(&m.units).map(|(c, u)| format!("{c} [{u}]")))

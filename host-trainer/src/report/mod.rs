@@ -402,6 +402,7 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     specs.push(figures::fig7_errors(&ctx));
     specs.extend(figures::fig8_drift(&ctx));
     specs.extend(figures::fig9_contributions(&ctx));
+    specs.extend(figures::fig10_pace(&ctx));
     specs.par_iter().map(|f| f.grid.write(dir, &f.stem)).collect::<Result<Vec<()>, TrainerError>>()?;
     for f in &specs {
         out.files.push(format!("{}.png", f.stem));
@@ -543,6 +544,23 @@ fn page(
         } else {
             "<p class=\"note\">Model-H has neither memory terms nor RBF centres: Figure 9 is omitted.</p>\n".into()
         },
+    });
+    sections.push(Section {
+        id: "static-fidelity".into(),
+        title: "Static fidelity and the pace study (Fig. 10)".into(),
+        body: format!(
+            "{}{}",
+            if m.static_fidelity.is_some() {
+                table_of("static_fidelity")
+            } else {
+                "<p class=\"note\">No static gains in metrics.json (written before static fidelity).</p>\n".into()
+            },
+            if m.pace.is_some() {
+                format!("{}{}", fig("fig10_pace"), table_of("pace"))
+            } else {
+                "<p class=\"note\">No pace study in metrics.json (recorded data, or written before it): Figure 10 is omitted.</p>\n".into()
+            }
+        ),
     });
     sections.push(Section {
         id: "drift".into(),

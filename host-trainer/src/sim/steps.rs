@@ -4,8 +4,8 @@
 //! The levels span the 5th to the 95th percentile of the measurand's calibration part, evenly
 //! spaced, and are visited low, high, second-lowest, second-highest, …, middle, so that the
 //! level is not a trend in time. Each level is held twice, approached once from below and once
-//! from above (a ramp out to the neighbouring level, clamped to the calibration part's range,
-//! and back), as a calibration laboratory takes an ascending and a descending series: a
+//! from above (a ramp out to one level spacing beyond the level and back, far enough to turn
+//! any hysteresis loop narrower than that), as a calibration laboratory takes an ascending and a descending series: a
 //! hysteresis loop then shows as the difference of the two holds, not as a gain error (visited
 //! once, the low levels would all be reached falling and the high ones rising, and the loop's
 //! width would read as a slope). The holds carry no AR wiggle: the truth is exactly constant.
@@ -69,14 +69,11 @@ pub const APPROACHES: usize = 2;
 /// `stepped` step in that order through their levels, every series not being stepped holds its
 /// calibration-part median. Each level is visited [`APPROACHES`] times, each visit
 /// `hold_samples` long: a linear ramp of `ramp_samples` out to the excursion point (one level
-/// spacing below, then above, the level, within the calibration part's range), a ramp of
+/// spacing below, then above, the level: far enough to turn any hysteresis loop narrower than
+/// a level spacing, even beyond the calibration range at the end levels), a ramp of
 /// `ramp_samples` back to the level, and the level held to the end of the visit.
 pub fn extend(series: &mut [Vec<f64>], stepped: &[usize], steps: &Steps, hold_samples: usize, ramp_samples: usize) {
     let medians: Vec<f64> = series.iter().map(|s| crate::stats::median(s)).collect();
-    let range: Vec<(f64, f64)> = series
-        .iter()
-        .map(|s| s.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x))))
-        .collect();
     let levels: Vec<Vec<f64>> = stepped.iter().map(|&k| levels_of(&series[k], steps.levels as usize)).collect();
     let order = visit_order(steps.levels as usize);
     let ramp = ramp_samples.max(1);
@@ -87,7 +84,7 @@ pub fn extend(series: &mut [Vec<f64>], stepped: &[usize], steps: &Steps, hold_sa
         for &l in &order {
             for side in [-1.0, 1.0] {
                 let level = lv[l];
-                let excursion = (level + side * spacing).clamp(range[k].0, range[k].1);
+                let excursion = level + side * spacing;
                 let at =
                     |v: f64| -> Vec<f64> { (0..series.len()).map(|s| if s == k { v } else { medians[s] }).collect() };
                 let (out_to, target) = (at(excursion), at(level));
@@ -192,14 +189,16 @@ mod tests {
         let steps = Steps { enabled: true, levels: 5, hold_s: 0.0, ramp_s: 0.0 };
         extend(&mut s, &[0, 1], &steps, 20, 4);
         assert_eq!(s[0].len(), 100 + 2 * 5 * APPROACHES * 20);
-        // First visit: measurand 0 ramps from 99 down past its lowest level (clamped to the
-        // calibration minimum, 0), back up to it and holds; measurand 1 goes to its median.
+        // First visit: measurand 0 ramps from 99 down to one level spacing below its lowest
+        // level, back up to it and holds; measurand 1 goes to its median.
         let lo = percentile(&s[0][..100], 5.0);
-        assert!((s[0][101] - (99.0 + (0.0 - 99.0) * 0.5)).abs() < 1e-12);
-        assert_eq!(s[0][103], 0.0);
+        let lv = levels_of(&s[0][..100], 5);
+        let spacing = (lv[4] - lv[0]) / 4.0;
+        assert!((s[0][101] - (99.0 + (lo - spacing - 99.0) * 0.5)).abs() < 1e-9);
+        assert!((s[0][103] - (lo - spacing)).abs() < 1e-9);
         assert!(s[0][107..120].iter().all(|&v| v == lo));
-        // Second visit of the same level: from above (one level spacing, 22.5).
-        assert_eq!(s[0][123], lo + 22.5);
+        // Second visit of the same level: from above.
+        assert!((s[0][123] - (lo + spacing)).abs() < 1e-9);
         assert!(s[0][127..140].iter().all(|&v| v == lo));
         assert!(s[1][100..300].iter().all(|&v| v == 7.0));
     }
