@@ -265,7 +265,7 @@ pub fn write_coefficients_signed(
 }
 
 /// The static-fidelity audit (DESIGN §4) as written in `coefficients.json`: per output both
-/// models' static gains (settled reading against the truth over the calibration batch) and the
+/// models' static gains (the truth regressed on the settled reading over the calibration batch) and the
 /// RMS of what each dynamic part of Model-H adds.
 pub fn static_fidelity_json(model_h: &HostParams, a: &StaticAudit) -> serde_json::Value {
     let mut parts = serde_json::Map::new();
@@ -274,7 +274,7 @@ pub fn static_fidelity_json(model_h: &HostParams, a: &StaticAudit) -> serde_json
     }
     parts.insert("rbf".into(), serde_json::json!(a.contributions.rbf));
     serde_json::json!({
-        "what": "per output, the slope of each model's settled reading (high-pass memory terms at 0) against the truth over the calibration batch; 1 is right",
+        "what": "per output, the slope of the truth regressed on each model's settled reading (high-pass memory terms at 0) over the calibration batch: the gain the settled reading would need; 1 is right",
         "outputs": output_keys(model_h),
         "model_p_gain": a.model_p.gain,
         "model_h_gain": a.model_h.gain,

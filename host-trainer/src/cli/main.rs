@@ -481,7 +481,7 @@ fn run() -> Result<()> {
                     outs.iter().zip(g).map(|(m, v)| format!("{} {v:.4}", m.short_name())).collect::<Vec<_>>().join(", ")
                 };
                 eprintln!(
-                    "static gain (settled reading against the truth, calibration batch; 1 is right): Model-P {}; Model-H {}",
+                    "static gain (truth on the settled reading over the calibration batch; 1 is right): Model-P {}; Model-H {}",
                     gains(&a.model_p.gain),
                     gains(&a.model_h.gain)
                 );

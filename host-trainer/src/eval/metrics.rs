@@ -91,7 +91,7 @@ pub struct Metrics {
     pub timings_s: Vec<(String, f64)>,
 }
 
-/// Per output, the slope of each model's settled reading against the truth over the
+/// Per output, the slope of the truth on each model's settled reading over the
 /// calibration batch, and the RMS of what Model-H's memory groups and RBF residual add
 /// ([`crate::fit::static_fidelity::StaticAudit`]).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -6,7 +6,6 @@
 //! collected from that code too (`Compensator::core_and_activations`, see [`design`]).
 
 pub mod band;
-pub mod classical;
 pub mod design;
 pub mod features;
 pub mod kmeans;
@@ -556,33 +555,13 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
     let var = VarianceTerms::from_ridge(&sys, alpha);
     let thr = if sk.centres.is_empty() { 0.0 } else { weak_support_threshold(&gram.max_psi) };
     let t_end = cal.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
-    let mut model_h =
-        sk.params_with_band(Some(&w), alpha, Some(&var), &selection.var_model_h, t_end, thr, &provenance)?;
-    correct_gain(&mut model_h, d, &cal)?;
+    let model_h = sk.params_with_band(Some(&w), alpha, Some(&var), &selection.var_model_h, t_end, thr, &provenance)?;
 
     let sk_p = Skeleton { core: core_p.clone(), centres: vec![], ..sk };
     let model_p = sk_p.params_with_band(None, 0.0, None, &selection.var_model_p, t_end, 0.0, &provenance)?;
     let static_audit = static_fidelity::StaticAudit::of(&model_p, &model_h, d, &cal)?;
     phases.lap("assembly and static audit");
     Ok(Trained { model_p, model_h, core: core_p, selection, phase_seconds: phases.laps, static_audit })
-}
-
-/// Model-H's static gain made right (see [`classical`]): its memory terms and RBF residual are
-/// fitted by least squares on what the (corrected) core leaves, and dilute the gain again a
-/// little like any inverse fit. The gain is measured on the settled reading (high-passes at 0,
-/// [`static_fidelity::settled_model`]), the one static fidelity is about; the correction is
-/// folded into B, Γ and W alike.
-fn correct_gain(p: &mut HostParams, d: &Dataset, rows: &[usize]) -> Result<(), TrainerError> {
-    let est = run(&static_fidelity::settled_model(p), d, rows)?;
-    let readings: Vec<[f64; MAX_OUTPUTS]> = est.iter().map(|e| e.values).collect();
-    if let Some(g) = classical::GainCorrection::fit(d, &p.dims, rows, &readings)? {
-        g.apply(&mut p.poly);
-        g.apply_rows(&mut p.gamma, None);
-        for c in p.centres.iter_mut() {
-            g.apply_weights(&mut c.w);
-        }
-    }
-    Ok(())
 }
 
 /// Wall time per phase.

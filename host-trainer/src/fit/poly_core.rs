@@ -160,17 +160,6 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
             row[k] = b[(c, o)];
         }
     }
-    // The static gain made right (classical calibration, see `fit::classical`).
-    let readings: Vec<[f64; MAX_OUTPUTS]> = idx
-        .par_iter()
-        .map(|&i| {
-            let ph = phi_at(&dims, &stage1, &guess_mean, &guess_std, d, i, cross_terms);
-            std::array::from_fn(|o| if o < m { poly[o].iter().zip(&ph).map(|(b, f)| b * f).sum() } else { 0.0 })
-        })
-        .collect();
-    if let Some(g) = super::classical::GainCorrection::fit(d, &dims, idx, &readings)? {
-        g.apply(&mut poly);
-    }
     Ok(PolyCore {
         dims,
         stage1,

@@ -1,4 +1,4 @@
-//! Static fidelity (DESIGN §4): the slope of a model's settled reading against the truth.
+//! Static fidelity (DESIGN §4): the gain of a model's settled reading against the truth.
 //!
 //! Once every input has been constant long enough, the model's high-pass memory terms
 //! (Δλ − EMA_τ, T_amb − EMA_τ) are 0; what remains — the polynomial core, the stop terms (the
@@ -8,9 +8,14 @@
 //! week's.
 //!
 //! Two measures: [`static_gain`], from any record with references (the calibration batch, for
-//! the audit: the settled model run over it, its reading regressed on the truth), and
-//! [`settled_slope`], from a steps record (the mean reading over the settled part of each hold
-//! against the held level).
+//! the audit: the settled model run over it, the truth regressed on its settled reading — the
+//! gain the settled reading would need to read right, 1 for a least-squares fit's own reading,
+//! far from 1 when memory terms carry part of the measurand), and [`settled_slope`], from a
+//! steps record (the mean reading over the settled part of each hold against the held level).
+//! The audit regresses the truth on the reading, not the reading on the truth: over the
+//! calibration batch a fitted reading's errors are uncorrelated with the reading, not with the
+//! truth, so the reading's slope on the truth is R² (the regression dilution of an inverse fit),
+//! not a gain error; on a steps record the levels are exact and the reading's slope is the gain.
 
 use fbg_shared::MemoryGroup;
 
@@ -18,10 +23,11 @@ use super::{run, HostParams};
 use crate::data::Dataset;
 use crate::error::TrainerError;
 
-/// Per output, the line `reading = offset + gain·truth` fitted by least squares.
+/// Per output, a line fitted by least squares: `truth = offset + gain·reading` for
+/// [`static_gain`], `reading = offset + gain·level` for [`settled_slope`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct StaticGain {
-    /// Slope of the reading against the truth, per output (NaN without a reference).
+    /// Slope per output (NaN without a reference).
     pub gain: Vec<f64>,
     /// Intercept, per output, in the output's unit.
     pub offset: Vec<f64>,
@@ -79,7 +85,7 @@ fn line(truth: impl Iterator<Item = (f64, f64)>) -> (f64, f64, usize) {
 }
 
 /// The static gain of `p` over `rows` of `d` (sorted): its settled model ([`settled_model`])
-/// run over the record, each output's reading regressed on its reference.
+/// run over the record, each output's reference regressed on its settled reading.
 pub fn static_gain(p: &HostParams, d: &Dataset, rows: &[usize]) -> Result<StaticGain, TrainerError> {
     let settled = settled_model(p);
     let est = run(&settled, d, rows)?;
@@ -87,7 +93,7 @@ pub fn static_gain(p: &HostParams, d: &Dataset, rows: &[usize]) -> Result<Static
     let mut out = StaticGain { gain: Vec::new(), offset: Vec::new(), rows: Vec::new() };
     for (c, r) in refs.iter().enumerate().take(p.dims.n_outputs()) {
         let (g, a, n) = if r.is_present() {
-            line(rows.iter().zip(&est).map(|(&i, e)| (r[i], e.values[c])))
+            line(rows.iter().zip(&est).map(|(&i, e)| (e.values[c], r[i])))
         } else {
             (f64::NAN, f64::NAN, 0)
         };

@@ -814,7 +814,7 @@ pub fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
         stem: "fig9_contributions".into(),
         title: "Fig. 9 — What each part of Model-H contributes".into(),
         caption: format!(
-            "Model-H = Bφ + Γm + Wψ, split by running `fbg-shared` with parts removed on the hold-out: the core Bφ is Model-P's (with Model-H's own gain correction), the memory terms Γm are fitted on what it leaves, and the RBF residual Wψ learns what both leave. Grey: the truth minus the core alone. {}.{}",
+            "Model-H = Bφ + Γm + Wψ, split by running `fbg-shared` with parts removed on the hold-out: the core Bφ is Model-P's, the memory terms Γm are fitted on what it leaves, and the RBF residual Wψ learns what both leave. Grey: the truth minus the core alone. {}.{}",
             notes.join("; "),
             decimation_note(c.hold.len(), 2 * COLUMNS)
         ),
