@@ -9,7 +9,7 @@ use crate::fit::{TrainOptions, HOST_CAP};
 /// The model variant of a `--features` name: the RBF feature sets cross-validation may choose
 /// from and whether the memory bank is on the menu.
 ///
-/// - `memory` (the default): memory terms fitted with the core plus an RBF residual on
+/// - `memory` (the default): memory terms fitted on what the core leaves, plus an RBF residual on
 ///   [Δλ, T_amb, latches];
 /// - `hysteresis-aware`: no memory terms, RBF on latches (and time if CV keeps it);
 /// - `latch`: the same as `hysteresis-aware` (its name when it was the default);

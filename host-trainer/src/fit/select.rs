@@ -240,7 +240,7 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         .collect();
     let (fold_core, sq_p): (Vec<FoldCore>, Vec<FoldErrors>) = per_fold_p?.into_iter().unzip();
     // The memory terms, chosen on the folds' own cores, then each fold's core refitted with
-    // them (B and Γ jointly): the RBF layer below learns what that core leaves.
+    // them (Γ on what B leaves): the RBF layer below learns what that core leaves.
     let mem_folds: Vec<memory_core::FoldInput<'_>> = fs
         .iter()
         .zip(&fold_core)

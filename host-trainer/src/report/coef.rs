@@ -185,7 +185,7 @@ fn memory(h: &HostParams) -> Table {
         })
         .collect();
     Table {
-        title: "Memory terms of Model-H: ŷ = Bφ + Γm + Wψ; each term m_k is level-free (a signal minus its own low-pass or play operator), Γ was fitted jointly with B (ridge on the standardised terms); 0 where cross-validation left a group out for that output".into(),
+        title: "Memory terms of Model-H: ŷ = Bφ + Γm + Wψ; each term m_k is level-free (a signal minus its own low-pass or play operator), Γ was fitted on what the core Bφ leaves (ridge on the standardised terms); 0 where cross-validation left a group out for that output".into(),
         header,
         rows,
     }

@@ -247,6 +247,35 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         }
     }
 
+    // Static fidelity: the same installation at other paces and on a steps record.
+    if let Some(ps) = &m.pace {
+        let mut worse = Vec::new();
+        let mut cells = 0;
+        for r in &ps.rows {
+            for c in 0..nch.min(r.rmse_p.len()) {
+                cells += 1;
+                if r.rmse_h[c] > r.rmse_p[c] {
+                    worse.push(format!("{} at {} ({})", names[c], r.label, change(r.gain_pct(c))));
+                }
+            }
+        }
+        let mut s = format!(
+            "Static fidelity (Fig. 10): on the same installation with its measurands at other paces and on a steps record, Model-H is worse than Model-P in {} of {} record–channel cells{}.",
+            worse.len(),
+            cells,
+            if worse.is_empty() { String::new() } else { format!(": {}", list(&worse)) }
+        );
+        if let Some(st) = ps.steps() {
+            let sl = |v: &[f64]| list(&(0..nch.min(v.len())).map(|c| format!("{} {}", names[c], num(v[c], 3))).collect::<Vec<_>>());
+            s.push_str(&format!(
+                " On the steps record the settled slope against the truth (1 is right) is {} for Model-P and {} for Model-H.",
+                sl(&st.slope_p),
+                sl(&st.slope_h)
+            ));
+        }
+        out.push(s);
+    }
+
     // Device parity and flags.
     let mut s = String::new();
     if let Some(p) = &m.parity {
