@@ -363,6 +363,8 @@ fn a_flipped_header_bit_is_corruption_and_inspect_prints_f32_values_as_f32() {
     assert!(ok, "{err}");
     assert!(out.contains("CRC-32 "), "{out}");
     assert!(out.contains("envelope margin 0.1,"), "{out}");
+    // The static gains `train` recorded beside the blob (issue 26).
+    assert!(out.contains("static gain (truth on the settled reading") && out.contains("Model-H T_C "), "{out}");
     // No f32 widened to f64 digits such as 0.10000000149011612.
     let long_digits = out
         .split(|c: char| !(c.is_ascii_digit() || c == '.'))

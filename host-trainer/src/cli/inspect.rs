@@ -105,7 +105,47 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
         "provenance: scenario {}, seed {}, trainer {}, date {}, {} calibration samples",
         pr.scenario, pr.seed, pr.trainer_version, pr.date_yyyymmdd, pr.n_cal
     );
+    println!("{}", static_fidelity_line(path));
     refuse(&check)
+}
+
+/// The static gains `train` recorded in the blob's audit sidecar (`<stem>.coefficients.json`,
+/// or for a Model-P blob `<stem>-p.fbgm` its Model-H's), which the blob itself does not carry.
+fn static_fidelity_line(path: &Path) -> String {
+    let mut candidates = vec![export::coefficients_path(path)];
+    if let Some(stem) = path.file_stem().and_then(|s| s.to_str()).and_then(|s| s.strip_suffix("-p")) {
+        candidates.push(export::coefficients_path(&path.with_file_name(format!("{stem}.fbgm"))));
+    }
+    for c in candidates {
+        let Ok(text) = std::fs::read_to_string(&c) else { continue };
+        let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else { continue };
+        let sf = &v["static_fidelity"];
+        let (Some(outs), Some(gp), Some(gh)) =
+            (sf["outputs"].as_array(), sf["model_p_gain"].as_array(), sf["model_h_gain"].as_array())
+        else {
+            return format!("static gain: not recorded in {} (written before static fidelity)", c.display());
+        };
+        let fmt = |g: &[serde_json::Value]| -> String {
+            outs.iter()
+                .zip(g)
+                .map(|(o, x)| {
+                    format!(
+                        "{} {}",
+                        o.as_str().unwrap_or("?"),
+                        x.as_f64().map(|x| format!("{x:.4}")).unwrap_or("–".into())
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        return format!(
+            "static gain (truth on the settled reading over the calibration batch, 1 is right; from {}): Model-P {}; Model-H {}",
+            c.display(),
+            fmt(gp),
+            fmt(gh)
+        );
+    }
+    "static gain: no coefficients.json beside the blob (`train` writes it)".into()
 }
 
 /// Values stored as f32, printed at f32 precision: "0.1, 2.5, 1.6360161e-7".

@@ -167,7 +167,8 @@ pub fn ablation(
     rows.push(AblationRow {
         name: "Hybrid, default".into(),
         note: if opts.memory.enabled() {
-            "memory terms fitted on what the core leaves (groups and λ by CV) + RBF residual on [Δλ, T_amb, latches]".into()
+            "memory terms fitted on what the core leaves (groups and λ by CV) + RBF residual on [Δλ, T_amb, latches]"
+                .into()
         } else {
             "the trained Model-H".into()
         },

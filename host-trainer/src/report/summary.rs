@@ -252,10 +252,10 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         let mut worse = Vec::new();
         let mut cells = 0;
         for r in &ps.rows {
-            for c in 0..nch.min(r.rmse_p.len()) {
+            for (c, name) in names.iter().enumerate().take(r.rmse_p.len()) {
                 cells += 1;
                 if r.rmse_h[c] > r.rmse_p[c] {
-                    worse.push(format!("{} at {} ({})", names[c], r.label, change(r.gain_pct(c))));
+                    worse.push(format!("{name} at {} ({})", r.label, change(r.gain_pct(c))));
                 }
             }
         }
@@ -266,7 +266,9 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
             if worse.is_empty() { String::new() } else { format!(": {}", list(&worse)) }
         );
         if let Some(st) = ps.steps() {
-            let sl = |v: &[f64]| list(&(0..nch.min(v.len())).map(|c| format!("{} {}", names[c], num(v[c], 3))).collect::<Vec<_>>());
+            let sl = |v: &[f64]| {
+                list(&(0..nch.min(v.len())).map(|c| format!("{} {}", names[c], num(v[c], 3))).collect::<Vec<_>>())
+            };
             s.push_str(&format!(
                 " On the steps record the settled slope against the truth (1 is right) is {} for Model-P and {} for Model-H.",
                 sl(&st.slope_p),
