@@ -29,6 +29,7 @@ pub mod fleet;
 pub mod inference;
 pub mod machine;
 pub mod markdown;
+pub mod pace;
 pub mod report;
 pub mod runner;
 pub mod stats;
@@ -95,6 +96,9 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
     step("bench: accuracy peers and band coverage");
     let accuracy = accuracy::part(root, &r, peer_ok)?;
 
+    step("bench: static fidelity and pace study (train + evaluate --quick), `paper` and `field`");
+    let (pace_paper, field) = pace::part(root, &r)?;
+
     step("bench: fleet scaling");
     let fleet = fleet::part(root, &r, &opts)?;
 
@@ -113,6 +117,8 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
             Ok(v) => Device::Measured(Box::new(v.clone())),
             Err(e) => Device::Failed { error: format!("{e:#}") },
         },
+        pace_paper: Some(pace_paper),
+        field: Some(field),
         slurm: runner::read_json::<Report>(&root.join("BENCHMARKS.json")).ok().and_then(|old| old.slurm),
     };
     // Through a `Value`, whose maps are sorted: the keys come out in alphabetical order.
@@ -123,8 +129,8 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
     device.map(|_| ())
 }
 
-/// The datasets every part reads: the three sizes of the training study, the `paper` preset
-/// for every coverage seed and `harsh` for seed 7. The commands that made them.
+/// The datasets every part reads: the three sizes of the training study, the `paper` and
+/// `field` presets for every coverage seed and `harsh` for seed 7. The commands that made them.
 fn simulate_datasets(root: &Path, r: &Runner) -> Result<Vec<String>> {
     let data_dir = root.join("target/bench/data");
     let mut cmds = Vec::new();
@@ -138,8 +144,8 @@ fn simulate_datasets(root: &Path, r: &Runner) -> Result<Vec<String>> {
         )?;
         cmds.push(c);
     }
-    for preset in ["paper", "harsh"] {
-        let seeds: &[u64] = if preset == "paper" { &COVERAGE_SEEDS } else { &[7] };
+    for preset in ["paper", "harsh", "field"] {
+        let seeds: &[u64] = if preset == "harsh" { &[7] } else { &COVERAGE_SEEDS };
         for &seed in seeds {
             let args = [
                 "simulate",

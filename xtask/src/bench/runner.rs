@@ -223,3 +223,34 @@ pub struct CriterionInterval {
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
     pub upper_bound: f64,
 }
+
+/// `fbg-trainer evaluate --json` (`Metrics` of the trainer; only the keys the bench reads).
+#[derive(Clone, Debug, Deserialize)]
+pub struct EvalOut {
+    pub seed: u64,
+    pub channels: Vec<String>,
+    pub table2: EvalTable2,
+    #[serde(default)]
+    pub static_fidelity: Option<super::report::StaticFidelity>,
+    #[serde(default)]
+    pub pace: Option<super::report::PaceStudy>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+pub struct EvalTable2 {
+    pub model_p: EvalModel,
+    pub model_h: EvalModel,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+pub struct EvalModel {
+    pub channels: Vec<EvalChannel>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+pub struct EvalChannel {
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub rmse: f64,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub coverage: f64,
+}
