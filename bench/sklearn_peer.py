@@ -34,10 +34,10 @@ Two sub-commands, each printing one JSON object on stdout:
             residuals: Model-H = Model-P + psi W.
 
          With ``--features memory`` (the default model's inputs, ``fbg-trainer bench-fit --fixed
-         --memory``): the RBF inputs are the ``hysteresis-aware`` ones, and the polynomial
-         core is fitted jointly with the memory terms of each output (DESIGN §4): least squares
-         over [φ(g), m] with a ridge penalty on the standardised memory terms only, solved from
-         the normal equations. The terms are ours, ported to numpy (``memory_terms``): grating
+         --memory``): the RBF inputs are the ``hysteresis-aware`` ones, and the memory terms of
+         each output are fitted on what Model-P's core leaves (DESIGN §4, static fidelity): ridge
+         least squares of the core's residual on the memory terms scaled by their standard
+         deviations (penalty λ·n), solved from the normal equations. The terms are ours, ported to numpy (``memory_terms``): grating
          high-passes Δλ − EMA_τ(Δλ) at τ = 5, 15, 30, 60, 120, 240 min, ambient high-passes at
          5, 15, 30, 60 min, stop terms Δλ − play_r(Δλ) at r = 2, 4, 8 pm, and the drift
          observer for temperature (its grating-temperature row is stage 1's, so it is computed
@@ -245,7 +245,7 @@ class HybridPeer:
         if self.memory is None:
             resid = Y - self.stage2.predict(g)
         else:
-            resid = Y - self.fit_joint(X4, g, Y, M)
+            resid = Y - self.fit_memory(X4, g, Y, M)
         self.zscale = StandardScaler().fit(Z)
         zs = self.zscale.transform(Z)
         if self.kmeans == "all":
@@ -271,33 +271,34 @@ class HybridPeer:
             cols.append(obs[:, None])
         return np.column_stack(cols) if cols else np.zeros((len(X4), 0))
 
-    def fit_joint(self, X4, g, Y, M):
-        """B and Gamma per output from one penalised least squares over [phi(g), m_o], ridge
-        lambda * n on the standardised memory terms only; returns the fitted values."""
+    def fit_memory(self, X4, g, Y, M):
+        """Gamma per output on what Model-P's core leaves (static fidelity), ridge lambda * n
+        on the memory terms scaled by their standard deviations (not centred, as ours);
+        returns the fitted values of core plus memory terms."""
         groups, lambdas, _ = self.memory
-        phi = self.stage2[:2].transform(g)
-        self.joint, fitted = [], np.empty_like(Y)
+        fitted = self.stage2.predict(g)
+        resid = Y - fitted
+        self.mem = []
         for o in range(Y.shape[1]):
             m = self.memory_columns(X4, M, o)
-            mu, sd = m.mean(axis=0), m.std(axis=0)
+            if m.shape[1] == 0:
+                self.mem.append((np.ones(0), np.zeros(0)))
+                continue
+            sd = m.std(axis=0)
             sd[sd == 0] = 1.0
-            X = np.hstack([phi, (m - mu) / sd])
-            pen = np.zeros(X.shape[1])
-            pen[phi.shape[1]:] = lambdas[o] * len(Y)
-            beta = np.linalg.solve(X.T @ X + np.diag(pen), X.T @ Y[:, o])
-            self.joint.append((mu, sd, beta))
-            fitted[:, o] = X @ beta
+            X = m / sd
+            beta = np.linalg.solve(X.T @ X + lambdas[o] * len(Y) * np.eye(X.shape[1]), X.T @ resid[:, o])
+            self.mem.append((sd, beta))
+            fitted[:, o] += X @ beta
         return fitted
 
     def predict_core(self, X4, M=None):
-        """Model-P, or with memory terms the joint core."""
+        """Model-P, plus with memory terms Gamma m."""
+        out = self.predict_p(X4)
         if self.memory is None:
-            return self.predict_p(X4)
-        g = self.stage1.predict(X4)
-        phi = self.stage2[:2].transform(g)
-        out = np.empty((len(X4), len(self.joint)))
-        for o, (mu, sd, beta) in enumerate(self.joint):
-            out[:, o] = np.hstack([phi, (self.memory_columns(X4, M, o) - mu) / sd]) @ beta
+            return out
+        for o, (sd, beta) in enumerate(self.mem):
+            out[:, o] += (self.memory_columns(X4, M, o) / sd) @ beta
         return out
 
     def features(self, zs):

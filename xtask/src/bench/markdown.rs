@@ -167,7 +167,7 @@ fn targets(s: &mut String, rep: &Report) {
         out!(
             s,
             "| host training: 1 000 000 samples ≥ 5× faster than the scikit-learn pipeline with the same features, same accuracy | \
-             the default model's features (latch RBF + memory terms fitted with the core): scikit-learn pipeline / ours = **{}×** \
+             the default model's features (latch RBF + memory terms fitted on what the core leaves): scikit-learn pipeline / ours = **{}×** \
              (rounds: {}; the pipeline computing its own inputs, {} of latch loop and memory terms + {} of fit, as ours computes them inside its {}; \
              fit alone, the inputs handed over: **{}×**, rounds {}; ours includes the cross-validation of the memory menu and of the band, \
              the peer is given the groups and ridge ours chose), Model-H hold-out RMSE within {} %. Paper features: **{}×** against the pipeline as a notebook writes it (`KMeans` with its defaults on every calibration row; ours {} vs {}), \
@@ -618,7 +618,7 @@ fn accuracy(s: &mut String, acc: &Accuracy) {
     out!(
         s,
         "Hold-out RMSE per channel on the `paper` and `harsh` presets (seed 7, 14 days at 60 s, first half calibrates). Ours: `train`'s selection \
-         (default: memory terms fitted with the core, groups and λ by cross-validation, plus the RBF residual on the latches; `--features paper`: only Eq. 5's inputs, no memory terms). Black boxes: scikit-learn on the same \
+         (default: memory terms fitted on what the core leaves, groups and λ by cross-validation, plus the RBF residual on the latches; `--features paper`: only Eq. 5's inputs, no memory terms). Black boxes: scikit-learn on the same \
          calibration rows with the inputs named; *Model-P + HistGradientBoosting residual* is a hybrid whose residual learner is a gradient-boosting \
          model instead of the RBF ridge, on the latches or on 59 causal history inputs (`bench/sklearn_peer.py`'s `history_features`): how far far more \
          information and a far larger learner get. Size: our `.fbgm` blob; scikit-learn: `len(pickle.dumps(model))`.\n"
