@@ -164,13 +164,20 @@ pub struct StaticAudit {
     pub contributions: Contributions,
 }
 
+/// Calibration rows the audit runs over at most (the first ones): the models run from the
+/// first sample to the last audited one once per part, which on a very long batch would cost
+/// more than the fit; a month of one-minute samples determines a gain and an RMS well enough.
+pub const AUDIT_MAX_ROWS: usize = 50_000;
+
 /// Largest relative difference between the two models' static gains that `train` accepts
 /// without a warning.
 pub const STATIC_GAIN_TOLERANCE: f64 = 0.01;
 
 impl StaticAudit {
-    /// The audit of `model_p` and `model_h` over the calibration rows `cal` of `d`.
+    /// The audit of `model_p` and `model_h` over the calibration rows `cal` of `d` (sorted; the
+    /// first [`AUDIT_MAX_ROWS`] of them).
     pub fn of(model_p: &HostParams, model_h: &HostParams, d: &Dataset, cal: &[usize]) -> Result<Self, TrainerError> {
+        let cal = &cal[..cal.len().min(AUDIT_MAX_ROWS)];
         Ok(StaticAudit {
             model_p: static_gain(model_p, d, cal)?,
             model_h: static_gain(model_h, d, cal)?,
