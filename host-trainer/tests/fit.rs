@@ -1,6 +1,8 @@
 //! Issue 3 acceptance: the models are fitted from the calibration batch only, deterministically,
 //! and behave as a calibration engineer expects on the `paper` preset.
 
+mod common;
+
 use fbg_shared::FeatureSet;
 use fbg_trainer::data::{Measurand, Split};
 use fbg_trainer::eval::score::evaluate_holdout;
@@ -15,16 +17,6 @@ fn short_paper(days: f64) -> fbg_trainer::sim::scenario::ScenarioConfig {
     c
 }
 
-fn small_grid() -> TrainOptions {
-    TrainOptions {
-        centres: vec![8, 16],
-        sigma_mults: vec![1.0, 2.0],
-        alpha_rels: vec![1e-5, 1e-3],
-        dead_bands_pm: vec![2.0, 4.0],
-        ..TrainOptions::default()
-    }
-}
-
 fn without_date(mut p: HostParams) -> HostParams {
     p.provenance.date_yyyymmdd = 0;
     p
@@ -34,7 +26,7 @@ fn without_date(mut p: HostParams) -> HostParams {
 fn changing_the_holdout_cannot_change_the_fitted_models() {
     let s = simulate(&short_paper(4.0), 3);
     let origin = Origin { scenario: "paper".into(), seed: 3 };
-    let a = train(&s.data, &small_grid(), &origin).unwrap();
+    let a = train(&s.data, &common::small_grid(), &origin).unwrap();
     let mut d = s.data.clone();
     for i in 0..d.len() {
         if d.split[i] == Split::Holdout {
@@ -46,7 +38,7 @@ fn changing_the_holdout_cannot_change_the_fitted_models() {
             d.reference_mut(Measurand::P).unwrap()[i] = 0.0;
         }
     }
-    let b = train(&d, &small_grid(), &origin).unwrap();
+    let b = train(&d, &common::small_grid(), &origin).unwrap();
     // The memory terms (groups and λ per output) are chosen inside the calibration batch too.
     assert!(a.model_h.has_memory(), "the default model has memory terms");
     assert_eq!(a.selection.memory, b.selection.memory);
@@ -61,8 +53,8 @@ fn changing_the_holdout_cannot_change_the_fitted_models() {
 fn training_is_deterministic() {
     let s = simulate(&short_paper(3.0), 5);
     let o = Origin::default();
-    let a = train(&s.data, &small_grid(), &o).unwrap();
-    let b = train(&s.data, &small_grid(), &o).unwrap();
+    let a = train(&s.data, &common::small_grid(), &o).unwrap();
+    let b = train(&s.data, &common::small_grid(), &o).unwrap();
     assert_eq!(without_date(a.model_h), without_date(b.model_h));
 }
 
@@ -71,7 +63,7 @@ fn too_few_calibration_samples_is_a_clear_error() {
     let s = simulate(&short_paper(3.0), 5);
     let idx: Vec<usize> = (0..150).chain(s.data.len() - 100..s.data.len()).collect();
     let d = s.data.select(&idx);
-    let e = train(&d, &small_grid(), &Origin::default()).unwrap_err().to_string();
+    let e = train(&d, &common::small_grid(), &Origin::default()).unwrap_err().to_string();
     assert!(e.contains("calibration samples"), "{e}");
 }
 
@@ -166,7 +158,7 @@ fn missing_reference_and_gaps_are_handled() {
     assert!(back.dl_pm[1][50].is_nan());
 
     // The model's outputs are the data's measurands: T and ε (no p output at all).
-    let t = train(&back, &small_grid(), &Origin::default()).unwrap();
+    let t = train(&back, &common::small_grid(), &Origin::default()).unwrap();
     assert_eq!(t.model_h.dims.n_outputs(), 2);
     assert_eq!(t.model_h.fitted, [true, true, false, false]);
     let (eh, est) = evaluate_holdout(&t.model_h, &back).unwrap();
@@ -252,7 +244,7 @@ fn stretches_resumed_from_checkpoints_answer_as_one_sequential_pass() {
 #[test]
 fn static_audit_names_an_output_whose_core_gain_was_cut() {
     let s = simulate(&short_paper(3.0), 5);
-    let t = train(&s.data, &small_grid(), &Origin::default()).unwrap();
+    let t = train(&s.data, &common::small_grid(), &Origin::default()).unwrap();
     let cal = s.data.cal_indices();
     assert!(t.static_audit.disagreements().is_empty(), "{:?}", t.static_audit);
     let mut cut = t.model_h.clone();

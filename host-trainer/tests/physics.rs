@@ -324,16 +324,7 @@ fn every_hysteresis_model_reads_low_rising_and_high_falling() {
         let s = simulate(&c, 5);
         let x = &s.effects.physics[0];
         let h = &s.effects.hysteresis[0];
-        let (mut up, mut down) = (vec![], vec![]);
-        for i in 10..x.len() {
-            let run = &x[i - 10..=i];
-            if run.windows(2).all(|w| w[1] > w[0]) && x[i] - x[i - 10] > 20.0 {
-                up.push(h[i]);
-            }
-            if run.windows(2).all(|w| w[1] < w[0]) && x[i - 10] - x[i] > 20.0 {
-                down.push(h[i]);
-            }
-        }
+        let (up, down) = common::on_long_moves(x, h);
         let (mu, md) = (mean(up.iter().copied()), mean(down.iter().copied()));
         assert!(mu < md - 1.0, "{model:?}: rising {mu}, falling {md}");
         assert!(h.iter().all(|v| v.abs() < 8.0), "{model:?}");

@@ -1,6 +1,8 @@
 //! Issue 2 acceptance: the simulator is deterministic, each trajectory and effect has its
 //! configured statistics, and every effect can be removed exactly.
 
+mod common;
+
 use fbg_trainer::sim::scenario::{Preset, ScenarioConfig};
 use fbg_trainer::sim::{interrogator, simulate, trajectories, EFFECT_NAMES};
 use fbg_trainer::stats::{mean, std_dev};
@@ -148,16 +150,7 @@ fn play_operator_gives_direction_dependent_offsets_of_configured_width() {
     let s = simulate(&c, 5);
     let x = &s.effects.physics[0];
     let h = &s.effects.hysteresis[0];
-    let (mut up, mut down) = (vec![], vec![]);
-    for i in 10..x.len() {
-        let run = &x[i - 10..=i];
-        if run.windows(2).all(|w| w[1] > w[0]) && x[i] - x[i - 10] > 20.0 {
-            up.push(h[i]);
-        }
-        if run.windows(2).all(|w| w[1] < w[0]) && x[i - 10] - x[i] > 20.0 {
-            down.push(h[i]);
-        }
-    }
+    let (up, down) = common::on_long_moves(x, h);
     assert!(up.len() > 20 && down.len() > 20, "{} rising, {} falling", up.len(), down.len());
     let (mu, md) = (mean(up.iter().copied()), mean(down.iter().copied()));
     assert!((mu + 6.0).abs() < 0.6, "rising offset {mu}");

@@ -1,9 +1,11 @@
 //! Issue 26: static fidelity. The models' settled readings have slope 1 against the truth on a
 //! steps record for every output shape, and the pace study runs on a short record.
 
+mod common;
+
 use fbg_trainer::eval::pace::{held_levels, pace_study, PACES};
 use fbg_trainer::fit::static_fidelity::settled_slope;
-use fbg_trainer::fit::{train, Origin, TrainOptions};
+use fbg_trainer::fit::{train, Origin};
 use fbg_trainer::sim::scenario::{Preset, ScenarioConfig};
 use fbg_trainer::sim::simulate;
 
@@ -15,20 +17,10 @@ fn short(preset: Preset, days: f64) -> ScenarioConfig {
     c
 }
 
-fn small_grid() -> TrainOptions {
-    TrainOptions {
-        centres: vec![8, 16],
-        sigma_mults: vec![1.0, 2.0],
-        alpha_rels: vec![1e-5, 1e-3],
-        dead_bands_pm: vec![2.0, 4.0],
-        ..TrainOptions::default()
-    }
-}
-
 /// Settled slopes (Model-P, Model-H) on the steps record of `cfg` with `seed`.
 fn slopes(cfg: &ScenarioConfig, seed: u64) -> (Vec<f64>, Vec<f64>) {
     let s = simulate(cfg, seed);
-    let t = train(&s.data, &small_grid(), &Origin::default()).unwrap();
+    let t = train(&s.data, &common::small_grid(), &Origin::default()).unwrap();
     let st = simulate(&cfg.steps(), seed);
     let outputs = fbg_trainer::data::Measurand::of_dims(&t.model_h.dims);
     let holds = held_levels(&st.data, &outputs);
@@ -72,7 +64,7 @@ fn settled_slope_is_one_for_every_output_shape() {
 fn pace_study_on_a_short_record() {
     let cfg = short(Preset::Paper, 6.0);
     let s = simulate(&cfg, 5);
-    let t = train(&s.data, &small_grid(), &Origin::default()).unwrap();
+    let t = train(&s.data, &common::small_grid(), &Origin::default()).unwrap();
     let study = pace_study(&cfg, 5, &t.model_p, &t.model_h).unwrap();
     // All measurands at each pace, each measurand alone at each pace, then the steps record.
     assert_eq!(study.rows.len(), PACES.len() * (1 + 3) + 1);

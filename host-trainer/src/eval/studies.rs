@@ -463,6 +463,10 @@ pub fn evaluate_models(
         scenario: meta.map(|m| m.scenario.name.clone()).unwrap_or_else(|| h.provenance.scenario.to_string()),
         seed: meta.map(|m| m.seed).unwrap_or(h.provenance.seed),
     };
+    // Both models' static gains over the calibration batch (DESIGN §4), once: for the metrics
+    // and for the stand-in of the given models in Table 3.
+    let cal: Vec<usize> = d.cal_indices().into_iter().filter(|&i| d.usable(i)).collect();
+    let audit = if cal.is_empty() { None } else { Some(fit::static_fidelity::StaticAudit::of(p, h, d, &cal)?) };
     let abl = if studies.ablation {
         let t = Instant::now();
         // The given models are the baseline and default rows; only the variants retrain.
@@ -484,9 +488,9 @@ pub fn evaluate_models(
                 cv_stride: 1,
             },
             phase_seconds: vec![],
-            static_audit: {
-                let cal: Vec<usize> = d.cal_indices().into_iter().filter(|&i| d.usable(i)).collect();
-                fit::static_fidelity::StaticAudit::of(p, h, d, &cal)?
+            static_audit: match &audit {
+                Some(a) => a.clone(),
+                None => fit::static_fidelity::StaticAudit::of(p, h, d, &cal)?,
             },
         };
         bar.set_message("ablation");
@@ -551,15 +555,7 @@ pub fn evaluate_models(
         error_budget: budget,
         parity,
         recalibration: None,
-        static_fidelity: {
-            let cal: Vec<usize> = d.cal_indices().into_iter().filter(|&i| d.usable(i)).collect();
-            if cal.is_empty() {
-                None
-            } else {
-                let a = fit::static_fidelity::StaticAudit::of(p, h, d, &cal)?;
-                Some(crate::eval::metrics::StaticFidelity::of(&a))
-            }
-        },
+        static_fidelity: audit.as_ref().map(crate::eval::metrics::StaticFidelity::of),
         pace: match meta {
             Some(m) if studies.pace => {
                 let t = Instant::now();

@@ -63,8 +63,8 @@ impl MemoryOptions {
     /// tell a lag of the gratings from the measurand's own cycle, and cross-validation inside
     /// that batch rewards using them as a band-pass tuned to the cycle (they reject slow drift
     /// by rejecting the slow part of the measurand too). The model then reads wrong at any
-    /// other pace (DESIGN §4, static fidelity). [`MemoryOptions::with_grating_high_pass`]
-    /// offers them for studies.
+    /// other pace (DESIGN §4, static fidelity). A study offers them by adding
+    /// [`MemoryGroup::GratingHighPass`] to `groups`.
     pub fn default_menu() -> Self {
         let min = 60.0;
         let menu = MemorySpec {
@@ -81,16 +81,6 @@ impl MemoryOptions {
             lambdas: vec![1e-7, 1e-6, 1e-5, 1e-4, 1e-3],
             min_train_fraction: 0.75,
         }
-    }
-
-    /// The same menu with the grating high-passes offered too (what the default was before
-    /// static fidelity; for the pace studies).
-    pub fn with_grating_high_pass(&self) -> Self {
-        let mut groups = self.groups.clone();
-        if !groups.contains(&MemoryGroup::GratingHighPass) {
-            groups.insert(0, MemoryGroup::GratingHighPass);
-        }
-        MemoryOptions { groups, ..self.clone() }
     }
 
     /// Whether any memory term is on the menu.

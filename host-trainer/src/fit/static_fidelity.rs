@@ -35,19 +35,6 @@ pub struct StaticGain {
     pub rows: Vec<usize>,
 }
 
-impl StaticGain {
-    /// The largest relative difference |g_a/g_b − 1| between two models' gains over the outputs
-    /// both have (0 when none).
-    pub fn max_relative_difference(&self, other: &StaticGain) -> f64 {
-        self.gain
-            .iter()
-            .zip(&other.gain)
-            .filter(|(a, b)| a.is_finite() && b.is_finite() && **b != 0.0)
-            .map(|(a, b)| (a / b - 1.0).abs())
-            .fold(0.0, f64::max)
-    }
-}
-
 /// `p` with every high-pass memory term (grating and ambient) switched off: the reading it
 /// gives once the inputs have settled.
 pub fn settled_model(p: &HostParams) -> HostParams {
@@ -241,9 +228,13 @@ mod tests {
     }
 
     #[test]
-    fn relative_difference_skips_missing_outputs() {
-        let a = StaticGain { gain: vec![1.0, 0.5, f64::NAN], offset: vec![0.0; 3], rows: vec![1; 3] };
-        let b = StaticGain { gain: vec![1.0, 1.0, 1.0], offset: vec![0.0; 3], rows: vec![1; 3] };
-        assert!((a.max_relative_difference(&b) - 0.5).abs() < 1e-12);
+    fn disagreements_skip_missing_outputs() {
+        let g = |gain: Vec<f64>| StaticGain { offset: vec![0.0; gain.len()], rows: vec![1; gain.len()], gain };
+        let a = StaticAudit {
+            model_p: g(vec![1.0, 1.0, 1.0]),
+            model_h: g(vec![1.0, 0.5, f64::NAN]),
+            contributions: Contributions { memory: vec![], rbf: vec![] },
+        };
+        assert_eq!(a.disagreements(), [(1, 0.5, 1.0)]);
     }
 }

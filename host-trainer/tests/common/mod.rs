@@ -1,4 +1,5 @@
-//! What the CLI tests share: the built binary, a run capturing its output, a short record.
+//! What the tests share: the built binary, a run capturing its output, a short record, a small
+//! training grid, the readings of an artefact on rising and falling stretches.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
@@ -27,4 +28,31 @@ pub fn short_csv(dir: &Path) -> PathBuf {
     let (ok, _, err) = run(bin().args(["simulate", "--seed", "2", "--config"]).arg(&cfg).arg("--out").arg(&csv));
     assert!(ok, "{err}");
     csv
+}
+
+/// A small hyper-parameter grid for fits on short records.
+pub fn small_grid() -> fbg_trainer::fit::TrainOptions {
+    fbg_trainer::fit::TrainOptions {
+        centres: vec![8, 16],
+        sigma_mults: vec![1.0, 2.0],
+        alpha_rels: vec![1e-5, 1e-3],
+        dead_bands_pm: vec![2.0, 4.0],
+        ..fbg_trainer::fit::TrainOptions::default()
+    }
+}
+
+/// The values of `h` at the samples that end a stretch of 10 steps over which `x` rose
+/// (fell) at every step and by more than 20 in all: (rising, falling).
+pub fn on_long_moves(x: &[f64], h: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let (mut up, mut down) = (vec![], vec![]);
+    for i in 10..x.len() {
+        let run = &x[i - 10..=i];
+        if run.windows(2).all(|w| w[1] > w[0]) && x[i] - x[i - 10] > 20.0 {
+            up.push(h[i]);
+        }
+        if run.windows(2).all(|w| w[1] < w[0]) && x[i - 10] - x[i] > 20.0 {
+            down.push(h[i]);
+        }
+    }
+    (up, down)
 }
