@@ -232,18 +232,9 @@ fn columns(dims: &Dims, spec: &MemorySpec<f64>, o: usize, groups: &[MemoryGroup]
         .collect()
 }
 
-/// The core's value B·φ of output `o` at sample `i` (its memory terms left out).
-fn static_value(core: &PolyCore, ph: &[f64; MAX_POLY], o: usize) -> f64 {
-    core.poly[o].iter().zip(ph).map(|(b, f)| b * f).sum()
-}
-
-/// What the static calibration `core` leaves of output `o` at sample `i`: y − Bφ (0 where the
-/// reference is missing).
-fn static_residual(d: &Dataset, core: &PolyCore, ph: &[f64; MAX_POLY], o: usize, i: usize) -> f64 {
-    match d.target(o).as_slice().get(i) {
-        Some(&y) if y.is_finite() => y - static_value(core, ph, o),
-        _ => 0.0,
-    }
+/// The core's values B·φ of every output, given φ at a sample (its memory terms left out).
+fn static_values(core: &PolyCore, ph: &[f64; MAX_POLY]) -> [f64; MAX_OUTPUTS] {
+    std::array::from_fn(|o| core.poly[o].iter().zip(ph).map(|(b, f)| b * f).sum())
 }
 
 /// Fit Γ for `choice` on `rows`, on what the static calibration `core` (B, no memory terms)
@@ -283,14 +274,15 @@ pub fn fit(
     if n < p + 1 {
         return Err(TrainerError::fit(format!("Model-H memory terms: {n} samples for {p} unknowns")));
     }
+    let refs = d.references_of(&dims);
     let r_aug = super::linalg::triangular_rows(n, p + n_out, |r, buf| {
         let i = rows[r];
-        let ph = core.phi_at(d, i);
+        let values = static_values(core, &core.phi_at(d, i));
         for (c, &k) in mem_u.iter().enumerate() {
             buf[c] = m.row(r)[k];
         }
         for o in 0..n_out {
-            buf[p + o] = static_residual(d, core, &ph, o, i);
+            buf[p + o] = super::design::residual(&refs, i, o, &values);
         }
     });
     // Standard deviation of each memory column over the rows: the ridge acts on the
@@ -401,6 +393,7 @@ fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats
     rows.dedup();
     let m = memory_terms(&spec, &dims, d, &rows);
     let pos = |i: usize| rows.binary_search(&i).unwrap_or(0);
+    let refs = d.references_of(&dims);
     // Sums over blocks of rows as matrix products (XᵀX and Xᵀy of each block added in block
     // order): the same sums as row by row, at matrix-product speed.
     let gram = |set: &[usize]| {
@@ -416,9 +409,9 @@ fn fold_stats(d: &Dataset, f: &FoldInput<'_>, opts: &MemoryOptions) -> FoldStats
                 for (o, &v) in col.iter_mut().zip(m.row(pos(i))) {
                     *o = v;
                 }
-                let ph = f.core.phi_at(d, i);
+                let values = static_values(f.core, &f.core.phi_at(d, i));
                 for o in 0..n_out {
-                    let v = static_residual(d, f.core, &ph, o, i);
+                    let v = super::design::residual(&refs, i, o, &values);
                     y[(o, r)] = v;
                     yty[o] += v * v;
                 }
