@@ -4,7 +4,7 @@
 //! The modules follow the data, in layers: a module uses only modules of earlier layers
 //! (`tests/layout.rs` checks it), so there is no import cycle:
 //!
-//! 1. `error`, `rng`, `stats`: used by all;
+//! 1. `error`, `rng`, `stats`, `warning`: used by all;
 //! 2. `data`: the dataset and its CSV, the import of interrogator exports, safe output files;
 //! 3. `sim` (scenarios, the simulator, its `.meta.json` sidecar) and `fit` (Model-P and
 //!    Model-H, the `--features` choice, field recalibration);
@@ -20,6 +20,7 @@
 pub mod error;
 pub mod rng;
 pub mod stats;
+pub mod warning;
 
 // The pipeline.
 pub mod data;
