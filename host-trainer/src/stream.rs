@@ -254,9 +254,12 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
         );
     }
     // Both sides start from a fresh stream state.
-    link.reset_stream(0x5EED + 1).map_err(|e| link_err("reset", e))?;
+    // The hold-out of the model's own record: the band's lead on that record's clock.
+    let clock = data.calibration_clock(&model);
+    link.reset_stream(0x5EED + 1, clock).map_err(|e| link_err("reset", e))?;
     let mut reference =
         Compensator::<f64, HOST_CAP>::new(&model).map_err(|e| anyhow::anyhow!("{}: {e}", opts.model.display()))?;
+    reference.set_clock(clock);
 
     let t0 = Instant::now();
     let mut report = StreamReport {

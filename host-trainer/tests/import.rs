@@ -27,6 +27,8 @@ fn enlight(file: &str, map: Option<&str>, refs: Option<&str>) -> ImportOptions {
         split: SplitChoice::default(),
         on_error: OnError::Fail,
         max_skipped: DEFAULT_MAX_SKIPPED,
+        zero_from: None,
+        start_unix_s: None,
     }
 }
 
@@ -39,6 +41,8 @@ fn logger(file: &str, map: Option<&str>) -> ImportOptions {
         split: SplitChoice::default(),
         on_error: OnError::Fail,
         max_skipped: DEFAULT_MAX_SKIPPED,
+        zero_from: None,
+        start_unix_s: None,
     }
 }
 
@@ -640,6 +644,8 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
         split: SplitChoice::Fraction(0.5),
         on_error: OnError::Fail,
         max_skipped: DEFAULT_MAX_SKIPPED,
+        zero_from: None,
+        start_unix_s: None,
     };
     let s = import_to_csv(&o, &out).unwrap();
     assert_eq!((s.rows_read, s.rows_written, s.gaps), (n, n, vec![0, 1, 0]));

@@ -180,9 +180,10 @@ impl<S: Read + Write> LinkClient<S> {
         }
     }
 
-    /// Reset the device's stream state (direction latches).
-    pub fn reset_stream(&mut self, nonce: u32) -> Result<(), LinkError> {
-        match self.request(&HostMsg::ResetStream { nonce })? {
+    /// Reset the device's stream state (direction latches, memory operators) and set the new
+    /// stream's clock (the band's lead time).
+    pub fn reset_stream(&mut self, nonce: u32, clock: fbg_shared::StreamClock) -> Result<(), LinkError> {
+        match self.request(&HostMsg::ResetStream { nonce, clock })? {
             DeviceMsg::Pong { nonce: n } if n == nonce => Ok(()),
             got => Err(LinkError::Unexpected { expected: "Pong after ResetStream", got }),
         }

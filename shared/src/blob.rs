@@ -23,7 +23,11 @@
 //! (M rows of the memory terms); z mean and deviation (2N + ambient + 1 each); the centres (a
 //! varint count, each μ over z, M weights, `VAR_RANK` variance components); `var_inv_g`, its
 //! tail; residual variance, its growth (M each); the end of calibration; band multipliers (M);
-//! envelope low and high (N + ambient each); fitted (M bools); provenance.
+//! envelope low and high (N + ambient each); fitted (M bools); provenance; then what a field
+//! reading needs ([`crate::field::FieldContext`]): λ_ref per grating (N f64, nm), its source
+//! (N one-byte codes), the λ_ref tolerance (f32, pm), the absolute end of calibration
+//! (postcard `Option<f64>`, Unix s), the largest validated lead (f32, s), the output envelope
+//! low and high and the largest band (M f32 each).
 //!
 //! The blob must be exactly `22 + n` bytes long: nothing may follow the CRC, except the
 //! signature trailer of a signed model ([`crate::signature`]), which decoding skips (it does
@@ -32,7 +36,8 @@
 //! Version history: 1 had no memory terms (no memory field in the header, no memory spec or
 //! Γ in the payload); 2 adds them, for the fixed paper layout (3 gratings, ambient, T/ε/p);
 //! 3 makes the dimensions data (gratings, ambient and measurands in the header, output kinds
-//! in the payload, every vector only as long as the dims need). An older blob is refused with
+//! in the payload, every vector only as long as the dims need); 4 adds the field context (the
+//! zero, the clock, the output envelope and largest band). An older blob is refused with
 //! [`Error::UnsupportedVersion`] naming both versions: retrain, or re-export with this
 //! trainer. A blob whose gratings or measurands exceed this build's capacity is refused with
 //! [`Error::OverCapacity`] naming both.
@@ -52,7 +57,7 @@ use crate::model::{Centre, ModelParams};
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"FBGM";
 /// Format version this build writes and reads.
-pub const FORMAT_VERSION: u16 = 3;
+pub const FORMAT_VERSION: u16 = 4;
 /// Header length in bytes (magic, version, six dims).
 pub const HEADER_LEN: usize = 18;
 /// CRC trailer length in bytes.
@@ -308,6 +313,19 @@ pub fn encode_unchecked<const K: usize>(params: &ModelParams<f32, K>, buf: &mut 
         w.put(f)?;
     }
     w.put(&params.provenance)?;
+    let fc = &params.field;
+    for &nm in head(&fc.lambda_ref_nm, d.gratings()) {
+        w.put(&nm)?;
+    }
+    for src in head(&fc.lambda_ref_source, d.gratings()) {
+        w.put(&src.code())?;
+    }
+    w.put(&fc.lambda_ref_tol_pm)?;
+    w.put(&fc.cal_end_unix_s)?;
+    w.put(&fc.lead_max_s)?;
+    w.floats(head(&fc.output_lo, m))?;
+    w.floats(head(&fc.output_hi, m))?;
+    w.floats(head(&fc.band_max, m))?;
     let end = w.pos;
     let body = buf.get(..end).ok_or(Error::BufferTooSmall)?;
     let crc = crc32c(body).to_le_bytes();
@@ -577,6 +595,23 @@ fn parse_into<'a, const K: usize>(
         *f = take(&mut b)?;
     }
     out.provenance = take(&mut b)?;
+    let fc = &mut out.field;
+    *fc = crate::field::FieldContext::unknown();
+    let n_g = d.gratings();
+    for nm in crate::layout::head_mut(&mut fc.lambda_ref_nm, n_g) {
+        *nm = take(&mut b)?;
+    }
+    for src in crate::layout::head_mut(&mut fc.lambda_ref_source, n_g) {
+        let code: u8 = take(&mut b)?;
+        *src = crate::field::ZeroSource::from_code(code)
+            .ok_or(ParseError::Dims(Error::BadParameter { field: "field.lambda_ref_source" }))?;
+    }
+    fc.lambda_ref_tol_pm = take(&mut b)?;
+    fc.cal_end_unix_s = take(&mut b)?;
+    fc.lead_max_s = take(&mut b)?;
+    floats(&mut b, crate::layout::head_mut(&mut fc.output_lo, m))?;
+    floats(&mut b, crate::layout::head_mut(&mut fc.output_hi, m))?;
+    floats(&mut b, crate::layout::head_mut(&mut fc.band_max, m))?;
     Ok((b, centres))
 }
 
@@ -688,9 +723,13 @@ pub const fn min_len_of(gratings: usize, ambient: bool, m: usize, observer: bool
     let hyper = 1 + 7 * 4;
     let fixed_f32 = m * s1 + 2 * m + m * poly + spec + m * mem_terms + 2 * z + VAR_RANK + 1 + m + m + 1 + m + 2 * env;
     let per_centre = 4 * (z + m + VAR_RANK);
+    // Field context: λ_ref (8 bytes per grating) and its source (1), the tolerance and the
+    // largest lead (4 each), the end of calibration (1 byte when absent), the output envelope
+    // and largest band (M f32 each).
+    let field = 9 * gratings + 4 + 1 + 4 + 4 * 3 * m;
     // Output kinds: two bytes each; `fitted`: one byte per output; provenance: five one-byte
     // minimums.
-    let bytes = 2 * m + m + 5;
+    let bytes = 2 * m + m + 5 + field;
     let fixed = HEADER_LEN + hyper + 4 * fixed_f32 + bytes + CRC_LEN;
     fixed.saturating_add(varint_len(centres)).saturating_add(per_centre.saturating_mul(centres))
 }
@@ -702,8 +741,8 @@ pub fn min_len(dims: &Dims, centres: usize) -> usize {
 
 /// Extra bytes of the longest provenance over the shortest: a 10-byte seed varint (+9), 5-byte
 /// date and sample-count varints (+4 each) and full provenance strings (24 + 16 bytes; their
-/// length varints stay one byte).
-const LONG_PROVENANCE: usize = 9 + 4 + 4 + 24 + 16;
+/// length varints stay one byte); and a known end of calibration (+8).
+const LONG_PROVENANCE: usize = 9 + 4 + 4 + 24 + 16 + 8;
 
 /// Exact length of the longest blob [`encode`] writes for `centres` centres at any dims within
 /// the capacity (for sizing buffers): [`min_len_of`] at the capacity (every grating, ambient,

@@ -13,6 +13,7 @@
 use heapless::Vec;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
+use crate::clock::StreamClock;
 use crate::direction_latch::LatchBank;
 use crate::error::Error;
 use crate::flags::Flags;
@@ -266,6 +267,14 @@ pub struct Compensator<F, const K: usize> {
     /// k² · ds²/dt per output [unit²/s].
     band_var_growth: [F; MAX_OUTPUTS],
     t_cal_end_s: F,
+    /// Absolute end of calibration (Unix s), when the model knows it.
+    cal_end_unix_s: Option<f64>,
+    /// The band's lead when the stream's clock is unknown \[s\].
+    lead_max_s: F,
+    /// The stream's clock, as set ([`Compensator::set_clock`]).
+    clock: StreamClock,
+    /// lead = `t_s` + this offset; `None`: the lead is unknown.
+    lead_offset_s: Option<F>,
     /// Whether the band grows with time (the time input is then required).
     band_grows: bool,
     env_lo: [F; MAX_ENVELOPE],
@@ -423,6 +432,10 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             band_var: [F::ZERO; MAX_OUTPUTS],
             band_var_growth: [F::ZERO; MAX_OUTPUTS],
             t_cal_end_s: F::ZERO,
+            cal_end_unix_s: None,
+            lead_max_s: F::ZERO,
+            clock: StreamClock::Unknown,
+            lead_offset_s: None,
             band_grows: false,
             env_lo: [F::ZERO; MAX_ENVELOPE],
             env_hi: [F::ZERO; MAX_ENVELOPE],
@@ -496,6 +509,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             || !memory_ok
             || !centres().all(|c| folded.centre(&c, &active, m_out).is_finite())
             || !f(params.t_cal_end_s).is_finite()
+            || !F::from_f64(f64::from(params.field.lead_max_s)).is_finite()
         {
             return Err(Error::BadParameter { field: "folded coefficients (overflow in this precision)" });
         }
@@ -531,6 +545,9 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.band_var_growth = folded.band_var_growth;
         self.t_cal_end_s = f(params.t_cal_end_s);
         self.band_grows = params.resid_var_growth.iter().any(|&q| q > G::ZERO);
+        self.cal_end_unix_s = params.field.cal_end_unix_s;
+        self.lead_max_s = F::from_f64(f64::from(params.field.lead_max_s));
+        self.set_clock(self.clock);
         let n_env = dims.envelope_len();
         for (k, (o, &v)) in self.env_lo.iter_mut().zip(params.envelope_lo.iter()).enumerate() {
             *o = if k < n_env { f(v) } else { F::ZERO };
@@ -605,6 +622,49 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     pub fn reset(&mut self) {
         self.latches.reset();
         self.memory.reset();
+    }
+
+    /// Say how this stream's `t_s` relates to the end of calibration (kept across
+    /// [`Compensator::reset`] and model reloads; a new compensator's clock is
+    /// [`StreamClock::Unknown`]). With an unknown lead (no clock, or an absolute start and a
+    /// model without an absolute end of calibration) the band takes the largest lead the
+    /// calibration validated and every estimate of a model whose band grows carries
+    /// [`Flags::LEAD_UNKNOWN`].
+    ///
+    /// ```
+    /// use fbg_shared::{Compensator, FeatureSet, Flags, ModelParams, Sample, StreamClock};
+    /// # let mut params: ModelParams<f64, 8> =
+    /// #     fbg_testkit::models::model(8, 1, FeatureSet::HysteresisAware, Default::default());
+    /// # params.resid_var_growth[0] = 1e-6;
+    /// params.field.cal_end_unix_s = Some(1.7e9);
+    /// let mut comp = Compensator::<f64, 8>::new(&params)?;
+    /// let s = Sample::new([10.0, -5.0, 2.0], 21.0, 60.0);
+    /// assert!(comp.step(&s).flags.contains(Flags::LEAD_UNKNOWN));
+    /// comp.set_clock(StreamClock::StartUnix(1.7e9 + 86_400.0)); // a day after calibration
+    /// assert_eq!(comp.lead_s(60.0), Some(86_460.0));
+    /// assert!(!comp.step(&s).flags.contains(Flags::LEAD_UNKNOWN));
+    /// # Ok::<(), fbg_shared::Error>(())
+    /// ```
+    pub fn set_clock(&mut self, clock: StreamClock) {
+        self.clock = clock;
+        self.lead_offset_s = match clock {
+            StreamClock::Calibration => Some(-self.t_cal_end_s),
+            StreamClock::StartUnix(start) => {
+                self.cal_end_unix_s.map(|end| F::from_f64(start - end)).filter(|o| o.is_finite())
+            }
+            StreamClock::Unknown => None,
+        };
+    }
+
+    /// The stream's clock as last set.
+    pub fn clock(&self) -> StreamClock {
+        self.clock
+    }
+
+    /// The lead time \[s\] since the end of calibration of a sample at `t_s` on this stream's
+    /// clock (at least 0), `None` when the clock does not give it.
+    pub fn lead_s(&self, t_s: F) -> Option<F> {
+        self.lead_offset_s.map(|o| (t_s + o).max(F::ZERO))
     }
 
     /// The stream state (direction latches and memory operators): with
@@ -890,8 +950,15 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         if !y.iter().zip(self.fitted.iter()).all(|(v, &fit)| !fit || v.is_finite()) {
             return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
         }
-        let widen = if flags.is_ok() { F::ONE } else { self.flagged_band_factor };
-        let lead = if self.band_grows { (s.t_s - self.t_cal_end_s).max(F::ZERO) } else { F::ZERO };
+        let widen = if flags.is_fault() { self.flagged_band_factor } else { F::ONE };
+        let lead = if !self.band_grows {
+            F::ZERO
+        } else if let Some(o) = self.lead_offset_s {
+            (s.t_s + o).max(F::ZERO)
+        } else {
+            flags.insert(Flags::LEAD_UNKNOWN);
+            self.lead_max_s
+        };
         let mut band95 = [F::ZERO; MAX_OUTPUTS];
         let m = self.m::<M>();
         for ((bi, &bv), &bg) in band95.iter_mut().zip(self.band_var.iter()).zip(self.band_var_growth.iter()).take(m) {

@@ -13,7 +13,8 @@
 /// f.insert(Flags::OUT_OF_ENVELOPE);
 /// assert!(f.contains(Flags::OUT_OF_ENVELOPE) && !f.is_ok());
 /// assert_eq!(f.union(Flags::WEAK_SUPPORT).to_string(), "out-of-envelope|weak-support");
-/// assert_eq!(Flags::from_bits(0b1000), None);
+/// assert_eq!(Flags::from_bits(0b1_0000), None);
+/// assert!(!Flags::LEAD_UNKNOWN.is_fault() && Flags::WEAK_SUPPORT.is_fault());
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "u8")]
@@ -51,8 +52,17 @@ impl Flags {
     /// No RBF centre supports the sample (max ψ below the model's threshold): the residual
     /// correction is close to zero and the estimate is essentially Model-P's.
     pub const WEAK_SUPPORT: Flags = Flags(1 << 2);
+    /// The band's lead time (absolute time since the end of calibration) is unknown: the
+    /// stream has no absolute start time or the model no absolute end of calibration, so the
+    /// band is taken at the largest lead the calibration validated. Not a fault: the value is
+    /// as good as ever, only the band's clock is unknown ([`crate::StreamClock`]).
+    pub const LEAD_UNKNOWN: Flags = Flags(1 << 3);
+    /// The bits that say the value itself is suspect (non-finite, out of envelope, weak
+    /// support): they widen the band and drive a device's alarm; [`Flags::LEAD_UNKNOWN`] does
+    /// neither.
+    pub const FAULTS: Flags = Flags(0b111);
     /// Every bit this version defines.
-    pub const ALL: Flags = Flags(0b111);
+    pub const ALL: Flags = Flags(0b1111);
 
     /// The flags of `bits`, `None` when a bit is not one of [`Flags::ALL`].
     pub const fn from_bits(bits: u8) -> Option<Flags> {
@@ -65,6 +75,10 @@ impl Flags {
     /// True when no flag is raised.
     pub const fn is_ok(self) -> bool {
         self.0 == 0
+    }
+    /// True when a fault bit ([`Flags::FAULTS`]) is raised.
+    pub const fn is_fault(self) -> bool {
+        self.0 & Flags::FAULTS.0 != 0
     }
     /// True when every bit of `other` is raised.
     pub const fn contains(self, other: Flags) -> bool {
@@ -90,6 +104,7 @@ impl core::fmt::Display for Flags {
             (Flags::NON_FINITE, "non-finite"),
             (Flags::OUT_OF_ENVELOPE, "out-of-envelope"),
             (Flags::WEAK_SUPPORT, "weak-support"),
+            (Flags::LEAD_UNKNOWN, "lead-unknown"),
         ] {
             if self.contains(bit) {
                 if !first {

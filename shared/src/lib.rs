@@ -7,7 +7,9 @@
 //! - [`layout`]: fixed dimensions and the feature layout;
 //! - [`direction_latch`]: the stateful hysteresis-aware feature;
 //! - [`memory`]: the instrument's memory, causal operators whose terms enter Model-H linearly;
-//! - [`model`]: the auditable parameters a blob carries;
+//! - [`model`]: the auditable parameters a blob carries; [`field`]: what a field reading needs
+//!   (each grating's zero λ_ref, the calibration's absolute clock, the output envelope);
+//! - [`clock`]: how a stream's sample times give the band's lead time;
 //! - [`blob`]: the `.fbgm` codec (magic, version, dims, postcard payload, CRC-32);
 //! - [`crc32c`]: the CRC-32/ISCSI of blobs and link frames;
 //! - [`signature`]: the signature trailer of a signed blob (layout, parse, the signed message;
@@ -50,10 +52,12 @@
 extern crate std;
 
 pub mod blob;
+pub mod clock;
 pub mod compensator;
 pub mod crc32c;
 pub mod direction_latch;
 pub mod error;
+pub mod field;
 pub mod flags;
 pub mod golden;
 pub mod layout;
@@ -63,9 +67,11 @@ pub mod protocol;
 pub mod real;
 pub mod signature;
 
+pub use clock::StreamClock;
 pub use compensator::{Compensator, Estimate, Sample, StreamState};
 pub use direction_latch::{ticks, DirectionLatch, LatchBank};
 pub use error::Error;
+pub use field::{FieldContext, ZeroSource};
 pub use flags::{Flags, UnknownFlags};
 pub use layout::FeatureSet;
 pub use memory::{MemoryBank, MemoryGroup, MemorySpec, MemoryState};

@@ -7,6 +7,7 @@ use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
 use crate::error::Error;
+use crate::field::FieldContext;
 use crate::layout::{
     head, Dims, FeatureSet, MAX_ENVELOPE, MAX_MEMORY, MAX_OUTPUTS, MAX_POLY, MAX_STAGE1, MAX_Z, VAR_RANK,
 };
@@ -145,6 +146,9 @@ pub struct ModelParams<F, const K: usize> {
     pub fitted: [bool; MAX_OUTPUTS],
     /// Training provenance.
     pub provenance: Provenance,
+    /// What a field reading needs: each grating's zero, the calibration's absolute clock, the
+    /// output envelope and the largest band.
+    pub field: FieldContext,
 }
 
 impl<F: Real, const K: usize> Default for ModelParams<F, K> {
@@ -202,6 +206,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
                 date_yyyymmdd: 0,
                 n_cal: 0,
             },
+            field: FieldContext::unknown(),
         }
     }
 
@@ -305,7 +310,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         {
             return Err(Error::BadParameter { field: "envelope" });
         }
-        Ok(())
+        self.field.validate(d, &self.fitted)
     }
 
     /// The same model in another scalar type (f64 → f32 for export, f32 → f64 to audit a blob)
@@ -364,6 +369,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
             envelope_hi: c(&self.envelope_hi),
             fitted: self.fitted,
             provenance: self.provenance.clone(),
+            field: self.field,
         })
     }
 }

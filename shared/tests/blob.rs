@@ -1,4 +1,4 @@
-//! The `.fbgm` codec: round trips (any dims), exact lengths, the golden v3 blob (and the v1 and
+//! The `.fbgm` codec: round trips (any dims), exact lengths, the golden v4 blob (and the v1, v3 and
 //! v2 ones refused by name), over-capacity dims refused naming both, typed errors for every kind of damage, and "never panics" on arbitrary bytes.
 
 // A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
@@ -9,7 +9,10 @@ use crc::{Crc, CRC_32_ISCSI};
 use fbg_shared::blob::{self, decode, encode, max_len, max_len_for, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};
 use fbg_shared::layout::paper::{MEM_AMBIENT, MEM_OBSERVER, MEM_STOP, N_MEMORY};
 use fbg_shared::layout::{pad, pad2, Dims, MAX_GRATINGS, MAX_MEMORY, MAX_OUTPUTS};
-use fbg_shared::{Centre, Compensator, Error, FeatureSet, Hyper, MemorySpec, ModelParams, Provenance, Sample};
+use fbg_shared::{
+    Centre, Compensator, Error, FeatureSet, FieldContext, Hyper, MemorySpec, ModelParams, Provenance, Sample,
+    ZeroSource,
+};
 use fbg_testkit::models::{any_model, encode_vec, long_provenance, model, short_provenance};
 use fbg_testkit::Rng;
 use proptest::prelude::*;
@@ -36,10 +39,14 @@ fn min_len(centres: usize) -> usize {
 }
 
 /// Offset of the provenance in a blob (it is the last field of the payload).
-fn provenance_offset(blob: &[u8], prov: &Provenance) -> usize {
+fn provenance_offset<const K: usize>(blob: &[u8], p: &ModelParams<f32, K>) -> usize {
     let mut buf = [0u8; 128];
-    let n = postcard::to_slice(prov, &mut buf).expect("fits").len();
-    blob.len() - CRC_LEN - n
+    let n = postcard::to_slice(&p.provenance, &mut buf).expect("fits").len();
+    // The field context follows the provenance: λ_ref (8 bytes) and its source (1) per
+    // grating, tolerance and lead (4 each), the end of calibration (1 or 9), 3 f32 per output.
+    let f = &p.field;
+    let field = 9 * p.dims.gratings() + 8 + if f.cal_end_unix_s.is_some() { 9 } else { 1 } + 12 * p.dims.n_outputs();
+    blob.len() - CRC_LEN - field - n
 }
 
 /// Offset of the first f32 of the memory spec: header, output kinds (3 × 2), hyper (1 + 7 × 4),
@@ -123,10 +130,11 @@ fn min_len_and_max_len_are_exact() {
     lengths::<128>();
     lengths::<200>();
     // Version 1 was 416 bytes; version 2 added 2 header bytes and 116 f32 (memory spec 20,
-    // Γ 96); version 3 adds 2 header bytes and the output kinds (3 × 2 bytes).
-    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6);
-    assert_eq!(min_len(0), 890);
-    assert_eq!(min_len(32), 890 + 60 * 32);
+    // Γ 96); version 3 adds 2 header bytes and the output kinds (3 × 2 bytes); version 4 the
+    // field context (3 × 9 bytes of λ_ref and source, 4 + 1 + 4, 3 × 3 f32).
+    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6 + 27 + 9 + 36);
+    assert_eq!(min_len(0), 962);
+    assert_eq!(min_len(32), 962 + 60 * 32);
     // No overflow on absurd inputs.
     assert_eq!(min_len(usize::MAX), usize::MAX);
     assert_eq!(max_len(usize::MAX), usize::MAX);
@@ -235,15 +243,28 @@ fn tiny() -> ModelParams<f32, 2> {
             date_yyyymmdd: 20240101,
             n_cal: 1000,
         },
+        field: FieldContext {
+            lambda_ref_nm: pad(&[1535.0, 1545.0, 1555.0]),
+            lambda_ref_source: pad(&[ZeroSource::Map, ZeroSource::FirstReading, ZeroSource::Map]),
+            lambda_ref_tol_pm: 0.5,
+            cal_end_unix_s: Some(1_704_067_200.0 + 1024.0),
+            lead_max_s: 4096.0,
+            output_lo: pad(&[-10.0, -500.0, 0.0]),
+            output_hi: pad(&[40.0, 500.0, 300.0]),
+            band_max: pad(&[1.0, 8.0, 4.0]),
+        },
     }
 }
 
-/// GOLDEN: the exact bytes of format version 3.
+/// GOLDEN: the exact bytes of format version 4.
 ///
-/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v3 or reject it
-/// by name (`Error::UnsupportedVersion { found: 3, .. }`). Never regenerate this file to make
-/// the test pass. (It was written once by the encoder when version 3 was introduced, with
+/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v4 or reject it
+/// by name (`Error::UnsupportedVersion { found: 4, .. }`). Never regenerate this file to make
+/// the test pass. (It was written once by the encoder when version 4 was introduced, with
 /// `FBG_WRITE_GOLDEN=1 cargo test -p fbg-shared --test blob golden`.)
+const GOLDEN_V4: &[u8] = include_bytes!("golden/tiny_v4.fbgm");
+
+/// The version-3 golden blob (no field context), kept as an "old version refused" fixture.
 const GOLDEN_V3: &[u8] = include_bytes!("golden/tiny_v3.fbgm");
 
 /// The version-2 golden blob (fixed paper layout), kept as an "old version refused" fixture.
@@ -253,19 +274,19 @@ const GOLDEN_V2: &[u8] = include_bytes!("golden/tiny_v2.fbgm");
 const GOLDEN_V1: &[u8] = include_bytes!("golden/tiny_v1.fbgm");
 
 #[test]
-fn golden_v3_bytes_are_pinned() {
+fn golden_v4_bytes_are_pinned() {
     let b = encode_vec(&tiny()).unwrap();
-    if std::env::var_os("FBG_WRITE_GOLDEN").is_some() && GOLDEN_V3.is_empty() {
-        std::fs::write(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/tiny_v3.fbgm"), &b).unwrap();
+    if std::env::var_os("FBG_WRITE_GOLDEN").is_some() && GOLDEN_V4.is_empty() {
+        std::fs::write(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/tiny_v4.fbgm"), &b).unwrap();
     }
     // Shortest 2-centre blob plus "golden" (6), "0.1.0" (5), date varint 4 bytes (+3),
-    // n_cal varint 2 bytes (+1).
-    assert_eq!(b.len(), min_len(2) + 6 + 5 + 3 + 1);
-    assert_eq!(b.len(), 1025);
+    // n_cal varint 2 bytes (+1), and a known end of calibration (+8).
+    assert_eq!(b.len(), min_len(2) + 6 + 5 + 3 + 1 + 8);
+    assert_eq!(b.len(), 1105);
     assert_eq!(
         &b[..HEADER_LEN],
-        &[b'F', b'B', b'G', b'M', 3, 0, 3, 0, 1, 0, 3, 0, 10, 0, 32, 0, 2, 0],
-        "magic, version 3, dims 3 gratings / ambient / 3 measurands / 10 poly / 32 memory, 2 centres (u16 LE)"
+        &[b'F', b'B', b'G', b'M', 4, 0, 3, 0, 1, 0, 3, 0, 10, 0, 32, 0, 2, 0],
+        "magic, version 4, dims 3 gratings / ambient / 3 measurands / 10 poly / 32 memory, 2 centres (u16 LE)"
     );
     // Payload: the output kinds (T, ε, p: codes 0, 1, 2, index 1 each), feature set tag 1
     // (HysteresisAware), then sigma_mult 1.5f32 LE.
@@ -289,24 +310,29 @@ fn golden_v3_bytes_are_pinned() {
     assert_eq!(g(2, MEM_AMBIENT + 1), &[0x00, 0x00, 0x00, 0xBF]);
     // Centre count varint.
     assert_eq!(b[CENTRES_OFFSET], 2);
-    // Apart from the header and the output kinds, the payload is the v2 payload byte for byte:
-    // the paper model's numbers are unchanged, only the encoding around them.
-    assert_eq!(&b[HEADER_LEN + 6..b.len() - CRC_LEN], &GOLDEN_V2[16..GOLDEN_V2.len() - CRC_LEN]);
+    // Apart from the version, the v4 payload starts with the v3 payload byte for byte (which
+    // apart from the output kinds is the v2 payload), and the field context follows it: λ_ref
+    // 1535 nm (f64 LE 0x4097FC0000000000) of grating 1, ..., the three source codes 1, 2, 1.
+    let v3_end = GOLDEN_V3.len() - CRC_LEN;
+    assert_eq!(&b[HEADER_LEN..v3_end], &GOLDEN_V3[HEADER_LEN..v3_end]);
+    assert_eq!(&GOLDEN_V3[HEADER_LEN + 6..v3_end], &GOLDEN_V2[16..GOLDEN_V2.len() - CRC_LEN]);
+    assert_eq!(&b[v3_end..v3_end + 8], &1535.0f64.to_le_bytes());
+    assert_eq!(&b[v3_end + 24..v3_end + 27], &[1, 2, 1]);
     // Trailer: CRC-32C over everything before it, little-endian.
     let n = b.len() - CRC_LEN;
     assert_eq!(b[n..], ISCSI.checksum(&b[..n]).to_le_bytes());
-    assert!(b == GOLDEN_V3, "encoder output differs from the v3 golden blob: format change?");
-    assert_eq!(decode::<2>(GOLDEN_V3), Ok(tiny()));
-    assert_eq!(decode::<32>(GOLDEN_V3).map(|p| p.provenance), Ok(tiny().provenance));
+    assert!(b == GOLDEN_V4, "encoder output differs from the v4 golden blob: format change?");
+    assert_eq!(decode::<2>(GOLDEN_V4), Ok(tiny()));
+    assert_eq!(decode::<32>(GOLDEN_V4).map(|p| p.provenance), Ok(tiny().provenance));
     // It loads, with its memory terms.
-    let c = Compensator::<f32, 2>::new(&decode::<2>(GOLDEN_V3).unwrap()).unwrap();
+    let c = Compensator::<f32, 2>::new(&decode::<2>(GOLDEN_V4).unwrap()).unwrap();
     assert!(c.has_memory());
 }
 
 #[test]
-fn golden_blob_is_v3() {
-    assert_eq!(FORMAT_VERSION, 3, "a new format version needs its own golden blob");
-    assert_eq!(Header::parse(GOLDEN_V3).map(|h| h.version), Ok(3));
+fn golden_blob_is_v4() {
+    assert_eq!(FORMAT_VERSION, 4, "a new format version needs its own golden blob");
+    assert_eq!(Header::parse(GOLDEN_V4).map(|h| h.version), Ok(4));
 }
 
 #[test]
@@ -316,8 +342,10 @@ fn older_golden_blobs_are_refused_naming_both_versions() {
     assert_eq!(GOLDEN_V1.len(), 551, "the v1 tiny model: 536-byte minimum + 15 of provenance");
     assert_eq!(&GOLDEN_V2[..6], &[b'F', b'B', b'G', b'M', 2, 0]);
     assert_eq!(GOLDEN_V2.len(), 1017);
-    for (old, v) in [(GOLDEN_V1, 1u16), (GOLDEN_V2, 2)] {
-        let want = Error::UnsupportedVersion { found: v, supported: 3 };
+    assert_eq!(&GOLDEN_V3[..6], &[b'F', b'B', b'G', b'M', 3, 0]);
+    assert_eq!(GOLDEN_V3.len(), 1025);
+    for (old, v) in [(GOLDEN_V1, 1u16), (GOLDEN_V2, 2), (GOLDEN_V3, 3)] {
+        let want = Error::UnsupportedVersion { found: v, supported: 4 };
         assert_eq!(decode::<2>(old), Err(want));
         assert_eq!(decode::<32>(old).err(), Some(want));
         assert_eq!(decode::<0>(old).err(), Some(want));
@@ -331,7 +359,7 @@ fn older_golden_blobs_are_refused_naming_both_versions() {
         assert_eq!(decode::<2>(&m), Err(want));
         // The message names both versions.
         let msg = want.to_string();
-        assert!(msg.contains(&format!("version {v}")) && msg.contains("version 3"), "{msg}");
+        assert!(msg.contains(&format!("version {v}")) && msg.contains("version 4"), "{msg}");
     }
 }
 
@@ -339,7 +367,7 @@ fn older_golden_blobs_are_refused_naming_both_versions() {
 fn over_capacity_dims_are_refused_naming_both() {
     // 9 gratings or 5 measurands in the header (CRC valid): the capacity is named with them.
     for (off, v, field, cap) in [(6, 9u16, "gratings", MAX_GRATINGS), (10, 5, "measurands", MAX_OUTPUTS)] {
-        let mut m = GOLDEN_V3.to_vec();
+        let mut m = GOLDEN_V4.to_vec();
         m[off..off + 2].copy_from_slice(&v.to_le_bytes());
         fix_crc(&mut m);
         let want = Error::OverCapacity { field, found: v, capacity: cap as u16 };
@@ -398,19 +426,19 @@ fn header_errors() {
     assert_eq!(decode::<2>(b"FBG"), Err(Error::Truncated { part: "header" }));
     assert_eq!(decode::<2>(b"{\"a\":1}"), Err(Error::BadMagic));
     assert_eq!(decode::<2>(b"X"), Err(Error::BadMagic));
-    let mut b = GOLDEN_V3.to_vec();
+    let mut b = GOLDEN_V4.to_vec();
     b[0] = b'f';
     assert_eq!(decode::<2>(&b), Err(Error::BadMagic));
     assert_eq!(Header::parse(&b), Err(Error::BadMagic));
-    assert_eq!(decode::<2>(&GOLDEN_V3[..17]), Err(Error::Truncated { part: "header" }));
-    assert_eq!(Header::parse(&GOLDEN_V3[..17]), Err(Error::Truncated { part: "header" }));
-    assert_eq!(decode::<2>(&GOLDEN_V3[..18]), Err(Error::Truncated { part: "payload" }));
+    assert_eq!(decode::<2>(&GOLDEN_V4[..17]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(Header::parse(&GOLDEN_V4[..17]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(decode::<2>(&GOLDEN_V4[..18]), Err(Error::Truncated { part: "payload" }));
     assert_eq!(
-        Header::parse(GOLDEN_V3),
-        Ok(Header { version: 3, gratings: 3, ambient: 1, measurands: 3, poly_terms: 10, memory_terms: 32, centres: 2 })
+        Header::parse(GOLDEN_V4),
+        Ok(Header { version: 4, gratings: 3, ambient: 1, measurands: 3, poly_terms: 10, memory_terms: 32, centres: 2 })
     );
     // The header alone parses (the payload is not looked at).
-    assert_eq!(Header::parse(&GOLDEN_V3[..18]).map(|h| h.centres), Ok(2));
+    assert_eq!(Header::parse(&GOLDEN_V4[..18]).map(|h| h.centres), Ok(2));
 }
 
 #[test]
@@ -461,7 +489,7 @@ fn every_cut_of_fixed_blobs_is_truncated_or_bad_crc() {
 
 #[test]
 fn trailing_bytes() {
-    let mut b = GOLDEN_V3.to_vec();
+    let mut b = GOLDEN_V4.to_vec();
     b.push(0xFF);
     assert_eq!(decode::<2>(&b), Err(Error::TrailingBytes { extra: 1 }));
     // Erased-flash padding after a stored blob.
@@ -476,8 +504,8 @@ fn trailing_bytes() {
 #[test]
 fn huge_lengths_with_valid_crc_are_bad_payload() {
     let p = tiny();
-    let b = GOLDEN_V3.to_vec();
-    let prov = provenance_offset(&b, &p.provenance);
+    let b = GOLDEN_V4.to_vec();
+    let prov = provenance_offset(&b, &p);
     // Scenario string length: one byte after the 1-byte seed varint (42).
     assert_eq!(b[prov], 42);
     assert_eq!(b[prov + 1], 6);
@@ -670,7 +698,7 @@ fn validate_accepts_boundary_values() {
 
 #[test]
 fn nan_sigma_under_valid_crc_by_byte_patch() {
-    let mut b = GOLDEN_V3.to_vec();
+    let mut b = GOLDEN_V4.to_vec();
     // sigma follows the output kinds, the feature-set tag and sigma_mult.
     b[HEADER_LEN + 11..HEADER_LEN + 15].copy_from_slice(&f32::NAN.to_le_bytes());
     fix_crc(&mut b);
@@ -876,7 +904,7 @@ proptest! {
     fn huge_varints_with_valid_crc((p, b) in valid_blob(), which in 0usize..4, h in prop::collection::vec(0x80u8..=0xFF, 4..12), last in 1u8..0x80) {
         // A long varint (>= 4 continuation bytes, then a non-zero terminator, so >= 2^28 or
         // overflowing) in place of a length, count or enum tag.
-        let prov = provenance_offset(&b, &p.provenance);
+        let prov = provenance_offset(&b, &p);
         let seed_len = {
             let mut buf = [0u8; 16];
             postcard::to_slice(&p.provenance.seed, &mut buf).unwrap().len()
@@ -933,7 +961,7 @@ proptest! {
 fn decoded_blob_module_constants() {
     assert_eq!(blob::MAGIC, *b"FBGM");
     assert_eq!(HEADER_LEN, 18);
-    assert_eq!(FORMAT_VERSION, 3);
+    assert_eq!(FORMAT_VERSION, 4);
     assert_eq!(CRC_LEN, 4);
 }
 
@@ -965,7 +993,7 @@ fn fuzz_seeds_are_valid_blobs() {
             fbg_testkit::models::full_memory_spec(),
         );
         let k0: ModelParams<f32, 0> = model(0, 0, FeatureSet::Paper, short_provenance());
-        std::fs::write(format!("{dir}seed-tiny-k2.fbgm"), GOLDEN_V3).unwrap();
+        std::fs::write(format!("{dir}seed-tiny-k2.fbgm"), GOLDEN_V4).unwrap();
         std::fs::write(format!("{dir}seed-k0.fbgm"), encode_vec(&k0).unwrap()).unwrap();
         std::fs::write(format!("{dir}seed-k8-long-provenance.fbgm"), encode_vec(&k8).unwrap()).unwrap();
         std::fs::write(format!("{dir}seed-k32.fbgm"), encode_vec(&k32).unwrap()).unwrap();
@@ -973,5 +1001,5 @@ fn fuzz_seeds_are_valid_blobs() {
     for (b, n, memory) in seeds {
         assert_eq!(decode::<32>(b).map(|p| (p.centres.len(), p.has_memory())), Ok((n, memory)));
     }
-    assert_eq!(seeds[0].0, GOLDEN_V3);
+    assert_eq!(seeds[0].0, GOLDEN_V4);
 }

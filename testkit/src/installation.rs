@@ -287,6 +287,16 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
             date_yyyymmdd: 20260101,
             n_cal: cal.len() as u32,
         },
+        field: fbg_shared::FieldContext {
+            lambda_ref_nm: pad(&[1535.0, 1545.0, 1555.0]),
+            lambda_ref_source: [fbg_shared::ZeroSource::Simulated; fbg_shared::layout::MAX_GRATINGS],
+            lambda_ref_tol_pm: 1.0,
+            cal_end_unix_s: Some(1_767_571_200.0),
+            lead_max_s: 86_400.0,
+            output_lo: pad(&[T0 as f32 - 30.0, -1000.0, P0 as f32 - 100.0]),
+            output_hi: pad(&[T0 as f32 + 30.0, 1000.0, P0 as f32 + 100.0]),
+            band_max: pad(&[0.3, 6.0, 1.5]),
+        },
     };
     let mut params = params;
     // T_g = T0 + (row 0 of the inverse gauge matrix)·Δλ: the grating temperature.

@@ -133,8 +133,30 @@ pub fn model_dims<const K: usize>(
         p.envelope_lo[i] = if amb { -5.0 } else { -60.0 };
         p.envelope_hi[i] = if amb { 45.0 } else { 60.0 };
     }
+    // The longest blob also has the longest field context (a known end of calibration).
+    let long = prov.scenario.len() == prov.scenario.capacity();
+    p.field = field_context(&dims, long);
     p.provenance = prov;
     p
+}
+
+/// A valid field context for `dims`: λ_ref 1530 + 5·g nm from the map, 1 pm tolerance, a day
+/// of validated lead, outputs −100…100; with `long` a known end of calibration.
+pub fn field_context(dims: &Dims, long: bool) -> fbg_shared::FieldContext {
+    let mut f = fbg_shared::FieldContext::unknown();
+    for g in 0..dims.gratings() {
+        f.lambda_ref_nm[g] = 1530.0 + 5.0 * g as f64;
+        f.lambda_ref_source[g] = fbg_shared::ZeroSource::Map;
+    }
+    f.lambda_ref_tol_pm = 1.0;
+    f.cal_end_unix_s = long.then_some(1_767_571_200.0);
+    f.lead_max_s = 86_400.0;
+    for o in 0..dims.n_outputs() {
+        f.output_lo[o] = -100.0;
+        f.output_hi[o] = 100.0;
+        f.band_max[o] = 10.0;
+    }
+    f
 }
 
 /// `n` random samples for a [`model_dims`] model of `dims` (Δλ in ±50 pm, T_amb in 0..40 °C,

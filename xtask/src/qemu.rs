@@ -795,7 +795,7 @@ fn link_test(
 /// The answers of the running model to `samples` from a fresh stream state, as bit patterns
 /// (values, band) and flags, to compare bit for bit.
 fn answers(s: &mut LinkSession, samples: &[fbg_shared::Sample<f32>]) -> Result<Vec<([u32; 6], String)>> {
-    s.link()?.reset_stream(0xA11)?;
+    s.link()?.reset_stream(0xA11, fbg_shared::StreamClock::Calibration)?;
     samples
         .iter()
         .enumerate()
@@ -969,6 +969,8 @@ fn long_memory_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Res
         samples.len()
     );
     let mut host = fixtures::host_compensator(&model)?;
+    // The samples are the model's own record: lead on the calibration clock, on both sides.
+    host.set_clock(fbg_shared::StreamClock::Calibration);
     let mut s = LinkSession::start(root, qemu, &bins.product, "memory")?;
     if model != default {
         match s.link()?.update_model(&model)? {
@@ -976,7 +978,7 @@ fn long_memory_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Res
             other => bail!("the memory model was refused: {other:?}"),
         }
     }
-    s.link()?.reset_stream(1)?;
+    s.link()?.reset_stream(1, fbg_shared::StreamClock::Calibration)?;
     let started = Instant::now();
     let day = 1440.min(samples.len() / 2);
     let n = samples.len();

@@ -420,8 +420,9 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
     fn handle(&mut self, msg: &HostMsg<'_>) -> DeviceMsg {
         match *msg {
             HostMsg::Ping { nonce } => DeviceMsg::Pong { nonce },
-            HostMsg::ResetStream { nonce } => {
+            HostMsg::ResetStream { nonce, clock } => {
                 self.comp.reset();
+                self.comp.set_clock(clock);
                 DeviceMsg::Pong { nonce }
             }
             HostMsg::Sample { seq, ref sample } => DeviceMsg::Estimate(self.step(seq, sample)),
@@ -437,7 +438,7 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
     fn step(&mut self, seq: u32, sample: &Sample<f32>) -> DeviceEstimate {
         let e = (self.kernel.step)(self.comp, sample);
         self.status.samples = self.status.samples.wrapping_add(1);
-        let _ = self.alarm.set_state(PinState::from(!e.flags.is_ok()));
+        let _ = self.alarm.set_state(PinState::from(e.flags.is_fault()));
         DeviceEstimate::new(seq, &e)
     }
 

@@ -738,7 +738,7 @@ fn a_memory_model_is_served_like_the_library_across_gaps_resets_and_updates() {
     assert!(reference.has_memory());
     assert_serves(&mut link, &mut reference, &s[..250], 0);
     // ResetStream forgets the memory (and the latches), on the device as in the library.
-    assert_eq!(link.request(&HostMsg::ResetStream { nonce: 4 }).unwrap(), DeviceMsg::Pong { nonce: 4 });
+    assert_eq!(link.request(&HostMsg::ResetStream { nonce: 4, clock: fbg_shared::StreamClock::Unknown }).unwrap(), DeviceMsg::Pong { nonce: 4 });
     reference.reset();
     assert_serves(&mut link, &mut reference, &s[250..], 250);
     // Swapped in by an update from a model without memory, and back.

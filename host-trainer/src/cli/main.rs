@@ -295,6 +295,14 @@ enum Cmd {
         /// skipped; above it the import fails with the counts by reason.
         #[arg(long, default_value_t = 100.0 * import::DEFAULT_MAX_SKIPPED)]
         max_skipped: f64,
+        /// Zero absolute wavelengths on this model's λ_ref (a field record read against its
+        /// calibration's zero) instead of the map's `ref_nm` or the first reading.
+        #[arg(long)]
+        model: Option<PathBuf>,
+        /// Absolute time of the first row (UTC, `YYYY-MM-DDThh:mm:ss[.fff]`) for an export whose
+        /// times are plain seconds: the band's clock.
+        #[arg(long)]
+        start: Option<String>,
         /// Print the import summary (rows, skips by reason, gratings, references, split) as
         /// JSON on stdout.
         #[arg(long)]
@@ -328,6 +336,14 @@ enum Cmd {
         /// Run the device's f32 arithmetic instead of the host's f64.
         #[arg(long)]
         f32: bool,
+        /// Absolute time of the record's `t_s = 0` (UTC, `YYYY-MM-DDThh:mm:ss[.fff]`), when the
+        /// record does not say: the band's lead is then absolute time since calibration.
+        #[arg(long)]
+        start: Option<String>,
+        /// Compensate even when the shifts look like another unit than pm (against the
+        /// model's calibration envelope).
+        #[arg(long)]
+        trust_units: bool,
         /// Print the summary as JSON on stdout.
         #[arg(long)]
         json: bool,
@@ -623,11 +639,15 @@ fn run() -> Result<()> {
         Cmd::BenchFit(a) => bench_fit(&a),
         Cmd::Fleet(a) => fleet(&a),
         Cmd::Stream(a) => a.run(),
-        Cmd::Compensate { model, data, out, f32, json } => {
+        Cmd::Compensate { model, data, out, f32, start, trust_units, json } => {
             check_outputs(&[&out], &[&model, &data])?;
+            let field = fbg_trainer::compensate::FieldOptions {
+                start_unix_s: start.as_deref().map(|s| utc_timestamp(s, "--start")).transpose()?,
+                trust_units,
+            };
             fbg_trainer::data::files::prepare_output_dirs(&[&out])?;
             let precision = if f32 { Precision::F32 } else { Precision::F64 };
-            let s = fbg_trainer::compensate::run(&model, &data, &out, precision, !json)?;
+            let s = fbg_trainer::compensate::run(&model, &data, &out, precision, field, !json)?;
             if json {
                 println!("{}", serde_json::to_string_pretty(&s)?);
             } else {
@@ -636,7 +656,20 @@ fn run() -> Result<()> {
             Ok(())
         }
         Cmd::Device(a) => a.run(),
-        Cmd::Import { format, file, map, refs, out, cal_until, cal_fraction, on_error, max_skipped, json } => {
+        Cmd::Import {
+            format,
+            file,
+            map,
+            refs,
+            out,
+            cal_until,
+            cal_fraction,
+            on_error,
+            max_skipped,
+            model,
+            start,
+            json,
+        } => {
             if !(0.0..=100.0).contains(&max_skipped) {
                 bail!("--max-skipped must be a percentage from 0 to 100 (got {max_skipped})");
             }
@@ -652,8 +685,20 @@ fn run() -> Result<()> {
                 split,
                 on_error: on_error.parse().map_err(anyhow::Error::msg)?,
                 max_skipped: max_skipped / 100.0,
+                zero_from: match &model {
+                    Some(m) => {
+                        let p = export::read_blob(m)?;
+                        Some(import::ModelZero {
+                            model: m.display().to_string(),
+                            lambda_ref_nm: (0..p.dims.gratings()).map(|g| p.field.lambda_ref(g)).collect(),
+                        })
+                    }
+                    None => None,
+                },
+                start_unix_s: start.as_deref().map(|s| utc_timestamp(s, "--start")).transpose()?,
             };
             let mut inputs = vec![opts.input.as_path()];
+            inputs.extend(model.as_deref());
             inputs.extend(opts.map.as_deref());
             inputs.extend(opts.refs.as_deref());
             check_outputs(&[&out], &inputs)?;
@@ -666,6 +711,12 @@ fn run() -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// A UTC timestamp argument in Unix seconds.
+fn utc_timestamp(s: &str, flag: &str) -> Result<f64> {
+    fbg_trainer::data::import::time_axis::parse_timestamp(s.trim().trim_end_matches('Z'), None)
+        .ok_or_else(|| anyhow::anyhow!("{flag}: `{s}` is not a UTC timestamp like 2026-01-05T00:00:00"))
 }
 
 fn origin_of(data: &Path, meta: Option<&SimMeta>) -> Origin {

@@ -20,6 +20,7 @@
 pub mod files;
 pub mod import;
 pub mod measurand;
+pub mod record_meta;
 pub mod units;
 
 use std::io::Write;
@@ -31,6 +32,7 @@ use fbg_shared::Sample;
 use crate::data::files::write_atomically;
 use crate::data::measurand::{grating_column, parse_grating_column};
 pub use crate::data::measurand::{Kind, Measurand, MAX_GRATINGS, MAX_MEASURANDS};
+pub use crate::data::record_meta::{GratingZero, RecordMeta};
 use crate::data::units::{absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, WlUnit};
 use crate::error::TrainerError;
 
@@ -135,6 +137,9 @@ pub struct Dataset {
     /// Measured wavelength shifts \[pm\] per grating (1 to [`MAX_GRATINGS`]).
     pub dl_pm: Vec<Vec<f64>>,
     pub split: Vec<Split>,
+    /// Each grating's zero (λ_ref) and the absolute time of `t_s = 0`, when known (written as
+    /// comment lines before the CSV header, [`record_meta`]).
+    pub meta: RecordMeta,
 }
 
 impl Dataset {
@@ -283,6 +288,26 @@ impl Dataset {
         let (t0, t1) = (self.t_s.first().copied().unwrap_or(0.0), self.t_s.last().copied().unwrap_or(0.0));
         self.split_at_time(t0 + fraction * (t1 - t0));
     }
+    /// The band's clock for a model run over this record as over its own calibration record
+    /// (`evaluate`, `stream`, the studies): absolute when the record and the model both know
+    /// absolute time, else the calibration clock (this record's `t_s` is the model's).
+    pub fn calibration_clock<F: fbg_shared::Real, const K: usize>(
+        &self,
+        model: &fbg_shared::ModelParams<F, K>,
+    ) -> fbg_shared::StreamClock {
+        match (self.meta.t0_unix_s, model.field.cal_end_unix_s) {
+            (Some(t0), Some(_)) => fbg_shared::StreamClock::StartUnix(t0),
+            _ => fbg_shared::StreamClock::Calibration,
+        }
+    }
+
+    /// The band's clock for a field record (`compensate`): absolute when the record knows its
+    /// start, else unknown (the band then takes the model's largest validated lead and every
+    /// estimate says the lead is unknown).
+    pub fn field_clock(&self) -> fbg_shared::StreamClock {
+        self.meta.t0_unix_s.map_or(fbg_shared::StreamClock::Unknown, fbg_shared::StreamClock::StartUnix)
+    }
+
     /// Indices of the hold-out samples.
     pub fn holdout_indices(&self) -> Vec<usize> {
         (0..self.len()).filter(|&i| self.split[i] == Split::Holdout).collect()
@@ -296,6 +321,7 @@ impl Dataset {
             t_amb_c: self.t_amb_c.as_ref().map(pick),
             dl_pm: self.dl_pm.iter().map(pick).collect(),
             split: idx.iter().map(|&i| self.split[i]).collect(),
+            meta: self.meta.clone(),
         }
     }
 
@@ -328,6 +354,9 @@ impl Dataset {
         order.sort_by_key(|&k| self.refs[k].measurand);
         let head = self.header();
         write_atomically(path, |w| {
+            for l in self.meta.comment_lines() {
+                writeln!(w, "{l}")?;
+            }
             writeln!(w, "{}", head.join(","))?;
             let mut line = String::with_capacity(128);
             for i in 0..self.len() {
@@ -370,7 +399,9 @@ impl Dataset {
         let name = path.display().to_string();
         let mut file = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
         let ends_with_newline = last_byte(&mut file).map_err(|e| TrainerError::io(path, e))? == Some(b'\n');
-        let mut rdr = csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).from_reader(file);
+        let meta = read_meta(&mut file, &name)?;
+        let mut rdr =
+            csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).comment(Some(b'#')).from_reader(file);
         let headers = rdr
             .headers()
             .map_err(|e| TrainerError::data(&name, 1, "-", format!("cannot read the header: {e}")))?
@@ -382,6 +413,7 @@ impl Dataset {
             refs: layout.refs.iter().map(|&(m, _)| Reference { measurand: m, values: Vec::new() }).collect(),
             t_amb_c: layout.ambient.map(|_| Vec::new()),
             dl_pm: vec![Vec::new(); n_g],
+            meta,
             ..Dataset::default()
         };
         let mut first_line = 0;
@@ -578,6 +610,32 @@ impl Layout {
         }
         Ok(Layout { t_s, refs, ambient, gratings: gratings.into_iter().map(|(_, c)| c).collect(), split })
     }
+}
+
+/// The record metadata in the comment lines at the top of a dataset CSV (errors name the
+/// line); the read position is restored to the start.
+fn read_meta(f: &mut std::fs::File, name: &str) -> Result<RecordMeta, TrainerError> {
+    use std::io::{BufRead, BufReader, Seek, SeekFrom};
+    let mut meta = RecordMeta::default();
+    let mut r = BufReader::new(&mut *f);
+    let mut line = String::new();
+    let mut n = 0u64;
+    loop {
+        line.clear();
+        // A non-UTF-8 first line is the CSV reader's to report.
+        if r.read_line(&mut line).unwrap_or(0) == 0 {
+            break;
+        }
+        n += 1;
+        let l = line.trim_start_matches('\u{feff}');
+        if !l.starts_with('#') {
+            break;
+        }
+        meta.read_comment(l.trim_end()).map_err(|m| TrainerError::data(name, n, "#", m))?;
+    }
+    drop(r);
+    f.seek(SeekFrom::Start(0)).map_err(|e| TrainerError::data(name, 1, "-", e.to_string()))?;
+    Ok(meta)
 }
 
 /// The last byte of a file (`None` when empty); the read position is restored to the start.

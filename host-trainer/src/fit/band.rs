@@ -14,6 +14,32 @@
 //! effective-sample-size factor √((1 + ρ)/(1 − ρ)), with ρ the lag-one autocorrelation of the
 //! regression residuals within each fold.
 
+/// Fraction of each fold's lead range counted as "near zero lead" by [`VarModel::a_floor`].
+const ZERO_LEAD_FRACTION: f64 = 0.1;
+
+/// Mean of the squared errors whose lead lies in the first [`ZERO_LEAD_FRACTION`] of their
+/// fold's lead range, pooled over folds (NaN without errors).
+fn zero_lead_mse(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> f64 {
+    let n_folds = fold.iter().copied().max().map(|m| m + 1).unwrap_or(0);
+    let mut range = vec![(f64::INFINITY, f64::NEG_INFINITY); n_folds];
+    for (&t, &f) in lead_s.iter().zip(fold) {
+        range[f] = (range[f].0.min(t), range[f].1.max(t));
+    }
+    let (mut sum, mut n) = (0.0, 0usize);
+    for ((&t, &e), &f) in lead_s.iter().zip(sq_err).zip(fold) {
+        let (lo, hi) = range[f];
+        if t <= lo + ZERO_LEAD_FRACTION * (hi - lo) && e.is_finite() {
+            sum += e;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        f64::NAN
+    } else {
+        sum / n as f64
+    }
+}
+
 /// Largest lag-one autocorrelation used in the inflation factor (keeps it finite).
 const RHO_MAX: f64 = 0.9999;
 
@@ -30,6 +56,16 @@ pub struct VarModel {
     pub b_fitted: f64,
     /// Standard error of the fitted growth, allowing for autocorrelated errors [unit²/s].
     pub b_se: f64,
+    /// Mean squared validation error nearest to zero lead [unit²] (each fold's first tenth of
+    /// leads, pooled): the floor of `a`, so that the band at the end of calibration is never
+    /// narrower than the error the cross-validation saw there.
+    pub a_floor: f64,
+    /// Largest lead time the validation saw \[s\]: the band's lead when a stream's clock is
+    /// unknown.
+    pub lead_max_s: f64,
+    /// Fraction of the validation errors inside the band at their own lead (the
+    /// cross-validated coverage; the conformal multiplier aims it at 95 %).
+    pub cv_coverage: f64,
 }
 
 impl VarModel {
@@ -43,6 +79,14 @@ impl VarModel {
     /// order of growing training sets.
     pub fn fit(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
         let mut m = Self::fit_variance(lead_s, sq_err, fold);
+        // A steep slope can leave a tiny intercept (on a short calibration the fold means are
+        // explained by growth alone): the band at the end of calibration must still cover the
+        // errors the validation saw at its shortest leads.
+        m.a_floor = zero_lead_mse(lead_s, sq_err, fold);
+        if m.a_floor.is_finite() && m.a_floor > m.a {
+            m.a = m.a_floor;
+        }
+        m.lead_max_s = lead_s.iter().copied().filter(|t| t.is_finite()).fold(0.0, f64::max);
         let mut u: Vec<f64> = lead_s.iter().zip(sq_err).map(|(&t, &e)| (e / m.at(t)).sqrt()).collect();
         u.sort_by(f64::total_cmp);
         // Finite-sample conformal quantile: the ceil((n+1)·0.95)-th smallest.
@@ -52,6 +96,7 @@ impl VarModel {
         if m.k95.is_nan() || m.k95 <= 0.0 {
             m.k95 = fbg_shared::layout::Z95;
         }
+        m.cv_coverage = if n == 0 { f64::NAN } else { u.iter().filter(|&&x| x <= m.k95).count() as f64 / n as f64 };
         m
     }
 
@@ -89,7 +134,7 @@ impl VarModel {
         let mean_all = sq_err.iter().sum::<f64>() / sq_err.len().max(1) as f64;
         let floor = 1e-6 * mean_all.max(f64::MIN_POSITIVE);
         let a = me.get(last).copied().unwrap_or(mean_all) - b * mt.get(last).copied().unwrap_or(0.0);
-        VarModel { a: a.max(floor), b, k95: fbg_shared::layout::Z95, b_fitted, b_se: se }
+        VarModel { a: a.max(floor), b, k95: fbg_shared::layout::Z95, b_fitted, b_se: se, ..VarModel::default() }
     }
 
     /// Variance at lead time `tau_s`.

@@ -184,8 +184,23 @@ pub fn map_stretches<T: Send>(
     pass: Pass,
     f: impl Fn(StretchOut<'_>) -> T + Sync + Send,
 ) -> Result<Vec<T>, TrainerError> {
+    map_stretches_on(params, d, rows, ck, pass, d.calibration_clock(params), f)
+}
+
+/// [`map_stretches`] with the band's lead on `clock` (the record's own calibration clock
+/// there).
+fn map_stretches_on<T: Send>(
+    params: &HostParams,
+    d: &Dataset,
+    rows: &[usize],
+    ck: Option<&Checkpoints>,
+    pass: Pass,
+    clock: fbg_shared::StreamClock,
+    f: impl Fn(StretchOut<'_>) -> T + Sync + Send,
+) -> Result<Vec<T>, TrainerError> {
     debug_assert!(rows.windows(2).all(|w| w[0] < w[1]), "rows must be sorted and distinct");
-    let comp = compensator(params)?;
+    let mut comp = compensator(params)?;
+    comp.set_clock(clock);
     let end = rows.last().map(|&i| i + 1).unwrap_or(0);
     let own;
     let ck = match ck {
@@ -359,6 +374,17 @@ pub fn map_rows<T: Send>(
 /// sample from the first.
 pub fn run(params: &HostParams, d: &Dataset, want: &[usize]) -> Result<Vec<Estimate<f64>>, TrainerError> {
     run_with(params, d, want, None)
+}
+
+/// [`run`] with the band's lead on `clock` (a field record's: [`Dataset::field_clock`]).
+pub fn run_on_clock(
+    params: &HostParams,
+    d: &Dataset,
+    want: &[usize],
+    clock: fbg_shared::StreamClock,
+) -> Result<Vec<Estimate<f64>>, TrainerError> {
+    let parts = map_stretches_on(params, d, want, None, Pass::Estimates, clock, |o| o.est.to_vec())?;
+    Ok(parts.concat())
 }
 
 /// [`run`] with checkpoints at hand.

@@ -8,6 +8,7 @@
 pub mod band;
 pub mod design;
 pub mod features;
+pub mod field;
 pub mod kmeans;
 pub mod linalg;
 pub mod memory_core;
@@ -27,7 +28,7 @@ use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::rng::{Rng, Stream};
 pub use band::VarModel;
-pub use design::{design_matrix, run, CheckpointCache, Checkpoints, Gram};
+pub use design::{design_matrix, run, run_on_clock, CheckpointCache, Checkpoints, Gram};
 pub use features::FeatureChoice;
 pub use poly_core::PolyCore;
 pub use select::{Selection, TrainOptions};
@@ -366,6 +367,8 @@ impl Skeleton {
             envelope_hi: self.envelope.1,
             fitted: std::array::from_fn(|o| o < m),
             provenance: provenance.clone(),
+            // Filled in by `train` once the model is final (`field::context`).
+            field: fbg_shared::FieldContext::unknown(),
         };
         p.validate().map_err(|e| TrainerError::fit(format!("assembled model is invalid: {e}")))?;
         Ok(p)
@@ -555,10 +558,16 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
     let var = VarianceTerms::from_ridge(&sys, alpha);
     let thr = if sk.centres.is_empty() { 0.0 } else { weak_support_threshold(&gram.max_psi) };
     let t_end = cal.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
-    let model_h = sk.params_with_band(Some(&w), alpha, Some(&var), &selection.var_model_h, t_end, thr, &provenance)?;
+    let mut model_h =
+        sk.params_with_band(Some(&w), alpha, Some(&var), &selection.var_model_h, t_end, thr, &provenance)?;
 
     let sk_p = Skeleton { core: core_p.clone(), centres: vec![], ..sk };
-    let model_p = sk_p.params_with_band(None, 0.0, None, &selection.var_model_p, t_end, 0.0, &provenance)?;
+    let mut model_p = sk_p.params_with_band(None, 0.0, None, &selection.var_model_p, t_end, 0.0, &provenance)?;
+    model_h.field = field::context(&model_h, d, &cal, &selection.var_model_h, &selection.cv_rmse_h);
+    model_p.field = field::context(&model_p, d, &cal, &selection.var_model_p, &selection.cv_rmse_p);
+    for m in [&model_h, &model_p] {
+        m.validate().map_err(|e| TrainerError::fit(format!("assembled model is invalid: {e}")))?;
+    }
     let static_audit = static_fidelity::StaticAudit::of(&model_p, &model_h, d, &cal)?;
     phases.lap("assembly and static audit");
     Ok(Trained { model_p, model_h, core: core_p, selection, phase_seconds: phases.laps, static_audit })

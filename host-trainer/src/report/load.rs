@@ -175,6 +175,13 @@ struct VarModelDe {
     b_fitted: Option<F>,
     #[serde(default)]
     b_se: Option<F>,
+    /// Absent from metrics written before the band knew its floor and clock.
+    #[serde(default)]
+    a_floor: Option<F>,
+    #[serde(default)]
+    lead_max_s: Option<F>,
+    #[serde(default)]
+    cv_coverage: Option<F>,
 }
 
 impl From<VarModelDe> for VarModel {
@@ -185,6 +192,9 @@ impl From<VarModelDe> for VarModel {
             k95: v.k95.0,
             b_fitted: v.b_fitted.map_or(v.b.0, |x| x.0),
             b_se: v.b_se.map_or(0.0, |x| x.0),
+            a_floor: v.a_floor.map_or(f64::NAN, |x| x.0),
+            lead_max_s: v.lead_max_s.map_or(f64::NAN, |x| x.0),
+            cv_coverage: v.cv_coverage.map_or(f64::NAN, |x| x.0),
         }
     }
 }

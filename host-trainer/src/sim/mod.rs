@@ -14,11 +14,15 @@ pub mod scenario;
 pub mod steps;
 pub mod trajectories;
 
-use crate::data::{Dataset, Kind, Measurand, Reference, Split};
+use crate::data::{Dataset, GratingZero, Kind, Measurand, RecordMeta, Reference, Split};
 use crate::rng::Stream;
 use crate::sim::scenario::ScenarioConfig;
 use crate::stats::rmse;
 pub use gauge_matrix::GaugePhysics;
+
+/// The absolute time of a simulated record's `t_s = 0` (2026-01-05T00:00:00Z, Unix s): every
+/// simulated record has a clock, so a model trained on one knows when its calibration ended.
+pub const SIM_START_UNIX_S: f64 = 1_767_571_200.0;
 
 /// Names of the interrogator's artefacts, in [`Effects`] order.
 pub const EFFECT_NAMES: [&str; 5] = ["hysteresis", "scan", "drift", "electronics", "noise"];
@@ -236,6 +240,15 @@ pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
         t_amb_c: cfg.ambient.thermometer.then_some(t_amb_c),
         dl_pm,
         split,
+        meta: RecordMeta {
+            zero: cfg
+                .gratings
+                .nominal_nm
+                .iter()
+                .map(|&nm| GratingZero { nm, source: fbg_shared::ZeroSource::Simulated })
+                .collect(),
+            t0_unix_s: Some(SIM_START_UNIX_S),
+        },
     };
     data.sort_refs();
     let mut effects = Effects {

@@ -257,7 +257,7 @@ mod tests {
             HostMsg::ModelChunk { offset: 0, data: &[0, 0, 0] },
             HostMsg::ModelCommit,
             HostMsg::GetStatus,
-            HostMsg::ResetStream { nonce: 3 },
+            HostMsg::ResetStream { nonce: 3, clock: crate::StreamClock::StartUnix(1.7e9) },
         ]
     }
 

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 #[cfg(doc)]
 use super::framing::crc32;
 use super::reject::RejectReason;
+use crate::clock::StreamClock;
 use crate::compensator::{Estimate, Sample};
 use crate::flags::Flags;
 use crate::layout::{head, MAX_OUTPUTS};
@@ -53,11 +54,15 @@ pub enum HostMsg<'a> {
     ModelCommit,
     /// Ask for the counters; answered by [`DeviceMsg::Status`].
     GetStatus,
-    /// Forget the stream state (direction latches) before a new acquisition; answered by
+    /// Forget the stream state (direction latches, memory operators) before a new
+    /// acquisition and say how its `t_s` relates to the end of calibration (the band's lead
+    /// time: [`StreamClock`]; a device boots with [`StreamClock::Unknown`]); answered by
     /// [`DeviceMsg::Pong`] with the nonce.
     ResetStream {
         /// Echoed back.
         nonce: u32,
+        /// The new stream's clock.
+        clock: StreamClock,
     },
 }
 

@@ -27,7 +27,7 @@
 //!
 //! | host | device |
 //! |---|---|
-//! | `Ping{nonce}` / `ResetStream{nonce}` | `Pong{nonce}` |
+//! | `Ping{nonce}` / `ResetStream{nonce, clock}` | `Pong{nonce}` |
 //! | `Sample{seq, sample}` | `Estimate{seq, values, band, flags}` |
 //! | `GetStatus` | `Status{..}` |
 //! | `ModelBegin{total_len, crc32}` / `ModelChunk{offset, data}` | `UpdateProgress{received}`, or `UpdateResult(Rejected)` |

@@ -24,8 +24,9 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::data::measurand::{grating_column, Measurand};
-use crate::data::{Dataset, Reference, Split, T_AMB_COLUMN};
+use crate::data::{Dataset, GratingZero, RecordMeta, Reference, Split, T_AMB_COLUMN};
 use crate::error::TrainerError;
+use fbg_shared::ZeroSource;
 pub use mapping::Map;
 pub use problems::{FileSkips, OnError, Reason, ReasonCount};
 pub use time_axis::TimeKind;
@@ -80,6 +81,21 @@ pub struct ImportOptions {
     /// `--on-error skip`: the largest fraction of a file's rows that may be skipped as bad;
     /// above it the import fails with the counts by reason ([`DEFAULT_MAX_SKIPPED`]).
     pub max_skipped: f64,
+    /// `--model`: zero absolute wavelengths on a model's λ_ref instead of the map's or the
+    /// first reading (a field record read against the calibration's zero).
+    pub zero_from: Option<ModelZero>,
+    /// `--start`: absolute time (Unix s) of the first row, for a record whose times are plain
+    /// seconds.
+    pub start_unix_s: Option<f64>,
+}
+
+/// A model's zero, for [`ImportOptions::zero_from`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelZero {
+    /// The model file (for messages).
+    pub model: String,
+    /// λ_ref per grating \[nm\], `None` where the model does not know it.
+    pub lambda_ref_nm: Vec<Option<f64>>,
 }
 
 /// Default of [`ImportOptions::max_skipped`]: 5 % of a file's rows.
@@ -503,20 +519,49 @@ fn finish(
     }
 
     let n_g = m.wl.len();
+    if let Some(z) = &opts.zero_from {
+        if z.lambda_ref_nm.len() != n_g {
+            return Err(TrainerError::Config {
+                origin: "--model".into(),
+                key: String::new(),
+                message: format!(
+                    "{} has {} gratings but {} has {n_g}: the model cannot zero this record",
+                    z.model,
+                    z.lambda_ref_nm.len(),
+                    m.input
+                ),
+            });
+        }
+    }
     let mut dl: Vec<Vec<f64>> = Vec::with_capacity(n_g);
     let mut gratings = Vec::with_capacity(n_g);
+    let mut zero = Vec::with_capacity(n_g);
     for g in 0..n_g {
         let v = pick(&m.wl[g]);
-        let (ref_nm, ref_source) = if m.is_shift[g] {
-            (None, "shifts in the file".to_string())
+        let model_ref = opts.zero_from.as_ref().map(|z| (z.model.as_str(), z.lambda_ref_nm[g]));
+        let (ref_nm, ref_source, source) = if m.is_shift[g] {
+            (None, "shifts in the file".to_string(), ZeroSource::Unknown)
+        } else if let Some((model, r)) = model_ref {
+            let Some(r) = r else {
+                return Err(TrainerError::Config {
+                    origin: "--model".into(),
+                    key: String::new(),
+                    message: format!("{model} does not know grating {}'s reference wavelength (it was calibrated on shifts): zero the record with the calibration's map instead", g + 1),
+                });
+            };
+            (Some(r), format!("model {model}"), ZeroSource::Model)
         } else if let Some(r) = m.ref_nm[g] {
-            (Some(r), "map".to_string())
+            (Some(r), "map".to_string(), ZeroSource::Map)
         } else {
             match v.iter().position(|x| x.is_finite()) {
-                Some(k) => (Some(v[k]), format!("first reading (line {})", m.lines[keep[k]])),
-                None => (None, "no reading".to_string()),
+                Some(k) => (Some(v[k]), format!("first reading (line {})", m.lines[keep[k]]), ZeroSource::FirstReading),
+                None => (None, "no reading".to_string(), ZeroSource::Unknown),
             }
         };
+        zero.push(match ref_nm {
+            Some(nm) => GratingZero { nm, source },
+            None => GratingZero::UNKNOWN,
+        });
         let shifts: Vec<f64> = match ref_nm {
             Some(r) => v.iter().map(|&x| (x - r) * 1e3).collect(),
             None => v,
@@ -541,8 +586,20 @@ fn finish(
         t_amb_c: m.ambient.as_ref().map(|(_, a)| pick(a)),
         dl_pm: dl,
         split: vec![Split::Cal; n],
+        meta: RecordMeta { zero, t0_unix_s: None },
     };
     d.sort_refs();
+    d.meta.t0_unix_s = match (m.absolute, opts.start_unix_s) {
+        (true, None) => Some(t0),
+        (false, start) => start,
+        (true, Some(_)) => {
+            return Err(TrainerError::Config {
+                origin: "--start".into(),
+                key: String::new(),
+                message: format!("{} has calendar timestamps: its start is known, drop --start", m.input),
+            })
+        }
+    };
 
     let (rule, cal_until_s) = match &opts.split {
         SplitChoice::Fraction(f) => {

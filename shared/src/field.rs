@@ -1,0 +1,155 @@
+//! What a field reading needs beyond the calibration's arithmetic: the zero of each grating's
+//! shifts (λ_ref), the absolute clock of the calibration (the band's lead time), and the
+//! calibration's output envelope and largest band (a plausibility check).
+//!
+//! A model is only right on shifts taken from the wavelengths it was calibrated against: a
+//! field record zeroed on its own first reading is off by whatever the measurands were then
+//! (a grating at 10 pm/°C zeroed 3.7 °C away reads 3.7 °C wrong, unflagged). So the model
+//! carries λ_ref per grating and a tolerance, and a record that states another zero is refused.
+
+use crate::error::Error;
+use crate::layout::{head, Dims, MAX_GRATINGS, MAX_OUTPUTS};
+
+/// Where a grating's reference wavelength λ_ref came from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum ZeroSource {
+    /// Not known: the record held shifts, not wavelengths (λ_ref is then 0).
+    #[default]
+    Unknown = 0,
+    /// Given by the channel map (`ref_nm`).
+    Map = 1,
+    /// The record's first reading of the grating.
+    FirstReading = 2,
+    /// Taken from a model (`import --model`).
+    Model = 3,
+    /// The simulator's nominal Bragg wavelength.
+    Simulated = 4,
+}
+
+impl ZeroSource {
+    /// The one-byte code in a blob.
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The source of a code, `None` for a code this version does not define.
+    pub const fn from_code(code: u8) -> Option<ZeroSource> {
+        Some(match code {
+            0 => ZeroSource::Unknown,
+            1 => ZeroSource::Map,
+            2 => ZeroSource::FirstReading,
+            3 => ZeroSource::Model,
+            4 => ZeroSource::Simulated,
+            _ => return None,
+        })
+    }
+
+    /// A short lower-case name (`map`, `first reading`, …).
+    pub const fn name(self) -> &'static str {
+        match self {
+            ZeroSource::Unknown => "unknown",
+            ZeroSource::Map => "map",
+            ZeroSource::FirstReading => "first reading",
+            ZeroSource::Model => "model",
+            ZeroSource::Simulated => "simulated",
+        }
+    }
+}
+
+/// The calibration's zero, clock and envelope of outputs, as a blob carries them (f64 where
+/// f32 would not hold the number: λ_ref ≈ 1550 nm has a 0.12 pm step in f32, and Unix seconds
+/// a 128 s one).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FieldContext {
+    /// Reference wavelength λ_ref per grating \[nm\]: shift Δλ = (λ − λ_ref) · 1000 pm. 0 where
+    /// unknown.
+    pub lambda_ref_nm: [f64; MAX_GRATINGS],
+    /// Where each λ_ref came from.
+    pub lambda_ref_source: [ZeroSource; MAX_GRATINGS],
+    /// Largest difference \[pm\] between a record's stated λ_ref and the model's that moves no
+    /// output by more than a third of its cross-validated error: beyond it a record is refused.
+    pub lambda_ref_tol_pm: f32,
+    /// Absolute end of calibration, Unix seconds (UTC), when the calibration record had
+    /// absolute time.
+    pub cal_end_unix_s: Option<f64>,
+    /// Largest lead time the cross-validation saw \[s\]: the band's lead when the stream's
+    /// clock is unknown.
+    pub lead_max_s: f32,
+    /// Lowest reference value per output in the calibration batch (output unit).
+    pub output_lo: [f32; MAX_OUTPUTS],
+    /// Highest reference value per output in the calibration batch (output unit).
+    pub output_hi: [f32; MAX_OUTPUTS],
+    /// Largest 95 % half-width per output the calibration validated (at `lead_max_s`, unflagged),
+    /// output unit.
+    pub band_max: [f32; MAX_OUTPUTS],
+}
+
+impl FieldContext {
+    /// Nothing known: no zero, no clock, no envelope (it does not validate for a fitted output).
+    pub const fn unknown() -> FieldContext {
+        FieldContext {
+            lambda_ref_nm: [0.0; MAX_GRATINGS],
+            lambda_ref_source: [ZeroSource::Unknown; MAX_GRATINGS],
+            lambda_ref_tol_pm: 0.0,
+            cal_end_unix_s: None,
+            lead_max_s: 0.0,
+            output_lo: [0.0; MAX_OUTPUTS],
+            output_hi: [0.0; MAX_OUTPUTS],
+            band_max: [0.0; MAX_OUTPUTS],
+        }
+    }
+
+    /// λ_ref of grating `g` (0-based) \[nm\], `None` when unknown.
+    pub fn lambda_ref(&self, g: usize) -> Option<f64> {
+        match self.lambda_ref_source.get(g) {
+            Some(ZeroSource::Unknown) | None => None,
+            Some(_) => self.lambda_ref_nm.get(g).copied(),
+        }
+    }
+
+    /// Check the numbers for `dims`: a known λ_ref is a plausible wavelength (100–10 000 nm),
+    /// an unknown one 0; the tolerance, lead and bands finite and ≥ 0; the end of calibration
+    /// finite; each fitted output's envelope ordered and finite.
+    pub fn validate(&self, dims: &Dims, fitted: &[bool; MAX_OUTPUTS]) -> Result<(), Error> {
+        let n = dims.gratings();
+        for (&nm, &src) in head(&self.lambda_ref_nm, n).iter().zip(head(&self.lambda_ref_source, n)) {
+            let ok = match src {
+                ZeroSource::Unknown => nm == 0.0,
+                _ => nm.is_finite() && (100.0..=10_000.0).contains(&nm),
+            };
+            if !ok {
+                return Err(Error::BadParameter { field: "field.lambda_ref_nm" });
+            }
+        }
+        let nonneg = |v: f32| v.is_finite() && v >= 0.0;
+        if !nonneg(self.lambda_ref_tol_pm) {
+            return Err(Error::BadParameter { field: "field.lambda_ref_tol_pm" });
+        }
+        if !nonneg(self.lead_max_s) {
+            return Err(Error::BadParameter { field: "field.lead_max_s" });
+        }
+        if self.cal_end_unix_s.is_some_and(|t| !t.is_finite()) {
+            return Err(Error::BadParameter { field: "field.cal_end_unix_s" });
+        }
+        let m = dims.n_outputs();
+        for (((&lo, &hi), &b), &fit) in
+            self.output_lo.iter().zip(self.output_hi.iter()).zip(self.band_max.iter()).zip(fitted.iter()).take(m)
+        {
+            if fit && !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                return Err(Error::BadParameter { field: "field.output_envelope" });
+            }
+            if !nonneg(b) {
+                return Err(Error::BadParameter { field: "field.band_max" });
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Default for FieldContext {
+    fn default() -> Self {
+        Self::unknown()
+    }
+}
