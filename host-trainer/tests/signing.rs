@@ -9,7 +9,7 @@ use std::process::Command;
 use fbg_shared::signature::{self, key_id, Envelope, SignFlags, SignatureError, TrustedKey};
 use fbg_trainer::sign::{self, BlobSigner, SignOptions};
 
-const TINY: &[u8] = include_bytes!("../../shared/tests/golden/tiny_v3.fbgm");
+const TINY: &[u8] = include_bytes!("../../shared/tests/golden/tiny_v4.fbgm");
 
 fn trainer() -> Command {
     Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))

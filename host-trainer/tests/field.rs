@@ -1,0 +1,202 @@
+//! A field reading you can trust: the calibration's zero and clock travel with the model.
+//!
+//! A single-grating installation (the `temperature-1` preset) is recorded for four days; the
+//! first two calibrate (their own hold-out is the last 30 %), the last two are the "field"
+//! record, exported as absolute wavelengths with plain-second times as an interrogator would.
+//! Nothing here was tuned: seed 5 and the preset's defaults were taken as they came.
+
+mod common;
+
+use std::path::Path;
+
+use common::{bin, run};
+use fbg_trainer::data::Dataset;
+use fbg_trainer::sim::{self, Preset};
+
+const SEED: u64 = 5;
+
+/// The record split in a calibration dataset and a field dataset (t_s from 0, its clock and
+/// zero shifted with it).
+fn record() -> (Dataset, Dataset) {
+    let mut cfg = Preset::Temperature1.config();
+    cfg.clock.days = 4.0;
+    let d = sim::simulate(&cfg, SEED).data;
+    let n = d.len();
+    let mut cal = d.select(&(0..n / 2).collect::<Vec<_>>());
+    cal.split_at_fraction(0.7);
+    let mut field = d.select(&(n / 2..n).collect::<Vec<_>>());
+    let t0 = field.t_s[0];
+    field.t_s.iter_mut().for_each(|t| *t -= t0);
+    field.meta = field.meta.shifted(t0);
+    (cal, field)
+}
+
+/// The field record as an interrogator export: plain seconds, the ambient thermometer and the
+/// grating's absolute wavelength in nm (no reference), and its map.
+fn export(field: &Dataset, dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    let nominal = field.meta.lambda_ref(0).unwrap();
+    let mut text = String::from("t;Tamb;FBG1 [nm]\n");
+    for i in 0..field.len() {
+        text.push_str(&format!(
+            "{:.3};{:.4};{:.7}\n",
+            field.t_s[i],
+            field.t_amb_c.as_ref().unwrap()[i],
+            nominal + field.dl_pm[0][i] * 1e-3
+        ));
+    }
+    let csv = dir.join("field_export.csv");
+    std::fs::write(&csv, text).unwrap();
+    let map = dir.join("field_map.toml");
+    std::fs::write(
+        &map,
+        "delimiter = \";\"\n[time]\ncolumn = \"t\"\n[ambient]\ncolumn = \"Tamb\"\n[[grating]]\ncolumn = \"FBG1 [nm]\"\nunit = \"nm\"\n",
+    )
+    .unwrap();
+    (csv, map)
+}
+
+/// RMSE of the `T_C` column of a `compensate` output against the truth.
+fn rmse_of(out: &Path, truth: &[f64]) -> f64 {
+    let text = std::fs::read_to_string(out).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let c = head.iter().position(|h| *h == "T_C").unwrap();
+    let (mut s, mut n) = (0.0, 0usize);
+    for (l, &y) in lines.zip(truth) {
+        if let Ok(v) = l.split(',').nth(c).unwrap().parse::<f64>() {
+            s += (v - y).powi(2);
+            n += 1;
+        }
+    }
+    assert!(n > truth.len() / 2, "{n} of {} rows compensated", truth.len());
+    (s / n as f64).sqrt()
+}
+
+#[test]
+fn the_zero_and_the_clock_travel_with_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cal, field) = record();
+    let cal_csv = dir.path().join("cal.csv");
+    cal.write_csv(&cal_csv).unwrap();
+    let model = dir.path().join("cal.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--data"]).arg(&cal_csv).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    let (ok, out, err) =
+        run(bin().args(["evaluate", "--quick", "--json", "--data"]).arg(&cal_csv).arg("--model").arg(&model));
+    assert!(ok, "{err}");
+    let ev: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let holdout_rmse = ev.pointer("/table2/model_h/channels/0/rmse").and_then(|v| v.as_f64()).unwrap_or_else(|| panic!("{ev}"));
+    let truth = field.refs[0].values.clone();
+    let (export_csv, map) = export(&field, dir.path());
+
+    // Imported on its own, the field record is zeroed on its first reading: compensate
+    // refuses it, naming both zeros.
+    let own = dir.path().join("field_own.csv");
+    let (ok, _, err) = run(bin()
+        .args(["import", "--format", "csv", "--cal-fraction", "1", "--map"])
+        .arg(&map)
+        .arg(&export_csv)
+        .arg("--out")
+        .arg(&own));
+    assert!(ok, "{err}");
+    let out = dir.path().join("out_own.csv");
+    let (ok, _, err) = run(bin().args(["compensate", "--model"]).arg(&model).arg("--data").arg(&own).arg("--out").arg(&out));
+    assert!(!ok && err.contains("λ_ref") && err.contains("first reading") && err.contains("--model"), "{err}");
+    assert!(!out.exists());
+
+    // Imported against the model's zero, with its start time, the field reads as well as
+    // the calibration's own hold-out did, and its band runs on the absolute clock.
+    let zeroed = dir.path().join("field_model.csv");
+    let (ok, _, err) = run(bin()
+        .args(["import", "--format", "csv", "--cal-fraction", "1", "--start", "2026-01-07T00:00:00", "--map"])
+        .arg(&map)
+        .arg(&export_csv)
+        .arg("--model")
+        .arg(&model)
+        .arg("--out")
+        .arg(&zeroed));
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(&zeroed).unwrap();
+    assert!(text.starts_with("# lambda_ref_nm: 1550.000000 model\n# t0_utc: 2026-01-07T00:00:00.000Z\n"), "{text:.200}");
+    let (ok, out, err) = run(bin()
+        .args(["compensate", "--json", "--model"])
+        .arg(&model)
+        .arg("--data")
+        .arg(&zeroed)
+        .arg("--out")
+        .arg(dir.path().join("out_model.csv")));
+    assert!(ok, "{err}");
+    let s: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(s["clock"], "absolute", "{s}");
+    assert_eq!(s["flag_rows"][3], 0, "{s}");
+    let rmse = rmse_of(&dir.path().join("out_model.csv"), &truth);
+    assert!(rmse <= 1.5 * holdout_rmse, "field RMSE {rmse} °C against the calibration's hold-out {holdout_rmse} °C");
+
+    // Without a start time the lead is unknown: said, flagged on every row, not a fault.
+    let bare = dir.path().join("field_bare.csv");
+    let (ok, _, err) = run(bin()
+        .args(["import", "--format", "csv", "--cal-fraction", "1", "--map"])
+        .arg(&map)
+        .arg(&export_csv)
+        .arg("--model")
+        .arg(&model)
+        .arg("--out")
+        .arg(&bare));
+    assert!(ok, "{err}");
+    let (ok, out, err) = run(bin()
+        .args(["compensate", "--json", "--model"])
+        .arg(&model)
+        .arg("--data")
+        .arg(&bare)
+        .arg("--out")
+        .arg(dir.path().join("out_bare.csv")));
+    assert!(ok, "{err}");
+    let s: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(s["clock"], "unknown", "{s}");
+    let rows = s["rows"].as_u64().unwrap();
+    let grows = s["flag_rows"][3].as_u64().unwrap();
+    assert!(grows == rows || grows == 0, "{s}");
+    if grows > 0 {
+        assert!(s["warnings"].as_array().unwrap().iter().any(|w| w["code"] == "lead_unknown"), "{s}");
+    }
+}
+
+#[test]
+fn compensate_checks_units_and_counts_gaps_by_the_models_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cal, field) = record();
+    // A model without a thermometer.
+    let mut cal = cal;
+    cal.t_amb_c = None;
+    let cal_csv = dir.path().join("cal.csv");
+    cal.write_csv(&cal_csv).unwrap();
+    let model = dir.path().join("m.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--data"]).arg(&cal_csv).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    // The field record keeps its thermometer column with gaps: no gap for this model.
+    let mut f = field.clone();
+    if let Some(a) = f.t_amb_c.as_mut() {
+        a.iter_mut().step_by(3).for_each(|v| *v = f64::NAN);
+    }
+    let f_csv = dir.path().join("f.csv");
+    f.write_csv(&f_csv).unwrap();
+    let (ok, out, err) = run(bin()
+        .args(["compensate", "--json", "--model"])
+        .arg(&model)
+        .arg("--data")
+        .arg(&f_csv)
+        .arg("--out")
+        .arg(dir.path().join("o.csv")));
+    assert!(ok, "{err}");
+    let s: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(s["gap_rows"], 0, "{s}");
+    // The same shifts in nm written in the pm column: refused, naming the column and the unit.
+    let mut nm = field.clone();
+    nm.dl_pm[0].iter_mut().for_each(|v| *v *= 1e-3);
+    let nm_csv = dir.path().join("nm.csv");
+    nm.write_csv(&nm_csv).unwrap();
+    let out = dir.path().join("o2.csv");
+    let (ok, _, err) = run(bin().args(["compensate", "--model"]).arg(&model).arg("--data").arg(&nm_csv).arg("--out").arg(&out));
+    assert!(!ok && err.contains("dl1_pm") && err.contains("nm"), "{err}");
+    assert!(!out.exists());
+}
