@@ -879,7 +879,8 @@ fn numbers_that_do_not_match_the_culture_name_their_place() {
         std::fs::write(&p, text).unwrap();
         enlight(p.to_str().unwrap(), None, None)
     };
-    let rows = |v: &str| format!("Timestamp\t# CH 1\tPeaks\n2024-03-01 10:00:00\t1\t1550,1200\n2024-03-01 10:00:01\t1\t{v}\n");
+    let rows =
+        |v: &str| format!("Timestamp\t# CH 1\tPeaks\n2024-03-01 10:00:00\t1\t1550,1200\n2024-03-01 10:00:01\t1\t{v}\n");
     let e = failure(&file("point.txt", &format!("Culture: de-DE\n{}", rows("1550.1210"))));
     assert_place(&e, "point.txt", 4, "3 (ch1 peak 1)");
     assert!(e.contains("1550.1210") && e.contains("decimal comma"), "{e}");

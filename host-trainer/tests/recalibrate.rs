@@ -93,10 +93,7 @@ fn edit_csv(src: &Path, dst: &Path, splits: &[&str], delta: f64, drop: &[&str]) 
     let mut lines = text.lines();
     let header = lines.next().unwrap();
     let cols: Vec<&str> = header.split(',').collect();
-    let (t, split) = (
-        cols.iter().position(|&c| c == "T_C").unwrap(),
-        cols.iter().position(|&c| c == "split").unwrap(),
-    );
+    let (t, split) = (cols.iter().position(|&c| c == "T_C").unwrap(), cols.iter().position(|&c| c == "split").unwrap());
     let mut out = format!("{header}\n");
     for line in lines {
         let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
@@ -149,7 +146,8 @@ fn recalibrate_can_report_a_worse_holdout_and_says_so() {
     // T (output 0): the batch's check favoured the update (fitted on the first 70 %) ...
     let r = &j["recalibration"];
     assert_eq!(r["verdict"][0], "updated", "{r}");
-    let (check_old, check_new) = (r["check_rmse_old"][0].as_f64().unwrap(), r["check_rmse_update"][0].as_f64().unwrap());
+    let (check_old, check_new) =
+        (r["check_rmse_old"][0].as_f64().unwrap(), r["check_rmse_update"][0].as_f64().unwrap());
     assert!(check_new < 0.5 * check_old, "batch check {check_old} -> {check_new}");
     // ... the hold-out scores it clearly worse, and the written model is the update.
     let (before, after) = (holdout_rmse(&j, "holdout_before", 0), holdout_rmse(&j, "holdout_after", 0));
@@ -177,8 +175,12 @@ fn recalibrate_can_report_a_worse_holdout_and_says_so() {
         .arg("--out")
         .arg(d.path().join("t.fbgm")));
     assert!(ok, "{err}");
-    let line = err.lines().find(|l| l.starts_with("warning:") && l.contains("Model-H")).unwrap_or_else(|| panic!("{err}"));
-    assert!(line.contains("T is WORSE on the hold-out") && line.contains(&format!("{before:.4} -> {after:.4}")), "{err}");
+    let line =
+        err.lines().find(|l| l.starts_with("warning:") && l.contains("Model-H")).unwrap_or_else(|| panic!("{err}"));
+    assert!(
+        line.contains("T is WORSE on the hold-out") && line.contains(&format!("{before:.4} -> {after:.4}")),
+        "{err}"
+    );
     // No Rust debug output such as `[Keep` or `(0.0, 1.0)`.
     assert!(
         !err.contains("[Keep") && !err.contains("Offset,") && !err.contains("(0.0, 1.0)") && !err.contains("Updated"),

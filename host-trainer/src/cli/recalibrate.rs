@@ -208,7 +208,8 @@ pub fn run(
             CoreUpdate::OffsetGain => format!(" (offset {a:+.4} {}, gain {b:.4})", us[c]),
             _ => String::new(),
         };
-        let what = if w.verdict[c].changes() { format!("{}{detail}, ", w.core_update[c].text()) } else { String::new() };
+        let what =
+            if w.verdict[c].changes() { format!("{}{detail}, ", w.core_update[c].text()) } else { String::new() };
         let check = match w.verdict[c] {
             Verdict::NoReference => String::new(),
             Verdict::Unchanged => format!(" (RMSE {:.4})", w.check_rmse_old[c]),

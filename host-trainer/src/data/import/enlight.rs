@@ -2,9 +2,9 @@
 //!
 //! Metadata lines may precede the table. Each data row is a timestamp, one peak count per
 //! channel, then that many wavelengths [nm] flattened channel by channel, so rows differ in
-//! length; cells are tab- or comma-separated. Peaks are assigned to the gratings (1 to 8) by
-//! the map's channel and wavelength window (a missing peak is a gap, never a shifted column),
-//! or without a map, each channel's peaks become gratings in order.
+//! length; cells are tab-, comma- or `;`-separated. Peaks are assigned to the gratings (1 to 8)
+//! by the map's channel and wavelength window (a missing peak is a gap, never a shifted
+//! column), or without a map, each channel's peaks become gratings in order.
 //!
 //! Locale: an export written on a German, French or British PC says so in a `Culture:` header
 //! line (`Culture: de-DE`; `Culture<TAB>de-DE` as the other metadata lines also works), or the
@@ -96,7 +96,8 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
             ','
         })
     };
-    let culture = find_culture(&lines, m.enlight.header_lines, m.enlight.culture.as_deref(), origin, &name, &guess_delim)?;
+    let culture =
+        find_culture(&lines, m.enlight.header_lines, m.enlight.culture.as_deref(), origin, &name, &guess_delim)?;
     let decimal_comma = culture.as_ref().is_some_and(|c| c.decimal_comma);
     let mut clock = TimeParser::new(TimeUnit::Auto, m.enlight.time_format.clone(), None)
         .with_locale(decimal_comma, if m.enlight.time_format.is_some() { Dmy::Off } else { Dmy::Probe });
@@ -138,7 +139,8 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
     }
     // The day/month order of numeric dates: the culture's, checked against every date, or the
     // dates' own (a field above 12); never a guess.
-    let date_order = if clock.dmy == Dmy::Probe && dmy_fields(&split_with(first_line, delim)[0]).is_some() {
+    let first_time = split_with(first_line, delim).into_iter().next().unwrap_or_default();
+    let date_order = if clock.dmy == Dmy::Probe && dmy_fields(&first_time).is_some() {
         let (order, why) = date_order(&lines[first..], first, delim, culture.as_ref(), &name)?;
         clock.dmy = Dmy::Order(order);
         Some((order, why))
@@ -168,6 +170,7 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         }
     }
 
+    let cult = culture.as_ref();
     let mut problems = Problems::new(&name, policy);
     let mut out_lines: Vec<u64> = Vec::new();
     let mut out_t: Vec<f64> = Vec::new();
@@ -182,7 +185,7 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         problems.rows_read += 1;
         let cs = split_with(l, delim);
         let truncated_tail = i == last_nonblank && !ends_with_newline;
-        let row = parse_row(&cs, line, channels, &mut clock, unit, check, truncated_tail, culture.as_ref()).and_then(|r| {
+        let row = parse_row(&cs, line, channels, &mut clock, unit, check, truncated_tail, cult).and_then(|r| {
             if let (Some(&prev), Some(&prev_line)) = (out_t.last(), out_lines.last()) {
                 if r.t < prev {
                     return Err(RowError::new(
@@ -475,7 +478,12 @@ fn culture_named(name: &str) -> Option<(&'static str, bool, Option<DateOrder>)> 
     }
     CULTURES.iter().copied().find(|(c, _, _)| c.eq_ignore_ascii_case(&n)).or_else(|| {
         (!n.contains('-'))
-            .then(|| CULTURES.iter().copied().find(|(c, _, _)| c.split('-').next().is_some_and(|l| l.eq_ignore_ascii_case(&n))))
+            .then(|| {
+                CULTURES
+                    .iter()
+                    .copied()
+                    .find(|(c, _, _)| c.split('-').next().is_some_and(|l| l.eq_ignore_ascii_case(&n)))
+            })
             .flatten()
     })
 }
@@ -509,7 +517,8 @@ fn find_culture(
             && cs.next().is_some_and(|c| c.parse::<usize>().is_ok())
     };
     let end = header_lines.unwrap_or_else(|| lines.iter().position(|l| looks_like_data(l)).unwrap_or(lines.len()));
-    let in_file = lines[..end.min(lines.len())].iter().enumerate().find_map(|(i, l)| culture_line(l).map(|v| (i as u64 + 1, v)));
+    let in_file =
+        lines[..end.min(lines.len())].iter().enumerate().find_map(|(i, l)| culture_line(l).map(|v| (i as u64 + 1, v)));
     let known: Vec<&str> = CULTURES.iter().map(|c| c.0).collect();
     let lookup = |v: &str, line: Option<u64>| {
         culture_named(v).ok_or_else(|| {
@@ -640,10 +649,12 @@ fn date_order(
 fn number_in(cell: &str, culture: Option<&Culture>) -> Result<Option<f64>, String> {
     match culture {
         Some(c) if c.decimal_comma => {
-            if super::number(cell.replace(',', ".").as_str()).ok().flatten().is_none() {
-                return super::number(cell);
+            let t = cell.trim();
+            let place = |m: String| format!("{m} (culture {} from {})", c.name, c.source);
+            if t.contains('.') {
+                return decimal_comma_number(t).map(Some).map_err(place);
             }
-            decimal_comma_number(cell).map(Some).map_err(|e| format!("{e} (culture {} from {})", c.name, c.source))
+            super::number(&t.replace(',', ".")).map_err(|_| place(format!("`{t}` is not a number")))
         }
         _ => super::number(cell).map_err(|e| {
             let comma = cell.trim().matches(',').count() == 1;

@@ -72,7 +72,8 @@ pub(crate) fn dmy_fields(cell: &str) -> Option<(u32, u32)> {
     let date = cell.trim().split([' ', 'T']).next()?;
     let sep = date.chars().find(|c| matches!(c, '.' | '/' | '-'))?;
     let f: Vec<&str> = date.split(sep).collect();
-    let digits = |s: &str, n: std::ops::RangeInclusive<usize>| n.contains(&s.len()) && s.bytes().all(|b| b.is_ascii_digit());
+    let digits =
+        |s: &str, n: std::ops::RangeInclusive<usize>| n.contains(&s.len()) && s.bytes().all(|b| b.is_ascii_digit());
     if f.len() != 3 || !digits(f[0], 1..=2) || !digits(f[1], 1..=2) || !digits(f[2], 4..=4) {
         return None;
     }
@@ -83,7 +84,8 @@ pub(crate) fn dmy_fields(cell: &str) -> Option<(u32, u32)> {
 /// (separators `.`, `/` or `-`; fields of 1 or 2 digits; an optional `AM`/`PM`).
 pub(crate) fn parse_dmy(cell: &str, order: DateOrder) -> Result<f64, String> {
     let cell = cell.trim();
-    let (a, b) = dmy_fields(cell).ok_or_else(|| format!("`{cell}` is not a date of the form dd/mm/yyyy or mm/dd/yyyy"))?;
+    let (a, b) =
+        dmy_fields(cell).ok_or_else(|| format!("`{cell}` is not a date of the form dd/mm/yyyy or mm/dd/yyyy"))?;
     let (day, month) = match order {
         DateOrder::DayFirst => (a, b),
         DateOrder::MonthFirst => (b, a),
@@ -94,7 +96,8 @@ pub(crate) fn parse_dmy(cell: &str, order: DateOrder) -> Result<f64, String> {
         let what = if month > 12 { format!("month {month}") } else { format!("day {day} of month {month}") };
         format!("`{cell}` is not a date read {}: there is no {what}", order.words())
     })?;
-    let t = parse_clock(rest.trim_start_matches('T').trim()).ok_or_else(|| format!("`{cell}`: `{}` is not a time of day (hh:mm[:ss[.fff]] [AM|PM])", rest.trim()))?;
+    let t = parse_clock(rest.trim_start_matches('T').trim())
+        .ok_or_else(|| format!("`{cell}`: `{}` is not a time of day (hh:mm[:ss[.fff]] [AM|PM])", rest.trim()))?;
     Ok(secs(d.and_time(t)))
 }
 
