@@ -143,15 +143,18 @@ enum Cmd {
     },
     /// Field recalibration: refit the core's offset/gain and the residual weights (centres
     /// kept) of an existing model on a short batch (the calibration rows of DATA, or its first
-    /// --batch-hours) and report hold-out RMSE before and after. A channel the recalibration
-    /// makes worse on DATA's hold-out keeps the old model's coefficients (see --allow-worse).
+    /// --batch-hours). Only the batch decides: each channel's update is fitted on its first
+    /// 70 % and kept only if it predicts the last 30 % better than the old model (then refitted
+    /// on the whole batch); otherwise the channel keeps the old coefficients (see
+    /// --allow-worse). The hold-out RMSE before and after is reported separately, plays no part
+    /// in the decision, and can come out worse: a warning says so.
     Recalibrate {
         /// The model to recalibrate (its Model-P baseline `<stem>-p.fbgm` is recalibrated too
         /// when present).
         #[arg(long)]
         model: PathBuf,
         /// Dataset CSV from the installation: its calibration rows are the batch, its hold-out
-        /// rows the check before and after.
+        /// rows an independent report before and after (never used to decide).
         #[arg(long)]
         data: PathBuf,
         /// Use only the first H hours of the calibration rows as the batch.
@@ -160,8 +163,9 @@ enum Cmd {
         /// Output blob (the recalibrated Model-P goes beside it as `<stem>-p.fbgm`).
         #[arg(long, default_value = "recalibrated.fbgm")]
         out: PathBuf,
-        /// Write every recalibrated channel even where the hold-out check scores it worse than
-        /// the old model (by default such a channel keeps the old coefficients).
+        /// Write every recalibrated channel even where the batch's check (its last 30 %)
+        /// scores it no better than the old model (by default such a channel keeps the old
+        /// coefficients).
         #[arg(long)]
         allow_worse: bool,
         /// Print a JSON summary on stdout instead of text.

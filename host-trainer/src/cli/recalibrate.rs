@@ -1,70 +1,103 @@
-//! `fbg-trainer recalibrate`: recalibrate a model on a short batch, check it on the hold-out
-//! channel by channel, write it.
+//! `fbg-trainer recalibrate`: recalibrate a model on a short batch (each output's update kept
+//! or reverted by the batch's own check), write it, and report the hold-out before and after
+//! as an independent check that can come out worse.
 
 use std::path::Path;
 
 use anyhow::{bail, Result};
 
+use fbg_shared::layout::Dims;
 use fbg_trainer::data::files::{check_outputs, write_bytes_atomically};
 use fbg_trainer::data::Dataset;
 use fbg_trainer::eval::score::{channels, evaluate_holdout, units, ModelEval};
 use fbg_trainer::export;
-use fbg_trainer::fit::recalibrate::{first_hours, keep_old_where_worse, recalibrate, CoreUpdate, Recalibration};
+use fbg_trainer::fit::recalibrate::{first_hours, recalibrate_with, CoreUpdate, Recalibration, Verdict};
 use fbg_trainer::fit::HostParams;
 use fbg_trainer::sign::{self, SignArgs};
+use fbg_trainer::warning::Warning;
 
 use crate::baseline_path;
 
-/// A recalibrated model and its hold-out check.
+/// A recalibrated model and its hold-out report.
 struct CheckedRecal {
     params: HostParams,
     what: Recalibration,
-    /// Hold-out of the old model and of the model written (none without hold-out rows).
+    /// Hold-out of the old model and of the model written (none without hold-out rows). They
+    /// play no part in what is written.
     before: Option<ModelEval>,
     after: Option<ModelEval>,
-    /// Hold-out of the recalibration as fitted, before any channel was put back.
-    tried: Option<ModelEval>,
-    /// Outputs that kept the old coefficients because the recalibration scored worse.
-    kept_old: Vec<usize>,
-    /// Outputs written although worse (only with --allow-worse).
-    worse: Vec<usize>,
+    /// Outputs the hold-out scores worse after the recalibration than before.
+    worse_on_holdout: Vec<usize>,
 }
 
-/// Recalibrate `old` on `batch` and check it on the hold-out of `d`: unless `allow_worse`, every
-/// channel the check scores worse keeps the old coefficients (DESIGN §9).
+/// Recalibrate `old` on `batch` (the decision uses the batch only), then score the old and the
+/// new model on the hold-out of `d`, if it has one.
 fn checked_recalibration(old: &HostParams, d: &Dataset, batch: &[usize], allow_worse: bool) -> Result<CheckedRecal> {
-    let (mut params, what) = recalibrate(old, d, batch)?;
+    let (params, what) = recalibrate_with(old, d, batch, allow_worse)?;
     if d.holdout_indices().is_empty() {
-        return Ok(CheckedRecal {
-            params,
-            what,
-            before: None,
-            after: None,
-            tried: None,
-            kept_old: vec![],
-            worse: vec![],
-        });
+        return Ok(CheckedRecal { params, what, before: None, after: None, worse_on_holdout: vec![] });
     }
     let before = evaluate_holdout(old, d)?.0;
-    let tried = evaluate_holdout(&params, d)?.0;
-    let mut after = tried.clone();
-    let mut kept_old = vec![];
-    if !allow_worse {
-        let rmse = |e: &ModelEval| -> Vec<f64> { e.channels.iter().map(|c| c.rmse).collect() };
-        kept_old = keep_old_where_worse(&mut params, old, &rmse(&before), &rmse(&after));
-        if !kept_old.is_empty() {
-            after = evaluate_holdout(&params, d)?.0;
+    let after = evaluate_holdout(&params, d)?.0;
+    let worse_on_holdout =
+        (0..after.channels.len()).filter(|&c| after.channels[c].rmse > before.channels[c].rmse).collect();
+    Ok(CheckedRecal { params, what, before: Some(before), after: Some(after), worse_on_holdout })
+}
+
+/// The warnings of one recalibration (`model`: "Model-H", or "Model-P baseline" whose codes
+/// start with `baseline_`).
+fn warnings(r: &CheckedRecal, dims: &Dims, model: &str, data: &Path) -> Vec<Warning> {
+    let prefix = if model.starts_with("Model-P") { "baseline_" } else { "" };
+    let (chs, us) = (channels(dims), units(dims));
+    let suffix: Vec<String> = dims.outputs().iter().map(|o| o.quantity.column_unit().to_lowercase()).collect();
+    let w = &r.what;
+    let mut out = vec![];
+    for (c, v) in w.verdict.iter().enumerate() {
+        if *v == Verdict::WorseWritten {
+            out.push(
+                Warning::new(
+                    format!("{prefix}recalibration_worse_on_batch_written"),
+                    format!(
+                        "{model}: {}'s update does not predict the batch's last 30 % better than the old model (RMSE {:.4} -> {:.4} {}); written because of --allow-worse",
+                        chs[c], w.check_rmse_old[c], w.check_rmse_update[c], us[c]
+                    ),
+                )
+                .on_channel(&chs[c])
+                .with(format!("check_rmse_old_{}", suffix[c]), w.check_rmse_old[c])
+                .with(format!("check_rmse_update_{}", suffix[c]), w.check_rmse_update[c]),
+            );
         }
     }
-    let worse: Vec<usize> =
-        (0..after.channels.len()).filter(|&c| after.channels[c].rmse > before.channels[c].rmse).collect();
-    if !allow_worse && !worse.is_empty() {
-        bail!(
-            "recalibration: {} still scores worse on the hold-out after keeping the old coefficients; nothing written (--allow-worse writes it anyway)",
-            channel_list(&channels(&old.dims), &worse)
-        );
+    if let (Some(bf), Some(af)) = (&r.before, &r.after) {
+        for &c in &r.worse_on_holdout {
+            let (b, a) = (bf.channels[c].rmse, af.channels[c].rmse);
+            let why = if w.verdict[c].changes() {
+                format!(
+                    "although the batch's own check favoured the update (RMSE on its last 30 % {:.4} -> {:.4} {}): the batch does not represent the hold-out (too short, or the installation or its reference differs)",
+                    w.check_rmse_old[c], w.check_rmse_update[c], us[c]
+                )
+            } else {
+                "with its old coefficients kept".to_string()
+            };
+            out.push(
+                Warning::new(
+                    format!("{prefix}recalibration_worse_on_holdout"),
+                    format!(
+                        "{model}: {} is WORSE on the hold-out of {} after recalibration (RMSE {b:.4} -> {a:.4} {}), {why}; the model written keeps the batch's decision, check it before deploying",
+                        chs[c],
+                        data.display(),
+                        us[c]
+                    ),
+                )
+                .on_channel(&chs[c])
+                .with(format!("holdout_rmse_before_{}", suffix[c]), b)
+                .with(format!("holdout_rmse_after_{}", suffix[c]), a)
+                .with(format!("check_rmse_old_{}", suffix[c]), w.check_rmse_old[c])
+                .with(format!("check_rmse_update_{}", suffix[c]), w.check_rmse_update[c]),
+            );
+        }
     }
-    Ok(CheckedRecal { params, what, before: Some(before), after: Some(after), tried: Some(tried), kept_old, worse })
+    out
 }
 
 /// "T and p", "strain": the outputs `cs` of a model whose outputs are `all`.
@@ -103,16 +136,31 @@ pub fn run(
     };
     let h = checked_recalibration(&old, &d, &batch, allow_worse)?;
     let p = if base.exists() {
-        Some(checked_recalibration(&export::read_blob(&base)?, &d, &batch, allow_worse)?)
+        let old_p = export::read_blob(&base)?;
+        let p = checked_recalibration(&old_p, &d, &batch, allow_worse)?;
+        Some((p, old_p.dims))
     } else {
         None
     };
+    let mut warns = warnings(&h, &old.dims, "Model-H", data);
+    if let Some((p, dims)) = &p {
+        warns.extend(warnings(p, dims, "Model-P baseline", data));
+    }
+    if h.before.is_none() {
+        warns.push(Warning::new(
+            "recalibration_no_holdout",
+            format!(
+                "no hold-out rows in {}: nothing independent of the batch checks the recalibration",
+                data.display()
+            ),
+        ));
+    }
     let (bytes, signature) = sign::maybe_sign(export::blob_bytes(&h.params)?, signer.as_ref())?;
     write_bytes_atomically(out, &bytes)?;
     let n = bytes.len();
     let mut base_signature = None;
     let new_base = match &p {
-        Some(p) => {
+        Some((p, _)) => {
             let (b, s) = sign::maybe_sign(export::blob_bytes(&p.params)?, signer.as_ref())?;
             write_bytes_atomically(&new_base_path, &b)?;
             base_signature = s;
@@ -121,14 +169,24 @@ pub fn run(
         None => None,
     };
     let names = |cs: &[usize]| cs.iter().map(|&c| chs[c].clone()).collect::<Vec<_>>();
+    let with = |r: &CheckedRecal, v: &[Verdict]| {
+        names(&(0..chs.len()).filter(|&c| v.contains(&r.what.verdict[c])).collect::<Vec<_>>())
+    };
     if json {
+        let p = p.as_ref().map(|(p, _)| p);
         println!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "model": out, "baseline": new_base, "bytes": n, "recalibration": h.what,
                 "holdout_before": h.before, "holdout_after": h.after,
-                "kept_old_channels": names(&h.kept_old), "worse_channels_written": names(&h.worse),
-                "baseline_kept_old_channels": p.as_ref().map(|p| names(&p.kept_old)),
+                "kept_old_channels": with(&h, &[Verdict::Reverted]),
+                "worse_channels_written": with(&h, &[Verdict::WorseWritten]),
+                "worse_on_holdout_channels": names(&h.worse_on_holdout),
+                "baseline_recalibration": p.map(|p| &p.what),
+                "baseline_holdout_before": p.and_then(|p| p.before.as_ref()),
+                "baseline_holdout_after": p.and_then(|p| p.after.as_ref()),
+                "baseline_kept_old_channels": p.map(|p| with(p, &[Verdict::Reverted])),
+                "warnings": warns,
                 "signature": signature, "baseline_signature": base_signature,
             }))?
         );
@@ -136,9 +194,11 @@ pub fn run(
     }
     let w = &h.what;
     eprintln!(
-        "recalibrated {} on {} batch samples; residual weights {}",
+        "recalibrated {} on {} batch samples (updates fitted on the first {}, checked on the last {}); residual weights {}",
         model.display(),
         w.n_batch,
+        w.n_fit,
+        w.n_check,
         if w.w_updated { "updated" } else { "kept (the batch did not support a change)" }
     );
     for c in 0..chs.len() {
@@ -148,39 +208,43 @@ pub fn run(
             CoreUpdate::OffsetGain => format!(" (offset {a:+.4} {}, gain {b:.4})", us[c]),
             _ => String::new(),
         };
-        let check = match (&h.before, &h.after, &h.tried) {
-            (Some(bf), _, Some(tr)) if h.kept_old.contains(&c) => format!(
-                "; hold-out RMSE {:.4} -> {:.4} is worse, so the old coefficients are kept (RMSE {:.4})",
-                bf.channels[c].rmse, tr.channels[c].rmse, bf.channels[c].rmse
+        let what =
+            if w.verdict[c].changes() { format!("{}{detail}, ", w.core_update[c].text()) } else { String::new() };
+        let check = match w.verdict[c] {
+            Verdict::NoReference => String::new(),
+            Verdict::Unchanged => format!(" (RMSE {:.4})", w.check_rmse_old[c]),
+            _ => format!(" (RMSE {:.4} -> {:.4})", w.check_rmse_old[c], w.check_rmse_update[c]),
+        };
+        let holdout = match (&h.before, &h.after) {
+            (Some(bf), Some(af)) => format!(
+                "; hold-out RMSE {:.4} -> {:.4}{}",
+                bf.channels[c].rmse,
+                af.channels[c].rmse,
+                if h.worse_on_holdout.contains(&c) { " (WORSE)" } else { "" }
             ),
-            (Some(bf), Some(af), _) if h.worse.contains(&c) => format!(
-                "; hold-out RMSE {:.4} -> {:.4} (WORSE, written because of --allow-worse)",
-                bf.channels[c].rmse, af.channels[c].rmse
-            ),
-            (Some(bf), Some(af), _) => {
-                format!("; hold-out RMSE {:.4} -> {:.4}", bf.channels[c].rmse, af.channels[c].rmse)
-            }
             _ => String::new(),
         };
-        eprintln!("  {:>6} [{}]: {}{detail}{check}", chs[c], us[c], w.core_update[c].text());
+        eprintln!("  {:>6} [{}]: {what}{}{check}{holdout}", chs[c], us[c], w.verdict[c].text());
     }
-    if h.before.is_none() {
-        eprintln!("  (no hold-out rows in {}: nothing to check the recalibration against)", data.display());
-    } else if !h.kept_old.is_empty() {
+    let reverted = (0..chs.len()).filter(|&c| w.verdict[c] == Verdict::Reverted).collect::<Vec<_>>();
+    if !reverted.is_empty() {
         eprintln!(
-            "kept the old model's {} (--allow-worse writes the recalibrated ones)",
-            channel_list(&chs, &h.kept_old)
+            "kept the old model's {} (the batch's check scored the update no better; --allow-worse writes it)",
+            channel_list(&chs, &reverted)
         );
     }
-    if let Some(p) = &p {
-        if !p.kept_old.is_empty() {
-            eprintln!("Model-P baseline: kept the old {} (worse on the hold-out)", channel_list(&chs, &p.kept_old));
-        } else if !p.worse.is_empty() {
+    if let Some((p, dims)) = &p {
+        let v = &p.what.verdict;
+        let reverted = (0..v.len()).filter(|&c| v[c] == Verdict::Reverted).collect::<Vec<_>>();
+        if !reverted.is_empty() {
             eprintln!(
-                "Model-P baseline: {} WORSE on the hold-out, written because of --allow-worse",
-                channel_list(&chs, &p.worse)
+                "Model-P baseline: kept the old {} (no better on the batch's check)",
+                channel_list(&channels(dims), &reverted)
             );
         }
+    }
+    for warning in &warns {
+        eprintln!("warning: {warning}");
     }
     eprintln!(
         "wrote {} ({n} B){}",

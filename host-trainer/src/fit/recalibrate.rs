@@ -16,20 +16,69 @@ pub const GAIN_PRIOR_SIGMA: f64 = 0.05;
 /// Weight of the old residual weights in samples per centre.
 pub const PRIOR_SAMPLES_PER_CENTRE: f64 = 20.0;
 
-/// What a recalibration changed.
+/// What a recalibration changed, and the check on the batch that decided it.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Recalibration {
     /// Batch samples used.
     pub n_batch: usize,
-    /// Per output: offset a and gain b applied to the polynomial core, y ≈ a + b·core(x).
+    /// Batch samples the candidate refits were fitted on (the batch's first 70 %) ...
+    pub n_fit: usize,
+    /// ... and judged on (its last 30 %): the check that keeps or reverts each output.
+    pub n_check: usize,
+    /// Per output: offset a and gain b applied to the polynomial core, y ≈ a + b·core(x)
+    /// ((0, 1) for an output whose update was reverted).
     pub offset_gain: Vec<(f64, f64)>,
-    /// What was refitted per output.
+    /// What was refitted per output (`Keep` for an output whose update was reverted).
     pub core_update: Vec<CoreUpdate>,
-    /// Whether the residual weights were updated.
+    /// Whether the residual weights were updated (on the outputs the check kept).
     pub w_updated: bool,
+    /// Per output: RMS error of the old model on the batch's last 30 % (NaN without reference).
+    pub check_rmse_old: Vec<f64>,
+    /// Per output: RMS error on the batch's last 30 % of the update fitted on its first 70 %
+    /// (NaN without reference).
+    pub check_rmse_update: Vec<f64>,
+    /// Per output: what the check decided.
+    pub verdict: Vec<Verdict>,
     /// In-sample RMS residual on the batch after the refit (NaN for an output without
     /// reference in the batch).
     pub batch_rmse: Vec<f64>,
+}
+
+/// What the batch's own check decided for an output. The check uses the batch only: the update
+/// is fitted on its first 70 % and compared with the old model on its last 30 %.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// The update predicted the batch's last 30 % better than the old model: kept, then
+    /// refitted on the whole batch.
+    Updated,
+    /// The update did not predict the batch's last 30 % better: the old coefficients are kept.
+    Reverted,
+    /// The update did not predict the batch's last 30 % better, but was written because the
+    /// caller asked for it (`--allow-worse`).
+    WorseWritten,
+    /// Nothing to update (no refit predicted the batch's last 30 % better): old coefficients.
+    Unchanged,
+    /// The batch has no reference for this output: old coefficients.
+    NoReference,
+}
+
+impl Verdict {
+    /// Whether the output's coefficients change.
+    pub fn changes(self) -> bool {
+        matches!(self, Verdict::Updated | Verdict::WorseWritten)
+    }
+
+    /// Human text for the CLI (the check's RMSE follows it).
+    pub fn text(self) -> &'static str {
+        match self {
+            Verdict::Updated => "kept: better on the batch's last 30 %",
+            Verdict::Reverted => "reverted, old coefficients kept: not better on the batch's last 30 %",
+            Verdict::WorseWritten => "written because of --allow-worse although not better on the batch's last 30 %",
+            Verdict::Unchanged => "old coefficients kept: no refit did better on the batch's last 30 %",
+            Verdict::NoReference => "old coefficients kept: no reference in the batch",
+        }
+    }
 }
 
 /// Which refits a recalibration applied to an output.
@@ -47,17 +96,34 @@ pub enum CoreUpdate {
     Memory,
 }
 
-/// Refit offset/gain of the core and W of `old` on the batch rows `batch` of `d`.
-///
-/// A short batch can hurt as easily as help (two hours barely move the temperature, and
-/// errors are correlated over hours), so each refit must earn its place: the candidates are
-/// fitted on the first 70 % of the batch and compared on the last 30 % — per output: keep,
-/// offset, offset + gain; then W towards the old weights or not — and the winners are refitted
-/// on the whole batch. Model-P (no centres) gets the core refit only.
+/// Refit offset/gain of the core and W of `old` on the batch rows `batch` of `d`, keeping an
+/// output's update only where the batch's own check scores it better
+/// ([`recalibrate_with`] without `allow_worse`).
 pub fn recalibrate(
     old: &HostParams,
     d: &Dataset,
     batch: &[usize],
+) -> Result<(HostParams, Recalibration), TrainerError> {
+    recalibrate_with(old, d, batch, false)
+}
+
+/// Refit offset/gain of the core and W of `old` on the batch rows `batch` of `d`.
+///
+/// A short batch can hurt as easily as help (two hours barely move the temperature, and
+/// errors are correlated over hours), so each refit must earn its place, and only the batch
+/// decides: the candidates are fitted on the first 70 % of the batch and compared on the last
+/// 30 % — per output: keep, offset, offset + gain (and Γ for a memory model); then W towards the
+/// old weights or not. An output whose update (core and W together, fitted on the first 70 %)
+/// does not predict the last 30 % better than the old model keeps the old coefficients (unless
+/// `allow_worse`); the kept updates are then refitted on the whole batch. Model-P (no centres)
+/// gets the core refit only. No row outside `batch` plays a part beyond feeding the model's
+/// memory terms their history: a hold-out checked afterwards is an independent check, and can
+/// come out worse.
+pub fn recalibrate_with(
+    old: &HostParams,
+    d: &Dataset,
+    batch: &[usize],
+    allow_worse: bool,
 ) -> Result<(HostParams, Recalibration), TrainerError> {
     let batch: Vec<usize> = batch.iter().copied().filter(|&i| d.usable(i)).collect();
     if batch.len() < 20 {
@@ -71,17 +137,26 @@ pub fn recalibrate(
     // The batch's reference of each of the model's outputs (by measurand).
     let refs = d.references_of(&old.dims);
     let has = |c: usize| old.fitted[c] && refs[c].is_present();
-    let mse = |p: &HostParams, rows: &[usize], c: usize| -> Result<f64, TrainerError> {
+    // Mean squared error of every output with a reference over `rows` (NaN for the others).
+    let mses = |p: &HostParams, rows: &[usize]| -> Result<Vec<f64>, TrainerError> {
         let e = run(p, d, rows)?;
-        Ok(rows.iter().zip(&e).map(|(&i, e)| (e.values[c] - refs[c][i]).powi(2)).sum::<f64>() / rows.len() as f64)
+        Ok((0..m_out)
+            .map(|c| {
+                if !has(c) {
+                    return f64::NAN;
+                }
+                rows.iter().zip(&e).map(|(&i, e)| (e.values[c] - refs[c][i]).powi(2)).sum::<f64>() / rows.len() as f64
+            })
+            .collect())
     };
+    let old_check = mses(old, val_part)?;
     // Choose the core update per output on the validation part.
     let mut choice = vec![CoreUpdate::Keep; m_out];
     for (c, chosen) in choice.iter_mut().enumerate() {
         if !has(c) {
             continue;
         }
-        let mut best = (mse(old, val_part, c)?, CoreUpdate::Keep);
+        let mut best = (old_check[c], CoreUpdate::Keep);
         let cands: &[CoreUpdate] = if old.has_memory() {
             &[CoreUpdate::Offset, CoreUpdate::OffsetGain, CoreUpdate::Memory]
         } else {
@@ -90,31 +165,67 @@ pub fn recalibrate(
         for &cand in cands {
             let mut p = old.clone();
             apply_core(&mut p, d, fit_part, c, cand)?;
-            let m = mse(&p, val_part, c)?;
+            let m = mses(&p, val_part)?[c];
             if m < best.0 {
                 best = (m, cand);
             }
         }
         *chosen = best.1;
     }
+    // The candidate as fitted on the first 70 %: the chosen core updates ...
+    let mut candidate = old.clone();
+    for (c, &how) in choice.iter().enumerate() {
+        apply_core(&mut candidate, d, fit_part, c, how)?;
+    }
+    // ... and W towards the old weights, if it validates better than the core update alone.
+    let k = old.centres.len();
+    let mut w_updated = false;
+    if k > 0 && (0..m_out).any(has) {
+        let mut trial = candidate.clone();
+        update_w(&mut trial, old, d, fit_part)?;
+        let (m_trial, m_core) = (mses(&trial, val_part)?, mses(&candidate, val_part)?);
+        let better: Vec<f64> =
+            (0..m_out).filter(|&c| has(c)).map(|c| m_trial[c] / m_core[c].max(f64::MIN_POSITIVE)).collect();
+        if better.iter().sum::<f64>() < better.len() as f64 {
+            candidate = trial;
+            w_updated = true;
+        }
+    }
+    // The check, per output, on the last 30 % only: the candidate against the old model.
+    let cand_check = mses(&candidate, val_part)?;
+    let verdict: Vec<Verdict> = (0..m_out)
+        .map(|c| {
+            if !has(c) {
+                Verdict::NoReference
+            } else if choice[c] == CoreUpdate::Keep && !w_updated {
+                Verdict::Unchanged
+            } else if cand_check[c] < old_check[c] {
+                Verdict::Updated
+            } else if allow_worse {
+                Verdict::WorseWritten
+            } else {
+                Verdict::Reverted
+            }
+        })
+        .collect();
+    for (c, v) in verdict.iter().enumerate() {
+        if !v.changes() {
+            choice[c] = CoreUpdate::Keep;
+        }
+    }
+    // The kept updates, refitted on the whole batch.
     let mut new = old.clone();
     let mut offset_gain = vec![(0.0, 1.0); m_out];
     for c in 0..m_out {
         offset_gain[c] = apply_core(&mut new, d, &batch, c, choice[c])?;
     }
-    // W towards the old weights, if it validates better than the core update alone.
-    let k = old.centres.len();
-    let mut w_updated = false;
-    if k > 0 {
-        let mut trial = new.clone();
-        update_w(&mut trial, old, d, fit_part)?;
-        let better = (0..m_out)
-            .filter(|&c| has(c))
-            .map(|c| Ok(mse(&trial, val_part, c)? / mse(&new, val_part, c)?.max(f64::MIN_POSITIVE)))
-            .collect::<Result<Vec<f64>, TrainerError>>()?;
-        if !better.is_empty() && better.iter().sum::<f64>() < better.len() as f64 {
-            update_w(&mut new, old, d, &batch)?;
-            w_updated = true;
+    w_updated = w_updated && verdict.iter().any(|v| v.changes());
+    if w_updated {
+        update_w(&mut new, old, d, &batch)?;
+        for c in (0..m_out).filter(|&c| !verdict[c].changes()) {
+            for (n, o) in new.centres.iter_mut().zip(old.centres.iter()) {
+                n.w[c] = o.w[c];
+            }
         }
     }
     // Band: never narrower than before; widened if the batch residual says so (with a
@@ -136,7 +247,21 @@ pub fn recalibrate(
     new.provenance.n_cal = batch.len() as u32;
     new.provenance.date_yyyymmdd = fit::today_yyyymmdd();
     new.validate().map_err(|e| TrainerError::fit(format!("recalibrated model is invalid: {e}")))?;
-    Ok((new, Recalibration { n_batch: batch.len(), offset_gain, core_update: choice, w_updated, batch_rmse }))
+    Ok((
+        new,
+        Recalibration {
+            n_batch: batch.len(),
+            n_fit: fit_part.len(),
+            n_check: val_part.len(),
+            offset_gain,
+            core_update: choice,
+            w_updated,
+            check_rmse_old: old_check.iter().map(|m| m.sqrt()).collect(),
+            check_rmse_update: cand_check.iter().map(|m| m.sqrt()).collect(),
+            verdict,
+            batch_rmse,
+        },
+    ))
 }
 
 /// Refit output `c`'s core offset (and gain) on `rows` and fold it into `p.poly[c]`.
@@ -245,30 +370,6 @@ fn update_w(p: &mut HostParams, old: &HostParams, d: &Dataset, rows: &[usize]) -
         ce.w = std::array::from_fn(|o| if o < w.ncols() && old.fitted[o] { w[(j, o)] } else { 0.0 });
     }
     Ok(())
-}
-
-/// Put back, in `new`, the old model's core row, memory row and residual weights of every
-/// output whose hold-out RMSE the recalibration made worse (`rmse_after` > `rmse_before`, per
-/// output), so a recalibration never replaces a channel with one its own check scores worse
-/// (DESIGN §9). The band stays as `recalibrate` set it (never narrower than before). Returns the
-/// outputs put back.
-pub fn keep_old_where_worse(
-    new: &mut HostParams,
-    old: &HostParams,
-    rmse_before: &[f64],
-    rmse_after: &[f64],
-) -> Vec<usize> {
-    let worse: Vec<usize> = (0..old.dims.n_outputs().min(rmse_before.len()).min(rmse_after.len()))
-        .filter(|&c| rmse_after[c] > rmse_before[c])
-        .collect();
-    for &c in &worse {
-        new.poly[c] = old.poly[c];
-        new.gamma[c] = old.gamma[c];
-        for (n, o) in new.centres.iter_mut().zip(old.centres.iter()) {
-            n.w[c] = o.w[c];
-        }
-    }
-    worse
 }
 
 impl CoreUpdate {

@@ -2,16 +2,26 @@
 //!
 //! Metadata lines may precede the table. Each data row is a timestamp, one peak count per
 //! channel, then that many wavelengths [nm] flattened channel by channel, so rows differ in
-//! length; cells are tab- or comma-separated. Peaks are assigned to the gratings (1 to 8) by
-//! the map's channel and wavelength window (a missing peak is a gap, never a shifted column),
-//! or without a map, each channel's peaks become gratings in order.
+//! length; cells are tab-, comma- or `;`-separated. Peaks are assigned to the gratings (1 to 8)
+//! by the map's channel and wavelength window (a missing peak is a gap, never a shifted
+//! column), or without a map, each channel's peaks become gratings in order.
+//!
+//! Locale: an export written on a German, French or British PC says so in a `Culture:` header
+//! line (`Culture: de-DE`; `Culture<TAB>de-DE` as the other metadata lines also works), or the
+//! map's `[enlight] culture` says it for a file that lacks one. The culture gives the decimal
+//! mark (`1535,012` in de-DE and fr-FR) and the day/month order of numeric dates (`01.03.2024`
+//! is the 1st of March in de-DE, `03/01/2024` the same day in en-US). Without a culture, a date
+//! with a first field above 12 makes the file day-first and one with a second field above 12
+//! month-first; a file whose dates never settle it is refused (reading day-first as
+//! month-first would give wrong dates without any error), and so is a culture the dates
+//! contradict.
 
 use std::path::Path;
 
 use super::mapping::Map;
 use super::problems::{OnError, Problems, Reason, RowError};
 use super::read_text;
-use super::time_axis::{TimeKind, TimeParser, TimeUnit};
+use super::time_axis::{decimal_comma_number, dmy_fields, DateOrder, Dmy, TimeKind, TimeParser, TimeUnit};
 use crate::data::measurand::MAX_GRATINGS;
 use crate::data::units::{check_wavelength, WlUnit};
 use crate::error::TrainerError;
@@ -33,6 +43,11 @@ pub(crate) struct PeaksFile {
     pub metadata_lines: usize,
     pub time_kind: TimeKind,
     pub absolute: bool,
+    /// The culture the file was read in (its `Culture:` line or the map's), if any.
+    pub culture: Option<String>,
+    /// Day/month order of the numeric dates, and what decided it (none for year-first dates
+    /// or seconds).
+    pub date_order: Option<(DateOrder, String)>,
     /// Where each grating comes from, in words.
     pub layout: Vec<String>,
     /// Without a map: rows whose peak count on some channel differs from the usual one; that
@@ -65,7 +80,6 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         .transpose()
         .map_err(|e| TrainerError::data(&name, 1, "-", e))?
         .map(char::from);
-    let mut clock = TimeParser::new(TimeUnit::Auto, m.enlight.time_format.clone(), None);
     let split_with = |l: &str, d: char| -> Vec<String> {
         let mut cs: Vec<String> = l.split(d).map(|c| c.trim().to_string()).collect();
         while cs.last().is_some_and(|c| c.is_empty()) {
@@ -73,7 +87,20 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         }
         cs
     };
-    let guess_delim = |l: &str| map_delim.unwrap_or(if l.contains('\t') { '\t' } else { ',' });
+    let guess_delim = |l: &str| {
+        map_delim.unwrap_or(if l.contains('\t') {
+            '\t'
+        } else if l.contains(';') {
+            ';'
+        } else {
+            ','
+        })
+    };
+    let culture =
+        find_culture(&lines, m.enlight.header_lines, m.enlight.culture.as_deref(), origin, &name, &guess_delim)?;
+    let decimal_comma = culture.as_ref().is_some_and(|c| c.decimal_comma);
+    let mut clock = TimeParser::new(TimeUnit::Auto, m.enlight.time_format.clone(), None)
+        .with_locale(decimal_comma, if m.enlight.time_format.is_some() { Dmy::Off } else { Dmy::Probe });
 
     // The first data row: a time, then a peak count.
     let first = match m.enlight.header_lines {
@@ -97,6 +124,30 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         return Err(TrainerError::data(&name, first as u64 + 1, "-", "no data rows after the metadata header"));
     };
     let delim = guess_delim(first_line);
+    if let (Some(c), ',') = (&culture, delim) {
+        if c.decimal_comma {
+            return Err(TrainerError::data(
+                &name,
+                first as u64 + 1,
+                "-",
+                format!(
+                    "the culture {} ({}) writes a decimal comma, but this table is comma-separated, so its numbers cannot be told apart; export with tabs or semicolons, or check the culture",
+                    c.name, c.source
+                ),
+            ));
+        }
+    }
+    // The day/month order of numeric dates: the culture's, checked against every date, or the
+    // dates' own (a field above 12); never a guess.
+    let first_time = split_with(first_line, delim).into_iter().next().unwrap_or_default();
+    let date_order = if clock.dmy == Dmy::Probe && dmy_fields(&first_time).is_some() {
+        let (order, why) = date_order(&lines[first..], first, delim, culture.as_ref(), &name)?;
+        clock.dmy = Dmy::Order(order);
+        Some((order, why))
+    } else {
+        clock.dmy = Dmy::Off;
+        None
+    };
     let channels = match m.enlight.channels {
         Some(n) => n,
         None => infer_channels(&split_with(first_line, delim)).ok_or_else(|| {
@@ -119,6 +170,7 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         }
     }
 
+    let cult = culture.as_ref();
     let mut problems = Problems::new(&name, policy);
     let mut out_lines: Vec<u64> = Vec::new();
     let mut out_t: Vec<f64> = Vec::new();
@@ -133,7 +185,7 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         problems.rows_read += 1;
         let cs = split_with(l, delim);
         let truncated_tail = i == last_nonblank && !ends_with_newline;
-        let row = parse_row(&cs, line, channels, &mut clock, unit, check, truncated_tail).and_then(|r| {
+        let row = parse_row(&cs, line, channels, &mut clock, unit, check, truncated_tail, cult).and_then(|r| {
             if let (Some(&prev), Some(&prev_line)) = (out_t.last(), out_lines.last()) {
                 if r.t < prev {
                     return Err(RowError::new(
@@ -221,6 +273,8 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         metadata_lines: first,
         time_kind: clock.kind.unwrap_or(TimeKind::Timestamp),
         absolute: clock.absolute(),
+        culture: culture.map(|c| format!("{} ({})", c.name, c.source)),
+        date_order,
         layout,
         unassigned_rows,
         problems,
@@ -273,6 +327,7 @@ fn label(idx: usize, counts: &[usize]) -> String {
     format!("{} (beyond the peaks)", idx + 1)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn parse_row(
     cs: &[String],
     line: u64,
@@ -281,6 +336,7 @@ fn parse_row(
     unit: WlUnit,
     check: bool,
     truncated_tail: bool,
+    culture: Option<&Culture>,
 ) -> Result<RawRow, RowError> {
     if cs.len() < 1 + channels {
         return Err(RowError::new(
@@ -342,7 +398,7 @@ fn parse_row(
         let mut p = Vec::with_capacity(n);
         for _ in 0..n {
             let cell = &cs[idx];
-            let v = super::number(cell)
+            let v = number_in(cell, culture)
                 .and_then(|v| v.ok_or_else(|| format!("`{cell}` where the peak count says a wavelength is")))
                 .map_err(|m| RowError::new(Reason::NonNumeric, line, label(idx, &counts), m))?;
             if check {
@@ -355,6 +411,260 @@ fn parse_row(
         peaks.push(p);
     }
     Ok(RawRow { t, peaks })
+}
+
+/// What a culture says about numbers and dates.
+#[derive(Clone, Debug)]
+pub(crate) struct Culture {
+    /// As the table spells it (`de-DE`).
+    pub name: &'static str,
+    /// Numbers are written `1535,012`.
+    pub decimal_comma: bool,
+    /// Order of numeric dates; `None` where the culture writes dates year-first (or its short
+    /// date has changed between Windows versions): the dates decide, as without a culture.
+    pub date_order: Option<DateOrder>,
+    /// Where it was found, in words (`line 3` or `map key enlight.culture`).
+    pub source: String,
+}
+
+use DateOrder::{DayFirst as D, MonthFirst as M};
+
+/// The cultures known: .NET names (as ENLIGHT writes them), decimal comma, date order.
+const CULTURES: &[(&str, bool, Option<DateOrder>)] = &[
+    ("en-US", false, Some(M)),
+    ("en-GB", false, Some(D)),
+    ("en-IE", false, Some(D)),
+    ("en-AU", false, Some(D)),
+    ("en-NZ", false, Some(D)),
+    ("en-IN", false, Some(D)),
+    ("en-CA", false, None),
+    ("de-DE", true, Some(D)),
+    ("de-AT", true, Some(D)),
+    ("de-LU", true, Some(D)),
+    ("de-CH", false, Some(D)),
+    ("fr-FR", true, Some(D)),
+    ("fr-BE", true, Some(D)),
+    ("fr-LU", true, Some(D)),
+    ("fr-CH", false, Some(D)),
+    ("fr-CA", true, None),
+    ("it-IT", true, Some(D)),
+    ("es-ES", true, Some(D)),
+    ("es-MX", false, Some(D)),
+    ("nl-NL", true, Some(D)),
+    ("nl-BE", true, Some(D)),
+    ("pt-PT", true, Some(D)),
+    ("pt-BR", true, Some(D)),
+    ("pl-PL", true, Some(D)),
+    ("cs-CZ", true, Some(D)),
+    ("da-DK", true, Some(D)),
+    ("nb-NO", true, Some(D)),
+    ("fi-FI", true, Some(D)),
+    ("ru-RU", true, Some(D)),
+    ("tr-TR", true, Some(D)),
+    ("sv-SE", true, None),
+    ("ja-JP", false, None),
+    ("zh-CN", false, None),
+    ("zh-TW", false, None),
+    ("ko-KR", false, None),
+];
+
+/// The culture named `name` (case and `_`/`-` do not matter; a bare language such as `de`
+/// means its first region in the table; empty or `invariant` is .NET's invariant culture,
+/// which writes like en-US).
+fn culture_named(name: &str) -> Option<(&'static str, bool, Option<DateOrder>)> {
+    let n = name.trim().replace('_', "-");
+    if n.is_empty() || n.eq_ignore_ascii_case("invariant") || n.eq_ignore_ascii_case("iv") {
+        return Some(("invariant", false, Some(M)));
+    }
+    CULTURES.iter().copied().find(|(c, _, _)| c.eq_ignore_ascii_case(&n)).or_else(|| {
+        (!n.contains('-'))
+            .then(|| {
+                CULTURES
+                    .iter()
+                    .copied()
+                    .find(|(c, _, _)| c.split('-').next().is_some_and(|l| l.eq_ignore_ascii_case(&n)))
+            })
+            .flatten()
+    })
+}
+
+/// `Culture: de-DE`, `Culture<TAB>de-DE`, `Culture,de-DE` or `Culture = de-DE`: the value.
+fn culture_line(l: &str) -> Option<&str> {
+    let t = l.trim_start_matches('\u{feff}').trim();
+    let key = t.get(..7)?;
+    if !key.eq_ignore_ascii_case("culture") {
+        return None;
+    }
+    let rest = t[7..].trim_start();
+    let rest = rest.strip_prefix([':', '=', '\t', ',', ';']).or_else(|| (rest.len() < t.len() - 7).then_some(rest))?;
+    Some(rest.trim().trim_end_matches([',', ';', '\t']).trim().trim_matches('"'))
+}
+
+/// The file's culture: its `Culture:` line among the metadata (the lines before the first one
+/// that looks like data, or the map's `header_lines`), or the map's `enlight.culture`. Both
+/// present and different, or a culture not in the table, is an error.
+fn find_culture(
+    lines: &[&str],
+    header_lines: Option<usize>,
+    from_map: Option<&str>,
+    origin: &str,
+    name: &str,
+    guess_delim: &dyn Fn(&str) -> char,
+) -> Result<Option<Culture>, TrainerError> {
+    let looks_like_data = |l: &str| {
+        let mut cs = l.split(guess_delim(l)).map(str::trim);
+        cs.next().is_some_and(|c| c.starts_with(|ch: char| ch.is_ascii_digit()))
+            && cs.next().is_some_and(|c| c.parse::<usize>().is_ok())
+    };
+    let end = header_lines.unwrap_or_else(|| lines.iter().position(|l| looks_like_data(l)).unwrap_or(lines.len()));
+    let in_file =
+        lines[..end.min(lines.len())].iter().enumerate().find_map(|(i, l)| culture_line(l).map(|v| (i as u64 + 1, v)));
+    let known: Vec<&str> = CULTURES.iter().map(|c| c.0).collect();
+    let lookup = |v: &str, line: Option<u64>| {
+        culture_named(v).ok_or_else(|| {
+            let msg = format!(
+                "unknown culture `{v}`: its decimal mark and date order are not known here; known: {}, invariant (or a bare language such as `de`)",
+                known.join(", ")
+            );
+            match line {
+                Some(l) => TrainerError::data(name, l, "Culture", msg),
+                None => TrainerError::Config { origin: origin.to_string(), key: "enlight.culture".into(), message: msg },
+            }
+        })
+    };
+    let from_file = match in_file {
+        Some((line, v)) => Some((lookup(v, Some(line))?, line)),
+        None => None,
+    };
+    let from_map = match from_map {
+        Some(v) => Some(lookup(v, None)?),
+        None => None,
+    };
+    Ok(match (from_file, from_map) {
+        (Some((f, line)), Some(m)) if f.0 != m.0 => {
+            return Err(TrainerError::data(
+                name,
+                line,
+                "Culture",
+                format!(
+                    "the file says culture {} but the map's enlight.culture ({origin}) says {}: remove one",
+                    f.0, m.0
+                ),
+            ))
+        }
+        (Some(((n, comma, order), line)), _) => {
+            Some(Culture { name: n, decimal_comma: comma, date_order: order, source: format!("line {line}") })
+        }
+        (None, Some((n, comma, order))) => Some(Culture {
+            name: n,
+            decimal_comma: comma,
+            date_order: order,
+            source: format!("map key enlight.culture in {origin}"),
+        }),
+        (None, None) => None,
+    })
+}
+
+/// The day/month order of the numeric dates of the data lines `data` (the first of which is
+/// line `first + 1`): the culture's, unless some date contradicts it (an error naming the
+/// line), or without a culture order the dates' own: a first field above 12 is a day, a second
+/// field above 12 is a day. Dates that never settle it, or settle it both ways, are an error.
+fn date_order(
+    data: &[&str],
+    first: usize,
+    delim: char,
+    culture: Option<&Culture>,
+    name: &str,
+) -> Result<(DateOrder, String), TrainerError> {
+    let mut day_first: Option<(u64, String)> = None;
+    let mut month_first: Option<(u64, String)> = None;
+    let mut first_date: Option<(u64, String)> = None;
+    for (i, l) in data.iter().enumerate() {
+        let cell = l.split(delim).next().unwrap_or("").trim();
+        let Some((a, b)) = dmy_fields(cell) else { continue };
+        let line = (first + i) as u64 + 1;
+        first_date.get_or_insert_with(|| (line, cell.to_string()));
+        if (13..=31).contains(&a) && (1..=12).contains(&b) {
+            day_first.get_or_insert_with(|| (line, cell.to_string()));
+        }
+        if (13..=31).contains(&b) && (1..=12).contains(&a) {
+            month_first.get_or_insert_with(|| (line, cell.to_string()));
+        }
+        if let Some(Culture { date_order: Some(o), name: c, source, .. }) = culture {
+            let against = match o {
+                DateOrder::DayFirst => &month_first,
+                DateOrder::MonthFirst => &day_first,
+            };
+            if let Some((l, cell)) = against {
+                let field = if *o == DateOrder::DayFirst { b } else { a };
+                return Err(TrainerError::data(
+                    name,
+                    *l,
+                    "1 (time)",
+                    format!(
+                        "`{cell}` is not a date in culture {c} ({source}), which writes dates {}: there is no month {field}; the culture does not match the dates (fix the Culture line, or the map's enlight.culture)",
+                        o.words()
+                    ),
+                ));
+            }
+        }
+        if day_first.is_some() && month_first.is_some() {
+            break;
+        }
+    }
+    if let Some(Culture { date_order: Some(o), name: c, source, .. }) = culture {
+        let _ = (c, source);
+        return Ok((*o, "from the culture".to_string()));
+    }
+    match (day_first, month_first) {
+        (Some((d, dc)), Some((m, mc))) => Err(TrainerError::data(
+            name,
+            d.max(m),
+            "1 (time)",
+            format!(
+                "the dates disagree on their order: `{dc}` (line {d}) can only be day-first, `{mc}` (line {m}) only month-first"
+            ),
+        )),
+        (Some((d, dc)), None) => Ok((DateOrder::DayFirst, format!("line {d}: `{dc}` has a day above 12 first"))),
+        (None, Some((m, mc))) => Ok((DateOrder::MonthFirst, format!("line {m}: `{mc}` has a day above 12 second"))),
+        (None, None) => {
+            let (line, cell) = first_date.unwrap_or((first as u64 + 1, String::new()));
+            let why = match culture {
+                Some(c) => format!("its culture {} ({}) does not fix the day/month order", c.name, c.source),
+                None => "the file has no `Culture:` line".to_string(),
+            };
+            Err(TrainerError::data(
+                name,
+                line,
+                "1 (time)",
+                format!(
+                    "ambiguous date `{cell}`: day-first or month-first? No date in the file has a field above 12 to tell, and {why}; add the export's locale as a header line such as `Culture: de-DE` (day-first) or `Culture: en-US` (month-first), or set `culture = \"de-DE\"` (or a `time_format`) under [enlight] in the --map file"
+                ),
+            ))
+        }
+    }
+}
+
+/// A wavelength cell in the file's culture.
+fn number_in(cell: &str, culture: Option<&Culture>) -> Result<Option<f64>, String> {
+    match culture {
+        Some(c) if c.decimal_comma => {
+            let t = cell.trim();
+            let place = |m: String| format!("{m} (culture {} from {})", c.name, c.source);
+            if t.contains('.') {
+                return decimal_comma_number(t).map(Some).map_err(place);
+            }
+            super::number(&t.replace(',', ".")).map_err(|_| place(format!("`{t}` is not a number")))
+        }
+        _ => super::number(cell).map_err(|e| {
+            let comma = cell.trim().matches(',').count() == 1;
+            match culture {
+                Some(c) if comma => format!("{e}; the file's culture {} ({}) writes a decimal point", c.name, c.source),
+                None if comma => format!("{e}; if the export is from a decimal-comma locale, add its `Culture:` line (e.g. `Culture: de-DE`) or set [enlight] culture in the map"),
+                _ => e,
+            }
+        }),
+    }
 }
 
 /// One peak per window: none is a gap, two are an error.

@@ -135,6 +135,9 @@ pub struct EnlightMap {
     /// Metadata lines before the table. Default: everything before the first line that starts
     /// with a time and a peak count.
     pub header_lines: Option<usize>,
+    /// The export's culture (`de-DE`, `en-US`, ...) for a file without a `Culture:` line:
+    /// decimal mark and day/month order of its dates.
+    pub culture: Option<String>,
 }
 
 /// A CSV grating after defaults: column, unit, reference.

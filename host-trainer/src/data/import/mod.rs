@@ -208,6 +208,13 @@ pub struct EnlightInfo {
     /// Without a map: rows where a channel's peak count differed from its usual count (that
     /// channel's gratings are gaps there).
     pub unassigned_rows: usize,
+    /// The culture the file was read in and where it came from (`de-DE (line 2)`), if any.
+    pub culture: Option<String>,
+    /// Day/month order of numeric dates (`day_first`, `month_first`; absent for year-first
+    /// dates or seconds) ...
+    pub date_order: Option<time_axis::DateOrder>,
+    /// ... and what decided it (the culture, or a date with a day above 12).
+    pub date_order_from: Option<String>,
 }
 
 /// How the references were joined onto the peak times.
@@ -347,6 +354,9 @@ pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerE
                     delimiter: if peaks.delimiter == '\t' { "tab".into() } else { peaks.delimiter.to_string() },
                     metadata_lines: peaks.metadata_lines,
                     unassigned_rows: peaks.unassigned_rows,
+                    culture: peaks.culture.clone(),
+                    date_order: peaks.date_order.as_ref().map(|d| d.0),
+                    date_order_from: peaks.date_order.as_ref().map(|d| d.1.clone()),
                 }),
                 join: None,
                 empty_hint: String::new(),
@@ -732,6 +742,12 @@ impl ImportSummary {
             ));
             if e.unassigned_rows > 0 {
                 s.push_str(&format!(", {} rows with an unusual peak count (gaps)", e.unassigned_rows));
+            }
+            if let Some(c) = &e.culture {
+                s.push_str(&format!(", culture {c}"));
+            }
+            if let (Some(o), Some(from)) = (e.date_order, &e.date_order_from) {
+                s.push_str(&format!(", dates {} ({from})", o.words()));
             }
             s.push('\n');
         }
