@@ -11,7 +11,7 @@ use std::path::Path;
 
 use common::{bin, run};
 use fbg_trainer::data::Dataset;
-use fbg_trainer::sim::{self, Preset};
+use fbg_trainer::sim::{self, scenario::Preset};
 
 const SEED: u64 = 5;
 
@@ -85,7 +85,8 @@ fn the_zero_and_the_clock_travel_with_the_model() {
         run(bin().args(["evaluate", "--quick", "--json", "--data"]).arg(&cal_csv).arg("--model").arg(&model));
     assert!(ok, "{err}");
     let ev: serde_json::Value = serde_json::from_str(&out).unwrap();
-    let holdout_rmse = ev.pointer("/table2/model_h/channels/0/rmse").and_then(|v| v.as_f64()).unwrap_or_else(|| panic!("{ev}"));
+    let holdout_rmse =
+        ev.pointer("/table2/model_h/channels/0/rmse").and_then(|v| v.as_f64()).unwrap_or_else(|| panic!("{ev}"));
     let truth = field.refs[0].values.clone();
     let (export_csv, map) = export(&field, dir.path());
 
@@ -100,7 +101,8 @@ fn the_zero_and_the_clock_travel_with_the_model() {
         .arg(&own));
     assert!(ok, "{err}");
     let out = dir.path().join("out_own.csv");
-    let (ok, _, err) = run(bin().args(["compensate", "--model"]).arg(&model).arg("--data").arg(&own).arg("--out").arg(&out));
+    let (ok, _, err) =
+        run(bin().args(["compensate", "--model"]).arg(&model).arg("--data").arg(&own).arg("--out").arg(&out));
     assert!(!ok && err.contains("λ_ref") && err.contains("first reading") && err.contains("--model"), "{err}");
     assert!(!out.exists());
 
@@ -117,7 +119,10 @@ fn the_zero_and_the_clock_travel_with_the_model() {
         .arg(&zeroed));
     assert!(ok, "{err}");
     let text = std::fs::read_to_string(&zeroed).unwrap();
-    assert!(text.starts_with("# lambda_ref_nm: 1550.000000 model\n# t0_utc: 2026-01-07T00:00:00.000Z\n"), "{text:.200}");
+    assert!(
+        text.starts_with("# lambda_ref_nm: 1550.000000 model\n# t0_utc: 2026-01-07T00:00:00.000Z\n"),
+        "{text:.200}"
+    );
     let (ok, out, err) = run(bin()
         .args(["compensate", "--json", "--model"])
         .arg(&model)
@@ -130,7 +135,25 @@ fn the_zero_and_the_clock_travel_with_the_model() {
     assert_eq!(s["clock"], "absolute", "{s}");
     assert_eq!(s["flag_rows"][3], 0, "{s}");
     let rmse = rmse_of(&dir.path().join("out_model.csv"), &truth);
-    assert!(rmse <= 1.5 * holdout_rmse, "field RMSE {rmse} °C against the calibration's hold-out {holdout_rmse} °C");
+    // The same rows as the simulator's own shifts (its nominal zero), compensated directly:
+    // the export's round trip through absolute wavelengths and the model's zero changes
+    // nothing but rounding (1e-7 nm in the export).
+    let direct = dir.path().join("field_direct.csv");
+    field.write_csv(&direct).unwrap();
+    let (ok, _, err) = run(bin()
+        .args(["compensate", "--model"])
+        .arg(&model)
+        .arg("--data")
+        .arg(&direct)
+        .arg("--out")
+        .arg(dir.path().join("out_direct.csv")));
+    assert!(ok, "{err}");
+    let rmse_direct = rmse_of(&dir.path().join("out_direct.csv"), &truth);
+    assert!((rmse - rmse_direct).abs() < 1e-3, "imported {rmse} °C, direct {rmse_direct} °C");
+    // The field half runs two to four days after a calibration of 1.4 days, so drift has
+    // grown: within twice the calibration's own hold-out RMSE (the zeroed-on-first-reading
+    // error of the example was 3.7 °C).
+    assert!(rmse <= 2.0 * holdout_rmse, "field RMSE {rmse} °C against the calibration's hold-out {holdout_rmse} °C");
 
     // Without a start time the lead is unknown: said, flagged on every row, not a fault.
     let bare = dir.path().join("field_bare.csv");
@@ -196,7 +219,47 @@ fn compensate_checks_units_and_counts_gaps_by_the_models_inputs() {
     let nm_csv = dir.path().join("nm.csv");
     nm.write_csv(&nm_csv).unwrap();
     let out = dir.path().join("o2.csv");
-    let (ok, _, err) = run(bin().args(["compensate", "--model"]).arg(&model).arg("--data").arg(&nm_csv).arg("--out").arg(&out));
+    let (ok, _, err) =
+        run(bin().args(["compensate", "--model"]).arg(&model).arg("--data").arg(&nm_csv).arg("--out").arg(&out));
     assert!(!ok && err.contains("dl1_pm") && err.contains("nm"), "{err}");
     assert!(!out.exists());
+}
+
+/// A two-hour calibration: the band at the end of calibration is never below the error the
+/// cross-validation saw at its shortest leads, so it covers the model's own calibration rows
+/// and its cross-validation errors (before the floor a steep fitted growth left s² at the end
+/// of calibration at 1e-6 °C², a band that covered under 1 % of the calibration rows).
+#[test]
+fn a_short_calibration_has_an_honest_band() {
+    use fbg_trainer::fit::{run, train, Origin, TrainOptions};
+    for seed in [3u64, 8, 13] {
+        let mut cfg = Preset::Temperature1.config();
+        cfg.clock.days = 2.0 / 24.0 / 0.7;
+        cfg.clock.dt_s = 10.0;
+        cfg.clock.cal_fraction = 0.7;
+        let d = sim::simulate(&cfg, seed).data;
+        let t = train(
+            &d,
+            &TrainOptions { progress: false, ..TrainOptions::default() },
+            &Origin { scenario: "short".into(), seed },
+        )
+        .unwrap();
+        for (name, model, var) in
+            [("Model-P", &t.model_p, &t.selection.var_model_p), ("Model-H", &t.model_h, &t.selection.var_model_h)]
+        {
+            let v = &var[0];
+            assert!(v.cv_coverage >= 0.9, "seed {seed} {name}: CV coverage {}", v.cv_coverage);
+            assert!(v.a >= v.a_floor, "seed {seed} {name}: {v:?}");
+            let cal = d.cal_indices();
+            let est = run(model, &d, &cal).unwrap();
+            let truth = d.refs[0].values.clone();
+            let inside = cal.iter().zip(&est).filter(|&(&i, e)| (e.values[0] - truth[i]).abs() <= e.band95[0]).count();
+            let frac = inside as f64 / cal.len() as f64;
+            // In-sample rows at lead 0 against a band calibrated on out-of-sample errors at
+            // growing leads: not 95 % (measured 61.1 to 100 % over seeds 3, 8, 13 and both
+            // models), but nowhere near the failure this guards against (under 1 %).
+            assert!(frac >= 0.5, "seed {seed} {name}: the band covers {:.1} % of the calibration rows", 100.0 * frac);
+            assert!(model.field.lead_max_s > 0.0 && model.field.cal_end_unix_s.is_some());
+        }
+    }
 }
