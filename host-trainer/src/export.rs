@@ -137,6 +137,7 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
             "var_inv_g_tail": p.var_inv_g_tail,
         },
         "envelope": {"inputs": input_columns(dims), "lo": head(&p.envelope_lo, dims.envelope_len()), "hi": head(&p.envelope_hi, dims.envelope_len())},
+        "field": field_json(p),
         "provenance": {
             "seed": p.provenance.seed,
             "scenario": p.provenance.scenario.as_str(),
@@ -144,6 +145,27 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
             "date_yyyymmdd": p.provenance.date_yyyymmdd,
             "n_cal": p.provenance.n_cal,
         },
+    })
+}
+
+/// The model's field context: each grating's zero, the tolerance on a record's zero, the
+/// calibration's absolute clock, the output envelope and the largest band.
+pub fn field_json(p: &HostParams) -> serde_json::Value {
+    let f = &p.field;
+    let n = p.dims.gratings();
+    let m = p.dims.n_outputs();
+    serde_json::json!({
+        "gratings": (1..=n).map(crate::data::measurand::grating_column).collect::<Vec<_>>(),
+        "lambda_ref_nm": (0..n).map(|g| f.lambda_ref(g)).collect::<Vec<_>>(),
+        "lambda_ref_source": head(&f.lambda_ref_source, n).iter().map(|s| s.name()).collect::<Vec<_>>(),
+        "lambda_ref_tolerance_pm": f.lambda_ref_tol_pm,
+        "cal_end_utc": f.cal_end_unix_s.map(|t| format!("{}Z", crate::data::import::time_axis::format_timestamp(t))),
+        "cal_end_unix_s": f.cal_end_unix_s,
+        "lead_max_s": f.lead_max_s,
+        "outputs": output_keys(p),
+        "output_lo": head(&f.output_lo, m),
+        "output_hi": head(&f.output_hi, m),
+        "band_max": head(&f.band_max, m),
     })
 }
 

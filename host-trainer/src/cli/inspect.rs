@@ -100,6 +100,26 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
         p.dims.gratings(),
         if p.dims.ambient() { ", T_amb °C" } else { "" }
     );
+    let f = &p.field;
+    let zeros: Vec<String> = (0..p.dims.gratings())
+        .map(|g| match f.lambda_ref(g) {
+            Some(nm) => format!("dl{} {nm:.6} nm ({})", g + 1, f.lambda_ref_source[g].name()),
+            None => format!("dl{} unknown", g + 1),
+        })
+        .collect();
+    println!(
+        "zero: λ_ref {}; a record's zero may differ by at most {} pm",
+        zeros.join(", "),
+        f32s(&[f.lambda_ref_tol_pm.into()])
+    );
+    println!(
+        "clock: calibration ended {}; largest validated lead {:.1} h (the band's lead when a record's clock is unknown)",
+        f.cal_end_unix_s.map_or("at an unknown absolute time (calibrated on a record without absolute time)".to_string(), |t| format!(
+            "{}Z",
+            fbg_trainer::data::import::time_axis::format_timestamp(t)
+        )),
+        f.lead_max_s / 3600.0
+    );
     let pr = &p.provenance;
     println!(
         "provenance: scenario {}, seed {}, trainer {}, date {}, {} calibration samples",
