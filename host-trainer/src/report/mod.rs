@@ -597,11 +597,19 @@ fn page(
         sections.push(Section { id: "other-studies".into(), title: "Other studies in metrics.json".into(), body });
     }
 
-    // Coefficients.
+    // Sensitivities (the calibration sheet), then the coefficients.
+    let is_sens = |n: &str| n.starts_with("sensitivity");
+    let mut body = String::from(
+        "<p>Each grating's sensitivity to each measurand and the model's inverse, as a calibration sheet gives them (fbg_trainer::fit::sensitivity; also in model.coefficients.json and <code>fbg-trainer inspect</code>).</p>\n",
+    );
+    for (name, t) in coefs.iter().filter(|(n, _)| is_sens(n)) {
+        body.push_str(&html::table(t, Some(name)));
+    }
+    sections.push(Section { id: "sensitivity".into(), title: "Sensitivities at the calibration point".into(), body });
     let mut body = String::from(
         "<p>Every number the device uses, read back from the model blobs (f32 on disk, shown in f64). The polynomial core is also given in physical units, the form a metrologist can check against gauge factors or replace after service.</p>\n",
     );
-    for (name, t) in coefs {
+    for (name, t) in coefs.iter().filter(|(n, _)| !is_sens(n)) {
         body.push_str(&html::table(t, Some(name)));
     }
     sections.push(Section { id: "coefficients".into(), title: "Coefficients".into(), body });
