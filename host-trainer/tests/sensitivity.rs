@@ -2,6 +2,8 @@
 //! inverse (∂ŷ/∂Δλ) at the calibration's mean input.
 
 use fbg_shared::{FeatureSet, Sample};
+mod common;
+
 use fbg_trainer::data::Measurand;
 use fbg_trainer::fit::sensitivity::{self, ForwardMethod, Sensitivity};
 use fbg_trainer::fit::static_fidelity::settled_model;
@@ -252,4 +254,53 @@ fn without_a_thermometer_the_temperature_sensitivity_includes_the_interrogators(
     eprintln!("temperature-1 without a thermometer: forward {:?}, truth {k:?}", sens.forward);
     assert!(worst <= FORWARD_TOLERANCE, "forward {:?} vs truth {k:?}", sens.forward);
     assert!((sens.inverse[0][0] * sens.forward[0][0] - 1.0).abs() < 1e-12);
+}
+
+/// `coefficients.json`, `inspect` (text and JSON) and the report all carry the calibration
+/// sheet, the same numbers as `fit::sensitivity` on the Model-P blob.
+#[test]
+fn coefficients_inspect_and_the_report_carry_the_sensitivities() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = common::short_csv(d.path());
+    let model = d.path().join("m.fbgm");
+    let (ok, _, err) = common::run(common::bin().args(["train", "--data"]).arg(&csv).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    let p = fbg_trainer::export::read_blob(&d.path().join("m-p.fbgm")).unwrap();
+    let sens = sensitivity::of(&p).unwrap();
+    let coef: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("m.coefficients.json")).unwrap()).unwrap();
+    let s = &coef["sensitivity"];
+    // coefficients.json is written from the f64 fit, the blob holds f32: equal to 1e-6.
+    let near = |a: &serde_json::Value, b: f64| a.as_f64().is_some_and(|a| (a - b).abs() <= 1e-6 * b.abs());
+    assert!(near(&s["forward"]["dl3_pm"]["p_kPa"], sens.forward[2][2]), "{s}");
+    assert!(near(&s["inverse"]["strain_ue"]["dl1_pm"], sens.inverse[1][0]), "{s}");
+    assert_eq!(
+        (s["forward_units"]["T_C"].as_str(), s["inverse_units"]["p_kPa"].as_str()),
+        (Some("pm/°C"), Some("kPa/pm"))
+    );
+    assert_eq!(s["method"], "inverse");
+    assert!(s["ambient_slope"]["T_C"].is_f64());
+    let (ok, out, err) = common::run(common::bin().arg("inspect").arg(&model));
+    assert!(ok, "{err}");
+    assert!(out.contains("sensitivities from") && out.contains("m-p.fbgm"), "{out}");
+    assert!(
+        out.contains("∂Δλ/∂T [pm/°C]") && out.contains("∂Δλ/∂ε [pm/µε]") && out.contains("∂Δλ/∂p [pm/kPa]"),
+        "{out}"
+    );
+    let (ok, js, _) = common::run(common::bin().args(["inspect", "--json"]).arg(&model));
+    assert!(ok);
+    let j: serde_json::Value = serde_json::from_str(&js).unwrap();
+    assert_eq!(j["sensitivity"]["forward"]["dl3_pm"]["p_kPa"].as_f64(), Some(sens.forward[2][2]));
+    assert!(j["sensitivity"]["source"].as_str().is_some_and(|x| x.contains("m-p.fbgm")));
+    let (ok, _, err) =
+        common::run(common::bin().args(["evaluate", "--quick", "--data"]).arg(&csv).arg("--model").arg(&model));
+    assert!(ok, "{err}");
+    let rep = d.path().join("report");
+    let (ok, _, err) = common::run(
+        common::bin().args(["report", "--out"]).arg(&rep).arg("--data").arg(&csv).arg("--model").arg(&model),
+    );
+    assert!(ok, "{err}");
+    let html = std::fs::read_to_string(rep.join("index.html")).unwrap();
+    assert!(html.contains("id=\"sensitivity\"") && html.contains("pm/µε") && html.contains("kPa/pm"));
+    assert!(rep.join("sensitivity.csv").is_file() && rep.join("sensitivity_inverse.md").is_file());
 }
