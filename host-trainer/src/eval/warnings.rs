@@ -53,11 +53,8 @@ pub fn evaluation(m: &Metrics, dims: &Dims) -> Vec<Warning> {
     let nch = m.channels.len().min(t.model_h.channels.len()).min(t.model_p.channels.len()).min(t.gain_pct.len());
     let scored = t.model_h.channels.iter().map(|c| c.n).max().unwrap_or(0).max(1) as f64;
     let outside = t.model_h.flag_counts[1] as f64 / scored;
-    for c in 0..nch {
+    for c in (0..nch).filter(|&c| t.gain_pct[c] < 0.0) {
         let g = t.gain_pct[c];
-        if !(g < 0.0) {
-            continue;
-        }
         let (ch, unit) = (&m.channels[c], &m.units[c]);
         let (h, p) = (t.model_h.channels[c].rmse, t.model_p.channels[c].rmse);
         let dg = digits(unit);
@@ -85,10 +82,7 @@ pub fn evaluation(m: &Metrics, dims: &Dims) -> Vec<Warning> {
     for (code, name, e) in
         [("model_h_band_coverage_low", "Model-H", &t.model_h), ("model_p_band_coverage_low", "Model-P", &t.model_p)]
     {
-        for (c, ch) in e.channels.iter().enumerate().take(nch) {
-            if !(ch.coverage < BAND_WARN_BELOW) {
-                continue;
-            }
+        for (c, ch) in e.channels.iter().enumerate().take(nch).filter(|(_, ch)| ch.coverage < BAND_WARN_BELOW) {
             out.push(
                 Warning::new(
                     code,

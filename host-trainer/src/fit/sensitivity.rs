@@ -189,7 +189,7 @@ pub fn of(p: &HostParams) -> Result<Sensitivity, TrainerError> {
     let ambient_follows = ambient.is_some() && t.is_some();
     if let (Some(u), Some(t)) = (&ambient, t) {
         let rest = 1.0 - u[t];
-        if !(rest.abs() >= THERMOMETER_SHARE_LIMIT) {
+        if rest.is_nan() || rest.abs() < THERMOMETER_SHARE_LIMIT {
             return Err(TrainerError::fit(format!(
                 "sensitivities: the model reads the temperature from the ambient thermometer alone (∂T̂/∂T_amb = {:.4}), so the gratings carry no temperature sensitivity",
                 u[t]
