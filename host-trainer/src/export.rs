@@ -278,6 +278,7 @@ pub fn write_coefficients_signed(
             "memory_cv": s.memory_rows,
         })),
         "static_fidelity": audit.map(|a| static_fidelity_json(model_h, a)),
+        "sensitivity": sensitivity_json(model_p),
     });
     if let (Some(sig), Some(obj)) = (signatures, v.as_object_mut()) {
         obj.insert("signatures".into(), sig);
@@ -306,6 +307,49 @@ pub fn static_fidelity_json(model_h: &HostParams, a: &StaticAudit) -> serde_json
         "disagreements": a.disagreements().iter().map(|&(c, h, p)| serde_json::json!({"output": c, "model_h": h, "model_p": p})).collect::<Vec<_>>(),
         "contributions_rms": parts,
     })
+}
+
+/// The calibration sheet of Model-P `p` ([`crate::fit::sensitivity`]) as written in
+/// `coefficients.json` and `inspect --json`: each grating's sensitivity to each measurand
+/// (`forward`, grating → output → pm per output unit), the model's inverse (`inverse`, output →
+/// grating → output unit per pm) and, with the ambient input, T_amb's slope with the gratings
+/// held, with their units; `{"error": …}` when the model has none.
+pub fn sensitivity_json(p: &HostParams) -> serde_json::Value {
+    let s = match crate::fit::sensitivity::of(p) {
+        Ok(s) => s,
+        Err(e) => return serde_json::json!({ "error": e.to_string() }),
+    };
+    let gratings: Vec<String> = (1..=s.gratings).map(crate::data::measurand::grating_column).collect();
+    let keyed = |keys: &[String], v: &[f64]| -> serde_json::Value {
+        serde_json::Value::Object(keys.iter().cloned().zip(v.iter().map(|x| serde_json::json!(x))).collect())
+    };
+    let by_name = |keys: &[String], units: Vec<String>| -> serde_json::Value {
+        serde_json::Value::Object(keys.iter().cloned().zip(units.into_iter().map(serde_json::Value::from)).collect())
+    };
+    let mut v = serde_json::json!({
+        "what": format!("∂Δλ/∂y (forward) and ∂ŷ/∂Δλ (inverse) {}", s.how()),
+        "method": s.method,
+        "rank": s.rank,
+        "ambient_follows_temperature": s.ambient_follows,
+        "gratings": gratings,
+        "outputs": s.outputs,
+        "forward_units": by_name(&s.outputs, s.forward_units()),
+        "forward": serde_json::Value::Object(
+            gratings.iter().cloned().zip(s.forward.iter().map(|row| keyed(&s.outputs, row))).collect()
+        ),
+        "inverse_units": by_name(&s.outputs, s.inverse_units()),
+        "inverse": serde_json::Value::Object(
+            s.outputs.iter().cloned().zip(s.inverse.iter().map(|row| keyed(&gratings, row))).collect()
+        ),
+    });
+    if let (Some(a), Some(obj)) = (&s.ambient, v.as_object_mut()) {
+        obj.insert(
+            "ambient_slope_units".into(),
+            by_name(&s.outputs, s.units.iter().map(|u| format!("{u}/°C")).collect()),
+        );
+        obj.insert("ambient_slope".into(), keyed(&s.outputs, a));
+    }
+    v
 }
 
 /// The units of a model's outputs and inputs, by short channel name.

@@ -7,8 +7,9 @@
 //! 1. `error`, `rng`, `stats`, `warning`: used by all;
 //! 2. `data`: the dataset and its CSV, the import of interrogator exports, safe output files;
 //! 3. `sim` (scenarios, the simulator, its `.meta.json` sidecar) and `fit` (Model-P and
-//!    Model-H, the `--features` choice, field recalibration);
-//! 4. `eval`: scores, f32-vs-f64 parity, the studies, the `metrics.json` schema, the tables;
+//!    Model-H, the `--features` choice, field recalibration, the sensitivities);
+//! 4. `eval`: scores, f32-vs-f64 parity, the studies, the `metrics.json` schema, the tables,
+//!    the evaluation's warnings;
 //! 5. `export`: the `.fbgm` blob, `coefficients.json`, golden vectors; `sign`: signing keys,
 //!    the serial per key and signed blobs (the trailer itself is `fbg_shared::signature`);
 //! 6. `report`, `fleet`, `stream`, `benchmark`: the audit report and the operations built on

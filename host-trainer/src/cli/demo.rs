@@ -42,7 +42,7 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
         data.display()
     ));
     let opts = TrainOptions { progress: !json, ..TrainOptions::default() };
-    let (tr, m) = studies::run_all(&s, &opts, Studies::ALL, &log)?;
+    let (tr, mut m) = studies::run_all(&s, &opts, Studies::ALL, &log)?;
     let model = out.join("model.fbgm");
     let nh = export::write_blob(&model, &tr.model_h)?;
     let np = export::write_blob(&baseline_path(&model), &tr.model_p)?;
@@ -54,6 +54,9 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
         Some(&tr.selection),
         Some(&tr.static_audit),
     )?;
+    // The warnings `train` records in coefficients.json go into metrics.json too, as `evaluate` does.
+    let train_warnings = fbg_trainer::eval::warnings::from_coefficients(&export::coefficients_path(&model));
+    m.warnings = fbg_trainer::eval::warnings::merge(train_warnings, std::mem::take(&mut m.warnings));
     write_metrics(&export::metrics_path(&model), &m)?;
     let hold = s.data.holdout_indices();
     let idx: Vec<usize> = hold.into_iter().take(1000).collect();

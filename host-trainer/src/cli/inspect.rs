@@ -20,6 +20,11 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
     let crc = export::blob_crc(bytes).map(|(c, _)| format!("{c:08x}")).unwrap_or_default();
     let key = pubkey.map(sign::read_public_key).transpose()?;
     let check = sign::check(&file, key.as_ref());
+    let (sens_model, sens_source) = sensitivity_source(path, &p);
+    let mut sensitivity = export::sensitivity_json(&sens_model);
+    if let Some(o) = sensitivity.as_object_mut() {
+        o.insert("source".into(), serde_json::json!(sens_source));
+    }
     let v = serde_json::json!({
         "file": path,
         "bytes": file.len(),
@@ -30,6 +35,7 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
                    "memory_terms": header.memory_terms, "centres": header.centres},
         "signature": check,
         "model": export::model_json(&p, None),
+        "sensitivity": sensitivity,
     });
     let refuse = |check: &sign::SignatureCheck| -> Result<()> {
         match (check.verifies, pubkey) {
@@ -126,7 +132,34 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
         pr.scenario, pr.seed, pr.trainer_version, pr.date_yyyymmdd, pr.n_cal
     );
     println!("{}", static_fidelity_line(path));
+    println!("sensitivities from {sens_source}:");
+    for (_, t) in fbg_trainer::report::coef::sensitivity_tables(&sens_model) {
+        print!("{}", t.text());
+    }
     refuse(&check)
+}
+
+/// The model the calibration sheet comes from: Model-P (`fbg_trainer::fit::sensitivity`):
+/// this blob when it is one, else `<stem>-p.fbgm` beside it, else this blob's own polynomial
+/// core (Model-P's whenever the two share it, as `train` writes them); with where it came from.
+fn sensitivity_source(path: &Path, p: &HostParams) -> (HostParams, String) {
+    if export::is_model_p(p) {
+        return (p.clone(), format!("{} (Model-P)", path.display()));
+    }
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let sibling = path.with_file_name(format!("{stem}-p.fbgm"));
+    match export::read_blob(&sibling) {
+        Ok(mp) => (mp, format!("{} (Model-P beside this blob)", sibling.display())),
+        Err(e) => (
+            p.clone(),
+            format!(
+                "the polynomial core of {} ({}: {}; the core is Model-P's when train wrote both)",
+                path.display(),
+                sibling.display(),
+                if sibling.exists() { e.to_string() } else { "not found".into() }
+            ),
+        ),
+    }
 }
 
 /// The static gains `train` recorded in the blob's audit sidecar (`<stem>.coefficients.json`,

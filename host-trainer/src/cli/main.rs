@@ -560,7 +560,9 @@ fn run() -> Result<()> {
                     eprintln!("{s}");
                 }
             };
-            let m = studies::evaluate_models(&p, &h, &d, meta.as_ref(), studies, !json, &log)?;
+            let mut m = studies::evaluate_models(&p, &h, &d, meta.as_ref(), studies, !json, &log)?;
+            let train_warnings = fbg_trainer::eval::warnings::from_coefficients(&export::coefficients_path(&model));
+            m.warnings = fbg_trainer::eval::warnings::merge(train_warnings, std::mem::take(&mut m.warnings));
             write_metrics(&out, &m)?;
             if json {
                 println!("{}", serde_json::to_string_pretty(&m)?);
@@ -751,8 +753,9 @@ fn write_metrics(path: &Path, m: &Metrics) -> Result<()> {
 
 fn print_tables(m: &Metrics) {
     println!("{}", tables::table2(m).text());
-    for l in tables::flag_lines(m) {
-        eprintln!("{l}");
+    eprintln!("{}", tables::flag_line(m));
+    for w in &m.warnings {
+        eprintln!("warning: {w}");
     }
     if let Some(a) = &m.ablation {
         println!("{}", tables::table3(a, m).text());

@@ -75,6 +75,10 @@ pub struct Metrics {
     pub channels: Vec<String>,
     /// Their units.
     pub units: Vec<String>,
+    /// Everything worth a warning, as data: `train`'s (from the model's `coefficients.json`),
+    /// then the evaluation's ([`crate::eval::warnings`]). `evaluate` prints them, the report
+    /// opens with them.
+    pub warnings: Vec<crate::warning::Warning>,
     pub selection: SelectionSummary,
     pub table2: Table2,
     pub drift_sweep: Option<DriftSweep>,

@@ -97,8 +97,9 @@ pub fn drift_sweep(
 /// Table 3 for all channels: polynomial only; hybrid without cross-terms; the `paper`
 /// variant (z = [Δλ, T_amb, t], no memory terms); the `latch` variant (the previous default:
 /// RBF on the direction latches, no memory terms); the default (memory terms fitted with the
-/// core, RBF residual); and the default with each memory group removed in turn. Each variant
-/// runs its own selection over its own family, inside the calibration batch.
+/// core, RBF residual); and the default with each memory group the model's dimensions allow
+/// removed in turn. The notes name the model's own inputs (no T_amb without a thermometer).
+/// Each variant runs its own selection over its own family, inside the calibration batch.
 pub fn ablation(
     d: &Dataset,
     trained: &Trained,
@@ -110,9 +111,11 @@ pub fn ablation(
     let (eh, _) = evaluate_holdout(&trained.model_h, d)?;
     let base = TrainOptions { progress: false, ..opts.clone() };
     let off = fit::memory_core::MemoryOptions::off();
-    let linear: Vec<String> = std::iter::once("1".to_string())
-        .chain(Measurand::of_dims(&trained.model_h.dims).iter().map(|m| m.short_name()))
-        .collect();
+    let dims = trained.model_h.dims;
+    let linear: Vec<String> =
+        std::iter::once("1".to_string()).chain(Measurand::of_dims(&dims).iter().map(|m| m.short_name())).collect();
+    // The RBF inputs of a variant, as the model has them: "[Δλ, T_amb, …]" or "[Δλ, …]".
+    let z = |rest: &str| format!("[Δλ{}{rest}]", if dims.ambient() { ", T_amb" } else { "" });
     let mut variants: Vec<(String, String, TrainOptions)> = vec![
         (
             "Hybrid w/o cross-terms".into(),
@@ -121,7 +124,7 @@ pub fn ablation(
         ),
         (
             "Hybrid, paper variant".into(),
-            "z = [Δλ, T_amb, t] (paper Eq. 5), no memory terms".into(),
+            format!("z = {} (paper Eq. 5), no memory terms", z(", t")),
             TrainOptions {
                 feature_sets: vec![FeatureSet::Paper],
                 memory: off.clone(),
@@ -131,7 +134,7 @@ pub fn ablation(
         ),
         (
             "Hybrid, latch variant".into(),
-            "z = [Δλ, T_amb, direction latches] (+t if CV keeps it), no memory terms (previous default)".into(),
+            format!("z = {} (+t if CV keeps it), no memory terms (previous default)", z(", direction latches")),
             TrainOptions {
                 feature_sets: vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime],
                 memory: off,
@@ -141,7 +144,10 @@ pub fn ablation(
         ),
     ];
     if opts.memory.enabled() {
-        for g in MemoryGroup::ALL.into_iter().filter(|g| opts.memory.groups.contains(g)) {
+        for g in MemoryGroup::ALL
+            .into_iter()
+            .filter(|&g| opts.memory.groups.contains(&g) && fit::memory_core::applies(&dims, g))
+        {
             variants.push((
                 format!("Default − {}", g.name()),
                 format!("the default with the {} memory group removed", g.name()),
@@ -167,8 +173,10 @@ pub fn ablation(
     rows.push(AblationRow {
         name: "Hybrid, default".into(),
         note: if opts.memory.enabled() {
-            "memory terms fitted on what the core leaves (groups and λ by CV) + RBF residual on [Δλ, T_amb, latches]"
-                .into()
+            format!(
+                "memory terms fitted on what the core leaves (groups and λ by CV) + RBF residual on {}",
+                z(", latches")
+            )
         } else {
             "the trained Model-H".into()
         },
@@ -383,7 +391,7 @@ pub fn run_all(
         None
     };
     let d = &sim.data;
-    let m = Metrics {
+    let mut m = Metrics {
         trainer_version: env!("CARGO_PKG_VERSION").to_string(),
         scenario: sim.config.name.clone(),
         seed: sim.seed,
@@ -392,6 +400,7 @@ pub fn run_all(
         holdout_samples: d.holdout_indices().len(),
         channels: channels(&trained.model_h.dims),
         units: units(&trained.model_h.dims),
+        warnings: Vec::new(),
         selection: SelectionSummary::from(&trained.selection),
         table2: t2,
         drift_sweep: drift,
@@ -410,6 +419,7 @@ pub fn run_all(
         },
         timings_s: timings,
     };
+    m.warnings = crate::eval::warnings::evaluation(&m, &trained.model_h.dims);
     Ok((trained, m))
 }
 
@@ -428,7 +438,8 @@ pub fn config_of(h: &HostParams) -> fit::Config {
 
 /// Evaluate given models (from blobs) on `d`: Table 2, and the studies that the data allow
 /// (Table 3 retrains on the calibration part; the drift sweep and error budget need the
-/// scenario of a simulated CSV).
+/// scenario of a simulated CSV), and the evaluation's warnings (`train`'s, recorded in the
+/// model's `coefficients.json`, are the caller's to [`crate::eval::warnings::merge`] in).
 pub fn evaluate_models(
     p: &HostParams,
     h: &HostParams,
@@ -530,7 +541,7 @@ pub fn evaluate_models(
     bar.set_message("parity");
     let parity = if studies.parity { Some(parity::check(h, d, &t2.model_h)?) } else { None };
     bar.finish_and_clear();
-    Ok(Metrics {
+    let mut m = Metrics {
         trainer_version: env!("CARGO_PKG_VERSION").to_string(),
         scenario: origin.scenario.clone(),
         seed: origin.seed,
@@ -539,6 +550,7 @@ pub fn evaluate_models(
         holdout_samples: d.holdout_indices().len(),
         channels: channels(&h.dims),
         units: units(&h.dims),
+        warnings: Vec::new(),
         selection: SelectionSummary {
             chosen,
             cv_rmse_p: vec![f64::NAN; n_out],
@@ -566,5 +578,7 @@ pub fn evaluate_models(
             _ => None,
         },
         timings_s: timings,
-    })
+    };
+    m.warnings = crate::eval::warnings::evaluation(&m, &h.dims);
+    Ok(m)
 }

@@ -104,7 +104,6 @@ fn per_output_headers(m: &Metrics, suffixes: &[&str]) -> Vec<String> {
     m.channels.iter().flat_map(|c| suffixes.iter().map(move |s| format!("{} {s}", symbol(c)))).collect()
 }
 
-/// Table 2: hold-out performance, both models, with the per-sample oracle.
 /// Where the record came from: "paper, seed 7" for a simulated one (its `.meta.json` gave the
 /// oracle and the seed), "“site3” (recorded data)" for a recorded one, which has no seed.
 pub fn origin_label(m: &Metrics) -> String {
@@ -130,60 +129,23 @@ pub fn holdout_label(m: &Metrics) -> String {
     }
 }
 
-/// The flags raised on the hold-out, per flag, and what to do when Model-H is worse than
-/// Model-P on some channel: lines for a terminal, the warnings starting "warning:".
-pub fn flag_lines(m: &Metrics) -> Vec<String> {
+/// The flags raised on the hold-out, per flag: a line for a terminal. (What deserves a
+/// warning is [`Metrics::warnings`], printed beside it.)
+pub fn flag_line(m: &Metrics) -> String {
     let t = &m.table2;
     let n = t.model_h.channels.iter().map(|c| c.n).max().unwrap_or(0).max(1) as f64;
     let pct = |k: usize| 100.0 * k as f64 / n;
     let fc = t.model_h.flag_counts;
-    let mut out = vec![format!(
+    format!(
         "Model-H flags on the hold-out: {:.1} % of samples flagged — {:.1} % non-finite, {:.1} % outside the calibration envelope, {:.1} % weak RBF support",
         100.0 * t.model_h.flagged_fraction,
         pct(fc[0]),
         pct(fc[1]),
         pct(fc[2])
-    )];
-    let worse: Vec<usize> = (0..t.gain_pct.len()).filter(|&c| t.gain_pct[c] < 0.0).collect();
-    if !worse.is_empty() {
-        let which: Vec<String> =
-            worse.iter().map(|&c| format!("{} ({:+.1} %)", m.channels[c], t.gain_pct[c])).collect();
-        let why = if pct(fc[1]) >= 10.0 {
-            format!(
-                "{:.0} % of the hold-out lies outside the calibration envelope, where the residual has no data: calibrate over the range the sensor will see, or use Model-P for {}",
-                pct(fc[1]),
-                worse.iter().map(|&c| m.channels[c].as_str()).collect::<Vec<_>>().join(", ")
-            )
-        } else {
-            format!(
-                "use Model-P for {}, or recalibrate on recent data",
-                worse.iter().map(|&c| m.channels[c].as_str()).collect::<Vec<_>>().join(", ")
-            )
-        };
-        out.push(format!("warning: Model-H is worse than Model-P on {} of the hold-out; {why}", which.join(", ")));
-    }
-    let short: Vec<String> = t
-        .model_h
-        .channels
-        .iter()
-        .zip(&m.channels)
-        .filter(|(ch, _)| ch.coverage < BAND_WARN_BELOW)
-        .map(|(ch, name)| format!("{name} ({:.1} %)", 100.0 * ch.coverage))
-        .collect();
-    if !short.is_empty() {
-        out.push(format!(
-            "warning: Model-H's 95 % band covered less than {:.0} % of the hold-out on {}: the error grew beyond what the calibration batch showed (drift, or conditions the batch did not contain); do not rely on that band, recalibrate on recent data",
-            100.0 * BAND_WARN_BELOW,
-            short.join(", ")
-        ));
-    }
-    out
+    )
 }
 
-/// Hold-out coverage of the 95 % band below which `evaluate` warns: well below the sampling
-/// spread of an honest band over a week of autocorrelated errors.
-const BAND_WARN_BELOW: f64 = 0.90;
-
+/// Table 2: hold-out performance, both models, with the per-sample oracle.
 pub fn table2(m: &Metrics) -> Table {
     let t = &m.table2;
     let mut rows = Vec::new();

@@ -183,6 +183,13 @@ fn offered(dims: &Dims, o: usize, g: MemoryGroup) -> bool {
     }
 }
 
+/// Whether group `g` can have a term for some output of `dims`: the ambient high-passes need
+/// the ambient input (and a temperature output), the drift observer the ambient input and a
+/// temperature output (reports leave the others out: Table 3 removes only groups that exist).
+pub fn applies(dims: &Dims, g: MemoryGroup) -> bool {
+    (g != MemoryGroup::AmbientHighPass || dims.ambient()) && (0..dims.n_outputs()).any(|o| offered(dims, o, g))
+}
+
 /// The memory vectors of a set of rows, [`Dims::memory_len`] values per row.
 pub struct MemoryTerms {
     len: usize,

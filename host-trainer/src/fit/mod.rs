@@ -15,6 +15,7 @@ pub mod memory_core;
 pub mod poly_core;
 pub mod recalibrate;
 pub mod select;
+pub mod sensitivity;
 pub mod static_fidelity;
 
 use heapless::Vec as HVec;

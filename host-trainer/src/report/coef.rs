@@ -68,7 +68,7 @@ fn z_names(p: &HostParams) -> Vec<String> {
 /// The tables and their file stems.
 pub fn tables(p: &HostParams, h: &HostParams, m: &Metrics) -> Vec<(String, Table)> {
     let shared = p.stage1 == h.stage1 && p.poly == h.poly && p.guess_mean == h.guess_mean && p.guess_std == h.guess_std;
-    let mut out = Vec::new();
+    let mut out = sensitivity_tables(p).into_iter().map(|(n, t)| (n.to_string(), t)).collect::<Vec<_>>();
     let cores: Vec<(&str, &str, &HostParams)> = if shared {
         vec![("", "Model-P and Model-H (shared core)", h)]
     } else {
@@ -90,6 +90,77 @@ pub fn tables(p: &HostParams, h: &HostParams, m: &Metrics) -> Vec<(String, Table
     out.push(("coef_hyper".into(), hyper(p, h, m)));
     out.push(("coef_band".into(), band(p, h, m)));
     out
+}
+
+/// A number with `digits` significant digits, in plain notation where that stays readable.
+fn sig(v: f64, digits: usize) -> String {
+    if !v.is_finite() {
+        return "–".into();
+    }
+    if v == 0.0 {
+        return "0".into();
+    }
+    let mag = v.abs().log10().floor() as i32;
+    if !(-4..6).contains(&mag) {
+        return format!("{v:.*e}", digits.saturating_sub(1));
+    }
+    format!("{v:.*}", (digits as i32 - 1 - mag).max(0) as usize)
+}
+
+/// The calibration sheet of Model-P `p` ([`crate::fit::sensitivity`]): each grating's
+/// sensitivity to each measurand (pm per unit) and the model's inverse (unit per pm), with
+/// T_amb's slope when the model reads a thermometer; one table saying why when the model has
+/// no sensitivities. Also `inspect`'s print, so the two cannot differ.
+pub fn sensitivity_tables(p: &HostParams) -> Vec<(&'static str, Table)> {
+    let s = match crate::fit::sensitivity::of(p) {
+        Ok(s) => s,
+        Err(e) => {
+            return vec![(
+                "sensitivity",
+                Table {
+                    title: "Sensitivities at the calibration point".into(),
+                    header: vec!["not available".into()],
+                    rows: vec![vec![e.to_string()]],
+                },
+            )]
+        }
+    };
+    let short: Vec<String> = crate::data::Measurand::of_dims(&p.dims).iter().map(|m| m.short_name()).collect();
+    let gratings: Vec<String> = (1..=s.gratings).map(|g| format!("FBG{g} (dl{g}_pm)")).collect();
+    let mut header = vec!["grating".to_string()];
+    header.extend(short.iter().zip(s.forward_units()).map(|(n, u)| format!("∂Δλ/∂{n} [{u}]")));
+    let forward = Table {
+        title: format!("Sensitivity of each grating to each measurand, ∂Δλ_i/∂y_j, {}", s.how()),
+        header,
+        rows: s
+            .forward
+            .iter()
+            .zip(&gratings)
+            .map(|(row, g)| std::iter::once(g.clone()).chain(row.iter().map(|&v| sig(v, 5))).collect())
+            .collect(),
+    };
+    let mut header = vec!["output".to_string()];
+    header.extend((1..=s.gratings).map(|g| format!("∂ŷ/∂Δλ{g}")));
+    if s.ambient.is_some() {
+        header.push("∂ŷ/∂T_amb (gratings held)".into());
+    }
+    let rows = (0..s.outputs.len())
+        .map(|j| {
+            let mut r = vec![format!("{} [{}]", short[j], s.inverse_units()[j])];
+            r.extend(s.inverse[j].iter().map(|&v| sig(v, 5)));
+            if let Some(a) = &s.ambient {
+                r.push(format!("{} {}/°C", sig(a[j], 5), s.units[j]));
+            }
+            r
+        })
+        .collect();
+    let inverse = Table {
+        title: "The model's inverse, ∂ŷ_j/∂Δλ_i: each output's change per pm of each grating (same point and map)"
+            .into(),
+        header,
+        rows,
+    };
+    vec![("sensitivity", forward), ("sensitivity_inverse", inverse)]
 }
 
 fn stage1(p: &HostParams, who: &str) -> Table {
@@ -357,5 +428,9 @@ mod tests {
         assert_eq!(e(f64::NAN), "–");
         assert_eq!(g(0.5), "0.500000");
         assert_eq!(g(3.9e-9), "3.900000e-09");
+        assert_eq!(sig(10.856753, 5), "10.857");
+        assert_eq!(sig(0.0190727, 5), "0.019073");
+        assert_eq!(sig(-0.000495114, 3), "-0.000495");
+        assert_eq!(sig(1.2e-7, 3), "1.20e-7");
     }
 }

@@ -231,6 +231,9 @@ struct MetricsDe {
     holdout_samples: usize,
     channels: Vec<String>,
     units: Vec<String>,
+    /// Absent from metrics written before warnings were recorded.
+    #[serde(default)]
+    warnings: Vec<crate::warning::Warning>,
     selection: SelectionDe,
     table2: Table2De,
     drift_sweep: Option<DriftDe>,
@@ -261,6 +264,7 @@ impl From<MetricsDe> for Metrics {
             holdout_samples: m.holdout_samples,
             channels: m.channels,
             units: m.units,
+            warnings: m.warnings,
             selection: SelectionSummary {
                 chosen: s.chosen.into(),
                 cv_rmse_p: a3(s.cv_rmse_p),

@@ -435,6 +435,30 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     Ok(out)
 }
 
+/// The warnings of metrics.json (`train`'s and `evaluate`'s), the first thing on the page: each
+/// message with its channel and code, and the numbers behind it.
+fn warnings_block(ws: &[crate::warning::Warning]) -> String {
+    if ws.is_empty() {
+        return "<p class=\"note\" id=\"warnings\"><strong>Warnings:</strong> none recorded in metrics.json (by <code>train</code> or <code>evaluate</code>).</p>\n".into();
+    }
+    let mut o = format!(
+        "<div class=\"warn\" id=\"warnings\"><strong>{} recorded by <code>train</code> and <code>evaluate</code> (metrics.json):</strong>\n<ul>\n",
+        if ws.len() == 1 { "1 warning".to_string() } else { format!("{} warnings", ws.len()) }
+    );
+    for w in ws {
+        let numbers: Vec<String> = w.numbers.iter().map(|(k, v)| format!("{k} = {}", num(*v, 4))).collect();
+        o.push_str(&format!(
+            "<li>{}{} <span class=\"files\">({}{})</span></li>\n",
+            w.channel.as_deref().map(|c| format!("<strong>{}:</strong> ", esc(c))).unwrap_or_default(),
+            esc(&w.message),
+            esc(&w.code),
+            if numbers.is_empty() { String::new() } else { format!("; {}", esc(&numbers.join(", "))) }
+        ));
+    }
+    o.push_str("</ul></div>\n");
+    o
+}
+
 fn page(
     dir: &Path,
     inp: &Inputs,
@@ -453,12 +477,13 @@ fn page(
     } else {
         format!("FBG compensation audit report — “{}” (recorded data)", m.scenario)
     };
-    let header = format!(
+    let mut header = format!(
         "<p>Model-P (polynomial core, paper Eq. 3) and Model-H (the same core plus an RBF residual, paper Eqs. 4–7) evaluated on the hold-out of {} samples. Report generated {} by fbg-trainer {} from the files in this directory; regenerate with <code>fbg-trainer report --out &lt;this directory&gt;</code>.</p>\n",
         count(m.holdout_samples),
         date(today),
         env!("CARGO_PKG_VERSION")
     );
+    header.push_str(&warnings_block(&m.warnings));
     let fig = |stem: &str| -> String {
         specs
             .iter()
@@ -597,11 +622,19 @@ fn page(
         sections.push(Section { id: "other-studies".into(), title: "Other studies in metrics.json".into(), body });
     }
 
-    // Coefficients.
+    // Sensitivities (the calibration sheet), then the coefficients.
+    let is_sens = |n: &str| n.starts_with("sensitivity");
+    let mut body = String::from(
+        "<p>Each grating's sensitivity to each measurand and the model's inverse, as a calibration sheet gives them (fbg_trainer::fit::sensitivity; also in model.coefficients.json and <code>fbg-trainer inspect</code>).</p>\n",
+    );
+    for (name, t) in coefs.iter().filter(|(n, _)| is_sens(n)) {
+        body.push_str(&html::table(t, Some(name)));
+    }
+    sections.push(Section { id: "sensitivity".into(), title: "Sensitivities at the calibration point".into(), body });
     let mut body = String::from(
         "<p>Every number the device uses, read back from the model blobs (f32 on disk, shown in f64). The polynomial core is also given in physical units, the form a metrologist can check against gauge factors or replace after service.</p>\n",
     );
-    for (name, t) in coefs {
+    for (name, t) in coefs.iter().filter(|(n, _)| !is_sens(n)) {
         body.push_str(&html::table(t, Some(name)));
     }
     sections.push(Section { id: "coefficients".into(), title: "Coefficients".into(), body });
@@ -683,7 +716,7 @@ fn page(
     if let Some(meta) = &inp.meta {
         let s = &meta.scenario;
         let on = |b: bool| if b { "on" } else { "off" };
-        let srows: Vec<(String, String)> = vec![
+        let mut srows: Vec<(String, String)> = vec![
             (
                 "clock".into(),
                 format!(
@@ -704,7 +737,11 @@ fn page(
                     num(s.temperature.ar_sigma_c, 2)
                 ),
             ),
-            (
+        ];
+        // Only the measurands the scenario has (a one-output record names no strain or pressure).
+        let has = |k: crate::data::Kind| s.measurands.iter().any(|m| m.kind == k);
+        if has(crate::data::Kind::Strain) {
+            srows.push((
                 "strain".into(),
                 format!(
                     "levels {} … {} µε held {} s, sines ±{} / ±{} µε, AR σ {} µε",
@@ -715,8 +752,10 @@ fn page(
                     num(s.strain.sine2_amp_ue, 0),
                     num(s.strain.ar_sigma_ue, 1)
                 ),
-            ),
-            (
+            ));
+        }
+        if has(crate::data::Kind::Pressure) {
+            srows.push((
                 "pressure".into(),
                 format!(
                     "mean {} kPa, sines ±{} / ±{} kPa, AR σ {} kPa",
@@ -725,7 +764,9 @@ fn page(
                     num(s.pressure.sine2_amp_kpa, 1),
                     num(s.pressure.ar_sigma_kpa, 2)
                 ),
-            ),
+            ));
+        }
+        srows.extend([
             (
                 "hysteresis (Eq. 9 + play)".into(),
                 format!(
@@ -774,7 +815,7 @@ fn page(
                     s.noise.white_sigma_pm
                 ),
             ),
-        ];
+        ]);
         body.push_str("<h3>Scenario</h3>\n");
         body.push_str(&html::facts(&srows));
         let toml = toml::to_string(s).unwrap_or_else(|e| format!("(cannot serialise the scenario: {e})"));

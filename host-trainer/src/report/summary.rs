@@ -154,8 +154,9 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         }
     }
     out.push(format!(
-        "The 95 % bands hold the truth on {} of hold-out samples for Model-H (temperature, strain, pressure) and {} for Model-P. Counting {}–{} % as on target: {}.",
+        "The 95 % bands hold the truth on {} of hold-out samples for Model-H ({}) and {} for Model-P. Counting {}–{} % as on target: {}.",
         list(&cov(&t.model_h)),
+        list(&names),
         list(&cov(&t.model_p)),
         num(clo, 0),
         num(chi, 0),
@@ -193,7 +194,7 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
             "Drift sweep (σ_d × {}, both models refitted each time): the slope of hold-out RMSE against σ_d is {} (Model-P vs Model-H). The paper reports a shallower slope for the hybrid; here Model-H's slope is shallower {}.",
             s.factors.iter().map(|f| num(*f, 1)).collect::<Vec<_>>().join(", "),
             list(&slopes),
-            if shallower.is_empty() { "on no channel".to_string() } else if shallower.len() == 3 { "on every channel".to_string() } else { format!("only for {}", list(&shallower)) }
+            if shallower.is_empty() { "on no channel".to_string() } else if shallower.len() == nch { "on every channel".to_string() } else { format!("only for {}", list(&shallower)) }
         ));
     }
 
@@ -214,7 +215,12 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
                 let g: Vec<String> = (0..nch)
                     .map(|c| change(crate::eval::score::gain_pct(base.channels[c].rmse, paper.channels[c].rmse)))
                     .collect();
-                s.push_str(&format!(" With the paper's own RBF inputs (“{}”), the hybrid's RMSE is {} than Model-P's (temperature, strain, pressure).", paper.name, list(&g)));
+                s.push_str(&format!(
+                    " With the paper's own RBF inputs (“{}”), the hybrid's RMSE is {} than Model-P's ({}).",
+                    paper.name,
+                    list(&g),
+                    list(&names)
+                ));
             }
             out.push(s);
         }
@@ -282,9 +288,10 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     let mut s = String::new();
     if let Some(p) = &m.parity {
         s.push_str(&format!(
-            "On the device path (f32), the largest deviation from the f64 reference over {} hold-out samples is {} of Model-H's RMSE (temperature, strain, pressure), with {} flag mismatches. ",
+            "On the device path (f32), the largest deviation from the f64 reference over {} hold-out samples is {} of Model-H's RMSE ({}), with {} flag mismatches. ",
             count(p.samples),
             list(&(0..nch).map(|c| format!("{} %", num(100.0 * p.max_diff_over_rmse[c], 4))).collect::<Vec<_>>()),
+            list(&names),
             p.flag_mismatches
         ));
     }
