@@ -4,19 +4,16 @@
 //! calibration and the largest validated lead (the band's clock), and the calibration's
 //! output envelope and largest band.
 
-use fbg_shared::layout::{MAX_GRATINGS, MAX_OUTPUTS, MAX_STAGE1};
+use fbg_shared::layout::{MAX_GRATINGS, MAX_OUTPUTS};
 use fbg_shared::{FieldContext, ZeroSource};
 
 use super::band::VarModel;
-use super::poly_core::phi;
+use super::sensitivity::core_jacobian;
 use super::HostParams;
 use crate::data::Dataset;
 
 /// A record's zero may move no output by more than this fraction of its cross-validated RMSE.
 pub const ZERO_TOLERANCE_OF_RMSE: f64 = 1.0 / 3.0;
-
-/// Step of the central differences \[pm\] (the core is a quadratic: exact up to rounding).
-const DIFF_STEP_PM: f64 = 1.0;
 
 /// The context of `p`, fitted on rows `cal` of `d` (sorted) with `band` per output, whose
 /// cross-validated RMSE per output is `cv_rmse`.
@@ -30,10 +27,12 @@ pub fn context(p: &HostParams, d: &Dataset, cal: &[usize], band: &[VarModel], cv
             fc.lambda_ref_source[g] = z.source;
         }
     }
-    let inverse = static_inverse(p, &mean_input(p, d, cal));
+    // ∂ŷ/∂Δλ of the static calibration at the calibration's mean input (where the
+    // standardised first guesses are 0), with T_amb held: a zero error moves the shifts only.
+    let inverse = core_jacobian(p, &[0.0; MAX_OUTPUTS]);
     let tol = (0..m)
         .filter_map(|o| {
-            let worst = inverse.get(o)?.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            let worst = inverse.get(o)?.iter().take(n).fold(0.0f64, |a, v| a.max(v.abs()));
             let r = cv_rmse.get(o).copied().unwrap_or(f64::NAN);
             (worst > 0.0 && r.is_finite()).then(|| ZERO_TOLERANCE_OF_RMSE * r / worst)
         })
@@ -63,59 +62,4 @@ pub fn context(p: &HostParams, d: &Dataset, cal: &[usize], band: &[VarModel], cv
         }
     }
     fc
-}
-
-/// The mean stage-1 input [Δλ_1..N, T_amb, 1] over `rows` (finite values only).
-pub fn mean_input(p: &HostParams, d: &Dataset, rows: &[usize]) -> [f64; MAX_STAGE1] {
-    let dims = p.dims;
-    let n = dims.gratings();
-    let mut x = [0.0; MAX_STAGE1];
-    let mean = |v: &[f64]| {
-        let (s, k) =
-            rows.iter().map(|&i| v[i]).filter(|v| v.is_finite()).fold((0.0, 0usize), |(s, k), v| (s + v, k + 1));
-        if k == 0 {
-            0.0
-        } else {
-            s / k as f64
-        }
-    };
-    for (o, g) in x.iter_mut().zip(&d.dl_pm).take(n) {
-        *o = mean(g);
-    }
-    if dims.ambient() {
-        x[n] = mean(d.ambient());
-    }
-    x[dims.stage1_len() - 1] = 1.0;
-    x
-}
-
-/// The static calibration's reading at stage-1 input `x` (stage 1 and the polynomial core; the
-/// memory terms settle to level-free values and the residual is local).
-fn core_reading(p: &HostParams, x: &[f64; MAX_STAGE1]) -> [f64; MAX_OUTPUTS] {
-    let dims = p.dims;
-    let m = dims.n_outputs();
-    let mut z = [0.0; MAX_OUTPUTS];
-    for (j, zj) in z.iter_mut().enumerate().take(m) {
-        let g: f64 = p.stage1[j].iter().zip(x.iter()).take(dims.stage1_len()).map(|(a, b)| a * b).sum();
-        *zj = (g - p.guess_mean[j]) / p.guess_std[j];
-    }
-    let f = phi(&dims, &z, true);
-    std::array::from_fn(|o| if o < m { p.poly[o].iter().zip(f.iter()).map(|(b, v)| b * v).sum() } else { 0.0 })
-}
-
-/// ∂ŷ_o/∂Δλ_i of the static calibration at `x` (output unit per pm), `[o][i]`.
-pub fn static_inverse(p: &HostParams, x: &[f64; MAX_STAGE1]) -> Vec<Vec<f64>> {
-    let dims = p.dims;
-    let (n, m) = (dims.gratings(), dims.n_outputs());
-    let mut out = vec![vec![0.0; n]; m];
-    for i in 0..n {
-        let (mut up, mut down) = (*x, *x);
-        up[i] += DIFF_STEP_PM;
-        down[i] -= DIFF_STEP_PM;
-        let (yu, yd) = (core_reading(p, &up), core_reading(p, &down));
-        for (o, row) in out.iter_mut().enumerate() {
-            row[i] = (yu[o] - yd[o]) / (2.0 * DIFF_STEP_PM);
-        }
-    }
-    out
 }
