@@ -402,15 +402,17 @@ fn band(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
                 g(q.resid_var[o].sqrt() * q.band_k[o]),
                 g(me.channels[o].mean_band),
                 format!("{:.1}", 100.0 * me.channels[o].coverage),
+                vm.get(o).filter(|v| v.cv_coverage.is_finite()).map_or(String::from("–"), |v| format!("{:.1}", 100.0 * v.cv_coverage)),
+                vm.get(o).filter(|v| v.lead_max_s.is_finite()).map_or(String::from("–"), |v| format!("{:.1}", v.lead_max_s / 3600.0)),
             ]);
         }
     }
     Table {
         title: format!(
-            "95 % band parameters: half-width = k95 · sqrt(s²(τ) · (1 + leverage)) (× the flagged-band factor for flagged samples), s²(τ) = a + b·τ with τ the time since the end of calibration (t = {} s); b is the fitted growth shrunk by t²/(1 + t²), t = fitted / se",
+            "95 % band parameters: half-width = k95 · sqrt(s²(τ) · (1 + leverage)) (× the flagged-band factor for flagged samples), s²(τ) = a + b·τ with τ the time since the end of calibration (t = {} s); b is the fitted growth shrunk by t²/(1 + t²), t = fitted / se; a is at least the cross-validated error at the shortest leads; a record without absolute time gets the band at the largest validated lead (flag lead-unknown)",
             g(h.t_cal_end_s)
         ),
-        header: ["model", "output", "a = s² at cal end [unit²]", "b = growth [unit²/s]", "growth as fitted ± se [unit²/s]", "k95", "half-width at τ = 0", "mean half-width on hold-out", "coverage %"]
+        header: ["model", "output", "a = s² at cal end [unit²]", "b = growth [unit²/s]", "growth as fitted ± se [unit²/s]", "k95", "half-width at τ = 0", "mean half-width on hold-out", "coverage % (hold-out)", "coverage % (cross-validated)", "largest validated lead [h]"]
             .map(String::from)
             .to_vec(),
         rows,
