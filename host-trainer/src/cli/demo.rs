@@ -53,6 +53,7 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
         &tr.core,
         Some(&tr.selection),
         Some(&tr.static_audit),
+        &tr.warnings,
     )?;
     write_metrics(&export::metrics_path(&model), &m)?;
     let hold = s.data.holdout_indices();

@@ -20,6 +20,7 @@
 pub mod files;
 pub mod import;
 pub mod measurand;
+pub mod outliers;
 pub mod units;
 
 use std::io::Write;
