@@ -37,7 +37,7 @@ use crate::data::Dataset;
 /// in 10¹⁵ samples, and the scale of a window of 10 neighbours is itself noisy (its MAD can come
 /// out at half the true σ): at 5 σ a year of 1 Hz references would raise false alarms, at 8 the
 /// simulated presets (whose references carry AR noise, holds, ramps and steps) show none over
-/// many seeds, with their largest |z| near 3 (`tests/outliers.rs`). A gross error (a unit slip,
+/// many seeds, with their largest |z| under 4 (`tests/fit.rs`). A gross error (a unit slip,
 /// a missing decimal point, a logger's 1e6 or −9999 sentinel) is thousands of σ away.
 pub const Z_LIMIT: f64 = 8.0;
 
@@ -128,11 +128,7 @@ pub struct SeriesOutlier {
 /// NaN when empty.
 fn median_of(v: &mut [f64]) -> f64 {
     v.sort_unstable_by(f64::total_cmp);
-    let n = v.len();
-    match (v.get(n.wrapping_sub(1) / 2), v.get(n / 2)) {
-        (Some(&a), Some(&b)) => 0.5 * (a + b),
-        _ => f64::NAN,
-    }
+    sorted_median(v)
 }
 
 /// The running median at `i` (of its neighbours, `i` itself left out) and the neighbours in
@@ -145,6 +141,16 @@ fn neighbours(x: &[f64], i: usize, buf: &mut Vec<f64>) -> f64 {
     buf.extend(x.get(i + 1..hi).unwrap_or(&[]));
     let mut sorted = buf.clone();
     median_of(&mut sorted)
+}
+
+/// The median of a sorted buffer (the mean of the middle two for an even count); NaN when
+/// empty.
+fn sorted_median(v: &[f64]) -> f64 {
+    let n = v.len();
+    match (v.get(n.wrapping_sub(1) / 2), v.get(n / 2)) {
+        (Some(&a), Some(&b)) => 0.5 * (a + b),
+        _ => f64::NAN,
+    }
 }
 
 /// The median of every window of [`WINDOW`] consecutive values (one window, the whole series,

@@ -199,3 +199,110 @@ pub fn train_warnings(dims: &Dims, selection: &Selection, audit: &StaticAudit, s
     }
     w
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::memory_core::MemoryChoice;
+    use crate::fit::static_fidelity::{Contributions, StaticGain};
+    use fbg_shared::layout::FeatureSet;
+
+    fn selection(cv_p: Vec<f64>, cv_h: Vec<f64>) -> Selection {
+        Selection {
+            chosen: Config {
+                feature_set: FeatureSet::HysteresisAware,
+                dead_band_pm: 2.0,
+                k: 8,
+                sigma_mult: 1.0,
+                alpha_rel: 1e-5,
+                cross_terms: true,
+            },
+            memory: MemoryChoice::none(),
+            memory_rows: vec![],
+            rows: vec![],
+            cv_rmse_p: cv_p,
+            cv_rmse_h: cv_h,
+            var_model_p: vec![],
+            var_model_h: vec![],
+            folds: vec![],
+            n_cal: 300,
+            cv_stride: 1,
+        }
+    }
+
+    #[test]
+    fn every_train_warning_names_its_channel_and_carries_its_numbers() {
+        let dims = Dims::new(2, false, &[Measurand::T.output(), Measurand::STRAIN.output()]).unwrap();
+        let g = |gain: Vec<f64>| StaticGain { offset: vec![0.0; 2], rows: vec![1; 2], gain };
+        let audit = StaticAudit {
+            model_p: g(vec![1.0, 1.0]),
+            model_h: g(vec![1.0, 0.95]),
+            contributions: Contributions { memory: vec![], rbf: vec![] },
+        };
+        let cell = Outlier {
+            row: 100,
+            line: 102,
+            column: "T_C".into(),
+            unit: "°C",
+            value: 1e6,
+            median: 21.5,
+            scale: 0.1,
+            z: 1e7,
+        };
+        let w = train_warnings(&dims, &selection(vec![0.25, 3.0], vec![0.31, 2.0]), &audit, &[cell]);
+        let codes: Vec<(&str, Option<&str>)> = w.iter().map(|w| (w.code.as_str(), w.channel.as_deref())).collect();
+        assert_eq!(
+            codes,
+            [
+                ("reference_outliers_skipped", Some("T")),
+                ("model_h_worse_cv", Some("T")),
+                ("static_gain_disagreement", Some("strain")),
+                ("no_ambient_thermometer", Some("T")),
+            ]
+        );
+        assert!(w[0].message.contains("line 102") && w[0].message.contains("1000000 °C"), "{}", w[0]);
+        assert_eq!(w[0].numbers["rows"], 1.0);
+        assert_eq!(w[1].numbers["cv_rmse_h_c"], 0.31);
+        assert_eq!(w[1].numbers["cv_rmse_p_c"], 0.25);
+        assert!(w[1].message.contains("Model-H is worse than Model-P on T"), "{}", w[1]);
+        assert_eq!(w[2].numbers["gain_h"], 0.95);
+        // The serde form other commands read back from coefficients.json.
+        let v = serde_json::to_value(&w[1]).unwrap();
+        assert_eq!(v["code"], "model_h_worse_cv");
+        assert_eq!(v["channel"], "T");
+        let back: Warning = serde_json::from_value(v).unwrap();
+        assert_eq!(back, w[1]);
+        // Model-H ahead everywhere, gains agreeing, a thermometer, nothing left out: silence.
+        let dims = Dims::new(2, true, &[Measurand::T.output(), Measurand::STRAIN.output()]).unwrap();
+        let audit = StaticAudit { model_h: g(vec![1.0, 1.0]), ..audit };
+        assert!(train_warnings(&dims, &selection(vec![0.25, 3.0], vec![0.2, 2.0]), &audit, &[]).is_empty());
+    }
+
+    #[test]
+    fn the_choice_reads_as_one_line_with_memory_groups_and_lambda() {
+        let sel = selection(vec![0.25], vec![0.2]);
+        let c = Chosen {
+            config: sel.chosen,
+            sigma: 2.5,
+            alpha: 0.003,
+            memory: vec![
+                MemoryUse {
+                    output: "T".into(),
+                    groups: vec!["ambient-high-pass", "drift-observer"],
+                    lambda: Some(1e-5),
+                },
+                MemoryUse { output: "strain".into(), groups: vec![], lambda: None },
+            ],
+        };
+        let t = c.text();
+        assert!(
+            t.starts_with("hysteresis-aware features, K = 8, σ = 1×NN (2.500), α = 1e-5·n (3.000e-3), dead band 2 pm"),
+            "{t}"
+        );
+        assert!(t.ends_with("memory terms: T ambient-high-pass + drift-observer (λ = 1e-5), strain none"), "{t}");
+        let v = serde_json::to_value(&c).unwrap();
+        assert_eq!(v["k"], 8);
+        assert_eq!(v["memory"][0]["lambda"], 1e-5);
+        assert!(v["memory"][1].get("lambda").is_none());
+    }
+}
