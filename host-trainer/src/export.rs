@@ -13,6 +13,7 @@ use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::fit::static_fidelity::StaticAudit;
 use crate::fit::{HostParams, PolyCore, Selection, HOST_CAP};
+use crate::warning::Warning;
 
 /// Encode a host model as a blob (f32).
 pub fn blob_bytes(p: &HostParams) -> Result<Vec<u8>, TrainerError> {
@@ -241,7 +242,8 @@ fn sidecar(model: &Path, suffix: &str) -> PathBuf {
     model.with_file_name(format!("{stem}.{suffix}"))
 }
 
-/// `<stem>.coefficients.json`: both models with every number a metrologist audits.
+/// `<stem>.coefficients.json`: both models with every number a metrologist audits, and the
+/// fit's warnings (`warnings`: code, channel, message, numbers; `fit::Trained::warnings`).
 pub fn write_coefficients(
     path: &Path,
     model_p: &HostParams,
@@ -249,13 +251,15 @@ pub fn write_coefficients(
     core: &PolyCore,
     selection: Option<&Selection>,
     audit: Option<&StaticAudit>,
+    warnings: &[Warning],
 ) -> Result<(), TrainerError> {
-    write_coefficients_signed(path, model_p, model_h, core, selection, audit, None)
+    write_coefficients_signed(path, model_p, model_h, core, selection, audit, None, warnings)
 }
 
 /// [`write_coefficients`] with the signatures of the blobs written (`signatures`: key id,
 /// serial and flags per model, under the key `signatures`), so that the audit file names
 /// the release each blob is.
+#[allow(clippy::too_many_arguments)]
 pub fn write_coefficients_signed(
     path: &Path,
     model_p: &HostParams,
@@ -264,6 +268,7 @@ pub fn write_coefficients_signed(
     selection: Option<&Selection>,
     audit: Option<&StaticAudit>,
     signatures: Option<serde_json::Value>,
+    warnings: &[Warning],
 ) -> Result<(), TrainerError> {
     let mut v = serde_json::json!({
         "format": "fbg-trainer coefficients v1",
@@ -279,6 +284,7 @@ pub fn write_coefficients_signed(
         })),
         "static_fidelity": audit.map(|a| static_fidelity_json(model_h, a)),
         "sensitivity": sensitivity_json(model_p),
+        "warnings": warnings,
     });
     if let (Some(sig), Some(obj)) = (signatures, v.as_object_mut()) {
         obj.insert("signatures".into(), sig);

@@ -121,3 +121,77 @@ fn train_evaluate_inspect_round_trip_on_a_short_scenario() {
     assert!(m["table2"]["model_h"]["channels"][1]["rmse"].as_f64().unwrap() > 0.0);
     assert!(m["table2"]["oracle_floor"].is_array(), "the sidecar gives the oracle floor");
 }
+
+/// Issue 27, item 5: a reference outlier in the calibration rows is refused naming file, line
+/// and column (nothing written); `--on-error skip` leaves its row out and says so on the
+/// terminal, in `--json` and in `coefficients.json`'s `warnings`; train prints what it chose,
+/// memory groups and λ included.
+#[test]
+fn train_refuses_a_reference_outlier_by_line_or_skips_it_and_says_what_it_chose() {
+    let d = tempfile::tempdir().unwrap();
+    let cfg = d.path().join("short.toml");
+    std::fs::write(&cfg, "name = \"short\"\n[clock]\ndays = 3.0\n").unwrap();
+    let sim = d.path().join("sim.csv");
+    assert!(run(bin().args(["simulate", "--seed", "23", "--config"]).arg(&cfg).arg("--out").arg(&sim)).0);
+    // Line 1002 (the header is line 1) is a calibration row: its T_C (second column) becomes 1e6.
+    let text = std::fs::read_to_string(&sim).unwrap();
+    let lines: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(k, l)| {
+            if k + 1 == 1002 {
+                assert!(l.ends_with(",cal"), "{l}");
+                let mut cells: Vec<&str> = l.split(',').collect();
+                cells[1] = "1000000";
+                cells.join(",")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    let csv = d.path().join("cal.csv");
+    std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
+
+    let model = d.path().join("m.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--data"]).arg(&csv).arg("--out").arg(&model));
+    assert!(!ok);
+    assert!(
+        err.contains("cal.csv: line 1002, column T_C: reference outlier: 1000000 °C where the running median is "),
+        "{err}"
+    );
+    assert!(err.contains("--on-error skip"), "{err}");
+    assert!(!model.exists() && !d.path().join("m.coefficients.json").exists());
+
+    let (ok, _, err) = run(bin().args(["train", "--on-error", "skip", "--data"]).arg(&csv).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("warning: left out 1 calibration row with a reference outlier in T_C (line 1002: 1000000 °C"),
+        "{err}"
+    );
+    assert!(err.contains("chose hysteresis-aware features, K = ") && err.contains("dead band"), "{err}");
+    assert!(err.contains("memory terms: T ") && err.contains("λ = "), "{err}");
+    let coef: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("m.coefficients.json")).unwrap()).unwrap();
+    let w = coef["warnings"].as_array().unwrap();
+    let skipped =
+        w.iter().find(|w| w["code"] == "reference_outliers_skipped").expect("the warning in coefficients.json");
+    assert_eq!(skipped["channel"], "T");
+    assert_eq!(skipped["numbers"]["first_line"], 1002.0);
+
+    let (ok, out, err) = run(bin()
+        .args(["train", "--json", "--on-error", "skip", "--data"])
+        .arg(&csv)
+        .arg("--out")
+        .arg(d.path().join("j.fbgm")));
+    assert!(ok, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(j["outliers_skipped"]["rows"], 1);
+    assert_eq!(j["outliers_skipped"]["lines"], serde_json::json!([1002]));
+    assert_eq!(j["warnings"], coef["warnings"]);
+    let memory = j["chosen"]["memory"].as_array().unwrap();
+    let outputs: Vec<&str> = memory.iter().map(|m| m["output"].as_str().unwrap()).collect();
+    assert_eq!(outputs, ["T", "strain", "p"]);
+    assert!(memory.iter().all(|m| m["groups"].is_array()));
+    assert!(j["chosen"]["sigma"].as_f64().unwrap() > 0.0 && j["chosen"]["alpha"].as_f64().unwrap() > 0.0);
+    assert!(j["chosen"]["k"].as_u64().is_some() && j["chosen"]["dead_band_pm"].as_f64().is_some());
+}

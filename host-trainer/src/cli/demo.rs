@@ -53,6 +53,7 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
         &tr.core,
         Some(&tr.selection),
         Some(&tr.static_audit),
+        &tr.warnings,
     )?;
     // The warnings `train` records in coefficients.json go into metrics.json too, as `evaluate` does.
     let train_warnings = fbg_trainer::eval::warnings::from_coefficients(&export::coefficients_path(&model));

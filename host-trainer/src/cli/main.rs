@@ -112,9 +112,15 @@ enum Cmd {
         /// `<stem>.coefficients.json` in the same directory (created when missing).
         #[arg(long, default_value = "model.fbgm")]
         out: PathBuf,
-        /// Print a JSON summary (outputs, sizes, chosen hyper-parameters, CV RMSE) on stdout.
+        /// Print a JSON summary (outputs, sizes, chosen hyper-parameters and memory terms, CV
+        /// RMSE, warnings) on stdout.
         #[arg(long)]
         json: bool,
+        /// Reference outliers in the calibration rows (a cell beyond a robust z-score of 8
+        /// against its running median): stop with an error naming file, line and column, or
+        /// leave their rows out of the fit and count them.
+        #[arg(long, value_parser = ["fail", "skip"], default_value = "fail")]
+        on_error: String,
         #[command(flatten)]
         sign: SignArgs,
     },
@@ -421,7 +427,7 @@ fn run() -> Result<()> {
             }
             Ok(())
         }
-        Cmd::Train { data, features, max_centres, out, json, sign } => {
+        Cmd::Train { data, features, max_centres, out, json, on_error, sign } => {
             let (base, coef) = (baseline_path(&out), export::coefficients_path(&out));
             let meta_file = meta_path(&data);
             let mut inputs = vec![data.as_path(), meta_file.as_path()];
@@ -431,9 +437,12 @@ fn run() -> Result<()> {
             let d = Dataset::read_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
             let origin = origin_of(&data, meta.as_ref());
-            let opts = train_options(features, max_centres, !json)?;
+            let opts = TrainOptions {
+                on_outlier: on_error.parse().map_err(anyhow::Error::msg)?,
+                ..train_options(features, max_centres, !json)?
+            };
             let t = Instant::now();
-            let tr = fit::train(&d, &opts, &origin)?;
+            let tr = fit::train_source(&d, &data.display().to_string(), &opts, &origin)?;
             let secs = t.elapsed().as_secs_f64();
             let (bh, sig_h) = sign::maybe_sign(export::blob_bytes(&tr.model_h)?, signer.as_ref())?;
             let (bp, sig_p) = sign::maybe_sign(export::blob_bytes(&tr.model_p)?, signer.as_ref())?;
@@ -449,24 +458,34 @@ fn run() -> Result<()> {
                 Some(&tr.selection),
                 Some(&tr.static_audit),
                 signatures.clone(),
+                &tr.warnings,
             )?;
             let s = &tr.selection;
+            let chosen = tr.chosen();
+            let skipped_rows = fbg_trainer::data::outliers::rows_of(&tr.skipped);
             if json {
                 println!(
                     "{}",
                     serde_json::to_string_pretty(&serde_json::json!({
                         "model_h": out, "model_p": base, "coefficients": coef,
                         "model_h_bytes": nh, "model_p_bytes": np, "train_seconds": secs,
-                        "chosen": s.chosen, "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h,
+                        "chosen": chosen, "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h,
                         "grid_points": s.rows.len(), "signatures": signatures,
                         "static_fidelity": export::static_fidelity_json(&tr.model_h, &tr.static_audit),
+                        "outliers_skipped": {
+                            "rows": skipped_rows.len(),
+                            "lines": skipped_rows.iter().map(|&r| fbg_trainer::data::outliers::csv_line(&d, r)).collect::<Vec<_>>(),
+                            "cells": tr.skipped,
+                        },
+                        "warnings": tr.warnings,
                     }))?
                 );
             } else {
-                let c = s.chosen;
                 eprintln!(
-                    "trained in {secs:.1} s on {} calibration samples; chose {} features, K = {}, σ = {}×NN, α = {:e}·n, dead band {} pm ({} grid points)",
-                    s.n_cal, c.feature_set.name(), c.k, c.sigma_mult, c.alpha_rel, c.dead_band_pm, s.rows.len()
+                    "trained in {secs:.1} s on {} calibration samples ({} grid points); chose {}",
+                    s.n_cal,
+                    s.rows.len(),
+                    chosen.text()
                 );
                 let outs = fbg_trainer::data::Measurand::of_dims(&tr.model_h.dims);
                 let dg = |m: &fbg_trainer::data::Measurand| {
@@ -484,18 +503,6 @@ fn run() -> Result<()> {
                 let bare: Vec<String> =
                     outs.iter().zip(&s.cv_rmse_h).map(|(m, v)| format!("{} {:.*}", m.short_name(), dg(m), v)).collect();
                 eprintln!("CV RMSE Model-P: {}; Model-H: {}", with_units.join(", "), bare.join(", "));
-                let channels = fbg_trainer::eval::score::channels(&tr.model_h.dims);
-                let worse: Vec<&str> = (0..channels.len())
-                    .filter(|&c| s.cv_rmse_h[c] > s.cv_rmse_p[c])
-                    .map(|c| channels[c].as_str())
-                    .collect();
-                if !worse.is_empty() {
-                    eprintln!(
-                        "warning: in cross-validation Model-H is worse than Model-P on {}; check the hold-out with `evaluate` and consider Model-P for {}",
-                        worse.join(", "),
-                        if worse.len() == 1 { "that channel" } else { "those channels" }
-                    );
-                }
                 let a = &tr.static_audit;
                 let gains = |g: &[f64]| -> String {
                     outs.iter().zip(g).map(|(m, v)| format!("{} {v:.4}", m.short_name())).collect::<Vec<_>>().join(", ")
@@ -505,22 +512,8 @@ fn run() -> Result<()> {
                     gains(&a.model_p.gain),
                     gains(&a.model_h.gain)
                 );
-                for (c, h, p) in a.disagreements() {
-                    eprintln!(
-                        "warning: Model-H's static gain on {} is {h:.4}, Model-P's {p:.4} ({:+.1} %, more than {} %): its memory terms or residual carry part of the measurand, so it will read wrong at a pace other than the calibration's; use Model-P for that channel or recalibrate on a record with holds",
-                        channels[c].as_str(),
-                        100.0 * (h / p - 1.0),
-                        100.0 * fbg_trainer::fit::static_fidelity::STATIC_GAIN_TOLERANCE
-                    );
-                }
-                let dims = &tr.model_h.dims;
-                if !dims.ambient() && dims.position(fbg_shared::layout::Quantity::Temperature).is_some() {
-                    // The band is calibrated on drift the batch shows; without a thermometer a
-                    // common-mode drift of the interrogator reads as a temperature change and
-                    // keeps growing after calibration.
-                    eprintln!(
-                        "warning: no ambient thermometer: the temperature output cannot tell interrogator drift from a temperature change (no drift observer), so its error can grow after calibration faster than its 95 % band; check T against a reference regularly or recalibrate"
-                    );
+                for w in &tr.warnings {
+                    eprintln!("warning: {w}");
                 }
                 eprintln!("wrote {} ({nh} B), {} ({np} B), {}", out.display(), base.display(), coef.display());
                 if let (Some(h), Some(p)) = (&sig_h, &sig_p) {

@@ -20,6 +20,7 @@
 pub mod files;
 pub mod import;
 pub mod measurand;
+pub mod outliers;
 pub mod record_meta;
 pub mod units;
 
@@ -632,6 +633,7 @@ fn read_meta(f: &mut std::fs::File, name: &str) -> Result<RecordMeta, TrainerErr
             break;
         }
         meta.read_comment(l.trim_end()).map_err(|m| TrainerError::data(name, n, "#", m))?;
+        meta.comment_lines = n;
     }
     drop(r);
     f.seek(SeekFrom::Start(0)).map_err(|e| TrainerError::data(name, 1, "-", e.to_string()))?;

@@ -40,12 +40,24 @@ impl GratingZero {
 }
 
 /// A record's zero and absolute clock.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct RecordMeta {
     /// Per grating, in grating order; empty when the record says nothing.
     pub zero: Vec<GratingZero>,
     /// Absolute time of `t_s = 0`, Unix seconds (UTC), when known.
     pub t0_unix_s: Option<f64>,
+    /// Comment lines before the header of the CSV the record was read from (0 otherwise): a
+    /// data row's line is its index + 2 + this.
+    #[serde(skip)]
+    pub comment_lines: u64,
+}
+
+/// Two records say the same when their zero and clock agree (where a copy was read from does
+/// not matter).
+impl PartialEq for RecordMeta {
+    fn eq(&self, other: &Self) -> bool {
+        self.zero == other.zero && self.t0_unix_s == other.t0_unix_s
+    }
 }
 
 impl RecordMeta {
@@ -104,7 +116,7 @@ impl RecordMeta {
     /// The rows `idx` of a record keep its zero; their clock moves with the first row kept
     /// (`t_s` of the new first row is `t_first_s` on the old clock).
     pub fn shifted(&self, t_first_s: f64) -> RecordMeta {
-        RecordMeta { zero: self.zero.clone(), t0_unix_s: self.t0_unix_s.map(|t| t + t_first_s) }
+        RecordMeta { zero: self.zero.clone(), t0_unix_s: self.t0_unix_s.map(|t| t + t_first_s), comment_lines: 0 }
     }
 }
 
@@ -140,6 +152,7 @@ mod tests {
                 GratingZero { nm: 1550.5, source: ZeroSource::FirstReading },
             ],
             t0_unix_s: Some(1_767_571_200.25),
+            comment_lines: 0,
         };
         let mut back = RecordMeta::default();
         for l in m.comment_lines() {

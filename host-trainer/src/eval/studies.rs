@@ -469,7 +469,10 @@ pub fn evaluate_models(
     bar.inc(1);
     timings.push(("evaluate".to_string(), t.elapsed().as_secs_f64()));
     let chosen = config_of(h);
-    let opts = TrainOptions { progress, seed: 1, ..TrainOptions::default() };
+    // The variants retrain on the rows the given models were fitted on: a model exists only
+    // for a batch without reference outliers or one trained with their rows left out.
+    let opts =
+        TrainOptions { progress, seed: 1, on_outlier: crate::data::import::OnError::Skip, ..TrainOptions::default() };
     let origin = Origin {
         scenario: meta.map(|m| m.scenario.name.clone()).unwrap_or_else(|| h.provenance.scenario.to_string()),
         seed: meta.map(|m| m.seed).unwrap_or(h.provenance.seed),
@@ -503,6 +506,8 @@ pub fn evaluate_models(
                 Some(a) => a.clone(),
                 None => fit::static_fidelity::StaticAudit::of(p, h, d, &cal)?,
             },
+            skipped: vec![],
+            warnings: vec![],
         };
         bar.set_message("ablation");
         let r = bar.suspend(|| ablation(d, &trained, &opts, &origin))?;

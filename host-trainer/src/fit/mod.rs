@@ -12,6 +12,7 @@ pub mod field;
 pub mod kmeans;
 pub mod linalg;
 pub mod memory_core;
+pub mod outcome;
 pub mod poly_core;
 pub mod recalibrate;
 pub mod select;
@@ -25,12 +26,15 @@ use rayon::prelude::*;
 use fbg_shared::layout::{Dims, FeatureSet, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_Z, VAR_RANK};
 use fbg_shared::{Centre, Compensator, Hyper, ModelParams, Provenance};
 
+use crate::data::import::OnError;
+use crate::data::outliers::{self, Outlier};
 use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::rng::{Rng, Stream};
 pub use band::VarModel;
 pub use design::{design_matrix, run, run_on_clock, CheckpointCache, Checkpoints, Gram};
 pub use features::FeatureChoice;
+pub use outcome::Chosen;
 pub use poly_core::PolyCore;
 pub use select::{Selection, TrainOptions};
 
@@ -466,9 +470,20 @@ pub struct Trained {
     /// Both models' static gains and what Model-H's dynamic terms contribute, over the
     /// calibration batch.
     pub static_audit: static_fidelity::StaticAudit,
+    /// The outlying reference cells whose calibration rows were left out of the fit
+    /// ([`TrainOptions::on_outlier`] skip; empty otherwise).
+    pub skipped: Vec<Outlier>,
+    /// What the fit finds worth a user's attention ([`outcome::train_warnings`]).
+    pub warnings: Vec<crate::warning::Warning>,
 }
 
-/// Fit Model-P and Model-H on the calibration samples of `d`.
+impl Trained {
+    /// What cross-validation chose, with σ, α and the memory terms of the final fit.
+    pub fn chosen(&self) -> Chosen {
+        Chosen::of(&self.selection, &self.model_h)
+    }
+}
+
 /// Largest span of a column over the calibration batch still taken as constant: the dataset
 /// CSV's resolution (6 decimals).
 pub const CONSTANT_SPAN: f64 = 1e-6;
@@ -511,15 +526,55 @@ pub fn refuse_constant_columns(d: &Dataset, cal: &[usize]) -> Result<(), Trainer
     Ok(())
 }
 
+/// The refusal of a calibration batch with outlying reference cells (`found`, by row) from
+/// `source`: its first cell's line and column, value and running median, and how many more.
+pub fn refuse_outliers(source: &str, found: &[Outlier]) -> TrainerError {
+    let Some(first) = found.first() else {
+        return TrainerError::Dataset { message: "no reference outliers".into() };
+    };
+    let rows = outliers::rows_of(found).len();
+    TrainerError::data(
+        source,
+        first.line,
+        &first.column,
+        format!(
+            "reference outlier: {}; {} calibration row{} with outlying reference cells (line{} {}): correct them or empty the cells (an empty reference cell is a missing reference), or train with `--on-error skip` to leave those rows out",
+            first.describe(),
+            rows,
+            if rows == 1 { "" } else { "s" },
+            if rows == 1 { "" } else { "s" },
+            outliers::first_lines(found)
+        ),
+    )
+}
+
+/// [`train_source`] of a dataset with no file name ("the dataset" in messages).
 pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Trained, TrainerError> {
+    train_source(d, "the dataset", opts, origin)
+}
+
+/// Fit Model-P and Model-H on the calibration samples of `d`, read from `source` (named by the
+/// refusal of reference outliers, with the CSV line: [`crate::data::outliers`]). Reference
+/// outliers in the calibration rows refuse the batch, or with [`TrainOptions::on_outlier`]
+/// skip leave their rows out ([`Trained::skipped`] and a warning say which).
+pub fn train_source(d: &Dataset, source: &str, opts: &TrainOptions, origin: &Origin) -> Result<Trained, TrainerError> {
     // The model's dimensions are the data's: a dataset without references cannot be fitted.
-    d.dims("the dataset")?;
-    // Fit on the calibration rows with finite inputs and every available reference.
-    let cal: Vec<usize> = d.cal_indices().into_iter().filter(|&i| d.usable(i)).collect();
+    let dims = d.dims(source)?;
+    let cal_rows = d.cal_indices();
+    let found = outliers::find(d, &cal_rows);
+    if !found.is_empty() && opts.on_outlier == OnError::Fail {
+        return Err(refuse_outliers(source, &found));
+    }
+    let skip = outliers::rows_of(&found);
+    // Fit on the calibration rows with finite inputs and every available reference, outliers
+    // left out.
+    let cal: Vec<usize> = cal_rows.into_iter().filter(|&i| d.usable(i) && skip.binary_search(&i).is_err()).collect();
     if cal.len() < 200 {
+        let left_out =
+            if skip.is_empty() { String::new() } else { format!(", {} with reference outliers left out", skip.len()) };
         return Err(TrainerError::Dataset {
             message: format!(
-                "{} usable calibration samples (finite inputs and references); at least 200 are needed",
+                "{} usable calibration samples (finite inputs and references{left_out}); at least 200 are needed",
                 cal.len()
             ),
         });
@@ -571,7 +626,17 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
     }
     let static_audit = static_fidelity::StaticAudit::of(&model_p, &model_h, d, &cal)?;
     phases.lap("assembly and static audit");
-    Ok(Trained { model_p, model_h, core: core_p, selection, phase_seconds: phases.laps, static_audit })
+    let warnings = outcome::train_warnings(&dims, &selection, &static_audit, &found);
+    Ok(Trained {
+        model_p,
+        model_h,
+        core: core_p,
+        selection,
+        phase_seconds: phases.laps,
+        static_audit,
+        skipped: found,
+        warnings,
+    })
 }
 
 /// Wall time per phase.

@@ -26,6 +26,7 @@ use super::memory_core::{self, MemoryChoice, MemoryCvRow, MemoryOptions};
 use super::{
     design, linalg, poly_core, residual_targets, skeleton, z_sample, CheckpointCache, Config, HostParams, ZSample,
 };
+use crate::data::import::OnError;
 use crate::data::Dataset;
 use crate::error::TrainerError;
 
@@ -54,6 +55,9 @@ pub struct TrainOptions {
     /// Show a progress bar (only on a terminal).
     #[serde(skip)]
     pub progress: bool,
+    /// Reference outliers in the calibration rows (`data::outliers`): refuse the batch
+    /// (`Fail`, the default) or leave their rows out of the fit (`Skip`).
+    pub on_outlier: OnError,
 }
 
 impl Default for TrainOptions {
@@ -75,6 +79,7 @@ impl Default for TrainOptions {
             seed: 1,
             cv_max_samples: 40_000,
             progress: false,
+            on_outlier: OnError::Fail,
         }
     }
 }

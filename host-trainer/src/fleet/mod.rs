@@ -389,7 +389,7 @@ fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<S
         Some(m) => Origin { scenario: m.scenario.name.clone(), seed: m.seed },
         None => Origin { scenario: g.name.clone(), seed: 0 },
     };
-    let tr = fit::train(&d, &opts, &origin)?;
+    let tr = fit::train_source(&d, &g.data.display().to_string(), &opts, &origin)?;
     if let Some(dir) = g.out.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
     }
@@ -412,6 +412,7 @@ fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<S
         Some(&tr.selection),
         Some(&tr.static_audit),
         signatures,
+        &tr.warnings,
     )?;
     write_bytes_atomically(&g.out, &blob)?;
     let rec = Sidecar {

@@ -402,8 +402,12 @@ fn band(p: &HostParams, h: &HostParams, m: &Metrics) -> Table {
                 g(q.resid_var[o].sqrt() * q.band_k[o]),
                 g(me.channels[o].mean_band),
                 format!("{:.1}", 100.0 * me.channels[o].coverage),
-                vm.get(o).filter(|v| v.cv_coverage.is_finite()).map_or(String::from("–"), |v| format!("{:.1}", 100.0 * v.cv_coverage)),
-                vm.get(o).filter(|v| v.lead_max_s.is_finite()).map_or(String::from("–"), |v| format!("{:.1}", v.lead_max_s / 3600.0)),
+                vm.get(o)
+                    .filter(|v| v.cv_coverage.is_finite())
+                    .map_or(String::from("–"), |v| format!("{:.1}", 100.0 * v.cv_coverage)),
+                vm.get(o)
+                    .filter(|v| v.lead_max_s.is_finite())
+                    .map_or(String::from("–"), |v| format!("{:.1}", v.lead_max_s / 3600.0)),
             ]);
         }
     }

@@ -248,6 +248,7 @@ pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
                 .map(|&nm| GratingZero { nm, source: fbg_shared::ZeroSource::Simulated })
                 .collect(),
             t0_unix_s: Some(SIM_START_UNIX_S),
+            comment_lines: 0,
         },
     };
     data.sort_refs();

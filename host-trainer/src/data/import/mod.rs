@@ -596,7 +596,7 @@ fn finish(
         t_amb_c: m.ambient.as_ref().map(|(_, a)| pick(a)),
         dl_pm: dl,
         split: vec![Split::Cal; n],
-        meta: RecordMeta { zero, t0_unix_s: None },
+        meta: RecordMeta { zero, ..RecordMeta::default() },
     };
     d.sort_refs();
     d.meta.t0_unix_s = match (m.absolute, opts.start_unix_s) {
