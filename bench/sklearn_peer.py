@@ -97,12 +97,18 @@ TICKS_PER_PM = 1024.0  # fbg_shared::direction_latch::TICKS_PER_PM
 
 
 def read_csv(path):
+    # The record's λ_ref and start time come as `#` comment lines before the header.
+    skip = 0
     with open(path) as f:
-        header = f.readline().strip().split(",")
+        line = f.readline()
+        while line.startswith("#"):
+            skip += 1
+            line = f.readline()
+        header = line.strip().split(",")
     if header != COLUMNS:
         sys.exit(f"{path}: expected the columns {','.join(COLUMNS)}, found {','.join(header)}")
-    num = np.loadtxt(path, delimiter=",", skiprows=1, usecols=range(8), dtype=np.float64, ndmin=2)
-    split = np.loadtxt(path, delimiter=",", skiprows=1, usecols=[8], dtype="U8", ndmin=1)
+    num = np.loadtxt(path, delimiter=",", skiprows=skip + 1, usecols=range(8), dtype=np.float64, ndmin=2)
+    split = np.loadtxt(path, delimiter=",", skiprows=skip + 1, usecols=[8], dtype="U8", ndmin=1)
     cal = split == "cal"
     return {
         "t": num[:, 0],

@@ -10,7 +10,7 @@ use common::{bin, run, short_csv};
 
 /// `csv` with the ambient cell of every `every`-th data row replaced by `x`.
 fn spoil_ambient(csv: &Path, out: &Path, every: usize) -> usize {
-    let text = std::fs::read_to_string(csv).unwrap();
+    let text = common::read_csv_body(csv);
     let mut n = 0;
     let lines: Vec<String> = text
         .lines()
@@ -61,7 +61,7 @@ fn on_error_skip_fails_above_the_skipped_fraction_with_counts_by_reason() {
 
 /// `csv` with column `col` rewritten by `f`.
 fn map_column(csv: &Path, out: &Path, col: usize, f: impl Fn(f64) -> f64) {
-    let text = std::fs::read_to_string(csv).unwrap();
+    let text = common::read_csv_body(csv);
     let mut lines = text.lines();
     let mut s = lines.next().unwrap().to_string() + "\n";
     for l in lines {
@@ -173,9 +173,10 @@ fn train_refuses_a_dataset_csv_cut_inside_its_last_row() {
     let (ok, _, err) =
         run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&cut).arg("--out").arg(d.path().join("m.fbgm")));
     assert!(!ok);
-    assert!(err.contains("cut.csv") && err.contains("line 4321") && err.contains("truncated last row"), "{err}");
+    // 4320 rows after the header and the record's two comment lines (λ_ref, start time).
+    assert!(err.contains("cut.csv") && err.contains("line 4323") && err.contains("truncated last row"), "{err}");
     // Cut inside the last number instead (the split column removed, so dl3_pm is last).
-    let text = std::fs::read_to_string(&csv).unwrap();
+    let text = common::read_csv_body(&csv);
     let no_split: String = text.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n").collect();
     let nosplit = d.path().join("nosplit.csv");
     std::fs::write(&nosplit, &no_split[..no_split.len() - 4]).unwrap();
@@ -241,7 +242,7 @@ fn evaluate_on_recorded_data_with_gaps_labels_what_it_scored() {
     let d = tempfile::tempdir().unwrap();
     let csv = short_csv(d.path());
     // A recorded file: no .meta.json sidecar, and 30 hold-out rows with a gap in dl2_pm.
-    let text = std::fs::read_to_string(&csv).unwrap();
+    let text = common::read_csv_body(&csv);
     let mut gaps = 0;
     let rec: String = text
         .lines()

@@ -59,7 +59,7 @@ fn a_record_without_references_is_compensated_with_gaps_kept() {
     let csv = short_csv(d.path());
     let model = train(d.path(), &csv);
     // The field record: inputs only, a gap in FBG2 on rows 100..105.
-    let text = std::fs::read_to_string(&csv).unwrap();
+    let text = common::read_csv_body(&csv);
     let mut lines = text.lines();
     let head: Vec<&str> = lines.next().unwrap().split(',').collect();
     let keep: Vec<usize> =
@@ -135,7 +135,7 @@ fn f32_runs_the_device_arithmetic_within_one_percent() {
 fn train_refuses_a_constant_reference_or_a_dead_grating_by_column() {
     let d = tempfile::tempdir().unwrap();
     let csv = short_csv(d.path());
-    let text = std::fs::read_to_string(&csv).unwrap();
+    let text = common::read_csv_body(&csv);
     let head: Vec<&str> = text.lines().next().unwrap().split(',').collect();
     let with_constant = |col: &str, value: &str| -> std::path::PathBuf {
         let k = head.iter().position(|h| *h == col).unwrap();

@@ -151,7 +151,7 @@ fn missing_reference_and_gaps_are_handled() {
     }
     let csv = dir.path().join("real.csv");
     d.write_csv(&csv).unwrap();
-    let text = std::fs::read_to_string(&csv).unwrap();
+    let text = common::read_csv_body(&csv);
     assert!(text.starts_with("t_s,T_C,strain_ue,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split\n"), "{}", &text[..80]);
     let back = fbg_trainer::data::Dataset::read_csv(&csv).unwrap();
     assert_eq!(back.measurands(), [Measurand::T, Measurand::STRAIN]);
@@ -197,8 +197,9 @@ fn stretches_resumed_from_checkpoints_answer_as_one_sequential_pass() {
     let mut rows: Vec<usize> = d.cal_indices().into_iter().step_by(3).collect();
     rows.extend([d.len() - 7, d.len() - 1]);
 
-    // Sequential reference.
+    // Sequential reference, on the record's own clock (as the stretches run it).
     let mut c = HostCompensator::new(h).unwrap();
+    c.set_clock(d.calibration_clock(h));
     let mut want_est = Vec::new();
     let mut want_psi = Vec::new();
     let mut r = rows.iter().peekable();

@@ -2,6 +2,8 @@
 //! Every bad case is an error naming file, line and column under `--on-error fail`, and a
 //! counted skip under `--on-error skip`; nothing is written when the import fails.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -111,7 +113,7 @@ fn enlight_tab_export_with_a_map_finds_each_grating_by_window_despite_a_dropped_
     let out = dir.path().join("data.csv");
     let s2 = import_to_csv(&enlight("enlight_tab.txt", Some("enlight_map.toml"), Some("refs.csv")), &out).unwrap();
     assert_eq!(s2.out.as_deref(), Some(out.to_str().unwrap()));
-    let text = std::fs::read_to_string(&out).unwrap();
+    let text = common::read_csv_body(&out);
     assert!(text.starts_with("t_s,T_C,strain_ue,p_kPa,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split\n"));
     assert!(text.lines().nth(8).unwrap().starts_with("7.000000,"), "{text}");
     let back = Dataset::read_csv(&out).unwrap();
@@ -713,7 +715,10 @@ fn single_grating_enlight_export_without_references_imports_row_for_row() {
     assert_eq!(j["purpose"], "compensation");
     assert_eq!(j["references"]["T_amb_C"], serde_json::Value::Null);
 
-    let body = std::fs::read_to_string(&out).unwrap();
+    let text = std::fs::read_to_string(&out).unwrap();
+    // The zero travels with the record: the first reading, named as such.
+    assert!(text.starts_with("# lambda_ref_nm: 1550.120000 first reading\n"), "{text:.120}");
+    let body = common::csv_body(&text);
     assert_eq!(body.lines().next().unwrap(), "t_s,dl1_pm,split");
     let d = Dataset::read_field_csv(&out).unwrap();
     assert_eq!(d.len(), 16);
@@ -760,7 +765,7 @@ fn the_map_names_any_measurand_columns() {
     assert_eq!(s.purpose, Purpose::Training);
     let e2: Measurand = "strain2_ue".parse().unwrap();
     assert_eq!(s.references.get(e2).unwrap().column, "SG2");
-    let body = std::fs::read_to_string(&out).unwrap();
+    let body = common::read_csv_body(&out);
     assert_eq!(body.lines().next().unwrap(), "t_s,strain_ue,strain2_ue,T_amb_C,dl1_pm,dl2_pm,split");
     let d = Dataset::read_csv(&out).unwrap();
     assert_eq!(d.measurands(), [Measurand::STRAIN, e2]);

@@ -243,7 +243,10 @@ fn field_preset_is_deterministic_and_has_its_physics() {
     assert_eq!(a, csv_bytes(&cfg, 7));
     assert_ne!(a, csv_bytes(&cfg, 8));
     let text = String::from_utf8(a).unwrap();
-    assert_eq!(text.lines().next().unwrap(), "t_s,T_C,strain_ue,p_kPa,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split");
+    assert_eq!(
+        common::csv_body(&text).lines().next().unwrap(),
+        "t_s,T_C,strain_ue,p_kPa,T_amb_C,dl1_pm,dl2_pm,dl3_pm,split"
+    );
 
     let s = simulate(&cfg, 7);
     let d = &s.data;

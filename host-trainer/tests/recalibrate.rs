@@ -89,7 +89,7 @@ fn a_tiny_batch_is_refused() {
 /// `src` with `delta` added to the reference temperature `T_C` of the rows whose `split` is one
 /// of `splits`, and without the rows whose split is in `drop`, as `dst`.
 fn edit_csv(src: &Path, dst: &Path, splits: &[&str], delta: f64, drop: &[&str]) -> PathBuf {
-    let text = std::fs::read_to_string(src).unwrap();
+    let text = common::read_csv_body(src);
     let mut lines = text.lines();
     let header = lines.next().unwrap();
     let cols: Vec<&str> = header.split(',').collect();

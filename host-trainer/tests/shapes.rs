@@ -28,7 +28,11 @@ fn csv_bytes(preset: Preset, seed: u64, thermometer: bool) -> Vec<u8> {
     let mut cfg = preset.config();
     cfg.ambient.thermometer = thermometer;
     simulate(&cfg, seed).data.write_csv(&p).unwrap();
-    std::fs::read(p).unwrap()
+    // The data rows and header: the comment lines before them (λ_ref, start time) are pinned
+    // apart, so the simulation's bytes keep their checksums.
+    let text = std::fs::read_to_string(p).unwrap();
+    assert!(text.starts_with("# lambda_ref_nm: ") && text.contains("\n# t0_utc: 2026-01-05T00:00:00.000Z\n"));
+    common::csv_body(&text).as_bytes().to_vec()
 }
 
 fn crc(b: &[u8]) -> u32 {
@@ -71,7 +75,7 @@ fn each_preset_has_its_shape_and_round_trips_through_the_csv() {
         assert_eq!((dims.gratings(), dims.ambient(), Measurand::of_dims(&dims)), (gratings, true, measurands.clone()));
         let p = dir.path().join(format!("{}.csv", preset.name()));
         d.write_csv(&p).unwrap();
-        let text = std::fs::read_to_string(&p).unwrap();
+        let text = common::read_csv_body(&p);
         assert_eq!(text.lines().next().unwrap(), header);
         let back = Dataset::read_csv(&p).unwrap();
         assert_eq!(back.shape(), d.shape());
@@ -86,7 +90,7 @@ fn each_preset_has_its_shape_and_round_trips_through_the_csv() {
         // Writing what was read gives the same bytes: the canonical order is stable.
         let again = dir.path().join("again.csv");
         back.write_csv(&again).unwrap();
-        assert_eq!(std::fs::read_to_string(&again).unwrap(), text, "{}", preset.name());
+        assert_eq!(std::fs::read_to_string(&again).unwrap(), std::fs::read_to_string(&p).unwrap(), "{}", preset.name());
         // The per-sample oracle inverts every measurand to near its noise.
         let floor = s.oracle_floor();
         assert_eq!(floor.measurands, measurands);
@@ -149,7 +153,7 @@ fn no_ambient_drops_the_column_and_nothing_else() {
     let b = dir.path().join("b.csv");
     let (ok, _, err) = run(bin().args(["simulate", "--config"]).arg(&cfg).arg("--out").arg(&b));
     assert!(ok, "{err}");
-    let text = std::fs::read_to_string(&b).unwrap();
+    let text = common::read_csv_body(&b);
     assert_eq!(text.lines().next().unwrap(), "t_s,T_C,dl1_pm,split");
     let d = Dataset::read_csv(&b).unwrap();
     assert!(d.t_amb_c.is_none() && d.n_gratings() == 1);

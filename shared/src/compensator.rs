@@ -633,7 +633,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     ///
     /// ```
     /// use fbg_shared::{Compensator, FeatureSet, Flags, ModelParams, Sample, StreamClock};
-    /// # let mut params: ModelParams<f64, 8> =
+    /// # let mut params: ModelParams<f32, 8> =
     /// #     fbg_testkit::models::model(8, 1, FeatureSet::HysteresisAware, Default::default());
     /// # params.resid_var_growth[0] = 1e-6;
     /// params.field.cal_end_unix_s = Some(1.7e9);

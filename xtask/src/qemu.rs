@@ -915,7 +915,8 @@ pub const LONG_STREAM_MIN: usize = 20_160;
 /// them.
 pub fn read_dataset_inputs(path: &Path) -> Result<Vec<fbg_shared::Sample<f32>>> {
     let text = fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let mut lines = text.lines();
+    // The record's λ_ref and start time are `#` comment lines before the header.
+    let mut lines = text.lines().skip_while(|l| l.starts_with('#'));
     let header: Vec<&str> = lines.next().unwrap_or("").split(',').map(str::trim).collect();
     let col = |name: &str| {
         header.iter().position(|h| *h == name).with_context(|| format!("{}: no column `{name}`", path.display()))

@@ -56,3 +56,18 @@ pub fn on_long_moves(x: &[f64], h: &[f64]) -> (Vec<f64>, Vec<f64>) {
     }
     (up, down)
 }
+
+/// A dataset CSV's text without the comment lines before its header (the record's λ_ref and
+/// start time): what a test that edits rows works on.
+pub fn csv_body(text: &str) -> &str {
+    let mut rest = text;
+    while rest.starts_with('#') {
+        rest = rest.split_once('\n').map_or("", |(_, r)| r);
+    }
+    rest
+}
+
+/// [`csv_body`] of the file at `p`.
+pub fn read_csv_body(p: &Path) -> String {
+    csv_body(&std::fs::read_to_string(p).unwrap()).to_string()
+}
