@@ -323,7 +323,7 @@ fn check_units(params: &HostParams, d: &Dataset, name: &str) -> Result<(), Train
         let span = hi - lo;
         let col = grating_column(g + 1);
         let mut v: Vec<f64> = d.dl_pm[g].iter().copied().filter(|x| x.is_finite()).collect();
-        if v.is_empty() || !(span > 0.0) {
+        if v.is_empty() || span.is_nan() || span <= 0.0 {
             continue;
         }
         v.sort_by(f64::total_cmp);

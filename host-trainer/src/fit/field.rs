@@ -42,8 +42,8 @@ pub fn context(p: &HostParams, d: &Dataset, cal: &[usize], band: &[VarModel], cv
     fc.cal_end_unix_s = d.meta.t0_unix_s.map(|t0| t0 + t_end);
     fc.lead_max_s = band.iter().map(|b| b.lead_max_s).filter(|t| t.is_finite()).fold(0.0, f64::max) as f32;
     let refs = d.references_of(&dims);
-    for o in 0..m.min(MAX_OUTPUTS) {
-        let r = refs[o].as_slice();
+    for (o, col) in refs.iter().enumerate().take(m.min(MAX_OUTPUTS)) {
+        let r = col.as_slice();
         if r.is_empty() {
             continue;
         }
