@@ -399,6 +399,17 @@ fn the_alarm_follows_the_flags() {
     let mut mem = Mem::new();
     let mut link = mem.link(default_blob());
     let good = samples(1)[0];
+    // Booted without a clock, a model whose band grows does not know the band's lead: said by
+    // a flag that is no fault, so the alarm stays off.
+    let p = params(default_blob());
+    let e = link.compensate(0, &good).unwrap();
+    assert!(!e.flags.is_fault());
+    assert_eq!(e.flags.contains(Flags::LEAD_UNKNOWN), p.resid_var_growth.iter().any(|&q| q > 0.0));
+    assert!(!link.get_ref().dev.alarm().is_on());
+    // With the stream's start time (an hour after calibration ended) the lead is known.
+    let start = p.field.cal_end_unix_s.unwrap() + 3600.0;
+    let clock = fbg_shared::StreamClock::StartUnix(start);
+    assert_eq!(link.request(&HostMsg::ResetStream { nonce: 9, clock }).unwrap(), DeviceMsg::Pong { nonce: 9 });
     assert!(link.compensate(0, &good).unwrap().flags.is_ok());
     assert!(!link.get_ref().dev.alarm().is_on());
     let mut nan = good;
@@ -738,7 +749,10 @@ fn a_memory_model_is_served_like_the_library_across_gaps_resets_and_updates() {
     assert!(reference.has_memory());
     assert_serves(&mut link, &mut reference, &s[..250], 0);
     // ResetStream forgets the memory (and the latches), on the device as in the library.
-    assert_eq!(link.request(&HostMsg::ResetStream { nonce: 4, clock: fbg_shared::StreamClock::Unknown }).unwrap(), DeviceMsg::Pong { nonce: 4 });
+    assert_eq!(
+        link.request(&HostMsg::ResetStream { nonce: 4, clock: fbg_shared::StreamClock::Unknown }).unwrap(),
+        DeviceMsg::Pong { nonce: 4 }
+    );
     reference.reset();
     assert_serves(&mut link, &mut reference, &s[250..], 250);
     // Swapped in by an update from a model without memory, and back.
