@@ -25,19 +25,10 @@ fn zero_lead_mse(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> f64 {
     for (&t, &f) in lead_s.iter().zip(fold) {
         range[f] = (range[f].0.min(t), range[f].1.max(t));
     }
-    let (mut sum, mut n) = (0.0, 0usize);
-    for ((&t, &e), &f) in lead_s.iter().zip(sq_err).zip(fold) {
+    crate::stats::mean(lead_s.iter().zip(sq_err).zip(fold).filter_map(|((&t, &e), &f)| {
         let (lo, hi) = range[f];
-        if t <= lo + ZERO_LEAD_FRACTION * (hi - lo) && e.is_finite() {
-            sum += e;
-            n += 1;
-        }
-    }
-    if n == 0 {
-        f64::NAN
-    } else {
-        sum / n as f64
-    }
+        (t <= lo + ZERO_LEAD_FRACTION * (hi - lo) && e.is_finite()).then_some(e)
+    }))
 }
 
 /// Largest lag-one autocorrelation used in the inflation factor (keeps it finite).
