@@ -47,7 +47,7 @@ pub struct VarModel {
     pub b_fitted: f64,
     /// Standard error of the fitted growth, allowing for autocorrelated errors [unit²/s].
     pub b_se: f64,
-    /// Mean squared validation error nearest to zero lead [unit²] (each fold's first tenth of
+    /// Mean squared validation error nearest to zero lead \[unit²\] (each fold's first tenth of
     /// leads, pooled): the floor of `a`, so that the band at the end of calibration is never
     /// narrower than the error the cross-validation saw there.
     pub a_floor: f64,

@@ -3,7 +3,7 @@
 //! offset is taken as it is, with no time-zone conversion).
 //!
 //! Numeric dates written in a locale's order (`01.03.2024 10:00:00`, `3/1/2024 10:00:00 AM`)
-//! are read only when the caller says in which order ([`Dmy`]): `01/03/2024` is the 1st of March
+//! are read only when the caller says in which order (`Dmy`): `01/03/2024` is the 1st of March
 //! day-first and January the 3rd month-first, and nothing in the cell tells which.
 
 use chrono::{DateTime, NaiveDate, NaiveDateTime, NaiveTime};
