@@ -14,6 +14,12 @@
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum StreamClock {
+    /// No absolute time: the band takes the largest lead the calibration validated and the
+    /// estimate carries [`crate::Flags::LEAD_UNKNOWN`]. First, so that its discriminant is 0 and
+    /// a compensator that has not been given a clock is all zero bytes (a device's static one
+    /// stays in `.bss`, costing no flash).
+    #[default]
+    Unknown,
     /// `t_s` is on the calibration record's own clock (the record the model was calibrated
     /// on, e.g. its hold-out): lead = `t_s` − the model's end of calibration on that clock.
     Calibration,
@@ -21,8 +27,4 @@ pub enum StreamClock {
     /// start + `t_s` − the model's absolute end of calibration. Unknown when the model has no
     /// absolute end of calibration.
     StartUnix(f64),
-    /// No absolute time: the band takes the largest lead the calibration validated and the
-    /// estimate carries [`crate::Flags::LEAD_UNKNOWN`].
-    #[default]
-    Unknown,
 }
