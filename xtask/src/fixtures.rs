@@ -35,7 +35,7 @@
 //! bank at K = 0, 16, 32 and 64 (the trainer's grid stops at 32 centres; the 64-centre one is
 //! also the model a K = 32 build must refuse), and the bench packs (`bench_pack_k32.bin`,
 //! `bench_pack_k64.bin`: every model a bench image of that capacity runs, with its samples;
-//! the K = 32 pack also has the trained models of [`TRAINED_PRESETS`] on their first 64
+//! the K = 32 pack also has the trained models of [`TRAINED_PRESETS`] on their first 48
 //! hold-out samples).
 //!
 //! Everything is regenerated when the trainer binary changes (a stamp in the directory), so
@@ -584,29 +584,31 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
         fs::create_dir_all(d.join("update"))?;
         run_trainer(&fx.trainer, &["train", "--data", p(&fx.data), "--features", "paper", "--out", p(&update_model)])?;
         // In-envelope hold-out samples of the trainer's data (the golden ones carry no flag).
-        let samples: Vec<Sample<f32>> = read_inputs(&d.join("golden_inputs.bin"))?.into_iter().take(64).collect();
+        let samples: Vec<Sample<f32>> =
+            read_inputs(&d.join("golden_inputs.bin"))?.into_iter().take(BENCH_SAMPLES).collect();
         write_atomic(&trainer_inputs, &inputs_bytes(&samples))?;
         let synthetic_row = |name: &str| name.starts_with("memory_") || name.starts_with("plain_");
         for (_, k, mem, _, path, _, _) in rows.iter().filter(|r| synthetic_row(r.0)) {
             write_atomic(path, &synthetic_blob(*k, 100 + *k as u64, *mem)?)?;
         }
         // The random models of other dims (written by `ensure` with their golden sets): their
-        // first 64 samples, in the envelope, on a regular 60 s clock.
+        // first 48 samples, in the envelope, on a regular 60 s clock.
         for (i, r) in rows.iter().filter(|r| r.0.starts_with("dims_")).enumerate() {
-            let (_, samples) = dims_model(i, 64, false)?;
+            let (_, samples) = dims_model(i, BENCH_SAMPLES, false)?;
             write_atomic(&r.5, &inputs_bytes(&samples))?;
         }
-        // The trained models of the other presets: their first 64 hold-out samples, as for the
+        // The trained models of the other presets: their first 48 hold-out samples, as for the
         // default model.
         for (t, set) in TRAINED_PRESETS.iter().zip(&fx.trained_sets) {
             let dir = set.meta.parent().context("a trained set without a directory")?;
-            let samples: Vec<Sample<f32>> = read_inputs(&dir.join("golden_inputs.bin"))?.into_iter().take(64).collect();
+            let samples: Vec<Sample<f32>> =
+                read_inputs(&dir.join("golden_inputs.bin"))?.into_iter().take(BENCH_SAMPLES).collect();
             let path = rows.iter().find(|r| r.0 == t.name).map(|r| &r.5).context("no bench row of a trained set")?;
             write_atomic(path, &inputs_bytes(&samples))?;
         }
         // In-envelope, unflagged samples of the synthetic installation on a regular 60 s clock
         // (the bench image continues the clock across its passes over them).
-        let synthetic = fbg_testkit::installation::samples(64, 21);
+        let synthetic = fbg_testkit::installation::samples(BENCH_SAMPLES, 21);
         write_atomic(&synthetic_inputs, &inputs_bytes(&synthetic))?;
         for (cap, pack) in &bench_packs {
             let mut records: Vec<(Vec<u8>, Vec<Sample<f32>>)> = Vec::new();
@@ -627,6 +629,11 @@ pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
     }
     Ok(DeviceFixtures { update_model, k64_model, bench, bench_packs })
 }
+
+/// Samples per model in a bench pack: the K = 32 pack (every model with its samples) must fit
+/// the bench image beside the firmware in the 256 KiB of flash, and 48 samples (44 B each)
+/// leave room for format 4's field context in each blob.
+pub const BENCH_SAMPLES: usize = 48;
 
 /// Write `bytes` to `path` through a temporary file and a rename (no half-written output).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
