@@ -153,13 +153,15 @@ pub fn firmware_dir(root: &Path) -> PathBuf {
 }
 
 /// Environment of a firmware build: capacity `k`, the golden pack, and the bench pack (`bench`;
-/// by default the golden pack, for builds that do not run the bench).
+/// none for builds that do not run the bench: the bench image then embeds an empty pack, as the
+/// build script does for a missing fixture, so that it links beside the product whatever the
+/// golden pack's size).
 pub fn build_env(k: usize, fx: &Fixtures, bench: Option<&Path>) -> Vec<(String, String)> {
     let s = |p: &Path| p.display().to_string();
     vec![
         ("FBG_K".to_string(), k.to_string()),
         ("FBG_GOLDEN_PACK".to_string(), s(&fx.golden_pack)),
-        ("FBG_BENCH_PACK".to_string(), s(bench.unwrap_or(&fx.golden_pack))),
+        ("FBG_BENCH_PACK".to_string(), bench.map(s).unwrap_or_default()),
         ("FBG_BENCH_SIGNED".to_string(), s(&fixtures::dir(&crate::root()).join("bench_signed.fbgm"))),
     ]
 }
