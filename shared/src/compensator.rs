@@ -509,7 +509,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             || !memory_ok
             || !centres().all(|c| folded.centre(&c, &active, m_out).is_finite())
             || !f(params.t_cal_end_s).is_finite()
-            || !F::from_f64(f64::from(params.field.lead_max_s)).is_finite()
+            || !F::from_real(params.field.lead_max_s).is_finite()
         {
             return Err(Error::BadParameter { field: "folded coefficients (overflow in this precision)" });
         }
@@ -546,7 +546,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.t_cal_end_s = f(params.t_cal_end_s);
         self.band_grows = params.resid_var_growth.iter().any(|&q| q > G::ZERO);
         self.cal_end_unix_s = params.field.cal_end_unix_s;
-        self.lead_max_s = F::from_f64(f64::from(params.field.lead_max_s));
+        self.lead_max_s = F::from_real(params.field.lead_max_s);
         self.set_clock(self.clock);
         let n_env = dims.envelope_len();
         for (k, (o, &v)) in self.env_lo.iter_mut().zip(params.envelope_lo.iter()).enumerate() {
@@ -649,8 +649,11 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.clock = clock;
         self.lead_offset_s = match clock {
             StreamClock::Calibration => Some(-self.t_cal_end_s),
+            // In this precision: f64 arithmetic would cost an f32 device soft-float routines,
+            // and the rounding of Unix seconds in f32 (< 128 s) is nothing against a band that
+            // grows over days.
             StreamClock::StartUnix(start) => {
-                self.cal_end_unix_s.map(|end| F::from_f64(start - end)).filter(|o| o.is_finite())
+                self.cal_end_unix_s.map(|end| F::from_f64(start) - F::from_f64(end)).filter(|o| o.is_finite())
             }
             StreamClock::Unknown => None,
         };

@@ -115,9 +115,13 @@ impl FieldContext {
     pub fn validate(&self, dims: &Dims, fitted: &[bool; MAX_OUTPUTS]) -> Result<(), Error> {
         let n = dims.gratings();
         for (&nm, &src) in head(&self.lambda_ref_nm, n).iter().zip(head(&self.lambda_ref_source, n)) {
+            // Compared as bits: on a device without an f64 unit a float comparison would pull in
+            // soft-float routines, and for non-negative doubles the bit order is the numeric one
+            // (a negative value or NaN has bits above the range's).
+            let bits = nm.to_bits();
             let ok = match src {
-                ZeroSource::Unknown => nm == 0.0,
-                _ => nm.is_finite() && (100.0..=10_000.0).contains(&nm),
+                ZeroSource::Unknown => bits == 0,
+                _ => (LAMBDA_MIN_NM.to_bits()..=LAMBDA_MAX_NM.to_bits()).contains(&bits),
             };
             if !ok {
                 return Err(Error::BadParameter { field: "field.lambda_ref_nm" });
@@ -130,7 +134,7 @@ impl FieldContext {
         if !nonneg(self.lead_max_s) {
             return Err(Error::BadParameter { field: "field.lead_max_s" });
         }
-        if self.cal_end_unix_s.is_some_and(|t| !t.is_finite()) {
+        if self.cal_end_unix_s.is_some_and(|t| !f64_finite(t)) {
             return Err(Error::BadParameter { field: "field.cal_end_unix_s" });
         }
         let m = dims.n_outputs();
@@ -146,6 +150,16 @@ impl FieldContext {
         }
         Ok(())
     }
+}
+
+/// Lowest plausible Bragg wavelength \[nm\].
+const LAMBDA_MIN_NM: f64 = 100.0;
+/// Highest plausible Bragg wavelength \[nm\].
+const LAMBDA_MAX_NM: f64 = 10_000.0;
+
+/// Whether `x` is finite, from its exponent bits (no soft-float call on an f32-only device).
+pub const fn f64_finite(x: f64) -> bool {
+    (x.to_bits() >> 52) & 0x7ff != 0x7ff
 }
 
 impl Default for FieldContext {
