@@ -120,10 +120,10 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
     );
     println!(
         "clock: calibration ended {}; largest validated lead {:.1} h (the band's lead when a record's clock is unknown)",
-        f.cal_end_unix_s.map_or("at an unknown absolute time (calibrated on a record without absolute time)".to_string(), |t| format!(
-            "{}Z",
-            fbg_trainer::data::import::time_axis::format_timestamp(t)
-        )),
+        f.cal_end_unix_s.map_or(
+            "at an unknown absolute time (calibrated on a record without absolute time)".to_string(),
+            fbg_trainer::data::import::time_axis::format_utc
+        ),
         f.lead_max_s / 3600.0
     );
     let pr = &p.provenance;

@@ -86,7 +86,7 @@ impl RecordMeta {
             out.push(format!("# {LAMBDA_REF_KEY} {}", cells.join("; ")));
         }
         if let Some(t0) = self.t0_unix_s {
-            out.push(format!("# {T0_KEY} {}Z", crate::data::import::time_axis::format_timestamp(t0)));
+            out.push(format!("# {T0_KEY} {}", crate::data::import::time_axis::format_utc(t0)));
         }
         out
     }

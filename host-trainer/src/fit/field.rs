@@ -38,8 +38,7 @@ pub fn context(p: &HostParams, d: &Dataset, cal: &[usize], band: &[VarModel], cv
         })
         .fold(f64::INFINITY, f64::min);
     fc.lambda_ref_tol_pm = if tol.is_finite() { tol as f32 } else { 0.0 };
-    let t_end = cal.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
-    fc.cal_end_unix_s = d.meta.t0_unix_s.map(|t0| t0 + t_end);
+    fc.cal_end_unix_s = d.meta.t0_unix_s.map(|t0| t0 + p.t_cal_end_s);
     fc.lead_max_s = band.iter().map(|b| b.lead_max_s).filter(|t| t.is_finite()).fold(0.0, f64::max) as f32;
     let refs = d.references_of(&dims);
     for (o, col) in refs.iter().enumerate().take(m.min(MAX_OUTPUTS)) {

@@ -199,6 +199,12 @@ fn secs(d: NaiveDateTime) -> f64 {
 }
 
 /// A time on the axis, written back as `YYYY-MM-DDThh:mm:ss.fff` (for summaries).
+/// [`format_timestamp`] marked as UTC (`…Z`): how a record's start and a model's end of
+/// calibration are written for people and files.
+pub fn format_utc(t: f64) -> String {
+    format!("{}Z", format_timestamp(t))
+}
+
 pub fn format_timestamp(t: f64) -> String {
     let whole = t.floor();
     let nanos = ((t - whole) * 1e9).round().min(999_999_999.0) as u32;
