@@ -381,8 +381,8 @@ pub struct CentreReader<'a> {
     left: usize,
     nz: usize,
     m: usize,
-    /// Whether every number of every centre is finite (checked while parsing).
-    finite: bool,
+    /// The first centre's [`Centre::check`] error, if any (checked while parsing).
+    checked: Result<(), Error>,
 }
 
 impl CentreReader<'_> {
@@ -416,7 +416,7 @@ impl ExactSizeIterator for CentreReader<'_> {}
 /// [`decode_into`] for a model of up to `K` centres that leaves the centres in `bytes`: every
 /// field but the centres is parsed into `head` (which holds none), and the centres come back
 /// as a [`CentreReader`] over the blob, checked as [`decode_into`] checks them (count against
-/// the header and `K`, every number finite). With [`crate::Compensator::reload_split`] a
+/// the header and `K`, every number within its bound, [`Centre::check`]). With [`crate::Compensator::reload_split`] a
 /// device loads a model with one centre at a time on its stack instead of a whole
 /// [`ModelParams`].
 pub fn decode_split<'a, const K: usize>(
@@ -433,9 +433,7 @@ pub fn decode_split<'a, const K: usize>(
         });
     }
     head.validate()?;
-    if !reader.finite {
-        return Err(Error::BadParameter { field: "centres" });
-    }
+    reader.checked?;
     Ok(reader)
 }
 
@@ -570,16 +568,15 @@ fn parse_into<'a, const K: usize>(
     vector(&mut b, &mut out.z_std, nz)?;
     let n: u32 = take(&mut b)?;
     out.centres.clear();
-    let mut centres = CentreReader { bytes: b, left: 0, nz, m, finite: true };
+    let mut centres = CentreReader { bytes: b, left: 0, nz, m, checked: Ok(()) };
     for _ in 0..n {
         let mut c = Centre::<f32>::default();
         b = parse_centre(b, &mut c, nz, m)?;
         centres.left += 1;
         if store {
             out.centres.push(c).map_err(|_| ParseError::Postcard)?;
-        } else {
-            let fin = |a: &[f32]| a.iter().all(|v| v.is_finite());
-            centres.finite &= fin(&c.mu) && fin(&c.w) && fin(&c.v);
+        } else if centres.checked.is_ok() {
+            centres.checked = c.check();
         }
     }
     floats(&mut b, &mut out.var_inv_g)?;
