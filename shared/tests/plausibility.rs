@@ -88,8 +88,12 @@ fn the_issues_blobs_are_refused_by_the_decoder() {
 
 #[test]
 fn a_sound_model_is_never_implausible_on_its_installation() {
-    for memory in [false, true] {
-        let p = installation(memory);
+    // The fixtures' models (xtask: K = 0…64, seeds 1 and 7, with and without memory) among them.
+    for (k, seed, memory) in
+        [(32, 5, false), (32, 5, true), (32, 1, true), (0, 7, false), (16, 7, true), (64, 1, false)]
+    {
+        let p = synthetic_params(k, seed).unwrap();
+        let p: P32 = if memory { p } else { without_memory(p) }.convert().unwrap();
         let ss = samples(3000, 9);
         for e in run(&p, &ss) {
             assert!(e.flags.is_ok(), "{:?}", e.flags);
@@ -196,7 +200,14 @@ fn an_absurd_or_non_finite_band_is_flagged() {
 #[test]
 fn the_committed_blobs_decode_and_are_plausible() {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
-    for path in ["shared/tests/golden/tiny_v4.fbgm", "firmware/model/default.fbgm"] {
+    for path in [
+        "shared/tests/golden/tiny_v4.fbgm",
+        "firmware/model/default.fbgm",
+        "shared/fuzz/corpus/decode/seed-k0.fbgm",
+        "shared/fuzz/corpus/decode/seed-k32.fbgm",
+        "shared/fuzz/corpus/decode/seed-k8-long-provenance.fbgm",
+        "shared/fuzz/corpus/decode/seed-tiny-k2.fbgm",
+    ] {
         let bytes = std::fs::read(format!("{dir}/{path}")).unwrap();
         let p = decode::<MAX_K>(&bytes).unwrap_or_else(|e| panic!("{path}: {e}"));
         assert_eq!(p.validate(), Ok(()), "{path}");
