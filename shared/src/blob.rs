@@ -44,6 +44,22 @@
 //!
 //! Decoding checks magic, version, CRC, dims and every parameter, and returns a typed
 //! [`Error`]; it never panics and never allocates, whatever the bytes.
+//!
+//! A valid CRC (or signature) says the bytes are what a writer wrote, not that a fit wrote
+//! them: every number must also lie within the plausibility bound of its field, derived from
+//! the units and the scaling ([`crate::model::bounds`] has the table and the reasons), and each
+//! output's index within its quantity may not exceed [`MAX_OUTPUTS`]. In short: output values,
+//! guess means and deviations, the output envelope and the largest band within ±1e6 output
+//! units (°C, µε, kPa); shifts, T_amb, the input envelope and the λ_ref tolerance within ±1e6
+//! pm or °C; times and time constants within 1e10 s, the absolute end of calibration within
+//! ±1e11 Unix s; stage 1, the polynomial core, Γ, the observer's row and the centre weights
+//! within ±1e9; centre positions, σ and its multiplier within 1e6 standardised units; residual
+//! variances and their growth within 1e12 unit² (per s); `var_inv_g`, its tail and α within
+//! 1e12; the centres' variance components (unit eigenvectors) within ±1.001; band multipliers,
+//! the flagged-band factor and the envelope margin within 1e3. A number beyond its bound is
+//! [`Error::BadParameter`] naming the field ("stage1", "centres.v", "dims.outputs", …); the
+//! encoder refuses the same, so a blob that encodes always decodes. None of this changes the
+//! byte format.
 
 use serde::Serialize;
 

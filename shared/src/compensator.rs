@@ -1006,7 +1006,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         // Every fault widens the band, the implausible ones included.
         if flags.is_fault() {
             for bi in band95.iter_mut().take(m) {
-                *bi = *bi * self.flagged_band_factor;
+                *bi *= self.flagged_band_factor;
             }
         }
         for ((v, b), &fit) in y.iter_mut().zip(band95.iter_mut()).zip(self.fitted.iter()).take(m) {

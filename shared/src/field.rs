@@ -156,12 +156,11 @@ impl FieldContext {
             }
         }
         use crate::model::bounds::{INPUT_MAX, OUTPUT_MAX, TIME_MAX, UNIX_MAX_S};
-        let within = |v: f32, bound: f64| crate::model::within(v, bound);
-        let nonneg = |v: f32, bound: f64| within(v, bound) && v >= 0.0;
-        if !nonneg(self.lambda_ref_tol_pm, INPUT_MAX) {
+        use crate::model::within;
+        if !(within(self.lambda_ref_tol_pm, INPUT_MAX) && self.lambda_ref_tol_pm >= 0.0) {
             return Err(Error::BadParameter { field: "field.lambda_ref_tol_pm" });
         }
-        if !nonneg(self.lead_max_s, TIME_MAX) {
+        if !(within(self.lead_max_s, TIME_MAX) && self.lead_max_s >= 0.0) {
             return Err(Error::BadParameter { field: "field.lead_max_s" });
         }
         // By bits, as λ_ref: |t| from the bits without the sign, which order as the magnitudes
@@ -177,7 +176,7 @@ impl FieldContext {
             if fit && !(within(lo, OUTPUT_MAX) && within(hi, OUTPUT_MAX) && lo <= hi) {
                 return Err(Error::BadParameter { field: "field.output_envelope" });
             }
-            if !nonneg(b, OUTPUT_MAX) {
+            if !(within(b, OUTPUT_MAX) && b >= 0.0) {
                 return Err(Error::BadParameter { field: "field.band_max" });
             }
         }

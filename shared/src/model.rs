@@ -67,15 +67,16 @@ pub mod bounds {
     pub const UNIX_MAX_S: f64 = 1e11;
 }
 
-/// Whether `v` is within ±`bound` (false for NaN and infinities).
-#[inline]
+/// Whether `v` is within ±`bound` (false for NaN and infinities). Always inlined: `bound` is
+/// a constant, so an f32 device converts it at compile time, never with a soft-float call.
+#[inline(always)]
 pub(crate) fn within<F: Real>(v: F, bound: f64) -> bool {
     let b = F::from_f64(bound);
     v >= -b && v <= b
 }
 
-/// Whether every entry of `s` is within ±`bound`.
-#[inline]
+/// Whether every entry of `s` is within ±`bound` (inlined, as [`within`]).
+#[inline(always)]
 fn all_within<F: Real>(s: &[F], bound: f64) -> bool {
     s.iter().all(|&v| within(v, bound))
 }
@@ -375,9 +376,10 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
                 }
             }
         }
-        // Shifts and T_amb come first in z, then time and the latches (±1).
-        let z_max = |i: usize| if i < n_env { INPUT_MAX } else { TIME_MAX };
-        if !head(&self.z_mean, n_z).iter().enumerate().all(|(i, &v)| within(v, z_max(i))) {
+        // Shifts and T_amb come first in z, then time and the latches (±1). Each bound a
+        // constant at its call (see `within`).
+        let z_ok = |i: usize, v: F| if i < n_env { within(v, INPUT_MAX) } else { within(v, TIME_MAX) };
+        if !head(&self.z_mean, n_z).iter().enumerate().all(|(i, &v)| z_ok(i, v)) {
             return bad("z_mean");
         }
         let active = d.z_active(h.feature_set);
@@ -387,7 +389,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
             .zip(active.iter())
             .take(n_z)
             .enumerate()
-            .all(|(i, (&s, &on))| within(s, z_max(i)) && (!on || s > F::ZERO))
+            .all(|(i, (&s, &on))| z_ok(i, s) && (!on || s > F::ZERO))
         {
             return bad("z_std");
         }
