@@ -56,7 +56,8 @@
 //! within ±1e9; centre positions, σ and its multiplier within 1e6 standardised units; residual
 //! variances and their growth within 1e12 unit² (per s); `var_inv_g`, its tail and α within
 //! 1e12; the centres' variance components (unit eigenvectors) within ±1.001; band multipliers,
-//! the flagged-band factor and the envelope margin within 1e3. A number beyond its bound is
+//! the flagged-band factor and the envelope margin within 1e3; a known λ_ref within 100–10 000
+//! nm. A number beyond its bound is
 //! [`Error::BadParameter`] naming the field ("stage1", "centres.v", "dims.outputs", …); the
 //! encoder refuses the same, so a blob that encodes always decodes. None of this changes the
 //! byte format.

@@ -32,6 +32,7 @@ use crate::real::Real;
 /// | [`EIGVEC_MAX`](bounds::EIGVEC_MAX) | 1 + 1e-3 | the centres' variance components |
 /// | [`FACTOR_MAX`](bounds::FACTOR_MAX) | 1e3 | band multipliers, the flagged-band factor, the envelope margin |
 /// | [`UNIX_MAX_S`](bounds::UNIX_MAX_S) | 1e11 s | the absolute end of calibration |
+/// | ([`FieldContext::validate`]) | 100–10 000 nm | a known λ_ref |
 ///
 /// And an output's index within its quantity is at most [`MAX_OUTPUTS`] (a model has no more
 /// outputs than that, so `strain5_ue` cannot be one of them).
