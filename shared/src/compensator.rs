@@ -973,12 +973,6 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
         }
         let m = self.m::<M>();
-        // Plausibility (crate::field): a few compares per output. Unchecked outputs have ±∞.
-        for ((&v, &lo), &hi) in y.iter().zip(self.out_lo.iter()).zip(self.out_hi.iter()).take(m) {
-            if v < lo || v > hi {
-                flags.insert(Flags::IMPLAUSIBLE);
-            }
-        }
         let lead = if !self.band_grows {
             F::ZERO
         } else if let Some(o) = self.lead_offset_s {
@@ -987,21 +981,26 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             flags.insert(Flags::LEAD_UNKNOWN);
             self.lead_max_s
         };
+        // The band, and the plausibility of the value and the band (crate::field): three
+        // compares per output. An output unchecked or not fitted has ±∞ bounds and an infinite
+        // limit: only a band that overflows flags it (then the leverage did, for every output).
         let mut band95 = [F::ZERO; MAX_OUTPUTS];
-        for ((((bi, &bv), &bg), &lim), &fit) in band95
+        let mut implausible = false;
+        for (((bi, (&bv, &bg)), (&v, &lim)), (&lo, &hi)) in band95
             .iter_mut()
-            .zip(self.band_var.iter())
-            .zip(self.band_var_growth.iter())
-            .zip(self.band_lim.iter())
-            .zip(self.fitted.iter())
+            .zip(self.band_var.iter().zip(self.band_var_growth.iter()))
+            .zip(y.iter().zip(self.band_lim.iter()))
+            .zip(self.out_lo.iter().zip(self.out_hi.iter()))
             .take(m)
         {
             *bi = (bg.mul_add(lead, bv) * (F::ONE + lev)).sqrt();
-            // Written to be true for NaN too.
+            // `!(b < lim)`: true for a NaN band too.
             #[allow(clippy::neg_cmp_op_on_partial_ord)]
-            if fit && !(*bi < lim) {
-                flags.insert(Flags::IMPLAUSIBLE);
-            }
+            let bad = v < lo || v > hi || !(*bi < lim);
+            implausible |= bad;
+        }
+        if implausible {
+            flags.insert(Flags::IMPLAUSIBLE);
         }
         // Every fault widens the band, the implausible ones included.
         if flags.is_fault() {
