@@ -15,12 +15,18 @@ use crate::fit::static_fidelity::StaticAudit;
 use crate::fit::{HostParams, PolyCore, Selection, HOST_CAP};
 use crate::warning::Warning;
 
-/// Encode a host model as a blob (f32).
+/// Encode a host model as a blob (f32). Every blob the trainer writes or signs comes from
+/// here, and it is decoded again before it is returned: a model the decoder (so a device, and
+/// `sign`) would refuse, e.g. a coefficient beyond its plausibility bound
+/// (`fbg_shared::model::bounds`), is an error naming the field, never a file.
 pub fn blob_bytes(p: &HostParams) -> Result<Vec<u8>, TrainerError> {
-    let p32: ModelParams<f32, HOST_CAP> = p.convert().map_err(|e| TrainerError::fit(e.to_string()))?;
+    let refused =
+        |e: fbg_shared::Error| TrainerError::fit(format!("the trained model would not decode as a blob: {e}"));
+    let p32: ModelParams<f32, HOST_CAP> = p.convert().map_err(refused)?;
     let mut buf = vec![0u8; blob::max_len(p32.centres.len())];
-    let n = blob::encode(&p32, &mut buf).map_err(|e| TrainerError::fit(format!("encoding the model: {e}")))?;
+    let n = blob::encode(&p32, &mut buf).map_err(refused)?;
     buf.truncate(n);
+    blob::decode::<HOST_CAP>(&buf).map_err(refused)?;
     Ok(buf)
 }
 

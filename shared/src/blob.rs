@@ -44,6 +44,23 @@
 //!
 //! Decoding checks magic, version, CRC, dims and every parameter, and returns a typed
 //! [`Error`]; it never panics and never allocates, whatever the bytes.
+//!
+//! A valid CRC (or signature) says the bytes are what a writer wrote, not that a fit wrote
+//! them: every number must also lie within the plausibility bound of its field, derived from
+//! the units and the scaling ([`crate::model::bounds`] has the table and the reasons), and each
+//! output's index within its quantity may not exceed [`MAX_OUTPUTS`]. In short: output values,
+//! guess means and deviations, the output envelope and the largest band within ±1e6 output
+//! units (°C, µε, kPa); shifts, T_amb, the input envelope and the λ_ref tolerance within ±1e6
+//! pm or °C; times and time constants within 1e10 s, the absolute end of calibration within
+//! ±1e11 Unix s; stage 1, the polynomial core, Γ, the observer's row and the centre weights
+//! within ±1e9; centre positions, σ and its multiplier within 1e6 standardised units; residual
+//! variances and their growth within 1e12 unit² (per s); `var_inv_g`, its tail and α within
+//! 1e12; the centres' variance components (unit eigenvectors) within ±1.001; band multipliers,
+//! the flagged-band factor and the envelope margin within 1e3; a known λ_ref within 100–10 000
+//! nm. A number beyond its bound is
+//! [`Error::BadParameter`] naming the field ("stage1", "centres.v", "dims.outputs", …); the
+//! encoder refuses the same, so a blob that encodes always decodes. None of this changes the
+//! byte format.
 
 use serde::Serialize;
 
@@ -381,8 +398,8 @@ pub struct CentreReader<'a> {
     left: usize,
     nz: usize,
     m: usize,
-    /// Whether every number of every centre is finite (checked while parsing).
-    finite: bool,
+    /// The first centre's [`Centre::check`] error, if any (checked while parsing).
+    checked: Result<(), Error>,
 }
 
 impl CentreReader<'_> {
@@ -416,7 +433,7 @@ impl ExactSizeIterator for CentreReader<'_> {}
 /// [`decode_into`] for a model of up to `K` centres that leaves the centres in `bytes`: every
 /// field but the centres is parsed into `head` (which holds none), and the centres come back
 /// as a [`CentreReader`] over the blob, checked as [`decode_into`] checks them (count against
-/// the header and `K`, every number finite). With [`crate::Compensator::reload_split`] a
+/// the header and `K`, every number within its bound, [`Centre::check`]). With [`crate::Compensator::reload_split`] a
 /// device loads a model with one centre at a time on its stack instead of a whole
 /// [`ModelParams`].
 pub fn decode_split<'a, const K: usize>(
@@ -433,9 +450,7 @@ pub fn decode_split<'a, const K: usize>(
         });
     }
     head.validate()?;
-    if !reader.finite {
-        return Err(Error::BadParameter { field: "centres" });
-    }
+    reader.checked?;
     Ok(reader)
 }
 
@@ -570,16 +585,15 @@ fn parse_into<'a, const K: usize>(
     vector(&mut b, &mut out.z_std, nz)?;
     let n: u32 = take(&mut b)?;
     out.centres.clear();
-    let mut centres = CentreReader { bytes: b, left: 0, nz, m, finite: true };
+    let mut centres = CentreReader { bytes: b, left: 0, nz, m, checked: Ok(()) };
     for _ in 0..n {
         let mut c = Centre::<f32>::default();
         b = parse_centre(b, &mut c, nz, m)?;
         centres.left += 1;
         if store {
             out.centres.push(c).map_err(|_| ParseError::Postcard)?;
-        } else {
-            let fin = |a: &[f32]| a.iter().all(|v| v.is_finite());
-            centres.finite &= fin(&c.mu) && fin(&c.w) && fin(&c.v);
+        } else if centres.checked.is_ok() {
+            centres.checked = c.check();
         }
     }
     floats(&mut b, &mut out.var_inv_g)?;

@@ -279,6 +279,11 @@ pub struct Compensator<F, const K: usize> {
     band_grows: bool,
     env_lo: [F; MAX_ENVELOPE],
     env_hi: [F; MAX_ENVELOPE],
+    /// Plausible range of each output's estimate (±∞ for outputs unchecked or not fitted).
+    out_lo: [F; MAX_OUTPUTS],
+    out_hi: [F; MAX_OUTPUTS],
+    /// Each output's band must stay below this before widening (∞: only finite).
+    band_lim: [F; MAX_OUTPUTS],
     weak_support: F,
     flagged_band_factor: F,
     /// Latch dead band in ticks of 1/1024 pm.
@@ -439,6 +444,10 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             band_grows: false,
             env_lo: [F::ZERO; MAX_ENVELOPE],
             env_hi: [F::ZERO; MAX_ENVELOPE],
+            // Zero bytes, as the rest (never read before a model is loaded).
+            out_lo: [F::ZERO; MAX_OUTPUTS],
+            out_hi: [F::ZERO; MAX_OUTPUTS],
+            band_lim: [F::ZERO; MAX_OUTPUTS],
             weak_support: F::ZERO,
             // Never read before a model is loaded (no output is fitted); 0 keeps the value all
             // zero bytes, so a `static` of it lands in `.bss` and costs no flash.
@@ -554,6 +563,16 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         }
         for (k, (o, &v)) in self.env_hi.iter_mut().zip(params.envelope_hi.iter()).enumerate() {
             *o = if k < n_env { f(v) } else { F::ZERO };
+        }
+        for (o, ((lo, hi), lim)) in
+            self.out_lo.iter_mut().zip(self.out_hi.iter_mut()).zip(self.band_lim.iter_mut()).enumerate()
+        {
+            let (l, h, b) = if o < m_out && params.fitted.get(o).copied().unwrap_or(false) {
+                params.field.plausible(o)
+            } else {
+                (f32::NEG_INFINITY, f32::INFINITY, f32::INFINITY)
+            };
+            (*lo, *hi, *lim) = (F::from_real(l), F::from_real(h), F::from_real(b));
         }
         self.weak_support = f(h.weak_support);
         self.flagged_band_factor = f(h.flagged_band_factor);
@@ -953,7 +972,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         if !y.iter().zip(self.fitted.iter()).all(|(v, &fit)| !fit || v.is_finite()) {
             return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
         }
-        let widen = if flags.is_fault() { self.flagged_band_factor } else { F::ONE };
+        let m = self.m::<M>();
         let lead = if !self.band_grows {
             F::ZERO
         } else if let Some(o) = self.lead_offset_s {
@@ -962,10 +981,32 @@ impl<F: Real, const K: usize> Compensator<F, K> {
             flags.insert(Flags::LEAD_UNKNOWN);
             self.lead_max_s
         };
+        // The band, and the plausibility of the value and the band (crate::field): three
+        // compares per output. An output unchecked or not fitted has ±∞ bounds and an infinite
+        // limit: only a band that overflows flags it (then the leverage did, for every output).
         let mut band95 = [F::ZERO; MAX_OUTPUTS];
-        let m = self.m::<M>();
-        for ((bi, &bv), &bg) in band95.iter_mut().zip(self.band_var.iter()).zip(self.band_var_growth.iter()).take(m) {
-            *bi = (bg.mul_add(lead, bv) * (F::ONE + lev)).sqrt() * widen;
+        let mut implausible = false;
+        for (((bi, (&bv, &bg)), (&v, &lim)), (&lo, &hi)) in band95
+            .iter_mut()
+            .zip(self.band_var.iter().zip(self.band_var_growth.iter()))
+            .zip(y.iter().zip(self.band_lim.iter()))
+            .zip(self.out_lo.iter().zip(self.out_hi.iter()))
+            .take(m)
+        {
+            *bi = (bg.mul_add(lead, bv) * (F::ONE + lev)).sqrt();
+            // `!(b < lim)`: true for a NaN band too.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            let bad = v < lo || v > hi || !(*bi < lim);
+            implausible |= bad;
+        }
+        if implausible {
+            flags.insert(Flags::IMPLAUSIBLE);
+        }
+        // Every fault widens the band, the implausible ones included.
+        if flags.is_fault() {
+            for bi in band95.iter_mut().take(m) {
+                *bi *= self.flagged_band_factor;
+            }
         }
         for ((v, b), &fit) in y.iter_mut().zip(band95.iter_mut()).zip(self.fitted.iter()).take(m) {
             if !fit {

@@ -59,9 +59,11 @@ pub enum Error {
         /// Capacity `K` of the receiving type.
         capacity: usize,
     },
-    /// A parameter is non-finite or out of its range.
+    /// A parameter is non-finite or out of its range: the range a field admits (a positive
+    /// scale, an ordered envelope) or its plausibility bound ([`crate::model::bounds`]), or an
+    /// output index beyond the capacity ("dims.outputs").
     BadParameter {
-        /// The parameter's field path.
+        /// The parameter's field path ("stage1", "centres.v", "field.output_envelope", …).
         field: &'static str,
     },
     /// The output buffer is too small for the encoded blob.

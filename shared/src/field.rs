@@ -6,6 +6,15 @@
 //! field record zeroed on its own first reading is off by whatever the measurands were then
 //! (a grating at 10 pm/°C zeroed 3.7 °C away reads 3.7 °C wrong, unflagged). So the model
 //! carries λ_ref per grating and a tolerance, and a record that states another zero is refused.
+//!
+//! The output envelope and the largest band make a run-time plausibility check
+//! ([`FieldContext::plausible`]): an estimate of a fitted output outside
+//! `[lo − δ, hi + δ]`, δ = [`OUTPUT_MARGIN_OF_RANGE`] · (hi − lo) + [`OUTPUT_MARGIN_OF_BAND`] ·
+//! band_max, or whose band (before a flagged sample's widening) is non-finite or at least
+//! [`BAND_LIMIT_OF_MAX`] · band_max, carries [`crate::Flags::IMPLAUSIBLE`], a fault. A sample
+//! whose inputs are inside their envelope gives such an estimate only from a wrong model; one
+//! outside is flagged out-of-envelope anyway. An output whose band_max is 0 (a context not
+//! known, as in a model built by hand) is checked only for a finite band.
 
 use crate::error::Error;
 use crate::layout::{head, Dims, MAX_GRATINGS, MAX_OUTPUTS};
@@ -109,9 +118,28 @@ impl FieldContext {
         }
     }
 
+    /// The plausible range of output `o`'s estimate and the band it must stay below, (lo, hi,
+    /// band limit), in the output's unit ([`crate::field`] states the margins): unbounded
+    /// (−∞, ∞, ∞) when the output's band_max is not positive.
+    pub fn plausible(&self, o: usize) -> (f32, f32, f32) {
+        let (lo, hi, b) = (
+            self.output_lo.get(o).copied().unwrap_or(0.0),
+            self.output_hi.get(o).copied().unwrap_or(0.0),
+            self.band_max.get(o).copied().unwrap_or(0.0),
+        );
+        // `!(b > 0)`: also a NaN, which `validate` refuses anyway.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(b > 0.0) {
+            return (f32::NEG_INFINITY, f32::INFINITY, f32::INFINITY);
+        }
+        let margin = OUTPUT_MARGIN_OF_RANGE * (hi - lo) + OUTPUT_MARGIN_OF_BAND * b;
+        (lo - margin, hi + margin, BAND_LIMIT_OF_MAX * b)
+    }
+
     /// Check the numbers for `dims`: a known λ_ref is a plausible wavelength (100–10 000 nm),
-    /// an unknown one 0; the tolerance, lead and bands finite and ≥ 0; the end of calibration
-    /// finite; each fitted output's envelope ordered and finite.
+    /// an unknown one 0; the tolerance, lead and bands finite, ≥ 0 and within their
+    /// [`crate::model::bounds`]; the end of calibration finite and within ±`UNIX_MAX_S`; each
+    /// fitted output's envelope ordered and within ±`OUTPUT_MAX`.
     pub fn validate(&self, dims: &Dims, fitted: &[bool; MAX_OUTPUTS]) -> Result<(), Error> {
         let n = dims.gratings();
         for (&nm, &src) in head(&self.lambda_ref_nm, n).iter().zip(head(&self.lambda_ref_source, n)) {
@@ -127,30 +155,47 @@ impl FieldContext {
                 return Err(Error::BadParameter { field: "field.lambda_ref_nm" });
             }
         }
-        let nonneg = |v: f32| v.is_finite() && v >= 0.0;
-        if !nonneg(self.lambda_ref_tol_pm) {
+        use crate::model::bounds::{INPUT_MAX, OUTPUT_MAX, TIME_MAX, UNIX_MAX_S};
+        use crate::model::within;
+        if !(within(self.lambda_ref_tol_pm, INPUT_MAX) && self.lambda_ref_tol_pm >= 0.0) {
             return Err(Error::BadParameter { field: "field.lambda_ref_tol_pm" });
         }
-        if !nonneg(self.lead_max_s) {
+        if !(within(self.lead_max_s, TIME_MAX) && self.lead_max_s >= 0.0) {
             return Err(Error::BadParameter { field: "field.lead_max_s" });
         }
-        if self.cal_end_unix_s.is_some_and(|t| !f64_finite(t)) {
+        // By bits, as λ_ref: |t| from the bits without the sign, which order as the magnitudes
+        // do (NaN and infinities above every finite bound).
+        let abs_bits = |t: f64| t.to_bits() & !(1u64 << 63);
+        if self.cal_end_unix_s.is_some_and(|t| abs_bits(t) > UNIX_MAX_S.to_bits()) {
             return Err(Error::BadParameter { field: "field.cal_end_unix_s" });
         }
         let m = dims.n_outputs();
         for (((&lo, &hi), &b), &fit) in
             self.output_lo.iter().zip(self.output_hi.iter()).zip(self.band_max.iter()).zip(fitted.iter()).take(m)
         {
-            if fit && !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+            if fit && !(within(lo, OUTPUT_MAX) && within(hi, OUTPUT_MAX) && lo <= hi) {
                 return Err(Error::BadParameter { field: "field.output_envelope" });
             }
-            if !nonneg(b) {
+            if !(within(b, OUTPUT_MAX) && b >= 0.0) {
                 return Err(Error::BadParameter { field: "field.band_max" });
             }
         }
         Ok(())
     }
 }
+
+/// Margin of the run-time output envelope on each side, as a fraction of the calibration's
+/// output range (five times the input envelope's margin the trainer uses: an estimate this far
+/// out with its inputs inside their envelope is not an extrapolation).
+pub const OUTPUT_MARGIN_OF_RANGE: f32 = 0.5;
+/// Margin of the run-time output envelope on each side, in largest bands: an estimate at the
+/// edge of the calibration range may be off by its band, and an output held constant in
+/// calibration has no range.
+pub const OUTPUT_MARGIN_OF_BAND: f32 = 4.0;
+/// An estimate's band (before the widening of a flagged sample) is implausible at this many
+/// times the largest band the calibration validated: leverage out of distribution and a lead
+/// beyond the validated one widen a sound model's band by a few times, not a hundred.
+pub const BAND_LIMIT_OF_MAX: f32 = 100.0;
 
 /// Lowest plausible Bragg wavelength \[nm\].
 const LAMBDA_MIN_NM: f64 = 100.0;

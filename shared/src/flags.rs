@@ -13,8 +13,10 @@
 /// f.insert(Flags::OUT_OF_ENVELOPE);
 /// assert!(f.contains(Flags::OUT_OF_ENVELOPE) && !f.is_ok());
 /// assert_eq!(f.union(Flags::WEAK_SUPPORT).to_string(), "out-of-envelope|weak-support");
-/// assert_eq!(Flags::from_bits(0b1_0000), None);
+/// assert_eq!(Flags::from_bits(0b10_0000), None);
 /// assert!(!Flags::LEAD_UNKNOWN.is_fault() && Flags::WEAK_SUPPORT.is_fault());
+/// assert!(Flags::IMPLAUSIBLE.is_fault());
+/// assert_eq!(Flags::IMPLAUSIBLE.union(Flags::LEAD_UNKNOWN).to_string(), "lead-unknown|implausible");
 /// ```
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "u8")]
@@ -57,12 +59,17 @@ impl Flags {
     /// band is taken at the largest lead the calibration validated. Not a fault: the value is
     /// as good as ever, only the band's clock is unknown ([`crate::StreamClock`]).
     pub const LEAD_UNKNOWN: Flags = Flags(1 << 3);
+    /// The estimate is implausible for this model: a value outside its output's calibration
+    /// envelope widened by the margins of [`crate::field`], or a band that is non-finite or far
+    /// beyond the largest the calibration validated ([`crate::FieldContext::plausible`]). With
+    /// the inputs inside their envelope, the model itself is wrong.
+    pub const IMPLAUSIBLE: Flags = Flags(1 << 4);
     /// The bits that say the value itself is suspect (non-finite, out of envelope, weak
-    /// support): they widen the band and drive a device's alarm; [`Flags::LEAD_UNKNOWN`] does
-    /// neither.
-    pub const FAULTS: Flags = Flags(0b111);
+    /// support, implausible): they widen the band and drive a device's alarm;
+    /// [`Flags::LEAD_UNKNOWN`] does neither.
+    pub const FAULTS: Flags = Flags(0b1_0111);
     /// Every bit this version defines.
-    pub const ALL: Flags = Flags(0b1111);
+    pub const ALL: Flags = Flags(0b1_1111);
 
     /// The flags of `bits`, `None` when a bit is not one of [`Flags::ALL`].
     pub const fn from_bits(bits: u8) -> Option<Flags> {
@@ -105,6 +112,7 @@ impl core::fmt::Display for Flags {
             (Flags::OUT_OF_ENVELOPE, "out-of-envelope"),
             (Flags::WEAK_SUPPORT, "weak-support"),
             (Flags::LEAD_UNKNOWN, "lead-unknown"),
+            (Flags::IMPLAUSIBLE, "implausible"),
         ] {
             if self.contains(bit) {
                 if !first {

@@ -14,6 +14,74 @@ use crate::layout::{
 use crate::memory::MemorySpec;
 use crate::real::Real;
 
+/// The largest magnitude a fit can give each kind of number a blob carries: a model with a
+/// number beyond its bound is refused by [`ModelParams::validate`] (so by the decoder, the
+/// encoder and every load), whatever its CRC or signature. The bounds follow from the units and
+/// the scaling, generously: they let through anything a calibration can produce and stop the
+/// values (up to 3.4e38 in f32) whose products overflow or whose estimates mean nothing.
+///
+/// | bound | value | applies to |
+/// |---|---|---|
+/// | [`OUTPUT_MAX`](bounds::OUTPUT_MAX) | 1e6 output units | guess means and deviations, output envelope, largest band |
+/// | [`INPUT_MAX`](bounds::INPUT_MAX) | 1e6 pm or °C | input envelope, shift and T_amb scalers, dead band, play widths, λ_ref tolerance |
+/// | [`TIME_MAX`](bounds::TIME_MAX) | 1e10 s | time and latch scalers, end of calibration, time constants, largest lead |
+/// | [`COEF_MAX`](bounds::COEF_MAX) | 1e9 | stage 1, polynomial core, Γ, centre weights, the observer's row |
+/// | [`STANDARDISED_MAX`](bounds::STANDARDISED_MAX) | 1e6 | centre positions μ, σ and its multiplier |
+/// | [`VARIANCE_MAX`](bounds::VARIANCE_MAX) | 1e12 unit² (per s for the growth) | residual variance and its growth |
+/// | [`INV_G_MAX`](bounds::INV_G_MAX) | 1e12 | `var_inv_g` and its tail, α |
+/// | [`EIGVEC_MAX`](bounds::EIGVEC_MAX) | 1 + 1e-3 | the centres' variance components |
+/// | [`FACTOR_MAX`](bounds::FACTOR_MAX) | 1e3 | band multipliers, the flagged-band factor, the envelope margin |
+/// | [`UNIX_MAX_S`](bounds::UNIX_MAX_S) | 1e11 s | the absolute end of calibration |
+/// | ([`FieldContext::validate`]) | 100–10 000 nm | a known λ_ref |
+///
+/// And an output's index within its quantity is at most [`MAX_OUTPUTS`] (a model has no more
+/// outputs than that, so `strain5_ue` cannot be one of them).
+pub mod bounds {
+    /// Largest |output value| (°C, µε, kPa): a million µε is 100 % strain, a million kPa a
+    /// gigapascal; no grating sees a million °C.
+    pub const OUTPUT_MAX: f64 = 1e6;
+    /// Largest |input| (Δλ in pm, T_amb in °C): a micrometre of shift is beyond any grating's
+    /// window.
+    pub const INPUT_MAX: f64 = 1e6;
+    /// Largest time \[s\] on the calibration clock or of a time constant (about 317 years).
+    pub const TIME_MAX: f64 = 1e10;
+    /// Largest |coefficient|: stage 1 (output units per pm or °C; FBG sensitivities are above
+    /// 1e-3 pm per unit, so a real inverse is below 1e3 per pm), the polynomial core and the
+    /// centre weights (output units per standardised unit: the calibration's output range, with
+    /// 1000 times [`OUTPUT_MAX`] for near-collinear guesses that cancel), Γ and the observer's
+    /// row (per pm or °C of a memory term).
+    pub const COEF_MAX: f64 = 1e9;
+    /// Largest standardised position or width (centres are calibration samples: a sample
+    /// |z| standard deviations from the mean needs more than z² samples).
+    pub const STANDARDISED_MAX: f64 = 1e6;
+    /// Largest residual variance (unit²) and its growth (unit² per s): [`OUTPUT_MAX`]².
+    pub const VARIANCE_MAX: f64 = 1e12;
+    /// Largest `1/g` of the variance's eigenvalues g ≥ α, and largest α (α is the relative
+    /// ridge times the calibration size; 1/g ≤ 1/α).
+    pub const INV_G_MAX: f64 = 1e12;
+    /// Largest |variance component|: components of unit eigenvectors, with room for rounding.
+    pub const EIGVEC_MAX: f64 = 1.0 + 1e-3;
+    /// Largest band multiplier (a 95 % quantile of |error|/s; 1.96 for Gaussian errors), flagged-band
+    /// factor and envelope margin (a fraction of the calibration range).
+    pub const FACTOR_MAX: f64 = 1e3;
+    /// Largest absolute end of calibration, Unix seconds (the year 5138).
+    pub const UNIX_MAX_S: f64 = 1e11;
+}
+
+/// Whether `v` is within ±`bound` (false for NaN and infinities). Always inlined: `bound` is
+/// a constant, so an f32 device converts it at compile time, never with a soft-float call.
+#[inline(always)]
+pub(crate) fn within<F: Real>(v: F, bound: f64) -> bool {
+    let b = F::from_f64(bound);
+    v >= -b && v <= b
+}
+
+/// Whether every entry of `s` is within ±`bound` (inlined, as [`within`]).
+#[inline(always)]
+fn all_within<F: Real>(s: &[F], bound: f64) -> bool {
+    s.iter().all(|&v| within(v, bound))
+}
+
 /// Hyper-parameters chosen by blocked time-series cross-validation, plus the flag settings.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Hyper<F> {
@@ -46,6 +114,25 @@ pub struct Centre<F> {
     pub w: [F; MAX_OUTPUTS],
     /// Component j of the `VAR_RANK` eigenvectors of `ΨᵀΨ + αI` with the smallest eigenvalues.
     pub v: [F; VAR_RANK],
+}
+
+impl<F: Real> Centre<F> {
+    /// Every number within its [`bounds`]: μ ([`bounds::STANDARDISED_MAX`]), the weights
+    /// ([`bounds::COEF_MAX`]) and the variance components ([`bounds::EIGVEC_MAX`]). The error
+    /// names the part ("centres.mu", "centres.w", "centres.v").
+    pub fn check(&self) -> Result<(), Error> {
+        let bad = |field| Err(Error::BadParameter { field });
+        if !all_within(&self.mu, bounds::STANDARDISED_MAX) {
+            return bad("centres.mu");
+        }
+        if !all_within(&self.w, bounds::COEF_MAX) {
+            return bad("centres.w");
+        }
+        if !all_within(&self.v, bounds::EIGVEC_MAX) {
+            return bad("centres.v");
+        }
+        Ok(())
+    }
 }
 
 /// Where the model came from (carried in the blob for audit).
@@ -220,95 +307,123 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         self.centres.len()
     }
 
-    /// Check every number a device would rely on: finite values, positive scales, ordered
-    /// envelope, sane flag settings. Decoding calls this; so should anyone building params by
-    /// hand.
+    /// Check every number a device would rely on: finite values within the plausibility
+    /// [`bounds`], positive scales, ordered envelope, sane flag settings, output indices within
+    /// the capacity. Decoding calls this; so should anyone building params by hand. An error
+    /// names the first field that fails.
     pub fn validate(&self) -> Result<(), Error> {
+        use bounds::*;
         let d = &self.dims;
         let h = &self.hyper;
-        let finite = |v: F| v.is_finite();
-        let all = |s: &[F]| s.iter().all(|&v| v.is_finite());
+        let bad = |field| Err(Error::BadParameter { field });
         let (m, n_s1, n_poly, n_z, n_env) = (d.n_outputs(), d.stage1_len(), d.poly_len(), d.z_len(), d.envelope_len());
-        if !(finite(h.sigma) && h.sigma > F::ZERO) {
-            return Err(Error::BadParameter { field: "hyper.sigma" });
+        if d.outputs().iter().any(|o| usize::from(o.index) > MAX_OUTPUTS) {
+            return bad("dims.outputs");
         }
-        if !(finite(h.sigma_mult) && h.sigma_mult > F::ZERO) {
-            return Err(Error::BadParameter { field: "hyper.sigma_mult" });
+        if !(within(h.sigma, STANDARDISED_MAX) && h.sigma > F::ZERO) {
+            return bad("hyper.sigma");
         }
-        if !(finite(h.alpha) && h.alpha >= F::ZERO) {
-            return Err(Error::BadParameter { field: "hyper.alpha" });
+        if !(within(h.sigma_mult, STANDARDISED_MAX) && h.sigma_mult > F::ZERO) {
+            return bad("hyper.sigma_mult");
         }
-        if !(finite(h.dead_band_pm) && h.dead_band_pm >= F::ZERO) {
-            return Err(Error::BadParameter { field: "hyper.dead_band_pm" });
+        if !(within(h.alpha, INV_G_MAX) && h.alpha >= F::ZERO) {
+            return bad("hyper.alpha");
         }
-        if !(finite(h.weak_support) && h.weak_support >= F::ZERO && h.weak_support <= F::ONE) {
-            return Err(Error::BadParameter { field: "hyper.weak_support" });
+        if !(within(h.dead_band_pm, INPUT_MAX) && h.dead_band_pm >= F::ZERO) {
+            return bad("hyper.dead_band_pm");
         }
-        if !(finite(h.envelope_margin) && h.envelope_margin >= F::ZERO) {
-            return Err(Error::BadParameter { field: "hyper.envelope_margin" });
+        if !(h.weak_support.is_finite() && h.weak_support >= F::ZERO && h.weak_support <= F::ONE) {
+            return bad("hyper.weak_support");
         }
-        if !(finite(h.flagged_band_factor) && h.flagged_band_factor >= F::ONE) {
-            return Err(Error::BadParameter { field: "hyper.flagged_band_factor" });
+        if !(within(h.envelope_margin, FACTOR_MAX) && h.envelope_margin >= F::ZERO) {
+            return bad("hyper.envelope_margin");
         }
-        if !self.stage1.iter().take(m).all(|r| all(head(r, n_s1))) {
-            return Err(Error::BadParameter { field: "stage1" });
+        if !(within(h.flagged_band_factor, FACTOR_MAX) && h.flagged_band_factor >= F::ONE) {
+            return bad("hyper.flagged_band_factor");
         }
-        if !head(&self.guess_mean, m).iter().all(|&v| finite(v)) {
-            return Err(Error::BadParameter { field: "guess_mean" });
+        if !self.stage1.iter().take(m).all(|r| all_within(head(r, n_s1), COEF_MAX)) {
+            return bad("stage1");
         }
-        if !head(&self.guess_std, m).iter().all(|&s| finite(s) && s > F::ZERO) {
-            return Err(Error::BadParameter { field: "guess_std" });
+        if !all_within(head(&self.guess_mean, m), OUTPUT_MAX) {
+            return bad("guess_mean");
         }
-        if !self.poly.iter().take(m).all(|r| all(head(r, n_poly))) {
-            return Err(Error::BadParameter { field: "poly" });
+        if !head(&self.guess_std, m).iter().all(|&s| within(s, OUTPUT_MAX) && s > F::ZERO) {
+            return bad("guess_std");
+        }
+        if !self.poly.iter().take(m).all(|r| all_within(head(r, n_poly), COEF_MAX)) {
+            return bad("poly");
         }
         self.memory.validate(d)?;
+        let mem = &self.memory;
+        if !all_within(&mem.grating_tau_s, TIME_MAX) {
+            return bad("memory.grating_tau_s");
+        }
+        if !all_within(&mem.ambient_tau_s, TIME_MAX) {
+            return bad("memory.ambient_tau_s");
+        }
+        if !all_within(&mem.play_half_width_pm, INPUT_MAX) {
+            return bad("memory.play_half_width_pm");
+        }
+        if !(within(mem.observer_lag_s, TIME_MAX) && within(mem.observer_smooth_s, TIME_MAX)) {
+            return bad("memory.observer");
+        }
+        if !all_within(&mem.observer_row, COEF_MAX) {
+            return bad("memory.observer_row");
+        }
         for row in self.gamma.iter().take(m) {
             for (k, &g) in row.iter().enumerate() {
-                if !g.is_finite() || (g != F::ZERO && !self.memory.term_active(d, k)) {
-                    return Err(Error::BadParameter { field: "gamma" });
+                if !within(g, COEF_MAX) || (g != F::ZERO && !self.memory.term_active(d, k)) {
+                    return bad("gamma");
                 }
             }
         }
-        if !all(head(&self.z_mean, n_z)) {
-            return Err(Error::BadParameter { field: "z_mean" });
+        // Shifts and T_amb come first in z, then time and the latches (±1). Each bound a
+        // constant at its call (see `within`).
+        let z_ok = |i: usize, v: F| if i < n_env { within(v, INPUT_MAX) } else { within(v, TIME_MAX) };
+        if !head(&self.z_mean, n_z).iter().enumerate().all(|(i, &v)| z_ok(i, v)) {
+            return bad("z_mean");
         }
         let active = d.z_active(h.feature_set);
-        if !self.z_std.iter().zip(active.iter()).take(n_z).all(|(&s, &on)| finite(s) && (!on || s > F::ZERO)) {
-            return Err(Error::BadParameter { field: "z_std" });
+        if !self
+            .z_std
+            .iter()
+            .zip(active.iter())
+            .take(n_z)
+            .enumerate()
+            .all(|(i, (&s, &on))| z_ok(i, s) && (!on || s > F::ZERO))
+        {
+            return bad("z_std");
         }
-        if !self.centres.iter().all(|c| all(&c.mu) && all(&c.w) && all(&c.v)) {
-            return Err(Error::BadParameter { field: "centres" });
+        self.centres.iter().try_for_each(Centre::check)?;
+        if !self.var_inv_g.iter().all(|&v| within(v, INV_G_MAX) && v >= F::ZERO) {
+            return bad("var_inv_g");
         }
-        if !self.var_inv_g.iter().all(|&v| finite(v) && v >= F::ZERO) {
-            return Err(Error::BadParameter { field: "var_inv_g" });
+        if !(within(self.var_inv_g_tail, INV_G_MAX) && self.var_inv_g_tail >= F::ZERO) {
+            return bad("var_inv_g_tail");
         }
-        if !(finite(self.var_inv_g_tail) && self.var_inv_g_tail >= F::ZERO) {
-            return Err(Error::BadParameter { field: "var_inv_g_tail" });
+        if !head(&self.resid_var, m).iter().all(|&v| within(v, VARIANCE_MAX) && v >= F::ZERO) {
+            return bad("resid_var");
         }
-        if !head(&self.resid_var, m).iter().all(|&v| finite(v) && v >= F::ZERO) {
-            return Err(Error::BadParameter { field: "resid_var" });
+        if !head(&self.resid_var_growth, m).iter().all(|&v| within(v, VARIANCE_MAX) && v >= F::ZERO) {
+            return bad("resid_var_growth");
         }
-        if !head(&self.resid_var_growth, m).iter().all(|&v| finite(v) && v >= F::ZERO) {
-            return Err(Error::BadParameter { field: "resid_var_growth" });
+        if !within(self.t_cal_end_s, TIME_MAX) {
+            return bad("t_cal_end_s");
         }
-        if !finite(self.t_cal_end_s) {
-            return Err(Error::BadParameter { field: "t_cal_end_s" });
-        }
-        if !head(&self.band_k, m).iter().all(|&k| finite(k) && k > F::ZERO) {
-            return Err(Error::BadParameter { field: "band_k" });
+        if !head(&self.band_k, m).iter().all(|&k| within(k, FACTOR_MAX) && k > F::ZERO) {
+            return bad("band_k");
         }
         if !self.fitted.iter().take(m).any(|&f| f) {
-            return Err(Error::BadParameter { field: "fitted" });
+            return bad("fitted");
         }
         if !self
             .envelope_lo
             .iter()
             .zip(self.envelope_hi.iter())
             .take(n_env)
-            .all(|(&lo, &hi)| finite(lo) && finite(hi) && lo <= hi)
+            .all(|(&lo, &hi)| within(lo, INPUT_MAX) && within(hi, INPUT_MAX) && lo <= hi)
         {
-            return Err(Error::BadParameter { field: "envelope" });
+            return bad("envelope");
         }
         self.field.validate(d, &self.fitted)
     }

@@ -6,14 +6,18 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use crc::{Crc, CRC_32_ISCSI};
-use fbg_shared::blob::{self, decode, encode, max_len, max_len_for, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};
+use fbg_shared::blob::{
+    self, decode, decode_split, encode, max_len, max_len_for, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN,
+};
 use fbg_shared::layout::paper::{MEM_AMBIENT, MEM_OBSERVER, MEM_STOP, N_MEMORY};
-use fbg_shared::layout::{pad, pad2, Dims, MAX_GRATINGS, MAX_MEMORY, MAX_OUTPUTS};
+use fbg_shared::layout::{pad, pad2, Dims, Output, Quantity, MAX_GRATINGS, MAX_MEMORY, MAX_OUTPUTS};
 use fbg_shared::{
     Centre, Compensator, Error, FeatureSet, FieldContext, Hyper, MemorySpec, ModelParams, Provenance, Sample,
     ZeroSource,
 };
-use fbg_testkit::models::{any_model, encode_vec, long_provenance, model, short_provenance};
+use fbg_testkit::models::{
+    any_model, encode_vec, full_memory_spec, long_provenance, memory_model, model, short_provenance,
+};
 use fbg_testkit::Rng;
 use proptest::prelude::*;
 
@@ -597,9 +601,9 @@ fn bad_cases() -> Vec<Case> {
         case("z_std", |p| p.z_std[0] = 0.0),
         case("z_std", |p| p.z_std[3] = -2.0),
         case("z_std", |p| p.z_std[6] = f32::NAN), // unused by Paper, but must be finite
-        case("centres", |p| p.centres[0].mu[0] = f32::NAN),
-        case("centres", |p| p.centres[3].w[2] = f32::INFINITY),
-        case("centres", |p| p.centres[1].v[3] = f32::NAN),
+        case("centres.mu", |p| p.centres[0].mu[0] = f32::NAN),
+        case("centres.w", |p| p.centres[3].w[2] = f32::INFINITY),
+        case("centres.v", |p| p.centres[1].v[3] = f32::NAN),
         case("var_inv_g", |p| p.var_inv_g[0] = -1.0),
         case("var_inv_g", |p| p.var_inv_g[3] = f32::NAN),
         case("var_inv_g_tail", |p| p.var_inv_g_tail = -0.5),
@@ -635,6 +639,140 @@ fn bad_cases() -> Vec<Case> {
         case("memory.observer_smooth_s", |p| p.memory.observer_lag_s = 600.0),
         case("memory.observer_row", |p| p.memory.observer_row[2] = f32::NAN),
     ]
+}
+
+/// Finite values no fit can produce (issue 28 item 4): each field just beyond its bound
+/// (`fbg_shared::model::bounds`) and at f32::MAX, named by the decoder although the CRC holds.
+fn implausible_cases() -> Vec<Case> {
+    const BIG: f32 = f32::MAX; // 3.4e38
+    vec![
+        case("dims.outputs", |p| {
+            p.dims = Dims::new(
+                3,
+                true,
+                &[
+                    Output::first(Quantity::Temperature),
+                    Output { quantity: Quantity::Strain, index: 200 },
+                    Output::first(Quantity::Pressure),
+                ],
+            )
+            .unwrap()
+        }),
+        case("dims.outputs", |p| {
+            p.dims = Dims::new(
+                3,
+                true,
+                &[
+                    Output { quantity: Quantity::Temperature, index: 5 },
+                    Output::first(Quantity::Strain),
+                    Output::first(Quantity::Pressure),
+                ],
+            )
+            .unwrap()
+        }),
+        case("hyper.sigma", |p| p.hyper.sigma = 1.1e6),
+        case("hyper.sigma_mult", |p| p.hyper.sigma_mult = BIG),
+        case("hyper.alpha", |p| p.hyper.alpha = 1.1e12),
+        case("hyper.dead_band_pm", |p| p.hyper.dead_band_pm = 1.1e6),
+        case("hyper.envelope_margin", |p| p.hyper.envelope_margin = 1.1e3),
+        case("hyper.flagged_band_factor", |p| p.hyper.flagged_band_factor = BIG),
+        case("stage1", |p| p.stage1[0][4] = BIG), // the T intercept
+        case("stage1", |p| p.stage1[1][0] = -1.1e9),
+        case("guess_mean", |p| p.guess_mean[0] = BIG),
+        case("guess_mean", |p| p.guess_mean[2] = -1.1e6),
+        case("guess_std", |p| p.guess_std[1] = 1.1e6),
+        case("poly", |p| p.poly[0][0] = BIG), // the T intercept of the core
+        case("poly", |p| p.poly[2][9] = -1.1e9),
+        case("gamma", |p| {
+            p.memory.grating_tau_s[0] = 60.0;
+            p.gamma[1][0] = 1.1e9;
+        }),
+        case("memory.grating_tau_s", |p| p.memory.grating_tau_s[2] = 1.1e10),
+        case("memory.ambient_tau_s", |p| p.memory.ambient_tau_s[0] = BIG),
+        case("memory.play_half_width_pm", |p| p.memory.play_half_width_pm[1] = 1.1e6),
+        case("memory.observer", |p| p.memory.observer_smooth_s = BIG),
+        case("memory.observer_row", |p| p.memory.observer_row[0] = -1.1e9),
+        case("z_mean", |p| p.z_mean[0] = 1.1e6),  // a shift's mean [pm]
+        case("z_mean", |p| p.z_mean[4] = 1.1e10), // time's mean [s]
+        case("z_std", |p| p.z_std[3] = 1.1e6),    // T_amb's deviation [°C]
+        case("z_std", |p| p.z_std[4] = BIG),
+        case("centres.mu", |p| p.centres[2].mu[1] = -1.1e6),
+        case("centres.w", |p| p.centres[0].w[0] = BIG),
+        case("centres.v", |p| p.centres[3].v[0] = BIG), // a variance component
+        case("centres.v", |p| p.centres[1].v[1] = 1.01),
+        case("var_inv_g", |p| p.var_inv_g[0] = BIG),
+        case("var_inv_g_tail", |p| p.var_inv_g_tail = 1.1e12),
+        case("resid_var", |p| p.resid_var[1] = BIG),
+        case("resid_var_growth", |p| p.resid_var_growth[0] = 1.1e12),
+        case("t_cal_end_s", |p| p.t_cal_end_s = -1.1e10),
+        case("band_k", |p| p.band_k[2] = 1.1e3),
+        case("envelope", |p| p.envelope_hi[1] = 1.1e6),
+        case("envelope", |p| p.envelope_lo[3] = -BIG),
+        case("field.lambda_ref_tol_pm", |p| p.field.lambda_ref_tol_pm = BIG),
+        case("field.lead_max_s", |p| p.field.lead_max_s = 1.1e10),
+        case("field.cal_end_unix_s", |p| p.field.cal_end_unix_s = Some(1.1e11)),
+        case("field.cal_end_unix_s", |p| p.field.cal_end_unix_s = Some(-1.1e11)),
+        case("field.cal_end_unix_s", |p| p.field.cal_end_unix_s = Some(f64::NAN)),
+        case("field.output_envelope", |p| p.field.output_hi[0] = BIG),
+        case("field.output_envelope", |p| p.field.output_lo[1] = -1.1e6),
+        case("field.band_max", |p| p.field.band_max[2] = BIG),
+    ]
+}
+
+#[test]
+fn implausible_values_are_refused_by_name() {
+    let good: P = memory_model(4, 21, FeatureSet::HysteresisAware, long_provenance(), full_memory_spec());
+    assert_eq!(good.validate(), Ok(()));
+    for (field, f) in implausible_cases() {
+        let mut p = good.clone();
+        f(&mut p);
+        let want: Result<(), Error> = Err(Error::BadParameter { field });
+        assert_eq!(p.validate(), want, "{field}");
+        // In a blob with a valid CRC: refused by both decoders, by name.
+        let bytes = encode_unchecked(&p);
+        assert_eq!(decode::<4>(&bytes).map(|_| ()), want, "{field}");
+        let mut head = ModelParams::<f32, 0>::empty();
+        assert_eq!(decode_split::<4>(&bytes, &mut head).map(|_| ()), want, "{field} (split)");
+        // The encoder never writes it.
+        let mut buf = vec![0u8; blob::max_len(4)];
+        assert_eq!(blob::encode(&p, &mut buf).map(|_| ()), want, "{field} (encode)");
+        // And in f64 (a host model).
+        let q: ModelParams<f64, 4> = p.convert().unwrap();
+        assert_eq!(q.validate(), want, "{field} (f64)");
+    }
+}
+
+#[test]
+fn values_at_their_bounds_are_accepted() {
+    use fbg_shared::model::bounds::*;
+    let good: P = memory_model(4, 22, FeatureSet::HysteresisAware, short_provenance(), full_memory_spec());
+    let at: [fn(&mut P); 8] = [
+        |p| p.stage1[0][4] = COEF_MAX as f32,
+        |p| p.poly[1][0] = -(COEF_MAX as f32),
+        |p| p.guess_mean[0] = OUTPUT_MAX as f32,
+        |p| p.resid_var[2] = VARIANCE_MAX as f32,
+        |p| p.var_inv_g[0] = INV_G_MAX as f32,
+        |p| p.centres[0].v[0] = -1.0,
+        |p| p.field.output_lo[1] = -(OUTPUT_MAX as f32),
+        |p| {
+            p.dims = Dims::new(
+                3,
+                true,
+                &[
+                    Output::first(Quantity::Temperature),
+                    Output { quantity: Quantity::Strain, index: MAX_OUTPUTS as u8 },
+                    Output::first(Quantity::Pressure),
+                ],
+            )
+            .unwrap()
+        },
+    ];
+    for (i, f) in at.iter().enumerate() {
+        let mut p = good.clone();
+        f(&mut p);
+        assert_eq!(p.validate(), Ok(()), "case {i}");
+        assert_eq!(decode::<4>(&encode_unchecked(&p)).map(|_| ()), Ok(()), "case {i}");
+    }
 }
 
 #[test]

@@ -175,6 +175,9 @@ fn far_sample_has_weak_support_and_a_wide_band() {
         let mut p = params(K, 10, fs);
         p.envelope_lo = [-1e6; 9];
         p.envelope_hi = [1e6; 9];
+        // No output envelope either (its estimates are far outside the random model's): this
+        // is about support.
+        p.field.band_max = [0.0; 4];
         let factor = p.hyper.flagged_band_factor;
         let far = sample([5000.0, -5000.0, 5000.0], 20.0, 0.0);
         let e = Compensator::<f32, K>::new(&p).unwrap().step(&far);
@@ -403,9 +406,11 @@ fn a_model_whose_folded_coefficients_overflow_is_refused() {
 #[test]
 fn an_overflowing_result_is_flagged_non_finite() {
     let mut p = model::<4>(4, 9, FeatureSet::HysteresisAware, short_provenance());
-    p.poly[1][4] = 3e38; // T² term of the strain output
+    // The largest coefficient a blob may carry (3e38 is refused), on the T² term of the
+    // strain output, and shifts no grating can give: T² overflows f32.
+    p.poly[1][4] = fbg_shared::model::bounds::COEF_MAX as f32;
     let mut c = Compensator::<f32, 4>::new(&p).unwrap();
-    let e = c.step(&Sample::new([3e3, 3e3, 3e3], 20.0, 0.0));
+    let e = c.step(&Sample::new([3e18, 3e18, 3e18], 20.0, 0.0));
     assert!(e.flags.contains(Flags::NON_FINITE), "{:?}", e.flags);
     assert!(e.values().iter().all(|v| v.is_nan()) && e.band().iter().all(|b| b.is_infinite()));
 }

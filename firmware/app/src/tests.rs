@@ -1029,3 +1029,71 @@ fn a_flash_failure_refuses_the_update_and_the_old_model_keeps_serving() {
     let mut new = Compensator::<f32, K>::new(&params(&other)).unwrap();
     assert_serves(&mut link, &mut new, &s[30..], 30);
 }
+
+/// The default model reading T 500 °C high (a wrong zero): every number in range, so it
+/// decodes, signs and loads; every estimate is outside T's calibration envelope.
+fn wrong_model() -> Vec<u8> {
+    let mut p = params(default_blob());
+    p.poly[0][0] += 500.0;
+    encode(&p)
+}
+
+#[test]
+fn a_wrong_model_turns_the_alarm_on() {
+    let mut mem = Mem::new();
+    let mut link = mem.link(default_blob());
+    let s = samples(30);
+    let clock = fbg_shared::StreamClock::StartUnix(params(default_blob()).field.cal_end_unix_s.unwrap() + 3600.0);
+    assert_eq!(link.request(&HostMsg::ResetStream { nonce: 1, clock }).unwrap(), DeviceMsg::Pong { nonce: 1 });
+    for (i, x) in s[..10].iter().enumerate() {
+        assert!(link.compensate(i as u32, x).unwrap().flags.is_ok());
+        assert!(!link.get_ref().dev.alarm().is_on());
+    }
+    let wrong = wrong_model();
+    assert!(matches!(link.update_model(&sign(&wrong, 1)).unwrap(), UpdateResult::Accepted { .. }));
+    let mut reference = Compensator::<f32, K>::new(&params(&wrong)).unwrap();
+    reference.set_clock(clock);
+    for (i, x) in s[10..20].iter().enumerate() {
+        let e = link.compensate(10 + i as u32, x).unwrap();
+        assert_eq!(e.flags, Flags::IMPLAUSIBLE, "sample {i}");
+        assert_eq!(e.flags, reference.step(x).flags);
+        assert!(link.get_ref().dev.alarm().is_on(), "sample {i}");
+    }
+    // The right model again: the alarm goes off.
+    assert!(matches!(link.update_model(&sign(default_blob(), 2)).unwrap(), UpdateResult::Accepted { .. }));
+    for (i, x) in s[20..].iter().enumerate() {
+        assert!(link.compensate(20 + i as u32, x).unwrap().flags.is_ok());
+        assert!(!link.get_ref().dev.alarm().is_on());
+    }
+}
+
+#[test]
+fn an_implausible_update_is_refused_and_the_old_model_keeps_serving() {
+    let mut mem = Mem::new();
+    let mut link = mem.link(default_blob());
+    let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
+    let s = samples(30);
+    // The cases, each with a valid CRC and a valid signature.
+    let base = params(default_blob());
+    let s1 = base.dims.stage1_len();
+    let mut intercept = base.clone();
+    intercept.stage1[0][s1 - 1] = 3.4e38;
+    let mut variance = base.clone();
+    variance.centres[0].v[1] = 3.4e38;
+    let mut index = base.clone();
+    let outs = [
+        fbg_shared::layout::Output::first(fbg_shared::layout::Quantity::Temperature),
+        fbg_shared::layout::Output { quantity: fbg_shared::layout::Quantity::Strain, index: 200 },
+        fbg_shared::layout::Output::first(fbg_shared::layout::Quantity::Pressure),
+    ];
+    index.dims = fbg_shared::layout::Dims::new(base.dims.gratings(), base.dims.ambient(), &outs).unwrap();
+    for (i, p) in [intercept, variance, index].iter().enumerate() {
+        let mut buf = std::vec![0u8; STAGE];
+        let n = blob::encode_unchecked(p, &mut buf).unwrap();
+        let r = link.update_model(&sign(&buf[..n], 1 + i as u64)).unwrap();
+        assert_eq!(r, UpdateResult::Rejected(Rejection::new(RejectReason::BadParameter)), "case {i}");
+        assert_serves(&mut link, &mut reference, &s[i * 10..i * 10 + 10], i as u32 * 10);
+        assert!(!link.get_ref().dev.alarm().is_on());
+    }
+    assert_eq!(link.status().unwrap().model_crc, blob::stored_crc(default_blob()).unwrap());
+}

@@ -38,6 +38,13 @@ fn check(data: &[u8]) {
     // A finite sample is NON_FINITE only if the result overflowed, and then reads NaN.
     if e.flags.contains(Flags::NON_FINITE) {
         assert!(e.values.iter().all(|v| v.is_nan()));
+    } else if !e.flags.contains(Flags::IMPLAUSIBLE) {
+        // Whatever the decoder let through, an unflagged estimate of a fitted output lies in
+        // its plausible range with a band below its limit.
+        for (o, (&v, &b)) in e.values().iter().zip(e.band()).enumerate() {
+            let (lo, hi, lim) = params.field.plausible(o);
+            assert!(!params.fitted[o] || ((lo..=hi).contains(&v) && b < lim * params.hyper.flagged_band_factor));
+        }
     }
     let e = c.step(&sample(f32::NAN, 1.0));
     assert_eq!(e.flags, Flags::NON_FINITE);
