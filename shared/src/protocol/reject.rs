@@ -54,6 +54,9 @@ pub enum RejectReason {
     /// The device could not erase or program its staging flash slot (detail: the slot offset
     /// of the failed operation); the running model is untouched.
     Storage = 26,
+    /// The staging slot would need an erase, but it was erased as often as allowed since the
+    /// last accepted update (detail: the budget); an accepted update or a restart renews it.
+    EraseLimit = 27,
     /// The model carries no signature trailer ([`SignatureError::Unsigned`]); this build accepts
     /// signed models only.
     Unsigned = 30,
@@ -80,7 +83,7 @@ pub enum RejectReason {
 
 impl RejectReason {
     /// Every reason this version defines.
-    pub const ALL: [RejectReason; 25] = [
+    pub const ALL: [RejectReason; 26] = [
         RejectReason::Truncated,
         RejectReason::BadMagic,
         RejectReason::UnsupportedVersion,
@@ -99,6 +102,7 @@ impl RejectReason {
         RejectReason::Incomplete,
         RejectReason::TransferCrc,
         RejectReason::Storage,
+        RejectReason::EraseLimit,
         RejectReason::Unsigned,
         RejectReason::BadSignature,
         RejectReason::UnknownKey,
@@ -139,6 +143,9 @@ impl RejectReason {
             RejectReason::Incomplete => "commit before the whole blob arrived",
             RejectReason::TransferCrc => "staged bytes do not match the announced CRC",
             RejectReason::Storage => "the staging flash could not be erased or programmed",
+            RejectReason::EraseLimit => {
+                "staging flash erased as often as allowed without an accepted update (restart to renew)"
+            }
             RejectReason::Unsigned => "model not signed (this firmware accepts signed models only)",
             RejectReason::BadSignature => "signature does not verify (or malformed signature trailer)",
             RejectReason::UnknownKey => "signed by a key this firmware does not trust",
@@ -246,7 +253,7 @@ mod tests {
     #[test]
     fn reject_codes_are_stable_and_round_trip() {
         let codes: Vec<u8> = RejectReason::ALL.iter().map(|r| r.code()).collect();
-        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21, 22, 23, 24, 25, 26, 30, 31, 32, 33, 34, 35, 255]);
+        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32, 33, 34, 35, 255]);
         for r in RejectReason::ALL {
             assert_eq!(RejectReason::from_code(r.code()), r);
             let mut buf = [0u8; 4];
