@@ -204,6 +204,17 @@ pub struct SignatureRecord {
     pub replaces: Option<u64>,
 }
 
+impl SignatureRecord {
+    /// What the record says about a rollback, for a summary line: empty for none.
+    pub fn rollback_text(&self) -> String {
+        match (self.allow_rollback, self.replaces) {
+            (true, Some(r)) => format!(", a rollback that may replace serial {r} only"),
+            (true, None) => ", allow-rollback flag of a version-1 trailer (grants no rollback)".to_string(),
+            (false, _) => String::new(),
+        }
+    }
+}
+
 /// A loaded signing key.
 pub struct BlobSigner {
     key: SigningKey,
