@@ -96,8 +96,9 @@ pub fn state_dir(explicit: Option<&Path>) -> Result<PathBuf, TrainerError> {
     env("HOME").map(|h| h.join(".local/state/fbg-trainer/signing")).ok_or_else(|| TrainerError::Config {
         origin: "signing".into(),
         key: STATE_DIR_ENV.into(),
-        message: "no directory for the serial ledger: set --serial-state, FBG_SIGNING_STATE_DIR, XDG_STATE_HOME or HOME"
-            .into(),
+        message:
+            "no directory for the serial ledger: set --serial-state, FBG_SIGNING_STATE_DIR, XDG_STATE_HOME or HOME"
+                .into(),
     })
 }
 

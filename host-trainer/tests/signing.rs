@@ -70,7 +70,8 @@ fn a_blob_signed_by_the_trainer_verifies_on_the_device_code_path() {
     let lab = trusted(d.path(), "lab");
     let state = Some(d.path().join("state"));
     let signer =
-        BlobSigner::load(&SignOptions { key: key.clone(), state_dir: state.clone(), ..SignOptions::default() }).unwrap();
+        BlobSigner::load(&SignOptions { key: key.clone(), state_dir: state.clone(), ..SignOptions::default() })
+            .unwrap();
     assert_eq!(signer.key_id(), lab.id);
     let (signed, rec) = signer.sign(TINY).unwrap();
     assert_eq!((rec.serial, rec.key_id.as_str(), rec.allow_rollback), (1, lab.id.to_string().as_str(), false));
@@ -156,7 +157,8 @@ fn a_copied_key_file_continues_the_serials_of_its_key_id() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["serial"], 5, "{v}");
     // A serial below the key id's last one is refused for the copy too.
-    let o = SignOptions { key: copy.clone(), serial: Some(2), state_dir: Some(state.clone()), ..SignOptions::default() };
+    let o =
+        SignOptions { key: copy.clone(), serial: Some(2), state_dir: Some(state.clone()), ..SignOptions::default() };
     let e = BlobSigner::load(&o).unwrap().issue_serial().unwrap_err().to_string();
     assert!(e.contains("below the last serial issued"), "{e}");
     // A legacy ledger beside the key file (earlier versions) counts as well.

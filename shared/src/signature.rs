@@ -221,7 +221,7 @@ impl TrailerHead {
     /// 2, known flags, reserved bytes zero, and the replaced serial exactly with the
     /// allow-rollback flag in version 2.
     pub fn parse(bytes: &[u8]) -> Result<TrailerHead, SignatureError> {
-        if bytes.get(..4) != Some(&TRAILER_MAGIC[..]) {
+        if !magic_at(bytes, 0) {
             return Err(SignatureError::Unsigned);
         }
         let byte = |i: usize| bytes.get(i).copied().unwrap_or(0);
@@ -236,22 +236,12 @@ impl TrailerHead {
         if byte(6) != 0 || byte(7) != 0 {
             return Err(SignatureError::Reserved);
         }
-        let u64_at = |at: usize| {
-            let mut v = [0u8; 8];
-            for (o, b) in v.iter_mut().zip(head.iter().skip(at)) {
-                *o = *b;
-            }
-            u64::from_le_bytes(v)
-        };
-        let mut key_id = [0u8; KEY_ID_LEN];
-        for (o, b) in key_id.iter_mut().zip(head.iter().skip(16)) {
-            *o = *b;
-        }
-        let replaces = (version == TRAILER_VERSION_ROLLBACK).then(|| u64_at(24));
+        let eight = |at: usize| head.get(at..).and_then(<[u8]>::first_chunk::<8>).copied().unwrap_or_default();
+        let replaces = (version == TRAILER_VERSION_ROLLBACK).then(|| u64::from_le_bytes(eight(24)));
         if replaces.is_some() && !flags.contains(SignFlags::ALLOW_ROLLBACK) {
             return Err(SignatureError::Malformed);
         }
-        Ok(TrailerHead { flags, serial: u64_at(8), key_id: KeyId(key_id), replaces })
+        Ok(TrailerHead { flags, serial: u64::from_le_bytes(eight(8)), key_id: KeyId(eight(16)), replaces })
     }
 
     /// The bounded rollback this head grants: the serial it may replace, when the
@@ -303,6 +293,13 @@ impl<'a> Envelope<'a> {
     }
 }
 
+/// Whether [`TRAILER_MAGIC`] starts at `at` (byte compares: no `memcmp` in the image).
+fn magic_at(bytes: &[u8], at: usize) -> bool {
+    matches!(bytes.get(at..), Some([b'F', b'B', b'G', b'S', ..]))
+}
+
+const _: () = assert!(matches!(TRAILER_MAGIC, [b'F', b'B', b'G', b'S']));
+
 /// Tell a signed model from an unsigned one and split it (see the module docs for the rule).
 /// A trailer that is there but malformed (unknown version, unknown flag, reserved bits set,
 /// a length that is not its version's) is an error; the signature itself is not checked here.
@@ -311,12 +308,8 @@ pub fn open(bytes: &[u8]) -> Result<Envelope<'_>, SignatureError> {
         return Ok(Envelope::Unsigned(bytes));
     }
     // Where a trailer of `len` bytes would start, when a blob could precede it and the magic is there.
-    let start = |len: usize| {
-        bytes
-            .len()
-            .checked_sub(len)
-            .filter(|&at| at >= HEADER_LEN + CRC_LEN && bytes.get(at..at + 4) == Some(&TRAILER_MAGIC[..]))
-    };
+    let start =
+        |len: usize| bytes.len().checked_sub(len).filter(|&at| at >= HEADER_LEN + CRC_LEN && magic_at(bytes, at));
     let v2 = start(TRAILER_V2_LEN);
     let at = match (v2, start(TRAILER_LEN)) {
         (Some(at), _) if bytes.get(at + 4) == Some(&TRAILER_VERSION_ROLLBACK) => at,
@@ -331,13 +324,7 @@ pub fn open(bytes: &[u8]) -> Result<Envelope<'_>, SignatureError> {
         return Err(SignatureError::Malformed);
     }
     let (message, sig) = bytes.split_at_checked(at + head.len()).unwrap_or((bytes, &[]));
-    let mut signature = [0u8; SIGNATURE_LEN];
-    if sig.len() != SIGNATURE_LEN {
-        return Err(SignatureError::Malformed);
-    }
-    for (o, b) in signature.iter_mut().zip(sig.iter()) {
-        *o = *b;
-    }
+    let signature = *sig.first_chunk::<SIGNATURE_LEN>().ok_or(SignatureError::Malformed)?;
     Ok(Envelope::Signed(Signed { blob, message, head, signature }))
 }
 
@@ -532,8 +519,12 @@ mod tests {
 
     #[test]
     fn head_round_trips_and_unsigned_stays_unsigned() {
-        let head =
-            TrailerHead { flags: SignFlags::ALLOW_ROLLBACK, serial: 0x0102_0304_0506_0708, key_id: KeyId([7; 8]), replaces: None };
+        let head = TrailerHead {
+            flags: SignFlags::ALLOW_ROLLBACK,
+            serial: 0x0102_0304_0506_0708,
+            key_id: KeyId([7; 8]),
+            replaces: None,
+        };
         let bytes = head.to_bytes();
         assert_eq!(&bytes[..4], b"FBGS");
         assert_eq!(bytes[4], TRAILER_VERSION);

@@ -899,14 +899,20 @@ fn signed_update_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, sfx:
 
     // Issue 28, item 6: begins without data erase nothing (at most the one a written slot needs).
     let before = st.staging_erases;
-    let begin = fbg_shared::protocol::HostMsg::ModelBegin { total_len: new.len() as u32, crc32: fbg_shared::protocol::crc32(&new) };
+    let begin = fbg_shared::protocol::HostMsg::ModelBegin {
+        total_len: new.len() as u32,
+        crc32: fbg_shared::protocol::crc32(&new),
+    };
     for i in 0..1000 {
         let r = s.link()?.request(&begin)?;
         ensure!(matches!(r, DeviceMsg::UpdateProgress { received: 0 }), "ModelBegin {i}: {r:?}");
     }
     let erases = s.link()?.status()?.staging_erases - before;
     ensure!(erases <= 1, "1 000 ModelBegin frames erased the staging slot {erases} times");
-    eprintln!("xtask: signed: 1 000 ModelBegin frames, {erases} staging erase(s) (slot erases since boot: {})", before + erases);
+    eprintln!(
+        "xtask: signed: 1 000 ModelBegin frames, {erases} staging erase(s) (slot erases since boot: {})",
+        before + erases
+    );
 
     // The audit trail through the CLI.
     s.disconnect()?;
@@ -959,13 +965,31 @@ fn rollback_test(root: &Path, qemu: &Path, bins: &Bins, sfx: &SignedFixtures) ->
         Ok(())
     };
     step(&mut s, "serial 3", &sfx.old, None, (3, stored_crc(&default)))?;
-    step(&mut s, "the rollback over serial 3", &sfx.rollback, Some(RejectReason::RollbackNotPermitted), (3, stored_crc(&default)))?;
+    step(
+        &mut s,
+        "the rollback over serial 3",
+        &sfx.rollback,
+        Some(RejectReason::RollbackNotPermitted),
+        (3, stored_crc(&default)),
+    )?;
     step(&mut s, "serial 5", &sfx.new, None, (5, new_crc))?;
     step(&mut s, "another model under serial 5", &sfx.swap, Some(RejectReason::SerialReused), (5, new_crc))?;
     step(&mut s, "the rollback over serial 5", &sfx.rollback, None, (4, stored_crc(&default)))?;
-    step(&mut s, "the rollback replayed over itself", &sfx.rollback, Some(RejectReason::RollbackNotPermitted), (4, stored_crc(&default)))?;
+    step(
+        &mut s,
+        "the rollback replayed over itself",
+        &sfx.rollback,
+        Some(RejectReason::RollbackNotPermitted),
+        (4, stored_crc(&default)),
+    )?;
     step(&mut s, "serial 9", &sfx.later, None, (9, new_crc))?;
-    step(&mut s, "the rollback after the device moved on", &sfx.rollback, Some(RejectReason::RollbackNotPermitted), (9, new_crc))?;
+    step(
+        &mut s,
+        "the rollback after the device moved on",
+        &sfx.rollback,
+        Some(RejectReason::RollbackNotPermitted),
+        (9, new_crc),
+    )?;
     let st = s.link()?.status()?;
     ensure!(
         (st.updates_accepted, st.updates_rejected, st.refused.rollback, st.refused.serial_reused) == (4, 4, 3, 1),

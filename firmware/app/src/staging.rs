@@ -81,7 +81,14 @@ impl<F: MappedFlash> Staging<F> {
             assert!(F::ERASE_SIZE > 0, "erase granularity of zero");
         }
         let limit = if limit < flash.capacity() { limit } else { flash.capacity() };
-        Staging { flash, limit, transfer: Transfer::Idle, pending: [0; MAX_WRITE_SIZE], erases: 0, erases_unaccepted: 0 }
+        Staging {
+            flash,
+            limit,
+            transfer: Transfer::Idle,
+            pending: [0; MAX_WRITE_SIZE],
+            erases: 0,
+            erases_unaccepted: 0,
+        }
     }
 
     /// Erase operations on the slot since boot.

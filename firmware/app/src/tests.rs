@@ -989,7 +989,7 @@ fn begins_erase_only_a_written_slot_and_within_the_budget() {
     assert_eq!(dev.status().updates_rejected, 0);
     // Data written, then begun again: one more erase, once.
     let chunk = HostMsg::ModelChunk { offset: 0, data: &good[..MAX_CHUNK] };
-    dev.feed(&encode_host(&chunk, &mut frame).unwrap().to_vec(), &mut tx).unwrap();
+    dev.feed(encode_host(&chunk, &mut frame).unwrap(), &mut tx).unwrap();
     for _ in 0..1000 {
         dev.feed(&begin, &mut tx).unwrap();
     }
@@ -1004,7 +1004,7 @@ fn begins_erase_only_a_written_slot_and_within_the_budget() {
         if let Some(DeviceMsg::UpdateResult(UpdateResult::Rejected(r))) = msgs.last() {
             break *r;
         }
-        dev.feed(&encode_host(&chunk, &mut frame).unwrap().to_vec(), &mut tx).unwrap();
+        dev.feed(encode_host(&chunk, &mut frame).unwrap(), &mut tx).unwrap();
         rounds += 1;
         assert!(rounds < 100, "never refused");
     };

@@ -253,7 +253,10 @@ mod tests {
     #[test]
     fn reject_codes_are_stable_and_round_trip() {
         let codes: Vec<u8> = RejectReason::ALL.iter().map(|r| r.code()).collect();
-        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32, 33, 34, 35, 255]);
+        assert_eq!(
+            codes,
+            [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32, 33, 34, 35, 255]
+        );
         for r in RejectReason::ALL {
             assert_eq!(RejectReason::from_code(r.code()), r);
             let mut buf = [0u8; 4];
