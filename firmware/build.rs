@@ -15,8 +15,9 @@
 //!   from the files named by `FBG_TRUSTED_KEYS` (comma-separated; each file holds one or more
 //!   raw 32-byte Ed25519 public keys back to back, as `fbg-trainer keygen` writes `lab.pub`, or
 //!   their hex, as in `lab.pub.hex`; default `keys/qemu-test.pub`, the committed TEST key, not
-//!   for production), `FBG_ALLOW_ROLLBACK` (default 1: an update signed with the allow-rollback
-//!   flag may carry a lower serial; 0 refuses every lower serial) and
+//!   for production), `FBG_ALLOW_ROLLBACK` (default 0: every rollback is refused; 1: a rollback,
+//!   signed with the allow-rollback flag and the one serial it may replace, is accepted while
+//!   that serial runs) and
 //!   `FBG_REQUIRE_SIGNED_DEFAULT` (default 0: the embedded model is trusted as part of the
 //!   image; 1: it must be signed by a trusted key too, or the image refuses to start).
 //!
@@ -113,7 +114,7 @@ fn trust(manifest: &std::path::Path, out: &std::path::Path) {
         println!("cargo:rerun-if-changed={}", f.display());
         keys.extend(keys_of(f));
     }
-    let allow_rollback = flag("FBG_ALLOW_ROLLBACK", true);
+    let allow_rollback = flag("FBG_ALLOW_ROLLBACK", false);
     let require_signed_default = flag("FBG_REQUIRE_SIGNED_DEFAULT", false);
     let only_test_key = keys.iter().all(|k| test_key.contains(k));
     let mut src = String::from(
@@ -130,7 +131,7 @@ fn trust(manifest: &std::path::Path, out: &std::path::Path) {
     }
     src.push_str("];\n");
     src.push_str(&format!(
-        "/// An update signed to allow a rollback may carry a lower serial (`FBG_ALLOW_ROLLBACK`).\n\
+        "/// A rollback signed for the running serial is accepted (`FBG_ALLOW_ROLLBACK`).\n\
          pub const ALLOW_ROLLBACK: bool = {allow_rollback};\n\
          /// The embedded model must be signed by a trusted key (`FBG_REQUIRE_SIGNED_DEFAULT`).\n\
          pub const REQUIRE_SIGNED_DEFAULT: bool = {require_signed_default};\n\

@@ -40,7 +40,7 @@ pub const MAX_BLOB: usize = {
 
 /// The longest update this build stages (in the flash slot, [`flash_slot`]): any signed model
 /// it takes; a longer transfer is refused at `ModelBegin` (`TooLarge`).
-pub const STAGING_LEN: usize = MAX_BLOB + fbg_shared::signature::TRAILER_LEN;
+pub const STAGING_LEN: usize = MAX_BLOB + fbg_shared::signature::TRAILER_V2_LEN;
 
 /// The signature policy compiled in by `build.rs` (`FBG_TRUSTED_KEYS`, `FBG_ALLOW_ROLLBACK`,
 /// `FBG_REQUIRE_SIGNED_DEFAULT`; README-firmware.md, "Signed model updates").

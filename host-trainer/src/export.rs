@@ -55,7 +55,13 @@ pub fn blob_crc(bytes: &[u8]) -> Option<(u32, u32)> {
 /// (it decides how the rest is read), so a flipped bit in the header reads as "format version
 /// 0"; when the CRC over the whole blob does not hold either, the blob is corrupt, and that is
 /// what is reported.
+///
+/// Bytes left after a blob that end in a signature trailer this build cannot read (unknown
+/// version, reserved byte set, ...) are named as that trailer's problem, not as extra bytes.
 pub fn blob_error_text(bytes: &[u8], e: &fbg_shared::Error) -> String {
+    if let (fbg_shared::Error::TrailingBytes { .. }, Err(trailer)) = (e, fbg_shared::signature::open(bytes)) {
+        return trailer.to_string();
+    }
     match (e, blob_crc(bytes)) {
         (fbg_shared::Error::UnsupportedVersion { found, .. }, Some((computed, stored))) if computed != stored => format!(
             "model blob corrupted: CRC-32 mismatch over the whole blob (stored {stored:08x}, computed {computed:08x}); its header reads format version {found}, which the corruption may have changed"

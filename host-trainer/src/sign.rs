@@ -12,11 +12,27 @@
 //! | `lab.key` | the private key, PKCS#8 PEM (readable by OpenSSL: `openssl pkey -in lab.key -pubout`); created with mode 0600, never overwritten |
 //! | `lab.pub` | the public key, raw 32 bytes: the file the firmware build takes (`FBG_TRUSTED_KEYS`) |
 //! | `lab.pub.hex` | the same, 64 hex digits and a newline |
-//! | `lab.key.serial` | the last serial issued with this key (JSON), so that serials grow per key |
-//! | `lab.key.serial.lock` | the lock that serialises concurrent signers (fleet groups, shards) |
+//!
+//! **Serial ledger.** Serials belong to the key, i.e. to its key id, not to a key file: a copy
+//! of `lab.key` (another name, another directory) continues the same serials. The last serial
+//! issued per key id is kept in the signing state directory, `<KEY ID>.serial` (JSON) beside
+//! its lock `<KEY ID>.serial.lock`, which serialises concurrent signers (fleet groups,
+//! shards). The directory is `--serial-state DIR` (or `FBG_SIGNING_STATE_DIR`), else
+//! `$XDG_STATE_HOME/fbg-trainer/signing`, else `~/.local/state/fbg-trainer/signing`: per user
+//! account, so copies on one account share their serials; a key copied to another account
+//! or host needs its ledger copied too (or a `--serial` above the last one issued). The
+//! ledger of earlier versions beside the key (`lab.key.serial`) is still read: the next serial
+//! is above the larger of the two.
 //!
 //! A serial is issued under an exclusive lock on the lock file (never renamed, so every
 //! process locks the same file), and the state is replaced atomically.
+//!
+//! **Rollbacks.** `--allow-rollback` signs a deliberate downgrade: it needs `--serial S` (the
+//! rollback's own serial, usually the old release's) and `--replaces N`, the one serial it may
+//! replace (N > S, and N already issued with the key). The trailer is then version 2
+//! (`fbg_shared::signature`), and a device built to accept rollbacks accepts it only while
+//! serial N runs. A rollback's serial may be below the last one issued; it does not move the
+//! ledger.
 
 use std::fs::OpenOptions;
 use std::io::Write as _;
@@ -25,7 +41,7 @@ use std::path::{Path, PathBuf};
 use ed25519_dalek::pkcs8::{DecodePrivateKey, EncodePrivateKey};
 use ed25519_dalek::{Signer as _, SigningKey};
 use fbg_shared::signature::{
-    self, key_id, Envelope, KeyId, SignFlags, TrailerHead, PUBLIC_KEY_LEN, SIGNATURE_LEN, TRAILER_HEAD_LEN,
+    self, key_id, Envelope, KeyId, SignFlags, TrailerHead, PUBLIC_KEY_LEN, SIGNATURE_LEN, TRAILER_V2_HEAD_LEN,
 };
 use serde::{Deserialize, Serialize};
 
@@ -39,6 +55,9 @@ fn err(path: &Path, message: impl Into<String>) -> TrainerError {
     TrainerError::Output { path: path.to_path_buf(), message: message.into() }
 }
 
+/// Environment variable naming the signing state directory (the serial ledger).
+pub const STATE_DIR_ENV: &str = "FBG_SIGNING_STATE_DIR";
+
 /// The files of a key pair whose private key is `key`.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct KeyFiles {
@@ -48,8 +67,8 @@ pub struct KeyFiles {
     pub public: PathBuf,
     /// Public key, hex.
     pub public_hex: PathBuf,
-    /// Last serial issued.
-    pub state: PathBuf,
+    /// The serial state earlier versions kept beside the key (`lab.key.serial`; read only).
+    pub legacy_state: PathBuf,
 }
 
 impl KeyFiles {
@@ -60,14 +79,27 @@ impl KeyFiles {
         hex.push(".hex");
         let mut state = private.to_path_buf().into_os_string();
         state.push(".serial");
-        KeyFiles { private: private.to_path_buf(), public, public_hex: hex.into(), state: state.into() }
+        KeyFiles { private: private.to_path_buf(), public, public_hex: hex.into(), legacy_state: state.into() }
     }
+}
 
-    fn lock(&self) -> PathBuf {
-        let mut p = self.state.clone().into_os_string();
-        p.push(".lock");
-        p.into()
+/// The signing state directory: `explicit`, else [`STATE_DIR_ENV`], else
+/// `$XDG_STATE_HOME/fbg-trainer/signing`, else `$HOME/.local/state/fbg-trainer/signing`.
+pub fn state_dir(explicit: Option<&Path>) -> Result<PathBuf, TrainerError> {
+    let env = |k: &str| std::env::var_os(k).filter(|v| !v.is_empty()).map(PathBuf::from);
+    if let Some(d) = explicit.map(Path::to_path_buf).or_else(|| env(STATE_DIR_ENV)) {
+        return Ok(d);
     }
+    if let Some(d) = env("XDG_STATE_HOME").filter(|d| d.is_absolute()) {
+        return Ok(d.join("fbg-trainer/signing"));
+    }
+    env("HOME").map(|h| h.join(".local/state/fbg-trainer/signing")).ok_or_else(|| TrainerError::Config {
+        origin: "signing".into(),
+        key: STATE_DIR_ENV.into(),
+        message:
+            "no directory for the serial ledger: set --serial-state, FBG_SIGNING_STATE_DIR, XDG_STATE_HOME or HOME"
+                .into(),
+    })
 }
 
 /// What `keygen` made.
@@ -142,15 +174,21 @@ pub fn read_public_key(path: &Path) -> Result<[u8; PUBLIC_KEY_LEN], TrainerError
     })
 }
 
-/// How to sign: the key, the serial (next per key when `None`) and the flags.
+/// How to sign: the key, the serial (next per key id when `None`), the flags and where the
+/// serial ledger is.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SignOptions {
     /// The private key file.
     pub key: PathBuf,
-    /// The serial; `None`: the next one of the key's state.
+    /// The serial; `None`: the next one of the key id's ledger.
     pub serial: Option<u64>,
-    /// Set the allow-rollback flag (a deliberate downgrade a device may accept).
+    /// Set the allow-rollback flag (a deliberate downgrade a device built for it may accept);
+    /// needs `serial` and `replaces`.
     pub allow_rollback: bool,
+    /// The one serial a rollback may replace (above `serial`, already issued).
+    pub replaces: Option<u64>,
+    /// The signing state directory ([`state_dir`]; `None`: the default).
+    pub state_dir: Option<PathBuf>,
 }
 
 /// What a signature says, for `coefficients.json`, summaries and `inspect`.
@@ -162,6 +200,20 @@ pub struct SignatureRecord {
     pub serial: u64,
     /// The allow-rollback flag.
     pub allow_rollback: bool,
+    /// The serial a rollback may replace (trailer version 2), if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replaces: Option<u64>,
+}
+
+impl SignatureRecord {
+    /// What the record says about a rollback, for a summary line: empty for none.
+    pub fn rollback_text(&self) -> String {
+        match (self.allow_rollback, self.replaces) {
+            (true, Some(r)) => format!(", a rollback that may replace serial {r} only"),
+            (true, None) => ", allow-rollback flag of a version-1 trailer (grants no rollback)".to_string(),
+            (false, _) => String::new(),
+        }
+    }
 }
 
 /// A loaded signing key.
@@ -199,7 +251,30 @@ impl BlobSigner {
         #[cfg(not(unix))]
         let too_open = false;
         let id = key_id(&key.verifying_key().to_bytes());
+        if opts.allow_rollback != opts.replaces.is_some() || (opts.allow_rollback && opts.serial.is_none()) {
+            return Err(TrainerError::Config {
+                origin: "sign".into(),
+                key: "allow-rollback".into(),
+                message: "a rollback needs --allow-rollback, --serial S and --replaces N together".into(),
+            });
+        }
+        if let (Some(s), Some(r)) = (opts.serial, opts.replaces) {
+            if r <= s {
+                return Err(TrainerError::Config {
+                    origin: "sign".into(),
+                    key: "replaces".into(),
+                    message: format!(
+                        "--replaces {r} must be above the rollback's --serial {s} (it names the newer serial it may replace)"
+                    ),
+                });
+            }
+        }
         Ok(BlobSigner { key, id, files: KeyFiles::of(path), opts: opts.clone(), too_open })
+    }
+
+    /// This key id's serial ledger (`<KEY ID>.serial` in the state directory).
+    pub fn ledger(&self) -> Result<PathBuf, TrainerError> {
+        Ok(state_dir(self.opts.state_dir.as_deref())?.join(format!("{}.serial", self.id)))
     }
 
     /// The key id.
@@ -217,11 +292,19 @@ impl BlobSigner {
         &self.files.private
     }
 
-    /// Issue the serial for one blob: the one given, or the last issued plus one. A given
-    /// serial below the last issued one is refused (serials only grow; a downgrade is a new,
-    /// higher serial or the allow-rollback flag). Serialised across processes by a lock file.
+    /// Issue the serial for one blob: the one given, or the last issued plus one (per key id,
+    /// from the ledger and the legacy state beside the key). A given serial below the last
+    /// issued one is refused (serials only grow; a downgrade is a new, higher serial or a
+    /// rollback); a rollback's serial may be lower, but the serial it replaces must have been
+    /// issued, and it leaves the ledger as it is. Serialised across processes by a lock file.
     pub fn issue_serial(&self) -> Result<u64, TrainerError> {
-        let lock_path = self.files.lock();
+        let state = self.ledger()?;
+        if let Some(dir) = state.parent() {
+            std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
+        }
+        let mut lock_path = state.clone().into_os_string();
+        lock_path.push(".lock");
+        let lock_path = PathBuf::from(lock_path);
         let lock = OpenOptions::new()
             .create(true)
             .truncate(false)
@@ -229,8 +312,48 @@ impl BlobSigner {
             .open(&lock_path)
             .map_err(|e| TrainerError::io(&lock_path, e))?;
         lock.lock().map_err(|e| TrainerError::io(&lock_path, e))?;
-        let state = &self.files.state;
-        let last = match std::fs::read_to_string(state) {
+        let last = self.read_state(&state)?.max(self.read_state(&self.files.legacy_state)?);
+        let serial = match (self.opts.serial, self.opts.replaces, last) {
+            (Some(s), Some(r), l) => {
+                if r > l.unwrap_or(0) {
+                    return Err(err(
+                        &state,
+                        format!(
+                            "--replaces {r}: no such serial was issued with key {} (last: {}); a rollback replaces a released serial",
+                            self.id,
+                            l.map_or("none".to_string(), |l| l.to_string())
+                        ),
+                    ));
+                }
+                return Ok(s);
+            }
+            (Some(s), None, Some(l)) if s < l => {
+                return Err(err(
+                    &state,
+                    format!(
+                        "--serial {s} is below the last serial issued with key {} ({l}); serials only grow",
+                        self.id
+                    ),
+                ))
+            }
+            (Some(s), None, _) => s,
+            (None, _, Some(l)) => l.checked_add(1).ok_or_else(|| err(&state, "serials exhausted"))?,
+            (None, _, None) => 1,
+        };
+        let next = State {
+            format: STATE_FORMAT.into(),
+            key_id: self.id.to_string(),
+            last_serial: serial.max(last.unwrap_or(0)),
+        };
+        let text = serde_json::to_string_pretty(&next).map_err(|e| err(&state, e.to_string()))?;
+        write_bytes_atomically(&state, format!("{text}\n").as_bytes())?;
+        drop(lock); // releases the lock
+        Ok(serial)
+    }
+
+    /// The last serial a state file records for this key (`None` when it does not exist).
+    fn read_state(&self, state: &Path) -> Result<Option<u64>, TrainerError> {
+        match std::fs::read_to_string(state) {
             Ok(text) => {
                 let s: State = serde_json::from_str(&text).map_err(|e| {
                     err(state, format!("unreadable serial state ({e}); it records the last serial issued"))
@@ -238,34 +361,11 @@ impl BlobSigner {
                 if s.format != STATE_FORMAT || s.key_id != self.id.to_string() {
                     return Err(err(state, format!("is the serial state of key {}, not of {}", s.key_id, self.id)));
                 }
-                Some(s.last_serial)
+                Ok(Some(s.last_serial))
             }
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-            Err(e) => return Err(TrainerError::io(state, e)),
-        };
-        let serial = match (self.opts.serial, last) {
-            (Some(s), Some(l)) if s < l => {
-                return Err(err(
-                    state,
-                    format!(
-                        "--serial {s} is below the last serial issued with key {} ({l}); serials only grow",
-                        self.id
-                    ),
-                ))
-            }
-            (Some(s), _) => s,
-            (None, Some(l)) => l.checked_add(1).ok_or_else(|| err(state, "serials exhausted"))?,
-            (None, None) => 1,
-        };
-        let next = State {
-            format: STATE_FORMAT.into(),
-            key_id: self.id.to_string(),
-            last_serial: serial.max(last.unwrap_or(0)),
-        };
-        let text = serde_json::to_string_pretty(&next).map_err(|e| err(state, e.to_string()))?;
-        write_bytes_atomically(state, format!("{text}\n").as_bytes())?;
-        drop(lock); // releases the lock
-        Ok(serial)
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(TrainerError::io(state, e)),
+        }
     }
 
     /// `blob` signed with a newly issued serial: the blob, the trailer head and the signature
@@ -275,17 +375,19 @@ impl BlobSigner {
         Ok(self.sign_with_serial(blob, serial))
     }
 
-    /// [`Self::sign`] with a given serial (no state involved).
+    /// [`Self::sign`] with a given serial (no state involved). A rollback (the options'
+    /// `replaces`) is written as a version-2 trailer, anything else as version 1.
     pub fn sign_with_serial(&self, blob: &[u8], serial: u64) -> (Vec<u8>, SignatureRecord) {
         let blob = signature::strip(blob);
-        let flags = if self.opts.allow_rollback { SignFlags::ALLOW_ROLLBACK } else { SignFlags::NONE };
-        let head = TrailerHead { flags, serial, key_id: self.id };
-        let mut out = Vec::with_capacity(blob.len() + TRAILER_HEAD_LEN + SIGNATURE_LEN);
+        let replaces = self.opts.replaces.filter(|_| self.opts.allow_rollback);
+        let flags = if replaces.is_some() { SignFlags::ALLOW_ROLLBACK } else { SignFlags::NONE };
+        let head = TrailerHead { flags, serial, key_id: self.id, replaces };
+        let mut out = Vec::with_capacity(blob.len() + TRAILER_V2_HEAD_LEN + SIGNATURE_LEN);
         out.extend_from_slice(blob);
         out.extend_from_slice(&head.to_bytes());
         let sig = self.key.sign(&out);
         out.extend_from_slice(&sig.to_bytes());
-        (out, SignatureRecord { key_id: self.id.to_string(), serial, allow_rollback: self.opts.allow_rollback })
+        (out, SignatureRecord { key_id: self.id.to_string(), serial, allow_rollback: replaces.is_some(), replaces })
     }
 }
 
@@ -323,6 +425,7 @@ pub fn check(bytes: &[u8], public: Option<&[u8; PUBLIC_KEY_LEN]>) -> SignatureCh
                 key_id: s.head.key_id.to_string(),
                 serial: s.head.serial,
                 allow_rollback: s.head.flags.contains(SignFlags::ALLOW_ROLLBACK),
+                replaces: s.head.replaces,
             };
             let result = trusted.map(|t| signature::verify(&s, &[t]));
             SignatureCheck {
@@ -351,13 +454,23 @@ pub struct SignArgs {
     /// models only.
     #[arg(long, value_name = "KEY")]
     pub sign: Option<PathBuf>,
-    /// Serial of the signature (default: the next serial of the key, kept in `<KEY>.serial`).
+    /// Serial of the signature (default: the next serial of the key id, kept in its ledger in
+    /// the signing state directory).
     #[arg(long, requires = "sign")]
     pub serial: Option<u64>,
-    /// Set the signed allow-rollback flag: a device whose build allows rollback accepts this
-    /// model even over one with a higher serial.
-    #[arg(long, requires = "sign")]
+    /// Sign a rollback: a device built to accept rollbacks accepts this model over the one
+    /// serial `--replaces` names (only while that serial runs), although its `--serial` is
+    /// lower.
+    #[arg(long, requires_all = ["sign", "serial", "replaces"])]
     pub allow_rollback: bool,
+    /// The serial a rollback may replace (with `--allow-rollback`; above `--serial`).
+    #[arg(long, value_name = "N", requires = "allow_rollback")]
+    pub replaces: Option<u64>,
+    /// The signing state directory holding the serial ledger per key id (default:
+    /// `$FBG_SIGNING_STATE_DIR`, else `$XDG_STATE_HOME/fbg-trainer/signing`, else
+    /// `~/.local/state/fbg-trainer/signing`).
+    #[arg(long, value_name = "DIR", requires = "sign")]
+    pub serial_state: Option<PathBuf>,
 }
 
 impl SignArgs {
@@ -367,6 +480,8 @@ impl SignArgs {
             key: key.clone(),
             serial: self.serial,
             allow_rollback: self.allow_rollback,
+            replaces: self.replaces,
+            state_dir: self.serial_state.clone(),
         })
     }
 

@@ -92,8 +92,9 @@ pub struct StreamReport {
     pub device_status: Option<Status>,
 }
 
-/// The device's status as the audit trail reads: the active model (digest, serial, signer)
-/// and the updates accepted and refused, by reason.
+/// The device's status as the audit trail reads: the active model (digest, serial, signer),
+/// the updates accepted and refused, by reason, the link's counters and the staging slot's
+/// erases.
 pub fn status_text(st: &Status) -> String {
     let signer = match st.model_key_id {
         Some(id) => format!("serial {}, signed by key {id}", st.model_serial),
@@ -104,10 +105,10 @@ pub fn status_text(st: &Status) -> String {
     format!(
         concat!(
             "active model: crc {:#010x} (digest), {} centres (capacity {}), {}\n",
-            "model updates: {} accepted, {} refused ({} unsigned, {} bad signature, {} unknown key, {} rollback, {} other){}\n",
+            "model updates: {} accepted, {} refused ({} unsigned, {} bad signature, {} unknown key, {} rollback, {} serial reused, {} other){}\n",
             "link: {} frames, {} malformed, {} samples compensated; stack peak {} B since boot (serving and updates), {} B during boot\n",
+            "staging slot: {} erases since boot\n",
         ),
-
         st.model_crc,
         st.model_centres,
         st.model_capacity,
@@ -118,13 +119,17 @@ pub fn status_text(st: &Status) -> String {
         r.bad_signature,
         r.unknown_key,
         r.rollback,
-        st.updates_rejected.saturating_sub(r.unsigned + r.bad_signature + r.unknown_key + r.rollback),
+        r.serial_reused,
+        st.updates_rejected.saturating_sub(
+            r.unsigned.saturating_add(r.bad_signature).saturating_add(r.unknown_key).saturating_add(r.rollback).saturating_add(r.serial_reused)
+        ),
         last,
         st.frames_ok,
         st.frames_malformed,
         st.samples,
         st.stack_peak_bytes,
-        st.stack_boot_bytes
+        st.stack_boot_bytes,
+        st.staging_erases
     )
 }
 

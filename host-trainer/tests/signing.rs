@@ -68,7 +68,10 @@ fn a_blob_signed_by_the_trainer_verifies_on_the_device_code_path() {
     let key = d.path().join("lab.key");
     sign::keygen(&key).unwrap();
     let lab = trusted(d.path(), "lab");
-    let signer = BlobSigner::load(&SignOptions { key: key.clone(), ..SignOptions::default() }).unwrap();
+    let state = Some(d.path().join("state"));
+    let signer =
+        BlobSigner::load(&SignOptions { key: key.clone(), state_dir: state.clone(), ..SignOptions::default() })
+            .unwrap();
     assert_eq!(signer.key_id(), lab.id);
     let (signed, rec) = signer.sign(TINY).unwrap();
     assert_eq!((rec.serial, rec.key_id.as_str(), rec.allow_rollback), (1, lab.id.to_string().as_str(), false));
@@ -87,13 +90,114 @@ fn a_blob_signed_by_the_trainer_verifies_on_the_device_code_path() {
     let (again, rec2) = signer.sign(&signed).unwrap();
     assert_eq!(again.len(), signed.len());
     assert_eq!(rec2.serial, 2);
-    // Allow-rollback is a signed flag.
-    let rb = BlobSigner::load(&SignOptions { key, serial: Some(2), allow_rollback: true }).unwrap();
-    let (down, rec3) = rb.sign(TINY).unwrap();
-    assert_eq!((rec3.serial, rec3.allow_rollback), (2, true));
+    // A rollback is signed with the serial it replaces (a version-2 trailer), below the last
+    // serial issued, which it leaves alone.
+    let rb = SignOptions {
+        key: key.clone(),
+        serial: Some(1),
+        allow_rollback: true,
+        replaces: Some(2),
+        state_dir: state.clone(),
+    };
+    let (down, rec3) = BlobSigner::load(&rb).unwrap().sign(TINY).unwrap();
+    assert_eq!((rec3.serial, rec3.allow_rollback, rec3.replaces), (1, true, Some(2)));
     let Envelope::Signed(s) = signature::open(&down).unwrap() else { panic!() };
     assert!(s.head.flags.contains(SignFlags::ALLOW_ROLLBACK));
+    assert_eq!((s.head.replaces, s.head.rollback_of()), (Some(2), Some(2)));
+    assert_eq!(down.len(), TINY.len() + signature::TRAILER_V2_LEN);
     assert_eq!(signature::verify(&s, &[lab]), Ok(()));
+    assert_eq!(signer.sign(TINY).unwrap().1.serial, 3, "the rollback did not move the ledger");
+    // A rollback must name a released serial above its own, and not come without one.
+    let e = |o: SignOptions| match BlobSigner::load(&o).and_then(|s| s.sign(TINY)) {
+        Ok(_) => panic!("{o:?} signed"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e(SignOptions { replaces: Some(1), ..rb.clone() }).contains("must be above"));
+    assert!(e(SignOptions { replaces: Some(9), ..rb.clone() }).contains("no such serial was issued"));
+    assert!(e(SignOptions { replaces: None, ..rb.clone() }).contains("--replaces"));
+    assert!(e(SignOptions { serial: None, ..rb.clone() }).contains("--serial"));
+}
+
+/// Issue 28, item 8c: serials belong to the key id, not the key file: a copy of the key file
+/// (another name, another directory) continues the serials, through the library and the
+/// command; the ledger earlier versions kept beside the key is still honoured.
+#[test]
+fn a_copied_key_file_continues_the_serials_of_its_key_id() {
+    let d = tempfile::tempdir().unwrap();
+    let key = d.path().join("lab.key");
+    sign::keygen(&key).unwrap();
+    let state = d.path().join("state");
+    std::fs::create_dir(d.path().join("elsewhere")).unwrap();
+    let copy = d.path().join("elsewhere/copy-of-lab.key");
+    std::fs::copy(&key, &copy).unwrap();
+    let issue = |k: &Path| {
+        let o = SignOptions { key: k.to_path_buf(), state_dir: Some(state.clone()), ..SignOptions::default() };
+        BlobSigner::load(&o).unwrap().issue_serial().unwrap()
+    };
+    assert_eq!(issue(&key), 1);
+    assert_eq!(issue(&key), 2);
+    assert_eq!(issue(&copy), 3, "the copy continues the key id's serials");
+    assert_eq!(issue(&key), 4);
+    let id = BlobSigner::load(&SignOptions { key: key.clone(), ..SignOptions::default() }).unwrap().key_id();
+    assert!(state.join(format!("{id}.serial")).exists(), "the ledger is named by the key id");
+    // The command, through the environment variable, on the copy.
+    let model = d.path().join("tiny.fbgm");
+    std::fs::write(&model, TINY).unwrap();
+    let out = trainer()
+        .args(["sign", "--json", "--model"])
+        .arg(&model)
+        .arg("--out")
+        .arg(d.path().join("s.fbgm"))
+        .arg("--sign")
+        .arg(&copy)
+        .env(sign::STATE_DIR_ENV, &state)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["serial"], 5, "{v}");
+    // A serial below the key id's last one is refused for the copy too.
+    let o =
+        SignOptions { key: copy.clone(), serial: Some(2), state_dir: Some(state.clone()), ..SignOptions::default() };
+    let e = BlobSigner::load(&o).unwrap().issue_serial().unwrap_err().to_string();
+    assert!(e.contains("below the last serial issued"), "{e}");
+    // A legacy ledger beside the key file (earlier versions) counts as well.
+    std::fs::write(
+        d.path().join("elsewhere/copy-of-lab.key.serial"),
+        format!("{{\"format\": \"{}\", \"key_id\": \"{id}\", \"last_serial\": 40}}", sign::STATE_FORMAT),
+    )
+    .unwrap();
+    assert_eq!(issue(&copy), 41);
+    assert_eq!(issue(&key), 42, "and the ledger now carries it for every copy");
+}
+
+/// Issue 28, item 8a: a trailer of a version this build does not read, or with a reserved
+/// byte set, is reported as such by `inspect` and whatever reads the model, not as bytes after
+/// the payload.
+#[test]
+fn an_unreadable_trailer_is_named_not_counted_as_extra_bytes() {
+    let d = tempfile::tempdir().unwrap();
+    let key = d.path().join("lab.key");
+    sign::keygen(&key).unwrap();
+    let o = SignOptions { key, state_dir: Some(d.path().join("state")), ..SignOptions::default() };
+    let (signed, _) = BlobSigner::load(&o).unwrap().sign(TINY).unwrap();
+    let at = TINY.len();
+    for (what, byte, value, want) in [
+        ("version 3", 4, 3u8, "signature trailer version 3 not supported"),
+        ("version 255", 4, 255, "signature trailer version 255 not supported"),
+        ("reserved byte", 6, 1, "reserved byte set"),
+        ("other reserved byte", 7, 0x80, "reserved byte set"),
+    ] {
+        let mut bad = signed.clone();
+        bad[at + byte] = value;
+        let file = d.path().join("bad.fbgm");
+        std::fs::write(&file, &bad).unwrap();
+        let e = fbg_trainer::export::read_blob(&file).unwrap_err().to_string();
+        assert!(e.contains(want) && !e.contains("unexpected bytes"), "{what}: {e}");
+        let out = trainer().arg("inspect").arg(&file).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(want) && !err.contains("unexpected bytes"), "{what}: {err}");
+    }
 }
 
 #[test]
@@ -101,7 +205,7 @@ fn serials_grow_per_key_even_when_signers_race() {
     let d = tempfile::tempdir().unwrap();
     let key = d.path().join("lab.key");
     sign::keygen(&key).unwrap();
-    let opts = SignOptions { key: key.clone(), ..SignOptions::default() };
+    let opts = SignOptions { key: key.clone(), state_dir: Some(d.path().join("state")), ..SignOptions::default() };
     let serials: Vec<u64> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..4)
             .map(|_| {
@@ -143,6 +247,7 @@ fn sign_and_inspect_pubkey_commands() {
         .arg("--sign")
         .arg(&key)
         .args(["--serial", "7"])
+        .env(sign::STATE_DIR_ENV, d.path().join("state"))
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

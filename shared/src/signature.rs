@@ -1,31 +1,42 @@
 //! The signature trailer of a signed model blob: the one definition of the host ↔ device
 //! contract that says who made a model and which release it is.
 //!
-//! A signed model is the unsigned `.fbgm` blob, byte for byte, followed by a fixed 88-byte
-//! trailer (little-endian):
+//! A signed model is the unsigned `.fbgm` blob, byte for byte, followed by a trailer
+//! (little-endian) of one of two versions:
 //!
 //! ```text
 //! offset  size  field
 //! 0       4     magic "FBGS"
-//! 4       1     trailer version (TRAILER_VERSION)
+//! 4       1     trailer version: 1 (88 bytes) or 2 (96 bytes)
 //! 5       1     flags (SignFlags: bit 0 = allow rollback; other bits must be 0)
 //! 6       2     reserved, 0
-//! 8       8     serial, u64 LE (model release number, monotonic per key)
+//! 8       8     serial, u64 LE (model release number, monotonic per key id)
 //! 16      8     key id: the first 8 bytes of SHA-256 of the signer's Ed25519 public key
-//! 24      64    Ed25519 signature (RFC 8032, pure Ed25519) of the signed message
+//! 24      8     version 2 only: replaces, u64 LE (the one serial this rollback may replace)
+//! 24|32   64    Ed25519 signature (RFC 8032, pure Ed25519) of the signed message
 //! ```
 //!
 //! The **signed message** is everything before the signature: the whole blob (header, version,
-//! payload and its CRC) followed by the first 24 bytes of the trailer. It is contiguous in the
-//! file, so a device verifies the staged bytes in place, and serial, flags and key id are
-//! covered as well as the model.
+//! payload and its CRC) followed by the trailer's head (24 bytes in version 1, 32 in version
+//! 2). It is contiguous in the file, so a device verifies the staged bytes in place, and
+//! serial, flags, key id and the replaced serial are covered as well as the model.
+//!
+//! **Versions.** A signer writes version 1 for every model except a rollback, so that devices
+//! built before version 2 still take ordinary updates; a rollback (the allow-rollback flag) is
+//! written as version 2 and must name the serial it replaces: a device accepts it only while
+//! that serial is running (and only when built to accept rollbacks at all), so it cannot be
+//! replayed once the device has moved on. A version-2 trailer without the flag is malformed. A
+//! version-1 trailer is accepted without rollback: its allow-rollback flag (written by older
+//! signers, with no bound) grants nothing, and the model is judged like any other update
+//! (serial above the running one). Any other version is refused as unsupported.
 //!
 //! Unsigned blobs stay valid and byte-identical: the trailer only ever follows a blob. To
 //! tell the two apart ([`open`]): bytes whose own last four bytes are their valid CRC are an
-//! unsigned blob; otherwise bytes whose 88th-from-last byte starts `FBGS` carry a trailer
-//! (whatever state the blob before it is in, so that a blob damaged after signing is reported
-//! as a bad signature, not as unsigned); anything else is handed to the blob decoder as it is,
-//! which names the damage.
+//! unsigned blob; otherwise bytes whose 96th-from-last byte starts `FBGS` and version 2, or
+//! whose 88th-from-last byte starts `FBGS`, carry a trailer there (whatever state the blob
+//! before it is in, so that a blob damaged after signing is reported as a bad signature, not
+//! as unsigned; and whatever its version byte says, so that an unknown version is reported as
+//! such); anything else is handed to the blob decoder as it is, which names the damage.
 //!
 //! The verifier ([`verify`], feature `verify`) is `salty`'s Ed25519 (no heap, `no_std`; on a
 //! Cortex-M4F its field arithmetic is the `UMAAL` assembly of Haase's Curve25519 code, on other
@@ -37,12 +48,18 @@ use crate::blob::{computed_crc, stored_crc, CRC_LEN, HEADER_LEN};
 
 /// Trailer magic.
 pub const TRAILER_MAGIC: [u8; 4] = *b"FBGS";
-/// Trailer version this build writes and reads.
+/// Trailer version of an ordinary signed model (no rollback).
 pub const TRAILER_VERSION: u8 = 1;
-/// Bytes of the trailer.
+/// Trailer version of a rollback: version 1's fields and the serial it replaces.
+pub const TRAILER_VERSION_ROLLBACK: u8 = 2;
+/// Bytes of a version-1 trailer.
 pub const TRAILER_LEN: usize = 88;
-/// Bytes of the trailer the signature covers (everything before the signature).
+/// Bytes of a version-1 trailer the signature covers (everything before the signature).
 pub const TRAILER_HEAD_LEN: usize = 24;
+/// Bytes of a version-2 (rollback) trailer.
+pub const TRAILER_V2_LEN: usize = 96;
+/// Bytes of a version-2 trailer the signature covers.
+pub const TRAILER_V2_HEAD_LEN: usize = 32;
 /// Bytes of an Ed25519 signature.
 pub const SIGNATURE_LEN: usize = 64;
 /// Bytes of an Ed25519 public key.
@@ -51,6 +68,7 @@ pub const PUBLIC_KEY_LEN: usize = 32;
 pub const KEY_ID_LEN: usize = 8;
 
 const _: () = assert!(TRAILER_HEAD_LEN + SIGNATURE_LEN == TRAILER_LEN);
+const _: () = assert!(TRAILER_V2_HEAD_LEN + SIGNATURE_LEN == TRAILER_V2_LEN);
 
 /// Which key signed: the first 8 bytes of SHA-256 of its 32-byte Ed25519 public key
 /// ([`key_id`], feature `key-id`). An id names a key; it proves nothing by itself (the
@@ -120,65 +138,117 @@ impl SignFlags {
     }
 }
 
-/// What a signer states about a model: serial, flags and key (the signed part of the
-/// trailer).
+/// What a signer states about a model: serial, flags, key and, for a rollback, the serial it
+/// replaces (the signed part of the trailer).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TrailerHead {
     /// Flags.
     pub flags: SignFlags,
-    /// Model release number (monotonic per key on the signing host).
+    /// Model release number (monotonic per key id on the signing host).
     pub serial: u64,
     /// The signer's key id.
     pub key_id: KeyId,
+    /// The one running serial this model may replace although its own serial is lower: set
+    /// (version-2 trailer) exactly when the allow-rollback flag is; `None` in version 1.
+    pub replaces: Option<u64>,
+}
+
+/// The signed bytes of a trailer's head ([`TrailerHead::to_bytes`]): 24 bytes in version 1,
+/// 32 in version 2; dereferences to the slice.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HeadBytes {
+    buf: [u8; TRAILER_V2_HEAD_LEN],
+    len: usize,
+}
+
+impl core::ops::Deref for HeadBytes {
+    type Target = [u8];
+    fn deref(&self) -> &[u8] {
+        self.buf.get(..self.len).unwrap_or(&[])
+    }
 }
 
 impl TrailerHead {
-    /// The 24 bytes of the trailer before the signature (magic, version, flags, reserved,
-    /// serial, key id). The signed message is the blob followed by these bytes.
-    pub fn to_bytes(&self) -> [u8; TRAILER_HEAD_LEN] {
-        let mut out = [0u8; TRAILER_HEAD_LEN];
-        let fields: [&[u8]; 6] = [
+    /// The trailer version these fields are written as: 2 when a replaced serial is named.
+    pub const fn version(&self) -> u8 {
+        if self.replaces.is_some() {
+            TRAILER_VERSION_ROLLBACK
+        } else {
+            TRAILER_VERSION
+        }
+    }
+
+    /// Bytes of the head ([`TRAILER_HEAD_LEN`] or [`TRAILER_V2_HEAD_LEN`]).
+    pub const fn len(&self) -> usize {
+        if self.replaces.is_some() {
+            TRAILER_V2_HEAD_LEN
+        } else {
+            TRAILER_HEAD_LEN
+        }
+    }
+
+    /// Whether the head is empty (never: it always has its magic).
+    pub const fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The bytes of the trailer before the signature (magic, version, flags, reserved,
+    /// serial, key id, and in version 2 the replaced serial). The signed message is the blob
+    /// followed by these bytes.
+    pub fn to_bytes(&self) -> HeadBytes {
+        let mut buf = [0u8; TRAILER_V2_HEAD_LEN];
+        let replaces = self.replaces.unwrap_or(0).to_le_bytes();
+        let fields: [&[u8]; 7] = [
             &TRAILER_MAGIC,
-            &[TRAILER_VERSION],
+            &[self.version()],
             &[self.flags.bits()],
             &[0, 0],
             &self.serial.to_le_bytes(),
             &self.key_id.0,
+            if self.replaces.is_some() { &replaces } else { &[] },
         ];
-        let mut at = out.iter_mut();
+        let mut at = buf.iter_mut();
         for b in fields.iter().flat_map(|f| f.iter()) {
             if let Some(o) = at.next() {
                 *o = *b;
             }
         }
-        out
+        HeadBytes { buf, len: self.len() }
     }
 
-    /// Parse the signed part of a trailer (`bytes` of at least [`TRAILER_HEAD_LEN`]).
+    /// Parse the signed part of a trailer (`bytes` from the trailer's magic on): version 1 or
+    /// 2, known flags, reserved bytes zero, and the replaced serial exactly with the
+    /// allow-rollback flag in version 2.
     pub fn parse(bytes: &[u8]) -> Result<TrailerHead, SignatureError> {
-        let head = bytes.get(..TRAILER_HEAD_LEN).ok_or(SignatureError::Unsigned)?;
-        if head.get(..4) != Some(&TRAILER_MAGIC[..]) {
+        if !magic_at(bytes, 0) {
             return Err(SignatureError::Unsigned);
         }
-        let byte = |i: usize| head.get(i).copied().unwrap_or(0);
+        let byte = |i: usize| bytes.get(i).copied().unwrap_or(0);
         let version = byte(4);
-        if version != TRAILER_VERSION {
-            return Err(SignatureError::UnsupportedTrailer { version });
-        }
+        let len = match version {
+            TRAILER_VERSION => TRAILER_HEAD_LEN,
+            TRAILER_VERSION_ROLLBACK => TRAILER_V2_HEAD_LEN,
+            _ => return Err(SignatureError::UnsupportedTrailer { version }),
+        };
+        let head = bytes.get(..len).ok_or(SignatureError::Malformed)?;
         let flags = SignFlags::from_bits(byte(5)).ok_or(SignatureError::UnknownFlags { bits: byte(5) })?;
         if byte(6) != 0 || byte(7) != 0 {
             return Err(SignatureError::Reserved);
         }
-        let mut serial = [0u8; 8];
-        let mut key_id = [0u8; KEY_ID_LEN];
-        for (o, b) in serial.iter_mut().zip(head.iter().skip(8)) {
-            *o = *b;
+        let eight = |at: usize| head.get(at..).and_then(<[u8]>::first_chunk::<8>).copied().unwrap_or_default();
+        let replaces = (version == TRAILER_VERSION_ROLLBACK).then(|| u64::from_le_bytes(eight(24)));
+        if replaces.is_some() && !flags.contains(SignFlags::ALLOW_ROLLBACK) {
+            return Err(SignatureError::Malformed);
         }
-        for (o, b) in key_id.iter_mut().zip(head.iter().skip(16)) {
-            *o = *b;
-        }
-        Ok(TrailerHead { flags, serial: u64::from_le_bytes(serial), key_id: KeyId(key_id) })
+        Ok(TrailerHead { flags, serial: u64::from_le_bytes(eight(8)), key_id: KeyId(eight(16)), replaces })
+    }
+
+    /// The bounded rollback this head grants: the serial it may replace, when the
+    /// allow-rollback flag is set and a replaced serial is named (version 2). A version-1
+    /// allow-rollback flag grants nothing.
+    pub fn rollback_of(&self) -> Option<u64> {
+        self.replaces.filter(|_| self.flags.contains(SignFlags::ALLOW_ROLLBACK))
     }
 }
 
@@ -223,29 +293,38 @@ impl<'a> Envelope<'a> {
     }
 }
 
+/// Whether [`TRAILER_MAGIC`] starts at `at` (byte compares: no `memcmp` in the image).
+fn magic_at(bytes: &[u8], at: usize) -> bool {
+    matches!(bytes.get(at..), Some([b'F', b'B', b'G', b'S', ..]))
+}
+
+const _: () = assert!(matches!(TRAILER_MAGIC, [b'F', b'B', b'G', b'S']));
+
 /// Tell a signed model from an unsigned one and split it (see the module docs for the rule).
-/// A trailer that is there but malformed (unknown version, unknown flag, reserved bits set) is
-/// an error; the signature itself is not checked here.
+/// A trailer that is there but malformed (unknown version, unknown flag, reserved bits set,
+/// a length that is not its version's) is an error; the signature itself is not checked here.
 pub fn open(bytes: &[u8]) -> Result<Envelope<'_>, SignatureError> {
     if computed_crc(bytes).is_some_and(|c| Some(c) == stored_crc(bytes)) {
         return Ok(Envelope::Unsigned(bytes));
     }
-    let Some(at) = bytes.len().checked_sub(TRAILER_LEN).filter(|&at| at >= HEADER_LEN + CRC_LEN) else {
-        return Ok(Envelope::Unsigned(bytes));
+    // Where a trailer of `len` bytes would start, when a blob could precede it and the magic is there.
+    let start =
+        |len: usize| bytes.len().checked_sub(len).filter(|&at| at >= HEADER_LEN + CRC_LEN && magic_at(bytes, at));
+    let v2 = start(TRAILER_V2_LEN);
+    let at = match (v2, start(TRAILER_LEN)) {
+        (Some(at), _) if bytes.get(at + 4) == Some(&TRAILER_VERSION_ROLLBACK) => at,
+        (_, Some(at)) => at,
+        // The magic where only a longer trailer could start: its version names what it is.
+        (Some(at), None) => at,
+        (None, None) => return Ok(Envelope::Unsigned(bytes)),
     };
     let (blob, trailer) = bytes.split_at_checked(at).unwrap_or((bytes, &[]));
-    if trailer.get(..4) != Some(&TRAILER_MAGIC[..]) {
-        return Ok(Envelope::Unsigned(bytes));
-    }
     let head = TrailerHead::parse(trailer)?;
-    let (message, sig) = bytes.split_at_checked(at + TRAILER_HEAD_LEN).unwrap_or((bytes, &[]));
-    let mut signature = [0u8; SIGNATURE_LEN];
-    if sig.len() != SIGNATURE_LEN {
-        return Err(SignatureError::Unsigned);
+    if trailer.len() != head.len() + SIGNATURE_LEN {
+        return Err(SignatureError::Malformed);
     }
-    for (o, b) in signature.iter_mut().zip(sig.iter()) {
-        *o = *b;
-    }
+    let (message, sig) = bytes.split_at_checked(at + head.len()).unwrap_or((bytes, &[]));
+    let signature = *sig.first_chunk::<SIGNATURE_LEN>().ok_or(SignatureError::Malformed)?;
     Ok(Envelope::Signed(Signed { blob, message, head, signature }))
 }
 
@@ -295,12 +374,35 @@ pub enum SignatureError {
     /// the flags were changed after signing, or the key's public part is not the one that
     /// signed), or the public key itself is not a valid Ed25519 key.
     BadSignature,
-    /// The serial is lower than the running model's and a rollback is not allowed.
+    /// The trailer's length is not its version's, or a version-2 trailer names a replaced
+    /// serial without the allow-rollback flag.
+    Malformed,
+    /// The serial is lower than the running model's and no rollback applies (none signed, or a
+    /// version-1 allow-rollback flag, which grants nothing).
     Rollback {
         /// The update's serial.
         serial: u64,
         /// The running model's serial.
         running: u64,
+    },
+    /// A rollback signed to replace serial `replaces`, while another serial runs (a replay
+    /// after the device moved on, or before it got there), or on a build that accepts no
+    /// rollback (`enabled` false).
+    RollbackNotPermitted {
+        /// The update's serial.
+        serial: u64,
+        /// The serial the rollback may replace.
+        replaces: u64,
+        /// The running model's serial.
+        running: u64,
+        /// Whether this build accepts rollbacks at all.
+        enabled: bool,
+    },
+    /// The serial of the running model, on another model (blob CRC differs): two models signed
+    /// with one serial cannot be swapped for each other.
+    SerialReused {
+        /// The serial.
+        serial: u64,
     },
 }
 
@@ -309,14 +411,30 @@ impl core::fmt::Display for SignatureError {
         match self {
             SignatureError::Unsigned => f.write_str("the model is not signed"),
             SignatureError::UnsupportedTrailer { version } => {
-                write!(f, "signature trailer version {version} is not readable by this build (reads {TRAILER_VERSION})")
+                write!(
+                    f,
+                    "signature trailer version {version} not supported (this build reads {TRAILER_VERSION} and {TRAILER_VERSION_ROLLBACK})"
+                )
             }
             SignatureError::UnknownFlags { bits } => write!(f, "signature trailer has unknown flags {bits:#04x}"),
-            SignatureError::Reserved => f.write_str("signature trailer has reserved bytes set"),
+            SignatureError::Reserved => f.write_str("signature trailer has a reserved byte set"),
             SignatureError::UnknownKey { key_id } => write!(f, "signed by key {key_id}, which is not trusted"),
             SignatureError::BadSignature => f.write_str("the signature does not verify (changed after signing?)"),
             SignatureError::Rollback { serial, running } => {
                 write!(f, "serial {serial} is lower than the running model's {running} (rollback not allowed)")
+            }
+            SignatureError::Malformed => f.write_str(
+                "signature trailer is malformed (length not its version's, or a replaced serial without the rollback flag)",
+            ),
+            SignatureError::RollbackNotPermitted { serial, replaces, running, enabled: true } => write!(
+                f,
+                "rollback to serial {serial} may replace serial {replaces} only, but serial {running} is running"
+            ),
+            SignatureError::RollbackNotPermitted { serial, enabled: false, .. } => {
+                write!(f, "serial {serial} is a rollback, which this firmware build does not accept")
+            }
+            SignatureError::SerialReused { serial } => {
+                write!(f, "serial {serial} is the running model's, on another model (a serial names one model)")
             }
         }
     }
@@ -401,8 +519,12 @@ mod tests {
 
     #[test]
     fn head_round_trips_and_unsigned_stays_unsigned() {
-        let head =
-            TrailerHead { flags: SignFlags::ALLOW_ROLLBACK, serial: 0x0102_0304_0506_0708, key_id: KeyId([7; 8]) };
+        let head = TrailerHead {
+            flags: SignFlags::ALLOW_ROLLBACK,
+            serial: 0x0102_0304_0506_0708,
+            key_id: KeyId([7; 8]),
+            replaces: None,
+        };
         let bytes = head.to_bytes();
         assert_eq!(&bytes[..4], b"FBGS");
         assert_eq!(bytes[4], TRAILER_VERSION);
@@ -436,6 +558,73 @@ mod tests {
         let mut bad = signed.clone();
         bad[at + 7] = 1;
         assert_eq!(open(&bad), Err(SignatureError::Reserved));
+    }
+
+    /// `blob`, a head and a dummy signature.
+    fn with_trailer(blob: &[u8], head: &[u8]) -> Vec<u8> {
+        let mut v = blob.to_vec();
+        v.extend_from_slice(head);
+        v.extend_from_slice(&[9u8; SIGNATURE_LEN]);
+        v
+    }
+
+    #[test]
+    fn a_rollback_is_a_version_2_trailer_naming_the_serial_it_replaces() {
+        let head =
+            TrailerHead { flags: SignFlags::ALLOW_ROLLBACK, serial: 4, key_id: KeyId([3; 8]), replaces: Some(5) };
+        let bytes = head.to_bytes();
+        assert_eq!(bytes.len(), TRAILER_V2_HEAD_LEN);
+        assert_eq!(bytes[4], TRAILER_VERSION_ROLLBACK);
+        assert_eq!(&bytes[24..32], &5u64.to_le_bytes());
+        assert_eq!(TrailerHead::parse(&bytes), Ok(head));
+        assert_eq!(head.rollback_of(), Some(5));
+        let blob = fake_blob();
+        let signed = with_trailer(&blob, &bytes);
+        assert_eq!(signed.len(), blob.len() + TRAILER_V2_LEN);
+        let Envelope::Signed(s) = open(&signed).unwrap() else { panic!("not signed") };
+        assert_eq!((s.blob, s.head, s.message.len()), (&blob[..], head, blob.len() + TRAILER_V2_HEAD_LEN));
+        assert_eq!(strip(&signed), &blob[..]);
+
+        // A version-1 allow-rollback flag grants no rollback.
+        let v1 = TrailerHead { replaces: None, ..head };
+        assert_eq!((v1.to_bytes().len(), v1.rollback_of()), (TRAILER_HEAD_LEN, None));
+        // A replaced serial without the flag is malformed.
+        let mut bad = signed.clone();
+        bad[blob.len() + 5] = 0;
+        assert_eq!(open(&bad), Err(SignatureError::Malformed));
+        // A version-1 trailer whose version byte says 2 (8 bytes short of a version-2 one).
+        let mut short = blob.clone();
+        short.extend_from_slice(&bytes[..TRAILER_HEAD_LEN]);
+        short.extend_from_slice(&[9u8; SIGNATURE_LEN]);
+        short[blob.len() + 4] = TRAILER_VERSION_ROLLBACK;
+        assert_eq!(open(&short), Err(SignatureError::Malformed));
+    }
+
+    #[test]
+    fn unknown_versions_and_reserved_bytes_are_named() {
+        let blob = fake_blob();
+        for head in [
+            TrailerHead { flags: SignFlags::NONE, serial: 7, key_id: KeyId([1; 8]), replaces: None },
+            TrailerHead { flags: SignFlags::ALLOW_ROLLBACK, serial: 7, key_id: KeyId([1; 8]), replaces: Some(8) },
+        ] {
+            let signed = with_trailer(&blob, &head.to_bytes());
+            let at = blob.len();
+            for version in [0u8, 3, 0xff] {
+                let mut bad = signed.clone();
+                bad[at + 4] = version;
+                assert_eq!(open(&bad), Err(SignatureError::UnsupportedTrailer { version }), "{head:?}");
+                assert_eq!(
+                    std::format!("{}", SignatureError::UnsupportedTrailer { version }),
+                    std::format!("signature trailer version {version} not supported (this build reads 1 and 2)")
+                );
+            }
+            for i in [6, 7] {
+                let mut bad = signed.clone();
+                bad[at + i] = 0x10;
+                assert_eq!(open(&bad), Err(SignatureError::Reserved));
+            }
+        }
+        assert_eq!(std::format!("{}", SignatureError::Reserved), "signature trailer has a reserved byte set");
     }
 
     #[test]

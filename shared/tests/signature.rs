@@ -106,7 +106,7 @@ fn sign(blob: &[u8], seed: [u8; 32], serial: u64, flags: SignFlags) -> (Vec<u8>,
     let public: [u8; 32] = *kp.pk;
     let id = key_id(&public);
     let mut out = blob.to_vec();
-    out.extend_from_slice(&TrailerHead { flags, serial, key_id: id }.to_bytes());
+    out.extend_from_slice(&TrailerHead { flags, serial, key_id: id, replaces: None }.to_bytes());
     let sig = kp.sk.sign(&out, None);
     out.extend_from_slice(&sig[..]);
     (out, TrustedKey { id, public })

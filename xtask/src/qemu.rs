@@ -23,8 +23,12 @@
 //!    accepted; unsigned, signed by an unknown key, tampered after signing (one payload bit)
 //!    and an older serial replayed are each refused with their reason while the running model
 //!    answers bit for bit as before; the device's counters and audit fields say so, also
-//!    through `fbg-trainer device status`; an older model signed with the allow-rollback flag
-//!    is accepted (the default build allows it);
+//!    through `fbg-trainer device status`; so are another model under the running serial (a
+//!    swap) and a rollback (the default build accepts none); 1 000 `ModelBegin` frames erase
+//!    the staging slot at most once (`Status::staging_erases`). Then the `rollback` image (the
+//!    product with rollbacks accepted): a rollback signed to replace serial 5 is refused over
+//!    serial 3, accepted over serial 5, refused when replayed over itself and after the device
+//!    moved on to serial 9;
 //! 6. memory over 14 days: the product image, given a model with memory terms (the default
 //!    when it has them, else the default with the full memory bank added), compensates the
 //!    whole paper data set — 20 160 samples, 14 days — on an irregular clock with a 5 h gap;
@@ -98,9 +102,11 @@ pub fn run_all(root: &Path) -> Result<()> {
     crate::step("QEMU: streaming, garbage and model updates over a loopback TCP serial port");
     link_test(root, &qemu, &bins, &fx, &dfx, &sfx)?;
     crate::step(
-        "QEMU: signed model updates (accepted; unsigned, unknown key, tampered, rollback refused) and the audit trail",
+        "QEMU: signed model updates (accepted; unsigned, unknown key, tampered, rollback, swap refused), staging erases and the audit trail",
     );
     signed_update_test(root, &qemu, &bins, &fx, &sfx)?;
+    crate::step("QEMU: a bounded rollback (the `rollback` image): accepted over the serial it names only");
+    rollback_test(root, &qemu, &bins, &sfx)?;
     crate::step("QEMU: a memory model over the whole 14-day paper stream (f32 device vs f64 host)");
     long_memory_test(root, &qemu, &bins, &fx)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());
@@ -145,6 +151,8 @@ pub struct Bins {
     pub golden: PathBuf,
     /// Fault-path image.
     pub fault: PathBuf,
+    /// The product with rollbacks accepted (the bounded-rollback test).
+    pub rollback: PathBuf,
 }
 
 /// The firmware workspace.
@@ -176,7 +184,12 @@ pub fn build(root: &Path, k: usize, fx: &Fixtures, bench: Option<&Path>) -> Resu
             .envs(build_env(k, fx, bench)),
     )?;
     let out = fw.join("target/thumbv7em-none-eabihf/release");
-    Ok(Bins { product: out.join("fbg-firmware"), golden: out.join("golden"), fault: out.join("fault") })
+    Ok(Bins {
+        product: out.join("fbg-firmware"),
+        golden: out.join("golden"),
+        fault: out.join("fault"),
+        rollback: out.join("rollback"),
+    })
 }
 
 /// The host's target triple (for the device-logic unit tests).
@@ -851,11 +864,13 @@ fn signed_update_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, sfx:
     // Refused, each with its reason, the running model untouched.
     let mut tampered = new.clone();
     tampered[fbg_shared::blob::HEADER_LEN + 40] ^= 0x04; // one payload bit
-    let cases: [(&str, Vec<u8>, RejectReason); 4] = [
+    let cases: [(&str, Vec<u8>, RejectReason); 6] = [
         ("unsigned", new_blob.clone(), RejectReason::Unsigned),
         ("unknown key", fs::read(&sfx.stranger)?, RejectReason::UnknownKey),
         ("tampered after signing (one payload bit)", tampered, RejectReason::BadSignature),
         ("older serial replayed (3 < 5)", fs::read(&sfx.old)?, RejectReason::Rollback),
+        ("another model under the running serial 5 (a swap)", fs::read(&sfx.swap)?, RejectReason::SerialReused),
+        ("a rollback of serial 5, on the default build", fs::read(&sfx.rollback)?, RejectReason::RollbackNotPermitted),
     ];
     for (what, bytes, reason) in &cases {
         expect_rejected(s.link()?.update_model(bytes)?, *reason, what)?;
@@ -872,14 +887,32 @@ fn signed_update_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, sfx:
         );
     }
     let st = s.link()?.status()?;
-    let want = fbg_shared::protocol::Refusals { unsigned: 1, bad_signature: 1, unknown_key: 1, rollback: 1 };
+    let want =
+        fbg_shared::protocol::Refusals { unsigned: 1, bad_signature: 1, unknown_key: 1, rollback: 2, serial_reused: 1 };
     ensure!(st.refused == want, "refusals by reason {:?}, expected {want:?}", st.refused);
     ensure!(
-        (st.updates_accepted, st.updates_rejected) == (2, 4),
+        (st.updates_accepted, st.updates_rejected) == (2, 6),
         "accepted/refused {:?}",
         (st.updates_accepted, st.updates_rejected)
     );
     eprintln!("xtask: signed: every bad update refused with its reason; the running model answered bit for bit as before each time");
+
+    // Issue 28, item 6: begins without data erase nothing (at most the one a written slot needs).
+    let before = st.staging_erases;
+    let begin = fbg_shared::protocol::HostMsg::ModelBegin {
+        total_len: new.len() as u32,
+        crc32: fbg_shared::protocol::crc32(&new),
+    };
+    for i in 0..1000 {
+        let r = s.link()?.request(&begin)?;
+        ensure!(matches!(r, DeviceMsg::UpdateProgress { received: 0 }), "ModelBegin {i}: {r:?}");
+    }
+    let erases = s.link()?.status()?.staging_erases - before;
+    ensure!(erases <= 1, "1 000 ModelBegin frames erased the staging slot {erases} times");
+    eprintln!(
+        "xtask: signed: 1 000 ModelBegin frames, {erases} staging erase(s) (slot erases since boot: {})",
+        before + erases
+    );
 
     // The audit trail through the CLI.
     s.disconnect()?;
@@ -892,18 +925,77 @@ fn signed_update_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures, sfx:
     ensure!(out.status.success(), "fbg-trainer device status failed: {}", String::from_utf8_lossy(&out.stderr));
     for needle in [
         format!("serial 5, signed by key {test_id}"),
-        "2 accepted, 4 refused (1 unsigned, 1 bad signature, 1 unknown key, 1 rollback, 0 other)".to_string(),
+        "2 accepted, 6 refused (1 unsigned, 1 bad signature, 1 unknown key, 2 rollback, 1 serial reused, 0 other)"
+            .to_string(),
+        format!("staging slot: {} erases since boot", before + erases),
     ] {
         ensure!(text.contains(&needle), "`fbg-trainer device status` does not say `{needle}`:\n{text}");
     }
     eprint!("xtask: signed: fbg-trainer device status:\n{text}");
     s.connect()?;
+    s.disconnect()?;
+    s.check_alive()?;
+    Ok(())
+}
 
-    // A deliberate downgrade signed with the allow-rollback flag: accepted by the default build.
-    accepted(&mut s, &sfx.rollback, 4, stored_crc(&default))?;
-    ensure!(answers(&mut s, &samples)? == embedded, "the rolled-back default model answers differently");
+/// Issue 28, item 3, on the `rollback` image (the product with rollbacks accepted): the
+/// rollback signed to replace serial 5 is refused over serial 3, accepted over serial 5,
+/// refused when replayed over itself (serial 4 now runs) and after the device moved on to
+/// serial 9; the swap is refused there too.
+fn rollback_test(root: &Path, qemu: &Path, bins: &Bins, sfx: &SignedFixtures) -> Result<()> {
+    let default = fs::read(firmware_dir(root).join("model/default.fbgm"))?;
+    let new = fs::read(&sfx.new)?;
+    let new_crc = stored_crc(fbg_shared::signature::strip(&new));
+    let rollback = fs::read(&sfx.rollback)?;
+    let mut s = LinkSession::start(root, qemu, &bins.rollback, "rollback")?;
+    let step = |s: &mut LinkSession, what: &str, path: &Path, want: Option<RejectReason>, after: (u64, Option<u32>)| {
+        let r = s.link()?.update_model(&fs::read(path)?)?;
+        match want {
+            None => ensure!(matches!(r, UpdateResult::Accepted { .. }), "{what}: {r:?}"),
+            Some(reason) => expect_rejected(r, reason, what)?,
+        }
+        let st = s.link()?.status()?;
+        ensure!(
+            (st.model_serial, Some(st.model_crc)) == after,
+            "{what}: running serial {}, crc {:#x}, expected {after:?}",
+            st.model_serial,
+            st.model_crc
+        );
+        eprintln!("xtask: rollback: {what}: {}", if want.is_none() { "accepted" } else { "refused" });
+        Ok(())
+    };
+    step(&mut s, "serial 3", &sfx.old, None, (3, stored_crc(&default)))?;
+    step(
+        &mut s,
+        "the rollback over serial 3",
+        &sfx.rollback,
+        Some(RejectReason::RollbackNotPermitted),
+        (3, stored_crc(&default)),
+    )?;
+    step(&mut s, "serial 5", &sfx.new, None, (5, new_crc))?;
+    step(&mut s, "another model under serial 5", &sfx.swap, Some(RejectReason::SerialReused), (5, new_crc))?;
+    step(&mut s, "the rollback over serial 5", &sfx.rollback, None, (4, stored_crc(&default)))?;
+    step(
+        &mut s,
+        "the rollback replayed over itself",
+        &sfx.rollback,
+        Some(RejectReason::RollbackNotPermitted),
+        (4, stored_crc(&default)),
+    )?;
+    step(&mut s, "serial 9", &sfx.later, None, (9, new_crc))?;
+    step(
+        &mut s,
+        "the rollback after the device moved on",
+        &sfx.rollback,
+        Some(RejectReason::RollbackNotPermitted),
+        (9, new_crc),
+    )?;
     let st = s.link()?.status()?;
-    ensure!(st.updates_accepted == 3 && st.refused == want, "after the rollback: {st:?}");
+    ensure!(
+        (st.updates_accepted, st.updates_rejected, st.refused.rollback, st.refused.serial_reused) == (4, 4, 3, 1),
+        "after the rollback test: {st:?}"
+    );
+    ensure!(rollback.len() == fbg_shared::signature::strip(&rollback).len() + fbg_shared::signature::TRAILER_V2_LEN);
     s.disconnect()?;
     s.check_alive()?;
     Ok(())

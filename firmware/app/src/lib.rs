@@ -32,9 +32,11 @@
 //!
 //! A model update must be signed ([`fbg_shared::signature`]): [`authenticate`] checks the
 //! staged bytes against the build's [`Policy`] — a trailer (else `Unsigned`), a trusted key id
-//! (else `UnknownKey`), an Ed25519 signature that verifies (else `BadSignature`), a serial not
-//! lower than the running model's unless the update's signed flags and the build both allow a
-//! rollback (else `Rollback`) — before a byte of the blob is parsed. The verification runs in
+//! (else `UnknownKey`), an Ed25519 signature that verifies (else `BadSignature`), and the serial
+//! rule (not lower than the running model's, else `Rollback`; the running serial only on the
+//! same model, else `SerialReused`; a rollback only where the build accepts rollbacks and only
+//! over the one serial it was signed to replace, else `RollbackNotPermitted`) — before a byte
+//! of the blob is parsed. The verification runs in
 //! its own never-inlined frame, before the load, so its stack and the parameter slot's are
 //! never on the stack together. Refusals are counted by reason in [`Status::refused`]. The
 //! embedded default model is trusted as part of the firmware image unless the build requires
@@ -56,7 +58,7 @@ use fbg_shared::protocol::{
     encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, RejectReason, Rejection, Status,
     UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
-use fbg_shared::signature::{self, Envelope, KeyId, SignFlags, SignatureError, TrustedKey};
+use fbg_shared::signature::{self, Envelope, KeyId, SignatureError, TrustedKey};
 use fbg_shared::{Compensator, Estimate, Sample};
 pub use staging::{MappedFlash, Staging};
 
@@ -104,8 +106,9 @@ pub struct ModelInfo {
 pub struct Policy {
     /// The public keys whose signatures are accepted.
     pub trusted: &'static [TrustedKey],
-    /// Whether an update signed with [`SignFlags::ALLOW_ROLLBACK`] may carry a lower serial
-    /// than the running model's (without the flag a lower serial is always refused).
+    /// Whether a rollback (signed with [`signature::SignFlags::ALLOW_ROLLBACK`] in a version-2 trailer
+    /// naming the serial it replaces) is accepted while that serial runs; without, every
+    /// rollback is refused. The firmware's default build does not accept rollbacks.
     pub allow_rollback: bool,
 }
 
@@ -119,15 +122,25 @@ pub struct Signer {
 }
 
 /// Check a model file against `policy` before anything of it is parsed: a signature trailer,
-/// a trusted key, a signature that verifies over blob, serial and flags, and a serial not
-/// lower than `running_serial` unless both the update's flags and the policy allow a rollback.
+/// a trusted key, a signature that verifies over blob, serial, flags and replaced serial, and
+/// then the serial rule against the `running` model (none at boot):
+///
+/// - a rollback (allow-rollback flag in a version-2 trailer, naming the serial it replaces) is
+///   accepted only by a build that accepts rollbacks and only while exactly that serial runs
+///   (else `RollbackNotPermitted`: a replay once the device has moved on, or a build without
+///   rollback);
+/// - any other update needs a serial not lower than the running one (else `Rollback`; a
+///   version-1 allow-rollback flag grants nothing);
+/// - the running serial itself is accepted only on the same model, i.e. the same blob CRC (a
+///   re-install; else `SerialReused`: two models signed with one serial cannot be swapped).
+///
 /// Returns the blob inside and its signer. Never inlined: the verifier's stack is gone before
 /// the model loads.
 #[inline(never)]
 pub fn authenticate<'b>(
     policy: &Policy,
     bytes: &'b [u8],
-    running_serial: u64,
+    running: Option<&ModelInfo>,
 ) -> Result<(&'b [u8], Signer), Rejection> {
     let signed = match signature::open(bytes)? {
         Envelope::Signed(s) => s,
@@ -135,9 +148,24 @@ pub fn authenticate<'b>(
     };
     signature::verify(&signed, policy.trusted)?;
     let head = signed.head;
-    let rollback_ok = policy.allow_rollback && head.flags.contains(SignFlags::ALLOW_ROLLBACK);
-    if head.serial < running_serial && !rollback_ok {
-        return Err(SignatureError::Rollback { serial: head.serial, running: running_serial }.into());
+    if let Some(run) = running {
+        let serial = head.serial;
+        match head.rollback_of() {
+            Some(replaces) if !policy.allow_rollback || replaces != run.serial => {
+                let enabled = policy.allow_rollback;
+                return Err(
+                    SignatureError::RollbackNotPermitted { serial, replaces, running: run.serial, enabled }.into()
+                );
+            }
+            Some(_) => {}
+            None if serial < run.serial => {
+                return Err(SignatureError::Rollback { serial, running: run.serial }.into());
+            }
+            None => {}
+        }
+        if serial == run.serial && blob::stored_crc(signed.blob) != Some(run.crc) {
+            return Err(SignatureError::SerialReused { serial }.into());
+        }
     }
     Ok((signed.blob, Signer { serial: head.serial, key_id: head.key_id }))
 }
@@ -154,7 +182,7 @@ pub fn boot<const K: usize>(
     bytes: &[u8],
 ) -> Result<ModelInfo, Rejection> {
     let (blob, signer) = if require_signed {
-        let (blob, s) = authenticate(policy, bytes, 0)?;
+        let (blob, s) = authenticate(policy, bytes, None)?;
         (blob, Some(s))
     } else {
         match signature::open(bytes) {
@@ -364,7 +392,7 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
     fn commit(&mut self) -> Result<ModelInfo, Rejection> {
         let core = &mut self.core;
         let staged = core.staging.finish()?;
-        let (blob, signer) = authenticate(&core.policy, staged, core.model.serial)?;
+        let (blob, signer) = authenticate(&core.policy, staged, Some(&core.model))?;
         let info = load_blob(&core.kernel, core.comp, blob)?;
         Ok(info.signed_by(Some(signer)))
     }
@@ -378,6 +406,7 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             model_serial: self.model.serial,
             model_key_id: self.model.key_id,
             stack_peak_bytes: self.stack_probe.map_or(0, |p| p()),
+            staging_erases: self.staging.erases(),
             ..self.status
         }
     }
@@ -459,6 +488,7 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
 
     fn accepted(&mut self, info: ModelInfo) -> DeviceMsg {
         self.model = info;
+        self.staging.accepted();
         self.status.updates_accepted = self.status.updates_accepted.wrapping_add(1);
         let _ = self.alarm.set_low();
         log!(

@@ -1,7 +1,6 @@
 //! A model update staged in a slot of NOR flash, not in RAM: what a real interrogator does with
-//! an incoming image. `ModelBegin` erases as many of the slot's erase units as the announced
-//! length needs, every `ModelChunk` is programmed at the flash's write granularity as it
-//! arrives, and the commit reads the staged bytes back in place (the slot is memory-mapped:
+//! an incoming image. `ModelBegin` makes the erase units the announced length needs blank,
+//! every `ModelChunk` is programmed at the flash's write granularity as it arrives, and the commit reads the staged bytes back in place (the slot is memory-mapped:
 //! [`MappedFlash`]) for the transfer CRC, the signature and the decode. The running model is
 //! never touched by any of it: only a fully checked blob is folded into it.
 //!
@@ -11,6 +10,14 @@
 //! are collected in a buffer of one write unit ([`MAX_WRITE_SIZE`] bytes at most), programmed
 //! when the unit is complete, and the last partial unit is padded with `0xFF` (the erased
 //! value) at the commit.
+//!
+//! **Erases.** Nothing of a transfer is authenticated before its commit, so the link must not
+//! be able to wear the flash out. `ModelBegin` erases only when the units it needs are not
+//! already blank (a blank check of the mapped bytes): begins without data in between erase
+//! nothing, however many. And the slot is erased at most [`ERASE_BUDGET`] times between two
+//! accepted (authenticated) updates: beyond, a begin that would erase is refused
+//! ([`RejectReason::EraseLimit`]) until an update is accepted or the device restarts. Every
+//! erase is counted ([`Staging::erases`], reported in `Status::staging_erases`).
 
 use embedded_storage::nor_flash::NorFlash;
 use fbg_shared::blob;
@@ -28,6 +35,11 @@ pub trait MappedFlash: NorFlash {
     /// bytes, as last erased and written.
     fn contents(&self) -> &[u8];
 }
+
+/// Erases of the slot allowed between two accepted updates (and after boot): enough for a
+/// host to retry a broken transfer a few times, few enough that the link alone cannot wear the
+/// slot (every accepted update needs a trusted signature).
+pub const ERASE_BUDGET: u32 = 16;
 
 /// A write unit of erased flash: the padding after the last byte of a transfer.
 const ERASED: [u8; MAX_WRITE_SIZE] = [0xFF; MAX_WRITE_SIZE];
@@ -53,6 +65,10 @@ pub struct Staging<F> {
     transfer: Transfer,
     /// The received bytes of the write unit not yet complete (its first `received % WRITE_SIZE`).
     pending: [u8; MAX_WRITE_SIZE],
+    /// Erases since boot.
+    erases: u32,
+    /// Erases since the last accepted update (or boot), against [`ERASE_BUDGET`].
+    erases_unaccepted: u32,
 }
 
 impl<F: MappedFlash> Staging<F> {
@@ -65,7 +81,24 @@ impl<F: MappedFlash> Staging<F> {
             assert!(F::ERASE_SIZE > 0, "erase granularity of zero");
         }
         let limit = if limit < flash.capacity() { limit } else { flash.capacity() };
-        Staging { flash, limit, transfer: Transfer::Idle, pending: [0; MAX_WRITE_SIZE] }
+        Staging {
+            flash,
+            limit,
+            transfer: Transfer::Idle,
+            pending: [0; MAX_WRITE_SIZE],
+            erases: 0,
+            erases_unaccepted: 0,
+        }
+    }
+
+    /// Erase operations on the slot since boot.
+    pub fn erases(&self) -> u32 {
+        self.erases
+    }
+
+    /// An update staged here was authenticated and accepted: the erase budget is renewed.
+    pub fn accepted(&mut self) {
+        self.erases_unaccepted = 0;
     }
 
     /// Longest transfer accepted, bytes.
@@ -85,8 +118,8 @@ impl<F: MappedFlash> Staging<F> {
     }
 
     /// Start a transfer of `total` bytes whose CRC-32 is `crc`: checked against the limit and
-    /// the shortest blob, then the erase units it needs are erased. Any earlier transfer is
-    /// forgotten.
+    /// the shortest blob, then the erase units it needs are erased unless they are blank
+    /// already (and within the erase budget). Any earlier transfer is forgotten.
     pub fn begin(&mut self, total: usize, crc: u32) -> Result<(), Rejection> {
         self.transfer = Transfer::Idle;
         let detail = u32::try_from(total).unwrap_or(u32::MAX);
@@ -97,7 +130,16 @@ impl<F: MappedFlash> Staging<F> {
             return Err(Rejection { reason: RejectReason::Truncated, detail });
         }
         let end = total.div_ceil(F::ERASE_SIZE).saturating_mul(F::ERASE_SIZE);
-        self.flash.erase(0, offset(end)).map_err(|_| storage(0))?;
+        let blank = self.flash.contents().get(..end).is_some_and(|b| b.iter().all(|&x| x == 0xFF));
+        if !blank {
+            if self.erases_unaccepted >= ERASE_BUDGET {
+                return Err(Rejection { reason: RejectReason::EraseLimit, detail: ERASE_BUDGET });
+            }
+            // Counted before the attempt: a failing erase still stresses the part.
+            self.erases = self.erases.wrapping_add(1);
+            self.erases_unaccepted = self.erases_unaccepted.saturating_add(1);
+            self.flash.erase(0, offset(end)).map_err(|_| storage(0))?;
+        }
         self.transfer = Transfer::Receiving { total, crc, received: 0 };
         Ok(())
     }

@@ -12,13 +12,13 @@ use embedded_storage::nor_flash::{check_erase, check_read, check_write, NorFlash
 use fbg_link::{LinkClient, LinkError};
 use fbg_shared::layout::paper::N_MEMORY;
 use fbg_shared::protocol::{crc32, encode_host, RejectReason, MAX_CHUNK};
-use fbg_shared::signature::{key_id, TrailerHead, TRAILER_LEN};
+use fbg_shared::signature::{key_id, SignFlags, TrailerHead, TRAILER_V2_LEN};
 use fbg_shared::{blob, Centre, Flags, MemoryBank, ModelParams};
 
 use super::*;
 
 const K: usize = 32;
-const STAGE: usize = blob::max_len(K) + TRAILER_LEN;
+const STAGE: usize = blob::max_len(K) + TRAILER_V2_LEN;
 
 /// The staging slot of the test devices: 8-byte flash words, 1 KiB erase units (the board's
 /// are 4 and 4 KiB; other granularities are tested on [`Staging`] directly).
@@ -45,10 +45,23 @@ fn policy() -> Policy {
     Policy { trusted: KEYS.get_or_init(|| [trusted(&lab())]), allow_rollback: true }
 }
 
-/// `blob_bytes` signed by `kp` with `serial` and `flags`, as the trainer writes it.
+/// `blob_bytes` signed by `kp` with `serial` and `flags`, as the trainer writes it (a version-1
+/// trailer).
 fn sign_with(kp: &ed25519_compact::KeyPair, blob_bytes: &[u8], serial: u64, flags: SignFlags) -> Vec<u8> {
+    sign_head(kp, blob_bytes, TrailerHead { flags, serial, key_id: trusted(kp).id, replaces: None })
+}
+
+/// `blob_bytes` signed by the lab as a rollback to `serial` that may replace `replaces` (a
+/// version-2 trailer, as `fbg-trainer sign --allow-rollback --replaces` writes it).
+fn sign_rollback(blob_bytes: &[u8], serial: u64, replaces: u64) -> Vec<u8> {
+    let head =
+        TrailerHead { flags: SignFlags::ALLOW_ROLLBACK, serial, key_id: trusted(&lab()).id, replaces: Some(replaces) };
+    sign_head(&lab(), blob_bytes, head)
+}
+
+fn sign_head(kp: &ed25519_compact::KeyPair, blob_bytes: &[u8], head: TrailerHead) -> Vec<u8> {
     let mut out = blob_bytes.to_vec();
-    out.extend_from_slice(&TrailerHead { flags, serial, key_id: trusted(kp).id }.to_bytes());
+    out.extend_from_slice(&head.to_bytes());
     let sig = kp.sk.sign(&out, None);
     out.extend_from_slice(&sig[..]);
     out
@@ -761,7 +774,7 @@ fn a_memory_model_is_served_like_the_library_across_gaps_resets_and_updates() {
     assert!(matches!(link2.update_model(&sign(&mem_blob, 1)).unwrap(), UpdateResult::Accepted { .. }));
     let mut reference2 = Compensator::<f32, K>::new(&params(&mem_blob)).unwrap();
     assert_serves(&mut link2, &mut reference2, &s, 0);
-    assert!(matches!(link2.update_model(&sign(default_blob(), 1)).unwrap(), UpdateResult::Accepted { .. }));
+    assert!(matches!(link2.update_model(&sign(default_blob(), 2)).unwrap(), UpdateResult::Accepted { .. }));
     let mut plain = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
     assert_serves(&mut link2, &mut plain, &s[..50], 400);
     // The memory terms do move the answers.
@@ -837,7 +850,7 @@ fn updates_must_be_signed_by_a_trusted_key_and_not_roll_back() {
     let st = link.status().unwrap();
     assert_eq!(
         st.refused,
-        fbg_shared::protocol::Refusals { unsigned: 1, bad_signature: 3, unknown_key: 1, rollback: 1 }
+        fbg_shared::protocol::Refusals { unsigned: 1, bad_signature: 3, unknown_key: 1, rollback: 1, serial_reused: 0 }
     );
     assert_eq!((st.updates_accepted, st.updates_rejected), (1, 6));
     assert_eq!(st.last_rejection.map(|r| (r.reason, r.detail)), Some((RejectReason::Rollback, 4)));
@@ -847,31 +860,184 @@ fn updates_must_be_signed_by_a_trusted_key_and_not_roll_back() {
     // The same serial again (a re-install) and a newer one are accepted.
     assert!(matches!(link.update_model(&sign(&other, 5)).unwrap(), UpdateResult::Accepted { .. }));
     assert!(matches!(link.update_model(&sign(default_blob(), 7)).unwrap(), UpdateResult::Accepted { .. }));
-    // A deliberate downgrade, signed so: accepted by a build that allows it.
-    let down = sign_with(&lab(), &other, 2, SignFlags::ALLOW_ROLLBACK);
+    // A deliberate downgrade, signed as a rollback of serial 7: accepted by a build that allows it.
+    let down = sign_rollback(&other, 2, 7);
     assert!(matches!(link.update_model(&down).unwrap(), UpdateResult::Accepted { .. }));
     let st = link.status().unwrap();
     assert_eq!((st.model_serial, st.updates_accepted), (2, 4));
-    drop(link);
+}
 
-    // A build that does not allow rollback refuses it even when signed so.
+/// Send `bytes` as one update to `dev` (frames fed directly) and return the device's answer
+/// to the commit.
+fn update_direct<F: MappedFlash>(dev: &mut Device<'_, Pin, F, K>, bytes: &[u8]) -> DeviceMsg {
+    let mut frame = [0u8; HOST_MAX_FRAME];
+    let mut tx = Tx::default();
+    let begin = HostMsg::ModelBegin { total_len: bytes.len() as u32, crc32: crc32(bytes) };
+    dev.feed(encode_host(&begin, &mut frame).unwrap(), &mut tx).unwrap();
+    for (k, chunk) in bytes.chunks(MAX_CHUNK).enumerate() {
+        let msg = HostMsg::ModelChunk { offset: (k * MAX_CHUNK) as u32, data: chunk };
+        dev.feed(encode_host(&msg, &mut frame).unwrap(), &mut tx).unwrap();
+    }
+    dev.handle(&HostMsg::ModelCommit)
+}
+
+fn reason(m: &DeviceMsg) -> Option<RejectReason> {
+    match m {
+        DeviceMsg::UpdateResult(UpdateResult::Rejected(r)) => Some(r.reason),
+        _ => None,
+    }
+}
+
+/// Issue 28, item 3: a rollback names the serial it replaces and is accepted only while that
+/// serial runs: no replay after the device moved on (the issue's serial-2 blob after serial 9),
+/// none of the same blob twice, no swapping of two models signed with one serial, nothing on a
+/// build without rollback, and a version-1 allow-rollback flag grants nothing.
+#[test]
+fn a_rollback_is_bounded_to_the_serial_it_replaces() {
+    let other = other_model();
+    let def = default_blob();
+    let crc = |b: &[u8]| blob::stored_crc(b).unwrap();
+    let run = |serial: u64, b: &[u8]| ModelInfo { serial, crc: crc(b), centres: 0, key_id: None };
+    let p = policy();
+    let strict = Policy { allow_rollback: false, ..policy() };
+    let refused = |policy: &Policy, bytes: &[u8], running: ModelInfo| {
+        authenticate(policy, bytes, Some(&running)).map(|(_, s)| s.serial).map_err(|r| r.reason)
+    };
+    let back = sign_rollback(def, 2, 5);
+    // Accepted exactly while serial 5 runs, whatever model that is.
+    assert_eq!(refused(&p, &back, run(5, &other)), Ok(2));
+    assert_eq!(refused(&p, &back, run(5, def)), Ok(2));
+    for running in [9, 6, 4, 3, 2, 0] {
+        let got = refused(&p, &back, run(running, &other));
+        assert_eq!(got, Err(RejectReason::RollbackNotPermitted), "running serial {running}");
+    }
+    // Once applied, the device runs serial 2: the same blob again is refused (no replay).
+    assert_eq!(refused(&p, &back, run(2, def)), Err(RejectReason::RollbackNotPermitted));
+    // A build without rollback refuses it even over serial 5.
+    assert_eq!(refused(&strict, &back, run(5, &other)), Err(RejectReason::RollbackNotPermitted));
+    let e = authenticate(&strict, &back, Some(&run(5, &other))).unwrap_err();
+    assert_eq!(e.detail, 5, "the detail names the serial it may replace");
+    // A version-1 allow-rollback flag (older signers): judged as an ordinary update.
+    let v1 = sign_with(&lab(), def, 2, SignFlags::ALLOW_ROLLBACK);
+    assert_eq!(refused(&p, &v1, run(9, &other)), Err(RejectReason::Rollback));
+    assert_eq!(refused(&p, &v1, run(1, &other)), Ok(2));
+    // One serial, two models: the running one again is a re-install, the other is refused.
+    let a5 = sign(&other, 5);
+    let b5 = sign(def, 5);
+    assert_eq!(refused(&p, &a5, run(5, &other)), Ok(5));
+    assert_eq!(refused(&p, &b5, run(5, &other)), Err(RejectReason::SerialReused));
+    assert_eq!(refused(&p, &a5, run(5, def)), Err(RejectReason::SerialReused));
+    let e = authenticate(&p, &b5, Some(&run(5, &other))).unwrap_err();
+    assert_eq!(e, Rejection { reason: RejectReason::SerialReused, detail: 5 });
+    // A rollback that names its own serial is no way around it either.
+    assert_eq!(refused(&p, &sign_rollback(def, 5, 5), run(5, &other)), Err(RejectReason::SerialReused));
+    // At boot (nothing running) only the signature counts.
+    assert_eq!(authenticate(&p, &back, None).map(|(_, s)| s.serial), Ok(2));
+
+    // Through the device: the issue's sequence, counted by reason.
+    let mut mem = Mem::new();
+    let info = mem.boot(def).unwrap();
+    let mut dev = mem.device(info);
+    let ok = |m: &DeviceMsg| matches!(m, DeviceMsg::UpdateResult(UpdateResult::Accepted { .. }));
+    assert!(ok(&update_direct(&mut dev, &sign(&other, 5))));
+    assert_eq!(reason(&update_direct(&mut dev, &b5)), Some(RejectReason::SerialReused), "swap");
+    assert!(ok(&update_direct(&mut dev, &back)), "bounded rollback over serial 5");
+    assert_eq!(dev.model().serial, 2);
+    assert_eq!(reason(&update_direct(&mut dev, &back)), Some(RejectReason::RollbackNotPermitted), "replayed");
+    assert!(ok(&update_direct(&mut dev, &sign(&other, 9))));
+    assert_eq!(reason(&update_direct(&mut dev, &back)), Some(RejectReason::RollbackNotPermitted), "after 9");
+    assert_eq!(reason(&update_direct(&mut dev, &sign(def, 2))), Some(RejectReason::Rollback));
+    let st = dev.status();
+    assert_eq!((st.model_serial, st.model_crc), (9, crc(&other)));
+    assert_eq!((st.refused.rollback, st.refused.serial_reused, st.updates_accepted), (3, 1, 3));
+}
+
+/// A build that does not accept rollbacks (the firmware's default) refuses one even over the
+/// serial it names.
+#[test]
+fn a_build_without_rollback_refuses_every_rollback() {
+    let mut mem = Mem::new();
+    let other = other_model();
     let strict = Policy { allow_rollback: false, ..policy() };
     let info = ModelInfo { serial: 7, ..mem.boot(default_blob()).unwrap() };
     let staging = Staging::new(&mut mem.flash, STAGE);
     let mut dev = Device::new(&mut mem.comp, Kernel::LIBRARY, strict, &mut mem.reader, info, staging, Pin::default());
-    let down = sign_with(&lab(), &other, 2, SignFlags::ALLOW_ROLLBACK);
-    let crc = crc32(&down);
-    let mut tx = Tx::default();
-    let mut frame = [0u8; HOST_MAX_FRAME];
-    let begin = HostMsg::ModelBegin { total_len: down.len() as u32, crc32: crc };
-    dev.feed(encode_host(&begin, &mut frame).unwrap(), &mut tx).unwrap();
-    for (k, chunk) in down.chunks(MAX_CHUNK).enumerate() {
-        let msg = HostMsg::ModelChunk { offset: (k * MAX_CHUNK) as u32, data: chunk };
-        dev.feed(encode_host(&msg, &mut frame).unwrap(), &mut tx).unwrap();
-    }
-    dev.feed(encode_host(&HostMsg::ModelCommit, &mut frame).unwrap(), &mut tx).unwrap();
+    let r = update_direct(&mut dev, &sign_rollback(&other, 2, 7));
+    assert_eq!(reason(&r), Some(RejectReason::RollbackNotPermitted));
     assert_eq!(dev.status().refused.rollback, 1);
     assert_eq!(dev.status().model_serial, 7);
+}
+
+/// Issue 28, item 6: `ModelBegin` erases only a slot that is not blank, so 1 000 begins cost
+/// one erase (the slot starts with garbage); the erases are counted in `Status`; and the link
+/// alone cannot erase more than the budget between accepted updates.
+#[test]
+fn begins_erase_only_a_written_slot_and_within_the_budget() {
+    let mut mem = Mem::new();
+    let info = mem.boot(default_blob()).unwrap();
+    let mut dev = mem.device(info);
+    let good = sign(&other_model(), 1);
+    let mut frame = [0u8; HOST_MAX_FRAME];
+    let mut tx = Tx::default();
+    let begin = HostMsg::ModelBegin { total_len: good.len() as u32, crc32: crc32(&good) };
+    let begin = encode_host(&begin, &mut frame).unwrap().to_vec();
+    for _ in 0..1000 {
+        dev.feed(&begin, &mut tx).unwrap();
+    }
+    assert_eq!(dev.staging().flash().erases, 1, "1 000 begins, one erase (the slot held garbage)");
+    assert_eq!(dev.status().staging_erases, 1);
+    assert_eq!(dev.status().updates_rejected, 0);
+    // Data written, then begun again: one more erase, once.
+    let chunk = HostMsg::ModelChunk { offset: 0, data: &good[..MAX_CHUNK] };
+    dev.feed(encode_host(&chunk, &mut frame).unwrap(), &mut tx).unwrap();
+    for _ in 0..1000 {
+        dev.feed(&begin, &mut tx).unwrap();
+    }
+    assert_eq!(dev.status().staging_erases, 2);
+
+    // A transfer that writes and is begun again, over and over: erases stop at the budget.
+    let mut rounds = 0;
+    let last = loop {
+        let mut out = Tx::default();
+        dev.feed(&begin, &mut out).unwrap();
+        let msgs = fbg_shared_frames(&out.0);
+        if let Some(DeviceMsg::UpdateResult(UpdateResult::Rejected(r))) = msgs.last() {
+            break *r;
+        }
+        dev.feed(encode_host(&chunk, &mut frame).unwrap(), &mut tx).unwrap();
+        rounds += 1;
+        assert!(rounds < 100, "never refused");
+    };
+    assert_eq!(last, Rejection { reason: RejectReason::EraseLimit, detail: staging::ERASE_BUDGET });
+    // Every erase since boot counts, the first one (garbage) too.
+    assert_eq!(dev.status().staging_erases, staging::ERASE_BUDGET);
+    assert_eq!(dev.staging().flash().erases as u32, staging::ERASE_BUDGET);
+    // The slot is written, so no whole update can be staged until an accepted update or a
+    // restart renews the budget.
+    let r = dev.handle(&HostMsg::ModelBegin { total_len: good.len() as u32, crc32: crc32(&good) });
+    assert_eq!(reason(&r), Some(RejectReason::EraseLimit));
+    assert_eq!(reason(&update_direct(&mut dev, &good)), Some(RejectReason::NoUpdateInProgress));
+    drop(dev);
+    let info = mem.boot(default_blob()).unwrap();
+    let mut dev = mem.device(info);
+    let r = update_direct(&mut dev, &good);
+    assert!(matches!(r, DeviceMsg::UpdateResult(UpdateResult::Accepted { .. })), "after a restart: {r:?}");
+    assert_eq!(dev.status().staging_erases, 1);
+}
+
+/// The device messages in `bytes`.
+fn fbg_shared_frames(bytes: &[u8]) -> Vec<DeviceMsg> {
+    let mut reader = FrameReader::<{ fbg_shared::protocol::DEVICE_MAX_FRAME }>::new();
+    let mut out = Vec::new();
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        let (ev, r) = reader.feed::<DeviceMsg>(rest);
+        rest = r;
+        if let Feed::Message(m) = ev {
+            out.push(m);
+        }
+    }
+    out
 }
 
 /// The embedded default: trusted as part of the image by default (a trailer it carries names

@@ -175,7 +175,7 @@ fn main() -> ! {
         stack::repaint();
         let base = stack::peak_bytes();
         let mut ok = false;
-        let (t, c) = measure(|| ok = black_box(authenticate(&POLICY, black_box(SIGNED), 0)).is_ok());
+        let (t, c) = measure(|| ok = black_box(authenticate(&POLICY, black_box(SIGNED), None)).is_ok());
         emit(
             &mut uart,
             format_args!(

@@ -61,7 +61,7 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
             "signature: key id {}, serial {}{}; {}",
             r.key_id,
             r.serial,
-            if r.allow_rollback { ", allow-rollback flag set" } else { "" },
+            r.rollback_text(),
             match (v, pubkey) {
                 (Some(true), Some(k)) =>
                     format!("verifies with {} (key id {})", k.display(), check.checked_key_id.as_deref().unwrap_or("")),

@@ -587,7 +587,7 @@ fn run() -> Result<()> {
                     signed.len(),
                     rec.key_id,
                     rec.serial,
-                    if rec.allow_rollback { ", allow-rollback flag set" } else { "" }
+                    rec.rollback_text()
                 );
             }
             Ok(())

@@ -768,6 +768,8 @@ impl FleetArgs {
                 key: key.clone(),
                 serial: self.sign.serial,
                 allow_rollback: self.sign.allow_rollback,
+                replaces: self.sign.replaces,
+                state_dir: self.sign.serial_state.clone(),
             })
         });
         run_shard_signed(&m, self.jobs, !self.json, shard, sign.as_ref())

@@ -188,7 +188,8 @@ pub struct Status {
     pub model_crc: u32,
     /// Serial of the active model's signature trailer (0 for an unsigned model: the embedded
     /// default, trusted as part of the firmware image). Updates with a lower serial are
-    /// refused unless signed to allow a rollback.
+    /// refused unless signed as a rollback of exactly this serial (and the build accepts
+    /// rollbacks); the same serial is accepted only on the same model.
     pub model_serial: u64,
     /// Key id of the active model's signer (`None` for an unsigned model).
     pub model_key_id: Option<KeyId>,
@@ -203,6 +204,9 @@ pub struct Status {
     /// Deepest stack use during boot (loading the embedded model) in bytes (0 when not
     /// measured).
     pub stack_boot_bytes: u32,
+    /// Erase operations on the staging flash slot since boot (a `ModelBegin` erases only a
+    /// slot that is not blank, so repeated begins without data erase nothing).
+    pub staging_erases: u32,
 }
 
 /// Model updates refused by the signature check, by reason (the audit trail's counters).
@@ -214,8 +218,10 @@ pub struct Refusals {
     pub bad_signature: u32,
     /// [`RejectReason::UnknownKey`].
     pub unknown_key: u32,
-    /// [`RejectReason::Rollback`].
+    /// [`RejectReason::Rollback`] and [`RejectReason::RollbackNotPermitted`].
     pub rollback: u32,
+    /// [`RejectReason::SerialReused`].
+    pub serial_reused: u32,
 }
 
 impl Refusals {
@@ -226,7 +232,8 @@ impl Refusals {
             RejectReason::Unsigned => &mut self.unsigned,
             RejectReason::BadSignature => &mut self.bad_signature,
             RejectReason::UnknownKey => &mut self.unknown_key,
-            RejectReason::Rollback => &mut self.rollback,
+            RejectReason::Rollback | RejectReason::RollbackNotPermitted => &mut self.rollback,
+            RejectReason::SerialReused => &mut self.serial_reused,
             _ => return,
         };
         *c = c.wrapping_add(1);

@@ -39,7 +39,8 @@
 //! failure aborts the transfer, keeps the old model and answers with a [`Rejection`] whose
 //! [`RejectReason`] codes are stable across versions. A device that requires signed models
 //! checks the signature trailer ([`crate::signature`]) first: unsigned, unknown key, bad
-//! signature and rollback are refused before the blob is decoded.
+//! signature, rollback (a lower serial, or a signed rollback that does not name the running
+//! serial) and another model under the running serial are refused before the blob is decoded.
 //!
 //! # Example
 //!

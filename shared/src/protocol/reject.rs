@@ -54,6 +54,9 @@ pub enum RejectReason {
     /// The device could not erase or program its staging flash slot (detail: the slot offset
     /// of the failed operation); the running model is untouched.
     Storage = 26,
+    /// The staging slot would need an erase, but it was erased as often as allowed since the
+    /// last accepted update (detail: the budget); an accepted update or a restart renews it.
+    EraseLimit = 27,
     /// The model carries no signature trailer ([`SignatureError::Unsigned`]); this build accepts
     /// signed models only.
     Unsigned = 30,
@@ -64,16 +67,23 @@ pub enum RejectReason {
     /// The key id names no key this build trusts ([`SignatureError::UnknownKey`]; detail: the
     /// key id's first four bytes, big-endian, as it prints).
     UnknownKey = 32,
-    /// The serial is lower than the running model's and a rollback is not allowed
+    /// The serial is lower than the running model's and no rollback was signed for it
     /// ([`SignatureError::Rollback`]; detail: the update's serial, saturated to u32).
     Rollback = 33,
+    /// A rollback signed to replace another serial than the running one (a replay), or sent to
+    /// a build that accepts no rollback ([`SignatureError::RollbackNotPermitted`]; detail: the
+    /// serial it may replace, saturated to u32).
+    RollbackNotPermitted = 34,
+    /// The running model's serial on another model ([`SignatureError::SerialReused`]; detail:
+    /// the serial, saturated to u32).
+    SerialReused = 35,
     /// A reason this build does not know (a newer device, or a future [`Error`] variant).
     Other = 255,
 }
 
 impl RejectReason {
     /// Every reason this version defines.
-    pub const ALL: [RejectReason; 23] = [
+    pub const ALL: [RejectReason; 26] = [
         RejectReason::Truncated,
         RejectReason::BadMagic,
         RejectReason::UnsupportedVersion,
@@ -92,10 +102,13 @@ impl RejectReason {
         RejectReason::Incomplete,
         RejectReason::TransferCrc,
         RejectReason::Storage,
+        RejectReason::EraseLimit,
         RejectReason::Unsigned,
         RejectReason::BadSignature,
         RejectReason::UnknownKey,
         RejectReason::Rollback,
+        RejectReason::RollbackNotPermitted,
+        RejectReason::SerialReused,
         RejectReason::Other,
     ];
 
@@ -130,10 +143,17 @@ impl RejectReason {
             RejectReason::Incomplete => "commit before the whole blob arrived",
             RejectReason::TransferCrc => "staged bytes do not match the announced CRC",
             RejectReason::Storage => "the staging flash could not be erased or programmed",
+            RejectReason::EraseLimit => {
+                "staging flash erased as often as allowed without an accepted update (restart to renew)"
+            }
             RejectReason::Unsigned => "model not signed (this firmware accepts signed models only)",
             RejectReason::BadSignature => "signature does not verify (or malformed signature trailer)",
             RejectReason::UnknownKey => "signed by a key this firmware does not trust",
             RejectReason::Rollback => "serial lower than the running model's (rollback not allowed)",
+            RejectReason::RollbackNotPermitted => {
+                "rollback not permitted (signed to replace another serial, or this firmware accepts no rollback)"
+            }
+            RejectReason::SerialReused => "serial of the running model on another model",
             RejectReason::Other => "unknown reason",
         }
     }
@@ -196,13 +216,21 @@ impl From<SignatureError> for Rejection {
             SignatureError::Unsigned => (RejectReason::Unsigned, 0),
             SignatureError::UnsupportedTrailer { version } => (RejectReason::BadSignature, u32::from(version)),
             SignatureError::UnknownFlags { bits } => (RejectReason::BadSignature, u32::from(bits)),
-            SignatureError::Reserved | SignatureError::BadSignature => (RejectReason::BadSignature, 0),
+            SignatureError::Reserved | SignatureError::Malformed | SignatureError::BadSignature => {
+                (RejectReason::BadSignature, 0)
+            }
             SignatureError::UnknownKey { key_id } => {
                 let [a, b, c, d, ..] = key_id.0;
                 (RejectReason::UnknownKey, u32::from_be_bytes([a, b, c, d]))
             }
             SignatureError::Rollback { serial, .. } => {
                 (RejectReason::Rollback, u32::try_from(serial).unwrap_or(u32::MAX))
+            }
+            SignatureError::RollbackNotPermitted { replaces, .. } => {
+                (RejectReason::RollbackNotPermitted, u32::try_from(replaces).unwrap_or(u32::MAX))
+            }
+            SignatureError::SerialReused { serial } => {
+                (RejectReason::SerialReused, u32::try_from(serial).unwrap_or(u32::MAX))
             }
             #[allow(unreachable_patterns)] // `SignatureError` is non_exhaustive
             _ => (RejectReason::Other, 0),
@@ -225,7 +253,10 @@ mod tests {
     #[test]
     fn reject_codes_are_stable_and_round_trip() {
         let codes: Vec<u8> = RejectReason::ALL.iter().map(|r| r.code()).collect();
-        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21, 22, 23, 24, 25, 26, 30, 31, 32, 33, 255]);
+        assert_eq!(
+            codes,
+            [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 20, 21, 22, 23, 24, 25, 26, 27, 30, 31, 32, 33, 34, 35, 255]
+        );
         for r in RejectReason::ALL {
             assert_eq!(RejectReason::from_code(r.code()), r);
             let mut buf = [0u8; 4];
@@ -248,6 +279,14 @@ mod tests {
         assert_eq!(
             Rejection::from(SignatureError::Rollback { serial: 3, running: 9 }),
             Rejection { reason: RejectReason::Rollback, detail: 3 }
+        );
+        assert_eq!(
+            Rejection::from(SignatureError::RollbackNotPermitted { serial: 4, replaces: 5, running: 9, enabled: true }),
+            Rejection { reason: RejectReason::RollbackNotPermitted, detail: 5 }
+        );
+        assert_eq!(
+            Rejection::from(SignatureError::SerialReused { serial: 5 }),
+            Rejection { reason: RejectReason::SerialReused, detail: 5 }
         );
         assert_eq!(Rejection::from(SignatureError::Unsigned).reason, RejectReason::Unsigned);
         assert_eq!(Rejection::from(SignatureError::BadSignature).reason, RejectReason::BadSignature);

@@ -1,0 +1,12 @@
+//! A QEMU test image: the product firmware built with rollbacks accepted (what
+//! `FBG_ALLOW_ROLLBACK=1` makes of the product image), so that `cargo xtask qemu` tests the
+//! bounded rollback beside the default image, which refuses every rollback, without a second
+//! build of the whole firmware.
+
+#![no_std]
+#![no_main]
+
+/// The build's policy, rollbacks accepted.
+const POLICY: fbg_firmware_app::Policy = fbg_firmware_app::Policy { allow_rollback: true, ..fbg_firmware::POLICY };
+
+include!("../product.rs");

@@ -1,0 +1,70 @@
+// The product firmware's entry, shared by the product image (`main.rs`, the build's policy)
+// and the QEMU test image `rollback` (the same with rollbacks accepted); the including file
+// defines `POLICY`.
+
+use cortex_m_rt::entry;
+use fbg_firmware::flash_slot::FlashSlot;
+use fbg_firmware::led::FpgaioLed;
+use fbg_firmware::uart::{CmsdkUart, Uart0Rx, MPS2_PCLK_HZ, UART0_BASE};
+use fbg_firmware::{exit_failure, stack, trust, DEFAULT_MODEL, K, KERNEL, STAGING_LEN};
+use fbg_firmware_app::{boot, unloaded, Device, Staging};
+use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
+use fbg_shared::Compensator;
+
+/// Link speed on hardware (QEMU ignores it).
+const BAUD: u32 = 115_200;
+
+#[entry]
+fn main() -> ! {
+    // `static mut` at the top of `#[entry]` become `&'static mut` (cortex-m-rt), initialised at
+    // load time: the active model and the frame reader live in .bss (what must persist across
+    // messages); an update is staged in the flash slot, not in RAM; the parameter slot a model
+    // is parsed into is on the stack of the load only (`load_blob`).
+    static mut MODEL: Compensator<f32, K> = unloaded();
+    static mut READER: FrameReader<HOST_MAX_FRAME> = FrameReader::new();
+
+    // SAFETY: UART0 and LED0 of the MPS2 board, each driven only from here.
+    let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
+    uart.init(MPS2_PCLK_HZ, BAUD);
+    // Sleep between received bytes instead of spinning.
+    uart.enable_rx_wakeup(Uart0Rx);
+    let alarm = unsafe { FpgaioLed::new(0) };
+    // SAFETY: the one driver of the staging region of memory.x.
+    let slot = unsafe { FlashSlot::new() };
+
+    if trust::TEST_KEY_ONLY {
+        defmt::warn!("this image trusts only the QEMU TEST key (firmware/keys/): not for production");
+    }
+    // The embedded default goes the way of every update: parsed into a parameter slot on the
+    // stack of `load_blob`, then folded into the (unloaded) active compensator in place. It is
+    // trusted as part of the image unless the build requires it to be signed.
+    let info = match boot(&KERNEL, &POLICY, trust::REQUIRE_SIGNED_DEFAULT, MODEL, DEFAULT_MODEL) {
+        Ok(info) => info,
+        Err(r) => {
+            defmt::error!(
+                "embedded default model rejected: {} (code {=u8}, detail {=u32})",
+                r.reason,
+                r.reason.code(),
+                r.detail
+            );
+            exit_failure()
+        }
+    };
+    // Boot (decoding and folding the model) is the deepest the stack goes before serving;
+    // record it, then paint again so that the status reports the serving path on its own.
+    let boot_peak = stack::peak_bytes();
+    stack::repaint();
+    defmt::info!(
+        "fbg-firmware up: K = {=usize}, model {=u16} centres, crc {=u32:#010x}, stack peak during boot {=u32} B",
+        K,
+        info.centres,
+        info.crc,
+        boot_peak
+    );
+    let mut dev = Device::new(MODEL, KERNEL, POLICY, READER, info, Staging::new(slot, STAGING_LEN), alarm);
+    dev.set_stack_probe(stack::peak_bytes, boot_peak);
+    match dev.serve(&mut uart) {
+        Ok(never) => match never {},
+        Err(never) => match never {},
+    }
+}
