@@ -577,17 +577,18 @@ pub(crate) mod tests {
         for n in ["a", "b"] {
             s.stage_bytes(&d.path().join(n), b"new").unwrap();
         }
-        // Appears after staging: the commit's own check refuses it.
-        std::fs::create_dir(d.path().join("c")).unwrap();
-        assert!(s.stage_bytes(&d.path().join("c"), b"new").is_err());
-        std::fs::remove_dir(d.path().join("c")).unwrap();
-        s.stage_bytes(&d.path().join("c"), b"new").unwrap();
-        std::fs::create_dir(d.path().join("c")).unwrap();
+        // A directory at a target is refused when staged...
+        std::fs::create_dir(d.path().join("e")).unwrap();
+        assert!(s.stage_bytes(&d.path().join("e"), b"new").is_err());
+        std::fs::remove_dir(d.path().join("e")).unwrap();
+        // ...and when it appears after staging, by the commit's own check.
+        s.stage_bytes(&d.path().join("e"), b"new").unwrap();
+        std::fs::create_dir(d.path().join("e")).unwrap();
         let e = s.commit().unwrap_err().to_string();
         assert!(e.contains("directory"), "{e}");
         assert_eq!(read(d.path(), "a"), "old a");
         assert_eq!(read(d.path(), "b"), "old b");
-        assert_eq!(names(d.path()), ["a", "b", "c"]);
+        assert_eq!(names(d.path()), ["a", "b", "c", "e"]);
     }
 
     /// Every state a kill can leave (a journal with some renames done, a rollback journal
