@@ -194,7 +194,8 @@ pub fn prepare_output_dirs(outputs: &[&Path]) -> Result<(), TrainerError> {
     Ok(())
 }
 
-/// Create `dir` (and its parents) when missing and check that a file can be created in it.
+/// Create `dir` (and its parents) when missing, recover what a killed run left in it
+/// ([`set::recover_once`]) and check that a file can be created in it.
 pub fn prepare_output_dir(dir: &Path) -> Result<(), TrainerError> {
     let fail = |what: &str, e: std::io::Error| TrainerError::Output {
         path: dir.to_path_buf(),
@@ -207,6 +208,8 @@ pub fn prepare_output_dir(dir: &Path) -> Result<(), TrainerError> {
         });
     }
     std::fs::create_dir_all(dir).map_err(|e| fail("cannot create the output directory", e))?;
+    // What a killed run left here is finished before this run's work.
+    set::recover_once(dir)?;
     tempfile::Builder::new()
         .prefix(".fbg-tmp-")
         .tempfile_in(dir)

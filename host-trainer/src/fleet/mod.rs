@@ -165,6 +165,7 @@ impl Manifest {
         let resolve = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
         let mut groups: Vec<Group> = Vec::with_capacity(raw.group.len());
         let mut names: HashMap<String, usize> = HashMap::with_capacity(raw.group.len());
+        let mut blobs: HashMap<PathBuf, usize> = HashMap::with_capacity(2 * raw.group.len());
         for (i, g) in raw.group.into_iter().enumerate() {
             let key = |k: &str| format!("group[{i}].{k}");
             if g.name.trim().is_empty() {
@@ -200,6 +201,12 @@ impl Manifest {
                 max_centres,
                 signed_by: None,
             };
+            for p in [lexical(&group.out), lexical(&group.baseline_path())] {
+                if let Some(j) = blobs.insert(p, i).filter(|&j| j != i) {
+                    let other = &groups[j].name;
+                    return Err(config_error(path, key("out"), format!("writes the same file as group[{j}] (`{other}`)")));
+                }
+            }
             groups.push(group);
         }
         let sign = raw.defaults.sign.as_deref().map(resolve);
@@ -277,6 +284,23 @@ impl Manifest {
         }
         Ok(outside)
     }
+}
+
+/// `path` with `.` dropped and `name/..` folded, as text only (the file system check,
+/// [`Manifest::check_paths`], also sees symbolic and hard links).
+fn lexical(path: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    for c in path.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir if matches!(out.components().next_back(), Some(Component::Normal(_))) => {
+                out.pop();
+            }
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);

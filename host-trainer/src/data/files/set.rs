@@ -114,14 +114,7 @@ impl OutputSet {
         std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
         let lock = File::open(dir).ok();
         if let Some(f) = &lock {
-            let key = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
-            let done = recovered().lock().map(|s| s.contains(&key)).unwrap_or(false);
-            if !done && f.try_lock().is_ok() {
-                recover_locked(dir)?;
-                if let Ok(mut s) = recovered().lock() {
-                    s.insert(key);
-                }
-            }
+            recover_with(f, dir)?;
             // Converts an exclusive lock, or waits for another process's recovery to end.
             let _ = f.lock_shared();
         }
@@ -434,11 +427,35 @@ fn read_journal(path: &Path) -> Option<Journal> {
 /// Finish what a killed run left in `dir` (module doc), when no other process is writing
 /// there; returns without doing anything otherwise.
 pub fn recover(dir: &Path) -> Result<(), TrainerError> {
-    let Ok(f) = File::open(dir) else { return Ok(()) };
-    if f.try_lock().is_err() {
+    match File::open(dir) {
+        Ok(f) if f.try_lock().is_ok() => recover_locked(dir),
+        _ => Ok(()),
+    }
+}
+
+/// [`recover`], once per directory and process: commands call it (through
+/// [`prepare_output_dir`](super::prepare_output_dir) and [`OutputSet::in_dir`]) before their
+/// work.
+pub fn recover_once(dir: &Path) -> Result<(), TrainerError> {
+    match File::open(dir) {
+        Ok(f) => recover_with(&f, dir),
+        Err(_) => Ok(()),
+    }
+}
+
+/// [`recover_once`] through the open directory `f`; leaves `f` exclusively locked when it
+/// recovered (the caller converts or drops the lock).
+fn recover_with(f: &File, dir: &Path) -> Result<(), TrainerError> {
+    let key = dir.canonicalize().unwrap_or_else(|_| dir.to_path_buf());
+    let done = recovered().lock().map(|s| s.contains(&key)).unwrap_or(false);
+    if done || f.try_lock().is_err() {
         return Ok(());
     }
-    recover_locked(dir)
+    recover_locked(dir)?;
+    if let Ok(mut s) = recovered().lock() {
+        s.insert(key);
+    }
+    Ok(())
 }
 
 /// [`recover`] with the directory's exclusive lock held.
