@@ -242,8 +242,8 @@ fn fleet_refuses_outputs_that_are_inputs_or_other_outputs_however_spelt() {
     // Clean: two groups, two outputs.
     assert_eq!(fleet_check(p, &(group("a", "a.csv", "m.fbgm") + &group("b", "b.csv", "n.fbgm")), false), Ok(vec![]));
     // `sub/../m.fbgm` is `m.fbgm`.
-    let e = fleet_check(p, &(group("a", "a.csv", "m.fbgm") + &group("b", "b.csv", "sub/../m.fbgm")), false)
-        .unwrap_err();
+    let e =
+        fleet_check(p, &(group("a", "a.csv", "m.fbgm") + &group("b", "b.csv", "sub/../m.fbgm")), false).unwrap_err();
     assert!(e.contains("group[1].out") && e.contains("group[0]"), "{e}");
     // The manifest itself.
     let e = fleet_check(p, &group("a", "a.csv", "f.toml"), false).unwrap_err();
@@ -253,17 +253,15 @@ fn fleet_refuses_outputs_that_are_inputs_or_other_outputs_however_spelt() {
     assert!(e.contains("group[1].out") && e.contains("group[0].data"), "{e}");
     // Another group's Model-P blob, through a symbolic link to the directory.
     std::os::unix::fs::symlink(p, p.join("here")).unwrap();
-    let e = fleet_check(p, &(group("a", "a.csv", "m.fbgm") + &group("b", "b.csv", "here/m-p.fbgm")), false)
-        .unwrap_err();
+    let e =
+        fleet_check(p, &(group("a", "a.csv", "m.fbgm") + &group("b", "b.csv", "here/m-p.fbgm")), false).unwrap_err();
     assert!(e.contains("group[1].out") && e.contains("Model-P") && e.contains("group[0].out"), "{e}");
     // A symbolic link and a hard link to an input.
     std::os::unix::fs::symlink(p.join("a.csv"), p.join("soft.fbgm")).unwrap();
-    let e = fleet_check(p, &(group("a", "a.csv", "m.fbgm") + &group("b", "b.csv", "soft.fbgm")), false)
-        .unwrap_err();
+    let e = fleet_check(p, &(group("a", "a.csv", "m.fbgm") + &group("b", "b.csv", "soft.fbgm")), false).unwrap_err();
     assert!(e.contains("group[1].out") && e.contains("group[0].data"), "{e}");
     std::fs::hard_link(p.join("a.csv"), p.join("hard.fbgm")).unwrap();
-    let e = fleet_check(p, &(group("a", "a.csv", "m.fbgm") + &group("b", "b.csv", "hard.fbgm")), false)
-        .unwrap_err();
+    let e = fleet_check(p, &(group("a", "a.csv", "m.fbgm") + &group("b", "b.csv", "hard.fbgm")), false).unwrap_err();
     assert!(e.contains("group[1].out") && e.contains("group[0].data"), "{e}");
     // A group's out is its own data's `.meta.json` sidecar.
     let e = fleet_check(p, &group("a", "a.csv", "a.meta.json"), false).unwrap_err();
@@ -326,7 +324,8 @@ fn every_command_refuses_an_output_that_is_an_input_or_another_output() {
     let keep: Vec<(std::path::PathBuf, Vec<u8>)> =
         [&csv, &model].iter().map(|f| (f.to_path_buf(), std::fs::read(f).unwrap())).collect();
     // simulate: --dump-config onto --out.
-    let (ok, _, err) = run(bin().args(["simulate", "--out"]).arg(p.join("s.csv")).arg("--dump-config").arg(p.join("s.csv")));
+    let (ok, _, err) =
+        run(bin().args(["simulate", "--out"]).arg(p.join("s.csv")).arg("--dump-config").arg(p.join("s.csv")));
     assert!(!ok && err.contains("another output"), "simulate: {err}");
     // compensate: --out a hard link to the model.
     std::fs::hard_link(&model, p.join("hard.csv")).unwrap();
@@ -379,8 +378,7 @@ fn every_command_refuses_an_output_that_is_an_input_or_another_output() {
     assert!(!ok && err.contains("also an input"), "report: {err}");
     // train: Model-P's name is the data (`--out x.fbgm` writes `x-p.fbgm`).
     std::fs::copy(&csv, p.join("x-p.fbgm")).unwrap();
-    let (ok, _, err) =
-        run(bin().args(["train", "--data"]).arg(p.join("x-p.fbgm")).arg("--out").arg(p.join("x.fbgm")));
+    let (ok, _, err) = run(bin().args(["train", "--data"]).arg(p.join("x-p.fbgm")).arg("--out").arg(p.join("x.fbgm")));
     assert!(!ok && err.contains("also an input"), "train: {err}");
     for (f, bytes) in keep {
         assert_eq!(std::fs::read(&f).unwrap(), bytes, "{} changed", f.display());
@@ -458,7 +456,8 @@ fn a_report_whose_fig6_is_blocked_leaves_the_old_report_untouched() {
         models.push(m);
     }
     let rep = p.join("rep");
-    let report = |m: &Path| run(bin().args(["report", "--out"]).arg(&rep).arg("--data").arg(&csv).arg("--model").arg(m));
+    let report =
+        |m: &Path| run(bin().args(["report", "--out"]).arg(&rep).arg("--data").arg(&csv).arg("--model").arg(m));
     let (ok, _, err) = report(&models[0]);
     assert!(ok, "{err}");
     let old = snapshot(&rep, "");
@@ -527,8 +526,11 @@ fn kill_at_random(
                 .chain(old.keys())
                 .filter(|k| now.get(*k) != new.get(*k) && now.get(*k) != old.get(*k))
                 .collect();
-            let mixed: Vec<&String> = now.keys().filter(|k| now.get(*k) == new.get(*k) && new.get(*k) != old.get(*k)).collect();
-            panic!("kill {i} at {u:.2} of the run: a mix of the old and the new set (new: {mixed:?}; neither: {diff:?})");
+            let mixed: Vec<&String> =
+                now.keys().filter(|k| now.get(*k) == new.get(*k) && new.get(*k) != old.get(*k)).collect();
+            panic!(
+                "kill {i} at {u:.2} of the run: a mix of the old and the new set (new: {mixed:?}; neither: {diff:?})"
+            );
         }
     }
     (n_old, n_new)

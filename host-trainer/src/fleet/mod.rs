@@ -17,10 +17,10 @@
 //! ```
 //!
 //! Each group is trained as `train` would (Model-H blob `out`, Model-P blob `<stem>-p.fbgm`,
-//! `<stem>.coefficients.json`), every file written atomically, then a sidecar
-//! `<stem>.fleet.json` records the group's input digest (CRC-64/XZ over the CSV bytes and the
-//! group's options) and the digest of the blob written. The sidecar is written last: it marks
-//! the group finished. A later run skips a group whose blob exists, decodes, matches the
+//! `<stem>.coefficients.json`) and a sidecar `<stem>.fleet.json` records the group's input
+//! digest (CRC-64/XZ over the CSV bytes and the group's options) and the digest of the blob
+//! written; the four files are one output set ([`crate::data::files::set`]), so the record
+//! always describes the blobs beside it. A later run skips a group whose blob exists, decodes, matches the
 //! sidecar's blob digest and whose input digest is unchanged; anything else (no sidecar, an
 //! interrupted run, a corrupt or replaced blob, changed data or options) is trained again.
 //!
@@ -28,6 +28,11 @@
 //! issued under the key's lock, so concurrent shards never share one) and the signatures are
 //! recorded in the group's `coefficients.json`; the key id is part of the input digest, so
 //! signing with another key (or starting to sign) redoes the group.
+//!
+//! Before any work, [`Manifest::check_paths`] refuses an output that is the manifest, a
+//! group's data (or its `.meta.json`), the signing key's files or another output (by canonical
+//! path and inode, so `sub/../m.fbgm`, symbolic and hard links count), and an output outside the
+//! manifest's directory unless `--allow-outside`.
 //!
 //! Groups run on a local rayon pool of `--jobs` threads (the fit's own parallel loops run in
 //! the same pool). A failing group is reported and the others go on; its failure is recorded
@@ -204,7 +209,11 @@ impl Manifest {
             for p in [lexical(&group.out), lexical(&group.baseline_path())] {
                 if let Some(j) = blobs.insert(p, i).filter(|&j| j != i) {
                     let other = &groups[j].name;
-                    return Err(config_error(path, key("out"), format!("writes the same file as group[{j}] (`{other}`)")));
+                    return Err(config_error(
+                        path,
+                        key("out"),
+                        format!("writes the same file as group[{j}] (`{other}`)"),
+                    ));
                 }
             }
             groups.push(group);
@@ -244,7 +253,8 @@ impl Manifest {
             let f = sign::KeyFiles::of(k);
             let mut lock = f.state.clone().into_os_string();
             lock.push(".lock");
-            for (p, what) in [(f.private, "the signing key"), (f.state, "its serial state"), (lock.into(), "its lock")] {
+            for (p, what) in [(f.private, "the signing key"), (f.state, "its serial state"), (lock.into(), "its lock")]
+            {
                 inputs.push((p, what.into()));
             }
         }

@@ -207,7 +207,10 @@ impl OutputSet {
         let mut staged = self.staged.lock().map_err(|_| internal(target))?;
         if staged.iter().any(|e| e.target == name) {
             let _ = std::fs::remove_file(&tmp_path);
-            return Err(TrainerError::Output { path: target.to_path_buf(), message: "written twice in one output set".into() });
+            return Err(TrainerError::Output {
+                path: target.to_path_buf(),
+                message: "written twice in one output set".into(),
+            });
         }
         staged.push(Entry { target: name, tmp, backup: None });
         Ok(())
