@@ -311,7 +311,7 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     write_guarded(dir, inp, &[])
 }
 
-/// [`write`], refusing to replace any of `inputs`. Every page, table and figure is one output
+/// [`write()`], refusing to replace any of `inputs`. Every page, table and figure is one output
 /// set: the directory keeps the old report whole until the new one is complete.
 pub fn write_guarded(dir: &Path, inp: &Inputs, inputs: &[&Path]) -> Result<Outcome, TrainerError> {
     let t0 = Instant::now();
