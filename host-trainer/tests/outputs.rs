@@ -618,3 +618,40 @@ fn killed_train_and_report_leave_an_old_or_a_new_set() {
 fn killed_train_and_report_leave_an_old_or_a_new_set_many_times() {
     kills_leave_an_old_or_a_new_set(200, 100, 2028);
 }
+
+/// A fleet group is one output set: a group that cannot write its coefficients keeps its old
+/// blobs and its old record (which still matches them), and the other groups go on.
+#[test]
+fn a_fleet_group_that_fails_partway_keeps_its_old_set() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    tiny_csv(p, "a.csv", 2);
+    tiny_csv(p, "b.csv", 4);
+    std::fs::write(
+        p.join("f.toml"),
+        "[defaults]\nmax_centres = 4\n".to_string()
+            + &group("a", "a.csv", "ma/m.fbgm")
+            + &group("b", "b.csv", "mb/m.fbgm"),
+    )
+    .unwrap();
+    let fleet = || run(bin().arg("fleet").arg("--manifest").arg(p.join("f.toml")));
+    let (ok, _, err) = fleet();
+    assert!(ok, "{err}");
+    let old = snapshot(&p.join("ma"), "");
+    assert!(old.contains_key("m.fleet.json") && old.contains_key("m-p.fbgm"));
+    // New data for both groups; group a's coefficients are blocked by a directory.
+    tiny_csv(p, "a.csv", 3);
+    tiny_csv(p, "b.csv", 5);
+    std::fs::remove_file(p.join("ma/m.coefficients.json")).unwrap();
+    std::fs::create_dir(p.join("ma/m.coefficients.json")).unwrap();
+    let (ok, _, err) = fleet();
+    assert!(!ok && err.contains("1 of 2 groups failed"), "{err}");
+    let mut still = old.clone();
+    still.remove("m.coefficients.json");
+    let now: std::collections::BTreeMap<_, _> =
+        snapshot(&p.join("ma"), "").into_iter().filter(|(k, _)| k != "m.fleet-failed.json").collect();
+    assert_eq!(now, still, "group a keeps its old blobs and record");
+    assert!(temporaries(&p.join("ma")).is_empty() && temporaries(&p.join("mb")).is_empty());
+    let (ok, _, err) = run(bin().args(["fleet", "status", "--manifest"]).arg(p.join("f.toml")));
+    assert!(!ok && err.contains("FAILED"), "{err}");
+}
