@@ -231,3 +231,30 @@ pub(crate) fn clean_io(e: std::io::Error) -> std::io::Error {
 pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<(), TrainerError> {
     write_atomically(path, |w| w.write_all(bytes))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn missing_paths_resolve_through_their_existing_directory() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path();
+        let mut r = Resolver::default();
+        let plain = r.resolve(&p.join("m.fbgm"));
+        // `sub` does not exist: `sub/..` is taken lexically.
+        assert_eq!(r.resolve(&p.join("sub/../m.fbgm")), plain);
+        assert_eq!(r.resolve(&p.join("a/b/../../m.fbgm")), plain);
+        assert_eq!(plain.canonical, p.canonicalize().unwrap().join("m.fbgm"));
+        assert_eq!(plain.id, None);
+    }
+
+    #[test]
+    fn an_output_given_twice_is_refused_naming_both() {
+        let d = tempfile::tempdir().unwrap();
+        let (a, b) = (d.path().join("m.fbgm"), d.path().join("x/../m.fbgm"));
+        let e = check_outputs(&[&a, &b], &[]).unwrap_err().to_string();
+        assert!(e.contains("another output") && e.contains("x/../m.fbgm"), "{e}");
+        assert!(check_outputs(&[&a, &d.path().join("n.fbgm")], &[]).is_ok());
+    }
+}

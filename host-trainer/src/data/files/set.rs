@@ -229,7 +229,12 @@ impl OutputSet {
             Err(_) => return Err(internal(&self.dir)),
         };
         let result = self.commit_entries(&mut entries);
-        if result.is_err() {
+        // A journal still there (a rollback that could not finish) needs every temporary and
+        // backup for the next run's recovery.
+        let journal_left = [JOURNAL_PREFIX, ROLLBACK_PREFIX]
+            .iter()
+            .any(|p| std::fs::symlink_metadata(self.dir.join(format!("{p}{}", self.id))).is_ok());
+        if result.is_err() && !journal_left {
             for e in &entries {
                 let _ = std::fs::remove_file(self.dir.join(&e.tmp));
                 if let Some(b) = &e.backup {
