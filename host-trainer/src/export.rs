@@ -282,6 +282,20 @@ pub fn write_coefficients_signed(
     signatures: Option<serde_json::Value>,
     warnings: &[Warning],
 ) -> Result<(), TrainerError> {
+    let text = coefficients_text(model_p, model_h, core, selection, audit, signatures, warnings)?;
+    write_bytes_atomically(path, text.as_bytes())
+}
+
+/// The text of [`write_coefficients_signed`], for a command that writes it in an output set.
+pub fn coefficients_text(
+    model_p: &HostParams,
+    model_h: &HostParams,
+    core: &PolyCore,
+    selection: Option<&Selection>,
+    audit: Option<&StaticAudit>,
+    signatures: Option<serde_json::Value>,
+    warnings: &[Warning],
+) -> Result<String, TrainerError> {
     let mut v = serde_json::json!({
         "format": "fbg-trainer coefficients v1",
         "units": units_json(model_h),
@@ -301,8 +315,7 @@ pub fn write_coefficients_signed(
     if let (Some(sig), Some(obj)) = (signatures, v.as_object_mut()) {
         obj.insert("signatures".into(), sig);
     }
-    let text = serde_json::to_string_pretty(&v).map_err(|e| TrainerError::fit(e.to_string()))?;
-    write_bytes_atomically(path, text.as_bytes())
+    serde_json::to_string_pretty(&v).map_err(|e| TrainerError::fit(e.to_string()))
 }
 
 /// The static-fidelity audit (DESIGN §4) as written in `coefficients.json`: per output both
@@ -381,11 +394,17 @@ fn units_json(p: &HostParams) -> serde_json::Value {
     serde_json::Value::Object(m)
 }
 
+/// The files [`write_golden`] writes into `dir`.
+pub fn golden_files(dir: &Path) -> [PathBuf; 3] {
+    ["golden_inputs.bin", "golden_expected.csv", "golden_meta.json"].map(|f| dir.join(f))
+}
+
 /// Golden vectors for the firmware (`fbg_link::golden`): `golden_inputs.bin` (the samples as
 /// the device receives them: the N shifts, T_amb and t, in f32), `golden_expected.csv` (the
 /// f64 reference on those same inputs) and
 /// `golden_meta.json` (tolerance scale: Model-H's hold-out RMSE). The reference is a fresh
 /// compensator fed the samples `idx` in order, exactly what a freshly booted device sees.
+/// The three files are one output set: replaced together or not at all.
 pub fn write_golden(
     dir: &Path,
     model_h: &HostParams,
@@ -393,12 +412,13 @@ pub fn write_golden(
     idx: &[usize],
     holdout_rmse: &[f64],
 ) -> Result<(), TrainerError> {
-    std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
+    let set = crate::data::files::OutputSet::in_dir(dir)?;
     let mut reference = Compensator::<f64, HOST_CAP>::new(model_h).map_err(|e| TrainerError::fit(e.to_string()))?;
     let inputs: Vec<Sample<f32>> = idx.iter().map(|&i| d.sample(i).cast()).collect();
     let rows: Vec<_> = inputs.iter().map(|x| reference.step(&x.cast())).collect();
-    write_bytes_atomically(&dir.join("golden_inputs.bin"), &golden::inputs_bytes(&inputs))?;
-    write_bytes_atomically(&dir.join("golden_expected.csv"), golden::expected_csv(&rows).as_bytes())?;
+    let [bin, csv, meta_file] = golden_files(dir);
+    set.stage_bytes(&bin, &golden::inputs_bytes(&inputs))?;
+    set.stage_bytes(&csv, golden::expected_csv(&rows).as_bytes())?;
     let meta = serde_json::json!({
         "samples": idx.len(),
         "holdout_rmse_h": holdout_rmse,
@@ -407,7 +427,8 @@ pub fn write_golden(
         "centres": model_h.centres.len(),
         "note": "expected = fbg_shared::Compensator<f64> with the trainer's f64 model on these f32 inputs, streamed from the first sample",
     });
-    write_bytes_atomically(&dir.join("golden_meta.json"), meta.to_string().as_bytes())
+    set.stage_bytes(&meta_file, meta.to_string().as_bytes())?;
+    set.commit()
 }
 
 /// A Model-P-only host model is Model-H without centres; true when `p` has none.

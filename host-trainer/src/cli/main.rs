@@ -14,7 +14,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Parser, Subcommand};
 
 use fbg_trainer::compensate::Precision;
-use fbg_trainer::data::files::{check_outputs, prepare_output_dir, write_bytes_atomically};
+use fbg_trainer::data::files::{check_outputs, write_bytes_atomically, OutputSet};
 use fbg_trainer::data::import::{self, ImportOptions, SplitChoice};
 use fbg_trainer::data::Dataset;
 use fbg_trainer::eval::metrics::Metrics;
@@ -430,8 +430,9 @@ fn run() -> Result<()> {
         Cmd::Train { data, features, max_centres, out, json, on_error, sign } => {
             let (base, coef) = (baseline_path(&out), export::coefficients_path(&out));
             let meta_file = meta_path(&data);
+            let keys = key_files(sign.sign.as_deref());
             let mut inputs = vec![data.as_path(), meta_file.as_path()];
-            inputs.extend(sign.sign.as_deref());
+            inputs.extend(keys.iter().map(PathBuf::as_path));
             check_outputs(&[&out, &base, &coef], &inputs)?;
             let signer = sign.signer()?;
             let d = Dataset::read_csv(&data)?;
@@ -446,12 +447,13 @@ fn run() -> Result<()> {
             let secs = t.elapsed().as_secs_f64();
             let (bh, sig_h) = sign::maybe_sign(export::blob_bytes(&tr.model_h)?, signer.as_ref())?;
             let (bp, sig_p) = sign::maybe_sign(export::blob_bytes(&tr.model_p)?, signer.as_ref())?;
-            write_bytes_atomically(&out, &bh)?;
-            write_bytes_atomically(&base, &bp)?;
             let (nh, np) = (bh.len(), bp.len());
             let signatures = sig_h.as_ref().map(|h| serde_json::json!({"model_h": h, "model_p": sig_p}));
-            export::write_coefficients_signed(
-                &coef,
+            // The three files are one output set: replaced together or not at all.
+            let set = OutputSet::beside(&out)?;
+            set.stage_bytes(&out, &bh)?;
+            set.stage_bytes(&base, &bp)?;
+            let text = export::coefficients_text(
                 &tr.model_p,
                 &tr.model_h,
                 &tr.core,
@@ -460,6 +462,8 @@ fn run() -> Result<()> {
                 signatures.clone(),
                 &tr.warnings,
             )?;
+            set.stage_bytes(&coef, text.as_bytes())?;
+            set.commit()?;
             let s = &tr.selection;
             let chosen = tr.chosen();
             let skipped_rows = fbg_trainer::data::outliers::rows_of(&tr.skipped);
@@ -571,7 +575,10 @@ fn run() -> Result<()> {
         Cmd::Inspect { model, pubkey, json } => inspect::run(&model, pubkey.as_deref(), json),
         Cmd::Sign { model, out, sign: sign_args, json } => {
             let Some(key) = sign_args.sign.as_deref() else { bail!("--sign KEY is required") };
-            check_outputs(&[&out], &[&model, key])?;
+            let mut inputs = vec![model.as_path()];
+            let keys = key_files(Some(key));
+            inputs.extend(keys.iter().map(PathBuf::as_path));
+            check_outputs(&[&out], &inputs)?;
             // Only a blob that decodes is signed: a signature vouches for a valid model.
             export::read_blob(&model)?;
             let bytes = std::fs::read(&model).with_context(|| format!("{}: cannot read", model.display()))?;
@@ -609,7 +616,8 @@ fn run() -> Result<()> {
             Ok(())
         }
         Cmd::Golden { data, model, samples, out } => {
-            prepare_output_dir(&out)?;
+            let files = export::golden_files(&out);
+            check_outputs(&files.iter().map(PathBuf::as_path).collect::<Vec<_>>(), &[&data, &model])?;
             let d = Dataset::read_csv(&data)?;
             let h = export::read_blob(&model)?;
             d.inputs_for(&h.dims, &data.display().to_string(), "golden")?;
@@ -630,6 +638,12 @@ fn run() -> Result<()> {
                 model_p,
                 metrics: metrics.or_else(|| model.as_deref().map(export::metrics_path)).unwrap_or(d.metrics),
             };
+            let meta = meta_path(&paths.data);
+            let inputs = [&paths.data, &meta, &paths.model_h, &paths.model_p, &paths.metrics];
+            // A missing directory is not made here: the inputs read from it are missing too.
+            if out.is_dir() {
+                check_outputs(&[&out.join(report::INDEX_HTML)], &inputs.map(PathBuf::as_path))?;
+            }
             let o =
                 report::build_from(&out, &paths).with_context(|| format!("writing the report in {}", out.display()))?;
             print_report_outcome(&out, &o, json)
@@ -644,7 +658,6 @@ fn run() -> Result<()> {
                 start_unix_s: start.as_deref().map(|s| utc_timestamp(s, "--start")).transpose()?,
                 trust_units,
             };
-            fbg_trainer::data::files::prepare_output_dirs(&[&out])?;
             let precision = if f32 { Precision::F32 } else { Precision::F64 };
             let s = fbg_trainer::compensate::run(&model, &data, &out, precision, field, !json)?;
             if json {
@@ -730,6 +743,16 @@ fn origin_of(data: &Path, meta: Option<&SimMeta>) -> Origin {
 fn train_options(features: FeatureChoice, max_centres: usize, progress: bool) -> Result<TrainOptions> {
     let o = features.train_options(max_centres).map_err(|e| anyhow::anyhow!("--features/--max-centres: {e}"))?;
     Ok(TrainOptions { progress, ..o })
+}
+
+/// The files of a signing key a command reads or updates (the key, its serial state and
+/// lock): never an output.
+pub(crate) fn key_files(key: Option<&Path>) -> Vec<PathBuf> {
+    let Some(key) = key else { return Vec::new() };
+    let f = sign::KeyFiles::of(key);
+    let mut lock = f.state.clone().into_os_string();
+    lock.push(".lock");
+    vec![f.private, f.state, lock.into()]
 }
 
 /// `model.fbgm` → `model-p.fbgm`.

@@ -2,12 +2,12 @@
 //! or reverted by the batch's own check), write it, and report the hold-out before and after
 //! as an independent check that can come out worse.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
 
 use fbg_shared::layout::Dims;
-use fbg_trainer::data::files::{check_outputs, write_bytes_atomically};
+use fbg_trainer::data::files::{check_outputs, OutputSet};
 use fbg_trainer::data::Dataset;
 use fbg_trainer::eval::score::{channels, evaluate_holdout, units, ModelEval};
 use fbg_trainer::export;
@@ -121,8 +121,9 @@ pub fn run(
     sign_args: &SignArgs,
 ) -> Result<()> {
     let (base, new_base_path) = (baseline_path(model), baseline_path(out));
+    let keys = crate::key_files(sign_args.sign.as_deref());
     let mut inputs = vec![model, data, base.as_path()];
-    inputs.extend(sign_args.sign.as_deref());
+    inputs.extend(keys.iter().map(PathBuf::as_path));
     check_outputs(&[out, &new_base_path], &inputs)?;
     let signer = sign_args.signer()?;
     let d = Dataset::read_csv(data)?;
@@ -156,18 +157,21 @@ pub fn run(
         ));
     }
     let (bytes, signature) = sign::maybe_sign(export::blob_bytes(&h.params)?, signer.as_ref())?;
-    write_bytes_atomically(out, &bytes)?;
+    // Model-H and its baseline are one output set: replaced together or not at all.
+    let set = OutputSet::beside(out)?;
+    set.stage_bytes(out, &bytes)?;
     let n = bytes.len();
     let mut base_signature = None;
     let new_base = match &p {
         Some((p, _)) => {
             let (b, s) = sign::maybe_sign(export::blob_bytes(&p.params)?, signer.as_ref())?;
-            write_bytes_atomically(&new_base_path, &b)?;
+            set.stage_bytes(&new_base_path, &b)?;
             base_signature = s;
             Some(new_base_path.clone())
         }
         None => None,
     };
+    set.commit()?;
     let names = |cs: &[usize]| cs.iter().map(|&c| chs[c].clone()).collect::<Vec<_>>();
     let with = |r: &CheckedRecal, v: &[Verdict]| {
         names(&(0..chs.len()).filter(|&c| v.contains(&r.what.verdict[c])).collect::<Vec<_>>())

@@ -17,10 +17,10 @@
 //! ```
 //!
 //! Each group is trained as `train` would (Model-H blob `out`, Model-P blob `<stem>-p.fbgm`,
-//! `<stem>.coefficients.json`), every file written atomically, then a sidecar
-//! `<stem>.fleet.json` records the group's input digest (CRC-64/XZ over the CSV bytes and the
-//! group's options) and the digest of the blob written. The sidecar is written last: it marks
-//! the group finished. A later run skips a group whose blob exists, decodes, matches the
+//! `<stem>.coefficients.json`) and a sidecar `<stem>.fleet.json` records the group's input
+//! digest (CRC-64/XZ over the CSV bytes and the group's options) and the digest of the blob
+//! written; the four files are one output set ([`crate::data::files::set`]), so the record
+//! always describes the blobs beside it. A later run skips a group whose blob exists, decodes, matches the
 //! sidecar's blob digest and whose input digest is unchanged; anything else (no sidecar, an
 //! interrupted run, a corrupt or replaced blob, changed data or options) is trained again.
 //!
@@ -28,6 +28,11 @@
 //! issued under the key's lock, so concurrent shards never share one) and the signatures are
 //! recorded in the group's `coefficients.json`; the key id is part of the input digest, so
 //! signing with another key (or starting to sign) redoes the group.
+//!
+//! Before any work, [`Manifest::check_paths`] refuses an output that is the manifest, a
+//! group's data (or its `.meta.json`), the signing key's files or another output (by canonical
+//! path and inode, so `sub/../m.fbgm`, symbolic and hard links count), and an output outside the
+//! manifest's directory unless `--allow-outside`.
 //!
 //! Groups run on a local rayon pool of `--jobs` threads (the fit's own parallel loops run in
 //! the same pool). A failing group is reported and the others go on; its failure is recorded
@@ -39,6 +44,7 @@
 //! `fleet status` gathers every group's record into one table: done, failed (with the
 //! reason), stale (the inputs changed since it finished) or missing.
 
+use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -46,7 +52,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::data::files::write_bytes_atomically;
+use crate::data::files::{write_bytes_atomically, OutputSet};
 use crate::data::Dataset;
 use crate::error::{line_col, TrainerError};
 use crate::export;
@@ -133,6 +139,9 @@ pub struct Manifest {
     pub groups: Vec<Group>,
     /// `[defaults] sign`: the private key every blob is signed with (resolved).
     pub sign: Option<PathBuf>,
+    /// Outputs may lie outside the manifest's directory (`fleet --allow-outside`).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub allow_outside: bool,
 }
 
 fn config_error(origin: &Path, key: impl Into<String>, message: impl Into<String>) -> TrainerError {
@@ -160,12 +169,14 @@ impl Manifest {
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let resolve = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
         let mut groups: Vec<Group> = Vec::with_capacity(raw.group.len());
+        let mut names: HashMap<String, usize> = HashMap::with_capacity(raw.group.len());
+        let mut blobs: HashMap<PathBuf, usize> = HashMap::with_capacity(2 * raw.group.len());
         for (i, g) in raw.group.into_iter().enumerate() {
             let key = |k: &str| format!("group[{i}].{k}");
             if g.name.trim().is_empty() {
                 return Err(config_error(path, key("name"), "must not be empty"));
             }
-            if let Some(j) = groups.iter().position(|o| o.name == g.name) {
+            if let Some(j) = names.insert(g.name.clone(), i) {
                 return Err(config_error(path, key("name"), format!("`{}` is also the name of group[{j}]", g.name)));
             }
             if g.out.file_name().is_none() {
@@ -195,22 +206,111 @@ impl Manifest {
                 max_centres,
                 signed_by: None,
             };
-            for (j, o) in groups.iter().enumerate() {
-                let mine = [group.out.clone(), group.baseline_path()];
-                let theirs = [o.out.clone(), o.baseline_path()];
-                if mine.iter().any(|m| theirs.contains(m)) {
+            for p in [lexical(&group.out), lexical(&group.baseline_path())] {
+                if let Some(j) = blobs.insert(p, i).filter(|&j| j != i) {
+                    let other = &groups[j].name;
                     return Err(config_error(
                         path,
                         key("out"),
-                        format!("writes the same file as group[{j}] (`{}`)", o.name),
+                        format!("writes the same file as group[{j}] (`{other}`)"),
                     ));
                 }
             }
             groups.push(group);
         }
         let sign = raw.defaults.sign.as_deref().map(resolve);
-        Ok(Manifest { path: path.to_path_buf(), groups, sign })
+        // Outputs that are the same file however spelt (`sub/../m.fbgm`), an input, or
+        // outside the manifest's directory are refused by `check_paths` before any work.
+        Ok(Manifest { path: path.to_path_buf(), groups, sign, allow_outside: false })
     }
+
+    /// Check every file the run may write (each group's blobs, coefficients, record and
+    /// failure record; a shard's report) before any work (DESIGN §9): none may be the same
+    /// file as another output or as an input (the manifest, any group's data or its
+    /// `.meta.json`, the signing key's files), by canonical path or by device and inode; none
+    /// may lie outside the manifest's directory unless [`Manifest::allow_outside`]. Returns
+    /// the outputs outside it (allowed). Hashing: O(n log n) in the number of groups.
+    pub fn check_paths(&self, key: Option<&Path>, shard_report: Option<&Path>) -> Result<Vec<PathBuf>, TrainerError> {
+        use crate::data::files::{first_clash, Clash, Resolver};
+        let mut r = Resolver::default();
+        let mut outputs: Vec<(PathBuf, Option<usize>, &str)> = Vec::with_capacity(5 * self.groups.len() + 1);
+        for (i, g) in self.groups.iter().enumerate() {
+            outputs.push((g.out.clone(), Some(i), "its Model-H blob"));
+            outputs.push((g.baseline_path(), Some(i), "its Model-P blob"));
+            outputs.push((g.coefficients_path(), Some(i), "its coefficients"));
+            outputs.push((g.sidecar_path(), Some(i), "its record"));
+            outputs.push((g.failure_path(), Some(i), "its failure record"));
+        }
+        if let Some(p) = shard_report {
+            outputs.push((p.to_path_buf(), None, "the shard's report"));
+        }
+        let mut inputs: Vec<(PathBuf, String)> = vec![(self.path.clone(), "the manifest".into())];
+        for (i, g) in self.groups.iter().enumerate() {
+            inputs.push((g.data.clone(), format!("group[{i}].data")));
+            inputs.push((crate::sim::meta::meta_path(&g.data), format!("group[{i}].data's .meta.json")));
+        }
+        if let Some(k) = key {
+            let f = sign::KeyFiles::of(k);
+            let mut lock = f.state.clone().into_os_string();
+            lock.push(".lock");
+            for (p, what) in [(f.private, "the signing key"), (f.state, "its serial state"), (lock.into(), "its lock")]
+            {
+                inputs.push((p, what.into()));
+            }
+        }
+        let outs: Vec<_> = outputs.iter().map(|(p, _, _)| r.resolve(p)).collect();
+        let ins: Vec<_> = inputs.iter().map(|(p, _)| r.resolve(p)).collect();
+        let key_of = |k: usize| outputs[k].1.map(|i| format!("group[{i}].out")).unwrap_or_else(|| "shard".into());
+        if let Some((k, clash)) = first_clash(&outs, &ins) {
+            let (p, _, what) = &outputs[k];
+            let other = match clash {
+                Clash::Input(j) => format!("{} (`{}`)", inputs[j].1, inputs[j].0.display()),
+                Clash::Output(j) => format!("{} of {} (`{}`)", outputs[j].2, key_of(j), outputs[j].0.display()),
+            };
+            return Err(config_error(
+                &self.path,
+                key_of(k),
+                format!("`{}` ({what}) is the same file as {other}; refusing to overwrite it", p.display()),
+            ));
+        }
+        let base = r.resolve(&self.path.parent().map(|d| d.join(".")).unwrap_or_else(|| PathBuf::from("."))).canonical;
+        let mut outside = Vec::new();
+        for (k, o) in outs.iter().enumerate() {
+            if o.canonical.starts_with(&base) {
+                continue;
+            }
+            if !self.allow_outside {
+                return Err(config_error(
+                    &self.path,
+                    key_of(k),
+                    format!(
+                        "`{}` is outside the manifest's directory `{}`; refusing to write there (pass --allow-outside to allow it)",
+                        outputs[k].0.display(),
+                        base.display()
+                    ),
+                ));
+            }
+            outside.push(outputs[k].0.clone());
+        }
+        Ok(outside)
+    }
+}
+
+/// `path` with `.` dropped and `name/..` folded, as text only (the file system check,
+/// [`Manifest::check_paths`], also sees symbolic and hard links).
+fn lexical(path: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    for c in path.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir if matches!(out.components().next_back(), Some(Component::Normal(_))) => {
+                out.pop();
+            }
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
@@ -390,22 +490,15 @@ fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<S
         None => Origin { scenario: g.name.clone(), seed: 0 },
     };
     let tr = fit::train_source(&d, &g.data.display().to_string(), &opts, &origin)?;
-    if let Some(dir) = g.out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
-    }
-    // The record goes first out of the way, so a crash from here on cannot leave an old record
-    // beside new outputs.
-    let side = g.sidecar_path();
-    if side.exists() {
-        std::fs::remove_file(&side).map_err(|e| TrainerError::io(&side, e))?;
-    }
+    // The blobs, the coefficients and the record are one output set: a kill or a failure
+    // leaves the old group whole (its old record still matching its old blob) or the new one.
+    let set = OutputSet::beside(&g.out)?;
     let (blob, sig_h) = sign::maybe_sign(export::blob_bytes(&tr.model_h)?, signer)?;
     let (blob_p, sig_p) = sign::maybe_sign(export::blob_bytes(&tr.model_p)?, signer)?;
-    write_bytes_atomically(&g.baseline_path(), &blob_p)?;
+    set.stage_bytes(&g.baseline_path(), &blob_p)?;
     let np = blob_p.len();
     let signatures = sig_h.map(|h| serde_json::json!({"model_h": h, "model_p": sig_p}));
-    export::write_coefficients_signed(
-        &g.coefficients_path(),
+    let coefficients = export::coefficients_text(
         &tr.model_p,
         &tr.model_h,
         &tr.core,
@@ -414,7 +507,8 @@ fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<S
         signatures,
         &tr.warnings,
     )?;
-    write_bytes_atomically(&g.out, &blob)?;
+    set.stage_bytes(&g.coefficients_path(), coefficients.as_bytes())?;
+    set.stage_bytes(&g.out, &blob)?;
     let rec = Sidecar {
         format: SIDECAR_FORMAT.into(),
         name: g.name.clone(),
@@ -428,7 +522,8 @@ fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<S
         train_seconds: t.elapsed().as_secs_f64(),
     };
     let text = serde_json::to_string_pretty(&rec).map_err(|e| TrainerError::fit(e.to_string()))?;
-    write_bytes_atomically(&side, text.as_bytes())?;
+    set.stage_bytes(&g.sidecar_path(), text.as_bytes())?;
+    set.commit()?;
     let failed = g.failure_path();
     if failed.exists() {
         std::fs::remove_file(&failed).map_err(|e| TrainerError::io(&failed, e))?;
@@ -521,6 +616,17 @@ pub fn run_shard_signed(
 ) -> Result<FleetReport, TrainerError> {
     let (all, signer) = signed_groups(m, sign)?;
     let signer = signer.as_ref();
+    let summary = shard.map(|(s, _)| shard_summary_path(&m.path, s));
+    let outside = m.check_paths(signer.map(|s| s.path()), summary.as_deref())?;
+    if !outside.is_empty() {
+        let shown: Vec<String> = outside.iter().take(3).map(|p| format!("`{}`", p.display())).collect();
+        eprintln!(
+            "note: {} output(s) outside the manifest's directory, allowed by --allow-outside: {}{}",
+            outside.len(),
+            shown.join(", "),
+            if outside.len() > 3 { ", …" } else { "" }
+        );
+    }
     let mine: Vec<&Group> = all.iter().filter(|g| shard.is_none_or(|(s, _)| s.contains(&g.name))).collect();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
@@ -724,6 +830,10 @@ pub struct FleetArgs {
     /// Print the report as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Let groups write outside the manifest's directory (`../x`, absolute paths elsewhere);
+    /// refused by default, and said on stderr when allowed.
+    #[arg(long)]
+    pub allow_outside: bool,
     #[command(flatten)]
     pub sign: SignArgs,
 }
@@ -761,7 +871,7 @@ impl FleetArgs {
             key: "manifest".into(),
             message: "--manifest is required".into(),
         })?;
-        let m = Manifest::from_file(path)?;
+        let m = Manifest { allow_outside: self.allow_outside, ..Manifest::from_file(path)? };
         let shard = Shard::resolve(self.shard.as_deref(), self.shards, |k| std::env::var(k).ok())?;
         let sign = self.sign.options().or_else(|| {
             m.sign.as_ref().map(|key| SignOptions {

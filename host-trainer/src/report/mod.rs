@@ -24,7 +24,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::data::files::write_bytes_atomically;
+use crate::data::files::OutputSet;
 use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::eval::metrics::Metrics;
@@ -146,7 +146,9 @@ pub fn build(dir: &Path) -> Result<Outcome, TrainerError> {
 pub fn build_from(dir: &Path, paths: &InputPaths) -> Result<Outcome, TrainerError> {
     let t = Instant::now();
     let inp = Inputs::read(dir, paths)?;
-    let mut o = write(dir, &inp)?;
+    let meta = crate::sim::meta::meta_path(&paths.data);
+    let inputs = [&paths.data, &meta, &paths.model_h, &paths.model_p, &paths.metrics].map(PathBuf::as_path);
+    let mut o = write_guarded(dir, &inp, &inputs)?;
     o.seconds = t.elapsed().as_secs_f64();
     Ok(o)
 }
@@ -306,8 +308,14 @@ fn contributions(
 
 /// Write the report for `inp` into `dir`.
 pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
+    write_guarded(dir, inp, &[])
+}
+
+/// [`write()`], refusing to replace any of `inputs`. Every page, table and figure is one output
+/// set: the directory keeps the old report whole until the new one is complete.
+pub fn write_guarded(dir: &Path, inp: &Inputs, inputs: &[&Path]) -> Result<Outcome, TrainerError> {
     let t0 = Instant::now();
-    std::fs::create_dir_all(dir).map_err(|e| TrainerError::io(dir, e))?;
+    let set = OutputSet::in_dir(dir)?.with_inputs(inputs);
     fonts::ensure_registered();
     let d = &inp.data;
     let m = &inp.metrics;
@@ -403,7 +411,19 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     specs.extend(figures::fig8_drift(&ctx));
     specs.extend(figures::fig9_contributions(&ctx));
     specs.extend(figures::fig10_pace(&ctx));
-    specs.par_iter().map(|f| f.grid.write(dir, &f.stem)).collect::<Result<Vec<()>, TrainerError>>()?;
+    specs
+        .par_iter()
+        .map(|f| {
+            let fail = |ext: &str, e: String| {
+                let p = dir.join(format!("{}.{ext}", f.stem));
+                TrainerError::io(&p, std::io::Error::other(format!("drawing the figure failed: {e}")))
+            };
+            let png = f.grid.png().map_err(|e| fail("png", e))?;
+            set.stage_bytes(&dir.join(format!("{}.png", f.stem)), &png)?;
+            let svg = f.grid.svg().map_err(|e| fail("svg", e))?;
+            set.stage_bytes(&dir.join(format!("{}.svg", f.stem)), svg.as_bytes())
+        })
+        .collect::<Result<Vec<()>, TrainerError>>()?;
     for f in &specs {
         out.files.push(format!("{}.png", f.stem));
         out.files.push(format!("{}.svg", f.stem));
@@ -414,7 +434,7 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     for (name, t) in &results {
         for (ext, body) in [("md", t.markdown()), ("csv", t.csv()), ("txt", t.text())] {
             let f = format!("{name}.{ext}");
-            write_bytes_atomically(&dir.join(&f), body.as_bytes())?;
+            set.stage_bytes(&dir.join(&f), body.as_bytes())?;
             out.files.push(f);
         }
     }
@@ -422,14 +442,15 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
     for (name, t) in &coefs {
         for (ext, body) in [("md", format!("**{}**\n\n{}", t.title, t.markdown())), ("csv", t.csv())] {
             let f = format!("{name}.{ext}");
-            write_bytes_atomically(&dir.join(&f), body.as_bytes())?;
+            set.stage_bytes(&dir.join(&f), body.as_bytes())?;
             out.files.push(f);
         }
     }
 
     // The page.
     let page = page(dir, inp, &specs, &results, &coefs, &out, sim.is_some());
-    write_bytes_atomically(&dir.join(INDEX_HTML), page.as_bytes())?;
+    set.stage_bytes(&dir.join(INDEX_HTML), page.as_bytes())?;
+    set.commit()?;
     out.files.push(INDEX_HTML.into());
     out.seconds = t0.elapsed().as_secs_f64();
     Ok(out)
