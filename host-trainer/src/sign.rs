@@ -102,6 +102,26 @@ pub fn state_dir(explicit: Option<&Path>) -> Result<PathBuf, TrainerError> {
     })
 }
 
+fn lock_of(path: &Path) -> PathBuf {
+    let mut p = path.to_path_buf().into_os_string();
+    p.push(".lock");
+    p.into()
+}
+
+/// The files signing with `opts` reads or writes ([`BlobSigner::files_read`]); only the
+/// private key and its legacy state when the key cannot be read (its load will say why).
+pub fn key_inputs(opts: Option<&SignOptions>) -> Vec<PathBuf> {
+    let Some(opts) = opts else { return Vec::new() };
+    match BlobSigner::load(opts) {
+        Ok(s) => s.files_read(),
+        Err(_) => {
+            let f = KeyFiles::of(&opts.key);
+            let lock = lock_of(&f.legacy_state);
+            vec![f.private, f.legacy_state, lock]
+        }
+    }
+}
+
 /// What `keygen` made.
 #[derive(Clone, Debug, Serialize)]
 pub struct NewKey {
@@ -275,6 +295,18 @@ impl BlobSigner {
     /// This key id's serial ledger (`<KEY ID>.serial` in the state directory).
     pub fn ledger(&self) -> Result<PathBuf, TrainerError> {
         Ok(state_dir(self.opts.state_dir.as_deref())?.join(format!("{}.serial", self.id)))
+    }
+
+    /// Every file signing with this key reads or writes: the private key, the ledger and its
+    /// lock, and the legacy state beside the key and its lock. No command's output may be one.
+    pub fn files_read(&self) -> Vec<PathBuf> {
+        let mut v =
+            vec![self.files.private.clone(), self.files.legacy_state.clone(), lock_of(&self.files.legacy_state)];
+        if let Ok(l) = self.ledger() {
+            v.push(lock_of(&l));
+            v.push(l);
+        }
+        v
     }
 
     /// The key id.

@@ -273,8 +273,9 @@ fn a_signing_manifest_signs_every_blob_with_its_own_serial() {
     let unsigned = manifest(d.path(), 2, "");
     let r = fleet::run(&Manifest::from_file(&unsigned).unwrap(), 2, false).unwrap();
     assert_eq!(r.trained, 2);
-    let text =
-        std::fs::read_to_string(&unsigned).unwrap().replace("[defaults]\n", "[defaults]\nsign = \"keys/lab.key\"\n");
+    let text = std::fs::read_to_string(&unsigned)
+        .unwrap()
+        .replace("[defaults]\n", "[defaults]\nsign = \"keys/lab.key\"\nserial_state = \"state\"\n");
     std::fs::write(&unsigned, text).unwrap();
     let m = Manifest::from_file(&unsigned).unwrap();
     assert_eq!(m.sign.as_deref(), Some(key.as_path()));

@@ -352,6 +352,30 @@ fn every_command_refuses_an_output_that_is_an_input_or_another_output() {
         .arg(p.join("key-link")));
     assert!(!ok && err.contains("also an input"), "sign: {err}");
     assert_eq!(std::fs::read(p.join("lab.key")).unwrap(), key_before);
+    // sign: --out the key id's serial ledger in the signing state directory.
+    let sign_into = |out: &std::path::Path| {
+        run(bin()
+            .arg("sign")
+            .arg("--model")
+            .arg(&model)
+            .arg("--sign")
+            .arg(p.join("lab.key"))
+            .arg("--serial-state")
+            .arg(p.join("state"))
+            .arg("--out")
+            .arg(out))
+    };
+    let (ok, _, err) = sign_into(&p.join("signed.fbgm"));
+    assert!(ok, "{err}");
+    let ledger = std::fs::read_dir(p.join("state"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|f| f.extension().is_some_and(|x| x == "serial"))
+        .expect("a ledger");
+    let ledger_before = std::fs::read(&ledger).unwrap();
+    let (ok, _, err) = sign_into(&ledger);
+    assert!(!ok && err.contains("also an input"), "sign onto its ledger: {err}");
+    assert_eq!(std::fs::read(&ledger).unwrap(), ledger_before);
     // golden: the data is one of its files.
     let gdir = p.join("g");
     std::fs::create_dir(&gdir).unwrap();

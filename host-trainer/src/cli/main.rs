@@ -430,7 +430,7 @@ fn run() -> Result<()> {
         Cmd::Train { data, features, max_centres, out, json, on_error, sign } => {
             let (base, coef) = (baseline_path(&out), export::coefficients_path(&out));
             let meta_file = meta_path(&data);
-            let keys = key_files(sign.sign.as_deref());
+            let keys = key_files(&sign);
             let mut inputs = vec![data.as_path(), meta_file.as_path()];
             inputs.extend(keys.iter().map(PathBuf::as_path));
             check_outputs(&[&out, &base, &coef], &inputs)?;
@@ -574,9 +574,11 @@ fn run() -> Result<()> {
         }
         Cmd::Inspect { model, pubkey, json } => inspect::run(&model, pubkey.as_deref(), json),
         Cmd::Sign { model, out, sign: sign_args, json } => {
-            let Some(key) = sign_args.sign.as_deref() else { bail!("--sign KEY is required") };
+            if sign_args.sign.is_none() {
+                bail!("--sign KEY is required")
+            }
             let mut inputs = vec![model.as_path()];
-            let keys = key_files(Some(key));
+            let keys = key_files(&sign_args);
             inputs.extend(keys.iter().map(PathBuf::as_path));
             check_outputs(&[&out], &inputs)?;
             // Only a blob that decodes is signed: a signature vouches for a valid model.
@@ -747,12 +749,8 @@ fn train_options(features: FeatureChoice, max_centres: usize, progress: bool) ->
 
 /// The files of a signing key a command reads or updates (the key, its serial state and
 /// lock): never an output.
-pub(crate) fn key_files(key: Option<&Path>) -> Vec<PathBuf> {
-    let Some(key) = key else { return Vec::new() };
-    let f = sign::KeyFiles::of(key);
-    let mut lock = f.state.clone().into_os_string();
-    lock.push(".lock");
-    vec![f.private, f.state, lock.into()]
+pub(crate) fn key_files(sign: &fbg_trainer::sign::SignArgs) -> Vec<PathBuf> {
+    fbg_trainer::sign::key_inputs(sign.options().as_ref())
 }
 
 /// `model.fbgm` → `model-p.fbgm`.

@@ -7,6 +7,7 @@
 //! features = "memory"      # memory | hysteresis-aware | latch | paper | all (as `train --features`)
 //! max_centres = 32         # as `train --max-centres`
 //! sign = "keys/lab.key"    # optional: sign every blob (as `train --sign`; `fleet --sign` overrides)
+//! serial_state = "state"   # optional: the serial ledger's directory (as `--serial-state`)
 //!
 //! [[group]]
 //! name = "pier-3"          # unique
@@ -85,6 +86,7 @@ struct Defaults {
     features: Option<String>,
     max_centres: Option<usize>,
     sign: Option<PathBuf>,
+    serial_state: Option<PathBuf>,
 }
 
 #[derive(Deserialize)]
@@ -139,6 +141,10 @@ pub struct Manifest {
     pub groups: Vec<Group>,
     /// `[defaults] sign`: the private key every blob is signed with (resolved).
     pub sign: Option<PathBuf>,
+    /// `[defaults] serial_state`: the signing state directory (the key id's serial ledger;
+    /// resolved; `None`: as `train --sign` finds it, `fbg_trainer::sign::state_dir`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub serial_state: Option<PathBuf>,
     /// Outputs may lie outside the manifest's directory (`fleet --allow-outside`).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub allow_outside: bool,
@@ -219,9 +225,10 @@ impl Manifest {
             groups.push(group);
         }
         let sign = raw.defaults.sign.as_deref().map(resolve);
+        let serial_state = raw.defaults.serial_state.as_deref().map(resolve);
         // Outputs that are the same file however spelt (`sub/../m.fbgm`), an input, or
         // outside the manifest's directory are refused by `check_paths` before any work.
-        Ok(Manifest { path: path.to_path_buf(), groups, sign, allow_outside: false })
+        Ok(Manifest { path: path.to_path_buf(), groups, sign, serial_state, allow_outside: false })
     }
 
     /// Check every file the run may write (each group's blobs, coefficients, record and
@@ -230,7 +237,11 @@ impl Manifest {
     /// `.meta.json`, the signing key's files), by canonical path or by device and inode; none
     /// may lie outside the manifest's directory unless [`Manifest::allow_outside`]. Returns
     /// the outputs outside it (allowed). Hashing: O(n log n) in the number of groups.
-    pub fn check_paths(&self, key: Option<&Path>, shard_report: Option<&Path>) -> Result<Vec<PathBuf>, TrainerError> {
+    pub fn check_paths(
+        &self,
+        signer: Option<&sign::BlobSigner>,
+        shard_report: Option<&Path>,
+    ) -> Result<Vec<PathBuf>, TrainerError> {
         use crate::data::files::{first_clash, Clash, Resolver};
         let mut r = Resolver::default();
         let mut outputs: Vec<(PathBuf, Option<usize>, &str)> = Vec::with_capacity(5 * self.groups.len() + 1);
@@ -249,13 +260,9 @@ impl Manifest {
             inputs.push((g.data.clone(), format!("group[{i}].data")));
             inputs.push((crate::sim::meta::meta_path(&g.data), format!("group[{i}].data's .meta.json")));
         }
-        if let Some(k) = key {
-            let f = sign::KeyFiles::of(k);
-            let mut lock = f.state.clone().into_os_string();
-            lock.push(".lock");
-            for (p, what) in [(f.private, "the signing key"), (f.state, "its serial state"), (lock.into(), "its lock")]
-            {
-                inputs.push((p, what.into()));
+        if let Some(s) = signer {
+            for p in s.files_read() {
+                inputs.push((p, "the signing key's files".into()));
             }
         }
         let outs: Vec<_> = outputs.iter().map(|(p, _, _)| r.resolve(p)).collect();
@@ -594,7 +601,11 @@ pub fn run_shard(
     progress: bool,
     shard: Option<(Shard, ShardSource)>,
 ) -> Result<FleetReport, TrainerError> {
-    let sign = m.sign.as_ref().map(|key| SignOptions { key: key.clone(), ..SignOptions::default() });
+    let sign = m.sign.as_ref().map(|key| SignOptions {
+        key: key.clone(),
+        state_dir: m.serial_state.clone(),
+        ..SignOptions::default()
+    });
     run_shard_signed(m, jobs, progress, shard, sign.as_ref())
 }
 
@@ -617,7 +628,7 @@ pub fn run_shard_signed(
     let (all, signer) = signed_groups(m, sign)?;
     let signer = signer.as_ref();
     let summary = shard.map(|(s, _)| shard_summary_path(&m.path, s));
-    let outside = m.check_paths(signer.map(|s| s.path()), summary.as_deref())?;
+    let outside = m.check_paths(signer, summary.as_deref())?;
     if !outside.is_empty() {
         let shown: Vec<String> = outside.iter().take(3).map(|p| format!("`{}`", p.display())).collect();
         eprintln!(
@@ -719,7 +730,11 @@ pub struct StatusReport {
 /// A signing manifest's digests include the key id: an unreadable key reads as unsigned, so
 /// its groups show as stale.
 pub fn status(m: &Manifest, shards: Option<usize>) -> StatusReport {
-    let sign = m.sign.as_ref().map(|key| SignOptions { key: key.clone(), ..SignOptions::default() });
+    let sign = m.sign.as_ref().map(|key| SignOptions {
+        key: key.clone(),
+        state_dir: m.serial_state.clone(),
+        ..SignOptions::default()
+    });
     match signed_groups(m, sign.as_ref()) {
         Ok((groups, _)) => status_of(m, &groups, shards),
         Err(_) => status_of(m, &m.groups, shards),
@@ -873,15 +888,19 @@ impl FleetArgs {
         })?;
         let m = Manifest { allow_outside: self.allow_outside, ..Manifest::from_file(path)? };
         let shard = Shard::resolve(self.shard.as_deref(), self.shards, |k| std::env::var(k).ok())?;
-        let sign = self.sign.options().or_else(|| {
-            m.sign.as_ref().map(|key| SignOptions {
-                key: key.clone(),
-                serial: self.sign.serial,
-                allow_rollback: self.sign.allow_rollback,
-                replaces: self.sign.replaces,
-                state_dir: self.sign.serial_state.clone(),
-            })
-        });
+        let sign = self
+            .sign
+            .options()
+            .map(|o| SignOptions { state_dir: o.state_dir.clone().or_else(|| m.serial_state.clone()), ..o })
+            .or_else(|| {
+                m.sign.as_ref().map(|key| SignOptions {
+                    key: key.clone(),
+                    serial: self.sign.serial,
+                    allow_rollback: self.sign.allow_rollback,
+                    replaces: self.sign.replaces,
+                    state_dir: self.sign.serial_state.clone().or_else(|| m.serial_state.clone()),
+                })
+            });
         run_shard_signed(&m, self.jobs, !self.json, shard, sign.as_ref())
     }
 }
