@@ -121,7 +121,7 @@ pub fn run(
     sign_args: &SignArgs,
 ) -> Result<()> {
     let (base, new_base_path) = (baseline_path(model), baseline_path(out));
-    let keys = crate::key_files(&sign_args);
+    let keys = crate::key_files(sign_args);
     let mut inputs = vec![model, data, base.as_path()];
     inputs.extend(keys.iter().map(PathBuf::as_path));
     check_outputs(&[out, &new_base_path], &inputs)?;
