@@ -192,7 +192,12 @@ impl Engine {
     }
 }
 
-/// Running sums of [`reference_errors`] over the rows with finite inputs and every reference
+/// Whether `params` (read from `model`) can be run in `precision`; the error names `model`.
+pub fn load_check(params: &HostParams, precision: Precision, model: &Path) -> Result<(), TrainerError> {
+    Engine::new(params, precision, fbg_shared::StreamClock::Unknown, model).map(|_| ())
+}
+
+/// Running sums of the reference errors over the rows with finite inputs and every reference
 /// of the record, in row order (so the figures are those of [`score::score`] on the same rows).
 struct RefSums {
     n: usize,

@@ -434,7 +434,7 @@ fn no_reference(name: &str) -> TrainerError {
     )
 }
 
-/// The longest line a dataset CSV may have \[bytes\], its end excluded: far beyond any row of
+/// The longest line a dataset CSV may have \[bytes\], its `\n` excluded (a `\r` before it counts): far beyond any row of
 /// numbers, and the most a reader holds of one line (a longer one is refused as it is read).
 pub const MAX_LINE_BYTES: usize = 1 << 20;
 
@@ -490,8 +490,7 @@ impl<R: std::io::Read> std::io::Read for LineLimit<R> {
                 self.line += 1;
             } else {
                 self.run += 1;
-                if self.run > MAX_LINE_BYTES + 1 {
-                    // `+ 1`: a CR before the LF is the line's end, not its content.
+                if self.run > MAX_LINE_BYTES {
                     return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, LineTooLong { line: self.line }));
                 }
             }
