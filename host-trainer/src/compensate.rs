@@ -174,7 +174,8 @@ impl Engine {
             }
             Precision::F32 => {
                 let p32 = params.convert::<f32, HOST_CAP>().map_err(|e| refuse("the device's f32", e))?;
-                let mut c = Box::new(Compensator::<f32, HOST_CAP>::new(&p32).map_err(|e| refuse("the device's f32", e))?);
+                let mut c =
+                    Box::new(Compensator::<f32, HOST_CAP>::new(&p32).map_err(|e| refuse("the device's f32", e))?);
                 c.set_clock(clock);
                 Engine::F32(c)
             }
@@ -186,7 +187,12 @@ impl Engine {
             Engine::F64(c) => c.step(s),
             Engine::F32(c) => {
                 let e = c.step(&s.cast::<f32>());
-                Estimate { values: e.values.map(f64::from), band95: e.band95.map(f64::from), outputs: e.outputs, flags: e.flags }
+                Estimate {
+                    values: e.values.map(f64::from),
+                    band95: e.band95.map(f64::from),
+                    outputs: e.outputs,
+                    flags: e.flags,
+                }
             }
         }
     }
@@ -292,76 +298,77 @@ pub fn run(
     let bar = fit::select::progress_bar(progress, rows.file_len(), "compensate");
     // A data error met while writing: the write is abandoned (nothing renamed into place).
     let mut failed: Option<TrainerError> = None;
-    let written = write_atomically(out, |w| {
-        let abandon = |e: TrainerError, failed: &mut Option<TrainerError>| {
-            *failed = Some(e);
-            std::io::Error::other("abandoned")
-        };
-        write!(w, "t_s")?;
-        for c in &columns {
-            write!(w, ",{c},{c}_band95")?;
-        }
-        writeln!(w, ",flags,flag_names")?;
-        loop {
-            let row = match rows.next_row() {
-                Ok(Some(r)) => r,
-                Ok(None) => break,
-                Err(e) => return Err(abandon(e, &mut failed)),
+    let written =
+        write_atomically(out, |w| {
+            let abandon = |e: TrainerError, failed: &mut Option<TrainerError>| {
+                *failed = Some(e);
+                std::io::Error::other("abandoned")
             };
-            let s = row.sample();
-            let e = engine.step(&s);
-            write!(w, "{}", row.t_s)?;
-            for c in 0..m {
-                write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
+            write!(w, "t_s")?;
+            for c in &columns {
+                write!(w, ",{c},{c}_band95")?;
             }
-            writeln!(w, ",{},{}", e.flags.0, e.flags)?;
-            if t_first.is_nan() {
-                t_first = row.t_s;
-            }
-            t_last = row.t_s;
-            // A gap is a missing input of this model: a thermometer the model does not read is
-            // no gap.
-            if !s.dl().iter().all(|v| v.is_finite()) || (dims.ambient() && !s.t_amb_c.is_finite()) {
-                gap_rows += 1;
-            }
-            flagged_rows += usize::from(e.flags.is_fault());
-            for (n, &b) in flag_rows.iter_mut().zip(&bits) {
-                *n += usize::from(e.flags.contains(b));
-            }
-            if row.usable(n_refs, ambient) {
-                sums.n += 1;
-                for (c, at) in ref_at.iter().enumerate() {
-                    if let Some(k) = *at {
-                        let err = e.values[c] - row.refs[k];
-                        sums.ss_res[c] += err * err;
-                        sums.sum_err[c] += err;
-                        sums.inside[c] += usize::from(err.abs() <= e.band95[c]);
+            writeln!(w, ",flags,flag_names")?;
+            loop {
+                let row = match rows.next_row() {
+                    Ok(Some(r)) => r,
+                    Ok(None) => break,
+                    Err(e) => return Err(abandon(e, &mut failed)),
+                };
+                let s = row.sample();
+                let e = engine.step(&s);
+                write!(w, "{}", row.t_s)?;
+                for c in 0..m {
+                    write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
+                }
+                writeln!(w, ",{},{}", e.flags.0, e.flags)?;
+                if t_first.is_nan() {
+                    t_first = row.t_s;
+                }
+                t_last = row.t_s;
+                // A gap is a missing input of this model: a thermometer the model does not read is
+                // no gap.
+                if !s.dl().iter().all(|v| v.is_finite()) || (dims.ambient() && !s.t_amb_c.is_finite()) {
+                    gap_rows += 1;
+                }
+                flagged_rows += usize::from(e.flags.is_fault());
+                for (n, &b) in flag_rows.iter_mut().zip(&bits) {
+                    *n += usize::from(e.flags.contains(b));
+                }
+                if row.usable(n_refs, ambient) {
+                    sums.n += 1;
+                    for (c, at) in ref_at.iter().enumerate() {
+                        if let Some(k) = *at {
+                            let err = e.values[c] - row.refs[k];
+                            sums.ss_res[c] += err * err;
+                            sums.sum_err[c] += err;
+                            sums.inside[c] += usize::from(err.abs() <= e.band95[c]);
+                        }
                     }
                 }
-            }
-            for (g, u) in units.iter_mut().enumerate() {
-                let x = row.dl_pm[g];
-                if x.is_finite() {
-                    let (mid, span) = mid_span[g];
-                    u.n += 1;
-                    u.far_above += usize::from(x - mid > UNIT_FAR_SPANS * span);
-                    u.far_below += usize::from(x - mid < -(UNIT_FAR_SPANS * span));
-                    u.worst = u.worst.max(x.abs());
+                for (g, u) in units.iter_mut().enumerate() {
+                    let x = row.dl_pm[g];
+                    if x.is_finite() {
+                        let (mid, span) = mid_span[g];
+                        u.n += 1;
+                        u.far_above += usize::from(x - mid > UNIT_FAR_SPANS * span);
+                        u.far_below += usize::from(x - mid < -(UNIT_FAR_SPANS * span));
+                        u.worst = u.worst.max(x.abs());
+                    }
+                }
+                if rows.rows() % TICK == 0 {
+                    bar.set_position(rows.byte_position());
                 }
             }
-            if rows.rows() % TICK == 0 {
-                bar.set_position(rows.byte_position());
-            }
-        }
-        let checked = rows.finish().and_then(|()| {
-            if field.trust_units {
-                Ok(())
-            } else {
-                check_units(&params, &units, data, &name)
-            }
+            let checked = rows.finish().and_then(|()| {
+                if field.trust_units {
+                    Ok(())
+                } else {
+                    check_units(&params, &units, data, &name)
+                }
+            });
+            checked.map_err(|e| abandon(e, &mut failed))
         });
-        checked.map_err(|e| abandon(e, &mut failed))
-    });
     bar.finish_and_clear();
     if let Some(e) = failed {
         return Err(e);

@@ -18,6 +18,7 @@ use fbg_trainer::export;
 /// Run `cmd` to its end and return (success, stderr, peak resident set in bytes) of that one
 /// child (`wait4`, so other children of the test process do not count).
 #[cfg(target_os = "linux")]
+#[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot replace
 fn run_peak_rss(cmd: &mut std::process::Command) -> (bool, String, u64) {
     let err = tempfile::NamedTempFile::new().unwrap();
     let child = cmd
@@ -70,7 +71,12 @@ fn a_line_over_the_limit_is_refused_with_its_number_without_being_read_whole() {
     unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut me) };
     let floor = me.ru_maxrss as u64 * 1024;
     eprintln!("peak RSS {} MB (this process {} MB)", rss >> 20, floor >> 20);
-    assert!(rss < floor + (64 << 20), "peak RSS {} MB (this process {} MB): the line was read whole", rss >> 20, floor >> 20);
+    assert!(
+        rss < floor + (64 << 20),
+        "peak RSS {} MB (this process {} MB): the line was read whole",
+        rss >> 20,
+        floor >> 20
+    );
     assert!(!model.exists());
 }
 
@@ -95,8 +101,7 @@ fn trickling_device() -> (u16, std::thread::JoinHandle<()>) {
 fn device_status_times_out_on_a_trickling_device_at_the_deadline() {
     let (port, dev) = trickling_device();
     let t0 = Instant::now();
-    let (ok, _, err) =
-        run(bin().args(["device", "status", "--timeout", "2", "--port"]).arg(port.to_string()));
+    let (ok, _, err) = run(bin().args(["device", "status", "--timeout", "2", "--port"]).arg(port.to_string()));
     let took = t0.elapsed();
     assert!(!ok, "{err}");
     assert!(err.contains("timed out") && err.contains("within 2.000 s"), "{err}");
@@ -230,10 +235,10 @@ fn streamed_compensate_writes_what_the_in_memory_path_wrote() {
         let at: Vec<_> = rows.iter().map(|&i| all[i]).collect();
         let ch = score::score(&params.dims, &data, &rows, &at).channels;
         assert!(s["gap_rows"].as_u64().unwrap() > 0);
-        for c in 0..3 {
-            assert_eq!(sum.rmse[c].to_bits(), ch[c].rmse.to_bits());
-            assert_eq!(sum.bias[c].to_bits(), ch[c].bias.to_bits());
-            assert_eq!(sum.coverage[c].to_bits(), ch[c].coverage.to_bits());
+        for (c, ch) in ch.iter().enumerate() {
+            assert_eq!(sum.rmse[c].to_bits(), ch.rmse.to_bits());
+            assert_eq!(sum.bias[c].to_bits(), ch.bias.to_bits());
+            assert_eq!(sum.coverage[c].to_bits(), ch.coverage.to_bits());
             assert_eq!(sum.rows[c], rows.len());
         }
     }

@@ -709,7 +709,12 @@ impl RowReader {
         let t = num(layout.t_s, false)?;
         if let Some(prev) = self.prev_t {
             if t <= prev {
-                return Err(TrainerError::data(name, line, "t_s", format!("time does not increase ({t} after {prev})")));
+                return Err(TrainerError::data(
+                    name,
+                    line,
+                    "t_s",
+                    format!("time does not increase ({t} after {prev})"),
+                ));
             }
         }
         let mut row = Row {
@@ -730,7 +735,8 @@ impl RowReader {
         if let Some(c) = layout.ambient {
             let amb = num(c, true)?;
             if amb.is_finite() {
-                check_ambient(amb).map_err(|m| TrainerError::data(name, line, T_AMB_COLUMN, format!("{m}{REIMPORT}")))?;
+                check_ambient(amb)
+                    .map_err(|m| TrainerError::data(name, line, T_AMB_COLUMN, format!("{m}{REIMPORT}")))?;
             }
             row.t_amb_c = amb;
         }
@@ -816,8 +822,8 @@ impl Layout {
                             return Err(dup(h));
                         }
                         refs.push((m, c));
-                    } else if let Some(g) =
-                        parse_grating_column(h).map_err(|e| (h.to_string(), format!("column `{}`: {e}", quote_cell(h))))?
+                    } else if let Some(g) = parse_grating_column(h)
+                        .map_err(|e| (h.to_string(), format!("column `{}`: {e}", quote_cell(h))))?
                     {
                         if gratings.iter().any(|&(o, _)| o == g) {
                             return Err(dup(h));

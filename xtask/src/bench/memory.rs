@@ -1,0 +1,179 @@
+//! Peak memory of the commands that read a whole record: `train`, `compensate` and
+//! `evaluate --quick` on 10⁶ and 10⁷ rows (the `paper` clock sampled finer), each the peak
+//! resident set of that one process (`wait4`'s `ru_maxrss`).
+//!
+//! The 10⁷-row CSV is about 0.9 GB: it is simulated into `target/bench/memory`, measured, and
+//! deleted at the end (also on failure) so the bench leaves no gigabyte behind.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+
+use super::runner::Runner;
+use super::{rel, Opts, TRAINER};
+
+/// Rows of the memory study and their sample interval over the 14 days of the `paper` clock.
+const ROWS: [(usize, f64); 2] = [(1_000_000, 1.2096), (10_000_000, 0.12096)];
+
+/// The largest record `evaluate` is measured on (it does not stream yet).
+const EVALUATE_MAX_ROWS: usize = 1_000_000;
+
+/// Targets (issue 28): `compensate` and `evaluate` streaming, `train` holding its columns.
+pub const TARGET_STREAM_BYTES_1E7: u64 = 200_000_000;
+pub const TARGET_TRAIN_BYTES_1E7: u64 = 1_200_000_000;
+
+/// One command's peak.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct MemoryRun {
+    pub command: String,
+    pub rows: usize,
+    /// `train`, `compensate` or `evaluate`.
+    pub what: String,
+    /// Peak resident set of the process \[bytes\].
+    pub peak_rss_bytes: u64,
+    /// Its wall time \[s\].
+    pub seconds: f64,
+}
+
+/// The memory study.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Memory {
+    pub runs: Vec<MemoryRun>,
+    /// The `simulate` commands of the records (the 10⁷-row one deleted afterwards).
+    pub datasets: Vec<String>,
+    /// Bytes of each record's CSV.
+    pub csv_bytes: Vec<u64>,
+}
+
+#[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot replace
+/// Run `program args` from `root` with stdout and stderr discarded (stderr kept for a
+/// failure) and return its peak RSS \[bytes\] and wall time \[s\].
+pub fn peak_rss(root: &Path, program: &str, args: &[&str]) -> Result<(u64, f64, String)> {
+    let line = format!("{program} {}", args.join(" "));
+    eprintln!("bench: $ {line}");
+    let err = root.join("target/bench/memory/stderr.txt");
+    let t0 = Instant::now();
+    let child = Command::new(root.join(program))
+        .args(args)
+        .current_dir(root)
+        .stdout(Stdio::null())
+        .stderr(Stdio::from(fs::File::create(&err)?))
+        .spawn()
+        .with_context(|| format!("could not start `{line}`"))?;
+    let mut status = 0;
+    // SAFETY: `rusage` is plain data that `wait4` fills for our own child, which `child` never
+    // waits for afterwards.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut ru) };
+    let seconds = t0.elapsed().as_secs_f64();
+    if pid < 0 {
+        bail!("wait4 on `{line}`: {}", std::io::Error::last_os_error());
+    }
+    if !(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0) {
+        bail!("`{line}` failed (wait status {status}): {}", fs::read_to_string(&err).unwrap_or_default());
+    }
+    // Linux reports kibibytes.
+    Ok((ru.ru_maxrss as u64 * 1024, seconds, line))
+}
+
+pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<Memory> {
+    let dir = root.join("target/bench/memory");
+    fs::create_dir_all(&dir)?;
+    let rows: &[(usize, f64)] = if opts.quick { &ROWS[..1] } else { &ROWS };
+    let mut m = Memory { runs: Vec::new(), datasets: Vec::new(), csv_bytes: Vec::new() };
+    for &(n, dt) in rows {
+        let csv = dir.join(format!("n{n}.csv"));
+        let result = measure(root, r, &dir, &csv, n, dt, &mut m);
+        // The records are big: never left behind.
+        let _ = fs::remove_file(&csv);
+        let _ = fs::remove_file(csv.with_extension("meta.json"));
+        let _ = fs::remove_file(dir.join(format!("n{n}.out.csv")));
+        result?;
+    }
+    Ok(m)
+}
+
+fn measure(root: &Path, r: &Runner, dir: &Path, csv: &Path, n: usize, dt: f64, m: &mut Memory) -> Result<()> {
+    let toml = dir.join(format!("n{n}.toml"));
+    fs::write(&toml, format!("# {n} samples over the 14 days of the paper clock\n[clock]\ndt_s = {dt}\n"))?;
+    let (csv_s, toml_s) = (rel(csv, root), rel(&toml, root));
+    let (_, c) = r.json(
+        TRAINER,
+        &super::runner::strings(&["simulate", "--config", &toml_s, "--seed", "7", "--json", "--out", &csv_s]),
+        &[],
+    )?;
+    m.datasets.push(c);
+    m.csv_bytes.push(fs::metadata(csv)?.len());
+    let model = rel(&dir.join(format!("n{n}.fbgm")), root);
+    let out = rel(&dir.join(format!("n{n}.out.csv")), root);
+    let metrics = rel(&dir.join(format!("n{n}.metrics.json")), root);
+    let mut runs: Vec<(&str, Vec<&str>)> = vec![
+        ("train", vec!["train", "--data", &csv_s, "--out", &model]),
+        ("compensate", vec!["compensate", "--model", &model, "--data", &csv_s, "--out", &out]),
+    ];
+    // `evaluate` still reads the record whole (its studies replay the hold-out): at 10⁷ rows
+    // it would take about ten times its 10⁶-row peak and many minutes, so it is measured at
+    // 10⁶ rows only until it streams.
+    if n <= EVALUATE_MAX_ROWS {
+        runs.push((
+            "evaluate",
+            vec!["evaluate", "--quick", "--model", &model, "--data", &csv_s, "--metrics", &metrics],
+        ));
+    }
+    for (what, args) in runs {
+        let (bytes, seconds, command) = peak_rss(root, TRAINER, &args)?;
+        m.runs.push(MemoryRun { command, rows: n, what: what.into(), peak_rss_bytes: bytes, seconds });
+    }
+    Ok(())
+}
+
+/// The BENCHMARKS.md section.
+pub fn markdown(s: &mut String, mem: &Memory) {
+    let _ = writeln!(s, "## Memory (peak resident set per command)\n");
+    let _ = writeln!(
+        s,
+        "Each command alone, its peak resident set from `wait4` (`ru_maxrss`); records of the `paper` preset sampled finer over its 14 days (seed 7). Targets at 10⁷ rows: `compensate` and `evaluate` ≤ {} MB (they stream rows), `train` ≤ {} MB (it holds the rows' columns as f64).\n",
+        TARGET_STREAM_BYTES_1E7 / 1_000_000,
+        TARGET_TRAIN_BYTES_1E7 / 1_000_000
+    );
+    let _ = writeln!(s, "| rows | CSV | command | peak RSS | wall time | target |");
+    let _ = writeln!(s, "|---:|---:|---|---:|---:|---|");
+    for r in &mem.runs {
+        let csv = ROWS
+            .iter()
+            .position(|&(n, _)| n == r.rows)
+            .and_then(|i| mem.csv_bytes.get(i))
+            .map_or("–".to_string(), |b| format!("{:.0} MB", *b as f64 / 1e6));
+        let target = match (r.rows, r.what.as_str()) {
+            (10_000_000, "train") => Some(TARGET_TRAIN_BYTES_1E7),
+            (10_000_000, _) => Some(TARGET_STREAM_BYTES_1E7),
+            _ => None,
+        };
+        let verdict = target.map_or("–".to_string(), |t| {
+            format!("≤ {} MB: {}", t / 1_000_000, if r.peak_rss_bytes <= t { "met" } else { "**not met**" })
+        });
+        let _ = writeln!(
+            s,
+            "| {} | {csv} | `{}` | {:.0} MB | {:.1} s | {verdict} |",
+            r.rows,
+            r.what,
+            r.peak_rss_bytes as f64 / 1e6,
+            r.seconds
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n`evaluate --quick` is measured on {} rows only: it still reads the record whole (its studies replay the hold-out), so at 10⁷ rows it would need about ten times that peak.",
+        EVALUATE_MAX_ROWS
+    );
+    let _ = writeln!(s, "\nCommands:\n");
+    for c in mem.datasets.iter().chain(mem.runs.iter().map(|r| &r.command)) {
+        let _ = writeln!(s, "- `{c}`");
+    }
+    let _ = writeln!(s);
+}
