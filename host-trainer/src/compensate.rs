@@ -15,7 +15,7 @@ use fbg_shared::{Compensator, Estimate, Flags, ZeroSource};
 
 use crate::data::files::write_atomically;
 use crate::data::measurand::grating_column;
-use crate::data::{Dataset, Measurand, RowReader};
+use crate::data::{Dataset, Measurand, Row, RowReader};
 use crate::error::TrainerError;
 use crate::eval::score;
 use crate::export;
@@ -27,8 +27,10 @@ pub fn output_columns(params: &HostParams) -> Vec<String> {
     params.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect()
 }
 
-/// Rows per progress-bar tick.
-const TICK: usize = 16_384;
+/// Rows read per chunk handed from the reading thread to the writing one.
+const CHUNK: usize = 4096;
+/// Chunks read ahead at most (the memory of the pipeline).
+const IN_FLIGHT: usize = 4;
 
 /// Which arithmetic runs the model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -241,7 +243,7 @@ pub fn run(
 ) -> Result<Summary, TrainerError> {
     let t0 = Instant::now();
     let params = export::read_blob(model)?;
-    let mut rows = RowReader::open(data)?;
+    let rows = RowReader::open(data)?;
     // The record's columns and metadata, without rows.
     let mut d = rows.header_dataset();
     let name = data.display().to_string();
@@ -298,6 +300,7 @@ pub fn run(
     let bar = fit::select::progress_bar(progress, rows.file_len(), "compensate");
     // A data error met while writing: the write is abandoned (nothing renamed into place).
     let mut failed: Option<TrainerError> = None;
+    let mut n_rows = 0;
     let written =
         write_atomically(out, |w| {
             let abandon = |e: TrainerError, failed: &mut Option<TrainerError>| {
@@ -309,57 +312,98 @@ pub fn run(
                 write!(w, ",{c},{c}_band95")?;
             }
             writeln!(w, ",flags,flag_names")?;
-            loop {
-                let row = match rows.next_row() {
-                    Ok(Some(r)) => r,
-                    Ok(None) => break,
-                    Err(e) => return Err(abandon(e, &mut failed)),
-                };
-                let s = row.sample();
-                let e = engine.step(&s);
-                write!(w, "{}", row.t_s)?;
-                for c in 0..m {
-                    write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
-                }
-                writeln!(w, ",{},{}", e.flags.0, e.flags)?;
-                if t_first.is_nan() {
-                    t_first = row.t_s;
-                }
-                t_last = row.t_s;
-                // A gap is a missing input of this model: a thermometer the model does not read is
-                // no gap.
-                if !s.dl().iter().all(|v| v.is_finite()) || (dims.ambient() && !s.t_amb_c.is_finite()) {
-                    gap_rows += 1;
-                }
-                flagged_rows += usize::from(e.flags.is_fault());
-                for (n, &b) in flag_rows.iter_mut().zip(&bits) {
-                    *n += usize::from(e.flags.contains(b));
-                }
-                if row.usable(n_refs, ambient) {
-                    sums.n += 1;
-                    for (c, at) in ref_at.iter().enumerate() {
-                        if let Some(k) = *at {
-                            let err = e.values[c] - row.refs[k];
-                            sums.ss_res[c] += err * err;
-                            sums.sum_err[c] += err;
-                            sums.inside[c] += usize::from(err.abs() <= e.band95[c]);
+            // One thread reads and parses rows (in chunks, a few in flight), this one
+            // compensates and writes them: the two halves of the work overlap, and memory
+            // stays a few chunks whatever the record's length.
+            let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Vec<Row>, TrainerError>>(IN_FLIGHT);
+            let reader = std::thread::scope(|scope| -> std::io::Result<Option<RowReader>> {
+                let bar = &bar;
+                let reading = scope.spawn(move || {
+                    let mut rows = rows;
+                    loop {
+                        let mut chunk = Vec::with_capacity(CHUNK);
+                        let mut end = false;
+                        while chunk.len() < CHUNK {
+                            match rows.next_row() {
+                                Ok(Some(r)) => chunk.push(r),
+                                Ok(None) => {
+                                    end = true;
+                                    break;
+                                }
+                                Err(e) => {
+                                    let _ = tx.send(Err(e));
+                                    return rows;
+                                }
+                            }
+                        }
+                        bar.set_position(rows.byte_position());
+                        // A closed channel: the writer stopped (an error it reports).
+                        if (!chunk.is_empty() && tx.send(Ok(chunk)).is_err()) || end {
+                            return rows;
+                        }
+                    }
+                });
+                for chunk in rx {
+                    let chunk = match chunk {
+                        Ok(c) => c,
+                        Err(e) => {
+                            failed = Some(e);
+                            return Ok(None);
+                        }
+                    };
+                    for row in chunk {
+                        let s = row.sample();
+                        let e = engine.step(&s);
+                        write!(w, "{}", row.t_s)?;
+                        for c in 0..m {
+                            write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
+                        }
+                        writeln!(w, ",{},{}", e.flags.0, e.flags)?;
+                        if t_first.is_nan() {
+                            t_first = row.t_s;
+                        }
+                        t_last = row.t_s;
+                        // A gap is a missing input of this model: a thermometer the model does not read is
+                        // no gap.
+                        if !s.dl().iter().all(|v| v.is_finite()) || (dims.ambient() && !s.t_amb_c.is_finite()) {
+                            gap_rows += 1;
+                        }
+                        flagged_rows += usize::from(e.flags.is_fault());
+                        for (n, &b) in flag_rows.iter_mut().zip(&bits) {
+                            *n += usize::from(e.flags.contains(b));
+                        }
+                        if row.usable(n_refs, ambient) {
+                            sums.n += 1;
+                            for (c, at) in ref_at.iter().enumerate() {
+                                if let Some(k) = *at {
+                                    let err = e.values[c] - row.refs[k];
+                                    sums.ss_res[c] += err * err;
+                                    sums.sum_err[c] += err;
+                                    sums.inside[c] += usize::from(err.abs() <= e.band95[c]);
+                                }
+                            }
+                        }
+                        for (g, u) in units.iter_mut().enumerate() {
+                            let x = row.dl_pm[g];
+                            if x.is_finite() {
+                                let (mid, span) = mid_span[g];
+                                u.n += 1;
+                                u.far_above += usize::from(x - mid > UNIT_FAR_SPANS * span);
+                                u.far_below += usize::from(x - mid < -(UNIT_FAR_SPANS * span));
+                                u.worst = u.worst.max(x.abs());
+                            }
                         }
                     }
                 }
-                for (g, u) in units.iter_mut().enumerate() {
-                    let x = row.dl_pm[g];
-                    if x.is_finite() {
-                        let (mid, span) = mid_span[g];
-                        u.n += 1;
-                        u.far_above += usize::from(x - mid > UNIT_FAR_SPANS * span);
-                        u.far_below += usize::from(x - mid < -(UNIT_FAR_SPANS * span));
-                        u.worst = u.worst.max(x.abs());
-                    }
-                }
-                if rows.rows() % TICK == 0 {
-                    bar.set_position(rows.byte_position());
-                }
-            }
+                Ok(reading.join().ok())
+            })?;
+            let Some(rows) = reader else {
+                return Err(failed.as_ref().map_or_else(
+                    || std::io::Error::other("the reading thread failed"),
+                    |_| std::io::Error::other("abandoned"),
+                ));
+            };
+            n_rows = rows.rows();
             let checked = rows.finish().and_then(|()| {
                 if field.trust_units {
                     Ok(())
@@ -374,7 +418,6 @@ pub fn run(
         return Err(e);
     }
     written?;
-    let n_rows = rows.rows();
     let reference_errors = ref_at.iter().any(Option::is_some).then(|| {
         let present = |c: usize| ref_at[c].is_some() && sums.n > 0;
         let n = sums.n as f64;
