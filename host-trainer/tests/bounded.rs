@@ -259,3 +259,32 @@ fn compensate_f32_names_the_model_it_cannot_load() {
     assert!(!e.starts_with("fit:"), "{e}");
     compensate::load_check(&params, Precision::F64, &model).unwrap();
 }
+
+#[test]
+fn compensate_stopped_by_a_bad_row_leaves_no_output() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let model = d.path().join("m.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&csv).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    // A bad cell far down the record: rows before it were already compensated and written to
+    // the temporary file when the reader met it.
+    let mut text = std::fs::read_to_string(&csv).unwrap();
+    let lines = text.lines().count();
+    text.push_str("1e12,20,0,150,20,1,2,oops,holdout\n");
+    let bad = d.path().join("bad.csv");
+    std::fs::write(&bad, text).unwrap();
+    let out = d.path().join("out.csv");
+    std::fs::write(&out, "the old output\n").unwrap();
+    let (ok, _, err) =
+        run(bin().args(["compensate", "--model"]).arg(&model).arg("--data").arg(&bad).arg("--out").arg(&out));
+    assert!(!ok);
+    assert!(err.contains(&format!("line {}, column dl3_pm: `oops` is not a number", lines + 1)), "{err}");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "the old output\n", "the old output is kept");
+    let left: Vec<_> = std::fs::read_dir(d.path())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with(".fbg-tmp"))
+        .collect();
+    assert!(left.is_empty(), "no temporary left behind");
+}
