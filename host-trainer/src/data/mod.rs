@@ -390,6 +390,31 @@ impl Dataset {
         Self::read_csv_with(path, true)
     }
 
+    /// [`read_csv`](Self::read_csv) for fitting (`train`): the rows after the last calibration
+    /// row are dropped once read, since a fit never reads them (the compensator's stream that
+    /// feeds it ends there; hold-out rows between calibration rows stay, the stream runs
+    /// through them). What is held per row is the columns as f64 and the split (65 bytes for
+    /// the paper's shape).
+    pub fn read_calibration_csv(path: &Path) -> Result<Dataset, TrainerError> {
+        let mut d = Self::read_csv_with(path, true)?;
+        let end = d.split.iter().rposition(|&s| s == Split::Cal).map_or(0, |i| i + 1);
+        if end < d.len() {
+            let keep = |v: &mut Vec<f64>| {
+                v.truncate(end);
+                v.shrink_to_fit();
+            };
+            keep(&mut d.t_s);
+            d.refs.iter_mut().for_each(|r| keep(&mut r.values));
+            if let Some(a) = d.t_amb_c.as_mut() {
+                keep(a);
+            }
+            d.dl_pm.iter_mut().for_each(keep);
+            d.split.truncate(end);
+            d.split.shrink_to_fit();
+        }
+        Ok(d)
+    }
+
     /// [`read_csv`](Self::read_csv) for a field record to compensate: references are welcome
     /// (the errors are then reported) but none is needed.
     pub fn read_field_csv(path: &Path) -> Result<Dataset, TrainerError> {

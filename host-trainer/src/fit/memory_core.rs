@@ -217,7 +217,13 @@ pub fn memory_terms(spec: &MemorySpec<f64>, dims: &Dims, d: &Dataset, rows: &[us
 /// [`memory_terms`] keeping only the terms `keep` (indices into the memory vector, in that
 /// order): a row holds `keep.len()` numbers, so a fit that uses a few terms over millions of
 /// rows holds only those.
-pub fn memory_terms_of(spec: &MemorySpec<f64>, dims: &Dims, d: &Dataset, rows: &[usize], keep: &[usize]) -> MemoryTerms {
+pub fn memory_terms_of(
+    spec: &MemorySpec<f64>,
+    dims: &Dims,
+    d: &Dataset,
+    rows: &[usize],
+    keep: &[usize],
+) -> MemoryTerms {
     let mut bank = MemoryBank::<f64>::new(spec, dims);
     let len = keep.len();
     let mut values = Vec::with_capacity(rows.len() * len);
