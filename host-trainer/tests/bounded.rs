@@ -307,8 +307,9 @@ fn compensate_memory_does_not_grow_with_the_record() {
     assert!(ok, "{err}");
     let peak = |data: &Path| {
         let out = d.path().join("out.csv");
-        let (ok, err, rss) =
-            run_peak_rss(bin().args(["compensate", "--model"]).arg(&model).arg("--data").arg(data).arg("--out").arg(&out));
+        let (ok, err, rss) = run_peak_rss(
+            bin().args(["compensate", "--model"]).arg(&model).arg("--data").arg(data).arg("--out").arg(&out),
+        );
         assert!(ok, "{err}");
         rss
     };
@@ -322,11 +323,8 @@ fn compensate_memory_does_not_grow_with_the_record() {
 fn train_reads_the_rows_up_to_the_last_calibration_row() {
     let d = tempfile::tempdir().unwrap();
     let p = d.path().join("s.csv");
-    std::fs::write(
-        &p,
-        "t_s,T_C,dl1_pm,split\n0,1,2,cal\n1,1,2,holdout\n2,1,2,cal\n3,1,2,holdout\n4,1,2,holdout\n",
-    )
-    .unwrap();
+    std::fs::write(&p, "t_s,T_C,dl1_pm,split\n0,1,2,cal\n1,1,2,holdout\n2,1,2,cal\n3,1,2,holdout\n4,1,2,holdout\n")
+        .unwrap();
     let all = Dataset::read_csv(&p).unwrap();
     let cal = Dataset::read_calibration_csv(&p).unwrap();
     assert_eq!(all.len(), 5);

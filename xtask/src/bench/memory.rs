@@ -56,7 +56,9 @@ pub struct Memory {
 pub fn peak_rss(root: &Path, program: &str, args: &[&str]) -> Result<(u64, f64, String)> {
     let line = format!("{program} {}", args.join(" "));
     eprintln!("bench: $ {line}");
-    let err = root.join("target/bench/memory/stderr.txt");
+    let dir = root.join("target/bench/memory");
+    fs::create_dir_all(&dir)?;
+    let err = dir.join("stderr.txt");
     let t0 = Instant::now();
     let child = Command::new(root.join(program))
         .args(args)
@@ -176,4 +178,60 @@ pub fn markdown(s: &mut String, mem: &Memory) {
         let _ = writeln!(s, "- `{c}`");
     }
     let _ = writeln!(s);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn peak_rss_is_the_childs_own() {
+        let root = crate::root();
+        // A child that touches 64 MiB: its peak, not this process's.
+        let (big, _, _) = peak_rss(&root, "/usr/bin/env", &["python3", "-c", "b = bytearray(64 << 20)"]).unwrap();
+        let (small, _, _) = peak_rss(&root, "/bin/sh", &["-c", "true"]).unwrap();
+        assert!(big > 64 << 20 && small < 32 << 20, "{big} {small}");
+        assert!(peak_rss(&root, "/bin/sh", &["-c", "exit 3"]).is_err());
+    }
+
+    #[test]
+    fn the_section_says_which_target_is_met() {
+        let run = |rows, what: &str, mb: u64| MemoryRun {
+            command: format!("target/release/fbg-trainer {what}"),
+            rows,
+            what: what.into(),
+            peak_rss_bytes: mb * 1_000_000,
+            seconds: 1.0,
+        };
+        let m = Memory {
+            runs: vec![
+                run(1_000_000, "evaluate", 900),
+                run(10_000_000, "train", 1_100),
+                run(10_000_000, "compensate", 300),
+            ],
+            datasets: vec!["target/release/fbg-trainer simulate".into()],
+            csv_bytes: vec![93_000_000, 954_000_000],
+        };
+        let mut s = String::new();
+        markdown(&mut s, &m);
+        assert!(s.contains("| 10000000 | 954 MB | `train` | 1100 MB | 1.0 s | ≤ 1200 MB: met |"), "{s}");
+        assert!(s.contains("| 10000000 | 954 MB | `compensate` | 300 MB | 1.0 s | ≤ 200 MB: **not met** |"), "{s}");
+        assert!(s.contains("| 1000000 | 93 MB | `evaluate` | 900 MB | 1.0 s | – |"), "{s}");
+    }
+
+    /// The whole part on 10⁶ rows (`--quick`); about two minutes, so run by hand:
+    /// `cargo test -p xtask -- --ignored memory_part_on_a_million_rows` (after
+    /// `cargo build --release -p fbg-trainer`).
+    #[test]
+    #[ignore]
+    fn memory_part_on_a_million_rows() {
+        let root = crate::root();
+        let r = Runner { root: root.clone() };
+        let m = part(&root, &r, &Opts { quick: true, no_device: true }).unwrap();
+        let mut s = String::new();
+        markdown(&mut s, &m);
+        eprintln!("{s}");
+        assert_eq!(m.runs.len(), 3);
+        assert!(!root.join("target/bench/memory/n1000000.csv").exists(), "the record is deleted");
+    }
 }
