@@ -547,7 +547,7 @@ pub struct Row {
     pub line: u64,
     /// Time since the start \[s\].
     pub t_s: f64,
-    /// The references in canonical order ([`RowReader::shape`]); NaN beyond them.
+    /// The references in canonical order ([`RowReader::header_dataset`]); NaN beyond them.
     pub refs: [f64; MAX_MEASURANDS],
     /// Ambient thermometer [°C].
     pub t_amb_c: f64,
