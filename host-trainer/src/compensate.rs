@@ -15,11 +15,11 @@ use fbg_shared::{Compensator, Estimate, Flags, ZeroSource};
 
 use crate::data::files::write_atomically;
 use crate::data::measurand::grating_column;
-use crate::data::Dataset;
+use crate::data::{Dataset, Measurand, Row, RowReader};
 use crate::error::TrainerError;
 use crate::eval::score;
 use crate::export;
-use crate::fit::{self, HostParams, HOST_CAP};
+use crate::fit::{self, HostCompensator, HostParams, HOST_CAP};
 use crate::warning::Warning;
 
 /// The dataset column of each output of `params` (`T_C`, `strain_ue`, …).
@@ -27,8 +27,10 @@ pub fn output_columns(params: &HostParams) -> Vec<String> {
     params.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect()
 }
 
-/// Rows per progress-bar tick.
-const TICK: usize = 16_384;
+/// Rows read per chunk handed from the reading thread to the writing one.
+const CHUNK: usize = 4096;
+/// Chunks read ahead at most (the memory of the pipeline).
+const IN_FLIGHT: usize = 4;
 
 /// Which arithmetic runs the model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -147,7 +149,90 @@ const UNIT_FAR_SPANS: f64 = 100.0;
 /// span around zero reads like shifts in nm written in a pm column (1000× too small).
 const UNIT_TINY_SPAN: f64 = 1.0 / 300.0;
 
+/// The arithmetic that runs a model over a stream of rows.
+enum Engine {
+    F64(Box<HostCompensator>),
+    F32(Box<Compensator<f32, HOST_CAP>>),
+}
+
+impl Engine {
+    /// A compensator of `params` in `precision` on `clock`; a model that cannot be loaded is
+    /// an error naming `model`.
+    fn new(
+        params: &HostParams,
+        precision: Precision,
+        clock: fbg_shared::StreamClock,
+        model: &Path,
+    ) -> Result<Engine, TrainerError> {
+        let refuse = |what: &str, e: fbg_shared::Error| TrainerError::Model {
+            path: model.display().to_string(),
+            message: format!("cannot be loaded for {what} arithmetic: {e}"),
+        };
+        Ok(match precision {
+            Precision::F64 => {
+                let mut c = Box::new(HostCompensator::new(params).map_err(|e| refuse("the host's f64", e))?);
+                c.set_clock(clock);
+                Engine::F64(c)
+            }
+            Precision::F32 => {
+                let p32 = params.convert::<f32, HOST_CAP>().map_err(|e| refuse("the device's f32", e))?;
+                let mut c =
+                    Box::new(Compensator::<f32, HOST_CAP>::new(&p32).map_err(|e| refuse("the device's f32", e))?);
+                c.set_clock(clock);
+                Engine::F32(c)
+            }
+        })
+    }
+
+    fn step(&mut self, s: &fbg_shared::Sample<f64>) -> Estimate<f64> {
+        match self {
+            Engine::F64(c) => c.step(s),
+            Engine::F32(c) => {
+                let e = c.step(&s.cast::<f32>());
+                Estimate {
+                    values: e.values.map(f64::from),
+                    band95: e.band95.map(f64::from),
+                    outputs: e.outputs,
+                    flags: e.flags,
+                }
+            }
+        }
+    }
+}
+
+/// Whether `params` (read from `model`) can be run in `precision`; the error names `model`.
+pub fn load_check(params: &HostParams, precision: Precision, model: &Path) -> Result<(), TrainerError> {
+    Engine::new(params, precision, fbg_shared::StreamClock::Unknown, model).map(|_| ())
+}
+
+/// Running sums of the reference errors over the rows with finite inputs and every reference
+/// of the record, in row order (so the figures are those of [`score::score`] on the same rows).
+struct RefSums {
+    n: usize,
+    ss_res: [f64; fbg_shared::layout::MAX_OUTPUTS],
+    sum_err: [f64; fbg_shared::layout::MAX_OUTPUTS],
+    inside: [usize; fbg_shared::layout::MAX_OUTPUTS],
+}
+
+/// Per grating, what [`check_units`] needs of a column it never holds: the finite values, the
+/// ones far above and far below the envelope's centre, and the largest magnitude.
+#[derive(Clone, Copy, Debug, Default)]
+struct UnitCounts {
+    n: usize,
+    far_above: usize,
+    far_below: usize,
+    worst: f64,
+}
+
 /// Read `data`, compensate it with the model in `model`, write `out` (atomically).
+///
+/// The rows are streamed: read, compensated and written one at a time, so memory does not grow
+/// with the record. What is kept across rows: the compensator's state, counts (rows, gaps,
+/// flags), per output of a model three running sums for the reference errors, and per grating
+/// four numbers for the unit check (whose median is decided by counting; the median's value is
+/// read again from the file only to word a refusal). A check that needs the whole record
+/// (the unit check, an empty record) is made at the end, before the output is renamed into
+/// place: on any error nothing is written.
 pub fn run(
     model: &Path,
     data: &Path,
@@ -158,7 +243,9 @@ pub fn run(
 ) -> Result<Summary, TrainerError> {
     let t0 = Instant::now();
     let params = export::read_blob(model)?;
-    let mut d = Dataset::read_field_csv(data)?;
+    let rows = RowReader::open(data)?;
+    // The record's columns and metadata, without rows.
+    let mut d = rows.header_dataset();
     let name = data.display().to_string();
     d.inputs_for(&params.dims, &name, "compensate")?;
     if field.start_unix_s.is_some() {
@@ -166,9 +253,6 @@ pub fn run(
     }
     let mut warnings = Vec::new();
     let zero = check_zero(&params, &d, model, &name, &mut warnings)?;
-    if !field.trust_units {
-        check_units(&params, &d, &name)?;
-    }
     let clock = match (d.field_clock(), params.field.cal_end_unix_s) {
         (fbg_shared::StreamClock::StartUnix(_), Some(_)) => "absolute",
         _ => "unknown",
@@ -190,53 +274,176 @@ pub fn run(
             .with("lead_max_h", f64::from(params.field.lead_max_s) / 3600.0),
         );
     }
-    let est = estimates(&params, &d, precision)?;
-    let bar = fit::select::progress_bar(progress, d.len() as u64, "compensate");
-    write_atomically(out, |w| {
-        write!(w, "t_s")?;
-        for c in output_columns(&params) {
-            write!(w, ",{c},{c}_band95")?;
-        }
-        writeln!(w, ",flags,flag_names")?;
-        for (i, e) in est.iter().enumerate() {
-            write!(w, "{}", d.t_s[i])?;
-            for c in 0..params.dims.n_outputs() {
-                write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
-            }
-            writeln!(w, ",{},{}", e.flags.0, e.flags)?;
-            if i % TICK == TICK - 1 {
-                bar.inc(TICK as u64);
-            }
-        }
-        Ok(())
-    })?;
-    bar.finish_and_clear();
-    // A gap is a missing input of this model: a thermometer the model does not read is no gap.
+    let mut engine = Engine::new(&params, precision, d.field_clock(), model)?;
     let dims = params.dims;
-    let gap_rows = (0..d.len())
-        .filter(|&i| {
-            let s = d.sample(i);
-            !s.dl().iter().all(|v| v.is_finite()) || (dims.ambient() && !s.t_amb_c.is_finite())
+    let m = dims.n_outputs();
+    // Where each output's reference is in a row (canonical order), when the record has it.
+    let ref_at: Vec<Option<usize>> = (0..m)
+        .map(|c| {
+            dims.outputs().get(c).and_then(|&o| d.refs.iter().position(|r| r.measurand == Measurand::of_output(o)))
         })
-        .count();
+        .collect();
+    let (n_refs, ambient) = (d.refs.len(), d.t_amb_c.is_some());
+    let n_g = dims.gratings();
+    let mid_span: Vec<(f64, f64)> = (0..n_g)
+        .map(|g| {
+            let (lo, hi) = (params.envelope_lo[g], params.envelope_hi[g]);
+            (0.5 * (lo + hi), hi - lo)
+        })
+        .collect();
+    let mut units = vec![UnitCounts::default(); n_g];
+    let mut sums = RefSums { n: 0, ss_res: [-0.0; 4], sum_err: [-0.0; 4], inside: [0; 4] };
+    let (mut gap_rows, mut flagged_rows, mut flag_rows) = (0usize, 0usize, [0usize; 4]);
+    let (mut t_first, mut t_last) = (f64::NAN, f64::NAN);
     let bits = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::LEAD_UNKNOWN];
-    let reference_errors = (0..params.dims.n_outputs())
-        .any(|c| d.reference_of(&params.dims, c).is_present())
-        .then(|| reference_errors(&params, &d, &est));
+    let columns = output_columns(&params);
+    let bar = fit::select::progress_bar(progress, rows.file_len(), "compensate");
+    // A data error met while writing: the write is abandoned (nothing renamed into place).
+    let mut failed: Option<TrainerError> = None;
+    let mut n_rows = 0;
+    let written =
+        write_atomically(out, |w| {
+            let abandon = |e: TrainerError, failed: &mut Option<TrainerError>| {
+                *failed = Some(e);
+                std::io::Error::other("abandoned")
+            };
+            write!(w, "t_s")?;
+            for c in &columns {
+                write!(w, ",{c},{c}_band95")?;
+            }
+            writeln!(w, ",flags,flag_names")?;
+            // One thread reads and parses rows (in chunks, a few in flight), this one
+            // compensates and writes them: the two halves of the work overlap, and memory
+            // stays a few chunks whatever the record's length.
+            let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Vec<Row>, TrainerError>>(IN_FLIGHT);
+            let reader = std::thread::scope(|scope| -> std::io::Result<Option<RowReader>> {
+                let bar = &bar;
+                let reading = scope.spawn(move || {
+                    let mut rows = rows;
+                    loop {
+                        let mut chunk = Vec::with_capacity(CHUNK);
+                        let mut end = false;
+                        while chunk.len() < CHUNK {
+                            match rows.next_row() {
+                                Ok(Some(r)) => chunk.push(r),
+                                Ok(None) => {
+                                    end = true;
+                                    break;
+                                }
+                                Err(e) => {
+                                    let _ = tx.send(Err(e));
+                                    return rows;
+                                }
+                            }
+                        }
+                        bar.set_position(rows.byte_position());
+                        // A closed channel: the writer stopped (an error it reports).
+                        if (!chunk.is_empty() && tx.send(Ok(chunk)).is_err()) || end {
+                            return rows;
+                        }
+                    }
+                });
+                for chunk in rx {
+                    let chunk = match chunk {
+                        Ok(c) => c,
+                        Err(e) => {
+                            failed = Some(e);
+                            return Ok(None);
+                        }
+                    };
+                    for row in chunk {
+                        let s = row.sample();
+                        let e = engine.step(&s);
+                        write!(w, "{}", row.t_s)?;
+                        for c in 0..m {
+                            write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
+                        }
+                        writeln!(w, ",{},{}", e.flags.0, e.flags)?;
+                        if t_first.is_nan() {
+                            t_first = row.t_s;
+                        }
+                        t_last = row.t_s;
+                        // A gap is a missing input of this model: a thermometer the model does not read is
+                        // no gap.
+                        if !s.dl().iter().all(|v| v.is_finite()) || (dims.ambient() && !s.t_amb_c.is_finite()) {
+                            gap_rows += 1;
+                        }
+                        flagged_rows += usize::from(e.flags.is_fault());
+                        for (n, &b) in flag_rows.iter_mut().zip(&bits) {
+                            *n += usize::from(e.flags.contains(b));
+                        }
+                        if row.usable(n_refs, ambient) {
+                            sums.n += 1;
+                            for (c, at) in ref_at.iter().enumerate() {
+                                if let Some(k) = *at {
+                                    let err = e.values[c] - row.refs[k];
+                                    sums.ss_res[c] += err * err;
+                                    sums.sum_err[c] += err;
+                                    sums.inside[c] += usize::from(err.abs() <= e.band95[c]);
+                                }
+                            }
+                        }
+                        for (g, u) in units.iter_mut().enumerate() {
+                            let x = row.dl_pm[g];
+                            if x.is_finite() {
+                                let (mid, span) = mid_span[g];
+                                u.n += 1;
+                                u.far_above += usize::from(x - mid > UNIT_FAR_SPANS * span);
+                                u.far_below += usize::from(x - mid < -(UNIT_FAR_SPANS * span));
+                                u.worst = u.worst.max(x.abs());
+                            }
+                        }
+                    }
+                }
+                Ok(reading.join().ok())
+            })?;
+            let Some(rows) = reader else {
+                return Err(failed.as_ref().map_or_else(
+                    || std::io::Error::other("the reading thread failed"),
+                    |_| std::io::Error::other("abandoned"),
+                ));
+            };
+            n_rows = rows.rows();
+            let checked = rows.finish().and_then(|()| {
+                if field.trust_units {
+                    Ok(())
+                } else {
+                    check_units(&params, &units, data, &name)
+                }
+            });
+            checked.map_err(|e| abandon(e, &mut failed))
+        });
+    bar.finish_and_clear();
+    if let Some(e) = failed {
+        return Err(e);
+    }
+    written?;
+    let reference_errors = ref_at.iter().any(Option::is_some).then(|| {
+        let present = |c: usize| ref_at[c].is_some() && sums.n > 0;
+        let n = sums.n as f64;
+        ReferenceErrors {
+            channels: score::channels(&dims),
+            units: score::units(&dims),
+            rows: (0..m).map(|c| if present(c) { sums.n } else { 0 }).collect(),
+            rmse: (0..m).map(|c| if present(c) { (sums.ss_res[c] / n).sqrt() } else { f64::NAN }).collect(),
+            bias: (0..m).map(|c| if present(c) { sums.sum_err[c] / n } else { f64::NAN }).collect(),
+            coverage: (0..m).map(|c| if present(c) { sums.inside[c] as f64 / n } else { f64::NAN }).collect(),
+        }
+    });
     Ok(Summary {
         model: model.to_path_buf(),
         data: data.to_path_buf(),
         out: out.to_path_buf(),
         precision,
-        rows: d.len(),
+        rows: n_rows,
         gap_rows,
-        flagged_rows: est.iter().filter(|e| e.flags.is_fault()).count(),
-        flag_rows: bits.map(|b| est.iter().filter(|e| e.flags.contains(b)).count()),
+        flagged_rows,
+        flag_rows,
         clock: clock.to_string(),
         zero,
         warnings,
-        t_first_s: d.t_s.first().copied().unwrap_or(f64::NAN),
-        t_last_s: d.t_s.last().copied().unwrap_or(f64::NAN),
+        t_first_s: t_first,
+        t_last_s: t_last,
         seconds: t0.elapsed().as_secs_f64(),
         reference_errors,
     })
@@ -315,20 +522,23 @@ fn check_zero(
 /// spans from the model's calibration envelope, or a record whose shifts on every grating stay
 /// within [`UNIT_TINY_SPAN`] of a span around zero (nm written in a pm column), is refused
 /// naming the column and the likely unit.
-fn check_units(params: &HostParams, d: &Dataset, name: &str) -> Result<(), TrainerError> {
+///
+/// The median of `n` values (the sorted values' element `n / 2`) is beyond a bound exactly when
+/// enough values are: at least `n - n / 2` far above, or `n / 2 + 1` far below; so `counts` (one
+/// pass) decide, and the median's value is read again from `data` only to word the refusal.
+fn check_units(params: &HostParams, counts: &[UnitCounts], data: &Path, name: &str) -> Result<(), TrainerError> {
     let n = params.dims.gratings();
     let mut tiny = Vec::new();
-    for g in 0..n {
+    for (g, u) in counts.iter().enumerate().take(n) {
         let (lo, hi) = (params.envelope_lo[g], params.envelope_hi[g]);
         let span = hi - lo;
         let col = grating_column(g + 1);
-        let mut v: Vec<f64> = d.dl_pm[g].iter().copied().filter(|x| x.is_finite()).collect();
-        if v.is_empty() || span.is_nan() || span <= 0.0 {
+        if u.n == 0 || span.is_nan() || span <= 0.0 {
             continue;
         }
-        v.sort_by(f64::total_cmp);
-        let median = v[v.len() / 2];
-        if (median - 0.5 * (lo + hi)).abs() > UNIT_FAR_SPANS * span {
+        let k = u.n / 2;
+        if u.far_above >= u.n - k || u.far_below > k {
+            let median = column_median(data, g)?;
             return Err(TrainerError::data(
                 name,
                 1,
@@ -338,8 +548,7 @@ fn check_units(params: &HostParams, d: &Dataset, name: &str) -> Result<(), Train
                 ),
             ));
         }
-        let worst = v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        tiny.push((col, worst, span));
+        tiny.push((col, u.worst, span));
     }
     if tiny.len() == n && tiny.iter().all(|(_, w, s)| *w < UNIT_TINY_SPAN * s) {
         let (col, w, s) = &tiny[0];
@@ -355,22 +564,18 @@ fn check_units(params: &HostParams, d: &Dataset, name: &str) -> Result<(), Train
     Ok(())
 }
 
-/// `evaluate`'s statistics over the rows with finite inputs and every reference the record has.
-fn reference_errors(params: &HostParams, d: &Dataset, est: &[Estimate<f64>]) -> ReferenceErrors {
-    let dims = &params.dims;
-    let rows: Vec<usize> = (0..d.len()).filter(|&i| d.usable(i)).collect();
-    let at: Vec<Estimate<f64>> = rows.iter().map(|&i| est[i]).collect();
-    let ch = score::score(dims, d, &rows, &at).channels;
-    let present = |c: usize| d.reference_of(dims, c).is_present() && !rows.is_empty();
-    let m = dims.n_outputs();
-    ReferenceErrors {
-        channels: score::channels(dims),
-        units: score::units(dims),
-        rows: (0..m).map(|c| if present(c) { ch[c].n } else { 0 }).collect(),
-        rmse: (0..m).map(|c| if present(c) { ch[c].rmse } else { f64::NAN }).collect(),
-        bias: (0..m).map(|c| if present(c) { ch[c].bias } else { f64::NAN }).collect(),
-        coverage: (0..m).map(|c| if present(c) { ch[c].coverage } else { f64::NAN }).collect(),
+/// The median (the sorted finite values' element `n / 2`) of grating `g`'s column of `data`,
+/// read again for a refusal's message.
+fn column_median(data: &Path, g: usize) -> Result<f64, TrainerError> {
+    let mut rows = RowReader::open(data)?;
+    let mut v = Vec::new();
+    while let Some(r) = rows.next_row()? {
+        if r.dl_pm[g].is_finite() {
+            v.push(r.dl_pm[g]);
+        }
     }
+    v.sort_by(f64::total_cmp);
+    Ok(v.get(v.len() / 2).copied().unwrap_or(f64::NAN))
 }
 
 impl Summary {

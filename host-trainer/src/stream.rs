@@ -46,7 +46,10 @@ pub struct StreamOptions {
     pub max_samples: Option<usize>,
     /// A progress bar on stderr (shown on a terminal only).
     pub progress: bool,
-    /// How long to wait for the device to accept the connection and for each answer.
+    /// How long to wait for the device to accept the connection, and for each answer whole
+    /// (request sent to the answer's last byte): the stream makes progress when every sample,
+    /// model-transfer step and status request is answered within it; the whole stream may last
+    /// longer.
     pub timeout: Duration,
 }
 
@@ -133,14 +136,23 @@ pub fn status_text(st: &Status) -> String {
     )
 }
 
-/// Connect to the device at `host:port` (waiting up to `timeout`) and read its status.
+/// Connect to the device at `host:port` and read its status, the connection and the whole
+/// answer within `timeout` together.
 pub fn device_status(host: &str, port: u16, timeout: Duration) -> Result<Status> {
     let addr = format!("{host}:{port}");
+    let t0 = Instant::now();
     let stream = connect(&addr, timeout)?;
-    stream.set_read_timeout(Some(timeout))?;
-    stream.set_nodelay(true)?;
-    let mut link = LinkClient::new(stream);
+    let left = timeout.saturating_sub(t0.elapsed()).max(Duration::from_millis(1));
+    let mut link = link_with_deadline(stream, left)?;
     link.status().map_err(|e| link_err("status", e))
+}
+
+/// A client whose every answer (request sent to the answer's last byte) is due within
+/// `timeout`; writes are bounded by it too.
+fn link_with_deadline(stream: TcpStream, timeout: Duration) -> Result<LinkClient<TcpStream>> {
+    stream.set_nodelay(true)?;
+    stream.set_write_timeout(Some(timeout))?;
+    Ok(LinkClient::with_answer_timeout(stream, timeout)?)
 }
 
 impl StreamReport {
@@ -191,7 +203,8 @@ fn connect(addr: &str, timeout: Duration) -> Result<TcpStream> {
     loop {
         let mut last = None;
         for a in &sockets {
-            match TcpStream::connect_timeout(a, Duration::from_secs(1)) {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match TcpStream::connect_timeout(a, left.clamp(Duration::from_millis(1), Duration::from_secs(1))) {
                 Ok(s) => return Ok(s),
                 Err(e) => last = Some(e),
             }
@@ -209,6 +222,7 @@ fn link_err(what: &str, e: LinkError) -> anyhow::Error {
         LinkError::Io(io) if matches!(io.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
             anyhow::anyhow!("{what}: the device did not answer in time ({e})")
         }
+        LinkError::TimedOut { .. } => anyhow::anyhow!("{what}: timed out: {e} (--timeout)"),
         _ => anyhow::anyhow!("{what}: {e}"),
     }
 }
@@ -237,9 +251,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
 
     let device = format!("{}:{}", opts.host, opts.port);
     let stream = connect(&device, opts.timeout)?;
-    stream.set_read_timeout(Some(opts.timeout))?;
-    stream.set_nodelay(true)?;
-    let mut link = LinkClient::new(stream);
+    let mut link = link_with_deadline(stream, opts.timeout)?;
     link.ping(0x5EED).map_err(|e| link_err("ping", e))?;
     if opts.update_first {
         match link.update_model(&bytes).map_err(|e| link_err("model update", e))? {

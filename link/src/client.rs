@@ -3,16 +3,18 @@
 //! pipe in tests.
 //!
 //! The client speaks in lock-step (one request, one answer), which is the link's flow control.
-//! Time-outs belong to the stream: set one on the socket
-//! (`TcpStream::set_read_timeout`) and a silent device becomes [`LinkError::Io`] with kind
-//! `WouldBlock`/`TimedOut` instead of a hang.
+//!
+//! Time-outs bound a whole answer, not a single read: [`LinkClient::with_answer_timeout`] gives
+//! every answer a deadline (from the request sent to the answer's last byte) and sets the
+//! stream's read time-out before each read to what is left of it, so a device that trickles a
+//! byte now and then fails with [`LinkError::TimedOut`] at the deadline like a silent one. A
+//! time-out set on the stream alone (`TcpStream::set_read_timeout`) bounds each read only.
 //!
 //! ```no_run
 //! # fn main() -> Result<(), fbg_link::LinkError> {
 //! use fbg_link::LinkClient;
 //! let stream = std::net::TcpStream::connect("127.0.0.1:4321")?;
-//! stream.set_read_timeout(Some(std::time::Duration::from_secs(5)))?;
-//! let mut link = LinkClient::new(stream);
+//! let mut link = LinkClient::with_answer_timeout(stream, std::time::Duration::from_secs(5))?;
 //! link.ping(1)?;
 //! let blob = std::fs::read("model.fbgm")?;
 //! let result = link.update_model(&blob)?; // Accepted, or Rejected with the reason
@@ -20,7 +22,8 @@
 //! # Ok(()) }
 //! ```
 
-use std::io::{Read, Write};
+use std::io::{ErrorKind, Read, Write};
+use std::time::{Duration, Instant};
 
 use fbg_shared::protocol::{
     crc32, encode_host, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, Status, UpdateResult,
@@ -30,9 +33,18 @@ use fbg_shared::Sample;
 
 /// What can go wrong talking to a device.
 #[derive(Debug)]
+#[non_exhaustive]
 pub enum LinkError {
-    /// The stream failed or timed out.
+    /// The stream failed (or a read timed out on a stream without an answer deadline).
     Io(std::io::Error),
+    /// The device's answer was not complete within the answer deadline
+    /// ([`LinkClient::with_answer_timeout`]); `received` bytes of it had arrived.
+    TimedOut {
+        /// The deadline of one answer.
+        timeout: Duration,
+        /// Bytes received while waiting (a trickling device sends some, a silent one none).
+        received: usize,
+    },
     /// The stream ended (the device or emulator went away).
     Closed,
     /// The device sent a frame the client could not decode.
@@ -52,6 +64,11 @@ impl core::fmt::Display for LinkError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             LinkError::Io(e) => write!(f, "device link I/O error: {e}"),
+            LinkError::TimedOut { timeout, received } => write!(
+                f,
+                "the device did not complete its answer within {:.3} s ({received} bytes received meanwhile)",
+                timeout.as_secs_f64()
+            ),
             LinkError::Closed => f.write_str("device link closed"),
             LinkError::Malformed(m) => write!(f, "malformed frame from the device: {m}"),
             LinkError::Unexpected { expected, got } => {
@@ -77,9 +94,30 @@ impl From<std::io::Error> for LinkError {
     }
 }
 
+/// A stream whose reads can be given a time-out, so that [`LinkClient`] can hold a whole
+/// answer to a deadline.
+pub trait ReadTimeout {
+    /// Bound the next reads (`None`: block).
+    fn set_read_timeout(&self, timeout: Option<Duration>) -> std::io::Result<()>;
+}
+
+impl ReadTimeout for std::net::TcpStream {
+    fn set_read_timeout(&self, timeout: Option<Duration>) -> std::io::Result<()> {
+        std::net::TcpStream::set_read_timeout(self, timeout)
+    }
+}
+
+/// Sets the stream's read time-out to what is left of an answer's deadline.
+type SetReadTimeout<S> = fn(&S, Option<Duration>) -> std::io::Result<()>;
+
 /// A lock-step client of one device.
 pub struct LinkClient<S> {
     io: S,
+    /// The deadline of each answer, from the request sent to the answer's last byte.
+    answer_timeout: Option<Duration>,
+    /// How to bound a read by the time left (without it the deadline is checked after each
+    /// read, which bounds a trickling device but not a read that blocks).
+    set_read_timeout: Option<SetReadTimeout<S>>,
     reader: FrameReader<DEVICE_MAX_FRAME>,
     /// Received bytes not fed to the reader yet.
     pending: Vec<u8>,
@@ -90,7 +128,33 @@ pub struct LinkClient<S> {
 impl<S: Read + Write> LinkClient<S> {
     /// Wrap a connected stream.
     pub fn new(io: S) -> Self {
-        LinkClient { io, reader: FrameReader::new(), pending: Vec::new(), malformed: 0 }
+        LinkClient {
+            io,
+            answer_timeout: None,
+            set_read_timeout: None,
+            reader: FrameReader::new(),
+            pending: Vec::new(),
+            malformed: 0,
+        }
+    }
+
+    /// Wrap a connected stream and give every answer `timeout`: a device whose answer is not
+    /// complete by then, however many bytes it sends meanwhile, is [`LinkError::TimedOut`].
+    pub fn with_answer_timeout(io: S, timeout: Duration) -> Result<Self, LinkError>
+    where
+        S: ReadTimeout,
+    {
+        let mut link = LinkClient::new(io);
+        link.answer_timeout = Some(timeout);
+        link.set_read_timeout = Some(<S as ReadTimeout>::set_read_timeout);
+        link.io.set_read_timeout(Some(timeout))?;
+        Ok(link)
+    }
+
+    /// Give every answer a deadline on a stream without [`ReadTimeout`]: checked after each
+    /// read, so a read that blocks must be bounded by the stream itself.
+    pub fn set_answer_timeout(&mut self, timeout: Option<Duration>) {
+        self.answer_timeout = timeout;
     }
 
     /// The underlying stream.
@@ -129,9 +193,11 @@ impl<S: Read + Write> LinkClient<S> {
         Ok(())
     }
 
-    /// Wait for the next decodable device message. Malformed device frames are counted and
-    /// skipped.
+    /// Wait for the next decodable device message, until the answer deadline when there is one.
+    /// Malformed device frames are counted and skipped.
     pub fn recv(&mut self) -> Result<DeviceMsg, LinkError> {
+        let deadline = self.answer_timeout.map(|t| (t, Instant::now() + t));
+        let mut received = 0usize;
         loop {
             // Drain what is buffered first.
             let mut consumed = 0;
@@ -158,7 +224,27 @@ impl<S: Read + Write> LinkClient<S> {
                 return Ok(m);
             }
             let mut buf = [0u8; 512];
-            let n = self.io.read(&mut buf)?;
+            if let Some((timeout, at)) = deadline {
+                let left = at.saturating_duration_since(Instant::now());
+                if left.is_zero() {
+                    return Err(LinkError::TimedOut { timeout, received });
+                }
+                if let Some(set) = self.set_read_timeout {
+                    set(&self.io, Some(left))?;
+                }
+            }
+            let n = match self.io.read(&mut buf) {
+                Ok(n) => n,
+                Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
+                    return Err(match deadline {
+                        Some((timeout, _)) => LinkError::TimedOut { timeout, received },
+                        None => LinkError::Io(e),
+                    })
+                }
+                Err(e) => return Err(e.into()),
+            };
+            received += n;
             if n == 0 {
                 return Err(LinkError::Closed);
             }
@@ -387,5 +473,68 @@ mod tests {
         let mut link = LinkClient::new(dev);
         assert_eq!(link.update_model(&blob).unwrap(), UpdateResult::Rejected(rej));
         assert_eq!(link.get_ref().seen.len(), 1, "nothing sent after the rejection");
+    }
+
+    /// Sends the bytes of a valid `Pong` frame one at a time, `gap` apart: every read returns
+    /// within `gap`, the answer takes far longer.
+    fn trickle_pong(gap: Duration) -> impl FnMut(&mut std::net::TcpStream) {
+        move |sock| {
+            let mut b = [0u8; DEVICE_MAX_FRAME];
+            let frame = encode_device(&DeviceMsg::Pong { nonce: 1 }, &mut b).unwrap().to_vec();
+            for byte in frame.iter().cycle().take(10_000) {
+                std::thread::sleep(gap);
+                if sock.write_all(&[*byte ^ 0x55]).is_err() {
+                    return;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_trickling_device_times_out_at_the_answer_deadline() {
+        use std::net::{TcpListener, TcpStream};
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap();
+        let dev = std::thread::spawn(move || {
+            let (mut sock, _) = listener.accept().unwrap();
+            trickle_pong(Duration::from_millis(20))(&mut sock);
+        });
+        let timeout = Duration::from_millis(400);
+        let mut link = LinkClient::with_answer_timeout(TcpStream::connect(addr).unwrap(), timeout).unwrap();
+        let t0 = Instant::now();
+        let err = link.ping(1).unwrap_err();
+        let took = t0.elapsed();
+        assert!(matches!(err, LinkError::TimedOut { received, .. } if received > 5), "{err}");
+        assert!(took >= timeout && took < timeout + Duration::from_millis(200), "{took:?}");
+        assert!(err.to_string().contains("did not complete its answer within 0.400 s"), "{err}");
+        drop(link);
+        dev.join().unwrap();
+    }
+
+    /// A pipe-like stream without [`ReadTimeout`]: one garbage byte per read, `gap` apart.
+    struct Trickle(Duration);
+    impl Read for Trickle {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            std::thread::sleep(self.0);
+            buf[0] = 0xA5;
+            Ok(1)
+        }
+    }
+    impl Write for Trickle {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn the_deadline_holds_on_a_stream_without_read_timeouts() {
+        let mut link = LinkClient::new(Trickle(Duration::from_millis(10)));
+        link.set_answer_timeout(Some(Duration::from_millis(150)));
+        let t0 = Instant::now();
+        assert!(matches!(link.status(), Err(LinkError::TimedOut { .. })));
+        assert!(t0.elapsed() < Duration::from_millis(300), "{:?}", t0.elapsed());
     }
 }

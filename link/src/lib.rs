@@ -14,4 +14,4 @@ mod client;
 pub mod golden;
 pub mod parity;
 
-pub use client::{LinkClient, LinkError};
+pub use client::{LinkClient, LinkError, ReadTimeout};

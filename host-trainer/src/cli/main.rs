@@ -435,7 +435,7 @@ fn run() -> Result<()> {
             inputs.extend(keys.iter().map(PathBuf::as_path));
             check_outputs(&[&out, &base, &coef], &inputs)?;
             let signer = sign.signer()?;
-            let d = Dataset::read_csv(&data)?;
+            let d = Dataset::read_calibration_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
             let origin = origin_of(&data, meta.as_ref());
             let opts = TrainOptions {

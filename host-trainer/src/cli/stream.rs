@@ -27,7 +27,10 @@ pub struct StreamArgs {
     /// Stream only the first N hold-out samples.
     #[arg(long)]
     pub max_samples: Option<usize>,
-    /// Seconds to wait for the connection and for each answer.
+    /// Seconds to wait for the connection, and for each answer whole (from the request sent to
+    /// the answer's last byte, however the device trickles it): the stream fails when any one
+    /// sample, model-transfer step or status request is not answered within it (the whole
+    /// stream may take longer).
     #[arg(long, default_value_t = 15.0)]
     pub timeout: f64,
     /// Print the comparison as JSON on stdout.
@@ -92,7 +95,8 @@ pub enum DeviceCommand {
         /// Host of the device's serial link.
         #[arg(long, default_value = "127.0.0.1")]
         host: String,
-        /// Seconds to wait for the connection and the answer.
+        /// Seconds for the connection and the whole answer together (a device that trickles
+        /// its answer byte by byte fails at this deadline like a silent one).
         #[arg(long, default_value_t = 15.0)]
         timeout: f64,
         /// Print the status as JSON on stdout.

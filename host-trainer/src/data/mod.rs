@@ -34,7 +34,7 @@ use crate::data::files::write_atomically;
 use crate::data::measurand::{grating_column, parse_grating_column};
 pub use crate::data::measurand::{Kind, Measurand, MAX_GRATINGS, MAX_MEASURANDS};
 pub use crate::data::record_meta::{GratingZero, RecordMeta};
-use crate::data::units::{absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, WlUnit};
+use crate::data::units::{check_ambient, check_wavelength, WlUnit};
 use crate::error::TrainerError;
 
 /// Appended to a unit-check message on a dataset CSV: the check and its words are `import`'s.
@@ -390,6 +390,31 @@ impl Dataset {
         Self::read_csv_with(path, true)
     }
 
+    /// [`read_csv`](Self::read_csv) for fitting (`train`): the rows after the last calibration
+    /// row are dropped once read, since a fit never reads them (the compensator's stream that
+    /// feeds it ends there; hold-out rows between calibration rows stay, the stream runs
+    /// through them). What is held per row is the columns as f64 and the split (65 bytes for
+    /// the paper's shape).
+    pub fn read_calibration_csv(path: &Path) -> Result<Dataset, TrainerError> {
+        let mut d = Self::read_csv_with(path, true)?;
+        let end = d.split.iter().rposition(|&s| s == Split::Cal).map_or(0, |i| i + 1);
+        if end < d.len() {
+            let keep = |v: &mut Vec<f64>| {
+                v.truncate(end);
+                v.shrink_to_fit();
+            };
+            keep(&mut d.t_s);
+            d.refs.iter_mut().for_each(|r| keep(&mut r.values));
+            if let Some(a) = d.t_amb_c.as_mut() {
+                keep(a);
+            }
+            d.dl_pm.iter_mut().for_each(keep);
+            d.split.truncate(end);
+            d.split.shrink_to_fit();
+        }
+        Ok(d)
+    }
+
     /// [`read_csv`](Self::read_csv) for a field record to compensate: references are welcome
     /// (the errors are then reported) but none is needed.
     pub fn read_field_csv(path: &Path) -> Result<Dataset, TrainerError> {
@@ -397,148 +422,394 @@ impl Dataset {
     }
 
     fn read_csv_with(path: &Path, need_reference: bool) -> Result<Dataset, TrainerError> {
-        let name = path.display().to_string();
-        let mut file = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
-        let ends_with_newline = last_byte(&mut file).map_err(|e| TrainerError::io(path, e))? == Some(b'\n');
-        let meta = read_meta(&mut file, &name)?;
-        let mut rdr =
-            csv::ReaderBuilder::new().has_headers(true).trim(csv::Trim::All).comment(Some(b'#')).from_reader(file);
-        let headers = rdr
-            .headers()
-            .map_err(|e| TrainerError::data(&name, 1, "-", format!("cannot read the header: {e}")))?
-            .clone();
-        let layout = Layout::of(&headers).map_err(|(col, m)| TrainerError::data(&name, 1, &col, m))?;
-        let n_g = layout.gratings.len();
-        let unit_keys: Vec<String> = (1..=n_g).map(|g| format!("grating[{g}].unit")).collect();
-        let mut d = Dataset {
-            refs: layout.refs.iter().map(|&(m, _)| Reference { measurand: m, values: Vec::new() }).collect(),
-            t_amb_c: layout.ambient.map(|_| Vec::new()),
-            dl_pm: vec![Vec::new(); n_g],
-            meta,
-            ..Dataset::default()
-        };
-        let mut first_line = 0;
-        let mut records = rdr.records().peekable();
-        while let Some(rec) = records.next() {
-            let rec = rec.map_err(|e| {
-                let line = e.position().map(|p| p.line()).unwrap_or(0);
-                TrainerError::data(&name, line, "-", format!("malformed row: {e}"))
-            })?;
-            let line = rec.position().map(|p| p.line()).unwrap_or(0);
-            if first_line == 0 {
-                first_line = line;
-            }
-            if !ends_with_newline && records.peek().is_none() {
-                // The file ends inside this row, so its last cell may be cut short
-                // (`1545.0440` read as `1545.04`): `ragged_row`, as `import` says.
-                let last = headers.get(rec.len().saturating_sub(1)).unwrap_or("-");
-                return Err(TrainerError::data(
-                    &name,
-                    line,
-                    last,
-                    format!("truncated last row (no line end): the file ends inside this row, so its last cell `{}` may be cut short (ragged_row)", rec.get(rec.len().saturating_sub(1)).unwrap_or("")),
-                ));
-            }
-            // `blank_ok`: an empty cell is a missing value (NaN) rather than an error.
-            let num = |c: usize, blank_ok: bool| -> Result<f64, TrainerError> {
-                let col = headers.get(c).unwrap_or("-");
-                let cell = rec.get(c).ok_or_else(|| {
-                    TrainerError::data(
-                        &name,
-                        line,
-                        col,
-                        format!("row has {} cells, column `{col}` is number {}", rec.len(), c + 1),
-                    )
-                })?;
-                if cell.is_empty() {
-                    return if blank_ok {
-                        Ok(f64::NAN)
-                    } else {
-                        Err(TrainerError::data(&name, line, col, "empty cell"))
-                    };
-                }
-                let v: f64 = cell
-                    .parse()
-                    .map_err(|_| TrainerError::data(&name, line, col, format!("`{cell}` is not a number")))?;
-                if !v.is_finite() {
-                    return Err(TrainerError::data(&name, line, col, format!("`{cell}` is not finite")));
-                }
-                Ok(v)
-            };
-            let t = num(layout.t_s, false)?;
-            if let Some(&prev) = d.t_s.last() {
-                if t <= prev {
-                    return Err(TrainerError::data(
-                        &name,
-                        line,
-                        "t_s",
-                        format!("time does not increase ({t} after {prev})"),
-                    ));
-                }
-            }
-            d.t_s.push(t);
-            for (r, &(_, c)) in d.refs.iter_mut().zip(&layout.refs) {
-                r.values.push(num(c, true)?);
-            }
-            // An empty ambient reading is a gap like an empty dl cell (not fitted, flagged).
-            // Magnitudes get the unit checks of `import` (kelvin for °C, nm or absolute
-            // wavelengths for shifts in pm), with its messages.
-            if let (Some(c), Some(a)) = (layout.ambient, d.t_amb_c.as_mut()) {
-                let amb = num(c, true)?;
-                if amb.is_finite() {
-                    check_ambient(amb)
-                        .map_err(|m| TrainerError::data(&name, line, T_AMB_COLUMN, format!("{m}{REIMPORT}")))?;
-                }
-                a.push(amb);
-            }
-            for (g, &c) in layout.gratings.iter().enumerate() {
-                let v = num(c, true)?;
-                if v.is_finite() {
-                    check_wavelength(WlUnit::ShiftPm, v, &unit_keys[g]).map_err(|m| {
-                        TrainerError::data(&name, line, &grating_column(g + 1), format!("{m}{REIMPORT}"))
-                    })?;
-                }
-                d.dl_pm[g].push(v);
-            }
-            let split = match layout.split {
-                None => Split::Cal,
-                Some(c) => match rec.get(c).unwrap_or("") {
-                    "cal" => Split::Cal,
-                    "holdout" => Split::Holdout,
-                    other => {
-                        return Err(TrainerError::data(
-                            &name,
-                            line,
-                            "split",
-                            format!("`{other}` is neither `cal` nor `holdout`"),
-                        ))
-                    }
-                },
-            };
-            d.split.push(split);
+        let mut rows = RowReader::open(path)?;
+        let mut d = rows.header_dataset();
+        while let Some(r) = rows.next_row()? {
+            d.push_row(&r);
         }
-        if d.is_empty() {
-            return Err(TrainerError::data(&name, 2, "-", "no data rows"));
-        }
-        for (g, (v, key)) in d.dl_pm.iter().zip(&unit_keys).enumerate() {
-            if looks_absolute_nm(v) {
-                return Err(TrainerError::data(
-                    &name,
-                    first_line,
-                    &grating_column(g + 1),
-                    format!("{}{REIMPORT}", absolute_nm_column_message(v, key)),
-                ));
-            }
-        }
+        rows.finish()?;
         if need_reference && d.refs.is_empty() {
-            return Err(TrainerError::data(
-                &name,
-                1,
-                "T_C",
-                "no reference column (T_C, strain_ue, p_kPa, T2_C, strain2_ue, ...): nothing to calibrate against (a record without references is for `compensate`)",
-            ));
+            return Err(no_reference(&rows.name));
         }
         Ok(d)
+    }
+
+    /// Append one row read by [`RowReader`] (its columns are this dataset's).
+    fn push_row(&mut self, r: &Row) {
+        self.t_s.push(r.t_s);
+        for (c, v) in self.refs.iter_mut().zip(&r.refs) {
+            c.values.push(*v);
+        }
+        if let Some(a) = self.t_amb_c.as_mut() {
+            a.push(r.t_amb_c);
+        }
+        for (c, v) in self.dl_pm.iter_mut().zip(&r.dl_pm) {
+            c.push(*v);
+        }
+        self.split.push(r.split);
+    }
+}
+
+fn no_reference(name: &str) -> TrainerError {
+    TrainerError::data(
+        name,
+        1,
+        "T_C",
+        "no reference column (T_C, strain_ue, p_kPa, T2_C, strain2_ue, ...): nothing to calibrate against (a record without references is for `compensate`)",
+    )
+}
+
+/// The longest line a dataset CSV may have \[bytes\], its `\n` excluded (a `\r` before it counts): far beyond any row of
+/// numbers, and the most a reader holds of one line (a longer one is refused as it is read).
+pub const MAX_LINE_BYTES: usize = 1 << 20;
+
+/// Characters of a cell an error message quotes; the rest is elided.
+pub const QUOTE_CHARS: usize = 40;
+
+/// A cell as an error message quotes it: at most [`QUOTE_CHARS`] characters, then `…` and the
+/// cell's length.
+pub fn quote_cell(cell: &str) -> String {
+    match cell.char_indices().nth(QUOTE_CHARS) {
+        None => cell.to_string(),
+        Some((cut, _)) => format!("{}… ({} bytes)", &cell[..cut], cell.len()),
+    }
+}
+
+/// A line of [`MAX_LINE_BYTES`] bytes and more, found by [`LineLimit`] (physical line number,
+/// 1-based).
+#[derive(Debug)]
+struct LineTooLong {
+    line: u64,
+}
+
+impl std::fmt::Display for LineTooLong {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "line {} is longer than {} bytes (the limit of a dataset line)", self.line, MAX_LINE_BYTES)
+    }
+}
+
+impl std::error::Error for LineTooLong {}
+
+/// A reader that fails as soon as a line grows past [`MAX_LINE_BYTES`], so that nothing above
+/// it ever holds more of one line than that.
+struct LineLimit<R> {
+    inner: R,
+    /// Bytes of the current line so far.
+    run: usize,
+    /// Physical line number of the current line (1-based).
+    line: u64,
+}
+
+impl<R> LineLimit<R> {
+    fn new(inner: R) -> Self {
+        LineLimit { inner, run: 0, line: 1 }
+    }
+}
+
+impl<R: std::io::Read> std::io::Read for LineLimit<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        for &b in &buf[..n] {
+            if b == b'\n' {
+                self.run = 0;
+                self.line += 1;
+            } else {
+                self.run += 1;
+                if self.run > MAX_LINE_BYTES {
+                    return Err(std::io::Error::new(std::io::ErrorKind::InvalidData, LineTooLong { line: self.line }));
+                }
+            }
+        }
+        Ok(n)
+    }
+}
+
+/// The [`LineTooLong`] inside an I/O error, if that is what it is.
+fn line_too_long(e: &std::io::Error) -> Option<&LineTooLong> {
+    e.get_ref().and_then(|i| i.downcast_ref::<LineTooLong>())
+}
+
+/// The error of a line over [`MAX_LINE_BYTES`].
+fn line_error(name: &str, l: &LineTooLong) -> TrainerError {
+    TrainerError::data(
+        name,
+        l.line,
+        "-",
+        format!("the line is longer than {MAX_LINE_BYTES} bytes (1 MiB, the limit of a dataset line): refused unread (not a dataset row?)"),
+    )
+}
+
+/// One data row of a dataset CSV as [`RowReader`] reads it: NaN for an empty cell (a gap, a
+/// missing reference) and for a column the file does not have.
+#[derive(Clone, Copy, Debug)]
+pub struct Row {
+    /// Line number in the file.
+    pub line: u64,
+    /// Time since the start \[s\].
+    pub t_s: f64,
+    /// The references in canonical order ([`RowReader::header_dataset`]); NaN beyond them.
+    pub refs: [f64; MAX_MEASURANDS],
+    /// Ambient thermometer [°C].
+    pub t_amb_c: f64,
+    /// Shifts \[pm\] of the gratings; NaN beyond them.
+    pub dl_pm: [f64; MAX_GRATINGS],
+    /// Number of gratings.
+    pub gratings: u8,
+    pub split: Split,
+}
+
+impl Row {
+    /// The model inputs (as [`Dataset::sample`]).
+    pub fn sample(&self) -> Sample<f64> {
+        let mut dl_pm = [0.0; MAX_GRATINGS];
+        for (o, &v) in dl_pm.iter_mut().zip(&self.dl_pm).take(usize::from(self.gratings)) {
+            *o = v;
+        }
+        Sample { dl_pm, gratings: self.gratings, t_amb_c: self.t_amb_c, t_s: self.t_s }
+    }
+
+    /// True when the row can be used for fitting ([`Dataset::usable`]): finite inputs and
+    /// every reference the file has (`n_refs`) present; `ambient`: the file has `T_amb_C`.
+    pub fn usable(&self, n_refs: usize, ambient: bool) -> bool {
+        self.dl_pm.iter().take(usize::from(self.gratings)).all(|v| v.is_finite())
+            && (!ambient || self.t_amb_c.is_finite())
+            && self.t_s.is_finite()
+            && self.refs.iter().take(n_refs).all(|v| v.is_finite())
+    }
+}
+
+/// Streaming reader of a dataset CSV: the comment lines' metadata and the header first, then
+/// one row at a time with the checks and errors of [`Dataset::read_csv`]; it holds one row,
+/// never more than [`MAX_LINE_BYTES`] of a line, and a few numbers per grating for the
+/// whole-column checks of [`RowReader::finish`].
+pub struct RowReader {
+    /// The file's name in messages.
+    pub name: String,
+    rdr: csv::Reader<LineLimit<std::fs::File>>,
+    headers: csv::StringRecord,
+    layout: Layout,
+    unit_keys: Vec<String>,
+    meta: RecordMeta,
+    rec: csv::StringRecord,
+    file_len: u64,
+    ends_with_newline: bool,
+    prev_t: Option<f64>,
+    first_line: u64,
+    rows: usize,
+    /// Per grating: whether the column looks like absolute wavelengths so far.
+    abs_nm: Vec<units::AbsNmCheck>,
+}
+
+impl RowReader {
+    /// Open a dataset CSV and read its metadata and header.
+    pub fn open(path: &Path) -> Result<RowReader, TrainerError> {
+        let name = path.display().to_string();
+        let mut file = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
+        let file_len = file.metadata().map_err(|e| TrainerError::io(path, e))?.len();
+        let ends_with_newline = last_byte(&mut file).map_err(|e| TrainerError::io(path, e))? == Some(b'\n');
+        let meta = read_meta(&mut file, &name)?;
+        let mut rdr = csv::ReaderBuilder::new()
+            .has_headers(true)
+            .trim(csv::Trim::All)
+            .comment(Some(b'#'))
+            .from_reader(LineLimit::new(file));
+        let headers = match rdr.headers() {
+            Ok(h) => h.clone(),
+            Err(e) => {
+                if let csv::ErrorKind::Io(io) = e.kind() {
+                    if let Some(l) = line_too_long(io) {
+                        return Err(line_error(&name, l));
+                    }
+                }
+                return Err(TrainerError::data(&name, 1, "-", format!("cannot read the header: {e}")));
+            }
+        };
+        let layout = Layout::of(&headers).map_err(|(col, m)| TrainerError::data(&name, 1, &quote_cell(&col), m))?;
+        let n_g = layout.gratings.len();
+        Ok(RowReader {
+            name,
+            rdr,
+            headers,
+            unit_keys: (1..=n_g).map(|g| format!("grating[{g}].unit")).collect(),
+            abs_nm: vec![units::AbsNmCheck::default(); n_g],
+            layout,
+            meta,
+            rec: csv::StringRecord::new(),
+            file_len,
+            ends_with_newline,
+            prev_t: None,
+            first_line: 0,
+            rows: 0,
+        })
+    }
+
+    /// The record's metadata (comment lines).
+    pub fn meta(&self) -> &RecordMeta {
+        &self.meta
+    }
+
+    /// A dataset with this file's columns and metadata and no rows: what the header says
+    /// ([`Dataset::shape`], [`Dataset::inputs_for`], [`Dataset::reference_of`] work on it).
+    pub fn header_dataset(&self) -> Dataset {
+        Dataset {
+            refs: self.layout.refs.iter().map(|&(m, _)| Reference { measurand: m, values: Vec::new() }).collect(),
+            t_amb_c: self.layout.ambient.map(|_| Vec::new()),
+            dl_pm: vec![Vec::new(); self.layout.gratings.len()],
+            meta: self.meta.clone(),
+            ..Dataset::default()
+        }
+    }
+
+    /// Rows read so far.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Bytes of the file read so far (for progress).
+    pub fn byte_position(&self) -> u64 {
+        self.rdr.position().byte()
+    }
+
+    /// The file's length \[bytes\].
+    pub fn file_len(&self) -> u64 {
+        self.file_len
+    }
+
+    /// The next data row, `None` at the end; errors name the file, line and column.
+    pub fn next_row(&mut self) -> Result<Option<Row>, TrainerError> {
+        let name = self.name.as_str();
+        let more = self.rdr.read_record(&mut self.rec).map_err(|e| {
+            if let csv::ErrorKind::Io(io) = e.kind() {
+                if let Some(l) = line_too_long(io) {
+                    return line_error(name, l);
+                }
+            }
+            let line = e.position().map(|p| p.line()).unwrap_or(0);
+            TrainerError::data(name, line, "-", format!("malformed row: {}", quote_cell(&e.to_string())))
+        })?;
+        if !more {
+            return Ok(None);
+        }
+        let (rec, headers, layout) = (&self.rec, &self.headers, &self.layout);
+        let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        if self.first_line == 0 {
+            self.first_line = line;
+        }
+        if !self.ends_with_newline && self.rdr.position().byte() >= self.file_len {
+            // The file ends inside this row, so its last cell may be cut short
+            // (`1545.0440` read as `1545.04`): `ragged_row`, as `import` says.
+            let last = headers.get(rec.len().saturating_sub(1)).unwrap_or("-");
+            return Err(TrainerError::data(
+                name,
+                line,
+                &quote_cell(last),
+                format!(
+                    "truncated last row (no line end): the file ends inside this row, so its last cell `{}` may be cut short (ragged_row)",
+                    quote_cell(rec.get(rec.len().saturating_sub(1)).unwrap_or(""))
+                ),
+            ));
+        }
+        // `blank_ok`: an empty cell is a missing value (NaN) rather than an error.
+        let num = |c: usize, blank_ok: bool| -> Result<f64, TrainerError> {
+            let col = headers.get(c).unwrap_or("-");
+            let cell = rec.get(c).ok_or_else(|| {
+                TrainerError::data(
+                    name,
+                    line,
+                    &quote_cell(col),
+                    format!("row has {} cells, column `{}` is number {}", rec.len(), quote_cell(col), c + 1),
+                )
+            })?;
+            if cell.is_empty() {
+                return if blank_ok { Ok(f64::NAN) } else { Err(TrainerError::data(name, line, col, "empty cell")) };
+            }
+            let v: f64 = cell
+                .parse()
+                .map_err(|_| TrainerError::data(name, line, col, format!("`{}` is not a number", quote_cell(cell))))?;
+            if !v.is_finite() {
+                return Err(TrainerError::data(name, line, col, format!("`{}` is not finite", quote_cell(cell))));
+            }
+            Ok(v)
+        };
+        let t = num(layout.t_s, false)?;
+        if let Some(prev) = self.prev_t {
+            if t <= prev {
+                return Err(TrainerError::data(
+                    name,
+                    line,
+                    "t_s",
+                    format!("time does not increase ({t} after {prev})"),
+                ));
+            }
+        }
+        let mut row = Row {
+            line,
+            t_s: t,
+            refs: [f64::NAN; MAX_MEASURANDS],
+            t_amb_c: f64::NAN,
+            dl_pm: [f64::NAN; MAX_GRATINGS],
+            gratings: layout.gratings.len() as u8,
+            split: Split::Cal,
+        };
+        for (r, &(_, c)) in row.refs.iter_mut().zip(&layout.refs) {
+            *r = num(c, true)?;
+        }
+        // An empty ambient reading is a gap like an empty dl cell (not fitted, flagged).
+        // Magnitudes get the unit checks of `import` (kelvin for °C, nm or absolute
+        // wavelengths for shifts in pm), with its messages.
+        if let Some(c) = layout.ambient {
+            let amb = num(c, true)?;
+            if amb.is_finite() {
+                check_ambient(amb)
+                    .map_err(|m| TrainerError::data(name, line, T_AMB_COLUMN, format!("{m}{REIMPORT}")))?;
+            }
+            row.t_amb_c = amb;
+        }
+        for (g, &c) in layout.gratings.iter().enumerate() {
+            let v = num(c, true)?;
+            if v.is_finite() {
+                check_wavelength(WlUnit::ShiftPm, v, &self.unit_keys[g])
+                    .map_err(|m| TrainerError::data(name, line, &grating_column(g + 1), format!("{m}{REIMPORT}")))?;
+            }
+            row.dl_pm[g] = v;
+            self.abs_nm[g].push(v);
+        }
+        if let Some(c) = layout.split {
+            row.split = match rec.get(c).unwrap_or("") {
+                "cal" => Split::Cal,
+                "holdout" => Split::Holdout,
+                other => {
+                    return Err(TrainerError::data(
+                        name,
+                        line,
+                        "split",
+                        format!("`{}` is neither `cal` nor `holdout`", quote_cell(other)),
+                    ))
+                }
+            };
+        }
+        self.prev_t = Some(t);
+        self.rows += 1;
+        Ok(Some(row))
+    }
+
+    /// The checks on the whole file, after its last row: at least one row, and no shift
+    /// column that holds absolute wavelengths.
+    pub fn finish(&self) -> Result<(), TrainerError> {
+        if self.rows == 0 {
+            return Err(TrainerError::data(&self.name, 2, "-", "no data rows"));
+        }
+        for (g, (a, key)) in self.abs_nm.iter().zip(&self.unit_keys).enumerate() {
+            if a.looks_absolute_nm() {
+                return Err(TrainerError::data(
+                    &self.name,
+                    self.first_line,
+                    &grating_column(g + 1),
+                    format!("{}{REIMPORT}", a.message(key)),
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -561,7 +832,7 @@ impl Layout {
         let mut ambient = None;
         let mut gratings: Vec<(usize, usize)> = Vec::new();
         let mut split = None;
-        let dup = |h: &str| (h.to_string(), format!("column `{h}` appears twice in the header"));
+        let dup = |h: &str| (h.to_string(), format!("column `{}` appears twice in the header", quote_cell(h)));
         for (c, h) in headers.iter().enumerate() {
             let set = |slot: &mut Option<usize>| if slot.replace(c).is_some() { Err(dup(h)) } else { Ok(()) };
             match h {
@@ -569,13 +840,15 @@ impl Layout {
                 T_AMB_COLUMN => set(&mut ambient)?,
                 "split" => set(&mut split)?,
                 _ => {
-                    if let Some(m) = Measurand::parse(h).map_err(|e| (h.to_string(), format!("column `{h}`: {e}")))? {
+                    if let Some(m) =
+                        Measurand::parse(h).map_err(|e| (h.to_string(), format!("column `{}`: {e}", quote_cell(h))))?
+                    {
                         if refs.iter().any(|&(o, _)| o == m) {
                             return Err(dup(h));
                         }
                         refs.push((m, c));
-                    } else if let Some(g) =
-                        parse_grating_column(h).map_err(|e| (h.to_string(), format!("column `{h}`: {e}")))?
+                    } else if let Some(g) = parse_grating_column(h)
+                        .map_err(|e| (h.to_string(), format!("column `{}`: {e}", quote_cell(h))))?
                     {
                         if gratings.iter().any(|&(o, _)| o == g) {
                             return Err(dup(h));
@@ -618,12 +891,12 @@ impl Layout {
 fn read_meta(f: &mut std::fs::File, name: &str) -> Result<RecordMeta, TrainerError> {
     use std::io::{BufRead, BufReader, Seek, SeekFrom};
     let mut meta = RecordMeta::default();
-    let mut r = BufReader::new(&mut *f);
+    let mut r = BufReader::new(LineLimit::new(&mut *f));
     let mut line = String::new();
     let mut n = 0u64;
     loop {
         line.clear();
-        // A non-UTF-8 first line is the CSV reader's to report.
+        // A non-UTF-8 first line, or one over the line limit, is the CSV reader's to report.
         if r.read_line(&mut line).unwrap_or(0) == 0 {
             break;
         }

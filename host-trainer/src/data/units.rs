@@ -92,21 +92,70 @@ pub fn check_wavelength(unit: WlUnit, v: f64, key: &str) -> Result<(), String> {
 /// relative spread under 1 %, holds absolute wavelengths (per cell it cannot be told from a
 /// large shift).
 pub fn looks_absolute_nm(values: &[f64]) -> bool {
-    let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.len() < 3 || !v.iter().all(|x| (NM_RANGE.0..=NM_RANGE.1).contains(x)) {
-        return false;
-    }
-    let (lo, hi) = v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    hi - lo < 0.01 * mean
+    let mut a = AbsNmCheck::default();
+    values.iter().for_each(|&v| a.push(v));
+    a.looks_absolute_nm()
 }
 
 /// The message for a shift column that [`looks_absolute_nm`], naming the map key to change.
 pub fn absolute_nm_column_message(values: &[f64], key: &str) -> String {
-    format!(
-        "the column is declared shift_pm but every value lies within 1 % of {:.1}, like absolute wavelengths in nm; map key `{key}`: set it to \"nm\" (or check_units = false if these really are shifts)",
-        values.iter().copied().find(|v| v.is_finite()).unwrap_or(f64::NAN)
-    )
+    let mut a = AbsNmCheck::default();
+    values.iter().for_each(|&v| a.push(v));
+    a.message(key)
+}
+
+/// [`looks_absolute_nm`] one value at a time, in a few numbers (for a column that is read as a
+/// stream and never held).
+#[derive(Clone, Copy, Debug)]
+pub struct AbsNmCheck {
+    /// Finite values seen.
+    n: usize,
+    /// Whether every one of them lies in the band of absolute wavelengths.
+    in_band: bool,
+    lo: f64,
+    hi: f64,
+    sum: f64,
+    first: f64,
+}
+
+impl Default for AbsNmCheck {
+    fn default() -> Self {
+        // `-0.0`: the start of `Iterator::sum` for floats, so the mean's bits are the same.
+        AbsNmCheck { n: 0, in_band: true, lo: f64::INFINITY, hi: f64::NEG_INFINITY, sum: -0.0, first: f64::NAN }
+    }
+}
+
+impl AbsNmCheck {
+    /// Take one value of the column (a non-finite one is a gap and ignored).
+    pub fn push(&mut self, x: f64) {
+        if !x.is_finite() {
+            return;
+        }
+        if self.n == 0 {
+            self.first = x;
+        }
+        self.n += 1;
+        self.in_band &= (NM_RANGE.0..=NM_RANGE.1).contains(&x);
+        self.lo = self.lo.min(x);
+        self.hi = self.hi.max(x);
+        self.sum += x;
+    }
+
+    /// [`looks_absolute_nm`] of the values taken so far.
+    pub fn looks_absolute_nm(&self) -> bool {
+        if self.n < 3 || !self.in_band {
+            return false;
+        }
+        self.hi - self.lo < 0.01 * (self.sum / self.n as f64)
+    }
+
+    /// [`absolute_nm_column_message`] of the values taken so far.
+    pub fn message(&self, key: &str) -> String {
+        format!(
+            "the column is declared shift_pm but every value lies within 1 % of {:.1}, like absolute wavelengths in nm; map key `{key}`: set it to \"nm\" (or check_units = false if these really are shifts)",
+            self.first
+        )
+    }
 }
 
 /// Check an ambient temperature [°C] (after gain and offset).

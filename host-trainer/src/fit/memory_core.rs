@@ -210,8 +210,22 @@ impl MemoryTerms {
 /// The memory vector at each of `rows` (sorted ascending), the bank having seen every sample
 /// the compensator would accept (finite Δλ, T_amb with ambient, and t) from the first.
 pub fn memory_terms(spec: &MemorySpec<f64>, dims: &Dims, d: &Dataset, rows: &[usize]) -> MemoryTerms {
+    let all: Vec<usize> = (0..dims.memory_len()).collect();
+    memory_terms_of(spec, dims, d, rows, &all)
+}
+
+/// [`memory_terms`] keeping only the terms `keep` (indices into the memory vector, in that
+/// order): a row holds `keep.len()` numbers, so a fit that uses a few terms over millions of
+/// rows holds only those.
+pub fn memory_terms_of(
+    spec: &MemorySpec<f64>,
+    dims: &Dims,
+    d: &Dataset,
+    rows: &[usize],
+    keep: &[usize],
+) -> MemoryTerms {
     let mut bank = MemoryBank::<f64>::new(spec, dims);
-    let len = dims.memory_len();
+    let len = keep.len();
     let mut values = Vec::with_capacity(rows.len() * len);
     let end = rows.last().map(|&i| i + 1).unwrap_or(0);
     let mut want = rows.iter().peekable();
@@ -223,7 +237,7 @@ pub fn memory_terms(spec: &MemorySpec<f64>, dims: &Dims, d: &Dataset, rows: &[us
         let m: [f64; MAX_MEMORY] = if ok { bank.update(&s.dl_pm, s.t_amb_c, s.t_s) } else { [f64::NAN; MAX_MEMORY] };
         if want.peek() == Some(&&i) {
             want.next();
-            values.extend_from_slice(&m[..len]);
+            values.extend(keep.iter().map(|&k| m[k]));
         }
     }
     MemoryTerms { len, values }
@@ -267,9 +281,8 @@ pub fn fit(
     let spec = choice.spec(menu, core);
     let dims = core.dims;
     let n_out = dims.n_outputs();
-    let m = memory_terms(&spec, &dims, d, rows);
     let n = rows.len();
-    // Per output: its memory columns (indices into m).
+    // Per output: its memory columns (indices into the memory vector).
     let cols: Vec<Vec<usize>> = (0..n_out)
         .map(|o| {
             let groups: Vec<MemoryGroup> = MemoryGroup::ALL.iter().copied().filter(|&g| choice.uses(o, g)).collect();
@@ -281,13 +294,13 @@ pub fn fit(
     if n < p + 1 {
         return Err(TrainerError::fit(format!("Model-H memory terms: {n} samples for {p} unknowns")));
     }
+    // Only the union's terms are kept (row r's `c`-th number is term `mem_u[c]`).
+    let m = memory_terms_of(&spec, &dims, d, rows, &mem_u);
     let refs = d.references_of(&dims);
     let r_aug = super::linalg::triangular_rows(n, p + n_out, |r, buf| {
         let i = rows[r];
         let values = static_values(core, &core.phi_at(d, i));
-        for (c, &k) in mem_u.iter().enumerate() {
-            buf[c] = m.row(r)[k];
-        }
+        buf[..p].copy_from_slice(m.row(r));
         for o in 0..n_out {
             buf[p + o] = super::design::residual(&refs, i, o, &values);
         }
@@ -299,16 +312,16 @@ pub fn fit(
     let mut mean = vec![0.0; mem_u.len()];
     for r in 0..m.rows() {
         let row = m.row(r);
-        for (acc, &k) in mean.iter_mut().zip(&mem_u) {
-            *acc += row[k];
+        for (acc, &v) in mean.iter_mut().zip(row) {
+            *acc += v;
         }
     }
     mean.iter_mut().for_each(|v| *v /= n as f64);
     let mut var = vec![0.0; mem_u.len()];
     for r in 0..m.rows() {
         let row = m.row(r);
-        for ((acc, &k), &mu) in var.iter_mut().zip(&mem_u).zip(&mean) {
-            *acc += (row[k] - mu).powi(2);
+        for ((acc, &v), &mu) in var.iter_mut().zip(row).zip(&mean) {
+            *acc += (v - mu).powi(2);
         }
     }
     let sd: Vec<f64> = var

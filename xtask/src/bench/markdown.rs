@@ -89,6 +89,9 @@ pub fn markdown(rep: &Report) -> String {
     pace_section(&mut s, rep);
     device(&mut s, rep);
     fleet(&mut s, &rep.fleet);
+    if let Some(m) = &rep.memory {
+        super::memory::markdown(&mut s, m);
+    }
     if let Some(v) = &rep.slurm {
         slurm(&mut s, v);
     }

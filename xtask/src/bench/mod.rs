@@ -5,7 +5,8 @@
 //! release trainer and times its `bench-fit` command (each fit timed alone inside the process,
 //! the CSV read outside the clock), runs the scikit-learn peer (`bench/sklearn_peer.py`, in a
 //! venv under `target/bench/venv`) the same way, the criterion bench of `fbg-shared`, the
-//! `fleet` command, and the device bench (`device_bench::run`, QEMU). Every figure is a median
+//! `fleet` command, the peak memory of `train`, `compensate` and `evaluate` (`memory`), and
+//! the device bench (`device_bench::run`, QEMU). Every figure is a median
 //! of repeated runs, and every ratio compares runs taken side by side, alternating, in the same
 //! invocation. The exact command behind each figure is recorded next to it.
 //!
@@ -29,6 +30,7 @@ pub mod fleet;
 pub mod inference;
 pub mod machine;
 pub mod markdown;
+pub mod memory;
 pub mod pace;
 pub mod report;
 pub mod runner;
@@ -102,6 +104,9 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
     step("bench: fleet scaling");
     let fleet = fleet::part(root, &r, &opts)?;
 
+    step("bench: peak memory of train, compensate, evaluate on 1e6 and 1e7 rows");
+    let memory = memory::part(root, &r, &opts)?;
+
     let load_end = machine::loadavg();
     let report = Report {
         generated_by: "cargo xtask bench".into(),
@@ -113,6 +118,7 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
         inference_host,
         accuracy,
         fleet,
+        memory: Some(memory),
         device: match &device {
             Ok(v) => Device::Measured(Box::new(v.clone())),
             Err(e) => Device::Failed { error: format!("{e:#}") },

@@ -101,6 +101,10 @@ pub struct Report {
     pub inference_host: Inference,
     pub accuracy: Accuracy,
     pub fleet: Fleet,
+    /// Peak RSS of `train`, `compensate`, `evaluate` on 10⁶ and 10⁷ rows (absent from files
+    /// written before it was measured).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub memory: Option<super::memory::Memory>,
     pub device: Device,
     /// Static fidelity and the pace study of the `paper` preset: `train` + `evaluate --quick`
     /// per coverage seed (absent from files written before it was measured).

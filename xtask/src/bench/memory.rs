@@ -1,0 +1,247 @@
+//! Peak memory of the commands that read a whole record: `train`, `compensate` and
+//! `evaluate --quick` (on the record without and, at 10⁶ rows, with its simulation sidecar) on
+//! 10⁶ and 10⁷ rows (the `paper` clock sampled finer), each the peak
+//! resident set of that one process (`wait4`'s `ru_maxrss`).
+//!
+//! The 10⁷-row CSV is about 0.9 GB: it is simulated into `target/bench/memory`, measured, and
+//! deleted at the end (also on failure) so the bench leaves no gigabyte behind.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+
+use super::runner::Runner;
+use super::{rel, Opts, TRAINER};
+
+/// Rows of the memory study and their sample interval over the 14 days of the `paper` clock.
+const ROWS: [(usize, f64); 2] = [(1_000_000, 1.2096), (10_000_000, 0.12096)];
+
+/// The largest record `evaluate` is measured on with the simulation's sidecar (its studies
+/// re-simulate the record).
+const EVALUATE_MAX_ROWS: usize = 1_000_000;
+
+/// Targets (issue 28): `compensate` and `evaluate` streaming, `train` holding its columns.
+pub const TARGET_STREAM_BYTES_1E7: u64 = 200_000_000;
+pub const TARGET_TRAIN_BYTES_1E7: u64 = 1_200_000_000;
+
+/// One command's peak.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct MemoryRun {
+    pub command: String,
+    pub rows: usize,
+    /// `train`, `compensate` or `evaluate`.
+    pub what: String,
+    /// Peak resident set of the process \[bytes\].
+    pub peak_rss_bytes: u64,
+    /// Its wall time \[s\].
+    pub seconds: f64,
+}
+
+/// The memory study.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Memory {
+    pub runs: Vec<MemoryRun>,
+    /// The `simulate` commands of the records (the 10⁷-row one deleted afterwards).
+    pub datasets: Vec<String>,
+    /// Bytes of each record's CSV.
+    pub csv_bytes: Vec<u64>,
+}
+
+#[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot replace
+/// Run `program args` from `root` with stdout and stderr discarded (stderr kept for a
+/// failure) and return its peak RSS \[bytes\] and wall time \[s\].
+pub fn peak_rss(root: &Path, program: &str, args: &[&str]) -> Result<(u64, f64, String)> {
+    let line = format!("{program} {}", args.join(" "));
+    eprintln!("bench: $ {line}");
+    let dir = root.join("target/bench/memory");
+    fs::create_dir_all(&dir)?;
+    let err = dir.join("stderr.txt");
+    let t0 = Instant::now();
+    let child = Command::new(root.join(program))
+        .args(args)
+        .current_dir(root)
+        .stdout(Stdio::null())
+        .stderr(Stdio::from(fs::File::create(&err)?))
+        .spawn()
+        .with_context(|| format!("could not start `{line}`"))?;
+    let mut status = 0;
+    // SAFETY: `rusage` is plain data that `wait4` fills for our own child, which `child` never
+    // waits for afterwards.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut ru) };
+    let seconds = t0.elapsed().as_secs_f64();
+    if pid < 0 {
+        bail!("wait4 on `{line}`: {}", std::io::Error::last_os_error());
+    }
+    if !(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0) {
+        bail!("`{line}` failed (wait status {status}): {}", fs::read_to_string(&err).unwrap_or_default());
+    }
+    // Linux reports kibibytes.
+    Ok((ru.ru_maxrss as u64 * 1024, seconds, line))
+}
+
+pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<Memory> {
+    let dir = root.join("target/bench/memory");
+    fs::create_dir_all(&dir)?;
+    let rows: &[(usize, f64)] = if opts.quick { &ROWS[..1] } else { &ROWS };
+    let mut m = Memory { runs: Vec::new(), datasets: Vec::new(), csv_bytes: Vec::new() };
+    for &(n, dt) in rows {
+        let csv = dir.join(format!("n{n}.csv"));
+        let result = measure(root, r, &dir, &csv, n, dt, &mut m);
+        // The records are big: never left behind.
+        let _ = fs::remove_file(&csv);
+        let _ = fs::remove_file(csv.with_extension("meta.json"));
+        let _ = fs::remove_file(dir.join(format!("n{n}.out.csv")));
+        let _ = fs::remove_file(dir.join(format!("n{n}-bare.csv")));
+        result?;
+    }
+    Ok(m)
+}
+
+fn measure(root: &Path, r: &Runner, dir: &Path, csv: &Path, n: usize, dt: f64, m: &mut Memory) -> Result<()> {
+    let toml = dir.join(format!("n{n}.toml"));
+    fs::write(&toml, format!("# {n} samples over the 14 days of the paper clock\n[clock]\ndt_s = {dt}\n"))?;
+    let (csv_s, toml_s) = (rel(csv, root), rel(&toml, root));
+    let (_, c) = r.json(
+        TRAINER,
+        &super::runner::strings(&["simulate", "--config", &toml_s, "--seed", "7", "--json", "--out", &csv_s]),
+        &[],
+    )?;
+    m.datasets.push(c);
+    m.csv_bytes.push(fs::metadata(csv)?.len());
+    let model = rel(&dir.join(format!("n{n}.fbgm")), root);
+    let out = rel(&dir.join(format!("n{n}.out.csv")), root);
+    let metrics = rel(&dir.join(format!("n{n}.metrics.json")), root);
+    // The same record under a name without a `.meta.json` beside it: what `evaluate` reads of
+    // a real record (Table 2 and the pace study, no simulation studies).
+    let bare = dir.join(format!("n{n}-bare.csv"));
+    let _ = fs::remove_file(&bare);
+    fs::hard_link(csv, &bare)?;
+    let bare_s = rel(&bare, root);
+    let mut runs: Vec<(&str, Vec<&str>)> = vec![
+        ("train", vec!["train", "--data", &csv_s, "--out", &model]),
+        ("compensate", vec!["compensate", "--model", &model, "--data", &csv_s, "--out", &out]),
+        ("evaluate", vec!["evaluate", "--quick", "--model", &model, "--data", &bare_s, "--metrics", &metrics]),
+    ];
+    // With the simulation's sidecar `evaluate` also re-simulates the record (the per-sample
+    // oracle, the pace study's runs): measured at 10⁶ rows only, it takes about ten times
+    // that at 10⁷.
+    if n <= EVALUATE_MAX_ROWS {
+        runs.push((
+            "evaluate (simulated record)",
+            vec!["evaluate", "--quick", "--model", &model, "--data", &csv_s, "--metrics", &metrics],
+        ));
+    }
+    for (what, args) in runs {
+        let (bytes, seconds, command) = peak_rss(root, TRAINER, &args)?;
+        m.runs.push(MemoryRun { command, rows: n, what: what.into(), peak_rss_bytes: bytes, seconds });
+    }
+    Ok(())
+}
+
+/// The BENCHMARKS.md section.
+pub fn markdown(s: &mut String, mem: &Memory) {
+    let _ = writeln!(s, "## Memory (peak resident set per command)\n");
+    let _ = writeln!(
+        s,
+        "Each command alone, its peak resident set from `wait4` (`ru_maxrss`); records of the `paper` preset sampled finer over its 14 days (seed 7). Targets at 10⁷ rows: `compensate` and `evaluate` ≤ {} MB (streaming rows), `train` ≤ {} MB (it holds the rows' columns as f64).\n",
+        TARGET_STREAM_BYTES_1E7 / 1_000_000,
+        TARGET_TRAIN_BYTES_1E7 / 1_000_000
+    );
+    let _ = writeln!(s, "| rows | CSV | command | peak RSS | wall time | target |");
+    let _ = writeln!(s, "|---:|---:|---|---:|---:|---|");
+    for r in &mem.runs {
+        let csv = ROWS
+            .iter()
+            .position(|&(n, _)| n == r.rows)
+            .and_then(|i| mem.csv_bytes.get(i))
+            .map_or("–".to_string(), |b| format!("{:.0} MB", *b as f64 / 1e6));
+        let target = match (r.rows, r.what.as_str()) {
+            (10_000_000, "train") => Some(TARGET_TRAIN_BYTES_1E7),
+            (10_000_000, "compensate" | "evaluate") => Some(TARGET_STREAM_BYTES_1E7),
+            _ => None,
+        };
+        let verdict = target.map_or("–".to_string(), |t| {
+            format!("≤ {} MB: {}", t / 1_000_000, if r.peak_rss_bytes <= t { "met" } else { "**not met**" })
+        });
+        let _ = writeln!(
+            s,
+            "| {} | {csv} | `{}` | {:.0} MB | {:.1} s | {verdict} |",
+            r.rows,
+            r.what,
+            r.peak_rss_bytes as f64 / 1e6,
+            r.seconds
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n`evaluate` is `evaluate --quick` on the record without its simulation sidecar (a real record: Table 2 and the pace study); it still reads the record whole. `evaluate (simulated record)` is the same beside its `.meta.json`, which adds the per-sample oracle and re-simulates the record: measured on {} rows only.",
+        EVALUATE_MAX_ROWS
+    );
+    let _ = writeln!(s, "\nCommands:\n");
+    for c in mem.datasets.iter().chain(mem.runs.iter().map(|r| &r.command)) {
+        let _ = writeln!(s, "- `{c}`");
+    }
+    let _ = writeln!(s);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn peak_rss_is_the_childs_own() {
+        let root = crate::root();
+        // A child that touches 64 MiB: its peak, not this process's.
+        let (big, _, _) = peak_rss(&root, "/usr/bin/env", &["python3", "-c", "b = bytearray(64 << 20)"]).unwrap();
+        let (small, _, _) = peak_rss(&root, "/bin/sh", &["-c", "true"]).unwrap();
+        assert!(big > 64 << 20 && small < 32 << 20, "{big} {small}");
+        assert!(peak_rss(&root, "/bin/sh", &["-c", "exit 3"]).is_err());
+    }
+
+    #[test]
+    fn the_section_says_which_target_is_met() {
+        let run = |rows, what: &str, mb: u64| MemoryRun {
+            command: format!("target/release/fbg-trainer {what}"),
+            rows,
+            what: what.into(),
+            peak_rss_bytes: mb * 1_000_000,
+            seconds: 1.0,
+        };
+        let m = Memory {
+            runs: vec![
+                run(1_000_000, "evaluate", 900),
+                run(10_000_000, "train", 1_100),
+                run(10_000_000, "compensate", 300),
+            ],
+            datasets: vec!["target/release/fbg-trainer simulate".into()],
+            csv_bytes: vec![93_000_000, 954_000_000],
+        };
+        let mut s = String::new();
+        markdown(&mut s, &m);
+        assert!(s.contains("| 10000000 | 954 MB | `train` | 1100 MB | 1.0 s | ≤ 1200 MB: met |"), "{s}");
+        assert!(s.contains("| 10000000 | 954 MB | `compensate` | 300 MB | 1.0 s | ≤ 200 MB: **not met** |"), "{s}");
+        assert!(s.contains("| 1000000 | 93 MB | `evaluate` | 900 MB | 1.0 s | – |"), "{s}");
+    }
+
+    /// The whole part on 10⁶ rows (`--quick`); about two minutes, so run by hand:
+    /// `cargo test -p xtask -- --ignored memory_part_on_a_million_rows` (after
+    /// `cargo build --release -p fbg-trainer`).
+    #[test]
+    #[ignore]
+    fn memory_part_on_a_million_rows() {
+        let root = crate::root();
+        let r = Runner { root: root.clone() };
+        let m = part(&root, &r, &Opts { quick: true, no_device: true }).unwrap();
+        let mut s = String::new();
+        markdown(&mut s, &m);
+        eprintln!("{s}");
+        assert_eq!(m.runs.len(), 4);
+        assert!(!root.join("target/bench/memory/n1000000.csv").exists(), "the record is deleted");
+    }
+}
