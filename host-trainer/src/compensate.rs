@@ -67,10 +67,11 @@ pub struct Summary {
     pub rows: usize,
     /// Rows whose inputs had a gap (written as gaps).
     pub gap_rows: usize,
-    /// Rows with a fault flag (non-finite, out of envelope, weak support), and with each flag:
-    /// non-finite, out of envelope, weak support, lead unknown (not a fault).
+    /// Rows with a fault flag (non-finite, out of envelope, weak support, implausible), and
+    /// with each flag: non-finite, out of envelope, weak support, lead unknown (not a fault),
+    /// implausible (an estimate beyond the model's plausible range or an absurd band).
     pub flagged_rows: usize,
-    pub flag_rows: [usize; 4],
+    pub flag_rows: [usize; 5],
     /// The band's clock: `absolute` (lead = absolute time since the end of calibration) or
     /// `unknown` (the model's largest validated lead, flag `lead-unknown`).
     pub clock: String,
@@ -293,9 +294,10 @@ pub fn run(
         .collect();
     let mut units = vec![UnitCounts::default(); n_g];
     let mut sums = RefSums { n: 0, ss_res: [-0.0; 4], sum_err: [-0.0; 4], inside: [0; 4] };
-    let (mut gap_rows, mut flagged_rows, mut flag_rows) = (0usize, 0usize, [0usize; 4]);
+    let (mut gap_rows, mut flagged_rows, mut flag_rows) = (0usize, 0usize, [0usize; 5]);
     let (mut t_first, mut t_last) = (f64::NAN, f64::NAN);
-    let bits = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::LEAD_UNKNOWN];
+    let bits =
+        [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::LEAD_UNKNOWN, Flags::IMPLAUSIBLE];
     let columns = output_columns(&params);
     let bar = fit::select::progress_bar(progress, rows.file_len(), "compensate");
     // A data error met while writing: the write is abandoned (nothing renamed into place).
@@ -596,7 +598,7 @@ impl Summary {
         );
         let pct = |n: usize| 100.0 * n as f64 / self.rows.max(1) as f64;
         s.push_str(&format!(
-            "flagged rows: {} ({:.1} %): non-finite {} ({:.1} %), out of the calibration envelope {} ({:.1} %), weak RBF support {} ({:.1} %); band lead {} ({} rows flagged lead-unknown)",
+            "flagged rows: {} ({:.1} %): non-finite {} ({:.1} %), out of the calibration envelope {} ({:.1} %), weak RBF support {} ({:.1} %), implausible {} ({:.1} %); band lead {} ({} rows flagged lead-unknown)",
             self.flagged_rows,
             pct(self.flagged_rows),
             self.flag_rows[0],
@@ -605,6 +607,8 @@ impl Summary {
             pct(self.flag_rows[1]),
             self.flag_rows[2],
             pct(self.flag_rows[2]),
+            self.flag_rows[4],
+            pct(self.flag_rows[4]),
             self.clock,
             self.flag_rows[3],
         ));

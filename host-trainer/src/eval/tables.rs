@@ -137,11 +137,12 @@ pub fn flag_line(m: &Metrics) -> String {
     let pct = |k: usize| 100.0 * k as f64 / n;
     let fc = t.model_h.flag_counts;
     format!(
-        "Model-H flags on the hold-out: {:.1} % of samples flagged — {:.1} % non-finite, {:.1} % outside the calibration envelope, {:.1} % weak RBF support",
+        "Model-H flags on the hold-out: {:.1} % of samples flagged — {:.1} % non-finite, {:.1} % outside the calibration envelope, {:.1} % weak RBF support, {:.1} % implausible",
         100.0 * t.model_h.flagged_fraction,
         pct(fc[0]),
         pct(fc[1]),
-        pct(fc[2])
+        pct(fc[2]),
+        pct(fc[3])
     )
 }
 

@@ -67,13 +67,18 @@ fn channels(v: Vec<ChannelDe>) -> Vec<ChannelMetrics> {
 #[derive(Deserialize)]
 struct ModelEvalDe {
     channels: Vec<ChannelDe>,
-    flag_counts: [usize; 3],
+    /// Three counts in metrics files written before the implausible flag.
+    flag_counts: Vec<usize>,
     flagged_fraction: F,
 }
 
 impl From<ModelEvalDe> for ModelEval {
     fn from(m: ModelEvalDe) -> Self {
-        ModelEval { channels: channels(m.channels), flag_counts: m.flag_counts, flagged_fraction: m.flagged_fraction.0 }
+        let mut flag_counts = [0; 4];
+        for (o, n) in flag_counts.iter_mut().zip(m.flag_counts) {
+            *o = n;
+        }
+        ModelEval { channels: channels(m.channels), flag_counts, flagged_fraction: m.flagged_fraction.0 }
     }
 }
 

@@ -297,11 +297,12 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     }
     let fc = t.model_h.flag_counts;
     s.push_str(&format!(
-        "Model-H flagged {} % of hold-out samples ({} non-finite, {} outside the calibration envelope, {} with weak RBF support; their bands are widened).",
+        "Model-H flagged {} % of hold-out samples ({} non-finite, {} outside the calibration envelope, {} with weak RBF support, {} implausible; their bands are widened).",
         num(100.0 * t.model_h.flagged_fraction, 2),
         fc[0],
         fc[1],
-        fc[2]
+        fc[2],
+        fc[3]
     ));
     out.push(s);
     out
