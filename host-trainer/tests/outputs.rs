@@ -679,3 +679,36 @@ fn a_fleet_group_that_fails_partway_keeps_its_old_set() {
     let (ok, _, err) = run(bin().args(["fleet", "status", "--manifest"]).arg(p.join("f.toml")));
     assert!(!ok && err.contains("FAILED"), "{err}");
 }
+
+/// `simulate` writes the record and its sidecar as one set: a sidecar that cannot be written
+/// leaves the old record (never a new record beside the old sidecar).
+#[test]
+fn simulate_that_cannot_write_its_sidecar_keeps_the_old_record() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    let csv = tiny_csv(p, "rec.csv", 2);
+    let old_csv = std::fs::read(&csv).unwrap();
+    let side = p.join("rec.meta.json");
+    let old_side = std::fs::read(&side).unwrap();
+    // Another seed, with a directory standing where the sidecar goes: refused, nothing moved.
+    std::fs::remove_file(&side).unwrap();
+    std::fs::create_dir(&side).unwrap();
+    let cfg = p.join("tiny.toml");
+    let (ok, _, err) = run(bin().args(["simulate", "--seed", "3", "--config"]).arg(&cfg).arg("--out").arg(&csv));
+    assert!(!ok, "simulate over a blocked sidecar must fail");
+    assert!(err.contains("rec.meta.json"), "{err}");
+    assert_eq!(std::fs::read(&csv).unwrap(), old_csv, "the old record is kept");
+    // Unblocked: both files are replaced together, and no temporaries stay.
+    std::fs::remove_dir(&side).unwrap();
+    std::fs::write(&side, &old_side).unwrap();
+    let (ok, _, err) = run(bin().args(["simulate", "--seed", "3", "--config"]).arg(&cfg).arg("--out").arg(&csv));
+    assert!(ok, "{err}");
+    assert_ne!(std::fs::read(&csv).unwrap(), old_csv);
+    assert_ne!(std::fs::read(&side).unwrap(), old_side);
+    let litter: Vec<_> = std::fs::read_dir(p)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(".fbg-"))
+        .collect();
+    assert!(litter.is_empty(), "{litter:?}");
+}

@@ -396,8 +396,12 @@ fn run() -> Result<()> {
                 })?;
             }
             let s = sim::simulate(&cfg, scenario.seed);
-            s.data.write_csv(&out)?;
-            SimMeta::of(&s).write(&out)?;
+            // The record and its sidecar are one output set: never a new record beside an old
+            // sidecar (the oracle and studies read the sidecar as the record's truth).
+            let set = fbg_trainer::data::files::OutputSet::beside(&out)?;
+            set.stage(&out, |w| s.data.write_csv_to(w))?;
+            set.stage_bytes(&side, SimMeta::of(&s).to_json()?.as_bytes())?;
+            set.commit()?;
             if let Some(p) = dump_config {
                 let text = toml::to_string(&cfg).context("serialising the scenario")?;
                 write_bytes_atomically(&p, text.as_bytes())?;

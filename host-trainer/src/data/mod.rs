@@ -24,7 +24,6 @@ pub mod outliers;
 pub mod record_meta;
 pub mod units;
 
-use std::io::Write;
 use std::path::Path;
 
 use fbg_shared::layout::Dims;
@@ -343,6 +342,12 @@ impl Dataset {
     /// Write the CSV atomically: a temporary file in the target directory, renamed into place
     /// only when complete. Columns in canonical order ([`header`](Self::header)).
     pub fn write_csv(&self, path: &Path) -> Result<(), TrainerError> {
+        write_atomically(path, |w| self.write_csv_to(w))
+    }
+
+    /// Write the CSV to `w` (as [`write_csv`](Self::write_csv) writes the file): for a caller
+    /// that stages it in an output set with other files.
+    pub fn write_csv_to(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
         // A missing value (gap) is an empty cell.
         fn cell(line: &mut String, v: f64) {
             use std::fmt::Write as _;
@@ -354,7 +359,7 @@ impl Dataset {
         let mut order: Vec<usize> = (0..self.refs.len()).collect();
         order.sort_by_key(|&k| self.refs[k].measurand);
         let head = self.header();
-        write_atomically(path, |w| {
+        {
             for l in self.meta.comment_lines() {
                 writeln!(w, "{l}")?;
             }
@@ -378,7 +383,7 @@ impl Dataset {
                 writeln!(w, "{line}")?;
             }
             Ok(())
-        })
+        }
     }
 
     /// Read a dataset CSV (any column order, other columns ignored). `t_s` and `dl1_pm` are

@@ -41,8 +41,11 @@ impl SimMeta {
         }
     }
     pub fn write(&self, csv: &Path) -> Result<(), TrainerError> {
-        let text = serde_json::to_string_pretty(self).map_err(|e| TrainerError::fit(e.to_string()))?;
-        write_bytes_atomically(&meta_path(csv), text.as_bytes())
+        write_bytes_atomically(&meta_path(csv), self.to_json()?.as_bytes())
+    }
+    /// The sidecar's text (as [`write`](Self::write) writes it).
+    pub fn to_json(&self) -> Result<String, TrainerError> {
+        serde_json::to_string_pretty(self).map_err(|e| TrainerError::fit(e.to_string()))
     }
     /// The sidecar of `csv`, if there is one. A sidecar that exists but does not parse is an
     /// error (it names the file).
