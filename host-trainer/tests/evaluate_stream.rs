@@ -94,8 +94,13 @@ fn same_metrics_as_in_memory(preset: Preset) {
     assert!(old.static_fidelity.is_some());
     // The CLI's metrics.json.
     let out = d.path().join("metrics.json");
-    let (ok, _, err) =
-        run(bin().args(["evaluate", "--quick", "--model"]).arg(&model).arg("--data").arg(&rec).arg("--metrics").arg(&out));
+    let (ok, _, err) = run(bin()
+        .args(["evaluate", "--quick", "--model"])
+        .arg(&model)
+        .arg("--data")
+        .arg(&rec)
+        .arg("--metrics")
+        .arg(&out));
     assert!(ok, "{err}");
     let written = std::fs::read_to_string(&out).unwrap();
     assert_eq!(without_timings(&written), without_timings(&serde_json::to_string_pretty(&old).unwrap()));
@@ -109,4 +114,67 @@ fn quick_evaluate_of_a_real_record_is_the_in_memory_one_on_the_paper_layout() {
 #[test]
 fn quick_evaluate_of_a_real_record_is_the_in_memory_one_where_the_grating_is_found_by_correlation() {
     same_metrics_as_in_memory(Preset::StrainPair);
+}
+
+/// Run `cmd` to its end and return (success, stderr, peak resident set in bytes) of that one
+/// child (`wait4`, so other children of the test process do not count).
+#[cfg(target_os = "linux")]
+#[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot replace
+fn run_peak_rss(cmd: &mut std::process::Command) -> (bool, String, u64) {
+    let err = tempfile::NamedTempFile::new().unwrap();
+    let child = cmd
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::from(err.reopen().unwrap()))
+        .spawn()
+        .unwrap();
+    let mut status = 0;
+    // SAFETY: `rusage` is plain data; `wait4` fills it for our own child.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut ru) };
+    assert_eq!(pid, child.id() as libc::pid_t);
+    let ok = libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0;
+    (ok, std::fs::read_to_string(err.path()).unwrap(), ru.ru_maxrss as u64 * 1024)
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn quick_evaluate_memory_does_not_grow_with_the_record() {
+    let d = tempfile::tempdir().unwrap();
+    let small = d.path().join("small.csv");
+    let (ok, _, err) = run(bin().args(["simulate", "--seed", "3", "--out"]).arg(&small));
+    assert!(ok, "{err}");
+    let model = d.path().join("m.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&small).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    // The same 14 days sampled 10 and 20 times finer: both past the calibration rows the
+    // static audit reads (the one part of the record held, bounded), real records (no sidecar).
+    let record = |name: &str, dt_s: f64| {
+        let cfg = d.path().join(format!("{name}.toml"));
+        std::fs::write(&cfg, format!("[clock]\ndt_s = {dt_s}\n")).unwrap();
+        let csv = d.path().join(format!("{name}.csv"));
+        let (ok, _, err) = run(bin().args(["simulate", "--seed", "3", "--config"]).arg(&cfg).arg("--out").arg(&csv));
+        assert!(ok, "{err}");
+        std::fs::remove_file(fbg_trainer::sim::meta::meta_path(&csv)).unwrap();
+        csv
+    };
+    let (a_csv, b_csv) = (record("a", 6.048), record("b", 3.024));
+    let peak = |data: &Path| {
+        let out = d.path().join("metrics.json");
+        let (ok, err, rss) = run_peak_rss(
+            bin()
+                .args(["evaluate", "--quick", "--model"])
+                .arg(&model)
+                .arg("--data")
+                .arg(data)
+                .arg("--metrics")
+                .arg(&out),
+        );
+        assert!(ok, "{err}");
+        rss
+    };
+    let (a, b) = (peak(&a_csv), peak(&b_csv));
+    eprintln!("evaluate --quick peak RSS: {} kB on 201 600 rows, {} kB on 403 200 rows", a >> 10, b >> 10);
+    // Before it streamed, the record and both models' hold-out estimates were held: about
+    // 30 MB more for the longer record here.
+    assert!(b < a + (4 << 20), "{} kB vs {} kB", b >> 10, a >> 10);
 }

@@ -164,7 +164,11 @@ impl ModelRun {
                 }
             })
             .collect();
-        ModelEval { channels, flag_counts: self.flag_counts, flagged_fraction: self.flagged as f64 / self.n.max(1) as f64 }
+        ModelEval {
+            channels,
+            flag_counts: self.flag_counts,
+            flagged_fraction: self.flagged as f64 / self.n.max(1) as f64,
+        }
     }
 }
 
@@ -255,15 +259,14 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
         if !counted(&row, n_refs, ambient) {
             continue;
         }
-        for k in 0..n_refs {
-            let (t, my) = (row.refs[k], mean_ref[k]);
-            shared.ss_tot[k] += (t - my).powi(2);
-            for g in 0..n_g {
-                let (dx, dy) = (row.dl_pm[g] - mean_dl[g], t - my);
-                let x = &mut shared.cross[k][g];
-                x[0] += dx * dy;
-                x[1] += dx * dx;
-                x[2] += dy * dy;
+        let refs = row.refs.iter().zip(&mean_ref).zip(shared.ss_tot.iter_mut().zip(&mut shared.cross));
+        for ((&t, &my), (ss_tot, cross)) in refs.take(n_refs) {
+            *ss_tot += (t - my).powi(2);
+            for ((&x, &mx), sums) in row.dl_pm.iter().zip(&mean_dl).zip(cross.iter_mut()).take(n_g) {
+                let (dx, dy) = (x - mx, t - my);
+                sums[0] += dx * dy;
+                sums[1] += dx * dx;
+                sums[2] += dy * dy;
             }
         }
     }
