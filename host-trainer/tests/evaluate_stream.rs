@@ -178,3 +178,36 @@ fn quick_evaluate_memory_does_not_grow_with_the_record() {
     // 30 MB more for the longer record here.
     assert!(b < a + (4 << 20), "{} kB vs {} kB", b >> 10, a >> 10);
 }
+
+#[test]
+fn a_bad_cell_late_in_a_real_record_is_named_and_nothing_is_written() {
+    let d = tempfile::tempdir().unwrap();
+    let (rec, model) = setup(d.path(), Preset::Paper);
+    // A bad cell in the hold-out, far past what the first rows decide.
+    let text = std::fs::read_to_string(&rec).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let at = lines.len() - 10;
+    let mut bad = String::new();
+    for (i, l) in lines.iter().enumerate() {
+        if i == at {
+            let (_, rest) = l.split_once(',').unwrap();
+            bad.push_str(&format!("x1e,{rest}"));
+        } else {
+            bad.push_str(l);
+        }
+        bad.push('\n');
+    }
+    let bad_csv = d.path().join("bad.csv");
+    std::fs::write(&bad_csv, bad).unwrap();
+    let out = d.path().join("metrics.json");
+    let (ok, _, err) = run(bin()
+        .args(["evaluate", "--quick", "--model"])
+        .arg(&model)
+        .arg("--data")
+        .arg(&bad_csv)
+        .arg("--metrics")
+        .arg(&out));
+    assert!(!ok);
+    assert!(err.contains("bad.csv") && err.contains(&format!("line {}", at + 1)) && err.contains("t_s"), "{err}");
+    assert!(!out.exists());
+}

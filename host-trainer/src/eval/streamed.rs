@@ -180,6 +180,60 @@ struct Shared {
     cross: [[[f64; 3]; MAX_GRATINGS]; MAX_MEASURANDS],
 }
 
+/// Rows read per chunk handed from the reading thread to the one that uses them.
+const CHUNK: usize = 4096;
+/// Chunks read ahead at most (the memory of the pipeline).
+const IN_FLIGHT: usize = 4;
+
+/// Hand every row of `rows` to `f` in order. One thread reads and parses the rows (in chunks,
+/// a few in flight) while this one uses them, as `compensate` does: the two halves overlap and
+/// memory stays a few chunks. `rows` comes back for [`RowReader::finish`]; progress is
+/// `offset` + the bytes read.
+fn for_each_row(
+    rows: RowReader,
+    bar: &indicatif::ProgressBar,
+    offset: u64,
+    mut f: impl FnMut(&Row),
+) -> Result<RowReader, TrainerError> {
+    let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Vec<Row>, TrainerError>>(IN_FLIGHT);
+    std::thread::scope(|scope| {
+        let reading = scope.spawn(move || {
+            let mut rows = rows;
+            loop {
+                let mut chunk = Vec::with_capacity(CHUNK);
+                while chunk.len() < CHUNK {
+                    match rows.next_row() {
+                        Ok(Some(r)) => chunk.push(r),
+                        Ok(None) => break,
+                        Err(e) => {
+                            let _ = tx.send(Err(e));
+                            return rows;
+                        }
+                    }
+                }
+                bar.set_position(offset + rows.byte_position());
+                let end = chunk.len() < CHUNK;
+                // A closed channel: the user stopped on an error it reports.
+                if (!chunk.is_empty() && tx.send(Ok(chunk)).is_err()) || end {
+                    return rows;
+                }
+            }
+        });
+        let mut failed = None;
+        for chunk in rx {
+            match chunk {
+                Ok(c) => c.iter().for_each(&mut f),
+                Err(e) => {
+                    failed = Some(e);
+                    break;
+                }
+            }
+        }
+        let rows = reading.join().map_err(|_| TrainerError::Dataset { message: "the reading thread failed".into() })?;
+        failed.map_or(Ok(rows), Err)
+    })
+}
+
 /// Whether row `row` is one `score` counts: a hold-out row with finite inputs and references.
 fn counted(row: &Row, n_refs: usize, ambient: bool) -> bool {
     row.split == Split::Holdout && row.usable(n_refs, ambient)
@@ -192,7 +246,7 @@ fn counted(row: &Row, n_refs: usize, ambient: bool) -> bool {
 pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: bool) -> Result<Metrics, TrainerError> {
     let mut timings = Vec::new();
     let t = Instant::now();
-    let mut rows = RowReader::open(data)?;
+    let rows = RowReader::open(data)?;
     let header = rows.header_dataset();
     for params in [p, h] {
         header.inputs_for(&params.dims, "the dataset", "evaluate")?;
@@ -208,10 +262,7 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
     let (mut cal_samples, mut holdout_samples, mut cal_usable, mut n) = (0usize, 0usize, 0usize, 0usize);
     let mut sum_ref = [-0.0f64; MAX_MEASURANDS];
     let mut sum_dl = [-0.0f64; MAX_GRATINGS];
-    while let Some(row) = rows.next_row()? {
-        if rows.rows() % 65_536 == 0 {
-            bar.set_position(rows.byte_position());
-        }
+    let rows = for_each_row(rows, &bar, 0, |row| {
         for ((d, l), &v) in dirs.iter_mut().zip(&mut latches).zip(&row.dl_pm).take(n_g) {
             *d = l.update(v, db);
         }
@@ -223,7 +274,7 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
             Split::Holdout => holdout_samples += 1,
         }
         let s = row.sample();
-        if counted(&row, n_refs, ambient) {
+        if counted(row, n_refs, ambient) {
             n += 1;
             for (a, &v) in sum_ref.iter_mut().zip(&row.refs).take(n_refs) {
                 *a += v;
@@ -233,14 +284,14 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
             }
             for m in &mut models {
                 let e = m.comp.step(&s);
-                m.add(&e, &row, &dirs[..n_g]);
+                m.add(&e, row, &dirs[..n_g]);
             }
         } else {
             for m in &mut models {
                 m.comp.advance(&s);
             }
         }
-    }
+    })?;
     rows.finish()?;
     let samples = rows.rows();
     if n == 0 {
@@ -251,13 +302,11 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
     let mean_ref = sum_ref.map(|s| s / nf);
     let mean_dl = sum_dl.map(|s| s / nf);
     let mut shared = Shared { ss_tot: [-0.0; MAX_MEASURANDS], cross: [[[0.0; 3]; MAX_GRATINGS]; MAX_MEASURANDS] };
-    let mut rows = RowReader::open(data)?;
-    while let Some(row) = rows.next_row()? {
-        if rows.rows() % 65_536 == 0 {
-            bar.set_position(rows.file_len() + rows.byte_position());
-        }
-        if !counted(&row, n_refs, ambient) {
-            continue;
+    let rows = RowReader::open(data)?;
+    let offset = rows.file_len();
+    for_each_row(rows, &bar, offset, |row| {
+        if !counted(row, n_refs, ambient) {
+            return;
         }
         let refs = row.refs.iter().zip(&mean_ref).zip(shared.ss_tot.iter_mut().zip(&mut shared.cross));
         for ((&t, &my), (ss_tot, cross)) in refs.take(n_refs) {
@@ -269,7 +318,7 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
                 sums[2] += dy * dy;
             }
         }
-    }
+    })?;
     bar.finish_and_clear();
     let [ep, eh] = [models[0].eval(&shared, n_g), models[1].eval(&shared, n_g)];
     let m = eh.channels.len();
