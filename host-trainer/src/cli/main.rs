@@ -540,8 +540,11 @@ fn run() -> Result<()> {
             let base = baseline.unwrap_or_else(|| baseline_path(&model));
             let out = metrics.unwrap_or_else(|| export::metrics_path(&model));
             check_outputs(&[&out], &[&data, &meta_path(&data), &model, &base])?;
-            let d = Dataset::read_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
+            // Without a sidecar no quick study needs the whole record: it is streamed (two
+            // passes, memory independent of its length).
+            let streamed = quick && meta.is_none();
+            let d = if streamed { Dataset::read_csv_header(&data)? } else { Dataset::read_csv(&data)? };
             let h = export::read_blob(&model)?;
             d.inputs_for(&h.dims, &data.display().to_string(), "evaluate")?;
             if !base.exists() {
@@ -561,7 +564,11 @@ fn run() -> Result<()> {
                     eprintln!("{s}");
                 }
             };
-            let mut m = studies::evaluate_models(&p, &h, &d, meta.as_ref(), studies, !json, &log)?;
+            let mut m = if streamed {
+                fbg_trainer::eval::streamed::evaluate_quick(&p, &h, &data, !json)?
+            } else {
+                studies::evaluate_models(&p, &h, &d, meta.as_ref(), studies, !json, &log)?
+            };
             let train_warnings = fbg_trainer::eval::warnings::from_coefficients(&export::coefficients_path(&model));
             m.warnings = fbg_trainer::eval::warnings::merge(train_warnings, std::mem::take(&mut m.warnings));
             write_metrics(&out, &m)?;

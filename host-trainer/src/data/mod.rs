@@ -426,6 +426,34 @@ impl Dataset {
         Self::read_csv_with(path, false)
     }
 
+    /// The columns and metadata of a dataset CSV without its rows (as
+    /// [`RowReader::header_dataset`]), refused like [`read_csv`](Self::read_csv) when it has no
+    /// reference column.
+    pub fn read_csv_header(path: &Path) -> Result<Dataset, TrainerError> {
+        let rows = RowReader::open(path)?;
+        let d = rows.header_dataset();
+        if d.refs.is_empty() {
+            return Err(no_reference(&rows.name));
+        }
+        Ok(d)
+    }
+
+    /// The rows of a dataset CSV up to and including the first one for which `stop` is true
+    /// (every row when none is), with the row checks of [`read_csv`](Self::read_csv): a bounded
+    /// read for what needs only the start of a long record. The whole-file checks of
+    /// [`RowReader::finish`] are the caller's (they need every row).
+    pub fn read_csv_prefix(path: &Path, mut stop: impl FnMut(&Row) -> bool) -> Result<Dataset, TrainerError> {
+        let mut rows = RowReader::open(path)?;
+        let mut d = rows.header_dataset();
+        while let Some(r) = rows.next_row()? {
+            d.push_row(&r);
+            if stop(&r) {
+                break;
+            }
+        }
+        Ok(d)
+    }
+
     fn read_csv_with(path: &Path, need_reference: bool) -> Result<Dataset, TrainerError> {
         let mut rows = RowReader::open(path)?;
         let mut d = rows.header_dataset();

@@ -7,6 +7,7 @@ pub mod metrics;
 pub mod pace;
 pub mod parity;
 pub mod score;
+pub mod streamed;
 pub mod studies;
 pub mod tables;
 pub mod warnings;

@@ -22,7 +22,7 @@ pub fn units(dims: &Dims) -> Vec<String> {
 /// otherwise the grating whose shift correlates most with the output's reference over `idx`.
 pub fn dominant_grating(dims: &Dims, d: &Dataset, truth: &[f64], idx: &[usize], c: usize) -> usize {
     if *dims == Dims::PAPER {
-        return [1, 0, 2][c];
+        return PAPER_GRATING_OF_OUTPUT[c];
     }
     let corr = |g: &[f64]| {
         let n = idx.len() as f64;
@@ -34,14 +34,27 @@ pub fn dominant_grating(dims: &Dims, d: &Dataset, truth: &[f64], idx: &[usize], 
             sxx += dx * dx;
             syy += dy * dy;
         }
-        let r = (sxy / (sxx * syy).sqrt()).abs();
-        if r.is_finite() {
-            r
-        } else {
-            0.0
-        }
+        correlation(sxy, sxx, syy)
     };
-    (0..d.n_gratings()).max_by(|&a, &b| corr(&d.dl_pm[a]).total_cmp(&corr(&d.dl_pm[b])).then(b.cmp(&a))).unwrap_or(0)
+    most_correlated(d.n_gratings(), |g| corr(&d.dl_pm[g]))
+}
+
+/// The grating of each output of the paper's layout for the hysteresis index.
+pub(crate) const PAPER_GRATING_OF_OUTPUT: [usize; 3] = [1, 0, 2];
+
+/// |r| from the centred sums of products (0 when undefined).
+pub(crate) fn correlation(sxy: f64, sxx: f64, syy: f64) -> f64 {
+    let r = (sxy / (sxx * syy).sqrt()).abs();
+    if r.is_finite() {
+        r
+    } else {
+        0.0
+    }
+}
+
+/// The grating of `0..n_gratings` with the largest `corr` (the first on a tie).
+pub(crate) fn most_correlated(n_gratings: usize, corr: impl Fn(usize) -> f64) -> usize {
+    (0..n_gratings).max_by(|&a, &b| corr(a).total_cmp(&corr(b)).then(b.cmp(&a))).unwrap_or(0)
 }
 /// Dead band of the direction detector of the hysteresis index \[pm\].
 pub const HYSTERESIS_INDEX_DEAD_BAND_PM: f64 = 4.0;
