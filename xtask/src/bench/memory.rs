@@ -180,7 +180,7 @@ pub fn markdown(s: &mut String, mem: &Memory) {
     }
     let _ = writeln!(
         s,
-        "\n`evaluate` is `evaluate --quick` on the record without its simulation sidecar (a real record: Table 2 and the pace study); it still reads the record whole. `evaluate (simulated record)` is the same beside its `.meta.json`, which adds the per-sample oracle and re-simulates the record: measured on {} rows only.",
+        "\n`evaluate` is `evaluate --quick` on the record without its simulation sidecar (a real record: Table 2 and the static audit), which streams its rows in two passes and reads only the calibration prefix the static audit needs. `evaluate (simulated record)` is the same beside its `.meta.json`, which adds the per-sample oracle and re-simulates the record: measured on {} rows only.",
         EVALUATE_MAX_ROWS
     );
     let _ = writeln!(s, "\nCommands:\n");
