@@ -132,6 +132,21 @@ pub struct SelectionSummary {
 }
 
 impl SelectionSummary {
+    /// For models evaluated as given (no selection ran here): the chosen configuration, NaN
+    /// cross-validation figures for `n_out` outputs, no grid.
+    pub fn given(chosen: fit::Config, n_out: usize) -> Self {
+        SelectionSummary {
+            chosen,
+            cv_rmse_p: vec![f64::NAN; n_out],
+            cv_rmse_h: vec![f64::NAN; n_out],
+            var_model_p: Default::default(),
+            var_model_h: Default::default(),
+            folds: vec![],
+            grid_points: 0,
+            top: vec![],
+        }
+    }
+
     pub fn from(s: &Selection) -> Self {
         SelectionSummary {
             chosen: s.chosen,

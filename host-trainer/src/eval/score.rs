@@ -77,6 +77,21 @@ pub struct ChannelMetrics {
     pub n: usize,
 }
 
+impl ChannelMetrics {
+    /// The metrics of an output the data have no reference for: NaN, none scored.
+    pub const ABSENT: ChannelMetrics = ChannelMetrics {
+        rmse: f64::NAN,
+        mae: f64::NAN,
+        r2: f64::NAN,
+        bias: f64::NAN,
+        max_abs: f64::NAN,
+        coverage: f64::NAN,
+        mean_band: f64::NAN,
+        hysteresis_index: f64::NAN,
+        n: 0,
+    };
+}
+
 /// A model's hold-out evaluation.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct ModelEval {
@@ -110,17 +125,7 @@ pub fn score(dims: &Dims, d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> 
     for (c, m) in channels.iter_mut().enumerate() {
         let reference = d.reference_of(dims, c);
         if !reference.is_present() {
-            *m = ChannelMetrics {
-                rmse: f64::NAN,
-                mae: f64::NAN,
-                r2: f64::NAN,
-                bias: f64::NAN,
-                max_abs: f64::NAN,
-                coverage: f64::NAN,
-                mean_band: f64::NAN,
-                hysteresis_index: f64::NAN,
-                n: 0,
-            };
+            *m = ChannelMetrics::ABSENT;
             continue;
         }
         let truth: Vec<f64> = idx.iter().map(|&i| reference[i]).collect();

@@ -128,17 +128,7 @@ impl ModelRun {
             .enumerate()
             .map(|(c, o)| {
                 let Some(k) = o.reference else {
-                    return ChannelMetrics {
-                        rmse: f64::NAN,
-                        mae: f64::NAN,
-                        r2: f64::NAN,
-                        bias: f64::NAN,
-                        max_abs: f64::NAN,
-                        coverage: f64::NAN,
-                        mean_band: f64::NAN,
-                        hysteresis_index: f64::NAN,
-                        n: 0,
-                    };
+                    return ChannelMetrics::ABSENT;
                 };
                 let ss_tot = shared.ss_tot[k];
                 let g = if self.dims == Dims::PAPER {
@@ -350,16 +340,7 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
         channels: score::channels(&h.dims),
         units: score::units(&h.dims),
         warnings: Vec::new(),
-        selection: SelectionSummary {
-            chosen: crate::eval::studies::config_of(h),
-            cv_rmse_p: vec![f64::NAN; n_out],
-            cv_rmse_h: vec![f64::NAN; n_out],
-            var_model_p: Default::default(),
-            var_model_h: Default::default(),
-            folds: vec![],
-            grid_points: 0,
-            top: vec![],
-        },
+        selection: SelectionSummary::given(crate::eval::studies::config_of(h), n_out),
         table2: t2,
         drift_sweep: None,
         ablation: None,
