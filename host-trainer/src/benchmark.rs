@@ -233,7 +233,7 @@ impl BenchFitArgs {
             };
             let mut opts = TrainOptions::fixed(&cfg);
             if !self.memory {
-                opts.memory = fit::memory_core::MemoryOptions::off();
+                opts = opts.to_builder().memory(fit::memory_core::MemoryOptions::off()).check()?;
             }
             Ok((opts, "fixed"))
         } else {

@@ -442,10 +442,8 @@ fn run() -> Result<()> {
             let d = Dataset::read_calibration_csv(&data)?;
             let meta = SimMeta::read_for(&data)?;
             let origin = origin_of(&data, meta.as_ref());
-            let opts = TrainOptions {
-                on_outlier: on_error.parse().map_err(anyhow::Error::msg)?,
-                ..train_options(features, max_centres, !json)?
-            };
+            let on_outlier = on_error.parse().map_err(anyhow::Error::msg)?;
+            let opts = train_options(features, max_centres, !json)?.with_on_outlier(on_outlier);
             let t = Instant::now();
             let tr = fit::train_source(&d, &data.display().to_string(), &opts, &origin)?;
             let secs = t.elapsed().as_secs_f64();
@@ -755,7 +753,7 @@ fn origin_of(data: &Path, meta: Option<&SimMeta>) -> Origin {
 
 fn train_options(features: FeatureChoice, max_centres: usize, progress: bool) -> Result<TrainOptions> {
     let o = features.train_options(max_centres).map_err(|e| anyhow::anyhow!("--features/--max-centres: {e}"))?;
-    Ok(TrainOptions { progress, ..o })
+    Ok(o.with_progress(progress))
 }
 
 /// The files of a signing key a command reads or updates (the key, its serial state and

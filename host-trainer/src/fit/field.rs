@@ -8,8 +8,8 @@ use fbg_shared::layout::{MAX_GRATINGS, MAX_OUTPUTS};
 use fbg_shared::{FieldContext, ZeroSource};
 
 use super::band::VarModel;
+use super::host::HostParams;
 use super::sensitivity::core_jacobian;
-use super::HostParams;
 use crate::data::Dataset;
 
 /// A record's zero may move no output by more than this fraction of its cross-validated RMSE.

@@ -123,20 +123,19 @@ pub struct RidgeSystem {
     pub eigen: SymmetricEigen<f64, nalgebra::Dyn>,
     /// Vᵀ Ψᵀ R (K × outputs).
     pub vt_psi_r: DMatrix<f64>,
-    pub n: usize,
 }
 
 impl RidgeSystem {
     /// Build from the design Ψ (n × K) and residual targets R (n × m).
     pub fn new(psi: &DMatrix<f64>, r: &DMatrix<f64>) -> Self {
-        Self::from_gram(psi.tr_mul(psi), &psi.tr_mul(r), psi.nrows())
+        Self::from_gram(psi.tr_mul(psi), &psi.tr_mul(r))
     }
 
-    /// Build from G = ΨᵀΨ (K × K), ΨᵀR (K × m) and the number of rows they sum.
-    pub fn from_gram(g: DMatrix<f64>, psi_r: &DMatrix<f64>, n: usize) -> Self {
+    /// Build from G = ΨᵀΨ (K × K) and ΨᵀR (K × m).
+    pub fn from_gram(g: DMatrix<f64>, psi_r: &DMatrix<f64>) -> Self {
         let eigen = SymmetricEigen::new(g);
         let vt_psi_r = eigen.eigenvectors.tr_mul(psi_r);
-        RidgeSystem { eigen, vt_psi_r, n }
+        RidgeSystem { eigen, vt_psi_r }
     }
 
     /// Ridge weights W (K × m) for penalty `alpha` (the α of Eq. 7, in ΨᵀΨ units).

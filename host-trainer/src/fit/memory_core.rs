@@ -496,7 +496,7 @@ pub fn select(
     if !opts.enabled() || folds.is_empty() {
         return Ok((MemoryChoice::none(), Vec::new()));
     }
-    let stats: Vec<FoldStats> = super::par_map(folds, |f| fold_stats(d, f, opts));
+    let stats: Vec<FoldStats> = super::par::par_map(folds, |f| fold_stats(d, f, opts));
     let n_val: usize = stats.iter().map(|s| s.val.n).sum();
     let offered_groups: Vec<MemoryGroup> =
         MemoryGroup::ALL.iter().copied().filter(|g| opts.groups.contains(g)).collect();

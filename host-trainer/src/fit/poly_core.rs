@@ -11,7 +11,7 @@ use crate::data::Dataset;
 use crate::error::TrainerError;
 use rayon::prelude::*;
 
-use crate::fit::linalg::lstsq_rows;
+use super::linalg::lstsq_rows;
 
 /// A fitted polynomial core. Arrays are sized to the capacity; only the entries of `dims`
 /// are used (the rest are 0).
@@ -173,7 +173,7 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
 
 impl PolyCore {
     /// The core of a model's parameters (B, Γ and what they act on).
-    pub fn of(p: &crate::fit::HostParams) -> Self {
+    pub fn of(p: &super::host::HostParams) -> Self {
         PolyCore {
             dims: p.dims,
             stage1: p.stage1,

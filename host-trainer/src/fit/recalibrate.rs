@@ -7,9 +7,13 @@ use nalgebra::DMatrix;
 
 use fbg_shared::layout::MAX_OUTPUTS;
 
+use super::design::{design_matrix, run};
+use super::host::HostParams;
+use super::linalg;
+use super::provenance::today_yyyymmdd;
+use super::residual::residual_targets;
 use crate::data::Dataset;
 use crate::error::TrainerError;
-use crate::fit::{self, design_matrix, linalg, residual_targets, run, HostParams};
 
 /// Prior standard deviation of a core gain change (gauge-factor dispersion is ~3 %).
 pub const GAIN_PRIOR_SIGMA: f64 = 0.05;
@@ -245,7 +249,7 @@ pub fn recalibrate_with(
     }
     new.t_cal_end_s = batch.last().map(|&i| d.t_s[i]).unwrap_or(new.t_cal_end_s);
     new.provenance.n_cal = batch.len() as u32;
-    new.provenance.date_yyyymmdd = fit::today_yyyymmdd();
+    new.provenance.date_yyyymmdd = today_yyyymmdd();
     new.validate().map_err(|e| TrainerError::fit(format!("recalibrated model is invalid: {e}")))?;
     Ok((
         new,
@@ -314,7 +318,7 @@ fn apply_core(
 /// refitted jointly with the memory terms on a batch at one pace, it would trade static gain
 /// for them (DESIGN §4, static fidelity).
 fn refit_memory(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize) -> Result<(), TrainerError> {
-    let m = fit::memory_core::memory_terms(&p.memory, &p.dims, d, rows);
+    let m = super::memory_core::memory_terms(&p.memory, &p.dims, d, rows);
     let full = run(p, d, rows)?;
     let truth = d.reference_of(&p.dims, c);
     let mc: Vec<usize> = (0..p.dims.memory_len()).filter(|&k| p.gamma[c][k] != 0.0).collect();

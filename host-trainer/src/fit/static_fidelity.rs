@@ -19,7 +19,8 @@
 
 use fbg_shared::MemoryGroup;
 
-use super::{run, HostParams};
+use super::design::run;
+use super::host::HostParams;
 use crate::data::Dataset;
 use crate::error::TrainerError;
 
