@@ -110,7 +110,12 @@ fn digits(m: Measurand) -> usize {
 /// ambient thermometer (`no_ambient_thermometer`); per reference column, the calibration rows
 /// left out for outliers in it (`reference_outliers_skipped`, `skipped` as [`super::trained::Trained`]
 /// keeps them).
-pub fn train_warnings(dims: &Dims, selection: &Selection, audit: &StaticAudit, skipped: &[Outlier]) -> Vec<Warning> {
+pub(crate) fn train_warnings(
+    dims: &Dims,
+    selection: &Selection,
+    audit: &StaticAudit,
+    skipped: &[Outlier],
+) -> Vec<Warning> {
     let outs = Measurand::of_dims(dims);
     let channel = |c: usize| dims.outputs().get(c).map(|o| o.channel().as_str().to_string()).unwrap_or_default();
     let mut w = Vec::new();

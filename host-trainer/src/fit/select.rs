@@ -108,7 +108,7 @@ fn pool(sq: &[f64]) -> f64 {
 }
 
 /// Run the cross-validation and pick the best configuration.
-pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selection, TrainerError> {
+pub(crate) fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selection, TrainerError> {
     let cv = Cv::new(d, cal, opts)?;
     let m = cv.dims.n_outputs();
     let grid = opts.grid();
