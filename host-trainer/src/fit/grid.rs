@@ -112,7 +112,7 @@ impl CvGrid {
         self.bands().len() * self.centres.len() * self.sigma_mults.len() * self.alpha_rels.len()
     }
 
-    /// Whether the grid has no point (what [`CvGrid::check`] refuses).
+    /// Whether the grid has no point (what a [`super::TrainOptionsBuilder`] refuses).
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }

@@ -5,18 +5,22 @@
 //! in f32: the trainer never implements inference a second time. The design matrix Ψ is
 //! collected from that code too (`Compensator::core_and_activations`, see [`design`]).
 //!
-//! The files follow the fit, and import only files listed before them (no cycle):
+//! The files follow the fit, and each uses only files listed before it (no cycle):
 //!
-//! 1. what a fit is asked and gives: [`host`] (the model types), `grid` (the hyper-parameters
-//!    cross-validation tries), `options` (checked [`TrainOptions`]), `provenance`;
-//! 2. the numerics: [`linalg`], [`kmeans`], `par`;
-//! 3. the model's parts: [`poly_core`], [`memory_core`], [`design`] (a model run over a
-//!    record), `envelope`, `rbf_inputs` (RBF inputs and centres), `residual` (the RBF layer's
-//!    targets), `variance`, [`band`], `skeleton` (a model but for its weights);
-//! 4. the choice: [`select`] (cross-validation), [`sensitivity`], [`field`],
-//!    [`static_fidelity`], [`outcome`];
-//! 5. the entry: `refusals` (batches refused before any work), `trained` ([`Trained`]),
-//!    `train` ([`train`]); then what works on trained models: [`recalibrate`], [`features`].
+//! 1. the model types and the numerics: [`host`], `linalg`, `kmeans`, `par`;
+//! 2. the polynomial core and a model run over a record: [`poly_core`], [`design`],
+//!    [`memory_core`];
+//! 3. what a fit is asked: `grid` ([`CvGrid`]), `options` ([`TrainOptions`]), [`features`]
+//!    (the `--features` variants), `provenance` ([`Origin`]);
+//! 4. the RBF residual's parts: `envelope`, `rbf_inputs` (inputs and centres), `residual`
+//!    (targets, weak support), `variance`, [`band`], `skeleton` (a model but for its weights);
+//! 5. the choice and its checks: [`select`] (cross-validation), [`sensitivity`],
+//!    [`static_fidelity`], [`field`], [`outcome`];
+//! 6. the entry: `refusals`, `trained` ([`Trained`]), `train` ([`train()`]); then
+//!    [`recalibrate`], which works on trained models.
+//!
+//! This file only declares the modules and re-exports what the rest of the crate and its
+//! users name as `fit::…`.
 
 pub mod band;
 pub mod design;

@@ -1,5 +1,5 @@
 //! What a fit tells its user: the hyper-parameters and memory terms it chose ([`Chosen`]) and
-//! its warnings as data ([`train_warnings`]): Model-H worse than Model-P in the fit's own
+//! its warnings as data (`train_warnings`): Model-H worse than Model-P in the fit's own
 //! cross-validation, static gains that disagree, no ambient thermometer for a temperature
 //! output, reference outliers left out. `train` prints them, `--json` and `coefficients.json`
 //! carry them.

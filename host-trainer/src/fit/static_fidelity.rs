@@ -155,11 +155,11 @@ pub struct StaticAudit {
 /// Calibration rows the audit runs over at most (the first ones): the models run from the
 /// first sample to the last audited one once per part, which on a very long batch would cost
 /// more than the fit; a month of one-minute samples determines a gain and an RMS well enough.
-pub(crate) const AUDIT_MAX_ROWS: usize = 50_000;
+pub const AUDIT_MAX_ROWS: usize = 50_000;
 
 /// Largest relative difference between the two models' static gains that `train` accepts
 /// without a warning.
-pub(crate) const STATIC_GAIN_TOLERANCE: f64 = 0.01;
+pub const STATIC_GAIN_TOLERANCE: f64 = 0.01;
 
 impl StaticAudit {
     /// The audit of `model_p` and `model_h` over the calibration rows `cal` of `d` (sorted; the

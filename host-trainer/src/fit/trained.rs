@@ -27,7 +27,7 @@ pub struct Trained {
     /// The outlying reference cells whose calibration rows were left out of the fit
     /// ([`super::TrainOptions::on_outlier`] skip; empty otherwise).
     pub skipped: Vec<Outlier>,
-    /// What the fit finds worth a user's attention ([`super::outcome::train_warnings`]).
+    /// What the fit finds worth a user's attention (`outcome::train_warnings`).
     pub warnings: Vec<Warning>,
 }
 
