@@ -191,14 +191,14 @@ pub(crate) fn applies(dims: &Dims, g: MemoryGroup) -> bool {
 }
 
 /// The memory vectors of a set of rows, [`Dims::memory_len`] values per row.
-pub(crate) struct MemoryTerms {
+pub struct MemoryTerms {
     len: usize,
     values: Vec<f64>,
 }
 
 impl MemoryTerms {
     /// The memory vector of the `r`-th row.
-    pub(crate) fn row(&self, r: usize) -> &[f64] {
+    pub fn row(&self, r: usize) -> &[f64] {
         &self.values[r * self.len..(r + 1) * self.len]
     }
     /// Number of rows.
@@ -209,7 +209,7 @@ impl MemoryTerms {
 
 /// The memory vector at each of `rows` (sorted ascending), the bank having seen every sample
 /// the compensator would accept (finite Δλ, T_amb with ambient, and t) from the first.
-pub(crate) fn memory_terms(spec: &MemorySpec<f64>, dims: &Dims, d: &Dataset, rows: &[usize]) -> MemoryTerms {
+pub fn memory_terms(spec: &MemorySpec<f64>, dims: &Dims, d: &Dataset, rows: &[usize]) -> MemoryTerms {
     let all: Vec<usize> = (0..dims.memory_len()).collect();
     memory_terms_of(spec, dims, d, rows, &all)
 }
