@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, ensure, Context, Result};
 use serde_json::{json, Value};
 
-use crate::{run, step};
+use crate::cmd::{describe, is_root, run, step};
 
 /// Groups in the generated manifest.
 pub const GROUPS: usize = 64;
@@ -62,7 +62,7 @@ fn ensure_packages() -> Result<()> {
         return Ok(());
     }
     ensure!(
-        crate::is_root(),
+        is_root(),
         "slurm-wlm and munge are not installed; run as root (this task starts daemons), or install them with \
          `sudo apt-get install -y slurm-wlm munge`"
     );
@@ -75,9 +75,9 @@ fn ensure_packages() -> Result<()> {
 }
 
 fn output(cmd: &mut Command) -> Result<String> {
-    let o = cmd.output().with_context(|| format!("could not start `{}`", crate::describe(cmd)))?;
+    let o = cmd.output().with_context(|| format!("could not start `{}`", describe(cmd)))?;
     if !o.status.success() {
-        bail!("`{}` failed: {}", crate::describe(cmd), String::from_utf8_lossy(&o.stderr).trim());
+        bail!("`{}` failed: {}", describe(cmd), String::from_utf8_lossy(&o.stderr).trim());
     }
     Ok(String::from_utf8_lossy(&o.stdout).into_owned())
 }
@@ -336,7 +336,7 @@ pub fn run_all(root: &Path) -> Result<()> {
             let a = fs::read(work.join("models").join(&name))?;
             let b = fs::read(single.join("models").join(&name))?;
             ensure!(a == b, "{name}: the Slurm shard wrote other bytes than the single-machine run");
-            fbg_shared::blob::decode::<{ crate::qemu::PRODUCT_K }>(&a)
+            fbg_shared::blob::decode::<{ crate::targets::PRODUCT_K }>(&a)
                 .map_err(|e| anyhow::anyhow!("{name} does not decode: {e}"))?;
         }
     }

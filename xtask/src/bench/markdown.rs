@@ -385,7 +385,7 @@ fn gb_hybrid_target(s: &mut String, paper: &PresetRun, acc: &Accuracy) {
 
 /// Inference cost, flash, RAM and blob rows of the targets.
 fn device_targets(s: &mut String, dev: &DeviceResults, paper: Option<&PresetRun>) {
-    match dev.step.iter().find(|x| x.name == "default") {
+    match dev.record.step.iter().find(|x| x.name == "default") {
         Some(d0) => {
             let ins = d0.instructions_per_step;
             out!(
@@ -405,7 +405,7 @@ fn device_targets(s: &mut String, dev: &DeviceResults, paper: Option<&PresetRun>
             "| inference cost of the default model | no `default` model in the device results | – | device part |"
         ),
     }
-    let pr = &dev.product;
+    let pr = &dev.record.product;
     let flash = pr.flash_bytes as f64;
     let ram = pr.static_ram_plus_stack_bytes as f64;
     let ram_serving = pr.static_ram_plus_serving_stack_bytes as f64;
@@ -842,15 +842,15 @@ fn device(s: &mut String, rep: &Report) {
     out!(
         s,
         "{}. Models: the device bench's fixtures at each K (`xtask/src/fixtures.rs`). Lower bound: the arithmetic operations of one f32 `step` counted from the code ({} operations; table in `shared/src/lib.rs`), each at least one instruction.{}\n",
-        dev.method,
+        dev.record.method,
         dev.arithmetic_lower_bound.as_ref().map_or("", |b| &b.formula),
         if dev.reused_existing_results { " **Reused from an earlier run (--no-device).**" } else { "" }
     );
     out!(s, "| model | K | memory terms | instructions per step | new Δt every step | arithmetic lower bound | measured / bound | blob | bench image stack |\n|---|---|---|---|---|---|---|---|---|");
-    for st in &dev.step {
+    for st in &dev.record.step {
         step_row(s, st);
     }
-    let sz = &dev.sizes;
+    let sz = &dev.record.sizes;
     out!(
         s,
         "\nDevice types (`size_of` on the target, K = {}): memory state `MemoryState<f32>` {} B, stream state (latches + memory) {} B, `MemoryBank<f32>` {} B, `Compensator<f32, {}>` {} B, centre-less parameter slot `ModelParams<f32, 0>` (on the stack during a load; the centres are read from the blob one at a time) {} B, longest staged update {} B (staged in a flash slot outside the image, not in RAM).",
@@ -863,7 +863,7 @@ fn device(s: &mut String, rep: &Report) {
         sz.model_params_bytes,
         sz.staging_bytes
     );
-    let pr = &dev.product;
+    let pr = &dev.record.product;
     out!(
         s,
         "\nProduct image (K = {}): flash {} B, static RAM {} B, stack peak {} B at boot, {} B while serving, {} B through a model update; default blob {} B.\n\n    {}\n",
@@ -1402,7 +1402,7 @@ mod tests {
     /// `cargo xtask bench --markdown-only` renders it again.
     #[test]
     fn committed_benchmarks_md_is_rendered_from_the_json() {
-        let root = crate::root();
+        let root = crate::cmd::root();
         let report: Report = super::super::runner::read_json(&root.join("BENCHMARKS.json")).unwrap();
         let md = std::fs::read_to_string(root.join("BENCHMARKS.md")).unwrap();
         assert!(

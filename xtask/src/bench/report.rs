@@ -12,77 +12,11 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
+pub use crate::device_bench::record::{DeviceRecord, StepRow};
+use crate::nan;
+
 /// Keys of an object that the markdown does not read, kept as they came.
 pub type Rest = BTreeMap<String, Value>;
-
-/// Lenient numbers: `#[serde(default = "nan::missing", deserialize_with = "nan::read")]` on a
-/// field of type `f64`, `[f64; N]` or `Vec<f64>` reads `null` (how serde_json writes NaN and ±∞)
-/// as NaN and a missing key as NaN (an empty list for a `Vec`).
-pub mod nan {
-    use serde::{Deserialize, Deserializer};
-
-    pub trait Lenient: Sized {
-        fn missing() -> Self;
-        fn read<'de, D: Deserializer<'de>>(d: D) -> Result<Self, D::Error>;
-    }
-
-    impl Lenient for f64 {
-        fn missing() -> Self {
-            f64::NAN
-        }
-        fn read<'de, D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-            Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
-        }
-    }
-
-    impl Lenient for Vec<f64> {
-        fn missing() -> Self {
-            Vec::new()
-        }
-        fn read<'de, D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-            let v = Option::<Vec<Option<f64>>>::deserialize(d)?.unwrap_or_default();
-            Ok(v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())
-        }
-    }
-
-    impl<const N: usize> Lenient for [f64; N] {
-        fn missing() -> Self {
-            [f64::NAN; N]
-        }
-        fn read<'de, D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-            let v = Vec::<f64>::read(d)?;
-            Ok(std::array::from_fn(|i| v.get(i).copied().unwrap_or(f64::NAN)))
-        }
-    }
-
-    impl<const N: usize> Lenient for Vec<[f64; N]> {
-        fn missing() -> Self {
-            Vec::new()
-        }
-        fn read<'de, D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-            let v = Option::<Vec<Option<Vec<Option<f64>>>>>::deserialize(d)?.unwrap_or_default();
-            Ok(v.into_iter()
-                .map(|row| {
-                    let row = row.unwrap_or_default();
-                    std::array::from_fn(|i| row.get(i).copied().flatten().unwrap_or(f64::NAN))
-                })
-                .collect())
-        }
-    }
-
-    /// A figure that was not measured (serialised only when it was).
-    pub fn absent(x: &f64) -> bool {
-        x.is_nan()
-    }
-
-    pub fn missing<T: Lenient>() -> T {
-        T::missing()
-    }
-
-    pub fn read<'de, D: Deserializer<'de>, T: Lenient>(d: D) -> Result<T, D::Error> {
-        T::read(d)
-    }
-}
 
 /// Three channels (T, ε, p).
 pub type Rmse = [f64; 3];
@@ -812,10 +746,10 @@ pub enum Device {
     Measured(Box<DeviceResults>),
 }
 
-/// `target/bench/device.json` (written by `device_bench`) and what the bench adds to it.
+/// `target/bench/device.json` (written by `device_bench`, the same type) and what the bench
+/// adds to it.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct DeviceResults {
-    pub method: String,
     /// How the figures were obtained (added by the bench).
     #[serde(default)]
     pub command: String,
@@ -825,11 +759,9 @@ pub struct DeviceResults {
     /// Added by the bench.
     #[serde(default)]
     pub arithmetic_lower_bound: Option<LowerBound>,
-    pub step: Vec<StepRow>,
-    pub sizes: TypeSizes,
-    pub product: Product,
+    /// The file as the device bench wrote it.
     #[serde(flatten)]
-    pub rest: Rest,
+    pub record: DeviceRecord,
 }
 
 /// The arithmetic operations of one f32 step, counted from the code.
@@ -848,59 +780,12 @@ pub struct LowerBoundAtK {
     pub operations_full_memory: usize,
 }
 
-/// One bench model under QEMU -icount.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct StepRow {
-    pub name: String,
-    pub k: usize,
-    pub memory_terms: usize,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub instructions_per_step: f64,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub instructions_per_step_new_dt_every_step: f64,
-    pub lower_bound_ops: usize,
-    pub blob_bytes: usize,
-    pub stack_peak_bytes: usize,
-    #[serde(flatten)]
-    pub rest: Rest,
-}
-
-/// `size_of` of the device types on the target.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct TypeSizes {
-    pub k: usize,
-    pub memory_state_bytes: usize,
-    pub stream_state_bytes: usize,
-    pub memory_bank_bytes: usize,
-    pub compensator_bytes: usize,
-    pub model_params_bytes: usize,
-    pub staging_bytes: usize,
-    #[serde(flatten)]
-    pub rest: Rest,
-}
-
-/// The product image's footprint.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Product {
-    pub k: usize,
-    pub flash_bytes: u64,
-    pub static_ram_bytes: u64,
-    pub stack_peak_boot_bytes: u64,
-    pub stack_peak_serving_bytes: u64,
-    pub stack_peak_update_bytes: u64,
-    pub default_blob_bytes: u64,
-    pub static_ram_plus_stack_bytes: u64,
-    pub static_ram_plus_serving_stack_bytes: u64,
-    #[serde(flatten)]
-    pub rest: Rest,
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn committed() -> Value {
-        let path = crate::root().join("BENCHMARKS.json");
+        let path = crate::cmd::root().join("BENCHMARKS.json");
         serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
     }
 
