@@ -317,29 +317,7 @@ pub fn run_all(root: &Path) -> Result<()> {
     ensure!(ok && count(&st, "done") == GROUPS, "fleet status after the resubmit: {st}");
 
     step("slurm: every blob equals a single-machine fleet run's");
-    let single = dir.join("single");
-    let _ = fs::remove_dir_all(&single);
-    fs::create_dir_all(&single)?;
-    for k in 0..DATASETS {
-        fs::copy(work.join(format!("d{k}.csv")), single.join(format!("d{k}.csv")))?;
-        let meta = work.join(format!("d{k}.meta.json"));
-        if meta.exists() {
-            fs::copy(&meta, single.join(format!("d{k}.meta.json")))?;
-        }
-    }
-    fs::copy(&manifest, single.join("fleet.toml"))?;
-    let t3 = Instant::now();
-    run(Command::new(&trainer).args(["fleet", "--manifest"]).arg(single.join("fleet.toml")).stderr(Stdio::null()))?;
-    let single_wall = t3.elapsed().as_secs_f64();
-    for g in 0..GROUPS {
-        for name in [format!("sensor-{g:03}.fbgm"), format!("sensor-{g:03}-p.fbgm")] {
-            let a = fs::read(work.join("models").join(&name))?;
-            let b = fs::read(single.join("models").join(&name))?;
-            ensure!(a == b, "{name}: the Slurm shard wrote other bytes than the single-machine run");
-            fbg_shared::blob::decode::<{ crate::targets::PRODUCT_K }>(&a)
-                .map_err(|e| anyhow::anyhow!("{name} does not decode: {e}"))?;
-        }
-    }
+    let single_wall = single_machine(&trainer, &dir, &work, &manifest)?;
 
     let shards: Vec<Value> = (0..SHARDS)
         .map(|i| {
@@ -366,4 +344,34 @@ pub fn run_all(root: &Path) -> Result<()> {
     eprintln!("{}", serde_json::to_string_pretty(&figures)?);
     eprintln!("xtask: slurm passed; figures in {}", figures_path(root).display());
     Ok(())
+}
+
+/// A single-machine `fleet` run on copies of the records and the manifest (under
+/// `dir/single`); every blob the Slurm shards wrote in `work` must equal its own. Returns its
+/// wall time.
+fn single_machine(trainer: &Path, dir: &Path, work: &Path, manifest: &Path) -> Result<f64> {
+    let single = dir.join("single");
+    let _ = fs::remove_dir_all(&single);
+    fs::create_dir_all(&single)?;
+    for k in 0..DATASETS {
+        fs::copy(work.join(format!("d{k}.csv")), single.join(format!("d{k}.csv")))?;
+        let meta = work.join(format!("d{k}.meta.json"));
+        if meta.exists() {
+            fs::copy(&meta, single.join(format!("d{k}.meta.json")))?;
+        }
+    }
+    fs::copy(manifest, single.join("fleet.toml"))?;
+    let t3 = Instant::now();
+    run(Command::new(trainer).args(["fleet", "--manifest"]).arg(single.join("fleet.toml")).stderr(Stdio::null()))?;
+    let single_wall = t3.elapsed().as_secs_f64();
+    for g in 0..GROUPS {
+        for name in [format!("sensor-{g:03}.fbgm"), format!("sensor-{g:03}-p.fbgm")] {
+            let a = fs::read(work.join("models").join(&name))?;
+            let b = fs::read(single.join("models").join(&name))?;
+            ensure!(a == b, "{name}: the Slurm shard wrote other bytes than the single-machine run");
+            fbg_shared::blob::decode::<{ crate::targets::PRODUCT_K }>(&a)
+                .map_err(|e| anyhow::anyhow!("{name} does not decode: {e}"))?;
+        }
+    }
+    Ok(single_wall)
 }

@@ -111,22 +111,7 @@ pub(super) fn signed_update_test(
     );
     eprintln!("xtask: signed: every bad update refused with its reason; the running model answered bit for bit as before each time");
 
-    // Issue 28, item 6: begins without data erase nothing (at most the one a written slot needs).
-    let before = st.staging_erases;
-    let begin = fbg_shared::protocol::HostMsg::ModelBegin {
-        total_len: new.len() as u32,
-        crc32: fbg_shared::protocol::crc32(&new),
-    };
-    for i in 0..1000 {
-        let r = s.link()?.request(&begin)?;
-        ensure!(matches!(r, DeviceMsg::UpdateProgress { received: 0 }), "ModelBegin {i}: {r:?}");
-    }
-    let erases = s.link()?.status()?.staging_erases - before;
-    ensure!(erases <= 1, "1 000 ModelBegin frames erased the staging slot {erases} times");
-    eprintln!(
-        "xtask: signed: 1 000 ModelBegin frames, {erases} staging erase(s) (slot erases since boot: {})",
-        before + erases
-    );
+    let (before, erases) = staging_erases(&mut s, &new, st.staging_erases)?;
 
     // The audit trail through the CLI.
     s.disconnect()?;
@@ -213,4 +198,25 @@ pub(super) fn rollback_test(root: &Path, qemu: &Path, bins: &Bins, sfx: &SignedF
     s.disconnect()?;
     s.check_alive()?;
     Ok(())
+}
+
+/// Issue 28, item 6: begins without data erase nothing (at most the one a written slot needs):
+/// 1 000 `ModelBegin` frames for `new` after `before` erases since boot. Returns `before` and the
+/// erases they caused.
+fn staging_erases(s: &mut LinkSession, new: &[u8], before: u32) -> Result<(u32, u32)> {
+    let begin = fbg_shared::protocol::HostMsg::ModelBegin {
+        total_len: new.len() as u32,
+        crc32: fbg_shared::protocol::crc32(new),
+    };
+    for i in 0..1000 {
+        let r = s.link()?.request(&begin)?;
+        ensure!(matches!(r, DeviceMsg::UpdateProgress { received: 0 }), "ModelBegin {i}: {r:?}");
+    }
+    let erases = s.link()?.status()?.staging_erases - before;
+    ensure!(erases <= 1, "1 000 ModelBegin frames erased the staging slot {erases} times");
+    eprintln!(
+        "xtask: signed: 1 000 ModelBegin frames, {erases} staging erase(s) (slot erases since boot: {})",
+        before + erases
+    );
+    Ok((before, erases))
 }
