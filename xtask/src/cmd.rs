@@ -37,10 +37,11 @@ pub fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
 }
 
-/// `cargo` for the firmware workspace (`firmware/`, its own `target/`): a `CARGO_TARGET_DIR`
-/// meant for the host workspace (e.g. `CARGO_TARGET_DIR=/tmp/t cargo xtask qemu`) must not
-/// move the firmware's build, whose images the tasks look for under `firmware/target`.
-pub fn firmware_cargo() -> Command {
+/// `cargo` for the workspaces beside the host one, each with its own `target/` (the firmware,
+/// the fuzz target): a `CARGO_TARGET_DIR` meant for the host workspace (e.g.
+/// `CARGO_TARGET_DIR=/tmp/t cargo xtask qemu`) must not move their builds, whose outputs the
+/// tasks look for under their own `target/`.
+pub fn cargo_own_target() -> Command {
     let mut c = cargo();
     c.env_remove("CARGO_TARGET_DIR");
     c

@@ -22,7 +22,9 @@
 //!   trailer, key lookup, Ed25519 verification, serial) on the default model signed with the
 //!   QEMU test key, timed by the bench image like a step, with the stack it reached.
 //!
-//! Results are printed and written to `target/bench/device.json`.
+//! Results are printed and written to `target/bench/device.json` ([`record::DeviceRecord`],
+//! through serde; `cargo xtask bench` reads the same type back). The arithmetic lower bound
+//! each step is set beside is counted in [`ops`].
 
 use std::fs;
 use std::path::Path;
@@ -102,6 +104,7 @@ pub struct TypeSizes {
     /// The longest update the build stages (in its flash slot, not in RAM): `STAGING_LEN`.
     pub staging: u64,
 }
+
 /// `cargo xtask bench` (device part): step cost of every bench model, the sizes of the device's
 /// types and the footprint; writes `target/bench/device.json`.
 pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {

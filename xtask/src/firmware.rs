@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 
-use crate::cmd::{firmware_cargo, run};
+use crate::cmd::{cargo_own_target, run};
 use crate::fixtures;
 use crate::targets::THUMB;
 
@@ -52,7 +52,7 @@ pub fn release_dir(root: &Path) -> PathBuf {
 
 /// Build every firmware image with capacity `k` (release profile).
 pub fn build(root: &Path, k: usize, bench: Option<&Path>) -> Result<Bins> {
-    run(firmware_cargo()
+    run(cargo_own_target()
         .current_dir(dir(root))
         .args(["build", "--release", "--locked", "--bins"])
         .envs(build_env(root, k, bench)))?;

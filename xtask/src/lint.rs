@@ -20,7 +20,7 @@ use std::process::Command;
 use anyhow::{Context, Result};
 use clap::ValueEnum;
 
-use crate::cmd::{cargo, firmware_cargo, host_triple, run, step};
+use crate::cmd::{cargo, cargo_own_target, host_triple, run, step};
 use crate::firmware;
 use crate::targets::{PRODUCT_K, THUMB};
 
@@ -99,8 +99,8 @@ pub fn run_steps(root: &Path, only: &[Step]) -> Result<()> {
 fn fmt(root: &Path) -> Result<()> {
     step("lint: rustfmt --check (host and firmware workspaces, the fuzz target)");
     run(cargo().current_dir(root).args(["fmt", "--all", "--check"]))?;
-    run(firmware_cargo().current_dir(root.join("firmware")).args(["fmt", "--all", "--check"]))?;
-    run(firmware_cargo().current_dir(root.join("shared/fuzz")).args(["fmt", "--all", "--check"]))
+    run(cargo_own_target().current_dir(root.join("firmware")).args(["fmt", "--all", "--check"]))?;
+    run(cargo_own_target().current_dir(root.join("shared/fuzz")).args(["fmt", "--all", "--check"]))
 }
 
 fn clippy(root: &Path) -> Result<()> {
@@ -114,11 +114,11 @@ fn clippy(root: &Path) -> Result<()> {
 fn firmware_clippy(root: &Path) -> Result<()> {
     step("lint: clippy of the firmware workspace (thumb image; device logic with its host tests), warnings denied");
     let fw = firmware::dir(root);
-    run(firmware_cargo()
+    run(cargo_own_target()
         .current_dir(&fw)
         .args(["clippy", "--workspace", "--release", "--locked", "--", "-D", "warnings"])
         .envs(firmware::build_env(root, PRODUCT_K, None)))?;
-    run(firmware_cargo()
+    run(cargo_own_target()
         .current_dir(&fw)
         .args(["clippy", "-p", "fbg-firmware-app", "--all-targets", "--locked", "--target", &host_triple()?])
         .args(["--", "-D", "warnings"]))

@@ -49,7 +49,7 @@ use anyhow::{bail, ensure, Context, Result};
 use fbg_shared::blob::stored_crc;
 use fbg_shared::protocol::{RejectReason, UpdateResult};
 
-use crate::cmd::{firmware_cargo, host_triple, run, step};
+use crate::cmd::{cargo_own_target, host_triple, run, step};
 use crate::firmware::emulator::{self, decode_log, out_dir, Qemu};
 use crate::firmware::{self, Bins};
 use crate::fixtures::{self, Fixtures};
@@ -71,7 +71,7 @@ pub fn run_all(root: &Path) -> Result<()> {
 
     step("firmware: host tests of the device logic (fbg-firmware-app)");
     let fw = firmware::dir(root);
-    run(firmware_cargo()
+    run(cargo_own_target()
         .current_dir(&fw)
         .args(["test", "-p", "fbg-firmware-app", "--locked", "--target", &host_triple()?])
         .env("FBG_TEST_MODEL", &fx.model))?;

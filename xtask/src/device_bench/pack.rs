@@ -10,7 +10,7 @@ use anyhow::{bail, ensure, Context, Result};
 
 use super::ops::step_ops_of;
 use super::{StepBench, TypeSizes, VerifyBench};
-use crate::cmd::{firmware_cargo, run, step};
+use crate::cmd::{cargo_own_target, run, step};
 use crate::firmware::emulator::{out_dir, Qemu};
 use crate::firmware::{self};
 use crate::fixtures::{self, BenchFixture};
@@ -106,7 +106,7 @@ fn cost(r: &[[f64; 5]], ipt: f64) -> Result<Cost> {
 /// return what it printed.
 fn build_and_run(root: &Path, q: &Path, capacity: usize, pack: &Path) -> Result<String> {
     let k = capacity;
-    run(firmware_cargo()
+    run(cargo_own_target()
         .current_dir(firmware::dir(root))
         .args(["build", "--release", "--locked", "--bin", "bench"])
         .envs(firmware::build_env(root, k, Some(pack))))?;

@@ -9,7 +9,7 @@ use std::process::Command;
 
 use anyhow::{Context, Result};
 
-use crate::cmd::{firmware_cargo, host_triple, run, step};
+use crate::cmd::{cargo_own_target, host_triple, run, step};
 
 /// Inputs the fuzzer runs in `lint` (seconds on two cores).
 const RUNS: u32 = 100_000;
@@ -36,9 +36,9 @@ pub(super) fn check(root: &Path) -> Result<()> {
     step("lint: the fuzz target of fbg-shared (corpus replayed; built with coverage and run on stable)");
     let dir = root.join("shared/fuzz");
     // Its own workspace and target directory, whatever CARGO_TARGET_DIR says.
-    run(firmware_cargo().current_dir(&dir).args(["test", "--locked"]))?;
+    run(cargo_own_target().current_dir(&dir).args(["test", "--locked"]))?;
     let triple = host_triple()?;
-    run(firmware_cargo()
+    run(cargo_own_target()
         .current_dir(&dir)
         .args(["build", "--release", "--locked", "--bin", "decode", "--target", &triple])
         .args(["--target-dir", "target/fuzz"])

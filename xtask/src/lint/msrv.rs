@@ -9,14 +9,14 @@ use std::process::Command;
 use anyhow::{bail, Context, Result};
 use serde_json::Value;
 
-use crate::cmd::{cargo, firmware_cargo, host_triple, run};
+use crate::cmd::{cargo, cargo_own_target, host_triple, run};
 
 /// Both workspaces: the declared versions against the dependencies and the toolchain, then the
 /// build with each declared version's toolchain where it is installed.
 pub(super) fn check(root: &Path) -> Result<()> {
     let toolchain = rustc_version()?;
     let host = cargo_metadata(cargo().current_dir(root))?;
-    let firmware = cargo_metadata(firmware_cargo().current_dir(root.join("firmware")))?;
+    let firmware = cargo_metadata(cargo_own_target().current_dir(root.join("firmware")))?;
     check_msrv(&host, toolchain, "host workspace")?;
     check_msrv(&firmware, toolchain, "firmware workspace")?;
     let installed = installed_toolchains();
@@ -28,30 +28,34 @@ pub(super) fn check(root: &Path) -> Result<()> {
             let Some(tc) = toolchain_for(&version, &installed) else {
                 eprintln!(
                     "xtask: MSRV build skipped for rust-version {version} ({what}: {}): no toolchain {version} is \
-                     installed (this machine's CI has one toolchain and fetches none; `rustup toolchain install \
-                     {version}` runs it here). The declared version is checked above against the locked dependencies \
-                     and the toolchain, and clippy's `incompatible_msrv` rejects standard-library items newer than it",
+                     installed (CI has one toolchain and fetches none; `rustup toolchain install {version}` runs \
+                     this build here). The declared version is checked above against the locked dependencies and \
+                     the toolchain, and clippy's `incompatible_msrv` rejects standard-library items newer than it",
                     members.join(", ")
                 );
                 continue;
             };
-            // The libraries and binaries only (dev-dependencies do not bind users' toolchains),
-            // for the host (the firmware's device logic is host-testable; its image needs the
-            // thumb target of that toolchain), in a target directory of its own.
-            let firmware_image = members.iter().any(|m| m == "fbg-firmware");
-            let mut c = if dir == root { cargo() } else { firmware_cargo() };
-            c.current_dir(&dir).arg(format!("+{tc}")).args(["check", "--locked", "--target", &host_triple]);
-            c.arg("--target-dir").arg(dir.join("target").join(format!("msrv-{version}")));
-            for m in members.iter().filter(|m| m.as_str() != "fbg-firmware") {
-                c.args(["-p", m]);
+            // The firmware image needs the thumb target of that toolchain: not assumed.
+            let packages: Vec<&String> = members.iter().filter(|m| m.as_str() != "fbg-firmware").collect();
+            if packages.len() < members.len() {
+                eprintln!("xtask: MSRV build of the firmware image skipped (the thumb target of {tc} is not assumed)");
             }
-            if members.iter().all(|m| m == "fbg-firmware") {
+            if packages.is_empty() {
                 continue;
             }
-            run(c.env("RUSTUP_AUTO_INSTALL", "0").env_remove("RUSTC").env_remove("RUSTDOC"))?;
-            if firmware_image {
-                eprintln!("xtask: MSRV build of the firmware image skipped (thumb target of {tc} not assumed)");
+            // Libraries and binaries only (dev-dependencies do not bind users' toolchains), for
+            // the host, in a target directory of its own; through rustup, since `cargo()` is
+            // the current toolchain's cargo.
+            let mut c = Command::new("rustup");
+            c.current_dir(&dir).args(["run", &tc, "cargo", "check", "--locked", "--target", &host_triple]);
+            c.arg("--target-dir").arg(dir.join("target").join(format!("msrv-{version}")));
+            for p in packages {
+                c.args(["-p", p]);
             }
+            for var in ["CARGO", "RUSTC", "RUSTDOC", "RUSTUP_TOOLCHAIN", "CARGO_TARGET_DIR"] {
+                c.env_remove(var);
+            }
+            run(c.env("RUSTUP_AUTO_INSTALL", "0"))?;
         }
     }
     Ok(())
