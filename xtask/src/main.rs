@@ -8,7 +8,7 @@
 //!
 //! The modules follow the data: [`cmd`] and [`targets`] (commands, paths, constants) →
 //! [`fixtures`] (made by the trainer) → [`signing`] → [`firmware`] (images, emulator, link
-//! session) → [`qemu`] (the tests) and [`device_bench`] → [`bench`] → [`slurm`]; [`lint`] stands
+//! session) → [`qemu`] (the tests) and [`device_bench`] → [`bench`](mod@bench) → [`slurm`]; [`lint`] stands
 //! beside them. A module uses only modules before it.
 
 use std::process::Command;
