@@ -46,12 +46,19 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 use anyhow::{ensure as check, Context, Result};
-use fbg_link::golden::{expected_csv, inputs_bytes, pack_bytes, parse_expected, parse_inputs};
-#[cfg(test)]
-use fbg_shared::layout::paper::N_MEMORY;
-use fbg_shared::{blob, Compensator, Estimate, ModelParams, Sample};
+use fbg_link::golden::{expected_csv, inputs_bytes, pack_bytes};
+use fbg_shared::{ModelParams, Sample};
 pub use fbg_testkit::installation::MAX_K;
 use fbg_testkit::installation::{golden_samples, synthetic_blob};
+
+use crate::cmd::{self, write_atomic};
+use crate::targets::{PRODUCT_K, TARGET_BLOB};
+
+mod device;
+mod host;
+
+pub use device::{ensure_device, BenchFixture, DeviceFixtures};
+pub use host::{decode, host_compensator, memory_terms, read_expected, read_inputs, reference, reference_scale};
 
 /// Seed of the simulated dataset (the paper preset).
 pub const SEED: u64 = 7;
@@ -190,12 +197,17 @@ pub fn dir(root: &Path) -> PathBuf {
     root.join("target").join("fixtures")
 }
 
+/// Every golden set as the golden image embeds them ([`Fixtures::golden_pack`]).
+pub fn golden_pack(root: &Path) -> PathBuf {
+    dir(root).join("golden_pack.bin")
+}
+
 /// Build the trainer (release) and return its binary.
 pub fn trainer(root: &Path) -> Result<PathBuf> {
-    crate::run(crate::cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))
+    cmd::run(cmd::cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))
         .context("building fbg-trainer (it makes the firmware's fixtures)")?;
     let _ = root;
-    let bin = crate::target_dir().join("release").join(format!("fbg-trainer{}", std::env::consts::EXE_SUFFIX));
+    let bin = cmd::target_dir().join("release").join(format!("fbg-trainer{}", std::env::consts::EXE_SUFFIX));
     check!(bin.exists(), "{} is missing after the build", bin.display());
     Ok(bin)
 }
@@ -208,7 +220,7 @@ pub fn run_trainer(bin: &Path, args: &[&str]) -> Result<()> {
     if args.first().is_some_and(|c| *c == "simulate" || *c == "train") {
         cmd.arg("--json");
     }
-    crate::run(&mut cmd)
+    cmd::run(&mut cmd)
 }
 
 /// What the fixtures were made with: the trainer binary's size and time, and this file's
@@ -261,7 +273,7 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
                 }
             })
             .collect(),
-        golden_pack: d.join("golden_pack.bin"),
+        golden_pack: golden_pack(root),
     };
     let stamp = d.join("stamp-main.txt");
     let want = stamp_of(&bin)?;
@@ -285,7 +297,7 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
     if current(&stamp, &want, &files) {
         return Ok(fx);
     }
-    crate::step("fixtures: simulate, train and export golden vectors with fbg-trainer");
+    cmd::step("fixtures: simulate, train and export golden vectors with fbg-trainer");
     let _ = fs::remove_file(&stamp);
     let paper = TrainedSet {
         name: "paper",
@@ -354,12 +366,12 @@ fn make_trained(bin: &Path, set: &TrainedSet, n: usize, with_preset: bool) -> Re
     let model = fs::read(&set.model).with_context(|| format!("reading {}", set.model.display()))?;
     let params = decode(&model).with_context(|| what.clone())?;
     check!(
-        params.centres.len() <= crate::qemu::PRODUCT_K && model.len() <= crate::device_bench::TARGET_BLOB as usize,
+        params.centres.len() <= PRODUCT_K && model.len() <= TARGET_BLOB as usize,
         "{what}: the trainer's Model-H has {} centres and {} B; the product holds {} centres and a {} B blob",
         params.centres.len(),
         model.len(),
-        crate::qemu::PRODUCT_K,
-        crate::device_bench::TARGET_BLOB
+        PRODUCT_K,
+        TARGET_BLOB
     );
 
     // The device run: the trainer's samples, then the edge cases, streamed in one go.
@@ -431,352 +443,5 @@ pub fn edge_samples(p: &ModelParams<f32, MAX_K>, base: &[Sample<f32>]) -> Vec<Sa
     out
 }
 
-/// Extra fixtures of the device tests and the bench.
-#[derive(Clone, Debug)]
-pub struct DeviceFixtures {
-    /// A second valid model (the trainer's with the paper feature set) for the update test.
-    pub update_model: PathBuf,
-    /// A valid model with more centres than a K = 32 build holds (synthetic K = 64).
-    pub k64_model: PathBuf,
-    /// Bench models and inputs, in the order the bench images run them.
-    pub bench: Vec<BenchFixture>,
-    /// The bench packs per build capacity (32: every model with up to 32 centres; 64).
-    pub bench_packs: Vec<(usize, PathBuf)>,
-}
-
-/// The model and samples of one bench row.
-#[derive(Clone, Debug)]
-pub struct BenchFixture {
-    /// Short name (JSON key and table row).
-    pub name: &'static str,
-    /// Centres of the model.
-    pub k: usize,
-    /// Whether the model has memory terms (and how many slots are in use).
-    pub memory_terms: usize,
-    /// Capacity of the bench image that runs it.
-    pub capacity: usize,
-    /// Model blob (its samples, at most 64 used, are in the bench pack).
-    pub model: PathBuf,
-    /// Where the model comes from.
-    pub source: &'static str,
-}
-
-/// Memory slots in use in a blob.
-pub fn memory_terms(blob_bytes: &[u8]) -> Result<usize> {
-    let p = decode(blob_bytes)?;
-    Ok((0..p.dims.memory_len()).filter(|&k| p.memory.term_active(&p.dims, k)).count())
-}
-
-/// Make (or reuse) the device-test and bench fixtures.
-pub fn ensure_device(root: &Path) -> Result<DeviceFixtures> {
-    let fx = ensure(root)?;
-    let d = dir(root);
-    let update_model = d.join("update").join("model.fbgm");
-    let k64_model = d.join("bench_k64.fbgm");
-    let trainer_inputs = d.join("bench_inputs.bin");
-    let synthetic_inputs = d.join("bench_inputs_synthetic.bin");
-    let syn = |k: usize, mem: bool| d.join(format!("bench_synthetic_k{k}{}.fbgm", if mem { "_memory" } else { "" }));
-    // (name, K, memory, capacity, model, inputs, source)
-    let mut rows: Vec<(&'static str, usize, bool, usize, PathBuf, PathBuf, &'static str)> = vec![
-        (
-            "default",
-            0,
-            false,
-            32,
-            fx.model.clone(),
-            trainer_inputs.clone(),
-            "fbg-trainer train (paper preset, seed 7): the product's default model",
-        ),
-        (
-            "memory_k0",
-            0,
-            true,
-            32,
-            syn(0, true),
-            synthetic_inputs.clone(),
-            "synthetic (fbg_testkit::installation), the full memory bank (32 terms), no centres",
-        ),
-        (
-            "memory_k16",
-            16,
-            true,
-            32,
-            syn(16, true),
-            synthetic_inputs.clone(),
-            "synthetic (fbg_testkit::installation), the full memory bank (32 terms)",
-        ),
-        (
-            "memory_k32",
-            32,
-            true,
-            32,
-            syn(32, true),
-            synthetic_inputs.clone(),
-            "synthetic (fbg_testkit::installation), the full memory bank (32 terms)",
-        ),
-        (
-            "plain_k16",
-            16,
-            false,
-            32,
-            syn(16, false),
-            synthetic_inputs.clone(),
-            "synthetic (fbg_testkit::installation), no memory terms",
-        ),
-        (
-            "plain_k32",
-            32,
-            false,
-            32,
-            syn(32, false),
-            synthetic_inputs.clone(),
-            "synthetic (fbg_testkit::installation), no memory terms",
-        ),
-        (
-            "plain_k64",
-            64,
-            false,
-            64,
-            k64_model.clone(),
-            synthetic_inputs.clone(),
-            "synthetic (fbg_testkit::installation), no memory terms; the trainer's grid stops at 32 centres",
-        ),
-        (
-            "memory_k64",
-            64,
-            true,
-            64,
-            syn(64, true),
-            synthetic_inputs.clone(),
-            "synthetic (fbg_testkit::installation), the full memory bank (32 terms)",
-        ),
-        (
-            "dims_2x2",
-            DIMS_MODELS[0].4,
-            true,
-            32,
-            fx.dims_sets[0].0.clone(),
-            d.join("bench_inputs_dims_2x2.bin"),
-            "random 2 gratings → 2 measurands, no ambient, every memory slot of its dims (18 terms) (fbg_testkit::models)",
-        ),
-        (
-            "dims_8x4",
-            DIMS_MODELS[1].4,
-            true,
-            32,
-            fx.dims_sets[1].0.clone(),
-            d.join("bench_inputs_dims_8x4.bin"),
-            "random 8 gratings + ambient → 4 measurands, every memory slot of its dims (77 terms) (fbg_testkit::models)",
-        ),
-    ];
-    // The trained models of the other presets (their K is read from the blob below).
-    for (t, set) in TRAINED_PRESETS.iter().zip(&fx.trained_sets) {
-        rows.push((t.name, 0, true, 32, set.model.clone(), d.join(format!("bench_inputs_{}.bin", t.name)), t.source));
-    }
-    let bench_packs = vec![(32, d.join("bench_pack_k32.bin")), (64, d.join("bench_pack_k64.bin"))];
-    let stamp = d.join("stamp-device.txt");
-    let want = stamp_of(&fx.trainer)?;
-    let mut files: Vec<&Path> = vec![&update_model, &k64_model, &trainer_inputs, &synthetic_inputs];
-    files.extend(rows.iter().map(|r| r.4.as_path()));
-    files.extend(bench_packs.iter().map(|(_, p)| p.as_path()));
-    if !current(&stamp, &want, &files) {
-        let _ = fs::remove_file(&stamp);
-        fs::create_dir_all(d.join("update"))?;
-        run_trainer(&fx.trainer, &["train", "--data", p(&fx.data), "--features", "paper", "--out", p(&update_model)])?;
-        // In-envelope hold-out samples of the trainer's data (the golden ones carry no flag).
-        let samples: Vec<Sample<f32>> =
-            read_inputs(&d.join("golden_inputs.bin"))?.into_iter().take(BENCH_SAMPLES).collect();
-        write_atomic(&trainer_inputs, &inputs_bytes(&samples))?;
-        let synthetic_row = |name: &str| name.starts_with("memory_") || name.starts_with("plain_");
-        for (_, k, mem, _, path, _, _) in rows.iter().filter(|r| synthetic_row(r.0)) {
-            write_atomic(path, &synthetic_blob(*k, 100 + *k as u64, *mem)?)?;
-        }
-        // The random models of other dims (written by `ensure` with their golden sets): their
-        // first 48 samples, in the envelope, on a regular 60 s clock.
-        for (i, r) in rows.iter().filter(|r| r.0.starts_with("dims_")).enumerate() {
-            let (_, samples) = dims_model(i, BENCH_SAMPLES, false)?;
-            write_atomic(&r.5, &inputs_bytes(&samples))?;
-        }
-        // The trained models of the other presets: their first 48 hold-out samples, as for the
-        // default model.
-        for (t, set) in TRAINED_PRESETS.iter().zip(&fx.trained_sets) {
-            let dir = set.meta.parent().context("a trained set without a directory")?;
-            let samples: Vec<Sample<f32>> =
-                read_inputs(&dir.join("golden_inputs.bin"))?.into_iter().take(BENCH_SAMPLES).collect();
-            let path = rows.iter().find(|r| r.0 == t.name).map(|r| &r.5).context("no bench row of a trained set")?;
-            write_atomic(path, &inputs_bytes(&samples))?;
-        }
-        // In-envelope, unflagged samples of the synthetic installation on a regular 60 s clock
-        // (the bench image continues the clock across its passes over them).
-        let synthetic = fbg_testkit::installation::samples(BENCH_SAMPLES, 21);
-        write_atomic(&synthetic_inputs, &inputs_bytes(&synthetic))?;
-        for (cap, pack) in &bench_packs {
-            let mut records: Vec<(Vec<u8>, Vec<Sample<f32>>)> = Vec::new();
-            for r in rows.iter().filter(|r| r.3 == *cap) {
-                records.push((fs::read(&r.4)?, read_inputs(&r.5)?));
-            }
-            let refs: Vec<(&[u8], &[Sample<f32>])> =
-                records.iter().map(|(b, s)| (b.as_slice(), s.as_slice())).collect();
-            write_atomic(pack, &pack_bytes(&refs))?;
-        }
-        write_atomic(&stamp, want.as_bytes())?;
-    }
-    let mut bench = Vec::new();
-    for (name, _, _, capacity, model, _, source) in rows {
-        let bytes = fs::read(&model)?;
-        let k = decode(&bytes)?.centres.len();
-        bench.push(BenchFixture { name, k, memory_terms: memory_terms(&bytes)?, capacity, model, source });
-    }
-    Ok(DeviceFixtures { update_model, k64_model, bench, bench_packs })
-}
-
-/// Samples per model in a bench pack: the K = 32 pack (every model with its samples) must fit
-/// the bench image beside the firmware in the 256 KiB of flash, and 48 samples (44 B each)
-/// leave room for format 4's field context in each blob.
-pub const BENCH_SAMPLES: usize = 48;
-
-/// Write `bytes` to `path` through a temporary file and a rename (no half-written output).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = path.with_extension(format!("{}.tmp", path.extension().and_then(|e| e.to_str()).unwrap_or("")));
-    fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
-    fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
-}
-
-/// Decode a blob (any K up to [`MAX_K`]) for the host reference.
-pub fn decode(blob_bytes: &[u8]) -> Result<ModelParams<f32, MAX_K>> {
-    blob::decode::<MAX_K>(blob_bytes).map_err(|e| anyhow::anyhow!("model blob: {e}"))
-}
-
-/// A fresh f64 host compensator of a blob.
-pub fn host_compensator(blob_bytes: &[u8]) -> Result<Compensator<f64, MAX_K>> {
-    Compensator::new(&decode(blob_bytes)?).map_err(|e| anyhow::anyhow!("{e}"))
-}
-
-/// The host f64 answers for `samples` on the model in `blob_bytes`.
-pub fn reference(blob_bytes: &[u8], samples: &[Sample<f32>]) -> Result<Vec<Estimate<f64>>> {
-    let mut c = host_compensator(blob_bytes)?;
-    Ok(samples.iter().map(|s| c.step(&s.cast())).collect())
-}
-
-/// Per-channel comparison scale when no hold-out RMSE is known: the square root of the blob's
-/// residual variance (one per output of the model).
-pub fn reference_scale(blob_bytes: &[u8]) -> Result<Vec<f64>> {
-    let p = decode(blob_bytes)?;
-    Ok(p.resid_var.iter().take(p.dims.n_outputs()).map(|&v| (v as f64).sqrt()).collect())
-}
-
-/// Read golden inputs (`fbg_link::golden`).
-pub fn read_inputs(path: &Path) -> Result<Vec<Sample<f32>>> {
-    let bytes = fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    parse_inputs(&bytes).with_context(|| format!("{}", path.display()))
-}
-
-/// Read an expected-answers CSV (`fbg_link::golden`; the trainer's or ours).
-pub fn read_expected(path: &Path) -> Result<Vec<Estimate<f64>>> {
-    let text = fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    parse_expected(&text).with_context(|| format!("{}", path.display()))
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use fbg_shared::Flags;
-
-    #[test]
-    fn synthetic_models_are_valid_deterministic_and_sized() {
-        for k in [0, 16, 32, 64] {
-            for mem in [false, true] {
-                let a = synthetic_blob(k, 7, mem).unwrap();
-                assert_eq!(a, synthetic_blob(k, 7, mem).unwrap());
-                let p = decode(&a).unwrap();
-                assert_eq!(p.centres.len(), k);
-                assert_eq!(p.has_memory(), mem);
-                assert_eq!(memory_terms(&a).unwrap(), if mem { N_MEMORY } else { 0 });
-                assert!(a.len() <= blob::max_len(k));
-                assert!(a.len() <= blob::max_len_for(&fbg_shared::layout::Dims::PAPER, k));
-            }
-        }
-        assert!(synthetic_blob(32, 1, true).unwrap().len() <= 4096, "blob target ≤ 4 KiB at K = 32");
-    }
-
-    #[test]
-    fn golden_samples_exercise_every_flag_and_the_csv_round_trips() {
-        let blob = synthetic_blob(32, 1, true).unwrap();
-        let s = golden_samples(600, 11);
-        let r = reference(&blob, &s).unwrap();
-        let any = |f: Flags| r.iter().filter(|e| e.flags.contains(f)).count();
-        assert_eq!(any(Flags::NON_FINITE), 1);
-        assert!(any(Flags::OUT_OF_ENVELOPE) >= 10);
-        assert!(any(Flags::WEAK_SUPPORT) >= 1);
-        assert!(r.iter().filter(|e| e.flags.is_ok()).count() > 500);
-        let dir = std::env::temp_dir().join(format!("fbg-fixtures-{}", std::process::id()));
-        fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("e.csv");
-        fs::write(&p, expected_csv(&r)).unwrap();
-        let back = read_expected(&p).unwrap();
-        assert_eq!(back.len(), r.len());
-        for (a, b) in back.iter().zip(r.iter()) {
-            let dev = fbg_shared::protocol::DeviceEstimate {
-                seq: 0,
-                values: a.values.map(|v| v as f32),
-                band: a.band95.map(|v| v as f32),
-                outputs: a.outputs,
-                flags: a.flags,
-            };
-            assert!(fbg_link::parity::compare(&dev, b, &[1e-3; 3]).is_ok());
-        }
-        let pi = dir.join("i.bin");
-        fs::write(&pi, inputs_bytes(&s)).unwrap();
-        let si = read_inputs(&pi).unwrap();
-        assert_eq!(format!("{si:?}"), format!("{s:?}"));
-        let _ = fs::remove_dir_all(&dir);
-    }
-
-    #[test]
-    fn edge_samples_flag_every_dims() {
-        use fbg_testkit::models::{dims, full_memory_spec_for, memory_model_dims, random_samples, short_provenance};
-        // One grating with ambient (temperature-1's shape), two without, the paper's, eight.
-        for (g, amb, m) in [(1, true, 1), (2, false, 2), (3, true, 3), (8, true, 4)] {
-            let d = dims(g, amb, m).unwrap();
-            let mut p: ModelParams<f32, MAX_K> = memory_model_dims(
-                d,
-                4,
-                5,
-                fbg_shared::FeatureSet::HysteresisAware,
-                short_provenance(),
-                full_memory_spec_for(&d),
-            );
-            p.hyper.weak_support = 1e-12;
-            let blob = fbg_testkit::models::encode_vec(&p).unwrap();
-            let p = decode(&blob).unwrap();
-            let base: Vec<_> = random_samples(&d, 40, 3).into_iter().take(40).collect();
-            let e = edge_samples(&p, &base);
-            assert_eq!(e.len(), 34);
-            assert!(e.iter().all(|s| usize::from(s.gratings) == g));
-            let r = reference(&blob, &e).unwrap();
-            for (i, a) in r.iter().enumerate().take(14) {
-                let want = if i < 12 { Flags::OUT_OF_ENVELOPE } else { Flags::NON_FINITE };
-                assert!(a.flags.contains(want), "{g} {amb} sample {i}: {:?}", a.flags);
-            }
-        }
-    }
-
-    #[test]
-    fn the_memory_terms_move_the_answers_and_the_clock_is_irregular() {
-        let with = synthetic_blob(32, 1, true).unwrap();
-        let without = synthetic_blob(32, 1, false).unwrap();
-        let s = golden_samples(600, 11);
-        let a = reference(&with, &s).unwrap();
-        let b = reference(&without, &s).unwrap();
-        let moved = a.iter().zip(b.iter()).filter(|(x, y)| x.values[0].is_finite() && x.values != y.values).count();
-        assert!(moved > 500, "{moved}");
-        let dts: Vec<f32> = s.windows(2).map(|w| w[1].t_s - w[0].t_s).collect();
-        for want in [0.0, 23.0, 60.0, 60.5, 131.0, 18000.0] {
-            assert!(dts.contains(&want), "no step of {want} s");
-        }
-        let fm = fbg_testkit::installation::with_full_memory(&without).unwrap();
-        assert_eq!(memory_terms(&fm).unwrap(), N_MEMORY);
-        let packed = pack_bytes(&[(&with, &s[..3])]);
-        assert_eq!(packed.len(), 4 + with.len() + 4 + 3 * fbg_shared::golden::SAMPLE_BYTES);
-    }
-}
+mod tests;

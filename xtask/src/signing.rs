@@ -70,7 +70,7 @@ fn sign(fx: &Fixtures, key: &Path, model: &Path, out: &Path, serial: u64, replac
     }
     let state = key.parent().map(|d| d.join("serial-state")).unwrap_or_else(|| PathBuf::from("serial-state"));
     c.env("FBG_SIGNING_STATE_DIR", state);
-    crate::run(&mut c)
+    crate::cmd::run(&mut c)
 }
 
 /// Make the signed models in `target/qemu/signing/` (anew on every call).
@@ -102,7 +102,7 @@ pub fn ensure(root: &Path, fx: &Fixtures, dfx: &DeviceFixtures) -> Result<Signed
     sign(fx, &key, &default, &s.rollback, 4, Some(5))?;
     sign(fx, &key, &dfx.update_model, &s.later, 9, None)?;
     let stranger_key = dir.join("stranger.key");
-    crate::run(trainer(fx).arg("keygen").arg("--out").arg(&stranger_key))?;
+    crate::cmd::run(trainer(fx).arg("keygen").arg("--out").arg(&stranger_key))?;
     sign(fx, &stranger_key, &dfx.update_model, &s.stranger, 6, None)?;
     for p in [&s.update, &s.old, &s.rollback, &s.new, &s.swap, &s.later, &s.stranger] {
         ensure!(p.exists(), "{} was not written", p.display());

@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, ensure, Context, Result};
 use serde_json::{json, Value};
 
-use crate::{run, step};
+use crate::cmd::{describe, is_root, run, step};
 
 /// Groups in the generated manifest.
 pub const GROUPS: usize = 64;
@@ -62,7 +62,7 @@ fn ensure_packages() -> Result<()> {
         return Ok(());
     }
     ensure!(
-        crate::is_root(),
+        is_root(),
         "slurm-wlm and munge are not installed; run as root (this task starts daemons), or install them with \
          `sudo apt-get install -y slurm-wlm munge`"
     );
@@ -75,9 +75,9 @@ fn ensure_packages() -> Result<()> {
 }
 
 fn output(cmd: &mut Command) -> Result<String> {
-    let o = cmd.output().with_context(|| format!("could not start `{}`", crate::describe(cmd)))?;
+    let o = cmd.output().with_context(|| format!("could not start `{}`", describe(cmd)))?;
     if !o.status.success() {
-        bail!("`{}` failed: {}", crate::describe(cmd), String::from_utf8_lossy(&o.stderr).trim());
+        bail!("`{}` failed: {}", describe(cmd), String::from_utf8_lossy(&o.stderr).trim());
     }
     Ok(String::from_utf8_lossy(&o.stdout).into_owned())
 }
@@ -317,29 +317,7 @@ pub fn run_all(root: &Path) -> Result<()> {
     ensure!(ok && count(&st, "done") == GROUPS, "fleet status after the resubmit: {st}");
 
     step("slurm: every blob equals a single-machine fleet run's");
-    let single = dir.join("single");
-    let _ = fs::remove_dir_all(&single);
-    fs::create_dir_all(&single)?;
-    for k in 0..DATASETS {
-        fs::copy(work.join(format!("d{k}.csv")), single.join(format!("d{k}.csv")))?;
-        let meta = work.join(format!("d{k}.meta.json"));
-        if meta.exists() {
-            fs::copy(&meta, single.join(format!("d{k}.meta.json")))?;
-        }
-    }
-    fs::copy(&manifest, single.join("fleet.toml"))?;
-    let t3 = Instant::now();
-    run(Command::new(&trainer).args(["fleet", "--manifest"]).arg(single.join("fleet.toml")).stderr(Stdio::null()))?;
-    let single_wall = t3.elapsed().as_secs_f64();
-    for g in 0..GROUPS {
-        for name in [format!("sensor-{g:03}.fbgm"), format!("sensor-{g:03}-p.fbgm")] {
-            let a = fs::read(work.join("models").join(&name))?;
-            let b = fs::read(single.join("models").join(&name))?;
-            ensure!(a == b, "{name}: the Slurm shard wrote other bytes than the single-machine run");
-            fbg_shared::blob::decode::<{ crate::qemu::PRODUCT_K }>(&a)
-                .map_err(|e| anyhow::anyhow!("{name} does not decode: {e}"))?;
-        }
-    }
+    let single_wall = single_machine(&trainer, &dir, &work, &manifest)?;
 
     let shards: Vec<Value> = (0..SHARDS)
         .map(|i| {
@@ -366,4 +344,34 @@ pub fn run_all(root: &Path) -> Result<()> {
     eprintln!("{}", serde_json::to_string_pretty(&figures)?);
     eprintln!("xtask: slurm passed; figures in {}", figures_path(root).display());
     Ok(())
+}
+
+/// A single-machine `fleet` run on copies of the records and the manifest (under
+/// `dir/single`); every blob the Slurm shards wrote in `work` must equal its own. Returns its
+/// wall time.
+fn single_machine(trainer: &Path, dir: &Path, work: &Path, manifest: &Path) -> Result<f64> {
+    let single = dir.join("single");
+    let _ = fs::remove_dir_all(&single);
+    fs::create_dir_all(&single)?;
+    for k in 0..DATASETS {
+        fs::copy(work.join(format!("d{k}.csv")), single.join(format!("d{k}.csv")))?;
+        let meta = work.join(format!("d{k}.meta.json"));
+        if meta.exists() {
+            fs::copy(&meta, single.join(format!("d{k}.meta.json")))?;
+        }
+    }
+    fs::copy(manifest, single.join("fleet.toml"))?;
+    let t3 = Instant::now();
+    run(Command::new(trainer).args(["fleet", "--manifest"]).arg(single.join("fleet.toml")).stderr(Stdio::null()))?;
+    let single_wall = t3.elapsed().as_secs_f64();
+    for g in 0..GROUPS {
+        for name in [format!("sensor-{g:03}.fbgm"), format!("sensor-{g:03}-p.fbgm")] {
+            let a = fs::read(work.join("models").join(&name))?;
+            let b = fs::read(single.join("models").join(&name))?;
+            ensure!(a == b, "{name}: the Slurm shard wrote other bytes than the single-machine run");
+            fbg_shared::blob::decode::<{ crate::targets::PRODUCT_K }>(&a)
+                .map_err(|e| anyhow::anyhow!("{name} does not decode: {e}"))?;
+        }
+    }
+    Ok(single_wall)
 }

@@ -7,7 +7,7 @@ use anyhow::Result;
 use super::report::{Inference, InferenceRow};
 use super::runner::{read_json, CriterionEstimates};
 use super::{Opts, STEP_BATCH};
-use crate::{cargo, run};
+use crate::cmd::{cargo, run};
 
 pub fn part(root: &Path, opts: &Opts) -> Result<Inference> {
     let mut args = vec!["bench", "--locked", "-p", "fbg-shared", "--bench", "step"];

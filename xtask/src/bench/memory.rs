@@ -196,7 +196,7 @@ mod tests {
 
     #[test]
     fn peak_rss_is_the_childs_own() {
-        let root = crate::root();
+        let root = crate::cmd::root();
         // A child that touches 64 MiB: its peak, not this process's.
         let (big, _, _) = peak_rss(&root, "/usr/bin/env", &["python3", "-c", "b = bytearray(64 << 20)"]).unwrap();
         let (small, _, _) = peak_rss(&root, "/bin/sh", &["-c", "true"]).unwrap();
@@ -235,9 +235,9 @@ mod tests {
     #[test]
     #[ignore]
     fn memory_part_on_a_million_rows() {
-        let root = crate::root();
+        let root = crate::cmd::root();
         let r = Runner { root: root.clone() };
-        let m = part(&root, &r, &Opts { quick: true, no_device: true }).unwrap();
+        let m = part(&root, &r, &Opts { quick: true, no_device: true, markdown_only: false }).unwrap();
         let mut s = String::new();
         markdown(&mut s, &m);
         eprintln!("{s}");

@@ -18,9 +18,9 @@
 use std::fs;
 use std::path::Path;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 
-use crate::{cargo, run, step};
+use crate::cmd::{cargo, run, step, write_atomic};
 use report::{Device, Report};
 use runner::{strings, Runner};
 
@@ -50,22 +50,17 @@ const TRAINER: &str = "target/release/fbg-trainer";
 const PEER: &str = "bench/sklearn_peer.py";
 const VENV_PY: &str = "target/bench/venv/bin/python";
 
+/// The flags of `cargo xtask bench` (`--markdown-only` excludes the others).
 pub struct Opts {
-    quick: bool,
-    no_device: bool,
+    pub quick: bool,
+    pub no_device: bool,
+    pub markdown_only: bool,
 }
 
 /// `cargo xtask bench`.
-pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
-    if args.iter().any(|a| a == "--markdown-only") {
-        if let Some(a) = args.iter().find(|a| *a != "--markdown-only") {
-            bail!("cargo xtask bench --markdown-only takes no other option (got `{a}`)");
-        }
+pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
+    if opts.markdown_only {
         return markdown_only(root);
-    }
-    let opts = Opts { quick: args.iter().any(|a| a == "--quick"), no_device: args.iter().any(|a| a == "--no-device") };
-    if let Some(a) = args.iter().find(|a| *a != "--quick" && *a != "--no-device") {
-        bail!("cargo xtask bench: unknown option `{a}` (--quick, --no-device, --markdown-only)");
     }
     let r = Runner { root: root.to_path_buf() };
     let data_dir = root.join("target/bench/data");
@@ -74,7 +69,7 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
     let load_start = machine::loadavg();
 
     step("bench: device (QEMU)");
-    let device = device::part(root, &opts);
+    let device = device::part(root, opts);
 
     step("bench: release build of the trainer");
     run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))?;
@@ -90,10 +85,10 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
     let datasets = simulate_datasets(root, &r)?;
 
     step("bench: host inference throughput (criterion)");
-    let inference_host = inference::part(root, &opts)?;
+    let inference_host = inference::part(root, opts)?;
 
     step("bench: host training, ours and the scikit-learn peer");
-    let training = training::part(root, &r, &opts, peer_ok)?;
+    let training = training::part(root, &r, opts, peer_ok)?;
 
     step("bench: accuracy peers and band coverage");
     let accuracy = accuracy::part(root, &r, peer_ok)?;
@@ -102,10 +97,10 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
     let (pace_paper, field) = pace::part(root, &r)?;
 
     step("bench: fleet scaling");
-    let fleet = fleet::part(root, &r, &opts)?;
+    let fleet = fleet::part(root, &r, opts)?;
 
     step("bench: peak memory of train, compensate, evaluate on 1e6 and 1e7 rows");
-    let memory = memory::part(root, &r, &opts)?;
+    let memory = memory::part(root, &r, opts)?;
 
     let load_end = machine::loadavg();
     let report = Report {
@@ -129,8 +124,8 @@ pub fn run_bench(root: &Path, args: &[String]) -> Result<()> {
     };
     // Through a `Value`, whose maps are sorted: the keys come out in alphabetical order.
     let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
-    crate::fixtures::write_atomic(&root.join("BENCHMARKS.json"), json.as_bytes())?;
-    crate::fixtures::write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
+    write_atomic(&root.join("BENCHMARKS.json"), json.as_bytes())?;
+    write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
     eprintln!("bench: wrote BENCHMARKS.md and BENCHMARKS.json in {:.0} s", t0.elapsed().as_secs_f64());
     device.map(|_| ())
 }
@@ -175,8 +170,8 @@ pub fn record_slurm(root: &Path, figures: serde_json::Value) -> Result<()> {
     let mut report: Report = runner::read_json(&root.join("BENCHMARKS.json"))?;
     report.slurm = Some(figures);
     let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
-    crate::fixtures::write_atomic(&root.join("BENCHMARKS.json"), json.as_bytes())?;
-    crate::fixtures::write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
+    write_atomic(&root.join("BENCHMARKS.json"), json.as_bytes())?;
+    write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
     Ok(())
 }
 
@@ -185,7 +180,7 @@ pub fn record_slurm(root: &Path, figures: serde_json::Value) -> Result<()> {
 fn markdown_only(root: &Path) -> Result<()> {
     let path = root.join("BENCHMARKS.json");
     let report: Report = runner::read_json(&path)?;
-    crate::fixtures::write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
+    write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
     eprintln!("bench: wrote BENCHMARKS.md from BENCHMARKS.json");
     Ok(())
 }

@@ -9,9 +9,10 @@ use serde::de::DeserializeOwned;
 use serde::Deserialize;
 use serde_json::Value;
 
-use super::report::{nan, Chosen, Parity, Phase, Rmse};
+use super::report::{Chosen, Parity, Phase, Rmse};
 use super::{PEER, TRAINER, VENV_PY};
-use crate::run;
+use crate::cmd::run;
+use crate::nan;
 
 /// Runs commands from the workspace root; each answer comes with the command line as
 /// BENCHMARKS.md quotes it.

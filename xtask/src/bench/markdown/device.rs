@@ -1,0 +1,68 @@
+//! The device section: instructions per step, the types' sizes, the product image.
+
+use super::*;
+
+pub(super) fn device(s: &mut String, rep: &Report) {
+    out!(s, "## Device (Cortex-M4F under QEMU)\n");
+    let dev = match &rep.device {
+        crate::bench::report::Device::Failed { error } => {
+            out!(s, "**The device bench failed:** {error}\n");
+            return;
+        }
+        crate::bench::report::Device::Measured(d) => d,
+    };
+    out!(
+        s,
+        "{}. Models: the device bench's fixtures at each K (`xtask/src/fixtures.rs`). Lower bound: the arithmetic operations of one f32 `step` counted from the code ({} operations; table in `shared/src/lib.rs`), each at least one instruction.{}\n",
+        dev.record.method,
+        dev.arithmetic_lower_bound.as_ref().map_or("", |b| &b.formula),
+        if dev.reused_existing_results { " **Reused from an earlier run (--no-device).**" } else { "" }
+    );
+    out!(s, "| model | K | memory terms | instructions per step | new Δt every step | arithmetic lower bound | measured / bound | blob | bench image stack |\n|---|---|---|---|---|---|---|---|---|");
+    for st in &dev.record.step {
+        step_row(s, st);
+    }
+    let sz = &dev.record.sizes;
+    out!(
+        s,
+        "\nDevice types (`size_of` on the target, K = {}): memory state `MemoryState<f32>` {} B, stream state (latches + memory) {} B, `MemoryBank<f32>` {} B, `Compensator<f32, {}>` {} B, centre-less parameter slot `ModelParams<f32, 0>` (on the stack during a load; the centres are read from the blob one at a time) {} B, longest staged update {} B (staged in a flash slot outside the image, not in RAM).",
+        sz.k,
+        sz.memory_state_bytes,
+        sz.stream_state_bytes,
+        sz.memory_bank_bytes,
+        sz.k,
+        sz.compensator_bytes,
+        sz.model_params_bytes,
+        sz.staging_bytes
+    );
+    let pr = &dev.record.product;
+    out!(
+        s,
+        "\nProduct image (K = {}): flash {} B, static RAM {} B, stack peak {} B at boot, {} B while serving, {} B through a model update; default blob {} B.\n\n    {}\n",
+        pr.k,
+        pr.flash_bytes,
+        pr.static_ram_bytes,
+        pr.stack_peak_boot_bytes,
+        pr.stack_peak_serving_bytes,
+        pr.stack_peak_update_bytes,
+        pr.default_blob_bytes,
+        dev.command
+    );
+}
+
+pub(super) fn step_row(s: &mut String, st: &StepRow) {
+    let (i, lb) = (st.instructions_per_step, st.lower_bound_ops as f64);
+    out!(
+        s,
+        "| {} | {} | {} | {} | {} | {} | {:.2} | {} B | {} B |",
+        st.name,
+        st.k,
+        st.memory_terms,
+        f(i, 0),
+        f(st.instructions_per_step_new_dt_every_step, 0),
+        f(lb, 0),
+        i / lb,
+        st.blob_bytes,
+        st.stack_peak_bytes
+    );
+}

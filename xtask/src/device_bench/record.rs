@@ -1,0 +1,230 @@
+//! `target/bench/device.json`, typed: what the device bench writes and what `cargo xtask
+//! bench` reads back into BENCHMARKS.json (`bench::report::DeviceResults` flattens it).
+//!
+//! The key names are the file's contract: a field is named as its key. Figures are rounded as
+//! the file always carried them ([`rounded`]: instructions to 0.1, instructions per SysTick
+//! tick to 1e-4, the signature check to a whole instruction and the step target as an integer).
+
+use serde::{Deserialize, Serialize};
+
+use super::{SizeReport, StepBench, TypeSizes, VerifyBench};
+use crate::nan;
+use crate::targets::{PRODUCT_K, TARGET_BLOB, TARGET_FLASH, TARGET_INSNS_K32, TARGET_RAM, TARGET_RAM_LOAD};
+
+/// How the step figures were measured.
+const METHOD: &str = "qemu-system-arm mps2-an386 -icount shift=0, SysTick deltas, (step - empty loop) difference between n=200 and n=800 steps; mode regular: the samples on their 60 s clock, jitter: a new dt every step";
+
+/// What the signature check times.
+const VERIFY_WHAT: &str = "fbg_firmware_app::authenticate: signature trailer, trusted-key lookup, Ed25519 verification (salty, Cortex-M4 assembly), serial check; once per model update";
+
+/// The whole file.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct DeviceRecord {
+    pub method: String,
+    pub step: Vec<StepRow>,
+    pub sizes: Sizes,
+    pub signature_verification: SignatureVerification,
+    pub product: Product,
+    pub targets: Targets,
+}
+
+/// One bench model under QEMU -icount.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StepRow {
+    pub name: String,
+    pub k: usize,
+    pub memory_terms: usize,
+    pub capacity: usize,
+    /// Where the model comes from.
+    pub model: String,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub instructions_per_step: f64,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub instructions_per_step_new_dt_every_step: f64,
+    /// The estimate of each run on its own ((step − empty) / n).
+    pub per_run: Vec<PerRun>,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub instructions_per_systick_tick: f64,
+    /// 0 under QEMU, which does not model cycles.
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub dwt_cycles_per_step: f64,
+    pub stack_peak_bytes: u32,
+    pub blob_bytes: u64,
+    pub lower_bound_ops: usize,
+}
+
+/// One run of `n` steps.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PerRun {
+    pub n: u32,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub instructions_per_step: f64,
+}
+
+/// `size_of` of the device types on the target \[B\].
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Sizes {
+    pub k: usize,
+    pub memory_state_bytes: u64,
+    pub stream_state_bytes: u64,
+    pub memory_bank_bytes: u64,
+    pub compensator_bytes: u64,
+    pub model_params_bytes: u64,
+    pub frame_reader_bytes: u64,
+    pub staging_bytes: u64,
+}
+
+/// One signature check of a model update.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SignatureVerification {
+    pub what: String,
+    pub signed_model_bytes: u64,
+    pub instructions: u64,
+    pub stack_peak_bytes: u32,
+}
+
+/// The product image's footprint \[B\].
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Product {
+    pub k: usize,
+    pub default_model_centres: usize,
+    pub default_model_memory_terms: usize,
+    pub flash_bytes: u64,
+    pub static_ram_bytes: u64,
+    pub stack_peak_boot_bytes: u64,
+    pub stack_peak_serving_bytes: u64,
+    pub stack_peak_update_bytes: u64,
+    /// Static RAM + the larger of the boot and update stack peaks.
+    pub static_ram_plus_stack_bytes: u64,
+    pub static_ram_plus_serving_stack_bytes: u64,
+    pub default_blob_bytes: u64,
+}
+
+/// The targets of DESIGN §8 against the measurements.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Targets {
+    pub instructions_per_step_default: StepTarget,
+    pub flash_bytes: Target,
+    pub static_ram_plus_stack_bytes: RamTarget,
+    pub blob_bytes: Target,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StepTarget {
+    pub target: u64,
+    pub k: usize,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub measured: f64,
+    pub met: bool,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Target {
+    pub target: u64,
+    pub measured: u64,
+    pub met: bool,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RamTarget {
+    pub target_serving: u64,
+    pub serving_only: u64,
+    pub serving_only_met: bool,
+    pub target_load_peak: u64,
+    pub measured: u64,
+    pub met: bool,
+}
+
+/// `x` rounded to `digits` decimals exactly as `format!("{x:.digits$}")` prints it (NaN stays
+/// NaN).
+pub fn rounded(x: f64, digits: usize) -> f64 {
+    format!("{x:.digits$}").parse().unwrap_or(f64::NAN)
+}
+
+impl DeviceRecord {
+    /// The file of one device bench run.
+    pub fn new(steps: &[StepBench], t: &TypeSizes, size: &SizeReport, v: &VerifyBench) -> Self {
+        let f = &size.footprint;
+        let total = f.ram_static + size.stack_update.max(size.stack_boot) as u64;
+        let serving = f.ram_static + size.stack_serving as u64;
+        let default = steps.iter().find(|b| b.name == "default");
+        let dk = default.map(|b| b.k).unwrap_or(0);
+        let dins = default.map(|b| b.insns_per_step).unwrap_or(f64::NAN);
+        let step = steps
+            .iter()
+            .map(|b| StepRow {
+                name: b.name.to_string(),
+                k: b.k,
+                memory_terms: b.memory_terms,
+                capacity: b.capacity,
+                model: b.model_source.to_string(),
+                instructions_per_step: rounded(b.insns_per_step, 1),
+                instructions_per_step_new_dt_every_step: rounded(b.insns_per_step_jitter, 1),
+                per_run: b.per_run.iter().map(|&(n, v)| PerRun { n, instructions_per_step: rounded(v, 1) }).collect(),
+                instructions_per_systick_tick: rounded(b.insns_per_tick, 4),
+                dwt_cycles_per_step: rounded(b.cycles_per_step, 1),
+                stack_peak_bytes: b.stack_peak,
+                blob_bytes: b.blob_bytes,
+                lower_bound_ops: b.lower_bound_ops,
+            })
+            .collect();
+        DeviceRecord {
+            method: METHOD.to_string(),
+            step,
+            sizes: Sizes {
+                k: t.k,
+                memory_state_bytes: t.memory_state,
+                stream_state_bytes: t.stream_state,
+                memory_bank_bytes: t.memory_bank,
+                compensator_bytes: t.compensator,
+                model_params_bytes: t.model_params,
+                frame_reader_bytes: t.reader,
+                staging_bytes: t.staging,
+            },
+            signature_verification: SignatureVerification {
+                what: VERIFY_WHAT.to_string(),
+                signed_model_bytes: v.bytes,
+                instructions: rounded(v.instructions, 0) as u64,
+                stack_peak_bytes: v.stack_peak,
+            },
+            product: Product {
+                k: PRODUCT_K,
+                default_model_centres: dk,
+                default_model_memory_terms: default.map(|b| b.memory_terms).unwrap_or(0),
+                flash_bytes: f.flash,
+                static_ram_bytes: f.ram_static,
+                stack_peak_boot_bytes: size.stack_boot.into(),
+                stack_peak_serving_bytes: size.stack_serving.into(),
+                stack_peak_update_bytes: size.stack_update.into(),
+                static_ram_plus_stack_bytes: total,
+                static_ram_plus_serving_stack_bytes: serving,
+                default_blob_bytes: size.blob_bytes,
+            },
+            targets: Targets {
+                instructions_per_step_default: StepTarget {
+                    target: TARGET_INSNS_K32 as u64,
+                    k: dk,
+                    measured: rounded(dins, 1),
+                    met: dins <= TARGET_INSNS_K32,
+                },
+                flash_bytes: Target { target: TARGET_FLASH, measured: f.flash, met: f.flash <= TARGET_FLASH },
+                static_ram_plus_stack_bytes: RamTarget {
+                    target_serving: TARGET_RAM,
+                    serving_only: serving,
+                    serving_only_met: serving <= TARGET_RAM,
+                    target_load_peak: TARGET_RAM_LOAD,
+                    measured: total,
+                    met: total <= TARGET_RAM_LOAD,
+                },
+                blob_bytes: Target {
+                    target: TARGET_BLOB,
+                    measured: size.blob_bytes,
+                    met: size.blob_bytes <= TARGET_BLOB,
+                },
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,21 @@
+//! The constants every task shares: the device's target and capacity, and the targets of
+//! DESIGN §8 the size and bench tasks measure against.
+
+/// The firmware's target triple (the Cortex-M4F of the interrogator's co-processor).
+pub const THUMB: &str = "thumbv7em-none-eabihf";
+
+/// The product's centre capacity.
+pub const PRODUCT_K: usize = 32;
+
+/// Instructions per step of the default model (with its memory bank).
+pub const TARGET_INSNS_K32: f64 = 2500.0;
+/// Flash target in bytes (DESIGN §8: 32 KiB, ≤ 48 KiB once the signature verifier is in; it
+/// is).
+pub const TARGET_FLASH: u64 = 48 * 1024;
+/// Static RAM + stack target while serving, in bytes.
+pub const TARGET_RAM: u64 = 8 * 1024;
+/// Static RAM + stack target at the peak of a model load (boot, update: where the signature
+/// verification runs), in bytes (DESIGN §8: ≤ 12 KiB at the verification peak).
+pub const TARGET_RAM_LOAD: u64 = 12 * 1024;
+/// Blob size target in bytes (K = 32).
+pub const TARGET_BLOB: u64 = 4 * 1024;
