@@ -299,7 +299,7 @@ pub fn run(
     let bits =
         [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::LEAD_UNKNOWN, Flags::IMPLAUSIBLE];
     let columns = output_columns(&params);
-    let bar = fit::select::progress_bar(progress, rows.file_len(), "compensate");
+    let bar = crate::progress::bar(progress, rows.file_len(), "compensate");
     // A data error met while writing: the write is abandoned (nothing renamed into place).
     let mut failed: Option<TrainerError> = None;
     let mut n_rows = 0;

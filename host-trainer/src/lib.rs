@@ -4,7 +4,7 @@
 //! The modules follow the data, in layers: a module uses only modules of earlier layers
 //! (`tests/layout.rs` checks it), so there is no import cycle:
 //!
-//! 1. `error`, `rng`, `stats`, `warning`: used by all;
+//! 1. `error`, `progress`, `rng`, `stats`, `warning`: used by all;
 //! 2. `data`: the dataset and its CSV, the import of interrogator exports, safe output files;
 //! 3. `sim` (scenarios, the simulator, its `.meta.json` sidecar) and `fit` (Model-P and
 //!    Model-H, the `--features` choice, field recalibration, the sensitivities);
@@ -19,6 +19,7 @@
 
 // Foundations.
 pub mod error;
+pub mod progress;
 pub mod rng;
 pub mod stats;
 pub mod warning;

@@ -478,60 +478,6 @@ pub fn check(bytes: &[u8], public: Option<&[u8; PUBLIC_KEY_LEN]>) -> SignatureCh
     }
 }
 
-/// `--sign KEY [--serial N] [--allow-rollback]` of `train`, `recalibrate` and `fleet`.
-#[derive(clap::Args, Clone, Debug, Default, PartialEq, Eq)]
-pub struct SignArgs {
-    /// Sign the written blob(s) with this private key (from `fbg-trainer keygen`): a signature
-    /// trailer with the key id and a serial follows the blob's CRC; devices accept signed
-    /// models only.
-    #[arg(long, value_name = "KEY")]
-    pub sign: Option<PathBuf>,
-    /// Serial of the signature (default: the next serial of the key id, kept in its ledger in
-    /// the signing state directory).
-    #[arg(long, requires = "sign")]
-    pub serial: Option<u64>,
-    /// Sign a rollback: a device built to accept rollbacks accepts this model over the one
-    /// serial `--replaces` names (only while that serial runs), although its `--serial` is
-    /// lower.
-    #[arg(long, requires_all = ["sign", "serial", "replaces"])]
-    pub allow_rollback: bool,
-    /// The serial a rollback may replace (with `--allow-rollback`; above `--serial`).
-    #[arg(long, value_name = "N", requires = "allow_rollback")]
-    pub replaces: Option<u64>,
-    /// The signing state directory holding the serial ledger per key id (default:
-    /// `$FBG_SIGNING_STATE_DIR`, else `$XDG_STATE_HOME/fbg-trainer/signing`, else
-    /// `~/.local/state/fbg-trainer/signing`).
-    #[arg(long, value_name = "DIR", requires = "sign")]
-    pub serial_state: Option<PathBuf>,
-}
-
-impl SignArgs {
-    /// The signing options, when `--sign` was given.
-    pub fn options(&self) -> Option<SignOptions> {
-        self.sign.as_ref().map(|key| SignOptions {
-            key: key.clone(),
-            serial: self.serial,
-            allow_rollback: self.allow_rollback,
-            replaces: self.replaces,
-            state_dir: self.serial_state.clone(),
-        })
-    }
-
-    /// Load the signer, when `--sign` was given (a private key readable by others is warned
-    /// about on stderr).
-    pub fn signer(&self) -> Result<Option<BlobSigner>, TrainerError> {
-        let Some(opts) = self.options() else { return Ok(None) };
-        let s = BlobSigner::load(&opts)?;
-        if s.too_open {
-            eprintln!(
-                "warning: {} can be read by other users; a lab key should be private (chmod 600)",
-                s.path().display()
-            );
-        }
-        Ok(Some(s))
-    }
-}
-
 /// Encode-and-sign helper: the bytes to write for `blob`, signed when `signer` is given.
 pub fn maybe_sign(
     blob: Vec<u8>,

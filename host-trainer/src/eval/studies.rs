@@ -458,9 +458,8 @@ pub fn evaluate_models(
         + usize::from(with_meta && studies.drift_sweep)
         + usize::from(with_meta && studies.error_budget)
         + usize::from(studies.parity);
-    let bar =
-        fit::select::progress_bar(progress, steps as u64, "evaluate").with_finish(indicatif::ProgressFinish::AndClear);
-    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    let bar = crate::progress::bar(progress, steps as u64, "evaluate");
+    bar.steady_tick(std::time::Duration::from_millis(200));
     bar.set_message("hold-out (Table 2)");
     let t = Instant::now();
     let oracle = meta.map(|m| m.oracle_floor_for(&Measurand::of_dims(&h.dims)));
