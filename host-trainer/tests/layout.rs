@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 /// The layers, first to last; modules in one layer do not use each other.
 const LAYERS: &[&[&str]] = &[
-    &["error", "rng", "stats", "warning"],
+    &["error", "progress", "rng", "stats", "warning"],
     &["data"],
     &["sim", "fit"],
     &["eval"],
