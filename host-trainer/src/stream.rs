@@ -223,7 +223,9 @@ fn connect(addr: &str, timeout: Duration) -> Result<TcpStream, TrainerError> {
         }
         if Instant::now() >= deadline {
             let e = last.map(|e| e.to_string()).unwrap_or_else(|| "no address".into());
-            return Err(TrainerError::device(format!("cannot connect to the device at {addr} within {timeout:?}: {e}")));
+            return Err(TrainerError::device(format!(
+                "cannot connect to the device at {addr} within {timeout:?}: {e}"
+            )));
         }
         std::thread::sleep(Duration::from_millis(100));
     }
@@ -350,10 +352,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport, TrainerError> {
     report.max_diff_over_rmse = (0..m).map(|c| report.max_abs_diff[c] / holdout_rmse[c]).collect();
     report.device_status = Some(link.status().map_err(|e| link_err("status", e))?);
     if link.malformed_from_device() != 0 {
-        return Err(TrainerError::device(format!(
-            "the device sent {} malformed frames",
-            link.malformed_from_device()
-        )));
+        return Err(TrainerError::device(format!("the device sent {} malformed frames", link.malformed_from_device())));
     }
     Ok(report)
 }

@@ -31,7 +31,8 @@ fn uses(code: &str, krate: &str) -> bool {
         let rest = code[k + krate.len()..].trim_start();
         let word_ends = bytes.get(k + krate.len()).is_none_or(|c| !(c.is_ascii_alphanumeric() || *c == b'_'));
         let declared = code[..k].trim_end().ends_with("use") || code[..k].trim_end().ends_with("extern crate");
-        word_ends && (rest.starts_with("::") || rest.starts_with('!') || (declared && rest.starts_with([';', ' ', '{'])))
+        word_ends
+            && (rest.starts_with("::") || rest.starts_with('!') || (declared && rest.starts_with([';', ' ', '{'])))
     })
 }
 

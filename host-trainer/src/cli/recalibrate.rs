@@ -296,7 +296,10 @@ impl RecalibrateArgs {
                 "signed with key {}: serial {}{}",
                 s.key_id,
                 s.serial,
-                o.base_signature.as_ref().map(|b| format!(" (Model-P baseline: serial {})", b.serial)).unwrap_or_default()
+                o.base_signature
+                    .as_ref()
+                    .map(|b| format!(" (Model-P baseline: serial {})", b.serial))
+                    .unwrap_or_default()
             );
         }
     }

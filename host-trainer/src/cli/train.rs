@@ -139,8 +139,11 @@ impl TrainArgs {
         );
         let outs = Measurand::of_dims(&tr.model_h.dims);
         let dg = |m: &Measurand| if m.kind == Kind::Temperature { 3 } else { 2 };
-        let with_units: Vec<String> =
-            outs.iter().zip(&s.cv_rmse_p).map(|(m, v)| format!("{} {:.*} {}", m.short_name(), dg(m), v, m.unit())).collect();
+        let with_units: Vec<String> = outs
+            .iter()
+            .zip(&s.cv_rmse_p)
+            .map(|(m, v)| format!("{} {:.*} {}", m.short_name(), dg(m), v, m.unit()))
+            .collect();
         let bare: Vec<String> =
             outs.iter().zip(&s.cv_rmse_h).map(|(m, v)| format!("{} {:.*}", m.short_name(), dg(m), v)).collect();
         eprintln!("CV RMSE Model-P: {}; Model-H: {}", with_units.join(", "), bare.join(", "));

@@ -483,31 +483,7 @@ pub fn evaluate_models(
     let abl = if studies.ablation {
         let t = Instant::now();
         // The given models are the baseline and default rows; only the variants retrain.
-        let trained = Trained {
-            model_p: p.clone(),
-            model_h: h.clone(),
-            core: fit::PolyCore::of(p),
-            selection: fit::Selection {
-                chosen,
-                memory: fit::memory_core::MemoryChoice::none(),
-                memory_rows: vec![],
-                rows: vec![],
-                cv_rmse_p: vec![f64::NAN; n_out],
-                cv_rmse_h: vec![f64::NAN; n_out],
-                var_model_p: Default::default(),
-                var_model_h: Default::default(),
-                folds: vec![],
-                n_cal: h.provenance.n_cal as usize,
-                cv_stride: 1,
-            },
-            phase_seconds: vec![],
-            static_audit: match &audit {
-                Some(a) => a.clone(),
-                None => fit::static_fidelity::StaticAudit::of(p, h, d, &cal)?,
-            },
-            skipped: vec![],
-            warnings: vec![],
-        };
+        let trained = given_as_trained(p, h, d, &cal, chosen, audit.as_ref())?;
         bar.set_message("ablation");
         let r = bar.suspend(|| ablation(d, &trained, &opts, &origin))?;
         bar.inc(1);
@@ -518,28 +494,7 @@ pub fn evaluate_models(
         None
     };
     let (drift, budget) = match (meta, studies.drift_sweep || studies.error_budget) {
-        (Some(m), true) => {
-            let t = Instant::now();
-            bar.set_message("drift sweep");
-            let ds = if studies.drift_sweep {
-                let r = bar.suspend(|| drift_sweep(&m.scenario, m.seed, &chosen, &opts))?;
-                bar.inc(1);
-                Some(r)
-            } else {
-                None
-            };
-            bar.set_message("error budget");
-            let eb = if studies.error_budget {
-                let r = bar.suspend(|| error_budget(&m.scenario, m.seed, &chosen, &opts))?;
-                bar.inc(1);
-                Some(r)
-            } else {
-                None
-            };
-            timings.push(("drift_sweep+error_budget".to_string(), t.elapsed().as_secs_f64()));
-            bar.suspend(|| log(&format!("drift sweep and error budget in {:.1} s", t.elapsed().as_secs_f64())));
-            (ds, eb)
-        }
+        (Some(m), true) => scenario_studies(m, studies, &chosen, &opts, &bar, log, &mut timings)?,
         _ => (None, None),
     };
     bar.set_message("parity");
@@ -576,4 +531,76 @@ pub fn evaluate_models(
     };
     m.warnings = crate::eval::warnings::evaluation(&m, &h.dims);
     Ok(m)
+}
+
+/// The given models as the outcome of a fit (the baseline and default rows of Table 3): their
+/// grid point `chosen`, no cross-validation, the static audit `audit` of the calibration rows
+/// `cal` (computed here when there is none).
+fn given_as_trained(
+    p: &HostParams,
+    h: &HostParams,
+    d: &Dataset,
+    cal: &[usize],
+    chosen: fit::Config,
+    audit: Option<&fit::static_fidelity::StaticAudit>,
+) -> Result<Trained, TrainerError> {
+    let n_out = h.dims.n_outputs();
+    Ok(Trained {
+        model_p: p.clone(),
+        model_h: h.clone(),
+        core: fit::PolyCore::of(p),
+        selection: fit::Selection {
+            chosen,
+            memory: fit::memory_core::MemoryChoice::none(),
+            memory_rows: vec![],
+            rows: vec![],
+            cv_rmse_p: vec![f64::NAN; n_out],
+            cv_rmse_h: vec![f64::NAN; n_out],
+            var_model_p: Default::default(),
+            var_model_h: Default::default(),
+            folds: vec![],
+            n_cal: h.provenance.n_cal as usize,
+            cv_stride: 1,
+        },
+        phase_seconds: vec![],
+        static_audit: match audit {
+            Some(a) => a.clone(),
+            None => fit::static_fidelity::StaticAudit::of(p, h, d, cal)?,
+        },
+        skipped: vec![],
+        warnings: vec![],
+    })
+}
+
+/// The studies that re-simulate the scenario of `m` (the drift sweep and the error budget,
+/// as `studies` asks), each retraining at `chosen`; their time goes into `timings`.
+fn scenario_studies(
+    m: &SimMeta,
+    studies: Studies,
+    chosen: &fit::Config,
+    opts: &TrainOptions,
+    bar: &crate::progress::Bar,
+    log: &dyn Fn(&str),
+    timings: &mut Vec<(String, f64)>,
+) -> Result<(Option<DriftSweep>, Option<Vec<BudgetRow>>), TrainerError> {
+    let t = Instant::now();
+    bar.set_message("drift sweep");
+    let ds = if studies.drift_sweep {
+        let r = bar.suspend(|| drift_sweep(&m.scenario, m.seed, chosen, opts))?;
+        bar.inc(1);
+        Some(r)
+    } else {
+        None
+    };
+    bar.set_message("error budget");
+    let eb = if studies.error_budget {
+        let r = bar.suspend(|| error_budget(&m.scenario, m.seed, chosen, opts))?;
+        bar.inc(1);
+        Some(r)
+    } else {
+        None
+    };
+    timings.push(("drift_sweep+error_budget".to_string(), t.elapsed().as_secs_f64()));
+    bar.suspend(|| log(&format!("drift sweep and error budget in {:.1} s", t.elapsed().as_secs_f64())));
+    Ok((ds, eb))
 }

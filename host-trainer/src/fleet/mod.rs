@@ -54,8 +54,8 @@ mod status;
 pub use manifest::{Group, Manifest};
 pub use records::{blob_digest, input_digest, needs_training, FailureRecord, Sidecar};
 pub use run::{
-    run, run_manifest, run_shard, run_shard_signed, shard_summary_path, FleetOptions, FleetReport, GroupReport, Outcome,
-    ShardInfo,
+    run, run_manifest, run_shard, run_shard_signed, shard_summary_path, FleetOptions, FleetReport, GroupReport,
+    Outcome, ShardInfo,
 };
 pub use status::{status, status_from_file, GroupState, GroupStatus, StatusReport};
 

@@ -235,7 +235,10 @@ pub fn run_shard(
 }
 
 /// The signer of a run (`sign`, else none) and the groups marked with its key id.
-pub(super) fn signed_groups(m: &Manifest, sign: Option<&SignOptions>) -> Result<(Vec<Group>, Option<BlobSigner>), TrainerError> {
+pub(super) fn signed_groups(
+    m: &Manifest,
+    sign: Option<&SignOptions>,
+) -> Result<(Vec<Group>, Option<BlobSigner>), TrainerError> {
     let signer = sign.map(BlobSigner::load).transpose()?;
     let id = signer.as_ref().map(|s| s.key_id().to_string());
     let groups = m.groups.iter().map(|g| Group { signed_by: id.clone(), ..g.clone() }).collect();

@@ -4,9 +4,21 @@ use super::{ScenarioConfig, Strain, MAX_NAME_LEN, SIMULATED};
 use crate::data::measurand::{Measurand, MAX_GRATINGS, MAX_MEASURANDS};
 
 impl ScenarioConfig {
-    /// Check ranges; the error is (key path, message).
+    /// Check ranges and shapes; the error is (key path, message) of the first problem, in the
+    /// order of the sections below.
     pub fn validate(&self) -> Result<(), (String, String)> {
         let mut v = Checker::default();
+        self.check_clock(&mut v);
+        self.check_trajectories(&mut v);
+        self.check_shape(&mut v);
+        self.check_gratings(&mut v);
+        self.check_instrument(&mut v);
+        self.check_pace_and_name(&mut v);
+        v.result()
+    }
+
+    /// The clock, the recording gaps and the steps part.
+    fn check_clock(&self, v: &mut Checker) {
         let c = &self.clock;
         v.range("clock.days", c.days, 1.0 / 24.0, 3650.0);
         v.range("clock.dt_s", c.dt_s, 1e-3, 86_400.0);
@@ -35,6 +47,10 @@ impl ScenarioConfig {
         if v.ok() && self.n_samples() > 50_000_000 {
             v.fail("steps.hold_s", "the steps part makes the record more than 5e7 samples");
         }
+    }
+
+    /// The measurands' trajectories.
+    fn check_trajectories(&self, v: &mut Checker) {
         let t = &self.temperature;
         v.range("temperature.mean_c", t.mean_c, -100.0, 300.0);
         v.nonneg("temperature.diurnal_amp_c", t.diurnal_amp_c, 100.0);
@@ -46,7 +62,7 @@ impl ScenarioConfig {
         v.finite("temperature.seasonal_phase_rad", t.seasonal_phase_rad);
         v.nonneg("temperature.ar_sigma_c", t.ar_sigma_c, 50.0);
         v.range("temperature.ar_tau_s", t.ar_tau_s, 1e-3, 1e8);
-        validate_strain(&mut v, "strain", &self.strain);
+        validate_strain(v, "strain", &self.strain);
         let p = &self.pressure;
         v.range("pressure.mean_kpa", p.mean_kpa, 0.0, 1e5);
         v.nonneg("pressure.sine1_amp_kpa", p.sine1_amp_kpa, 1e5);
@@ -56,8 +72,12 @@ impl ScenarioConfig {
         v.nonneg("pressure.ar_sigma_kpa", p.ar_sigma_kpa, 1e5);
         v.range("pressure.ar_tau_s", p.ar_tau_s, 1e-3, 1e8);
         if let Some(s) = &self.strain2 {
-            validate_strain(&mut v, "strain2", s);
+            validate_strain(v, "strain2", s);
         }
+    }
+
+    /// The measurands, the number of gratings and the length of every per-grating list.
+    fn check_shape(&self, v: &mut Checker) {
         let m = &self.measurands;
         if m.is_empty() || m.len() > MAX_MEASURANDS {
             v.fail("measurands", &format!("{} measurands; 1 to {MAX_MEASURANDS} are simulated", m.len()));
@@ -88,7 +108,7 @@ impl ScenarioConfig {
             }
         };
         let g = &self.gratings;
-        per_grating(&mut v, "gratings.gauge", g.gauge.len(), false);
+        per_grating(v, "gratings.gauge", g.gauge.len(), false);
         for (i, row) in g.gauge.iter().enumerate() {
             if row.len() != m.len() {
                 v.fail(
@@ -108,7 +128,7 @@ impl ScenarioConfig {
             ("c_pp", &g.c_pp),
             ("c_ep", &g.c_ep),
         ] {
-            per_grating(&mut v, &format!("gratings.{name}"), arr.len(), true);
+            per_grating(v, &format!("gratings.{name}"), arr.len(), true);
             let needs: &[Measurand] = match name {
                 "c_tt" => &[Measurand::T],
                 "c_te" => &[Measurand::T, Measurand::STRAIN],
@@ -126,11 +146,17 @@ impl ScenarioConfig {
                 }
             }
         }
-        per_grating(&mut v, "scan.ripple_phase_rad", self.scan.ripple_phase_rad.len(), false);
-        per_grating(&mut v, "gratings.thermal_lag_s", g.thermal_lag_s.len(), true);
-        per_grating(&mut v, "ageing.creep_fraction", self.ageing.creep_fraction.len(), true);
-        per_grating(&mut v, "ageing.drift_pm_per_day", self.ageing.drift_pm_per_day.len(), true);
-        per_grating(&mut v, "drift.channel_gain", self.drift.channel_gain.len(), false);
+        per_grating(v, "scan.ripple_phase_rad", self.scan.ripple_phase_rad.len(), false);
+        per_grating(v, "gratings.thermal_lag_s", g.thermal_lag_s.len(), true);
+        per_grating(v, "ageing.creep_fraction", self.ageing.creep_fraction.len(), true);
+        per_grating(v, "ageing.drift_pm_per_day", self.ageing.drift_pm_per_day.len(), true);
+        per_grating(v, "drift.channel_gain", self.drift.channel_gain.len(), false);
+    }
+
+    /// The ambient thermometer, the gratings' values and ageing, and the gauge matrix's
+    /// conditioning.
+    fn check_gratings(&self, v: &mut Checker) {
+        let (m, n_g, g) = (&self.measurands, self.n_gratings(), &self.gratings);
         let a = &self.ambient;
         v.range("ambient.lag_tau_s", a.lag_tau_s, 0.0, 1e8);
         v.range("ambient.offset_c", a.offset_c, -50.0, 50.0);
@@ -180,6 +206,10 @@ impl ScenarioConfig {
                 v.fail("gratings.gauge", "gauge matrix is singular or too ill-conditioned to invert");
             }
         }
+    }
+
+    /// The interrogator: hysteresis, scan, drift, electronics and noise.
+    fn check_instrument(&self, v: &mut Checker) {
         let h = &self.hysteresis;
         v.range("hysteresis.beta", h.beta, 0.0, 2.0);
         v.range("hysteresis.gamma", h.gamma, -1.0, 1.0);
@@ -225,6 +255,11 @@ impl ScenarioConfig {
         if !(1..=40).contains(&n.pink_octaves) {
             v.fail("noise.pink_octaves", "must be in 1..=40");
         }
+    }
+
+    /// The pace and the scenario's name.
+    fn check_pace_and_name(&self, v: &mut Checker) {
+        let m = &self.measurands;
         let pc = &self.pace;
         v.range("pace.factor", pc.factor, 1e-3, 1e3);
         if let Some(o) = pc.only {
@@ -236,7 +271,6 @@ impl ScenarioConfig {
         if self.name.is_empty() || self.name.len() > MAX_NAME_LEN {
             v.fail("name", "must be 1 to 24 characters");
         }
-        v.result()
     }
 }
 
