@@ -171,7 +171,7 @@ pub struct BenchFitOptions {
     pub memory: bool,
     /// Select: largest number of RBF centres to consider.
     pub max_centres: usize,
-    /// Fixed: feature set by its report name ([`feature_set_named`]).
+    /// Fixed: feature set by its report name (`paper`, `hysteresis-aware`, `hysteresis-aware+time`).
     pub feature_set: String,
     /// Fixed: RBF centres K.
     pub k: usize,
@@ -295,7 +295,7 @@ impl FitBench {
 
 /// A fixed configuration's feature set by its report name (`paper`, `hysteresis-aware`,
 /// `hysteresis-aware+time`).
-pub fn feature_set_named(name: &str) -> Option<FeatureSet> {
+pub(crate) fn feature_set_named(name: &str) -> Option<FeatureSet> {
     FeatureSet::ALL.into_iter().find(|f| f.name() == name)
 }
 

@@ -432,7 +432,7 @@ fn pipe_rows(
 /// Read `data`, compensate it with the model in `model`, write `out` (atomically).
 ///
 /// The rows are streamed: read, compensated and written one at a time, so memory does not grow
-/// with the record. What is kept across rows: the compensator's state and a [`Tally`] (whose
+/// with the record. What is kept across rows: the compensator's state and a `Tally` (whose
 /// unit check decides the median by counting; the median's value is read again from the file
 /// only to word a refusal). A check that needs the whole record (the unit check, an empty
 /// record) is made at the end, before the output is renamed into place: on any error nothing

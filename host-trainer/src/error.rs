@@ -76,7 +76,7 @@ impl std::error::Error for TrainerError {
 
 /// "line L, column C" (1-based) of a byte offset in `text`, for the position of a TOML error
 /// (scenario files, import maps, fleet manifests).
-pub fn line_col(text: &str, offset: usize) -> String {
+pub(crate) fn line_col(text: &str, offset: usize) -> String {
     let before = text.get(..offset.min(text.len())).unwrap_or(text);
     let line = before.matches('\n').count() + 1;
     let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;

@@ -108,7 +108,7 @@ fn lock_of(path: &Path) -> PathBuf {
     p.into()
 }
 
-/// The files signing with `opts` reads or writes ([`BlobSigner::files_read`]); only the
+/// The files signing with `opts` reads or writes (`BlobSigner::files_read`); only the
 /// private key and its legacy state when the key cannot be read (its load will say why).
 pub fn key_inputs(opts: Option<&SignOptions>) -> Vec<PathBuf> {
     let Some(opts) = opts else { return Vec::new() };
@@ -299,7 +299,7 @@ impl BlobSigner {
 
     /// Every file signing with this key reads or writes: the private key, the ledger and its
     /// lock, and the legacy state beside the key and its lock. No command's output may be one.
-    pub fn files_read(&self) -> Vec<PathBuf> {
+    pub(crate) fn files_read(&self) -> Vec<PathBuf> {
         let mut v =
             vec![self.files.private.clone(), self.files.legacy_state.clone(), lock_of(&self.files.legacy_state)];
         if let Ok(l) = self.ledger() {
@@ -409,7 +409,7 @@ impl BlobSigner {
 
     /// [`Self::sign`] with a given serial (no state involved). A rollback (the options'
     /// `replaces`) is written as a version-2 trailer, anything else as version 1.
-    pub fn sign_with_serial(&self, blob: &[u8], serial: u64) -> (Vec<u8>, SignatureRecord) {
+    pub(crate) fn sign_with_serial(&self, blob: &[u8], serial: u64) -> (Vec<u8>, SignatureRecord) {
         let blob = signature::strip(blob);
         let replaces = self.opts.replaces.filter(|_| self.opts.allow_rollback);
         let flags = if replaces.is_some() { SignFlags::ALLOW_ROLLBACK } else { SignFlags::NONE };

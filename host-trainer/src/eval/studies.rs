@@ -21,7 +21,7 @@ use crate::sim::{simulate, Simulation, EFFECT_NAMES};
 use crate::stats::linear_fit;
 
 /// Drift multipliers of the sweep (× σ_d of the scenario).
-pub const DRIFT_FACTORS: [f64; 6] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0];
+pub(crate) const DRIFT_FACTORS: [f64; 6] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0];
 
 /// Table 2 for a trained pair on `d`.
 /// `oracle` holds the per-sample oracle's hold-out RMSE per output of the models.
@@ -317,9 +317,9 @@ impl Studies {
 }
 
 /// Batch lengths of the recalibration study \[h\].
-pub const RECAL_BATCH_HOURS: [f64; 2] = [2.0, 24.0];
+pub(crate) const RECAL_BATCH_HOURS: [f64; 2] = [2.0, 24.0];
 /// The changed installation of the recalibration study uses this seed offset.
-pub const RECAL_SEED_OFFSET: u64 = 1;
+pub(crate) const RECAL_SEED_OFFSET: u64 = 1;
 
 /// Train on a simulation and measure everything.
 pub fn run_all(
@@ -424,7 +424,7 @@ pub fn run_all(
 }
 
 /// The hyper-parameters a trained model carries, as a grid point.
-pub fn config_of(h: &HostParams) -> fit::Config {
+pub(crate) fn config_of(h: &HostParams) -> fit::Config {
     let n_cal = h.provenance.n_cal.max(1) as f64;
     fit::Config {
         feature_set: h.hyper.feature_set,

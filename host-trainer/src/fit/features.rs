@@ -48,12 +48,12 @@ impl FeatureChoice {
     }
 
     /// The variant of a name as [`FeatureChoice::name`] spells it (`None` for an unknown name).
-    pub fn from_name(name: &str) -> Option<FeatureChoice> {
+    pub(crate) fn from_name(name: &str) -> Option<FeatureChoice> {
         FeatureChoice::ALL.into_iter().find(|c| c.name() == name)
     }
 
     /// The RBF feature sets cross-validation may choose from.
-    pub fn feature_sets(self) -> Vec<FeatureSet> {
+    pub(crate) fn feature_sets(self) -> Vec<FeatureSet> {
         match self {
             FeatureChoice::Memory => vec![FeatureSet::HysteresisAware],
             FeatureChoice::Paper => vec![FeatureSet::Paper],

@@ -66,7 +66,7 @@ impl Group {
         self.out.with_file_name(format!("{}.fleet.json", self.stem()))
     }
     /// `<stem>.fleet-failed.json`: the record of the group's last failure.
-    pub fn failure_path(&self) -> PathBuf {
+    pub(crate) fn failure_path(&self) -> PathBuf {
         self.out.with_file_name(format!("{}.fleet-failed.json", self.stem()))
     }
     fn stem(&self) -> String {

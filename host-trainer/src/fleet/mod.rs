@@ -52,7 +52,7 @@ pub mod shard;
 mod status;
 
 pub use manifest::{Group, Manifest};
-pub use records::{blob_digest, input_digest, needs_training, FailureRecord, Sidecar};
+
 pub use run::{
     run, run_manifest, run_shard, run_shard_signed, shard_summary_path, FleetOptions, FleetReport, GroupReport,
     Outcome, ShardInfo,
@@ -64,9 +64,9 @@ use crate::sign::SignOptions;
 /// Default largest K of a group: as `train`.
 pub const DEFAULT_MAX_CENTRES: usize = 32;
 /// Format tag of the per-group sidecar.
-pub const SIDECAR_FORMAT: &str = "fbg-trainer fleet group v1";
+pub(crate) const SIDECAR_FORMAT: &str = "fbg-trainer fleet group v1";
 /// Format tag of the per-group failure record.
-pub const FAILURE_FORMAT: &str = "fbg-trainer fleet failure v1";
+pub(crate) const FAILURE_FORMAT: &str = "fbg-trainer fleet failure v1";
 
 /// The signing options a manifest's `[defaults]` give (`sign`, `serial_state`), when it signs.
 fn manifest_sign(m: &Manifest) -> Option<SignOptions> {

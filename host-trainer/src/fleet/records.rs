@@ -10,7 +10,7 @@ use crate::fit;
 pub(super) const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
 
 /// Digest of a group's inputs: the CSV bytes and the options that shape the fit.
-pub fn input_digest(g: &Group, csv: &[u8]) -> String {
+pub(crate) fn input_digest(g: &Group, csv: &[u8]) -> String {
     let mut d = CRC64.digest();
     d.update(
         format!("features={};max_centres={};trainer={};", g.features.name(), g.max_centres, env!("CARGO_PKG_VERSION"))
@@ -26,13 +26,13 @@ pub fn input_digest(g: &Group, csv: &[u8]) -> String {
 }
 
 /// Digest of a written blob.
-pub fn blob_digest(bytes: &[u8]) -> String {
+pub(crate) fn blob_digest(bytes: &[u8]) -> String {
     format!("crc64:{:016x}:{}", CRC64.checksum(bytes), bytes.len())
 }
 
 /// The per-group record written after a successful fit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Sidecar {
+pub(crate) struct Sidecar {
     pub format: String,
     pub name: String,
     pub input_digest: String,
@@ -47,7 +47,7 @@ pub struct Sidecar {
 
 /// The record of a group's failed run (removed by its next successful run).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct FailureRecord {
+pub(crate) struct FailureRecord {
     pub format: String,
     pub name: String,
     /// Digest of the inputs the run failed on.
@@ -56,7 +56,7 @@ pub struct FailureRecord {
 }
 
 /// Why group `g` must be (re)trained, or `None` when its outputs are finished for `digest`.
-pub fn needs_training(g: &Group, digest: &str) -> Option<String> {
+pub(crate) fn needs_training(g: &Group, digest: &str) -> Option<String> {
     let side = g.sidecar_path();
     let Ok(text) = std::fs::read_to_string(&side) else { return Some("no record of a finished run".into()) };
     let Ok(rec) = serde_json::from_str::<Sidecar>(&text) else { return Some("unreadable record".into()) };

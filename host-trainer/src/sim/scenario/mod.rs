@@ -27,7 +27,7 @@ use crate::error::{line_col, TrainerError};
 pub use instrument::{
     Ageing, BoucWen, Drift, Electronics, Gratings, Hysteresis, HysteresisModel, Noise, Preisach, PreisachWeights, Scan,
 };
-pub use names::MAX_NAME_LEN;
+pub(crate) use names::MAX_NAME_LEN;
 use names::{short_number, with_suffix, without_segments};
 pub use presets::Preset;
 pub use trajectories::{Ambient, Pressure, Strain, Temperature};
@@ -191,17 +191,17 @@ impl ScenarioConfig {
     }
 
     /// Number of samples of the native record (`clock.days` at `clock.dt_s`).
-    pub fn n_native_samples(&self) -> usize {
+    pub(crate) fn n_native_samples(&self) -> usize {
         (self.clock.days * 86_400.0 / self.clock.dt_s).round() as usize
     }
 
     /// Samples per held level of the steps part.
-    pub fn steps_hold_samples(&self) -> usize {
+    pub(crate) fn steps_hold_samples(&self) -> usize {
         (self.steps.hold_s / self.clock.dt_s).round() as usize
     }
 
     /// Samples of the steps part (0 when it is off): every measurand through every level.
-    pub fn n_steps_samples(&self) -> usize {
+    pub(crate) fn n_steps_samples(&self) -> usize {
         if self.steps.enabled {
             self.measurands.len()
                 * self.steps.levels as usize
@@ -213,7 +213,7 @@ impl ScenarioConfig {
     }
 
     /// The pace factor of measurand `m`'s trajectory (1 when `pace.only` names another).
-    pub fn pace_for(&self, m: Measurand) -> f64 {
+    pub(crate) fn pace_for(&self, m: Measurand) -> f64 {
         match self.pace.only {
             Some(o) if o != m => 1.0,
             _ => self.pace.factor,
@@ -289,7 +289,7 @@ fn key_at(text: &str, pos: usize) -> Option<String> {
 }
 
 /// The measurands the simulator has trajectories for.
-pub const SIMULATED: [Measurand; 4] =
+pub(crate) const SIMULATED: [Measurand; 4] =
     [Measurand::T, Measurand::STRAIN, Measurand { kind: Kind::Strain, index: 2 }, Measurand::P];
 
 #[cfg(test)]

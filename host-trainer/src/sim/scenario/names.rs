@@ -2,7 +2,7 @@
 //! model blob's provenance holds.
 
 /// Longest scenario name (the model blob's provenance holds 24 bytes).
-pub const MAX_NAME_LEN: usize = 24;
+pub(crate) const MAX_NAME_LEN: usize = 24;
 
 /// `x` in few characters: `4`, `0.25`, `0.333`.
 pub(super) fn short_number(x: f64) -> String {
