@@ -15,7 +15,10 @@
 //! 6. `report`, `fleet`, `stream`, `benchmark`: the audit report and the operations built on
 //!    the pipeline.
 //!
-//! The command line (`src/cli/`) is the binary and uses this library only.
+//! The command line (`src/cli/`) is the binary and uses this library only; its argument types
+//! (clap), terminal progress bars (indicatif) and error chains (anyhow) stay there
+//! (`tests/cli_apart.rs`): the library takes plain option structs, reports progress through
+//! [`progress`] and returns [`TrainerError`].
 
 // Foundations.
 pub mod error;

@@ -123,9 +123,59 @@ impl Drop for Bar {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    use std::sync::Arc;
+
+    /// Counts the steps and finishes of the tasks labelled `probe` (other tests of this
+    /// process may open bars of their own once it is installed).
+    struct Probe(Arc<[AtomicU64; 3]>);
+    struct ProbeTask(Arc<[AtomicU64; 3]>);
+
+    impl Progress for Probe {
+        fn start(&self, what: &str, _len: u64) -> Box<dyn Task> {
+            if what == "probe" {
+                self.0[0].fetch_add(1, Ordering::SeqCst);
+                Box::new(ProbeTask(self.0.clone()))
+            } else {
+                Box::new(ProbeTask(Arc::new(Default::default())))
+            }
+        }
+    }
+
+    impl Task for ProbeTask {
+        fn inc(&self, delta: u64) {
+            self.0[1].fetch_add(delta, Ordering::SeqCst);
+        }
+        fn set_position(&self, pos: u64) {
+            self.0[1].store(pos, Ordering::SeqCst);
+        }
+        fn set_message(&self, _: &str) {}
+        fn steady_tick(&self, _: Duration) {}
+        fn suspend(&self, f: &mut dyn FnMut()) {
+            f();
+        }
+        fn finish(&self) {
+            self.0[2].fetch_add(1, Ordering::SeqCst);
+        }
+    }
 
     #[test]
-    fn an_inert_bar_runs_what_it_suspends() {
+    fn an_installed_reporter_sees_enabled_bars_only() {
+        let counts: Arc<[AtomicU64; 3]> = Arc::new(Default::default());
+        assert!(set_reporter(Box::new(Probe(counts.clone()))).is_ok());
+        drop(bar(false, 3, "probe"));
+        assert_eq!(counts[0].load(Ordering::SeqCst), 0, "a bar not enabled starts nothing");
+        {
+            let b = bar(true, 3, "probe");
+            b.inc(2);
+            assert_eq!(b.suspend(|| 7), 7);
+        }
+        let got: Vec<u64> = counts.iter().map(|c| c.load(Ordering::SeqCst)).collect();
+        assert_eq!(got, [1, 2, 1], "started once, two steps, finished on drop");
+    }
+
+    #[test]
+    fn a_bar_runs_what_it_suspends() {
         let b = bar(true, 10, "test");
         b.inc(1);
         b.set_position(5);
