@@ -210,7 +210,7 @@ impl BenchFitOptions {
             };
             let mut opts = TrainOptions::fixed(&cfg);
             if !self.memory {
-                opts.memory = fit::memory_core::MemoryOptions::off();
+                opts = opts.to_builder().memory(fit::memory_core::MemoryOptions::off()).check()?;
             }
             Ok((opts, "fixed"))
         } else {

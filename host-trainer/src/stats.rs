@@ -42,12 +42,23 @@ pub fn std_dev(x: impl Iterator<Item = f64> + Clone) -> f64 {
 
 /// Median of a sample (mean of the middle two for an even count); NaN when empty.
 pub fn median(xs: &[f64]) -> f64 {
-    let mut v: Vec<f64> = xs.to_vec();
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    median_in_place(&mut xs.to_vec())
+}
+
+/// [`median`] of a buffer it sorts in place (no allocation: for the many small windows of a
+/// running median).
+pub fn median_in_place(v: &mut [f64]) -> f64 {
+    v.sort_unstable_by(f64::total_cmp);
+    sorted_median(v)
+}
+
+/// [`median`] of a sorted sample.
+fn sorted_median(v: &[f64]) -> f64 {
+    let n = v.len();
+    match (v.get(n.wrapping_sub(1) / 2), v.get(n / 2)) {
+        (Some(_), Some(&b)) if n % 2 == 1 => b,
+        (Some(&a), Some(&b)) => 0.5 * (a + b),
+        _ => f64::NAN,
     }
 }
 
@@ -82,6 +93,10 @@ mod tests {
         assert_eq!(upper_median(&[4.0, 1.0, 3.0, 2.0]), 3.0);
         assert_eq!(upper_median(&[3.0, 1.0, 2.0]), 2.0);
         assert!(upper_median(&[]).is_nan());
+        let mut buf = [5.0, -1.0, 3.0, 0.0];
+        assert_eq!(median_in_place(&mut buf), 1.5);
+        assert_eq!(buf, [-1.0, 0.0, 3.0, 5.0], "sorted in place");
+        assert!(median_in_place(&mut []).is_nan());
     }
 
     #[test]

@@ -238,12 +238,8 @@ fn a_short_calibration_has_an_honest_band() {
         cfg.clock.dt_s = 10.0;
         cfg.clock.cal_fraction = 0.7;
         let d = sim::simulate(&cfg, seed).data;
-        let t = train(
-            &d,
-            &TrainOptions { progress: false, ..TrainOptions::default() },
-            &Origin { scenario: "short".into(), seed },
-        )
-        .unwrap();
+        let t = train(&d, &TrainOptions::default().with_progress(false), &Origin { scenario: "short".into(), seed })
+            .unwrap();
         for (name, model, var) in
             [("Model-P", &t.model_p, &t.selection.var_model_p), ("Model-H", &t.model_h, &t.selection.var_model_h)]
         {

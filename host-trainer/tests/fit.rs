@@ -322,7 +322,7 @@ fn a_reference_outlier_is_refused_with_its_line_or_left_out_with_skip() {
     );
     assert!(e.contains("--on-error skip"), "{e}");
 
-    let skip = TrainOptions { on_outlier: OnError::Skip, ..common::small_grid() };
+    let skip = common::small_grid().with_on_outlier(OnError::Skip);
     let t = train_source(&d, "cal.csv", &skip, &origin).unwrap();
     assert_eq!(t.skipped.iter().map(|o| (o.line, o.column.as_str())).collect::<Vec<_>>(), [(702, "T_C")]);
     assert_eq!(t.selection.n_cal, clean.selection.n_cal - 1);
@@ -354,7 +354,7 @@ fn a_reference_outlier_in_a_200_row_calibration_is_refused_with_its_line() {
     d.reference_mut(Measurand::T).unwrap()[100] = 1e6;
     let e = train(&d, &common::small_grid(), &Origin::default()).unwrap_err().to_string();
     assert!(e.starts_with("the dataset: line 102, column T_C: reference outlier: 1000000 °C"), "{e}");
-    let skip = TrainOptions { on_outlier: OnError::Skip, ..common::small_grid() };
+    let skip = common::small_grid().with_on_outlier(OnError::Skip);
     let e = train(&d, &skip, &Origin::default()).unwrap_err().to_string();
     assert!(e.contains("199 usable calibration samples") && e.contains("1 with reference outliers left out"), "{e}");
 }

@@ -677,13 +677,13 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
     // The same split as the simulator's 50 %.
     assert_eq!(back.split, d.split);
 
-    let grid = TrainOptions {
-        centres: vec![8, 16],
-        sigma_mults: vec![1.0, 2.0],
-        alpha_rels: vec![1e-5, 1e-3],
-        dead_bands_pm: vec![2.0, 4.0],
-        ..TrainOptions::default()
-    };
+    let grid = TrainOptions::builder()
+        .centres(vec![8, 16])
+        .sigma_mults(vec![1.0, 2.0])
+        .alpha_rels(vec![1e-5, 1e-3])
+        .dead_bands_pm(vec![2.0, 4.0])
+        .check()
+        .unwrap();
     let t = train(&back, &grid, &Origin { scenario: "imported".into(), seed: 0 }).unwrap();
     assert_eq!(t.selection.n_cal, n / 2 - 1, "the gap row is not used for fitting");
     assert_eq!(t.model_h.fitted, [true, true, true, false]);

@@ -64,7 +64,7 @@ fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
         s.seed,
         data.display()
     ));
-    let opts = TrainOptions { progress: !json, ..TrainOptions::default() };
+    let opts = TrainOptions::default().with_progress(!json);
     let (tr, mut m) = studies::run_all(&s, &opts, Studies::ALL, &log)?;
     let model = out.join("model.fbgm");
     let nh = export::write_blob(&model, &tr.model_h)?;

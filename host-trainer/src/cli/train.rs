@@ -77,10 +77,8 @@ impl TrainArgs {
         let d = Dataset::read_calibration_csv(data)?;
         let meta = SimMeta::read_for(data)?;
         let origin = origin_of(data, meta.as_ref());
-        let opts = TrainOptions {
-            on_outlier: self.on_error.parse().map_err(anyhow::Error::msg)?,
-            ..train_options(self.features.0, self.max_centres, !self.json)?
-        };
+        let on_outlier = self.on_error.parse().map_err(anyhow::Error::msg)?;
+        let opts = train_options(self.features.0, self.max_centres, !self.json)?.with_on_outlier(on_outlier);
         let t = Instant::now();
         let tr = fit::train_source(&d, &data.display().to_string(), &opts, &origin)?;
         let seconds = t.elapsed().as_secs_f64();
@@ -191,5 +189,5 @@ fn origin_of(data: &Path, meta: Option<&SimMeta>) -> Origin {
 
 fn train_options(features: FeatureChoice, max_centres: usize, progress: bool) -> Result<TrainOptions> {
     let o = features.train_options(max_centres).map_err(|e| anyhow::anyhow!("--features/--max-centres: {e}"))?;
-    Ok(TrainOptions { progress, ..o })
+    Ok(o.with_progress(progress))
 }

@@ -34,6 +34,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::data::Dataset;
+use crate::stats::median_in_place;
 
 /// Robust z-score above which a reference cell is an outlier. Gaussian noise exceeds 8 σ once
 /// in 10¹⁵ samples, and the scale of a window of 10 neighbours is itself noisy (its MAD can come
@@ -126,13 +127,6 @@ pub struct SeriesOutlier {
     pub z: f64,
 }
 
-/// Median of a small buffer (sorted in place; the mean of the middle two for an even count);
-/// NaN when empty.
-fn median_of(v: &mut [f64]) -> f64 {
-    v.sort_unstable_by(f64::total_cmp);
-    sorted_median(v)
-}
-
 /// The running median at `i` (of its neighbours, `i` itself left out) and the neighbours in
 /// `buf`.
 fn neighbours(x: &[f64], i: usize, buf: &mut Vec<f64>) -> f64 {
@@ -142,17 +136,7 @@ fn neighbours(x: &[f64], i: usize, buf: &mut Vec<f64>) -> f64 {
     buf.extend(x.get(lo..i).unwrap_or(&[]));
     buf.extend(x.get(i + 1..hi).unwrap_or(&[]));
     let mut sorted = buf.clone();
-    median_of(&mut sorted)
-}
-
-/// The median of a sorted buffer (the mean of the middle two for an even count); NaN when
-/// empty.
-fn sorted_median(v: &[f64]) -> f64 {
-    let n = v.len();
-    match (v.get(n.wrapping_sub(1) / 2), v.get(n / 2)) {
-        (Some(&a), Some(&b)) => 0.5 * (a + b),
-        _ => f64::NAN,
-    }
+    median_in_place(&mut sorted)
 }
 
 /// The median of every window of [`WINDOW`] consecutive values (one window, the whole series,
@@ -165,7 +149,7 @@ fn window_medians(x: &[f64]) -> Vec<f64> {
             let mut b = [0.0; WINDOW];
             let b = &mut b[..w];
             b.copy_from_slice(v);
-            median_of(b)
+            median_in_place(b)
         })
         .collect()
 }
@@ -213,7 +197,7 @@ fn end_trend(x: &[f64], med: &[f64], i: usize) -> Option<f64> {
     let third = |s: &[f64]| {
         let mut b = [0.0; 3];
         b.copy_from_slice(s.get(..3)?);
-        Some(median_of(&mut b))
+        Some(median_in_place(&mut b))
     };
     let slope = (third(w.get(WINDOW - 3..)?)? - third(w)?) / (WINDOW - 3) as f64;
     Some(med.get(j)? + slope * (i as f64 - (j + half) as f64))
@@ -229,7 +213,7 @@ fn scale_floor(x: &[f64]) -> f64 {
     // moving parts (the resolution floor covers a quantised column).
     let mut dev: Vec<f64> =
         (0..n).step_by(stride).map(|i| (x[i] - neighbours(x, i, &mut buf)).abs()).filter(|&d| d > 0.0).collect();
-    let typical = if dev.is_empty() { 0.0 } else { MAD_TO_SIGMA * median_of(&mut dev) };
+    let typical = if dev.is_empty() { 0.0 } else { MAD_TO_SIGMA * median_in_place(&mut dev) };
     let resolution = x.windows(2).map(|w| (w[1] - w[0]).abs()).filter(|&d| d > 0.0).fold(f64::INFINITY, f64::min);
     let resolution = if resolution.is_finite() { resolution } else { 0.0 };
     typical.max(resolution)
@@ -265,7 +249,7 @@ pub fn beyond(x: &[f64], limit: f64) -> Vec<SeriesOutlier> {
             let mut buf = Vec::with_capacity(2 * SCALE_NEIGHBOURS);
             let median = neighbours(x, i, &mut buf);
             let mut dev: Vec<f64> = buf.iter().map(|v| (v - median).abs()).collect();
-            let scale = (MAD_TO_SIGMA * median_of(&mut dev)).max(floor);
+            let scale = (MAD_TO_SIGMA * median_in_place(&mut dev)).max(floor);
             let z = d / scale;
             (z.abs() > limit).then_some(SeriesOutlier { index: i, median, scale, z })
         })

@@ -164,6 +164,32 @@ pub fn score(dims: &Dims, d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> 
 
 /// Evaluate `params` on the hold-out of `d` (the samples with finite inputs and references;
 /// gaps are counted in `skipped`).
+///
+/// ```
+/// use fbg_shared::FeatureSet;
+/// use fbg_trainer::eval::score::evaluate_holdout;
+/// use fbg_trainer::fit::{train, Config, Origin, TrainOptions};
+/// use fbg_trainer::sim::{scenario::Preset, simulate};
+///
+/// // Two days of the `paper` installation (a calibration batch and a hold-out), one grid point.
+/// let mut scenario = Preset::Paper.config();
+/// scenario.clock.days = 2.0;
+/// let data = simulate(&scenario, 7).data;
+/// let cfg = Config {
+///     feature_set: FeatureSet::HysteresisAware,
+///     dead_band_pm: 2.0,
+///     k: 4,
+///     sigma_mult: 1.0,
+///     alpha_rel: 1e-4,
+///     cross_terms: true,
+/// };
+/// let trained = train(&data, &TrainOptions::fixed(&cfg), &Origin::default())?;
+/// let (eval, estimates) = evaluate_holdout(&trained.model_h, &data)?;
+/// // One row per output (T, ε, p), each scored on every hold-out estimate.
+/// assert_eq!(eval.channels.len(), 3);
+/// assert!(eval.channels.iter().all(|c| c.rmse.is_finite() && c.n == estimates.len()));
+/// # Ok::<(), fbg_trainer::TrainerError>(())
+/// ```
 pub fn evaluate_holdout(params: &HostParams, d: &Dataset) -> Result<(ModelEval, Vec<Estimate<f64>>), TrainerError> {
     d.inputs_for(&params.dims, "the dataset", "evaluate")?;
     let idx: Vec<usize> = d.holdout_indices().into_iter().filter(|&i| d.usable(i)).collect();

@@ -35,7 +35,7 @@ pub fn table2(p: &HostParams, h: &HostParams, d: &Dataset, oracle: Option<Vec<f6
 }
 
 fn fixed(opts: &TrainOptions, cfg: &fit::Config) -> TrainOptions {
-    TrainOptions { seed: opts.seed, progress: false, ..opts.fixed_like(cfg) }
+    opts.fixed_like(cfg).with_seed(opts.seed()).with_progress(false)
 }
 
 /// Hold-out RMSE per output of Model-P, of Model-H and of the per-sample oracle.
@@ -109,7 +109,7 @@ pub fn ablation(
     use fbg_shared::MemoryGroup;
     let (ep, _) = evaluate_holdout(&trained.model_p, d)?;
     let (eh, _) = evaluate_holdout(&trained.model_h, d)?;
-    let base = TrainOptions { progress: false, ..opts.clone() };
+    let base = opts.clone().with_progress(false);
     let off = fit::memory_core::MemoryOptions::off();
     let dims = trained.model_h.dims;
     let linear: Vec<String> =
@@ -120,38 +120,36 @@ pub fn ablation(
         (
             "Hybrid w/o cross-terms".into(),
             format!("stage 2 keeps [{}]; memory terms and RBF residual selected by CV", linear.join(", ")),
-            TrainOptions { cross_terms: false, ..base.clone() },
+            base.to_builder().cross_terms(false).check()?,
         ),
         (
             "Hybrid, paper variant".into(),
             format!("z = {} (paper Eq. 5), no memory terms", z(", t")),
-            TrainOptions {
-                feature_sets: vec![FeatureSet::Paper],
-                memory: off.clone(),
-                centres: vec![8, 16, 32],
-                ..base.clone()
-            },
+            base.to_builder()
+                .feature_sets(vec![FeatureSet::Paper])
+                .memory(off.clone())
+                .centres(vec![8, 16, 32])
+                .check()?,
         ),
         (
             "Hybrid, latch variant".into(),
             format!("z = {} (+t if CV keeps it), no memory terms (previous default)", z(", direction latches")),
-            TrainOptions {
-                feature_sets: vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime],
-                memory: off,
-                centres: vec![8, 16, 32],
-                ..base.clone()
-            },
+            base.to_builder()
+                .feature_sets(vec![FeatureSet::HysteresisAware, FeatureSet::HysteresisAwareTime])
+                .memory(off)
+                .centres(vec![8, 16, 32])
+                .check()?,
         ),
     ];
-    if opts.memory.enabled() {
+    if opts.memory().enabled() {
         for g in MemoryGroup::ALL
             .into_iter()
-            .filter(|&g| opts.memory.groups.contains(&g) && fit::memory_core::applies(&dims, g))
+            .filter(|&g| opts.memory().groups.contains(&g) && fit::memory_core::applies(&dims, g))
         {
             variants.push((
                 format!("Default − {}", g.name()),
                 format!("the default with the {} memory group removed", g.name()),
-                TrainOptions { memory: opts.memory.without(g), ..base.clone() },
+                base.to_builder().memory(opts.memory().without(g)).check()?,
             ));
         }
     }
@@ -172,7 +170,7 @@ pub fn ablation(
     }
     rows.push(AblationRow {
         name: "Hybrid, default".into(),
-        note: if opts.memory.enabled() {
+        note: if opts.memory().enabled() {
             format!(
                 "memory terms fitted on what the core leaves (groups and λ by CV) + RBF residual on {}",
                 z(", latches")
@@ -470,8 +468,10 @@ pub fn evaluate_models(
     let chosen = config_of(h);
     // The variants retrain on the rows the given models were fitted on: a model exists only
     // for a batch without reference outliers or one trained with their rows left out.
-    let opts =
-        TrainOptions { progress, seed: 1, on_outlier: crate::data::import::OnError::Skip, ..TrainOptions::default() };
+    let opts = TrainOptions::default()
+        .with_progress(progress)
+        .with_seed(1)
+        .with_on_outlier(crate::data::import::OnError::Skip);
     let origin = Origin {
         scenario: meta.map(|m| m.scenario.name.clone()).unwrap_or_else(|| h.provenance.scenario.to_string()),
         seed: meta.map(|m| m.seed).unwrap_or(h.provenance.seed),

@@ -68,7 +68,7 @@ impl VarModel {
     /// Fit the variance model and calibrate its 95 % multiplier on the same residuals
     /// (split-conformal on the normalised errors). `fold` labels each sample's CV fold, in
     /// order of growing training sets.
-    pub fn fit(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
+    pub(crate) fn fit(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
         let mut m = Self::fit_variance(lead_s, sq_err, fold);
         // A steep slope can leave a tiny intercept (on a short calibration the fold means are
         // explained by growth alone): the band at the end of calibration must still cover the

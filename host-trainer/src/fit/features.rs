@@ -3,8 +3,9 @@
 
 use fbg_shared::layout::FeatureSet;
 
-use crate::fit::memory_core::MemoryOptions;
-use crate::fit::{TrainOptions, HOST_CAP};
+use super::host::HOST_CAP;
+use super::memory_core::MemoryOptions;
+use super::options::TrainOptions;
 
 /// The model variant of a `--features` name: the RBF feature sets cross-validation may choose
 /// from and whether the memory bank is on the menu.
@@ -75,17 +76,18 @@ impl FeatureChoice {
         if max_centres == 0 || max_centres > HOST_CAP {
             return Err(format!("max centres must be in 1..={HOST_CAP} (got {max_centres})"));
         }
-        let mut o = TrainOptions::default().with_features(self.feature_sets());
+        let mut o = TrainOptions::builder().feature_sets(self.feature_sets());
+        let mut centres = TrainOptions::default().grid().centres().to_vec();
         if !self.memory() {
             // Without memory terms the RBF residual carries the model: the grid goes to 32.
-            o.memory = MemoryOptions::off();
-            o.centres = vec![8, 16, 32];
+            o = o.memory(MemoryOptions::off());
+            centres = vec![8, 16, 32];
         }
-        o.centres.retain(|&k| k <= max_centres);
-        if o.centres.is_empty() {
-            o.centres.push(max_centres);
+        centres.retain(|&k| k <= max_centres);
+        if centres.is_empty() {
+            centres.push(max_centres);
         }
-        Ok(o)
+        o.centres(centres).check().map_err(|e| e.to_string())
     }
 }
 
@@ -132,7 +134,7 @@ mod tests {
     fn max_centres_bounds() {
         assert!(FeatureChoice::Memory.train_options(0).is_err());
         assert!(FeatureChoice::Memory.train_options(HOST_CAP + 1).is_err());
-        assert_eq!(FeatureChoice::Paper.train_options(16).unwrap().centres, vec![8, 16]);
-        assert_eq!(FeatureChoice::Paper.train_options(4).unwrap().centres, vec![4]);
+        assert_eq!(FeatureChoice::Paper.train_options(16).unwrap().grid().centres(), vec![8, 16]);
+        assert_eq!(FeatureChoice::Paper.train_options(4).unwrap().grid().centres(), vec![4]);
     }
 }

@@ -8,16 +8,16 @@ use fbg_shared::layout::{MAX_GRATINGS, MAX_OUTPUTS};
 use fbg_shared::{FieldContext, ZeroSource};
 
 use super::band::VarModel;
+use super::host::HostParams;
 use super::sensitivity::core_jacobian;
-use super::HostParams;
 use crate::data::Dataset;
 
 /// A record's zero may move no output by more than this fraction of its cross-validated RMSE.
-pub const ZERO_TOLERANCE_OF_RMSE: f64 = 1.0 / 3.0;
+pub(crate) const ZERO_TOLERANCE_OF_RMSE: f64 = 1.0 / 3.0;
 
 /// The context of `p`, fitted on rows `cal` of `d` (sorted) with `band` per output, whose
 /// cross-validated RMSE per output is `cv_rmse`.
-pub fn context(p: &HostParams, d: &Dataset, cal: &[usize], band: &[VarModel], cv_rmse: &[f64]) -> FieldContext {
+pub(crate) fn context(p: &HostParams, d: &Dataset, cal: &[usize], band: &[VarModel], cv_rmse: &[f64]) -> FieldContext {
     let dims = p.dims;
     let (n, m) = (dims.gratings(), dims.n_outputs());
     let mut fc = FieldContext::unknown();

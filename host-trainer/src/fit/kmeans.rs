@@ -13,7 +13,7 @@ const BLOCK: usize = 2048;
 /// Relative tolerance of the Lloyd iterations: they stop when the centres move by less than
 /// this times the mean variance of the data (squared distance summed over the centres), as
 /// scikit-learn's `KMeans(tol=1e-4)` does, or when no assignment changes.
-pub const TOL: f64 = 1e-4;
+pub(crate) const TOL: f64 = 1e-4;
 
 #[inline]
 fn d2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
@@ -27,7 +27,12 @@ fn d2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
 
 /// Cluster `points` into `k` centres. Deterministic for a given `rng` state. Empty clusters
 /// are re-seeded at the point farthest from its centre.
-pub fn kmeans_pp<const D: usize>(points: &[[f64; D]], k: usize, rng: &mut Rng, max_iter: usize) -> Vec<[f64; D]> {
+pub(crate) fn kmeans_pp<const D: usize>(
+    points: &[[f64; D]],
+    k: usize,
+    rng: &mut Rng,
+    max_iter: usize,
+) -> Vec<[f64; D]> {
     let n = points.len();
     if n == 0 || k == 0 {
         return Vec::new();
@@ -61,16 +66,44 @@ pub fn kmeans_pp<const D: usize>(points: &[[f64; D]], k: usize, rng: &mut Rng, m
 /// Lloyd iterations from `centres` until no assignment changes, the centres move by less than
 /// the tolerance, or `max_iter`.
 fn lloyd<const D: usize>(points: &[[f64; D]], mut centres: Vec<[f64; D]>, max_iter: usize) -> Vec<[f64; D]> {
-    let (n, k) = (points.len(), centres.len());
     let tol = TOL * mean_variance(points);
-    // Lloyd iterations, accelerated exactly by Hamerly's bounds (2010): per point an upper
-    // bound on the distance to its centre and a lower bound on the distance to every other;
-    // a point whose upper bound is below both its lower bound and half the distance from its
-    // centre to the nearest other centre keeps its centre without any distance computed.
-    let mut assign = vec![usize::MAX; n];
-    let mut upper = vec![f64::INFINITY; n];
-    let mut lower = vec![0.0f64; n];
+    let mut bounds = Bounds::new(points.len());
     for _ in 0..max_iter {
+        let (changed, sums, counts) = bounds.assign(points, &centres);
+        let (reseeded, shift, moved) = update(points, &bounds.assign, &mut centres, &sums, &counts);
+        if !(changed || reseeded) || shift <= tol {
+            break;
+        }
+        bounds.follow(&moved);
+    }
+    centres
+}
+
+/// The assignment of every point and Hamerly's bounds (2010), which accelerate the Lloyd
+/// iterations exactly: per point an upper bound on the distance to its centre and a lower
+/// bound on the distance to every other; a point whose upper bound is below both its lower
+/// bound and half the distance from its centre to the nearest other centre keeps its centre
+/// without any distance computed.
+struct Bounds {
+    /// Centre of each point (`usize::MAX` before the first assignment).
+    assign: Vec<usize>,
+    upper: Vec<f64>,
+    lower: Vec<f64>,
+}
+
+impl Bounds {
+    fn new(n: usize) -> Self {
+        Bounds { assign: vec![usize::MAX; n], upper: vec![f64::INFINITY; n], lower: vec![0.0; n] }
+    }
+
+    /// Assign every point to its nearest centre: whether any assignment changed, and the sum
+    /// and count of the points of each centre (added over fixed blocks in block order).
+    fn assign<const D: usize>(
+        &mut self,
+        points: &[[f64; D]],
+        centres: &[[f64; D]],
+    ) -> (bool, Vec<[f64; D]>, Vec<usize>) {
+        let k = centres.len();
         // Half the distance from each centre to its nearest other centre.
         let half: Vec<f64> = (0..k)
             .map(|j| {
@@ -80,10 +113,11 @@ fn lloyd<const D: usize>(points: &[[f64; D]], mut centres: Vec<[f64; D]>, max_it
             .collect();
         // Per block: label changes, per-centre sums and counts.
         type Part<const D: usize> = (bool, Vec<[f64; D]>, Vec<usize>);
-        let parts: Vec<Part<D>> = assign
+        let parts: Vec<Part<D>> = self
+            .assign
             .par_chunks_mut(BLOCK)
-            .zip(upper.par_chunks_mut(BLOCK))
-            .zip(lower.par_chunks_mut(BLOCK))
+            .zip(self.upper.par_chunks_mut(BLOCK))
+            .zip(self.lower.par_chunks_mut(BLOCK))
             .zip(points.par_chunks(BLOCK))
             .map(|(((labels, up), lo), pts)| {
                 let mut changed = false;
@@ -138,38 +172,11 @@ fn lloyd<const D: usize>(points: &[[f64; D]], mut centres: Vec<[f64; D]>, max_it
                 }
             }
         }
-        // An empty cluster is re-seeded at the point farthest from its centre (exact
-        // distances: the bounds are not enough to rank points).
-        let far = if counts.contains(&0) {
-            let (i, _) = points
-                .iter()
-                .zip(&assign)
-                .map(|(p, &a)| d2(p, &centres[a]))
-                .enumerate()
-                .fold((0usize, -1.0f64), |best, (i, d)| if d > best.1 { (i, d) } else { best });
-            Some(i)
-        } else {
-            None
-        };
-        let mut shift = 0.0;
-        let mut moved = vec![0.0f64; k];
-        for j in 0..k {
-            let new = match (counts[j], far) {
-                (0, Some(f)) => {
-                    changed = true;
-                    points[f]
-                }
-                _ => sums[j].map(|s| s / counts[j].max(1) as f64),
-            };
-            let dj = d2(&new, &centres[j]);
-            shift += dj;
-            moved[j] = dj.sqrt();
-            centres[j] = new;
-        }
-        if !changed || shift <= tol {
-            break;
-        }
-        // Keep the bounds valid for the moved centres.
+        (changed, sums, counts)
+    }
+
+    /// Keep the bounds valid for centres that moved by `moved`.
+    fn follow(&mut self, moved: &[f64]) {
         let (mut m1, mut j1, mut m2) = (0.0f64, usize::MAX, 0.0f64);
         for (j, &m) in moved.iter().enumerate() {
             if m > m1 {
@@ -180,12 +187,55 @@ fn lloyd<const D: usize>(points: &[[f64; D]], mut centres: Vec<[f64; D]>, max_it
                 m2 = m;
             }
         }
-        upper.par_iter_mut().zip(lower.par_iter_mut()).zip(assign.par_iter()).for_each(|((u, lb), &a)| {
-            *u += moved[a];
-            *lb -= if a == j1 { m2 } else { m1 };
-        });
+        self.upper.par_iter_mut().zip(self.lower.par_iter_mut()).zip(self.assign.par_iter()).for_each(
+            |((u, lb), &a)| {
+                *u += moved[a];
+                *lb -= if a == j1 { m2 } else { m1 };
+            },
+        );
     }
-    centres
+}
+
+/// Move every centre to the mean of its points (`sums`, `counts` by centre; `assign` by point):
+/// whether an empty cluster was re-seeded, the summed squared shift, and each centre's move.
+fn update<const D: usize>(
+    points: &[[f64; D]],
+    assign: &[usize],
+    centres: &mut [[f64; D]],
+    sums: &[[f64; D]],
+    counts: &[usize],
+) -> (bool, f64, Vec<f64>) {
+    let k = centres.len();
+    // An empty cluster is re-seeded at the point farthest from its centre (exact distances:
+    // the bounds are not enough to rank points).
+    let far = if counts.contains(&0) {
+        let (i, _) = points
+            .iter()
+            .zip(assign)
+            .map(|(p, &a)| d2(p, &centres[a]))
+            .enumerate()
+            .fold((0usize, -1.0f64), |best, (i, d)| if d > best.1 { (i, d) } else { best });
+        Some(i)
+    } else {
+        None
+    };
+    let mut reseeded = false;
+    let mut shift = 0.0;
+    let mut moved = vec![0.0f64; k];
+    for j in 0..k {
+        let new = match (counts[j], far) {
+            (0, Some(f)) => {
+                reseeded = true;
+                points[f]
+            }
+            _ => sums[j].map(|s| s / counts[j].max(1) as f64),
+        };
+        let dj = d2(&new, &centres[j]);
+        shift += dj;
+        moved[j] = dj.sqrt();
+        centres[j] = new;
+    }
+    (reseeded, shift, moved)
 }
 
 /// Mean over the dimensions that vary of each dimension's variance.

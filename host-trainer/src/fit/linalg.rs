@@ -19,7 +19,7 @@ const TSQR_BLOCK: usize = 8192;
 /// are reduced once more. That is a Householder QR of the whole system (R and QᵀY are the same
 /// up to the signs of R's rows), with fixed blocks so the result does not depend on the number
 /// of threads.
-pub fn lstsq(x: DMatrix<f64>, y: DMatrix<f64>, what: &str) -> Result<DMatrix<f64>, TrainerError> {
+pub(crate) fn lstsq(x: DMatrix<f64>, y: DMatrix<f64>, what: &str) -> Result<DMatrix<f64>, TrainerError> {
     let (p, m) = (x.ncols(), y.ncols());
     lstsq_rows(x.nrows(), p, m, what, |i, row| {
         for (c, v) in row.iter_mut().enumerate() {
@@ -30,7 +30,7 @@ pub fn lstsq(x: DMatrix<f64>, y: DMatrix<f64>, what: &str) -> Result<DMatrix<f64
 
 /// [`lstsq`] for a system given row by row: `row(i, buf)` writes the p regressors of row i
 /// followed by its m targets into `buf` (length p + m). Nothing n-sized is held.
-pub fn lstsq_rows(
+pub(crate) fn lstsq_rows(
     n: usize,
     p: usize,
     m: usize,
@@ -83,7 +83,7 @@ pub fn lstsq_rows(
 /// columns of row i), as its top min(n, q) rows, by the tall-skinny QR of [`lstsq_rows`]:
 /// RᵀR = AᵀA, so any least-squares problem on a subset of A's columns can be solved from R
 /// alone (see `fit::memory_core`). Nothing n-sized is held.
-pub fn triangular_rows(n: usize, q: usize, row: impl Fn(usize, &mut [f64]) + Sync) -> DMatrix<f64> {
+pub(crate) fn triangular_rows(n: usize, q: usize, row: impl Fn(usize, &mut [f64]) + Sync) -> DMatrix<f64> {
     // The triangular factor of one block of rows, as its top min(rows, q) rows.
     let reduce = |rows: std::ops::Range<usize>| -> DMatrix<f64> {
         // Rows written as the columns of the transpose (contiguous), then transposed once.
@@ -119,28 +119,27 @@ fn triangular_factor(a: DMatrix<f64>) -> DMatrix<f64> {
 
 /// The ridge system of paper Eq. 7 in eigen form: G = ΨᵀΨ = V Λ Vᵀ and Ψᵀ R, so that
 /// W(α) = V (Λ + αI)⁻¹ Vᵀ ΨᵀR costs O(K²) per α.
-pub struct RidgeSystem {
-    pub eigen: SymmetricEigen<f64, nalgebra::Dyn>,
+pub(crate) struct RidgeSystem {
+    pub(crate) eigen: SymmetricEigen<f64, nalgebra::Dyn>,
     /// Vᵀ Ψᵀ R (K × outputs).
-    pub vt_psi_r: DMatrix<f64>,
-    pub n: usize,
+    pub(crate) vt_psi_r: DMatrix<f64>,
 }
 
 impl RidgeSystem {
     /// Build from the design Ψ (n × K) and residual targets R (n × m).
-    pub fn new(psi: &DMatrix<f64>, r: &DMatrix<f64>) -> Self {
-        Self::from_gram(psi.tr_mul(psi), &psi.tr_mul(r), psi.nrows())
+    pub(crate) fn new(psi: &DMatrix<f64>, r: &DMatrix<f64>) -> Self {
+        Self::from_gram(psi.tr_mul(psi), &psi.tr_mul(r))
     }
 
-    /// Build from G = ΨᵀΨ (K × K), ΨᵀR (K × m) and the number of rows they sum.
-    pub fn from_gram(g: DMatrix<f64>, psi_r: &DMatrix<f64>, n: usize) -> Self {
+    /// Build from G = ΨᵀΨ (K × K) and ΨᵀR (K × m).
+    pub(crate) fn from_gram(g: DMatrix<f64>, psi_r: &DMatrix<f64>) -> Self {
         let eigen = SymmetricEigen::new(g);
         let vt_psi_r = eigen.eigenvectors.tr_mul(psi_r);
-        RidgeSystem { eigen, vt_psi_r, n }
+        RidgeSystem { eigen, vt_psi_r }
     }
 
     /// Ridge weights W (K × m) for penalty `alpha` (the α of Eq. 7, in ΨᵀΨ units).
-    pub fn weights(&self, alpha: f64) -> DMatrix<f64> {
+    pub(crate) fn weights(&self, alpha: f64) -> DMatrix<f64> {
         let mut t = self.vt_psi_r.clone();
         for (i, mut row) in t.row_iter_mut().enumerate() {
             let lam = self.eigen.eigenvalues[i].max(0.0);
@@ -150,7 +149,7 @@ impl RidgeSystem {
     }
 
     /// Eigenvalues of ΨᵀΨ + αI in ascending order, with their eigenvectors as columns.
-    pub fn regularised_spectrum(&self, alpha: f64) -> (Vec<f64>, DMatrix<f64>) {
+    pub(crate) fn regularised_spectrum(&self, alpha: f64) -> (Vec<f64>, DMatrix<f64>) {
         let k = self.eigen.eigenvalues.len();
         let mut order: Vec<usize> = (0..k).collect();
         order.sort_by(|&a, &b| self.eigen.eigenvalues[a].total_cmp(&self.eigen.eigenvalues[b]));

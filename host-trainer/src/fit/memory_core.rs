@@ -131,7 +131,7 @@ impl MemoryChoice {
 
     /// The spec that computes exactly the terms some output uses (others 0), with the
     /// observer's row from `core`'s stage 1.
-    pub fn spec(&self, menu: &MemorySpec<f64>, core: &PolyCore) -> MemorySpec<f64> {
+    pub(crate) fn spec(&self, menu: &MemorySpec<f64>, core: &PolyCore) -> MemorySpec<f64> {
         let any = |g| (0..core.dims.n_outputs()).any(|o| self.uses(o, g));
         let mut s = MemorySpec::off();
         if any(MemoryGroup::GratingHighPass) {
@@ -186,7 +186,7 @@ fn offered(dims: &Dims, o: usize, g: MemoryGroup) -> bool {
 /// Whether group `g` can have a term for some output of `dims`: the ambient high-passes need
 /// the ambient input (and a temperature output), the drift observer the ambient input and a
 /// temperature output (reports leave the others out: Table 3 removes only groups that exist).
-pub fn applies(dims: &Dims, g: MemoryGroup) -> bool {
+pub(crate) fn applies(dims: &Dims, g: MemoryGroup) -> bool {
     (g != MemoryGroup::AmbientHighPass || dims.ambient()) && (0..dims.n_outputs()).any(|o| offered(dims, o, g))
 }
 
@@ -202,7 +202,7 @@ impl MemoryTerms {
         &self.values[r * self.len..(r + 1) * self.len]
     }
     /// Number of rows.
-    pub fn rows(&self) -> usize {
+    pub(crate) fn rows(&self) -> usize {
         self.values.len().checked_div(self.len).unwrap_or(0)
     }
 }
@@ -217,7 +217,7 @@ pub fn memory_terms(spec: &MemorySpec<f64>, dims: &Dims, d: &Dataset, rows: &[us
 /// [`memory_terms`] keeping only the terms `keep` (indices into the memory vector, in that
 /// order): a row holds `keep.len()` numbers, so a fit that uses a few terms over millions of
 /// rows holds only those.
-pub fn memory_terms_of(
+pub(crate) fn memory_terms_of(
     spec: &MemorySpec<f64>,
     dims: &Dims,
     d: &Dataset,
@@ -266,7 +266,7 @@ fn static_values(core: &PolyCore, ph: &[f64; MAX_POLY]) -> [f64; MAX_OUTPUTS] {
 /// One tall-skinny QR of [m | r_1 … r_M] over the union of every output's memory columns serves
 /// all outputs: for output o with columns S, ‖r_o − m_S γ‖² = ‖(Qᵀr)_o − R_S γ‖² + const, so its
 /// problem is the small one [R_S; penalty rows] γ ≈ [(Qᵀr)_o; 0], solved by QR and SVD.
-pub fn fit(
+pub(crate) fn fit(
     d: &Dataset,
     rows: &[usize],
     core: &PolyCore,
@@ -385,7 +385,7 @@ struct FoldStats {
 }
 
 /// One fold for the memory cross-validation: its training core and rows.
-pub struct FoldInput<'a> {
+pub(crate) struct FoldInput<'a> {
     pub core: &'a PolyCore,
     pub train: &'a [usize],
     pub val: &'a [usize],
@@ -488,7 +488,7 @@ fn val_sse(st: &FoldStats, o: usize, cols: &[usize], lambda: f64) -> Option<f64>
 /// Choose, per output, the memory groups and λ with the lowest pooled validation error over
 /// the folds (ties: fewer groups, then larger λ). The hold-out is never seen: the folds are
 /// inside the calibration batch.
-pub fn select(
+pub(crate) fn select(
     d: &Dataset,
     folds: &[FoldInput<'_>],
     opts: &MemoryOptions,
@@ -496,7 +496,7 @@ pub fn select(
     if !opts.enabled() || folds.is_empty() {
         return Ok((MemoryChoice::none(), Vec::new()));
     }
-    let stats: Vec<FoldStats> = super::par_map(folds, |f| fold_stats(d, f, opts));
+    let stats: Vec<FoldStats> = super::par::par_map(folds, |f| fold_stats(d, f, opts));
     let n_val: usize = stats.iter().map(|s| s.val.n).sum();
     let offered_groups: Vec<MemoryGroup> =
         MemoryGroup::ALL.iter().copied().filter(|g| opts.groups.contains(g)).collect();

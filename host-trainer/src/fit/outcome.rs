@@ -1,5 +1,5 @@
 //! What a fit tells its user: the hyper-parameters and memory terms it chose ([`Chosen`]) and
-//! its warnings as data ([`train_warnings`]): Model-H worse than Model-P in the fit's own
+//! its warnings as data (`train_warnings`): Model-H worse than Model-P in the fit's own
 //! cross-validation, static gains that disagree, no ambient thermometer for a temperature
 //! output, reference outliers left out. `train` prints them, `--json` and `coefficients.json`
 //! carry them.
@@ -8,9 +8,10 @@ use serde::Serialize;
 
 use fbg_shared::layout::{Dims, Quantity};
 
+use super::grid::Config;
+use super::host::HostParams;
 use super::select::Selection;
 use super::static_fidelity::{StaticAudit, STATIC_GAIN_TOLERANCE};
-use super::{Config, HostParams};
 use crate::data::outliers::{self, Outlier};
 use crate::data::{Kind, Measurand};
 use crate::warning::Warning;
@@ -107,9 +108,14 @@ fn digits(m: Measurand) -> usize {
 /// Model-P's (`model_h_worse_cv`) and where the two static gains disagree by more than
 /// [`STATIC_GAIN_TOLERANCE`] (`static_gain_disagreement`); a temperature output without the
 /// ambient thermometer (`no_ambient_thermometer`); per reference column, the calibration rows
-/// left out for outliers in it (`reference_outliers_skipped`, `skipped` as [`super::Trained`]
+/// left out for outliers in it (`reference_outliers_skipped`, `skipped` as [`super::trained::Trained`]
 /// keeps them).
-pub fn train_warnings(dims: &Dims, selection: &Selection, audit: &StaticAudit, skipped: &[Outlier]) -> Vec<Warning> {
+pub(crate) fn train_warnings(
+    dims: &Dims,
+    selection: &Selection,
+    audit: &StaticAudit,
+    skipped: &[Outlier],
+) -> Vec<Warning> {
     let outs = Measurand::of_dims(dims);
     let channel = |c: usize| dims.outputs().get(c).map(|o| o.channel().as_str().to_string()).unwrap_or_default();
     let mut w = Vec::new();

@@ -11,7 +11,7 @@ use crate::data::Dataset;
 use crate::error::TrainerError;
 use rayon::prelude::*;
 
-use crate::fit::linalg::lstsq_rows;
+use super::linalg::lstsq_rows;
 
 /// A fitted polynomial core. Arrays are sized to the capacity; only the entries of `dims`
 /// are used (the rest are 0).
@@ -34,7 +34,7 @@ pub struct PolyCore {
 /// φ of paper Eq. 3 generalised to the M guesses `g` of `dims` ([`Dims::poly_term`] order),
 /// with the quadratic and cross terms optionally zeroed (the "without cross-terms" ablation
 /// keeps [1, g_1..g_M]).
-pub fn phi(dims: &Dims, g: &[f64; MAX_OUTPUTS], cross_terms: bool) -> [f64; MAX_POLY] {
+pub(crate) fn phi(dims: &Dims, g: &[f64; MAX_OUTPUTS], cross_terms: bool) -> [f64; MAX_POLY] {
     let mut out = [0.0; MAX_POLY];
     out[0] = 1.0;
     for (k, o) in out.iter_mut().enumerate().take(dims.poly_len()).skip(1) {
@@ -90,7 +90,7 @@ fn phi_at(
 }
 
 /// Fit Model-P on the samples `idx` of `d`, with the dimensions of `d` ([`Dataset::dims`]).
-pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, TrainerError> {
+pub(crate) fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, TrainerError> {
     let dims = d.dims("the dataset")?;
     let (ns, m, np) = (dims.stage1_len(), dims.n_outputs(), dims.poly_len());
     let n = idx.len();
@@ -173,7 +173,7 @@ pub fn fit(d: &Dataset, idx: &[usize], cross_terms: bool) -> Result<PolyCore, Tr
 
 impl PolyCore {
     /// The core of a model's parameters (B, Γ and what they act on).
-    pub fn of(p: &crate::fit::HostParams) -> Self {
+    pub fn of(p: &super::host::HostParams) -> Self {
         PolyCore {
             dims: p.dims,
             stage1: p.stage1,
@@ -187,7 +187,7 @@ impl PolyCore {
 
     /// φ (every term) of the standardised first guesses of sample `i`: the regressors B
     /// multiplies.
-    pub fn phi_at(&self, d: &Dataset, i: usize) -> [f64; MAX_POLY] {
+    pub(crate) fn phi_at(&self, d: &Dataset, i: usize) -> [f64; MAX_POLY] {
         phi_at(&self.dims, &self.stage1, &self.guess_mean, &self.guess_std, d, i, true)
     }
 

@@ -7,14 +7,18 @@ use nalgebra::DMatrix;
 
 use fbg_shared::layout::MAX_OUTPUTS;
 
-use crate::data::Dataset;
+use super::design::{design_matrix, run};
+use super::host::HostParams;
+use super::linalg;
+use super::provenance::today_yyyymmdd;
+use super::residual::residual_targets;
+use crate::data::{Column, Dataset};
 use crate::error::TrainerError;
-use crate::fit::{self, design_matrix, linalg, residual_targets, run, HostParams};
 
 /// Prior standard deviation of a core gain change (gauge-factor dispersion is ~3 %).
-pub const GAIN_PRIOR_SIGMA: f64 = 0.05;
+pub(crate) const GAIN_PRIOR_SIGMA: f64 = 0.05;
 /// Weight of the old residual weights in samples per centre.
-pub const PRIOR_SAMPLES_PER_CENTRE: f64 = 20.0;
+pub(crate) const PRIOR_SAMPLES_PER_CENTRE: f64 = 20.0;
 
 /// What a recalibration changed, and the check on the batch that decided it.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -133,69 +137,15 @@ pub fn recalibrate_with(
     }
     let cut = batch.len() * 7 / 10;
     let (fit_part, val_part) = batch.split_at(cut);
-    let m_out = old.dims.n_outputs();
-    // The batch's reference of each of the model's outputs (by measurand).
-    let refs = d.references_of(&old.dims);
-    let has = |c: usize| old.fitted[c] && refs[c].is_present();
-    // Mean squared error of every output with a reference over `rows` (NaN for the others).
-    let mses = |p: &HostParams, rows: &[usize]| -> Result<Vec<f64>, TrainerError> {
-        let e = run(p, d, rows)?;
-        Ok((0..m_out)
-            .map(|c| {
-                if !has(c) {
-                    return f64::NAN;
-                }
-                rows.iter().zip(&e).map(|(&i, e)| (e.values[c] - refs[c][i]).powi(2)).sum::<f64>() / rows.len() as f64
-            })
-            .collect())
-    };
-    let old_check = mses(old, val_part)?;
-    // Choose the core update per output on the validation part.
-    let mut choice = vec![CoreUpdate::Keep; m_out];
-    for (c, chosen) in choice.iter_mut().enumerate() {
-        if !has(c) {
-            continue;
-        }
-        let mut best = (old_check[c], CoreUpdate::Keep);
-        let cands: &[CoreUpdate] = if old.has_memory() {
-            &[CoreUpdate::Offset, CoreUpdate::OffsetGain, CoreUpdate::Memory]
-        } else {
-            &[CoreUpdate::Offset, CoreUpdate::OffsetGain]
-        };
-        for &cand in cands {
-            let mut p = old.clone();
-            apply_core(&mut p, d, fit_part, c, cand)?;
-            let m = mses(&p, val_part)?[c];
-            if m < best.0 {
-                best = (m, cand);
-            }
-        }
-        *chosen = best.1;
-    }
-    // The candidate as fitted on the first 70 %: the chosen core updates ...
-    let mut candidate = old.clone();
-    for (c, &how) in choice.iter().enumerate() {
-        apply_core(&mut candidate, d, fit_part, c, how)?;
-    }
-    // ... and W towards the old weights, if it validates better than the core update alone.
-    let k = old.centres.len();
-    let mut w_updated = false;
-    if k > 0 && (0..m_out).any(has) {
-        let mut trial = candidate.clone();
-        update_w(&mut trial, old, d, fit_part)?;
-        let (m_trial, m_core) = (mses(&trial, val_part)?, mses(&candidate, val_part)?);
-        let better: Vec<f64> =
-            (0..m_out).filter(|&c| has(c)).map(|c| m_trial[c] / m_core[c].max(f64::MIN_POSITIVE)).collect();
-        if better.iter().sum::<f64>() < better.len() as f64 {
-            candidate = trial;
-            w_updated = true;
-        }
-    }
+    let check = Check { old, d, refs: d.references_of(&old.dims) };
+    let old_check = check.mses(old, val_part)?;
+    let mut choice = check.core_updates(fit_part, val_part, &old_check)?;
+    let (candidate, w_updated) = check.candidate(fit_part, val_part, &choice)?;
     // The check, per output, on the last 30 % only: the candidate against the old model.
-    let cand_check = mses(&candidate, val_part)?;
-    let verdict: Vec<Verdict> = (0..m_out)
+    let cand_check = check.mses(&candidate, val_part)?;
+    let verdict: Vec<Verdict> = (0..old.dims.n_outputs())
         .map(|c| {
-            if !has(c) {
+            if !check.has(c) {
                 Verdict::NoReference
             } else if choice[c] == CoreUpdate::Keep && !w_updated {
                 Verdict::Unchanged
@@ -213,42 +163,10 @@ pub fn recalibrate_with(
             choice[c] = CoreUpdate::Keep;
         }
     }
-    // The kept updates, refitted on the whole batch.
-    let mut new = old.clone();
-    let mut offset_gain = vec![(0.0, 1.0); m_out];
-    for c in 0..m_out {
-        offset_gain[c] = apply_core(&mut new, d, &batch, c, choice[c])?;
-    }
-    w_updated = w_updated && verdict.iter().any(|v| v.changes());
-    if w_updated {
-        update_w(&mut new, old, d, &batch)?;
-        for c in (0..m_out).filter(|&c| !verdict[c].changes()) {
-            for (n, o) in new.centres.iter_mut().zip(old.centres.iter()) {
-                n.w[c] = o.w[c];
-            }
-        }
-    }
-    // Band: never narrower than before; widened if the batch residual says so (with a
-    // degrees-of-freedom correction for the refitted numbers).
-    let after = run(&new, d, &batch)?;
-    let p_eff = (2 + if w_updated { k } else { 0 }) as f64;
-    let n = batch.len() as f64;
-    let mut batch_rmse = vec![f64::NAN; m_out];
-    for (c, rmse) in batch_rmse.iter_mut().enumerate() {
-        if !has(c) {
-            continue;
-        }
-        let m = batch.iter().zip(&after).map(|(&i, e)| (e.values[c] - refs[c][i]).powi(2)).sum::<f64>() / n;
-        *rmse = m.sqrt();
-        let corrected = if n > p_eff + 1.0 { m * n / (n - p_eff) } else { m * 2.0 };
-        new.resid_var[c] = new.resid_var[c].max(corrected);
-    }
-    new.t_cal_end_s = batch.last().map(|&i| d.t_s[i]).unwrap_or(new.t_cal_end_s);
-    new.provenance.n_cal = batch.len() as u32;
-    new.provenance.date_yyyymmdd = fit::today_yyyymmdd();
-    new.validate().map_err(|e| TrainerError::fit(format!("recalibrated model is invalid: {e}")))?;
+    let w_updated = w_updated && verdict.iter().any(|v| v.changes());
+    let Refit { model, offset_gain, batch_rmse } = check.refit(&batch, &choice, w_updated, &verdict)?;
     Ok((
-        new,
+        model,
         Recalibration {
             n_batch: batch.len(),
             n_fit: fit_part.len(),
@@ -262,6 +180,151 @@ pub fn recalibrate_with(
             batch_rmse,
         },
     ))
+}
+
+/// A recalibrated model, each output's (offset, gain) and its in-sample RMS residual.
+struct Refit {
+    model: HostParams,
+    offset_gain: Vec<(f64, f64)>,
+    batch_rmse: Vec<f64>,
+}
+
+/// The old model and the batch's reference of each of its outputs (by measurand): what every
+/// refit is scored against.
+struct Check<'a> {
+    old: &'a HostParams,
+    d: &'a Dataset,
+    refs: Vec<Column<'a>>,
+}
+
+impl Check<'_> {
+    /// Whether output `c` was fitted and has a reference in the batch.
+    fn has(&self, c: usize) -> bool {
+        self.old.fitted[c] && self.refs[c].is_present()
+    }
+
+    /// Mean squared error of every output with a reference over `rows` (NaN for the others).
+    fn mses(&self, p: &HostParams, rows: &[usize]) -> Result<Vec<f64>, TrainerError> {
+        let e = run(p, self.d, rows)?;
+        Ok((0..self.old.dims.n_outputs())
+            .map(|c| {
+                if !self.has(c) {
+                    return f64::NAN;
+                }
+                let refs = &self.refs[c];
+                rows.iter().zip(&e).map(|(&i, e)| (e.values[c] - refs[i]).powi(2)).sum::<f64>() / rows.len() as f64
+            })
+            .collect())
+    }
+
+    /// Per output, the core update fitted on `fit_part` that predicts `val_part` best (`Keep`
+    /// unless one beats the old model's `old_check`).
+    fn core_updates(
+        &self,
+        fit_part: &[usize],
+        val_part: &[usize],
+        old_check: &[f64],
+    ) -> Result<Vec<CoreUpdate>, TrainerError> {
+        let old = self.old;
+        let mut choice = vec![CoreUpdate::Keep; old.dims.n_outputs()];
+        for (c, chosen) in choice.iter_mut().enumerate() {
+            if !self.has(c) {
+                continue;
+            }
+            let mut best = (old_check[c], CoreUpdate::Keep);
+            let cands: &[CoreUpdate] = if old.has_memory() {
+                &[CoreUpdate::Offset, CoreUpdate::OffsetGain, CoreUpdate::Memory]
+            } else {
+                &[CoreUpdate::Offset, CoreUpdate::OffsetGain]
+            };
+            for &cand in cands {
+                let mut p = old.clone();
+                apply_core(&mut p, self.d, fit_part, c, cand)?;
+                let m = self.mses(&p, val_part)?[c];
+                if m < best.0 {
+                    best = (m, cand);
+                }
+            }
+            *chosen = best.1;
+        }
+        Ok(choice)
+    }
+
+    /// The candidate as fitted on `fit_part`: the `choice` of core updates, and W towards the
+    /// old weights if that predicts `val_part` better than the core update alone (whether it
+    /// did).
+    fn candidate(
+        &self,
+        fit_part: &[usize],
+        val_part: &[usize],
+        choice: &[CoreUpdate],
+    ) -> Result<(HostParams, bool), TrainerError> {
+        let (old, d) = (self.old, self.d);
+        let m_out = old.dims.n_outputs();
+        let mut candidate = old.clone();
+        for (c, &how) in choice.iter().enumerate() {
+            apply_core(&mut candidate, d, fit_part, c, how)?;
+        }
+        if old.centres.is_empty() || !(0..m_out).any(|c| self.has(c)) {
+            return Ok((candidate, false));
+        }
+        let mut trial = candidate.clone();
+        update_w(&mut trial, old, d, fit_part)?;
+        let (m_trial, m_core) = (self.mses(&trial, val_part)?, self.mses(&candidate, val_part)?);
+        let better: Vec<f64> =
+            (0..m_out).filter(|&c| self.has(c)).map(|c| m_trial[c] / m_core[c].max(f64::MIN_POSITIVE)).collect();
+        if better.iter().sum::<f64>() < better.len() as f64 {
+            return Ok((trial, true));
+        }
+        Ok((candidate, false))
+    }
+
+    /// The kept updates (`choice`, W if `w_updated` on the outputs whose `verdict` changes)
+    /// refitted on the whole `batch`, with a band never narrower than before.
+    fn refit(
+        &self,
+        batch: &[usize],
+        choice: &[CoreUpdate],
+        w_updated: bool,
+        verdict: &[Verdict],
+    ) -> Result<Refit, TrainerError> {
+        let (old, d) = (self.old, self.d);
+        let m_out = old.dims.n_outputs();
+        let mut new = old.clone();
+        let mut offset_gain = vec![(0.0, 1.0); m_out];
+        for c in 0..m_out {
+            offset_gain[c] = apply_core(&mut new, d, batch, c, choice[c])?;
+        }
+        if w_updated {
+            update_w(&mut new, old, d, batch)?;
+            for c in (0..m_out).filter(|&c| !verdict[c].changes()) {
+                for (n, o) in new.centres.iter_mut().zip(old.centres.iter()) {
+                    n.w[c] = o.w[c];
+                }
+            }
+        }
+        // Band: never narrower than before; widened if the batch residual says so (with a
+        // degrees-of-freedom correction for the refitted numbers).
+        let after = run(&new, d, batch)?;
+        let p_eff = (2 + if w_updated { old.centres.len() } else { 0 }) as f64;
+        let n = batch.len() as f64;
+        let mut batch_rmse = vec![f64::NAN; m_out];
+        for (c, rmse) in batch_rmse.iter_mut().enumerate() {
+            if !self.has(c) {
+                continue;
+            }
+            let refs = &self.refs[c];
+            let m = batch.iter().zip(&after).map(|(&i, e)| (e.values[c] - refs[i]).powi(2)).sum::<f64>() / n;
+            *rmse = m.sqrt();
+            let corrected = if n > p_eff + 1.0 { m * n / (n - p_eff) } else { m * 2.0 };
+            new.resid_var[c] = new.resid_var[c].max(corrected);
+        }
+        new.t_cal_end_s = batch.last().map(|&i| d.t_s[i]).unwrap_or(new.t_cal_end_s);
+        new.provenance.n_cal = batch.len() as u32;
+        new.provenance.date_yyyymmdd = today_yyyymmdd();
+        new.validate().map_err(|e| TrainerError::fit(format!("recalibrated model is invalid: {e}")))?;
+        Ok(Refit { model: new, offset_gain, batch_rmse })
+    }
 }
 
 /// Refit output `c`'s core offset (and gain) on `rows` and fold it into `p.poly[c]`.
@@ -314,7 +377,7 @@ fn apply_core(
 /// refitted jointly with the memory terms on a batch at one pace, it would trade static gain
 /// for them (DESIGN §4, static fidelity).
 fn refit_memory(p: &mut HostParams, d: &Dataset, rows: &[usize], c: usize) -> Result<(), TrainerError> {
-    let m = fit::memory_core::memory_terms(&p.memory, &p.dims, d, rows);
+    let m = super::memory_core::memory_terms(&p.memory, &p.dims, d, rows);
     let full = run(p, d, rows)?;
     let truth = d.reference_of(&p.dims, c);
     let mc: Vec<usize> = (0..p.dims.memory_len()).filter(|&k| p.gamma[c][k] != 0.0).collect();

@@ -18,102 +18,27 @@ use std::sync::{Arc, Mutex};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use fbg_shared::layout::FeatureSet;
+use fbg_shared::layout::{Dims, FeatureSet};
 use fbg_shared::Provenance;
 
 use super::band::VarModel;
-use super::memory_core::{self, MemoryChoice, MemoryCvRow, MemoryOptions};
-use super::{
-    design, linalg, poly_core, residual_targets, skeleton, z_sample, CheckpointCache, Config, HostParams, ZSample,
-};
-use crate::data::import::OnError;
+use super::design::{self, CheckpointCache};
+use super::grid::Config;
+use super::host::HostParams;
+use super::linalg;
+use super::memory_core::{self, MemoryChoice, MemoryCvRow};
+use super::options::TrainOptions;
+use super::poly_core::{self, PolyCore};
+use super::rbf_inputs::{z_sample, ZSample};
+use super::residual::residual_targets;
+use super::skeleton::Skeleton;
 use crate::data::Dataset;
 use crate::error::TrainerError;
-
-/// The grid and the CV layout.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct TrainOptions {
-    pub feature_sets: Vec<FeatureSet>,
-    pub centres: Vec<usize>,
-    pub sigma_mults: Vec<f64>,
-    pub alpha_rels: Vec<f64>,
-    pub dead_bands_pm: Vec<f64>,
-    /// Keep the quadratic and cross terms of stage 2 (false only for the ablation).
-    pub cross_terms: bool,
-    /// The memory menu (off for the `paper` and `latch` variants).
-    pub memory: MemoryOptions,
-    /// Contiguous blocks the calibration batch is cut into.
-    pub blocks: usize,
-    /// Blocks in the first fold's training set.
-    pub min_train_blocks: usize,
-    /// Seed of k-means++.
-    pub seed: u64,
-    /// Largest number of calibration rows the cross-validation works on: beyond it the rows are
-    /// thinned by an even stride (time order and span kept; the latches still see every
-    /// sample). The final fit always uses every row.
-    pub cv_max_samples: usize,
-    /// Show a progress bar (only on a terminal).
-    #[serde(skip)]
-    pub progress: bool,
-    /// Reference outliers in the calibration rows (`data::outliers`): refuse the batch
-    /// (`Fail`, the default) or leave their rows out of the fit (`Skip`).
-    pub on_outlier: OnError,
-}
-
-impl Default for TrainOptions {
-    fn default() -> Self {
-        TrainOptions {
-            feature_sets: vec![FeatureSet::HysteresisAware],
-            // The device step's 2 500-instruction budget holds the default model's memory bank
-            // with up to 8 centres, not 16 (`cargo xtask bench`, device part), and on the `paper`
-            // seeds K = 16 gained about a per cent of RMSE over K <= 8: the default grid stops at
-            // 8.
-            centres: vec![4, 8],
-            sigma_mults: vec![0.5, 1.0, 2.0, 4.0],
-            alpha_rels: vec![1e-6, 1e-5, 1e-4, 1e-3, 1e-2],
-            dead_bands_pm: vec![1.0, 2.0, 4.0, 8.0],
-            cross_terms: true,
-            memory: MemoryOptions::default_menu(),
-            blocks: 5,
-            min_train_blocks: 2,
-            seed: 1,
-            cv_max_samples: 40_000,
-            progress: false,
-            on_outlier: OnError::Fail,
-        }
-    }
-}
-
-impl TrainOptions {
-    /// A one-point grid: no choice left to make (CV still runs, for s²).
-    pub fn fixed(cfg: &Config) -> Self {
-        TrainOptions {
-            feature_sets: vec![cfg.feature_set],
-            centres: vec![cfg.k],
-            sigma_mults: vec![cfg.sigma_mult],
-            alpha_rels: vec![cfg.alpha_rel],
-            dead_bands_pm: vec![cfg.dead_band_pm],
-            cross_terms: cfg.cross_terms,
-            ..TrainOptions::default()
-        }
-    }
-
-    /// [`TrainOptions::fixed`] keeping this grid's memory menu (cross-validation still chooses
-    /// the memory terms: it costs one pass of the bank per fold).
-    pub fn fixed_like(&self, cfg: &Config) -> Self {
-        TrainOptions { memory: self.memory.clone(), ..TrainOptions::fixed(cfg) }
-    }
-    /// Restrict the feature sets (`paper` → only the paper set; `hysteresis-aware` → the latch
-    /// sets, with time left to cross-validation).
-    pub fn with_features(mut self, sets: Vec<FeatureSet>) -> Self {
-        self.feature_sets = sets;
-        self
-    }
-}
 
 /// One evaluated grid point.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct CvRow {
+    /// The grid point.
     pub config: Config,
     /// Pooled validation RMSE per output.
     pub cv_rmse: Vec<f64>,
@@ -124,19 +49,23 @@ pub struct CvRow {
 /// The outcome of selection.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Selection {
+    /// The grid point cross-validation chose.
     pub chosen: Config,
     /// The memory terms each output uses (none for the `paper` and `latch` variants).
     pub memory: MemoryChoice,
     /// Every memory menu point evaluated, per output, with its pooled validation RMSE.
     pub memory_rows: Vec<MemoryCvRow>,
+    /// Every grid point evaluated, best first (the chosen one alone for a one-point grid).
     pub rows: Vec<CvRow>,
     /// Pooled validation RMSE of Model-P and of the chosen Model-H (with memory terms: over the
     /// folds that scored them).
     pub cv_rmse_p: Vec<f64>,
+    /// See [`Selection::cv_rmse_p`].
     pub cv_rmse_h: Vec<f64>,
     /// Band variance model s²(τ) = a + b·τ per output (a in unit², b in unit²/s), Model-P and
     /// Model-H.
     pub var_model_p: Vec<VarModel>,
+    /// See [`Selection::var_model_p`].
     pub var_model_h: Vec<VarModel>,
     /// Folds as (training samples, validation samples).
     pub folds: Vec<(usize, usize)>,
@@ -164,7 +93,7 @@ fn key(c: &Config) -> (u8, u64, usize, u64, u64) {
 
 /// One fold's polynomial core and the end of its training.
 struct FoldCore {
-    core: poly_core::PolyCore,
+    core: PolyCore,
     /// Time of the fold's last training sample [s] (validation leads count from it).
     t_end: f64,
 }
@@ -173,190 +102,281 @@ struct FoldCore {
 /// every validation sample.
 type FoldErrors = Vec<Vec<f64>>;
 
+/// Sum of squared errors.
+fn pool(sq: &[f64]) -> f64 {
+    sq.iter().sum::<f64>()
+}
+
 /// Run the cross-validation and pick the best configuration.
-pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selection, TrainerError> {
-    if opts.blocks < 2 || opts.min_train_blocks == 0 || opts.min_train_blocks >= opts.blocks {
-        return Err(TrainerError::fit("cross-validation needs 1 <= min_train_blocks < blocks"));
-    }
-    let stride = cal.len().div_ceil(opts.cv_max_samples.max(1)).max(1);
-    let thinned: Vec<usize> = cal.iter().copied().step_by(stride).collect();
-    let fs = folds(&thinned, opts.blocks, opts.min_train_blocks);
-    if fs.iter().any(|f| f.train.len() < 50 || f.val.is_empty()) {
-        return Err(TrainerError::Dataset {
-            message: format!("{} calibration samples are too few for {} CV blocks", cal.len(), opts.blocks),
-        });
-    }
-    let prov = Provenance::default();
-    let dims = d.dims("the dataset")?;
-    let m = dims.n_outputs();
-    // Every fold works on the thinned rows: checkpoints before each of them spare the tasks
-    // from moving the latches over the samples in between.
-    let cache = CheckpointCache::new(cal.last().map(|&i| i + 1).unwrap_or(0), thinned.clone());
-
-    // The (feature set, dead band) pairs of the grid (the paper set ignores the dead band: one
-    // suffices) and the grid size.
-    let mut bands: Vec<(FeatureSet, f64)> = Vec::new();
-    for &set in &opts.feature_sets {
-        if set.uses_latch() {
-            for &db in &opts.dead_bands_pm {
-                bands.push((set, db));
-            }
-        } else {
-            bands.push((set, opts.dead_bands_pm.first().copied().unwrap_or(2.0)));
-        }
-    }
-    let grid_points = bands.len() * opts.centres.len() * opts.sigma_mults.len() * opts.alpha_rels.len();
-    if grid_points == 0 {
-        return Err(TrainerError::fit("empty hyper-parameter grid"));
-    }
-    let mut dbs: Vec<f64> = bands.iter().map(|b| b.1).collect();
-    dbs.sort_by(f64::total_cmp);
-    dbs.dedup();
-
-    // A fold's Model-P, which also stands for the latch stream of its dead band.
-    let stream_model = |core: &poly_core::PolyCore, train: &[usize], db: f64| -> Result<HostParams, TrainerError> {
-        super::Skeleton::core_only(d, train, core, FeatureSet::HysteresisAware, db).params(
-            None,
-            0.0,
-            None,
-            &[],
-            0.0,
-            &prov,
-        )
-    };
-
-    // Model-P per fold (always with cross terms: the reference errors) and the fold's core
-    // (without them for the ablation), with Model-P's validation errors.
-    let per_fold_p: Result<Vec<(FoldCore, FoldErrors)>, TrainerError> = fs
-        .par_iter()
-        .map(|f| {
-            let core = poly_core::fit(d, &f.train, opts.cross_terms)?;
-            let core_full = if opts.cross_terms { core.clone() } else { poly_core::fit(d, &f.train, true)? };
-            // Model-P's answers do not depend on the dead band: take the grid's first, whose
-            // checkpoints the RBF tasks need anyway.
-            let p = stream_model(&core_full, &f.train, dbs[0])?;
-            let ck = cache.get(&p, d)?;
-            let est = design::run_with(&p, d, &f.val, Some(&ck))?;
-            let sq = (0..m)
-                .map(|c| est.iter().zip(&f.val).map(|(e, &i)| (e.values[c] - d.target(c)[i]).powi(2)).collect())
-                .collect();
-            let t_end = f.train.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
-            Ok((FoldCore { core, t_end }, sq))
-        })
-        .collect();
-    let (fold_core, sq_p): (Vec<FoldCore>, Vec<FoldErrors>) = per_fold_p?.into_iter().unzip();
-    // The memory terms, chosen on the folds' own cores, then each fold's core refitted with
-    // them (Γ on what B leaves): the RBF layer below learns what that core leaves.
-    let mem_folds: Vec<memory_core::FoldInput<'_>> = fs
-        .iter()
-        .zip(&fold_core)
-        .map(|(f, fc)| memory_core::FoldInput { core: &fc.core, train: &f.train, val: &f.val })
-        .collect();
-    // Memory terms are scored on the folds whose training spans most of the batch (long time
-    // constants and the drift observer need the span; see `MemoryOptions::min_train_fraction`).
-    let long = (opts.memory.min_train_fraction * thinned.len() as f64).ceil() as usize;
-    let first_long = mem_folds.iter().position(|f| f.train.len() >= long).unwrap_or(mem_folds.len().saturating_sub(1));
-    let (memory, memory_rows) = memory_core::select(d, &mem_folds[first_long..], &opts.memory)?;
-    let fold_core: Vec<FoldCore> = fold_core
-        .into_par_iter()
-        .zip(fs.par_iter())
-        .map(|(fc, f)| {
-            Ok(FoldCore { core: memory_core::fit(d, &f.train, &fc.core, &opts.memory.menu, &memory)?, t_end: fc.t_end })
-        })
-        .collect::<Result<_, TrainerError>>()?;
-    let n_val: usize = fs.iter().map(|f| f.val.len()).sum();
+pub(crate) fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selection, TrainerError> {
+    let cv = Cv::new(d, cal, opts)?;
+    let m = cv.dims.n_outputs();
+    let grid = opts.grid();
+    let dbs = grid.distinct_dead_bands();
+    // Model-P's answers do not depend on the dead band: take the grid's first, whose
+    // checkpoints the RBF tasks need anyway.
+    let first_db = dbs.first().copied().ok_or_else(|| TrainerError::fit("empty hyper-parameter grid"))?;
+    let (fold_core, sq_p) = cv.model_p_pass(first_db)?;
+    let MemoryPass { memory, memory_rows, first_long, fold_core } = cv.choose_memory(fold_core)?;
+    let n_val: usize = cv.folds.iter().map(|f| f.val.len()).sum();
     let cv_rmse_p: Vec<f64> =
         (0..m).map(|c| (sq_p.iter().map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n_val as f64).sqrt()).collect();
-    let (lead, fold_of) = leads(d, &fs, &fold_core);
+    let (lead, fold_of) = leads(d, &cv.folds, &fold_core);
     let var_model_p: Vec<VarModel> = (0..m)
         .map(|c| VarModel::fit(&lead, &sq_p.iter().flat_map(|e| e[c].iter().copied()).collect::<Vec<_>>(), &fold_of))
         .collect();
 
-    // What the RBF layer learns from each fold's training rows, per dead band.
-    let mut zjobs = Vec::new();
-    for fi in 0..fs.len() {
-        for &db in &dbs {
-            zjobs.push((fi, db));
+    let search = GridSearch::new(&cv, &fold_core, &dbs)?;
+    let (rows, chosen) = if grid.len() > 1 {
+        search.rank(&cv_rmse_p)?
+    } else {
+        let chosen = grid.first(opts.cross_terms()).ok_or_else(|| TrainerError::fit("empty hyper-parameter grid"))?;
+        (Vec::new(), chosen)
+    };
+
+    // Per-sample validation errors of the chosen configuration, against their lead time.
+    let sqe_h = search.chosen_errors(&chosen)?;
+    let cv_rmse_h: Vec<f64> = (0..m).map(|c| (pool(&sqe_h[c]) / n_val as f64).sqrt()).collect();
+    let rows = if rows.is_empty() {
+        let score = (0..m).map(|c| cv_rmse_h[c] / cv_rmse_p[c]).sum();
+        vec![CvRow { config: chosen, cv_rmse: cv_rmse_h.clone(), score }]
+    } else {
+        rows
+    };
+    // With memory terms, Model-H's band is calibrated on the same long folds that scored them:
+    // the short folds' memory coefficients are poorly determined, and their larger errors
+    // would widen the band of a final model fitted on the whole batch.
+    let band_from = if memory.any() { first_long } else { 0 };
+    let errors = ValidationErrors { lead: &lead, fold_of: &fold_of, sq_p: &sq_p, sqe_h: &sqe_h };
+    let (var_model_h, cv_rmse_p, cv_rmse_h) = errors.band_h(&cv.folds, band_from, cv_rmse_p, cv_rmse_h);
+    Ok(Selection {
+        chosen,
+        memory,
+        memory_rows,
+        cv_rmse_p,
+        cv_rmse_h,
+        var_model_p,
+        var_model_h,
+        rows,
+        folds: cv.folds.iter().map(|f| (f.train.len(), f.val.len())).collect(),
+        n_cal: cal.len(),
+        cv_stride: cv.stride,
+    })
+}
+
+/// The cross-validation's layout: the (thinned) calibration rows cut into folds, and the
+/// checkpoints every fold resumes from.
+struct Cv<'a> {
+    d: &'a Dataset,
+    opts: &'a TrainOptions,
+    dims: Dims,
+    /// Stride of the thinned rows (1 = all).
+    stride: usize,
+    /// Number of thinned rows.
+    n_thinned: usize,
+    folds: Vec<Fold>,
+    cache: CheckpointCache,
+    prov: Provenance,
+}
+
+/// The memory terms chosen on the folds, and each fold's core refitted with them.
+struct MemoryPass {
+    memory: MemoryChoice,
+    memory_rows: Vec<MemoryCvRow>,
+    /// The first fold whose training spans enough of the batch to score memory terms.
+    first_long: usize,
+    fold_core: Vec<FoldCore>,
+}
+
+impl<'a> Cv<'a> {
+    /// The folds of `cal` (thinned to at most [`TrainOptions::cv_max_samples`] rows), refused
+    /// when too short for the CV blocks.
+    fn new(d: &'a Dataset, cal: &[usize], opts: &'a TrainOptions) -> Result<Self, TrainerError> {
+        let stride = cal.len().div_ceil(opts.cv_max_samples().max(1)).max(1);
+        let thinned: Vec<usize> = cal.iter().copied().step_by(stride).collect();
+        let folds = folds(&thinned, opts.blocks(), opts.min_train_blocks());
+        if folds.iter().any(|f| f.train.len() < 50 || f.val.is_empty()) {
+            return Err(TrainerError::Dataset {
+                message: format!("{} calibration samples are too few for {} CV blocks", cal.len(), opts.blocks()),
+            });
         }
+        let dims = d.dims("the dataset")?;
+        // Every fold works on the thinned rows: checkpoints before each of them spare the tasks
+        // from moving the latches over the samples in between.
+        let n_thinned = thinned.len();
+        let cache = CheckpointCache::new(cal.last().map(|&i| i + 1).unwrap_or(0), thinned);
+        Ok(Cv { d, opts, dims, stride, n_thinned, folds, cache, prov: Provenance::default() })
     }
-    // Each fold's training stream per dead band (its core's values and latches, the stream
-    // rule of the Model-P that stands for the dead band), run once: the k-means sample comes
-    // from its latches, and grid tasks of the same rule take it as it is.
-    let seeded: Result<Vec<(Arc<design::CoreStream>, ZSample)>, TrainerError> = zjobs
-        .par_iter()
-        .map(|&(fi, db)| {
-            let f = &fs[fi];
-            let sm = stream_model(&fold_core[fi].core, &f.train, db)?;
-            let ck = cache.get(&sm, d)?;
-            let train = Arc::new(design::CoreStream::new(&sm, d, &f.train, Some(&ck))?);
-            let zs = z_sample(&sm, d, design::Rows::Cached(&train))?;
-            Ok((train, zs))
+
+    /// A fold's Model-P, which also stands for the latch stream of its dead band.
+    fn stream_model(&self, core: &PolyCore, train: &[usize], db: f64) -> Result<HostParams, TrainerError> {
+        Skeleton::core_only(self.d, train, core, FeatureSet::HysteresisAware, db).bare_params(&self.prov)
+    }
+
+    /// Model-P per fold (always with cross terms: the reference errors) and the fold's core
+    /// (without them for the ablation), with Model-P's validation errors; `db` is the dead band
+    /// of the latch stream Model-P stands for.
+    fn model_p_pass(&self, db: f64) -> Result<(Vec<FoldCore>, Vec<FoldErrors>), TrainerError> {
+        let (d, m, cross_terms) = (self.d, self.dims.n_outputs(), self.opts.cross_terms());
+        let per_fold: Result<Vec<(FoldCore, FoldErrors)>, TrainerError> = self
+            .folds
+            .par_iter()
+            .map(|f| {
+                let core = poly_core::fit(d, &f.train, cross_terms)?;
+                let core_full = if cross_terms { core.clone() } else { poly_core::fit(d, &f.train, true)? };
+                let p = self.stream_model(&core_full, &f.train, db)?;
+                let ck = self.cache.get(&p, d)?;
+                let est = design::run_with(&p, d, &f.val, Some(&ck))?;
+                let sq = (0..m)
+                    .map(|c| est.iter().zip(&f.val).map(|(e, &i)| (e.values[c] - d.target(c)[i]).powi(2)).collect())
+                    .collect();
+                let t_end = f.train.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
+                Ok((FoldCore { core, t_end }, sq))
+            })
+            .collect();
+        Ok(per_fold?.into_iter().unzip())
+    }
+
+    /// The memory terms, chosen on the folds' own cores, then each fold's core refitted with
+    /// them (Γ on what B leaves): the RBF layer learns what that core leaves.
+    fn choose_memory(&self, fold_core: Vec<FoldCore>) -> Result<MemoryPass, TrainerError> {
+        let (d, menu) = (self.d, self.opts.memory());
+        let mem_folds: Vec<memory_core::FoldInput<'_>> = self
+            .folds
+            .iter()
+            .zip(&fold_core)
+            .map(|(f, fc)| memory_core::FoldInput { core: &fc.core, train: &f.train, val: &f.val })
+            .collect();
+        // Memory terms are scored on the folds whose training spans most of the batch (long
+        // time constants and the drift observer need the span; see
+        // `MemoryOptions::min_train_fraction`).
+        let long = (menu.min_train_fraction * self.n_thinned as f64).ceil() as usize;
+        let first_long =
+            mem_folds.iter().position(|f| f.train.len() >= long).unwrap_or(mem_folds.len().saturating_sub(1));
+        let (memory, memory_rows) = memory_core::select(d, &mem_folds[first_long..], menu)?;
+        let fold_core: Vec<FoldCore> = fold_core
+            .into_par_iter()
+            .zip(self.folds.par_iter())
+            .map(|(fc, f)| {
+                Ok(FoldCore { core: memory_core::fit(d, &f.train, &fc.core, &menu.menu, &memory)?, t_end: fc.t_end })
+            })
+            .collect::<Result<_, TrainerError>>()?;
+        Ok(MemoryPass { memory, memory_rows, first_long, fold_core })
+    }
+}
+
+/// A fold's core values and latches at its training and validation rows.
+type FoldStreams = (Arc<design::CoreStream>, Arc<design::CoreStream>);
+
+/// The search of the (feature set, dead band, K, σ, α) grid over the folds, with what its
+/// tasks share: per fold and dead band the RBF inputs' sample and the fold's streams.
+struct GridSearch<'c, 'a> {
+    cv: &'c Cv<'a>,
+    fold_core: &'c [FoldCore],
+    zsamples: HashMap<(usize, u64), ZSample>,
+    train_streams: HashMap<(usize, u64), Arc<design::CoreStream>>,
+    /// The core's values and the latches at each fold's training and validation rows, per dead
+    /// band and stream rule: the same for every K and σ of the grid, and for every feature set
+    /// of the same rule. Made by the first task that needs one (two tasks racing may both make
+    /// it: the same numbers either way).
+    streams: HashMap<(usize, u64), Mutex<Vec<FoldStreams>>>,
+}
+
+impl<'c, 'a> GridSearch<'c, 'a> {
+    /// What the RBF layer learns from each fold's training rows, per dead band of `dbs`.
+    fn new(cv: &'c Cv<'a>, fold_core: &'c [FoldCore], dbs: &[f64]) -> Result<Self, TrainerError> {
+        let d = cv.d;
+        let mut zjobs = Vec::new();
+        for fi in 0..cv.folds.len() {
+            for &db in dbs {
+                zjobs.push((fi, db));
+            }
+        }
+        // Each fold's training stream per dead band (its core's values and latches, the stream
+        // rule of the Model-P that stands for the dead band), run once: the k-means sample
+        // comes from its latches, and grid tasks of the same rule take it as it is.
+        let seeded: Result<Vec<(Arc<design::CoreStream>, ZSample)>, TrainerError> = zjobs
+            .par_iter()
+            .map(|&(fi, db)| {
+                let f = &cv.folds[fi];
+                let sm = cv.stream_model(&fold_core[fi].core, &f.train, db)?;
+                let ck = cv.cache.get(&sm, d)?;
+                let train = Arc::new(design::CoreStream::new(&sm, d, &f.train, Some(&ck))?);
+                let zs = z_sample(&sm, d, design::Rows::Cached(&train))?;
+                Ok((train, zs))
+            })
+            .collect();
+        let (train_streams, zsamples): (Vec<_>, Vec<_>) = seeded?.into_iter().unzip();
+        let keys: Vec<(usize, u64)> = zjobs.iter().map(|&(fi, db)| (fi, db.to_bits())).collect();
+        Ok(GridSearch {
+            cv,
+            fold_core,
+            zsamples: keys.iter().copied().zip(zsamples).collect(),
+            train_streams: keys.iter().copied().zip(train_streams).collect(),
+            streams: keys.iter().map(|&k| (k, Mutex::new(Vec::new()))).collect(),
         })
-        .collect();
-    let (train_streams, zsamples): (Vec<_>, Vec<_>) = seeded?.into_iter().unzip();
-    let keys: Vec<(usize, u64)> = zjobs.iter().map(|&(fi, db)| (fi, db.to_bits())).collect();
-    let zsamples: HashMap<(usize, u64), ZSample> = keys.iter().copied().zip(zsamples).collect();
-    let train_streams: HashMap<(usize, u64), Arc<design::CoreStream>> =
-        keys.iter().copied().zip(train_streams).collect();
-    // The core's values and the latches at each fold's training and validation rows, per dead
-    // band and stream rule: the same for every K and σ of the grid, and for every feature set
-    // of the same rule. Made by the first task that needs one (two tasks racing may both make
-    // it: the same numbers either way).
-    type FoldStreams = (Arc<design::CoreStream>, Arc<design::CoreStream>);
-    let streams: HashMap<(usize, u64), Mutex<Vec<FoldStreams>>> =
-        keys.iter().map(|&k| (k, Mutex::new(Vec::new()))).collect();
-    let fold_streams = |fi: usize, db: f64, p: &HostParams| -> Result<FoldStreams, TrainerError> {
+    }
+
+    /// The streams of fold `fi` under the stream rule of `p` (dead band `db`).
+    fn fold_streams(&self, fi: usize, db: f64, p: &HostParams) -> Result<FoldStreams, TrainerError> {
         let key = (fi, db.to_bits());
-        let slot = streams.get(&key).ok_or_else(|| TrainerError::fit("fold stream missing"))?;
+        let slot = self.streams.get(&key).ok_or_else(|| TrainerError::fit("fold stream missing"))?;
         let lock = || slot.lock().map_err(|_| TrainerError::fit("fold stream cache poisoned"));
         for s in lock()?.iter() {
             if s.0.serves(p)? {
                 return Ok(s.clone());
             }
         }
-        let f = &fs[fi];
-        let ck = cache.get(p, d)?;
-        let train = match train_streams.get(&key) {
+        let (d, f) = (self.cv.d, &self.cv.folds[fi]);
+        let ck = self.cv.cache.get(p, d)?;
+        let train = match self.train_streams.get(&key) {
             Some(t) if t.serves(p)? => t.clone(),
             _ => Arc::new(design::CoreStream::new(p, d, &f.train, Some(&ck))?),
         };
         let made = (train, Arc::new(design::CoreStream::new(p, d, &f.val, Some(&ck))?));
         lock()?.push(made.clone());
         Ok(made)
-    };
+    }
 
-    // Per-sample squared validation errors of every (σ, α) of one fold, feature set, dead band
-    // and K.
-    let fold_task = |fi: usize, set: FeatureSet, db: f64, k: usize, sigma_mults: &[f64], alpha_rels: &[f64]| {
-        let f = &fs[fi];
-        let fc = &fold_core[fi];
-        let zs = &zsamples[&(fi, db.to_bits())];
+    /// Per-sample squared validation errors of every (σ, α) of one fold, feature set, dead
+    /// band and K.
+    fn fold_task(
+        &self,
+        fi: usize,
+        (set, db, k): (FeatureSet, f64, usize),
+        sigma_mults: &[f64],
+        alpha_rels: &[f64],
+    ) -> Result<Vec<(Config, FoldErrors)>, TrainerError> {
+        let (cv, d) = (self.cv, self.cv.d);
+        let (f, m) = (&cv.folds[fi], cv.dims.n_outputs());
+        let fc = &self.fold_core[fi];
+        let zs = &self.zsamples[&(fi, db.to_bits())];
         let base_cfg = Config {
             feature_set: set,
             dead_band_pm: db,
             k,
             sigma_mult: 1.0,
             alpha_rel: 0.0,
-            cross_terms: opts.cross_terms,
+            cross_terms: cv.opts.cross_terms(),
         };
-        let mut sk = skeleton(d, &f.train, &fc.core, zs, &base_cfg, opts.seed);
+        let mut sk = Skeleton::build(d, &f.train, &fc.core, zs, &base_cfg, cv.opts.seed());
         let nn = sk.sigma;
         let mut out: Vec<(Config, FoldErrors)> = Vec::new();
         let mut held: Option<FoldStreams> = None;
         for &sm in sigma_mults {
             sk.sigma_mult = sm;
             sk.sigma = sm * nn;
-            let p = sk.params(None, 0.0, None, &[], 0.0, &prov)?;
+            let p = sk.bare_params(&cv.prov)?;
             // σ does not change the stream rule: one lookup per task.
             let looked_up = match held.take() {
                 Some(h) => h,
-                None => fold_streams(fi, db, &p)?,
+                None => self.fold_streams(fi, db, &p)?,
             };
             let (train_s, val_s) = held.insert(looked_up);
             let gram = design::gram_rows(&p, d, design::Rows::Cached(train_s))?;
             let (psi_v, est_v) = design::design_rows(&p, d, design::Rows::Cached(val_s))?;
-            let r_v = residual_targets(d, &dims, &f.val, &est_v);
-            let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r, gram.n);
+            let r_v = residual_targets(d, &cv.dims, &f.val, &est_v);
+            let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r);
             for &ar in alpha_rels {
                 let w = sys.weights(ar * f.train.len() as f64);
                 let resid: DMatrix<f64> = &r_v - &psi_v * &w;
@@ -364,25 +384,28 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
                 out.push((Config { sigma_mult: sm, alpha_rel: ar, ..base_cfg }, sq));
             }
         }
-        Ok::<_, TrainerError>(out)
-    };
+        Ok(out)
+    }
 
-    let pool = |sq: &[f64]| sq.iter().sum::<f64>();
-    let (rows, chosen) = if grid_points > 1 {
+    /// Every grid point scored over all folds (pooled validation RMSE against Model-P's
+    /// `cv_rmse_p`), best first, and the best.
+    fn rank(&self, cv_rmse_p: &[f64]) -> Result<(Vec<CvRow>, Config), TrainerError> {
+        let (cv, grid) = (self.cv, self.cv.opts.grid());
+        let m = cv.dims.n_outputs();
         let mut tasks = Vec::new();
-        for fi in 0..fs.len() {
-            for &(set, db) in &bands {
-                for &k in &opts.centres {
+        for fi in 0..cv.folds.len() {
+            for &(set, db) in &grid.bands() {
+                for &k in grid.centres() {
                     tasks.push((fi, set, db, k));
                 }
             }
         }
-        let bar = crate::progress::bar(opts.progress, tasks.len() as u64, "cross-validation");
+        let bar = crate::progress::bar(cv.opts.progress(), tasks.len() as u64, "cross-validation");
         type Acc = Vec<(Config, Vec<f64>, usize)>;
         let results: Result<Vec<Acc>, TrainerError> = tasks
             .par_iter()
             .map(|&(fi, set, db, k)| {
-                let out = fold_task(fi, set, db, k, &opts.sigma_mults, &opts.alpha_rels)?;
+                let out = self.fold_task(fi, (set, db, k), grid.sigma_mults(), grid.alpha_rels())?;
                 bar.inc(1);
                 Ok(out
                     .into_iter()
@@ -413,85 +436,73 @@ pub fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<Selecti
         // Deterministic order: by score, ties by the key.
         rows.sort_by(|a, b| a.score.total_cmp(&b.score).then_with(|| key(&a.config).cmp(&key(&b.config))));
         let chosen = rows.first().map(|r| r.config).ok_or_else(|| TrainerError::fit("empty hyper-parameter grid"))?;
-        (rows, chosen)
-    } else {
-        let (set, db) = bands[0];
-        let chosen = Config {
-            feature_set: set,
-            dead_band_pm: db,
-            k: opts.centres[0],
-            sigma_mult: opts.sigma_mults[0],
-            alpha_rel: opts.alpha_rels[0],
-            cross_terms: opts.cross_terms,
-        };
-        (Vec::new(), chosen)
-    };
+        Ok((rows, chosen))
+    }
 
-    // Per-sample validation errors of the chosen configuration, against their lead time.
-    let per_fold: Result<Vec<FoldErrors>, TrainerError> = (0..fs.len())
-        .into_par_iter()
-        .map(|fi| {
-            let mut out = fold_task(
-                fi,
-                chosen.feature_set,
-                chosen.dead_band_pm,
-                chosen.k,
-                &[chosen.sigma_mult],
-                &[chosen.alpha_rel],
-            )?;
-            out.pop().map(|(_, sq)| sq).ok_or_else(|| TrainerError::fit("no validation errors"))
-        })
-        .collect();
-    let per_fold = per_fold?;
-    let sqe_h: Vec<Vec<f64>> = (0..m).map(|c| per_fold.iter().flat_map(|e| e[c].iter().copied()).collect()).collect();
-    let cv_rmse_h: Vec<f64> = (0..m).map(|c| (pool(&sqe_h[c]) / n_val as f64).sqrt()).collect();
-    let rows = if rows.is_empty() {
-        let score = (0..m).map(|c| cv_rmse_h[c] / cv_rmse_p[c]).sum();
-        vec![CvRow { config: chosen, cv_rmse: cv_rmse_h.clone(), score }]
-    } else {
-        rows
-    };
-    // With memory terms, Model-H's band is calibrated on the same long folds that scored them:
-    // the short folds' memory coefficients are poorly determined, and their larger errors
-    // would widen the band of a final model fitted on the whole batch.
-    let band_from = if memory.any() { first_long } else { 0 };
-    let keep: Vec<usize> = (0..fold_of.len()).filter(|&r| fold_of[r] >= band_from).collect();
-    let lead_h: Vec<f64> = keep.iter().map(|&r| lead[r]).collect();
-    let fold_h: Vec<usize> = keep.iter().map(|&r| fold_of[r] - band_from).collect();
-    let var_model_h: Vec<VarModel> = (0..m)
-        .map(|c| {
-            let sq: Vec<f64> = keep.iter().map(|&r| sqe_h[c][r]).collect();
-            VarModel::fit(&lead_h, &sq, &fold_h)
-        })
-        .collect();
-    // The reported validation RMSE of both models (what `train` prints and warns on) comes
-    // from the same folds, so that it describes a model fitted on most of the batch.
-    let (cv_rmse_p, cv_rmse_h) = if band_from > 0 {
-        let n: usize = fs.iter().skip(band_from).map(|f| f.val.len()).sum();
+    /// Per output, the squared validation errors of `chosen` over every fold, in fold order.
+    fn chosen_errors(&self, chosen: &Config) -> Result<Vec<Vec<f64>>, TrainerError> {
+        let per_fold: Result<Vec<FoldErrors>, TrainerError> = (0..self.cv.folds.len())
+            .into_par_iter()
+            .map(|fi| {
+                let at = (chosen.feature_set, chosen.dead_band_pm, chosen.k);
+                let mut out = self.fold_task(fi, at, &[chosen.sigma_mult], &[chosen.alpha_rel])?;
+                out.pop().map(|(_, sq)| sq).ok_or_else(|| TrainerError::fit("no validation errors"))
+            })
+            .collect();
+        let per_fold = per_fold?;
+        let m = self.cv.dims.n_outputs();
+        Ok((0..m).map(|c| per_fold.iter().flat_map(|e| e[c].iter().copied()).collect()).collect())
+    }
+}
+
+/// The validation errors of both models with their lead times and folds.
+struct ValidationErrors<'e> {
+    /// Lead of every validation sample after its fold's training [s], in fold order.
+    lead: &'e [f64],
+    /// Fold of every validation sample.
+    fold_of: &'e [usize],
+    /// Model-P's squared errors per fold and output.
+    sq_p: &'e [FoldErrors],
+    /// The chosen Model-H's squared errors per output, over all folds in order.
+    sqe_h: &'e [Vec<f64>],
+}
+
+impl ValidationErrors<'_> {
+    /// Model-H's band model from the folds `band_from..`, and both models' validation RMSE
+    /// (`cv_rmse_p`, `cv_rmse_h` over every fold) as reported: over the same folds.
+    fn band_h(
+        &self,
+        folds: &[Fold],
+        band_from: usize,
+        cv_rmse_p: Vec<f64>,
+        cv_rmse_h: Vec<f64>,
+    ) -> (Vec<VarModel>, Vec<f64>, Vec<f64>) {
+        let m = self.sqe_h.len();
+        let keep: Vec<usize> = (0..self.fold_of.len()).filter(|&r| self.fold_of[r] >= band_from).collect();
+        let lead_h: Vec<f64> = keep.iter().map(|&r| self.lead[r]).collect();
+        let fold_h: Vec<usize> = keep.iter().map(|&r| self.fold_of[r] - band_from).collect();
+        let var_model_h: Vec<VarModel> = (0..m)
+            .map(|c| {
+                let sq: Vec<f64> = keep.iter().map(|&r| self.sqe_h[c][r]).collect();
+                VarModel::fit(&lead_h, &sq, &fold_h)
+            })
+            .collect();
+        // The reported validation RMSE of both models (what `train` prints and warns on) comes
+        // from the same folds, so that it describes a model fitted on most of the batch.
+        if band_from == 0 {
+            return (var_model_h, cv_rmse_p, cv_rmse_h);
+        }
+        let n: usize = folds.iter().skip(band_from).map(|f| f.val.len()).sum();
         let p: Vec<f64> = (0..m)
             .map(|c| {
-                (sq_p.iter().skip(band_from).map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n.max(1) as f64).sqrt()
+                (self.sq_p.iter().skip(band_from).map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n.max(1) as f64)
+                    .sqrt()
             })
             .collect();
         let h: Vec<f64> =
-            (0..m).map(|c| (keep.iter().map(|&r| sqe_h[c][r]).sum::<f64>() / n.max(1) as f64).sqrt()).collect();
-        (p, h)
-    } else {
-        (cv_rmse_p, cv_rmse_h)
-    };
-    Ok(Selection {
-        chosen,
-        memory,
-        memory_rows,
-        cv_rmse_p,
-        cv_rmse_h,
-        var_model_p,
-        var_model_h,
-        rows,
-        folds: fs.iter().map(|f| (f.train.len(), f.val.len())).collect(),
-        n_cal: cal.len(),
-        cv_stride: stride,
-    })
+            (0..m).map(|c| (keep.iter().map(|&r| self.sqe_h[c][r]).sum::<f64>() / n.max(1) as f64).sqrt()).collect();
+        (var_model_h, p, h)
+    }
 }
 
 /// Lead time of every validation sample after the end of its fold's training, and its fold,

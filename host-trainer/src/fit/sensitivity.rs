@@ -41,7 +41,7 @@ use nalgebra::DMatrix;
 
 use fbg_shared::layout::{MAX_OUTPUTS, MAX_POLY};
 
-use super::HostParams;
+use super::host::HostParams;
 use crate::data::Measurand;
 use crate::error::TrainerError;
 

@@ -19,7 +19,8 @@
 
 use fbg_shared::MemoryGroup;
 
-use super::{run, HostParams};
+use super::design::run;
+use super::host::HostParams;
 use crate::data::Dataset;
 use crate::error::TrainerError;
 
@@ -112,7 +113,7 @@ fn rms_diff(full: &[fbg_shared::Estimate<f64>], without: &[fbg_shared::Estimate<
 
 /// What each part of `p` contributes over `rows` of `d` (each part is additive: the model
 /// without it, subtracted from the model).
-pub fn contributions(p: &HostParams, d: &Dataset, rows: &[usize]) -> Result<Contributions, TrainerError> {
+pub(crate) fn contributions(p: &HostParams, d: &Dataset, rows: &[usize]) -> Result<Contributions, TrainerError> {
     let m = p.dims.n_outputs();
     let full = run(p, d, rows)?;
     let mut memory = Vec::new();

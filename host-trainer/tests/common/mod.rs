@@ -32,13 +32,13 @@ pub fn short_csv(dir: &Path) -> PathBuf {
 
 /// A small hyper-parameter grid for fits on short records.
 pub fn small_grid() -> fbg_trainer::fit::TrainOptions {
-    fbg_trainer::fit::TrainOptions {
-        centres: vec![8, 16],
-        sigma_mults: vec![1.0, 2.0],
-        alpha_rels: vec![1e-5, 1e-3],
-        dead_bands_pm: vec![2.0, 4.0],
-        ..fbg_trainer::fit::TrainOptions::default()
-    }
+    fbg_trainer::fit::TrainOptions::builder()
+        .centres(vec![8, 16])
+        .sigma_mults(vec![1.0, 2.0])
+        .alpha_rels(vec![1e-5, 1e-3])
+        .dead_bands_pm(vec![2.0, 4.0])
+        .check()
+        .unwrap()
 }
 
 /// The values of `h` at the samples that end a stretch of 10 steps over which `x` rose

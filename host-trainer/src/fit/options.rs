@@ -1,0 +1,275 @@
+//! The options of a fit, checked before any work as linfa's hyper-parameters are: a
+//! [`TrainOptionsBuilder`] takes any values, its [`check`](TrainOptionsBuilder::check) gives
+//! [`TrainOptions`] whose values the fit can use, or names the one it cannot.
+
+use super::grid::{Config, CvGrid};
+use super::memory_core::MemoryOptions;
+use crate::data::import::OnError;
+use crate::error::TrainerError;
+use fbg_shared::layout::FeatureSet;
+
+/// Checked options of a fit: the grid cross-validation searches and the CV layout. Made by
+/// [`TrainOptions::default`], [`TrainOptions::fixed`] or a [`TrainOptionsBuilder`].
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct TrainOptions {
+    #[serde(flatten)]
+    grid: CvGrid,
+    /// Keep the quadratic and cross terms of stage 2 (false only for the ablation).
+    cross_terms: bool,
+    /// The memory menu (off for the `paper` and `latch` variants).
+    memory: MemoryOptions,
+    /// Contiguous blocks the calibration batch is cut into.
+    blocks: usize,
+    /// Blocks in the first fold's training set.
+    min_train_blocks: usize,
+    /// Seed of k-means++.
+    seed: u64,
+    /// Largest number of calibration rows the cross-validation works on.
+    cv_max_samples: usize,
+    /// Show a progress bar (only on a terminal).
+    #[serde(skip)]
+    progress: bool,
+    /// Reference outliers in the calibration rows: refuse the batch or leave their rows out.
+    on_outlier: OnError,
+}
+
+impl Default for TrainOptions {
+    fn default() -> Self {
+        TrainOptions {
+            grid: CvGrid::default(),
+            cross_terms: true,
+            memory: MemoryOptions::default_menu(),
+            blocks: 5,
+            min_train_blocks: 2,
+            seed: 1,
+            cv_max_samples: 40_000,
+            progress: false,
+            on_outlier: OnError::Fail,
+        }
+    }
+}
+
+impl TrainOptions {
+    /// A builder from the defaults.
+    pub fn builder() -> TrainOptionsBuilder {
+        TrainOptionsBuilder(TrainOptions::default())
+    }
+
+    /// A builder from these options, to change some of them.
+    pub fn to_builder(&self) -> TrainOptionsBuilder {
+        TrainOptionsBuilder(self.clone())
+    }
+
+    /// A one-point grid: no choice left to make (CV still runs, for s²).
+    pub fn fixed(cfg: &Config) -> Self {
+        TrainOptions { grid: CvGrid::fixed(cfg), cross_terms: cfg.cross_terms, ..TrainOptions::default() }
+    }
+
+    /// [`TrainOptions::fixed`] keeping this grid's memory menu (cross-validation still chooses
+    /// the memory terms: it costs one pass of the bank per fold).
+    pub fn fixed_like(&self, cfg: &Config) -> Self {
+        TrainOptions { memory: self.memory.clone(), ..TrainOptions::fixed(cfg) }
+    }
+
+    /// These options with another k-means++ seed (any seed is valid: no check needed).
+    pub fn with_seed(self, seed: u64) -> Self {
+        TrainOptions { seed, ..self }
+    }
+
+    /// These options with or without a progress bar.
+    pub fn with_progress(self, progress: bool) -> Self {
+        TrainOptions { progress, ..self }
+    }
+
+    /// These options refusing a batch with reference outliers (`Fail`) or leaving their rows
+    /// out (`Skip`).
+    pub fn with_on_outlier(self, on_outlier: OnError) -> Self {
+        TrainOptions { on_outlier, ..self }
+    }
+
+    /// The candidates cross-validation tries.
+    pub fn grid(&self) -> &CvGrid {
+        &self.grid
+    }
+    /// Whether stage 2 keeps the quadratic and cross terms (false only for the ablation).
+    pub fn cross_terms(&self) -> bool {
+        self.cross_terms
+    }
+    /// The memory menu (off for the `paper` and `latch` variants).
+    pub fn memory(&self) -> &MemoryOptions {
+        &self.memory
+    }
+    /// Contiguous blocks the calibration batch is cut into.
+    pub fn blocks(&self) -> usize {
+        self.blocks
+    }
+    /// Blocks in the first fold's training set.
+    pub fn min_train_blocks(&self) -> usize {
+        self.min_train_blocks
+    }
+    /// Seed of k-means++.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+    /// Largest number of calibration rows the cross-validation works on: beyond it the rows are
+    /// thinned by an even stride (time order and span kept; the latches still see every
+    /// sample). The final fit always uses every row.
+    pub fn cv_max_samples(&self) -> usize {
+        self.cv_max_samples
+    }
+    /// Whether a progress bar shows (only on a terminal).
+    pub fn progress(&self) -> bool {
+        self.progress
+    }
+    /// Reference outliers in the calibration rows (`data::outliers`): refuse the batch
+    /// (`Fail`, the default) or leave their rows out of the fit (`Skip`).
+    pub fn on_outlier(&self) -> OnError {
+        self.on_outlier
+    }
+}
+
+/// Options of a fit not yet checked: setters that take any value, and
+/// [`check`](TrainOptionsBuilder::check).
+#[derive(Clone, Debug)]
+pub struct TrainOptionsBuilder(TrainOptions);
+
+impl TrainOptionsBuilder {
+    /// The RBF feature sets cross-validation may choose from (`paper` → only the paper set;
+    /// `hysteresis-aware` → the latch sets, with time left to cross-validation).
+    pub fn feature_sets(mut self, sets: Vec<FeatureSet>) -> Self {
+        self.0.grid.feature_sets = sets;
+        self
+    }
+    /// The numbers of RBF centres K to try.
+    pub fn centres(mut self, centres: Vec<usize>) -> Self {
+        self.0.grid.centres = centres;
+        self
+    }
+    /// The σ multiples to try.
+    pub fn sigma_mults(mut self, sigma_mults: Vec<f64>) -> Self {
+        self.0.grid.sigma_mults = sigma_mults;
+        self
+    }
+    /// The ridge penalties per sample to try.
+    pub fn alpha_rels(mut self, alpha_rels: Vec<f64>) -> Self {
+        self.0.grid.alpha_rels = alpha_rels;
+        self
+    }
+    /// The direction-latch dead bands \[pm\] to try.
+    pub fn dead_bands_pm(mut self, dead_bands_pm: Vec<f64>) -> Self {
+        self.0.grid.dead_bands_pm = dead_bands_pm;
+        self
+    }
+    /// Keep the quadratic and cross terms of stage 2.
+    pub fn cross_terms(mut self, on: bool) -> Self {
+        self.0.cross_terms = on;
+        self
+    }
+    /// The memory menu.
+    pub fn memory(mut self, memory: MemoryOptions) -> Self {
+        self.0.memory = memory;
+        self
+    }
+    /// Contiguous blocks the calibration batch is cut into (at least 2).
+    pub fn blocks(mut self, blocks: usize) -> Self {
+        self.0.blocks = blocks;
+        self
+    }
+    /// Blocks in the first fold's training set (1 to `blocks` − 1).
+    pub fn min_train_blocks(mut self, min_train_blocks: usize) -> Self {
+        self.0.min_train_blocks = min_train_blocks;
+        self
+    }
+    /// Seed of k-means++.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.0.seed = seed;
+        self
+    }
+    /// Largest number of calibration rows the cross-validation works on.
+    pub fn cv_max_samples(mut self, n: usize) -> Self {
+        self.0.cv_max_samples = n;
+        self
+    }
+    /// Show a progress bar (only on a terminal).
+    pub fn progress(mut self, on: bool) -> Self {
+        self.0.progress = on;
+        self
+    }
+    /// Refuse a batch with reference outliers (`Fail`) or leave their rows out (`Skip`).
+    pub fn on_outlier(mut self, on_outlier: OnError) -> Self {
+        self.0.on_outlier = on_outlier;
+        self
+    }
+
+    /// The options, if the fit can use them: a CV layout of at least two blocks with
+    /// 1 <= `min_train_blocks` < `blocks`, and a grid with at least one point.
+    pub fn check(self) -> Result<TrainOptions, TrainerError> {
+        self.check_ref()?;
+        Ok(self.0)
+    }
+
+    /// [`TrainOptionsBuilder::check`] without giving the builder up.
+    pub fn check_ref(&self) -> Result<&TrainOptions, TrainerError> {
+        let o = &self.0;
+        if o.blocks < 2 || o.min_train_blocks == 0 || o.min_train_blocks >= o.blocks {
+            return Err(TrainerError::fit("cross-validation needs 1 <= min_train_blocks < blocks"));
+        }
+        o.grid.check()?;
+        Ok(o)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_defaults_pass_their_own_check() {
+        let o = TrainOptions::builder().check().unwrap();
+        assert_eq!(o.grid(), TrainOptions::default().grid());
+        assert_eq!((o.blocks(), o.min_train_blocks(), o.seed()), (5, 2, 1));
+    }
+
+    #[test]
+    fn a_bad_cv_layout_is_refused_naming_its_fields() {
+        for (blocks, min) in [(1, 1), (5, 0), (5, 5), (3, 4)] {
+            let e = TrainOptions::builder().blocks(blocks).min_train_blocks(min).check().unwrap_err().to_string();
+            assert!(e.contains("min_train_blocks < blocks"), "{e}");
+        }
+        assert!(TrainOptions::builder().blocks(2).min_train_blocks(1).check().is_ok());
+    }
+
+    #[test]
+    fn an_empty_grid_is_refused_naming_the_empty_entry() {
+        let cases: [(TrainOptionsBuilder, &str); 5] = [
+            (TrainOptions::builder().feature_sets(vec![]), "feature_sets"),
+            (TrainOptions::builder().centres(vec![]), "centres"),
+            (TrainOptions::builder().sigma_mults(vec![]), "sigma_mults"),
+            (TrainOptions::builder().alpha_rels(vec![]), "alpha_rels"),
+            (TrainOptions::builder().dead_bands_pm(vec![]), "dead_bands_pm"),
+        ];
+        for (b, field) in cases {
+            let e = b.check().unwrap_err().to_string();
+            assert!(e.contains("empty hyper-parameter grid") && e.contains(field), "{e}");
+        }
+        // The paper set ignores the dead band: it needs none.
+        let paper = TrainOptions::builder().feature_sets(vec![FeatureSet::Paper]).dead_bands_pm(vec![]).check();
+        assert_eq!(paper.unwrap().grid().len(), 2 * 4 * 5);
+    }
+
+    #[test]
+    fn a_fixed_grid_has_one_point_its_config() {
+        let cfg = Config {
+            feature_set: FeatureSet::Paper,
+            dead_band_pm: 3.0,
+            k: 6,
+            sigma_mult: 1.5,
+            alpha_rel: 1e-4,
+            cross_terms: false,
+        };
+        let o = TrainOptions::fixed(&cfg);
+        assert_eq!(o.grid().len(), 1);
+        assert_eq!(o.grid().first(o.cross_terms()), Some(cfg));
+        assert!(o.to_builder().check().is_ok());
+    }
+}
