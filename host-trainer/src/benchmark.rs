@@ -155,63 +155,40 @@ pub fn bench_fit(
     })
 }
 
-/// `fbg-trainer bench-fit`: time the fit for benchmarks.
-#[derive(clap::Args, Clone, Debug)]
-pub struct BenchFitArgs {
+/// What `fbg-trainer bench-fit` times (its flags, as plain options).
+#[derive(Clone, Debug)]
+pub struct BenchFitOptions {
     /// Dataset CSV (DESIGN §3 columns).
-    #[arg(long)]
     pub data: std::path::PathBuf,
     /// Fits to time (each alone; the median is reported).
-    #[arg(long, default_value_t = 3)]
     pub repeats: usize,
-    /// Fit one fixed configuration (--feature-set, --k, --sigma-mult, --alpha-rel,
-    /// --dead-band-pm); the cross-validation then runs once, for the band.
-    #[arg(long, conflicts_with = "select")]
+    /// Fit one fixed configuration (the fields below marked "fixed"); else select the
+    /// hyper-parameters by cross-validation over the full grid, as `train` does.
     pub fixed: bool,
-    /// Select the hyper-parameters by cross-validation over the full grid, as `train` does
-    /// (the default).
-    #[arg(long)]
-    pub select: bool,
-    /// With --select: the model variant, as `train --features` (memory, hysteresis-aware, latch,
-    /// paper, all).
-    #[arg(long, value_enum, default_value = "memory")]
+    /// Select: the model variant, as `train --features`.
     pub features: FeatureChoice,
-    /// With --fixed: also fit the memory terms (cross-validated menu, as `train`). Off by default so
-    /// that the fixed fit is the scikit-learn peer's pipeline, which has no memory terms.
-    #[arg(long)]
+    /// Fixed: also fit the memory terms (cross-validated menu, as `train`).
     pub memory: bool,
-    /// With --select: largest number of RBF centres to consider.
-    #[arg(long, default_value_t = 32)]
+    /// Select: largest number of RBF centres to consider.
     pub max_centres: usize,
-    /// With --fixed: feature set (paper, hysteresis-aware, hysteresis-aware+time).
-    #[arg(long, default_value = DEFAULT_FIXED.feature_set.name())]
+    /// Fixed: feature set by its report name (`paper`, `hysteresis-aware`, `hysteresis-aware+time`).
     pub feature_set: String,
-    /// With --fixed: RBF centres K.
-    #[arg(long, default_value_t = DEFAULT_FIXED.k)]
+    /// Fixed: RBF centres K.
     pub k: usize,
-    /// With --fixed: σ as a multiple of the median nearest-neighbour distance of the centres.
-    #[arg(long, default_value_t = DEFAULT_FIXED.sigma_mult)]
+    /// Fixed: σ as a multiple of the median nearest-neighbour distance of the centres.
     pub sigma_mult: f64,
-    /// With --fixed: ridge penalty per calibration sample (α = alpha_rel · n).
-    #[arg(long, default_value_t = DEFAULT_FIXED.alpha_rel)]
+    /// Fixed: ridge penalty per calibration sample (α = alpha_rel · n).
     pub alpha_rel: f64,
-    /// With --fixed: direction-latch dead band \[pm\].
-    #[arg(long, default_value_t = DEFAULT_FIXED.dead_band_pm)]
+    /// Fixed: direction-latch dead band \[pm\].
     pub dead_band_pm: f64,
     /// Worker threads (0: one per core).
-    #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Print the figures as JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Also write Model-H's per-sample hold-out errors and 95 % band half-widths to this CSV
-    /// (`t_s`, `err_<channel>`, `band_<channel>`), for band-coverage studies across seeds.
-    #[arg(long)]
+    /// Also write Model-H's per-sample hold-out errors and 95 % band half-widths to this CSV.
     pub holdout_errors: Option<std::path::PathBuf>,
 }
 
-impl BenchFitArgs {
-    /// The training options these flags ask for, and the mode's name.
+impl BenchFitOptions {
+    /// The training options these ask for, and the mode's name.
     pub fn options(&self) -> Result<(TrainOptions, &'static str), TrainerError> {
         if self.fixed {
             let fs = feature_set_named(&self.feature_set).ok_or_else(|| {
@@ -318,7 +295,7 @@ impl FitBench {
 
 /// A fixed configuration's feature set by its report name (`paper`, `hysteresis-aware`,
 /// `hysteresis-aware+time`).
-pub fn feature_set_named(name: &str) -> Option<FeatureSet> {
+pub(crate) fn feature_set_named(name: &str) -> Option<FeatureSet> {
     FeatureSet::ALL.into_iter().find(|f| f.name() == name)
 }
 

@@ -11,6 +11,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use fbg_shared::layout::Dims;
 use fbg_shared::{Compensator, Estimate, Flags, ZeroSource};
 
 use crate::data::files::write_atomically;
@@ -225,15 +226,240 @@ struct UnitCounts {
     worst: f64,
 }
 
+/// What is kept across rows: counts (gaps, flags), per output of the model three running sums
+/// for the reference errors, per grating four numbers for the unit check, the first and last
+/// time stamp.
+struct Tally {
+    dims: Dims,
+    /// Where each output's reference is in a row (canonical order), when the record has it.
+    ref_at: Vec<Option<usize>>,
+    /// References and thermometer of the record (a row is scored when it has all).
+    n_refs: usize,
+    ambient: bool,
+    /// Per grating, the centre and span of the model's calibration envelope.
+    mid_span: Vec<(f64, f64)>,
+    units: Vec<UnitCounts>,
+    sums: RefSums,
+    gap_rows: usize,
+    flagged_rows: usize,
+    flag_rows: [usize; 5],
+    t_first: f64,
+    t_last: f64,
+}
+
+/// The flags counted in [`Summary::flag_rows`], in its order.
+const COUNTED_FLAGS: [Flags; 5] =
+    [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::LEAD_UNKNOWN, Flags::IMPLAUSIBLE];
+
+impl Tally {
+    fn new(params: &HostParams, d: &Dataset) -> Tally {
+        let dims = params.dims;
+        let ref_at = (0..dims.n_outputs())
+            .map(|c| {
+                dims.outputs().get(c).and_then(|&o| d.refs.iter().position(|r| r.measurand == Measurand::of_output(o)))
+            })
+            .collect();
+        let mid_span = (0..dims.gratings())
+            .map(|g| {
+                let (lo, hi) = (params.envelope_lo[g], params.envelope_hi[g]);
+                (0.5 * (lo + hi), hi - lo)
+            })
+            .collect();
+        Tally {
+            dims,
+            ref_at,
+            n_refs: d.refs.len(),
+            ambient: d.t_amb_c.is_some(),
+            mid_span,
+            units: vec![UnitCounts::default(); dims.gratings()],
+            sums: RefSums { n: 0, ss_res: [-0.0; 4], sum_err: [-0.0; 4], inside: [0; 4] },
+            gap_rows: 0,
+            flagged_rows: 0,
+            flag_rows: [0; 5],
+            t_first: f64::NAN,
+            t_last: f64::NAN,
+        }
+    }
+
+    /// Count row `row` (its sample `s`) compensated as `e`.
+    fn add(&mut self, row: &Row, s: &fbg_shared::Sample<f64>, e: &Estimate<f64>) {
+        if self.t_first.is_nan() {
+            self.t_first = row.t_s;
+        }
+        self.t_last = row.t_s;
+        // A gap is a missing input of this model: a thermometer the model does not read is
+        // no gap.
+        if !s.dl().iter().all(|v| v.is_finite()) || (self.dims.ambient() && !s.t_amb_c.is_finite()) {
+            self.gap_rows += 1;
+        }
+        self.flagged_rows += usize::from(e.flags.is_fault());
+        for (n, &b) in self.flag_rows.iter_mut().zip(&COUNTED_FLAGS) {
+            *n += usize::from(e.flags.contains(b));
+        }
+        if row.usable(self.n_refs, self.ambient) {
+            let sums = &mut self.sums;
+            sums.n += 1;
+            for (c, at) in self.ref_at.iter().enumerate() {
+                if let Some(k) = *at {
+                    let err = e.values[c] - row.refs[k];
+                    sums.ss_res[c] += err * err;
+                    sums.sum_err[c] += err;
+                    sums.inside[c] += usize::from(err.abs() <= e.band95[c]);
+                }
+            }
+        }
+        for (g, u) in self.units.iter_mut().enumerate() {
+            let x = row.dl_pm[g];
+            if x.is_finite() {
+                let (mid, span) = self.mid_span[g];
+                u.n += 1;
+                u.far_above += usize::from(x - mid > UNIT_FAR_SPANS * span);
+                u.far_below += usize::from(x - mid < -(UNIT_FAR_SPANS * span));
+                u.worst = u.worst.max(x.abs());
+            }
+        }
+    }
+
+    /// The errors against the record's references, when it has any.
+    fn reference_errors(&self) -> Option<ReferenceErrors> {
+        let (sums, ref_at, dims) = (&self.sums, &self.ref_at, &self.dims);
+        let m = dims.n_outputs();
+        ref_at.iter().any(Option::is_some).then(|| {
+            let present = |c: usize| ref_at[c].is_some() && sums.n > 0;
+            let n = sums.n as f64;
+            ReferenceErrors {
+                channels: score::channels(dims),
+                units: score::units(dims),
+                rows: (0..m).map(|c| if present(c) { sums.n } else { 0 }).collect(),
+                rmse: (0..m).map(|c| if present(c) { (sums.ss_res[c] / n).sqrt() } else { f64::NAN }).collect(),
+                bias: (0..m).map(|c| if present(c) { sums.sum_err[c] / n } else { f64::NAN }).collect(),
+                coverage: (0..m).map(|c| if present(c) { sums.inside[c] as f64 / n } else { f64::NAN }).collect(),
+            }
+        })
+    }
+}
+
+/// The band's clock (`absolute` or `unknown`), and the warning that the band's lead is unknown
+/// when it is and it matters (the model's band grows with the lead).
+fn lead_check(params: &HostParams, d: &Dataset, model: &Path, name: &str) -> (&'static str, Option<Warning>) {
+    let clock = match (d.field_clock(), params.field.cal_end_unix_s) {
+        (fbg_shared::StreamClock::StartUnix(_), Some(_)) => "absolute",
+        _ => "unknown",
+    };
+    if clock == "absolute" || !params.resid_var_growth.iter().any(|&q| q > 0.0) {
+        return (clock, None);
+    }
+    let why = if d.meta.t0_unix_s.is_none() {
+        format!("{name} has no absolute start time (import it from an export with timestamps, or pass --start)")
+    } else {
+        format!("{} was calibrated on a record without absolute time", model.display())
+    };
+    let w = Warning::new(
+        "lead_unknown",
+        format!(
+            "the band's lead time is unknown: {why}; every band is taken at the largest lead the calibration validated ({:.1} h) and flagged lead-unknown",
+            params.field.lead_max_s / 3600.0
+        ),
+    )
+    .with("lead_max_h", f64::from(params.field.lead_max_s) / 3600.0);
+    (clock, Some(w))
+}
+
+/// Compensate the rows of `rows` with `engine` and write them to `w`, counting them in
+/// `tally`. One thread reads and parses rows (in chunks, a few in flight), this one
+/// compensates and writes them: the two halves of the work overlap, and memory stays a few
+/// chunks whatever the record's length. Returns the reader when every row was read; a read
+/// error is left in `failed` (and `None` returned).
+fn pipe_rows(
+    w: &mut impl Write,
+    rows: RowReader,
+    engine: &mut Engine,
+    tally: &mut Tally,
+    bar: &crate::progress::Bar,
+    failed: &mut Option<TrainerError>,
+) -> std::io::Result<Option<RowReader>> {
+    let m = tally.dims.n_outputs();
+    let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Vec<Row>, TrainerError>>(IN_FLIGHT);
+    std::thread::scope(|scope| -> std::io::Result<Option<RowReader>> {
+        let reading = scope.spawn(move || {
+            let mut rows = rows;
+            loop {
+                let mut chunk = Vec::with_capacity(CHUNK);
+                let mut end = false;
+                while chunk.len() < CHUNK {
+                    match rows.next_row() {
+                        Ok(Some(r)) => chunk.push(r),
+                        Ok(None) => {
+                            end = true;
+                            break;
+                        }
+                        Err(e) => {
+                            let _ = tx.send(Err(e));
+                            return rows;
+                        }
+                    }
+                }
+                bar.set_position(rows.byte_position());
+                // A closed channel: the writer stopped (an error it reports).
+                if (!chunk.is_empty() && tx.send(Ok(chunk)).is_err()) || end {
+                    return rows;
+                }
+            }
+        });
+        for chunk in rx {
+            let chunk = match chunk {
+                Ok(c) => c,
+                Err(e) => {
+                    *failed = Some(e);
+                    return Ok(None);
+                }
+            };
+            for row in chunk {
+                let s = row.sample();
+                let e = engine.step(&s);
+                write!(w, "{}", row.t_s)?;
+                for c in 0..m {
+                    write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
+                }
+                writeln!(w, ",{},{}", e.flags.0, e.flags)?;
+                tally.add(&row, &s, &e);
+            }
+        }
+        Ok(reading.join().ok())
+    })
+}
+
 /// Read `data`, compensate it with the model in `model`, write `out` (atomically).
 ///
 /// The rows are streamed: read, compensated and written one at a time, so memory does not grow
-/// with the record. What is kept across rows: the compensator's state, counts (rows, gaps,
-/// flags), per output of a model three running sums for the reference errors, and per grating
-/// four numbers for the unit check (whose median is decided by counting; the median's value is
-/// read again from the file only to word a refusal). A check that needs the whole record
-/// (the unit check, an empty record) is made at the end, before the output is renamed into
-/// place: on any error nothing is written.
+/// with the record. What is kept across rows: the compensator's state and a `Tally` (whose
+/// unit check decides the median by counting; the median's value is read again from the file
+/// only to word a refusal). A check that needs the whole record (the unit check, an empty
+/// record) is made at the end, before the output is renamed into place: on any error nothing
+/// is written.
+///
+/// ```
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// use fbg_trainer::compensate::{self, FieldOptions, Precision};
+/// use fbg_trainer::fit::{self, FeatureChoice, Origin};
+/// use fbg_trainer::sim::{self, scenario::Preset};
+///
+/// let dir = tempfile::tempdir()?;
+/// // A short record of the `temperature-1` preset, a quick fit on it, its blob.
+/// let mut cfg = Preset::Temperature1.config();
+/// cfg.clock.days = 1.0;
+/// let record = sim::simulate(&cfg, 7).data;
+/// let tr = fit::train(&record, &FeatureChoice::Paper.train_options(8)?, &Origin::default())?;
+/// let (model, data, out) = (dir.path().join("m.fbgm"), dir.path().join("d.csv"), dir.path().join("c.csv"));
+/// fbg_trainer::export::write_blob(&model, &tr.model_h)?;
+/// record.write_csv(&data)?;
+///
+/// let s = compensate::run(&model, &data, &out, Precision::F64, FieldOptions::default(), false)?;
+/// assert_eq!(s.rows, record.len());
+/// assert!(s.reference_errors.is_some(), "the simulated record has its references");
+/// # Ok(())
+/// # }
+/// ```
 pub fn run(
     model: &Path,
     data: &Path,
@@ -254,200 +480,61 @@ pub fn run(
     }
     let mut warnings = Vec::new();
     let zero = check_zero(&params, &d, model, &name, &mut warnings)?;
-    let clock = match (d.field_clock(), params.field.cal_end_unix_s) {
-        (fbg_shared::StreamClock::StartUnix(_), Some(_)) => "absolute",
-        _ => "unknown",
-    };
-    if clock == "unknown" && params.resid_var_growth.iter().any(|&q| q > 0.0) {
-        let why = if d.meta.t0_unix_s.is_none() {
-            format!("{name} has no absolute start time (import it from an export with timestamps, or pass --start)")
-        } else {
-            format!("{} was calibrated on a record without absolute time", model.display())
-        };
-        warnings.push(
-            Warning::new(
-                "lead_unknown",
-                format!(
-                    "the band's lead time is unknown: {why}; every band is taken at the largest lead the calibration validated ({:.1} h) and flagged lead-unknown",
-                    params.field.lead_max_s / 3600.0
-                ),
-            )
-            .with("lead_max_h", f64::from(params.field.lead_max_s) / 3600.0),
-        );
-    }
+    let (clock, lead) = lead_check(&params, &d, model, &name);
+    warnings.extend(lead);
     let mut engine = Engine::new(&params, precision, d.field_clock(), model)?;
-    let dims = params.dims;
-    let m = dims.n_outputs();
-    // Where each output's reference is in a row (canonical order), when the record has it.
-    let ref_at: Vec<Option<usize>> = (0..m)
-        .map(|c| {
-            dims.outputs().get(c).and_then(|&o| d.refs.iter().position(|r| r.measurand == Measurand::of_output(o)))
-        })
-        .collect();
-    let (n_refs, ambient) = (d.refs.len(), d.t_amb_c.is_some());
-    let n_g = dims.gratings();
-    let mid_span: Vec<(f64, f64)> = (0..n_g)
-        .map(|g| {
-            let (lo, hi) = (params.envelope_lo[g], params.envelope_hi[g]);
-            (0.5 * (lo + hi), hi - lo)
-        })
-        .collect();
-    let mut units = vec![UnitCounts::default(); n_g];
-    let mut sums = RefSums { n: 0, ss_res: [-0.0; 4], sum_err: [-0.0; 4], inside: [0; 4] };
-    let (mut gap_rows, mut flagged_rows, mut flag_rows) = (0usize, 0usize, [0usize; 5]);
-    let (mut t_first, mut t_last) = (f64::NAN, f64::NAN);
-    let bits =
-        [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::LEAD_UNKNOWN, Flags::IMPLAUSIBLE];
+    let mut tally = Tally::new(&params, &d);
     let columns = output_columns(&params);
-    let bar = fit::select::progress_bar(progress, rows.file_len(), "compensate");
+    let bar = crate::progress::bar(progress, rows.file_len(), "compensate");
     // A data error met while writing: the write is abandoned (nothing renamed into place).
     let mut failed: Option<TrainerError> = None;
     let mut n_rows = 0;
-    let written =
-        write_atomically(out, |w| {
-            let abandon = |e: TrainerError, failed: &mut Option<TrainerError>| {
-                *failed = Some(e);
-                std::io::Error::other("abandoned")
-            };
-            write!(w, "t_s")?;
-            for c in &columns {
-                write!(w, ",{c},{c}_band95")?;
+    let written = write_atomically(out, |w| {
+        write!(w, "t_s")?;
+        for c in &columns {
+            write!(w, ",{c},{c}_band95")?;
+        }
+        writeln!(w, ",flags,flag_names")?;
+        let Some(rows) = pipe_rows(w, rows, &mut engine, &mut tally, &bar, &mut failed)? else {
+            return Err(failed.as_ref().map_or_else(
+                || std::io::Error::other("the reading thread failed"),
+                |_| std::io::Error::other("abandoned"),
+            ));
+        };
+        n_rows = rows.rows();
+        let checked = rows.finish().and_then(|()| {
+            if field.trust_units {
+                Ok(())
+            } else {
+                check_units(&params, &tally.units, data, &name)
             }
-            writeln!(w, ",flags,flag_names")?;
-            // One thread reads and parses rows (in chunks, a few in flight), this one
-            // compensates and writes them: the two halves of the work overlap, and memory
-            // stays a few chunks whatever the record's length.
-            let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Vec<Row>, TrainerError>>(IN_FLIGHT);
-            let reader = std::thread::scope(|scope| -> std::io::Result<Option<RowReader>> {
-                let bar = &bar;
-                let reading = scope.spawn(move || {
-                    let mut rows = rows;
-                    loop {
-                        let mut chunk = Vec::with_capacity(CHUNK);
-                        let mut end = false;
-                        while chunk.len() < CHUNK {
-                            match rows.next_row() {
-                                Ok(Some(r)) => chunk.push(r),
-                                Ok(None) => {
-                                    end = true;
-                                    break;
-                                }
-                                Err(e) => {
-                                    let _ = tx.send(Err(e));
-                                    return rows;
-                                }
-                            }
-                        }
-                        bar.set_position(rows.byte_position());
-                        // A closed channel: the writer stopped (an error it reports).
-                        if (!chunk.is_empty() && tx.send(Ok(chunk)).is_err()) || end {
-                            return rows;
-                        }
-                    }
-                });
-                for chunk in rx {
-                    let chunk = match chunk {
-                        Ok(c) => c,
-                        Err(e) => {
-                            failed = Some(e);
-                            return Ok(None);
-                        }
-                    };
-                    for row in chunk {
-                        let s = row.sample();
-                        let e = engine.step(&s);
-                        write!(w, "{}", row.t_s)?;
-                        for c in 0..m {
-                            write!(w, ",{},{}", cell(e.values[c]), cell(e.band95[c]))?;
-                        }
-                        writeln!(w, ",{},{}", e.flags.0, e.flags)?;
-                        if t_first.is_nan() {
-                            t_first = row.t_s;
-                        }
-                        t_last = row.t_s;
-                        // A gap is a missing input of this model: a thermometer the model does not read is
-                        // no gap.
-                        if !s.dl().iter().all(|v| v.is_finite()) || (dims.ambient() && !s.t_amb_c.is_finite()) {
-                            gap_rows += 1;
-                        }
-                        flagged_rows += usize::from(e.flags.is_fault());
-                        for (n, &b) in flag_rows.iter_mut().zip(&bits) {
-                            *n += usize::from(e.flags.contains(b));
-                        }
-                        if row.usable(n_refs, ambient) {
-                            sums.n += 1;
-                            for (c, at) in ref_at.iter().enumerate() {
-                                if let Some(k) = *at {
-                                    let err = e.values[c] - row.refs[k];
-                                    sums.ss_res[c] += err * err;
-                                    sums.sum_err[c] += err;
-                                    sums.inside[c] += usize::from(err.abs() <= e.band95[c]);
-                                }
-                            }
-                        }
-                        for (g, u) in units.iter_mut().enumerate() {
-                            let x = row.dl_pm[g];
-                            if x.is_finite() {
-                                let (mid, span) = mid_span[g];
-                                u.n += 1;
-                                u.far_above += usize::from(x - mid > UNIT_FAR_SPANS * span);
-                                u.far_below += usize::from(x - mid < -(UNIT_FAR_SPANS * span));
-                                u.worst = u.worst.max(x.abs());
-                            }
-                        }
-                    }
-                }
-                Ok(reading.join().ok())
-            })?;
-            let Some(rows) = reader else {
-                return Err(failed.as_ref().map_or_else(
-                    || std::io::Error::other("the reading thread failed"),
-                    |_| std::io::Error::other("abandoned"),
-                ));
-            };
-            n_rows = rows.rows();
-            let checked = rows.finish().and_then(|()| {
-                if field.trust_units {
-                    Ok(())
-                } else {
-                    check_units(&params, &units, data, &name)
-                }
-            });
-            checked.map_err(|e| abandon(e, &mut failed))
         });
+        checked.map_err(|e| {
+            failed = Some(e);
+            std::io::Error::other("abandoned")
+        })
+    });
     bar.finish_and_clear();
     if let Some(e) = failed {
         return Err(e);
     }
     written?;
-    let reference_errors = ref_at.iter().any(Option::is_some).then(|| {
-        let present = |c: usize| ref_at[c].is_some() && sums.n > 0;
-        let n = sums.n as f64;
-        ReferenceErrors {
-            channels: score::channels(&dims),
-            units: score::units(&dims),
-            rows: (0..m).map(|c| if present(c) { sums.n } else { 0 }).collect(),
-            rmse: (0..m).map(|c| if present(c) { (sums.ss_res[c] / n).sqrt() } else { f64::NAN }).collect(),
-            bias: (0..m).map(|c| if present(c) { sums.sum_err[c] / n } else { f64::NAN }).collect(),
-            coverage: (0..m).map(|c| if present(c) { sums.inside[c] as f64 / n } else { f64::NAN }).collect(),
-        }
-    });
     Ok(Summary {
         model: model.to_path_buf(),
         data: data.to_path_buf(),
         out: out.to_path_buf(),
         precision,
         rows: n_rows,
-        gap_rows,
-        flagged_rows,
-        flag_rows,
+        gap_rows: tally.gap_rows,
+        flagged_rows: tally.flagged_rows,
+        flag_rows: tally.flag_rows,
         clock: clock.to_string(),
         zero,
         warnings,
-        t_first_s: t_first,
-        t_last_s: t_last,
+        t_first_s: tally.t_first,
+        t_last_s: tally.t_last,
         seconds: t0.elapsed().as_secs_f64(),
-        reference_errors,
+        reference_errors: tally.reference_errors(),
     })
 }
 

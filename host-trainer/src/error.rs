@@ -21,6 +21,11 @@ pub enum TrainerError {
     /// An output that must not be written (DESIGN §9): not a regular file, one of the inputs,
     /// or a directory that cannot be created or written.
     Output { path: PathBuf, message: String },
+    /// Talking to a device over the serial link (`stream`, `device status`) cannot go on: the
+    /// device cannot be reached, does not answer in time or answers otherwise than the host
+    /// expects, or the record has nothing to stream; the message names the address, the
+    /// request or the file.
+    Device { message: String },
 }
 
 impl TrainerError {
@@ -32,6 +37,9 @@ impl TrainerError {
     }
     pub fn fit(message: impl Into<String>) -> Self {
         TrainerError::Fit { message: message.into() }
+    }
+    pub fn device(message: impl Into<String>) -> Self {
+        TrainerError::Device { message: message.into() }
     }
 }
 
@@ -53,6 +61,7 @@ impl std::fmt::Display for TrainerError {
             TrainerError::Fit { message } => write!(f, "fit: {message}"),
             TrainerError::Model { path, message } => write!(f, "{path}: {message}"),
             TrainerError::Output { path, message } => write!(f, "{}: {message}", path.display()),
+            TrainerError::Device { message } => f.write_str(message),
         }
     }
 }
@@ -67,7 +76,7 @@ impl std::error::Error for TrainerError {
 
 /// "line L, column C" (1-based) of a byte offset in `text`, for the position of a TOML error
 /// (scenario files, import maps, fleet manifests).
-pub fn line_col(text: &str, offset: usize) -> String {
+pub(crate) fn line_col(text: &str, offset: usize) -> String {
     let before = text.get(..offset.min(text.len())).unwrap_or(text);
     let line = before.matches('\n').count() + 1;
     let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;

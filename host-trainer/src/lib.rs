@@ -4,7 +4,7 @@
 //! The modules follow the data, in layers: a module uses only modules of earlier layers
 //! (`tests/layout.rs` checks it), so there is no import cycle:
 //!
-//! 1. `error`, `rng`, `stats`, `warning`: used by all;
+//! 1. `error`, `progress`, `rng`, `stats`, `warning`: used by all;
 //! 2. `data`: the dataset and its CSV, the import of interrogator exports, safe output files;
 //! 3. `sim` (scenarios, the simulator, its `.meta.json` sidecar) and `fit` (Model-P and
 //!    Model-H, the `--features` choice, field recalibration, the sensitivities);
@@ -15,10 +15,14 @@
 //! 6. `report`, `fleet`, `stream`, `benchmark`: the audit report and the operations built on
 //!    the pipeline.
 //!
-//! The command line (`src/cli/`) is the binary and uses this library only.
+//! The command line (`src/cli/`) is the binary and uses this library only; its argument types
+//! (clap), terminal progress bars (indicatif) and error chains (anyhow) stay there
+//! (`tests/cli_apart.rs`): the library takes plain option structs, reports progress through
+//! [`progress`] and returns [`TrainerError`].
 
 // Foundations.
 pub mod error;
+pub mod progress;
 pub mod rng;
 pub mod stats;
 pub mod warning;

@@ -108,7 +108,7 @@ fn lock_of(path: &Path) -> PathBuf {
     p.into()
 }
 
-/// The files signing with `opts` reads or writes ([`BlobSigner::files_read`]); only the
+/// The files signing with `opts` reads or writes (`BlobSigner::files_read`); only the
 /// private key and its legacy state when the key cannot be read (its load will say why).
 pub fn key_inputs(opts: Option<&SignOptions>) -> Vec<PathBuf> {
     let Some(opts) = opts else { return Vec::new() };
@@ -299,7 +299,7 @@ impl BlobSigner {
 
     /// Every file signing with this key reads or writes: the private key, the ledger and its
     /// lock, and the legacy state beside the key and its lock. No command's output may be one.
-    pub fn files_read(&self) -> Vec<PathBuf> {
+    pub(crate) fn files_read(&self) -> Vec<PathBuf> {
         let mut v =
             vec![self.files.private.clone(), self.files.legacy_state.clone(), lock_of(&self.files.legacy_state)];
         if let Ok(l) = self.ledger() {
@@ -409,7 +409,7 @@ impl BlobSigner {
 
     /// [`Self::sign`] with a given serial (no state involved). A rollback (the options'
     /// `replaces`) is written as a version-2 trailer, anything else as version 1.
-    pub fn sign_with_serial(&self, blob: &[u8], serial: u64) -> (Vec<u8>, SignatureRecord) {
+    pub(crate) fn sign_with_serial(&self, blob: &[u8], serial: u64) -> (Vec<u8>, SignatureRecord) {
         let blob = signature::strip(blob);
         let replaces = self.opts.replaces.filter(|_| self.opts.allow_rollback);
         let flags = if replaces.is_some() { SignFlags::ALLOW_ROLLBACK } else { SignFlags::NONE };
@@ -475,60 +475,6 @@ pub fn check(bytes: &[u8], public: Option<&[u8; PUBLIC_KEY_LEN]>) -> SignatureCh
             verifies: trusted.map(|_| false),
             problem: Some(e.to_string()),
         },
-    }
-}
-
-/// `--sign KEY [--serial N] [--allow-rollback]` of `train`, `recalibrate` and `fleet`.
-#[derive(clap::Args, Clone, Debug, Default, PartialEq, Eq)]
-pub struct SignArgs {
-    /// Sign the written blob(s) with this private key (from `fbg-trainer keygen`): a signature
-    /// trailer with the key id and a serial follows the blob's CRC; devices accept signed
-    /// models only.
-    #[arg(long, value_name = "KEY")]
-    pub sign: Option<PathBuf>,
-    /// Serial of the signature (default: the next serial of the key id, kept in its ledger in
-    /// the signing state directory).
-    #[arg(long, requires = "sign")]
-    pub serial: Option<u64>,
-    /// Sign a rollback: a device built to accept rollbacks accepts this model over the one
-    /// serial `--replaces` names (only while that serial runs), although its `--serial` is
-    /// lower.
-    #[arg(long, requires_all = ["sign", "serial", "replaces"])]
-    pub allow_rollback: bool,
-    /// The serial a rollback may replace (with `--allow-rollback`; above `--serial`).
-    #[arg(long, value_name = "N", requires = "allow_rollback")]
-    pub replaces: Option<u64>,
-    /// The signing state directory holding the serial ledger per key id (default:
-    /// `$FBG_SIGNING_STATE_DIR`, else `$XDG_STATE_HOME/fbg-trainer/signing`, else
-    /// `~/.local/state/fbg-trainer/signing`).
-    #[arg(long, value_name = "DIR", requires = "sign")]
-    pub serial_state: Option<PathBuf>,
-}
-
-impl SignArgs {
-    /// The signing options, when `--sign` was given.
-    pub fn options(&self) -> Option<SignOptions> {
-        self.sign.as_ref().map(|key| SignOptions {
-            key: key.clone(),
-            serial: self.serial,
-            allow_rollback: self.allow_rollback,
-            replaces: self.replaces,
-            state_dir: self.serial_state.clone(),
-        })
-    }
-
-    /// Load the signer, when `--sign` was given (a private key readable by others is warned
-    /// about on stderr).
-    pub fn signer(&self) -> Result<Option<BlobSigner>, TrainerError> {
-        let Some(opts) = self.options() else { return Ok(None) };
-        let s = BlobSigner::load(&opts)?;
-        if s.too_open {
-            eprintln!(
-                "warning: {} can be read by other users; a lab key should be private (chmod 600)",
-                s.path().display()
-            );
-        }
-        Ok(Some(s))
     }
 }
 

@@ -15,13 +15,13 @@ use std::net::{TcpStream, ToSocketAddrs};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use anyhow::{bail, Context, Result};
 use fbg_link::parity::{abs_diff, compare};
 use fbg_link::{LinkClient, LinkError};
 use fbg_shared::protocol::{Status, UpdateResult};
 use fbg_shared::Compensator;
 
 use crate::data::Dataset;
+use crate::error::TrainerError;
 use crate::eval::score::{channels, evaluate_holdout, units};
 use crate::export::read_blob;
 use crate::fit::HOST_CAP;
@@ -138,7 +138,7 @@ pub fn status_text(st: &Status) -> String {
 
 /// Connect to the device at `host:port` and read its status, the connection and the whole
 /// answer within `timeout` together.
-pub fn device_status(host: &str, port: u16, timeout: Duration) -> Result<Status> {
+pub fn device_status(host: &str, port: u16, timeout: Duration) -> Result<Status, TrainerError> {
     let addr = format!("{host}:{port}");
     let t0 = Instant::now();
     let stream = connect(&addr, timeout)?;
@@ -149,10 +149,21 @@ pub fn device_status(host: &str, port: u16, timeout: Duration) -> Result<Status>
 
 /// A client whose every answer (request sent to the answer's last byte) is due within
 /// `timeout`; writes are bounded by it too.
-fn link_with_deadline(stream: TcpStream, timeout: Duration) -> Result<LinkClient<TcpStream>> {
-    stream.set_nodelay(true)?;
-    stream.set_write_timeout(Some(timeout))?;
-    Ok(LinkClient::with_answer_timeout(stream, timeout)?)
+fn link_with_deadline(stream: TcpStream, timeout: Duration) -> Result<LinkClient<TcpStream>, TrainerError> {
+    stream.set_nodelay(true).map_err(|e| TrainerError::device(chain(&e)))?;
+    stream.set_write_timeout(Some(timeout)).map_err(|e| TrainerError::device(chain(&e)))?;
+    LinkClient::with_answer_timeout(stream, timeout).map_err(|e| TrainerError::device(chain(&e)))
+}
+
+/// An error and its causes, `: `-separated (as the command line prints an error).
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        s.push_str(&format!(": {c}"));
+        cause = c.source();
+    }
+    s
 }
 
 impl StreamReport {
@@ -197,9 +208,10 @@ impl StreamReport {
     }
 }
 
-fn connect(addr: &str, timeout: Duration) -> Result<TcpStream> {
+fn connect(addr: &str, timeout: Duration) -> Result<TcpStream, TrainerError> {
     let deadline = Instant::now() + timeout;
-    let sockets: Vec<_> = addr.to_socket_addrs().with_context(|| format!("resolving {addr}"))?.collect();
+    let sockets: Vec<_> =
+        addr.to_socket_addrs().map_err(|e| TrainerError::device(format!("resolving {addr}: {}", chain(&e))))?.collect();
     loop {
         let mut last = None;
         for a in &sockets {
@@ -211,25 +223,30 @@ fn connect(addr: &str, timeout: Duration) -> Result<TcpStream> {
         }
         if Instant::now() >= deadline {
             let e = last.map(|e| e.to_string()).unwrap_or_else(|| "no address".into());
-            bail!("cannot connect to the device at {addr} within {timeout:?}: {e}");
+            return Err(TrainerError::device(format!(
+                "cannot connect to the device at {addr} within {timeout:?}: {e}"
+            )));
         }
         std::thread::sleep(Duration::from_millis(100));
     }
 }
 
-fn link_err(what: &str, e: LinkError) -> anyhow::Error {
-    match &e {
+fn link_err(what: &str, e: LinkError) -> TrainerError {
+    TrainerError::device(match &e {
         LinkError::Io(io) if matches!(io.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
-            anyhow::anyhow!("{what}: the device did not answer in time ({e})")
+            format!("{what}: the device did not answer in time ({e})")
         }
-        LinkError::TimedOut { .. } => anyhow::anyhow!("{what}: timed out: {e} (--timeout)"),
-        _ => anyhow::anyhow!("{what}: {e}"),
-    }
+        LinkError::TimedOut { .. } => format!("{what}: timed out: {e} (--timeout)"),
+        _ => format!("{what}: {e}"),
+    })
 }
 
 /// Stream the hold-out of `opts.data` to the device and check every answer.
-pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
-    let bytes = std::fs::read(&opts.model).with_context(|| format!("{}: cannot read", opts.model.display()))?;
+pub fn run(opts: &StreamOptions) -> Result<StreamReport, TrainerError> {
+    let bytes = std::fs::read(&opts.model).map_err(|e| TrainerError::Model {
+        path: opts.model.display().to_string(),
+        message: format!("cannot read: {}", chain(&e)),
+    })?;
     let model = read_blob(&opts.model)?;
     // A signed model's digest is its blob's CRC, before the signature trailer.
     let crc = fbg_shared::blob::stored_crc(fbg_shared::signature::strip(&bytes)).unwrap_or(0);
@@ -238,7 +255,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
     let m = model.dims.n_outputs();
     let hold = data.holdout_indices();
     if hold.is_empty() {
-        bail!("{}: no hold-out rows to stream", opts.data.display());
+        return Err(TrainerError::device(format!("{}: no hold-out rows to stream", opts.data.display())));
     }
     let (eval, _) = evaluate_holdout(&model, &data)?;
     let holdout_rmse: Vec<f64> = eval.channels.iter().map(|c| c.rmse).collect();
@@ -257,25 +274,29 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
         match link.update_model(&bytes).map_err(|e| link_err("model update", e))? {
             UpdateResult::Accepted { crc: got, .. } if got == crc => {}
             UpdateResult::Accepted { crc: got, .. } => {
-                bail!("the device accepted the model but reports crc {got:#010x}, not the blob's {crc:#010x}")
+                return Err(TrainerError::device(format!(
+                    "the device accepted the model but reports crc {got:#010x}, not the blob's {crc:#010x}"
+                )))
             }
-            UpdateResult::Rejected(r) => bail!("the device refused {}: {r}", opts.model.display()),
+            UpdateResult::Rejected(r) => {
+                return Err(TrainerError::device(format!("the device refused {}: {r}", opts.model.display())))
+            }
         }
     }
     let st = link.status().map_err(|e| link_err("status", e))?;
     if st.model_crc != crc {
-        bail!(
+        return Err(TrainerError::device(format!(
             "the device runs the model with crc {:#010x}, not {} ({crc:#010x}); pass --update-first to send it",
             st.model_crc,
             opts.model.display()
-        );
+        )));
     }
     // Both sides start from a fresh stream state.
     // The hold-out of the model's own record: the band's lead on that record's clock.
     let clock = data.calibration_clock(&model);
     link.reset_stream(0x5EED + 1, clock).map_err(|e| link_err("reset", e))?;
-    let mut reference =
-        Compensator::<f64, HOST_CAP>::new(&model).map_err(|e| anyhow::anyhow!("{}: {e}", opts.model.display()))?;
+    let mut reference = Compensator::<f64, HOST_CAP>::new(&model)
+        .map_err(|e| TrainerError::Model { path: opts.model.display().to_string(), message: e.to_string() })?;
     reference.set_clock(clock);
 
     let t0 = Instant::now();
@@ -299,8 +320,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
         seconds: 0.0,
         device_status: None,
     };
-    let bar = crate::fit::select::progress_bar(opts.progress, idx.len() as u64, "stream")
-        .with_finish(indicatif::ProgressFinish::AndClear);
+    let bar = crate::progress::bar(opts.progress, idx.len() as u64, "stream");
     for (n, &i) in idx.iter().enumerate() {
         bar.inc(1);
         let x = data.sample(i).cast::<f32>();
@@ -332,7 +352,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport> {
     report.max_diff_over_rmse = (0..m).map(|c| report.max_abs_diff[c] / holdout_rmse[c]).collect();
     report.device_status = Some(link.status().map_err(|e| link_err("status", e))?);
     if link.malformed_from_device() != 0 {
-        bail!("the device sent {} malformed frames", link.malformed_from_device());
+        return Err(TrainerError::device(format!("the device sent {} malformed frames", link.malformed_from_device())));
     }
     Ok(report)
 }

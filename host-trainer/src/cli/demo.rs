@@ -1,7 +1,7 @@
 //! `fbg-trainer demo`: simulate, train, evaluate, run every study and write the whole audit
 //! report into one directory.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -13,10 +13,33 @@ use fbg_trainer::fit::TrainOptions;
 use fbg_trainer::sim::meta::SimMeta;
 use fbg_trainer::{export, report, sim};
 
-use crate::{baseline_path, print_tables, write_metrics, ScenarioArgs};
+use crate::args::ScenarioArgs;
+use crate::baseline_path;
+use crate::evaluate::{print_tables, write_metrics};
+
+/// Simulate the `paper` preset, train both models, evaluate, run every study and write the
+/// whole audit report into DIR.
+#[derive(clap::Args)]
+pub struct DemoArgs {
+    /// Output directory (created when missing) for the data, models, tables, figures and
+    /// index.html.
+    #[arg(long, default_value = "report")]
+    out: PathBuf,
+    #[command(flatten)]
+    scenario: ScenarioArgs,
+    /// Print metrics.json on stdout instead of the tables and progress.
+    #[arg(long)]
+    json: bool,
+}
+
+impl DemoArgs {
+    pub fn run(self) -> Result<()> {
+        run(&self.out, &self.scenario, self.json)
+    }
+}
 
 /// `fbg-trainer demo`.
-pub fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
+fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     let t0 = Instant::now();
     let cfg = scenario.load()?;
     let mut s = sim::simulate(&cfg, scenario.seed);

@@ -1,6 +1,6 @@
 //! `fbg-trainer inspect`: a blob's header, dimensions, hyper-parameters and provenance.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 
@@ -9,83 +9,165 @@ use fbg_trainer::export;
 use fbg_trainer::fit::HostParams;
 use fbg_trainer::sign;
 
-/// `fbg-trainer inspect`.
-pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
-    let file = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
-    // The whole blob (CRC first) before the header, so corruption is named as such.
-    let p: HostParams = export::read_blob(path)?;
-    let bytes = signature::strip(&file);
-    let header = blob::Header::parse(bytes)
-        .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), export::blob_error_text(bytes, &e)))?;
-    let crc = export::blob_crc(bytes).map(|(c, _)| format!("{c:08x}")).unwrap_or_default();
-    let key = pubkey.map(sign::read_public_key).transpose()?;
-    let check = sign::check(&file, key.as_ref());
-    let (sens_model, sens_source) = sensitivity_source(path, &p);
-    let mut sensitivity = export::sensitivity_json(&sens_model);
-    if let Some(o) = sensitivity.as_object_mut() {
-        o.insert("source".into(), serde_json::json!(sens_source));
+/// Print a blob's header, dimensions, hyper-parameters, provenance and signature (key id,
+/// serial, and whether it verifies against --pubkey).
+#[derive(clap::Args)]
+pub struct InspectArgs {
+    /// The `.fbgm` blob.
+    model: PathBuf,
+    /// Check the signature against this public key (`lab.pub`, raw 32 bytes, or
+    /// `lab.pub.hex`) with the device's verifier; exits non-zero when it does not verify.
+    #[arg(long, value_name = "FILE")]
+    pubkey: Option<PathBuf>,
+    /// Print the header and the whole model as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+/// What `inspect` read of a blob.
+struct Inspected<'a> {
+    path: &'a Path,
+    pubkey: Option<&'a Path>,
+    /// The file's bytes, with any signature trailer.
+    file: Vec<u8>,
+    params: HostParams,
+    header: blob::Header,
+    /// The blob's CRC-32 (hex).
+    crc: String,
+    check: sign::SignatureCheck,
+    sens_model: HostParams,
+    sens_source: String,
+}
+
+impl InspectArgs {
+    pub fn run(self) -> Result<()> {
+        let path = self.model.as_path();
+        let file = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+        // The whole blob (CRC first) before the header, so corruption is named as such.
+        let params: HostParams = export::read_blob(path)?;
+        let bytes = signature::strip(&file);
+        let header = blob::Header::parse(bytes)
+            .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), export::blob_error_text(bytes, &e)))?;
+        let crc = export::blob_crc(bytes).map(|(c, _)| format!("{c:08x}")).unwrap_or_default();
+        let key = self.pubkey.as_deref().map(sign::read_public_key).transpose()?;
+        let check = sign::check(&file, key.as_ref());
+        let (sens_model, sens_source) = sensitivity_source(path, &params);
+        let i = Inspected {
+            path,
+            pubkey: self.pubkey.as_deref(),
+            file,
+            params,
+            header,
+            crc,
+            check,
+            sens_model,
+            sens_source,
+        };
+        if self.json {
+            println!("{}", serde_json::to_string_pretty(&i.json())?);
+        } else {
+            i.print();
+        }
+        i.refuse()
     }
-    let v = serde_json::json!({
-        "file": path,
-        "bytes": file.len(),
-        "blob_bytes": bytes.len(),
-        "crc32": crc,
-        "header": {"magic": "FBGM", "format_version": header.version, "gratings": header.gratings,
-                   "ambient": header.ambient == 1, "measurands": header.measurands, "poly_terms": header.poly_terms,
-                   "memory_terms": header.memory_terms, "centres": header.centres},
-        "signature": check,
-        "model": export::model_json(&p, None),
-        "sensitivity": sensitivity,
-    });
-    let refuse = |check: &sign::SignatureCheck| -> Result<()> {
-        match (check.verifies, pubkey) {
+}
+
+impl Inspected<'_> {
+    /// An error when `--pubkey` was given and the signature does not verify with it.
+    fn refuse(&self) -> Result<()> {
+        match (self.check.verifies, self.pubkey) {
             (Some(false), Some(k)) => bail!(
                 "{}: the signature does not verify with {}: {}",
-                path.display(),
+                self.path.display(),
                 k.display(),
-                check.problem.as_deref().unwrap_or("unknown reason")
+                self.check.problem.as_deref().unwrap_or("unknown reason")
             ),
             _ => Ok(()),
         }
-    };
-    if json {
-        println!("{}", serde_json::to_string_pretty(&v)?);
-        return refuse(&check);
     }
+
+    fn json(&self) -> serde_json::Value {
+        let header = &self.header;
+        let mut sensitivity = export::sensitivity_json(&self.sens_model);
+        if let Some(o) = sensitivity.as_object_mut() {
+            o.insert("source".into(), serde_json::json!(self.sens_source));
+        }
+        serde_json::json!({
+            "file": self.path,
+            "bytes": self.file.len(),
+            "blob_bytes": signature::strip(&self.file).len(),
+            "crc32": self.crc,
+            "header": {"magic": "FBGM", "format_version": header.version, "gratings": header.gratings,
+                       "ambient": header.ambient == 1, "measurands": header.measurands, "poly_terms": header.poly_terms,
+                       "memory_terms": header.memory_terms, "centres": header.centres},
+            "signature": self.check,
+            "model": export::model_json(&self.params, None),
+            "sensitivity": sensitivity,
+        })
+    }
+
+    fn print(&self) {
+        let (path, p, header) = (self.path, &self.params, &self.header);
+        println!(
+            "{}: {} bytes, FBGM format v{}, CRC-32 {} (valid)",
+            path.display(),
+            signature::strip(&self.file).len(),
+            header.version,
+            self.crc
+        );
+        println!("{}", self.signature_line());
+        let names: Vec<String> = p.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect();
+        println!(
+            "dims: gratings {}, ambient {}, measurands {} ({}), poly terms {}, memory terms {}, centres {}",
+            header.gratings,
+            if header.ambient == 1 { "yes" } else { "no" },
+            header.measurands,
+            names.join(", "),
+            header.poly_terms,
+            header.memory_terms,
+            header.centres
+        );
+        print_model(p);
+        println!("{}", static_fidelity_line(path));
+        println!("sensitivities from {}:", self.sens_source);
+        for (_, t) in fbg_trainer::report::coef::sensitivity_tables(&self.sens_model) {
+            print!("{}", t.text());
+        }
+    }
+
+    /// "signature: key id …, serial …; verifies with …" (or none, or malformed).
+    fn signature_line(&self) -> String {
+        let check = &self.check;
+        match (&check.record, check.verifies) {
+            (None, _) if !check.signed => "signature: none (unsigned: valid on the host, refused by a device)".into(),
+            (None, _) => format!("signature: malformed trailer ({})", check.problem.as_deref().unwrap_or("")),
+            (Some(r), v) => format!(
+                "signature: key id {}, serial {}{}; {}",
+                r.key_id,
+                r.serial,
+                r.rollback_text(),
+                match (v, self.pubkey) {
+                    (Some(true), Some(k)) => format!(
+                        "verifies with {} (key id {})",
+                        k.display(),
+                        check.checked_key_id.as_deref().unwrap_or("")
+                    ),
+                    (Some(false), Some(k)) => format!(
+                        "does NOT verify with {} (key id {}): {}",
+                        k.display(),
+                        check.checked_key_id.as_deref().unwrap_or(""),
+                        check.problem.as_deref().unwrap_or("")
+                    ),
+                    _ => "not checked (pass --pubkey lab.pub)".to_string(),
+                }
+            ),
+        }
+    }
+}
+
+/// The hyper-parameters, band, envelope, zero, clock and provenance lines of `p`.
+fn print_model(p: &HostParams) {
     let h = &p.hyper;
-    println!("{}: {} bytes, FBGM format v{}, CRC-32 {crc} (valid)", path.display(), bytes.len(), header.version);
-    match (&check.record, check.verifies) {
-        (None, _) if !check.signed => println!("signature: none (unsigned: valid on the host, refused by a device)"),
-        (None, _) => println!("signature: malformed trailer ({})", check.problem.as_deref().unwrap_or("")),
-        (Some(r), v) => println!(
-            "signature: key id {}, serial {}{}; {}",
-            r.key_id,
-            r.serial,
-            r.rollback_text(),
-            match (v, pubkey) {
-                (Some(true), Some(k)) =>
-                    format!("verifies with {} (key id {})", k.display(), check.checked_key_id.as_deref().unwrap_or("")),
-                (Some(false), Some(k)) => format!(
-                    "does NOT verify with {} (key id {}): {}",
-                    k.display(),
-                    check.checked_key_id.as_deref().unwrap_or(""),
-                    check.problem.as_deref().unwrap_or("")
-                ),
-                _ => "not checked (pass --pubkey lab.pub)".to_string(),
-            }
-        ),
-    }
-    let names: Vec<String> = p.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect();
-    println!(
-        "dims: gratings {}, ambient {}, measurands {} ({}), poly terms {}, memory terms {}, centres {}",
-        header.gratings,
-        if header.ambient == 1 { "yes" } else { "no" },
-        header.measurands,
-        names.join(", "),
-        header.poly_terms,
-        header.memory_terms,
-        header.centres
-    );
     println!(
         "hyper-parameters: features {}, σ {:.4} (= {}×NN), α {:.4e}, dead band {} pm, weak support < {:.2e}, envelope margin {}, flagged band ×{}",
         h.feature_set.name(), h.sigma, f32s(&[h.sigma_mult]), h.alpha, f32s(&[h.dead_band_pm]), h.weak_support, f32s(&[h.envelope_margin]), f32s(&[h.flagged_band_factor])
@@ -131,12 +213,6 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
         "provenance: scenario {}, seed {}, trainer {}, date {}, {} calibration samples",
         pr.scenario, pr.seed, pr.trainer_version, pr.date_yyyymmdd, pr.n_cal
     );
-    println!("{}", static_fidelity_line(path));
-    println!("sensitivities from {sens_source}:");
-    for (_, t) in fbg_trainer::report::coef::sensitivity_tables(&sens_model) {
-        print!("{}", t.text());
-    }
-    refuse(&check)
 }
 
 /// The model the calibration sheet comes from: Model-P (`fbg_trainer::fit::sensitivity`):

@@ -23,7 +23,7 @@ use crate::error::TrainerError;
 use crate::eval::metrics::{Metrics, SelectionSummary, StaticFidelity, Table2};
 use crate::eval::score::{self, ChannelMetrics, ModelEval, HYSTERESIS_INDEX_DEAD_BAND_PM};
 use crate::fit::static_fidelity::{StaticAudit, AUDIT_MAX_ROWS};
-use crate::fit::{self, HostCompensator, HostParams};
+use crate::fit::{HostCompensator, HostParams};
 
 /// The flags counted per model, as [`score::score`] counts them.
 const BITS: [Flags; 4] = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::IMPLAUSIBLE];
@@ -181,7 +181,7 @@ const IN_FLIGHT: usize = 4;
 /// `offset` + the bytes read.
 fn for_each_row(
     rows: RowReader,
-    bar: &indicatif::ProgressBar,
+    bar: &crate::progress::Bar,
     offset: u64,
     mut f: impl FnMut(&Row),
 ) -> Result<RowReader, TrainerError> {
@@ -242,8 +242,7 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
         header.inputs_for(&params.dims, "the dataset", "evaluate")?;
     }
     let (n_refs, ambient, n_g) = (header.refs.len(), header.t_amb_c.is_some(), header.n_gratings());
-    let bar = fit::select::progress_bar(progress, 2 * rows.file_len(), "evaluate")
-        .with_finish(indicatif::ProgressFinish::AndClear);
+    let bar = crate::progress::bar(progress, 2 * rows.file_len(), "evaluate");
     bar.set_message("hold-out (Table 2)");
     let mut models = [ModelRun::new(p, &header)?, ModelRun::new(h, &header)?];
     let db = fbg_shared::ticks(HYSTERESIS_INDEX_DEAD_BAND_PM);

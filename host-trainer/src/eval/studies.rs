@@ -21,7 +21,7 @@ use crate::sim::{simulate, Simulation, EFFECT_NAMES};
 use crate::stats::linear_fit;
 
 /// Drift multipliers of the sweep (× σ_d of the scenario).
-pub const DRIFT_FACTORS: [f64; 6] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0];
+pub(crate) const DRIFT_FACTORS: [f64; 6] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0];
 
 /// Table 2 for a trained pair on `d`.
 /// `oracle` holds the per-sample oracle's hold-out RMSE per output of the models.
@@ -315,9 +315,9 @@ impl Studies {
 }
 
 /// Batch lengths of the recalibration study \[h\].
-pub const RECAL_BATCH_HOURS: [f64; 2] = [2.0, 24.0];
+pub(crate) const RECAL_BATCH_HOURS: [f64; 2] = [2.0, 24.0];
 /// The changed installation of the recalibration study uses this seed offset.
-pub const RECAL_SEED_OFFSET: u64 = 1;
+pub(crate) const RECAL_SEED_OFFSET: u64 = 1;
 
 /// Train on a simulation and measure everything.
 pub fn run_all(
@@ -422,7 +422,7 @@ pub fn run_all(
 }
 
 /// The hyper-parameters a trained model carries, as a grid point.
-pub fn config_of(h: &HostParams) -> fit::Config {
+pub(crate) fn config_of(h: &HostParams) -> fit::Config {
     let n_cal = h.provenance.n_cal.max(1) as f64;
     fit::Config {
         feature_set: h.hyper.feature_set,
@@ -456,9 +456,8 @@ pub fn evaluate_models(
         + usize::from(with_meta && studies.drift_sweep)
         + usize::from(with_meta && studies.error_budget)
         + usize::from(studies.parity);
-    let bar =
-        fit::select::progress_bar(progress, steps as u64, "evaluate").with_finish(indicatif::ProgressFinish::AndClear);
-    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    let bar = crate::progress::bar(progress, steps as u64, "evaluate");
+    bar.steady_tick(std::time::Duration::from_millis(200));
     bar.set_message("hold-out (Table 2)");
     let t = Instant::now();
     let oracle = meta.map(|m| m.oracle_floor_for(&Measurand::of_dims(&h.dims)));
@@ -484,31 +483,7 @@ pub fn evaluate_models(
     let abl = if studies.ablation {
         let t = Instant::now();
         // The given models are the baseline and default rows; only the variants retrain.
-        let trained = Trained {
-            model_p: p.clone(),
-            model_h: h.clone(),
-            core: fit::PolyCore::of(p),
-            selection: fit::Selection {
-                chosen,
-                memory: fit::memory_core::MemoryChoice::none(),
-                memory_rows: vec![],
-                rows: vec![],
-                cv_rmse_p: vec![f64::NAN; n_out],
-                cv_rmse_h: vec![f64::NAN; n_out],
-                var_model_p: Default::default(),
-                var_model_h: Default::default(),
-                folds: vec![],
-                n_cal: h.provenance.n_cal as usize,
-                cv_stride: 1,
-            },
-            phase_seconds: vec![],
-            static_audit: match &audit {
-                Some(a) => a.clone(),
-                None => fit::static_fidelity::StaticAudit::of(p, h, d, &cal)?,
-            },
-            skipped: vec![],
-            warnings: vec![],
-        };
+        let trained = given_as_trained(p, h, d, &cal, chosen, audit.as_ref())?;
         bar.set_message("ablation");
         let r = bar.suspend(|| ablation(d, &trained, &opts, &origin))?;
         bar.inc(1);
@@ -519,28 +494,7 @@ pub fn evaluate_models(
         None
     };
     let (drift, budget) = match (meta, studies.drift_sweep || studies.error_budget) {
-        (Some(m), true) => {
-            let t = Instant::now();
-            bar.set_message("drift sweep");
-            let ds = if studies.drift_sweep {
-                let r = bar.suspend(|| drift_sweep(&m.scenario, m.seed, &chosen, &opts))?;
-                bar.inc(1);
-                Some(r)
-            } else {
-                None
-            };
-            bar.set_message("error budget");
-            let eb = if studies.error_budget {
-                let r = bar.suspend(|| error_budget(&m.scenario, m.seed, &chosen, &opts))?;
-                bar.inc(1);
-                Some(r)
-            } else {
-                None
-            };
-            timings.push(("drift_sweep+error_budget".to_string(), t.elapsed().as_secs_f64()));
-            bar.suspend(|| log(&format!("drift sweep and error budget in {:.1} s", t.elapsed().as_secs_f64())));
-            (ds, eb)
-        }
+        (Some(m), true) => scenario_studies(m, studies, &chosen, &opts, &bar, log, &mut timings)?,
         _ => (None, None),
     };
     bar.set_message("parity");
@@ -577,4 +531,76 @@ pub fn evaluate_models(
     };
     m.warnings = crate::eval::warnings::evaluation(&m, &h.dims);
     Ok(m)
+}
+
+/// The given models as the outcome of a fit (the baseline and default rows of Table 3): their
+/// grid point `chosen`, no cross-validation, the static audit `audit` of the calibration rows
+/// `cal` (computed here when there is none).
+fn given_as_trained(
+    p: &HostParams,
+    h: &HostParams,
+    d: &Dataset,
+    cal: &[usize],
+    chosen: fit::Config,
+    audit: Option<&fit::static_fidelity::StaticAudit>,
+) -> Result<Trained, TrainerError> {
+    let n_out = h.dims.n_outputs();
+    Ok(Trained {
+        model_p: p.clone(),
+        model_h: h.clone(),
+        core: fit::PolyCore::of(p),
+        selection: fit::Selection {
+            chosen,
+            memory: fit::memory_core::MemoryChoice::none(),
+            memory_rows: vec![],
+            rows: vec![],
+            cv_rmse_p: vec![f64::NAN; n_out],
+            cv_rmse_h: vec![f64::NAN; n_out],
+            var_model_p: Default::default(),
+            var_model_h: Default::default(),
+            folds: vec![],
+            n_cal: h.provenance.n_cal as usize,
+            cv_stride: 1,
+        },
+        phase_seconds: vec![],
+        static_audit: match audit {
+            Some(a) => a.clone(),
+            None => fit::static_fidelity::StaticAudit::of(p, h, d, cal)?,
+        },
+        skipped: vec![],
+        warnings: vec![],
+    })
+}
+
+/// The studies that re-simulate the scenario of `m` (the drift sweep and the error budget,
+/// as `studies` asks), each retraining at `chosen`; their time goes into `timings`.
+fn scenario_studies(
+    m: &SimMeta,
+    studies: Studies,
+    chosen: &fit::Config,
+    opts: &TrainOptions,
+    bar: &crate::progress::Bar,
+    log: &dyn Fn(&str),
+    timings: &mut Vec<(String, f64)>,
+) -> Result<(Option<DriftSweep>, Option<Vec<BudgetRow>>), TrainerError> {
+    let t = Instant::now();
+    bar.set_message("drift sweep");
+    let ds = if studies.drift_sweep {
+        let r = bar.suspend(|| drift_sweep(&m.scenario, m.seed, chosen, opts))?;
+        bar.inc(1);
+        Some(r)
+    } else {
+        None
+    };
+    bar.set_message("error budget");
+    let eb = if studies.error_budget {
+        let r = bar.suspend(|| error_budget(&m.scenario, m.seed, chosen, opts))?;
+        bar.inc(1);
+        Some(r)
+    } else {
+        None
+    };
+    timings.push(("drift_sweep+error_budget".to_string(), t.elapsed().as_secs_f64()));
+    bar.suspend(|| log(&format!("drift sweep and error budget in {:.1} s", t.elapsed().as_secs_f64())));
+    Ok((ds, eb))
 }

@@ -17,9 +17,7 @@ use super::options::TrainOptions;
 /// - `paper`: paper Eq. 5 exactly;
 /// - `all`: memory terms and every feature set.
 ///
-/// (The variants carry no doc comments of their own: clap would print them as a long list of
-/// possible values in `--help` instead of the one line `[possible values: memory, …]`.)
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum FeatureChoice {
     #[default]
     Memory,
@@ -30,6 +28,15 @@ pub enum FeatureChoice {
 }
 
 impl FeatureChoice {
+    /// Every variant, in the order `--help` lists them.
+    pub const ALL: [FeatureChoice; 5] = [
+        FeatureChoice::Memory,
+        FeatureChoice::HysteresisAware,
+        FeatureChoice::Latch,
+        FeatureChoice::Paper,
+        FeatureChoice::All,
+    ];
+
     /// The name on the command line and in a manifest.
     pub fn name(self) -> &'static str {
         match self {
@@ -42,12 +49,12 @@ impl FeatureChoice {
     }
 
     /// The variant of a name as [`FeatureChoice::name`] spells it (`None` for an unknown name).
-    pub fn from_name(name: &str) -> Option<FeatureChoice> {
-        <FeatureChoice as clap::ValueEnum>::value_variants().iter().copied().find(|c| c.name() == name)
+    pub(crate) fn from_name(name: &str) -> Option<FeatureChoice> {
+        FeatureChoice::ALL.into_iter().find(|c| c.name() == name)
     }
 
     /// The RBF feature sets cross-validation may choose from.
-    pub fn feature_sets(self) -> Vec<FeatureSet> {
+    pub(crate) fn feature_sets(self) -> Vec<FeatureSet> {
         match self {
             FeatureChoice::Memory => vec![FeatureSet::HysteresisAware],
             FeatureChoice::Paper => vec![FeatureSet::Paper],
@@ -84,6 +91,17 @@ impl FeatureChoice {
     }
 }
 
+/// By its name ([`FeatureChoice::name`]); the error lists the names.
+impl std::str::FromStr for FeatureChoice {
+    type Err = String;
+    fn from_str(name: &str) -> Result<Self, Self::Err> {
+        FeatureChoice::from_name(name).ok_or_else(|| {
+            let names: Vec<&str> = FeatureChoice::ALL.iter().map(|c| c.name()).collect();
+            format!("unknown feature set `{name}` ({})", names.join(", "))
+        })
+    }
+}
+
 /// As its name (a fleet group's `features` in `fleet --json`).
 impl serde::Serialize for FeatureChoice {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
@@ -94,15 +112,15 @@ impl serde::Serialize for FeatureChoice {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::ValueEnum;
 
     #[test]
-    fn names_round_trip_and_match_clap() {
-        for c in FeatureChoice::value_variants() {
-            assert_eq!(FeatureChoice::from_name(c.name()), Some(*c));
-            assert_eq!(c.to_possible_value().map(|v| v.get_name().to_string()).as_deref(), Some(c.name()));
+    fn names_round_trip() {
+        for c in FeatureChoice::ALL {
+            assert_eq!(FeatureChoice::from_name(c.name()), Some(c));
+            assert_eq!(c.name().parse::<FeatureChoice>(), Ok(c));
         }
         assert_eq!(FeatureChoice::from_name("magic"), None);
+        assert!("magic".parse::<FeatureChoice>().unwrap_err().contains("memory, hysteresis-aware, latch, paper, all"));
         assert_eq!(FeatureChoice::default(), FeatureChoice::Memory);
     }
 

@@ -400,7 +400,7 @@ impl<'c, 'a> GridSearch<'c, 'a> {
                 }
             }
         }
-        let bar = progress_bar(cv.opts.progress(), tasks.len() as u64, "cross-validation");
+        let bar = crate::progress::bar(cv.opts.progress(), tasks.len() as u64, "cross-validation");
         type Acc = Vec<(Config, Vec<f64>, usize)>;
         let results: Result<Vec<Acc>, TrainerError> = tasks
             .par_iter()
@@ -517,18 +517,4 @@ fn leads(d: &Dataset, fs: &[Fold], cores: &[FoldCore]) -> (Vec<f64>, Vec<usize>)
         }
     }
     (lead, fold_of)
-}
-
-/// A progress bar on a terminal, hidden otherwise.
-pub fn progress_bar(enabled: bool, len: u64, what: &str) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if !enabled || !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    let bar = indicatif::ProgressBar::new(len);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{msg:>18} [{bar:40}] {pos}/{len} {elapsed}") {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar.set_message(what.to_string());
-    bar
 }

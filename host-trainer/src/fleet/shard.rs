@@ -16,7 +16,7 @@
 
 use std::fmt;
 
-use super::CRC64;
+use super::records::CRC64;
 use crate::error::TrainerError;
 
 /// Shard `index` of `count` (0 ≤ index < count).

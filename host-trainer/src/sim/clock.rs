@@ -7,7 +7,7 @@ use crate::sim::scenario::Clock;
 
 /// Largest timestamp error, as a fraction of dt_s: below ½, so the timestamps stay strictly
 /// increasing.
-pub const MAX_JITTER_FRACTION: f64 = 0.45;
+pub(crate) const MAX_JITTER_FRACTION: f64 = 0.45;
 
 /// The recorded time \[s\] of each of the `n` grid samples: k·dt_s, plus a Gaussian error of σ
 /// `jitter_s` clamped to ±[`MAX_JITTER_FRACTION`]·dt_s when jitter is on (and to t ≥ 0).
@@ -45,7 +45,7 @@ pub fn gaps(clock: &Clock, duration_s: f64, seed: u64) -> Vec<(f64, f64)> {
 
 /// The grid samples (of `n`) that are recorded: those outside every gap, or `None` when the
 /// clock has no gaps.
-pub fn kept_rows(clock: &Clock, n: usize, seed: u64) -> Option<Vec<usize>> {
+pub(crate) fn kept_rows(clock: &Clock, n: usize, seed: u64) -> Option<Vec<usize>> {
     if clock.gaps_per_day <= 0.0 {
         return None;
     }

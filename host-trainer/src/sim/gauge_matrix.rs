@@ -78,7 +78,7 @@ impl GaugePhysics {
 
     /// The shift \[pm\] of grating `i` alone for the measurands `m` (the same arithmetic as
     /// [`forward`](Self::forward)): a grating whose package lags or creeps sees its own `m`.
-    pub fn forward_row(&self, i: usize, m: &[f64]) -> f64 {
+    pub(crate) fn forward_row(&self, i: usize, m: &[f64]) -> f64 {
         let d = self.delta(m);
         self.linear_row(i, &d) + self.cross_row(i, &d)
     }
@@ -136,7 +136,7 @@ impl GaugePhysics {
     /// the linear solution (least squares, Gauss–Newton, when there are more gratings than
     /// measurands). Falls back to the best iterate if the Jacobian becomes singular (not seen
     /// with physical parameters); NaN when the gauge matrix itself is.
-    pub fn invert(&self, dl_pm: &[f64]) -> Vec<f64> {
+    pub(crate) fn invert(&self, dl_pm: &[f64]) -> Vec<f64> {
         if self.k.len() == 3 && self.measurands.len() == 3 {
             return self.invert3([dl_pm[0], dl_pm[1], dl_pm[2]]).to_vec();
         }

@@ -1,12 +1,10 @@
 //! The interrogator's artefacts on a clean wavelength-shift series: hysteresis (one of the
-//! models of [`crate::sim::hysteresis`]), scan nonlinearity, random-walk drift (Eq. 8),
+//! models of `crate::sim::hysteresis`), scan nonlinearity, random-walk drift (Eq. 8),
 //! electronics thermal drift, and 1/f + white noise. Each function returns the *contribution* it adds, so
 //! the simulator can keep every effect separately.
 
 use crate::rng::{Rng, Stream};
 use crate::sim::scenario::{Drift, Electronics, Hysteresis, Noise, Scan};
-
-pub use crate::sim::hysteresis::eq9_play::{eq9, play_operator};
 
 /// Hysteresis contribution \[pm\] of the configured model (`hysteresis.model`; by default
 /// play(Eq. 9(x)) − x).
@@ -19,7 +17,7 @@ pub fn hysteresis(x: &[f64], cfg: &Hysteresis) -> Vec<f64> {
 ///
 /// Evaluated at the physical wavelength (not the hysteresis-shifted one) so that every effect's
 /// contribution is exactly additive; the difference is below 0.1 pm for the defaults.
-pub fn scan_nonlinearity(shift_pm: &[f64], nominal_nm: f64, phase_rad: f64, cfg: &Scan) -> Vec<f64> {
+pub(crate) fn scan_nonlinearity(shift_pm: &[f64], nominal_nm: f64, phase_rad: f64, cfg: &Scan) -> Vec<f64> {
     shift_pm
         .iter()
         .map(|&s| {
@@ -67,7 +65,7 @@ pub fn electronics(ambient_c: &[f64], cfg: &Electronics) -> Vec<f64> {
 /// Voss–McCartney 1/f noise with standard deviation `sigma`: `octaves` independent normal rows,
 /// row j redrawn every 2^j samples, summed. The spectrum falls as 1/f between fs/2^octaves and
 /// fs/2; each row has variance σ²/octaves, so the sum has variance σ² at every sample.
-pub fn pink_noise(n: usize, sigma: f64, octaves: u32, rng: &mut Rng) -> Vec<f64> {
+pub(crate) fn pink_noise(n: usize, sigma: f64, octaves: u32, rng: &mut Rng) -> Vec<f64> {
     let rows = octaves as usize;
     let row_sigma = sigma / (rows as f64).sqrt();
     let mut state: Vec<f64> = (0..rows).map(|_| row_sigma * rng.normal()).collect();

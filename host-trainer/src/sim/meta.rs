@@ -26,7 +26,7 @@ pub fn meta_path(csv: &Path) -> PathBuf {
 
 impl SimMeta {
     /// The oracle-floor hold-out RMSE per output of a model with `outputs` (NaN where absent).
-    pub fn oracle_floor_for(&self, outputs: &[crate::data::Measurand]) -> Vec<f64> {
+    pub(crate) fn oracle_floor_for(&self, outputs: &[crate::data::Measurand]) -> Vec<f64> {
         let mut m = self.scenario.measurands.clone();
         m.sort();
         crate::sim::values_for(&m, &self.oracle_floor_holdout, outputs)

@@ -4,9 +4,9 @@
 //! [`scenario::ScenarioConfig`]; what it wrote a CSV from goes beside it as the
 //! [`meta::SimMeta`] sidecar.
 
-pub mod clock;
+pub(crate) mod clock;
 pub mod gauge_matrix;
-pub mod hysteresis;
+pub(crate) mod hysteresis;
 pub mod interrogator;
 pub mod meta;
 pub mod package;
@@ -22,7 +22,7 @@ pub use gauge_matrix::GaugePhysics;
 
 /// The absolute time of a simulated record's `t_s = 0` (2026-01-05T00:00:00Z, Unix s): every
 /// simulated record has a clock, so a model trained on one knows when its calibration ended.
-pub const SIM_START_UNIX_S: f64 = 1_767_571_200.0;
+pub(crate) const SIM_START_UNIX_S: f64 = 1_767_571_200.0;
 
 /// Names of the interrogator's artefacts, in [`Effects`] order.
 pub const EFFECT_NAMES: [&str; 5] = ["hysteresis", "scan", "drift", "electronics", "noise"];
@@ -158,6 +158,19 @@ fn truth_on_grid(cfg: &ScenarioConfig, t_s: &[f64], seed: u64) -> (Vec<f64>, Vec
 /// random effect draws from its own stream, and per-grating draws go grating after grating,
 /// so the `paper` and `harsh` presets give the bytes they always gave; every effect added
 /// since is off in them and draws from streams of its own.
+///
+/// ```
+/// use fbg_trainer::sim::{self, scenario::Preset};
+///
+/// let mut cfg = Preset::StrainPair.config();
+/// cfg.clock.days = 1.0;
+/// let a = sim::simulate(&cfg, 7);
+/// assert_eq!(a.data.len(), cfg.n_samples());
+/// // The first `n_cal` samples calibrate, the rest are the hold-out.
+/// assert_eq!(a.data.cal_indices().len(), cfg.n_cal());
+/// // The same scenario and seed give the same record.
+/// assert_eq!(sim::simulate(&cfg, 7).data.t_s, a.data.t_s);
+/// ```
 pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
     let n = cfg.n_samples();
     let n_cal = cfg.n_cal();
@@ -291,14 +304,14 @@ pub struct OracleFloor {
 
 impl OracleFloor {
     /// The hold-out RMSE per output of a model with `outputs` (NaN for one not simulated).
-    pub fn holdout_for(&self, outputs: &[Measurand]) -> Vec<f64> {
+    pub(crate) fn holdout_for(&self, outputs: &[Measurand]) -> Vec<f64> {
         values_for(&self.measurands, &self.rmse_holdout, outputs)
     }
 }
 
 /// Values per measurand (`v[k]` for `measurands[k]`) → per output of a model whose outputs
 /// are `outputs`, NaN where absent.
-pub fn values_for(measurands: &[Measurand], v: &[f64], outputs: &[Measurand]) -> Vec<f64> {
+pub(crate) fn values_for(measurands: &[Measurand], v: &[f64], outputs: &[Measurand]) -> Vec<f64> {
     outputs
         .iter()
         .map(|p| measurands.iter().position(|m| m == p).and_then(|k| v.get(k).copied()).unwrap_or(f64::NAN))
@@ -307,7 +320,7 @@ pub fn values_for(measurands: &[Measurand], v: &[f64], outputs: &[Measurand]) ->
 
 impl Simulation {
     /// Oracle estimates for every sample, one column per measurand in the dataset's order.
-    pub fn oracle_estimates(&self) -> Vec<Vec<f64>> {
+    pub(crate) fn oracle_estimates(&self) -> Vec<Vec<f64>> {
         let n = self.data.len();
         let n_g = self.physics.n_gratings();
         // The physics' columns follow the configuration's order, the dataset's are canonical.

@@ -20,7 +20,7 @@ use crate::sim::scenario::ScenarioConfig;
 
 /// Per-grating, per-sample contributions of the package \[pm\].
 #[derive(Clone, Debug, Default)]
-pub struct Package {
+pub(crate) struct Package {
     pub thermal_lag: Vec<Vec<f64>>,
     pub creep: Vec<Vec<f64>>,
     pub ageing: Vec<Vec<f64>>,
@@ -40,7 +40,7 @@ pub fn first_order_lag(x: &[f64], tau_s: f64, dt_s: f64) -> Vec<f64> {
 }
 
 /// Ageing shift \[pm\] at time `t_s` \[s\] of a grating ageing at `rate_pm_per_day` initially.
-pub fn ageing_pm(rate_pm_per_day: f64, tau_days: f64, t_s: f64) -> f64 {
+pub(crate) fn ageing_pm(rate_pm_per_day: f64, tau_days: f64, t_s: f64) -> f64 {
     rate_pm_per_day * tau_days * (1.0 - libm::exp(-t_s / 86_400.0 / tau_days))
 }
 
@@ -54,7 +54,7 @@ pub fn active(cfg: &ScenarioConfig) -> bool {
 /// The package contributions of every grating, or `None` when the scenario has none. `truth`
 /// holds the measurands in `physics.measurands` order, `phys` the gratings' shifts from them
 /// (what [`GaugePhysics::forward`] gave), `t_s` the grid times.
-pub fn contributions(
+pub(crate) fn contributions(
     cfg: &ScenarioConfig,
     physics: &GaugePhysics,
     truth: &[Vec<f64>],

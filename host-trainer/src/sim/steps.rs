@@ -19,14 +19,14 @@ use crate::data::{Dataset, Split};
 use crate::sim::scenario::Steps;
 
 /// The calibration-part percentiles the levels span.
-pub const LEVEL_PERCENTILES: (f64, f64) = (5.0, 95.0);
+pub(crate) const LEVEL_PERCENTILES: (f64, f64) = (5.0, 95.0);
 
 /// Fewest rows of constant truth [`holds`] counts as a hold.
-pub const MIN_HOLD_ROWS: usize = 4;
+pub(crate) const MIN_HOLD_ROWS: usize = 4;
 
 /// The order the levels 0 (lowest) … `levels` − 1 are visited: low, high, second-lowest,
 /// second-highest, …, middle.
-pub fn visit_order(levels: usize) -> Vec<usize> {
+pub(crate) fn visit_order(levels: usize) -> Vec<usize> {
     let (mut lo, mut hi) = (0, levels);
     let mut out = Vec::with_capacity(levels);
     while lo < hi {
@@ -56,18 +56,18 @@ pub fn percentile(x: &[f64], p: f64) -> f64 {
 }
 
 /// `levels` levels evenly spaced from the 5th to the 95th percentile of `cal`, lowest first.
-pub fn levels_of(cal: &[f64], levels: usize) -> Vec<f64> {
+pub(crate) fn levels_of(cal: &[f64], levels: usize) -> Vec<f64> {
     let (lo, hi) = (percentile(cal, LEVEL_PERCENTILES.0), percentile(cal, LEVEL_PERCENTILES.1));
     let last = levels.saturating_sub(1).max(1) as f64;
     (0..levels).map(|i| lo + (hi - lo) * i as f64 / last).collect()
 }
 
 /// Visits of each level: approached from below, then from above.
-pub const APPROACHES: usize = 2;
+pub(crate) const APPROACHES: usize = 2;
 
 /// Append the steps part to `series` (each holding its calibration part): the series listed in
 /// `stepped` step in that order through their levels, every series not being stepped holds its
-/// calibration-part median. Each level is visited [`APPROACHES`] times, each visit
+/// calibration-part median. Each level is visited `APPROACHES` times, each visit
 /// `hold_samples` long: a linear ramp of `ramp_samples` out to the excursion point (one level
 /// spacing below, then above, the level: far enough to turn any hysteresis loop narrower than
 /// a level spacing, even beyond the calibration range at the end levels), a ramp of
@@ -120,7 +120,7 @@ pub struct Hold {
 }
 
 /// The holds of a steps record, found from its truth columns: hold-out runs of at least
-/// [`MIN_HOLD_ROWS`] rows over which every reference is exactly constant. The stepped
+/// `MIN_HOLD_ROWS` rows over which every reference is exactly constant. The stepped
 /// measurand of a run is the one away from its resting value (the value its holds take most
 /// often; with a single measurand every run is its own). Runs where that is not exactly one
 /// measurand are left out. Empty for a record that is no steps record.

@@ -33,7 +33,7 @@ pub fn temperature(cfg: &Temperature, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<
 
 /// [`temperature`] `pace` times faster: the diurnal, weekly and seasonal periods and the AR
 /// correlation time divided by `pace` (the same random draws).
-pub fn temperature_paced(cfg: &Temperature, pace: f64, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<f64> {
+pub(crate) fn temperature_paced(cfg: &Temperature, pace: f64, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<f64> {
     let mut rng = Rng::new(seed, Stream::Temperature);
     let w = ar1(t_s.len(), cfg.ar_sigma_c, cfg.ar_tau_s / pace, dt_s, &mut rng);
     t_s.iter()
@@ -55,7 +55,7 @@ pub fn load_steps(cfg: &Strain, t_s: &[f64], seed: u64) -> Vec<f64> {
 }
 
 /// [`load_steps`] drawn from the random stream `stream` (a second strain location has its own).
-pub fn load_steps_on(cfg: &Strain, t_s: &[f64], seed: u64, stream: Stream) -> Vec<f64> {
+pub(crate) fn load_steps_on(cfg: &Strain, t_s: &[f64], seed: u64, stream: Stream) -> Vec<f64> {
     let mut rng = Rng::new(seed, stream);
     let t_end = t_s.last().copied().unwrap_or(0.0);
     let n_levels = (t_end / cfg.hold_s).floor() as usize + 2;
@@ -81,7 +81,7 @@ pub fn strain(cfg: &Strain, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<f64> {
 }
 
 /// [`strain`] drawn from the random streams (AR(1), load levels) of one strain location.
-pub fn strain_on(cfg: &Strain, t_s: &[f64], dt_s: f64, seed: u64, (ar, levels): (Stream, Stream)) -> Vec<f64> {
+pub(crate) fn strain_on(cfg: &Strain, t_s: &[f64], dt_s: f64, seed: u64, (ar, levels): (Stream, Stream)) -> Vec<f64> {
     let mut rng = Rng::new(seed, ar);
     let w = ar1(t_s.len(), cfg.ar_sigma_ue, cfg.ar_tau_s, dt_s, &mut rng);
     let steps = load_steps_on(cfg, t_s, seed, levels);
@@ -113,7 +113,7 @@ pub fn pressure(cfg: &Pressure, t_s: &[f64], dt_s: f64, seed: u64) -> Vec<f64> {
 
 /// The ambient temperature the interrogator electronics sit in: a first-order lag of T plus the
 /// offset (no reading noise) [°C].
-pub fn ambient_true(cfg: &Ambient, temp_c: &[f64], dt_s: f64) -> Vec<f64> {
+pub(crate) fn ambient_true(cfg: &Ambient, temp_c: &[f64], dt_s: f64) -> Vec<f64> {
     let a = if cfg.lag_tau_s > 0.0 { 1.0 - libm::exp(-dt_s / cfg.lag_tau_s) } else { 1.0 };
     let mut y = temp_c.first().copied().unwrap_or(0.0);
     temp_c
@@ -127,7 +127,7 @@ pub fn ambient_true(cfg: &Ambient, temp_c: &[f64], dt_s: f64) -> Vec<f64> {
 
 /// The reference thermometer's reading T_amb [°C]: the true ambient plus white reading noise,
 /// rounded to `resolution_c` when it is set.
-pub fn ambient_reading(cfg: &Ambient, ambient: &[f64], seed: u64) -> Vec<f64> {
+pub(crate) fn ambient_reading(cfg: &Ambient, ambient: &[f64], seed: u64) -> Vec<f64> {
     let mut rng = Rng::new(seed, Stream::Ambient);
     let r = cfg.resolution_c;
     ambient

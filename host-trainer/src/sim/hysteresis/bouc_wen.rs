@@ -26,7 +26,7 @@ pub fn contribution(x: &[f64], p: &BoucWen) -> Vec<f64> {
 }
 
 /// Saturation of h \[pm\]: (a/(β+γ))^(1/n).
-pub fn saturation_pm(p: &BoucWen) -> f64 {
+pub(crate) fn saturation_pm(p: &BoucWen) -> f64 {
     libm::pow(p.a / (p.beta + p.gamma), 1.0 / p.n)
 }
 

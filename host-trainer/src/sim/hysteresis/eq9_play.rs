@@ -10,7 +10,7 @@ use crate::sim::scenario::Hysteresis;
 /// Taken literally, as DESIGN §3 asks. Note that sgn(ẋ)(x_t − x_{t−1}) = |x_t − x_{t−1}|, so
 /// the ρ term is a speed-dependent positive offset and β + γ = 1 makes the rest a one-step
 /// lag; the direction-dependent part of the hysteresis comes from [`play_operator`].
-pub fn eq9(x: &[f64], cfg: &Hysteresis) -> Vec<f64> {
+pub(crate) fn eq9(x: &[f64], cfg: &Hysteresis) -> Vec<f64> {
     let mut prev = x.first().copied().unwrap_or(0.0);
     x.iter()
         .map(|&xt| {
@@ -32,7 +32,7 @@ pub fn eq9(x: &[f64], cfg: &Hysteresis) -> Vec<f64> {
 /// Play (backlash) operator of half-width `r`: the output stays put until the input has moved
 /// `r` beyond it, then follows at distance `r`. Rising input reads `r` low, falling input reads
 /// `r` high, and every turning point draws a minor loop of width 2r.
-pub fn play_operator(x: &[f64], r: f64) -> Vec<f64> {
+pub(crate) fn play_operator(x: &[f64], r: f64) -> Vec<f64> {
     let mut y = x.first().copied().unwrap_or(0.0);
     x.iter()
         .map(|&xt| {

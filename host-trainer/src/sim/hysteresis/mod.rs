@@ -6,7 +6,7 @@
 //! - [`preisach`]: a discrete Preisach sum of relays.
 
 pub mod bouc_wen;
-pub mod eq9_play;
+pub(crate) mod eq9_play;
 pub mod preisach;
 
 use crate::sim::scenario::{Hysteresis, HysteresisModel};
@@ -26,7 +26,7 @@ pub(crate) mod paths {
     /// A triangle wave between −`amp` and +`amp` \[pm\] for `cycles` cycles, starting at 0 and
     /// rising, sampled every `step` \[pm\] of travel (`amp` a multiple of `step`): a slower pace
     /// of the same path is the same call with a smaller step.
-    pub fn triangle(amp: f64, cycles: usize, step: f64) -> Vec<f64> {
+    pub(crate) fn triangle(amp: f64, cycles: usize, step: f64) -> Vec<f64> {
         let per_quarter = (amp / step).round() as usize;
         let mut x = vec![0.0];
         for _ in 0..cycles {
