@@ -5,6 +5,7 @@ use super::{count, decimation_note, num, pts, Ctx, FigSpec, COLUMNS, WIDTH};
 use crate::report::chart::{Band, Grid, Legend, Line, Panel, C_H, C_P, C_TRUTH};
 use crate::report::decimate::{envelope_columns, minmax_columns};
 use crate::report::window::{best_window, turning_points, window_len_for};
+use plotters::style::RGBColor;
 
 fn finite_std(v: &[f64]) -> f64 {
     crate::stats::std_dev(v.iter().copied().filter(|x| x.is_finite()))
@@ -36,18 +37,6 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     let len = window_len_for(&tp, n, 6, 60);
     let weight: Vec<f64> = ep.iter().zip(&eh).map(|(a, b)| a.abs() + b.abs()).collect();
     let (wa, wb) = best_window(&weight, len);
-
-    // Bands are hatched, not filled: Model-P's strokes and Model-H's interleave (half a period
-    // apart) where the bands overlap, so no blended colour appears that the legend lacks.
-    let band = |xs: &[f64], v: &[f64], b: &[f64], color, label: &str| {
-        let lo: Vec<f64> = v.iter().zip(b).map(|(a, b)| a - b).collect();
-        let hi: Vec<f64> = v.iter().zip(b).map(|(a, b)| a + b).collect();
-        let (ex, el, eu) = envelope_columns(xs, &lo, &hi, COLUMNS);
-        let period = (ex.len() * 8 / COLUMNS).max(2);
-        let offset = if color == C_H { period / 2 } else { 0 };
-        Band::between(color, 0.45, &ex, &el, &eu).hatched(period, offset).label(format!("{label} (hatched)"))
-    };
-    let series = |xs: &[f64], v: &[f64]| pts(&minmax_columns(xs, v, COLUMNS));
 
     let ylabel = format!("{sym} [{unit}]");
     let lab_p = format!("Model-P (hold-out RMSE {} {unit})", num(mp.rmse, dg));
@@ -82,22 +71,14 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     }
     b.legend = Legend::None;
 
-    let mut e = Panel::new(
-        format!(
-            "(c) errors (estimate − truth) with ±95 % bands: coverage Model-P {} %, Model-H {} %",
-            num(100.0 * mp.coverage, 1),
-            num(100.0 * mh.coverage, 1)
-        ),
-        c.time.label(),
-        format!("error [{unit}]"),
+    let mut e = error_panel(
+        c,
+        (100.0 * mp.coverage, 100.0 * mh.coverage),
+        unit,
+        &x,
+        (&ep, &eh),
+        (&bp, &bh),
     );
-    let zeros = vec![0.0; n];
-    e.bands.push(band(&x, &zeros, &bp, C_P, "Model-P ±band"));
-    e.bands.push(band(&x, &zeros, &bh, C_H, "Model-H ±band"));
-    e.lines.push(Line::new(C_P, 1, series(&x, &ep)).label("Model-P error"));
-    e.lines.push(Line::new(C_H, 1, series(&x, &eh)).label("Model-H error"));
-    e.legend = Legend::UpperLeft;
-    e.legend_room = 0.35;
 
     if !reference.is_present() {
         for p in [&mut a, &mut b, &mut e] {
@@ -136,4 +117,50 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
             panels: vec![a, b, e],
         },
     }
+}
+
+/// A model's 95 % band around `v` (half-widths `b`) over `xs`. Bands are hatched, not filled:
+/// Model-P's strokes and Model-H's interleave (half a period apart) where the bands overlap,
+/// so no blended colour appears that the legend lacks.
+fn band(xs: &[f64], v: &[f64], b: &[f64], color: RGBColor, label: &str) -> Band {
+    let lo: Vec<f64> = v.iter().zip(b).map(|(a, b)| a - b).collect();
+    let hi: Vec<f64> = v.iter().zip(b).map(|(a, b)| a + b).collect();
+    let (ex, el, eu) = envelope_columns(xs, &lo, &hi, COLUMNS);
+    let period = (ex.len() * 8 / COLUMNS).max(2);
+    let offset = if color == C_H { period / 2 } else { 0 };
+    Band::between(color, 0.45, &ex, &el, &eu).hatched(period, offset).label(format!("{label} (hatched)"))
+}
+
+/// A trace reduced to each pixel column's minimum and maximum.
+fn series(xs: &[f64], v: &[f64]) -> Vec<(f64, f64)> {
+    pts(&minmax_columns(xs, v, COLUMNS))
+}
+
+/// Panel (c): both models' errors against ± their band half-widths, with the coverages \[%\]
+/// (Model-P, Model-H) in the caption.
+fn error_panel(
+    c: &Ctx,
+    coverage_pct: (f64, f64),
+    unit: &str,
+    x: &[f64],
+    (ep, eh): (&[f64], &[f64]),
+    (bp, bh): (&[f64], &[f64]),
+) -> Panel {
+    let mut e = Panel::new(
+        format!(
+            "(c) errors (estimate − truth) with ±95 % bands: coverage Model-P {} %, Model-H {} %",
+            num(coverage_pct.0, 1),
+            num(coverage_pct.1, 1)
+        ),
+        c.time.label(),
+        format!("error [{unit}]"),
+    );
+    let zeros = vec![0.0; x.len()];
+    e.bands.push(band(x, &zeros, bp, C_P, "Model-P ±band"));
+    e.bands.push(band(x, &zeros, bh, C_H, "Model-H ±band"));
+    e.lines.push(Line::new(C_P, 1, series(x, ep)).label("Model-P error"));
+    e.lines.push(Line::new(C_H, 1, series(x, eh)).label("Model-H error"));
+    e.legend = Legend::UpperLeft;
+    e.legend_room = 0.35;
+    e
 }
