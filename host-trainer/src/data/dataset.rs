@@ -71,7 +71,7 @@ impl<'a> Column<'a> {
         self.0.unwrap_or(&[])
     }
     /// Whether the dataset has the reference.
-    pub fn is_present(&self) -> bool {
+    pub(crate) fn is_present(&self) -> bool {
         self.0.is_some()
     }
 }
@@ -138,7 +138,7 @@ impl Dataset {
         Shape { gratings: self.n_gratings(), measurands: self.measurands(), ambient: self.t_amb_c.is_some() }
     }
     /// Put the references in canonical order (what the writer and the accessors expect).
-    pub fn sort_refs(&mut self) {
+    pub(crate) fn sort_refs(&mut self) {
         self.refs.sort_by_key(|r| r.measurand);
     }
 
@@ -240,7 +240,7 @@ impl Dataset {
     }
     /// Assign the split by time: samples with `t_s <= cal_until_s` calibrate, later ones are
     /// the hold-out.
-    pub fn split_at_time(&mut self, cal_until_s: f64) {
+    pub(crate) fn split_at_time(&mut self, cal_until_s: f64) {
         for (s, &t) in self.split.iter_mut().zip(&self.t_s) {
             *s = if t <= cal_until_s { Split::Cal } else { Split::Holdout };
         }

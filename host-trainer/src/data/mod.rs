@@ -24,9 +24,10 @@ pub mod import;
 pub mod measurand;
 pub mod outliers;
 pub mod record_meta;
-pub mod units;
+pub(crate) mod units;
 
-pub use crate::data::csv::{quote_cell, Row, RowReader, MAX_LINE_BYTES, QUOTE_CHARS};
+pub use crate::data::csv::{quote_cell, MAX_LINE_BYTES, QUOTE_CHARS};
+pub(crate) use crate::data::csv::{Row, RowReader};
 pub use crate::data::dataset::{Column, Dataset, Reference, Shape, Split};
 pub use crate::data::measurand::{Kind, Measurand, MAX_GRATINGS, MAX_MEASURANDS};
 pub use crate::data::record_meta::{GratingZero, RecordMeta};
@@ -35,4 +36,4 @@ pub use crate::data::record_meta::{GratingZero, RecordMeta};
 pub const COLUMNS: [&str; 9] = ["t_s", "T_C", "strain_ue", "p_kPa", "T_amb_C", "dl1_pm", "dl2_pm", "dl3_pm", "split"];
 
 /// The ambient thermometer's column.
-pub const T_AMB_COLUMN: &str = "T_amb_C";
+pub(crate) const T_AMB_COLUMN: &str = "T_amb_C";

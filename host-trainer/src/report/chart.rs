@@ -14,12 +14,11 @@ use crate::data::files::write_bytes_atomically;
 use crate::error::TrainerError;
 
 /// Okabe–Ito colours (distinguishable with the common colour-vision deficiencies).
-pub const C_TRUTH: RGBColor = RGBColor(20, 20, 20);
-pub const C_P: RGBColor = RGBColor(213, 94, 0);
-pub const C_H: RGBColor = RGBColor(0, 114, 178);
-pub const C_MEAS: RGBColor = RGBColor(230, 159, 0);
-pub const C_AUX: RGBColor = RGBColor(0, 158, 115);
-pub const C_GREY: RGBColor = RGBColor(110, 110, 110);
+pub(crate) const C_TRUTH: RGBColor = RGBColor(20, 20, 20);
+pub(crate) const C_P: RGBColor = RGBColor(213, 94, 0);
+pub(crate) const C_H: RGBColor = RGBColor(0, 114, 178);
+pub(crate) const C_MEAS: RGBColor = RGBColor(230, 159, 0);
+pub(crate) const C_GREY: RGBColor = RGBColor(110, 110, 110);
 /// The tint of a zoom window (Okabe–Ito yellow), distinct from the grey of the hold-out shade.
 pub const C_ZOOM: RGBColor = RGBColor(240, 228, 66);
 
@@ -219,7 +218,7 @@ fn pe<E: std::fmt::Debug>(e: E) -> String {
 }
 
 /// Decimals for tick labels on an axis spanning `span`.
-pub fn decimals_for(span: f64) -> usize {
+pub(crate) fn decimals_for(span: f64) -> usize {
     if span.is_nan() || span <= 0.0 || !span.is_finite() {
         return 2;
     }
@@ -347,7 +346,11 @@ fn draw_bands<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>, p: &Panel)
 
 /// The lines (dashed, segmented for bitmaps when thick, or plain) with their legend entries;
 /// true when one has a label.
-fn draw_lines<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>, p: &Panel, segmented: bool) -> Result<bool, String> {
+fn draw_lines<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    p: &Panel,
+    segmented: bool,
+) -> Result<bool, String> {
     let mut labelled = false;
     for l in &p.lines {
         let st = l.color.stroke_width(l.width);

@@ -12,16 +12,16 @@
 pub mod chart;
 mod checks;
 pub mod coef;
-pub mod decimate;
+pub(crate) mod decimate;
 pub mod figures;
-pub mod fonts;
-pub mod html;
+pub(crate) mod fonts;
+pub(crate) mod html;
 mod inputs;
 pub mod load;
 mod page;
 mod recompute;
-pub mod summary;
-pub mod window;
+pub(crate) mod summary;
+pub(crate) mod window;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -38,24 +38,24 @@ use page::Page;
 use recompute::Recomputed;
 
 /// File names the report reads.
-pub const DATA_CSV: &str = "data.csv";
-pub const MODEL_H: &str = "model.fbgm";
-pub const MODEL_P: &str = "model-p.fbgm";
+pub(crate) const DATA_CSV: &str = "data.csv";
+pub(crate) const MODEL_H: &str = "model.fbgm";
+pub(crate) const MODEL_P: &str = "model-p.fbgm";
 /// `evaluate`'s and `demo`'s metrics of model.fbgm (`<model stem>.metrics.json`).
 pub const METRICS_JSON: &str = "model.metrics.json";
 /// `train`'s and `demo`'s audit sidecar of model.fbgm (`<model stem>.coefficients.json`).
 pub const COEFFICIENTS_JSON: &str = "model.coefficients.json";
 /// The metrics file name of report directories written before the sidecars were named after
 /// the model; read when [`METRICS_JSON`] is absent.
-pub const LEGACY_METRICS_JSON: &str = "metrics.json";
+pub(crate) const LEGACY_METRICS_JSON: &str = "metrics.json";
 /// The page.
 pub const INDEX_HTML: &str = "index.html";
 
 /// Relative tolerance when comparing metrics.json with the recomputed hold-out metrics (the
 /// CSV rounds to 1e-6, which moves the metrics by far less).
-pub const METRICS_REL_TOL: f64 = 1e-3;
+pub(crate) const METRICS_REL_TOL: f64 = 1e-3;
 /// Largest |Δλ| \[pm\] between the CSV and the re-simulation still taken as the same data.
-pub const RESIM_TOL_PM: f64 = 1e-4;
+pub(crate) const RESIM_TOL_PM: f64 = 1e-4;
 
 /// What writing the report produced.
 #[derive(Clone, Debug, Default)]
@@ -92,7 +92,7 @@ pub fn write(dir: &Path, inp: &Inputs) -> Result<Outcome, TrainerError> {
 
 /// [`write()`], refusing to replace any of `inputs`. Every page, table and figure is one output
 /// set: the directory keeps the old report whole until the new one is complete.
-pub fn write_guarded(dir: &Path, inp: &Inputs, inputs: &[&Path]) -> Result<Outcome, TrainerError> {
+pub(crate) fn write_guarded(dir: &Path, inp: &Inputs, inputs: &[&Path]) -> Result<Outcome, TrainerError> {
     let t0 = Instant::now();
     let set = OutputSet::in_dir(dir)?.with_inputs(inputs);
     fonts::ensure_registered();

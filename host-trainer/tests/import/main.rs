@@ -5,13 +5,13 @@
 #[path = "../common/mod.rs"]
 mod common;
 
-mod good;
-mod refusals;
 mod bad_rows;
 mod cli;
 mod end_to_end;
-mod shapes;
+mod good;
 mod locale;
+mod refusals;
+mod shapes;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -11,7 +11,8 @@ use crate::data::measurand::grating_column;
 use crate::data::{Dataset, Measurand, Split, T_AMB_COLUMN};
 use crate::error::TrainerError;
 pub use line_limit::MAX_LINE_BYTES;
-pub use rows::{quote_cell, Row, RowReader, QUOTE_CHARS};
+pub use rows::{quote_cell, QUOTE_CHARS};
+pub(crate) use rows::{Row, RowReader};
 
 impl Dataset {
     /// The CSV header this dataset writes, in canonical order.
@@ -80,6 +81,23 @@ impl Dataset {
     /// `split` every row is calibration until the caller assigns a split), but at least one
     /// reference must be there to calibrate or evaluate against. Errors name the file, line
     /// and column.
+    ///
+    /// ```
+    /// use fbg_trainer::data::{Dataset, Measurand, Split};
+    ///
+    /// let dir = tempfile::tempdir()?;
+    /// let path = dir.path().join("data.csv");
+    /// std::fs::write(
+    ///     &path,
+    ///     "t_s,T_C,T_amb_C,dl1_pm,split\n0,20.0,19.5,1.5,cal\n1,20.1,19.5,,holdout\n",
+    /// )?;
+    /// let d = Dataset::read_csv(&path)?;
+    /// assert_eq!((d.len(), d.n_gratings()), (2, 1));
+    /// assert_eq!(d.measurands(), [Measurand::T]);
+    /// assert_eq!(d.split, [Split::Cal, Split::Holdout]);
+    /// assert!(d.dl_pm[0][1].is_nan(), "an empty cell is a gap");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn read_csv(path: &Path) -> Result<Dataset, TrainerError> {
         Self::read_csv_with(path, true)
     }
@@ -115,8 +133,8 @@ impl Dataset {
         Self::read_csv_with(path, false)
     }
 
-    /// The columns and metadata of a dataset CSV without its rows (as
-    /// [`RowReader::header_dataset`]), refused like [`read_csv`](Self::read_csv) when it has no
+    /// The columns and metadata of a dataset CSV without its rows (as the streaming reader's
+    /// header dataset), refused like [`read_csv`](Self::read_csv) when it has no
     /// reference column.
     pub fn read_csv_header(path: &Path) -> Result<Dataset, TrainerError> {
         let rows = RowReader::open(path)?;
@@ -131,7 +149,7 @@ impl Dataset {
     /// (every row when none is), with the row checks of [`read_csv`](Self::read_csv): a bounded
     /// read for what needs only the start of a long record. The whole-file checks of
     /// [`RowReader::finish`] are the caller's (they need every row).
-    pub fn read_csv_prefix(path: &Path, mut stop: impl FnMut(&Row) -> bool) -> Result<Dataset, TrainerError> {
+    pub(crate) fn read_csv_prefix(path: &Path, mut stop: impl FnMut(&Row) -> bool) -> Result<Dataset, TrainerError> {
         let mut rows = RowReader::open(path)?;
         let mut d = rows.header_dataset();
         while let Some(r) = rows.next_row()? {

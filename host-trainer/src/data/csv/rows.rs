@@ -30,9 +30,7 @@ pub fn quote_cell(cell: &str) -> String {
 /// One data row of a dataset CSV as [`RowReader`] reads it: NaN for an empty cell (a gap, a
 /// missing reference) and for a column the file does not have.
 #[derive(Clone, Copy, Debug)]
-pub struct Row {
-    /// Line number in the file.
-    pub line: u64,
+pub(crate) struct Row {
     /// Time since the start \[s\].
     pub t_s: f64,
     /// The references in canonical order ([`RowReader::header_dataset`]); NaN beyond them.
@@ -70,7 +68,7 @@ impl Row {
 /// one row at a time with the checks and errors of [`Dataset::read_csv`]; it holds one row,
 /// never more than [`MAX_LINE_BYTES`](super::MAX_LINE_BYTES) of a line, and a few numbers per grating for the
 /// whole-column checks of [`RowReader::finish`].
-pub struct RowReader {
+pub(crate) struct RowReader {
     /// The file's name in messages.
     pub name: String,
     rdr: csv::Reader<LineLimit<std::fs::File>>,
@@ -129,11 +127,6 @@ impl RowReader {
             first_line: 0,
             rows: 0,
         })
-    }
-
-    /// The record's metadata (comment lines).
-    pub fn meta(&self) -> &RecordMeta {
-        &self.meta
     }
 
     /// A dataset with this file's columns and metadata and no rows: what the header says
@@ -231,7 +224,6 @@ impl RowReader {
             }
         }
         let mut row = Row {
-            line,
             t_s: t,
             refs: [f64::NAN; MAX_MEASURANDS],
             t_amb_c: f64::NAN,

@@ -6,7 +6,9 @@ use fbg_shared::ZeroSource;
 
 use super::merge::Merged;
 use super::problems;
-use super::summary::{Dropped, GratingSummary, ImportSummary, Purpose, RefSummary, References, SplitSummary, TimeSummary};
+use super::summary::{
+    Dropped, GratingSummary, ImportSummary, Purpose, RefSummary, References, SplitSummary, TimeSummary,
+};
 use super::time_axis::{format_timestamp, parse_timestamp};
 use super::{join, ImportOptions, SplitChoice};
 use crate::data::measurand::{grating_column, Measurand};
@@ -134,7 +136,8 @@ impl Shifts {
                 });
             }
         }
-        let mut s = Shifts { dl: Vec::with_capacity(n_g), gratings: Vec::with_capacity(n_g), zero: Vec::with_capacity(n_g) };
+        let mut s =
+            Shifts { dl: Vec::with_capacity(n_g), gratings: Vec::with_capacity(n_g), zero: Vec::with_capacity(n_g) };
         for g in 0..n_g {
             let v: Vec<f64> = keep.iter().map(|&i| m.wl[g][i]).collect();
             let (ref_nm, ref_source, source) = zero_of(m, opts, keep, g, &v)?;

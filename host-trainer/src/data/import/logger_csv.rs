@@ -101,12 +101,7 @@ pub(crate) fn read(
 
 /// The header's index among `lines` and the delimiter: the map's, or found as the first line
 /// naming the time column.
-fn header_position(
-    lines: &[&str],
-    map: &Map,
-    name: &str,
-    time_names: &[String],
-) -> Result<(usize, u8), TrainerError> {
+fn header_position(lines: &[&str], map: &Map, name: &str, time_names: &[String]) -> Result<(usize, u8), TrainerError> {
     let map_delim = match &map.delimiter {
         Some(d) => Some(super::mapping::delimiter(d).map_err(|m| TrainerError::data(name, 1, "-", m))?),
         None => None,
@@ -128,7 +123,12 @@ fn header_position(
                 Some(c) => format!("`{c}` (map key time.column)"),
                 None => format!("any of {} (or name it with the map key time.column)", TIME_NAMES.join(", ")),
             };
-            TrainerError::data(name, 1, &time_names[0], format!("no header line has a cell naming the time column {what}"))
+            TrainerError::data(
+                name,
+                1,
+                &time_names[0],
+                format!("no header line has a cell naming the time column {what}"),
+            )
         }),
     }
 }
@@ -170,7 +170,12 @@ struct Columns {
 }
 
 impl Columns {
-    fn of(h: &Header, map: &Map, time_names: &[String], gratings: Option<&[CsvGrating]>) -> Result<Columns, TrainerError> {
+    fn of(
+        h: &Header,
+        map: &Map,
+        time_names: &[String],
+        gratings: Option<&[CsvGrating]>,
+    ) -> Result<Columns, TrainerError> {
         let time = time_names.iter().find_map(|n| h.find(n)).ok_or_else(|| h.missing(&time_names[0], "time.column"))?;
         // The ambient thermometer: the map's column (which must be there), else `T_amb_C` if the
         // file has it; an installation without one has none.
@@ -317,7 +322,8 @@ fn read_rows(
             ))?;
             continue;
         }
-        let row = parse_row(&rec, line, cols, c, &mut clock, check).and_then(|r| in_order(r, &rec, line, cols, c, &out));
+        let row =
+            parse_row(&rec, line, cols, c, &mut clock, check).and_then(|r| in_order(r, &rec, line, cols, c, &out));
         match row {
             Ok(r) => out.push(line, &r),
             Err(e) => problems.reject(e)?,

@@ -182,7 +182,7 @@ impl Map {
         })
     }
 
-    pub fn check_units(&self) -> bool {
+    pub(crate) fn check_units(&self) -> bool {
         self.check_units.unwrap_or(true)
     }
 

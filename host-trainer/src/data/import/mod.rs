@@ -114,6 +114,32 @@ pub fn import_to_csv(opts: &ImportOptions, out: &Path) -> Result<ImportSummary, 
 }
 
 /// Read the input (and refs) into a dataset with its split, without writing anything.
+///
+/// A logger CSV without a map: `t_s` in seconds, the file's own `dl1_pm` shifts, `T_amb_C`
+/// and the reference `T_C`; the first half of the record's duration calibrates.
+///
+/// ```
+/// use fbg_trainer::data::import::{import, Format, ImportOptions, OnError, SplitChoice, DEFAULT_MAX_SKIPPED};
+///
+/// let dir = tempfile::tempdir()?;
+/// let input = dir.path().join("logger.csv");
+/// std::fs::write(&input, "t_s,T_C,T_amb_C,dl1_pm\n0,20.0,19.5,1.5\n10,20.5,19.6,6.5\n20,21.0,19.7,11.5\n")?;
+/// let opts = ImportOptions {
+///     format: Format::Csv,
+///     input,
+///     map: None,
+///     refs: None,
+///     split: SplitChoice::Fraction(0.5),
+///     on_error: OnError::Fail,
+///     max_skipped: DEFAULT_MAX_SKIPPED,
+///     zero_from: None,
+///     start_unix_s: None,
+/// };
+/// let (d, summary) = import(&opts)?;
+/// assert_eq!((d.len(), d.n_gratings()), (3, 1));
+/// assert_eq!((summary.split.cal_rows, summary.split.holdout_rows), (2, 1));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerError> {
     let input_name = opts.input.display().to_string();
     let map_origin = opts.map.as_ref().map(|p| p.display().to_string());
@@ -163,4 +189,3 @@ pub(crate) fn number(cell: &str) -> Result<Option<f64>, String> {
         Err(_) => Err(format!("`{c}` is not a number")),
     }
 }
-

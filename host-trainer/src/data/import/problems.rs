@@ -75,7 +75,7 @@ impl Reason {
 }
 
 /// How many line numbers each reason keeps for the summary.
-pub const FIRST_LINES: usize = 5;
+pub(crate) const FIRST_LINES: usize = 5;
 
 /// One reason's count and its first line numbers.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
@@ -155,7 +155,7 @@ impl Problems {
 
     /// Under `skip`, a column whose values mostly fail the unit check is declared in the wrong
     /// unit: refuse it rather than skip most of the file.
-    pub fn refuse_wrong_unit_columns(&self) -> Result<(), TrainerError> {
+    pub(crate) fn refuse_wrong_unit_columns(&self) -> Result<(), TrainerError> {
         for (count, first) in self.units.values() {
             if *count * 2 > self.rows_read {
                 return Err(TrainerError::data(

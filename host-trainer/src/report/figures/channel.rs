@@ -71,14 +71,7 @@ pub fn fig_channel(c: &Ctx, ch: usize) -> FigSpec {
     }
     b.legend = Legend::None;
 
-    let mut e = error_panel(
-        c,
-        (100.0 * mp.coverage, 100.0 * mh.coverage),
-        unit,
-        &x,
-        (&ep, &eh),
-        (&bp, &bh),
-    );
+    let mut e = error_panel(c, (100.0 * mp.coverage, 100.0 * mh.coverage), unit, &x, (&ep, &eh), (&bp, &bh));
 
     if !reference.is_present() {
         for p in [&mut a, &mut b, &mut e] {

@@ -1,6 +1,6 @@
 //! The report's eight figures (DESIGN §5; the paper's Figs. 6–12), built from the data, the
 //! hold-out estimates of both models, the simulation (for the true wavelength) and the
-//! metrics. Long series are reduced by [`super::decimate`], and every caption says when.
+//! metrics. Long series are reduced by the report's `decimate` module, and every caption says when.
 
 mod channel;
 mod errors;
@@ -14,21 +14,22 @@ use super::decimate::Decimated;
 use crate::data::{Column, Dataset, Measurand, Split};
 use crate::eval::metrics::Metrics;
 use crate::sim::Simulation;
-use fbg_shared::layout::{Dims, MAX_OUTPUTS};
 pub use channel::fig_channel;
 pub use errors::{fig6_parity, fig7_errors};
-pub use record::{fig1_inputs, fig2_wavelength};
-pub use studies::{fig10_pace, fig8_drift, fig9_contributions};
+use fbg_shared::layout::{Dims, MAX_OUTPUTS};
+pub use record::fig1_inputs;
+pub(crate) use record::fig2_wavelength;
+pub(crate) use studies::{fig10_pace, fig8_drift, fig9_contributions};
 
 /// Width of every figure \[px\].
 pub const WIDTH: u32 = 1400;
 /// Pixel columns of a full-width panel's plotting area (figure width less the label area).
 pub const COLUMNS: usize = (WIDTH - 130) as usize;
 /// Most points of a phase-plot path (loops) before it is strided.
-pub const MAX_PATH_POINTS: usize = 4000;
+pub(crate) const MAX_PATH_POINTS: usize = 4000;
 
 /// Cells of the parity plots' thinning grid (about 3 px each).
-pub const PARITY_GRID: (usize, usize) = (200, 110);
+pub(crate) const PARITY_GRID: (usize, usize) = (200, 110);
 
 /// How a model output is named and printed in the figures.
 #[derive(Clone, Debug)]
@@ -108,7 +109,7 @@ pub struct Ctx<'a> {
 
 impl Ctx<'_> {
     /// Number of channels (the models' outputs).
-    pub fn n_channels(&self) -> usize {
+    pub(crate) fn n_channels(&self) -> usize {
         self.dims.n_outputs()
     }
     /// Names of channel `ch`.
@@ -120,7 +121,7 @@ impl Ctx<'_> {
         self.data.reference_of(&self.dims, ch)
     }
     /// The figure number of channel `ch`'s hold-out figure ([`channel_fig_no`]).
-    pub fn channel_fig_no(&self, ch: usize) -> String {
+    pub(crate) fn channel_fig_no(&self, ch: usize) -> String {
         channel_fig_no(&self.dims, ch)
     }
     /// The stem of channel `ch`'s hold-out figure ([`channel_stem`]).
@@ -131,7 +132,7 @@ impl Ctx<'_> {
 
 /// The figure number of output `ch`'s hold-out figure: 3, 4, 5 for up to three outputs,
 /// 3a–3d for four.
-pub fn channel_fig_no(dims: &Dims, ch: usize) -> String {
+pub(crate) fn channel_fig_no(dims: &Dims, ch: usize) -> String {
     if dims.n_outputs() <= 3 {
         (3 + ch).to_string()
     } else {

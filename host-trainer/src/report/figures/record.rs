@@ -3,7 +3,10 @@
 
 use fbg_shared::layout::Dims;
 
-use super::{count, decimation_note, height, holdout_spans, letter, mark_split, num, pts, Ctx, FigSpec, COLUMNS, MAX_PATH_POINTS, WIDTH};
+use super::{
+    count, decimation_note, height, holdout_spans, letter, mark_split, num, pts, Ctx, FigSpec, COLUMNS,
+    MAX_PATH_POINTS, WIDTH,
+};
 use crate::report::chart::{Grid, Legend, Line, Panel, C_GREY, C_H, C_MEAS, C_P, C_TRUTH};
 use crate::report::decimate::{minmax_columns, stride_indices};
 use crate::report::window::{best_window, turning_points, window_len_for};
@@ -85,7 +88,7 @@ pub fn fig1_inputs(c: &Ctx) -> FigSpec {
 
 /// Fig. 2: measured vs true wavelength shift of FBG1 (the paper's strain grating), its artefacts and
 /// the minor loops. Needs the simulation.
-pub fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
+pub(crate) fn fig2_wavelength(c: &Ctx, g: usize) -> Option<FigSpec> {
     let s = c.sim?;
     let d = c.data;
     let u = c.time.seconds;

@@ -6,7 +6,7 @@ use crate::report::chart::{Dots, Grid, Legend, Line, Panel, C_GREY, C_H, C_P};
 use crate::report::decimate::minmax_columns;
 
 /// Fig. 8: drift sensitivity (needs the drift sweep in the metrics).
-pub fn fig8_drift(c: &Ctx) -> Option<FigSpec> {
+pub(crate) fn fig8_drift(c: &Ctx) -> Option<FigSpec> {
     let s = c.metrics.drift_sweep.as_ref()?;
     let mut panels = Vec::new();
     let nominal = s.factors.iter().position(|&f| f == 1.0).map(|i| s.sigma_d_pm[i]);
@@ -72,7 +72,7 @@ pub fn fig8_drift(c: &Ctx) -> Option<FigSpec> {
 }
 
 /// Fig. 9: what each part of Model-H contributes on the hold-out.
-pub fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
+pub(crate) fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
     if c.parts_h.len() != c.hold.len() || c.parts_h.is_empty() {
         return None;
     }
@@ -144,7 +144,7 @@ pub fn fig9_contributions(c: &Ctx) -> Option<FigSpec> {
 
 /// Fig. 10: the pace study — Model-H's gain over Model-P on the same installation at other
 /// paces and on a steps record.
-pub fn fig10_pace(c: &Ctx) -> Option<FigSpec> {
+pub(crate) fn fig10_pace(c: &Ctx) -> Option<FigSpec> {
     let s = c.metrics.pace.as_ref()?;
     let n = s.rows.len();
     let mut panels = Vec::new();

@@ -23,7 +23,6 @@ pub(super) fn coefficients(p: &Page, sections: &mut Vec<Section>) {
         body.push_str(&html::table(t, Some(name)));
     }
     sections.push(Section { id: "coefficients".into(), title: "Coefficients".into(), body });
-
 }
 
 /// The f32 device path against the f64 reference, when metrics.json has the comparison.
@@ -59,5 +58,4 @@ pub(super) fn device(p: &Page, sections: &mut Vec<Section>) {
             body: html::facts(&rows),
         });
     }
-
 }

@@ -23,7 +23,6 @@ pub(super) fn summary(p: &Page, sections: &mut Vec<Section>) {
     }
     body.push_str("</div>\n");
     sections.push(Section { id: "summary".into(), title: "Summary".into(), body });
-
 }
 
 /// Table 2: the hold-out performance.
@@ -38,7 +37,6 @@ pub(super) fn table2(p: &Page, sections: &mut Vec<Section>) {
             table_of("table2")
         ),
     });
-
 }
 
 /// The figures' sections, each saying why a figure is omitted when it is.
@@ -131,7 +129,6 @@ pub(super) fn figures(p: &Page, sections: &mut Vec<Section>) {
             }
         ),
     });
-
 }
 
 /// Any other study metrics.json carries, so that nothing it holds goes unshown.
@@ -147,5 +144,4 @@ pub(super) fn other_studies(p: &Page, sections: &mut Vec<Section>) {
         }
         sections.push(Section { id: "other-studies".into(), title: "Other studies in metrics.json".into(), body });
     }
-
 }
