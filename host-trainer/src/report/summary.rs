@@ -190,7 +190,7 @@ fn coverage(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
     out.push(format!(
         "The 95 % bands hold the truth on {} of hold-out samples for Model-H ({}) and {} for Model-P. Counting {}–{} % as on target: {}.",
         list(&cov(&t.model_h)),
-        list(&names),
+        list(names),
         list(&cov(&t.model_p)),
         num(clo, 0),
         num(chi, 0),
@@ -262,7 +262,7 @@ fn ablation(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
                     " With the paper's own RBF inputs (“{}”), the hybrid's RMSE is {} than Model-P's ({}).",
                     paper.name,
                     list(&g),
-                    list(&names)
+                    list(names)
                 ));
             }
             out.push(s);
@@ -343,7 +343,7 @@ fn device(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
             "On the device path (f32), the largest deviation from the f64 reference over {} hold-out samples is {} of Model-H's RMSE ({}), with {} flag mismatches. ",
             count(p.samples),
             list(&(0..nch).map(|c| format!("{} %", num(100.0 * p.max_diff_over_rmse[c], 4))).collect::<Vec<_>>()),
-            list(&names),
+            list(names),
             p.flag_mismatches
         ));
     }

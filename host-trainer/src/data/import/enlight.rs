@@ -148,12 +148,12 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         let why = if rows.problems.rows_read == 0 { "no data rows" } else { "every data row was skipped" };
         return Err(TrainerError::data(&name, first as u64 + 1, "-", why));
     }
-    let (nm, layout, unassigned_rows) = if windows.is_empty() {
+    let Assigned { nm, layout, unassigned_rows } = if windows.is_empty() {
         in_order(&rows.raw, channels, rows.lines[0], &name)?
     } else {
         let layout =
             windows.iter().map(|w| format!("channel {}, window {}–{} nm", w.channel + 1, w.lo, w.hi)).collect();
-        (rows.nm, layout, 0)
+        Assigned { nm: rows.nm, layout, unassigned_rows: 0 }
     };
     Ok(PeaksFile {
         lines: rows.lines,
@@ -307,14 +307,8 @@ fn read_rows(
 }
 
 /// Without a map: each channel's usual peak count decides its gratings, in order; a row with
-/// another count on a channel has gaps for that channel's gratings. Returns the wavelengths
-/// per grating, where each comes from, and the rows with an unusual count.
-fn in_order(
-    raw: &[Vec<Vec<f64>>],
-    channels: usize,
-    first_line: u64,
-    name: &str,
-) -> Result<(Vec<Vec<f64>>, Vec<String>, usize), TrainerError> {
+/// another count on a channel has gaps for that channel's gratings.
+fn in_order(raw: &[Vec<Vec<f64>>], channels: usize, first_line: u64, name: &str) -> Result<Assigned, TrainerError> {
     let usual: Vec<usize> = (0..channels).map(|c| mode(raw.iter().map(|r| r[c].len()))).collect();
     let gratings: Vec<(usize, usize)> = (0..channels).flat_map(|c| (0..usual[c]).map(move |k| (c, k))).collect();
     if gratings.is_empty() || gratings.len() > MAX_GRATINGS {
@@ -345,7 +339,17 @@ fn in_order(
         .iter()
         .map(|&(c, k)| format!("channel {}, peak {} of {} (in order, no map)", c + 1, k + 1, usual[c]))
         .collect();
-    Ok((nm, layout, unassigned_rows))
+    Ok(Assigned { nm, layout, unassigned_rows })
+}
+
+/// The peaks assigned to gratings.
+struct Assigned {
+    /// Absolute wavelength \[nm\] per grating; NaN = gap.
+    nm: Vec<Vec<f64>>,
+    /// Where each grating comes from, in words.
+    layout: Vec<String>,
+    /// Rows with an unusual peak count on some channel (no map only).
+    unassigned_rows: usize,
 }
 
 /// The smallest channel count for which the row's counts and wavelengths add up.
