@@ -1,6 +1,6 @@
 //! The audit report (DESIGN §5): from a directory holding `data.csv`
 //! (+ `data.meta.json`), `model.fbgm`, `model-p.fbgm` and `metrics.json`, write into the same
-//! directory the eight figures (PNG and SVG), the tables (Markdown, CSV, text), the
+//! directory the figures (PNG and SVG), the tables (Markdown, CSV, text), the
 //! coefficient tables and `index.html`, a static page that shows all of it with the scenario,
 //! the provenance and a summary generated from the numbers.
 //!

@@ -1,4 +1,4 @@
-//! The report's eight figures (DESIGN §5; the paper's Figs. 6–12), built from the data, the
+//! The report's figures (DESIGN §5; the paper's Figs. 6–12), built from the data, the
 //! hold-out estimates of both models, the simulation (for the true wavelength) and the
 //! metrics. Long series are reduced by the report's `decimate` module, and every caption says when.
 
