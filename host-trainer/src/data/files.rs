@@ -17,7 +17,7 @@ use crate::error::TrainerError;
 /// Write `path` through a temporary file in the same directory and rename it into place, so
 /// that a failure never leaves a half-written file (a one-file [`OutputSet`], which also
 /// clears what a killed run left in that directory).
-pub fn write_atomically(
+pub(crate) fn write_atomically(
     path: &Path,
     body: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> std::io::Result<()>,
 ) -> Result<(), TrainerError> {
@@ -30,7 +30,7 @@ pub fn write_atomically(
 /// An output that exists and is not a regular file (a device such as `/dev/null`, a FIFO, a
 /// socket, a directory) is refused, never renamed over (DESIGN §9). A symbolic link is judged
 /// by what it points to.
-pub fn refuse_non_regular(path: &Path) -> Result<(), TrainerError> {
+pub(crate) fn refuse_non_regular(path: &Path) -> Result<(), TrainerError> {
     let Ok(m) = std::fs::metadata(path) else { return Ok(()) };
     if m.is_file() {
         return Ok(());
@@ -75,7 +75,7 @@ pub fn check_outputs(outputs: &[&Path], inputs: &[&Path]) -> Result<(), TrainerE
 /// A file's identity: device and inode (a hard link or a symbolic link to a file has its
 /// target's).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct FileId {
+pub(crate) struct FileId {
     dev: u64,
     ino: u64,
 }
@@ -100,7 +100,7 @@ impl FileId {
 /// A path resolved for comparison: canonical (the existing part with symbolic links resolved,
 /// the rest appended with `.` and `..` taken lexically) and, when it exists, its identity.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Resolved {
+pub(crate) struct Resolved {
     pub canonical: PathBuf,
     pub id: Option<FileId>,
 }
@@ -108,7 +108,7 @@ pub struct Resolved {
 /// Resolves paths, remembering the directories it resolved (the outputs of a fleet share a
 /// few directories, so each is canonicalised once).
 #[derive(Default)]
-pub struct Resolver {
+pub(crate) struct Resolver {
     dirs: HashMap<PathBuf, PathBuf>,
 }
 
@@ -153,14 +153,14 @@ impl Resolver {
 
 /// What an output clashes with: the input or the earlier output of that index.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Clash {
+pub(crate) enum Clash {
     Input(usize),
     Output(usize),
 }
 
 /// The first output that is the same file as an input or an earlier output (by canonical path
 /// or by identity), and what it clashes with; hashing, so linear in the number of paths.
-pub fn first_clash(outputs: &[Resolved], inputs: &[Resolved]) -> Option<(usize, Clash)> {
+pub(crate) fn first_clash(outputs: &[Resolved], inputs: &[Resolved]) -> Option<(usize, Clash)> {
     let mut paths: HashMap<&Path, Clash> = HashMap::with_capacity(outputs.len() + inputs.len());
     let mut ids: HashMap<FileId, Clash> = HashMap::new();
     for (j, i) in inputs.iter().enumerate() {
@@ -184,7 +184,7 @@ pub fn first_clash(outputs: &[Resolved], inputs: &[Resolved]) -> Option<(usize, 
 
 /// Create the directory of every output (as `fleet` does) and check that it can be written,
 /// before any work: one message naming the directory, never a temporary file's name.
-pub fn prepare_output_dirs(outputs: &[&Path]) -> Result<(), TrainerError> {
+pub(crate) fn prepare_output_dirs(outputs: &[&Path]) -> Result<(), TrainerError> {
     for o in outputs {
         match o.parent() {
             Some(p) if !p.as_os_str().is_empty() => prepare_output_dir(p)?,

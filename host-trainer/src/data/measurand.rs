@@ -49,7 +49,7 @@ impl Kind {
         }
     }
     /// The quantity's name in words.
-    pub fn long_name(self) -> &'static str {
+    pub(crate) fn long_name(self) -> &'static str {
         match self {
             Kind::Temperature => "temperature",
             Kind::Strain => "strain",
@@ -111,7 +111,7 @@ impl Measurand {
         }
     }
     /// A name in words: `temperature`, `strain 2`.
-    pub fn long_name(self) -> String {
+    pub(crate) fn long_name(self) -> String {
         if self.index == 1 {
             self.kind.long_name().to_string()
         } else {
@@ -160,7 +160,7 @@ impl Measurand {
         fbg_shared::layout::Output { quantity, index: self.index }
     }
     /// The measurand a model output stands for.
-    pub fn of_output(o: fbg_shared::layout::Output) -> Measurand {
+    pub(crate) fn of_output(o: fbg_shared::layout::Output) -> Measurand {
         use fbg_shared::layout::Quantity;
         let kind = match o.quantity {
             Quantity::Temperature => Kind::Temperature,
@@ -214,7 +214,7 @@ impl std::str::FromStr for Measurand {
 /// Names of a model's polynomial terms in [`fbg_shared::layout::Dims::poly_term`] order, from
 /// the outputs' short names: `1`, `T`, `ε`, `p`, `T²`, …, `Tε`, … (the paper's
 /// [1, T, ε, p, T², ε², p², Tε, Tp, εp] for its three outputs).
-pub fn poly_term_names(dims: &fbg_shared::layout::Dims) -> Vec<String> {
+pub(crate) fn poly_term_names(dims: &fbg_shared::layout::Dims) -> Vec<String> {
     let short: Vec<String> = Measurand::of_dims(dims).iter().map(|m| m.short_name()).collect();
     (0..dims.poly_len())
         .map(|k| match dims.poly_term(k) {
@@ -228,7 +228,7 @@ pub fn poly_term_names(dims: &fbg_shared::layout::Dims) -> Vec<String> {
 
 /// The dataset columns of a model's envelope inputs: `dl1_pm..dlN_pm`, then `T_amb_C` with
 /// ambient.
-pub fn input_columns(dims: &fbg_shared::layout::Dims) -> Vec<String> {
+pub(crate) fn input_columns(dims: &fbg_shared::layout::Dims) -> Vec<String> {
     let mut v: Vec<String> = (1..=dims.gratings()).map(grating_column).collect();
     if dims.ambient() {
         v.push("T_amb_C".into());
@@ -237,20 +237,20 @@ pub fn input_columns(dims: &fbg_shared::layout::Dims) -> Vec<String> {
 }
 
 /// The stage-1 regressors of a model: its input columns, then `1`.
-pub fn stage1_columns(dims: &fbg_shared::layout::Dims) -> Vec<String> {
+pub(crate) fn stage1_columns(dims: &fbg_shared::layout::Dims) -> Vec<String> {
     let mut v = input_columns(dims);
     v.push("1".into());
     v
 }
 
 /// The grating column `dl{g}_pm` (g 1-based).
-pub fn grating_column(g: usize) -> String {
+pub(crate) fn grating_column(g: usize) -> String {
     format!("dl{g}_pm")
 }
 
 /// The grating a column name stands for (1-based): `Ok(None)` when it is no grating column,
 /// `Err` when it looks like one but is out of range (`dl0_pm`, `dl9_pm`).
-pub fn parse_grating_column(column: &str) -> Result<Option<usize>, String> {
+pub(crate) fn parse_grating_column(column: &str) -> Result<Option<usize>, String> {
     let Some(mid) = column.strip_prefix("dl").and_then(|r| r.strip_suffix("_pm")) else { return Ok(None) };
     if mid.is_empty() || !mid.bytes().all(|b| b.is_ascii_digit()) {
         return Ok(None);

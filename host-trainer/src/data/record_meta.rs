@@ -66,13 +66,8 @@ impl RecordMeta {
         self.zero.get(g).and_then(GratingZero::known)
     }
 
-    /// Whether any grating's zero is known.
-    pub fn any_zero(&self) -> bool {
-        self.zero.iter().any(|z| z.known().is_some())
-    }
-
     /// The comment lines a CSV starts with (none when nothing is known).
-    pub fn comment_lines(&self) -> Vec<String> {
+    pub(crate) fn comment_lines(&self) -> Vec<String> {
         let mut out = Vec::new();
         if !self.zero.is_empty() {
             let cells: Vec<String> = self
@@ -93,7 +88,7 @@ impl RecordMeta {
 
     /// Read one comment line (with or without its `#`) into `self`; `Ok(false)` for a comment
     /// this module does not know. The error says what is wrong with the line.
-    pub fn read_comment(&mut self, line: &str) -> Result<bool, String> {
+    pub(crate) fn read_comment(&mut self, line: &str) -> Result<bool, String> {
         let text = line.trim_start_matches('#').trim();
         if let Some(rest) = text.strip_prefix(LAMBDA_REF_KEY) {
             let mut zero = Vec::new();

@@ -5,11 +5,11 @@
 use serde::Deserialize;
 
 /// Plausible absolute FBG wavelengths \[nm\].
-pub const NM_RANGE: (f64, f64) = (400.0, 2000.0);
+pub(crate) const NM_RANGE: (f64, f64) = (400.0, 2000.0);
 /// Largest plausible shift \[pm\]: 10 nm is beyond any grating's range in a WDM layout.
-pub const MAX_SHIFT_PM: f64 = 10_000.0;
+pub(crate) const MAX_SHIFT_PM: f64 = 10_000.0;
 /// Plausible interrogator ambient temperatures [°C].
-pub const AMBIENT_RANGE_C: (f64, f64) = (-80.0, 200.0);
+pub(crate) const AMBIENT_RANGE_C: (f64, f64) = (-80.0, 200.0);
 
 /// The unit of a wavelength column.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, serde::Serialize)]
@@ -34,7 +34,7 @@ impl WlUnit {
             WlUnit::ShiftNm => "shift_nm",
         }
     }
-    pub fn is_shift(self) -> bool {
+    pub(crate) fn is_shift(self) -> bool {
         matches!(self, WlUnit::ShiftPm | WlUnit::ShiftNm)
     }
     /// A cell in this unit → absolute nm (absolute units) or shift pm (shift units).
@@ -49,7 +49,7 @@ impl WlUnit {
 
 /// Check one wavelength cell (already in the column's unit) for magnitude; the error says what
 /// the value looks like and which map key to change.
-pub fn check_wavelength(unit: WlUnit, v: f64, key: &str) -> Result<(), String> {
+pub(crate) fn check_wavelength(unit: WlUnit, v: f64, key: &str) -> Result<(), String> {
     let nm = |x: f64| (NM_RANGE.0..=NM_RANGE.1).contains(&x);
     let pm = |x: f64| (NM_RANGE.0 * 1e3..=NM_RANGE.1 * 1e3).contains(&x);
     let set = |u: &str| format!("map key `{key}`: set it to \"{u}\"");
@@ -91,14 +91,14 @@ pub fn check_wavelength(unit: WlUnit, v: f64, key: &str) -> Result<(), String> {
 /// A whole shift column that never leaves the band of absolute wavelengths in nm, with a
 /// relative spread under 1 %, holds absolute wavelengths (per cell it cannot be told from a
 /// large shift).
-pub fn looks_absolute_nm(values: &[f64]) -> bool {
+pub(crate) fn looks_absolute_nm(values: &[f64]) -> bool {
     let mut a = AbsNmCheck::default();
     values.iter().for_each(|&v| a.push(v));
     a.looks_absolute_nm()
 }
 
 /// The message for a shift column that [`looks_absolute_nm`], naming the map key to change.
-pub fn absolute_nm_column_message(values: &[f64], key: &str) -> String {
+pub(crate) fn absolute_nm_column_message(values: &[f64], key: &str) -> String {
     let mut a = AbsNmCheck::default();
     values.iter().for_each(|&v| a.push(v));
     a.message(key)
@@ -107,7 +107,7 @@ pub fn absolute_nm_column_message(values: &[f64], key: &str) -> String {
 /// [`looks_absolute_nm`] one value at a time, in a few numbers (for a column that is read as a
 /// stream and never held).
 #[derive(Clone, Copy, Debug)]
-pub struct AbsNmCheck {
+pub(crate) struct AbsNmCheck {
     /// Finite values seen.
     n: usize,
     /// Whether every one of them lies in the band of absolute wavelengths.
@@ -142,7 +142,7 @@ impl AbsNmCheck {
     }
 
     /// [`looks_absolute_nm`] of the values taken so far.
-    pub fn looks_absolute_nm(&self) -> bool {
+    pub(crate) fn looks_absolute_nm(&self) -> bool {
         if self.n < 3 || !self.in_band {
             return false;
         }
@@ -159,7 +159,7 @@ impl AbsNmCheck {
 }
 
 /// Check an ambient temperature [°C] (after gain and offset).
-pub fn check_ambient(v: f64) -> Result<(), String> {
+pub(crate) fn check_ambient(v: f64) -> Result<(), String> {
     let (lo, hi) = AMBIENT_RANGE_C;
     if (lo..=hi).contains(&v) {
         Ok(())

@@ -22,7 +22,7 @@ use crate::sim::{simulate, steps};
 pub const PACES: [f64; 3] = [0.25, 4.0, 8.0];
 
 /// Numbers that serde_json wrote as `null` (NaN) read back as NaN.
-pub fn nullable<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+pub(crate) fn nullable<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
     let v: Vec<Option<f64>> = serde::Deserialize::deserialize(d)?;
     Ok(v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())
 }

@@ -106,7 +106,7 @@ fn per_output_headers(m: &Metrics, suffixes: &[&str]) -> Vec<String> {
 
 /// Where the record came from: "paper, seed 7" for a simulated one (its `.meta.json` gave the
 /// oracle and the seed), "“site3” (recorded data)" for a recorded one, which has no seed.
-pub fn origin_label(m: &Metrics) -> String {
+pub(crate) fn origin_label(m: &Metrics) -> String {
     if m.table2.oracle_floor.is_some() {
         format!("{}, seed {}", m.scenario, m.seed)
     } else {
@@ -116,7 +116,7 @@ pub fn origin_label(m: &Metrics) -> String {
 
 /// How many hold-out samples there were and how many were scored: rows with a gap (a missing
 /// input or reference) are skipped, and the label says so.
-pub fn holdout_label(m: &Metrics) -> String {
+pub(crate) fn holdout_label(m: &Metrics) -> String {
     let scored = m.table2.model_h.channels.iter().map(|c| c.n).max().unwrap_or(0);
     if scored == m.holdout_samples {
         format!("{} hold-out samples", m.holdout_samples)

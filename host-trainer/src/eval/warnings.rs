@@ -22,7 +22,7 @@ pub const BAND_WARN_BELOW: f64 = 0.90;
 
 /// Share of the hold-out outside the calibration envelope from which a worse Model-H is put
 /// down to extrapolation (the residual has no data there) rather than to the model.
-pub const ENVELOPE_EXPLAINS_FROM: f64 = 0.10;
+pub(crate) const ENVELOPE_EXPLAINS_FROM: f64 = 0.10;
 
 /// The suffix that names a figure's unit in [`Warning::numbers`] (`c`, `ue`, `kpa`), as the
 /// dataset's column names do (`T_C`, `strain_ue`, `p_kPa`).

@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
@@ -13,12 +14,11 @@ use crate::data::files::write_bytes_atomically;
 use crate::error::TrainerError;
 
 /// Okabe–Ito colours (distinguishable with the common colour-vision deficiencies).
-pub const C_TRUTH: RGBColor = RGBColor(20, 20, 20);
-pub const C_P: RGBColor = RGBColor(213, 94, 0);
-pub const C_H: RGBColor = RGBColor(0, 114, 178);
-pub const C_MEAS: RGBColor = RGBColor(230, 159, 0);
-pub const C_AUX: RGBColor = RGBColor(0, 158, 115);
-pub const C_GREY: RGBColor = RGBColor(110, 110, 110);
+pub(crate) const C_TRUTH: RGBColor = RGBColor(20, 20, 20);
+pub(crate) const C_P: RGBColor = RGBColor(213, 94, 0);
+pub(crate) const C_H: RGBColor = RGBColor(0, 114, 178);
+pub(crate) const C_MEAS: RGBColor = RGBColor(230, 159, 0);
+pub(crate) const C_GREY: RGBColor = RGBColor(110, 110, 110);
 /// The tint of a zoom window (Okabe–Ito yellow), distinct from the grey of the hold-out shade.
 pub const C_ZOOM: RGBColor = RGBColor(240, 228, 66);
 
@@ -218,7 +218,7 @@ fn pe<E: std::fmt::Debug>(e: E) -> String {
 }
 
 /// Decimals for tick labels on an axis spanning `span`.
-pub fn decimals_for(span: f64) -> usize {
+pub(crate) fn decimals_for(span: f64) -> usize {
     if span.is_nan() || span <= 0.0 || !span.is_finite() {
         return 2;
     }
@@ -285,6 +285,34 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, segm
             .draw_series(std::iter::once(Rectangle::new([(a, y0), (b, y1)], C_ZOOM.mix(0.35).filled())))
             .map_err(pe)?;
     }
+    let labelled = draw_bands(&mut chart, p)? | draw_lines(&mut chart, p, segmented)? | draw_dots(&mut chart, p)?;
+    for &x in &p.vlines {
+        chart.draw_series(DashedLineSeries::new(vec![(x, y0), (x, y1)], 7, 5, C_GREY.stroke_width(2))).map_err(pe)?;
+    }
+    for n in &p.notes {
+        let pos = (x0 + n.at.0 * (x1 - x0), y0 + n.at.1 * (y1 - y0));
+        let style = TextStyle::from((FAMILY, 15).into_font()).color(&n.color);
+        chart.draw_series(std::iter::once(Text::new(n.text.clone(), pos, style))).map_err(pe)?;
+    }
+    if labelled && p.legend != Legend::None {
+        chart
+            .configure_series_labels()
+            .label_font((FAMILY, 15))
+            .background_style(WHITE.mix(0.88))
+            .border_style(RGBColor(160, 160, 160))
+            .position(position(p.legend))
+            .margin(8)
+            .draw()
+            .map_err(pe)?;
+    }
+    Ok(())
+}
+
+/// A panel's chart: data coordinates on both axes.
+type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// The bands (hatched or filled) with their legend swatches; true when one has a label.
+fn draw_bands<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>, p: &Panel) -> Result<bool, String> {
     let mut labelled = false;
     for b in &p.bands {
         if let Some((period, offset)) = b.hatch {
@@ -313,6 +341,17 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, segm
             anno.label(l.clone()).legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 24, y + 6)], st));
         }
     }
+    Ok(labelled)
+}
+
+/// The lines (dashed, segmented for bitmaps when thick, or plain) with their legend entries;
+/// true when one has a label.
+fn draw_lines<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    p: &Panel,
+    segmented: bool,
+) -> Result<bool, String> {
+    let mut labelled = false;
     for l in &p.lines {
         let st = l.color.stroke_width(l.width);
         let anno = if l.dashed {
@@ -341,6 +380,12 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, segm
             }
         }
     }
+    Ok(labelled)
+}
+
+/// The dots with their legend entries; true when one has a label.
+fn draw_dots<'a, DB: DrawingBackend + 'a>(chart: &mut Chart<'a, DB>, p: &Panel) -> Result<bool, String> {
+    let mut labelled = false;
     for d in &p.dots {
         let st = if d.filled { d.color.mix(d.alpha).filled() } else { d.color.mix(d.alpha).stroke_width(2) };
         let r = d.radius;
@@ -351,26 +396,7 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel, segm
             anno.label(l.clone()).legend(move |(x, y)| Circle::new((x + 12, y), r.max(4), lst));
         }
     }
-    for &x in &p.vlines {
-        chart.draw_series(DashedLineSeries::new(vec![(x, y0), (x, y1)], 7, 5, C_GREY.stroke_width(2))).map_err(pe)?;
-    }
-    for n in &p.notes {
-        let pos = (x0 + n.at.0 * (x1 - x0), y0 + n.at.1 * (y1 - y0));
-        let style = TextStyle::from((FAMILY, 15).into_font()).color(&n.color);
-        chart.draw_series(std::iter::once(Text::new(n.text.clone(), pos, style))).map_err(pe)?;
-    }
-    if labelled && p.legend != Legend::None {
-        chart
-            .configure_series_labels()
-            .label_font((FAMILY, 15))
-            .background_style(WHITE.mix(0.88))
-            .border_style(RGBColor(160, 160, 160))
-            .position(position(p.legend))
-            .margin(8)
-            .draw()
-            .map_err(pe)?;
-    }
-    Ok(())
+    Ok(labelled)
 }
 
 impl Grid {

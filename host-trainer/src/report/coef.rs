@@ -38,7 +38,7 @@ fn g(v: f64) -> String {
 }
 
 /// The polynomial core of a model (as read from its blob).
-pub fn core_of(p: &HostParams) -> PolyCore {
+pub(crate) fn core_of(p: &HostParams) -> PolyCore {
     PolyCore::of(p)
 }
 

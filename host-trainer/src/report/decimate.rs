@@ -25,7 +25,8 @@ pub struct Decimated {
 
 impl Decimated {
     /// True when fewer points come out than finite samples went in.
-    pub fn is_decimated(&self) -> bool {
+    #[cfg(test)]
+    fn is_decimated(&self) -> bool {
         self.x.len() < self.n_in - self.n_nonfinite
     }
     /// (x, y) pairs.

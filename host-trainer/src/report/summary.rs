@@ -57,14 +57,42 @@ fn change(g: f64) -> String {
 
 /// Paragraphs (plain text) summarising `m`.
 pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
-    let t = &m.table2;
-    let nch = m.channels.len();
-    let names: Vec<String> = m.channels.iter().map(|c| long_name(c)).collect();
-    let units = &m.units;
-    let digits: Vec<usize> = units.iter().map(|u| if u == "°C" { 3 } else { 2 }).collect();
+    let ch = Channels::of(m);
     let mut out = Vec::new();
+    gains(m, &ch, &mut out);
+    oracle(m, &ch, meta_present, &mut out);
+    coverage(m, &ch, &mut out);
+    hysteresis(m, &ch, &mut out);
+    drift(m, &ch, &mut out);
+    ablation(m, &ch, &mut out);
+    budget(m, &ch, &mut out);
+    pace(m, &ch, &mut out);
+    device(m, &ch, &mut out);
+    out
+}
 
-    // Gains against the paper's claim.
+/// The channels as the prose names them.
+struct Channels {
+    n: usize,
+    /// In words: temperature, strain 2, ...
+    names: Vec<String>,
+    /// Decimals of each channel's values.
+    digits: Vec<usize>,
+}
+
+impl Channels {
+    fn of(m: &Metrics) -> Channels {
+        Channels {
+            n: m.channels.len(),
+            names: m.channels.iter().map(|c| long_name(c)).collect(),
+            digits: m.units.iter().map(|u| if u == "°C" { 3 } else { 2 }).collect(),
+        }
+    }
+}
+
+/// Gains against the paper's claim.
+fn gains(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
+    let (t, nch, names) = (&m.table2, ch.n, &ch.names);
     let gains: Vec<String> = (0..nch).map(|c| format!("{} for {}", change(t.gain_pct[c]), names[c])).collect();
     let (lo, hi) = PAPER_GAIN_RANGE_PCT;
     let paper_gains: Vec<String> = PAPER_TABLE2_RMSE.iter().map(|(p, h)| pct(100.0 * (p - h) / p)).collect();
@@ -99,8 +127,11 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         list(&paper_gains),
         if verdict.is_empty() { "not comparable (no finite gain)".to_string() } else { list(&verdict) }
     ));
+}
 
-    // Per-sample oracle.
+/// The distance to the per-sample oracle (or why it is not shown).
+fn oracle(m: &Metrics, ch: &Channels, meta_present: bool, out: &mut Vec<String>) {
+    let (t, nch, names, units, digits) = (&m.table2, ch.n, &ch.names, &m.units, &ch.digits);
     match &t.oracle_floor {
         Some(f) => {
             let mult: Vec<String> = (0..nch).map(|c| format!("{}×", num(t.model_h.channels[c].rmse / f[c], 2))).collect();
@@ -133,8 +164,11 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
             "No per-sample oracle: data.meta.json is absent, so the data cannot be re-simulated and the distance to it is unknown.".into()
         }),
     }
+}
 
-    // Coverage.
+/// The 95 % bands' coverage, judged against [`COVERAGE_OK_PCT`].
+fn coverage(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
+    let (t, nch, names) = (&m.table2, ch.n, &ch.names);
     let cov = |e: &crate::eval::score::ModelEval| -> Vec<String> {
         (0..nch).map(|c| pct(100.0 * e.channels[c].coverage)).collect()
     };
@@ -156,14 +190,17 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
     out.push(format!(
         "The 95 % bands hold the truth on {} of hold-out samples for Model-H ({}) and {} for Model-P. Counting {}–{} % as on target: {}.",
         list(&cov(&t.model_h)),
-        list(&names),
+        list(names),
         list(&cov(&t.model_p)),
         num(clo, 0),
         num(chi, 0),
         if judge.is_empty() { "every band is on target".to_string() } else { list(&judge) }
     ));
+}
 
-    // Hysteresis index.
+/// The hysteresis index of both models.
+fn hysteresis(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
+    let (t, nch, units, digits) = (&m.table2, ch.n, &m.units, &ch.digits);
     let hy: Vec<String> = (0..nch)
         .map(|c| {
             let (p, h) = (t.model_p.channels[c].hysteresis_index, t.model_h.channels[c].hysteresis_index);
@@ -174,8 +211,11 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         "The hysteresis index (mean error on rising minus falling segments of each channel's grating) goes, in magnitude, {} from Model-P to Model-H.",
         list(&hy)
     ));
+}
 
-    // Drift sweep.
+/// The drift sweep's slopes, when metrics.json has it.
+fn drift(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
+    let (nch, names, units, digits) = (ch.n, &ch.names, &m.units, &ch.digits);
     if let Some(s) = &m.drift_sweep {
         let slopes: Vec<String> = (0..nch)
             .map(|c| {
@@ -197,8 +237,11 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
             if shallower.is_empty() { "on no channel".to_string() } else if shallower.len() == nch { "on every channel".to_string() } else { format!("only for {}", list(&shallower)) }
         ));
     }
+}
 
-    // Ablation.
+/// The ablation's best configuration per channel, and the paper's variant.
+fn ablation(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
+    let (nch, names, units, digits) = (ch.n, &ch.names, &m.units, &ch.digits);
     if let Some(rows) = &m.ablation {
         if let Some(base) = rows.first() {
             let best: Vec<String> = (0..nch)
@@ -219,14 +262,17 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
                     " With the paper's own RBF inputs (“{}”), the hybrid's RMSE is {} than Model-P's ({}).",
                     paper.name,
                     list(&g),
-                    list(&names)
+                    list(names)
                 ));
             }
             out.push(s);
         }
     }
+}
 
-    // Error budget: the artefact whose removal helps Model-H most.
+/// The error budget: the artefact whose removal helps Model-H most.
+fn budget(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
+    let (nch, names, units, digits) = (ch.n, &ch.names, &m.units, &ch.digits);
     if let Some(rows) = &m.error_budget {
         if let Some(full) = rows.iter().find(|r| r.effect_off == "none") {
             let single: Vec<&crate::eval::metrics::BudgetRow> =
@@ -252,8 +298,11 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
             }
         }
     }
+}
 
-    // Static fidelity: the same installation at other paces and on a steps record.
+/// Static fidelity: the same installation at other paces and on a steps record.
+fn pace(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
+    let (nch, names) = (ch.n, &ch.names);
     if let Some(ps) = &m.pace {
         let mut worse = Vec::new();
         let mut cells = 0;
@@ -283,15 +332,18 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         }
         out.push(s);
     }
+}
 
-    // Device parity and flags.
+/// Device parity and Model-H's flags.
+fn device(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
+    let (t, nch, names) = (&m.table2, ch.n, &ch.names);
     let mut s = String::new();
     if let Some(p) = &m.parity {
         s.push_str(&format!(
             "On the device path (f32), the largest deviation from the f64 reference over {} hold-out samples is {} of Model-H's RMSE ({}), with {} flag mismatches. ",
             count(p.samples),
             list(&(0..nch).map(|c| format!("{} %", num(100.0 * p.max_diff_over_rmse[c], 4))).collect::<Vec<_>>()),
-            list(&names),
+            list(names),
             p.flag_mismatches
         ));
     }
@@ -305,5 +357,4 @@ pub fn paragraphs(m: &Metrics, meta_present: bool) -> Vec<String> {
         fc[3]
     ));
     out.push(s);
-    out
 }

@@ -49,11 +49,11 @@ use super::{clean_io, refuse_non_regular, FileId};
 use crate::error::TrainerError;
 
 /// Prefix of every temporary (staged file, backup, journal being written).
-pub const TMP_PREFIX: &str = ".fbg-tmp-";
+pub(crate) const TMP_PREFIX: &str = ".fbg-tmp-";
 /// Prefix of a committed journal: its set is rolled forward.
-pub const JOURNAL_PREFIX: &str = ".fbg-journal-";
+pub(crate) const JOURNAL_PREFIX: &str = ".fbg-journal-";
 /// Prefix of a journal being rolled back.
-pub const ROLLBACK_PREFIX: &str = ".fbg-rollback-";
+pub(crate) const ROLLBACK_PREFIX: &str = ".fbg-rollback-";
 /// Format tag inside a journal.
 const JOURNAL_FORMAT: &str = "fbg-trainer output set v1";
 
@@ -135,7 +135,7 @@ impl OutputSet {
 
     /// Refuse to stage any file that is one of `inputs` (by device and inode): for commands
     /// whose output names are known only after reading (`report`).
-    pub fn with_inputs(mut self, inputs: &[&Path]) -> Self {
+    pub(crate) fn with_inputs(mut self, inputs: &[&Path]) -> Self {
         self.inputs.extend(inputs.iter().filter_map(|p| FileId::of(p)));
         self
     }

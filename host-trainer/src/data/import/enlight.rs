@@ -70,8 +70,6 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
     let lines: Vec<&str> = text.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
     let default_map = Map::default();
     let m = map.unwrap_or(&default_map);
-    let unit = m.enlight.unit.unwrap_or(WlUnit::Nm);
-    let check = m.check_units();
     let map_delim = m
         .enlight
         .delimiter
@@ -80,46 +78,14 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         .transpose()
         .map_err(|e| TrainerError::data(&name, 1, "-", e))?
         .map(char::from);
-    let split_with = |l: &str, d: char| -> Vec<String> {
-        let mut cs: Vec<String> = l.split(d).map(|c| c.trim().to_string()).collect();
-        while cs.last().is_some_and(|c| c.is_empty()) {
-            cs.pop();
-        }
-        cs
-    };
-    let guess_delim = |l: &str| {
-        map_delim.unwrap_or(if l.contains('\t') {
-            '\t'
-        } else if l.contains(';') {
-            ';'
-        } else {
-            ','
-        })
-    };
+    let guess_delim = |l: &str| guess_delimiter(l, map_delim);
     let culture =
         find_culture(&lines, m.enlight.header_lines, m.enlight.culture.as_deref(), origin, &name, &guess_delim)?;
     let decimal_comma = culture.as_ref().is_some_and(|c| c.decimal_comma);
     let mut clock = TimeParser::new(TimeUnit::Auto, m.enlight.time_format.clone(), None)
         .with_locale(decimal_comma, if m.enlight.time_format.is_some() { Dmy::Off } else { Dmy::Probe });
 
-    // The first data row: a time, then a peak count.
-    let first = match m.enlight.header_lines {
-        Some(n) => n,
-        None => lines
-            .iter()
-            .position(|l| {
-                let cs = split_with(l, guess_delim(l));
-                cs.len() >= 2 && clock.probe(&cs[0]) && cs[1].parse::<usize>().is_ok()
-            })
-            .ok_or_else(|| {
-                TrainerError::data(
-                    &name,
-                    1,
-                    "1 (time)",
-                    "no data row found: a peaks row starts with a time and the peak count of the first channel",
-                )
-            })?,
-    };
+    let first = first_data_row(&lines, m, &clock, &guess_delim, &name)?;
     let Some(first_line) = lines.get(first) else {
         return Err(TrainerError::data(&name, first as u64 + 1, "-", "no data rows after the metadata header"));
     };
@@ -139,7 +105,7 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
     }
     // The day/month order of numeric dates: the culture's, checked against every date, or the
     // dates' own (a field above 12); never a guess.
-    let first_time = split_with(first_line, delim).into_iter().next().unwrap_or_default();
+    let first_time = split_cells(first_line, delim).into_iter().next().unwrap_or_default();
     let date_order = if clock.dmy == Dmy::Probe && dmy_fields(&first_time).is_some() {
         let (order, why) = date_order(&lines[first..], first, delim, culture.as_ref(), &name)?;
         clock.dmy = Dmy::Order(order);
@@ -150,7 +116,7 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
     };
     let channels = match m.enlight.channels {
         Some(n) => n,
-        None => infer_channels(&split_with(first_line, delim)).ok_or_else(|| {
+        None => infer_channels(&split_cells(first_line, delim)).ok_or_else(|| {
             TrainerError::data(
                 &name,
                 first as u64 + 1,
@@ -169,9 +135,123 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
             });
         }
     }
+    let spec = RowSpec {
+        delim,
+        channels,
+        unit: m.enlight.unit.unwrap_or(WlUnit::Nm),
+        check: m.check_units(),
+        culture: culture.as_ref(),
+        windows: &windows,
+    };
+    let rows = read_rows(&lines, first, ends_with_newline, &spec, &mut clock, Problems::new(&name, policy))?;
+    if rows.t.is_empty() {
+        let why = if rows.problems.rows_read == 0 { "no data rows" } else { "every data row was skipped" };
+        return Err(TrainerError::data(&name, first as u64 + 1, "-", why));
+    }
+    let Assigned { nm, layout, unassigned_rows } = if windows.is_empty() {
+        in_order(&rows.raw, channels, rows.lines[0], &name)?
+    } else {
+        let layout =
+            windows.iter().map(|w| format!("channel {}, window {}–{} nm", w.channel + 1, w.lo, w.hi)).collect();
+        Assigned { nm: rows.nm, layout, unassigned_rows: 0 }
+    };
+    Ok(PeaksFile {
+        lines: rows.lines,
+        t: rows.t,
+        nm,
+        channels,
+        delimiter: delim,
+        metadata_lines: first,
+        time_kind: clock.kind.unwrap_or(TimeKind::Timestamp),
+        absolute: clock.absolute(),
+        culture: culture.map(|c| format!("{} ({})", c.name, c.source)),
+        date_order,
+        layout,
+        unassigned_rows,
+        problems: rows.problems,
+    })
+}
 
-    let cult = culture.as_ref();
-    let mut problems = Problems::new(&name, policy);
+/// The cells of a line split at `d`, trimmed, trailing empty cells dropped.
+fn split_cells(l: &str, d: char) -> Vec<String> {
+    let mut cs: Vec<String> = l.split(d).map(|c| c.trim().to_string()).collect();
+    while cs.last().is_some_and(|c| c.is_empty()) {
+        cs.pop();
+    }
+    cs
+}
+
+/// The map's delimiter, else tab, `;` or `,`, whichever the line holds first in that order.
+fn guess_delimiter(l: &str, map_delim: Option<char>) -> char {
+    map_delim.unwrap_or(if l.contains('\t') {
+        '\t'
+    } else if l.contains(';') {
+        ';'
+    } else {
+        ','
+    })
+}
+
+/// The index of the first data row: the map's `header_lines`, else the first line that is a
+/// time and then a peak count.
+fn first_data_row(
+    lines: &[&str],
+    m: &Map,
+    clock: &TimeParser,
+    guess_delim: &dyn Fn(&str) -> char,
+    name: &str,
+) -> Result<usize, TrainerError> {
+    match m.enlight.header_lines {
+        Some(n) => Ok(n),
+        None => lines
+            .iter()
+            .position(|l| {
+                let cs = split_cells(l, guess_delim(l));
+                cs.len() >= 2 && clock.probe(&cs[0]) && cs[1].parse::<usize>().is_ok()
+            })
+            .ok_or_else(|| {
+                TrainerError::data(
+                    name,
+                    1,
+                    "1 (time)",
+                    "no data row found: a peaks row starts with a time and the peak count of the first channel",
+                )
+            }),
+    }
+}
+
+/// How the data rows are read.
+struct RowSpec<'a> {
+    delim: char,
+    channels: usize,
+    unit: WlUnit,
+    check: bool,
+    culture: Option<&'a Culture>,
+    /// The map's gratings; empty without a map (the peaks are then kept per channel, `raw`).
+    windows: &'a [super::mapping::Window],
+}
+
+/// The accepted rows: their lines and times, the peaks assigned to the map's gratings (`nm`),
+/// or without a map each row's peaks per channel (`raw`).
+struct Rows {
+    lines: Vec<u64>,
+    t: Vec<f64>,
+    raw: Vec<Vec<Vec<f64>>>,
+    nm: Vec<Vec<f64>>,
+    problems: Problems,
+}
+
+/// Every data row from `first` on, checked, parsed and assigned; bad rows fail or are counted
+/// as `problems`' policy says.
+fn read_rows(
+    lines: &[&str],
+    first: usize,
+    ends_with_newline: bool,
+    spec: &RowSpec,
+    clock: &mut TimeParser,
+    mut problems: Problems,
+) -> Result<Rows, TrainerError> {
+    let windows = spec.windows;
     let mut out_lines: Vec<u64> = Vec::new();
     let mut out_t: Vec<f64> = Vec::new();
     let mut raw: Vec<Vec<Vec<f64>>> = Vec::new();
@@ -183,9 +263,9 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         }
         let line = i as u64 + 1;
         problems.rows_read += 1;
-        let cs = split_with(l, delim);
+        let cs = split_cells(l, spec.delim);
         let truncated_tail = i == last_nonblank && !ends_with_newline;
-        let row = parse_row(&cs, line, channels, &mut clock, unit, check, truncated_tail, cult).and_then(|r| {
+        let row = parse_row(&cs, line, spec, clock, truncated_tail).and_then(|r| {
             if let (Some(&prev), Some(&prev_line)) = (out_t.last(), out_lines.last()) {
                 if r.t < prev {
                     return Err(RowError::new(
@@ -204,7 +284,7 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
                     ));
                 }
             }
-            let assigned = if windows.is_empty() { Vec::new() } else { assign(&r, &windows, line)? };
+            let assigned = if windows.is_empty() { Vec::new() } else { assign(&r, windows, line)? };
             Ok((r, assigned))
         });
         match row {
@@ -223,62 +303,53 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         }
     }
     problems.refuse_wrong_unit_columns()?;
-    if out_t.is_empty() {
-        let why = if problems.rows_read == 0 { "no data rows" } else { "every data row was skipped" };
-        return Err(TrainerError::data(&name, first as u64 + 1, "-", why));
+    Ok(Rows { lines: out_lines, t: out_t, raw, nm, problems })
+}
+
+/// Without a map: each channel's usual peak count decides its gratings, in order; a row with
+/// another count on a channel has gaps for that channel's gratings.
+fn in_order(raw: &[Vec<Vec<f64>>], channels: usize, first_line: u64, name: &str) -> Result<Assigned, TrainerError> {
+    let usual: Vec<usize> = (0..channels).map(|c| mode(raw.iter().map(|r| r[c].len()))).collect();
+    let gratings: Vec<(usize, usize)> = (0..channels).flat_map(|c| (0..usual[c]).map(move |k| (c, k))).collect();
+    if gratings.is_empty() || gratings.len() > MAX_GRATINGS {
+        let counts: Vec<String> = usual.iter().map(|n| n.to_string()).collect();
+        return Err(TrainerError::data(
+            name,
+            first_line,
+            &format!("2-{} (peak counts)", channels + 1),
+            format!(
+                "without --map each channel's peaks become gratings in order, and 1 to {MAX_GRATINGS} are supported; the rows usually hold {} = {} peaks: give a map with one [[grating]] entry (channel, window_nm) per grating",
+                counts.join("+"),
+                gratings.len()
+            ),
+        ));
     }
-
     let mut unassigned_rows = 0;
-    let layout: Vec<String> = if windows.is_empty() {
-        // Each channel's usual peak count decides its gratings, in order.
-        let usual: Vec<usize> = (0..channels).map(|c| mode(raw.iter().map(|r| r[c].len()))).collect();
-        let gratings: Vec<(usize, usize)> = (0..channels).flat_map(|c| (0..usual[c]).map(move |k| (c, k))).collect();
-        if gratings.is_empty() || gratings.len() > MAX_GRATINGS {
-            let counts: Vec<String> = usual.iter().map(|n| n.to_string()).collect();
-            return Err(TrainerError::data(
-                &name,
-                out_lines[0],
-                &format!("2-{} (peak counts)", channels + 1),
-                format!(
-                    "without --map each channel's peaks become gratings in order, and 1 to {MAX_GRATINGS} are supported; the rows usually hold {} = {} peaks: give a map with one [[grating]] entry (channel, window_nm) per grating",
-                    counts.join("+"),
-                    gratings.len()
-                ),
-            ));
+    let mut nm = vec![Vec::with_capacity(raw.len()); gratings.len()];
+    for r in raw {
+        let mut odd = false;
+        for (g, &(c, k)) in gratings.iter().enumerate() {
+            let v = if r[c].len() == usual[c] { r[c][k] } else { f64::NAN };
+            odd |= r[c].len() != usual[c];
+            nm[g].push(v);
         }
-        nm = vec![Vec::with_capacity(raw.len()); gratings.len()];
-        for r in &raw {
-            let mut odd = false;
-            for (g, &(c, k)) in gratings.iter().enumerate() {
-                let v = if r[c].len() == usual[c] { r[c][k] } else { f64::NAN };
-                odd |= r[c].len() != usual[c];
-                nm[g].push(v);
-            }
-            unassigned_rows += usize::from(odd);
-        }
-        gratings
-            .iter()
-            .map(|&(c, k)| format!("channel {}, peak {} of {} (in order, no map)", c + 1, k + 1, usual[c]))
-            .collect()
-    } else {
-        windows.iter().map(|w| format!("channel {}, window {}–{} nm", w.channel + 1, w.lo, w.hi)).collect()
-    };
+        unassigned_rows += usize::from(odd);
+    }
+    let layout = gratings
+        .iter()
+        .map(|&(c, k)| format!("channel {}, peak {} of {} (in order, no map)", c + 1, k + 1, usual[c]))
+        .collect();
+    Ok(Assigned { nm, layout, unassigned_rows })
+}
 
-    Ok(PeaksFile {
-        lines: out_lines,
-        t: out_t,
-        nm,
-        channels,
-        delimiter: delim,
-        metadata_lines: first,
-        time_kind: clock.kind.unwrap_or(TimeKind::Timestamp),
-        absolute: clock.absolute(),
-        culture: culture.map(|c| format!("{} ({})", c.name, c.source)),
-        date_order,
-        layout,
-        unassigned_rows,
-        problems,
-    })
+/// The peaks assigned to gratings.
+struct Assigned {
+    /// Absolute wavelength \[nm\] per grating; NaN = gap.
+    nm: Vec<Vec<f64>>,
+    /// Where each grating comes from, in words.
+    layout: Vec<String>,
+    /// Rows with an unusual peak count on some channel (no map only).
+    unassigned_rows: usize,
 }
 
 /// The smallest channel count for which the row's counts and wavelengths add up.
@@ -327,17 +398,14 @@ fn label(idx: usize, counts: &[usize]) -> String {
     format!("{} (beyond the peaks)", idx + 1)
 }
 
-#[allow(clippy::too_many_arguments)]
 fn parse_row(
     cs: &[String],
     line: u64,
-    channels: usize,
+    spec: &RowSpec,
     clock: &mut TimeParser,
-    unit: WlUnit,
-    check: bool,
     truncated_tail: bool,
-    culture: Option<&Culture>,
 ) -> Result<RawRow, RowError> {
+    let (channels, unit, check, culture) = (spec.channels, spec.unit, spec.check, spec.culture);
     if cs.len() < 1 + channels {
         return Err(RowError::new(
             Reason::RaggedRow,

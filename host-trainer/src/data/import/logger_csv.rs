@@ -55,42 +55,12 @@ pub(crate) fn read(
 ) -> Result<LoggerTable, TrainerError> {
     let name = path.display().to_string();
     let text = read_text(path)?;
-    let map_delim = match &map.delimiter {
-        Some(d) => Some(super::mapping::delimiter(d).map_err(|m| TrainerError::data(&name, 1, "-", m))?),
-        None => None,
-    };
     let time_names: Vec<String> = match &map.time.column {
         Some(c) => vec![c.clone()],
         None => TIME_NAMES.iter().map(|s| s.to_string()).collect(),
     };
-
-    // The header line and the delimiter.
     let lines: Vec<&str> = text.split('\n').collect();
-    let (header_idx, delim) = match map.header_lines {
-        Some(n) => {
-            let Some(l) = lines.get(n) else {
-                return Err(TrainerError::data(
-                    &name,
-                    n as u64 + 1,
-                    "-",
-                    format!("the file has {} lines, so there is no header after header_lines = {n}", lines.len()),
-                ));
-            };
-            (n, map_delim.unwrap_or_else(|| most_frequent_delimiter(l)))
-        }
-        None => find_header(&lines, &time_names, map_delim).ok_or_else(|| {
-            let what = match &map.time.column {
-                Some(c) => format!("`{c}` (map key time.column)"),
-                None => format!("any of {} (or name it with the map key time.column)", TIME_NAMES.join(", ")),
-            };
-            TrainerError::data(
-                &name,
-                1,
-                &time_names[0],
-                format!("no header line has a cell naming the time column {what}"),
-            )
-        })?,
-    };
+    let (header_idx, delim) = header_position(&lines, map, &name, &time_names)?;
     let header_line = header_idx as u64 + 1;
     // A last line without a line end is truncated: the file ends inside the row, so its last
     // cell may be cut short (`ragged_row`).
@@ -115,38 +85,137 @@ pub(crate) fn read(
         }
         None => return Err(TrainerError::data(&name, header_line, "-", "no header row")),
     };
-    let cols: Vec<String> = header.iter().map(|s| s.to_string()).collect();
-    let find = |want: &str| {
-        cols.iter().position(|h| h == want).or_else(|| cols.iter().position(|h| h.eq_ignore_ascii_case(want)))
-    };
-    let missing = |want: &str, key: &str| {
-        TrainerError::data(
-            &name,
-            header_line,
-            want,
-            format!("no column `{want}` in the header (map key `{key}`); the header has: {}", cols.join(", ")),
-        )
-    };
+    let h = Header { name: &name, cols: header.iter().map(|s| s.to_string()).collect(), line: header_line };
+    let c = Columns::of(&h, map, &time_names, gratings)?;
+    let out = read_rows(records, &h, &c, map, policy, truncated_line)?;
+    if map.check_units() {
+        refuse_absolute_nm_shifts(&h, &c, &out)?;
+    }
+    if out.t.is_empty() {
+        let why =
+            if out.problems.rows_read == 0 { "no data rows after the header" } else { "every data row was skipped" };
+        return Err(TrainerError::data(&name, header_line + 1, "-", why));
+    }
+    Ok(out)
+}
 
-    let time_idx = time_names.iter().find_map(|n| find(n)).ok_or_else(|| missing(&time_names[0], "time.column"))?;
-    // The ambient thermometer: the map's column (which must be there), else `T_amb_C` if the
-    // file has it; an installation without one has none.
-    let default_ambient = RefMap { column: crate::data::T_AMB_COLUMN.into(), gain: 1.0, offset: 0.0 };
-    let amb: Option<(usize, RefMap)> = match &map.ambient {
-        Some(a) => Some((find(&a.column).ok_or_else(|| missing(&a.column, "ambient.column"))?, a.clone())),
-        None => find(&default_ambient.column).map(|i| (i, default_ambient.clone())),
+/// The header's index among `lines` and the delimiter: the map's, or found as the first line
+/// naming the time column.
+fn header_position(lines: &[&str], map: &Map, name: &str, time_names: &[String]) -> Result<(usize, u8), TrainerError> {
+    let map_delim = match &map.delimiter {
+        Some(d) => Some(super::mapping::delimiter(d).map_err(|m| TrainerError::data(name, 1, "-", m))?),
+        None => None,
     };
-    // The map's measurands (their columns must be there), then every column named like a
-    // dataset measurand (`T_C`, `strain2_ue`, ...) that the map does not already give.
+    match map.header_lines {
+        Some(n) => {
+            let Some(l) = lines.get(n) else {
+                return Err(TrainerError::data(
+                    name,
+                    n as u64 + 1,
+                    "-",
+                    format!("the file has {} lines, so there is no header after header_lines = {n}", lines.len()),
+                ));
+            };
+            Ok((n, map_delim.unwrap_or_else(|| most_frequent_delimiter(l))))
+        }
+        None => find_header(lines, time_names, map_delim).ok_or_else(|| {
+            let what = match &map.time.column {
+                Some(c) => format!("`{c}` (map key time.column)"),
+                None => format!("any of {} (or name it with the map key time.column)", TIME_NAMES.join(", ")),
+            };
+            TrainerError::data(
+                name,
+                1,
+                &time_names[0],
+                format!("no header line has a cell naming the time column {what}"),
+            )
+        }),
+    }
+}
+
+/// The header row: its cells and its physical line.
+struct Header<'a> {
+    name: &'a str,
+    cols: Vec<String>,
+    line: u64,
+}
+
+impl Header<'_> {
+    /// The cell index of column `want` (exact name first, then ignoring ASCII case).
+    fn find(&self, want: &str) -> Option<usize> {
+        let cols = &self.cols;
+        cols.iter().position(|h| h == want).or_else(|| cols.iter().position(|h| h.eq_ignore_ascii_case(want)))
+    }
+
+    /// The error of a column the map (key `key`) names but the header lacks.
+    fn missing(&self, want: &str, key: &str) -> TrainerError {
+        TrainerError::data(
+            self.name,
+            self.line,
+            want,
+            format!("no column `{want}` in the header (map key `{key}`); the header has: {}", self.cols.join(", ")),
+        )
+    }
+}
+
+/// Where each wanted column is in the header (cell indices), with how to read it.
+struct Columns {
+    time: usize,
+    /// The ambient thermometer, where the file has one.
+    ambient: Option<(usize, RefMap)>,
+    /// The references, in canonical order.
+    refs: Vec<(Measurand, usize, RefMap)>,
+    gratings: Vec<CsvGrating>,
+    g_idx: Vec<usize>,
+}
+
+impl Columns {
+    fn of(
+        h: &Header,
+        map: &Map,
+        time_names: &[String],
+        gratings: Option<&[CsvGrating]>,
+    ) -> Result<Columns, TrainerError> {
+        let time = time_names.iter().find_map(|n| h.find(n)).ok_or_else(|| h.missing(&time_names[0], "time.column"))?;
+        // The ambient thermometer: the map's column (which must be there), else `T_amb_C` if the
+        // file has it; an installation without one has none.
+        let default_ambient = RefMap { column: crate::data::T_AMB_COLUMN.into(), gain: 1.0, offset: 0.0 };
+        let ambient: Option<(usize, RefMap)> = match &map.ambient {
+            Some(a) => Some((h.find(&a.column).ok_or_else(|| h.missing(&a.column, "ambient.column"))?, a.clone())),
+            None => h.find(&default_ambient.column).map(|i| (i, default_ambient.clone())),
+        };
+        let refs = reference_columns(h, map, ambient.as_ref())?;
+        let gratings = grating_columns(h, gratings)?;
+        let mut g_idx = Vec::with_capacity(gratings.len());
+        for (i, g) in gratings.iter().enumerate() {
+            let key = if map.grating.is_empty() {
+                format!("grating[{}].column (default `{}`)", i + 1, g.column)
+            } else {
+                format!("grating[{}].column", i + 1)
+            };
+            g_idx.push(h.find(&g.column).ok_or_else(|| h.missing(&g.column, &key))?);
+        }
+        Ok(Columns { time, ambient, refs, gratings, g_idx })
+    }
+}
+
+/// The map's measurands (their columns must be there), then every column named like a
+/// dataset measurand (`T_C`, `strain2_ue`, ...) that the map does not already give.
+fn reference_columns(
+    h: &Header,
+    map: &Map,
+    amb: Option<&(usize, RefMap)>,
+) -> Result<Vec<(Measurand, usize, RefMap)>, TrainerError> {
+    let cols = &h.cols;
     let mut ref_cols: Vec<(Measurand, usize, RefMap)> = Vec::new();
     for (m, r, key) in map.measurands() {
-        let i = find(&r.column).ok_or_else(|| missing(&r.column, &format!("{key}.column")))?;
+        let i = h.find(&r.column).ok_or_else(|| h.missing(&r.column, &format!("{key}.column")))?;
         ref_cols.push((m, i, r));
     }
-    for (i, h) in cols.iter().enumerate() {
-        if let Ok(Some(m)) = Measurand::parse(h) {
-            if !ref_cols.iter().any(|(o, oi, _)| *o == m || *oi == i) && amb.as_ref().is_none_or(|(a, _)| *a != i) {
-                ref_cols.push((m, i, RefMap { column: h.clone(), gain: 1.0, offset: 0.0 }));
+    for (i, c) in cols.iter().enumerate() {
+        if let Ok(Some(m)) = Measurand::parse(c) {
+            if !ref_cols.iter().any(|(o, oi, _)| *o == m || *oi == i) && amb.is_none_or(|(a, _)| *a != i) {
+                ref_cols.push((m, i, RefMap { column: c.clone(), gain: 1.0, offset: 0.0 }));
             }
         }
     }
@@ -154,8 +223,8 @@ pub(crate) fn read(
     if ref_cols.len() > MAX_MEASURANDS {
         let names: Vec<String> = ref_cols.iter().map(|(m, i, _)| format!("{m} ← `{}`", cols[*i])).collect();
         return Err(TrainerError::data(
-            &name,
-            header_line,
+            h.name,
+            h.line,
             &cols[ref_cols[MAX_MEASURANDS].1],
             format!(
                 "{} reference columns ({}); at most {MAX_MEASURANDS} measurands are supported",
@@ -164,69 +233,74 @@ pub(crate) fn read(
             ),
         ));
     }
-    // Without map gratings, the file's own dl1_pm..dlN_pm (shifts in pm).
-    let defaults: Vec<CsvGrating>;
-    let gratings: &[CsvGrating] = match gratings {
-        None => &[],
-        Some(g) if !g.is_empty() => g,
+    Ok(ref_cols)
+}
+
+/// The wavelength columns: the caller's; none for a refs file (`None`); without map gratings
+/// (an empty list), the file's own dl1_pm..dlN_pm (shifts in pm).
+fn grating_columns(h: &Header, gratings: Option<&[CsvGrating]>) -> Result<Vec<CsvGrating>, TrainerError> {
+    match gratings {
+        None => Ok(Vec::new()),
+        Some(g) if !g.is_empty() => Ok(g.to_vec()),
         Some(_) => {
             let mut found: Vec<usize> = Vec::new();
-            for h in &cols {
-                match parse_grating_column(h) {
+            for c in &h.cols {
+                match parse_grating_column(c) {
                     Ok(Some(g)) => found.push(g),
                     Ok(None) => {}
-                    Err(e) => return Err(TrainerError::data(&name, header_line, h, format!("column `{h}`: {e}"))),
+                    Err(e) => return Err(TrainerError::data(h.name, h.line, c, format!("column `{c}`: {e}"))),
                 }
             }
             found.sort_unstable();
             let n = found.iter().enumerate().take_while(|&(k, &g)| g == k + 1).count();
             if n == 0 {
-                return Err(missing("dl1_pm", "grating[1].column (default `dl1_pm`, `dl2_pm`, ...)"));
+                return Err(h.missing("dl1_pm", "grating[1].column (default `dl1_pm`, `dl2_pm`, ...)"));
             }
-            defaults = (1..=n)
+            Ok((1..=n)
                 .map(|i| CsvGrating {
                     column: grating_column(i),
                     unit: WlUnit::ShiftPm,
                     ref_nm: None,
                     unit_key: format!("grating[{i}].unit"),
                 })
-                .collect();
-            &defaults
+                .collect())
         }
-    };
-    let mut g_idx = Vec::with_capacity(gratings.len());
-    for (i, g) in gratings.iter().enumerate() {
-        let key = if map.grating.is_empty() {
-            format!("grating[{}].column (default `{}`)", i + 1, g.column)
-        } else {
-            format!("grating[{}].column", i + 1)
-        };
-        g_idx.push(find(&g.column).ok_or_else(|| missing(&g.column, &key))?);
     }
+}
 
+/// Every data row after the header, checked and parsed; bad rows fail or are counted as
+/// `policy` says.
+fn read_rows(
+    records: impl Iterator<Item = Result<csv::StringRecord, csv::Error>>,
+    h: &Header,
+    c: &Columns,
+    map: &Map,
+    policy: OnError,
+    truncated_line: Option<u64>,
+) -> Result<LoggerTable, TrainerError> {
+    let cols = &h.cols;
     let start = map.time.start.as_deref().and_then(|s| parse_timestamp(s, None));
     let mut clock = TimeParser::new(map.time.unit, map.time.format.clone(), start);
     let check = map.check_units();
-    let mut problems = Problems::new(&name, policy);
+    let mut problems = Problems::new(h.name, policy);
     let mut out = LoggerTable {
         lines: Vec::new(),
         t: Vec::new(),
-        time_column: cols[time_idx].clone(),
+        time_column: cols[c.time].clone(),
         time_kind: TimeKind::Seconds,
         absolute: false,
-        ambient: amb.as_ref().map(|(i, _)| Column { name: cols[*i].clone(), values: Vec::new() }),
-        refs: ref_cols.iter().map(|(m, i, _)| (*m, Column { name: cols[*i].clone(), values: Vec::new() })).collect(),
-        gratings: g_idx.iter().map(|&i| Column { name: cols[i].clone(), values: Vec::new() }).collect(),
-        grating_specs: gratings.to_vec(),
-        header_line,
-        problems: Problems::new(&name, policy),
+        ambient: c.ambient.as_ref().map(|(i, _)| Column { name: cols[*i].clone(), values: Vec::new() }),
+        refs: c.refs.iter().map(|(m, i, _)| (*m, Column { name: cols[*i].clone(), values: Vec::new() })).collect(),
+        gratings: c.g_idx.iter().map(|&i| Column { name: cols[i].clone(), values: Vec::new() }).collect(),
+        grating_specs: c.gratings.clone(),
+        header_line: h.line,
+        problems: Problems::new(h.name, policy),
     };
-
     for rec in records {
         let rec = match rec {
             Ok(r) => r,
             Err(e) => {
-                let line = header_line + e.position().map_or(1, |p| p.line()) - 1;
+                let line = h.line + e.position().map_or(1, |p| p.line()) - 1;
                 problems.rows_read += 1;
                 problems.reject(RowError::new(Reason::RaggedRow, line, "-", format!("malformed row: {e}")))?;
                 continue;
@@ -235,7 +309,7 @@ pub(crate) fn read(
         if rec.len() == 1 && rec[0].is_empty() {
             continue;
         }
-        let line = header_line + rec.position().map_or(1, |p| p.line()) - 1;
+        let line = h.line + rec.position().map_or(1, |p| p.line()) - 1;
         problems.rows_read += 1;
         if truncated_line == Some(line) {
             let last = rec.len().saturating_sub(1);
@@ -248,67 +322,82 @@ pub(crate) fn read(
             ))?;
             continue;
         }
-        let row = parse_row(&rec, line, &cols, time_idx, &mut clock, amb.as_ref(), &ref_cols, gratings, &g_idx, check);
-        let row = row.and_then(|r| {
-            if let (Some(&prev), Some(&prev_line)) = (out.t.last(), out.lines.last()) {
-                if r.t < prev {
-                    return Err(RowError::new(
-                        Reason::TimeBackwards,
-                        line,
-                        &cols[time_idx],
-                        format!("time goes backwards: `{}` is earlier than line {prev_line}", rec[time_idx].trim()),
-                    ));
-                }
-                if r.t == prev {
-                    return Err(RowError::new(
-                        Reason::DuplicateTime,
-                        line,
-                        &cols[time_idx],
-                        format!("duplicated time `{}` (same as line {prev_line})", rec[time_idx].trim()),
-                    ));
-                }
-            }
-            Ok(r)
-        });
+        let row =
+            parse_row(&rec, line, cols, c, &mut clock, check).and_then(|r| in_order(r, &rec, line, cols, c, &out));
         match row {
-            Ok(r) => {
-                out.lines.push(line);
-                out.t.push(r.t);
-                if let Some(a) = &mut out.ambient {
-                    a.values.push(r.ambient);
-                }
-                for ((_, col), v) in out.refs.iter_mut().zip(&r.refs) {
-                    col.values.push(*v);
-                }
-                for (col, v) in out.gratings.iter_mut().zip(&r.gratings) {
-                    col.values.push(*v);
-                }
-            }
+            Ok(r) => out.push(line, &r),
             Err(e) => problems.reject(e)?,
         }
     }
     problems.refuse_wrong_unit_columns()?;
-    if check {
-        for (i, g) in gratings.iter().enumerate() {
-            if g.unit == WlUnit::ShiftPm && looks_absolute_nm(&out.gratings[i].values) {
-                let first = out.lines.first().copied().unwrap_or(header_line + 1);
-                return Err(TrainerError::data(
-                    &name,
-                    first,
-                    &g.column,
-                    absolute_nm_column_message(&out.gratings[i].values, &g.unit_key),
-                ));
-            }
-        }
-    }
-    if out.t.is_empty() {
-        let why = if problems.rows_read == 0 { "no data rows after the header" } else { "every data row was skipped" };
-        return Err(TrainerError::data(&name, header_line + 1, "-", why));
-    }
     out.time_kind = clock.kind.unwrap_or(TimeKind::Seconds);
     out.absolute = clock.absolute();
     out.problems = problems;
     Ok(out)
+}
+
+/// `r`, refused when its time is not after the last accepted row's.
+fn in_order(
+    r: Row,
+    rec: &csv::StringRecord,
+    line: u64,
+    cols: &[String],
+    c: &Columns,
+    out: &LoggerTable,
+) -> Result<Row, RowError> {
+    if let (Some(&prev), Some(&prev_line)) = (out.t.last(), out.lines.last()) {
+        if r.t < prev {
+            return Err(RowError::new(
+                Reason::TimeBackwards,
+                line,
+                &cols[c.time],
+                format!("time goes backwards: `{}` is earlier than line {prev_line}", rec[c.time].trim()),
+            ));
+        }
+        if r.t == prev {
+            return Err(RowError::new(
+                Reason::DuplicateTime,
+                line,
+                &cols[c.time],
+                format!("duplicated time `{}` (same as line {prev_line})", rec[c.time].trim()),
+            ));
+        }
+    }
+    Ok(r)
+}
+
+impl LoggerTable {
+    /// Append an accepted row read on physical line `line`.
+    fn push(&mut self, line: u64, r: &Row) {
+        self.lines.push(line);
+        self.t.push(r.t);
+        if let Some(a) = &mut self.ambient {
+            a.values.push(r.ambient);
+        }
+        for ((_, col), v) in self.refs.iter_mut().zip(&r.refs) {
+            col.values.push(*v);
+        }
+        for (col, v) in self.gratings.iter_mut().zip(&r.gratings) {
+            col.values.push(*v);
+        }
+    }
+}
+
+/// A column declared as shifts in pm whose values look like absolute wavelengths in nm is
+/// refused (the unit check).
+fn refuse_absolute_nm_shifts(h: &Header, c: &Columns, out: &LoggerTable) -> Result<(), TrainerError> {
+    for (i, g) in c.gratings.iter().enumerate() {
+        if g.unit == WlUnit::ShiftPm && looks_absolute_nm(&out.gratings[i].values) {
+            let first = out.lines.first().copied().unwrap_or(h.line + 1);
+            return Err(TrainerError::data(
+                h.name,
+                first,
+                &g.column,
+                absolute_nm_column_message(&out.gratings[i].values, &g.unit_key),
+            ));
+        }
+    }
+    Ok(())
 }
 
 struct Row {
@@ -318,19 +407,15 @@ struct Row {
     gratings: Vec<f64>,
 }
 
-#[allow(clippy::too_many_arguments)]
 fn parse_row(
     rec: &csv::StringRecord,
     line: u64,
     cols: &[String],
-    time_idx: usize,
+    c: &Columns,
     clock: &mut TimeParser,
-    amb: Option<&(usize, RefMap)>,
-    refs: &[(Measurand, usize, RefMap)],
-    gratings: &[CsvGrating],
-    g_idx: &[usize],
     check: bool,
 ) -> Result<Row, RowError> {
+    let (time_idx, amb, refs, gratings, g_idx) = (c.time, c.ambient.as_ref(), &c.refs, &c.gratings, &c.g_idx);
     if rec.len() != cols.len() {
         let (col, what) = if rec.len() < cols.len() {
             (cols[rec.len()].clone(), "truncated or ragged row")

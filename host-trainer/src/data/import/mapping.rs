@@ -182,13 +182,54 @@ impl Map {
         })
     }
 
-    pub fn check_units(&self) -> bool {
+    pub(crate) fn check_units(&self) -> bool {
         self.check_units.unwrap_or(true)
     }
 
     /// Check the keys that matter for one importer.
     pub(crate) fn validate(&self, origin: &str, what: For) -> Result<(), TrainerError> {
         let err = |key: String, message: String| TrainerError::Config { origin: origin.to_string(), key, message };
+        self.validate_layout(&err)?;
+        self.validate_references(&err)?;
+        if self.grating.len() > MAX_GRATINGS {
+            return Err(err(
+                "grating".into(),
+                format!(
+                    "{} [[grating]] entries; 1 to {MAX_GRATINGS} are supported (dl1_pm, dl2_pm, ..., in that order)",
+                    self.grating.len()
+                ),
+            ));
+        }
+        for (i, g) in self.grating.iter().enumerate() {
+            let key = |k: &str| format!("grating[{}].{k}", i + 1);
+            if let Some(r) = g.ref_nm {
+                if !(NM_RANGE.0..=NM_RANGE.1).contains(&r) {
+                    return Err(err(
+                        key("ref_nm"),
+                        format!("{r} is not a wavelength in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1),
+                    ));
+                }
+            }
+            match what {
+                For::Csv => g.validate_csv().map_err(|(k, m)| err(key(k), m))?,
+                For::Enlight => g.validate_enlight(&self.grating[..i]).map_err(|(k, m)| err(key(k), m))?,
+            }
+        }
+        if what == For::Enlight {
+            if let Some(u) = self.enlight.unit {
+                if u.is_shift() {
+                    return Err(err("enlight.unit".into(), "ENLIGHT peaks are absolute wavelengths: nm or pm".into()));
+                }
+            }
+            if self.enlight.channels == Some(0) {
+                return Err(err("enlight.channels".into(), "at least one channel".into()));
+            }
+        }
+        Ok(())
+    }
+
+    /// The delimiters, the time axis and the join's largest gap.
+    fn validate_layout(&self, err: &impl Fn(String, String) -> TrainerError) -> Result<(), TrainerError> {
         if let Some(d) = &self.delimiter {
             delimiter(d).map_err(|m| err("delimiter".into(), m))?;
         }
@@ -211,6 +252,12 @@ impl Map {
                 return Err(err("max_gap_s".into(), format!("{g} is not a positive number of seconds")));
             }
         }
+        Ok(())
+    }
+
+    /// The ambient thermometer's and the measurands' gains and offsets; each measurand mapped
+    /// once, at most [`MAX_MEASURANDS`].
+    fn validate_references(&self, err: &impl Fn(String, String) -> TrainerError) -> Result<(), TrainerError> {
         let ambient = self.ambient.as_ref().map(|r| ("ambient".to_string(), r.gain, r.offset));
         for (name, gain, offset) in
             ambient.into_iter().chain(self.measurands().into_iter().map(|(_, r, k)| (k, r.gain, r.offset)))
@@ -230,109 +277,6 @@ impl Map {
         }
         if ms.len() > MAX_MEASURANDS {
             return Err(err("measurand".into(), format!("{} measurands; at most {MAX_MEASURANDS}", ms.len())));
-        }
-        if self.grating.len() > MAX_GRATINGS {
-            return Err(err(
-                "grating".into(),
-                format!(
-                    "{} [[grating]] entries; 1 to {MAX_GRATINGS} are supported (dl1_pm, dl2_pm, ..., in that order)",
-                    self.grating.len()
-                ),
-            ));
-        }
-        for (i, g) in self.grating.iter().enumerate() {
-            let key = |k: &str| format!("grating[{}].{k}", i + 1);
-            if let Some(r) = g.ref_nm {
-                if !(NM_RANGE.0..=NM_RANGE.1).contains(&r) {
-                    return Err(err(
-                        key("ref_nm"),
-                        format!("{r} is not a wavelength in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1),
-                    ));
-                }
-            }
-            match what {
-                For::Csv => {
-                    if g.channel.is_some() || g.window_nm.is_some() {
-                        let k = if g.channel.is_some() { "channel" } else { "window_nm" };
-                        return Err(err(
-                            key(k),
-                            "channel and window_nm belong to --format enlight; a CSV grating has `column` and `unit`"
-                                .into(),
-                        ));
-                    }
-                    if g.column.is_none() {
-                        return Err(err(key("column"), "missing: the column holding this grating's wavelength".into()));
-                    }
-                    let Some(u) = g.unit else {
-                        return Err(err(
-                            key("unit"),
-                            "missing: one of nm, pm (absolute wavelengths), shift_pm, shift_nm (shifts)".into(),
-                        ));
-                    };
-                    if u.is_shift() && g.ref_nm.is_some() {
-                        return Err(err(
-                            key("ref_nm"),
-                            format!("the column holds shifts (unit {}), so it has no reference wavelength", u.name()),
-                        ));
-                    }
-                }
-                For::Enlight => {
-                    if g.column.is_some() || g.unit.is_some() {
-                        let k = if g.column.is_some() { "column" } else { "unit" };
-                        return Err(err(key(k), "column and unit belong to --format csv; an ENLIGHT grating has `channel` and `window_nm` (peaks are in [enlight] unit)".into()));
-                    }
-                    let Some(c) = g.channel else {
-                        return Err(err(key("channel"), "missing: the interrogator channel (1-based)".into()));
-                    };
-                    if c == 0 {
-                        return Err(err(key("channel"), "channels are numbered from 1".into()));
-                    }
-                    let Some([lo, hi]) = g.window_nm else {
-                        return Err(err(
-                            key("window_nm"),
-                            "missing: [lo, hi] in nm around the grating's wavelength".into(),
-                        ));
-                    };
-                    if !(NM_RANGE.0..=NM_RANGE.1).contains(&lo) || !(NM_RANGE.0..=NM_RANGE.1).contains(&hi) || lo >= hi
-                    {
-                        return Err(err(
-                            key("window_nm"),
-                            format!("[{lo}, {hi}] is not a window [lo < hi] in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1),
-                        ));
-                    }
-                    if let Some(r) = g.ref_nm {
-                        if r < lo || r > hi {
-                            return Err(err(
-                                key("ref_nm"),
-                                format!("{r} nm lies outside the grating's window [{lo}, {hi}] nm"),
-                            ));
-                        }
-                    }
-                    for (j, o) in self.grating.iter().enumerate().take(i) {
-                        if let (Some(oc), Some([olo, ohi])) = (o.channel, o.window_nm) {
-                            if oc == c && lo <= ohi && olo <= hi {
-                                return Err(err(
-                                    key("window_nm"),
-                                    format!(
-                                        "[{lo}, {hi}] overlaps grating[{}].window_nm [{olo}, {ohi}] on channel {c}",
-                                        j + 1
-                                    ),
-                                ));
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        if what == For::Enlight {
-            if let Some(u) = self.enlight.unit {
-                if u.is_shift() {
-                    return Err(err("enlight.unit".into(), "ENLIGHT peaks are absolute wavelengths: nm or pm".into()));
-                }
-            }
-            if self.enlight.channels == Some(0) {
-                return Err(err("enlight.channels".into(), "at least one channel".into()));
-            }
         }
         Ok(())
     }
@@ -390,6 +334,73 @@ pub(crate) fn delimiter(s: &str) -> Result<u8, String> {
         "tab" | "\t" | "\\t" => Ok(b'\t'),
         s if s.len() == 1 && s.is_ascii() && s != "\"" && s != "\n" && s != "\r" => Ok(s.as_bytes()[0]),
         other => Err(format!("`{other}` is not a one-character delimiter (`,`, `;`, `\\t` or `tab`, `|`)")),
+    }
+}
+
+impl GratingMap {
+    /// A logger CSV's grating: a column and its unit. Errors are (key within the grating,
+    /// message).
+    fn validate_csv(&self) -> Result<(), (&'static str, String)> {
+        if self.channel.is_some() || self.window_nm.is_some() {
+            let k = if self.channel.is_some() { "channel" } else { "window_nm" };
+            return Err((
+                k,
+                "channel and window_nm belong to --format enlight; a CSV grating has `column` and `unit`".into(),
+            ));
+        }
+        if self.column.is_none() {
+            return Err(("column", "missing: the column holding this grating's wavelength".into()));
+        }
+        let Some(u) = self.unit else {
+            return Err(("unit", "missing: one of nm, pm (absolute wavelengths), shift_pm, shift_nm (shifts)".into()));
+        };
+        if u.is_shift() && self.ref_nm.is_some() {
+            return Err((
+                "ref_nm",
+                format!("the column holds shifts (unit {}), so it has no reference wavelength", u.name()),
+            ));
+        }
+        Ok(())
+    }
+
+    /// An ENLIGHT grating: a channel and a wavelength window that overlaps none of the
+    /// `earlier` gratings' on that channel. Errors are (key within the grating, message).
+    fn validate_enlight(&self, earlier: &[GratingMap]) -> Result<(), (&'static str, String)> {
+        if self.column.is_some() || self.unit.is_some() {
+            let k = if self.column.is_some() { "column" } else { "unit" };
+            return Err((k, "column and unit belong to --format csv; an ENLIGHT grating has `channel` and `window_nm` (peaks are in [enlight] unit)".into()));
+        }
+        let Some(c) = self.channel else {
+            return Err(("channel", "missing: the interrogator channel (1-based)".into()));
+        };
+        if c == 0 {
+            return Err(("channel", "channels are numbered from 1".into()));
+        }
+        let Some([lo, hi]) = self.window_nm else {
+            return Err(("window_nm", "missing: [lo, hi] in nm around the grating's wavelength".into()));
+        };
+        if !(NM_RANGE.0..=NM_RANGE.1).contains(&lo) || !(NM_RANGE.0..=NM_RANGE.1).contains(&hi) || lo >= hi {
+            return Err((
+                "window_nm",
+                format!("[{lo}, {hi}] is not a window [lo < hi] in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1),
+            ));
+        }
+        if let Some(r) = self.ref_nm {
+            if r < lo || r > hi {
+                return Err(("ref_nm", format!("{r} nm lies outside the grating's window [{lo}, {hi}] nm")));
+            }
+        }
+        for (j, o) in earlier.iter().enumerate() {
+            if let (Some(oc), Some([olo, ohi])) = (o.channel, o.window_nm) {
+                if oc == c && lo <= ohi && olo <= hi {
+                    return Err((
+                        "window_nm",
+                        format!("[{lo}, {hi}] overlaps grating[{}].window_nm [{olo}, {ohi}] on channel {c}", j + 1),
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 }
 

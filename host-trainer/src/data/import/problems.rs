@@ -75,7 +75,7 @@ impl Reason {
 }
 
 /// How many line numbers each reason keeps for the summary.
-pub const FIRST_LINES: usize = 5;
+pub(crate) const FIRST_LINES: usize = 5;
 
 /// One reason's count and its first line numbers.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
@@ -155,7 +155,7 @@ impl Problems {
 
     /// Under `skip`, a column whose values mostly fail the unit check is declared in the wrong
     /// unit: refuse it rather than skip most of the file.
-    pub fn refuse_wrong_unit_columns(&self) -> Result<(), TrainerError> {
+    pub(crate) fn refuse_wrong_unit_columns(&self) -> Result<(), TrainerError> {
         for (count, first) in self.units.values() {
             if *count * 2 > self.rows_read {
                 return Err(TrainerError::data(
@@ -184,4 +184,36 @@ impl Problems {
             by_reason: self.by_reason.clone(),
         }
     }
+}
+
+/// Under `--on-error skip`, a file that loses more than `max` of its rows is not imported: so
+/// large a loss means a wrong map or a damaged export, not a few bad rows.
+pub(super) fn refuse_too_many_skipped(skips: &[FileSkips], max: f64) -> Result<(), TrainerError> {
+    for f in skips {
+        if f.rows_read == 0 || (f.rows_skipped as f64) <= max * f.rows_read as f64 {
+            continue;
+        }
+        let reasons: Vec<String> = f
+            .by_reason
+            .iter()
+            .map(|(r, c)| {
+                let lines: Vec<String> = c.first_lines.iter().map(u64::to_string).collect();
+                let more = if c.count > c.first_lines.len() { ", …" } else { "" };
+                format!("{} × {} (lines {}{more})", c.count, r.as_str(), lines.join(", "))
+            })
+            .collect();
+        return Err(TrainerError::Config {
+            origin: f.file.clone(),
+            key: "--max-skipped".into(),
+            message: format!(
+                "{} of {} rows ({:.1} %) would be skipped as bad, more than the {} % allowed: {}; nothing written (fix the export or the map, or raise --max-skipped)",
+                f.rows_skipped,
+                f.rows_read,
+                100.0 * f.rows_skipped as f64 / f.rows_read as f64,
+                100.0 * max,
+                reasons.join(", ")
+            ),
+        });
+    }
+    Ok(())
 }

@@ -241,7 +241,7 @@ impl TimeParser {
 
     /// The same parser reading seconds with a decimal comma (if `decimal_comma`) and numeric
     /// dates as `dmy` says.
-    pub fn with_locale(mut self, decimal_comma: bool, dmy: Dmy) -> Self {
+    pub(crate) fn with_locale(mut self, decimal_comma: bool, dmy: Dmy) -> Self {
         self.decimal_comma = decimal_comma;
         self.dmy = dmy;
         self
