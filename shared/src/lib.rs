@@ -14,7 +14,8 @@
 //! - [`crc32c`]: the CRC-32/ISCSI of blobs and link frames;
 //! - [`signature`]: the signature trailer of a signed blob (layout, parse, the signed message;
 //!   Ed25519 verification with the `verify` feature);
-//! - [`compensator`]: per-sample inference with band and flags;
+//! - [`compensator`]: per-sample inference with band and flags: an immutable
+//!   [`PreparedModel`] stepped over a stream's [`StreamState`], or the two as a [`Compensator`];
 //! - [`flags`]: the fault flags;
 //! - [`protocol`]: the COBS-framed postcard messages of the host ↔ device serial link;
 //! - [`golden`]: the byte layout of the golden samples and packs the device is tested with.
@@ -51,6 +52,7 @@
 #[cfg(test)]
 extern crate std;
 
+mod affine;
 pub mod blob;
 pub mod clock;
 pub mod compensator;
@@ -68,12 +70,12 @@ pub mod real;
 pub mod signature;
 
 pub use clock::StreamClock;
-pub use compensator::{Compensator, Estimate, Sample, StreamState};
+pub use compensator::{Compensator, Estimate, PreparedModel, Sample, StreamState};
 pub use direction_latch::{ticks, DirectionLatch, LatchBank};
 pub use error::Error;
 pub use field::{FieldContext, ZeroSource};
 pub use flags::{Flags, UnknownFlags};
 pub use layout::FeatureSet;
-pub use memory::{MemoryBank, MemoryGroup, MemorySpec, MemoryState};
+pub use memory::{MemoryBank, MemoryGroup, MemoryOperators, MemorySpec, MemoryState};
 pub use model::{Centre, Hyper, ModelParams, Provenance};
 pub use real::Real;
