@@ -16,14 +16,14 @@ use std::path::Path;
 use std::time::Instant;
 
 use fbg_shared::layout::Dims;
-use fbg_shared::{DirectionLatch, Estimate, Flags};
+use fbg_shared::{DirectionLatch, Estimate, Flags, PreparedModel, StreamState};
 
 use crate::data::{Dataset, Measurand, Row, RowReader, Split, MAX_GRATINGS, MAX_MEASURANDS};
 use crate::error::TrainerError;
 use crate::eval::metrics::{Metrics, SelectionSummary, StaticFidelity, Table2};
 use crate::eval::score::{self, ChannelMetrics, ModelEval, HYSTERESIS_INDEX_DEAD_BAND_PM};
 use crate::fit::static_fidelity::{StaticAudit, AUDIT_MAX_ROWS};
-use crate::fit::{self, HostCompensator, HostParams};
+use crate::fit::{self, HostParams, HOST_CAP};
 
 /// The flags counted per model, as [`score::score`] counts them.
 const BITS: [Flags; 4] = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::IMPLAUSIBLE];
@@ -60,7 +60,9 @@ struct OutputSums {
 /// A model stepped over the record with its running sums.
 struct ModelRun {
     dims: Dims,
-    comp: Box<HostCompensator>,
+    model: Box<PreparedModel<f64, HOST_CAP>>,
+    /// The model's stream over the record.
+    state: StreamState<f64>,
     outputs: Vec<OutputSums>,
     flag_counts: [usize; 4],
     flagged: usize,
@@ -69,8 +71,9 @@ struct ModelRun {
 
 impl ModelRun {
     fn new(params: &HostParams, header: &Dataset) -> Result<ModelRun, TrainerError> {
-        let mut comp = Box::new(HostCompensator::new(params).map_err(|e| TrainerError::fit(e.to_string()))?);
-        comp.set_clock(header.calibration_clock(params));
+        let model = Box::new(PreparedModel::new(params).map_err(|e| TrainerError::fit(e.to_string()))?);
+        let mut state = StreamState::new();
+        model.set_clock(&mut state, header.calibration_clock(params));
         let outputs = params
             .dims
             .outputs()
@@ -86,7 +89,7 @@ impl ModelRun {
                 segments: [Segments::default(); MAX_GRATINGS],
             })
             .collect();
-        Ok(ModelRun { dims: params.dims, comp, outputs, flag_counts: [0; 4], flagged: 0, n: 0 })
+        Ok(ModelRun { dims: params.dims, model, state, outputs, flag_counts: [0; 4], flagged: 0, n: 0 })
     }
 
     /// Add a counted row's estimate; `dirs`: every grating's latch at this row.
@@ -273,12 +276,12 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
                 *a += v;
             }
             for m in &mut models {
-                let e = m.comp.step(&s);
+                let e = m.model.step(&mut m.state, &s);
                 m.add(&e, row, &dirs[..n_g]);
             }
         } else {
             for m in &mut models {
-                m.comp.advance(&s);
+                m.model.advance(&mut m.state, &s);
             }
         }
     })?;
