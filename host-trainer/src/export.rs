@@ -59,7 +59,7 @@ pub fn blob_crc(bytes: &[u8]) -> Option<(u32, u32)> {
 /// Bytes left after a blob that end in a signature trailer this build cannot read (unknown
 /// version, reserved byte set, ...) are named as that trailer's problem, not as extra bytes.
 pub fn blob_error_text(bytes: &[u8], e: &fbg_shared::Error) -> String {
-    if let (fbg_shared::Error::TrailingBytes { .. }, Err(trailer)) = (e, fbg_shared::signature::open(bytes)) {
+    if let (fbg_shared::Error::TrailingBytes { .. }, Err(trailer)) = (e, fbg_shared::container::open(bytes)) {
         return trailer.to_string();
     }
     match (e, blob_crc(bytes)) {

@@ -602,7 +602,7 @@ fn an_unloaded_compensator_is_usable() {
     // All-zero bytes: no centres, no output fitted, latches that have seen nothing.
     let mut comp = std::boxed::Box::new(unloaded::<K>());
     assert_eq!(comp.n_centres(), 0);
-    assert_eq!(comp.latch_values(), [0.0; 8]);
+    assert_eq!(comp.state().latch_values(), [0.0; 8]);
     // No model: no output, and every sample (its gratings are not the model's none) is
     // answered as non-finite.
     let e = comp.step(&samples(1)[0]);
@@ -662,9 +662,9 @@ fn a_failed_load_keeps_the_old_model_and_its_stream_state() {
     let mut corrupt = other_model();
     corrupt[50] ^= 1;
     for bad in [tiny_sigma, corrupt] {
-        let before = mem.comp.latch_values();
+        let before = mem.comp.state().latch_values();
         assert!(load(&Kernel::LIBRARY, &mut mem.comp, &bad).is_err());
-        assert_eq!(mem.comp.latch_values(), before);
+        assert_eq!(mem.comp.state().latch_values(), before);
     }
     for x in &s[20..] {
         assert_eq!(format!("{:?}", mem.comp.step(x)), format!("{:?}", reference.step(x)));
@@ -796,9 +796,9 @@ fn a_failed_load_keeps_the_memory_state() {
     let mut p = params(&mem_blob);
     p.hyper.sigma = 1e-38; // parses, does not fold in f32
     let tiny_sigma = encode(&p);
-    let before = mem.comp.stream_state();
+    let before = *mem.comp.state();
     assert!(load_blob(&Kernel::LIBRARY, &mut mem.comp, &tiny_sigma).is_err());
-    assert_eq!(mem.comp.stream_state(), before);
+    assert_eq!(*mem.comp.state(), before);
     for x in &s[40..] {
         assert_eq!(format!("{:?}", mem.comp.step(x)), format!("{:?}", reference.step(x)));
     }

@@ -4,7 +4,7 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 
-use fbg_shared::{blob, signature};
+use fbg_shared::blob;
 use fbg_trainer::export;
 use fbg_trainer::fit::HostParams;
 use fbg_trainer::sign;
@@ -14,7 +14,7 @@ pub fn run(path: &Path, pubkey: Option<&Path>, json: bool) -> Result<()> {
     let file = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
     // The whole blob (CRC first) before the header, so corruption is named as such.
     let p: HostParams = export::read_blob(path)?;
-    let bytes = signature::strip(&file);
+    let bytes = fbg_shared::container::strip(&file);
     let header = blob::Header::parse(bytes)
         .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), export::blob_error_text(bytes, &e)))?;
     let crc = export::blob_crc(bytes).map(|(c, _)| format!("{c:08x}")).unwrap_or_default();
