@@ -7,7 +7,7 @@
 //! - [`layout`]: fixed dimensions and the feature layout;
 //! - [`direction_latch`]: the stateful hysteresis-aware feature;
 //! - [`memory`]: the instrument's memory, causal operators whose terms enter Model-H linearly;
-//! - [`model`]: the auditable parameters a blob carries; [`field`]: what a field reading needs
+//! - [`model`]: the auditable parameters a blob carries, within [`bounds`]; [`field`]: what a field reading needs
 //!   (each grating's zero λ_ref, the calibration's absolute clock, the output envelope);
 //! - [`clock`]: how a stream's sample times give the band's lead time;
 //! - [`blob`]: the `.fbgm` codec (magic, version, dims, postcard payload, CRC-32);
@@ -55,6 +55,7 @@ extern crate std;
 
 mod affine;
 pub mod blob;
+pub mod bounds;
 pub mod clock;
 pub mod compensator;
 pub mod container;
