@@ -2,6 +2,8 @@
 
 #![allow(dead_code)] // each test crate uses its own share
 
+pub mod blob;
+
 use fbg_shared::{Compensator, Estimate, FeatureSet, Flags, ModelParams, Sample};
 use fbg_testkit::models::{memory_model, model, short_provenance, some_memory_spec};
 use fbg_testkit::Rng;
