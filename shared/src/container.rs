@@ -12,8 +12,7 @@
 
 use crate::frame::{computed_crc, stored_crc, CRC_LEN, HEADER_LEN};
 use crate::signature::{
-    magic_at, SignatureError, Signed, TrailerHead, SIGNATURE_LEN, TRAILER_LEN, TRAILER_V2_LEN,
-    TRAILER_VERSION_ROLLBACK,
+    magic_at, SignatureError, Signed, TrailerHead, SIGNATURE_LEN, TRAILER_LEN, TRAILER_V2_LEN, TRAILER_VERSION_ROLLBACK,
 };
 
 /// What a model file is, signature-wise ([`open`]).

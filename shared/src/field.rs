@@ -155,8 +155,8 @@ impl FieldContext {
                 return Err(Error::BadParameter { field: "field.lambda_ref_nm" });
             }
         }
-        use crate::bounds::{INPUT_MAX, OUTPUT_MAX, TIME_MAX, UNIX_MAX_S};
         use crate::bounds::within;
+        use crate::bounds::{INPUT_MAX, OUTPUT_MAX, TIME_MAX, UNIX_MAX_S};
         if !(within(self.lambda_ref_tol_pm, INPUT_MAX) && self.lambda_ref_tol_pm >= 0.0) {
             return Err(Error::BadParameter { field: "field.lambda_ref_tol_pm" });
         }

@@ -9,18 +9,13 @@
 mod common;
 
 use common::blob::*;
-use fbg_shared::blob::{
-    self, decode, encode, max_len, max_len_for, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN,
-};
+use fbg_shared::blob::{self, decode, encode, max_len, max_len_for, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};
 use fbg_shared::layout::paper::{MEM_AMBIENT, MEM_OBSERVER, MEM_STOP, N_MEMORY};
 use fbg_shared::layout::{pad, pad2, Dims, MAX_GRATINGS, MAX_MEMORY, MAX_OUTPUTS};
 use fbg_shared::{
-    Centre, Compensator, Error, FeatureSet, FieldContext, Hyper, MemorySpec, ModelParams, Provenance,
-    ZeroSource,
+    Centre, Compensator, Error, FeatureSet, FieldContext, Hyper, MemorySpec, ModelParams, Provenance, ZeroSource,
 };
-use fbg_testkit::models::{
-    any_model, encode_vec, long_provenance, model, short_provenance,
-};
+use fbg_testkit::models::{any_model, encode_vec, long_provenance, model, short_provenance};
 
 // ---------------------------------------------------------------------------------------------
 // Round trips and lengths

@@ -9,14 +9,10 @@
 mod common;
 
 use common::blob::*;
-use fbg_shared::blob::{
-    self, decode, decode_split, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN,
-};
+use fbg_shared::blob::{self, decode, decode_split, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};
 use fbg_shared::layout::paper::{MEM_OBSERVER, MEM_STOP};
 use fbg_shared::layout::{pad, Dims, Output, Quantity, MAX_OUTPUTS};
-use fbg_shared::{
-    Compensator, Error, FeatureSet, ModelParams, Sample,
-};
+use fbg_shared::{Compensator, Error, FeatureSet, ModelParams, Sample};
 use fbg_testkit::models::{
     any_model, encode_vec, full_memory_spec, long_provenance, memory_model, model, short_provenance,
 };

@@ -11,7 +11,9 @@ use common::{bits, irregular, memory_params, params, run, sample, to64, K};
 use fbg_shared::layout::paper::N_MEMORY;
 use fbg_shared::layout::{Dims, MAX_MEMORY};
 use fbg_shared::{Compensator, Error, FeatureSet, Flags, MemoryBank, ModelParams};
-use fbg_testkit::models::{encode_vec, full_memory_spec, long_provenance, memory_model, short_provenance, some_memory_spec};
+use fbg_testkit::models::{
+    encode_vec, full_memory_spec, long_provenance, memory_model, short_provenance, some_memory_spec,
+};
 
 /// The first used grating high-pass of [`some_memory_spec`] (τ slot 1, grating 0).
 const MEM_FIRST_ACTIVE: usize = 3;

@@ -7,8 +7,8 @@
 use fbg_shared::blob;
 use fbg_shared::container::{open, Envelope};
 use fbg_shared::signature::{
-    key_id, verify, verify_message, KeyId, SignFlags, SignatureError, TrailerHead, TrustedKey,
-    SIGNATURE_LEN, TRAILER_LEN,
+    key_id, verify, verify_message, KeyId, SignFlags, SignatureError, TrailerHead, TrustedKey, SIGNATURE_LEN,
+    TRAILER_LEN,
 };
 
 fn hex(s: &str) -> Vec<u8> {

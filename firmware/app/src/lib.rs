@@ -54,11 +54,11 @@ use embedded_hal::digital::{OutputPin, PinState};
 use embedded_io::{Read, Write};
 pub use embedded_storage::nor_flash::NorFlash;
 use fbg_shared::blob;
+use fbg_shared::container::{self, Envelope};
 use fbg_shared::protocol::{
     encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, RejectReason, Rejection, Status,
     UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
-use fbg_shared::container::{self, Envelope};
 use fbg_shared::signature::{self, KeyId, SignatureError, TrustedKey};
 use fbg_shared::{Compensator, Estimate, Sample};
 pub use staging::{MappedFlash, Staging};

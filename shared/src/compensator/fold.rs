@@ -113,4 +113,3 @@ impl<F: Real> Folded<F> {
         pc
     }
 }
-

@@ -131,7 +131,12 @@ pub(super) fn weak<F: Real, const K: usize>(
 }
 
 #[inline(never)]
-fn psi_max_pass<F: Real, const K: usize>(centres: &Vec<PreparedCentre<F>, K>, z: &[F; ZP], z_sq: F, groups: usize) -> F {
+fn psi_max_pass<F: Real, const K: usize>(
+    centres: &Vec<PreparedCentre<F>, K>,
+    z: &[F; ZP],
+    z_sq: F,
+    groups: usize,
+) -> F {
     let mut m = F::ZERO;
     for c in centres.iter() {
         m = m.max(psi_of::<F>(c, z, z_sq, groups));

@@ -34,7 +34,12 @@ pub struct StreamState<F> {
 impl<F: Real> StreamState<F> {
     /// A stream that has seen no sample, on an unknown clock: all zero bytes.
     pub const fn new() -> Self {
-        StreamState { latches: LatchBank::new(), memory: MemoryState::new(), clock: StreamClock::Unknown, lead_offset_s: None }
+        StreamState {
+            latches: LatchBank::new(),
+            memory: MemoryState::new(),
+            clock: StreamClock::Unknown,
+            lead_offset_s: None,
+        }
     }
 
     /// Forget the samples (direction latches, memory operators) before a new acquisition; the

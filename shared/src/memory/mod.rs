@@ -27,9 +27,9 @@ mod spec;
 mod state;
 
 pub use bank::MemoryBank;
-pub use operators::MemoryOperators;
-pub use state::MemoryState;
 pub use drift_observer::DriftObserver;
 pub use low_pass::{smoothing_factor, LowPass};
+pub use operators::MemoryOperators;
 pub use play::Play;
 pub use spec::{MemoryGroup, MemorySpec, TermInfo};
+pub use state::MemoryState;
