@@ -31,16 +31,19 @@ use crate::real::Real;
 ///
 /// `K` is the centre capacity (see [`PreparedModel`]).
 #[derive(Clone, Debug)]
+// The state first: the step reaches it, the latches and the memory operators' state, with
+// short offsets from the compensator's address (the model behind it is several KiB).
+#[repr(C)]
 pub struct Compensator<F, const K: usize> {
-    model: PreparedModel<F, K>,
     state: StreamState<F>,
+    model: PreparedModel<F, K>,
 }
 
 impl<F: Real, const K: usize> Compensator<F, K> {
     /// A compensator for `params` (any scalar type and capacity), validated and folded
     /// ([`PreparedModel::new`]), on a stream that has seen no sample.
     pub fn new<G: Real, const K2: usize>(params: &ModelParams<G, K2>) -> Result<Self, Error> {
-        Ok(Compensator { model: PreparedModel::new(params)?, state: StreamState::new() })
+        Ok(Compensator { state: StreamState::new(), model: PreparedModel::new(params)? })
     }
 
     /// A compensator with no model loaded, usable in a `static` that [`Compensator::reload`]
@@ -48,7 +51,7 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// all zero bytes. Until a model is loaded it has no output (0 gratings, M = 0) and answers
     /// every sample as non-finite.
     pub const fn unloaded() -> Self {
-        Compensator { model: PreparedModel::unloaded(), state: StreamState::new() }
+        Compensator { state: StreamState::new(), model: PreparedModel::unloaded() }
     }
 
     /// Replace the model in place, atomically: `params` is validated and every folded number
