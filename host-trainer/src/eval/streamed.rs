@@ -232,6 +232,36 @@ fn counted(row: &Row, n_refs: usize, ambient: bool) -> bool {
     row.split == Split::Holdout && row.usable(n_refs, ambient)
 }
 
+/// The second pass over the record at `data`: the sums about the means of the counted rows
+/// (`shape`: references, ambient input, gratings).
+fn second_pass(
+    data: &Path,
+    bar: &indicatif::ProgressBar,
+    (n_refs, ambient, n_g): (usize, bool, usize),
+    mean_ref: &[f64; MAX_MEASURANDS],
+    mean_dl: &[f64; MAX_GRATINGS],
+) -> Result<Shared, TrainerError> {
+    let mut shared = Shared { ss_tot: [-0.0; MAX_MEASURANDS], cross: [[[0.0; 3]; MAX_GRATINGS]; MAX_MEASURANDS] };
+    let rows = RowReader::open(data)?;
+    let offset = rows.file_len();
+    for_each_row(rows, bar, offset, |row| {
+        if !counted(row, n_refs, ambient) {
+            return;
+        }
+        let refs = row.refs.iter().zip(mean_ref).zip(shared.ss_tot.iter_mut().zip(&mut shared.cross));
+        for ((&t, &my), (ss_tot, cross)) in refs.take(n_refs) {
+            *ss_tot += (t - my).powi(2);
+            for ((&x, &mx), sums) in row.dl_pm.iter().zip(mean_dl).zip(cross.iter_mut()).take(n_g) {
+                let (dx, dy) = (x - mx, t - my);
+                sums[0] += dx * dy;
+                sums[1] += dx * dx;
+                sums[2] += dy * dy;
+            }
+        }
+    })?;
+    Ok(shared)
+}
+
 /// `evaluate --quick` of the baseline `p` and the model `h` on the record at `data` (which has
 /// no simulation sidecar: no oracle floor, no pace study), streamed. The evaluation's warnings
 /// are in; `train`'s are the caller's to merge, as for
@@ -294,24 +324,7 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
     let nf = n as f64;
     let mean_ref = sum_ref.map(|s| s / nf);
     let mean_dl = sum_dl.map(|s| s / nf);
-    let mut shared = Shared { ss_tot: [-0.0; MAX_MEASURANDS], cross: [[[0.0; 3]; MAX_GRATINGS]; MAX_MEASURANDS] };
-    let rows = RowReader::open(data)?;
-    let offset = rows.file_len();
-    for_each_row(rows, &bar, offset, |row| {
-        if !counted(row, n_refs, ambient) {
-            return;
-        }
-        let refs = row.refs.iter().zip(&mean_ref).zip(shared.ss_tot.iter_mut().zip(&mut shared.cross));
-        for ((&t, &my), (ss_tot, cross)) in refs.take(n_refs) {
-            *ss_tot += (t - my).powi(2);
-            for ((&x, &mx), sums) in row.dl_pm.iter().zip(&mean_dl).zip(cross.iter_mut()).take(n_g) {
-                let (dx, dy) = (x - mx, t - my);
-                sums[0] += dx * dy;
-                sums[1] += dx * dx;
-                sums[2] += dy * dy;
-            }
-        }
-    })?;
+    let shared = second_pass(data, &bar, (n_refs, ambient, n_g), &mean_ref, &mean_dl)?;
     bar.finish_and_clear();
     let [ep, eh] = [models[0].eval(&shared, n_g), models[1].eval(&shared, n_g)];
     let m = eh.channels.len();
