@@ -8,7 +8,7 @@ use crate::real::Real;
 /// position, the observer and the last sample time (sized to the capacity of [`MAX_GRATINGS`]
 /// gratings); `Copy`, so a stream can be checkpointed and resumed.
 ///
-/// It also carries the smoothing factors of the last Δt ([`Smoothing`]), a cache that the
+/// It also carries the smoothing factors of the last Δt, a cache that the
 /// operators fill and that changes no value: it is neither packed nor compared.
 ///
 /// [`MemoryOperators`]: crate::memory::MemoryOperators
