@@ -47,6 +47,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     }
 
     /// The shared part of the reloads: `n` centres, `centres()` yields them (each time anew).
+    #[inline(always)]
     fn reload_parts<G: Real, const K2: usize, I: Iterator<Item = Centre<G>>>(
         &mut self,
         params: &ModelParams<G, K2>,
@@ -61,6 +62,9 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
 
     /// `params` folded in this precision, or why it cannot serve: more than `K` centres, or a
     /// folded number (centres included) that overflows.
+    // Inlined, as the two halves below: one frame for a load, with one folded copy (a device
+    // loads with little stack to spare).
+    #[inline(always)]
     fn checked<G: Real, const K2: usize, I: Iterator<Item = Centre<G>>>(
         params: &ModelParams<G, K2>,
         n: usize,
@@ -94,6 +98,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     }
 
     /// Write a model [`PreparedModel::checked`] accepted (its `centres` at most `K`).
+    #[inline(always)]
     fn write<G: Real, const K2: usize>(
         &mut self,
         params: &ModelParams<G, K2>,
@@ -151,6 +156,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
 
     /// The envelope and each output's plausible range and band limit (±∞ and ∞ for an output
     /// the model does not have or did not fit).
+    #[inline(always)]
     fn write_bounds<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) {
         let n_env = params.dims.envelope_len();
         let m_out = params.dims.n_outputs();
