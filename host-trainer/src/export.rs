@@ -19,6 +19,18 @@ use crate::warning::Warning;
 /// here, and it is decoded again before it is returned: a model the decoder (so a device, and
 /// `sign`) would refuse, e.g. a coefficient beyond its plausibility bound
 /// (`fbg_shared::model::bounds`), is an error naming the field, never a file.
+///
+/// ```
+/// use fbg_trainer::export::{blob_bytes, read_blob};
+/// // The model the firmware ships with, read and validated into the host's f64 form ...
+/// let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/model/default.fbgm");
+/// let model = read_blob(&path)?;
+/// // ... and encoded again: the same blob, byte for byte (f32 -> f64 -> f32 is exact; a
+/// // signature trailer, if the file has one, is not part of the blob).
+/// let file = std::fs::read(&path)?;
+/// assert_eq!(blob_bytes(&model)?, fbg_shared::container::strip(&file));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn blob_bytes(p: &HostParams) -> Result<Vec<u8>, TrainerError> {
     let refused =
         |e: fbg_shared::Error| TrainerError::fit(format!("the trained model would not decode as a blob: {e}"));
@@ -59,7 +71,7 @@ pub fn blob_crc(bytes: &[u8]) -> Option<(u32, u32)> {
 /// Bytes left after a blob that end in a signature trailer this build cannot read (unknown
 /// version, reserved byte set, ...) are named as that trailer's problem, not as extra bytes.
 pub fn blob_error_text(bytes: &[u8], e: &fbg_shared::Error) -> String {
-    if let (fbg_shared::Error::TrailingBytes { .. }, Err(trailer)) = (e, fbg_shared::signature::open(bytes)) {
+    if let (fbg_shared::Error::TrailingBytes { .. }, Err(trailer)) = (e, fbg_shared::container::open(bytes)) {
         return trailer.to_string();
     }
     match (e, blob_crc(bytes)) {

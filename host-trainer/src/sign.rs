@@ -41,9 +41,10 @@ use std::path::{Path, PathBuf};
 use ed25519_dalek::pkcs8::{DecodePrivateKey, EncodePrivateKey};
 use ed25519_dalek::{Signer as _, SigningKey};
 use fbg_shared::signature::{
-    self, key_id, Envelope, KeyId, SignFlags, TrailerHead, PUBLIC_KEY_LEN, SIGNATURE_LEN, TRAILER_V2_HEAD_LEN,
+    self, key_id, KeyId, SignFlags, TrailerHead, PUBLIC_KEY_LEN, SIGNATURE_LEN, TRAILER_V2_HEAD_LEN,
 };
 use serde::{Deserialize, Serialize};
+use fbg_shared::container::Envelope;
 
 use crate::data::files::write_bytes_atomically;
 use crate::error::TrainerError;
@@ -410,7 +411,7 @@ impl BlobSigner {
     /// [`Self::sign`] with a given serial (no state involved). A rollback (the options'
     /// `replaces`) is written as a version-2 trailer, anything else as version 1.
     pub(crate) fn sign_with_serial(&self, blob: &[u8], serial: u64) -> (Vec<u8>, SignatureRecord) {
-        let blob = signature::strip(blob);
+        let blob = fbg_shared::container::strip(blob);
         let replaces = self.opts.replaces.filter(|_| self.opts.allow_rollback);
         let flags = if replaces.is_some() { SignFlags::ALLOW_ROLLBACK } else { SignFlags::NONE };
         let head = TrailerHead { flags, serial, key_id: self.id, replaces };
@@ -444,7 +445,7 @@ pub struct SignatureCheck {
 pub fn check(bytes: &[u8], public: Option<&[u8; PUBLIC_KEY_LEN]>) -> SignatureCheck {
     let trusted = public.map(|p| signature::TrustedKey { id: key_id(p), public: *p });
     let checked_key_id = trusted.map(|t| t.id.to_string());
-    match signature::open(bytes) {
+    match fbg_shared::container::open(bytes) {
         Ok(Envelope::Unsigned(_)) => SignatureCheck {
             signed: false,
             record: None,

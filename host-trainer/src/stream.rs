@@ -249,7 +249,7 @@ pub fn run(opts: &StreamOptions) -> Result<StreamReport, TrainerError> {
     })?;
     let model = read_blob(&opts.model)?;
     // A signed model's digest is its blob's CRC, before the signature trailer.
-    let crc = fbg_shared::blob::stored_crc(fbg_shared::signature::strip(&bytes)).unwrap_or(0);
+    let crc = fbg_shared::blob::stored_crc(fbg_shared::container::strip(&bytes)).unwrap_or(0);
     let data = Dataset::read_csv(&opts.data)?;
     data.inputs_for(&model.dims, &opts.data.display().to_string(), "stream")?;
     let m = model.dims.n_outputs();

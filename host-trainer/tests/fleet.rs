@@ -266,7 +266,7 @@ fn status_reports_done_failed_stale_and_missing() {
 /// signs redoes groups finished unsigned; the same key again skips them).
 #[test]
 fn a_signing_manifest_signs_every_blob_with_its_own_serial() {
-    use fbg_shared::signature::{self, Envelope};
+    use fbg_shared::{container::Envelope, signature};
     let d = tempfile::tempdir().unwrap();
     let key = d.path().join("keys/lab.key");
     fbg_trainer::sign::keygen(&key).unwrap();
@@ -287,7 +287,9 @@ fn a_signing_manifest_signs_every_blob_with_its_own_serial() {
     for g in &m.groups {
         for blob in [g.out.clone(), g.baseline_path()] {
             let bytes = std::fs::read(&blob).unwrap();
-            let Envelope::Signed(s) = signature::open(&bytes).unwrap() else { panic!("{} unsigned", blob.display()) };
+            let Envelope::Signed(s) = fbg_shared::container::open(&bytes).unwrap() else {
+                panic!("{} unsigned", blob.display())
+            };
             assert_eq!(signature::verify(&s, &trusted), Ok(()), "{}", blob.display());
             serials.push(s.head.serial);
         }

@@ -6,7 +6,8 @@
 use std::path::Path;
 use std::process::Command;
 
-use fbg_shared::signature::{self, key_id, Envelope, SignFlags, SignatureError, TrustedKey};
+use fbg_shared::container::{self, Envelope};
+use fbg_shared::signature::{self, key_id, SignFlags, SignatureError, TrustedKey};
 use fbg_trainer::sign::{self, BlobSigner, SignOptions};
 
 const TINY: &[u8] = include_bytes!("../../shared/tests/golden/tiny_v4.fbgm");
@@ -76,7 +77,7 @@ fn a_blob_signed_by_the_trainer_verifies_on_the_device_code_path() {
     let (signed, rec) = signer.sign(TINY).unwrap();
     assert_eq!((rec.serial, rec.key_id.as_str(), rec.allow_rollback), (1, lab.id.to_string().as_str(), false));
     // The device's path: open the trailer, look the key up, verify with the firmware's verifier.
-    let Envelope::Signed(s) = signature::open(&signed).unwrap() else { panic!("no trailer") };
+    let Envelope::Signed(s) = container::open(&signed).unwrap() else { panic!("no trailer") };
     assert_eq!(s.blob, TINY, "the blob before the trailer is the unsigned blob, byte for byte");
     assert_eq!(signature::verify(&s, &[lab]), Ok(()));
     // The blob still decodes as before (host use of signed blobs).
@@ -84,7 +85,7 @@ fn a_blob_signed_by_the_trainer_verifies_on_the_device_code_path() {
     // One payload bit flipped after signing: refused.
     let mut t = signed.clone();
     t[40] ^= 0x08;
-    let Envelope::Signed(s) = signature::open(&t).unwrap() else { panic!() };
+    let Envelope::Signed(s) = container::open(&t).unwrap() else { panic!() };
     assert_eq!(signature::verify(&s, &[lab]), Err(SignatureError::BadSignature));
     // Re-signing replaces the signature (the trailer is not stacked).
     let (again, rec2) = signer.sign(&signed).unwrap();
@@ -101,7 +102,7 @@ fn a_blob_signed_by_the_trainer_verifies_on_the_device_code_path() {
     };
     let (down, rec3) = BlobSigner::load(&rb).unwrap().sign(TINY).unwrap();
     assert_eq!((rec3.serial, rec3.allow_rollback, rec3.replaces), (1, true, Some(2)));
-    let Envelope::Signed(s) = signature::open(&down).unwrap() else { panic!() };
+    let Envelope::Signed(s) = container::open(&down).unwrap() else { panic!() };
     assert!(s.head.flags.contains(SignFlags::ALLOW_ROLLBACK));
     assert_eq!((s.head.replaces, s.head.rollback_of()), (Some(2), Some(2)));
     assert_eq!(down.len(), TINY.len() + signature::TRAILER_V2_LEN);

@@ -30,8 +30,9 @@
 //! low and high and the largest band (M f32 each).
 //!
 //! The blob must be exactly `22 + n` bytes long: nothing may follow the CRC, except the
-//! signature trailer of a signed model ([`crate::signature`]), which decoding skips (it does
-//! not verify it: that is the device's policy, [`crate::signature::verify`]).
+//! signature trailer of a signed model ([`crate::signature`]), which decoding skips
+//! ([`crate::container::strip`]; it does not verify it: that is the device's policy,
+//! [`crate::signature::verify`]).
 //!
 //! Version history: 1 had no memory terms (no memory field in the header, no memory spec or
 //! Γ in the payload); 2 adds them, for the fixed paper layout (3 gratings, ambient, T/ε/p);
@@ -75,10 +76,7 @@ use crate::model::{Centre, ModelParams};
 pub const MAGIC: [u8; 4] = *b"FBGM";
 /// Format version this build writes and reads.
 pub const FORMAT_VERSION: u16 = 4;
-/// Header length in bytes (magic, version, six dims).
-pub const HEADER_LEN: usize = 18;
-/// CRC trailer length in bytes.
-pub const CRC_LEN: usize = 4;
+pub use crate::frame::{computed_crc, stored_crc, CRC_LEN, HEADER_LEN};
 
 /// The fixed-size header of a blob.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -202,36 +200,6 @@ impl Header {
         }
         out
     }
-}
-
-/// The CRC trailer `bytes` carries: its last four bytes, little-endian, which identify a
-/// model (a device reports the active model by it). Unchecked; `None` when `bytes` is shorter
-/// than a trailer.
-///
-/// ```
-/// use fbg_shared::blob::{computed_crc, stored_crc};
-/// let mut blob = [0u8; 22];
-/// blob[18..].copy_from_slice(&0x1234_5678u32.to_le_bytes());
-/// assert_eq!(stored_crc(&blob), Some(0x1234_5678));
-/// assert_ne!(computed_crc(&blob), stored_crc(&blob)); // not a valid blob
-/// assert_eq!(computed_crc(&blob[..21]), None); // shorter than a header and a trailer
-/// assert_eq!(stored_crc(&blob[..3]), None);
-/// ```
-pub fn stored_crc(bytes: &[u8]) -> Option<u32> {
-    let tail = bytes.get(bytes.len().checked_sub(CRC_LEN)?..)?;
-    let mut t = [0u8; CRC_LEN];
-    if tail.len() != t.len() {
-        return None;
-    }
-    t.copy_from_slice(tail);
-    Some(u32::from_le_bytes(t))
-}
-
-/// The CRC-32/ISCSI of everything in `bytes` but the trailer: what [`stored_crc`] is for an
-/// intact blob. `None` when `bytes` is shorter than a header and a trailer.
-pub fn computed_crc(bytes: &[u8]) -> Option<u32> {
-    let at = bytes.len().checked_sub(CRC_LEN).filter(|&at| at >= HEADER_LEN)?;
-    bytes.get(..at).map(crc32c)
 }
 
 fn saturate_u16(v: usize) -> u16 {
@@ -468,7 +436,7 @@ fn decode_checked<'a, const K: usize, const K2: usize>(
     store: bool,
 ) -> Result<Parsed<'a>, Error> {
     // A signed model is a blob followed by its signature trailer: the blob is what is decoded.
-    let bytes = crate::signature::strip(bytes);
+    let bytes = crate::container::strip(bytes);
     let header = Header::read(bytes)?;
     header.check_version()?;
     let (head, body) = bytes.split_at_checked(HEADER_LEN).ok_or(Error::Truncated { part: "header" })?;

@@ -138,7 +138,7 @@ impl FieldContext {
 
     /// Check the numbers for `dims`: a known λ_ref is a plausible wavelength (100–10 000 nm),
     /// an unknown one 0; the tolerance, lead and bands finite, ≥ 0 and within their
-    /// [`crate::model::bounds`]; the end of calibration finite and within ±`UNIX_MAX_S`; each
+    /// [`crate::bounds`]; the end of calibration finite and within ±`UNIX_MAX_S`; each
     /// fitted output's envelope ordered and within ±`OUTPUT_MAX`.
     pub fn validate(&self, dims: &Dims, fitted: &[bool; MAX_OUTPUTS]) -> Result<(), Error> {
         let n = dims.gratings();
@@ -155,8 +155,8 @@ impl FieldContext {
                 return Err(Error::BadParameter { field: "field.lambda_ref_nm" });
             }
         }
-        use crate::model::bounds::{INPUT_MAX, OUTPUT_MAX, TIME_MAX, UNIX_MAX_S};
-        use crate::model::within;
+        use crate::bounds::within;
+        use crate::bounds::{INPUT_MAX, OUTPUT_MAX, TIME_MAX, UNIX_MAX_S};
         if !(within(self.lambda_ref_tol_pm, INPUT_MAX) && self.lambda_ref_tol_pm >= 0.0) {
             return Err(Error::BadParameter { field: "field.lambda_ref_tol_pm" });
         }

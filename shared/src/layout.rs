@@ -202,6 +202,15 @@ impl Dims {
         ],
     };
 
+    /// No model: 0 gratings and outputs, all zero bytes (what an unloaded compensator holds,
+    /// so that a `static` of it stays in `.bss`). Not a valid model's dims.
+    pub(crate) const NONE: Dims = Dims {
+        gratings: 0,
+        ambient: false,
+        n_outputs: 0,
+        outputs: [Output { quantity: Quantity::Temperature, index: 0 }; MAX_OUTPUTS],
+    };
+
     /// Dims for `gratings` gratings, with or without ambient, and `outputs` in output order.
     /// A count beyond the capacity is [`Error::OverCapacity`] naming both; zero gratings or
     /// outputs, an output index of 0 or the same output twice is [`Error::BadParameter`].

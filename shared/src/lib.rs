@@ -7,14 +7,16 @@
 //! - [`layout`]: fixed dimensions and the feature layout;
 //! - [`direction_latch`]: the stateful hysteresis-aware feature;
 //! - [`memory`]: the instrument's memory, causal operators whose terms enter Model-H linearly;
-//! - [`model`]: the auditable parameters a blob carries; [`field`]: what a field reading needs
+//! - [`model`]: the auditable parameters a blob carries, within [`bounds`]; [`field`]: what a field reading needs
 //!   (each grating's zero λ_ref, the calibration's absolute clock, the output envelope);
 //! - [`clock`]: how a stream's sample times give the band's lead time;
 //! - [`blob`]: the `.fbgm` codec (magic, version, dims, postcard payload, CRC-32);
+//! - [`container`]: a model file, a blob with or without a signature trailer, split;
 //! - [`crc32c`]: the CRC-32/ISCSI of blobs and link frames;
 //! - [`signature`]: the signature trailer of a signed blob (layout, parse, the signed message;
 //!   Ed25519 verification with the `verify` feature);
-//! - [`compensator`]: per-sample inference with band and flags;
+//! - [`compensator`]: per-sample inference with band and flags: an immutable
+//!   [`PreparedModel`] stepped over a stream's [`StreamState`], or the two as a [`Compensator`];
 //! - [`flags`]: the fault flags;
 //! - [`protocol`]: the COBS-framed postcard messages of the host ↔ device serial link;
 //! - [`golden`]: the byte layout of the golden samples and packs the device is tested with.
@@ -51,14 +53,18 @@
 #[cfg(test)]
 extern crate std;
 
+mod affine;
 pub mod blob;
+pub mod bounds;
 pub mod clock;
 pub mod compensator;
+pub mod container;
 pub mod crc32c;
 pub mod direction_latch;
 pub mod error;
 pub mod field;
 pub mod flags;
+mod frame;
 pub mod golden;
 pub mod layout;
 pub mod memory;
@@ -68,12 +74,12 @@ pub mod real;
 pub mod signature;
 
 pub use clock::StreamClock;
-pub use compensator::{Compensator, Estimate, Sample, StreamState};
+pub use compensator::{Compensator, Estimate, PreparedModel, Sample, StreamState};
 pub use direction_latch::{ticks, DirectionLatch, LatchBank};
 pub use error::Error;
 pub use field::{FieldContext, ZeroSource};
 pub use flags::{Flags, UnknownFlags};
 pub use layout::FeatureSet;
-pub use memory::{MemoryBank, MemoryGroup, MemorySpec, MemoryState};
+pub use memory::{MemoryBank, MemoryGroup, MemoryOperators, MemorySpec, MemoryState};
 pub use model::{Centre, Hyper, ModelParams, Provenance};
 pub use real::Real;

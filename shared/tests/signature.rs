@@ -5,9 +5,10 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
 
 use fbg_shared::blob;
+use fbg_shared::container::{open, Envelope};
 use fbg_shared::signature::{
-    key_id, open, verify, verify_message, Envelope, KeyId, SignFlags, SignatureError, TrailerHead, TrustedKey,
-    SIGNATURE_LEN, TRAILER_LEN,
+    key_id, verify, verify_message, KeyId, SignFlags, SignatureError, TrailerHead, TrustedKey, SIGNATURE_LEN,
+    TRAILER_LEN,
 };
 
 fn hex(s: &str) -> Vec<u8> {

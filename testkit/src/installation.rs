@@ -179,43 +179,10 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
     let dead_band = 2.0;
     // A calibration run: centres are picked among its standardised inputs (as k-means++
     // would), so they sit where data is.
-    let cal: Vec<Sample<f32>> = (0..2000).map(|i| simulate(i, &mut rng)).collect();
-    let mut latches = LatchBank::new();
-    let db_ticks = fbg_shared::direction_latch::ticks(dead_band);
-    let zs: Vec<[f64; Z_DIMS]> = cal
-        .iter()
-        .map(|s| {
-            let dl = s.dl_pm.map(f64::from);
-            let l = latches.update(&dl, 3, db_ticks);
-            z_raw(s, [l[0], l[1], l[2]])
-        })
-        .collect();
-    let nf = zs.len() as f64;
-    let mut sc = Scaler { mean: [0.0; Z_DIMS], std: [1.0; Z_DIMS] };
-    for d in 0..Z_DIMS {
-        let m = zs.iter().map(|z| z[d]).sum::<f64>() / nf;
-        let v = zs.iter().map(|z| (z[d] - m).powi(2)).sum::<f64>() / nf;
-        sc.mean[d] = m;
-        sc.std[d] = if v > 0.0 { v.sqrt() } else { 1.0 };
-    }
+    let (n_cal, zs, sc) = calibration_run(&mut rng, dead_band);
     let fs = FeatureSet::HysteresisAware;
     let active = fs.active();
-
-    let mut centres: heapless::Vec<Centre<f64>, MAX_K> = heapless::Vec::new();
-    for j in 0..k {
-        let src = &zs[(j * zs.len() / k.max(1) + 37) % zs.len()];
-        let mut c = Centre::<f64>::default();
-        for d in 0..Z_DIMS {
-            if active[d] {
-                c.mu[d] = ((src[d] - sc.mean[d]) / sc.std[d] + 0.1 * rng.normal()).clamp(-2.5, 2.5);
-            }
-        }
-        c.w = pad(&[0.05 * rng.normal(), 2.0 * rng.normal(), 0.5 * rng.normal()]);
-        for v in c.v.iter_mut() {
-            *v = rng.normal() / (k.max(1) as f64).sqrt();
-        }
-        centres.push(c).map_err(|_| Error::TooManyCentres { found: k, capacity: MAX_K })?;
-    }
+    let centres = pick_centres(k, &zs, &sc, &active, &mut rng)?;
 
     // Stage 1: the exact inverse of the nominal gauge matrix plus a small T_amb term.
     let inv = inverse3(&GAUGE);
@@ -239,15 +206,7 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
         }
     }
     let margin = 0.1;
-    let mut envelope_lo = [0.0; 4];
-    let mut envelope_hi = [0.0; 4];
-    for d in 0..4 {
-        let lo = zs.iter().map(|z| z[d]).fold(f64::INFINITY, f64::min);
-        let hi = zs.iter().map(|z| z[d]).fold(f64::NEG_INFINITY, f64::max);
-        let pad = margin * (hi - lo);
-        envelope_lo[d] = lo - pad;
-        envelope_hi[d] = hi + pad;
-    }
+    let (envelope_lo, envelope_hi) = envelope(&zs, margin);
     let var_inv_g = [0.8, 0.5, 0.3, 0.2];
     debug_assert_eq!(var_inv_g.len(), VAR_RANK);
     let params = ModelParams::<f64, MAX_K> {
@@ -285,7 +244,7 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
             scenario: heapless::String::try_from("synthetic-fixture").unwrap_or_default(),
             trainer_version: heapless::String::try_from("xtask").unwrap_or_default(),
             date_yyyymmdd: 20260101,
-            n_cal: cal.len() as u32,
+            n_cal,
         },
         field: fbg_shared::FieldContext {
             lambda_ref_nm: pad(&[1535.0, 1545.0, 1555.0]),
@@ -304,6 +263,73 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
     params.gamma = small_gamma(&params.memory, Q_STD, seed ^ 0x6d65_6d6f);
     params.validate()?;
     Ok(params)
+}
+
+/// A simulated calibration run of 2000 samples: its raw RBF inputs (latches with `dead_band`
+/// \[pm\]) and their scaler; the run's length.
+fn calibration_run(rng: &mut Rng, dead_band: f64) -> (u32, Vec<[f64; Z_DIMS]>, Scaler) {
+    let cal: Vec<Sample<f32>> = (0..2000).map(|i| simulate(i, rng)).collect();
+    let mut latches = LatchBank::new();
+    let db_ticks = fbg_shared::direction_latch::ticks(dead_band);
+    let zs: Vec<[f64; Z_DIMS]> = cal
+        .iter()
+        .map(|s| {
+            let dl = s.dl_pm.map(f64::from);
+            let l = latches.update(&dl, 3, db_ticks);
+            z_raw(s, [l[0], l[1], l[2]])
+        })
+        .collect();
+    let nf = zs.len() as f64;
+    let mut sc = Scaler { mean: [0.0; Z_DIMS], std: [1.0; Z_DIMS] };
+    for d in 0..Z_DIMS {
+        let m = zs.iter().map(|z| z[d]).sum::<f64>() / nf;
+        let v = zs.iter().map(|z| (z[d] - m).powi(2)).sum::<f64>() / nf;
+        sc.mean[d] = m;
+        sc.std[d] = if v > 0.0 { v.sqrt() } else { 1.0 };
+    }
+    (cal.len() as u32, zs, sc)
+}
+
+/// `k` centres among the standardised inputs `zs` (jittered, on the `active` inputs), with
+/// random weights and variance components.
+fn pick_centres(
+    k: usize,
+    zs: &[[f64; Z_DIMS]],
+    sc: &Scaler,
+    active: &[bool; Z_DIMS],
+    rng: &mut Rng,
+) -> Result<heapless::Vec<Centre<f64>, MAX_K>, Error> {
+    let mut centres: heapless::Vec<Centre<f64>, MAX_K> = heapless::Vec::new();
+    for j in 0..k {
+        let src = &zs[(j * zs.len() / k.max(1) + 37) % zs.len()];
+        let mut c = Centre::<f64>::default();
+        for d in 0..Z_DIMS {
+            if active[d] {
+                c.mu[d] = ((src[d] - sc.mean[d]) / sc.std[d] + 0.1 * rng.normal()).clamp(-2.5, 2.5);
+            }
+        }
+        c.w = pad(&[0.05 * rng.normal(), 2.0 * rng.normal(), 0.5 * rng.normal()]);
+        for v in c.v.iter_mut() {
+            *v = rng.normal() / (k.max(1) as f64).sqrt();
+        }
+        centres.push(c).map_err(|_| Error::TooManyCentres { found: k, capacity: MAX_K })?;
+    }
+    Ok(centres)
+}
+
+/// The input envelope of the first four raw inputs (Δλ1..3, T_amb) of `zs`, widened by
+/// `margin` of the range on each side.
+fn envelope(zs: &[[f64; Z_DIMS]], margin: f64) -> ([f64; 4], [f64; 4]) {
+    let mut envelope_lo = [0.0; 4];
+    let mut envelope_hi = [0.0; 4];
+    for d in 0..4 {
+        let lo = zs.iter().map(|z| z[d]).fold(f64::INFINITY, f64::min);
+        let hi = zs.iter().map(|z| z[d]).fold(f64::NEG_INFINITY, f64::max);
+        let pad = margin * (hi - lo);
+        envelope_lo[d] = lo - pad;
+        envelope_hi[d] = hi + pad;
+    }
+    (envelope_lo, envelope_hi)
 }
 
 /// `p` without memory terms (spec off, Γ = 0).

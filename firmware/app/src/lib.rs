@@ -54,11 +54,12 @@ use embedded_hal::digital::{OutputPin, PinState};
 use embedded_io::{Read, Write};
 pub use embedded_storage::nor_flash::NorFlash;
 use fbg_shared::blob;
+use fbg_shared::container::{self, Envelope};
 use fbg_shared::protocol::{
     encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, RejectReason, Rejection, Status,
     UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
-use fbg_shared::signature::{self, Envelope, KeyId, SignatureError, TrustedKey};
+use fbg_shared::signature::{self, KeyId, SignatureError, TrustedKey};
 use fbg_shared::{Compensator, Estimate, Sample};
 pub use staging::{MappedFlash, Staging};
 
@@ -142,7 +143,7 @@ pub fn authenticate<'b>(
     bytes: &'b [u8],
     running: Option<&ModelInfo>,
 ) -> Result<(&'b [u8], Signer), Rejection> {
-    let signed = match signature::open(bytes)? {
+    let signed = match container::open(bytes)? {
         Envelope::Signed(s) => s,
         Envelope::Unsigned(_) => return Err(SignatureError::Unsigned.into()),
     };
@@ -185,7 +186,7 @@ pub fn boot<const K: usize>(
         let (blob, s) = authenticate(policy, bytes, None)?;
         (blob, Some(s))
     } else {
-        match signature::open(bytes) {
+        match container::open(bytes) {
             Ok(Envelope::Signed(s)) => (s.blob, Some(Signer { serial: s.head.serial, key_id: s.head.key_id })),
             _ => (bytes, None),
         }

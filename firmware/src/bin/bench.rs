@@ -126,6 +126,115 @@ fn measure(f: impl FnOnce()) -> (u32, u32) {
     (systick_elapsed(t0, t1), c1.wrapping_sub(c0))
 }
 
+/// The sizes of the device's types, in the line `cargo xtask device-bench` reads.
+fn emit_sizes(uart: &mut CmsdkUart) {
+    use core::mem::size_of;
+    emit(
+        uart,
+        format_args!(
+            "sizes k={} memory_state={} stream_state={} memory_bank={} compensator={} model_params={} reader={} staging={}",
+            K,
+            size_of::<MemoryState<f32>>(),
+            size_of::<StreamState<f32>>(),
+            size_of::<MemoryBank<f32>>(),
+            size_of::<Compensator<f32, K>>(),
+            size_of::<ModelParams<f32, 0>>(),
+            size_of::<FrameReader<HOST_MAX_FRAME>>(),
+            STAGING_LEN
+        ),
+    );
+}
+
+/// One signature check of the embedded signed model, with the stack it reached (nothing
+/// without one).
+fn bench_verify(uart: &mut CmsdkUart) {
+    if SIGNED.is_empty() {
+        return;
+    }
+    // Painted again first, so that the peak is the check's own (plus this frame).
+    stack::repaint();
+    let base = stack::peak_bytes();
+    let mut ok = false;
+    let (t, c) = measure(|| ok = black_box(authenticate(&POLICY, black_box(SIGNED), None)).is_ok());
+    emit(
+        uart,
+        format_args!(
+            "verify bytes={} ok={} ticks={} cycles={} stack_before={} stack_peak={}",
+            SIGNED.len(),
+            ok as u8,
+            t,
+            c,
+            base,
+            stack::peak_bytes()
+        ),
+    );
+    stack::repaint();
+}
+
+/// Load record `idx` of the pack into `comp`, copy its samples into `buf` and time the step
+/// over them in every mode.
+fn bench_model(
+    uart: &mut CmsdkUart,
+    idx: usize,
+    rec: &fbg_shared::golden::Record<'_>,
+    comp: &mut Compensator<f32, K>,
+    buf: &mut [Sample<f32>; MAX_SAMPLES],
+) {
+    let info = match load_blob(&KERNEL, comp, rec.blob) {
+        Ok(x) => x,
+        Err(r) => {
+            emit(uart, format_args!("error model {} rejected: {} (detail {})", idx, r.reason.describe(), r.detail));
+            exit_failure()
+        }
+    };
+    let mut n_samples = 0;
+    for (dst, s) in buf.iter_mut().zip(rec.iter()) {
+        *dst = s;
+        n_samples += 1;
+    }
+    if n_samples == 0 {
+        emit(uart, format_args!("error no samples for model {}", idx));
+        exit_failure()
+    }
+    let samples = buf.get(..n_samples).unwrap_or(&[]);
+    // One pass lasts from the first time stamp to the last plus one more step.
+    let period = match samples {
+        [first, .., before, last] => last.t_s - first.t_s + (last.t_s - before.t_s),
+        _ => 60.0,
+    };
+    emit(
+        uart,
+        format_args!(
+            "model idx={} k={} centres={} memory={} crc={:#010x} samples={} period={}",
+            idx,
+            K,
+            info.centres,
+            comp.has_memory() as u8,
+            info.crc,
+            n_samples,
+            period
+        ),
+    );
+    for (mode, jitter) in MODES {
+        let replay = Replay { samples, period, jitter };
+        // Warm up once (first-touch effects do not exist here, but keep runs identical).
+        comp.reset();
+        step_loop(comp, &replay, 8);
+        for n in RUNS {
+            comp.reset();
+            let (te, ce) = measure(|| empty_loop(&replay, n));
+            let (ts, cs) = measure(|| step_loop(comp, &replay, n));
+            emit(
+                uart,
+                format_args!(
+                    "run idx={} mode={} n={} empty_ticks={} step_ticks={} empty_cycles={} step_cycles={}",
+                    idx, mode, n, te, ts, ce, cs
+                ),
+            );
+        }
+    }
+}
+
 #[entry]
 fn main() -> ! {
     static mut MODEL: Compensator<f32, K> = unloaded();
@@ -142,21 +251,7 @@ fn main() -> ! {
     let Some(mut cp) = cortex_m::Peripherals::take() else { exit_failure() };
     systick_start(&mut cp.SYST);
     let has_cyccnt = cycles_start(&mut cp.DCB, &mut cp.DWT);
-    use core::mem::size_of;
-    emit(
-        &mut uart,
-        format_args!(
-            "sizes k={} memory_state={} stream_state={} memory_bank={} compensator={} model_params={} reader={} staging={}",
-            K,
-            size_of::<MemoryState<f32>>(),
-            size_of::<StreamState<f32>>(),
-            size_of::<MemoryBank<f32>>(),
-            size_of::<Compensator<f32, K>>(),
-            size_of::<ModelParams<f32, 0>>(),
-            size_of::<FrameReader<HOST_MAX_FRAME>>(),
-            STAGING_LEN
-        ),
-    );
+    emit_sizes(&mut uart);
     let (t, c) = measure(|| known_loop(CALIB_ITERS));
     emit(
         &mut uart,
@@ -169,89 +264,13 @@ fn main() -> ! {
             has_cyccnt as u8
         ),
     );
-
-    if !SIGNED.is_empty() {
-        // Painted again first, so that the peak is the check's own (plus this frame).
-        stack::repaint();
-        let base = stack::peak_bytes();
-        let mut ok = false;
-        let (t, c) = measure(|| ok = black_box(authenticate(&POLICY, black_box(SIGNED), None)).is_ok());
-        emit(
-            &mut uart,
-            format_args!(
-                "verify bytes={} ok={} ticks={} cycles={} stack_before={} stack_peak={}",
-                SIGNED.len(),
-                ok as u8,
-                t,
-                c,
-                base,
-                stack::peak_bytes()
-            ),
-        );
-        stack::repaint();
-    }
+    bench_verify(&mut uart);
     for (idx, rec) in fbg_shared::golden::records(PACK).enumerate() {
         let Some(rec) = rec else {
             emit(&mut uart, format_args!("error bench pack malformed at record {}", idx));
             exit_failure()
         };
-        let info = match load_blob(&KERNEL, MODEL, rec.blob) {
-            Ok(x) => x,
-            Err(r) => {
-                emit(
-                    &mut uart,
-                    format_args!("error model {} rejected: {} (detail {})", idx, r.reason.describe(), r.detail),
-                );
-                exit_failure()
-            }
-        };
-        let mut n_samples = 0;
-        for (dst, s) in SAMPLES.iter_mut().zip(rec.iter()) {
-            *dst = s;
-            n_samples += 1;
-        }
-        if n_samples == 0 {
-            emit(&mut uart, format_args!("error no samples for model {}", idx));
-            exit_failure()
-        }
-        let samples = SAMPLES.get(..n_samples).unwrap_or(&[]);
-        // One pass lasts from the first time stamp to the last plus one more step.
-        let period = match samples {
-            [first, .., before, last] => last.t_s - first.t_s + (last.t_s - before.t_s),
-            _ => 60.0,
-        };
-        let comp = &mut *MODEL;
-        emit(
-            &mut uart,
-            format_args!(
-                "model idx={} k={} centres={} memory={} crc={:#010x} samples={} period={}",
-                idx,
-                K,
-                info.centres,
-                comp.has_memory() as u8,
-                info.crc,
-                n_samples,
-                period
-            ),
-        );
-        for (mode, jitter) in MODES {
-            let replay = Replay { samples, period, jitter };
-            // Warm up once (first-touch effects do not exist here, but keep runs identical).
-            comp.reset();
-            step_loop(comp, &replay, 8);
-            for n in RUNS {
-                comp.reset();
-                let (te, ce) = measure(|| empty_loop(&replay, n));
-                let (ts, cs) = measure(|| step_loop(comp, &replay, n));
-                emit(
-                    &mut uart,
-                    format_args!(
-                        "run idx={} mode={} n={} empty_ticks={} step_ticks={} empty_cycles={} step_cycles={}",
-                        idx, mode, n, te, ts, ce, cs
-                    ),
-                );
-            }
-        }
+        bench_model(&mut uart, idx, &rec, MODEL, SAMPLES);
     }
     emit(&mut uart, format_args!("stack peak={} size={}", stack::peak_bytes(), stack::size()));
     emit(&mut uart, format_args!("done"));

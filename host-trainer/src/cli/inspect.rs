@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 
-use fbg_shared::{blob, signature};
+use fbg_shared::blob;
 use fbg_trainer::export;
 use fbg_trainer::fit::HostParams;
 use fbg_trainer::sign;
@@ -45,7 +45,7 @@ impl InspectArgs {
         let file = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
         // The whole blob (CRC first) before the header, so corruption is named as such.
         let params: HostParams = export::read_blob(path)?;
-        let bytes = signature::strip(&file);
+        let bytes = fbg_shared::container::strip(&file);
         let header = blob::Header::parse(bytes)
             .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), export::blob_error_text(bytes, &e)))?;
         let crc = export::blob_crc(bytes).map(|(c, _)| format!("{c:08x}")).unwrap_or_default();
@@ -95,7 +95,7 @@ impl Inspected<'_> {
         serde_json::json!({
             "file": self.path,
             "bytes": self.file.len(),
-            "blob_bytes": signature::strip(&self.file).len(),
+            "blob_bytes": fbg_shared::container::strip(&self.file).len(),
             "crc32": self.crc,
             "header": {"magic": "FBGM", "format_version": header.version, "gratings": header.gratings,
                        "ambient": header.ambient == 1, "measurands": header.measurands, "poly_terms": header.poly_terms,
@@ -111,7 +111,7 @@ impl Inspected<'_> {
         println!(
             "{}: {} bytes, FBGM format v{}, CRC-32 {} (valid)",
             path.display(),
-            signature::strip(&self.file).len(),
+            fbg_shared::container::strip(&self.file).len(),
             header.version,
             self.crc
         );

@@ -16,14 +16,14 @@ use std::path::Path;
 use std::time::Instant;
 
 use fbg_shared::layout::Dims;
-use fbg_shared::{DirectionLatch, Estimate, Flags};
+use fbg_shared::{DirectionLatch, Estimate, Flags, PreparedModel, StreamState};
 
 use crate::data::{Dataset, Measurand, Row, RowReader, Split, MAX_GRATINGS, MAX_MEASURANDS};
 use crate::error::TrainerError;
 use crate::eval::metrics::{Metrics, SelectionSummary, StaticFidelity, Table2};
 use crate::eval::score::{self, ChannelMetrics, ModelEval, HYSTERESIS_INDEX_DEAD_BAND_PM};
 use crate::fit::static_fidelity::{StaticAudit, AUDIT_MAX_ROWS};
-use crate::fit::{HostCompensator, HostParams};
+use crate::fit::{self, HostParams, HOST_CAP};
 
 /// The flags counted per model, as [`score::score`] counts them.
 const BITS: [Flags; 4] = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::IMPLAUSIBLE];
@@ -60,7 +60,9 @@ struct OutputSums {
 /// A model stepped over the record with its running sums.
 struct ModelRun {
     dims: Dims,
-    comp: Box<HostCompensator>,
+    model: Box<PreparedModel<f64, HOST_CAP>>,
+    /// The model's stream over the record.
+    state: StreamState<f64>,
     outputs: Vec<OutputSums>,
     flag_counts: [usize; 4],
     flagged: usize,
@@ -69,8 +71,9 @@ struct ModelRun {
 
 impl ModelRun {
     fn new(params: &HostParams, header: &Dataset) -> Result<ModelRun, TrainerError> {
-        let mut comp = Box::new(HostCompensator::new(params).map_err(|e| TrainerError::fit(e.to_string()))?);
-        comp.set_clock(header.calibration_clock(params));
+        let model = Box::new(PreparedModel::new(params).map_err(|e| TrainerError::fit(e.to_string()))?);
+        let mut state = StreamState::new();
+        model.set_clock(&mut state, header.calibration_clock(params));
         let outputs = params
             .dims
             .outputs()
@@ -86,7 +89,7 @@ impl ModelRun {
                 segments: [Segments::default(); MAX_GRATINGS],
             })
             .collect();
-        Ok(ModelRun { dims: params.dims, comp, outputs, flag_counts: [0; 4], flagged: 0, n: 0 })
+        Ok(ModelRun { dims: params.dims, model, state, outputs, flag_counts: [0; 4], flagged: 0, n: 0 })
     }
 
     /// Add a counted row's estimate; `dirs`: every grating's latch at this row.
@@ -229,6 +232,36 @@ fn counted(row: &Row, n_refs: usize, ambient: bool) -> bool {
     row.split == Split::Holdout && row.usable(n_refs, ambient)
 }
 
+/// The second pass over the record at `data`: the sums about the means of the counted rows
+/// (`shape`: references, ambient input, gratings).
+fn second_pass(
+    data: &Path,
+    bar: &crate::progress::Bar,
+    (n_refs, ambient, n_g): (usize, bool, usize),
+    mean_ref: &[f64; MAX_MEASURANDS],
+    mean_dl: &[f64; MAX_GRATINGS],
+) -> Result<Shared, TrainerError> {
+    let mut shared = Shared { ss_tot: [-0.0; MAX_MEASURANDS], cross: [[[0.0; 3]; MAX_GRATINGS]; MAX_MEASURANDS] };
+    let rows = RowReader::open(data)?;
+    let offset = rows.file_len();
+    for_each_row(rows, bar, offset, |row| {
+        if !counted(row, n_refs, ambient) {
+            return;
+        }
+        let refs = row.refs.iter().zip(mean_ref).zip(shared.ss_tot.iter_mut().zip(&mut shared.cross));
+        for ((&t, &my), (ss_tot, cross)) in refs.take(n_refs) {
+            *ss_tot += (t - my).powi(2);
+            for ((&x, &mx), sums) in row.dl_pm.iter().zip(mean_dl).zip(cross.iter_mut()).take(n_g) {
+                let (dx, dy) = (x - mx, t - my);
+                sums[0] += dx * dy;
+                sums[1] += dx * dx;
+                sums[2] += dy * dy;
+            }
+        }
+    })?;
+    Ok(shared)
+}
+
 /// `evaluate --quick` of the baseline `p` and the model `h` on the record at `data` (which has
 /// no simulation sidecar: no oracle floor, no pace study), streamed. The evaluation's warnings
 /// are in; `train`'s are the caller's to merge, as for
@@ -272,12 +305,12 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
                 *a += v;
             }
             for m in &mut models {
-                let e = m.comp.step(&s);
+                let e = m.model.step(&mut m.state, &s);
                 m.add(&e, row, &dirs[..n_g]);
             }
         } else {
             for m in &mut models {
-                m.comp.advance(&s);
+                m.model.advance(&mut m.state, &s);
             }
         }
     })?;
@@ -290,24 +323,7 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
     let nf = n as f64;
     let mean_ref = sum_ref.map(|s| s / nf);
     let mean_dl = sum_dl.map(|s| s / nf);
-    let mut shared = Shared { ss_tot: [-0.0; MAX_MEASURANDS], cross: [[[0.0; 3]; MAX_GRATINGS]; MAX_MEASURANDS] };
-    let rows = RowReader::open(data)?;
-    let offset = rows.file_len();
-    for_each_row(rows, &bar, offset, |row| {
-        if !counted(row, n_refs, ambient) {
-            return;
-        }
-        let refs = row.refs.iter().zip(&mean_ref).zip(shared.ss_tot.iter_mut().zip(&mut shared.cross));
-        for ((&t, &my), (ss_tot, cross)) in refs.take(n_refs) {
-            *ss_tot += (t - my).powi(2);
-            for ((&x, &mx), sums) in row.dl_pm.iter().zip(&mean_dl).zip(cross.iter_mut()).take(n_g) {
-                let (dx, dy) = (x - mx, t - my);
-                sums[0] += dx * dy;
-                sums[1] += dx * dx;
-                sums[2] += dy * dy;
-            }
-        }
-    })?;
+    let shared = second_pass(data, &bar, (n_refs, ambient, n_g), &mean_ref, &mean_dl)?;
     bar.finish_and_clear();
     let [ep, eh] = [models[0].eval(&shared, n_g), models[1].eval(&shared, n_g)];
     let m = eh.channels.len();

@@ -8,9 +8,10 @@
 //! one sequential pass. Stretch boundaries do not depend on the number of threads and partial
 //! sums are added in stretch order, so every result is the same on any machine and pool size.
 //!
-//! All of it goes through `fbg_shared::Compensator<f64, _>` (`step_with` for estimates,
-//! `core_and_activations` for the ridge system), the code the device runs: the trainer never
-//! implements inference a second time.
+//! All of it goes through `fbg_shared::PreparedModel<f64, _>` stepped over a
+//! `fbg_shared::StreamState` (`step_with` for estimates, `core_and_activations` for the ridge
+//! system), the code the device runs: the trainer never implements inference a second time.
+//! One model serves every stretch; each stretch copies only a stream state.
 
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -18,21 +19,27 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 use fbg_shared::layout::{MAX_GRATINGS, MAX_OUTPUTS};
-use fbg_shared::{Estimate, LatchBank, MemoryState};
+use fbg_shared::{Estimate, LatchBank, MemoryState, PreparedModel, StreamState};
 
-use super::{HostCompensator, HostParams};
+use super::{HostParams, HOST_CAP};
 use crate::data::{Column, Dataset};
 use crate::error::TrainerError;
 
 /// Samples per stretch (the unit of parallel work and of checkpointing).
 pub const STRETCH: usize = 4096;
 
+/// A host model in per-sample form (its stream states are kept apart).
+type HostModel = PreparedModel<f64, HOST_CAP>;
+
+/// A stream state of a host model.
+type HostState = StreamState<f64>;
+
 /// The stream state at the start of every stretch of a record and before chosen samples, for
 /// one way of moving the latches (dead band and finiteness rule, see
-/// [`fbg_shared::Compensator::same_stream`]).
+/// [`fbg_shared::PreparedModel::same_stream`]).
 pub struct Checkpoints {
-    /// A compensator of the kind these states belong to (only its stream rule matters).
-    rule: HostCompensator,
+    /// A model of the kind these states belong to (only its stream rule matters).
+    rule: HostModel,
     /// Sample positions, ascending: every multiple of [`STRETCH`] below `end` and the extra
     /// samples asked for.
     pos: Vec<usize>,
@@ -53,10 +60,11 @@ impl Checkpoints {
     /// at every stretch start and before each of `extra` (sorted ascending): work later asked
     /// of exactly those samples resumes there instead of moving the latches again.
     pub fn new(params: &HostParams, d: &Dataset, end: usize, extra: &[usize]) -> Result<Self, TrainerError> {
-        let mut comp = compensator(params)?;
+        let rule = model(params)?;
+        let mut state = HostState::new();
         let end = end.min(d.len());
-        let gratings = comp.dims().0;
-        let memory_len = if comp.has_memory() { MemoryState::<f64>::packed_len(gratings) } else { 0 };
+        let gratings = params.dims.gratings();
+        let memory_len = if rule.has_memory() { MemoryState::<f64>::packed_len(gratings) } else { 0 };
         let mut pos = Vec::with_capacity(end.div_ceil(STRETCH) + extra.len());
         let mut latches = Vec::with_capacity(pos.capacity());
         let mut memory = Vec::with_capacity(pos.capacity() * memory_len);
@@ -68,7 +76,6 @@ impl Checkpoints {
             }
             if i % STRETCH == 0 || wanted {
                 pos.push(i);
-                let state = comp.stream_state();
                 latches.push(state.latches());
                 if memory_len > 0 {
                     let at = memory.len();
@@ -76,22 +83,23 @@ impl Checkpoints {
                     state.memory().pack(gratings, &mut memory[at..]).map_err(|e| TrainerError::fit(e.to_string()))?;
                 }
             }
-            comp.advance(&d.sample(i));
+            rule.advance(&mut state, &d.sample(i));
         }
-        comp.reset();
-        Ok(Checkpoints { rule: comp, pos, latches, memory, memory_len, end })
+        Ok(Checkpoints { rule, pos, latches, memory, memory_len, end })
     }
 
-    /// Put `comp` (of the same stream rule) in the stream state before sample `pos[j]`.
-    fn resume(&self, comp: &mut HostCompensator, j: usize) -> Result<(), TrainerError> {
+    /// Put `state` (of `model`, of the same stream rule) where the stream was before sample
+    /// `pos[j]`.
+    fn resume(&self, model: &HostModel, state: &mut HostState, j: usize) -> Result<(), TrainerError> {
         let at = j * self.memory_len;
-        comp.set_stream_packed(self.latches[j], &self.memory[at..at + self.memory_len])
+        model
+            .resume_packed(state, self.latches[j], &self.memory[at..at + self.memory_len])
             .map_err(|e| TrainerError::fit(e.to_string()))
     }
 
-    /// Whether these checkpoints serve `comp` up to sample `end`.
-    fn serves(&self, comp: &HostCompensator, end: usize) -> bool {
-        self.rule.same_stream(comp) && end <= self.end
+    /// Whether these checkpoints serve `model` up to sample `end`.
+    fn serves(&self, model: &HostModel, end: usize) -> bool {
+        self.rule.same_stream(model) && end <= self.end
     }
 }
 
@@ -101,8 +109,8 @@ impl Checkpoints {
 pub struct CheckpointCache {
     end: usize,
     extra: Vec<usize>,
-    /// One slot per stream rule, found by [`fbg_shared::Compensator::same_stream`].
-    slots: Mutex<Vec<(HostCompensator, Arc<Slot>)>>,
+    /// One slot per stream rule, found by [`fbg_shared::PreparedModel::same_stream`].
+    slots: Mutex<Vec<(HostModel, Arc<Slot>)>>,
 }
 
 /// One stream rule's checkpoints, computed at most once (the error as text: shared by waiters).
@@ -116,7 +124,7 @@ impl CheckpointCache {
 
     /// Checkpoints for `params` over samples `0..end` of `d`.
     pub fn get(&self, params: &HostParams, d: &Dataset) -> Result<Arc<Checkpoints>, TrainerError> {
-        let rule = compensator(params)?;
+        let rule = model(params)?;
         let slot = {
             let mut slots = self.slots.lock().map_err(|_| TrainerError::fit("checkpoint cache poisoned"))?;
             match slots.iter().find(|(r, _)| r.same_stream(&rule)) {
@@ -134,16 +142,16 @@ impl CheckpointCache {
     }
 }
 
-fn compensator(params: &HostParams) -> Result<HostCompensator, TrainerError> {
-    HostCompensator::new(params).map_err(|e| TrainerError::fit(e.to_string()))
+fn model(params: &HostParams) -> Result<HostModel, TrainerError> {
+    HostModel::new(params).map_err(|e| TrainerError::fit(e.to_string()))
 }
 
 /// What each wanted row is run for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pass {
-    /// `Compensator::step`: the whole estimate (values with the residual, band, flags) and ψ.
+    /// `PreparedModel::step`: the whole estimate (values with the residual, band, flags) and ψ.
     Estimates,
-    /// `Compensator::core_and_activations`: the polynomial core's values and ψ, all a ridge
+    /// `PreparedModel::core_and_activations`: the polynomial core's values and ψ, all a ridge
     /// system needs (about half the work of a step).
     Design,
 }
@@ -199,12 +207,13 @@ fn map_stretches_on<T: Send>(
     f: impl Fn(StretchOut<'_>) -> T + Sync + Send,
 ) -> Result<Vec<T>, TrainerError> {
     debug_assert!(rows.windows(2).all(|w| w[0] < w[1]), "rows must be sorted and distinct");
-    let mut comp = compensator(params)?;
-    comp.set_clock(clock);
+    let model = model(params)?;
+    let mut start = HostState::new();
+    model.set_clock(&mut start, clock);
     let end = rows.last().map(|&i| i + 1).unwrap_or(0);
     let own;
     let ck = match ck {
-        Some(c) if c.serves(&comp, end) => c,
+        Some(c) if c.serves(&model, end) => c,
         _ => {
             own = Checkpoints::new(params, d, end, &[])?;
             &own
@@ -223,7 +232,7 @@ fn map_stretches_on<T: Send>(
         // Buffers reused across the stretches a worker takes (a fresh megabyte per stretch
         // would cost more in page faults than the arithmetic).
         .map_init(Buffers::default, |b, &want| {
-            let mut c = comp.clone();
+            let mut c = start;
             b.psi.clear();
             b.psi.resize(want.len() * k, 0.0);
             b.est.clear();
@@ -239,22 +248,23 @@ fn map_stretches_on<T: Send>(
                 }
                 let p = ck.pos[j];
                 if cur.is_none_or(|c| p > c) {
-                    ck.resume(&mut c, j)?;
+                    ck.resume(&model, &mut c, j)?;
                     cur = Some(p);
                 }
                 // Only the stream state matters for samples nobody asked about.
                 for s in cur.unwrap_or(p)..i {
-                    c.advance(&d.sample(s));
+                    model.advance(&mut c, &d.sample(s));
                 }
                 let row = &mut b.psi[w * k..(w + 1) * k];
                 match pass {
                     Pass::Estimates => {
-                        let e = c.step_with(&d.sample(i), |j, v| row[j] = v);
+                        let e = model.step_with(&mut c, &d.sample(i), |j, v| row[j] = v);
                         b.values.push(e.values);
                         b.est.push(e);
                     }
                     Pass::Design => {
-                        let v = c.core_and_activations(&d.sample(i), row).unwrap_or([f64::NAN; MAX_OUTPUTS]);
+                        let v =
+                            model.core_and_activations(&mut c, &d.sample(i), row).unwrap_or([f64::NAN; MAX_OUTPUTS]);
                         b.values.push(v);
                     }
                 }
@@ -270,10 +280,10 @@ fn map_stretches_on<T: Send>(
 /// the direction latches after each row (the centres, σ and weights play no part in them),
 /// kept so that several RBF layers on one stream ([`Rows::Cached`]) pay for the stream (the
 /// memory bank, the core) once and for each layer only its activations
-/// ([`fbg_shared::Compensator::activations`]).
+/// ([`fbg_shared::PreparedModel::activations`]).
 pub struct CoreStream {
-    /// A compensator of the stream rule these rows were run with.
-    rule: HostCompensator,
+    /// A model of the stream rule these rows were run with.
+    rule: HostModel,
     rows: Vec<usize>,
     values: Vec<[f64; MAX_OUTPUTS]>,
     latches: Vec<[f64; MAX_GRATINGS]>,
@@ -289,7 +299,7 @@ impl CoreStream {
     ) -> Result<Self, TrainerError> {
         let mut core = params.clone();
         core.centres.clear();
-        let rule = compensator(&core)?;
+        let rule = model(&core)?;
         let parts = map_stretches(&core, d, rows, ck, Pass::Design, |o| (o.values.to_vec(), o.latches.to_vec()))?;
         let (mut values, mut latches) = (Vec::with_capacity(rows.len()), Vec::with_capacity(rows.len()));
         for (v, l) in parts {
@@ -299,14 +309,14 @@ impl CoreStream {
         Ok(CoreStream { rule, rows: rows.to_vec(), values, latches })
     }
 
-    /// Whether this stream is `params`' (same stream rule: [`fbg_shared::Compensator::same_stream`]).
+    /// Whether this stream is `params`' (same stream rule: [`fbg_shared::PreparedModel::same_stream`]).
     pub fn serves(&self, params: &HostParams) -> Result<bool, TrainerError> {
-        Ok(self.rule.same_stream(&compensator(params)?))
+        Ok(self.rule.same_stream(&model(params)?))
     }
 }
 
-/// The rows a ridge system or design matrix is built over: run live through the model's
-/// compensator (with checkpoints when at hand), or taken from a [`CoreStream`] of the same
+/// The rows a ridge system or design matrix is built over: run live through the model
+/// (with checkpoints when at hand), or taken from a [`CoreStream`] of the same
 /// stream rule (a stream of another rule is run live, giving the same numbers slower).
 #[derive(Clone, Copy)]
 pub enum Rows<'a> {
@@ -336,8 +346,8 @@ pub fn map_rows<T: Send>(
         Rows::Live(rows, ck) => return map_stretches(params, d, rows, ck, Pass::Design, f),
         Rows::Cached(cs) => cs,
     };
-    let comp = compensator(params)?;
-    if !cs.rule.same_stream(&comp) {
+    let model = model(params)?;
+    if !cs.rule.same_stream(&model) {
         return map_stretches(params, d, &cs.rows, None, Pass::Design, f);
     }
     // The stretches of `map_stretches`, as index ranges into the stream's rows.
@@ -355,7 +365,7 @@ pub fn map_rows<T: Send>(
             psi.resize(r.len() * k, 0.0);
             if k > 0 {
                 for ((row, &i), latch) in psi.chunks_exact_mut(k).zip(&cs.rows[r.clone()]).zip(&cs.latches[r.clone()]) {
-                    comp.activations(&d.sample(i), latch, row);
+                    model.activations(&d.sample(i), latch, row);
                 }
             }
             f(StretchOut {

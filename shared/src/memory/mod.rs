@@ -11,20 +11,25 @@
 //! - [`DriftObserver`]: a smoothed difference between the temperature the gratings imply and
 //!   the thermometer, which follows the interrogator's common drift;
 //! - [`MemorySpec`]: which operators a model uses (its coefficients, in the blob);
-//! - [`MemoryBank`]: all of them over one sample stream, with a state that can be saved and
-//!   resumed ([`MemoryState`]).
+//! - [`MemoryOperators`]: all of them in per-sample form, stepped over a stream's
+//!   [`MemoryState`], which can be saved and resumed;
+//! - [`MemoryBank`]: the operators with the state of one stream.
 //!
 //! Coefficients (τ, r, the observer's row) are kept apart from the state, as idsp does: one
 //! spec can drive any number of streams.
 
-pub(crate) mod bank;
+mod bank;
 mod drift_observer;
 mod low_pass;
+mod operators;
 mod play;
 mod spec;
+mod state;
 
-pub use bank::{MemoryBank, MemoryState};
+pub use bank::MemoryBank;
 pub use drift_observer::DriftObserver;
 pub use low_pass::{smoothing_factor, LowPass};
+pub use operators::MemoryOperators;
 pub use play::Play;
 pub use spec::{MemoryGroup, MemorySpec, TermInfo};
+pub use state::MemoryState;

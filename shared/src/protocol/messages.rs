@@ -2,9 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-#[cfg(doc)]
-use super::framing::crc32;
-use super::reject::RejectReason;
+use super::reject::{RejectReason, Rejection};
 use crate::clock::StreamClock;
 use crate::compensator::{Estimate, Sample};
 use crate::flags::Flags;
@@ -31,7 +29,7 @@ pub enum HostMsg<'a> {
     Sample {
         /// Host sequence number, echoed back.
         seq: u32,
-        /// The measured sample (Δλ1..3 pm, T_amb °C, t s).
+        /// The measured sample (Δλ_1..N pm of the model's N gratings, T_amb °C, t s).
         sample: Sample<f32>,
     },
     /// Start staging a model blob of `total_len` bytes whose CRC-32/ISCSI is `crc32`. Starting
@@ -39,7 +37,7 @@ pub enum HostMsg<'a> {
     ModelBegin {
         /// Blob length in bytes.
         total_len: u32,
-        /// [`crc32`] of the whole blob (transfer check, on top of the blob's own trailer).
+        /// [`super::crc32`] of the whole blob (transfer check, on top of the blob's own trailer).
         crc32: u32,
     },
     /// The next piece of the blob; `offset` must equal the bytes received so far.
@@ -154,19 +152,6 @@ pub enum UpdateResult {
     Rejected(Rejection),
 }
 
-/// Why an update was refused, with a reason-specific detail number.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Rejection {
-    /// Stable reason code.
-    pub reason: RejectReason,
-    /// Detail: found version for `UnsupportedVersion`; `found << 16 | expected` for
-    /// `WrongDims`; extra bytes for `TrailingBytes`; centres for `TooManyCentres`; the length for
-    /// `TooLarge`; the expected offset for `OutOfOrder`; bytes received for `Incomplete`;
-    /// 0 otherwise.
-    pub detail: u32,
-}
-
 /// Device counters and the active model.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Status {
@@ -237,12 +222,5 @@ impl Refusals {
             _ => return,
         };
         *c = c.wrapping_add(1);
-    }
-}
-
-impl Rejection {
-    /// A rejection without detail.
-    pub const fn new(reason: RejectReason) -> Self {
-        Rejection { reason, detail: 0 }
     }
 }

@@ -81,7 +81,6 @@ pub use framing::{
     DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
 pub use messages::{
-    DeviceEstimate, DeviceMsg, HostMsg, Refusals, Rejection, Status, UpdateResult, DEVICE_MAX_PAYLOAD,
-    HOST_MAX_PAYLOAD, MAX_CHUNK,
+    DeviceEstimate, DeviceMsg, HostMsg, Refusals, Status, UpdateResult, DEVICE_MAX_PAYLOAD, HOST_MAX_PAYLOAD, MAX_CHUNK,
 };
-pub use reject::RejectReason;
+pub use reject::{RejectReason, Rejection};

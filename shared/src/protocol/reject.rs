@@ -1,8 +1,8 @@
-//! Stable reason codes of a refused model update, and their mapping from blob errors.
+//! Why a model update was refused: the stable reason codes, the [`Rejection`] sent back, and
+//! their mapping from blob and signature errors.
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use super::messages::Rejection;
 use crate::error::Error;
 use crate::signature::SignatureError;
 
@@ -162,6 +162,26 @@ impl RejectReason {
 impl core::fmt::Display for RejectReason {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(self.describe())
+    }
+}
+
+/// Why an update was refused, with a reason-specific detail number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Rejection {
+    /// Stable reason code.
+    pub reason: RejectReason,
+    /// Detail: found version for `UnsupportedVersion`; `found << 16 | expected` for
+    /// `WrongDims`; extra bytes for `TrailingBytes`; centres for `TooManyCentres`; the length for
+    /// `TooLarge`; the expected offset for `OutOfOrder`; bytes received for `Incomplete`;
+    /// 0 otherwise.
+    pub detail: u32,
+}
+
+impl Rejection {
+    /// A rejection without detail.
+    pub const fn new(reason: RejectReason) -> Self {
+        Rejection { reason, detail: 0 }
     }
 }
 

@@ -39,7 +39,7 @@ pub(super) fn signed_update_test(
 ) -> Result<()> {
     let default = fs::read(firmware::dir(root).join("model/default.fbgm"))?;
     let new = fs::read(&sfx.new)?;
-    let new_blob = fbg_shared::signature::strip(&new).to_vec();
+    let new_blob = fbg_shared::container::strip(&new).to_vec();
     let test_key: [u8; 32] =
         fs::read(&sfx.test_pub)?.try_into().map_err(|_| anyhow::anyhow!("the test public key is not 32 bytes"))?;
     let test_id = fbg_shared::signature::key_id(&test_key);
@@ -144,7 +144,7 @@ pub(super) fn signed_update_test(
 pub(super) fn rollback_test(root: &Path, qemu: &Path, bins: &Bins, sfx: &SignedFixtures) -> Result<()> {
     let default = fs::read(firmware::dir(root).join("model/default.fbgm"))?;
     let new = fs::read(&sfx.new)?;
-    let new_crc = stored_crc(fbg_shared::signature::strip(&new));
+    let new_crc = stored_crc(fbg_shared::container::strip(&new));
     let rollback = fs::read(&sfx.rollback)?;
     let mut s = LinkSession::start(root, qemu, &bins.rollback, "rollback")?;
     let step = |s: &mut LinkSession, what: &str, path: &Path, want: Option<RejectReason>, after: (u64, Option<u32>)| {
@@ -194,7 +194,7 @@ pub(super) fn rollback_test(root: &Path, qemu: &Path, bins: &Bins, sfx: &SignedF
         (st.updates_accepted, st.updates_rejected, st.refused.rollback, st.refused.serial_reused) == (4, 4, 3, 1),
         "after the rollback test: {st:?}"
     );
-    ensure!(rollback.len() == fbg_shared::signature::strip(&rollback).len() + fbg_shared::signature::TRAILER_V2_LEN);
+    ensure!(rollback.len() == fbg_shared::container::strip(&rollback).len() + fbg_shared::signature::TRAILER_V2_LEN);
     s.disconnect()?;
     s.check_alive()?;
     Ok(())

@@ -1,0 +1,180 @@
+//! Loading a model into a [`PreparedModel`]: validated, folded, checked in this precision, and
+//! only then written, so that a refused model leaves the old one serving.
+
+use super::fold::Folded;
+use super::prepared::PreparedModel;
+use crate::error::Error;
+use crate::model::{Centre, ModelParams};
+use crate::real::Real;
+
+impl<F: Real, const K: usize> PreparedModel<F, K> {
+    /// The model of `params` (any scalar type and capacity), validated and folded. Centres
+    /// beyond `K` are an error; so is a model whose folded coefficients overflow this
+    /// precision.
+    pub fn new<G: Real, const K2: usize>(params: &ModelParams<G, K2>) -> Result<Self, Error> {
+        let mut m = Self::unloaded();
+        m.reload(params)?;
+        Ok(m)
+    }
+
+    /// Replace the model in place, atomically: `params` is validated and every folded number
+    /// checked first; on error the old model stays.
+    pub fn reload<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) -> Result<(), Error> {
+        params.validate()?;
+        self.reload_parts(params, params.centres.len(), || params.centres.iter().copied())
+    }
+
+    /// [`PreparedModel::reload`] from a model whose centres are read from elsewhere: `head`
+    /// (validated, e.g. by [`crate::blob::decode_split`], and holding no centres itself) and
+    /// its `centres`, read twice (once to check every folded number, once to write them), one
+    /// at a time. The same folding, the same checks and the same atomicity as `reload`.
+    pub fn reload_split<G: Real, const K2: usize, I: ExactSizeIterator<Item = Centre<G>> + Clone>(
+        &mut self,
+        head: &ModelParams<G, K2>,
+        centres: I,
+    ) -> Result<(), Error> {
+        self.reload_parts(head, centres.len(), || centres.clone())
+    }
+
+    /// Decode a blob ([`crate::blob::decode_split`]: everything but the centres into a
+    /// centre-less parameter slot on this frame, the centres read from `bytes` one at a time)
+    /// and [`PreparedModel::reload_split`] it: what a device does to load a model, with about
+    /// a third of a whole [`ModelParams`] on its stack. Atomic like [`PreparedModel::reload`].
+    pub fn reload_blob(&mut self, bytes: &[u8]) -> Result<(), Error> {
+        let mut head = ModelParams::<f32, 0>::empty();
+        let centres = crate::blob::decode_split::<K>(bytes, &mut head)?;
+        self.reload_split(&head, centres)
+    }
+
+    /// The shared part of the reloads: `n` centres, `centres()` yields them (each time anew).
+    #[inline(always)]
+    fn reload_parts<G: Real, const K2: usize, I: Iterator<Item = Centre<G>>>(
+        &mut self,
+        params: &ModelParams<G, K2>,
+        n: usize,
+        centres: impl Fn() -> I,
+    ) -> Result<(), Error> {
+        let folded = Self::checked(params, n, &centres)?;
+        // From here nothing can fail.
+        self.write(params, &folded, centres());
+        Ok(())
+    }
+
+    /// `params` folded in this precision, or why it cannot serve: more than `K` centres, or a
+    /// folded number (centres included) that overflows.
+    // Inlined, as the two halves below: one frame for a load, with one folded copy (a device
+    // loads with little stack to spare).
+    #[inline(always)]
+    fn checked<G: Real, const K2: usize, I: Iterator<Item = Centre<G>>>(
+        params: &ModelParams<G, K2>,
+        n: usize,
+        centres: &impl Fn() -> I,
+    ) -> Result<Folded<F>, Error> {
+        if n > K {
+            return Err(Error::TooManyCentres { found: n, capacity: K });
+        }
+        // Folding can overflow even when every stored number is finite (e.g. a tiny guess_std
+        // scales stage 1 to infinity in f32): refuse such a model before touching anything.
+        let folded = Folded::<F>::of(params);
+        let dims = params.dims;
+        let active = dims.z_active(params.hyper.feature_set);
+        let f = |v: G| F::from_real(v);
+        let env_ok = params.envelope_lo.iter().chain(params.envelope_hi.iter()).all(|&v| f(v).is_finite());
+        let gamma_ok = params.gamma.iter().all(|r| r.iter().all(|&v| f(v).is_finite()));
+        // A τ or r that overflows this precision would switch its slot off here but not in the
+        // trainer's precision.
+        let memory_ok = params.memory.convert::<F>().validate(&dims).is_ok();
+        if !folded.is_finite()
+            || !env_ok
+            || !gamma_ok
+            || !memory_ok
+            || !centres().all(|c| folded.centre(&c, &active, dims.n_outputs()).is_finite())
+            || !f(params.t_cal_end_s).is_finite()
+            || !F::from_real(params.field.lead_max_s).is_finite()
+        {
+            return Err(Error::BadParameter { field: "folded coefficients (overflow in this precision)" });
+        }
+        Ok(folded)
+    }
+
+    /// Write a model [`PreparedModel::checked`] accepted (its `centres` at most `K`).
+    #[inline(always)]
+    fn write<G: Real, const K2: usize>(
+        &mut self,
+        params: &ModelParams<G, K2>,
+        folded: &Folded<F>,
+        centres: impl Iterator<Item = Centre<G>>,
+    ) {
+        let dims = params.dims;
+        let m_out = dims.n_outputs();
+        let active = dims.z_active(params.hyper.feature_set);
+        self.centres.clear();
+        for c in centres {
+            // Capacity was checked; a failed push cannot happen.
+            let _ = self.centres.push(folded.centre(&c, &active, m_out));
+        }
+        let f = |v: G| F::from_real(v);
+        self.dims = dims;
+        self.gratings = dims.gratings() as u8;
+        self.ambient = dims.ambient();
+        self.outputs = m_out as u8;
+        self.n_poly = dims.poly_len() as u8;
+        self.n_z = dims.z_len() as u8;
+        self.z_groups = dims.z_len().div_ceil(4) as u8;
+        self.a = folded.a;
+        self.b = folded.b;
+        let n_mem = dims.memory_len();
+        for (k, col) in self.gamma.iter_mut().enumerate() {
+            for (i, (o, row)) in col.iter_mut().zip(params.gamma.iter()).enumerate() {
+                *o = match row.get(k) {
+                    Some(&v) if i < m_out && k < n_mem => f(v),
+                    _ => F::ZERO,
+                };
+            }
+        }
+        self.memory = crate::memory::MemoryOperators::new(&params.memory, &dims);
+        self.z_gain = folded.z_gain;
+        self.z_offset = folded.z_offset;
+        self.inv_g_tail = f(params.var_inv_g_tail);
+        self.band_var = folded.band_var;
+        self.band_var_growth = folded.band_var_growth;
+        self.t_cal_end_s = f(params.t_cal_end_s);
+        self.band_grows = params.resid_var_growth.iter().any(|&q| q > G::ZERO);
+        self.cal_end_unix_s = params.field.cal_end_unix_s;
+        self.lead_max_s = F::from_real(params.field.lead_max_s);
+        self.write_bounds(params);
+        let h = &params.hyper;
+        self.weak_support = f(h.weak_support);
+        self.flagged_band_factor = f(h.flagged_band_factor);
+        self.dead_band = crate::direction_latch::ticks(h.dead_band_pm);
+        self.uses_time = h.feature_set.uses_time();
+        self.uses_latch = h.feature_set.uses_latch();
+        for (k, (o, &v)) in self.fitted.iter_mut().zip(params.fitted.iter()).enumerate() {
+            *o = k < m_out && v;
+        }
+    }
+
+    /// The envelope and each output's plausible range and band limit (±∞ and ∞ for an output
+    /// the model does not have or did not fit).
+    #[inline(always)]
+    fn write_bounds<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) {
+        let n_env = params.dims.envelope_len();
+        let m_out = params.dims.n_outputs();
+        for (k, (o, &v)) in self.env_lo.iter_mut().zip(params.envelope_lo.iter()).enumerate() {
+            *o = if k < n_env { F::from_real(v) } else { F::ZERO };
+        }
+        for (k, (o, &v)) in self.env_hi.iter_mut().zip(params.envelope_hi.iter()).enumerate() {
+            *o = if k < n_env { F::from_real(v) } else { F::ZERO };
+        }
+        for (o, ((lo, hi), lim)) in
+            self.out_lo.iter_mut().zip(self.out_hi.iter_mut()).zip(self.band_lim.iter_mut()).enumerate()
+        {
+            let (l, h, b) = if o < m_out && params.fitted.get(o).copied().unwrap_or(false) {
+                params.field.plausible(o)
+            } else {
+                (f32::NEG_INFINITY, f32::INFINITY, f32::INFINITY)
+            };
+            (*lo, *hi, *lim) = (F::from_real(l), F::from_real(h), F::from_real(b));
+        }
+    }
+}

@@ -1,0 +1,31 @@
+//! The per-sample inference (Model-H): polynomial core + memory terms + RBF residual + band +
+//! flags, in the order data flows:
+//!
+//! - [`Sample`] (`sample`): one measured sample, the input;
+//! - `fold`, `load`: loading folds the auditable [`crate::ModelParams`] into a per-sample
+//!   form once, in the model's own precision, every folded number checked before the first is
+//!   written (a refused model leaves the old one serving);
+//! - [`PreparedModel`] (`prepared`, `rbf`): the result, immutable while streams run;
+//! - [`StreamState`] (`state`): what a stream carries from sample to sample (direction
+//!   latches, memory operators' state) and its clock;
+//! - `step`: [`PreparedModel::step`]`(&self, &mut state, &sample)`, only the work that
+//!   depends on the sample;
+//! - [`Estimate`] (`estimate`): the output, values, band and flags;
+//! - [`Compensator`] (`pair`): a model with one stream's state, for a device or a command
+//!   line.
+
+mod estimate;
+mod fold;
+mod load;
+mod pair;
+mod prepared;
+mod rbf;
+mod sample;
+mod state;
+mod step;
+
+pub use estimate::Estimate;
+pub use pair::Compensator;
+pub use prepared::PreparedModel;
+pub use sample::Sample;
+pub use state::StreamState;

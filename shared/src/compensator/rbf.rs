@@ -1,0 +1,145 @@
+//! The RBF layer in per-sample form: the folded centres and the passes over them.
+
+use heapless::Vec;
+
+use crate::layout::{MAX_OUTPUTS, MAX_Z, VAR_RANK};
+use crate::real::Real;
+
+/// RBF inputs in per-sample form: [`MAX_Z`] rounded up to whole groups of four, so that the
+/// distance runs four inputs at a time (the padding is zero in both z and μ: exact).
+pub(super) const ZP: usize = MAX_Z.div_ceil(4) * 4;
+
+/// A centre in per-sample form.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(super) struct PreparedCentre<F> {
+    /// −2μ_j/(σ√2) (0 on unused inputs): ‖z − μ‖² = ‖z‖² + ‖μ‖² + z·(−2μ) in scaled units.
+    pub(super) m2: [F; ZP],
+    /// ‖μ_j/(σ√2)‖².
+    pub(super) mu_sq: F,
+    pub(super) w: [F; MAX_OUTPUTS],
+    /// v_ij · sqrt(1/g_i − 1/g_tail).
+    pub(super) v: [F; VAR_RANK],
+}
+
+impl<F: Real> PreparedCentre<F> {
+    pub(super) fn is_finite(&self) -> bool {
+        let all = |xs: &[F]| xs.iter().all(|v| v.is_finite());
+        all(&self.m2) && self.mu_sq.is_finite() && all(&self.w) && all(&self.v)
+    }
+}
+
+/// What one pass over the centres gives: y + Wψ, the variance projections and ‖ψ‖².
+pub(super) type CentreSums<F> = ([F; MAX_OUTPUTS], [F; VAR_RANK], F);
+
+// Out of line: one copy per variant serves every shape of the step (it does not depend on
+// the dims), with the per-centre work inlined in it.
+#[inline(never)]
+pub(super) fn centre_pass<F: Real, const K: usize>(
+    centres: &Vec<PreparedCentre<F>, K>,
+    z: &[F; ZP],
+    z_sq: F,
+    groups: usize,
+    mut y: [F; MAX_OUTPUTS],
+    sink: &mut impl FnMut(usize, F),
+) -> CentreSums<F> {
+    let mut proj = [F::ZERO; VAR_RANK];
+    let mut psi_sq = F::ZERO;
+    // Inlined into the loop below (as a closure the compiler kept it out of line: a call per
+    // centre).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn one<F: Real>(
+        j: usize,
+        c: &PreparedCentre<F>,
+        z: &[F; ZP],
+        z_sq: F,
+        groups: usize,
+        sink: &mut impl FnMut(usize, F),
+        y: &mut [F; MAX_OUTPUTS],
+        proj: &mut [F; VAR_RANK],
+        psi_sq: &mut F,
+    ) {
+        let psi = psi_of::<F>(c, z, z_sq, groups);
+        sink(j, psi);
+        for (yi, &w) in y.iter_mut().zip(c.w.iter()) {
+            *yi = w.mul_add(psi, *yi);
+        }
+        for (pi, &v) in proj.iter_mut().zip(c.v.iter()) {
+            *pi = v.mul_add(psi, *pi);
+        }
+        *psi_sq = psi.mul_add(psi, *psi_sq);
+    }
+    for (j, c) in centres.iter().enumerate() {
+        one(j, c, z, z_sq, groups, sink, &mut y, &mut proj, &mut psi_sq);
+    }
+    (y, proj, psi_sq)
+}
+
+/// ψ_j = exp(−‖z − μ_j‖²/(2σ²)) over the first `groups` groups of four inputs, in input order
+/// (an unused or padding input adds an exact 0).
+#[inline(always)]
+pub(super) fn psi_of<F: Real>(c: &PreparedCentre<F>, z: &[F; ZP], z_sq: F, groups: usize) -> F {
+    let mut d2 = z_sq + c.mu_sq;
+    for (zc, mc) in z.chunks_exact(4).zip(c.m2.chunks_exact(4)).take(groups) {
+        if let ([z0, z1, z2, z3], [m0, m1, m2, m3]) = (zc, mc) {
+            d2 = z0.mul_add(*m0, d2);
+            d2 = z1.mul_add(*m1, d2);
+            d2 = z2.mul_add(*m2, d2);
+            d2 = z3.mul_add(*m3, d2);
+        }
+    }
+    d2.exp_neg()
+}
+
+/// Every ψ_j of a sample into `psi` (one per centre, the rest untouched).
+#[inline(always)]
+pub(super) fn psi_all<F: Real, const K: usize>(
+    centres: &Vec<PreparedCentre<F>, K>,
+    z: &[F; ZP],
+    z_sq: F,
+    groups: usize,
+    psi: &mut [F],
+) {
+    for (o, c) in psi.iter_mut().zip(centres.iter()) {
+        *o = psi_of::<F>(c, z, z_sq, groups);
+    }
+}
+
+/// Whether max_j ψ_j < `w` (the weak-support threshold), decided from ‖ψ‖² when it can be:
+/// ψ_j ≥ 0, so max ψ ≤ ‖ψ‖ (weak when ‖ψ‖² < w²) and max ψ ≥ ‖ψ‖/√n (not weak when
+/// ‖ψ‖² ≥ n·w², with a margin for the rounding of the sum); otherwise ψ is computed again,
+/// identically, for its maximum (rare: samples near the weak-support boundary).
+#[inline(always)]
+pub(super) fn weak<F: Real, const K: usize>(
+    centres: &Vec<PreparedCentre<F>, K>,
+    z: &[F; ZP],
+    z_sq: F,
+    groups: usize,
+    psi_sq: F,
+    w: F,
+) -> bool {
+    let w2 = w * w;
+    if psi_sq < w2 {
+        return true;
+    }
+    let n = F::from_f64(centres.len() as f64);
+    let margin = F::ONE + F::from_f64(1e-4);
+    if psi_sq > n * w2 * margin {
+        return false;
+    }
+    psi_max_pass::<F, K>(centres, z, z_sq, groups) < w
+}
+
+#[inline(never)]
+fn psi_max_pass<F: Real, const K: usize>(
+    centres: &Vec<PreparedCentre<F>, K>,
+    z: &[F; ZP],
+    z_sq: F,
+    groups: usize,
+) -> F {
+    let mut m = F::ZERO;
+    for c in centres.iter() {
+        m = m.max(psi_of::<F>(c, z, z_sq, groups));
+    }
+    m
+}

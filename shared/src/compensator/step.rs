@@ -1,0 +1,330 @@
+//! The per-sample inference (Model-H): polynomial core + memory terms + RBF residual + band +
+//! flags, from a [`PreparedModel`] over a [`StreamState`].
+
+use super::estimate::Estimate;
+use super::prepared::PreparedModel;
+use super::rbf::{centre_pass, psi_all, weak, ZP};
+use super::sample::Sample;
+use super::state::StreamState;
+use crate::affine::{affine, affine_inputs};
+use crate::flags::Flags;
+use crate::layout::{head, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, MAX_Z};
+use crate::real::Real;
+
+impl<F: Real, const K: usize> PreparedModel<F, K> {
+    /// Compensate one sample of the stream `state` and move the state. Never panics:
+    /// non-finite inputs give NaN values, an infinite band and [`Flags::NON_FINITE`], leaving
+    /// the state untouched.
+    #[inline]
+    pub fn step(&self, state: &mut StreamState<F>, s: &Sample<F>) -> Estimate<F> {
+        self.step_with(state, s, |_, _| {})
+    }
+
+    /// [`PreparedModel::step`] that also hands each RBF activation ψ_j to `sink(j, ψ_j)`: the
+    /// trainer builds its design matrix Ψ through the very code the device runs. Not called for
+    /// non-finite samples.
+    #[inline(always)]
+    pub fn step_with(&self, state: &mut StreamState<F>, s: &Sample<F>, sink: impl FnMut(usize, F)) -> Estimate<F> {
+        // The paper's shape (3 gratings, 3 outputs) with the loop bounds known at compile
+        // time, every other shape with them read from the model: the same operations in the
+        // same order either way.
+        if self.gratings == 3 && self.outputs == 3 {
+            self.step_shaped::<3, 3>(state, s, sink)
+        } else {
+            self.step_shaped::<0, 0>(state, s, sink)
+        }
+    }
+
+    /// Move the stream `state` (direction latches, memory operators) by one sample without
+    /// compensating it: what `step` does to the state, for samples whose estimate is not
+    /// needed. Non-finite samples leave the state as `step` would.
+    #[inline]
+    pub fn advance(&self, state: &mut StreamState<F>, s: &Sample<F>) {
+        if self.accepts(s) {
+            let (latches, memory) = state.moving();
+            let _: [F; MAX_GRATINGS] = latches.update(&s.dl_pm, usize::from(self.gratings), self.dead_band);
+            self.memory.advance(memory, &s.dl_pm, s.t_amb_c, s.t_s);
+        }
+    }
+
+    /// What a trainer needs of one sample to build the ridge system (paper Eq. 7): the
+    /// core's estimate Bφ + Γm and every RBF activation ψ_j (into `psi`, one per centre),
+    /// computed by the same code as [`PreparedModel::step`] and moving the stream state as it
+    /// does, but without the residual, band or flags. `None` for a sample `step` would answer
+    /// as non-finite (`psi` untouched).
+    #[inline]
+    pub fn core_and_activations(
+        &self,
+        state: &mut StreamState<F>,
+        s: &Sample<F>,
+        psi: &mut [F],
+    ) -> Option<[F; MAX_OUTPUTS]> {
+        // The paper's shape with compile-time loop bounds, as in `step_with`.
+        if self.gratings == 3 && self.outputs == 3 {
+            self.core_and_activations_shaped::<3, 3>(state, s, psi)
+        } else {
+            self.core_and_activations_shaped::<0, 0>(state, s, psi)
+        }
+    }
+
+    /// [`PreparedModel::core_and_activations`] for a model of `G` gratings and `M` outputs (0:
+    /// read from the model).
+    #[inline(always)]
+    fn core_and_activations_shaped<const G: usize, const M: usize>(
+        &self,
+        state: &mut StreamState<F>,
+        s: &Sample<F>,
+        psi: &mut [F],
+    ) -> Option<[F; MAX_OUTPUTS]> {
+        if !self.accepts_shaped::<G>(s) {
+            return None;
+        }
+        let (latch, y) = self.advance_with_core::<G, M>(state, s);
+        let (z, z_sq) = self.rbf_inputs::<G>(s, latch);
+        psi_all(&self.centres, &z, z_sq, usize::from(self.z_groups), psi);
+        Some(y)
+    }
+
+    /// The RBF activations ψ_j of sample `s` (into `psi`, one per centre) given the direction
+    /// latches after it (as [`StreamState::latch_values`] reads them once the sample is
+    /// compensated), without a stream state: the ψ of
+    /// [`PreparedModel::core_and_activations`], by the same code, for a trainer that has the
+    /// stream's latches already and tries several RBF layers on one stream. `false` (and `psi`
+    /// untouched) for a sample `step` would answer as non-finite.
+    pub fn activations(&self, s: &Sample<F>, latch: &[F; MAX_GRATINGS], psi: &mut [F]) -> bool {
+        if !self.accepts(s) {
+            return false;
+        }
+        let (z, z_sq) = self.rbf_inputs::<0>(s, *latch);
+        psi_all(&self.centres, &z, z_sq, usize::from(self.z_groups), psi);
+        true
+    }
+
+    /// Whether a sample has the model's grating count and is finite where this model reads it
+    /// (Δλ, T_amb with an ambient input, and t when the feature set, the band or the memory
+    /// terms use time); other samples are answered as non-finite and leave the stream state
+    /// untouched.
+    #[inline(always)]
+    fn accepts(&self, s: &Sample<F>) -> bool {
+        self.accepts_shaped::<0>(s)
+    }
+
+    /// [`PreparedModel::accepts`] for a model of `G` gratings (0: any).
+    #[inline(always)]
+    fn accepts_shaped<const G: usize>(&self, s: &Sample<F>) -> bool {
+        s.gratings == self.gratings
+            && head(&s.dl_pm, self.g::<G>()).iter().all(|v| v.is_finite())
+            && (!self.ambient || s.t_amb_c.is_finite())
+            && (!self.needs_time() || s.t_s.is_finite())
+    }
+
+    /// Move the stream state by one accepted sample and add the memory terms Γm to `y`;
+    /// returns the latch values.
+    #[inline(always)]
+    fn advance_state<const G: usize>(
+        &self,
+        state: &mut StreamState<F>,
+        s: &Sample<F>,
+        y: &mut [F; MAX_OUTPUTS],
+    ) -> [F; MAX_GRATINGS] {
+        let (latches, memory) = state.moving();
+        let latch: [F; MAX_GRATINGS] = latches.update(&s.dl_pm, self.g::<G>(), self.dead_band);
+        if self.memory.is_active() {
+            self.memory.accumulate(memory, &s.dl_pm, s.t_amb_c, s.t_s, &self.gamma, y);
+        }
+        latch
+    }
+
+    /// Move the stream state and compute the core's estimate Bφ + Γm.
+    #[inline(always)]
+    fn advance_with_core<const G: usize, const M: usize>(
+        &self,
+        state: &mut StreamState<F>,
+        s: &Sample<F>,
+    ) -> ([F; MAX_GRATINGS], [F; MAX_OUTPUTS]) {
+        let mut y = self.core::<G, M>(s);
+        let latch = self.advance_state::<G>(state, s, &mut y);
+        (latch, y)
+    }
+
+    /// The polynomial core Bφ (Model-P's answer when the model has no memory terms):
+    /// stage-1 standardised first guesses, then paper Eq. 3 generalised to M guesses.
+    #[inline(always)]
+    fn core<const G: usize, const M: usize>(&self, s: &Sample<F>) -> [F; MAX_OUTPUTS] {
+        let m = self.m::<M>();
+        let (x, n_in) = affine_inputs(&s.dl_pm, self.g::<G>(), self.ambient, s.t_amb_c);
+        let mut g = [F::ZERO; MAX_OUTPUTS];
+        for (gi, row) in g.iter_mut().zip(self.a.iter()).take(m) {
+            *gi = affine(&x, n_in, row);
+        }
+        let phi = poly_features(&g, m);
+        let mut y = [F::ZERO; MAX_OUTPUTS];
+        let n_poly = if M == 0 { usize::from(self.n_poly) } else { crate::layout::poly_len(M) };
+        for (yi, row) in y.iter_mut().zip(self.b.iter()).take(m) {
+            let mut acc = F::ZERO;
+            for (&c, &ph) in head(row, n_poly).iter().zip(phi.iter()) {
+                acc = c.mul_add(ph, acc);
+            }
+            *yi = acc;
+        }
+        y
+    }
+
+    /// The scaled RBF inputs z (unused inputs 0) and ‖z‖².
+    #[inline(always)]
+    fn rbf_inputs<const G: usize>(&self, s: &Sample<F>, latch: [F; MAX_GRATINGS]) -> ([F; ZP], F) {
+        let n = self.g::<G>();
+        let mut x_z = [F::ZERO; MAX_Z];
+        let mut i = 0;
+        for (o, &d) in x_z.iter_mut().zip(head(&s.dl_pm, n).iter()) {
+            *o = d;
+            i += 1;
+        }
+        if self.ambient {
+            if let Some(o) = x_z.get_mut(i) {
+                *o = s.t_amb_c;
+            }
+            i += 1;
+        }
+        if self.uses_time {
+            if let Some(o) = x_z.get_mut(i) {
+                *o = s.t_s;
+            }
+        }
+        i += 1;
+        if self.uses_latch {
+            for (o, &l) in x_z.iter_mut().skip(i).zip(head(&latch, n).iter()) {
+                *o = l;
+            }
+        }
+        let mut z = [F::ZERO; ZP];
+        let mut z_sq = F::ZERO;
+        let n_z = usize::from(self.n_z);
+        for (((zi, &x), &gn), &of) in
+            z.iter_mut().zip(x_z.iter()).zip(self.z_gain.iter()).zip(self.z_offset.iter()).take(n_z)
+        {
+            *zi = x.mul_add(gn, of);
+            z_sq = zi.mul_add(*zi, z_sq);
+        }
+        (z, z_sq)
+    }
+
+    /// [`PreparedModel::step_with`] for a model of `G` gratings and `M` outputs (0: read from
+    /// the model).
+    #[inline(always)]
+    fn step_shaped<const G: usize, const M: usize>(
+        &self,
+        state: &mut StreamState<F>,
+        s: &Sample<F>,
+        mut sink: impl FnMut(usize, F),
+    ) -> Estimate<F> {
+        if !self.accepts_shaped::<G>(s) {
+            return Estimate::refused(self.outputs, Flags::NON_FINITE);
+        }
+        let (latch, y) = self.advance_with_core::<G, M>(state, s);
+        let (x_env, n_env) = affine_inputs(&s.dl_pm, self.g::<G>(), self.ambient, s.t_amb_c);
+
+        let mut flags = Flags::OK;
+        for ((&x, &lo), &hi) in head(&x_env, n_env).iter().zip(self.env_lo.iter()).zip(self.env_hi.iter()) {
+            if x < lo || x > hi {
+                flags.insert(Flags::OUT_OF_ENVELOPE);
+            }
+        }
+
+        // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
+        let (z, z_sq) = self.rbf_inputs::<G>(s, latch);
+        let groups = usize::from(self.z_groups);
+        // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
+        let (y, proj, psi_sq) = centre_pass::<F, K>(&self.centres, &z, z_sq, groups, y, &mut sink);
+        if !self.centres.is_empty() && weak::<F, K>(&self.centres, &z, z_sq, groups, psi_sq, self.weak_support) {
+            flags.insert(Flags::WEAK_SUPPORT);
+        }
+
+        // Leverage h = ψᵀ(ΨᵀΨ + αI)⁻¹ψ, exact on the kept directions, bounded on the rest.
+        let mut lev = psi_sq * self.inv_g_tail;
+        for &pi in proj.iter() {
+            lev = pi.mul_add(pi, lev);
+        }
+        // An overflow in this precision (finite inputs far outside anything calibrated) is
+        // reported like a non-finite input rather than passed on as a normal estimate.
+        if !y.iter().zip(self.fitted.iter()).all(|(v, &fit)| !fit || v.is_finite()) {
+            return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
+        }
+        let lead = if !self.band_grows {
+            F::ZERO
+        } else if let Some(o) = state.lead_offset_s() {
+            (s.t_s + o).max(F::ZERO)
+        } else {
+            flags.insert(Flags::LEAD_UNKNOWN);
+            self.lead_max_s
+        };
+        self.finish::<M>(y, lev, lead, flags)
+    }
+
+    /// The estimate from the values `y`, the leverage and the lead: the band, and the
+    /// plausibility of the value and the band ([`crate::field`]): three compares per output.
+    /// An output unchecked or not fitted has ±∞ bounds and an infinite limit: only a band that
+    /// overflows flags it (then the leverage did, for every output).
+    #[inline(always)]
+    fn finish<const M: usize>(&self, mut y: [F; MAX_OUTPUTS], lev: F, lead: F, mut flags: Flags) -> Estimate<F> {
+        let m = self.m::<M>();
+        let mut band95 = [F::ZERO; MAX_OUTPUTS];
+        let mut implausible = false;
+        for (((bi, (&bv, &bg)), (&v, &lim)), (&lo, &hi)) in band95
+            .iter_mut()
+            .zip(self.band_var.iter().zip(self.band_var_growth.iter()))
+            .zip(y.iter().zip(self.band_lim.iter()))
+            .zip(self.out_lo.iter().zip(self.out_hi.iter()))
+            .take(m)
+        {
+            *bi = (bg.mul_add(lead, bv) * (F::ONE + lev)).sqrt();
+            // `!(b < lim)`: true for a NaN band too.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            let bad = v < lo || v > hi || !(*bi < lim);
+            implausible |= bad;
+        }
+        if implausible {
+            flags.insert(Flags::IMPLAUSIBLE);
+        }
+        // Every fault widens the band, the implausible ones included.
+        if flags.is_fault() {
+            for bi in band95.iter_mut().take(m) {
+                *bi *= self.flagged_band_factor;
+            }
+        }
+        for ((v, b), &fit) in y.iter_mut().zip(band95.iter_mut()).zip(self.fitted.iter()).take(m) {
+            if !fit {
+                *v = F::NAN;
+                *b = F::INFINITY;
+            }
+        }
+        Estimate { values: y, band95, outputs: self.outputs, flags }
+    }
+}
+
+/// φ(g): [1, g_1..g_M, g_1²..g_M², g_i·g_j for i < j] (the first [`crate::layout::Dims::poly_len`] entries).
+#[inline(always)]
+fn poly_features<F: Real>(g: &[F; MAX_OUTPUTS], m: usize) -> [F; MAX_POLY] {
+    let mut phi = [F::ZERO; MAX_POLY];
+    let g = head(g, m);
+    let mut k = 0;
+    let mut put = |v: F| {
+        if let Some(o) = phi.get_mut(k) {
+            *o = v;
+        }
+        k += 1;
+    };
+    put(F::ONE);
+    for &gi in g {
+        put(gi);
+    }
+    for &gi in g {
+        put(gi * gi);
+    }
+    for (i, &gi) in g.iter().enumerate() {
+        for &gj in g.iter().skip(i + 1) {
+            put(gi * gj);
+        }
+    }
+    phi
+}
