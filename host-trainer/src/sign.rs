@@ -40,11 +40,11 @@ use std::path::{Path, PathBuf};
 
 use ed25519_dalek::pkcs8::{DecodePrivateKey, EncodePrivateKey};
 use ed25519_dalek::{Signer as _, SigningKey};
+use fbg_shared::container::Envelope;
 use fbg_shared::signature::{
     self, key_id, KeyId, SignFlags, TrailerHead, PUBLIC_KEY_LEN, SIGNATURE_LEN, TRAILER_V2_HEAD_LEN,
 };
 use serde::{Deserialize, Serialize};
-use fbg_shared::container::Envelope;
 
 use crate::data::files::write_bytes_atomically;
 use crate::error::TrainerError;

@@ -23,7 +23,7 @@ use crate::error::TrainerError;
 use crate::eval::metrics::{Metrics, SelectionSummary, StaticFidelity, Table2};
 use crate::eval::score::{self, ChannelMetrics, ModelEval, HYSTERESIS_INDEX_DEAD_BAND_PM};
 use crate::fit::static_fidelity::{StaticAudit, AUDIT_MAX_ROWS};
-use crate::fit::{self, HostParams, HOST_CAP};
+use crate::fit::{HostParams, HOST_CAP};
 
 /// The flags counted per model, as [`score::score`] counts them.
 const BITS: [Flags; 4] = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::IMPLAUSIBLE];
