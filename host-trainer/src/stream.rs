@@ -144,7 +144,11 @@ pub fn device_status(host: &str, port: u16, timeout: Duration) -> Result<Status,
     let stream = connect(&addr, timeout)?;
     let left = timeout.saturating_sub(t0.elapsed()).max(Duration::from_millis(1));
     let mut link = link_with_deadline(stream, left)?;
-    link.status().map_err(|e| link_err("status", e))
+    link.status().map_err(|e| match e {
+        // The answer's deadline is what the connection left of `timeout`: name the user's.
+        LinkError::TimedOut { received, .. } => link_err("status", LinkError::TimedOut { timeout, received }),
+        e => link_err("status", e),
+    })
 }
 
 /// A client whose every answer (request sent to the answer's last byte) is due within
