@@ -8,32 +8,14 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 mod common;
+#[cfg(target_os = "linux")]
+use common::run_peak_rss;
 use common::{bin, run, short_csv};
 
 use fbg_trainer::compensate::{self, Precision};
 use fbg_trainer::data::{quote_cell, Dataset, MAX_LINE_BYTES};
 use fbg_trainer::eval::score;
 use fbg_trainer::export;
-
-/// Run `cmd` to its end and return (success, stderr, peak resident set in bytes) of that one
-/// child (`wait4`, so other children of the test process do not count).
-#[cfg(target_os = "linux")]
-#[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot replace
-fn run_peak_rss(cmd: &mut std::process::Command) -> (bool, String, u64) {
-    let err = tempfile::NamedTempFile::new().unwrap();
-    let child = cmd
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::from(err.reopen().unwrap()))
-        .spawn()
-        .unwrap();
-    let mut status = 0;
-    // SAFETY: `rusage` is plain data; `wait4` fills it for our own child.
-    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
-    let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut ru) };
-    assert_eq!(pid, child.id() as libc::pid_t);
-    let ok = libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0;
-    (ok, std::fs::read_to_string(err.path()).unwrap(), ru.ru_maxrss as u64 * 1024)
-}
 
 /// A dataset CSV with `bad` as the last cell of its third data row (line 4).
 fn csv_with(dir: &Path, bad: &[u8]) -> std::path::PathBuf {

@@ -1,5 +1,6 @@
-//! What the tests share: the built binary, a run capturing its output, a short record, a small
-//! training grid, the readings of an artefact on rising and falling stretches.
+//! What the tests share: the built binary, a run capturing its output, a child's peak resident
+//! set, a short record, a small training grid, the readings of an artefact on rising and falling
+//! stretches.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
@@ -18,6 +19,26 @@ pub fn run(cmd: &mut Command) -> (bool, String, String) {
         String::from_utf8_lossy(&o.stdout).into_owned(),
         String::from_utf8_lossy(&o.stderr).into_owned(),
     )
+}
+
+/// Run `cmd` to its end and return (success, stderr, peak resident set in bytes) of that one
+/// child (`wait4`, so other children of the test process do not count).
+#[cfg(target_os = "linux")]
+#[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot replace
+pub fn run_peak_rss(cmd: &mut Command) -> (bool, String, u64) {
+    let err = tempfile::NamedTempFile::new().unwrap();
+    let child = cmd
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::from(err.reopen().unwrap()))
+        .spawn()
+        .unwrap();
+    let mut status = 0;
+    // SAFETY: `rusage` is plain data; `wait4` fills it for our own child.
+    let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+    let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut ru) };
+    assert_eq!(pid, child.id() as libc::pid_t);
+    let ok = libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0;
+    (ok, std::fs::read_to_string(err.path()).unwrap(), ru.ru_maxrss as u64 * 1024)
 }
 
 /// A short simulated record (3 days, 4320 rows) in `dir`.
