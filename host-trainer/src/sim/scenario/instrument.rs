@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::data::measurand::Measurand;
+
 /// Gratings and their physics (paper Eq. 2-3).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -185,6 +187,20 @@ pub struct Noise {
     /// Octaves of the pink generator (lowest frequency = fs / 2^octaves).
     pub pink_octaves: u32,
     pub white_sigma_pm: f64,
+}
+
+impl Gratings {
+    /// The cross-terms, each with its key in the configuration and the measurands it is on.
+    pub(crate) fn cross_terms(&self) -> [(&'static str, &[f64], &'static [Measurand]); 6] {
+        [
+            ("c_tt", &self.c_tt, &[Measurand::T]),
+            ("c_te", &self.c_te, &[Measurand::T, Measurand::STRAIN]),
+            ("c_tp", &self.c_tp, &[Measurand::T, Measurand::P]),
+            ("c_ee", &self.c_ee, &[Measurand::STRAIN]),
+            ("c_pp", &self.c_pp, &[Measurand::P]),
+            ("c_ep", &self.c_ep, &[Measurand::STRAIN, Measurand::P]),
+        ]
+    }
 }
 
 impl Default for Gratings {

@@ -322,6 +322,27 @@ mod tests {
     }
 
     #[test]
+    fn a_cross_term_is_checked_against_the_measurands_and_its_range() {
+        // One grating, temperature only: a T·T term is fine, a T·ε term names the strain.
+        let mut c = Preset::Temperature1.config();
+        c.gratings.c_tt = vec![0.01];
+        assert_eq!(c.validate(), Ok(()));
+        c.gratings.c_te = vec![0.01];
+        let (key, why) = c.validate().unwrap_err();
+        assert_eq!(key, "gratings.c_te");
+        assert!(why.contains("`strain_ue`"), "{why}");
+        // T and ε: an ε·p term names the pressure; an out-of-range T·T term its index.
+        let mut c = Preset::StrainPair.config();
+        c.gratings.c_ep = vec![0.0, 1e-4];
+        let (key, why) = c.validate().unwrap_err();
+        assert_eq!(key, "gratings.c_ep");
+        assert!(why.contains("`p_kPa`"), "{why}");
+        let mut c = Preset::StrainPair.config();
+        c.gratings.c_tt = vec![0.012, 20.0];
+        assert_eq!(c.validate().unwrap_err().0, "gratings.c_tt[1]");
+    }
+
+    #[test]
     fn unknown_key_is_named() {
         let e = ScenarioConfig::from_toml_str("[drift]\nsigma = 0.2\n", "x.toml").unwrap_err();
         let s = e.to_string();

@@ -1,7 +1,7 @@
 //! The ranges and shapes a scenario must keep: the first problem found, named by its key.
 
 use super::{ScenarioConfig, Strain, MAX_NAME_LEN, SIMULATED};
-use crate::data::measurand::{Measurand, MAX_GRATINGS, MAX_MEASURANDS};
+use crate::data::measurand::{MAX_GRATINGS, MAX_MEASURANDS};
 
 impl ScenarioConfig {
     /// Check ranges and shapes; the error is (key path, message) of the first problem, in the
@@ -120,23 +120,8 @@ impl ScenarioConfig {
                 );
             }
         }
-        for (name, arr) in [
-            ("c_tt", &g.c_tt),
-            ("c_te", &g.c_te),
-            ("c_tp", &g.c_tp),
-            ("c_ee", &g.c_ee),
-            ("c_pp", &g.c_pp),
-            ("c_ep", &g.c_ep),
-        ] {
+        for (name, arr, needs) in g.cross_terms() {
             per_grating(v, &format!("gratings.{name}"), arr.len(), true);
-            let needs: &[Measurand] = match name {
-                "c_tt" => &[Measurand::T],
-                "c_te" => &[Measurand::T, Measurand::STRAIN],
-                "c_tp" => &[Measurand::T, Measurand::P],
-                "c_ee" => &[Measurand::STRAIN],
-                "c_pp" => &[Measurand::P],
-                _ => &[Measurand::STRAIN, Measurand::P],
-            };
             if arr.iter().any(|&c| c != 0.0) {
                 if let Some(x) = needs.iter().find(|x| !m.contains(x)) {
                     v.fail(
@@ -171,14 +156,7 @@ impl ScenarioConfig {
             }
         }
         v.nonneg("gratings.dispersion", g.dispersion, 0.5);
-        for (name, arr) in [
-            ("c_tt", &g.c_tt),
-            ("c_te", &g.c_te),
-            ("c_tp", &g.c_tp),
-            ("c_ee", &g.c_ee),
-            ("c_pp", &g.c_pp),
-            ("c_ep", &g.c_ep),
-        ] {
+        for (name, arr, _) in g.cross_terms() {
             for (i, c) in arr.iter().enumerate() {
                 v.range(&format!("gratings.{name}[{i}]"), *c, -10.0, 10.0);
             }
