@@ -1,19 +1,7 @@
 //! The command line end to end: bad input names the place and leaves no output behind.
 
-use std::process::Command;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))
-}
-
-fn run(cmd: &mut Command) -> (bool, String, String) {
-    let o = cmd.output().unwrap();
-    (
-        o.status.success(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
+mod common;
+use common::{bin, run};
 
 #[test]
 fn simulate_twice_gives_identical_bytes_and_a_meta_sidecar() {

@@ -2,9 +2,7 @@
 
 use super::*;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))
-}
+use crate::common::bin;
 
 #[test]
 fn cli_import_prints_a_json_summary_and_fails_cleanly() {

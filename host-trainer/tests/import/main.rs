@@ -14,7 +14,6 @@ mod refusals;
 mod shapes;
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use fbg_trainer::data::import::{
     import, import_to_csv, Format, ImportOptions, ImportSummary, OnError, Purpose, Reason, SplitChoice,
