@@ -173,11 +173,27 @@ impl<F: MappedFlash> Store<F> {
                     // A failure leaves the log as it was; the slot still boots next time.
                     let _ = self.append(rec);
                 }
+                log!(
+                    info,
+                    "booted slot {=usize} (generation {=u32}): serial {=u64}, crc {=u32:#010x}; rollback floor {=u64}, {=u32} logged events",
+                    slot,
+                    header.generation,
+                    header.serial,
+                    header.digest,
+                    self.log.totals.floor,
+                    self.log.event
+                );
                 return Ok(info);
             }
         }
         self.running = None;
         self.booted = BootSource::Embedded;
+        log!(
+            info,
+            "no slot to boot at or above the rollback floor {=u64} ({=u32} logged events): the embedded model",
+            self.log.totals.floor,
+            self.log.event
+        );
         boot(kernel, policy, require_signed, comp, default)
     }
 
