@@ -88,7 +88,7 @@ impl BoardRecord {
             emulator_static_ram_bytes: emu.ram_static,
             stack: Some(stack.clone()),
             static_ram_plus_stack_bytes: Some(total),
-            golden_machine: "qemu-system-arm netduinoplus2".into(),
+            golden_machine: "QEMU netduinoplus2".into(),
             golden_sets: golden.0,
             golden_samples: golden.1,
             golden_flagged: golden.2,
