@@ -56,7 +56,7 @@ use crate::fixtures::{self, Fixtures};
 use crate::signing;
 use crate::targets::PRODUCT_K;
 
-mod golden;
+pub mod golden;
 mod link;
 mod memory;
 mod signed;

@@ -40,6 +40,25 @@ pub fn out_dir(root: &Path) -> Result<PathBuf> {
     Ok(d)
 }
 
+/// The emulated board an image runs on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Machine {
+    /// `mps2-an386` (Cortex-M4F, CMSDK UART0 as serial0): the firmware of `firmware/`.
+    Mps2An386,
+    /// `netduinoplus2` (STM32F405, USART1 as serial0): the `emulator` build of `firmware/board/`.
+    NetduinoPlus2,
+}
+
+impl Machine {
+    /// QEMU's arguments selecting the machine.
+    fn args(self) -> &'static [&'static str] {
+        match self {
+            Machine::Mps2An386 => &["-machine", "mps2-an386", "-cpu", "cortex-m4"],
+            Machine::NetduinoPlus2 => &["-machine", "netduinoplus2"],
+        }
+    }
+}
+
 /// A running QEMU, killed when dropped.
 pub struct Qemu {
     child: Child,
@@ -61,11 +80,24 @@ impl Drop for Qemu {
 impl Qemu {
     /// Start `elf` on the mps2-an386 with serial0 on `serial` (a QEMU chardev spec).
     pub fn start(qemu: &Path, elf: &Path, serial: &str, log: &Path, extra: &[&str]) -> Result<Qemu> {
+        Qemu::start_on(Machine::Mps2An386, qemu, elf, serial, log, extra)
+    }
+
+    /// Start `elf` on `machine` with serial0 on `serial` (a QEMU chardev spec).
+    pub fn start_on(
+        machine: Machine,
+        qemu: &Path,
+        elf: &Path,
+        serial: &str,
+        log: &Path,
+        extra: &[&str],
+    ) -> Result<Qemu> {
         ensure!(elf.exists(), "{} is not built", elf.display());
         let stdout = File::create(log).with_context(|| format!("creating {}", log.display()))?;
         let stderr = File::create(log.with_extension("stderr"))?;
         let mut cmd = Command::new(qemu);
-        cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic", "-monitor", "none"])
+        cmd.args(machine.args())
+            .args(["-nographic", "-monitor", "none"])
             .args(["-serial", serial])
             .args(["-semihosting-config", "enable=on,target=native"])
             .args(extra)

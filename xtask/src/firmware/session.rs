@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, ensure, Context, Result};
 use fbg_link::LinkClient;
 
-use super::emulator::{out_dir, Qemu};
+use super::emulator::{out_dir, Machine, Qemu};
 use crate::cmd::describe;
 use crate::fixtures::Fixtures;
 
@@ -33,6 +33,11 @@ fn free_port() -> Result<u16> {
 impl LinkSession {
     /// Start the product image with serial0 on a loopback server port and connect to it.
     pub fn start(root: &Path, qemu: &Path, elf: &Path, name: &str) -> Result<LinkSession> {
+        LinkSession::start_on(Machine::Mps2An386, root, qemu, elf, name)
+    }
+
+    /// Start `elf` on `machine` with serial0 on a loopback server port and connect to it.
+    pub fn start_on(machine: Machine, root: &Path, qemu: &Path, elf: &Path, name: &str) -> Result<LinkSession> {
         let log = out_dir(root)?.join(format!("{name}.defmt"));
         let mut last = None;
         // The port is picked free, then bound by QEMU: retry in the unlikely case another
@@ -42,7 +47,7 @@ impl LinkSession {
             // nodelay: the UART writes a byte at a time; with Nagle on QEMU's socket each answer
             // waits for the client's delayed ACK (≈ 40 ms per sample instead of ≈ 1 ms).
             let serial = format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on");
-            let q = Qemu::start(qemu, elf, &serial, &log, &[])?;
+            let q = Qemu::start_on(machine, qemu, elf, &serial, &log, &[])?;
             let mut s = LinkSession { qemu: q, port, link: None };
             match s.connect() {
                 Ok(()) => return Ok(s),
