@@ -158,24 +158,23 @@ struct Bounds {
     coarse: [(f64, f64); 3],
 }
 
-// The bounds of `accuracy_table`: (noise-free peak-locking p-p,
-// RMS at 30 dB) in pm, per shape in `Shape::ALL` order (Gaussian, sinc², asymmetric), on the
-// 8 pm grid and on the 512-pixel grid. Each is what the method reaches (the table the test
-// prints) with a margin; the targets are ≤ 1 pm (8 pm grid) and ≤ 3 pm (512 pixels) RMS
-// at 30 dB and ≤ 0.5 pm locking for the default method (`gaussian-fit`).
+// The bounds of `accuracy_table`: (noise-free peak-locking p-p, RMS at 30 dB) in pm, per shape
+// in `Shape::ALL` order (Gaussian, sinc², asymmetric), on the 8 pm grid and on the 512-pixel
+// grid. Each is what the method reaches (the table the test prints) with a margin; the issue's
+// targets are ≤ 1 pm (8 pm grid) and ≤ 3 pm (512 pixels) RMS at 30 dB and ≤ 0.5 pm locking for
+// the default method (`cross-correlation`).
 //
 // Targets the methods do not meet, and why (the figures are in the printed table):
 // - asymmetric peak, every method but the maximum and the 3-point on the 8 pm grid: the RMS is
 //   a bias, not noise. The truth is the maximum's wavelength; a centroid, a symmetric fit or a
-//   symmetric reference puts the centre towards the wider flank. Which centre a grating's
-//   "wavelength" is must be calibrated (λ_ref), and a constant bias cancels in the shifts; the
-//   locking is what matters there.
-// - default method, 512-pixel grid, sinc² and asymmetric peaks: locking above 0.5 pm. A peak
-//   of 1.8 pixels FWHM that is not a Gaussian leaves a Gaussian model with a bias that depends
-//   on the sub-pixel position; the cross-correlation locks less on sinc² but more on a
-//   Gaussian (the correlation is sampled at whole pixels).
-// - default method, 8 pm grid, asymmetric peak: locking just above 0.5 pm (the kink at the
-//   maximum).
+//   symmetric reference puts the centre towards the wider flank (the wider the reference, the
+//   further). Which centre a grating's "wavelength" is must be calibrated (λ_ref), and a
+//   constant bias cancels in the shifts; the locking is what matters there.
+// - default method, 512-pixel grid, asymmetric peak: locking above 0.5 pm (a peak 1.8 pixels
+//   wide whose shape the symmetric reference does not match).
+// - the Gaussian fit and the 3-point on the 512-pixel grid, sinc² and asymmetric peaks: a
+//   Gaussian model on a non-Gaussian peak of 1.8 pixels FWHM has a bias that depends on the
+//   sub-pixel position (within the RMS target, far above the locking one).
 // - the maximum everywhere, the centroid on the 512-pixel grid (about two samples above half),
 //   the 3-point on the 8 pm grid at 30 dB (its three samples barely differ at 0.3 nm FWHM).
 const BOUNDS: [Bounds; 5] = [
@@ -202,8 +201,8 @@ const BOUNDS: [Bounds; 5] = [
     },
     Bounds {
         method: Method::CrossCorrelation,
-        fine: [(0.01, 0.06), (0.01, 0.06), (0.05, 30.5)],
-        coarse: [(2.4, 1.0), (0.7, 0.35), (12.0, 32.5)],
+        fine: [(0.01, 0.08), (0.01, 0.08), (0.05, 38.0)],
+        coarse: [(0.35, 0.35), (0.4, 0.35), (4.5, 38.0)],
     },
 ];
 
@@ -422,7 +421,7 @@ fn f32_agrees_with_f64() {
             let d64 = PeakDetector::<f64, 1>::new(with_method(method), &[w]).unwrap();
             let cfg32 = DetectorConfig { method, ..DetectorConfig::default() };
             let d32 = PeakDetector::<f32, 1>::new(cfg32, &[w32]).unwrap();
-            let mut worst = 0.0f64;
+            let (mut worst, mut worst_fwhm) = (0.0f64, 0.0f64);
             for k in 0..STEPS {
                 let centre = case.grid.wavelength(case.nominal_px as f64 + k as f64 / STEPS as f64);
                 let s = spectrum(case, Shape::Gaussian, centre, Some(30.0), &mut rng);
@@ -431,9 +430,13 @@ fn f32_agrees_with_f64() {
                 let p32 = d32.detect(&Spectrum::new(&s32, grid32))[0].unwrap();
                 assert_eq!(p64.flags, p32.flags, "{method} {}", case.name);
                 worst = worst.max((f64::from(p32.wavelength_nm) - p64.wavelength_nm).abs() * 1e3);
-                assert!((f64::from(p32.fwhm_nm) - p64.fwhm_nm).abs() < 1e-3, "{method} {}", case.name);
+                worst_fwhm = worst_fwhm.max((f64::from(p32.fwhm_nm) - p64.fwhm_nm).abs() * 1e3);
             }
-            eprintln!("{method} {}: worst |λ32 − λ64| {worst:.3} pm", case.name);
+            eprintln!("{method} {}: worst |λ32 − λ64| {worst:.3} pm, FWHM {worst_fwhm:.3} pm", case.name);
+            // The correlation's FWHM is √(FWHM_C² − FWHM_ref²) with the reference twice the
+            // peak: the subtraction amplifies f32's rounding of the correlation's curvature.
+            let fwhm_tol = if method == Method::CrossCorrelation { 2.5 } else { 1.0 };
+            assert!(worst_fwhm < fwhm_tol, "{method} {}: FWHM {worst_fwhm} pm", case.name);
             assert!(worst < 0.3, "{method} {}: {worst} pm", case.name);
         }
     }

@@ -12,15 +12,19 @@ use super::window::Window;
 use crate::layout::MAX_GRATINGS;
 use crate::real::Real;
 
+/// The cross-correlation's default reference FWHM over the peak's own.
+const REFERENCE_PER_FWHM: f64 = 2.0;
+
 /// The detector's settings (coefficients; the detector keeps no state between spectra).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DetectorConfig<R> {
-    /// The method (default [`Method::GaussianFit`]).
+    /// The method (default [`Method::CrossCorrelation`]).
     pub method: Method,
     /// Where the peak's samples start (default 50 % of the height above the floor).
     pub threshold: Threshold<R>,
-    /// The cross-correlation's reference FWHM \[nm\]; 0 or less (the default): each peak's own
-    /// half-maximum width.
+    /// The cross-correlation's reference FWHM \[nm\]; 0 or less (the default): twice each
+    /// peak's own half-maximum width (a reference wider than the peak averages the pixel grid
+    /// out of the correlation: less peak-locking on a coarse grid for a little more noise).
     pub reference_fwhm_nm: R,
     /// The detector's full scale in the spectrum's unit (a 16-bit frame: 65 535); a sample at
     /// or above it raises [`PeakFlags::SATURATED`]. Default +∞ (never).
@@ -136,7 +140,7 @@ impl<R: Real, const N: usize> PeakDetector<R, N> {
         let reference_px = if c.reference_fwhm_nm > R::ZERO {
             c.reference_fwhm_nm / abs(spectrum.grid().step_at(real::<R>(span.first) + real(region.imax)))
         } else {
-            HalfWidths::of(&region, real(region.imax), height0).fwhm()
+            R::from_f64(REFERENCE_PER_FWHM) * HalfWidths::of(&region, real(region.imax), height0).fwhm()
         };
         let est = c.method.estimate(&region, reference_px);
         // The half-maximum level from the method's height when it is sane (a fit's height on a

@@ -44,9 +44,11 @@ pub fn gaussian3<R: Real>(r: &Region<'_, R>) -> Estimate<R> {
     }
     let h = r.height();
     let eps = h * R::from_f64(LOG_FLOOR);
-    let ln = |a: R| (if a > eps { a } else { eps }).ln();
     let (am, a0, ap) = (r.above_floor(i - 1), r.above_floor(i), r.above_floor(i + 1));
-    match vertex(ln(am), ln(a0), ln(ap)) {
+    // Logs of ratios to the middle sample (l₀ = 0): near 0 on a fine grid, where the logs
+    // themselves would agree to most of an f32's digits.
+    let ln = |a: R| ((if a > eps { a } else { eps }) / a0).ln();
+    match vertex(ln(am), R::ZERO, ln(ap)) {
         Some((delta, d, e)) if h > R::ZERO => Estimate {
             pixel: real::<R>(i) + delta,
             height: a0 * exp(e),

@@ -19,10 +19,12 @@ pub enum Method {
     Centroid,
     /// The Gaussian 3-point log-parabola ([`super::gauss3::gaussian3`]).
     Gaussian3,
-    /// The Gaussian least-squares fit ([`super::gauss_fit::gaussian_fit`]): the default.
-    #[default]
+    /// The Gaussian least-squares fit ([`super::gauss_fit::gaussian_fit`]).
     GaussianFit,
-    /// Cross-correlation with a Gaussian reference ([`super::correlation::cross_correlation`]).
+    /// Cross-correlation with a Gaussian reference ([`super::correlation::cross_correlation`]):
+    /// the default (with the detector's default reference, twice the peak's own width, it
+    /// locks the least to the pixel grid on symmetric peaks).
+    #[default]
     CrossCorrelation,
 }
 
