@@ -508,3 +508,50 @@ fn a_noise_threshold() {
         assert!(p.flags.is_ok() && (p.wavelength_nm - centre).abs() < 2e-3, "{p:?}");
     }
 }
+
+/// A grid whose wavelength falls with the pixel (a spectrometer read out the other way): the
+/// same peak, the same wavelength; a window partly off the spectrum keeps the pixels inside.
+#[test]
+fn a_decreasing_grid_and_a_window_at_the_end() {
+    let up = COARSE;
+    let down = Case { name: "512 px, decreasing", grid: Grid::uniform(1595.0, -85.0 / 511.0), ..COARSE };
+    let c = 1550.0371;
+    let mut rng = Rng::new(20);
+    for method in Method::ALL {
+        let mut found = [0.0; 2];
+        for (slot, case) in found.iter_mut().zip([&up, &down]) {
+            let s = render(case, |l| Shape::Gaussian.at(l - c), 1e-3, &mut rng);
+            let det = PeakDetector::<f64, 1>::new(with_method(method), &[Window::centred(1550.0, 2.0)]).unwrap();
+            let p = det.detect(&Spectrum::new(&s, case.grid))[0].unwrap();
+            assert!(p.flags.is_ok(), "{method} {}: {}", case.name, p.flags);
+            *slot = p.wavelength_nm;
+        }
+        let tol = if method == Method::Maximum { 0.09 } else { 0.01 };
+        assert!((found[0] - c).abs() < tol && (found[1] - c).abs() < tol, "{method}: {found:?}");
+    }
+    // 1594 ± 2 nm on the decreasing grid (λ = 1595 nm − 0.166 nm·p): pixels 0..=18 only; and
+    // 1510.5 ± 2 nm: 496..=511.
+    let s = vec![0.0; 512];
+    let sp = Spectrum::new(&s, down.grid);
+    let span = Window::centred(1594.0, 2.0).span(&sp).unwrap();
+    assert_eq!((span.first, span.last), (0, 18));
+    let span = Window::centred(1510.5, 2.0).span(&sp).unwrap();
+    assert_eq!((span.first, span.last), (496, 511));
+    assert!(Window::centred(1509.0, 0.2).span(&sp).is_none(), "off the end");
+    assert!(Window::new(1550.0, 1550.1).span(&sp).is_none(), "under three pixels");
+}
+
+/// A polynomial grid's local spacing is the derivative of its wavelength, and its inverse
+/// returns the pixel.
+#[test]
+fn polynomial_grid_step_and_inverse() {
+    let g = Grid::polynomial([1510.0f64, 0.16, 1.2e-5, -2.0e-9, 3.0e-13, -1.0e-16]);
+    for p in [0.0f64, 0.5, 100.25, 300.0, 511.0] {
+        let h = 1e-4;
+        let numeric = (g.wavelength(p + h) - g.wavelength(p - h)) / (2.0 * h);
+        assert!((g.step_at(p) - numeric).abs() < 1e-9, "{p}: {} vs {numeric}", g.step_at(p));
+        assert!((g.pixel(g.wavelength(p)) - p).abs() < 1e-9, "{p}");
+    }
+    let g32 = Grid::polynomial([1510.0f32, 0.16, 1.2e-5, -2.0e-9, 0.0, 0.0]);
+    assert!((g32.pixel(g32.wavelength(300.25)) - 300.25).abs() < 2e-3);
+}
