@@ -18,6 +18,8 @@
 //! - [`compensator`]: per-sample inference with band and flags: an immutable
 //!   [`PreparedModel`] stepped over a stream's [`StreamState`], or the two as a [`Compensator`];
 //! - [`flags`]: the fault flags;
+//! - [`spectrum`]: peak detection in a spectrum (search windows, noise floor, maximum,
+//!   centroid, Gaussian 3-point and least-squares fits, cross-correlation, quality flags);
 //! - [`protocol`]: the COBS-framed postcard messages of the host ↔ device serial link;
 //! - [`golden`]: the byte layout of the golden samples and packs the device is tested with.
 //!
@@ -72,6 +74,7 @@ pub mod model;
 pub mod protocol;
 pub mod real;
 pub mod signature;
+pub mod spectrum;
 
 pub use clock::StreamClock;
 pub use compensator::{Compensator, Estimate, PreparedModel, Sample, StreamState};

@@ -46,6 +46,9 @@ pub trait Real:
     fn sqrt(self) -> Self;
     /// `e^(-x)` for `x >= 0`; returns 0 for `x` beyond the underflow point and for NaN.
     fn exp_neg(self) -> Self;
+    /// Natural logarithm (libm's `log`/`logf`; NaN below 0, −∞ at 0). Used by the spectrum's
+    /// log-parabola fits, never by the compensator's step.
+    fn ln(self) -> Self;
     /// True for values other than NaN and ±∞.
     fn is_finite(self) -> bool;
     /// `round(self · scale)` as i32, saturating; NaN gives 0.
@@ -94,6 +97,10 @@ impl Real for f64 {
     #[inline(always)]
     fn exp_neg(self) -> Self {
         exp_neg_f64(self)
+    }
+    #[inline(always)]
+    fn ln(self) -> Self {
+        libm::log(self)
     }
     #[inline(always)]
     fn is_finite(self) -> bool {
@@ -146,6 +153,10 @@ impl Real for f32 {
     #[inline(always)]
     fn exp_neg(self) -> Self {
         exp_neg_f32(self)
+    }
+    #[inline(always)]
+    fn ln(self) -> Self {
+        libm::logf(self)
     }
     #[inline(always)]
     fn is_finite(self) -> bool {
