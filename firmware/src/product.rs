@@ -1,9 +1,10 @@
-// The product firmware's entry, shared by the product image (`main.rs`, the build's policy)
-// and the QEMU test image `rollback` (the same with rollbacks accepted); the including file
-// defines `POLICY`.
+// The product firmware's entry, shared by the product image (`main.rs`, the build's policy),
+// the QEMU test image `rollback` (the same with rollbacks accepted) and the QEMU test image
+// `torture` (the same whose flash loses power at a chosen operation); the including file
+// defines `POLICY` and `store_flash()`, which makes the store's flash (called once).
 
 use cortex_m_rt::entry;
-use fbg_firmware::flash_slot::FlashSlot;
+use fbg_firmware::counters::{systick_elapsed, systick_now, systick_start, ticks_to_us};
 use fbg_firmware::led::FpgaioLed;
 use fbg_firmware::uart::{CmsdkUart, Uart0Rx, MPS2_PCLK_HZ, UART0_BASE};
 use fbg_firmware::{exit_failure, stack, trust, DEFAULT_MODEL, K, KERNEL, STAGING_LEN};
@@ -23,14 +24,19 @@ fn main() -> ! {
     static mut MODEL: Compensator<f32, K> = unloaded();
     static mut READER: FrameReader<HOST_MAX_FRAME> = FrameReader::new();
 
+    // Boot time is measured from here to the first frame served (SysTick on the core clock:
+    // under QEMU's `-icount` emulated time, on a part real time).
+    let Some(mut cp) = cortex_m::Peripherals::take() else { exit_failure() };
+    systick_start(&mut cp.SYST);
+    let boot_start = systick_now();
+
     // SAFETY: UART0 and LED0 of the MPS2 board, each driven only from here.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     uart.init(MPS2_PCLK_HZ, BAUD);
     // Sleep between received bytes instead of spinning.
     uart.enable_rx_wakeup(Uart0Rx);
     let alarm = unsafe { FpgaioLed::new(0) };
-    // SAFETY: the one driver of the staging region of memory.x.
-    let slot = unsafe { FlashSlot::new() };
+    let flash = store_flash();
 
     if trust::TEST_KEY_ONLY {
         defmt::warn!("this image trusts only the QEMU TEST key (firmware/keys/): not for production");
@@ -61,8 +67,10 @@ fn main() -> ! {
         info.crc,
         boot_peak
     );
-    let mut dev = Device::new(MODEL, KERNEL, POLICY, READER, info, Staging::new(slot, STAGING_LEN), alarm);
+    let mut dev = Device::new(MODEL, KERNEL, POLICY, READER, info, Staging::new(flash, STAGING_LEN), alarm);
     dev.set_stack_probe(stack::peak_bytes, boot_peak);
+    let boot_us = ticks_to_us(systick_elapsed(boot_start, systick_now()));
+    defmt::info!("boot took {=u32} us", boot_us);
     match dev.serve(&mut uart) {
         Ok(never) => match never {},
         Err(never) => match never {},

@@ -129,8 +129,8 @@ pub fn check_default_model(root: &Path, fx: &Fixtures) -> Result<()> {
 }
 
 fn fault_test(root: &Path, qemu: &Path, bins: &Bins) -> Result<()> {
-    let log = out_dir(root)?.join("fault.defmt");
-    let mut q = Qemu::start(qemu, &bins.fault, "null", &log, &[])?;
+    let dir = out_dir(root)?;
+    let mut q = Qemu::start(qemu, &bins.fault, "null", &dir.join("fault.defmt"), &dir, &[], &[])?;
     let status = q.wait(Duration::from_secs(30))?;
     if status.success() {
         q.show_log();

@@ -205,7 +205,7 @@ pub(super) fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) 
     let _ = fs::remove_file(&uart);
     let log = dir.join("golden.defmt");
     let started = Instant::now();
-    let mut q = Qemu::start(qemu, &bins.golden, &format!("file:{}", uart.display()), &log, &[])?;
+    let mut q = Qemu::start(qemu, &bins.golden, &format!("file:{}", uart.display()), &log, &dir, &[], &[])?;
     let status = q.wait(Duration::from_secs(120))?;
     let run_secs = started.elapsed().as_secs_f64();
     if !status.success() {
