@@ -47,6 +47,7 @@
 #![no_std]
 
 pub mod staging;
+pub mod store;
 
 use core::convert::Infallible;
 
@@ -62,6 +63,7 @@ use fbg_shared::protocol::{
 use fbg_shared::signature::{self, KeyId, SignatureError, TrustedKey};
 use fbg_shared::{Compensator, Estimate, Sample};
 pub use staging::{MappedFlash, Staging};
+pub use store::Store;
 
 /// Log through defmt when the `defmt` feature is on; nothing otherwise.
 macro_rules! log {
@@ -254,7 +256,7 @@ struct Core<'a, P, F, const K: usize> {
     comp: &'a mut Compensator<f32, K>,
     kernel: Kernel<K>,
     policy: Policy,
-    staging: Staging<F>,
+    store: Store<F>,
     model: ModelInfo,
     status: Status,
     alarm: P,
@@ -264,17 +266,18 @@ struct Core<'a, P, F, const K: usize> {
 /// The device: answers host frames with the active model.
 ///
 /// `K` is the centre capacity of this build; `P` the alarm output (on while the latest
-/// estimate carries any flag); `F` the flash slot updates are staged in.
+/// estimate carries any flag); `F` the flash of the model store ([`store`]).
 pub struct Device<'a, P, F, const K: usize> {
     reader: &'a mut FrameReader<HOST_MAX_FRAME>,
     core: Core<'a, P, F, K>,
 }
 
 impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
-    /// A device serving `comp` (identified by `model`) with `kernel`, accepting updates that
-    /// pass `policy`, staging them in `staging` (a flash slot; at least `blob::max_len(K)`
-    /// bytes plus a signature trailer to accept any model this build can hold), reading frames
-    /// with `reader`, driving `alarm`. Inlined into its caller, so that the device is built in
+    /// A device serving `comp` (identified by `model`, as [`Store::boot`] loaded it) with
+    /// `kernel`, accepting updates that pass `policy` into `store` (whose slots hold at least
+    /// `blob::max_len(K)` bytes plus a signature trailer to accept any model this build can
+    /// hold), reading frames with `reader`, driving `alarm`. The update counters start from
+    /// the store's log. Inlined into its caller, so that the device is built in
     /// place and not copied from a temporary (the firmware's `main` holds it on its stack).
     #[inline(always)]
     pub fn new(
@@ -283,15 +286,17 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
         policy: Policy,
         reader: &'a mut FrameReader<HOST_MAX_FRAME>,
         model: ModelInfo,
-        staging: Staging<F>,
+        store: Store<F>,
         mut alarm: P,
     ) -> Self {
         // Start with the alarm off; an output that cannot be driven is not fatal.
         let _ = alarm.set_low();
-        let status = Status { model_capacity: centres_u16(K), ..Status::default() };
+        let (updates_accepted, updates_rejected, refused) = store.totals();
+        let status =
+            Status { model_capacity: centres_u16(K), updates_accepted, updates_rejected, refused, ..Status::default() };
         // Serving starts between frames.
         *reader = FrameReader::new();
-        Device { reader, core: Core { comp, kernel, policy, staging, model, status, alarm, stack_probe: None } }
+        Device { reader, core: Core { comp, kernel, policy, store, model, status, alarm, stack_probe: None } }
     }
 
     /// Report the deepest stack use through `probe` in [`Status::stack_peak_bytes`], and the
@@ -316,9 +321,19 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
         &self.core.alarm
     }
 
-    /// The staging slot of model updates.
-    pub fn staging(&self) -> &Staging<F> {
-        &self.core.staging
+    /// The model store.
+    pub fn store(&self) -> &Store<F> {
+        &self.core.store
+    }
+
+    /// The model store, mutable (tests injecting flash faults).
+    pub fn store_mut(&mut self) -> &mut Store<F> {
+        &mut self.core.store
+    }
+
+    /// Record the time from reset to serving, µs (`Status::store.boot_time_us`).
+    pub fn set_boot_time_us(&mut self, us: u32) {
+        self.core.store.set_boot_time_us(us);
     }
 
     /// Answer one decoded message.
@@ -382,9 +397,9 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
     }
 
     /// Check the transfer (its last bytes written, the staged bytes read back from the flash
-    /// slot against the announced CRC), then the signature ([`authenticate`]), then load the
-    /// staged blob in place in the slot ([`load_blob`]: the parameter slot is on the stack for
-    /// the duration of the load only).
+    /// slot against the announced CRC), then the signature ([`authenticate`]), then make it
+    /// the store's booting model and load the staged blob in place in the slot ([`load_blob`]:
+    /// the parameter slot is on the stack for the duration of the load only; [`Store::commit`]).
     /// The two checks and the load run one after the other, so the deepest of them sets the
     /// stack peak, not their sum. Cold: once per model update, never inlined into the serving
     /// loop; the answer is built afterwards ([`Core::commit_reply`]), so that it takes no stack
@@ -392,10 +407,7 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
     #[inline(never)]
     fn commit(&mut self) -> Result<ModelInfo, Rejection> {
         let core = &mut self.core;
-        let staged = core.staging.finish()?;
-        let (blob, signer) = authenticate(&core.policy, staged, Some(&core.model))?;
-        let info = load_blob(&core.kernel, core.comp, blob)?;
-        Ok(info.signed_by(Some(signer)))
+        core.store.commit(&core.kernel, &core.policy, core.comp, &core.model)
     }
 }
 
@@ -407,7 +419,8 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             model_serial: self.model.serial,
             model_key_id: self.model.key_id,
             stack_peak_bytes: self.stack_probe.map_or(0, |p| p()),
-            staging_erases: self.staging.erases(),
+            staging_erases: self.store.transfer_erases(),
+            store: self.store.status(),
             ..self.status
         }
     }
@@ -473,7 +486,7 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
     }
 
     fn begin(&mut self, total_len: u32, crc: u32) -> DeviceMsg {
-        if let Err(r) = self.staging.begin(total_len as usize, crc) {
+        if let Err(r) = self.store.begin(total_len as usize, crc) {
             return self.reject(r);
         }
         log!(info, "model transfer: {=u32} bytes", total_len);
@@ -481,7 +494,7 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
     }
 
     fn chunk(&mut self, offset: u32, data: &[u8]) -> DeviceMsg {
-        match self.staging.chunk(offset, data) {
+        match self.store.chunk(offset, data) {
             Ok(end) => DeviceMsg::UpdateProgress { received: u32::try_from(end).unwrap_or(u32::MAX) },
             Err(r) => self.reject(r),
         }
@@ -489,7 +502,6 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
 
     fn accepted(&mut self, info: ModelInfo) -> DeviceMsg {
         self.model = info;
-        self.staging.accepted();
         self.status.updates_accepted = self.status.updates_accepted.wrapping_add(1);
         let _ = self.alarm.set_low();
         log!(
@@ -503,7 +515,7 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
     }
 
     fn reject(&mut self, r: Rejection) -> DeviceMsg {
-        self.staging.abort();
+        self.store.abort();
         self.status.updates_rejected = self.status.updates_rejected.wrapping_add(1);
         self.status.last_rejection = Some(r);
         self.status.refused.count(r.reason);

@@ -1,23 +1,16 @@
-//! A model update staged in a slot of NOR flash, not in RAM: what a real interrogator does with
-//! an incoming image. `ModelBegin` makes the erase units the announced length needs blank,
-//! every `ModelChunk` is programmed at the flash's write granularity as it arrives, and the commit reads the staged bytes back in place (the slot is memory-mapped:
+//! A model update received into NOR flash, not RAM: what a real interrogator does with an
+//! incoming image. The store ([`crate::store`]) makes its inactive slot blank at `ModelBegin`;
+//! every `ModelChunk` is programmed there at the flash's write granularity as it arrives, and
+//! the commit reads the staged bytes back in place (the flash is memory-mapped:
 //! [`MappedFlash`]) for the transfer CRC, the signature and the decode. The running model is
 //! never touched by any of it: only a fully checked blob is folded into it.
 //!
-//! The slot is any `embedded-storage` [`NorFlash`] with NOR semantics: an erase sets bytes to
+//! The flash is any `embedded-storage` [`NorFlash`] with NOR semantics: an erase sets bytes to
 //! `0xFF`, a write only clears bits and must start and end on the write granularity, and a
 //! byte is written once between erases. Chunks of any length and alignment are accepted: bytes
 //! are collected in a buffer of one write unit ([`MAX_WRITE_SIZE`] bytes at most), programmed
 //! when the unit is complete, and the last partial unit is padded with `0xFF` (the erased
-//! value) at the commit.
-//!
-//! **Erases.** Nothing of a transfer is authenticated before its commit, so the link must not
-//! be able to wear the flash out. `ModelBegin` erases only when the units it needs are not
-//! already blank (a blank check of the mapped bytes): begins without data in between erase
-//! nothing, however many. And the slot is erased at most [`ERASE_BUDGET`] times between two
-//! accepted (authenticated) updates: beyond, a begin that would erase is refused
-//! ([`RejectReason::EraseLimit`]) until an update is accepted or the device restarts. Every
-//! erase is counted ([`Staging::erases`], reported in `Status::staging_erases`).
+//! value) at the commit. Erasing, and its budget, are the store's.
 
 use embedded_storage::nor_flash::NorFlash;
 use fbg_shared::blob;
@@ -36,11 +29,6 @@ pub trait MappedFlash: NorFlash {
     fn contents(&self) -> &[u8];
 }
 
-/// Erases of the slot allowed between two accepted updates (and after boot): enough for a
-/// host to retry a broken transfer a few times, few enough that the link alone cannot wear the
-/// slot (every accepted update needs a trusted signature).
-pub const ERASE_BUDGET: u32 = 16;
-
 /// A write unit of erased flash: the padding after the last byte of a transfer.
 const ERASED: [u8; MAX_WRITE_SIZE] = [0xFF; MAX_WRITE_SIZE];
 
@@ -57,48 +45,23 @@ enum Transfer {
     },
 }
 
-/// The staging slot of model updates: a flash slot and the transfer being written into it.
-pub struct Staging<F> {
-    flash: F,
-    /// Longest transfer accepted, bytes (at most the slot's capacity).
+/// A model transfer into a window of NOR flash: where it goes, how far it got, and the write
+/// unit not yet complete. The flash is the caller's (the store's), lent to every call; so is
+/// making the window blank before a transfer begins.
+pub struct Staging {
+    /// Offset of the window in the flash.
+    base: usize,
+    /// Longest transfer accepted, bytes (at most the window).
     limit: usize,
     transfer: Transfer,
     /// The received bytes of the write unit not yet complete (its first `received % WRITE_SIZE`).
     pending: [u8; MAX_WRITE_SIZE],
-    /// Erases since boot.
-    erases: u32,
-    /// Erases since the last accepted update (or boot), against [`ERASE_BUDGET`].
-    erases_unaccepted: u32,
 }
 
-impl<F: MappedFlash> Staging<F> {
-    /// Stage updates in `flash`, refusing any transfer longer than `limit` bytes or than the
-    /// slot (whichever is smaller).
-    #[inline(always)]
-    pub fn new(flash: F, limit: usize) -> Self {
-        const {
-            assert!(F::WRITE_SIZE > 0 && F::WRITE_SIZE <= MAX_WRITE_SIZE, "write granularity beyond MAX_WRITE_SIZE");
-            assert!(F::ERASE_SIZE > 0, "erase granularity of zero");
-        }
-        let limit = if limit < flash.capacity() { limit } else { flash.capacity() };
-        Staging {
-            flash,
-            limit,
-            transfer: Transfer::Idle,
-            pending: [0; MAX_WRITE_SIZE],
-            erases: 0,
-            erases_unaccepted: 0,
-        }
-    }
-
-    /// Erase operations on the slot since boot.
-    pub fn erases(&self) -> u32 {
-        self.erases
-    }
-
-    /// An update staged here was authenticated and accepted: the erase budget is renewed.
-    pub fn accepted(&mut self) {
-        self.erases_unaccepted = 0;
+impl Staging {
+    /// No transfer; the window at flash offset `base`, taking transfers of at most `limit` bytes.
+    pub const fn new(base: usize, limit: usize) -> Self {
+        Staging { base, limit, transfer: Transfer::Idle, pending: [0; MAX_WRITE_SIZE] }
     }
 
     /// Longest transfer accepted, bytes.
@@ -106,21 +69,33 @@ impl<F: MappedFlash> Staging<F> {
         self.limit
     }
 
-    /// The flash slot (e.g. for a test to inspect what was written).
-    pub fn flash(&self) -> &F {
-        &self.flash
+    /// Offset of the window in the flash.
+    pub fn base(&self) -> usize {
+        self.base
     }
 
-    /// Forget the transfer in progress (after any refusal); the slot keeps its bytes until the
-    /// next transfer erases them.
+    /// The length of the transfer in progress, as announced.
+    pub fn announced(&self) -> Option<usize> {
+        match self.transfer {
+            Transfer::Idle => None,
+            Transfer::Receiving { total, .. } => Some(total),
+        }
+    }
+
+    /// Whether a transfer is in progress.
+    pub fn is_receiving(&self) -> bool {
+        self.transfer != Transfer::Idle
+    }
+
+    /// Forget the transfer in progress (after any refusal); the window keeps its bytes until
+    /// the next transfer has it made blank.
     pub fn abort(&mut self) {
         self.transfer = Transfer::Idle;
     }
 
-    /// Start a transfer of `total` bytes whose CRC-32 is `crc`: checked against the limit and
-    /// the shortest blob, then the erase units it needs are erased unless they are blank
-    /// already (and within the erase budget). Any earlier transfer is forgotten.
-    pub fn begin(&mut self, total: usize, crc: u32) -> Result<(), Rejection> {
+    /// Check a transfer of `total` bytes whose CRC-32 is `crc` against the limit and the
+    /// shortest blob, before anything is erased. Any earlier transfer is forgotten.
+    pub fn check(&mut self, total: usize) -> Result<(), Rejection> {
         self.transfer = Transfer::Idle;
         let detail = u32::try_from(total).unwrap_or(u32::MAX);
         if total > self.limit {
@@ -129,24 +104,19 @@ impl<F: MappedFlash> Staging<F> {
         if total < blob::HEADER_LEN + blob::CRC_LEN {
             return Err(Rejection { reason: RejectReason::Truncated, detail });
         }
-        let end = total.div_ceil(F::ERASE_SIZE).saturating_mul(F::ERASE_SIZE);
-        let blank = self.flash.contents().get(..end).is_some_and(|b| b.iter().all(|&x| x == 0xFF));
-        if !blank {
-            if self.erases_unaccepted >= ERASE_BUDGET {
-                return Err(Rejection { reason: RejectReason::EraseLimit, detail: ERASE_BUDGET });
-            }
-            // Counted before the attempt: a failing erase still stresses the part.
-            self.erases = self.erases.wrapping_add(1);
-            self.erases_unaccepted = self.erases_unaccepted.saturating_add(1);
-            self.flash.erase(0, offset(end)).map_err(|_| storage(0))?;
-        }
-        self.transfer = Transfer::Receiving { total, crc, received: 0 };
         Ok(())
+    }
+
+    /// Start a transfer of `total` bytes whose CRC-32 is `crc` into the window at `base`, which
+    /// the caller made blank (after [`Staging::check`]).
+    pub fn begin(&mut self, base: usize, total: usize, crc: u32) {
+        self.base = base;
+        self.transfer = Transfer::Receiving { total, crc, received: 0 };
     }
 
     /// Append a chunk that starts at byte `at` of the transfer; returns the bytes received so
     /// far.
-    pub fn chunk(&mut self, at: u32, data: &[u8]) -> Result<usize, Rejection> {
+    pub fn chunk<F: NorFlash>(&mut self, flash: &mut F, at: u32, data: &[u8]) -> Result<usize, Rejection> {
         let Transfer::Receiving { total, crc, received } = self.transfer else {
             return Err(Rejection::new(RejectReason::NoUpdateInProgress));
         };
@@ -158,7 +128,7 @@ impl<F: MappedFlash> Staging<F> {
         if end > total {
             return Err(Rejection { reason: RejectReason::Overrun, detail: at });
         }
-        self.program(received, data)?;
+        self.program(flash, received, data)?;
         self.transfer = Transfer::Receiving { total, crc, received: end };
         Ok(end)
     }
@@ -166,7 +136,7 @@ impl<F: MappedFlash> Staging<F> {
     /// Write `data`, which follows the `received` bytes already accepted, one write unit at a
     /// time: each byte goes to its place in the pending unit, and a unit is programmed once
     /// its last byte arrived.
-    fn program(&mut self, received: usize, data: &[u8]) -> Result<(), Rejection> {
+    fn program<F: NorFlash>(&mut self, flash: &mut F, received: usize, data: &[u8]) -> Result<(), Rejection> {
         let w = F::WRITE_SIZE;
         for (at, &b) in (received..).zip(data) {
             let i = at % w;
@@ -176,7 +146,8 @@ impl<F: MappedFlash> Staging<F> {
             if i + 1 == w {
                 let unit = at + 1 - w;
                 let bytes = self.pending.get(..w).unwrap_or(&[]);
-                self.flash.write(offset(unit), bytes).map_err(|_| storage(unit))?;
+                let at = self.base + unit;
+                flash.write(offset(at), bytes).map_err(|_| storage(unit))?;
             }
         }
         Ok(())
@@ -184,8 +155,8 @@ impl<F: MappedFlash> Staging<F> {
 
     /// End the transfer: when every announced byte arrived, write the last partial unit
     /// (padded with the erased value), read the staged bytes back and check them against the
-    /// announced CRC. Returns the staged bytes, in place in the slot.
-    pub fn finish(&mut self) -> Result<&[u8], Rejection> {
+    /// announced CRC. Returns their length; they stay in place at the window's offset.
+    pub fn finish<F: MappedFlash>(&mut self, flash: &mut F) -> Result<usize, Rejection> {
         let Transfer::Receiving { total, crc, received } = self.transfer else {
             return Err(Rejection::new(RejectReason::NoUpdateInProgress));
         };
@@ -197,10 +168,10 @@ impl<F: MappedFlash> Staging<F> {
         // The last unit, completed with the erased value (nothing when the length is whole units).
         let fill = total % F::WRITE_SIZE;
         if fill != 0 {
-            self.program(total, ERASED.get(..F::WRITE_SIZE - fill).unwrap_or(&[]))?;
+            self.program(flash, total, ERASED.get(..F::WRITE_SIZE - fill).unwrap_or(&[]))?;
         }
-        match self.flash.contents().get(..total) {
-            Some(staged) if crc32(staged) == crc => Ok(staged),
+        match flash.contents().get(self.base..self.base + total) {
+            Some(staged) if crc32(staged) == crc => Ok(total),
             Some(_) => Err(Rejection::new(RejectReason::TransferCrc)),
             None => Err(Rejection::new(RejectReason::TooLarge)),
         }

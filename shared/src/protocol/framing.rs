@@ -12,7 +12,7 @@ use crate::crc32c::crc32c;
 /// oversize frame.
 pub const HOST_MAX_FRAME: usize = 256;
 /// Receive buffer a host needs for one device frame, delimiter included.
-pub const DEVICE_MAX_FRAME: usize = 160;
+pub const DEVICE_MAX_FRAME: usize = 224;
 
 /// CRC-32/ISCSI of `bytes`: the frame check and the whole-blob check of
 /// [`HostMsg::ModelBegin`] (the same flavour as the blob trailer).
@@ -210,7 +210,10 @@ mod tests {
     use super::*;
     use crate::compensator::Sample;
     use crate::flags::Flags;
-    use crate::protocol::{DeviceEstimate, Refusals, RejectReason, Rejection, Status, UpdateResult, MAX_CHUNK};
+    use crate::protocol::{
+        BootSource, DeviceEstimate, Refusals, RejectReason, Rejection, Status, StoreStatus, UpdateResult, MAX_CHUNK,
+        STORE_SECTORS,
+    };
     use crate::signature::KeyId;
 
     fn frame_host(msg: &HostMsg<'_>) -> Vec<u8> {
@@ -301,6 +304,15 @@ mod tests {
                 stack_peak_bytes: u32::MAX,
                 stack_boot_bytes: u32::MAX,
                 staging_erases: u32::MAX,
+                store: StoreStatus {
+                    boot_source: BootSource::Slot { slot: u8::MAX, generation: u32::MAX },
+                    erases: [u32::MAX; STORE_SECTORS],
+                    flash_ops: u32::MAX,
+                    rollback_floor: u64::MAX,
+                    log_events: u32::MAX,
+                    refusals_unlogged: u32::MAX,
+                    boot_time_us: u32::MAX,
+                },
             }),
             DeviceMsg::UpdateProgress { received: u32::MAX },
             DeviceMsg::UpdateResult(UpdateResult::Accepted { centres: 64, crc: u32::MAX }),

@@ -13,9 +13,9 @@ use crate::signature::KeyId;
 pub const MAX_CHUNK: usize = 192;
 /// Largest postcard payload of any [`HostMsg`] (a full chunk: tag, offset, length, data).
 pub const HOST_MAX_PAYLOAD: usize = MAX_CHUNK + 16;
-/// Largest postcard payload of any [`DeviceMsg`] (a [`Status`] with a rejection and a signed
-/// model's serial and key id).
-pub const DEVICE_MAX_PAYLOAD: usize = 128;
+/// Largest postcard payload of any [`DeviceMsg`] (a [`Status`] with a rejection, a signed
+/// model's serial and key id, and the model store's figures).
+pub const DEVICE_MAX_PAYLOAD: usize = 192;
 
 /// A message from the host to the device.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -192,6 +192,54 @@ pub struct Status {
     /// Erase operations on the staging flash slot since boot (a `ModelBegin` erases only a
     /// slot that is not blank, so repeated begins without data erase nothing).
     pub staging_erases: u32,
+    /// The persistent model store: where the running model was booted from, the rollback
+    /// floor, the event log and the wear of every sector.
+    pub store: StoreStatus,
+}
+
+/// Sectors of the device's model store: slot A, slot B, log sector 0, log sector 1.
+pub const STORE_SECTORS: usize = 4;
+
+/// Where the running model came from at boot.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum BootSource {
+    /// The model embedded in the firmware image (no complete, verified slot at or above the
+    /// rollback floor, or a device that never accepted an update).
+    #[default]
+    Embedded,
+    /// A slot of the model store.
+    Slot {
+        /// 0 for slot A, 1 for slot B.
+        slot: u8,
+        /// The slot's generation: one more than the newest slot's when it was written.
+        generation: u32,
+    },
+}
+
+/// The persistent model store's part of [`Status`] (all zero on a device without one).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StoreStatus {
+    /// Where the running model was loaded from at boot (an update accepted since then runs
+    /// now, and boots next time).
+    pub boot_source: BootSource,
+    /// Erase operations per sector since the store was first formatted, in the order of
+    /// [`STORE_SECTORS`] (each sector keeps its own count beside its data).
+    pub erases: [u32; STORE_SECTORS],
+    /// Erase and program operations on the store since boot.
+    pub flash_ops: u32,
+    /// The rollback floor: the serial of the last update the log records as accepted (0 when
+    /// none). Boot takes no slot below it; an update below it is refused unless it is a
+    /// permitted rollback.
+    pub rollback_floor: u64,
+    /// Events written to the log since the store was formatted (accepted and refused
+    /// updates).
+    pub log_events: u32,
+    /// Refused updates since boot that were counted but not written to the log (beyond the
+    /// log's budget of refusals per accepted update, so that the link cannot wear the flash).
+    pub refusals_unlogged: u32,
+    /// Time from reset to the first frame served, µs (0 when not measured).
+    pub boot_time_us: u32,
 }
 
 /// Model updates refused by the signature check, by reason (the audit trail's counters).

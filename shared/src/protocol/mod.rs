@@ -81,6 +81,7 @@ pub use framing::{
     DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
 pub use messages::{
-    DeviceEstimate, DeviceMsg, HostMsg, Refusals, Status, UpdateResult, DEVICE_MAX_PAYLOAD, HOST_MAX_PAYLOAD, MAX_CHUNK,
+    BootSource, DeviceEstimate, DeviceMsg, HostMsg, Refusals, Status, StoreStatus, UpdateResult, DEVICE_MAX_PAYLOAD,
+    HOST_MAX_PAYLOAD, MAX_CHUNK, STORE_SECTORS,
 };
 pub use reject::{RejectReason, Rejection};

@@ -23,29 +23,29 @@ fn the_test_flash_behaves_like_nor_flash() {
     assert_eq!(&f.contents()[..4], &[1, 2, 3, 4]);
 }
 
-/// Stage `bytes` into a fresh `Nor<W, E>` in chunks of the lengths `sizes` (cycled) and check
-/// what the slot holds: the bytes, `0xFF` up to the end of the last write unit, and only the
-/// erase units the transfer needs erased.
+/// Stage `bytes` into a fresh `Nor<W, E>` (its first units erased by hand, as the store does)
+/// in chunks of the lengths `sizes` (cycled) and check what the flash holds: the bytes, `0xFF`
+/// up to the end of the last write unit, and nothing written beyond.
 fn stage_in<const W: usize, const E: usize>(bytes: &[u8], sizes: &[usize]) {
     let mut flash = Nor::<W, E>::for_len(STAGE);
-    let garbage = flash.mem.clone();
-    {
-        let mut st = Staging::new(&mut flash, STAGE);
-        st.begin(bytes.len(), crc32(bytes)).unwrap();
-        let (mut at, mut i) = (0, 0);
-        while at < bytes.len() {
-            let n = sizes[i % sizes.len()].min(bytes.len() - at);
-            assert_eq!(st.chunk(at as u32, &bytes[at..at + n]), Ok(at + n), "W {W}, chunks {sizes:?}");
-            at += n;
-            i += 1;
-        }
-        assert_eq!(st.finish().unwrap(), bytes, "W {W}, chunks {sizes:?}");
-    }
-    let unit_end = bytes.len().div_ceil(W) * W;
     let erased_end = bytes.len().div_ceil(E) * E;
+    flash.erase(0, erased_end as u32).unwrap();
+    let garbage = flash.mem.clone();
+    let mut st = Staging::new(0, STAGE);
+    st.check(bytes.len()).unwrap();
+    st.begin(0, bytes.len(), crc32(bytes));
+    let (mut at, mut i) = (0, 0);
+    while at < bytes.len() {
+        let n = sizes[i % sizes.len()].min(bytes.len() - at);
+        assert_eq!(st.chunk(&mut flash, at as u32, &bytes[at..at + n]), Ok(at + n), "W {W}, chunks {sizes:?}");
+        at += n;
+        i += 1;
+    }
+    assert_eq!(st.finish(&mut flash), Ok(bytes.len()), "W {W}, chunks {sizes:?}");
+    assert_eq!(&flash.mem[..bytes.len()], bytes, "W {W}, chunks {sizes:?}");
+    let unit_end = bytes.len().div_ceil(W) * W;
     assert!(flash.mem[bytes.len()..erased_end].iter().all(|&b| b == 0xFF), "W {W}: padded with the erased value");
-    assert_eq!(flash.mem[erased_end..], garbage[erased_end..], "E {E}: the rest of the slot untouched");
-    assert_eq!(flash.erases, 1);
+    assert_eq!(flash.mem[erased_end..], garbage[erased_end..], "E {E}: the rest of the flash untouched");
     assert!(flash.writes <= unit_end / W, "W {W}: every unit written once at most");
 }
 
@@ -66,28 +66,34 @@ fn an_update_is_staged_at_the_flash_granularity_whatever_the_chunks() {
 #[test]
 fn staging_refuses_what_does_not_fit_or_comes_out_of_turn() {
     let mut flash = Nor::<4, 256>::new(4);
-    let mut st = Staging::new(&mut flash, 5000);
-    assert_eq!(st.limit(), 1024, "at most the slot");
+    flash.erase(0, 1024).unwrap();
+    let mut st = Staging::new(0, 1024);
+    assert_eq!(st.limit(), 1024);
     fn r<T>(reason: RejectReason, detail: u32) -> Result<T, Rejection> {
         Err(Rejection { reason, detail })
     }
-    assert_eq!(st.begin(1025, 0), r(RejectReason::TooLarge, 1025));
-    assert_eq!(st.begin(4, 0), r(RejectReason::Truncated, 4));
-    assert_eq!(st.chunk(0, &[1]), r(RejectReason::NoUpdateInProgress, 0));
+    assert_eq!(st.check(1025), r(RejectReason::TooLarge, 1025));
+    assert_eq!(st.check(4), r(RejectReason::Truncated, 4));
+    assert_eq!(st.chunk(&mut flash, 0, &[1]), r(RejectReason::NoUpdateInProgress, 0));
     const N: usize = 40;
-    st.begin(N, crc32(&[7; N])).unwrap();
-    assert_eq!(st.chunk(1, &[7]), r(RejectReason::OutOfOrder, 0));
-    assert_eq!(st.chunk(0, &[7; 26]), Ok(26));
-    assert_eq!(st.chunk(26, &[7; 15]), r(RejectReason::Overrun, 26));
-    assert_eq!(st.finish().map(<[u8]>::len), r(RejectReason::Incomplete, 26));
-    assert_eq!(st.finish().map(<[u8]>::len), r(RejectReason::NoUpdateInProgress, 0), "the transfer ended");
-    // Again from the start: the slot is erased anew, so the bytes written before are no obstacle.
-    st.begin(N, crc32(&[7; N]) ^ 1).unwrap();
-    assert_eq!(st.chunk(0, &[7; N]), Ok(N));
-    assert_eq!(st.finish().map(<[u8]>::len), r(RejectReason::TransferCrc, 0));
-    st.begin(N, crc32(&[7; N])).unwrap();
-    st.chunk(0, &[7; N]).unwrap();
-    assert_eq!(st.finish(), Ok(&[7u8; N][..]));
+    st.check(N).unwrap();
+    st.begin(0, N, crc32(&[7; N]));
+    assert_eq!(st.announced(), Some(N));
+    assert_eq!(st.chunk(&mut flash, 1, &[7]), r(RejectReason::OutOfOrder, 0));
+    assert_eq!(st.chunk(&mut flash, 0, &[7; 26]), Ok(26));
+    assert_eq!(st.chunk(&mut flash, 26, &[7; 15]), r(RejectReason::Overrun, 26));
+    assert_eq!(st.finish(&mut flash), r(RejectReason::Incomplete, 26));
+    assert_eq!(st.finish(&mut flash), r(RejectReason::NoUpdateInProgress, 0), "the transfer ended");
+    // Again from the start, in a window the caller made blank again.
+    flash.erase(0, 256).unwrap();
+    st.begin(0, N, crc32(&[7; N]) ^ 1);
+    assert_eq!(st.chunk(&mut flash, 0, &[7; N]), Ok(N));
+    assert_eq!(st.finish(&mut flash), r(RejectReason::TransferCrc, 0));
+    flash.erase(0, 256).unwrap();
+    st.begin(256, N, crc32(&[7; N]));
+    st.chunk(&mut flash, 0, &[7; N]).unwrap();
+    assert_eq!(st.finish(&mut flash), Ok(N));
+    assert_eq!(&flash.mem[256..256 + N], &[7u8; N][..], "at the window's offset");
 }
 
 #[test]
@@ -99,14 +105,14 @@ fn a_flash_failure_refuses_the_update_and_the_old_model_keeps_serving() {
     assert_serves(&mut link, &mut reference, &s[..10], 0);
     let other = other_model();
     let good = sign(&other, 1);
-    let inject = |link: &LinkClient<Wire<'_>>, f: Fault| link.get_ref().dev.staging().flash().fault.set(f);
+    let inject = |link: &LinkClient<Wire<'_>>, f: Fault| link.get_ref().dev.store().flash().fault.set(f);
 
     inject(&link, Fault::Erase);
     let r = link.update_model(&good).unwrap();
     assert_eq!(r, UpdateResult::Rejected(Rejection { reason: RejectReason::Storage, detail: 0 }));
     assert_serves(&mut link, &mut reference, &s[10..20], 10);
     // A write that fails in the third chunk: refused with the offset of the failed write.
-    inject(&link, Fault::WriteAt(2 * MAX_CHUNK + 5));
+    inject(&link, Fault::WriteAt(store::format::PAYLOAD_AT + 2 * MAX_CHUNK + 5));
     let r = link.update_model(&good).unwrap();
     assert_eq!(r, UpdateResult::Rejected(Rejection { reason: RejectReason::Storage, detail: (2 * MAX_CHUNK) as u32 }));
     assert_serves(&mut link, &mut reference, &s[20..30], 20);

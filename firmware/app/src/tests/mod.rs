@@ -24,9 +24,10 @@ use super::*;
 const K: usize = 32;
 const STAGE: usize = blob::max_len(K) + TRAILER_V2_LEN;
 
-/// The staging slot of the test devices: 8-byte flash words, 1 KiB erase units (the board's
-/// are 4 and 4 KiB; other granularities are tested on [`Staging`] directly).
-type Slot = Nor<8, 1024>;
+/// The model store of the test devices: 8-byte flash words, 8 KiB erase units (four of them:
+/// two slots, two log sectors; the emulated board's are 4 and 16 KiB; other granularities are
+/// tested on [`Staging`] directly).
+type Slot = Nor<8, 8192>;
 
 /// The test lab's key pair (seed fixed here; the QEMU tests use the committed test key).
 fn lab() -> ed25519_compact::KeyPair {
@@ -263,7 +264,7 @@ impl Mem {
         Mem {
             comp: std::boxed::Box::new(unloaded()),
             reader: std::boxed::Box::new(FrameReader::new()),
-            flash: Slot::for_len(STAGE),
+            flash: Slot::new(store::STORE_UNITS),
         }
     }
     /// Boot `blob_bytes` the way the firmware boots its default model.
@@ -277,7 +278,7 @@ impl Mem {
             policy(),
             &mut self.reader,
             info,
-            Staging::new(&mut self.flash, STAGE),
+            Store::open(&mut self.flash, STAGE).unwrap(),
             Pin::default(),
         )
     }

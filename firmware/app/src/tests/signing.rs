@@ -159,8 +159,8 @@ fn a_build_without_rollback_refuses_every_rollback() {
     let other = other_model();
     let strict = Policy { allow_rollback: false, ..policy() };
     let info = ModelInfo { serial: 7, ..mem.boot(default_blob()).unwrap() };
-    let staging = Staging::new(&mut mem.flash, STAGE);
-    let mut dev = Device::new(&mut mem.comp, Kernel::LIBRARY, strict, &mut mem.reader, info, staging, Pin::default());
+    let store = Store::open(&mut mem.flash, STAGE).unwrap();
+    let mut dev = Device::new(&mut mem.comp, Kernel::LIBRARY, strict, &mut mem.reader, info, store, Pin::default());
     let r = update_direct(&mut dev, &sign_rollback(&other, 2, 7));
     assert_eq!(reason(&r), Some(RejectReason::RollbackNotPermitted));
     assert_eq!(dev.status().refused.rollback, 1);
@@ -183,7 +183,7 @@ fn begins_erase_only_a_written_slot_and_within_the_budget() {
     for _ in 0..1000 {
         dev.feed(&begin, &mut tx).unwrap();
     }
-    assert_eq!(dev.staging().flash().erases, 1, "1 000 begins, one erase (the slot held garbage)");
+    assert_eq!(dev.store().flash().erases, 1, "1 000 begins, one erase (the slot held garbage)");
     assert_eq!(dev.status().staging_erases, 1);
     assert_eq!(dev.status().updates_rejected, 0);
     // Data written, then begun again: one more erase, once.
@@ -207,10 +207,10 @@ fn begins_erase_only_a_written_slot_and_within_the_budget() {
         rounds += 1;
         assert!(rounds < 100, "never refused");
     };
-    assert_eq!(last, Rejection { reason: RejectReason::EraseLimit, detail: staging::ERASE_BUDGET });
+    assert_eq!(last, Rejection { reason: RejectReason::EraseLimit, detail: store::ERASE_BUDGET });
     // Every erase since boot counts, the first one (garbage) too.
-    assert_eq!(dev.status().staging_erases, staging::ERASE_BUDGET);
-    assert_eq!(dev.staging().flash().erases as u32, staging::ERASE_BUDGET);
+    assert_eq!(dev.status().staging_erases, store::ERASE_BUDGET);
+    assert_eq!(dev.store().flash().erases as u32, store::ERASE_BUDGET);
     // The slot is written, so no whole update can be staged until an accepted update or a
     // restart renews the budget.
     let r = dev.handle(&HostMsg::ModelBegin { total_len: good.len() as u32, crc32: crc32(&good) });
