@@ -134,7 +134,10 @@ impl StoreFlash {
                 }
                 return flash;
             }
-            defmt::warn!("store flash: the host file fbg-flash.bin is not {=usize} B long; starting from an erased part", len);
+            defmt::warn!(
+                "store flash: the host file fbg-flash.bin is not {=usize} B long; starting from an erased part",
+                len
+            );
         }
         flash.fill_erased();
         let created = File::options().read(true).write(true).create(true).truncate(true).open(FILE);
@@ -144,9 +147,13 @@ impl StoreFlash {
                     flash.backing = Backing::File(file);
                     defmt::info!("store flash: a fresh (erased) part, saved to the host file fbg-flash.bin");
                 }
-                Err(_) => defmt::warn!("store flash: the host file fbg-flash.bin could not be written; the flash is unusable this run"),
+                Err(_) => defmt::warn!(
+                    "store flash: the host file fbg-flash.bin could not be written; the flash is unusable this run"
+                ),
             },
-            Err(_) => defmt::warn!("store flash: the host file fbg-flash.bin could not be created; the flash is unusable this run"),
+            Err(_) => defmt::warn!(
+                "store flash: the host file fbg-flash.bin could not be created; the flash is unusable this run"
+            ),
         }
         flash
     }

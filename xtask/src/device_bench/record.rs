@@ -7,9 +7,13 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::store::StoreBench;
 use super::{SizeReport, StepBench, TypeSizes, VerifyBench};
 use crate::nan;
-use crate::targets::{PRODUCT_K, TARGET_BLOB, TARGET_FLASH, TARGET_INSNS_K32, TARGET_RAM, TARGET_RAM_LOAD};
+use crate::targets::{
+    PRODUCT_K, TARGET_BLOB, TARGET_BOOT_US, TARGET_ERASES_PER_UPDATE, TARGET_FLASH, TARGET_INSNS_K32, TARGET_RAM,
+    TARGET_RAM_LOAD,
+};
 
 /// How the step figures were measured.
 const METHOD: &str = "qemu-system-arm mps2-an386 -icount shift=0, SysTick deltas, (step - empty loop) difference between n=200 and n=800 steps; mode regular: the samples on their 60 s clock, jitter: a new dt every step";
@@ -26,7 +30,32 @@ pub struct DeviceRecord {
     pub signature_verification: SignatureVerification,
     pub product: Product,
     pub targets: Targets,
+    /// The persistent model store (absent from files written before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub store: Option<Store>,
 }
+
+/// The persistent model store: one update's flash operations, boot time with a full log.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Store {
+    pub what: String,
+    pub update_bytes: u64,
+    pub updates_measured: u32,
+    pub flash_ops_per_update: u32,
+    pub erases_per_update: u32,
+    pub erases_per_update_target: u32,
+    pub erases_per_update_met: bool,
+    pub log_records_at_boot: u32,
+    pub boot_us_full_log: u32,
+    pub boot_us_target: u32,
+    pub boot_us_full_log_met: bool,
+    pub boot_us_factory_fresh: u32,
+    /// Slot A, slot B, log 0, log 1 after the fill.
+    pub erases_per_sector: [u32; 4],
+}
+
+/// How the store figures were measured.
+const STORE_WHAT: &str = "product image over the link: accepted updates (one signed model re-installed) and 8 unsigned refusals between two, until both log sectors are full; flash operations and erases from Status::store before and after each accepted update (the most seen); boot time = Status::store.boot_time_us (SysTick from main to serving) after a power cycle under -icount shift=0 (1 ns per instruction)";
 
 /// One bench model under QEMU -icount.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -143,7 +172,13 @@ pub fn rounded(x: f64, digits: usize) -> f64 {
 
 impl DeviceRecord {
     /// The file of one device bench run.
-    pub fn new(steps: &[StepBench], t: &TypeSizes, size: &SizeReport, v: &VerifyBench) -> Self {
+    pub fn new(
+        steps: &[StepBench],
+        t: &TypeSizes,
+        size: &SizeReport,
+        v: &VerifyBench,
+        store: Option<&StoreBench>,
+    ) -> Self {
         let f = &size.footprint;
         let total = f.ram_static + size.stack_update.max(size.stack_boot) as u64;
         let serving = f.ram_static + size.stack_serving as u64;
@@ -222,6 +257,21 @@ impl DeviceRecord {
                     met: size.blob_bytes <= TARGET_BLOB,
                 },
             },
+            store: store.map(|b| Store {
+                what: STORE_WHAT.to_string(),
+                update_bytes: b.update_bytes,
+                updates_measured: b.updates,
+                flash_ops_per_update: b.ops_per_update,
+                erases_per_update: b.erases_per_update,
+                erases_per_update_target: TARGET_ERASES_PER_UPDATE,
+                erases_per_update_met: b.erases_per_update <= TARGET_ERASES_PER_UPDATE,
+                log_records_at_boot: b.log_events,
+                boot_us_full_log: b.boot_us_full_log,
+                boot_us_target: TARGET_BOOT_US,
+                boot_us_full_log_met: b.boot_us_full_log <= TARGET_BOOT_US,
+                boot_us_factory_fresh: b.boot_us_empty,
+                erases_per_sector: b.erases,
+            }),
         }
     }
 }

@@ -74,8 +74,7 @@ impl LinkSession {
             // waits for the client's delayed ACK (≈ 40 ms per sample instead of ≈ 1 ms).
             let serial = format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on");
             let q = Qemu::start(qemu, elf, &serial, &log, dir, args, extra)?;
-            let mut s =
-                LinkSession { qemu: q, port, dir: dir.to_path_buf(), qemu_bin: qemu.to_path_buf(), link: None };
+            let mut s = LinkSession { qemu: q, port, dir: dir.to_path_buf(), qemu_bin: qemu.to_path_buf(), link: None };
             match s.connect() {
                 Ok(()) => return Ok(s),
                 Err(e) => last = Some(e),

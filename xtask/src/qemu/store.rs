@@ -29,6 +29,7 @@ use crate::firmware::session::LinkSession;
 use crate::firmware::{self, Bins};
 use crate::fixtures::{self, Fixtures};
 use crate::signing::SignedFixtures;
+use crate::targets::{STORE_LOG_RECORDS_PER_SECTOR, TARGET_ERASES_PER_UPDATE};
 
 /// Exit code of the `torture` image when its power was cut (`firmware/src/bin/torture.rs`).
 const CUT_EXIT: i32 = 3;
@@ -39,12 +40,6 @@ const CUTS_SAMPLED: usize = 10;
 /// (enough to rotate the log once: more than a log sector's records).
 const WEAR_ALL: usize = 1000;
 const WEAR_SAMPLED: usize = 300;
-/// Records per log sector: `(ERASE_SIZE − RECORDS_AT) / RECORD_LEN` of the store's format
-/// (`fbg_firmware_app::store::format`), 16 KiB sectors.
-pub(crate) const LOG_RECORDS_PER_SECTOR: u32 = (16 * 1024 - 96) / 64;
-/// Erases one update may cause: the inactive slot, and a log sector when the record rotates
-/// the log (issue 30's target).
-const MAX_ERASES_PER_UPDATE: u32 = 2;
 
 /// Answers of a model to the test's samples, bit for bit.
 type Answers = Vec<([u32; 6], String)>;
@@ -233,8 +228,8 @@ fn torture_test(
     ensure!(ops > 12, "one update took only {ops} flash operations; the store does not program what it receives");
     ensure!(erases >= 1, "the update did not erase the inactive slot, which held serial 1");
     ensure!(
-        erases <= MAX_ERASES_PER_UPDATE,
-        "one update erased {erases} sectors (at most {MAX_ERASES_PER_UPDATE})"
+        erases <= TARGET_ERASES_PER_UPDATE,
+        "one update erased {erases} sectors (at most {TARGET_ERASES_PER_UPDATE})"
     );
     eprintln!("xtask: store: one update of {} B: {ops} flash operations, {erases} erase(s)", new.len());
     s.disconnect()?;
@@ -270,7 +265,8 @@ fn torture_test(
         s.power_cycle(&bins.product, &[], &[])?;
         let st = s.link()?.status()?;
         let got = answers(&mut s, &reference.samples)?;
-        let whole = check_whole(&st, &got, reference).with_context(|| format!("after a power cut at operation {cut} of {ops}"))?;
+        let whole = check_whole(&st, &got, reference)
+            .with_context(|| format!("after a power cut at operation {cut} of {ops}"))?;
         if whole == 3 {
             booted_old.push(cut);
             // The interrupted update leaves nothing in the way of the next one.
@@ -312,7 +308,11 @@ fn check_whole(st: &Status, got: &Answers, r: &Reference) -> Result<u64> {
         st.model_serial,
         st.store.rollback_floor
     );
-    ensure!(got == want, "serial {} does not answer bit for bit like a clean device running it (a mix)", st.model_serial);
+    ensure!(
+        got == want,
+        "serial {} does not answer bit for bit like a clean device running it (a mix)",
+        st.model_serial
+    );
     Ok(st.model_serial)
 }
 
@@ -329,8 +329,8 @@ fn wear_test(root: &Path, qemu: &Path, bins: &Bins, sfx: &SignedFixtures, n: usi
         let st = s.link()?.status()?.store;
         let erases = st.erases.iter().sum::<u32>() - prev.erases.iter().sum::<u32>();
         ensure!(
-            erases <= MAX_ERASES_PER_UPDATE,
-            "update {} erased {erases} sectors (at most {MAX_ERASES_PER_UPDATE})",
+            erases <= TARGET_ERASES_PER_UPDATE,
+            "update {} erased {erases} sectors (at most {TARGET_ERASES_PER_UPDATE})",
             i + 1
         );
         max_erases = max_erases.max(erases);
@@ -350,7 +350,7 @@ fn wear_test(root: &Path, qemu: &Path, bins: &Bins, sfx: &SignedFixtures, n: usi
     );
     // Each log sector is erased once per rotation onto it; one rotation per sector of records.
     let events = st.store.log_events;
-    let rotations = events / LOG_RECORDS_PER_SECTOR + 1;
+    let rotations = events / STORE_LOG_RECORDS_PER_SECTOR + 1;
     ensure!(
         l0 + l1 <= rotations + 1 && l0.abs_diff(l1) <= 1,
         "after {events} log events the log sectors were erased {l0} and {l1} times (bound: {} in all, within one of each other)",
