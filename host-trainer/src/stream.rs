@@ -96,9 +96,29 @@ pub struct StreamReport {
 }
 
 /// The device's status as the audit trail reads: the active model (digest, serial, signer),
-/// the updates accepted and refused, by reason, the link's counters and the staging slot's
-/// erases.
+/// the updates accepted and refused, by reason (lifetime counts from the device's event log,
+/// plus this boot's refusals the log did not take), the link's counters, and the model store:
+/// where the model booted from, the rollback floor, the log and the wear of every sector.
 pub fn status_text(st: &Status) -> String {
+    let store = &st.store;
+    let booted = match store.boot_source {
+        fbg_shared::protocol::BootSource::Embedded => "the embedded default".to_string(),
+        fbg_shared::protocol::BootSource::Slot { slot, generation } => {
+            format!("slot {} (generation {generation})", if slot == 0 { 'A' } else { 'B' })
+        }
+    };
+    let [a, b, l0, l1] = store.erases;
+    let boot_time = match store.boot_time_us {
+        0 => "not measured".to_string(),
+        us => format!("{:.3} ms", f64::from(us) / 1000.0),
+    };
+    let store_text = format!(
+        concat!(
+            "model store: booted from {}; rollback floor: serial {}; event log: {} events, {} refusals not logged since boot; ",
+            "erases per sector: slot A {}, slot B {}, log {} / {}; {} flash operations since boot; boot to first frame {}\n",
+        ),
+        booted, store.rollback_floor, store.log_events, store.refusals_unlogged, a, b, l0, l1, store.flash_ops, boot_time
+    );
     let signer = match st.model_key_id {
         Some(id) => format!("serial {}, signed by key {id}", st.model_serial),
         None => "unsigned (the embedded default, trusted as part of the firmware image)".to_string(),
@@ -111,6 +131,7 @@ pub fn status_text(st: &Status) -> String {
             "model updates: {} accepted, {} refused ({} unsigned, {} bad signature, {} unknown key, {} rollback, {} serial reused, {} other){}\n",
             "link: {} frames, {} malformed, {} samples compensated; stack peak {} B since boot (serving and updates), {} B during boot\n",
             "staging slot: {} erases since boot\n",
+            "{}",
         ),
         st.model_crc,
         st.model_centres,
@@ -132,7 +153,8 @@ pub fn status_text(st: &Status) -> String {
         st.samples,
         st.stack_peak_bytes,
         st.stack_boot_bytes,
-        st.staging_erases
+        st.staging_erases,
+        store_text
     )
 }
 

@@ -17,6 +17,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 
 mod bench;
+mod board;
 mod cmd;
 mod device_bench;
 mod elf;
@@ -89,6 +90,10 @@ enum Task {
     /// The sharded fleet on a single-node Slurm started here (installs slurm-wlm and munge;
     /// needs root; not part of test); writes target/slurm/slurm.json
     Slurm,
+    /// The STM32F405 board images (firmware/board/): build for the part and for QEMU
+    /// netduinoplus2, print the footprint, run the golden vectors and the link on
+    /// netduinoplus2; writes target/bench/board.json
+    Board,
     /// Make the firmware's test fixtures with fbg-trainer in target/fixtures (the paper preset's
     /// and the strain-pair, temperature-1 and array-8 presets' trained Model-H with golden
     /// vectors)
@@ -111,6 +116,7 @@ fn main() -> Result<()> {
             bench::run_bench(&root, &bench::Opts { quick, no_device, markdown_only })
         }
         Task::Slurm => slurm::run_all(&root),
+        Task::Board => board::run_all(&root).map(|_| ()),
         Task::Fixtures { write_default } => fixtures_task(write_default),
     }
 }
@@ -148,6 +154,7 @@ fn test(skip_qemu: bool) -> Result<()> {
         eprintln!("xtask: --no-qemu given, skipping the firmware and its QEMU tests");
     } else {
         qemu::run_all(&root, false)?;
+        board::run_all(&root)?;
     }
     eprintln!("xtask: all tests passed");
     Ok(())

@@ -56,7 +56,7 @@ use crate::fixtures::{self, Fixtures};
 use crate::signing;
 use crate::targets::PRODUCT_K;
 
-mod golden;
+pub mod golden;
 mod link;
 mod memory;
 mod signed;
@@ -137,8 +137,8 @@ pub fn check_default_model(root: &Path, fx: &Fixtures) -> Result<()> {
 }
 
 fn fault_test(root: &Path, qemu: &Path, bins: &Bins) -> Result<()> {
-    let dir = out_dir(root)?;
-    let mut q = Qemu::start(qemu, &bins.fault, "null", &dir.join("fault.defmt"), &dir, &[], &[])?;
+    let log = out_dir(root)?.join("fault.defmt");
+    let mut q = Qemu::start(qemu, &bins.fault, "null", &log, &[])?;
     let status = q.wait(Duration::from_secs(30))?;
     if status.success() {
         q.show_log();

@@ -46,6 +46,14 @@
 
 #![no_std]
 
+/// Log through defmt when the `defmt` feature is on; nothing otherwise.
+macro_rules! log {
+    ($level:ident, $($arg:tt)*) => {
+        #[cfg(feature = "defmt")]
+        defmt::$level!($($arg)*);
+    };
+}
+
 pub mod staging;
 pub mod store;
 
@@ -64,14 +72,6 @@ use fbg_shared::signature::{self, KeyId, SignatureError, TrustedKey};
 use fbg_shared::{Compensator, Estimate, Sample};
 pub use staging::{MappedFlash, Staging};
 pub use store::Store;
-
-/// Log through defmt when the `defmt` feature is on; nothing otherwise.
-macro_rules! log {
-    ($level:ident, $($arg:tt)*) => {
-        #[cfg(feature = "defmt")]
-        defmt::$level!($($arg)*);
-    };
-}
 
 /// The two library functions whose code generation matters more than their size, passed in
 /// as function pointers so that the firmware can compile them apart from the size-optimised

@@ -24,8 +24,14 @@ pub fn part(root: &Path, opts: &Opts) -> Result<DeviceResults> {
     } else {
         device_bench::run(root)?;
     }
+    let board = root.join("target/bench/board.json");
+    if !opts.no_device {
+        crate::board::run_all(root)?;
+    }
     let mut v: DeviceResults =
         read_json(&path).map_err(|e| e.context(format!("{}: no device results", path.display())))?;
+    // The STM32F405 board's figures (`cargo xtask board`); absent, they render as not measured.
+    v.record.board = read_json(&board).ok();
     v.reused_existing_results = opts.no_device;
     v.command = if opts.no_device {
         "(earlier) cargo xtask bench"

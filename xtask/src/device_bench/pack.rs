@@ -119,8 +119,6 @@ fn build_and_run(root: &Path, q: &Path, capacity: usize, pack: &Path) -> Result<
         &elf,
         &format!("file:{}", uart.display()),
         &dir.join(format!("bench_k{k}.defmt")),
-        &dir,
-        &[],
         &["-icount", "shift=0"],
     )?;
     let st = run.wait(Duration::from_secs(600))?;

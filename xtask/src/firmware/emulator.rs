@@ -68,6 +68,25 @@ pub fn fresh_device(dir: &Path) -> Result<()> {
     }
 }
 
+/// The emulated board an image runs on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Machine {
+    /// `mps2-an386` (Cortex-M4F, CMSDK UART0 as serial0): the firmware of `firmware/`.
+    Mps2An386,
+    /// `netduinoplus2` (STM32F405, USART1 as serial0): the `emulator` build of `firmware/board/`.
+    NetduinoPlus2,
+}
+
+impl Machine {
+    /// QEMU's arguments selecting the machine.
+    fn args(self) -> &'static [&'static str] {
+        match self {
+            Machine::Mps2An386 => &["-machine", "mps2-an386", "-cpu", "cortex-m4"],
+            Machine::NetduinoPlus2 => &["-machine", "netduinoplus2"],
+        }
+    }
+}
+
 /// A running QEMU, killed when dropped.
 pub struct Qemu {
     child: Child,
@@ -87,16 +106,35 @@ impl Drop for Qemu {
 }
 
 impl Qemu {
-    /// Start `elf` on the mps2-an386 with serial0 on `serial` (a QEMU chardev spec), in the
-    /// working directory `cwd` (where the image's semihosting files are: a product image's
-    /// flash file), `args` its semihosting command line after its name, `extra` more QEMU
-    /// options.
-    pub fn start(
+    /// Start `elf` on the mps2-an386 with serial0 on `serial` (a QEMU chardev spec).
+    pub fn start(qemu: &Path, elf: &Path, serial: &str, log: &Path, extra: &[&str]) -> Result<Qemu> {
+        Qemu::start_on(Machine::Mps2An386, qemu, elf, serial, log, extra)
+    }
+
+    /// Start `elf` on `machine` with serial0 on `serial` (a QEMU chardev spec).
+    pub fn start_on(
+        machine: Machine,
         qemu: &Path,
         elf: &Path,
         serial: &str,
         log: &Path,
-        cwd: &Path,
+        extra: &[&str],
+    ) -> Result<Qemu> {
+        Qemu::start_in(machine, qemu, elf, serial, log, None, &[], extra)
+    }
+
+    /// Start `elf` on `machine` with serial0 on `serial` (a QEMU chardev spec), in the working
+    /// directory `cwd` (where the image's semihosting files are: a product image's flash file;
+    /// `None`: xtask's), `args` its semihosting command line after its name, `extra` more QEMU
+    /// options.
+    #[allow(clippy::too_many_arguments)]
+    pub fn start_in(
+        machine: Machine,
+        qemu: &Path,
+        elf: &Path,
+        serial: &str,
+        log: &Path,
+        cwd: Option<&Path>,
         args: &[&str],
         extra: &[&str],
     ) -> Result<Qemu> {
@@ -112,16 +150,19 @@ impl Qemu {
             config.push_str(&format!(",arg={a}"));
         }
         let mut cmd = Command::new(qemu);
-        cmd.args(["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic", "-monitor", "none"])
+        cmd.args(machine.args())
+            .args(["-nographic", "-monitor", "none"])
             .args(["-serial", serial])
             .args(["-semihosting-config", &config])
             .args(extra)
-            .current_dir(cwd)
             .arg("-kernel")
             .arg(elf)
             .stdin(Stdio::null())
             .stdout(stdout)
             .stderr(stderr);
+        if let Some(dir) = cwd {
+            cmd.current_dir(dir);
+        }
         eprintln!("xtask: $ {}", describe(&cmd));
         let child = cmd.spawn().with_context(|| format!("starting {}", qemu.display()))?;
         Ok(Qemu { child, elf: elf.to_path_buf(), log: log.to_path_buf() })

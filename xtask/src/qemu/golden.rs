@@ -9,7 +9,7 @@ use anyhow::{bail, ensure, Context, Result};
 use fbg_link::parity::{abs_diff, compare, REL_TOL};
 use fbg_shared::protocol::{DeviceMsg, Feed, FrameReader, DEVICE_MAX_FRAME};
 
-use crate::firmware::emulator::{out_dir, Qemu};
+use crate::firmware::emulator::{out_dir, Machine, Qemu};
 use crate::firmware::Bins;
 use crate::fixtures::{self, Fixtures};
 
@@ -200,12 +200,39 @@ fn golden_sets(fx: &Fixtures) -> Result<Vec<GoldenSet>> {
 }
 
 pub(super) fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<()> {
+    run_golden(root, qemu, Machine::Mps2An386, &bins.golden, "golden", fx).map(|_| ())
+}
+
+/// What a golden run compared.
+#[derive(Clone, Copy, Debug)]
+pub struct GoldenRun {
+    /// Golden sets (models) the image ran.
+    pub sets: usize,
+    /// Estimates compared with the host's, all within tolerance.
+    pub samples: usize,
+    /// Of them, estimates the device flagged (flags identical to the host's).
+    pub flagged: usize,
+    /// Wall time of the emulator run \[s\].
+    pub run_secs: f64,
+}
+
+/// Run the golden image `elf` (any image that sends the golden pack's estimates on serial0 and
+/// exits through semihosting) on `machine`, and compare every estimate with the host's f64
+/// answer; `name` names its outputs in `target/qemu/`.
+pub fn run_golden(
+    root: &Path,
+    qemu: &Path,
+    machine: Machine,
+    elf: &Path,
+    name: &str,
+    fx: &Fixtures,
+) -> Result<GoldenRun> {
     let dir = out_dir(root)?;
-    let uart = dir.join("golden.uart");
+    let uart = dir.join(format!("{name}.uart"));
     let _ = fs::remove_file(&uart);
-    let log = dir.join("golden.defmt");
+    let log = dir.join(format!("{name}.defmt"));
     let started = Instant::now();
-    let mut q = Qemu::start(qemu, &bins.golden, &format!("file:{}", uart.display()), &log, &dir, &[], &[])?;
+    let mut q = Qemu::start_on(machine, qemu, elf, &format!("file:{}", uart.display()), &log, &[])?;
     let status = q.wait(Duration::from_secs(120))?;
     let run_secs = started.elapsed().as_secs_f64();
     if !status.success() {
@@ -217,8 +244,12 @@ pub(super) fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) 
     let (msgs, bad) = parse_frames(&fs::read(&uart)?);
     ensure!(bad == 0, "{bad} malformed frames in the golden output {}", uart.display());
     ensure!(msgs.len() == total, "device sent {} estimates for {total} samples", msgs.len());
-    eprintln!("xtask: golden: {} sets, {total} samples compensated by the device in {run_secs:.1} s", sets.len());
+    eprintln!(
+        "xtask: {name} ({machine:?}): {} sets, {total} samples compensated by the device in {run_secs:.1} s",
+        sets.len()
+    );
     let mut failures = Vec::new();
+    let mut flagged_total = 0;
     let mut at = 0usize;
     for g in &sets {
         let tol: Vec<f64> = g.scale.iter().map(|s| REL_TOL * s).collect();
@@ -242,7 +273,7 @@ pub(super) fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) 
         let abs: Vec<String> = worst.iter().take(m).map(|w| format!("{w:.3e}")).collect();
         let rel: Vec<String> = worst.iter().zip(&g.scale).map(|(w, s)| format!("{:.4} %", 100.0 * w / s)).collect();
         eprintln!(
-            "xtask: golden, {}: {} samples ({flagged} flagged, flags identical); max |device − host| per output = {} \
+            "xtask: {name}, {}: {} samples ({flagged} flagged, flags identical); max |device − host| per output = {} \
              ({} of {}; limit {} %)",
             g.name,
             g.inputs.len(),
@@ -252,11 +283,12 @@ pub(super) fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) 
             100.0 * REL_TOL
         );
         at += g.inputs.len();
+        flagged_total += flagged;
     }
     if !failures.is_empty() {
         let n = failures.len();
         failures.truncate(10);
         bail!("{n} golden samples differ beyond tolerance:\n  {}", failures.join("\n  "));
     }
-    Ok(())
+    Ok(GoldenRun { sets: sets.len(), samples: total, flagged: flagged_total, run_secs })
 }

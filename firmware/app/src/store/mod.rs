@@ -121,7 +121,7 @@ impl<F: MappedFlash> Store<F> {
     /// updates of at most `limit` bytes (and at most a slot's room). Reads only.
     pub fn open(flash: F, limit: usize) -> Result<Store<F>, StoreError> {
         const {
-            assert!(UNIT % F::WRITE_SIZE == 0, "the store's field groups must be whole write units");
+            assert!(UNIT.is_multiple_of(F::WRITE_SIZE), "the store's field groups must be whole write units");
             assert!(F::ERASE_SIZE > PAYLOAD_AT + 1024, "a slot must hold a model");
         }
         if flash.capacity() < STORE_SECTORS * F::ERASE_SIZE {
@@ -173,11 +173,27 @@ impl<F: MappedFlash> Store<F> {
                     // A failure leaves the log as it was; the slot still boots next time.
                     let _ = self.append(rec);
                 }
+                log!(
+                    info,
+                    "booted slot {=usize} (generation {=u32}): serial {=u64}, crc {=u32:#010x}; rollback floor {=u64}, {=u32} logged events",
+                    slot,
+                    header.generation,
+                    header.serial,
+                    header.digest,
+                    self.log.totals.floor,
+                    self.log.event
+                );
                 return Ok(info);
             }
         }
         self.running = None;
         self.booted = BootSource::Embedded;
+        log!(
+            info,
+            "no slot to boot at or above the rollback floor {=u64} ({=u32} logged events): the embedded model",
+            self.log.totals.floor,
+            self.log.event
+        );
         boot(kernel, policy, require_signed, comp, default)
     }
 
@@ -274,6 +290,16 @@ impl<F: MappedFlash> Store<F> {
         self.program(base, &sector_header(count))
     }
 
+    /// Give blank sector `i` (never written, or erased by a rotation cut before its header)
+    /// its header without an erase.
+    fn format_blank(&mut self, i: usize) -> Result<(), ()> {
+        let count = self.erases.get(i).copied().flatten().unwrap_or(0);
+        if let Some(e) = self.erases.get_mut(i) {
+            *e = Some(count);
+        }
+        self.program(i * F::ERASE_SIZE, &sector_header(count))
+    }
+
     /// Program `bytes` (whole write units) at store offset `at`, and read them back.
     fn program(&mut self, at: usize, bytes: &[u8]) -> Result<(), ()> {
         self.flash.write(offset(at), bytes).map_err(|_| ())?;
@@ -298,8 +324,7 @@ impl<F: MappedFlash> Store<F> {
             // A sector found blank (a rotation cut before its header) needs no erase.
             let blank = is_blank(self.flash.sector(i));
             if blank {
-                let count = self.erases.get(i).copied().flatten().unwrap_or(0);
-                self.program(i * F::ERASE_SIZE, &sector_header(count))?;
+                self.format_blank(i)?;
             } else {
                 self.erase_sector(i)?;
             }

@@ -9,8 +9,8 @@ use fbg_shared::signature::{KeyId, SignatureError};
 use fbg_shared::Compensator;
 
 use super::format::{
-    is_blank, sector_erases, sector_header, EventKind, Record, SlotHeader, ACTIVE, ACTIVE_AT, COMPLETE, COMPLETE_AT,
-    FLAG_ROLLBACK, PAYLOAD_AT, REVOKED, REVOKED_AT, SLOT_HEADER_AT, UNIT,
+    is_blank, sector_erases, EventKind, Record, SlotHeader, ACTIVE, ACTIVE_AT, COMPLETE, COMPLETE_AT, FLAG_ROLLBACK,
+    PAYLOAD_AT, REVOKED, REVOKED_AT, SLOT_HEADER_AT, UNIT,
 };
 use super::{accepted_record, MappedFlash, Store, ERASE_BUDGET, REFUSALS_LOGGED, SLOTS};
 use crate::{authenticate, load_blob, Kernel, ModelInfo, Policy};
@@ -44,8 +44,7 @@ impl<F: MappedFlash> Store<F> {
             let base = slot * F::ERASE_SIZE;
             if is_blank(s) {
                 // Never written (a factory-fresh part): only its count is missing.
-                let count = self.erases.get(slot).copied().flatten().unwrap_or(0);
-                self.program(base, &sector_header(count)).map_err(|_| storage(base))?;
+                self.format_blank(slot).map_err(|_| storage(base))?;
             } else {
                 if self.erases_unaccepted >= ERASE_BUDGET {
                     return Err(Rejection { reason: RejectReason::EraseLimit, detail: ERASE_BUDGET });

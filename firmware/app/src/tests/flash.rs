@@ -112,7 +112,7 @@ fn a_flash_failure_refuses_the_update_and_the_old_model_keeps_serving() {
     assert_eq!(r, UpdateResult::Rejected(Rejection { reason: RejectReason::Storage, detail: 0 }));
     assert_serves(&mut link, &mut reference, &s[10..20], 10);
     // A write that fails in the third chunk: refused with the offset of the failed write.
-    inject(&link, Fault::WriteAt(store::format::PAYLOAD_AT + 2 * MAX_CHUNK + 5));
+    inject(&link, Fault::WriteAt(crate::store::format::PAYLOAD_AT + 2 * MAX_CHUNK + 5));
     let r = link.update_model(&good).unwrap();
     assert_eq!(r, UpdateResult::Rejected(Rejection { reason: RejectReason::Storage, detail: (2 * MAX_CHUNK) as u32 }));
     assert_serves(&mut link, &mut reference, &s[20..30], 20);

@@ -6,6 +6,7 @@ extern crate std;
 mod flash;
 mod serving;
 mod signing;
+mod store;
 
 use std::collections::VecDeque;
 use std::format;
@@ -264,7 +265,7 @@ impl Mem {
         Mem {
             comp: std::boxed::Box::new(unloaded()),
             reader: std::boxed::Box::new(FrameReader::new()),
-            flash: Slot::new(store::STORE_UNITS),
+            flash: Slot::new(crate::store::STORE_UNITS),
         }
     }
     /// Boot `blob_bytes` the way the firmware boots its default model.

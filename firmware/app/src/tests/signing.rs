@@ -68,7 +68,7 @@ fn updates_must_be_signed_by_a_trusted_key_and_not_roll_back() {
 
 /// Send `bytes` as one update to `dev` (frames fed directly) and return the device's answer
 /// to the commit.
-fn update_direct<F: MappedFlash>(dev: &mut Device<'_, Pin, F, K>, bytes: &[u8]) -> DeviceMsg {
+pub(super) fn update_direct<F: MappedFlash>(dev: &mut Device<'_, Pin, F, K>, bytes: &[u8]) -> DeviceMsg {
     let mut frame = [0u8; HOST_MAX_FRAME];
     let mut tx = Tx::default();
     let begin = HostMsg::ModelBegin { total_len: bytes.len() as u32, crc32: crc32(bytes) };
@@ -80,7 +80,7 @@ fn update_direct<F: MappedFlash>(dev: &mut Device<'_, Pin, F, K>, bytes: &[u8]) 
     dev.handle(&HostMsg::ModelCommit)
 }
 
-fn reason(m: &DeviceMsg) -> Option<RejectReason> {
+pub(super) fn reason(m: &DeviceMsg) -> Option<RejectReason> {
     match m {
         DeviceMsg::UpdateResult(UpdateResult::Rejected(r)) => Some(r.reason),
         _ => None,
@@ -207,10 +207,10 @@ fn begins_erase_only_a_written_slot_and_within_the_budget() {
         rounds += 1;
         assert!(rounds < 100, "never refused");
     };
-    assert_eq!(last, Rejection { reason: RejectReason::EraseLimit, detail: store::ERASE_BUDGET });
+    assert_eq!(last, Rejection { reason: RejectReason::EraseLimit, detail: crate::store::ERASE_BUDGET });
     // Every erase since boot counts, the first one (garbage) too.
-    assert_eq!(dev.status().staging_erases, store::ERASE_BUDGET);
-    assert_eq!(dev.store().flash().erases as u32, store::ERASE_BUDGET);
+    assert_eq!(dev.status().staging_erases, crate::store::ERASE_BUDGET);
+    assert_eq!(dev.store().flash().erases as u32, crate::store::ERASE_BUDGET);
     // The slot is written, so no whole update can be staged until an accepted update or a
     // restart renews the budget.
     let r = dev.handle(&HostMsg::ModelBegin { total_len: good.len() as u32, crc32: crc32(&good) });

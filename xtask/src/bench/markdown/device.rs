@@ -70,6 +70,44 @@ pub(super) fn device(s: &mut String, rep: &Report) {
             st.erases_per_sector[3]
         );
     }
+    board(s, dev.record.board.as_ref());
+}
+
+/// The STM32F405 board's images (`cargo xtask board`), or "not measured".
+fn board(s: &mut String, b: Option<&crate::device_bench::record::BoardRecord>) {
+    let Some(b) = b else {
+        out!(s, "STM32F405 board image (`firmware/board/`): not measured (`cargo xtask board`).\n");
+        return;
+    };
+    let stack = match &b.stack {
+        Some(st) => format!(
+            "stack peak {} B at boot, {} B while serving, {} B through a model update (the `emulator` build on {}, painted)",
+            st.boot, st.serving, st.update, b.golden_machine
+        ),
+        None => "stack not measured".into(),
+    };
+    let total = match (b.static_ram_plus_stack_bytes, b.static_ram_plus_stack_met) {
+        (Some(t), Some(met)) => format!(
+            "static RAM + update stack {t} B (target ≤ {} B: {})",
+            b.target_static_ram_plus_stack_bytes,
+            if met { "met" } else { "not met" }
+        ),
+        _ => "static RAM + stack not measured".into(),
+    };
+    out!(
+        s,
+        "STM32F405 board image (`firmware/board/`, {}, K = {}): flash {} B (target ≤ {} B: {}), static RAM {} B; {stack}; {total}. Golden vectors on {}: {} sets, {} samples ({} flagged) identical to the host within tolerance.\n\n    cargo xtask board\n",
+        b.chip,
+        b.k,
+        b.flash_bytes,
+        b.target_flash_bytes,
+        if b.flash_met { "met" } else { "not met" },
+        b.static_ram_bytes,
+        b.golden_machine,
+        b.golden_sets,
+        b.golden_samples,
+        b.golden_flagged
+    );
 }
 
 pub(super) fn step_row(s: &mut String, st: &StepRow) {

@@ -1,0 +1,114 @@
+//! Board support of the FBG firmware on an STM32F405 (the chip of QEMU's `netduinoplus2`; e.g.
+//! an STM32F405RG board such as the Adafruit Feather STM32F405 or the Netduino Plus 2), built
+//! on the ecosystem's crates: `stm32f4xx-hal` for clocks, GPIO and USART, the PAC's interrupt
+//! table (`stm32f4`, feature `rt`), `defmt-rtt` for the log. What it holds:
+//!
+//! - [`board`]: bring-up — clocks, the link's USART, the alarm LED, the model store;
+//! - [`serial`]: the HAL's USART as the `embedded-io` 0.7 `Read`/`Write` the application takes;
+//! - [`store_flash`]: the model store, flash sectors 5–8, as NOR flash;
+//! - [`stack`]: the stack high-water mark (the QEMU firmware's painting, the same file);
+//! - the fatal path ([`fatal`]), the panic and fault handlers, the defmt logger.
+//!
+//! With the `emulator` feature the same images run on QEMU's `netduinoplus2`, which models the
+//! USARTs but not the clock tree nor the flash controller (README-firmware.md, "Flashing a
+//! real board"): clocks are left at reset (HSI 16 MHz), the store is RAM, defmt goes over
+//! semihosting and the fatal path exits through semihosting.
+//!
+//! The application logic lives in the host-testable `fbg-firmware-app` crate; this crate does
+//! not depend on the QEMU firmware (`fbg-firmware`), whose build puts the mps2 memory map on
+//! the linker path.
+
+#![no_std]
+
+pub mod board;
+pub mod serial;
+#[path = "../../src/stack.rs"]
+pub mod stack;
+pub mod store_flash;
+
+use core::panic::PanicInfo;
+
+use cortex_m_rt::{exception, ExceptionFrame};
+#[cfg(not(feature = "emulator"))]
+use defmt_rtt as _;
+#[cfg(feature = "emulator")]
+use defmt_semihosting as _;
+// The PAC's interrupt table (`__INTERRUPTS`, `device.x`) must be linked in.
+use stm32f4 as _;
+
+/// Centre capacity of this build (env `FBG_K` at build time, default 32), and the step and
+/// blob parser compiled for it for speed (`fbg-firmware-kernel`).
+pub use fbg_firmware_kernel::{step, K, KERNEL};
+
+/// The largest blob this build stages: as the QEMU firmware's (`fbg_firmware::MAX_BLOB`), the
+/// blob target of DESIGN §8 (4 KiB), or the longest blob of `K` centres at the capacity dims
+/// when that is smaller.
+pub const MAX_BLOB: usize = {
+    let longest = fbg_shared::blob::max_len(K);
+    if longest < 4096 {
+        longest
+    } else {
+        4096
+    }
+};
+
+/// The longest update this build stages: any signed model it takes (as the QEMU firmware's
+/// `STAGING_LEN`); a longer transfer is refused at `ModelBegin` (`TooLarge`).
+pub const STAGING_LEN: usize = MAX_BLOB + fbg_shared::signature::TRAILER_V2_LEN;
+
+/// The signature policy compiled in by `build.rs` (`FBG_TRUSTED_KEYS`, `FBG_ALLOW_ROLLBACK`,
+/// `FBG_REQUIRE_SIGNED_DEFAULT`; README-firmware.md, "Signed model updates").
+pub mod trust {
+    include!(concat!(env!("OUT_DIR"), "/trust.rs"));
+}
+
+/// The image's [`fbg_firmware_app::Policy`].
+pub const POLICY: fbg_firmware_app::Policy =
+    fbg_firmware_app::Policy { trusted: trust::TRUSTED_KEYS, allow_rollback: trust::ALLOW_ROLLBACK };
+
+/// The model embedded in the product image: the QEMU firmware's, so both run the same model.
+pub static DEFAULT_MODEL: &[u8] = include_bytes!("../../model/default.fbgm");
+
+/// Leave the debug session (probe-rs or QEMU, both serve semihosting) with success: the end of
+/// a test image.
+pub fn exit_success() -> ! {
+    semihosting::process::exit(0)
+}
+
+/// Leave the debug session with failure: the end of a failed test image.
+pub fn exit_failure() -> ! {
+    semihosting::process::exit(1)
+}
+
+/// The product's fatal path, after the reason is logged: on the part a reset (a deployed
+/// device has no debugger to serve semihosting, whose call would halt it); in the emulator a
+/// semihosting exit with failure, so that a test sees it.
+pub fn fatal() -> ! {
+    #[cfg(feature = "emulator")]
+    exit_failure();
+    #[cfg(not(feature = "emulator"))]
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+#[panic_handler]
+fn panic(info: &PanicInfo) -> ! {
+    // No `core::fmt` here: the location is enough and keeps the formatting machinery out of
+    // flash. The code is written not to panic; reaching this is a bug.
+    match info.location() {
+        Some(l) => defmt::error!("panic at {=str}:{=u32}", l.file(), l.line()),
+        None => defmt::error!("panic"),
+    }
+    fatal()
+}
+
+#[exception]
+unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
+    defmt::error!("HardFault at pc {=u32:#010x}, lr {=u32:#010x}", ef.pc(), ef.lr());
+    fatal()
+}
+
+#[exception]
+unsafe fn DefaultHandler(irqn: i16) {
+    defmt::error!("unexpected exception or interrupt {=i16}", irqn);
+    fatal()
+}
