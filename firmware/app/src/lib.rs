@@ -65,8 +65,8 @@ pub use embedded_storage::nor_flash::NorFlash;
 use fbg_shared::blob;
 use fbg_shared::container::{self, Envelope};
 use fbg_shared::protocol::{
-    encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, RejectReason, Rejection, Status,
-    UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
+    encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, Refusals, RejectReason, Rejection,
+    Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
 use fbg_shared::signature::{self, KeyId, SignatureError, TrustedKey};
 use fbg_shared::{Compensator, Estimate, Sample};
@@ -258,9 +258,23 @@ struct Core<'a, P, F, const K: usize> {
     policy: Policy,
     store: Store<F>,
     model: ModelInfo,
-    status: Status,
+    status: Counters,
     alarm: P,
     stack_probe: Option<fn() -> u32>,
+}
+
+/// The counters the device keeps in RAM (the rest of [`Status`] is computed when asked for):
+/// since boot, but the update counters, which start from the store's log.
+#[derive(Clone, Copy, Debug, Default)]
+struct Counters {
+    frames_ok: u32,
+    frames_malformed: u32,
+    samples: u32,
+    updates_accepted: u32,
+    updates_rejected: u32,
+    refused: Refusals,
+    last_rejection: Option<Rejection>,
+    stack_boot_bytes: u32,
 }
 
 /// The device: answers host frames with the active model.
@@ -292,11 +306,28 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
         // Start with the alarm off; an output that cannot be driven is not fatal.
         let _ = alarm.set_low();
         let (updates_accepted, updates_rejected, refused) = store.totals();
-        let status =
-            Status { model_capacity: centres_u16(K), updates_accepted, updates_rejected, refused, ..Status::default() };
+        let status = Counters { updates_accepted, updates_rejected, refused, ..Counters::default() };
         // Serving starts between frames.
         *reader = FrameReader::new();
         Device { reader, core: Core { comp, kernel, policy, store, model, status, alarm, stack_probe: None } }
+    }
+
+    /// Boot the model the store selects (its newest verified slot at or above the rollback
+    /// floor, else the embedded `default`; [`Store::boot`]) into this device's compensator, and
+    /// identify the device by it. The way the firmware boots: the device (and the store in it)
+    /// is built once, in place, before the model loads, so no second copy of the store sits
+    /// on the stack. Not inlined: the boot's temporaries are gone once it returns.
+    #[inline(never)]
+    pub fn boot(&mut self, require_signed: bool, default: &[u8]) -> Result<ModelInfo, Rejection> {
+        let core = &mut self.core;
+        let info = core.store.boot(&core.kernel, &core.policy, require_signed, core.comp, default)?;
+        core.model = info;
+        // Boot may have logged a recovered update.
+        let (accepted, rejected, refused) = core.store.totals();
+        core.status.updates_accepted = accepted;
+        core.status.updates_rejected = rejected;
+        core.status.refused = refused;
+        Ok(info)
     }
 
     /// Report the deepest stack use through `probe` in [`Status::stack_peak_bytes`], and the
@@ -413,7 +444,17 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
 
 impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
     fn status(&self) -> Status {
+        let c = &self.status;
         Status {
+            frames_ok: c.frames_ok,
+            frames_malformed: c.frames_malformed,
+            samples: c.samples,
+            updates_accepted: c.updates_accepted,
+            updates_rejected: c.updates_rejected,
+            model_capacity: centres_u16(K),
+            refused: c.refused,
+            last_rejection: c.last_rejection,
+            stack_boot_bytes: c.stack_boot_bytes,
             model_centres: self.model.centres,
             model_crc: self.model.crc,
             model_serial: self.model.serial,
@@ -421,7 +462,6 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             stack_peak_bytes: self.stack_probe.map_or(0, |p| p()),
             staging_erases: self.store.transfer_erases(),
             store: self.store.status(),
-            ..self.status
         }
     }
 

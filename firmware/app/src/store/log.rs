@@ -17,9 +17,9 @@ use super::format::{is_blank, sector_erases, LogHeader, Record, Totals, RECORDS_
 /// totals of every event so far.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct EventLog {
-    /// The log sector (0 or 1) appended to, with its header; `None` before the first event
+    /// The log sector (0 or 1) appended to, with its sequence; `None` before the first event
     /// (or when no log sector has a whole header).
-    pub current: Option<(usize, LogHeader)>,
+    pub current: Option<(usize, u32)>,
     /// Offset of the next record in the current sector.
     pub next: usize,
     /// Number of the next event.
@@ -47,7 +47,8 @@ impl EventLog {
         let Some((i, h)) = newest else {
             return EventLog::default();
         };
-        let mut log = EventLog { current: Some((i, h)), next: RECORDS_AT, event: h.first_event, totals: h.totals };
+        let mut log =
+            EventLog { current: Some((i, h.sequence)), next: RECORDS_AT, event: h.first_event, totals: h.totals };
         let sector = sectors.get(i).copied().unwrap_or(&[]);
         while let Some(bytes) = sector.get(log.next..log.next + RECORD_LEN) {
             if is_blank(bytes) {
@@ -73,14 +74,14 @@ impl EventLog {
     pub fn next_sector(&self) -> (usize, LogHeader) {
         let (i, sequence) = match self.current {
             None => (0, 0),
-            Some((c, h)) => (1 - c.min(1), h.sequence.wrapping_add(1)),
+            Some((c, sequence)) => (1 - c.min(1), sequence.wrapping_add(1)),
         };
         (i, LogHeader { sequence, first_event: self.event, totals: self.totals })
     }
 
     /// A rotation into `sector` with `header` was written.
     pub fn rotated(&mut self, sector: usize, header: LogHeader) {
-        self.current = Some((sector, header));
+        self.current = Some((sector, header.sequence));
         self.next = RECORDS_AT;
     }
 

@@ -62,7 +62,7 @@ pub use self::power_cut::PowerCut;
 pub use self::slice_flash::SliceFlash;
 pub use crate::staging::MappedFlash;
 use crate::staging::Staging;
-use crate::{authenticate, boot, load_blob, Kernel, ModelInfo, Policy};
+use crate::{authenticate, boot, load_blob, Kernel, ModelInfo, Policy, Signer};
 
 /// Erases of the inactive slot allowed between two accepted updates (and after boot): enough
 /// for a host to retry a broken transfer a few times, few enough that the link alone cannot
@@ -119,6 +119,7 @@ pub struct Store<F> {
 impl<F: MappedFlash> Store<F> {
     /// The store on `flash` (four erase units at least; only the first four are used), taking
     /// updates of at most `limit` bytes (and at most a slot's room). Reads only.
+    #[inline(never)]
     pub fn open(flash: F, limit: usize) -> Result<Store<F>, StoreError> {
         const {
             assert!(UNIT.is_multiple_of(F::WRITE_SIZE), "the store's field groups must be whole write units");
@@ -153,6 +154,7 @@ impl<F: MappedFlash> Store<F> {
     /// into `comp`, else the embedded `default` (as [`crate::boot`] does); see the module docs.
     /// A slot the log missed (a cut between its ACTIVE word and its record) is given its
     /// accepted event now.
+    #[inline(never)]
     pub fn boot<const K: usize>(
         &mut self,
         kernel: &Kernel<K>,
@@ -161,31 +163,24 @@ impl<F: MappedFlash> Store<F> {
         comp: &mut Compensator<f32, K>,
         default: &[u8],
     ) -> Result<ModelInfo, Rejection> {
-        let [a, b] = [self.view(0), self.view(1)];
-        let generation = |v: &SlotView| v.header.map_or(0, |h| h.generation);
-        let order = if generation(&b) > generation(&a) { [1, 0] } else { [0, 1] };
-        for slot in order {
-            if let Some((info, header)) = self.try_slot(kernel, policy, comp, slot) {
-                self.running = Some(slot);
-                self.booted = BootSource::Slot { slot: slot as u8, generation: header.generation };
-                if header.generation > self.log.totals.floor_generation {
-                    let rec = accepted_record(slot, &header, FLAG_RECOVERED);
-                    // A failure leaves the log as it was; the slot still boots next time.
-                    let _ = self.append(rec);
-                }
-                log!(
-                    info,
-                    "booted slot {=usize} (generation {=u32}): serial {=u64}, crc {=u32:#010x}; rollback floor {=u64}, {=u32} logged events",
-                    slot,
-                    header.generation,
-                    header.serial,
-                    header.digest,
-                    self.log.totals.floor,
-                    self.log.event
-                );
+        for slot in self.newest_first() {
+            if let Some(info) = self.try_slot(kernel, policy, comp, slot) {
                 return Ok(info);
             }
         }
+        self.boot_embedded(kernel, policy, require_signed, comp, default)
+    }
+
+    /// No slot to boot: the embedded `default` ([`crate::boot`]).
+    #[inline(never)]
+    fn boot_embedded<const K: usize>(
+        &mut self,
+        kernel: &Kernel<K>,
+        policy: &Policy,
+        require_signed: bool,
+        comp: &mut Compensator<f32, K>,
+        default: &[u8],
+    ) -> Result<ModelInfo, Rejection> {
         self.running = None;
         self.booted = BootSource::Embedded;
         log!(
@@ -197,15 +192,59 @@ impl<F: MappedFlash> Store<F> {
         boot(kernel, policy, require_signed, comp, default)
     }
 
-    /// Slot `slot` loaded into `comp` when it is a candidate at or above the floor whose
+    /// The slots, newest generation first.
+    #[inline(never)]
+    fn newest_first(&self) -> [usize; SLOTS] {
+        let generation = |slot| self.view(slot).header.map_or(0, |h| h.generation);
+        if generation(1) > generation(0) {
+            [1, 0]
+        } else {
+            [0, 1]
+        }
+    }
+
+    /// Slot `slot` under `header` booted: say so, and give the log the accepted event it
+    /// missed, if any (a failure leaves the log as it was; the slot still boots next time).
+    #[inline(never)]
+    fn booted_from(&mut self, slot: usize, header: &SlotHeader) {
+        self.running = Some(slot);
+        self.booted = BootSource::Slot { slot: slot as u8, generation: header.generation };
+        if header.generation > self.log.totals.floor_generation {
+            let _ = self.append(accepted_record(slot, header, FLAG_RECOVERED));
+        }
+        log!(
+            info,
+            "booted slot {=usize} (generation {=u32}): serial {=u64}, crc {=u32:#010x}; rollback floor {=u64}, {=u32} logged events",
+            slot,
+            header.generation,
+            header.serial,
+            header.digest,
+            self.log.totals.floor,
+            self.log.event
+        );
+    }
+
+    /// Slot `slot` booted into `comp` when it is a candidate at or above the floor whose
     /// signature verifies and whose model loads.
+    #[inline(never)]
     fn try_slot<const K: usize>(
-        &self,
+        &mut self,
         kernel: &Kernel<K>,
         policy: &Policy,
         comp: &mut Compensator<f32, K>,
         slot: usize,
-    ) -> Option<(ModelInfo, SlotHeader)> {
+    ) -> Option<ModelInfo> {
+        let (blob_len, h) = self.verified(policy, slot)?;
+        let blob = self.flash.sector(slot).get(PAYLOAD_AT..PAYLOAD_AT + blob_len)?;
+        let info = load_blob(kernel, comp, blob).ok()?;
+        self.booted_from(slot, &h);
+        Some(info.signed_by(Some(Signer { serial: h.serial, key_id: h.key_id })))
+    }
+
+    /// Slot `slot`'s blob length and header when it is a candidate at or above the floor whose
+    /// signature verifies and agrees with its header (serial, key id, digest).
+    #[inline(never)]
+    fn verified(&self, policy: &Policy, slot: usize) -> Option<(usize, SlotHeader)> {
         let v = self.view(slot);
         let h = v.header.filter(|h| v.active && h.serial >= self.log.totals.floor)?;
         let file = self.flash.sector(slot).get(PAYLOAD_AT..PAYLOAD_AT + h.len as usize)?;
@@ -213,11 +252,7 @@ impl<F: MappedFlash> Store<F> {
         let same = signer.serial == h.serial
             && signer.key_id == h.key_id
             && fbg_shared::blob::stored_crc(blob) == Some(h.digest);
-        if !same {
-            return None;
-        }
-        let info = load_blob(kernel, comp, blob).ok()?;
-        Some((info.signed_by(Some(signer)), h))
+        same.then_some((blob.len(), h))
     }
 
     /// Slot `slot` as its sector reads.
@@ -279,6 +314,7 @@ impl<F: MappedFlash> Store<F> {
     /// Erase sector `i` and write its header with its erase count, counted before the attempt
     /// (a failing erase still wears the part). A sector whose count was unreadable continues
     /// from the highest count of the others.
+    #[inline(never)]
     fn erase_sector(&mut self, i: usize) -> Result<(), ()> {
         let known = self.erases.iter().flatten().copied().max().unwrap_or(0);
         let count = self.erases.get(i).copied().flatten().unwrap_or(known).wrapping_add(1);
@@ -292,6 +328,7 @@ impl<F: MappedFlash> Store<F> {
 
     /// Give blank sector `i` (never written, or erased by a rotation cut before its header)
     /// its header without an erase.
+    #[inline(never)]
     fn format_blank(&mut self, i: usize) -> Result<(), ()> {
         let count = self.erases.get(i).copied().flatten().unwrap_or(0);
         if let Some(e) = self.erases.get_mut(i) {
@@ -316,6 +353,7 @@ impl<F: MappedFlash> Store<F> {
 
     /// Append `rec` (its event number set here) to the log, rotating to the other log sector
     /// when the current one is full.
+    #[inline(never)]
     fn append(&mut self, mut rec: Record) -> Result<(), ()> {
         rec.event = self.log.event;
         if !self.log.has_room(F::ERASE_SIZE) {

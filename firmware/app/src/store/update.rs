@@ -13,7 +13,7 @@ use super::format::{
     PAYLOAD_AT, REVOKED, REVOKED_AT, SLOT_HEADER_AT, UNIT,
 };
 use super::{accepted_record, MappedFlash, Store, ERASE_BUDGET, REFUSALS_LOGGED, SLOTS};
-use crate::{authenticate, load_blob, Kernel, ModelInfo, Policy};
+use crate::{authenticate, load_blob, Kernel, ModelInfo, Policy, Signer};
 
 impl<F: MappedFlash> Store<F> {
     /// The slot an update is written to: never the running one; with the embedded default
@@ -34,6 +34,7 @@ impl<F: MappedFlash> Store<F> {
     /// against the limit first, then the slot is made blank — erased unless it is blank already
     /// (within [`ERASE_BUDGET`]), its erase count written again. Any earlier transfer is
     /// forgotten.
+    #[inline(never)]
     pub fn begin(&mut self, total: usize, crc: u32) -> Result<(), Rejection> {
         self.receiving = None;
         self.staging.check(total)?;
@@ -61,6 +62,7 @@ impl<F: MappedFlash> Store<F> {
 
     /// Append a chunk that starts at byte `at` of the transfer; returns the bytes received so
     /// far.
+    #[inline(never)]
     pub fn chunk(&mut self, at: u32, data: &[u8]) -> Result<usize, Rejection> {
         self.staging.chunk(&mut self.flash, at, data)
     }
@@ -75,6 +77,7 @@ impl<F: MappedFlash> Store<F> {
     /// model (and the rollback floor), make it the model that boots and load it into `comp`
     /// (see the module docs for the order of the writes). The outcome is logged — a refusal
     /// within [`REFUSALS_LOGGED`] per accepted update.
+    #[inline(never)]
     pub fn commit<const K: usize>(
         &mut self,
         kernel: &Kernel<K>,
@@ -99,6 +102,8 @@ impl<F: MappedFlash> Store<F> {
         result
     }
 
+    /// The commit's steps, each in its own frame so that none of their temporaries is on the
+    /// stack while the model loads (the deepest the stack goes).
     #[inline(never)]
     fn commit_to<const K: usize>(
         &mut self,
@@ -108,46 +113,74 @@ impl<F: MappedFlash> Store<F> {
         running: &ModelInfo,
         slot: usize,
     ) -> Result<ModelInfo, Rejection> {
-        let total = self.staging.finish(&mut self.flash)?;
-        let (blob_len, signer, digest) = {
-            let file = self.flash.sector(slot).get(PAYLOAD_AT..PAYLOAD_AT + total).unwrap_or(&[]);
-            let (blob, signer) = authenticate(policy, file, Some(running))?;
-            (blob.len(), signer, stored_crc(blob).unwrap_or(0))
+        let (total, blob_len, signer) = self.authentic(policy, running, slot)?;
+        let header = self.activate(slot, total, blob_len, signer)?;
+        let loaded = {
+            let blob = self.flash.sector(slot).get(PAYLOAD_AT..PAYLOAD_AT + blob_len).unwrap_or(&[]);
+            load_blob(kernel, comp, blob)
         };
+        match loaded {
+            Ok(info) => {
+                self.running = Some(slot);
+                let flags = if signer.serial < running.serial { FLAG_ROLLBACK } else { 0 };
+                // A failure leaves the slot booting; the log is repaired at the next boot.
+                let _ = self.append(accepted_record(slot, &header, flags));
+                Ok(info.signed_by(Some(signer)))
+            }
+            Err(r) => {
+                // Never a candidate again; were this lost, boot would find it fails to load.
+                let _ = self.set_state(slot, REVOKED_AT, REVOKED);
+                Err(r)
+            }
+        }
+    }
+
+    /// The transfer into `slot` read back whole and authenticated against `policy`, the
+    /// `running` model and the floor: its length, its blob's and its signer.
+    #[inline(never)]
+    fn authentic(
+        &mut self,
+        policy: &Policy,
+        running: &ModelInfo,
+        slot: usize,
+    ) -> Result<(usize, usize, Signer), Rejection> {
+        let total = self.staging.finish(&mut self.flash)?;
+        let file = self.flash.sector(slot).get(PAYLOAD_AT..PAYLOAD_AT + total).unwrap_or(&[]);
+        let (blob, signer) = authenticate(policy, file, Some(running))?;
         // Below the floor while a model below it runs (the embedded default, after the slots
         // failed at boot): that would be a rollback.
         let floor = self.floor();
         if signer.serial < floor && running.serial < floor {
             return Err(SignatureError::Rollback { serial: signer.serial, running: floor }.into());
         }
+        Ok((total, blob.len(), signer))
+    }
+
+    /// Make `slot` (its `total`-byte file authenticated) the newest boot candidate: its header
+    /// (read back), COMPLETE, then ACTIVE, the one word written last.
+    #[inline(never)]
+    fn activate(
+        &mut self,
+        slot: usize,
+        total: usize,
+        blob_len: usize,
+        signer: Signer,
+    ) -> Result<SlotHeader, Rejection> {
+        let file = self.flash.sector(slot).get(PAYLOAD_AT..PAYLOAD_AT + blob_len).unwrap_or(&[]);
+        let digest = stored_crc(file).unwrap_or(0);
         let generation = self.generation(0).max(self.generation(1)).wrapping_add(1);
-        let header = SlotHeader { generation, len: total as u32, digest, serial: signer.serial, key_id: signer.key_id };
+        let len = u32::try_from(total).unwrap_or(u32::MAX);
+        let header = SlotHeader { generation, len, digest, serial: signer.serial, key_id: signer.key_id };
         let base = slot * F::ERASE_SIZE;
         self.program(base + SLOT_HEADER_AT, &header.to_bytes()).map_err(|_| storage(base + SLOT_HEADER_AT))?;
         self.set_state(slot, COMPLETE_AT, COMPLETE).map_err(|_| storage(base + COMPLETE_AT))?;
-        // The one word that makes the slot a boot candidate, written last.
         self.set_state(slot, ACTIVE_AT, ACTIVE).map_err(|_| storage(base + ACTIVE_AT))?;
-        let loaded = {
-            let blob = self.flash.sector(slot).get(PAYLOAD_AT..PAYLOAD_AT + blob_len).unwrap_or(&[]);
-            load_blob(kernel, comp, blob)
-        };
-        let info = match loaded {
-            Ok(info) => info.signed_by(Some(signer)),
-            Err(r) => {
-                // Never a candidate again; were this lost, boot would find it fails to load.
-                let _ = self.set_state(slot, REVOKED_AT, REVOKED);
-                return Err(r);
-            }
-        };
-        self.running = Some(slot);
-        let flags = if signer.serial < running.serial { FLAG_ROLLBACK } else { 0 };
-        // A failure here leaves the slot booting; the log is repaired at the next boot.
-        let _ = self.append(accepted_record(slot, &header, flags));
-        Ok(info)
+        Ok(header)
     }
 
     /// Log the refusal `r` of the transfer of `total` bytes into `slot`, naming what its bytes
     /// claim to be (unverified: an audit hint), or count it unlogged beyond the budget.
+    #[inline(never)]
     fn log_refusal(&mut self, r: Rejection, slot: usize, total: usize) {
         if self.refusals_since_accept >= REFUSALS_LOGGED {
             self.refusals_unlogged = self.refusals_unlogged.wrapping_add(1);
