@@ -1,7 +1,9 @@
 //! Build script of the firmware:
 //!
-//! - puts the top-level `memory.x` on the linker search path (cortex-m-rt's `link.x` includes
-//!   it), so a build that would not fit the co-processor fails to link;
+//! - puts the top-level `memory.x` on the linker search path of every image but `golden`
+//!   (cortex-m-rt's `link.x` includes it), so a build that would not fit the co-processor
+//!   fails to link; `golden`, whose test vectors do not fit the part, links with
+//!   `memory-golden.x`;
 //! - writes an empty `device.x` (cortex-m-rt's `device` feature; the interrupt table is the
 //!   image's own, `__INTERRUPTS` in `src/lib.rs`);
 //! - copies the test fixtures the test binaries embed into `OUT_DIR` (an empty file when a
@@ -34,8 +36,24 @@ fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     let manifest = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
 
+    // Each image links with its own `memory.x` (cortex-m-rt's `link.x` includes the one the
+    // linker finds first, so no map is on the search path of every image): the top-level
+    // memory.x, the part's budget, for every image but `golden`, whose pack of test vectors is
+    // beyond that budget (`memory-golden.x` says why). The image names come from Cargo.toml.
     let memory = manifest.join("../memory.x");
-    fs::copy(&memory, out.join("memory.x")).expect("copy ../memory.x (the top-level linker memory map)");
+    let golden_memory = manifest.join("memory-golden.x");
+    // An older build script copied the map to OUT_DIR itself, on every image's search path.
+    let _ = fs::remove_file(out.join("memory.x"));
+    let cargo_toml = fs::read_to_string(manifest.join("Cargo.toml")).expect("read Cargo.toml");
+    for bin in bin_names(&cargo_toml) {
+        let map = if bin == "golden" { &golden_memory } else { &memory };
+        let dir = out.join("memory").join(&bin);
+        fs::create_dir_all(&dir).expect("create the image's memory map directory");
+        fs::copy(map, dir.join("memory.x")).expect("copy the image's linker memory map");
+        println!("cargo:rustc-link-arg-bin={bin}=-L{}", dir.display());
+    }
+    println!("cargo:rerun-if-changed={}", golden_memory.display());
+    println!("cargo:rerun-if-changed=Cargo.toml");
     // cortex-m-rt's `device` feature includes `device.x` (weak interrupt handler names, which a
     // PAC would provide): this firmware names none, its table (`__INTERRUPTS`) points every
     // line to `DefaultHandler`.
@@ -60,6 +78,23 @@ fn main() {
         println!("cargo:rerun-if-changed={}", src.display());
         fs::write(out.join(name), bytes).expect("write fixture copy");
     }
+}
+
+/// The `name`s of the `[[bin]]` tables of Cargo.toml.
+fn bin_names(cargo_toml: &str) -> Vec<String> {
+    let mut names = Vec::new();
+    let mut in_bin = false;
+    for line in cargo_toml.lines().map(str::trim) {
+        if line.starts_with('[') {
+            in_bin = line == "[[bin]]";
+        } else if let Some(v) = line.strip_prefix("name").map(str::trim).and_then(|v| v.strip_prefix('=')) {
+            if in_bin {
+                names.push(v.trim().trim_matches('"').to_string());
+            }
+        }
+    }
+    assert!(!names.is_empty(), "Cargo.toml names no [[bin]]");
+    names
 }
 
 // The signature policy (`trust.rs`): shared with the board crate's build script

@@ -12,6 +12,14 @@ use cortex_m::peripheral::{DCB, DWT, SYST};
 /// Mask of the 24-bit SysTick counter.
 pub const SYSTICK_MASK: u32 = 0x00FF_FFFF;
 
+/// The core clock SysTick counts on the MPS2 AN386 (QEMU's model of it), Hz.
+pub const CORE_HZ: u32 = 25_000_000;
+
+/// Ticks of the core clock as whole microseconds.
+pub fn ticks_to_us(ticks: u32) -> u32 {
+    ticks / (CORE_HZ / 1_000_000)
+}
+
 /// Start SysTick free-running from 2^24 − 1 on the core clock, without interrupts.
 pub fn systick_start(syst: &mut SYST) {
     syst.disable_interrupt();

@@ -1,7 +1,7 @@
 //! Board support of the FBG firmware on the MPS2 AN386 (Cortex-M4F), as QEMU's `mps2-an386`
 //! models it: the CMSDK APB UART driver (`embedded-io`), the FPGA IO LED as the alarm
-//! (`embedded-hal` `OutputPin`), the flash slot model updates are staged in
-//! (`embedded-storage` `NorFlash`), SysTick/DWT counters, the stack high-water mark, the
+//! (`embedded-hal` `OutputPin`), the flash of the persistent model store (`embedded-storage`
+//! `NorFlash`, kept across QEMU runs in a host file), SysTick/DWT counters, the stack high-water mark, the
 //! fatal-error path (defmt log, then semihosting exit with failure). The test images read the
 //! packs of models and samples they embed with `fbg_shared::golden::records`.
 //!
@@ -10,9 +10,9 @@
 #![no_std]
 
 pub mod counters;
-pub mod flash_slot;
 pub mod led;
 pub mod stack;
+pub mod store_flash;
 pub mod uart;
 
 use core::panic::PanicInfo;
@@ -38,7 +38,7 @@ pub const MAX_BLOB: usize = {
     }
 };
 
-/// The longest update this build stages (in the flash slot, [`flash_slot`]): any signed model
+/// The longest update this build stages (in the store's flash, [`store_flash`]): any signed model
 /// it takes; a longer transfer is refused at `ModelBegin` (`TooLarge`).
 pub const STAGING_LEN: usize = MAX_BLOB + fbg_shared::signature::TRAILER_V2_LEN;
 

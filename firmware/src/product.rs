@@ -1,13 +1,15 @@
-// The product firmware's entry, shared by the product image (`main.rs`, the build's policy)
-// and the QEMU test image `rollback` (the same with rollbacks accepted); the including file
-// defines `POLICY`.
+// The product firmware's entry, shared by the product image (`main.rs`, the build's policy),
+// the QEMU test image `rollback` (the same with rollbacks accepted) and the QEMU test image
+// `torture` (the same whose flash loses power at a chosen operation); the including file
+// defines `POLICY` and `store_flash()`, which makes the store's flash (called once).
 
 use cortex_m_rt::entry;
-use fbg_firmware::flash_slot::FlashSlot;
+use fbg_firmware::counters::{systick_elapsed, systick_now, systick_start, ticks_to_us};
 use fbg_firmware::led::FpgaioLed;
 use fbg_firmware::uart::{CmsdkUart, Uart0Rx, MPS2_PCLK_HZ, UART0_BASE};
 use fbg_firmware::{exit_failure, stack, trust, DEFAULT_MODEL, K, KERNEL, STAGING_LEN};
-use fbg_firmware_app::{boot, unloaded, Device, Staging};
+use fbg_firmware_app::store::Store;
+use fbg_firmware_app::{unloaded, Device};
 use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
 use fbg_shared::Compensator;
 
@@ -23,22 +25,34 @@ fn main() -> ! {
     static mut MODEL: Compensator<f32, K> = unloaded();
     static mut READER: FrameReader<HOST_MAX_FRAME> = FrameReader::new();
 
+    // Boot time is measured from here to the first frame served (SysTick on the core clock:
+    // under QEMU's `-icount` emulated time, on a part real time).
+    let Some(mut cp) = cortex_m::Peripherals::take() else { exit_failure() };
+    systick_start(&mut cp.SYST);
+    let boot_start = systick_now();
+
     // SAFETY: UART0 and LED0 of the MPS2 board, each driven only from here.
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     uart.init(MPS2_PCLK_HZ, BAUD);
     // Sleep between received bytes instead of spinning.
     uart.enable_rx_wakeup(Uart0Rx);
     let alarm = unsafe { FpgaioLed::new(0) };
-    // SAFETY: the one driver of the staging region of memory.x.
-    let slot = unsafe { FlashSlot::new() };
+    // The store only reads here: which slots hold a complete model, the log's totals and
+    // the rollback floor.
+    let Ok(mut store) = Store::open(store_flash(), STAGING_LEN) else {
+        defmt::error!("the model store's flash is smaller than its four sectors");
+        exit_failure()
+    };
 
     if trust::TEST_KEY_ONLY {
         defmt::warn!("this image trusts only the QEMU TEST key (firmware/keys/): not for production");
     }
-    // The embedded default goes the way of every update: parsed into a parameter slot on the
-    // stack of `load_blob`, then folded into the (unloaded) active compensator in place. It is
-    // trusted as part of the image unless the build requires it to be signed.
-    let info = match boot(&KERNEL, &POLICY, trust::REQUIRE_SIGNED_DEFAULT, MODEL, DEFAULT_MODEL) {
+    // The newest complete, verified slot at or above the rollback floor, else the embedded
+    // default; either goes the way of every update: parsed into a parameter slot on the stack
+    // of `load_blob`, then folded into the (unloaded) active compensator in place. The
+    // embedded default is trusted as part of the image unless the build requires it to be
+    // signed.
+    let info = match store.boot(&KERNEL, &POLICY, trust::REQUIRE_SIGNED_DEFAULT, MODEL, DEFAULT_MODEL) {
         Ok(info) => info,
         Err(r) => {
             defmt::error!(
@@ -54,15 +68,21 @@ fn main() -> ! {
     // record it, then paint again so that the status reports the serving path on its own.
     let boot_peak = stack::peak_bytes();
     stack::repaint();
+    let st = store.status();
     defmt::info!(
-        "fbg-firmware up: K = {=usize}, model {=u16} centres, crc {=u32:#010x}, stack peak during boot {=u32} B",
+        "fbg-firmware up: K = {=usize}, model {=u16} centres, crc {=u32:#010x}, serial {=u64} from {}, rollback floor {=u64}, stack peak during boot {=u32} B",
         K,
         info.centres,
         info.crc,
+        info.serial,
+        st.boot_source,
+        st.rollback_floor,
         boot_peak
     );
-    let mut dev = Device::new(MODEL, KERNEL, POLICY, READER, info, Staging::new(slot, STAGING_LEN), alarm);
+    let mut dev = Device::new(MODEL, KERNEL, POLICY, READER, info, store, alarm);
     dev.set_stack_probe(stack::peak_bytes, boot_peak);
+    // Serving starts now: the boot time is what the status reports.
+    dev.set_boot_time_us(ticks_to_us(systick_elapsed(boot_start, systick_now())));
     match dev.serve(&mut uart) {
         Ok(never) => match never {},
         Err(never) => match never {},

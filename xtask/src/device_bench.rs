@@ -18,6 +18,8 @@
 //! - Stack high-water mark of the product image by stack painting, read over the link from
 //!   `Status::stack_peak_bytes`: after boot, after streaming, after a (signed) model update,
 //!   whose peak includes the signature verification.
+//! - The model store ([`store`]): flash operations and erases of one update, boot time to
+//!   serving with a full event log (emulated time under `-icount`).
 //! - Instructions of one signature check of a model update (`fbg_firmware_app::authenticate`:
 //!   trailer, key lookup, Ed25519 verification, serial) on the default model signed with the
 //!   QEMU test key, timed by the bench image like a step, with the stack it reached.
@@ -41,6 +43,7 @@ pub mod ops;
 mod pack;
 pub mod record;
 mod size;
+pub mod store;
 
 /// One signature check of a model update, timed by the bench image.
 #[derive(Clone, Debug, Default)]
@@ -120,6 +123,7 @@ pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
     let verify = verify.context("the bench image did not time the signature check")?;
     let bins = size::product_images(root)?;
     let size = size::measure_size(root, &q, &bins)?;
+    let store = store_bench(root, &q, &bins)?;
     println!();
     for s in &steps {
         let target = if s.name == "default" {
@@ -138,13 +142,37 @@ pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
         "signature check of a model update ({} B signed model): {:.0} instructions (once per update, not per sample); stack reached {} B",
         verify.bytes, verify.instructions, verify.stack_peak
     );
-    let json = serde_json::to_string_pretty(&DeviceRecord::new(&steps, &sizes, &size, &verify))?;
+    store::print(&store);
+    let json = serde_json::to_string_pretty(&DeviceRecord::new(&steps, &sizes, &size, &verify, Some(&store)))?;
     let dir = root.join("target").join("bench");
     fs::create_dir_all(&dir)?;
     let path = dir.join("device.json");
     write_atomic(&path, format!("{json}\n").as_bytes())?;
     println!("wrote {}", path.display());
     Ok((steps, size))
+}
+
+/// The model store's figures ([`store`]) on the product images `bins`, with the signed
+/// fixtures of the QEMU tests.
+fn store_bench(root: &Path, q: &Path, bins: &crate::firmware::Bins) -> Result<store::StoreBench> {
+    let fx = crate::fixtures::ensure(root)?;
+    let dfx = crate::fixtures::ensure_device(root)?;
+    let sfx = crate::signing::ensure(root, &fx, &dfx)?;
+    store::measure(root, q, bins, &sfx)
+}
+
+/// Only the store's figures (prints them; writes nothing): `cargo test -p xtask -- --ignored
+/// store_bench_alone --nocapture`, for working on the store without the whole device bench.
+#[cfg(test)]
+#[test]
+#[ignore = "runs QEMU for a minute; part of `cargo xtask device-bench`"]
+fn store_bench_alone() -> Result<()> {
+    let root = crate::cmd::root();
+    let q = emulator::ensure_qemu()?;
+    let bins = size::product_images(&root)?;
+    let b = store_bench(&root, &q, &bins)?;
+    store::print(&b);
+    Ok(())
 }
 
 fn print_sizes(t: &TypeSizes) {

@@ -23,6 +23,8 @@ pub struct Bins {
     pub fault: PathBuf,
     /// The product with rollbacks accepted (the bounded-rollback test).
     pub rollback: PathBuf,
+    /// The product whose store flash loses power in a chosen operation (the torture test).
+    pub torture: PathBuf,
 }
 
 /// The firmware workspace.
@@ -62,5 +64,6 @@ pub fn build(root: &Path, k: usize, bench: Option<&Path>) -> Result<Bins> {
         golden: out.join("golden"),
         fault: out.join("fault"),
         rollback: out.join("rollback"),
+        torture: out.join("torture"),
     })
 }

@@ -61,7 +61,12 @@ enum Task {
     },
     /// Only the firmware: the device logic's host tests, the default-model check, the build
     /// and the QEMU tests
-    Qemu,
+    Qemu {
+        /// The long forms of the store tests: all 50 power cuts of the torture test (10 in
+        /// `test`) and 1 000 updates in the wear test
+        #[arg(long)]
+        all: bool,
+    },
     /// Firmware flash / static RAM from the ELF and the measured stack peak
     Size,
     /// Only the device part of bench: instructions per step at K = 16/32/64 and of the trained
@@ -104,7 +109,7 @@ fn main() -> Result<()> {
     match Cli::parse().task {
         Task::Test { no_qemu } => test(no_qemu),
         Task::Lint { only } => lint::run_steps(&root, &only),
-        Task::Qemu => qemu::run_all(&root),
+        Task::Qemu { all } => qemu::run_all(&root, all),
         Task::Size => device_bench::size(&root).map(|_| ()),
         Task::DeviceBench => device_bench::run(&root).map(|_| ()),
         Task::Bench { quick, no_device, markdown_only } => {
@@ -148,7 +153,7 @@ fn test(skip_qemu: bool) -> Result<()> {
     if skip_qemu {
         eprintln!("xtask: --no-qemu given, skipping the firmware and its QEMU tests");
     } else {
-        qemu::run_all(&root)?;
+        qemu::run_all(&root, false)?;
         board::run_all(&root)?;
     }
     eprintln!("xtask: all tests passed");
@@ -199,5 +204,6 @@ mod tests {
             panic!("not lint")
         };
         assert_eq!(only, [lint::Step::Sizes, lint::Step::Fuzz]);
+        assert!(matches!(Cli::try_parse_from(["xtask", "qemu", "--all"]).unwrap().task, Task::Qemu { all: true }));
     }
 }

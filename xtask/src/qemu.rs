@@ -60,9 +60,11 @@ pub mod golden;
 mod link;
 mod memory;
 mod signed;
+mod store;
 
-/// Build the firmware and run every QEMU test.
-pub fn run_all(root: &Path) -> Result<()> {
+/// Build the firmware and run every QEMU test; `all`: the long forms of the store tests
+/// (`cargo xtask qemu --all`).
+pub fn run_all(root: &Path, all: bool) -> Result<()> {
     step("firmware: QEMU prerequisites and fixtures");
     let qemu = emulator::ensure_qemu()?;
     let fx = fixtures::ensure(root)?;
@@ -93,6 +95,12 @@ pub fn run_all(root: &Path) -> Result<()> {
     signed::signed_update_test(root, &qemu, &bins, &fx, &sfx)?;
     step("QEMU: a bounded rollback (the `rollback` image): accepted over the serial it names only");
     signed::rollback_test(root, &qemu, &bins, &sfx)?;
+    step(if all {
+        "QEMU: the persistent model store (power cycles, 50 power cuts during an update, 1 000 updates of wear)"
+    } else {
+        "QEMU: the persistent model store (power cycles, 10 of the 50 power cuts, 300 updates of wear; all with --all)"
+    });
+    store::store_tests(root, &qemu, &bins, &fx, &sfx, all)?;
     step("QEMU: a memory model over the whole 14-day paper stream (f32 device vs f64 host)");
     memory::long_memory_test(root, &qemu, &bins, &fx)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());
@@ -141,6 +149,22 @@ fn fault_test(root: &Path, qemu: &Path, bins: &Bins) -> Result<()> {
     }
     eprintln!("xtask: fault image ended with {status} as it must");
     Ok(())
+}
+
+/// Only the store tests (`store_tests`), after the fixtures and the firmware build:
+/// `cargo test -p xtask --release -- --ignored qemu_store_tests_alone` (`FBG_QEMU_ALL=1`: the
+/// long forms), for working on the store without the other QEMU tests.
+#[cfg(test)]
+#[test]
+#[ignore = "runs QEMU for minutes; part of `cargo xtask qemu`"]
+fn qemu_store_tests_alone() -> Result<()> {
+    let root = crate::cmd::root();
+    let qemu = emulator::ensure_qemu()?;
+    let fx = fixtures::ensure(&root)?;
+    let dfx = fixtures::ensure_device(&root)?;
+    let sfx = signing::ensure(&root, &fx, &dfx)?;
+    let bins = firmware::build(&root, PRODUCT_K, None)?;
+    store::store_tests(&root, &qemu, &bins, &fx, &sfx, std::env::var_os("FBG_QEMU_ALL").is_some())
 }
 
 /// `r` is a rejection for `reason` (`what` names the update in the messages).

@@ -23,3 +23,12 @@ pub const TARGET_BLOB: u64 = 4 * 1024;
 /// the model store and the signature verifier, ≤ 64 KiB (the HAL's clock and GPIO code and the
 /// part's larger interrupt table come on top of the QEMU image's budget).
 pub const TARGET_BOARD_FLASH: u64 = 64 * 1024;
+/// Boot to serving with a full event log, µs of emulated time (issue 30).
+pub const TARGET_BOOT_US: u32 = 50_000;
+/// Erases one model update may cause (issue 30): the inactive slot, and a log sector when the
+/// update's record rotates the log.
+pub const TARGET_ERASES_PER_UPDATE: u32 = 2;
+
+/// Records per sector of the model store's event log: `(ERASE_SIZE − RECORDS_AT) /
+/// RECORD_LEN` of `fbg_firmware_app::store::format` with the product's 16 KiB sectors.
+pub const STORE_LOG_RECORDS_PER_SECTOR: u32 = (16 * 1024 - 96) / 64;

@@ -8,10 +8,11 @@
 //! First it runs the RFC 8032 Ed25519 test vectors (section 7.1, TEST 1–3) through the
 //! signature verifier as this target builds it (`salty` with its Cortex-M4 assembly, which the
 //! host build of the same code does not use): each must verify, and must fail with one bit of
-//! its signature flipped; anything else ends the run with failure. Then it checks the staging
-//! flash slot's driver on the target (`fbg_firmware::flash_slot`): large enough for the longest
-//! update, an erase sets `0xFF`, a write lands and reads back, a second write over written bytes
-//! and unaligned or out-of-bounds operations are refused.
+//! its signature flipped; anything else ends the run with failure. Then it checks the model
+//! store's flash driver on the target (`fbg_firmware::store_flash`, without its host file):
+//! four sectors each large enough for the longest update, an erase sets `0xFF`, a write lands
+//! and reads back, a second write over written bytes and unaligned or out-of-bounds operations
+//! are refused.
 
 #![no_std]
 #![no_main]
@@ -19,7 +20,7 @@
 use cortex_m_rt::entry;
 use embedded_io::Write;
 use embedded_storage::nor_flash::{NorFlash, ReadNorFlash};
-use fbg_firmware::flash_slot::{FlashSlot, SlotError, ERASE_SIZE};
+use fbg_firmware::store_flash::{FlashError, StoreFlash, ERASE_SIZE};
 use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
 use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL, STAGING_LEN};
 use fbg_firmware_app::{load_blob, unloaded, MappedFlash};
@@ -111,33 +112,34 @@ fn check_rfc8032() {
     defmt::info!("golden: RFC 8032 TEST 1-3 pass through the device's Ed25519 verifier");
 }
 
-/// The staging slot's NOR semantics on the target; exits with failure on any surprise.
-fn check_flash_slot() {
-    // SAFETY: the only driver of the slot in this image.
-    let mut slot = unsafe { FlashSlot::new() };
+/// The store flash's NOR semantics on the target; exits with failure on any surprise.
+fn check_store_flash() {
+    // SAFETY: the only driver of the region in this image. Volatile: the golden run must not
+    // create or change a device's flash file.
+    let mut flash = unsafe { StoreFlash::volatile() };
     let e = ERASE_SIZE as u32;
     let word = [0x12, 0x34, 0x56, 0x78];
     let mut back = [0u8; 4];
     let checks = [
-        slot.capacity() >= STAGING_LEN && slot.capacity() % ERASE_SIZE == 0,
-        slot.erase(0, e).is_ok(),
-        slot.contents().get(..ERASE_SIZE).is_some_and(|b| b.iter().all(|&x| x == 0xFF)),
-        slot.write(8, &word).is_ok(),
-        slot.read(8, &mut back).is_ok() && back == word,
-        slot.contents().get(8..12) == Some(&word[..]),
-        slot.write(8, &word) == Err(SlotError::NotErased),
-        slot.write(2, &word) == Err(SlotError::NotAligned),
-        slot.write(8, &word[..3]) == Err(SlotError::NotAligned),
-        slot.erase(0, e / 2) == Err(SlotError::NotAligned),
-        slot.erase(0, slot.capacity() as u32 + e) == Err(SlotError::OutOfBounds),
-        slot.erase(0, e).is_ok() && slot.write(8, &word).is_ok(),
-        slot.erase(0, e).is_ok(),
+        ERASE_SIZE >= STAGING_LEN && flash.capacity() == 4 * ERASE_SIZE,
+        flash.erase(0, e).is_ok(),
+        flash.contents().get(..ERASE_SIZE).is_some_and(|b| b.iter().all(|&x| x == 0xFF)),
+        flash.write(8, &word).is_ok(),
+        flash.read(8, &mut back).is_ok() && back == word,
+        flash.contents().get(8..12) == Some(&word[..]),
+        flash.write(8, &word) == Err(FlashError::NotErased),
+        flash.write(2, &word) == Err(FlashError::NotAligned),
+        flash.write(8, &word[..3]) == Err(FlashError::NotAligned),
+        flash.erase(0, e / 2) == Err(FlashError::NotAligned),
+        flash.erase(0, flash.capacity() as u32 + e) == Err(FlashError::OutOfBounds),
+        flash.erase(0, e).is_ok() && flash.write(8, &word).is_ok(),
+        flash.erase(0, e).is_ok(),
     ];
     if let Some(i) = checks.iter().position(|ok| !ok) {
-        defmt::error!("flash slot: check {=usize} failed", i);
+        defmt::error!("store flash: check {=usize} failed", i);
         exit_failure()
     }
-    defmt::info!("golden: the staging flash slot ({=usize} B) behaves as NOR flash", slot.capacity());
+    defmt::info!("golden: the store flash ({=usize} B) behaves as NOR flash", flash.capacity());
 }
 
 #[entry]
@@ -148,7 +150,7 @@ fn main() -> ! {
     let mut uart = unsafe { CmsdkUart::new(UART0_BASE) };
     uart.init(MPS2_PCLK_HZ, 115_200);
     check_rfc8032();
-    check_flash_slot();
+    check_store_flash();
     if PACK.is_empty() {
         defmt::error!("golden pack missing (FBG_GOLDEN_PACK)");
         exit_failure()

@@ -6,7 +6,15 @@
 #![no_std]
 #![no_main]
 
+use fbg_firmware::store_flash::StoreFlash;
+
 /// The build's policy, rollbacks accepted.
 const POLICY: fbg_firmware_app::Policy = fbg_firmware_app::Policy { allow_rollback: true, ..fbg_firmware::POLICY };
+
+/// The store's flash, as the product's.
+fn store_flash() -> StoreFlash {
+    // SAFETY: called once, from `main`: the only driver of the region.
+    unsafe { StoreFlash::open() }
+}
 
 include!("../product.rs");

@@ -7,10 +7,12 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::store::StoreBench;
 use super::{SizeReport, StepBench, TypeSizes, VerifyBench};
 use crate::nan;
 use crate::targets::{
-    PRODUCT_K, TARGET_BLOB, TARGET_BOARD_FLASH, TARGET_FLASH, TARGET_INSNS_K32, TARGET_RAM, TARGET_RAM_LOAD,
+    PRODUCT_K, TARGET_BLOB, TARGET_BOARD_FLASH, TARGET_BOOT_US, TARGET_ERASES_PER_UPDATE, TARGET_FLASH,
+    TARGET_INSNS_K32, TARGET_RAM, TARGET_RAM_LOAD,
 };
 
 /// How the step figures were measured.
@@ -28,6 +30,9 @@ pub struct DeviceRecord {
     pub signature_verification: SignatureVerification,
     pub product: Product,
     pub targets: Targets,
+    /// The persistent model store (absent from files written before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub store: Option<Store>,
     /// The STM32F405 board's images (`cargo xtask board`); absent when not measured.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub board: Option<BoardRecord>,
@@ -99,6 +104,32 @@ impl BoardRecord {
         }
     }
 }
+
+/// The persistent model store: one update's flash operations, boot time with a full log.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Store {
+    pub what: String,
+    pub update_bytes: u64,
+    pub updates_measured: u32,
+    pub flash_ops_per_update: u32,
+    pub erases_per_update: u32,
+    pub erases_per_update_target: u32,
+    pub erases_per_update_met: bool,
+    /// Erases of the update whose record rotated the full log (the worst case).
+    pub erases_update_rotating_log: u32,
+    pub log_records_at_boot: u32,
+    pub boot_us_full_log: u32,
+    pub boot_us_target: u32,
+    pub boot_us_full_log_met: bool,
+    pub boot_us_factory_fresh: u32,
+    /// The model in a slot, one record in the log.
+    pub boot_us_one_record: u32,
+    /// Slot A, slot B, log 0, log 1 at the end (refused transfers erase the inactive slot too).
+    pub erases_per_sector: [u32; 4],
+}
+
+/// How the store figures were measured.
+const STORE_WHAT: &str = "product image over the link: accepted updates (one signed model re-installed) and 8 unsigned refusals between two, until both log sectors are full, then one more accepted update (its record rotates the log); flash operations and erases from Status::store before and after each accepted update (the most seen); boot time = Status::store.boot_time_us (SysTick from main to serving) after a power cycle under -icount shift=0 (1 ns per instruction)";
 
 /// One bench model under QEMU -icount.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -215,7 +246,13 @@ pub fn rounded(x: f64, digits: usize) -> f64 {
 
 impl DeviceRecord {
     /// The file of one device bench run.
-    pub fn new(steps: &[StepBench], t: &TypeSizes, size: &SizeReport, v: &VerifyBench) -> Self {
+    pub fn new(
+        steps: &[StepBench],
+        t: &TypeSizes,
+        size: &SizeReport,
+        v: &VerifyBench,
+        store: Option<&StoreBench>,
+    ) -> Self {
         let f = &size.footprint;
         let total = f.ram_static + size.stack_update.max(size.stack_boot) as u64;
         let serving = f.ram_static + size.stack_serving as u64;
@@ -295,6 +332,23 @@ impl DeviceRecord {
                 },
             },
             board: None,
+            store: store.map(|b| Store {
+                what: STORE_WHAT.to_string(),
+                update_bytes: b.update_bytes,
+                updates_measured: b.updates,
+                flash_ops_per_update: b.ops_per_update,
+                erases_per_update: b.erases_per_update,
+                erases_per_update_target: TARGET_ERASES_PER_UPDATE,
+                erases_per_update_met: b.erases_per_update <= TARGET_ERASES_PER_UPDATE,
+                erases_update_rotating_log: b.rotation_erases,
+                log_records_at_boot: b.log_events,
+                boot_us_full_log: b.boot_us_full_log,
+                boot_us_target: TARGET_BOOT_US,
+                boot_us_full_log_met: b.boot_us_full_log <= TARGET_BOOT_US,
+                boot_us_factory_fresh: b.boot_us_empty,
+                boot_us_one_record: b.boot_us_one_record,
+                erases_per_sector: b.erases,
+            }),
         }
     }
 }

@@ -28,9 +28,9 @@ pub struct SizeReport {
     pub stack_update: u32,
     /// Size of the embedded default blob \[B\].
     pub blob_bytes: u64,
-    /// The flash slot model updates are staged in (`STAGING` of `memory.x`; flash outside the
-    /// image, neither RAM nor part of the image) \[B\].
-    pub staging_slot: u64,
+    /// The model store's flash (`STORE` of `memory.x`: two model slots and the event log;
+    /// flash outside the image, neither RAM nor part of the image) \[B\].
+    pub store_region: u64,
 }
 
 /// The product images, built on the current fixtures.
@@ -90,32 +90,32 @@ pub(super) fn measure_size(root: &Path, q: &Path, bins: &Bins) -> Result<SizeRep
     let stack_update = s.link()?.status()?.stack_peak_bytes;
     s.disconnect()?;
     s.check_alive()?;
-    let staging_slot = staging_slot(root)?;
+    let store_region = store_region(root)?;
     Ok(SizeReport {
         footprint,
         stack_boot,
         stack_serving,
         stack_update,
         blob_bytes: default.len() as u64,
-        staging_slot,
+        store_region,
     })
 }
 
-/// Length of the `STAGING` region of the top-level `memory.x` (`LENGTH = 8K` or a number of
-/// bytes), the flash slot model updates are staged in.
-fn staging_slot(root: &Path) -> Result<u64> {
+/// Length of the `STORE` region of the top-level `memory.x` (`LENGTH = 64K` or a number of
+/// bytes), the model store's flash.
+fn store_region(root: &Path) -> Result<u64> {
     let path = root.join("memory.x");
     let text = fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
     let line = text
         .lines()
-        .find(|l| l.trim_start().starts_with("STAGING"))
-        .with_context(|| format!("{} has no STAGING region", path.display()))?;
+        .find(|l| l.trim_start().starts_with("STORE"))
+        .with_context(|| format!("{} has no STORE region", path.display()))?;
     let len = line.split("LENGTH").nth(1).and_then(|r| r.split('=').nth(1)).map(str::trim).unwrap_or_default();
     let (digits, scale) = match len.strip_suffix('K') {
         Some(d) => (d, 1024),
         None => (len, 1),
     };
-    let n: u64 = digits.trim().parse().with_context(|| format!("STAGING length `{len}` in {}", path.display()))?;
+    let n: u64 = digits.trim().parse().with_context(|| format!("STORE length `{len}` in {}", path.display()))?;
     Ok(n * scale)
 }
 
@@ -133,8 +133,8 @@ pub(super) fn print_size(r: &SizeReport) {
     );
     println!("  static RAM       {:>7} B", f.ram_static);
     println!(
-        "  staging slot     {:>7} B  flash outside the image (STAGING of memory.x): model updates are staged there, not in RAM",
-        r.staging_slot
+        "  model store      {:>7} B  flash outside the image (STORE of memory.x): two model slots (an update is programmed into the inactive one, not RAM) and the event log",
+        r.store_region
     );
     println!(
         "  stack peak       {:>7} B serving samples; {} B during a model update; {} B during boot",

@@ -1,5 +1,12 @@
 //! `qemu-system-arm` (installed when missing), a running QEMU killed when dropped, and its
-//! defmt log.
+//! defmt log; the working directory of an emulated device, whose flash file it keeps.
+//!
+//! **Persistent devices.** The product images keep the model store's flash in the file
+//! [`FLASH_FILE`] of QEMU's working directory (semihosting file I/O, written through on every
+//! erase and program: `firmware/src/store_flash.rs`). Every device of the tests gets its own
+//! directory, `target/qemu/<name>/` ([`device_dir`]), so that its flash is its own; killing
+//! QEMU and starting it again on the same directory is a power cycle, deleting the file
+//! ([`fresh_device`]) makes a factory-fresh part.
 
 use std::fs::{self, File};
 use std::path::{Path, PathBuf};
@@ -38,6 +45,27 @@ pub fn out_dir(root: &Path) -> Result<PathBuf> {
     let d = root.join("target").join("qemu");
     fs::create_dir_all(&d)?;
     Ok(d)
+}
+
+/// The file of a device's working directory that holds its store flash.
+pub const FLASH_FILE: &str = "fbg-flash.bin";
+
+/// The working directory of the emulated device `name` (created when missing).
+pub fn device_dir(root: &Path, name: &str) -> Result<PathBuf> {
+    let d = out_dir(root)?.join(name);
+    fs::create_dir_all(&d).with_context(|| format!("creating {}", d.display()))?;
+    Ok(d)
+}
+
+/// Make the device of `dir` factory-fresh: no flash file, so its next boot finds an erased
+/// store.
+pub fn fresh_device(dir: &Path) -> Result<()> {
+    match fs::remove_file(dir.join(FLASH_FILE)) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            Err(e).with_context(|| format!("deleting {}", dir.join(FLASH_FILE).display()))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// The emulated board an image runs on.
@@ -92,23 +120,61 @@ impl Qemu {
         log: &Path,
         extra: &[&str],
     ) -> Result<Qemu> {
+        Qemu::start_in(machine, qemu, elf, serial, log, None, &[], extra)
+    }
+
+    /// Start `elf` on `machine` with serial0 on `serial` (a QEMU chardev spec), in the working
+    /// directory `cwd` (where the image's semihosting files are: a product image's flash file;
+    /// `None`: xtask's), `args` its semihosting command line after its name, `extra` more QEMU
+    /// options.
+    #[allow(clippy::too_many_arguments)]
+    pub fn start_in(
+        machine: Machine,
+        qemu: &Path,
+        elf: &Path,
+        serial: &str,
+        log: &Path,
+        cwd: Option<&Path>,
+        args: &[&str],
+        extra: &[&str],
+    ) -> Result<Qemu> {
         ensure!(elf.exists(), "{} is not built", elf.display());
         let stdout = File::create(log).with_context(|| format!("creating {}", log.display()))?;
         let stderr = File::create(log.with_extension("stderr"))?;
+        let name = elf.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        // The command line the image reads with SYS_GET_CMDLINE (QEMU 7.2: the `arg`s of
+        // -semihosting-config, joined by spaces); a comma would end the option.
+        let mut config = format!("enable=on,target=native,arg={name}");
+        for a in args {
+            ensure!(!a.contains(','), "semihosting argument `{a}` has a comma");
+            config.push_str(&format!(",arg={a}"));
+        }
         let mut cmd = Command::new(qemu);
         cmd.args(machine.args())
             .args(["-nographic", "-monitor", "none"])
             .args(["-serial", serial])
-            .args(["-semihosting-config", "enable=on,target=native"])
+            .args(["-semihosting-config", &config])
             .args(extra)
             .arg("-kernel")
             .arg(elf)
             .stdin(Stdio::null())
             .stdout(stdout)
             .stderr(stderr);
+        if let Some(dir) = cwd {
+            cmd.current_dir(dir);
+        }
         eprintln!("xtask: $ {}", describe(&cmd));
         let child = cmd.spawn().with_context(|| format!("starting {}", qemu.display()))?;
         Ok(Qemu { child, elf: elf.to_path_buf(), log: log.to_path_buf() })
+    }
+
+    /// Kill QEMU now (a power cut: the flash file holds whatever the last completed write
+    /// left) and wait for it to be gone.
+    pub fn kill(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+        }
+        let _ = self.child.wait();
     }
 
     /// Exit status if QEMU has ended.

@@ -1,5 +1,6 @@
 //! A QEMU serving the product image's serial port on a loopback TCP port, and xtask's link
-//! client on it.
+//! client on it; the emulated device keeps its flash in its own directory across power
+//! cycles.
 
 use std::net::{TcpListener, TcpStream};
 use std::path::Path;
@@ -9,18 +10,23 @@ use std::time::{Duration, Instant};
 use anyhow::{bail, ensure, Context, Result};
 use fbg_link::LinkClient;
 
-use super::emulator::{out_dir, Machine, Qemu};
+use super::emulator::{device_dir, fresh_device, Machine, Qemu};
 use crate::cmd::describe;
 use crate::fixtures::Fixtures;
 
 /// A QEMU serving the product image's serial port on a loopback TCP port (QEMU is the
 /// server, so that the link client of xtask and `fbg-trainer stream` can take turns), and
-/// xtask's link client on it while connected.
+/// xtask's link client on it while connected. The device's working directory
+/// (`target/qemu/<name>/`) holds its flash file and the defmt log of every image it ran.
 pub struct LinkSession {
     /// The emulator (killed on drop).
     pub qemu: Qemu,
     /// The port QEMU listens on.
     pub port: u16,
+    /// The device's working directory.
+    pub dir: std::path::PathBuf,
+    qemu_bin: std::path::PathBuf,
+    machine: Machine,
     link: Option<LinkClient<TcpStream>>,
 }
 
@@ -31,14 +37,48 @@ fn free_port() -> Result<u16> {
 }
 
 impl LinkSession {
-    /// Start the product image with serial0 on a loopback server port and connect to it.
+    /// Start the product image `elf` as the factory-fresh device `name` (its flash file
+    /// deleted first) and connect to it.
     pub fn start(root: &Path, qemu: &Path, elf: &Path, name: &str) -> Result<LinkSession> {
         LinkSession::start_on(Machine::Mps2An386, root, qemu, elf, name)
     }
 
-    /// Start `elf` on `machine` with serial0 on a loopback server port and connect to it.
+    /// Start `elf` on `machine` as the factory-fresh device `name` (its flash file deleted
+    /// first) with serial0 on a loopback server port and connect to it.
     pub fn start_on(machine: Machine, root: &Path, qemu: &Path, elf: &Path, name: &str) -> Result<LinkSession> {
-        let log = out_dir(root)?.join(format!("{name}.defmt"));
+        let dir = device_dir(root, name)?;
+        fresh_device(&dir)?;
+        LinkSession::launch(machine, qemu, elf, &dir, &[], &[])
+    }
+
+    /// Start `elf` (mps2-an386) on the device `name` as its flash is (a power-on after
+    /// whatever ran there last), `args` on its semihosting command line, and connect to it.
+    pub fn resume(root: &Path, qemu: &Path, elf: &Path, name: &str, args: &[&str]) -> Result<LinkSession> {
+        LinkSession::launch(Machine::Mps2An386, qemu, elf, &device_dir(root, name)?, args, &[])
+    }
+
+    /// A power cycle: QEMU killed at once (the flash file keeps what the last completed erase
+    /// or program left), then `elf` started on the same device and machine with `args` (its
+    /// semihosting command line) and `extra` (QEMU options) and connected.
+    pub fn power_cycle(&mut self, elf: &Path, args: &[&str], extra: &[&str]) -> Result<()> {
+        self.link = None;
+        self.qemu.kill();
+        *self = LinkSession::launch(self.machine, &self.qemu_bin, elf, &self.dir, args, extra)?;
+        Ok(())
+    }
+
+    /// Start `elf` on `machine` in the device directory `dir` with serial0 on a loopback
+    /// server port and connect to it.
+    fn launch(
+        machine: Machine,
+        qemu: &Path,
+        elf: &Path,
+        dir: &Path,
+        args: &[&str],
+        extra: &[&str],
+    ) -> Result<LinkSession> {
+        let stem = elf.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let log = dir.join(format!("{stem}.defmt"));
         let mut last = None;
         // The port is picked free, then bound by QEMU: retry in the unlikely case another
         // process took it in between.
@@ -47,8 +87,15 @@ impl LinkSession {
             // nodelay: the UART writes a byte at a time; with Nagle on QEMU's socket each answer
             // waits for the client's delayed ACK (≈ 40 ms per sample instead of ≈ 1 ms).
             let serial = format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on");
-            let q = Qemu::start_on(machine, qemu, elf, &serial, &log, &[])?;
-            let mut s = LinkSession { qemu: q, port, link: None };
+            let q = Qemu::start_in(machine, qemu, elf, &serial, &log, Some(dir), args, extra)?;
+            let mut s = LinkSession {
+                qemu: q,
+                port,
+                dir: dir.to_path_buf(),
+                qemu_bin: qemu.to_path_buf(),
+                machine,
+                link: None,
+            };
             match s.connect() {
                 Ok(()) => return Ok(s),
                 Err(e) => last = Some(e),

@@ -17,7 +17,7 @@ use crate::signing::SignedFixtures;
 
 /// The answers of the running model to `samples` from a fresh stream state, as bit patterns
 /// (values, band) and flags, to compare bit for bit.
-fn answers(s: &mut LinkSession, samples: &[fbg_shared::Sample<f32>]) -> Result<Vec<([u32; 6], String)>> {
+pub(super) fn answers(s: &mut LinkSession, samples: &[fbg_shared::Sample<f32>]) -> Result<Vec<([u32; 6], String)>> {
     s.link()?.reset_stream(0xA11, fbg_shared::StreamClock::Calibration)?;
     samples
         .iter()

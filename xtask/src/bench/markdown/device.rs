@@ -48,6 +48,30 @@ pub(super) fn device(s: &mut String, rep: &Report) {
         pr.default_blob_bytes,
         dev.command
     );
+    if let Some(st) = &dev.record.store {
+        out!(
+            s,
+            "Model store ({}): one update of a {} B signed model takes {} flash operations and at most {} erase(s) ({} when its record rotates the log; {} updates measured; target ≤ {}: {}); boot to serving with a full event log ({} records, the model from a slot, its signature checked) takes {} µs of emulated time (1 ns per instruction; target ≤ {} ms: {}), {} µs from a slot with one record, {} µs factory-fresh; erases per sector at the end (refused transfers erase the inactive slot too): slot A {}, slot B {}, log 0 {}, log 1 {}.\n",
+            st.what,
+            st.update_bytes,
+            st.flash_ops_per_update,
+            st.erases_per_update,
+            st.erases_update_rotating_log,
+            st.updates_measured,
+            st.erases_per_update_target,
+            if st.erases_per_update_met { "met" } else { "MISSED" },
+            st.log_records_at_boot,
+            st.boot_us_full_log,
+            st.boot_us_target / 1000,
+            if st.boot_us_full_log_met { "met" } else { "MISSED" },
+            st.boot_us_one_record,
+            st.boot_us_factory_fresh,
+            st.erases_per_sector[0],
+            st.erases_per_sector[1],
+            st.erases_per_sector[2],
+            st.erases_per_sector[3]
+        );
+    }
     board(s, dev.record.board.as_ref());
 }
 

@@ -40,7 +40,7 @@ fn sample() -> (Vec<StepBench>, TypeSizes, SizeReport, VerifyBench) {
         stack_serving: 1584,
         stack_update: 5300,
         blob_bytes: 1464,
-        staging_slot: 8192,
+        store_region: 65536,
     };
     let verify = VerifyBench { bytes: 1552, instructions: 3_959_319.6, stack_peak: 3620 };
     (steps, sizes, size, verify)
@@ -50,7 +50,7 @@ fn sample() -> (Vec<StepBench>, TypeSizes, SizeReport, VerifyBench) {
 fn the_typed_file_has_the_keys_and_values_of_the_format_writer() {
     let (steps, sizes, size, verify) = sample();
     let old: serde_json::Value = serde_json::from_str(&to_json(&steps, &sizes, &size, &verify)).unwrap();
-    let record = DeviceRecord::new(&steps, &sizes, &size, &verify);
+    let record = DeviceRecord::new(&steps, &sizes, &size, &verify, None);
     let new = serde_json::to_value(&record).unwrap();
     assert_eq!(new, old);
     // And it reads back into the same type.
