@@ -9,7 +9,10 @@ use fbg_firmware::store_flash::StoreFlash;
 use fbg_firmware::POLICY;
 
 /// The store's flash: the `STORE` region, kept across QEMU runs in its host file.
-fn store_flash() -> StoreFlash {
+/// The store's flash of this image.
+type Flash = StoreFlash;
+
+fn store_flash() -> Flash {
     // SAFETY: called once, from `main`: the only driver of the region.
     unsafe { StoreFlash::open() }
 }

@@ -53,8 +53,9 @@ pub enum LinkError {
     Unexpected {
         /// What the client was waiting for.
         expected: &'static str,
-        /// What arrived.
-        got: DeviceMsg,
+        /// What arrived (boxed: a `Status` is large, and every `Result` of the client carries
+        /// this error).
+        got: Box<DeviceMsg>,
     },
     /// A message could not be framed (only for blobs or chunks beyond the protocol limits).
     TooLarge,
@@ -262,7 +263,7 @@ impl<S: Read + Write> LinkClient<S> {
     pub fn ping(&mut self, nonce: u32) -> Result<(), LinkError> {
         match self.request(&HostMsg::Ping { nonce })? {
             DeviceMsg::Pong { nonce: n } if n == nonce => Ok(()),
-            got => Err(LinkError::Unexpected { expected: "Pong with the same nonce", got }),
+            got => Err(LinkError::Unexpected { expected: "Pong with the same nonce", got: Box::new(got) }),
         }
     }
 
@@ -271,7 +272,7 @@ impl<S: Read + Write> LinkClient<S> {
     pub fn reset_stream(&mut self, nonce: u32, clock: fbg_shared::StreamClock) -> Result<(), LinkError> {
         match self.request(&HostMsg::ResetStream { nonce, clock })? {
             DeviceMsg::Pong { nonce: n } if n == nonce => Ok(()),
-            got => Err(LinkError::Unexpected { expected: "Pong after ResetStream", got }),
+            got => Err(LinkError::Unexpected { expected: "Pong after ResetStream", got: Box::new(got) }),
         }
     }
 
@@ -279,7 +280,7 @@ impl<S: Read + Write> LinkClient<S> {
     pub fn compensate(&mut self, seq: u32, sample: &Sample<f32>) -> Result<DeviceEstimate, LinkError> {
         match self.request(&HostMsg::Sample { seq, sample: *sample })? {
             DeviceMsg::Estimate(e) if e.seq == seq => Ok(e),
-            got => Err(LinkError::Unexpected { expected: "Estimate with the same seq", got }),
+            got => Err(LinkError::Unexpected { expected: "Estimate with the same seq", got: Box::new(got) }),
         }
     }
 
@@ -308,7 +309,7 @@ impl<S: Read + Write> LinkClient<S> {
     pub fn status(&mut self) -> Result<Status, LinkError> {
         match self.request(&HostMsg::GetStatus)? {
             DeviceMsg::Status(s) => Ok(s),
-            got => Err(LinkError::Unexpected { expected: "Status", got }),
+            got => Err(LinkError::Unexpected { expected: "Status", got: Box::new(got) }),
         }
     }
 
@@ -341,7 +342,7 @@ impl<S: Read + Write> LinkClient<S> {
         }
         match self.request(&HostMsg::ModelCommit)? {
             DeviceMsg::UpdateResult(r) => Ok(r),
-            got => Err(LinkError::Unexpected { expected: "UpdateResult", got }),
+            got => Err(LinkError::Unexpected { expected: "UpdateResult", got: Box::new(got) }),
         }
     }
 
@@ -350,7 +351,7 @@ impl<S: Read + Write> LinkClient<S> {
         match self.request(msg)? {
             DeviceMsg::UpdateProgress { .. } => Ok(None),
             DeviceMsg::UpdateResult(r) => Ok(Some(r)),
-            got => Err(LinkError::Unexpected { expected: "UpdateProgress", got }),
+            got => Err(LinkError::Unexpected { expected: "UpdateProgress", got: Box::new(got) }),
         }
     }
 }

@@ -184,17 +184,27 @@ pub fn boot<const K: usize>(
     comp: &mut Compensator<f32, K>,
     bytes: &[u8],
 ) -> Result<ModelInfo, Rejection> {
-    let (blob, signer) = if require_signed {
-        let (blob, s) = authenticate(policy, bytes, None)?;
-        (blob, Some(s))
-    } else {
-        match container::open(bytes) {
-            Ok(Envelope::Signed(s)) => (s.blob, Some(Signer { serial: s.head.serial, key_id: s.head.key_id })),
-            _ => (bytes, None),
-        }
-    };
+    let (blob, signer) = embedded(policy, require_signed, bytes)?;
     let info = load_blob(kernel, comp, blob)?;
     Ok(info.signed_by(signer))
+}
+
+/// The blob of the embedded model and its signer (see [`boot`]). Never inlined: the signed
+/// envelope is gone from the stack before the model loads.
+#[inline(never)]
+fn embedded<'b>(
+    policy: &Policy,
+    require_signed: bool,
+    bytes: &'b [u8],
+) -> Result<(&'b [u8], Option<Signer>), Rejection> {
+    if require_signed {
+        let (blob, s) = authenticate(policy, bytes, None)?;
+        return Ok((blob, Some(s)));
+    }
+    Ok(match container::open(bytes) {
+        Ok(Envelope::Signed(s)) => (s.blob, Some(Signer { serial: s.head.serial, key_id: s.head.key_id })),
+        _ => (bytes, None),
+    })
 }
 
 impl ModelInfo {
@@ -467,9 +477,22 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
 
     /// Count, handle and answer one message (not a commit). Never inlined into the serving
     /// loop: the answer's temporaries then are not on the stack while a model loads.
+    /// A sample, the message the device answers most, is stepped with no reply message on
+    /// this frame (a `DeviceMsg` is the size of its largest variant, the status): the estimate
+    /// is framed once the step is done ([`send_estimate`]).
     #[inline(never)]
     fn answer<W: Write>(&mut self, msg: &HostMsg<'_>, tx: &mut W) -> Result<(), W::Error> {
         self.count_frame();
+        if let HostMsg::Sample { seq, ref sample } = *msg {
+            let e = self.step(seq, sample);
+            return send_estimate(tx, e);
+        }
+        self.answer_other(msg, tx)
+    }
+
+    /// [`Core::answer`] for every message but a sample.
+    #[inline(never)]
+    fn answer_other<W: Write>(&mut self, msg: &HostMsg<'_>, tx: &mut W) -> Result<(), W::Error> {
         let reply = self.handle(msg);
         send(tx, &reply)
     }
@@ -568,6 +591,12 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
         );
         DeviceMsg::UpdateResult(UpdateResult::Rejected(r))
     }
+}
+
+/// Frame and write the estimate `e` (see [`Core::answer`]).
+#[inline(never)]
+fn send_estimate<W: Write>(tx: &mut W, e: DeviceEstimate) -> Result<(), W::Error> {
+    send(tx, &DeviceMsg::Estimate(e))
 }
 
 /// Frame and write one answer. Every device message fits [`DEVICE_MAX_FRAME`] (tested in

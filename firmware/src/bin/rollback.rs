@@ -12,7 +12,10 @@ use fbg_firmware::store_flash::StoreFlash;
 const POLICY: fbg_firmware_app::Policy = fbg_firmware_app::Policy { allow_rollback: true, ..fbg_firmware::POLICY };
 
 /// The store's flash, as the product's.
-fn store_flash() -> StoreFlash {
+/// The store's flash of this image.
+type Flash = StoreFlash;
+
+fn store_flash() -> Flash {
     // SAFETY: called once, from `main`: the only driver of the region.
     unsafe { StoreFlash::open() }
 }

@@ -13,8 +13,6 @@
 #![no_std]
 #![no_main]
 
-use core::mem::MaybeUninit;
-
 use fbg_firmware::store_flash::StoreFlash;
 use fbg_firmware::POLICY;
 use fbg_firmware_app::store::PowerCut;
@@ -51,8 +49,11 @@ fn on_cut() {
     semihosting::process::exit(CUT_EXIT)
 }
 
+/// The store's flash of this image.
+type Flash = PowerCut<StoreFlash>;
+
 /// The store's flash, as the product's, losing power in operation [`cut_at`].
-fn store_flash() -> PowerCut<StoreFlash> {
+fn store_flash() -> Flash {
     let cut = cut_at();
     defmt::info!("torture: the power fails in the store's flash operation {=u32}", cut);
     // SAFETY: called once, from `main`: the only driver of the region.

@@ -12,7 +12,7 @@ use crate::crc32c::crc32c;
 /// oversize frame.
 pub const HOST_MAX_FRAME: usize = 256;
 /// Receive buffer a host needs for one device frame, delimiter included.
-pub const DEVICE_MAX_FRAME: usize = 224;
+pub const DEVICE_MAX_FRAME: usize = 168;
 
 /// CRC-32/ISCSI of `bytes`: the frame check and the whole-blob check of
 /// [`HostMsg::ModelBegin`] (the same flavour as the blob trailer).

@@ -15,7 +15,7 @@ pub const MAX_CHUNK: usize = 192;
 pub const HOST_MAX_PAYLOAD: usize = MAX_CHUNK + 16;
 /// Largest postcard payload of any [`DeviceMsg`] (a [`Status`] with a rejection, a signed
 /// model's serial and key id, and the model store's figures).
-pub const DEVICE_MAX_PAYLOAD: usize = 192;
+pub const DEVICE_MAX_PAYLOAD: usize = 160;
 
 /// A message from the host to the device.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -73,6 +73,12 @@ pub const ERASE_BUDGET: u32 = 16;
 /// are counted in RAM only (`StoreStatus::refusals_unlogged`).
 pub const REFUSALS_LOGGED: u32 = 8;
 
+// The counters against the two budgets are bytes.
+const _: () = assert!(ERASE_BUDGET < 256 && REFUSALS_LOGGED < 256);
+
+/// An erase count not known (its sector's header is not whole).
+const UNKNOWN: u32 = u32::MAX;
+
 /// Slots of the store.
 pub const SLOTS: usize = 2;
 
@@ -97,21 +103,21 @@ struct SlotView {
 /// The model store over `F` (see the module docs).
 pub struct Store<F> {
     flash: Counting<F>,
-    /// Erase counts per sector (`None`: the sector's header is not whole).
-    erases: [Option<u32>; STORE_SECTORS],
+    /// Erase counts per sector ([`UNKNOWN`]: the sector's header is not whole).
+    erases: [u32; STORE_SECTORS],
     log: EventLog,
     /// The slot the running model came from (`None`: the embedded default).
-    running: Option<usize>,
+    running: Option<u8>,
     booted: BootSource,
     staging: Staging,
     /// The slot a transfer is being written to.
-    receiving: Option<usize>,
+    receiving: Option<u8>,
     /// Erases of slots by transfers since boot.
     transfer_erases: u32,
     /// Those since the last accepted update, against [`ERASE_BUDGET`].
-    erases_unaccepted: u32,
+    erases_unaccepted: u8,
     /// Refusals since the last accepted update, against [`REFUSALS_LOGGED`].
-    refusals_since_accept: u32,
+    refusals_since_accept: u8,
     refusals_unlogged: u32,
     boot_time_us: u32,
 }
@@ -131,7 +137,7 @@ impl<F: MappedFlash> Store<F> {
         let room = F::ERASE_SIZE - PAYLOAD_AT;
         let mut store = Store {
             flash: Counting::new(flash),
-            erases: [None; STORE_SECTORS],
+            erases: [UNKNOWN; STORE_SECTORS],
             log: EventLog::default(),
             running: None,
             booted: BootSource::Embedded,
@@ -144,7 +150,7 @@ impl<F: MappedFlash> Store<F> {
             boot_time_us: 0,
         };
         for (i, e) in store.erases.iter_mut().enumerate() {
-            *e = sector_erases(store.flash.sector(i));
+            *e = sector_erases(store.flash.sector(i)).unwrap_or(UNKNOWN);
         }
         store.log = EventLog::scan([store.flash.sector(2), store.flash.sector(3)]);
         Ok(store)
@@ -207,7 +213,7 @@ impl<F: MappedFlash> Store<F> {
     /// missed, if any (a failure leaves the log as it was; the slot still boots next time).
     #[inline(never)]
     fn booted_from(&mut self, slot: usize, header: &SlotHeader) {
-        self.running = Some(slot);
+        self.running = Some(slot as u8);
         self.booted = BootSource::Slot { slot: slot as u8, generation: header.generation };
         if header.generation > self.log.totals.floor_generation {
             let _ = self.append(accepted_record(slot, header, FLAG_RECOVERED));
@@ -270,7 +276,7 @@ impl<F: MappedFlash> Store<F> {
     pub fn status(&self) -> StoreStatus {
         StoreStatus {
             boot_source: self.booted,
-            erases: self.erases.map(|e| e.unwrap_or(0)),
+            erases: self.erases.map(|e| if e == UNKNOWN { 0 } else { e }),
             flash_ops: self.flash.ops(),
             rollback_floor: self.log.totals.floor,
             log_events: self.log.event,
@@ -316,10 +322,15 @@ impl<F: MappedFlash> Store<F> {
     /// from the highest count of the others.
     #[inline(never)]
     fn erase_sector(&mut self, i: usize) -> Result<(), ()> {
-        let known = self.erases.iter().flatten().copied().max().unwrap_or(0);
-        let count = self.erases.get(i).copied().flatten().unwrap_or(known).wrapping_add(1);
+        let known = self.erases.iter().copied().filter(|&e| e != UNKNOWN).max().unwrap_or(0);
+        let count = match self.erases.get(i).copied() {
+            Some(e) if e != UNKNOWN => e,
+            _ => known,
+        }
+        .wrapping_add(1)
+        .min(UNKNOWN - 1);
         if let Some(e) = self.erases.get_mut(i) {
-            *e = Some(count);
+            *e = count;
         }
         let base = i * F::ERASE_SIZE;
         self.flash.erase(offset(base), offset(base + F::ERASE_SIZE)).map_err(|_| ())?;
@@ -330,9 +341,9 @@ impl<F: MappedFlash> Store<F> {
     /// its header without an erase.
     #[inline(never)]
     fn format_blank(&mut self, i: usize) -> Result<(), ()> {
-        let count = self.erases.get(i).copied().flatten().unwrap_or(0);
+        let count = self.erases.get(i).copied().filter(|&e| e != UNKNOWN).unwrap_or(0);
         if let Some(e) = self.erases.get_mut(i) {
-            *e = Some(count);
+            *e = count;
         }
         self.program(i * F::ERASE_SIZE, &sector_header(count))
     }

@@ -20,7 +20,7 @@ impl<F: MappedFlash> Store<F> {
     /// running, the older of the two.
     fn inactive(&self) -> usize {
         match self.running {
-            Some(s) => (s + 1) % SLOTS,
+            Some(s) => (usize::from(s) + 1) % SLOTS,
             None => usize::from(self.generation(1) < self.generation(0)),
         }
     }
@@ -47,7 +47,7 @@ impl<F: MappedFlash> Store<F> {
                 // Never written (a factory-fresh part): only its count is missing.
                 self.format_blank(slot).map_err(|_| storage(base))?;
             } else {
-                if self.erases_unaccepted >= ERASE_BUDGET {
+                if u32::from(self.erases_unaccepted) >= ERASE_BUDGET {
                     return Err(Rejection { reason: RejectReason::EraseLimit, detail: ERASE_BUDGET });
                 }
                 self.transfer_erases = self.transfer_erases.wrapping_add(1);
@@ -56,7 +56,7 @@ impl<F: MappedFlash> Store<F> {
             }
         }
         self.staging.begin(slot * F::ERASE_SIZE + PAYLOAD_AT, total, crc);
-        self.receiving = Some(slot);
+        self.receiving = Some(slot as u8);
         Ok(())
     }
 
@@ -86,7 +86,7 @@ impl<F: MappedFlash> Store<F> {
         running: &ModelInfo,
     ) -> Result<ModelInfo, Rejection> {
         let announced = self.staging.announced();
-        let slot = self.receiving.take();
+        let slot = self.receiving.take().map(usize::from);
         let Some(slot) = slot else {
             self.staging.abort();
             return Err(Rejection::new(RejectReason::NoUpdateInProgress));
@@ -121,7 +121,7 @@ impl<F: MappedFlash> Store<F> {
         };
         match loaded {
             Ok(info) => {
-                self.running = Some(slot);
+                self.running = Some(slot as u8);
                 let flags = if signer.serial < running.serial { FLAG_ROLLBACK } else { 0 };
                 // A failure leaves the slot booting; the log is repaired at the next boot.
                 let _ = self.append(accepted_record(slot, &header, flags));
@@ -182,7 +182,7 @@ impl<F: MappedFlash> Store<F> {
     /// claim to be (unverified: an audit hint), or count it unlogged beyond the budget.
     #[inline(never)]
     fn log_refusal(&mut self, r: Rejection, slot: usize, total: usize) {
-        if self.refusals_since_accept >= REFUSALS_LOGGED {
+        if u32::from(self.refusals_since_accept) >= REFUSALS_LOGGED {
             self.refusals_unlogged = self.refusals_unlogged.wrapping_add(1);
             return;
         }
