@@ -37,24 +37,9 @@ use defmt_semihosting as _;
 use stm32f4 as _;
 
 /// Centre capacity of this build (env `FBG_K` at build time, default 32), and the step and
-/// blob parser compiled for it for speed (`fbg-firmware-kernel`).
-pub use fbg_firmware_kernel::{step, K, KERNEL};
-
-/// The largest blob this build stages: as the QEMU firmware's (`fbg_firmware::MAX_BLOB`), the
-/// blob target of DESIGN §8 (4 KiB), or the longest blob of `K` centres at the capacity dims
-/// when that is smaller.
-pub const MAX_BLOB: usize = {
-    let longest = fbg_shared::blob::max_len(K);
-    if longest < 4096 {
-        longest
-    } else {
-        4096
-    }
-};
-
-/// The longest update this build stages: any signed model it takes (as the QEMU firmware's
-/// `STAGING_LEN`); a longer transfer is refused at `ModelBegin` (`TooLarge`).
-pub const STAGING_LEN: usize = MAX_BLOB + fbg_shared::signature::TRAILER_V2_LEN;
+/// blob parser compiled for it for speed (`fbg-firmware-kernel`), with the update limits that
+/// follow from it (`MAX_BLOB`, `STAGING_LEN`, the same for every board).
+pub use fbg_firmware_kernel::{step, K, KERNEL, MAX_BLOB, STAGING_LEN};
 
 /// The signature policy compiled in by `build.rs` (`FBG_TRUSTED_KEYS`, `FBG_ALLOW_ROLLBACK`,
 /// `FBG_REQUIRE_SIGNED_DEFAULT`; README-firmware.md, "Signed model updates").

@@ -20,6 +20,25 @@ pub use fbg_firmware_loader::load;
 /// Centre capacity of this build (env `FBG_K` at build time, default 32).
 pub use fbg_firmware_loader::K;
 
+/// The largest blob this build stages: the blob target of DESIGN §8 (4 KiB), or the longest
+/// blob of `K` centres at the capacity dims when that is smaller. A paper-dims model of 32
+/// centres fits; an 8 → 4 model with its memory bank fits up to 18 centres; a longer update is
+/// refused at `ModelBegin` (`TooLarge`). Here, beside `K`, so that every board image takes the
+/// same limits.
+pub const MAX_BLOB: usize = {
+    let longest = fbg_shared::blob::max_len(K);
+    if longest < 4096 {
+        longest
+    } else {
+        4096
+    }
+};
+
+/// The longest update this build stages (in the model store's inactive slot): any signed
+/// model it takes, its blob and a version-2 signature trailer; a longer transfer is refused at
+/// `ModelBegin` (`TooLarge`).
+pub const STAGING_LEN: usize = MAX_BLOB + fbg_shared::signature::TRAILER_V2_LEN;
+
 /// `comp.step(s)` at opt-level 3 (see the crate docs).
 #[inline(never)]
 pub fn step(comp: &mut Compensator<f32, K>, s: &Sample<f32>) -> Estimate<f32> {
