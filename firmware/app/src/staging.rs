@@ -29,6 +29,23 @@ pub trait MappedFlash: NorFlash {
     fn contents(&self) -> &[u8];
 }
 
+/// [`ReadNorFlash::read`](embedded_storage::nor_flash::ReadNorFlash::read) of a
+/// [`MappedFlash`]: `bytes.len()` bytes from `offset`, copied from its
+/// [`contents`](MappedFlash::contents) once the range is checked (`check_read`); every driver
+/// of a memory-mapped store reads this way.
+pub fn read_mapped<F: MappedFlash>(
+    flash: &F,
+    offset: u32,
+    bytes: &mut [u8],
+) -> Result<(), embedded_storage::nor_flash::NorFlashErrorKind> {
+    embedded_storage::nor_flash::check_read(flash, offset, bytes.len())?;
+    let from = flash.contents().get(offset as usize..).unwrap_or(&[]);
+    for (d, &s) in bytes.iter_mut().zip(from) {
+        *d = s;
+    }
+    Ok(())
+}
+
 /// A write unit of erased flash: the padding after the last byte of a transfer.
 const ERASED: [u8; MAX_WRITE_SIZE] = [0xFF; MAX_WRITE_SIZE];
 

@@ -21,7 +21,7 @@
 use core::ptr::{addr_of, read_volatile};
 
 use embedded_storage::nor_flash::{
-    check_erase, check_read, check_write, ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
+    check_erase, check_write, ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
 };
 use fbg_firmware_app::MappedFlash;
 
@@ -113,12 +113,7 @@ impl ReadNorFlash for StoreFlash {
     const READ_SIZE: usize = 1;
 
     fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), StoreError> {
-        check_read(self, offset, bytes.len())?;
-        let from = self.contents().get(offset as usize..).unwrap_or(&[]);
-        for (d, &s) in bytes.iter_mut().zip(from) {
-            *d = s;
-        }
-        Ok(())
+        Ok(fbg_firmware_app::staging::read_mapped(self, offset, bytes)?)
     }
 
     fn capacity(&self) -> usize {

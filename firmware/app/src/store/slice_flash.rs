@@ -2,7 +2,7 @@
 //! image on the host (e.g. a pre-filled event log for the boot-time bench).
 
 use embedded_storage::nor_flash::{
-    check_erase, check_read, check_write, ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
+    check_erase, check_write, ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
 };
 
 use super::MappedFlash;
@@ -71,12 +71,7 @@ impl<const ERASE: usize, const WRITE: usize> ReadNorFlash for SliceFlash<'_, ERA
     const READ_SIZE: usize = 1;
 
     fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), SliceFlashError> {
-        check_read(self, offset, bytes.len())?;
-        let from = self.bytes.get(offset as usize..).unwrap_or(&[]);
-        for (d, &s) in bytes.iter_mut().zip(from) {
-            *d = s;
-        }
-        Ok(())
+        Ok(crate::staging::read_mapped(self, offset, bytes)?)
     }
 
     fn capacity(&self) -> usize {
