@@ -1,0 +1,27 @@
+//! `fbg_compensation._core`: the Rust core of the Python package. Every loop over rows runs
+//! here, through `fbg-trainer`'s library and `fbg-shared`'s compensator (the code the device
+//! runs); the Python layer (`python/python/fbg_compensation/`) only shapes inputs and outputs.
+//! Long work (a fit, a pass over a record, a simulation) runs with the GIL released.
+
+use pyo3::prelude::*;
+
+mod columns;
+mod error;
+mod fitting;
+mod model;
+mod records;
+mod stream;
+
+/// The module `fbg_compensation._core`.
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("FbgError", m.py().get_type::<error::FbgError>())?;
+    m.add_class::<model::Model>()?;
+    m.add_class::<stream::Stream>()?;
+    m.add_function(wrap_pyfunction!(fitting::fit, m)?)?;
+    m.add_function(wrap_pyfunction!(records::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(records::read_dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(records::compensate_file, m)?)?;
+    m.add_function(wrap_pyfunction!(records::presets, m)?)?;
+    Ok(())
+}

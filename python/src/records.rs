@@ -1,0 +1,71 @@
+//! Records on disk and simulated: `simulate`, `read_dataset`, and `compensate` run on files
+//! exactly as the command line runs it.
+
+use std::path::PathBuf;
+
+use fbg_trainer::compensate::{self, FieldOptions};
+use fbg_trainer::data::Dataset;
+use fbg_trainer::sim::{self, scenario::Preset};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::columns;
+use crate::error::{msg, to_py};
+
+/// Columns (name -> array), the split of each row (`cal`/`holdout`), the absolute time of
+/// `t_s = 0` (Unix s; None when unknown).
+type Columns<'py> = (Bound<'py, PyDict>, Vec<&'static str>, Option<f64>);
+
+/// The built-in scenario names (`simulate --preset`).
+#[pyfunction]
+pub fn presets() -> Vec<&'static str> {
+    Preset::ALL.iter().map(|p| p.name()).collect()
+}
+
+/// Simulate the built-in scenario `preset` with `seed` (deterministic), as `fbg-trainer
+/// simulate --preset P --seed S`; `days` shortens or lengthens the record. Runs without the GIL.
+#[pyfunction]
+#[pyo3(signature = (preset="paper", seed=7, days=None))]
+pub fn simulate(py: Python<'_>, preset: &str, seed: u64, days: Option<f64>) -> PyResult<Columns<'_>> {
+    let p: Preset = preset.parse().map_err(|e: String| msg(format!("preset: {e}")))?;
+    let mut cfg = p.config();
+    if let Some(d) = days {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(msg(format!("days: {d} is not a positive number of days")));
+        }
+        cfg.clock.days = d;
+    }
+    let data = py.detach(|| sim::simulate(&cfg, seed).data);
+    columns::to_dict(py, data)
+}
+
+/// Read a dataset CSV (DESIGN §3 columns, e.g. from `simulate` or `import`) as `train` and
+/// `evaluate` read it; `field=True` reads a field record (no reference needed), as
+/// `compensate` does. Errors name the file, line and column.
+#[pyfunction]
+#[pyo3(signature = (path, field=false))]
+pub fn read_dataset(py: Python<'_>, path: PathBuf, field: bool) -> PyResult<Columns<'_>> {
+    let d = py
+        .detach(|| if field { Dataset::read_field_csv(&path) } else { Dataset::read_csv(&path) })
+        .map_err(to_py)?;
+    columns::to_dict(py, d)
+}
+
+/// `fbg-trainer compensate --model M --data D --out O [--f32] [--trust-units]`, the same
+/// function: the summary as JSON text. Runs without the GIL.
+#[pyfunction]
+#[pyo3(signature = (model, data, out, precision="f64", trust_units=false, start_unix_s=None))]
+pub fn compensate_file(
+    py: Python<'_>,
+    model: PathBuf,
+    data: PathBuf,
+    out: PathBuf,
+    precision: &str,
+    trust_units: bool,
+    start_unix_s: Option<f64>,
+) -> PyResult<String> {
+    let precision = crate::stream::precision(precision)?;
+    let field = FieldOptions { start_unix_s, trust_units };
+    let s = py.detach(|| compensate::run(&model, &data, &out, precision, field, false)).map_err(to_py)?;
+    serde_json::to_string(&s).map_err(|e| msg(e.to_string()))
+}

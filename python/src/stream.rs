@@ -1,0 +1,166 @@
+//! The compensator's stream state, explicit: a long record fed in chunks gives, chunk after
+//! chunk, exactly what one pass gives (the memory terms, direction latches and drift observer
+//! carry over between calls).
+
+use fbg_shared::{Compensator, Estimate, Sample, StreamClock};
+use fbg_trainer::compensate::Precision;
+use fbg_trainer::data::MAX_GRATINGS;
+use fbg_trainer::fit::{HostCompensator, HostParams, HOST_CAP};
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+
+use crate::error::msg;
+use crate::model::Model;
+
+/// The arithmetic that runs the model: the host's f64 or the device's f32 (inputs rounded to
+/// f32 as the device receives them), as `fbg-trainer compensate [--f32]`.
+enum Engine {
+    F64(Box<HostCompensator>),
+    F32(Box<Compensator<f32, HOST_CAP>>),
+}
+
+impl Engine {
+    fn step(&mut self, s: &Sample<f64>) -> Estimate<f64> {
+        match self {
+            Engine::F64(c) => c.step(s),
+            Engine::F32(c) => {
+                let e = c.step(&s.cast::<f32>());
+                Estimate {
+                    values: e.values.map(f64::from),
+                    band95: e.band95.map(f64::from),
+                    outputs: e.outputs,
+                    flags: e.flags,
+                }
+            }
+        }
+    }
+}
+
+/// One compensator's running state over a stream of rows (`Stream(model, precision="f64",
+/// t0_unix_s=None)`): feed it chunks in time order with `step`.
+///
+/// `t0_unix_s` is the absolute time (Unix s, UTC) of the stream's `t_s = 0`; without it the
+/// band takes the model's largest validated lead and every row is flagged `lead-unknown`, as
+/// `compensate` does for a record that does not state its start.
+#[pyclass(module = "fbg_compensation._core")]
+pub struct Stream {
+    engine: Engine,
+    gratings: usize,
+    ambient: bool,
+    outputs: usize,
+    rows: usize,
+}
+
+impl Stream {
+    /// A fresh stream of `params` in `precision` on `clock`.
+    pub fn of(params: &HostParams, precision: Precision, clock: StreamClock) -> PyResult<Stream> {
+        let refuse = |what: &str, e: fbg_shared::Error| msg(format!("the model cannot be loaded for {what} arithmetic: {e}"));
+        let engine = match precision {
+            Precision::F64 => {
+                let mut c = Box::new(HostCompensator::new(params).map_err(|e| refuse("the host's f64", e))?);
+                c.set_clock(clock);
+                Engine::F64(c)
+            }
+            Precision::F32 => {
+                let p32 = params.convert::<f32, HOST_CAP>().map_err(|e| refuse("the device's f32", e))?;
+                let mut c =
+                    Box::new(Compensator::<f32, HOST_CAP>::new(&p32).map_err(|e| refuse("the device's f32", e))?);
+                c.set_clock(clock);
+                Engine::F32(c)
+            }
+        };
+        let dims = params.dims;
+        Ok(Stream { engine, gratings: dims.gratings(), ambient: dims.ambient(), outputs: dims.n_outputs(), rows: 0 })
+    }
+}
+
+/// `"f64"` or `"f32"`.
+pub fn precision(name: &str) -> PyResult<Precision> {
+    match name {
+        "f64" => Ok(Precision::F64),
+        "f32" => Ok(Precision::F32),
+        other => Err(msg(format!("precision: `{other}` is neither \"f64\" (the host's) nor \"f32\" (the device's)"))),
+    }
+}
+
+/// The band's clock of a stream starting at `t0_unix_s` (unknown without it).
+pub fn clock(t0_unix_s: Option<f64>) -> StreamClock {
+    t0_unix_s.map_or(StreamClock::Unknown, StreamClock::StartUnix)
+}
+
+/// What `Stream.step` returns: the estimates (rows × outputs, units of the outputs), their
+/// 95 % half-bands (same units) and the flags (one `u8` bit set per row).
+type Chunk<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>, Bound<'py, PyArray1<u8>>);
+
+#[pymethods]
+impl Stream {
+    #[new]
+    #[pyo3(signature = (model, precision="f64", t0_unix_s=None))]
+    fn new(model: &Model, precision: &str, t0_unix_s: Option<f64>) -> PyResult<Stream> {
+        Stream::of(model.params(), self::precision(precision)?, clock(t0_unix_s))
+    }
+
+    /// Compensate the next rows: `dl_pm` (rows × gratings, pm shifts, C order), `t_amb_c`
+    /// (°C per row; None for a model without an ambient input) and `t_s` (s per row). NaN
+    /// inputs are gaps (the row's values are NaN and flagged non-finite). Runs without the GIL.
+    #[pyo3(signature = (dl_pm, t_amb_c, t_s))]
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        dl_pm: PyReadonlyArray2<'py, f64>,
+        t_amb_c: Option<PyReadonlyArray1<'py, f64>>,
+        t_s: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Chunk<'py>> {
+        let (n, g) = (dl_pm.shape().first().copied().unwrap_or(0), dl_pm.shape().get(1).copied().unwrap_or(0));
+        if g != self.gratings || g > MAX_GRATINGS {
+            return Err(msg(format!("dl_pm: {g} grating columns; the model reads {}", self.gratings)));
+        }
+        if self.ambient && t_amb_c.is_none() {
+            return Err(msg("T_amb_C: the model reads the ambient thermometer and none was given"));
+        }
+        let dl = dl_pm.as_slice().map_err(|_| msg("dl_pm: not a C-contiguous float64 array"))?;
+        let t = t_s.as_slice().map_err(|_| msg("t_s: not a contiguous float64 array"))?;
+        let amb = t_amb_c.as_ref().map(|a| a.as_slice()).transpose().map_err(|_| msg("T_amb_C: not a contiguous float64 array"))?;
+        if t.len() != n || amb.is_some_and(|a| a.len() != n) {
+            return Err(msg(format!("t_s and T_amb_C need one value per row of dl_pm ({n})")));
+        }
+        let m = self.outputs;
+        let engine = &mut self.engine;
+        let (values, band, flags) = py.detach(|| {
+            let (mut values, mut band, mut flags) = (vec![0.0; n * m], vec![0.0; n * m], vec![0u8; n]);
+            let rows = dl.chunks_exact(g).zip(t).zip(values.chunks_exact_mut(m).zip(band.chunks_exact_mut(m)));
+            for (i, ((shifts, &t_s), (v, b))) in rows.enumerate() {
+                let mut s = Sample {
+                    dl_pm: [0.0; MAX_GRATINGS],
+                    gratings: g as u8,
+                    t_amb_c: amb.and_then(|a| a.get(i).copied()).unwrap_or(f64::NAN),
+                    t_s,
+                };
+                s.dl_pm.iter_mut().zip(shifts).for_each(|(o, &x)| *o = x);
+                let e = engine.step(&s);
+                v.iter_mut().zip(&e.values).for_each(|(o, &x)| *o = x);
+                b.iter_mut().zip(&e.band95).for_each(|(o, &x)| *o = x);
+                if let Some(f) = flags.get_mut(i) {
+                    *f = e.flags.0;
+                }
+            }
+            (values, band, flags)
+        });
+        self.rows += n;
+        let shape = |v: Vec<f64>| Array2::from_shape_vec((n, m), v).map_err(|e| msg(e.to_string()));
+        Ok((shape(values)?.into_pyarray(py), shape(band)?.into_pyarray(py), flags.into_pyarray(py)))
+    }
+
+    /// Rows compensated so far.
+    #[getter]
+    fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Number of outputs (columns of the estimates).
+    #[getter]
+    fn outputs(&self) -> usize {
+        self.outputs
+    }
+}
