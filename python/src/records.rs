@@ -69,3 +69,17 @@ pub fn compensate_file(
     let s = py.detach(|| compensate::run(&model, &data, &out, precision, field, false)).map_err(to_py)?;
     serde_json::to_string(&s).map_err(|e| msg(e.to_string()))
 }
+
+/// Write `columns` (with the split: `cal` true calibrating, all when None; `t0_unix_s` the
+/// absolute time of `t_s = 0`) as a dataset CSV, atomically, as `simulate` writes one.
+#[pyfunction]
+#[pyo3(signature = (columns, path, cal=None, t0_unix_s=None))]
+pub fn write_dataset(
+    columns: &Bound<'_, PyDict>,
+    path: PathBuf,
+    cal: Option<Vec<bool>>,
+    t0_unix_s: Option<f64>,
+) -> PyResult<()> {
+    let d = columns::dataset(columns, cal, t0_unix_s, &path.display().to_string())?;
+    d.write_csv(&path).map_err(to_py)
+}

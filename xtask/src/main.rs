@@ -8,8 +8,8 @@
 //!
 //! The modules follow the data: [`cmd`] and [`targets`] (commands, paths, constants) →
 //! [`fixtures`] (made by the trainer) → [`signing`] → [`firmware`] (images, emulator, link
-//! session) → [`qemu`] (the tests) and [`device_bench`] → [`bench`](mod@bench) → [`slurm`]; [`lint`] stands
-//! beside them. A module uses only modules before it.
+//! session) → [`qemu`] (the tests) and [`device_bench`] → [`bench`](mod@bench) → [`slurm`]; [`lint`] and
+//! [`python`] (the Python package's wheel and tests) stand beside them. A module uses only modules before it.
 
 use std::process::Command;
 
@@ -25,6 +25,7 @@ mod firmware;
 mod fixtures;
 mod lint;
 mod nan;
+mod python;
 mod qemu;
 mod signing;
 mod slurm;
@@ -43,7 +44,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Task {
-    /// lint, host tests of the whole workspace (doctests included), no_std build of fbg-shared
+    /// lint, host tests of the whole workspace (doctests included), the Python package's
+    /// tests, no_std build of fbg-shared
     /// for thumbv7em-none-eabihf (without and with defmt), firmware build and its QEMU tests
     /// (CI runs this)
     Test {
@@ -94,6 +96,10 @@ enum Task {
     /// netduinoplus2, print the footprint, run the golden vectors and the link on
     /// netduinoplus2; writes target/bench/board.json
     Board,
+    /// The Python package (python/): build its wheel into target/python/venv (made with
+    /// `python3 -m venv`, filled from PyPI with python/requirements-test.txt) and run its pytest
+    /// suite against the fbg-trainer binary; skipped with a message when python3 is absent
+    Python,
     /// Make the firmware's test fixtures with fbg-trainer in target/fixtures (the paper preset's
     /// and the strain-pair, temperature-1 and array-8 presets' trained Model-H with golden
     /// vectors)
@@ -118,6 +124,7 @@ fn main() -> Result<()> {
         Task::Slurm => slurm::run_all(&root),
         Task::Board => board::run_all(&root).map(|_| ()),
         Task::Fixtures { write_default } => fixtures_task(write_default),
+        Task::Python => python::run_all(&root),
     }
 }
 
@@ -141,6 +148,7 @@ fn test(skip_qemu: bool) -> Result<()> {
 
     step("host tests (whole workspace, doctests included)");
     run(cargo().current_dir(&root).args(["test", "--workspace", "--release", "--locked"]))?;
+    python::run_all(&root)?;
 
     step("fbg-shared: no_std build for thumbv7em-none-eabihf, without and with its defmt feature");
     for features in [&[][..], &["--features", "defmt"][..]] {

@@ -1,0 +1,194 @@
+"""The estimators in scikit-learn's shape: :class:`HybridCompensator` (Model-H: polynomial
+core, memory terms and RBF residual) and :class:`ModelP` (the polynomial core alone), fitted
+by the trainer's ``train`` (cross-validated hyper-parameters) on the Rust core.
+
+They inherit scikit-learn's ``BaseEstimator`` and ``RegressorMixin`` when scikit-learn is
+importable (so ``clone``, ``Pipeline``, ``cross_val_score`` with a ``TimeSeriesSplit`` work),
+else a minimal base with the same ``get_params``/``set_params``/``score``."""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Dict, Optional, Sequence
+
+import numpy as np
+
+from . import _core
+from . import _frames as F
+from .model import Model, Stream, _attrs_t0
+
+try:  # scikit-learn is optional
+    from sklearn.base import BaseEstimator as _Base
+    from sklearn.base import RegressorMixin as _Regressor
+
+    _HAVE_SKLEARN = True
+except ImportError:  # pragma: no cover - exercised only without scikit-learn
+    _HAVE_SKLEARN = False
+
+    class _Base:  # type: ignore[no-redef]
+        """``get_params``/``set_params`` from the constructor's keyword arguments."""
+
+        def get_params(self, deep: bool = True) -> Dict[str, Any]:
+            import inspect
+
+            names = [p for p in inspect.signature(type(self).__init__).parameters if p != "self"]
+            return {n: getattr(self, n) for n in names}
+
+        def set_params(self, **params: Any) -> "_Base":
+            valid = self.get_params()
+            for k, v in params.items():
+                if k not in valid:
+                    raise ValueError(f"invalid parameter {k!r} for {type(self).__name__}")
+                setattr(self, k, v)
+            return self
+
+    class _Regressor:  # type: ignore[no-redef]
+        """``score``: the coefficient of determination R², averaged over the outputs."""
+
+        def score(self, X: Any, y: Any, sample_weight: Any = None) -> float:
+            pred = np.asarray(self.predict(X), dtype=np.float64)
+            truth = np.asarray(y, dtype=np.float64).reshape(pred.shape)
+            ss_res = ((truth - pred) ** 2).sum(axis=0)
+            ss_tot = ((truth - truth.mean(axis=0)) ** 2).sum(axis=0)
+            return float(np.mean(1.0 - ss_res / ss_tot))
+
+
+class _NotFitted(ValueError, AttributeError):
+    """Raised by ``predict`` before ``fit`` (scikit-learn's ``NotFittedError`` when present)."""
+
+
+def _not_fitted(name: str) -> Exception:
+    msg = f"This {name} instance is not fitted yet. Call 'fit' with appropriate arguments before using this estimator."
+    if _HAVE_SKLEARN:
+        from sklearn.exceptions import NotFittedError
+
+        return NotFittedError(msg)
+    return _NotFitted(msg)
+
+
+class _Compensator(_Base, _Regressor):
+    """What both estimators share: the fit through ``fbg-trainer train`` and the prediction
+    through the compensator the device runs."""
+
+    _which = "h"
+
+    def __init__(
+        self,
+        features: str = "memory",
+        max_centres: int = 32,
+        on_outlier: str = "fail",
+        seed: Optional[int] = None,
+        precision: str = "f64",
+        outputs: Optional[Sequence[str]] = None,
+    ) -> None:
+        self.features = features
+        self.max_centres = max_centres
+        self.on_outlier = on_outlier
+        self.seed = seed
+        self.precision = precision
+        self.outputs = outputs
+
+    # --- fit -------------------------------------------------------------------------------
+    def fit(self, X: Any, y: Any, t: Any = None, *, t0_unix_s: Optional[float] = None, cal: Any = None):
+        """Fit on the calibration rows. ``X``: ``dl1_pm..dlN_pm`` [pm] and ``T_amb_C`` [°C]
+        (a frame by name; an array in that order); ``y``: the reference measurands (``T_C``
+        [°C], ``strain_ue`` [µε], ``p_kPa`` [kPa], ...; an array's columns named by
+        ``outputs``, the paper's three by default); ``t``: time since the start [s] (or a
+        ``t_s`` column in X), in order and on the record's clock; ``cal``: a boolean mask of
+        the rows that calibrate (default all; the others still run through the stream).
+        Errors (``FbgError``) carry the trainer's message."""
+        cols, tx = F.input_columns(X, gratings=None, ambient=None, where="fit")
+        n = next(iter(cols.values())).shape[0]
+        cols[F.T_S] = F.time_column(t, tx, n, "fit")
+        targets = F.target_columns(y, self.outputs, "fit")
+        for name, v in targets.items():
+            if v.shape[0] != n:
+                raise ValueError(f"fit: y column {name} has {v.shape[0]} values for {n} rows of X")
+        cols.update(targets)
+        mask = None if cal is None else [bool(b) for b in np.asarray(cal, dtype=bool)]
+        if t0_unix_s is None:
+            t0_unix_s = _attrs_t0(X)
+        h, p, coefficients, summary = _core.fit(
+            cols,
+            mask,
+            self.features,
+            int(self.max_centres),
+            self.on_outlier,
+            self.seed,
+            t0_unix_s,
+        )
+        self.model_h_ = Model(h)
+        self.model_p_ = Model(p)
+        self.model_ = self.model_h_ if self._which == "h" else self.model_p_
+        self.coefficients_json_ = json.loads(coefficients)
+        self.fit_summary_ = json.loads(summary)
+        self.outputs_ = self.model_.outputs
+        self.n_gratings_ = self.model_.gratings
+        self.ambient_ = self.model_.ambient
+        if F.is_frame(X):
+            self.feature_names_in_ = np.asarray(F.names_of(X), dtype=object)
+        self.n_features_in_ = len(F.names_of(X)) if F.is_frame(X) else np.asarray(X).shape[1]
+        return self
+
+    # --- predict ---------------------------------------------------------------------------
+    def _model(self) -> Model:
+        m = getattr(self, "model_", None)
+        if m is None:
+            raise _not_fitted(type(self).__name__)
+        return m
+
+    def predict(
+        self,
+        X: Any,
+        t: Any = None,
+        *,
+        t0_unix_s: Optional[float] = None,
+        return_band: bool = False,
+        return_flags: bool = False,
+    ):
+        """The measurands of every row, in one pass from the first row (the stream's state
+        starts fresh): a frame with the output names when X is one, else an array (rows ×
+        outputs, units of the outputs). ``return_band``: also the 95 % half-bands (same
+        units); ``return_flags``: also the flags (uint8 bits: 1 non-finite, 2 out of the
+        calibration envelope, 4 weak RBF support, 8 lead unknown, 16 implausible)."""
+        return self._model().predict(
+            X,
+            t,
+            precision=self.precision,
+            t0_unix_s=t0_unix_s,
+            return_band=return_band,
+            return_flags=return_flags,
+        )
+
+    def stream(self, t0_unix_s: Optional[float] = None) -> Stream:
+        """A fresh stream state to predict a long record chunk by chunk (same result)."""
+        return self._model().stream(self.precision, t0_unix_s)
+
+    def __sklearn_tags__(self):  # scikit-learn >= 1.6
+        tags = super().__sklearn_tags__()  # type: ignore[misc]
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = False
+        tags.input_tags.allow_nan = True
+        return tags
+
+
+class HybridCompensator(_Compensator):
+    """Model-H, the hybrid compensator (DESIGN §4): the polynomial core on the first-guess
+    measurands, its memory terms, and the RBF residual with its 95 % band, fitted as
+    ``fbg-trainer train --features FEATURES --max-centres K``.
+
+    Parameters: ``features`` (``memory``, ``paper``, ``hysteresis-aware``, ``all``, ...: the
+    feature sets cross-validation may choose from), ``max_centres`` (largest number of RBF
+    centres, the device's capacity), ``on_outlier`` (``fail``: an outlying reference cell is
+    an error naming file, line and column; ``skip``: its row is left out), ``seed`` (None:
+    the trainer's default), ``precision`` (``f64`` host / ``f32`` device arithmetic for
+    predict), ``outputs`` (names of y's columns when y is an array)."""
+
+    _which = "h"
+
+
+class ModelP(_Compensator):
+    """Model-P, the polynomial core alone (the baseline the hybrid is measured against),
+    from the same fit as :class:`HybridCompensator`; the parameters are the same."""
+
+    _which = "p"

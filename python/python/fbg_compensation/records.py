@@ -1,0 +1,63 @@
+"""Records: simulated (``simulate``) and read from dataset CSVs (``read_dataset``), as
+DataFrames with the dataset's columns (``t_s`` [s], the measurands, ``T_amb_C`` [°C],
+``dl1_pm``.. [pm], ``split``); ``attrs['t0_unix_s']`` is the absolute time of ``t_s = 0``."""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Dict, List, Optional, Union
+
+from . import _core
+from . import _frames as F
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def presets() -> List[str]:
+    """The built-in scenarios (``fbg-trainer simulate --preset``)."""
+    return list(_core.presets())
+
+
+def simulate(preset: str = "paper", seed: int = 7, days: Optional[float] = None) -> Any:
+    """Simulate a built-in scenario, deterministically (``fbg-trainer simulate --preset P
+    --seed S``); ``days`` changes the record's length. Returns a DataFrame (a dict of arrays
+    without pandas)."""
+    cols, split, t0 = _core.simulate(preset, seed, days)
+    return F.frame_of(cols, split, t0)
+
+
+def read_dataset(path: PathLike, *, field: bool = False) -> Any:
+    """Read a dataset CSV as ``train``/``evaluate`` do (``field=True``: a field record, no
+    reference needed, as ``compensate`` reads it). Errors (``FbgError``) name the file, line
+    and column, with the command line's message."""
+    cols, split, t0 = _core.read_dataset(os.fspath(path), field)
+    return F.frame_of(cols, split, t0)
+
+
+def compensate_file(
+    model: PathLike,
+    data: PathLike,
+    out: PathLike,
+    *,
+    precision: str = "f64",
+    trust_units: bool = False,
+    start_unix_s: Optional[float] = None,
+) -> Dict[str, Any]:
+    """``fbg-trainer compensate --model M --data D --out O`` itself (the same function, so the
+    same file and checks); returns its JSON summary as a dict."""
+    return json.loads(
+        _core.compensate_file(os.fspath(model), os.fspath(data), os.fspath(out), precision, trust_units, start_unix_s)
+    )
+
+
+def write_dataset(frame: Any, path: PathLike) -> None:
+    """Write a record (the columns :func:`simulate`/:func:`read_dataset` give, ``split``
+    optional) as a dataset CSV, atomically, exactly as ``fbg-trainer simulate`` writes one."""
+    names = F.names_of(frame) if F.is_frame(frame) else list(frame)
+    cols = {n: F.column(frame, n) for n in names if n != "split"}
+    cal = None
+    if "split" in names:
+        cal = [s == "cal" for s in (frame["split"].astype(str) if hasattr(frame["split"], "astype") else frame["split"])]
+    t0 = getattr(frame, "attrs", {}).get("t0_unix_s") if hasattr(frame, "attrs") else None
+    _core.write_dataset(cols, os.fspath(path), cal, t0)

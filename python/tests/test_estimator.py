@@ -1,0 +1,122 @@
+"""The estimators in scikit-learn's shape.
+
+Which of scikit-learn's `check_estimator` checks apply: the compensator is a multi-output
+*time-series* regressor that needs the time of every row (`t=` or a `t_s` column) and named
+measurand outputs, so the generic checks that feed it random 2-D arrays without time cannot
+run. What is checked here instead is the subset that fits: `get_params`/`set_params` and
+`clone` (check_get_params_invariance, check_parameters_default_constructible,
+check_no_attributes_set_in_init), `fit` returns self (check_fit_returns_self), predict before
+fit raises NotFittedError (check_estimators_unfitted), determinism of refitting
+(check_fit_idempotent), n_features_in_ and feature_names_in_ (check_n_features_in,
+check_dataframe_column_names_consistency), and use in a Pipeline and in cross_val_score with a
+TimeSeriesSplit."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import fbg_compensation as fc
+from conftest import FIT, INPUTS, OUTPUTS, same_bits
+
+sklearn = pytest.importorskip("sklearn")
+from sklearn.base import clone  # noqa: E402
+from sklearn.exceptions import NotFittedError  # noqa: E402
+from sklearn.model_selection import TimeSeriesSplit, cross_val_score  # noqa: E402
+from sklearn.pipeline import Pipeline  # noqa: E402
+from sklearn.preprocessing import FunctionTransformer  # noqa: E402
+
+
+def test_params_round_trip_and_clone():
+    est = fc.HybridCompensator(features="paper", max_centres=8, seed=3)
+    p = est.get_params()
+    assert p == dict(features="paper", max_centres=8, on_outlier="fail", seed=3, precision="f64", outputs=None)
+    est.set_params(max_centres=16, precision="f32")
+    assert (est.max_centres, est.precision) == (16, "f32")
+    c = clone(est)
+    assert c.get_params() == est.get_params() and c is not est
+    assert fc.ModelP().get_params()["features"] == "memory"
+    with pytest.raises(ValueError):
+        est.set_params(centres=4)
+
+
+def test_no_attributes_set_in_init_and_unfitted(holdout):
+    est = fc.HybridCompensator()
+    assert not [k for k in vars(est) if k.endswith("_")]
+    with pytest.raises(NotFittedError):
+        est.predict(holdout[INPUTS], t=holdout["t_s"])
+
+
+def test_fit_returns_self_and_is_deterministic(cal, holdout, fitted):
+    est = fc.HybridCompensator(**FIT)
+    assert est.fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"]) is est
+    a = est.predict(holdout[INPUTS], t=holdout["t_s"])
+    b = fitted.predict(holdout[INPUTS], t=holdout["t_s"])
+    assert same_bits(a, b)
+    assert list(a.columns) == OUTPUTS and a.index.equals(holdout.index)
+    assert est.n_features_in_ == 4 and list(est.feature_names_in_) == INPUTS
+    assert est.model_.blob_bytes() == fitted.model_.blob_bytes()
+
+
+def test_dataframe_and_array_inputs_agree(holdout, fitted):
+    frame = fitted.predict(holdout[INPUTS], t=holdout["t_s"])
+    array = fitted.predict(holdout[INPUTS].to_numpy(), t=holdout["t_s"].to_numpy())
+    assert isinstance(array, np.ndarray) and same_bits(frame.to_numpy(), array)
+    # t_s as a column of X instead of t=, the columns in another order.
+    shuffled = holdout[["t_s", "T_amb_C", "dl3_pm", "dl1_pm", "dl2_pm"]]
+    assert same_bits(fitted.predict(shuffled).to_numpy(), array)
+
+
+def test_array_fit_equals_frame_fit(cal, fitted):
+    est = fc.HybridCompensator(**FIT).fit(cal[INPUTS].to_numpy(), cal[OUTPUTS].to_numpy(), t=cal["t_s"].to_numpy())
+    assert est.model_.blob_bytes() == fitted.model_.blob_bytes()
+    assert est.outputs_ == OUTPUTS
+
+
+def test_polars_inputs(holdout, fitted):
+    pl = pytest.importorskip("polars")
+    out = fitted.predict(pl.from_pandas(holdout[INPUTS + ["t_s"]]))
+    assert isinstance(out, pl.DataFrame) and out.columns == OUTPUTS
+    assert same_bits(out.to_numpy(), fitted.predict(holdout[INPUTS], t=holdout["t_s"]).to_numpy())
+
+
+def test_band_and_flags(holdout, fitted):
+    v, band, flags = fitted.predict(holdout[INPUTS], t=holdout["t_s"], return_band=True, return_flags=True)
+    assert list(band.columns) == [f"{o}_band95" for o in OUTPUTS]
+    assert flags.dtype == np.uint8 and flags.shape == (len(holdout),)
+    assert (band.to_numpy() > 0).all()
+    # The holdout's clock is unknown without t0: every row says so (bit 8); given the
+    # record's start, none does.
+    assert (flags & 8).all()
+    _, flags_abs = fitted.predict(
+        holdout[INPUTS], t=holdout["t_s"], t0_unix_s=1.7e9, return_flags=True
+    )
+    assert not (flags_abs & 8).any() or fitted.model_.inspect()["model"]["field"].get("cal_end_unix_s") is None
+
+
+def test_score_and_model_p(cal, holdout, fitted):
+    r2_h = fitted.score(holdout[INPUTS + ["t_s"]], holdout[OUTPUTS])
+    p = fc.ModelP(**FIT).fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
+    assert p.model_.is_model_p and not fitted.model_.is_model_p
+    r2_p = p.score(holdout[INPUTS + ["t_s"]], holdout[OUTPUTS])
+    assert 0.9 < r2_p <= 1.0 and 0.9 < r2_h <= 1.0
+    # The same fit gives both: ModelP's model is the HybridCompensator's Model-P.
+    assert p.model_.blob_bytes() == fitted.model_p_.blob_bytes()
+
+
+def test_pipeline_and_time_series_cv(cal):
+    X = cal[INPUTS + ["t_s"]]
+    y = cal[OUTPUTS]
+    pipe = Pipeline([("keep", FunctionTransformer(lambda df: df[INPUTS + ["t_s"]])), ("comp", fc.HybridCompensator(**FIT))])
+    pipe.fit(X, y)
+    assert pipe.predict(X).shape == (len(X), 3)
+    scores = cross_val_score(fc.ModelP(**FIT), X, y, cv=TimeSeriesSplit(n_splits=2))
+    assert scores.shape == (2,) and np.isfinite(scores).all()
+
+
+def test_errors_carry_the_trainer_message(cal):
+    with pytest.raises(fc.FbgError, match="features: unknown feature set `nope`"):
+        fc.HybridCompensator(features="nope").fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
+    with pytest.raises(fc.FbgError, match="max centres must be in 1..=128"):
+        fc.HybridCompensator(max_centres=0).fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
+    with pytest.raises(ValueError, match="give t="):
+        fc.HybridCompensator(**FIT).fit(cal[INPUTS], cal[OUTPUTS])

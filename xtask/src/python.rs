@@ -1,0 +1,78 @@
+//! `cargo xtask python`: the Python package (`python/`) built into a virtual environment and
+//! its pytest suite run. The environment is `target/python/venv`, made with `python3 -m venv`
+//! (the `python3-venv` package installed with apt-get when the module is missing and this runs
+//! as root) and filled from PyPI with `python/requirements-test.txt` (pinned; installed again
+//! only when that file changes). The wheel is built by `pip install ./python` (maturin over the
+//! package's own cargo workspace, into the host's `target/`), and the tests compare it with
+//! the `fbg-trainer` binary of the same tree. Without `python3` the task is skipped with a
+//! message (the only case it is).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{bail, Context, Result};
+
+use crate::cmd::{cargo, is_root, run, step, target_dir};
+
+/// The requirements file, relative to the workspace root.
+const REQUIREMENTS: &str = "python/requirements-test.txt";
+
+/// Build the wheel into the venv and run the pytest suite.
+pub fn run_all(root: &Path) -> Result<()> {
+    step("Python package: wheel into target/python/venv, pytest");
+    if Command::new("python3").arg("--version").output().is_err() {
+        eprintln!("xtask: python3 not found: skipping the Python package's tests (install python3 to run them)");
+        return Ok(());
+    }
+    let venv = target_dir().join("python/venv");
+    let py = ensure_venv(&venv)?;
+    install_requirements(root, &venv, &py)?;
+    run(Command::new(&py)
+        .current_dir(root)
+        .args(["-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--force-reinstall", "./python"])
+        .env("CARGO_TARGET_DIR", target_dir()))?;
+    run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))?;
+    let trainer = target_dir().join("release/fbg-trainer");
+    run(Command::new(&py)
+        .current_dir(root.join("python"))
+        .args(["-m", "pytest", "-q", "tests"])
+        .env("FBG_TRAINER", &trainer))
+}
+
+/// The venv's interpreter, the venv made first when missing.
+fn ensure_venv(venv: &Path) -> Result<PathBuf> {
+    let py = venv.join("bin/python");
+    if py.is_file() {
+        return Ok(py);
+    }
+    let make = || Command::new("python3").args(["-m", "venv"]).arg(venv).status();
+    if make().map(|s| s.success()).unwrap_or(false) {
+        return Ok(py);
+    }
+    // Debian's python3 comes without `venv`/`ensurepip`; they are the python3-venv package.
+    if is_root() {
+        eprintln!("xtask: `python3 -m venv` failed; installing python3-venv with apt-get");
+        let _ = std::fs::remove_dir_all(venv);
+        run(Command::new("apt-get").args(["install", "-y", "python3-venv"]))
+            .context("install the venv module (`apt-get install python3-venv`)")?;
+        if make().map(|s| s.success()).unwrap_or(false) {
+            return Ok(py);
+        }
+    }
+    bail!(
+        "`python3 -m venv {}` failed: install Python's venv module (Debian/Ubuntu: `apt-get install python3-venv`)",
+        venv.display()
+    )
+}
+
+/// Install the pinned requirements unless the venv already holds this exact file's.
+fn install_requirements(root: &Path, venv: &Path, py: &Path) -> Result<()> {
+    let req = root.join(REQUIREMENTS);
+    let wanted = std::fs::read(&req).with_context(|| format!("reading {}", req.display()))?;
+    let stamp = venv.join("requirements-test.installed");
+    if std::fs::read(&stamp).ok().as_deref() == Some(wanted.as_slice()) {
+        return Ok(());
+    }
+    run(Command::new(py).args(["-m", "pip", "install", "--quiet", "-r"]).arg(&req))?;
+    crate::cmd::write_atomic(&stamp, &wanted)
+}
