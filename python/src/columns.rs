@@ -28,7 +28,9 @@ pub fn dataset(
     origin: &str,
 ) -> PyResult<Dataset> {
     let mut n: Option<usize> = None;
-    let mut take = |name: &str, v: PyReadonlyArray1<'_, f64>| -> PyResult<Vec<f64>> {
+    let mut take = |name: &str, v: &Bound<'_, PyAny>| -> PyResult<Vec<f64>> {
+        let v: PyReadonlyArray1<'_, f64> =
+            v.extract().map_err(|_| msg(format!("{origin}: column {name}: not a 1-D float64 array")))?;
         let v = v.as_array().to_vec();
         match n {
             Some(k) if k != v.len() => {
@@ -45,20 +47,17 @@ pub fn dataset(
     let mut dl: Vec<Option<Vec<f64>>> = vec![None; MAX_GRATINGS];
     for (key, value) in columns.iter() {
         let name: String = key.extract()?;
-        let array = |v: &Bound<'_, PyAny>| -> PyResult<PyReadonlyArray1<'_, f64>> {
-            v.extract().map_err(|_| msg(format!("{origin}: column {name}: not a 1-D float64 array")))
-        };
         if name == "t_s" {
-            t_s = Some(take(&name, array(&value)?)?);
+            t_s = Some(take(&name, &value)?);
         } else if name == T_AMB {
-            d.t_amb_c = Some(take(&name, array(&value)?)?);
+            d.t_amb_c = Some(take(&name, &value)?);
         } else if let Some(g) = (1..=MAX_GRATINGS).find(|&g| grating_column(g) == name) {
             if let Some(slot) = dl.get_mut(g - 1) {
-                *slot = Some(take(&name, array(&value)?)?);
+                *slot = Some(take(&name, &value)?);
             }
         } else {
             match Measurand::parse(&name) {
-                Ok(Some(m)) => d.refs.push(Reference { measurand: m, values: take(&name, array(&value)?)? }),
+                Ok(Some(m)) => d.refs.push(Reference { measurand: m, values: take(&name, &value)? }),
                 Ok(None) => {}
                 Err(e) => return Err(msg(format!("{origin}: column {name}: {e}"))),
             }

@@ -1,8 +1,9 @@
 //! The fit of `fbg-trainer train`: Model-P and Model-H with cross-validated hyper-parameters on
 //! a record's calibration rows.
 
+use fbg_trainer::benchmark::{BenchFitOptions, DEFAULT_FIXED};
 use fbg_trainer::export;
-use fbg_trainer::fit::{self, FeatureChoice, Origin};
+use fbg_trainer::fit::{train_source, FeatureChoice, Origin};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -14,11 +15,13 @@ use crate::model::Model;
 /// `cal` true calibrating (all when None), with the options of `train`: `features`
 /// (`--features`), `max_centres`, `on_outlier` (`fail`/`skip`), `seed` (k-means and
 /// cross-validation; `train` uses the default); `scenario` and `sim_seed` the provenance the
-/// blob records (`train` takes them from the record's `.meta.json`). Returns Model-H, Model-P, the
+/// blob records (`train` takes them from the record's `.meta.json`); `fixed` one
+/// configuration instead of the cross-validated choice, as `bench-fit --fixed` (keys
+/// `feature_set`, `k`, `sigma_mult`, `alpha_rel`, `dead_band_pm`, `memory`). Returns Model-H, Model-P, the
 /// `coefficients.json` text and a JSON summary (chosen hyper-parameters, CV RMSE, warnings).
 /// Runs without the GIL.
 #[pyfunction]
-#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0))]
+#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -32,17 +35,21 @@ pub fn fit(
     source: &str,
     scenario: Option<String>,
     sim_seed: u64,
+    fixed: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<(Model, Model, String, String)> {
     let d = columns::dataset(columns, cal, t0_unix_s, source)?;
     let choice: FeatureChoice = features.parse().map_err(|e: String| msg(format!("features: {e}")))?;
-    let mut opts = choice.train_options(max_centres).map_err(|e| msg(format!("features/max_centres: {e}")))?;
+    let mut opts = match fixed {
+        None => choice.train_options(max_centres).map_err(|e| msg(format!("features/max_centres: {e}")))?,
+        Some(f) => fixed_options(f)?,
+    };
     opts = opts.with_progress(false).with_on_outlier(on_outlier.parse().map_err(|e: String| msg(format!("on_outlier: {e}")))?);
     if let Some(s) = seed {
         opts = opts.with_seed(s);
     }
     // The provenance `train` writes: the sidecar's scenario and seed, else the source's name.
     let origin = Origin { scenario: scenario.unwrap_or_else(|| source.to_string()), seed: sim_seed };
-    let tr = py.detach(|| fit::train_source(&d, source, &opts, &origin)).map_err(to_py)?;
+    let tr = py.detach(|| train_source(&d, source, &opts, &origin)).map_err(to_py)?;
     let coefficients = export::coefficients_text(
         &tr.model_p,
         &tr.model_h,
@@ -59,7 +66,54 @@ pub fn fit(
         "n_cal": s.n_cal, "grid_points": s.rows.len(), "warnings": tr.warnings,
         "outliers_skipped": tr.skipped.len(),
     });
-    let h = Model::fitted(tr.model_h).map_err(to_py)?;
-    let p = Model::fitted(tr.model_p).map_err(to_py)?;
+    let h = Model::fitted(&tr.model_h).map_err(to_py)?;
+    let p = Model::fitted(&tr.model_p).map_err(to_py)?;
     Ok((h, p, coefficients, summary.to_string()))
+}
+
+/// The options of `bench-fit --fixed` from a dict of its flags (the missing ones its defaults).
+fn fixed_options(f: &Bound<'_, PyDict>) -> PyResult<fbg_trainer::fit::TrainOptions> {
+    let get = |k: &str| f.get_item(k);
+    let mut b = BenchFitOptions {
+        data: std::path::PathBuf::new(),
+        repeats: 1,
+        fixed: true,
+        features: FeatureChoice::Memory,
+        memory: false,
+        max_centres: 32,
+        feature_set: DEFAULT_FIXED.feature_set.name().to_string(),
+        k: DEFAULT_FIXED.k,
+        sigma_mult: DEFAULT_FIXED.sigma_mult,
+        alpha_rel: DEFAULT_FIXED.alpha_rel,
+        dead_band_pm: DEFAULT_FIXED.dead_band_pm,
+        threads: 0,
+        holdout_errors: None,
+    };
+    for key in f.keys() {
+        let k: String = key.extract()?;
+        if !["feature_set", "k", "sigma_mult", "alpha_rel", "dead_band_pm", "memory"].contains(&k.as_str()) {
+            return Err(msg(format!(
+                "fixed: unknown key `{k}` (feature_set, k, sigma_mult, alpha_rel, dead_band_pm, memory)"
+            )));
+        }
+    }
+    if let Some(v) = get("feature_set")? {
+        b.feature_set = v.extract()?;
+    }
+    if let Some(v) = get("k")? {
+        b.k = v.extract()?;
+    }
+    if let Some(v) = get("sigma_mult")? {
+        b.sigma_mult = v.extract()?;
+    }
+    if let Some(v) = get("alpha_rel")? {
+        b.alpha_rel = v.extract()?;
+    }
+    if let Some(v) = get("dead_band_pm")? {
+        b.dead_band_pm = v.extract()?;
+    }
+    if let Some(v) = get("memory")? {
+        b.memory = v.extract()?;
+    }
+    b.options().map(|(o, _)| o).map_err(to_py)
 }

@@ -29,10 +29,11 @@ impl Model {
         &self.params
     }
 
-    /// A freshly fitted model (its file the unsigned blob).
-    pub fn fitted(params: HostParams) -> Result<Model, TrainerError> {
-        let file = export::blob_bytes(&params)?;
-        Ok(Model { params, file })
+    /// A freshly fitted model as its file holds it: the blob (f32 coefficients) decoded
+    /// again, so an estimator predicts exactly what its exported file does on the device's
+    /// host path and in `compensate`.
+    pub fn fitted(params: &HostParams) -> Result<Model, TrainerError> {
+        Model::decode(export::blob_bytes(params)?, "the fitted model")
     }
 
     /// Decode and validate `file` as `read_blob` does; `source` names it in errors.

@@ -23,10 +23,17 @@ pub fn presets() -> Vec<&'static str> {
 }
 
 /// Simulate the built-in scenario `preset` with `seed` (deterministic), as `fbg-trainer
-/// simulate --preset P --seed S`; `days` shortens or lengthens the record. Runs without the GIL.
+/// simulate --preset P --seed S`; `days` shortens or lengthens the record, `dt_s` \[s\] changes
+/// its sample interval. Runs without the GIL.
 #[pyfunction]
-#[pyo3(signature = (preset="paper", seed=7, days=None))]
-pub fn simulate(py: Python<'_>, preset: &str, seed: u64, days: Option<f64>) -> PyResult<Columns<'_>> {
+#[pyo3(signature = (preset="paper", seed=7, days=None, dt_s=None))]
+pub fn simulate<'py>(
+    py: Python<'py>,
+    preset: &str,
+    seed: u64,
+    days: Option<f64>,
+    dt_s: Option<f64>,
+) -> PyResult<Columns<'py>> {
     let p: Preset = preset.parse().map_err(|e: String| msg(format!("preset: {e}")))?;
     let mut cfg = p.config();
     if let Some(d) = days {
@@ -34,6 +41,12 @@ pub fn simulate(py: Python<'_>, preset: &str, seed: u64, days: Option<f64>) -> P
             return Err(msg(format!("days: {d} is not a positive number of days")));
         }
         cfg.clock.days = d;
+    }
+    if let Some(dt) = dt_s {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(msg(format!("dt_s: {dt} is not a positive sample interval in seconds")));
+        }
+        cfg.clock.dt_s = dt;
     }
     let data = py.detach(|| sim::simulate(&cfg, seed).data);
     columns::to_dict(py, data)
@@ -44,7 +57,7 @@ pub fn simulate(py: Python<'_>, preset: &str, seed: u64, days: Option<f64>) -> P
 /// `compensate` does. Errors name the file, line and column.
 #[pyfunction]
 #[pyo3(signature = (path, field=false))]
-pub fn read_dataset(py: Python<'_>, path: PathBuf, field: bool) -> PyResult<Columns<'_>> {
+pub fn read_dataset<'py>(py: Python<'py>, path: PathBuf, field: bool) -> PyResult<Columns<'py>> {
     let d = py
         .detach(|| if field { Dataset::read_field_csv(&path) } else { Dataset::read_csv(&path) })
         .map_err(to_py)?;

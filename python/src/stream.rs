@@ -112,7 +112,7 @@ impl Stream {
         t_amb_c: Option<PyReadonlyArray1<'py, f64>>,
         t_s: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Chunk<'py>> {
-        let (n, g) = (dl_pm.shape().first().copied().unwrap_or(0), dl_pm.shape().get(1).copied().unwrap_or(0));
+        let (n, g) = dl_pm.as_array().dim();
         if g != self.gratings || g > MAX_GRATINGS {
             return Err(msg(format!("dl_pm: {g} grating columns; the model reads {}", self.gratings)));
         }

@@ -29,7 +29,7 @@ from sklearn.preprocessing import FunctionTransformer  # noqa: E402
 def test_params_round_trip_and_clone():
     est = fc.HybridCompensator(features="paper", max_centres=8, seed=3)
     p = est.get_params()
-    assert p == dict(features="paper", max_centres=8, on_outlier="fail", seed=3, precision="f64", outputs=None)
+    assert p == dict(features="paper", max_centres=8, on_outlier="fail", seed=3, precision="f64", outputs=None, fixed=None)
     est.set_params(max_centres=16, precision="f32")
     assert (est.max_centres, est.precision) == (16, "f32")
     c = clone(est)

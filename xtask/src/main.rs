@@ -99,7 +99,13 @@ enum Task {
     /// The Python package (python/): build its wheel into target/python/venv (made with
     /// `python3 -m venv`, filled from PyPI with python/requirements-test.txt) and run its pytest
     /// suite against the fbg-trainer binary; skipped with a message when python3 is absent
-    Python,
+    Python {
+        /// Instead of the tests, only the Python part of bench (predict on 1e6 rows against
+        /// the scikit-learn peer and `compensate`, fit against `bench-fit --fixed`); writes
+        /// target/bench/python.json and puts it into BENCHMARKS.json and BENCHMARKS.md
+        #[arg(long)]
+        bench: bool,
+    },
     /// Make the firmware's test fixtures with fbg-trainer in target/fixtures (the paper preset's
     /// and the strain-pair, temperature-1 and array-8 presets' trained Model-H with golden
     /// vectors)
@@ -124,7 +130,8 @@ fn main() -> Result<()> {
         Task::Slurm => slurm::run_all(&root),
         Task::Board => board::run_all(&root).map(|_| ()),
         Task::Fixtures { write_default } => fixtures_task(write_default),
-        Task::Python => python::run_all(&root),
+        Task::Python { bench: false } => python::run_all(&root),
+        Task::Python { bench: true } => bench::python::run_alone(&root),
     }
 }
 

@@ -20,23 +20,35 @@ const REQUIREMENTS: &str = "python/requirements-test.txt";
 /// Build the wheel into the venv and run the pytest suite.
 pub fn run_all(root: &Path) -> Result<()> {
     step("Python package: wheel into target/python/venv, pytest");
-    if Command::new("python3").arg("--version").output().is_err() {
-        eprintln!("xtask: python3 not found: skipping the Python package's tests (install python3 to run them)");
-        return Ok(());
-    }
-    let venv = target_dir().join("python/venv");
-    let py = ensure_venv(&venv)?;
-    install_requirements(root, &venv, &py)?;
-    run(Command::new(&py)
-        .current_dir(root)
-        .args(["-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--force-reinstall", "./python"])
-        .env("CARGO_TARGET_DIR", target_dir()))?;
-    run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))?;
-    let trainer = target_dir().join("release/fbg-trainer");
+    let Some((py, trainer)) = prepare(root)? else { return Ok(()) };
     run(Command::new(&py)
         .current_dir(root.join("python"))
         .args(["-m", "pytest", "-q", "tests"])
         .env("FBG_TRAINER", &trainer))
+}
+
+/// The venv's interpreter with the package installed from this tree, and the release
+/// `fbg-trainer`; `None` (with a message) when there is no `python3`.
+pub fn prepare(root: &Path) -> Result<Option<(PathBuf, PathBuf)>> {
+    if Command::new("python3").arg("--version").output().is_err() {
+        eprintln!("xtask: python3 not found: skipping the Python package (install python3 to build and test it)");
+        return Ok(None);
+    }
+    let venv = target_dir().join("python/venv");
+    let py = ensure_venv(&venv)?;
+    install_requirements(root, &venv, &py)?;
+    // maturin is the venv's (no build isolation: nothing fetched per build); its directory
+    // first on PATH, as an activated venv would have it.
+    let path = std::env::join_paths(
+        std::iter::once(venv.join("bin")).chain(std::env::var_os("PATH").iter().flat_map(std::env::split_paths)),
+    )?;
+    run(Command::new(&py)
+        .current_dir(root)
+        .args(["-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--force-reinstall", "./python"])
+        .env("PATH", path)
+        .env("CARGO_TARGET_DIR", target_dir()))?;
+    run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))?;
+    Ok(Some((py, target_dir().join("release/fbg-trainer"))))
 }
 
 /// The venv's interpreter, the venv made first when missing.

@@ -80,6 +80,7 @@ class _Compensator(_Base, _Regressor):
         seed: Optional[int] = None,
         precision: str = "f64",
         outputs: Optional[Sequence[str]] = None,
+        fixed: Optional[Dict[str, Any]] = None,
     ) -> None:
         self.features = features
         self.max_centres = max_centres
@@ -87,6 +88,7 @@ class _Compensator(_Base, _Regressor):
         self.seed = seed
         self.precision = precision
         self.outputs = outputs
+        self.fixed = fixed
 
     # --- fit -------------------------------------------------------------------------------
     def fit(self, X: Any, y: Any, t: Any = None, *, t0_unix_s: Optional[float] = None, cal: Any = None):
@@ -116,6 +118,10 @@ class _Compensator(_Base, _Regressor):
             self.on_outlier,
             self.seed,
             t0_unix_s,
+            "<frame>",
+            None,
+            0,
+            self.fixed,
         )
         self.model_h_ = Model(h)
         self.model_p_ = Model(p)
@@ -182,7 +188,9 @@ class HybridCompensator(_Compensator):
     centres, the device's capacity), ``on_outlier`` (``fail``: an outlying reference cell is
     an error naming file, line and column; ``skip``: its row is left out), ``seed`` (None:
     the trainer's default), ``precision`` (``f64`` host / ``f32`` device arithmetic for
-    predict), ``outputs`` (names of y's columns when y is an array)."""
+    predict), ``outputs`` (names of y's columns when y is an array), ``fixed`` (one
+    configuration instead of cross-validation, as ``fbg-trainer bench-fit --fixed``: a dict
+    of ``feature_set``, ``k``, ``sigma_mult``, ``alpha_rel``, ``dead_band_pm``, ``memory``)."""
 
     _which = "h"
 

@@ -19,11 +19,11 @@ def presets() -> List[str]:
     return list(_core.presets())
 
 
-def simulate(preset: str = "paper", seed: int = 7, days: Optional[float] = None) -> Any:
+def simulate(preset: str = "paper", seed: int = 7, days: Optional[float] = None, dt_s: Optional[float] = None) -> Any:
     """Simulate a built-in scenario, deterministically (``fbg-trainer simulate --preset P
-    --seed S``); ``days`` changes the record's length. Returns a DataFrame (a dict of arrays
-    without pandas)."""
-    cols, split, t0 = _core.simulate(preset, seed, days)
+    --seed S``); ``days`` changes the record's length, ``dt_s`` its sample interval [s].
+    Returns a DataFrame (a dict of arrays without pandas)."""
+    cols, split, t0 = _core.simulate(preset, seed, days, dt_s)
     return F.frame_of(cols, split, t0)
 
 

@@ -104,6 +104,9 @@ pub fn markdown(rep: &Report) -> String {
     if let Some(m) = &rep.memory {
         super::memory::markdown(&mut s, m);
     }
+    if let Some(v) = &rep.python {
+        super::python::markdown(&mut s, v);
+    }
     if let Some(v) = &rep.slurm {
         slurm(&mut s, v);
     }

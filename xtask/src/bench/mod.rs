@@ -32,6 +32,7 @@ pub mod machine;
 pub mod markdown;
 pub mod memory;
 pub mod pace;
+pub mod python;
 pub mod report;
 pub mod runner;
 pub mod stats;
@@ -102,6 +103,12 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     step("bench: peak memory of train, compensate, evaluate on 1e6 and 1e7 rows");
     let memory = memory::part(root, &r, opts)?;
 
+    step("bench: the Python package against the scikit-learn peer and the CLI");
+    let python = python::part(root)
+        .map_err(|e| eprintln!("bench: the Python package's part failed: {e:#}"))
+        .ok()
+        .flatten();
+
     let load_end = machine::loadavg();
     let report = Report {
         generated_by: "cargo xtask bench".into(),
@@ -121,6 +128,7 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
         pace_paper: Some(pace_paper),
         field: Some(field),
         slurm: runner::read_json::<Report>(&root.join("BENCHMARKS.json")).ok().and_then(|old| old.slurm),
+        python,
     };
     // Through a `Value`, whose maps are sorted: the keys come out in alphabetical order.
     let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;

@@ -60,6 +60,10 @@ pub struct Report {
     /// carried over from the previous file by `cargo xtask bench`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub slurm: Option<serde_json::Value>,
+    /// The Python package against the scikit-learn peer and the CLI (`bench/python_peer.py`;
+    /// absent from files written before it was measured, or where Python is absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub python: Option<serde_json::Value>,
 }
 
 impl Report {
