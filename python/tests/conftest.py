@@ -44,6 +44,12 @@ def fitted(cal):
 
 
 @pytest.fixture(scope="session")
+def fitted_memory(cal):
+    """The default model's inputs (memory terms, direction latches): a model with state."""
+    return fc.HybridCompensator(features="memory", max_centres=8).fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
+
+
+@pytest.fixture(scope="session")
 def trainer():
     """The `fbg-trainer` binary: `$FBG_TRAINER` (set by `cargo xtask python`), else one built
     in target/. A missing binary fails the tests that need it when `$FBG_TRAINER` is set."""

@@ -67,8 +67,12 @@ def test_dataframe_and_array_inputs_agree(holdout, fitted):
 
 
 def test_array_fit_equals_frame_fit(cal, fitted):
-    est = fc.HybridCompensator(**FIT).fit(cal[INPUTS].to_numpy(), cal[OUTPUTS].to_numpy(), t=cal["t_s"].to_numpy())
+    X, y, t = cal[INPUTS].to_numpy(), cal[OUTPUTS].to_numpy(), cal["t_s"].to_numpy()
+    est = fc.HybridCompensator(**FIT).fit(X, y, t=t, t0_unix_s=cal.attrs["t0_unix_s"])
     assert est.model_.blob_bytes() == fitted.model_.blob_bytes()
+    # Without the record's start the model does not know its calibration's absolute end.
+    other = fc.HybridCompensator(**FIT).fit(X, y, t=t)
+    assert other.model_.blob_bytes() != fitted.model_.blob_bytes()
     assert est.outputs_ == OUTPUTS
 
 
@@ -84,13 +88,18 @@ def test_band_and_flags(holdout, fitted):
     assert list(band.columns) == [f"{o}_band95" for o in OUTPUTS]
     assert flags.dtype == np.uint8 and flags.shape == (len(holdout),)
     assert (band.to_numpy() > 0).all()
-    # The holdout's clock is unknown without t0: every row says so (bit 8); given the
-    # record's start, none does.
-    assert (flags & 8).all()
-    _, flags_abs = fitted.predict(
-        holdout[INPUTS], t=holdout["t_s"], t0_unix_s=1.7e9, return_flags=True
+    # The frame carries the record's start (attrs["t0_unix_s"], as simulate/read_dataset set
+    # it) and the model its calibration's end: the band's lead is known on every row.
+    assert holdout.attrs["t0_unix_s"] is not None
+    assert not (flags & 8).any()
+    # An array carries no clock: every row is flagged lead-unknown (bit 8), and the band is
+    # taken at one lead (the largest validated), not growing along the record as above.
+    _, band_u, flags_u = fitted.predict(
+        holdout[INPUTS].to_numpy(), t=holdout["t_s"].to_numpy(), return_band=True, return_flags=True
     )
-    assert not (flags_abs & 8).any() or fitted.model_.inspect()["model"]["field"].get("cal_end_unix_s") is None
+    assert (flags_u & 8).all()
+    b = band.to_numpy()
+    assert (b[-1] > b[0]).all() and not same_bits(band_u, b)
 
 
 def test_score_and_model_p(cal, holdout, fitted):
