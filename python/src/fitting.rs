@@ -43,7 +43,9 @@ pub fn fit(
         None => choice.train_options(max_centres).map_err(|e| msg(format!("features/max_centres: {e}")))?,
         Some(f) => fixed_options(f)?,
     };
-    opts = opts.with_progress(false).with_on_outlier(on_outlier.parse().map_err(|e: String| msg(format!("on_outlier: {e}")))?);
+    opts = opts
+        .with_progress(false)
+        .with_on_outlier(on_outlier.parse().map_err(|e: String| msg(format!("on_outlier: {e}")))?);
     if let Some(s) = seed {
         opts = opts.with_seed(s);
     }

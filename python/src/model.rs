@@ -38,8 +38,10 @@ impl Model {
 
     /// Decode and validate `file` as `read_blob` does; `source` names it in errors.
     fn decode(file: Vec<u8>, source: &str) -> Result<Model, TrainerError> {
-        let p32 = blob::decode::<HOST_CAP>(&file)
-            .map_err(|e| TrainerError::Model { path: source.to_string(), message: export::blob_error_text(&file, &e) })?;
+        let p32 = blob::decode::<HOST_CAP>(&file).map_err(|e| TrainerError::Model {
+            path: source.to_string(),
+            message: export::blob_error_text(&file, &e),
+        })?;
         let params =
             p32.convert().map_err(|e| TrainerError::Model { path: source.to_string(), message: e.to_string() })?;
         Ok(Model { params, file })

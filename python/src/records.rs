@@ -58,9 +58,8 @@ pub fn simulate<'py>(
 #[pyfunction]
 #[pyo3(signature = (path, field=false))]
 pub fn read_dataset<'py>(py: Python<'py>, path: PathBuf, field: bool) -> PyResult<Columns<'py>> {
-    let d = py
-        .detach(|| if field { Dataset::read_field_csv(&path) } else { Dataset::read_csv(&path) })
-        .map_err(to_py)?;
+    let d =
+        py.detach(|| if field { Dataset::read_field_csv(&path) } else { Dataset::read_csv(&path) }).map_err(to_py)?;
     columns::to_dict(py, d)
 }
 

@@ -55,7 +55,8 @@ pub struct Stream {
 impl Stream {
     /// A fresh stream of `params` in `precision` on `clock`.
     pub fn of(params: &HostParams, precision: Precision, clock: StreamClock) -> PyResult<Stream> {
-        let refuse = |what: &str, e: fbg_shared::Error| msg(format!("the model cannot be loaded for {what} arithmetic: {e}"));
+        let refuse =
+            |what: &str, e: fbg_shared::Error| msg(format!("the model cannot be loaded for {what} arithmetic: {e}"));
         let engine = match precision {
             Precision::F64 => {
                 let mut c = Box::new(HostCompensator::new(params).map_err(|e| refuse("the host's f64", e))?);
@@ -121,7 +122,11 @@ impl Stream {
         }
         let dl = dl_pm.as_slice().map_err(|_| msg("dl_pm: not a C-contiguous float64 array"))?;
         let t = t_s.as_slice().map_err(|_| msg("t_s: not a contiguous float64 array"))?;
-        let amb = t_amb_c.as_ref().map(|a| a.as_slice()).transpose().map_err(|_| msg("T_amb_C: not a contiguous float64 array"))?;
+        let amb = t_amb_c
+            .as_ref()
+            .map(|a| a.as_slice())
+            .transpose()
+            .map_err(|_| msg("T_amb_C: not a contiguous float64 array"))?;
         if t.len() != n || amb.is_some_and(|a| a.len() != n) {
             return Err(msg(format!("t_s and T_amb_C need one value per row of dl_pm ({n})")));
         }

@@ -104,10 +104,8 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     let memory = memory::part(root, &r, opts)?;
 
     step("bench: the Python package against the scikit-learn peer and the CLI");
-    let python = python::part(root)
-        .map_err(|e| eprintln!("bench: the Python package's part failed: {e:#}"))
-        .ok()
-        .flatten();
+    let python =
+        python::part(root).map_err(|e| eprintln!("bench: the Python package's part failed: {e:#}")).ok().flatten();
 
     let load_end = machine::loadavg();
     let report = Report {
