@@ -60,7 +60,7 @@ pub fn run_alone(root: &Path) -> Result<()> {
 }
 
 fn num(v: &Value, path: &[&str]) -> f64 {
-    path.iter().fold(Some(v), |v, k| v.and_then(|v| v.get(k))).and_then(Value::as_f64).unwrap_or(f64::NAN)
+    path.iter().try_fold(v, |v, k| v.get(k)).and_then(Value::as_f64).unwrap_or(f64::NAN)
 }
 
 fn met(ok: bool) -> &'static str {
