@@ -3,9 +3,10 @@
 Which of scikit-learn's `check_estimator` checks apply: the compensator is a multi-output
 *time-series* regressor that needs the time of every row (`t=` or a `t_s` column) and named
 measurand outputs, so the generic checks that feed it random 2-D arrays without time cannot
-run. What is checked here instead is the subset that fits: `get_params`/`set_params` and
-`clone` (check_get_params_invariance, check_parameters_default_constructible,
-check_no_attributes_set_in_init), `fit` returns self (check_fit_returns_self), predict before
+run. What is checked here instead is the subset that fits: scikit-learn's own
+check_get_params_invariance, check_parameters_default_constructible,
+check_no_attributes_set_in_init and check_set_params (they need no fit), `clone`; and, written
+here on a record with its time, `fit` returns self (check_fit_returns_self), predict before
 fit raises NotFittedError (check_estimators_unfitted), determinism of refitting
 (check_fit_idempotent), n_features_in_ and feature_names_in_ (check_n_features_in,
 check_dataframe_column_names_consistency), and use in a Pipeline and in cross_val_score with a
@@ -129,3 +130,16 @@ def test_errors_carry_the_trainer_message(cal):
         fc.HybridCompensator(max_centres=0).fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
     with pytest.raises(ValueError, match="give t="):
         fc.HybridCompensator(**FIT).fit(cal[INPUTS], cal[OUTPUTS])
+
+
+@pytest.mark.parametrize("Est", [fc.HybridCompensator, fc.ModelP])
+def test_sklearn_checks_that_need_no_fit(Est):
+    """scikit-learn's own checks among those of check_estimator that do not fit on its
+    generic data (which has no time column, so the others cannot run as written)."""
+    from sklearn.utils import estimator_checks as ec
+
+    name = Est.__name__
+    ec.check_get_params_invariance(name, Est())
+    ec.check_parameters_default_constructible(name, Est())
+    ec.check_no_attributes_set_in_init(name, Est())
+    ec.check_set_params(name, Est())
