@@ -220,5 +220,10 @@ mod tests {
         };
         assert_eq!(only, [lint::Step::Sizes, lint::Step::Fuzz]);
         assert!(matches!(Cli::try_parse_from(["xtask", "qemu", "--all"]).unwrap().task, Task::Qemu { all: true }));
+        assert!(matches!(Cli::try_parse_from(["xtask", "python"]).unwrap().task, Task::Python { bench: false }));
+        assert!(matches!(
+            Cli::try_parse_from(["xtask", "python", "--bench"]).unwrap().task,
+            Task::Python { bench: true }
+        ));
     }
 }
