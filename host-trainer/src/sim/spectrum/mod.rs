@@ -11,6 +11,7 @@
 //! - [`detector`]: the pixel grids (a 512-pixel spectrometer with its pixel polynomial, an 8 pm
 //!   swept laser) and the detector (noise at an SNR, counts in u16);
 //! - [`frames`]: a record's wavelengths → one frame per channel and sample;
+//! - [`accuracy`]: the detector's methods on these spectra, swept over a pixel, per SNR;
 //! - [`chain`]: frames → peaks (`fbg_shared::spectrum::PeakDetector`) → the record again;
 //! - [`csv`]: the frames as the spectra CSV.
 //!
@@ -18,6 +19,7 @@
 //! ([`detector::DetectorModel`] says which height). Nothing here changes the peaks simulator: a
 //! record simulated with or without spectra is the same record.
 
+pub mod accuracy;
 pub mod chain;
 pub mod csv;
 pub mod detector;
