@@ -104,6 +104,9 @@ pub fn markdown(rep: &Report) -> String {
     if let Some(m) = &rep.memory {
         super::memory::markdown(&mut s, m);
     }
+    if let Some(sp) = &rep.spectrum {
+        super::spectrum::markdown(&mut s, sp);
+    }
     if let Some(v) = &rep.slurm {
         slurm(&mut s, v);
     }
