@@ -101,7 +101,8 @@ fn designs_have_the_asked_fwhm_and_apodisation_kills_the_side_lobes() {
             assert!((w - fwhm).abs() < 1e-3, "{apod:?}: FWHM {w}");
             assert!((d.peak_reflectivity(1535.0) - r).abs() < 1e-9);
             // Beyond 3 FWHM: side lobes of a uniform grating, almost nothing of an apodised one.
-            let far = (0..400).map(|k| d.reflectivity(1535.0, 1535.0 + 3.0 * fwhm + k as f64 * 2e-3)).fold(0.0, f64::max);
+            let far =
+                (0..400).map(|k| d.reflectivity(1535.0, 1535.0 + 3.0 * fwhm + k as f64 * 2e-3)).fold(0.0, f64::max);
             if apod == Apodisation::Uniform {
                 assert!(far > 1e-3 * r, "{apod:?}: {far}");
             } else {
@@ -174,7 +175,11 @@ fn detector_noise_and_height_follow_the_snr_convention() {
         assert!((mean - cfg.detector.dark_counts).abs() < 0.05 * sigma + 0.05);
         let height = top.iter().sum::<f64>() / top.len() as f64 - mean;
         assert!((height / cfg.detector.peak_counts - 1.0).abs() < 0.01 + 3.0 * sigma / 40_000.0, "{snr} dB: {height}");
-        assert!((10.0 * (height / sd).log10() - snr).abs() < 0.2, "{snr} dB: measured {}", 10.0 * (height / sd).log10());
+        assert!(
+            (10.0 * (height / sd).log10() - snr).abs() < 0.2,
+            "{snr} dB: measured {}",
+            10.0 * (height / sd).log10()
+        );
     }
 }
 

@@ -39,7 +39,8 @@ fn spectra() -> Vec<Vec<f64>> {
     let mut rng = Rng::new(31);
     (0..BATCH)
         .map(|k| {
-            let centres: Vec<f64> = NOMINAL.iter().map(|&n| n + 0.5 * (k as f64 / BATCH as f64 - 0.5) + 0.01 * k as f64).collect();
+            let centres: Vec<f64> =
+                NOMINAL.iter().map(|&n| n + 0.5 * (k as f64 / BATCH as f64 - 0.5) + 0.01 * k as f64).collect();
             (0..PIXELS)
                 .map(|i| {
                     let l = g.wavelength(i as f64);

@@ -26,7 +26,14 @@ impl BenchSpectrumArgs {
         let grids = [PixelGrid::Swept, PixelGrid::Spectrometer];
         let mut table = Vec::new();
         for grid in grids {
-            table.extend(accuracy_rows(grid, Apodisation::Uniform, DEFAULT_PEAK_REFLECTIVITY, &Method::ALL, &SNRS_DB, self.seed)?);
+            table.extend(accuracy_rows(
+                grid,
+                Apodisation::Uniform,
+                DEFAULT_PEAK_REFLECTIVITY,
+                &Method::ALL,
+                &SNRS_DB,
+                self.seed,
+            )?);
         }
         let mut shapes = Vec::new();
         for grid in grids {

@@ -176,7 +176,12 @@ pub fn markdown(s: &mut String, b: &SpectrumBench) {
     for (grid, target) in [("swept", TARGET_RMS_SWEPT_PM), ("spectrometer", TARGET_RMS_SPECTROMETER_PM)] {
         if let Some(r) = default_row(grid) {
             let rms = rms_at(r, 30.0);
-            let _ = writeln!(s, "| RMS at 30 dB, {grid} grid ≤ {target} pm | {} pm | {} |", f(rms, 3), verdict(rms <= target));
+            let _ = writeln!(
+                s,
+                "| RMS at 30 dB, {grid} grid ≤ {target} pm | {} pm | {} |",
+                f(rms, 3),
+                verdict(rms <= target)
+            );
             let _ = writeln!(
                 s,
                 "| peak-locking, {grid} grid ≤ {TARGET_LOCKING_PM} pm p-p | {} pm | {} |",
@@ -209,7 +214,10 @@ pub fn markdown(s: &mut String, b: &SpectrumBench) {
         "### Accuracy on simulated spectra\n\n`{}`: one uniform grating (0.3 nm FWHM, peak reflectivity 0.5, transfer-matrix spectrum with its side lobes) at 1550 nm on the SLED, swept over one pixel in 20 steps; locking and bias noise-free (counts still rounded), RMS over 20 × 25 noisy frames per SNR; errors detected − rendered wavelength.\n",
         b.accuracy_command
     );
-    let _ = writeln!(s, "| method | grid | locking p-p [pm] | bias [pm] | RMS 20 dB [pm] | RMS 30 dB [pm] | RMS 40 dB [pm] |");
+    let _ = writeln!(
+        s,
+        "| method | grid | locking p-p [pm] | bias [pm] | RMS 20 dB [pm] | RMS 30 dB [pm] | RMS 40 dB [pm] |"
+    );
     let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|");
     for r in &b.accuracy {
         let _ = writeln!(
@@ -271,8 +279,12 @@ pub fn markdown(s: &mut String, b: &SpectrumBench) {
                 f(get(&c.ratio_spectrum_over_peak), 3)
             );
         }
-        let per: Vec<String> =
-            c.peak_error_rms_pm.iter().zip(&c.peak_error_bias_pm).map(|(r, b)| format!("{} (bias {})", f(*r, 3), f(*b, 3))).collect();
+        let per: Vec<String> = c
+            .peak_error_rms_pm
+            .iter()
+            .zip(&c.peak_error_bias_pm)
+            .map(|(r, b)| format!("{} (bias {})", f(*r, 3), f(*b, 3)))
+            .collect();
         let _ = writeln!(s, "| {} | | peak error RMS per grating [pm] | | {} | |", c.grid, per.join(", "));
     }
     let _ = writeln!(s);

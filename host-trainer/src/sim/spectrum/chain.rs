@@ -1,8 +1,8 @@
 //! The spectrum chain: frames → peaks → the same record as the peaks chain, shifts in pm from
 //! each grating's λ_ref.
 
-use fbg_shared::spectrum::{DetectorConfig, Grid, Method, PeakDetector, Spectrum};
 use fbg_shared::layout::MAX_GRATINGS;
+use fbg_shared::spectrum::{DetectorConfig, Grid, Method, PeakDetector, Spectrum};
 use rayon::prelude::*;
 
 use super::detector::FULL_SCALE_COUNTS;
@@ -51,8 +51,9 @@ pub fn peaks_from_spectra(
     let detectors: Vec<PeakDetector<f64, MAX_GRATINGS>> = (0..frames.channels())
         .map(|c| {
             let windows: Vec<_> = frames.gratings_of(c).iter().map(|&g| frames.window(g)).collect();
-            PeakDetector::new(config, &windows)
-                .ok_or_else(|| TrainerError::Dataset { message: format!("spectrum chain: too many gratings on channel {c}") })
+            PeakDetector::new(config, &windows).ok_or_else(|| TrainerError::Dataset {
+                message: format!("spectrum chain: too many gratings on channel {c}"),
+            })
         })
         .collect::<Result<_, _>>()?;
     let grid: Grid<f64> = frames.grid().grid();

@@ -10,7 +10,12 @@ use crate::data::Dataset;
 /// [`super::chain::peaks_from_spectra`] detects with that seed) to `w`: the header
 /// `t_s,channel,1510.000,…`, then for each row and channel (1-based) its time \[s\] and its
 /// counts. The channels' gratings are [`FrameSimulator::gratings_of`].
-pub fn write_spectra_csv(w: &mut impl Write, data: &Dataset, frames: &FrameSimulator, seed: u64) -> std::io::Result<()> {
+pub fn write_spectra_csv(
+    w: &mut impl Write,
+    data: &Dataset,
+    frames: &FrameSimulator,
+    seed: u64,
+) -> std::io::Result<()> {
     write!(w, "t_s,channel")?;
     for l in frames.wavelengths_nm() {
         write!(w, ",{l:.3}")?;

@@ -141,12 +141,8 @@ impl FrameSimulator {
                 continue;
             }
             let (first, end) = (lo.max(0.0).floor() as usize, hi.min(last).ceil() as usize);
-            for ((s, &l), &k) in out
-                .iter_mut()
-                .zip(&self.wavelengths_nm)
-                .zip(&self.gain)
-                .skip(first)
-                .take(end + 1 - first)
+            for ((s, &l), &k) in
+                out.iter_mut().zip(&self.wavelengths_nm).zip(&self.gain).skip(first).take(end + 1 - first)
             {
                 *s += k * p.at(l - wl);
             }
@@ -155,7 +151,14 @@ impl FrameSimulator {
 
     /// One frame of `channel`: [`FrameSimulator::signal`] through the detector
     /// ([`super::DetectorModel::expose`]).
-    pub fn frame(&self, channel: usize, wavelengths_nm: &[f64], rng: &mut Rng, scratch: &mut Vec<f64>, out: &mut Vec<u16>) {
+    pub fn frame(
+        &self,
+        channel: usize,
+        wavelengths_nm: &[f64],
+        rng: &mut Rng,
+        scratch: &mut Vec<f64>,
+        out: &mut Vec<u16>,
+    ) {
         self.signal(channel, wavelengths_nm, scratch);
         self.cfg.detector.expose(scratch, rng, out);
     }
@@ -172,10 +175,5 @@ pub fn row_rng(seed: u64, row: usize) -> Rng {
 /// plus its shift, λ_ref + Δλ/1000 — the value the peaks record reports, so the two chains see
 /// the same wavelengths.
 pub fn wavelengths_at(data: &Dataset, row: usize) -> Vec<f64> {
-    data.meta
-        .zero
-        .iter()
-        .zip(&data.dl_pm)
-        .map(|(z, dl)| dl.get(row).map_or(f64::NAN, |d| z.nm + d * 1e-3))
-        .collect()
+    data.meta.zero.iter().zip(&data.dl_pm).map(|(z, dl)| dl.get(row).map_or(f64::NAN, |d| z.nm + d * 1e-3)).collect()
 }

@@ -213,7 +213,11 @@ impl GratingDesign {
         peak_reflectivity: f64,
         bragg_nm: f64,
     ) -> Result<GratingDesign, TrainerError> {
-        let bad = |message: String| TrainerError::Config { origin: "spectrum grating".into(), key: "grating".into(), message };
+        let bad = |message: String| TrainerError::Config {
+            origin: "spectrum grating".into(),
+            key: "grating".into(),
+            message,
+        };
         if !(fwhm_nm > 0.0 && fwhm_nm < 20.0) {
             return Err(bad(format!("FWHM {fwhm_nm} nm: between 0 and 20 nm")));
         }
