@@ -243,3 +243,18 @@ fn frames_of_the_paper_preset_put_every_grating_on_one_channel_and_are_reproduci
     let lmax = f.wavelengths_nm()[imax];
     assert!(wl.iter().any(|&l| (l - lmax).abs() < 0.17), "max at {lmax} nm, gratings at {wl:?}");
 }
+
+#[test]
+fn bad_settings_are_refused_naming_the_key() {
+    let bad_snr = SpectrumConfig {
+        detector: DetectorModel { snr_db: f64::NAN, ..DetectorModel::default() },
+        ..SpectrumConfig::default()
+    };
+    let e = FrameSimulator::new(&bad_snr, &[1550.0]).unwrap_err().to_string();
+    assert!(e.contains("snr_db"), "{e}");
+    let bad_r = SpectrumConfig { peak_reflectivity: 1.5, ..SpectrumConfig::default() };
+    let e = FrameSimulator::new(&bad_r, &[1550.0]).unwrap_err().to_string();
+    assert!(e.contains("peak reflectivity"), "{e}");
+    let e = FrameSimulator::new(&SpectrumConfig::default(), &[f64::NAN]).unwrap_err().to_string();
+    assert!(e.contains("nominal_nm"), "{e}");
+}

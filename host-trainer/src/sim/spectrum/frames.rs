@@ -42,6 +42,28 @@ pub struct FrameSimulator {
 impl FrameSimulator {
     /// The frames of gratings at nominal wavelengths `nominal_nm` (λ_ref, the record's zero).
     pub fn new(cfg: &SpectrumConfig, nominal_nm: &[f64]) -> Result<FrameSimulator, TrainerError> {
+        let bad = |key: &str, message: String| TrainerError::Config {
+            origin: "spectrum settings".into(),
+            key: key.into(),
+            message,
+        };
+        let d = &cfg.detector;
+        if !(d.snr_db.is_finite() || d.snr_db == f64::INFINITY) {
+            return Err(bad("snr_db", format!("{}: a number of dB", d.snr_db)));
+        }
+        if !(d.peak_counts > 0.0 && d.peak_counts.is_finite() && d.dark_counts >= 0.0 && d.dark_counts.is_finite()) {
+            return Err(bad("detector", format!("peak {} and dark {} counts: positive", d.peak_counts, d.dark_counts)));
+        }
+        let s = &cfg.source;
+        if !(s.fwhm_nm > 0.0 && s.centre_nm.is_finite() && s.tilt_per_nm.is_finite()) {
+            return Err(bad(
+                "source",
+                format!("centre {} nm, FWHM {} nm, tilt {}/nm", s.centre_nm, s.fwhm_nm, s.tilt_per_nm),
+            ));
+        }
+        if let Some(nm) = nominal_nm.iter().find(|v| !v.is_finite()) {
+            return Err(bad("nominal_nm", format!("{nm}: a wavelength in nm")));
+        }
         let designs = nominal_nm
             .iter()
             .map(|&nm| GratingDesign::for_fwhm(cfg.apodisation, cfg.fwhm_nm, cfg.peak_reflectivity, nm))
@@ -52,10 +74,11 @@ impl FrameSimulator {
             .map(|(d, &nm)| ReflectionProfile::tabulate(d, nm, PROFILE_HALF_SPAN_NM, PROFILE_STEP_NM))
             .collect();
         let mut order: Vec<usize> = (0..nominal_nm.len()).collect();
-        order.sort_by(|&a, &b| nominal_nm[a].total_cmp(&nominal_nm[b]));
+        let at = |g: usize| nominal_nm.get(g).copied().unwrap_or(f64::NAN);
+        order.sort_by(|&a, &b| at(a).total_cmp(&at(b)));
         let mut channels: Vec<Vec<usize>> = Vec::new();
         for g in order {
-            let fits = |ch: &Vec<usize>| ch.iter().all(|&o| (nominal_nm[o] - nominal_nm[g]).abs() >= MIN_SPACING_NM);
+            let fits = |ch: &Vec<usize>| ch.iter().all(|&o| (at(o) - at(g)).abs() >= MIN_SPACING_NM);
             match channels.iter_mut().find(|ch| fits(ch)) {
                 Some(ch) => ch.push(g),
                 None => channels.push(vec![g]),
