@@ -33,7 +33,7 @@ impl ReflectionProfile {
 
     /// R at offset `x_nm` from the Bragg wavelength (0 beyond the table, and for NaN).
     pub fn at(&self, x_nm: f64) -> f64 {
-        if !(x_nm.abs() < self.half_span_nm) {
+        if x_nm.is_nan() || x_nm.abs() >= self.half_span_nm {
             return 0.0;
         }
         let u = (x_nm + self.half_span_nm) / self.step_nm;
