@@ -137,3 +137,25 @@ fn spectrum_chain_on_the_spectrometer_grid() {
         assert!(*q <= 2.0 * p, "R 0.5 output {c}: spectrum chain {q} vs peak chain {p}");
     }
 }
+
+#[test]
+fn array_8_on_one_fibre_through_the_spectrum_chain() {
+    // Another preset, not looked at before the bound was written: eight gratings 5 nm apart on
+    // one channel (windows ±2.25 nm), three days, the swept grid.
+    let mut cfg = Preset::Array8.config();
+    cfg.clock.days = 3.0;
+    let s = sim::simulate(&cfg, 5);
+    let spectrum = grid(PixelGrid::Swept);
+    let f = frames(&s, &spectrum);
+    assert_eq!((f.channels(), f.gratings_of(0).len()), (1, 8));
+    let c = peaks_from_spectra(&s.data, &f, Method::default(), 5).unwrap();
+    assert_eq!(c.faults, vec![0; 8]);
+    for (g, rms) in c.rms_error_pm().iter().enumerate() {
+        assert!(*rms < 1.0, "grating {g}: {rms} pm");
+    }
+    let (peak, spec) = chains(&s, &spectrum);
+    eprintln!("array-8, swept: peak chain {peak:?}, spectrum chain {spec:?}");
+    for (k, (p, q)) in peak.iter().zip(&spec).enumerate() {
+        assert!(*q <= 1.10 * p, "output {k}: spectrum chain {q} vs peak chain {p}");
+    }
+}
