@@ -30,6 +30,8 @@ pub enum Stream {
     ClockJitter = 13,
     /// The recording gaps: their starts and lengths (`clock.gaps_per_day`).
     ClockGaps = 14,
+    /// The detector noise of simulated spectrum frames (`sim::spectrum`).
+    SpectrumNoise = 15,
 }
 
 /// A seeded random stream with uniform and normal deviates.

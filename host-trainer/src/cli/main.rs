@@ -5,6 +5,7 @@
 
 mod args;
 mod bench_fit;
+mod bench_spectrum;
 mod compensate;
 mod demo;
 mod evaluate;
@@ -81,6 +82,9 @@ enum Cmd {
     /// Time the fit for benchmarks (`cargo xtask bench`): read a CSV once, fit it --repeats
     /// times (each fit timed alone), evaluate the last fit on the hold-out.
     BenchFit(bench_fit::BenchFitArgs),
+    /// The peak detector's accuracy on simulated spectra for benchmarks (`cargo xtask bench`):
+    /// every method × grid × SNR, RMS error and peak-locking, as JSON.
+    BenchSpectrum(bench_spectrum::BenchSpectrumArgs),
     /// Calibrate many sensor groups in parallel from a TOML manifest (each group's data CSV and
     /// output blob); resumes without redoing finished groups; a failing group does not stop the
     /// others.
@@ -121,6 +125,7 @@ fn run() -> Result<()> {
         Cmd::Demo(a) => a.run(),
         Cmd::Import(a) => a.run(),
         Cmd::BenchFit(a) => a.run(),
+        Cmd::BenchSpectrum(a) => a.run(),
         Cmd::Fleet(a) => a.run(),
         Cmd::Stream(a) => a.run(),
         Cmd::Compensate(a) => a.run(),

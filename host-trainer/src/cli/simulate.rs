@@ -7,6 +7,8 @@ use anyhow::{Context, Result};
 use fbg_trainer::data::files::{check_outputs, write_bytes_atomically, OutputSet};
 use fbg_trainer::data::{Kind, Measurand};
 use fbg_trainer::sim::meta::{meta_path, SimMeta};
+use fbg_trainer::sim::spectrum::csv::write_spectra_csv;
+use fbg_trainer::sim::spectrum::{DetectorModel, FrameSimulator, PixelGrid, SpectrumConfig};
 use fbg_trainer::sim::{self, scenario::ScenarioConfig, Simulation};
 
 use crate::args::ScenarioArgs;
@@ -42,6 +44,23 @@ pub struct SimulateArgs {
     /// turn through held levels (the scenario's `[steps]`).
     #[arg(long)]
     steps: bool,
+    /// Also write the record's simulated spectra to FILE (the spectra CSV: `t_s,channel,`
+    /// then one column per grid wavelength in nm, one row per sample and channel, counts):
+    /// uniform gratings of 0.3 nm FWHM at the record's wavelengths on a SLED, noise at
+    /// --snr-db (the same frames `demo --spectra` detects for the same seed).
+    #[arg(long, value_name = "FILE")]
+    spectra: Option<PathBuf>,
+    /// With --spectra: the pixel grid, `spectrometer` (512 pixels over 1510–1595 nm) or
+    /// `swept` (8 pm, 10 626 points: about 60 kB per row and channel).
+    #[arg(long, requires = "spectra", default_value = "spectrometer", value_parser = parse_grid)]
+    grid: PixelGrid,
+    /// With --spectra: the detector's SNR [dB], 10·log10(peak height/noise σ).
+    #[arg(long, requires = "spectra", default_value_t = 30.0)]
+    snr_db: f64,
+}
+
+fn parse_grid(s: &str) -> std::result::Result<PixelGrid, String> {
+    PixelGrid::parse(s).ok_or_else(|| format!("`{s}`: `spectrometer` or `swept`"))
 }
 
 impl SimulateArgs {
@@ -73,6 +92,7 @@ impl SimulateArgs {
         let side = meta_path(out);
         let mut outputs = vec![out.as_path(), side.as_path()];
         outputs.extend(self.dump_config.as_deref());
+        outputs.extend(self.spectra.as_deref());
         check_outputs(&outputs, &self.scenario.config.iter().map(|p| p.as_path()).collect::<Vec<_>>())?;
         let cfg = self.scenario()?;
         let s = sim::simulate(&cfg, self.scenario.seed);
@@ -81,6 +101,16 @@ impl SimulateArgs {
         let set = OutputSet::beside(out)?;
         set.stage(out, |w| s.data.write_csv_to(w))?;
         set.stage_bytes(&side, SimMeta::of(&s).to_json()?.as_bytes())?;
+        if let Some(path) = &self.spectra {
+            let spectrum = SpectrumConfig {
+                grid: self.grid,
+                detector: DetectorModel { snr_db: self.snr_db, ..DetectorModel::default() },
+                ..SpectrumConfig::default()
+            };
+            let nominal: Vec<f64> = s.data.meta.zero.iter().map(|z| z.nm).collect();
+            let frames = FrameSimulator::new(&spectrum, &nominal)?;
+            set.stage(path, |w| write_spectra_csv(w, &s.data, &frames, self.scenario.seed))?;
+        }
         set.commit()?;
         if let Some(p) = &self.dump_config {
             let text = toml::to_string(&cfg).context("serialising the scenario")?;

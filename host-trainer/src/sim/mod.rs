@@ -11,6 +11,7 @@ pub mod interrogator;
 pub mod meta;
 pub mod package;
 pub mod scenario;
+pub mod spectrum;
 pub mod steps;
 pub mod trajectories;
 

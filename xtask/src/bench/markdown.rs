@@ -107,6 +107,9 @@ pub fn markdown(rep: &Report) -> String {
     if let Some(v) = &rep.python {
         super::python::markdown(&mut s, v);
     }
+    if let Some(sp) = &rep.spectrum {
+        super::spectrum::markdown(&mut s, sp);
+    }
     if let Some(v) = &rep.slurm {
         slurm(&mut s, v);
     }

@@ -10,6 +10,9 @@
 //! of repeated runs, and every ratio compares runs taken side by side, alternating, in the same
 //! invocation. The exact command behind each figure is recorded next to it.
 //!
+//! `FBG_BENCH_ONLY=spectrum cargo xtask bench [--quick]` measures only the spectrum part
+//! ([`spectrum`]) into the BENCHMARKS.json already there.
+//!
 //! `cargo xtask bench [--quick] [--no-device]`: `--quick` takes one round of one repeat (for
 //! trying the task out, not for publishing); `--no-device` reuses `target/bench/device.json`
 //! instead of running QEMU; `--markdown-only` renders BENCHMARKS.md again from BENCHMARKS.json
@@ -35,6 +38,7 @@ pub mod pace;
 pub mod python;
 pub mod report;
 pub mod runner;
+pub mod spectrum;
 pub mod stats;
 pub mod training;
 
@@ -62,6 +66,11 @@ pub struct Opts {
 pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     if opts.markdown_only {
         return markdown_only(root);
+    }
+    // One part alone, into the BENCHMARKS.json already there (the environment, not a flag: the
+    // command line is `main.rs`'s).
+    if std::env::var("FBG_BENCH_ONLY").as_deref() == Ok("spectrum") {
+        return spectrum::only(root, opts);
     }
     let r = Runner { root: root.to_path_buf() };
     let data_dir = root.join("target/bench/data");
@@ -97,6 +106,9 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     step("bench: static fidelity and pace study (train + evaluate --quick), `paper` and `field`");
     let (pace_paper, field) = pace::part(root, &r)?;
 
+    step("bench: peak detection in spectra (criterion, bench-spectrum, demo --spectra)");
+    let spectrum = spectrum::part(root, &r, opts)?;
+
     step("bench: fleet scaling");
     let fleet = fleet::part(root, &r, opts)?;
 
@@ -124,6 +136,7 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
             Err(e) => Device::Failed { error: format!("{e:#}") },
         },
         pace_paper: Some(pace_paper),
+        spectrum: Some(spectrum),
         field: Some(field),
         slurm: runner::read_json::<Report>(&root.join("BENCHMARKS.json")).ok().and_then(|old| old.slurm),
         python,

@@ -56,6 +56,10 @@ pub struct Report {
     /// `evaluate --quick` per seed (absent from files written before it was measured).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub field: Option<FieldBench>,
+    /// Peak detection in spectra (issue 31): throughput, accuracy table, the spectrum chain
+    /// (absent from files written before it was measured).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spectrum: Option<super::spectrum::SpectrumBench>,
     /// The sharded fleet on a real Slurm (`cargo xtask slurm`, run on its own: it needs root);
     /// carried over from the previous file by `cargo xtask bench`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
