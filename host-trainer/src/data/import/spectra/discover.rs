@@ -24,14 +24,15 @@ pub(crate) fn windows(s: &Spectrum<'_, f64>, config: &DetectorConfig<f64>) -> Ve
     let noise = NoiseEstimate::of(&finite);
     let vmax = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let height = vmax - noise.floor;
-    if !(height > 0.0) || (noise.sigma > 0.0 && height / noise.sigma < config.no_peak_snr) {
+    if height.is_nan() || height <= 0.0 || (noise.sigma > 0.0 && height / noise.sigma < config.no_peak_snr) {
         return Vec::new();
     }
     let level = noise.floor + (LEVEL_FRACTION * height).max(config.no_peak_snr * noise.sigma);
     // Runs above the level: (first, last, pixel of the maximum).
     let mut runs: Vec<(usize, usize, usize)> = Vec::new();
     for (i, &x) in v.iter().enumerate() {
-        if !(x > level) {
+        // NaN samples (missing) are never above the level.
+        if x.is_nan() || x <= level {
             continue;
         }
         match runs.last_mut() {
