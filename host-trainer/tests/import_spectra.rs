@@ -373,7 +373,7 @@ fn peaks_writes_each_frames_peaks_with_quality_and_flags() {
     let row = |j: usize, g: usize| &rows[3 * j + g];
     // t_s, timestamp (empty: plain seconds), line, grating, channel, wavelength_nm, snr_db, ...
     assert_eq!(&row(0, 0)[..5], &["0.000000", "", "2", "1", "1"]);
-    assert_eq!(&row(0, 2)[3..5], &["3", "2"]);
+    assert_eq!(&row(0, 2)[2..5], &["3", "3", "2"]);
     let nm: f64 = row(4, 1)[5].parse().unwrap();
     assert!((nm - GRATINGS[1].nm(4)).abs() * 1e3 < TOL_FINE_PM, "{nm}");
     let snr: f64 = row(0, 0)[6].parse().unwrap();
@@ -575,4 +575,64 @@ fn the_cli_imports_spectra_and_writes_peaks() {
     let (ok, _, err) =
         common::run(common::bin().args(["peaks", "--format", "spectra-csv"]).arg(&input).arg("--out").arg(&none));
     assert!(!ok && err.contains("--scale db") && !none.exists(), "{err}");
+}
+
+#[test]
+fn references_are_joined_onto_spectrum_frames_as_onto_peaks() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = write(dir.path(), "s.csv", &spectra_csv(1, Scale::Linear, &no_extra, f64::INFINITY));
+    let refs = write(dir.path(), "refs.csv", "t_s,T_amb_C,T_C\n0,20.0,25.0\n5,21.0,26.0\n10,22.0,27.0\n15,23.0,28.0\n");
+    let mut o = options(Format::SpectraCsv, input, None);
+    o.refs = Some(refs);
+    let (d, s) = import(&o).unwrap();
+    assert_eq!(s.purpose, fbg_trainer::data::import::Purpose::Training);
+    assert_eq!((d.len(), s.join.as_ref().unwrap().refs_rows), (FRAMES, 4));
+    // 2 s: 40 % of the way from the 0 s to the 5 s reading.
+    assert!((d.ambient()[2] - 20.4).abs() < 1e-9, "{}", d.ambient()[2]);
+    assert!((d.target(0).as_slice()[7] - 26.4).abs() < 1e-9);
+}
+
+#[test]
+fn on_error_skip_leaves_a_bad_spectrum_out_as_a_gap_and_counts_it() {
+    let dir = tempfile::tempdir().unwrap();
+    // Line 9 is frame 3's channel 2 (grating 3).
+    let text = edit_line(&spectra_csv(1, Scale::Linear, &no_extra, f64::INFINITY), 9, |l| set_cell(l, 100, "oops"));
+    let input = write(dir.path(), "s.csv", &text);
+    let mut o = options(Format::SpectraCsv, input, None);
+    o.on_error = OnError::Skip;
+    o.max_skipped = 0.1;
+    let (d, s) = import(&o).unwrap();
+    assert_eq!((s.rows_read, s.rows_skipped, s.rows_written), (2 * FRAMES, 1, FRAMES));
+    assert_eq!(s.skipped[0].count(fbg_trainer::data::import::Reason::NonNumeric), 1);
+    assert_eq!(s.skipped[0].by_reason.values().next().unwrap().first_lines, [9]);
+    assert!(d.dl_pm[2][3].is_nan() && d.dl_pm[0][3].is_finite() && d.dl_pm[1][3].is_finite());
+    assert_eq!(s.gaps, [0, 0, 1]);
+    // Above the allowed share, nothing is imported.
+    o.max_skipped = 0.01;
+    let e = failure(&o);
+    assert!(e.contains("--max-skipped"), "{e}");
+}
+
+#[test]
+fn a_low_snr_frame_keeps_its_wavelength_and_is_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    // Frame 6, channel 2 (line 15): grating 3 at 8 dB over the noise (height/σ) instead of 40 dB: above the no-peak SNR (7 dB) once the noise on its top is added, below the low-SNR one (10 dB).
+    let grid = csv_grid();
+    let mut rng = Rng::new(3, Stream::WhiteNoise);
+    let weak: Vec<String> = spectrum(&grid, 3, 6, 0.01, 40.0, &[(GRATINGS[2].nm(6), 10f64.powf(-3.2))], &mut rng)
+        .iter()
+        .map(|v| format!("{v:.6e}"))
+        .collect();
+    let text = edit_line(&spectra_csv(1, Scale::Linear, &no_extra, f64::INFINITY), 15, |_| {
+        format!("6.000,2,{}", weak.join(","))
+    });
+    let input = write(dir.path(), "s.csv", &text);
+    let m = write(dir.path(), "map.toml", &map(""));
+    let (d, s) = import(&options(Format::SpectraCsv, input, Some(m))).unwrap();
+    let f = &s.spectra.as_ref().unwrap().flagged[2];
+    assert_eq!((f.flagged, f.gaps, f.by_flag.get("low-snr")), (1, 0, Some(&1)), "{f:?}");
+    assert!(d.dl_pm[2][6].is_finite());
+    // Noisy, but the same grating: within a tenth of the FWHM of the truth.
+    let want = 1e3 * (GRATINGS[2].nm(6) - GRATINGS[2].nm0);
+    assert!((d.dl_pm[2][6] - want).abs() < 30.0, "{} vs {want}", d.dl_pm[2][6]);
 }

@@ -20,6 +20,8 @@ struct Channel {
     grating: Vec<Option<usize>>,
     /// Per window, per frame: the peak, `None` where the frame lacks this channel.
     peaks: Vec<Vec<Option<Peak<f64>>>>,
+    /// Per frame: the line of this channel's spectrum (0 where the frame lacks it).
+    lines: Vec<u64>,
     /// Peaks discovered in the first spectrum (discovery only).
     discovered: usize,
     /// Line of the channel's first spectrum.
@@ -46,6 +48,8 @@ pub(crate) struct GratingPeaks {
     pub source: String,
     /// Per frame (`None`: the frame lacks the channel).
     pub peaks: Vec<Option<Peak<f64>>>,
+    /// Per frame: the line of the channel's spectrum (0 where the frame lacks it).
+    pub lines: Vec<u64>,
 }
 
 /// Every frame's time and line, and the gratings' peaks in dataset order.
@@ -96,6 +100,7 @@ impl Detection {
                 detector,
                 grating: if n > 0 { grating } else { Vec::new() },
                 peaks: vec![vec![None; frames]; n],
+                lines: vec![0; frames],
                 discovered,
                 first_line: row.line,
             }
@@ -142,6 +147,8 @@ impl Detection {
         for (c, ch) in self.channels.into_iter().enumerate() {
             let Some(ch) = ch else { continue };
             let Some(det) = ch.detector else { continue };
+            let mut lines = ch.lines;
+            lines.resize(frames, 0);
             for ((w, g), peaks) in det.windows().iter().zip(ch.grating).zip(ch.peaks) {
                 let (index, source) = match g {
                     Some(g) => (g, format!("channel {}, window {}–{} nm", c + 1, w.lo_nm, w.hi_nm)),
@@ -161,7 +168,7 @@ impl Detection {
                 };
                 let mut peaks = peaks;
                 peaks.resize(frames, None);
-                out.push((index, GratingPeaks { channel: c, source, peaks }));
+                out.push((index, GratingPeaks { channel: c, source, peaks, lines: lines.clone() }));
             }
         }
         // A mapped grating whose channel never had a spectrum: gaps throughout.
@@ -169,7 +176,7 @@ impl Detection {
             if !out.iter().any(|(i, _)| i == g) {
                 let source =
                     format!("channel {}, window {}–{} nm (no spectrum of the channel)", c + 1, w.lo_nm, w.hi_nm);
-                out.push((*g, GratingPeaks { channel: *c, source, peaks: vec![None; frames] }));
+                out.push((*g, GratingPeaks { channel: *c, source, peaks: vec![None; frames], lines: vec![0; frames] }));
             }
         }
         out.sort_by_key(|(i, _)| *i);
@@ -221,6 +228,7 @@ impl SpectrumSink for Detection {
                 for p in &mut ch.peaks {
                     p.push(None);
                 }
+                ch.lines.push(0);
             }
         }
         if self.in_frame.len() <= row.channel {
@@ -228,6 +236,9 @@ impl SpectrumSink for Detection {
         }
         self.in_frame[row.channel] = true;
         let ch = self.channel(&row);
+        if let Some(l) = ch.lines.last_mut() {
+            *l = row.line;
+        }
         if let Some(det) = &ch.detector {
             for (slot, p) in ch.peaks.iter_mut().zip(det.detect(&row.spectrum)) {
                 if let Some(last) = slot.last_mut() {

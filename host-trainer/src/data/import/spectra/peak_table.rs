@@ -1,7 +1,7 @@
 //! `fbg-trainer peaks`: each frame's peak per grating with its quality, as a CSV.
 //!
 //! Columns: `t_s` (seconds from the first frame), `timestamp` (calendar time, empty for a
-//! file in plain seconds), `line` (the line of the frame's first spectrum in the input), `grating` (1-based, the
+//! file in plain seconds), `line` (the line of the grating's channel's spectrum in the input), `grating` (1-based, the
 //! dataset's dlN), `channel` (1-based), `wavelength_nm` (empty without a peak), `snr_db`
 //! (10·log₁₀(height/σ)), `fwhm_nm`, `amplitude` and `floor` (in the file's linear intensity
 //! unit), `flags` (`ok`, or the names joined by `|`: `low-snr|second-peak`), `method`. A
@@ -87,10 +87,11 @@ pub fn peaks_to_csv(opts: &ImportOptions, out: &Path) -> Result<PeaksSummary, Tr
     let mut rows = 0usize;
     write_atomically(out, |w| {
         writeln!(w, "{PEAKS_HEADER}")?;
-        for (k, (&t, &line)) in d.t.iter().zip(&d.lines).enumerate() {
+        for (k, &t) in d.t.iter().enumerate() {
             let stamp = if read.facts.absolute { format_timestamp(t) } else { String::new() };
             for (g, gp) in d.gratings.iter().enumerate() {
                 let Some(Some(p)) = gp.peaks.get(k) else { continue };
+                let line = gp.lines.get(k).copied().unwrap_or_default();
                 let num = |v: f64, digits: usize| if v.is_finite() { format!("{v:.digits$}") } else { String::new() };
                 let sci = |v: f64| if v.is_finite() { format!("{v:.6e}") } else { String::new() };
                 let snr_db = if p.snr > 0.0 { p.snr_db() } else { f64::NAN };

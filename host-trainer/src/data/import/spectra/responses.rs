@@ -205,24 +205,28 @@ impl Blocks<'_> {
                 format!("more than {MAX_CHANNELS} channel lines in one block: is a timestamp line missing?"),
             ));
         }
-        let mut cells: Vec<&str> = l.split('\t').map(str::trim).collect();
-        while cells.len() > self.points && cells.last().is_some_and(|c| c.is_empty()) {
-            cells.pop();
+        // Parsed as split, with no per-row allocation; a trailing tab is not a cell.
+        let l = l.trim_end_matches(|c: char| c == '\t' || c.is_whitespace());
+        let mut n = 0usize;
+        let mut bad: Option<RowError> = None;
+        for cell in l.split('\t').map(str::trim) {
+            match samples.get_mut(n) {
+                Some(s) if bad.is_none() => match number_in(cell, self.culture) {
+                    Ok(v) => *s = v.unwrap_or(f64::NAN),
+                    Err(m) => bad = Some(RowError::new(Reason::NonNumeric, line, (self.label)(n), m)),
+                },
+                _ => {}
+            }
+            n += 1;
         }
-        if cells.len() != self.points {
-            let column =
-                if cells.len() < self.points { (self.label)(cells.len()) } else { format!("{}", self.points + 1) };
-            let why = if truncated && cells.len() < self.points { "truncated last line (no line end): " } else { "" };
+        if n != self.points {
+            let column = if n < self.points { (self.label)(n) } else { format!("{}", self.points + 1) };
+            let why = if truncated && n < self.points { "truncated last line (no line end): " } else { "" };
             return Err(RowError::new(
                 Reason::RaggedRow,
                 line,
                 column,
-                format!(
-                    "{why}{} levels where the header's {POINTS} is {} (channel {})",
-                    cells.len(),
-                    self.points,
-                    channel + 1
-                ),
+                format!("{why}{n} levels where the header's {POINTS} is {} (channel {})", self.points, channel + 1),
             ));
         }
         if truncated {
@@ -233,10 +237,8 @@ impl Blocks<'_> {
                 "truncated last line (no line end): the file ends inside this line, so its last value may be cut short",
             ));
         }
-        for (k, (cell, s)) in cells.iter().zip(samples.iter_mut()).enumerate() {
-            *s = number_in(cell, self.culture)
-                .map_err(|m| RowError::new(Reason::NonNumeric, line, (self.label)(k), m))?
-                .unwrap_or(f64::NAN);
+        if let Some(e) = bad {
+            return Err(e);
         }
         check_scale(samples, self.scale, line, &(self.label)(0))?;
         if self.scale == Scale::Db {

@@ -125,7 +125,8 @@ pub(crate) fn read(
     Ok((facts, channels))
 }
 
-/// One row into `samples` (linear): its time and channel (0-based).
+/// One row into `samples` (linear): its time and channel (0-based). The cells are parsed as
+/// they are split, with no per-row allocation.
 #[allow(clippy::too_many_arguments)]
 fn parse_row(
     l: &str,
@@ -138,22 +139,37 @@ fn parse_row(
     samples: &mut [f64],
     label: &dyn Fn(usize) -> String,
 ) -> Result<(f64, usize), RowError> {
-    let mut cells: Vec<&str> = l.split(delim).map(str::trim).collect();
-    while cells.len() > 2 + points && cells.last().is_some_and(|c| c.is_empty()) {
-        cells.pop();
+    // Trailing empty cells (a trailing delimiter) are not cells.
+    let l = l.trim_end_matches(|c: char| c == delim || c.is_whitespace());
+    let mut cells = l.split(delim).map(str::trim);
+    let time_cell = cells.next().unwrap_or_default();
+    let channel_cell = cells.next();
+    let mut n = 0usize;
+    let mut bad: Option<RowError> = None;
+    for cell in cells.by_ref() {
+        if let Some(s) = samples.get_mut(n) {
+            if bad.is_none() {
+                match number(cell) {
+                    Ok(v) => *s = v.unwrap_or(f64::NAN),
+                    Err(m) => bad = Some(RowError::new(Reason::NonNumeric, line, label(n), m)),
+                }
+            }
+        }
+        n += 1;
     }
-    if cells.len() != 2 + points {
-        let (column, what) = if cells.len() < 2 + points {
-            (label(cells.len().saturating_sub(2)), "missing from here on")
+    let found = n + 1 + usize::from(channel_cell.is_some());
+    if n != points {
+        let (column, what) = if n < points {
+            (label(n), "missing from here on")
         } else {
             (format!("{}", 2 + points + 1), "beyond the header's last column")
         };
-        let why = if truncated && cells.len() < 2 + points { "truncated last row (no line end): " } else { "" };
+        let why = if truncated && n < points { "truncated last row (no line end): " } else { "" };
         return Err(RowError::new(
             Reason::RaggedRow,
             line,
             column,
-            format!("{why}{} cells where the header has {} ({what})", cells.len(), 2 + points),
+            format!("{why}{found} cells where the header has {} ({what})", 2 + points),
         ));
     }
     if truncated {
@@ -164,9 +180,8 @@ fn parse_row(
             "truncated last row (no line end): the file ends inside this row, so its last value may be cut short",
         ));
     }
-    let time_cell = cells.first().copied().unwrap_or_default();
     let t = clock.parse(time_cell).map_err(|m| RowError::new(Reason::NonNumeric, line, "1 (t_s)", m))?;
-    let channel_cell = cells.get(1).copied().unwrap_or_default();
+    let channel_cell = channel_cell.unwrap_or_default();
     let channel = channel_cell.parse::<usize>().ok().filter(|c| (1..=MAX_CHANNELS).contains(c)).ok_or_else(|| {
         RowError::new(
             Reason::NonNumeric,
@@ -175,8 +190,8 @@ fn parse_row(
             format!("`{channel_cell}` is not a channel number (1 to {MAX_CHANNELS})"),
         )
     })?;
-    for (k, (cell, s)) in cells.iter().skip(2).zip(samples.iter_mut()).enumerate() {
-        *s = number(cell).map_err(|m| RowError::new(Reason::NonNumeric, line, label(k), m))?.unwrap_or(f64::NAN);
+    if let Some(e) = bad {
+        return Err(e);
     }
     check_scale(samples, scale, line, &label(0))?;
     if scale == Scale::Db {
