@@ -67,3 +67,32 @@ pub(crate) fn windows(s: &Spectrum<'_, f64>, config: &DetectorConfig<f64>) -> Ve
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fbg_shared::spectrum::Grid;
+
+    /// Three Gaussians (0.3 nm FWHM) on a floor, the middle one at a fifth of the others'
+    /// height, on a 10 pm grid: three windows, in wavelength order, meeting halfway.
+    #[test]
+    fn three_peaks_give_three_windows_meeting_halfway() {
+        let grid = Grid::uniform(1530.0, 0.01);
+        let s: Vec<f64> = (0..2000)
+            .map(|k| {
+                let l = grid.wavelength(k as f64);
+                let g = |c: f64, h: f64| h * (-0.5 * ((l - c) / (0.3 / 2.3548)).powi(2)).exp();
+                0.01 + g(1535.0, 1.0) + g(1541.0, 0.2) + g(1545.0, 1.0)
+            })
+            .collect();
+        let w = windows(&Spectrum::new(&s, grid), &DetectorConfig::default());
+        let bounds: Vec<(f64, f64)> = w.iter().map(|w| (w.lo_nm, w.hi_nm)).collect();
+        let want = [(1532.0, 1538.0), (1538.0, 1543.0), (1543.0, 1547.0)];
+        assert_eq!(bounds.len(), 3, "{bounds:?}");
+        for (got, want) in bounds.iter().zip(want) {
+            assert!((got.0 - want.0).abs() < 1e-9 && (got.1 - want.1).abs() < 1e-9, "{bounds:?}");
+        }
+        // A flat channel has no grating.
+        assert!(windows(&Spectrum::new(&[0.01; 100], grid), &DetectorConfig::default()).is_empty());
+    }
+}

@@ -247,3 +247,18 @@ impl Blocks<'_> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn header_values_after_a_tab_colon_or_equals() {
+        assert_eq!(value_of("Wavelength Start\t1530,000", START), Some("1530,000"));
+        assert_eq!(value_of("wavelength start: 1530.0", START), Some("1530.0"));
+        assert_eq!(value_of("Wavelength Start = 1530", START), Some("1530"));
+        assert_eq!(value_of("Wavelength Starts\t1530", START), None);
+        assert_eq!(value_of("Number of Points\t20001", POINTS), Some("20001"));
+        assert!(is_time_line("03.01.2024 10:00:00") && !is_time_line("-40,1\t-40,2"));
+    }
+}

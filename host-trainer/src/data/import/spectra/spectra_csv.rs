@@ -55,3 +55,21 @@ pub(crate) fn grid_of(columns: &[&str]) -> Result<Grid<f64>, (usize, String)> {
     }
     Ok(Grid::uniform(first, step))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_8_pm_grid_written_to_the_pm_is_uniform_and_an_uneven_one_is_not() {
+        let names: Vec<String> = (0..500).map(|k| format!("{:.3}", 1530.0 + 0.008 * k as f64)).collect();
+        let cells: Vec<&str> = names.iter().map(String::as_str).collect();
+        let Ok(Grid::Uniform { start_nm, step_nm }) = grid_of(&cells) else { panic!("not uniform") };
+        assert!((start_nm - 1530.0).abs() < 1e-12 && (step_nm - 0.008).abs() < 1e-12);
+        let mut uneven = cells.clone();
+        uneven[250] = "1532.003";
+        assert_eq!(grid_of(&uneven).map_err(|e| e.0), Err(250));
+        uneven[250] = "1531.000";
+        assert!(grid_of(&uneven).unwrap_err().1.contains("must increase"));
+    }
+}
