@@ -469,10 +469,10 @@ fn malformed_spectra_csv_names_line_and_column_and_writes_nothing() {
     let e = case("channel.csv", edit_line(&good, 4, |l| set_cell(l, 1, "one")));
     assert_place(&e, "channel.csv", 4, "2 (channel)");
     let e = case("time.csv", edit_line(&good, 6, |l| set_cell(l, 0, "0.500")));
-    assert_place(&e, "time.csv", 6, "time");
+    assert_place(&e, "time.csv", 6, "1 (t_s)");
     assert!(e.contains("backwards"), "{e}");
     let e = case("twice.csv", edit_line(&good, 3, |l| set_cell(l, 1, "1")));
-    assert_place(&e, "twice.csv", 3, "channel");
+    assert_place(&e, "twice.csv", 3, "2 (channel)");
     assert!(e.contains("channel 1 twice"), "{e}");
     let e = case("header.csv", edit_line(&good, 1, |l| set_cell(l, 1, "ch")));
     assert_place(&e, "header.csv", 1, "2 (ch)");
@@ -635,4 +635,20 @@ fn a_low_snr_frame_keeps_its_wavelength_and_is_counted() {
     // Noisy, but the same grating: within a tenth of the FWHM of the truth.
     let want = 1e3 * (GRATINGS[2].nm(6) - GRATINGS[2].nm0);
     assert!((d.dl_pm[2][6] - want).abs() < 30.0, "{} vs {want}", d.dl_pm[2][6]);
+}
+
+#[test]
+fn without_a_map_more_than_eight_peaks_are_refused_naming_the_channels() {
+    let dir = tempfile::tempdir().unwrap();
+    let extra = |_: usize, c: usize| {
+        if c == 1 {
+            [1531.0, 1538.0, 1540.0, 1542.0, 1548.0, 1552.0].iter().map(|&l| (l, 0.7)).collect()
+        } else {
+            Vec::new()
+        }
+    };
+    let input = write(dir.path(), "nine.csv", &spectra_csv(1, Scale::Linear, &extra, f64::INFINITY));
+    let e = failure(&options(Format::SpectraCsv, input, None));
+    assert_place(&e, "nine.csv", 2, "2 (channel)");
+    assert!(e.contains("found 9 (channel 1: 8 (line 2), channel 2: 1 (line 3))"), "{e}");
 }

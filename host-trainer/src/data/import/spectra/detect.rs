@@ -38,6 +38,8 @@ pub(crate) struct Detection {
     lines: Vec<u64>,
     /// Channels already in the current frame.
     in_frame: Vec<bool>,
+    /// The file's time and channel columns, for messages.
+    columns: (&'static str, &'static str),
 }
 
 /// One grating's peaks over the frames.
@@ -65,10 +67,23 @@ pub(crate) struct Detected {
 }
 
 impl Detection {
-    /// A detection with `config` and the map's windows (none: discovery).
-    pub(crate) fn new(config: DetectorConfig<f64>, windows: &[mapping::Window]) -> Self {
+    /// A detection with `config` and the map's windows (none: discovery); `columns` name the
+    /// file's time and channel columns in messages.
+    pub(crate) fn new(
+        config: DetectorConfig<f64>,
+        windows: &[mapping::Window],
+        columns: (&'static str, &'static str),
+    ) -> Self {
         let mapped = windows.iter().enumerate().map(|(g, w)| (g, w.channel, Window::new(w.lo, w.hi))).collect();
-        Detection { config, mapped, channels: Vec::new(), t: Vec::new(), lines: Vec::new(), in_frame: Vec::new() }
+        Detection {
+            config,
+            mapped,
+            channels: Vec::new(),
+            t: Vec::new(),
+            lines: Vec::new(),
+            in_frame: Vec::new(),
+            columns,
+        }
     }
 
     /// True before the first spectrum.
@@ -136,7 +151,7 @@ impl Detection {
             return Err(TrainerError::data(
                 name,
                 self.lines.first().copied().unwrap_or(1),
-                "channel",
+                self.columns.1,
                 format!(
                     "without --map the peaks of each channel's first spectrum become gratings, and 1 to {MAX_GRATINGS} are supported; found {total} ({}): give a map with one [[grating]] entry (channel, window_nm) per grating",
                     counts.join(", ")
@@ -190,7 +205,7 @@ impl SpectrumSink for Detection {
             return Err(RowError::new(
                 Reason::NonNumeric,
                 row.line,
-                "channel",
+                self.columns.1,
                 format!("channel {} is beyond the {MAX_CHANNELS} supported", row.channel + 1),
             ));
         }
@@ -202,7 +217,7 @@ impl SpectrumSink for Detection {
                 return Err(RowError::new(
                     Reason::TimeBackwards,
                     row.line,
-                    "time",
+                    self.columns.0,
                     format!("time goes backwards: {} s is earlier than the frame of line {prev_line}", row.t),
                 ));
             }
@@ -212,7 +227,7 @@ impl SpectrumSink for Detection {
             return Err(RowError::new(
                 Reason::DuplicateTime,
                 row.line,
-                "channel",
+                self.columns.1,
                 format!(
                     "channel {} twice in the frame at {} s (a frame holds each channel once)",
                     row.channel + 1,

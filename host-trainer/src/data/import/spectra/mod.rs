@@ -82,7 +82,12 @@ pub(crate) fn read(
         (None, None, _) => (Scale::Linear, "default (--scale db for a trace in dB)".to_string()),
     };
     let settings = Settings::of(&m.spectra, scale.0);
-    let mut detection = Detection::new(settings.config, &m.windows());
+    // Responses give the channel by its line's place in the block, the tables by a column.
+    let columns = match format {
+        Format::EnlightResponses => ("1 (time)", "1 (channel line)"),
+        _ => ("1 (t_s)", "2 (channel)"),
+    };
+    let mut detection = Detection::new(settings.config, &m.windows(), columns);
     let (facts, channels) = match format {
         Format::SpectraCsv => wide_csv::read(input, scale.0, policy, &spectra_csv::grid_of, &mut detection)?,
         Format::Pixels => {
