@@ -158,7 +158,7 @@ impl Merged {
             refs: Vec::new(),
             wl: nm,
             is_shift: vec![false; n_g],
-            ref_nm: (0..n_g).map(|g| if window_map { m.grating[g].ref_nm } else { None }).collect(),
+            ref_nm: (0..n_g).map(|g| m.grating.get(g).filter(|_| window_map).and_then(|x| x.ref_nm)).collect(),
             sources: d.gratings.iter().map(|g| g.source.clone()).collect(),
             rows_read: read.facts.problems.rows_read,
             skips: vec![read.facts.problems.summary()],

@@ -91,8 +91,9 @@ impl Detection {
         self.t.is_empty()
     }
 
-    /// The channel's state, made at its first spectrum.
-    fn channel(&mut self, row: &SpectrumRow<'_>) -> &mut Channel {
+    /// The channel's state, made at its first spectrum (`None` only past [`MAX_CHANNELS`],
+    /// which the caller refuses first).
+    fn channel(&mut self, row: &SpectrumRow<'_>) -> Option<&mut Channel> {
         let c = row.channel;
         if self.channels.len() <= c {
             self.channels.resize_with(c + 1, || None);
@@ -100,8 +101,8 @@ impl Detection {
         let frames = self.t.len();
         let config = self.config;
         let mapped = &self.mapped;
-        let slot = &mut self.channels[c];
-        slot.get_or_insert_with(|| {
+        let slot = self.channels.get_mut(c)?;
+        Some(slot.get_or_insert_with(|| {
             let (grating, windows, discovered): (Vec<Option<usize>>, Vec<Window<f64>>, usize) = if mapped.is_empty() {
                 let w = discover::windows(&row.spectrum, &config);
                 (vec![None; w.len()], w.clone(), w.len())
@@ -119,7 +120,7 @@ impl Detection {
                 discovered,
                 first_line: row.line,
             }
-        })
+        }))
     }
 
     /// The results, with the gratings in dataset order: the map's, or without a map each
@@ -249,8 +250,10 @@ impl SpectrumSink for Detection {
         if self.in_frame.len() <= row.channel {
             self.in_frame.resize(row.channel + 1, false);
         }
-        self.in_frame[row.channel] = true;
-        let ch = self.channel(&row);
+        if let Some(seen) = self.in_frame.get_mut(row.channel) {
+            *seen = true;
+        }
+        let Some(ch) = self.channel(&row) else { return Ok(()) };
         if let Some(l) = ch.lines.last_mut() {
             *l = row.line;
         }

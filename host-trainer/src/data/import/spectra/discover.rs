@@ -50,12 +50,11 @@ pub(crate) fn windows(s: &Spectrum<'_, f64>, config: &DetectorConfig<f64>) -> Ve
     centres.sort_by(f64::total_cmp);
     let (a, b) = (grid.wavelength(0.0), grid.wavelength(v.len().saturating_sub(1) as f64));
     let (lo_end, hi_end) = (a.min(b), a.max(b));
-    let n = centres.len();
-    (0..n)
-        .map(|k| {
-            let c = centres[k];
-            let left = if k > 0 { Some(0.5 * (c - centres[k - 1])) } else { None };
-            let right = if k + 1 < n { Some(0.5 * (centres[k + 1] - c)) } else { None };
+    (0..centres.len())
+        .filter_map(|k| {
+            let c = *centres.get(k)?;
+            let left = k.checked_sub(1).and_then(|i| centres.get(i)).map(|p| 0.5 * (c - p));
+            let right = centres.get(k + 1).map(|q| 0.5 * (q - c));
             // The outermost windows as wide on their open side as on their inner one.
             let (l, r) = match (left, right) {
                 (Some(l), Some(r)) => (l, r),
@@ -63,7 +62,7 @@ pub(crate) fn windows(s: &Spectrum<'_, f64>, config: &DetectorConfig<f64>) -> Ve
                 (None, Some(r)) => (r, r),
                 (None, None) => (c - lo_end, hi_end - c),
             };
-            Window::new((c - l).max(lo_end), (c + r).min(hi_end))
+            Some(Window::new((c - l).max(lo_end), (c + r).min(hi_end)))
         })
         .collect()
 }

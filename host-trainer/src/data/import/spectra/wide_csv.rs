@@ -42,7 +42,7 @@ pub(crate) fn read(
         return Err(TrainerError::data(&name, 1, "1", "empty file: no header `t_s,channel,<wavelengths or pixels>`"));
     };
     let header_line = header_index as u64 + 1;
-    let header = lines[header_index];
+    let header = lines.get(header_index).copied().unwrap_or_default();
     let delim = if header.contains('\t') {
         '\t'
     } else if header.contains(';') {
@@ -52,7 +52,7 @@ pub(crate) fn read(
     };
     let head: Vec<&str> = header.split(delim).map(str::trim).collect();
     let head: Vec<&str> = match head.iter().rposition(|c| !c.is_empty()) {
-        Some(k) => head[..=k].to_vec(),
+        Some(k) => head.get(..=k).unwrap_or_default().to_vec(),
         None => Vec::new(),
     };
     let time_name = head.first().copied().unwrap_or_default();
