@@ -652,3 +652,24 @@ fn without_a_map_more_than_eight_peaks_are_refused_naming_the_channels() {
     assert_place(&e, "nine.csv", 2, "2 (channel)");
     assert!(e.contains("found 9 (channel 1: 8 (line 2), channel 2: 1 (line 3))"), "{e}");
 }
+
+#[test]
+fn a_responses_block_without_a_channel_is_a_gap_for_its_gratings() {
+    let dir = tempfile::tempdir().unwrap();
+    // Line 21 is frame 4's channel 2 (blocks of 3 lines from line 7).
+    let text: String =
+        responses(1).lines().enumerate().filter(|&(i, _)| i + 1 != 21).map(|(_, l)| format!("{l}\n")).collect();
+    let input = write(dir.path(), "r.txt", &text);
+    let (d, s) = import(&options(Format::EnlightResponses, input, None)).unwrap();
+    assert_eq!((s.rows_read, s.rows_written, s.rows_skipped), (2 * FRAMES - 1, FRAMES, 0));
+    assert!(d.dl_pm[2][4].is_nan() && d.dl_pm[0][4].is_finite() && d.dl_pm[1][4].is_finite());
+    assert_eq!(s.gaps, [0, 0, 1]);
+    assert_eq!(s.spectra.as_ref().unwrap().flagged[2].frames, FRAMES - 1);
+    // A lost timestamp line would make frame 4's spectra channels 3 and 4 of frame 3: refused.
+    let text: String =
+        responses(1).lines().enumerate().filter(|&(i, _)| i + 1 != 19).map(|(_, l)| format!("{l}\n")).collect();
+    let input = write(dir.path(), "lost.txt", &text);
+    let e = failure(&options(Format::EnlightResponses, input, None));
+    assert_place(&e, "lost.txt", 19, "1 (channel line)");
+    assert!(e.contains("the first block has 2"), "{e}");
+}

@@ -12,7 +12,9 @@
 //!   export; the map's `[enlight] culture` for a file without one); other lines are ignored;
 //! - then blocks: a timestamp line (one cell: a timestamp, or seconds), followed by one line
 //!   per channel (channel 1 first) of `Number of Points` tab-separated levels in dB; a block may
-//!   hold fewer channels than others (the missing ones are gaps in that frame).
+//!   hold fewer channels than the first one (the missing ones are gaps in that frame), not more
+//!   (its extra lines are refused: a lost timestamp line would otherwise turn the next frame
+//!   into more channels of this one).
 //!
 //! Numbers follow the culture (`-42,137` in de-DE). Errors name the line and the column, a
 //! level's column by its wavelength.
@@ -110,6 +112,9 @@ pub(crate) fn read(
     // The current block: its time and the next channel, or `None` after a bad timestamp.
     let mut block: Option<Option<(f64, usize)>> = None;
     let mut channels = 0usize;
+    // The first block's channel count: a later block with more lines has lost a timestamp.
+    let mut first_block: Option<usize> = None;
+    let mut blocks = 0usize;
     let last_nonblank = lines.iter().rposition(|l| !l.trim().is_empty()).unwrap_or(0);
     for (i, l) in lines.iter().enumerate().skip(n_header) {
         if l.trim().is_empty() {
@@ -117,6 +122,10 @@ pub(crate) fn read(
         }
         let line = i as u64 + 1;
         if is_time_line(l) {
+            blocks += 1;
+            if blocks == 2 {
+                first_block = Some(channels);
+            }
             match clock.parse(l.trim()) {
                 Ok(t) => block = Some(Some((t, 0))),
                 Err(e) => {
@@ -144,6 +153,15 @@ pub(crate) fn read(
         let Some((t, channel)) = current.as_mut() else { continue };
         let c = *channel;
         *channel += 1;
+        if let Some(n) = first_block.filter(|&n| c >= n) {
+            problems.reject(RowError::new(
+                Reason::RaggedRow,
+                line,
+                "1 (channel line)",
+                format!("channel line {} of a block, but the first block has {n} channels: is a timestamp line missing above?", c + 1),
+            ))?;
+            continue;
+        }
         let truncated = i == last_nonblank && !ends_with_newline;
         let row = spec.parse(l, line, c, truncated, &mut samples).and_then(|()| {
             sink.spectrum(SpectrumRow { t: *t, line, channel: c, spectrum: Spectrum::new(&samples, grid) })
