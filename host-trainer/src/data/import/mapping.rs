@@ -6,8 +6,9 @@
 //! `[[measurand]]` (any measurand by its column name, e.g. `strain2_ue`), `delimiter`,
 //! `header_lines`. `[[grating]]` (one to eight of them, for dl1..dlN) says where each
 //! grating's wavelength is: a `column` and `unit` for a CSV, a `channel` and `window_nm` for
-//! ENLIGHT. `[enlight]` holds the peaks file's own
-//! settings, `max_gap_s` the join of references onto peak times. See README.md, "Real data:
+//! ENLIGHT and the spectrum formats. `[enlight]` holds the peaks file's own
+//! settings, `[spectra]` the spectrum formats' (pixel polynomial, scale, the detector's),
+//! `max_gap_s` the join of references onto peak times. See README.md, "Real data:
 //! import and field recalibration".
 
 use std::path::Path;

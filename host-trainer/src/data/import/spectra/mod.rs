@@ -2,17 +2,17 @@
 //! `fbg_shared::spectrum::PeakDetector`, so that `import` writes the dataset exactly as from a
 //! peaks export and `peaks` writes each frame's peaks with their quality.
 //!
-//! - [`spectra_csv`]: `t_s,channel,` and one column per wavelength (nm), linear or dB;
-//! - [`responses`]: an ENLIGHT / Hyperion Responses export (dB levels, the culture's decimal
+//! - `spectra_csv.rs`: `t_s,channel,` and one column per wavelength (nm), linear or dB;
+//! - `responses.rs`: an ENLIGHT / Hyperion Responses export (dB levels, the culture's decimal
 //!   mark);
-//! - [`pixels`]: `t_s,channel,p0,p1,…` raw counts with the map's pixel-to-wavelength
+//! - `pixels.rs`: `t_s,channel,p0,p1,…` raw counts with the map's pixel-to-wavelength
 //!   polynomial.
 //!
-//! The two CSV layouts share [`wide_csv`]; every reader hands its spectra, converted to linear
-//! intensities, to [`detect::Detection`] ([`frames`]), which runs one detector per channel over
-//! the map's windows or, without a map, over the windows [`discover`] finds in each channel's
-//! first spectrum; [`settings`] turns the map's `[spectra]` table into the detector's
-//! settings; [`peak_table`] writes the `peaks` command's table.
+//! The two CSV layouts share `wide_csv.rs`; every reader hands its spectra, converted to linear
+//! intensities, to the detection of `detect.rs` (the hand-over is `frames.rs`), which runs one
+//! detector per channel over the map's windows or, without a map, over the windows
+//! `discover.rs` finds in each channel's first spectrum; `settings.rs` turns the map's `[spectra]` table into the detector's
+//! settings; `peak_table.rs` writes the `peaks` command's table.
 //!
 //! # Flagged frames in the dataset
 //!
