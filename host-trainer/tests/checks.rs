@@ -202,6 +202,7 @@ fn every_option_of_every_subcommand_is_described() {
         "report",
         "demo",
         "import",
+        "peaks",
         "bench-fit",
         "fleet",
         "stream",

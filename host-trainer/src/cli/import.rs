@@ -11,13 +11,16 @@ use fbg_trainer::export;
 use crate::utc_timestamp;
 
 /// Import a real interrogator export into the dataset CSV: an ENLIGHT / Hyperion peaks file
-/// (with the references from --refs) or any logger CSV whose columns a map names.
+/// (with the references from --refs), any logger CSV whose columns a map names, or spectra
+/// whose peaks are detected per grating.
 #[derive(clap::Args)]
 pub struct ImportArgs {
-    /// Input layout.
-    #[arg(long, value_parser = ["enlight", "csv"])]
+    /// Input layout: ENLIGHT peaks, a logger CSV, or spectra (a `t_s,channel,<wavelengths>`
+    /// CSV, an ENLIGHT / Hyperion Responses export, a spectrometer's `t_s,channel,p0,…` pixels
+    /// with the map's [spectra] pixel_to_nm).
+    #[arg(long, value_parser = ["enlight", "csv", "spectra-csv", "enlight-responses", "pixels"])]
     format: String,
-    /// The export (ENLIGHT peaks file or logger CSV).
+    /// The export (ENLIGHT peaks file, logger CSV or spectrum file).
     file: PathBuf,
     /// Map (TOML): which column or peak is what, in which unit (README.md, "Real data:
     /// import and field recalibration").
@@ -51,6 +54,10 @@ pub struct ImportArgs {
     /// times are plain seconds: the band's clock.
     #[arg(long)]
     start: Option<String>,
+    /// Spectrum formats: the intensities are linear (counts, mW) or dB [default: the map's
+    /// [spectra] scale, else dB for enlight-responses and linear for the others].
+    #[arg(long, value_parser = ["linear", "db"])]
+    scale: Option<String>,
     /// Print the import summary (rows, skips by reason, gratings, references, split) as
     /// JSON on stdout.
     #[arg(long)]
@@ -86,6 +93,7 @@ impl ImportArgs {
                 None => None,
             },
             start_unix_s: self.start.as_deref().map(|s| utc_timestamp(s, "--start")).transpose()?,
+            scale: self.scale.as_deref().map(str::parse).transpose().map_err(anyhow::Error::msg)?,
         };
         let mut inputs = vec![opts.input.as_path()];
         inputs.extend(self.model.as_deref());

@@ -13,6 +13,7 @@ mod fleet;
 mod golden;
 mod import;
 mod inspect;
+mod peaks;
 mod progress;
 mod recalibrate;
 mod report;
@@ -79,6 +80,10 @@ enum Cmd {
     /// Import a real interrogator export into the dataset CSV: an ENLIGHT / Hyperion peaks file
     /// (with the references from --refs) or any logger CSV whose columns a map names.
     Import(import::ImportArgs),
+    /// Detect the peaks of a spectrum file (spectra CSV, ENLIGHT / Hyperion Responses,
+    /// spectrometer pixels) and write each frame's peak per grating with its quality (SNR,
+    /// FWHM, flags, method) as a CSV.
+    Peaks(peaks::PeaksArgs),
     /// Time the fit for benchmarks (`cargo xtask bench`): read a CSV once, fit it --repeats
     /// times (each fit timed alone), evaluate the last fit on the hold-out.
     BenchFit(bench_fit::BenchFitArgs),
@@ -124,6 +129,7 @@ fn run() -> Result<()> {
         Cmd::Report(a) => a.run(),
         Cmd::Demo(a) => a.run(),
         Cmd::Import(a) => a.run(),
+        Cmd::Peaks(a) => a.run(),
         Cmd::BenchFit(a) => a.run(),
         Cmd::BenchSpectrum(a) => a.run(),
         Cmd::Fleet(a) => a.run(),

@@ -72,6 +72,7 @@ fn simulated_enlight_export_imports_exactly_and_trains() {
         max_skipped: DEFAULT_MAX_SKIPPED,
         zero_from: None,
         start_unix_s: None,
+        scale: None,
     };
     let s = import_to_csv(&o, &out).unwrap();
     assert_eq!((s.rows_read, s.rows_written, s.gaps), (n, n, vec![0, 1, 0]));

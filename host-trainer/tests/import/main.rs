@@ -39,6 +39,7 @@ fn enlight(file: &str, map: Option<&str>, refs: Option<&str>) -> ImportOptions {
         max_skipped: DEFAULT_MAX_SKIPPED,
         zero_from: None,
         start_unix_s: None,
+        scale: None,
     }
 }
 
@@ -53,6 +54,7 @@ fn logger(file: &str, map: Option<&str>) -> ImportOptions {
         max_skipped: DEFAULT_MAX_SKIPPED,
         zero_from: None,
         start_unix_s: None,
+        scale: None,
     }
 }
 

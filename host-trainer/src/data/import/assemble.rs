@@ -70,6 +70,7 @@ pub(super) fn finish(
         split: SplitSummary { rule, cal_until_s, cal_rows, holdout_rows: n - cal_rows },
         enlight: m.enlight,
         join: m.join,
+        spectra: m.spectra,
     };
     Ok((d, summary))
 }

@@ -571,7 +571,7 @@ fn culture_line(l: &str) -> Option<&str> {
 /// The file's culture: its `Culture:` line among the metadata (the lines before the first one
 /// that looks like data, or the map's `header_lines`), or the map's `enlight.culture`. Both
 /// present and different, or a culture not in the table, is an error.
-fn find_culture(
+pub(crate) fn find_culture(
     lines: &[&str],
     header_lines: Option<usize>,
     from_map: Option<&str>,
@@ -637,7 +637,7 @@ fn find_culture(
 /// line `first + 1`): the culture's, unless some date contradicts it (an error naming the
 /// line), or without a culture order the dates' own: a first field above 12 is a day, a second
 /// field above 12 is a day. Dates that never settle it, or settle it both ways, are an error.
-fn date_order(
+pub(crate) fn date_order(
     data: &[&str],
     first: usize,
     delim: char,
@@ -714,7 +714,7 @@ fn date_order(
 }
 
 /// A wavelength cell in the file's culture.
-fn number_in(cell: &str, culture: Option<&Culture>) -> Result<Option<f64>, String> {
+pub(crate) fn number_in(cell: &str, culture: Option<&Culture>) -> Result<Option<f64>, String> {
     match culture {
         Some(c) if c.decimal_comma => {
             let t = cell.trim();

@@ -6,14 +6,16 @@
 //! `[[measurand]]` (any measurand by its column name, e.g. `strain2_ue`), `delimiter`,
 //! `header_lines`. `[[grating]]` (one to eight of them, for dl1..dlN) says where each
 //! grating's wavelength is: a `column` and `unit` for a CSV, a `channel` and `window_nm` for
-//! ENLIGHT. `[enlight]` holds the peaks file's own
-//! settings, `max_gap_s` the join of references onto peak times. See README.md, "Real data:
+//! ENLIGHT and the spectrum formats. `[enlight]` holds the peaks file's own
+//! settings, `[spectra]` the spectrum formats' (pixel polynomial, scale, the detector's),
+//! `max_gap_s` the join of references onto peak times. See README.md, "Real data:
 //! import and field recalibration".
 
 use std::path::Path;
 
 use serde::Deserialize;
 
+use super::spectra::Scale;
 use super::time_axis::{parse_timestamp, TimeUnit};
 use crate::data::measurand::{Measurand, MAX_GRATINGS, MAX_MEASURANDS};
 use crate::data::units::{WlUnit, NM_RANGE};
@@ -55,6 +57,10 @@ pub struct Map {
     pub grating: Vec<GratingMap>,
     #[serde(default)]
     pub enlight: EnlightMap,
+    /// Spectrum files (`--format spectra-csv|enlight-responses|pixels`): the pixel grid, the
+    /// intensity scale and the peak detector's settings.
+    #[serde(default)]
+    pub spectra: SpectraMap,
 }
 
 /// The time column.
@@ -140,6 +146,47 @@ pub struct EnlightMap {
     pub culture: Option<String>,
 }
 
+/// Settings of a spectrum file and of its peak detection (`[spectra]`). The gratings' search
+/// windows are the `[[grating]]` entries' `channel` and `window_nm`, as for ENLIGHT peaks.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpectraMap {
+    /// Intensity scale: `linear` or `db`. Default: dB for ENLIGHT Responses, linear for the
+    /// others; `--scale` overrides it.
+    pub scale: Option<Scale>,
+    /// `--format pixels`: the pixel-to-wavelength polynomial λ(p) = Σₖ cₖ·pᵏ \[nm\], c₀ first,
+    /// 2 to 6 coefficients (a spectrometer's calibration sheet), p = 0 the first pixel column.
+    pub pixel_to_nm: Option<Vec<f64>>,
+    /// Peak method: `maximum`, `centroid`, `gaussian3`, `gaussian-fit`,
+    /// `cross-correlation` (default).
+    pub method: Option<String>,
+    /// Where a peak's samples start, as a fraction of its height above the floor (0–1,
+    /// default 0.5).
+    pub threshold: Option<f64>,
+    /// The cross-correlation's reference FWHM \[nm\] (default: twice each peak's own).
+    pub reference_fwhm_nm: Option<f64>,
+    /// The detector's full scale in the file's unit (counts, or dB for a dB file): a sample at
+    /// or above it flags the peak `saturated`. Default: none.
+    pub full_scale: Option<f64>,
+    /// `low-snr` below this SNR \[dB\], 10·log₁₀(height/σ) (default 10 dB).
+    pub min_snr_db: Option<f64>,
+    /// No peak below this SNR \[dB\] (default 7 dB).
+    pub no_peak_snr_db: Option<f64>,
+    /// `too-narrow` below this FWHM \[nm\] (default: never).
+    pub min_fwhm_nm: Option<f64>,
+    /// `too-wide` above this FWHM \[nm\] (default: never).
+    pub max_fwhm_nm: Option<f64>,
+    /// `asymmetric` above this ratio of the half-widths (default 1.5).
+    pub max_asymmetry: Option<f64>,
+    /// `second-peak` when another peak in the window rises above this fraction of the main
+    /// one (default 0.25).
+    pub second_peak_fraction: Option<f64>,
+    /// The flags whose frames become gaps in the imported dataset (their wavelength is
+    /// suspect). Default: `saturated`, `second-peak`, `at-edge`; a frame with `no-peak` is a
+    /// gap whatever this says.
+    pub gap_on: Option<Vec<String>>,
+}
+
 /// A CSV grating after defaults: column, unit, reference.
 #[derive(Clone, Debug)]
 pub(crate) struct CsvGrating {
@@ -164,6 +211,8 @@ pub(crate) struct Window {
 pub(crate) enum For {
     Csv,
     Enlight,
+    /// A spectrum file: gratings by channel and window, like ENLIGHT peaks, and `[spectra]`.
+    Spectra,
 }
 
 impl Map {
@@ -212,7 +261,9 @@ impl Map {
             }
             match what {
                 For::Csv => g.validate_csv().map_err(|(k, m)| err(key(k), m))?,
-                For::Enlight => g.validate_enlight(&self.grating[..i]).map_err(|(k, m)| err(key(k), m))?,
+                For::Enlight | For::Spectra => {
+                    g.validate_enlight(&self.grating[..i]).map_err(|(k, m)| err(key(k), m))?
+                }
             }
         }
         if what == For::Enlight {
@@ -224,6 +275,9 @@ impl Map {
             if self.enlight.channels == Some(0) {
                 return Err(err("enlight.channels".into(), "at least one channel".into()));
             }
+        }
+        if what == For::Spectra {
+            self.spectra.validate().map_err(|(k, m)| err(format!("spectra.{k}"), m))?;
         }
         Ok(())
     }

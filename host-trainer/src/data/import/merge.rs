@@ -1,12 +1,13 @@
-//! Either importer's rows brought to one form ([`Merged`]): times, wavelengths per grating,
-//! the ambient reading and the references — for ENLIGHT peaks, the references of a `--refs`
-//! CSV joined onto the peak times.
+//! Every importer's rows brought to one form ([`Merged`]): times, wavelengths per grating,
+//! the ambient reading and the references — for ENLIGHT peaks and the spectrum formats, the
+//! references of a `--refs` CSV joined onto the peak times.
 
-use super::enlight::{self, PeaksFile};
+use super::enlight;
 use super::logger_csv::{self, LoggerTable};
 use super::mapping::Map;
 use super::problems::FileSkips;
-use super::summary::{EnlightInfo, JoinInfo};
+use super::spectra;
+use super::summary::{EnlightInfo, JoinInfo, SpectraInfo};
 use super::time_axis::{format_timestamp, TimeKind};
 use super::{join, ImportOptions};
 use crate::data::{Measurand, T_AMB_COLUMN};
@@ -33,6 +34,7 @@ pub(super) struct Merged {
     pub(super) skips: Vec<FileSkips>,
     pub(super) enlight: Option<EnlightInfo>,
     pub(super) join: Option<JoinInfo>,
+    pub(super) spectra: Option<SpectraInfo>,
     /// Error when no row has an ambient temperature.
     pub(super) empty_hint: String,
     pub(super) n_before_drop: usize,
@@ -79,6 +81,7 @@ impl Merged {
             skips,
             enlight: None,
             join: None,
+            spectra: None,
             n_before_drop: n,
         })
     }
@@ -120,26 +123,66 @@ impl Merged {
                 date_order_from: peaks.date_order.as_ref().map(|d| d.1.clone()),
             }),
             join: None,
+            spectra: None,
             empty_hint: String::new(),
             n_before_drop: peaks.t.len(),
         };
-        // ENLIGHT files carry no ambient temperature and no references: they come from
-        // --refs when the installation has them; without, the peaks are a field record.
-        if let Some(refs_path) = &opts.refs {
-            let refs = logger_csv::read(refs_path, m, None, opts.on_error)?;
-            merged.join_refs(&peaks, &refs, &refs_path.display().to_string(), m)?;
-        }
+        merged.join_refs_file(opts, m)?;
         Ok(merged)
     }
 
-    /// Interpolate the refs file's ambient reading and references onto the peak times.
-    fn join_refs(
-        &mut self,
-        peaks: &PeaksFile,
-        refs: &LoggerTable,
-        refs_name: &str,
+    /// A spectrum file (`--format spectra-csv|enlight-responses|pixels`): its peaks detected
+    /// per grating and frame, then as an ENLIGHT peaks export (`--refs` joined the same way).
+    pub(super) fn from_spectra(
+        opts: &ImportOptions,
+        map: Option<&Map>,
+        map_origin: Option<&str>,
         m: &Map,
-    ) -> Result<(), TrainerError> {
+        input_name: &str,
+    ) -> Result<Merged, TrainerError> {
+        let read =
+            spectra::read(opts.format, &opts.input, map, map_origin.unwrap_or("map"), opts.scale, opts.on_error)?;
+        let (nm, info) = read.series(opts.format);
+        let d = read.detected;
+        let n_g = nm.len();
+        let window_map = map.is_some_and(|m| !m.grating.is_empty());
+        let mut merged = Merged {
+            input: input_name.to_string(),
+            n_before_drop: d.t.len(),
+            lines: d.lines,
+            t: d.t,
+            kind: read.facts.time_kind,
+            absolute: read.facts.absolute,
+            time_column: read.facts.time_column.clone(),
+            ambient: None,
+            refs: Vec::new(),
+            wl: nm,
+            is_shift: vec![false; n_g],
+            ref_nm: (0..n_g).map(|g| m.grating.get(g).filter(|_| window_map).and_then(|x| x.ref_nm)).collect(),
+            sources: d.gratings.iter().map(|g| g.source.clone()).collect(),
+            rows_read: read.facts.problems.rows_read,
+            skips: vec![read.facts.problems.summary()],
+            enlight: None,
+            join: None,
+            spectra: Some(info),
+            empty_hint: String::new(),
+        };
+        merged.join_refs_file(opts, m)?;
+        Ok(merged)
+    }
+
+    /// Peaks carry no ambient temperature and no references: they come from `--refs` when the
+    /// installation has them; without, the peaks are a field record.
+    fn join_refs_file(&mut self, opts: &ImportOptions, m: &Map) -> Result<(), TrainerError> {
+        if let Some(refs_path) = &opts.refs {
+            let refs = logger_csv::read(refs_path, m, None, opts.on_error)?;
+            self.join_refs(&refs, &refs_path.display().to_string(), m)?;
+        }
+        Ok(())
+    }
+
+    /// Interpolate the refs file's ambient reading and references onto the peak times.
+    fn join_refs(&mut self, refs: &LoggerTable, refs_name: &str, m: &Map) -> Result<(), TrainerError> {
         if refs.ambient.is_none() && refs.refs.is_empty() {
             return Err(TrainerError::data(
                 refs_name,
@@ -148,8 +191,8 @@ impl Merged {
                 "the refs file has neither an ambient temperature (T_amb_C, or the map's [ambient]) nor a reference column (T_C, strain_ue, p_kPa, strain2_ue, ..., or the map's [temperature], [strain], [pressure], [[measurand]]): nothing to join",
             ));
         }
-        if peaks.absolute != refs.absolute {
-            let (p, r) = (kind_words(peaks.absolute), kind_words(refs.absolute));
+        if self.absolute != refs.absolute {
+            let (p, r) = (kind_words(self.absolute), kind_words(refs.absolute));
             let fix = if refs.absolute {
                 "export the peaks with timestamps"
             } else {
@@ -166,11 +209,13 @@ impl Merged {
             Some(g) => (g, "map".to_string()),
             None => (3.0 * join::median_spacing(&refs.t), "3 × median refs spacing".to_string()),
         };
+        let peaks_t = &self.t;
         let at = |v: &[f64]| {
             let s = join::Series::new(&refs.t, v);
-            peaks.t.iter().map(|&t| s.at(t, max_gap_s)).collect::<Vec<f64>>()
+            peaks_t.iter().map(|&t| s.at(t, max_gap_s)).collect::<Vec<f64>>()
         };
-        let show = |t: f64| if peaks.absolute { format_timestamp(t) } else { format!("{t} s") };
+        let absolute = self.absolute;
+        let show = |t: f64| if absolute { format_timestamp(t) } else { format!("{t} s") };
         let join = JoinInfo {
             max_gap_s,
             max_gap_source,
@@ -181,8 +226,8 @@ impl Merged {
         self.empty_hint = format!(
             "{}: no peak row has an ambient temperature from {refs_name}: the peaks span {} – {}, the refs {} – {} (max_gap_s = {max_gap_s})",
             self.input,
-            show(peaks.t[0]),
-            show(peaks.t[peaks.t.len() - 1]),
+            show(peaks_t[0]),
+            show(peaks_t[peaks_t.len() - 1]),
             join.refs_start,
             join.refs_end
         );

@@ -3,9 +3,12 @@
 //! - `--format enlight`: a Micron Optics ENLIGHT / Hyperion peaks export (`enlight.rs`),
 //!   optionally with a `--refs` CSV holding the ambient temperature and the references, joined
 //!   onto the peak times by linear interpolation (`join.rs`);
-//! - `--format csv`: any logger CSV whose columns a map names (`logger_csv.rs`).
+//! - `--format csv`: any logger CSV whose columns a map names (`logger_csv.rs`);
+//! - `--format spectra-csv|enlight-responses|pixels`: spectra, whose peaks are detected per
+//!   grating and frame ([`spectra`]) and then imported as an ENLIGHT peaks export would be
+//!   (the same `--refs` join, zero, split and summary).
 //!
-//! Both take 1 to 8 gratings and up to 4 measurands. References and the ambient thermometer are
+//! All take 1 to 8 gratings and up to 4 measurands. References and the ambient thermometer are
 //! optional: a record without references is imported row for row (every row kept, gaps as
 //! gaps) for `compensate`, not for training, and the summary says so.
 //!
@@ -19,6 +22,7 @@ mod logger_csv;
 pub mod mapping;
 mod merge;
 pub mod problems;
+pub mod spectra;
 mod summary;
 pub mod time_axis;
 
@@ -30,9 +34,11 @@ use crate::data::Dataset;
 use crate::error::TrainerError;
 pub use mapping::Map;
 pub use problems::{FileSkips, OnError, Reason, ReasonCount};
+pub use spectra::peak_table::{peaks_to_csv, PeaksSummary, PEAKS_HEADER};
+pub use spectra::Scale;
 pub use summary::{
-    Dropped, EnlightInfo, GratingSummary, ImportSummary, JoinInfo, Purpose, RefSummary, References, SplitSummary,
-    TimeSummary,
+    Dropped, EnlightInfo, FlaggedFrames, GratingSummary, ImportSummary, JoinInfo, Purpose, RefSummary, References,
+    SpectraInfo, SplitSummary, TimeSummary,
 };
 pub use time_axis::TimeKind;
 
@@ -43,8 +49,23 @@ use merge::Merged;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Format {
+    /// An ENLIGHT / Hyperion peaks export.
     Enlight,
+    /// A logger CSV.
     Csv,
+    /// Spectra: `t_s,channel,` and one column per wavelength \[nm\].
+    SpectraCsv,
+    /// An ENLIGHT / Hyperion Responses (spectrum) export.
+    EnlightResponses,
+    /// A spectrometer's pixels, with the map's pixel-to-wavelength polynomial.
+    Pixels,
+}
+
+impl Format {
+    /// True for the spectrum formats (peaks detected from spectra).
+    pub fn is_spectra(self) -> bool {
+        matches!(self, Format::SpectraCsv | Format::EnlightResponses | Format::Pixels)
+    }
 }
 
 impl std::str::FromStr for Format {
@@ -53,7 +74,10 @@ impl std::str::FromStr for Format {
         match s {
             "enlight" => Ok(Format::Enlight),
             "csv" => Ok(Format::Csv),
-            other => Err(format!("`{other}` is neither `enlight` nor `csv`")),
+            "spectra-csv" => Ok(Format::SpectraCsv),
+            "enlight-responses" => Ok(Format::EnlightResponses),
+            "pixels" => Ok(Format::Pixels),
+            other => Err(format!("`{other}` is not a format: enlight, csv, spectra-csv, enlight-responses or pixels")),
         }
     }
 }
@@ -92,6 +116,8 @@ pub struct ImportOptions {
     /// `--start`: absolute time (Unix s) of the first row, for a record whose times are plain
     /// seconds.
     pub start_unix_s: Option<f64>,
+    /// `--scale`: the spectrum formats' intensity scale, over the map's and the format's own.
+    pub scale: Option<Scale>,
 }
 
 /// A model's zero, for [`ImportOptions::zero_from`].
@@ -134,6 +160,7 @@ pub fn import_to_csv(opts: &ImportOptions, out: &Path) -> Result<ImportSummary, 
 ///     max_skipped: DEFAULT_MAX_SKIPPED,
 ///     zero_from: None,
 ///     start_unix_s: None,
+///     scale: None,
 /// };
 /// let (d, summary) = import(&opts)?;
 /// assert_eq!((d.len(), d.n_gratings()), (3, 1));
@@ -150,7 +177,15 @@ pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerE
     let what = match opts.format {
         Format::Csv => For::Csv,
         Format::Enlight => For::Enlight,
+        Format::SpectraCsv | Format::EnlightResponses | Format::Pixels => For::Spectra,
     };
+    if opts.scale.is_some() && !opts.format.is_spectra() {
+        return Err(TrainerError::Config {
+            origin: "--scale".into(),
+            key: String::new(),
+            message: "--scale is for the spectrum formats (spectra-csv, enlight-responses, pixels)".into(),
+        });
+    }
     if let (Some(m), Some(o)) = (&map, &map_origin) {
         m.validate(o, what)?;
     }
@@ -159,6 +194,9 @@ pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerE
     let merged = match opts.format {
         Format::Csv => Merged::from_logger_csv(opts, m, &input_name)?,
         Format::Enlight => Merged::from_enlight(opts, map.as_ref(), map_origin.as_deref(), m, &input_name)?,
+        Format::SpectraCsv | Format::EnlightResponses | Format::Pixels => {
+            Merged::from_spectra(opts, map.as_ref(), map_origin.as_deref(), m, &input_name)?
+        }
     };
     problems::refuse_too_many_skipped(&merged.skips, opts.max_skipped)?;
     assemble::finish(merged, opts, map_origin)

@@ -1,9 +1,12 @@
 //! What an import did ([`ImportSummary`]): the counts, the gratings' zeros, the references
 //! found, the time span and the split, as JSON (`--json`) and as a few lines for a terminal.
 
+use std::collections::BTreeMap;
+
 use serde::Serialize;
 
 use super::problems::FileSkips;
+use super::spectra::Scale;
 use super::time_axis::{self, TimeKind};
 use super::Format;
 use crate::data::{Measurand, T_AMB_COLUMN};
@@ -124,6 +127,52 @@ pub struct EnlightInfo {
     pub date_order_from: Option<String>,
 }
 
+/// A spectrum file's facts and what its peak detection found.
+#[derive(Clone, Debug, Serialize)]
+pub struct SpectraInfo {
+    /// The spectrum format.
+    pub format: Format,
+    /// Channels seen.
+    pub channels: usize,
+    /// Frames (times) read.
+    pub frames: usize,
+    /// Samples per spectrum.
+    pub points: usize,
+    /// The wavelength grid in words.
+    pub grid: String,
+    /// The intensity scale of the file ...
+    pub scale: Scale,
+    /// ... and what decided it (`--scale`, the map, the format's own, the default).
+    pub scale_from: String,
+    /// The peak method (`cross-correlation`, ...).
+    pub method: String,
+    /// The culture the file was read in and where it came from, if any.
+    pub culture: Option<String>,
+    /// Lines before the first spectrum.
+    pub metadata_lines: usize,
+    /// Where the gratings' search windows come from (the map, or discovered).
+    pub windows_from: String,
+    /// The flags whose frames are gaps in the dataset.
+    pub gap_on: Vec<String>,
+    /// Per grating: the flagged frames and the gaps they made.
+    pub flagged: Vec<FlaggedFrames>,
+}
+
+/// One grating's flagged frames.
+#[derive(Clone, Debug, Serialize)]
+pub struct FlaggedFrames {
+    /// Output column (`dl1_pm`, ...).
+    pub output: String,
+    /// Frames holding the grating's channel.
+    pub frames: usize,
+    /// Frames with any flag raised.
+    pub flagged: usize,
+    /// Frames made gaps (no peak, or a flag of `gap_on`).
+    pub gaps: usize,
+    /// Frames per flag raised (`low-snr`, `saturated`, ...).
+    pub by_flag: BTreeMap<String, usize>,
+}
+
 /// How the references were joined onto the peak times.
 #[derive(Clone, Debug, Serialize)]
 pub struct JoinInfo {
@@ -165,6 +214,8 @@ pub struct ImportSummary {
     pub split: SplitSummary,
     pub enlight: Option<EnlightInfo>,
     pub join: Option<JoinInfo>,
+    /// Spectrum formats: the file, the detection and the flagged frames.
+    pub spectra: Option<SpectraInfo>,
 }
 
 impl ImportSummary {
@@ -178,6 +229,9 @@ impl ImportSummary {
             match self.format {
                 Format::Enlight => "ENLIGHT peaks",
                 Format::Csv => "logger CSV",
+                Format::SpectraCsv => "spectra CSV",
+                Format::EnlightResponses => "ENLIGHT Responses spectra",
+                Format::Pixels => "spectrometer pixels",
             },
             self.rows_read,
             self.rows_written,
@@ -220,6 +274,34 @@ impl ImportSummary {
                 s.push_str(&format!(", dates {} ({from})", o.words()));
             }
             s.push('\n');
+        }
+        if let Some(sp) = &self.spectra {
+            s.push_str(&format!(
+                "  {} frames, {} channels, {}; {} ({}); method {}; windows from {}",
+                sp.frames,
+                sp.channels,
+                sp.grid,
+                sp.scale.name(),
+                sp.scale_from,
+                sp.method,
+                sp.windows_from
+            ));
+            if let Some(c) = &sp.culture {
+                s.push_str(&format!(", culture {c}"));
+            }
+            s.push('\n');
+            for f in sp.flagged.iter().filter(|f| f.flagged > 0 || f.gaps > 0) {
+                let by: Vec<String> = f.by_flag.iter().map(|(k, v)| format!("{k} {v}")).collect();
+                s.push_str(&format!(
+                    "  {}: {} of {} frames flagged ({}), {} gaps (gaps on {})\n",
+                    f.output,
+                    f.flagged,
+                    f.frames,
+                    by.join(", "),
+                    f.gaps,
+                    sp.gap_on.join(", ")
+                ));
+            }
         }
         for g in &self.gratings {
             let r = match g.ref_nm {

@@ -1,0 +1,269 @@
+//! Frames to per-grating peaks: one [`PeakDetector`] per channel, built once (from the map's
+//! windows, or from the peaks discovered in the channel's first spectrum) and reused for every
+//! frame; the results kept per grating and frame.
+
+use fbg_shared::spectrum::{DetectorConfig, Peak, PeakDetector, Window};
+
+use super::super::mapping;
+use super::super::problems::{Reason, RowError};
+use super::discover;
+use super::frames::{SpectrumRow, SpectrumSink, MAX_CHANNELS};
+use crate::data::measurand::MAX_GRATINGS;
+use crate::error::TrainerError;
+
+/// One channel's detector and its results.
+struct Channel {
+    /// `None` where discovery found more peaks than a detector holds (an error at the end).
+    detector: Option<PeakDetector<f64, MAX_GRATINGS>>,
+    /// Per window (in the detector's order): the map's grating index, or `None` when
+    /// discovered (numbered at the end).
+    grating: Vec<Option<usize>>,
+    /// Per window, per frame: the peak, `None` where the frame lacks this channel.
+    peaks: Vec<Vec<Option<Peak<f64>>>>,
+    /// Per frame: the line of this channel's spectrum (0 where the frame lacks it).
+    lines: Vec<u64>,
+    /// Peaks discovered in the first spectrum (discovery only).
+    discovered: usize,
+    /// Line of the channel's first spectrum.
+    first_line: u64,
+}
+
+/// The detection of one file, fed row by row ([`SpectrumSink`]).
+pub(crate) struct Detection {
+    config: DetectorConfig<f64>,
+    /// The map's windows: (grating index, channel 0-based, window); empty: discovery.
+    mapped: Vec<(usize, usize, Window<f64>)>,
+    channels: Vec<Option<Channel>>,
+    t: Vec<f64>,
+    lines: Vec<u64>,
+    /// Channels already in the current frame.
+    in_frame: Vec<bool>,
+    /// The file's time and channel columns, for messages.
+    columns: (&'static str, &'static str),
+}
+
+/// One grating's peaks over the frames.
+pub(crate) struct GratingPeaks {
+    /// Channel, 0-based.
+    pub channel: usize,
+    /// Where it comes from, in words.
+    pub source: String,
+    /// Per frame (`None`: the frame lacks the channel).
+    pub peaks: Vec<Option<Peak<f64>>>,
+    /// Per frame: the line of the channel's spectrum (0 where the frame lacks it).
+    pub lines: Vec<u64>,
+}
+
+/// Every frame's time and line, and the gratings' peaks in dataset order.
+pub(crate) struct Detected {
+    /// Time of each frame on the file's axis \[s\].
+    pub t: Vec<f64>,
+    /// Line of each frame's first spectrum.
+    pub lines: Vec<u64>,
+    /// dl1, dl2, … in order.
+    pub gratings: Vec<GratingPeaks>,
+    /// The windows came from the map (else discovered).
+    pub from_map: bool,
+}
+
+impl Detection {
+    /// A detection with `config` and the map's windows (none: discovery); `columns` name the
+    /// file's time and channel columns in messages.
+    pub(crate) fn new(
+        config: DetectorConfig<f64>,
+        windows: &[mapping::Window],
+        columns: (&'static str, &'static str),
+    ) -> Self {
+        let mapped = windows.iter().enumerate().map(|(g, w)| (g, w.channel, Window::new(w.lo, w.hi))).collect();
+        Detection {
+            config,
+            mapped,
+            channels: Vec::new(),
+            t: Vec::new(),
+            lines: Vec::new(),
+            in_frame: Vec::new(),
+            columns,
+        }
+    }
+
+    /// True before the first spectrum.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// The channel's state, made at its first spectrum (`None` only past [`MAX_CHANNELS`],
+    /// which the caller refuses first).
+    fn channel(&mut self, row: &SpectrumRow<'_>) -> Option<&mut Channel> {
+        let c = row.channel;
+        if self.channels.len() <= c {
+            self.channels.resize_with(c + 1, || None);
+        }
+        let frames = self.t.len();
+        let config = self.config;
+        let mapped = &self.mapped;
+        let slot = self.channels.get_mut(c)?;
+        Some(slot.get_or_insert_with(|| {
+            let (grating, windows, discovered): (Vec<Option<usize>>, Vec<Window<f64>>, usize) = if mapped.is_empty() {
+                let w = discover::windows(&row.spectrum, &config);
+                (vec![None; w.len()], w.clone(), w.len())
+            } else {
+                let mine: Vec<&(usize, usize, Window<f64>)> = mapped.iter().filter(|m| m.1 == c).collect();
+                (mine.iter().map(|m| Some(m.0)).collect(), mine.iter().map(|m| m.2).collect(), 0)
+            };
+            let detector = PeakDetector::new(config, &windows);
+            let n = if detector.is_some() { windows.len() } else { 0 };
+            Channel {
+                detector,
+                grating: if n > 0 { grating } else { Vec::new() },
+                peaks: vec![vec![None; frames]; n],
+                lines: vec![0; frames],
+                discovered,
+                first_line: row.line,
+            }
+        }))
+    }
+
+    /// The results, with the gratings in dataset order: the map's, or without a map each
+    /// channel's discovered peaks in wavelength order, channel after channel. `name` and
+    /// `origin` name the file and the map in errors.
+    pub(crate) fn finish(self, name: &str, origin: &str, channels_in_file: usize) -> Result<Detected, TrainerError> {
+        let from_map = !self.mapped.is_empty();
+        if from_map {
+            if let Some((g, c, _)) = self.mapped.iter().find(|m| m.1 >= channels_in_file) {
+                return Err(TrainerError::Config {
+                    origin: origin.to_string(),
+                    key: format!("grating[{}].channel", g + 1),
+                    message: format!("channel {} but {name} has {channels_in_file} channels", c + 1),
+                });
+            }
+        }
+        let frames = self.t.len();
+        let mut out: Vec<(usize, GratingPeaks)> = Vec::new();
+        let total: usize = self.channels.iter().flatten().map(|c| c.discovered).sum();
+        if !from_map && (total == 0 || total > MAX_GRATINGS) {
+            let counts: Vec<String> = self
+                .channels
+                .iter()
+                .enumerate()
+                .filter_map(|(c, s)| {
+                    s.as_ref().map(|s| format!("channel {}: {} (line {})", c + 1, s.discovered, s.first_line))
+                })
+                .collect();
+            return Err(TrainerError::data(
+                name,
+                self.lines.first().copied().unwrap_or(1),
+                self.columns.1,
+                format!(
+                    "without --map the peaks of each channel's first spectrum become gratings, and 1 to {MAX_GRATINGS} are supported; found {total} ({}): give a map with one [[grating]] entry (channel, window_nm) per grating",
+                    counts.join(", ")
+                ),
+            ));
+        }
+        let mut next = 0;
+        for (c, ch) in self.channels.into_iter().enumerate() {
+            let Some(ch) = ch else { continue };
+            let Some(det) = ch.detector else { continue };
+            let mut lines = ch.lines;
+            lines.resize(frames, 0);
+            for ((w, g), peaks) in det.windows().iter().zip(ch.grating).zip(ch.peaks) {
+                let (index, source) = match g {
+                    Some(g) => (g, format!("channel {}, window {}–{} nm", c + 1, w.lo_nm, w.hi_nm)),
+                    None => {
+                        next += 1;
+                        (
+                            next - 1,
+                            format!(
+                                "channel {}, window {:.3}–{:.3} nm around a peak of its first spectrum (line {}; no map)",
+                                c + 1,
+                                w.lo_nm,
+                                w.hi_nm,
+                                ch.first_line
+                            ),
+                        )
+                    }
+                };
+                let mut peaks = peaks;
+                peaks.resize(frames, None);
+                out.push((index, GratingPeaks { channel: c, source, peaks, lines: lines.clone() }));
+            }
+        }
+        // A mapped grating whose channel never had a spectrum: gaps throughout.
+        for (g, c, w) in &self.mapped {
+            if !out.iter().any(|(i, _)| i == g) {
+                let source =
+                    format!("channel {}, window {}–{} nm (no spectrum of the channel)", c + 1, w.lo_nm, w.hi_nm);
+                out.push((*g, GratingPeaks { channel: *c, source, peaks: vec![None; frames], lines: vec![0; frames] }));
+            }
+        }
+        out.sort_by_key(|(i, _)| *i);
+        Ok(Detected { t: self.t, lines: self.lines, gratings: out.into_iter().map(|(_, g)| g).collect(), from_map })
+    }
+}
+
+impl SpectrumSink for Detection {
+    fn spectrum(&mut self, row: SpectrumRow<'_>) -> Result<(), RowError> {
+        if row.channel >= MAX_CHANNELS {
+            return Err(RowError::new(
+                Reason::NonNumeric,
+                row.line,
+                self.columns.1,
+                format!("channel {} is beyond the {MAX_CHANNELS} supported", row.channel + 1),
+            ));
+        }
+        let new_frame = match self.t.last() {
+            None => true,
+            Some(&prev) if row.t > prev => true,
+            Some(&prev) if row.t < prev => {
+                let prev_line = self.lines.last().copied().unwrap_or(0);
+                return Err(RowError::new(
+                    Reason::TimeBackwards,
+                    row.line,
+                    self.columns.0,
+                    format!("time goes backwards: {} s is earlier than the frame of line {prev_line}", row.t),
+                ));
+            }
+            Some(_) => false,
+        };
+        if !new_frame && self.in_frame.get(row.channel).copied().unwrap_or(false) {
+            return Err(RowError::new(
+                Reason::DuplicateTime,
+                row.line,
+                self.columns.1,
+                format!(
+                    "channel {} twice in the frame at {} s (a frame holds each channel once)",
+                    row.channel + 1,
+                    row.t
+                ),
+            ));
+        }
+        if new_frame {
+            self.t.push(row.t);
+            self.lines.push(row.line);
+            self.in_frame.clear();
+            for ch in self.channels.iter_mut().flatten() {
+                for p in &mut ch.peaks {
+                    p.push(None);
+                }
+                ch.lines.push(0);
+            }
+        }
+        if self.in_frame.len() <= row.channel {
+            self.in_frame.resize(row.channel + 1, false);
+        }
+        if let Some(seen) = self.in_frame.get_mut(row.channel) {
+            *seen = true;
+        }
+        let Some(ch) = self.channel(&row) else { return Ok(()) };
+        if let Some(l) = ch.lines.last_mut() {
+            *l = row.line;
+        }
+        if let Some(det) = &ch.detector {
+            for (slot, p) in ch.peaks.iter_mut().zip(det.detect(&row.spectrum)) {
+                if let Some(last) = slot.last_mut() {
+                    *last = p;
+                }
+            }
+        }
+        Ok(())
+    }
+}
