@@ -12,7 +12,8 @@
 //! - [`Region`]: a window analysed — maximum, floor, noise, the run above the [`Threshold`];
 //! - the methods, each an [`Estimate`] in the window's pixels: [`centroid::maximum`],
 //!   [`centroid::centroid`], [`gauss3::gaussian3`], [`gauss_fit::gaussian_fit`],
-//!   [`correlation::cross_correlation`], chosen by [`Method`];
+//!   [`correlation::cross_correlation`], chosen by [`Method`]; and [`template::template_fit`],
+//!   a fit of the grating's own shape (a [`Template`]) from a method's first estimate;
 //! - [`HalfWidths`] and [`shape::second_peak`]: the shape checks;
 //! - [`Peak`] with its [`PeakFlags`]; [`PeakDetector`] with its [`DetectorConfig`].
 //!
@@ -58,6 +59,7 @@ mod num;
 mod peak;
 mod region;
 pub mod shape;
+pub mod template;
 mod view;
 mod window;
 
@@ -70,5 +72,6 @@ pub use noise::{NoiseEstimate, NOISE_SAMPLES};
 pub use peak::Peak;
 pub use region::{Region, Threshold};
 pub use shape::HalfWidths;
+pub use template::Template;
 pub use view::{from_db, from_db_in_place, Spectrum};
 pub use window::{Span, Window};
