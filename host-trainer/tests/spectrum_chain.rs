@@ -11,7 +11,9 @@
 use fbg_shared::spectrum::Method;
 use fbg_trainer::eval::studies::{run_all, Studies};
 use fbg_trainer::fit::TrainOptions;
-use fbg_trainer::sim::spectrum::{peaks_from_spectra, FrameSimulator, PixelGrid, SpectrumConfig};
+use fbg_trainer::sim::spectrum::{
+    find_peaks, peaks_from_spectra, FrameSimulator, PeakFinding, PixelGrid, SpectrumConfig,
+};
 use fbg_trainer::sim::{self, scenario::Preset, Simulation};
 
 fn paper(days: Option<f64>, seed: u64) -> Simulation {
@@ -94,12 +96,17 @@ fn peaks_on_the_spectrometer_grid() {
 /// Model-H's hold-out RMSE per output, trained and evaluated as `demo` does
 /// (`studies::run_all`, default options), on `s` as it is and with its shifts from spectra.
 fn chains(s: &Simulation, cfg: &SpectrumConfig) -> (Vec<f64>, Vec<f64>) {
+    chains_with(s, cfg, PeakFinding::Method(Method::default()))
+}
+
+/// [`chains`] with the peak finding chosen.
+fn chains_with(s: &Simulation, cfg: &SpectrumConfig, finding: PeakFinding) -> (Vec<f64>, Vec<f64>) {
     let opts = TrainOptions::default().with_progress(false);
     let rmse = |s: &Simulation| -> Vec<f64> {
         let (_, m) = run_all(s, &opts, Studies::NONE, &|_| {}).unwrap();
         m.table2.model_h.channels.iter().map(|c| c.rmse).collect()
     };
-    let c = peaks_from_spectra(&s.data, &frames(s, cfg), Method::default(), s.seed).unwrap();
+    let c = find_peaks(&s.data, &frames(s, cfg), finding, s.seed).unwrap();
     let mut with_spectra = s.clone();
     with_spectra.data = c.data;
     (rmse(s), rmse(&with_spectra))
@@ -135,6 +142,27 @@ fn spectrum_chain_on_the_spectrometer_grid() {
     eprintln!("512 px, R 0.5: peak chain {peak:?}, spectrum chain {spec:?}");
     for (c, (p, q)) in peak.iter().zip(&spec).enumerate() {
         assert!(*q <= 2.0 * p, "R 0.5 output {c}: spectrum chain {q} vs peak chain {p}");
+    }
+}
+
+#[test]
+fn the_design_template_brings_the_spectrometer_chain_within_10_percent() {
+    // The 512-pixel grid with each peak refined by a fit of its grating's designed shape (exact
+    // here: the simulator's own). The bound, on seed 7 (14 days) and on cases not run
+    // before it was written: seed 3 (4 days), and 90 % gratings (the Gaussian locks by tens of
+    // pm there).
+    for (days, seed, r) in [(None, 7, 0.5), (Some(4.0), 3, 0.5), (Some(4.0), 3, 0.9)] {
+        let s = paper(days, seed);
+        let cfg = SpectrumConfig { peak_reflectivity: r, ..grid(PixelGrid::Spectrometer) };
+        let c = find_peaks(&s.data, &frames(&s, &cfg), PeakFinding::DesignTemplate(Method::default()), seed).unwrap();
+        for (g, rms) in c.rms_error_pm().iter().enumerate() {
+            assert!(*rms < 3.0, "seed {seed} R {r} grating {g}: {rms} pm");
+        }
+        let (peak, spec) = chains_with(&s, &cfg, PeakFinding::DesignTemplate(Method::default()));
+        eprintln!("512 px, R {r}, design template, seed {seed}: peak chain {peak:?}, spectrum chain {spec:?}");
+        for (k, (p, q)) in peak.iter().zip(&spec).enumerate() {
+            assert!(*q <= 1.10 * p, "seed {seed} R {r} output {k}: spectrum chain {q} vs peak chain {p}");
+        }
     }
 }
 

@@ -8,12 +8,13 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 
+use fbg_shared::spectrum::Method;
 use fbg_trainer::data::files::prepare_output_dir;
 use fbg_trainer::data::Dataset;
 use fbg_trainer::eval::studies::{self, Studies};
 use fbg_trainer::fit::TrainOptions;
 use fbg_trainer::sim::meta::SimMeta;
-use fbg_trainer::sim::spectrum::{DetectorModel, PixelGrid, SpectrumConfig};
+use fbg_trainer::sim::spectrum::{DetectorModel, PeakFinding, PixelGrid, SpectrumConfig};
 use fbg_trainer::{export, report, sim};
 
 use crate::args::ScenarioArgs;
@@ -49,6 +50,11 @@ pub struct DemoArgs {
     /// With --spectra: the gratings' peak reflectivity (0 < R < 1).
     #[arg(long, requires = "spectra", default_value_t = fbg_trainer::sim::spectrum::grating::DEFAULT_PEAK_REFLECTIVITY)]
     reflectivity: f64,
+    /// With --spectra: refine each peak by a fit of its grating's designed reflection shape (a
+    /// template: the simulator's own, so exact, which a datasheet's is not), from the default
+    /// method's estimate.
+    #[arg(long, requires = "spectra")]
+    template: bool,
 }
 
 fn parse_grid(s: &str) -> std::result::Result<PixelGrid, String> {
@@ -64,7 +70,12 @@ impl DemoArgs {
                 peak_reflectivity: self.reflectivity,
                 ..SpectrumConfig::default()
             };
-            return spectra::run(&self.out, &self.scenario, &cfg, self.json);
+            let finding = if self.template {
+                PeakFinding::DesignTemplate(Method::default())
+            } else {
+                PeakFinding::Method(Method::default())
+            };
+            return spectra::run(&self.out, &self.scenario, &cfg, finding, self.json);
         }
         run(&self.out, &self.scenario, self.json)
     }

@@ -18,9 +18,13 @@ const INV_PHI: f64 = 0.618_033_988_749_894_8;
 /// linear interpolation, 0 outside the table. Borrowed: a table in flash or on the host's heap
 /// is read in place.
 ///
-/// Where it comes from is the user's choice: the grating's design (coupled-mode theory, as the
-/// simulator computes it), a swept-laser scan of the grating, or frames of the record itself
-/// superimposed at their first estimates. A table step well under the pixel spacing (a few pm
+/// It must be the grating's own shape, from outside the record: a swept-laser scan of the
+/// grating or its design (coupled-mode theory, as the simulator computes it). A shape a few
+/// percent too wide, or of another reflectivity, locks to the grid as much as a Gaussian
+/// (`shared/tests/spectrum_template.rs`). Nor can the record teach it: frames superimposed at
+/// their first estimates give the true shape warped by those estimates' own locking error,
+/// periodic in the sub-pixel phase, and that warped shape fits the frames with the same error
+/// (any such error is self-consistent). A table step well under the pixel spacing (a few pm
 /// for a 0.3 nm grating) keeps the interpolation's error far under the noise.
 ///
 /// ```

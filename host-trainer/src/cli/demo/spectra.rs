@@ -6,13 +6,12 @@ use std::time::Instant;
 
 use anyhow::Result;
 
-use fbg_shared::spectrum::Method;
 use fbg_trainer::data::files::{prepare_output_dir, write_bytes_atomically};
 use fbg_trainer::data::Dataset;
 use fbg_trainer::eval::studies::{self, Studies};
 use fbg_trainer::fit::TrainOptions;
 use fbg_trainer::sim::meta::SimMeta;
-use fbg_trainer::sim::spectrum::{peaks_from_spectra, FrameSimulator, SpectrumConfig};
+use fbg_trainer::sim::spectrum::{find_peaks, FrameSimulator, PeakFinding, SpectrumConfig};
 use fbg_trainer::sim::{self, Simulation};
 
 use crate::args::ScenarioArgs;
@@ -25,7 +24,13 @@ const SPECTRA_JSON: &str = "spectra.json";
 /// (`data-spectra.csv`, shifts from the same λ_ref); both train and evaluate as `demo` does
 /// (`studies::run_all`, default options, without the studies). Prints and writes Model-H's
 /// hold-out RMSE of both, their ratio and the peaks' errors against the rendered wavelengths.
-pub fn run(out: &Path, scenario: &ScenarioArgs, spectrum: &SpectrumConfig, json: bool) -> Result<()> {
+pub fn run(
+    out: &Path,
+    scenario: &ScenarioArgs,
+    spectrum: &SpectrumConfig,
+    finding: PeakFinding,
+    json: bool,
+) -> Result<()> {
     let t0 = Instant::now();
     let cfg = scenario.load()?;
     let mut s = sim::simulate(&cfg, scenario.seed);
@@ -44,7 +49,7 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, spectrum: &SpectrumConfig, json:
     SimMeta::of(&s).write(&data)?;
     s.data = Dataset::read_csv(&data)?;
     let t = Instant::now();
-    let chain = peaks_from_spectra(&s.data, &frames, Method::default(), scenario.seed)?;
+    let chain = find_peaks(&s.data, &frames, finding, scenario.seed)?;
     log(&format!(
         "{} frames of {} pixels ({} channel(s)), peaks by {} in {:.1} s",
         s.data.len() * frames.channels(),
@@ -87,6 +92,7 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, spectrum: &SpectrumConfig, json:
         "pixels": frames.wavelengths_nm().len(),
         "channels": frames.channels(),
         "method": chain.method.name(),
+        "finding": format!("{finding:?}"),
         "outputs": peak.channels,
         "units": peak.units,
         "rmse_holdout_peak_chain": p,
@@ -103,11 +109,15 @@ pub fn run(out: &Path, scenario: &ScenarioArgs, spectrum: &SpectrumConfig, json:
         println!("{text}");
     } else {
         eprintln!(
-            "spectrum chain ({} grid, {} dB, R {}, {}) against the peak chain, Model-H hold-out RMSE:",
+            "spectrum chain ({} grid, {} dB, R {}, {}{}) against the peak chain, Model-H hold-out RMSE:",
             spectrum.grid.name(),
             spectrum.detector.snr_db,
             spectrum.peak_reflectivity,
-            chain.method
+            chain.method,
+            match finding {
+                PeakFinding::Method(_) => "",
+                PeakFinding::DesignTemplate(_) => " + design template",
+            }
         );
         eprintln!("{:>12} {:>12} {:>14} {:>8}", "output", "peak chain", "spectrum chain", "ratio");
         for (k, name) in peak.channels.iter().enumerate() {

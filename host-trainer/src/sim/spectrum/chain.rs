@@ -2,7 +2,8 @@
 //! each grating's λ_ref.
 
 use fbg_shared::layout::MAX_GRATINGS;
-use fbg_shared::spectrum::{DetectorConfig, Grid, Method, PeakDetector, Spectrum};
+use fbg_shared::spectrum::template::template_fit;
+use fbg_shared::spectrum::{DetectorConfig, Grid, Method, PeakDetector, Region, Spectrum, Template, Threshold};
 use rayon::prelude::*;
 
 use super::detector::FULL_SCALE_COUNTS;
@@ -21,8 +22,37 @@ pub struct SpectrumChain {
     pub errors_pm: Vec<Vec<f64>>,
     /// Per grating, the rows whose peak raised a fault flag (`PeakFlags::FAULTS`).
     pub faults: Vec<usize>,
-    /// The method the peaks were found with.
+    /// The method the peaks were found with (the template fit's first estimate where
+    /// [`SpectrumChain::templated`]).
     pub method: Method,
+    /// Whether each peak was refined by a fit of its grating's designed shape
+    /// ([`fbg_shared::spectrum::template::template_fit`]).
+    pub templated: bool,
+}
+
+/// Template tables' step \[nm\] and half-span \[nm\]: 1 pm, a few hundredths of a 512-pixel
+/// spectrometer's pixel, over the main lobe and the first side lobes of a 0.3 nm grating.
+const TEMPLATE_STEP_NM: f64 = 0.001;
+const TEMPLATE_HALF_SPAN_NM: f64 = 1.5;
+
+/// How each grating's peak is found in its window.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PeakFinding {
+    /// A detector method alone.
+    Method(Method),
+    /// The method's estimate refined by a fit of the grating's designed reflection shape (the
+    /// simulator's coupled-mode spectrum, as a calibration engineer would tabulate it from
+    /// the grating's datasheet or a swept-laser scan: exact here, which a real one is not).
+    DesignTemplate(Method),
+}
+
+impl PeakFinding {
+    /// The detector method (the template fit's first estimate).
+    pub fn method(self) -> Method {
+        match self {
+            PeakFinding::Method(m) | PeakFinding::DesignTemplate(m) => m,
+        }
+    }
 }
 
 impl SpectrumChain {
@@ -41,6 +71,17 @@ pub fn peaks_from_spectra(
     method: Method,
     seed: u64,
 ) -> Result<SpectrumChain, TrainerError> {
+    find_peaks(data, frames, PeakFinding::Method(method), seed)
+}
+
+/// [`peaks_from_spectra`] with the peak finding chosen ([`PeakFinding`]).
+pub fn find_peaks(
+    data: &Dataset,
+    frames: &FrameSimulator,
+    finding: PeakFinding,
+    seed: u64,
+) -> Result<SpectrumChain, TrainerError> {
+    let method = finding.method();
     let n_g = data.n_gratings();
     if n_g > MAX_GRATINGS || n_g != data.meta.zero.len() {
         return Err(TrainerError::Dataset {
@@ -53,6 +94,18 @@ pub fn peaks_from_spectra(
             let windows: Vec<_> = frames.gratings_of(c).iter().map(|&g| frames.window(g)).collect();
             PeakDetector::new(config, &windows).ok_or_else(|| TrainerError::Dataset {
                 message: format!("spectrum chain: too many gratings on channel {c}"),
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    let tables: Vec<DesignTable> = match finding {
+        PeakFinding::Method(_) => Vec::new(),
+        PeakFinding::DesignTemplate(_) => design_tables(frames),
+    };
+    let templates: Vec<Template<'_, f64>> = tables
+        .iter()
+        .map(|t| {
+            t.template().ok_or_else(|| TrainerError::Dataset {
+                message: "spectrum chain: a grating's template is not finite".into(),
             })
         })
         .collect::<Result<_, _>>()?;
@@ -69,10 +122,15 @@ pub fn peaks_from_spectra(
                     frames.frame(c, &wl, &mut rng, scratch, counts);
                     samples.clear();
                     samples.extend(counts.iter().map(|&v| f64::from(v)));
-                    let peaks = det.detect(&Spectrum::new(samples, grid));
-                    for (&g, p) in frames.gratings_of(c).iter().zip(peaks.iter().flatten()) {
+                    let spectrum = Spectrum::new(samples, grid);
+                    let peaks = det.detect(&spectrum);
+                    for ((&g, p), w) in frames.gratings_of(c).iter().zip(peaks.iter().flatten()).zip(det.windows()) {
+                        let wavelength_nm = match templates.get(g) {
+                            Some(t) => refine(&spectrum, w, t, p.pixel).unwrap_or(f64::NAN),
+                            None => p.wavelength_nm,
+                        };
                         if let Some(slot) = out.get_mut(g) {
-                            *slot = (p.wavelength_nm, p.flags.is_fault());
+                            *slot = (wavelength_nm, p.flags.is_fault());
                         }
                     }
                 }
@@ -98,5 +156,47 @@ pub fn peaks_from_spectra(
             }
         }
     }
-    Ok(SpectrumChain { data: d, errors_pm, faults, method })
+    Ok(SpectrumChain { data: d, errors_pm, faults, method, templated: !templates.is_empty() })
+}
+
+/// A grating's designed reflection shape, tabulated at [`TEMPLATE_STEP_NM`] from
+/// `first_offset_nm` about its Bragg wavelength.
+struct DesignTable {
+    values: Vec<f64>,
+    first_offset_nm: f64,
+}
+
+impl DesignTable {
+    fn template(&self) -> Option<Template<'_, f64>> {
+        Template::new(&self.values, self.first_offset_nm, TEMPLATE_STEP_NM)
+    }
+}
+
+/// Each grating's designed shape, tabulated about its nominal wavelength.
+fn design_tables(frames: &FrameSimulator) -> Vec<DesignTable> {
+    let n = (TEMPLATE_HALF_SPAN_NM / TEMPLATE_STEP_NM).round() as i64;
+    frames
+        .designs()
+        .iter()
+        .zip(frames.nominal_nm())
+        .map(|(d, &bragg)| DesignTable {
+            values: (-n..=n).map(|k| d.reflectivity(bragg, bragg + k as f64 * TEMPLATE_STEP_NM)).collect(),
+            first_offset_nm: -(n as f64) * TEMPLATE_STEP_NM,
+        })
+        .collect()
+}
+
+/// The template fit in window `w` from the method's peak at `pixel` (of the whole frame);
+/// `None` where the window or the fit fails.
+fn refine(
+    spectrum: &Spectrum<'_, f64>,
+    w: &fbg_shared::spectrum::Window<f64>,
+    t: &Template<'_, f64>,
+    pixel: f64,
+) -> Option<f64> {
+    let span = w.span(spectrum)?;
+    let samples = spectrum.samples().get(span.first..=span.last)?;
+    let region = Region::new(samples, Threshold::default());
+    let e = template_fit(&region, spectrum.grid(), span.first, t, pixel - span.first as f64)?;
+    Some(spectrum.grid().wavelength(span.first as f64 + e.pixel))
 }

@@ -113,6 +113,11 @@ impl FrameSimulator {
         &self.wavelengths_nm
     }
 
+    /// The gratings' nominal wavelengths \[nm\] (λ_ref), by grating.
+    pub fn nominal_nm(&self) -> &[f64] {
+        &self.nominal_nm
+    }
+
     /// Each grating's design (in the record's grating order).
     pub fn designs(&self) -> &[GratingDesign] {
         &self.designs

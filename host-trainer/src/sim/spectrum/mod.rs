@@ -28,7 +28,7 @@ pub mod grating;
 pub mod profile;
 pub mod source;
 
-pub use chain::{peaks_from_spectra, SpectrumChain};
+pub use chain::{find_peaks, peaks_from_spectra, PeakFinding, SpectrumChain};
 pub use detector::{DetectorModel, PixelGrid};
 pub use frames::FrameSimulator;
 pub use grating::{Apodisation, GratingDesign};
