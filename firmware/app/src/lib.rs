@@ -54,6 +54,7 @@ macro_rules! log {
     };
 }
 
+pub mod spectrum;
 pub mod staging;
 pub mod store;
 
@@ -69,7 +70,9 @@ use fbg_shared::protocol::{
     Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
 use fbg_shared::signature::{self, KeyId, SignatureError, TrustedKey};
-use fbg_shared::{Compensator, Estimate, Sample};
+use fbg_shared::spectrum::{ShiftRef, Window};
+use fbg_shared::{Compensator, Estimate, Flags, Sample};
+use spectrum::{GratingSetup, GridSetup, Outcome, SpectrumFront};
 pub use staging::{MappedFlash, Staging};
 pub use store::Store;
 
@@ -271,6 +274,7 @@ struct Core<'a, P, F, const K: usize> {
     status: Counters,
     alarm: P,
     stack_probe: Option<fn() -> u32>,
+    spectrum: SpectrumFront,
 }
 
 /// The counters the device keeps in RAM (the rest of [`Status`] is computed when asked for):
@@ -319,7 +323,17 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
         let status = Counters { updates_accepted, updates_rejected, refused, ..Counters::default() };
         // Serving starts between frames.
         *reader = FrameReader::new();
-        Device { reader, core: Core { comp, kernel, policy, store, model, status, alarm, stack_probe: None } }
+        Device { reader, core: Core {
+                comp,
+                kernel,
+                policy,
+                store,
+                model,
+                status,
+                alarm,
+                stack_probe: None,
+                spectrum: SpectrumFront::new(),
+            } }
     }
 
     /// Boot the model the store selects (its newest verified slot at or above the rollback
@@ -472,6 +486,7 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             stack_peak_bytes: self.stack_probe.map_or(0, |p| p()),
             staging_erases: self.store.transfer_erases(),
             store: self.store.status(),
+            spectra: self.spectrum.status(),
         }
     }
 
@@ -484,8 +499,18 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
     fn answer<W: Write>(&mut self, msg: &HostMsg<'_>, tx: &mut W) -> Result<(), W::Error> {
         self.count_frame();
         if let HostMsg::Sample { seq, ref sample } = *msg {
-            let e = self.step(seq, sample);
+            let e = self.step(seq, sample, Flags::OK);
             return send_estimate(tx, e);
+        }
+        if let HostMsg::SpectrumPixels { first_pixel, data } = *msg {
+            // Detection returns before the step runs (`SpectrumFront::detect` is not inlined).
+            return match self.spectrum.pixels(first_pixel, data) {
+                Outcome::Reading { seq, sample, flags } => {
+                    let e = self.step(seq, &sample, flags);
+                    send_estimate(tx, e)
+                }
+                other => send(tx, &spectrum_reply(other)),
+            };
         }
         self.answer_other(msg, tx)
     }
@@ -531,7 +556,25 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
                 self.comp.set_clock(clock);
                 DeviceMsg::Pong { nonce }
             }
-            HostMsg::Sample { seq, ref sample } => DeviceMsg::Estimate(self.step(seq, sample)),
+            HostMsg::Sample { seq, ref sample } => DeviceMsg::Estimate(self.step(seq, sample, Flags::OK)),
+            HostMsg::SpectrumGrid { gratings, pixels, uniform, coefficients, method, full_scale } => {
+                spectrum_reply(self.spectrum.grid(&GridSetup { gratings, pixels, uniform, coefficients, method, full_scale }))
+            }
+            HostMsg::SpectrumGrating { index, channel, lo_nm, hi_nm, ref_hi_nm, ref_lo_nm } => {
+                spectrum_reply(self.spectrum.grating(&GratingSetup {
+                    index,
+                    channel,
+                    window: Window::new(lo_nm, hi_nm),
+                    shift: ShiftRef { hi_nm: ref_hi_nm, lo_nm: ref_lo_nm },
+                }))
+            }
+            HostMsg::SpectrumBegin { seq, channel, t_s, t_amb_c } => {
+                spectrum_reply(self.spectrum.begin(seq, channel, t_s, t_amb_c))
+            }
+            HostMsg::SpectrumPixels { first_pixel, data } => match self.spectrum.pixels(first_pixel, data) {
+                Outcome::Reading { seq, sample, flags } => DeviceMsg::Estimate(self.step(seq, &sample, flags)),
+                other => spectrum_reply(other),
+            },
             HostMsg::GetStatus => DeviceMsg::Status(self.status()),
             HostMsg::ModelBegin { total_len, crc32 } => self.begin(total_len, crc32),
             HostMsg::ModelChunk { offset, data } => self.chunk(offset, data),
@@ -541,11 +584,15 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
         }
     }
 
-    fn step(&mut self, seq: u32, sample: &Sample<f32>) -> DeviceEstimate {
+    /// Compensate `sample`; `extra` are flags from outside the model (a spectrum's peaks),
+    /// added to the estimate's and driving the alarm like them.
+    fn step(&mut self, seq: u32, sample: &Sample<f32>, extra: Flags) -> DeviceEstimate {
         let e = (self.kernel.step)(self.comp, sample);
         self.status.samples = self.status.samples.wrapping_add(1);
-        let _ = self.alarm.set_state(PinState::from(e.flags.is_fault()));
-        DeviceEstimate::new(seq, &e)
+        let mut d = DeviceEstimate::new(seq, &e);
+        d.flags.insert(extra);
+        let _ = self.alarm.set_state(PinState::from(d.flags.is_fault()));
+        d
     }
 
     fn begin(&mut self, total_len: u32, crc: u32) -> DeviceMsg {
@@ -590,6 +637,20 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             r.detail
         );
         DeviceMsg::UpdateResult(UpdateResult::Rejected(r))
+    }
+}
+
+/// The answer to a spectrum message that did not complete a reading.
+fn spectrum_reply(out: Outcome) -> DeviceMsg {
+    match out {
+        Outcome::Set(missing) => DeviceMsg::SpectrumSet { missing },
+        Outcome::Ack(received) => DeviceMsg::SpectrumAck { received },
+        Outcome::Refused(r) => {
+            log!(warn, "spectrum message refused: {} (detail {=u16})", r.reason, r.detail);
+            DeviceMsg::SpectrumRefused(r)
+        }
+        // Not reached: a reading is stepped by the caller and answered with its estimate.
+        Outcome::Reading { .. } => DeviceMsg::SpectrumAck { received: 0 },
     }
 }
 

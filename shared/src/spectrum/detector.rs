@@ -116,12 +116,21 @@ impl<R: Real, const N: usize> PeakDetector<R, N> {
         core::array::from_fn(|k| self.windows.get(k).map(|w| self.detect_in(spectrum, w)))
     }
 
-    /// The peak in one window.
+    /// The peak in one window ([`DetectorConfig::detect`]).
     pub fn detect_in(&self, spectrum: &Spectrum<'_, R>, window: &Window<R>) -> Peak<R> {
-        let c = &self.config;
+        self.config.detect(spectrum, window)
+    }
+}
+
+impl<R: Real> DetectorConfig<R> {
+    /// The peak in one window with these settings: the detector's work for one grating. A
+    /// [`Spectrum::part`] holding the window's pixels gives the peak the whole frame gives.
+    pub fn detect(&self, spectrum: &Spectrum<'_, R>, window: &Window<R>) -> Peak<R> {
+        let c = self;
         let nan = R::NAN;
         let Some(span) = window.span(spectrum) else { return Peak::none(nan, nan, PeakFlags::OK) };
-        let Some(w) = spectrum.samples().get(span.first..=span.last) else {
+        let off = spectrum.first_pixel();
+        let Some(w) = spectrum.samples().get(span.first.wrapping_sub(off)..=span.last.wrapping_sub(off)) else {
             return Peak::none(nan, nan, PeakFlags::OK);
         };
         if !w.iter().all(|v| v.is_finite()) {

@@ -14,7 +14,8 @@
 //!   [`centroid::centroid`], [`gauss3::gaussian3`], [`gauss_fit::gaussian_fit`],
 //!   [`correlation::cross_correlation`], chosen by [`Method`];
 //! - [`HalfWidths`] and [`shape::second_peak`]: the shape checks;
-//! - [`Peak`] with its [`PeakFlags`]; [`PeakDetector`] with its [`DetectorConfig`].
+//! - [`Peak`] with its [`PeakFlags`]; [`PeakDetector`] with its [`DetectorConfig`];
+//! - [`ShiftRef`]: a grating's λ_ref split in two reals, for the shift Δλ in f32.
 //!
 //! # Accuracy and cost
 //!
@@ -58,6 +59,7 @@ mod num;
 mod peak;
 mod region;
 pub mod shape;
+mod shift;
 mod view;
 mod window;
 
@@ -70,5 +72,6 @@ pub use noise::{NoiseEstimate, NOISE_SAMPLES};
 pub use peak::Peak;
 pub use region::{Region, Threshold};
 pub use shape::HalfWidths;
+pub use shift::ShiftRef;
 pub use view::{from_db, from_db_in_place, Spectrum};
 pub use window::{Span, Window};

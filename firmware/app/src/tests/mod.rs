@@ -6,6 +6,7 @@ extern crate std;
 mod flash;
 mod serving;
 mod signing;
+mod spectrum;
 mod store;
 
 use std::collections::VecDeque;
