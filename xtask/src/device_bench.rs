@@ -69,6 +69,13 @@ pub struct SpectrumBench {
     pub insns_per_frame: f64,
     /// Per-run estimates ((frames − empty) / n).
     pub per_run: Vec<(u32, f64)>,
+    /// Instructions of a frame's reception alone (a channel without gratings: begin, chunks).
+    pub ingest_per_frame: f64,
+    /// Instructions of one window's detection (25 pixels) with the maximum: the detector's
+    /// common part.
+    pub window_maximum: f64,
+    /// The same with the cross-correlation (the device's method).
+    pub window_cross_correlation: f64,
 }
 
 /// One model of the step bench.
@@ -168,6 +175,10 @@ pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
         spectrum.per_run[0].0,
         spectrum.per_run[1].0,
         verdict(spectrum.insns_per_frame <= TARGET_INSNS_SPECTRUM_FRAME)
+    );
+    println!(
+        "  of it: reception {:.0} per frame (begin, 6 chunks, no window); one window's detection (25 pixels) {:.0} by cross-correlation, {:.0} by the maximum (the detector's common part)",
+        spectrum.ingest_per_frame, spectrum.window_cross_correlation, spectrum.window_maximum
     );
     store::print(&store);
     let mut record = DeviceRecord::new(&steps, &sizes, &size, &verify, Some(&store));

@@ -54,6 +54,7 @@ macro_rules! log {
     };
 }
 
+#[cfg(feature = "spectrum")]
 pub mod spectrum;
 pub mod staging;
 pub mod store;
@@ -70,8 +71,12 @@ use fbg_shared::protocol::{
     Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
 use fbg_shared::signature::{self, KeyId, SignatureError, TrustedKey};
-use fbg_shared::spectrum::{ShiftRef, Window};
 use fbg_shared::{Compensator, Estimate, Flags, Sample};
+#[cfg(not(feature = "spectrum"))]
+use fbg_shared::protocol::{SpectrumError, SpectrumRefusal, SpectrumStatus};
+#[cfg(feature = "spectrum")]
+use fbg_shared::spectrum::{ShiftRef, Window};
+#[cfg(feature = "spectrum")]
 use spectrum::{GratingSetup, GridSetup, Outcome, SpectrumFront};
 pub use staging::{MappedFlash, Staging};
 pub use store::Store;
@@ -274,6 +279,7 @@ struct Core<'a, P, F, const K: usize> {
     status: Counters,
     alarm: P,
     stack_probe: Option<fn() -> u32>,
+    #[cfg(feature = "spectrum")]
     spectrum: SpectrumFront,
 }
 
@@ -289,6 +295,9 @@ struct Counters {
     refused: Refusals,
     last_rejection: Option<Rejection>,
     stack_boot_bytes: u32,
+    /// Spectrum messages refused by a build without them.
+    #[cfg(not(feature = "spectrum"))]
+    spectra: SpectrumStatus,
 }
 
 /// The device: answers host frames with the active model.
@@ -332,6 +341,7 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
                 status,
                 alarm,
                 stack_probe: None,
+                #[cfg(feature = "spectrum")]
                 spectrum: SpectrumFront::new(),
             } }
     }
@@ -486,7 +496,10 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             stack_peak_bytes: self.stack_probe.map_or(0, |p| p()),
             staging_erases: self.store.transfer_erases(),
             store: self.store.status(),
+            #[cfg(feature = "spectrum")]
             spectra: self.spectrum.status(),
+            #[cfg(not(feature = "spectrum"))]
+            spectra: c.spectra,
         }
     }
 
@@ -502,6 +515,7 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             let e = self.step(seq, sample, Flags::OK);
             return send_estimate(tx, e);
         }
+        #[cfg(feature = "spectrum")]
         if let HostMsg::SpectrumPixels { first_pixel, data } = *msg {
             // Detection returns before the step runs (`SpectrumFront::detect` is not inlined).
             return match self.spectrum.pixels(first_pixel, data) {
@@ -557,9 +571,11 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
                 DeviceMsg::Pong { nonce }
             }
             HostMsg::Sample { seq, ref sample } => DeviceMsg::Estimate(self.step(seq, sample, Flags::OK)),
+            #[cfg(feature = "spectrum")]
             HostMsg::SpectrumGrid { gratings, pixels, uniform, coefficients, method, full_scale } => {
                 spectrum_reply(self.spectrum.grid(&GridSetup { gratings, pixels, uniform, coefficients, method, full_scale }))
             }
+            #[cfg(feature = "spectrum")]
             HostMsg::SpectrumGrating { index, channel, lo_nm, hi_nm, ref_hi_nm, ref_lo_nm } => {
                 spectrum_reply(self.spectrum.grating(&GratingSetup {
                     index,
@@ -568,13 +584,26 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
                     shift: ShiftRef { hi_nm: ref_hi_nm, lo_nm: ref_lo_nm },
                 }))
             }
+            #[cfg(feature = "spectrum")]
             HostMsg::SpectrumBegin { seq, channel, t_s, t_amb_c } => {
                 spectrum_reply(self.spectrum.begin(seq, channel, t_s, t_amb_c))
             }
+            #[cfg(feature = "spectrum")]
             HostMsg::SpectrumPixels { first_pixel, data } => match self.spectrum.pixels(first_pixel, data) {
                 Outcome::Reading { seq, sample, flags } => DeviceMsg::Estimate(self.step(seq, &sample, flags)),
                 other => spectrum_reply(other),
             },
+            #[cfg(not(feature = "spectrum"))]
+            HostMsg::SpectrumGrid { .. }
+            | HostMsg::SpectrumGrating { .. }
+            | HostMsg::SpectrumBegin { .. }
+            | HostMsg::SpectrumPixels { .. } => {
+                let r = SpectrumRefusal::new(SpectrumError::Unsupported, 0);
+                let c = &mut self.status.spectra;
+                c.refused = c.refused.wrapping_add(1);
+                c.last_refusal = Some(r);
+                DeviceMsg::SpectrumRefused(r)
+            }
             HostMsg::GetStatus => DeviceMsg::Status(self.status()),
             HostMsg::ModelBegin { total_len, crc32 } => self.begin(total_len, crc32),
             HostMsg::ModelChunk { offset, data } => self.chunk(offset, data),
@@ -641,6 +670,7 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
 }
 
 /// The answer to a spectrum message that did not complete a reading.
+#[cfg(feature = "spectrum")]
 fn spectrum_reply(out: Outcome) -> DeviceMsg {
     match out {
         Outcome::Set(missing) => DeviceMsg::SpectrumSet { missing },

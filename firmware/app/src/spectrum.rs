@@ -6,8 +6,9 @@
 //! `SpectrumBegin` and in-order `SpectrumPixels` chunks. The device keeps no frame buffer: of
 //! each chunk it copies only the pixels inside the windows of the gratings on the frame's
 //! channel into [`KEPT_PIXELS`] u16 (the windows of one channel together). When a frame's last
-//! pixel arrives, each of its gratings' peaks is found in f32 with the set-up's method
-//! ([`DetectorConfig::detect`] on a [`Spectrum::part`] holding the window's pixels: the very
+//! pixel arrives, each of its gratings' peaks is found in f32 by cross-correlation (the
+//! default method, the only one the device runs: a set-up naming another is refused)
+//! ([`DetectorConfig::detect_with`] on a [`Spectrum::part`] holding the window's pixels: the very
 //! peak the whole frame gives) and turned into a shift Δλ = (λ − λ_ref)·1000 pm
 //! ([`ShiftRef`]). Once every grating has a peak from frames of one `t_s`, the frame that
 //! completed them yields the [`Sample`] (with that frame's T_amb) and the peaks' flags for the
@@ -21,9 +22,8 @@
 
 use fbg_shared::layout::MAX_GRATINGS;
 use fbg_shared::protocol::{SpectrumError, SpectrumRefusal, SpectrumStatus, MAX_FRAME_PIXELS};
-use fbg_shared::spectrum::{
-    DetectorConfig, Grid, Method, PeakFlags, ShiftRef, Spectrum, Window, POLY_COEFFS,
-};
+use fbg_shared::spectrum::correlation::cross_correlation;
+use fbg_shared::spectrum::{DetectorConfig, Grid, Method, PeakFlags, ShiftRef, Spectrum, Window, POLY_COEFFS};
 use fbg_shared::{Flags, Sample};
 
 /// Pixels the device keeps of one channel's frame: the windows of the gratings on one channel
@@ -209,7 +209,12 @@ impl SpectrumFront {
         if !g.coefficients.iter().all(|c| c.is_finite()) || c1 == 0.0 {
             return refuse(SpectrumError::BadGrid, 3);
         }
-        let Some(method) = Method::from_code(g.method) else { return refuse(SpectrumError::BadGrid, 4) };
+        // The device runs the default method only (the others' code would not fit the board's
+        // flash): any other is refused like an unknown one.
+        if Method::from_code(g.method) != Some(Method::CrossCorrelation) {
+            return refuse(SpectrumError::BadGrid, 4);
+        }
+        let method = Method::CrossCorrelation;
         if g.full_scale.is_nan() || g.full_scale <= 0.0 {
             return refuse(SpectrumError::BadGrid, 5);
         }
@@ -399,7 +404,7 @@ impl SpectrumFront {
         }
         let samples = buf.get(..src.len()).unwrap_or(&[]);
         let part = Spectrum::part(samples, self.grid, usize::from(s.first));
-        let peak = self.config.detect(&part, &Window::new(s.window_lo, s.window_hi));
+        let peak = self.config.detect_with(&part, &Window::new(s.window_lo, s.window_hi), cross_correlation);
         (s.shift.shift_pm(peak.wavelength_nm), peak.flags)
     }
 }

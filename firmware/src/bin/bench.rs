@@ -31,7 +31,9 @@ use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL, POLICY, S
 use fbg_firmware_app::spectrum::{GratingSetup, GridSetup, Outcome, SpectrumFront};
 use fbg_firmware_app::{authenticate, load_blob, unloaded};
 use fbg_shared::protocol::MAX_PIXELS_PER_CHUNK;
-use fbg_shared::spectrum::{Method, ShiftRef, Window};
+use fbg_shared::spectrum::centroid::maximum;
+use fbg_shared::spectrum::correlation::cross_correlation;
+use fbg_shared::spectrum::{DetectorConfig, Estimate, Grid, Method, Region, ShiftRef, Spectrum, Window};
 use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
 use fbg_shared::{Compensator, MemoryBank, MemoryState, ModelParams, Sample, StreamState};
 
@@ -165,6 +167,70 @@ fn frame_loop(front: &mut SpectrumFront, frame: &[u8], n: u32) -> u32 {
         }
     }
     readings
+}
+
+/// `n` channel frames on a channel without gratings: the frame's reception alone.
+#[inline(never)]
+fn ingest_loop(front: &mut SpectrumFront, frame: &[u8], n: u32) {
+    for i in 0..n {
+        black_box(front.begin(i, 9, i as f32 * 60.0, 20.0));
+        for (k, c) in frame.chunks(2 * MAX_PIXELS_PER_CHUNK).enumerate() {
+            black_box(front.pixels((k * MAX_PIXELS_PER_CHUNK) as u16, black_box(c)));
+        }
+    }
+}
+
+/// `n` detections of one window's peak (the first grating's 25 pixels, f32) with `estimate`.
+#[inline(never)]
+fn window_loop(
+    config: &DetectorConfig<f32>,
+    part: &Spectrum<'_, f32>,
+    window: &Window<f32>,
+    estimate: fn(&Region<'_, f32>, f32) -> Estimate<f32>,
+    n: u32,
+) {
+    for _ in 0..n {
+        black_box(config.detect_with(black_box(part), window, estimate));
+    }
+}
+
+#[inline(never)]
+fn window_empty_loop(part: &Spectrum<'_, f32>, n: u32) {
+    for _ in 0..n {
+        black_box(black_box(part));
+    }
+}
+
+/// Where a frame's instructions go: its reception alone (a channel without gratings), and one
+/// window's detection with the maximum (the detector's common part: checks, noise, region,
+/// half-widths, flags) and with the cross-correlation.
+fn bench_spectrum_parts(uart: &mut CmsdkUart, front: &mut SpectrumFront, frame: &[u8]) {
+    for n in SPECTRUM_RUNS {
+        let (te, _) = measure(|| frame_empty_loop(frame, n));
+        let (tf, _) = measure(|| ingest_loop(front, frame, n));
+        emit(uart, format_args!("spectrum_part what=ingest n={} empty_ticks={} ticks={}", n, te, tf));
+    }
+    let grid = Grid::polynomial([1510.0, 0.166, 2.0e-6, 0.0, 0.0, 0.0]);
+    let window = Window::centred(SPECTRUM_PEAKS[0], 2.0);
+    let Some(span) = window.span_of(&grid, 0, SPECTRUM_PIXELS) else { exit_failure() };
+    let mut buf = [0f32; 64];
+    for (d, px) in buf.iter_mut().zip(frame.chunks_exact(2).skip(span.first)) {
+        if let [lo, hi] = *px {
+            *d = f32::from(u16::from_le_bytes([lo, hi]));
+        }
+    }
+    let len = (span.last - span.first + 1).min(64);
+    let part = Spectrum::part(buf.get(..len).unwrap_or(&[]), grid, span.first);
+    let config = DetectorConfig { full_scale: 65_535.0, ..DetectorConfig::default() };
+    let methods: [(&str, fn(&Region<'_, f32>, f32) -> Estimate<f32>); 2] =
+        [("window_maximum", |r, _| maximum(r)), ("window_cross_correlation", cross_correlation::<f32>)];
+    for (what, f) in methods {
+        for n in SPECTRUM_RUNS {
+            let (te, _) = measure(|| window_empty_loop(&part, n));
+            let (tf, _) = measure(|| window_loop(&config, &part, &window, f, n));
+            emit(uart, format_args!("spectrum_part what={} n={} empty_ticks={} ticks={}", what, n, te, tf));
+        }
+    }
 }
 
 /// [`frame_loop`] without the device: the same loop over the chunks.
@@ -373,6 +439,7 @@ fn main() -> ! {
     bench_verify(&mut uart);
     let front = FRONT.insert(SpectrumFront::new());
     bench_spectrum(&mut uart, front, FRAME);
+    bench_spectrum_parts(&mut uart, front, FRAME);
     for (idx, rec) in fbg_shared::golden::records(PACK).enumerate() {
         let Some(rec) = rec else {
             emit(&mut uart, format_args!("error bench pack malformed at record {}", idx));

@@ -47,6 +47,9 @@ pub enum SpectrumError {
     /// Pixels past the frame's pixel count, or an odd number of bytes (detail: the end
     /// pixel). The frame is dropped.
     Overrun,
+    /// This device was built without spectrum frames (a build whose flash has no room for the
+    /// detector).
+    Unsupported,
 }
 
 /// A refused spectrum message: the reason and a number that says more.

@@ -42,6 +42,8 @@ struct Output {
     sizes: Option<TypeSizes>,
     /// [n, empty_ticks, frame_ticks, 0, 0] of the spectrum bench's runs.
     spectrum: Vec<[f64; 5]>,
+    /// The same for each part of a frame's cost (`spectrum_part what=…`).
+    spectrum_parts: HashMap<String, Vec<[f64; 5]>>,
 }
 
 fn parse_output(text: &str) -> Result<Output> {
@@ -66,6 +68,15 @@ fn parse_output(text: &str) -> Result<Output> {
         } else if line.starts_with("spectrum ") {
             ensure!(num(&kv, "readings")? == num(&kv, "n")?, "the spectrum bench's frames did not all make a reading: {line}");
             o.spectrum.push([num(&kv, "n")?, num(&kv, "empty_ticks")?, num(&kv, "frame_ticks")?, 0.0, 0.0]);
+        } else if line.starts_with("spectrum_part ") {
+            let what = kv.get("what").cloned().unwrap_or_default();
+            o.spectrum_parts.entry(what).or_default().push([
+                num(&kv, "n")?,
+                num(&kv, "empty_ticks")?,
+                num(&kv, "ticks")?,
+                0.0,
+                0.0,
+            ]);
         } else if line.starts_with("stack ") {
             o.stack_peak = num(&kv, "peak")? as u32;
         } else if line.starts_with("model ") {
@@ -172,7 +183,17 @@ pub(super) fn bench_pack(
     }
     if !out.spectrum.is_empty() {
         let (per_run, insns_per_frame, _) = cost(&out.spectrum, ipt).context("spectrum bench")?;
-        *spectrum = Some(SpectrumBench { insns_per_frame, per_run });
+        let part = |what: &str| -> Result<f64> {
+            let runs = out.spectrum_parts.get(what).with_context(|| format!("no spectrum part `{what}`"))?;
+            Ok(cost(runs, ipt).with_context(|| what.to_string())?.1)
+        };
+        *spectrum = Some(SpectrumBench {
+            insns_per_frame,
+            per_run,
+            ingest_per_frame: part("ingest")?,
+            window_maximum: part("window_maximum")?,
+            window_cross_correlation: part("window_cross_correlation")?,
+        });
     }
     let mut steps = Vec::new();
     for (idx, b) in rows.iter().enumerate() {

@@ -52,6 +52,11 @@ pub struct SpectrumRow {
     pub per_run: Vec<PerRun>,
     pub target: u64,
     pub met: bool,
+    /// A frame's reception alone (begin and chunks on a channel without gratings).
+    pub instructions_reception_per_frame: f64,
+    /// One 25-pixel window's detection by cross-correlation / by the maximum (the common part).
+    pub instructions_per_window_cross_correlation: f64,
+    pub instructions_per_window_maximum: f64,
 }
 
 impl SpectrumRow {
@@ -66,6 +71,9 @@ impl SpectrumRow {
             per_run: b.per_run.iter().map(|&(n, v)| PerRun { n, instructions_per_step: rounded(v, 1) }).collect(),
             target: super::TARGET_INSNS_SPECTRUM_FRAME as u64,
             met: b.insns_per_frame <= super::TARGET_INSNS_SPECTRUM_FRAME,
+            instructions_reception_per_frame: rounded(b.ingest_per_frame, 1),
+            instructions_per_window_cross_correlation: rounded(b.window_cross_correlation, 1),
+            instructions_per_window_maximum: rounded(b.window_maximum, 1),
         }
     }
 }

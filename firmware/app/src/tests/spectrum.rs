@@ -163,6 +163,8 @@ fn a_bad_set_up_is_refused_with_its_reason() {
     assert_eq!(refusal(link.request(&grid(3, 512, 0.0, 4, 65535.0)).unwrap()), (SpectrumError::BadGrid, 3));
     assert_eq!(refusal(link.request(&grid(3, 512, f32::NAN, 4, 65535.0)).unwrap()), (SpectrumError::BadGrid, 3));
     assert_eq!(refusal(link.request(&grid(3, 512, 0.166, 5, 65535.0)).unwrap()), (SpectrumError::BadGrid, 4));
+    // The device runs the default method only.
+    assert_eq!(refusal(link.request(&grid(3, 512, 0.166, 0, 65535.0)).unwrap()), (SpectrumError::BadGrid, 4));
     assert_eq!(refusal(link.request(&grid(3, 512, 0.166, 4, 0.0)).unwrap()), (SpectrumError::BadGrid, 5));
     assert_eq!(link.request(&grid(2, 512, 0.166, 4, 65535.0)).unwrap(), DeviceMsg::SpectrumSet { missing: 2 });
     let grating = |index: u8, channel: u8, lo_nm: f32, hi_nm: f32| HostMsg::SpectrumGrating {
@@ -182,7 +184,7 @@ fn a_bad_set_up_is_refused_with_its_reason() {
     // 122 fit; a third grating's would not, but only two are set up here.
     assert_eq!(link.request(&grating(1, 0, 1560.0, 1570.0)).unwrap(), DeviceMsg::SpectrumSet { missing: 0 });
     let st = link.status().unwrap();
-    assert_eq!(st.spectra.refused, 10);
+    assert_eq!(st.spectra.refused, 11);
     // A new grid forgets the gratings.
     assert_eq!(link.request(&grid(2, 512, 0.166, 4, 65535.0)).unwrap(), DeviceMsg::SpectrumSet { missing: 2 });
     let begin = HostMsg::SpectrumBegin { seq: 0, channel: 0, t_s: 0.0, t_amb_c: 20.0 };
