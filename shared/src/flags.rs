@@ -13,7 +13,7 @@
 /// f.insert(Flags::OUT_OF_ENVELOPE);
 /// assert!(f.contains(Flags::OUT_OF_ENVELOPE) && !f.is_ok());
 /// assert_eq!(f.union(Flags::WEAK_SUPPORT).to_string(), "out-of-envelope|weak-support");
-/// assert_eq!(Flags::from_bits(0b10_0000), None);
+/// assert_eq!(Flags::from_bits(0b1000_0000), None);
 /// assert!(!Flags::LEAD_UNKNOWN.is_fault() && Flags::WEAK_SUPPORT.is_fault());
 /// assert!(Flags::IMPLAUSIBLE.is_fault());
 /// assert_eq!(Flags::IMPLAUSIBLE.union(Flags::LEAD_UNKNOWN).to_string(), "lead-unknown|implausible");

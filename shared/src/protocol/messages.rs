@@ -12,6 +12,9 @@ use crate::signature::KeyId;
 
 /// Largest `data` of one [`HostMsg::ModelChunk`] in bytes.
 pub const MAX_CHUNK: usize = 192;
+/// Most pixels in one [`HostMsg::SpectrumPixels`] (its data: little-endian u16, at most
+/// [`MAX_CHUNK`] bytes).
+pub const MAX_PIXELS_PER_CHUNK: usize = MAX_CHUNK / 2;
 /// Largest postcard payload of any [`HostMsg`] (a full chunk: tag, offset, length, data).
 pub const HOST_MAX_PAYLOAD: usize = MAX_CHUNK + 16;
 /// Largest postcard payload of any [`DeviceMsg`] (a [`Status`] with a rejection, a signed
@@ -119,7 +122,7 @@ pub enum HostMsg<'a> {
     SpectrumPixels {
         /// Index of the first pixel in `data`.
         first_pixel: u16,
-        /// Little-endian u16 counts, at most [`super::MAX_PIXELS_PER_CHUNK`] of them.
+        /// Little-endian u16 counts, at most [`MAX_PIXELS_PER_CHUNK`] of them.
         #[serde(borrow)]
         data: &'a [u8],
     },

@@ -86,9 +86,9 @@ pub use framing::{
 };
 pub use messages::{
     BootSource, DeviceEstimate, DeviceMsg, HostMsg, Refusals, Status, StoreStatus, UpdateResult, DEVICE_MAX_PAYLOAD,
-    HOST_MAX_PAYLOAD, MAX_CHUNK, STORE_SECTORS,
+    HOST_MAX_PAYLOAD, MAX_CHUNK, MAX_PIXELS_PER_CHUNK, STORE_SECTORS,
 };
 pub use reject::{RejectReason, Rejection};
 pub use spectrum::{
-    SpectrumError, SpectrumRefusal, SpectrumStatus, MAX_FRAME_PIXELS, MAX_PIXELS_PER_CHUNK,
+    SpectrumError, SpectrumRefusal, SpectrumStatus, MAX_FRAME_PIXELS,
 };

@@ -4,19 +4,13 @@
 //! A spectrometer frame (one channel, one time, N pixels as u16: a 512-pixel frame is 1 KiB)
 //! is larger than a host frame ([`super::HOST_MAX_FRAME`]), so it travels as a
 //! [`super::HostMsg::SpectrumBegin`] followed by [`super::HostMsg::SpectrumPixels`] chunks of
-//! at most [`MAX_PIXELS_PER_CHUNK`] pixels, in order. The device keeps only the pixels inside
+//! at most [`super::MAX_PIXELS_PER_CHUNK`] pixels, in order. The device keeps only the pixels inside
 //! its gratings' search windows. Before any frame the host sets the detector up:
 //! [`super::HostMsg::SpectrumGrid`] (the pixel-to-wavelength grid, the frame's pixel count, the
 //! method, the full scale, the number of gratings) and one [`super::HostMsg::SpectrumGrating`]
 //! per grating of the model, in the model's order (its channel, window and λ_ref).
 
 use serde::{Deserialize, Serialize};
-
-use super::messages::MAX_CHUNK;
-
-/// Most pixels in one [`super::HostMsg::SpectrumPixels`] (its data: little-endian u16, at most
-/// [`MAX_CHUNK`] bytes).
-pub const MAX_PIXELS_PER_CHUNK: usize = MAX_CHUNK / 2;
 
 /// Most pixels in a frame (the set-up's `pixels`).
 pub const MAX_FRAME_PIXELS: u16 = 16_384;
