@@ -202,7 +202,14 @@ impl<S: std::io::Read + std::io::Write> LinkClient<S> {
 /// A simulated spectrometer frame for tests: Gaussian peaks `(λ nm, FWHM nm, height counts)` on
 /// a `floor` \[counts\], white noise of σ `noise` \[counts\] from `seed` (deterministic: a
 /// 64-bit LCG, the sum of four uniforms as the normal deviate), rounded and clipped to u16.
-pub fn synthetic_frame(grid: &Grid<f32>, pixels: u16, peaks: &[(f64, f64, f64)], floor: f64, noise: f64, seed: u64) -> Vec<u16> {
+pub fn synthetic_frame(
+    grid: &Grid<f32>,
+    pixels: u16,
+    peaks: &[(f64, f64, f64)],
+    floor: f64,
+    noise: f64,
+    seed: u64,
+) -> Vec<u16> {
     let mut state = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
     let mut uniform = move || {
         state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);

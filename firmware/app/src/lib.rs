@@ -70,12 +70,12 @@ use fbg_shared::protocol::{
     encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, Refusals, RejectReason, Rejection,
     Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
-use fbg_shared::signature::{self, KeyId, SignatureError, TrustedKey};
-use fbg_shared::{Compensator, Estimate, Flags, Sample};
 #[cfg(not(feature = "spectrum"))]
 use fbg_shared::protocol::{SpectrumError, SpectrumRefusal, SpectrumStatus};
+use fbg_shared::signature::{self, KeyId, SignatureError, TrustedKey};
 #[cfg(feature = "spectrum")]
 use fbg_shared::spectrum::{ShiftRef, Window};
+use fbg_shared::{Compensator, Estimate, Flags, Sample};
 #[cfg(feature = "spectrum")]
 use spectrum::{GratingSetup, GridSetup, Outcome, SpectrumFront};
 pub use staging::{MappedFlash, Staging};
@@ -332,7 +332,9 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
         let status = Counters { updates_accepted, updates_rejected, refused, ..Counters::default() };
         // Serving starts between frames.
         *reader = FrameReader::new();
-        Device { reader, core: Core {
+        Device {
+            reader,
+            core: Core {
                 comp,
                 kernel,
                 policy,
@@ -343,7 +345,8 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
                 stack_probe: None,
                 #[cfg(feature = "spectrum")]
                 spectrum: SpectrumFront::new(),
-            } }
+            },
+        }
     }
 
     /// Boot the model the store selects (its newest verified slot at or above the rollback
@@ -573,7 +576,14 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             HostMsg::Sample { seq, ref sample } => DeviceMsg::Estimate(self.step(seq, sample, Flags::OK)),
             #[cfg(feature = "spectrum")]
             HostMsg::SpectrumGrid { gratings, pixels, uniform, coefficients, method, full_scale } => {
-                spectrum_reply(self.spectrum.grid(&GridSetup { gratings, pixels, uniform, coefficients, method, full_scale }))
+                spectrum_reply(self.spectrum.grid(&GridSetup {
+                    gratings,
+                    pixels,
+                    uniform,
+                    coefficients,
+                    method,
+                    full_scale,
+                }))
             }
             #[cfg(feature = "spectrum")]
             HostMsg::SpectrumGrating { index, channel, lo_nm, hi_nm, ref_hi_nm, ref_lo_nm } => {

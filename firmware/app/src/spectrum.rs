@@ -314,7 +314,7 @@ impl SpectrumFront {
         }
         let n = data.len() / 2;
         let end = usize::from(first_pixel) + n;
-        if data.len() % 2 != 0 || end > usize::from(self.pixels) {
+        if !data.len().is_multiple_of(2) || end > usize::from(self.pixels) {
             self.drop_frame();
             return refuse(SpectrumError::Overrun, u16::try_from(end).unwrap_or(u16::MAX));
         }

@@ -31,10 +31,10 @@ use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL, POLICY, S
 use fbg_firmware_app::spectrum::{GratingSetup, GridSetup, Outcome, SpectrumFront};
 use fbg_firmware_app::{authenticate, load_blob, unloaded};
 use fbg_shared::protocol::MAX_PIXELS_PER_CHUNK;
+use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
 use fbg_shared::spectrum::centroid::maximum;
 use fbg_shared::spectrum::correlation::cross_correlation;
 use fbg_shared::spectrum::{DetectorConfig, Estimate, Grid, Method, Region, ShiftRef, Spectrum, Window};
-use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
 use fbg_shared::{Compensator, MemoryBank, MemoryState, ModelParams, Sample, StreamState};
 
 static PACK: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_pack.bin"));
@@ -180,13 +180,16 @@ fn ingest_loop(front: &mut SpectrumFront, frame: &[u8], n: u32) {
     }
 }
 
+/// A method's estimator (the detector's `detect_with` argument).
+type EstimateFn = fn(&Region<'_, f32>, f32) -> Estimate<f32>;
+
 /// `n` detections of one window's peak (the first grating's 25 pixels, f32) with `estimate`.
 #[inline(never)]
 fn window_loop(
     config: &DetectorConfig<f32>,
     part: &Spectrum<'_, f32>,
     window: &Window<f32>,
-    estimate: fn(&Region<'_, f32>, f32) -> Estimate<f32>,
+    estimate: EstimateFn,
     n: u32,
 ) {
     for _ in 0..n {
@@ -222,7 +225,7 @@ fn bench_spectrum_parts(uart: &mut CmsdkUart, front: &mut SpectrumFront, frame: 
     let len = (span.last - span.first + 1).min(64);
     let part = Spectrum::part(buf.get(..len).unwrap_or(&[]), grid, span.first);
     let config = DetectorConfig { full_scale: 65_535.0, ..DetectorConfig::default() };
-    let methods: [(&str, fn(&Region<'_, f32>, f32) -> Estimate<f32>); 2] =
+    let methods: [(&str, EstimateFn); 2] =
         [("window_maximum", |r, _| maximum(r)), ("window_cross_correlation", cross_correlation::<f32>)];
     for (what, f) in methods {
         for n in SPECTRUM_RUNS {

@@ -211,9 +211,8 @@ mod tests {
     use crate::compensator::Sample;
     use crate::flags::Flags;
     use crate::protocol::{
-        SpectrumError, SpectrumRefusal, SpectrumStatus,
-        BootSource, DeviceEstimate, Refusals, RejectReason, Rejection, Status, StoreStatus, UpdateResult, MAX_CHUNK,
-        STORE_SECTORS,
+        BootSource, DeviceEstimate, Refusals, RejectReason, Rejection, SpectrumError, SpectrumRefusal, SpectrumStatus,
+        Status, StoreStatus, UpdateResult, MAX_CHUNK, STORE_SECTORS,
     };
     use crate::signature::KeyId;
 

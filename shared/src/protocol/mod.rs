@@ -89,6 +89,4 @@ pub use messages::{
     HOST_MAX_PAYLOAD, MAX_CHUNK, MAX_PIXELS_PER_CHUNK, STORE_SECTORS,
 };
 pub use reject::{RejectReason, Rejection};
-pub use spectrum::{
-    SpectrumError, SpectrumRefusal, SpectrumStatus, MAX_FRAME_PIXELS,
-};
+pub use spectrum::{SpectrumError, SpectrumRefusal, SpectrumStatus, MAX_FRAME_PIXELS};

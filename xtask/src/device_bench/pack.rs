@@ -66,7 +66,10 @@ fn parse_output(text: &str) -> Result<Output> {
             ensure!(num(&kv, "ok")? == 1.0, "the bench image's signed model did not pass the signature check: {line}");
             o.verify = Some((num(&kv, "bytes")? as u64, num(&kv, "ticks")?, num(&kv, "stack_peak")? as u32));
         } else if line.starts_with("spectrum ") {
-            ensure!(num(&kv, "readings")? == num(&kv, "n")?, "the spectrum bench's frames did not all make a reading: {line}");
+            ensure!(
+                num(&kv, "readings")? == num(&kv, "n")?,
+                "the spectrum bench's frames did not all make a reading: {line}"
+            );
             o.spectrum.push([num(&kv, "n")?, num(&kv, "empty_ticks")?, num(&kv, "frame_ticks")?, 0.0, 0.0]);
         } else if line.starts_with("spectrum_part ") {
             let what = kv.get("what").cloned().unwrap_or_default();

@@ -54,7 +54,11 @@ pub fn lambda_refs(params: &fbg_shared::ModelParams<f32, PRODUCT_K>, n: usize) -
 
 /// A few readings of spectrum frames for `cargo xtask size` (the serving stack peak must
 /// cover the spectrum path): the set-up, then `n` readings of two channel frames each.
-pub(crate) fn serve_readings(link: &mut fbg_link::LinkClient<std::net::TcpStream>, default: &[u8], n: usize) -> Result<()> {
+pub(crate) fn serve_readings(
+    link: &mut fbg_link::LinkClient<std::net::TcpStream>,
+    default: &[u8],
+    n: usize,
+) -> Result<()> {
     let params = fbg_shared::blob::decode::<PRODUCT_K>(default).map_err(|e| anyhow::anyhow!("default model: {e}"))?;
     let refs = lambda_refs(&params, 3);
     let s = setup(&refs);
@@ -153,8 +157,7 @@ pub(super) fn spectrum_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures
         "xtask: spectrum frames: {READINGS} readings of 2 × 512-pixel frames (3 gratings, 30 dB, cross-correlation) \
          in chunks of 96/64/37 pixels, {:.1} s; every estimate bit for bit the host's f32, flags identical \
          ({flagged} flagged: {flags_seen}); peak shifts vs the simulated truth: RMS {rms:.3} pm; refusals counted: {}",
-        secs,
-        st.spectra.refused
+        secs, st.spectra.refused
     );
     ensure!(rms < 3.0, "the peak chain's RMS error {rms:.3} pm exceeds 3 pm on the 512-pixel grid");
     Ok(())

@@ -104,7 +104,10 @@ fn out_of_order_and_missing_chunks_are_refused_counted_and_the_frame_dropped() {
     let begin = HostMsg::SpectrumBegin { seq: 5, channel: 0, t_s: 0.0, t_amb_c: 21.5 };
     assert_eq!(link.request(&begin).unwrap(), DeviceMsg::SpectrumAck { received: 0 });
     let d = px(0, &f0[..96]);
-    assert_eq!(link.request(&HostMsg::SpectrumPixels { first_pixel: 0, data: &d }).unwrap(), DeviceMsg::SpectrumAck { received: 96 });
+    assert_eq!(
+        link.request(&HostMsg::SpectrumPixels { first_pixel: 0, data: &d }).unwrap(),
+        DeviceMsg::SpectrumAck { received: 96 }
+    );
     let d = px(192, &f0[192..288]);
     let r = link.request(&HostMsg::SpectrumPixels { first_pixel: 192, data: &d }).unwrap();
     assert_eq!(r, DeviceMsg::SpectrumRefused(SpectrumRefusal::new(SpectrumError::OutOfOrder, 96)));
@@ -121,7 +124,10 @@ fn out_of_order_and_missing_chunks_are_refused_counted_and_the_frame_dropped() {
     assert_eq!(link.request(&begin).unwrap(), DeviceMsg::SpectrumAck { received: 0 });
     for k in 0..5u16 {
         let d = px(0, &f0[usize::from(k) * 96..usize::from(k) * 96 + 96]);
-        assert!(matches!(link.request(&HostMsg::SpectrumPixels { first_pixel: k * 96, data: &d }).unwrap(), DeviceMsg::SpectrumAck { .. }));
+        assert!(matches!(
+            link.request(&HostMsg::SpectrumPixels { first_pixel: k * 96, data: &d }).unwrap(),
+            DeviceMsg::SpectrumAck { .. }
+        ));
     }
     let d = px(0, &f0[..96]);
     let r = link.request(&HostMsg::SpectrumPixels { first_pixel: 480, data: &d }).unwrap();
