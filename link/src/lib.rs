@@ -8,10 +8,14 @@
 //! - [`golden`]: the golden-vector files the trainer writes and the firmware tests read (the
 //!   samples' byte layout itself is [`fbg_shared::golden`], which the device reads too).
 //!
+//! - [`spectrum`]: spectrum frames over the link (the detector's set-up, frames in chunks)
+//!   and the host's own reading of the same frames, for the device-vs-host check.
+//!
 //! `fbg-shared` stays device code (no_std, no heap); everything std lives here.
 
 mod client;
 pub mod golden;
 pub mod parity;
+pub mod spectrum;
 
 pub use client::{LinkClient, LinkError, ReadTimeout};

@@ -13,7 +13,7 @@
 /// f.insert(Flags::OUT_OF_ENVELOPE);
 /// assert!(f.contains(Flags::OUT_OF_ENVELOPE) && !f.is_ok());
 /// assert_eq!(f.union(Flags::WEAK_SUPPORT).to_string(), "out-of-envelope|weak-support");
-/// assert_eq!(Flags::from_bits(0b10_0000), None);
+/// assert_eq!(Flags::from_bits(0b1000_0000), None);
 /// assert!(!Flags::LEAD_UNKNOWN.is_fault() && Flags::WEAK_SUPPORT.is_fault());
 /// assert!(Flags::IMPLAUSIBLE.is_fault());
 /// assert_eq!(Flags::IMPLAUSIBLE.union(Flags::LEAD_UNKNOWN).to_string(), "lead-unknown|implausible");
@@ -64,12 +64,22 @@ impl Flags {
     /// beyond the largest the calibration validated ([`crate::FieldContext::plausible`]). With
     /// the inputs inside their envelope, the model itself is wrong.
     pub const IMPLAUSIBLE: Flags = Flags(1 << 4);
+    /// A sample made from a spectrum: a grating's peak carries a fault of
+    /// [`crate::spectrum::PeakFlags::FAULTS`] (no peak, saturated, a second peak in its window,
+    /// at the window's edge), so its wavelength, and the value, are suspect. Never raised by
+    /// the compensator itself ([`crate::spectrum::PeakFlags::estimate_flags`]).
+    pub const PEAK_FAULT: Flags = Flags(1 << 5);
+    /// A sample made from a spectrum: a grating's peak is usable but off what the detector
+    /// expects (low SNR, too wide or narrow, asymmetric). Not a fault, like
+    /// [`Flags::LEAD_UNKNOWN`].
+    pub const PEAK_QUALITY: Flags = Flags(1 << 6);
     /// The bits that say the value itself is suspect (non-finite, out of envelope, weak
-    /// support, implausible): they widen the band and drive a device's alarm;
-    /// [`Flags::LEAD_UNKNOWN`] does neither.
-    pub const FAULTS: Flags = Flags(0b1_0111);
+    /// support, implausible, a peak fault): they drive a device's alarm (the compensator's
+    /// band widening concerns its own bits only); [`Flags::LEAD_UNKNOWN`] and
+    /// [`Flags::PEAK_QUALITY`] do neither.
+    pub const FAULTS: Flags = Flags(0b011_0111);
     /// Every bit this version defines.
-    pub const ALL: Flags = Flags(0b1_1111);
+    pub const ALL: Flags = Flags(0b111_1111);
 
     /// The flags of `bits`, `None` when a bit is not one of [`Flags::ALL`].
     pub const fn from_bits(bits: u8) -> Option<Flags> {
@@ -113,6 +123,8 @@ impl core::fmt::Display for Flags {
             (Flags::WEAK_SUPPORT, "weak-support"),
             (Flags::LEAD_UNKNOWN, "lead-unknown"),
             (Flags::IMPLAUSIBLE, "implausible"),
+            (Flags::PEAK_FAULT, "peak-fault"),
+            (Flags::PEAK_QUALITY, "peak-quality"),
         ] {
             if self.contains(bit) {
                 if !first {

@@ -56,6 +56,28 @@ pub struct VerifyBench {
     pub stack_peak: u32,
 }
 
+/// Instructions per 512-pixel channel frame with three gratings (issue 31's device target).
+pub const TARGET_INSNS_SPECTRUM_FRAME: f64 = 10_000.0;
+
+/// The spectrum bench of the bench image: one 512-pixel channel frame with three gratings
+/// through the device's spectrum front (`fbg_firmware_app::spectrum`: begin, six chunks of 96
+/// pixels, the windows' pixels kept, three peaks by cross-correlation in f32), without the
+/// link's framing and the step (timed apart).
+#[derive(Clone, Debug, Default)]
+pub struct SpectrumBench {
+    /// Instructions per frame from the two-run difference.
+    pub insns_per_frame: f64,
+    /// Per-run estimates ((frames − empty) / n).
+    pub per_run: Vec<(u32, f64)>,
+    /// Instructions of a frame's reception alone (a channel without gratings: begin, chunks).
+    pub ingest_per_frame: f64,
+    /// Instructions of one window's detection (25 pixels) with the maximum: the detector's
+    /// common part.
+    pub window_maximum: f64,
+    /// The same with the cross-correlation (the device's method).
+    pub window_cross_correlation: f64,
+}
+
 /// One model of the step bench.
 #[derive(Clone, Debug)]
 pub struct StepBench {
@@ -117,8 +139,11 @@ pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
     let mut sizes64 = None;
     let mut verify = None;
     let mut verify64 = None;
-    steps.extend(pack::bench_pack(root, &q, 32, &mut sizes, &mut verify)?);
-    steps.extend(pack::bench_pack(root, &q, 64, &mut sizes64, &mut verify64)?);
+    let mut spectrum = None;
+    let mut spectrum64 = None;
+    steps.extend(pack::bench_pack(root, &q, 32, &mut sizes, &mut verify, &mut spectrum)?);
+    steps.extend(pack::bench_pack(root, &q, 64, &mut sizes64, &mut verify64, &mut spectrum64)?);
+    let spectrum = spectrum.context("the bench image did not time the spectrum frames")?;
     let sizes = sizes.context("the bench image reported no type sizes")?;
     let verify = verify.context("the bench image did not time the signature check")?;
     let bins = size::product_images(root)?;
@@ -142,8 +167,23 @@ pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
         "signature check of a model update ({} B signed model): {:.0} instructions (once per update, not per sample); stack reached {} B",
         verify.bytes, verify.instructions, verify.stack_peak
     );
+    println!(
+        "spectrum frame (512 pixels, 3 gratings, cross-correlation, f32): {:.0} instructions per channel frame ({:.0} / {:.0} over {} / {} frames)  (target ≤ {TARGET_INSNS_SPECTRUM_FRAME:.0}: {})",
+        spectrum.insns_per_frame,
+        spectrum.per_run[0].1,
+        spectrum.per_run[1].1,
+        spectrum.per_run[0].0,
+        spectrum.per_run[1].0,
+        verdict(spectrum.insns_per_frame <= TARGET_INSNS_SPECTRUM_FRAME)
+    );
+    println!(
+        "  of it: reception {:.0} per frame (begin, 6 chunks, no window); one window's detection (25 pixels) {:.0} by cross-correlation, {:.0} by the maximum (the detector's common part)",
+        spectrum.ingest_per_frame, spectrum.window_cross_correlation, spectrum.window_maximum
+    );
     store::print(&store);
-    let json = serde_json::to_string_pretty(&DeviceRecord::new(&steps, &sizes, &size, &verify, Some(&store)))?;
+    let mut record = DeviceRecord::new(&steps, &sizes, &size, &verify, Some(&store));
+    record.spectrum = Some(record::SpectrumRow::new(&spectrum));
+    let json = serde_json::to_string_pretty(&record)?;
     let dir = root.join("target").join("bench");
     fs::create_dir_all(&dir)?;
     let path = dir.join("device.json");

@@ -30,7 +30,13 @@
 //!    product with rollbacks accepted): a rollback signed to replace serial 5 is refused over
 //!    serial 3, accepted over serial 5, refused when replayed over itself and after the device
 //!    moved on to serial 9;
-//! 6. memory over 14 days: the product image, given a model with memory terms (the default
+//! 6. spectrum frames: the product image is set up for a 512-pixel spectrometer with three
+//!    gratings on two channels and sent simulated spectra (Gaussian peaks at the paper
+//!    hold-out's shifts, 30 dB) in chunks through `fbg-link`; every estimate equals the host's
+//!    (`fbg-shared` f32 on the same frames) bit for bit with identical flags, the peaks' RMS
+//!    error against the simulated shifts is under 3 pm, and an out-of-order chunk and an
+//!    overrun are refused and counted (`qemu/spectrum.rs`);
+//! 7. memory over 14 days: the product image, given a model with memory terms (the default
 //!    when it has them, else the default with the full memory bank added), compensates the
 //!    whole paper data set — 20 160 samples, 14 days — on an irregular clock with a 5 h gap;
 //!    every answer is compared with the host's f64 (≤ 1 % of Model-H's hold-out RMSE, flags
@@ -60,6 +66,7 @@ pub mod golden;
 mod link;
 mod memory;
 mod signed;
+pub(crate) mod spectrum;
 mod store;
 
 /// Build the firmware and run every QEMU test; `all`: the long forms of the store tests
@@ -101,6 +108,8 @@ pub fn run_all(root: &Path, all: bool) -> Result<()> {
         "QEMU: the persistent model store (power cycles, 10 of the 50 power cuts, 300 updates of wear; all with --all)"
     });
     store::store_tests(root, &qemu, &bins, &fx, &sfx, all)?;
+    step("QEMU: spectrum frames (512 pixels, 3 gratings, in chunks) answered bit for bit as the host's f32");
+    spectrum::spectrum_test(root, &qemu, &bins, &fx)?;
     step("QEMU: a memory model over the whole 14-day paper stream (f32 device vs f64 host)");
     memory::long_memory_test(root, &qemu, &bins, &fx)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());

@@ -54,6 +54,8 @@ macro_rules! log {
     };
 }
 
+#[cfg(feature = "spectrum")]
+pub mod spectrum;
 pub mod staging;
 pub mod store;
 
@@ -68,8 +70,14 @@ use fbg_shared::protocol::{
     encode_device, DeviceEstimate, DeviceMsg, Feed, FrameReader, HostMsg, Malformed, Refusals, RejectReason, Rejection,
     Status, UpdateResult, DEVICE_MAX_FRAME, HOST_MAX_FRAME,
 };
+#[cfg(not(feature = "spectrum"))]
+use fbg_shared::protocol::{SpectrumError, SpectrumRefusal, SpectrumStatus};
 use fbg_shared::signature::{self, KeyId, SignatureError, TrustedKey};
-use fbg_shared::{Compensator, Estimate, Sample};
+#[cfg(feature = "spectrum")]
+use fbg_shared::spectrum::{ShiftRef, Window};
+use fbg_shared::{Compensator, Estimate, Flags, Sample};
+#[cfg(feature = "spectrum")]
+use spectrum::{GratingSetup, GridSetup, Outcome, SpectrumFront};
 pub use staging::{MappedFlash, Staging};
 pub use store::Store;
 
@@ -271,6 +279,8 @@ struct Core<'a, P, F, const K: usize> {
     status: Counters,
     alarm: P,
     stack_probe: Option<fn() -> u32>,
+    #[cfg(feature = "spectrum")]
+    spectrum: SpectrumFront,
 }
 
 /// The counters the device keeps in RAM (the rest of [`Status`] is computed when asked for):
@@ -285,6 +295,9 @@ struct Counters {
     refused: Refusals,
     last_rejection: Option<Rejection>,
     stack_boot_bytes: u32,
+    /// Spectrum messages refused by a build without them.
+    #[cfg(not(feature = "spectrum"))]
+    spectra: SpectrumStatus,
 }
 
 /// The device: answers host frames with the active model.
@@ -319,7 +332,21 @@ impl<'a, P: OutputPin, F: MappedFlash, const K: usize> Device<'a, P, F, K> {
         let status = Counters { updates_accepted, updates_rejected, refused, ..Counters::default() };
         // Serving starts between frames.
         *reader = FrameReader::new();
-        Device { reader, core: Core { comp, kernel, policy, store, model, status, alarm, stack_probe: None } }
+        Device {
+            reader,
+            core: Core {
+                comp,
+                kernel,
+                policy,
+                store,
+                model,
+                status,
+                alarm,
+                stack_probe: None,
+                #[cfg(feature = "spectrum")]
+                spectrum: SpectrumFront::new(),
+            },
+        }
     }
 
     /// Boot the model the store selects (its newest verified slot at or above the rollback
@@ -472,6 +499,10 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             stack_peak_bytes: self.stack_probe.map_or(0, |p| p()),
             staging_erases: self.store.transfer_erases(),
             store: self.store.status(),
+            #[cfg(feature = "spectrum")]
+            spectra: self.spectrum.status(),
+            #[cfg(not(feature = "spectrum"))]
+            spectra: c.spectra,
         }
     }
 
@@ -484,8 +515,19 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
     fn answer<W: Write>(&mut self, msg: &HostMsg<'_>, tx: &mut W) -> Result<(), W::Error> {
         self.count_frame();
         if let HostMsg::Sample { seq, ref sample } = *msg {
-            let e = self.step(seq, sample);
+            let e = self.step(seq, sample, Flags::OK);
             return send_estimate(tx, e);
+        }
+        #[cfg(feature = "spectrum")]
+        if let HostMsg::SpectrumPixels { first_pixel, data } = *msg {
+            // Detection returns before the step runs (`SpectrumFront::detect` is not inlined).
+            return match self.spectrum.pixels(first_pixel, data) {
+                Outcome::Reading { seq, sample, flags } => {
+                    let e = self.step(seq, &sample, flags);
+                    send_estimate(tx, e)
+                }
+                other => send(tx, &spectrum_reply(other)),
+            };
         }
         self.answer_other(msg, tx)
     }
@@ -531,7 +573,47 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
                 self.comp.set_clock(clock);
                 DeviceMsg::Pong { nonce }
             }
-            HostMsg::Sample { seq, ref sample } => DeviceMsg::Estimate(self.step(seq, sample)),
+            HostMsg::Sample { seq, ref sample } => DeviceMsg::Estimate(self.step(seq, sample, Flags::OK)),
+            #[cfg(feature = "spectrum")]
+            HostMsg::SpectrumGrid { gratings, pixels, uniform, coefficients, method, full_scale } => {
+                spectrum_reply(self.spectrum.grid(&GridSetup {
+                    gratings,
+                    pixels,
+                    uniform,
+                    coefficients,
+                    method,
+                    full_scale,
+                }))
+            }
+            #[cfg(feature = "spectrum")]
+            HostMsg::SpectrumGrating { index, channel, lo_nm, hi_nm, ref_hi_nm, ref_lo_nm } => {
+                spectrum_reply(self.spectrum.grating(&GratingSetup {
+                    index,
+                    channel,
+                    window: Window::new(lo_nm, hi_nm),
+                    shift: ShiftRef { hi_nm: ref_hi_nm, lo_nm: ref_lo_nm },
+                }))
+            }
+            #[cfg(feature = "spectrum")]
+            HostMsg::SpectrumBegin { seq, channel, t_s, t_amb_c } => {
+                spectrum_reply(self.spectrum.begin(seq, channel, t_s, t_amb_c))
+            }
+            #[cfg(feature = "spectrum")]
+            HostMsg::SpectrumPixels { first_pixel, data } => match self.spectrum.pixels(first_pixel, data) {
+                Outcome::Reading { seq, sample, flags } => DeviceMsg::Estimate(self.step(seq, &sample, flags)),
+                other => spectrum_reply(other),
+            },
+            #[cfg(not(feature = "spectrum"))]
+            HostMsg::SpectrumGrid { .. }
+            | HostMsg::SpectrumGrating { .. }
+            | HostMsg::SpectrumBegin { .. }
+            | HostMsg::SpectrumPixels { .. } => {
+                let r = SpectrumRefusal::new(SpectrumError::Unsupported, 0);
+                let c = &mut self.status.spectra;
+                c.refused = c.refused.wrapping_add(1);
+                c.last_refusal = Some(r);
+                DeviceMsg::SpectrumRefused(r)
+            }
             HostMsg::GetStatus => DeviceMsg::Status(self.status()),
             HostMsg::ModelBegin { total_len, crc32 } => self.begin(total_len, crc32),
             HostMsg::ModelChunk { offset, data } => self.chunk(offset, data),
@@ -541,11 +623,15 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
         }
     }
 
-    fn step(&mut self, seq: u32, sample: &Sample<f32>) -> DeviceEstimate {
+    /// Compensate `sample`; `extra` are flags from outside the model (a spectrum's peaks),
+    /// added to the estimate's and driving the alarm like them.
+    fn step(&mut self, seq: u32, sample: &Sample<f32>, extra: Flags) -> DeviceEstimate {
         let e = (self.kernel.step)(self.comp, sample);
         self.status.samples = self.status.samples.wrapping_add(1);
-        let _ = self.alarm.set_state(PinState::from(e.flags.is_fault()));
-        DeviceEstimate::new(seq, &e)
+        let mut d = DeviceEstimate::new(seq, &e);
+        d.flags.insert(extra);
+        let _ = self.alarm.set_state(PinState::from(d.flags.is_fault()));
+        d
     }
 
     fn begin(&mut self, total_len: u32, crc: u32) -> DeviceMsg {
@@ -590,6 +676,21 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             r.detail
         );
         DeviceMsg::UpdateResult(UpdateResult::Rejected(r))
+    }
+}
+
+/// The answer to a spectrum message that did not complete a reading.
+#[cfg(feature = "spectrum")]
+fn spectrum_reply(out: Outcome) -> DeviceMsg {
+    match out {
+        Outcome::Set(missing) => DeviceMsg::SpectrumSet { missing },
+        Outcome::Ack(received) => DeviceMsg::SpectrumAck { received },
+        Outcome::Refused(r) => {
+            log!(warn, "spectrum message refused: {} (detail {=u16})", r.reason, r.detail);
+            DeviceMsg::SpectrumRefused(r)
+        }
+        // Not reached: a reading is stepped by the caller and answered with its estimate.
+        Outcome::Reading { .. } => DeviceMsg::SpectrumAck { received: 0 },
     }
 }
 

@@ -28,8 +28,13 @@ use embedded_io::Write;
 use fbg_firmware::counters::{cycles_now, cycles_start, systick_elapsed, systick_now, systick_start};
 use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
 use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL, POLICY, STAGING_LEN};
+use fbg_firmware_app::spectrum::{GratingSetup, GridSetup, Outcome, SpectrumFront};
 use fbg_firmware_app::{authenticate, load_blob, unloaded};
+use fbg_shared::protocol::MAX_PIXELS_PER_CHUNK;
 use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
+use fbg_shared::spectrum::centroid::maximum;
+use fbg_shared::spectrum::correlation::cross_correlation;
+use fbg_shared::spectrum::{DetectorConfig, Estimate, Grid, Method, Region, ShiftRef, Spectrum, Window};
 use fbg_shared::{Compensator, MemoryBank, MemoryState, ModelParams, Sample, StreamState};
 
 static PACK: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_pack.bin"));
@@ -38,6 +43,11 @@ static SIGNED: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_signed.fb
 const MAX_SAMPLES: usize = 64;
 const CALIB_ITERS: u32 = 100_000;
 const RUNS: [u32; 2] = [200, 800];
+/// Runs of the spectrum bench (channel frames).
+const SPECTRUM_RUNS: [u32; 2] = [10, 40];
+/// The spectrum bench's frame: pixels, and the gratings' centres \[nm\] (all on channel 0).
+const SPECTRUM_PIXELS: usize = 512;
+const SPECTRUM_PEAKS: [f32; 3] = [1530.013, 1550.021, 1570.034];
 /// Modes: (name, time-stamp jitter on every other step [s]).
 const MODES: [(&str, f32); 2] = [("regular", 0.0), ("jitter", 0.25)];
 
@@ -113,6 +123,169 @@ fn step_loop(comp: &mut Compensator<f32, K>, r: &Replay<'_>, n: u32) {
     for i in 0..n as usize {
         let s = r.nth(i);
         black_box(step(comp, black_box(&s)));
+    }
+}
+
+/// One 512-pixel frame (little-endian u16) of three Gaussian peaks of 0.3 nm FWHM, 20 000
+/// counts over a floor of 1 000, with ±35 counts of deterministic noise (σ ≈ 20: 30 dB), on
+/// the grid λ(p) = 1510 + 0.166·p + 2·10⁻⁶·p² nm (the QEMU spectrum test's). The Gaussian is
+/// (1 − z²/128)⁶⁴ (within 1 % of exp(−z²/2) where it matters; the cost does not depend on it).
+fn make_frame(out: &mut [u8; 2 * SPECTRUM_PIXELS]) {
+    let mut state: u32 = 12_345;
+    for (p, px) in out.chunks_exact_mut(2).enumerate() {
+        let x = p as f32;
+        let lambda = 1510.0 + x * (0.166 + x * 2.0e-6);
+        let mut v = 1000.0f32;
+        for c in SPECTRUM_PEAKS {
+            let z = (lambda - c) / (0.3 / 2.354_82);
+            let mut g = 1.0 - z * z / 128.0;
+            if g > 0.0 {
+                for _ in 0..6 {
+                    g *= g;
+                }
+                v += 20_000.0 * g;
+            }
+        }
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        v += ((state >> 16) % 71) as f32 - 35.0;
+        px.copy_from_slice(&(v as u16).to_le_bytes());
+    }
+}
+
+/// `n` channel frames through the device's spectrum front (begin, the chunks, the three
+/// gratings' detection); returns the readings completed (`n` when all is well).
+#[inline(never)]
+fn frame_loop(front: &mut SpectrumFront, frame: &[u8], n: u32) -> u32 {
+    let mut readings = 0;
+    for i in 0..n {
+        black_box(front.begin(i, 0, i as f32 * 60.0, 20.0));
+        for (k, c) in frame.chunks(2 * MAX_PIXELS_PER_CHUNK).enumerate() {
+            let first = (k * MAX_PIXELS_PER_CHUNK) as u16;
+            if let Outcome::Reading { .. } = black_box(front.pixels(first, black_box(c))) {
+                readings += 1;
+            }
+        }
+    }
+    readings
+}
+
+/// `n` channel frames on a channel without gratings: the frame's reception alone.
+#[inline(never)]
+fn ingest_loop(front: &mut SpectrumFront, frame: &[u8], n: u32) {
+    for i in 0..n {
+        black_box(front.begin(i, 9, i as f32 * 60.0, 20.0));
+        for (k, c) in frame.chunks(2 * MAX_PIXELS_PER_CHUNK).enumerate() {
+            black_box(front.pixels((k * MAX_PIXELS_PER_CHUNK) as u16, black_box(c)));
+        }
+    }
+}
+
+/// A method's estimator (the detector's `detect_with` argument).
+type EstimateFn = fn(&Region<'_, f32>, f32) -> Estimate<f32>;
+
+/// `n` detections of one window's peak (the first grating's 25 pixels, f32) with `estimate`.
+#[inline(never)]
+fn window_loop(
+    config: &DetectorConfig<f32>,
+    part: &Spectrum<'_, f32>,
+    window: &Window<f32>,
+    estimate: EstimateFn,
+    n: u32,
+) {
+    for _ in 0..n {
+        black_box(config.detect_with(black_box(part), window, estimate));
+    }
+}
+
+#[inline(never)]
+fn window_empty_loop(part: &Spectrum<'_, f32>, n: u32) {
+    for _ in 0..n {
+        black_box(black_box(part));
+    }
+}
+
+/// Where a frame's instructions go: its reception alone (a channel without gratings), and one
+/// window's detection with the maximum (the detector's common part: checks, noise, region,
+/// half-widths, flags) and with the cross-correlation.
+fn bench_spectrum_parts(uart: &mut CmsdkUart, front: &mut SpectrumFront, frame: &[u8]) {
+    for n in SPECTRUM_RUNS {
+        let (te, _) = measure(|| frame_empty_loop(frame, n));
+        let (tf, _) = measure(|| ingest_loop(front, frame, n));
+        emit(uart, format_args!("spectrum_part what=ingest n={} empty_ticks={} ticks={}", n, te, tf));
+    }
+    let grid = Grid::polynomial([1510.0, 0.166, 2.0e-6, 0.0, 0.0, 0.0]);
+    let window = Window::centred(SPECTRUM_PEAKS[0], 2.0);
+    let Some(span) = window.span_of(&grid, 0, SPECTRUM_PIXELS) else { exit_failure() };
+    let mut buf = [0f32; 64];
+    for (d, px) in buf.iter_mut().zip(frame.chunks_exact(2).skip(span.first)) {
+        if let [lo, hi] = *px {
+            *d = f32::from(u16::from_le_bytes([lo, hi]));
+        }
+    }
+    let len = (span.last - span.first + 1).min(64);
+    let part = Spectrum::part(buf.get(..len).unwrap_or(&[]), grid, span.first);
+    let config = DetectorConfig { full_scale: 65_535.0, ..DetectorConfig::default() };
+    let methods: [(&str, EstimateFn); 2] =
+        [("window_maximum", |r, _| maximum(r)), ("window_cross_correlation", cross_correlation::<f32>)];
+    for (what, f) in methods {
+        for n in SPECTRUM_RUNS {
+            let (te, _) = measure(|| window_empty_loop(&part, n));
+            let (tf, _) = measure(|| window_loop(&config, &part, &window, f, n));
+            emit(uart, format_args!("spectrum_part what={} n={} empty_ticks={} ticks={}", what, n, te, tf));
+        }
+    }
+}
+
+/// [`frame_loop`] without the device: the same loop over the chunks.
+#[inline(never)]
+fn frame_empty_loop(frame: &[u8], n: u32) {
+    for i in 0..n {
+        black_box(i);
+        for c in frame.chunks(2 * MAX_PIXELS_PER_CHUNK) {
+            black_box(c);
+        }
+    }
+}
+
+/// The spectrum bench: instructions per 512-pixel channel frame with three gratings, default
+/// method (cross-correlation), as the product receives it (without the link's framing and
+/// without the step, timed apart).
+fn bench_spectrum(uart: &mut CmsdkUart, front: &mut SpectrumFront, frame: &mut [u8; 2 * SPECTRUM_PIXELS]) {
+    make_frame(frame);
+    let grid = GridSetup {
+        gratings: 3,
+        pixels: SPECTRUM_PIXELS as u16,
+        uniform: false,
+        coefficients: [1510.0, 0.166, 2.0e-6, 0.0, 0.0, 0.0],
+        method: Method::CrossCorrelation.code(),
+        full_scale: 65_535.0,
+    };
+    let mut ok = matches!(front.grid(&grid), Outcome::Set(3));
+    for (k, c) in SPECTRUM_PEAKS.iter().enumerate() {
+        let g = GratingSetup {
+            index: k as u8,
+            channel: 0,
+            window: Window::centred(*c, 2.0),
+            shift: ShiftRef { hi_nm: *c, lo_nm: 0.0 },
+        };
+        ok &= matches!(front.grating(&g), Outcome::Set(_));
+    }
+    if !ok {
+        emit(uart, format_args!("error spectrum set-up refused"));
+        exit_failure()
+    }
+    black_box(frame_loop(front, frame, 2));
+    for n in SPECTRUM_RUNS {
+        let (te, _) = measure(|| frame_empty_loop(frame, n));
+        let mut readings = 0;
+        let (tf, _) = measure(|| readings = frame_loop(front, frame, n));
+        emit(
+            uart,
+            format_args!(
+                "spectrum pixels={} gratings=3 n={} readings={} empty_ticks={} frame_ticks={}",
+                SPECTRUM_PIXELS, n, readings, te, tf
+            ),
+        );
     }
 }
 
@@ -238,6 +411,8 @@ fn bench_model(
 #[entry]
 fn main() -> ! {
     static mut MODEL: Compensator<f32, K> = unloaded();
+    static mut FRONT: Option<SpectrumFront> = None;
+    static mut FRAME: [u8; 2 * SPECTRUM_PIXELS] = [0; 2 * SPECTRUM_PIXELS];
     static mut SAMPLES: [Sample<f32>; MAX_SAMPLES] =
         [Sample { dl_pm: [0.0; fbg_shared::layout::MAX_GRATINGS], gratings: 0, t_amb_c: 0.0, t_s: 0.0 }; MAX_SAMPLES];
 
@@ -265,6 +440,9 @@ fn main() -> ! {
         ),
     );
     bench_verify(&mut uart);
+    let front = FRONT.insert(SpectrumFront::new());
+    bench_spectrum(&mut uart, front, FRAME);
+    bench_spectrum_parts(&mut uart, front, FRAME);
     for (idx, rec) in fbg_shared::golden::records(PACK).enumerate() {
         let Some(rec) = rec else {
             emit(&mut uart, format_args!("error bench pack malformed at record {}", idx));

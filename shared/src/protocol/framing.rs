@@ -12,7 +12,7 @@ use crate::crc32c::crc32c;
 /// oversize frame.
 pub const HOST_MAX_FRAME: usize = 256;
 /// Receive buffer a host needs for one device frame, delimiter included.
-pub const DEVICE_MAX_FRAME: usize = 168;
+pub const DEVICE_MAX_FRAME: usize = 192;
 
 /// CRC-32/ISCSI of `bytes`: the frame check and the whole-blob check of
 /// [`HostMsg::ModelBegin`] (the same flavour as the blob trailer).
@@ -211,8 +211,8 @@ mod tests {
     use crate::compensator::Sample;
     use crate::flags::Flags;
     use crate::protocol::{
-        BootSource, DeviceEstimate, Refusals, RejectReason, Rejection, Status, StoreStatus, UpdateResult, MAX_CHUNK,
-        STORE_SECTORS,
+        BootSource, DeviceEstimate, Refusals, RejectReason, Rejection, SpectrumError, SpectrumRefusal, SpectrumStatus,
+        Status, StoreStatus, UpdateResult, MAX_CHUNK, STORE_SECTORS,
     };
     use crate::signature::KeyId;
 
@@ -261,6 +261,24 @@ mod tests {
             HostMsg::ModelCommit,
             HostMsg::GetStatus,
             HostMsg::ResetStream { nonce: 3, clock: crate::StreamClock::StartUnix(1.7e9) },
+            HostMsg::SpectrumGrid {
+                gratings: 8,
+                pixels: u16::MAX,
+                uniform: false,
+                coefficients: [f32::MAX; crate::spectrum::POLY_COEFFS],
+                method: u8::MAX,
+                full_scale: f32::INFINITY,
+            },
+            HostMsg::SpectrumGrating {
+                index: u8::MAX,
+                channel: u8::MAX,
+                lo_nm: f32::MAX,
+                hi_nm: f32::MIN,
+                ref_hi_nm: 1550.0,
+                ref_lo_nm: -1e-5,
+            },
+            HostMsg::SpectrumBegin { seq: u32::MAX, channel: u8::MAX, t_s: f32::NAN, t_amb_c: f32::NAN },
+            HostMsg::SpectrumPixels { first_pixel: u16::MAX, data: &DATA },
         ]
     }
 
@@ -313,7 +331,16 @@ mod tests {
                     refusals_unlogged: u32::MAX,
                     boot_time_us: u32::MAX,
                 },
+                spectra: SpectrumStatus {
+                    frames: u32::MAX,
+                    frames_dropped: u32::MAX,
+                    refused: u32::MAX,
+                    last_refusal: Some(SpectrumRefusal::new(SpectrumError::Overrun, u16::MAX)),
+                },
             }),
+            DeviceMsg::SpectrumSet { missing: u8::MAX },
+            DeviceMsg::SpectrumAck { received: u16::MAX },
+            DeviceMsg::SpectrumRefused(SpectrumRefusal::new(SpectrumError::BadGrating, u16::MAX)),
             DeviceMsg::UpdateProgress { received: u32::MAX },
             DeviceMsg::UpdateResult(UpdateResult::Accepted { centres: 64, crc: u32::MAX }),
             DeviceMsg::UpdateResult(UpdateResult::Rejected(rej)),

@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::reject::{RejectReason, Rejection};
+use super::spectrum::{SpectrumRefusal, SpectrumStatus};
 use crate::clock::StreamClock;
 use crate::compensator::{Estimate, Sample};
 use crate::flags::Flags;
@@ -11,11 +12,14 @@ use crate::signature::KeyId;
 
 /// Largest `data` of one [`HostMsg::ModelChunk`] in bytes.
 pub const MAX_CHUNK: usize = 192;
+/// Most pixels in one [`HostMsg::SpectrumPixels`] (its data: little-endian u16, at most
+/// [`MAX_CHUNK`] bytes).
+pub const MAX_PIXELS_PER_CHUNK: usize = MAX_CHUNK / 2;
 /// Largest postcard payload of any [`HostMsg`] (a full chunk: tag, offset, length, data).
 pub const HOST_MAX_PAYLOAD: usize = MAX_CHUNK + 16;
 /// Largest postcard payload of any [`DeviceMsg`] (a [`Status`] with a rejection, a signed
-/// model's serial and key id, and the model store's figures).
-pub const DEVICE_MAX_PAYLOAD: usize = 160;
+/// model's serial and key id, the model store's figures and the spectrum counters).
+pub const DEVICE_MAX_PAYLOAD: usize = 184;
 
 /// A message from the host to the device.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -61,6 +65,66 @@ pub enum HostMsg<'a> {
         nonce: u32,
         /// The new stream's clock.
         clock: StreamClock,
+    },
+    /// Set the spectrum detector up (forgetting any earlier set-up and frame): the grid, the
+    /// frames' pixel count, the method and the full scale; the gratings follow
+    /// ([`HostMsg::SpectrumGrating`]). Held in RAM: a reset forgets it (the host sets it up
+    /// again, as it resets the stream). Answered by [`DeviceMsg::SpectrumSet`] or
+    /// [`DeviceMsg::SpectrumRefused`].
+    SpectrumGrid {
+        /// The model's gratings N, one [`HostMsg::SpectrumGrating`] each (1 to 8).
+        gratings: u8,
+        /// Pixels per frame.
+        pixels: u16,
+        /// `true`: λ(p) = c₀ + c₁·p (`crate::spectrum::Grid::Uniform`); `false`: the
+        /// polynomial Σₖ cₖ·pᵏ \[nm\].
+        uniform: bool,
+        /// c₀ … c₅ \[nm/pixelᵏ\].
+        coefficients: [f32; crate::spectrum::POLY_COEFFS],
+        /// [`crate::spectrum::Method::code`] (4: cross-correlation, the default).
+        method: u8,
+        /// The detector's full scale in counts (65 535 for a 16-bit frame; a sample at or
+        /// above it is saturated); +∞ for never.
+        full_scale: f32,
+    },
+    /// One grating of the set-up: where its peak is looked for and its λ_ref.
+    SpectrumGrating {
+        /// Its position among the model's gratings (0-based).
+        index: u8,
+        /// The spectrometer channel its peak is in.
+        channel: u8,
+        /// Search window, lower bound \[nm\].
+        lo_nm: f32,
+        /// Search window, upper bound \[nm\].
+        hi_nm: f32,
+        /// λ_ref \[nm\] as two f32 ([`crate::spectrum::ShiftRef::from_nm`] of the model's
+        /// λ_ref): the high part.
+        ref_hi_nm: f32,
+        /// λ_ref's low part \[nm\].
+        ref_lo_nm: f32,
+    },
+    /// A channel's frame starts; its pixels follow ([`HostMsg::SpectrumPixels`]). Once every
+    /// grating has a peak from frames of the same `t_s`, the frame that completes them is
+    /// answered by [`DeviceMsg::Estimate`] with `seq` (the sample of those shifts, with
+    /// `t_amb_c` and `t_s`); each other message of the frame by [`DeviceMsg::SpectrumAck`].
+    /// Begun again, a frame in progress is dropped.
+    SpectrumBegin {
+        /// Echoed in the estimate.
+        seq: u32,
+        /// The spectrometer channel.
+        channel: u8,
+        /// Time on the calibration clock \[s\] (the frames of one reading share it).
+        t_s: f32,
+        /// Ambient reference temperature \[°C\] (NaN without one).
+        t_amb_c: f32,
+    },
+    /// The next pixels of the frame: `first_pixel` must be the number received so far.
+    SpectrumPixels {
+        /// Index of the first pixel in `data`.
+        first_pixel: u16,
+        /// Little-endian u16 counts, at most [`MAX_PIXELS_PER_CHUNK`] of them.
+        #[serde(borrow)]
+        data: &'a [u8],
     },
 }
 
@@ -136,6 +200,20 @@ pub enum DeviceMsg {
     },
     /// End of a model update: the new model is active, or the old one still is and why.
     UpdateResult(UpdateResult),
+    /// Answer to [`HostMsg::SpectrumGrid`] and [`HostMsg::SpectrumGrating`]: the set-up was
+    /// taken; `missing` gratings are still to come (0: frames are accepted).
+    SpectrumSet {
+        /// Gratings not set up yet.
+        missing: u8,
+    },
+    /// Answer to a [`HostMsg::SpectrumBegin`] or [`HostMsg::SpectrumPixels`] that did not
+    /// complete a reading: `received` pixels of the frame have arrived.
+    SpectrumAck {
+        /// Pixels of the frame so far.
+        received: u16,
+    },
+    /// A spectrum message was refused.
+    SpectrumRefused(SpectrumRefusal),
 }
 
 /// Outcome of a model update.
@@ -195,6 +273,8 @@ pub struct Status {
     /// The persistent model store: where the running model was booted from, the rollback
     /// floor, the event log and the wear of every sector.
     pub store: StoreStatus,
+    /// Spectrum frames: received, dropped, refused.
+    pub spectra: SpectrumStatus,
 }
 
 /// Sectors of the device's model store: slot A, slot B, log sector 0, log sector 1.

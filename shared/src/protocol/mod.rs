@@ -32,6 +32,8 @@
 //! | `GetStatus` | `Status{..}` |
 //! | `ModelBegin{total_len, crc32}` / `ModelChunk{offset, data}` | `UpdateProgress{received}`, or `UpdateResult(Rejected)` |
 //! | `ModelCommit` | `UpdateResult(Accepted | Rejected)` |
+//! | `SpectrumGrid{..}` / `SpectrumGrating{..}` | `SpectrumSet{missing}` or `SpectrumRefused` |
+//! | `SpectrumBegin{seq, channel, t_s, t_amb_c}` / `SpectrumPixels{first_pixel, data}` | `SpectrumAck{received}`, `Estimate` (the frame that completes a reading), or `SpectrumRefused` |
 //!
 //! A model update stages the blob (`ModelBegin`, in-order `ModelChunk`s of at most
 //! [`MAX_CHUNK`] bytes), then `ModelCommit` checks the transfer CRC and decodes the blob with
@@ -67,6 +69,7 @@
 //!
 //! - `messages`: what travels ([`HostMsg`], [`DeviceMsg`] and their parts) and its size
 //!   limits;
+//! - `spectrum`: spectrum frames' limits, refusals and counters ([`SpectrumError`]);
 //! - `reject`: the stable [`RejectReason`] codes of a refused model update;
 //! - `framing`: CRC envelope, COBS frames, the incremental [`FrameReader`].
 //!
@@ -75,6 +78,7 @@
 mod framing;
 mod messages;
 mod reject;
+mod spectrum;
 
 pub use framing::{
     crc32, decode_frame, encode_device, encode_host, encode_into, EncodeError, Feed, FrameReader, Malformed,
@@ -82,6 +86,7 @@ pub use framing::{
 };
 pub use messages::{
     BootSource, DeviceEstimate, DeviceMsg, HostMsg, Refusals, Status, StoreStatus, UpdateResult, DEVICE_MAX_PAYLOAD,
-    HOST_MAX_PAYLOAD, MAX_CHUNK, STORE_SECTORS,
+    HOST_MAX_PAYLOAD, MAX_CHUNK, MAX_PIXELS_PER_CHUNK, STORE_SECTORS,
 };
 pub use reject::{RejectReason, Rejection};
+pub use spectrum::{SpectrumError, SpectrumRefusal, SpectrumStatus, MAX_FRAME_PIXELS};

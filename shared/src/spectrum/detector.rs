@@ -1,5 +1,6 @@
 //! The peak detector: per-grating windows, a method, thresholds and the quality checks.
 
+use super::estimate::Estimate;
 use super::flags::PeakFlags;
 use super::gauss3::gaussian3;
 use super::method::Method;
@@ -116,12 +117,34 @@ impl<R: Real, const N: usize> PeakDetector<R, N> {
         core::array::from_fn(|k| self.windows.get(k).map(|w| self.detect_in(spectrum, w)))
     }
 
-    /// The peak in one window.
+    /// The peak in one window ([`DetectorConfig::detect`]).
     pub fn detect_in(&self, spectrum: &Spectrum<'_, R>, window: &Window<R>) -> Peak<R> {
-        let c = &self.config;
+        self.config.detect(spectrum, window)
+    }
+}
+
+impl<R: Real> DetectorConfig<R> {
+    /// The peak in one window with these settings: the detector's work for one grating. A
+    /// [`Spectrum::part`] holding the window's pixels gives the peak the whole frame gives.
+    pub fn detect(&self, spectrum: &Spectrum<'_, R>, window: &Window<R>) -> Peak<R> {
+        self.detect_with(spectrum, window, |r, px| self.method.estimate(r, px))
+    }
+
+    /// [`DetectorConfig::detect`] with the method's estimator given, e.g.
+    /// [`super::correlation::cross_correlation`]: a device that runs one method then links that
+    /// one only. `self.method` must name it (it decides which width the peak reports); with
+    /// the estimator of `self.method` the result is [`DetectorConfig::detect`]'s, bit for bit.
+    pub fn detect_with(
+        &self,
+        spectrum: &Spectrum<'_, R>,
+        window: &Window<R>,
+        estimate: impl Fn(&Region<'_, R>, R) -> Estimate<R>,
+    ) -> Peak<R> {
+        let c = self;
         let nan = R::NAN;
         let Some(span) = window.span(spectrum) else { return Peak::none(nan, nan, PeakFlags::OK) };
-        let Some(w) = spectrum.samples().get(span.first..=span.last) else {
+        let off = spectrum.first_pixel();
+        let Some(w) = spectrum.samples().get(span.first.wrapping_sub(off)..=span.last.wrapping_sub(off)) else {
             return Peak::none(nan, nan, PeakFlags::OK);
         };
         if !w.iter().all(|v| v.is_finite()) {
@@ -142,7 +165,7 @@ impl<R: Real, const N: usize> PeakDetector<R, N> {
         } else {
             R::from_f64(REFERENCE_PER_FWHM) * HalfWidths::of(&region, real(region.imax), height0).fwhm()
         };
-        let est = c.method.estimate(&region, reference_px);
+        let est = estimate(&region, reference_px);
         // The half-maximum level from the method's height when it is sane (a fit's height on a
         // clipped top can be anything), else from the maximum.
         let h = if est.height > R::ZERO && est.height <= height0 + height0 { est.height } else { height0 };

@@ -1,5 +1,7 @@
 //! Quality flags of one detected peak.
 
+use crate::flags::Flags;
+
 /// Bit set of a peak's quality flags. `PeakFlags::OK` (no bit) is a clean peak.
 ///
 /// [`PeakFlags::FAULTS`] are the bits that make the wavelength itself suspect (nothing found,
@@ -77,6 +79,24 @@ impl PeakFlags {
     /// Union of two flag sets.
     pub const fn union(self, other: PeakFlags) -> PeakFlags {
         PeakFlags(self.0 | other.0)
+    }
+
+    /// What these peak flags add to the estimate of a sample made from the peak: a fault bit
+    /// raises [`Flags::PEAK_FAULT`] (a fault: it drives the alarm), any other bit
+    /// [`Flags::PEAK_QUALITY`] (not a fault). [`PeakFlags::NO_PEAK`] also leaves a NaN
+    /// wavelength, which the compensator flags [`Flags::NON_FINITE`].
+    ///
+    /// ```
+    /// use fbg_shared::spectrum::PeakFlags;
+    /// use fbg_shared::Flags;
+    /// assert_eq!(PeakFlags::OK.estimate_flags(), Flags::OK);
+    /// assert_eq!(PeakFlags::SATURATED.estimate_flags(), Flags::PEAK_FAULT);
+    /// assert_eq!(PeakFlags::LOW_SNR.estimate_flags(), Flags::PEAK_QUALITY);
+    /// ```
+    pub const fn estimate_flags(self) -> Flags {
+        let fault = if self.is_fault() { Flags::PEAK_FAULT.0 } else { 0 };
+        let quality = if self.0 & !PeakFlags::FAULTS.0 != 0 { Flags::PEAK_QUALITY.0 } else { 0 };
+        Flags(fault | quality)
     }
 }
 

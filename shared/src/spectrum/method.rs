@@ -33,6 +33,17 @@ impl Method {
     pub const ALL: [Method; 5] =
         [Method::Maximum, Method::Centroid, Method::Gaussian3, Method::GaussianFit, Method::CrossCorrelation];
 
+    /// Its code on the link (its position in [`Method::ALL`]: 0 maximum … 4
+    /// cross-correlation).
+    pub const fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The method of a link code, `None` for an unknown one.
+    pub fn from_code(code: u8) -> Option<Method> {
+        Method::ALL.get(usize::from(code)).copied()
+    }
+
     /// Its name (`maximum`, `centroid`, `gaussian3`, `gaussian-fit`, `cross-correlation`).
     pub const fn name(self) -> &'static str {
         match self {

@@ -15,7 +15,8 @@
 //!   [`correlation::cross_correlation`], chosen by [`Method`]; and [`template::template_fit`],
 //!   a fit of the grating's own shape (a [`Template`]) from a method's first estimate;
 //! - [`HalfWidths`] and [`shape::second_peak`]: the shape checks;
-//! - [`Peak`] with its [`PeakFlags`]; [`PeakDetector`] with its [`DetectorConfig`].
+//! - [`Peak`] with its [`PeakFlags`]; [`PeakDetector`] with its [`DetectorConfig`];
+//! - [`ShiftRef`]: a grating's λ_ref split in two reals, for the shift Δλ in f32.
 //!
 //! # Accuracy and cost
 //!
@@ -59,6 +60,7 @@ mod num;
 mod peak;
 mod region;
 pub mod shape;
+mod shift;
 pub mod template;
 mod view;
 mod window;
@@ -72,6 +74,7 @@ pub use noise::{NoiseEstimate, NOISE_SAMPLES};
 pub use peak::Peak;
 pub use region::{Region, Threshold};
 pub use shape::HalfWidths;
+pub use shift::ShiftRef;
 pub use template::Template;
 pub use view::{from_db, from_db_in_place, Spectrum};
 pub use window::{Span, Window};

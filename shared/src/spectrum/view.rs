@@ -25,6 +25,10 @@ pub fn from_db_in_place<R: Real>(values: &mut [R]) {
 /// One spectrum: linear intensities (any unit: counts, mW; never dB — see [`from_db`]) at the
 /// pixels of a [`Grid`]. Borrowed: a frame buffer is read in place.
 ///
+/// It may be a part of a frame ([`Spectrum::part`]): sample k is then at pixel
+/// `first_pixel + k` of the grid, so that a device keeping only the pixels of its gratings'
+/// windows finds the very peaks (bit for bit) the whole frame gives.
+///
 /// ```
 /// use fbg_shared::spectrum::{Grid, Spectrum};
 /// let s = [0.0f32, 1.0, 4.0, 1.0, 0.0];
@@ -36,12 +40,29 @@ pub fn from_db_in_place<R: Real>(values: &mut [R]) {
 pub struct Spectrum<'a, R> {
     samples: &'a [R],
     grid: Grid<R>,
+    first_pixel: usize,
 }
 
 impl<'a, R: Real> Spectrum<'a, R> {
     /// The spectrum of `samples` (sample k at pixel k of `grid`).
     pub fn new(samples: &'a [R], grid: Grid<R>) -> Self {
-        Spectrum { samples, grid }
+        Spectrum { samples, grid, first_pixel: 0 }
+    }
+    /// A part of a frame: sample k at pixel `first_pixel + k` of `grid`.
+    ///
+    /// ```
+    /// use fbg_shared::spectrum::{Grid, Spectrum, Window};
+    /// let s = [0.0f32; 20];
+    /// let part = Spectrum::part(&s[8..14], Grid::uniform(1500.0, 1.0), 8);
+    /// let w = Window::new(1509.0, 1530.0);
+    /// assert_eq!(w.span(&part).map(|s| (s.first, s.last)), Some((9, 13)));
+    /// ```
+    pub fn part(samples: &'a [R], grid: Grid<R>, first_pixel: usize) -> Self {
+        Spectrum { samples, grid, first_pixel }
+    }
+    /// The grid pixel of the first sample (0 for a whole frame).
+    pub fn first_pixel(&self) -> usize {
+        self.first_pixel
     }
     /// The intensities.
     pub fn samples(&self) -> &'a [R] {

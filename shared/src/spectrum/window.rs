@@ -1,5 +1,6 @@
 //! A grating's search window: the wavelength range its peak is looked for in.
 
+use super::grid::Grid;
 use super::num::{ceil_index, floor_index};
 use super::view::Spectrum;
 use crate::real::Real;
@@ -50,9 +51,16 @@ impl<R: Real> Window<R> {
 
     /// The pixels of `spectrum` whose wavelength lies in the window (on a grid increasing or
     /// decreasing with the pixel), `None` when fewer than three do or a bound is not finite.
+    /// Grid pixels: for a [`Spectrum::part`], within `first_pixel ..= first_pixel + len − 1`.
     pub fn span(&self, spectrum: &Spectrum<'_, R>) -> Option<Span> {
-        let last_px = spectrum.len().checked_sub(1)?;
-        let (mut a, mut b) = (spectrum.grid().pixel(self.lo_nm), spectrum.grid().pixel(self.hi_nm));
+        self.span_of(spectrum.grid(), spectrum.first_pixel(), spectrum.len())
+    }
+
+    /// [`Window::span`] on `len` pixels of `grid` from `first_pixel` (no samples needed: a
+    /// device sets its windows up before any frame arrives).
+    pub fn span_of(&self, grid: &Grid<R>, first_pixel: usize, len: usize) -> Option<Span> {
+        let last_px = first_pixel.checked_add(len.checked_sub(1)?)?;
+        let (mut a, mut b) = (grid.pixel(self.lo_nm), grid.pixel(self.hi_nm));
         if b < a {
             core::mem::swap(&mut a, &mut b);
         }
@@ -60,7 +68,7 @@ impl<R: Real> Window<R> {
         if !(a.is_finite() && b.is_finite()) || b < R::ZERO || a > limit {
             return None;
         }
-        let first = ceil_index(a);
+        let first = ceil_index(a).max(first_pixel);
         let last = floor_index(if b > limit { limit } else { b })?.min(last_px);
         (last >= first.checked_add(2)?).then_some(Span { first, last })
     }

@@ -9,7 +9,7 @@ use std::time::Duration;
 use anyhow::{bail, ensure, Context, Result};
 
 use super::ops::step_ops_of;
-use super::{StepBench, TypeSizes, VerifyBench};
+use super::{SpectrumBench, StepBench, TypeSizes, VerifyBench};
 use crate::cmd::{cargo_own_target, run, step};
 use crate::firmware::emulator::{out_dir, Qemu};
 use crate::firmware::{self};
@@ -40,6 +40,10 @@ struct Output {
     /// (signed model bytes, ticks, stack peak) of the signature check.
     verify: Option<(u64, f64, u32)>,
     sizes: Option<TypeSizes>,
+    /// [n, empty_ticks, frame_ticks, 0, 0] of the spectrum bench's runs.
+    spectrum: Vec<[f64; 5]>,
+    /// The same for each part of a frame's cost (`spectrum_part what=…`).
+    spectrum_parts: HashMap<String, Vec<[f64; 5]>>,
 }
 
 fn parse_output(text: &str) -> Result<Output> {
@@ -61,6 +65,21 @@ fn parse_output(text: &str) -> Result<Output> {
         } else if line.starts_with("verify ") {
             ensure!(num(&kv, "ok")? == 1.0, "the bench image's signed model did not pass the signature check: {line}");
             o.verify = Some((num(&kv, "bytes")? as u64, num(&kv, "ticks")?, num(&kv, "stack_peak")? as u32));
+        } else if line.starts_with("spectrum ") {
+            ensure!(
+                num(&kv, "readings")? == num(&kv, "n")?,
+                "the spectrum bench's frames did not all make a reading: {line}"
+            );
+            o.spectrum.push([num(&kv, "n")?, num(&kv, "empty_ticks")?, num(&kv, "frame_ticks")?, 0.0, 0.0]);
+        } else if line.starts_with("spectrum_part ") {
+            let what = kv.get("what").cloned().unwrap_or_default();
+            o.spectrum_parts.entry(what).or_default().push([
+                num(&kv, "n")?,
+                num(&kv, "empty_ticks")?,
+                num(&kv, "ticks")?,
+                0.0,
+                0.0,
+            ]);
         } else if line.starts_with("stack ") {
             o.stack_peak = num(&kv, "peak")? as u32;
         } else if line.starts_with("model ") {
@@ -138,6 +157,7 @@ pub(super) fn bench_pack(
     capacity: usize,
     sizes: &mut Option<TypeSizes>,
     verify: &mut Option<VerifyBench>,
+    spectrum: &mut Option<SpectrumBench>,
 ) -> Result<Vec<StepBench>> {
     step(&format!("bench: instructions per step, capacity {capacity} (QEMU -icount shift=0)"));
     let fx = fixtures::ensure(root)?;
@@ -163,6 +183,20 @@ pub(super) fn bench_pack(
     // The line carries ticks: instructions through the same calibration as the steps.
     if let Some((bytes, ticks, stack_peak)) = out.verify {
         *verify = Some(VerifyBench { bytes, instructions: ticks * ipt, stack_peak });
+    }
+    if !out.spectrum.is_empty() {
+        let (per_run, insns_per_frame, _) = cost(&out.spectrum, ipt).context("spectrum bench")?;
+        let part = |what: &str| -> Result<f64> {
+            let runs = out.spectrum_parts.get(what).with_context(|| format!("no spectrum part `{what}`"))?;
+            Ok(cost(runs, ipt).with_context(|| what.to_string())?.1)
+        };
+        *spectrum = Some(SpectrumBench {
+            insns_per_frame,
+            per_run,
+            ingest_per_frame: part("ingest")?,
+            window_maximum: part("window_maximum")?,
+            window_cross_correlation: part("window_cross_correlation")?,
+        });
     }
     let mut steps = Vec::new();
     for (idx, b) in rows.iter().enumerate() {

@@ -36,6 +36,46 @@ pub struct DeviceRecord {
     /// The STM32F405 board's images (`cargo xtask board`); absent when not measured.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub board: Option<BoardRecord>,
+    /// Spectrum frames on the device (absent from files written before them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spectrum: Option<SpectrumRow>,
+}
+
+/// Instructions per 512-pixel channel frame with three gratings (`spectrum` in device.json).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SpectrumRow {
+    pub what: String,
+    pub pixels: u32,
+    pub gratings: u32,
+    pub method: String,
+    pub instructions_per_frame: f64,
+    pub per_run: Vec<PerRun>,
+    pub target: u64,
+    pub met: bool,
+    /// A frame's reception alone (begin and chunks on a channel without gratings).
+    pub instructions_reception_per_frame: f64,
+    /// One 25-pixel window's detection by cross-correlation / by the maximum (the common part).
+    pub instructions_per_window_cross_correlation: f64,
+    pub instructions_per_window_maximum: f64,
+}
+
+impl SpectrumRow {
+    /// The row of one spectrum bench.
+    pub fn new(b: &super::SpectrumBench) -> Self {
+        SpectrumRow {
+            what: "fbg_firmware_app::spectrum::SpectrumFront: SpectrumBegin, 6 chunks of 96 pixels (the windows' pixels kept), 3 peaks detected in f32; without the link's framing and the step".into(),
+            pixels: 512,
+            gratings: 3,
+            method: "cross-correlation".into(),
+            instructions_per_frame: rounded(b.insns_per_frame, 1),
+            per_run: b.per_run.iter().map(|&(n, v)| PerRun { n, instructions_per_step: rounded(v, 1) }).collect(),
+            target: super::TARGET_INSNS_SPECTRUM_FRAME as u64,
+            met: b.insns_per_frame <= super::TARGET_INSNS_SPECTRUM_FRAME,
+            instructions_reception_per_frame: rounded(b.ingest_per_frame, 1),
+            instructions_per_window_cross_correlation: rounded(b.window_cross_correlation, 1),
+            instructions_per_window_maximum: rounded(b.window_maximum, 1),
+        }
+    }
 }
 
 /// Stack peaks of the board's product image \[B\], by painting, reported over its link.
@@ -332,6 +372,7 @@ impl DeviceRecord {
                 },
             },
             board: None,
+            spectrum: None,
             store: store.map(|b| Store {
                 what: STORE_WHAT.to_string(),
                 update_bytes: b.update_bytes,

@@ -22,7 +22,8 @@ pub struct SizeReport {
     pub footprint: Footprint,
     /// Stack peak during boot (embedded model decoded and folded) \[B\].
     pub stack_boot: u32,
-    /// Stack peak while serving samples, status and pings (painted again after boot) \[B\].
+    /// Stack peak while serving samples, spectrum frames, status and pings (painted again
+    /// after boot) \[B\].
     pub stack_serving: u32,
     /// Stack peak once a model update went through the link (includes serving) \[B\].
     pub stack_update: u32,
@@ -63,6 +64,8 @@ pub(super) fn measure_size(root: &Path, q: &Path, bins: &Bins) -> Result<SizeRep
     for (i, x) in samples.iter().enumerate() {
         s.link()?.compensate(i as u32, x)?;
     }
+    // And spectrum frames (set-up, chunks, detection, the step of each reading).
+    crate::qemu::spectrum::serve_readings(s.link()?, &default, 8)?;
     let _ = s.link()?.status()?;
     let stack_serving = s.link()?.status()?.stack_peak_bytes;
     // Model updates: a refused one (it fails in the fold, after a full parse) and an accepted

@@ -6,6 +6,8 @@ extern crate std;
 mod flash;
 mod serving;
 mod signing;
+#[cfg(feature = "spectrum")]
+mod spectrum;
 mod store;
 
 use std::collections::VecDeque;
