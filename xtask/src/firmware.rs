@@ -52,7 +52,40 @@ pub fn release_dir(root: &Path) -> PathBuf {
     dir(root).join("target").join(THUMB).join("release")
 }
 
-/// Build every firmware image with capacity `k` (release profile).
+/// The target directory of the spectrum variant (`--features spectrum`), apart from the
+/// default images' so that neither build evicts the other.
+pub fn spectrum_target_dir(root: &Path) -> PathBuf {
+    dir(root).join("target").join("spectrum")
+}
+
+/// Where the release images of the spectrum variant land.
+pub fn spectrum_release_dir(root: &Path) -> PathBuf {
+    spectrum_target_dir(root).join(THUMB).join("release")
+}
+
+/// Build the images `bins` (e.g. `fbg-firmware`, `bench`) with spectrum frames
+/// (`--features spectrum`) into [`spectrum_target_dir`], capacity `k`, bench pack `bench`;
+/// returns [`spectrum_release_dir`]. The default product is built without them: it is the one
+/// measured against DESIGN's RAM budgets.
+pub fn build_spectrum(root: &Path, k: usize, bench: Option<&Path>, bins: &[&str]) -> Result<PathBuf> {
+    let mut c = cargo_own_target();
+    c.current_dir(dir(root))
+        .args(["build", "--release", "--locked", "--features", "spectrum", "--target-dir"])
+        .arg(spectrum_target_dir(root));
+    for b in bins {
+        c.args(["--bin", b]);
+    }
+    run(c.envs(build_env(root, k, bench)))?;
+    Ok(spectrum_release_dir(root))
+}
+
+/// The product image with spectrum frames, capacity `k` (the QEMU spectrum test's and the
+/// second line of `cargo xtask size`).
+pub fn build_spectrum_product(root: &Path, k: usize) -> Result<PathBuf> {
+    Ok(build_spectrum(root, k, None, &["fbg-firmware"])?.join("fbg-firmware"))
+}
+
+/// Build every firmware image with capacity `k` (release profile), without spectrum frames.
 pub fn build(root: &Path, k: usize, bench: Option<&Path>) -> Result<Bins> {
     run(cargo_own_target()
         .current_dir(dir(root))

@@ -108,9 +108,9 @@ fn clippy(root: &Path) -> Result<()> {
     run(cargo().current_dir(root).args(["clippy", "--workspace", "--all-targets", "--locked", "--", "-D", "warnings"]))
 }
 
-/// The firmware workspace: the images for the thumb target (with the environment of the
-/// product build, so that neither rebuilds the other's build script), and every target of the
-/// device logic (`fbg-firmware-app`, whose tests run on the host).
+/// The firmware workspace: the images for the thumb target, without and with spectrum frames
+/// (with the environment of the product build, so that neither rebuilds the other's build
+/// script), and every target of the device logic (`fbg-firmware-app`, whose tests run on the host).
 fn firmware_clippy(root: &Path) -> Result<()> {
     step("lint: clippy of the firmware workspace (thumb image; device logic with its host tests), warnings denied");
     let fw = firmware::dir(root);
@@ -118,10 +118,23 @@ fn firmware_clippy(root: &Path) -> Result<()> {
         .current_dir(&fw)
         .args(["clippy", "--workspace", "--release", "--locked", "--", "-D", "warnings"])
         .envs(firmware::build_env(root, PRODUCT_K, None)))?;
+    // The images with spectrum frames (their own target directory, as `cargo xtask qemu`
+    // builds them).
+    run(cargo_own_target()
+        .current_dir(&fw)
+        .args(["clippy", "--release", "--locked", "--bins", "--features", "spectrum", "--target-dir"])
+        .arg(firmware::spectrum_target_dir(root))
+        .args(["--", "-D", "warnings"])
+        .envs(firmware::build_env(root, PRODUCT_K, None)))?;
     run(cargo_own_target()
         .current_dir(&fw)
         .args(["clippy", "-p", "fbg-firmware-app", "--all-targets", "--locked", "--target", &host_triple()?])
-        .args(["--", "-D", "warnings"]))
+        .args(["--", "-D", "warnings"]))?;
+    // And without spectrum frames, as the default product and the board build it.
+    run(cargo_own_target()
+        .current_dir(&fw)
+        .args(["clippy", "-p", "fbg-firmware-app", "--all-targets", "--locked", "--no-default-features"])
+        .args(["--target", &host_triple()?, "--", "-D", "warnings"]))
 }
 
 /// The features of `fbg-shared`, each alone, none and all, on the host and the device target:

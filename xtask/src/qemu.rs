@@ -1,7 +1,7 @@
 //! Firmware build and QEMU tests (`cargo xtask qemu`, part of `cargo xtask test`).
 //!
-//! 1. host unit tests of the device logic (`fbg-firmware-app`; its clippy is in `cargo xtask lint`)
-//!    and the default model checked against the trainer's;
+//! 1. host unit tests of the device logic (`fbg-firmware-app`; its clippy is in `cargo xtask lint`),
+//!    with and without spectrum frames, and the default model checked against the trainer's;
 //! 2. fault path: an image that executes UDF must end QEMU with a failure exit code;
 //! 3. golden vectors: the `golden` image compensates the fixture samples on the emulated
 //!    Cortex-M4F and sends its estimates over UART0 to a file; each is compared with the host's
@@ -30,12 +30,14 @@
 //!    product with rollbacks accepted): a rollback signed to replace serial 5 is refused over
 //!    serial 3, accepted over serial 5, refused when replayed over itself and after the device
 //!    moved on to serial 9;
-//! 6. spectrum frames: the product image is set up for a 512-pixel spectrometer with three
+//! 6. spectrum frames: the product image built with spectrum frames (`--features spectrum`;
+//!    the default product refuses them) is set up for a 512-pixel spectrometer with three
 //!    gratings on two channels and sent simulated spectra (Gaussian peaks at the paper
 //!    hold-out's shifts, 30 dB) in chunks through `fbg-link`; every estimate equals the host's
 //!    (`fbg-shared` f32 on the same frames) bit for bit with identical flags, the peaks' RMS
 //!    error against the simulated shifts is under 3 pm, and an out-of-order chunk and an
-//!    overrun are refused and counted (`qemu/spectrum.rs`);
+//!    overrun are refused and counted (`qemu/spectrum.rs`); the default product refuses a
+//!    spectrum message as `Unsupported` and counts it;
 //! 7. memory over 14 days: the product image, given a model with memory terms (the default
 //!    when it has them, else the default with the full memory bank added), compensates the
 //!    whole paper data set — 20 160 samples, 14 days — on an irregular clock with a 5 h gap;
@@ -84,10 +86,17 @@ pub fn run_all(root: &Path, all: bool) -> Result<()> {
         .current_dir(&fw)
         .args(["test", "-p", "fbg-firmware-app", "--locked", "--target", &host_triple()?])
         .env("FBG_TEST_MODEL", &fx.model))?;
+    // And as the default product builds it, without spectrum frames (they are refused).
+    run(cargo_own_target()
+        .current_dir(&fw)
+        .args(["test", "-p", "fbg-firmware-app", "--locked", "--no-default-features", "--target", &host_triple()?])
+        .env("FBG_TEST_MODEL", &fx.model))?;
     check_default_model(root, &fx)?;
 
     step("firmware: build (thumbv7em-none-eabihf, K = 32)");
     let bins = firmware::build(root, PRODUCT_K, None)?;
+    step("firmware: the product with spectrum frames (--features spectrum, its own target directory)");
+    let spectrum_product = firmware::build_spectrum_product(root, PRODUCT_K)?;
 
     let started = Instant::now();
     step("QEMU: fault path (UDF → HardFault → semihosting exit failure)");
@@ -109,7 +118,8 @@ pub fn run_all(root: &Path, all: bool) -> Result<()> {
     });
     store::store_tests(root, &qemu, &bins, &fx, &sfx, all)?;
     step("QEMU: spectrum frames (512 pixels, 3 gratings, in chunks) answered bit for bit as the host's f32");
-    spectrum::spectrum_test(root, &qemu, &bins, &fx)?;
+    spectrum::spectrum_test(root, &qemu, &spectrum_product, &fx)?;
+    spectrum::unsupported_test(root, &qemu, &bins.product)?;
     step("QEMU: a memory model over the whole 14-day paper stream (f32 device vs f64 host)");
     memory::long_memory_test(root, &qemu, &bins, &fx)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());

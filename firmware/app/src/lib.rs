@@ -295,9 +295,10 @@ struct Counters {
     refused: Refusals,
     last_rejection: Option<Rejection>,
     stack_boot_bytes: u32,
-    /// Spectrum messages refused by a build without them.
+    /// Spectrum messages refused by a build without them (each `Unsupported`, detail 0: the
+    /// count is all of its [`SpectrumStatus`]).
     #[cfg(not(feature = "spectrum"))]
-    spectra: SpectrumStatus,
+    spectra_refused: u32,
 }
 
 /// The device: answers host frames with the active model.
@@ -502,7 +503,11 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             #[cfg(feature = "spectrum")]
             spectra: self.spectrum.status(),
             #[cfg(not(feature = "spectrum"))]
-            spectra: c.spectra,
+            spectra: SpectrumStatus {
+                refused: c.spectra_refused,
+                last_refusal: (c.spectra_refused > 0).then_some(SpectrumRefusal::new(SpectrumError::Unsupported, 0)),
+                ..SpectrumStatus::default()
+            },
         }
     }
 
@@ -608,11 +613,8 @@ impl<P: OutputPin, F: MappedFlash, const K: usize> Core<'_, P, F, K> {
             | HostMsg::SpectrumGrating { .. }
             | HostMsg::SpectrumBegin { .. }
             | HostMsg::SpectrumPixels { .. } => {
-                let r = SpectrumRefusal::new(SpectrumError::Unsupported, 0);
-                let c = &mut self.status.spectra;
-                c.refused = c.refused.wrapping_add(1);
-                c.last_refusal = Some(r);
-                DeviceMsg::SpectrumRefused(r)
+                self.status.spectra_refused = self.status.spectra_refused.wrapping_add(1);
+                DeviceMsg::SpectrumRefused(SpectrumRefusal::new(SpectrumError::Unsupported, 0))
             }
             HostMsg::GetStatus => DeviceMsg::Status(self.status()),
             HostMsg::ModelBegin { total_len, crc32 } => self.begin(total_len, crc32),

@@ -28,12 +28,17 @@ use embedded_io::Write;
 use fbg_firmware::counters::{cycles_now, cycles_start, systick_elapsed, systick_now, systick_start};
 use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
 use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL, POLICY, STAGING_LEN};
+#[cfg(feature = "spectrum")]
 use fbg_firmware_app::spectrum::{GratingSetup, GridSetup, Outcome, SpectrumFront};
 use fbg_firmware_app::{authenticate, load_blob, unloaded};
+#[cfg(feature = "spectrum")]
 use fbg_shared::protocol::MAX_PIXELS_PER_CHUNK;
 use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
+#[cfg(feature = "spectrum")]
 use fbg_shared::spectrum::centroid::maximum;
+#[cfg(feature = "spectrum")]
 use fbg_shared::spectrum::correlation::cross_correlation;
+#[cfg(feature = "spectrum")]
 use fbg_shared::spectrum::{DetectorConfig, Estimate, Grid, Method, Region, ShiftRef, Spectrum, Window};
 use fbg_shared::{Compensator, MemoryBank, MemoryState, ModelParams, Sample, StreamState};
 
@@ -44,9 +49,12 @@ const MAX_SAMPLES: usize = 64;
 const CALIB_ITERS: u32 = 100_000;
 const RUNS: [u32; 2] = [200, 800];
 /// Runs of the spectrum bench (channel frames).
+#[cfg(feature = "spectrum")]
 const SPECTRUM_RUNS: [u32; 2] = [10, 40];
 /// The spectrum bench's frame: pixels, and the gratings' centres \[nm\] (all on channel 0).
+#[cfg(feature = "spectrum")]
 const SPECTRUM_PIXELS: usize = 512;
+#[cfg(feature = "spectrum")]
 const SPECTRUM_PEAKS: [f32; 3] = [1530.013, 1550.021, 1570.034];
 /// Modes: (name, time-stamp jitter on every other step [s]).
 const MODES: [(&str, f32); 2] = [("regular", 0.0), ("jitter", 0.25)];
@@ -130,6 +138,7 @@ fn step_loop(comp: &mut Compensator<f32, K>, r: &Replay<'_>, n: u32) {
 /// counts over a floor of 1 000, with ±35 counts of deterministic noise (σ ≈ 20: 30 dB), on
 /// the grid λ(p) = 1510 + 0.166·p + 2·10⁻⁶·p² nm (the QEMU spectrum test's). The Gaussian is
 /// (1 − z²/128)⁶⁴ (within 1 % of exp(−z²/2) where it matters; the cost does not depend on it).
+#[cfg(feature = "spectrum")]
 fn make_frame(out: &mut [u8; 2 * SPECTRUM_PIXELS]) {
     let mut state: u32 = 12_345;
     for (p, px) in out.chunks_exact_mut(2).enumerate() {
@@ -154,6 +163,7 @@ fn make_frame(out: &mut [u8; 2 * SPECTRUM_PIXELS]) {
 
 /// `n` channel frames through the device's spectrum front (begin, the chunks, the three
 /// gratings' detection); returns the readings completed (`n` when all is well).
+#[cfg(feature = "spectrum")]
 #[inline(never)]
 fn frame_loop(front: &mut SpectrumFront, frame: &[u8], n: u32) -> u32 {
     let mut readings = 0;
@@ -170,6 +180,7 @@ fn frame_loop(front: &mut SpectrumFront, frame: &[u8], n: u32) -> u32 {
 }
 
 /// `n` channel frames on a channel without gratings: the frame's reception alone.
+#[cfg(feature = "spectrum")]
 #[inline(never)]
 fn ingest_loop(front: &mut SpectrumFront, frame: &[u8], n: u32) {
     for i in 0..n {
@@ -181,9 +192,11 @@ fn ingest_loop(front: &mut SpectrumFront, frame: &[u8], n: u32) {
 }
 
 /// A method's estimator (the detector's `detect_with` argument).
+#[cfg(feature = "spectrum")]
 type EstimateFn = fn(&Region<'_, f32>, f32) -> Estimate<f32>;
 
 /// `n` detections of one window's peak (the first grating's 25 pixels, f32) with `estimate`.
+#[cfg(feature = "spectrum")]
 #[inline(never)]
 fn window_loop(
     config: &DetectorConfig<f32>,
@@ -197,6 +210,7 @@ fn window_loop(
     }
 }
 
+#[cfg(feature = "spectrum")]
 #[inline(never)]
 fn window_empty_loop(part: &Spectrum<'_, f32>, n: u32) {
     for _ in 0..n {
@@ -207,6 +221,7 @@ fn window_empty_loop(part: &Spectrum<'_, f32>, n: u32) {
 /// Where a frame's instructions go: its reception alone (a channel without gratings), and one
 /// window's detection with the maximum (the detector's common part: checks, noise, region,
 /// half-widths, flags) and with the cross-correlation.
+#[cfg(feature = "spectrum")]
 fn bench_spectrum_parts(uart: &mut CmsdkUart, front: &mut SpectrumFront, frame: &[u8]) {
     for n in SPECTRUM_RUNS {
         let (te, _) = measure(|| frame_empty_loop(frame, n));
@@ -237,6 +252,7 @@ fn bench_spectrum_parts(uart: &mut CmsdkUart, front: &mut SpectrumFront, frame: 
 }
 
 /// [`frame_loop`] without the device: the same loop over the chunks.
+#[cfg(feature = "spectrum")]
 #[inline(never)]
 fn frame_empty_loop(frame: &[u8], n: u32) {
     for i in 0..n {
@@ -250,6 +266,7 @@ fn frame_empty_loop(frame: &[u8], n: u32) {
 /// The spectrum bench: instructions per 512-pixel channel frame with three gratings, default
 /// method (cross-correlation), as the product receives it (without the link's framing and
 /// without the step, timed apart).
+#[cfg(feature = "spectrum")]
 fn bench_spectrum(uart: &mut CmsdkUart, front: &mut SpectrumFront, frame: &mut [u8; 2 * SPECTRUM_PIXELS]) {
     make_frame(frame);
     let grid = GridSetup {
@@ -411,7 +428,9 @@ fn bench_model(
 #[entry]
 fn main() -> ! {
     static mut MODEL: Compensator<f32, K> = unloaded();
+    #[cfg(feature = "spectrum")]
     static mut FRONT: Option<SpectrumFront> = None;
+    #[cfg(feature = "spectrum")]
     static mut FRAME: [u8; 2 * SPECTRUM_PIXELS] = [0; 2 * SPECTRUM_PIXELS];
     static mut SAMPLES: [Sample<f32>; MAX_SAMPLES] =
         [Sample { dl_pm: [0.0; fbg_shared::layout::MAX_GRATINGS], gratings: 0, t_amb_c: 0.0, t_s: 0.0 }; MAX_SAMPLES];
@@ -440,9 +459,12 @@ fn main() -> ! {
         ),
     );
     bench_verify(&mut uart);
-    let front = FRONT.insert(SpectrumFront::new());
-    bench_spectrum(&mut uart, front, FRAME);
-    bench_spectrum_parts(&mut uart, front, FRAME);
+    #[cfg(feature = "spectrum")]
+    {
+        let front = FRONT.insert(SpectrumFront::new());
+        bench_spectrum(&mut uart, front, FRAME);
+        bench_spectrum_parts(&mut uart, front, FRAME);
+    }
     for (idx, rec) in fbg_shared::golden::records(PACK).enumerate() {
         let Some(rec) = rec else {
             emit(&mut uart, format_args!("error bench pack malformed at record {}", idx));

@@ -10,7 +10,7 @@ use anyhow::{bail, ensure, Context, Result};
 
 use super::ops::step_ops_of;
 use super::{SpectrumBench, StepBench, TypeSizes, VerifyBench};
-use crate::cmd::{cargo_own_target, run, step};
+use crate::cmd::step;
 use crate::firmware::emulator::{out_dir, Qemu};
 use crate::firmware::{self};
 use crate::fixtures::{self, BenchFixture};
@@ -121,15 +121,12 @@ fn cost(r: &[[f64; 5]], ipt: f64) -> Result<Cost> {
     Ok((per_run, per_step, ((sc2 - ec2) - (sc1 - ec1)) / (n2 - n1)))
 }
 
-/// Build the bench image of `capacity` with `pack` embedded, run it under QEMU -icount and
+/// Build the bench image of `capacity` with `pack` embedded and spectrum frames, run it under QEMU -icount and
 /// return what it printed.
 fn build_and_run(root: &Path, q: &Path, capacity: usize, pack: &Path) -> Result<String> {
     let k = capacity;
-    run(cargo_own_target()
-        .current_dir(firmware::dir(root))
-        .args(["build", "--release", "--locked", "--bin", "bench"])
-        .envs(firmware::build_env(root, k, Some(pack))))?;
-    let elf = firmware::release_dir(root).join("bench");
+    // With spectrum frames (in their own target directory), so that the image also times them.
+    let elf = firmware::build_spectrum(root, k, Some(pack), &["bench"])?.join("bench");
     let dir = out_dir(root)?;
     let uart = dir.join(format!("bench_k{k}.txt"));
     let _ = fs::remove_file(&uart);

@@ -39,6 +39,40 @@ pub struct DeviceRecord {
     /// Spectrum frames on the device (absent from files written before them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spectrum: Option<SpectrumRow>,
+    /// The product built with spectrum frames (`--features spectrum`), beside the default
+    /// `product`; not checked against the RAM budgets (absent from files written before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spectrum_product: Option<SpectrumProduct>,
+}
+
+/// Footprint of the product built with spectrum frames (`spectrum_product` in device.json).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SpectrumProduct {
+    pub flash_bytes: u64,
+    pub static_ram_bytes: u64,
+    pub stack_peak_boot_bytes: u64,
+    /// Serving samples and spectrum frames.
+    pub stack_peak_serving_bytes: u64,
+    pub stack_peak_update_bytes: u64,
+    /// Static RAM + the larger of the boot and update stack peaks.
+    pub static_ram_plus_stack_bytes: u64,
+    pub static_ram_plus_serving_stack_bytes: u64,
+}
+
+impl SpectrumProduct {
+    /// The row of the spectrum build's size report.
+    pub fn new(r: &SizeReport) -> Self {
+        let f = &r.footprint;
+        SpectrumProduct {
+            flash_bytes: f.flash,
+            static_ram_bytes: f.ram_static,
+            stack_peak_boot_bytes: r.stack_boot.into(),
+            stack_peak_serving_bytes: r.stack_serving.into(),
+            stack_peak_update_bytes: r.stack_update.into(),
+            static_ram_plus_stack_bytes: f.ram_static + u64::from(r.stack_update.max(r.stack_boot)),
+            static_ram_plus_serving_stack_bytes: f.ram_static + u64::from(r.stack_serving),
+        }
+    }
 }
 
 /// Instructions per 512-pixel channel frame with three gratings (`spectrum` in device.json).
@@ -373,6 +407,7 @@ impl DeviceRecord {
             },
             board: None,
             spectrum: None,
+            spectrum_product: size.spectrum.as_deref().map(SpectrumProduct::new),
             store: store.map(|b| Store {
                 what: STORE_WHAT.to_string(),
                 update_bytes: b.update_bytes,

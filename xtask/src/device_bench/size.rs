@@ -1,5 +1,8 @@
 //! `cargo xtask size`: flash and static RAM of the product image from its ELF, and its stack
-//! peaks measured over the link (boot, serving, model updates).
+//! peaks measured over the link (boot, serving, model updates). The default product (without
+//! spectrum frames) is the one checked against DESIGN's budgets; the product built with
+//! spectrum frames (`--features spectrum`) is measured the same way, its serving peak over
+//! spectrum readings too, and reported beside it.
 
 use std::fs;
 use std::path::Path;
@@ -22,8 +25,8 @@ pub struct SizeReport {
     pub footprint: Footprint,
     /// Stack peak during boot (embedded model decoded and folded) \[B\].
     pub stack_boot: u32,
-    /// Stack peak while serving samples, spectrum frames, status and pings (painted again
-    /// after boot) \[B\].
+    /// Stack peak while serving samples, status and pings, and spectrum frames on the build
+    /// with them (painted again after boot) \[B\].
     pub stack_serving: u32,
     /// Stack peak once a model update went through the link (includes serving) \[B\].
     pub stack_update: u32,
@@ -32,6 +35,9 @@ pub struct SizeReport {
     /// The model store's flash (`STORE` of `memory.x`: two model slots and the event log;
     /// flash outside the image, neither RAM nor part of the image) \[B\].
     pub store_region: u64,
+    /// The same figures of the product built with spectrum frames (`--features spectrum`; not
+    /// checked against the RAM budgets); `None` inside that report itself.
+    pub spectrum: Option<Box<SizeReport>>,
 }
 
 /// The product images, built on the current fixtures.
@@ -49,14 +55,26 @@ pub fn size(root: &Path) -> Result<SizeReport> {
     Ok(report)
 }
 
+/// The default product's figures (`bins.product`), then those of the product with spectrum
+/// frames (built here, in its own target directory).
 pub(super) fn measure_size(root: &Path, q: &Path, bins: &Bins) -> Result<SizeReport> {
     crate::cmd::step("size: product image footprint and stack high-water mark");
-    let footprint = elf::footprint(&bins.product)?;
+    let mut report = measure_product(root, q, &bins.product, false)?;
+    crate::cmd::step("size: the product with spectrum frames (--features spectrum)");
+    let spectrum = firmware::build_spectrum_product(root, PRODUCT_K)?;
+    report.spectrum = Some(Box::new(measure_product(root, q, &spectrum, true)?));
+    Ok(report)
+}
+
+/// Footprint and stack peaks of the product image `elf`; `spectrum`: it has spectrum frames,
+/// and serving includes spectrum readings.
+fn measure_product(root: &Path, q: &Path, elf: &Path, spectrum: bool) -> Result<SizeReport> {
+    let footprint = elf::footprint(elf)?;
     let fx = fixtures::ensure(root)?;
     let dfx = fixtures::ensure_device(root)?;
     let default = fs::read(firmware::dir(root).join("model/default.fbgm"))?;
     let update = fs::read(signing::sign_one(root, &fx, &dfx.update_model, 1)?)?;
-    let mut s = LinkSession::start(root, q, &bins.product, "size")?;
+    let mut s = LinkSession::start(root, q, elf, if spectrum { "size-spectrum" } else { "size" })?;
     s.link()?.ping(1)?;
     let stack_boot = s.link()?.status()?.stack_boot_bytes;
     // Serving: the golden samples (hold-out, then the flagged and non-finite edge cases).
@@ -64,8 +82,11 @@ pub(super) fn measure_size(root: &Path, q: &Path, bins: &Bins) -> Result<SizeRep
     for (i, x) in samples.iter().enumerate() {
         s.link()?.compensate(i as u32, x)?;
     }
-    // And spectrum frames (set-up, chunks, detection, the step of each reading).
-    crate::qemu::spectrum::serve_readings(s.link()?, &default, 8)?;
+    // And spectrum frames on the build with them (set-up, chunks, detection, the step of each
+    // reading).
+    if spectrum {
+        crate::qemu::spectrum::serve_readings(s.link()?, &default, 8)?;
+    }
     let _ = s.link()?.status()?;
     let stack_serving = s.link()?.status()?.stack_peak_bytes;
     // Model updates: a refused one (it fails in the fold, after a full parse) and an accepted
@@ -101,6 +122,7 @@ pub(super) fn measure_size(root: &Path, q: &Path, bins: &Bins) -> Result<SizeRep
         stack_update,
         blob_bytes: default.len() as u64,
         store_region,
+        spectrum: None,
     })
 }
 
@@ -158,4 +180,24 @@ pub(super) fn print_size(r: &SizeReport) {
         );
     }
     println!("  model blob       {:>7} B  (target ≤ 4 KiB: {})", r.blob_bytes, verdict(r.blob_bytes <= TARGET_BLOB));
+    if let Some(sp) = &r.spectrum {
+        let g = &sp.footprint;
+        println!("product with spectrum frames (--features spectrum; not checked against the budgets above):");
+        println!(
+            "  flash            {:>7} B  ({:.1} KiB; {:+} B over the default product)",
+            g.flash,
+            g.flash as f64 / 1024.0,
+            g.flash as i64 - f.flash as i64
+        );
+        println!("  static RAM       {:>7} B  ({:+} B)", g.ram_static, g.ram_static as i64 - f.ram_static as i64);
+        println!(
+            "  stack peak       {:>7} B serving samples and spectrum frames; {} B during a model update; {} B during boot",
+            sp.stack_serving, sp.stack_update, sp.stack_boot
+        );
+        for (what, stack) in [("serving", sp.stack_serving), ("model update", sp.stack_update), ("boot", sp.stack_boot)]
+        {
+            let total = g.ram_static + stack as u64;
+            println!("  static + stack   {:>7} B  ({:.1} KiB) {what}", total, total as f64 / 1024.0);
+        }
+    }
 }

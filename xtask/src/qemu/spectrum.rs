@@ -13,8 +13,8 @@ use fbg_shared::spectrum::{Grid, Method, Window};
 use fbg_shared::Compensator;
 
 use super::memory::read_dataset_inputs;
+use crate::firmware;
 use crate::firmware::session::LinkSession;
-use crate::firmware::{self, Bins};
 use crate::fixtures::Fixtures;
 use crate::targets::PRODUCT_K;
 
@@ -52,8 +52,8 @@ pub fn lambda_refs(params: &fbg_shared::ModelParams<f32, PRODUCT_K>, n: usize) -
     (0..n).map(|g| params.field.lambda_ref(g).unwrap_or(1530.0 + 20.0 * g as f64)).collect()
 }
 
-/// A few readings of spectrum frames for `cargo xtask size` (the serving stack peak must
-/// cover the spectrum path): the set-up, then `n` readings of two channel frames each.
+/// A few readings of spectrum frames for `cargo xtask size` on the product with spectrum
+/// frames (its serving stack peak must cover the spectrum path): the set-up, then `n` readings of two channel frames each.
 pub(crate) fn serve_readings(
     link: &mut fbg_link::LinkClient<std::net::TcpStream>,
     default: &[u8],
@@ -76,7 +76,8 @@ pub(crate) fn serve_readings(
     Ok(())
 }
 
-pub(super) fn spectrum_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<()> {
+/// The test on `product`, the product image built with spectrum frames.
+pub(super) fn spectrum_test(root: &Path, qemu: &Path, product: &Path, fx: &Fixtures) -> Result<()> {
     let default = fs::read(firmware::dir(root).join("model/default.fbgm"))?;
     let params = fbg_shared::blob::decode::<PRODUCT_K>(&default).map_err(|e| anyhow::anyhow!("default model: {e}"))?;
     let refs = lambda_refs(&params, 3);
@@ -87,7 +88,7 @@ pub(super) fn spectrum_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures
     ensure!(rows.len() >= READINGS, "{}: fewer than {READINGS} rows", fx.data.display());
     let rows = &rows[rows.len() - READINGS..];
 
-    let mut sess = LinkSession::start(root, qemu, &bins.product, "spectrum")?;
+    let mut sess = LinkSession::start(root, qemu, product, "spectrum")?;
     let link = sess.link()?;
     // The readings are the model's own record: lead on the calibration clock, on both sides.
     link.reset_stream(1, fbg_shared::StreamClock::Calibration)?;
@@ -160,5 +161,30 @@ pub(super) fn spectrum_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures
         secs, st.spectra.refused
     );
     ensure!(rms < 3.0, "the peak chain's RMS error {rms:.3} pm exceeds 3 pm on the 512-pixel grid");
+    Ok(())
+}
+
+/// The default product (built without spectrum frames) refuses them as `Unsupported`, counts
+/// the refusal and keeps serving.
+pub(super) fn unsupported_test(root: &Path, qemu: &Path, product: &Path) -> Result<()> {
+    let mut sess = LinkSession::start(root, qemu, product, "spectrum-unsupported")?;
+    let link = sess.link()?;
+    let begin = HostMsg::SpectrumBegin { seq: 0, channel: 0, t_s: 0.0, t_amb_c: 20.0 };
+    match link.request(&begin)? {
+        DeviceMsg::SpectrumRefused(r) if r.reason == SpectrumError::Unsupported && r.detail == 0 => {}
+        other => bail!("the default product answered a spectrum message with {other:?}"),
+    }
+    let st = link.status()?;
+    link.ping(78)?;
+    sess.disconnect()?;
+    sess.check_alive()?;
+    ensure!(
+        st.spectra.refused == 1 && st.spectra.frames == 0,
+        "the default product's spectrum counters: {:?}",
+        st.spectra
+    );
+    eprintln!(
+        "xtask: the default product (without spectrum frames) refused a spectrum message as Unsupported, counted it"
+    );
     Ok(())
 }

@@ -416,3 +416,24 @@ fn a_failed_load_keeps_the_memory_state() {
         assert_eq!(format!("{:?}", mem.comp.step(x)), format!("{:?}", reference.step(x)));
     }
 }
+
+/// A build without spectrum frames refuses every spectrum message as `Unsupported`, counts
+/// the refusals in its status and keeps serving.
+#[cfg(not(feature = "spectrum"))]
+#[test]
+fn a_build_without_spectrum_frames_refuses_them_and_keeps_serving() {
+    use fbg_shared::protocol::{DeviceMsg, SpectrumError, SpectrumRefusal};
+    let mut mem = Mem::new();
+    let mut link = mem.link(default_blob());
+    let unsupported = DeviceMsg::SpectrumRefused(SpectrumRefusal::new(SpectrumError::Unsupported, 0));
+    let begin = HostMsg::SpectrumBegin { seq: 1, channel: 0, t_s: 0.0, t_amb_c: 20.0 };
+    assert_eq!(link.request(&begin).unwrap(), unsupported);
+    let pixels = HostMsg::SpectrumPixels { first_pixel: 0, data: &[0u8; 8] };
+    assert_eq!(link.request(&pixels).unwrap(), unsupported);
+    let st = link.status().unwrap();
+    assert_eq!(st.spectra.refused, 2);
+    assert_eq!(st.spectra.frames, 0);
+    assert_eq!(st.spectra.last_refusal, Some(SpectrumRefusal::new(SpectrumError::Unsupported, 0)));
+    let mut reference = Compensator::<f32, K>::new(&params(default_blob())).unwrap();
+    assert_serves(&mut link, &mut reference, &samples(5), 0);
+}

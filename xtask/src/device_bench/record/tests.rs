@@ -41,6 +41,7 @@ fn sample() -> (Vec<StepBench>, TypeSizes, SizeReport, VerifyBench) {
         stack_update: 5300,
         blob_bytes: 1464,
         store_region: 65536,
+        spectrum: None,
     };
     let verify = VerifyBench { bytes: 1552, instructions: 3_959_319.6, stack_peak: 3620 };
     (steps, sizes, size, verify)
