@@ -14,10 +14,12 @@
 //!   smoothing factors cached), mode `jitter` gives every step a new Δt (recomputed).
 //! - The sizes of the device's types (`MemoryState<f32>`, `Compensator<f32, 32>`, …) as the
 //!   bench image reports them (`size_of` on the target).
-//! - Flash and static RAM of the product image from its ELF sections ([`crate::elf`]).
+//! - Flash and static RAM of the product image from its ELF sections ([`crate::elf`]); the same
+//!   of the product built with spectrum frames (`--features spectrum`), beside it.
 //! - Stack high-water mark of the product image by stack painting, read over the link from
 //!   `Status::stack_peak_bytes`: after boot, after streaming, after a (signed) model update,
-//!   whose peak includes the signature verification.
+//!   whose peak includes the signature verification (on the spectrum build, streaming includes
+//!   spectrum readings).
 //! - The model store ([`store`]): flash operations and erases of one update, boot time to
 //!   serving with a full event log (emulated time under `-icount`).
 //! - Instructions of one signature check of a model update (`fbg_firmware_app::authenticate`:
