@@ -4,7 +4,7 @@
 //! the chain spectrum → peaks → compensation against the peak chain (`fbg-trainer demo
 //! --spectra --json`, per grid).
 //!
-//! Alone: `FBG_BENCH_ONLY=spectrum cargo xtask bench` measures only this part and puts it into
+//! Alone: `cargo xtask bench --spectrum-only` measures only this part and puts it into
 //! the BENCHMARKS.json already there (BENCHMARKS.md rendered again); the rest of the file is
 //! kept as it was.
 
@@ -305,7 +305,7 @@ fn chain_table(s: &mut String, b: &SpectrumBench) {
     let _ = writeln!(s);
 }
 
-/// `FBG_BENCH_ONLY=spectrum cargo xtask bench`: this part alone, into the BENCHMARKS.json
+/// `cargo xtask bench --spectrum-only`: this part alone, into the BENCHMARKS.json
 /// already there.
 pub fn only(root: &Path, opts: &Opts) -> Result<()> {
     run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))?;
