@@ -24,5 +24,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(records::compensate_file, m)?)?;
     m.add_function(wrap_pyfunction!(records::presets, m)?)?;
     m.add_function(wrap_pyfunction!(records::write_dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(records::import_file, m)?)?;
     Ok(())
 }
