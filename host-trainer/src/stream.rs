@@ -132,6 +132,7 @@ pub fn status_text(st: &Status) -> String {
             "link: {} frames, {} malformed, {} samples compensated; stack peak {} B since boot (serving and updates), {} B during boot\n",
             "staging slot: {} erases since boot\n",
             "{}",
+            "{}",
         ),
         st.model_crc,
         st.model_centres,
@@ -154,7 +155,21 @@ pub fn status_text(st: &Status) -> String {
         st.stack_peak_bytes,
         st.stack_boot_bytes,
         st.staging_erases,
-        store_text
+        store_text,
+        spectra_text(&st.spectra)
+    )
+}
+
+/// The spectrum counters' line (empty when the device never saw a spectrum message).
+fn spectra_text(sp: &fbg_shared::protocol::SpectrumStatus) -> String {
+    if sp.frames == 0 && sp.refused == 0 && sp.frames_dropped == 0 {
+        return String::new();
+    }
+    let last =
+        sp.last_refusal.map(|r| format!("; last refusal: {:?} (detail {})", r.reason, r.detail)).unwrap_or_default();
+    format!(
+        "\nspectrum frames: {} whole, {} dropped, {} messages refused{last}",
+        sp.frames, sp.frames_dropped, sp.refused
     )
 }
 

@@ -204,6 +204,7 @@ fn every_option_of_every_subcommand_is_described() {
         "import",
         "peaks",
         "bench-fit",
+        "bench-spectrum",
         "fleet",
         "stream",
         "compensate",

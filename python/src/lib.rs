@@ -24,5 +24,15 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(records::compensate_file, m)?)?;
     m.add_function(wrap_pyfunction!(records::presets, m)?)?;
     m.add_function(wrap_pyfunction!(records::write_dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(records::import_file, m)?)?;
+    m.add_function(wrap_pyfunction!(flag_bits, m)?)?;
     Ok(())
+}
+
+/// Every flag bit of an estimate with its name (`fbg_shared::Flags`, the one definition).
+#[pyfunction]
+fn flag_bits() -> Vec<(u8, String)> {
+    (0..8u8)
+        .filter_map(|k| fbg_shared::Flags::from_bits(1 << k).filter(|f| !f.is_ok()).map(|f| (1u8 << k, f.to_string())))
+        .collect()
 }

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use fbg_trainer::compensate::{self, FieldOptions};
+use fbg_trainer::data::import::{self, ImportOptions, SplitChoice};
 use fbg_trainer::data::Dataset;
 use fbg_trainer::sim::{self, scenario::Preset};
 use pyo3::prelude::*;
@@ -94,4 +95,39 @@ pub fn write_dataset(
 ) -> PyResult<()> {
     let d = columns::dataset(columns, cal, t0_unix_s, &path.display().to_string())?;
     d.write_csv(&path).map_err(to_py)
+}
+
+/// `fbg-trainer import --format F FILE [--map M] [--refs R] [--scale S] [--cal-fraction C]
+/// [--on-error E]`, the same function without the output file: the imported record's columns
+/// and its summary as JSON text. Errors name the file, line and column. Runs without the GIL.
+#[pyfunction]
+#[pyo3(signature = (format, path, map=None, refs=None, scale=None, cal_fraction=0.5, on_error="fail", max_skipped=0.05, start_unix_s=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn import_file<'py>(
+    py: Python<'py>,
+    format: &str,
+    path: PathBuf,
+    map: Option<PathBuf>,
+    refs: Option<PathBuf>,
+    scale: Option<&str>,
+    cal_fraction: f64,
+    on_error: &str,
+    max_skipped: f64,
+    start_unix_s: Option<f64>,
+) -> PyResult<(Columns<'py>, String)> {
+    let opts = ImportOptions {
+        format: format.parse().map_err(|e: String| msg(format!("format: {e}")))?,
+        input: path,
+        map,
+        refs,
+        split: SplitChoice::Fraction(cal_fraction),
+        on_error: on_error.parse().map_err(|e: String| msg(format!("on_error: {e}")))?,
+        max_skipped,
+        zero_from: None,
+        start_unix_s,
+        scale: scale.map(|s| s.parse().map_err(|e: String| msg(format!("scale: {e}")))).transpose()?,
+    };
+    let (d, summary) = py.detach(|| import::import(&opts)).map_err(to_py)?;
+    let text = serde_json::to_string(&summary).map_err(|e| msg(e.to_string()))?;
+    Ok((columns::to_dict(py, d)?, text))
 }

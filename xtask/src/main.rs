@@ -88,6 +88,10 @@ enum Task {
         /// Only BENCHMARKS.md, rendered again from BENCHMARKS.json (measures nothing)
         #[arg(long, conflicts_with_all = ["quick", "no_device"])]
         markdown_only: bool,
+        /// Only the spectrum part (detector throughput, accuracy table, the spectrum chain),
+        /// into the BENCHMARKS.json already there
+        #[arg(long, conflicts_with_all = ["no_device", "markdown_only"])]
+        spectrum_only: bool,
     },
     /// The sharded fleet on a single-node Slurm started here (installs slurm-wlm and munge;
     /// needs root; not part of test); writes target/slurm/slurm.json
@@ -124,8 +128,8 @@ fn main() -> Result<()> {
         Task::Qemu { all } => qemu::run_all(&root, all),
         Task::Size => device_bench::size(&root).map(|_| ()),
         Task::DeviceBench => device_bench::run(&root).map(|_| ()),
-        Task::Bench { quick, no_device, markdown_only } => {
-            bench::run_bench(&root, &bench::Opts { quick, no_device, markdown_only })
+        Task::Bench { quick, no_device, markdown_only, spectrum_only } => {
+            bench::run_bench(&root, &bench::Opts { quick, no_device, markdown_only, spectrum_only })
         }
         Task::Slurm => slurm::run_all(&root),
         Task::Board => board::run_all(&root).map(|_| ()),

@@ -33,6 +33,7 @@ impl BenchSpectrumArgs {
                 &Method::ALL,
                 &SNRS_DB,
                 self.seed,
+                true,
             )?);
         }
         let mut shapes = Vec::new();
@@ -44,7 +45,7 @@ impl BenchSpectrumArgs {
                 (Apodisation::Gaussian, 0.5),
                 (Apodisation::Gaussian, 0.9),
             ] {
-                shapes.extend(accuracy_rows(grid, apod, r, &[Method::default()], &[30.0], self.seed)?);
+                shapes.extend(accuracy_rows(grid, apod, r, &[Method::default()], &[30.0], self.seed, true)?);
             }
         }
         let out = serde_json::json!({

@@ -59,7 +59,19 @@ def fit(
 def simulate(
     preset: str = "paper", seed: int = 7, days: Optional[float] = None, dt_s: Optional[float] = None
 ) -> Columns: ...
+def flag_bits() -> List[Tuple[int, str]]: ...
 def read_dataset(path: str, field: bool = False) -> Columns: ...
+def import_file(
+    format: str,
+    path: str,
+    map: Optional[str] = None,
+    refs: Optional[str] = None,
+    scale: Optional[str] = None,
+    cal_fraction: float = 0.5,
+    on_error: str = "fail",
+    max_skipped: float = 0.05,
+    start_unix_s: Optional[float] = None,
+) -> Tuple[Columns, str]: ...
 def compensate_file(
     model: str,
     data: str,

@@ -9,20 +9,16 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from . import _core
+
 #: The ambient thermometer's column [°C].
 T_AMB = "T_amb_C"
 #: Time since the start of the record [s].
 T_S = "t_s"
 #: The outputs of the paper's installation, in the model's order.
 PAPER_OUTPUTS = ("T_C", "strain_ue", "p_kPa")
-#: The flag bits of an estimate and their names (``fbg_shared::Flags``).
-FLAG_BITS = (
-    (1, "non-finite"),
-    (2, "out-of-envelope"),
-    (4, "weak-support"),
-    (8, "lead-unknown"),
-    (16, "implausible"),
-)
+#: The flag bits of an estimate and their names, from ``fbg_shared::Flags`` itself.
+FLAG_BITS = tuple(_core.flag_bits())
 
 
 def grating_column(g: int) -> str:

@@ -61,3 +61,38 @@ def write_dataset(frame: Any, path: PathLike) -> None:
         cal = [s == "cal" for s in (frame["split"].astype(str) if hasattr(frame["split"], "astype") else frame["split"])]
     t0 = getattr(frame, "attrs", {}).get("t0_unix_s") if hasattr(frame, "attrs") else None
     _core.write_dataset(cols, os.fspath(path), cal, t0)
+
+
+def import_file(
+    format: str,
+    path: PathLike,
+    *,
+    map: Optional[PathLike] = None,
+    refs: Optional[PathLike] = None,
+    scale: Optional[str] = None,
+    cal_fraction: float = 0.5,
+    on_error: str = "fail",
+    max_skipped: float = 0.05,
+    start_unix_s: Optional[float] = None,
+) -> Any:
+    """``fbg-trainer import --format F FILE [--map M] [--refs R] [--scale S]`` itself, without
+    the output file: an interrogator export (``enlight``, ``csv``) or spectra
+    (``spectra-csv``, ``enlight-responses``, ``pixels``, whose peaks the detector finds) as a
+    DataFrame with the dataset's columns; the import summary (rows, skips, gratings, flagged
+    frames) in ``attrs['import_summary']``. Errors (``FbgError``) name the file, line and
+    column, with the command line's message."""
+    (cols, split, t0), summary = _core.import_file(
+        format,
+        os.fspath(path),
+        None if map is None else os.fspath(map),
+        None if refs is None else os.fspath(refs),
+        scale,
+        cal_fraction,
+        on_error,
+        max_skipped,
+        start_unix_s,
+    )
+    frame = F.frame_of(cols, split, t0)
+    if hasattr(frame, "attrs"):
+        frame.attrs["import_summary"] = json.loads(summary)
+    return frame

@@ -55,7 +55,7 @@ impl<'a, R: Real> Template<'a, R> {
     /// R(x) at offset `x_nm` from the centre (0 outside the table and for NaN).
     pub fn at(&self, x_nm: R) -> R {
         let u = (x_nm - self.first_offset_nm) / self.step_nm;
-        if !(u >= R::ZERO) {
+        if !u.is_finite() || u < R::ZERO {
             return R::ZERO;
         }
         let Some(k) = floor_index(u) else { return R::ZERO };

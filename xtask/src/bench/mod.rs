@@ -10,7 +10,7 @@
 //! of repeated runs, and every ratio compares runs taken side by side, alternating, in the same
 //! invocation. The exact command behind each figure is recorded next to it.
 //!
-//! `FBG_BENCH_ONLY=spectrum cargo xtask bench [--quick]` measures only the spectrum part
+//! `cargo xtask bench --spectrum-only [--quick]` measures only the spectrum part
 //! ([`spectrum`]) into the BENCHMARKS.json already there.
 //!
 //! `cargo xtask bench [--quick] [--no-device]`: `--quick` takes one round of one repeat (for
@@ -60,6 +60,8 @@ pub struct Opts {
     pub quick: bool,
     pub no_device: bool,
     pub markdown_only: bool,
+    /// Only the spectrum part.
+    pub spectrum_only: bool,
 }
 
 /// `cargo xtask bench`.
@@ -67,9 +69,8 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     if opts.markdown_only {
         return markdown_only(root);
     }
-    // One part alone, into the BENCHMARKS.json already there (the environment, not a flag: the
-    // command line is `main.rs`'s).
-    if std::env::var("FBG_BENCH_ONLY").as_deref() == Ok("spectrum") {
+    // One part alone, into the BENCHMARKS.json already there.
+    if opts.spectrum_only {
         return spectrum::only(root, opts);
     }
     let r = Runner { root: root.to_path_buf() };

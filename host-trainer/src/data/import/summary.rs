@@ -276,32 +276,7 @@ impl ImportSummary {
             s.push('\n');
         }
         if let Some(sp) = &self.spectra {
-            s.push_str(&format!(
-                "  {} frames, {} channels, {}; {} ({}); method {}; windows from {}",
-                sp.frames,
-                sp.channels,
-                sp.grid,
-                sp.scale.name(),
-                sp.scale_from,
-                sp.method,
-                sp.windows_from
-            ));
-            if let Some(c) = &sp.culture {
-                s.push_str(&format!(", culture {c}"));
-            }
-            s.push('\n');
-            for f in sp.flagged.iter().filter(|f| f.flagged > 0 || f.gaps > 0) {
-                let by: Vec<String> = f.by_flag.iter().map(|(k, v)| format!("{k} {v}")).collect();
-                s.push_str(&format!(
-                    "  {}: {} of {} frames flagged ({}), {} gaps (gaps on {})\n",
-                    f.output,
-                    f.flagged,
-                    f.frames,
-                    by.join(", "),
-                    f.gaps,
-                    sp.gap_on.join(", ")
-                ));
-            }
+            s.push_str(&sp.text());
         }
         for g in &self.gratings {
             let r = match g.ref_nm {
@@ -345,6 +320,41 @@ impl ImportSummary {
             "  split ({}): cal up to t_s = {:.3} s: {} cal rows, {} hold-out rows",
             sp.rule, sp.cal_until_s, sp.cal_rows, sp.holdout_rows
         ));
+        s
+    }
+}
+
+impl SpectraInfo {
+    /// The summary's lines on the spectra: frames, grid, scale, method, flagged frames.
+    pub fn text(&self) -> String {
+        let sp = self;
+        let mut s = String::new();
+        s.push_str(&format!(
+            "  {} frames, {} channels, {}; {} ({}); method {}; windows from {}",
+            sp.frames,
+            sp.channels,
+            sp.grid,
+            sp.scale.name(),
+            sp.scale_from,
+            sp.method,
+            sp.windows_from
+        ));
+        if let Some(c) = &sp.culture {
+            s.push_str(&format!(", culture {c}"));
+        }
+        s.push('\n');
+        for f in sp.flagged.iter().filter(|f| f.flagged > 0 || f.gaps > 0) {
+            let by: Vec<String> = f.by_flag.iter().map(|(k, v)| format!("{k} {v}")).collect();
+            s.push_str(&format!(
+                "  {}: {} of {} frames flagged ({}), {} gaps (gaps on {})\n",
+                f.output,
+                f.flagged,
+                f.frames,
+                by.join(", "),
+                f.gaps,
+                sp.gap_on.join(", ")
+            ));
+        }
         s
     }
 }

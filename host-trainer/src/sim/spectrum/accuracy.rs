@@ -3,6 +3,7 @@
 
 use fbg_shared::spectrum::{DetectorConfig, Method, PeakDetector, Spectrum};
 
+use super::chain::{design_tables, refine};
 use super::detector::{DetectorModel, PixelGrid, FULL_SCALE_COUNTS};
 use super::frames::{row_rng, FrameSimulator};
 use super::grating::Apodisation;
@@ -41,6 +42,9 @@ pub struct AccuracyRow {
 /// `peak_reflectivity` (0.3 nm FWHM) at [`SWEEP_BRAGG_NM`] swept over one pixel in
 /// [`SWEEP_STEPS`] steps: noise-free, then [`REALISATIONS`] frames per position at each SNR of
 /// `snrs_db` (detector noise seeded by `seed`; each frame is detected by every method).
+///
+/// With `template`, one more row: the default method's peak refined by a fit of the grating's
+/// designed shape ([`super::PeakFinding::DesignTemplate`]).
 pub fn accuracy_rows(
     grid: PixelGrid,
     apodisation: Apodisation,
@@ -48,6 +52,7 @@ pub fn accuracy_rows(
     methods: &[Method],
     snrs_db: &[f64],
     seed: u64,
+    template: bool,
 ) -> Result<Vec<AccuracyRow>, TrainerError> {
     let g = grid.grid();
     let p0 = g.pixel(SWEEP_BRAGG_NM).floor();
@@ -71,7 +76,14 @@ pub fn accuracy_rows(
         let cfg = SpectrumConfig { grid, apodisation, peak_reflectivity, detector, ..SpectrumConfig::default() };
         let f = FrameSimulator::new(&cfg, &[SWEEP_BRAGG_NM])?;
         let reps = if snr.is_some() { REALISATIONS } else { 1 };
-        let mut out = vec![vec![Vec::with_capacity(reps); positions.len()]; methods.len()];
+        let tables = if template { design_tables(&f) } else { Vec::new() };
+        let fit = tables.first().and_then(|t| t.template());
+        let default_det = PeakDetector::<f64, 1>::new(
+            DetectorConfig { full_scale: FULL_SCALE_COUNTS, ..DetectorConfig::default() },
+            &[f.window(0)],
+        )
+        .ok_or_else(|| TrainerError::Dataset { message: "accuracy: one window".into() })?;
+        let mut out = vec![vec![Vec::with_capacity(reps); positions.len()]; methods.len() + usize::from(template)];
         let (mut scratch, mut counts, mut samples) = (Vec::new(), Vec::new(), Vec::new());
         for (k, &wl) in positions.iter().enumerate() {
             for r in 0..reps {
@@ -86,6 +98,16 @@ pub fn accuracy_rows(
                         v.push(e);
                     }
                 }
+                if let Some(t) = &fit {
+                    let spectrum = Spectrum::new(&samples, g);
+                    let [p] = default_det.detect(&spectrum);
+                    let e = p
+                        .and_then(|p| refine(&spectrum, &f.window(0), t, p.pixel))
+                        .map_or(f64::NAN, |w| (w - wl) * 1e3);
+                    if let Some(v) = out.get_mut(methods.len()).and_then(|o| o.get_mut(k)) {
+                        v.push(e);
+                    }
+                }
             }
         }
         Ok(out)
@@ -93,10 +115,14 @@ pub fn accuracy_rows(
     let clean = errors(None)?;
     let noisy: Vec<(f64, Vec<Vec<Vec<f64>>>)> =
         snrs_db.iter().map(|&s| errors(Some(s)).map(|e| (s, e))).collect::<Result<_, _>>()?;
-    Ok(methods
+    let mut names: Vec<String> = methods.iter().map(|m| m.name().to_string()).collect();
+    if template {
+        names.push(format!("{} + design template", Method::default().name()));
+    }
+    Ok(names
         .iter()
         .enumerate()
-        .map(|(m, method)| {
+        .map(|(m, name)| {
             let c: Vec<f64> = clean.get(m).into_iter().flatten().flatten().copied().collect();
             let (lo, hi) = c.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &e| (a.min(e), b.max(e)));
             let rms_pm = noisy
@@ -104,7 +130,7 @@ pub fn accuracy_rows(
                 .map(|(s, e)| (*s, crate::stats::rms(e.get(m).into_iter().flatten().flatten().copied())))
                 .collect();
             AccuracyRow {
-                method: method.name().into(),
+                method: name.clone(),
                 grid: grid.name().into(),
                 apodisation,
                 peak_reflectivity,

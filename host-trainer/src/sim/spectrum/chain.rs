@@ -161,19 +161,19 @@ pub fn find_peaks(
 
 /// A grating's designed reflection shape, tabulated at [`TEMPLATE_STEP_NM`] from
 /// `first_offset_nm` about its Bragg wavelength.
-struct DesignTable {
+pub(crate) struct DesignTable {
     values: Vec<f64>,
     first_offset_nm: f64,
 }
 
 impl DesignTable {
-    fn template(&self) -> Option<Template<'_, f64>> {
+    pub(crate) fn template(&self) -> Option<Template<'_, f64>> {
         Template::new(&self.values, self.first_offset_nm, TEMPLATE_STEP_NM)
     }
 }
 
 /// Each grating's designed shape, tabulated about its nominal wavelength.
-fn design_tables(frames: &FrameSimulator) -> Vec<DesignTable> {
+pub(crate) fn design_tables(frames: &FrameSimulator) -> Vec<DesignTable> {
     let n = (TEMPLATE_HALF_SPAN_NM / TEMPLATE_STEP_NM).round() as i64;
     frames
         .designs()
@@ -188,7 +188,7 @@ fn design_tables(frames: &FrameSimulator) -> Vec<DesignTable> {
 
 /// The template fit in window `w` from the method's peak at `pixel` (of the whole frame);
 /// `None` where the window or the fit fails.
-fn refine(
+pub(crate) fn refine(
     spectrum: &Spectrum<'_, f64>,
     w: &fbg_shared::spectrum::Window<f64>,
     t: &Template<'_, f64>,

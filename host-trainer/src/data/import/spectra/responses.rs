@@ -53,48 +53,7 @@ pub(crate) fn read(
     let text = read_text(path)?;
     let ends_with_newline = text.ends_with('\n');
     let lines: Vec<&str> = text.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
-    let first = lines.first().map(|l| l.split('\t').next().unwrap_or_default().trim()).unwrap_or_default();
-    let n_header = first.parse::<usize>().ok().filter(|&n| (1..=lines.len()).contains(&n)).ok_or_else(|| {
-        TrainerError::data(
-            &name,
-            1,
-            "1 (header line count)",
-            format!("`{first}` is not the header's line count: a Responses export's first line is the number of header lines (this one included), at most the file's {} lines", lines.len()),
-        )
-    })?;
-    let culture = find_culture(&lines, Some(n_header), m.enlight.culture.as_deref(), origin, &name, &|_| '\t')?;
-    let header = lines.get(..n_header).unwrap_or_default();
-    let key_number = |key: &str| -> Result<f64, TrainerError> {
-        let Some((i, v)) = header.iter().enumerate().skip(1).find_map(|(i, l)| value_of(l, key).map(|v| (i, v))) else {
-            return Err(TrainerError::data(
-                &name,
-                1,
-                key,
-                format!("the header (lines 1–{n_header}, as line 1 says) has no `{key}` line; a Responses header gives `{START}`, `{DELTA}` and `{POINTS}`"),
-            ));
-        };
-        number_in(v, culture.as_ref())
-            .and_then(|x| x.ok_or_else(|| "empty".to_string()))
-            .map_err(|e| TrainerError::data(&name, i as u64 + 1, key, e))
-    };
-    let start = key_number(START)?;
-    let delta = key_number(DELTA)?;
-    let points = key_number(POINTS)?;
-    let bad_key = |key: &str, msg: String| {
-        let line = header.iter().position(|l| value_of(l, key).is_some()).map_or(1, |i| i as u64 + 1);
-        TrainerError::data(&name, line, key, msg)
-    };
-    if !(NM_RANGE.0..=NM_RANGE.1).contains(&start) {
-        return Err(bad_key(START, format!("{start} is not a wavelength in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1)));
-    }
-    if !(delta > 0.0 && delta < 1.0) {
-        return Err(bad_key(DELTA, format!("{delta} is not a wavelength step in nm (0 < step < 1 nm)")));
-    }
-    if !(points >= 3.0 && points.fract() == 0.0 && points <= 1e7) {
-        return Err(bad_key(POINTS, format!("{points} is not a number of points (3 or more, whole)")));
-    }
-    let points = points as usize;
-    let grid = Grid::uniform(start, delta);
+    let Header { n_header, culture, points, grid } = header(&lines, m, origin, &name)?;
     let decimal_comma = culture.as_ref().is_some_and(|c| c.decimal_comma);
     let mut clock = TimeParser::new(TimeUnit::Auto, m.enlight.time_format.clone(), None)
         .with_locale(decimal_comma, if m.enlight.time_format.is_some() { Dmy::Off } else { Dmy::Probe });
@@ -183,6 +142,62 @@ pub(crate) fn read(
         problems,
     };
     Ok((facts, channels))
+}
+
+/// What the header says: its line count, the culture, the points and their grid.
+struct Header {
+    n_header: usize,
+    culture: Option<Culture>,
+    points: usize,
+    grid: Grid<f64>,
+}
+
+/// Read and check the header of `lines` (of the file `name`).
+fn header(lines: &[&str], m: &Map, origin: &str, name: &str) -> Result<Header, TrainerError> {
+    let name = name.to_string();
+    let first = lines.first().map(|l| l.split('\t').next().unwrap_or_default().trim()).unwrap_or_default();
+    let n_header = first.parse::<usize>().ok().filter(|&n| (1..=lines.len()).contains(&n)).ok_or_else(|| {
+        TrainerError::data(
+            &name,
+            1,
+            "1 (header line count)",
+            format!("`{first}` is not the header's line count: a Responses export's first line is the number of header lines (this one included), at most the file's {} lines", lines.len()),
+        )
+    })?;
+    let culture = find_culture(lines, Some(n_header), m.enlight.culture.as_deref(), origin, &name, &|_| '\t')?;
+    let header = lines.get(..n_header).unwrap_or_default();
+    let key_number = |key: &str| -> Result<f64, TrainerError> {
+        let Some((i, v)) = header.iter().enumerate().skip(1).find_map(|(i, l)| value_of(l, key).map(|v| (i, v))) else {
+            return Err(TrainerError::data(
+                &name,
+                1,
+                key,
+                format!("the header (lines 1–{n_header}, as line 1 says) has no `{key}` line; a Responses header gives `{START}`, `{DELTA}` and `{POINTS}`"),
+            ));
+        };
+        number_in(v, culture.as_ref())
+            .and_then(|x| x.ok_or_else(|| "empty".to_string()))
+            .map_err(|e| TrainerError::data(&name, i as u64 + 1, key, e))
+    };
+    let start = key_number(START)?;
+    let delta = key_number(DELTA)?;
+    let points = key_number(POINTS)?;
+    let bad_key = |key: &str, msg: String| {
+        let line = header.iter().position(|l| value_of(l, key).is_some()).map_or(1, |i| i as u64 + 1);
+        TrainerError::data(&name, line, key, msg)
+    };
+    if !(NM_RANGE.0..=NM_RANGE.1).contains(&start) {
+        return Err(bad_key(START, format!("{start} is not a wavelength in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1)));
+    }
+    if !(delta > 0.0 && delta < 1.0) {
+        return Err(bad_key(DELTA, format!("{delta} is not a wavelength step in nm (0 < step < 1 nm)")));
+    }
+    if !(points >= 3.0 && points.fract() == 0.0 && points <= 1e7) {
+        return Err(bad_key(POINTS, format!("{points} is not a number of points (3 or more, whole)")));
+    }
+    let points = points as usize;
+    let grid = Grid::uniform(start, delta);
+    Ok(Header { n_header, culture, points, grid })
 }
 
 /// A line of one cell: a block's timestamp.
