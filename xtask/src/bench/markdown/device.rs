@@ -72,7 +72,43 @@ pub(super) fn device(s: &mut String, rep: &Report) {
             st.erases_per_sector[3]
         );
     }
+    spectrum(s, &dev.record);
     board(s, dev.record.board.as_ref());
+}
+
+/// Spectrum frames on the device: instructions per frame, and the product built with them.
+fn spectrum(s: &mut String, r: &crate::device_bench::record::DeviceRecord) {
+    if let Some(sp) = &r.spectrum {
+        out!(
+            s,
+            "Spectrum frames ({}): {} instructions per {}-pixel channel frame with {} gratings, {} (target ≤ {}: {}); of which the frame's reception {} and one 25-pixel window's detection {} ({} with the maximum method: the detector's common part).\n",
+            sp.what,
+            sp.instructions_per_frame,
+            sp.pixels,
+            sp.gratings,
+            sp.method,
+            sp.target,
+            if sp.met { "met" } else { "not met" },
+            sp.instructions_reception_per_frame,
+            sp.instructions_per_window_cross_correlation,
+            sp.instructions_per_window_maximum
+        );
+    }
+    if let Some(p) = &r.spectrum_product {
+        out!(
+            s,
+            "Product built with spectrum frames (`--features spectrum`; the default product above is built without them and is the one held to the budgets): flash {} B, static RAM {} B, stack peak {} B at boot, {} B serving samples and spectrum frames, {} B through a model update; static RAM + stack {} B serving (budget 8 192 B: {}), {} B at the update peak (budget 12 288 B: {}).\n",
+            p.flash_bytes,
+            p.static_ram_bytes,
+            p.stack_peak_boot_bytes,
+            p.stack_peak_serving_bytes,
+            p.stack_peak_update_bytes,
+            p.static_ram_plus_serving_stack_bytes,
+            if p.static_ram_plus_serving_stack_bytes <= 8192 { "met" } else { "not met" },
+            p.static_ram_plus_stack_bytes,
+            if p.static_ram_plus_stack_bytes <= 12288 { "met" } else { "not met" }
+        );
+    }
 }
 
 /// The STM32F405 board's images (`cargo xtask board`), or "not measured".
