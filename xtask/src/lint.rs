@@ -31,7 +31,7 @@ pub mod sizes;
 /// One step of `cargo xtask lint`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Step {
-    /// rustfmt --check of both workspaces and the fuzz target
+    /// rustfmt --check of the three workspaces and the fuzz target
     Fmt,
     /// clippy on every crate and target of the host workspace, warnings denied
     Clippy,
@@ -97,15 +97,34 @@ pub fn run_steps(root: &Path, only: &[Step]) -> Result<()> {
 }
 
 fn fmt(root: &Path) -> Result<()> {
-    step("lint: rustfmt --check (host and firmware workspaces, the fuzz target)");
+    step("lint: rustfmt --check (host, firmware and Python-package workspaces, the fuzz target)");
     run(cargo().current_dir(root).args(["fmt", "--all", "--check"]))?;
     run(cargo_own_target().current_dir(root.join("firmware")).args(["fmt", "--all", "--check"]))?;
+    run(cargo_own_target().current_dir(root.join("python")).args(["fmt", "--all", "--check"]))?;
     run(cargo_own_target().current_dir(root.join("shared/fuzz")).args(["fmt", "--all", "--check"]))
 }
 
 fn clippy(root: &Path) -> Result<()> {
-    step("lint: clippy on every crate and target of the host workspace, warnings denied");
-    run(cargo().current_dir(root).args(["clippy", "--workspace", "--all-targets", "--locked", "--", "-D", "warnings"]))
+    step("lint: clippy on every crate and target of the host workspace and the Python package's, warnings denied");
+    run(cargo().current_dir(root).args([
+        "clippy",
+        "--workspace",
+        "--all-targets",
+        "--locked",
+        "--",
+        "-D",
+        "warnings",
+    ]))?;
+    // Its own workspace (a PyO3 extension), built into the top target directory by its
+    // `.cargo/config.toml`.
+    run(cargo_own_target().current_dir(root.join("python")).args([
+        "clippy",
+        "--all-targets",
+        "--locked",
+        "--",
+        "-D",
+        "warnings",
+    ]))
 }
 
 /// The firmware workspace: the images for the thumb target, without and with spectrum frames
