@@ -151,42 +151,55 @@ const UNIT_FAR_SPANS: f64 = 100.0;
 /// span around zero reads like shifts in nm written in a pm column (1000× too small).
 const UNIT_TINY_SPAN: f64 = 1.0 / 300.0;
 
-/// The arithmetic that runs a model over a stream of rows.
-enum Engine {
+/// The arithmetic that runs a model over a stream of rows: the host's f64, or the device's
+/// f32 through `fbg-shared` (inputs rounded to f32 as the device receives them). `compensate`
+/// and the Python package's stream both run it.
+pub enum Engine {
+    /// The host's f64 compensator.
     F64(Box<HostCompensator>),
+    /// The device's f32 compensator.
     F32(Box<Compensator<f32, HOST_CAP>>),
 }
 
 impl Engine {
-    /// A compensator of `params` in `precision` on `clock`; a model that cannot be loaded is
-    /// an error naming `model`.
-    fn new(
+    /// A compensator of `params` in `precision` on `clock`. A model that cannot be loaded is
+    /// refused with the arithmetic it was loaded for (`the host's f64`, `the device's f32`)
+    /// and the reason.
+    pub fn load(
         params: &HostParams,
         precision: Precision,
         clock: fbg_shared::StreamClock,
-        model: &Path,
-    ) -> Result<Engine, TrainerError> {
-        let refuse = |what: &str, e: fbg_shared::Error| TrainerError::Model {
-            path: model.display().to_string(),
-            message: format!("cannot be loaded for {what} arithmetic: {e}"),
-        };
+    ) -> Result<Engine, (&'static str, fbg_shared::Error)> {
         Ok(match precision {
             Precision::F64 => {
-                let mut c = Box::new(HostCompensator::new(params).map_err(|e| refuse("the host's f64", e))?);
+                let mut c = Box::new(HostCompensator::new(params).map_err(|e| ("the host's f64", e))?);
                 c.set_clock(clock);
                 Engine::F64(c)
             }
             Precision::F32 => {
-                let p32 = params.convert::<f32, HOST_CAP>().map_err(|e| refuse("the device's f32", e))?;
-                let mut c =
-                    Box::new(Compensator::<f32, HOST_CAP>::new(&p32).map_err(|e| refuse("the device's f32", e))?);
+                let p32 = params.convert::<f32, HOST_CAP>().map_err(|e| ("the device's f32", e))?;
+                let mut c = Box::new(Compensator::<f32, HOST_CAP>::new(&p32).map_err(|e| ("the device's f32", e))?);
                 c.set_clock(clock);
                 Engine::F32(c)
             }
         })
     }
 
-    fn step(&mut self, s: &fbg_shared::Sample<f64>) -> Estimate<f64> {
+    /// [`Engine::load`] for the model file `model`: a refusal is an error naming it.
+    fn new(
+        params: &HostParams,
+        precision: Precision,
+        clock: fbg_shared::StreamClock,
+        model: &Path,
+    ) -> Result<Engine, TrainerError> {
+        Engine::load(params, precision, clock).map_err(|(what, e)| TrainerError::Model {
+            path: model.display().to_string(),
+            message: format!("cannot be loaded for {what} arithmetic: {e}"),
+        })
+    }
+
+    /// One sample's estimate, in f64 whatever the arithmetic.
+    pub fn step(&mut self, s: &fbg_shared::Sample<f64>) -> Estimate<f64> {
         match self {
             Engine::F64(c) => c.step(s),
             Engine::F32(c) => {

@@ -2,40 +2,16 @@
 //! chunk, exactly what one pass gives (the memory terms, direction latches and drift observer
 //! carry over between calls).
 
-use fbg_shared::{Compensator, Estimate, Sample, StreamClock};
-use fbg_trainer::compensate::Precision;
+use fbg_shared::{Sample, StreamClock};
+use fbg_trainer::compensate::{Engine, Precision};
 use fbg_trainer::data::MAX_GRATINGS;
-use fbg_trainer::fit::{HostCompensator, HostParams, HOST_CAP};
+use fbg_trainer::fit::HostParams;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;
 
 use crate::error::msg;
 use crate::model::Model;
-
-/// The arithmetic that runs the model: the host's f64 or the device's f32 (inputs rounded to
-/// f32 as the device receives them), as `fbg-trainer compensate [--f32]`.
-enum Engine {
-    F64(Box<HostCompensator>),
-    F32(Box<Compensator<f32, HOST_CAP>>),
-}
-
-impl Engine {
-    fn step(&mut self, s: &Sample<f64>) -> Estimate<f64> {
-        match self {
-            Engine::F64(c) => c.step(s),
-            Engine::F32(c) => {
-                let e = c.step(&s.cast::<f32>());
-                Estimate {
-                    values: e.values.map(f64::from),
-                    band95: e.band95.map(f64::from),
-                    outputs: e.outputs,
-                    flags: e.flags,
-                }
-            }
-        }
-    }
-}
 
 /// One compensator's running state over a stream of rows (`Stream(model, precision="f64",
 /// t0_unix_s=None)`): feed it chunks in time order with `step`.
@@ -55,22 +31,8 @@ pub struct Stream {
 impl Stream {
     /// A fresh stream of `params` in `precision` on `clock`.
     pub fn of(params: &HostParams, precision: Precision, clock: StreamClock) -> PyResult<Stream> {
-        let refuse =
-            |what: &str, e: fbg_shared::Error| msg(format!("the model cannot be loaded for {what} arithmetic: {e}"));
-        let engine = match precision {
-            Precision::F64 => {
-                let mut c = Box::new(HostCompensator::new(params).map_err(|e| refuse("the host's f64", e))?);
-                c.set_clock(clock);
-                Engine::F64(c)
-            }
-            Precision::F32 => {
-                let p32 = params.convert::<f32, HOST_CAP>().map_err(|e| refuse("the device's f32", e))?;
-                let mut c =
-                    Box::new(Compensator::<f32, HOST_CAP>::new(&p32).map_err(|e| refuse("the device's f32", e))?);
-                c.set_clock(clock);
-                Engine::F32(c)
-            }
-        };
+        let engine = Engine::load(params, precision, clock)
+            .map_err(|(what, e)| msg(format!("the model cannot be loaded for {what} arithmetic: {e}")))?;
         let dims = params.dims;
         Ok(Stream { engine, gratings: dims.gratings(), ambient: dims.ambient(), outputs: dims.n_outputs(), rows: 0 })
     }
