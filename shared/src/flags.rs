@@ -13,7 +13,7 @@
 /// f.insert(Flags::OUT_OF_ENVELOPE);
 /// assert!(f.contains(Flags::OUT_OF_ENVELOPE) && !f.is_ok());
 /// assert_eq!(f.union(Flags::WEAK_SUPPORT).to_string(), "out-of-envelope|weak-support");
-/// assert_eq!(Flags::from_bits(0b1000_0000), None);
+/// assert_eq!(Flags::from_bits(0b1000_0000), Some(Flags::FALLBACK));
 /// assert!(!Flags::LEAD_UNKNOWN.is_fault() && Flags::WEAK_SUPPORT.is_fault());
 /// assert!(Flags::IMPLAUSIBLE.is_fault());
 /// assert_eq!(Flags::IMPLAUSIBLE.union(Flags::LEAD_UNKNOWN).to_string(), "lead-unknown|implausible");
@@ -73,13 +73,19 @@ impl Flags {
     /// expects (low SNR, too wide or narrow, asymmetric). Not a fault, like
     /// [`Flags::LEAD_UNKNOWN`].
     pub const PEAK_QUALITY: Flags = Flags(1 << 6);
+    /// Model-H did not trust its memory for this sample ([`crate::trust`]): beyond the
+    /// calibration's quiet time (a hold longer than any it contained) what it adds to Model-P
+    /// faded, partly or wholly, and the band toward Model-P's; or the gate kept the sample
+    /// out of the memory state (then with [`Flags::OUT_OF_ENVELOPE`], and the value is
+    /// Model-P's). Not a fault in itself: Model-P's value and band are as good as ever.
+    pub const FALLBACK: Flags = Flags(1 << 7);
     /// The bits that say the value itself is suspect (non-finite, out of envelope, weak
     /// support, implausible, a peak fault): they drive a device's alarm (the compensator's
     /// band widening concerns its own bits only); [`Flags::LEAD_UNKNOWN`] and
     /// [`Flags::PEAK_QUALITY`] do neither.
     pub const FAULTS: Flags = Flags(0b011_0111);
     /// Every bit this version defines.
-    pub const ALL: Flags = Flags(0b111_1111);
+    pub const ALL: Flags = Flags(0b1111_1111);
 
     /// The flags of `bits`, `None` when a bit is not one of [`Flags::ALL`].
     pub const fn from_bits(bits: u8) -> Option<Flags> {
@@ -125,6 +131,7 @@ impl core::fmt::Display for Flags {
             (Flags::IMPLAUSIBLE, "implausible"),
             (Flags::PEAK_FAULT, "peak-fault"),
             (Flags::PEAK_QUALITY, "peak-quality"),
+            (Flags::FALLBACK, "fallback"),
         ] {
             if self.contains(bit) {
                 if !first {

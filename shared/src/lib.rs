@@ -75,6 +75,7 @@ pub mod protocol;
 pub mod real;
 pub mod signature;
 pub mod spectrum;
+pub mod trust;
 
 pub use clock::StreamClock;
 pub use compensator::{Compensator, Estimate, PreparedModel, Sample, StreamState};
@@ -86,3 +87,4 @@ pub use layout::FeatureSet;
 pub use memory::{MemoryBank, MemoryGroup, MemoryOperators, MemorySpec, MemoryState};
 pub use model::{Centre, Hyper, ModelParams, Provenance};
 pub use real::Real;
+pub use trust::TrustSpec;

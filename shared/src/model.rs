@@ -13,6 +13,7 @@ use crate::layout::{
 };
 use crate::memory::MemorySpec;
 use crate::real::Real;
+use crate::trust::TrustSpec;
 
 pub use crate::bounds;
 use crate::bounds::within;
@@ -177,6 +178,9 @@ pub struct ModelParams<F, const K: usize> {
     /// What a field reading needs: each grating's zero, the calibration's absolute clock, the
     /// output envelope and the largest band.
     pub field: FieldContext,
+    /// Where the memory may be trusted: the gate's rate limits, the fade's quiet time and the
+    /// band it fades to ([`crate::trust`]).
+    pub trust: TrustSpec<F>,
 }
 
 impl<F: Real, const K: usize> Default for ModelParams<F, K> {
@@ -235,6 +239,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
                 n_cal: 0,
             },
             field: FieldContext::unknown(),
+            trust: TrustSpec::off(),
         }
     }
 
@@ -295,6 +300,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
             return bad("poly");
         }
         self.memory.validate(d)?;
+        self.trust.validate(d)?;
         let mem = &self.memory;
         if !all_within(&mem.grating_tau_s, TIME_MAX) {
             return bad("memory.grating_tau_s");
@@ -426,6 +432,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
             fitted: self.fitted,
             provenance: self.provenance.clone(),
             field: self.field,
+            trust: self.trust.convert(),
         })
     }
 }

@@ -47,6 +47,7 @@ mod skeleton;
 pub mod static_fidelity;
 mod train;
 mod trained;
+pub mod trust;
 mod variance;
 
 pub use band::VarModel;

@@ -179,6 +179,8 @@ impl Skeleton {
             provenance: provenance.clone(),
             // Filled in by `train` once the model is final (`field::context`).
             field: fbg_shared::FieldContext::unknown(),
+            // Filled in by `train` for Model-H (`trust::spec`).
+            trust: fbg_shared::TrustSpec::off(),
         };
         p.validate().map_err(|e| TrainerError::fit(format!("assembled model is invalid: {e}")))?;
         Ok(p)

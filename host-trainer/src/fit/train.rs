@@ -17,6 +17,7 @@ use super::select::{self, Selection};
 use super::skeleton::Skeleton;
 use super::static_fidelity::StaticAudit;
 use super::trained::Trained;
+use super::trust;
 use super::variance::VarianceTerms;
 use crate::data::import::OnError;
 use crate::data::outliers;
@@ -70,6 +71,10 @@ pub fn train_source(d: &Dataset, source: &str, opts: &TrainOptions, origin: &Ori
         });
     }
     refuse_constant_columns(d, &cal)?;
+    // No play radius that the gratings' own noise crosses during a hold (DESIGN §4 (c)).
+    let noise_pm = trust::white_noise_pm(d, &cal);
+    let floored = opts.to_builder().memory(trust::noise_floored(opts.memory(), &noise_pm)).check()?;
+    let opts = &floored;
     let mut phases = PhaseClock::start();
     let selection = select::select(d, &cal, opts)?;
     phases.lap("cross-validation");
@@ -128,6 +133,7 @@ fn final_fit(
     let mut model_p = sk_p.params_with_band(None, 0.0, None, &selection.var_model_p, t_end, 0.0, &provenance)?;
     model_h.field = field::context(&model_h, d, cal, &selection.var_model_h, &selection.cv_rmse_h);
     model_p.field = field::context(&model_p, d, cal, &selection.var_model_p, &selection.cv_rmse_p);
+    model_h.trust = trust::spec(&model_h, &model_p, d, cal);
     for m in [&model_h, &model_p] {
         m.validate().map_err(|e| TrainerError::fit(format!("assembled model is invalid: {e}")))?;
     }

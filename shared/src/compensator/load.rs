@@ -2,8 +2,10 @@
 //! only then written, so that a refused model leaves the old one serving.
 
 use super::fold::Folded;
+use super::gate::Gate;
 use super::prepared::PreparedModel;
 use crate::error::Error;
+use crate::layout::MAX_OUTPUTS;
 use crate::model::{Centre, ModelParams};
 use crate::real::Real;
 
@@ -151,6 +153,28 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         self.uses_latch = h.feature_set.uses_latch();
         for (k, (o, &v)) in self.fitted.iter_mut().zip(params.fitted.iter()).enumerate() {
             *o = k < m_out && v;
+        }
+        self.write_trust(params);
+    }
+
+    /// The gate, the fade and the band faded to ([`crate::trust`]). A model without a stream
+    /// state worth guarding (no memory terms, no latches) has neither gate nor fade; an output
+    /// without a fallback band fades to its own.
+    #[inline(always)]
+    fn write_trust<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) {
+        let tr = &params.trust;
+        let stateful = self.memory.is_active() || self.uses_latch;
+        self.gate = if stateful {
+            Gate::new(&self.env_lo, &self.env_hi, params.dims.envelope_len(), tr)
+        } else {
+            Gate::off()
+        };
+        self.quiet_max_s = if self.memory.is_active() { F::from_real(tr.quiet_max_s) } else { F::ZERO };
+        for o in 0..MAX_OUTPUTS {
+            let (v, g) = (F::from_real(tr.fallback_var[o]), F::from_real(tr.fallback_var_growth[o]));
+            let own = !(v > F::ZERO);
+            self.fallback_var[o] = if own { self.band_var[o] } else { v };
+            self.fallback_var_growth[o] = if own { self.band_var_growth[o] } else { g };
         }
     }
 

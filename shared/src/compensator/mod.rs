@@ -2,6 +2,7 @@
 //! flags, in the order data flows:
 //!
 //! - [`Sample`] (`sample`): one measured sample, the input;
+//! - `gate`: which samples may move a stream's memory state ([`crate::trust`]);
 //! - `fold`, `load`: loading folds the auditable [`crate::ModelParams`] into a per-sample
 //!   form once, in the model's own precision, every folded number checked before the first is
 //!   written (a refused model leaves the old one serving);
@@ -16,6 +17,7 @@
 
 mod estimate;
 mod fold;
+mod gate;
 mod load;
 mod pair;
 mod prepared;

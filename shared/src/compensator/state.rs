@@ -1,5 +1,6 @@
 //! The state of one sample stream: what a step moves, and the stream's clock.
 
+use super::gate::GateState;
 use super::prepared::PreparedModel;
 use crate::clock::StreamClock;
 use crate::direction_latch::LatchBank;
@@ -25,6 +26,8 @@ use crate::real::Real;
 pub struct StreamState<F> {
     latches: LatchBank,
     memory: MemoryState<F>,
+    /// The last sample the gate let into the memory state ([`crate::trust`]).
+    gate: GateState<F>,
     /// The stream's clock, as set.
     clock: StreamClock,
     /// lead = `t_s` + this offset; `None`: the lead is unknown.
@@ -37,6 +40,7 @@ impl<F: Real> StreamState<F> {
         StreamState {
             latches: LatchBank::new(),
             memory: MemoryState::new(),
+            gate: GateState::new(),
             clock: StreamClock::Unknown,
             lead_offset_s: None,
         }
@@ -47,6 +51,7 @@ impl<F: Real> StreamState<F> {
     pub fn reset(&mut self) {
         self.latches.reset();
         self.memory = MemoryState::new();
+        self.gate = GateState::new();
     }
 
     /// The direction latches.
@@ -87,6 +92,18 @@ impl<F: Real> StreamState<F> {
     pub(super) fn moving(&mut self) -> (&mut LatchBank, &mut MemoryState<F>) {
         (&mut self.latches, &mut self.memory)
     }
+
+    /// The gate's memory of the last sample let in.
+    #[inline(always)]
+    pub(super) fn gate(&self) -> &GateState<F> {
+        &self.gate
+    }
+
+    /// The same, to move.
+    #[inline(always)]
+    pub(super) fn gate_mut(&mut self) -> &mut GateState<F> {
+        &mut self.gate
+    }
 }
 
 impl<F: Real, const K: usize> PreparedModel<F, K> {
@@ -117,6 +134,9 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             state.memory.unpack_into(self.memory.gratings(), memory)?;
         }
         state.latches = latches;
+        // The gate starts over: its range test holds at once, its rate test from the next
+        // sample let in.
+        state.gate = GateState::new();
         Ok(())
     }
 }

@@ -40,7 +40,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// needed. Non-finite samples leave the state as `step` would.
     #[inline]
     pub fn advance(&self, state: &mut StreamState<F>, s: &Sample<F>) {
-        if self.accepts(s) {
+        if self.accepts(s) && self.let_in(state, s) {
             let (latches, memory) = state.moving();
             let _: [F; MAX_GRATINGS] = latches.update(&s.dl_pm, usize::from(self.gratings), self.dead_band);
             self.memory.advance(memory, &s.dl_pm, s.t_amb_c, s.t_s);
@@ -76,7 +76,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         s: &Sample<F>,
         psi: &mut [F],
     ) -> Option<[F; MAX_OUTPUTS]> {
-        if !self.accepts_shaped::<G>(s) {
+        if !self.accepts_shaped::<G>(s) || !self.let_in(state, s) {
             return None;
         }
         let (latch, y) = self.advance_with_core::<G, M>(state, s);
@@ -98,6 +98,18 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         let (z, z_sq) = self.rbf_inputs::<0>(s, *latch);
         psi_all(&self.centres, &z, z_sq, usize::from(self.z_groups), psi);
         true
+    }
+
+    /// The gate ([`crate::trust`]) for a finite sample: whether it may move the stream state,
+    /// remembered when it may.
+    #[inline(always)]
+    fn let_in(&self, state: &mut StreamState<F>, s: &Sample<F>) -> bool {
+        let (x_env, _) = affine_inputs(&s.dl_pm, usize::from(self.gratings), self.ambient, s.t_amb_c);
+        let ok = self.gate.admits(state.gate(), &x_env, s.t_s);
+        if ok {
+            self.gate.let_in(state.gate_mut(), &x_env, s.t_s);
+        }
+        ok
     }
 
     /// Whether a sample has the model's grating count and is finite where this model reads it
@@ -221,15 +233,28 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         if !self.accepts_shaped::<G>(s) {
             return Estimate::refused(self.outputs, Flags::NON_FINITE);
         }
-        let (latch, y) = self.advance_with_core::<G, M>(state, s);
         let (x_env, n_env) = affine_inputs(&s.dl_pm, self.g::<G>(), self.ambient, s.t_amb_c);
-
         let mut flags = Flags::OK;
         for ((&x, &lo), &hi) in head(&x_env, n_env).iter().zip(self.env_lo.iter()).zip(self.env_hi.iter()) {
             if x < lo || x > hi {
                 flags.insert(Flags::OUT_OF_ENVELOPE);
             }
         }
+        let lead = self.lead(state, s, &mut flags);
+        let core = self.core::<G, M>(s);
+
+        // A sample the gate refuses leaves the stream state as it was and is answered by
+        // Model-P's core with Model-P's band (widened as a fault).
+        if !self.gate.admits(state.gate(), &x_env, s.t_s) {
+            flags.insert(Flags::OUT_OF_ENVELOPE.union(Flags::FALLBACK));
+            if !core.iter().zip(self.fitted.iter()).all(|(v, &fit)| !fit || v.is_finite()) {
+                return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
+            }
+            return self.finish::<M>(core, F::ZERO, lead, F::ZERO, flags);
+        }
+        self.gate.let_in(state.gate_mut(), &x_env, s.t_s);
+        let mut y = core;
+        let latch = self.advance_state::<G>(state, s, &mut y);
 
         // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
         let (z, z_sq) = self.rbf_inputs::<G>(s, latch);
@@ -245,39 +270,84 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         for &pi in proj.iter() {
             lev = pi.mul_add(pi, lev);
         }
+        // Beyond the calibration's quiet time, what Model-H adds to the core fades.
+        let fade = self.fade(state.memory().quiet_s(s.t_s));
+        let y = if fade < F::ONE {
+            flags.insert(Flags::FALLBACK);
+            let mut out = core;
+            for ((o, &full), &c) in out.iter_mut().zip(y.iter()).zip(core.iter()) {
+                *o = fade.mul_add(full - c, c);
+            }
+            out
+        } else {
+            y
+        };
         // An overflow in this precision (finite inputs far outside anything calibrated) is
         // reported like a non-finite input rather than passed on as a normal estimate.
         if !y.iter().zip(self.fitted.iter()).all(|(v, &fit)| !fit || v.is_finite()) {
             return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
         }
-        let lead = if !self.band_grows {
+        self.finish::<M>(y, lev, lead, fade, flags)
+    }
+
+    /// The band's lead time \[s\] of sample `s`: since the end of calibration on the stream's
+    /// clock, or the largest validated lead (flagged) when the clock is unknown; 0 for a band
+    /// that does not grow.
+    #[inline(always)]
+    fn lead(&self, state: &StreamState<F>, s: &Sample<F>, flags: &mut Flags) -> F {
+        if !self.band_grows {
             F::ZERO
         } else if let Some(o) = state.lead_offset_s() {
             (s.t_s + o).max(F::ZERO)
         } else {
             flags.insert(Flags::LEAD_UNKNOWN);
             self.lead_max_s
-        };
-        self.finish::<M>(y, lev, lead, flags)
+        }
     }
 
-    /// The estimate from the values `y`, the leverage and the lead: the band, and the
-    /// plausibility of the value and the band ([`crate::field`]): three compares per output.
-    /// An output unchecked or not fitted has ±∞ bounds and an infinite limit: only a band that
-    /// overflows flags it (then the leverage did, for every output).
+    /// How much of what Model-H adds to the core is kept at quiet time `quiet_s` \[s\]: 1 up to
+    /// the calibration's largest, then linearly down to 0 at twice that ([`crate::trust`]).
     #[inline(always)]
-    fn finish<const M: usize>(&self, mut y: [F; MAX_OUTPUTS], lev: F, lead: F, mut flags: Flags) -> Estimate<F> {
+    fn fade(&self, quiet_s: F) -> F {
+        let q_max = self.quiet_max_s;
+        if !(q_max > F::ZERO) || quiet_s <= q_max {
+            F::ONE
+        } else {
+            // Here quiet_s > q_max: below 1.
+            (F::ONE + F::ONE - quiet_s / q_max).max(F::ZERO)
+        }
+    }
+
+    /// The estimate from the values `y`, the leverage, the lead and the fade (1: Model-H's
+    /// band; 0: Model-P's, blended in variance between): the band, and the plausibility of
+    /// the value and the band ([`crate::field`]): three compares per output. An output
+    /// unchecked or not fitted has ±∞ bounds and an infinite limit: only a band that overflows
+    /// flags it (then the leverage did, for every output).
+    #[inline(always)]
+    fn finish<const M: usize>(&self, mut y: [F; MAX_OUTPUTS], lev: F, lead: F, fade: F, mut flags: Flags) -> Estimate<F> {
         let m = self.m::<M>();
         let mut band95 = [F::ZERO; MAX_OUTPUTS];
         let mut implausible = false;
-        for (((bi, (&bv, &bg)), (&v, &lim)), (&lo, &hi)) in band95
+        for (o, (((bi, (&bv, &bg)), (&v, &lim)), (&lo, &hi))) in band95
             .iter_mut()
             .zip(self.band_var.iter().zip(self.band_var_growth.iter()))
             .zip(y.iter().zip(self.band_lim.iter()))
             .zip(self.out_lo.iter().zip(self.out_hi.iter()))
             .take(m)
+            .enumerate()
         {
-            *bi = (bg.mul_add(lead, bv) * (F::ONE + lev)).sqrt();
+            let own = bg.mul_add(lead, bv) * (F::ONE + lev);
+            let var = if fade < F::ONE {
+                let (pv, pg) = (
+                    self.fallback_var.get(o).copied().unwrap_or(F::ZERO),
+                    self.fallback_var_growth.get(o).copied().unwrap_or(F::ZERO),
+                );
+                let p = pg.mul_add(lead, pv);
+                fade.mul_add(own - p, p)
+            } else {
+                own
+            };
+            *bi = var.sqrt();
             // `!(b < lim)`: true for a NaN band too.
             #[allow(clippy::neg_cmp_op_on_partial_ord)]
             let bad = v < lo || v > hi || !(*bi < lim);

@@ -49,6 +49,9 @@ pub struct MemoryOperators<F> {
     grating_on: [bool; N_GRATING_TAUS],
     ambient_on: [bool; N_AMBIENT_TAUS],
     play_on: [bool; N_PLAYS],
+    /// The slot of the widest play in use ([`N_PLAYS`] when none): its moves end the quiet
+    /// time ([`crate::trust`]).
+    widest: u8,
     observer_on: bool,
     any: bool,
 }
@@ -67,6 +70,7 @@ impl<F: Real> MemoryOperators<F> {
             grating_on: [false; N_GRATING_TAUS],
             ambient_on: [false; N_AMBIENT_TAUS],
             play_on: [false; N_PLAYS],
+            widest: N_PLAYS as u8,
             observer_on: false,
             any: false,
         }
@@ -92,9 +96,16 @@ impl<F: Real> MemoryOperators<F> {
             *lp = LowPass::new(tau);
             *on = dims.ambient() && tau > F::ZERO;
         }
-        for ((op, on), &r) in b.plays.iter_mut().zip(b.play_on.iter_mut()).zip(s.play_half_width_pm.iter()) {
+        let mut widest = F::ZERO;
+        for (j, ((op, on), &r)) in
+            b.plays.iter_mut().zip(b.play_on.iter_mut()).zip(s.play_half_width_pm.iter()).enumerate()
+        {
             *op = Play::new(r);
             *on = r > F::ZERO;
+            if r > widest {
+                widest = r;
+                b.widest = j as u8;
+            }
         }
         b.any = b.grating_on.iter().chain(b.ambient_on.iter()).chain(b.play_on.iter()).any(|&o| o) || b.observer_on;
         b
@@ -223,6 +234,7 @@ impl<F: Real> MemoryOperators<F> {
             st.ambient = [t_amb_c; N_AMBIENT_TAUS];
             DriftObserver::prime(&mut st.observer, t_g, t_amb_c);
             st.t_prev_s = t_s;
+            st.t_moved_s = t_s;
             st.primed = true;
             if self.observer_on {
                 sink(mem_observer, st.observer[1]);
@@ -252,13 +264,20 @@ impl<F: Real> MemoryOperators<F> {
             }
         }
         let mut k = mem_stop;
-        for ((op, &on), s) in self.plays.iter().zip(self.play_on.iter()).zip(st.play.iter_mut()) {
+        let mut moved = false;
+        for (slot, ((op, &on), s)) in self.plays.iter().zip(self.play_on.iter()).zip(st.play.iter_mut()).enumerate() {
             if on {
+                let widest = slot == usize::from(self.widest);
                 for (j, (&x, si)) in dl.iter().zip(s.iter_mut()).enumerate() {
+                    let before = *si;
                     sink(k + j, op.stop(si, x));
+                    moved |= widest && *si != before;
                 }
             }
             k += n;
+        }
+        if moved {
+            st.t_moved_s = t_s;
         }
         if self.observer_on {
             let v = self.observer.update(&mut st.observer, t_g, t_amb_c, alphas.observer);

@@ -19,6 +19,9 @@ pub struct MemoryState<F> {
     pub(super) play: [[F; MAX_GRATINGS]; N_PLAYS],
     pub(super) observer: [F; 2],
     pub(super) t_prev_s: F,
+    /// When the widest play operator of any grating last moved \[s\] (the quiet time's start,
+    /// [`crate::trust`]).
+    pub(super) t_moved_s: F,
     pub(super) primed: bool,
     pub(super) smoothing: Smoothing<F>,
 }
@@ -67,6 +70,7 @@ impl<F: Real> MemoryState<F> {
             play: [[F::ZERO; MAX_GRATINGS]; N_PLAYS],
             observer: [F::ZERO; 2],
             t_prev_s: F::ZERO,
+            t_moved_s: F::ZERO,
             primed: false,
             smoothing: Smoothing::new(),
         }
@@ -74,11 +78,23 @@ impl<F: Real> MemoryState<F> {
 }
 
 impl<F: Real> MemoryState<F> {
+    /// The quiet time at `t_s` \[s\]: how long the widest play operator of every grating has
+    /// not moved ([`crate::trust`]); 0 before the first sample and for a bank without plays.
+    #[inline(always)]
+    pub fn quiet_s(&self, t_s: F) -> F {
+        if self.primed {
+            (t_s - self.t_moved_s).max(F::ZERO)
+        } else {
+            F::ZERO
+        }
+    }
+
     /// Numbers in the packed form of the state of a bank over `gratings` gratings
     /// ([`MemoryState::pack`]): every low-pass and play position of those gratings, the ambient
-    /// low-passes, the observer's two stages, the last sample time and whether the bank is primed.
+    /// low-passes, the observer's two stages, the last sample time, when the widest play last moved and
+    /// whether the bank is primed.
     pub const fn packed_len(gratings: usize) -> usize {
-        gratings * (N_GRATING_TAUS + N_PLAYS) + N_AMBIENT_TAUS + 4
+        gratings * (N_GRATING_TAUS + N_PLAYS) + N_AMBIENT_TAUS + 5
     }
 
     /// Write the state of the first `gratings` gratings into `out` (exactly
@@ -100,6 +116,7 @@ impl<F: Real> MemoryState<F> {
             self.observer[0],
             self.observer[1],
             self.t_prev_s,
+            self.t_moved_s,
             if self.primed { F::ONE } else { F::ZERO },
         ]) {
             *o = v;
@@ -129,9 +146,10 @@ impl<F: Real> MemoryState<F> {
         }
         let (amb, tail) = rest.split_at(N_AMBIENT_TAUS);
         s.ambient.iter_mut().zip(amb).for_each(|(o, &v)| *o = v);
-        if let [o0, o1, t, primed] = *tail {
+        if let [o0, o1, t, moved, primed] = *tail {
             s.observer = [o0, o1];
             s.t_prev_s = t;
+            s.t_moved_s = moved;
             s.primed = primed != F::ZERO;
         }
         Ok(())

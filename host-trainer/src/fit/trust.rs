@@ -1,0 +1,127 @@
+//! Where Model-H may be trusted (DESIGN §4, the second rule), measured on the calibration
+//! batch: each grating's noise, the play radii that noise alone cannot cross, and the
+//! conditions the blob carries ([`fbg_shared::trust`]: rate limits, the largest quiet time,
+//! Model-P's band to fade to).
+
+use fbg_shared::layout::{MAX_ENVELOPE, MAX_GRATINGS, N_PLAYS};
+use fbg_shared::{MemoryBank, TrustSpec};
+
+use super::host::HostParams;
+use super::memory_core::MemoryOptions;
+use crate::data::Dataset;
+
+/// A play radius must be at least this many white-noise σ of the grating: noise alone then
+/// does not push it across its dead band (2r = 10σ) during a hold of days.
+pub const RADIUS_NOISE_FACTOR: f64 = 5.0;
+
+/// Smallest play radius the menu starts from \[pm\] (the default menu's first radius).
+pub const MIN_RADIUS_PM: f64 = 2.0;
+
+/// White-noise σ \[pm\] of each grating's shift on the calibration rows `cal`: the robust
+/// spread of second differences of consecutive rows (1.4826 · MAD / √6). Second differences
+/// remove a level and a trend; at the sampling of an interrogator the measurand's curvature
+/// adds little. NaN for a grating with fewer than 3 consecutive finite rows.
+pub fn white_noise_pm(d: &Dataset, cal: &[usize]) -> Vec<f64> {
+    let n = d.dl_pm.len();
+    (0..n)
+        .map(|g| {
+            let x = &d.dl_pm[g];
+            let mut d2: Vec<f64> = cal
+                .windows(3)
+                .filter(|w| w[1] == w[0] + 1 && w[2] == w[1] + 1)
+                .map(|w| x[w[2]] - 2.0 * x[w[1]] + x[w[0]])
+                .filter(|v| v.is_finite())
+                .collect();
+            if d2.is_empty() {
+                return f64::NAN;
+            }
+            let med = crate::stats::median(&d2);
+            for v in d2.iter_mut() {
+                *v = (*v - med).abs();
+            }
+            1.4826 * crate::stats::median(&d2) / 6f64.sqrt()
+        })
+        .collect()
+}
+
+/// The memory menu with play radii no noise crosses: r₀ = max([`MIN_RADIUS_PM`],
+/// [`RADIUS_NOISE_FACTOR`] · the largest grating σ), then 2r₀, 4r₀, … (one octave apart, as the
+/// default menu). A menu without plays is returned as it is.
+pub fn noise_floored(menu: &MemoryOptions, sigma_pm: &[f64]) -> MemoryOptions {
+    let mut out = menu.clone();
+    if !out.menu.play_half_width_pm.iter().any(|&r| r > 0.0) {
+        return out;
+    }
+    let sigma = sigma_pm.iter().copied().filter(|s| s.is_finite()).fold(0.0, f64::max);
+    let r0 = MIN_RADIUS_PM.max(RADIUS_NOISE_FACTOR * sigma);
+    let mut r = r0;
+    for slot in out.menu.play_half_width_pm.iter_mut().take(N_PLAYS) {
+        *slot = r;
+        r *= 2.0;
+    }
+    out
+}
+
+/// The trust spec of Model-H `h` (with Model-P `p` to fade to) from the calibration rows `cal`
+/// of `d`: the largest |Δx|/Δt of each envelope input between consecutive calibration rows,
+/// the largest quiet time of `h`'s memory over the batch (the bank run from the first row as
+/// the compensator runs it; 0 without play operators), and Model-P's band.
+pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> TrustSpec<f64> {
+    let mut t = TrustSpec::off();
+    let dims = &h.dims;
+    let ne = dims.envelope_len().min(MAX_ENVELOPE);
+    let input = |k: usize, i: usize| -> f64 {
+        if k < dims.gratings() {
+            d.dl_pm[k][i]
+        } else {
+            d.t_amb_c.as_ref().map(|a| a[i]).unwrap_or(f64::NAN)
+        }
+    };
+    for w in cal.windows(2) {
+        let dt = d.t_s[w[1]] - d.t_s[w[0]];
+        if !(dt > 0.0) {
+            continue;
+        }
+        for (k, r) in t.rate_max.iter_mut().enumerate().take(ne) {
+            let rate = (input(k, w[1]) - input(k, w[0])).abs() / dt;
+            if rate.is_finite() && rate > *r {
+                *r = rate;
+            }
+        }
+    }
+    if h.memory.play_half_width_pm.iter().any(|&r| r > 0.0) {
+        t.quiet_max_s = quiet_max_s(h, d, cal);
+    }
+    let m = dims.n_outputs();
+    for o in 0..m {
+        let k2 = p.band_k[o] * p.band_k[o];
+        t.fallback_var[o] = k2 * p.resid_var[o];
+        t.fallback_var_growth[o] = k2 * p.resid_var_growth[o];
+    }
+    t
+}
+
+/// The largest quiet time of `h`'s memory over the calibration rows `cal`.
+fn quiet_max_s(h: &HostParams, d: &Dataset, cal: &[usize]) -> f64 {
+    let mut bank = MemoryBank::<f64>::new(&h.memory, &h.dims);
+    let end = cal.last().map(|&i| i + 1).unwrap_or(0);
+    let mut want = cal.iter().peekable();
+    let mut q_max: f64 = 0.0;
+    for i in 0..end {
+        let s = d.sample(i);
+        let ok = s.dl().iter().all(|v| v.is_finite())
+            && (!h.dims.ambient() || s.t_amb_c.is_finite())
+            && s.t_s.is_finite();
+        if ok {
+            let dl: [f64; MAX_GRATINGS] = s.dl_pm;
+            bank.advance(&dl, s.t_amb_c, s.t_s);
+        }
+        if want.peek() == Some(&&i) {
+            want.next();
+            if ok {
+                q_max = q_max.max(bank.state().quiet_s(s.t_s));
+            }
+        }
+    }
+    q_max
+}

@@ -1,0 +1,105 @@
+//! Where Model-H's memory may be trusted (DESIGN §4, "honest outside the calibration"): the
+//! conditions its calibration showed, carried in the blob.
+//!
+//! Two rules read these numbers on every step ([`crate::PreparedModel::step`]):
+//!
+//! - **The gate.** A sample enters the memory state (operators, latches) only if every input
+//!   lies within the calibration envelope widened by [`GATE_SPAN_MARGIN`] of its span on each
+//!   side, and has moved since the last accepted sample by at most [`GATE_RATE_FACTOR`] × the
+//!   largest |Δx|/Δt of the calibration batch × the time since then. A refused sample is
+//!   answered by Model-P's core with Model-P's band widened as a fault, flagged
+//!   [`crate::Flags::OUT_OF_ENVELOPE`] and [`crate::Flags::FALLBACK`]; the state does not move, so
+//!   a single glitch (a thermometer's 85 °C power-on value, a 1e300) leaves every later reading
+//!   as it would have been, and the state stays within the widened envelope whatever arrives.
+//!   The limit grows with the time since the last accepted sample, so a real step is accepted
+//!   once enough time has passed (the rule cannot lock a stream out).
+//! - **The fade.** The memory terms and the RBF residual (what Model-H adds to Model-P's core)
+//!   were seen working only while the installation moved as in the calibration week. The
+//!   quiet time q — the time since the widest play operator of any grating last moved (its
+//!   half-width is above the noise, so noise alone does not move it) — had a largest value
+//!   `quiet_max_s` there. Beyond it the added part fades linearly to nothing at twice that
+//!   value, and the band to Model-P's (`fallback_var`): at rest, a hold longer than any the
+//!   calibration contained, Model-H answers as Model-P and says so with
+//!   [`crate::Flags::FALLBACK`] (not a fault: Model-P's value and band are as good as ever).
+
+use serde::{Deserialize, Serialize};
+
+use crate::bounds::{self, within};
+use crate::error::Error;
+use crate::layout::{head, Dims, MAX_ENVELOPE, MAX_OUTPUTS};
+use crate::real::Real;
+
+/// The gate's range: the calibration envelope widened by this fraction of its span on each
+/// side.
+pub const GATE_SPAN_MARGIN: f64 = 0.5;
+
+/// The gate's rate limit: this many times the largest |Δx|/Δt of the calibration batch.
+pub const GATE_RATE_FACTOR: f64 = 10.0;
+
+/// The conditions in which Model-H's memory was seen to work, per model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrustSpec<F> {
+    /// Largest |Δx|/Δt of each envelope input (Δλ_1..N \[pm/s\], then T_amb \[°C/s\]) between
+    /// consecutive calibration samples; 0 = no rate limit on that input.
+    pub rate_max: [F; MAX_ENVELOPE],
+    /// Largest quiet time \[s\] of the calibration batch (see the module doc); 0 = no fade.
+    pub quiet_max_s: F,
+    /// Model-P's band variance per output at the end of calibration, k²·σ² \[unit²\]: the band
+    /// Model-H fades to.
+    pub fallback_var: [F; MAX_OUTPUTS],
+    /// Its growth with the lead time, k²·dσ²/dt \[unit²/s\].
+    pub fallback_var_growth: [F; MAX_OUTPUTS],
+}
+
+impl<F: Real> TrustSpec<F> {
+    /// No gate rate limit, no fade, no fallback band: a model without memory (Model-P).
+    pub const fn off() -> Self {
+        TrustSpec {
+            rate_max: [F::ZERO; MAX_ENVELOPE],
+            quiet_max_s: F::ZERO,
+            fallback_var: [F::ZERO; MAX_OUTPUTS],
+            fallback_var_growth: [F::ZERO; MAX_OUTPUTS],
+        }
+    }
+
+    /// Every number finite, ≥ 0 and within its field's bound; entries beyond the dims 0.
+    pub fn validate(&self, dims: &Dims) -> Result<(), Error> {
+        let bad = |field| Err(Error::BadParameter { field });
+        let ok = |v: F, bound: f64| within(v, bound) && v >= F::ZERO;
+        let (ne, m) = (dims.envelope_len(), dims.n_outputs());
+        if !head(&self.rate_max, ne).iter().all(|&v| ok(v, bounds::INPUT_MAX)) {
+            return bad("trust.rate_max");
+        }
+        if !ok(self.quiet_max_s, bounds::TIME_MAX) {
+            return bad("trust.quiet_max_s");
+        }
+        if !head(&self.fallback_var, m).iter().all(|&v| ok(v, bounds::VARIANCE_MAX)) {
+            return bad("trust.fallback_var");
+        }
+        if !head(&self.fallback_var_growth, m).iter().all(|&v| ok(v, bounds::VARIANCE_MAX)) {
+            return bad("trust.fallback_var_growth");
+        }
+        Ok(())
+    }
+
+    /// The same numbers in another precision.
+    pub fn convert<G: Real>(&self) -> TrustSpec<G> {
+        let c = |a: &[F]| -> [G; MAX_OUTPUTS] {
+            let mut o = [G::ZERO; MAX_OUTPUTS];
+            for (o, &v) in o.iter_mut().zip(a) {
+                *o = G::from_real(v);
+            }
+            o
+        };
+        let mut rate_max = [G::ZERO; MAX_ENVELOPE];
+        for (o, &v) in rate_max.iter_mut().zip(self.rate_max.iter()) {
+            *o = G::from_real(v);
+        }
+        TrustSpec {
+            rate_max,
+            quiet_max_s: G::from_real(self.quiet_max_s),
+            fallback_var: c(&self.fallback_var),
+            fallback_var_growth: c(&self.fallback_var_growth),
+        }
+    }
+}
