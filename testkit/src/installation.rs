@@ -256,6 +256,7 @@ pub fn synthetic_params(k: usize, seed: u64) -> Result<ModelParams<f64, MAX_K>, 
             output_hi: pad(&[T0 as f32 + 30.0, 1000.0, P0 as f32 + 100.0]),
             band_max: pad(&[0.3, 6.0, 1.5]),
         },
+        trust: fbg_shared::TrustSpec::off(),
     };
     let mut params = params;
     // T_g = T0 + (row 0 of the inverse gauge matrix)·Δλ: the grating temperature.

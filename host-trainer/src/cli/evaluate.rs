@@ -116,6 +116,9 @@ pub fn print_tables(m: &Metrics) {
     }
     if let Some(p) = &m.pace {
         println!("{}", tables::pace(p, m).text());
+        if !p.glitch.is_empty() {
+            println!("{}", tables::glitch(p).text());
+        }
     }
     if let Some(p) = &m.parity {
         let diffs: Vec<String> = p.max_abs_diff.iter().zip(&m.units).map(|(v, u)| format!("{v:.2e} {u}")).collect();

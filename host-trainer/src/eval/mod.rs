@@ -3,6 +3,7 @@
 //! ([`studies`]), the schema of `metrics.json` they fill ([`metrics`]), and the tables that
 //! render it ([`tables`]), and what of it deserves a warning ([`warnings`]).
 
+pub mod glitch;
 pub mod metrics;
 pub mod pace;
 pub mod parity;

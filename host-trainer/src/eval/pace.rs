@@ -21,6 +21,12 @@ use crate::sim::{simulate, steps};
 /// Pace factors of the study (speed multipliers: ¼ is four times slower).
 pub const PACES: [f64; 3] = [0.25, 4.0, 8.0];
 
+/// The rest record's pace: every measurand fifty times slower, a structure nearly at rest.
+pub const REST_PACE: f64 = 0.02;
+
+/// The long-hold record's hold per level \[s\]: a steps record whose levels are held a day.
+pub const LONG_HOLD_S: f64 = 86_400.0;
+
 /// Numbers that serde_json wrote as `null` (NaN) read back as NaN.
 pub(crate) fn nullable<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
     let v: Vec<Option<f64>> = serde::Deserialize::deserialize(d)?;
@@ -69,8 +75,12 @@ impl PaceRow {
 pub struct PaceStudy {
     pub scenario: String,
     pub seed: u64,
-    /// Every paced record, then the steps record.
+    /// Every paced record, then the steps record, the rest record and the long-hold record.
     pub rows: Vec<PaceRow>,
+    /// Single-sample glitches in each input of the native record's hold-out
+    /// ([`crate::eval::glitch`]).
+    #[serde(default)]
+    pub glitch: Vec<crate::eval::glitch::GlitchRow>,
 }
 
 impl PaceStudy {
@@ -144,12 +154,23 @@ pub fn pace_study(
     })
     .into_iter()
     .collect::<Result<Vec<_>, _>>()?;
-    let st = simulate(&cfg.steps(), seed);
-    let mut row = score("steps".into(), 1.0, None, model_p, model_h, &st.data)?;
-    let holds = held_levels(&st.data, &Measurand::of_dims(&model_h.dims));
-    row.slope_p = settled_slope(model_p, &st.data, &holds)?.gain;
-    row.slope_h = settled_slope(model_h, &st.data, &holds)?.gain;
-    row.holds = holds.len();
-    rows.push(row);
-    Ok(PaceStudy { scenario: cfg.name.clone(), seed, rows })
+    let mut long = cfg.steps();
+    long.steps.hold_s = LONG_HOLD_S;
+    long.name.push_str("-long-hold");
+    for (label, c) in [("steps", cfg.steps()), ("long-hold", long)] {
+        let st = simulate(&c, seed);
+        let mut row = score(label.into(), 1.0, None, model_p, model_h, &st.data)?;
+        let holds = held_levels(&st.data, &Measurand::of_dims(&model_h.dims));
+        row.slope_p = settled_slope(model_p, &st.data, &holds)?.gain;
+        row.slope_h = settled_slope(model_h, &st.data, &holds)?.gain;
+        row.holds = holds.len();
+        rows.push(row);
+        if label == "steps" {
+            let rest = simulate(&cfg.paced(REST_PACE, None), seed);
+            rows.push(score("rest".into(), REST_PACE, None, model_p, model_h, &rest.data)?);
+        }
+    }
+    let native = simulate(cfg, seed);
+    let glitch = crate::eval::glitch::glitch_study(model_h, &native.data)?;
+    Ok(PaceStudy { scenario: cfg.name.clone(), seed, rows, glitch })
 }

@@ -97,8 +97,9 @@ impl ChannelMetrics {
 pub struct ModelEval {
     /// Per output of the model, in output order.
     pub channels: Vec<ChannelMetrics>,
-    /// Samples with each flag raised (non-finite, out-of-envelope, weak support).
-    pub flag_counts: [usize; 4],
+    /// Samples with each flag raised (non-finite, out-of-envelope, weak support, implausible,
+    /// fallback to Model-P).
+    pub flag_counts: [usize; 5],
     /// Fraction of samples with any flag.
     pub flagged_fraction: f64,
 }
@@ -156,7 +157,7 @@ pub fn score(dims: &Dims, d: &Dataset, idx: &[usize], est: &[Estimate<f64>]) -> 
             n: err.len(),
         };
     }
-    let bits = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::IMPLAUSIBLE];
+    let bits = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::IMPLAUSIBLE, Flags::FALLBACK];
     let flag_counts = bits.map(|b| est.iter().filter(|e| e.flags.contains(b)).count());
     let flagged = est.iter().filter(|e| !e.flags.is_ok()).count();
     ModelEval { channels, flag_counts, flagged_fraction: flagged as f64 / est.len().max(1) as f64 }

@@ -26,7 +26,8 @@ use crate::fit::static_fidelity::{StaticAudit, AUDIT_MAX_ROWS};
 use crate::fit::{HostParams, HOST_CAP};
 
 /// The flags counted per model, as [`score::score`] counts them.
-const BITS: [Flags; 4] = [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::IMPLAUSIBLE];
+const BITS: [Flags; 5] =
+    [Flags::NON_FINITE, Flags::OUT_OF_ENVELOPE, Flags::WEAK_SUPPORT, Flags::IMPLAUSIBLE, Flags::FALLBACK];
 
 /// Sums of the errors of one output on the rows where a grating's latch reads rising or falling.
 #[derive(Clone, Copy)]
@@ -64,7 +65,7 @@ struct ModelRun {
     /// The model's stream over the record.
     state: StreamState<f64>,
     outputs: Vec<OutputSums>,
-    flag_counts: [usize; 4],
+    flag_counts: [usize; 5],
     flagged: usize,
     n: usize,
 }
@@ -89,7 +90,7 @@ impl ModelRun {
                 segments: [Segments::default(); MAX_GRATINGS],
             })
             .collect();
-        Ok(ModelRun { dims: params.dims, model, state, outputs, flag_counts: [0; 4], flagged: 0, n: 0 })
+        Ok(ModelRun { dims: params.dims, model, state, outputs, flag_counts: [0; 5], flagged: 0, n: 0 })
     }
 
     /// Add a counted row's estimate; `dirs`: every grating's latch at this row.

@@ -137,12 +137,13 @@ pub fn flag_line(m: &Metrics) -> String {
     let pct = |k: usize| 100.0 * k as f64 / n;
     let fc = t.model_h.flag_counts;
     format!(
-        "Model-H flags on the hold-out: {:.1} % of samples flagged — {:.1} % non-finite, {:.1} % outside the calibration envelope, {:.1} % weak RBF support, {:.1} % implausible",
+        "Model-H flags on the hold-out: {:.1} % of samples flagged — {:.1} % non-finite, {:.1} % outside the calibration envelope, {:.1} % weak RBF support, {:.1} % implausible, {:.1} % fallen back to Model-P (memory not trusted: a hold longer than the calibration's, or a refused sample)",
         100.0 * t.model_h.flagged_fraction,
         pct(fc[0]),
         pct(fc[1]),
         pct(fc[2]),
-        pct(fc[3])
+        pct(fc[3]),
+        pct(fc[4])
     )
 }
 
@@ -333,6 +334,36 @@ pub fn pace(s: &crate::eval::pace::PaceStudy, m: &Metrics) -> Table {
             s.scenario, s.seed
         ),
         header: std::iter::once("record".to_string()).chain(per_output_headers(m, &["P", "H", "gain %", "H cov %"])).collect(),
+        rows,
+    }
+}
+
+/// The glitch study: one bad sample in one input of the hold-out, and its trace in later rows.
+pub fn glitch(s: &crate::eval::pace::PaceStudy) -> Table {
+    let rows = s
+        .glitch
+        .iter()
+        .map(|g| {
+            vec![
+                g.input.clone(),
+                g.value.clone(),
+                format!("{:.0}", g.t_s),
+                if g.flagged { "yes".into() } else { "NO".into() },
+                g.later_rows.to_string(),
+                g.rows_beyond_band.to_string(),
+                f(g.worst_ratio, 3),
+            ]
+        })
+        .collect();
+    Table {
+        title: format!(
+            "Glitch study: Model-H on the hold-out with one sample of one input replaced, against the clean record ({}, seed {}); a later row is beyond when some output moved by more than its band",
+            s.scenario, s.seed
+        ),
+        header: ["input", "glitch", "t [s]", "row flagged", "later rows", "rows beyond band", "worst |Δ|/band"]
+            .iter()
+            .map(|h| h.to_string())
+            .collect(),
         rows,
     }
 }

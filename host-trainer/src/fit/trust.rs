@@ -109,9 +109,8 @@ fn quiet_max_s(h: &HostParams, d: &Dataset, cal: &[usize]) -> f64 {
     let mut q_max: f64 = 0.0;
     for i in 0..end {
         let s = d.sample(i);
-        let ok = s.dl().iter().all(|v| v.is_finite())
-            && (!h.dims.ambient() || s.t_amb_c.is_finite())
-            && s.t_s.is_finite();
+        let ok =
+            s.dl().iter().all(|v| v.is_finite()) && (!h.dims.ambient() || s.t_amb_c.is_finite()) && s.t_s.is_finite();
         if ok {
             let dl: [f64; MAX_GRATINGS] = s.dl_pm;
             bank.advance(&dl, s.t_amb_c, s.t_s);

@@ -74,7 +74,7 @@ struct ModelEvalDe {
 
 impl From<ModelEvalDe> for ModelEval {
     fn from(m: ModelEvalDe) -> Self {
-        let mut flag_counts = [0; 4];
+        let mut flag_counts = [0; 5];
         for (o, n) in flag_counts.iter_mut().zip(m.flag_counts) {
             *o = n;
         }

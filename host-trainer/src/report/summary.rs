@@ -349,12 +349,13 @@ fn device(m: &Metrics, ch: &Channels, out: &mut Vec<String>) {
     }
     let fc = t.model_h.flag_counts;
     s.push_str(&format!(
-        "Model-H flagged {} % of hold-out samples ({} non-finite, {} outside the calibration envelope, {} with weak RBF support, {} implausible; their bands are widened).",
+        "Model-H flagged {} % of hold-out samples ({} non-finite, {} outside the calibration envelope, {} with weak RBF support, {} implausible; their bands are widened; {} fallen back to Model-P where the memory was not trusted).",
         num(100.0 * t.model_h.flagged_fraction, 2),
         fc[0],
         fc[1],
         fc[2],
-        fc[3]
+        fc[3],
+        fc[4]
     ));
     out.push(s);
 }

@@ -38,7 +38,12 @@ impl<F: Real> Gate<F> {
 
     /// The gate of a model whose calibration envelope is `env_lo..env_hi` (`n` inputs) and
     /// whose trust spec is `trust`.
-    pub(super) fn new<G: Real>(env_lo: &[F; MAX_ENVELOPE], env_hi: &[F; MAX_ENVELOPE], n: usize, trust: &TrustSpec<G>) -> Self {
+    pub(super) fn new<G: Real>(
+        env_lo: &[F; MAX_ENVELOPE],
+        env_hi: &[F; MAX_ENVELOPE],
+        n: usize,
+        trust: &TrustSpec<G>,
+    ) -> Self {
         let mut g = Gate::off();
         let margin = F::from_f64(GATE_SPAN_MARGIN);
         let factor = F::from_f64(GATE_RATE_FACTOR);

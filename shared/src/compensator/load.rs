@@ -164,11 +164,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     fn write_trust<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) {
         let tr = &params.trust;
         let stateful = self.memory.is_active() || self.uses_latch;
-        self.gate = if stateful {
-            Gate::new(&self.env_lo, &self.env_hi, params.dims.envelope_len(), tr)
-        } else {
-            Gate::off()
-        };
+        self.gate =
+            if stateful { Gate::new(&self.env_lo, &self.env_hi, params.dims.envelope_len(), tr) } else { Gate::off() };
         self.quiet_max_s = if self.memory.is_active() { F::from_real(tr.quiet_max_s) } else { F::ZERO };
         for o in 0..MAX_OUTPUTS {
             let (v, g) = (F::from_real(tr.fallback_var[o]), F::from_real(tr.fallback_var_growth[o]));

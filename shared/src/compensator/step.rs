@@ -324,7 +324,14 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// unchecked or not fitted has ±∞ bounds and an infinite limit: only a band that overflows
     /// flags it (then the leverage did, for every output).
     #[inline(always)]
-    fn finish<const M: usize>(&self, mut y: [F; MAX_OUTPUTS], lev: F, lead: F, fade: F, mut flags: Flags) -> Estimate<F> {
+    fn finish<const M: usize>(
+        &self,
+        mut y: [F; MAX_OUTPUTS],
+        lev: F,
+        lead: F,
+        fade: F,
+        mut flags: Flags,
+    ) -> Estimate<F> {
         let m = self.m::<M>();
         let mut band95 = [F::ZERO; MAX_OUTPUTS];
         let mut implausible = false;

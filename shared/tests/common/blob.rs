@@ -31,11 +31,13 @@ pub fn min_len(centres: usize) -> usize {
 pub fn provenance_offset<const K: usize>(blob: &[u8], p: &ModelParams<f32, K>) -> usize {
     let mut buf = [0u8; 128];
     let n = postcard::to_slice(&p.provenance, &mut buf).expect("fits").len();
-    // The field context follows the provenance: λ_ref (8 bytes) and its source (1) per
+    // The field context follows the provenance, then the trust spec: λ_ref (8 bytes) and its source (1) per
     // grating, tolerance and lead (4 each), the end of calibration (1 or 9), 3 f32 per output.
     let f = &p.field;
     let field = 9 * p.dims.gratings() + 8 + if f.cal_end_unix_s.is_some() { 9 } else { 1 } + 12 * p.dims.n_outputs();
-    blob.len() - CRC_LEN - field - n
+    // Then the trust spec: a rate limit per envelope input, the quiet time, 2 f32 per output.
+    let trust = 4 * (p.dims.envelope_len() + 1 + 2 * p.dims.n_outputs());
+    blob.len() - CRC_LEN - field - trust - n
 }
 
 /// Offset of the first f32 of the memory spec: header, output kinds (3 × 2), hyper (1 + 7 × 4),
