@@ -28,8 +28,8 @@
 //! (N one-byte codes), the λ_ref tolerance (f32, pm), the absolute end of calibration
 //! (postcard `Option<f64>`, Unix s), the largest validated lead (f32, s), the output envelope
 //! low and high and the largest band (M f32 each); then where the memory may be trusted
-//! ([`crate::trust::TrustSpec`]): the rate limits (N + ambient f32), the largest quiet time
-//! (f32, s), Model-P's band variance and its growth (M f32 each).
+//! ([`crate::trust::TrustSpec`]): the rate limits (N + ambient f32), the largest quiet times
+//! (N f32, s), Model-P's band variance and its growth (M f32 each).
 //!
 //! The blob must be exactly `22 + n` bytes long: nothing may follow the CRC, except the
 //! signature trailer of a signed model ([`crate::signature`]), which decoding skips
@@ -41,8 +41,8 @@
 //! 3 makes the dimensions data (gratings, ambient and measurands in the header, output kinds
 //! in the payload, every vector only as long as the dims need); 4 adds the field context (the
 //! zero, the clock, the output envelope and largest band); 5 adds where the memory may be trusted
-//! ([`crate::trust::TrustSpec`]: a rate limit per envelope input (f32), the largest quiet time
-//! (f32, s), Model-P's band variance and its growth (M f32 each)). An older blob is refused with
+//! ([`crate::trust::TrustSpec`]: a rate limit per envelope input (f32), the largest quiet times
+//! (N f32, s), Model-P's band variance and its growth (M f32 each)). An older blob is refused with
 //! [`Error::UnsupportedVersion`] naming both versions: retrain, or re-export with this
 //! trainer. A blob whose gratings or measurands exceed this build's capacity is refused with
 //! [`Error::OverCapacity`] naming both.
@@ -317,7 +317,7 @@ pub fn encode_unchecked<const K: usize>(params: &ModelParams<f32, K>, buf: &mut 
     w.floats(head(&fc.band_max, m))?;
     let tr = &params.trust;
     w.floats(head(&tr.rate_max, ne))?;
-    w.put(&tr.quiet_max_s)?;
+    w.floats(head(&tr.quiet_max_s, d.gratings()))?;
     w.floats(head(&tr.fallback_var, m))?;
     w.floats(head(&tr.fallback_var_growth, m))?;
     let end = w.pos;
@@ -606,7 +606,7 @@ fn parse_into<'a, const K: usize>(
     let tr = &mut out.trust;
     *tr = crate::trust::TrustSpec::off();
     floats(&mut b, crate::layout::head_mut(&mut tr.rate_max, ne))?;
-    tr.quiet_max_s = take(&mut b)?;
+    floats(&mut b, crate::layout::head_mut(&mut tr.quiet_max_s, n_g))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.fallback_var, m))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.fallback_var_growth, m))?;
     Ok((b, centres))
@@ -724,9 +724,9 @@ pub const fn min_len_of(gratings: usize, ambient: bool, m: usize, observer: bool
     // largest lead (4 each), the end of calibration (1 byte when absent), the output envelope
     // and largest band (M f32 each).
     let field = 9 * gratings + 4 + 1 + 4 + 4 * 3 * m;
-    // Trust ([`crate::trust::TrustSpec`]): a rate limit per envelope input, the quiet time, the
+    // Trust ([`crate::trust::TrustSpec`]): a rate limit per envelope input, a quiet time per grating, the
     // fallback band and its growth (M each), all f32.
-    let trust = 4 * (env + 1 + 2 * m);
+    let trust = 4 * (env + gratings + 2 * m);
     // Output kinds: two bytes each; `fitted`: one byte per output; provenance: five one-byte
     // minimums.
     let bytes = 2 * m + m + 5 + field + trust;

@@ -14,11 +14,12 @@
 //!   The limit grows with the time since the last accepted sample, so a real step is accepted
 //!   once enough time has passed (the rule cannot lock a stream out).
 //! - **The fade.** The memory terms and the RBF residual (what Model-H adds to Model-P's core)
-//!   were seen working only while the installation moved as in the calibration week. The
-//!   quiet time q — the time since the widest play operator of any grating last moved (its
-//!   half-width is above the noise, so noise alone does not move it) — had a largest value
-//!   `quiet_max_s` there. Beyond it the added part fades linearly to nothing at twice that
-//!   value, and the band to Model-P's (`fallback_var`): at rest, a hold longer than any the
+//!   were seen working only while the installation moved as in the calibration week. Each
+//!   grating's quiet time q_g — the time since its narrowest play operator last reversed (the
+//!   trainer puts that half-width above the grating's noise, so noise alone does not reverse
+//!   it) — had a largest value `quiet_max_s[g]` there. Beyond it the added part fades
+//!   linearly to nothing at twice that value (the smallest fade of any grating), and the band
+//!   to Model-P's (`fallback_var`): at rest, or on a hold or a pace slower than any the
 //!   calibration contained, Model-H answers as Model-P and says so with
 //!   [`crate::Flags::FALLBACK`] (not a fault: Model-P's value and band are as good as ever).
 
@@ -26,7 +27,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::bounds::{self, within};
 use crate::error::Error;
-use crate::layout::{head, Dims, MAX_ENVELOPE, MAX_OUTPUTS};
+use crate::layout::{head, Dims, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS};
 use crate::real::Real;
 
 /// The gate's range: the calibration envelope widened by this fraction of its span on each
@@ -42,8 +43,9 @@ pub struct TrustSpec<F> {
     /// Largest |Δx|/Δt of each envelope input (Δλ_1..N \[pm/s\], then T_amb \[°C/s\]) between
     /// consecutive calibration samples; 0 = no rate limit on that input.
     pub rate_max: [F; MAX_ENVELOPE],
-    /// Largest quiet time \[s\] of the calibration batch (see the module doc); 0 = no fade.
-    pub quiet_max_s: F,
+    /// Largest quiet time \[s\] of each grating over the calibration batch (see the module
+    /// doc); 0 = no fade on that grating.
+    pub quiet_max_s: [F; MAX_GRATINGS],
     /// Model-P's band variance per output at the end of calibration, k²·σ² \[unit²\]: the band
     /// Model-H fades to.
     pub fallback_var: [F; MAX_OUTPUTS],
@@ -56,7 +58,7 @@ impl<F: Real> TrustSpec<F> {
     pub const fn off() -> Self {
         TrustSpec {
             rate_max: [F::ZERO; MAX_ENVELOPE],
-            quiet_max_s: F::ZERO,
+            quiet_max_s: [F::ZERO; MAX_GRATINGS],
             fallback_var: [F::ZERO; MAX_OUTPUTS],
             fallback_var_growth: [F::ZERO; MAX_OUTPUTS],
         }
@@ -70,7 +72,7 @@ impl<F: Real> TrustSpec<F> {
         if !head(&self.rate_max, ne).iter().all(|&v| ok(v, bounds::INPUT_MAX)) {
             return bad("trust.rate_max");
         }
-        if !ok(self.quiet_max_s, bounds::TIME_MAX) {
+        if !head(&self.quiet_max_s, dims.gratings()).iter().all(|&v| ok(v, bounds::TIME_MAX)) {
             return bad("trust.quiet_max_s");
         }
         if !head(&self.fallback_var, m).iter().all(|&v| ok(v, bounds::VARIANCE_MAX)) {
@@ -97,9 +99,18 @@ impl<F: Real> TrustSpec<F> {
         }
         TrustSpec {
             rate_max,
-            quiet_max_s: G::from_real(self.quiet_max_s),
+            quiet_max_s: per_grating(&self.quiet_max_s),
             fallback_var: c(&self.fallback_var),
             fallback_var_growth: c(&self.fallback_var_growth),
         }
     }
+}
+
+/// Each grating's entry in another precision.
+fn per_grating<F: Real, G: Real>(a: &[F; MAX_GRATINGS]) -> [G; MAX_GRATINGS] {
+    let mut q = [G::ZERO; MAX_GRATINGS];
+    for (o, &v) in q.iter_mut().zip(a.iter()) {
+        *o = G::from_real(v);
+    }
+    q
 }

@@ -204,7 +204,7 @@ fn tiny() -> ModelParams<f32, 2> {
         },
         trust: TrustSpec {
             rate_max: pad(&[0.5, 0.25, 0.125, 0.01]),
-            quiet_max_s: 7200.0,
+            quiet_max_s: pad(&[7200.0, 3600.0, 1800.0]),
             fallback_var: pad(&[0.04, 16.0, 4.0]),
             fallback_var_growth: pad(&[1e-6, 1e-4, 1e-5]),
         },

@@ -64,8 +64,9 @@ pub fn noise_floored(menu: &MemoryOptions, sigma_pm: &[f64]) -> MemoryOptions {
 
 /// The trust spec of Model-H `h` (with Model-P `p` to fade to) from the calibration rows `cal`
 /// of `d`: the largest |Δx|/Δt of each envelope input between consecutive calibration rows,
-/// the largest quiet time of `h`'s memory over the batch (the bank run from the first row as
-/// the compensator runs it; 0 without play operators), and Model-P's band.
+/// each grating's largest quiet time over the batch (the time since its narrowest play last
+/// reversed, the bank run from the first row as the compensator runs it; 0 without play
+/// operators), and Model-P's band.
 pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> TrustSpec<f64> {
     let mut t = TrustSpec::off();
     let dims = &h.dims;
@@ -101,12 +102,13 @@ pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> Trust
     t
 }
 
-/// The largest quiet time of `h`'s memory over the calibration rows `cal`.
-fn quiet_max_s(h: &HostParams, d: &Dataset, cal: &[usize]) -> f64 {
+/// The largest quiet time \[s\] of each grating of `h`'s memory over the calibration rows
+/// `cal`.
+fn quiet_max_s(h: &HostParams, d: &Dataset, cal: &[usize]) -> [f64; MAX_GRATINGS] {
     let mut bank = MemoryBank::<f64>::new(&h.memory, &h.dims);
     let end = cal.last().map(|&i| i + 1).unwrap_or(0);
     let mut want = cal.iter().peekable();
-    let mut q_max: f64 = 0.0;
+    let mut q_max = [0.0f64; MAX_GRATINGS];
     for i in 0..end {
         let s = d.sample(i);
         let ok =
@@ -118,7 +120,10 @@ fn quiet_max_s(h: &HostParams, d: &Dataset, cal: &[usize]) -> f64 {
         if want.peek() == Some(&&i) {
             want.next();
             if ok {
-                q_max = q_max.max(bank.state().quiet_s(s.t_s));
+                let st = bank.state();
+                for (g, q) in q_max.iter_mut().enumerate().take(h.dims.gratings()) {
+                    *q = q.max(st.quiet_s(g, s.t_s));
+                }
             }
         }
     }

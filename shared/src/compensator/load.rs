@@ -157,16 +157,20 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         self.write_trust(params);
     }
 
-    /// The gate, the fade and the band faded to ([`crate::trust`]). A model without a stream
-    /// state worth guarding (no memory terms, no latches) has neither gate nor fade; an output
-    /// without a fallback band fades to its own.
+    /// The gate, the fade and the band faded to ([`crate::trust`]). Only a model with memory
+    /// terms and a trust spec (the trainer's Model-H) has them: the direction latches alone
+    /// hold a bounded state that the next reversal renews. An output without a fallback band
+    /// fades to its own.
     #[inline(always)]
     fn write_trust<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) {
         let tr = &params.trust;
-        let stateful = self.memory.is_active() || self.uses_latch;
+        let guarded = self.memory.is_active() && tr.rate_max.iter().any(|&r| r > G::ZERO);
         self.gate =
-            if stateful { Gate::new(&self.env_lo, &self.env_hi, params.dims.envelope_len(), tr) } else { Gate::off() };
-        self.quiet_max_s = if self.memory.is_active() { F::from_real(tr.quiet_max_s) } else { F::ZERO };
+            if guarded { Gate::new(&self.env_lo, &self.env_hi, params.dims.envelope_len(), tr) } else { Gate::off() };
+        let on = self.memory.is_active();
+        for (o, &q) in self.quiet_max_s.iter_mut().zip(tr.quiet_max_s.iter()) {
+            *o = if on { F::from_real(q) } else { F::ZERO };
+        }
         for o in 0..MAX_OUTPUTS {
             let (v, g) = (F::from_real(tr.fallback_var[o]), F::from_real(tr.fallback_var_growth[o]));
             let own = !(v > F::ZERO);

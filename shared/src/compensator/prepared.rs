@@ -5,7 +5,7 @@ use heapless::Vec;
 
 use super::gate::Gate;
 use super::rbf::PreparedCentre;
-use crate::layout::{Dims, MAX_ENVELOPE, MAX_MEMORY, MAX_OUTPUTS, MAX_POLY, MAX_STAGE1, MAX_Z};
+use crate::layout::{Dims, MAX_ENVELOPE, MAX_GRATINGS, MAX_MEMORY, MAX_OUTPUTS, MAX_POLY, MAX_STAGE1, MAX_Z};
 use crate::memory::MemoryOperators;
 use crate::real::Real;
 
@@ -93,8 +93,8 @@ pub struct PreparedModel<F, const K: usize> {
     /// Which samples may move the memory state ([`crate::trust`]); off without a stream state
     /// worth keeping (no memory terms, no latches).
     pub(super) gate: Gate<F>,
-    /// The largest quiet time of the calibration \[s\]; 0 = no fade.
-    pub(super) quiet_max_s: F,
+    /// Each grating's largest quiet time of the calibration \[s\]; 0 = no fade.
+    pub(super) quiet_max_s: [F; MAX_GRATINGS],
     /// The band Model-H fades to: Model-P's k²σ² and its growth per second.
     pub(super) fallback_var: [F; MAX_OUTPUTS],
     pub(super) fallback_var_growth: [F; MAX_OUTPUTS],
@@ -143,7 +143,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             uses_latch: false,
             fitted: [false; MAX_OUTPUTS],
             gate: Gate::off(),
-            quiet_max_s: F::ZERO,
+            quiet_max_s: [F::ZERO; MAX_GRATINGS],
             fallback_var: [F::ZERO; MAX_OUTPUTS],
             fallback_var_growth: [F::ZERO; MAX_OUTPUTS],
         }

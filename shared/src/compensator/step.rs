@@ -271,7 +271,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             lev = pi.mul_add(pi, lev);
         }
         // Beyond the calibration's quiet time, what Model-H adds to the core fades.
-        let fade = self.fade(state.memory().quiet_s(s.t_s));
+        let fade = self.fade::<G>(state, s.t_s);
         let y = if fade < F::ONE {
             flags.insert(Flags::FALLBACK);
             let mut out = core;
@@ -305,17 +305,23 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         }
     }
 
-    /// How much of what Model-H adds to the core is kept at quiet time `quiet_s` \[s\]: 1 up to
-    /// the calibration's largest, then linearly down to 0 at twice that ([`crate::trust`]).
+    /// How much of what Model-H adds to the core is kept at `t_s`: per grating, 1 while its
+    /// quiet time is within the calibration's largest, then linearly down to 0 at twice that;
+    /// the smallest over the gratings ([`crate::trust`]).
     #[inline(always)]
-    fn fade(&self, quiet_s: F) -> F {
-        let q_max = self.quiet_max_s;
-        if !(q_max > F::ZERO) || quiet_s <= q_max {
-            F::ONE
-        } else {
-            // Here quiet_s > q_max: below 1.
-            (F::ONE + F::ONE - quiet_s / q_max).max(F::ZERO)
+    fn fade<const G: usize>(&self, state: &StreamState<F>, t_s: F) -> F {
+        let mut fade = F::ONE;
+        for (g, &q_max) in head(&self.quiet_max_s, self.g::<G>()).iter().enumerate() {
+            let q = state.memory().quiet_s(g, t_s);
+            if q_max > F::ZERO && q > q_max {
+                // Here q > q_max: below 1.
+                let f = (F::ONE + F::ONE - q / q_max).max(F::ZERO);
+                if f < fade {
+                    fade = f;
+                }
+            }
         }
+        fade
     }
 
     /// The estimate from the values `y`, the leverage, the lead and the fade (1: Model-H's

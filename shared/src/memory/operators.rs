@@ -49,9 +49,9 @@ pub struct MemoryOperators<F> {
     grating_on: [bool; N_GRATING_TAUS],
     ambient_on: [bool; N_AMBIENT_TAUS],
     play_on: [bool; N_PLAYS],
-    /// The slot of the widest play in use ([`N_PLAYS`] when none): its moves end the quiet
-    /// time ([`crate::trust`]).
-    widest: u8,
+    /// The slot of the narrowest play in use ([`N_PLAYS`] when none): its reversals end a
+    /// grating's quiet time ([`crate::trust`]).
+    narrowest: u8,
     observer_on: bool,
     any: bool,
 }
@@ -70,7 +70,7 @@ impl<F: Real> MemoryOperators<F> {
             grating_on: [false; N_GRATING_TAUS],
             ambient_on: [false; N_AMBIENT_TAUS],
             play_on: [false; N_PLAYS],
-            widest: N_PLAYS as u8,
+            narrowest: N_PLAYS as u8,
             observer_on: false,
             any: false,
         }
@@ -96,15 +96,15 @@ impl<F: Real> MemoryOperators<F> {
             *lp = LowPass::new(tau);
             *on = dims.ambient() && tau > F::ZERO;
         }
-        let mut widest = F::ZERO;
+        let mut narrowest = F::INFINITY;
         for (j, ((op, on), &r)) in
             b.plays.iter_mut().zip(b.play_on.iter_mut()).zip(s.play_half_width_pm.iter()).enumerate()
         {
             *op = Play::new(r);
             *on = r > F::ZERO;
-            if r > widest {
-                widest = r;
-                b.widest = j as u8;
+            if r > F::ZERO && r < narrowest {
+                narrowest = r;
+                b.narrowest = j as u8;
             }
         }
         b.any = b.grating_on.iter().chain(b.ambient_on.iter()).chain(b.play_on.iter()).any(|&o| o) || b.observer_on;
@@ -234,7 +234,8 @@ impl<F: Real> MemoryOperators<F> {
             st.ambient = [t_amb_c; N_AMBIENT_TAUS];
             DriftObserver::prime(&mut st.observer, t_g, t_amb_c);
             st.t_prev_s = t_s;
-            st.t_moved_s = t_s;
+            st.t_rev_s = [t_s; MAX_GRATINGS];
+            st.dir = [F::ZERO; MAX_GRATINGS];
             st.primed = true;
             if self.observer_on {
                 sink(mem_observer, st.observer[1]);
@@ -264,24 +265,35 @@ impl<F: Real> MemoryOperators<F> {
             }
         }
         let mut k = mem_stop;
-        let mut moved = false;
         for (slot, ((op, &on), s)) in self.plays.iter().zip(self.play_on.iter()).zip(st.play.iter_mut()).enumerate() {
             if on {
-                let widest = slot == usize::from(self.widest);
+                let clocked = slot == usize::from(self.narrowest);
                 for (j, (&x, si)) in dl.iter().zip(s.iter_mut()).enumerate() {
                     let before = *si;
                     sink(k + j, op.stop(si, x));
-                    moved |= widest && *si != before;
+                    if clocked && *si != before {
+                        quiet_clock(&mut st.t_rev_s, &mut st.dir, j, *si > before, t_s);
+                    }
                 }
             }
             k += n;
-        }
-        if moved {
-            st.t_moved_s = t_s;
         }
         if self.observer_on {
             let v = self.observer.update(&mut st.observer, t_g, t_amb_c, alphas.observer);
             sink(mem_observer, v);
         }
+    }
+}
+
+/// A move of grating `j`'s clocked play (`up`: towards larger Δλ) at `t_s`: a move against
+/// the last one is a reversal and restarts the grating's quiet time.
+#[inline(always)]
+fn quiet_clock<F: Real>(t_rev_s: &mut [F; MAX_GRATINGS], dir: &mut [F; MAX_GRATINGS], j: usize, up: bool, t_s: F) {
+    let d = if up { F::ONE } else { -F::ONE };
+    if let (Some(t), Some(last)) = (t_rev_s.get_mut(j), dir.get_mut(j)) {
+        if *last != F::ZERO && *last != d {
+            *t = t_s;
+        }
+        *last = d;
     }
 }

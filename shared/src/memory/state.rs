@@ -19,9 +19,10 @@ pub struct MemoryState<F> {
     pub(super) play: [[F; MAX_GRATINGS]; N_PLAYS],
     pub(super) observer: [F; 2],
     pub(super) t_prev_s: F,
-    /// When the widest play operator of any grating last moved \[s\] (the quiet time's start,
-    /// [`crate::trust`]).
-    pub(super) t_moved_s: F,
+    /// Per grating, when its narrowest play operator last reversed \[s\] (the start of its
+    /// quiet time, [`crate::trust`]), and the direction of that play's last move (−1, 0, +1).
+    pub(super) t_rev_s: [F; MAX_GRATINGS],
+    pub(super) dir: [F; MAX_GRATINGS],
     pub(super) primed: bool,
     pub(super) smoothing: Smoothing<F>,
 }
@@ -70,7 +71,8 @@ impl<F: Real> MemoryState<F> {
             play: [[F::ZERO; MAX_GRATINGS]; N_PLAYS],
             observer: [F::ZERO; 2],
             t_prev_s: F::ZERO,
-            t_moved_s: F::ZERO,
+            t_rev_s: [F::ZERO; MAX_GRATINGS],
+            dir: [F::ZERO; MAX_GRATINGS],
             primed: false,
             smoothing: Smoothing::new(),
         }
@@ -78,23 +80,22 @@ impl<F: Real> MemoryState<F> {
 }
 
 impl<F: Real> MemoryState<F> {
-    /// The quiet time at `t_s` \[s\]: how long the widest play operator of every grating has
-    /// not moved ([`crate::trust`]); 0 before the first sample and for a bank without plays.
+    /// The quiet time of grating `g` at `t_s` \[s\]: how long its narrowest play operator has
+    /// not reversed ([`crate::trust`]); 0 before the first sample and beyond the capacity.
     #[inline(always)]
-    pub fn quiet_s(&self, t_s: F) -> F {
-        if self.primed {
-            (t_s - self.t_moved_s).max(F::ZERO)
-        } else {
-            F::ZERO
+    pub fn quiet_s(&self, g: usize, t_s: F) -> F {
+        match self.t_rev_s.get(g) {
+            Some(&t) if self.primed => (t_s - t).max(F::ZERO),
+            _ => F::ZERO,
         }
     }
 
     /// Numbers in the packed form of the state of a bank over `gratings` gratings
     /// ([`MemoryState::pack`]): every low-pass and play position of those gratings, the ambient
-    /// low-passes, the observer's two stages, the last sample time, when the widest play last moved and
-    /// whether the bank is primed.
+    /// low-passes, the observer's two stages, the last sample time and whether the bank is primed, then
+    /// per grating when its narrowest play last reversed and the direction of its last move.
     pub const fn packed_len(gratings: usize) -> usize {
-        gratings * (N_GRATING_TAUS + N_PLAYS) + N_AMBIENT_TAUS + 5
+        gratings * (N_GRATING_TAUS + N_PLAYS + 2) + N_AMBIENT_TAUS + 4
     }
 
     /// Write the state of the first `gratings` gratings into `out` (exactly
@@ -103,8 +104,8 @@ impl<F: Real> MemoryState<F> {
     /// kept (a bank over `gratings` never reads them).
     pub fn pack(&self, gratings: usize, out: &mut [F]) -> Result<(), Error> {
         let n = Self::check_packed(gratings, out.len())?;
-        let rows = self.grating.iter().chain(self.play.iter());
-        let (mut cells, rest) = out.split_at_mut(n * (N_GRATING_TAUS + N_PLAYS));
+        let rows = self.grating.iter().chain(self.play.iter()).chain([&self.t_rev_s, &self.dir]);
+        let (mut cells, rest) = out.split_at_mut(n * (N_GRATING_TAUS + N_PLAYS + 2));
         for row in rows {
             let (here, later) = cells.split_at_mut(n);
             here.copy_from_slice(head(row, n));
@@ -116,7 +117,6 @@ impl<F: Real> MemoryState<F> {
             self.observer[0],
             self.observer[1],
             self.t_prev_s,
-            self.t_moved_s,
             if self.primed { F::ONE } else { F::ZERO },
         ]) {
             *o = v;
@@ -138,18 +138,17 @@ impl<F: Real> MemoryState<F> {
     pub fn unpack_into(&mut self, gratings: usize, from: &[F]) -> Result<(), Error> {
         let n = Self::check_packed(gratings, from.len())?;
         let s = self;
-        let (mut cells, rest) = from.split_at(n * (N_GRATING_TAUS + N_PLAYS));
-        for row in s.grating.iter_mut().chain(s.play.iter_mut()) {
+        let (mut cells, rest) = from.split_at(n * (N_GRATING_TAUS + N_PLAYS + 2));
+        for row in s.grating.iter_mut().chain(s.play.iter_mut()).chain([&mut s.t_rev_s, &mut s.dir]) {
             let (here, later) = cells.split_at(n);
             row.iter_mut().zip(here).for_each(|(o, &v)| *o = v);
             cells = later;
         }
         let (amb, tail) = rest.split_at(N_AMBIENT_TAUS);
         s.ambient.iter_mut().zip(amb).for_each(|(o, &v)| *o = v);
-        if let [o0, o1, t, moved, primed] = *tail {
+        if let [o0, o1, t, primed] = *tail {
             s.observer = [o0, o1];
             s.t_prev_s = t;
-            s.t_moved_s = moved;
             s.primed = primed != F::ZERO;
         }
         Ok(())
