@@ -1,0 +1,245 @@
+//! The second rule of the model (DESIGN §4, [`fbg_shared::trust`]): the gate of the memory
+//! state and the fade to Model-P, in both precisions.
+//!
+//! The model is the test kit's synthetic installation with every memory slot in use
+//! (`synthetic_params`), given a trust spec measured on its own clean samples the way the
+//! trainer measures it (largest |Δx|/Δt between consecutive samples); nothing here was tuned on
+//! the assertions' outcomes.
+
+use fbg_shared::layout::{pad, MAX_GRATINGS};
+use fbg_shared::{Compensator, Estimate, Flags, ModelParams, Real, Sample, TrustSpec};
+use fbg_testkit::installation::{samples, synthetic_params, MAX_K};
+
+type Params = ModelParams<f64, MAX_K>;
+
+/// The largest |Δx|/Δt of each envelope input over `s` (what `fit::trust::spec` measures).
+fn rates(s: &[Sample<f32>]) -> [f64; 9] {
+    let mut r = [0.0f64; 9];
+    for w in s.windows(2) {
+        let dt = f64::from(w[1].t_s - w[0].t_s);
+        for g in 0..3 {
+            r[g] = r[g].max(f64::from(w[1].dl_pm[g] - w[0].dl_pm[g]).abs() / dt);
+        }
+        r[3] = r[3].max(f64::from(w[1].t_amb_c - w[0].t_amb_c).abs() / dt);
+    }
+    r
+}
+
+/// The synthetic model with a trust spec from its own clean stream: rate limits, a quiet time
+/// of `quiet_s` on every grating, and a fallback band wider than its own.
+fn trusted(quiet_s: f64) -> (Params, Vec<Sample<f32>>) {
+    let mut p = synthetic_params(16, 11).unwrap();
+    let clean = samples(1500, 3);
+    let r = rates(&clean);
+    let mut t = TrustSpec::off();
+    t.rate_max[..4].copy_from_slice(&r[..4]);
+    t.quiet_max_s = pad(&[quiet_s; 3]);
+    for o in 0..3 {
+        t.fallback_var[o] = 4.0 * p.band_k[o] * p.band_k[o] * p.resid_var[o];
+    }
+    p.trust = t;
+    p.validate().unwrap();
+    (p, clean)
+}
+
+fn run<F: Real>(p: &Params, s: &[Sample<f32>]) -> Vec<Estimate<F>> {
+    let mut c = Compensator::<F, MAX_K>::new(p).unwrap();
+    s.iter().map(|x| c.step(&x.cast())).collect()
+}
+
+/// The glitches of the glitch study: a DS18B20's power-on and error values, 1e300, NaN.
+const GLITCHES: [f64; 4] = [85.0, -127.0, 1e300, f64::NAN];
+
+/// The glitches of input `input` at row `at` of `clean`: the thermometer gets the study's
+/// values; a grating's 85 and −127 pm may be readings (this installation's grating 1 steps by
+/// ±72 pm from one sample to the next), so it gets jumps of twenty times its largest clean step
+/// either way (a jump no installation makes in one Δt), 1e300 and NaN.
+fn glitches(clean: &[Sample<f32>], input: usize, at: usize) -> [f64; 4] {
+    if input == 3 {
+        return GLITCHES;
+    }
+    let step = clean[1..].iter().zip(clean).map(|(a, b)| (a.dl_pm[input] - b.dl_pm[input]).abs()).fold(0.0, f32::max);
+    let v = f64::from(clean[at].dl_pm[input]);
+    [v + 20.0 * f64::from(step), v - 20.0 * f64::from(step), 1e300, f64::NAN]
+}
+
+fn glitched(clean: &[Sample<f32>], at: usize, input: usize, v: f64) -> Vec<Sample<f32>> {
+    let mut s = clean.to_vec();
+    if input < 3 {
+        s[at].dl_pm[input] = v as f32;
+    } else {
+        s[at].t_amb_c = v as f32;
+    }
+    s
+}
+
+fn glitch_leaves_no_trace<F: Real>() {
+    let (p, clean) = trusted(1e9);
+    let base = run::<F>(&p, &clean);
+    assert!(base.iter().all(|e| e.flags.is_ok()), "a clean stream is never refused");
+    let at = 700;
+    for input in 0..4 {
+        for v in glitches(&clean, input, at) {
+            // In f32, 1e300 is +∞: refused as non-finite, as NaN.
+            let est = run::<F>(&p, &glitched(&clean, at, input, v));
+            assert!(est[at].flags.is_fault(), "input {input} glitch {v}: row not flagged ({})", est[at].flags);
+            for (k, (e, c)) in est.iter().zip(&base).enumerate() {
+                if k == at {
+                    continue;
+                }
+                for o in 0..3 {
+                    let d = (e.values[o] - c.values[o]).to_f64().abs();
+                    let b = c.band95[o].to_f64();
+                    // Later rows are the clean stream's but for the one Δt the skipped
+                    // sample lengthens (the low-passes step over it): within the band.
+                    assert!(d <= b, "input {input} glitch {v}: row {k} output {o} moved {d} (band {b})");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_glitch_is_flagged_and_leaves_later_rows_as_they_were_f64() {
+    glitch_leaves_no_trace::<f64>();
+}
+
+#[test]
+fn a_glitch_is_flagged_and_leaves_later_rows_as_they_were_f32() {
+    glitch_leaves_no_trace::<f32>();
+}
+
+#[test]
+fn a_refused_sample_reads_model_p_and_says_so() {
+    let (p, clean) = trusted(1e9);
+    let s = glitched(&clean, 400, 3, 85.0);
+    let est = run::<f64>(&p, &s);
+    let e = &est[400];
+    assert!(e.flags.contains(Flags::OUT_OF_ENVELOPE.union(Flags::FALLBACK)), "{}", e.flags);
+    // Model-P's answer: the same model without memory and centres on the same sample.
+    let mut pp = fbg_testkit::installation::without_memory(p.clone());
+    pp.centres.clear();
+    pp.var_inv_g = [0.0; fbg_shared::layout::VAR_RANK];
+    pp.var_inv_g_tail = 0.0;
+    pp.hyper.feature_set = fbg_shared::FeatureSet::Paper;
+    let mut cp = Compensator::<f64, MAX_K>::new(&pp).unwrap();
+    let ep = cp.step(&s[400].cast());
+    for o in 0..3 {
+        assert_eq!(e.values[o], ep.values[o], "output {o}");
+        let want = (p.trust.fallback_var[o]).sqrt() * p.hyper.flagged_band_factor;
+        assert!((e.band95[o] - want).abs() <= 1e-9 * want, "output {o}: band {} want {want}", e.band95[o]);
+    }
+}
+
+#[test]
+fn a_real_step_is_let_in_once_time_allows_it() {
+    // A lasting jump of 90 pm on grating 2 towards the middle of its envelope (inside the
+    // widened envelope, faster than ten times any clean step of it): refused at first, let in
+    // once the rate limit × elapsed time covers it; the gate cannot lock a stream out.
+    let (p, clean) = trusted(1e9);
+    let jump = f64::from(clean[1..].iter().zip(&clean).map(|(a, b)| (a.dl_pm[1] - b.dl_pm[1]).abs()).fold(0.0, f32::max));
+    let mut s = clean.clone();
+    let step = if s[500].dl_pm[1] > 0.0 { -90.0 } else { 90.0 };
+    assert!(90.0 > 10.0 * jump * 1.01, "the clean stream steps by {jump} pm");
+    for x in s.iter_mut().skip(500) {
+        x.dl_pm[1] += step;
+    }
+    let est = run::<f64>(&p, &s);
+    assert!(est[500].flags.contains(Flags::FALLBACK));
+    let back = est.iter().skip(500).position(|e| !e.flags.contains(Flags::FALLBACK)).unwrap();
+    assert!(back > 0 && back < 60, "let in after {back} samples");
+}
+
+/// Each grating's largest quiet time over `s` through `p`'s memory bank (what the trainer
+/// measures on a calibration batch).
+fn quiet_max(p: &Params, s: &[Sample<f32>]) -> [f64; MAX_GRATINGS] {
+    let mut bank = fbg_shared::MemoryBank::<f64>::new(&p.memory, &p.dims);
+    let mut q = [0.0f64; MAX_GRATINGS];
+    for x in s {
+        let x = x.cast::<f64>();
+        bank.advance(&x.dl_pm, x.t_amb_c, x.t_s);
+        for (g, qg) in q.iter_mut().enumerate().take(3) {
+            *qg = qg.max(bank.state().quiet_s(g, x.t_s));
+        }
+    }
+    q
+}
+
+#[test]
+fn inside_the_quiet_time_the_model_is_bit_identical_to_one_without_a_fade() {
+    // The quiet times measured on the stream itself: it never leaves them.
+    let (mut p, clean) = trusted(1e9);
+    p.trust.quiet_max_s = quiet_max(&p, &clean);
+    assert!(p.trust.quiet_max_s[..3].iter().all(|&q| q > 0.0 && q < 1e6), "{:?}", p.trust.quiet_max_s);
+    let mut off = p.clone();
+    off.trust.quiet_max_s = [0.0; MAX_GRATINGS];
+    let (a, b) = (run::<f32>(&p, &clean), run::<f32>(&off, &clean));
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.values, y.values);
+        assert_eq!(x.band95, y.band95);
+        assert_eq!(x.flags, y.flags);
+    }
+}
+
+#[test]
+fn at_rest_beyond_the_quiet_time_the_model_is_model_p() {
+    // The stream stops moving after sample 600 (every input held, noise only): once a
+    // grating's quiet time passes twice the calibration's, the estimate is Model-P's core
+    // and band, flagged FALLBACK and not as a fault.
+    let q = 4.0 * 3600.0;
+    let (p, clean) = trusted(q);
+    let mut s = clean[..600].to_vec();
+    let last = s[599];
+    let mut rng = fbg_testkit::Rng::new(9);
+    for i in 600..1500 {
+        let mut x = last;
+        for g in 0..3 {
+            x.dl_pm[g] += (0.3 * rng.normal()) as f32;
+        }
+        x.t_s = 60.0 * i as f32;
+        s.push(x);
+    }
+    let est = run::<f64>(&p, &s);
+    let mut pp = fbg_testkit::installation::without_memory(p.clone());
+    pp.centres.clear();
+    pp.var_inv_g = [0.0; fbg_shared::layout::VAR_RANK];
+    pp.var_inv_g_tail = 0.0;
+    pp.hyper.feature_set = fbg_shared::FeatureSet::Paper;
+    let ep = run::<f64>(&pp, &s);
+    let faded = (600..1500).filter(|&i| est[i].flags.contains(Flags::FALLBACK)).count();
+    assert!(faded > 0, "rest never faded");
+    // Twice the quiet time after the last reversal at the latest, the fade is complete.
+    for i in 600 + (2.0 * q / 60.0) as usize + 1..1500 {
+        assert!(est[i].flags.contains(Flags::FALLBACK) && !est[i].flags.is_fault(), "row {i}: {}", est[i].flags);
+        for o in 0..3 {
+            assert_eq!(est[i].values[o], ep[i].values[o], "row {i} output {o}");
+            let want = p.trust.fallback_var[o].sqrt();
+            assert!((est[i].band95[o] - want).abs() <= 1e-9 * want);
+        }
+    }
+    // While the stream still moved, nothing faded.
+    assert!(est[..600].iter().all(|e| !e.flags.contains(Flags::FALLBACK)));
+}
+
+#[test]
+fn the_state_stays_bounded_whatever_arrives() {
+    // Garbage of every size, sign and kind for a long stretch: the memory state only ever
+    // holds samples inside the widened envelope, so a clean sample afterwards reads a
+    // finite value within the output envelope.
+    let (p, clean) = trusted(1e9);
+    let mut rng = fbg_testkit::Rng::new(5);
+    let mut s = clean[..300].to_vec();
+    for i in 300..800 {
+        let mut x = clean[i];
+        let v = [1e30, -1e30, 1e6, -1e6, 5e3, f64::NAN, f64::INFINITY][rng.next_u64() as usize % 7];
+        x.dl_pm[rng.next_u64() as usize % 3] = v as f32;
+        x.t_amb_c = if rng.unit() < 0.5 { (v * 0.1) as f32 } else { x.t_amb_c };
+        s.push(x);
+    }
+    s.extend_from_slice(&clean[800..1000]);
+    let est = run::<f32>(&p, &s);
+    for e in &est[900..1000] {
+        assert!(e.values[..3].iter().all(|v| v.is_finite()));
+        assert!(!e.flags.contains(Flags::IMPLAUSIBLE), "{}", e.flags);
+    }
+}
