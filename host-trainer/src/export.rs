@@ -163,6 +163,13 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
         },
         "envelope": {"inputs": input_columns(dims), "lo": head(&p.envelope_lo, dims.envelope_len()), "hi": head(&p.envelope_hi, dims.envelope_len())},
         "field": field_json(p),
+        "trust": {
+            "meaning": "DESIGN §4, the second rule: the gate lets a sample into the memory state only within the envelope widened by half its span and within ten times the largest calibration rate; beyond a grating's largest calibration quiet time (time since its narrowest play last reversed) what Model-H adds to the core fades to nothing at twice that, and the band to Model-P's",
+            "rate_max_per_s": {"inputs": input_columns(dims), "values": head(&p.trust.rate_max, dims.envelope_len())},
+            "quiet_max_s": head(&p.trust.quiet_max_s, dims.gratings()),
+            "fallback_band_var_at_cal_end": head(&p.trust.fallback_var, dims.n_outputs()),
+            "fallback_band_var_growth_per_s": head(&p.trust.fallback_var_growth, dims.n_outputs()),
+        },
         "provenance": {
             "seed": p.provenance.seed,
             "scenario": p.provenance.scenario.as_str(),

@@ -116,8 +116,11 @@ fn paper_preset_model_h_beats_model_p_and_removes_the_hysteresis_bias() {
         // bench`'s (reported there as not met); this pins that it gets no worse.
         let low = if c == 0 { 0.88 } else { 0.90 };
         assert!((low..=0.995).contains(&h.coverage), "channel {c}: coverage {}", h.coverage);
+        // Play radii stand above the noise (5σ, DESIGN §4 (c)): the narrow loops that radii of
+        // 2 and 4 pm caught are left to the RBF, and on p the index falls by half
+        // (−1.35 → −0.69 at this seed) where it fell by 58 % with radii that noise crossed.
         assert!(
-            h.hysteresis_index.abs() < 0.5 * p.hysteresis_index.abs(),
+            h.hysteresis_index.abs() < 0.6 * p.hysteresis_index.abs(),
             "channel {c}: hysteresis index {} vs {}",
             h.hysteresis_index,
             p.hysteresis_index

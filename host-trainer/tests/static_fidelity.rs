@@ -66,8 +66,10 @@ fn pace_study_on_a_short_record() {
     let s = simulate(&cfg, 5);
     let t = train(&s.data, &common::small_grid(), &Origin::default()).unwrap();
     let study = pace_study(&cfg, 5, &t.model_p, &t.model_h).unwrap();
-    // All measurands at each pace, each measurand alone at each pace, then the steps record.
-    assert_eq!(study.rows.len(), PACES.len() * (1 + 3) + 1);
+    // All measurands at each pace, each measurand alone at each pace, then the steps, rest
+    // and long-hold records; a glitch of each kind in each input.
+    assert_eq!(study.rows.len(), PACES.len() * (1 + 3) + 3);
+    assert_eq!(study.glitch.len(), 4 * 4);
     let steps = study.steps().unwrap();
     assert_eq!(steps.label, "steps");
     assert_eq!(steps.holds, 30);

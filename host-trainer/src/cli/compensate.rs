@@ -21,7 +21,9 @@ pub struct CompensateArgs {
     #[arg(long)]
     data: PathBuf,
     /// Output CSV: `t_s`, each measurand and its `_band95`, `flags` (bits: 1 non-finite, 2
-    /// out of the calibration envelope, 4 weak RBF support) and `flag_names`.
+    /// out of the calibration envelope or a jump faster than it showed, 4 weak RBF support, 8
+    /// lead unknown, 16 implausible, 32/64 peak fault/quality, 128 fallback to Model-P: the
+    /// memory not trusted for that row) and `flag_names`.
     #[arg(long)]
     out: PathBuf,
     /// Run the device's f32 arithmetic instead of the host's f64.

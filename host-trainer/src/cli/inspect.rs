@@ -188,6 +188,16 @@ fn print_model(p: &HostParams) {
         p.dims.gratings(),
         if p.dims.ambient() { ", T_amb °C" } else { "" }
     );
+    let t = &p.trust;
+    if t.rate_max.iter().any(|&r| r > 0.0) {
+        println!(
+            "trust: gate rate limits [{}] per s (×{} of these), fade beyond quiet times [{}] s, fallback band var [{}]",
+            f32s(fbg_shared::layout::head(&t.rate_max, ne)),
+            fbg_shared::trust::GATE_RATE_FACTOR,
+            f32s(fbg_shared::layout::head(&t.quiet_max_s, p.dims.gratings())),
+            f32s(fbg_shared::layout::head(&t.fallback_var, p.dims.n_outputs())),
+        );
+    }
     let f = &p.field;
     let zeros: Vec<String> = (0..p.dims.gratings())
         .map(|g| match f.lambda_ref(g) {
