@@ -80,10 +80,10 @@ fn min_len_and_max_len_are_exact() {
     // Version 1 was 416 bytes; version 2 added 2 header bytes and 116 f32 (memory spec 20,
     // Γ 96); version 3 adds 2 header bytes and the output kinds (3 × 2 bytes); version 4 the
     // field context (3 × 9 bytes of λ_ref and source, 4 + 1 + 4, 3 × 3 f32); version 5 the
-    // trust spec (4 rate limits, the quiet time, 2 × 3 f32).
-    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6 + 27 + 9 + 36 + 44);
-    assert_eq!(min_len(0), 1006);
-    assert_eq!(min_len(32), 1006 + 60 * 32);
+    // trust spec (4 rate limits, 3 quiet times, 2 × 3 f32).
+    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6 + 27 + 9 + 36 + 52);
+    assert_eq!(min_len(0), 1014);
+    assert_eq!(min_len(32), 1014 + 60 * 32);
     // No overflow on absurd inputs.
     assert_eq!(min_len(usize::MAX), usize::MAX);
     assert_eq!(max_len(usize::MAX), usize::MAX);
@@ -240,7 +240,7 @@ fn golden_v5_bytes_are_pinned() {
     // Shortest 2-centre blob plus "golden" (6), "0.1.0" (5), date varint 4 bytes (+3),
     // n_cal varint 2 bytes (+1), and a known end of calibration (+8).
     assert_eq!(b.len(), min_len(2) + 6 + 5 + 3 + 1 + 8);
-    assert_eq!(b.len(), 1149);
+    assert_eq!(b.len(), 1157);
     assert_eq!(
         &b[..HEADER_LEN],
         &[b'F', b'B', b'G', b'M', 5, 0, 3, 0, 1, 0, 3, 0, 10, 0, 32, 0, 2, 0],
@@ -277,7 +277,7 @@ fn golden_v5_bytes_are_pinned() {
     assert_eq!(&b[v3_end..v3_end + 8], &1535.0f64.to_le_bytes());
     assert_eq!(&b[v3_end + 24..v3_end + 27], &[1, 2, 1]);
     // The v5 payload is the v4 payload followed by the trust spec: the rate limits (4 f32),
-    // the quiet time 7200 s (0x45E10000), Model-P's band (3 f32) and its growth (3 f32).
+    // the quiet times (3 f32, the first 7200 s = 0x45E10000), Model-P's band (3 f32) and its growth (3 f32).
     let v4_end = GOLDEN_V4.len() - CRC_LEN;
     assert_eq!(&b[HEADER_LEN..v4_end], &GOLDEN_V4[HEADER_LEN..v4_end]);
     assert_eq!(&b[v4_end..v4_end + 4], &0.5f32.to_le_bytes());

@@ -234,7 +234,11 @@ impl<F: Real> MemoryOperators<F> {
             st.ambient = [t_amb_c; N_AMBIENT_TAUS];
             DriftObserver::prime(&mut st.observer, t_g, t_amb_c);
             st.t_prev_s = t_s;
-            st.t_rev_s = [t_s; MAX_GRATINGS];
+            // Only the model's gratings: slots beyond stay as a packed state leaves them.
+            st.t_rev_s = [F::ZERO; MAX_GRATINGS];
+            for t in st.t_rev_s.iter_mut().take(n) {
+                *t = t_s;
+            }
             st.dir = [F::ZERO; MAX_GRATINGS];
             st.primed = true;
             if self.observer_on {

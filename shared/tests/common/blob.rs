@@ -35,8 +35,9 @@ pub fn provenance_offset<const K: usize>(blob: &[u8], p: &ModelParams<f32, K>) -
     // grating, tolerance and lead (4 each), the end of calibration (1 or 9), 3 f32 per output.
     let f = &p.field;
     let field = 9 * p.dims.gratings() + 8 + if f.cal_end_unix_s.is_some() { 9 } else { 1 } + 12 * p.dims.n_outputs();
-    // Then the trust spec: a rate limit per envelope input, the quiet time, 2 f32 per output.
-    let trust = 4 * (p.dims.envelope_len() + 1 + 2 * p.dims.n_outputs());
+    // Then the trust spec: a rate limit per envelope input, a quiet time per grating, 2 f32
+    // per output.
+    let trust = 4 * (p.dims.envelope_len() + p.dims.gratings() + 2 * p.dims.n_outputs());
     blob.len() - CRC_LEN - field - trust - n
 }
 
