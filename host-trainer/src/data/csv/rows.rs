@@ -8,8 +8,10 @@ use fbg_shared::Sample;
 use super::line_limit::{line_error, line_too_long, LineLimit};
 use crate::data::measurand::{grating_column, parse_grating_column};
 use crate::data::units::{check_ambient, check_wavelength, WlUnit};
-use crate::data::{Dataset, Measurand, RecordMeta, Reference, Split, MAX_GRATINGS, MAX_MEASURANDS, T_AMB_COLUMN};
-use crate::error::{ShortNumber, TrainerError};
+use crate::data::{
+    check_next_time, Dataset, Measurand, RecordMeta, Reference, Split, MAX_GRATINGS, MAX_MEASURANDS, T_AMB_COLUMN,
+};
+use crate::error::TrainerError;
 
 /// Appended to a unit-check message on a dataset CSV: the check and its words are `import`'s.
 const REIMPORT: &str =
@@ -203,16 +205,7 @@ impl RowReader {
             Ok(v)
         };
         let t = num(layout.t_s, false)?;
-        if let Some(prev) = self.prev_t {
-            if t <= prev {
-                return Err(TrainerError::data(
-                    name,
-                    line,
-                    "t_s",
-                    format!("time does not increase ({} after {})", ShortNumber(t), ShortNumber(prev)),
-                ));
-            }
-        }
+        check_next_time(self.prev_t, t).map_err(|m| TrainerError::data(name, line, "t_s", m))?;
         let mut row = Row {
             t_s: t,
             refs: [f64::NAN; MAX_MEASURANDS],
