@@ -33,7 +33,8 @@ impl TrainerError {
         TrainerError::Io { path: path.to_path_buf(), source }
     }
     pub fn data(path: &str, line: u64, column: &str, message: impl Into<String>) -> Self {
-        TrainerError::Data { path: path.to_string(), line, column: column.to_string(), message: message.into() }
+        // The column is a header cell when a file has no such column: quoted like any cell.
+        TrainerError::Data { path: path.to_string(), line, column: quote_cell(column), message: message.into() }
     }
     pub fn fit(message: impl Into<String>) -> Self {
         TrainerError::Fit { message: message.into() }
@@ -74,6 +75,41 @@ impl std::error::Error for TrainerError {
     }
 }
 
+/// Characters of a cell an error message quotes; the rest is elided.
+pub const QUOTE_CHARS: usize = 40;
+
+/// A cell (or any text read from a user's file) as an error message quotes it: at most
+/// [`QUOTE_CHARS`] characters, then `…` and the cell's length, so a 20 MB cell is not
+/// printed whole.
+pub fn quote_cell(cell: &str) -> String {
+    match cell.char_indices().nth(QUOTE_CHARS) {
+        None => cell.to_string(),
+        Some((cut, _)) => format!("{}… ({} bytes)", &cell[..cut], cell.len()),
+    }
+}
+
+/// A number read from a user's file as an error message prints it: the shortest form that
+/// reads back to the same value, in exponent form when the plain one would be long (`{}`
+/// prints 1e308 as 309 digits), so never more than [`QUOTE_CHARS`] characters.
+pub fn quote_number(v: f64) -> String {
+    ShortNumber(v).to_string()
+}
+
+/// [`quote_number`] as a `Display` (nothing formatted until a message is).
+#[derive(Clone, Copy, Debug)]
+pub struct ShortNumber(pub f64);
+
+impl std::fmt::Display for ShortNumber {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (v, a) = (self.0, self.0.abs());
+        if !v.is_finite() || a == 0.0 || (1e-4..1e15).contains(&a) {
+            write!(f, "{v}")
+        } else {
+            write!(f, "{v:e}")
+        }
+    }
+}
+
 /// "line L, column C" (1-based) of a byte offset in `text`, for the position of a TOML error
 /// (scenario files, import maps, fleet manifests).
 pub(crate) fn line_col(text: &str, offset: usize) -> String {
@@ -81,4 +117,43 @@ pub(crate) fn line_col(text: &str, offset: usize) -> String {
     let line = before.matches('\n').count() + 1;
     let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
     format!("line {line}, column {col}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quotes_are_cut_to_forty_characters() {
+        assert_eq!(quote_cell("1545.0"), "1545.0");
+        let forty = "x".repeat(QUOTE_CHARS);
+        assert_eq!(quote_cell(&forty), forty);
+        let big = "é".repeat(20_000_000);
+        let q = quote_cell(&big);
+        assert_eq!(q, format!("{}… (40000000 bytes)", "é".repeat(QUOTE_CHARS)));
+        let e = TrainerError::data("f.csv", 3, &"c".repeat(1000), "bad");
+        assert!(e.to_string().len() < 100, "{e}");
+    }
+
+    #[test]
+    fn numbers_print_short_and_read_back() {
+        for (v, s) in [
+            (1545.031, "1545.031"),
+            (-250.5, "-250.5"),
+            (0.0, "0"),
+            (1e308, "1e308"),
+            (-1.7976931348623157e308, "-1.7976931348623157e308"),
+            (1e15, "1e15"),
+            (5e-324, "5e-324"),
+            (1.25e-5, "1.25e-5"),
+            (f64::NAN, "NaN"),
+            (f64::NEG_INFINITY, "-inf"),
+        ] {
+            assert_eq!(quote_number(v), s);
+            assert!(quote_number(v).chars().count() <= QUOTE_CHARS);
+            if v.is_finite() {
+                assert_eq!(quote_number(v).parse::<f64>().unwrap().to_bits(), v.to_bits());
+            }
+        }
+    }
 }

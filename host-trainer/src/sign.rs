@@ -479,6 +479,59 @@ pub fn check(bytes: &[u8], public: Option<&[u8; PUBLIC_KEY_LEN]>) -> SignatureCh
     }
 }
 
+/// How a command that runs a model on the host (`compensate`, `evaluate`) treats its
+/// signature: the public keys it trusts (`--pubkey`) and whether it refuses a model that
+/// does not verify with one of them (`--require-signature`).
+#[derive(Clone, Debug, Default)]
+pub struct HostTrust {
+    /// The trusted keys.
+    pub keys: Vec<signature::TrustedKey>,
+    /// Refuse a model that is unsigned, signed by none of `keys`, or changed after signing.
+    pub require: bool,
+}
+
+impl HostTrust {
+    /// The public key files `pubkeys` (as [`read_public_key`] reads them), `require` as given.
+    pub fn load(pubkeys: &[PathBuf], require: bool) -> Result<HostTrust, TrainerError> {
+        let keys = pubkeys
+            .iter()
+            .map(|p| read_public_key(p).map(|public| signature::TrustedKey { id: key_id(&public), public }))
+            .collect::<Result<_, _>>()?;
+        Ok(HostTrust { keys, require })
+    }
+
+    /// What to say about the signature of the model file `bytes` (read from `path`) before
+    /// using it: `Ok(None)` nothing (verified, or unsigned and not required); `Ok(Some(w))` a
+    /// warning (a signature that does not verify, or one there is no key to check); an error
+    /// when [`HostTrust::require`] and it does not verify. Without a key the host cannot tell
+    /// a trailer changed after signing from an intact one, and says so.
+    pub fn check(&self, path: &Path, bytes: &[u8]) -> Result<Option<String>, TrainerError> {
+        let problem = match fbg_shared::container::open(bytes) {
+            Ok(Envelope::Unsigned(_)) if !self.require => return Ok(None),
+            Ok(Envelope::Unsigned(_)) => signature::SignatureError::Unsigned.to_string(),
+            Ok(Envelope::Signed(s)) if self.keys.is_empty() => format!(
+                "signed by key {} (serial {}), but no public key was given to check it (--pubkey FILE): a signature changed after signing goes unnoticed",
+                s.head.key_id, s.head.serial
+            ),
+            Ok(Envelope::Signed(s)) => match signature::verify(&s, &self.keys) {
+                Ok(()) => return Ok(None),
+                Err(e) => format!("serial {}: {e}", s.head.serial),
+            },
+            // A trailer this build cannot read: the blob decoder refuses the file with this reason.
+            Err(_) if !self.require => return Ok(None),
+            Err(e) => e.to_string(),
+        };
+        if self.require {
+            Err(TrainerError::Model {
+                path: path.display().to_string(),
+                message: format!("{problem}; refused (--require-signature)"),
+            })
+        } else {
+            Ok(Some(format!("{}: {problem}", path.display())))
+        }
+    }
+}
+
 /// Encode-and-sign helper: the bytes to write for `blob`, signed when `signer` is given.
 pub fn maybe_sign(
     blob: Vec<u8>,

@@ -161,3 +161,68 @@ fn train_refuses_a_constant_reference_or_a_dead_grating_by_column() {
         assert!(!err.contains("trained in"), "refused before the fit: {err}");
     }
 }
+
+/// A signed model whose trailer was changed after signing is named on stderr (`compensate`
+/// and `evaluate`), and refused with `--require-signature`, writing nothing.
+#[test]
+fn a_model_changed_after_signing_is_named_and_refused_on_request() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let key = d.path().join("lab.key");
+    let (ok, _, err) = run(bin().arg("keygen").arg("--out").arg(&key));
+    assert!(ok, "{err}");
+    let model = d.path().join("m.fbgm");
+    let (ok, _, err) = run(bin()
+        .args(["train", "--max-centres", "8", "--data"])
+        .arg(&csv)
+        .arg("--out")
+        .arg(&model)
+        .arg("--sign")
+        .arg(&key)
+        .env(fbg_trainer::sign::STATE_DIR_ENV, d.path().join("state")));
+    assert!(ok, "{err}");
+    let pubkey = d.path().join("lab.pub");
+    let comp = |out: &Path, extra: &[&str]| {
+        run(bin()
+            .args(["compensate", "--model"])
+            .arg(&model)
+            .arg("--data")
+            .arg(&csv)
+            .arg("--out")
+            .arg(out)
+            .arg("--pubkey")
+            .arg(&pubkey)
+            .args(extra))
+    };
+    // Intact: used without a word about it.
+    let (ok, _, err) = comp(&d.path().join("a.csv"), &["--require-signature"]);
+    assert!(ok && !err.contains("warning: "), "{err}");
+    // The serial raised by one after signing (the trailer's bytes 8..16 after the blob).
+    let mut bytes = std::fs::read(&model).unwrap();
+    let blob_len = fbg_shared::container::strip(&bytes).len();
+    bytes[blob_len + 8] ^= 1;
+    std::fs::write(&model, &bytes).unwrap();
+    let (ok, _, err) = comp(&d.path().join("b.csv"), &[]);
+    assert!(ok && err.contains("warning: ") && err.contains("does not verify"), "{err}");
+    let out = d.path().join("c.csv");
+    let (ok, _, err) = comp(&out, &["--require-signature"]);
+    assert!(!ok && err.contains("does not verify") && err.contains("--require-signature"), "{err}");
+    assert!(!out.exists(), "nothing written when refused");
+    // Without a key the host cannot tell: it says the signature went unchecked.
+    let (ok, _, err) = run(bin()
+        .args(["compensate", "--model"])
+        .arg(&model)
+        .arg("--data")
+        .arg(&csv)
+        .arg("--out")
+        .arg(d.path().join("e.csv")));
+    assert!(ok && err.contains("no public key was given"), "{err}");
+    let (ok, _, err) = run(bin()
+        .args(["evaluate", "--quick", "--require-signature", "--model"])
+        .arg(&model)
+        .arg("--data")
+        .arg(&csv)
+        .arg("--pubkey")
+        .arg(&pubkey));
+    assert!(!ok && err.contains("does not verify"), "{err}");
+}

@@ -275,3 +275,45 @@ fn sign_and_inspect_pubkey_commands() {
     assert_eq!(v["signature"]["record"]["key_id"], lab.id.to_string());
     assert_eq!(v["blob_bytes"].as_u64().unwrap() as usize, TINY.len());
 }
+
+/// `compensate` and `evaluate` (through `HostTrust`): a signed model that does not verify is
+/// named, and refused with `--require-signature`; a changed trailer cannot pass unnoticed.
+#[test]
+fn a_model_used_on_the_host_has_its_signature_named() {
+    let d = tempfile::tempdir().unwrap();
+    let key = d.path().join("lab.key");
+    sign::keygen(&key).unwrap();
+    sign::keygen(&d.path().join("other.key")).unwrap();
+    let o = SignOptions { key, serial: Some(7), state_dir: Some(d.path().join("state")), ..SignOptions::default() };
+    let (signed, _) = BlobSigner::load(&o).unwrap().sign(TINY).unwrap();
+    let path = Path::new("m.fbgm");
+    let lab = || vec![d.path().join("lab.pub")];
+    let check = |bytes: &[u8], keys: Vec<std::path::PathBuf>, require: bool| {
+        sign::HostTrust::load(&keys, require).unwrap().check(path, bytes)
+    };
+    // Verified, or unsigned and not required: nothing to say.
+    assert_eq!(check(&signed, lab(), false).unwrap(), None);
+    assert_eq!(check(&signed, lab(), true).unwrap(), None);
+    assert_eq!(check(TINY, vec![], false).unwrap(), None);
+    // Signed but no key to check it: said, since a changed trailer would look the same.
+    let w = check(&signed, vec![], false).unwrap().unwrap();
+    assert!(w.starts_with("m.fbgm: signed by key") && w.contains("serial 7") && w.contains("--pubkey"), "{w}");
+    assert!(check(&signed, vec![], true).unwrap_err().to_string().contains("--require-signature"));
+    // The serial, a signature byte, the blob changed after signing; another key.
+    let at = TINY.len();
+    for (what, byte) in [("serial", at + 8), ("signature", signed.len() - 40), ("blob", 20)] {
+        let mut bad = signed.clone();
+        bad[byte] ^= 1;
+        let w = check(&bad, lab(), false).unwrap().unwrap();
+        assert!(w.contains("does not verify"), "{what}: {w}");
+        let e = check(&bad, lab(), true).unwrap_err().to_string();
+        assert!(e.contains("does not verify") && e.contains("refused (--require-signature)"), "{what}: {e}");
+    }
+    let w = check(&signed, vec![d.path().join("other.pub.hex")], false).unwrap().unwrap();
+    assert!(w.contains("not trusted"), "{w}");
+    let e = check(TINY, lab(), true).unwrap_err().to_string();
+    assert!(e.contains("not signed") && e.contains("--require-signature"), "{e}");
+    // A key file that is not a key is an error, whatever the model.
+    std::fs::write(d.path().join("junk.pub"), b"junk").unwrap();
+    assert!(sign::HostTrust::load(&[d.path().join("junk.pub")], false).is_err());
+}

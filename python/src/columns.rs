@@ -78,6 +78,9 @@ pub fn dataset(
     d.dl_pm = dl.into_iter().flatten().collect();
     let rows = n.unwrap_or(0);
     d.t_s = t_s.ok_or_else(|| msg(format!("{origin}: no column t_s (time since the start, s)")))?;
+    // The rule the CSV reader applies to a record's time (finite, increasing): a frame is a
+    // record too, and a model fitted on shuffled rows would disagree with its own stream.
+    d.check_times().map_err(|(row, m)| msg(format!("{origin}: t (t_s) at row {row}: {m}")))?;
     d.split = match cal {
         None => vec![Split::Cal; rows],
         Some(c) if c.len() == rows => c.into_iter().map(|b| if b { Split::Cal } else { Split::Holdout }).collect(),

@@ -2,6 +2,7 @@
 //! a record's calibration rows.
 
 use fbg_trainer::benchmark::{BenchFitOptions, DEFAULT_FIXED};
+use fbg_trainer::data::Measurand;
 use fbg_trainer::export;
 use fbg_trainer::fit::{train_source, FeatureChoice, Origin};
 use pyo3::prelude::*;
@@ -21,7 +22,7 @@ use crate::model::Model;
 /// `coefficients.json` text and a JSON summary (chosen hyper-parameters, CV RMSE, warnings).
 /// Runs without the GIL.
 #[pyfunction]
-#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None))]
+#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None, targets=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -36,7 +37,13 @@ pub fn fit(
     scenario: Option<String>,
     sim_seed: u64,
     fixed: Option<&Bound<'_, PyDict>>,
+    targets: Option<Vec<String>>,
 ) -> PyResult<(Model, Model, String, String)> {
+    // The columns given as y must all be references: another name would be dropped silently
+    // (or overwrite an input), and the model would have fewer outputs than asked for.
+    for name in targets.iter().flatten() {
+        name.parse::<Measurand>().map_err(|e| msg(format!("y: column {e}")))?;
+    }
     let d = columns::dataset(columns, cal, t0_unix_s, source)?;
     let choice: FeatureChoice = features.parse().map_err(|e: String| msg(format!("features: {e}")))?;
     let mut opts = match fixed {

@@ -50,6 +50,19 @@ impl Model {
 
 #[pymethods]
 impl Model {
+    /// A model from a file's bytes (as [`Model::from_bytes`]); what a pickle restores.
+    #[new]
+    #[pyo3(signature = (data, source="<bytes>"))]
+    fn new(data: Vec<u8>, source: &str) -> PyResult<Model> {
+        Model::decode(data, source).map_err(to_py)
+    }
+
+    /// Pickle and copy as the file's bytes: the restored model decodes the same bytes, so it
+    /// predicts bit for bit what this one does.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> (Bound<'py, pyo3::types::PyType>, (Bound<'py, PyBytes>,)) {
+        (slf.get_type(), (PyBytes::new(slf.py(), &slf.get().file),))
+    }
+
     /// Read and fully validate a model file (signed or not), as `fbg-trainer` does.
     #[staticmethod]
     fn load(path: PathBuf) -> PyResult<Model> {

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use fbg_trainer::compensate::{self, FieldOptions};
+use fbg_trainer::data::files::check_outputs;
 use fbg_trainer::data::import::{self, ImportOptions, SplitChoice};
 use fbg_trainer::data::Dataset;
 use fbg_trainer::sim::{self, scenario::Preset};
@@ -38,17 +39,22 @@ pub fn simulate<'py>(
     let p: Preset = preset.parse().map_err(|e: String| msg(format!("preset: {e}")))?;
     let mut cfg = p.config();
     if let Some(d) = days {
-        if !(d.is_finite() && d > 0.0) {
-            return Err(msg(format!("days: {d} is not a positive number of days")));
-        }
         cfg.clock.days = d;
     }
     if let Some(dt) = dt_s {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(msg(format!("dt_s: {dt} is not a positive sample interval in seconds")));
-        }
         cfg.clock.dt_s = dt;
     }
+    // The scenario's own ranges, as `simulate` checks a configuration (1 h to 3650 days, at
+    // most 5e7 samples): without them a huge record aborts the interpreter on allocation.
+    cfg.validate().map_err(|(key, message)| {
+        let param = match key.as_str() {
+            "clock.days" if message.contains("samples") => "days/dt_s",
+            "clock.days" => "days",
+            "clock.dt_s" => "dt_s",
+            _ => "preset",
+        };
+        msg(format!("{param}: {message} (the scenario's {key})"))
+    })?;
     let data = py.detach(|| sim::simulate(&cfg, seed).data);
     columns::to_dict(py, data)
 }
@@ -78,6 +84,9 @@ pub fn compensate_file(
     start_unix_s: Option<f64>,
 ) -> PyResult<String> {
     let precision = crate::stream::precision(precision)?;
+    // The command line's check: `out` may not be the model, the record, or another spelling
+    // or link of either.
+    check_outputs(&[&out], &[&model, &data]).map_err(|e| msg(format!("out: {e}")))?;
     let field = FieldOptions { start_unix_s, trust_units };
     let s = py.detach(|| compensate::run(&model, &data, &out, precision, field, false)).map_err(to_py)?;
     serde_json::to_string(&s).map_err(|e| msg(e.to_string()))

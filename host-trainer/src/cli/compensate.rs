@@ -1,11 +1,12 @@
 //! `fbg-trainer compensate`: run a model over a logged field record, as the device would.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 
 use fbg_trainer::compensate::{self, FieldOptions, Precision};
 use fbg_trainer::data::files::check_outputs;
+use fbg_trainer::sign::HostTrust;
 
 use crate::utc_timestamp;
 
@@ -40,11 +41,49 @@ pub struct CompensateArgs {
     /// Print the summary as JSON on stdout.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    trust: TrustArgs,
+}
+
+/// The signature check of a command that runs a model on the host.
+#[derive(clap::Args)]
+pub struct TrustArgs {
+    /// A public key the model's signature is checked against (`lab.pub`, raw 32 bytes, or
+    /// `lab.pub.hex`); repeat for several. A signed model that does not verify with them, or
+    /// that no key was given for, is named on stderr.
+    #[arg(long, value_name = "FILE")]
+    pubkey: Vec<PathBuf>,
+    /// Refuse a model that is unsigned, signed by a key not given with --pubkey, or changed
+    /// after signing.
+    #[arg(long)]
+    require_signature: bool,
+}
+
+impl TrustArgs {
+    /// Check the signatures of `models`: a warning on stderr for each that does not verify, an
+    /// error instead when a signature is required.
+    pub fn check(&self, models: &[&Path]) -> Result<()> {
+        let trust = HostTrust::load(&self.pubkey, self.require_signature)?;
+        for m in models {
+            let bytes = std::fs::read(m).with_context(|| format!("{}: cannot read", m.display()))?;
+            if let Some(w) = trust.check(m, &bytes)? {
+                eprintln!("warning: {w}");
+            }
+        }
+        Ok(())
+    }
+
+    /// The key files (inputs: no output may be one).
+    pub fn inputs(&self) -> impl Iterator<Item = &Path> {
+        self.pubkey.iter().map(PathBuf::as_path)
+    }
 }
 
 impl CompensateArgs {
     pub fn run(self) -> Result<()> {
-        check_outputs(&[&self.out], &[&self.model, &self.data])?;
+        let inputs: Vec<&Path> = [self.model.as_path(), &self.data].into_iter().chain(self.trust.inputs()).collect();
+        check_outputs(&[&self.out], &inputs)?;
+        self.trust.check(&[&self.model])?;
         let field = FieldOptions {
             start_unix_s: self.start.as_deref().map(|s| utc_timestamp(s, "--start")).transpose()?,
             trust_units: self.trust_units,

@@ -38,6 +38,8 @@ pub struct EvaluateArgs {
     /// Print metrics.json on stdout instead of the tables.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    trust: crate::compensate::TrustArgs,
 }
 
 impl EvaluateArgs {
@@ -45,7 +47,10 @@ impl EvaluateArgs {
         let (data, model, json) = (&self.data, &self.model, self.json);
         let base = self.baseline.clone().unwrap_or_else(|| baseline_path(model));
         let out = self.metrics.clone().unwrap_or_else(|| export::metrics_path(model));
-        check_outputs(&[&out], &[data, &meta_path(data), model, &base])?;
+        let meta_file = meta_path(data);
+        let inputs: Vec<&Path> =
+            [data.as_path(), &meta_file, model, &base].into_iter().chain(self.trust.inputs()).collect();
+        check_outputs(&[&out], &inputs)?;
         let meta = SimMeta::read_for(data)?;
         // Without a sidecar no quick study needs the whole record: it is streamed (two
         // passes, memory independent of its length).
@@ -60,6 +65,7 @@ impl EvaluateArgs {
             );
         }
         let p = export::read_blob(&base)?;
+        self.trust.check(&[model, &base])?;
         let studies = if self.quick {
             Studies { pace: true, ..Studies::NONE }
         } else {

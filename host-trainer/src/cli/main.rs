@@ -108,11 +108,25 @@ enum Cmd {
 }
 
 fn main() {
+    quiet_on_closed_stdout();
     // The library's long operations draw their progress bars through this reporter.
     let _ = fbg_trainer::progress::set_reporter(Box::new(progress::Terminal));
     if let Err(e) = run() {
         eprintln!("error: {e:#}");
         std::process::exit(1);
+    }
+}
+
+/// A closed stdout (`fbg-trainer inspect m.fbgm | head -1`) ends the command as it ends `cat`:
+/// by SIGPIPE, status 141 in the shell, nothing on stderr. Rust starts with SIGPIPE ignored,
+/// so every `println!` into a closed pipe panicked instead ("Broken pipe", exit 101). Sockets
+/// are not affected: std sends with `MSG_NOSIGNAL`, so the device link still gets EPIPE as an
+/// error it reports.
+fn quiet_on_closed_stdout() {
+    #[cfg(unix)]
+    // SAFETY: first thing in `main`, before any thread exists; SIG_DFL is a valid action.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
 

@@ -8,6 +8,19 @@ use crate::data::measurand::grating_column;
 use crate::data::{Measurand, RecordMeta, MAX_GRATINGS, T_AMB_COLUMN};
 use crate::error::TrainerError;
 
+/// The rule of a record's time axis, for every front end (the CSV reader, Python's frames):
+/// each `t_s` finite and later than the one before (`prev`). The message says what breaks it.
+pub fn check_next_time(prev: Option<f64>, t: f64) -> Result<(), String> {
+    use crate::error::ShortNumber;
+    if !t.is_finite() {
+        return Err(format!("{} is not a finite time", ShortNumber(t)));
+    }
+    match prev {
+        Some(p) if t <= p => Err(format!("time does not increase ({} after {})", ShortNumber(t), ShortNumber(p))),
+        _ => Ok(()),
+    }
+}
+
 /// Which part of the record a sample belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum Split {
@@ -105,6 +118,17 @@ pub struct Dataset {
 }
 
 impl Dataset {
+    /// [`check_next_time`] over the whole time axis: the first row (0-based) that breaks it,
+    /// with the message.
+    pub fn check_times(&self) -> Result<(), (usize, String)> {
+        let mut prev = None;
+        for (i, &t) in self.t_s.iter().enumerate() {
+            check_next_time(prev, t).map_err(|m| (i, m))?;
+            prev = Some(t);
+        }
+        Ok(())
+    }
+
     pub fn len(&self) -> usize {
         self.t_s.len()
     }
@@ -285,5 +309,30 @@ impl Dataset {
             split: idx.iter().map(|&i| self.split[i]).collect(),
             meta: self.meta.clone(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_time_axis_is_finite_and_increasing() {
+        let at = |t: Vec<f64>| Dataset { t_s: t, ..Dataset::default() }.check_times();
+        assert_eq!(at(vec![0.0, 60.0, 120.0]), Ok(()));
+        assert_eq!(at(vec![]), Ok(()));
+        assert_eq!(at(vec![0.0, 60.0, 60.0]), Err((2, "time does not increase (60 after 60)".into())));
+        assert_eq!(at(vec![120.0, 60.0]), Err((1, "time does not increase (60 after 120)".into())));
+        assert_eq!(at(vec![0.0, f64::NAN]), Err((1, "NaN is not a finite time".into())));
+        assert_eq!(at(vec![0.0, 1e308, -1e308]), Err((2, "time does not increase (-1e308 after 1e308)".into())));
+    }
+
+    #[test]
+    fn the_csv_reader_applies_the_same_rule() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("r.csv");
+        std::fs::write(&p, "t_s,T_C,dl1_pm,split\n0,20,1,cal\n60,20,1,cal\n30,20,1,cal\n").unwrap();
+        let e = Dataset::read_csv(&p).unwrap_err().to_string();
+        assert!(e.ends_with("line 4, column t_s: time does not increase (30 after 60)"), "{e}");
     }
 }

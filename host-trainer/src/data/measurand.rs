@@ -193,9 +193,10 @@ impl<'de> serde::Deserialize<'de> for Measurand {
         match Measurand::parse(&s) {
             Ok(Some(m)) => Ok(m),
             Ok(None) => Err(serde::de::Error::custom(format!(
-                "`{s}` is not a measurand column (T_C, T2_C, strain_ue, strain2_ue, p_kPa, ...)"
+                "`{q}` is not a measurand column (T_C, T2_C, strain_ue, strain2_ue, p_kPa, ...)",
+                q = crate::error::quote_cell(&s)
             ))),
-            Err(e) => Err(serde::de::Error::custom(format!("`{s}`: {e}"))),
+            Err(e) => Err(serde::de::Error::custom(format!("`{}`: {e}", crate::error::quote_cell(&s)))),
         }
     }
 }
@@ -205,8 +206,11 @@ impl std::str::FromStr for Measurand {
     fn from_str(s: &str) -> Result<Self, String> {
         match Measurand::parse(s) {
             Ok(Some(m)) => Ok(m),
-            Ok(None) => Err(format!("`{s}` is not a measurand column (T_C, T2_C, strain_ue, strain2_ue, p_kPa, ...)")),
-            Err(e) => Err(format!("`{s}`: {e}")),
+            Ok(None) => Err(format!(
+                "`{}` is not a measurand column (T_C, T2_C, strain_ue, strain2_ue, p_kPa, ...)",
+                crate::error::quote_cell(s)
+            )),
+            Err(e) => Err(format!("`{}`: {e}", crate::error::quote_cell(s))),
         }
     }
 }

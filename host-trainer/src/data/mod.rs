@@ -28,7 +28,7 @@ pub(crate) mod units;
 
 pub use crate::data::csv::{quote_cell, MAX_LINE_BYTES, QUOTE_CHARS};
 pub(crate) use crate::data::csv::{Row, RowReader};
-pub use crate::data::dataset::{Column, Dataset, Reference, Shape, Split};
+pub use crate::data::dataset::{check_next_time, Column, Dataset, Reference, Shape, Split};
 pub use crate::data::measurand::{Kind, Measurand, MAX_GRATINGS, MAX_MEASURANDS};
 pub use crate::data::record_meta::{GratingZero, RecordMeta};
 

@@ -92,14 +92,23 @@ impl Outlier {
     /// "1000000 °C where the running median is 24.1689 °C (robust z = 8.81e6, limit 8)".
     pub fn describe(&self) -> String {
         format!(
-            "{} {} where the running median is {:.4} {} (robust z = {}, limit {})",
-            self.value,
+            "{} {} where the running median is {} {} (robust z = {}, limit {})",
+            crate::error::ShortNumber(self.value),
             self.unit,
-            self.median,
+            median_text(self.median),
             self.unit,
             z_text(self.z),
             Z_LIMIT
         )
+    }
+}
+
+/// The running median to four decimals, short when huge (a column of 1e308 cells).
+fn median_text(m: f64) -> String {
+    if m.abs() < 1e9 {
+        format!("{m:.4}")
+    } else {
+        crate::error::quote_number(m)
     }
 }
 

@@ -99,8 +99,13 @@ impl RecordMeta {
             Ok(true)
         } else if let Some(rest) = text.strip_prefix(T0_KEY) {
             let v = rest.trim();
-            let t = crate::data::import::time_axis::parse_timestamp(v.trim_end_matches('Z'), None)
-                .ok_or_else(|| format!("{T0_KEY} `{v}` is not a UTC timestamp like 2026-01-05T00:00:00.000Z"))?;
+            let t =
+                crate::data::import::time_axis::parse_timestamp(v.trim_end_matches('Z'), None).ok_or_else(|| {
+                    format!(
+                        "{T0_KEY} `{}` is not a UTC timestamp like 2026-01-05T00:00:00.000Z",
+                        crate::error::quote_cell(v)
+                    )
+                })?;
             self.t0_unix_s = Some(t);
             Ok(true)
         } else {

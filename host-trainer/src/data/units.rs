@@ -4,6 +4,8 @@
 
 use serde::Deserialize;
 
+use crate::error::ShortNumber;
+
 /// Plausible absolute FBG wavelengths \[nm\].
 pub(crate) const NM_RANGE: (f64, f64) = (400.0, 2000.0);
 /// Largest plausible shift \[pm\]: 10 nm is beyond any grating's range in a WDM layout.
@@ -50,38 +52,40 @@ impl WlUnit {
 /// Check one wavelength cell (already in the column's unit) for magnitude; the error says what
 /// the value looks like and which map key to change.
 pub(crate) fn check_wavelength(unit: WlUnit, v: f64, key: &str) -> Result<(), String> {
+    // A cell can be 1e308: printed short, not as 309 digits.
+    let n = ShortNumber(v);
     let nm = |x: f64| (NM_RANGE.0..=NM_RANGE.1).contains(&x);
     let pm = |x: f64| (NM_RANGE.0 * 1e3..=NM_RANGE.1 * 1e3).contains(&x);
     let set = |u: &str| format!("map key `{key}`: set it to \"{u}\"");
     match unit {
         WlUnit::Nm if nm(v) => Ok(()),
-        WlUnit::Nm if pm(v) => Err(format!("{v} is declared nm but is pm-scale (absolute wavelengths are {}–{} nm); {}", NM_RANGE.0, NM_RANGE.1, set("pm"))),
+        WlUnit::Nm if pm(v) => Err(format!("{n} is declared nm but is pm-scale (absolute wavelengths are {}–{} nm); {}", NM_RANGE.0, NM_RANGE.1, set("pm"))),
         WlUnit::Nm if v.abs() < NM_RANGE.0 => Err(format!(
-            "{v} is declared as an absolute wavelength in nm but looks like a shift (absolute wavelengths are {}–{} nm); {}",
+            "{n} is declared as an absolute wavelength in nm but looks like a shift (absolute wavelengths are {}–{} nm); {}",
             NM_RANGE.0, NM_RANGE.1, set("shift_pm` or `shift_nm")
         )),
-        WlUnit::Nm => Err(format!("{v} is not a wavelength in nm ({}–{} nm); check `{key}`", NM_RANGE.0, NM_RANGE.1)),
+        WlUnit::Nm => Err(format!("{n} is not a wavelength in nm ({}–{} nm); check `{key}`", NM_RANGE.0, NM_RANGE.1)),
         WlUnit::Pm if pm(v) => Ok(()),
-        WlUnit::Pm if nm(v) => Err(format!("{v} is declared pm but is nm-scale; {}", set("nm"))),
+        WlUnit::Pm if nm(v) => Err(format!("{n} is declared pm but is nm-scale; {}", set("nm"))),
         WlUnit::Pm if v.abs() < NM_RANGE.0 * 1e3 => Err(format!(
-            "{v} is declared as an absolute wavelength in pm but looks like a shift (absolute wavelengths are {}–{} pm); {}",
+            "{n} is declared as an absolute wavelength in pm but looks like a shift (absolute wavelengths are {}–{} pm); {}",
             NM_RANGE.0 * 1e3, NM_RANGE.1 * 1e3, set("shift_pm")
         )),
-        WlUnit::Pm => Err(format!("{v} is not a wavelength in pm; check `{key}`")),
+        WlUnit::Pm => Err(format!("{n} is not a wavelength in pm; check `{key}`")),
         WlUnit::ShiftPm if v.abs() <= MAX_SHIFT_PM => Ok(()),
         WlUnit::ShiftNm if v.abs() * 1e3 <= MAX_SHIFT_PM => Ok(()),
         WlUnit::ShiftPm | WlUnit::ShiftNm if nm(v) => Err(format!(
-            "{v} is declared as a shift ({}) but looks like an absolute wavelength in nm; {}",
+            "{n} is declared as a shift ({}) but looks like an absolute wavelength in nm; {}",
             unit.name(),
             set("nm")
         )),
         WlUnit::ShiftPm | WlUnit::ShiftNm if pm(v) => Err(format!(
-            "{v} is declared as a shift ({}) but looks like an absolute wavelength in pm; {}",
+            "{n} is declared as a shift ({}) but looks like an absolute wavelength in pm; {}",
             unit.name(),
             set("pm")
         )),
         WlUnit::ShiftPm | WlUnit::ShiftNm => Err(format!(
-            "{v} ({}) is a shift beyond {} nm, which no grating reaches; check `{key}`",
+            "{n} ({}) is a shift beyond {} nm, which no grating reaches; check `{key}`",
             unit.name(),
             MAX_SHIFT_PM / 1e3
         )),
@@ -161,12 +165,13 @@ impl AbsNmCheck {
 /// Check an ambient temperature [°C] (after gain and offset).
 pub(crate) fn check_ambient(v: f64) -> Result<(), String> {
     let (lo, hi) = AMBIENT_RANGE_C;
+    let n = ShortNumber(v);
     if (lo..=hi).contains(&v) {
         Ok(())
     } else if (200.0..=400.0).contains(&v) {
-        Err(format!("ambient {v} °C looks like kelvin; map key `ambient.offset`: set it to -273.15"))
+        Err(format!("ambient {n} °C looks like kelvin; map key `ambient.offset`: set it to -273.15"))
     } else {
-        Err(format!("ambient {v} °C is outside {lo}–{hi} °C; check the map keys `ambient.column`, `ambient.gain`, `ambient.offset`"))
+        Err(format!("ambient {n} °C is outside {lo}–{hi} °C; check the map keys `ambient.column`, `ambient.gain`, `ambient.offset`"))
     }
 }
 
@@ -185,5 +190,8 @@ mod tests {
         assert!(looks_absolute_nm(&[1545.0, 1545.1, 1545.05]));
         assert!(!looks_absolute_nm(&[600.0, 700.0, 650.0]));
         assert!(check_ambient(296.0).unwrap_err().contains("-273.15"));
+        // A huge cell is printed short.
+        assert!(check_wavelength(WlUnit::ShiftPm, 1e308, "k").unwrap_err().starts_with("1e308 (shift_pm)"));
+        assert!(check_ambient(-1e300).unwrap_err().starts_with("ambient -1e300 °C"));
     }
 }

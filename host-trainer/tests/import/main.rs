@@ -10,6 +10,7 @@ mod cli;
 mod end_to_end;
 mod good;
 mod locale;
+mod quotes;
 mod refusals;
 mod shapes;
 

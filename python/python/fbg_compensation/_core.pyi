@@ -9,6 +9,8 @@ class FbgError(ValueError):
     """An error of the compensator, with the command line's message."""
 
 class Model:
+    def __init__(self, data: bytes, source: str = "<bytes>") -> None: ...
+    def __reduce__(self) -> Tuple[type, Tuple[bytes]]: ...
     @staticmethod
     def load(path: str) -> Model: ...
     @staticmethod
@@ -55,6 +57,7 @@ def fit(
     scenario: Optional[str] = None,
     sim_seed: int = 0,
     fixed: Optional[Dict[str, object]] = None,
+    targets: Optional[List[str]] = None,
 ) -> Tuple[Model, Model, str, str]: ...
 def simulate(
     preset: str = "paper", seed: int = 7, days: Optional[float] = None, dt_s: Optional[float] = None

@@ -122,6 +122,7 @@ class _Compensator(_Base, _Regressor):
             None,
             0,
             self.fixed,
+            targets=list(targets),
         )
         self.model_h_ = Model(h)
         self.model_p_ = Model(p)

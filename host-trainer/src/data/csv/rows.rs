@@ -8,24 +8,16 @@ use fbg_shared::Sample;
 use super::line_limit::{line_error, line_too_long, LineLimit};
 use crate::data::measurand::{grating_column, parse_grating_column};
 use crate::data::units::{check_ambient, check_wavelength, WlUnit};
-use crate::data::{Dataset, Measurand, RecordMeta, Reference, Split, MAX_GRATINGS, MAX_MEASURANDS, T_AMB_COLUMN};
+use crate::data::{
+    check_next_time, Dataset, Measurand, RecordMeta, Reference, Split, MAX_GRATINGS, MAX_MEASURANDS, T_AMB_COLUMN,
+};
 use crate::error::TrainerError;
 
 /// Appended to a unit-check message on a dataset CSV: the check and its words are `import`'s.
 const REIMPORT: &str =
     " (the unit check of `fbg-trainer import`: convert the column, or re-import the export with that map key)";
 
-/// Characters of a cell an error message quotes; the rest is elided.
-pub const QUOTE_CHARS: usize = 40;
-
-/// A cell as an error message quotes it: at most [`QUOTE_CHARS`] characters, then `…` and the
-/// cell's length.
-pub fn quote_cell(cell: &str) -> String {
-    match cell.char_indices().nth(QUOTE_CHARS) {
-        None => cell.to_string(),
-        Some((cut, _)) => format!("{}… ({} bytes)", &cell[..cut], cell.len()),
-    }
-}
+pub use crate::error::{quote_cell, QUOTE_CHARS};
 
 /// One data row of a dataset CSV as [`RowReader`] reads it: NaN for an empty cell (a gap, a
 /// missing reference) and for a column the file does not have.
@@ -213,16 +205,7 @@ impl RowReader {
             Ok(v)
         };
         let t = num(layout.t_s, false)?;
-        if let Some(prev) = self.prev_t {
-            if t <= prev {
-                return Err(TrainerError::data(
-                    name,
-                    line,
-                    "t_s",
-                    format!("time does not increase ({t} after {prev})"),
-                ));
-            }
-        }
+        check_next_time(self.prev_t, t).map_err(|m| TrainerError::data(name, line, "t_s", m))?;
         let mut row = Row {
             t_s: t,
             refs: [f64::NAN; MAX_MEASURANDS],

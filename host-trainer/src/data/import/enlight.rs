@@ -425,7 +425,7 @@ fn parse_row(
                 Reason::NonNumeric,
                 line,
                 format!("{} (peak count ch{})", 2 + c, 1 + c),
-                format!("`{}` is not a peak count", cs[1 + c]),
+                format!("`{}` is not a peak count", crate::error::quote_cell(&cs[1 + c])),
             )
         })?;
         counts.push(n);
@@ -467,7 +467,11 @@ fn parse_row(
         for _ in 0..n {
             let cell = &cs[idx];
             let v = number_in(cell, culture)
-                .and_then(|v| v.ok_or_else(|| format!("`{cell}` where the peak count says a wavelength is")))
+                .and_then(|v| {
+                    v.ok_or_else(|| {
+                        format!("`{}` where the peak count says a wavelength is", crate::error::quote_cell(cell))
+                    })
+                })
                 .map_err(|m| RowError::new(Reason::NonNumeric, line, label(idx, &counts), m))?;
             if check {
                 check_wavelength(unit, v, "enlight.unit")
@@ -591,7 +595,8 @@ pub(crate) fn find_culture(
     let lookup = |v: &str, line: Option<u64>| {
         culture_named(v).ok_or_else(|| {
             let msg = format!(
-                "unknown culture `{v}`: its decimal mark and date order are not known here; known: {}, invariant (or a bare language such as `de`)",
+                "unknown culture `{}`: its decimal mark and date order are not known here; known: {}, invariant (or a bare language such as `de`)",
+                crate::error::quote_cell(v),
                 known.join(", ")
             );
             match line {
@@ -670,7 +675,8 @@ pub(crate) fn date_order(
                     *l,
                     "1 (time)",
                     format!(
-                        "`{cell}` is not a date in culture {c} ({source}), which writes dates {}: there is no month {field}; the culture does not match the dates (fix the Culture line, or the map's enlight.culture)",
+                        "`{}` is not a date in culture {c} ({source}), which writes dates {}: there is no month {field}; the culture does not match the dates (fix the Culture line, or the map's enlight.culture)",
+                        crate::error::quote_cell(cell),
                         o.words()
                     ),
                 ));
@@ -706,7 +712,8 @@ pub(crate) fn date_order(
                 line,
                 "1 (time)",
                 format!(
-                    "ambiguous date `{cell}`: day-first or month-first? No date in the file has a field above 12 to tell, and {why}; add the export's locale as a header line such as `Culture: de-DE` (day-first) or `Culture: en-US` (month-first), or set `culture = \"de-DE\"` (or a `time_format`) under [enlight] in the --map file"
+                    "ambiguous date `{q}`: day-first or month-first? No date in the file has a field above 12 to tell, and {why}; add the export's locale as a header line such as `Culture: de-DE` (day-first) or `Culture: en-US` (month-first), or set `culture = \"de-DE\"` (or a `time_format`) under [enlight] in the --map file",
+                    q = crate::error::quote_cell(&cell)
                 ),
             ))
         }

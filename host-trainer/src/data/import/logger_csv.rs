@@ -248,7 +248,14 @@ fn grating_columns(h: &Header, gratings: Option<&[CsvGrating]>) -> Result<Vec<Cs
                 match parse_grating_column(c) {
                     Ok(Some(g)) => found.push(g),
                     Ok(None) => {}
-                    Err(e) => return Err(TrainerError::data(h.name, h.line, c, format!("column `{c}`: {e}"))),
+                    Err(e) => {
+                        return Err(TrainerError::data(
+                            h.name,
+                            h.line,
+                            c,
+                            format!("column `{}`: {e}", crate::error::quote_cell(c)),
+                        ))
+                    }
                 }
             }
             found.sort_unstable();

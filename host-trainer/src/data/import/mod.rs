@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::data::Dataset;
-use crate::error::TrainerError;
+use crate::error::{quote_cell, TrainerError};
 pub use mapping::Map;
 pub use problems::{FileSkips, OnError, Reason, ReasonCount};
 pub use spectra::peak_table::{peaks_to_csv, PeaksSummary, PEAKS_HEADER};
@@ -220,10 +220,11 @@ pub(crate) fn number(cell: &str) -> Result<Option<f64>, String> {
     }
     match c.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(Some(v)),
-        Ok(_) => Err(format!("`{c}` is not a finite number")),
+        Ok(_) => Err(format!("`{}` is not a finite number", quote_cell(c))),
         Err(_) if c.matches(',').count() == 1 && c.replace(',', ".").parse::<f64>().is_ok() => Err(format!(
-            "`{c}` is not a number (a decimal comma? use a point, or a delimiter other than the decimal mark)"
+            "`{}` is not a number (a decimal comma? use a point, or a delimiter other than the decimal mark)",
+            quote_cell(c)
         )),
-        Err(_) => Err(format!("`{c}` is not a number")),
+        Err(_) => Err(format!("`{}` is not a number", quote_cell(c))),
     }
 }

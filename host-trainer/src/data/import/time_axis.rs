@@ -9,6 +9,8 @@
 use chrono::{DateTime, NaiveDate, NaiveDateTime, NaiveTime};
 use serde::{Deserialize, Serialize};
 
+use crate::error::quote_cell;
+
 /// How the time column is written.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -84,20 +86,21 @@ pub(crate) fn dmy_fields(cell: &str) -> Option<(u32, u32)> {
 /// (separators `.`, `/` or `-`; fields of 1 or 2 digits; an optional `AM`/`PM`).
 pub(crate) fn parse_dmy(cell: &str, order: DateOrder) -> Result<f64, String> {
     let cell = cell.trim();
-    let (a, b) =
-        dmy_fields(cell).ok_or_else(|| format!("`{cell}` is not a date of the form dd/mm/yyyy or mm/dd/yyyy"))?;
+    let q = quote_cell(cell);
+    let (a, b) = dmy_fields(cell).ok_or_else(|| format!("`{q}` is not a date of the form dd/mm/yyyy or mm/dd/yyyy"))?;
     let (day, month) = match order {
         DateOrder::DayFirst => (a, b),
         DateOrder::MonthFirst => (b, a),
     };
     let (date, rest) = cell.split_at(cell.find([' ', 'T']).unwrap_or(cell.len()));
-    let year: i32 = date[date.len() - 4..].parse().map_err(|_| format!("`{cell}`: no year"))?;
+    let year: i32 = date[date.len() - 4..].parse().map_err(|_| format!("`{q}`: no year"))?;
     let d = NaiveDate::from_ymd_opt(year, month, day).ok_or_else(|| {
         let what = if month > 12 { format!("month {month}") } else { format!("day {day} of month {month}") };
-        format!("`{cell}` is not a date read {}: there is no {what}", order.words())
+        format!("`{q}` is not a date read {}: there is no {what}", order.words())
     })?;
-    let t = parse_clock(rest.trim_start_matches('T').trim())
-        .ok_or_else(|| format!("`{cell}`: `{}` is not a time of day (hh:mm[:ss[.fff]] [AM|PM])", rest.trim()))?;
+    let t = parse_clock(rest.trim_start_matches('T').trim()).ok_or_else(|| {
+        format!("`{q}`: `{}` is not a time of day (hh:mm[:ss[.fff]] [AM|PM])", quote_cell(rest.trim()))
+    })?;
     Ok(secs(d.and_time(t)))
 }
 
@@ -151,10 +154,11 @@ pub(crate) fn decimal_comma_number(cell: &str) -> Result<f64, String> {
     let c = cell.trim();
     if c.contains('.') {
         return Err(format!(
-            "`{c}` has a point, but the file's culture writes a decimal comma (a point would be a thousands separator there): check the Culture line"
+            "`{}` has a point, but the file's culture writes a decimal comma (a point would be a thousands separator there): check the Culture line",
+            quote_cell(c)
         ));
     }
-    c.replace(',', ".").parse::<f64>().map_err(|_| format!("`{c}` is not a number"))
+    c.replace(',', ".").parse::<f64>().map_err(|_| format!("`{}` is not a number", quote_cell(c)))
 }
 
 /// Timestamp layouts tried when no `format` is given.
@@ -252,7 +256,7 @@ impl TimeParser {
         if self.decimal_comma {
             decimal_comma_number(cell)
         } else {
-            cell.parse().map_err(|_| format!("`{cell}` is not a number of seconds"))
+            cell.parse().map_err(|_| format!("`{}` is not a number of seconds", quote_cell(cell)))
         }
     }
 
@@ -281,7 +285,7 @@ impl TimeParser {
             TimeKind::Seconds => {
                 let v: f64 = self.seconds(cell)?;
                 if !v.is_finite() {
-                    return Err(format!("`{cell}` is not a finite time"));
+                    return Err(format!("`{}` is not a finite time", quote_cell(cell)));
                 }
                 let scale = match self.unit {
                     TimeUnit::Ms => 1e-3,
@@ -298,9 +302,10 @@ impl TimeParser {
                 }
             }
             TimeKind::Timestamp => parse_timestamp(cell, self.format.as_deref()).ok_or_else(|| match &self.format {
-                Some(f) => format!("`{cell}` is not a timestamp of the form `{f}`"),
+                Some(f) => format!("`{}` is not a timestamp of the form `{f}`", quote_cell(cell)),
                 None => format!(
-                    "`{cell}` is not a timestamp (YYYY-MM-DD hh:mm:ss[.fff], ISO-8601; other layouts: set a chrono `format`)"
+                    "`{}` is not a timestamp (YYYY-MM-DD hh:mm:ss[.fff], ISO-8601; other layouts: set a chrono `format`)",
+                    quote_cell(cell)
                 ),
             })?,
         };

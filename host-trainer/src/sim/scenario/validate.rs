@@ -294,7 +294,7 @@ impl Checker {
     }
     fn range(&mut self, key: &str, x: f64, lo: f64, hi: f64) {
         if !(x.is_finite() && x >= lo && x <= hi) {
-            self.fail(key, &format!("{x} is out of range [{lo}, {hi}]"));
+            self.fail(key, &format!("{} is out of range [{lo}, {hi}]", crate::error::ShortNumber(x)));
         }
     }
     fn nonneg(&mut self, key: &str, x: f64, hi: f64) {

@@ -12,7 +12,7 @@ pub(crate) fn grid_of(columns: &[&str], coefficients: &[f64]) -> Result<Grid<f64
     for (k, c) in columns.iter().enumerate() {
         let digits = c.strip_prefix(['p', 'P']).unwrap_or(c);
         if digits.parse::<usize>().ok() != Some(k) {
-            return Err((k, format!("`{c}` where pixel {k} is expected: a pixels header is `t_s,channel,p0,p1,…` (or `0,1,…`), every pixel in order")));
+            return Err((k, format!("`{}` where pixel {k} is expected: a pixels header is `t_s,channel,p0,p1,…` (or `0,1,…`), every pixel in order", crate::error::quote_cell(c))));
         }
     }
     let mut c = [0.0; POLY_COEFFS];

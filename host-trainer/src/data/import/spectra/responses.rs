@@ -161,7 +161,7 @@ fn header(lines: &[&str], m: &Map, origin: &str, name: &str) -> Result<Header, T
             &name,
             1,
             "1 (header line count)",
-            format!("`{first}` is not the header's line count: a Responses export's first line is the number of header lines (this one included), at most the file's {} lines", lines.len()),
+            format!("`{}` is not the header's line count: a Responses export's first line is the number of header lines (this one included), at most the file's {} lines", crate::error::quote_cell(first), lines.len()),
         )
     })?;
     let culture = find_culture(lines, Some(n_header), m.enlight.culture.as_deref(), origin, &name, &|_| '\t')?;

@@ -36,7 +36,7 @@ fn flags_named(names: &[String]) -> Result<PeakFlags, String> {
 fn method_named(s: &str) -> Result<Method, String> {
     Method::ALL.iter().copied().find(|m| m.name().eq_ignore_ascii_case(s.trim())).ok_or_else(|| {
         let known: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
-        format!("`{s}` is not a method; known: {}", known.join(", "))
+        format!("`{}` is not a method; known: {}", crate::error::quote_cell(s), known.join(", "))
     })
 }
 

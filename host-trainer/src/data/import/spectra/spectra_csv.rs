@@ -12,6 +12,7 @@ use fbg_shared::spectrum::Grid;
 
 use super::super::number;
 use crate::data::units::NM_RANGE;
+use crate::error::ShortNumber;
 
 /// Largest distance of a header wavelength from the uniform grid, in steps.
 const GRID_TOLERANCE_STEPS: f64 = 0.1;
@@ -25,7 +26,10 @@ pub(crate) fn grid_of(columns: &[&str]) -> Result<Grid<f64>, (usize, String)> {
             .map_err(|m| (k, format!("{m}: a spectra-csv header names each column by its wavelength in nm")))?
             .ok_or_else(|| (k, "empty header cell: each sample column is named by its wavelength in nm".to_string()))?;
         if !(NM_RANGE.0..=NM_RANGE.1).contains(&v) {
-            return Err((k, format!("{v} is not a wavelength in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1)));
+            return Err((
+                k,
+                format!("{} is not a wavelength in nm ({}–{} nm)", ShortNumber(v), NM_RANGE.0, NM_RANGE.1),
+            ));
         }
         if let Some(&prev) = nm.last() {
             if v <= prev {

@@ -60,8 +60,8 @@ pub(crate) fn read(
         return Err(TrainerError::data(
             &name,
             header_line,
-            &format!("1 ({time_name})"),
-            format!("the header starts `{time_name}`, not the time column (`t_s`): a spectrum table's header is `t_s,channel,` and then one column per wavelength or pixel"),
+            &format!("1 ({})", crate::error::quote_cell(time_name)),
+            format!("the header starts `{}`, not the time column (`t_s`): a spectrum table's header is `t_s,channel,` and then one column per wavelength or pixel", crate::error::quote_cell(time_name)),
         ));
     }
     let channel_name = head.get(1).copied().unwrap_or_default();
@@ -69,8 +69,8 @@ pub(crate) fn read(
         return Err(TrainerError::data(
             &name,
             header_line,
-            &format!("2 ({channel_name})"),
-            format!("the second header cell is `{channel_name}`, not `channel`: a spectrum table's header is `t_s,channel,` and then one column per wavelength or pixel"),
+            &format!("2 ({})", crate::error::quote_cell(channel_name)),
+            format!("the second header cell is `{}`, not `channel`: a spectrum table's header is `t_s,channel,` and then one column per wavelength or pixel", crate::error::quote_cell(channel_name)),
         ));
     }
     let columns = head.get(2..).unwrap_or_default();
@@ -187,7 +187,7 @@ fn parse_row(
             Reason::NonNumeric,
             line,
             "2 (channel)",
-            format!("`{channel_cell}` is not a channel number (1 to {MAX_CHANNELS})"),
+            format!("`{}` is not a channel number (1 to {MAX_CHANNELS})", crate::error::quote_cell(channel_cell)),
         )
     })?;
     if let Some(e) = bad {
