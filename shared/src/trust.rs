@@ -12,7 +12,8 @@
 //!   a single glitch (a thermometer's 85 °C power-on value, a 1e300) leaves every later reading
 //!   as it would have been, and the state stays within the widened envelope whatever arrives.
 //!   The limit grows with the time since the last accepted sample, so a real step is accepted
-//!   once enough time has passed (the rule cannot lock a stream out).
+//!   once enough time has passed (the rule cannot lock a stream out); a time stamp that does
+//!   not advance leaves the range test alone to decide.
 //! - **The fade.** The memory terms and the RBF residual (what Model-H adds to Model-P's core)
 //!   were seen working only while the installation moved as in the calibration week. Each
 //!   grating's quiet time q_g — the time since its narrowest play operator last reversed (the

@@ -137,7 +137,8 @@ fn a_real_step_is_let_in_once_time_allows_it() {
     // widened envelope, faster than ten times any clean step of it): refused at first, let in
     // once the rate limit × elapsed time covers it; the gate cannot lock a stream out.
     let (p, clean) = trusted(1e9);
-    let jump = f64::from(clean[1..].iter().zip(&clean).map(|(a, b)| (a.dl_pm[1] - b.dl_pm[1]).abs()).fold(0.0, f32::max));
+    let jump =
+        f64::from(clean[1..].iter().zip(&clean).map(|(a, b)| (a.dl_pm[1] - b.dl_pm[1]).abs()).fold(0.0, f32::max));
     let mut s = clean.clone();
     let step = if s[500].dl_pm[1] > 0.0 { -90.0 } else { 90.0 };
     assert!(90.0 > 10.0 * jump * 1.01, "the clean stream steps by {jump} pm");

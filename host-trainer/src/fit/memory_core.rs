@@ -55,7 +55,7 @@ impl MemoryOptions {
 
     /// The physics-restricted default menu: ambient high-passes at 5 min … 1 h (the
     /// thermometer's own lag), stop terms at r = 2, 4, 8 pm (the play operator's hidden
-    /// position), and the drift observer (thermometer lag 20 min, smoothing 40 min) for
+    /// position; `train` raises them above each record's noise, `fit::trust::noise_floored`), and the drift observer (thermometer lag 20 min, smoothing 40 min) for
     /// temperature.
     ///
     /// Grating high-passes (τ = 5 min … 4 h) stay on the menu's list of operators but are not

@@ -19,8 +19,10 @@ pub const MIN_RADIUS_PM: f64 = 2.0;
 
 /// White-noise σ \[pm\] of each grating's shift on the calibration rows `cal`: the robust
 /// spread of second differences of consecutive rows (1.4826 · MAD / √6). Second differences
-/// remove a level and a trend; at the sampling of an interrogator the measurand's curvature
-/// adds little. NaN for a grating with fewer than 3 consecutive finite rows.
+/// remove a level and a trend; a measurand that is rough from one sample to the next (a strain
+/// grating's fast fluctuations) adds its roughness, so the figure is an upper bound of the
+/// interrogator's noise — what a play radius must stand above either way. NaN for a grating
+/// with fewer than 3 consecutive finite rows.
 pub fn white_noise_pm(d: &Dataset, cal: &[usize]) -> Vec<f64> {
     let n = d.dl_pm.len();
     (0..n)

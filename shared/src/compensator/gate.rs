@@ -61,14 +61,15 @@ impl<F: Real> Gate<F> {
     }
 
     /// Whether the sample with envelope inputs `x` at `t_s` may move the memory state, given
-    /// the last sample let in. A non-finite `t_s` skips the rate test (a model that reads no
-    /// time).
+    /// the last sample let in. A non-finite `t_s` (a model that reads no time) or one not after
+    /// the last sample let in skips the rate test.
     #[inline(always)]
     pub(super) fn admits(&self, last: &GateState<F>, x: &[F; MAX_ENVELOPE], t_s: F) -> bool {
         let n = usize::from(self.n);
+        // A clock that stands still or steps back gives no rate to judge: the range alone
+        // decides (a rate test against a negative Δt would lock the stream out).
         let dt = t_s - last.t_s;
-        let timed = last.primed && dt.is_finite();
-        let dt = dt.max(F::ZERO);
+        let timed = last.primed && dt.is_finite() && dt > F::ZERO;
         head(x, n).iter().zip(self.lo.iter().zip(self.hi.iter())).zip(self.rate.iter().zip(last.x.iter())).all(
             |((&v, (&lo, &hi)), (&rate, &prev))| {
                 let in_range = v >= lo && v <= hi;
