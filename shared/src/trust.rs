@@ -23,6 +23,11 @@
 //!   to Model-P's (`fallback_var`): at rest, or on a hold or a pace slower than any the
 //!   calibration contained, Model-H answers as Model-P and says so with
 //!   [`crate::Flags::FALLBACK`] (not a fault: Model-P's value and band are as good as ever).
+//! - **The band beyond the validated lead.** Model-H's band is narrower than Model-P's where
+//!   its cross-validated error was; the cross-validation saw leads up to the field context's
+//!   largest validated lead L only. Beyond L the band's variance decays towards Model-P's as
+//!   L / lead (never below Model-H's own): an advantage shown for a day and a half is not
+//!   assumed a week later. The value is unchanged and nothing is flagged.
 
 use serde::{Deserialize, Serialize};
 

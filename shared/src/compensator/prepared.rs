@@ -98,6 +98,9 @@ pub struct PreparedModel<F, const K: usize> {
     /// The band Model-H fades to: Model-P's k²σ² and its growth per second.
     pub(super) fallback_var: [F; MAX_OUTPUTS],
     pub(super) fallback_var_growth: [F; MAX_OUTPUTS],
+    /// Whether the band decays towards the fallback band beyond the largest validated lead
+    /// (a model with a trust spec).
+    pub(super) fades_beyond_lead: bool,
 }
 
 impl<F: Real, const K: usize> PreparedModel<F, K> {
@@ -146,6 +149,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             quiet_max_s: [F::ZERO; MAX_GRATINGS],
             fallback_var: [F::ZERO; MAX_OUTPUTS],
             fallback_var_growth: [F::ZERO; MAX_OUTPUTS],
+            fades_beyond_lead: false,
         }
     }
 

@@ -325,7 +325,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     }
 
     /// The estimate from the values `y`, the leverage, the lead and the fade (1: Model-H's
-    /// band; 0: Model-P's, blended in variance between): the band, and the plausibility of
+    /// band; 0: Model-P's, blended in variance between; beyond the largest validated lead the
+    /// band also decays towards Model-P's, [`crate::trust`]): the band, and the plausibility of
     /// the value and the band ([`crate::field`]): three compares per output. An output
     /// unchecked or not fitted has ±∞ bounds and an infinite limit: only a band that overflows
     /// flags it (then the leverage did, for every output).
@@ -339,6 +340,9 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         mut flags: Flags,
     ) -> Estimate<F> {
         let m = self.m::<M>();
+        // What the cross-validation showed of Model-H's advantage holds up to the largest lead
+        // it validated; beyond, the band decays towards Model-P's as lead_max / lead.
+        let validated = if self.fades_beyond_lead && lead > self.lead_max_s { self.lead_max_s / lead } else { F::ONE };
         let mut band95 = [F::ZERO; MAX_OUTPUTS];
         let mut implausible = false;
         for (o, (((bi, (&bv, &bg)), (&v, &lim)), (&lo, &hi))) in band95
@@ -350,13 +354,23 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             .enumerate()
         {
             let own = bg.mul_add(lead, bv) * (F::ONE + lev);
-            let var = if fade < F::ONE {
+            let var = if fade < F::ONE || validated < F::ONE {
                 let (pv, pg) = (
                     self.fallback_var.get(o).copied().unwrap_or(F::ZERO),
                     self.fallback_var_growth.get(o).copied().unwrap_or(F::ZERO),
                 );
                 let p = pg.mul_add(lead, pv);
-                fade.mul_add(own - p, p)
+                if fade < F::ONE {
+                    fade.mul_add(own - p, p)
+                } else {
+                    // Beyond the validated lead: never narrower than its own band.
+                    let blend = validated.mul_add(own - p, p);
+                    if blend > own {
+                        blend
+                    } else {
+                        own
+                    }
+                }
             } else {
                 own
             };
