@@ -6,6 +6,10 @@
 //! trainer measures it (largest |Δx|/Δt between consecutive samples); nothing here was tuned on
 //! the assertions' outcomes.
 
+// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
+// helpers; these helpers exist only for the tests.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+
 use fbg_shared::layout::{pad, MAX_GRATINGS};
 use fbg_shared::{Compensator, Estimate, Flags, ModelParams, Real, Sample, TrustSpec};
 use fbg_testkit::installation::{samples, synthetic_params, MAX_K};
@@ -17,8 +21,8 @@ fn rates(s: &[Sample<f32>]) -> [f64; 9] {
     let mut r = [0.0f64; 9];
     for w in s.windows(2) {
         let dt = f64::from(w[1].t_s - w[0].t_s);
-        for g in 0..3 {
-            r[g] = r[g].max(f64::from(w[1].dl_pm[g] - w[0].dl_pm[g]).abs() / dt);
+        for (g, rg) in r.iter_mut().enumerate().take(3) {
+            *rg = rg.max(f64::from(w[1].dl_pm[g] - w[0].dl_pm[g]).abs() / dt);
         }
         r[3] = r[3].max(f64::from(w[1].t_amb_c - w[0].t_amb_c).abs() / dt);
     }
@@ -230,8 +234,8 @@ fn the_state_stays_bounded_whatever_arrives() {
     let (p, clean) = trusted(1e9);
     let mut rng = fbg_testkit::Rng::new(5);
     let mut s = clean[..300].to_vec();
-    for i in 300..800 {
-        let mut x = clean[i];
+    for &c in &clean[300..800] {
+        let mut x = c;
         let v = [1e30, -1e30, 1e6, -1e6, 5e3, f64::NAN, f64::INFINITY][rng.next_u64() as usize % 7];
         x.dl_pm[rng.next_u64() as usize % 3] = v as f32;
         x.t_amb_c = if rng.unit() < 0.5 { (v * 0.1) as f32 } else { x.t_amb_c };

@@ -82,7 +82,8 @@ pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> Trust
     };
     for w in cal.windows(2) {
         let dt = d.t_s[w[1]] - d.t_s[w[0]];
-        if !(dt > 0.0) {
+        // A repeated or backward time stamp (or NaN) gives no rate.
+        if dt.is_nan() || dt <= 0.0 {
             continue;
         }
         for (k, r) in t.rate_max.iter_mut().enumerate().take(ne) {

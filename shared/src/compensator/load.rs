@@ -5,7 +5,6 @@ use super::fold::Folded;
 use super::gate::Gate;
 use super::prepared::PreparedModel;
 use crate::error::Error;
-use crate::layout::MAX_OUTPUTS;
 use crate::model::{Centre, ModelParams};
 use crate::real::Real;
 
@@ -172,11 +171,15 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         for (o, &q) in self.quiet_max_s.iter_mut().zip(tr.quiet_max_s.iter()) {
             *o = if on { F::from_real(q) } else { F::ZERO };
         }
-        for o in 0..MAX_OUTPUTS {
-            let (v, g) = (F::from_real(tr.fallback_var[o]), F::from_real(tr.fallback_var_growth[o]));
-            let own = !(v > F::ZERO);
-            self.fallback_var[o] = if own { self.band_var[o] } else { v };
-            self.fallback_var_growth[o] = if own { self.band_var_growth[o] } else { g };
+        let fallback = self.fallback_var.iter_mut().zip(self.fallback_var_growth.iter_mut());
+        let own = self.band_var.iter().zip(self.band_var_growth.iter());
+        let given = tr.fallback_var.iter().zip(tr.fallback_var_growth.iter());
+        for ((fb, (&bv, &bg)), (&v, &g)) in fallback.zip(own).zip(given) {
+            let (v, g) = (F::from_real(v), F::from_real(g));
+            // No fallback band given (0, or NaN): the output fades to its own.
+            let given = v > F::ZERO;
+            *fb.0 = if given { v } else { bv };
+            *fb.1 = if given { g } else { bg };
         }
     }
 
