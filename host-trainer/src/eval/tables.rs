@@ -417,6 +417,9 @@ pub fn all(m: &Metrics) -> Vec<(&'static str, Table)> {
     }
     if let Some(p) = &m.pace {
         v.push(("pace", pace(p, m)));
+        if !p.glitch.is_empty() {
+            v.push(("glitch", glitch(p)));
+        }
     }
     v
 }

@@ -101,7 +101,8 @@ pub(super) fn figures(p: &Page, sections: &mut Vec<Section>) {
                 "<p class=\"note\">No static gains in metrics.json (written before static fidelity).</p>\n".into()
             },
             if m.pace.is_some() {
-                format!("{}{}", fig("fig10_pace"), table_of("pace"))
+                // The glitch study's table is there when the pace study ran it.
+                format!("{}{}{}", fig("fig10_pace"), table_of("pace"), table_of("glitch"))
             } else {
                 "<p class=\"note\">No pace study in metrics.json (recorded data, or written before it): Figure 10 is omitted.</p>\n".into()
             }
