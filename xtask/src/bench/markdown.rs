@@ -4,8 +4,8 @@ use std::fmt::Write as _;
 
 use super::pace::{pace_targets_met, PACE_MIN_COVERAGE, SLOPE_TOL};
 use super::report::{
-    at_most, Accuracy, DeviceResults, EvalRun, FieldBench, FitRun, Fleet, Inference, Machine, PaceBench, PaceRow,
-    PaceSummary, PresetRun, Report, Rmse, SizeRun, StepRow, Training,
+    at_most, Accuracy, DeviceResults, EvalRun, FieldBench, FitRun, Fleet, GlitchRow, Inference, Machine, PaceBench,
+    PaceRow, PaceSummary, PresetRun, Report, Rmse, SizeRun, StepRow, Training,
 };
 use super::stats::{max_rel_diff, median};
 use super::COVERAGE_SEEDS;

@@ -198,7 +198,7 @@ mod tests {
             coverage_p: vec![0.95; 3],
             coverage_h: vec![0.95; 3],
             static_fidelity: None,
-            pace: Some(PaceStudy { scenario: "paper".into(), seed, rows }),
+            pace: Some(PaceStudy { scenario: "paper".into(), seed, rows, glitch: Vec::new() }),
             train_command: String::new(),
             evaluate_command: String::new(),
         }

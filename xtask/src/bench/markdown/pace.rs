@@ -313,6 +313,7 @@ pub(super) fn pace_paper(s: &mut String, pb: &PaceBench) {
     if pb.runs.len() > 1 {
         out!(s, "### Pace study over the seeds, `{}` preset, seeds {}\n", pb.preset, seed_range(&pb.runs));
         pace_summary_table(s, &pb.summary, ch, pb.runs.len(), pb.seeds_pace_targets);
+        glitch_summary(s, &pb.runs);
         out!(
             s,
             "| seed | Model-H below Model-P at the native pace ({names}) | steps slope, Model-P | steps slope, Model-H | records with Model-H above Model-P | records with Model-H coverage < {:.0} % | both pace targets on every record |\n|---|---|---|---|---|---|---|",
@@ -424,4 +425,28 @@ pub(super) fn field(s: &mut String, fb: &FieldBench) {
         out!(s, "Pace study of the `{}` seeds (same records as for `paper`; no target):\n", fb.preset);
         pace_summary_table(s, &fb.pace_summary, ch, n, fb.seeds_pace_targets);
     }
+}
+
+/// The glitch study over the seeds: how many glitch rows were flagged and how many later rows
+/// moved by more than their band, for the glitches the gate must catch and for the rest.
+fn glitch_summary(s: &mut String, runs: &[EvalRun]) {
+    let cases: Vec<&GlitchRow> = runs.iter().filter_map(|r| r.pace.as_ref()).flat_map(|p| p.glitch.iter()).collect();
+    if cases.is_empty() {
+        return;
+    }
+    let (must, other): (Vec<&GlitchRow>, Vec<&GlitchRow>) = cases.iter().partition(|g| g.must_flag());
+    let flagged = |v: &[&GlitchRow]| v.iter().filter(|g| g.flagged).count();
+    let beyond = |v: &[&GlitchRow]| v.iter().filter(|g| g.rows_beyond_band > 0).count();
+    out!(
+        s,
+        "\nGlitch study (`evaluate`'s, one sample of one input of the hold-out replaced by 85, −127, 1e300 or NaN; {} cases over {} seeds): the thermometer's glitches and the non-finite ones flagged in {} of {} cases, a later row beyond its band in {}; a grating's 85 or −127 pm (which may be a reading) flagged in {} of {}, a later row beyond its band in {}.\n",
+        cases.len(),
+        runs.len(),
+        flagged(&must),
+        must.len(),
+        beyond(&must),
+        flagged(&other),
+        other.len(),
+        beyond(&other)
+    );
 }

@@ -69,6 +69,29 @@ pub struct PaceStudy {
     pub scenario: String,
     pub seed: u64,
     pub rows: Vec<PaceRow>,
+    /// The glitch study of the native record's hold-out (absent in older metrics).
+    #[serde(default)]
+    pub glitch: Vec<GlitchRow>,
+}
+
+/// One case of the glitch study: one sample of one input replaced.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct GlitchRow {
+    /// The input column and the glitch (`T_amb_C`, `85`).
+    pub input: String,
+    pub value: String,
+    /// Whether the glitch row carries a fault flag.
+    pub flagged: bool,
+    /// Later rows moved by more than their band.
+    pub rows_beyond_band: usize,
+}
+
+impl GlitchRow {
+    /// A thermometer glitch, or a non-finite one in any input: what the gate must catch (a
+    /// grating's 85 or −127 pm may be a reading).
+    pub fn must_flag(&self) -> bool {
+        self.input == "T_amb_C" || self.value == "1e300" || self.value == "NaN"
+    }
 }
 
 impl PaceStudy {
