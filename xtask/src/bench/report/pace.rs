@@ -70,7 +70,7 @@ pub struct PaceStudy {
     pub seed: u64,
     pub rows: Vec<PaceRow>,
     /// The glitch study of the native record's hold-out (absent in older metrics).
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub glitch: Vec<GlitchRow>,
 }
 
