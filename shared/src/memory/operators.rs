@@ -49,8 +49,8 @@ pub struct MemoryOperators<F> {
     grating_on: [bool; N_GRATING_TAUS],
     ambient_on: [bool; N_AMBIENT_TAUS],
     play_on: [bool; N_PLAYS],
-    /// The slot of the narrowest play in use ([`N_PLAYS`] when none): its reversals end a
-    /// grating's quiet time ([`crate::trust`]).
+    /// The slot of the narrowest play in use (0 when none, then unused: only slots in use
+    /// are clocked): its reversals end a grating's quiet time ([`crate::trust`]).
     narrowest: u8,
     observer_on: bool,
     any: bool,
@@ -70,7 +70,8 @@ impl<F: Real> MemoryOperators<F> {
             grating_on: [false; N_GRATING_TAUS],
             ambient_on: [false; N_AMBIENT_TAUS],
             play_on: [false; N_PLAYS],
-            narrowest: N_PLAYS as u8,
+            // Zero, as every other field: an unloaded bank is all zero bytes (`.bss`).
+            narrowest: 0,
             observer_on: false,
             any: false,
         }
