@@ -64,6 +64,16 @@ pub trait Real:
     }
 }
 
+/// Every entry of `a` in another precision ([`Real::from_real`]: exact from f32 to f64, rounded
+/// to nearest from f64 to f32).
+pub fn cast_array<F: Real, G: Real, const N: usize>(a: &[F; N]) -> [G; N] {
+    let mut out = [G::ZERO; N];
+    for (o, &v) in out.iter_mut().zip(a.iter()) {
+        *o = G::from_real(v);
+    }
+    out
+}
+
 impl Real for f64 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;

@@ -34,7 +34,7 @@ use serde::{Deserialize, Serialize};
 use crate::bounds::{self, within};
 use crate::error::Error;
 use crate::layout::{head, Dims, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS};
-use crate::real::Real;
+use crate::real::{cast_array, Real};
 
 /// The gate's range: the calibration envelope widened by this fraction of its span on each
 /// side.
@@ -92,31 +92,11 @@ impl<F: Real> TrustSpec<F> {
 
     /// The same numbers in another precision.
     pub fn convert<G: Real>(&self) -> TrustSpec<G> {
-        let c = |a: &[F]| -> [G; MAX_OUTPUTS] {
-            let mut o = [G::ZERO; MAX_OUTPUTS];
-            for (o, &v) in o.iter_mut().zip(a) {
-                *o = G::from_real(v);
-            }
-            o
-        };
-        let mut rate_max = [G::ZERO; MAX_ENVELOPE];
-        for (o, &v) in rate_max.iter_mut().zip(self.rate_max.iter()) {
-            *o = G::from_real(v);
-        }
         TrustSpec {
-            rate_max,
-            quiet_max_s: per_grating(&self.quiet_max_s),
-            fallback_var: c(&self.fallback_var),
-            fallback_var_growth: c(&self.fallback_var_growth),
+            rate_max: cast_array(&self.rate_max),
+            quiet_max_s: cast_array(&self.quiet_max_s),
+            fallback_var: cast_array(&self.fallback_var),
+            fallback_var_growth: cast_array(&self.fallback_var_growth),
         }
     }
-}
-
-/// Each grating's entry in another precision.
-fn per_grating<F: Real, G: Real>(a: &[F; MAX_GRATINGS]) -> [G; MAX_GRATINGS] {
-    let mut q = [G::ZERO; MAX_GRATINGS];
-    for (o, &v) in q.iter_mut().zip(a.iter()) {
-        *o = G::from_real(v);
-    }
-    q
 }

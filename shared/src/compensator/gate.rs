@@ -60,6 +60,12 @@ impl<F: Real> Gate<F> {
         g
     }
 
+    /// Whether every sample passes without a look.
+    #[inline(always)]
+    pub(super) fn is_off(&self) -> bool {
+        self.n == 0
+    }
+
     /// Whether the sample with envelope inputs `x` at `t_s` may move the memory state, given
     /// the last sample let in. A non-finite `t_s` (a model that reads no time) or one not after
     /// the last sample let in skips the rate test.

@@ -8,7 +8,7 @@ use super::sample::Sample;
 use super::state::StreamState;
 use crate::affine::{affine, affine_inputs};
 use crate::flags::Flags;
-use crate::layout::{head, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, MAX_Z};
+use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, MAX_Z};
 use crate::real::Real;
 
 impl<F: Real, const K: usize> PreparedModel<F, K> {
@@ -40,7 +40,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// needed. Non-finite samples leave the state as `step` would.
     #[inline]
     pub fn advance(&self, state: &mut StreamState<F>, s: &Sample<F>) {
-        if self.accepts(s) && self.let_in(state, s) {
+        if self.accepts(s) && self.let_in(state, s, None) {
             let (latches, memory) = state.moving();
             let _: [F; MAX_GRATINGS] = latches.update(&s.dl_pm, usize::from(self.gratings), self.dead_band);
             self.memory.advance(memory, &s.dl_pm, s.t_amb_c, s.t_s);
@@ -76,7 +76,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         s: &Sample<F>,
         psi: &mut [F],
     ) -> Option<[F; MAX_OUTPUTS]> {
-        if !self.accepts_shaped::<G>(s) || !self.let_in(state, s) {
+        if !self.accepts_shaped::<G>(s) || !self.let_in(state, s, None) {
             return None;
         }
         let (latch, y) = self.advance_with_core::<G, M>(state, s);
@@ -100,16 +100,33 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         true
     }
 
-    /// The gate ([`crate::trust`]) for a finite sample: whether it may move the stream state,
-    /// remembered when it may.
+    /// The gate ([`crate::trust`]) for a finite sample whose envelope inputs are `x_env` (made
+    /// here when `None`): whether it may move the stream state, remembered when it may. A model
+    /// without a gate lets every sample in without looking at it.
     #[inline(always)]
-    fn let_in(&self, state: &mut StreamState<F>, s: &Sample<F>) -> bool {
-        let (x_env, _) = affine_inputs(&s.dl_pm, usize::from(self.gratings), self.ambient, s.t_amb_c);
-        let ok = self.gate.admits(state.gate(), &x_env, s.t_s);
+    fn let_in(&self, state: &mut StreamState<F>, s: &Sample<F>, x_env: Option<&[F; MAX_ENVELOPE]>) -> bool {
+        if self.gate.is_off() {
+            return true;
+        }
+        let made;
+        let x = match x_env {
+            Some(x) => x,
+            None => {
+                made = affine_inputs(&s.dl_pm, usize::from(self.gratings), self.ambient, s.t_amb_c).0;
+                &made
+            }
+        };
+        let ok = self.gate.admits(state.gate(), x, s.t_s);
         if ok {
-            self.gate.let_in(state.gate_mut(), &x_env, s.t_s);
+            self.gate.let_in(state.gate_mut(), x, s.t_s);
         }
         ok
+    }
+
+    /// Whether every fitted output of `y` is finite (an overflow in this precision otherwise).
+    #[inline(always)]
+    fn finite_where_fitted(&self, y: &[F; MAX_OUTPUTS]) -> bool {
+        y.iter().zip(self.fitted.iter()).all(|(v, &fit)| !fit || v.is_finite())
     }
 
     /// Whether a sample has the model's grating count and is finite where this model reads it
@@ -245,14 +262,13 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
 
         // A sample the gate refuses leaves the stream state as it was and is answered by
         // Model-P's core with Model-P's band (widened as a fault).
-        if !self.gate.admits(state.gate(), &x_env, s.t_s) {
+        if !self.let_in(state, s, Some(&x_env)) {
             flags.insert(Flags::OUT_OF_ENVELOPE.union(Flags::FALLBACK));
-            if !core.iter().zip(self.fitted.iter()).all(|(v, &fit)| !fit || v.is_finite()) {
+            if !self.finite_where_fitted(&core) {
                 return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
             }
             return self.finish::<M>(core, F::ZERO, lead, F::ZERO, flags);
         }
-        self.gate.let_in(state.gate_mut(), &x_env, s.t_s);
         let mut y = core;
         let latch = self.advance_state::<G>(state, s, &mut y);
 
@@ -284,7 +300,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         };
         // An overflow in this precision (finite inputs far outside anything calibrated) is
         // reported like a non-finite input rather than passed on as a normal estimate.
-        if !y.iter().zip(self.fitted.iter()).all(|(v, &fit)| !fit || v.is_finite()) {
+        if !self.finite_where_fitted(&y) {
             return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
         }
         self.finish::<M>(y, lev, lead, fade, flags)
@@ -345,31 +361,27 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         let validated = if self.fades_beyond_lead && lead > self.lead_max_s { self.lead_max_s / lead } else { F::ONE };
         let mut band95 = [F::ZERO; MAX_OUTPUTS];
         let mut implausible = false;
-        for (o, (((bi, (&bv, &bg)), (&v, &lim)), (&lo, &hi))) in band95
+        for ((((bi, (&bv, &bg)), (&v, &lim)), (&lo, &hi)), (&pv, &pg)) in band95
             .iter_mut()
             .zip(self.band_var.iter().zip(self.band_var_growth.iter()))
             .zip(y.iter().zip(self.band_lim.iter()))
             .zip(self.out_lo.iter().zip(self.out_hi.iter()))
+            .zip(self.fallback_var.iter().zip(self.fallback_var_growth.iter()))
             .take(m)
-            .enumerate()
         {
             let own = bg.mul_add(lead, bv) * (F::ONE + lev);
-            let var = if fade < F::ONE || validated < F::ONE {
-                let (pv, pg) = (
-                    self.fallback_var.get(o).copied().unwrap_or(F::ZERO),
-                    self.fallback_var_growth.get(o).copied().unwrap_or(F::ZERO),
-                );
-                let p = pg.mul_add(lead, pv);
-                if fade < F::ONE {
-                    fade.mul_add(own - p, p)
+            let fallback = || pg.mul_add(lead, pv);
+            let var = if fade < F::ONE {
+                let p = fallback();
+                fade.mul_add(own - p, p)
+            } else if validated < F::ONE {
+                // Beyond the validated lead: never narrower than its own band.
+                let p = fallback();
+                let blend = validated.mul_add(own - p, p);
+                if blend > own {
+                    blend
                 } else {
-                    // Beyond the validated lead: never narrower than its own band.
-                    let blend = validated.mul_add(own - p, p);
-                    if blend > own {
-                        blend
-                    } else {
-                        own
-                    }
+                    own
                 }
             } else {
                 own

@@ -161,13 +161,7 @@ impl<F: Real> MemorySpec<F> {
 
     /// The same spec in another precision.
     pub fn convert<G: Real>(&self) -> MemorySpec<G> {
-        fn c<F: Real, G: Real, const N: usize>(a: &[F; N]) -> [G; N] {
-            let mut out = [G::ZERO; N];
-            for (o, &v) in out.iter_mut().zip(a.iter()) {
-                *o = G::from_real(v);
-            }
-            out
-        }
+        use crate::real::cast_array as c;
         MemorySpec {
             grating_tau_s: c(&self.grating_tau_s),
             ambient_tau_s: c(&self.ambient_tau_s),
