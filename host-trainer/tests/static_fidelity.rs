@@ -65,7 +65,7 @@ fn pace_study_on_a_short_record() {
     let cfg = short(Preset::Paper, 6.0);
     let s = simulate(&cfg, 5);
     let t = train(&s.data, &common::small_grid(), &Origin::default()).unwrap();
-    let study = pace_study(&cfg, 5, &t.model_p, &t.model_h).unwrap();
+    let study = pace_study(&cfg, 5, &t.model_p, &t.model_h, &s.data).unwrap();
     // All measurands at each pace, each measurand alone at each pace, then the steps, rest
     // and long-hold records; a glitch of each kind in each input.
     assert_eq!(study.rows.len(), PACES.len() * (1 + 3) + 3);

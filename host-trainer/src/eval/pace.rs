@@ -130,12 +130,14 @@ pub fn held_levels(d: &Dataset, outputs: &[Measurand]) -> Vec<HeldLevel> {
 }
 
 /// Run the study for the installation `cfg` (its native pace) with `seed`, compensated by
-/// `model_p` and `model_h` (calibrated on that installation at its own pace).
+/// `model_p` and `model_h` (calibrated on that installation at its own pace); the glitch study
+/// runs on `native`, the record at the native pace the caller already holds.
 pub fn pace_study(
     cfg: &ScenarioConfig,
     seed: u64,
     model_p: &HostParams,
     model_h: &HostParams,
+    native: &Dataset,
 ) -> Result<PaceStudy, TrainerError> {
     let mut records: Vec<(String, f64, Option<Measurand>)> = Vec::new();
     for &f in &PACES {
@@ -170,7 +172,6 @@ pub fn pace_study(
             rows.push(score("rest".into(), REST_PACE, None, model_p, model_h, &rest.data)?);
         }
     }
-    let native = simulate(cfg, seed);
-    let glitch = crate::eval::glitch::glitch_study(model_h, &native.data)?;
+    let glitch = crate::eval::glitch::glitch_study(model_h, native)?;
     Ok(PaceStudy { scenario: cfg.name.clone(), seed, rows, glitch })
 }

@@ -409,7 +409,8 @@ pub fn run_all(
         static_fidelity: Some(crate::eval::metrics::StaticFidelity::of(&trained.static_audit)),
         pace: if studies.pace {
             let t = Instant::now();
-            let r = crate::eval::pace::pace_study(&sim.config, sim.seed, &trained.model_p, &trained.model_h)?;
+            let r =
+                crate::eval::pace::pace_study(&sim.config, sim.seed, &trained.model_p, &trained.model_h, &sim.data)?;
             log(&format!("pace study ({} records) in {:.1} s", r.rows.len(), t.elapsed().as_secs_f64()));
             Some(r)
         } else {
@@ -521,7 +522,7 @@ pub fn evaluate_models(
         pace: match meta {
             Some(m) if studies.pace => {
                 let t = Instant::now();
-                let r = crate::eval::pace::pace_study(&m.scenario, m.seed, p, h)?;
+                let r = crate::eval::pace::pace_study(&m.scenario, m.seed, p, h, d)?;
                 timings.push(("pace".to_string(), t.elapsed().as_secs_f64()));
                 Some(r)
             }

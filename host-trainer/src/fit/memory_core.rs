@@ -224,23 +224,36 @@ pub(crate) fn memory_terms_of(
     rows: &[usize],
     keep: &[usize],
 ) -> MemoryTerms {
-    let mut bank = MemoryBank::<f64>::new(spec, dims);
     let len = keep.len();
     let mut values = Vec::with_capacity(rows.len() * len);
+    walk_bank(spec, dims, d, rows, |_, m, _| values.extend(keep.iter().map(|&k| m.map_or(f64::NAN, |m| m[k]))));
+    MemoryTerms { len, values }
+}
+
+/// Run `spec`'s bank over the samples of `d` up to the last of `rows` (sorted ascending) as the
+/// compensator runs it — every sample it accepts (finite Δλ, T_amb with ambient, and t: a model
+/// with memory terms reads time) from the first — and hand `at(bank, m, t_s)` each of `rows`,
+/// with its memory vector `m` (`None` for a sample the compensator refuses).
+pub(crate) fn walk_bank(
+    spec: &MemorySpec<f64>,
+    dims: &Dims,
+    d: &Dataset,
+    rows: &[usize],
+    mut at: impl FnMut(&MemoryBank<f64>, Option<&[f64; MAX_MEMORY]>, f64),
+) {
+    let mut bank = MemoryBank::<f64>::new(spec, dims);
     let end = rows.last().map(|&i| i + 1).unwrap_or(0);
     let mut want = rows.iter().peekable();
     for i in 0..end {
         let s = d.sample(i);
-        // The compensator's rule for a model with memory terms (it reads time).
         let ok =
             s.dl().iter().all(|v| v.is_finite()) && (!dims.ambient() || s.t_amb_c.is_finite()) && s.t_s.is_finite();
-        let m: [f64; MAX_MEMORY] = if ok { bank.update(&s.dl_pm, s.t_amb_c, s.t_s) } else { [f64::NAN; MAX_MEMORY] };
+        let m: Option<[f64; MAX_MEMORY]> = ok.then(|| bank.update(&s.dl_pm, s.t_amb_c, s.t_s));
         if want.peek() == Some(&&i) {
             want.next();
-            values.extend(keep.iter().map(|&k| m[k]));
+            at(&bank, m.as_ref(), s.t_s);
         }
     }
-    MemoryTerms { len, values }
 }
 
 /// The memory terms output `o` may use from the groups in `groups` that `spec` computes.

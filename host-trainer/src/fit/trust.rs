@@ -4,10 +4,10 @@
 //! Model-P's band to fade to).
 
 use fbg_shared::layout::{MAX_ENVELOPE, MAX_GRATINGS, N_PLAYS};
-use fbg_shared::{MemoryBank, TrustSpec};
+use fbg_shared::TrustSpec;
 
 use super::host::HostParams;
-use super::memory_core::MemoryOptions;
+use super::memory_core::{walk_bank, MemoryOptions};
 use crate::data::Dataset;
 
 /// A play radius must be at least this many white-noise σ of the grating: noise alone then
@@ -108,27 +108,14 @@ pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> Trust
 /// The largest quiet time \[s\] of each grating of `h`'s memory over the calibration rows
 /// `cal`.
 fn quiet_max_s(h: &HostParams, d: &Dataset, cal: &[usize]) -> [f64; MAX_GRATINGS] {
-    let mut bank = MemoryBank::<f64>::new(&h.memory, &h.dims);
-    let end = cal.last().map(|&i| i + 1).unwrap_or(0);
-    let mut want = cal.iter().peekable();
     let mut q_max = [0.0f64; MAX_GRATINGS];
-    for i in 0..end {
-        let s = d.sample(i);
-        let ok =
-            s.dl().iter().all(|v| v.is_finite()) && (!h.dims.ambient() || s.t_amb_c.is_finite()) && s.t_s.is_finite();
-        if ok {
-            let dl: [f64; MAX_GRATINGS] = s.dl_pm;
-            bank.advance(&dl, s.t_amb_c, s.t_s);
-        }
-        if want.peek() == Some(&&i) {
-            want.next();
-            if ok {
-                let st = bank.state();
-                for (g, q) in q_max.iter_mut().enumerate().take(h.dims.gratings()) {
-                    *q = q.max(st.quiet_s(g, s.t_s));
-                }
+    walk_bank(&h.memory, &h.dims, d, cal, |bank, m, t_s| {
+        if m.is_some() {
+            let st = bank.state();
+            for (g, q) in q_max.iter_mut().enumerate().take(h.dims.gratings()) {
+                *q = q.max(st.quiet_s(g, t_s));
             }
         }
-    }
+    });
     q_max
 }
