@@ -4,7 +4,7 @@
 use std::path::Path;
 
 mod common;
-use common::{bin, run, short_csv};
+use common::{bin, run, short_csv, train_small as train};
 
 use fbg_trainer::compensate::{self, Precision};
 use fbg_trainer::data::Dataset;
@@ -14,13 +14,6 @@ use fbg_trainer::export;
 /// The output CSV as rows of cells (header dropped).
 fn rows(path: &Path) -> Vec<Vec<String>> {
     std::fs::read_to_string(path).unwrap().lines().skip(1).map(|l| l.split(',').map(str::to_string).collect()).collect()
-}
-
-fn train(dir: &Path, csv: &Path) -> std::path::PathBuf {
-    let model = dir.join("m.fbgm");
-    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(csv).arg("--out").arg(&model));
-    assert!(ok, "{err}");
-    model
 }
 
 #[test]

@@ -4,10 +4,9 @@
 
 mod common;
 use std::os::unix::process::ExitStatusExt;
-use std::path::Path;
 use std::process::Command;
 
-use common::{bin, run, short_csv};
+use common::{bin, short_csv, train_small as train};
 
 /// Run `cmd` with stdout a pipe whose reading end is closed before it starts, so its first
 /// write fails for certain; assert it ended quietly.
@@ -22,13 +21,6 @@ fn with_closed_stdout(cmd: &mut Command, what: &str) {
         "{what}: ended with {:?}: {err}",
         o.status
     );
-}
-
-fn train(dir: &Path, csv: &Path) -> std::path::PathBuf {
-    let model = dir.join("m.fbgm");
-    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(csv).arg("--out").arg(&model));
-    assert!(ok, "{err}");
-    model
 }
 
 #[test]

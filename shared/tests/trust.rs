@@ -46,6 +46,16 @@ fn trusted(quiet_s: f64) -> (Params, Vec<Sample<f32>>) {
     (p, clean)
 }
 
+/// Model-P of `p`: its core alone (no memory terms, no centres), what Model-H falls back to.
+fn model_p(p: &Params) -> Params {
+    let mut pp = fbg_testkit::installation::without_memory(p.clone());
+    pp.centres.clear();
+    pp.var_inv_g = [0.0; fbg_shared::layout::VAR_RANK];
+    pp.var_inv_g_tail = 0.0;
+    pp.hyper.feature_set = fbg_shared::FeatureSet::Paper;
+    pp
+}
+
 fn run<F: Real>(p: &Params, s: &[Sample<f32>]) -> Vec<Estimate<F>> {
     let mut c = Compensator::<F, MAX_K>::new(p).unwrap();
     s.iter().map(|x| c.step(&x.cast())).collect()
@@ -121,11 +131,7 @@ fn a_refused_sample_reads_model_p_and_says_so() {
     let e = &est[400];
     assert!(e.flags.contains(Flags::OUT_OF_ENVELOPE.union(Flags::FALLBACK)), "{}", e.flags);
     // Model-P's answer: the same model without memory and centres on the same sample.
-    let mut pp = fbg_testkit::installation::without_memory(p.clone());
-    pp.centres.clear();
-    pp.var_inv_g = [0.0; fbg_shared::layout::VAR_RANK];
-    pp.var_inv_g_tail = 0.0;
-    pp.hyper.feature_set = fbg_shared::FeatureSet::Paper;
+    let pp = model_p(&p);
     let mut cp = Compensator::<f64, MAX_K>::new(&pp).unwrap();
     let ep = cp.step(&s[400].cast());
     for o in 0..3 {
@@ -205,11 +211,7 @@ fn at_rest_beyond_the_quiet_time_the_model_is_model_p() {
         s.push(x);
     }
     let est = run::<f64>(&p, &s);
-    let mut pp = fbg_testkit::installation::without_memory(p.clone());
-    pp.centres.clear();
-    pp.var_inv_g = [0.0; fbg_shared::layout::VAR_RANK];
-    pp.var_inv_g_tail = 0.0;
-    pp.hyper.feature_set = fbg_shared::FeatureSet::Paper;
+    let pp = model_p(&p);
     let ep = run::<f64>(&pp, &s);
     let faded = (600..1500).filter(|&i| est[i].flags.contains(Flags::FALLBACK)).count();
     assert!(faded > 0, "rest never faded");

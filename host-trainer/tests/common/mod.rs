@@ -51,6 +51,15 @@ pub fn short_csv(dir: &Path) -> PathBuf {
     csv
 }
 
+/// `train` on `csv` with at most 8 centres into `dir/m.fbgm` (asserting it succeeds): a model
+/// for tests of what other commands do with one.
+pub fn train_small(dir: &Path, csv: &Path) -> PathBuf {
+    let model = dir.join("m.fbgm");
+    let (ok, _, err) = run(bin().args(["train", "--max-centres", "8", "--data"]).arg(csv).arg("--out").arg(&model));
+    assert!(ok, "{err}");
+    model
+}
+
 /// A small hyper-parameter grid for fits on short records.
 pub fn small_grid() -> fbg_trainer::fit::TrainOptions {
     fbg_trainer::fit::TrainOptions::builder()
