@@ -32,6 +32,8 @@ pub enum Stream {
     ClockGaps = 14,
     /// The detector noise of simulated spectrum frames (`sim::spectrum`).
     SpectrumNoise = 15,
+    /// The plateau record's levels and hold times (`[plateaus]`).
+    Plateaus = 16,
 }
 
 /// A seeded random stream with uniform and normal deviates.

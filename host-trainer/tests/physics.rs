@@ -120,7 +120,7 @@ fn new_keys_default_off_and_old_files_still_load() {
     // them loads as the paper preset.
     let text = toml::to_string(&Preset::Paper.config()).unwrap();
     let new_keys = ["jitter_s", "gaps_per_day", "gap_mean_s", "resolution_c", "thermal_lag_s", "model"];
-    let new_tables = ["[hysteresis.bouc_wen]", "[hysteresis.preisach]", "[ageing]", "[pace]", "[steps]"];
+    let new_tables = ["[hysteresis.bouc_wen]", "[hysteresis.preisach]", "[ageing]", "[pace]", "[steps]", "[plateaus]"];
     let mut old = String::new();
     let mut skipping = false;
     for line in text.lines() {
@@ -137,11 +137,42 @@ fn new_keys_default_off_and_old_files_still_load() {
     let back = ScenarioConfig::from_toml_str(&old, "old.toml").unwrap();
     assert_eq!(back, Preset::Paper.config());
     // The paced and steps configurations round-trip through their dump.
-    for cfg in [Preset::Paper.config().paced(4.0, Some(Measurand::P)), Preset::Field.config().steps()] {
+    for cfg in [
+        Preset::Paper.config().paced(4.0, Some(Measurand::P)),
+        Preset::Field.config().steps(),
+        Preset::Array8.config().plateaus(),
+    ] {
         let text = toml::to_string(&cfg).unwrap();
         assert!(text.contains("[pace]") && text.contains("[steps]"), "{text}");
         assert_eq!(ScenarioConfig::from_toml_str(&text, "dump.toml").unwrap(), cfg);
     }
+}
+
+#[test]
+fn plateau_record_rests_every_measurand_on_its_own_schedule() {
+    let paper = Preset::Paper.config();
+    let native = simulate(&paper, 7);
+    let s = simulate(&paper.plateaus(), 7);
+    let n_cal = paper.n_cal();
+    assert_eq!(s.data.len(), native.data.len());
+    assert_eq!(s.physics, native.physics);
+    assert!(s.data.split[n_cal..].iter().all(|&x| x == Split::Holdout));
+    for (a, b) in s.data.refs.iter().zip(&native.data.refs) {
+        assert_eq!(a.values[..n_cal], b.values[..n_cal], "{}", a.measurand);
+        // Rests of 4–16 h (one sample a minute) after 10-min ramps: most of the hold-out
+        // sits exactly still, inside the calibration part's 5th–95th percentiles.
+        let v = &a.values[n_cal..];
+        let still = v.windows(2).filter(|w| w[0] == w[1]).count();
+        assert!(still as f64 > 0.95 * v.len() as f64, "{}: {still} of {}", a.measurand, v.len());
+        let (lo, hi) = (percentile(&a.values[..n_cal], 5.0), percentile(&a.values[..n_cal], 95.0));
+        assert!(v[10..].iter().all(|x| (lo..=hi).contains(x)), "{}", a.measurand);
+    }
+    // Not one schedule for all: the measurands move at different times.
+    let moves = |c: usize| -> Vec<usize> {
+        let v = &s.data.refs[c].values;
+        (n_cal + 1..v.len()).filter(|&i| v[i] != v[i - 1]).collect()
+    };
+    assert_ne!(moves(0), moves(1));
 }
 
 #[test]
@@ -409,6 +440,10 @@ fn bad_values_of_the_new_keys_name_the_key() {
         ("[steps]\nramp_s = 50000.0\n", "steps.ramp_s"),
         ("[steps]\nenabled = true\nlevels = 1000\nhold_s = 1e7\nramp_s = 0.0\n", "steps.hold_s"),
         ("[steps]\nlevel = 5\n", "level"),
+        ("[plateaus]\nenabled = true\nhold_min_s = 60.0\n", "plateaus.hold_min_s"),
+        ("[plateaus]\nhold_min_s = 7200.0\nhold_max_s = 3600.0\n", "plateaus.hold_max_s"),
+        ("[plateaus]\nramp_s = 7200.0\n", "plateaus.ramp_s"),
+        ("[plateaus]\nenabled = true\n[steps]\nenabled = true\n", "plateaus.enabled"),
     ];
     for (text, key) in cases {
         let e = ScenarioConfig::from_toml_str(text, "bad.toml").unwrap_err().to_string();

@@ -67,8 +67,9 @@ fn pace_study_on_a_short_record() {
     let t = train(&s.data, &common::small_grid(), &Origin::default()).unwrap();
     let study = pace_study(&cfg, 5, &t.model_p, &t.model_h, &s.data).unwrap();
     // All measurands at each pace, each measurand alone at each pace, then the steps, rest
-    // and long-hold records; a glitch of each kind in each input.
-    assert_eq!(study.rows.len(), PACES.len() * (1 + 3) + 3);
+    // and long-hold records, the plateau record; a glitch of each kind in each input.
+    assert_eq!(study.rows.len(), PACES.len() * (1 + 3) + 4);
+    assert_eq!(study.rows.last().map(|r| r.label.as_str()), Some("plateaus"));
     assert_eq!(study.glitch.len(), 4 * 4);
     let steps = study.steps().unwrap();
     assert_eq!(steps.label, "steps");

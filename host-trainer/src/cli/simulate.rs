@@ -44,6 +44,11 @@ pub struct SimulateArgs {
     /// turn through held levels (the scenario's `[steps]`).
     #[arg(long)]
     steps: bool,
+    /// A plateau record: the calibration part, then a hold-out in which every measurand rests
+    /// 4–16 h at random levels across its calibration range, with 10-min ramps (the
+    /// scenario's `[plateaus]`).
+    #[arg(long, conflicts_with = "steps")]
+    plateaus: bool,
     /// Also write the record's simulated spectra to FILE (the spectra CSV: `t_s,channel,`
     /// then one column per grid wavelength in nm, one row per sample and channel, counts):
     /// uniform gratings of 0.3 nm FWHM at the record's wavelengths on a SLED, noise at
@@ -65,7 +70,7 @@ fn parse_grid(s: &str) -> std::result::Result<PixelGrid, String> {
 
 impl SimulateArgs {
     /// The scenario the flags ask for: the preset or file, then `--no-ambient`, `--pace`,
-    /// `--steps`.
+    /// `--steps`, `--plateaus`.
     fn scenario(&self) -> Result<ScenarioConfig> {
         let mut cfg = self.scenario.load()?;
         if self.no_ambient {
@@ -77,9 +82,12 @@ impl SimulateArgs {
         if self.steps {
             cfg = cfg.steps();
         }
-        if self.pace.is_some() || self.steps {
+        if self.plateaus {
+            cfg = cfg.plateaus();
+        }
+        if self.pace.is_some() || self.steps || self.plateaus {
             cfg.validate().map_err(|(key, message)| fbg_trainer::TrainerError::Config {
-                origin: "--pace/--pace-of/--steps".into(),
+                origin: "--pace/--pace-of/--steps/--plateaus".into(),
                 key,
                 message,
             })?;

@@ -6,7 +6,9 @@
 //! same installation: dispersed gauge matrix, drift and noise realisations) is simulated with
 //! every measurand trajectory ×¼ (four times slower), ×4 and ×8 faster — all measurands at
 //! once, and each alone — and as a steps record (each measurand held at levels across its
-//! range, each level approached from below and from above). Each record's hold-out is scored
+//! range, each level approached from below and from above), a rest record (×0.02), a steps
+//! record of day-long holds and a plateau record (every measurand resting 4–16 h at random
+//! levels, [`crate::sim::plateaus`]). Each record's hold-out is scored
 //! with both models; on the steps record the settled slope (mean reading over the settled half
 //! of each hold against the held level) is the static gain, which must be 1.
 
@@ -75,7 +77,8 @@ impl PaceRow {
 pub struct PaceStudy {
     pub scenario: String,
     pub seed: u64,
-    /// Every paced record, then the steps record, the rest record and the long-hold record.
+    /// Every paced record, then the steps record, the rest record, the long-hold record and the
+    /// plateau record.
     pub rows: Vec<PaceRow>,
     /// Single-sample glitches in each input of the native record's hold-out
     /// ([`crate::eval::glitch`]).
@@ -172,6 +175,8 @@ pub fn pace_study(
             rows.push(score("rest".into(), REST_PACE, None, model_p, model_h, &rest.data)?);
         }
     }
+    let plateaus = simulate(&cfg.plateaus(), seed);
+    rows.push(score("plateaus".into(), 1.0, None, model_p, model_h, &plateaus.data)?);
     let glitch = crate::eval::glitch::glitch_study(model_h, native)?;
     Ok(PaceStudy { scenario: cfg.name.clone(), seed, rows, glitch })
 }

@@ -10,6 +10,7 @@ pub(crate) mod hysteresis;
 pub mod interrogator;
 pub mod meta;
 pub mod package;
+pub mod plateaus;
 pub mod scenario;
 pub mod spectrum;
 pub mod steps;
@@ -130,6 +131,25 @@ fn truth_on_grid(cfg: &ScenarioConfig, t_s: &[f64], seed: u64) -> (Vec<f64>, Vec
     // measurand.
     let mut temp_c = trajectories::temperature_paced(&cfg.temperature, cfg.pace_for(Measurand::T), grid, dt, seed);
     let mut truth: Vec<Vec<f64>> = cfg.measurands.iter().map(|&m| trajectory(cfg, m, &temp_c, grid, seed)).collect();
+    if cfg.plateaus.enabled {
+        // One schedule per series: the temperature first, then the other measurands in their
+        // order (a temperature measurand is the temperature itself).
+        let n_cal = cfg.n_cal().min(grid.len());
+        let others: Vec<usize> = (0..truth.len()).filter(|&k| cfg.measurands[k] != Measurand::T).collect();
+        let mut series = vec![std::mem::take(&mut temp_c)];
+        series.extend(others.iter().map(|&k| std::mem::take(&mut truth[k])));
+        plateaus::replace_holdout(&mut series, n_cal, &cfg.plateaus, dt, seed);
+        temp_c = series.remove(0);
+        for (k, s) in others.into_iter().zip(series) {
+            truth[k] = s;
+        }
+        for (k, &m) in cfg.measurands.iter().enumerate() {
+            if m == Measurand::T {
+                truth[k] = temp_c.clone();
+            }
+        }
+        return (temp_c, truth);
+    }
     if !cfg.steps.enabled {
         return (temp_c, truth);
     }

@@ -84,6 +84,21 @@ pub struct Steps {
     pub ramp_s: f64,
 }
 
+/// A plateau record: the native calibration part, then a hold-out in which every measurand,
+/// each on its own schedule, rests at random levels across its calibration range for random
+/// times, with linear ramps between (`sim::plateaus`); the record keeps its native length.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Plateaus {
+    pub enabled: bool,
+    /// Shortest rest \[s\].
+    pub hold_min_s: f64,
+    /// Longest rest \[s\] (rests are uniform between the two).
+    pub hold_max_s: f64,
+    /// Each ramp from one level to the next \[s\] (at most a quarter of `hold_min_s`).
+    pub ramp_s: f64,
+}
+
 /// A whole scenario.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -114,6 +129,8 @@ pub struct ScenarioConfig {
     pub pace: Pace,
     /// The steps hold-out (default off).
     pub steps: Steps,
+    /// The plateau hold-out (default off; not with `steps`).
+    pub plateaus: Plateaus,
 }
 
 impl Default for Clock {
@@ -129,6 +146,11 @@ impl Default for Pace {
 impl Default for Steps {
     fn default() -> Self {
         Steps { enabled: false, levels: 5, hold_s: 43_200.0, ramp_s: 1800.0 }
+    }
+}
+impl Default for Plateaus {
+    fn default() -> Self {
+        Plateaus { enabled: false, hold_min_s: 4.0 * 3600.0, hold_max_s: 16.0 * 3600.0, ramp_s: 600.0 }
     }
 }
 impl Default for ScenarioConfig {
@@ -151,6 +173,7 @@ impl Default for ScenarioConfig {
             ageing: Ageing::default(),
             pace: Pace::default(),
             steps: Steps::default(),
+            plateaus: Plateaus::default(),
         }
     }
 }
@@ -244,6 +267,16 @@ impl ScenarioConfig {
         c.steps.enabled = true;
         let base = without_segments(&self.name, |seg| seg == "steps");
         c.name = with_suffix(&base, "@steps");
+        c
+    }
+
+    /// This installation with the plateau hold-out (`[plateaus] enabled = true`, the other
+    /// keys as they are), named with the suffix `@plateaus`.
+    pub fn plateaus(&self) -> ScenarioConfig {
+        let mut c = self.clone();
+        c.plateaus.enabled = true;
+        let base = without_segments(&self.name, |seg| seg == "plateaus");
+        c.name = with_suffix(&base, "@plateaus");
         c
     }
 

@@ -38,6 +38,13 @@ impl ScenarioConfig {
         // A hold needs samples only when the steps part is simulated.
         v.range("steps.hold_s", st.hold_s, if st.enabled { 4.0 * c.dt_s } else { 1e-3 }, 1e8);
         v.range("steps.ramp_s", st.ramp_s, 0.0, 0.25 * st.hold_s);
+        let pl = &self.plateaus;
+        v.range("plateaus.hold_min_s", pl.hold_min_s, if pl.enabled { 4.0 * c.dt_s } else { 1e-3 }, 1e8);
+        v.range("plateaus.hold_max_s", pl.hold_max_s, pl.hold_min_s, 1e8);
+        v.range("plateaus.ramp_s", pl.ramp_s, 0.0, 0.25 * pl.hold_min_s);
+        if pl.enabled && st.enabled {
+            v.fail("plateaus.enabled", "a record has either the steps or the plateau hold-out, not both");
+        }
         if v.ok() && self.n_native_samples() < 100 {
             v.fail("clock.days", "fewer than 100 samples: increase days or decrease dt_s");
         }
