@@ -23,6 +23,10 @@
 //! - [`protocol`]: the COBS-framed postcard messages of the host ↔ device serial link;
 //! - [`golden`]: the byte layout of the golden samples and packs the device is tested with.
 //!
+//! Linear algebra: the core's B·φ is a nalgebra fixed-size matrix–vector product (no heap,
+//! no std); the RBF distances, Γm and the standardisation stay loops over arrays, where
+//! nalgebra measured slower on the device (docs/DESIGN.md §7.1).
+//!
 //! # Cost of one `step` (K centres, `Z_DIMS` = 8, `VAR_RANK` = 4)
 //!
 //! Floating-point operations of the current [`Compensator::step`] after load-time folding, in

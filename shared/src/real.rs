@@ -19,6 +19,11 @@ pub trait Real:
     + AddAssign
     + SubAssign
     + MulAssign
+    + nalgebra::Scalar
+    + nalgebra::ClosedAddAssign
+    + nalgebra::ClosedMulAssign
+    + num_traits::Zero
+    + num_traits::One
 {
     /// 0.
     const ZERO: Self;

@@ -119,11 +119,14 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         self.gratings = dims.gratings() as u8;
         self.ambient = dims.ambient();
         self.outputs = m_out as u8;
-        self.n_poly = dims.poly_len() as u8;
         self.n_z = dims.z_len() as u8;
         self.z_groups = dims.z_len().div_ceil(4) as u8;
         self.a = folded.a;
-        self.b = folded.b;
+        for (mut row, src) in self.b.row_iter_mut().zip(folded.b.iter()) {
+            for (e, &v) in row.iter_mut().zip(src.iter()) {
+                *e = v;
+            }
+        }
         let n_mem = dims.memory_len();
         for (k, col) in self.gamma.iter_mut().enumerate() {
             for (i, (o, row)) in col.iter_mut().zip(params.gamma.iter()).enumerate() {

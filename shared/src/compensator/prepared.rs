@@ -2,6 +2,7 @@
 //! stream moves.
 
 use heapless::Vec;
+use nalgebra::{ArrayStorage, SMatrix};
 
 use super::gate::Gate;
 use super::rbf::PreparedCentre;
@@ -46,15 +47,14 @@ pub struct PreparedModel<F, const K: usize> {
     pub(super) ambient: bool,
     /// M, outputs of the model.
     pub(super) outputs: u8,
-    /// Polynomial terms.
-    pub(super) n_poly: u8,
     /// RBF inputs (used or not).
     pub(super) n_z: u8,
     /// Groups of four RBF inputs that hold them.
     pub(super) z_groups: u8,
     /// Stage-1 rows producing *standardised* guesses.
     pub(super) a: [[F; MAX_STAGE1]; MAX_OUTPUTS],
-    pub(super) b: [[F; MAX_POLY]; MAX_OUTPUTS],
+    /// B of paper Eq. 3, one row per output over φ's terms (column-major, as nalgebra keeps it).
+    pub(super) b: SMatrix<F, MAX_OUTPUTS, MAX_POLY>,
     /// Γ (output units per memory-term unit), term-major: `gamma[k][o]`.
     pub(super) gamma: [[F; MAX_OUTPUTS]; MAX_MEMORY],
     /// The memory operators (coefficients; their state is the stream's).
@@ -114,11 +114,10 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             gratings: 0,
             ambient: false,
             outputs: 0,
-            n_poly: 0,
             n_z: 0,
             z_groups: 0,
             a: [[F::ZERO; MAX_STAGE1]; MAX_OUTPUTS],
-            b: [[F::ZERO; MAX_POLY]; MAX_OUTPUTS],
+            b: SMatrix::from_array_storage(ArrayStorage([[F::ZERO; MAX_OUTPUTS]; MAX_POLY])),
             gamma: [[F::ZERO; MAX_OUTPUTS]; MAX_MEMORY],
             memory: MemoryOperators::off(),
             z_gain: [F::ZERO; MAX_Z],

@@ -1,4 +1,7 @@
 //! The RBF layer in per-sample form: the folded centres and the passes over them.
+//!
+//! Loops over arrays, not nalgebra vectors: the distance runs over the used input groups only,
+//! which nalgebra's iterators and `dot` do slower on the device (docs/DESIGN.md §7.1).
 
 use heapless::Vec;
 

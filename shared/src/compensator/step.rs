@@ -10,6 +10,7 @@ use crate::affine::{affine, affine_inputs};
 use crate::flags::Flags;
 use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, MAX_Z};
 use crate::real::Real;
+use nalgebra::SVector;
 
 impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// Compensate one sample of the stream `state` and move the state. Never panics:
@@ -186,17 +187,21 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         for (gi, row) in g.iter_mut().zip(self.a.iter()).take(m) {
             *gi = affine(&x, n_in, row);
         }
-        let phi = poly_features(&g, m);
-        let mut y = [F::ZERO; MAX_OUTPUTS];
-        let n_poly = if M == 0 { usize::from(self.n_poly) } else { crate::layout::poly_len(M) };
-        for (yi, row) in y.iter_mut().zip(self.b.iter()).take(m) {
-            let mut acc = F::ZERO;
-            for (&c, &ph) in head(row, n_poly).iter().zip(phi.iter()) {
-                acc = c.mul_add(ph, acc);
+        // B·φ (paper Eq. 3) through nalgebra: the paper's shape as a 3 × 10 product with its
+        // bounds known at compile time, every other shape as the whole MAX_OUTPUTS × MAX_POLY
+        // product (entries beyond the model's outputs and terms are zero, each adding an exact
+        // 0). Each row accumulates term by term from 0, as a loop would: the same bits.
+        let phi = SVector::<F, MAX_POLY>::from(poly_features(&g, m));
+        if M == 3 {
+            let part = self.b.fixed_view::<3, 10>(0, 0) * phi.fixed_rows::<10>(0);
+            let mut y = [F::ZERO; MAX_OUTPUTS];
+            for (o, v) in y.iter_mut().zip(part.iter()) {
+                *o = *v;
             }
-            *yi = acc;
+            y
+        } else {
+            (self.b * phi).into()
         }
-        y
     }
 
     /// The scaled RBF inputs z (unused inputs 0) and ‖z‖².
