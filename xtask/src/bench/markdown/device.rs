@@ -18,6 +18,7 @@ pub(super) fn device(s: &mut String, rep: &Report) {
         dev.arithmetic_lower_bound.as_ref().map_or("", |b| &b.formula),
         if dev.reused_existing_results { " **Reused from an earlier run (--no-device).**" } else { "" }
     );
+    out!(s, "Linear algebra in `fbg-shared` (B·φ through nalgebra, the RBF distances as loops): the loops-against-nalgebra table (instructions per step, flash, host time, build time) is in docs/DESIGN.md §7.1, measured once on variant builds the bench does not rebuild.\n");
     out!(s, "| model | K | memory terms | instructions per step | new Δt every step | arithmetic lower bound | measured / bound | blob | bench image stack |\n|---|---|---|---|---|---|---|---|---|");
     for st in &dev.record.step {
         step_row(s, st);
