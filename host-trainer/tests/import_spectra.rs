@@ -465,7 +465,7 @@ fn malformed_spectra_csv_names_line_and_column_and_writes_nothing() {
     assert!(e.contains("must increase"), "{e}");
     let e = case("uneven.csv", edit_line(&good, 1, |l| set_cell(l, 10, "1530.085")));
     assert_place(&e, "uneven.csv", 1, "11 (1530.085)");
-    assert!(e.contains("uniform grid"), "{e}");
+    assert!(e.contains("4.938 pm off the smoothest pixel polynomial"), "{e}");
     let e = case("channel.csv", edit_line(&good, 4, |l| set_cell(l, 1, "one")));
     assert_place(&e, "channel.csv", 4, "2 (channel)");
     let e = case("time.csv", edit_line(&good, 6, |l| set_cell(l, 0, "0.500")));
@@ -538,8 +538,20 @@ fn malformed_pixels_and_maps_are_refused_by_name() {
     let e = failure(&options(Format::Pixels, p.clone(), Some(bad)));
     assert!(e.contains("spectra.gap_on") && e.contains("`wobbly` is not a peak flag"), "{e}");
     let bad = write(dir.path(), "turn.toml", &map("pixel_to_nm = [1510.0, 0.166, -1e-3]"));
-    let e = failure(&options(Format::Pixels, p, Some(bad)));
+    let e = failure(&options(Format::Pixels, p.clone(), Some(bad)));
     assert!(e.contains("not monotonic at pixel 83"), "{e}");
+    // Issue 41: a calibration giving wavelengths no grating has (a sign or an exponent wrong).
+    for (coefficients, pixel, says) in
+        [("-1510.0, 0.166", 0, "-1510 nm"), ("1e300, 0.166", 0, "1e300 nm"), ("1510.0, 1.0", 491, "2001 nm")]
+    {
+        let bad = write(dir.path(), "absurd.toml", &map(&format!("pixel_to_nm = [{coefficients}]")));
+        let e = failure(&options(Format::Pixels, p.clone(), Some(bad)));
+        assert_place(&e, "p.csv", 1, &format!("{} (p{pixel})", pixel + 3));
+        assert!(
+            e.contains(&format!("pixel_to_nm gives pixel {pixel} the wavelength {says}, outside 400–2000 nm")),
+            "{e}"
+        );
+    }
 }
 
 #[test]
