@@ -518,6 +518,19 @@ fn malformed_responses_name_line_and_column_and_write_nothing() {
     assert_place(&e, "stamp.txt", 10, "1 (time)");
     let e = case("point.txt", edit_line(&good, 8, |l| l.replacen(',', ".", 1)));
     assert_place(&e, "point.txt", 8, "1 (1530.000 nm)");
+    // Issue 41: settings out of physical range, by the header line.
+    let e = case("delta.txt", edit_line(&good, 5, |_| "Wavelength Delta\t1e-300".into()));
+    assert_place(&e, "delta.txt", 5, "Wavelength Delta");
+    assert!(e.contains("1e-300 is not a wavelength step in nm (0.0001 ≤ step < 1 nm)"), "{e}");
+    let e = case("end.txt", edit_line(&good, 6, |_| "Number of Points\t1000000".into()));
+    assert_place(&e, "end.txt", 6, "Number of Points");
+    assert!(e.contains("end at 11529.99 nm, beyond 2000 nm"), "{e}");
+    // The second block's timestamp (line 10) lost: the first block would take in its two
+    // lines as channels 3 and 4. Refused at the first of them.
+    let lost: String = good.lines().enumerate().filter(|&(i, _)| i != 9).map(|(_, l)| format!("{l}\n")).collect();
+    let e = case("lost.txt", lost);
+    assert_place(&e, "lost.txt", 10, "1 (channel line)");
+    assert!(e.contains("the first block has 4 channel lines but no later block more than 2"), "{e}");
 }
 
 #[test]
