@@ -408,6 +408,45 @@ fn import_makes_faulty_frames_gaps_and_counts_them() {
     assert!(s.text().contains("dl2_pm: 1 of 12 frames flagged (second-peak 1), 1 gaps"), "{}", s.text());
 }
 
+/// Issue 41: one pixel a hundred times the grating's height, in its window, was taken for the
+/// grating (flagged only `asymmetric`, the value kept). Such a peak breaks
+/// with every other frame of the grating: a fault, its frame a gap, counted as `implausible`;
+/// the `peaks` table says so. With a map and without one (discovered windows).
+#[test]
+fn a_spike_far_above_the_grating_is_an_implausible_fault_and_a_gap() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = spectra_csv(1, Scale::Linear, &no_extra, f64::INFINITY);
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    // Frame 4, channel 1 (line 10): the pixel at 1533.51 nm (sample 351), 1.5 nm below
+    // grating 1, at 100 × its height.
+    assert!(lines[9].starts_with("4.000,1,"));
+    let mut cells: Vec<String> = lines[9].split(',').map(str::to_string).collect();
+    cells[2 + 351] = format!("{:.6e}", 100.0 * GRATINGS[0].height);
+    lines[9] = cells.join(",");
+    let input = write(dir.path(), "spike.csv", &(lines.join("\n") + "\n"));
+    let m = write(dir.path(), "map.toml", &map(""));
+    for map in [Some(m), None] {
+        let (d, s) = import(&options(Format::SpectraCsv, input.clone(), map.clone())).unwrap();
+        assert!(d.dl_pm[0][4].is_nan(), "{:?}", d.dl_pm[0]);
+        assert!(d
+            .dl_pm
+            .iter()
+            .enumerate()
+            .all(|(g, c)| c.iter().enumerate().all(|(j, v)| v.is_finite() || (g, j) == (0, 4))));
+        let json = serde_json::to_value(&s).unwrap();
+        assert_eq!(json["spectra"]["flagged"][0]["by_flag"]["implausible"], 1, "{json}");
+        assert_eq!(json["spectra"]["flagged"][0]["gaps"], 1);
+    }
+    let out = dir.path().join("peaks.csv");
+    let (ok, _, err) =
+        common::run(common::bin().args(["peaks", "--format", "spectra-csv"]).arg(&input).arg("--out").arg(&out));
+    assert!(ok, "{err}");
+    let table = std::fs::read_to_string(&out).unwrap();
+    let row = table.lines().find(|l| l.starts_with("4.000000,,") && l.split(',').nth(3) == Some("1")).unwrap();
+    assert!(row.contains("implausible"), "{row}");
+    assert_eq!(table.matches("implausible").count(), 1, "{table}");
+}
+
 /// The error of a failing import; no output written and an existing one left as it was.
 fn failure(o: &ImportOptions) -> String {
     let dir = tempfile::tempdir().unwrap();

@@ -61,7 +61,12 @@ fn simulated_spectra_of_every_preset_and_grid_import_as_the_detector_reads_them(
                     start_unix_s: None,
                     scale: None,
                 };
-                let (d, _) = import(&opts).unwrap_or_else(|e| panic!("{case}: {e}"));
+                let (d, summary) = import(&opts).unwrap_or_else(|e| panic!("{case}: {e}"));
+                // No frame of a clean record is taken for implausible.
+                let json = serde_json::to_value(&summary).unwrap();
+                for f in json["spectra"]["flagged"].as_array().unwrap() {
+                    assert!(f["by_flag"].get("implausible").is_none(), "{case}: {f}");
+                }
                 // Discovery without a map finds the simulated gratings, in wavelength order.
                 assert_eq!(d.n_gratings(), s.data.n_gratings(), "{case}");
                 let mut order: Vec<usize> = (0..nominal.len()).collect();
