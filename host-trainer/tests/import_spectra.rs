@@ -15,8 +15,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use fbg_trainer::data::import::{
-    import, import_to_csv, peaks_to_csv, Format, ImportOptions, OnError, Scale, SplitChoice, DEFAULT_MAX_SKIPPED,
-    PEAKS_HEADER,
+    import, import_to_csv, peaks_to_csv, Format, ImportOptions, OnError, Scale, PEAKS_HEADER,
 };
 use fbg_trainer::data::Dataset;
 use fbg_trainer::rng::{Rng, Stream};
@@ -187,18 +186,7 @@ fn map(spectra: &str) -> String {
 }
 
 fn options(format: Format, input: PathBuf, map: Option<PathBuf>) -> ImportOptions {
-    ImportOptions {
-        format,
-        input,
-        map,
-        refs: None,
-        split: SplitChoice::default(),
-        on_error: OnError::Fail,
-        max_skipped: DEFAULT_MAX_SKIPPED,
-        zero_from: None,
-        start_unix_s: None,
-        scale: None,
-    }
+    common::import_options(format, input, map)
 }
 
 /// Largest |imported shift − true shift| \[pm\] over every grating and frame, the shifts taken

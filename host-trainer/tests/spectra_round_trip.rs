@@ -5,8 +5,11 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
+#[path = "common/mod.rs"]
+mod common;
+
 use fbg_shared::spectrum::Method;
-use fbg_trainer::data::import::{import, Format, ImportOptions, OnError, SplitChoice, DEFAULT_MAX_SKIPPED};
+use fbg_trainer::data::import::{import, Format};
 use fbg_trainer::sim::spectrum::csv::write_spectra_csv;
 use fbg_trainer::sim::spectrum::{peaks_from_spectra, FrameSimulator, PixelGrid, SpectrumConfig};
 use fbg_trainer::sim::{self, scenario::Preset};
@@ -49,18 +52,7 @@ fn simulated_spectra_of_every_preset_and_grid_import_as_the_detector_reads_them(
             let case = format!("{} on the {} grid", preset.name(), grid.name());
             for (map, tol) in [(Some(map_path), TOL_SAME_WINDOWS_PM), (None, TOL_DISCOVERED_PM)] {
                 let from_map = map.is_some();
-                let opts = ImportOptions {
-                    format: Format::SpectraCsv,
-                    input: path.clone(),
-                    map,
-                    refs: None,
-                    split: SplitChoice::default(),
-                    on_error: OnError::Fail,
-                    max_skipped: DEFAULT_MAX_SKIPPED,
-                    zero_from: None,
-                    start_unix_s: None,
-                    scale: None,
-                };
+                let opts = common::import_options(Format::SpectraCsv, path.clone(), map);
                 let (d, summary) = import(&opts).unwrap_or_else(|e| panic!("{case}: {e}"));
                 // No frame of a clean record is taken for implausible.
                 let json = serde_json::to_value(&summary).unwrap();
@@ -135,18 +127,7 @@ fn discovery_finds_exactly_the_simulated_gratings_down_to_13_db() {
                     let mut w = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
                     write_spectra_csv(&mut w, &s.data, &frames, 7).unwrap();
                     drop(w);
-                    let opts = ImportOptions {
-                        format: Format::SpectraCsv,
-                        input: path,
-                        map: None,
-                        refs: None,
-                        split: SplitChoice::default(),
-                        on_error: OnError::Fail,
-                        max_skipped: DEFAULT_MAX_SKIPPED,
-                        zero_from: None,
-                        start_unix_s: None,
-                        scale: None,
-                    };
+                    let opts = common::import_options(Format::SpectraCsv, path, None);
                     let case = format!(
                         "{} {} {} R={reflectivity} {snr_db} dB",
                         preset.name(),

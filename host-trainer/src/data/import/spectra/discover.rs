@@ -36,7 +36,7 @@ pub(crate) fn windows(s: &Spectrum<'_, f64>, config: &DetectorConfig<f64>) -> Ve
     // On a grid that samples a grating finely, noise is averaged over a part of the strongest
     // peak's width first: a peak is as wide, a noise excursion is not.
     let smoothed = smooth(s.samples());
-    let s = &Spectrum::new(&smoothed, *s.grid());
+    let s = &Spectrum::part(&smoothed, *s.grid(), s.first_pixel());
     let v = s.samples();
     let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
     let noise = NoiseEstimate::of(&finite);
@@ -64,7 +64,7 @@ pub(crate) fn windows(s: &Spectrum<'_, f64>, config: &DetectorConfig<f64>) -> Ve
         }
     }
     let grid = s.grid();
-    // Candidates strongest first: (wavelength of the maximum, its FWHM) [nm].
+    // Candidates strongest first: (height of the maximum, its wavelength [nm], its FWHM [nm]).
     let mut candidates: Vec<(f64, f64, f64)> = runs
         .iter()
         .map(|r| {
@@ -110,10 +110,8 @@ fn smooth(v: &[f64]) -> Vec<f64> {
         .filter(|&i| v.get(i).is_some_and(|x| x.is_finite()))
         .max_by(|&a, &b| v.get(a).copied().unwrap_or(f64::NAN).total_cmp(&v.get(b).copied().unwrap_or(f64::NAN)));
     let Some(top) = top else { return v.to_vec() };
-    let half = floor + 0.5 * (v.get(top).copied().unwrap_or(f64::NAN) - floor);
-    let above = |i: &usize| v.get(*i).is_some_and(|&x| x >= half);
-    let width = (top + 1..v.len()).take_while(above).count() + (0..top).rev().take_while(above).count() + 1;
-    let h = width / 8;
+    let (left, right) = half_height_span(v, top, floor);
+    let h = (right - left + 1) / 8;
     // Nothing above the floor (a flat channel): nothing to average for.
     if h == 0 || v.get(top).is_none_or(|&x| x <= floor) {
         return v.to_vec();
@@ -134,14 +132,20 @@ fn smooth(v: &[f64]) -> Vec<f64> {
 /// The full width at half height above `floor` \[nm\] of the peak whose maximum is sample
 /// `top`: from the last samples at or above half height on either side (at least one step).
 fn fwhm_nm(s: &Spectrum<'_, f64>, top: usize, floor: f64) -> f64 {
-    let v = s.samples();
+    let (left, right) = half_height_span(s.samples(), top, floor);
+    let g = s.grid();
+    let width = (g.wavelength(right as f64 + 0.5) - g.wavelength(left as f64 - 0.5)).abs();
+    width.max(g.step_at(top as f64).abs())
+}
+
+/// The first and last sample of the run around sample `top` at or above half its height over
+/// `floor`.
+fn half_height_span(v: &[f64], top: usize, floor: f64) -> (usize, usize) {
     let half = floor + 0.5 * (v.get(top).copied().unwrap_or(f64::NAN) - floor);
     let above = |i: &usize| v.get(*i).is_some_and(|&x| x >= half);
     let left = (0..top).rev().take_while(above).last().unwrap_or(top);
     let right = (top + 1..v.len()).take_while(above).last().unwrap_or(top);
-    let g = s.grid();
-    let width = (g.wavelength(right as f64 + 0.5) - g.wavelength(left as f64 - 0.5)).abs();
-    width.max(g.step_at(top as f64).abs())
+    (left, right)
 }
 
 #[cfg(test)]
