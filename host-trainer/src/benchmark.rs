@@ -190,15 +190,22 @@ pub struct BenchFitOptions {
 impl BenchFitOptions {
     /// The training options these ask for, and the mode's name.
     pub fn options(&self) -> Result<(TrainOptions, &'static str), TrainerError> {
+        self.options_named(&|flag| format!("--{flag}"))
+    }
+
+    /// [`BenchFitOptions::options`] with the errors naming each option as `name(flag)` does
+    /// (`--k` on the command line, Python's `fixed['k']`).
+    pub fn options_named(&self, name: &dyn Fn(&str) -> String) -> Result<(TrainOptions, &'static str), TrainerError> {
         if self.fixed {
             let fs = feature_set_named(&self.feature_set).ok_or_else(|| {
                 TrainerError::fit(format!(
-                    "--feature-set: unknown feature set `{}` (paper, hysteresis-aware, hysteresis-aware+time)",
-                    self.feature_set
+                    "{}: unknown feature set `{}` (paper, hysteresis-aware, hysteresis-aware+time)",
+                    name("feature-set"),
+                    crate::error::quote_cell(&self.feature_set)
                 ))
             })?;
             if self.k == 0 || self.k > fit::HOST_CAP {
-                return Err(TrainerError::fit(format!("--k must be in 1..={}", fit::HOST_CAP)));
+                return Err(TrainerError::fit(format!("{} must be in 1..={}", name("k"), fit::HOST_CAP)));
             }
             let cfg = Config {
                 feature_set: fs,

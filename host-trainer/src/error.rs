@@ -26,6 +26,8 @@ pub enum TrainerError {
     /// expects, or the record has nothing to stream; the message names the address, the
     /// request or the file.
     Device { message: String },
+    /// The caller asked the work to stop (a fit's cancel flag: Ctrl-C in Python).
+    Interrupted { what: String },
 }
 
 impl TrainerError {
@@ -63,6 +65,7 @@ impl std::fmt::Display for TrainerError {
             TrainerError::Model { path, message } => write!(f, "{path}: {message}"),
             TrainerError::Output { path, message } => write!(f, "{}: {message}", path.display()),
             TrainerError::Device { message } => f.write_str(message),
+            TrainerError::Interrupted { what } => write!(f, "{what}: interrupted"),
         }
     }
 }

@@ -324,6 +324,10 @@ fn a_reference_outlier_is_refused_with_its_line_or_left_out_with_skip() {
         "{e}"
     );
     assert!(e.contains("--on-error skip"), "{e}");
+    // A front end names its own option (Python's parameter).
+    let python = common::small_grid().with_skip_outliers_hint("fit with `on_outlier=\"skip\"`");
+    let e = train_source(&d, "<frame>", &python, &origin).unwrap_err().to_string();
+    assert!(e.contains("or fit with `on_outlier=\"skip\"` to leave") && !e.contains("--on-error"), "{e}");
 
     let skip = common::small_grid().with_on_outlier(OnError::Skip);
     let t = train_source(&d, "cal.csv", &skip, &origin).unwrap();
@@ -360,4 +364,42 @@ fn a_reference_outlier_in_a_200_row_calibration_is_refused_with_its_line() {
     let skip = common::small_grid().with_on_outlier(OnError::Skip);
     let e = train(&d, &skip, &Origin::default()).unwrap_err().to_string();
     assert!(e.contains("199 usable calibration samples") && e.contains("1 with reference outliers left out"), "{e}");
+}
+
+/// Issue 41: an input cell whose square overflows (a shift of 1e154 pm) used to keep the fit's
+/// SVD iterating forever, and smaller implausible ones failed with an anonymous "non-finite
+/// envelope". A record handed over in memory is held to the CSV reader's input rule: refused
+/// at once, naming the CSV line and column, before any fitting.
+#[test]
+fn an_implausible_input_cell_is_refused_by_line_and_column_before_the_fit() {
+    use fbg_trainer::fit::train_source;
+    let s = simulate(&short_paper(2.0), 21);
+    for (column, value, says) in [
+        ("dl2_pm", 1e154, "1e154 (shift_pm) is a shift beyond 10 nm"),
+        ("dl2_pm", 1e6, "1000000 should be a shift in pm but looks like an absolute wavelength in pm"),
+        ("dl1_pm", -1e300, "-1e300 (shift_pm) is a shift beyond 10 nm"),
+        ("T_amb_C", 1e154, "ambient 1e154 °C is outside -80–200 °C"),
+    ] {
+        let mut d = s.data.clone();
+        let row = 17;
+        match column {
+            "T_amb_C" => d.t_amb_c.as_mut().unwrap()[row] = value,
+            "dl1_pm" => d.dl_pm[0][row] = value,
+            _ => d.dl_pm[1][row] = value,
+        }
+        let e = train_source(&d, "x.csv", &common::small_grid(), &Origin::default()).unwrap_err().to_string();
+        assert!(e.starts_with(&format!("x.csv: line 19, column {column}: {says}")), "{e}");
+    }
+}
+
+/// A fit whose cancel flag is set (Python's Ctrl-C) ends with `Interrupted`, before its work.
+#[test]
+fn a_cancelled_fit_ends_interrupted() {
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Arc;
+    let s = simulate(&short_paper(2.0), 21);
+    let opts = common::small_grid().with_cancel(Arc::new(AtomicBool::new(true)));
+    let e = train(&s.data, &opts, &Origin::default()).unwrap_err();
+    assert!(matches!(e, fbg_trainer::TrainerError::Interrupted { .. }), "{e}");
+    assert_eq!(e.to_string(), "fit: interrupted");
 }

@@ -15,8 +15,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use fbg_trainer::data::import::{
-    import, import_to_csv, peaks_to_csv, Format, ImportOptions, OnError, Scale, SplitChoice, DEFAULT_MAX_SKIPPED,
-    PEAKS_HEADER,
+    import, import_to_csv, peaks_to_csv, Format, ImportOptions, OnError, Scale, PEAKS_HEADER,
 };
 use fbg_trainer::data::Dataset;
 use fbg_trainer::rng::{Rng, Stream};
@@ -187,18 +186,7 @@ fn map(spectra: &str) -> String {
 }
 
 fn options(format: Format, input: PathBuf, map: Option<PathBuf>) -> ImportOptions {
-    ImportOptions {
-        format,
-        input,
-        map,
-        refs: None,
-        split: SplitChoice::default(),
-        on_error: OnError::Fail,
-        max_skipped: DEFAULT_MAX_SKIPPED,
-        zero_from: None,
-        start_unix_s: None,
-        scale: None,
-    }
+    common::import_options(format, input, map)
 }
 
 /// Largest |imported shift − true shift| \[pm\] over every grating and frame, the shifts taken
@@ -408,6 +396,45 @@ fn import_makes_faulty_frames_gaps_and_counts_them() {
     assert!(s.text().contains("dl2_pm: 1 of 12 frames flagged (second-peak 1), 1 gaps"), "{}", s.text());
 }
 
+/// Issue 41: one pixel a hundred times the grating's height, in its window, was taken for the
+/// grating (flagged only `asymmetric`, the value kept). Such a peak breaks
+/// with every other frame of the grating: a fault, its frame a gap, counted as `implausible`;
+/// the `peaks` table says so. With a map and without one (discovered windows).
+#[test]
+fn a_spike_far_above_the_grating_is_an_implausible_fault_and_a_gap() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = spectra_csv(1, Scale::Linear, &no_extra, f64::INFINITY);
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    // Frame 4, channel 1 (line 10): the pixel at 1533.51 nm (sample 351), 1.5 nm below
+    // grating 1, at 100 × its height.
+    assert!(lines[9].starts_with("4.000,1,"));
+    let mut cells: Vec<String> = lines[9].split(',').map(str::to_string).collect();
+    cells[2 + 351] = format!("{:.6e}", 100.0 * GRATINGS[0].height);
+    lines[9] = cells.join(",");
+    let input = write(dir.path(), "spike.csv", &(lines.join("\n") + "\n"));
+    let m = write(dir.path(), "map.toml", &map(""));
+    for map in [Some(m), None] {
+        let (d, s) = import(&options(Format::SpectraCsv, input.clone(), map.clone())).unwrap();
+        assert!(d.dl_pm[0][4].is_nan(), "{:?}", d.dl_pm[0]);
+        assert!(d
+            .dl_pm
+            .iter()
+            .enumerate()
+            .all(|(g, c)| c.iter().enumerate().all(|(j, v)| v.is_finite() || (g, j) == (0, 4))));
+        let json = serde_json::to_value(&s).unwrap();
+        assert_eq!(json["spectra"]["flagged"][0]["by_flag"]["implausible"], 1, "{json}");
+        assert_eq!(json["spectra"]["flagged"][0]["gaps"], 1);
+    }
+    let out = dir.path().join("peaks.csv");
+    let (ok, _, err) =
+        common::run(common::bin().args(["peaks", "--format", "spectra-csv"]).arg(&input).arg("--out").arg(&out));
+    assert!(ok, "{err}");
+    let table = std::fs::read_to_string(&out).unwrap();
+    let row = table.lines().find(|l| l.starts_with("4.000000,,") && l.split(',').nth(3) == Some("1")).unwrap();
+    assert!(row.contains("implausible"), "{row}");
+    assert_eq!(table.matches("implausible").count(), 1, "{table}");
+}
+
 /// The error of a failing import; no output written and an existing one left as it was.
 fn failure(o: &ImportOptions) -> String {
     let dir = tempfile::tempdir().unwrap();
@@ -465,7 +492,7 @@ fn malformed_spectra_csv_names_line_and_column_and_writes_nothing() {
     assert!(e.contains("must increase"), "{e}");
     let e = case("uneven.csv", edit_line(&good, 1, |l| set_cell(l, 10, "1530.085")));
     assert_place(&e, "uneven.csv", 1, "11 (1530.085)");
-    assert!(e.contains("uniform grid"), "{e}");
+    assert!(e.contains("4.938 pm off the smoothest pixel polynomial"), "{e}");
     let e = case("channel.csv", edit_line(&good, 4, |l| set_cell(l, 1, "one")));
     assert_place(&e, "channel.csv", 4, "2 (channel)");
     let e = case("time.csv", edit_line(&good, 6, |l| set_cell(l, 0, "0.500")));
@@ -518,6 +545,19 @@ fn malformed_responses_name_line_and_column_and_write_nothing() {
     assert_place(&e, "stamp.txt", 10, "1 (time)");
     let e = case("point.txt", edit_line(&good, 8, |l| l.replacen(',', ".", 1)));
     assert_place(&e, "point.txt", 8, "1 (1530.000 nm)");
+    // Issue 41: settings out of physical range, by the header line.
+    let e = case("delta.txt", edit_line(&good, 5, |_| "Wavelength Delta\t1e-300".into()));
+    assert_place(&e, "delta.txt", 5, "Wavelength Delta");
+    assert!(e.contains("1e-300 is not a wavelength step in nm (0.0001 ≤ step < 1 nm)"), "{e}");
+    let e = case("end.txt", edit_line(&good, 6, |_| "Number of Points\t1000000".into()));
+    assert_place(&e, "end.txt", 6, "Number of Points");
+    assert!(e.contains("end at 11529.99 nm, beyond 2000 nm"), "{e}");
+    // The second block's timestamp (line 10) lost: the first block would take in its two
+    // lines as channels 3 and 4. Refused at the first of them.
+    let lost: String = good.lines().enumerate().filter(|&(i, _)| i != 9).map(|(_, l)| format!("{l}\n")).collect();
+    let e = case("lost.txt", lost);
+    assert_place(&e, "lost.txt", 10, "1 (channel line)");
+    assert!(e.contains("the first block has 4 channel lines but no later block more than 2"), "{e}");
 }
 
 #[test]
@@ -538,8 +578,20 @@ fn malformed_pixels_and_maps_are_refused_by_name() {
     let e = failure(&options(Format::Pixels, p.clone(), Some(bad)));
     assert!(e.contains("spectra.gap_on") && e.contains("`wobbly` is not a peak flag"), "{e}");
     let bad = write(dir.path(), "turn.toml", &map("pixel_to_nm = [1510.0, 0.166, -1e-3]"));
-    let e = failure(&options(Format::Pixels, p, Some(bad)));
+    let e = failure(&options(Format::Pixels, p.clone(), Some(bad)));
     assert!(e.contains("not monotonic at pixel 83"), "{e}");
+    // Issue 41: a calibration giving wavelengths no grating has (a sign or an exponent wrong).
+    for (coefficients, pixel, says) in
+        [("-1510.0, 0.166", 0, "-1510 nm"), ("1e300, 0.166", 0, "1e300 nm"), ("1510.0, 1.0", 491, "2001 nm")]
+    {
+        let bad = write(dir.path(), "absurd.toml", &map(&format!("pixel_to_nm = [{coefficients}]")));
+        let e = failure(&options(Format::Pixels, p.clone(), Some(bad)));
+        assert_place(&e, "p.csv", 1, &format!("{} (p{pixel})", pixel + 3));
+        assert!(
+            e.contains(&format!("pixel_to_nm gives pixel {pixel} the wavelength {says}, outside 400–2000 nm")),
+            "{e}"
+        );
+    }
 }
 
 #[test]

@@ -81,6 +81,9 @@ pub fn dataset(
     // The rule the CSV reader applies to a record's time (finite, increasing): a frame is a
     // record too, and a model fitted on shuffled rows would disagree with its own stream.
     d.check_times().map_err(|(row, m)| msg(format!("{origin}: t (t_s) at row {row}: {m}")))?;
+    // And to its inputs' magnitudes: an implausible cell would be answered wrongly, and its
+    // square overflows the fit.
+    d.check_inputs().map_err(|(row, column, m)| msg(format!("{origin}: row {row}, column {column}: {m}")))?;
     d.split = match cal {
         None => vec![Split::Cal; rows],
         Some(c) if c.len() == rows => c.into_iter().map(|b| if b { Split::Cal } else { Split::Holdout }).collect(),

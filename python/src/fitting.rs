@@ -20,9 +20,10 @@ use crate::model::Model;
 /// configuration instead of the cross-validated choice, as `bench-fit --fixed` (keys
 /// `feature_set`, `k`, `sigma_mult`, `alpha_rel`, `dead_band_pm`, `memory`). Returns Model-H, Model-P, the
 /// `coefficients.json` text and a JSON summary (chosen hyper-parameters, CV RMSE, warnings).
-/// Runs without the GIL.
+/// `precision` is only checked (predict's arithmetic, refused here rather than at the first
+/// predict). Runs without the GIL; Ctrl-C stops it.
 #[pyfunction]
-#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None, targets=None))]
+#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None, targets=None, precision="f64"))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -38,7 +39,9 @@ pub fn fit(
     sim_seed: u64,
     fixed: Option<&Bound<'_, PyDict>>,
     targets: Option<Vec<String>>,
+    precision: &str,
 ) -> PyResult<(Model, Model, String, String)> {
+    crate::stream::precision(precision)?;
     // The columns given as y must all be references: another name would be dropped silently
     // (or overwrite an input), and the model would have fewer outputs than asked for.
     for name in targets.iter().flatten() {
@@ -52,13 +55,18 @@ pub fn fit(
     };
     opts = opts
         .with_progress(false)
-        .with_on_outlier(on_outlier.parse().map_err(|e: String| msg(format!("on_outlier: {e}")))?);
+        .with_on_outlier(on_outlier.parse().map_err(|e: String| msg(format!("on_outlier: {e}")))?)
+        .with_skip_outliers_hint("fit with `on_outlier=\"skip\"`");
     if let Some(s) = seed {
         opts = opts.with_seed(s);
     }
     // The provenance `train` writes: the sidecar's scenario and seed, else the source's name.
     let origin = Origin { scenario: scenario.unwrap_or_else(|| source.to_string()), seed: sim_seed };
-    let tr = py.detach(|| train_source(&d, source, &opts, &origin)).map_err(to_py)?;
+    let src = source.to_string();
+    let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let opts = opts.with_cancel(cancel.clone());
+    let tr = crate::interrupt::interruptible(py, Some(cancel), move || train_source(&d, &src, &opts, &origin))?
+        .map_err(to_py)?;
     let coefficients = export::coefficients_text(
         &tr.model_p,
         &tr.model_h,
@@ -124,5 +132,5 @@ fn fixed_options(f: &Bound<'_, PyDict>) -> PyResult<fbg_trainer::fit::TrainOptio
     if let Some(v) = get("memory")? {
         b.memory = v.extract()?;
     }
-    b.options().map(|(o, _)| o).map_err(to_py)
+    b.options_named(&|flag| format!("fixed['{}']", flag.replace('-', "_"))).map(|(o, _)| o).map_err(to_py)
 }

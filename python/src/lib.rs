@@ -1,13 +1,15 @@
 //! `fbg_compensation._core`: the Rust core of the Python package. Every loop over rows runs
 //! here, through `fbg-trainer`'s library and `fbg-shared`'s compensator (the code the device
 //! runs); the Python layer (`python/python/fbg_compensation/`) only shapes inputs and outputs.
-//! Long work (a fit, a pass over a record, a simulation) runs with the GIL released.
+//! Long work (a fit, a pass over a record, a simulation) runs with the GIL released and stops
+//! on Ctrl-C (`interrupt.rs`).
 
 use pyo3::prelude::*;
 
 mod columns;
 mod error;
 mod fitting;
+mod interrupt;
 mod model;
 mod records;
 mod stream;

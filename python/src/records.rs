@@ -26,7 +26,7 @@ pub fn presets() -> Vec<&'static str> {
 
 /// Simulate the built-in scenario `preset` with `seed` (deterministic), as `fbg-trainer
 /// simulate --preset P --seed S`; `days` shortens or lengthens the record, `dt_s` \[s\] changes
-/// its sample interval. Runs without the GIL.
+/// its sample interval. Runs without the GIL; Ctrl-C stops it.
 #[pyfunction]
 #[pyo3(signature = (preset="paper", seed=7, days=None, dt_s=None))]
 pub fn simulate<'py>(
@@ -55,18 +55,24 @@ pub fn simulate<'py>(
         };
         msg(format!("{param}: {message} (the scenario's {key})"))
     })?;
-    let data = py.detach(|| sim::simulate(&cfg, seed).data);
+    let data = crate::interrupt::interruptible(py, None, move || sim::simulate(&cfg, seed).data)?;
     columns::to_dict(py, data)
 }
 
 /// Read a dataset CSV (DESIGN §3 columns, e.g. from `simulate` or `import`) as `train` and
 /// `evaluate` read it; `field=True` reads a field record (no reference needed), as
-/// `compensate` does. Errors name the file, line and column.
+/// `compensate` does. Errors name the file, line and column. Ctrl-C stops it.
 #[pyfunction]
 #[pyo3(signature = (path, field=false))]
 pub fn read_dataset<'py>(py: Python<'py>, path: PathBuf, field: bool) -> PyResult<Columns<'py>> {
-    let d =
-        py.detach(|| if field { Dataset::read_field_csv(&path) } else { Dataset::read_csv(&path) }).map_err(to_py)?;
+    let d = crate::interrupt::interruptible(py, None, move || {
+        if field {
+            Dataset::read_field_csv(&path)
+        } else {
+            Dataset::read_csv(&path)
+        }
+    })?
+    .map_err(to_py)?;
     columns::to_dict(py, d)
 }
 
@@ -108,7 +114,8 @@ pub fn write_dataset(
 
 /// `fbg-trainer import --format F FILE [--map M] [--refs R] [--scale S] [--cal-fraction C]
 /// [--on-error E]`, the same function without the output file: the imported record's columns
-/// and its summary as JSON text. Errors name the file, line and column. Runs without the GIL.
+/// and its summary as JSON text. Errors name the file, line and column. Runs without the GIL;
+/// Ctrl-C stops it.
 #[pyfunction]
 #[pyo3(signature = (format, path, map=None, refs=None, scale=None, cal_fraction=0.5, on_error="fail", max_skipped=0.05, start_unix_s=None))]
 #[allow(clippy::too_many_arguments)]
@@ -136,7 +143,7 @@ pub fn import_file<'py>(
         start_unix_s,
         scale: scale.map(|s| s.parse().map_err(|e: String| msg(format!("scale: {e}")))).transpose()?,
     };
-    let (d, summary) = py.detach(|| import::import(&opts)).map_err(to_py)?;
+    let (d, summary) = crate::interrupt::interruptible(py, None, move || import::import(&opts))?.map_err(to_py)?;
     let text = serde_json::to_string(&summary).map_err(|e| msg(e.to_string()))?;
     Ok((columns::to_dict(py, d)?, text))
 }

@@ -11,6 +11,7 @@ use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2}
 use pyo3::prelude::*;
 
 use crate::error::msg;
+use crate::interrupt;
 use crate::model::Model;
 
 /// One compensator's running state over a stream of rows (`Stream(model, precision="f64",
@@ -26,6 +27,9 @@ pub struct Stream {
     ambient: bool,
     outputs: usize,
     rows: usize,
+    /// Set when Ctrl-C stopped a `step` partway: the state has then taken rows whose results
+    /// were never returned, so the stream cannot go on.
+    interrupted: bool,
 }
 
 impl Stream {
@@ -34,7 +38,14 @@ impl Stream {
         let engine = Engine::load(params, precision, clock)
             .map_err(|(what, e)| msg(format!("the model cannot be loaded for {what} arithmetic: {e}")))?;
         let dims = params.dims;
-        Ok(Stream { engine, gratings: dims.gratings(), ambient: dims.ambient(), outputs: dims.n_outputs(), rows: 0 })
+        Ok(Stream {
+            engine,
+            gratings: dims.gratings(),
+            ambient: dims.ambient(),
+            outputs: dims.n_outputs(),
+            rows: 0,
+            interrupted: false,
+        })
     }
 }
 
@@ -66,7 +77,9 @@ impl Stream {
 
     /// Compensate the next rows: `dl_pm` (rows × gratings, pm shifts, C order), `t_amb_c`
     /// (°C per row; None for a model without an ambient input) and `t_s` (s per row). NaN
-    /// inputs are gaps (the row's values are NaN and flagged non-finite). Runs without the GIL.
+    /// inputs are gaps (the row's values are NaN and flagged non-finite). Runs without the GIL,
+    /// in chunks of rows with Ctrl-C looked for between them (a stream stopped partway refuses
+    /// further rows: its state has taken rows whose results were lost).
     #[pyo3(signature = (dl_pm, t_amb_c, t_s))]
     fn step<'py>(
         &mut self,
@@ -92,28 +105,49 @@ impl Stream {
         if t.len() != n || amb.is_some_and(|a| a.len() != n) {
             return Err(msg(format!("t_s and T_amb_C need one value per row of dl_pm ({n})")));
         }
+        if self.interrupted {
+            return Err(msg(format!(
+                "this stream was interrupted (Ctrl-C) partway through a chunk after {} rows: its state has taken rows whose results were lost; start a new stream",
+                self.rows
+            )));
+        }
         let m = self.outputs;
-        let engine = &mut self.engine;
-        let (values, band, flags) = py.detach(|| {
-            let (mut values, mut band, mut flags) = (vec![0.0; n * m], vec![0.0; n * m], vec![0u8; n]);
-            let rows = dl.chunks_exact(g).zip(t).zip(values.chunks_exact_mut(m).zip(band.chunks_exact_mut(m)));
-            for (i, ((shifts, &t_s), (v, b))) in rows.enumerate() {
-                let mut s = Sample {
-                    dl_pm: [0.0; MAX_GRATINGS],
-                    gratings: g as u8,
-                    t_amb_c: amb.and_then(|a| a.get(i).copied()).unwrap_or(f64::NAN),
-                    t_s,
-                };
-                s.dl_pm.iter_mut().zip(shifts).for_each(|(o, &x)| *o = x);
-                let e = engine.step(&s);
-                v.iter_mut().zip(&e.values).for_each(|(o, &x)| *o = x);
-                b.iter_mut().zip(&e.band95).for_each(|(o, &x)| *o = x);
-                if let Some(f) = flags.get_mut(i) {
-                    *f = e.flags.0;
+        let (mut values, mut band, mut flags) = (vec![0.0; n * m], vec![0.0; n * m], vec![0u8; n]);
+        // In chunks, with the GIL released for each and Ctrl-C looked for between them.
+        let chunks = dl
+            .chunks(interrupt::ROWS_PER_CHUNK * g.max(1))
+            .zip(t.chunks(interrupt::ROWS_PER_CHUNK))
+            .zip(values.chunks_mut(interrupt::ROWS_PER_CHUNK * m).zip(band.chunks_mut(interrupt::ROWS_PER_CHUNK * m)))
+            .zip(flags.chunks_mut(interrupt::ROWS_PER_CHUNK));
+        for (k, (((dl, t), (values, band)), flags)) in chunks.enumerate() {
+            if k > 0 {
+                if let Err(e) = py.check_signals() {
+                    self.interrupted = true;
+                    self.rows += k * interrupt::ROWS_PER_CHUNK;
+                    return Err(e);
                 }
             }
-            (values, band, flags)
-        });
+            let first = k * interrupt::ROWS_PER_CHUNK;
+            let engine = &mut self.engine;
+            py.detach(|| {
+                let rows = dl.chunks_exact(g).zip(t).zip(values.chunks_exact_mut(m).zip(band.chunks_exact_mut(m)));
+                for (i, ((shifts, &t_s), (v, b))) in rows.enumerate() {
+                    let mut s = Sample {
+                        dl_pm: [0.0; MAX_GRATINGS],
+                        gratings: g as u8,
+                        t_amb_c: amb.and_then(|a| a.get(first + i).copied()).unwrap_or(f64::NAN),
+                        t_s,
+                    };
+                    s.dl_pm.iter_mut().zip(shifts).for_each(|(o, &x)| *o = x);
+                    let e = engine.step(&s);
+                    v.iter_mut().zip(&e.values).for_each(|(o, &x)| *o = x);
+                    b.iter_mut().zip(&e.band95).for_each(|(o, &x)| *o = x);
+                    if let Some(f) = flags.get_mut(i) {
+                        *f = e.flags.0;
+                    }
+                }
+            });
+        }
         self.rows += n;
         let shape = |v: Vec<f64>| Array2::from_shape_vec((n, m), v).map_err(|e| msg(e.to_string()));
         Ok((shape(values)?.into_pyarray(py), shape(band)?.into_pyarray(py), flags.into_pyarray(py)))

@@ -104,3 +104,125 @@ def test_a_pickle_of_bad_bytes_is_refused(fitted):
     raw[20] ^= 0xFF
     with pytest.raises(fc.FbgError, match="CRC"):
         _core.Model(bytes(raw))
+
+
+@pytest.mark.parametrize(
+    "column, value, says",
+    [
+        ("dl2_pm", 1e154, r"1e154 \(shift_pm\) is a shift beyond 10 nm"),
+        ("dl2_pm", 1e300, r"1e300 \(shift_pm\) is a shift beyond 10 nm"),
+        ("dl1_pm", 1e6, r"1000000 should be a shift in pm but looks like an absolute wavelength in pm"),
+        ("dl3_pm", 1e120, r"1e120 \(shift_pm\) is a shift beyond 10 nm"),
+        ("T_amb_C", 1e154, r"ambient 1e154 °C is outside -80–200 °C"),
+        ("T_amb_C", 296.0, r"ambient 296 °C looks like kelvin; subtract 273.15 from column `T_amb_C`"),
+    ],
+)
+def test_fit_refuses_an_implausible_input_by_row_and_column_at_once(cal, column, value, says):
+    """One cell >= 1e154 kept the fit's SVD iterating for minutes (its square overflows), and
+    1e6..1e153 failed naming no row or column: now the CSV reader's input rule refuses it."""
+    import time
+
+    X = cal[INPUTS].copy()
+    X.loc[17, column] = value
+    t0 = time.monotonic()
+    with pytest.raises(fc.FbgError, match=rf"row 17, column {column}: {says}"):
+        fc.HybridCompensator(**FIT).fit(X, cal[OUTPUTS], t=cal["t_s"])
+    assert time.monotonic() - t0 < 5.0
+
+
+def test_write_dataset_refuses_what_read_dataset_would(tmp_path, holdout):
+    r = holdout.copy()
+    r.attrs = dict(holdout.attrs)
+    r.loc[4, "dl1_pm"] = 1e200
+    with pytest.raises(ValueError, match=r"row 4, column dl1_pm: 1e200"):
+        fc.write_dataset(r, tmp_path / "x.csv")
+    assert not (tmp_path / "x.csv").exists()
+
+
+def _interrupt_after(seconds):
+    import _thread
+    import threading
+
+    timer = threading.Timer(seconds, _thread.interrupt_main)
+    timer.start()
+    return timer
+
+
+def test_ctrl_c_stops_a_long_fit():
+    """The fit runs without the GIL; Ctrl-C (here simulated) ends the call at once (and the
+    fit at its next task)."""
+    import time
+
+    rec = fc.simulate("paper", seed=7, days=140.0)
+    X, y = rec[INPUTS], rec[OUTPUTS]
+    timer = _interrupt_after(0.2)
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            fc.HybridCompensator(features="memory", max_centres=32).fit(X, y, t=rec["t_s"])
+    finally:
+        timer.cancel()
+    assert time.monotonic() - t0 < 1.0
+
+
+def test_ctrl_c_stops_a_long_predict_and_the_stream_says_so(fitted):
+    import time
+
+    n = 3_000_000
+    dl = np.zeros((n, 3))
+    amb = np.full(n, 20.0)
+    t = np.arange(n, dtype=np.float64)
+    s = fitted.model_.stream()
+    timer = _interrupt_after(0.2)
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            s.step_arrays(dl, amb, t)
+    finally:
+        timer.cancel()
+    assert time.monotonic() - t0 < 1.5
+    with pytest.raises(fc.FbgError, match="interrupted"):
+        s.step_arrays(dl[:2], amb[:2], t[:2] + n)
+
+
+def test_python_errors_name_python_parameters(cal):
+    X, y = cal[INPUTS], cal[OUTPUTS].copy()
+    y.loc[300, "T_C"] = 1e6
+    with pytest.raises(fc.FbgError, match=r'reference outlier.*fit with `on_outlier="skip"`') as e:
+        fc.HybridCompensator(**FIT).fit(X, y, t=cal["t_s"])
+    assert "--" not in str(e.value)
+    with pytest.raises(fc.FbgError, match=r"fixed\['k'\] must be in 1\.\.="):
+        fc.HybridCompensator(fixed=dict(k=0)).fit(X, cal[OUTPUTS], t=cal["t_s"])
+    with pytest.raises(fc.FbgError, match=r"fixed\['feature_set'\]: unknown feature set `nope`"):
+        fc.HybridCompensator(fixed=dict(feature_set="nope")).fit(X, cal[OUTPUTS], t=cal["t_s"])
+
+
+def test_bad_parameters_are_refused_at_fit_before_any_work(cal):
+    import time
+
+    X, y, t = cal[INPUTS], cal[OUTPUTS], cal["t_s"]
+    t0 = time.monotonic()
+    with pytest.raises(fc.FbgError, match=r"^precision: `f16` is neither"):
+        fc.HybridCompensator(precision="f16", **FIT).fit(X, y, t=t)
+    for bad in (8.5, 8.0, "8", True):
+        with pytest.raises(ValueError, match=rf"^max_centres: {bad!r} is not an integer"):
+            fc.HybridCompensator(features="paper", max_centres=bad).fit(X, y, t=t)
+    with pytest.raises(ValueError, match=r"^seed: -1 is below 0"):
+        fc.HybridCompensator(seed=-1, **FIT).fit(X, y, t=t)
+    with pytest.raises(ValueError, match=r"^seed: 18446744073709551616 is above"):
+        fc.HybridCompensator(seed=2**64, **FIT).fit(X, y, t=t)
+    assert time.monotonic() - t0 < 2.0
+    # numpy integers are integers.
+    est = fc.HybridCompensator(features="paper", max_centres=np.int64(8), seed=np.uint32(3)).fit(X, y, t=t)
+    assert len(est.model_.inspect()["model"]["rbf_centres"]) <= 8
+
+
+def test_score_takes_t(holdout, fitted):
+    X, y = holdout[INPUTS], holdout[OUTPUTS]
+    with_t = fitted.score(X, y, t=holdout["t_s"])
+    assert with_t == fitted.score(holdout[INPUTS + ["t_s"]], y)
+    # y by name in any column order; weights are used.
+    assert with_t == fitted.score(X, y[OUTPUTS[::-1]], t=holdout["t_s"])
+    w = np.ones(len(X))
+    w[: len(X) // 2] = 0.0
+    assert fitted.score(X, y, t=holdout["t_s"], sample_weight=w) != with_t

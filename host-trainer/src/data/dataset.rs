@@ -5,6 +5,7 @@ use fbg_shared::layout::Dims;
 use fbg_shared::Sample;
 
 use crate::data::measurand::grating_column;
+use crate::data::units::{check_ambient, check_wavelength, AbsNmCheck, UnitSource, WlUnit};
 use crate::data::{Measurand, RecordMeta, MAX_GRATINGS, T_AMB_COLUMN};
 use crate::error::TrainerError;
 
@@ -19,6 +20,28 @@ pub fn check_next_time(prev: Option<f64>, t: f64) -> Result<(), String> {
         Some(p) if t <= p => Err(format!("time does not increase ({} after {})", ShortNumber(t), ShortNumber(p))),
         _ => Ok(()),
     }
+}
+
+/// The rule of a record's input magnitudes, for every front end (the dataset CSV reader,
+/// Python's frames), one row at a time: a finite ambient reading within −80…200 °C, a finite
+/// shift within ±10 nm (`data::units`; a NaN is a gap). An implausible cell
+/// would not only be answered wrongly: its square overflows the fit's normal equations.
+/// `source(Some(g))` says where grating g's (0-based) unit is set, `source(None)` the
+/// ambient's. The error is (column, message).
+pub(crate) fn check_input_row<'a>(
+    t_amb_c: f64,
+    dl_pm: &[f64],
+    source: impl Fn(Option<usize>) -> UnitSource<'a>,
+) -> Result<(), (String, String)> {
+    if t_amb_c.is_finite() {
+        check_ambient(t_amb_c, source(None)).map_err(|m| (T_AMB_COLUMN.to_string(), m))?;
+    }
+    for (g, &v) in dl_pm.iter().enumerate() {
+        if v.is_finite() {
+            check_wavelength(WlUnit::ShiftPm, v, source(Some(g))).map_err(|m| (grating_column(g + 1), m))?;
+        }
+    }
+    Ok(())
 }
 
 /// Which part of the record a sample belongs to.
@@ -125,6 +148,32 @@ impl Dataset {
         for (i, &t) in self.t_s.iter().enumerate() {
             check_next_time(prev, t).map_err(|m| (i, m))?;
             prev = Some(t);
+        }
+        Ok(())
+    }
+
+    /// The rule of a record's input magnitudes (`check_input_row`) over every row, then the whole-column check of the dataset reader
+    /// (a shift column whose values all lie within 1 % of an absolute wavelength in nm holds
+    /// wavelengths), for a record handed over in memory: the messages name the columns. The
+    /// first row (0-based) that breaks it, its column and the message.
+    pub fn check_inputs(&self) -> Result<(), (usize, String, String)> {
+        let mut row = [f64::NAN; MAX_GRATINGS];
+        let names: Vec<String> = (1..=self.n_gratings()).map(grating_column).collect();
+        let source =
+            |g: Option<usize>| UnitSource::Column(g.and_then(|g| names.get(g)).map_or(T_AMB_COLUMN, String::as_str));
+        for i in 0..self.len() {
+            for (o, c) in row.iter_mut().zip(&self.dl_pm) {
+                *o = c.get(i).copied().unwrap_or(f64::NAN);
+            }
+            let amb = self.t_amb_c.as_ref().and_then(|a| a.get(i)).copied().unwrap_or(f64::NAN);
+            check_input_row(amb, row.get(..self.n_gratings()).unwrap_or(&[]), source).map_err(|(c, m)| (i, c, m))?;
+        }
+        for (g, c) in self.dl_pm.iter().enumerate() {
+            let mut a = AbsNmCheck::default();
+            c.iter().for_each(|&v| a.push(v));
+            if a.looks_absolute_nm() {
+                return Err((0, grating_column(g + 1), a.message(source(Some(g)))));
+            }
         }
         Ok(())
     }

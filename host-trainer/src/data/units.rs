@@ -49,14 +49,49 @@ impl WlUnit {
     }
 }
 
+/// Where the unit of a checked cell is set, so that a unit message says what to change: an
+/// import map's key, or a column handed over in memory (a Python frame's), whose values the
+/// caller converts.
+#[derive(Clone, Copy, Debug)]
+pub enum UnitSource<'a> {
+    /// The map key that sets the unit (`grating[1].unit`, `enlight.unit`).
+    MapKey(&'a str),
+    /// A column given as values (`dl1_pm`, `T_amb_C`): shifts in pm, ambient in °C.
+    Column(&'a str),
+}
+
+impl UnitSource<'_> {
+    /// The advice for a cell that looks like unit `u` (a map's unit name).
+    fn set(self, u: &str) -> String {
+        match self {
+            UnitSource::MapKey(key) => format!("map key `{key}`: set it to \"{u}\""),
+            UnitSource::Column(c) => format!("column `{c}` holds shifts in pm from λ_ref: convert it"),
+        }
+    }
+    /// What the cell was said to be.
+    fn declared(self, unit: WlUnit) -> String {
+        match self {
+            UnitSource::MapKey(_) => format!("is declared as a shift ({})", unit.name()),
+            UnitSource::Column(_) => "should be a shift in pm".to_string(),
+        }
+    }
+    /// The advice for a cell that fits no unit.
+    fn check(self) -> String {
+        match self {
+            UnitSource::MapKey(key) => format!("check `{key}`"),
+            UnitSource::Column(c) => format!("check column `{c}`"),
+        }
+    }
+}
+
 /// Check one wavelength cell (already in the column's unit) for magnitude; the error says what
-/// the value looks like and which map key to change.
-pub(crate) fn check_wavelength(unit: WlUnit, v: f64, key: &str) -> Result<(), String> {
+/// the value looks like and what to change (`source`).
+pub(crate) fn check_wavelength(unit: WlUnit, v: f64, source: UnitSource<'_>) -> Result<(), String> {
     // A cell can be 1e308: printed short, not as 309 digits.
     let n = ShortNumber(v);
     let nm = |x: f64| (NM_RANGE.0..=NM_RANGE.1).contains(&x);
     let pm = |x: f64| (NM_RANGE.0 * 1e3..=NM_RANGE.1 * 1e3).contains(&x);
-    let set = |u: &str| format!("map key `{key}`: set it to \"{u}\"");
+    let set = |u: &str| source.set(u);
     match unit {
         WlUnit::Nm if nm(v) => Ok(()),
         WlUnit::Nm if pm(v) => Err(format!("{n} is declared nm but is pm-scale (absolute wavelengths are {}–{} nm); {}", NM_RANGE.0, NM_RANGE.1, set("pm"))),
@@ -64,30 +99,29 @@ pub(crate) fn check_wavelength(unit: WlUnit, v: f64, key: &str) -> Result<(), St
             "{n} is declared as an absolute wavelength in nm but looks like a shift (absolute wavelengths are {}–{} nm); {}",
             NM_RANGE.0, NM_RANGE.1, set("shift_pm` or `shift_nm")
         )),
-        WlUnit::Nm => Err(format!("{n} is not a wavelength in nm ({}–{} nm); check `{key}`", NM_RANGE.0, NM_RANGE.1)),
+        WlUnit::Nm => {
+            Err(format!("{n} is not a wavelength in nm ({}–{} nm); {}", NM_RANGE.0, NM_RANGE.1, source.check()))
+        }
         WlUnit::Pm if pm(v) => Ok(()),
         WlUnit::Pm if nm(v) => Err(format!("{n} is declared pm but is nm-scale; {}", set("nm"))),
         WlUnit::Pm if v.abs() < NM_RANGE.0 * 1e3 => Err(format!(
             "{n} is declared as an absolute wavelength in pm but looks like a shift (absolute wavelengths are {}–{} pm); {}",
             NM_RANGE.0 * 1e3, NM_RANGE.1 * 1e3, set("shift_pm")
         )),
-        WlUnit::Pm => Err(format!("{n} is not a wavelength in pm; check `{key}`")),
+        WlUnit::Pm => Err(format!("{n} is not a wavelength in pm; {}", source.check())),
         WlUnit::ShiftPm if v.abs() <= MAX_SHIFT_PM => Ok(()),
         WlUnit::ShiftNm if v.abs() * 1e3 <= MAX_SHIFT_PM => Ok(()),
-        WlUnit::ShiftPm | WlUnit::ShiftNm if nm(v) => Err(format!(
-            "{n} is declared as a shift ({}) but looks like an absolute wavelength in nm; {}",
-            unit.name(),
-            set("nm")
-        )),
-        WlUnit::ShiftPm | WlUnit::ShiftNm if pm(v) => Err(format!(
-            "{n} is declared as a shift ({}) but looks like an absolute wavelength in pm; {}",
-            unit.name(),
-            set("pm")
-        )),
+        WlUnit::ShiftPm | WlUnit::ShiftNm if nm(v) => {
+            Err(format!("{n} {} but looks like an absolute wavelength in nm; {}", source.declared(unit), set("nm")))
+        }
+        WlUnit::ShiftPm | WlUnit::ShiftNm if pm(v) => {
+            Err(format!("{n} {} but looks like an absolute wavelength in pm; {}", source.declared(unit), set("pm")))
+        }
         WlUnit::ShiftPm | WlUnit::ShiftNm => Err(format!(
-            "{n} ({}) is a shift beyond {} nm, which no grating reaches; check `{key}`",
+            "{n} ({}) is a shift beyond {} nm, which no grating reaches; {}",
             unit.name(),
-            MAX_SHIFT_PM / 1e3
+            MAX_SHIFT_PM / 1e3,
+            source.check()
         )),
     }
 }
@@ -105,7 +139,7 @@ pub(crate) fn looks_absolute_nm(values: &[f64]) -> bool {
 pub(crate) fn absolute_nm_column_message(values: &[f64], key: &str) -> String {
     let mut a = AbsNmCheck::default();
     values.iter().for_each(|&v| a.push(v));
-    a.message(key)
+    a.message(UnitSource::MapKey(key))
 }
 
 /// [`looks_absolute_nm`] one value at a time, in a few numbers (for a column that is read as a
@@ -154,24 +188,45 @@ impl AbsNmCheck {
     }
 
     /// [`absolute_nm_column_message`] of the values taken so far.
-    pub fn message(&self, key: &str) -> String {
+    pub fn message(&self, source: UnitSource<'_>) -> String {
+        let fix = match source {
+            UnitSource::MapKey(key) => {
+                format!("map key `{key}`: set it to \"nm\" (or check_units = false if these really are shifts)")
+            }
+            UnitSource::Column(c) => format!("column `{c}` holds shifts in pm from λ_ref: convert it"),
+        };
+        let kind = match source {
+            UnitSource::MapKey(_) => "is declared shift_pm",
+            UnitSource::Column(_) => "should hold shifts in pm",
+        };
         format!(
-            "the column is declared shift_pm but every value lies within 1 % of {:.1}, like absolute wavelengths in nm; map key `{key}`: set it to \"nm\" (or check_units = false if these really are shifts)",
+            "the column {kind} but every value lies within 1 % of {:.1}, like absolute wavelengths in nm; {fix}",
             self.first
         )
     }
 }
 
-/// Check an ambient temperature [°C] (after gain and offset).
-pub(crate) fn check_ambient(v: f64) -> Result<(), String> {
+/// Check an ambient temperature [°C] (after gain and offset); `source` is the map's
+/// `ambient` table or the column.
+pub(crate) fn check_ambient(v: f64, source: UnitSource<'_>) -> Result<(), String> {
     let (lo, hi) = AMBIENT_RANGE_C;
     let n = ShortNumber(v);
     if (lo..=hi).contains(&v) {
         Ok(())
     } else if (200.0..=400.0).contains(&v) {
-        Err(format!("ambient {n} °C looks like kelvin; map key `ambient.offset`: set it to -273.15"))
+        Err(match source {
+            UnitSource::MapKey(key) => {
+                format!("ambient {n} °C looks like kelvin; map key `{key}.offset`: set it to -273.15")
+            }
+            UnitSource::Column(c) => format!("ambient {n} °C looks like kelvin; subtract 273.15 from column `{c}`"),
+        })
     } else {
-        Err(format!("ambient {n} °C is outside {lo}–{hi} °C; check the map keys `ambient.column`, `ambient.gain`, `ambient.offset`"))
+        Err(match source {
+            UnitSource::MapKey(key) => format!(
+                "ambient {n} °C is outside {lo}–{hi} °C; check the map keys `{key}.column`, `{key}.gain`, `{key}.offset`"
+            ),
+            UnitSource::Column(c) => format!("ambient {n} °C is outside {lo}–{hi} °C; check column `{c}`"),
+        })
     }
 }
 
@@ -181,17 +236,18 @@ mod tests {
 
     #[test]
     fn unit_checks() {
-        assert!(check_wavelength(WlUnit::Nm, 1545.1, "k").is_ok());
-        assert!(check_wavelength(WlUnit::Nm, 1_545_100.0, "k").unwrap_err().contains("\"pm\""));
-        assert!(check_wavelength(WlUnit::Nm, 12.5, "k").unwrap_err().contains("shift_pm"));
-        assert!(check_wavelength(WlUnit::ShiftPm, -250.0, "k").is_ok());
-        assert!(check_wavelength(WlUnit::ShiftPm, 1_545_100.0, "k").unwrap_err().contains("\"pm\""));
-        assert!(check_wavelength(WlUnit::ShiftNm, 1545.1, "k").unwrap_err().contains("\"nm\""));
+        let k = UnitSource::MapKey("k");
+        assert!(check_wavelength(WlUnit::Nm, 1545.1, k).is_ok());
+        assert!(check_wavelength(WlUnit::Nm, 1_545_100.0, k).unwrap_err().contains("\"pm\""));
+        assert!(check_wavelength(WlUnit::Nm, 12.5, k).unwrap_err().contains("shift_pm"));
+        assert!(check_wavelength(WlUnit::ShiftPm, -250.0, k).is_ok());
+        assert!(check_wavelength(WlUnit::ShiftPm, 1_545_100.0, k).unwrap_err().contains("\"pm\""));
+        assert!(check_wavelength(WlUnit::ShiftNm, 1545.1, k).unwrap_err().contains("\"nm\""));
         assert!(looks_absolute_nm(&[1545.0, 1545.1, 1545.05]));
         assert!(!looks_absolute_nm(&[600.0, 700.0, 650.0]));
-        assert!(check_ambient(296.0).unwrap_err().contains("-273.15"));
+        assert!(check_ambient(296.0, UnitSource::MapKey("ambient")).unwrap_err().contains("-273.15"));
         // A huge cell is printed short.
-        assert!(check_wavelength(WlUnit::ShiftPm, 1e308, "k").unwrap_err().starts_with("1e308 (shift_pm)"));
-        assert!(check_ambient(-1e300).unwrap_err().starts_with("ambient -1e300 °C"));
+        assert!(check_wavelength(WlUnit::ShiftPm, 1e308, k).unwrap_err().starts_with("1e308 (shift_pm)"));
+        assert!(check_ambient(-1e300, UnitSource::MapKey("ambient")).unwrap_err().starts_with("ambient -1e300 °C"));
     }
 }

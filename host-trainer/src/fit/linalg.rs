@@ -10,6 +10,10 @@ use crate::error::TrainerError;
 /// Rows per block of the tall-skinny QR.
 const TSQR_BLOCK: usize = 8192;
 
+/// Sweeps an SVD or a symmetric eigen-decomposition may take before the system is refused
+/// (nalgebra's unbounded default iterates forever on a NaN).
+const SVD_MAX_ITERATIONS: usize = 10_000;
+
 /// Solve min ‖X·B − Y‖ by Householder QR of X (n × p, n ≥ p) and an SVD of the p × p factor R,
 /// so that a rank-deficient design is reported rather than silently amplified.
 /// Returns B (p × m).
@@ -62,7 +66,18 @@ pub(crate) fn lstsq_rows(
     for (j, s) in scale.iter().enumerate() {
         rs.column_mut(j).scale_mut(1.0 / s);
     }
-    let svd = rs.svd(true, true);
+    // A non-finite R (an input whose square overflows) would keep the SVD iterating forever;
+    // the iteration is bounded too, so no design can hang the fit.
+    let svd = rs
+        .iter()
+        .all(|v| v.is_finite())
+        .then(|| rs.try_svd(true, true, f64::EPSILON, SVD_MAX_ITERATIONS))
+        .flatten()
+        .ok_or_else(|| {
+            TrainerError::fit(format!(
+                "{what}: the design holds non-finite values (an input too large for its square to be represented)"
+            ))
+        })?;
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
     // Also when a singular value is NaN.
@@ -127,15 +142,21 @@ pub(crate) struct RidgeSystem {
 
 impl RidgeSystem {
     /// Build from the design Ψ (n × K) and residual targets R (n × m).
-    pub(crate) fn new(psi: &DMatrix<f64>, r: &DMatrix<f64>) -> Self {
+    pub(crate) fn new(psi: &DMatrix<f64>, r: &DMatrix<f64>) -> Result<Self, TrainerError> {
         Self::from_gram(psi.tr_mul(psi), &psi.tr_mul(r))
     }
 
-    /// Build from G = ΨᵀΨ (K × K) and ΨᵀR (K × m).
-    pub(crate) fn from_gram(g: DMatrix<f64>, psi_r: &DMatrix<f64>) -> Self {
-        let eigen = SymmetricEigen::new(g);
+    /// Build from G = ΨᵀΨ (K × K) and ΨᵀR (K × m); a G with a non-finite entry, or one whose
+    /// decomposition does not converge, is an error rather than an endless iteration.
+    pub(crate) fn from_gram(g: DMatrix<f64>, psi_r: &DMatrix<f64>) -> Result<Self, TrainerError> {
+        let refuse =
+            || TrainerError::fit("RBF ridge: the Gram matrix ΨᵀΨ holds non-finite values or does not decompose");
+        if !g.iter().all(|v| v.is_finite()) {
+            return Err(refuse());
+        }
+        let eigen = SymmetricEigen::try_new(g, f64::EPSILON, SVD_MAX_ITERATIONS).ok_or_else(refuse)?;
         let vt_psi_r = eigen.eigenvectors.tr_mul(psi_r);
-        RidgeSystem { eigen, vt_psi_r }
+        Ok(RidgeSystem { eigen, vt_psi_r })
     }
 
     /// Ridge weights W (K × m) for penalty `alpha` (the α of Eq. 7, in ΨᵀΨ units).
@@ -162,6 +183,24 @@ impl RidgeSystem {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A value whose square overflows makes R non-finite; nalgebra's unbounded SVD never
+    /// returned on it.
+    #[test]
+    fn a_design_that_overflows_is_refused_not_iterated_forever() {
+        for big in [1e154, 1e300, f64::NAN] {
+            let x = DMatrix::from_fn(
+                50,
+                3,
+                |i, j| if i == 7 && j == 1 { big } else { (i * (j + 1)) as f64 + (j * j) as f64 },
+            );
+            let y = DMatrix::from_fn(50, 1, |i, _| i as f64);
+            let e = lstsq(x, y, "t").unwrap_err().to_string();
+            assert!(e.contains("non-finite"), "{e}");
+        }
+        let g = DMatrix::from_row_slice(2, 2, &[1.0, f64::INFINITY, f64::INFINITY, 1.0]);
+        assert!(RidgeSystem::from_gram(g, &DMatrix::zeros(2, 1)).is_err());
+    }
 
     #[test]
     fn lstsq_recovers_exact_coefficients() {
@@ -206,7 +245,7 @@ mod tests {
     fn ridge_matches_direct_solve() {
         let psi = DMatrix::from_fn(40, 4, |i, j| ((i * (j + 3)) % 11) as f64 / 11.0);
         let r = DMatrix::from_fn(40, 2, |i, j| (i as f64 * 0.1).sin() + j as f64);
-        let sys = RidgeSystem::new(&psi, &r);
+        let sys = RidgeSystem::new(&psi, &r).unwrap();
         let alpha = 0.3;
         let w = sys.weights(alpha);
         let g = psi.tr_mul(&psi) + DMatrix::identity(4, 4) * alpha;

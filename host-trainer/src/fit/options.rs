@@ -31,7 +31,16 @@ pub struct TrainOptions {
     progress: bool,
     /// Reference outliers in the calibration rows: refuse the batch or leave their rows out.
     on_outlier: OnError,
+    /// How the refusal of outliers names the option that skips them (the front end's word).
+    #[serde(skip)]
+    skip_outliers_hint: &'static str,
+    /// Set by another thread to stop the fit at its next task (Python's Ctrl-C).
+    #[serde(skip)]
+    cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
+
+/// The command line's name of the option that leaves outlying rows out.
+pub const CLI_SKIP_OUTLIERS: &str = "train with `--on-error skip`";
 
 impl Default for TrainOptions {
     fn default() -> Self {
@@ -45,6 +54,8 @@ impl Default for TrainOptions {
             cv_max_samples: 40_000,
             progress: false,
             on_outlier: OnError::Fail,
+            skip_outliers_hint: CLI_SKIP_OUTLIERS,
+            cancel: None,
         }
     }
 }
@@ -74,6 +85,34 @@ impl TrainOptions {
     /// These options with another k-means++ seed (any seed is valid: no check needed).
     pub fn with_seed(self, seed: u64) -> Self {
         TrainOptions { seed, ..self }
+    }
+
+    /// These options with another wording of the option that skips outlying rows, as the
+    /// refusal of reference outliers gives it (default [`CLI_SKIP_OUTLIERS`]; Python says
+    /// its parameter).
+    pub fn with_skip_outliers_hint(self, skip_outliers_hint: &'static str) -> Self {
+        TrainOptions { skip_outliers_hint, ..self }
+    }
+
+    /// These options with a cancel flag: once another thread sets it, the fit ends at its next
+    /// cross-validation task or phase with [`TrainerError::Interrupted`].
+    pub fn with_cancel(self, cancel: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Self {
+        TrainOptions { cancel: Some(cancel), ..self }
+    }
+
+    /// `Err(Interrupted)` once the cancel flag is set.
+    pub(crate) fn check_cancel(&self) -> Result<(), TrainerError> {
+        match &self.cancel {
+            Some(c) if c.load(std::sync::atomic::Ordering::Relaxed) => {
+                Err(TrainerError::Interrupted { what: "fit".into() })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The wording of the option that skips outlying rows.
+    pub fn skip_outliers_hint(&self) -> &'static str {
+        self.skip_outliers_hint
     }
 
     /// These options with or without a progress bar.

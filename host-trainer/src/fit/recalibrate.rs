@@ -425,7 +425,7 @@ fn update_w(p: &mut HostParams, old: &HostParams, d: &Dataset, rows: &[usize]) -
     let (psi, est) = design_matrix(&zero_w, d, rows)?;
     let r = residual_targets(d, &p.dims, rows, &est);
     let w_old = DMatrix::from_fn(k, p.dims.n_outputs(), |j, o| old.centres[j].w[o]);
-    let sys = linalg::RidgeSystem::new(&psi, &(&r - &psi * &w_old));
+    let sys = linalg::RidgeSystem::new(&psi, &(&r - &psi * &w_old))?;
     let mean_diag = (0..k).map(|j| psi.column(j).norm_squared()).sum::<f64>() / k as f64;
     let alpha_prior = PRIOR_SAMPLES_PER_CENTRE * mean_diag / rows.len() as f64 * k as f64;
     let w = &w_old + sys.weights(alpha_prior);

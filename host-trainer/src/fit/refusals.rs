@@ -48,8 +48,9 @@ pub(crate) fn refuse_constant_columns(d: &Dataset, cal: &[usize]) -> Result<(), 
 }
 
 /// The refusal of a calibration batch with outlying reference cells (`found`, by row) from
-/// `source`: its first cell's line and column, value and running median, and how many more.
-pub(crate) fn refuse_outliers(source: &str, found: &[Outlier]) -> TrainerError {
+/// `source`: its first cell's line and column, value and running median, and how many more;
+/// `skip` names the option that leaves those rows out.
+pub(crate) fn refuse_outliers(source: &str, found: &[Outlier], skip: &str) -> TrainerError {
     let Some(first) = found.first() else {
         return TrainerError::Dataset { message: "no reference outliers".into() };
     };
@@ -59,7 +60,7 @@ pub(crate) fn refuse_outliers(source: &str, found: &[Outlier]) -> TrainerError {
         first.line,
         &first.column,
         format!(
-            "reference outlier: {}; {} calibration row{} with outlying reference cells (line{} {}): correct them or empty the cells (an empty reference cell is a missing reference), or train with `--on-error skip` to leave those rows out",
+            "reference outlier: {}; {} calibration row{} with outlying reference cells (line{} {}): correct them or empty the cells (an empty reference cell is a missing reference), or {skip} to leave those rows out",
             first.describe(),
             rows,
             if rows == 1 { "" } else { "s" },

@@ -222,6 +222,7 @@ impl<'a> Cv<'a> {
             .folds
             .par_iter()
             .map(|f| {
+                self.opts.check_cancel()?;
                 let core = poly_core::fit(d, &f.train, cross_terms)?;
                 let core_full = if cross_terms { core.clone() } else { poly_core::fit(d, &f.train, true)? };
                 let p = self.stream_model(&core_full, &f.train, db)?;
@@ -258,6 +259,7 @@ impl<'a> Cv<'a> {
             .into_par_iter()
             .zip(self.folds.par_iter())
             .map(|(fc, f)| {
+                self.opts.check_cancel()?;
                 Ok(FoldCore { core: memory_core::fit(d, &f.train, &fc.core, &menu.menu, &memory)?, t_end: fc.t_end })
             })
             .collect::<Result<_, TrainerError>>()?;
@@ -348,6 +350,7 @@ impl<'c, 'a> GridSearch<'c, 'a> {
         alpha_rels: &[f64],
     ) -> Result<Vec<(Config, FoldErrors)>, TrainerError> {
         let (cv, d) = (self.cv, self.cv.d);
+        cv.opts.check_cancel()?;
         let (f, m) = (&cv.folds[fi], cv.dims.n_outputs());
         let fc = &self.fold_core[fi];
         let zs = &self.zsamples[&(fi, db.to_bits())];
@@ -376,7 +379,7 @@ impl<'c, 'a> GridSearch<'c, 'a> {
             let gram = design::gram_rows(&p, d, design::Rows::Cached(train_s))?;
             let (psi_v, est_v) = design::design_rows(&p, d, design::Rows::Cached(val_s))?;
             let r_v = residual_targets(d, &cv.dims, &f.val, &est_v);
-            let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r);
+            let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r)?;
             for &ar in alpha_rels {
                 let w = sys.weights(ar * f.train.len() as f64);
                 let resid: DMatrix<f64> = &r_v - &psi_v * &w;

@@ -203,7 +203,13 @@ pub fn of(p: &HostParams) -> Result<Sensitivity, TrainerError> {
         }
     }
     let j = DMatrix::from_fn(m, n, |r, c| inverse[r][c]);
-    let svd = j.clone().svd(true, true);
+    // Bounded: nalgebra's unbounded SVD never returns on a NaN.
+    let svd = j
+        .iter()
+        .all(|v| v.is_finite())
+        .then(|| j.clone().try_svd(true, true, f64::EPSILON, 10_000))
+        .flatten()
+        .ok_or_else(|| TrainerError::fit("sensitivities: ∂ŷ/∂Δλ holds non-finite values"))?;
     let smax = svd.singular_values.max();
     let rank = svd.singular_values.iter().filter(|&&s| s > RANK_TOLERANCE * smax).count();
     let s = svd

@@ -51,10 +51,13 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
 pub fn train_source(d: &Dataset, source: &str, opts: &TrainOptions, origin: &Origin) -> Result<Trained, TrainerError> {
     // The model's dimensions are the data's: a dataset without references cannot be fitted.
     let dims = d.dims(source)?;
+    // The record's input rule (the CSV reader applies it as it reads): a record handed over in
+    // memory is held to it here, before an implausible cell's square overflows the fit.
+    d.check_inputs().map_err(|(row, column, m)| TrainerError::data(source, outliers::csv_line(d, row), &column, m))?;
     let cal_rows = d.cal_indices();
     let found = outliers::find(d, &cal_rows);
     if !found.is_empty() && opts.on_outlier() == OnError::Fail {
-        return Err(refuse_outliers(source, &found));
+        return Err(refuse_outliers(source, &found, opts.skip_outliers_hint()));
     }
     let skip = outliers::rows_of(&found);
     // Fit on the calibration rows with finite inputs and every available reference, outliers
@@ -78,7 +81,9 @@ pub fn train_source(d: &Dataset, source: &str, opts: &TrainOptions, origin: &Ori
     let mut phases = PhaseClock::start();
     let selection = select::select(d, &cal, opts)?;
     phases.lap("cross-validation");
+    opts.check_cancel()?;
     let (model_p, model_h, core_p) = final_fit(d, &cal, opts, &selection, origin, &mut phases)?;
+    opts.check_cancel()?;
     let static_audit = StaticAudit::of(&model_p, &model_h, d, &cal)?;
     phases.lap("assembly and static audit");
     let warnings = outcome::train_warnings(&dims, &selection, &static_audit, &found);
@@ -120,7 +125,7 @@ fn final_fit(
     let base = sk.bare_params(&provenance)?;
     let gram = design::gram(&base, d, cal, Some(&ck))?;
     phases.lap("RBF design and ridge");
-    let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r);
+    let sys = linalg::RidgeSystem::from_gram(gram.g, &gram.psi_r)?;
     let alpha = cfg.alpha_rel * cal.len() as f64;
     let w = sys.weights(alpha);
     let var = VarianceTerms::from_ridge(&sys, alpha);

@@ -1,6 +1,6 @@
 //! What the tests share: the built binary, a run capturing its output, a child's peak resident
 //! set, a short record, a small training grid, the readings of an artefact on rising and falling
-//! stretches.
+//! stretches, the options of an import.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
@@ -100,4 +100,26 @@ pub fn csv_body(text: &str) -> &str {
 /// [`csv_body`] of the file at `p`.
 pub fn read_csv_body(p: &Path) -> String {
     csv_body(&std::fs::read_to_string(p).unwrap()).to_string()
+}
+
+/// The options of `import --format FORMAT INPUT [--map MAP]` with every other option at its
+/// default (fail on the first bad row).
+pub fn import_options(
+    format: fbg_trainer::data::import::Format,
+    input: PathBuf,
+    map: Option<PathBuf>,
+) -> fbg_trainer::data::import::ImportOptions {
+    use fbg_trainer::data::import::{ImportOptions, OnError, SplitChoice, DEFAULT_MAX_SKIPPED};
+    ImportOptions {
+        format,
+        input,
+        map,
+        refs: None,
+        split: SplitChoice::default(),
+        on_error: OnError::Fail,
+        max_skipped: DEFAULT_MAX_SKIPPED,
+        zero_from: None,
+        start_unix_s: None,
+        scale: None,
+    }
 }

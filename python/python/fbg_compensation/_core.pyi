@@ -58,6 +58,7 @@ def fit(
     sim_seed: int = 0,
     fixed: Optional[Dict[str, object]] = None,
     targets: Optional[List[str]] = None,
+    precision: str = "f64",
 ) -> Tuple[Model, Model, str, str]: ...
 def simulate(
     preset: str = "paper", seed: int = 7, days: Optional[float] = None, dt_s: Optional[float] = None

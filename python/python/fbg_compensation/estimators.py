@@ -4,11 +4,13 @@ by the trainer's ``train`` (cross-validated hyper-parameters) on the Rust core.
 
 They inherit scikit-learn's ``BaseEstimator`` and ``RegressorMixin`` when scikit-learn is
 importable (so ``clone``, ``Pipeline``, ``cross_val_score`` with a ``TimeSeriesSplit`` work),
-else a minimal base with the same ``get_params``/``set_params``/``score``."""
+else a minimal base with the same ``get_params``/``set_params``; ``score`` is their own (R²
+averaged over the outputs, as scikit-learn's, with ``t`` passed on to ``predict``)."""
 
 from __future__ import annotations
 
 import json
+import numbers
 from typing import Any, Dict, Optional, Sequence
 
 import numpy as np
@@ -43,14 +45,7 @@ except ImportError:  # pragma: no cover - exercised only without scikit-learn
             return self
 
     class _Regressor:  # type: ignore[no-redef]
-        """``score``: the coefficient of determination R², averaged over the outputs."""
-
-        def score(self, X: Any, y: Any, sample_weight: Any = None) -> float:
-            pred = np.asarray(self.predict(X), dtype=np.float64)
-            truth = np.asarray(y, dtype=np.float64).reshape(pred.shape)
-            ss_res = ((truth - pred) ** 2).sum(axis=0)
-            ss_tot = ((truth - truth.mean(axis=0)) ** 2).sum(axis=0)
-            return float(np.mean(1.0 - ss_res / ss_tot))
+        """The regressor's mixin; ``score`` is the estimators' own (it takes ``t``)."""
 
 
 class _NotFitted(ValueError, AttributeError):
@@ -99,6 +94,10 @@ class _Compensator(_Base, _Regressor):
         ``t_s`` column in X), in order and on the record's clock; ``cal``: a boolean mask of
         the rows that calibrate (default all; the others still run through the stream).
         Errors (``FbgError``) carry the trainer's message."""
+        # Types and signs here; the trainer checks the range of max_centres.
+        max_centres, seed = _whole("max_centres", self.max_centres, 0), self.seed
+        if seed is not None:
+            seed = _whole("seed", seed, 0, 2**64 - 1)
         cols, tx = F.input_columns(X, gratings=None, ambient=None, where="fit")
         n = next(iter(cols.values())).shape[0]
         cols[F.T_S] = F.time_column(t, tx, n, "fit")
@@ -114,15 +113,16 @@ class _Compensator(_Base, _Regressor):
             cols,
             mask,
             self.features,
-            int(self.max_centres),
+            max_centres,
             self.on_outlier,
-            self.seed,
+            seed,
             t0_unix_s,
             "<frame>",
             None,
             0,
             self.fixed,
             targets=list(targets),
+            precision=self.precision,
         )
         self.model_h_ = Model(h)
         self.model_p_ = Model(p)
@@ -167,6 +167,21 @@ class _Compensator(_Base, _Regressor):
             return_flags=return_flags,
         )
 
+    def score(self, X: Any, y: Any, t: Any = None, sample_weight: Any = None, *, t0_unix_s: Optional[float] = None) -> float:
+        """The coefficient of determination R² of ``predict(X, t)`` against ``y``, averaged
+        over the outputs (scikit-learn's ``r2_score``); ``t`` as for :meth:`predict`."""
+        pred = np.asarray(self.predict(X, t, t0_unix_s=t0_unix_s), dtype=np.float64)
+        if F.is_frame(y):  # by name, in the model's output order
+            truth = np.column_stack([F.column(y, o) for o in self.outputs_])
+        else:
+            truth = np.asarray(y, dtype=np.float64).reshape(pred.shape)
+        w = np.ones(pred.shape[0]) if sample_weight is None else np.asarray(sample_weight, dtype=np.float64)
+        w = w.reshape(-1, 1)
+        mean = (w * truth).sum(axis=0) / w.sum()
+        ss_res = (w * (truth - pred) ** 2).sum(axis=0)
+        ss_tot = (w * (truth - mean) ** 2).sum(axis=0)
+        return float(np.mean(1.0 - ss_res / ss_tot))
+
     def stream(self, t0_unix_s: Optional[float] = None) -> Stream:
         """A fresh stream state to predict a long record chunk by chunk (same result)."""
         return self._model().stream(self.precision, t0_unix_s)
@@ -177,6 +192,19 @@ class _Compensator(_Base, _Regressor):
         tags.target_tags.single_output = False
         tags.input_tags.allow_nan = True
         return tags
+
+
+def _whole(name: str, value: Any, lo: int, hi: Optional[int] = None) -> int:
+    """``value`` as an int in ``lo..=hi``, or a ValueError naming the parameter: a float is
+    refused rather than truncated (8.5 centres are not 8), and so is a bool."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise ValueError(f"{name}: {value!r} is not an integer")
+    v = int(value)
+    if v < lo:
+        raise ValueError(f"{name}: {v} is below {lo}")
+    if hi is not None and v > hi:
+        raise ValueError(f"{name}: {v} is above {hi}")
+    return v
 
 
 class HybridCompensator(_Compensator):

@@ -6,8 +6,9 @@ use std::path::Path;
 use fbg_shared::Sample;
 
 use super::line_limit::{line_error, line_too_long, LineLimit};
+use crate::data::dataset::check_input_row;
 use crate::data::measurand::{grating_column, parse_grating_column};
-use crate::data::units::{check_ambient, check_wavelength, WlUnit};
+use crate::data::units::UnitSource;
 use crate::data::{
     check_next_time, Dataset, Measurand, RecordMeta, Reference, Split, MAX_GRATINGS, MAX_MEASURANDS, T_AMB_COLUMN,
 };
@@ -218,25 +219,23 @@ impl RowReader {
             *r = num(c, true)?;
         }
         // An empty ambient reading is a gap like an empty dl cell (not fitted, flagged).
-        // Magnitudes get the unit checks of `import` (kelvin for °C, nm or absolute
-        // wavelengths for shifts in pm), with its messages.
         if let Some(c) = layout.ambient {
-            let amb = num(c, true)?;
-            if amb.is_finite() {
-                check_ambient(amb)
-                    .map_err(|m| TrainerError::data(name, line, T_AMB_COLUMN, format!("{m}{REIMPORT}")))?;
-            }
-            row.t_amb_c = amb;
+            row.t_amb_c = num(c, true)?;
         }
         for (g, &c) in layout.gratings.iter().enumerate() {
             let v = num(c, true)?;
-            if v.is_finite() {
-                check_wavelength(WlUnit::ShiftPm, v, &self.unit_keys[g])
-                    .map_err(|m| TrainerError::data(name, line, &grating_column(g + 1), format!("{m}{REIMPORT}")))?;
-            }
             row.dl_pm[g] = v;
             self.abs_nm[g].push(v);
         }
+        // Magnitudes get the record's input rule, with the unit checks' words of `import`
+        // (kelvin for °C, nm or absolute wavelengths for shifts in pm).
+        let keys = &self.unit_keys;
+        let source = |g: Option<usize>| match g {
+            Some(g) => UnitSource::MapKey(keys.get(g).map_or("grating.unit", String::as_str)),
+            None => UnitSource::MapKey("ambient"),
+        };
+        check_input_row(row.t_amb_c, &row.dl_pm[..layout.gratings.len()], source)
+            .map_err(|(column, m)| TrainerError::data(name, line, &column, format!("{m}{REIMPORT}")))?;
         if let Some(c) = layout.split {
             row.split = match rec.get(c).unwrap_or("") {
                 "cal" => Split::Cal,
@@ -268,7 +267,7 @@ impl RowReader {
                     &self.name,
                     self.first_line,
                     &grating_column(g + 1),
-                    format!("{}{REIMPORT}", a.message(key)),
+                    format!("{}{REIMPORT}", a.message(UnitSource::MapKey(key))),
                 ));
             }
         }

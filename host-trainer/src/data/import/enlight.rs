@@ -23,7 +23,7 @@ use super::problems::{OnError, Problems, Reason, RowError};
 use super::read_text;
 use super::time_axis::{decimal_comma_number, dmy_fields, DateOrder, Dmy, TimeKind, TimeParser, TimeUnit};
 use crate::data::measurand::MAX_GRATINGS;
-use crate::data::units::{check_wavelength, WlUnit};
+use crate::data::units::{check_wavelength, UnitSource, WlUnit};
 use crate::error::TrainerError;
 
 /// Largest peak count a channel cell may hold.
@@ -474,7 +474,7 @@ fn parse_row(
                 })
                 .map_err(|m| RowError::new(Reason::NonNumeric, line, label(idx, &counts), m))?;
             if check {
-                check_wavelength(unit, v, "enlight.unit")
+                check_wavelength(unit, v, UnitSource::MapKey("enlight.unit"))
                     .map_err(|m| RowError::new(Reason::UnitMismatch, line, label(idx, &counts), m))?;
             }
             p.push((unit.convert(v), idx));

@@ -8,7 +8,9 @@ use super::problems::{OnError, Problems, Reason, RowError};
 use super::time_axis::{parse_timestamp, TimeKind, TimeParser};
 use super::{number, read_text};
 use crate::data::measurand::{grating_column, parse_grating_column, Measurand, MAX_MEASURANDS};
-use crate::data::units::{absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, WlUnit};
+use crate::data::units::{
+    absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, UnitSource, WlUnit,
+};
 use crate::error::TrainerError;
 
 /// Time column names tried when the map names none (case-insensitive).
@@ -444,7 +446,8 @@ fn parse_row(
             Some(v) => {
                 let v = amb.gain * v + amb.offset;
                 if check {
-                    check_ambient(v).map_err(|m| RowError::new(Reason::UnitMismatch, line, &cols[*amb_idx], m))?;
+                    check_ambient(v, UnitSource::MapKey("ambient"))
+                        .map_err(|m| RowError::new(Reason::UnitMismatch, line, &cols[*amb_idx], m))?;
                 }
                 v
             }
@@ -461,7 +464,7 @@ fn parse_row(
         g.push(match val(i)? {
             Some(v) => {
                 if check {
-                    check_wavelength(spec.unit, v, &spec.unit_key)
+                    check_wavelength(spec.unit, v, UnitSource::MapKey(&spec.unit_key))
                         .map_err(|m| RowError::new(Reason::UnitMismatch, line, &cols[i], m))?;
                 }
                 spec.unit.convert(v)

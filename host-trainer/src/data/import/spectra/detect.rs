@@ -52,6 +52,8 @@ pub(crate) struct GratingPeaks {
     pub peaks: Vec<Option<Peak<f64>>>,
     /// Per frame: the line of the channel's spectrum (0 where the frame lacks it).
     pub lines: Vec<u64>,
+    /// Per frame: the peak is not one the grating can make (`plausible.rs`): a fault.
+    pub implausible: Vec<bool>,
 }
 
 /// Every frame's time and line, and the gratings' peaks in dataset order.
@@ -184,7 +186,8 @@ impl Detection {
                 };
                 let mut peaks = peaks;
                 peaks.resize(frames, None);
-                out.push((index, GratingPeaks { channel: c, source, peaks, lines: lines.clone() }));
+                let implausible = super::plausible::implausible(&peaks);
+                out.push((index, GratingPeaks { channel: c, source, peaks, lines: lines.clone(), implausible }));
             }
         }
         // A mapped grating whose channel never had a spectrum: gaps throughout.
@@ -192,7 +195,8 @@ impl Detection {
             if !out.iter().any(|(i, _)| i == g) {
                 let source =
                     format!("channel {}, window {}–{} nm (no spectrum of the channel)", c + 1, w.lo_nm, w.hi_nm);
-                out.push((*g, GratingPeaks { channel: *c, source, peaks: vec![None; frames], lines: vec![0; frames] }));
+                let (peaks, lines, implausible) = (vec![None; frames], vec![0; frames], vec![false; frames]);
+                out.push((*g, GratingPeaks { channel: *c, source, peaks, lines, implausible }));
             }
         }
         out.sort_by_key(|(i, _)| *i);

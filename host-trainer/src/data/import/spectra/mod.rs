@@ -21,14 +21,17 @@
 //! what is left is biased), `second-peak` (a neighbour in the window: the wrong peak may be
 //! taken) and `at-edge` (the peak may lie outside the window) are gaps by default; `low-snr`,
 //! `too-wide`, `too-narrow` and `asymmetric` keep the wavelength (usable, noisier or biased by
-//! a shape the detector does not expect). The map's `[spectra] gap_on` changes the list. The
-//! import summary counts the flagged frames per grating and flag, and the gaps they made.
+//! a shape the detector does not expect). The map's `[spectra] gap_on` changes the list. A peak
+//! the grating cannot make (far above its usual height or far narrower than its usual width,
+//! `plausible.rs`) is a fault named `implausible` and always a gap. The import summary counts
+//! the flagged frames per grating and flag, and the gaps they made.
 
 mod detect;
 mod discover;
 mod frames;
 pub(crate) mod peak_table;
 mod pixels;
+mod plausible;
 mod responses;
 mod scale;
 mod settings;
@@ -140,10 +143,11 @@ impl SpectraRead {
             let series: Vec<f64> = gp
                 .peaks
                 .iter()
-                .map(|p| {
+                .zip(&gp.implausible)
+                .map(|(p, &implausible)| {
                     let Some(p) = p else { return f64::NAN };
                     f.frames += 1;
-                    if !p.flags.is_ok() {
+                    if !p.flags.is_ok() || implausible {
                         f.flagged += 1;
                         for (bit, name) in settings::flag_names() {
                             if p.flags.contains(bit) {
@@ -151,7 +155,10 @@ impl SpectraRead {
                             }
                         }
                     }
-                    if p.flags.0 & gap_on.0 != 0 || !p.wavelength_nm.is_finite() {
+                    if implausible {
+                        *f.by_flag.entry(plausible::IMPLAUSIBLE.to_string()).or_insert(0) += 1;
+                    }
+                    if p.flags.0 & gap_on.0 != 0 || implausible || !p.wavelength_nm.is_finite() {
                         f.gaps += 1;
                         f64::NAN
                     } else {

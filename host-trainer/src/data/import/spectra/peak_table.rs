@@ -95,6 +95,11 @@ pub fn peaks_to_csv(opts: &ImportOptions, out: &Path) -> Result<PeaksSummary, Tr
                 let num = |v: f64, digits: usize| if v.is_finite() { format!("{v:.digits$}") } else { String::new() };
                 let sci = |v: f64| if v.is_finite() { format!("{v:.6e}") } else { String::new() };
                 let snr_db = if p.snr > 0.0 { p.snr_db() } else { f64::NAN };
+                let flags = match (gp.implausible.get(k).copied().unwrap_or(false), p.flags.is_ok()) {
+                    (false, _) => p.flags.to_string(),
+                    (true, true) => super::plausible::IMPLAUSIBLE.to_string(),
+                    (true, false) => format!("{}|{}", p.flags, super::plausible::IMPLAUSIBLE),
+                };
                 writeln!(
                     w,
                     "{:.6},{stamp},{line},{},{},{},{},{},{},{},{},{method}",
@@ -106,7 +111,7 @@ pub fn peaks_to_csv(opts: &ImportOptions, out: &Path) -> Result<PeaksSummary, Tr
                     num(p.fwhm_nm, 5),
                     sci(p.amplitude),
                     sci(p.floor),
-                    p.flags
+                    flags
                 )?;
                 rows += 1;
             }

@@ -5,6 +5,9 @@
 
 use fbg_shared::spectrum::{Grid, POLY_COEFFS};
 
+use crate::data::units::NM_RANGE;
+use crate::error::ShortNumber;
+
 /// The grid of the pixel columns under the calibration `coefficients`, or (index of the
 /// offending column, message): the columns must be the pixels 0, 1, … in order, and λ must be
 /// monotonic over them.
@@ -20,19 +23,41 @@ pub(crate) fn grid_of(columns: &[&str], coefficients: &[f64]) -> Result<Grid<f64
         *dst = *src;
     }
     let grid = Grid::polynomial(c);
-    // The detector inverts λ(p): it must not turn back over the pixels read.
+    // Every pixel's wavelength must be one an FBG can have: a sign or an exponent wrong in
+    // the calibration would otherwise give negative or astronomical wavelengths.
+    let (lo, hi) = NM_RANGE;
+    if let Some((k, l)) =
+        (0..columns.len()).map(|k| (k, grid.wavelength(k as f64))).find(|(_, l)| !(lo..=hi).contains(l))
+    {
+        return Err((
+            k,
+            format!(
+                "the map's [spectra] pixel_to_nm gives pixel {k} the wavelength {} nm, outside {lo}–{hi} nm: check the coefficients, their unit (nm) and their order (c₀ first)",
+                ShortNumber(l)
+            ),
+        ));
+    }
+    monotonic(&grid, columns.len()).map_err(|(k, s)| {
+        (
+            k,
+            format!(
+                "the map's [spectra] pixel_to_nm is not monotonic at pixel {k} (dλ/dp = {s:e} nm, {:e} nm at pixel 0): check the coefficients and their order (c₀ first)",
+                grid.step_at(0.0)
+            ),
+        )
+    })?;
+    Ok(grid)
+}
+
+/// `Ok` when λ(p) keeps its direction over the `pixels` read (the detector inverts it), else
+/// the first pixel where it does not and dλ/dp there \[nm\].
+pub(crate) fn monotonic(grid: &Grid<f64>, pixels: usize) -> Result<(), (usize, f64)> {
     let sign = grid.step_at(0.0).signum();
-    for k in 0..columns.len() {
+    for k in 0..pixels {
         let s = grid.step_at(k as f64);
         if !(s.is_finite() && s != 0.0 && s.signum() == sign) {
-            return Err((
-                k,
-                format!(
-                    "the map's [spectra] pixel_to_nm is not monotonic at pixel {k} (dλ/dp = {s:e} nm, {:e} nm at pixel 0): check the coefficients and their order (c₀ first)",
-                    grid.step_at(0.0)
-                ),
-            ));
+            return Err((k, s));
         }
     }
-    Ok(grid)
+    Ok(())
 }

@@ -14,7 +14,9 @@
 //!   per channel (channel 1 first) of `Number of Points` tab-separated levels in dB; a block may
 //!   hold fewer channels than the first one (the missing ones are gaps in that frame), not more
 //!   (its extra lines are refused: a lost timestamp line would otherwise turn the next frame
-//!   into more channels of this one).
+//!   into more channels of this one); a first block longer than every later one is refused
+//!   for the same reason (its own next timestamp lost), unless the map's `[enlight] channels`
+//!   gives the count.
 //!
 //! Numbers follow the culture (`-42,137` in de-DE). Errors name the line and the column, a
 //! level's column by its wavelength.
@@ -32,7 +34,11 @@ use super::frames::{FileFacts, SpectrumRow, SpectrumSink, MAX_CHANNELS};
 use super::scale::Scale;
 use super::wide_csv::check_scale;
 use crate::data::units::NM_RANGE;
-use crate::error::TrainerError;
+use crate::error::{ShortNumber, TrainerError};
+
+/// Smallest wavelength step \[nm\] taken for a real one (a tenth of a pm, finer than any
+/// interrogator samples).
+const MIN_DELTA_NM: f64 = 1e-4;
 
 /// The header keys read.
 const START: &str = "Wavelength Start";
@@ -71,8 +77,13 @@ pub(crate) fn read(
     // The current block: its time and the next channel, or `None` after a bad timestamp.
     let mut block: Option<Option<(f64, usize)>> = None;
     let mut channels = 0usize;
-    // The first block's channel count: a later block with more lines has lost a timestamp.
-    let mut first_block: Option<usize> = None;
+    // The channel count: the map's `[enlight] channels`, else the first block's. A later
+    // block with more lines has lost a timestamp.
+    let mut first_block: Option<usize> = m.enlight.channels;
+    // The first block's channel lines, and the most channel lines of any later block: a first
+    // block longer than every later one has taken in the next block (its timestamp lost).
+    let mut first_lines: Vec<u64> = Vec::new();
+    let mut most_later = 0usize;
     let mut blocks = 0usize;
     let last_nonblank = lines.iter().rposition(|l| !l.trim().is_empty()).unwrap_or(0);
     for (i, l) in lines.iter().enumerate().skip(n_header) {
@@ -81,9 +92,12 @@ pub(crate) fn read(
         }
         let line = i as u64 + 1;
         if is_time_line(l) {
+            if blocks >= 2 {
+                most_later = most_later.max(block.flatten().map_or(0, |(_, c)| c));
+            }
             blocks += 1;
             if blocks == 2 {
-                first_block = Some(channels);
+                first_block = first_block.or(Some(channels));
             }
             match clock.parse(l.trim()) {
                 Ok(t) => block = Some(Some((t, 0))),
@@ -112,6 +126,9 @@ pub(crate) fn read(
         let Some((t, channel)) = current.as_mut() else { continue };
         let c = *channel;
         *channel += 1;
+        if blocks == 1 && first_lines.len() < MAX_CHANNELS {
+            first_lines.push(line);
+        }
         if let Some(n) = first_block.filter(|&n| c >= n) {
             problems.reject(RowError::new(
                 Reason::RaggedRow,
@@ -130,6 +147,12 @@ pub(crate) fn read(
             Err(e) => problems.reject(e)?,
         }
     }
+    if blocks >= 2 {
+        most_later = most_later.max(block.flatten().map_or(0, |(_, c)| c));
+    }
+    if m.enlight.channels.is_none() && blocks >= 2 {
+        refuse_a_long_first_block(&name, &first_lines, most_later)?;
+    }
     problems.refuse_wrong_unit_columns()?;
     let facts = FileFacts {
         grid,
@@ -142,6 +165,26 @@ pub(crate) fn read(
         problems,
     };
     Ok((facts, channels))
+}
+
+/// A first block with more channel lines (`first_lines`) than any later block (`most_later`)
+/// has taken in the next block, whose timestamp line was lost: refused at the first line it
+/// took.
+fn refuse_a_long_first_block(name: &str, first_lines: &[u64], most_later: usize) -> Result<(), TrainerError> {
+    let n = most_later.max(1);
+    if first_lines.len() <= n {
+        return Ok(());
+    }
+    Err(TrainerError::data(
+        name,
+        first_lines.get(n).copied().unwrap_or(0),
+        "1 (channel line)",
+        format!(
+            "the first block has {} channel lines but no later block more than {n}: is the timestamp line of the next block missing above this line? (give `[enlight] channels = {}` in the map if the first block really is the only complete one)",
+            first_lines.len(),
+            first_lines.len()
+        ),
+    ))
 }
 
 /// What the header says: its line count, the culture, the points and their grid.
@@ -189,11 +232,27 @@ fn header(lines: &[&str], m: &Map, origin: &str, name: &str) -> Result<Header, T
     if !(NM_RANGE.0..=NM_RANGE.1).contains(&start) {
         return Err(bad_key(START, format!("{start} is not a wavelength in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1)));
     }
-    if !(delta > 0.0 && delta < 1.0) {
-        return Err(bad_key(DELTA, format!("{delta} is not a wavelength step in nm (0 < step < 1 nm)")));
+    if !(MIN_DELTA_NM..1.0).contains(&delta) {
+        return Err(bad_key(
+            DELTA,
+            format!("{} is not a wavelength step in nm ({MIN_DELTA_NM} ≤ step < 1 nm)", ShortNumber(delta)),
+        ));
     }
     if !(points >= 3.0 && points.fract() == 0.0 && points <= 1e7) {
-        return Err(bad_key(POINTS, format!("{points} is not a number of points (3 or more, whole)")));
+        return Err(bad_key(POINTS, format!("{} is not a number of points (3 or more, whole)", ShortNumber(points))));
+    }
+    let end = start + delta * (points - 1.0);
+    if end > NM_RANGE.1 {
+        return Err(bad_key(
+            POINTS,
+            format!(
+                "{} points of {} nm from {start} nm end at {} nm, beyond {} nm: check `{DELTA}` and `{POINTS}`",
+                ShortNumber(points),
+                ShortNumber(delta),
+                ShortNumber(end),
+                NM_RANGE.1
+            ),
+        ));
     }
     let points = points as usize;
     let grid = Grid::uniform(start, delta);

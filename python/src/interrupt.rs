@@ -1,0 +1,56 @@
+//! Long work that Ctrl-C can stop: Python runs its signal handlers only when the calling thread
+//! holds the GIL, so work that releases it for minutes would ignore a KeyboardInterrupt until
+//! it ended.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::sync::Arc;
+use std::time::Duration;
+
+use pyo3::prelude::*;
+
+use crate::error::msg;
+
+/// How often a waiting call looks for a pending signal.
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
+
+/// Rows a stream compensates between two looks for a pending signal.
+pub const ROWS_PER_CHUNK: usize = 1 << 16;
+
+/// Run `work` on its own thread with the GIL released, looking for Ctrl-C (Python's signal
+/// handlers, `Python::check_signals`) while it runs. A KeyboardInterrupt returns at once and
+/// sets `cancel` (a fit stops at its next task); work without one finishes unobserved and its
+/// result is dropped, so only work that writes nothing (a fit, a read, a simulation) may run
+/// here.
+pub fn interruptible<T: Send + 'static>(
+    py: Python<'_>,
+    cancel: Option<Arc<AtomicBool>>,
+    work: impl FnOnce() -> T + Send + 'static,
+) -> PyResult<T> {
+    let (tx, rx) = mpsc::channel();
+    std::thread::Builder::new()
+        .name("fbg-work".into())
+        .spawn(move || {
+            // The receiver is gone after an interrupt: nobody wants the result then.
+            let _ = tx.send(work());
+        })
+        .map_err(|e| msg(format!("cannot start the work thread: {e}")))?;
+    let mut rx = rx;
+    loop {
+        // The receiver is not `Sync`: it goes into the GIL-free wait and comes back.
+        let (got, back) = py.detach(move || (rx.recv_timeout(SIGNAL_POLL), rx));
+        rx = back;
+        match got {
+            Ok(v) => return Ok(v),
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(e) = py.check_signals() {
+                    if let Some(c) = &cancel {
+                        c.store(true, Ordering::Relaxed);
+                    }
+                    return Err(e);
+                }
+            }
+            Err(RecvTimeoutError::Disconnected) => return Err(msg("the work thread ended without a result")),
+        }
+    }
+}
