@@ -96,7 +96,7 @@ pub fn run_all(root: &Path) -> Result<BoardRecord> {
         "xtask: board golden on netduinoplus2: {} samples of {} sets identical to the host within tolerance ({:.1} s)",
         golden.samples, golden.sets, golden.run_secs
     );
-    step("board: the product's link on QEMU netduinoplus2: samples, status, a signed update; stack peaks");
+    step("board: link on QEMU netduinoplus2 (samples, status, a signed update; stack peaks)");
     let stack = link_smoke(root, &qemu, &emu.product, &fx)?;
     let record = BoardRecord::new(&footprint, &emu_footprint, (golden.sets, golden.samples, golden.flagged), &stack);
     print_board(&footprint, &record);

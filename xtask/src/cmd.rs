@@ -1,9 +1,11 @@
 //! Running commands and writing files: the workspace's paths, `cargo` for either workspace, a
-//! command echoed and checked, step banners, atomic writes.
+//! command echoed and checked, step banners and their timing table, atomic writes.
 
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
 
@@ -72,9 +74,46 @@ pub fn is_root() -> bool {
     Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false)
 }
 
-/// A banner before each step of a task.
+/// A banner before each step of a task. It also ends the step before and starts timing this
+/// one under the banner's head (the text before ` (`), for [`print_timings`].
 pub fn step(what: &str) {
     eprintln!("\nxtask: ==== {what} ====");
+    let name = what.split(" (").next().unwrap_or(what);
+    let mut t = TIMINGS.lock().unwrap_or_else(|e| e.into_inner());
+    t.close();
+    t.open = Some((name.to_string(), Instant::now()));
+}
+
+/// The steps timed so far: those ended, and the one running.
+struct Timings {
+    done: Vec<(String, Duration)>,
+    open: Option<(String, Instant)>,
+}
+
+impl Timings {
+    fn close(&mut self) {
+        if let Some((name, start)) = self.open.take() {
+            self.done.push((name, start.elapsed()));
+        }
+    }
+}
+
+static TIMINGS: Mutex<Timings> = Mutex::new(Timings { done: Vec::new(), open: None });
+
+/// End the running step and print every step's wall time (nothing when no step ran), so that
+/// a slow step shows in every run's log, a failed run's too.
+pub fn print_timings() {
+    let mut t = TIMINGS.lock().unwrap_or_else(|e| e.into_inner());
+    t.close();
+    if t.done.is_empty() {
+        return;
+    }
+    let width = t.done.iter().map(|(n, _)| n.chars().count()).max().unwrap_or(0);
+    let total: Duration = t.done.iter().map(|(_, d)| *d).sum();
+    eprintln!("\nxtask: step times (wall clock)");
+    for (name, d) in t.done.iter().chain([&("total".to_string(), total)]) {
+        eprintln!("  {name:<width$}  {:>7.1} s", d.as_secs_f64());
+    }
 }
 
 /// Write `bytes` to `path` through a temporary file and a rename (no half-written output).

@@ -297,7 +297,7 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
     if current(&stamp, &want, &files) {
         return Ok(fx);
     }
-    cmd::step("fixtures: simulate, train and export golden vectors with fbg-trainer");
+    cmd::step("fixtures (simulate, train and export golden vectors with fbg-trainer)");
     let _ = fs::remove_file(&stamp);
     let paper = TrainedSet {
         name: "paper",

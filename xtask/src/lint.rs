@@ -105,7 +105,7 @@ fn fmt(root: &Path) -> Result<()> {
 }
 
 fn clippy(root: &Path) -> Result<()> {
-    step("lint: clippy on every crate and target of the host workspace and the Python package's, warnings denied");
+    step("lint: clippy (every crate and target of the host workspace and the Python package's, warnings denied)");
     run(cargo().current_dir(root).args([
         "clippy",
         "--workspace",
@@ -177,7 +177,7 @@ fn features(root: &Path) -> Result<()> {
 }
 
 fn doc(root: &Path) -> Result<()> {
-    step("lint: rustdoc of the host workspace, warnings denied");
+    step("lint: rustdoc (host workspace, warnings denied)");
     run(cargo()
         .current_dir(root)
         .args(["doc", "--workspace", "--no-deps", "--locked"])

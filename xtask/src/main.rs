@@ -121,8 +121,14 @@ enum Task {
 }
 
 fn main() -> Result<()> {
+    let result = run_task(Cli::parse().task);
+    cmd::print_timings();
+    result
+}
+
+fn run_task(task: Task) -> Result<()> {
     let root = root();
-    match Cli::parse().task {
+    match task {
         Task::Test { no_qemu } => test(no_qemu),
         Task::Lint { only } => lint::run_steps(&root, &only),
         Task::Qemu { all } => qemu::run_all(&root, all),
@@ -157,11 +163,13 @@ fn test(skip_qemu: bool) -> Result<()> {
     ensure_thumb_target()?;
     lint::run_steps(&root, &[])?;
 
-    step("host tests (whole workspace, doctests included)");
+    step("host tests: build (whole workspace)");
+    run(cargo().current_dir(&root).args(["test", "--workspace", "--release", "--locked", "--no-run"]))?;
+    step("host tests: run (doctests included)");
     run(cargo().current_dir(&root).args(["test", "--workspace", "--release", "--locked"]))?;
     python::run_all(&root)?;
 
-    step("fbg-shared: no_std build for thumbv7em-none-eabihf, without and with its defmt feature");
+    step("fbg-shared: no_std build (thumbv7em-none-eabihf, without and with its defmt feature)");
     for features in [&[][..], &["--features", "defmt"][..]] {
         run(cargo()
             .current_dir(&root)

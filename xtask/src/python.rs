@@ -19,7 +19,7 @@ const REQUIREMENTS: &str = "python/requirements-test.txt";
 
 /// Build the wheel into the venv and run the pytest suite.
 pub fn run_all(root: &Path) -> Result<()> {
-    step("Python package: wheel into target/python/venv, pytest");
+    step("Python package (wheel into target/python/venv, pytest)");
     let Some((py, trainer)) = prepare(root)? else { return Ok(()) };
     run(Command::new(&py)
         .current_dir(root.join("python"))

@@ -103,7 +103,7 @@ pub fn run_all(root: &Path, all: bool) -> Result<()> {
     fault_test(root, &qemu, &bins)?;
     step("QEMU: golden vectors");
     golden::golden_test(root, &qemu, &bins, &fx)?;
-    step("QEMU: streaming, garbage and model updates over a loopback TCP serial port");
+    step("QEMU: link (streaming, garbage and model updates over a loopback TCP serial port)");
     link::link_test(root, &qemu, &bins, &fx, &dfx, &sfx)?;
     step(
         "QEMU: signed model updates (accepted; unsigned, unknown key, tampered, rollback, swap refused), staging erases and the audit trail",
