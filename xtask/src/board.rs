@@ -85,19 +85,36 @@ pub fn run_all(root: &Path) -> Result<BoardRecord> {
     step("board: QEMU prerequisites and fixtures");
     let qemu = emulator::ensure_qemu()?;
     let fx = fixtures::ensure(root)?;
+    let images = build_both(root)?;
+    let record = run_images(root, &qemu, &fx, &images)?;
+    eprintln!("xtask: board: built, measured and tested in {:.1} s", started.elapsed().as_secs_f64());
+    Ok(record)
+}
+
+/// The board images of both builds: (for the part, for QEMU's `netduinoplus2`).
+pub fn build_both(root: &Path) -> Result<(BoardImages, BoardImages)> {
     step("board: build the STM32F405 images (for the part, then the `emulator` build)");
-    let part = build(root, false)?;
-    let emu = build(root, true)?;
+    Ok((build(root, false)?, build(root, true)?))
+}
+
+/// The footprint of the part's product image, the golden vectors and the link of the
+/// `emulator` build on `netduinoplus2`; writes `target/bench/board.json`.
+pub fn run_images(
+    root: &Path,
+    qemu: &Path,
+    fx: &Fixtures,
+    (part, emu): &(BoardImages, BoardImages),
+) -> Result<BoardRecord> {
     let footprint = elf::footprint(&part.product)?;
     let emu_footprint = elf::footprint(&emu.product)?;
     step("board: golden vectors on QEMU netduinoplus2 (the `emulator` build)");
-    let golden = run_golden(root, &qemu, Machine::NetduinoPlus2, &emu.golden, "board-golden", &fx)?;
+    let golden = run_golden(root, qemu, Machine::NetduinoPlus2, &emu.golden, "board-golden", fx)?;
     eprintln!(
         "xtask: board golden on netduinoplus2: {} samples of {} sets identical to the host within tolerance ({:.1} s)",
         golden.samples, golden.sets, golden.run_secs
     );
-    step("board: the product's link on QEMU netduinoplus2: samples, status, a signed update; stack peaks");
-    let stack = link_smoke(root, &qemu, &emu.product, &fx)?;
+    step("board: link on QEMU netduinoplus2 (samples, status, a signed update; stack peaks)");
+    let stack = link_smoke(root, qemu, &emu.product, fx)?;
     let record = BoardRecord::new(&footprint, &emu_footprint, (golden.sets, golden.samples, golden.flagged), &stack);
     print_board(&footprint, &record);
     let json = serde_json::to_string_pretty(&record)?;
@@ -106,7 +123,6 @@ pub fn run_all(root: &Path) -> Result<BoardRecord> {
     let path = out.join("board.json");
     write_atomic(&path, format!("{json}\n").as_bytes())?;
     println!("wrote {}", path.display());
-    eprintln!("xtask: board: built, measured and tested in {:.1} s", started.elapsed().as_secs_f64());
     Ok(record)
 }
 

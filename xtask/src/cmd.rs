@@ -1,9 +1,14 @@
 //! Running commands and writing files: the workspace's paths, `cargo` for either workspace, a
-//! command echoed and checked, step banners, atomic writes.
+//! command echoed and checked, step banners and their timing table, content hashes for stamps,
+//! atomic writes.
 
 use std::fs;
+use std::hash::{DefaultHasher, Hasher};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Mutex;
+use std::thread::ThreadId;
+use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
 
@@ -72,9 +77,89 @@ pub fn is_root() -> bool {
     Command::new("id").arg("-u").output().map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0").unwrap_or(false)
 }
 
-/// A banner before each step of a task.
+/// A banner before each step of a task. It also ends the step this thread ran before and
+/// starts timing this one under the banner's head (the text before ` (`), for
+/// [`print_timings`]. A step on another thread than the main one runs beside others, within
+/// the main thread's step: its row is indented and not added to the total.
 pub fn step(what: &str) {
     eprintln!("\nxtask: ==== {what} ====");
+    let mut t = TIMINGS.lock().unwrap_or_else(|e| e.into_inner());
+    let thread = std::thread::current();
+    t.close(thread.id());
+    let at = t.done.len();
+    let beside = thread.name() != Some("main");
+    t.open.push(Open {
+        thread: thread.id(),
+        name: what.split(" (").next().unwrap_or(what).to_string(),
+        start: Instant::now(),
+        at,
+        beside,
+    });
+}
+
+/// End the step this thread runs (a thread's last step, before the thread ends).
+pub fn end_step() {
+    TIMINGS.lock().unwrap_or_else(|e| e.into_inner()).close(std::thread::current().id());
+}
+
+/// One line of the timing table.
+struct Row {
+    name: String,
+    time: Duration,
+    beside: bool,
+}
+
+/// A step running on `thread`; a main-thread step's row goes to `at` (before the steps that
+/// ran beside it), another's where it ends.
+struct Open {
+    thread: ThreadId,
+    name: String,
+    start: Instant,
+    at: usize,
+    beside: bool,
+}
+
+/// The steps ended, and those running.
+struct Timings {
+    done: Vec<Row>,
+    open: Vec<Open>,
+}
+
+impl Timings {
+    fn close(&mut self, thread: ThreadId) {
+        while let Some(i) = self.open.iter().position(|o| o.thread == thread) {
+            let o = self.open.remove(i);
+            let row = Row { name: o.name, time: o.start.elapsed(), beside: o.beside };
+            if o.beside {
+                self.done.push(row);
+            } else {
+                self.done.insert(o.at.min(self.done.len()), row);
+            }
+        }
+    }
+}
+
+static TIMINGS: Mutex<Timings> = Mutex::new(Timings { done: Vec::new(), open: Vec::new() });
+
+/// End the running step and print every step's wall time (nothing when no step ran), so that
+/// a slow step shows in every run's log, a failed run's too.
+pub fn print_timings() {
+    let mut t = TIMINGS.lock().unwrap_or_else(|e| e.into_inner());
+    while let Some(o) = t.open.first() {
+        let thread = o.thread;
+        t.close(thread);
+    }
+    if t.done.is_empty() {
+        return;
+    }
+    let width = t.done.iter().map(|r| r.name.chars().count() + 2).max().unwrap_or(0);
+    let total: Duration = t.done.iter().filter(|r| !r.beside).map(|r| r.time).sum();
+    eprintln!("\nxtask: step times (wall clock; indented: ran beside each other within the step above)");
+    for r in &t.done {
+        let name = if r.beside { format!("  {}", r.name) } else { r.name.clone() };
+        eprintln!("  {name:<width$}  {:>7.1} s", r.time.as_secs_f64());
+    }
+    eprintln!("  {:<width$}  {:>7.1} s", "total", total.as_secs_f64());
 }
 
 /// Write `bytes` to `path` through a temporary file and a rename (no half-written output).
@@ -82,4 +167,35 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let tmp = path.with_extension(format!("{}.tmp", path.extension().and_then(|e| e.to_str()).unwrap_or("")));
     fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
     fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
+}
+
+/// A hash of the contents of `paths` (files, and every file under a directory, in path order,
+/// skipping `target/` and Python caches), with their paths: a stamp that changes when a file's
+/// content does, not when only its time does. `DefaultHasher`'s keys are fixed, so the hash is
+/// stable for a toolchain; another toolchain at worst redoes the work once.
+pub fn content_hash(paths: &[PathBuf]) -> Result<u64> {
+    fn add(h: &mut DefaultHasher, path: &Path) -> Result<()> {
+        if path.is_dir() {
+            let mut entries = fs::read_dir(path)
+                .with_context(|| format!("reading {}", path.display()))?
+                .map(|e| e.map(|e| e.path()))
+                .collect::<std::io::Result<Vec<_>>>()?;
+            entries.sort();
+            for e in entries {
+                let name = e.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+                if !matches!(name, "target" | "__pycache__" | ".pytest_cache") {
+                    add(h, &e)?;
+                }
+            }
+        } else {
+            h.write(path.as_os_str().as_encoded_bytes());
+            h.write(&fs::read(path).with_context(|| format!("reading {}", path.display()))?);
+        }
+        Ok(())
+    }
+    let mut h = DefaultHasher::new();
+    for p in paths {
+        add(&mut h, p)?;
+    }
+    Ok(h.finish())
 }

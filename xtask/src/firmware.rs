@@ -1,9 +1,10 @@
 //! The firmware images (`firmware/`, its own workspace): their build environment and build,
 //! the emulator that runs them, and a link session to the product image.
 
+use std::fs;
 use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 
 use crate::cmd::{cargo_own_target, run};
 use crate::fixtures;
@@ -47,36 +48,50 @@ pub fn build_env(root: &Path, k: usize, bench: Option<&Path>) -> Vec<(String, St
     ]
 }
 
-/// Where the release images of the firmware land.
+/// Where cargo puts the release images of the firmware (every variant's, under the same
+/// names: see [`build`]).
 pub fn release_dir(root: &Path) -> PathBuf {
     dir(root).join("target").join(THUMB).join("release")
 }
 
-/// The target directory of the spectrum variant (`--features spectrum`), apart from the
-/// default images' so that neither build evicts the other.
-pub fn spectrum_target_dir(root: &Path) -> PathBuf {
-    dir(root).join("target").join("spectrum")
+/// Where the images of one variant (`default`, `spectrum`) are kept once built.
+fn images_dir(root: &Path, variant: &str) -> PathBuf {
+    dir(root).join("target").join("images").join(variant)
 }
 
-/// Where the release images of the spectrum variant land.
-pub fn spectrum_release_dir(root: &Path) -> PathBuf {
-    spectrum_target_dir(root).join(THUMB).join("release")
-}
+/// Every image of the firmware package.
+const IMAGES: [&str; 6] = ["fbg-firmware", "golden", "bench", "rollback", "torture", "fault"];
 
-/// Build the images `bins` (e.g. `fbg-firmware`, `bench`) with spectrum frames
-/// (`--features spectrum`) into [`spectrum_target_dir`], capacity `k`, bench pack `bench`;
-/// returns [`spectrum_release_dir`]. The default product is built without them: it is the one
-/// measured against DESIGN's RAM budgets.
-pub fn build_spectrum(root: &Path, k: usize, bench: Option<&Path>, bins: &[&str]) -> Result<PathBuf> {
+/// Build the images `bins` of one variant (`spectrum`: with spectrum frames) with capacity `k`
+/// and bench pack `bench`, and copy them to [`images_dir`]. Both variants build in the one
+/// target directory, so that they share their dependencies' builds; cargo leaves either's
+/// images under the same names in [`release_dir`], where the other's next build replaces them
+/// (hence the copies).
+fn build_variant(root: &Path, k: usize, bench: Option<&Path>, spectrum: bool, bins: &[&str]) -> Result<PathBuf> {
     let mut c = cargo_own_target();
-    c.current_dir(dir(root))
-        .args(["build", "--release", "--locked", "--features", "spectrum", "--target-dir"])
-        .arg(spectrum_target_dir(root));
+    c.current_dir(dir(root)).args(["build", "--release", "--locked"]);
+    if spectrum {
+        c.args(["--features", "spectrum"]);
+    }
     for b in bins {
         c.args(["--bin", b]);
     }
     run(c.envs(build_env(root, k, bench)))?;
-    Ok(spectrum_release_dir(root))
+    let out = images_dir(root, if spectrum { "spectrum" } else { "default" });
+    fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    for b in bins {
+        let to = out.join(b);
+        fs::copy(release_dir(root).join(b), &to).with_context(|| format!("copying {b} to {}", to.display()))?;
+    }
+    Ok(out)
+}
+
+/// Build the images `bins` (e.g. `fbg-firmware`, `bench`) with spectrum frames
+/// (`--features spectrum`), capacity `k`, bench pack `bench`; returns the directory they are
+/// kept in. The default product is built without them: it is the one measured against
+/// DESIGN's RAM budgets.
+pub fn build_spectrum(root: &Path, k: usize, bench: Option<&Path>, bins: &[&str]) -> Result<PathBuf> {
+    build_variant(root, k, bench, true, bins)
 }
 
 /// The product image with spectrum frames, capacity `k` (the QEMU spectrum test's and the
@@ -87,11 +102,7 @@ pub fn build_spectrum_product(root: &Path, k: usize) -> Result<PathBuf> {
 
 /// Build every firmware image with capacity `k` (release profile), without spectrum frames.
 pub fn build(root: &Path, k: usize, bench: Option<&Path>) -> Result<Bins> {
-    run(cargo_own_target()
-        .current_dir(dir(root))
-        .args(["build", "--release", "--locked", "--bins"])
-        .envs(build_env(root, k, bench)))?;
-    let out = release_dir(root);
+    let out = build_variant(root, k, bench, false, &IMAGES)?;
     Ok(Bins {
         product: out.join("fbg-firmware"),
         golden: out.join("golden"),
@@ -99,4 +110,9 @@ pub fn build(root: &Path, k: usize, bench: Option<&Path>) -> Result<Bins> {
         rollback: out.join("rollback"),
         torture: out.join("torture"),
     })
+}
+
+/// Only the golden image, capacity `k`, without spectrum frames (the fast tier's).
+pub fn build_golden(root: &Path, k: usize) -> Result<PathBuf> {
+    Ok(build_variant(root, k, None, false, &["golden"])?.join("golden"))
 }

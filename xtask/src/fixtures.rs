@@ -38,12 +38,13 @@
 //! the K = 32 pack also has the trained models of [`TRAINED_PRESETS`] on their first 48
 //! hold-out samples).
 //!
-//! Everything is regenerated when the trainer binary changes (a stamp in the directory), so
-//! repeated calls cost one `cargo build` check.
+//! Everything is regenerated when the trainer binary's content changes (a stamp in the
+//! directory), so repeated calls cost one `cargo build` check and a hash of the binary.
 
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{ensure as check, Context, Result};
 use fbg_link::golden::{expected_csv, inputs_bytes, pack_bytes};
@@ -202,11 +203,24 @@ pub fn golden_pack(root: &Path) -> PathBuf {
     dir(root).join("golden_pack.bin")
 }
 
-/// Build the trainer (release) and return its binary.
+/// Set once `cargo test --workspace --release` has built the trainer binary in this run.
+static BUILT_BY_TESTS: AtomicBool = AtomicBool::new(false);
+
+/// The host tests' build has just made the trainer binary (`cargo xtask test`): use that one.
+/// `cargo build -p fbg-trainer` alone resolves its dependencies' features without the
+/// workspace's dev-dependencies (criterion turns more on), so it would compile the trainer and
+/// the crates under it a second time and replace the binary the tests ran.
+pub fn trainer_built_by_tests() {
+    BUILT_BY_TESTS.store(true, Ordering::Relaxed);
+}
+
+/// Build the trainer (release), unless the host tests' build has made it, and return its
+/// binary.
 pub fn trainer(root: &Path) -> Result<PathBuf> {
-    cmd::run(cmd::cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))
-        .context("building fbg-trainer (it makes the firmware's fixtures)")?;
-    let _ = root;
+    if !BUILT_BY_TESTS.load(Ordering::Relaxed) {
+        cmd::run(cmd::cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))
+            .context("building fbg-trainer (it makes the firmware's fixtures)")?;
+    }
     let bin = cmd::target_dir().join("release").join(format!("fbg-trainer{}", std::env::consts::EXE_SUFFIX));
     check!(bin.exists(), "{} is missing after the build", bin.display());
     Ok(bin)
@@ -223,12 +237,12 @@ pub fn run_trainer(bin: &Path, args: &[&str]) -> Result<()> {
     cmd::run(&mut cmd)
 }
 
-/// What the fixtures were made with: the trainer binary's size and time, and this file's
-/// version. Equal stamps mean the files are current.
+/// What the fixtures were made with: a hash of the trainer binary's content (a rebuild that
+/// yields the same binary keeps them) and this file's version. Equal stamps mean the files are
+/// current.
 fn stamp_of(bin: &Path) -> Result<String> {
-    let m = fs::metadata(bin)?;
-    let t = m.modified()?.duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
-    Ok(format!("fixtures v{FIXTURES_VERSION}; trainer {} bytes, modified {t}\n", m.len()))
+    let hash = cmd::content_hash(&[bin.to_path_buf()])?;
+    Ok(format!("fixtures v{FIXTURES_VERSION}; trainer {hash:016x}\n"))
 }
 
 fn current(stamp: &Path, want: &str, files: &[&Path]) -> bool {
@@ -297,7 +311,7 @@ pub fn ensure(root: &Path) -> Result<Fixtures> {
     if current(&stamp, &want, &files) {
         return Ok(fx);
     }
-    cmd::step("fixtures: simulate, train and export golden vectors with fbg-trainer");
+    cmd::step("fixtures (simulate, train and export golden vectors with fbg-trainer)");
     let _ = fs::remove_file(&stamp);
     let paper = TrainedSet {
         name: "paper",

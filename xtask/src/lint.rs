@@ -75,7 +75,7 @@ pub fn run_steps(root: &Path, only: &[Step]) -> Result<()> {
         match s {
             Step::Fmt => fmt(root)?,
             Step::Clippy => clippy(root)?,
-            Step::Firmware => firmware_clippy(root)?,
+            Step::Firmware => firmware_clippy(root, true)?,
             Step::Features => features(root)?,
             Step::Doc => doc(root)?,
             Step::Msrv => {
@@ -96,6 +96,14 @@ pub fn run_steps(root: &Path, only: &[Step]) -> Result<()> {
     Ok(())
 }
 
+/// The lint part of the fast tier (`cargo xtask test --fast`): formatting, clippy of the host
+/// workspace and the Python package's, and clippy of the firmware at its default features.
+pub fn run_fast(root: &Path) -> Result<()> {
+    fmt(root)?;
+    clippy(root)?;
+    firmware_clippy(root, false)
+}
+
 fn fmt(root: &Path) -> Result<()> {
     step("lint: rustfmt --check (host, firmware and Python-package workspaces, the fuzz target)");
     run(cargo().current_dir(root).args(["fmt", "--all", "--check"]))?;
@@ -105,7 +113,7 @@ fn fmt(root: &Path) -> Result<()> {
 }
 
 fn clippy(root: &Path) -> Result<()> {
-    step("lint: clippy on every crate and target of the host workspace and the Python package's, warnings denied");
+    step("lint: clippy (every crate and target of the host workspace and the Python package's, warnings denied)");
     run(cargo().current_dir(root).args([
         "clippy",
         "--workspace",
@@ -127,33 +135,37 @@ fn clippy(root: &Path) -> Result<()> {
     ]))
 }
 
-/// The firmware workspace: the images for the thumb target, without and with spectrum frames
-/// (with the environment of the product build, so that neither rebuilds the other's build
-/// script), and every target of the device logic (`fbg-firmware-app`, whose tests run on the host).
-fn firmware_clippy(root: &Path) -> Result<()> {
+/// The firmware workspace: the images for the thumb target (with the environment of the
+/// product build, so that neither rebuilds the other's build script) and every target of the
+/// device logic (`fbg-firmware-app`, whose tests run on the host); when `variants`, also the
+/// images with spectrum frames and the device logic without them.
+fn firmware_clippy(root: &Path, variants: bool) -> Result<()> {
     step("lint: clippy of the firmware workspace (thumb image; device logic with its host tests), warnings denied");
     let fw = firmware::dir(root);
+    let host = host_triple()?;
     run(cargo_own_target()
         .current_dir(&fw)
         .args(["clippy", "--workspace", "--release", "--locked", "--", "-D", "warnings"])
         .envs(firmware::build_env(root, PRODUCT_K, None)))?;
-    // The images with spectrum frames (their own target directory, as `cargo xtask qemu`
-    // builds them).
+    if variants {
+        run(cargo_own_target()
+            .current_dir(&fw)
+            .args(["clippy", "--release", "--locked", "--bins", "--features", "spectrum"])
+            .args(["--", "-D", "warnings"])
+            .envs(firmware::build_env(root, PRODUCT_K, None)))?;
+    }
     run(cargo_own_target()
         .current_dir(&fw)
-        .args(["clippy", "--release", "--locked", "--bins", "--features", "spectrum", "--target-dir"])
-        .arg(firmware::spectrum_target_dir(root))
-        .args(["--", "-D", "warnings"])
-        .envs(firmware::build_env(root, PRODUCT_K, None)))?;
-    run(cargo_own_target()
-        .current_dir(&fw)
-        .args(["clippy", "-p", "fbg-firmware-app", "--all-targets", "--locked", "--target", &host_triple()?])
+        .args(["clippy", "-p", "fbg-firmware-app", "--all-targets", "--locked", "--target", &host])
         .args(["--", "-D", "warnings"]))?;
-    // And without spectrum frames, as the default product and the board build it.
-    run(cargo_own_target()
-        .current_dir(&fw)
-        .args(["clippy", "-p", "fbg-firmware-app", "--all-targets", "--locked", "--no-default-features"])
-        .args(["--target", &host_triple()?, "--", "-D", "warnings"]))
+    if variants {
+        // Without spectrum frames, as the default product and the board build it.
+        run(cargo_own_target()
+            .current_dir(&fw)
+            .args(["clippy", "-p", "fbg-firmware-app", "--all-targets", "--locked", "--no-default-features"])
+            .args(["--target", &host, "--", "-D", "warnings"]))?;
+    }
+    Ok(())
 }
 
 /// The features of `fbg-shared`, each alone, none and all, on the host and the device target:
@@ -177,7 +189,7 @@ fn features(root: &Path) -> Result<()> {
 }
 
 fn doc(root: &Path) -> Result<()> {
-    step("lint: rustdoc of the host workspace, warnings denied");
+    step("lint: rustdoc (host workspace, warnings denied)");
     run(cargo()
         .current_dir(root)
         .args(["doc", "--workspace", "--no-deps", "--locked"])

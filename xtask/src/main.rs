@@ -52,6 +52,10 @@ enum Task {
         /// Skip the firmware build and its QEMU tests (no qemu-system-arm needed)
         #[arg(long)]
         no_qemu: bool,
+        /// The fast tier, for iterating: fmt, clippy (default features), the host tests, the
+        /// device logic's host tests and the golden vectors on QEMU (CI runs the whole test)
+        #[arg(long)]
+        fast: bool,
     },
     /// rustfmt --check, clippy on every crate and target (-D warnings) of both workspaces,
     /// fbg-shared's feature matrix, rustdoc (-D warnings), the MSRV, the fuzz target, the deploy
@@ -121,11 +125,17 @@ enum Task {
 }
 
 fn main() -> Result<()> {
+    let result = run_task(Cli::parse().task);
+    cmd::print_timings();
+    result
+}
+
+fn run_task(task: Task) -> Result<()> {
     let root = root();
-    match Cli::parse().task {
-        Task::Test { no_qemu } => test(no_qemu),
+    match task {
+        Task::Test { no_qemu, fast } => test(no_qemu, fast),
         Task::Lint { only } => lint::run_steps(&root, &only),
-        Task::Qemu { all } => qemu::run_all(&root, all),
+        Task::Qemu { all } => qemu::run_all(&root, all, false),
         Task::Size => device_bench::size(&root).map(|_| ()),
         Task::DeviceBench => device_bench::run(&root).map(|_| ()),
         Task::Bench { quick, no_device, markdown_only, spectrum_only } => {
@@ -152,30 +162,39 @@ fn fixtures_task(write_default: bool) -> Result<()> {
     Ok(())
 }
 
-fn test(skip_qemu: bool) -> Result<()> {
+fn test(skip_qemu: bool, fast: bool) -> Result<()> {
     let root = root();
     ensure_thumb_target()?;
-    lint::run_steps(&root, &[])?;
+    if fast {
+        lint::run_fast(&root)?;
+    } else {
+        lint::run_steps(&root, &[])?;
+    }
 
-    step("host tests (whole workspace, doctests included)");
+    step("host tests: build (whole workspace)");
+    run(cargo().current_dir(&root).args(["test", "--workspace", "--release", "--locked", "--no-run"]))?;
+    fixtures::trainer_built_by_tests();
+    step("host tests: run (doctests included)");
     run(cargo().current_dir(&root).args(["test", "--workspace", "--release", "--locked"]))?;
-    python::run_all(&root)?;
-
-    step("fbg-shared: no_std build for thumbv7em-none-eabihf, without and with its defmt feature");
-    for features in [&[][..], &["--features", "defmt"][..]] {
-        run(cargo()
-            .current_dir(&root)
-            .args(["build", "-p", "fbg-shared", "--target", THUMB, "--release", "--locked"])
-            .args(features))?;
+    if !fast {
+        python::run_all(&root)?;
+        step("fbg-shared: no_std build (thumbv7em-none-eabihf, without and with its defmt feature)");
+        for features in [&[][..], &["--features", "defmt"][..]] {
+            run(cargo()
+                .current_dir(&root)
+                .args(["build", "-p", "fbg-shared", "--target", THUMB, "--release", "--locked"])
+                .args(features))?;
+        }
     }
 
     if skip_qemu {
         eprintln!("xtask: --no-qemu given, skipping the firmware and its QEMU tests");
+    } else if fast {
+        qemu::run_fast(&root)?;
     } else {
-        qemu::run_all(&root, false)?;
-        board::run_all(&root)?;
+        qemu::run_all(&root, false, true)?;
     }
-    eprintln!("xtask: all tests passed");
+    eprintln!("xtask: all {}tests passed", if fast { "fast-tier " } else { "" });
     Ok(())
 }
 
@@ -214,10 +233,17 @@ mod tests {
             let e = Cli::try_parse_from(args).unwrap_err().to_string();
             assert!(e.contains(args[args.len() - 1]), "{args:?}: {e}");
         }
-        assert!(matches!(Cli::try_parse_from(["xtask", "test"]).unwrap().task, Task::Test { no_qemu: false }));
+        assert!(matches!(
+            Cli::try_parse_from(["xtask", "test"]).unwrap().task,
+            Task::Test { no_qemu: false, fast: false }
+        ));
         assert!(matches!(
             Cli::try_parse_from(["xtask", "test", "--no-qemu"]).unwrap().task,
-            Task::Test { no_qemu: true }
+            Task::Test { no_qemu: true, fast: false }
+        ));
+        assert!(matches!(
+            Cli::try_parse_from(["xtask", "test", "--fast"]).unwrap().task,
+            Task::Test { no_qemu: false, fast: true }
         ));
         let Task::Lint { only } = Cli::try_parse_from(["xtask", "lint", "--only", "sizes,fuzz"]).unwrap().task else {
             panic!("not lint")

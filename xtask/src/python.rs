@@ -3,14 +3,15 @@
 //! (the `python3-venv` package installed with apt-get when the module is missing and this runs
 //! as root) and filled from PyPI with `python/requirements-test.txt` (pinned; installed again
 //! only when that file changes). The wheel is built by `pip install ./python` (maturin over the
-//! package's own cargo workspace, into the host's `target/`), and the tests compare it with
-//! the `fbg-trainer` binary of the same tree. Without `python3` the task is skipped with a
+//! package's own cargo workspace, into the host's `target/`) when its sources' content hash
+//! differs from the installed one's, and the tests compare it with the `fbg-trainer` binary of
+//! the same tree. Without `python3` the task is skipped with a
 //! message (the only case it is).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, ensure, Context, Result};
 
 use crate::cmd::{cargo, is_root, run, step, target_dir};
 
@@ -19,7 +20,7 @@ const REQUIREMENTS: &str = "python/requirements-test.txt";
 
 /// Build the wheel into the venv and run the pytest suite.
 pub fn run_all(root: &Path) -> Result<()> {
-    step("Python package: wheel into target/python/venv, pytest");
+    step("Python package (wheel into target/python/venv, pytest)");
     let Some((py, trainer)) = prepare(root)? else { return Ok(()) };
     run(Command::new(&py)
         .current_dir(root.join("python"))
@@ -42,13 +43,23 @@ pub fn prepare(root: &Path) -> Result<Option<(PathBuf, PathBuf)>> {
     let path = std::env::join_paths(
         std::iter::once(venv.join("bin")).chain(std::env::var_os("PATH").iter().flat_map(std::env::split_paths)),
     )?;
-    run(Command::new(&py)
-        .current_dir(root)
-        .args(["-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--force-reinstall", "./python"])
-        .env("PATH", path)
-        .env("CARGO_TARGET_DIR", target_dir()))?;
-    run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))?;
-    Ok(Some((py, target_dir().join("release/fbg-trainer"))))
+    // The wheel is built and installed again only when its sources changed since the last
+    // install (a content hash: a touched or rebuilt but equal tree keeps it).
+    let stamp = venv.join("fbg-compensation.installed");
+    let want = wheel_stamp(root)?;
+    if std::fs::read_to_string(&stamp).ok().as_deref() == Some(want.as_str()) {
+        eprintln!("xtask: the installed wheel is built from these sources ({}); not rebuilt", stamp.display());
+    } else {
+        let _ = std::fs::remove_file(&stamp);
+        run(Command::new(&py)
+            .current_dir(root)
+            .args(["-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--force-reinstall"])
+            .arg("./python")
+            .env("PATH", path)
+            .env("CARGO_TARGET_DIR", target_dir()))?;
+        crate::cmd::write_atomic(&stamp, want.as_bytes())?;
+    }
+    Ok(Some((py, crate::fixtures::trainer(root)?)))
 }
 
 /// The venv's interpreter, the venv made first when missing.
@@ -87,4 +98,28 @@ fn install_requirements(root: &Path, venv: &Path, py: &Path) -> Result<()> {
     }
     run(Command::new(py).args(["-m", "pip", "install", "--quiet", "-r"]).arg(&req))?;
     crate::cmd::write_atomic(&stamp, &wanted)
+}
+
+/// What the wheel is built from: the files of every path package of the Python workspace (the
+/// package, the trainer, the crates it uses), both lockfiles, the top manifest (whose
+/// `[workspace.dependencies]` the trainer's name) and the toolchain.
+fn wheel_stamp(root: &Path) -> Result<String> {
+    let out = cargo()
+        .current_dir(root.join("python"))
+        .args(["metadata", "--format-version", "1", "--locked"])
+        .output()
+        .context("running `cargo metadata` in python/")?;
+    ensure!(out.status.success(), "`cargo metadata` in python/ failed: {}", String::from_utf8_lossy(&out.stderr));
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    let mut paths: Vec<PathBuf> = meta["packages"]
+        .as_array()
+        .context("`cargo metadata` printed no packages")?
+        .iter()
+        .filter(|p| p["source"].is_null())
+        .filter_map(|p| Path::new(p["manifest_path"].as_str()?).parent().map(Path::to_path_buf))
+        .collect();
+    paths.sort();
+    paths.extend(["Cargo.toml", "Cargo.lock", "python/Cargo.lock"].map(|f| root.join(f)));
+    let rustc = Command::new("rustc").arg("-vV").output().context("running `rustc -vV`")?;
+    Ok(format!("wheel sources {:016x}\n{}", crate::cmd::content_hash(&paths)?, String::from_utf8_lossy(&rustc.stdout)))
 }

@@ -58,7 +58,7 @@ use fbg_shared::blob::stored_crc;
 use fbg_shared::protocol::{RejectReason, UpdateResult};
 
 use crate::cmd::{cargo_own_target, host_triple, run, step};
-use crate::firmware::emulator::{self, decode_log, out_dir, Qemu};
+use crate::firmware::emulator::{self, decode_log, out_dir, Machine, Qemu};
 use crate::firmware::{self, Bins};
 use crate::fixtures::{self, Fixtures};
 use crate::signing;
@@ -72,57 +72,122 @@ pub(crate) mod spectrum;
 mod store;
 
 /// Build the firmware and run every QEMU test; `all`: the long forms of the store tests
-/// (`cargo xtask qemu --all`).
-pub fn run_all(root: &Path, all: bool) -> Result<()> {
+/// (`cargo xtask qemu --all`); `board`: also the STM32F405 board's images and their runs on
+/// `netduinoplus2` (`cargo xtask board`, as `cargo xtask test` has them).
+///
+/// Every image is built first; then the suites run in two lanes at once, each on a thread of
+/// its own (an emulator is one busy thread, and each suite has its own devices, logs and
+/// ports), balanced by their run times: the store and memory suites in one lane, the others
+/// in the other.
+pub fn run_all(root: &Path, all: bool, board: bool) -> Result<()> {
     step("firmware: QEMU prerequisites and fixtures");
     let qemu = emulator::ensure_qemu()?;
     let fx = fixtures::ensure(root)?;
     let dfx = fixtures::ensure_device(root)?;
     let sfx = signing::ensure(root, &fx, &dfx)?;
-
-    step("firmware: host tests of the device logic (fbg-firmware-app)");
-    let fw = firmware::dir(root);
-    run(cargo_own_target()
-        .current_dir(&fw)
-        .args(["test", "-p", "fbg-firmware-app", "--locked", "--target", &host_triple()?])
-        .env("FBG_TEST_MODEL", &fx.model))?;
-    // And as the default product builds it, without spectrum frames (they are refused).
-    run(cargo_own_target()
-        .current_dir(&fw)
-        .args(["test", "-p", "fbg-firmware-app", "--locked", "--no-default-features", "--target", &host_triple()?])
-        .env("FBG_TEST_MODEL", &fx.model))?;
+    app_tests(root, &fx, true)?;
     check_default_model(root, &fx)?;
 
     step("firmware: build (thumbv7em-none-eabihf, K = 32)");
     let bins = firmware::build(root, PRODUCT_K, None)?;
-    step("firmware: the product with spectrum frames (--features spectrum, its own target directory)");
+    step("firmware: the product with spectrum frames (--features spectrum)");
     let spectrum_product = firmware::build_spectrum_product(root, PRODUCT_K)?;
+    let board_images = if board { Some(crate::board::build_both(root)?) } else { None };
 
     let started = Instant::now();
-    step("QEMU: fault path (UDF → HardFault → semihosting exit failure)");
-    fault_test(root, &qemu, &bins)?;
-    step("QEMU: golden vectors");
-    golden::golden_test(root, &qemu, &bins, &fx)?;
-    step("QEMU: streaming, garbage and model updates over a loopback TCP serial port");
-    link::link_test(root, &qemu, &bins, &fx, &dfx, &sfx)?;
-    step(
-        "QEMU: signed model updates (accepted; unsigned, unknown key, tampered, rollback, swap refused), staging erases and the audit trail",
-    );
-    signed::signed_update_test(root, &qemu, &bins, &fx, &sfx)?;
-    step("QEMU: a bounded rollback (the `rollback` image): accepted over the serial it names only");
-    signed::rollback_test(root, &qemu, &bins, &sfx)?;
-    step(if all {
-        "QEMU: the persistent model store (power cycles, 50 power cuts during an update, 1 000 updates of wear)"
-    } else {
-        "QEMU: the persistent model store (power cycles, 10 of the 50 power cuts, 300 updates of wear; all with --all)"
-    });
-    store::store_tests(root, &qemu, &bins, &fx, &sfx, all)?;
-    step("QEMU: spectrum frames (512 pixels, 3 gratings, in chunks) answered bit for bit as the host's f32");
-    spectrum::spectrum_test(root, &qemu, &spectrum_product, &fx)?;
-    spectrum::unsupported_test(root, &qemu, &bins.product)?;
-    step("QEMU: a memory model over the whole 14-day paper stream (f32 device vs f64 host)");
-    memory::long_memory_test(root, &qemu, &bins, &fx)?;
+    step("QEMU: the suites, in two lanes at once");
+    let (q, fx, dfx, sfx, bins) = (&qemu, &fx, &dfx, &sfx, &bins);
+    let lane_a = || -> Result<()> {
+        step("QEMU: fault path (UDF → HardFault → semihosting exit failure)");
+        fault_test(root, q, bins)?;
+        step("QEMU: golden vectors");
+        golden::golden_test(root, q, bins, fx)?;
+        step("QEMU: link (streaming, garbage and model updates over a loopback TCP serial port)");
+        link::link_test(root, q, bins, fx, dfx, sfx)?;
+        step(
+            "QEMU: signed model updates (accepted; unsigned, unknown key, tampered, rollback, swap refused), staging erases and the audit trail",
+        );
+        signed::signed_update_test(root, q, bins, fx, sfx)?;
+        step("QEMU: a bounded rollback (the `rollback` image): accepted over the serial it names only");
+        signed::rollback_test(root, q, bins, sfx)?;
+        step("QEMU: spectrum frames (512 pixels, 3 gratings, in chunks) answered bit for bit as the host's f32");
+        spectrum::spectrum_test(root, q, &spectrum_product, fx)?;
+        spectrum::unsupported_test(root, q, &bins.product)?;
+        if let Some(images) = &board_images {
+            crate::board::run_images(root, q, fx, images)?;
+        }
+        Ok(())
+    };
+    let lane_b = || -> Result<()> {
+        step(if all {
+            "QEMU: the persistent model store (power cycles, 50 power cuts during an update, 1 000 updates of wear)"
+        } else {
+            "QEMU: the persistent model store (power cycles, 10 of the 50 power cuts, 300 updates of wear; all with --all)"
+        });
+        store::store_tests(root, q, bins, fx, sfx, all)?;
+        step("QEMU: a memory model over the whole 14-day paper stream (f32 device vs f64 host)");
+        memory::long_memory_test(root, q, bins, fx)
+    };
+    in_lanes(lane_a, lane_b)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// Run `a` and `b` on two threads at once; both run to their end, and a failure of either is
+/// the result (both, when both fail).
+fn in_lanes(a: impl FnOnce() -> Result<()> + Send, b: impl FnOnce() -> Result<()> + Send) -> Result<()> {
+    let (ra, rb) = std::thread::scope(|s| {
+        let ha = s.spawn(|| {
+            let r = a();
+            crate::cmd::end_step();
+            r
+        });
+        let hb = s.spawn(|| {
+            let r = b();
+            crate::cmd::end_step();
+            r
+        });
+        let join = |h: std::thread::ScopedJoinHandle<'_, Result<()>>| {
+            h.join().unwrap_or_else(|_| Err(anyhow::anyhow!("a QEMU lane panicked")))
+        };
+        (join(ha), join(hb))
+    });
+    match (ra, rb) {
+        (Err(a), Err(b)) => bail!("two QEMU lanes failed:\n{a:#}\n{b:#}"),
+        (r, Ok(())) | (Ok(()), r) => r,
+    }
+}
+
+/// The fast tier's firmware part (`cargo xtask test --fast`): the device logic's host tests as
+/// the crate's default features have them, the default-model check, and the golden vectors on
+/// QEMU (only the golden image is built).
+pub fn run_fast(root: &Path) -> Result<()> {
+    step("firmware: QEMU prerequisites and fixtures");
+    let qemu = emulator::ensure_qemu()?;
+    let fx = fixtures::ensure(root)?;
+    app_tests(root, &fx, false)?;
+    check_default_model(root, &fx)?;
+    step("firmware: build the golden image (thumbv7em-none-eabihf, K = 32)");
+    let elf = firmware::build_golden(root, PRODUCT_K)?;
+    step("QEMU: golden vectors");
+    golden::run_golden(root, &qemu, Machine::Mps2An386, &elf, "golden", &fx).map(|_| ())
+}
+
+/// The host tests of the device logic (`fbg-firmware-app`) with its default features (spectrum
+/// frames), and when `both`, also as the default product builds it, without them (they are
+/// refused).
+fn app_tests(root: &Path, fx: &Fixtures, both: bool) -> Result<()> {
+    step("firmware: host tests of the device logic (fbg-firmware-app)");
+    let fw = firmware::dir(root);
+    let triple = host_triple()?;
+    let variants: &[&[&str]] = if both { &[&[], &["--no-default-features"]] } else { &[&[]] };
+    for features in variants {
+        run(cargo_own_target()
+            .current_dir(&fw)
+            .args(["test", "-p", "fbg-firmware-app", "--locked", "--target", &triple])
+            .args(*features)
+            .env("FBG_TEST_MODEL", &fx.model))?;
+    }
     Ok(())
 }
 

@@ -125,7 +125,7 @@ fn cost(r: &[[f64; 5]], ipt: f64) -> Result<Cost> {
 /// return what it printed.
 fn build_and_run(root: &Path, q: &Path, capacity: usize, pack: &Path) -> Result<String> {
     let k = capacity;
-    // With spectrum frames (in their own target directory), so that the image also times them.
+    // With spectrum frames, so that the image also times them.
     let elf = firmware::build_spectrum(root, k, Some(pack), &["bench"])?.join("bench");
     let dir = out_dir(root)?;
     let uart = dir.join(format!("bench_k{k}.txt"));

@@ -56,7 +56,7 @@ pub fn size(root: &Path) -> Result<SizeReport> {
 }
 
 /// The default product's figures (`bins.product`), then those of the product with spectrum
-/// frames (built here, in its own target directory).
+/// frames (built here).
 pub(super) fn measure_size(root: &Path, q: &Path, bins: &Bins) -> Result<SizeReport> {
     crate::cmd::step("size: product image footprint and stack high-water mark");
     let mut report = measure_product(root, q, &bins.product, false)?;
