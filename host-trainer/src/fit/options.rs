@@ -88,7 +88,7 @@ impl TrainOptions {
     }
 
     /// These options with another wording of the option that skips outlying rows, as the
-    /// refusal of reference outliers gives it (default [`CLI_SKIP_OUTLIERS`]; Python says
+    /// refusal of reference outliers gives it (default: train with `--on-error skip`; Python names
     /// its parameter).
     pub fn with_skip_outliers_hint(self, skip_outliers_hint: &'static str) -> Self {
         TrainOptions { skip_outliers_hint, ..self }
