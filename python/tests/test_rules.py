@@ -2,6 +2,7 @@
 is never an input, the simulator's ranges, known reference names, a time axis that increases;
 and a fitted estimator pickles and deep-copies, predicting bit for bit afterwards."""
 
+import contextlib
 import copy
 import pickle
 
@@ -139,13 +140,23 @@ def test_write_dataset_refuses_what_read_dataset_would(tmp_path, holdout):
     assert not (tmp_path / "x.csv").exists()
 
 
+@contextlib.contextmanager
 def _interrupt_after(seconds):
+    """Ctrl-C (simulated) after `seconds`. Python's own SIGINT handler is installed for the
+    duration: a process started in the background (a CI job, `cmd &`) inherits SIGINT
+    ignored, and `_thread.interrupt_main` then does nothing."""
     import _thread
+    import signal
     import threading
 
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(seconds, _thread.interrupt_main)
     timer.start()
-    return timer
+    try:
+        yield
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGINT, previous)
 
 
 def test_ctrl_c_stops_a_long_fit():
@@ -155,14 +166,11 @@ def test_ctrl_c_stops_a_long_fit():
 
     rec = fc.simulate("paper", seed=7, days=140.0)
     X, y = rec[INPUTS], rec[OUTPUTS]
-    timer = _interrupt_after(0.2)
     t0 = time.monotonic()
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            fc.HybridCompensator(features="memory", max_centres=32).fit(X, y, t=rec["t_s"])
-    finally:
-        timer.cancel()
-    assert time.monotonic() - t0 < 1.0
+    with _interrupt_after(0.2), pytest.raises(KeyboardInterrupt):
+        fc.HybridCompensator(features="memory", max_centres=32).fit(X, y, t=rec["t_s"])
+    # Not a speed check: the call returned instead of running the fit to its end.
+    assert time.monotonic() - t0 < 5.0
 
 
 def test_ctrl_c_stops_a_long_predict_and_the_stream_says_so(fitted):
@@ -173,14 +181,11 @@ def test_ctrl_c_stops_a_long_predict_and_the_stream_says_so(fitted):
     amb = np.full(n, 20.0)
     t = np.arange(n, dtype=np.float64)
     s = fitted.model_.stream()
-    timer = _interrupt_after(0.2)
     t0 = time.monotonic()
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            s.step_arrays(dl, amb, t)
-    finally:
-        timer.cancel()
-    assert time.monotonic() - t0 < 1.5
+    with _interrupt_after(0.2), pytest.raises(KeyboardInterrupt):
+        s.step_arrays(dl, amb, t)
+    # Not a speed check: the call returned instead of running every row.
+    assert time.monotonic() - t0 < 5.0
     with pytest.raises(fc.FbgError, match="interrupted"):
         s.step_arrays(dl[:2], amb[:2], t[:2] + n)
 
