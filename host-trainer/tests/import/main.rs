@@ -45,18 +45,7 @@ fn enlight(file: &str, map: Option<&str>, refs: Option<&str>) -> ImportOptions {
 }
 
 fn logger(file: &str, map: Option<&str>) -> ImportOptions {
-    ImportOptions {
-        format: Format::Csv,
-        input: data(file),
-        map: map.map(data),
-        refs: None,
-        split: SplitChoice::default(),
-        on_error: OnError::Fail,
-        max_skipped: DEFAULT_MAX_SKIPPED,
-        zero_from: None,
-        start_unix_s: None,
-        scale: None,
-    }
+    common::import_options(Format::Csv, data(file), map.map(data))
 }
 
 /// `--on-error skip` with no cap on the skipped share (the bad-case files are a dozen rows).

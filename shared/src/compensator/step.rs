@@ -27,8 +27,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     #[inline(always)]
     pub fn step_with(&self, state: &mut StreamState<F>, s: &Sample<F>, sink: impl FnMut(usize, F)) -> Estimate<F> {
         // The paper's shape (3 gratings, 3 outputs) with the loop bounds known at compile
-        // time, every other shape with them read from the model: the same operations in the
-        // same order either way.
+        // time, every other shape with them read from the model: the same result either way
+        // (B·φ of another shape also runs over the zero padding, each term an exact 0).
         if self.gratings == 3 && self.outputs == 3 {
             self.step_shaped::<3, 3>(state, s, sink)
         } else {
