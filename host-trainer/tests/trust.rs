@@ -131,7 +131,24 @@ fn no_clean_sample_is_refused_on_any_preset() {
                 .iter()
                 .filter(|e| !e.flags.contains(Flags::FALLBACK) && !e.flags.contains(Flags::OUT_OF_ENVELOPE))
                 .count();
-            assert!(plain > all.len() / 2, "{} seed {seed}: only {plain} of {} rows unflagged", rec.name, all.len());
+            if rec.name.contains("@x") {
+                // Eight times the calibration's pace: Model-H falls back (the pace rule), and
+                // says so without a fault.
+                let fallback = est.iter().filter(|e| e.flags.contains(Flags::FALLBACK) && !e.flags.is_fault()).count();
+                assert!(
+                    fallback > all.len() / 2,
+                    "{} seed {seed}: only {fallback} of {} rows fell back",
+                    rec.name,
+                    all.len()
+                );
+            } else {
+                assert!(
+                    plain > all.len() / 2,
+                    "{} seed {seed}: only {plain} of {} rows unflagged",
+                    rec.name,
+                    all.len()
+                );
+            }
         }
     }
 }

@@ -29,7 +29,8 @@
 //! (postcard `Option<f64>`, Unix s), the largest validated lead (f32, s), the output envelope
 //! low and high and the largest band (M f32 each); then where the memory may be trusted
 //! ([`crate::trust::TrustSpec`]): the rate limits (N + ambient f32), the largest quiet times
-//! (N f32, s), Model-P's band variance and its growth (M f32 each).
+//! (N f32, s), Model-P's band variance and its growth (M f32 each), the largest RMS swings (N +
+//! ambient f32).
 //!
 //! The blob must be exactly `22 + n` bytes long: nothing may follow the CRC, except the
 //! signature trailer of a signed model ([`crate::signature`]), which decoding skips
@@ -42,7 +43,8 @@
 //! in the payload, every vector only as long as the dims need); 4 adds the field context (the
 //! zero, the clock, the output envelope and largest band); 5 adds where the memory may be trusted
 //! ([`crate::trust::TrustSpec`]: a rate limit per envelope input (f32), the largest quiet times
-//! (N f32, s), Model-P's band variance and its growth (M f32 each)). An older blob is refused with
+//! (N f32, s), Model-P's band variance and its growth (M f32 each)); 6 adds the calibration's
+//! pace (the largest RMS swing per envelope input, f32). An older blob is refused with
 //! [`Error::UnsupportedVersion`] naming both versions: retrain, or re-export with this
 //! trainer. A blob whose gratings or measurands exceed this build's capacity is refused with
 //! [`Error::OverCapacity`] naming both.
@@ -79,7 +81,7 @@ use crate::model::{Centre, ModelParams};
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"FBGM";
 /// Format version this build writes and reads.
-pub const FORMAT_VERSION: u16 = 5;
+pub const FORMAT_VERSION: u16 = 6;
 pub use crate::frame::{computed_crc, stored_crc, CRC_LEN, HEADER_LEN};
 
 /// The fixed-size header of a blob.
@@ -320,6 +322,7 @@ pub fn encode_unchecked<const K: usize>(params: &ModelParams<f32, K>, buf: &mut 
     w.floats(head(&tr.quiet_max_s, d.gratings()))?;
     w.floats(head(&tr.fallback_var, m))?;
     w.floats(head(&tr.fallback_var_growth, m))?;
+    w.floats(head(&tr.swing_rms_max, ne))?;
     let end = w.pos;
     let body = buf.get(..end).ok_or(Error::BufferTooSmall)?;
     let crc = crc32c(body).to_le_bytes();
@@ -609,6 +612,7 @@ fn parse_into<'a, const K: usize>(
     floats(&mut b, crate::layout::head_mut(&mut tr.quiet_max_s, n_g))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.fallback_var, m))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.fallback_var_growth, m))?;
+    floats(&mut b, crate::layout::head_mut(&mut tr.swing_rms_max, ne))?;
     Ok((b, centres))
 }
 
@@ -726,7 +730,7 @@ pub const fn min_len_of(gratings: usize, ambient: bool, m: usize, observer: bool
     let field = 9 * gratings + 4 + 1 + 4 + 4 * 3 * m;
     // Trust ([`crate::trust::TrustSpec`]): a rate limit per envelope input, a quiet time per grating, the
     // fallback band and its growth (M each), all f32.
-    let trust = 4 * (env + gratings + 2 * m);
+    let trust = 4 * (env + gratings + 2 * m + env);
     // Output kinds: two bytes each; `fitted`: one byte per output; provenance: five one-byte
     // minimums.
     let bytes = 2 * m + m + 5 + field + trust;

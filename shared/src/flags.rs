@@ -74,8 +74,9 @@ impl Flags {
     /// [`Flags::LEAD_UNKNOWN`].
     pub const PEAK_QUALITY: Flags = Flags(1 << 6);
     /// Model-H did not trust its memory for this sample ([`crate::trust`]): beyond the
-    /// calibration's quiet time (a hold longer than any it contained) what it adds to Model-P
-    /// faded, partly or wholly, and the band toward Model-P's; or the gate kept the sample
+    /// calibration's quiet time (a hold longer than any it contained) or beyond its pace (the
+    /// inputs moving faster than it showed; the band then also widens with the pace) what it
+    /// adds to Model-P faded, partly or wholly, and the band toward Model-P's; or the gate kept the sample
     /// out of the memory state (then with [`Flags::OUT_OF_ENVELOPE`], and the value is
     /// Model-P's). Not a fault in itself: Model-P's value and band are as good as ever.
     pub const FALLBACK: Flags = Flags(1 << 7);

@@ -23,6 +23,17 @@
 //!   to Model-P's (`fallback_var`): at rest, or on a hold or a pace slower than any the
 //!   calibration contained, Model-H answers as Model-P and says so with
 //!   [`crate::Flags::FALLBACK`] (not a fault: Model-P's value and band are as good as ever).
+//! - **The pace.** Every error that a first-order lag causes (a thermometer behind the air,
+//!   a structure behind the thermometer) grows with the rate at which the inputs move, and
+//!   what the calibration fitted of it holds for the rates it saw. Each envelope input's pace,
+//!   the power of its swing over the last hours ([`crate::compensator::SwingFilter`]: a
+//!   band-pass whose value for a ramp is proportional to its rate), had a largest value there,
+//!   `swing_rms_max`². Beyond it, with ρ = max over the inputs of √(P / P_max): what Model-H
+//!   adds to the core fades linearly to nothing at ρ = 2 (flagged
+//!   [`crate::Flags::FALLBACK`], not a fault), and the band's variance is multiplied by ρ² —
+//!   a lag error grows at most in proportion to the pace and noise does not grow, so the
+//!   band's width in proportion to ρ bounds what the faster pace can add without a model of
+//!   how much of the error was lag.
 //! - **The band beyond the validated lead.** Model-H's band is narrower than Model-P's where
 //!   its cross-validated error was; the cross-validation saw leads up to the field context's
 //!   largest validated lead L only. Beyond L the band's variance decays towards Model-P's as
@@ -57,6 +68,9 @@ pub struct TrustSpec<F> {
     pub fallback_var: [F; MAX_OUTPUTS],
     /// Its growth with the lead time, k²·dσ²/dt \[unit²/s\].
     pub fallback_var_growth: [F; MAX_OUTPUTS],
+    /// Largest RMS swing of each envelope input over the calibration batch, √P_max (its unit;
+    /// see [`crate::compensator::SwingFilter`]); 0 = that input does not set the pace.
+    pub swing_rms_max: [F; MAX_ENVELOPE],
 }
 
 impl<F: Real> TrustSpec<F> {
@@ -67,6 +81,7 @@ impl<F: Real> TrustSpec<F> {
             quiet_max_s: [F::ZERO; MAX_GRATINGS],
             fallback_var: [F::ZERO; MAX_OUTPUTS],
             fallback_var_growth: [F::ZERO; MAX_OUTPUTS],
+            swing_rms_max: [F::ZERO; MAX_ENVELOPE],
         }
     }
 
@@ -87,6 +102,9 @@ impl<F: Real> TrustSpec<F> {
         if !head(&self.fallback_var_growth, m).iter().all(|&v| ok(v, bounds::VARIANCE_MAX)) {
             return bad("trust.fallback_var_growth");
         }
+        if !head(&self.swing_rms_max, ne).iter().all(|&v| ok(v, bounds::INPUT_MAX)) {
+            return bad("trust.swing_rms_max");
+        }
         Ok(())
     }
 
@@ -97,6 +115,7 @@ impl<F: Real> TrustSpec<F> {
             quiet_max_s: cast_array(&self.quiet_max_s),
             fallback_var: cast_array(&self.fallback_var),
             fallback_var_growth: cast_array(&self.fallback_var_growth),
+            swing_rms_max: cast_array(&self.swing_rms_max),
         }
     }
 }

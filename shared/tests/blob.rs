@@ -80,10 +80,10 @@ fn min_len_and_max_len_are_exact() {
     // Version 1 was 416 bytes; version 2 added 2 header bytes and 116 f32 (memory spec 20,
     // Γ 96); version 3 adds 2 header bytes and the output kinds (3 × 2 bytes); version 4 the
     // field context (3 × 9 bytes of λ_ref and source, 4 + 1 + 4, 3 × 3 f32); version 5 the
-    // trust spec (4 rate limits, 3 quiet times, 2 × 3 f32).
-    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6 + 27 + 9 + 36 + 52);
-    assert_eq!(min_len(0), 1014);
-    assert_eq!(min_len(32), 1014 + 60 * 32);
+    // trust spec (4 rate limits, 3 quiet times, 2 × 3 f32); version 6 the pace (4 f32).
+    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6 + 27 + 9 + 36 + 52 + 16);
+    assert_eq!(min_len(0), 1030);
+    assert_eq!(min_len(32), 1030 + 60 * 32);
     // No overflow on absurd inputs.
     assert_eq!(min_len(usize::MAX), usize::MAX);
     assert_eq!(max_len(usize::MAX), usize::MAX);
@@ -207,16 +207,20 @@ fn tiny() -> ModelParams<f32, 2> {
             quiet_max_s: pad(&[7200.0, 3600.0, 1800.0]),
             fallback_var: pad(&[0.04, 16.0, 4.0]),
             fallback_var_growth: pad(&[1e-6, 1e-4, 1e-5]),
+            swing_rms_max: pad(&[6.0, 3.0, 1.5, 0.75]),
         },
     }
 }
 
-/// GOLDEN: the exact bytes of format version 5.
+/// GOLDEN: the exact bytes of format version 6.
 ///
-/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v5 or reject it
-/// by name (`Error::UnsupportedVersion { found: 5, .. }`). Never regenerate this file to make
-/// the test pass. (It was written once by the encoder when version 5 was introduced, with
+/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v6 or reject it
+/// by name (`Error::UnsupportedVersion { found: 6, .. }`). Never regenerate this file to make
+/// the test pass. (It was written once by the encoder when version 6 was introduced, with
 /// `FBG_WRITE_GOLDEN=1 cargo test -p fbg-shared --test blob golden`.)
+const GOLDEN_V6: &[u8] = include_bytes!("golden/tiny_v6.fbgm");
+
+/// The version-5 golden blob (no swing term), kept as an "old version refused" fixture.
 const GOLDEN_V5: &[u8] = include_bytes!("golden/tiny_v5.fbgm");
 
 /// The version-4 golden blob (no trust spec), kept as an "old version refused" fixture.
@@ -232,19 +236,19 @@ const GOLDEN_V2: &[u8] = include_bytes!("golden/tiny_v2.fbgm");
 const GOLDEN_V1: &[u8] = include_bytes!("golden/tiny_v1.fbgm");
 
 #[test]
-fn golden_v5_bytes_are_pinned() {
+fn golden_v6_bytes_are_pinned() {
     let b = encode_vec(&tiny()).unwrap();
-    if std::env::var_os("FBG_WRITE_GOLDEN").is_some() && GOLDEN_V5.is_empty() {
-        std::fs::write(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/tiny_v5.fbgm"), &b).unwrap();
+    if std::env::var_os("FBG_WRITE_GOLDEN").is_some() && GOLDEN_V6.is_empty() {
+        std::fs::write(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/tiny_v6.fbgm"), &b).unwrap();
     }
     // Shortest 2-centre blob plus "golden" (6), "0.1.0" (5), date varint 4 bytes (+3),
     // n_cal varint 2 bytes (+1), and a known end of calibration (+8).
     assert_eq!(b.len(), min_len(2) + 6 + 5 + 3 + 1 + 8);
-    assert_eq!(b.len(), 1157);
+    assert_eq!(b.len(), 1173);
     assert_eq!(
         &b[..HEADER_LEN],
-        &[b'F', b'B', b'G', b'M', 5, 0, 3, 0, 1, 0, 3, 0, 10, 0, 32, 0, 2, 0],
-        "magic, version 5, dims 3 gratings / ambient / 3 measurands / 10 poly / 32 memory, 2 centres (u16 LE)"
+        &[b'F', b'B', b'G', b'M', 6, 0, 3, 0, 1, 0, 3, 0, 10, 0, 32, 0, 2, 0],
+        "magic, version 6, dims 3 gratings / ambient / 3 measurands / 10 poly / 32 memory, 2 centres (u16 LE)"
     );
     // Payload: the output kinds (T, ε, p: codes 0, 1, 2, index 1 each), feature set tag 1
     // (HysteresisAware), then sigma_mult 1.5f32 LE.
@@ -282,21 +286,27 @@ fn golden_v5_bytes_are_pinned() {
     assert_eq!(&b[HEADER_LEN..v4_end], &GOLDEN_V4[HEADER_LEN..v4_end]);
     assert_eq!(&b[v4_end..v4_end + 4], &0.5f32.to_le_bytes());
     assert_eq!(&b[v4_end + 16..v4_end + 20], &[0x00, 0x00, 0xE1, 0x45]);
+    // The v6 payload is the v5 payload followed by the calibration's pace: the largest RMS
+    // swing per envelope input (4 f32, the first 6.0 = 0x40C00000, the last 0.75).
+    let v5_end = GOLDEN_V5.len() - CRC_LEN;
+    assert_eq!(&b[HEADER_LEN..v5_end], &GOLDEN_V5[HEADER_LEN..v5_end]);
+    assert_eq!(&b[v5_end..v5_end + 4], &[0x00, 0x00, 0xC0, 0x40]);
+    assert_eq!(&b[v5_end + 12..v5_end + 16], &0.75f32.to_le_bytes());
     // Trailer: CRC-32C over everything before it, little-endian.
     let n = b.len() - CRC_LEN;
     assert_eq!(b[n..], ISCSI.checksum(&b[..n]).to_le_bytes());
-    assert!(b == GOLDEN_V5, "encoder output differs from the v5 golden blob: format change?");
-    assert_eq!(decode::<2>(GOLDEN_V5), Ok(tiny()));
-    assert_eq!(decode::<32>(GOLDEN_V5).map(|p| p.provenance), Ok(tiny().provenance));
+    assert!(b == GOLDEN_V6, "encoder output differs from the v6 golden blob: format change?");
+    assert_eq!(decode::<2>(GOLDEN_V6), Ok(tiny()));
+    assert_eq!(decode::<32>(GOLDEN_V6).map(|p| p.provenance), Ok(tiny().provenance));
     // It loads, with its memory terms.
-    let c = Compensator::<f32, 2>::new(&decode::<2>(GOLDEN_V5).unwrap()).unwrap();
+    let c = Compensator::<f32, 2>::new(&decode::<2>(GOLDEN_V6).unwrap()).unwrap();
     assert!(c.has_memory());
 }
 
 #[test]
-fn golden_blob_is_v5() {
-    assert_eq!(FORMAT_VERSION, 5, "a new format version needs its own golden blob");
-    assert_eq!(Header::parse(GOLDEN_V5).map(|h| h.version), Ok(5));
+fn golden_blob_is_v6() {
+    assert_eq!(FORMAT_VERSION, 6, "a new format version needs its own golden blob");
+    assert_eq!(Header::parse(GOLDEN_V6).map(|h| h.version), Ok(6));
 }
 
 #[test]
@@ -310,8 +320,10 @@ fn older_golden_blobs_are_refused_naming_both_versions() {
     assert_eq!(GOLDEN_V3.len(), 1025);
     assert_eq!(&GOLDEN_V4[..6], &[b'F', b'B', b'G', b'M', 4, 0]);
     assert_eq!(GOLDEN_V4.len(), 1105);
-    for (old, v) in [(GOLDEN_V1, 1u16), (GOLDEN_V2, 2), (GOLDEN_V3, 3), (GOLDEN_V4, 4)] {
-        let want = Error::UnsupportedVersion { found: v, supported: 5 };
+    assert_eq!(&GOLDEN_V5[..6], &[b'F', b'B', b'G', b'M', 5, 0]);
+    assert_eq!(GOLDEN_V5.len(), 1157);
+    for (old, v) in [(GOLDEN_V1, 1u16), (GOLDEN_V2, 2), (GOLDEN_V3, 3), (GOLDEN_V4, 4), (GOLDEN_V5, 5)] {
+        let want = Error::UnsupportedVersion { found: v, supported: 6 };
         assert_eq!(decode::<2>(old), Err(want));
         assert_eq!(decode::<32>(old).err(), Some(want));
         assert_eq!(decode::<0>(old).err(), Some(want));
@@ -325,7 +337,7 @@ fn older_golden_blobs_are_refused_naming_both_versions() {
         assert_eq!(decode::<2>(&m), Err(want));
         // The message names both versions.
         let msg = want.to_string();
-        assert!(msg.contains(&format!("version {v}")) && msg.contains("version 5"), "{msg}");
+        assert!(msg.contains(&format!("version {v}")) && msg.contains("version 6"), "{msg}");
     }
 }
 
@@ -333,7 +345,7 @@ fn older_golden_blobs_are_refused_naming_both_versions() {
 fn over_capacity_dims_are_refused_naming_both() {
     // 9 gratings or 5 measurands in the header (CRC valid): the capacity is named with them.
     for (off, v, field, cap) in [(6, 9u16, "gratings", MAX_GRATINGS), (10, 5, "measurands", MAX_OUTPUTS)] {
-        let mut m = GOLDEN_V5.to_vec();
+        let mut m = GOLDEN_V6.to_vec();
         m[off..off + 2].copy_from_slice(&v.to_le_bytes());
         fix_crc(&mut m);
         let want = Error::OverCapacity { field, found: v, capacity: cap as u16 };
@@ -392,19 +404,19 @@ fn header_errors() {
     assert_eq!(decode::<2>(b"FBG"), Err(Error::Truncated { part: "header" }));
     assert_eq!(decode::<2>(b"{\"a\":1}"), Err(Error::BadMagic));
     assert_eq!(decode::<2>(b"X"), Err(Error::BadMagic));
-    let mut b = GOLDEN_V5.to_vec();
+    let mut b = GOLDEN_V6.to_vec();
     b[0] = b'f';
     assert_eq!(decode::<2>(&b), Err(Error::BadMagic));
     assert_eq!(Header::parse(&b), Err(Error::BadMagic));
-    assert_eq!(decode::<2>(&GOLDEN_V5[..17]), Err(Error::Truncated { part: "header" }));
-    assert_eq!(Header::parse(&GOLDEN_V5[..17]), Err(Error::Truncated { part: "header" }));
-    assert_eq!(decode::<2>(&GOLDEN_V5[..18]), Err(Error::Truncated { part: "payload" }));
+    assert_eq!(decode::<2>(&GOLDEN_V6[..17]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(Header::parse(&GOLDEN_V6[..17]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(decode::<2>(&GOLDEN_V6[..18]), Err(Error::Truncated { part: "payload" }));
     assert_eq!(
-        Header::parse(GOLDEN_V5),
-        Ok(Header { version: 5, gratings: 3, ambient: 1, measurands: 3, poly_terms: 10, memory_terms: 32, centres: 2 })
+        Header::parse(GOLDEN_V6),
+        Ok(Header { version: 6, gratings: 3, ambient: 1, measurands: 3, poly_terms: 10, memory_terms: 32, centres: 2 })
     );
     // The header alone parses (the payload is not looked at).
-    assert_eq!(Header::parse(&GOLDEN_V5[..18]).map(|h| h.centres), Ok(2));
+    assert_eq!(Header::parse(&GOLDEN_V6[..18]).map(|h| h.centres), Ok(2));
 }
 
 #[test]
@@ -455,7 +467,7 @@ fn every_cut_of_fixed_blobs_is_truncated_or_bad_crc() {
 
 #[test]
 fn trailing_bytes() {
-    let mut b = GOLDEN_V5.to_vec();
+    let mut b = GOLDEN_V6.to_vec();
     b.push(0xFF);
     assert_eq!(decode::<2>(&b), Err(Error::TrailingBytes { extra: 1 }));
     // Erased-flash padding after a stored blob.
@@ -470,7 +482,7 @@ fn trailing_bytes() {
 #[test]
 fn huge_lengths_with_valid_crc_are_bad_payload() {
     let p = tiny();
-    let b = GOLDEN_V5.to_vec();
+    let b = GOLDEN_V6.to_vec();
     let prov = provenance_offset(&b, &p);
     // Scenario string length: one byte after the 1-byte seed varint (42).
     assert_eq!(b[prov], 42);

@@ -250,3 +250,104 @@ fn the_state_stays_bounded_whatever_arrives() {
         assert!(!e.flags.contains(Flags::IMPLAUSIBLE), "{}", e.flags);
     }
 }
+
+/// Each envelope input's swing power after every sample of `s` (the filter the gate moves, run
+/// as the trainer runs it over a calibration batch).
+fn powers(s: &[Sample<f32>]) -> Vec<[f64; 4]> {
+    let mut f = fbg_shared::compensator::SwingFilter::<f64>::new();
+    let mut last_t = f64::NAN;
+    s.iter()
+        .map(|x| {
+            let x = x.cast::<f64>();
+            let mut v = [0.0; 9];
+            v[..3].copy_from_slice(&x.dl_pm[..3]);
+            v[3] = x.t_amb_c;
+            f.update(&v, 4, x.t_s - last_t);
+            last_t = x.t_s;
+            [f.power(0), f.power(1), f.power(2), f.power(3)]
+        })
+        .collect()
+}
+
+/// `p` with the pace of `calibration`: each input's largest RMS swing over it.
+fn with_pace(p: &Params, calibration: &[Sample<f32>]) -> Params {
+    let mut p = p.clone();
+    for row in powers(calibration) {
+        for (m, v) in p.trust.swing_rms_max.iter_mut().zip(row) {
+            *m = m.max(v.sqrt());
+        }
+    }
+    p.validate().unwrap();
+    p
+}
+
+/// `s` played `pace` times faster, forwards and backwards `legs` times (no jump between legs):
+/// the same readings, every interval between them divided by `pace`.
+fn faster(s: &[Sample<f32>], pace: f32, legs: usize) -> Vec<Sample<f32>> {
+    let dt = (s[1].t_s - s[0].t_s) / pace;
+    (0..legs)
+        .flat_map(|l| {
+            let leg: Vec<Sample<f32>> = if l % 2 == 0 { s.to_vec() } else { s.iter().rev().copied().collect() };
+            leg.into_iter().skip(usize::from(l > 0))
+        })
+        .enumerate()
+        .map(|(i, x)| Sample { t_s: s[0].t_s + dt * i as f32, ..x })
+        .collect()
+}
+
+#[test]
+fn at_the_calibration_pace_the_model_is_bit_identical_to_one_without_the_pace_term() {
+    let (p, clean) = trusted(1e9);
+    let paced = with_pace(&p, &clean);
+    assert!(paced.trust.swing_rms_max[..4].iter().all(|&v| v > 0.0), "{:?}", paced.trust.swing_rms_max);
+    // The calibration stream itself, in the precision its pace was measured in.
+    let (a, b) = (run::<f64>(&paced, &clean), run::<f64>(&p, &clean));
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.values, y.values);
+        assert_eq!(x.band95, y.band95);
+        assert_eq!(x.flags, y.flags);
+    }
+}
+
+#[test]
+fn beyond_the_calibration_pace_model_h_fades_to_model_p_and_the_band_widens_with_the_pace() {
+    // The pace measured on the stream played eight times slower, forwards and backwards for
+    // eight legs (64 times its length); then the stream at its own pace: eight times the
+    // calibration's (the synthetic stream's fastest motions sit near the swing's 5-min corner,
+    // so playing it faster still would take them out of the band-pass). Every sample is within
+    // the gate's rate limit (set on the stream at its own pace) and let in.
+    let (p, clean) = trusted(1e9);
+    let paced = with_pace(&p, &faster(&clean, 0.125, 8));
+    let fast = clean;
+    let (a, b) = (run::<f64>(&paced, &fast), run::<f64>(&p, &fast));
+    let pp = model_p(&p);
+    let ep = run::<f64>(&pp, &fast);
+    let rho_sq: Vec<f64> = powers(&fast)
+        .iter()
+        .map(|w| (0..4).map(|k| w[k] / paced.trust.swing_rms_max[k].powi(2)).fold(0.0, f64::max))
+        .collect();
+    let (mut within, mut beyond) = (0, 0);
+    for (i, ((x, y), &r2)) in a.iter().zip(&b).zip(&rho_sq).enumerate() {
+        if y.flags.is_fault() || y.flags.contains(Flags::FALLBACK) {
+            continue;
+        }
+        if r2 <= 1.0 {
+            // Within the calibration's pace: as without the term.
+            assert_eq!((x.values, x.band95, x.flags), (y.values, y.band95, y.flags), "row {i}");
+            within += 1;
+        } else if r2 >= 4.0 + 1e-9 {
+            // ρ ≥ 2: Model-P's value, Model-P's band times ρ, flagged as a fallback (no fault).
+            assert!(x.flags.contains(Flags::FALLBACK) && !x.flags.is_fault(), "row {i}: {}", x.flags);
+            for o in 0..3 {
+                assert_eq!(x.values[o], ep[i].values[o], "row {i} output {o}");
+                let want = p.trust.fallback_var[o].sqrt() * r2.sqrt();
+                assert!((x.band95[o] - want).abs() <= 1e-9 * want, "row {i} output {o}: {} vs {want}", x.band95[o]);
+            }
+            beyond += 1;
+        } else {
+            assert!(x.flags.contains(Flags::FALLBACK), "row {i}: ρ² = {r2}");
+            assert!(x.band95.iter().zip(&y.band95).take(3).all(|(w, n)| w > n), "row {i}");
+        }
+    }
+    assert!(within > 0 && beyond > 0, "{within} rows within the pace, {beyond} at twice it or more");
+}

@@ -197,6 +197,10 @@ fn print_model(p: &HostParams) {
             f32s(fbg_shared::layout::head(&t.quiet_max_s, p.dims.gratings())),
             f32s(fbg_shared::layout::head(&t.fallback_var, p.dims.n_outputs())),
         );
+        println!(
+            "trust: the calibration's pace, largest RMS swings [{}] (per input, its unit): beyond it Model-H fades and the band widens",
+            f32s(fbg_shared::layout::head(&t.swing_rms_max, ne)),
+        );
     }
     let f = &p.field;
     let zeros: Vec<String> = (0..p.dims.gratings())

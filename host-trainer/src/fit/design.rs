@@ -51,6 +51,8 @@ pub struct Checkpoints {
     memory: Vec<f64>,
     /// Numbers per packed memory state (0: the model has no memory terms).
     memory_len: usize,
+    /// What the gate remembered before sample `pos[j]` (the last sample let in, the pace).
+    gates: Vec<fbg_shared::compensator::GateState<f64>>,
     /// Samples covered.
     end: usize,
 }
@@ -68,6 +70,7 @@ impl Checkpoints {
         let mut pos = Vec::with_capacity(end.div_ceil(STRETCH) + extra.len());
         let mut latches = Vec::with_capacity(pos.capacity());
         let mut memory = Vec::with_capacity(pos.capacity() * memory_len);
+        let mut gates = Vec::with_capacity(pos.capacity());
         let mut x = extra.iter().copied().filter(|&i| i < end).peekable();
         for i in 0..end {
             let wanted = x.peek() == Some(&i);
@@ -77,6 +80,7 @@ impl Checkpoints {
             if i % STRETCH == 0 || wanted {
                 pos.push(i);
                 latches.push(state.latches());
+                gates.push(state.gate_state());
                 if memory_len > 0 {
                     let at = memory.len();
                     memory.resize(at + memory_len, 0.0);
@@ -85,7 +89,7 @@ impl Checkpoints {
             }
             rule.advance(&mut state, &d.sample(i));
         }
-        Ok(Checkpoints { rule, pos, latches, memory, memory_len, end })
+        Ok(Checkpoints { rule, pos, latches, memory, memory_len, gates, end })
     }
 
     /// Put `state` (of `model`, of the same stream rule) where the stream was before sample
@@ -94,7 +98,9 @@ impl Checkpoints {
         let at = j * self.memory_len;
         model
             .resume_packed(state, self.latches[j], &self.memory[at..at + self.memory_len])
-            .map_err(|e| TrainerError::fit(e.to_string()))
+            .map_err(|e| TrainerError::fit(e.to_string()))?;
+        state.resume_gate(self.gates[j]);
+        Ok(())
     }
 
     /// Whether these checkpoints serve `model` up to sample `end`.

@@ -1,8 +1,9 @@
 //! Where Model-H may be trusted (DESIGN §4, the second rule), measured on the calibration
 //! batch: each grating's noise, the play radii that noise alone cannot cross, and the
 //! conditions the blob carries ([`fbg_shared::trust`]: rate limits, the largest quiet time,
-//! Model-P's band to fade to).
+//! Model-P's band to fade to, the calibration's pace).
 
+use fbg_shared::compensator::SwingFilter;
 use fbg_shared::layout::{MAX_ENVELOPE, MAX_GRATINGS, N_PLAYS};
 use fbg_shared::TrustSpec;
 
@@ -68,7 +69,7 @@ pub fn noise_floored(menu: &MemoryOptions, sigma_pm: &[f64]) -> MemoryOptions {
 /// of `d`: the largest |Δx|/Δt of each envelope input between consecutive calibration rows,
 /// each grating's largest quiet time over the batch (the time since its narrowest play last
 /// reversed, the bank run from the first row as the compensator runs it; 0 without play
-/// operators), and Model-P's band.
+/// operators), Model-P's band, and each envelope input's largest RMS swing (the pace).
 pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> TrustSpec<f64> {
     let mut t = TrustSpec::off();
     let dims = &h.dims;
@@ -102,9 +103,35 @@ pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> Trust
         t.fallback_var[o] = k2 * p.resid_var[o];
         t.fallback_var_growth[o] = k2 * p.resid_var_growth[o];
     }
+    t.swing_rms_max = swing_rms_max(dims, d, cal);
     t
 }
 
+/// The calibration's pace ([`fbg_shared::trust`]): each envelope input's largest RMS swing
+/// √P_max over the calibration rows `cal`, the filter run over them as the device runs it over
+/// the samples its gate lets in.
+fn swing_rms_max(dims: &fbg_shared::layout::Dims, d: &Dataset, cal: &[usize]) -> [f64; MAX_ENVELOPE] {
+    let ne = dims.envelope_len().min(MAX_ENVELOPE);
+    let mut filter = SwingFilter::<f64>::new();
+    let mut last_t = f64::NAN;
+    let mut p_max = [0.0f64; MAX_ENVELOPE];
+    for &i in cal {
+        let s = d.sample(i);
+        let mut x = [0.0; MAX_ENVELOPE];
+        for (k, v) in x.iter_mut().enumerate().take(ne) {
+            *v = if k < dims.gratings() { s.dl_pm[k] } else { s.t_amb_c };
+        }
+        if !x.iter().take(ne).all(|v| v.is_finite()) || !s.t_s.is_finite() {
+            continue;
+        }
+        filter.update(&x, ne, s.t_s - last_t);
+        last_t = s.t_s;
+        for (k, m) in p_max.iter_mut().enumerate().take(ne) {
+            *m = m.max(filter.power(k));
+        }
+    }
+    p_max.map(f64::sqrt)
+}
 /// The largest quiet time \[s\] of each grating of `h`'s memory over the calibration rows
 /// `cal`.
 fn quiet_max_s(h: &HostParams, d: &Dataset, cal: &[usize]) -> [f64; MAX_GRATINGS] {

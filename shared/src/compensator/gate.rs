@@ -1,5 +1,6 @@
 //! The gate of the memory state ([`crate::trust`]): which samples may move it.
 
+use super::swing::SwingFilter;
 use crate::layout::{head, MAX_ENVELOPE};
 use crate::real::Real;
 use crate::trust::{TrustSpec, GATE_RATE_FACTOR, GATE_SPAN_MARGIN};
@@ -16,17 +17,27 @@ pub(super) struct Gate<F> {
     n: u8,
 }
 
-/// What the gate remembers of a stream: the last sample it let in.
+/// What the gate remembers of a stream: the last sample it let in, and the swing of the
+/// samples it let in (read with [`super::StreamState::gate_state`], put back with
+/// [`super::StreamState::resume_gate`], for a checkpoint that must resume bit for bit).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(super) struct GateState<F> {
+pub struct GateState<F> {
     x: [F; MAX_ENVELOPE],
     t_s: F,
     primed: bool,
+    swing: SwingFilter<F>,
 }
 
 impl<F: Real> GateState<F> {
-    pub(super) const fn new() -> Self {
-        GateState { x: [F::ZERO; MAX_ENVELOPE], t_s: F::ZERO, primed: false }
+    /// A gate that has let nothing in.
+    pub const fn new() -> Self {
+        GateState { x: [F::ZERO; MAX_ENVELOPE], t_s: F::ZERO, primed: false, swing: SwingFilter::new() }
+    }
+
+    /// The swing of the samples let in.
+    #[inline(always)]
+    pub(super) fn swing(&self) -> &SwingFilter<F> {
+        &self.swing
     }
 }
 
@@ -86,10 +97,11 @@ impl<F: Real> Gate<F> {
         )
     }
 
-    /// Remember the sample let in.
+    /// Remember the sample let in, and move the swing by it.
     #[inline(always)]
     pub(super) fn let_in(&self, last: &mut GateState<F>, x: &[F; MAX_ENVELOPE], t_s: F) {
         if self.n > 0 {
+            last.swing.update(x, usize::from(self.n), t_s - last.t_s);
             last.x = *x;
             last.t_s = t_s;
             last.primed = true;

@@ -4,6 +4,7 @@
 use super::fold::Folded;
 use super::gate::Gate;
 use super::prepared::PreparedModel;
+use super::swing::Pace;
 use crate::error::Error;
 use crate::model::{Centre, ModelParams};
 use crate::real::Real;
@@ -169,6 +170,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         let guarded = self.memory.is_active() && tr.rate_max.iter().any(|&r| r > G::ZERO);
         self.gate =
             if guarded { Gate::new(&self.env_lo, &self.env_hi, params.dims.envelope_len(), tr) } else { Gate::off() };
+        self.pace = if guarded { Pace::new(tr, params.dims.envelope_len()) } else { Pace::off() };
         let on = self.memory.is_active();
         self.fades_beyond_lead = guarded && self.lead_max_s > F::ZERO;
         for (o, &q) in self.quiet_max_s.iter_mut().zip(tr.quiet_max_s.iter()) {

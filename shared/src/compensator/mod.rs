@@ -3,6 +3,8 @@
 //!
 //! - [`Sample`] (`sample`): one measured sample, the input;
 //! - `gate`: which samples may move a stream's memory state ([`crate::trust`]);
+//! - [`SwingFilter`] (`swing`): how fast the inputs the gate let in have moved lately, against
+//!   the calibration's pace ([`crate::trust`]);
 //! - `fold`, `load`: loading folds the auditable [`crate::ModelParams`] into a per-sample
 //!   form once, in the model's own precision, every folded number checked before the first is
 //!   written (a refused model leaves the old one serving);
@@ -25,9 +27,12 @@ mod rbf;
 mod sample;
 mod state;
 mod step;
+mod swing;
 
 pub use estimate::Estimate;
+pub use gate::GateState;
 pub use pair::Compensator;
 pub use prepared::PreparedModel;
 pub use sample::Sample;
 pub use state::StreamState;
+pub use swing::{SwingFilter, PACE_WINDOW_S, SWING_FAST_TAU_S, SWING_SLOW_TAU_S};

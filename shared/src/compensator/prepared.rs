@@ -6,6 +6,7 @@ use nalgebra::{ArrayStorage, SMatrix};
 
 use super::gate::Gate;
 use super::rbf::PreparedCentre;
+use super::swing::Pace;
 use crate::layout::{Dims, MAX_ENVELOPE, MAX_GRATINGS, MAX_MEMORY, MAX_OUTPUTS, MAX_POLY, MAX_STAGE1, MAX_Z};
 use crate::memory::MemoryOperators;
 use crate::real::Real;
@@ -101,6 +102,8 @@ pub struct PreparedModel<F, const K: usize> {
     /// Whether the band decays towards the fallback band beyond the largest validated lead
     /// (a model with a trust spec).
     pub(super) fades_beyond_lead: bool,
+    /// The calibration's pace ([`crate::trust`]); off without a gate.
+    pub(super) pace: Pace<F>,
 }
 
 impl<F: Real, const K: usize> PreparedModel<F, K> {
@@ -148,6 +151,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             quiet_max_s: [F::ZERO; MAX_GRATINGS],
             fallback_var: [F::ZERO; MAX_OUTPUTS],
             fallback_var_growth: [F::ZERO; MAX_OUTPUTS],
+            pace: Pace::off(),
             fades_beyond_lead: false,
         }
     }
@@ -174,10 +178,12 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     }
 
     /// Whether `other` moves a stream state exactly as this one does on every sample (same
-    /// dead band, same memory operators, same rule for which samples are finite), so that a
-    /// state of one can resume the other.
+    /// dead band, same memory operators, same rule for which samples are finite, same gate and
+    /// pace), so that a state of one can resume the other.
     pub fn same_stream<const K2: usize>(&self, other: &PreparedModel<F, K2>) -> bool {
         self.dead_band == other.dead_band
+            && self.gate == other.gate
+            && self.pace == other.pace
             && self.gratings == other.gratings
             && self.ambient == other.ambient
             && self.memory.same_spec(&other.memory)

@@ -93,6 +93,19 @@ impl<F: Real> StreamState<F> {
         (&mut self.latches, &mut self.memory)
     }
 
+    /// What the gate remembers (the last sample let in, the pace), for a checkpoint: a state
+    /// resumed from packed memory ([`PreparedModel::resume_packed`]) starts its gate over,
+    /// [`StreamState::resume_gate`] puts this back.
+    pub fn gate_state(&self) -> GateState<F> {
+        self.gate
+    }
+
+    /// Put back what the gate remembered ([`StreamState::gate_state`]) of the same stream,
+    /// through a model with the same gate ([`PreparedModel::same_stream`]).
+    pub fn resume_gate(&mut self, gate: GateState<F>) {
+        self.gate = gate;
+    }
+
     /// The gate's memory of the last sample let in.
     #[inline(always)]
     pub(super) fn gate(&self) -> &GateState<F> {

@@ -272,7 +272,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             if !self.finite_where_fitted(&core) {
                 return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
             }
-            return self.finish::<M>(core, F::ZERO, lead, F::ZERO, flags);
+            let scale = self.pace_ratio_sq(state).max(F::ONE);
+            return self.finish::<M>(core, F::ZERO, lead, F::ZERO, scale, flags);
         }
         let mut y = core;
         let latch = self.advance_state::<G>(state, s, &mut y);
@@ -291,8 +292,9 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         for &pi in proj.iter() {
             lev = pi.mul_add(pi, lev);
         }
-        // Beyond the calibration's quiet time, what Model-H adds to the core fades.
-        let fade = self.fade::<G>(state, s.t_s);
+        // Beyond the calibration's quiet time or its pace, what Model-H adds to the core fades.
+        let pace_sq = self.pace_ratio_sq(state);
+        let fade = self.fade::<G>(state, s.t_s, pace_sq);
         let y = if fade < F::ONE {
             flags.insert(Flags::FALLBACK);
             let mut out = core;
@@ -308,7 +310,18 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         if !self.finite_where_fitted(&y) {
             return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
         }
-        self.finish::<M>(y, lev, lead, fade, flags)
+        self.finish::<M>(y, lev, lead, fade, pace_sq.max(F::ONE), flags)
+    }
+
+    /// ρ², the square of the stream's pace against the calibration's ([`crate::trust`]); 0
+    /// without a pace term.
+    #[inline(always)]
+    fn pace_ratio_sq(&self, state: &StreamState<F>) -> F {
+        if self.pace.is_off() {
+            F::ZERO
+        } else {
+            self.pace.ratio_sq(state.gate().swing())
+        }
     }
 
     /// The band's lead time \[s\] of sample `s`: since the end of calibration on the stream's
@@ -326,12 +339,16 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         }
     }
 
-    /// How much of what Model-H adds to the core is kept at `t_s`: per grating, 1 while its
-    /// quiet time is within the calibration's largest, then linearly down to 0 at twice that;
-    /// the smallest over the gratings ([`crate::trust`]).
+    /// How much of what Model-H adds to the core is kept at `t_s` with the pace ratio² `pace_sq`:
+    /// per grating, 1 while its quiet time is within the calibration's largest, then linearly
+    /// down to 0 at twice that; 1 while the pace ratio ρ is within 1, then linearly down to 0 at
+    /// ρ = 2; the smallest of them ([`crate::trust`]).
     #[inline(always)]
-    fn fade<const G: usize>(&self, state: &StreamState<F>, t_s: F) -> F {
+    fn fade<const G: usize>(&self, state: &StreamState<F>, t_s: F, pace_sq: F) -> F {
         let mut fade = F::ONE;
+        if pace_sq > F::ONE {
+            fade = (F::ONE + F::ONE - pace_sq.sqrt()).max(F::ZERO);
+        }
         for (g, &q_max) in head(&self.quiet_max_s, self.g::<G>()).iter().enumerate() {
             let q = state.memory().quiet_s(g, t_s);
             if q_max > F::ZERO && q > q_max {
@@ -345,9 +362,10 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         fade
     }
 
-    /// The estimate from the values `y`, the leverage, the lead and the fade (1: Model-H's
+    /// The estimate from the values `y`, the leverage, the lead, the fade (1: Model-H's
     /// band; 0: Model-P's, blended in variance between; beyond the largest validated lead the
-    /// band also decays towards Model-P's, [`crate::trust`]): the band, and the plausibility of
+    /// band also decays towards Model-P's, [`crate::trust`]) and the factor ≥ 1 beyond the
+    /// calibration's pace that multiplies the band's variance: the band, and the plausibility of
     /// the value and the band ([`crate::field`]): three compares per output. An output
     /// unchecked or not fitted has ±∞ bounds and an infinite limit: only a band that overflows
     /// flags it (then the leverage did, for every output).
@@ -358,6 +376,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         lev: F,
         lead: F,
         fade: F,
+        pace_scale: F,
         mut flags: Flags,
     ) -> Estimate<F> {
         let m = self.m::<M>();
@@ -391,6 +410,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             } else {
                 own
             };
+            // Beyond the calibration's pace (scale > 1 only there: the same bits within it).
+            let var = if pace_scale > F::ONE { var * pace_scale } else { var };
             *bi = var.sqrt();
             // `!(b < lim)`: true for a NaN band too.
             #[allow(clippy::neg_cmp_op_on_partial_ord)]
