@@ -161,6 +161,14 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.model.step(&mut self.state, s)
     }
 
+    /// Compensate `samples` in order into `out` ([`PreparedModel::step_batch`]): bit for bit
+    /// what [`Compensator::step`] gives sample after sample, the RBF pass run over several
+    /// samples at once. Returns how many were compensated (the shorter slice's length).
+    #[inline(always)]
+    pub fn step_batch(&mut self, samples: &[Sample<F>], out: &mut [Estimate<F>]) -> usize {
+        self.model.step_batch(&mut self.state, samples, out)
+    }
+
     /// [`Compensator::step`] that also hands each RBF activation ψ_j to `sink(j, ψ_j)`
     /// ([`PreparedModel::step_with`]).
     #[inline(always)]

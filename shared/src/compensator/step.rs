@@ -3,14 +3,38 @@
 
 use super::estimate::Estimate;
 use super::prepared::PreparedModel;
-use super::rbf::{centre_pass, psi_all, weak, ZP};
+use super::rbf::{centre_pass, centre_pass_lanes, psi_all, weak, Lanes, LANES, ZP};
 use super::sample::Sample;
 use super::state::StreamState;
 use crate::affine::{affine, affine_inputs};
 use crate::flags::Flags;
-use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, MAX_Z};
+use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, MAX_Z, VAR_RANK};
 use crate::real::Real;
 use nalgebra::SVector;
+
+/// A sample let into the stream state, as the RBF pass and the rest of the step need it.
+#[derive(Clone, Copy)]
+struct Entered<F> {
+    /// Envelope and lead flags so far.
+    flags: Flags,
+    /// The band's lead time \[s\].
+    lead: F,
+    /// The core's estimate Bφ (what Model-H fades to).
+    core: [F; MAX_OUTPUTS],
+    /// Bφ + Γm.
+    y: [F; MAX_OUTPUTS],
+    /// The direction latches after the sample.
+    latch: [F; MAX_GRATINGS],
+    /// How much of what Model-H adds is kept.
+    fade: F,
+}
+
+/// The first part of a step: the sample answered already (non-finite, refused by the gate) or
+/// let in.
+enum Entry<F> {
+    Done(Estimate<F>),
+    In(Entered<F>),
+}
 
 impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// Compensate one sample of the stream `state` and move the state. Never panics:
@@ -252,8 +276,84 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         s: &Sample<F>,
         mut sink: impl FnMut(usize, F),
     ) -> Estimate<F> {
+        let e = match self.enter::<G, M>(state, s) {
+            Entry::Done(e) => return e,
+            Entry::In(e) => e,
+        };
+        // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
+        let (z, z_sq) = self.rbf_inputs::<G>(s, e.latch);
+        // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
+        let (y, proj, psi_sq) =
+            centre_pass::<F, K>(&self.centres, &z, z_sq, usize::from(self.z_groups), e.y, &mut sink);
+        self.leave::<M>(&e, &z, z_sq, y, &proj, psi_sq)
+    }
+
+    /// Compensate `samples` in order, `out[i]` getting what [`PreparedModel::step`] gives for
+    /// `samples[i]` on `state`, bit for bit: the same operations on every sample, arranged so
+    /// that a host runs them faster. Only the part that moves the stream state (the gate, the
+    /// direction latches, the memory operators, the fade that reads them) runs sample after
+    /// sample; the RBF pass (the distances to every centre, ψ, Wψ, the variance projections)
+    /// runs over `LANES` samples at a time, centre by centre, each sample's sums taken in
+    /// the step's order. Stops at the shorter of the two slices and returns how many samples
+    /// it compensated. No heap; never panics.
+    #[inline(always)]
+    pub fn step_batch(&self, state: &mut StreamState<F>, samples: &[Sample<F>], out: &mut [Estimate<F>]) -> usize {
+        // The paper's shape with compile-time loop bounds, as in `step_with`.
+        if self.gratings == 3 && self.outputs == 3 {
+            self.step_batch_shaped::<3, 3>(state, samples, out)
+        } else {
+            self.step_batch_shaped::<0, 0>(state, samples, out)
+        }
+    }
+
+    /// [`PreparedModel::step_batch`] for a model of `G` gratings and `M` outputs (0: read from
+    /// the model).
+    #[inline(always)]
+    fn step_batch_shaped<const G: usize, const M: usize>(
+        &self,
+        state: &mut StreamState<F>,
+        samples: &[Sample<F>],
+        out: &mut [Estimate<F>],
+    ) -> usize {
+        let groups = usize::from(self.z_groups);
+        let mut done = 0;
+        for (ss, os) in samples.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            // The sequential part, sample after sample: each sample's entry into the stream
+            // state, its RBF inputs laid out one lane per sample (a lane whose sample is
+            // already answered keeps zeros and its sums are not read).
+            let mut entered: [Option<Entered<F>>; LANES] = [None; LANES];
+            let mut lanes = Lanes::<F>::new();
+            for (lane, ((s, o), slot)) in ss.iter().zip(os.iter_mut()).zip(entered.iter_mut()).enumerate() {
+                match self.enter::<G, M>(state, s) {
+                    Entry::Done(e) => *o = e,
+                    Entry::In(e) => {
+                        let (z, z_sq) = self.rbf_inputs::<G>(s, e.latch);
+                        lanes.put(lane, &z, z_sq, &e.y);
+                        *slot = Some(e);
+                    }
+                }
+            }
+            // The stateless RBF pass over the lanes, then each sample's band and flags.
+            centre_pass_lanes::<F, K>(&self.centres, &mut lanes, groups);
+            for (lane, (o, e)) in os.iter_mut().zip(entered.iter()).enumerate() {
+                if let Some(e) = e {
+                    let (z, z_sq, y, proj, psi_sq) = lanes.get(lane);
+                    *o = self.leave::<M>(e, &z, z_sq, y, &proj, psi_sq);
+                }
+            }
+            done += ss.len().min(os.len());
+        }
+        done
+    }
+
+    /// The part of a step that moves the stream state: the sample checked (a non-finite one is
+    /// answered), the envelope flags, the lead, the core; the gate (a refused sample is answered
+    /// by the core with Model-P's band); then the latches and the memory terms (Γm added to the
+    /// core) and the fade, which reads the state they leave.
+    #[inline(always)]
+    fn enter<const G: usize, const M: usize>(&self, state: &mut StreamState<F>, s: &Sample<F>) -> Entry<F> {
         if !self.accepts_shaped::<G>(s) {
-            return Estimate::refused(self.outputs, Flags::NON_FINITE);
+            return Entry::Done(Estimate::refused(self.outputs, Flags::NON_FINITE));
         }
         let (x_env, n_env) = affine_inputs(&s.dl_pm, self.g::<G>(), self.ambient, s.t_amb_c);
         let mut flags = Flags::OK;
@@ -270,19 +370,33 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         if !self.let_in(state, s, Some(&x_env)) {
             flags.insert(Flags::OUT_OF_ENVELOPE.union(Flags::FALLBACK));
             if !self.finite_where_fitted(&core) {
-                return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
+                return Entry::Done(Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE)));
             }
-            return self.finish::<M>(core, F::ZERO, lead, F::ZERO, flags);
+            return Entry::Done(self.finish::<M>(core, F::ZERO, lead, F::ZERO, flags));
         }
         let mut y = core;
         let latch = self.advance_state::<G>(state, s, &mut y);
+        // Beyond the calibration's quiet time, what Model-H adds to the core fades.
+        let fade = self.fade::<G>(state, s.t_s);
+        Entry::In(Entered { flags, lead, core, y, latch, fade })
+    }
 
-        // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
-        let (z, z_sq) = self.rbf_inputs::<G>(s, latch);
+    /// The rest of a step, after the RBF pass over the sample's inputs `z` (‖z‖² `z_sq`) gave
+    /// `y` (core + Γm + Wψ), the variance projections `proj` and ‖ψ‖² `psi_sq`: weak support,
+    /// leverage, fade, band and flags. Moves no state.
+    #[inline(always)]
+    fn leave<const M: usize>(
+        &self,
+        e: &Entered<F>,
+        z: &[F; ZP],
+        z_sq: F,
+        y: [F; MAX_OUTPUTS],
+        proj: &[F; VAR_RANK],
+        psi_sq: F,
+    ) -> Estimate<F> {
+        let mut flags = e.flags;
         let groups = usize::from(self.z_groups);
-        // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
-        let (y, proj, psi_sq) = centre_pass::<F, K>(&self.centres, &z, z_sq, groups, y, &mut sink);
-        if !self.centres.is_empty() && weak::<F, K>(&self.centres, &z, z_sq, groups, psi_sq, self.weak_support) {
+        if !self.centres.is_empty() && weak::<F, K>(&self.centres, z, z_sq, groups, psi_sq, self.weak_support) {
             flags.insert(Flags::WEAK_SUPPORT);
         }
 
@@ -291,12 +405,11 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         for &pi in proj.iter() {
             lev = pi.mul_add(pi, lev);
         }
-        // Beyond the calibration's quiet time, what Model-H adds to the core fades.
-        let fade = self.fade::<G>(state, s.t_s);
+        let fade = e.fade;
         let y = if fade < F::ONE {
             flags.insert(Flags::FALLBACK);
-            let mut out = core;
-            for ((o, &full), &c) in out.iter_mut().zip(y.iter()).zip(core.iter()) {
+            let mut out = e.core;
+            for ((o, &full), &c) in out.iter_mut().zip(y.iter()).zip(e.core.iter()) {
                 *o = fade.mul_add(full - c, c);
             }
             out
@@ -308,7 +421,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         if !self.finite_where_fitted(&y) {
             return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
         }
-        self.finish::<M>(y, lev, lead, fade, flags)
+        self.finish::<M>(y, lev, e.lead, fade, flags)
     }
 
     /// The band's lead time \[s\] of sample `s`: since the end of calibration on the stream's
