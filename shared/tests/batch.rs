@@ -9,7 +9,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 use fbg_shared::layout::pad;
-use fbg_shared::{Compensator, Estimate, Flags, ModelParams, Real, Sample, TrustSpec};
+use fbg_shared::{Compensator, Estimate, Flags, ModelParams, Pending, Real, Sample, TrustSpec};
 use fbg_testkit::installation::{samples, synthetic_params, MAX_K};
 use fbg_testkit::models::{any_model, dims, model_dims, random_samples, short_provenance};
 
@@ -45,6 +45,41 @@ fn same<F: Real, G: Real, const K: usize>(p: &ModelParams<G, K>, s: &[Sample<f32
         assert_eq!(bits(g), bits(w), "sample {i} (batches {sizes:?})");
     }
     assert_eq!(batch.state(), one.state(), "final state (batches {sizes:?})");
+
+    // In two parts: each batch begun in order, then its estimates ended in pieces of another
+    // length, the last piece first (no state is read).
+    let mut two = Compensator::<F, K>::new(p).unwrap();
+    let mut pending = vec![Pending::<F>::default(); s.len()];
+    let mut got = vec![Estimate::<F>::default(); s.len()];
+    let (mut at, mut k) = (0, 0);
+    while at < s.len() {
+        let n = sizes[k % sizes.len()].min(s.len() - at);
+        assert_eq!(two.begin_batch(&s[at..at + n], &mut pending[at..at + n]), n);
+        let piece = 1 + (k * 5) % 11;
+        let starts: Vec<usize> = (at..at + n).step_by(piece).collect();
+        for &a in starts.iter().rev() {
+            let b = (a + piece).min(at + n);
+            assert_eq!(two.end_batch(&s[a..b], &pending[a..b], &mut got[a..b]), b - a);
+        }
+        at += n;
+        k += 1;
+    }
+    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+        assert_eq!(bits(g), bits(w), "sample {i} in two parts (batches {sizes:?})");
+    }
+    assert_eq!(two.state(), one.state(), "final state in two parts (batches {sizes:?})");
+
+    // An output shorter than the samples: only the samples it holds move the state.
+    let cut = s.len() * 2 / 3 + 1;
+    let mut short = Compensator::<F, K>::new(p).unwrap();
+    let mut part = Compensator::<F, K>::new(p).unwrap();
+    let mut out = vec![Estimate::<F>::default(); cut];
+    assert_eq!(short.step_batch(&s, &mut out), cut);
+    for x in &s[..cut] {
+        let _ = part.step(x);
+    }
+    assert_eq!(short.state(), part.state());
+    assert_eq!(bits(&out[cut - 1]), bits(&want[cut - 1]));
     seen
 }
 

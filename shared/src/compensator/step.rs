@@ -13,7 +13,7 @@ use crate::real::Real;
 use nalgebra::SVector;
 
 /// A sample let into the stream state, as the RBF pass and the rest of the step need it.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Entered<F> {
     /// Envelope and lead flags so far.
     flags: Flags,
@@ -31,9 +31,22 @@ struct Entered<F> {
 
 /// The first part of a step: the sample answered already (non-finite, refused by the gate) or
 /// let in.
+#[derive(Clone, Copy, Debug)]
 enum Entry<F> {
     Done(Estimate<F>),
     In(Entered<F>),
+}
+
+/// A sample part way through a batch ([`PreparedModel::begin_batch`]): answered already, or
+/// let into the stream state with what the rest of its step needs. Opaque; the default is a
+/// placeholder to fill.
+#[derive(Clone, Copy, Debug)]
+pub struct Pending<F>(Entry<F>);
+
+impl<F: Real> Default for Pending<F> {
+    fn default() -> Self {
+        Pending(Entry::Done(Estimate::refused(0, Flags::OK)))
+    }
 }
 
 impl<F: Real, const K: usize> PreparedModel<F, K> {
@@ -293,9 +306,14 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// that a host runs them faster. Only the part that moves the stream state (the gate, the
     /// direction latches, the memory operators, the fade that reads them) runs sample after
     /// sample; the RBF pass (the distances to every centre, ψ, Wψ, the variance projections)
-    /// runs over `LANES` samples at a time, centre by centre, each sample's sums taken in
-    /// the step's order. Stops at the shorter of the two slices and returns how many samples
-    /// it compensated. No heap; never panics.
+    /// runs over `LANES` samples at a time, centre by centre, each sample's sums taken in the
+    /// step's order. Stops at the shorter of the two slices and returns how many samples it
+    /// compensated. No heap; never panics.
+    ///
+    /// The same in two parts, for a caller with room for the samples in between:
+    /// [`PreparedModel::begin_batch`] (the stream state, in order) then
+    /// [`PreparedModel::end_batch`] (no state: any part of the batch, in any order, on any
+    /// thread).
     #[inline(always)]
     pub fn step_batch(&self, state: &mut StreamState<F>, samples: &[Sample<F>], out: &mut [Estimate<F>]) -> usize {
         // The paper's shape with compile-time loop bounds, as in `step_with`.
@@ -306,8 +324,32 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         }
     }
 
+    /// The first part of [`PreparedModel::step_batch`]: move `state` by `samples` in order,
+    /// leaving in `pending` what the rest of each sample's step needs. Returns how many samples
+    /// it took (the shorter slice's length).
+    #[inline(always)]
+    pub fn begin_batch(&self, state: &mut StreamState<F>, samples: &[Sample<F>], pending: &mut [Pending<F>]) -> usize {
+        if self.gratings == 3 && self.outputs == 3 {
+            self.begin_shaped::<3, 3>(state, samples, pending)
+        } else {
+            self.begin_shaped::<0, 0>(state, samples, pending)
+        }
+    }
+
+    /// The second part of [`PreparedModel::step_batch`]: the estimates of `samples` from what
+    /// [`PreparedModel::begin_batch`] left for them in `pending` (the same samples, in the same
+    /// order). Moves no state. Returns how many it wrote (the shortest slice's length).
+    #[inline(always)]
+    pub fn end_batch(&self, samples: &[Sample<F>], pending: &[Pending<F>], out: &mut [Estimate<F>]) -> usize {
+        if self.gratings == 3 && self.outputs == 3 {
+            self.end_shaped::<3, 3>(samples, pending, out)
+        } else {
+            self.end_shaped::<0, 0>(samples, pending, out)
+        }
+    }
+
     /// [`PreparedModel::step_batch`] for a model of `G` gratings and `M` outputs (0: read from
-    /// the model).
+    /// the model): each block of `LANES` samples begun, then ended.
     #[inline(always)]
     fn step_batch_shaped<const G: usize, const M: usize>(
         &self,
@@ -315,35 +357,79 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         samples: &[Sample<F>],
         out: &mut [Estimate<F>],
     ) -> usize {
-        let groups = usize::from(self.z_groups);
         let mut done = 0;
         for (ss, os) in samples.chunks(LANES).zip(out.chunks_mut(LANES)) {
-            // The sequential part, sample after sample: each sample's entry into the stream
-            // state, its RBF inputs laid out one lane per sample (a lane whose sample is
-            // already answered keeps zeros and its sums are not read).
-            let mut entered: [Option<Entered<F>>; LANES] = [None; LANES];
-            let mut lanes = Lanes::<F>::new();
-            for (lane, ((s, o), slot)) in ss.iter().zip(os.iter_mut()).zip(entered.iter_mut()).enumerate() {
-                match self.enter::<G, M>(state, s) {
-                    Entry::Done(e) => *o = e,
-                    Entry::In(e) => {
-                        let (z, z_sq) = self.rbf_inputs::<G>(s, e.latch);
-                        lanes.put(lane, &z, z_sq, &e.y);
-                        *slot = Some(e);
-                    }
-                }
-            }
-            // The stateless RBF pass over the lanes, then each sample's band and flags.
-            centre_pass_lanes::<F, K>(&self.centres, &mut lanes, groups);
-            for (lane, (o, e)) in os.iter_mut().zip(entered.iter()).enumerate() {
-                if let Some(e) = e {
-                    let (z, z_sq, y, proj, psi_sq) = lanes.get(lane);
-                    *o = self.leave::<M>(e, &z, z_sq, y, &proj, psi_sq);
-                }
-            }
-            done += ss.len().min(os.len());
+            // No sample moves the state without its estimate written.
+            let ss = ss.get(..os.len()).unwrap_or(ss);
+            let mut pending = [Pending::<F>::default(); LANES];
+            self.begin_shaped::<G, M>(state, ss, &mut pending);
+            done += self.end_block::<G, M>(ss, &pending, os);
         }
         done
+    }
+
+    /// [`PreparedModel::begin_batch`] for a model of `G` gratings and `M` outputs.
+    #[inline(always)]
+    fn begin_shaped<const G: usize, const M: usize>(
+        &self,
+        state: &mut StreamState<F>,
+        samples: &[Sample<F>],
+        pending: &mut [Pending<F>],
+    ) -> usize {
+        let mut n = 0;
+        for (s, p) in samples.iter().zip(pending.iter_mut()) {
+            *p = Pending(self.enter::<G, M>(state, s));
+            n += 1;
+        }
+        n
+    }
+
+    /// [`PreparedModel::end_batch`] for a model of `G` gratings and `M` outputs.
+    #[inline(always)]
+    fn end_shaped<const G: usize, const M: usize>(
+        &self,
+        samples: &[Sample<F>],
+        pending: &[Pending<F>],
+        out: &mut [Estimate<F>],
+    ) -> usize {
+        let mut done = 0;
+        for ((ss, ps), os) in samples.chunks(LANES).zip(pending.chunks(LANES)).zip(out.chunks_mut(LANES)) {
+            done += self.end_block::<G, M>(ss, ps, os);
+        }
+        done
+    }
+
+    /// The rest of the steps of at most `LANES` begun samples: their RBF inputs laid out one
+    /// lane per sample (a lane whose sample is answered already keeps zeros and its sums are
+    /// not read), the RBF pass over the lanes, then each sample's band and flags.
+    #[inline(always)]
+    fn end_block<const G: usize, const M: usize>(
+        &self,
+        samples: &[Sample<F>],
+        pending: &[Pending<F>],
+        out: &mut [Estimate<F>],
+    ) -> usize {
+        let mut lanes = Lanes::<F>::new();
+        let rows = samples.iter().zip(pending.iter()).take(LANES);
+        for (lane, (s, p)) in rows.enumerate() {
+            if let Entry::In(e) = &p.0 {
+                let (z, z_sq) = self.rbf_inputs::<G>(s, e.latch);
+                lanes.put(lane, &z, z_sq, &e.y);
+            }
+        }
+        centre_pass_lanes::<F, K>(&self.centres, &mut lanes, usize::from(self.z_groups));
+        let mut n = 0;
+        for (lane, ((o, p), _)) in out.iter_mut().zip(pending.iter()).zip(samples.iter()).take(LANES).enumerate() {
+            *o = match &p.0 {
+                Entry::Done(e) => *e,
+                Entry::In(e) => {
+                    let (z, z_sq, y, proj, psi_sq) = lanes.get(lane);
+                    self.leave::<M>(e, &z, z_sq, y, &proj, psi_sq)
+                }
+            };
+            n += 1;
+        }
+        n
     }
 
     /// The part of a step that moves the stream state: the sample checked (a non-finite one is
