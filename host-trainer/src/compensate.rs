@@ -23,6 +23,8 @@ use crate::export;
 use crate::fit::{self, HostCompensator, HostParams, HOST_CAP};
 use crate::warning::Warning;
 
+mod batch;
+
 /// The dataset column of each output of `params` (`T_C`, `strain_ue`, …).
 pub fn output_columns(params: &HostParams) -> Vec<String> {
     params.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect()
@@ -213,64 +215,6 @@ impl Engine {
             }
         }
     }
-}
-
-impl Engine {
-    /// Compensate `samples` in order into `out`: bit for bit what [`Engine::step`] gives sample
-    /// after sample, through `fbg-shared`'s batch path ([`Compensator::step_batch`]: the stream
-    /// state moved sample after sample, the RBF pass over several samples at once), in the
-    /// host's vector instructions where the processor has them (AVX2: wider vectors, the same
-    /// IEEE operations, so the same bits). Returns how many were compensated (the shorter
-    /// slice's length).
-    pub fn step_batch(&mut self, samples: &[fbg_shared::Sample<f64>], out: &mut [Estimate<f64>]) -> usize {
-        match self {
-            Engine::F64(c) => batch_f64(c, samples, out),
-            Engine::F32(c) => {
-                let mut done = 0;
-                let mut s32 = [fbg_shared::Sample::<f32>::default(); BATCH_F32];
-                let mut e32 = [Estimate::<f32>::default(); BATCH_F32];
-                for (ss, os) in samples.chunks(BATCH_F32).zip(out.chunks_mut(BATCH_F32)) {
-                    for (d, s) in s32.iter_mut().zip(ss) {
-                        *d = s.cast::<f32>();
-                    }
-                    let n = c.step_batch(s32.get(..ss.len()).unwrap_or(&[]), &mut e32);
-                    for (o, e) in os.iter_mut().zip(e32.iter()).take(n) {
-                        *o = Estimate {
-                            values: e.values.map(f64::from),
-                            band95: e.band95.map(f64::from),
-                            outputs: e.outputs,
-                            flags: e.flags,
-                        };
-                    }
-                    done += n;
-                }
-                done
-            }
-        }
-    }
-}
-
-/// Samples the f32 engine converts at a time.
-const BATCH_F32: usize = 256;
-
-/// The f64 batch, in AVX2 where the processor has it.
-fn batch_f64(c: &mut HostCompensator, samples: &[fbg_shared::Sample<f64>], out: &mut [Estimate<f64>]) -> usize {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the processor has AVX2 (checked just above), the one requirement of a
-        // function compiled with it enabled.
-        return unsafe { batch_f64_avx2(c, samples, out) };
-    }
-    c.step_batch(samples, out)
-}
-
-/// [`HostCompensator::step_batch`] compiled with AVX2 (it is inlined here, so its lanes run as
-/// 4-wide vectors). No fused multiply-add is enabled: every operation rounds as in the plain
-/// build.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn batch_f64_avx2(c: &mut HostCompensator, samples: &[fbg_shared::Sample<f64>], out: &mut [Estimate<f64>]) -> usize {
-    c.step_batch(samples, out)
 }
 
 /// Whether `params` (read from `model`) can be run in `precision`; the error names `model`.

@@ -14,8 +14,8 @@ use crate::error::msg;
 use crate::interrupt;
 use crate::model::Model;
 
-/// Rows made into samples and compensated at a time (a multiple of the batch path's lanes).
-const BLOCK: usize = 1024;
+/// Rows made into samples and compensated at a time (the engine spreads them over the cores).
+const BLOCK: usize = 16384;
 
 /// One compensator's running state over a stream of rows (`Stream(model, precision="f64",
 /// t0_unix_s=None)`): feed it chunks in time order with `step`.

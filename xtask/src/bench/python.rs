@@ -14,8 +14,9 @@ use crate::cmd::{describe, step, write_atomic};
 
 /// The script, relative to the workspace root.
 const SCRIPT: &str = "bench/python_peer.py";
-/// Targets: `predict` at least this many times faster than the scikit-learn pipeline …
-pub const TARGET_SPEEDUP_VS_SKLEARN: f64 = 10.0;
+/// Targets: `predict` at least this many times faster than the scikit-learn pipeline (DESIGN
+/// §8, issue 41: the stateless parts batched, the memory operators one scan) …
+pub const TARGET_SPEEDUP_VS_SKLEARN: f64 = 3.0;
 /// … and at most this many times the CLI's `compensate`; `fit` at most this many times
 /// `bench-fit --fixed`.
 pub const TARGET_RATIO_TO_CLI: f64 = 1.5;
