@@ -81,7 +81,7 @@ pub fn markdown(s: &mut String, v: &Value) {
     let _ = writeln!(s, "## Python package (`fbg_compensation`)\n");
     let _ = writeln!(
         s,
-        "`predict` of a Model-H (the `paper` feature set, K = 32, fixed) over {} rows of the `paper` preset from a pandas DataFrame in memory (one pass of the device's compensator in f64, band and flags included), against the scikit-learn pipeline of `bench/sklearn_peer.py` on the same inputs (no band) and the CLI's `compensate` on the record's CSV (a process: read, compensate, write); `fit` on its {} calibration rows against `bench-fit --fixed` with the same configuration. Medians of {} runs, alternated. Results equal to the CLI's bit for bit: {}.\n",
+        "`predict` of a Model-H (the `paper` feature set, K = 32, fixed) over {} rows of the `paper` preset from a pandas DataFrame in memory (the device's compensator in f64 through `fbg-shared`'s batch path: the stream state one scan in order, the RBF pass over several rows at once and over the cores, bit for bit its step; band and flags included), against the scikit-learn pipeline of `bench/sklearn_peer.py` on the same inputs (no band) and the CLI's `compensate` on the record's CSV (a process: read, compensate, write); `fit` on its {} calibration rows against `bench-fit --fixed` with the same configuration. Medians of {} runs, alternated. Results equal to the CLI's bit for bit: {}.\n",
         v.get("rows").and_then(Value::as_u64).unwrap_or(0),
         v.get("cal_rows").and_then(Value::as_u64).unwrap_or(0),
         v.get("repeats").and_then(Value::as_u64).unwrap_or(0),
