@@ -151,7 +151,7 @@ pub(super) fn centre_pass_lanes<F: Real, const K: usize>(
     for c in centres.iter() {
         let mut psi = l.z_sq;
         for d in psi.iter_mut() {
-            *d = *d + c.mu_sq;
+            *d += c.mu_sq;
         }
         for (zk, &mk) in l.z.iter().zip(c.m2.iter()).take(groups * 4) {
             for (d, &zv) in psi.iter_mut().zip(zk.iter()) {
