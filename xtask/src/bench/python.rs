@@ -113,6 +113,14 @@ pub fn markdown(s: &mut String, v: &Value) {
         fit,
         met(fit <= TARGET_FIT_RATIO)
     );
+    if let Some(l) = v.get("load_average").and_then(Value::as_array).filter(|l| l.len() == 3) {
+        let l: Vec<String> = l.iter().map(|x| format!("{:.1}", x.as_f64().unwrap_or(f64::NAN))).collect();
+        let _ = writeln!(
+            s,
+            "\nLoad average when the run ended (1, 5, 15 min): {} (other work on the machine slows both sides, not necessarily alike).",
+            l.join(" / ")
+        );
+    }
     let cmd = |k: &str| v.get("commands").and_then(|c| c.get(k)).and_then(Value::as_str).unwrap_or("").to_string();
     let _ = writeln!(
         s,
