@@ -7,8 +7,10 @@ On one record of the `paper` preset (14 days; ``--dt-s`` 1.2096 s gives 1 000 00
 Model-H of one fixed configuration (the `paper` feature set, K = 32, σ = 2 × NN, α = 1e-5·n:
 the inputs the scikit-learn peer's `paper` pipeline has) is timed:
 
-``predict``  our ``Model.predict`` over every row (one pass of the device's compensator in
-         f64, band and flags included), from a pandas DataFrame already in memory, against
+``predict``  our ``Model.predict`` over every row (the device's compensator in f64 through
+         fbg-shared's batch path: the stream state one scan in order, the RBF pass over several
+         rows at once and over the cores, bit for bit its step; band and flags included), from
+         a pandas DataFrame already in memory, against
          (a) the scikit-learn pipeline of ``bench/sklearn_peer.py`` (``HybridPeer.predict_h``:
          stage 1, the polynomial core and the RBF residual as vectorised NumPy/scikit-learn
          calls, no band), fitted on the same calibration rows, and (b) the CLI's

@@ -23,6 +23,8 @@ use crate::export;
 use crate::fit::{self, HostCompensator, HostParams, HOST_CAP};
 use crate::warning::Warning;
 
+mod batch;
+
 /// The dataset column of each output of `params` (`T_C`, `strain_ue`, …).
 pub fn output_columns(params: &HostParams) -> Vec<String> {
     params.dims.outputs().iter().map(|o| o.column().as_str().to_string()).collect()

@@ -2,7 +2,7 @@
 //! chunk, exactly what one pass gives (the memory terms, direction latches and drift observer
 //! carry over between calls).
 
-use fbg_shared::{Sample, StreamClock};
+use fbg_shared::{Estimate, Sample, StreamClock};
 use fbg_trainer::compensate::{Engine, Precision};
 use fbg_trainer::data::MAX_GRATINGS;
 use fbg_trainer::fit::HostParams;
@@ -13,6 +13,9 @@ use pyo3::prelude::*;
 use crate::error::msg;
 use crate::interrupt;
 use crate::model::Model;
+
+/// Rows made into samples and compensated at a time (the engine spreads them over the cores).
+const BLOCK: usize = 16384;
 
 /// One compensator's running state over a stream of rows (`Stream(model, precision="f64",
 /// t0_unix_s=None)`): feed it chunks in time order with `step`.
@@ -113,6 +116,10 @@ impl Stream {
         }
         let m = self.outputs;
         let (mut values, mut band, mut flags) = (vec![0.0; n * m], vec![0.0; n * m], vec![0u8; n]);
+        // The engine's batch path (bit for bit its step, sample after sample) over blocks of
+        // rows made into samples here.
+        let mut samples = vec![Sample::<f64>::default(); BLOCK];
+        let mut estimates = vec![Estimate::<f64>::default(); BLOCK];
         // In chunks, with the GIL released for each and Ctrl-C looked for between them.
         let chunks = dl
             .chunks(interrupt::ROWS_PER_CHUNK * g.max(1))
@@ -129,20 +136,30 @@ impl Stream {
             }
             let first = k * interrupt::ROWS_PER_CHUNK;
             let engine = &mut self.engine;
+            let (samples, estimates) = (&mut samples, &mut estimates);
             py.detach(|| {
-                let rows = dl.chunks_exact(g).zip(t).zip(values.chunks_exact_mut(m).zip(band.chunks_exact_mut(m)));
-                for (i, ((shifts, &t_s), (v, b))) in rows.enumerate() {
-                    let mut s = Sample {
-                        dl_pm: [0.0; MAX_GRATINGS],
-                        gratings: g as u8,
-                        t_amb_c: amb.and_then(|a| a.get(first + i).copied()).unwrap_or(f64::NAN),
-                        t_s,
-                    };
-                    s.dl_pm.iter_mut().zip(shifts).for_each(|(o, &x)| *o = x);
-                    let e = engine.step(&s);
-                    v.iter_mut().zip(&e.values).for_each(|(o, &x)| *o = x);
-                    b.iter_mut().zip(&e.band95).for_each(|(o, &x)| *o = x);
-                    if let Some(f) = flags.get_mut(i) {
+                let blocks = dl
+                    .chunks(BLOCK * g.max(1))
+                    .zip(t.chunks(BLOCK))
+                    .zip(values.chunks_mut(BLOCK * m).zip(band.chunks_mut(BLOCK * m)))
+                    .zip(flags.chunks_mut(BLOCK));
+                for (b, (((dl, t), (values, band)), flags)) in blocks.enumerate() {
+                    let at = first + b * BLOCK;
+                    let rows = dl.chunks_exact(g).zip(t).zip(samples.iter_mut());
+                    for (i, ((shifts, &t_s), s)) in rows.enumerate() {
+                        *s = Sample {
+                            dl_pm: [0.0; MAX_GRATINGS],
+                            gratings: g as u8,
+                            t_amb_c: amb.and_then(|a| a.get(at + i).copied()).unwrap_or(f64::NAN),
+                            t_s,
+                        };
+                        s.dl_pm.iter_mut().zip(shifts).for_each(|(o, &x)| *o = x);
+                    }
+                    let done = engine.step_batch(samples.get(..t.len()).unwrap_or(&[]), estimates);
+                    let out = values.chunks_exact_mut(m).zip(band.chunks_exact_mut(m)).zip(flags.iter_mut());
+                    for (((v, b), f), e) in out.zip(estimates.iter()).take(done) {
+                        v.iter_mut().zip(&e.values).for_each(|(o, &x)| *o = x);
+                        b.iter_mut().zip(&e.band95).for_each(|(o, &x)| *o = x);
                         *f = e.flags.0;
                     }
                 }

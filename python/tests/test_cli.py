@@ -130,3 +130,35 @@ def test_read_errors_name_file_line_column(tmp_path, files, trainer):
     with pytest.raises(fc.FbgError, match=f"line {k + 1}, column dl2_pm"):
         fc.compensate_file(model, bad, tmp_path / "o2.csv")
     assert not (tmp_path / "o2.csv").exists()
+
+
+@pytest.mark.parametrize("precision", ["f64", "f32"])
+def test_batched_predict_is_the_clis_step_through_the_gate(tmp_path, trainer, record, fitted_memory, precision):
+    """`predict` runs fbg-shared's batch path (the stream state one scan, the RBF pass over
+    several rows at once, over the cores); `compensate` steps row after row. On a record with
+    glitches the gate refuses (a thermometer's 85 °C, a 500 pm jump), gaps and a long rest,
+    with a model whose memory state the gate guards: the same bits, band and flags."""
+    r = record.copy()
+    r.attrs = dict(record.attrs)
+    r.loc[[100, 2000], "T_amb_C"] = 85.0
+    r.loc[[1200], "dl1_pm"] = r.loc[1200, "dl1_pm"] + 500.0
+    r.loc[[7, 2500], "dl3_pm"] = np.nan
+    rest = r.index[r.index >= len(r) - 600]
+    for c in INPUTS:
+        r.loc[rest, c] = r.loc[rest[0], c]
+    data, model, out = tmp_path / "glitched.csv", tmp_path / "m.fbgm", tmp_path / "cli.csv"
+    fc.write_dataset(r, data)
+    fitted_memory.model_.save(model)
+    cmd = [trainer, "compensate", "--model", str(model), "--data", str(data), "--out", str(out)]
+    subprocess.run(cmd + (["--f32"] if precision == "f32" else []), check=True, capture_output=True)
+    cli = cli_csv(out)
+    ours = fc.compensate(model, fc.read_dataset(data, field=True), precision=precision)
+    refused = (ours["flags"].to_numpy() & 0b1000_0010) == 0b1000_0010
+    assert refused[[100, 2000]].all(), "the glitches are refused by the gate (fallback, out of envelope)"
+    assert np.array_equal(ours["flags"].to_numpy(), cli["flags"].to_numpy())
+    for c in cli.columns:
+        if c in ("flags", "flag_names"):
+            continue
+        o = ours[c].to_numpy().copy()
+        o[~np.isfinite(o)] = np.nan
+        assert same_bits(o, cli[c].to_numpy()), c

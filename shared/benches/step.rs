@@ -94,11 +94,33 @@ fn bench_memory<F: Real>(c: &mut Criterion, name: &str) {
     g.finish();
 }
 
+/// `step_batch` against `step` at K = 32 on the same stream (group `step_batch/<f32|f64>`,
+/// ids `step` and `batch`): the batch path's gain on the host, whose compiler runs its lanes
+/// as vectors (the plain x86-64 target: SSE2). Alone: `cargo bench -p fbg-shared --bench step
+/// -- step_batch`.
+fn bench_batch<F: Real>(c: &mut Criterion, name: &str) {
+    let mut g = c.benchmark_group(format!("step_batch/{name}"));
+    g.throughput(Throughput::Elements(BATCH as u64));
+    let xs = samples::<F>(false);
+    bench_stream(&mut g, BenchmarkId::from_parameter("step"), load::<F>(32, false), &xs);
+    let mut comp = load::<F>(32, false);
+    let mut out = vec![fbg_shared::Estimate::<F>::default(); BATCH];
+    g.bench_with_input(BenchmarkId::from_parameter("batch"), &xs, |b, xs| {
+        b.iter(|| {
+            comp.step_batch(black_box(xs), &mut out);
+            black_box(out[1].values[1])
+        })
+    });
+    g.finish();
+}
+
 fn benches(c: &mut Criterion) {
     bench_precision::<f32>(c, "f32");
     bench_precision::<f64>(c, "f64");
     bench_memory::<f32>(c, "f32");
     bench_memory::<f64>(c, "f64");
+    bench_batch::<f64>(c, "f64");
+    bench_batch::<f32>(c, "f32");
 }
 
 criterion_group!(step, benches);

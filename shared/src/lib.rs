@@ -82,7 +82,7 @@ pub mod spectrum;
 pub mod trust;
 
 pub use clock::StreamClock;
-pub use compensator::{Compensator, Estimate, PreparedModel, Sample, StreamState};
+pub use compensator::{Compensator, Estimate, Pending, PreparedModel, Sample, StreamState};
 pub use direction_latch::{ticks, DirectionLatch, LatchBank};
 pub use error::Error;
 pub use field::{FieldContext, ZeroSource};

@@ -275,10 +275,6 @@ pub fn exp_neg_f32(x: f32) -> f32 {
 /// so every platform rounds it identically.
 #[inline(always)]
 pub fn exp_neg_f64(x: f64) -> f64 {
-    #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    if !(x < 708.0) {
-        return 0.0;
-    }
     // 1.5·2^52: t − MAGIC is round(x·log2 e) exactly, for |x·log2 e| < 2^51.
     const MAGIC: f64 = 6_755_399_441_055_744.0;
     const LN2_HI: f64 = 6.931_471_803_691_238e-1; // 0x3FE62E42FEE00000: n·LN2_HI is exact
@@ -304,7 +300,15 @@ pub fn exp_neg_f64(x: f64) -> f64 {
     let p = 1.0 + (u + u2 * (even + u * odd));
     // Scale by 2^-n: t's bits are MAGIC's plus n (two's complement for n < 0), and MAGIC's low
     // 12 bits are zero, so `t_bits << 52` is `n << 52` (wrapping).
-    f64::from_bits(p.to_bits().wrapping_sub(t.to_bits() << 52))
+    let e = f64::from_bits(p.to_bits().wrapping_sub(t.to_bits() << 52));
+    // Chosen at the end rather than returned early: no branch, so a batch of samples' RBF pass
+    // ([`crate::PreparedModel::step_batch`]) runs as vectors. Beyond the range (and for NaN)
+    // the value computed above is discarded.
+    if x < 708.0 {
+        e
+    } else {
+        0.0
+    }
 }
 
 #[cfg(test)]

@@ -96,6 +96,10 @@ enum Task {
         /// into the BENCHMARKS.json already there
         #[arg(long, conflicts_with_all = ["no_device", "markdown_only"])]
         spectrum_only: bool,
+        /// Only the peak memory of `import --format spectra-csv` on a 1 GB spectra file (0.1 GB
+        /// with --quick), into the BENCHMARKS.json already there
+        #[arg(long, conflicts_with_all = ["no_device", "markdown_only", "spectrum_only"])]
+        import_memory_only: bool,
     },
     /// The sharded fleet on a single-node Slurm started here (installs slurm-wlm and munge;
     /// needs root; not part of test); writes target/slurm/slurm.json
@@ -138,8 +142,8 @@ fn run_task(task: Task) -> Result<()> {
         Task::Qemu { all } => qemu::run_all(&root, all, false),
         Task::Size => device_bench::size(&root).map(|_| ()),
         Task::DeviceBench => device_bench::run(&root).map(|_| ()),
-        Task::Bench { quick, no_device, markdown_only, spectrum_only } => {
-            bench::run_bench(&root, &bench::Opts { quick, no_device, markdown_only, spectrum_only })
+        Task::Bench { quick, no_device, markdown_only, spectrum_only, import_memory_only } => {
+            bench::run_bench(&root, &bench::Opts { quick, no_device, markdown_only, spectrum_only, import_memory_only })
         }
         Task::Slurm => slurm::run_all(&root),
         Task::Board => board::run_all(&root).map(|_| ()),

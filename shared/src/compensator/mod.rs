@@ -12,7 +12,10 @@
 //! - [`StreamState`] (`state`): what a stream carries from sample to sample (direction
 //!   latches, memory operators' state) and its clock;
 //! - `step`: [`PreparedModel::step`]`(&self, &mut state, &sample)`, only the work that
-//!   depends on the sample;
+//!   depends on the sample; [`PreparedModel::step_batch`] the same over a slice of samples,
+//!   bit for bit, with the RBF pass run over several samples at once (in two parts,
+//!   [`PreparedModel::begin_batch`] and [`PreparedModel::end_batch`], for a host that spreads
+//!   the second over threads);
 //! - [`Estimate`] (`estimate`): the output, values, band and flags;
 //! - [`Compensator`] (`pair`): a model with one stream's state, for a device or a command
 //!   line.
@@ -35,4 +38,5 @@ pub use pair::Compensator;
 pub use prepared::PreparedModel;
 pub use sample::Sample;
 pub use state::StreamState;
+pub use step::Pending;
 pub use swing::{SwingFilter, PACE_WINDOW_S, SWING_FAST_TAU_S, SWING_SLOW_TAU_S};

@@ -161,6 +161,27 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         self.model.step(&mut self.state, s)
     }
 
+    /// Compensate `samples` in order into `out` ([`PreparedModel::step_batch`]): bit for bit
+    /// what [`Compensator::step`] gives sample after sample, the RBF pass run over several
+    /// samples at once. Returns how many were compensated (the shorter slice's length).
+    #[inline(always)]
+    pub fn step_batch(&mut self, samples: &[Sample<F>], out: &mut [Estimate<F>]) -> usize {
+        self.model.step_batch(&mut self.state, samples, out)
+    }
+
+    /// [`PreparedModel::begin_batch`] on this compensator's stream.
+    #[inline(always)]
+    pub fn begin_batch(&mut self, samples: &[Sample<F>], pending: &mut [super::Pending<F>]) -> usize {
+        self.model.begin_batch(&mut self.state, samples, pending)
+    }
+
+    /// [`PreparedModel::end_batch`]: the estimates of samples begun by
+    /// [`Compensator::begin_batch`]; moves no state (callable from several threads at once).
+    #[inline(always)]
+    pub fn end_batch(&self, samples: &[Sample<F>], pending: &[super::Pending<F>], out: &mut [Estimate<F>]) -> usize {
+        self.model.end_batch(samples, pending, out)
+    }
+
     /// [`Compensator::step`] that also hands each RBF activation ψ_j to `sink(j, ψ_j)`
     /// ([`PreparedModel::step_with`]).
     #[inline(always)]

@@ -78,6 +78,105 @@ pub(super) fn centre_pass<F: Real, const K: usize>(
     (y, proj, psi_sq)
 }
 
+/// Samples a batch's RBF pass runs side by side ([`super::PreparedModel::step_batch`]).
+pub(super) const LANES: usize = 8;
+
+/// The RBF pass's inputs and sums for [`LANES`] samples, one lane per sample (each quantity an
+/// array over the lanes, so that the pass over a centre runs the lanes in step).
+#[derive(Clone, Copy)]
+pub(super) struct Lanes<F> {
+    z: [[F; LANES]; ZP],
+    z_sq: [F; LANES],
+    y: [[F; LANES]; MAX_OUTPUTS],
+    proj: [[F; LANES]; VAR_RANK],
+    psi_sq: [F; LANES],
+}
+
+impl<F: Real> Lanes<F> {
+    /// Every lane zero.
+    #[inline(always)]
+    pub(super) fn new() -> Self {
+        Lanes {
+            z: [[F::ZERO; LANES]; ZP],
+            z_sq: [F::ZERO; LANES],
+            y: [[F::ZERO; LANES]; MAX_OUTPUTS],
+            proj: [[F::ZERO; LANES]; VAR_RANK],
+            psi_sq: [F::ZERO; LANES],
+        }
+    }
+
+    /// Lane `lane`'s inputs: z, ‖z‖² and the sums' starting y (its projections and ‖ψ‖² start
+    /// at 0, as in [`centre_pass`]).
+    #[inline(always)]
+    pub(super) fn put(&mut self, lane: usize, z: &[F; ZP], z_sq: F, y: &[F; MAX_OUTPUTS]) {
+        for (col, &v) in self.z.iter_mut().zip(z.iter()) {
+            if let Some(o) = col.get_mut(lane) {
+                *o = v;
+            }
+        }
+        if let Some(o) = self.z_sq.get_mut(lane) {
+            *o = z_sq;
+        }
+        for (col, &v) in self.y.iter_mut().zip(y.iter()) {
+            if let Some(o) = col.get_mut(lane) {
+                *o = v;
+            }
+        }
+    }
+
+    /// Lane `lane`: z, ‖z‖², and what [`centre_pass`] returns (y + Wψ, the projections, ‖ψ‖²).
+    #[inline(always)]
+    pub(super) fn get(&self, lane: usize) -> ([F; ZP], F, [F; MAX_OUTPUTS], [F; VAR_RANK], F) {
+        let at = |col: &[F; LANES]| col.get(lane).copied().unwrap_or(F::ZERO);
+        (
+            self.z.each_ref().map(at),
+            at(&self.z_sq),
+            self.y.each_ref().map(at),
+            self.proj.each_ref().map(at),
+            at(&self.psi_sq),
+        )
+    }
+}
+
+/// [`centre_pass`] over the lanes: per lane, the same operations in the same order (centre
+/// after centre; within a centre the distance over the inputs in order, ψ, then y, the
+/// projections and ‖ψ‖²), so each lane's sums are bit for bit those of `centre_pass` on its
+/// sample. The lanes are independent, which lets the compiler run them as vectors.
+#[inline(always)]
+pub(super) fn centre_pass_lanes<F: Real, const K: usize>(
+    centres: &Vec<PreparedCentre<F>, K>,
+    l: &mut Lanes<F>,
+    groups: usize,
+) {
+    for c in centres.iter() {
+        let mut psi = l.z_sq;
+        for d in psi.iter_mut() {
+            *d += c.mu_sq;
+        }
+        for (zk, &mk) in l.z.iter().zip(c.m2.iter()).take(groups * 4) {
+            for (d, &zv) in psi.iter_mut().zip(zk.iter()) {
+                *d = zv.mul_add(mk, *d);
+            }
+        }
+        for p in psi.iter_mut() {
+            *p = p.exp_neg();
+        }
+        for (yo, &w) in l.y.iter_mut().zip(c.w.iter()) {
+            for (v, &p) in yo.iter_mut().zip(psi.iter()) {
+                *v = w.mul_add(p, *v);
+            }
+        }
+        for (po, &v) in l.proj.iter_mut().zip(c.v.iter()) {
+            for (x, &p) in po.iter_mut().zip(psi.iter()) {
+                *x = v.mul_add(p, *x);
+            }
+        }
+        for (s, &p) in l.psi_sq.iter_mut().zip(psi.iter()) {
+            *s = p.mul_add(p, *s);
+        }
+    }
+}
+
 /// ψ_j = exp(−‖z − μ_j‖²/(2σ²)) over the first `groups` groups of four inputs, in input order
 /// (an unused or padding input adds an exact 0).
 #[inline(always)]

@@ -3,14 +3,53 @@
 
 use super::estimate::Estimate;
 use super::prepared::PreparedModel;
-use super::rbf::{centre_pass, psi_all, weak, ZP};
+use super::rbf::{centre_pass, centre_pass_lanes, psi_all, weak, Lanes, LANES, ZP};
 use super::sample::Sample;
 use super::state::StreamState;
 use crate::affine::{affine, affine_inputs};
 use crate::flags::Flags;
-use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, MAX_Z};
+use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, MAX_Z, VAR_RANK};
 use crate::real::Real;
 use nalgebra::SVector;
+
+/// A sample let into the stream state, as the RBF pass and the rest of the step need it.
+#[derive(Clone, Copy, Debug)]
+struct Entered<F> {
+    /// Envelope and lead flags so far.
+    flags: Flags,
+    /// The band's lead time \[s\].
+    lead: F,
+    /// The core's estimate Bφ (what Model-H fades to).
+    core: [F; MAX_OUTPUTS],
+    /// Bφ + Γm.
+    y: [F; MAX_OUTPUTS],
+    /// The direction latches after the sample.
+    latch: [F; MAX_GRATINGS],
+    /// How much of what Model-H adds is kept.
+    fade: F,
+    /// ρ², the stream's pace against the calibration's (0 without a pace term).
+    pace_sq: F,
+}
+
+/// The first part of a step: the sample answered already (non-finite, refused by the gate) or
+/// let in.
+#[derive(Clone, Copy, Debug)]
+enum Entry<F> {
+    Done(Estimate<F>),
+    In(Entered<F>),
+}
+
+/// A sample part way through a batch ([`PreparedModel::begin_batch`]): answered already, or
+/// let into the stream state with what the rest of its step needs. Opaque; the default is a
+/// placeholder to fill.
+#[derive(Clone, Copy, Debug)]
+pub struct Pending<F>(Entry<F>);
+
+impl<F: Real> Default for Pending<F> {
+    fn default() -> Self {
+        Pending(Entry::Done(Estimate::refused(0, Flags::OK)))
+    }
+}
 
 impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// Compensate one sample of the stream `state` and move the state. Never panics:
@@ -252,8 +291,157 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         s: &Sample<F>,
         mut sink: impl FnMut(usize, F),
     ) -> Estimate<F> {
+        let e = match self.enter::<G, M>(state, s) {
+            Entry::Done(e) => return e,
+            Entry::In(e) => e,
+        };
+        // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
+        let (z, z_sq) = self.rbf_inputs::<G>(s, e.latch);
+        // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
+        let (y, proj, psi_sq) =
+            centre_pass::<F, K>(&self.centres, &z, z_sq, usize::from(self.z_groups), e.y, &mut sink);
+        self.leave::<M>(&e, &z, z_sq, y, &proj, psi_sq)
+    }
+
+    /// Compensate `samples` in order, `out[i]` getting what [`PreparedModel::step`] gives for
+    /// `samples[i]` on `state`, bit for bit: the same operations on every sample, arranged so
+    /// that a host runs them faster. Only the part that moves the stream state (the gate, the
+    /// direction latches, the memory operators, the fade that reads them) runs sample after
+    /// sample; the RBF pass (the distances to every centre, ψ, Wψ, the variance projections)
+    /// runs over `LANES` samples at a time, centre by centre, each sample's sums taken in the
+    /// step's order. Stops at the shorter of the two slices and returns how many samples it
+    /// compensated. No heap; never panics.
+    ///
+    /// The same in two parts, for a caller with room for the samples in between:
+    /// [`PreparedModel::begin_batch`] (the stream state, in order) then
+    /// [`PreparedModel::end_batch`] (no state: any part of the batch, in any order, on any
+    /// thread).
+    #[inline(always)]
+    pub fn step_batch(&self, state: &mut StreamState<F>, samples: &[Sample<F>], out: &mut [Estimate<F>]) -> usize {
+        // The paper's shape with compile-time loop bounds, as in `step_with`.
+        if self.gratings == 3 && self.outputs == 3 {
+            self.step_batch_shaped::<3, 3>(state, samples, out)
+        } else {
+            self.step_batch_shaped::<0, 0>(state, samples, out)
+        }
+    }
+
+    /// The first part of [`PreparedModel::step_batch`]: move `state` by `samples` in order,
+    /// leaving in `pending` what the rest of each sample's step needs. Returns how many samples
+    /// it took (the shorter slice's length).
+    #[inline(always)]
+    pub fn begin_batch(&self, state: &mut StreamState<F>, samples: &[Sample<F>], pending: &mut [Pending<F>]) -> usize {
+        if self.gratings == 3 && self.outputs == 3 {
+            self.begin_shaped::<3, 3>(state, samples, pending)
+        } else {
+            self.begin_shaped::<0, 0>(state, samples, pending)
+        }
+    }
+
+    /// The second part of [`PreparedModel::step_batch`]: the estimates of `samples` from what
+    /// [`PreparedModel::begin_batch`] left for them in `pending` (the same samples, in the same
+    /// order). Moves no state. Returns how many it wrote (the shortest slice's length).
+    #[inline(always)]
+    pub fn end_batch(&self, samples: &[Sample<F>], pending: &[Pending<F>], out: &mut [Estimate<F>]) -> usize {
+        if self.gratings == 3 && self.outputs == 3 {
+            self.end_shaped::<3, 3>(samples, pending, out)
+        } else {
+            self.end_shaped::<0, 0>(samples, pending, out)
+        }
+    }
+
+    /// [`PreparedModel::step_batch`] for a model of `G` gratings and `M` outputs (0: read from
+    /// the model): each block of `LANES` samples begun, then ended.
+    #[inline(always)]
+    fn step_batch_shaped<const G: usize, const M: usize>(
+        &self,
+        state: &mut StreamState<F>,
+        samples: &[Sample<F>],
+        out: &mut [Estimate<F>],
+    ) -> usize {
+        let mut done = 0;
+        for (ss, os) in samples.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            // No sample moves the state without its estimate written.
+            let ss = ss.get(..os.len()).unwrap_or(ss);
+            let mut pending = [Pending::<F>::default(); LANES];
+            self.begin_shaped::<G, M>(state, ss, &mut pending);
+            done += self.end_block::<G, M>(ss, &pending, os);
+        }
+        done
+    }
+
+    /// [`PreparedModel::begin_batch`] for a model of `G` gratings and `M` outputs.
+    #[inline(always)]
+    fn begin_shaped<const G: usize, const M: usize>(
+        &self,
+        state: &mut StreamState<F>,
+        samples: &[Sample<F>],
+        pending: &mut [Pending<F>],
+    ) -> usize {
+        let mut n = 0;
+        for (s, p) in samples.iter().zip(pending.iter_mut()) {
+            *p = Pending(self.enter::<G, M>(state, s));
+            n += 1;
+        }
+        n
+    }
+
+    /// [`PreparedModel::end_batch`] for a model of `G` gratings and `M` outputs.
+    #[inline(always)]
+    fn end_shaped<const G: usize, const M: usize>(
+        &self,
+        samples: &[Sample<F>],
+        pending: &[Pending<F>],
+        out: &mut [Estimate<F>],
+    ) -> usize {
+        let mut done = 0;
+        for ((ss, ps), os) in samples.chunks(LANES).zip(pending.chunks(LANES)).zip(out.chunks_mut(LANES)) {
+            done += self.end_block::<G, M>(ss, ps, os);
+        }
+        done
+    }
+
+    /// The rest of the steps of at most `LANES` begun samples: their RBF inputs laid out one
+    /// lane per sample (a lane whose sample is answered already keeps zeros and its sums are
+    /// not read), the RBF pass over the lanes, then each sample's band and flags.
+    #[inline(always)]
+    fn end_block<const G: usize, const M: usize>(
+        &self,
+        samples: &[Sample<F>],
+        pending: &[Pending<F>],
+        out: &mut [Estimate<F>],
+    ) -> usize {
+        let mut lanes = Lanes::<F>::new();
+        let rows = samples.iter().zip(pending.iter()).take(LANES);
+        for (lane, (s, p)) in rows.enumerate() {
+            if let Entry::In(e) = &p.0 {
+                let (z, z_sq) = self.rbf_inputs::<G>(s, e.latch);
+                lanes.put(lane, &z, z_sq, &e.y);
+            }
+        }
+        centre_pass_lanes::<F, K>(&self.centres, &mut lanes, usize::from(self.z_groups));
+        let mut n = 0;
+        for (lane, ((o, p), _)) in out.iter_mut().zip(pending.iter()).zip(samples.iter()).take(LANES).enumerate() {
+            *o = match &p.0 {
+                Entry::Done(e) => *e,
+                Entry::In(e) => {
+                    let (z, z_sq, y, proj, psi_sq) = lanes.get(lane);
+                    self.leave::<M>(e, &z, z_sq, y, &proj, psi_sq)
+                }
+            };
+            n += 1;
+        }
+        n
+    }
+
+    /// The part of a step that moves the stream state: the sample checked (a non-finite one is
+    /// answered), the envelope flags, the lead, the core; the gate (a refused sample is answered
+    /// by the core with Model-P's band); then the latches and the memory terms (Γm added to the
+    /// core) and the fade, which reads the state they leave.
+    #[inline(always)]
+    fn enter<const G: usize, const M: usize>(&self, state: &mut StreamState<F>, s: &Sample<F>) -> Entry<F> {
         if !self.accepts_shaped::<G>(s) {
-            return Estimate::refused(self.outputs, Flags::NON_FINITE);
+            return Entry::Done(Estimate::refused(self.outputs, Flags::NON_FINITE));
         }
         let (x_env, n_env) = affine_inputs(&s.dl_pm, self.g::<G>(), self.ambient, s.t_amb_c);
         let mut flags = Flags::OK;
@@ -270,20 +458,35 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         if !self.let_in(state, s, Some(&x_env)) {
             flags.insert(Flags::OUT_OF_ENVELOPE.union(Flags::FALLBACK));
             if !self.finite_where_fitted(&core) {
-                return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
+                return Entry::Done(Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE)));
             }
             let scale = self.pace_ratio_sq(state).max(F::ONE);
-            return self.finish::<M>(core, F::ZERO, lead, F::ZERO, scale, flags);
+            return Entry::Done(self.finish::<M>(core, F::ZERO, lead, F::ZERO, scale, flags));
         }
         let mut y = core;
         let latch = self.advance_state::<G>(state, s, &mut y);
+        // Beyond the calibration's quiet time or its pace, what Model-H adds to the core fades.
+        let pace_sq = self.pace_ratio_sq(state);
+        let fade = self.fade::<G>(state, s.t_s, pace_sq);
+        Entry::In(Entered { flags, lead, core, y, latch, fade, pace_sq })
+    }
 
-        // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
-        let (z, z_sq) = self.rbf_inputs::<G>(s, latch);
+    /// The rest of a step, after the RBF pass over the sample's inputs `z` (‖z‖² `z_sq`) gave
+    /// `y` (core + Γm + Wψ), the variance projections `proj` and ‖ψ‖² `psi_sq`: weak support,
+    /// leverage, fade, band and flags. Moves no state.
+    #[inline(always)]
+    fn leave<const M: usize>(
+        &self,
+        e: &Entered<F>,
+        z: &[F; ZP],
+        z_sq: F,
+        y: [F; MAX_OUTPUTS],
+        proj: &[F; VAR_RANK],
+        psi_sq: F,
+    ) -> Estimate<F> {
+        let mut flags = e.flags;
         let groups = usize::from(self.z_groups);
-        // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
-        let (y, proj, psi_sq) = centre_pass::<F, K>(&self.centres, &z, z_sq, groups, y, &mut sink);
-        if !self.centres.is_empty() && weak::<F, K>(&self.centres, &z, z_sq, groups, psi_sq, self.weak_support) {
+        if !self.centres.is_empty() && weak::<F, K>(&self.centres, z, z_sq, groups, psi_sq, self.weak_support) {
             flags.insert(Flags::WEAK_SUPPORT);
         }
 
@@ -292,13 +495,11 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         for &pi in proj.iter() {
             lev = pi.mul_add(pi, lev);
         }
-        // Beyond the calibration's quiet time or its pace, what Model-H adds to the core fades.
-        let pace_sq = self.pace_ratio_sq(state);
-        let fade = self.fade::<G>(state, s.t_s, pace_sq);
+        let fade = e.fade;
         let y = if fade < F::ONE {
             flags.insert(Flags::FALLBACK);
-            let mut out = core;
-            for ((o, &full), &c) in out.iter_mut().zip(y.iter()).zip(core.iter()) {
+            let mut out = e.core;
+            for ((o, &full), &c) in out.iter_mut().zip(y.iter()).zip(e.core.iter()) {
                 *o = fade.mul_add(full - c, c);
             }
             out
@@ -310,7 +511,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         if !self.finite_where_fitted(&y) {
             return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
         }
-        self.finish::<M>(y, lev, lead, fade, pace_sq.max(F::ONE), flags)
+        self.finish::<M>(y, lev, e.lead, fade, e.pace_sq.max(F::ONE), flags)
     }
 
     /// ρ², the square of the stream's pace against the calibration's ([`crate::trust`]); 0

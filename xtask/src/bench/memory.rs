@@ -5,6 +5,11 @@
 //!
 //! The 10⁷-row CSV is about 0.9 GB: it is simulated into `target/bench/memory`, measured, and
 //! deleted at the end (also on failure) so the bench leaves no gigabyte behind.
+//!
+//! `import --format spectra-csv` of a spectra file of about 1 GB (the `paper` record's spectra,
+//! 512 pixels, sampled finer; `--quick`: about 0.1 GB), simulated there and deleted the same
+//! way (issue 41: memory that does not follow the file's length). Alone:
+//! `cargo xtask bench --import-memory-only [--quick]`.
 
 use std::fmt::Write as _;
 use std::fs;
@@ -24,6 +29,16 @@ const ROWS: [(usize, f64); 2] = [(1_000_000, 1.2096), (10_000_000, 0.12096)];
 /// The largest record `evaluate` is measured on with the simulation's sidecar (its studies
 /// re-simulate the record).
 const EVALUATE_MAX_ROWS: usize = 1_000_000;
+
+/// The spectra import's record: its sample interval over the 14 days of the `paper` clock
+/// (about 1 GB of spectra at 512 pixels; ten times coarser with `--quick`).
+const SPECTRA_DT_S: f64 = 2.8;
+const SPECTRA_DT_S_QUICK: f64 = 28.0;
+
+/// Target (issue 41): `import` of a 1 GB spectra file within this peak resident set.
+pub const TARGET_IMPORT_SPECTRA_BYTES: u64 = 100_000_000;
+/// The file size the target is stated for.
+pub const TARGET_IMPORT_SPECTRA_FILE_BYTES: u64 = 1_000_000_000;
 
 /// Targets (issue 28): `compensate` and `evaluate` streaming, `train` holding its columns.
 pub const TARGET_STREAM_BYTES_1E7: u64 = 200_000_000;
@@ -50,6 +65,22 @@ pub struct Memory {
     pub datasets: Vec<String>,
     /// Bytes of each record's CSV.
     pub csv_bytes: Vec<u64>,
+    /// `import --format spectra-csv` of a large spectra file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spectra_import: Option<SpectraImport>,
+}
+
+/// The spectra import's peak memory.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SpectraImport {
+    /// The `simulate` command that wrote the spectra.
+    pub simulate: String,
+    /// Bytes of the spectra file.
+    pub spectra_bytes: u64,
+    /// Its rows (one spectrum per row), header excluded.
+    pub spectra_rows: u64,
+    /// The import's run.
+    pub run: MemoryRun,
 }
 
 #[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot replace
@@ -89,7 +120,7 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<Memory> {
     let dir = root.join("target/bench/memory");
     fs::create_dir_all(&dir)?;
     let rows: &[(usize, f64)] = if opts.quick { &ROWS[..1] } else { &ROWS };
-    let mut m = Memory { runs: Vec::new(), datasets: Vec::new(), csv_bytes: Vec::new() };
+    let mut m = Memory { runs: Vec::new(), datasets: Vec::new(), csv_bytes: Vec::new(), spectra_import: None };
     for &(n, dt) in rows {
         let csv = dir.join(format!("n{n}.csv"));
         let result = measure(root, r, &dir, &csv, n, dt, &mut m);
@@ -100,7 +131,92 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<Memory> {
         let _ = fs::remove_file(dir.join(format!("n{n}-bare.csv")));
         result?;
     }
+    m.spectra_import = Some(spectra_import(root, r, opts)?);
     Ok(m)
+}
+
+/// Simulate the spectra file, import it with its peak memory measured, delete both.
+pub fn spectra_import(root: &Path, r: &Runner, opts: &Opts) -> Result<SpectraImport> {
+    let dir = root.join("target/bench/memory");
+    fs::create_dir_all(&dir)?;
+    let dt = if opts.quick { SPECTRA_DT_S_QUICK } else { SPECTRA_DT_S };
+    let toml = dir.join("spectra.toml");
+    let (sp, rec, out) = (dir.join("spectra.csv"), dir.join("spectra-record.csv"), dir.join("spectra-import.csv"));
+    let result = (|| -> Result<SpectraImport> {
+        fs::write(&toml, format!("# the paper record's spectra, sampled finer\n[clock]\ndt_s = {dt}\n"))?;
+        let (toml_s, sp_s, rec_s, out_s) = (rel(&toml, root), rel(&sp, root), rel(&rec, root), rel(&out, root));
+        let (_, simulate) = r.json(
+            TRAINER,
+            &super::runner::strings(&[
+                "simulate",
+                "--config",
+                &toml_s,
+                "--seed",
+                "7",
+                "--json",
+                "--spectra",
+                &sp_s,
+                "--out",
+                &rec_s,
+            ]),
+            &[],
+        )?;
+        let spectra_bytes = fs::metadata(&sp)?.len();
+        let spectra_rows = count_lines(&sp)?.saturating_sub(1);
+        let (bytes, seconds, command) =
+            peak_rss(root, TRAINER, &["import", "--format", "spectra-csv", &sp_s, "--out", &out_s])?;
+        let run =
+            MemoryRun { command, rows: spectra_rows as usize, what: "import".into(), peak_rss_bytes: bytes, seconds };
+        Ok(SpectraImport { simulate, spectra_bytes, spectra_rows, run })
+    })();
+    for f in [&sp, &rec, &out, &rec.with_extension("meta.json")] {
+        let _ = fs::remove_file(f);
+    }
+    result
+}
+
+/// Lines of the file at `path` (bytes `\n`), read in blocks.
+fn count_lines(path: &Path) -> Result<u64> {
+    use std::io::Read;
+    let mut f = fs::File::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut buf = vec![0u8; 1 << 20];
+    let mut n = 0u64;
+    loop {
+        let k = f.read(&mut buf)?;
+        if k == 0 {
+            return Ok(n);
+        }
+        n += buf.get(..k).unwrap_or_default().iter().filter(|&&b| b == b'\n').count() as u64;
+    }
+}
+
+/// `cargo xtask bench --import-memory-only`: the spectra import's peak memory alone, into the
+/// BENCHMARKS.json already there.
+pub fn import_only(root: &Path, opts: &Opts) -> Result<()> {
+    crate::cmd::run(crate::cmd::cargo().current_dir(root).args([
+        "build",
+        "--release",
+        "--locked",
+        "-p",
+        "fbg-trainer",
+    ]))?;
+    let r = Runner { root: root.to_path_buf() };
+    let part = spectra_import(root, &r, opts)?;
+    let path = root.join("BENCHMARKS.json");
+    let mut report: super::report::Report = super::runner::read_json(&path)?;
+    let mut memory = report.memory.take().unwrap_or(Memory {
+        runs: Vec::new(),
+        datasets: Vec::new(),
+        csv_bytes: Vec::new(),
+        spectra_import: None,
+    });
+    memory.spectra_import = Some(part);
+    report.memory = Some(memory);
+    let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
+    crate::cmd::write_atomic(&path, json.as_bytes())?;
+    crate::cmd::write_atomic(&root.join("BENCHMARKS.md"), super::markdown::markdown(&report).as_bytes())?;
+    eprintln!("bench: wrote the spectra import's peak memory into BENCHMARKS.md and BENCHMARKS.json");
+    Ok(())
 }
 
 fn measure(root: &Path, r: &Runner, dir: &Path, csv: &Path, n: usize, dt: f64, m: &mut Memory) -> Result<()> {
@@ -183,8 +299,28 @@ pub fn markdown(s: &mut String, mem: &Memory) {
         "\n`evaluate` is `evaluate --quick` on the record without its simulation sidecar (a real record: Table 2 and the static audit), which streams its rows in two passes and reads only the calibration prefix the static audit needs. `evaluate (simulated record)` is the same beside its `.meta.json`, which adds the per-sample oracle and re-simulates the record: measured on {} rows only.",
         EVALUATE_MAX_ROWS
     );
+    if let Some(sp) = &mem.spectra_import {
+        let ok = sp.run.peak_rss_bytes <= TARGET_IMPORT_SPECTRA_BYTES;
+        let size_ok = sp.spectra_bytes >= TARGET_IMPORT_SPECTRA_FILE_BYTES;
+        let verdict = match (size_ok, ok) {
+            (true, true) => "met",
+            (true, false) => "**not met**",
+            (false, _) => "not measured at that size (`--quick`)",
+        };
+        let _ = writeln!(
+            s,
+            "\n`import --format spectra-csv` of a {:.2} GB spectra file ({} spectra of 512 pixels, no map: discovery): peak RSS **{:.0} MB**, {:.1} s. Target (issue 41): a {} GB file within {} MB: {verdict}.",
+            sp.spectra_bytes as f64 / 1e9,
+            sp.spectra_rows,
+            sp.run.peak_rss_bytes as f64 / 1e6,
+            sp.run.seconds,
+            TARGET_IMPORT_SPECTRA_FILE_BYTES / 1_000_000_000,
+            TARGET_IMPORT_SPECTRA_BYTES / 1_000_000
+        );
+    }
     let _ = writeln!(s, "\nCommands:\n");
-    for c in mem.datasets.iter().chain(mem.runs.iter().map(|r| &r.command)) {
+    let spectra = mem.spectra_import.iter().flat_map(|sp| [&sp.simulate, &sp.run.command]);
+    for c in mem.datasets.iter().chain(mem.runs.iter().map(|r| &r.command)).chain(spectra) {
         let _ = writeln!(s, "- `{c}`");
     }
     let _ = writeln!(s);
@@ -221,12 +357,23 @@ mod tests {
             ],
             datasets: vec!["target/release/fbg-trainer simulate".into()],
             csv_bytes: vec![93_000_000, 954_000_000],
+            spectra_import: Some(SpectraImport {
+                simulate: "target/release/fbg-trainer simulate --spectra s.csv".into(),
+                spectra_bytes: 1_020_000_000,
+                spectra_rows: 432_000,
+                run: run(432_000, "import", 150),
+            }),
         };
         let mut s = String::new();
         markdown(&mut s, &m);
         assert!(s.contains("| 10000000 | 954 MB | `train` | 1100 MB | 1.0 s | ≤ 1200 MB: met |"), "{s}");
         assert!(s.contains("| 10000000 | 954 MB | `compensate` | 300 MB | 1.0 s | ≤ 200 MB: **not met** |"), "{s}");
         assert!(s.contains("| 1000000 | 93 MB | `evaluate` | 900 MB | 1.0 s | – |"), "{s}");
+        assert!(
+            s.contains("peak RSS **150 MB**, 1.0 s. Target (issue 41): a 1 GB file within 100 MB: **not met**."),
+            "{s}"
+        );
+        assert!(s.contains("- `target/release/fbg-trainer simulate --spectra s.csv`"), "{s}");
     }
 
     /// The whole part on 10⁶ rows (`--quick`); about two minutes, so run by hand:
@@ -237,8 +384,14 @@ mod tests {
     fn memory_part_on_a_million_rows() {
         let root = crate::cmd::root();
         let r = Runner { root: root.clone() };
-        let m = part(&root, &r, &Opts { quick: true, no_device: true, markdown_only: false, spectrum_only: false })
-            .unwrap();
+        let opts = Opts {
+            quick: true,
+            no_device: true,
+            markdown_only: false,
+            spectrum_only: false,
+            import_memory_only: false,
+        };
+        let m = part(&root, &r, &opts).unwrap();
         let mut s = String::new();
         markdown(&mut s, &m);
         eprintln!("{s}");

@@ -11,7 +11,8 @@
 //! invocation. The exact command behind each figure is recorded next to it.
 //!
 //! `cargo xtask bench --spectrum-only [--quick]` measures only the spectrum part
-//! ([`spectrum`]) into the BENCHMARKS.json already there.
+//! ([`spectrum`]) into the BENCHMARKS.json already there; `--import-memory-only [--quick]`
+//! only the spectra import's peak memory ([`memory::spectra_import`]).
 //!
 //! `cargo xtask bench [--quick] [--no-device]`: `--quick` takes one round of one repeat (for
 //! trying the task out, not for publishing); `--no-device` reuses `target/bench/device.json`
@@ -62,6 +63,8 @@ pub struct Opts {
     pub markdown_only: bool,
     /// Only the spectrum part.
     pub spectrum_only: bool,
+    /// Only the spectra import's peak memory.
+    pub import_memory_only: bool,
 }
 
 /// `cargo xtask bench`.
@@ -72,6 +75,9 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     // One part alone, into the BENCHMARKS.json already there.
     if opts.spectrum_only {
         return spectrum::only(root, opts);
+    }
+    if opts.import_memory_only {
+        return memory::import_only(root, opts);
     }
     let r = Runner { root: root.to_path_buf() };
     let data_dir = root.join("target/bench/data");

@@ -14,8 +14,9 @@ use crate::cmd::{describe, step, write_atomic};
 
 /// The script, relative to the workspace root.
 const SCRIPT: &str = "bench/python_peer.py";
-/// Targets: `predict` at least this many times faster than the scikit-learn pipeline …
-pub const TARGET_SPEEDUP_VS_SKLEARN: f64 = 10.0;
+/// Targets: `predict` at least this many times faster than the scikit-learn pipeline (DESIGN
+/// §8, issue 41: the stateless parts batched, the memory operators one scan) …
+pub const TARGET_SPEEDUP_VS_SKLEARN: f64 = 3.0;
 /// … and at most this many times the CLI's `compensate`; `fit` at most this many times
 /// `bench-fit --fixed`.
 pub const TARGET_RATIO_TO_CLI: f64 = 1.5;
@@ -80,7 +81,7 @@ pub fn markdown(s: &mut String, v: &Value) {
     let _ = writeln!(s, "## Python package (`fbg_compensation`)\n");
     let _ = writeln!(
         s,
-        "`predict` of a Model-H (the `paper` feature set, K = 32, fixed) over {} rows of the `paper` preset from a pandas DataFrame in memory (one pass of the device's compensator in f64, band and flags included), against the scikit-learn pipeline of `bench/sklearn_peer.py` on the same inputs (no band) and the CLI's `compensate` on the record's CSV (a process: read, compensate, write); `fit` on its {} calibration rows against `bench-fit --fixed` with the same configuration. Medians of {} runs, alternated. Results equal to the CLI's bit for bit: {}.\n",
+        "`predict` of a Model-H (the `paper` feature set, K = 32, fixed) over {} rows of the `paper` preset from a pandas DataFrame in memory (the device's compensator in f64 through `fbg-shared`'s batch path: the stream state one scan in order, the RBF pass over several rows at once and over the cores, bit for bit its step; band and flags included), against the scikit-learn pipeline of `bench/sklearn_peer.py` on the same inputs (no band) and the CLI's `compensate` on the record's CSV (a process: read, compensate, write); `fit` on its {} calibration rows against `bench-fit --fixed` with the same configuration. Medians of {} runs, alternated. Results equal to the CLI's bit for bit: {}.\n",
         v.get("rows").and_then(Value::as_u64).unwrap_or(0),
         v.get("cal_rows").and_then(Value::as_u64).unwrap_or(0),
         v.get("repeats").and_then(Value::as_u64).unwrap_or(0),
@@ -112,6 +113,14 @@ pub fn markdown(s: &mut String, v: &Value) {
         fit,
         met(fit <= TARGET_FIT_RATIO)
     );
+    if let Some(l) = v.get("load_average").and_then(Value::as_array).filter(|l| l.len() == 3) {
+        let l: Vec<String> = l.iter().map(|x| format!("{:.1}", x.as_f64().unwrap_or(f64::NAN))).collect();
+        let _ = writeln!(
+            s,
+            "\nLoad average when the run ended (1, 5, 15 min): {} (other work on the machine slows both sides, not necessarily alike).",
+            l.join(" / ")
+        );
+    }
     let cmd = |k: &str| v.get("commands").and_then(|c| c.get(k)).and_then(Value::as_str).unwrap_or("").to_string();
     let _ = writeln!(
         s,

@@ -140,8 +140,15 @@ impl Merged {
         m: &Map,
         input_name: &str,
     ) -> Result<Merged, TrainerError> {
-        let read =
-            spectra::read(opts.format, &opts.input, map, map_origin.unwrap_or("map"), opts.scale, opts.on_error)?;
+        // Only what the import reads of each peak is kept (`Found`): a long file's frames.
+        let read = spectra::read::<spectra::Found>(
+            opts.format,
+            &opts.input,
+            map,
+            map_origin.unwrap_or("map"),
+            opts.scale,
+            opts.on_error,
+        )?;
         let (nm, info) = read.series(opts.format);
         let d = read.detected;
         let n_g = nm.len();

@@ -16,6 +16,7 @@
 //! counted skips ([`problems`]); the output is written atomically (`Dataset::write_csv`).
 
 mod assemble;
+mod dates;
 mod enlight;
 mod join;
 mod logger_csv;
@@ -212,6 +213,61 @@ pub(crate) fn read_text(path: &Path) -> Result<String, TrainerError> {
     })
 }
 
+/// A text file read line by line, as [`read_text`] would split it on `\n` (invalid UTF-8
+/// replaced, the byte-order mark removed, a `\r` before the line end dropped), holding one line
+/// at a time: what a reader of a file of any length uses.
+pub(crate) struct TextLines {
+    reader: std::io::BufReader<std::fs::File>,
+    path: PathBuf,
+    bytes: Vec<u8>,
+    line: String,
+    /// Lines read so far (the number of the line last returned).
+    number: u64,
+}
+
+/// Bytes read from a file at a time.
+const READ_BUFFER: usize = 1 << 20;
+
+impl TextLines {
+    /// Open `path`; errors name it.
+    pub(crate) fn open(path: &Path) -> Result<TextLines, TrainerError> {
+        let f = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
+        Ok(TextLines {
+            reader: std::io::BufReader::with_capacity(READ_BUFFER, f),
+            path: path.to_path_buf(),
+            bytes: Vec::new(),
+            line: String::new(),
+            number: 0,
+        })
+    }
+
+    /// The next line: its number (from 1), its text without the line end, and whether it
+    /// ended with `\n` (only the file's last line may not); `None` at the end of the file
+    /// (an empty file has no line; a file ending with `\n` has no empty line after it).
+    pub(crate) fn next_line(&mut self) -> Result<Option<(u64, &str, bool)>, TrainerError> {
+        use std::io::BufRead;
+        self.bytes.clear();
+        let n = self.reader.read_until(b'\n', &mut self.bytes).map_err(|e| TrainerError::io(&self.path, e))?;
+        if n == 0 {
+            return Ok(None);
+        }
+        self.number += 1;
+        let ended = self.bytes.last() == Some(&b'\n');
+        if ended {
+            self.bytes.pop();
+        }
+        if self.bytes.last() == Some(&b'\r') {
+            self.bytes.pop();
+        }
+        // `\n` is never part of a multi-byte sequence: replacing line by line is replacing the
+        // whole text.
+        self.line.clear();
+        self.line.push_str(&String::from_utf8_lossy(&self.bytes));
+        let text = if self.number == 1 { self.line.strip_prefix('\u{feff}').unwrap_or(&self.line) } else { &self.line };
+        Ok(Some((self.number, text, ended)))
+    }
+}
+
 /// A numeric cell: `Ok(None)` when empty or a missing marker (NaN, NA, N/A, null).
 pub(crate) fn number(cell: &str) -> Result<Option<f64>, String> {
     let c = cell.trim();
@@ -226,5 +282,42 @@ pub(crate) fn number(cell: &str) -> Result<Option<f64>, String> {
             quote_cell(c)
         )),
         Err(_) => Err(format!("`{}` is not a number", quote_cell(c))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every line `TextLines` gives, with its number and line end.
+    fn streamed(bytes: &[u8]) -> Vec<(u64, String, bool)> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.txt");
+        std::fs::write(&path, bytes).unwrap();
+        let mut lines = TextLines::open(&path).unwrap();
+        let mut out = Vec::new();
+        while let Some((n, l, ended)) = lines.next_line().unwrap() {
+            out.push((n, l.to_string(), ended));
+        }
+        // The whole text split as the readers did before they streamed: the same lines, but
+        // for the empty one after a final line end.
+        let text = read_text(&path).unwrap();
+        let mut split: Vec<&str> = text.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
+        if text.ends_with('\n') || text.is_empty() {
+            split.pop();
+        }
+        assert_eq!(out.iter().map(|(_, l, _)| l.as_str()).collect::<Vec<_>>(), split, "{bytes:?}");
+        out
+    }
+
+    #[test]
+    fn text_lines_are_the_whole_text_split_one_line_at_a_time() {
+        let l = |n: u64, s: &str, e: bool| (n, s.to_string(), e);
+        assert_eq!(streamed(b""), []);
+        assert_eq!(streamed(b"a\r\nb\n"), [l(1, "a", true), l(2, "b", true)]);
+        assert_eq!(streamed(b"\xef\xbb\xbfh,x\n\n1,2"), [l(1, "h,x", true), l(2, "", true), l(3, "1,2", false)]);
+        assert_eq!(streamed(b"ok\xff\xfe\nx\r"), [l(1, "ok\u{fffd}\u{fffd}", true), l(2, "x", false)]);
+        // A byte-order mark only counts on the first line.
+        assert_eq!(streamed(b"a\n\xef\xbb\xbfb\n")[1], l(2, "\u{feff}b", true));
     }
 }

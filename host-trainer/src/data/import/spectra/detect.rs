@@ -2,7 +2,7 @@
 //! windows, or from the peaks discovered in the channel's first spectrum) and reused for every
 //! frame; the results kept per grating and frame.
 
-use fbg_shared::spectrum::{DetectorConfig, Peak, PeakDetector, Window};
+use fbg_shared::spectrum::{DetectorConfig, Peak, PeakDetector, PeakFlags, Window};
 
 use super::super::mapping;
 use super::super::problems::{Reason, RowError};
@@ -11,15 +11,77 @@ use super::frames::{SpectrumRow, SpectrumSink, MAX_CHANNELS};
 use crate::data::measurand::MAX_GRATINGS;
 use crate::error::TrainerError;
 
+/// What a detection keeps of each frame's peak: the whole [`Peak`] (the `peaks` command's
+/// table) or only what the import reads ([`Found`]), so that a long file's frames cost the
+/// import less memory.
+pub(crate) trait Kept: Copy {
+    /// What is kept of `p`.
+    fn keep(p: &Peak<f64>) -> Self;
+    /// Centre wavelength \[nm\] (NaN with no peak).
+    fn wavelength_nm(&self) -> f64;
+    /// Height above the floor.
+    fn amplitude(&self) -> f64;
+    /// FWHM \[nm\].
+    fn fwhm_nm(&self) -> f64;
+    /// Quality flags.
+    fn flags(&self) -> PeakFlags;
+}
+
+impl Kept for Peak<f64> {
+    fn keep(p: &Peak<f64>) -> Self {
+        *p
+    }
+    fn wavelength_nm(&self) -> f64 {
+        self.wavelength_nm
+    }
+    fn amplitude(&self) -> f64 {
+        self.amplitude
+    }
+    fn fwhm_nm(&self) -> f64 {
+        self.fwhm_nm
+    }
+    fn flags(&self) -> PeakFlags {
+        self.flags
+    }
+}
+
+/// What the import keeps of a peak: its wavelength, the height and width the plausibility
+/// rule compares, the flags.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Found {
+    wavelength_nm: f64,
+    amplitude: f64,
+    fwhm_nm: f64,
+    flags: PeakFlags,
+}
+
+impl Kept for Found {
+    fn keep(p: &Peak<f64>) -> Self {
+        Found { wavelength_nm: p.wavelength_nm, amplitude: p.amplitude, fwhm_nm: p.fwhm_nm, flags: p.flags }
+    }
+    fn wavelength_nm(&self) -> f64 {
+        self.wavelength_nm
+    }
+    fn amplitude(&self) -> f64 {
+        self.amplitude
+    }
+    fn fwhm_nm(&self) -> f64 {
+        self.fwhm_nm
+    }
+    fn flags(&self) -> PeakFlags {
+        self.flags
+    }
+}
+
 /// One channel's detector and its results.
-struct Channel {
+struct Channel<T> {
     /// `None` where discovery found more peaks than a detector holds (an error at the end).
     detector: Option<PeakDetector<f64, MAX_GRATINGS>>,
     /// Per window (in the detector's order): the map's grating index, or `None` when
     /// discovered (numbered at the end).
     grating: Vec<Option<usize>>,
     /// Per window, per frame: the peak, `None` where the frame lacks this channel.
-    peaks: Vec<Vec<Option<Peak<f64>>>>,
+    peaks: Vec<Vec<Option<T>>>,
     /// Per frame: the line of this channel's spectrum (0 where the frame lacks it).
     lines: Vec<u64>,
     /// Peaks discovered in the first spectrum (discovery only).
@@ -29,11 +91,11 @@ struct Channel {
 }
 
 /// The detection of one file, fed row by row ([`SpectrumSink`]).
-pub(crate) struct Detection {
+pub(crate) struct Detection<T> {
     config: DetectorConfig<f64>,
     /// The map's windows: (grating index, channel 0-based, window); empty: discovery.
     mapped: Vec<(usize, usize, Window<f64>)>,
-    channels: Vec<Option<Channel>>,
+    channels: Vec<Option<Channel<T>>>,
     t: Vec<f64>,
     lines: Vec<u64>,
     /// Channels already in the current frame.
@@ -43,13 +105,13 @@ pub(crate) struct Detection {
 }
 
 /// One grating's peaks over the frames.
-pub(crate) struct GratingPeaks {
+pub(crate) struct GratingPeaks<T> {
     /// Channel, 0-based.
     pub channel: usize,
     /// Where it comes from, in words.
     pub source: String,
     /// Per frame (`None`: the frame lacks the channel).
-    pub peaks: Vec<Option<Peak<f64>>>,
+    pub peaks: Vec<Option<T>>,
     /// Per frame: the line of the channel's spectrum (0 where the frame lacks it).
     pub lines: Vec<u64>,
     /// Per frame: the peak is not one the grating can make (`plausible.rs`): a fault.
@@ -57,18 +119,18 @@ pub(crate) struct GratingPeaks {
 }
 
 /// Every frame's time and line, and the gratings' peaks in dataset order.
-pub(crate) struct Detected {
+pub(crate) struct Detected<T> {
     /// Time of each frame on the file's axis \[s\].
     pub t: Vec<f64>,
     /// Line of each frame's first spectrum.
     pub lines: Vec<u64>,
     /// dl1, dl2, … in order.
-    pub gratings: Vec<GratingPeaks>,
+    pub gratings: Vec<GratingPeaks<T>>,
     /// The windows came from the map (else discovered).
     pub from_map: bool,
 }
 
-impl Detection {
+impl<T: Kept> Detection<T> {
     /// A detection with `config` and the map's windows (none: discovery); `columns` name the
     /// file's time and channel columns in messages.
     pub(crate) fn new(
@@ -95,7 +157,7 @@ impl Detection {
 
     /// The channel's state, made at its first spectrum (`None` only past [`MAX_CHANNELS`],
     /// which the caller refuses first).
-    fn channel(&mut self, row: &SpectrumRow<'_>) -> Option<&mut Channel> {
+    fn channel(&mut self, row: &SpectrumRow<'_>) -> Option<&mut Channel<T>> {
         let c = row.channel;
         if self.channels.len() <= c {
             self.channels.resize_with(c + 1, || None);
@@ -128,7 +190,7 @@ impl Detection {
     /// The results, with the gratings in dataset order: the map's, or without a map each
     /// channel's discovered peaks in wavelength order, channel after channel. `name` and
     /// `origin` name the file and the map in errors.
-    pub(crate) fn finish(self, name: &str, origin: &str, channels_in_file: usize) -> Result<Detected, TrainerError> {
+    pub(crate) fn finish(self, name: &str, origin: &str, channels_in_file: usize) -> Result<Detected<T>, TrainerError> {
         let from_map = !self.mapped.is_empty();
         if from_map {
             if let Some((g, c, _)) = self.mapped.iter().find(|m| m.1 >= channels_in_file) {
@@ -140,7 +202,7 @@ impl Detection {
             }
         }
         let frames = self.t.len();
-        let mut out: Vec<(usize, GratingPeaks)> = Vec::new();
+        let mut out: Vec<(usize, GratingPeaks<T>)> = Vec::new();
         let total: usize = self.channels.iter().flatten().map(|c| c.discovered).sum();
         if !from_map && (total == 0 || total > MAX_GRATINGS) {
             let counts: Vec<String> = self
@@ -204,7 +266,7 @@ impl Detection {
     }
 }
 
-impl SpectrumSink for Detection {
+impl<T: Kept> SpectrumSink for Detection<T> {
     fn spectrum(&mut self, row: SpectrumRow<'_>) -> Result<(), RowError> {
         if row.channel >= MAX_CHANNELS {
             return Err(RowError::new(
@@ -264,7 +326,7 @@ impl SpectrumSink for Detection {
         if let Some(det) = &ch.detector {
             for (slot, p) in ch.peaks.iter_mut().zip(det.detect(&row.spectrum)) {
                 if let Some(last) = slot.last_mut() {
-                    *last = p;
+                    *last = p.as_ref().map(T::keep);
                 }
             }
         }

@@ -49,13 +49,14 @@ use super::Format;
 use crate::data::measurand::grating_column;
 use crate::error::TrainerError;
 use detect::{Detected, Detection};
+pub(crate) use detect::{Found, Kept};
 use frames::{describe_grid, FileFacts};
 use settings::Settings;
 
-/// A spectrum file read and its peaks detected.
-pub(crate) struct SpectraRead {
+/// A spectrum file read and its peaks detected, each kept as `T` ([`Kept`]).
+pub(crate) struct SpectraRead<T> {
     /// The frames and each grating's peaks.
-    pub detected: Detected,
+    pub detected: Detected<T>,
     /// What the reader found.
     pub facts: FileFacts,
     /// Channels seen.
@@ -68,14 +69,14 @@ pub(crate) struct SpectraRead {
 
 /// Read `input` in `format` (a spectrum format) and detect its peaks. `map` is `None` without
 /// `--map`; `scale` is `--scale`.
-pub(crate) fn read(
+pub(crate) fn read<T: Kept>(
     format: Format,
     input: &std::path::Path,
     map: Option<&Map>,
     origin: &str,
     scale: Option<Scale>,
     policy: OnError,
-) -> Result<SpectraRead, TrainerError> {
+) -> Result<SpectraRead<T>, TrainerError> {
     let default_map = Map::default();
     let m = map.unwrap_or(&default_map);
     let scale = match (scale, m.spectra.scale, format) {
@@ -90,7 +91,7 @@ pub(crate) fn read(
         Format::EnlightResponses => ("1 (time)", "1 (channel line)"),
         _ => ("1 (t_s)", "2 (channel)"),
     };
-    let mut detection = Detection::new(settings.config, &m.windows(), columns);
+    let mut detection = Detection::<T>::new(settings.config, &m.windows(), columns);
     let (facts, channels) = match format {
         Format::SpectraCsv => wide_csv::read(input, scale.0, policy, &spectra_csv::grid_of, &mut detection)?,
         Format::Pixels => {
@@ -125,7 +126,7 @@ fn pixel_polynomial(s: &SpectraMap, origin: &str, have_map: bool) -> Result<Vec<
     })
 }
 
-impl SpectraRead {
+impl<T: Kept> SpectraRead<T> {
     /// Each grating's wavelength per frame \[nm\] (NaN: a gap, by the gap rule) and the
     /// summary's facts, with the flagged frames counted.
     pub(crate) fn series(&self, format: Format) -> (Vec<Vec<f64>>, SpectraInfo) {
@@ -147,10 +148,11 @@ impl SpectraRead {
                 .map(|(p, &implausible)| {
                     let Some(p) = p else { return f64::NAN };
                     f.frames += 1;
-                    if !p.flags.is_ok() || implausible {
+                    let flags = p.flags();
+                    if !flags.is_ok() || implausible {
                         f.flagged += 1;
                         for (bit, name) in settings::flag_names() {
-                            if p.flags.contains(bit) {
+                            if flags.contains(bit) {
                                 *f.by_flag.entry(name).or_insert(0) += 1;
                             }
                         }
@@ -158,11 +160,11 @@ impl SpectraRead {
                     if implausible {
                         *f.by_flag.entry(plausible::IMPLAUSIBLE.to_string()).or_insert(0) += 1;
                     }
-                    if p.flags.0 & gap_on.0 != 0 || implausible || !p.wavelength_nm.is_finite() {
+                    if flags.0 & gap_on.0 != 0 || implausible || !p.wavelength_nm().is_finite() {
                         f.gaps += 1;
                         f64::NAN
                     } else {
-                        p.wavelength_nm
+                        p.wavelength_nm()
                     }
                 })
                 .collect();

@@ -70,7 +70,7 @@ pub fn peaks_to_csv(opts: &ImportOptions, out: &Path) -> Result<PeaksSummary, Tr
     if let (Some(m), Some(o)) = (&map, &origin) {
         m.validate(o, super::super::mapping::For::Spectra)?;
     }
-    let read = super::read(
+    let read = super::read::<fbg_shared::spectrum::Peak<f64>>(
         opts.format,
         &opts.input,
         map.as_ref(),

@@ -25,11 +25,11 @@ use std::path::Path;
 
 use fbg_shared::spectrum::{from_db_in_place, Grid, Spectrum};
 
-use super::super::enlight::{date_order, find_culture, number_in, Culture};
+use super::super::enlight::{find_culture, number_in, Culture, DateProbe};
 use super::super::mapping::Map;
 use super::super::problems::{OnError, Problems, Reason, RowError};
-use super::super::read_text;
 use super::super::time_axis::{dmy_fields, Dmy, TimeKind, TimeParser, TimeUnit};
+use super::super::TextLines;
 use super::frames::{FileFacts, SpectrumRow, SpectrumSink, MAX_CHANNELS};
 use super::scale::Scale;
 use super::wide_csv::check_scale;
@@ -56,20 +56,16 @@ pub(crate) fn read(
     sink: &mut dyn SpectrumSink,
 ) -> Result<(FileFacts, usize), TrainerError> {
     let name = path.display().to_string();
-    let text = read_text(path)?;
-    let ends_with_newline = text.ends_with('\n');
-    let lines: Vec<&str> = text.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
-    let Header { n_header, culture, points, grid } = header(&lines, m, origin, &name)?;
+    // Line by line: memory does not grow with the file's length. The header is kept (its line
+    // count is line 1's); a date order to probe takes a first pass over the data.
+    let mut lines = TextLines::open(path)?;
+    let (head, file_lines) = header_lines(&mut lines)?;
+    let head_refs: Vec<&str> = head.iter().map(String::as_str).collect();
+    let Header { n_header, culture, points, grid } = header(&head_refs, file_lines, m, origin, &name)?;
     let decimal_comma = culture.as_ref().is_some_and(|c| c.decimal_comma);
     let mut clock = TimeParser::new(TimeUnit::Auto, m.enlight.time_format.clone(), None)
         .with_locale(decimal_comma, if m.enlight.time_format.is_some() { Dmy::Off } else { Dmy::Probe });
-    let data = lines.get(n_header..).unwrap_or_default();
-    let first_time = data.iter().find(|l| is_time_line(l)).map(|l| l.trim()).unwrap_or_default();
-    clock.dmy = if clock.dmy == Dmy::Probe && dmy_fields(first_time).is_some() {
-        Dmy::Order(date_order(data, n_header, '\t', culture.as_ref(), &name)?.0)
-    } else {
-        Dmy::Off
-    };
+    clock.dmy = if clock.dmy == Dmy::Probe { probe_dates(path, n_header, culture.as_ref(), &name)? } else { Dmy::Off };
     let label = |k: usize| format!("{} ({:.3} nm)", k + 1, grid.wavelength(k as f64));
     let spec = Blocks { points, scale, culture: culture.as_ref(), label: &label };
     let mut problems = Problems::new(&name, policy);
@@ -85,12 +81,10 @@ pub(crate) fn read(
     let mut first_lines: Vec<u64> = Vec::new();
     let mut most_later = 0usize;
     let mut blocks = 0usize;
-    let last_nonblank = lines.iter().rposition(|l| !l.trim().is_empty()).unwrap_or(0);
-    for (i, l) in lines.iter().enumerate().skip(n_header) {
+    while let Some((line, l, ended)) = lines.next_line()? {
         if l.trim().is_empty() {
             continue;
         }
-        let line = i as u64 + 1;
         if is_time_line(l) {
             if blocks >= 2 {
                 most_later = most_later.max(block.flatten().map_or(0, |(_, c)| c));
@@ -138,7 +132,8 @@ pub(crate) fn read(
             ))?;
             continue;
         }
-        let truncated = i == last_nonblank && !ends_with_newline;
+        // Only the file's last line can lack its line end.
+        let truncated = !ended;
         let row = spec.parse(l, line, c, truncated, &mut samples).and_then(|()| {
             sink.spectrum(SpectrumRow { t: *t, line, channel: c, spectrum: Spectrum::new(&samples, grid) })
         });
@@ -195,20 +190,87 @@ struct Header {
     grid: Grid<f64>,
 }
 
-/// Read and check the header of `lines` (of the file `name`).
-fn header(lines: &[&str], m: &Map, origin: &str, name: &str) -> Result<Header, TrainerError> {
+/// The header's lines of the file `lines` reads from its start: as many as its first line's
+/// count says (all of them when that is not a count, or more than the file holds), and the
+/// file's line count when the whole file was read for them (counted as its text split on
+/// `\n`: a file ending with a line end has an empty last line).
+fn header_lines(lines: &mut TextLines) -> Result<(Vec<String>, Option<usize>), TrainerError> {
+    let mut head: Vec<String> = Vec::new();
+    let mut want: Option<usize> = None;
+    let mut last_ended = false;
+    loop {
+        if want.is_some_and(|n| head.len() >= n) {
+            return Ok((head, None));
+        }
+        let Some((_, l, ended)) = lines.next_line()? else { break };
+        if head.is_empty() {
+            want = l.split('\t').next().unwrap_or_default().trim().parse::<usize>().ok();
+            if want.is_none() {
+                // Not a count: an error naming the file's line count; the rest is counted, not kept.
+                let first = l.to_string();
+                let mut n = 1;
+                last_ended = ended;
+                while let Some((_, _, e)) = lines.next_line()? {
+                    n += 1;
+                    last_ended = e;
+                }
+                return Ok((vec![first], Some(n + usize::from(last_ended))));
+            }
+        }
+        head.push(l.to_string());
+        last_ended = ended;
+    }
+    let n = head.len() + usize::from(last_ended || head.is_empty());
+    Ok((head, Some(n)))
+}
+
+/// The day/month order of the data's dates when the first timestamp after the header's
+/// `n_header` lines has numeric day and month fields: every data line's first cell probed, in a
+/// pass over the file of its own.
+fn probe_dates(path: &Path, n_header: usize, culture: Option<&Culture>, name: &str) -> Result<Dmy, TrainerError> {
+    let mut lines = TextLines::open(path)?;
+    let mut numeric = false;
+    while let Some((line, l, _)) = lines.next_line()? {
+        if line as usize > n_header && is_time_line(l) {
+            numeric = dmy_fields(l.trim()).is_some();
+            break;
+        }
+    }
+    if !numeric {
+        return Ok(Dmy::Off);
+    }
+    let mut lines = TextLines::open(path)?;
+    let mut probe = DateProbe::new(n_header, culture, name);
+    while let Some((line, l, _)) = lines.next_line()? {
+        if line as usize > n_header && probe.see(line, l.split('\t').next().unwrap_or(""))? {
+            break;
+        }
+    }
+    Ok(Dmy::Order(probe.finish()?.0))
+}
+
+/// Read and check the header `lines` (its first lines, as many as line 1 says when it can;
+/// `file_lines` the file's line count when the file ended first) of the file `name`.
+fn header(
+    lines: &[&str],
+    file_lines: Option<usize>,
+    m: &Map,
+    origin: &str,
+    name: &str,
+) -> Result<Header, TrainerError> {
     let name = name.to_string();
+    let available = file_lines.unwrap_or(usize::MAX);
     let first = lines.first().map(|l| l.split('\t').next().unwrap_or_default().trim()).unwrap_or_default();
-    let n_header = first.parse::<usize>().ok().filter(|&n| (1..=lines.len()).contains(&n)).ok_or_else(|| {
+    let n_header = first.parse::<usize>().ok().filter(|&n| (1..=available).contains(&n)).ok_or_else(|| {
         TrainerError::data(
             &name,
             1,
             "1 (header line count)",
-            format!("`{}` is not the header's line count: a Responses export's first line is the number of header lines (this one included), at most the file's {} lines", crate::error::quote_cell(first), lines.len()),
+            format!("`{}` is not the header's line count: a Responses export's first line is the number of header lines (this one included), at most the file's {} lines", crate::error::quote_cell(first), available),
         )
     })?;
     let culture = find_culture(lines, Some(n_header), m.enlight.culture.as_deref(), origin, &name, &|_| '\t')?;
-    let header = lines.get(..n_header).unwrap_or_default();
+    let header = lines.get(..n_header.min(lines.len())).unwrap_or_default();
     let key_number = |key: &str| -> Result<f64, TrainerError> {
         let Some((i, v)) = header.iter().enumerate().skip(1).find_map(|(i, l)| value_of(l, key).map(|v| (i, v))) else {
             return Err(TrainerError::data(

@@ -15,7 +15,7 @@ use fbg_shared::spectrum::{from_db_in_place, Grid, Spectrum};
 
 use super::super::problems::{OnError, Problems, Reason, RowError};
 use super::super::time_axis::{TimeKind, TimeParser, TimeUnit};
-use super::super::{number, read_text};
+use super::super::{number, TextLines};
 use super::frames::{FileFacts, SpectrumRow, SpectrumSink, MAX_CHANNELS};
 use super::scale::Scale;
 use crate::error::TrainerError;
@@ -35,14 +35,23 @@ pub(crate) fn read(
     sink: &mut dyn SpectrumSink,
 ) -> Result<(FileFacts, usize), TrainerError> {
     let name = path.display().to_string();
-    let text = read_text(path)?;
-    let ends_with_newline = text.ends_with('\n');
-    let lines: Vec<&str> = text.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
-    let Some(header_index) = lines.iter().position(|l| !l.trim().is_empty()) else {
-        return Err(TrainerError::data(&name, 1, "1", "empty file: no header `t_s,channel,<wavelengths or pixels>`"));
+    // Line by line: memory does not grow with the file's length.
+    let mut lines = TextLines::open(path)?;
+    let (header_line, header) = loop {
+        match lines.next_line()? {
+            Some((n, l, _)) if !l.trim().is_empty() => break (n, l.to_string()),
+            Some(_) => continue,
+            None => {
+                return Err(TrainerError::data(
+                    &name,
+                    1,
+                    "1",
+                    "empty file: no header `t_s,channel,<wavelengths or pixels>`",
+                ))
+            }
+        }
     };
-    let header_line = header_index as u64 + 1;
-    let header = lines.get(header_index).copied().unwrap_or_default();
+    let header = header.as_str();
     let delim = if header.contains('\t') {
         '\t'
     } else if header.contains(';') {
@@ -92,14 +101,13 @@ pub(crate) fn read(
     let mut problems = Problems::new(&name, policy);
     let mut samples = vec![0.0f64; points];
     let mut channels = 0usize;
-    let last_nonblank = lines.iter().rposition(|l| !l.trim().is_empty()).unwrap_or(0);
-    for (i, l) in lines.iter().enumerate().skip(header_index + 1) {
+    while let Some((line, l, ended)) = lines.next_line()? {
         if l.trim().is_empty() {
             continue;
         }
-        let line = i as u64 + 1;
         problems.rows_read += 1;
-        let truncated = i == last_nonblank && !ends_with_newline;
+        // Only the file's last line can lack its line end.
+        let truncated = !ended;
         let row = parse_row(l, delim, line, points, scale, truncated, &mut clock, &mut samples, &label).and_then(
             |(t, channel)| {
                 sink.spectrum(SpectrumRow { t, line, channel, spectrum: Spectrum::new(&samples, grid) })?;
@@ -115,7 +123,7 @@ pub(crate) fn read(
     let facts = FileFacts {
         grid,
         points,
-        metadata_lines: header_index + 1,
+        metadata_lines: header_line as usize,
         time_kind: clock.kind.unwrap_or(TimeKind::Seconds),
         absolute: clock.absolute(),
         time_column: format!("1 ({time_name})"),
