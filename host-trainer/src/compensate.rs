@@ -578,8 +578,9 @@ fn check_zero(
                     1,
                     &col,
                     format!(
-                        "the record's shifts are from λ_ref {r:.6} nm ({}) but {} was calibrated against {m:.6} nm: {dp:+.1} pm apart, more than the model's tolerance of {tol:.2} pm (a {}-pm zero error reads as a measurand change). Re-import the export with `--model {}` to take the model's zero",
+                        "the record's shifts are from λ_ref {r:.6} nm ({}{}) but {} was calibrated against {m:.6} nm: {dp:+.1} pm apart, more than the model's tolerance of {tol:.2} pm (a {}-pm zero error reads as a measurand change). Re-import the export with `--model {}` to take the model's zero",
                         source.name(),
+                        d.meta.sidecar.as_ref().map_or(String::new(), |p| format!(", stated in {}", p.display())),
                         model.display(),
                         dp.abs().round(),
                         model.display()
