@@ -9,6 +9,7 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use fbg_shared::layout::Dims;
@@ -390,6 +391,7 @@ fn pipe_rows(
     tally: &mut Tally,
     bar: &crate::progress::Bar,
     failed: &mut Option<TrainerError>,
+    cancel: &AtomicBool,
 ) -> std::io::Result<Option<RowReader>> {
     let m = tally.dims.n_outputs();
     let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Vec<Row>, TrainerError>>(IN_FLIGHT);
@@ -397,6 +399,10 @@ fn pipe_rows(
         let reading = scope.spawn(move || {
             let mut rows = rows;
             loop {
+                if cancel.load(Ordering::Relaxed) {
+                    let _ = tx.send(Err(TrainerError::Interrupted { what: "compensate".into() }));
+                    return rows;
+                }
                 let mut chunk = Vec::with_capacity(CHUNK);
                 let mut end = false;
                 while chunk.len() < CHUNK {
@@ -481,6 +487,22 @@ pub fn run(
     field: FieldOptions,
     progress: bool,
 ) -> Result<Summary, TrainerError> {
+    run_cancellable(model, data, out, precision, field, progress, &AtomicBool::new(false))
+}
+
+/// [`run`] that stops when `cancel` is set (Ctrl-C in Python): the rows are read in chunks
+/// and the flag is looked at before each, so a run stops within one chunk; it then fails
+/// with [`TrainerError::Interrupted`] and writes nothing (the output is renamed into place
+/// only at the end).
+pub fn run_cancellable(
+    model: &Path,
+    data: &Path,
+    out: &Path,
+    precision: Precision,
+    field: FieldOptions,
+    progress: bool,
+    cancel: &AtomicBool,
+) -> Result<Summary, TrainerError> {
     let t0 = Instant::now();
     let params = export::read_blob(model)?;
     let rows = RowReader::open(data)?;
@@ -508,7 +530,7 @@ pub fn run(
             write!(w, ",{c},{c}_band95")?;
         }
         writeln!(w, ",flags,flag_names")?;
-        let Some(rows) = pipe_rows(w, rows, &mut engine, &mut tally, &bar, &mut failed)? else {
+        let Some(rows) = pipe_rows(w, rows, &mut engine, &mut tally, &bar, &mut failed, cancel)? else {
             return Err(failed.as_ref().map_or_else(
                 || std::io::Error::other("the reading thread failed"),
                 |_| std::io::Error::other("abandoned"),

@@ -77,7 +77,8 @@ pub fn read_dataset<'py>(py: Python<'py>, path: PathBuf, field: bool) -> PyResul
 }
 
 /// `fbg-trainer compensate --model M --data D --out O [--f32] [--trust-units]`, the same
-/// function: the summary as JSON text. Runs without the GIL.
+/// function: the summary as JSON text. Runs without the GIL; Ctrl-C stops it, and nothing is
+/// written then.
 #[pyfunction]
 #[pyo3(signature = (model, data, out, precision="f64", trust_units=false, start_unix_s=None))]
 pub fn compensate_file(
@@ -92,9 +93,13 @@ pub fn compensate_file(
     let precision = crate::stream::precision(precision)?;
     // The command line's check: `out` may not be the model, the record, or another spelling
     // or link of either.
-    check_outputs(&[&out], &[&model, &data]).map_err(|e| msg(format!("out: {e}")))?;
+    let side = fbg_trainer::data::record_meta::sidecar_path(&data);
+    check_outputs(&[&out], &[&model, &data, &side]).map_err(|e| msg(format!("out: {e}")))?;
     let field = FieldOptions { start_unix_s, trust_units };
-    let s = py.detach(|| compensate::run(&model, &data, &out, precision, field, false)).map_err(to_py)?;
+    let s = crate::interrupt::cancellable(py, move |cancel| {
+        compensate::run_cancellable(&model, &data, &out, precision, field, false, cancel)
+    })?
+    .map_err(to_py)?;
     serde_json::to_string(&s).map_err(|e| msg(e.to_string()))
 }
 
