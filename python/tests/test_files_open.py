@@ -52,7 +52,7 @@ def written(tmp_path_factory, trainer):
     short = root / "short.toml"
     short.write_text('name = "short"\n[clock]\ndays = 2.0\n')
     tiny = root / "tiny.toml"
-    tiny.write_text('name = "tiny"\n[clock]\ndays = 0.05\n')
+    tiny.write_text('name = "tiny"\n[clock]\ndays = 0.08\n')
     for d in EXPECTED:
         (root / d).mkdir(exist_ok=True)
     run("demo", "--config", short, "--out", root / "demo")

@@ -393,7 +393,7 @@ pub fn static_fidelity(sf: &crate::eval::metrics::StaticFidelity, m: &Metrics) -
             "Static fidelity: slope of the truth on the settled reading (high-pass memory terms at 0) over the calibration batch (1 is right), and what Model-H's dynamic parts add ({})",
             origin_label(m)
         ),
-        header: std::iter::once("".to_string())
+        header: std::iter::once("quantity".to_string())
             .chain(m.channels.iter().zip(&m.units).map(|(c, u)| format!("{c} [{u}]")))
             .collect(),
         rows,

@@ -10,6 +10,7 @@ from typing import Any, Dict, List, Optional, Union
 
 from . import _core
 from . import _frames as F
+from .model import _attrs_t0, _number, _text, _unix_time
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -23,7 +24,10 @@ def simulate(preset: str = "paper", seed: int = 7, days: Optional[float] = None,
     """Simulate a built-in scenario, deterministically (``fbg-trainer simulate --preset P
     --seed S``); ``days`` changes the record's length, ``dt_s`` its sample interval [s].
     Returns a DataFrame (a dict of arrays without pandas)."""
-    cols, split, t0 = _core.simulate(preset, seed, days, dt_s)
+    from .estimators import _whole
+
+    seed = _whole("seed", seed, 0, 2**64 - 1)
+    cols, split, t0 = _core.simulate(_text("preset", preset), seed, _number("days", days), _number("dt_s", dt_s))
     return F.frame_of(cols, split, t0)
 
 
@@ -47,7 +51,9 @@ def compensate_file(
     """``fbg-trainer compensate --model M --data D --out O`` itself (the same function, so the
     same file and checks); returns its JSON summary as a dict."""
     return json.loads(
-        _core.compensate_file(os.fspath(model), os.fspath(data), os.fspath(out), precision, trust_units, start_unix_s)
+        _core.compensate_file(
+            os.fspath(model), os.fspath(data), os.fspath(out), precision, trust_units, _unix_time("start_unix_s", start_unix_s)
+        )
     )
 
 
@@ -59,8 +65,7 @@ def write_dataset(frame: Any, path: PathLike) -> None:
     cal = None
     if "split" in names:
         cal = [s == "cal" for s in (frame["split"].astype(str) if hasattr(frame["split"], "astype") else frame["split"])]
-    t0 = getattr(frame, "attrs", {}).get("t0_unix_s") if hasattr(frame, "attrs") else None
-    _core.write_dataset(cols, os.fspath(path), cal, t0)
+    _core.write_dataset(cols, os.fspath(path), cal, _attrs_t0(frame))
 
 
 def import_file(
