@@ -25,6 +25,9 @@ fn model(d: &Dataset, dir: &Path) -> std::path::PathBuf {
     m
 }
 
+/// An edit of a sidecar's JSON.
+type Edit = dyn Fn(&mut serde_json::Value);
+
 fn side_json(csv: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(sidecar_path(csv)).unwrap()).unwrap()
 }
@@ -128,7 +131,7 @@ fn a_sidecar_that_does_not_fit_is_refused_by_file_and_field() {
     d.write_csv(&csv).unwrap();
     let good = side_json(&csv);
     let side = sidecar_path(&csv).display().to_string();
-    let cases: Vec<(Box<dyn Fn(&mut serde_json::Value)>, &str)> = vec![
+    let cases: Vec<(Box<Edit>, &str)> = vec![
         (Box::new(|s| s["zero"][0]["lambda_ref_nm"] = 15.0.into()), "zero[0].lambda_ref_nm: 15 nm is not a plausible"),
         (Box::new(|s| s["zero"][0]["lambda_ref_nm"] = 1e300.into()), "zero[0].lambda_ref_nm: 1e300 nm"),
         (
