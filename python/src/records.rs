@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use fbg_trainer::compensate::{self, FieldOptions};
 use fbg_trainer::data::files::check_outputs;
 use fbg_trainer::data::import::{self, ImportOptions, SplitChoice};
-use fbg_trainer::data::Dataset;
+use fbg_trainer::data::{Dataset, GratingZero};
 use fbg_trainer::sim::{self, scenario::Preset};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -104,17 +104,44 @@ pub fn compensate_file(
 }
 
 /// Write `columns` (with the split: `cal` true calibrating, all when None; `t0_unix_s` the
-/// absolute time of `t_s = 0`) as a dataset CSV, atomically, as `simulate` writes one.
+/// absolute time of `t_s = 0`; `zero` each grating's λ_ref \[nm\] or None and its source, as
+/// [`record_zero`] gives them) as a dataset CSV and its sidecar, atomically, as `simulate`
+/// writes them.
 #[pyfunction]
-#[pyo3(signature = (columns, path, cal=None, t0_unix_s=None))]
+#[pyo3(signature = (columns, path, cal=None, t0_unix_s=None, zero=None))]
 pub fn write_dataset(
     columns: &Bound<'_, PyDict>,
     path: PathBuf,
     cal: Option<Vec<bool>>,
     t0_unix_s: Option<f64>,
+    zero: Option<Vec<(Option<f64>, String)>>,
 ) -> PyResult<()> {
-    let d = columns::dataset(columns, cal, t0_unix_s, &path.display().to_string())?;
+    let mut d = columns::dataset(columns, cal, t0_unix_s, &path.display().to_string())?;
+    if let Some(z) = zero.filter(|z| !z.is_empty()) {
+        if z.len() != d.n_gratings() {
+            return Err(msg(format!(
+                "attrs['zero']: {} gratings where the record has {} (dl1_pm..)",
+                z.len(),
+                d.n_gratings()
+            )));
+        }
+        d.meta.zero = z
+            .iter()
+            .enumerate()
+            .map(|(g, (nm, source))| {
+                GratingZero::parse(*nm, source).map_err(|m| msg(format!("attrs['zero'][{g}]: {m}")))
+            })
+            .collect::<PyResult<_>>()?;
+    }
     d.write_csv(&path).map_err(to_py)
+}
+
+/// The zero a dataset CSV states (its sidecar's): per grating, λ_ref \[nm\] (None when
+/// unknown) and its source; empty when it states none.
+#[pyfunction]
+pub fn record_zero(py: Python<'_>, path: PathBuf) -> PyResult<Vec<(Option<f64>, String)>> {
+    let meta = py.detach(|| Dataset::read_csv_meta(&path)).map_err(to_py)?;
+    Ok(meta.zero.iter().map(|z| (z.known(), z.source.name().to_string())).collect())
 }
 
 /// `fbg-trainer import --format F FILE [--map M] [--refs R] [--scale S] [--cal-fraction C]

@@ -119,4 +119,8 @@ def test_records_carry_their_zero_and_clock_in_the_sidecar(written):
     # The package reads the clock back from the sidecar, and writes it again.
     back = fc.read_dataset(written / "python/written.csv")
     assert back.attrs["t0_unix_s"] == fc.read_dataset(written / "demo/data.csv").attrs["t0_unix_s"]
-    assert json.loads((written / "python/written.record.json").read_text())["t0_utc"] == demo["t0_utc"]
+    ours = json.loads((written / "python/written.record.json").read_text())
+    assert ours["t0_utc"] == demo["t0_utc"]
+    # ... and the zero (attrs['zero']), so a record read and written again keeps it.
+    assert ours["zero"] == demo["zero"]
+    assert back.attrs["zero"] == [[z["lambda_ref_nm"], z["source"]] for z in demo["zero"]]

@@ -270,6 +270,9 @@ def test_write_dataset_with_bad_frames(files, small, data):
     frame = mutate(hold, data, st.sampled_from(["split", "t_s", "foo", "dl1_pm", "T_C", "T_amb_C", "p_kPa", "dl4_pm"]))
     if data.draw(st.booleans()):
         frame.attrs["t0_unix_s"] = data.draw(NASTY)
+    if data.draw(st.booleans()):
+        pair = st.tuples(NASTY, st.sampled_from(["map", "unknown", "simulated", "x", ""]))
+        frame.attrs["zero"] = data.draw(st.one_of(st.lists(pair, max_size=4), NASTY))
     n = CASES["n"]
     out = d / data.draw(st.sampled_from([f"w{n}.csv", "", "nodir/x.csv", "good.csv", "good.record.json", "."]))
     check(lambda: fc.write_dataset(frame, out))

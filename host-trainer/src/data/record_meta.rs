@@ -62,6 +62,20 @@ impl GratingZero {
     /// No zero known (the record holds shifts).
     pub const UNKNOWN: GratingZero = GratingZero { nm: 0.0, source: ZeroSource::Unknown };
 
+    /// A zero as the sidecar states it: λ_ref \[nm\] (`None` when unknown) and its source
+    /// (`map`, `first reading`, `model`, `simulated`, `unknown`); the error says what is wrong.
+    pub fn parse(lambda_ref_nm: Option<f64>, source: &str) -> Result<GratingZero, String> {
+        match (parse_source(source)?, lambda_ref_nm) {
+            (ZeroSource::Unknown, None) => Ok(GratingZero::UNKNOWN),
+            (ZeroSource::Unknown, Some(v)) => Err(format!(
+                "lambda_ref_nm {} with source `unknown` (None when unknown)",
+                crate::error::quote_number(v)
+            )),
+            (_, None) => Err(format!("lambda_ref_nm None with source `{source}` (a wavelength in nm)")),
+            (source, Some(nm)) => Ok(GratingZero { nm: plausible_nm(nm)?, source }),
+        }
+    }
+
     /// λ_ref when known.
     pub fn known(&self) -> Option<f64> {
         (self.source != ZeroSource::Unknown).then_some(self.nm)

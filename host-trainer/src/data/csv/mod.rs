@@ -156,6 +156,12 @@ impl Dataset {
         Ok(d)
     }
 
+    /// The zero and clock of a dataset CSV (its sidecar's, or its older comment lines'),
+    /// read with its header only.
+    pub fn read_csv_meta(path: &Path) -> Result<crate::data::RecordMeta, TrainerError> {
+        Ok(RowReader::open(path)?.header_dataset().meta)
+    }
+
     /// The rows of a dataset CSV up to and including the first one for which `stop` is true
     /// (every row when none is), with the row checks of [`read_csv`](Self::read_csv): a bounded
     /// read for what needs only the start of a long record. The whole-file checks of
