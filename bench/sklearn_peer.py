@@ -97,7 +97,8 @@ TICKS_PER_PM = 1024.0  # fbg_shared::direction_latch::TICKS_PER_PM
 
 
 def read_csv(path):
-    # The record's λ_ref and start time come as `#` comment lines before the header.
+    # Records of earlier versions carried their λ_ref and start time as `#` comment lines
+    # before the header (now in the `.record.json` sidecar): skipped when there.
     skip = 0
     with open(path) as f:
         line = f.readline()

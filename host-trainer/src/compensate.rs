@@ -9,6 +9,7 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use fbg_shared::layout::Dims;
@@ -392,6 +393,7 @@ fn pipe_rows(
     tally: &mut Tally,
     bar: &crate::progress::Bar,
     failed: &mut Option<TrainerError>,
+    cancel: &AtomicBool,
 ) -> std::io::Result<Option<RowReader>> {
     let m = tally.dims.n_outputs();
     let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Vec<Row>, TrainerError>>(IN_FLIGHT);
@@ -399,6 +401,10 @@ fn pipe_rows(
         let reading = scope.spawn(move || {
             let mut rows = rows;
             loop {
+                if cancel.load(Ordering::Relaxed) {
+                    let _ = tx.send(Err(TrainerError::Interrupted { what: "compensate".into() }));
+                    return rows;
+                }
                 let mut chunk = Vec::with_capacity(CHUNK);
                 let mut end = false;
                 while chunk.len() < CHUNK {
@@ -483,6 +489,22 @@ pub fn run(
     field: FieldOptions,
     progress: bool,
 ) -> Result<Summary, TrainerError> {
+    run_cancellable(model, data, out, precision, field, progress, &AtomicBool::new(false))
+}
+
+/// [`run`] that stops when `cancel` is set (Ctrl-C in Python): the rows are read in chunks
+/// and the flag is looked at before each, so a run stops within one chunk; it then fails
+/// with [`TrainerError::Interrupted`] and writes nothing (the output is renamed into place
+/// only at the end).
+pub fn run_cancellable(
+    model: &Path,
+    data: &Path,
+    out: &Path,
+    precision: Precision,
+    field: FieldOptions,
+    progress: bool,
+    cancel: &AtomicBool,
+) -> Result<Summary, TrainerError> {
     let t0 = Instant::now();
     let params = export::read_blob(model)?;
     let rows = RowReader::open(data)?;
@@ -510,7 +532,7 @@ pub fn run(
             write!(w, ",{c},{c}_band95")?;
         }
         writeln!(w, ",flags,flag_names")?;
-        let Some(rows) = pipe_rows(w, rows, &mut engine, &mut tally, &bar, &mut failed)? else {
+        let Some(rows) = pipe_rows(w, rows, &mut engine, &mut tally, &bar, &mut failed, cancel)? else {
             return Err(failed.as_ref().map_or_else(
                 || std::io::Error::other("the reading thread failed"),
                 |_| std::io::Error::other("abandoned"),
@@ -580,8 +602,9 @@ fn check_zero(
                     1,
                     &col,
                     format!(
-                        "the record's shifts are from λ_ref {r:.6} nm ({}) but {} was calibrated against {m:.6} nm: {dp:+.1} pm apart, more than the model's tolerance of {tol:.2} pm (a {}-pm zero error reads as a measurand change). Re-import the export with `--model {}` to take the model's zero",
+                        "the record's shifts are from λ_ref {r:.6} nm ({}{}) but {} was calibrated against {m:.6} nm: {dp:+.1} pm apart, more than the model's tolerance of {tol:.2} pm (a {}-pm zero error reads as a measurand change). Re-import the export with `--model {}` to take the model's zero",
                         source.name(),
+                        d.meta.sidecar.as_ref().map_or(String::new(), |p| format!(", stated in {}", p.display())),
                         model.display(),
                         dp.abs().round(),
                         model.display()

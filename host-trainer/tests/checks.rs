@@ -173,8 +173,8 @@ fn train_refuses_a_dataset_csv_cut_inside_its_last_row() {
     let (ok, _, err) =
         run(bin().args(["train", "--max-centres", "8", "--data"]).arg(&cut).arg("--out").arg(d.path().join("m.fbgm")));
     assert!(!ok);
-    // 4320 rows after the header and the record's two comment lines (λ_ref, start time).
-    assert!(err.contains("cut.csv") && err.contains("line 4323") && err.contains("truncated last row"), "{err}");
+    // 4320 rows after the header (λ_ref and the start time are in the sidecar).
+    assert!(err.contains("cut.csv") && err.contains("line 4321") && err.contains("truncated last row"), "{err}");
     // Cut inside the last number instead (the split column removed, so dl3_pm is last).
     let text = common::read_csv_body(&csv);
     let no_split: String = text.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string() + "\n").collect();

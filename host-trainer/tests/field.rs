@@ -119,10 +119,12 @@ fn the_zero_and_the_clock_travel_with_the_model() {
         .arg(&zeroed));
     assert!(ok, "{err}");
     let text = std::fs::read_to_string(&zeroed).unwrap();
-    assert!(
-        text.starts_with("# lambda_ref_nm: 1550.000000 model\n# t0_utc: 2026-01-07T00:00:00.000Z\n"),
-        "{text:.200}"
-    );
+    assert!(text.starts_with("t_s,"), "a plain table: {text:.200}");
+    let side = fbg_trainer::data::record_meta::sidecar_path(&zeroed);
+    let side: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(side).unwrap()).unwrap();
+    assert_eq!(side["zero"][0]["lambda_ref_nm"], 1550.0, "{side}");
+    assert_eq!(side["zero"][0]["source"], "model", "{side}");
+    assert_eq!(side["t0_utc"], "2026-01-07T00:00:00.000Z", "{side}");
     let (ok, out, err) = run(bin()
         .args(["compensate", "--json", "--model"])
         .arg(&model)

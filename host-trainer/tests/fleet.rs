@@ -202,7 +202,10 @@ fn concurrent_shards_share_a_directory_without_clobbering() {
     // The same manifest unsharded, in another directory: the same bytes.
     let d2 = tempfile::tempdir().unwrap();
     for i in 0..6 {
-        std::fs::copy(d.path().join(format!("g{i}.csv")), d2.path().join(format!("g{i}.csv"))).unwrap();
+        // A record is its CSV and its sidecar (the zero and clock the blob carries).
+        for f in [format!("g{i}.csv"), format!("g{i}.record.json")] {
+            std::fs::copy(d.path().join(&f), d2.path().join(&f)).unwrap();
+        }
     }
     std::fs::copy(&m, d2.path().join("fleet.toml")).unwrap();
     let r = fleet::run(&Manifest::from_file(&d2.path().join("fleet.toml")).unwrap(), 2, false).unwrap();

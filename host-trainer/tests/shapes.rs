@@ -28,10 +28,11 @@ fn csv_bytes(preset: Preset, seed: u64, thermometer: bool) -> Vec<u8> {
     let mut cfg = preset.config();
     cfg.ambient.thermometer = thermometer;
     simulate(&cfg, seed).data.write_csv(&p).unwrap();
-    // The data rows and header: the comment lines before them (λ_ref, start time) are pinned
-    // apart, so the simulation's bytes keep their checksums.
-    let text = std::fs::read_to_string(p).unwrap();
-    assert!(text.starts_with("# lambda_ref_nm: ") && text.contains("\n# t0_utc: 2026-01-05T00:00:00.000Z\n"));
+    // The data rows and header (λ_ref and the start time are in the sidecar, pinned apart).
+    let text = std::fs::read_to_string(&p).unwrap();
+    let side = std::fs::read_to_string(fbg_trainer::data::record_meta::sidecar_path(&p)).unwrap();
+    assert!(side.contains("\"simulated\"") && side.contains("\"t0_utc\": \"2026-01-05T00:00:00.000Z\""), "{side}");
+    assert!(text.starts_with("t_s,"), "{text:.100}");
     common::csv_body(&text).as_bytes().to_vec()
 }
 

@@ -107,7 +107,7 @@ fn fixed_options(f: &Bound<'_, PyDict>) -> PyResult<fbg_trainer::fit::TrainOptio
         holdout_errors: None,
     };
     for key in f.keys() {
-        let k: String = key.extract()?;
+        let k: String = key.extract().map_err(|_| msg(format!("fixed: the key {key} is not a string")))?;
         if !["feature_set", "k", "sigma_mult", "alpha_rel", "dead_band_pm", "memory"].contains(&k.as_str()) {
             return Err(msg(format!(
                 "fixed: unknown key `{k}` (feature_set, k, sigma_mult, alpha_rel, dead_band_pm, memory)"
@@ -115,22 +115,22 @@ fn fixed_options(f: &Bound<'_, PyDict>) -> PyResult<fbg_trainer::fit::TrainOptio
         }
     }
     if let Some(v) = get("feature_set")? {
-        b.feature_set = v.extract()?;
+        b.feature_set = v.extract().map_err(|e| msg(format!("fixed['feature_set']: {v}: {e}")))?;
     }
     if let Some(v) = get("k")? {
-        b.k = v.extract()?;
+        b.k = v.extract().map_err(|e| msg(format!("fixed['k']: {v}: {e}")))?;
     }
     if let Some(v) = get("sigma_mult")? {
-        b.sigma_mult = v.extract()?;
+        b.sigma_mult = v.extract().map_err(|e| msg(format!("fixed['sigma_mult']: {v}: {e}")))?;
     }
     if let Some(v) = get("alpha_rel")? {
-        b.alpha_rel = v.extract()?;
+        b.alpha_rel = v.extract().map_err(|e| msg(format!("fixed['alpha_rel']: {v}: {e}")))?;
     }
     if let Some(v) = get("dead_band_pm")? {
-        b.dead_band_pm = v.extract()?;
+        b.dead_band_pm = v.extract().map_err(|e| msg(format!("fixed['dead_band_pm']: {v}: {e}")))?;
     }
     if let Some(v) = get("memory")? {
-        b.memory = v.extract()?;
+        b.memory = v.extract().map_err(|e| msg(format!("fixed['memory']: {v}: {e}")))?;
     }
     b.options_named(&|flag| format!("fixed['{}']", flag.replace('-', "_"))).map(|(o, _)| o).map_err(to_py)
 }

@@ -54,3 +54,39 @@ pub fn interruptible<T: Send + 'static>(
         }
     }
 }
+
+/// Run `work` (given a cancel flag) on its own thread with the GIL released, as
+/// [`interruptible`], for work that writes files: on Ctrl-C the flag is set and the call waits
+/// for the work to stop (it looks at the flag between chunks) before it raises the
+/// KeyboardInterrupt, so nothing is written after the call returned.
+pub fn cancellable<T: Send + 'static>(
+    py: Python<'_>,
+    work: impl FnOnce(&AtomicBool) -> T + Send + 'static,
+) -> PyResult<T> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&cancel);
+    let (tx, rx) = mpsc::channel();
+    std::thread::Builder::new()
+        .name("fbg-work".into())
+        .spawn(move || {
+            let _ = tx.send(work(&flag));
+        })
+        .map_err(|e| msg(format!("cannot start the work thread: {e}")))?;
+    let mut rx = rx;
+    loop {
+        let (got, back) = py.detach(move || (rx.recv_timeout(SIGNAL_POLL), rx));
+        rx = back;
+        match got {
+            Ok(v) => return Ok(v),
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(e) = py.check_signals() {
+                    cancel.store(true, Ordering::Relaxed);
+                    // The work stops at its next chunk; its result (an interruption) is dropped.
+                    let _ = py.detach(move || rx.recv());
+                    return Err(e);
+                }
+            }
+            Err(RecvTimeoutError::Disconnected) => return Err(msg("the work thread ended without a result")),
+        }
+    }
+}

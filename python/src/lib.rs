@@ -26,6 +26,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(records::compensate_file, m)?)?;
     m.add_function(wrap_pyfunction!(records::presets, m)?)?;
     m.add_function(wrap_pyfunction!(records::write_dataset, m)?)?;
+    m.add_function(wrap_pyfunction!(records::record_zero, m)?)?;
     m.add_function(wrap_pyfunction!(records::import_file, m)?)?;
     m.add_function(wrap_pyfunction!(flag_bits, m)?)?;
     Ok(())

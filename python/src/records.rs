@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use fbg_trainer::compensate::{self, FieldOptions};
 use fbg_trainer::data::files::check_outputs;
 use fbg_trainer::data::import::{self, ImportOptions, SplitChoice};
-use fbg_trainer::data::Dataset;
+use fbg_trainer::data::{Dataset, GratingZero};
 use fbg_trainer::sim::{self, scenario::Preset};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -77,7 +77,8 @@ pub fn read_dataset<'py>(py: Python<'py>, path: PathBuf, field: bool) -> PyResul
 }
 
 /// `fbg-trainer compensate --model M --data D --out O [--f32] [--trust-units]`, the same
-/// function: the summary as JSON text. Runs without the GIL.
+/// function: the summary as JSON text. Runs without the GIL; Ctrl-C stops it, and nothing is
+/// written then.
 #[pyfunction]
 #[pyo3(signature = (model, data, out, precision="f64", trust_units=false, start_unix_s=None))]
 pub fn compensate_file(
@@ -92,24 +93,55 @@ pub fn compensate_file(
     let precision = crate::stream::precision(precision)?;
     // The command line's check: `out` may not be the model, the record, or another spelling
     // or link of either.
-    check_outputs(&[&out], &[&model, &data]).map_err(|e| msg(format!("out: {e}")))?;
+    let side = fbg_trainer::data::record_meta::sidecar_path(&data);
+    check_outputs(&[&out], &[&model, &data, &side]).map_err(|e| msg(format!("out: {e}")))?;
     let field = FieldOptions { start_unix_s, trust_units };
-    let s = py.detach(|| compensate::run(&model, &data, &out, precision, field, false)).map_err(to_py)?;
+    let s = crate::interrupt::cancellable(py, move |cancel| {
+        compensate::run_cancellable(&model, &data, &out, precision, field, false, cancel)
+    })?
+    .map_err(to_py)?;
     serde_json::to_string(&s).map_err(|e| msg(e.to_string()))
 }
 
 /// Write `columns` (with the split: `cal` true calibrating, all when None; `t0_unix_s` the
-/// absolute time of `t_s = 0`) as a dataset CSV, atomically, as `simulate` writes one.
+/// absolute time of `t_s = 0`; `zero` each grating's λ_ref \[nm\] or None and its source, as
+/// [`record_zero`] gives them) as a dataset CSV and its sidecar, atomically, as `simulate`
+/// writes them.
 #[pyfunction]
-#[pyo3(signature = (columns, path, cal=None, t0_unix_s=None))]
+#[pyo3(signature = (columns, path, cal=None, t0_unix_s=None, zero=None))]
 pub fn write_dataset(
     columns: &Bound<'_, PyDict>,
     path: PathBuf,
     cal: Option<Vec<bool>>,
     t0_unix_s: Option<f64>,
+    zero: Option<Vec<(Option<f64>, String)>>,
 ) -> PyResult<()> {
-    let d = columns::dataset(columns, cal, t0_unix_s, &path.display().to_string())?;
+    let mut d = columns::dataset(columns, cal, t0_unix_s, &path.display().to_string())?;
+    if let Some(z) = zero.filter(|z| !z.is_empty()) {
+        if z.len() != d.n_gratings() {
+            return Err(msg(format!(
+                "attrs['zero']: {} gratings where the record has {} (dl1_pm..)",
+                z.len(),
+                d.n_gratings()
+            )));
+        }
+        d.meta.zero = z
+            .iter()
+            .enumerate()
+            .map(|(g, (nm, source))| {
+                GratingZero::parse(*nm, source).map_err(|m| msg(format!("attrs['zero'][{g}]: {m}")))
+            })
+            .collect::<PyResult<_>>()?;
+    }
     d.write_csv(&path).map_err(to_py)
+}
+
+/// The zero a dataset CSV states (its sidecar's): per grating, λ_ref \[nm\] (None when
+/// unknown) and its source; empty when it states none.
+#[pyfunction]
+pub fn record_zero(py: Python<'_>, path: PathBuf) -> PyResult<Vec<(Option<f64>, String)>> {
+    let meta = py.detach(|| Dataset::read_csv_meta(&path)).map_err(to_py)?;
+    Ok(meta.zero.iter().map(|z| (z.known(), z.source.name().to_string())).collect())
 }
 
 /// `fbg-trainer import --format F FILE [--map M] [--refs R] [--scale S] [--cal-fraction C]

@@ -231,3 +231,28 @@ def test_score_takes_t(holdout, fitted):
     w = np.ones(len(X))
     w[: len(X) // 2] = 0.0
     assert fitted.score(X, y, t=holdout["t_s"], sample_weight=w) != with_t
+
+
+def test_ctrl_c_stops_compensate_file_and_writes_nothing(tmp_path, fitted):
+    """`compensate_file` runs without the GIL; Ctrl-C (simulated) stops the run between chunks
+    of rows, and the call returns only once it stopped: the old output is untouched and no
+    temporary is left."""
+    import time
+
+    n = 3_000_000
+    rng = np.random.default_rng(1)
+    cols = {"t_s": np.arange(n, dtype=np.float64) * 60.0, "T_amb_C": 20.0 + rng.normal(0.0, 1.0, n)}
+    for g in (1, 2, 3):
+        cols[f"dl{g}_pm"] = rng.normal(0.0, 50.0, n)
+    data, model, out = tmp_path / "big.csv", tmp_path / "m.fbgm", tmp_path / "out.csv"
+    fc.write_dataset(cols, data)
+    fitted.model_.save(model)
+    out.write_text("old")
+    t0 = time.monotonic()
+    with _interrupt_after(0.2), pytest.raises(KeyboardInterrupt):
+        fc.compensate_file(model, data, out)
+    # Not a speed check: the call returned instead of running every row.
+    assert time.monotonic() - t0 < 5.0
+    time.sleep(0.2)
+    assert out.read_text() == "old"
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".fbg-")]

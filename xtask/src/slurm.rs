@@ -355,9 +355,12 @@ fn single_machine(trainer: &Path, dir: &Path, work: &Path, manifest: &Path) -> R
     fs::create_dir_all(&single)?;
     for k in 0..DATASETS {
         fs::copy(work.join(format!("d{k}.csv")), single.join(format!("d{k}.csv")))?;
-        let meta = work.join(format!("d{k}.meta.json"));
-        if meta.exists() {
-            fs::copy(&meta, single.join(format!("d{k}.meta.json")))?;
+        // The record's sidecars: its zero and clock (which the blob carries) and the scenario.
+        for side in [format!("d{k}.record.json"), format!("d{k}.meta.json")] {
+            let p = work.join(&side);
+            if p.exists() {
+                fs::copy(&p, single.join(&side))?;
+            }
         }
     }
     fs::copy(manifest, single.join("fleet.toml"))?;

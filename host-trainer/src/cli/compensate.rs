@@ -81,7 +81,10 @@ impl TrustArgs {
 
 impl CompensateArgs {
     pub fn run(self) -> Result<()> {
-        let inputs: Vec<&Path> = [self.model.as_path(), &self.data].into_iter().chain(self.trust.inputs()).collect();
+        // The record's sidecar (its zero and clock) is an input too.
+        let side = fbg_trainer::data::record_meta::sidecar_path(&self.data);
+        let inputs: Vec<&Path> =
+            [self.model.as_path(), &self.data, &side].into_iter().chain(self.trust.inputs()).collect();
         check_outputs(&[&self.out], &inputs)?;
         self.trust.check(&[&self.model])?;
         let field = FieldOptions {

@@ -6,6 +6,7 @@ use anyhow::{bail, Result};
 
 use fbg_trainer::data::files::check_outputs;
 use fbg_trainer::data::import::{self, ImportOptions, SplitChoice};
+use fbg_trainer::data::record_meta::sidecar_path;
 use fbg_trainer::export;
 
 use crate::utc_timestamp;
@@ -99,7 +100,7 @@ impl ImportArgs {
         inputs.extend(self.model.as_deref());
         inputs.extend(opts.map.as_deref());
         inputs.extend(opts.refs.as_deref());
-        check_outputs(&[&self.out], &inputs)?;
+        check_outputs(&[&self.out, &sidecar_path(&self.out)], &inputs)?;
         let s = import::import_to_csv(&opts, &self.out)?;
         if self.json {
             println!("{}", serde_json::to_string_pretty(&s)?);

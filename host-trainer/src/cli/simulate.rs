@@ -1,10 +1,12 @@
-//! `fbg-trainer simulate`: a simulated record and its `.meta.json` sidecar.
+//! `fbg-trainer simulate`: a simulated record, its `.record.json` (zero and clock) and its
+//! `.meta.json` sidecar.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
 use fbg_trainer::data::files::{check_outputs, write_bytes_atomically, OutputSet};
+use fbg_trainer::data::record_meta::sidecar_path;
 use fbg_trainer::data::{Kind, Measurand};
 use fbg_trainer::sim::meta::{meta_path, SimMeta};
 use fbg_trainer::sim::spectrum::csv::write_spectra_csv;
@@ -13,8 +15,8 @@ use fbg_trainer::sim::{self, scenario::ScenarioConfig, Simulation};
 
 use crate::args::ScenarioArgs;
 
-/// Simulate an installation; write its CSV and a `.meta.json` sidecar (scenario, seed,
-/// per-sample oracle).
+/// Simulate an installation; write its CSV, its `.record.json` (zero and clock) and a
+/// `.meta.json` sidecar (scenario, seed, per-sample oracle).
 #[derive(clap::Args)]
 pub struct SimulateArgs {
     #[command(flatten)]
@@ -98,7 +100,8 @@ impl SimulateArgs {
     pub fn run(self) -> Result<()> {
         let out = &self.out;
         let side = meta_path(out);
-        let mut outputs = vec![out.as_path(), side.as_path()];
+        let record_side = sidecar_path(out);
+        let mut outputs = vec![out.as_path(), side.as_path(), record_side.as_path()];
         outputs.extend(self.dump_config.as_deref());
         outputs.extend(self.spectra.as_deref());
         check_outputs(&outputs, &self.scenario.config.iter().map(|p| p.as_path()).collect::<Vec<_>>())?;
@@ -107,7 +110,7 @@ impl SimulateArgs {
         // The record and its sidecar are one output set: never a new record beside an old
         // sidecar (the oracle and studies read the sidecar as the record's truth).
         let set = OutputSet::beside(out)?;
-        set.stage(out, |w| s.data.write_csv_to(w))?;
+        s.data.stage_csv(&set, out)?;
         set.stage_bytes(&side, SimMeta::of(&s).to_json()?.as_bytes())?;
         if let Some(path) = &self.spectra {
             let spectrum = SpectrumConfig {

@@ -54,13 +54,16 @@ impl Table {
         }
         out
     }
-    /// CSV (RFC 4180 quoting).
+    /// CSV (RFC 4180 quoting). A comma inside a cell is written as a semicolon and a line
+    /// break as a space, so that every row has the header's number of cells also for a
+    /// reader that knows no quoting (`numpy.genfromtxt(path, names=True, delimiter=",")`).
     pub fn csv(&self) -> String {
         let q = |c: &String| {
-            if c.contains([',', '"', '\n']) {
+            let c = c.replace(',', ";").replace(['\r', '\n'], " ");
+            if c.contains('"') {
                 format!("\"{}\"", c.replace('"', "\"\""))
             } else {
-                c.clone()
+                c
             }
         };
         let mut out = String::new();
@@ -390,7 +393,7 @@ pub fn static_fidelity(sf: &crate::eval::metrics::StaticFidelity, m: &Metrics) -
             "Static fidelity: slope of the truth on the settled reading (high-pass memory terms at 0) over the calibration batch (1 is right), and what Model-H's dynamic parts add ({})",
             origin_label(m)
         ),
-        header: std::iter::once("".to_string())
+        header: std::iter::once("quantity".to_string())
             .chain(m.channels.iter().zip(&m.units).map(|(c, u)| format!("{c} [{u}]")))
             .collect(),
         rows,
@@ -437,7 +440,7 @@ mod tests {
         };
         let md = t.markdown();
         assert!(md.starts_with("| a | max\\|e\\| |\n|---|---|\n"), "{md}");
-        assert_eq!(t.csv(), "a,max|e|\n\"x, y\",\"\"\"q\"\"\"\n");
+        assert_eq!(t.csv(), "a,max|e|\nx; y,\"\"\"q\"\"\"\n");
         assert!(t.text().contains("max|e|"));
     }
 }

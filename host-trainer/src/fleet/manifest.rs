@@ -199,6 +199,7 @@ impl Manifest {
         for (i, g) in self.groups.iter().enumerate() {
             inputs.push((g.data.clone(), format!("group[{i}].data")));
             inputs.push((crate::sim::meta::meta_path(&g.data), format!("group[{i}].data's .meta.json")));
+            inputs.push((crate::data::record_meta::sidecar_path(&g.data), format!("group[{i}].data's .record.json")));
         }
         if let Some(s) = signer {
             for p in s.files_read() {

@@ -9,7 +9,8 @@ use crate::fit;
 
 pub(super) const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
 
-/// Digest of a group's inputs: the CSV bytes and the options that shape the fit.
+/// Digest of a group's inputs: the CSV bytes, its `.record.json` sidecar's and the options
+/// that shape the fit.
 pub(crate) fn input_digest(g: &Group, csv: &[u8]) -> String {
     let mut d = CRC64.digest();
     d.update(
@@ -22,6 +23,13 @@ pub(crate) fn input_digest(g: &Group, csv: &[u8]) -> String {
     }
     d.update(&(csv.len() as u64).to_le_bytes());
     d.update(csv);
+    // The record's zero and clock shape the blob too; only when there is a sidecar, so that
+    // the digests of records without one stay what they were.
+    if let Ok(side) = std::fs::read(crate::data::record_meta::sidecar_path(&g.data)) {
+        d.update(b"record sidecar;");
+        d.update(&(side.len() as u64).to_le_bytes());
+        d.update(&side);
+    }
     format!("crc64:{:016x}:{}", d.finalize(), csv.len())
 }
 

@@ -283,6 +283,7 @@ pub fn simulate(cfg: &ScenarioConfig, seed: u64) -> Simulation {
                 .collect(),
             t0_unix_s: Some(SIM_START_UNIX_S),
             comment_lines: 0,
+            sidecar: None,
         },
     };
     data.sort_refs();

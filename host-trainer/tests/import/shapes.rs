@@ -25,8 +25,10 @@ fn single_grating_enlight_export_without_references_imports_row_for_row() {
     assert_eq!(j["references"]["T_amb_C"], serde_json::Value::Null);
 
     let text = std::fs::read_to_string(&out).unwrap();
-    // The zero travels with the record: the first reading, named as such.
-    assert!(text.starts_with("# lambda_ref_nm: 1550.120000 first reading\n"), "{text:.120}");
+    // The zero travels with the record, in its sidecar: the first reading, named as such.
+    let side = std::fs::read_to_string(fbg_trainer::data::record_meta::sidecar_path(&out)).unwrap();
+    assert!(side.contains("\"lambda_ref_nm\": 1550.12,\n      \"source\": \"first reading\""), "{side}");
+    assert!(text.starts_with("t_s,"), "{text:.120}");
     let body = common::csv_body(&text);
     assert_eq!(body.lines().next().unwrap(), "t_s,dl1_pm,split");
     let d = Dataset::read_field_csv(&out).unwrap();

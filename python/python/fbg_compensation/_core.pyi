@@ -90,4 +90,6 @@ def write_dataset(
     path: str,
     cal: Optional[List[bool]] = None,
     t0_unix_s: Optional[float] = None,
+    zero: Optional[List[Tuple[Optional[float], str]]] = None,
 ) -> None: ...
+def record_zero(path: str) -> List[Tuple[Optional[float], str]]: ...

@@ -41,9 +41,24 @@ def kind_of(x: Any) -> str:
     return "numpy"
 
 
+def floats(x: Any, what: str) -> np.ndarray:
+    """``x`` as a contiguous float64 array; what cannot be one is a ValueError naming ``what``."""
+    try:
+        return np.ascontiguousarray(np.asarray(x, dtype=np.float64))
+    except (TypeError, ValueError, OverflowError) as e:
+        raise ValueError(f"{what}: not numbers ({str(e)[:80]})") from None
+
+
 def column(x: Any, name: str) -> np.ndarray:
     """One column of a frame as a contiguous float64 array."""
-    return np.ascontiguousarray(np.asarray(x[name], dtype=np.float64))
+    try:
+        v = x[name]
+    except (KeyError, IndexError, TypeError):
+        raise ValueError(f"no column {name}") from None
+    out = floats(v, f"column {name}")
+    if out.ndim != 1:
+        raise ValueError(f"column {name}: {out.shape} values, one per row expected (a name that appears twice?)")
+    return out
 
 
 def names_of(x: Any) -> List[str]:
@@ -76,7 +91,7 @@ def input_columns(
             cols[T_AMB] = column(X, T_AMB)
         t = column(X, T_S) if T_S in names else None
         return cols, t
-    a = np.asarray(X, dtype=np.float64)
+    a = floats(X, f"{where}: X")
     if a.ndim != 2:
         raise ValueError(f"{where}: X must be 2-D (rows × [dl1_pm..dlN_pm, T_amb_C]); it has shape {a.shape}")
     amb = True if ambient is None else ambient
@@ -99,7 +114,7 @@ def time_column(t: Any, from_x: Optional[np.ndarray], n: int, where: str) -> np.
             raise ValueError(f"{where}: give t= (time since the start, s) or a t_s column in X")
         out = from_x
     else:
-        out = np.ascontiguousarray(np.asarray(t, dtype=np.float64).reshape(-1))
+        out = floats(t, f"{where}: t").reshape(-1)
     if out.shape[0] != n:
         raise ValueError(f"{where}: t has {out.shape[0]} values for {n} rows")
     return out
@@ -111,11 +126,15 @@ def target_columns(y: Any, outputs: Optional[Sequence[str]], where: str) -> Dict
     if is_frame(y):
         return {n: column(y, n) for n in names_of(y)}
     if hasattr(y, "name") and getattr(y, "ndim", 2) == 1:  # a named Series
-        return {str(y.name): np.ascontiguousarray(np.asarray(y, dtype=np.float64))}
-    a = np.asarray(y, dtype=np.float64)
+        return {str(y.name): floats(y, f"{where}: y")}
+    a = floats(y, f"{where}: y")
     if a.ndim == 1:
         a = a.reshape(-1, 1)
+    if a.ndim != 2:
+        raise ValueError(f"{where}: y must be 1-D or 2-D; it has shape {a.shape}")
     names = list(outputs) if outputs is not None else (list(PAPER_OUTPUTS) if a.shape[1] == 3 else None)
+    if names is not None and not all(isinstance(n, str) for n in names):
+        raise ValueError(f"{where}: outputs: {names!r:.60} are not all column names (strings)")
     if names is None or len(names) != a.shape[1]:
         raise ValueError(
             f"{where}: y has {a.shape[1]} columns; name them with outputs=[...] (T_C, strain_ue, p_kPa, ...)"

@@ -17,7 +17,7 @@ import numpy as np
 
 from . import _core
 from . import _frames as F
-from .model import Model, Stream, _attrs_t0
+from .model import Model, Stream, _attrs_t0, _text, _unix_time
 
 try:  # scikit-learn is optional
     from sklearn.base import BaseEstimator as _Base
@@ -95,7 +95,7 @@ class _Compensator(_Base, _Regressor):
         the rows that calibrate (default all; the others still run through the stream).
         Errors (``FbgError``) carry the trainer's message."""
         # Types and signs here; the trainer checks the range of max_centres.
-        max_centres, seed = _whole("max_centres", self.max_centres, 0), self.seed
+        max_centres, seed = _whole("max_centres", self.max_centres, 0, 2**31), self.seed
         if seed is not None:
             seed = _whole("seed", seed, 0, 2**64 - 1)
         cols, tx = F.input_columns(X, gratings=None, ambient=None, where="fit")
@@ -107,14 +107,15 @@ class _Compensator(_Base, _Regressor):
                 raise ValueError(f"fit: y column {name} has {v.shape[0]} values for {n} rows of X")
         cols.update(targets)
         mask = None if cal is None else [bool(b) for b in np.asarray(cal, dtype=bool)]
-        if t0_unix_s is None:
-            t0_unix_s = _attrs_t0(X)
+        t0_unix_s = _attrs_t0(X) if t0_unix_s is None else _unix_time("t0_unix_s", t0_unix_s)
+        if self.fixed is not None and not isinstance(self.fixed, dict):
+            raise ValueError(f"fixed: {self.fixed!r:.40} is not a dict (or None)")
         h, p, coefficients, summary = _core.fit(
             cols,
             mask,
-            self.features,
+            _text("features", self.features),
             max_centres,
-            self.on_outlier,
+            _text("on_outlier", self.on_outlier),
             seed,
             t0_unix_s,
             "<frame>",
@@ -122,7 +123,7 @@ class _Compensator(_Base, _Regressor):
             0,
             self.fixed,
             targets=list(targets),
-            precision=self.precision,
+            precision=_text("precision", self.precision),
         )
         self.model_h_ = Model(h)
         self.model_p_ = Model(p)
@@ -174,8 +175,13 @@ class _Compensator(_Base, _Regressor):
         if F.is_frame(y):  # by name, in the model's output order
             truth = np.column_stack([F.column(y, o) for o in self.outputs_])
         else:
-            truth = np.asarray(y, dtype=np.float64).reshape(pred.shape)
-        w = np.ones(pred.shape[0]) if sample_weight is None else np.asarray(sample_weight, dtype=np.float64)
+            truth = F.floats(y, "score: y")
+        if truth.size != pred.size:
+            raise ValueError(f"score: y has {truth.size} values for {pred.shape[0]} rows × {pred.shape[1]} outputs")
+        truth = truth.reshape(pred.shape)
+        w = np.ones(pred.shape[0]) if sample_weight is None else F.floats(sample_weight, "score: sample_weight")
+        if w.size != pred.shape[0]:
+            raise ValueError(f"score: sample_weight has {w.size} values for {pred.shape[0]} rows")
         w = w.reshape(-1, 1)
         mean = (w * truth).sum(axis=0) / w.sum()
         ss_res = (w * (truth - pred) ** 2).sum(axis=0)
@@ -198,7 +204,7 @@ def _whole(name: str, value: Any, lo: int, hi: Optional[int] = None) -> int:
     """``value`` as an int in ``lo..=hi``, or a ValueError naming the parameter: a float is
     refused rather than truncated (8.5 centres are not 8), and so is a bool."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise ValueError(f"{name}: {value!r} is not an integer")
+        raise ValueError(f"{name}: {value!r:.40} is not an integer")
     v = int(value)
     if v < lo:
         raise ValueError(f"{name}: {v} is below {lo}")

@@ -27,7 +27,7 @@ class Stream:
 
     def __init__(self, model: "Model", precision: str = "f64", t0_unix_s: Optional[float] = None) -> None:
         self.model = model
-        self._s = _core.Stream(model._m, precision, t0_unix_s)
+        self._s = _core.Stream(model._m, _text("precision", precision), _unix_time("t0_unix_s", t0_unix_s))
 
     @property
     def rows(self) -> int:
@@ -37,7 +37,15 @@ class Stream:
     def step_arrays(self, dl_pm: np.ndarray, t_amb_c: Optional[np.ndarray], t_s: np.ndarray):
         """The raw step: ``dl_pm`` (rows × gratings [pm]), ``t_amb_c`` [°C], ``t_s`` [s] ->
         (values, band95, flags) as arrays, values and band in the outputs' units."""
-        return self._s.step(np.ascontiguousarray(dl_pm, dtype=np.float64), t_amb_c, np.ascontiguousarray(t_s, dtype=np.float64))
+        dl = F.floats(dl_pm, "step_arrays: dl_pm")
+        if dl.ndim != 2:
+            raise ValueError(f"step_arrays: dl_pm must be 2-D (rows × gratings); it has shape {dl.shape}")
+        t = F.floats(t_s, "step_arrays: t_s")
+        amb = None if t_amb_c is None else F.floats(t_amb_c, "step_arrays: t_amb_c")
+        for name, v in (("t_s", t), ("t_amb_c", amb)):
+            if v is not None and v.ndim != 1:
+                raise ValueError(f"step_arrays: {name} must be 1-D (one value per row); it has shape {v.shape}")
+        return self._s.step(dl, amb, t)
 
     def predict(self, X: Any, t: Any = None, *, return_band: bool = False, return_flags: bool = False):
         """Compensate the next rows of the stream. ``X``: a frame with ``dl1_pm..dlN_pm``
@@ -181,11 +189,39 @@ class Model:
         }
 
 
+def _unix_time(name: str, v: Any) -> Optional[float]:
+    """``v`` as a finite absolute time (Unix s) or None; otherwise a ValueError naming ``name``."""
+    if v is None:
+        return None
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name}: {v!r:.40} is not a time (Unix seconds, a number) or None")
+    t = float(v)
+    if not np.isfinite(t):
+        raise ValueError(f"{name}: {t} is not a finite time (Unix seconds)")
+    return t
+
+
+def _number(name: str, v: Any) -> Optional[float]:
+    """``v`` as a float or None; a non-number is a ValueError naming ``name`` (the range is
+    the Rust core's to check)."""
+    if v is None:
+        return None
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name}: {v!r:.40} is not a number")
+    return float(v)
+
+
+def _text(name: str, v: Any) -> str:
+    """``v`` when it is a string; otherwise a ValueError naming ``name``."""
+    if not isinstance(v, str):
+        raise ValueError(f"{name}: {v!r:.40} is not a string")
+    return v
+
+
 def _attrs_t0(X: Any) -> Optional[float]:
     attrs = getattr(X, "attrs", None)
     if isinstance(attrs, dict):
-        v = attrs.get("t0_unix_s")
-        return None if v is None else float(v)
+        return _unix_time("attrs['t0_unix_s']", attrs.get("t0_unix_s"))
     return None
 
 
@@ -197,6 +233,8 @@ def compensate(model: Union[Model, PathLike], frame: Any, *, precision: str = "f
     m = model if isinstance(model, Model) else Model.load(model)
     if t0_unix_s is None:
         t0_unix_s = _attrs_t0(frame)
+    if F.is_frame(frame) and F.T_S not in F.names_of(frame):
+        raise ValueError("compensate: frame has no t_s column (time since the start, s)")
     t = F.column(frame, F.T_S) if F.is_frame(frame) else None
     values, band, flags = m.stream(precision, t0_unix_s).predict(frame, t, return_band=True, return_flags=True)
     cols: Dict[str, Any] = {F.T_S: t}

@@ -10,6 +10,7 @@ from typing import Any, Dict, List, Optional, Union
 
 from . import _core
 from . import _frames as F
+from .model import _attrs_t0, _number, _text, _unix_time
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -23,16 +24,25 @@ def simulate(preset: str = "paper", seed: int = 7, days: Optional[float] = None,
     """Simulate a built-in scenario, deterministically (``fbg-trainer simulate --preset P
     --seed S``); ``days`` changes the record's length, ``dt_s`` its sample interval [s].
     Returns a DataFrame (a dict of arrays without pandas)."""
-    cols, split, t0 = _core.simulate(preset, seed, days, dt_s)
+    from .estimators import _whole
+
+    seed = _whole("seed", seed, 0, 2**64 - 1)
+    cols, split, t0 = _core.simulate(_text("preset", preset), seed, _number("days", days), _number("dt_s", dt_s))
     return F.frame_of(cols, split, t0)
 
 
 def read_dataset(path: PathLike, *, field: bool = False) -> Any:
     """Read a dataset CSV as ``train``/``evaluate`` do (``field=True``: a field record, no
-    reference needed, as ``compensate`` reads it). Errors (``FbgError``) name the file, line
+    reference needed, as ``compensate`` reads it), with its sidecar's clock
+    (``attrs['t0_unix_s']``) and zero (``attrs['zero']``: ``[lambda_ref_nm or None, source]``
+    per grating, empty when the record states none). Errors (``FbgError``) name the file, line
     and column, with the command line's message."""
     cols, split, t0 = _core.read_dataset(os.fspath(path), field)
-    return F.frame_of(cols, split, t0)
+    frame = F.frame_of(cols, split, t0)
+    if hasattr(frame, "attrs"):
+        # The record's zero (its sidecar's), so that write_dataset keeps it.
+        frame.attrs["zero"] = [list(z) for z in _core.record_zero(os.fspath(path))]
+    return frame
 
 
 def compensate_file(
@@ -47,20 +57,30 @@ def compensate_file(
     """``fbg-trainer compensate --model M --data D --out O`` itself (the same function, so the
     same file and checks); returns its JSON summary as a dict."""
     return json.loads(
-        _core.compensate_file(os.fspath(model), os.fspath(data), os.fspath(out), precision, trust_units, start_unix_s)
+        _core.compensate_file(
+            os.fspath(model), os.fspath(data), os.fspath(out), precision, trust_units, _unix_time("start_unix_s", start_unix_s)
+        )
     )
 
 
 def write_dataset(frame: Any, path: PathLike) -> None:
     """Write a record (the columns :func:`simulate`/:func:`read_dataset` give, ``split``
-    optional) as a dataset CSV, atomically, exactly as ``fbg-trainer simulate`` writes one."""
+    optional) as a dataset CSV and its ``.record.json`` sidecar, atomically, exactly as
+    ``fbg-trainer simulate`` writes them: the clock from ``attrs['t0_unix_s']``, the zero from
+    ``attrs['zero']`` (``[lambda_ref_nm or None, source]`` per grating, as
+    :func:`read_dataset` sets it)."""
     names = F.names_of(frame) if F.is_frame(frame) else list(frame)
     cols = {n: F.column(frame, n) for n in names if n != "split"}
     cal = None
     if "split" in names:
         cal = [s == "cal" for s in (frame["split"].astype(str) if hasattr(frame["split"], "astype") else frame["split"])]
-    t0 = getattr(frame, "attrs", {}).get("t0_unix_s") if hasattr(frame, "attrs") else None
-    _core.write_dataset(cols, os.fspath(path), cal, t0)
+    zero = getattr(frame, "attrs", {}).get("zero") if hasattr(frame, "attrs") else None
+    if zero is not None:
+        try:
+            zero = [(None if nm is None else float(nm), str(source)) for nm, source in zero]
+        except (TypeError, ValueError):
+            raise ValueError(f"attrs['zero']: {zero!r:.60} is not a list of [lambda_ref_nm, source] pairs") from None
+    _core.write_dataset(cols, os.fspath(path), cal, _attrs_t0(frame), zero)
 
 
 def import_file(

@@ -6,8 +6,9 @@ mod rows;
 
 use std::path::Path;
 
-use crate::data::files::write_atomically;
+use crate::data::files::{refuse_non_regular, OutputSet};
 use crate::data::measurand::grating_column;
+use crate::data::record_meta::sidecar_path;
 use crate::data::{Dataset, Measurand, Split, T_AMB_COLUMN};
 use crate::error::TrainerError;
 pub use line_limit::MAX_LINE_BYTES;
@@ -29,14 +30,27 @@ impl Dataset {
         head
     }
 
-    /// Write the CSV atomically: a temporary file in the target directory, renamed into place
-    /// only when complete. Columns in canonical order ([`header`](Self::header)).
+    /// Write the CSV and its sidecar `NAME.record.json` (the record's zero and clock,
+    /// [`record_meta`](crate::data::record_meta)) as one output set: temporary files in the
+    /// target directory, renamed into place only when both are complete, so neither is ever
+    /// half-written nor left beside the other's old version. Columns in canonical order
+    /// ([`header`](Self::header)).
     pub fn write_csv(&self, path: &Path) -> Result<(), TrainerError> {
-        write_atomically(path, |w| self.write_csv_to(w))
+        refuse_non_regular(path)?;
+        let set = OutputSet::beside(path)?;
+        self.stage_csv(&set, path)?;
+        set.commit()
     }
 
-    /// Write the CSV to `w` (as [`write_csv`](Self::write_csv) writes the file): for a caller
-    /// that stages it in an output set with other files.
+    /// Stage the CSV `path` and its sidecar in `set` (as [`write_csv`](Self::write_csv)
+    /// writes them): for a caller that writes them with other files.
+    pub fn stage_csv(&self, set: &OutputSet, path: &Path) -> Result<(), TrainerError> {
+        set.stage(path, |w| self.write_csv_to(w))?;
+        set.stage_bytes(&sidecar_path(path), self.meta.sidecar_json(path).as_bytes())
+    }
+
+    /// Write the CSV's table to `w` (one header line, then the rows; the sidecar is
+    /// [`stage_csv`](Self::stage_csv)'s).
     pub fn write_csv_to(&self, w: &mut impl std::io::Write) -> std::io::Result<()> {
         // A missing value (gap) is an empty cell.
         fn cell(line: &mut String, v: f64) {
@@ -50,9 +64,6 @@ impl Dataset {
         order.sort_by_key(|&k| self.refs[k].measurand);
         let head = self.header();
         {
-            for l in self.meta.comment_lines() {
-                writeln!(w, "{l}")?;
-            }
             writeln!(w, "{}", head.join(","))?;
             let mut line = String::with_capacity(128);
             for i in 0..self.len() {
@@ -143,6 +154,12 @@ impl Dataset {
             return Err(no_reference(&rows.name));
         }
         Ok(d)
+    }
+
+    /// The zero and clock of a dataset CSV (its sidecar's, or its older comment lines'),
+    /// read with its header only.
+    pub fn read_csv_meta(path: &Path) -> Result<crate::data::RecordMeta, TrainerError> {
+        Ok(RowReader::open(path)?.header_dataset().meta)
     }
 
     /// The rows of a dataset CSV up to and including the first one for which `stop` is true

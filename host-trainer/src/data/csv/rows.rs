@@ -105,6 +105,7 @@ impl RowReader {
         };
         let layout = Layout::of(&headers).map_err(|(col, m)| TrainerError::data(&name, 1, &quote_cell(&col), m))?;
         let n_g = layout.gratings.len();
+        let meta = with_sidecar(meta, path, n_g)?;
         Ok(RowReader {
             name,
             rdr,
@@ -372,6 +373,27 @@ fn read_meta(f: &mut std::fs::File, name: &str) -> Result<RecordMeta, TrainerErr
     }
     drop(r);
     f.seek(SeekFrom::Start(0)).map_err(|e| TrainerError::data(name, 1, "-", e.to_string()))?;
+    Ok(meta)
+}
+
+/// The record's zero and clock: its sidecar's when there is one (a record with comment lines
+/// too must say the same in both), else its comment lines'.
+fn with_sidecar(mut meta: RecordMeta, path: &Path, gratings: usize) -> Result<RecordMeta, TrainerError> {
+    let Some(side) = RecordMeta::read_sidecar(path, gratings)? else { return Ok(meta) };
+    if !meta.is_empty() && meta != side {
+        return Err(TrainerError::data(
+            &path.display().to_string(),
+            1,
+            "#",
+            format!(
+                "the comment lines before the header state another zero or clock than {}: keep one of them (the tool writes the sidecar)",
+                side.sidecar.as_deref().unwrap_or(path).display()
+            ),
+        ));
+    }
+    meta.zero = side.zero;
+    meta.t0_unix_s = side.t0_unix_s;
+    meta.sidecar = side.sidecar;
     Ok(meta)
 }
 
