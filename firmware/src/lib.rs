@@ -1,9 +1,10 @@
 //! Board support of the FBG firmware on the MPS2 AN386 (Cortex-M4F), as QEMU's `mps2-an386`
 //! models it: the CMSDK APB UART driver (`embedded-io`), the FPGA IO LED as the alarm
 //! (`embedded-hal` `OutputPin`), the flash of the persistent model store (`embedded-storage`
-//! `NorFlash`, kept across QEMU runs in a host file), SysTick/DWT counters, the stack high-water mark, the
-//! fatal-error path (defmt log, then semihosting exit with failure). The test images read the
-//! packs of models and samples they embed with `fbg_shared::golden::records`.
+//! `NorFlash`, kept across QEMU runs in a host file), SysTick/DWT counters, the stack high-water
+//! mark, the fatal-error path (defmt log, then semihosting exit with failure), the defmt logger
+//! (over semihosting). The test images read the packs of models and samples they embed with
+//! `fbg_shared::golden::records`.
 //!
 //! The application logic lives in the host-testable `fbg-firmware-app` crate.
 
@@ -11,6 +12,7 @@
 
 pub mod counters;
 pub mod led;
+mod logger;
 pub mod stack;
 pub mod store_flash;
 pub mod uart;
@@ -18,8 +20,6 @@ pub mod uart;
 use core::panic::PanicInfo;
 
 use cortex_m_rt::{exception, ExceptionFrame};
-// The defmt global logger: frames go to the host over semihosting (stdout of QEMU).
-use defmt_semihosting as _;
 
 /// Centre capacity of this build (env `FBG_K` at build time, default 32), and the step and
 /// blob parser compiled for it for speed (`fbg-firmware-kernel`), with the update limits that

@@ -237,8 +237,12 @@ mod tests {
     fn memory_part_on_a_million_rows() {
         let root = crate::cmd::root();
         let r = Runner { root: root.clone() };
-        let m = part(&root, &r, &Opts { quick: true, no_device: true, markdown_only: false, spectrum_only: false })
-            .unwrap();
+        let m = part(
+            &root,
+            &r,
+            &Opts { quick: true, no_device: true, markdown_only: false, spectrum_only: false, footprint_only: false },
+        )
+        .unwrap();
         let mut s = String::new();
         markdown(&mut s, &m);
         eprintln!("{s}");

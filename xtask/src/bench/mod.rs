@@ -62,6 +62,8 @@ pub struct Opts {
     pub markdown_only: bool,
     /// Only the spectrum part.
     pub spectrum_only: bool,
+    /// Only the firmware's footprint: the Ed25519 verifier table and the board's figures.
+    pub footprint_only: bool,
 }
 
 /// `cargo xtask bench`.
@@ -72,6 +74,9 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     // One part alone, into the BENCHMARKS.json already there.
     if opts.spectrum_only {
         return spectrum::only(root, opts);
+    }
+    if opts.footprint_only {
+        return device::footprint_only(root);
     }
     let r = Runner { root: root.to_path_buf() };
     let data_dir = root.join("target/bench/data");

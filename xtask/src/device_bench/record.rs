@@ -43,6 +43,10 @@ pub struct DeviceRecord {
     /// `product`; not checked against the RAM budgets (absent from files written before it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spectrum_product: Option<SpectrumProduct>,
+    /// The Ed25519 verifier candidates, verify-only images ([`super::verifiers`]); absent when
+    /// not measured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub verifiers: Option<Vec<super::verifiers::VerifierRow>>,
 }
 
 /// Footprint of the product built with spectrum frames (`spectrum_product` in device.json).
@@ -406,6 +410,7 @@ impl DeviceRecord {
                 },
             },
             board: None,
+            verifiers: None,
             spectrum: None,
             spectrum_product: size.spectrum.as_deref().map(SpectrumProduct::new),
             store: store.map(|b| Store {
