@@ -13,7 +13,7 @@
 pub mod counters;
 pub mod led;
 mod logger;
-pub mod stack;
+pub mod product;
 pub mod store_flash;
 pub mod uart;
 
@@ -36,8 +36,9 @@ pub mod trust {
 pub const POLICY: fbg_firmware_app::Policy =
     fbg_firmware_app::Policy { trusted: trust::TRUSTED_KEYS, allow_rollback: trust::ALLOW_ROLLBACK };
 
-/// The model embedded in the product image (replaced by the trainer's export).
-pub static DEFAULT_MODEL: &[u8] = include_bytes!("../model/default.fbgm");
+/// The model embedded in the product image, and the stack high-water mark (the device
+/// crate's, every board's).
+pub use fbg_firmware_device::{stack, DEFAULT_MODEL};
 
 /// Leave the emulator (or the debug session) with success.
 pub fn exit_success() -> ! {
