@@ -39,15 +39,10 @@ use stm32f4 as _;
 /// follow from it (`MAX_BLOB`, `STAGING_LEN`, the same for every board).
 pub use fbg_firmware_kernel::{step, K, KERNEL, MAX_BLOB, STAGING_LEN};
 
-/// The signature policy compiled in by `build.rs` (`FBG_TRUSTED_KEYS`, `FBG_ALLOW_ROLLBACK`,
-/// `FBG_REQUIRE_SIGNED_DEFAULT`; README-firmware.md, "Signed model updates").
-pub mod trust {
-    include!(concat!(env!("OUT_DIR"), "/trust.rs"));
-}
-
-/// The image's [`fbg_firmware_app::Policy`].
-pub const POLICY: fbg_firmware_app::Policy =
-    fbg_firmware_app::Policy { trusted: trust::TRUSTED_KEYS, allow_rollback: trust::ALLOW_ROLLBACK };
+/// The signature policy every board's images are built with (`FBG_TRUSTED_KEYS`,
+/// `FBG_ALLOW_ROLLBACK`, `FBG_REQUIRE_SIGNED_DEFAULT`: the device crate's build script;
+/// README-firmware.md, "Signed model updates").
+pub use fbg_firmware_device::{trust, POLICY};
 
 /// The model embedded in the product image (the device crate's, every board's), and the stack
 /// high-water mark (the same).

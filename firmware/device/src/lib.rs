@@ -4,7 +4,8 @@
 //! `#[entry]` calling `run_product::<ItsBoard>()`; a board gives the link, the alarm, the
 //! store's flash, its trust policy, the static the device lives in and its fatal path.
 //!
-//! [`stack`]: the stack high-water mark by painting, which every board reports.
+//! [`stack`]: the stack high-water mark by painting, which every board reports. [`trust`] and
+//! [`POLICY`]: the signature policy every board's images are built with (the build script).
 
 #![no_std]
 
@@ -22,6 +23,15 @@ use fbg_firmware_app::{unloaded, Device, ModelInfo, Policy};
 use fbg_firmware_kernel::{K, KERNEL, STAGING_LEN};
 use fbg_shared::protocol::{FrameReader, HOST_MAX_FRAME};
 use fbg_shared::Compensator;
+
+/// The signature policy compiled in by `build.rs` (`FBG_TRUSTED_KEYS`, `FBG_ALLOW_ROLLBACK`,
+/// `FBG_REQUIRE_SIGNED_DEFAULT`; README-firmware.md, "Signed model updates").
+pub mod trust {
+    include!(concat!(env!("OUT_DIR"), "/trust.rs"));
+}
+
+/// The images' [`Policy`].
+pub const POLICY: Policy = Policy { trusted: trust::TRUSTED_KEYS, allow_rollback: trust::ALLOW_ROLLBACK };
 
 /// The model embedded in every product image (replaced by the trainer's export).
 pub static DEFAULT_MODEL: &[u8] = include_bytes!("../../model/default.fbgm");
@@ -107,16 +117,13 @@ pub fn run_product<B: Board>() -> ! {
     // record it, then paint again so that the status reports the serving path on its own.
     let boot_peak = stack::peak_bytes();
     stack::repaint();
-    let st = dev.store().status();
     defmt::info!(
-        "{=str} up: K = {=usize}, model {=u16} centres, crc {=u32:#010x}, serial {=u64} from {}, rollback floor {=u64}, stack peak during boot {=u32} B",
+        "{=str} up: K = {=usize}, model {=u16} centres, crc {=u32:#010x}, serial {=u64}, stack peak during boot {=u32} B",
         B::NAME,
         K,
         info.centres,
         info.crc,
         info.serial,
-        st.boot_source,
-        st.rollback_floor,
         boot_peak
     );
     dev.set_stack_probe(stack::peak_bytes, boot_peak);
