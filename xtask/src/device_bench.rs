@@ -200,6 +200,13 @@ pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
     Ok((steps, size))
 }
 
+/// The product images' footprint and stack peaks (`cargo xtask size`'s figures, the default
+/// product and the build with spectrum frames), without printing them.
+pub fn footprint(root: &Path, q: &Path) -> Result<SizeReport> {
+    let bins = size::product_images(root)?;
+    size::measure_size(root, q, &bins)
+}
+
 /// The model store's figures ([`store`]) on the product images `bins`, with the signed
 /// fixtures of the QEMU tests.
 fn store_bench(root: &Path, q: &Path, bins: &crate::firmware::Bins) -> Result<store::StoreBench> {

@@ -97,9 +97,9 @@ enum Task {
         /// into the BENCHMARKS.json already there
         #[arg(long, conflicts_with_all = ["no_device", "markdown_only"])]
         spectrum_only: bool,
-        /// Only the firmware's footprint (the Ed25519 verifier table from verify-only images,
-        /// and the STM32F405 board's figures, `cargo xtask board`), into the BENCHMARKS.json
-        /// already there
+        /// Only the firmware's footprint (the product images' flash, RAM and stack, the Ed25519
+        /// verifier table from verify-only images, and the STM32F405 board's figures, `cargo
+        /// xtask board`), into the BENCHMARKS.json already there
         #[arg(long, conflicts_with_all = ["quick", "no_device", "markdown_only", "spectrum_only"])]
         footprint_only: bool,
     },

@@ -58,11 +58,14 @@ pub fn part(root: &Path, opts: &Opts) -> Result<DeviceResults> {
     Ok(v)
 }
 
-/// `cargo xtask bench --footprint-only`: the Ed25519 verifier table and the STM32F405 board's
-/// figures measured again, into the device part of the BENCHMARKS.json already there (which
-/// must have one), and BENCHMARKS.md rendered from it.
+/// `cargo xtask bench --footprint-only`: the product images' footprint and stack peaks (mps2:
+/// the default product and the build with spectrum frames), the Ed25519 verifier table and
+/// the STM32F405 board's figures measured again, into the device part of the BENCHMARKS.json
+/// already there (which must have one; its step figures stay), and BENCHMARKS.md rendered
+/// from it.
 pub fn footprint_only(root: &Path) -> Result<()> {
     let q = crate::firmware::emulator::ensure_qemu()?;
+    let size = device_bench::footprint(root, &q)?;
     let verifiers = device_bench::verifiers::measure(root, &q)?;
     let board = crate::board::run_all(root)?;
     let path = root.join("BENCHMARKS.json");
@@ -70,11 +73,14 @@ pub fn footprint_only(root: &Path) -> Result<()> {
     let Device::Measured(dev) = &mut report.device else {
         anyhow::bail!("{} has no device results to add the footprint to: run `cargo xtask bench`", path.display());
     };
+    dev.record.set_footprint(&size);
     dev.record.verifiers = Some(verifiers);
     dev.record.board = Some(board);
     let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
     crate::cmd::write_atomic(&path, json.as_bytes())?;
     crate::cmd::write_atomic(&root.join("BENCHMARKS.md"), super::markdown::markdown(&report).as_bytes())?;
-    eprintln!("bench: wrote the verifier table and the board's figures into BENCHMARKS.md and BENCHMARKS.json");
+    eprintln!(
+        "bench: wrote the footprint, the verifier table and the board's figures into BENCHMARKS.md and BENCHMARKS.json"
+    );
     Ok(())
 }
