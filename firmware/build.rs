@@ -13,15 +13,15 @@
 //!   and `FBG_BENCH_SIGNED`, a model signed with the QEMU test key whose verification the bench
 //!   image times.
 //!
-//! - writes `trust.rs`, the signature policy compiled into the image: the trusted public keys
-//!   from the files named by `FBG_TRUSTED_KEYS` (comma-separated; each file holds one or more
-//!   raw 32-byte Ed25519 public keys back to back, as `fbg-trainer keygen` writes `lab.pub`, or
-//!   their hex, as in `lab.pub.hex`; default `keys/qemu-test.pub`, the committed TEST key, not
-//!   for production), `FBG_ALLOW_ROLLBACK` (default 0: every rollback is refused; 1: a rollback,
-//!   signed with the allow-rollback flag and the one serial it may replace, is accepted while
-//!   that serial runs) and
-//!   `FBG_REQUIRE_SIGNED_DEFAULT` (default 0: the embedded model is trusted as part of the
-//!   image; 1: it must be signed by a trusted key too, or the image refuses to start).
+//! The signature policy compiled into the images (`trust.rs`: the trusted public keys from the
+//! files named by `FBG_TRUSTED_KEYS` (comma-separated; each file holds one or more raw 32-byte
+//! Ed25519 public keys back to back, as `fbg-trainer keygen` writes `lab.pub`, or their hex, as
+//! in `lab.pub.hex`; default `keys/qemu-test.pub`, the committed TEST key, not for
+//! production), `FBG_ALLOW_ROLLBACK` (default 0: every rollback is refused; 1: a rollback,
+//! signed with the allow-rollback flag and the one serial it may replace, is accepted while
+//! that serial runs) and `FBG_REQUIRE_SIGNED_DEFAULT` (default 0: the embedded model is
+//! trusted as part of the image; 1: it must be signed by a trusted key too, or the image
+//! refuses to start)) is the device crate's build script's (`device/build.rs`), every board's.
 //!
 //! The centre capacity `K` (env `FBG_K`, default 32) is `fbg-firmware-kernel`'s.
 
@@ -63,8 +63,6 @@ fn main() {
     println!("cargo:rerun-if-changed={}", memory.display());
     println!("cargo:rerun-if-changed=build.rs");
 
-    trust(&manifest, &out);
-
     let fixtures = manifest.join("../target/fixtures");
     for (var, default, name) in [
         ("FBG_GOLDEN_PACK", fixtures.join("golden_pack.bin"), "golden_pack.bin"),
@@ -95,13 +93,4 @@ fn bin_names(cargo_toml: &str) -> Vec<String> {
     }
     assert!(!names.is_empty(), "Cargo.toml names no [[bin]]");
     names
-}
-
-// The signature policy (`trust.rs`): shared with the board crate's build script
-// (`board/build.rs`), so that both images trust the same keys under the same rules.
-#[path = "build_trust.rs"]
-mod build_trust;
-
-fn trust(manifest: &std::path::Path, out: &std::path::Path) {
-    build_trust::write_trust(manifest, out);
 }

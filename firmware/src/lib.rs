@@ -1,9 +1,10 @@
 //! Board support of the FBG firmware on the MPS2 AN386 (Cortex-M4F), as QEMU's `mps2-an386`
 //! models it: the CMSDK APB UART driver (`embedded-io`), the FPGA IO LED as the alarm
 //! (`embedded-hal` `OutputPin`), the flash of the persistent model store (`embedded-storage`
-//! `NorFlash`, kept across QEMU runs in a host file), SysTick/DWT counters, the stack high-water mark, the
-//! fatal-error path (defmt log, then semihosting exit with failure). The test images read the
-//! packs of models and samples they embed with `fbg_shared::golden::records`.
+//! `NorFlash`, kept across QEMU runs in a host file), SysTick/DWT counters, the stack high-water
+//! mark, the fatal-error path (defmt log, then semihosting exit with failure), the defmt logger
+//! (over semihosting). The test images read the packs of models and samples they embed with
+//! `fbg_shared::golden::records`.
 //!
 //! The application logic lives in the host-testable `fbg-firmware-app` crate.
 
@@ -11,33 +12,28 @@
 
 pub mod counters;
 pub mod led;
-pub mod stack;
+mod logger;
+pub mod product;
 pub mod store_flash;
 pub mod uart;
 
 use core::panic::PanicInfo;
 
 use cortex_m_rt::{exception, ExceptionFrame};
-// The defmt global logger: frames go to the host over semihosting (stdout of QEMU).
-use defmt_semihosting as _;
 
 /// Centre capacity of this build (env `FBG_K` at build time, default 32), and the step and
 /// blob parser compiled for it for speed (`fbg-firmware-kernel`), with the update limits that
 /// follow from it (`MAX_BLOB`, `STAGING_LEN`, the same for every board).
 pub use fbg_firmware_kernel::{step, K, KERNEL, MAX_BLOB, STAGING_LEN};
 
-/// The signature policy compiled in by `build.rs` (`FBG_TRUSTED_KEYS`, `FBG_ALLOW_ROLLBACK`,
-/// `FBG_REQUIRE_SIGNED_DEFAULT`; README-firmware.md, "Signed model updates").
-pub mod trust {
-    include!(concat!(env!("OUT_DIR"), "/trust.rs"));
-}
+/// The signature policy every board's images are built with (`FBG_TRUSTED_KEYS`,
+/// `FBG_ALLOW_ROLLBACK`, `FBG_REQUIRE_SIGNED_DEFAULT`: the device crate's build script;
+/// README-firmware.md, "Signed model updates").
+pub use fbg_firmware_device::{trust, POLICY};
 
-/// The image's [`fbg_firmware_app::Policy`].
-pub const POLICY: fbg_firmware_app::Policy =
-    fbg_firmware_app::Policy { trusted: trust::TRUSTED_KEYS, allow_rollback: trust::ALLOW_ROLLBACK };
-
-/// The model embedded in the product image (replaced by the trainer's export).
-pub static DEFAULT_MODEL: &[u8] = include_bytes!("../model/default.fbgm");
+/// The model embedded in the product image, and the stack high-water mark (the device
+/// crate's, every board's).
+pub use fbg_firmware_device::{stack, DEFAULT_MODEL};
 
 /// Leave the emulator (or the debug session) with success.
 pub fn exit_success() -> ! {

@@ -142,12 +142,12 @@ impl StoreFlash {
         flash.fill_erased();
         let created = File::options().read(true).write(true).create(true).truncate(true).open(FILE);
         match created {
-            Ok(mut file) => match file.write_all(flash.contents()) {
-                Ok(()) => {
+            Ok(mut file) => match write_all(&mut file, flash.contents()) {
+                true => {
                     flash.backing = Backing::File(file);
                     defmt::info!("store flash: a fresh (erased) part, saved to the host file fbg-flash.bin");
                 }
-                Err(_) => defmt::warn!(
+                false => defmt::warn!(
                     "store flash: the host file fbg-flash.bin could not be written; the flash is unusable this run"
                 ),
             },
@@ -208,8 +208,8 @@ impl StoreFlash {
         // SAFETY: `from..to` is inside the region (checked by the caller), which only this
         // driver writes, through `&mut self`.
         let bytes = unsafe { core::slice::from_raw_parts(base.wrapping_add(from), to.saturating_sub(from)) };
-        let done = file.seek(SeekFrom::Start(from as u64)).and_then(|_| file.write_all(bytes));
-        if done.is_err() {
+        let done = file.seek(SeekFrom::Start(from as u64)).is_ok() && write_all(file, bytes);
+        if !done {
             defmt::warn!("store flash: writing bytes {=usize}..{=usize} to the host file failed", from, to);
             self.backing = Backing::Broken;
             return Err(FlashError::HostFile);
@@ -279,4 +279,16 @@ impl MappedFlash for StoreFlash {
         // driver writes, through `&mut self`: no write happens while this borrow lives.
         unsafe { core::slice::from_raw_parts(self.base(), self.capacity()) }
     }
+}
+
+/// Write all of `bytes` to `file` (whether it all went): semihosting's `write_all` without its
+/// panic path, which would link `core::fmt` into the image.
+fn write_all(file: &mut File, mut bytes: &[u8]) -> bool {
+    while !bytes.is_empty() {
+        match file.write(bytes) {
+            Ok(n) if n > 0 => bytes = bytes.get(n..).unwrap_or(&[]),
+            _ => return false,
+        }
+    }
+    true
 }

@@ -78,6 +78,26 @@ pub fn build(root: &Path, emulator: bool) -> Result<BoardImages> {
     Ok(BoardImages { product, golden })
 }
 
+/// The flash budget on the product as it ships (`cargo xtask size`, after the mps2 figures):
+/// the STM32F405 product image built for the part, its flash against the target and no
+/// `core::fmt` in it.
+pub fn flash_budget(root: &Path, mps2_flash: u64) -> Result<()> {
+    step("size: the STM32F405 product image (the build for the part), the one held to the flash budget");
+    let part = build(root, false)?;
+    let f = elf::footprint(&part.product)?;
+    elf::ensure_no_core_fmt(&part.product, "the STM32F405 product image")?;
+    println!(
+        "STM32F405 product image (the part): flash {} B ({:.1} KiB; target ≤ {} KiB with the signature verifier: {}); static RAM {} B; the mps2 QEMU image {} B",
+        f.flash,
+        f.flash as f64 / 1024.0,
+        TARGET_BOARD_FLASH / 1024,
+        verdict(f.flash <= TARGET_BOARD_FLASH),
+        f.ram_static,
+        mps2_flash
+    );
+    Ok(())
+}
+
 /// `cargo xtask board`: build both builds, print the footprint, run the golden vectors and the
 /// link on `netduinoplus2`; writes `target/bench/board.json`.
 pub fn run_all(root: &Path) -> Result<BoardRecord> {
@@ -106,6 +126,8 @@ pub fn run_images(
     (part, emu): &(BoardImages, BoardImages),
 ) -> Result<BoardRecord> {
     let footprint = elf::footprint(&part.product)?;
+    step("board: no core::fmt in the product image for the part (its symbols)");
+    elf::ensure_no_core_fmt(&part.product, "the STM32F405 product image")?;
     let emu_footprint = elf::footprint(&emu.product)?;
     step("board: golden vectors on QEMU netduinoplus2 (the `emulator` build)");
     let golden = run_golden(root, qemu, Machine::NetduinoPlus2, &emu.golden, "board-golden", fx)?;

@@ -22,6 +22,9 @@
 //!   spectrum readings).
 //! - The model store ([`store`]): flash operations and erases of one update, boot time to
 //!   serving with a full event log (emulated time under `-icount`).
+//! - The Ed25519 verifier candidates ([`verifiers`]): verify-only images of salty,
+//!   ed25519-compact (with and without `opt_size`) and ed25519-dalek, each running the RFC 8032
+//!   vectors on the device; flash, stack and instructions of one verification.
 //! - Instructions of one signature check of a model update (`fbg_firmware_app::authenticate`:
 //!   trailer, key lookup, Ed25519 verification, serial) on the default model signed with the
 //!   QEMU test key, timed by the bench image like a step, with the stack it reached.
@@ -46,6 +49,7 @@ mod pack;
 pub mod record;
 mod size;
 pub mod store;
+pub mod verifiers;
 
 /// One signature check of a model update, timed by the bench image.
 #[derive(Clone, Debug, Default)]
@@ -151,6 +155,7 @@ pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
     let bins = size::product_images(root)?;
     let size = size::measure_size(root, &q, &bins)?;
     let store = store_bench(root, &q, &bins)?;
+    let verifiers = verifiers::measure(root, &q)?;
     println!();
     for s in &steps {
         let target = if s.name == "default" {
@@ -185,6 +190,7 @@ pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
     store::print(&store);
     let mut record = DeviceRecord::new(&steps, &sizes, &size, &verify, Some(&store));
     record.spectrum = Some(record::SpectrumRow::new(&spectrum));
+    record.verifiers = Some(verifiers);
     let json = serde_json::to_string_pretty(&record)?;
     let dir = root.join("target").join("bench");
     fs::create_dir_all(&dir)?;
@@ -192,6 +198,13 @@ pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
     write_atomic(&path, format!("{json}\n").as_bytes())?;
     println!("wrote {}", path.display());
     Ok((steps, size))
+}
+
+/// The product images' footprint and stack peaks (`cargo xtask size`'s figures, the default
+/// product and the build with spectrum frames), without printing them.
+pub fn footprint(root: &Path, q: &Path) -> Result<SizeReport> {
+    let bins = size::product_images(root)?;
+    size::measure_size(root, q, &bins)
 }
 
 /// The model store's figures ([`store`]) on the product images `bins`, with the signed

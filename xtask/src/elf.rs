@@ -1,5 +1,6 @@
 //! Just enough ELF32 (little-endian) reading to measure a firmware image: section headers and
-//! their names. No external tool (arm-none-eabi-size) needed.
+//! their names, and the names of the symbol table. No external tool (arm-none-eabi-size,
+//! llvm-nm) needed.
 
 use std::path::Path;
 
@@ -8,6 +9,7 @@ use anyhow::{bail, ensure, Context, Result};
 const SHF_WRITE: u32 = 0x1;
 const SHF_ALLOC: u32 = 0x2;
 const SHT_NOBITS: u32 = 8;
+const SHT_SYMTAB: u32 = 2;
 
 /// One section header.
 #[derive(Clone, Debug)]
@@ -20,6 +22,10 @@ pub struct Section {
     pub flags: u32,
     /// Size in bytes.
     pub size: u32,
+    /// `sh_offset`: where its bytes are in the file.
+    pub offset: u32,
+    /// `sh_link`: for a symbol table, the index of its string table.
+    pub link: u32,
 }
 
 impl Section {
@@ -69,12 +75,64 @@ pub fn sections(bytes: &[u8]) -> Result<Vec<Section>> {
             kind: u32_at(bytes, h + 4)?,
             flags: u32_at(bytes, h + 8)?,
             size: u32_at(bytes, h + 20)?,
+            offset: u32_at(bytes, h + 16)?,
+            link: u32_at(bytes, h + 24)?,
         });
     }
     if out.is_empty() {
         bail!("ELF without sections");
     }
     Ok(out)
+}
+
+/// The names in the symbol table (`.symtab`) of an ELF32 LE image, as stored (mangled).
+pub fn symbol_names(bytes: &[u8]) -> Result<Vec<String>> {
+    let secs = sections(bytes)?;
+    let symtab = secs.iter().find(|s| s.kind == SHT_SYMTAB).context("the image has no symbol table")?;
+    let strtab = secs.get(symtab.link as usize).context("the symbol table's string table is missing")?;
+    let strings = bytes
+        .get(strtab.offset as usize..(strtab.offset + strtab.size) as usize)
+        .context("string table outside the file")?;
+    let mut names = Vec::new();
+    for at in (symtab.offset..symtab.offset + symtab.size).step_by(16) {
+        let name = u32_at(bytes, at as usize)? as usize;
+        let tail = strings.get(name..).context("symbol name outside the string table")?;
+        let end = tail.iter().position(|&c| c == 0).unwrap_or(tail.len());
+        if end > 0 {
+            names.push(String::from_utf8_lossy(&tail[..end]).into_owned());
+        }
+    }
+    Ok(names)
+}
+
+/// The symbols of `core::fmt` (the formatting machinery: `Formatter`, `Display`/`Debug`
+/// implementations, `write_fmt`) in the image at `path`, mangled: in both manglings the path
+/// `core::fmt` is the segment `4core3fmt` (v0, legacy `_ZN4core3fmt…`) or `core..fmt` (a
+/// legacy `<T as core::fmt::Display>`). `core::panicking::panic_fmt` is not among them: it
+/// passes a message on without formatting it.
+pub fn core_fmt_symbols(path: &Path) -> Result<Vec<String>> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut found: Vec<String> =
+        symbol_names(&bytes)?.into_iter().filter(|n| n.contains("4core3fmt") || n.contains("core..fmt")).collect();
+    found.sort();
+    found.dedup();
+    Ok(found)
+}
+
+/// Fail when the image at `path` (`what` names it) links `core::fmt` ([`core_fmt_symbols`]):
+/// the product carries no formatting code (its panic paths, the usual way in, are written out).
+pub fn ensure_no_core_fmt(path: &Path, what: &str) -> Result<()> {
+    let found = core_fmt_symbols(path)?;
+    ensure!(
+        found.is_empty(),
+        "{what} ({}) links core::fmt ({} symbols: {}); find the panic path or formatting that brings it in \
+         (`llvm-nm -C` on the image, then who calls core::panicking::*) and write it without",
+        path.display(),
+        found.len(),
+        found.iter().take(8).cloned().collect::<Vec<_>>().join(", ")
+    );
+    eprintln!("xtask: {what}: no core::fmt symbols in the image");
+    Ok(())
 }
 
 /// Flash and static RAM of an image.

@@ -26,6 +26,8 @@ pub struct Bins {
     pub rollback: PathBuf,
     /// The product whose store flash loses power in a chosen operation (the torture test).
     pub torture: PathBuf,
+    /// The bench image (without a bench pack here).
+    pub bench: PathBuf,
 }
 
 /// The firmware workspace.
@@ -109,6 +111,7 @@ pub fn build(root: &Path, k: usize, bench: Option<&Path>) -> Result<Bins> {
         fault: out.join("fault"),
         rollback: out.join("rollback"),
         torture: out.join("torture"),
+        bench: out.join("bench"),
     })
 }
 

@@ -73,7 +73,8 @@ enum Task {
         #[arg(long)]
         all: bool,
     },
-    /// Firmware flash / static RAM from the ELF and the measured stack peak
+    /// Firmware flash / static RAM from the ELF and the measured stack peak (the mps2 image),
+    /// then the STM32F405 product image's flash against the budget
     Size,
     /// Only the device part of bench: instructions per step at K = 16/32/64 and of the trained
     /// models of other presets under QEMU -icount, and the footprint; writes
@@ -100,6 +101,11 @@ enum Task {
         /// with --quick), into the BENCHMARKS.json already there
         #[arg(long, conflicts_with_all = ["no_device", "markdown_only", "spectrum_only"])]
         import_memory_only: bool,
+        /// Only the firmware's footprint (the product images' flash, RAM and stack, the Ed25519
+        /// verifier table from verify-only images, and the STM32F405 board's figures, `cargo
+        /// xtask board`), into the BENCHMARKS.json already there
+        #[arg(long, conflicts_with_all = ["quick", "no_device", "markdown_only", "spectrum_only", "import_memory_only"])]
+        footprint_only: bool,
     },
     /// The sharded fleet on a single-node Slurm started here (installs slurm-wlm and munge;
     /// needs root; not part of test); writes target/slurm/slurm.json
@@ -140,10 +146,16 @@ fn run_task(task: Task) -> Result<()> {
         Task::Test { no_qemu, fast } => test(no_qemu, fast),
         Task::Lint { only } => lint::run_steps(&root, &only),
         Task::Qemu { all } => qemu::run_all(&root, all, false),
-        Task::Size => device_bench::size(&root).map(|_| ()),
+        Task::Size => {
+            let report = device_bench::size(&root)?;
+            board::flash_budget(&root, report.footprint.flash)
+        }
         Task::DeviceBench => device_bench::run(&root).map(|_| ()),
-        Task::Bench { quick, no_device, markdown_only, spectrum_only, import_memory_only } => {
-            bench::run_bench(&root, &bench::Opts { quick, no_device, markdown_only, spectrum_only, import_memory_only })
+        Task::Bench { quick, no_device, markdown_only, spectrum_only, import_memory_only, footprint_only } => {
+            bench::run_bench(
+                &root,
+                &bench::Opts { quick, no_device, markdown_only, spectrum_only, import_memory_only, footprint_only },
+            )
         }
         Task::Slurm => slurm::run_all(&root),
         Task::Board => board::run_all(&root).map(|_| ()),

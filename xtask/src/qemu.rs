@@ -93,6 +93,7 @@ pub fn run_all(root: &Path, all: bool, board: bool) -> Result<()> {
     step("firmware: the product with spectrum frames (--features spectrum)");
     let spectrum_product = firmware::build_spectrum_product(root, PRODUCT_K)?;
     let board_images = if board { Some(crate::board::build_both(root)?) } else { None };
+    no_core_fmt(&bins)?;
 
     let started = Instant::now();
     step("QEMU: the suites, in two lanes at once");
@@ -130,6 +131,18 @@ pub fn run_all(root: &Path, all: bool, board: bool) -> Result<()> {
     };
     in_lanes(lane_a, lane_b)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// The product image links no `core::fmt` (`elf::ensure_no_core_fmt`); the bench image, which
+/// formats its report with it, shows that the check finds it where it is.
+pub fn no_core_fmt(bins: &Bins) -> Result<()> {
+    step("firmware: no core::fmt in the product image (its symbols)");
+    crate::elf::ensure_no_core_fmt(&bins.product, "the mps2 product image")?;
+    ensure!(
+        !crate::elf::core_fmt_symbols(&bins.bench)?.is_empty(),
+        "the core::fmt check found nothing in the bench image, which formats its report with core::fmt: the check is broken"
+    );
     Ok(())
 }
 

@@ -19,10 +19,10 @@ pub const TARGET_RAM: u64 = 8 * 1024;
 pub const TARGET_RAM_LOAD: u64 = 12 * 1024;
 /// Blob size target in bytes (K = 32).
 pub const TARGET_BLOB: u64 = 4 * 1024;
-/// Flash target of the STM32F405 board's product image (`cargo xtask board`), in bytes: with
-/// the model store and the signature verifier, ≤ 64 KiB (the HAL's clock and GPIO code and the
-/// part's larger interrupt table come on top of the QEMU image's budget).
-pub const TARGET_BOARD_FLASH: u64 = 64 * 1024;
+/// Flash target of the product as it ships, the STM32F405 board's product image (`cargo xtask
+/// board`, `cargo xtask size`), in bytes: [`TARGET_FLASH`] (issue 42; the mps2 QEMU image,
+/// which carries a semihosting persistence driver the part never runs, is reported beside it).
+pub const TARGET_BOARD_FLASH: u64 = TARGET_FLASH;
 /// Boot to serving with a full event log, µs of emulated time (issue 30).
 pub const TARGET_BOOT_US: u32 = 50_000;
 /// Erases one model update may cause (issue 30): the inactive slot, and a log sector when the

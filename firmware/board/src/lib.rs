@@ -6,7 +6,7 @@
 //! - [`board`]: bring-up — clocks, the link's USART, the alarm LED, the model store;
 //! - [`serial`]: the HAL's USART as the `embedded-io` 0.7 `Read`/`Write` the application takes;
 //! - [`store_flash`]: the model store, flash sectors 5–8, as NOR flash;
-//! - [`stack`]: the stack high-water mark (the QEMU firmware's painting, the same file);
+//! - [`stack`]: the stack high-water mark (the device crate's painting, every board's);
 //! - the fatal path ([`fatal`]), the panic and fault handlers, the defmt logger.
 //!
 //! With the `emulator` feature the same images run on QEMU's `netduinoplus2`, which models the
@@ -22,8 +22,6 @@
 
 pub mod board;
 pub mod serial;
-#[path = "../../src/stack.rs"]
-pub mod stack;
 pub mod store_flash;
 
 use core::panic::PanicInfo;
@@ -41,18 +39,14 @@ use stm32f4 as _;
 /// follow from it (`MAX_BLOB`, `STAGING_LEN`, the same for every board).
 pub use fbg_firmware_kernel::{step, K, KERNEL, MAX_BLOB, STAGING_LEN};
 
-/// The signature policy compiled in by `build.rs` (`FBG_TRUSTED_KEYS`, `FBG_ALLOW_ROLLBACK`,
-/// `FBG_REQUIRE_SIGNED_DEFAULT`; README-firmware.md, "Signed model updates").
-pub mod trust {
-    include!(concat!(env!("OUT_DIR"), "/trust.rs"));
-}
+/// The signature policy every board's images are built with (`FBG_TRUSTED_KEYS`,
+/// `FBG_ALLOW_ROLLBACK`, `FBG_REQUIRE_SIGNED_DEFAULT`: the device crate's build script;
+/// README-firmware.md, "Signed model updates").
+pub use fbg_firmware_device::{trust, POLICY};
 
-/// The image's [`fbg_firmware_app::Policy`].
-pub const POLICY: fbg_firmware_app::Policy =
-    fbg_firmware_app::Policy { trusted: trust::TRUSTED_KEYS, allow_rollback: trust::ALLOW_ROLLBACK };
-
-/// The model embedded in the product image: the QEMU firmware's, so both run the same model.
-pub static DEFAULT_MODEL: &[u8] = include_bytes!("../../model/default.fbgm");
+/// The model embedded in the product image (the device crate's, every board's), and the stack
+/// high-water mark (the same).
+pub use fbg_firmware_device::{stack, DEFAULT_MODEL};
 
 /// Leave the debug session (probe-rs or QEMU, both serve semihosting) with success: the end of
 /// a test image.

@@ -6,18 +6,49 @@
 #![no_std]
 #![no_main]
 
+use core::mem::MaybeUninit;
+
+use cortex_m_rt::entry;
+use fbg_firmware::led::FpgaioLed;
+use fbg_firmware::product::{self, run_product, Board, BoardDevice};
 use fbg_firmware::store_flash::StoreFlash;
+use fbg_firmware::uart::CmsdkUart;
+use fbg_firmware::{exit_failure, trust};
 
-/// The build's policy, rollbacks accepted.
-const POLICY: fbg_firmware_app::Policy = fbg_firmware_app::Policy { allow_rollback: true, ..fbg_firmware::POLICY };
+/// The product on the MPS2 board with rollbacks accepted.
+struct Rollback;
 
-/// The store's flash, as the product's.
-/// The store's flash of this image.
-type Flash = StoreFlash;
+impl Board for Rollback {
+    type Link = CmsdkUart;
+    type Alarm = FpgaioLed;
+    type Flash = StoreFlash;
+    const NAME: &'static str = product::NAME;
+    const POLICY: fbg_firmware_app::Policy = fbg_firmware_app::Policy { allow_rollback: true, ..fbg_firmware::POLICY };
+    const REQUIRE_SIGNED_DEFAULT: bool = trust::REQUIRE_SIGNED_DEFAULT;
+    const TEST_KEY_ONLY: bool = trust::TEST_KEY_ONLY;
 
-fn store_flash() -> Flash {
-    // SAFETY: called once, from `main`: the only driver of the region.
-    unsafe { StoreFlash::open() }
+    fn start_clock() {
+        product::start_clock()
+    }
+    fn elapsed_us() -> Option<u32> {
+        product::elapsed_us()
+    }
+    fn bring_up() -> (CmsdkUart, FpgaioLed, StoreFlash) {
+        let (link, alarm) = product::link_and_alarm();
+        // SAFETY: called once (`run_product`): the only driver of the region.
+        (link, alarm, unsafe { StoreFlash::open() })
+    }
+    fn device_slot() -> &'static mut MaybeUninit<BoardDevice<Self>> {
+        static mut SLOT: MaybeUninit<BoardDevice<Rollback>> = MaybeUninit::uninit();
+        // SAFETY: called once (`run_product`).
+        unsafe { &mut *core::ptr::addr_of_mut!(SLOT) }
+    }
+    fn fatal() -> ! {
+        exit_failure()
+    }
 }
 
-include!("../product.rs");
+#[entry]
+fn main() -> ! {
+    run_product::<Rollback>()
+}

@@ -13,8 +13,14 @@
 #![no_std]
 #![no_main]
 
+use core::mem::MaybeUninit;
+
+use cortex_m_rt::entry;
+use fbg_firmware::led::FpgaioLed;
+use fbg_firmware::product::{self, run_product, Board, BoardDevice};
 use fbg_firmware::store_flash::StoreFlash;
-use fbg_firmware::POLICY;
+use fbg_firmware::uart::CmsdkUart;
+use fbg_firmware::{exit_failure, trust, POLICY};
 use fbg_firmware_app::store::PowerCut;
 
 /// Exit code of a run ended by the power cut (1 is a failure, 0 never happens: the product
@@ -49,15 +55,47 @@ fn on_cut() {
     semihosting::process::exit(CUT_EXIT)
 }
 
-/// The store's flash of this image.
-type Flash = PowerCut<StoreFlash>;
-
 /// The store's flash, as the product's, losing power in operation [`cut_at`].
-fn store_flash() -> Flash {
+fn store_flash() -> PowerCut<StoreFlash> {
     let cut = cut_at();
     defmt::info!("torture: the power fails in the store's flash operation {=u32}", cut);
-    // SAFETY: called once, from `main`: the only driver of the region.
+    // SAFETY: called once (`Board::bring_up`): the only driver of the region.
     PowerCut::new(unsafe { StoreFlash::open() }, cut, on_cut)
 }
 
-include!("../product.rs");
+/// The product on the MPS2 board, its store's flash losing power in one operation.
+struct Torture;
+
+impl Board for Torture {
+    type Link = CmsdkUart;
+    type Alarm = FpgaioLed;
+    type Flash = PowerCut<StoreFlash>;
+    const NAME: &'static str = product::NAME;
+    const POLICY: fbg_firmware_app::Policy = POLICY;
+    const REQUIRE_SIGNED_DEFAULT: bool = trust::REQUIRE_SIGNED_DEFAULT;
+    const TEST_KEY_ONLY: bool = trust::TEST_KEY_ONLY;
+
+    fn start_clock() {
+        product::start_clock()
+    }
+    fn elapsed_us() -> Option<u32> {
+        product::elapsed_us()
+    }
+    fn bring_up() -> (CmsdkUart, FpgaioLed, PowerCut<StoreFlash>) {
+        let (link, alarm) = product::link_and_alarm();
+        (link, alarm, store_flash())
+    }
+    fn device_slot() -> &'static mut MaybeUninit<BoardDevice<Self>> {
+        static mut SLOT: MaybeUninit<BoardDevice<Torture>> = MaybeUninit::uninit();
+        // SAFETY: called once (`run_product`).
+        unsafe { &mut *core::ptr::addr_of_mut!(SLOT) }
+    }
+    fn fatal() -> ! {
+        exit_failure()
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    run_product::<Torture>()
+}

@@ -1,7 +1,6 @@
 //! Framing: the CRC envelope around a message's postcard bytes, COBS frames, and the
 //! incremental reader that resynchronises after anything malformed.
 
-use postcard::accumulator::{CobsAccumulator, FeedResult};
 use serde::{Deserialize, Serialize};
 
 use super::messages::{DeviceMsg, HostMsg, DEVICE_MAX_PAYLOAD, HOST_MAX_PAYLOAD};
@@ -110,11 +109,15 @@ pub enum Feed<T> {
     Malformed(Malformed),
 }
 
-/// Incremental frame decoder with an `N`-byte receive buffer (postcard's
-/// [`CobsAccumulator`] plus resynchronisation after oversize frames, the CRC check and the
-/// strict payload decode). Never panics, whatever the bytes.
+/// Incremental frame decoder with an `N`-byte receive buffer (what postcard's
+/// `CobsAccumulator` does, written here without its panic paths, plus resynchronisation after
+/// oversize frames, the CRC check and the strict payload decode). Never panics, whatever the
+/// bytes.
 pub struct FrameReader<const N: usize> {
-    acc: CobsAccumulator<N>,
+    /// The frame so far, its COBS bytes (decoded in place once its delimiter arrives).
+    buf: [u8; N],
+    /// Bytes of `buf` in use.
+    idx: usize,
     /// Bytes of an unfinished frame are buffered.
     in_frame: bool,
     /// Skipping the rest of an oversize frame up to its delimiter.
@@ -130,7 +133,7 @@ impl<const N: usize> Default for FrameReader<N> {
 impl<const N: usize> FrameReader<N> {
     /// An empty reader.
     pub const fn new() -> Self {
-        FrameReader { acc: CobsAccumulator::new(), in_frame: false, discarding: false }
+        FrameReader { buf: [0; N], idx: 0, in_frame: false, discarding: false }
     }
 
     /// Consume a prefix of `input`; return what it completed and the unconsumed rest. Call
@@ -152,30 +155,79 @@ impl<const N: usize> FrameReader<N> {
             // Empty frame: idle fill or a resynchronisation delimiter, not an error.
             return (Feed::Pending, input.get(1..).unwrap_or(&[]));
         }
-        let zero = input.iter().position(|&b| b == 0);
-        match self.acc.feed_ref::<Envelope<'de>>(input) {
-            FeedResult::Consumed => {
-                self.in_frame = true;
-                (Feed::Pending, &[])
+        let start = self.idx;
+        let Some(z) = input.iter().position(|&b| b == 0) else {
+            // The frame goes on: keep its bytes, or, when they do not fit, drop what is
+            // buffered and skip the frame up to its delimiter (it counts once).
+            return match self.buf.get_mut(start..start + input.len()) {
+                Some(dst) => {
+                    copy(dst, input);
+                    self.idx = start + input.len();
+                    self.in_frame = true;
+                    (Feed::Pending, &[])
+                }
+                None => {
+                    self.idx = 0;
+                    self.in_frame = false;
+                    self.discarding = true;
+                    (Feed::Malformed(Malformed::Oversize), input.get(N.saturating_sub(start)..).unwrap_or(&[]))
+                }
+            };
+        };
+        // The frame ends here (its delimiter included in `take`).
+        let (take, rest) = input.split_at_checked(z + 1).unwrap_or((input, &[]));
+        self.idx = 0;
+        self.in_frame = false;
+        let buf: &'de mut [u8; N] = &mut self.buf;
+        let Some(frame) = buf.get_mut(..start + take.len()) else {
+            return (Feed::Malformed(Malformed::Oversize), rest);
+        };
+        if let Some(dst) = frame.get_mut(start..) {
+            copy(dst, take);
+        }
+        match cobs_decode_in_place(frame) {
+            Some(len) => {
+                let frame: &'de [u8] = frame;
+                match frame.get(..len).map(postcard::from_bytes::<Envelope<'de>>) {
+                    Some(Ok(env)) => (check_envelope(env), rest),
+                    _ => (Feed::Malformed(Malformed::Framing), rest),
+                }
             }
-            FeedResult::OverFull(rest) => {
-                self.in_frame = false;
-                let consumed = input.len() - rest.len();
-                // If the delimiter was not among the consumed bytes, the frame goes on in
-                // `rest`: skip it up to its delimiter so that it counts once.
-                self.discarding = !matches!(zero, Some(z) if z < consumed);
-                (Feed::Malformed(Malformed::Oversize), rest)
-            }
-            FeedResult::DeserError(rest) => {
-                self.in_frame = false;
-                (Feed::Malformed(Malformed::Framing), rest)
-            }
-            FeedResult::Success { data, remaining } => {
-                self.in_frame = false;
-                (check_envelope(data), remaining)
-            }
+            None => (Feed::Malformed(Malformed::Framing), rest),
         }
     }
+}
+
+/// Copy `src` into `dst` (of the same length; without `copy_from_slice`'s length panic).
+fn copy(dst: &mut [u8], src: &[u8]) {
+    for (d, s) in dst.iter_mut().zip(src) {
+        *d = *s;
+    }
+}
+
+/// COBS-decode `buf` in place up to its first zero (or its end); the decoded length, or
+/// `None` when it is not valid COBS (as the `cobs` crate's `decode_in_place` decides it).
+fn cobs_decode_in_place(buf: &mut [u8]) -> Option<usize> {
+    let end = buf.iter().position(|&b| b == 0).unwrap_or(buf.len());
+    let (mut src, mut dst) = (0usize, 0usize);
+    while src < end {
+        let code = usize::from(*buf.get(src)?);
+        if src + code > end && code != 1 {
+            return None;
+        }
+        src += 1;
+        for _ in 1..code {
+            let b = *buf.get(src)?;
+            *buf.get_mut(dst)? = b;
+            src += 1;
+            dst += 1;
+        }
+        if code != 0xFF && src < end {
+            *buf.get_mut(dst)? = 0;
+            dst += 1;
+        }
+    }
+    Some(dst)
 }
 
 fn check_envelope<'de, T: Deserialize<'de>>(env: Envelope<'de>) -> Feed<T> {
@@ -194,7 +246,10 @@ fn check_envelope<'de, T: Deserialize<'de>>(env: Envelope<'de>) -> Feed<T> {
 pub fn decode_frame<'de, T: Deserialize<'de>>(frame: &'de mut [u8]) -> Result<T, Malformed> {
     let len = frame.iter().position(|&b| b == 0).unwrap_or(frame.len());
     let body = frame.get_mut(..len).ok_or(Malformed::Framing)?;
-    let env = postcard::from_bytes_cobs::<Envelope<'de>>(body).map_err(|_| Malformed::Framing)?;
+    let n = cobs_decode_in_place(body).ok_or(Malformed::Framing)?;
+    let body: &'de [u8] = body;
+    let env = body.get(..n).map(postcard::from_bytes::<Envelope<'de>>).ok_or(Malformed::Framing)?;
+    let env = env.map_err(|_| Malformed::Framing)?;
     match check_envelope(env) {
         Feed::Message(m) => Ok(m),
         Feed::Malformed(e) => Err(e),

@@ -11,8 +11,8 @@
 //! crc      = CRC-32/ISCSI over payload (the blob's CRC flavour)
 //! ```
 //!
-//! COBS framing is postcard's ([`postcard::to_slice_cobs`],
-//! [`postcard::accumulator::CobsAccumulator`]); `0x00` only ever appears as the frame delimiter,
+//! COBS framing is postcard's on the way out ([`postcard::to_slice_cobs`]) and [`FrameReader`]'s
+//! own, without panic paths, on the way in; `0x00` only ever appears as the frame delimiter,
 //! so a receiver resynchronises at the next `0x00` after any garbage. The CRC catches bytes
 //! damaged in transit that would still decode (a flipped bit in a sample's value), and a payload
 //! must decode exactly, without bytes left over. Anything else is a malformed frame: counted

@@ -9,7 +9,7 @@ use fbg_shared::layout::paper::N_MEMORY;
 use fbg_shared::layout::Dims;
 use fbg_shared::MemorySpec;
 
-use super::report::{DeviceResults, LowerBound, LowerBoundAtK};
+use super::report::{Device, DeviceResults, LowerBound, LowerBoundAtK, Report};
 use super::runner::read_json;
 use super::Opts;
 use crate::device_bench;
@@ -56,4 +56,31 @@ pub fn part(root: &Path, opts: &Opts) -> Result<DeviceResults> {
             .into(),
     });
     Ok(v)
+}
+
+/// `cargo xtask bench --footprint-only`: the product images' footprint and stack peaks (mps2:
+/// the default product and the build with spectrum frames), the Ed25519 verifier table and
+/// the STM32F405 board's figures measured again, into the device part of the BENCHMARKS.json
+/// already there (which must have one; its step figures stay), and BENCHMARKS.md rendered
+/// from it.
+pub fn footprint_only(root: &Path) -> Result<()> {
+    let q = crate::firmware::emulator::ensure_qemu()?;
+    let size = device_bench::footprint(root, &q)?;
+    let verifiers = device_bench::verifiers::measure(root, &q)?;
+    let board = crate::board::run_all(root)?;
+    let path = root.join("BENCHMARKS.json");
+    let mut report: Report = read_json(&path)?;
+    let Device::Measured(dev) = &mut report.device else {
+        anyhow::bail!("{} has no device results to add the footprint to: run `cargo xtask bench`", path.display());
+    };
+    dev.record.set_footprint(&size);
+    dev.record.verifiers = Some(verifiers);
+    dev.record.board = Some(board);
+    let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
+    crate::cmd::write_atomic(&path, json.as_bytes())?;
+    crate::cmd::write_atomic(&root.join("BENCHMARKS.md"), super::markdown::markdown(&report).as_bytes())?;
+    eprintln!(
+        "bench: wrote the footprint, the verifier table and the board's figures into BENCHMARKS.md and BENCHMARKS.json"
+    );
+    Ok(())
 }

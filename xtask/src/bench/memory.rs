@@ -390,6 +390,7 @@ mod tests {
             markdown_only: false,
             spectrum_only: false,
             import_memory_only: false,
+            footprint_only: false,
         };
         let m = part(&root, &r, &opts).unwrap();
         let mut s = String::new();

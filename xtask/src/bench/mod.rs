@@ -65,6 +65,8 @@ pub struct Opts {
     pub spectrum_only: bool,
     /// Only the spectra import's peak memory.
     pub import_memory_only: bool,
+    /// Only the firmware's footprint: the Ed25519 verifier table and the board's figures.
+    pub footprint_only: bool,
 }
 
 /// `cargo xtask bench`.
@@ -78,6 +80,9 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     }
     if opts.import_memory_only {
         return memory::import_only(root, opts);
+    }
+    if opts.footprint_only {
+        return device::footprint_only(root);
     }
     let r = Runner { root: root.to_path_buf() };
     let data_dir = root.join("target/bench/data");

@@ -43,6 +43,10 @@ pub struct DeviceRecord {
     /// `product`; not checked against the RAM budgets (absent from files written before it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spectrum_product: Option<SpectrumProduct>,
+    /// The Ed25519 verifier candidates, verify-only images ([`super::verifiers`]); absent when
+    /// not measured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub verifiers: Option<Vec<super::verifiers::VerifierRow>>,
 }
 
 /// Footprint of the product built with spectrum frames (`spectrum_product` in device.json).
@@ -327,9 +331,6 @@ impl DeviceRecord {
         v: &VerifyBench,
         store: Option<&StoreBench>,
     ) -> Self {
-        let f = &size.footprint;
-        let total = f.ram_static + size.stack_update.max(size.stack_boot) as u64;
-        let serving = f.ram_static + size.stack_serving as u64;
         let default = steps.iter().find(|b| b.name == "default");
         let dk = default.map(|b| b.k).unwrap_or(0);
         let dins = default.map(|b| b.insns_per_step).unwrap_or(f64::NAN);
@@ -370,42 +371,10 @@ impl DeviceRecord {
                 instructions: rounded(v.instructions, 0) as u64,
                 stack_peak_bytes: v.stack_peak,
             },
-            product: Product {
-                k: PRODUCT_K,
-                default_model_centres: dk,
-                default_model_memory_terms: default.map(|b| b.memory_terms).unwrap_or(0),
-                flash_bytes: f.flash,
-                static_ram_bytes: f.ram_static,
-                stack_peak_boot_bytes: size.stack_boot.into(),
-                stack_peak_serving_bytes: size.stack_serving.into(),
-                stack_peak_update_bytes: size.stack_update.into(),
-                static_ram_plus_stack_bytes: total,
-                static_ram_plus_serving_stack_bytes: serving,
-                default_blob_bytes: size.blob_bytes,
-            },
-            targets: Targets {
-                instructions_per_step_default: StepTarget {
-                    target: TARGET_INSNS_K32 as u64,
-                    k: dk,
-                    measured: rounded(dins, 1),
-                    met: dins <= TARGET_INSNS_K32,
-                },
-                flash_bytes: Target { target: TARGET_FLASH, measured: f.flash, met: f.flash <= TARGET_FLASH },
-                static_ram_plus_stack_bytes: RamTarget {
-                    target_serving: TARGET_RAM,
-                    serving_only: serving,
-                    serving_only_met: serving <= TARGET_RAM,
-                    target_load_peak: TARGET_RAM_LOAD,
-                    measured: total,
-                    met: total <= TARGET_RAM_LOAD,
-                },
-                blob_bytes: Target {
-                    target: TARGET_BLOB,
-                    measured: size.blob_bytes,
-                    met: size.blob_bytes <= TARGET_BLOB,
-                },
-            },
+            product: product(size, default.map(|b| (b.k, b.memory_terms))),
+            targets: targets(size, dk, dins),
             board: None,
+            verifiers: None,
             spectrum: None,
             spectrum_product: size.spectrum.as_deref().map(SpectrumProduct::new),
             store: store.map(|b| Store {
@@ -426,6 +395,66 @@ impl DeviceRecord {
                 erases_per_sector: b.erases,
             }),
         }
+    }
+}
+
+/// The product image's figures of `size`; `default`: the default model's (centres, memory
+/// terms).
+fn product(size: &SizeReport, default: Option<(usize, usize)>) -> Product {
+    let f = &size.footprint;
+    let total = f.ram_static + size.stack_update.max(size.stack_boot) as u64;
+    let serving = f.ram_static + size.stack_serving as u64;
+    Product {
+        k: PRODUCT_K,
+        default_model_centres: default.map(|d| d.0).unwrap_or(0),
+        default_model_memory_terms: default.map(|d| d.1).unwrap_or(0),
+        flash_bytes: f.flash,
+        static_ram_bytes: f.ram_static,
+        stack_peak_boot_bytes: size.stack_boot.into(),
+        stack_peak_serving_bytes: size.stack_serving.into(),
+        stack_peak_update_bytes: size.stack_update.into(),
+        static_ram_plus_stack_bytes: total,
+        static_ram_plus_serving_stack_bytes: serving,
+        default_blob_bytes: size.blob_bytes,
+    }
+}
+
+/// The targets against `size` and the default model's step (`dk` centres, `dins`
+/// instructions).
+fn targets(size: &SizeReport, dk: usize, dins: f64) -> Targets {
+    let f = &size.footprint;
+    let total = f.ram_static + size.stack_update.max(size.stack_boot) as u64;
+    let serving = f.ram_static + size.stack_serving as u64;
+    Targets {
+        instructions_per_step_default: StepTarget {
+            target: TARGET_INSNS_K32 as u64,
+            k: dk,
+            measured: rounded(dins, 1),
+            met: dins <= TARGET_INSNS_K32,
+        },
+        flash_bytes: Target { target: TARGET_FLASH, measured: f.flash, met: f.flash <= TARGET_FLASH },
+        static_ram_plus_stack_bytes: RamTarget {
+            target_serving: TARGET_RAM,
+            serving_only: serving,
+            serving_only_met: serving <= TARGET_RAM,
+            target_load_peak: TARGET_RAM_LOAD,
+            measured: total,
+            met: total <= TARGET_RAM_LOAD,
+        },
+        blob_bytes: Target { target: TARGET_BLOB, measured: size.blob_bytes, met: size.blob_bytes <= TARGET_BLOB },
+    }
+}
+
+impl DeviceRecord {
+    /// The product images' figures measured again (`cargo xtask bench --footprint-only`): the
+    /// default product's and the spectrum build's footprint and stack, and the targets that
+    /// follow from them; the step figures stay.
+    pub fn set_footprint(&mut self, size: &SizeReport) {
+        let p = &self.product;
+        self.product = product(size, Some((p.default_model_centres, p.default_model_memory_terms)));
+        let st = &self.targets.instructions_per_step_default;
+        self.targets = targets(size, st.k, st.measured);
+        self.spectrum_product = size.spectrum.as_deref().map(SpectrumProduct::new);
     }
 }
 

@@ -75,6 +75,33 @@ pub(super) fn device(s: &mut String, rep: &Report) {
     }
     spectrum(s, &dev.record);
     board(s, dev.record.board.as_ref());
+    verifiers(s, dev.record.verifiers.as_deref());
+}
+
+/// The Ed25519 verifier candidates (verify-only images), when measured.
+fn verifiers(s: &mut String, rows: Option<&[crate::device_bench::verifiers::VerifierRow]>) {
+    let Some(rows) = rows else { return };
+    out!(
+        s,
+        "\nEd25519 verifiers, verify-only images on QEMU mps2-an386 (`firmware/verifiers/`; `-icount shift=0`, SysTick calibrated to instructions; flash above the same image without a verifier; stack above the harness's; the RFC 8032 vectors TEST 1, 2, 3 and SHA(abc) on the device, each also refused with a flipped signature bit, a longer message and S + L):\n"
+    );
+    out!(s, "| verifier | build | flash | stack | instructions per verification | signed model | RFC 8032 | in the product |");
+    out!(s, "|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        out!(
+            s,
+            "| {} | {} | {} B | {} B | {} | {} B | {}/4 | {} |",
+            r.verifier,
+            r.options,
+            r.flash_bytes,
+            r.stack_bytes,
+            r.instructions,
+            r.signed_model_bytes,
+            r.rfc8032_vectors_passed,
+            if r.in_product { "yes" } else { "" }
+        );
+    }
+    out!(s, "\n    cargo xtask bench --footprint-only\n");
 }
 
 /// Spectrum frames on the device: instructions per frame, and the product built with them.

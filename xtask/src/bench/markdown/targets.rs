@@ -269,13 +269,25 @@ pub(super) fn device_targets(s: &mut String, dev: &DeviceResults, paper: Option<
     let flash = pr.flash_bytes as f64;
     let ram = pr.static_ram_plus_stack_bytes as f64;
     let ram_serving = pr.static_ram_plus_serving_stack_bytes as f64;
-    out!(
-        s,
-        "| firmware flash ≤ 48 KiB with the signature verifier (32 KiB before it) | {} B ({:.1} KiB) | {} | device part |",
-        f(flash, 0),
-        flash / 1024.0,
-        yes(flash <= 49152.0)
-    );
+    match &dev.record.board {
+        // The budget is the board image's, the product as it ships (issue 42); the mps2
+        // image, with its QEMU-only persistence driver, is reported beside it.
+        Some(b) => out!(
+            s,
+            "| product flash ≤ 48 KiB with the signature verifier, on the STM32F405 board image | {} B ({:.1} KiB); the mps2 QEMU image {} B | {} | device part, `cargo xtask board` |",
+            b.flash_bytes,
+            b.flash_bytes as f64 / 1024.0,
+            f(flash, 0),
+            yes(b.flash_bytes <= 49152)
+        ),
+        None => out!(
+            s,
+            "| firmware flash ≤ 48 KiB with the signature verifier (32 KiB before it) | {} B ({:.1} KiB) | {} | device part |",
+            f(flash, 0),
+            flash / 1024.0,
+            yes(flash <= 49152.0)
+        ),
+    }
     out!(
         s,
         "| static RAM + measured stack ≤ 8 KiB serving (≤ 12 KiB at the model-load / verification peak) | {} B while serving; {} B at the peak (boot / model update) | {} (load peak ≤ 12 KiB: {}) | device part |",

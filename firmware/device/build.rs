@@ -1,9 +1,9 @@
-//! The signature policy compiled into a firmware image, written by a build script as
-//! `trust.rs` in its `OUT_DIR`: the trusted public keys (`FBG_TRUSTED_KEYS`), whether a
-//! bounded rollback is accepted (`FBG_ALLOW_ROLLBACK`) and whether the embedded model must be
-//! signed (`FBG_REQUIRE_SIGNED_DEFAULT`). Included with `#[path]` by `firmware/build.rs` (the
-//! QEMU images) and `firmware/board/build.rs` (the STM32F405 images), so that both trust the
-//! same keys; key files named relative to `firmware/`, whichever crate builds.
+//! Build script of the device crate: the signature policy compiled into every board's
+//! images, written as `trust.rs` in its `OUT_DIR` (`fbg_firmware_device::trust`): the trusted
+//! public keys (`FBG_TRUSTED_KEYS`), whether a bounded rollback is accepted
+//! (`FBG_ALLOW_ROLLBACK`) and whether the embedded model must be signed
+//! (`FBG_REQUIRE_SIGNED_DEFAULT`). One place, so that every board trusts the same keys; key
+//! files named relative to `firmware/`.
 
 // A build script runs on the host at build time: a bad environment stops the build with a panic.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
@@ -50,10 +50,16 @@ fn keys_of(path: &std::path::Path) -> Vec<[u8; 32]> {
     raw.chunks_exact(32).map(|c| c.try_into().expect("32 bytes")).collect()
 }
 
+fn main() {
+    let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let crate_dir = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    println!("cargo:rerun-if-changed=build.rs");
+    write_trust(&crate_dir.join(".."), &out);
+}
+
 /// Write `trust.rs` into `out`; `manifest` is the `firmware/` directory (the test key and
 /// relative `FBG_TRUSTED_KEYS` entries are found from there).
-pub fn write_trust(manifest: &std::path::Path, out: &std::path::Path) {
-    println!("cargo:rerun-if-changed={}", manifest.join("build_trust.rs").display());
+fn write_trust(manifest: &std::path::Path, out: &std::path::Path) {
     println!("cargo:rerun-if-env-changed=FBG_TRUSTED_KEYS");
     let spec = env::var("FBG_TRUSTED_KEYS").unwrap_or_default();
     let files: Vec<PathBuf> = if spec.trim().is_empty() {
