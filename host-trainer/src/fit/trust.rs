@@ -74,13 +74,7 @@ pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> Trust
     let mut t = TrustSpec::off();
     let dims = &h.dims;
     let ne = dims.envelope_len().min(MAX_ENVELOPE);
-    let input = |k: usize, i: usize| -> f64 {
-        if k < dims.gratings() {
-            d.dl_pm[k][i]
-        } else {
-            d.t_amb_c.as_ref().map(|a| a[i]).unwrap_or(f64::NAN)
-        }
-    };
+    let input = |k: usize, i: usize| envelope_input(dims, d, k, i);
     for w in cal.windows(2) {
         let dt = d.t_s[w[1]] - d.t_s[w[0]];
         // A repeated or backward time stamp (or NaN) gives no rate.
@@ -107,6 +101,16 @@ pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> Trust
     t
 }
 
+/// Envelope input `k` of row `i` (Δλ_1..N \[pm\], then T_amb \[°C\]; NaN without an ambient
+/// column).
+fn envelope_input(dims: &fbg_shared::layout::Dims, d: &Dataset, k: usize, i: usize) -> f64 {
+    if k < dims.gratings() {
+        d.dl_pm[k][i]
+    } else {
+        d.t_amb_c.as_ref().map(|a| a[i]).unwrap_or(f64::NAN)
+    }
+}
+
 /// The calibration's pace ([`fbg_shared::trust`]): each envelope input's largest RMS swing
 /// √P_max over the calibration rows `cal`, the filter run over them as the device runs it over
 /// the samples its gate lets in.
@@ -116,22 +120,23 @@ fn swing_rms_max(dims: &fbg_shared::layout::Dims, d: &Dataset, cal: &[usize]) ->
     let mut last_t = f64::NAN;
     let mut p_max = [0.0f64; MAX_ENVELOPE];
     for &i in cal {
-        let s = d.sample(i);
         let mut x = [0.0; MAX_ENVELOPE];
         for (k, v) in x.iter_mut().enumerate().take(ne) {
-            *v = if k < dims.gratings() { s.dl_pm[k] } else { s.t_amb_c };
+            *v = envelope_input(dims, d, k, i);
         }
-        if !x.iter().take(ne).all(|v| v.is_finite()) || !s.t_s.is_finite() {
+        let t_s = d.t_s[i];
+        if !x.iter().take(ne).all(|v| v.is_finite()) || !t_s.is_finite() {
             continue;
         }
-        filter.update(&x, ne, s.t_s - last_t);
-        last_t = s.t_s;
+        filter.update(&x, ne, t_s - last_t);
+        last_t = t_s;
         for (k, m) in p_max.iter_mut().enumerate().take(ne) {
             *m = m.max(filter.power(k));
         }
     }
     p_max.map(f64::sqrt)
 }
+
 /// The largest quiet time \[s\] of each grating of `h`'s memory over the calibration rows
 /// `cal`.
 fn quiet_max_s(h: &HostParams, d: &Dataset, cal: &[usize]) -> [f64; MAX_GRATINGS] {
