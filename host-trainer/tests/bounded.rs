@@ -7,7 +7,7 @@ use std::io::Write;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-mod common;
+use crate::common;
 #[cfg(target_os = "linux")]
 use common::run_peak_rss;
 use common::{bin, run, short_csv};

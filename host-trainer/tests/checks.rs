@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-mod common;
+use crate::common;
 use common::{bin, run, short_csv};
 
 /// `csv` with the ambient cell of every `every`-th data row replaced by `x`.

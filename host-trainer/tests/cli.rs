@@ -1,6 +1,6 @@
 //! The command line end to end: bad input names the place and leaves no output behind.
 
-mod common;
+use crate::common;
 use common::{bin, run};
 
 #[test]

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{bin, run, short_csv, train_small as train};
 
 use fbg_trainer::compensate::{self, Precision};

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-mod common;
+use crate::common;
 #[cfg(target_os = "linux")]
 use common::run_peak_rss;
 use common::{bin, run};

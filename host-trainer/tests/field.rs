@@ -5,7 +5,7 @@
 //! record, exported as absolute wavelengths with plain-second times as an interrogator would.
 //! Nothing here was tuned: seed 5 and the preset's defaults were taken as they came.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -1,7 +1,7 @@
 //! Issue 3 acceptance: the models are fitted from the calibration batch only, deterministically,
 //! and behave as a calibration engineer expects on the `paper` preset.
 
-mod common;
+use crate::common;
 
 use fbg_shared::FeatureSet;
 use fbg_trainer::data::{Measurand, Split};

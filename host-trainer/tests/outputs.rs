@@ -6,7 +6,7 @@ use std::os::unix::fs::FileTypeExt;
 use std::path::Path;
 use std::process::Command;
 
-mod common;
+use crate::common;
 use common::{bin, run, short_csv};
 
 fn mkfifo(p: &Path) {

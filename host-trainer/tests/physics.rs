@@ -3,7 +3,7 @@
 //! quantised thermometer, timestamp jitter and recording gaps, the `field` preset). Every new
 //! effect is off unless asked for: the older presets keep their pinned bytes (tests/shapes.rs).
 
-mod common;
+use crate::common;
 
 use common::{bin, run};
 use fbg_trainer::data::{Dataset, Kind, Measurand, Split};

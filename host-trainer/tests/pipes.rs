@@ -2,7 +2,7 @@
 //! SIGPIPE (141 in the shell), never with a panic.
 #![cfg(unix)]
 
-mod common;
+use crate::common;
 use std::os::unix::process::ExitStatusExt;
 use std::process::Command;
 

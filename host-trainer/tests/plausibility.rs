@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{bin, run, short_csv};
 
 use fbg_shared::blob;

@@ -14,7 +14,7 @@ use fbg_trainer::fit::{train, Config, Origin, TrainOptions};
 use fbg_trainer::sim::scenario::Preset;
 use fbg_trainer::sim::simulate;
 
-mod common;
+use crate::common;
 use common::{bin, run, short_csv};
 
 fn cfg() -> Config {

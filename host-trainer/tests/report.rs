@@ -409,7 +409,7 @@ fn a_million_samples_plot_in_seconds() {
 /// The whole report (CSV read, re-simulation, both models over the record, figures, page) for a
 /// directory of 1e6 samples. Slow to set up (simulation, CSV, a fixed-grid fit on 5e5
 /// calibration samples), so not run by default:
-/// `cargo test --release -p fbg-trainer --test report -- --ignored --nocapture`.
+/// `cargo test --release -p fbg-trainer --test trainer report:: -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn report_of_a_million_sample_directory() {

@@ -2,7 +2,7 @@
 //! inverse (∂ŷ/∂Δλ) at the calibration's mean input.
 
 use fbg_shared::{FeatureSet, Sample};
-mod common;
+use crate::common;
 
 use fbg_trainer::data::Measurand;
 use fbg_trainer::fit::sensitivity::{self, ForwardMethod, Sensitivity};
@@ -111,7 +111,7 @@ fn paper(seed: u64) -> (Simulation, fit::Trained, Sensitivity) {
 }
 
 /// How the tolerance below was chosen: the spread of the worst column-relative error over
-/// seeds 3, 5, 6, 8, 9, 10 (`cargo test -p fbg-trainer --test sensitivity -- --ignored
+/// seeds 3, 5, 6, 8, 9, 10 (`cargo test -p fbg-trainer --test trainer sensitivity:: -- --ignored
 /// --nocapture`). The test itself runs on seed 21, which was not among them.
 #[test]
 #[ignore]

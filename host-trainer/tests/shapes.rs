@@ -5,7 +5,7 @@
 //! column and nothing else, and the commands that fit the paper's model refuse every other
 //! shape with a message naming the file and what it has — never a panic.
 
-mod common;
+use crate::common;
 
 use common::{bin, run};
 use fbg_trainer::data::{Dataset, Kind, Measurand};

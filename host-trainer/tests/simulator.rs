@@ -1,7 +1,7 @@
 //! Issue 2 acceptance: the simulator is deterministic, each trajectory and effect has its
 //! configured statistics, and every effect can be removed exactly.
 
-mod common;
+use crate::common;
 
 use fbg_trainer::sim::scenario::{Preset, ScenarioConfig};
 use fbg_trainer::sim::{interrogator, simulate, trajectories, EFFECT_NAMES};

@@ -5,8 +5,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
-#[path = "common/mod.rs"]
-mod common;
+use crate::common;
 
 use fbg_shared::spectrum::Method;
 use fbg_trainer::data::import::{import, Format};

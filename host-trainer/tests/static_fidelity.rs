@@ -1,7 +1,7 @@
 //! Issue 26: static fidelity. The models' settled readings have slope 1 against the truth on a
 //! steps record for every output shape, and the pace study runs on a short record.
 
-mod common;
+use crate::common;
 
 use fbg_trainer::eval::pace::{held_levels, pace_study, PACES};
 use fbg_trainer::fit::static_fidelity::settled_slope;

@@ -6,7 +6,7 @@
 //! span and ×10 rate) were set before these tests were written, from the prototype
 //! (seeds 7–16 of another implementation), not on these seeds.
 
-mod common;
+use crate::common;
 
 use fbg_shared::Flags;
 use fbg_trainer::eval::glitch::glitch_study;

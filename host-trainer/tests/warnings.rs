@@ -13,7 +13,7 @@ use fbg_trainer::sim::scenario::Preset;
 use fbg_trainer::sim::simulate;
 use fbg_trainer::warning::Warning;
 
-mod common;
+use crate::common;
 use common::{bin, run};
 
 /// A train-time warning as `train` records it in `coefficients.json` (its `warnings` array).

@@ -6,7 +6,7 @@
 // the helpers around them.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
-mod common;
+use crate::common;
 
 use common::blob::*;
 use fbg_shared::blob::{self, decode, encode, max_len, max_len_for, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};
@@ -217,7 +217,7 @@ fn tiny() -> ModelParams<f32, 2> {
 /// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v6 or reject it
 /// by name (`Error::UnsupportedVersion { found: 6, .. }`). Never regenerate this file to make
 /// the test pass. (It was written once by the encoder when version 6 was introduced, with
-/// `FBG_WRITE_GOLDEN=1 cargo test -p fbg-shared --test blob golden`.)
+/// `FBG_WRITE_GOLDEN=1 cargo test -p fbg-shared --test shared blob::golden`.)
 const GOLDEN_V6: &[u8] = include_bytes!("golden/tiny_v6.fbgm");
 
 /// The version-5 golden blob (no swing term), kept as an "old version refused" fixture.

@@ -6,7 +6,7 @@
 // the helpers around them.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
-mod common;
+use crate::common;
 
 use common::blob::*;
 use fbg_shared::blob::{self, decode, decode_split, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};

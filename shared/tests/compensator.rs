@@ -5,7 +5,7 @@
 // the helpers around them.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
-mod common;
+use crate::common;
 
 use common::{bits, dl3, params, ramp, run, sample, stream, K};
 use fbg_shared::layout::{pad, Z95};

@@ -6,7 +6,7 @@
 //!
 //! SNR in dB is 10·log₁₀(peak height / noise σ), the optical-power convention
 //! ([`Peak::snr_db`]). The table of every method × grid × shape × SNR is printed by
-//! `cargo test -p fbg-shared --test spectrum accuracy_table -- --nocapture`.
+//! `cargo test -p fbg-shared --test shared spectrum::accuracy_table -- --nocapture`.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 

@@ -24,7 +24,7 @@
 //! different widths; 0.3 nm FWHM) swept over one pixel in 20 steps, on an 8 pm grid and on a
 //! 512-pixel grid over 1510–1595 nm, noise-free (peak-locking: max − min of the error over the
 //! sweep) and with white noise at 20, 30 and 40 dB (RMS error; SNR = 10·log₁₀(height/σ)):
-//! `cargo test -p fbg-shared --test spectrum accuracy_table -- --nocapture` prints the table
+//! `cargo test -p fbg-shared --test shared spectrum::accuracy_table -- --nocapture` prints the table
 //! and asserts each method's bounds; the figures are in BENCHMARKS.md once `cargo xtask bench`
 //! carries them. What the table shows:
 //!

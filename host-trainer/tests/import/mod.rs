@@ -2,8 +2,7 @@
 //! Every bad case is an error naming file, line and column under `--on-error fail`, and a
 //! counted skip under `--on-error skip`; nothing is written when the import fails.
 
-#[path = "../common/mod.rs"]
-mod common;
+use crate::common;
 
 mod bad_rows;
 mod cli;
