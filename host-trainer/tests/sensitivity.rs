@@ -1,8 +1,8 @@
 //! Issue 27 item 6: each grating's sensitivity to each measurand (∂Δλ/∂y) and the model's
 //! inverse (∂ŷ/∂Δλ) at the calibration's mean input.
 
-use fbg_shared::{FeatureSet, Sample};
 use crate::common;
+use fbg_shared::{FeatureSet, Sample};
 
 use fbg_trainer::data::Measurand;
 use fbg_trainer::fit::sensitivity::{self, ForwardMethod, Sensitivity};
