@@ -1,4 +1,4 @@
-//! Bounded waits and bounded memory (issue 28, items 5, 7 and 8b): a trickling device times
+//! Bounded waits and bounded memory: a trickling device times
 //! out at the answer deadline, an overlong line is refused as it is read, a huge cell is cut
 //! in the message, `compensate` streams its rows to the same bytes as before, and a model
 //! that cannot be loaded is named.

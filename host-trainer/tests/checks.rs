@@ -188,7 +188,7 @@ fn train_refuses_a_dataset_csv_cut_inside_its_last_row() {
     assert!(!ok && err.contains("dl3_pm") && err.contains("truncated last row"), "{err}");
 }
 
-/// Issue 15 item 12: every `--data`, `--out`, `--json` (and every other option) of every
+/// Every `--data`, `--out`, `--json` (and every other option) of every
 /// subcommand has a description, and no help text names a file that does not exist.
 #[test]
 fn every_option_of_every_subcommand_is_described() {
@@ -237,7 +237,7 @@ fn every_option_of_every_subcommand_is_described() {
     }
 }
 
-/// Issue 15 item 9: on recorded data with gaps, `evaluate` says how many hold-out samples it
+/// On recorded data with gaps, `evaluate` says how many hold-out samples it
 /// scored (not only how many there were), and nothing calls the record "seed 0".
 #[test]
 fn evaluate_on_recorded_data_with_gaps_labels_what_it_scored() {
@@ -275,7 +275,7 @@ fn evaluate_on_recorded_data_with_gaps_labels_what_it_scored() {
     assert!(out.contains("recorded data") && !out.contains("seed 0"), "{out}");
 }
 
-/// Issue 15 item 5: `evaluate` prints the flagged fraction per flag, and a warning with a
+/// `evaluate` prints the flagged fraction per flag, and a warning with a
 /// recommendation exactly when Model-H is worse than Model-P on some channel (harsh seed 2:
 /// worse on p with 93 % of the hold-out outside the envelope; seed 1: better everywhere; seed
 /// 42: worse on ε in cross-validation, which `train` reports).
@@ -326,7 +326,7 @@ fn evaluate_prints_flags_per_flag_and_warns_when_model_h_is_worse() {
     assert!(warned > 0 && cv_warned > 0, "no seed exercised a warning ({warned} evaluate, {cv_warned} train)");
 }
 
-/// Issue 17: a model with a temperature output and no ambient thermometer has no drift
+/// A model with a temperature output and no ambient thermometer has no drift
 /// observer; `train` says what that means for its band, and `evaluate` warns when the band
 /// under-covers the hold-out (`paper --no-ambient`, seed 7: T covered 61.9 %).
 #[test]
@@ -353,7 +353,7 @@ fn without_a_thermometer_train_and_evaluate_warn_about_the_temperature_band() {
     assert!(!err.contains("no ambient thermometer"), "{err}");
 }
 
-/// Issue 15 item 13: a flipped bit in the header's version field is corruption (the CRC over
+/// A flipped bit in the header's version field is corruption (the CRC over
 /// the whole blob fails), not a version mismatch; `inspect` shows the CRC and prints the f32
 /// values at f32 precision.
 #[test]
@@ -366,7 +366,7 @@ fn a_flipped_header_bit_is_corruption_and_inspect_prints_f32_values_as_f32() {
     assert!(ok, "{err}");
     assert!(out.contains("CRC-32 "), "{out}");
     assert!(out.contains("envelope margin 0.1,"), "{out}");
-    // The static gains `train` recorded beside the blob (issue 26).
+    // The static gains `train` recorded beside the blob.
     assert!(out.contains("static gain (truth on the settled reading") && out.contains("Model-H T_C "), "{out}");
     // No f32 widened to f64 digits such as 0.10000000149011612.
     let long_digits = out
@@ -385,7 +385,7 @@ fn a_flipped_header_bit_is_corruption_and_inspect_prints_f32_values_as_f32() {
     }
 }
 
-/// Issue 15 item 15 (the summary part): the report judges coverage on the value it shows, so a
+/// The report judges coverage on the value it shows, so a
 /// coverage printed as 93.0 % is not called "too narrow" under its own 93–97 % rule (the demo's
 /// Model-P temperature band covers 92.98 %).
 #[test]
@@ -420,7 +420,7 @@ fn the_summary_judges_coverage_as_shown() {
     }
 }
 
-/// Issue 15 item 8 (in part): `report` names every missing input at once.
+/// `report` names every missing input at once.
 #[test]
 fn report_names_every_missing_input_at_once() {
     let d = tempfile::tempdir().unwrap();
@@ -434,7 +434,7 @@ fn report_names_every_missing_input_at_once() {
     assert!(!err.contains("missing data.csv"), "{err}");
 }
 
-/// Issue 15 item 14: the demo's model is rebuilt byte for byte by `train` from the demo's own
+/// The demo's model is rebuilt byte for byte by `train` from the demo's own
 /// CSV (same data, same options ⇒ same bytes, whichever command trained it).
 #[test]
 fn train_on_the_demo_csv_rebuilds_the_demo_model() {
@@ -508,7 +508,7 @@ fn polylines(svg: &str, stroke: &str, width: u32) -> Vec<Vec<(i64, i64)>> {
         .collect()
 }
 
-/// Issue 15 item 15 (figures): dashed lines are dashed in the legends of Figs. 6 and 8; the
+/// Dashed lines are dashed in the legends of Figs. 6 and 8; the
 /// bands of Figs. 3–5 are hatched (no blended fill where they overlap) and the zoom window is
 /// tinted, not grey; Fig. 2a zooms so the measured and true traces can be told apart.
 #[test]
@@ -562,7 +562,7 @@ fn figure_legends_bands_and_zoom_windows_show_what_is_drawn() {
     }
 }
 
-/// Issue 15 item 8 (report's inputs): `report` reads inputs named by --data, --model,
+/// `report` reads inputs named by --data, --model,
 /// --model-p and --metrics (the fixed names in DIR stay the default) and names a missing one.
 #[test]
 fn report_reads_the_inputs_named_by_its_options() {

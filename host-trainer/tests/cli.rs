@@ -110,7 +110,7 @@ fn train_evaluate_inspect_round_trip_on_a_short_scenario() {
     assert!(m["table2"]["oracle_floor"].is_array(), "the sidecar gives the oracle floor");
 }
 
-/// Issue 27, item 5: a reference outlier in the calibration rows is refused naming file, line
+/// A reference outlier in the calibration rows is refused naming file, line
 /// and column (nothing written); `--on-error skip` leaves its row out and says so on the
 /// terminal, in `--json` and in `coefficients.json`'s `warnings`; train prints what it chose,
 /// memory groups and λ included.

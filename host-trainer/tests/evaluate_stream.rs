@@ -1,5 +1,4 @@
-//! `evaluate --quick` on a record without a simulation sidecar streams its rows (issue 28,
-//! item 7): the same metrics.json as the in-memory path, bit for bit apart from the timings,
+//! `evaluate --quick` on a record without a simulation sidecar streams its rows: the same metrics.json as the in-memory path, bit for bit apart from the timings,
 //! on the paper's layout and on one whose hysteresis grating is found by correlation, and a
 //! peak memory that does not grow with the record.
 

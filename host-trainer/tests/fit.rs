@@ -1,4 +1,4 @@
-//! Issue 3 acceptance: the models are fitted from the calibration batch only, deterministically,
+//! The models are fitted from the calibration batch only, deterministically,
 //! and behave as a calibration engineer expects on the `paper` preset.
 
 use crate::common;
@@ -264,7 +264,7 @@ fn static_audit_names_an_output_whose_core_gain_was_cut() {
     assert!((d[0].1 / d[0].2 - 1.0 / 0.6).abs() < 0.1, "{d:?}");
 }
 
-/// Issue 27, item 5: the reference-outlier test finds nothing in any simulated preset — their
+/// The reference-outlier test finds nothing in any simulated preset — their
 /// references carry AR noise, holds, ramps, reversals and (with `--steps`) stepped levels held
 /// from 4 rows up — over every row, calibration and hold-out, with |z| well below the limit.
 /// The detector was designed on seeds 1–5 and 7 (and pace 4 / 0.25 on seed 3); these seeds
@@ -302,7 +302,7 @@ fn simulated_presets_have_no_reference_outliers() {
     assert!(worst.0 < 0.75 * Z_LIMIT, "largest |z| {:.2} ({})", worst.0, worst.1);
 }
 
-/// Issue 27, item 5: one reference cell T_C = 1e6 in a 2-day calibration is refused naming the
+/// One reference cell T_C = 1e6 in a 2-day calibration is refused naming the
 /// file, its CSV line and column, the value and the running median; with skip its row is left
 /// out (the same models as with the cell emptied), counted in a warning, and the hold-out T
 /// RMSE is the clean calibration's again.
@@ -366,7 +366,7 @@ fn a_reference_outlier_in_a_200_row_calibration_is_refused_with_its_line() {
     assert!(e.contains("199 usable calibration samples") && e.contains("1 with reference outliers left out"), "{e}");
 }
 
-/// Issue 41: an input cell whose square overflows (a shift of 1e154 pm) used to keep the fit's
+/// An input cell whose square overflows (a shift of 1e154 pm) used to keep the fit's
 /// SVD iterating forever, and smaller implausible ones failed with an anonymous "non-finite
 /// envelope". A record handed over in memory is held to the CSV reader's input rule: refused
 /// at once, naming the CSV line and column, before any fitting.

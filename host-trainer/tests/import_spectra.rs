@@ -1,4 +1,4 @@
-//! Issue 31, part 1: spectrum files into the dataset (`import --format spectra-csv |
+//! Spectrum files into the dataset (`import --format spectra-csv |
 //! enlight-responses | pixels`) and the `peaks` table.
 //!
 //! Every file is synthetic, written by the test: Gaussian peaks (0.3 nm FWHM) at known,
@@ -395,7 +395,7 @@ fn import_makes_faulty_frames_gaps_and_counts_them() {
     assert!(s.text().contains("dl2_pm: 1 of 12 frames flagged (second-peak 1), 1 gaps"), "{}", s.text());
 }
 
-/// Issue 41: one pixel a hundred times the grating's height, in its window, was taken for the
+/// One pixel a hundred times the grating's height, in its window, was taken for the
 /// grating (flagged only `asymmetric`, the value kept). Such a peak breaks
 /// with every other frame of the grating: a fault, its frame a gap, counted as `implausible`;
 /// the `peaks` table says so. With a map and without one (discovered windows).
@@ -544,7 +544,7 @@ fn malformed_responses_name_line_and_column_and_write_nothing() {
     assert_place(&e, "stamp.txt", 10, "1 (time)");
     let e = case("point.txt", edit_line(&good, 8, |l| l.replacen(',', ".", 1)));
     assert_place(&e, "point.txt", 8, "1 (1530.000 nm)");
-    // Issue 41: settings out of physical range, by the header line.
+    // Settings out of physical range, by the header line.
     let e = case("delta.txt", edit_line(&good, 5, |_| "Wavelength Delta\t1e-300".into()));
     assert_place(&e, "delta.txt", 5, "Wavelength Delta");
     assert!(e.contains("1e-300 is not a wavelength step in nm (0.0001 ≤ step < 1 nm)"), "{e}");
@@ -579,7 +579,7 @@ fn malformed_pixels_and_maps_are_refused_by_name() {
     let bad = write(dir.path(), "turn.toml", &map("pixel_to_nm = [1510.0, 0.166, -1e-3]"));
     let e = failure(&options(Format::Pixels, p.clone(), Some(bad)));
     assert!(e.contains("not monotonic at pixel 83"), "{e}");
-    // Issue 41: a calibration giving wavelengths no grating has (a sign or an exponent wrong).
+    // A calibration giving wavelengths no grating has (a sign or an exponent wrong).
     for (coefficients, pixel, says) in
         [("-1510.0, 0.166", 0, "-1510 nm"), ("1e300, 0.166", 0, "1e300 nm"), ("1510.0, 1.0", 491, "2001 nm")]
     {

@@ -189,7 +189,7 @@ fn sidecars_are_named_after_the_model_so_two_models_in_one_directory_keep_theirs
     assert!(out.join("index.html").is_file());
 }
 
-// ---- Issue 28 item 1: one output check for every command ----------------------------------
+// ---- One output check for every command ----------------------------------
 
 /// A two-day record (fast to fit) named `name` in `dir`.
 fn tiny_csv(dir: &Path, name: &str, seed: u64) -> std::path::PathBuf {
@@ -409,7 +409,7 @@ fn every_command_refuses_an_output_that_is_an_input_or_another_output() {
     }
 }
 
-// ---- Issue 28 item 2: output sets ----------------------------------------------------------
+// ---- Output sets ----------------------------------------------------------
 
 /// Every regular file of `dir` (not recursing) and its bytes, minus names starting with `skip`.
 fn snapshot(dir: &Path, skip: &str) -> std::collections::BTreeMap<String, Vec<u8>> {

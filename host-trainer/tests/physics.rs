@@ -1,4 +1,4 @@
-//! Issue 26 (simulator side): the same installation at another pace, the steps record, and the
+//! The same installation at another pace, the steps record, and the
 //! new physics (three hysteresis models, the gratings' package thermal lag, creep and ageing, a
 //! quantised thermometer, timestamp jitter and recording gaps, the `field` preset). Every new
 //! effect is off unless asked for: the older presets keep their pinned bytes (tests/shapes.rs).

@@ -1,4 +1,4 @@
-//! Implausible models (issue 28 item 4) at the trainer's edge: `sign` refuses what the decoder
+//! Implausible models at the trainer's edge: `sign` refuses what the decoder
 //! refuses, the trainer never writes such a blob, and `compensate` flags every row of a model
 //! whose estimates leave their calibration envelope.
 

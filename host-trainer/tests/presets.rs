@@ -1,4 +1,4 @@
-//! Issue 17: every installation end to end through the command line — simulate (the preset's
+//! Every installation end to end through the command line — simulate (the preset's
 //! record, seed 7), train, evaluate, report — and the blob decoded by `fbg-shared` and
 //! run in f32 on golden vectors against the trainer's f64 answers. The model's dimensions are
 //! the data's: its gratings, the ambient input when the record has one, its measurands.

@@ -1,8 +1,7 @@
 //! Field recalibration: on a changed installation a short batch recovers most of a
 //! full recalibration's gain for strain, and a batch with no evidence of change leaves the model
 //! alone. Only the batch decides what is kept (its last 30 % checks what its first 70 % fitted);
-//! the hold-out is an independent report that can come out worse, and then says so (issue 27
-//! item 4).
+//! the hold-out is an independent report that can come out worse, and then says so.
 
 use std::path::{Path, PathBuf};
 

@@ -1,4 +1,4 @@
-//! Issue 4 acceptance: the audit report. Every file the page references exists and is not
+//! The audit report. Every file the page references exists and is not
 //! trivial, each PNG decodes at its size and carries rendered text, a changed metric changes
 //! the tables and the page (no stale text), a missing data.meta.json is said, not hidden,
 //! and a million samples are plotted in seconds.

@@ -1,4 +1,4 @@
-//! Issue 27 item 6: each grating's sensitivity to each measurand (∂Δλ/∂y) and the model's
+//! Each grating's sensitivity to each measurand (∂Δλ/∂y) and the model's
 //! inverse (∂ŷ/∂Δλ) at the calibration's mean input.
 
 use crate::common;

@@ -1,4 +1,4 @@
-//! Issue 17 (data side): installations of 1–8 gratings and 1–4 measurands, with or without an
+//! Installations of 1–8 gratings and 1–4 measurands, with or without an
 //! ambient thermometer. Every preset simulates deterministically (pinned CSV checksums; the
 //! `paper` and `harsh` pins are the bytes the 3-grating simulator wrote before it was
 //! generalised), round-trips through the dataset CSV, `--no-ambient` drops the `T_amb_C`

@@ -119,7 +119,7 @@ fn a_blob_signed_by_the_trainer_verifies_on_the_device_code_path() {
     assert!(e(SignOptions { serial: None, ..rb.clone() }).contains("--serial"));
 }
 
-/// Issue 28, item 8c: serials belong to the key id, not the key file: a copy of the key file
+/// Serials belong to the key id, not the key file: a copy of the key file
 /// (another name, another directory) continues the serials, through the library and the
 /// command; the ledger earlier versions kept beside the key is still honoured.
 #[test]
@@ -172,7 +172,7 @@ fn a_copied_key_file_continues_the_serials_of_its_key_id() {
     assert_eq!(issue(&key), 42, "and the ledger now carries it for every copy");
 }
 
-/// Issue 28, item 8a: a trailer of a version this build does not read, or with a reserved
+/// A trailer of a version this build does not read, or with a reserved
 /// byte set, is reported as such by `inspect` and whatever reads the model, not as bytes after
 /// the payload.
 #[test]

@@ -1,4 +1,4 @@
-//! Issue 2 acceptance: the simulator is deterministic, each trajectory and effect has its
+//! The simulator is deterministic, each trajectory and effect has its
 //! configured statistics, and every effect can be removed exactly.
 
 use crate::common;

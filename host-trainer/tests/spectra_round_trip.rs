@@ -1,4 +1,4 @@
-//! Issue 41: the tool imports its own spectra. `simulate --spectra` writes each pixel's own
+//! The tool imports its own spectra. `simulate --spectra` writes each pixel's own
 //! wavelength in the header (a tabulated grid on the 512-pixel spectrometer, which is not
 //! uniform); `import --format spectra-csv` must read it back, on every preset and grid, to
 //! within what the detector itself gives on the exact grid.
@@ -89,7 +89,7 @@ fn simulated_spectra_of_every_preset_and_grid_import_as_the_detector_reads_them(
     }
 }
 
-/// Issue 41: discovery without a map took side lobes and noise for gratings (three gratings
+/// Discovery without a map took side lobes and noise for gratings (three gratings
 /// with noise at 3 % of the peak came out as eight). It must find exactly the simulated
 /// gratings down to 13 dB (σ at 5 % of the reference peak, the detector's convention), for
 /// uniform gratings of 90 % reflectivity (strong side lobes) and apodised ones alike, on both

@@ -1,4 +1,4 @@
-//! The chain spectrum → peaks → compensation (issue 31, parts 3 and 4, host side): the `paper`
+//! The chain spectrum → peaks → compensation: the `paper`
 //! record's spectra, the peaks found in them against the wavelengths they were rendered at,
 //! and the compensated RMSE of the spectrum chain against the peak chain's.
 //!
@@ -55,7 +55,7 @@ fn peak_errors(s: &Simulation, cfg: &SpectrumConfig, seed: u64) -> Vec<(f64, f64
 
 #[test]
 fn peaks_on_the_swept_grid_meet_the_issue_target() {
-    // Issue 31: RMS ≤ 1 pm on an 8 pm grid at 30 dB. The detector documents (shared
+    // RMS ≤ 1 pm on an 8 pm grid at 30 dB. The detector documents (shared
     // spectrum/mod.rs, `accuracy_table`) 0.08 pm RMS at 30 dB for a sinc² of 0.3 nm on this grid:
     // the σ here (the grating at 1535 nm sits at 28.6 dB on the source's flank) stays within
     // 0.1 pm; the rest of the RMS is the bias of the source's slope (module `source`), constant
@@ -71,7 +71,7 @@ fn peaks_on_the_swept_grid_meet_the_issue_target() {
 
 #[test]
 fn peaks_on_the_spectrometer_grid() {
-    // Issue 31: RMS ≤ 3 pm on the 512-pixel grid at 30 dB. NOT met by the default gratings
+    // RMS ≤ 3 pm on the 512-pixel grid at 30 dB. NOT met by the default gratings
     // (50 % peak reflectivity): a uniform grating that strong has a flatter top and steeper
     // flanks than the sinc² the detector was characterised on, and on 1.8 pixels per FWHM the
     // default cross-correlation (a Gaussian reference) locks to the pixels by several pm p-p

@@ -1,4 +1,4 @@
-//! The simulated spectra (issue 31, part 3): the grating's reflection spectrum against the
+//! The simulated spectra: the grating's reflection spectrum against the
 //! closed form of coupled-mode theory (physics, nothing tuned), the designs of a given FWHM,
 //! the source, the detector's noise and counts at the stated SNR convention, the frames and
 //! the spectra CSV.

@@ -1,4 +1,4 @@
-//! Issue 26: static fidelity. The models' settled readings have slope 1 against the truth on a
+//! Static fidelity. The models' settled readings have slope 1 against the truth on a
 //! steps record for every output shape, and the pace study runs on a short record.
 
 use crate::common;

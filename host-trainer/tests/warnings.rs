@@ -1,4 +1,4 @@
-//! Issue 27 item 3: every warning is data. `metrics.json` carries a `warnings` list (code,
+//! Every warning is data. `metrics.json` carries a `warnings` list (code,
 //! channel, message, numbers) — `train`'s from the model's `coefficients.json`, then the
 //! evaluation's; `evaluate` prints exactly that list; the report opens with it; and the
 //! summary, tables and captions name only the measurands and inputs the model has.

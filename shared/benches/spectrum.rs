@@ -1,5 +1,5 @@
 //! Host throughput of the peak detector (criterion): 512-pixel spectra with 3 gratings, every
-//! method, f64 and f32 (issue 31's host target: ≥ 10⁵ spectra per second on one core for the
+//! method, f64 and f32 (the host target: ≥ 10⁵ spectra per second on one core for the
 //! default method).
 //!
 //! `cargo bench -p fbg-shared --bench spectrum` (`cargo xtask bench` runs it and reads

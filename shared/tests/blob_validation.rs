@@ -101,7 +101,7 @@ fn bad_cases() -> Vec<Case> {
     ]
 }
 
-/// Finite values no fit can produce (issue 28 item 4): each field just beyond its bound
+/// Finite values no fit can produce: each field just beyond its bound
 /// (`fbg_shared::model::bounds`) and at f32::MAX, named by the decoder although the CRC holds.
 fn implausible_cases() -> Vec<Case> {
     const BIG: f32 = f32::MAX; // 3.4e38

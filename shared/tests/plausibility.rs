@@ -1,4 +1,4 @@
-//! Implausible models (issue 28 item 4): the decoder refuses numbers no fit can produce, and
+//! Implausible models: the decoder refuses numbers no fit can produce, and
 //! at run time an estimate outside its output's envelope, or an absurd band, is a fault.
 
 // A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in

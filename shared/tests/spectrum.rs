@@ -148,7 +148,7 @@ fn sweep(case: &Case, shape: Shape, method: Method, snr_db: Option<f64>, seed: u
 }
 
 /// The bounds each method is held to \[pm\]: noise-free peak-locking (max − min over the sweep)
-/// and RMS at 30 dB, per grid and shape, in `Shape::ALL` order. The targets (issue 31): RMS
+/// and RMS at 30 dB, per grid and shape, in `Shape::ALL` order. The targets: RMS
 /// ≤ 1 pm on the 8 pm grid and ≤ 3 pm on the 512-pixel grid at 30 dB, locking ≤ 0.5 pm p-p
 /// for the default method; where a method misses one, its bound is what it reaches with a
 /// margin and the comment says so.

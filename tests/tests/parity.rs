@@ -1,4 +1,4 @@
-//! Issue 5 acceptance across crates: train on the `paper` preset, export the blob, decode it as
+//! Across crates: train on the `paper` preset, export the blob, decode it as
 //! the device does (capacity K = 32, f32), stream the whole record through `step`, and compare
 //! with the trainer's f64 predictions on the same (f32) inputs: max difference ≤ 1 % of
 //! Model-H's hold-out RMSE per channel, identical flags.

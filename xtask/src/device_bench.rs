@@ -62,7 +62,7 @@ pub struct VerifyBench {
     pub stack_peak: u32,
 }
 
-/// Instructions per 512-pixel channel frame with three gratings (issue 31's device target).
+/// Instructions per 512-pixel channel frame with three gratings (the device target).
 pub const TARGET_INSNS_SPECTRUM_FRAME: f64 = 10_000.0;
 
 /// The spectrum bench of the bench image: one 512-pixel channel frame with three gratings

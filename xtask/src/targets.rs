@@ -20,12 +20,12 @@ pub const TARGET_RAM_LOAD: u64 = 12 * 1024;
 /// Blob size target in bytes (K = 32).
 pub const TARGET_BLOB: u64 = 4 * 1024;
 /// Flash target of the product as it ships, the STM32F405 board's product image (`cargo xtask
-/// board`, `cargo xtask size`), in bytes: [`TARGET_FLASH`] (issue 42; the mps2 QEMU image,
+/// board`, `cargo xtask size`), in bytes: [`TARGET_FLASH`] (the mps2 QEMU image,
 /// which carries a semihosting persistence driver the part never runs, is reported beside it).
 pub const TARGET_BOARD_FLASH: u64 = TARGET_FLASH;
-/// Boot to serving with a full event log, µs of emulated time (issue 30).
+/// Boot to serving with a full event log, µs of emulated time.
 pub const TARGET_BOOT_US: u32 = 50_000;
-/// Erases one model update may cause (issue 30): the inactive slot, and a log sector when the
+/// Erases one model update may cause: the inactive slot, and a log sector when the
 /// update's record rotates the log.
 pub const TARGET_ERASES_PER_UPDATE: u32 = 2;
 

@@ -8,7 +8,7 @@ use fbg_trainer::sim::spectrum::accuracy::{accuracy_rows, REALISATIONS, SWEEP_BR
 use fbg_trainer::sim::spectrum::grating::{DEFAULT_FWHM_NM, DEFAULT_PEAK_REFLECTIVITY};
 use fbg_trainer::sim::spectrum::{Apodisation, PixelGrid};
 
-/// SNRs of the table \[dB\] (issue 31).
+/// SNRs of the table \[dB\].
 const SNRS_DB: [f64; 3] = [20.0, 30.0, 40.0];
 
 /// The peak detector on simulated spectra (one 0.3 nm grating on the SLED, each method, each

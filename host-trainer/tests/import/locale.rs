@@ -1,4 +1,4 @@
-//! Locale: the `Culture:` line (issue 27 item 7).
+//! Locale: the `Culture:` line.
 
 use super::*;
 

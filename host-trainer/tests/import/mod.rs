@@ -1,4 +1,4 @@
-//! Issue 8, import: ENLIGHT / Hyperion peaks exports and logger CSVs into the dataset CSV.
+//! ENLIGHT / Hyperion peaks exports and logger CSVs into the dataset CSV.
 //! Every bad case is an error naming file, line and column under `--on-error fail`, and a
 //! counted skip under `--on-error skip`; nothing is written when the import fails.
 

@@ -1,4 +1,4 @@
-//! 1 to 8 gratings, any measurands, no references (issue 17).
+//! 1 to 8 gratings, any measurands, no references.
 
 use super::*;
 

@@ -1,4 +1,4 @@
-//! The model store's figures (issue 30): the flash operations and erases of one update, and
+//! The model store's figures: the flash operations and erases of one update, and
 //! the boot time with an empty and with a full event log.
 //!
 //! On the product image over the link, on its own device directory (`target/qemu/bench-store/`,

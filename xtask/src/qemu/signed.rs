@@ -137,7 +137,7 @@ pub(super) fn signed_update_test(
     Ok(())
 }
 
-/// Issue 28, item 3, on the `rollback` image (the product with rollbacks accepted): the
+/// On the `rollback` image (the product with rollbacks accepted): the
 /// rollback signed to replace serial 5 is refused over serial 3, accepted over serial 5,
 /// refused when replayed over itself (serial 4 now runs) and after the device moved on to
 /// serial 9; the swap is refused there too.
@@ -200,7 +200,7 @@ pub(super) fn rollback_test(root: &Path, qemu: &Path, bins: &Bins, sfx: &SignedF
     Ok(())
 }
 
-/// Issue 28, item 6: begins without data erase nothing (at most the one a written slot needs):
+/// Begins without data erase nothing (at most the one a written slot needs):
 /// 1 000 `ModelBegin` frames for `new` after `before` erases since boot. Returns `before` and the
 /// erases they caused.
 fn staging_erases(s: &mut LinkSession, new: &[u8], before: u32) -> Result<(u32, u32)> {

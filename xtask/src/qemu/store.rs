@@ -1,4 +1,4 @@
-//! The persistent model store under QEMU (issue 30): every device here keeps its flash in
+//! The persistent model store under QEMU: every device here keeps its flash in
 //! its own directory's `fbg-flash.bin` across power cycles (`firmware::emulator`).
 //!
 //! - persistence: an accepted update survives a power cycle with its serial, digest, lifetime

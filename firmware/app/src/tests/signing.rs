@@ -87,7 +87,7 @@ pub(super) fn reason(m: &DeviceMsg) -> Option<RejectReason> {
     }
 }
 
-/// Issue 28, item 3: a rollback names the serial it replaces and is accepted only while that
+/// A rollback names the serial it replaces and is accepted only while that
 /// serial runs: no replay after the device moved on (the issue's serial-2 blob after serial 9),
 /// none of the same blob twice, no swapping of two models signed with one serial, nothing on a
 /// build without rollback, and a version-1 allow-rollback flag grants nothing.
@@ -167,7 +167,7 @@ fn a_build_without_rollback_refuses_every_rollback() {
     assert_eq!(dev.status().model_serial, 7);
 }
 
-/// Issue 28, item 6: `ModelBegin` erases only a slot that is not blank, so 1 000 begins cost
+/// `ModelBegin` erases only a slot that is not blank, so 1 000 begins cost
 /// one erase (the slot starts with garbage); the erases are counted in `Status`; and the link
 /// alone cannot erase more than the budget between accepted updates.
 #[test]

@@ -1,4 +1,4 @@
-//! The spectra CSV (issue 31's plain format): `t_s,channel,` then one column per grid
+//! The spectra CSV (the plain format): `t_s,channel,` then one column per grid
 //! wavelength named in nm with 3 decimals, one row per sample and channel, linear counts.
 
 use std::io::Write;

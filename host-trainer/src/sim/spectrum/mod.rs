@@ -1,4 +1,4 @@
-//! Simulated spectra (issue 31, part 3): each grating's reflection spectrum from coupled-mode
+//! Simulated spectra: each grating's reflection spectrum from coupled-mode
 //! theory, on a broadband source, through a detector, on a pixel grid — from the same record as
 //! the peaks, so the chain spectrum → peaks → compensation runs with the truth known.
 //!
