@@ -18,7 +18,8 @@ pub struct CompensateArgs {
     /// The model blob (Model-H or Model-P).
     #[arg(long)]
     model: PathBuf,
-    /// The record: `t_s`, `T_amb_C`, `dl1_pm..dl3_pm` (references and `split` optional).
+    /// The record: `t_s`, the model's gratings `dl1_pm..dlN_pm` and `T_amb_C` when the model
+    /// reads it (references and `split` optional).
     #[arg(long)]
     data: PathBuf,
     /// Output CSV: `t_s`, each measurand and its `_band95`, `flags` (bits: 1 non-finite, 2

@@ -11,9 +11,10 @@ use fbg_trainer::export;
 
 use crate::utc_timestamp;
 
-/// Import a real interrogator export into the dataset CSV: an ENLIGHT / Hyperion peaks file
-/// (with the references from --refs), any logger CSV whose columns a map names, or spectra
-/// whose peaks are detected per grating.
+/// Import a real interrogator export into the dataset CSV (--format): ENLIGHT / Hyperion
+/// peaks (`enlight`, the references from --refs), any logger CSV whose columns a map names
+/// (`csv`), or spectra whose peaks are detected per grating (`spectra-csv`,
+/// `enlight-responses`, `pixels`).
 #[derive(clap::Args)]
 pub struct ImportArgs {
     /// Input layout: ENLIGHT peaks, a logger CSV, or spectra (a `t_s,channel,<wavelengths>`
@@ -23,8 +24,8 @@ pub struct ImportArgs {
     format: String,
     /// The export (ENLIGHT peaks file, logger CSV or spectrum file).
     file: PathBuf,
-    /// Map (TOML): which column or peak is what, in which unit (README.md, "Real data:
-    /// import and field recalibration").
+    /// Map (TOML): which column or peak is what, in which unit (docs/reference/file-formats.md,
+    /// "Import maps").
     #[arg(long)]
     map: Option<PathBuf>,
     /// ENLIGHT: CSV with time, ambient temperature and references, read with the map's

@@ -74,11 +74,13 @@ enum Cmd {
     /// the data.csv (+ data.meta.json), model.fbgm, model-p.fbgm and model.metrics.json there, or from
     /// the files named by --data, --model, --model-p and --metrics.
     Report(report::ReportArgs),
-    /// Simulate the `paper` preset, train both models, evaluate, run every study and write the
-    /// whole audit report into DIR.
+    /// Simulate a preset (`paper` unless --preset or --config says otherwise), train both
+    /// models, evaluate, run every study and write the whole audit report into DIR.
     Demo(demo::DemoArgs),
-    /// Import a real interrogator export into the dataset CSV: an ENLIGHT / Hyperion peaks file
-    /// (with the references from --refs) or any logger CSV whose columns a map names.
+    /// Import a real interrogator export into the dataset CSV (--format): ENLIGHT / Hyperion
+    /// peaks (`enlight`, the references from --refs), any logger CSV whose columns a map names
+    /// (`csv`), or spectra whose peaks are detected per grating (`spectra-csv`,
+    /// `enlight-responses`, `pixels`).
     Import(import::ImportArgs),
     /// Detect the peaks of a spectrum file (spectra CSV, ENLIGHT / Hyperion Responses,
     /// spectrometer pixels) and write each frame's peak per grating with its quality (SNR,

@@ -86,8 +86,12 @@ pub struct DeviceArgs {
 pub enum DeviceCommand {
     /// Print the device's status: the active model (CRC digest, serial and key id of its
     /// signature), model updates accepted and refused by reason (unsigned, bad signature,
-    /// unknown key, rollback, other), link counters and stack peaks. Nothing persists across a
-    /// reset on QEMU (README-firmware.md, "Audit trail").
+    /// unknown key, rollback, serial reused, other), link counters, stack peaks and the model
+    /// store (boot source, rollback floor, event log, erases per sector). The running model,
+    /// its serial, the update counters its event log holds and the rollback floor persist
+    /// across resets in the model store's flash, on QEMU too (the host file `fbg-flash.bin` in QEMU's working
+    /// directory); frames, samples and stack peaks count since boot (README-firmware.md, "The
+    /// model store").
     Status {
         /// TCP port of the device's serial link.
         #[arg(long)]
