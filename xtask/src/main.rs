@@ -180,6 +180,7 @@ fn fixtures_task(write_default: bool) -> Result<()> {
 fn test(skip_qemu: bool, fast: bool) -> Result<()> {
     let root = root();
     ensure_thumb_target()?;
+    let venv = (!fast).then(|| python::warm_up(&root));
     if fast {
         lint::run_fast(&root)?;
     } else {
@@ -195,7 +196,8 @@ fn test(skip_qemu: bool, fast: bool) -> Result<()> {
     step("host tests: run (doctests included)");
     run(cargo().current_dir(&root).args(release))?;
     run(cargo().current_dir(&root).args(["test", "-p", "xtask", "--locked"]))?;
-    if !fast {
+    if let Some(venv) = venv {
+        let _ = venv.join();
         python::run_all(&root)?;
     }
 

@@ -28,6 +28,22 @@ pub fn run_all(root: &Path) -> Result<()> {
         .env("FBG_TRAINER", &trainer))
 }
 
+/// The venv made and its pinned requirements installed, on a thread of its own: the downloads
+/// and unpacking wait on the network and the disk, so `cargo xtask test` starts them before the
+/// compilers take both cores. [`prepare`] finds the work done (or does it, when this failed).
+pub fn warm_up(root: &Path) -> std::thread::JoinHandle<()> {
+    let root = root.to_path_buf();
+    std::thread::spawn(move || {
+        if Command::new("python3").arg("--version").output().is_err() {
+            return;
+        }
+        let venv = target_dir().join("python/venv");
+        if let Err(e) = ensure_venv(&venv).and_then(|py| install_requirements(&root, &venv, &py)) {
+            eprintln!("xtask: preparing the Python venv in the background failed (tried again later): {e:#}");
+        }
+    })
+}
+
 /// The venv's interpreter with the package installed from this tree, and the release
 /// `fbg-trainer`; `None` (with a message) when there is no `python3`.
 pub fn prepare(root: &Path) -> Result<Option<(PathBuf, PathBuf)>> {
