@@ -1,6 +1,6 @@
 //! `fbg-report`: the JSON reports of `fbg-trainer`, typed once. The trainer writes them
 //! (`evaluate --json` and `metrics.json`, the pace and glitch studies inside it, `bench-fit
-//! --json`, the warnings of `coefficients.json`); xtask's bench and the trainer's own report read
+//! --json`, `bench-spectrum`'s rows, the warnings of `coefficients.json`); xtask's bench and the trainer's own report read
 //! them back with the same types, so a key renamed on one side cannot go unnoticed on the other.
 //!
 //! Numbers are written as serde_json writes them (NaN and ±∞ as `null`) and read leniently
@@ -14,6 +14,7 @@ pub mod fit_bench;
 pub mod metrics;
 pub mod nan;
 pub mod pace;
+pub mod spectrum;
 pub mod warning;
 
 pub use fit_bench::{Chosen, FitBench, HoldoutFigures};
@@ -22,4 +23,5 @@ pub use metrics::{
     StaticFidelity, Table2,
 };
 pub use pace::{gain_pct, GlitchRow, PaceRow, PaceStudy};
+pub use spectrum::AccuracyRow;
 pub use warning::Warning;

@@ -11,6 +11,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
+use fbg_report::AccuracyRow;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -40,19 +41,6 @@ pub struct ThroughputRow {
     pub ns_per_spectrum: f64,
     pub spectra_per_second: f64,
     pub ci95_ns_per_spectrum: [f64; 2],
-}
-
-/// One accuracy row (what `bench-spectrum` prints).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct AccuracyRow {
-    pub method: String,
-    pub grid: String,
-    pub apodisation: String,
-    pub peak_reflectivity: f64,
-    pub locking_pp_pm: f64,
-    pub bias_pm: f64,
-    /// (SNR \[dB\], RMS \[pm\]).
-    pub rms_pm: Vec<(f64, f64)>,
 }
 
 /// One chain comparison (what `demo --spectra --json` prints, the keys read here).
@@ -140,10 +128,6 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<SpectrumBench> {
     })
 }
 
-fn rms_at(row: &AccuracyRow, snr: f64) -> f64 {
-    row.rms_pm.iter().find(|(s, _)| (*s - snr).abs() < 1e-9).map_or(f64::NAN, |(_, v)| *v)
-}
-
 /// The section of BENCHMARKS.md.
 pub fn markdown(s: &mut String, b: &SpectrumBench) {
     // The heading as BENCHMARKS.md publishes it.
@@ -157,7 +141,7 @@ pub fn markdown(s: &mut String, b: &SpectrumBench) {
     out!(s, "|---|---:|---|");
     for (grid, target) in [("swept", TARGET_RMS_SWEPT_PM), ("spectrometer", TARGET_RMS_SPECTROMETER_PM)] {
         if let Some(r) = default_row(grid) {
-            let rms = rms_at(r, 30.0);
+            let rms = r.rms_at(30.0);
             out!(s, "| RMS at 30 dB, {grid} grid ≤ {target} pm | {} pm | {} |", f(rms, 3), met(rms <= target));
             out!(
                 s,
@@ -168,7 +152,7 @@ pub fn markdown(s: &mut String, b: &SpectrumBench) {
         }
     }
     if let Some(r) = b.accuracy.iter().find(|r| r.method.ends_with("design template") && r.grid == "spectrometer") {
-        let (rms, lock) = (rms_at(r, 30.0), r.locking_pp_pm);
+        let (rms, lock) = (r.rms_at(30.0), r.locking_pp_pm);
         out!(
             s,
             "| the same on the spectrometer grid with each peak refined by a fit of the grating's designed shape (`{}`) | RMS {} pm, locking {} pm | {} |",
@@ -220,9 +204,9 @@ fn accuracy_tables(s: &mut String, b: &SpectrumBench) {
             r.grid,
             f(r.locking_pp_pm, 3),
             f(r.bias_pm, 3),
-            f(rms_at(r, 20.0), 3),
-            f(rms_at(r, 30.0), 3),
-            f(rms_at(r, 40.0), 3)
+            f(r.rms_at(20.0), 3),
+            f(r.rms_at(30.0), 3),
+            f(r.rms_at(40.0), 3)
         );
     }
     out!(s, "\nThe default method on other gratings (same command), 30 dB:\n");
@@ -237,7 +221,7 @@ fn accuracy_tables(s: &mut String, b: &SpectrumBench) {
             r.apodisation,
             r.peak_reflectivity,
             f(r.locking_pp_pm, 3),
-            f(rms_at(r, 30.0), 3)
+            f(r.rms_at(30.0), 3)
         );
     }
 }
