@@ -150,7 +150,7 @@ fn channel_unit(name: &str) -> String {
     }
 }
 
-/// The outputs with their units, "T [°C] / ε [µε] / p [kPa]".
+/// The outputs with their units, `T [°C] / ε [µε] / p [kPa]`.
 fn channel_units(channels: &[String]) -> String {
     slash(channels.iter().map(|c| channel_unit(c)))
 }
