@@ -14,7 +14,7 @@ use fbg_shared::Estimate;
 
 use crate::data::Dataset;
 use crate::error::TrainerError;
-use crate::eval::parity::{self, ParityReport};
+use crate::eval::parity;
 use crate::eval::score::{channels, evaluate_holdout, ModelEval};
 use crate::export;
 use crate::fit::{self, Config, FeatureChoice, Origin, TrainOptions};
@@ -32,56 +32,18 @@ pub const DEFAULT_FIXED: Config = Config {
     cross_terms: true,
 };
 
-/// Hold-out figures of one model.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct HoldoutFigures {
-    pub rmse: Vec<f64>,
-    pub coverage: Vec<f64>,
-    /// Size of the exported `.fbgm` blob \[B\].
-    pub blob_bytes: usize,
-}
-
-impl HoldoutFigures {
-    fn of(e: &ModelEval, blob_bytes: usize) -> Self {
-        HoldoutFigures {
-            rmse: e.channels.iter().map(|c| c.rmse).collect(),
-            coverage: e.channels.iter().map(|c| c.coverage).collect(),
-            blob_bytes,
-        }
-    }
-}
+pub use fbg_report::HoldoutFigures;
 
 /// What `bench-fit` measures.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct FitBench {
-    /// `fixed` (one grid point: the CV still runs once, for the band) or `select` (the full
-    /// hyper-parameter grid).
-    pub mode: &'static str,
-    /// The model's outputs (`T`, `strain`, …): the per-output lists below follow it.
-    pub channels: Vec<String>,
-    /// Their units.
-    pub units: Vec<String>,
-    pub n_samples: usize,
-    pub n_cal: usize,
-    /// Worker threads of the pool the fits ran in.
-    pub threads: usize,
-    /// Seconds to read the CSV (not part of the fit).
-    pub read_seconds: f64,
-    /// Seconds of each fit, in run order.
-    pub fit_seconds: Vec<f64>,
-    pub fit_seconds_median: f64,
-    /// Median wall time of each phase of the fit \[s\], in order.
-    pub phase_seconds: Vec<(String, f64)>,
-    pub chosen: Config,
-    /// The memory groups each output uses, by name (empty without memory terms).
-    pub memory_groups: Vec<Vec<&'static str>>,
-    /// Each output's ridge penalty λ per sample on its standardised memory terms.
-    pub memory_lambda: Vec<f64>,
-    pub grid_points: usize,
-    pub model_p: HoldoutFigures,
-    pub model_h: HoldoutFigures,
-    /// Model-H in f32 (the device path) against f64 on the hold-out.
-    pub parity: ParityReport,
+pub type FitBench = fbg_report::FitBench<Config>;
+
+/// One model's hold-out figures, with its blob's size.
+fn holdout_figures(e: &ModelEval, blob_bytes: usize) -> HoldoutFigures {
+    HoldoutFigures {
+        rmse: e.channels.iter().map(|c| c.rmse).collect(),
+        coverage: e.channels.iter().map(|c| c.coverage).collect(),
+        blob_bytes,
+    }
 }
 
 /// Read `data`, fit `repeats` times with `opts` on `threads` worker threads (0: rayon's
@@ -135,7 +97,7 @@ pub fn bench_fit(
         write_holdout_errors(path, &tr.model_h.dims, &d, &esth)?;
     }
     Ok(FitBench {
-        mode,
+        mode: mode.to_string(),
         channels: channels(&tr.model_h.dims),
         units: crate::eval::score::units(&tr.model_h.dims),
         n_samples: d.len(),
@@ -146,11 +108,13 @@ pub fn bench_fit(
         fit_seconds,
         phase_seconds,
         chosen: tr.selection.chosen,
-        memory_groups: (0..tr.model_h.dims.n_outputs()).map(|o| tr.selection.memory.names(o)).collect(),
+        memory_groups: (0..tr.model_h.dims.n_outputs())
+            .map(|o| tr.selection.memory.names(o).into_iter().map(String::from).collect())
+            .collect(),
         memory_lambda: tr.selection.memory.lambda[..tr.model_h.dims.n_outputs()].to_vec(),
         grid_points: tr.selection.rows.len(),
-        model_p: HoldoutFigures::of(&ep, export::blob_bytes(&tr.model_p)?.len()),
-        model_h: HoldoutFigures::of(&eh, export::blob_bytes(&tr.model_h)?.len()),
+        model_p: holdout_figures(&ep, export::blob_bytes(&tr.model_p)?.len()),
+        model_h: holdout_figures(&eh, export::blob_bytes(&tr.model_h)?.len()),
         parity: parity::check(&tr.model_h, &d, &eh)?,
     })
 }
@@ -265,39 +229,37 @@ fn write_holdout_errors(
     })
 }
 
-impl FitBench {
-    /// One human-readable paragraph.
-    /// "T 0.123 °C, ε 1.23 µε" (units only when `units`).
-    fn rmse_text(&self, rmse: &[f64], units: bool) -> String {
-        self.channels
-            .iter()
-            .zip(&self.units)
-            .zip(rmse)
-            .map(|((ch, u), v)| {
-                let (sym, dg) = (ch.replacen("strain", "ε", 1), if u == "°C" { 3 } else { 2 });
-                if units {
-                    format!("{sym} {v:.dg$} {u}")
-                } else {
-                    format!("{sym} {v:.dg$}")
-                }
-            })
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
+/// "T 0.123 °C, ε 1.23 µε" (units only when `units`).
+fn rmse_text(b: &FitBench, rmse: &[f64], units: bool) -> String {
+    b.channels
+        .iter()
+        .zip(&b.units)
+        .zip(rmse)
+        .map(|((ch, u), v)| {
+            let (sym, dg) = (ch.replacen("strain", "ε", 1), if u == "°C" { 3 } else { 2 });
+            if units {
+                format!("{sym} {v:.dg$} {u}")
+            } else {
+                format!("{sym} {v:.dg$}")
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
 
-    pub fn text(&self) -> String {
-        let c = &self.chosen;
-        format!(
-            "{} fit of {} calibration samples ({} in the file, {} threads): median {:.3} s over {} fits {:?} (CSV read {:.2} s)\n\
-             configuration: {} features, K = {}, σ = {}×NN, α = {:e}·n, dead band {} pm ({} grid points)\n\
-             hold-out RMSE Model-P: {} ({} B); Model-H: {} ({} B)",
-            self.mode, self.n_cal, self.n_samples, self.threads, self.fit_seconds_median, self.fit_seconds.len(),
-            self.fit_seconds.iter().map(|s| (s * 1000.0).round() / 1000.0).collect::<Vec<_>>(), self.read_seconds,
-            c.feature_set.name(), c.k, c.sigma_mult, c.alpha_rel, c.dead_band_pm, self.grid_points,
-            self.rmse_text(&self.model_p.rmse, true), self.model_p.blob_bytes,
-            self.rmse_text(&self.model_h.rmse, false), self.model_h.blob_bytes,
-        )
-    }
+/// One human-readable paragraph.
+pub fn text(b: &FitBench) -> String {
+    let c = &b.chosen;
+    format!(
+        "{} fit of {} calibration samples ({} in the file, {} threads): median {:.3} s over {} fits {:?} (CSV read {:.2} s)\n\
+         configuration: {} features, K = {}, σ = {}×NN, α = {:e}·n, dead band {} pm ({} grid points)\n\
+         hold-out RMSE Model-P: {} ({} B); Model-H: {} ({} B)",
+        b.mode, b.n_cal, b.n_samples, b.threads, b.fit_seconds_median, b.fit_seconds.len(),
+        b.fit_seconds.iter().map(|s| (s * 1000.0).round() / 1000.0).collect::<Vec<_>>(), b.read_seconds,
+        c.feature_set.name(), c.k, c.sigma_mult, c.alpha_rel, c.dead_band_pm, b.grid_points,
+        rmse_text(b, &b.model_p.rmse, true), b.model_p.blob_bytes,
+        rmse_text(b, &b.model_h.rmse, false), b.model_h.blob_bytes,
+    )
 }
 
 /// A fixed configuration's feature set by its report name (`paper`, `hysteresis-aware`,

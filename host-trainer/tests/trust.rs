@@ -185,7 +185,7 @@ fn a_thermometer_glitch_is_flagged_and_leaves_no_trace() {
     assert_eq!(rows.len(), 4 * 4);
     for g in &rows {
         eprintln!(
-            "{} {}: flagged {} beyond {} worst {:.3}",
+            "{} {}: flagged {} beyond {} worst {:.3?}",
             g.input, g.value, g.flagged, g.rows_beyond_band, g.worst_ratio
         );
         assert_eq!(g.rows_beyond_band, 0, "{g:?}");

@@ -24,7 +24,6 @@ mod elf;
 mod firmware;
 mod fixtures;
 mod lint;
-mod nan;
 mod python;
 mod qemu;
 mod signing;

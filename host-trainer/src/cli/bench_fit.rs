@@ -86,7 +86,7 @@ impl BenchFitArgs {
         if json {
             println!("{}", serde_json::to_string_pretty(&b)?);
         } else {
-            eprintln!("{}", b.text());
+            eprintln!("{}", fbg_trainer::benchmark::text(&b));
         }
         Ok(())
     }

@@ -16,25 +16,7 @@ pub const GLITCHES: [(&str, f64); 4] = [("85", 85.0), ("-127", -127.0), ("1e300"
 /// Where in the hold-out the glitch goes (fraction of its rows).
 pub const GLITCH_AT: f64 = 0.25;
 
-/// One glitch case.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct GlitchRow {
-    /// The input column (`dl1_pm`, `T_amb_C`).
-    pub input: String,
-    /// The glitch value, as text (`85`, `NaN`).
-    pub value: String,
-    /// Time of the glitch row \[s\].
-    pub t_s: f64,
-    /// Whether the glitch row's estimate carries a fault flag.
-    pub flagged: bool,
-    /// Hold-out rows after the glitch row.
-    pub later_rows: usize,
-    /// Of those, rows where some output differs from the clean record's by more than the
-    /// clean row's band.
-    pub rows_beyond_band: usize,
-    /// Largest |glitched − clean| / band over the later rows and outputs (0: no trace).
-    pub worst_ratio: f64,
-}
+pub use fbg_report::GlitchRow;
 
 /// Run every glitch of [`GLITCHES`] in every input of `model` on `d`'s hold-out.
 pub fn glitch_study(model: &HostParams, d: &Dataset) -> Result<Vec<GlitchRow>, TrainerError> {
@@ -83,11 +65,11 @@ pub fn glitch_study(model: &HostParams, d: &Dataset) -> Result<Vec<GlitchRow>, T
         Ok(GlitchRow {
             input: name.clone(),
             value: (*label).to_string(),
-            t_s: d.t_s[row],
+            t_s: Some(d.t_s[row]),
             flagged: est[at].flags.is_fault(),
-            later_rows: idx.len() - at - 1,
+            later_rows: Some(idx.len() - at - 1),
             rows_beyond_band: beyond,
-            worst_ratio: worst,
+            worst_ratio: Some(worst),
         })
     })
     .into_iter()

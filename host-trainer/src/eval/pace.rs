@@ -29,69 +29,7 @@ pub const REST_PACE: f64 = 0.02;
 /// The long-hold record's hold per level \[s\]: a steps record whose levels are held a day.
 pub const LONG_HOLD_S: f64 = 86_400.0;
 
-/// Numbers that serde_json wrote as `null` (NaN) read back as NaN.
-pub(crate) fn nullable<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
-    let v: Vec<Option<f64>> = serde::Deserialize::deserialize(d)?;
-    Ok(v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())
-}
-
-/// One record of the study: both models' hold-out figures, per output of the models.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct PaceRow {
-    /// What the record is: `×0.25`, `×4 (p_kPa)`, `steps`.
-    pub label: String,
-    /// Pace factor (1 for the steps record).
-    pub factor: f64,
-    /// The measurand paced alone (column name), or `None` for all of them.
-    pub only: Option<String>,
-    /// Hold-out samples scored.
-    pub samples: usize,
-    #[serde(deserialize_with = "nullable")]
-    pub rmse_p: Vec<f64>,
-    #[serde(deserialize_with = "nullable")]
-    pub rmse_h: Vec<f64>,
-    /// 95 % band coverage (fraction).
-    #[serde(deserialize_with = "nullable")]
-    pub coverage_p: Vec<f64>,
-    #[serde(deserialize_with = "nullable")]
-    pub coverage_h: Vec<f64>,
-    /// Settled slope against the truth (steps record only; empty otherwise).
-    #[serde(default, deserialize_with = "nullable")]
-    pub slope_p: Vec<f64>,
-    #[serde(default, deserialize_with = "nullable")]
-    pub slope_h: Vec<f64>,
-    /// Holds behind each slope (steps record only).
-    #[serde(default)]
-    pub holds: usize,
-}
-
-impl PaceRow {
-    /// Gain of Model-H over Model-P on output `c` [%].
-    pub fn gain_pct(&self, c: usize) -> f64 {
-        100.0 * (1.0 - self.rmse_h[c] / self.rmse_p[c])
-    }
-}
-
-/// The whole study.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct PaceStudy {
-    pub scenario: String,
-    pub seed: u64,
-    /// Every paced record, then the steps record, the rest record, the long-hold record and the
-    /// plateau record.
-    pub rows: Vec<PaceRow>,
-    /// Single-sample glitches in each input of the native record's hold-out
-    /// ([`crate::eval::glitch`]).
-    #[serde(default)]
-    pub glitch: Vec<crate::eval::glitch::GlitchRow>,
-}
-
-impl PaceStudy {
-    /// The steps record's row.
-    pub fn steps(&self) -> Option<&PaceRow> {
-        self.rows.iter().find(|r| !r.slope_p.is_empty())
-    }
-}
+pub use fbg_report::{PaceRow, PaceStudy};
 
 /// Score both models on `d`'s hold-out.
 fn score(

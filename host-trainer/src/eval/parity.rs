@@ -11,24 +11,7 @@ use crate::error::TrainerError;
 use crate::eval::score::ModelEval;
 use crate::fit::{design_matrix, HostCompensator, HostParams, HOST_CAP};
 
-/// The outcome of the parity check on the hold-out.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct ParityReport {
-    pub samples: usize,
-    /// max |f32 − f64| per output.
-    pub max_abs_diff: Vec<f64>,
-    /// That, as a fraction of Model-H's hold-out RMSE (the target is ≤ 0.01).
-    pub max_diff_over_rmse: Vec<f64>,
-    /// max relative difference of the 95 % band.
-    pub max_band_rel_diff: Vec<f64>,
-    /// Samples whose flags differ between f32 and f64 (the target is 0).
-    pub flag_mismatches: usize,
-    /// max over the hold-out of sqrt((1 + h_exact)/(1 + h_device)) − 1: how much the kept
-    /// eigen-directions understate the band.
-    pub leverage_band_gap: f64,
-    /// Largest exact leverage h on the hold-out.
-    pub leverage_max: f64,
-}
+pub use fbg_report::ParityReport;
 
 /// Run the f32 device path and the f64 reference side by side over the whole record and
 /// compare on the hold-out.

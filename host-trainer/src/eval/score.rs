@@ -59,50 +59,7 @@ pub(crate) fn most_correlated(n_gratings: usize, corr: impl Fn(usize) -> f64) ->
 /// Dead band of the direction detector of the hysteresis index \[pm\].
 pub const HYSTERESIS_INDEX_DEAD_BAND_PM: f64 = 4.0;
 
-/// Error statistics of one output.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
-pub struct ChannelMetrics {
-    pub rmse: f64,
-    pub mae: f64,
-    pub r2: f64,
-    /// Mean error (estimate − truth).
-    pub bias: f64,
-    pub max_abs: f64,
-    /// Fraction of samples whose truth lies inside the 95 % band.
-    pub coverage: f64,
-    /// Mean half-width of the band.
-    pub mean_band: f64,
-    /// Mean error on rising minus falling segments of the output's grating.
-    pub hysteresis_index: f64,
-    pub n: usize,
-}
-
-impl ChannelMetrics {
-    /// The metrics of an output the data have no reference for: NaN, none scored.
-    pub const ABSENT: ChannelMetrics = ChannelMetrics {
-        rmse: f64::NAN,
-        mae: f64::NAN,
-        r2: f64::NAN,
-        bias: f64::NAN,
-        max_abs: f64::NAN,
-        coverage: f64::NAN,
-        mean_band: f64::NAN,
-        hysteresis_index: f64::NAN,
-        n: 0,
-    };
-}
-
-/// A model's hold-out evaluation.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct ModelEval {
-    /// Per output of the model, in output order.
-    pub channels: Vec<ChannelMetrics>,
-    /// Samples with each flag raised (non-finite, out-of-envelope, weak support, implausible,
-    /// fallback to Model-P).
-    pub flag_counts: [usize; 5],
-    /// Fraction of samples with any flag.
-    pub flagged_fraction: f64,
-}
+pub use fbg_report::{ChannelMetrics, ModelEval};
 
 /// Estimates of `params` at `idx` (the compensator runs from the first sample, so the latches
 /// see the whole history).

@@ -20,7 +20,7 @@ use fbg_shared::{DirectionLatch, Estimate, Flags, PreparedModel, StreamState};
 
 use crate::data::{Dataset, Measurand, Row, RowReader, Split, MAX_GRATINGS, MAX_MEASURANDS};
 use crate::error::TrainerError;
-use crate::eval::metrics::{Metrics, SelectionSummary, StaticFidelity, Table2};
+use crate::eval::metrics::{static_fidelity, Metrics, SelectionSummary, Table2};
 use crate::eval::score::{self, ChannelMetrics, ModelEval, HYSTERESIS_INDEX_DEAD_BAND_PM};
 use crate::fit::static_fidelity::{StaticAudit, AUDIT_MAX_ROWS};
 use crate::fit::{HostParams, HOST_CAP};
@@ -363,7 +363,7 @@ pub fn evaluate_quick(p: &HostParams, h: &HostParams, data: &Path, progress: boo
         error_budget: None,
         parity: None,
         recalibration: None,
-        static_fidelity: audit.as_ref().map(StaticFidelity::of),
+        static_fidelity: audit.as_ref().map(static_fidelity),
         pace: None,
         timings_s: timings,
     };

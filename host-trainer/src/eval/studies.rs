@@ -406,7 +406,7 @@ pub fn run_all(
         error_budget: budget,
         parity,
         recalibration: recal,
-        static_fidelity: Some(crate::eval::metrics::StaticFidelity::of(&trained.static_audit)),
+        static_fidelity: Some(crate::eval::metrics::static_fidelity(&trained.static_audit)),
         pace: if studies.pace {
             let t = Instant::now();
             let r =
@@ -518,7 +518,7 @@ pub fn evaluate_models(
         error_budget: budget,
         parity,
         recalibration: None,
-        static_fidelity: audit.as_ref().map(crate::eval::metrics::StaticFidelity::of),
+        static_fidelity: audit.as_ref().map(crate::eval::metrics::static_fidelity),
         pace: match meta {
             Some(m) if studies.pace => {
                 let t = Instant::now();

@@ -350,11 +350,11 @@ pub fn glitch(s: &crate::eval::pace::PaceStudy) -> Table {
             vec![
                 g.input.clone(),
                 g.value.clone(),
-                format!("{:.0}", g.t_s),
+                f(g.t_s.unwrap_or(f64::NAN), 0),
                 if g.flagged { "yes".into() } else { "NO".into() },
-                g.later_rows.to_string(),
+                g.later_rows.map_or("–".into(), |n| n.to_string()),
                 g.rows_beyond_band.to_string(),
-                f(g.worst_ratio, 3),
+                f(g.worst_ratio.unwrap_or(f64::NAN), 3),
             ]
         })
         .collect();

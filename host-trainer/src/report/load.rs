@@ -1,19 +1,18 @@
 //! Reading `metrics.json` back into a [`Metrics`].
 //!
-//! The study types only serialise, and serde_json writes a NaN (e.g. the CV figures of a
-//! model evaluated from blobs) as `null`; so this module mirrors the JSON layout with
-//! deserialisable types whose numbers accept `null` as NaN, and converts. A field added to
-//! [`Metrics`] makes the conversion below fail to compile, so the mirror cannot drift silently.
+//! `fbg_report` reads the study types (numbers written as `null`, NaN, read back as NaN); what
+//! it leaves to the trainer, the selection (its configurations, band models and grid rows), is
+//! mirrored here with deserialisable types whose numbers accept `null` and whose keys an older
+//! file lacks get the values the trainer gave them then. A field added to [`SelectionSummary`],
+//! [`Config`] or [`VarModel`] makes the conversion below fail to compile, so the mirror cannot
+//! drift silently.
 
 use std::path::Path;
 
 use serde::Deserialize;
 
 use crate::error::TrainerError;
-use crate::eval::metrics::RecalStudy;
-use crate::eval::metrics::{AblationRow, BudgetRow, DriftSweep, Metrics, SelectionSummary, Table2};
-use crate::eval::parity::ParityReport;
-use crate::eval::score::{ChannelMetrics, ModelEval};
+use crate::eval::metrics::{AblationRow, Metrics, SelectionSummary};
 use crate::fit::select::CvRow;
 use crate::fit::{Config, VarModel};
 
@@ -29,78 +28,6 @@ impl<'de> Deserialize<'de> for F {
 
 fn a3(v: Vec<F>) -> Vec<f64> {
     v.into_iter().map(|x| x.0).collect()
-}
-
-#[derive(Deserialize)]
-struct ChannelDe {
-    rmse: F,
-    mae: F,
-    r2: F,
-    bias: F,
-    max_abs: F,
-    coverage: F,
-    mean_band: F,
-    hysteresis_index: F,
-    n: usize,
-}
-
-impl From<ChannelDe> for ChannelMetrics {
-    fn from(c: ChannelDe) -> Self {
-        ChannelMetrics {
-            rmse: c.rmse.0,
-            mae: c.mae.0,
-            r2: c.r2.0,
-            bias: c.bias.0,
-            max_abs: c.max_abs.0,
-            coverage: c.coverage.0,
-            mean_band: c.mean_band.0,
-            hysteresis_index: c.hysteresis_index.0,
-            n: c.n,
-        }
-    }
-}
-
-fn channels(v: Vec<ChannelDe>) -> Vec<ChannelMetrics> {
-    v.into_iter().map(ChannelMetrics::from).collect()
-}
-
-#[derive(Deserialize)]
-struct ModelEvalDe {
-    channels: Vec<ChannelDe>,
-    /// Three counts in metrics files written before the implausible flag.
-    flag_counts: Vec<usize>,
-    flagged_fraction: F,
-}
-
-impl From<ModelEvalDe> for ModelEval {
-    fn from(m: ModelEvalDe) -> Self {
-        let mut flag_counts = [0; 5];
-        for (o, n) in flag_counts.iter_mut().zip(m.flag_counts) {
-            *o = n;
-        }
-        ModelEval { channels: channels(m.channels), flag_counts, flagged_fraction: m.flagged_fraction.0 }
-    }
-}
-
-#[derive(Deserialize)]
-struct Table2De {
-    model_p: ModelEvalDe,
-    model_h: ModelEvalDe,
-    gain_pct: Vec<F>,
-    oracle_floor: Option<Vec<F>>,
-    h_over_floor: Option<Vec<F>>,
-}
-
-#[derive(Deserialize)]
-struct DriftDe {
-    factors: Vec<F>,
-    sigma_d_pm: Vec<F>,
-    rmse_p: Vec<Vec<F>>,
-    rmse_h: Vec<Vec<F>>,
-    slope_p: Vec<F>,
-    slope_h: Vec<F>,
-    intercept_p: Vec<F>,
-    intercept_h: Vec<F>,
 }
 
 #[derive(Deserialize)]
@@ -124,50 +51,6 @@ impl From<ConfigDe> for Config {
             cross_terms: c.cross_terms,
         }
     }
-}
-
-#[derive(Deserialize)]
-struct AblationDe {
-    name: String,
-    note: String,
-    channels: Vec<ChannelDe>,
-    config: Option<ConfigDe>,
-}
-
-#[derive(Deserialize)]
-struct BudgetDe {
-    effect_off: String,
-    rmse_p: Vec<F>,
-    rmse_h: Vec<F>,
-    oracle_floor: Vec<F>,
-    #[serde(default)]
-    not_fitted: Option<String>,
-}
-
-#[derive(Deserialize)]
-struct ParityDe {
-    samples: usize,
-    max_abs_diff: Vec<F>,
-    max_diff_over_rmse: Vec<F>,
-    max_band_rel_diff: Vec<F>,
-    flag_mismatches: usize,
-    leverage_band_gap: F,
-    leverage_max: F,
-}
-
-#[derive(Deserialize)]
-struct RecalDe {
-    batch_hours: F,
-    batch_samples: usize,
-    seed_old: u64,
-    seed_new: u64,
-    h_old: Vec<F>,
-    h_short: Vec<F>,
-    h_full: Vec<F>,
-    p_old: Vec<F>,
-    p_short: Vec<F>,
-    p_full: Vec<F>,
-    recovered_fraction_h: Vec<F>,
 }
 
 #[derive(Deserialize)]
@@ -226,132 +109,59 @@ struct SelectionDe {
     top: Vec<CvRowDe>,
 }
 
-#[derive(Deserialize)]
-struct MetricsDe {
-    trainer_version: String,
-    scenario: String,
-    seed: u64,
-    samples: usize,
-    cal_samples: usize,
-    holdout_samples: usize,
-    channels: Vec<String>,
-    units: Vec<String>,
-    /// Absent from metrics written before warnings were recorded.
-    #[serde(default)]
-    warnings: Vec<crate::warning::Warning>,
-    selection: SelectionDe,
-    table2: Table2De,
-    drift_sweep: Option<DriftDe>,
-    ablation: Option<Vec<AblationDe>>,
-    error_budget: Option<Vec<BudgetDe>>,
-    parity: Option<ParityDe>,
-    #[serde(default)]
-    recalibration: Option<Vec<RecalDe>>,
-    /// Absent from metrics written before static fidelity.
-    #[serde(default)]
-    static_fidelity: Option<crate::eval::metrics::StaticFidelity>,
-    #[serde(default)]
-    pace: Option<crate::eval::pace::PaceStudy>,
-    #[serde(default)]
-    timings_s: Vec<(String, F)>,
+impl From<SelectionDe> for SelectionSummary {
+    fn from(s: SelectionDe) -> Self {
+        SelectionSummary {
+            chosen: s.chosen.into(),
+            cv_rmse_p: a3(s.cv_rmse_p),
+            cv_rmse_h: a3(s.cv_rmse_h),
+            var_model_p: s.var_model_p.into_iter().map(VarModel::from).collect(),
+            var_model_h: s.var_model_h.into_iter().map(VarModel::from).collect(),
+            folds: s.folds,
+            grid_points: s.grid_points,
+            top: s
+                .top
+                .into_iter()
+                .map(|r| CvRow { config: r.config.into(), cv_rmse: a3(r.cv_rmse), score: r.score.0 })
+                .collect(),
+        }
+    }
 }
 
-impl From<MetricsDe> for Metrics {
-    fn from(m: MetricsDe) -> Self {
-        let s = m.selection;
-        let t = m.table2;
-        Metrics {
-            trainer_version: m.trainer_version,
-            scenario: m.scenario,
-            seed: m.seed,
-            samples: m.samples,
-            cal_samples: m.cal_samples,
-            holdout_samples: m.holdout_samples,
-            channels: m.channels,
-            units: m.units,
-            warnings: m.warnings,
-            selection: SelectionSummary {
-                chosen: s.chosen.into(),
-                cv_rmse_p: a3(s.cv_rmse_p),
-                cv_rmse_h: a3(s.cv_rmse_h),
-                var_model_p: s.var_model_p.into_iter().map(VarModel::from).collect(),
-                var_model_h: s.var_model_h.into_iter().map(VarModel::from).collect(),
-                folds: s.folds,
-                grid_points: s.grid_points,
-                top: s
-                    .top
-                    .into_iter()
-                    .map(|r| CvRow { config: r.config.into(), cv_rmse: a3(r.cv_rmse), score: r.score.0 })
-                    .collect(),
-            },
-            table2: Table2 {
-                model_p: t.model_p.into(),
-                model_h: t.model_h.into(),
-                gain_pct: a3(t.gain_pct),
-                oracle_floor: t.oracle_floor.map(a3),
-                h_over_floor: t.h_over_floor.map(a3),
-            },
-            drift_sweep: m.drift_sweep.map(|d| DriftSweep {
-                factors: d.factors.into_iter().map(|x| x.0).collect(),
-                sigma_d_pm: d.sigma_d_pm.into_iter().map(|x| x.0).collect(),
-                rmse_p: d.rmse_p.into_iter().map(a3).collect(),
-                rmse_h: d.rmse_h.into_iter().map(a3).collect(),
-                slope_p: a3(d.slope_p),
-                slope_h: a3(d.slope_h),
-                intercept_p: a3(d.intercept_p),
-                intercept_h: a3(d.intercept_h),
-            }),
-            ablation: m.ablation.map(|rows| {
-                rows.into_iter()
-                    .map(|r| AblationRow {
-                        name: r.name,
-                        note: r.note,
-                        channels: channels(r.channels),
-                        config: r.config.map(Config::from),
-                    })
-                    .collect()
-            }),
-            error_budget: m.error_budget.map(|rows| {
-                rows.into_iter()
-                    .map(|r| BudgetRow {
-                        effect_off: r.effect_off,
-                        rmse_p: a3(r.rmse_p),
-                        rmse_h: a3(r.rmse_h),
-                        oracle_floor: a3(r.oracle_floor),
-                        not_fitted: r.not_fitted,
-                    })
-                    .collect()
-            }),
-            parity: m.parity.map(|p| ParityReport {
-                samples: p.samples,
-                max_abs_diff: a3(p.max_abs_diff),
-                max_diff_over_rmse: a3(p.max_diff_over_rmse),
-                max_band_rel_diff: a3(p.max_band_rel_diff),
-                flag_mismatches: p.flag_mismatches,
-                leverage_band_gap: p.leverage_band_gap.0,
-                leverage_max: p.leverage_max.0,
-            }),
-            recalibration: m.recalibration.map(|rows| {
-                rows.into_iter()
-                    .map(|r| RecalStudy {
-                        batch_hours: r.batch_hours.0,
-                        batch_samples: r.batch_samples,
-                        seed_old: r.seed_old,
-                        seed_new: r.seed_new,
-                        h_old: a3(r.h_old),
-                        h_short: a3(r.h_short),
-                        h_full: a3(r.h_full),
-                        p_old: a3(r.p_old),
-                        p_short: a3(r.p_short),
-                        p_full: a3(r.p_full),
-                        recovered_fraction_h: a3(r.recovered_fraction_h),
-                    })
-                    .collect()
-            }),
-            static_fidelity: m.static_fidelity,
-            pace: m.pace,
-            timings_s: m.timings_s.into_iter().map(|(k, v)| (k, v.0)).collect(),
-        }
+/// The file as read: `fbg_report`'s types with the mirrors above for the trainer's own.
+type MetricsDe = fbg_report::Metrics<SelectionDe, ConfigDe>;
+
+/// The trainer's types in place of the mirrors.
+fn metrics(m: MetricsDe) -> Metrics {
+    Metrics {
+        trainer_version: m.trainer_version,
+        scenario: m.scenario,
+        seed: m.seed,
+        samples: m.samples,
+        cal_samples: m.cal_samples,
+        holdout_samples: m.holdout_samples,
+        channels: m.channels,
+        units: m.units,
+        warnings: m.warnings,
+        selection: m.selection.into(),
+        table2: m.table2,
+        drift_sweep: m.drift_sweep,
+        ablation: m.ablation.map(|rows| {
+            rows.into_iter()
+                .map(|r| AblationRow {
+                    name: r.name,
+                    note: r.note,
+                    channels: r.channels,
+                    config: r.config.map(Config::from),
+                })
+                .collect()
+        }),
+        error_budget: m.error_budget,
+        parity: m.parity,
+        recalibration: m.recalibration,
+        static_fidelity: m.static_fidelity,
+        pace: m.pace,
+        timings_s: m.timings_s,
     }
 }
 
@@ -361,7 +171,7 @@ pub fn metrics_from_str(text: &str, name: &str) -> Result<Metrics, TrainerError>
         path: name.to_string(),
         message: format!("not a metrics.json this trainer understands: {e}"),
     })?;
-    Ok(de.into())
+    Ok(metrics(de))
 }
 
 /// Read `metrics.json`.

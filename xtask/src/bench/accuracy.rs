@@ -6,14 +6,15 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 
+use fbg_report::FitBench;
+
 use super::report::{
     Accuracy, Blackbox, Coverage, EnsembleBand, EnsembleChannel, Gain, HybridComparison, ModelHDefault, ModelHPaper,
     ModelRun, OracleFloor, PresetRun, SeedRun,
 };
-use super::runner::{read_json, FitBench, PeerBlackbox, Runner, SimMeta};
-use super::stats::median;
+use super::runner::{read_json, PeerBlackbox, Runner, SimMeta};
+use super::stats::{at, median};
 use super::{holdout_errors_csv, preset_csv, COVERAGE_SEEDS};
-use fbg_shared::layout::paper::N_OUTPUTS;
 
 /// Width of the lead-time bins of the ensemble band \[s\].
 const ENSEMBLE_BIN_S: f64 = 7200.0;
@@ -23,10 +24,10 @@ impl SeedRun {
         SeedRun {
             seed,
             k: v.chosen.k,
-            coverage_h: v.model_h.coverage,
-            coverage_p: v.model_p.coverage,
-            rmse_h: v.model_h.rmse,
-            rmse_p: v.model_p.rmse,
+            coverage_h: v.model_h.coverage.clone(),
+            coverage_p: v.model_p.coverage.clone(),
+            rmse_h: v.model_h.rmse.clone(),
+            rmse_p: v.model_p.rmse.clone(),
             command,
             gb_hybrids: Vec::new(),
         }
@@ -41,15 +42,28 @@ fn coverage_run(r: &Runner, preset: &str, seed: u64) -> Result<(FitBench, String
     r.trainer(&["bench-fit", "--data", &csv, "--select", "--repeats", "1", "--json", "--holdout-errors", &errs])
 }
 
+/// Every table of the part has a column per output: each fit must have the part's outputs.
+fn same_outputs(channels: &mut Vec<String>, v: &FitBench, command: &str) -> Result<()> {
+    if channels.is_empty() {
+        channels.clone_from(&v.channels);
+    } else if v.channels != *channels {
+        bail!("`{command}` fitted the outputs {:?}, the part's first fit {:?}", v.channels, channels);
+    }
+    Ok(())
+}
+
 pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
     fs::create_dir_all(root.join("target/bench/holdout"))?;
     let mut presets = Vec::new();
     let mut coverage = Vec::new();
+    let mut channels = Vec::new();
     for preset in ["paper", "harsh"] {
         let csv = preset_csv(preset, 7);
         let (def, c_def) = coverage_run(r, preset, 7)?;
         let (pap, c_pap): (FitBench, _) =
             r.trainer(&["bench-fit", "--data", &csv, "--select", "--features", "paper", "--repeats", "1", "--json"])?;
+        same_outputs(&mut channels, &def, &c_def)?;
+        same_outputs(&mut channels, &pap, &c_pap)?;
         let meta_path = csv.replace(".csv", ".meta.json");
         let meta: SimMeta = read_json(&root.join(&meta_path))?;
         let blackbox = if peer_ok {
@@ -70,13 +84,13 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
             model_p: ModelRun { rmse: def.model_p.rmse, bytes: def.model_p.blob_bytes, command: c_def.clone() },
             model_h_default: ModelHDefault {
                 run: ModelRun { rmse: def.model_h.rmse, bytes: def.model_h.blob_bytes, command: c_def },
-                chosen: def.chosen.clone(),
+                chosen: def.chosen,
                 coverage: def.model_h.coverage,
-                parity: def.parity.clone(),
+                parity: def.parity,
             },
             model_h_paper: ModelHPaper {
                 run: ModelRun { rmse: pap.model_h.rmse, bytes: pap.model_h.blob_bytes, command: c_pap },
-                chosen: pap.chosen.clone(),
+                chosen: pap.chosen,
             },
             oracle_floor: OracleFloor {
                 rmse: meta.oracle_floor_holdout,
@@ -87,6 +101,7 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
     }
     for &seed in &COVERAGE_SEEDS[1..] {
         let (v, c) = coverage_run(r, "paper", seed)?;
+        same_outputs(&mut channels, &v, &c)?;
         let mut run = SeedRun::of(seed, &v, c);
         if peer_ok {
             let (h, _): (PeerBlackbox, _) = r.peer(&["hybrids", "--data", &preset_csv("paper", seed)])?;
@@ -94,19 +109,21 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
         }
         coverage.push(run);
     }
-    let gb_hybrids_paper = hybrid_comparisons(&coverage);
+    let nc = channels.len();
+    let gb_hybrids_paper = hybrid_comparisons(&coverage, nc);
     // Gain of Model-H over Model-P per seed and channel [%].
-    let gains: Vec<[f64; 3]> = coverage.iter().map(|s| std::array::from_fn(|c| s.gain_pct(c))).collect();
-    let mean_pct = std::array::from_fn(|c| gains.iter().map(|g| g[c]).sum::<f64>() / gains.len().max(1) as f64);
-    let min_pct = std::array::from_fn(|c| gains.iter().map(|g| g[c]).fold(f64::INFINITY, f64::min));
+    let gains: Vec<Vec<f64>> = coverage.iter().map(|s| (0..nc).map(|c| s.gain_pct(c)).collect()).collect();
+    let mean_pct = (0..nc).map(|c| gains.iter().map(|g| g[c]).sum::<f64>() / gains.len().max(1) as f64).collect();
+    let min_pct = (0..nc).map(|c| gains.iter().map(|g| g[c]).fold(f64::INFINITY, f64::min)).collect();
     let seeds_all_channels_25 = gains.iter().filter(|g| g.iter().all(|&v| v >= 25.0)).count();
-    let per = |c: usize| -> Vec<f64> { coverage.iter().map(|s| s.coverage_h[c]).collect() };
-    let mean_h = std::array::from_fn(|c| per(c).iter().sum::<f64>() / coverage.len() as f64);
-    let median_h = std::array::from_fn(|c| median(&per(c)));
-    let seeds_within_95_pm_2 = std::array::from_fn(|c| per(c).iter().filter(|v| (*v - 0.95).abs() <= 0.02).count());
+    let per = |c: usize| -> Vec<f64> { coverage.iter().map(|s| at(&s.coverage_h, c)).collect() };
+    let mean_h = (0..nc).map(|c| per(c).iter().sum::<f64>() / coverage.len() as f64).collect();
+    let median_h = (0..nc).map(|c| median(&per(c))).collect();
+    let seeds_within_95_pm_2 = (0..nc).map(|c| per(c).iter().filter(|v| (*v - 0.95).abs() <= 0.02).count()).collect();
     let files: Vec<PathBuf> = COVERAGE_SEEDS.iter().map(|&s| root.join(holdout_errors_csv("paper", s))).collect();
-    let ensemble_band = Some(ensemble_band_coverage(&files)?);
+    let ensemble_band = Some(ensemble_band_coverage(&files, nc)?);
     Ok(Accuracy {
+        channels,
         presets,
         coverage_paper: Coverage { per_seed: coverage, mean_h, median_h, seeds_within_95_pm_2, ensemble_band },
         gain_paper: Gain { per_seed: gains, mean_pct, min_pct, seeds_all_channels_25 },
@@ -115,7 +132,7 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
 }
 
 /// Model-H against each gradient-boosting hybrid, over the seeds that have it.
-fn hybrid_comparisons(runs: &[SeedRun]) -> Vec<HybridComparison> {
+fn hybrid_comparisons(runs: &[SeedRun], nc: usize) -> Vec<HybridComparison> {
     let mut inputs: Vec<(String, Option<u64>)> = Vec::new();
     for p in runs.iter().flat_map(|r| &r.gb_hybrids) {
         if !inputs.iter().any(|(i, _)| *i == p.inputs) {
@@ -125,18 +142,18 @@ fn hybrid_comparisons(runs: &[SeedRun]) -> Vec<HybridComparison> {
     inputs
         .into_iter()
         .map(|(name, n_inputs)| {
-            let pairs: Vec<([f64; 3], [f64; 3])> = runs
+            let pairs: Vec<(&[f64], &[f64])> = runs
                 .iter()
-                .filter_map(|r| r.gb_hybrids.iter().find(|p| p.inputs == name).map(|p| (r.rmse_h, p.rmse)))
+                .filter_map(|r| r.gb_hybrids.iter().find(|p| p.inputs == name).map(|p| (&r.rmse_h[..], &p.rmse[..])))
                 .collect();
             let n = pairs.len().max(1) as f64;
             HybridComparison {
                 inputs: name,
                 n_inputs,
                 seeds: pairs.len(),
-                mean_rmse_h: std::array::from_fn(|c| pairs.iter().map(|p| p.0[c]).sum::<f64>() / n),
-                mean_rmse_peer: std::array::from_fn(|c| pairs.iter().map(|p| p.1[c]).sum::<f64>() / n),
-                seeds_ahead: std::array::from_fn(|c| pairs.iter().filter(|p| p.0[c] < p.1[c]).count()),
+                mean_rmse_h: (0..nc).map(|c| pairs.iter().map(|p| at(p.0, c)).sum::<f64>() / n).collect(),
+                mean_rmse_peer: (0..nc).map(|c| pairs.iter().map(|p| at(p.1, c)).sum::<f64>() / n).collect(),
+                seeds_ahead: (0..nc).map(|c| pairs.iter().filter(|p| at(p.0, c) < at(p.1, c)).count()).collect(),
             }
         })
         .collect()
@@ -147,9 +164,9 @@ fn hybrid_comparisons(runs: &[SeedRun]) -> Vec<HybridComparison> {
 /// hold-outs, so no model can have it). Its per-seed coverage shows how much of the seed-to-seed
 /// spread comes from the hold-out week itself (one drift path per seed) rather than from the
 /// band a model estimated from its own calibration batch.
-fn ensemble_band_coverage(files: &[PathBuf]) -> Result<EnsembleBand> {
+fn ensemble_band_coverage(files: &[PathBuf], nc: usize) -> Result<EnsembleBand> {
     // Per seed: (lead from the first hold-out sample [s], |error| per channel).
-    let mut runs: Vec<Vec<(f64, [f64; N_OUTPUTS])>> = Vec::new();
+    let mut runs: Vec<Vec<(f64, Vec<f64>)>> = Vec::new();
     for f in files {
         let text = fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
         let mut rows = Vec::new();
@@ -159,10 +176,10 @@ fn ensemble_band_coverage(files: &[PathBuf]) -> Result<EnsembleBand> {
                 .map(str::parse)
                 .collect::<Result<_, _>>()
                 .with_context(|| format!("{}:{}: not a number", f.display(), n + 1))?;
-            if v.len() < 1 + N_OUTPUTS {
-                bail!("{}:{}: expected {} columns, found {}", f.display(), n + 1, 1 + 2 * N_OUTPUTS, v.len());
+            if v.len() < 1 + 2 * nc {
+                bail!("{}:{}: expected {} columns, found {}", f.display(), n + 1, 1 + 2 * nc, v.len());
             }
-            rows.push((v[0], std::array::from_fn(|c| v[1 + c].abs())));
+            rows.push((v[0], v[1..=nc].iter().map(|e| e.abs()).collect()));
         }
         let t0 = rows.first().map(|r| r.0).unwrap_or(0.0);
         runs.push(rows.into_iter().map(|(t, e)| (t - t0, e)).collect());
@@ -170,7 +187,7 @@ fn ensemble_band_coverage(files: &[PathBuf]) -> Result<EnsembleBand> {
     let bin = |lead: f64| (lead / ENSEMBLE_BIN_S).max(0.0) as usize;
     let n_bins = runs.iter().flatten().map(|r| bin(r.0) + 1).max().unwrap_or(0);
     let mut per_channel = Vec::new();
-    for c in 0..N_OUTPUTS {
+    for c in 0..nc {
         let mut pooled: Vec<Vec<f64>> = vec![Vec::new(); n_bins];
         for r in runs.iter().flatten() {
             pooled[bin(r.0)].push(r.1[c]);

@@ -9,7 +9,7 @@ use fbg_shared::layout::paper::N_MEMORY;
 use fbg_shared::layout::Dims;
 use fbg_shared::MemorySpec;
 
-use super::report::{Device, DeviceResults, LowerBound, LowerBoundAtK, Report};
+use super::report::{Device, DeviceResults, LowerBound, LowerBoundAtK};
 use super::runner::read_json;
 use super::Opts;
 use crate::device_bench;
@@ -68,17 +68,15 @@ pub fn footprint_only(root: &Path) -> Result<()> {
     let size = device_bench::footprint(root, &q)?;
     let verifiers = device_bench::verifiers::measure(root, &q)?;
     let board = crate::board::run_all(root)?;
-    let path = root.join("BENCHMARKS.json");
-    let mut report: Report = read_json(&path)?;
-    let Device::Measured(dev) = &mut report.device else {
-        anyhow::bail!("{} has no device results to add the footprint to: run `cargo xtask bench`", path.display());
-    };
-    dev.record.set_footprint(&size);
-    dev.record.verifiers = Some(verifiers);
-    dev.record.board = Some(board);
-    let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
-    crate::cmd::write_atomic(&path, json.as_bytes())?;
-    crate::cmd::write_atomic(&root.join("BENCHMARKS.md"), super::markdown::markdown(&report).as_bytes())?;
+    super::update(root, |report| {
+        let Device::Measured(dev) = &mut report.device else {
+            anyhow::bail!("BENCHMARKS.json has no device results to add the footprint to: run `cargo xtask bench`");
+        };
+        dev.record.set_footprint(&size);
+        dev.record.verifiers = Some(verifiers);
+        dev.record.board = Some(board);
+        Ok(())
+    })?;
     eprintln!(
         "bench: wrote the footprint, the verifier table and the board's figures into BENCHMARKS.md and BENCHMARKS.json"
     );

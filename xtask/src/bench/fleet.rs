@@ -23,21 +23,8 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<Fleet> {
     let mut manifest = String::from("# every group gets the full `train` grid (features all, K <= 32)\n");
     let mut sim_cmd = String::new();
     for g in 0..FLEET_GROUPS {
-        let csv = dir.join(format!("g{g:02}.csv"));
-        let (_, c) = r.json(
-            super::TRAINER,
-            &super::runner::strings(&[
-                "simulate",
-                "--config",
-                &rel(&cfg, root),
-                "--seed",
-                &(100 + g).to_string(),
-                "--json",
-                "--out",
-                &rel(&csv, root),
-            ]),
-            &[],
-        )?;
+        let (seed, csv) = ((100 + g).to_string(), rel(&dir.join(format!("g{g:02}.csv")), root));
+        let c = r.simulate(&["--config", &rel(&cfg, root), "--seed", &seed, "--json", "--out", &csv])?;
         if g == 0 {
             sim_cmd = c;
         }

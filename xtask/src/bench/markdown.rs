@@ -1,32 +1,22 @@
-//! BENCHMARKS.md from the [`Report`]: one function per section, in the order of the file.
-
-use std::fmt::Write as _;
+//! BENCHMARKS.md from the [`Report`]: one function per section, in the order of the file. Every
+//! per-output table has a column per output of its part (`channels`).
 
 use super::pace::{pace_targets_met, PACE_MIN_COVERAGE, SLOPE_TOL};
 use super::report::{
-    at_most, Accuracy, DeviceResults, EvalRun, FieldBench, FitRun, Fleet, GlitchRow, Inference, Machine, PaceBench,
-    PaceRow, PaceSummary, PresetRun, Report, Rmse, SizeRun, StepRow, Training,
+    at_most, Accuracy, DeviceResults, EvalRun, FieldBench, FitRun, Fleet, Inference, Machine, PaceBench, PaceSummary,
+    PresetRun, Report, SizeRun, StepRow, Training,
 };
-use super::stats::{max_rel_diff, median};
+use super::stats::{at, fold_nan, max_rel_diff, median};
 use super::COVERAGE_SEEDS;
+use fbg_report::{GlitchRow, PaceRow};
 
-/// The `paper` gains of the model before static fidelity (issue 26), printed beside today's: an
-/// earlier measurement, not one of this run.
+/// The `paper` gains of the model before static fidelity, printed beside today's: an earlier
+/// measurement, not one of this run.
 const BEFORE_STATIC_FIDELITY: &str =
     "*earlier measurement, not this run:* before static fidelity (BENCHMARKS at 2f716d4): mean gain 47.9 / 32.2 / 41.9 %";
 
 /// The per-seed coverage target: at least this many coverage seeds within 95 ± 2 %.
 const SEEDS_WITHIN_2: usize = 16;
-
-/// `writeln!` into a `String`, which cannot fail.
-macro_rules! out {
-    ($s:expr) => {{
-        let _ = writeln!($s);
-    }};
-    ($s:expr, $($arg:tt)*) => {{
-        let _ = writeln!($s, $($arg)*);
-    }};
-}
 
 mod accuracy;
 mod device;
@@ -41,7 +31,7 @@ use pace::{pace_section, pace_targets};
 use targets::targets;
 
 /// A number with `digits` decimals, "–" when missing (NaN) or infinite.
-fn f(x: f64, digits: usize) -> String {
+pub fn f(x: f64, digits: usize) -> String {
     if x.is_finite() {
         format!("{x:.digits$}")
     } else {
@@ -66,6 +56,7 @@ fn secs(x: f64) -> String {
     format!("{x:.d$} s")
 }
 
+/// A verdict in bold.
 fn yes(b: bool) -> &'static str {
     if b {
         "**met**"
@@ -74,9 +65,13 @@ fn yes(b: bool) -> &'static str {
     }
 }
 
-/// T, ε, p with the decimals that suit each.
-fn rmse3(v: &Rmse) -> [String; 3] {
-    [f(v[0], 3), f(v[1], 2), f(v[2], 2)]
+/// A verdict, bold when missed.
+pub fn met(ok: bool) -> &'static str {
+    if ok {
+        "met"
+    } else {
+        "**not met**"
+    }
 }
 
 /// Per-round values, "1.23, 4.56".
@@ -87,6 +82,105 @@ fn list2(v: &[f64]) -> String {
 /// A fit's median time, NaN when it did not run (no peer).
 fn median_of(run: Option<&FitRun>) -> f64 {
     run.map_or(f64::NAN, |r| r.median)
+}
+
+/// Items joined by " / " (one per output).
+fn slash(v: impl IntoIterator<Item = impl std::fmt::Display>) -> String {
+    v.into_iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" / ")
+}
+
+/// Values joined by " / ", `digits` decimals each.
+fn join(v: &[f64], digits: usize) -> String {
+    slash(v.iter().map(|x| f(*x, digits)))
+}
+
+/// Fractions as percentages with `digits` decimals joined by " / ".
+fn pct(v: &[f64], digits: usize) -> String {
+    slash(v.iter().map(|x| f(100.0 * x, digits)))
+}
+
+/// Fractions as percentages joined by " / ".
+fn pcts(v: &[f64]) -> String {
+    pct(v, 1)
+}
+
+/// `a[c] / b[c]` per output, joined by " / ".
+fn ratios(a: &[f64], b: &[f64], digits: usize) -> String {
+    slash((0..a.len()).map(|c| f(at(a, c) / at(b, c), digits)))
+}
+
+/// An RMSE of the output `name`: three decimals for temperature, two for the others.
+fn rmse(x: f64, name: &str) -> String {
+    f(x, if name == "T" { 3 } else { 2 })
+}
+
+/// RMSE per output joined by " / ".
+fn rmses(v: &[f64], channels: &[String]) -> String {
+    slash(v.iter().enumerate().map(|(c, x)| rmse(*x, channels.get(c).map_or("", |n| n))))
+}
+
+/// Gains of Model-H over Model-P [%] per output.
+fn gains(p: &[f64], h: &[f64]) -> String {
+    slash((0..p.len()).map(|c| f(fbg_report::gain_pct(p, h, c), 1)))
+}
+
+/// Table cells, each " x |".
+fn cells(v: impl IntoIterator<Item = impl std::fmt::Display>) -> String {
+    v.into_iter().map(|x| format!(" {x} |")).collect()
+}
+
+/// `n` empty table cells.
+fn blank(n: usize) -> String {
+    " |".repeat(n)
+}
+
+/// The rule under a table header of `n` columns.
+fn rule(n: usize) -> String {
+    format!("|{}", "---|".repeat(n))
+}
+
+/// An output's short name with its unit (`T [°C]`, `ε [µε]`, `p [kPa]`).
+fn channel_unit(name: &str) -> String {
+    match name {
+        "T" => "T [°C]".into(),
+        "strain" => "ε [µε]".into(),
+        "strain2" => "ε₂ [µε]".into(),
+        "p" => "p [kPa]".into(),
+        other => other.into(),
+    }
+}
+
+/// The outputs with their units, `T [°C] / ε [µε] / p [kPa]`.
+fn channel_units(channels: &[String]) -> String {
+    slash(channels.iter().map(|c| channel_unit(c)))
+}
+
+/// An output's short name (`T`, `ε`, `p`).
+fn short(name: &str) -> &str {
+    match name {
+        "strain" => "ε",
+        "strain2" => "ε₂",
+        other => other,
+    }
+}
+
+/// The outputs, "T / ε / p".
+fn channel_names(channels: &[String]) -> String {
+    slash(channels.iter().map(|n| short(n)))
+}
+
+/// Output `c`'s short name ("?" when the run names fewer).
+fn channel(channels: &[String], c: usize) -> &str {
+    channels.get(c).map_or("?", |n| short(n))
+}
+
+/// The target on the mean gain of Model-H over Model-P on the `paper` preset [%] (DESIGN §8).
+fn mean_gain_target(name: &str) -> f64 {
+    if name.starts_with("strain") {
+        30.0
+    } else {
+        40.0
+    }
 }
 
 /// The whole file.

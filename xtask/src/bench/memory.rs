@@ -8,10 +8,9 @@
 //!
 //! `import --format spectra-csv` of a spectra file of about 1 GB (the `paper` record's spectra,
 //! 512 pixels, sampled finer; `--quick`: about 0.1 GB), simulated there and deleted the same
-//! way (issue 41: memory that does not follow the file's length). Alone:
+//! way (memory that does not follow the file's length). Alone:
 //! `cargo xtask bench --import-memory-only [--quick]`.
 
-use std::fmt::Write as _;
 use std::fs;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -35,12 +34,12 @@ const EVALUATE_MAX_ROWS: usize = 1_000_000;
 const SPECTRA_DT_S: f64 = 2.8;
 const SPECTRA_DT_S_QUICK: f64 = 28.0;
 
-/// Target (issue 41): `import` of a 1 GB spectra file within this peak resident set.
+/// Target: `import` of a 1 GB spectra file within this peak resident set.
 pub const TARGET_IMPORT_SPECTRA_BYTES: u64 = 100_000_000;
 /// The file size the target is stated for.
 pub const TARGET_IMPORT_SPECTRA_FILE_BYTES: u64 = 1_000_000_000;
 
-/// Targets (issue 28): `compensate` and `evaluate` streaming, `train` holding its columns.
+/// Targets: `compensate` and `evaluate` streaming, `train` holding its columns.
 pub const TARGET_STREAM_BYTES_1E7: u64 = 200_000_000;
 pub const TARGET_TRAIN_BYTES_1E7: u64 = 1_200_000_000;
 
@@ -58,7 +57,7 @@ pub struct MemoryRun {
 }
 
 /// The memory study.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Memory {
     pub runs: Vec<MemoryRun>,
     /// The `simulate` commands of the records (the 10⁷-row one deleted afterwards).
@@ -120,7 +119,7 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<Memory> {
     let dir = root.join("target/bench/memory");
     fs::create_dir_all(&dir)?;
     let rows: &[(usize, f64)] = if opts.quick { &ROWS[..1] } else { &ROWS };
-    let mut m = Memory { runs: Vec::new(), datasets: Vec::new(), csv_bytes: Vec::new(), spectra_import: None };
+    let mut m = Memory::default();
     for &(n, dt) in rows {
         let csv = dir.join(format!("n{n}.csv"));
         let result = measure(root, r, &dir, &csv, n, dt, &mut m);
@@ -145,22 +144,8 @@ pub fn spectra_import(root: &Path, r: &Runner, opts: &Opts) -> Result<SpectraImp
     let result = (|| -> Result<SpectraImport> {
         fs::write(&toml, format!("# the paper record's spectra, sampled finer\n[clock]\ndt_s = {dt}\n"))?;
         let (toml_s, sp_s, rec_s, out_s) = (rel(&toml, root), rel(&sp, root), rel(&rec, root), rel(&out, root));
-        let (_, simulate) = r.json(
-            TRAINER,
-            &super::runner::strings(&[
-                "simulate",
-                "--config",
-                &toml_s,
-                "--seed",
-                "7",
-                "--json",
-                "--spectra",
-                &sp_s,
-                "--out",
-                &rec_s,
-            ]),
-            &[],
-        )?;
+        let simulate =
+            r.simulate(&["--config", &toml_s, "--seed", "7", "--json", "--spectra", &sp_s, "--out", &rec_s])?;
         let spectra_bytes = fs::metadata(&sp)?.len();
         let spectra_rows = count_lines(&sp)?.saturating_sub(1);
         let (bytes, seconds, command) =
@@ -193,28 +178,13 @@ fn count_lines(path: &Path) -> Result<u64> {
 /// `cargo xtask bench --import-memory-only`: the spectra import's peak memory alone, into the
 /// BENCHMARKS.json already there.
 pub fn import_only(root: &Path, opts: &Opts) -> Result<()> {
-    crate::cmd::run(crate::cmd::cargo().current_dir(root).args([
-        "build",
-        "--release",
-        "--locked",
-        "-p",
-        "fbg-trainer",
-    ]))?;
-    let r = Runner { root: root.to_path_buf() };
-    let part = spectra_import(root, &r, opts)?;
-    let path = root.join("BENCHMARKS.json");
-    let mut report: super::report::Report = super::runner::read_json(&path)?;
-    let mut memory = report.memory.take().unwrap_or(Memory {
-        runs: Vec::new(),
-        datasets: Vec::new(),
-        csv_bytes: Vec::new(),
-        spectra_import: None,
-    });
-    memory.spectra_import = Some(part);
-    report.memory = Some(memory);
-    let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
-    crate::cmd::write_atomic(&path, json.as_bytes())?;
-    crate::cmd::write_atomic(&root.join("BENCHMARKS.md"), super::markdown::markdown(&report).as_bytes())?;
+    super::build_trainer(root)?;
+    let part = spectra_import(root, &Runner { root: root.to_path_buf() }, opts)?;
+    super::update(root, |r| {
+        let memory = r.memory.get_or_insert_with(Memory::default);
+        memory.spectra_import = Some(part);
+        Ok(())
+    })?;
     eprintln!("bench: wrote the spectra import's peak memory into BENCHMARKS.md and BENCHMARKS.json");
     Ok(())
 }
@@ -223,11 +193,7 @@ fn measure(root: &Path, r: &Runner, dir: &Path, csv: &Path, n: usize, dt: f64, m
     let toml = dir.join(format!("n{n}.toml"));
     fs::write(&toml, format!("# {n} samples over the 14 days of the paper clock\n[clock]\ndt_s = {dt}\n"))?;
     let (csv_s, toml_s) = (rel(csv, root), rel(&toml, root));
-    let (_, c) = r.json(
-        TRAINER,
-        &super::runner::strings(&["simulate", "--config", &toml_s, "--seed", "7", "--json", "--out", &csv_s]),
-        &[],
-    )?;
+    let c = r.simulate(&["--config", &toml_s, "--seed", "7", "--json", "--out", &csv_s])?;
     m.datasets.push(c);
     m.csv_bytes.push(fs::metadata(csv)?.len());
     let model = rel(&dir.join(format!("n{n}.fbgm")), root);
@@ -262,15 +228,15 @@ fn measure(root: &Path, r: &Runner, dir: &Path, csv: &Path, n: usize, dt: f64, m
 
 /// The BENCHMARKS.md section.
 pub fn markdown(s: &mut String, mem: &Memory) {
-    let _ = writeln!(s, "## Memory (peak resident set per command)\n");
-    let _ = writeln!(
+    out!(s, "## Memory (peak resident set per command)\n");
+    out!(
         s,
         "Each command alone, its peak resident set from `wait4` (`ru_maxrss`); records of the `paper` preset sampled finer over its 14 days (seed 7). Targets at 10⁷ rows: `compensate` and `evaluate` ≤ {} MB (streaming rows), `train` ≤ {} MB (it holds the rows' columns as f64).\n",
         TARGET_STREAM_BYTES_1E7 / 1_000_000,
         TARGET_TRAIN_BYTES_1E7 / 1_000_000
     );
-    let _ = writeln!(s, "| rows | CSV | command | peak RSS | wall time | target |");
-    let _ = writeln!(s, "|---:|---:|---|---:|---:|---|");
+    out!(s, "| rows | CSV | command | peak RSS | wall time | target |");
+    out!(s, "|---:|---:|---|---:|---:|---|");
     for r in &mem.runs {
         let csv = ROWS
             .iter()
@@ -285,7 +251,7 @@ pub fn markdown(s: &mut String, mem: &Memory) {
         let verdict = target.map_or("–".to_string(), |t| {
             format!("≤ {} MB: {}", t / 1_000_000, if r.peak_rss_bytes <= t { "met" } else { "**not met**" })
         });
-        let _ = writeln!(
+        out!(
             s,
             "| {} | {csv} | `{}` | {:.0} MB | {:.1} s | {verdict} |",
             r.rows,
@@ -294,7 +260,7 @@ pub fn markdown(s: &mut String, mem: &Memory) {
             r.seconds
         );
     }
-    let _ = writeln!(
+    out!(
         s,
         "\n`evaluate` is `evaluate --quick` on the record without its simulation sidecar (a real record: Table 2 and the static audit), which streams its rows in two passes and reads only the calibration prefix the static audit needs. `evaluate (simulated record)` is the same beside its `.meta.json`, which adds the per-sample oracle and re-simulates the record: measured on {} rows only.",
         EVALUATE_MAX_ROWS
@@ -307,7 +273,7 @@ pub fn markdown(s: &mut String, mem: &Memory) {
             (true, false) => "**not met**",
             (false, _) => "not measured at that size (`--quick`)",
         };
-        let _ = writeln!(
+        out!(
             s,
             "\n`import --format spectra-csv` of a {:.2} GB spectra file ({} spectra of 512 pixels, no map: discovery): peak RSS **{:.0} MB**, {:.1} s. Target (issue 41): a {} GB file within {} MB: {verdict}.",
             sp.spectra_bytes as f64 / 1e9,
@@ -318,12 +284,12 @@ pub fn markdown(s: &mut String, mem: &Memory) {
             TARGET_IMPORT_SPECTRA_BYTES / 1_000_000
         );
     }
-    let _ = writeln!(s, "\nCommands:\n");
+    out!(s, "\nCommands:\n");
     let spectra = mem.spectra_import.iter().flat_map(|sp| [&sp.simulate, &sp.run.command]);
     for c in mem.datasets.iter().chain(mem.runs.iter().map(|r| &r.command)).chain(spectra) {
-        let _ = writeln!(s, "- `{c}`");
+        out!(s, "- `{c}`");
     }
-    let _ = writeln!(s);
+    out!(s);
 }
 
 #[cfg(test)]

@@ -26,7 +26,17 @@ use anyhow::Result;
 
 use crate::cmd::{cargo, run, step, write_atomic};
 use report::{Device, Report};
-use runner::{strings, Runner};
+use runner::Runner;
+
+/// `writeln!` into a `String`, which cannot fail.
+macro_rules! out {
+    ($s:expr) => {{
+        let _ = std::fmt::Write::write_fmt($s, format_args!("\n"));
+    }};
+    ($s:expr, $($arg:tt)*) => {{
+        let _ = std::fmt::Write::write_fmt($s, format_args!("{}\n", format_args!($($arg)*)));
+    }};
+}
 
 pub mod accuracy;
 pub mod device;
@@ -94,7 +104,7 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     let device = device::part(root, opts);
 
     step("bench: release build of the trainer");
-    run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))?;
+    build_trainer(root)?;
 
     step("bench: scikit-learn peer environment");
     let peer_env = runner::python_env(root, &r);
@@ -153,10 +163,7 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
         slurm: runner::read_json::<Report>(&root.join("BENCHMARKS.json")).ok().and_then(|old| old.slurm),
         python,
     };
-    // Through a `Value`, whose maps are sorted: the keys come out in alphabetical order.
-    let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
-    write_atomic(&root.join("BENCHMARKS.json"), json.as_bytes())?;
-    write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
+    write(root, &report)?;
     eprintln!("bench: wrote BENCHMARKS.md and BENCHMARKS.json in {:.0} s", t0.elapsed().as_secs_f64());
     device.map(|_| ())
 }
@@ -169,28 +176,13 @@ fn simulate_datasets(root: &Path, r: &Runner) -> Result<Vec<String>> {
     for (n, dt) in SIZES {
         let toml = data_dir.join(format!("n{n}.toml"));
         fs::write(&toml, format!("# {n} samples over the 14 days of the paper clock\n[clock]\ndt_s = {dt}\n"))?;
-        let (_, c) = r.json(
-            TRAINER,
-            &strings(&["simulate", "--config", &rel(&toml, root), "--seed", "7", "--json", "--out", &data(n)]),
-            &[],
-        )?;
-        cmds.push(c);
+        cmds.push(r.simulate(&["--config", &rel(&toml, root), "--seed", "7", "--json", "--out", &data(n)])?);
     }
     for preset in ["paper", "harsh", "field"] {
         let seeds: &[u64] = if preset == "harsh" { &[7] } else { &COVERAGE_SEEDS };
         for &seed in seeds {
-            let args = [
-                "simulate",
-                "--preset",
-                preset,
-                "--seed",
-                &seed.to_string(),
-                "--json",
-                "--out",
-                &preset_csv(preset, seed),
-            ];
-            let (_, c) = r.json(TRAINER, &strings(&args), &[])?;
-            cmds.push(c);
+            let (seed, csv) = (seed.to_string(), preset_csv(preset, seed));
+            cmds.push(r.simulate(&["--preset", preset, "--seed", &seed, "--json", "--out", &csv])?);
         }
     }
     Ok(cmds)
@@ -198,22 +190,40 @@ fn simulate_datasets(root: &Path, r: &Runner) -> Result<Vec<String>> {
 
 /// Put the figures of `cargo xtask slurm` into BENCHMARKS.json and render BENCHMARKS.md again.
 pub fn record_slurm(root: &Path, figures: serde_json::Value) -> Result<()> {
-    let mut report: Report = runner::read_json(&root.join("BENCHMARKS.json"))?;
-    report.slurm = Some(figures);
-    let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
-    write_atomic(&root.join("BENCHMARKS.json"), json.as_bytes())?;
-    write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
-    Ok(())
+    update(root, |r| {
+        r.slurm = Some(figures);
+        Ok(())
+    })
 }
 
 /// `cargo xtask bench --markdown-only`: BENCHMARKS.md again from BENCHMARKS.json, measuring
 /// nothing (after a change to the markdown writer).
 fn markdown_only(root: &Path) -> Result<()> {
-    let path = root.join("BENCHMARKS.json");
-    let report: Report = runner::read_json(&path)?;
+    let report: Report = runner::read_json(&root.join("BENCHMARKS.json"))?;
     write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(&report).as_bytes())?;
     eprintln!("bench: wrote BENCHMARKS.md from BENCHMARKS.json");
     Ok(())
+}
+
+/// One part measured alone: BENCHMARKS.json read, changed by `f`, written back with
+/// BENCHMARKS.md rendered from it (the rest of the file kept as it was).
+pub fn update(root: &Path, f: impl FnOnce(&mut Report) -> Result<()>) -> Result<()> {
+    let mut report: Report = runner::read_json(&root.join("BENCHMARKS.json"))?;
+    f(&mut report)?;
+    write(root, &report)
+}
+
+/// BENCHMARKS.json and BENCHMARKS.md from `report`.
+fn write(root: &Path, report: &Report) -> Result<()> {
+    // Through a `Value`, whose maps are sorted: the keys come out in alphabetical order.
+    let json = serde_json::to_string_pretty(&serde_json::to_value(report)?)?;
+    write_atomic(&root.join("BENCHMARKS.json"), json.as_bytes())?;
+    write_atomic(&root.join("BENCHMARKS.md"), markdown::markdown(report).as_bytes())
+}
+
+/// The release build of the trainer every part runs.
+pub fn build_trainer(root: &Path) -> Result<()> {
+    run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))
 }
 
 fn data(n: usize) -> String {

@@ -1,5 +1,5 @@
-//! Static fidelity and pace (issue 26): `train` and `evaluate --quick` through the CLI, as a user
-//! runs them, on every coverage seed of the `paper` preset (the pace study of `evaluate`: the
+//! Static fidelity and pace (DESIGN §4, §5): `train` and `evaluate --quick` through the CLI, as a
+//! user runs them, on every coverage seed of the `paper` preset (the pace study of `evaluate`: the
 //! calibration's installation at ×¼, ×4, ×8, all measurands and each alone, and on a steps
 //! record, with the settled slopes) and of the `field` preset (other physics per effect).
 
@@ -8,8 +8,11 @@ use std::path::Path;
 
 use anyhow::{bail, Result};
 
-use super::report::{at_most, EvalRun, FieldBench, PaceBench, PaceRow, PaceSummary};
-use super::runner::{EvalChannel, EvalModel, EvalOut, Runner};
+use fbg_report::{Metrics, ModelEval, PaceRow};
+
+use super::report::{at_most, EvalRun, FieldBench, PaceBench, PaceSummary};
+use super::runner::Runner;
+use super::stats::{at, fold_nan, mean};
 use super::{preset_csv, COVERAGE_SEEDS};
 
 /// Band coverage Model-H must reach on every channel of every pace record (fraction).
@@ -29,12 +32,13 @@ fn train_eval(r: &Runner, preset: &str, seed: u64) -> Result<EvalRun> {
     let model = model_path(preset, seed);
     let (_, train_command): (serde_json::Value, _) =
         r.trainer(&["train", "--data", &csv, "--out", &model, "--json"])?;
-    let (e, evaluate_command): (EvalOut, _) =
+    let (e, evaluate_command): (Metrics, _) =
         r.trainer(&["evaluate", "--quick", "--data", &csv, "--model", &model, "--json"])?;
     if e.seed != seed {
         bail!("`{evaluate_command}` reports seed {}, expected {seed}", e.seed);
     }
-    let col = |m: &EvalModel, f: fn(&EvalChannel) -> f64| -> Vec<f64> { m.channels.iter().map(f).collect() };
+    let col =
+        |m: &ModelEval, f: fn(&fbg_report::ChannelMetrics) -> f64| -> Vec<f64> { m.channels.iter().map(f).collect() };
     let (p, h) = (&e.table2.model_p, &e.table2.model_h);
     Ok(EvalRun {
         seed,
@@ -80,32 +84,6 @@ pub fn pace_targets_met(rows: &[PaceRow]) -> bool {
 
 fn seeds_pace_targets(runs: &[EvalRun]) -> usize {
     runs.iter().filter(|r| r.pace.as_ref().is_some_and(|p| pace_targets_met(&p.rows))).count()
-}
-
-/// Smallest / largest of `v`, NaN when any value is NaN or there is none.
-fn fold_nan(v: impl Iterator<Item = f64>, f: fn(f64, f64) -> f64) -> f64 {
-    v.fold(None, |acc: Option<f64>, x| {
-        Some(match acc {
-            Some(a) if a.is_nan() || x.is_nan() => f64::NAN,
-            Some(a) => f(a, x),
-            None => x,
-        })
-    })
-    .unwrap_or(f64::NAN)
-}
-
-fn mean(v: impl Iterator<Item = f64>) -> f64 {
-    let (sum, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
-    if n == 0 {
-        f64::NAN
-    } else {
-        sum / n as f64
-    }
-}
-
-/// Value `c` of a per-channel list, NaN when it is missing.
-fn at(v: &[f64], c: usize) -> f64 {
-    v.get(c).copied().unwrap_or(f64::NAN)
 }
 
 /// Per record of the pace study (in the order of the first seed's), over the seeds.
@@ -171,7 +149,7 @@ fn field_bench(runs: Vec<EvalRun>, pace_summary: Vec<PaceSummary>, seeds_pace_ta
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::report::PaceStudy;
+    use fbg_report::PaceStudy;
 
     fn row(label: &str, p: [f64; 3], h: [f64; 3], cov_h: [f64; 3], slopes: Option<([f64; 3], [f64; 3])>) -> PaceRow {
         PaceRow {

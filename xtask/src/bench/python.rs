@@ -1,21 +1,21 @@
-//! The Python package's part of the bench (issue 32): `bench/python_peer.py` in the package's
+//! The Python package's part of the bench: `bench/python_peer.py` in the package's
 //! venv (`cargo xtask python` makes it) times `predict` on 10⁶ rows against the scikit-learn
 //! peer's pipeline and the CLI's `compensate`, and `fit` against `bench-fit --fixed`; its JSON
 //! goes into BENCHMARKS.json as `python`, with the command that produced it.
 
-use std::fmt::Write as _;
 use std::path::Path;
 use std::process::Command;
 
 use anyhow::{bail, Context, Result};
 use serde_json::Value;
 
+use super::markdown::met;
 use crate::cmd::{describe, step, write_atomic};
 
 /// The script, relative to the workspace root.
 const SCRIPT: &str = "bench/python_peer.py";
 /// Targets: `predict` at least this many times faster than the scikit-learn pipeline (DESIGN
-/// §8, issue 41: the stateless parts batched, the memory operators one scan) …
+/// §8: the stateless parts batched, the memory operators one scan) …
 pub const TARGET_SPEEDUP_VS_SKLEARN: f64 = 3.0;
 /// … and at most this many times the CLI's `compensate`; `fit` at most this many times
 /// `bench-fit --fixed`.
@@ -50,12 +50,10 @@ pub fn run_alone(root: &Path) -> Result<()> {
     step("bench: the Python package against the scikit-learn peer and the CLI");
     let Some(v) = part(root)? else { return Ok(()) };
     println!("{}", serde_json::to_string_pretty(&v)?);
-    let path = root.join("BENCHMARKS.json");
-    let mut report: super::report::Report = super::runner::read_json(&path)?;
-    report.python = Some(v);
-    let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
-    write_atomic(&path, json.as_bytes())?;
-    write_atomic(&root.join("BENCHMARKS.md"), super::markdown::markdown(&report).as_bytes())?;
+    super::update(root, |r| {
+        r.python = Some(v);
+        Ok(())
+    })?;
     eprintln!("bench: put the Python figures into BENCHMARKS.json and BENCHMARKS.md");
     Ok(())
 }
@@ -64,22 +62,14 @@ fn num(v: &Value, path: &[&str]) -> f64 {
     path.iter().try_fold(v, |v, k| v.get(k)).and_then(Value::as_f64).unwrap_or(f64::NAN)
 }
 
-fn met(ok: bool) -> &'static str {
-    if ok {
-        "met"
-    } else {
-        "**not met**"
-    }
-}
-
 /// The BENCHMARKS.md section.
 pub fn markdown(s: &mut String, v: &Value) {
     let speedup = num(v, &["speedup_vs_sklearn"]);
     let to_cli = num(v, &["ratio_to_cli_compensate"]);
     let fit = num(v, &["fit_ratio_to_cli"]);
     let same = v.get("same_as_cli").and_then(Value::as_bool).unwrap_or(false);
-    let _ = writeln!(s, "## Python package (`fbg_compensation`)\n");
-    let _ = writeln!(
+    out!(s, "## Python package (`fbg_compensation`)\n");
+    out!(
         s,
         "`predict` of a Model-H (the `paper` feature set, K = 32, fixed) over {} rows of the `paper` preset from a pandas DataFrame in memory (the device's compensator in f64 through `fbg-shared`'s batch path: the stream state one scan in order, the RBF pass over several rows at once and over the cores, bit for bit its step; band and flags included), against the scikit-learn pipeline of `bench/sklearn_peer.py` on the same inputs (no band) and the CLI's `compensate` on the record's CSV (a process: read, compensate, write); `fit` on its {} calibration rows against `bench-fit --fixed` with the same configuration. Medians of {} runs, alternated. Results equal to the CLI's bit for bit: {}.\n",
         v.get("rows").and_then(Value::as_u64).unwrap_or(0),
@@ -87,9 +77,9 @@ pub fn markdown(s: &mut String, v: &Value) {
         v.get("repeats").and_then(Value::as_u64).unwrap_or(0),
         if same { "yes" } else { "**no**" }
     );
-    let _ = writeln!(s, "| what | ours | peer | ratio | target |");
-    let _ = writeln!(s, "|---|---:|---:|---:|---|");
-    let _ = writeln!(
+    out!(s, "| what | ours | peer | ratio | target |");
+    out!(s, "|---|---:|---:|---:|---|");
+    out!(
         s,
         "| `predict` vs scikit-learn pipeline | {:.3} s | {:.3} s | {:.1}× faster | ≥ {TARGET_SPEEDUP_VS_SKLEARN}× faster: {} |",
         num(v, &["predict_seconds", "ours"]),
@@ -97,7 +87,7 @@ pub fn markdown(s: &mut String, v: &Value) {
         speedup,
         met(speedup >= TARGET_SPEEDUP_VS_SKLEARN)
     );
-    let _ = writeln!(
+    out!(
         s,
         "| `predict` vs `fbg-trainer compensate` | {:.3} s | {:.3} s | {:.2}× | ≤ {TARGET_RATIO_TO_CLI}×: {} |",
         num(v, &["predict_seconds", "ours"]),
@@ -105,7 +95,7 @@ pub fn markdown(s: &mut String, v: &Value) {
         to_cli,
         met(to_cli <= TARGET_RATIO_TO_CLI)
     );
-    let _ = writeln!(
+    out!(
         s,
         "| `fit` vs `bench-fit --fixed` | {:.3} s | {:.3} s | {:.2}× | ≤ {TARGET_FIT_RATIO}×: {} |",
         num(v, &["fit_seconds", "ours"]),
@@ -115,14 +105,14 @@ pub fn markdown(s: &mut String, v: &Value) {
     );
     if let Some(l) = v.get("load_average").and_then(Value::as_array).filter(|l| l.len() == 3) {
         let l: Vec<String> = l.iter().map(|x| format!("{:.1}", x.as_f64().unwrap_or(f64::NAN))).collect();
-        let _ = writeln!(
+        out!(
             s,
             "\nLoad average when the run ended (1, 5, 15 min): {} (other work on the machine slows both sides, not necessarily alike).",
             l.join(" / ")
         );
     }
     let cmd = |k: &str| v.get("commands").and_then(|c| c.get(k)).and_then(Value::as_str).unwrap_or("").to_string();
-    let _ = writeln!(
+    out!(
         s,
         "\nCommand: `{}`; inside it `{}` and `{}`.\n",
         v.get("command").and_then(Value::as_str).unwrap_or("cargo xtask python --bench"),

@@ -3,8 +3,9 @@
 //! The key names are the file's contract (other tools read it): a field here is named as its key.
 //! The file is written through `serde_json::Value`, whose maps are sorted, so the keys come out
 //! in alphabetical order whatever the field order here. serde_json writes a NaN or an infinity
-//! as `null`; every `f64` field reads `null`, or a key an older file lacks, back as NaN ([`nan`]),
-//! which the tables print as "–". Objects that come whole from another tool keep the keys this
+//! as `null`; every `f64` field reads `null`, or a key an older file lacks, back as NaN
+//! ([`fbg_report::nan`]), which the tables print as "–". Per-output lists follow the
+//! `channels` of their part. Objects that come whole from another tool keep the keys this
 //! crate does not read in a `rest` map, so nothing is lost on the way through.
 
 use std::collections::BTreeMap;
@@ -13,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 pub use crate::device_bench::record::{DeviceRecord, StepRow};
-use crate::nan;
+use fbg_report::nan;
 
 mod accuracy;
 mod pace;
@@ -25,9 +26,6 @@ pub use training::*;
 
 /// Keys of an object that the markdown does not read, kept as they came.
 pub type Rest = BTreeMap<String, Value>;
-
-/// Three channels (T, ε, p).
-pub type Rmse = [f64; 3];
 
 /// The whole file.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -56,7 +54,7 @@ pub struct Report {
     /// `evaluate --quick` per seed (absent from files written before it was measured).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub field: Option<FieldBench>,
-    /// Peak detection in spectra (issue 31): throughput, accuracy table, the spectrum chain
+    /// Peak detection in spectra: throughput, accuracy table, the spectrum chain
     /// (absent from files written before it was measured).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spectrum: Option<super::spectrum::SpectrumBench>,
@@ -197,26 +195,18 @@ pub struct LowerBoundAtK {
 mod tests {
     use super::*;
 
-    fn committed() -> Value {
-        let path = crate::cmd::root().join("BENCHMARKS.json");
-        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-    }
-
-    /// Drop the keys of `a` that are `null` where `b` lacks them (an older file lacks the keys
-    /// a newer bench adds; read back, they are `null`).
-    fn without_added_nulls(a: &mut Value, b: &Value) {
+    /// Drop the keys of `a` that `b` lacks (an older file lacks the keys a newer bench adds).
+    fn without_added_keys(a: &mut Value, b: &Value) {
         match (a, b) {
             (Value::Object(a), Value::Object(b)) => {
-                a.retain(|k, v| !v.is_null() || b.contains_key(k));
+                a.retain(|k, _| b.contains_key(k));
                 for (k, v) in a.iter_mut() {
-                    if let Some(w) = b.get(k) {
-                        without_added_nulls(v, w);
-                    }
+                    without_added_keys(v, &b[k]);
                 }
             }
             (Value::Array(a), Value::Array(b)) => {
                 for (v, w) in a.iter_mut().zip(b) {
-                    without_added_nulls(v, w);
+                    without_added_keys(v, w);
                 }
             }
             _ => {}
@@ -227,27 +217,10 @@ mod tests {
     /// and values: the types name every key as the file does.
     #[test]
     fn committed_benchmarks_json_round_trips() {
-        let v = committed();
+        let v: Value = super::super::runner::read_json(&crate::cmd::root().join("BENCHMARKS.json")).unwrap();
         let r: Report = serde_json::from_value(v.clone()).unwrap();
         let mut back = serde_json::to_value(&r).unwrap();
-        without_added_nulls(&mut back, &v);
+        without_added_keys(&mut back, &v);
         assert_eq!(back, v);
-    }
-
-    #[test]
-    fn nan_reads_null_and_missing() {
-        #[derive(Deserialize)]
-        struct T {
-            #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-            a: f64,
-            #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-            b: [f64; 3],
-            #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-            c: Vec<f64>,
-        }
-        let t: T = serde_json::from_str(r#"{"a": null, "b": [1.0, null]}"#).unwrap();
-        assert!(t.a.is_nan() && t.b[0] == 1.0 && t.b[1].is_nan() && t.b[2].is_nan() && t.c.is_empty());
-        let t: T = serde_json::from_str(r#"{"c": [2, null]}"#).unwrap();
-        assert!(t.a.is_nan() && t.c[0] == 2.0 && t.c[1].is_nan());
     }
 }

@@ -9,10 +9,10 @@ use serde::de::DeserializeOwned;
 use serde::Deserialize;
 use serde_json::Value;
 
-use super::report::{Chosen, Parity, Phase, Rmse};
+use fbg_report::nan;
+
 use super::{PEER, TRAINER, VENV_PY};
 use crate::cmd::run;
-use crate::nan;
 
 /// Runs commands from the workspace root; each answer comes with the command line as
 /// BENCHMARKS.md quotes it.
@@ -23,16 +23,17 @@ pub struct Runner {
 impl Runner {
     /// Run `program args` (program relative to the root), return its stdout parsed as JSON and
     /// the command line as it is quoted in BENCHMARKS.md.
-    pub fn json(&self, program: &str, args: &[String], env: &[(&str, &str)]) -> Result<(Value, String)> {
-        let line = command_line(program, args, env);
+    pub fn json(&self, program: &str, args: &[impl AsRef<str>]) -> Result<(Value, String)> {
+        let args: Vec<&str> = args.iter().map(AsRef::as_ref).collect();
+        let line = format!("{program} {}", args.join(" "));
         eprintln!("bench: $ {line}");
         let exe = if program.contains('/') { self.root.join(program) } else { PathBuf::from(program) };
-        let mut cmd = Command::new(exe);
-        cmd.args(args).current_dir(&self.root).stdout(Stdio::piped()).stderr(Stdio::inherit());
-        for (k, v) in env {
-            cmd.env(k, v);
-        }
-        let out = cmd.output().with_context(|| format!("could not start `{line}`"))?;
+        let out = Command::new(exe)
+            .args(&args)
+            .current_dir(&self.root)
+            .stderr(Stdio::inherit())
+            .output()
+            .with_context(|| format!("could not start `{line}`"))?;
         let v: Option<Value> = serde_json::from_slice(&out.stdout).ok();
         match v {
             Some(v) if out.status.success() || v.get("failed").is_some() => Ok((v, line)),
@@ -41,37 +42,28 @@ impl Runner {
     }
 
     /// [`Runner::json`], read as `T`.
-    pub fn typed<T: DeserializeOwned>(&self, program: &str, args: &[String]) -> Result<(T, String)> {
-        let (v, line) = self.json(program, args, &[])?;
+    pub fn typed<T: DeserializeOwned>(&self, program: &str, args: &[impl AsRef<str>]) -> Result<(T, String)> {
+        let (v, line) = self.json(program, args)?;
         let t = serde_json::from_value(v).with_context(|| format!("`{line}` printed JSON of another shape"))?;
         Ok((t, line))
     }
 
     /// `fbg-trainer args` (the release build), read as `T`.
-    pub fn trainer<T: DeserializeOwned>(&self, args: &[&str]) -> Result<(T, String)> {
-        self.typed(TRAINER, &strings(args))
+    pub fn trainer<T: DeserializeOwned>(&self, args: &[impl AsRef<str>]) -> Result<(T, String)> {
+        self.typed(TRAINER, args)
+    }
+
+    /// `fbg-trainer simulate args`: the command line.
+    pub fn simulate(&self, args: &[&str]) -> Result<String> {
+        let args: Vec<&str> = ["simulate"].iter().chain(args).copied().collect();
+        Ok(self.trainer::<Value>(&args)?.1)
     }
 
     /// The scikit-learn peer `bench/sklearn_peer.py args` in its venv, read as `T`.
-    pub fn peer<T: DeserializeOwned>(&self, args: &[&str]) -> Result<(T, String)> {
-        let mut a = vec![PEER.to_string()];
-        a.extend(strings(args));
+    pub fn peer<T: DeserializeOwned>(&self, args: &[impl AsRef<str>]) -> Result<(T, String)> {
+        let a: Vec<&str> = std::iter::once(PEER).chain(args.iter().map(AsRef::as_ref)).collect();
         self.typed(VENV_PY, &a)
     }
-}
-
-pub fn strings(a: &[&str]) -> Vec<String> {
-    a.iter().map(|s| s.to_string()).collect()
-}
-
-fn command_line(program: &str, args: &[String], env: &[(&str, &str)]) -> String {
-    let mut s: String = env.iter().map(|(k, v)| format!("{k}={v} ")).collect();
-    s.push_str(program);
-    for a in args {
-        s.push(' ');
-        s.push_str(a);
-    }
-    s
 }
 
 /// The peer's venv: created and filled by pip when missing. Its versions.
@@ -105,43 +97,29 @@ pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T> {
     serde_json::from_str(&text).with_context(|| format!("{}: not the JSON expected", path.display()))
 }
 
+/// `cargo bench -p fbg-shared --bench <bench>` (shorter with `--quick`); the command line.
+pub fn criterion(root: &Path, quick: bool, bench: &str) -> Result<String> {
+    let mut args = vec!["bench", "--locked", "-p", "fbg-shared", "--bench", bench];
+    if quick {
+        args.extend(["--", "--warm-up-time", "1", "--measurement-time", "2"]);
+    }
+    run(crate::cmd::cargo().current_dir(root).args(&args))?;
+    Ok(format!("cargo {}", args.join(" ")))
+}
+
+/// The median of criterion's benchmark `id` (`step_f32/16`) and its 95 % interval, per item of
+/// a batch of `batch` \[ns\].
+pub fn criterion_median(root: &Path, id: &str, batch: f64) -> Result<(f64, [f64; 2])> {
+    let v: Value = read_json(&root.join(format!("target/criterion/{id}/new/estimates.json")))?;
+    let m = &v["median"];
+    let ns = |x: &Value| x.as_f64().unwrap_or(f64::NAN) / batch;
+    let ci = &m["confidence_interval"];
+    Ok((ns(&m["point_estimate"]), [ns(&ci["lower_bound"]), ns(&ci["upper_bound"])]))
+}
+
 // ---------------------------------------------------------------------------------------------
-// What the commands print (only the keys the bench reads).
-
-/// `fbg-trainer bench-fit --json` (`FitBench` of the trainer).
-#[derive(Clone, Debug, Deserialize)]
-pub struct FitBench {
-    pub n_cal: usize,
-    pub threads: usize,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub read_seconds: f64,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub fit_seconds: Vec<f64>,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub fit_seconds_median: f64,
-    pub phase_seconds: Vec<Phase>,
-    pub chosen: Chosen,
-    /// The memory groups of each output (empty without memory terms).
-    #[serde(default)]
-    pub memory_groups: Vec<Vec<String>>,
-    /// Each output's ridge penalty per sample on its memory terms.
-    #[serde(default)]
-    pub memory_lambda: Vec<f64>,
-    pub grid_points: usize,
-    pub model_p: Holdout,
-    pub model_h: Holdout,
-    pub parity: Parity,
-}
-
-/// Hold-out figures of one model of `bench-fit`.
-#[derive(Clone, Debug, Deserialize)]
-pub struct Holdout {
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse: Rmse,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub coverage: Rmse,
-    pub blob_bytes: usize,
-}
+// What the commands print that no shared type describes (only the keys the bench reads); the
+// trainer's reports are `fbg_report`'s.
 
 /// `fbg-trainer train --json`.
 #[derive(Clone, Debug, Deserialize)]
@@ -163,7 +141,7 @@ pub struct FleetOut {
 #[derive(Clone, Debug, Deserialize)]
 pub struct SimMeta {
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub oracle_floor_holdout: Rmse,
+    pub oracle_floor_holdout: Vec<f64>,
 }
 
 /// `sklearn_peer.py versions`.
@@ -193,7 +171,7 @@ pub struct PeerFit {
 #[derive(Clone, Debug, Deserialize)]
 pub struct PeerModel {
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse: Rmse,
+    pub rmse: Vec<f64>,
     #[serde(default)]
     pub pickle_bytes: Option<u64>,
 }
@@ -202,56 +180,4 @@ pub struct PeerModel {
 #[derive(Clone, Debug, Deserialize)]
 pub struct PeerBlackbox {
     pub peers: Vec<super::report::BlackboxPeer>,
-}
-
-/// `target/criterion/<bench>/new/estimates.json`.
-#[derive(Clone, Debug, Deserialize)]
-pub struct CriterionEstimates {
-    pub median: CriterionEstimate,
-}
-
-#[derive(Clone, Debug, Deserialize)]
-pub struct CriterionEstimate {
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub point_estimate: f64,
-    pub confidence_interval: CriterionInterval,
-}
-
-#[derive(Clone, Debug, Deserialize)]
-pub struct CriterionInterval {
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub lower_bound: f64,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub upper_bound: f64,
-}
-
-/// `fbg-trainer evaluate --json` (`Metrics` of the trainer; only the keys the bench reads).
-#[derive(Clone, Debug, Deserialize)]
-pub struct EvalOut {
-    pub seed: u64,
-    pub channels: Vec<String>,
-    pub table2: EvalTable2,
-    #[serde(default)]
-    pub static_fidelity: Option<super::report::StaticFidelity>,
-    #[serde(default)]
-    pub pace: Option<super::report::PaceStudy>,
-}
-
-#[derive(Clone, Debug, Deserialize)]
-pub struct EvalTable2 {
-    pub model_p: EvalModel,
-    pub model_h: EvalModel,
-}
-
-#[derive(Clone, Debug, Deserialize)]
-pub struct EvalModel {
-    pub channels: Vec<EvalChannel>,
-}
-
-#[derive(Clone, Debug, Deserialize)]
-pub struct EvalChannel {
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse: f64,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub coverage: f64,
 }

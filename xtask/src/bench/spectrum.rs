@@ -1,4 +1,4 @@
-//! Peak detection in spectra (issue 31): the host throughput of `fbg-shared`'s detector
+//! Peak detection in spectra (DESIGN §8): the host throughput of `fbg-shared`'s detector
 //! (criterion, `shared/benches/spectrum.rs`), its accuracy table on simulated grating spectra
 //! (`fbg-trainer bench-spectrum`: every method × grid × SNR, RMS error and peak-locking) and
 //! the chain spectrum → peaks → compensation against the peak chain (`fbg-trainer demo
@@ -8,16 +8,16 @@
 //! the BENCHMARKS.json already there (BENCHMARKS.md rendered again); the rest of the file is
 //! kept as it was.
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{Context, Result};
+use fbg_report::AccuracyRow;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::runner::{read_json, strings, CriterionEstimates, Runner};
+use super::markdown::{f, met};
+use super::runner::{criterion, criterion_median, Runner};
 use super::{Opts, TRAINER};
-use crate::cmd::{cargo, run};
 
 /// Spectra per criterion iteration (`shared/benches/spectrum.rs`).
 const SPECTRUM_BATCH: f64 = 64.0;
@@ -25,7 +25,7 @@ const SPECTRUM_BATCH: f64 = 64.0;
 const METHODS: [&str; 5] = ["maximum", "centroid", "gaussian3", "gaussian-fit", "cross-correlation"];
 /// The default method.
 const DEFAULT_METHOD: &str = "cross-correlation";
-/// Issue 31's targets.
+/// The targets.
 const TARGET_SPECTRA_PER_S: f64 = 1e5;
 const TARGET_RMS_SWEPT_PM: f64 = 1.0;
 const TARGET_RMS_SPECTROMETER_PM: f64 = 3.0;
@@ -41,19 +41,6 @@ pub struct ThroughputRow {
     pub ns_per_spectrum: f64,
     pub spectra_per_second: f64,
     pub ci95_ns_per_spectrum: [f64; 2],
-}
-
-/// One accuracy row (what `bench-spectrum` prints).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct AccuracyRow {
-    pub method: String,
-    pub grid: String,
-    pub apodisation: String,
-    pub peak_reflectivity: f64,
-    pub locking_pp_pm: f64,
-    pub bias_pm: f64,
-    /// (SNR \[dB\], RMS \[pm\]).
-    pub rms_pm: Vec<(f64, f64)>,
 }
 
 /// One chain comparison (what `demo --spectra --json` prints, the keys read here).
@@ -91,29 +78,20 @@ pub struct SpectrumBench {
 
 /// Measure the part.
 pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<SpectrumBench> {
-    let mut args = vec!["bench", "--locked", "-p", "fbg-shared", "--bench", "spectrum"];
-    if opts.quick {
-        args.extend(["--", "--warm-up-time", "1", "--measurement-time", "2"]);
-    }
-    run(cargo().current_dir(root).args(&args))?;
+    let throughput_command = criterion(root, opts.quick, "spectrum")?;
     let mut throughput = Vec::new();
     let runs = METHODS.iter().map(|m| ("f64", *m)).chain([("f32", DEFAULT_METHOD)]);
     for (prec, method) in runs {
-        let p = root.join(format!("target/criterion/spectrum_{prec}/{method}/new/estimates.json"));
-        let m = read_json::<CriterionEstimates>(&p)?.median;
-        let ns = m.point_estimate / SPECTRUM_BATCH;
+        let (ns, ci95_ns_per_spectrum) = criterion_median(root, &format!("spectrum_{prec}/{method}"), SPECTRUM_BATCH)?;
         throughput.push(ThroughputRow {
             precision: prec.into(),
             method: method.into(),
             ns_per_spectrum: ns,
             spectra_per_second: 1e9 / ns,
-            ci95_ns_per_spectrum: [
-                m.confidence_interval.lower_bound / SPECTRUM_BATCH,
-                m.confidence_interval.upper_bound / SPECTRUM_BATCH,
-            ],
+            ci95_ns_per_spectrum,
         });
     }
-    let (acc, accuracy_command) = r.json(TRAINER, &strings(&["bench-spectrum", "--seed", "7"]), &[])?;
+    let (acc, accuracy_command) = r.json(TRAINER, &["bench-spectrum", "--seed", "7"])?;
     let rows = |key: &str| -> Result<Vec<AccuracyRow>> {
         serde_json::from_value(acc.get(key).cloned().unwrap_or(Value::Null))
             .with_context(|| format!("bench-spectrum: `{key}` is not the rows expected"))
@@ -132,7 +110,7 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<SpectrumBench> {
         if template {
             args.push("--template");
         }
-        let (v, command) = r.json(TRAINER, &strings(&args), &[])?;
+        let (v, command) = r.json(TRAINER, &args)?;
         let mut v = v;
         if let Some(o) = v.as_object_mut() {
             o.insert("command".into(), Value::String(command));
@@ -140,7 +118,7 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<SpectrumBench> {
         chains.push(serde_json::from_value(v).context("demo --spectra --json: not the keys expected")?);
     }
     Ok(SpectrumBench {
-        throughput_command: format!("cargo {}", args.join(" ")),
+        throughput_command,
         throughput,
         accuracy_command,
         accuracy_setup: setup,
@@ -150,84 +128,60 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<SpectrumBench> {
     })
 }
 
-fn f(x: f64, digits: usize) -> String {
-    if x.is_finite() {
-        format!("{x:.digits$}")
-    } else {
-        "–".into()
-    }
-}
-
-fn verdict(ok: bool) -> &'static str {
-    if ok {
-        "met"
-    } else {
-        "**not met**"
-    }
-}
-
-fn rms_at(row: &AccuracyRow, snr: f64) -> f64 {
-    row.rms_pm.iter().find(|(s, _)| (*s - snr).abs() < 1e-9).map_or(f64::NAN, |(_, v)| *v)
-}
-
 /// The section of BENCHMARKS.md.
 pub fn markdown(s: &mut String, b: &SpectrumBench) {
-    let _ = writeln!(s, "## Peak detection in spectra (issue 31)\n");
-    let _ = writeln!(
+    // The heading as BENCHMARKS.md publishes it.
+    out!(s, "## Peak detection in spectra (issue 31)\n");
+    out!(
         s,
         "Targets at 30 dB SNR (10·log₁₀(peak height/noise σ)), 0.3 nm FWHM gratings: RMS ≤ {TARGET_RMS_SWEPT_PM} pm on the 8 pm grid, ≤ {TARGET_RMS_SPECTROMETER_PM} pm on the 512-pixel grid, peak-locking ≤ {TARGET_LOCKING_PM} pm p-p for the default method (`{DEFAULT_METHOD}`); host ≥ 10⁵ spectra of 512 pixels per second on one core; the spectrum chain's compensated RMSE within 10 % of the peak chain's on `paper`.\n"
     );
     let default_row = |grid: &str| b.accuracy.iter().find(|r| r.method == DEFAULT_METHOD && r.grid == grid);
-    let _ = writeln!(s, "| target | measured | verdict |");
-    let _ = writeln!(s, "|---|---:|---|");
+    out!(s, "| target | measured | verdict |");
+    out!(s, "|---|---:|---|");
     for (grid, target) in [("swept", TARGET_RMS_SWEPT_PM), ("spectrometer", TARGET_RMS_SPECTROMETER_PM)] {
         if let Some(r) = default_row(grid) {
-            let rms = rms_at(r, 30.0);
-            let _ = writeln!(
-                s,
-                "| RMS at 30 dB, {grid} grid ≤ {target} pm | {} pm | {} |",
-                f(rms, 3),
-                verdict(rms <= target)
-            );
-            let _ = writeln!(
+            let rms = r.rms_at(30.0);
+            out!(s, "| RMS at 30 dB, {grid} grid ≤ {target} pm | {} pm | {} |", f(rms, 3), met(rms <= target));
+            out!(
                 s,
                 "| peak-locking, {grid} grid ≤ {TARGET_LOCKING_PM} pm p-p | {} pm | {} |",
                 f(r.locking_pp_pm, 3),
-                verdict(r.locking_pp_pm <= TARGET_LOCKING_PM)
+                met(r.locking_pp_pm <= TARGET_LOCKING_PM)
             );
         }
     }
     if let Some(r) = b.accuracy.iter().find(|r| r.method.ends_with("design template") && r.grid == "spectrometer") {
-        let (rms, lock) = (rms_at(r, 30.0), r.locking_pp_pm);
-        let _ = writeln!(
+        let (rms, lock) = (r.rms_at(30.0), r.locking_pp_pm);
+        out!(
             s,
             "| the same on the spectrometer grid with each peak refined by a fit of the grating's designed shape (`{}`) | RMS {} pm, locking {} pm | {} |",
             r.method,
             f(rms, 3),
             f(lock, 3),
-            verdict(rms <= TARGET_RMS_SPECTROMETER_PM && lock <= TARGET_LOCKING_PM)
+            met(rms <= TARGET_RMS_SPECTROMETER_PM && lock <= TARGET_LOCKING_PM)
         );
     }
     if let Some(t) = b.throughput.iter().find(|t| t.precision == "f64" && t.method == DEFAULT_METHOD) {
-        let _ = writeln!(
+        out!(
             s,
             "| host ≥ 10⁵ spectra/s (f64, one core) | {:.3e} /s | {} |",
             t.spectra_per_second,
-            verdict(t.spectra_per_second >= TARGET_SPECTRA_PER_S)
+            met(t.spectra_per_second >= TARGET_SPECTRA_PER_S)
         );
     }
     for c in &b.chains {
         let worst = c.ratio_spectrum_over_peak.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let how = if c.finding.contains("Template") { ", design template" } else { "" };
-        let _ = writeln!(
+        out!(
             s,
             "| chain RMSE ≤ 1.10 × peak chain, {} grid{how} | worst ratio {} | {} |",
             c.grid,
             f(worst, 3),
-            verdict(worst <= TARGET_CHAIN_RATIO)
+            met(worst <= TARGET_CHAIN_RATIO)
         );
     }
-    let _ = writeln!(s);
+    out!(s);
     accuracy_tables(s, b);
     throughput_table(s, b);
     chain_table(s, b);
@@ -235,34 +189,31 @@ pub fn markdown(s: &mut String, b: &SpectrumBench) {
 
 /// The accuracy table and the default method's row per grating.
 fn accuracy_tables(s: &mut String, b: &SpectrumBench) {
-    let _ = writeln!(
+    out!(
         s,
         "### Accuracy on simulated spectra\n\n`{}`: one uniform grating (0.3 nm FWHM, peak reflectivity 0.5, transfer-matrix spectrum with its side lobes) at 1550 nm on the SLED, swept over one pixel in 20 steps; locking and bias noise-free (counts still rounded), RMS over 20 × 25 noisy frames per SNR; errors detected − rendered wavelength.\n",
         b.accuracy_command
     );
-    let _ = writeln!(
-        s,
-        "| method | grid | locking p-p [pm] | bias [pm] | RMS 20 dB [pm] | RMS 30 dB [pm] | RMS 40 dB [pm] |"
-    );
-    let _ = writeln!(s, "|---|---|---:|---:|---:|---:|---:|");
+    out!(s, "| method | grid | locking p-p [pm] | bias [pm] | RMS 20 dB [pm] | RMS 30 dB [pm] | RMS 40 dB [pm] |");
+    out!(s, "|---|---|---:|---:|---:|---:|---:|");
     for r in &b.accuracy {
-        let _ = writeln!(
+        out!(
             s,
             "| {} | {} | {} | {} | {} | {} | {} |",
             r.method,
             r.grid,
             f(r.locking_pp_pm, 3),
             f(r.bias_pm, 3),
-            f(rms_at(r, 20.0), 3),
-            f(rms_at(r, 30.0), 3),
-            f(rms_at(r, 40.0), 3)
+            f(r.rms_at(20.0), 3),
+            f(r.rms_at(30.0), 3),
+            f(r.rms_at(40.0), 3)
         );
     }
-    let _ = writeln!(s, "\nThe default method on other gratings (same command), 30 dB:\n");
-    let _ = writeln!(s, "| method | grid | apodisation | peak reflectivity | locking p-p [pm] | RMS 30 dB [pm] |");
-    let _ = writeln!(s, "|---|---|---|---:|---:|---:|");
+    out!(s, "\nThe default method on other gratings (same command), 30 dB:\n");
+    out!(s, "| method | grid | apodisation | peak reflectivity | locking p-p [pm] | RMS 30 dB [pm] |");
+    out!(s, "|---|---|---|---:|---:|---:|");
     for r in &b.accuracy_by_grating {
-        let _ = writeln!(
+        out!(
             s,
             "| {} | {} | {} | {} | {} | {} |",
             r.method,
@@ -270,18 +221,18 @@ fn accuracy_tables(s: &mut String, b: &SpectrumBench) {
             r.apodisation,
             r.peak_reflectivity,
             f(r.locking_pp_pm, 3),
-            f(rms_at(r, 30.0), 3)
+            f(r.rms_at(30.0), 3)
         );
     }
 }
 
 /// The criterion figures.
 fn throughput_table(s: &mut String, b: &SpectrumBench) {
-    let _ = writeln!(s, "\n### Host throughput\n\n`{}`: 512-pixel spectra with 3 sinc² peaks at 30 dB, one reused detector; criterion median of 100 samples of 64 spectra.\n", b.throughput_command);
-    let _ = writeln!(s, "| precision | method | ns per spectrum | spectra/s | 95 % CI [ns] |");
-    let _ = writeln!(s, "|---|---|---:|---:|---|");
+    out!(s, "\n### Host throughput\n\n`{}`: 512-pixel spectra with 3 sinc² peaks at 30 dB, one reused detector; criterion median of 100 samples of 64 spectra.\n", b.throughput_command);
+    out!(s, "| precision | method | ns per spectrum | spectra/s | 95 % CI [ns] |");
+    out!(s, "|---|---|---:|---:|---|");
     for t in &b.throughput {
-        let _ = writeln!(
+        out!(
             s,
             "| {} | {} | {} | {:.3e} | {} – {} |",
             t.precision,
@@ -296,15 +247,15 @@ fn throughput_table(s: &mut String, b: &SpectrumBench) {
 
 /// The chain against the peak chain, per grid.
 fn chain_table(s: &mut String, b: &SpectrumBench) {
-    let _ = writeln!(s, "\n### Chain spectrum → peaks → compensation (`paper`, seed 7)\n");
-    let _ = writeln!(s, "Model-H hold-out RMSE, trained and evaluated as `demo` does, on the record as simulated (peak chain) and rebuilt from the peaks of its simulated spectra (default gratings, 30 dB, the default method, and on the spectrometer grid also with each peak refined by a fit of the grating's designed shape: `--template`).\n");
-    let _ = writeln!(s, "| grid | command | output | peak chain | spectrum chain | ratio |");
-    let _ = writeln!(s, "|---|---|---|---:|---:|---:|");
+    out!(s, "\n### Chain spectrum → peaks → compensation (`paper`, seed 7)\n");
+    out!(s, "Model-H hold-out RMSE, trained and evaluated as `demo` does, on the record as simulated (peak chain) and rebuilt from the peaks of its simulated spectra (default gratings, 30 dB, the default method, and on the spectrometer grid also with each peak refined by a fit of the grating's designed shape: `--template`).\n");
+    out!(s, "| grid | command | output | peak chain | spectrum chain | ratio |");
+    out!(s, "|---|---|---|---:|---:|---:|");
     for c in &b.chains {
         for (k, name) in c.outputs.iter().enumerate() {
             let get = |v: &[f64]| v.get(k).copied().unwrap_or(f64::NAN);
             let unit = c.units.get(k).map(String::as_str).unwrap_or("");
-            let _ = writeln!(
+            out!(
                 s,
                 "| {} | `{}` | {name} | {} {unit} | {} {unit} | {} |",
                 c.grid,
@@ -320,23 +271,20 @@ fn chain_table(s: &mut String, b: &SpectrumBench) {
             .zip(&c.peak_error_bias_pm)
             .map(|(r, b)| format!("{} (bias {})", f(*r, 3), f(*b, 3)))
             .collect();
-        let _ = writeln!(s, "| {} | | peak error RMS per grating [pm] | | {} | |", c.grid, per.join(", "));
+        out!(s, "| {} | | peak error RMS per grating [pm] | | {} | |", c.grid, per.join(", "));
     }
-    let _ = writeln!(s);
+    out!(s);
 }
 
 /// `cargo xtask bench --spectrum-only`: this part alone, into the BENCHMARKS.json
 /// already there.
 pub fn only(root: &Path, opts: &Opts) -> Result<()> {
-    run(cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))?;
-    let r = Runner { root: root.to_path_buf() };
-    let part = part(root, &r, opts)?;
-    let path = root.join("BENCHMARKS.json");
-    let mut report: super::report::Report = read_json(&path)?;
-    report.spectrum = Some(part);
-    let json = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
-    crate::cmd::write_atomic(&path, json.as_bytes())?;
-    crate::cmd::write_atomic(&root.join("BENCHMARKS.md"), super::markdown::markdown(&report).as_bytes())?;
+    super::build_trainer(root)?;
+    let part = part(root, &Runner { root: root.to_path_buf() }, opts)?;
+    super::update(root, |r| {
+        r.spectrum = Some(part);
+        Ok(())
+    })?;
     eprintln!("bench: wrote the spectrum part into BENCHMARKS.md and BENCHMARKS.json");
     Ok(())
 }

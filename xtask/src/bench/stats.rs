@@ -1,4 +1,4 @@
-//! The statistics of the bench: medians of repeated runs and growth exponents.
+//! The statistics of the bench: medians of repeated runs, growth exponents, figures per output.
 
 /// Median of the finite values (mean of the middle two for an even count); NaN when none.
 pub fn median(xs: &[f64]) -> f64 {
@@ -23,11 +23,38 @@ pub fn log_slope(x: &[f64], y: &[f64]) -> f64 {
 }
 
 /// Largest |a − b| / b over the channels (NaN when a value is missing).
-pub fn max_rel_diff(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    if a.iter().chain(b).any(|v| v.is_nan()) {
+pub fn max_rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    if a.len() != b.len() || a.iter().chain(b).any(|v| v.is_nan()) {
         return f64::NAN;
     }
     a.iter().zip(b).map(|(x, y)| ((x - y) / y).abs()).fold(0.0, f64::max)
+}
+
+/// Value `c` of a per-channel list, NaN when it is missing.
+pub fn at(v: &[f64], c: usize) -> f64 {
+    v.get(c).copied().unwrap_or(f64::NAN)
+}
+
+/// Mean, NaN when there is no value.
+pub fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    if n == 0 {
+        f64::NAN
+    } else {
+        sum / n as f64
+    }
+}
+
+/// Smallest / largest of `v` by `f`, NaN when any value is NaN or there is none.
+pub fn fold_nan(v: impl Iterator<Item = f64>, f: fn(f64, f64) -> f64) -> f64 {
+    v.fold(None, |acc: Option<f64>, x| {
+        Some(match acc {
+            Some(a) if a.is_nan() || x.is_nan() => f64::NAN,
+            Some(a) => f(a, x),
+            None => x,
+        })
+    })
+    .unwrap_or(f64::NAN)
 }
 
 #[cfg(test)]

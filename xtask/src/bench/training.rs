@@ -6,24 +6,24 @@ use std::path::Path;
 
 use anyhow::{bail, Result};
 
+use fbg_report::FitBench;
+
 use super::report::{
     FitRun, FixedConfig, FixedDefault, FixedMemory, FixedPaper, GrowthExponent, OursFixed, OursSelect, PeerFixed,
     PeerLatch, PeerMemory, SizeRun, TrainEndToEnd, Training,
 };
-use super::runner::{strings, FitBench, PeerFit, Runner, TrainOut};
+use super::runner::{PeerFit, Runner, TrainOut};
 use super::stats::{log_slope, median};
-use super::{data, rel, Opts, PEER, SIZES, VENV_PY};
+use super::{data, rel, Opts, SIZES};
 
-impl FitBench {
-    /// As a row of the training tables, with the command that printed it.
-    fn run(&self, command: String) -> FitRun {
-        FitRun {
-            command,
-            fit_seconds: self.fit_seconds.clone(),
-            median: self.fit_seconds_median,
-            rmse_p: self.model_p.rmse,
-            rmse_h: self.model_h.rmse,
-        }
+/// Our fit as a row of the training tables, with the command that printed it.
+fn ours(b: &FitBench, command: String) -> FitRun {
+    FitRun {
+        command,
+        fit_seconds: b.fit_seconds.clone(),
+        median: b.fit_seconds_median,
+        rmse_p: b.model_p.rmse.clone(),
+        rmse_h: b.model_h.rmse.clone(),
     }
 }
 
@@ -33,8 +33,8 @@ impl PeerFit {
             command,
             median: median(&fit_seconds),
             fit_seconds,
-            rmse_p: self.model_p.rmse,
-            rmse_h: self.model_h.rmse,
+            rmse_p: self.model_p.rmse.clone(),
+            rmse_h: self.model_h.rmse.clone(),
         }
     }
 }
@@ -49,24 +49,25 @@ struct Size {
 
 impl Size {
     /// `bench-fit --fixed` with feature set `fs`.
-    fn fixed(&self, fs: &str) -> Vec<String> {
-        strings(&["bench-fit", "--data", &self.csv, "--fixed", "--feature-set", fs, "--repeats", &self.reps, "--json"])
+    fn fixed<'a>(&'a self, fs: &'a str) -> Vec<&'a str> {
+        vec!["bench-fit", "--data", &self.csv, "--fixed", "--feature-set", fs, "--repeats", &self.reps, "--json"]
     }
 
     /// The scikit-learn peer's fit with feature set `fs` (our k-means subsample).
-    fn peer(&self, fs: &str) -> Vec<String> {
-        strings(&[PEER, "fit", "--data", &self.csv, "--features", fs, "--repeats", &self.reps])
+    fn peer<'a>(&'a self, fs: &'a str) -> Vec<&'a str> {
+        vec!["fit", "--data", &self.csv, "--features", fs, "--repeats", &self.reps]
     }
 
     /// The peer as a notebook writes it (k-means over every row).
-    fn notebook(&self) -> Vec<String> {
-        strings(&[PEER, "fit", "--data", &self.csv, "--features", "paper", "--kmeans", "all", "--repeats", &self.reps])
+    fn notebook(&self) -> [&str; 9] {
+        ["fit", "--data", &self.csv, "--features", "paper", "--kmeans", "all", "--repeats", &self.reps]
     }
 }
 
 pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Training> {
     let rounds = if opts.quick { 1 } else { 3 };
     let mut sizes = Vec::new();
+    let mut channels = Vec::new();
     for (n, _) in SIZES {
         let reps = if opts.quick {
             1
@@ -76,7 +77,12 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Train
             5
         };
         let size = Size { csv: data(n), reps: reps.to_string(), rounds, peer_ok };
-        sizes.push(size_run(root, r, n, reps, &size)?);
+        let (run, outputs) = size_run(root, r, n, reps, &size)?;
+        if !channels.is_empty() && outputs != channels {
+            bail!("the fits at {n} samples have the outputs {outputs:?}, those before {channels:?}");
+        }
+        sizes.push(run);
+        channels = outputs;
     }
     let ns: Vec<f64> = SIZES.iter().map(|(n, _)| *n as f64).collect();
     let slope = |time: &dyn Fn(&SizeRun) -> f64| {
@@ -94,6 +100,7 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Train
         notebook_fixed_paper: slope(&|s| s.fixed_paper.notebook.as_ref().map_or(f64::NAN, |p| p.median)),
     };
     Ok(Training {
+        channels,
         fixed_config: FixedConfig { k: 32, sigma_mult: 2.0, alpha_rel: 1e-5, dead_band_pm: 4.0, kmeans_seed: 1 },
         sizes,
         growth_exponent,
@@ -102,35 +109,36 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts, peer_ok: bool) -> Result<Train
 
 /// Every training figure at one dataset size, in the order they are taken: the paper feature
 /// set against the peers, the default feature set, the selection, the memory terms, `train`.
-fn size_run(root: &Path, r: &Runner, n: usize, reps: usize, size: &Size) -> Result<SizeRun> {
+/// With the models' outputs.
+fn size_run(root: &Path, r: &Runner, n: usize, reps: usize, size: &Size) -> Result<(SizeRun, Vec<String>)> {
     let (fixed_paper, last_ours) = fixed_paper(r, size)?;
     // The default (hysteresis-aware) features: the peer computes the same latches with a
     // Python loop before its clock starts.
-    let (oh, cmd_oh): (FitBench, _) = r.typed(super::TRAINER, &size.fixed("hysteresis-aware"))?;
-    let ph: Option<(PeerFit, String)> =
-        if size.peer_ok { Some(r.typed(VENV_PY, &size.peer("hysteresis-aware"))?) } else { None };
+    let (oh, cmd_oh): (FitBench, _) = r.trainer(&size.fixed("hysteresis-aware"))?;
+    let ph: Option<(PeerFit, String)> = if size.peer_ok { Some(r.peer(&size.peer("hysteresis-aware"))?) } else { None };
     let (sel, cmd_sel): (FitBench, _) =
         r.trainer(&["bench-fit", "--data", &size.csv, "--select", "--repeats", &size.reps, "--json"])?;
     let fixed_memory = fixed_memory(r, size)?;
     let train_end_to_end = train_end_to_end(root, r, n, &size.csv, last_ours.read_seconds)?;
-    Ok(SizeRun {
+    let run = SizeRun {
         n_samples: n,
         n_cal: last_ours.n_cal,
         repeats_per_process: reps,
         rounds: size.rounds,
         train_end_to_end: Some(train_end_to_end),
         fixed_memory,
-        ours_select: OursSelect { fit: sel.run(cmd_sel), chosen: sel.chosen.clone(), grid_points: sel.grid_points },
+        ours_select: OursSelect { fit: ours(&sel, cmd_sel), chosen: sel.chosen, grid_points: sel.grid_points },
         fixed_paper,
         fixed_default: FixedDefault {
             ratio: ph.as_ref().map_or(f64::NAN, |(p, _)| p.fit_seconds_median / oh.fit_seconds_median),
-            ours: oh.run(cmd_oh),
+            ours: ours(&oh, cmd_oh),
             peer: ph.map(|(p, c)| PeerLatch {
                 latch_seconds: p.latch_seconds,
                 fit: FitRun { median: p.fit_seconds_median, ..p.run(c, p.fit_seconds.clone()) },
             }),
         },
-    })
+    };
+    Ok((run, last_ours.channels))
 }
 
 /// Like with like: the paper feature set (pure scikit-learn on the peer's side), fixed
@@ -146,19 +154,19 @@ fn fixed_paper(r: &Runner, size: &Size) -> Result<(FixedPaper, FitBench)> {
     let (mut cmd_ours, mut cmd_peer, mut cmd_nb) = (String::new(), String::new(), String::new());
     let (mut last_ours, mut last_peer, mut last_nb) = (None, None, None);
     for _ in 0..size.rounds {
-        let (o, c): (FitBench, _) = r.typed(super::TRAINER, &size.fixed("paper"))?;
+        let (o, c): (FitBench, _) = r.trainer(&size.fixed("paper"))?;
         cmd_ours = c;
         let mo = o.fit_seconds_median;
         ours_p.extend(o.fit_seconds.iter().copied());
         ours_phases.push(o.phase_seconds.clone());
         last_ours = Some(o);
         if size.peer_ok {
-            let (p, c): (PeerFit, _) = r.typed(VENV_PY, &size.notebook())?;
+            let (p, c): (PeerFit, _) = r.peer(&size.notebook())?;
             cmd_nb = c;
             nb_ratios.push(p.fit_seconds_median / mo);
             nb_p.extend(p.fit_seconds.iter().copied());
             last_nb = Some(p);
-            let (p, c): (PeerFit, _) = r.typed(VENV_PY, &size.peer("paper"))?;
+            let (p, c): (PeerFit, _) = r.peer(&size.peer("paper"))?;
             cmd_peer = c;
             ratios.push(p.fit_seconds_median / mo);
             peer_p.extend(p.fit_seconds.iter().copied());
@@ -168,7 +176,7 @@ fn fixed_paper(r: &Runner, size: &Size) -> Result<(FixedPaper, FitBench)> {
     let Some(last_ours) = last_ours else { bail!("bench: no training round ran") };
     let fixed = FixedPaper {
         ours: OursFixed {
-            fit: FitRun { median: median(&ours_p), fit_seconds: ours_p, ..last_ours.run(cmd_ours) },
+            fit: FitRun { median: median(&ours_p), fit_seconds: ours_p, ..ours(&last_ours, cmd_ours) },
             blob_bytes: last_ours.model_h.blob_bytes,
             read_seconds: last_ours.read_seconds,
             threads: last_ours.threads,
@@ -189,19 +197,20 @@ fn fixed_paper(r: &Runner, size: &Size) -> Result<(FixedPaper, FitBench)> {
 /// cross-validate them), alternating in each round.
 fn fixed_memory(r: &Runner, size: &Size) -> Result<FixedMemory> {
     let mut with_memory = size.fixed("hysteresis-aware");
-    with_memory.push("--memory".into());
+    with_memory.push("--memory");
     let (mut om_p, mut pm_p, mut m_ratios, mut pipe_ratios) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut last_om = None;
     let mut last_pm = None;
     for _ in 0..size.rounds {
-        let (om, cmd_om): (FitBench, _) = r.typed(super::TRAINER, &with_memory)?;
+        let (om, cmd_om): (FitBench, _) = r.trainer(&with_memory)?;
         om_p.extend(om.fit_seconds.iter().copied());
         if size.peer_ok {
             let groups: Vec<String> = om.memory_groups.iter().map(|g| g.join("+")).collect();
             let lambdas: Vec<String> = om.memory_lambda.iter().map(|l| format!("{l:e}")).collect();
+            let (groups, lambdas) = (groups.join(","), lambdas.join(","));
             let mut args = size.peer("memory");
-            args.extend(strings(&["--memory-groups", &groups.join(","), "--memory-lambda", &lambdas.join(",")]));
-            let (p, c): (PeerFit, _) = r.typed(VENV_PY, &args)?;
+            args.extend(["--memory-groups", &groups, "--memory-lambda", &lambdas]);
+            let (p, c): (PeerFit, _) = r.peer(&args)?;
             m_ratios.push(p.fit_seconds_median / om.fit_seconds_median);
             pipe_ratios.push((p.fit_seconds_median + p.latch_seconds + p.feature_seconds) / om.fit_seconds_median);
             pm_p.extend(p.fit_seconds.iter().copied());
@@ -211,7 +220,7 @@ fn fixed_memory(r: &Runner, size: &Size) -> Result<FixedMemory> {
     }
     let Some((om, cmd_om)) = last_om else { bail!("bench: no memory round ran") };
     Ok(FixedMemory {
-        fit: FitRun { median: median(&om_p), fit_seconds: om_p, ..om.run(cmd_om) },
+        fit: FitRun { median: median(&om_p), fit_seconds: om_p, ..ours(&om, cmd_om) },
         phase_seconds: om.phase_seconds.clone(),
         peer: last_pm.map(|(p, c)| PeerMemory {
             latch_seconds: p.latch_seconds,

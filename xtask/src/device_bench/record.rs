@@ -5,11 +5,11 @@
 //! the file always carried them ([`rounded`]: instructions to 0.1, instructions per SysTick
 //! tick to 1e-4, the signature check to a whole instruction and the step target as an integer).
 
+use fbg_report::nan;
 use serde::{Deserialize, Serialize};
 
 use super::store::StoreBench;
 use super::{SizeReport, StepBench, TypeSizes, VerifyBench};
-use crate::nan;
 use crate::targets::{
     PRODUCT_K, TARGET_BLOB, TARGET_BOARD_FLASH, TARGET_BOOT_US, TARGET_ERASES_PER_UPDATE, TARGET_FLASH,
     TARGET_INSNS_K32, TARGET_RAM, TARGET_RAM_LOAD,

@@ -18,25 +18,7 @@ pub const SWEEP_STEPS: usize = 20;
 /// Noise realisations per position.
 pub const REALISATIONS: usize = 25;
 
-/// One method on one grid and grating: errors of the detected − rendered wavelength \[pm\].
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct AccuracyRow {
-    /// The method's name.
-    pub method: String,
-    /// The grid's name.
-    pub grid: String,
-    /// The gratings' apodisation.
-    pub apodisation: Apodisation,
-    /// Their peak reflectivity.
-    pub peak_reflectivity: f64,
-    /// Noise-free (no detector noise; the counts still round): max − min over the sweep of the
-    /// error \[pm\] — the peak-locking.
-    pub locking_pp_pm: f64,
-    /// Noise-free mean error \[pm\] (the source's slope and the shape).
-    pub bias_pm: f64,
-    /// Per SNR \[dB\], the RMS error over every position and realisation \[pm\].
-    pub rms_pm: Vec<(f64, f64)>,
-}
+pub use fbg_report::AccuracyRow;
 
 /// The errors of every method in `methods` on `grid` for one grating of `apodisation` and
 /// `peak_reflectivity` (0.3 nm FWHM) at [`SWEEP_BRAGG_NM`] swept over one pixel in
@@ -132,7 +114,7 @@ pub fn accuracy_rows(
             AccuracyRow {
                 method: name.clone(),
                 grid: grid.name().into(),
-                apodisation,
+                apodisation: apodisation.name().into(),
                 peak_reflectivity,
                 locking_pp_pm: hi - lo,
                 bias_pm: c.iter().sum::<f64>() / c.len().max(1) as f64,

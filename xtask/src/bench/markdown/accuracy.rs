@@ -13,22 +13,29 @@ pub(super) fn accuracy(s: &mut String, acc: &Accuracy) {
          information and a far larger learner get. Size: our `.fbgm` blob; scikit-learn: `len(pickle.dumps(model))`.\n"
     );
     for p in &acc.presets {
-        preset(s, p);
+        preset(s, p, &acc.channels);
     }
     coverage(s, acc);
 }
 
 /// One preset's table: our models, the black boxes, the oracle.
-pub(super) fn preset(s: &mut String, p: &PresetRun) {
+pub(super) fn preset(s: &mut String, p: &PresetRun, ch: &[String]) {
     out!(s, "### `{}`\n", p.preset);
-    out!(s, "| model | inputs | T [°C] | ε [µε] | p [kPa] | below Model-P (T / ε / p) | size |\n|---|---|---|---|---|---|---|");
-    let base = p.model_p.rmse;
-    let row = |s: &mut String, name: &str, inputs: &str, rm: &Rmse, size: String| {
-        let r = rmse3(rm);
+    let units: Vec<String> = ch.iter().map(|c| channel_unit(c)).collect();
+    out!(
+        s,
+        "| model | inputs | {} | below Model-P ({}) | size |\n{}",
+        units.join(" | "),
+        channel_names(ch),
+        rule(4 + ch.len())
+    );
+    let base = &p.model_p.rmse;
+    let row = |s: &mut String, name: &str, inputs: &str, rm: &[f64], size: String| {
+        let r: Vec<String> = ch.iter().enumerate().map(|(c, n)| rmse(at(rm, c), n)).collect();
         // Rounded first, so that a gain of −0.3 % reads 0 %, not −0 %.
-        let gain: Vec<String> =
-            (0..3).map(|c| format!("{:.0} %", (100.0 * (1.0 - rm[c] / base[c])).round() + 0.0)).collect();
-        out!(s, "| {name} | {inputs} | {} | {} | {} | {} | {size} |", r[0], r[1], r[2], gain.join(" / "));
+        let gain =
+            slash((0..ch.len()).map(|c| format!("{:.0} %", (100.0 * (1.0 - at(rm, c) / at(base, c))).round() + 0.0)));
+        out!(s, "| {name} | {inputs} | {} | {gain} | {size} |", r.join(" | "));
     };
     row(s, "Model-P", "Δλ, T_amb", &p.model_p.rmse, format!("{} B", p.model_p.bytes));
     let h = &p.model_h_default;
@@ -47,10 +54,10 @@ pub(super) fn preset(s: &mut String, p: &PresetRun) {
         &hp.run.rmse,
         format!("{} B", hp.run.bytes),
     );
-    let mut best = [f64::INFINITY; 3];
+    let mut best = vec![f64::INFINITY; ch.len()];
     for b in p.blackbox.iter().flat_map(|b| &b.peers) {
         for (c, bst) in best.iter_mut().enumerate() {
-            *bst = bst.min(b.rmse[c]);
+            *bst = bst.min(at(&b.rmse, c));
         }
         let inputs = match b.n_inputs {
             Some(n) => format!("{} ({n} inputs)", b.inputs),
@@ -65,20 +72,14 @@ pub(super) fn preset(s: &mut String, p: &PresetRun) {
         &p.oracle_floor.rmse,
         "–".into(),
     );
-    if best[0].is_finite() {
+    if best.first().is_some_and(|b| b.is_finite()) {
         let (hr, fl) = (&h.run.rmse, &p.oracle_floor.rmse);
         out!(
             s,
-            "\nModel-H (default) / best black box: {:.2} / {:.2} / {:.2}; Model-H / per-sample oracle: {:.2} / {:.2} / {:.2}; best black box / oracle: {:.2} / {:.2} / {:.2}.",
-            hr[0] / best[0],
-            hr[1] / best[1],
-            hr[2] / best[2],
-            hr[0] / fl[0],
-            hr[1] / fl[1],
-            hr[2] / fl[2],
-            best[0] / fl[0],
-            best[1] / fl[1],
-            best[2] / fl[2]
+            "\nModel-H (default) / best black box: {}; Model-H / per-sample oracle: {}; best black box / oracle: {}.",
+            ratios(hr, &best, 2),
+            ratios(hr, fl, 2),
+            ratios(&best, fl, 2)
         );
     }
     out!(s, "\n    {}\n    {}", h.run.command, hp.run.command);
@@ -90,7 +91,7 @@ pub(super) fn preset(s: &mut String, p: &PresetRun) {
 
 /// Gain and band coverage over the coverage seeds, with the ensemble band for reference.
 pub(super) fn coverage(s: &mut String, acc: &Accuracy) {
-    let n = COVERAGE_SEEDS.len();
+    let (n, ch, nc) = (COVERAGE_SEEDS.len(), &acc.channels, acc.channels.len());
     out!(
         s,
         "### Gain over Model-P and band coverage of Model-H, `paper` preset, seeds {}–{}\n",
@@ -99,37 +100,33 @@ pub(super) fn coverage(s: &mut String, acc: &Accuracy) {
     );
     // The richest gradient-boosting hybrid (most inputs), when the peer ran.
     let richest = acc.gb_hybrids_paper.iter().max_by_key(|g| g.n_inputs.unwrap_or(0));
-    let hyb_head = richest.map_or(String::new(), |g| format!(" Model-H / GB hybrid ({}), T / ε / p |", g.inputs));
+    let hyb_head =
+        richest.map_or(String::new(), |g| format!(" Model-H / GB hybrid ({}), {} |", g.inputs, channel_names(ch)));
     let hyb_rule = if richest.is_some() { "---|" } else { "" };
+    let names = || ch.iter().map(|c| short(c));
     out!(
         s,
-        "| seed | K | gain T | gain ε | gain p | coverage T | coverage ε | coverage p |{hyb_head} command |\n|---|---|---|---|---|---|---|---|{hyb_rule}---|"
+        "| seed | K |{}{}{hyb_head} command |\n{}{hyb_rule}---|",
+        cells(names().map(|c| format!("gain {c}"))),
+        cells(names().map(|c| format!("coverage {c}"))),
+        rule(2 + 2 * nc)
     );
     let cp = &acc.coverage_paper;
     for c in &cp.per_seed {
         let hyb = match richest {
             Some(g) => match c.gb_hybrids.iter().find(|p| p.inputs == g.inputs) {
-                Some(p) => format!(
-                    " {} / {} / {} |",
-                    f(c.rmse_h[0] / p.rmse[0], 2),
-                    f(c.rmse_h[1] / p.rmse[1], 2),
-                    f(c.rmse_h[2] / p.rmse[2], 2)
-                ),
+                Some(p) => format!(" {} |", ratios(&c.rmse_h, &p.rmse, 2)),
                 None => " – |".to_string(),
             },
             None => String::new(),
         };
         out!(
             s,
-            "| {} | {} | {:.1} % | {:.1} % | {:.1} % | {:.1} % | {:.1} % | {:.1} % |{hyb} `{}` |",
+            "| {} | {} |{}{}{hyb} `{}` |",
             c.seed,
             c.k,
-            c.gain_pct(0),
-            c.gain_pct(1),
-            c.gain_pct(2),
-            100.0 * c.coverage_h[0],
-            100.0 * c.coverage_h[1],
-            100.0 * c.coverage_h[2],
+            cells((0..nc).map(|k| format!("{:.1} %", c.gain_pct(k)))),
+            cells((0..nc).map(|k| format!("{:.1} %", 100.0 * at(&c.coverage_h, k)))),
             c.command
         );
     }
@@ -137,78 +134,51 @@ pub(super) fn coverage(s: &mut String, acc: &Accuracy) {
     if let Some(g) = richest {
         out!(
             s,
-            "| mean RMSE, Model-H / GB hybrid | | | | | | | | {} / {} / {}; Model-H ahead on {} / {} / {} of {} seeds | target: ahead on every channel |",
-            f(g.mean_rmse_h[0] / g.mean_rmse_peer[0], 3),
-            f(g.mean_rmse_h[1] / g.mean_rmse_peer[1], 3),
-            f(g.mean_rmse_h[2] / g.mean_rmse_peer[2], 3),
-            g.seeds_ahead[0],
-            g.seeds_ahead[1],
-            g.seeds_ahead[2],
+            "| mean RMSE, Model-H / GB hybrid |{} {}; Model-H ahead on {} of {} seeds | target: ahead on every channel |",
+            blank(1 + 2 * nc),
+            ratios(&g.mean_rmse_h, &g.mean_rmse_peer, 3),
+            slash(&g.seeds_ahead),
             g.seeds
         );
     }
     let g = &acc.gain_paper;
+    let pct = |v: &[f64], bold: bool| {
+        cells(v.iter().map(|x| if bold { format!("**{x:.1} %**") } else { format!("{x:.1} %") }))
+    };
+    let targets = slash(ch.iter().map(|c| mean_gain_target(c)));
+    out!(s, "| **gain mean** | |{}{}{gap} target ≥ {targets} % |", pct(&g.mean_pct, true), blank(nc));
+    out!(s, "| gain smallest | |{}{}{gap} target ≥ 25 % on every seed |", pct(&g.min_pct, false), blank(nc));
+    let cov = |v: &[f64]| v.iter().map(|x| 100.0 * x).collect::<Vec<_>>();
+    out!(s, "| **coverage mean** | |{}{}{gap} target 95 ± 1 % |", blank(nc), pct(&cov(&cp.mean_h), true));
+    out!(s, "| coverage median | |{}{}{gap} |", blank(nc), pct(&cov(&cp.median_h), false));
     out!(
         s,
-        "| **gain mean** | | **{:.1} %** | **{:.1} %** | **{:.1} %** | | | |{gap} target ≥ 40 / 30 / 40 % |",
-        g.mean_pct[0],
-        g.mean_pct[1],
-        g.mean_pct[2]
+        "| seeds within 95 ± 2 % | |{}{}{gap} target ≥ {SEEDS_WITHIN_2} of {n} |",
+        blank(nc),
+        cells(cp.seeds_within_95_pm_2.iter().map(|w| format!("{w} of {n}")))
     );
-    out!(
-        s,
-        "| gain smallest | | {:.1} % | {:.1} % | {:.1} % | | | |{gap} target ≥ 25 % on every seed |",
-        g.min_pct[0],
-        g.min_pct[1],
-        g.min_pct[2]
-    );
-    out!(
-        s,
-        "| **coverage mean** | | | | | **{:.1} %** | **{:.1} %** | **{:.1} %** |{gap} target 95 ± 1 % |",
-        100.0 * cp.mean_h[0],
-        100.0 * cp.mean_h[1],
-        100.0 * cp.mean_h[2]
-    );
-    out!(
-        s,
-        "| coverage median | | | | | {:.1} % | {:.1} % | {:.1} % |{gap} |",
-        100.0 * cp.median_h[0],
-        100.0 * cp.median_h[1],
-        100.0 * cp.median_h[2]
-    );
-    let w = &cp.seeds_within_95_pm_2;
-    out!(
-        s,
-        "| seeds within 95 ± 2 % | | | | | {} of {n} | {} of {n} | {} of {n} |{gap} target ≥ {SEEDS_WITHIN_2} of {n} |",
-        w[0],
-        w[1],
-        w[2]
-    );
-    ensemble_band(s, cp, n, gap);
+    ensemble_band(s, cp, n, nc, gap);
 }
 
 /// The reference rows of the ensemble band and what it is (absent from files written before it
 /// was measured: no rows, no note); `gap` closes the rows when the table has a hybrid column.
-fn ensemble_band(s: &mut String, cp: &crate::bench::report::Coverage, n: usize, gap: &str) {
-    // The ensemble band (absent from files written before it was measured: no rows, no note).
-    let Some(ens) = cp.ensemble_band.as_ref().filter(|e| e.channels.len() == 3) else {
+fn ensemble_band(s: &mut String, cp: &crate::bench::report::Coverage, n: usize, nc: usize, gap: &str) {
+    let Some(ens) = cp.ensemble_band.as_ref().filter(|e| e.channels.len() == nc) else {
         out!(s);
         return;
     };
     let ch = &ens.channels;
     out!(
         s,
-        "| *reference: ensemble band*, seeds within 95 ± 2 % | | | | | {} of {n} | {} of {n} | {} of {n} |{gap} |",
-        ch[0].seeds_within_95_pm_2,
-        ch[1].seeds_within_95_pm_2,
-        ch[2].seeds_within_95_pm_2
+        "| *reference: ensemble band*, seeds within 95 ± 2 % | |{}{}{gap} |",
+        blank(nc),
+        cells(ch.iter().map(|c| format!("{} of {n}", c.seeds_within_95_pm_2)))
     );
     out!(
         s,
-        "| *reference: ensemble band*, lowest seed | | | | | {:.1} % | {:.1} % | {:.1} % |{gap} |\n",
-        100.0 * ch[0].min,
-        100.0 * ch[1].min,
-        100.0 * ch[2].min
+        "| *reference: ensemble band*, lowest seed | |{}{}{gap} |\n",
+        blank(nc),
+        cells(ch.iter().map(|c| format!("{:.1} %", 100.0 * c.min)))
     );
     out!(
         s,

@@ -79,7 +79,7 @@ pub(super) fn training(s: &mut String, tr: &Training, datasets: &[String]) {
             z.rounds
         );
     }
-    holdout_rmse(s, &tr.sizes);
+    holdout_rmse(s, &tr.sizes, &tr.channels);
     out!(s, "\nCommands (n = 1e6 shown; the others differ only in the CSV):\n");
     if let Some(big) = big {
         let (fp, fd) = (&big.fixed_paper, &big.fixed_default);
@@ -136,10 +136,10 @@ pub(super) fn train_end_to_end(s: &mut String, sizes: &[SizeRun]) {
 }
 
 /// Hold-out RMSE of the fixed fits, ours vs scikit-learn.
-pub(super) fn holdout_rmse(s: &mut String, sizes: &[SizeRun]) {
-    out!(s, "Hold-out RMSE of the fixed fits, ours vs scikit-learn (T [°C] / ε [µε] / p [kPa]):\n");
-    out!(s, "| samples | features | peer | ours Model-P | sklearn Model-P | ours Model-H | sklearn Model-H | max relative difference (Model-H) |\n|---|---|---|---|---|---|---|---|");
-    let missing = [f64::NAN; 3];
+pub(super) fn holdout_rmse(s: &mut String, sizes: &[SizeRun], ch: &[String]) {
+    out!(s, "Hold-out RMSE of the fixed fits, ours vs scikit-learn ({}):\n", channel_units(ch));
+    out!(s, "| samples | features | peer | ours Model-P | sklearn Model-P | ours Model-H | sklearn Model-H | max relative difference (Model-H) |\n{}", rule(8));
+    let missing = vec![f64::NAN; ch.len()];
     for z in sizes {
         let (fp, fd) = (&z.fixed_paper, &z.fixed_default);
         for (ours, peer, name, how) in [
@@ -154,10 +154,10 @@ pub(super) fn holdout_rmse(s: &mut String, sizes: &[SizeRun]) {
                 z.n_samples,
                 name,
                 how,
-                rmse3(&ours.rmse_p).join(" / "),
-                rmse3(p_rmse_p).join(" / "),
-                rmse3(&ours.rmse_h).join(" / "),
-                rmse3(p_rmse_h).join(" / "),
+                rmses(&ours.rmse_p, ch),
+                rmses(p_rmse_p, ch),
+                rmses(&ours.rmse_h, ch),
+                rmses(p_rmse_h, ch),
                 100.0 * max_rel_diff(&ours.rmse_h, p_rmse_h)
             );
         }
@@ -184,7 +184,7 @@ pub(super) fn inference(s: &mut String, inf: &Inference) {
 pub(super) fn fleet(s: &mut String, fl: &Fleet) {
     out!(s, "## Fleet calibration (`fbg-trainer fleet`)\n");
     out!(s, "{} sensor groups, each {}, with `train`'s full selection; every run starts from no outputs; the two pool sizes alternate for {} rounds; time is the fleet's own wall clock (manifest parsed, every group read, fitted and written).\n", fl.groups, fl.scenario, fl.rounds);
-    out!(s, "| jobs (cores) | median wall time | groups per second | runs | command |\n|---|---|---|---|---|");
+    out!(s, "| jobs (cores) | median wall time | groups per second | runs | command |\n{}", rule(5));
     for run in &fl.runs {
         out!(
             s,

@@ -1,64 +1,7 @@
-//! Static fidelity and the pace study (issue 26): their target rows, the `paper` study and the
-//! `field` preset.
+//! Static fidelity and the pace study (DESIGN §4, §5): their target rows, the `paper` study and
+//! the `field` preset.
 
 use super::*;
-
-// ---------------------------------------------------------------------------------------------
-// Static fidelity and pace (issue 26)
-
-/// Values joined by " / ", `digits` decimals each.
-pub(super) fn join(v: &[f64], digits: usize) -> String {
-    v.iter().map(|x| f(*x, digits)).collect::<Vec<_>>().join(" / ")
-}
-
-/// Fractions as percentages joined by " / ".
-pub(super) fn pcts(v: &[f64]) -> String {
-    v.iter().map(|x| f(100.0 * x, 1)).collect::<Vec<_>>().join(" / ")
-}
-
-/// RMSE per channel joined by " / ": three decimals for temperature, two for the others.
-pub(super) fn rmses(v: &[f64], channels: &[String]) -> String {
-    v.iter()
-        .enumerate()
-        .map(|(c, x)| f(*x, if channels.get(c).is_some_and(|n| n == "T") { 3 } else { 2 }))
-        .collect::<Vec<_>>()
-        .join(" / ")
-}
-
-/// Gains of Model-H over Model-P [%] per channel.
-pub(super) fn gains(p: &[f64], h: &[f64]) -> String {
-    (0..p.len()).map(|c| f(crate::bench::report::gain(p, h, c), 1)).collect::<Vec<_>>().join(" / ")
-}
-
-/// A channel's short name with its unit (`T [°C]`, `ε [µε]`, `p [kPa]`).
-pub(super) fn channel_unit(name: &str) -> String {
-    match name {
-        "T" => "T [°C]".into(),
-        "strain" => "ε [µε]".into(),
-        "strain2" => "ε₂ [µε]".into(),
-        "p" => "p [kPa]".into(),
-        other => other.into(),
-    }
-}
-
-/// A channel's short name (`T`, `ε`, `p`).
-pub(super) fn short(name: &str) -> &str {
-    match name {
-        "strain" => "ε",
-        "strain2" => "ε₂",
-        other => other,
-    }
-}
-
-/// The channels of a run, "T / ε / p".
-pub(super) fn channel_names(channels: &[String]) -> String {
-    channels.iter().map(|n| short(n)).collect::<Vec<_>>().join(" / ")
-}
-
-/// Channel `c`'s short name ("?" when the run names fewer).
-pub(super) fn channel(channels: &[String], c: usize) -> &str {
-    channels.get(c).map_or("?", |n| short(n))
-}
 
 /// "7–26" for the runs' seeds.
 pub(super) fn seed_range(runs: &[EvalRun]) -> String {
@@ -82,7 +25,7 @@ pub(super) fn seeds_verdict(seed7: bool, ok: usize, runs: &[EvalRun]) -> String 
 /// The channels of `row` on which Model-H's RMSE exceeds Model-P's (or is missing), with the gain.
 pub(super) fn channels_h_worse(row: &PaceRow, channels: &[String]) -> Vec<String> {
     (0..row.rmse_p.len())
-        .filter(|&c| !at_most(row.rmse_h.get(c).copied().unwrap_or(f64::NAN), row.rmse_p[c]))
+        .filter(|&c| !at_most(at(&row.rmse_h, c), row.rmse_p[c]))
         .map(|c| format!("{} {} %", channel(channels, c), f(row.gain_pct(c), 1)))
         .collect()
 }
@@ -97,19 +40,13 @@ pub(super) fn channels_low_coverage(row: &PaceRow, channels: &[String]) -> Vec<S
         .collect()
 }
 
-/// Per channel over `rows`, the smallest of `g(row, c)`.
+/// Per channel over `rows`, the smallest of `g(row, c)` (NaN when one is missing).
 pub(super) fn min_per_channel(rows: &[PaceRow], g: impl Fn(&PaceRow, usize) -> f64) -> Vec<f64> {
     let nc = rows.iter().map(|r| r.rmse_p.len()).max().unwrap_or(0);
-    (0..nc)
-        .map(|c| {
-            rows.iter()
-                .map(|r| g(r, c))
-                .fold(f64::INFINITY, |a, x| if a.is_nan() || x.is_nan() { f64::NAN } else { a.min(x) })
-        })
-        .collect()
+    (0..nc).map(|c| fold_nan(rows.iter().map(|r| g(r, c)), f64::min)).collect()
 }
 
-/// The target rows of issue 26: static slopes, pace, `field`.
+/// The target rows of static fidelity and pace: static slopes, pace, `field`.
 pub(super) fn pace_targets(s: &mut String, rep: &Report) {
     let tol = 100.0 * SLOPE_TOL;
     let min_cov = 100.0 * PACE_MIN_COVERAGE;
@@ -130,8 +67,8 @@ pub(super) fn pace_targets(s: &mut String, rep: &Report) {
                 format!(
                     "; seeds {}: largest \\|slope − 1\\| Model-P {} %, Model-H {} %; within {tol:.0} % on {} of {} seeds",
                     seed_range(&pb.runs),
-                    join(&x.max_slope_dev_p.iter().map(|v| 100.0 * v).collect::<Vec<_>>(), 2),
-                    join(&x.max_slope_dev_h.iter().map(|v| 100.0 * v).collect::<Vec<_>>(), 2),
+                    pct(&x.max_slope_dev_p, 2),
+                    pct(&x.max_slope_dev_h, 2),
                     seeds_static,
                     pb.runs.len()
                 )
@@ -209,7 +146,7 @@ pub(super) fn pace_targets(s: &mut String, rep: &Report) {
                 seed_range(&fb.runs),
                 fb.seeds_h_worse_any,
                 channel_names(ch),
-                fb.seeds_h_worse.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" / "),
+                slash(&fb.seeds_h_worse),
                 join(&fb.mean_gain_pct, 1),
                 join(&fb.min_gain_pct, 1),
                 yes(fb.seeds_h_worse_any == 0 && n == COVERAGE_SEEDS.len()),
@@ -266,7 +203,7 @@ pub(super) fn pace_paper(s: &mut String, pb: &PaceBench) {
     out!(
         s,
         "| record | hold-out samples | Model-P RMSE ({}) | Model-H RMSE | Model-H below Model-P ({names}) | Model-H band coverage | Model-P band coverage | both pace targets |\n|---|---|---|---|---|---|---|---|",
-        ch.iter().map(|c| channel_unit(c)).collect::<Vec<_>>().join(" / ")
+        channel_units(ch)
     );
     for r in &study.rows {
         out!(
@@ -367,8 +304,8 @@ pub(super) fn pace_summary_table(s: &mut String, summary: &[PaceSummary], ch: &[
         out!(
             s,
             "\nSteps record over the seeds: largest \\|slope − 1\\| Model-P {} %, Model-H {} % ({names}); both models within {:.0} % on every channel on {} of {} seeds.",
-            join(&st.max_slope_dev_p.iter().map(|v| 100.0 * v).collect::<Vec<_>>(), 2),
-            join(&st.max_slope_dev_h.iter().map(|v| 100.0 * v).collect::<Vec<_>>(), 2),
+            pct(&st.max_slope_dev_p, 2),
+            pct(&st.max_slope_dev_h, 2),
             100.0 * SLOPE_TOL,
             st.seeds_slopes_within_1pct,
             st.seeds
@@ -392,7 +329,7 @@ pub(super) fn field(s: &mut String, fb: &FieldBench) {
     out!(
         s,
         "| seed | Model-P RMSE ({}) | Model-H RMSE | Model-H below Model-P ({names}) | Model-P band coverage | Model-H band coverage |\n|---|---|---|---|---|---|",
-        ch.iter().map(|c| channel_unit(c)).collect::<Vec<_>>().join(" / ")
+        channel_units(ch)
     );
     for r in &fb.runs {
         out!(
@@ -411,7 +348,7 @@ pub(super) fn field(s: &mut String, fb: &FieldBench) {
     out!(
         s,
         "| seeds with Model-H worse than Model-P | | | {} of {n} (any channel: {} of {n}) | | target: none |",
-        fb.seeds_h_worse.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" / "),
+        slash(&fb.seeds_h_worse),
         fb.seeds_h_worse_any
     );
     out!(

@@ -2,11 +2,16 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Chosen, Rest, Rmse};
-use crate::nan;
+use fbg_report::{nan, Chosen, ParityReport};
+
+use super::Rest;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Accuracy {
+    /// The outputs of every model of the part, in the order of each per-output list (files
+    /// written before they were recorded: the `paper` layout).
+    #[serde(default = "paper_channels")]
+    pub channels: Vec<String>,
     pub presets: Vec<PresetRun>,
     pub coverage_paper: Coverage,
     pub gain_paper: Gain,
@@ -27,11 +32,11 @@ pub struct HybridComparison {
     pub seeds: usize,
     /// Mean hold-out RMSE over those seeds, Model-H and the hybrid.
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub mean_rmse_h: Rmse,
+    pub mean_rmse_h: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub mean_rmse_peer: Rmse,
+    pub mean_rmse_peer: Vec<f64>,
     /// Seeds on which Model-H's RMSE is below the hybrid's, per channel.
-    pub seeds_ahead: [usize; 3],
+    pub seeds_ahead: Vec<usize>,
 }
 
 /// Our models, the black-box peers and the oracle on one preset (seed 7).
@@ -51,7 +56,7 @@ pub struct PresetRun {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ModelRun {
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse: Rmse,
+    pub rmse: Vec<f64>,
     pub bytes: usize,
     pub command: String,
 }
@@ -62,8 +67,8 @@ pub struct ModelHDefault {
     pub run: ModelRun,
     pub chosen: Chosen,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub coverage: Rmse,
-    pub parity: Parity,
+    pub coverage: Vec<f64>,
+    pub parity: ParityReport,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -73,21 +78,10 @@ pub struct ModelHPaper {
     pub chosen: Chosen,
 }
 
-/// Model-H in f32 (the device path) against f64 on the hold-out (`ParityReport` of the trainer).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Parity {
-    pub samples: usize,
-    pub flag_mismatches: usize,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub max_diff_over_rmse: Rmse,
-    #[serde(flatten)]
-    pub rest: Rest,
-}
-
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct OracleFloor {
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse: Rmse,
+    pub rmse: Vec<f64>,
     /// Where the figures come from (the `.meta.json` of the dataset).
     pub source: String,
 }
@@ -106,7 +100,7 @@ pub struct BlackboxPeer {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub n_inputs: Option<u64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse: Rmse,
+    pub rmse: Vec<f64>,
     pub pickle_bytes: u64,
     #[serde(flatten)]
     pub rest: Rest,
@@ -124,11 +118,11 @@ impl BlackboxPeer {
 pub struct Coverage {
     pub per_seed: Vec<SeedRun>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub mean_h: Rmse,
+    pub mean_h: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub median_h: Rmse,
+    pub median_h: Vec<f64>,
     /// Seeds whose coverage is within 95 ± 2 %, per channel.
-    pub seeds_within_95_pm_2: [usize; 3],
+    pub seeds_within_95_pm_2: Vec<usize>,
     /// The reference band on the lead time alone (absent from files written before it).
     #[serde(default)]
     pub ensemble_band: Option<EnsembleBand>,
@@ -139,13 +133,13 @@ pub struct SeedRun {
     pub seed: u64,
     pub k: usize,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub coverage_h: Rmse,
+    pub coverage_h: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub coverage_p: Rmse,
+    pub coverage_p: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse_h: Rmse,
+    pub rmse_h: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse_p: Rmse,
+    pub rmse_p: Vec<f64>,
     pub command: String,
     /// The gradient-boosting hybrids on this seed (empty without the Python peer).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -155,7 +149,7 @@ pub struct SeedRun {
 impl SeedRun {
     /// Gain of Model-H over Model-P on channel `c` [%].
     pub fn gain_pct(&self, c: usize) -> f64 {
-        100.0 * (1.0 - self.rmse_h[c] / self.rmse_p[c])
+        fbg_report::gain_pct(&self.rmse_p, &self.rmse_h, c)
     }
 }
 
@@ -180,10 +174,16 @@ pub struct EnsembleChannel {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Gain {
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub per_seed: Vec<Rmse>,
+    pub per_seed: Vec<Vec<f64>>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub mean_pct: Rmse,
+    pub mean_pct: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub min_pct: Rmse,
+    pub min_pct: Vec<f64>,
     pub seeds_all_channels_25: usize,
+}
+
+/// The outputs of the `paper` preset's models: the layout of every file written before the
+/// bench recorded them.
+pub fn paper_channels() -> Vec<String> {
+    ["T", "strain", "p"].map(String::from).to_vec()
 }

@@ -1,8 +1,7 @@
 //! Static fidelity and pace figures of BENCHMARKS.json (`train` + `evaluate --quick` per seed).
 
+use fbg_report::{nan, PaceStudy, StaticFidelity};
 use serde::{Deserialize, Serialize};
-
-use crate::nan;
 
 /// One seed through the user's commands: `train`, then `evaluate --quick` (hold-out figures,
 /// static fidelity over the calibration batch, and the pace study). Per output of the models,
@@ -33,128 +32,13 @@ pub struct EvalRun {
 impl EvalRun {
     /// Gain of Model-H over Model-P on output `c` [%].
     pub fn gain_pct(&self, c: usize) -> f64 {
-        gain(&self.rmse_p, &self.rmse_h, c)
+        fbg_report::gain_pct(&self.rmse_p, &self.rmse_h, c)
     }
 }
 
 /// `a ≤ b`, false when either is NaN (a missing figure never meets a target).
 pub fn at_most(a: f64, b: f64) -> bool {
     a <= b
-}
-
-/// Gain of `h` over `p` on output `c` [%] (NaN when either is missing).
-pub fn gain(p: &[f64], h: &[f64], c: usize) -> f64 {
-    match (p.get(c), h.get(c)) {
-        (Some(p), Some(h)) => 100.0 * (1.0 - h / p),
-        _ => f64::NAN,
-    }
-}
-
-/// `metrics.json`'s `static_fidelity`: per output, the slope of each model's settled reading
-/// against the truth over the calibration batch, and the RMS of what Model-H's dynamic parts add.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct StaticFidelity {
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub gain_p: Vec<f64>,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub gain_h: Vec<f64>,
-    /// (part, RMS per output).
-    #[serde(default)]
-    pub contributions: Vec<(String, Vec<Option<f64>>)>,
-}
-
-/// `metrics.json`'s `pace`: the installation at other paces and on a steps record.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct PaceStudy {
-    pub scenario: String,
-    pub seed: u64,
-    pub rows: Vec<PaceRow>,
-    /// The glitch study of the native record's hold-out (absent in older metrics).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub glitch: Vec<GlitchRow>,
-}
-
-/// One case of the glitch study: one sample of one input replaced.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct GlitchRow {
-    /// The input column and the glitch (`T_amb_C`, `85`).
-    pub input: String,
-    pub value: String,
-    /// Whether the glitch row carries a fault flag.
-    pub flagged: bool,
-    /// Later rows moved by more than their band.
-    pub rows_beyond_band: usize,
-}
-
-impl GlitchRow {
-    /// A thermometer glitch, or a non-finite one in any input: what the gate must catch (a
-    /// grating's 85 or −127 pm may be a reading).
-    pub fn must_flag(&self) -> bool {
-        self.input == "T_amb_C" || self.value == "1e300" || self.value == "NaN"
-    }
-}
-
-impl PaceStudy {
-    /// The steps record's row (the one with settled slopes).
-    pub fn steps(&self) -> Option<&PaceRow> {
-        self.rows.iter().find(|r| r.is_steps())
-    }
-}
-
-/// One record of the pace study, both models, per output.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct PaceRow {
-    /// `×0.25`, `×4 (p_kPa)`, `steps`.
-    pub label: String,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub factor: f64,
-    /// The measurand paced alone, or none for all of them.
-    #[serde(default)]
-    pub only: Option<String>,
-    pub samples: usize,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse_p: Vec<f64>,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse_h: Vec<f64>,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub coverage_p: Vec<f64>,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub coverage_h: Vec<f64>,
-    /// Settled slope against the truth (steps record only; empty otherwise).
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub slope_p: Vec<f64>,
-    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub slope_h: Vec<f64>,
-    #[serde(default)]
-    pub holds: usize,
-}
-
-impl PaceRow {
-    pub fn is_steps(&self) -> bool {
-        !self.slope_p.is_empty() || !self.slope_h.is_empty()
-    }
-
-    pub fn gain_pct(&self, c: usize) -> f64 {
-        gain(&self.rmse_p, &self.rmse_h, c)
-    }
-
-    /// Model-H's RMSE at most Model-P's on every output (false when a figure is missing).
-    pub fn h_le_p(&self) -> bool {
-        !self.rmse_h.is_empty()
-            && self.rmse_h.len() == self.rmse_p.len()
-            && self.rmse_h.iter().zip(&self.rmse_p).all(|(h, p)| h <= p)
-    }
-
-    /// Model-H's band coverage at least `min` on every output.
-    pub fn coverage_h_at_least(&self, min: f64) -> bool {
-        !self.coverage_h.is_empty() && self.coverage_h.iter().all(|c| *c >= min)
-    }
-
-    /// |slope − 1| ≤ `tol` on every output, both models (false off the steps record).
-    pub fn slopes_within(&self, tol: f64) -> bool {
-        self.is_steps()
-            && [&self.slope_p, &self.slope_h].iter().all(|v| !v.is_empty() && v.iter().all(|s| (s - 1.0).abs() <= tol))
-    }
 }
 
 /// One record of the pace study over the seeds.

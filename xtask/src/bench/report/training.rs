@@ -2,11 +2,16 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Rest, Rmse};
-use crate::nan;
+use fbg_report::{nan, Chosen};
+
+use super::paper_channels;
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Training {
+    /// The outputs of the fitted models, in the order of each per-output list (files written
+    /// before they were recorded: the `paper` layout).
+    #[serde(default = "paper_channels")]
+    pub channels: Vec<String>,
     pub fixed_config: FixedConfig,
     pub sizes: Vec<SizeRun>,
     pub growth_exponent: GrowthExponent,
@@ -76,16 +81,18 @@ pub struct FitRun {
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
     pub median: f64,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse_p: Rmse,
+    pub rmse_p: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
-    pub rmse_h: Rmse,
+    pub rmse_h: Vec<f64>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FixedMemory {
     #[serde(flatten)]
     pub fit: FitRun,
-    pub phase_seconds: Vec<Phase>,
+    /// Our fit's median time per phase \[s\], as `bench-fit` reports it: `[name, seconds]`.
+    #[serde(deserialize_with = "nan::read")]
+    pub phase_seconds: Vec<(String, f64)>,
     /// The scikit-learn pipeline with the same features (the memory terms of the groups and
     /// ridge our cross-validation chose, the latch RBF inputs); absent without the peer.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -117,10 +124,6 @@ pub struct PeerMemory {
     pub feature_seconds: f64,
 }
 
-/// One phase of our fit and its median time \[s\], as `bench-fit` reports it: `[name, seconds]`.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Phase(pub String, #[serde(deserialize_with = "nan::read")] pub f64);
-
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct OursSelect {
     #[serde(flatten)]
@@ -129,22 +132,14 @@ pub struct OursSelect {
     pub grid_points: usize,
 }
 
-/// The hyper-parameters a fit chose (`fit::Config` of the trainer).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Chosen {
-    pub k: usize,
-    pub feature_set: String,
-    #[serde(flatten)]
-    pub rest: Rest,
-}
-
 /// The `paper` feature set, fixed hyper-parameters: ours against the notebook pipeline and the
 /// pipeline with our k-means subsample, alternating for `rounds` rounds.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct FixedPaper {
     pub ours: OursFixed,
     /// `phase_seconds` of our fit in each round.
-    pub ours_phases_per_round: Vec<Vec<Phase>>,
+    #[serde(deserialize_with = "nan::read")]
+    pub ours_phases_per_round: Vec<Vec<(String, f64)>>,
     /// scikit-learn with our k-means subsample (absent without the peer).
     pub peer: Option<PeerFixed>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
