@@ -199,7 +199,7 @@ pub fn field_json(p: &HostParams) -> serde_json::Value {
         "lambda_ref_nm": (0..n).map(|g| f.lambda_ref(g)).collect::<Vec<_>>(),
         "lambda_ref_source": head(&f.lambda_ref_source, n).iter().map(|s| s.name()).collect::<Vec<_>>(),
         "lambda_ref_tolerance_pm": f.lambda_ref_tol_pm,
-        "cal_end_utc": f.cal_end_unix_s.map(crate::data::import::time_axis::format_utc),
+        "cal_end_utc": f.cal_end_unix_s.map(crate::data::timestamp::format_utc),
         "cal_end_unix_s": f.cal_end_unix_s,
         "lead_max_s": f.lead_max_s,
         "outputs": output_keys(p),

@@ -2,7 +2,8 @@
 //! models for the `fbg-shared` inference.
 //!
 //! The modules follow the data, in layers: a module uses only modules of earlier layers
-//! (`tests/layout.rs` checks it), so there is no import cycle:
+//! (`tests/layout.rs` checks it), so there is no import cycle (and none among the files
+//! inside a module, `tests/modules.rs`):
 //!
 //! 1. `error`, `progress`, `rng`, `stats`, `warning`: used by all;
 //! 2. `data`: the dataset and its CSV, the import of interrogator exports, safe output files;

@@ -155,7 +155,7 @@ fn run() -> Result<()> {
 
 /// A UTC timestamp argument in Unix seconds.
 fn utc_timestamp(s: &str, flag: &str) -> Result<f64> {
-    fbg_trainer::data::import::time_axis::parse_timestamp(s.trim().trim_end_matches('Z'), None)
+    fbg_trainer::data::timestamp::parse_timestamp(s.trim().trim_end_matches('Z'), None)
         .ok_or_else(|| anyhow::anyhow!("{flag}: `{s}` is not a UTC timestamp like 2026-01-05T00:00:00"))
 }
 

@@ -2,76 +2,15 @@
 //! windows, or from the peaks discovered in the channel's first spectrum) and reused for every
 //! frame; the results kept per grating and frame.
 
-use fbg_shared::spectrum::{DetectorConfig, Peak, PeakDetector, PeakFlags, Window};
+use fbg_shared::spectrum::{DetectorConfig, PeakDetector, Window};
 
 use super::super::mapping;
 use super::super::problems::{Reason, RowError};
 use super::discover;
 use super::frames::{SpectrumRow, SpectrumSink, MAX_CHANNELS};
+use super::kept::Kept;
 use crate::data::measurand::MAX_GRATINGS;
 use crate::error::TrainerError;
-
-/// What a detection keeps of each frame's peak: the whole [`Peak`] (the `peaks` command's
-/// table) or only what the import reads ([`Found`]), so that a long file's frames cost the
-/// import less memory.
-pub(crate) trait Kept: Copy {
-    /// What is kept of `p`.
-    fn keep(p: &Peak<f64>) -> Self;
-    /// Centre wavelength \[nm\] (NaN with no peak).
-    fn wavelength_nm(&self) -> f64;
-    /// Height above the floor.
-    fn amplitude(&self) -> f64;
-    /// FWHM \[nm\].
-    fn fwhm_nm(&self) -> f64;
-    /// Quality flags.
-    fn flags(&self) -> PeakFlags;
-}
-
-impl Kept for Peak<f64> {
-    fn keep(p: &Peak<f64>) -> Self {
-        *p
-    }
-    fn wavelength_nm(&self) -> f64 {
-        self.wavelength_nm
-    }
-    fn amplitude(&self) -> f64 {
-        self.amplitude
-    }
-    fn fwhm_nm(&self) -> f64 {
-        self.fwhm_nm
-    }
-    fn flags(&self) -> PeakFlags {
-        self.flags
-    }
-}
-
-/// What the import keeps of a peak: its wavelength, the height and width the plausibility
-/// rule compares, the flags.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Found {
-    wavelength_nm: f64,
-    amplitude: f64,
-    fwhm_nm: f64,
-    flags: PeakFlags,
-}
-
-impl Kept for Found {
-    fn keep(p: &Peak<f64>) -> Self {
-        Found { wavelength_nm: p.wavelength_nm, amplitude: p.amplitude, fwhm_nm: p.fwhm_nm, flags: p.flags }
-    }
-    fn wavelength_nm(&self) -> f64 {
-        self.wavelength_nm
-    }
-    fn amplitude(&self) -> f64 {
-        self.amplitude
-    }
-    fn fwhm_nm(&self) -> f64 {
-        self.fwhm_nm
-    }
-    fn flags(&self) -> PeakFlags {
-        self.flags
-    }
-}
 
 /// One channel's detector and its results.
 struct Channel<T> {
@@ -326,7 +265,7 @@ impl<T: Kept> SpectrumSink for Detection<T> {
         if let Some(det) = &ch.detector {
             for (slot, p) in ch.peaks.iter_mut().zip(det.detect(&row.spectrum)) {
                 if let Some(last) = slot.last_mut() {
-                    *last = p.as_ref().map(T::keep);
+                    *last = p.map(T::from);
                 }
             }
         }
