@@ -10,9 +10,10 @@
 //! 3. `sim` (scenarios, the simulator, its `.meta.json` sidecar) and `fit` (Model-P and
 //!    Model-H, the `--features` choice, field recalibration, the sensitivities);
 //! 4. `eval`: scores, f32-vs-f64 parity, the studies, the `metrics.json` schema, the tables,
-//!    the evaluation's warnings;
-//! 5. `export`: the `.fbgm` blob, `coefficients.json`, golden vectors; `sign`: signing keys,
-//!    the serial per key and signed blobs (the trailer itself is `fbg_shared::signature`);
+//!    the evaluation's warnings; `sign`: signing keys, the serial per key and signed blobs
+//!    (the trailer itself is `fbg_shared::signature`);
+//! 5. `export`: the `.fbgm` blob, `coefficients.json`, a trained model's files together,
+//!    golden vectors;
 //! 6. `report`, `fleet`, `stream`, `benchmark`: the audit report and the operations built on
 //!    the pipeline.
 //!
