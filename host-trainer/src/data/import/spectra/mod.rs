@@ -48,6 +48,7 @@ use super::summary::{FlaggedFrames, SpectraInfo};
 use super::Format;
 use crate::data::measurand::grating_column;
 use crate::error::TrainerError;
+pub(crate) use detect::ChannelDetector;
 use detect::{Detected, Detection};
 use frames::{describe_grid, FileFacts};
 pub(crate) use kept::{Found, Kept};
