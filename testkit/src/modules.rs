@@ -252,6 +252,9 @@ impl<'ast> Visit<'ast> for Reader<'_> {
         }
     }
 
+    // `pub(crate)`, `pub(super)`: a visibility, not a use.
+    fn visit_vis_restricted(&mut self, _: &'ast syn::VisRestricted) {}
+
     fn visit_path(&mut self, p: &'ast syn::Path) {
         self.path(p.segments.iter().map(|s| s.ident.to_string()).collect());
         syn::visit::visit_path(self, p);
