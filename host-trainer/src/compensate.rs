@@ -13,7 +13,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use fbg_shared::layout::Dims;
-use fbg_shared::{Compensator, Estimate, Flags, ZeroSource};
+use fbg_shared::{Estimate, Flags, ZeroSource};
 
 use crate::data::files::write_atomically;
 use crate::data::measurand::grating_column;
@@ -21,10 +21,9 @@ use crate::data::{Dataset, Measurand, Row, RowReader};
 use crate::error::TrainerError;
 use crate::eval::score;
 use crate::export;
-use crate::fit::{self, HostCompensator, HostParams, HOST_CAP};
+pub use crate::fit::Precision;
+use crate::fit::{self, Engine, HostParams};
 use crate::warning::Warning;
-
-mod batch;
 
 /// The dataset column of each output of `params` (`T_C`, `strain_ue`, …).
 pub fn output_columns(params: &HostParams) -> Vec<String> {
@@ -35,16 +34,6 @@ pub fn output_columns(params: &HostParams) -> Vec<String> {
 const CHUNK: usize = 4096;
 /// Chunks read ahead at most (the memory of the pipeline).
 const IN_FLIGHT: usize = 4;
-
-/// Which arithmetic runs the model.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Precision {
-    /// The host's f64 path (as `evaluate`).
-    F64,
-    /// The device's f32 path.
-    F32,
-}
 
 /// Errors against references present in the record, per output (NaN where absent).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -112,20 +101,9 @@ pub fn estimates(params: &HostParams, d: &Dataset, precision: Precision) -> Resu
             fit::run_on_clock(params, d, &all, clock)
         }
         Precision::F32 => {
-            let p32 = params.convert::<f32, HOST_CAP>().map_err(|e| TrainerError::fit(e.to_string()))?;
-            let mut dev = Compensator::<f32, HOST_CAP>::new(&p32).map_err(|e| TrainerError::fit(e.to_string()))?;
-            dev.set_clock(clock);
-            Ok((0..d.len())
-                .map(|i| {
-                    let e = dev.step(&d.sample(i).cast::<f32>());
-                    Estimate {
-                        values: e.values.map(f64::from),
-                        band95: e.band95.map(f64::from),
-                        outputs: e.outputs,
-                        flags: e.flags,
-                    }
-                })
-                .collect())
+            let mut engine =
+                Engine::load(params, precision, clock).map_err(|(_, e)| TrainerError::fit(e.to_string()))?;
+            Ok((0..d.len()).map(|i| engine.step(&d.sample(i))).collect())
         }
     }
 }
@@ -154,73 +132,22 @@ const UNIT_FAR_SPANS: f64 = 100.0;
 /// span around zero reads like shifts in nm written in a pm column (1000× too small).
 const UNIT_TINY_SPAN: f64 = 1.0 / 300.0;
 
-/// The arithmetic that runs a model over a stream of rows: the host's f64, or the device's
-/// f32 through `fbg-shared` (inputs rounded to f32 as the device receives them). `compensate`
-/// and the Python package's stream both run it.
-pub enum Engine {
-    /// The host's f64 compensator.
-    F64(Box<HostCompensator>),
-    /// The device's f32 compensator.
-    F32(Box<Compensator<f32, HOST_CAP>>),
-}
-
-impl Engine {
-    /// A compensator of `params` in `precision` on `clock`. A model that cannot be loaded is
-    /// refused with the arithmetic it was loaded for (`the host's f64`, `the device's f32`)
-    /// and the reason.
-    pub fn load(
-        params: &HostParams,
-        precision: Precision,
-        clock: fbg_shared::StreamClock,
-    ) -> Result<Engine, (&'static str, fbg_shared::Error)> {
-        Ok(match precision {
-            Precision::F64 => {
-                let mut c = Box::new(HostCompensator::new(params).map_err(|e| ("the host's f64", e))?);
-                c.set_clock(clock);
-                Engine::F64(c)
-            }
-            Precision::F32 => {
-                let p32 = params.convert::<f32, HOST_CAP>().map_err(|e| ("the device's f32", e))?;
-                let mut c = Box::new(Compensator::<f32, HOST_CAP>::new(&p32).map_err(|e| ("the device's f32", e))?);
-                c.set_clock(clock);
-                Engine::F32(c)
-            }
-        })
-    }
-
-    /// [`Engine::load`] for the model file `model`: a refusal is an error naming it.
-    fn new(
-        params: &HostParams,
-        precision: Precision,
-        clock: fbg_shared::StreamClock,
-        model: &Path,
-    ) -> Result<Engine, TrainerError> {
-        Engine::load(params, precision, clock).map_err(|(what, e)| TrainerError::Model {
-            path: model.display().to_string(),
-            message: format!("cannot be loaded for {what} arithmetic: {e}"),
-        })
-    }
-
-    /// One sample's estimate, in f64 whatever the arithmetic.
-    pub fn step(&mut self, s: &fbg_shared::Sample<f64>) -> Estimate<f64> {
-        match self {
-            Engine::F64(c) => c.step(s),
-            Engine::F32(c) => {
-                let e = c.step(&s.cast::<f32>());
-                Estimate {
-                    values: e.values.map(f64::from),
-                    band95: e.band95.map(f64::from),
-                    outputs: e.outputs,
-                    flags: e.flags,
-                }
-            }
-        }
-    }
+/// [`Engine::load`] for the model file `model`: a refusal is an error naming it.
+fn engine_for(
+    params: &HostParams,
+    precision: Precision,
+    clock: fbg_shared::StreamClock,
+    model: &Path,
+) -> Result<Engine, TrainerError> {
+    Engine::load(params, precision, clock).map_err(|(what, e)| TrainerError::Model {
+        path: model.display().to_string(),
+        message: format!("cannot be loaded for {what} arithmetic: {e}"),
+    })
 }
 
 /// Whether `params` (read from `model`) can be run in `precision`; the error names `model`.
 pub fn load_check(params: &HostParams, precision: Precision, model: &Path) -> Result<(), TrainerError> {
-    Engine::new(params, precision, fbg_shared::StreamClock::Unknown, model).map(|_| ())
+    engine_for(params, precision, fbg_shared::StreamClock::Unknown, model).map(|_| ())
 }
 
 /// Running sums of the reference errors over the rows with finite inputs and every reference
@@ -519,7 +446,7 @@ pub fn run_cancellable(
     let zero = check_zero(&params, &d, model, &name, &mut warnings)?;
     let (clock, lead) = lead_check(&params, &d, model, &name);
     warnings.extend(lead);
-    let mut engine = Engine::new(&params, precision, d.field_clock(), model)?;
+    let mut engine = engine_for(&params, precision, d.field_clock(), model)?;
     let mut tally = Tally::new(&params, &d);
     let columns = output_columns(&params);
     let bar = crate::progress::bar(progress, rows.file_len(), "compensate");

@@ -1,5 +1,6 @@
 //! What the trainer writes for others: the `.fbgm` blob (through `fbg_shared::blob`), the
-//! audit file `coefficients.json`, and golden vectors for the firmware's QEMU test.
+//! audit file `coefficients.json`, a trained model's files together ([`ModelFiles`]), and
+//! golden vectors for the firmware's QEMU test.
 
 use std::path::{Path, PathBuf};
 
@@ -7,12 +8,13 @@ use fbg_link::golden;
 use fbg_shared::layout::{head, MAX_OUTPUTS, MAX_POLY};
 use fbg_shared::{blob, Compensator, ModelParams, Sample};
 
-use crate::data::files::write_bytes_atomically;
+use crate::data::files::{write_bytes_atomically, OutputSet};
 use crate::data::measurand::{input_columns, poly_term_names, stage1_columns};
 use crate::data::Dataset;
 use crate::error::TrainerError;
 use crate::fit::static_fidelity::StaticAudit;
-use crate::fit::{HostParams, PolyCore, Selection, HOST_CAP};
+use crate::fit::{HostParams, PolyCore, Selection, Trained, HOST_CAP};
+use crate::sign::{maybe_sign, BlobSigner, SignatureRecord};
 use crate::warning::Warning;
 
 /// Encode a host model as a blob (f32). Every blob the trainer writes or signs comes from
@@ -199,7 +201,7 @@ pub fn field_json(p: &HostParams) -> serde_json::Value {
         "lambda_ref_nm": (0..n).map(|g| f.lambda_ref(g)).collect::<Vec<_>>(),
         "lambda_ref_source": head(&f.lambda_ref_source, n).iter().map(|s| s.name()).collect::<Vec<_>>(),
         "lambda_ref_tolerance_pm": f.lambda_ref_tol_pm,
-        "cal_end_utc": f.cal_end_unix_s.map(crate::data::import::time_axis::format_utc),
+        "cal_end_utc": f.cal_end_unix_s.map(crate::data::timestamp::format_utc),
         "cal_end_unix_s": f.cal_end_unix_s,
         "lead_max_s": f.lead_max_s,
         "outputs": output_keys(p),
@@ -271,49 +273,29 @@ pub fn coefficients_path(model: &Path) -> PathBuf {
     sidecar(model, "coefficients.json")
 }
 
+/// Where Model-P goes beside the Model-H blob `model`: `<stem>-p.fbgm`.
+pub fn baseline_path(model: &Path) -> PathBuf {
+    model.with_file_name(format!("{}-p.fbgm", stem(model)))
+}
+
 /// Where `evaluate` writes the metrics of the model blob `model`: `<stem>.metrics.json` beside it.
 pub fn metrics_path(model: &Path) -> PathBuf {
     sidecar(model, "metrics.json")
 }
 
-fn sidecar(model: &Path, suffix: &str) -> PathBuf {
-    let stem = model.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into());
-    model.with_file_name(format!("{stem}.{suffix}"))
+/// `<stem>.<suffix>` beside the model blob `model`.
+pub fn sidecar(model: &Path, suffix: &str) -> PathBuf {
+    model.with_file_name(format!("{}.{suffix}", stem(model)))
 }
 
-/// `<stem>.coefficients.json`: both models with every number a metrologist audits, and the
-/// fit's warnings (`warnings`: code, channel, message, numbers; `fit::Trained::warnings`).
-pub fn write_coefficients(
-    path: &Path,
-    model_p: &HostParams,
-    model_h: &HostParams,
-    core: &PolyCore,
-    selection: Option<&Selection>,
-    audit: Option<&StaticAudit>,
-    warnings: &[Warning],
-) -> Result<(), TrainerError> {
-    write_coefficients_signed(path, model_p, model_h, core, selection, audit, None, warnings)
+fn stem(model: &Path) -> String {
+    model.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into())
 }
 
-/// [`write_coefficients`] with the signatures of the blobs written (`signatures`: key id,
-/// serial and flags per model, under the key `signatures`), so that the audit file names
-/// the release each blob is.
-#[allow(clippy::too_many_arguments)]
-pub fn write_coefficients_signed(
-    path: &Path,
-    model_p: &HostParams,
-    model_h: &HostParams,
-    core: &PolyCore,
-    selection: Option<&Selection>,
-    audit: Option<&StaticAudit>,
-    signatures: Option<serde_json::Value>,
-    warnings: &[Warning],
-) -> Result<(), TrainerError> {
-    let text = coefficients_text(model_p, model_h, core, selection, audit, signatures, warnings)?;
-    write_bytes_atomically(path, text.as_bytes())
-}
-
-/// The text of [`write_coefficients_signed`], for a command that writes it in an output set.
+/// The text of `<stem>.coefficients.json`: both models with every number a metrologist audits,
+/// the fit's warnings (`warnings`: code, channel, message, numbers; `fit::Trained::warnings`)
+/// and, for signed blobs, their signatures (`signatures`: key id, serial and flags per model),
+/// so that the audit file names the release each blob is.
 pub fn coefficients_text(
     model_p: &HostParams,
     model_h: &HostParams,
@@ -343,6 +325,60 @@ pub fn coefficients_text(
         obj.insert("signatures".into(), sig);
     }
     serde_json::to_string_pretty(&v).map_err(|e| TrainerError::fit(e.to_string()))
+}
+
+/// A trained model as its files hold it: the Model-H and Model-P blobs, signed when a signer
+/// is given, and `coefficients.json` naming their signatures. Every command that writes a
+/// fit (`train`, `demo`, a `fleet` group) and Python's `fit` make them here.
+pub struct ModelFiles {
+    /// The Model-H file.
+    pub model_h: Vec<u8>,
+    /// The Model-P file.
+    pub model_p: Vec<u8>,
+    /// The text of `coefficients.json`.
+    pub coefficients: String,
+    /// Model-H's and Model-P's signatures, when signed.
+    pub signatures: Option<(SignatureRecord, SignatureRecord)>,
+}
+
+impl ModelFiles {
+    /// The files of `tr`, each blob signed by `signer` when given (Model-H first, then
+    /// Model-P).
+    pub fn of(tr: &Trained, signer: Option<&BlobSigner>) -> Result<ModelFiles, TrainerError> {
+        let (model_h, sig_h) = maybe_sign(blob_bytes(&tr.model_h)?, signer)?;
+        let (model_p, sig_p) = maybe_sign(blob_bytes(&tr.model_p)?, signer)?;
+        let mut files = ModelFiles { model_h, model_p, coefficients: String::new(), signatures: sig_h.zip(sig_p) };
+        files.coefficients = coefficients_text(
+            &tr.model_p,
+            &tr.model_h,
+            &tr.core,
+            Some(&tr.selection),
+            Some(&tr.static_audit),
+            files.signatures_json(),
+            &tr.warnings,
+        )?;
+        Ok(files)
+    }
+
+    /// The signatures as `coefficients.json` and the summaries write them.
+    pub fn signatures_json(&self) -> Option<serde_json::Value> {
+        self.signatures.as_ref().map(|(h, p)| serde_json::json!({"model_h": h, "model_p": p}))
+    }
+
+    /// Stage the files in `set`: Model-H at `out`, Model-P at [`baseline_path`], the
+    /// coefficients at [`coefficients_path`].
+    pub fn stage(&self, set: &OutputSet, out: &Path) -> Result<(), TrainerError> {
+        set.stage_bytes(out, &self.model_h)?;
+        set.stage_bytes(&baseline_path(out), &self.model_p)?;
+        set.stage_bytes(&coefficients_path(out), self.coefficients.as_bytes())
+    }
+
+    /// Write the files beside `out` as one output set: replaced together or not at all.
+    pub fn write(&self, out: &Path) -> Result<(), TrainerError> {
+        let set = OutputSet::beside(out)?;
+        self.stage(&set, out)?;
+        set.commit()
+    }
 }
 
 /// The static-fidelity audit (DESIGN §4) as written in `coefficients.json`: per output both

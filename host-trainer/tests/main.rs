@@ -20,6 +20,7 @@ mod fleet;
 mod import;
 mod import_spectra;
 mod layout;
+mod modules;
 mod outputs;
 mod physics;
 mod pipes;

@@ -199,6 +199,17 @@ impl<S: std::io::Read + std::io::Write> LinkClient<S> {
     }
 }
 
+/// A 16-bit detector's full scale \[counts\].
+pub const FULL_SCALE_COUNTS: f64 = 65_535.0;
+
+/// A frame's counts: each pixel's `signal` above the `floor`, plus the `noise` drawn for it,
+/// rounded to the nearest count and clamped to 0..=[`FULL_SCALE_COUNTS`] (a saturated pixel
+/// reads full scale). Every simulated frame, the trainer's and the tests', is exposed here.
+pub fn expose(signal: impl IntoIterator<Item = f64>, floor: f64, mut noise: impl FnMut() -> f64, out: &mut Vec<u16>) {
+    out.clear();
+    out.extend(signal.into_iter().map(|s| (floor + s + noise()).round().clamp(0.0, FULL_SCALE_COUNTS) as u16));
+}
+
 /// A simulated spectrometer frame for tests: Gaussian peaks `(λ nm, FWHM nm, height counts)` on
 /// a `floor` \[counts\], white noise of σ `noise` \[counts\] from `seed` (deterministic: a
 /// 64-bit LCG, the sum of four uniforms as the normal deviate), rounded and clipped to u16.
@@ -215,19 +226,19 @@ pub fn synthetic_frame(
         state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
-    (0..pixels)
-        .map(|p| {
-            let lambda = f64::from(grid.wavelength(f32::from(p)));
-            let signal: f64 = peaks
-                .iter()
-                .map(|&(c, fwhm, h)| {
-                    let z = (lambda - c) / (fwhm / 2.354_820_045);
-                    h * (-0.5 * z * z).exp()
-                })
-                .sum();
-            // Four uniforms: mean 2, variance 1/3.
-            let n = ((uniform() + uniform() + uniform() + uniform()) - 2.0) * 3.0f64.sqrt();
-            (floor + signal + noise * n).round().clamp(0.0, 65_535.0) as u16
-        })
-        .collect()
+    let signal = (0..pixels).map(|p| {
+        let lambda = f64::from(grid.wavelength(f32::from(p)));
+        peaks
+            .iter()
+            .map(|&(c, fwhm, h)| {
+                let z = (lambda - c) / (fwhm / 2.354_820_045);
+                h * (-0.5 * z * z).exp()
+            })
+            .sum::<f64>()
+    });
+    // Four uniforms: mean 2, variance 1/3.
+    let deviate = move || noise * (((uniform() + uniform() + uniform() + uniform()) - 2.0) * 3.0f64.sqrt());
+    let mut out = Vec::with_capacity(usize::from(pixels));
+    expose(signal, floor, deviate, &mut out);
+    out
 }

@@ -3,7 +3,7 @@
 
 use fbg_trainer::benchmark::{BenchFitOptions, DEFAULT_FIXED};
 use fbg_trainer::data::Measurand;
-use fbg_trainer::export;
+use fbg_trainer::export::ModelFiles;
 use fbg_trainer::fit::{train_source, FeatureChoice, Origin};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -67,25 +67,16 @@ pub fn fit(
     let opts = opts.with_cancel(cancel.clone());
     let tr = crate::interrupt::interruptible(py, Some(cancel), move || train_source(&d, &src, &opts, &origin))?
         .map_err(to_py)?;
-    let coefficients = export::coefficients_text(
-        &tr.model_p,
-        &tr.model_h,
-        &tr.core,
-        Some(&tr.selection),
-        Some(&tr.static_audit),
-        None,
-        &tr.warnings,
-    )
-    .map_err(to_py)?;
+    let files = ModelFiles::of(&tr, None).map_err(to_py)?;
     let s = &tr.selection;
     let summary = serde_json::json!({
         "chosen": tr.chosen(), "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h,
         "n_cal": s.n_cal, "grid_points": s.rows.len(), "warnings": tr.warnings,
         "outliers_skipped": tr.skipped.len(),
     });
-    let h = Model::fitted(&tr.model_h).map_err(to_py)?;
-    let p = Model::fitted(&tr.model_p).map_err(to_py)?;
-    Ok((h, p, coefficients, summary.to_string()))
+    let h = Model::fitted(files.model_h).map_err(to_py)?;
+    let p = Model::fitted(files.model_p).map_err(to_py)?;
+    Ok((h, p, files.coefficients, summary.to_string()))
 }
 
 /// The options of `bench-fit --fixed` from a dict of its flags (the missing ones its defaults).

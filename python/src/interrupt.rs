@@ -27,11 +27,36 @@ pub fn interruptible<T: Send + 'static>(
     cancel: Option<Arc<AtomicBool>>,
     work: impl FnOnce() -> T + Send + 'static,
 ) -> PyResult<T> {
+    watch(py, cancel, false, work)
+}
+
+/// Run `work` (given a cancel flag) on its own thread with the GIL released, as
+/// [`interruptible`], for work that writes files: on Ctrl-C the flag is set and the call waits
+/// for the work to stop (it looks at the flag between chunks) before it raises the
+/// KeyboardInterrupt, so nothing is written after the call returned.
+pub fn cancellable<T: Send + 'static>(
+    py: Python<'_>,
+    work: impl FnOnce(&AtomicBool) -> T + Send + 'static,
+) -> PyResult<T> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&cancel);
+    watch(py, Some(cancel), true, move || work(&flag))
+}
+
+/// `work` on its own thread, the GIL released while waiting for it; a pending signal sets
+/// `cancel` and raises, after the work stopped when `await_stop`.
+fn watch<T: Send + 'static>(
+    py: Python<'_>,
+    cancel: Option<Arc<AtomicBool>>,
+    await_stop: bool,
+    work: impl FnOnce() -> T + Send + 'static,
+) -> PyResult<T> {
     let (tx, rx) = mpsc::channel();
     std::thread::Builder::new()
         .name("fbg-work".into())
         .spawn(move || {
-            // The receiver is gone after an interrupt: nobody wants the result then.
+            // The receiver is gone after an interrupt that does not wait: nobody wants the
+            // result then.
             let _ = tx.send(work());
         })
         .map_err(|e| msg(format!("cannot start the work thread: {e}")))?;
@@ -47,42 +72,11 @@ pub fn interruptible<T: Send + 'static>(
                     if let Some(c) = &cancel {
                         c.store(true, Ordering::Relaxed);
                     }
-                    return Err(e);
-                }
-            }
-            Err(RecvTimeoutError::Disconnected) => return Err(msg("the work thread ended without a result")),
-        }
-    }
-}
-
-/// Run `work` (given a cancel flag) on its own thread with the GIL released, as
-/// [`interruptible`], for work that writes files: on Ctrl-C the flag is set and the call waits
-/// for the work to stop (it looks at the flag between chunks) before it raises the
-/// KeyboardInterrupt, so nothing is written after the call returned.
-pub fn cancellable<T: Send + 'static>(
-    py: Python<'_>,
-    work: impl FnOnce(&AtomicBool) -> T + Send + 'static,
-) -> PyResult<T> {
-    let cancel = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&cancel);
-    let (tx, rx) = mpsc::channel();
-    std::thread::Builder::new()
-        .name("fbg-work".into())
-        .spawn(move || {
-            let _ = tx.send(work(&flag));
-        })
-        .map_err(|e| msg(format!("cannot start the work thread: {e}")))?;
-    let mut rx = rx;
-    loop {
-        let (got, back) = py.detach(move || (rx.recv_timeout(SIGNAL_POLL), rx));
-        rx = back;
-        match got {
-            Ok(v) => return Ok(v),
-            Err(RecvTimeoutError::Timeout) => {
-                if let Err(e) = py.check_signals() {
-                    cancel.store(true, Ordering::Relaxed);
-                    // The work stops at its next chunk; its result (an interruption) is dropped.
-                    let _ = py.detach(move || rx.recv());
+                    if await_stop {
+                        // The work stops at its next chunk; its result (an interruption) is
+                        // dropped.
+                        let _ = py.detach(move || rx.recv());
+                    }
                     return Err(e);
                 }
             }

@@ -29,11 +29,11 @@ impl Model {
         &self.params
     }
 
-    /// A freshly fitted model as its file holds it: the blob (f32 coefficients) decoded
-    /// again, so an estimator predicts exactly what its exported file does on the device's
-    /// host path and in `compensate`.
-    pub fn fitted(params: &HostParams) -> Result<Model, TrainerError> {
-        Model::decode(export::blob_bytes(params)?, "the fitted model")
+    /// A freshly fitted model from its file (`export::ModelFiles`): the blob (f32
+    /// coefficients) decoded again, so an estimator predicts exactly what its exported file
+    /// does on the device's host path and in `compensate`.
+    pub fn fitted(file: Vec<u8>) -> Result<Model, TrainerError> {
+        Model::decode(file, "the fitted model")
     }
 
     /// Decode and validate `file` as `read_blob` does; `source` names it in errors.

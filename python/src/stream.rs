@@ -3,9 +3,8 @@
 //! carry over between calls).
 
 use fbg_shared::{Estimate, Sample, StreamClock};
-use fbg_trainer::compensate::{Engine, Precision};
 use fbg_trainer::data::MAX_GRATINGS;
-use fbg_trainer::fit::HostParams;
+use fbg_trainer::fit::{Engine, HostParams, Precision};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::prelude::*;

@@ -7,7 +7,9 @@
 //! - [`installation`]: a synthetic FBG installation (gauge matrix, trajectories with turning
 //!   points, noise) and the hysteresis-aware models fitted to it by construction, with every
 //!   slot of the memory bank in use or none (the firmware's golden vectors and bench models,
-//!   the host inference bench).
+//!   the host inference bench);
+//! - [`modules`] (feature `modules`): no import circle among a crate's files, for the crates'
+//!   own tests.
 //!
 //! Host-only (std); nothing here runs on the device.
 //!
@@ -23,6 +25,8 @@
 
 pub mod installation;
 pub mod models;
+#[cfg(feature = "modules")]
+pub mod modules;
 mod rng;
 
 pub use rng::Rng;

@@ -18,7 +18,6 @@ use fbg_trainer::sim::spectrum::{DetectorModel, PeakFinding, PixelGrid, Spectrum
 use fbg_trainer::{export, report, sim};
 
 use crate::args::ScenarioArgs;
-use crate::baseline_path;
 use crate::evaluate::{print_tables, write_metrics};
 
 /// Simulate the `paper` preset, train both models, evaluate, run every study and write the
@@ -110,17 +109,9 @@ fn run(out: &Path, scenario: &ScenarioArgs, json: bool) -> Result<()> {
     let opts = TrainOptions::default().with_progress(!json);
     let (tr, mut m) = studies::run_all(&s, &opts, Studies::ALL, &log)?;
     let model = out.join("model.fbgm");
-    let nh = export::write_blob(&model, &tr.model_h)?;
-    let np = export::write_blob(&baseline_path(&model), &tr.model_p)?;
-    export::write_coefficients(
-        &export::coefficients_path(&model),
-        &tr.model_p,
-        &tr.model_h,
-        &tr.core,
-        Some(&tr.selection),
-        Some(&tr.static_audit),
-        &tr.warnings,
-    )?;
+    let files = export::ModelFiles::of(&tr, None)?;
+    files.write(&model)?;
+    let (nh, np) = (files.model_h.len(), files.model_p.len());
     // The warnings `train` records in coefficients.json go into metrics.json too, as `evaluate` does.
     let train_warnings = fbg_trainer::eval::warnings::from_coefficients(&export::coefficients_path(&model));
     m.warnings = fbg_trainer::eval::warnings::merge(train_warnings, std::mem::take(&mut m.warnings));

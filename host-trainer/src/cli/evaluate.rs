@@ -13,8 +13,6 @@ use fbg_trainer::eval::{streamed, tables, warnings};
 use fbg_trainer::export;
 use fbg_trainer::sim::meta::{meta_path, SimMeta};
 
-use crate::baseline_path;
-
 /// Evaluate models on the hold-out of a CSV: Table 2 and Table 3 (and, for simulated data
 /// with a `.meta.json`, the per-sample oracle, drift sweep and error budget); writes `<model stem>.metrics.json`.
 #[derive(clap::Args)]
@@ -45,7 +43,7 @@ pub struct EvaluateArgs {
 impl EvaluateArgs {
     pub fn run(self) -> Result<()> {
         let (data, model, json) = (&self.data, &self.model, self.json);
-        let base = self.baseline.clone().unwrap_or_else(|| baseline_path(model));
+        let base = self.baseline.clone().unwrap_or_else(|| export::baseline_path(model));
         let out = self.metrics.clone().unwrap_or_else(|| export::metrics_path(model));
         let meta_file = meta_path(data);
         let inputs: Vec<&Path> =

@@ -218,7 +218,7 @@ fn print_model(p: &HostParams) {
         "clock: calibration ended {}; largest validated lead {:.1} h (the band's lead when a record's clock is unknown)",
         f.cal_end_unix_s.map_or(
             "at an unknown absolute time (calibrated on a record without absolute time)".to_string(),
-            fbg_trainer::data::import::time_axis::format_utc
+            fbg_trainer::data::timestamp::format_utc
         ),
         f.lead_max_s / 3600.0
     );

@@ -22,8 +22,6 @@ mod simulate;
 mod stream;
 mod train;
 
-use std::path::{Path, PathBuf};
-
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
@@ -157,12 +155,6 @@ fn run() -> Result<()> {
 
 /// A UTC timestamp argument in Unix seconds.
 fn utc_timestamp(s: &str, flag: &str) -> Result<f64> {
-    fbg_trainer::data::import::time_axis::parse_timestamp(s.trim().trim_end_matches('Z'), None)
+    fbg_trainer::data::timestamp::parse_timestamp(s.trim().trim_end_matches('Z'), None)
         .ok_or_else(|| anyhow::anyhow!("{flag}: `{s}` is not a UTC timestamp like 2026-01-05T00:00:00"))
-}
-
-/// `model.fbgm` → `model-p.fbgm`.
-fn baseline_path(model: &Path) -> PathBuf {
-    let stem = model.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into());
-    model.with_file_name(format!("{stem}-p.fbgm"))
 }

@@ -17,7 +17,6 @@ use fbg_trainer::sign::{self, SignatureRecord};
 use fbg_trainer::warning::Warning;
 
 use crate::args::SignArgs;
-use crate::baseline_path;
 
 /// A recalibrated model and its hold-out report.
 struct CheckedRecal {
@@ -161,7 +160,7 @@ struct Outcome {
 impl RecalibrateArgs {
     pub fn run(self) -> Result<()> {
         let (model, data, out) = (self.model.as_path(), self.data.as_path(), self.out.as_path());
-        let (base, new_base_path) = (baseline_path(model), baseline_path(out));
+        let (base, new_base_path) = (export::baseline_path(model), export::baseline_path(out));
         let keys = self.sign.key_files();
         let mut inputs = vec![model, data, base.as_path()];
         inputs.extend(keys.iter().map(PathBuf::as_path));

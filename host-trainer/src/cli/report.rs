@@ -10,8 +10,6 @@ use fbg_trainer::export;
 use fbg_trainer::report;
 use fbg_trainer::sim::meta::meta_path;
 
-use crate::baseline_path;
-
 /// Regenerate the audit report (figures, tables, coefficient tables, index.html) in DIR from
 /// the data.csv (+ data.meta.json), model.fbgm, model-p.fbgm and model.metrics.json there, or from
 /// the files named by --data, --model, --model-p and --metrics.
@@ -43,7 +41,7 @@ impl ReportArgs {
         let out = &self.out;
         let d = report::InputPaths::in_dir(out);
         let model = self.model;
-        let model_p = self.model_p.or_else(|| model.as_deref().map(baseline_path)).unwrap_or(d.model_p);
+        let model_p = self.model_p.or_else(|| model.as_deref().map(export::baseline_path)).unwrap_or(d.model_p);
         let paths = report::InputPaths {
             data: self.data.unwrap_or(d.data),
             model_h: model.clone().unwrap_or(d.model_h),

@@ -6,15 +6,13 @@ use std::time::Instant;
 
 use anyhow::Result;
 
-use fbg_trainer::data::files::{check_outputs, OutputSet};
+use fbg_trainer::data::files::check_outputs;
 use fbg_trainer::data::{outliers, Dataset, Kind, Measurand};
-use fbg_trainer::export;
+use fbg_trainer::export::{self, ModelFiles};
 use fbg_trainer::fit::{self, FeatureChoice, Origin, TrainOptions, Trained};
-use fbg_trainer::sign::{self, SignatureRecord};
 use fbg_trainer::sim::meta::{meta_path, SimMeta};
 
 use crate::args::{FeaturesArg, SignArgs};
-use crate::baseline_path;
 
 /// Fit Model-P and Model-H on the calibration part of a CSV; write the Model-H blob, the
 /// Model-P blob beside it (`<stem>-p.fbgm`) and `<stem>.coefficients.json`.
@@ -51,23 +49,14 @@ pub struct TrainArgs {
 struct Written {
     base: PathBuf,
     coef: PathBuf,
-    bytes_h: usize,
-    bytes_p: usize,
+    files: ModelFiles,
     seconds: f64,
-    sig_h: Option<SignatureRecord>,
-    sig_p: Option<SignatureRecord>,
-}
-
-impl Written {
-    fn signatures(&self) -> Option<serde_json::Value> {
-        self.sig_h.as_ref().map(|h| serde_json::json!({"model_h": h, "model_p": self.sig_p}))
-    }
 }
 
 impl TrainArgs {
     pub fn run(self) -> Result<()> {
         let (out, data) = (&self.out, &self.data);
-        let (base, coef) = (baseline_path(out), export::coefficients_path(out));
+        let (base, coef) = (export::baseline_path(out), export::coefficients_path(out));
         let meta_file = meta_path(data);
         let keys = self.sign.key_files();
         let mut inputs = vec![data.as_path(), meta_file.as_path()];
@@ -82,24 +71,9 @@ impl TrainArgs {
         let t = Instant::now();
         let tr = fit::train_source(&d, &data.display().to_string(), &opts, &origin)?;
         let seconds = t.elapsed().as_secs_f64();
-        let (bh, sig_h) = sign::maybe_sign(export::blob_bytes(&tr.model_h)?, signer.as_ref())?;
-        let (bp, sig_p) = sign::maybe_sign(export::blob_bytes(&tr.model_p)?, signer.as_ref())?;
-        let w = Written { base, coef, bytes_h: bh.len(), bytes_p: bp.len(), seconds, sig_h, sig_p };
-        // The three files are one output set: replaced together or not at all.
-        let set = OutputSet::beside(out)?;
-        set.stage_bytes(out, &bh)?;
-        set.stage_bytes(&w.base, &bp)?;
-        let text = export::coefficients_text(
-            &tr.model_p,
-            &tr.model_h,
-            &tr.core,
-            Some(&tr.selection),
-            Some(&tr.static_audit),
-            w.signatures(),
-            &tr.warnings,
-        )?;
-        set.stage_bytes(&w.coef, text.as_bytes())?;
-        set.commit()?;
+        let files = ModelFiles::of(&tr, signer.as_ref())?;
+        files.write(out)?;
+        let w = Written { base, coef, files, seconds };
         if self.json {
             println!("{}", serde_json::to_string_pretty(&self.summary_json(&d, &tr, &w)?)?);
         } else {
@@ -113,9 +87,9 @@ impl TrainArgs {
         let skipped_rows = outliers::rows_of(&tr.skipped);
         Ok(serde_json::json!({
             "model_h": self.out, "model_p": w.base, "coefficients": w.coef,
-            "model_h_bytes": w.bytes_h, "model_p_bytes": w.bytes_p, "train_seconds": w.seconds,
-            "chosen": tr.chosen(), "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h,
-            "grid_points": s.rows.len(), "signatures": w.signatures(),
+            "model_h_bytes": w.files.model_h.len(), "model_p_bytes": w.files.model_p.len(),
+            "train_seconds": w.seconds, "chosen": tr.chosen(), "cv_rmse_p": s.cv_rmse_p,
+            "cv_rmse_h": s.cv_rmse_h, "grid_points": s.rows.len(), "signatures": w.files.signatures_json(),
             "static_fidelity": export::static_fidelity_json(&tr.model_h, &tr.static_audit),
             "outliers_skipped": {
                 "rows": skipped_rows.len(),
@@ -160,12 +134,12 @@ impl TrainArgs {
         eprintln!(
             "wrote {} ({} B), {} ({} B), {}",
             self.out.display(),
-            w.bytes_h,
+            w.files.model_h.len(),
             w.base.display(),
-            w.bytes_p,
+            w.files.model_p.len(),
             w.coef.display()
         );
-        if let (Some(h), Some(p)) = (&w.sig_h, &w.sig_p) {
+        if let Some((h, p)) = &w.files.signatures {
             eprintln!(
                 "signed with key {}: Model-H serial {}, Model-P serial {}{}",
                 h.key_id,

@@ -24,6 +24,7 @@ pub mod import;
 pub mod measurand;
 pub mod outliers;
 pub mod record_meta;
+pub mod timestamp;
 pub(crate) mod units;
 
 pub use crate::data::csv::{quote_cell, MAX_LINE_BYTES, QUOTE_CHARS};

@@ -130,7 +130,7 @@ impl RecordMeta {
             out.push(format!("# {LAMBDA_REF_KEY} {}", cells.join("; ")));
         }
         if let Some(t0) = self.t0_unix_s {
-            out.push(format!("# {T0_KEY} {}", crate::data::import::time_axis::format_utc(t0)));
+            out.push(format!("# {T0_KEY} {}", crate::data::timestamp::format_utc(t0)));
         }
         out
     }
@@ -185,7 +185,7 @@ impl RecordMeta {
                     source: z.source.name().into(),
                 })
                 .collect(),
-            t0_utc: self.t0_unix_s.map(crate::data::import::time_axis::format_utc),
+            t0_utc: self.t0_unix_s.map(crate::data::timestamp::format_utc),
         };
         let mut text = serde_json::to_string_pretty(&side).unwrap_or_default();
         text.push('\n');
@@ -289,7 +289,7 @@ struct SidecarZero {
 }
 
 fn parse_t0(v: &str) -> Result<f64, String> {
-    crate::data::import::time_axis::parse_timestamp(v.trim().trim_end_matches('Z'), None).ok_or_else(|| {
+    crate::data::timestamp::parse_timestamp(v.trim().trim_end_matches('Z'), None).ok_or_else(|| {
         format!("`{}` is not a UTC timestamp like 2026-01-05T00:00:00.000Z", crate::error::quote_cell(v))
     })
 }

@@ -7,7 +7,8 @@
 //!
 //! The files follow the fit, and each uses only files listed before it (no cycle):
 //!
-//! 1. the model types and the numerics: [`host`], `linalg`, `kmeans`, `par`;
+//! 1. the model types and the numerics: [`host`], `engine` (a model run sample by sample in
+//!    the host's f64 or the device's f32, [`Engine`]), `linalg`, `kmeans`, `par`;
 //! 2. the polynomial core and a model run over a record: [`poly_core`], [`design`],
 //!    [`memory_core`];
 //! 3. what a fit is asked: `grid` ([`CvGrid`]), `options` ([`TrainOptions`]), [`features`]
@@ -24,6 +25,7 @@
 
 pub mod band;
 pub mod design;
+mod engine;
 mod envelope;
 pub mod features;
 pub mod field;
@@ -52,6 +54,7 @@ mod variance;
 
 pub use band::VarModel;
 pub use design::{design_matrix, run, run_on_clock, CheckpointCache, Checkpoints, Gram};
+pub use engine::{Engine, Precision};
 pub use features::FeatureChoice;
 pub use grid::{Config, CvGrid};
 pub use host::{HostCompensator, HostParams, HOST_CAP};

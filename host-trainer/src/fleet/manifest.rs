@@ -55,7 +55,7 @@ pub struct Group {
 impl Group {
     /// The Model-P blob beside the Model-H blob (`<stem>-p.fbgm`, as `train`).
     pub fn baseline_path(&self) -> PathBuf {
-        self.out.with_file_name(format!("{}-p.fbgm", self.stem()))
+        crate::export::baseline_path(&self.out)
     }
     /// `<stem>.coefficients.json`.
     pub fn coefficients_path(&self) -> PathBuf {
@@ -63,14 +63,11 @@ impl Group {
     }
     /// `<stem>.fleet.json`: the record that the group finished.
     pub fn sidecar_path(&self) -> PathBuf {
-        self.out.with_file_name(format!("{}.fleet.json", self.stem()))
+        crate::export::sidecar(&self.out, "fleet.json")
     }
     /// `<stem>.fleet-failed.json`: the record of the group's last failure.
     pub(crate) fn failure_path(&self) -> PathBuf {
-        self.out.with_file_name(format!("{}.fleet-failed.json", self.stem()))
-    }
-    fn stem(&self) -> String {
-        self.out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "model".into())
+        crate::export::sidecar(&self.out, "fleet-failed.json")
     }
 }
 

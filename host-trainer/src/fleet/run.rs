@@ -14,9 +14,9 @@ use super::{manifest_sign, Group, Manifest, FAILURE_FORMAT, SIDECAR_FORMAT};
 use crate::data::files::{write_bytes_atomically, OutputSet};
 use crate::data::Dataset;
 use crate::error::TrainerError;
-use crate::export;
+use crate::export::ModelFiles;
 use crate::fit::{self, Origin};
-use crate::sign::{self, BlobSigner, SignOptions};
+use crate::sign::{BlobSigner, SignOptions};
 use crate::sim::meta::SimMeta;
 
 /// What happened to one group.
@@ -127,32 +127,18 @@ fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<S
         None => Origin { scenario: g.name.clone(), seed: 0 },
     };
     let tr = fit::train_source(&d, &g.data.display().to_string(), &opts, &origin)?;
+    let files = ModelFiles::of(&tr, signer)?;
     // The blobs, the coefficients and the record are one output set: a kill or a failure
     // leaves the old group whole (its old record still matching its old blob) or the new one.
     let set = OutputSet::beside(&g.out)?;
-    let (blob, sig_h) = sign::maybe_sign(export::blob_bytes(&tr.model_h)?, signer)?;
-    let (blob_p, sig_p) = sign::maybe_sign(export::blob_bytes(&tr.model_p)?, signer)?;
-    set.stage_bytes(&g.baseline_path(), &blob_p)?;
-    let np = blob_p.len();
-    let signatures = sig_h.map(|h| serde_json::json!({"model_h": h, "model_p": sig_p}));
-    let coefficients = export::coefficients_text(
-        &tr.model_p,
-        &tr.model_h,
-        &tr.core,
-        Some(&tr.selection),
-        Some(&tr.static_audit),
-        signatures,
-        &tr.warnings,
-    )?;
-    set.stage_bytes(&g.coefficients_path(), coefficients.as_bytes())?;
-    set.stage_bytes(&g.out, &blob)?;
+    files.stage(&set, &g.out)?;
     let rec = Sidecar {
         format: SIDECAR_FORMAT.into(),
         name: g.name.clone(),
         input_digest: digest.to_string(),
-        blob_digest: blob_digest(&blob),
-        model_h_bytes: blob.len(),
-        model_p_bytes: np,
+        blob_digest: blob_digest(&files.model_h),
+        model_h_bytes: files.model_h.len(),
+        model_p_bytes: files.model_p.len(),
         chosen_k: tr.selection.chosen.k,
         chosen_features: tr.selection.chosen.feature_set.name().into(),
         cv_rmse_h: tr.selection.cv_rmse_h,

@@ -62,12 +62,9 @@ pub(crate) fn levels_of(cal: &[f64], levels: usize) -> Vec<f64> {
     (0..levels).map(|i| lo + (hi - lo) * i as f64 / last).collect()
 }
 
-/// Visits of each level: approached from below, then from above.
-pub(crate) const APPROACHES: usize = 2;
-
 /// Append the steps part to `series` (each holding its calibration part): the series listed in
 /// `stepped` step in that order through their levels, every series not being stepped holds its
-/// calibration-part median. Each level is visited `APPROACHES` times, each visit
+/// calibration-part median. Each level is visited [`Steps::APPROACHES`] times, each visit
 /// `hold_samples` long: a linear ramp of `ramp_samples` out to the excursion point (one level
 /// spacing below, then above, the level: far enough to turn any hysteresis loop narrower than
 /// a level spacing, even beyond the calibration range at the end levels), a ramp of
@@ -188,7 +185,7 @@ mod tests {
         let mut s = vec![(0..100).map(f64::from).collect::<Vec<f64>>(), vec![7.0; 100]];
         let steps = Steps { enabled: true, levels: 5, hold_s: 0.0, ramp_s: 0.0 };
         extend(&mut s, &[0, 1], &steps, 20, 4);
-        assert_eq!(s[0].len(), 100 + 2 * 5 * APPROACHES * 20);
+        assert_eq!(s[0].len(), 100 + 2 * 5 * Steps::APPROACHES * 20);
         // First visit: measurand 0 ramps from 99 down to one level spacing below its lowest
         // level, back up to it and holds; measurand 1 goes to its median.
         let lo = percentile(&s[0][..100], 5.0);

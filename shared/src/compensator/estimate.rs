@@ -30,6 +30,16 @@ impl<F: Real> Estimate<F> {
     pub fn band(&self) -> &[F] {
         head(&self.band95, usize::from(self.outputs))
     }
+    /// The estimate in another precision: exact from f32 to f64 (how a host reads what a
+    /// device answered), rounded to nearest from f64 to f32, as [`crate::Sample::cast`].
+    pub fn cast<G: Real>(&self) -> Estimate<G> {
+        Estimate {
+            values: self.values.map(G::from_real),
+            band95: self.band95.map(G::from_real),
+            outputs: self.outputs,
+            flags: self.flags,
+        }
+    }
     /// The answer to a sample the model cannot read: NaN values, infinite band, `flags`.
     pub(crate) fn refused(outputs: u8, flags: Flags) -> Self {
         let mut e = Estimate { values: [F::ZERO; MAX_OUTPUTS], band95: [F::ZERO; MAX_OUTPUTS], outputs, flags };

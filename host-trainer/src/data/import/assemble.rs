@@ -9,9 +9,9 @@ use super::problems;
 use super::summary::{
     Dropped, GratingSummary, ImportSummary, Purpose, RefSummary, References, SplitSummary, TimeSummary,
 };
-use super::time_axis::{format_timestamp, parse_timestamp};
 use super::{join, ImportOptions, SplitChoice};
 use crate::data::measurand::{grating_column, Measurand};
+use crate::data::timestamp::{format_timestamp, parse_timestamp};
 use crate::data::{Dataset, GratingZero, RecordMeta, Reference, Split};
 use crate::error::TrainerError;
 

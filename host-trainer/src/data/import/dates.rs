@@ -1,7 +1,7 @@
 //! The day/month order of a file's numeric dates (`03.01.2024`: 3 January or 1 March?), from
 //! its culture or its dates: for the ENLIGHT exports, peaks and Responses.
 
-use super::enlight::Culture;
+use super::culture::Culture;
 use super::time_axis::{dmy_fields, DateOrder};
 use crate::error::TrainerError;
 

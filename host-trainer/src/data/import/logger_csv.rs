@@ -5,9 +5,10 @@ use std::path::Path;
 
 use super::mapping::{CsvGrating, Map, RefMap};
 use super::problems::{OnError, Problems, Reason, RowError};
-use super::time_axis::{parse_timestamp, TimeKind, TimeParser};
+use super::time_axis::{TimeKind, TimeParser};
 use super::{number, read_text};
 use crate::data::measurand::{grating_column, parse_grating_column, Measurand, MAX_MEASURANDS};
+use crate::data::timestamp::parse_timestamp;
 use crate::data::units::{
     absolute_nm_column_message, check_ambient, check_wavelength, looks_absolute_nm, UnitSource, WlUnit,
 };

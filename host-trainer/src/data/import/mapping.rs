@@ -15,9 +15,10 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use super::spectra::Scale;
-use super::time_axis::{parse_timestamp, TimeUnit};
+use super::scale::Scale;
+use super::time_axis::TimeUnit;
 use crate::data::measurand::{Measurand, MAX_GRATINGS, MAX_MEASURANDS};
+use crate::data::timestamp::parse_timestamp;
 use crate::data::units::{WlUnit, NM_RANGE};
 use crate::error::{line_col, TrainerError};
 

@@ -8,8 +8,9 @@ use super::mapping::Map;
 use super::problems::FileSkips;
 use super::spectra;
 use super::summary::{EnlightInfo, JoinInfo, SpectraInfo};
-use super::time_axis::{format_timestamp, TimeKind};
+use super::time_axis::TimeKind;
 use super::{join, ImportOptions};
+use crate::data::timestamp::format_timestamp;
 use crate::data::{Measurand, T_AMB_COLUMN};
 use crate::error::TrainerError;
 

@@ -16,6 +16,7 @@
 //! counted skips ([`problems`]); the output is written atomically (`Dataset::write_csv`).
 
 mod assemble;
+mod culture;
 mod dates;
 mod enlight;
 mod join;
@@ -23,6 +24,7 @@ mod logger_csv;
 pub mod mapping;
 mod merge;
 pub mod problems;
+mod scale;
 pub mod spectra;
 mod summary;
 pub mod time_axis;
@@ -35,8 +37,8 @@ use crate::data::Dataset;
 use crate::error::{quote_cell, TrainerError};
 pub use mapping::Map;
 pub use problems::{FileSkips, OnError, Reason, ReasonCount};
+pub use scale::Scale;
 pub use spectra::peak_table::{peaks_to_csv, PeaksSummary, PEAKS_HEADER};
-pub use spectra::Scale;
 pub use summary::{
     Dropped, EnlightInfo, FlaggedFrames, GratingSummary, ImportSummary, JoinInfo, Purpose, RefSummary, References,
     SpectraInfo, SplitSummary, TimeSummary,

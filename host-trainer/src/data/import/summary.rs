@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::problems::FileSkips;
-use super::spectra::Scale;
+use super::scale::Scale;
 use super::time_axis::{self, TimeKind};
 use super::Format;
 use crate::data::{Measurand, T_AMB_COLUMN};

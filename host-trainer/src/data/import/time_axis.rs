@@ -6,9 +6,10 @@
 //! are read only when the caller says in which order (`Dmy`): `01/03/2024` is the 1st of March
 //! day-first and January the 3rd month-first, and nothing in the cell tells which.
 
-use chrono::{DateTime, NaiveDate, NaiveDateTime, NaiveTime};
+use chrono::{NaiveDate, NaiveTime};
 use serde::{Deserialize, Serialize};
 
+use crate::data::timestamp::{parse_timestamp, secs};
 use crate::error::quote_cell;
 
 /// How the time column is written.
@@ -161,63 +162,6 @@ pub(crate) fn decimal_comma_number(cell: &str) -> Result<f64, String> {
     c.replace(',', ".").parse::<f64>().map_err(|_| format!("`{}` is not a number", quote_cell(c)))
 }
 
-/// Timestamp layouts tried when no `format` is given.
-const NAIVE_FORMATS: [&str; 6] = [
-    "%Y-%m-%dT%H:%M:%S%.f",
-    "%Y-%m-%d %H:%M:%S%.f",
-    "%Y/%m/%d %H:%M:%S%.f",
-    "%Y-%m-%dT%H:%M",
-    "%Y-%m-%d %H:%M",
-    "%Y/%m/%d %H:%M",
-];
-
-/// Parse a calendar timestamp: ISO-8601 / RFC 3339 (with or without an offset, `T` or space),
-/// `YYYY-MM-DD hh:mm:ss[.fff]`, `YYYY/MM/DD hh:mm:ss[.fff]`, or a chrono `format`.
-pub fn parse_timestamp(s: &str, format: Option<&str>) -> Option<f64> {
-    let s = s.trim();
-    if let Some(f) = format {
-        if f.contains("%z") || f.contains("%:z") || f.contains("%#z") {
-            return DateTime::parse_from_str(s, f).ok().map(|d| secs(d.naive_utc()));
-        }
-        return NaiveDateTime::parse_from_str(s, f).ok().map(secs);
-    }
-    // Cheap guard: every layout starts with a four-digit year.
-    if s.len() < 10 || !s.as_bytes()[..4].iter().all(u8::is_ascii_digit) {
-        return None;
-    }
-    if let Ok(d) = DateTime::parse_from_rfc3339(s) {
-        return Some(secs(d.naive_utc()));
-    }
-    for f in ["%Y-%m-%d %H:%M:%S%.f%#z", "%Y-%m-%dT%H:%M:%S%.f%#z"] {
-        if let Ok(d) = DateTime::parse_from_str(s, f) {
-            return Some(secs(d.naive_utc()));
-        }
-    }
-    let s = s.strip_suffix('Z').unwrap_or(s);
-    NAIVE_FORMATS.iter().find_map(|f| NaiveDateTime::parse_from_str(s, f).ok()).map(secs)
-}
-
-fn secs(d: NaiveDateTime) -> f64 {
-    let u = d.and_utc();
-    u.timestamp() as f64 + f64::from(u.timestamp_subsec_nanos()) * 1e-9
-}
-
-/// A time on the axis, written back as `YYYY-MM-DDThh:mm:ss.fff` (for summaries).
-/// [`format_timestamp`] marked as UTC (`…Z`): how a record's start and a model's end of
-/// calibration are written for people and files.
-pub fn format_utc(t: f64) -> String {
-    format!("{}Z", format_timestamp(t))
-}
-
-pub fn format_timestamp(t: f64) -> String {
-    let whole = t.floor();
-    let nanos = ((t - whole) * 1e9).round().min(999_999_999.0) as u32;
-    match DateTime::from_timestamp(whole as i64, nanos) {
-        Some(d) => d.naive_utc().format("%Y-%m-%dT%H:%M:%S%.3f").to_string(),
-        None => format!("{t} s"),
-    }
-}
-
 /// Parses the time cells of one file; the kind is fixed by the first cell parsed.
 #[derive(Clone, Debug)]
 pub(crate) struct TimeParser {
@@ -317,21 +261,6 @@ impl TimeParser {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn layouts() {
-        let a = parse_timestamp("2024-03-01 10:00:00", None).unwrap();
-        assert_eq!(parse_timestamp("2024-03-01T10:00:00", None), Some(a));
-        assert_eq!(parse_timestamp("2024-03-01T10:00:00Z", None), Some(a));
-        assert_eq!(parse_timestamp("2024-03-01T11:00:00+01:00", None), Some(a));
-        assert_eq!(parse_timestamp("2024-03-01 11:00:00+01:00", None), Some(a));
-        assert_eq!(parse_timestamp("2024/03/01 10:00:00", None), Some(a));
-        assert!((parse_timestamp("2024-03-01 10:00:00.2500", None).unwrap() - a - 0.25).abs() < 1e-6);
-        assert_eq!(parse_timestamp("01.03.2024 10:00:00", Some("%d.%m.%Y %H:%M:%S")), Some(a));
-        assert_eq!(parse_timestamp("1535.2", None), None);
-        assert_eq!(parse_timestamp("Timestamp", None), None);
-        assert_eq!(format_timestamp(a + 0.25), "2024-03-01T10:00:00.250");
-    }
 
     #[test]
     fn numeric_dates_in_either_order() {

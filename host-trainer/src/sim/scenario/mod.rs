@@ -148,6 +148,10 @@ impl Default for Steps {
         Steps { enabled: false, levels: 5, hold_s: 43_200.0, ramp_s: 1800.0 }
     }
 }
+impl Steps {
+    /// Visits of each level: approached from below, then from above.
+    pub(crate) const APPROACHES: usize = 2;
+}
 impl Default for Plateaus {
     fn default() -> Self {
         Plateaus { enabled: false, hold_min_s: 4.0 * 3600.0, hold_max_s: 16.0 * 3600.0, ramp_s: 600.0 }
@@ -226,10 +230,7 @@ impl ScenarioConfig {
     /// Samples of the steps part (0 when it is off): every measurand through every level.
     pub(crate) fn n_steps_samples(&self) -> usize {
         if self.steps.enabled {
-            self.measurands.len()
-                * self.steps.levels as usize
-                * crate::sim::steps::APPROACHES
-                * self.steps_hold_samples()
+            self.measurands.len() * self.steps.levels as usize * Steps::APPROACHES * self.steps_hold_samples()
         } else {
             0
         }

@@ -3,11 +3,12 @@
 
 use fbg_shared::layout::MAX_GRATINGS;
 use fbg_shared::spectrum::template::template_fit;
-use fbg_shared::spectrum::{DetectorConfig, Grid, Method, PeakDetector, Region, Spectrum, Template, Threshold};
+use fbg_shared::spectrum::{DetectorConfig, Grid, Method, Region, Spectrum, Template, Threshold};
 use rayon::prelude::*;
 
 use super::detector::FULL_SCALE_COUNTS;
 use super::frames::{row_rng, wavelengths_at, FrameSimulator};
+use crate::data::import::spectra::ChannelDetector;
 use crate::data::Dataset;
 use crate::error::TrainerError;
 
@@ -89,10 +90,10 @@ pub fn find_peaks(
         });
     }
     let config = DetectorConfig { method, full_scale: FULL_SCALE_COUNTS, ..DetectorConfig::default() };
-    let detectors: Vec<PeakDetector<f64, MAX_GRATINGS>> = (0..frames.channels())
+    let detectors: Vec<ChannelDetector<usize>> = (0..frames.channels())
         .map(|c| {
-            let windows: Vec<_> = frames.gratings_of(c).iter().map(|&g| frames.window(g)).collect();
-            PeakDetector::new(config, &windows).ok_or_else(|| TrainerError::Dataset {
+            let windows = frames.gratings_of(c).iter().map(|&g| (g, frames.window(g)));
+            ChannelDetector::new(config, windows).ok_or_else(|| TrainerError::Dataset {
                 message: format!("spectrum chain: too many gratings on channel {c}"),
             })
         })
@@ -123,8 +124,7 @@ pub fn find_peaks(
                     samples.clear();
                     samples.extend(counts.iter().map(|&v| f64::from(v)));
                     let spectrum = Spectrum::new(samples, grid);
-                    let peaks = det.detect(&spectrum);
-                    for ((&g, p), w) in frames.gratings_of(c).iter().zip(peaks.iter().flatten()).zip(det.windows()) {
+                    for (g, w, p) in det.detect(&spectrum) {
                         let wavelength_nm = match templates.get(g) {
                             Some(t) => refine(&spectrum, w, t, p.pixel).unwrap_or(f64::NAN),
                             None => p.wavelength_nm,

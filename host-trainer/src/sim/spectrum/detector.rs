@@ -93,7 +93,7 @@ pub struct DetectorModel {
 }
 
 /// The detector's full scale \[counts\] (a 16-bit ADC).
-pub const FULL_SCALE_COUNTS: f64 = 65_535.0;
+pub use fbg_link::spectrum::FULL_SCALE_COUNTS;
 
 impl Default for DetectorModel {
     /// 30 dB, a reference height of 40 000 counts on a dark level of 1 000.
@@ -112,11 +112,7 @@ impl DetectorModel {
     /// to the nearest count and clamped to 0..=65 535 (a saturated pixel reads full scale).
     pub fn expose(&self, signal: &[f64], rng: &mut Rng, out: &mut Vec<u16>) {
         let sigma = self.sigma_counts();
-        out.clear();
-        out.extend(signal.iter().map(|&s| {
-            let noise = if sigma > 0.0 { sigma * rng.normal() } else { 0.0 };
-            let v = (self.dark_counts + s + noise).round();
-            v.clamp(0.0, FULL_SCALE_COUNTS) as u16
-        }));
+        let noise = || if sigma > 0.0 { sigma * rng.normal() } else { 0.0 };
+        fbg_link::spectrum::expose(signal.iter().copied(), self.dark_counts, noise, out);
     }
 }

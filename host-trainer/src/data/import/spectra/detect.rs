@@ -1,85 +1,52 @@
-//! Frames to per-grating peaks: one [`PeakDetector`] per channel, built once (from the map's
-//! windows, or from the peaks discovered in the channel's first spectrum) and reused for every
-//! frame; the results kept per grating and frame.
+//! Frames to per-grating peaks: one [`PeakDetector`] per channel ([`ChannelDetector`]), built
+//! once (from the map's windows, or from the peaks discovered in the channel's first spectrum)
+//! and reused for every frame; the results kept per grating and frame.
 
-use fbg_shared::spectrum::{DetectorConfig, Peak, PeakDetector, PeakFlags, Window};
+use fbg_shared::spectrum::{DetectorConfig, Peak, PeakDetector, Spectrum, Window};
 
 use super::super::mapping;
 use super::super::problems::{Reason, RowError};
 use super::discover;
 use super::frames::{SpectrumRow, SpectrumSink, MAX_CHANNELS};
+use super::kept::Kept;
 use crate::data::measurand::MAX_GRATINGS;
 use crate::error::TrainerError;
 
-/// What a detection keeps of each frame's peak: the whole [`Peak`] (the `peaks` command's
-/// table) or only what the import reads ([`Found`]), so that a long file's frames cost the
-/// import less memory.
-pub(crate) trait Kept: Copy {
-    /// What is kept of `p`.
-    fn keep(p: &Peak<f64>) -> Self;
-    /// Centre wavelength \[nm\] (NaN with no peak).
-    fn wavelength_nm(&self) -> f64;
-    /// Height above the floor.
-    fn amplitude(&self) -> f64;
-    /// FWHM \[nm\].
-    fn fwhm_nm(&self) -> f64;
-    /// Quality flags.
-    fn flags(&self) -> PeakFlags;
+/// One channel's detector: the windows of its gratings, each tagged with the caller's name of
+/// the grating (`G`), found in every frame of the channel. The import's detection and the
+/// simulator's spectrum chain both turn frames into peaks here.
+pub(crate) struct ChannelDetector<G> {
+    detector: PeakDetector<f64, MAX_GRATINGS>,
+    gratings: Vec<G>,
 }
 
-impl Kept for Peak<f64> {
-    fn keep(p: &Peak<f64>) -> Self {
-        *p
+impl<G: Copy> ChannelDetector<G> {
+    /// A detector of `config` over the gratings' `windows`; `None` for more windows than a
+    /// detector holds.
+    pub(crate) fn new(
+        config: DetectorConfig<f64>,
+        windows: impl IntoIterator<Item = (G, Window<f64>)>,
+    ) -> Option<Self> {
+        let (gratings, windows): (Vec<G>, Vec<Window<f64>>) = windows.into_iter().unzip();
+        Some(ChannelDetector { detector: PeakDetector::new(config, &windows)?, gratings })
     }
-    fn wavelength_nm(&self) -> f64 {
-        self.wavelength_nm
-    }
-    fn amplitude(&self) -> f64 {
-        self.amplitude
-    }
-    fn fwhm_nm(&self) -> f64 {
-        self.fwhm_nm
-    }
-    fn flags(&self) -> PeakFlags {
-        self.flags
-    }
-}
 
-/// What the import keeps of a peak: its wavelength, the height and width the plausibility
-/// rule compares, the flags.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Found {
-    wavelength_nm: f64,
-    amplitude: f64,
-    fwhm_nm: f64,
-    flags: PeakFlags,
-}
+    /// The gratings and their windows, in the detector's order.
+    pub(crate) fn windows(&self) -> impl Iterator<Item = (G, &Window<f64>)> {
+        self.gratings.iter().copied().zip(self.detector.windows())
+    }
 
-impl Kept for Found {
-    fn keep(p: &Peak<f64>) -> Self {
-        Found { wavelength_nm: p.wavelength_nm, amplitude: p.amplitude, fwhm_nm: p.fwhm_nm, flags: p.flags }
-    }
-    fn wavelength_nm(&self) -> f64 {
-        self.wavelength_nm
-    }
-    fn amplitude(&self) -> f64 {
-        self.amplitude
-    }
-    fn fwhm_nm(&self) -> f64 {
-        self.fwhm_nm
-    }
-    fn flags(&self) -> PeakFlags {
-        self.flags
+    /// Each grating's peak in `spectrum` (a whole frame of the channel), with its window.
+    pub(crate) fn detect(&self, spectrum: &Spectrum<'_, f64>) -> impl Iterator<Item = (G, &Window<f64>, Peak<f64>)> {
+        self.windows().zip(self.detector.detect(spectrum)).filter_map(|((g, w), p)| Some((g, w, p?)))
     }
 }
 
 /// One channel's detector and its results.
 struct Channel<T> {
+    /// Per window, the map's grating index, or `None` when discovered (numbered at the end);
     /// `None` where discovery found more peaks than a detector holds (an error at the end).
-    detector: Option<PeakDetector<f64, MAX_GRATINGS>>,
-    /// Per window (in the detector's order): the map's grating index, or `None` when
-    /// discovered (numbered at the end).
-    grating: Vec<Option<usize>>,
+    detector: Option<ChannelDetector<Option<usize>>>,
     /// Per window, per frame: the peak, `None` where the frame lacks this channel.
     peaks: Vec<Vec<Option<T>>>,
     /// Per frame: the line of this channel's spectrum (0 where the frame lacks it).
@@ -167,18 +134,16 @@ impl<T: Kept> Detection<T> {
         let mapped = &self.mapped;
         let slot = self.channels.get_mut(c)?;
         Some(slot.get_or_insert_with(|| {
-            let (grating, windows, discovered): (Vec<Option<usize>>, Vec<Window<f64>>, usize) = if mapped.is_empty() {
-                let w = discover::windows(&row.spectrum, &config);
-                (vec![None; w.len()], w.clone(), w.len())
+            let windows: Vec<(Option<usize>, Window<f64>)> = if mapped.is_empty() {
+                discover::windows(&row.spectrum, &config).into_iter().map(|w| (None, w)).collect()
             } else {
-                let mine: Vec<&(usize, usize, Window<f64>)> = mapped.iter().filter(|m| m.1 == c).collect();
-                (mine.iter().map(|m| Some(m.0)).collect(), mine.iter().map(|m| m.2).collect(), 0)
+                mapped.iter().filter(|m| m.1 == c).map(|m| (Some(m.0), m.2)).collect()
             };
-            let detector = PeakDetector::new(config, &windows);
-            let n = if detector.is_some() { windows.len() } else { 0 };
+            let discovered = if mapped.is_empty() { windows.len() } else { 0 };
+            let detector = ChannelDetector::new(config, windows);
+            let n = detector.as_ref().map_or(0, |d| d.windows().count());
             Channel {
                 detector,
-                grating: if n > 0 { grating } else { Vec::new() },
                 peaks: vec![vec![None; frames]; n],
                 lines: vec![0; frames],
                 discovered,
@@ -229,7 +194,7 @@ impl<T: Kept> Detection<T> {
             let Some(det) = ch.detector else { continue };
             let mut lines = ch.lines;
             lines.resize(frames, 0);
-            for ((w, g), peaks) in det.windows().iter().zip(ch.grating).zip(ch.peaks) {
+            for ((g, w), peaks) in det.windows().zip(ch.peaks) {
                 let (index, source) = match g {
                     Some(g) => (g, format!("channel {}, window {}–{} nm", c + 1, w.lo_nm, w.hi_nm)),
                     None => {
@@ -324,9 +289,9 @@ impl<T: Kept> SpectrumSink for Detection<T> {
             *l = row.line;
         }
         if let Some(det) = &ch.detector {
-            for (slot, p) in ch.peaks.iter_mut().zip(det.detect(&row.spectrum)) {
+            for (slot, (_, _, p)) in ch.peaks.iter_mut().zip(det.detect(&row.spectrum)) {
                 if let Some(last) = slot.last_mut() {
-                    *last = p.as_ref().map(T::keep);
+                    *last = Some(T::from(p));
                 }
             }
         }

@@ -9,10 +9,11 @@
 //!   polynomial.
 //!
 //! The two CSV layouts share `wide_csv.rs`; every reader hands its spectra, converted to linear
-//! intensities, to the detection of `detect.rs` (the hand-over is `frames.rs`), which runs one
-//! detector per channel over the map's windows or, without a map, over the windows
-//! `discover.rs` finds in each channel's first spectrum; `settings.rs` turns the map's `[spectra]` table into the detector's
-//! settings; `peak_table.rs` writes the `peaks` command's table.
+//! intensities, to the detection of `detect.rs` (the hand-over is `frames.rs`; what it keeps of
+//! each peak is `kept.rs`), which runs one detector per channel over the map's windows or,
+//! without a map, over the windows `discover.rs` finds in each channel's first spectrum;
+//! `settings.rs` turns the map's `[spectra]` table into the detector's settings;
+//! `peak_table.rs` writes the `peaks` command's table.
 //!
 //! # Flagged frames in the dataset
 //!
@@ -29,28 +30,28 @@
 mod detect;
 mod discover;
 mod frames;
+mod kept;
 pub(crate) mod peak_table;
 mod pixels;
 mod plausible;
 mod responses;
-mod scale;
 mod settings;
 mod spectra_csv;
 mod wide_csv;
 
 use std::collections::BTreeMap;
 
-pub use scale::Scale;
-
 use super::mapping::{Map, SpectraMap};
 use super::problems::OnError;
+use super::scale::Scale;
 use super::summary::{FlaggedFrames, SpectraInfo};
 use super::Format;
 use crate::data::measurand::grating_column;
 use crate::error::TrainerError;
+pub(crate) use detect::ChannelDetector;
 use detect::{Detected, Detection};
-pub(crate) use detect::{Found, Kept};
 use frames::{describe_grid, FileFacts};
+pub(crate) use kept::{Found, Kept};
 use settings::Settings;
 
 /// A spectrum file read and its peaks detected, each kept as `T` ([`Kept`]).
@@ -146,9 +147,9 @@ impl<T: Kept> SpectraRead<T> {
                 .iter()
                 .zip(&gp.implausible)
                 .map(|(p, &implausible)| {
-                    let Some(p) = p else { return f64::NAN };
+                    let Some(p): Option<Found> = p.map(T::into) else { return f64::NAN };
                     f.frames += 1;
-                    let flags = p.flags();
+                    let flags = p.flags;
                     if !flags.is_ok() || implausible {
                         f.flagged += 1;
                         for (bit, name) in settings::flag_names() {
@@ -160,11 +161,11 @@ impl<T: Kept> SpectraRead<T> {
                     if implausible {
                         *f.by_flag.entry(plausible::IMPLAUSIBLE.to_string()).or_insert(0) += 1;
                     }
-                    if flags.0 & gap_on.0 != 0 || implausible || !p.wavelength_nm().is_finite() {
+                    if flags.0 & gap_on.0 != 0 || implausible || !p.wavelength_nm.is_finite() {
                         f.gaps += 1;
                         f64::NAN
                     } else {
-                        p.wavelength_nm()
+                        p.wavelength_nm
                     }
                 })
                 .collect();

@@ -14,9 +14,9 @@ use serde::Serialize;
 
 use super::super::problems::{self, FileSkips};
 use super::super::summary::SpectraInfo;
-use super::super::time_axis::format_timestamp;
 use super::super::{ImportOptions, Map};
 use crate::data::files::write_atomically;
+use crate::data::timestamp::format_timestamp;
 use crate::error::TrainerError;
 
 /// The header of the peaks table.

@@ -8,7 +8,7 @@
 //! detector found without a fault), so a slow change of source power or of the grating's shape
 //! is followed and only a frame that breaks with the rest is taken.
 
-use super::detect::Kept;
+use super::kept::{Found, Kept};
 
 /// A peak higher above its floor than this many times the grating's median height is not the
 /// grating's: a source does not brighten tenfold between frames, and a clipped top is flagged
@@ -28,21 +28,19 @@ pub(crate) const IMPLAUSIBLE: &str = "implausible";
 
 /// Per frame of one grating's `peaks`: whether its peak is implausible (see the module).
 pub(crate) fn implausible<T: Kept>(peaks: &[Option<T>]) -> Vec<bool> {
+    let found = || peaks.iter().map(|p| p.map(T::into));
     let usable = || {
-        peaks.iter().flatten().filter(|p| {
-            !p.flags().is_fault() && p.amplitude().is_finite() && p.fwhm_nm().is_finite() && p.fwhm_nm() > 0.0
+        found().flatten().filter(|p: &Found| {
+            !p.flags.is_fault() && p.amplitude.is_finite() && p.fwhm_nm.is_finite() && p.fwhm_nm > 0.0
         })
     };
-    let mut heights: Vec<f64> = usable().map(|p| p.amplitude()).collect();
-    let mut widths: Vec<f64> = usable().map(|p| p.fwhm_nm()).collect();
+    let mut heights: Vec<f64> = usable().map(|p| p.amplitude).collect();
+    let mut widths: Vec<f64> = usable().map(|p| p.fwhm_nm).collect();
     if heights.len() < MIN_FRAMES {
         return vec![false; peaks.len()];
     }
     let (h, w) = (median(&mut heights), median(&mut widths));
-    peaks
-        .iter()
-        .map(|p| p.as_ref().is_some_and(|p| p.amplitude() > MAX_HEIGHT_RATIO * h || p.fwhm_nm() < MIN_WIDTH_RATIO * w))
-        .collect()
+    found().map(|p| p.is_some_and(|p| p.amplitude > MAX_HEIGHT_RATIO * h || p.fwhm_nm < MIN_WIDTH_RATIO * w)).collect()
 }
 
 /// The median of `v` (non-empty, finite), reordering it.

@@ -25,13 +25,14 @@ use std::path::Path;
 
 use fbg_shared::spectrum::{from_db_in_place, Grid, Spectrum};
 
-use super::super::enlight::{find_culture, number_in, Culture, DateProbe};
+use super::super::culture::{find_culture, number_in, Culture};
+use super::super::dates::DateProbe;
 use super::super::mapping::Map;
 use super::super::problems::{OnError, Problems, Reason, RowError};
+use super::super::scale::Scale;
 use super::super::time_axis::{dmy_fields, Dmy, TimeKind, TimeParser, TimeUnit};
 use super::super::TextLines;
 use super::frames::{FileFacts, SpectrumRow, SpectrumSink, MAX_CHANNELS};
-use super::scale::Scale;
 use super::wide_csv::check_scale;
 use crate::data::units::NM_RANGE;
 use crate::error::{ShortNumber, TrainerError};

@@ -4,7 +4,7 @@
 use fbg_shared::spectrum::{from_db, DetectorConfig, Method, PeakFlags, Threshold};
 
 use super::super::mapping::SpectraMap;
-use super::scale::Scale;
+use super::super::scale::Scale;
 
 /// Flags that make a frame's wavelength a gap unless the map's `gap_on` says otherwise: the
 /// detector's faults (a clipped top, a neighbour in the window, a maximum at the window's edge;

@@ -14,10 +14,10 @@ use std::path::Path;
 use fbg_shared::spectrum::{from_db_in_place, Grid, Spectrum};
 
 use super::super::problems::{OnError, Problems, Reason, RowError};
+use super::super::scale::Scale;
 use super::super::time_axis::{TimeKind, TimeParser, TimeUnit};
 use super::super::{number, TextLines};
 use super::frames::{FileFacts, SpectrumRow, SpectrumSink, MAX_CHANNELS};
-use super::scale::Scale;
 use crate::error::TrainerError;
 
 /// Header names accepted for the time column (any case).

@@ -3,8 +3,8 @@
 
 use fbg_shared::Estimate;
 
+use super::super::host::HostCompensator;
 use super::Engine;
-use crate::fit::HostCompensator;
 
 impl Engine {
     /// Compensate `samples` in order into `out`: bit for bit what [`Engine::step`] gives sample
@@ -29,12 +29,7 @@ impl Engine {
                     }
                     let n = c.step_batch(s32.get(..k).unwrap_or(&[]), &mut e32);
                     for (o, e) in os.iter_mut().zip(e32.iter()).take(n) {
-                        *o = Estimate {
-                            values: e.values.map(f64::from),
-                            band95: e.band95.map(f64::from),
-                            outputs: e.outputs,
-                            flags: e.flags,
-                        };
+                        *o = e.cast();
                     }
                     done += n;
                 }
