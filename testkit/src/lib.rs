@@ -8,7 +8,7 @@
 //!   points, noise) and the hysteresis-aware models fitted to it by construction, with every
 //!   slot of the memory bank in use or none (the firmware's golden vectors and bench models,
 //!   the host inference bench);
-//! - [`modules`] (feature `modules`): no import circle among a crate's files, for the crates'
+//! - `modules` (feature `modules`): no import circle among a crate's files, for the crates'
 //!   own tests.
 //!
 //! Host-only (std); nothing here runs on the device.

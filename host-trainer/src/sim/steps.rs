@@ -64,7 +64,7 @@ pub(crate) fn levels_of(cal: &[f64], levels: usize) -> Vec<f64> {
 
 /// Append the steps part to `series` (each holding its calibration part): the series listed in
 /// `stepped` step in that order through their levels, every series not being stepped holds its
-/// calibration-part median. Each level is visited [`Steps::APPROACHES`] times, each visit
+/// calibration-part median. Each level is visited `Steps::APPROACHES` times, each visit
 /// `hold_samples` long: a linear ramp of `ramp_samples` out to the excursion point (one level
 /// spacing below, then above, the level: far enough to turn any hysteresis loop narrower than
 /// a level spacing, even beyond the calibration range at the end levels), a ramp of

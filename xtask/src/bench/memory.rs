@@ -275,7 +275,7 @@ pub fn markdown(s: &mut String, mem: &Memory) {
         };
         out!(
             s,
-            "\n`import --format spectra-csv` of a {:.2} GB spectra file ({} spectra of 512 pixels, no map: discovery): peak RSS **{:.0} MB**, {:.1} s. Target (issue 41): a {} GB file within {} MB: {verdict}.",
+            "\n`import --format spectra-csv` of a {:.2} GB spectra file ({} spectra of 512 pixels, no map: discovery): peak RSS **{:.0} MB**, {:.1} s. Target: a {} GB file within {} MB: {verdict}.",
             sp.spectra_bytes as f64 / 1e9,
             sp.spectra_rows,
             sp.run.peak_rss_bytes as f64 / 1e6,
@@ -335,10 +335,7 @@ mod tests {
         assert!(s.contains("| 10000000 | 954 MB | `train` | 1100 MB | 1.0 s | ≤ 1200 MB: met |"), "{s}");
         assert!(s.contains("| 10000000 | 954 MB | `compensate` | 300 MB | 1.0 s | ≤ 200 MB: **not met** |"), "{s}");
         assert!(s.contains("| 1000000 | 93 MB | `evaluate` | 900 MB | 1.0 s | – |"), "{s}");
-        assert!(
-            s.contains("peak RSS **150 MB**, 1.0 s. Target (issue 41): a 1 GB file within 100 MB: **not met**."),
-            "{s}"
-        );
+        assert!(s.contains("peak RSS **150 MB**, 1.0 s. Target: a 1 GB file within 100 MB: **not met**."), "{s}");
         assert!(s.contains("- `target/release/fbg-trainer simulate --spectra s.csv`"), "{s}");
     }
 

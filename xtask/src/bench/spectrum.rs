@@ -131,7 +131,7 @@ pub fn part(root: &Path, r: &Runner, opts: &Opts) -> Result<SpectrumBench> {
 /// The section of BENCHMARKS.md.
 pub fn markdown(s: &mut String, b: &SpectrumBench) {
     // The heading as BENCHMARKS.md publishes it.
-    out!(s, "## Peak detection in spectra (issue 31)\n");
+    out!(s, "## Peak detection in spectra\n");
     out!(
         s,
         "Targets at 30 dB SNR (10·log₁₀(peak height/noise σ)), 0.3 nm FWHM gratings: RMS ≤ {TARGET_RMS_SWEPT_PM} pm on the 8 pm grid, ≤ {TARGET_RMS_SPECTROMETER_PM} pm on the 512-pixel grid, peak-locking ≤ {TARGET_LOCKING_PM} pm p-p for the default method (`{DEFAULT_METHOD}`); host ≥ 10⁵ spectra of 512 pixels per second on one core; the spectrum chain's compensated RMSE within 10 % of the peak chain's on `paper`.\n"

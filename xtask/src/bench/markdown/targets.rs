@@ -135,7 +135,7 @@ pub(super) fn accuracy_targets(s: &mut String, paper: &PresetRun, acc: &Accuracy
     // The DESIGN §4 target of static fidelity; the text is BENCHMARKS.md's as published.
     out!(
         s,
-        "| accuracy, `paper` preset, seeds {seeds}, at its own pace (issue 26): ≥ 25 % below Model-P on every channel on the mean, ≥ 20 % on every seed | mean {} %, smallest {} %; {} of {n} seeds ≥ 20 % on every channel; {BEFORE_STATIC_FIDELITY} | {} | coverage runs (below) |",
+        "| accuracy, `paper` preset, seeds {seeds}, at its own pace: ≥ 25 % below Model-P on every channel on the mean, ≥ 20 % on every seed | mean {} %, smallest {} %; {} of {n} seeds ≥ 20 % on every channel; {BEFORE_STATIC_FIDELITY} | {} | coverage runs (below) |",
         join(gm, 1),
         join(gmin, 1),
         seeds_20,
