@@ -22,14 +22,62 @@ pub fn run(cmd: &mut Command) -> (bool, String, String) {
 }
 
 /// Run `cmd` to its end and return (success, stderr, peak resident set in bytes) of that one
-/// child (`wait4`, so other children of the test process do not count).
+/// process.
+///
+/// Not `wait4` on a child of this process: Linux carries the high-water mark of the address
+/// space a process `exec`s from into its own peak, and `Command::spawn` execs from this test
+/// process's (many tests, hundreds of MB). So this binary is started again with only
+/// [`peak_rss_probe`], a small process, which runs `cmd` and reports its `wait4` figures.
 #[cfg(target_os = "linux")]
-#[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot replace
 pub fn run_peak_rss(cmd: &mut Command) -> (bool, String, u64) {
-    let err = tempfile::NamedTempFile::new().unwrap();
-    let child = cmd
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let mut spec = cmd.get_program().as_bytes().to_vec();
+    for a in cmd.get_args() {
+        spec.push(0);
+        spec.extend_from_slice(a.as_bytes());
+    }
+    std::fs::write(dir.path().join("cmd"), spec).unwrap();
+    let mut probe = Command::new(std::env::current_exe().unwrap());
+    probe
+        .args(["--exact", "common::peak_rss_probe", "--nocapture", "--test-threads", "1", "-q"])
+        .env(PEAK_RSS_PROBE, dir.path())
+        .stdout(std::process::Stdio::null());
+    for (k, v) in cmd.get_envs() {
+        match v {
+            Some(v) => probe.env(k, v),
+            None => probe.env_remove(k),
+        };
+    }
+    if let Some(d) = cmd.get_current_dir() {
+        probe.current_dir(d);
+    }
+    let (ok, _, probe_err) = run(&mut probe);
+    assert!(ok, "the peak-RSS probe failed: {probe_err}");
+    let result = std::fs::read_to_string(dir.path().join("result")).unwrap();
+    let (status, rss) = result.split_once(' ').unwrap();
+    (status == "ok", std::fs::read_to_string(dir.path().join("stderr")).unwrap(), rss.parse().unwrap())
+}
+
+/// The directory through which [`run_peak_rss`] hands a command to [`peak_rss_probe`].
+#[cfg(target_os = "linux")]
+const PEAK_RSS_PROBE: &str = "FBG_TEST_PEAK_RSS_PROBE";
+
+/// Not a check: when [`run_peak_rss`] starts this binary with [`PEAK_RSS_PROBE`] set, runs the
+/// command written there and writes its exit ("ok"/"failed") and peak resident set in bytes;
+/// otherwise does nothing.
+#[cfg(target_os = "linux")]
+#[test]
+#[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot replace
+fn peak_rss_probe() {
+    use std::os::unix::ffi::OsStrExt;
+    let Some(dir) = std::env::var_os(PEAK_RSS_PROBE).map(PathBuf::from) else { return };
+    let spec = std::fs::read(dir.join("cmd")).unwrap();
+    let mut parts = spec.split(|&b| b == 0).map(std::ffi::OsStr::from_bytes);
+    let child = Command::new(parts.next().unwrap())
+        .args(parts)
         .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::from(err.reopen().unwrap()))
+        .stderr(std::fs::File::create(dir.join("stderr")).unwrap())
         .spawn()
         .unwrap();
     let mut status = 0;
@@ -38,7 +86,24 @@ pub fn run_peak_rss(cmd: &mut Command) -> (bool, String, u64) {
     let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut ru) };
     assert_eq!(pid, child.id() as libc::pid_t);
     let ok = libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0;
-    (ok, std::fs::read_to_string(err.path()).unwrap(), ru.ru_maxrss as u64 * 1024)
+    let rss = ru.ru_maxrss as u64 * 1024;
+    std::fs::write(dir.join("result"), format!("{} {rss}", if ok { "ok" } else { "failed" })).unwrap();
+}
+
+/// The probe measures the command, not the process that asks: a small command reads small
+/// after this process has touched 256 MB.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_peak_rss_is_the_commands_own() {
+    let big = vec![1u8; 256 << 20];
+    let (ok, _, rss) = run_peak_rss(bin().arg("--version"));
+    assert!(ok);
+    assert!(
+        rss < 64 << 20,
+        "peak RSS {} MB after this process touched {} MB",
+        rss >> 20,
+        std::hint::black_box(&big).len() >> 20
+    );
 }
 
 /// A short simulated record (3 days, 4320 rows) in `dir`.
