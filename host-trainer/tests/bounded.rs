@@ -77,8 +77,9 @@ fn device_status_times_out_on_a_trickling_device_at_the_deadline() {
     let took = t0.elapsed();
     assert!(!ok, "{err}");
     assert!(err.contains("timed out") && err.contains("within 2.000 s"), "{err}");
-    // Before: each trickled byte restarted a per-read time-out and this waited a minute.
-    assert!(took >= Duration::from_secs(2) && took < Duration::from_millis(3000), "{took:?}: {err}");
+    // Before: each trickled byte restarted a per-read time-out and this waited a minute; the
+    // upper bound leaves room for a loaded machine running every test at once.
+    assert!(took >= Duration::from_secs(2) && took < Duration::from_secs(6), "{took:?}: {err}");
     dev.join().unwrap();
 }
 
