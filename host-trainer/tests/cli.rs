@@ -76,7 +76,7 @@ fn inspect_refuses_an_old_format_naming_both_versions() {
     std::fs::write(&p, b).unwrap();
     let (ok, _, err) = run(bin().arg("inspect").arg(&p));
     assert!(!ok);
-    assert!(err.contains("old.fbgm") && err.contains("version 1") && err.contains("version 6"), "{err}");
+    assert!(err.contains("old.fbgm") && err.contains("version 1") && err.contains("version 7"), "{err}");
 }
 
 #[test]
@@ -96,7 +96,7 @@ fn train_evaluate_inspect_round_trip_on_a_short_scenario() {
     let (ok, out, err) = run(bin().args(["inspect", "--json"]).arg(&model));
     assert!(ok, "{err}");
     let j: serde_json::Value = serde_json::from_str(&out).unwrap();
-    assert_eq!(j["header"]["format_version"], 6);
+    assert_eq!(j["header"]["format_version"], 7);
     assert_eq!((j["header"]["gratings"].as_u64(), j["header"]["measurands"].as_u64()), (Some(3), Some(3)));
     assert_eq!(j["header"]["ambient"], true);
     assert_eq!(j["model"]["model_dims"]["measurands"], serde_json::json!(["T_C", "strain_ue", "p_kPa"]));

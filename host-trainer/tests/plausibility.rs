@@ -12,7 +12,7 @@ use fbg_shared::layout::{Dims, Output, Quantity};
 use fbg_shared::ModelParams;
 use fbg_trainer::export;
 
-const TINY: &[u8] = include_bytes!("../../shared/tests/golden/tiny_v6.fbgm");
+const TINY: &[u8] = include_bytes!("../../shared/tests/golden/tiny_v7.fbgm");
 
 type P32 = ModelParams<f32, 8>;
 

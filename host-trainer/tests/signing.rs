@@ -10,7 +10,7 @@ use fbg_shared::container::{self, Envelope};
 use fbg_shared::signature::{self, key_id, SignFlags, SignatureError, TrustedKey};
 use fbg_trainer::sign::{self, BlobSigner, SignOptions};
 
-const TINY: &[u8] = include_bytes!("../../shared/tests/golden/tiny_v6.fbgm");
+const TINY: &[u8] = include_bytes!("../../shared/tests/golden/tiny_v7.fbgm");
 
 fn trainer() -> Command {
     Command::new(env!("CARGO_BIN_EXE_fbg-trainer"))

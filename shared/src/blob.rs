@@ -29,8 +29,8 @@
 //! (postcard `Option<f64>`, Unix s), the largest validated lead (f32, s), the output envelope
 //! low and high and the largest band (M f32 each); then where the memory may be trusted
 //! ([`crate::trust::TrustSpec`]): the rate limits (N + ambient f32), the largest quiet times
-//! (N f32, s), Model-P's band variance and its growth (M f32 each), the largest RMS swings (N +
-//! ambient f32).
+//! (N f32, s), Model-P's band variance and its growth (M f32 each), the largest RMS swings and then
+//! the largest RMS speeds (N + ambient f32 each).
 //!
 //! The blob must be exactly `22 + n` bytes long: nothing may follow the CRC, except the
 //! signature trailer of a signed model ([`crate::signature`]), which decoding skips
@@ -44,7 +44,8 @@
 //! zero, the clock, the output envelope and largest band); 5 adds where the memory may be trusted
 //! ([`crate::trust::TrustSpec`]: a rate limit per envelope input (f32), the largest quiet times
 //! (N f32, s), Model-P's band variance and its growth (M f32 each)); 6 adds the calibration's
-//! pace (the largest RMS swing per envelope input, f32). An older blob is refused with
+//! pace (the largest RMS swing per envelope input, f32); 7 adds the largest RMS speed per
+//! envelope input (f32), the pace of oscillations faster than the swing's band. An older blob is refused with
 //! [`Error::UnsupportedVersion`] naming both versions: retrain, or re-export with this
 //! trainer. A blob whose gratings or measurands exceed this build's capacity is refused with
 //! [`Error::OverCapacity`] naming both.
@@ -81,7 +82,7 @@ use crate::model::{Centre, ModelParams};
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"FBGM";
 /// Format version this build writes and reads.
-pub const FORMAT_VERSION: u16 = 6;
+pub const FORMAT_VERSION: u16 = 7;
 pub use crate::frame::{computed_crc, stored_crc, CRC_LEN, HEADER_LEN};
 
 /// The fixed-size header of a blob.
@@ -323,6 +324,7 @@ pub fn encode_unchecked<const K: usize>(params: &ModelParams<f32, K>, buf: &mut 
     w.floats(head(&tr.fallback_var, m))?;
     w.floats(head(&tr.fallback_var_growth, m))?;
     w.floats(head(&tr.swing_rms_max, ne))?;
+    w.floats(head(&tr.speed_rms_max, ne))?;
     let end = w.pos;
     let body = buf.get(..end).ok_or(Error::BufferTooSmall)?;
     let crc = crc32c(body).to_le_bytes();
@@ -613,6 +615,7 @@ fn parse_into<'a, const K: usize>(
     floats(&mut b, crate::layout::head_mut(&mut tr.fallback_var, m))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.fallback_var_growth, m))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.swing_rms_max, ne))?;
+    floats(&mut b, crate::layout::head_mut(&mut tr.speed_rms_max, ne))?;
     Ok((b, centres))
 }
 
@@ -728,9 +731,10 @@ pub const fn min_len_of(gratings: usize, ambient: bool, m: usize, observer: bool
     // largest lead (4 each), the end of calibration (1 byte when absent), the output envelope
     // and largest band (M f32 each).
     let field = 9 * gratings + 4 + 1 + 4 + 4 * 3 * m;
-    // Trust ([`crate::trust::TrustSpec`]): a rate limit per envelope input, a quiet time per grating, the
-    // fallback band and its growth (M each), all f32.
-    let trust = 4 * (env + gratings + 2 * m + env);
+    // Trust ([`crate::trust::TrustSpec`]): a rate limit per envelope input, a quiet time per
+    // grating, the fallback band and its growth (M each), the largest swing and speed per
+    // envelope input, all f32.
+    let trust = 4 * (env + gratings + 2 * m + 2 * env);
     // Output kinds: two bytes each; `fitted`: one byte per output; provenance: five one-byte
     // minimums.
     let bytes = 2 * m + m + 5 + field + trust;

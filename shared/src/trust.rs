@@ -28,7 +28,10 @@
 //!   what the calibration fitted of it holds for the rates it saw. Each envelope input's pace,
 //!   the power of its swing over the last hours ([`crate::compensator::SwingFilter`]: a
 //!   band-pass whose value for a ramp is proportional to its rate), had a largest value there,
-//!   `swing_rms_max`². Beyond it, with ρ = max over the inputs of √(P / P_max): what Model-H
+//!   `swing_rms_max`²; so had the power Q of its speed (the rate of its fast low-pass, which
+//!   keeps growing with the pace of an oscillation faster than the band-pass's corner, where
+//!   the swing reads only the amplitude), `speed_rms_max`². Beyond either, with ρ = max over
+//!   the inputs of √(P / P_max) and √(Q / Q_max): what Model-H
 //!   adds to the core fades linearly to nothing at ρ = 2 (flagged
 //!   [`crate::Flags::FALLBACK`], not a fault), and the band's variance is multiplied by ρ² —
 //!   a lag error grows at most in proportion to the pace and noise does not grow, so the
@@ -71,6 +74,10 @@ pub struct TrustSpec<F> {
     /// Largest RMS swing of each envelope input over the calibration batch, √P_max (its unit;
     /// see [`crate::compensator::SwingFilter`]); 0 = that input does not set the pace.
     pub swing_rms_max: [F; MAX_ENVELOPE],
+    /// Largest RMS speed of each envelope input over the calibration batch, √Q_max (its unit
+    /// per second; see [`crate::compensator::SwingFilter`]); 0 = that input's speed does not
+    /// set the pace.
+    pub speed_rms_max: [F; MAX_ENVELOPE],
 }
 
 impl<F: Real> TrustSpec<F> {
@@ -82,6 +89,7 @@ impl<F: Real> TrustSpec<F> {
             fallback_var: [F::ZERO; MAX_OUTPUTS],
             fallback_var_growth: [F::ZERO; MAX_OUTPUTS],
             swing_rms_max: [F::ZERO; MAX_ENVELOPE],
+            speed_rms_max: [F::ZERO; MAX_ENVELOPE],
         }
     }
 
@@ -105,6 +113,9 @@ impl<F: Real> TrustSpec<F> {
         if !head(&self.swing_rms_max, ne).iter().all(|&v| ok(v, bounds::INPUT_MAX)) {
             return bad("trust.swing_rms_max");
         }
+        if !head(&self.speed_rms_max, ne).iter().all(|&v| ok(v, bounds::INPUT_MAX)) {
+            return bad("trust.speed_rms_max");
+        }
         Ok(())
     }
 
@@ -116,6 +127,7 @@ impl<F: Real> TrustSpec<F> {
             fallback_var: cast_array(&self.fallback_var),
             fallback_var_growth: cast_array(&self.fallback_var_growth),
             swing_rms_max: cast_array(&self.swing_rms_max),
+            speed_rms_max: cast_array(&self.speed_rms_max),
         }
     }
 }

@@ -80,10 +80,11 @@ fn min_len_and_max_len_are_exact() {
     // Version 1 was 416 bytes; version 2 added 2 header bytes and 116 f32 (memory spec 20,
     // Γ 96); version 3 adds 2 header bytes and the output kinds (3 × 2 bytes); version 4 the
     // field context (3 × 9 bytes of λ_ref and source, 4 + 1 + 4, 3 × 3 f32); version 5 the
-    // trust spec (4 rate limits, 3 quiet times, 2 × 3 f32); version 6 the pace (4 f32).
-    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6 + 27 + 9 + 36 + 52 + 16);
-    assert_eq!(min_len(0), 1030);
-    assert_eq!(min_len(32), 1030 + 60 * 32);
+    // trust spec (4 rate limits, 3 quiet times, 2 × 3 f32); version 6 the pace (4 f32);
+    // version 7 the speeds (4 f32).
+    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6 + 27 + 9 + 36 + 52 + 16 + 16);
+    assert_eq!(min_len(0), 1046);
+    assert_eq!(min_len(32), 1046 + 60 * 32);
     // No overflow on absurd inputs.
     assert_eq!(min_len(usize::MAX), usize::MAX);
     assert_eq!(max_len(usize::MAX), usize::MAX);
@@ -208,16 +209,20 @@ fn tiny() -> ModelParams<f32, 2> {
             fallback_var: pad(&[0.04, 16.0, 4.0]),
             fallback_var_growth: pad(&[1e-6, 1e-4, 1e-5]),
             swing_rms_max: pad(&[6.0, 3.0, 1.5, 0.75]),
+            speed_rms_max: pad(&[0.5, 0.25, 0.125, 0.001]),
         },
     }
 }
 
-/// GOLDEN: the exact bytes of format version 6.
+/// GOLDEN: the exact bytes of format version 7.
 ///
-/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v6 or reject it
-/// by name (`Error::UnsupportedVersion { found: 6, .. }`). Never regenerate this file to make
-/// the test pass. (It was written once by the encoder when version 6 was introduced, with
+/// A change here is a format change → bump `FORMAT_VERSION` and keep decoding v7 or reject it
+/// by name (`Error::UnsupportedVersion { found: 7, .. }`). Never regenerate this file to make
+/// the test pass. (It was written once by the encoder when version 7 was introduced, with
 /// `FBG_WRITE_GOLDEN=1 cargo test -p fbg-shared --test shared blob::golden`.)
+const GOLDEN_V7: &[u8] = include_bytes!("golden/tiny_v7.fbgm");
+
+/// The version-6 golden blob (no speed term), kept as an "old version refused" fixture.
 const GOLDEN_V6: &[u8] = include_bytes!("golden/tiny_v6.fbgm");
 
 /// The version-5 golden blob (no swing term), kept as an "old version refused" fixture.
@@ -236,19 +241,19 @@ const GOLDEN_V2: &[u8] = include_bytes!("golden/tiny_v2.fbgm");
 const GOLDEN_V1: &[u8] = include_bytes!("golden/tiny_v1.fbgm");
 
 #[test]
-fn golden_v6_bytes_are_pinned() {
+fn golden_v7_bytes_are_pinned() {
     let b = encode_vec(&tiny()).unwrap();
-    if std::env::var_os("FBG_WRITE_GOLDEN").is_some() && GOLDEN_V6.is_empty() {
-        std::fs::write(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/tiny_v6.fbgm"), &b).unwrap();
+    if std::env::var_os("FBG_WRITE_GOLDEN").is_some() && GOLDEN_V7.is_empty() {
+        std::fs::write(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/tiny_v7.fbgm"), &b).unwrap();
     }
     // Shortest 2-centre blob plus "golden" (6), "0.1.0" (5), date varint 4 bytes (+3),
     // n_cal varint 2 bytes (+1), and a known end of calibration (+8).
     assert_eq!(b.len(), min_len(2) + 6 + 5 + 3 + 1 + 8);
-    assert_eq!(b.len(), 1173);
+    assert_eq!(b.len(), 1189);
     assert_eq!(
         &b[..HEADER_LEN],
-        &[b'F', b'B', b'G', b'M', 6, 0, 3, 0, 1, 0, 3, 0, 10, 0, 32, 0, 2, 0],
-        "magic, version 6, dims 3 gratings / ambient / 3 measurands / 10 poly / 32 memory, 2 centres (u16 LE)"
+        &[b'F', b'B', b'G', b'M', 7, 0, 3, 0, 1, 0, 3, 0, 10, 0, 32, 0, 2, 0],
+        "magic, version 7, dims 3 gratings / ambient / 3 measurands / 10 poly / 32 memory, 2 centres (u16 LE)"
     );
     // Payload: the output kinds (T, ε, p: codes 0, 1, 2, index 1 each), feature set tag 1
     // (HysteresisAware), then sigma_mult 1.5f32 LE.
@@ -292,21 +297,27 @@ fn golden_v6_bytes_are_pinned() {
     assert_eq!(&b[HEADER_LEN..v5_end], &GOLDEN_V5[HEADER_LEN..v5_end]);
     assert_eq!(&b[v5_end..v5_end + 4], &[0x00, 0x00, 0xC0, 0x40]);
     assert_eq!(&b[v5_end + 12..v5_end + 16], &0.75f32.to_le_bytes());
+    // The v7 payload is the v6 payload followed by the largest RMS speed per envelope input
+    // (4 f32, the first 0.5 = 0x3F000000, the last 0.001).
+    let v6_end = GOLDEN_V6.len() - CRC_LEN;
+    assert_eq!(&b[HEADER_LEN..v6_end], &GOLDEN_V6[HEADER_LEN..v6_end]);
+    assert_eq!(&b[v6_end..v6_end + 4], &[0x00, 0x00, 0x00, 0x3F]);
+    assert_eq!(&b[v6_end + 12..v6_end + 16], &0.001f32.to_le_bytes());
     // Trailer: CRC-32C over everything before it, little-endian.
     let n = b.len() - CRC_LEN;
     assert_eq!(b[n..], ISCSI.checksum(&b[..n]).to_le_bytes());
-    assert!(b == GOLDEN_V6, "encoder output differs from the v6 golden blob: format change?");
-    assert_eq!(decode::<2>(GOLDEN_V6), Ok(tiny()));
-    assert_eq!(decode::<32>(GOLDEN_V6).map(|p| p.provenance), Ok(tiny().provenance));
+    assert!(b == GOLDEN_V7, "encoder output differs from the v7 golden blob: format change?");
+    assert_eq!(decode::<2>(GOLDEN_V7), Ok(tiny()));
+    assert_eq!(decode::<32>(GOLDEN_V7).map(|p| p.provenance), Ok(tiny().provenance));
     // It loads, with its memory terms.
-    let c = Compensator::<f32, 2>::new(&decode::<2>(GOLDEN_V6).unwrap()).unwrap();
+    let c = Compensator::<f32, 2>::new(&decode::<2>(GOLDEN_V7).unwrap()).unwrap();
     assert!(c.has_memory());
 }
 
 #[test]
-fn golden_blob_is_v6() {
-    assert_eq!(FORMAT_VERSION, 6, "a new format version needs its own golden blob");
-    assert_eq!(Header::parse(GOLDEN_V6).map(|h| h.version), Ok(6));
+fn golden_blob_is_v7() {
+    assert_eq!(FORMAT_VERSION, 7, "a new format version needs its own golden blob");
+    assert_eq!(Header::parse(GOLDEN_V7).map(|h| h.version), Ok(7));
 }
 
 #[test]
@@ -322,8 +333,11 @@ fn older_golden_blobs_are_refused_naming_both_versions() {
     assert_eq!(GOLDEN_V4.len(), 1105);
     assert_eq!(&GOLDEN_V5[..6], &[b'F', b'B', b'G', b'M', 5, 0]);
     assert_eq!(GOLDEN_V5.len(), 1157);
-    for (old, v) in [(GOLDEN_V1, 1u16), (GOLDEN_V2, 2), (GOLDEN_V3, 3), (GOLDEN_V4, 4), (GOLDEN_V5, 5)] {
-        let want = Error::UnsupportedVersion { found: v, supported: 6 };
+    assert_eq!(&GOLDEN_V6[..6], &[b'F', b'B', b'G', b'M', 6, 0]);
+    assert_eq!(GOLDEN_V6.len(), 1173);
+    for (old, v) in [(GOLDEN_V1, 1u16), (GOLDEN_V2, 2), (GOLDEN_V3, 3), (GOLDEN_V4, 4), (GOLDEN_V5, 5), (GOLDEN_V6, 6)]
+    {
+        let want = Error::UnsupportedVersion { found: v, supported: 7 };
         assert_eq!(decode::<2>(old), Err(want));
         assert_eq!(decode::<32>(old).err(), Some(want));
         assert_eq!(decode::<0>(old).err(), Some(want));
@@ -337,7 +351,7 @@ fn older_golden_blobs_are_refused_naming_both_versions() {
         assert_eq!(decode::<2>(&m), Err(want));
         // The message names both versions.
         let msg = want.to_string();
-        assert!(msg.contains(&format!("version {v}")) && msg.contains("version 6"), "{msg}");
+        assert!(msg.contains(&format!("version {v}")) && msg.contains("version 7"), "{msg}");
     }
 }
 
@@ -345,7 +359,7 @@ fn older_golden_blobs_are_refused_naming_both_versions() {
 fn over_capacity_dims_are_refused_naming_both() {
     // 9 gratings or 5 measurands in the header (CRC valid): the capacity is named with them.
     for (off, v, field, cap) in [(6, 9u16, "gratings", MAX_GRATINGS), (10, 5, "measurands", MAX_OUTPUTS)] {
-        let mut m = GOLDEN_V6.to_vec();
+        let mut m = GOLDEN_V7.to_vec();
         m[off..off + 2].copy_from_slice(&v.to_le_bytes());
         fix_crc(&mut m);
         let want = Error::OverCapacity { field, found: v, capacity: cap as u16 };
@@ -404,19 +418,19 @@ fn header_errors() {
     assert_eq!(decode::<2>(b"FBG"), Err(Error::Truncated { part: "header" }));
     assert_eq!(decode::<2>(b"{\"a\":1}"), Err(Error::BadMagic));
     assert_eq!(decode::<2>(b"X"), Err(Error::BadMagic));
-    let mut b = GOLDEN_V6.to_vec();
+    let mut b = GOLDEN_V7.to_vec();
     b[0] = b'f';
     assert_eq!(decode::<2>(&b), Err(Error::BadMagic));
     assert_eq!(Header::parse(&b), Err(Error::BadMagic));
-    assert_eq!(decode::<2>(&GOLDEN_V6[..17]), Err(Error::Truncated { part: "header" }));
-    assert_eq!(Header::parse(&GOLDEN_V6[..17]), Err(Error::Truncated { part: "header" }));
-    assert_eq!(decode::<2>(&GOLDEN_V6[..18]), Err(Error::Truncated { part: "payload" }));
+    assert_eq!(decode::<2>(&GOLDEN_V7[..17]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(Header::parse(&GOLDEN_V7[..17]), Err(Error::Truncated { part: "header" }));
+    assert_eq!(decode::<2>(&GOLDEN_V7[..18]), Err(Error::Truncated { part: "payload" }));
     assert_eq!(
-        Header::parse(GOLDEN_V6),
-        Ok(Header { version: 6, gratings: 3, ambient: 1, measurands: 3, poly_terms: 10, memory_terms: 32, centres: 2 })
+        Header::parse(GOLDEN_V7),
+        Ok(Header { version: 7, gratings: 3, ambient: 1, measurands: 3, poly_terms: 10, memory_terms: 32, centres: 2 })
     );
     // The header alone parses (the payload is not looked at).
-    assert_eq!(Header::parse(&GOLDEN_V6[..18]).map(|h| h.centres), Ok(2));
+    assert_eq!(Header::parse(&GOLDEN_V7[..18]).map(|h| h.centres), Ok(2));
 }
 
 #[test]
@@ -467,7 +481,7 @@ fn every_cut_of_fixed_blobs_is_truncated_or_bad_crc() {
 
 #[test]
 fn trailing_bytes() {
-    let mut b = GOLDEN_V6.to_vec();
+    let mut b = GOLDEN_V7.to_vec();
     b.push(0xFF);
     assert_eq!(decode::<2>(&b), Err(Error::TrailingBytes { extra: 1 }));
     // Erased-flash padding after a stored blob.
@@ -482,7 +496,7 @@ fn trailing_bytes() {
 #[test]
 fn huge_lengths_with_valid_crc_are_bad_payload() {
     let p = tiny();
-    let b = GOLDEN_V6.to_vec();
+    let b = GOLDEN_V7.to_vec();
     let prov = provenance_offset(&b, &p);
     // Scenario string length: one byte after the 1-byte seed varint (42).
     assert_eq!(b[prov], 42);

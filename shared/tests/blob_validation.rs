@@ -18,8 +18,8 @@ use fbg_testkit::models::{
 };
 use proptest::prelude::*;
 
-/// The golden v4 blob (`blob.rs` pins its bytes).
-const GOLDEN_V6: &[u8] = include_bytes!("golden/tiny_v6.fbgm");
+/// The golden v7 blob (`blob.rs` pins its bytes).
+const GOLDEN_V7: &[u8] = include_bytes!("golden/tiny_v7.fbgm");
 
 // ---------------------------------------------------------------------------------------------
 // validate(), field by field, directly and through a blob with a valid CRC
@@ -296,7 +296,7 @@ fn validate_accepts_boundary_values() {
 
 #[test]
 fn nan_sigma_under_valid_crc_by_byte_patch() {
-    let mut b = GOLDEN_V6.to_vec();
+    let mut b = GOLDEN_V7.to_vec();
     // sigma follows the output kinds, the feature-set tag and sigma_mult.
     b[HEADER_LEN + 11..HEADER_LEN + 15].copy_from_slice(&f32::NAN.to_le_bytes());
     fix_crc(&mut b);
@@ -559,7 +559,7 @@ proptest! {
 fn decoded_blob_module_constants() {
     assert_eq!(blob::MAGIC, *b"FBGM");
     assert_eq!(HEADER_LEN, 18);
-    assert_eq!(FORMAT_VERSION, 6);
+    assert_eq!(FORMAT_VERSION, 7);
     assert_eq!(CRC_LEN, 4);
 }
 
@@ -591,7 +591,7 @@ fn fuzz_seeds_are_valid_blobs() {
             fbg_testkit::models::full_memory_spec(),
         );
         let k0: ModelParams<f32, 0> = model(0, 0, FeatureSet::Paper, short_provenance());
-        std::fs::write(format!("{dir}seed-tiny-k2.fbgm"), GOLDEN_V6).unwrap();
+        std::fs::write(format!("{dir}seed-tiny-k2.fbgm"), GOLDEN_V7).unwrap();
         std::fs::write(format!("{dir}seed-k0.fbgm"), encode_vec(&k0).unwrap()).unwrap();
         std::fs::write(format!("{dir}seed-k8-long-provenance.fbgm"), encode_vec(&k8).unwrap()).unwrap();
         std::fs::write(format!("{dir}seed-k32.fbgm"), encode_vec(&k32).unwrap()).unwrap();
@@ -599,5 +599,5 @@ fn fuzz_seeds_are_valid_blobs() {
     for (b, n, memory) in seeds {
         assert_eq!(decode::<32>(b).map(|p| (p.centres.len(), p.has_memory())), Ok((n, memory)));
     }
-    assert_eq!(seeds[0].0, GOLDEN_V6);
+    assert_eq!(seeds[0].0, GOLDEN_V7);
 }

@@ -201,7 +201,7 @@ fn an_absurd_or_non_finite_band_is_flagged() {
 fn the_committed_blobs_decode_and_are_plausible() {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
     for path in [
-        "shared/tests/golden/tiny_v6.fbgm",
+        "shared/tests/golden/tiny_v7.fbgm",
         "firmware/model/default.fbgm",
         "shared/fuzz/corpus/decode/seed-k0.fbgm",
         "shared/fuzz/corpus/decode/seed-k32.fbgm",

@@ -97,7 +97,7 @@ fn key_id_is_the_first_8_bytes_of_sha256() {
 }
 
 fn tiny_blob() -> Vec<u8> {
-    std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/tiny_v6.fbgm")).unwrap()
+    std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/tiny_v7.fbgm")).unwrap()
 }
 
 /// Sign `blob` as the trainer does: the message is the blob and the trailer's head; the file is

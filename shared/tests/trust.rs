@@ -351,3 +351,75 @@ fn beyond_the_calibration_pace_model_h_fades_to_model_p_and_the_band_widens_with
     }
     assert!(within > 0 && beyond > 0, "{within} rows within the pace, {beyond} at twice it or more");
 }
+
+/// Each envelope input's largest RMS swing and speed over `calibration` (what
+/// `fit::trust::spec` measures).
+fn pace_maxima(calibration: &[Sample<f32>]) -> ([f64; 4], [f64; 4]) {
+    let mut f = fbg_shared::compensator::SwingFilter::<f64>::new();
+    let (mut swing, mut speed) = ([0.0f64; 4], [0.0f64; 4]);
+    let mut last_t = f64::NAN;
+    for x in calibration {
+        let x = x.cast::<f64>();
+        let mut v = [0.0; 9];
+        v[..3].copy_from_slice(&x.dl_pm[..3]);
+        v[3] = x.t_amb_c;
+        f.update(&v, 4, x.t_s - last_t);
+        last_t = x.t_s;
+        for k in 0..4 {
+            swing[k] = swing[k].max(f.power(k).sqrt());
+            speed[k] = speed[k].max(f.speed_power(k).sqrt());
+        }
+    }
+    (swing, speed)
+}
+
+#[test]
+fn the_speed_grows_with_the_pace_of_an_oscillation_the_swing_reads_as_its_amplitude() {
+    // A 25-min load cycle of 15 pm sampled every 10 s for two days, and the same cycle eight
+    // times faster (a 3-min period, 18 samples a period): the swing's band-pass reads the
+    // faster one no larger, its speed reads it several times larger.
+    let power = |period_s: f64| {
+        let mut f = fbg_shared::compensator::SwingFilter::<f64>::new();
+        for i in 0..17_280 {
+            let t = 10.0 * i as f64;
+            let mut v = [0.0; 9];
+            v[0] = 15.0 * (std::f64::consts::TAU * t / period_s).sin();
+            f.update(&v, 1, 10.0);
+        }
+        (f.power(0), f.speed_power(0))
+    };
+    let ((swing_1, speed_1), (swing_8, speed_8)) = (power(1500.0), power(1500.0 / 8.0));
+    assert!(swing_8 <= swing_1, "swing power {swing_8} at ×8 against {swing_1}");
+    assert!(speed_8 >= 4.0 * speed_1, "speed power {speed_8} at ×8 against {speed_1}");
+}
+
+#[test]
+fn a_stream_eight_times_faster_than_the_calibration_fades_to_model_p_by_its_speed() {
+    // The pace (swing and speed) measured on the clean stream; then the same readings eight
+    // times faster, forwards and backwards for eight legs. The synthetic stream's motions sit
+    // near the swing's fast corner, so at ×8 they leave the band-pass: the swing alone
+    // would keep most of what Model-H adds; with the speed every row of the second half is
+    // Model-P's, flagged as a fallback.
+    let (p, clean) = trusted(1e9);
+    let (swing, speed) = pace_maxima(&clean);
+    let mut paced = p.clone();
+    paced.trust.swing_rms_max[..4].copy_from_slice(&swing);
+    paced.trust.speed_rms_max[..4].copy_from_slice(&speed);
+    paced.validate().unwrap();
+    let mut swing_only = paced.clone();
+    swing_only.trust.speed_rms_max = [0.0; 9];
+    let fast = faster(&clean, 8.0, 8);
+    let ep = run::<f64>(&model_p(&p), &fast);
+    let half = fast.len() / 2;
+    let at_model_p = |e: &[Estimate<f64>]| {
+        e[half..]
+            .iter()
+            .zip(&ep[half..])
+            .filter(|(x, y)| x.values[..3] == y.values[..3] && x.flags.contains(Flags::FALLBACK))
+            .count()
+    };
+    let (with_speed, without) = (at_model_p(&run::<f64>(&paced, &fast)), at_model_p(&run::<f64>(&swing_only, &fast)));
+    let rows = fast.len() - half;
+    assert_eq!(with_speed, rows, "{with_speed} of {rows} rows at Model-P's value with the speed");
+    assert!(without < rows / 2, "{without} of {rows} rows at Model-P's value with the swing alone");
+}

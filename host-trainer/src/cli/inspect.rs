@@ -198,8 +198,9 @@ fn print_model(p: &HostParams) {
             f32s(fbg_shared::layout::head(&t.fallback_var, p.dims.n_outputs())),
         );
         println!(
-            "trust: the calibration's pace, largest RMS swings [{}] (per input, its unit): beyond it Model-H fades and the band widens",
+            "trust: the calibration's pace, largest RMS swings [{}] (per input, its unit) and speeds [{}] (its unit per second): beyond either Model-H fades and the band widens",
             f32s(fbg_shared::layout::head(&t.swing_rms_max, ne)),
+            f32s(fbg_shared::layout::head(&t.speed_rms_max, ne)),
         );
     }
     let f = &p.field;
@@ -291,8 +292,9 @@ fn static_fidelity_line(path: &Path) -> String {
     "static gain: no coefficients.json beside the blob (`train` writes it)".into()
 }
 
-/// Values stored as f32, printed at f32 precision: "0.1, 2.5, 1.6360161e-7".
+/// Values stored as f32, printed at f32 precision: "0.1, 2.5, 7.757233e-3, 1.6360161e-7" (small
+/// ones with an exponent, so no value runs to more digits than it holds).
 fn f32s(v: &[f64]) -> String {
-    let one = |x: f32| if x != 0.0 && (x.abs() < 1e-3 || x.abs() >= 1e7) { format!("{x:e}") } else { x.to_string() };
+    let one = |x: f32| if x != 0.0 && (x.abs() < 1e-1 || x.abs() >= 1e7) { format!("{x:e}") } else { x.to_string() };
     v.iter().map(|&x| one(x as f32)).collect::<Vec<_>>().join(", ")
 }

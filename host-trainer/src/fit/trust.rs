@@ -69,7 +69,7 @@ pub fn noise_floored(menu: &MemoryOptions, sigma_pm: &[f64]) -> MemoryOptions {
 /// of `d`: the largest |Δx|/Δt of each envelope input between consecutive calibration rows,
 /// each grating's largest quiet time over the batch (the time since its narrowest play last
 /// reversed, the bank run from the first row as the compensator runs it; 0 without play
-/// operators), Model-P's band, and each envelope input's largest RMS swing (the pace).
+/// operators), Model-P's band, and each envelope input's largest RMS swing and speed (the pace).
 pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> TrustSpec<f64> {
     let mut t = TrustSpec::off();
     let dims = &h.dims;
@@ -97,7 +97,7 @@ pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> Trust
         t.fallback_var[o] = k2 * p.resid_var[o];
         t.fallback_var_growth[o] = k2 * p.resid_var_growth[o];
     }
-    t.swing_rms_max = swing_rms_max(dims, d, cal);
+    (t.swing_rms_max, t.speed_rms_max) = pace_max(dims, d, cal);
     t
 }
 
@@ -112,13 +112,13 @@ fn envelope_input(dims: &fbg_shared::layout::Dims, d: &Dataset, k: usize, i: usi
 }
 
 /// The calibration's pace ([`fbg_shared::trust`]): each envelope input's largest RMS swing
-/// √P_max over the calibration rows `cal`, the filter run over them as the device runs it over
-/// the samples its gate lets in.
-fn swing_rms_max(dims: &fbg_shared::layout::Dims, d: &Dataset, cal: &[usize]) -> [f64; MAX_ENVELOPE] {
+/// √P_max and largest RMS speed √Q_max over the calibration rows `cal`, the filter run over
+/// them as the device runs it over the samples its gate lets in.
+fn pace_max(dims: &fbg_shared::layout::Dims, d: &Dataset, cal: &[usize]) -> ([f64; MAX_ENVELOPE], [f64; MAX_ENVELOPE]) {
     let ne = dims.envelope_len().min(MAX_ENVELOPE);
     let mut filter = SwingFilter::<f64>::new();
     let mut last_t = f64::NAN;
-    let mut p_max = [0.0f64; MAX_ENVELOPE];
+    let (mut p_max, mut q_max) = ([0.0f64; MAX_ENVELOPE], [0.0f64; MAX_ENVELOPE]);
     for &i in cal {
         let mut x = [0.0; MAX_ENVELOPE];
         for (k, v) in x.iter_mut().enumerate().take(ne) {
@@ -130,11 +130,12 @@ fn swing_rms_max(dims: &fbg_shared::layout::Dims, d: &Dataset, cal: &[usize]) ->
         }
         filter.update(&x, ne, t_s - last_t);
         last_t = t_s;
-        for (k, m) in p_max.iter_mut().enumerate().take(ne) {
-            *m = m.max(filter.power(k));
+        for (k, (p, q)) in p_max.iter_mut().zip(q_max.iter_mut()).enumerate().take(ne) {
+            *p = p.max(filter.power(k));
+            *q = q.max(filter.speed_power(k));
         }
     }
-    p_max.map(f64::sqrt)
+    (p_max.map(f64::sqrt), q_max.map(f64::sqrt))
 }
 
 /// The largest quiet time \[s\] of each grating of `h`'s memory over the calibration rows

@@ -7,8 +7,15 @@
 //! |s| measures the recent rate in the input's own unit while the fast low-pass keeps the white
 //! noise out. Its power P = LP_window(s²), a low-pass of s² over [`PACE_WINDOW_S`], is the
 //! pace: how much the input moved over the last hours. The calibration shows each input's
-//! largest RMS swing √P_max; the pace ratio of a stream is ρ = max_k √(P_k / P_max,k)
-//! ([`Pace::ratio_sq`] gives ρ²).
+//! largest RMS swing √P_max.
+//!
+//! The swing measures a rate only below the band-pass's lower corner: an oscillation faster
+//! than the slow low-pass (a load cycle of minutes) reads as its amplitude however fast it
+//! goes. So each input also has a speed v = (x − LP_fast(x)) / τ_fast, the rate of the fast
+//! low-pass (a ramp of rate r settles at v = r exactly; an oscillation of amplitude A and
+//! angular frequency ω reads A·ω/√(1 + (ωτ_fast)²), growing with ω up to A/τ_fast, and white
+//! noise of σ adds about σ/τ_fast), and its power Q = LP_window(v²). The pace ratio of a
+//! stream is ρ = max_k max(√(P_k / P_max,k), √(Q_k / Q_max,k)) ([`Pace::ratio_sq`] gives ρ²).
 
 use crate::layout::{head, MAX_ENVELOPE};
 use crate::real::Real;
@@ -30,6 +37,7 @@ pub struct SwingFilter<F> {
     fast: [F; MAX_ENVELOPE],
     slow: [F; MAX_ENVELOPE],
     power: [F; MAX_ENVELOPE],
+    speed_power: [F; MAX_ENVELOPE],
     primed: bool,
 }
 
@@ -40,6 +48,7 @@ impl<F: Real> SwingFilter<F> {
             fast: [F::ZERO; MAX_ENVELOPE],
             slow: [F::ZERO; MAX_ENVELOPE],
             power: [F::ZERO; MAX_ENVELOPE],
+            speed_power: [F::ZERO; MAX_ENVELOPE],
             primed: false,
         }
     }
@@ -59,6 +68,8 @@ impl<F: Real> SwingFilter<F> {
     /// assert!((f.swing(0) - expected).abs() < 1e-3 * expected);
     /// // The power has settled at the squared swing.
     /// assert!((f.power(0).sqrt() - expected).abs() < 1e-2 * expected);
+    /// // The speed reads the ramp's rate.
+    /// assert!((f.speed_power(0).sqrt() - 0.01).abs() < 1e-4);
     /// ```
     #[inline(always)]
     pub fn update(&mut self, x: &[F; MAX_ENVELOPE], n: usize, dt_s: F) {
@@ -74,13 +85,21 @@ impl<F: Real> SwingFilter<F> {
         let a_fast = dt_s / (F::from_f64(SWING_FAST_TAU_S) + dt_s);
         let a_slow = dt_s / (F::from_f64(SWING_SLOW_TAU_S) + dt_s);
         let a_power = dt_s / (F::from_f64(PACE_WINDOW_S) + dt_s);
-        for (((f, s), p), &v) in
-            self.fast.iter_mut().zip(self.slow.iter_mut()).zip(self.power.iter_mut()).zip(head(x, n).iter())
+        let inv_tau_fast = F::from_f64(1.0 / SWING_FAST_TAU_S);
+        for ((((f, s), p), q), &v) in self
+            .fast
+            .iter_mut()
+            .zip(self.slow.iter_mut())
+            .zip(self.power.iter_mut())
+            .zip(self.speed_power.iter_mut())
+            .zip(head(x, n).iter())
         {
             *f = a_fast.mul_add(v - *f, *f);
             *s = a_slow.mul_add(v - *s, *s);
             let sw = *f - *s;
             *p = a_power.mul_add(sw.mul_add(sw, -*p), *p);
+            let speed = (v - *f) * inv_tau_fast;
+            *q = a_power.mul_add(speed.mul_add(speed, -*q), *q);
         }
     }
 
@@ -98,12 +117,21 @@ impl<F: Real> SwingFilter<F> {
     pub fn power(&self, k: usize) -> F {
         self.power.get(k).copied().unwrap_or(F::ZERO)
     }
+
+    /// The power of input `k`'s speed over the pace window (its unit²/s²; 0 beyond the
+    /// inputs).
+    #[inline(always)]
+    pub fn speed_power(&self, k: usize) -> F {
+        self.speed_power.get(k).copied().unwrap_or(F::ZERO)
+    }
 }
 
-/// The calibration's pace, folded at load: 1 / P_max of each input (0: not read).
+/// The calibration's pace, folded at load: 1 / P_max and 1 / Q_max of each input (0: not
+/// read).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Pace<F> {
     inv_max: [F; MAX_ENVELOPE],
+    inv_speed_max: [F; MAX_ENVELOPE],
     /// Inputs read (0: no pace term).
     n: u8,
 }
@@ -111,19 +139,28 @@ pub(super) struct Pace<F> {
 impl<F: Real> Pace<F> {
     /// No pace term.
     pub(super) const fn off() -> Self {
-        Pace { inv_max: [F::ZERO; MAX_ENVELOPE], n: 0 }
+        Pace { inv_max: [F::ZERO; MAX_ENVELOPE], inv_speed_max: [F::ZERO; MAX_ENVELOPE], n: 0 }
     }
 
     /// The pace term of a trust spec over `n` envelope inputs; off when no input has a
-    /// calibration swing.
+    /// calibration swing or speed.
     pub(super) fn new<G: Real>(trust: &TrustSpec<G>, n: usize) -> Self {
         let mut p = Pace::off();
-        for (o, &v) in p.inv_max.iter_mut().zip(head(&trust.swing_rms_max, n).iter()) {
+        let pairs = p
+            .inv_max
+            .iter_mut()
+            .zip(head(&trust.swing_rms_max, n).iter())
+            .chain(p.inv_speed_max.iter_mut().zip(head(&trust.speed_rms_max, n).iter()));
+        let mut on = false;
+        for (o, &v) in pairs {
             let v = F::from_real(v);
             if v > F::ZERO {
                 *o = F::ONE / (v * v);
-                p.n = n as u8;
+                on = true;
             }
+        }
+        if on {
+            p.n = n as u8;
         }
         p
     }
@@ -134,12 +171,13 @@ impl<F: Real> Pace<F> {
         self.n == 0
     }
 
-    /// ρ² = max_k P_k / P_max,k of `filter` (0 without a pace term).
+    /// ρ² = max_k max(P_k / P_max,k, Q_k / Q_max,k) of `filter` (0 without a pace term).
     #[inline(always)]
     pub(super) fn ratio_sq(&self, filter: &SwingFilter<F>) -> F {
         let mut r = F::ZERO;
-        for (k, &inv) in head(&self.inv_max, usize::from(self.n)).iter().enumerate() {
-            let v = filter.power(k) * inv;
+        let n = usize::from(self.n);
+        for (k, (&inv, &inv_speed)) in head(&self.inv_max, n).iter().zip(head(&self.inv_speed_max, n)).enumerate() {
+            let v = (filter.power(k) * inv).max(filter.speed_power(k) * inv_speed);
             if v > r {
                 r = v;
             }
