@@ -29,8 +29,8 @@
 //! (postcard `Option<f64>`, Unix s), the largest validated lead (f32, s), the output envelope
 //! low and high and the largest band (M f32 each); then where the memory may be trusted
 //! ([`crate::trust::TrustSpec`]): the rate limits (N + ambient f32), the largest quiet times
-//! (N f32, s), Model-P's band variance and its growth (M f32 each), the largest RMS swings and then
-//! the largest RMS speeds (N + ambient f32 each).
+//! (N f32, s), Model-P's band variance and its growth (M f32 each), the largest RMS swings, the
+//! largest RMS speeds and the smallest RMS swings (N + ambient f32 each).
 //!
 //! The blob must be exactly `22 + n` bytes long: nothing may follow the CRC, except the
 //! signature trailer of a signed model ([`crate::signature`]), which decoding skips
@@ -44,8 +44,9 @@
 //! zero, the clock, the output envelope and largest band); 5 adds where the memory may be trusted
 //! ([`crate::trust::TrustSpec`]: a rate limit per envelope input (f32), the largest quiet times
 //! (N f32, s), Model-P's band variance and its growth (M f32 each)); 6 adds the calibration's
-//! pace (the largest RMS swing per envelope input, f32); 7 adds the largest RMS speed per
-//! envelope input (f32), the pace of oscillations faster than the swing's band. An older blob is refused with
+//! pace (the largest RMS swing per envelope input, f32); 7 adds the largest RMS speed and the
+//! smallest RMS swing per envelope input (f32 each): the pace of oscillations faster than the
+//! swing's band, and the slowest pace. An older blob is refused with
 //! [`Error::UnsupportedVersion`] naming both versions: retrain, or re-export with this
 //! trainer. A blob whose gratings or measurands exceed this build's capacity is refused with
 //! [`Error::OverCapacity`] naming both.
@@ -325,6 +326,7 @@ pub fn encode_unchecked<const K: usize>(params: &ModelParams<f32, K>, buf: &mut 
     w.floats(head(&tr.fallback_var_growth, m))?;
     w.floats(head(&tr.swing_rms_max, ne))?;
     w.floats(head(&tr.speed_rms_max, ne))?;
+    w.floats(head(&tr.swing_rms_min, ne))?;
     let end = w.pos;
     let body = buf.get(..end).ok_or(Error::BufferTooSmall)?;
     let crc = crc32c(body).to_le_bytes();
@@ -616,6 +618,7 @@ fn parse_into<'a, const K: usize>(
     floats(&mut b, crate::layout::head_mut(&mut tr.fallback_var_growth, m))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.swing_rms_max, ne))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.speed_rms_max, ne))?;
+    floats(&mut b, crate::layout::head_mut(&mut tr.swing_rms_min, ne))?;
     Ok((b, centres))
 }
 
@@ -732,9 +735,9 @@ pub const fn min_len_of(gratings: usize, ambient: bool, m: usize, observer: bool
     // and largest band (M f32 each).
     let field = 9 * gratings + 4 + 1 + 4 + 4 * 3 * m;
     // Trust ([`crate::trust::TrustSpec`]): a rate limit per envelope input, a quiet time per
-    // grating, the fallback band and its growth (M each), the largest swing and speed per
-    // envelope input, all f32.
-    let trust = 4 * (env + gratings + 2 * m + 2 * env);
+    // grating, the fallback band and its growth (M each), the largest swing and speed and the
+    // smallest swing per envelope input, all f32.
+    let trust = 4 * (env + gratings + 2 * m + 3 * env);
     // Output kinds: two bytes each; `fitted`: one byte per output; provenance: five one-byte
     // minimums.
     let bytes = 2 * m + m + 5 + field + trust;

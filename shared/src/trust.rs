@@ -37,6 +37,14 @@
 //!   a lag error grows at most in proportion to the pace and noise does not grow, so the
 //!   band's width in proportion to ρ bounds what the faster pace can add without a model of
 //!   how much of the error was lag.
+//! - **The slowest pace.** A pace slower than any the calibration showed is outside it too
+//!   (the lag and memory terms were fitted on the rates it saw): each envelope input's swing
+//!   power had a smallest value there once the filters had settled, `swing_rms_min`². With the
+//!   slowness σ = max over the inputs of √(P_min / P), what Model-H adds fades linearly from
+//!   σ = 1 to nothing at σ = 2 (flagged [`crate::Flags::FALLBACK`], not a fault); the band
+//!   fades to Model-P's and is not widened (a slower pace adds no lag error). A stream that
+//!   has just started has no pace yet (P grows from 0 over the window): it reads Model-P
+//!   until its pace is known.
 //! - **The band beyond the validated lead.** Model-H's band is narrower than Model-P's where
 //!   its cross-validated error was; the cross-validation saw leads up to the field context's
 //!   largest validated lead L only. Beyond L the band's variance decays towards Model-P's as
@@ -78,6 +86,10 @@ pub struct TrustSpec<F> {
     /// per second; see [`crate::compensator::SwingFilter`]); 0 = that input's speed does not
     /// set the pace.
     pub speed_rms_max: [F; MAX_ENVELOPE],
+    /// Smallest RMS swing of each envelope input over the calibration batch once the pace
+    /// filters had settled, √P_min (its unit; see [`crate::compensator::SwingFilter`]); 0 = no
+    /// slow-pace test on that input.
+    pub swing_rms_min: [F; MAX_ENVELOPE],
 }
 
 impl<F: Real> TrustSpec<F> {
@@ -90,6 +102,7 @@ impl<F: Real> TrustSpec<F> {
             fallback_var_growth: [F::ZERO; MAX_OUTPUTS],
             swing_rms_max: [F::ZERO; MAX_ENVELOPE],
             speed_rms_max: [F::ZERO; MAX_ENVELOPE],
+            swing_rms_min: [F::ZERO; MAX_ENVELOPE],
         }
     }
 
@@ -116,6 +129,9 @@ impl<F: Real> TrustSpec<F> {
         if !head(&self.speed_rms_max, ne).iter().all(|&v| ok(v, bounds::INPUT_MAX)) {
             return bad("trust.speed_rms_max");
         }
+        if !head(&self.swing_rms_min, ne).iter().all(|&v| ok(v, bounds::INPUT_MAX)) {
+            return bad("trust.swing_rms_min");
+        }
         Ok(())
     }
 
@@ -128,6 +144,7 @@ impl<F: Real> TrustSpec<F> {
             fallback_var_growth: cast_array(&self.fallback_var_growth),
             swing_rms_max: cast_array(&self.swing_rms_max),
             speed_rms_max: cast_array(&self.speed_rms_max),
+            swing_rms_min: cast_array(&self.swing_rms_min),
         }
     }
 }

@@ -81,10 +81,10 @@ fn min_len_and_max_len_are_exact() {
     // Γ 96); version 3 adds 2 header bytes and the output kinds (3 × 2 bytes); version 4 the
     // field context (3 × 9 bytes of λ_ref and source, 4 + 1 + 4, 3 × 3 f32); version 5 the
     // trust spec (4 rate limits, 3 quiet times, 2 × 3 f32); version 6 the pace (4 f32);
-    // version 7 the speeds (4 f32).
-    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6 + 27 + 9 + 36 + 52 + 16 + 16);
-    assert_eq!(min_len(0), 1046);
-    assert_eq!(min_len(32), 1046 + 60 * 32);
+    // version 7 the speeds and the smallest swings (4 + 4 f32).
+    assert_eq!(min_len(0), 416 + 2 + 4 * 116 + 2 + 6 + 27 + 9 + 36 + 52 + 16 + 32);
+    assert_eq!(min_len(0), 1062);
+    assert_eq!(min_len(32), 1062 + 60 * 32);
     // No overflow on absurd inputs.
     assert_eq!(min_len(usize::MAX), usize::MAX);
     assert_eq!(max_len(usize::MAX), usize::MAX);
@@ -210,6 +210,7 @@ fn tiny() -> ModelParams<f32, 2> {
             fallback_var_growth: pad(&[1e-6, 1e-4, 1e-5]),
             swing_rms_max: pad(&[6.0, 3.0, 1.5, 0.75]),
             speed_rms_max: pad(&[0.5, 0.25, 0.125, 0.001]),
+            swing_rms_min: pad(&[1.0, 0.5, 0.25, 0.125]),
         },
     }
 }
@@ -249,7 +250,7 @@ fn golden_v7_bytes_are_pinned() {
     // Shortest 2-centre blob plus "golden" (6), "0.1.0" (5), date varint 4 bytes (+3),
     // n_cal varint 2 bytes (+1), and a known end of calibration (+8).
     assert_eq!(b.len(), min_len(2) + 6 + 5 + 3 + 1 + 8);
-    assert_eq!(b.len(), 1189);
+    assert_eq!(b.len(), 1205);
     assert_eq!(
         &b[..HEADER_LEN],
         &[b'F', b'B', b'G', b'M', 7, 0, 3, 0, 1, 0, 3, 0, 10, 0, 32, 0, 2, 0],
@@ -298,11 +299,13 @@ fn golden_v7_bytes_are_pinned() {
     assert_eq!(&b[v5_end..v5_end + 4], &[0x00, 0x00, 0xC0, 0x40]);
     assert_eq!(&b[v5_end + 12..v5_end + 16], &0.75f32.to_le_bytes());
     // The v7 payload is the v6 payload followed by the largest RMS speed per envelope input
-    // (4 f32, the first 0.5 = 0x3F000000, the last 0.001).
+    // (4 f32, the first 0.5 = 0x3F000000, the last 0.001) and the smallest RMS swing (4 f32,
+    // the first 1.0 = 0x3F800000).
     let v6_end = GOLDEN_V6.len() - CRC_LEN;
     assert_eq!(&b[HEADER_LEN..v6_end], &GOLDEN_V6[HEADER_LEN..v6_end]);
     assert_eq!(&b[v6_end..v6_end + 4], &[0x00, 0x00, 0x00, 0x3F]);
     assert_eq!(&b[v6_end + 12..v6_end + 16], &0.001f32.to_le_bytes());
+    assert_eq!(&b[v6_end + 16..v6_end + 20], &[0x00, 0x00, 0x80, 0x3F]);
     // Trailer: CRC-32C over everything before it, little-endian.
     let n = b.len() - CRC_LEN;
     assert_eq!(b[n..], ISCSI.checksum(&b[..n]).to_le_bytes());

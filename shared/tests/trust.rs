@@ -423,3 +423,74 @@ fn a_stream_eight_times_faster_than_the_calibration_fades_to_model_p_by_its_spee
     assert_eq!(with_speed, rows, "{with_speed} of {rows} rows at Model-P's value with the speed");
     assert!(without < rows / 2, "{without} of {rows} rows at Model-P's value with the swing alone");
 }
+
+#[test]
+fn a_stream_slower_than_the_calibrations_slowest_fades_to_model_p_by_its_slowness() {
+    // The smallest swing measured on the clean stream once its filters had settled (9 h in, as
+    // the trainer measures it); then that stream, followed by its readings four times slower,
+    // backwards and forwards for four legs. Where the slowness σ is within 1 the estimate is that of the
+    // model without the term; at σ ≥ 2 (the stream's first rows among them: no pace yet) it is
+    // Model-P's value and band, flagged as a fallback.
+    let (p, clean) = trusted(1e9);
+    let pw = powers(&clean);
+    let settle = clean.iter().position(|x| x.t_s - clean[0].t_s >= 9.0 * 3600.0).unwrap();
+    let mut paced = p.clone();
+    for k in 0..4 {
+        paced.trust.swing_rms_min[k] = pw[settle..].iter().map(|w| w[k]).fold(f64::INFINITY, f64::min).sqrt();
+    }
+    paced.validate().unwrap();
+    // The readings backwards on the clean stream's own (increasing) clock.
+    let back: Vec<Sample<f32>> = clean.iter().rev().zip(&clean).map(|(x, t)| Sample { t_s: t.t_s, ..*x }).collect();
+    let end = clean[clean.len() - 1].t_s;
+    let slow: Vec<Sample<f32>> = clean
+        .iter()
+        .copied()
+        .chain(faster(&back, 0.25, 4).into_iter().skip(1).map(|x| Sample { t_s: x.t_s - back[0].t_s + end, ..x }))
+        .collect();
+    let (a, b) = (run::<f64>(&paced, &slow), run::<f64>(&p, &slow));
+    let ep = run::<f64>(&model_p(&p), &slow);
+    let sigma_sq: Vec<f64> = powers(&slow)
+        .iter()
+        .map(|w| {
+            (0..4)
+                .map(|k| {
+                    let min = paced.trust.swing_rms_min[k].powi(2);
+                    if w[k] * 4.0 <= min {
+                        4.0
+                    } else {
+                        min / w[k]
+                    }
+                })
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    let (mut within, mut beyond) = (0, 0);
+    for (i, ((x, y), &s2)) in a.iter().zip(&b).zip(&sigma_sq).enumerate() {
+        if y.flags.is_fault() || y.flags.contains(Flags::FALLBACK) {
+            continue;
+        }
+        if s2 <= 1.0 {
+            assert_eq!((x.values, x.band95, x.flags), (y.values, y.band95, y.flags), "row {i}");
+            within += 1;
+        } else if s2 >= 4.0 - 1e-12 {
+            assert!(x.flags.contains(Flags::FALLBACK) && !x.flags.is_fault(), "row {i}: {}", x.flags);
+            for o in 0..3 {
+                assert_eq!(x.values[o], ep[i].values[o], "row {i} output {o}");
+                let want = p.trust.fallback_var[o].sqrt();
+                assert!((x.band95[o] - want).abs() <= 1e-9 * want, "row {i} output {o}: {} vs {want}", x.band95[o]);
+            }
+            beyond += 1;
+        } else {
+            assert!(x.flags.contains(Flags::FALLBACK), "row {i}: σ² = {s2}");
+        }
+    }
+    assert!(sigma_sq[1] >= 4.0, "a stream that has just started has no pace: σ² = {}", sigma_sq[1]);
+    assert!(within > 0 && beyond > 0, "{within} rows within the calibration's slowest, {beyond} at half it or slower");
+    let slow_part = &sigma_sq[clean.len()..];
+    let at_half = slow_part.iter().filter(|&&s2| s2 >= 4.0 - 1e-12).count();
+    assert!(
+        2 * at_half > slow_part.len(),
+        "{at_half} of {} rows of the slow part at half the slowest pace or slower",
+        slow_part.len()
+    );
+}

@@ -97,7 +97,7 @@ pub fn spec(h: &HostParams, p: &HostParams, d: &Dataset, cal: &[usize]) -> Trust
         t.fallback_var[o] = k2 * p.resid_var[o];
         t.fallback_var_growth[o] = k2 * p.resid_var_growth[o];
     }
-    (t.swing_rms_max, t.speed_rms_max) = pace_max(dims, d, cal);
+    [t.swing_rms_max, t.speed_rms_max, t.swing_rms_min] = pace_extremes(dims, d, cal);
     t
 }
 
@@ -111,14 +111,22 @@ fn envelope_input(dims: &fbg_shared::layout::Dims, d: &Dataset, k: usize, i: usi
     }
 }
 
+/// The pace filters settle within this many pace windows of the first calibration row: the
+/// smallest swing is taken after it (before, the power still grows from 0).
+pub const PACE_SETTLE_WINDOWS: f64 = 3.0;
+
 /// The calibration's pace ([`fbg_shared::trust`]): each envelope input's largest RMS swing
-/// √P_max and largest RMS speed √Q_max over the calibration rows `cal`, the filter run over
-/// them as the device runs it over the samples its gate lets in.
-fn pace_max(dims: &fbg_shared::layout::Dims, d: &Dataset, cal: &[usize]) -> ([f64; MAX_ENVELOPE], [f64; MAX_ENVELOPE]) {
+/// √P_max, largest RMS speed √Q_max and smallest RMS swing √P_min (once the filter has
+/// settled; 0 when the batch is too short to tell) over the calibration rows `cal`, the filter
+/// run over them as the device runs it over the samples its gate lets in.
+fn pace_extremes(dims: &fbg_shared::layout::Dims, d: &Dataset, cal: &[usize]) -> [[f64; MAX_ENVELOPE]; 3] {
     let ne = dims.envelope_len().min(MAX_ENVELOPE);
     let mut filter = SwingFilter::<f64>::new();
     let mut last_t = f64::NAN;
     let (mut p_max, mut q_max) = ([0.0f64; MAX_ENVELOPE], [0.0f64; MAX_ENVELOPE]);
+    let mut p_min = [f64::INFINITY; MAX_ENVELOPE];
+    let mut t_first = f64::NAN;
+    let settle_s = PACE_SETTLE_WINDOWS * fbg_shared::compensator::PACE_WINDOW_S;
     for &i in cal {
         let mut x = [0.0; MAX_ENVELOPE];
         for (k, v) in x.iter_mut().enumerate().take(ne) {
@@ -130,12 +138,20 @@ fn pace_max(dims: &fbg_shared::layout::Dims, d: &Dataset, cal: &[usize]) -> ([f6
         }
         filter.update(&x, ne, t_s - last_t);
         last_t = t_s;
-        for (k, (p, q)) in p_max.iter_mut().zip(q_max.iter_mut()).enumerate().take(ne) {
+        if t_first.is_nan() {
+            t_first = t_s;
+        }
+        let settled = t_s - t_first >= settle_s;
+        for (k, ((p, q), lo)) in p_max.iter_mut().zip(q_max.iter_mut()).zip(p_min.iter_mut()).enumerate().take(ne) {
             *p = p.max(filter.power(k));
             *q = q.max(filter.speed_power(k));
+            if settled {
+                *lo = lo.min(filter.power(k));
+            }
         }
     }
-    (p_max.map(f64::sqrt), q_max.map(f64::sqrt))
+    let p_min = p_min.map(|v| if v.is_finite() { v.sqrt() } else { 0.0 });
+    [p_max.map(f64::sqrt), q_max.map(f64::sqrt), p_min]
 }
 
 /// The largest quiet time \[s\] of each grating of `h`'s memory over the calibration rows

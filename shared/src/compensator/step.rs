@@ -543,12 +543,21 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// How much of what Model-H adds to the core is kept at `t_s` with the pace ratio² `pace_sq`:
     /// per grating, 1 while its quiet time is within the calibration's largest, then linearly
     /// down to 0 at twice that; 1 while the pace ratio ρ is within 1, then linearly down to 0 at
-    /// ρ = 2; the smallest of them ([`crate::trust`]).
+    /// ρ = 2; the same for the slowness σ; the smallest of them ([`crate::trust`]).
     #[inline(always)]
     fn fade<const G: usize>(&self, state: &StreamState<F>, t_s: F, pace_sq: F) -> F {
         let mut fade = F::ONE;
         if pace_sq > F::ONE {
             fade = (F::ONE + F::ONE - pace_sq.sqrt()).max(F::ZERO);
+        }
+        if !self.pace.is_off() {
+            let slow_sq = self.pace.slow_ratio_sq(state.gate().swing());
+            if slow_sq > F::ONE {
+                let f = (F::ONE + F::ONE - slow_sq.sqrt()).max(F::ZERO);
+                if f < fade {
+                    fade = f;
+                }
+            }
         }
         for (g, &q_max) in head(&self.quiet_max_s, self.g::<G>()).iter().enumerate() {
             let q = state.memory().quiet_s(g, t_s);

@@ -16,6 +16,10 @@
 //! angular frequency ω reads A·ω/√(1 + (ωτ_fast)²), growing with ω up to A/τ_fast, and white
 //! noise of σ adds about σ/τ_fast), and its power Q = LP_window(v²). The pace ratio of a
 //! stream is ρ = max_k max(√(P_k / P_max,k), √(Q_k / Q_max,k)) ([`Pace::ratio_sq`] gives ρ²).
+//!
+//! A pace slower than the calibration's slowest is outside it too: its slowness is
+//! σ = max_k √(P_min,k / P_k), P_min,k the smallest power of input k over the calibration once
+//! the filters had settled ([`Pace::slow_ratio_sq`] gives σ², at most 4).
 
 use crate::layout::{head, MAX_ENVELOPE};
 use crate::real::Real;
@@ -127,11 +131,12 @@ impl<F: Real> SwingFilter<F> {
 }
 
 /// The calibration's pace, folded at load: 1 / P_max and 1 / Q_max of each input (0: not
-/// read).
+/// read), and P_min (0: not read).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Pace<F> {
     inv_max: [F; MAX_ENVELOPE],
     inv_speed_max: [F; MAX_ENVELOPE],
+    min: [F; MAX_ENVELOPE],
     /// Inputs read (0: no pace term).
     n: u8,
 }
@@ -139,11 +144,16 @@ pub(super) struct Pace<F> {
 impl<F: Real> Pace<F> {
     /// No pace term.
     pub(super) const fn off() -> Self {
-        Pace { inv_max: [F::ZERO; MAX_ENVELOPE], inv_speed_max: [F::ZERO; MAX_ENVELOPE], n: 0 }
+        Pace {
+            inv_max: [F::ZERO; MAX_ENVELOPE],
+            inv_speed_max: [F::ZERO; MAX_ENVELOPE],
+            min: [F::ZERO; MAX_ENVELOPE],
+            n: 0,
+        }
     }
 
     /// The pace term of a trust spec over `n` envelope inputs; off when no input has a
-    /// calibration swing or speed.
+    /// calibration swing or speed, largest or smallest.
     pub(super) fn new<G: Real>(trust: &TrustSpec<G>, n: usize) -> Self {
         let mut p = Pace::off();
         let pairs = p
@@ -156,6 +166,13 @@ impl<F: Real> Pace<F> {
             let v = F::from_real(v);
             if v > F::ZERO {
                 *o = F::ONE / (v * v);
+                on = true;
+            }
+        }
+        for (o, &v) in p.min.iter_mut().zip(head(&trust.swing_rms_min, n).iter()) {
+            let v = F::from_real(v);
+            if v > F::ZERO {
+                *o = v * v;
                 on = true;
             }
         }
@@ -178,6 +195,29 @@ impl<F: Real> Pace<F> {
         let n = usize::from(self.n);
         for (k, (&inv, &inv_speed)) in head(&self.inv_max, n).iter().zip(head(&self.inv_speed_max, n)).enumerate() {
             let v = (filter.power(k) * inv).max(filter.speed_power(k) * inv_speed);
+            if v > r {
+                r = v;
+            }
+        }
+        r
+    }
+
+    /// The slowness ratio² max_k P_min,k / P_k of `filter`, at most 4 (where the fade has
+    /// reached 0); 0 without a smallest swing.
+    #[inline(always)]
+    pub(super) fn slow_ratio_sq(&self, filter: &SwingFilter<F>) -> F {
+        let four = F::from_f64(4.0);
+        let mut r = F::ZERO;
+        for (k, &min) in head(&self.min, usize::from(self.n)).iter().enumerate() {
+            let p = filter.power(k);
+            // P ≤ P_min / 4 (a filter that has seen nothing included): the cap, no division.
+            let v = if min <= F::ZERO {
+                F::ZERO
+            } else if p * four <= min {
+                four
+            } else {
+                min / p
+            };
             if v > r {
                 r = v;
             }

@@ -36,9 +36,9 @@ pub fn provenance_offset<const K: usize>(blob: &[u8], p: &ModelParams<f32, K>) -
     let f = &p.field;
     let field = 9 * p.dims.gratings() + 8 + if f.cal_end_unix_s.is_some() { 9 } else { 1 } + 12 * p.dims.n_outputs();
     // Then the trust spec: a rate limit per envelope input, a quiet time per grating, 2 f32
-    // per output, the largest RMS swing and speed per envelope input.
+    // per output, the largest RMS swing and speed and the smallest swing per envelope input.
     let (ne, m) = (p.dims.envelope_len(), p.dims.n_outputs());
-    let trust = 4 * (ne + p.dims.gratings() + 2 * m + 2 * ne);
+    let trust = 4 * (ne + p.dims.gratings() + 2 * m + 3 * ne);
     blob.len() - CRC_LEN - field - trust - n
 }
 
