@@ -28,6 +28,15 @@ impl PaceStudy {
     }
 }
 
+/// The labels of the records of a structure at rest or holding.
+pub const REST_LABELS: [&str; 3] = ["rest", "long-hold", "plateaus"];
+
+/// Largest Model-H / Model-P RMSE ratio on a paced or steps record (the pace target).
+pub const PACED_RMSE_RATIO_MAX: f64 = 1.01;
+
+/// Largest Model-H / Model-P RMSE ratio on a rest, long-hold or plateau record.
+pub const REST_RMSE_RATIO_MAX: f64 = 1.05;
+
 /// One record of the study: both models' hold-out figures, per output of the models.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PaceRow {
@@ -76,6 +85,38 @@ impl PaceRow {
         !self.rmse_h.is_empty()
             && self.rmse_h.len() == self.rmse_p.len()
             && self.rmse_h.iter().zip(&self.rmse_p).all(|(h, p)| h <= p)
+    }
+
+    /// Records of a structure at rest or holding: `rest`, `long-hold`, `plateaus`.
+    pub fn is_rest(&self) -> bool {
+        REST_LABELS.contains(&self.label.as_str())
+    }
+
+    /// The largest Model-H / Model-P RMSE ratio the record's target allows:
+    /// [`REST_RMSE_RATIO_MAX`] on the rest records, [`PACED_RMSE_RATIO_MAX`] on the others.
+    pub fn rmse_ratio_max(&self) -> f64 {
+        if self.is_rest() {
+            REST_RMSE_RATIO_MAX
+        } else {
+            PACED_RMSE_RATIO_MAX
+        }
+    }
+
+    /// Model-H's RMSE within [`PaceRow::rmse_ratio_max`] × Model-P's on output `c` (false when
+    /// a figure is missing).
+    pub fn h_within_p_on(&self, c: usize) -> bool {
+        match (self.rmse_h.get(c), self.rmse_p.get(c)) {
+            (Some(&h), Some(&p)) => h <= self.rmse_ratio_max() * p,
+            _ => false,
+        }
+    }
+
+    /// Model-H's RMSE within [`PaceRow::rmse_ratio_max`] × Model-P's on every output (false
+    /// when a figure is missing).
+    pub fn h_within_p(&self) -> bool {
+        !self.rmse_h.is_empty()
+            && self.rmse_h.len() == self.rmse_p.len()
+            && (0..self.rmse_p.len()).all(|c| self.h_within_p_on(c))
     }
 
     /// Model-H's band coverage at least `min` on every output.

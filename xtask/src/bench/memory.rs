@@ -85,6 +85,11 @@ pub struct SpectraImport {
 #[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot replace
 /// Run `program args` from `root` with stdout and stderr discarded (stderr kept for a
 /// failure) and return its peak RSS \[bytes\] and wall time \[s\].
+///
+/// Linux carries the high-water mark of the address space a process `exec`s from into its
+/// peak, and `Command::spawn` execs from this process's: the figure is the child's own only
+/// while this process is smaller than the child (xtask is a few MB; a test binary running
+/// other tests beside may not be).
 pub fn peak_rss(root: &Path, program: &str, args: &[&str]) -> Result<(u64, f64, String)> {
     let line = format!("{program} {}", args.join(" "));
     eprintln!("bench: $ {line}");
@@ -296,14 +301,38 @@ pub fn markdown(s: &mut String, mem: &Memory) {
 mod tests {
     use super::*;
 
+    /// Set to a file path: [`peak_rss_probe`] measures there (in a process of its own).
+    const PROBE: &str = "XTASK_PEAK_RSS_PROBE";
+
+    /// Not a check on its own: run by [`peak_rss_is_the_childs_own`] in a fresh test process
+    /// (small, as xtask is when the bench calls [`peak_rss`]), it writes the peaks of a child
+    /// that touches 64 MiB and of one that touches nothing.
     #[test]
-    fn peak_rss_is_the_childs_own() {
+    fn peak_rss_probe() {
+        let Some(out) = std::env::var_os(PROBE) else { return };
         let root = crate::cmd::root();
-        // A child that touches 64 MiB: its peak, not this process's.
         let (big, _, _) = peak_rss(&root, "/usr/bin/env", &["python3", "-c", "b = bytearray(64 << 20)"]).unwrap();
         let (small, _, _) = peak_rss(&root, "/bin/sh", &["-c", "true"]).unwrap();
+        fs::write(out, format!("{big} {small}")).unwrap();
+    }
+
+    #[test]
+    fn peak_rss_is_the_childs_own() {
+        let dir = crate::cmd::root().join("target/bench/memory");
+        fs::create_dir_all(&dir).unwrap();
+        let out = dir.join(format!("peaks-{}", std::process::id()));
+        let probe = Command::new(std::env::current_exe().unwrap())
+            .args(["--exact", "bench::memory::tests::peak_rss_probe", "--test-threads", "1", "-q"])
+            .env(PROBE, &out)
+            .output()
+            .unwrap();
+        assert!(probe.status.success(), "{}", String::from_utf8_lossy(&probe.stderr));
+        let text = fs::read_to_string(&out).unwrap();
+        fs::remove_file(&out).unwrap();
+        let (big, small) = text.split_once(' ').unwrap();
+        let (big, small): (u64, u64) = (big.parse().unwrap(), small.parse().unwrap());
         assert!(big > 64 << 20 && small < 32 << 20, "{big} {small}");
-        assert!(peak_rss(&root, "/bin/sh", &["-c", "exit 3"]).is_err());
+        assert!(peak_rss(&crate::cmd::root(), "/bin/sh", &["-c", "exit 3"]).is_err());
     }
 
     #[test]

@@ -47,7 +47,8 @@ pub struct PaceSummary {
     pub label: String,
     /// Seeds with this record.
     pub seeds: usize,
-    /// Seeds on which Model-H's RMSE ≤ Model-P's on every channel.
+    /// Seeds on which Model-H's RMSE is within the record's ratio of Model-P's on every
+    /// channel (`fbg_report::PaceRow::h_within_p`; the name is older than the ratio).
     pub seeds_h_le_p: usize,
     /// Seeds on which Model-H's band coverage ≥ 90 % on every channel.
     pub seeds_coverage_h_90: usize,
