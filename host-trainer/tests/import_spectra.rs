@@ -6,8 +6,6 @@
 //! seed (SNR in dB = 10·log₁₀(height/σ), the detector's convention). The tolerances were set on
 //! seed 1 and are checked on seed 2 as well (`SEEDS`).
 
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use crate::common;
 
 use std::fmt::Write as _;

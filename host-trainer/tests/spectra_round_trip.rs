@@ -3,8 +3,6 @@
 //! uniform); `import --format spectra-csv` must read it back, on every preset and grid, to
 //! within what the detector itself gives on the exact grid.
 
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use crate::common;
 
 use fbg_shared::spectrum::Method;

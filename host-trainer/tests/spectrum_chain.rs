@@ -6,8 +6,6 @@
 //! gratings of 0.3 nm FWHM and 50 % peak reflectivity, 30 dB, the default detector method)
 //! chosen before any chain was run. What the defaults miss is said where it is asserted.
 
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use fbg_shared::spectrum::Method;
 use fbg_trainer::eval::studies::{run_all, Studies};
 use fbg_trainer::fit::TrainOptions;

@@ -3,8 +3,6 @@
 //! the source, the detector's noise and counts at the stated SNR convention, the frames and
 //! the spectra CSV.
 
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use fbg_trainer::sim::spectrum::csv::write_spectra_csv;
 use fbg_trainer::sim::spectrum::frames::{row_rng, wavelengths_at};
 use fbg_trainer::sim::spectrum::grating::N_EFF;

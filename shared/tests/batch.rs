@@ -4,10 +4,6 @@
 //! set, with and without memory terms, through the gate's refusals, the fade at rest, weak
 //! support, samples outside the envelope and non-finite ones, whatever the batches' lengths.
 
-// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
-// helpers; these helpers exist only for the tests.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use fbg_shared::layout::pad;
 use fbg_shared::{Compensator, Estimate, Flags, ModelParams, Pending, Real, Sample, TrustSpec};
 use fbg_testkit::installation::{samples, synthetic_params, MAX_K};

@@ -2,10 +2,6 @@
 //! v3 and v2 ones refused by name), over-capacity dims refused naming both, and typed errors for
 //! every kind of damage (`blob_validation.rs`: every field's bound, and arbitrary bytes).
 
-// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
-// the helpers around them.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use crate::common;
 
 use common::blob::*;

@@ -2,10 +2,6 @@
 //! through a blob with a valid CRC), and arbitrary or damaged bytes never panic and get their
 //! typed error.
 
-// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
-// the helpers around them.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use crate::common;
 
 use common::blob::*;

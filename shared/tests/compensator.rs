@@ -1,10 +1,6 @@
 //! Host tests of the compensator's behaviour: flags, band widening, the latches, feature
 //! sets, reloads, and f32/f64 agreement.
 
-// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
-// the helpers around them.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use crate::common;
 
 use common::{bits, dl3, params, ramp, run, sample, stream, K};

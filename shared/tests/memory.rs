@@ -2,10 +2,6 @@
 //! reference, start, gaps and repeated time stamps, saved and resumed state, unused slots, and
 //! f32 against f64 over a 14-day record.
 
-// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
-// the helpers around them.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use fbg_shared::layout::paper::{MEM_AMBIENT, MEM_GRATING, MEM_OBSERVER, MEM_STOP, N_GRATINGS, N_MEMORY};
 use fbg_shared::layout::{pad, Dims, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS};
 

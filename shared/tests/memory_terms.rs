@@ -1,10 +1,6 @@
 //! Host tests of the memory terms in the compensator: ŷ = Bφ + Γm + Wψ, their validation,
 //! reloads and resets, f32/f64 agreement, and loading from a blob.
 
-// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
-// the helpers around them.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use crate::common;
 
 use common::{bits, irregular, memory_params, params, run, sample, to64, K};

@@ -1,10 +1,6 @@
 //! Implausible models: the decoder refuses numbers no fit can produce, and
 //! at run time an estimate outside its output's envelope, or an absurd band, is a fault.
 
-// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
-// the helpers around them.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use fbg_shared::blob::{self, decode, decode_split, encode_unchecked};
 use fbg_shared::field::{BAND_LIMIT_OF_MAX, OUTPUT_MARGIN_OF_BAND, OUTPUT_MARGIN_OF_RANGE};
 use fbg_shared::layout::{Dims, Output, Quantity};

@@ -2,8 +2,6 @@
 //! the host: the RFC 8032 Ed25519 test vectors (section 7.1), strictness, and the trailer of
 //! a signed blob end to end.
 
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic)]
-
 use fbg_shared::blob;
 use fbg_shared::container::{open, Envelope};
 use fbg_shared::signature::{

@@ -8,8 +8,6 @@
 //! ([`Peak::snr_db`]). The table of every method × grid × shape × SNR is printed by
 //! `cargo test -p fbg-shared --test shared spectrum::accuracy_table -- --nocapture`.
 
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use fbg_shared::spectrum::{DetectorConfig, Grid, Method, Peak, PeakDetector, PeakFlags, Spectrum, Threshold, Window};
 use fbg_testkit::Rng;
 

@@ -6,8 +6,6 @@
 //! ≤ 3 pm RMS at 30 dB on the 512-pixel grid), and the shapes (peak reflectivity 0.5 and 0.9)
 //! are fixed by physics, not chosen to pass.
 
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use fbg_shared::spectrum::correlation::cross_correlation;
 use fbg_shared::spectrum::template::template_fit;
 use fbg_shared::spectrum::{Grid, Region, Template, Threshold};

@@ -1,10 +1,6 @@
 //! Host tests of the model apart from its stream state: the trainer's entry points (core and
 //! activations, `advance`), checkpoints resumed, and which models share a stream rule.
 
-// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
-// the helpers around them.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use crate::common;
 
 use common::{bits, irregular, memory_params, params, stream, K};

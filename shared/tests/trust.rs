@@ -6,10 +6,6 @@
 //! trainer measures it (largest |Δx|/Δt between consecutive samples); nothing here was tuned on
 //! the assertions' outcomes.
 
-// A test crate: clippy.toml allows the panicking shorthand in #[test] functions, not in
-// helpers; these helpers exist only for the tests.
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-
 use fbg_shared::layout::{pad, MAX_GRATINGS};
 use fbg_shared::{Compensator, Estimate, Flags, ModelParams, Real, Sample, TrustSpec};
 use fbg_testkit::installation::{samples, synthetic_params, MAX_K};
