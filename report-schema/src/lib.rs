@@ -22,6 +22,6 @@ pub use metrics::{
     AblationRow, BudgetRow, ChannelMetrics, DriftSweep, Metrics, ModelEval, ParityReport, RecalStudy, Skipped,
     StaticFidelity, Table2,
 };
-pub use pace::{gain_pct, GlitchRow, PaceRow, PaceStudy, PACED_RMSE_RATIO_MAX, REST_LABELS, REST_RMSE_RATIO_MAX};
+pub use pace::{gain_pct, GlitchRow, PaceRow, PaceStudy, PACED_RMSE_RATIO_MAX, REST_RMSE_RATIO_MAX};
 pub use spectrum::AccuracyRow;
 pub use warning::Warning;

@@ -80,13 +80,6 @@ impl PaceRow {
         gain_pct(&self.rmse_p, &self.rmse_h, c)
     }
 
-    /// Model-H's RMSE at most Model-P's on every output (false when a figure is missing).
-    pub fn h_le_p(&self) -> bool {
-        !self.rmse_h.is_empty()
-            && self.rmse_h.len() == self.rmse_p.len()
-            && self.rmse_h.iter().zip(&self.rmse_p).all(|(h, p)| h <= p)
-    }
-
     /// Records of a structure at rest or holding: `rest`, `long-hold`, `plateaus`.
     pub fn is_rest(&self) -> bool {
         REST_LABELS.contains(&self.label.as_str())

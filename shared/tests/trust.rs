@@ -6,6 +6,7 @@
 //! trainer measures it (largest |Δx|/Δt between consecutive samples); nothing here was tuned on
 //! the assertions' outcomes.
 
+use fbg_shared::compensator::SwingFilter;
 use fbg_shared::layout::{pad, MAX_GRATINGS};
 use fbg_shared::{Compensator, Estimate, Flags, ModelParams, Real, Sample, TrustSpec};
 use fbg_testkit::installation::{samples, synthetic_params, MAX_K};
@@ -247,10 +248,10 @@ fn the_state_stays_bounded_whatever_arrives() {
     }
 }
 
-/// Each envelope input's swing power after every sample of `s` (the filter the gate moves, run
-/// as the trainer runs it over a calibration batch).
-fn powers(s: &[Sample<f32>]) -> Vec<[f64; 4]> {
-    let mut f = fbg_shared::compensator::SwingFilter::<f64>::new();
+/// The pace filter after every sample of `s` (the filter the gate moves, run as the trainer
+/// runs it over a calibration batch).
+fn filters(s: &[Sample<f32>]) -> Vec<SwingFilter<f64>> {
+    let mut f = SwingFilter::<f64>::new();
     let mut last_t = f64::NAN;
     s.iter()
         .map(|x| {
@@ -260,9 +261,14 @@ fn powers(s: &[Sample<f32>]) -> Vec<[f64; 4]> {
             v[3] = x.t_amb_c;
             f.update(&v, 4, x.t_s - last_t);
             last_t = x.t_s;
-            [f.power(0), f.power(1), f.power(2), f.power(3)]
+            f
         })
         .collect()
+}
+
+/// Each envelope input's swing power after every sample of `s`.
+fn powers(s: &[Sample<f32>]) -> Vec<[f64; 4]> {
+    filters(s).iter().map(|f| [f.power(0), f.power(1), f.power(2), f.power(3)]).collect()
 }
 
 /// `p` with the pace of `calibration`: each input's largest RMS swing over it.
@@ -351,16 +357,8 @@ fn beyond_the_calibration_pace_model_h_fades_to_model_p_and_the_band_widens_with
 /// Each envelope input's largest RMS swing and speed over `calibration` (what
 /// `fit::trust::spec` measures).
 fn pace_maxima(calibration: &[Sample<f32>]) -> ([f64; 4], [f64; 4]) {
-    let mut f = fbg_shared::compensator::SwingFilter::<f64>::new();
     let (mut swing, mut speed) = ([0.0f64; 4], [0.0f64; 4]);
-    let mut last_t = f64::NAN;
-    for x in calibration {
-        let x = x.cast::<f64>();
-        let mut v = [0.0; 9];
-        v[..3].copy_from_slice(&x.dl_pm[..3]);
-        v[3] = x.t_amb_c;
-        f.update(&v, 4, x.t_s - last_t);
-        last_t = x.t_s;
+    for f in filters(calibration) {
         for k in 0..4 {
             swing[k] = swing[k].max(f.power(k).sqrt());
             speed[k] = speed[k].max(f.speed_power(k).sqrt());
@@ -375,7 +373,7 @@ fn the_speed_grows_with_the_pace_of_an_oscillation_the_swing_reads_as_its_amplit
     // times faster (a 3-min period, 18 samples a period): the swing's band-pass reads the
     // faster one no larger, its speed reads it several times larger.
     let power = |period_s: f64| {
-        let mut f = fbg_shared::compensator::SwingFilter::<f64>::new();
+        let mut f = SwingFilter::<f64>::new();
         for i in 0..17_280 {
             let t = 10.0 * i as f64;
             let mut v = [0.0; 9];

@@ -547,13 +547,10 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     #[inline(always)]
     fn fade<const G: usize>(&self, state: &StreamState<F>, t_s: F, pace_sq: F) -> F {
         let mut fade = F::ONE;
-        if pace_sq > F::ONE {
-            fade = (F::ONE + F::ONE - pace_sq.sqrt()).max(F::ZERO);
-        }
-        if !self.pace.is_off() {
-            let slow_sq = self.pace.slow_ratio_sq(state.gate().swing());
-            if slow_sq > F::ONE {
-                let f = (F::ONE + F::ONE - slow_sq.sqrt()).max(F::ZERO);
+        let slow_sq = if self.pace.is_off() { F::ZERO } else { self.pace.slow_ratio_sq(state.gate().swing()) };
+        for ratio_sq in [pace_sq, slow_sq] {
+            if ratio_sq > F::ONE {
+                let f = fade_beyond(ratio_sq.sqrt());
                 if f < fade {
                     fade = f;
                 }
@@ -562,8 +559,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         for (g, &q_max) in head(&self.quiet_max_s, self.g::<G>()).iter().enumerate() {
             let q = state.memory().quiet_s(g, t_s);
             if q_max > F::ZERO && q > q_max {
-                // Here q > q_max: below 1.
-                let f = (F::ONE + F::ONE - q / q_max).max(F::ZERO);
+                let f = fade_beyond(q / q_max);
                 if f < fade {
                     fade = f;
                 }
@@ -672,4 +668,11 @@ fn poly_features<F: Real>(g: &[F; MAX_OUTPUTS], m: usize) -> [F; MAX_POLY] {
         }
     }
     phi
+}
+
+/// What a fade keeps at `ratio` > 1 times its limit ([`crate::trust`]): linearly from 1 at the
+/// limit down to 0 at twice it.
+#[inline(always)]
+fn fade_beyond<F: Real>(ratio: F) -> F {
+    (F::ONE + F::ONE - ratio).max(F::ZERO)
 }
