@@ -147,6 +147,8 @@ pub struct BenchFitOptions {
     pub dead_band_pm: f64,
     /// Worker threads (0: one per core).
     pub threads: usize,
+    /// The interrogator's stated stability \[pm/√day\], as `train --drift-spec`.
+    pub drift_spec: Option<f64>,
     /// Also write Model-H's per-sample hold-out errors and 95 % band half-widths to this CSV.
     pub holdout_errors: Option<std::path::PathBuf>,
 }
@@ -193,6 +195,7 @@ impl BenchFitOptions {
     /// Run the benchmark.
     pub fn run(&self) -> Result<FitBench, TrainerError> {
         let (opts, mode) = self.options()?;
+        let opts = opts.to_builder().drift_spec_pm_per_sqrt_day(self.drift_spec).check()?;
         bench_fit(&self.data, &opts, mode, self.repeats, self.threads, self.holdout_errors.as_deref())
     }
 }

@@ -96,6 +96,7 @@ fn fixed_options(f: &Bound<'_, PyDict>) -> PyResult<fbg_trainer::fit::TrainOptio
         dead_band_pm: DEFAULT_FIXED.dead_band_pm,
         threads: 0,
         holdout_errors: None,
+        drift_spec: None,
     };
     for key in f.keys() {
         let k: String = key.extract().map_err(|_| msg(format!("fixed: the key {key} is not a string")))?;

@@ -62,6 +62,9 @@ pub struct BenchFitArgs {
     /// (`t_s`, `err_<channel>`, `band_<channel>`), for band-coverage studies across seeds.
     #[arg(long)]
     holdout_errors: Option<PathBuf>,
+    /// The interrogator's stated stability [pm/√day], as `train --drift-spec`.
+    #[arg(long, value_name = "PM_PER_SQRT_DAY")]
+    drift_spec: Option<f64>,
 }
 
 impl BenchFitArgs {
@@ -81,6 +84,7 @@ impl BenchFitArgs {
             dead_band_pm: self.dead_band_pm,
             threads: self.threads,
             holdout_errors: self.holdout_errors,
+            drift_spec: self.drift_spec,
         }
         .run()?;
         if json {

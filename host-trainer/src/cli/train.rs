@@ -41,6 +41,12 @@ pub struct TrainArgs {
     /// leave their rows out of the fit and count them.
     #[arg(long, value_parser = ["fail", "skip"], default_value = "fail")]
     on_error: String,
+    /// The interrogator's stated wavelength stability as a random walk [pm/√day]: the bands
+    /// grow at least as fast as such a drift moves each output (one calibration week shows one
+    /// path of the drift, too little to read its rate well). Without it, the rate the
+    /// calibration's errors show.
+    #[arg(long, value_name = "PM_PER_SQRT_DAY")]
+    drift_spec: Option<f64>,
     #[command(flatten)]
     sign: SignArgs,
 }
@@ -67,7 +73,8 @@ impl TrainArgs {
         let meta = SimMeta::read_for(data)?;
         let origin = origin_of(data, meta.as_ref());
         let on_outlier = self.on_error.parse().map_err(anyhow::Error::msg)?;
-        let opts = train_options(self.features.0, self.max_centres, !self.json)?.with_on_outlier(on_outlier);
+        let opts =
+            train_options(self.features.0, self.max_centres, !self.json, self.drift_spec)?.with_on_outlier(on_outlier);
         let t = Instant::now();
         let tr = fit::train_source(&d, &data.display().to_string(), &opts, &origin)?;
         let seconds = t.elapsed().as_secs_f64();
@@ -161,7 +168,17 @@ fn origin_of(data: &Path, meta: Option<&SimMeta>) -> Origin {
     }
 }
 
-fn train_options(features: FeatureChoice, max_centres: usize, progress: bool) -> Result<TrainOptions> {
+fn train_options(
+    features: FeatureChoice,
+    max_centres: usize,
+    progress: bool,
+    drift_spec: Option<f64>,
+) -> Result<TrainOptions> {
     let o = features.train_options(max_centres).map_err(|e| anyhow::anyhow!("--features/--max-centres: {e}"))?;
+    let o = o
+        .to_builder()
+        .drift_spec_pm_per_sqrt_day(drift_spec)
+        .check()
+        .map_err(|e| anyhow::anyhow!("--drift-spec: {e}"))?;
     Ok(o.with_progress(progress))
 }

@@ -559,6 +559,7 @@ fn given_as_trained(
             cv_rmse_h: vec![f64::NAN; n_out],
             var_model_p: Default::default(),
             var_model_h: Default::default(),
+            drift_rate_pm2_per_s: None,
             folds: vec![],
             n_cal: h.provenance.n_cal as usize,
             cv_stride: 1,

@@ -57,6 +57,11 @@ pub struct VarModel {
     /// Fraction of the validation errors inside the band at their own lead (the
     /// cross-validated coverage; the conformal multiplier aims it at 95 %).
     pub cv_coverage: f64,
+    /// The growth the interrogator's drift adds, s²·q_d \[unit²/s\] ([`super::random_walk`]:
+    /// the walk rate read from Model-P's validation errors, or the stated stability when
+    /// larger; NaN when neither is known): `b` is at least this, and `a` and `k95` are fitted
+    /// to the validation errors at that growth.
+    pub random_walk_rate: f64,
 }
 
 impl VarModel {
@@ -68,8 +73,12 @@ impl VarModel {
     /// Fit the variance model and calibrate its 95 % multiplier on the same residuals
     /// (split-conformal on the normalised errors). `fold` labels each sample's CV fold, in
     /// order of growing training sets.
-    pub(crate) fn fit(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
-        let mut m = Self::fit_variance(lead_s, sq_err, fold);
+    ///
+    /// `walk` \[unit²/s\], the drift's random walk ([`super::random_walk`]), is a floor under
+    /// the growth, set before the intercept and the multiplier are fitted to the errors at that
+    /// growth; `None` keeps the fitted growth.
+    pub(crate) fn fit(lead_s: &[f64], sq_err: &[f64], fold: &[usize], walk: Option<f64>) -> VarModel {
+        let mut m = Self::fit_variance(lead_s, sq_err, fold, walk);
         // A steep slope can leave a tiny intercept (on a short calibration the fold means are
         // explained by growth alone): the band at the end of calibration must still cover the
         // errors the validation saw at its shortest leads.
@@ -96,7 +105,7 @@ impl VarModel {
     /// slope would mistake the smaller training set for growth. The slope is then shrunk (see
     /// the module doc). `a` is the intercept of the fold with the largest training set, the
     /// closest to the final fit, refitted at the shrunk slope.
-    fn fit_variance(lead_s: &[f64], sq_err: &[f64], fold: &[usize]) -> VarModel {
+    fn fit_variance(lead_s: &[f64], sq_err: &[f64], fold: &[usize], walk: Option<f64>) -> VarModel {
         let n_folds = fold.iter().copied().max().map(|m| m + 1).unwrap_or(0);
         let mut mt = vec![0.0; n_folds];
         let mut me = vec![0.0; n_folds];
@@ -121,11 +130,21 @@ impl VarModel {
         let se = slope_se(lead_s, sq_err, fold, &mt, &me, slope, stt);
         let b_fitted = slope.max(0.0);
         let b = if b_fitted > 0.0 { b_fitted * b_fitted * b_fitted / (b_fitted * b_fitted + se * se) } else { 0.0 };
+        let walk = walk.filter(|q| q.is_finite() && *q >= 0.0);
+        let b = walk.map_or(b, |q| b.max(q));
         let last = (0..n_folds).rev().find(|&f| cnt[f] > 0).unwrap_or(0);
         let mean_all = sq_err.iter().sum::<f64>() / sq_err.len().max(1) as f64;
         let floor = 1e-6 * mean_all.max(f64::MIN_POSITIVE);
         let a = me.get(last).copied().unwrap_or(mean_all) - b * mt.get(last).copied().unwrap_or(0.0);
-        VarModel { a: a.max(floor), b, k95: fbg_shared::layout::Z95, b_fitted, b_se: se, ..VarModel::default() }
+        VarModel {
+            a: a.max(floor),
+            b,
+            k95: fbg_shared::layout::Z95,
+            b_fitted,
+            b_se: se,
+            random_walk_rate: walk.unwrap_or(f64::NAN),
+            ..VarModel::default()
+        }
     }
 
     /// Variance at lead time `tau_s`.
@@ -196,7 +215,7 @@ mod tests {
         // Variance doubles over one day with no wobble: the slope is many standard errors
         // from zero and survives shrinkage within a percent.
         let (lead, sq, fold) = series(1.0, 1.0 / 86_400.0, 0.0, 86_400.0, 2 * 1440);
-        let m = VarModel::fit(&lead, &sq, &fold);
+        let m = VarModel::fit(&lead, &sq, &fold, None);
         assert!(m.b_se > 0.0);
         assert!((m.b / m.b_fitted - 1.0).abs() < 0.01, "{m:?}");
         assert!((m.b_fitted * 86_400.0 - 1.0).abs() < 0.05, "{m:?}");
@@ -224,7 +243,7 @@ mod tests {
         let mut weak = 0;
         for seed in 1..=20 {
             let (lead, sq, fold) = slow_noise(seed, 6.0 * 3600.0, 2016);
-            let m = VarModel::fit(&lead, &sq, &fold);
+            let m = VarModel::fit(&lead, &sq, &fold, None);
             assert!(m.b <= m.b_fitted, "seed {seed}: {m:?}");
             if m.b_fitted > 0.0 && m.b_fitted < m.b_se {
                 weak += 1;
@@ -237,10 +256,29 @@ mod tests {
     #[test]
     fn the_band_covers_its_own_validation_errors_at_95_percent() {
         let (lead, sq, fold) = series(1.0, 1.0 / 86_400.0, 0.2, 86_400.0, 2016);
-        let m = VarModel::fit(&lead, &sq, &fold);
+        let m = VarModel::fit(&lead, &sq, &fold, None);
         let covered = lead.iter().zip(&sq).filter(|&(&t, &e)| e.sqrt() <= m.k95 * m.at(t).sqrt()).count();
         let frac = covered as f64 / lead.len() as f64;
         assert!((0.95..=0.96).contains(&frac), "{frac}");
+    }
+
+    #[test]
+    fn the_drift_walk_sets_a_floor_under_the_growth_and_the_intercept_follows_it() {
+        // No growth in 1.4 days of correlated errors (this seed's clamped slope reads some
+        // within its noise, shrunk); a walk floor five times larger raises it, and the intercept is refitted at that slope (lower: part of
+        // the errors at their mean lead is now the walk's), never below the floor a_floor.
+        let (lead, sq, fold) = slow_noise(4, 6.0 * 3600.0, 2016);
+        let plain = VarModel::fit(&lead, &sq, &fold, None);
+        let q = 1e-4;
+        let walked = VarModel::fit(&lead, &sq, &fold, Some(q));
+        assert!(plain.b < q && walked.b == q, "{plain:?} {walked:?}");
+        assert!(walked.a <= plain.a && walked.a >= walked.a_floor, "{plain:?} {walked:?}");
+        assert_eq!(walked.random_walk_rate, q);
+        assert!(plain.random_walk_rate.is_nan());
+        // A fitted growth above the floor is kept as it was.
+        let (lead, sq, fold) = series(1.0, 1.0 / 86_400.0, 0.0, 86_400.0, 2 * 1440);
+        let steep = VarModel::fit(&lead, &sq, &fold, None);
+        assert_eq!(VarModel::fit(&lead, &sq, &fold, Some(1e-9)).b, steep.b);
     }
 
     #[test]

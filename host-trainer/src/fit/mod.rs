@@ -14,7 +14,7 @@
 //! 3. what a fit is asked: `grid` ([`CvGrid`]), `options` ([`TrainOptions`]), [`features`]
 //!    (the `--features` variants), `provenance` ([`Origin`]);
 //! 4. the RBF residual's parts: `envelope`, `rbf_inputs` (inputs and centres), `residual`
-//!    (targets, weak support), `variance`, [`band`], `skeleton` (a model but for its weights);
+//!    (targets, weak support), `variance`, `random_walk` (the drift's growth), [`band`], `skeleton` (a model but for its weights);
 //! 5. the choice and its checks: [`select`] (cross-validation), [`sensitivity`],
 //!    [`static_fidelity`], [`field`], [`outcome`];
 //! 6. the entry: `refusals`, `trained` ([`Trained`]), `train` ([`train()`]); then
@@ -39,6 +39,7 @@ pub mod outcome;
 mod par;
 pub mod poly_core;
 mod provenance;
+mod random_walk;
 mod rbf_inputs;
 pub mod recalibrate;
 mod refusals;

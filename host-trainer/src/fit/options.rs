@@ -37,7 +37,14 @@ pub struct TrainOptions {
     /// Set by another thread to stop the fit at its next task (Python's Ctrl-C).
     #[serde(skip)]
     cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    /// The interrogator's stated wavelength stability as a random walk \[pm/√day\]: a floor
+    /// under the drift rate the calibration's errors show (`None`: the errors alone).
+    drift_spec_pm_per_sqrt_day: Option<f64>,
 }
+
+/// Largest stated drift [pm/√day] accepted (a random walk of a nanometre per √day is no
+/// interrogator's specification, but a unit slip).
+pub const DRIFT_SPEC_MAX_PM_PER_SQRT_DAY: f64 = 1_000.0;
 
 /// The command line's name of the option that leaves outlying rows out.
 pub const CLI_SKIP_OUTLIERS: &str = "train with `--on-error skip`";
@@ -56,6 +63,7 @@ impl Default for TrainOptions {
             on_outlier: OnError::Fail,
             skip_outliers_hint: CLI_SKIP_OUTLIERS,
             cancel: None,
+            drift_spec_pm_per_sqrt_day: None,
         }
     }
 }
@@ -124,6 +132,16 @@ impl TrainOptions {
     /// out (`Skip`).
     pub fn with_on_outlier(self, on_outlier: OnError) -> Self {
         TrainOptions { on_outlier, ..self }
+    }
+
+    /// The interrogator's stated stability \[pm/√day\], if given.
+    pub fn drift_spec_pm_per_sqrt_day(&self) -> Option<f64> {
+        self.drift_spec_pm_per_sqrt_day
+    }
+
+    /// The stated stability as a walk rate \[pm²/s\] (`None` when not given).
+    pub(crate) fn drift_spec_rate_pm2_per_s(&self) -> Option<f64> {
+        self.drift_spec_pm_per_sqrt_day.map(|s| s * s / 86_400.0)
     }
 
     /// The candidates cross-validation tries.
@@ -240,8 +258,17 @@ impl TrainOptionsBuilder {
         self
     }
 
+    /// The interrogator's stated wavelength stability, as a random walk \[pm/√day\] (a
+    /// datasheet's "±x pm over a day" is about x/2 as a walk's standard deviation): the bands
+    /// grow at least as a walk of this rate through each output's common-mode sensitivity.
+    pub fn drift_spec_pm_per_sqrt_day(mut self, spec: Option<f64>) -> Self {
+        self.0.drift_spec_pm_per_sqrt_day = spec;
+        self
+    }
+
     /// The options, if the fit can use them: a CV layout of at least two blocks with
-    /// 1 <= `min_train_blocks` < `blocks`, and a grid with at least one point.
+    /// 1 <= `min_train_blocks` < `blocks`, a grid with at least one point, and a stated drift
+    /// (if any) in 0 ..= [`DRIFT_SPEC_MAX_PM_PER_SQRT_DAY`] pm/√day.
     pub fn check(self) -> Result<TrainOptions, TrainerError> {
         self.check_ref()?;
         Ok(self.0)
@@ -252,6 +279,13 @@ impl TrainOptionsBuilder {
         let o = &self.0;
         if o.blocks < 2 || o.min_train_blocks == 0 || o.min_train_blocks >= o.blocks {
             return Err(TrainerError::fit("cross-validation needs 1 <= min_train_blocks < blocks"));
+        }
+        if let Some(s) = o.drift_spec_pm_per_sqrt_day {
+            if !(0.0..=DRIFT_SPEC_MAX_PM_PER_SQRT_DAY).contains(&s) {
+                return Err(TrainerError::fit(format!(
+                    "the stated drift is {s} pm/√day; give 0 to {DRIFT_SPEC_MAX_PM_PER_SQRT_DAY} pm/√day"
+                )));
+            }
         }
         o.grid.check()?;
         Ok(o)
@@ -267,6 +301,16 @@ mod tests {
         let o = TrainOptions::builder().check().unwrap();
         assert_eq!(o.grid(), TrainOptions::default().grid());
         assert_eq!((o.blocks(), o.min_train_blocks(), o.seed()), (5, 2, 1));
+    }
+
+    #[test]
+    fn a_stated_drift_outside_its_range_is_refused_naming_it() {
+        for bad in [-1.0, f64::NAN, 1e4] {
+            let e = TrainOptions::builder().drift_spec_pm_per_sqrt_day(Some(bad)).check().unwrap_err().to_string();
+            assert!(e.contains("stated drift"), "{e}");
+        }
+        let o = TrainOptions::builder().drift_spec_pm_per_sqrt_day(Some(2.0)).check().unwrap();
+        assert!((o.drift_spec_rate_pm2_per_s().unwrap() - 4.0 / 86_400.0).abs() < 1e-15);
     }
 
     #[test]

@@ -230,6 +230,7 @@ mod tests {
             cv_rmse_h: cv_h,
             var_model_p: vec![],
             var_model_h: vec![],
+            drift_rate_pm2_per_s: None,
             folds: vec![],
             n_cal: 300,
             cv_stride: 1,

@@ -18,7 +18,7 @@ use std::sync::{Arc, Mutex};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use fbg_shared::layout::{Dims, FeatureSet};
+use fbg_shared::layout::{Dims, FeatureSet, MAX_OUTPUTS};
 use fbg_shared::Provenance;
 
 use super::band::VarModel;
@@ -29,8 +29,10 @@ use super::linalg;
 use super::memory_core::{self, MemoryChoice, MemoryCvRow};
 use super::options::TrainOptions;
 use super::poly_core::{self, PolyCore};
+use super::random_walk::{self, StructureSums};
 use super::rbf_inputs::{z_sample, ZSample};
 use super::residual::residual_targets;
+use super::sensitivity;
 use super::skeleton::Skeleton;
 use crate::data::Dataset;
 use crate::error::TrainerError;
@@ -67,6 +69,10 @@ pub struct Selection {
     pub var_model_p: Vec<VarModel>,
     /// See [`Selection::var_model_p`].
     pub var_model_h: Vec<VarModel>,
+    /// The interrogator drift's walk rate read from Model-P's validation errors \[pm²/s\]
+    /// (`None`: validation stretches shorter than the structure function's lags), before any
+    /// stated floor; the bands grow by at least s_c²·q_d per output.
+    pub drift_rate_pm2_per_s: Option<f64>,
     /// Folds as (training samples, validation samples).
     pub folds: Vec<(usize, usize)>,
     /// Calibration samples used.
@@ -102,6 +108,23 @@ struct FoldCore {
 /// every validation sample.
 type FoldErrors = Vec<Vec<f64>>;
 
+/// One fold's structure sums per output (its errors in the output's unit) and its common-mode
+/// sensitivities.
+type FoldWalk = (Vec<StructureSums>, Vec<f64>);
+
+/// Model-P's pass over the folds.
+struct ModelPPass {
+    /// Each fold's core.
+    fold_core: Vec<FoldCore>,
+    /// Each fold's squared validation errors.
+    sq_p: Vec<FoldErrors>,
+    /// The drift's common walk rate q_d \[pm²/s\] (`None`: validation stretches too short).
+    drift_rate_pm2_per_s: Option<f64>,
+    /// Per output, the band growth the walk adds, s_c²·q_d \[unit²/s\], q_d at least the
+    /// stated stability.
+    walk_growth: Vec<Option<f64>>,
+}
+
 /// Sum of squared errors.
 fn pool(sq: &[f64]) -> f64 {
     sq.iter().sum::<f64>()
@@ -116,14 +139,17 @@ pub(crate) fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<
     // Model-P's answers do not depend on the dead band: take the grid's first, whose
     // checkpoints the RBF tasks need anyway.
     let first_db = dbs.first().copied().ok_or_else(|| TrainerError::fit("empty hyper-parameter grid"))?;
-    let (fold_core, sq_p) = cv.model_p_pass(first_db)?;
+    let ModelPPass { fold_core, sq_p, drift_rate_pm2_per_s, walk_growth: walk } = cv.model_p_pass(first_db)?;
     let MemoryPass { memory, memory_rows, first_long, fold_core } = cv.choose_memory(fold_core)?;
     let n_val: usize = cv.folds.iter().map(|f| f.val.len()).sum();
     let cv_rmse_p: Vec<f64> =
         (0..m).map(|c| (sq_p.iter().map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n_val as f64).sqrt()).collect();
     let (lead, fold_of) = leads(d, &cv.folds, &fold_core);
     let var_model_p: Vec<VarModel> = (0..m)
-        .map(|c| VarModel::fit(&lead, &sq_p.iter().flat_map(|e| e[c].iter().copied()).collect::<Vec<_>>(), &fold_of))
+        .map(|c| {
+            let sq: Vec<f64> = sq_p.iter().flat_map(|e| e[c].iter().copied()).collect();
+            VarModel::fit(&lead, &sq, &fold_of, walk[c])
+        })
         .collect();
 
     let search = GridSearch::new(&cv, &fold_core, &dbs)?;
@@ -148,7 +174,7 @@ pub(crate) fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<
     // would widen the band of a final model fitted on the whole batch.
     let band_from = if memory.any() { first_long } else { 0 };
     let errors = ValidationErrors { lead: &lead, fold_of: &fold_of, sq_p: &sq_p, sqe_h: &sqe_h };
-    let (var_model_h, cv_rmse_p, cv_rmse_h) = errors.band_h(&cv.folds, band_from, cv_rmse_p, cv_rmse_h);
+    let (var_model_h, cv_rmse_p, cv_rmse_h) = errors.band_h(&cv.folds, band_from, &walk, cv_rmse_p, cv_rmse_h);
     Ok(Selection {
         chosen,
         memory,
@@ -158,6 +184,7 @@ pub(crate) fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<
         var_model_p,
         var_model_h,
         rows,
+        drift_rate_pm2_per_s,
         folds: cv.folds.iter().map(|f| (f.train.len(), f.val.len())).collect(),
         n_cal: cal.len(),
         cv_stride: cv.stride,
@@ -215,10 +242,13 @@ impl<'a> Cv<'a> {
 
     /// Model-P per fold (always with cross terms: the reference errors) and the fold's core
     /// (without them for the ablation), with Model-P's validation errors; `db` is the dead band
-    /// of the latch stream Model-P stands for.
-    fn model_p_pass(&self, db: f64) -> Result<(Vec<FoldCore>, Vec<FoldErrors>), TrainerError> {
+    /// of the latch stream Model-P stands for. Also the drift's walk in the errors
+    /// ([`super::random_walk`]): per output the growth s_c²·q_d \[unit²/s\], with s_c the
+    /// common-mode sensitivity of the fold with the largest training set.
+    fn model_p_pass(&self, db: f64) -> Result<ModelPPass, TrainerError> {
         let (d, m, cross_terms) = (self.d, self.dims.n_outputs(), self.opts.cross_terms());
-        let per_fold: Result<Vec<(FoldCore, FoldErrors)>, TrainerError> = self
+        let n = self.dims.gratings();
+        let per_fold: Result<Vec<(FoldCore, FoldErrors, FoldWalk)>, TrainerError> = self
             .folds
             .par_iter()
             .map(|f| {
@@ -228,14 +258,50 @@ impl<'a> Cv<'a> {
                 let p = self.stream_model(&core_full, &f.train, db)?;
                 let ck = self.cache.get(&p, d)?;
                 let est = design::run_with(&p, d, &f.val, Some(&ck))?;
+                // A drift moves every grating and leaves the thermometer: T_amb held.
+                let common: Vec<f64> = sensitivity::core_jacobian(&p, &[0.0; MAX_OUTPUTS])
+                    .iter()
+                    .map(|row| row.iter().take(n).sum())
+                    .collect();
+                let t_val: Vec<f64> = f.val.iter().map(|&i| d.t_s[i]).collect();
+                let mut walk = vec![StructureSums::default(); m];
                 let sq = (0..m)
-                    .map(|c| est.iter().zip(&f.val).map(|(e, &i)| (e.values[c] - d.target(c)[i]).powi(2)).collect())
+                    .zip(walk.iter_mut())
+                    .map(|(c, w)| {
+                        let e: Vec<f64> = est.iter().zip(&f.val).map(|(e, &i)| e.values[c] - d.target(c)[i]).collect();
+                        w.add(&t_val, &e);
+                        e.iter().map(|e| e * e).collect()
+                    })
                     .collect();
                 let t_end = f.train.last().map(|&i| d.t_s[i]).unwrap_or(0.0);
-                Ok((FoldCore { core, t_end }, sq))
+                Ok((FoldCore { core, t_end }, sq, (walk, common)))
             })
             .collect();
-        Ok(per_fold?.into_iter().unzip())
+        let mut walk = vec![StructureSums::default(); m];
+        let (mut cores, mut errors, mut common) = (Vec::new(), Vec::new(), Vec::new());
+        for (core, sq, (w, s)) in per_fold? {
+            cores.push(core);
+            errors.push(sq);
+            walk.iter_mut().zip(&w).for_each(|(a, b)| a.merge(b));
+            common = s;
+        }
+        // One common-mode sensitivity per output, the last fold's (the closest to the final
+        // model), turns every fold's errors into pm alike: a fold whose own s_c is near zero
+        // would blow its errors up.
+        let in_pm: Vec<StructureSums> = walk
+            .iter()
+            .zip(&common)
+            .filter(|(_, s)| s.is_finite() && **s != 0.0)
+            .map(|(w, s)| w.scaled(1.0 / (s * s)))
+            .collect();
+        let q_d = random_walk::common_rate(&in_pm);
+        // The interrogator's stated stability, when given, is a floor.
+        let used = match (q_d, self.opts.drift_spec_rate_pm2_per_s()) {
+            (Some(q), Some(spec)) => Some(q.max(spec)),
+            (q, spec) => q.or(spec),
+        };
+        let growth = (0..m).map(|c| used.map(|q| common.get(c).map_or(0.0, |s| s * s) * q)).collect();
+        Ok(ModelPPass { fold_core: cores, sq_p: errors, drift_rate_pm2_per_s: q_d, walk_growth: growth })
     }
 
     /// The memory terms, chosen on the folds' own cores, then each fold's core refitted with
@@ -471,12 +537,15 @@ struct ValidationErrors<'e> {
 }
 
 impl ValidationErrors<'_> {
-    /// Model-H's band model from the folds `band_from..`, and both models' validation RMSE
+    /// Model-H's band model from the folds `band_from..` (too short to show the drift's walk:
+    /// its growth is at least `walk`, Model-P's, since the drift moves the gratings under both
+    /// models alike), and both models' validation RMSE
     /// (`cv_rmse_p`, `cv_rmse_h` over every fold) as reported: over the same folds.
     fn band_h(
         &self,
         folds: &[Fold],
         band_from: usize,
+        walk: &[Option<f64>],
         cv_rmse_p: Vec<f64>,
         cv_rmse_h: Vec<f64>,
     ) -> (Vec<VarModel>, Vec<f64>, Vec<f64>) {
@@ -487,7 +556,7 @@ impl ValidationErrors<'_> {
         let var_model_h: Vec<VarModel> = (0..m)
             .map(|c| {
                 let sq: Vec<f64> = keep.iter().map(|&r| self.sqe_h[c][r]).collect();
-                VarModel::fit(&lead_h, &sq, &fold_h)
+                VarModel::fit(&lead_h, &sq, &fold_h, walk.get(c).copied().flatten())
             })
             .collect();
         // The reported validation RMSE of both models (what `train` prints and warns on) comes

@@ -70,6 +70,9 @@ struct VarModelDe {
     lead_max_s: Option<F>,
     #[serde(default)]
     cv_coverage: Option<F>,
+    /// Absent from metrics written before the band read the errors' random walk.
+    #[serde(default)]
+    random_walk_rate: Option<F>,
 }
 
 impl From<VarModelDe> for VarModel {
@@ -83,6 +86,7 @@ impl From<VarModelDe> for VarModel {
             a_floor: v.a_floor.map_or(f64::NAN, |x| x.0),
             lead_max_s: v.lead_max_s.map_or(f64::NAN, |x| x.0),
             cv_coverage: v.cv_coverage.map_or(f64::NAN, |x| x.0),
+            random_walk_rate: v.random_walk_rate.map_or(f64::NAN, |x| x.0),
         }
     }
 }

@@ -14,7 +14,7 @@ use super::report::{
 };
 use super::runner::{read_json, PeerBlackbox, Runner, SimMeta};
 use super::stats::{at, median};
-use super::{holdout_errors_csv, preset_csv, COVERAGE_SEEDS};
+use super::{holdout_errors_csv, preset_csv, COVERAGE_SEEDS, DRIFT_SPEC_PM_PER_SQRT_DAY};
 
 /// Width of the lead-time bins of the ensemble band \[s\].
 const ENSEMBLE_BIN_S: f64 = 7200.0;
@@ -39,7 +39,19 @@ impl SeedRun {
 fn coverage_run(r: &Runner, preset: &str, seed: u64) -> Result<(FitBench, String)> {
     let csv = preset_csv(preset, seed);
     let errs = holdout_errors_csv(preset, seed);
-    r.trainer(&["bench-fit", "--data", &csv, "--select", "--repeats", "1", "--json", "--holdout-errors", &errs])
+    r.trainer(&[
+        "bench-fit",
+        "--data",
+        &csv,
+        "--select",
+        "--repeats",
+        "1",
+        "--json",
+        "--holdout-errors",
+        &errs,
+        "--drift-spec",
+        DRIFT_SPEC_PM_PER_SQRT_DAY,
+    ])
 }
 
 /// Every table of the part has a column per output: each fit must have the part's outputs.

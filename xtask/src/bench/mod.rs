@@ -230,6 +230,11 @@ fn data(n: usize) -> String {
     format!("target/bench/data/n{n}.csv")
 }
 
+/// The interrogator's stated stability every bench `train` is given (`--drift-spec`, pm/√day):
+/// the presets simulate one interrogator, whose drift is a walk of 0.05 pm per one-minute step
+/// (DESIGN §3), 0.05 · √1440 ≈ 1.9 pm/√day, as its datasheet would state it.
+pub const DRIFT_SPEC_PM_PER_SQRT_DAY: &str = "1.9";
+
 fn preset_csv(preset: &str, seed: u64) -> String {
     format!("target/bench/data/{preset}-s{seed}.csv")
 }

@@ -13,10 +13,11 @@ use fbg_report::{Metrics, ModelEval, PaceRow};
 use super::report::{at_most, EvalRun, FieldBench, PaceBench, PaceSummary};
 use super::runner::Runner;
 use super::stats::{at, fold_nan, mean};
-use super::{preset_csv, COVERAGE_SEEDS};
+use super::{preset_csv, COVERAGE_SEEDS, DRIFT_SPEC_PM_PER_SQRT_DAY};
 
-/// Band coverage Model-H must reach on every channel of every pace record (fraction).
-pub const PACE_MIN_COVERAGE: f64 = 0.90;
+/// Band coverage Model-H must reach on every channel of every pace record of every seed
+/// (fraction; DESIGN §5: no seed below 85 %).
+pub const PACE_MIN_COVERAGE: f64 = 0.85;
 /// Largest |settled slope − 1| on the steps record, both models, every measurand.
 pub const SLOPE_TOL: f64 = 0.01;
 
@@ -31,7 +32,7 @@ fn train_eval(r: &Runner, preset: &str, seed: u64) -> Result<EvalRun> {
     let csv = preset_csv(preset, seed);
     let model = model_path(preset, seed);
     let (_, train_command): (serde_json::Value, _) =
-        r.trainer(&["train", "--data", &csv, "--out", &model, "--json"])?;
+        r.trainer(&["train", "--data", &csv, "--out", &model, "--json", "--drift-spec", DRIFT_SPEC_PM_PER_SQRT_DAY])?;
     let (e, evaluate_command): (Metrics, _) =
         r.trainer(&["evaluate", "--quick", "--data", &csv, "--model", &model, "--json"])?;
     if e.seed != seed {
@@ -77,7 +78,7 @@ pub fn part(root: &Path, r: &Runner) -> Result<(PaceBench, FieldBench)> {
 }
 
 /// Every record meets both pace targets: Model-H's RMSE within the record's ratio of Model-P's
-/// (1.01, 1.05 at rest) and its band coverage ≥ 90 % on every channel (false without records).
+/// (1.01, 1.05 at rest) and its band coverage ≥ 85 % on every channel (false without records).
 pub fn pace_targets_met(rows: &[PaceRow]) -> bool {
     !rows.is_empty() && rows.iter().all(|r| r.h_within_p() && r.coverage_h_at_least(PACE_MIN_COVERAGE))
 }
@@ -197,7 +198,7 @@ mod tests {
             run(
                 8,
                 vec![
-                    row("×4", [1.0, 2.0, 3.0], [0.5, 2.2, f64::NAN], [0.95, 0.85, 0.95], None),
+                    row("×4", [1.0, 2.0, 3.0], [0.5, 2.2, f64::NAN], [0.95, 0.80, 0.95], None),
                     row("steps", [1.0; 3], [0.9; 3], [0.95; 3], Some(bad)),
                 ],
             ),
@@ -209,7 +210,7 @@ mod tests {
         assert_eq!(x4.worst_gain_pct[0], 50.0);
         assert!((x4.worst_gain_pct[1] + 10.0).abs() < 1e-9);
         assert!(x4.worst_gain_pct[2].is_nan(), "a missing figure is not hidden by the minimum");
-        assert_eq!(x4.min_coverage_h[1], 0.85);
+        assert_eq!(x4.min_coverage_h[1], 0.80);
         assert!(x4.max_slope_dev_p.is_empty());
         let st = &s[1];
         assert_eq!(st.seeds_slopes_within_1pct, 1);

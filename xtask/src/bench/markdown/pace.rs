@@ -157,12 +157,12 @@ pub(super) fn pace_targets(s: &mut String, rep: &Report) {
             );
             out!(
                 s,
-                "| `field` preset, seeds {}: mean band coverage of Model-H within 95 ± 2 % per channel | {} % ({}; Model-P {} %) | {} | same runs |",
+                "| `field` preset, seeds {}: mean band coverage of Model-H within 95 ± 3 % per channel (DESIGN §5) | {} % ({}; Model-P {} %) | {} | same runs |",
                 seed_range(&fb.runs),
                 pcts(&fb.mean_coverage_h),
                 channel_names(ch),
                 pcts(&fb.mean_coverage_p),
-                yes(!fb.mean_coverage_h.is_empty() && fb.mean_coverage_h.iter().all(|c| (100.0 * c - 95.0).abs() <= 2.0))
+                yes(!fb.mean_coverage_h.is_empty() && fb.mean_coverage_h.iter().all(|c| (100.0 * c - 95.0).abs() <= 3.0))
             );
         }
     }

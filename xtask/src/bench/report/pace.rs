@@ -50,7 +50,8 @@ pub struct PaceSummary {
     /// Seeds on which Model-H's RMSE is within the record's ratio of Model-P's on every
     /// channel (`fbg_report::PaceRow::h_within_p`; the name is older than the ratio).
     pub seeds_h_le_p: usize,
-    /// Seeds on which Model-H's band coverage ≥ 90 % on every channel.
+    /// Seeds on which Model-H's band coverage ≥ `PACE_MIN_COVERAGE` (85 %) on every channel
+    /// (the name is the JSON's, from when the bound was 90 %).
     pub seeds_coverage_h_90: usize,
     /// Per channel over the seeds: the mean and the smallest gain [%], the smallest Model-H
     /// band coverage (fraction).
