@@ -313,6 +313,7 @@ pub fn coefficients_text(
         "model_h": model_json(model_h, Some(&PolyCore::of(model_h))),
         "selection": selection.map(|s| serde_json::json!({
             "chosen": s.chosen, "cv_rmse_p": s.cv_rmse_p, "cv_rmse_h": s.cv_rmse_h, "folds": s.folds,
+            "drift_rate_pm2_per_s": s.drift_rate_pm2_per_s,
             "memory": output_keys(model_h).iter().enumerate().map(|(o, k)| serde_json::json!({
                 "output": k, "groups": s.memory.names(o), "lambda": s.memory.lambda[o],
             })).collect::<Vec<_>>(),

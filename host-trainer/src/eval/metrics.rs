@@ -31,6 +31,9 @@ pub struct SelectionSummary {
     pub cv_rmse_h: Vec<f64>,
     pub var_model_p: Vec<fit::VarModel>,
     pub var_model_h: Vec<fit::VarModel>,
+    /// The drift's walk rate read from Model-P's validation errors \[pm²/s\] (before any
+    /// stated floor; `None`: not read).
+    pub drift_rate_pm2_per_s: Option<f64>,
     pub folds: Vec<(usize, usize)>,
     pub grid_points: usize,
     /// The best ten grid points.
@@ -47,6 +50,7 @@ impl SelectionSummary {
             cv_rmse_h: vec![f64::NAN; n_out],
             var_model_p: Default::default(),
             var_model_h: Default::default(),
+            drift_rate_pm2_per_s: None,
             folds: vec![],
             grid_points: 0,
             top: vec![],
@@ -60,6 +64,7 @@ impl SelectionSummary {
             cv_rmse_h: s.cv_rmse_h.clone(),
             var_model_p: s.var_model_p.clone(),
             var_model_h: s.var_model_h.clone(),
+            drift_rate_pm2_per_s: s.drift_rate_pm2_per_s,
             folds: s.folds.clone(),
             grid_points: s.rows.len(),
             top: s.rows.iter().take(10).cloned().collect(),
