@@ -105,6 +105,9 @@ struct SelectionDe {
     cv_rmse_h: Vec<F>,
     var_model_p: Vec<VarModelDe>,
     var_model_h: Vec<VarModelDe>,
+    /// Absent from metrics written before the band read the drift's walk; null when not read.
+    #[serde(default)]
+    drift_rate_pm2_per_s: Option<F>,
     #[serde(default)]
     folds: Vec<(usize, usize)>,
     #[serde(default)]
@@ -121,6 +124,7 @@ impl From<SelectionDe> for SelectionSummary {
             cv_rmse_h: a3(s.cv_rmse_h),
             var_model_p: s.var_model_p.into_iter().map(VarModel::from).collect(),
             var_model_h: s.var_model_h.into_iter().map(VarModel::from).collect(),
+            drift_rate_pm2_per_s: s.drift_rate_pm2_per_s.map(|x| x.0).filter(|x| x.is_finite()),
             folds: s.folds,
             grid_points: s.grid_points,
             top: s
