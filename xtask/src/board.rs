@@ -9,7 +9,7 @@
 //!    read-only data, `.data` initialisers) and static RAM (`.data`, `.bss`, `.uninit`);
 //! 3. runs the `emulator` golden image on `netduinoplus2`: every estimate of the golden pack,
 //!    sent over USART1 to a file, compared with the host's f64 answers exactly as the mps2
-//!    golden test does ([`crate::qemu::golden::run_golden`]);
+//!    golden test does ([`crate::firmware::golden::run_golden`]);
 //! 4. serves the `emulator` product image's link on `netduinoplus2` (USART1 on a loopback TCP
 //!    port): ping, status, a few hundred golden samples answered as the host does, a signed
 //!    model update accepted; the stack peaks it reports (painting, as on mps2) are the board's
@@ -28,17 +28,17 @@ use anyhow::{bail, ensure, Context, Result};
 use fbg_link::parity::{compare, REL_TOL};
 use fbg_shared::protocol::UpdateResult;
 
+use serde::{Deserialize, Serialize};
+
 use crate::cmd::{cargo_own_target, run, step, write_atomic};
-use crate::device_bench::record::{BoardRecord, BoardStack};
-use crate::device_bench::verdict;
 use crate::elf::{self, Footprint};
 use crate::firmware::emulator::{self, Machine};
+use crate::firmware::golden::{golden_scale, run_golden};
 use crate::firmware::session::LinkSession;
 use crate::firmware::{self, release_dir};
 use crate::fixtures::{self, Fixtures};
-use crate::qemu::golden::{golden_scale, run_golden};
 use crate::signing;
-use crate::targets::{PRODUCT_K, TARGET_BOARD_FLASH, TARGET_RAM_LOAD};
+use crate::targets::{verdict, PRODUCT_K, TARGET_BOARD_FLASH, TARGET_RAM_LOAD};
 
 /// The board images of one build.
 #[derive(Clone, Debug)]
@@ -232,4 +232,71 @@ fn print_board(f: &Footprint, r: &BoardRecord) {
         r.golden_flagged,
         100.0 * REL_TOL
     );
+}
+
+/// Stack peaks of the board's product image \[B\], by painting, reported over its link.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BoardStack {
+    pub boot: u32,
+    pub serving: u32,
+    pub update: u32,
+}
+
+/// The STM32F405 board (`firmware/board/`, `cargo xtask board`): the footprint of the product
+/// image built for the part, the golden vectors and the stack peaks of the `emulator` build on
+/// QEMU's `netduinoplus2`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BoardRecord {
+    pub chip: String,
+    pub k: usize,
+    pub flash_bytes: u64,
+    pub static_ram_bytes: u64,
+    pub emulator_flash_bytes: u64,
+    pub emulator_static_ram_bytes: u64,
+    /// Measured on the `emulator` build; absent when not measured.
+    #[serde(default)]
+    pub stack: Option<BoardStack>,
+    /// Static RAM (the part's build) + the larger of the boot and update stack peaks.
+    #[serde(default)]
+    pub static_ram_plus_stack_bytes: Option<u64>,
+    pub golden_machine: String,
+    pub golden_sets: usize,
+    pub golden_samples: usize,
+    pub golden_flagged: usize,
+    pub target_flash_bytes: u64,
+    pub flash_met: bool,
+    pub target_static_ram_plus_stack_bytes: u64,
+    #[serde(default)]
+    pub static_ram_plus_stack_met: Option<bool>,
+}
+
+impl BoardRecord {
+    /// The record of one `cargo xtask board` run: `part` and `emu` are the footprints of the
+    /// product image's two builds, `golden` the golden run's (sets, samples, flagged).
+    pub fn new(
+        part: &crate::elf::Footprint,
+        emu: &crate::elf::Footprint,
+        golden: (usize, usize, usize),
+        stack: &BoardStack,
+    ) -> Self {
+        let total = part.ram_static + u64::from(stack.update.max(stack.boot));
+        BoardRecord {
+            chip: "STM32F405RG".into(),
+            k: PRODUCT_K,
+            flash_bytes: part.flash,
+            static_ram_bytes: part.ram_static,
+            emulator_flash_bytes: emu.flash,
+            emulator_static_ram_bytes: emu.ram_static,
+            stack: Some(stack.clone()),
+            static_ram_plus_stack_bytes: Some(total),
+            golden_machine: "QEMU netduinoplus2".into(),
+            golden_sets: golden.0,
+            golden_samples: golden.1,
+            golden_flagged: golden.2,
+            target_flash_bytes: TARGET_BOARD_FLASH,
+            flash_met: part.flash <= TARGET_BOARD_FLASH,
+            target_static_ram_plus_stack_bytes: TARGET_RAM_LOAD,
+            static_ram_plus_stack_met: Some(total <= TARGET_RAM_LOAD),
+        }
+    }
 }

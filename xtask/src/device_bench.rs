@@ -33,6 +33,7 @@
 //! through serde; `cargo xtask bench` reads the same type back). The arithmetic lower bound
 //! each step is set beside is counted in [`ops`].
 
+use crate::targets::verdict;
 use std::fs;
 use std::path::Path;
 
@@ -239,12 +240,4 @@ fn print_sizes(t: &TypeSizes) {
     println!("  ModelParams<f32, 0> {:>6} B  (centre-less parameter slot, on the stack during a load)", t.model_params);
     println!("  FrameReader          {:>6} B  (the link's frame reader)", t.reader);
     println!("  longest staged update {:>5} B  (in the flash slot, not RAM: STAGING_LEN)", t.staging);
-}
-
-pub(crate) fn verdict(ok: bool) -> &'static str {
-    if ok {
-        "meets target"
-    } else {
-        "MISSES target"
-    }
 }

@@ -11,6 +11,7 @@ use crate::fixtures;
 use crate::targets::THUMB;
 
 pub mod emulator;
+pub mod golden;
 pub mod session;
 
 /// Paths of the built images.

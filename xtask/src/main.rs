@@ -236,6 +236,17 @@ mod tests {
         Cli::command().debug_assert();
     }
 
+    /// No import circle among xtask's files: at every level of the module tree, the modules
+    /// under one parent use each other without a cycle (as the trainer's and `fbg-shared`'s
+    /// own tests check theirs).
+    #[test]
+    fn no_module_cycle_in_xtask() {
+        let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        if let Err(e) = fbg_testkit::modules::check(&src) {
+            panic!("{e}");
+        }
+    }
+
     #[test]
     fn unknown_tasks_and_flags_are_refused_naming_them() {
         for args in [

@@ -64,7 +64,6 @@ use crate::fixtures::{self, Fixtures};
 use crate::signing;
 use crate::targets::PRODUCT_K;
 
-pub mod golden;
 mod link;
 mod memory;
 mod signed;
@@ -102,7 +101,7 @@ pub fn run_all(root: &Path, all: bool, board: bool) -> Result<()> {
         step("QEMU: fault path (UDF → HardFault → semihosting exit failure)");
         fault_test(root, q, bins)?;
         step("QEMU: golden vectors");
-        golden::golden_test(root, q, bins, fx)?;
+        crate::firmware::golden::golden_test(root, q, bins, fx)?;
         step("QEMU: link (streaming, garbage and model updates over a loopback TCP serial port)");
         link::link_test(root, q, bins, fx, dfx, sfx)?;
         step(
@@ -183,7 +182,7 @@ pub fn run_fast(root: &Path) -> Result<()> {
     step("firmware: build the golden image (thumbv7em-none-eabihf, K = 32)");
     let elf = firmware::build_golden(root, PRODUCT_K)?;
     step("QEMU: golden vectors");
-    golden::run_golden(root, &qemu, Machine::Mps2An386, &elf, "golden", &fx).map(|_| ())
+    crate::firmware::golden::run_golden(root, &qemu, Machine::Mps2An386, &elf, "golden", &fx).map(|_| ())
 }
 
 /// The host tests of the device logic (`fbg-firmware-app`) with its default features (spectrum

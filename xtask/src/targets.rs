@@ -32,3 +32,12 @@ pub const TARGET_ERASES_PER_UPDATE: u32 = 2;
 /// Records per sector of the model store's event log: `(ERASE_SIZE − RECORDS_AT) /
 /// RECORD_LEN` of `fbg_firmware_app::store::format` with the product's 16 KiB sectors.
 pub const STORE_LOG_RECORDS_PER_SECTOR: u32 = (16 * 1024 - 96) / 64;
+
+/// The word a measured figure gets against its target.
+pub fn verdict(ok: bool) -> &'static str {
+    if ok {
+        "meets target"
+    } else {
+        "MISSES target"
+    }
+}

@@ -10,9 +10,9 @@ use fbg_report::FitBench;
 
 use super::report::{
     Accuracy, Blackbox, Coverage, EnsembleBand, EnsembleChannel, Gain, HybridComparison, ModelHDefault, ModelHPaper,
-    ModelRun, OracleFloor, PresetRun, SeedRun,
+    ModelRun, OracleFloor, PeerBlackbox, PresetRun, SeedRun,
 };
-use super::runner::{read_json, PeerBlackbox, Runner, SimMeta};
+use super::runner::{read_json, Runner, SimMeta};
 use super::stats::{at, median};
 use super::{holdout_errors_csv, preset_csv, COVERAGE_SEEDS, DRIFT_SPEC_PM_PER_SQRT_DAY};
 

@@ -7,6 +7,7 @@ use super::report::{
     PresetRun, Report, SizeRun, StepRow, Training,
 };
 use super::stats::{at, fold_nan, max_rel_diff, median};
+use super::verdict::f;
 use super::COVERAGE_SEEDS;
 use fbg_report::{GlitchRow, PaceRow};
 
@@ -30,15 +31,6 @@ use host::{fleet, inference, slurm, training};
 use pace::{pace_section, pace_targets};
 use targets::targets;
 
-/// A number with `digits` decimals, "–" when missing (NaN) or infinite.
-pub fn f(x: f64, digits: usize) -> String {
-    if x.is_finite() {
-        format!("{x:.digits$}")
-    } else {
-        "–".into()
-    }
-}
-
 /// Seconds with three significant figures.
 fn secs(x: f64) -> String {
     if !x.is_finite() {
@@ -60,15 +52,6 @@ fn secs(x: f64) -> String {
 fn yes(b: bool) -> &'static str {
     if b {
         "**met**"
-    } else {
-        "**not met**"
-    }
-}
-
-/// A verdict, bold when missed.
-pub fn met(ok: bool) -> &'static str {
-    if ok {
-        "met"
     } else {
         "**not met**"
     }

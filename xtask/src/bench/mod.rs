@@ -52,6 +52,7 @@ pub mod runner;
 pub mod spectrum;
 pub mod stats;
 pub mod training;
+pub mod verdict;
 
 /// Sizes of the fit-time scaling study and their sample interval over the 14 days of the
 /// `paper` clock.

@@ -9,7 +9,7 @@ use std::process::Command;
 use anyhow::{bail, Context, Result};
 use serde_json::Value;
 
-use super::markdown::met;
+use super::verdict::met;
 use crate::cmd::{describe, step, write_atomic};
 
 /// The script, relative to the workspace root.

@@ -175,9 +175,3 @@ pub struct PeerModel {
     #[serde(default)]
     pub pickle_bytes: Option<u64>,
 }
-
-/// `sklearn_peer.py blackbox`.
-#[derive(Clone, Debug, Deserialize)]
-pub struct PeerBlackbox {
-    pub peers: Vec<super::report::BlackboxPeer>,
-}

@@ -15,8 +15,8 @@ use fbg_report::AccuracyRow;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::markdown::{f, met};
 use super::runner::{criterion, criterion_median, Runner};
+use super::verdict::{f, met};
 use super::{Opts, TRAINER};
 
 /// Spectra per criterion iteration (`shared/benches/spectrum.rs`).

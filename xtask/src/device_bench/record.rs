@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 use super::store::StoreBench;
 use super::{SizeReport, StepBench, TypeSizes, VerifyBench};
 use crate::targets::{
-    PRODUCT_K, TARGET_BLOB, TARGET_BOARD_FLASH, TARGET_BOOT_US, TARGET_ERASES_PER_UPDATE, TARGET_FLASH,
-    TARGET_INSNS_K32, TARGET_RAM, TARGET_RAM_LOAD,
+    PRODUCT_K, TARGET_BLOB, TARGET_BOOT_US, TARGET_ERASES_PER_UPDATE, TARGET_FLASH, TARGET_INSNS_K32, TARGET_RAM,
+    TARGET_RAM_LOAD,
 };
 
 /// How the step figures were measured.
@@ -35,7 +35,7 @@ pub struct DeviceRecord {
     pub store: Option<Store>,
     /// The STM32F405 board's images (`cargo xtask board`); absent when not measured.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub board: Option<BoardRecord>,
+    pub board: Option<crate::board::BoardRecord>,
     /// Spectrum frames on the device (absent from files written before them).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spectrum: Option<SpectrumRow>,
@@ -112,73 +112,6 @@ impl SpectrumRow {
             instructions_reception_per_frame: rounded(b.ingest_per_frame, 1),
             instructions_per_window_cross_correlation: rounded(b.window_cross_correlation, 1),
             instructions_per_window_maximum: rounded(b.window_maximum, 1),
-        }
-    }
-}
-
-/// Stack peaks of the board's product image \[B\], by painting, reported over its link.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct BoardStack {
-    pub boot: u32,
-    pub serving: u32,
-    pub update: u32,
-}
-
-/// The STM32F405 board (`firmware/board/`, `cargo xtask board`): the footprint of the product
-/// image built for the part, the golden vectors and the stack peaks of the `emulator` build on
-/// QEMU's `netduinoplus2`.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct BoardRecord {
-    pub chip: String,
-    pub k: usize,
-    pub flash_bytes: u64,
-    pub static_ram_bytes: u64,
-    pub emulator_flash_bytes: u64,
-    pub emulator_static_ram_bytes: u64,
-    /// Measured on the `emulator` build; absent when not measured.
-    #[serde(default)]
-    pub stack: Option<BoardStack>,
-    /// Static RAM (the part's build) + the larger of the boot and update stack peaks.
-    #[serde(default)]
-    pub static_ram_plus_stack_bytes: Option<u64>,
-    pub golden_machine: String,
-    pub golden_sets: usize,
-    pub golden_samples: usize,
-    pub golden_flagged: usize,
-    pub target_flash_bytes: u64,
-    pub flash_met: bool,
-    pub target_static_ram_plus_stack_bytes: u64,
-    #[serde(default)]
-    pub static_ram_plus_stack_met: Option<bool>,
-}
-
-impl BoardRecord {
-    /// The record of one `cargo xtask board` run: `part` and `emu` are the footprints of the
-    /// product image's two builds, `golden` the golden run's (sets, samples, flagged).
-    pub fn new(
-        part: &crate::elf::Footprint,
-        emu: &crate::elf::Footprint,
-        golden: (usize, usize, usize),
-        stack: &BoardStack,
-    ) -> Self {
-        let total = part.ram_static + u64::from(stack.update.max(stack.boot));
-        BoardRecord {
-            chip: "STM32F405RG".into(),
-            k: PRODUCT_K,
-            flash_bytes: part.flash,
-            static_ram_bytes: part.ram_static,
-            emulator_flash_bytes: emu.flash,
-            emulator_static_ram_bytes: emu.ram_static,
-            stack: Some(stack.clone()),
-            static_ram_plus_stack_bytes: Some(total),
-            golden_machine: "QEMU netduinoplus2".into(),
-            golden_sets: golden.0,
-            golden_samples: golden.1,
-            golden_flagged: golden.2,
-            target_flash_bytes: TARGET_BOARD_FLASH,
-            flash_met: part.flash <= TARGET_BOARD_FLASH,
-            target_static_ram_plus_stack_bytes: TARGET_RAM_LOAD,
-            static_ram_plus_stack_met: Some(total <= TARGET_RAM_LOAD),
         }
     }
 }

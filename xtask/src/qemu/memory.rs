@@ -9,7 +9,7 @@ use anyhow::{bail, ensure, Context, Result};
 use fbg_link::parity::{abs_diff, compare, REL_TOL};
 use fbg_shared::protocol::UpdateResult;
 
-use super::golden::golden_scale;
+use crate::firmware::golden::golden_scale;
 use crate::firmware::session::LinkSession;
 use crate::firmware::{self, Bins};
 use crate::fixtures::{self, Fixtures};

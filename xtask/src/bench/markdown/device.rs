@@ -140,7 +140,7 @@ fn spectrum(s: &mut String, r: &crate::device_bench::record::DeviceRecord) {
 }
 
 /// The STM32F405 board's images (`cargo xtask board`), or "not measured".
-fn board(s: &mut String, b: Option<&crate::device_bench::record::BoardRecord>) {
+fn board(s: &mut String, b: Option<&crate::board::BoardRecord>) {
     let Some(b) = b else {
         out!(s, "STM32F405 board image (`firmware/board/`): not measured (`cargo xtask board`).\n");
         return;

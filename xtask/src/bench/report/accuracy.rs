@@ -92,6 +92,12 @@ pub struct Blackbox {
     pub peers: Vec<BlackboxPeer>,
 }
 
+/// What `sklearn_peer.py blackbox` (and `hybrids`) prints.
+#[derive(Clone, Debug, Deserialize)]
+pub struct PeerBlackbox {
+    pub peers: Vec<BlackboxPeer>,
+}
+
 /// One black-box model of `bench/sklearn_peer.py blackbox`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct BlackboxPeer {

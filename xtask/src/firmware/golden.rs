@@ -199,7 +199,7 @@ fn golden_sets(fx: &Fixtures) -> Result<Vec<GoldenSet>> {
     Ok(sets)
 }
 
-pub(super) fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<()> {
+pub(crate) fn golden_test(root: &Path, qemu: &Path, bins: &Bins, fx: &Fixtures) -> Result<()> {
     run_golden(root, qemu, Machine::Mps2An386, &bins.golden, "golden", fx).map(|_| ())
 }
 
