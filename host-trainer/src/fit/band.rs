@@ -57,7 +57,7 @@ pub struct VarModel {
     /// Fraction of the validation errors inside the band at their own lead (the
     /// cross-validated coverage; the conformal multiplier aims it at 95 %).
     pub cv_coverage: f64,
-    /// The growth the interrogator's drift adds, s²·q_d \[unit²/s\] ([`super::random_walk`]:
+    /// The growth the interrogator's drift adds, s²·q_d \[unit²/s\] (the `random_walk` module:
     /// the walk rate read from Model-P's validation errors, or the stated stability when
     /// larger; NaN when neither is known): `b` is at least this, and `a` and `k95` are fitted
     /// to the validation errors at that growth.

@@ -268,7 +268,7 @@ impl TrainOptionsBuilder {
 
     /// The options, if the fit can use them: a CV layout of at least two blocks with
     /// 1 <= `min_train_blocks` < `blocks`, a grid with at least one point, and a stated drift
-    /// (if any) in 0 ..= [`DRIFT_SPEC_MAX_PM_PER_SQRT_DAY`] pm/√day.
+    /// (if any) in 0 ..= 1 000 pm/√day.
     pub fn check(self) -> Result<TrainOptions, TrainerError> {
         self.check_ref()?;
         Ok(self.0)

@@ -21,7 +21,7 @@
 //! strain errors then weighs next to nothing, where read alone it would pass for a walk.
 //! A single calibration week holds one path of the drift, so the estimate is rough (see
 //! BENCHMARKS); an interrogator's stated stability can set a floor
-//! ([`super::options::TrainOptions::drift_spec_pm_per_sqrt_day`]).
+//! ([`super::TrainOptions::drift_spec_pm_per_sqrt_day`]).
 
 /// The shorter lag L₁ \[s\]: longer than the hysteresis and thermometer-lag errors' memory.
 pub const LAG_SHORT_S: f64 = 12.0 * 3_600.0;
