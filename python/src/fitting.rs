@@ -20,10 +20,11 @@ use crate::model::Model;
 /// configuration instead of the cross-validated choice, as `bench-fit --fixed` (keys
 /// `feature_set`, `k`, `sigma_mult`, `alpha_rel`, `dead_band_pm`, `memory`). Returns Model-H, Model-P, the
 /// `coefficients.json` text and a JSON summary (chosen hyper-parameters, CV RMSE, warnings).
+/// `drift_spec` is the interrogator's stated stability [pm/√day], as `train --drift-spec`.
 /// `precision` is only checked (predict's arithmetic, refused here rather than at the first
 /// predict). Runs without the GIL; Ctrl-C stops it.
 #[pyfunction]
-#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None, targets=None, precision="f64"))]
+#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None, targets=None, precision="f64", drift_spec=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -40,6 +41,7 @@ pub fn fit(
     fixed: Option<&Bound<'_, PyDict>>,
     targets: Option<Vec<String>>,
     precision: &str,
+    drift_spec: Option<f64>,
 ) -> PyResult<(Model, Model, String, String)> {
     crate::stream::precision(precision)?;
     // The columns given as y must all be references: another name would be dropped silently
@@ -60,6 +62,11 @@ pub fn fit(
     if let Some(s) = seed {
         opts = opts.with_seed(s);
     }
+    let opts = opts
+        .to_builder()
+        .drift_spec_pm_per_sqrt_day(drift_spec)
+        .check()
+        .map_err(|e| msg(format!("drift_spec: {e}")))?;
     // The provenance `train` writes: the sidecar's scenario and seed, else the source's name.
     let origin = Origin { scenario: scenario.unwrap_or_else(|| source.to_string()), seed: sim_seed };
     let src = source.to_string();

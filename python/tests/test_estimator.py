@@ -30,7 +30,9 @@ from sklearn.preprocessing import FunctionTransformer  # noqa: E402
 def test_params_round_trip_and_clone():
     est = fc.HybridCompensator(features="paper", max_centres=8, seed=3)
     p = est.get_params()
-    assert p == dict(features="paper", max_centres=8, on_outlier="fail", seed=3, precision="f64", outputs=None, fixed=None)
+    assert p == dict(
+        features="paper", max_centres=8, on_outlier="fail", seed=3, precision="f64", outputs=None, fixed=None, drift_spec=None
+    )
     est.set_params(max_centres=16, precision="f32")
     assert (est.max_centres, est.precision) == (16, "f32")
     c = clone(est)
@@ -101,6 +103,25 @@ def test_band_and_flags(holdout, fitted):
     assert (flags_u & 8).all()
     b = band.to_numpy()
     assert (b[-1] > b[0]).all() and not same_bits(band_u, b)
+
+
+def test_a_stated_drift_widens_the_band_with_the_lead(cal, holdout, fitted):
+    # A day of calibration is too short to read the drift's walk from its errors (the
+    # structure function needs 36-h stretches): a stated stability (a poor interrogator's,
+    # so that it binds over this fit's own steep growth) makes the band grow faster.
+    stated = fc.HybridCompensator(**FIT, drift_spec=500.0).fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
+    v0, b0 = fitted.predict(holdout[INPUTS], t=holdout["t_s"], return_band=True)
+    v1, b1 = stated.predict(holdout[INPUTS], t=holdout["t_s"], return_band=True)
+    assert same_bits(v0, v1), "the stated drift changes the band only"
+    growth0 = b0.to_numpy()[-1] - b0.to_numpy()[0]
+    growth1 = b1.to_numpy()[-1] - b1.to_numpy()[0]
+    # The drift moves every grating alike: temperature most; strain, read from the gratings'
+    # difference, hardly (its growth may stay as fitted).
+    assert growth1[0] > growth0[0] and (growth1 >= growth0).all(), (growth0, growth1)
+    with pytest.raises(fc.FbgError, match="drift_spec: .*the stated drift is -1"):
+        fc.HybridCompensator(**FIT, drift_spec=-1.0).fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
+    with pytest.raises(ValueError, match="drift_spec: 'x' is not a number"):
+        fc.HybridCompensator(**FIT, drift_spec="x").fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
 
 
 def test_score_and_model_p(cal, holdout, fitted):

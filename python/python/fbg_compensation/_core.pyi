@@ -59,6 +59,7 @@ def fit(
     fixed: Optional[Dict[str, object]] = None,
     targets: Optional[List[str]] = None,
     precision: str = "f64",
+    drift_spec: Optional[float] = None,
 ) -> Tuple[Model, Model, str, str]: ...
 def simulate(
     preset: str = "paper", seed: int = 7, days: Optional[float] = None, dt_s: Optional[float] = None

@@ -76,6 +76,7 @@ class _Compensator(_Base, _Regressor):
         precision: str = "f64",
         outputs: Optional[Sequence[str]] = None,
         fixed: Optional[Dict[str, Any]] = None,
+        drift_spec: Optional[float] = None,
     ) -> None:
         self.features = features
         self.max_centres = max_centres
@@ -84,6 +85,7 @@ class _Compensator(_Base, _Regressor):
         self.precision = precision
         self.outputs = outputs
         self.fixed = fixed
+        self.drift_spec = drift_spec
 
     # --- fit -------------------------------------------------------------------------------
     def fit(self, X: Any, y: Any, t: Any = None, *, t0_unix_s: Optional[float] = None, cal: Any = None):
@@ -124,6 +126,7 @@ class _Compensator(_Base, _Regressor):
             self.fixed,
             targets=list(targets),
             precision=_text("precision", self.precision),
+            drift_spec=None if self.drift_spec is None else _number("drift_spec", self.drift_spec),
         )
         self.model_h_ = Model(h)
         self.model_p_ = Model(p)
@@ -213,6 +216,14 @@ def _whole(name: str, value: Any, lo: int, hi: Optional[int] = None) -> int:
     return v
 
 
+def _number(name: str, value: Any) -> float:
+    """``value`` as a float, or a ValueError naming the parameter (a bool or a string is not a
+    number); its range is the trainer's to check."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name}: {value!r:.40} is not a number")
+    return float(value)
+
+
 class HybridCompensator(_Compensator):
     """Model-H, the hybrid compensator (DESIGN §4): the polynomial core on the first-guess
     measurands, its memory terms, and the RBF residual with its 95 % band, fitted as
@@ -225,7 +236,10 @@ class HybridCompensator(_Compensator):
     the trainer's default), ``precision`` (``f64`` host / ``f32`` device arithmetic for
     predict), ``outputs`` (names of y's columns when y is an array), ``fixed`` (one
     configuration instead of cross-validation, as ``fbg-trainer bench-fit --fixed``: a dict
-    of ``feature_set``, ``k``, ``sigma_mult``, ``alpha_rel``, ``dead_band_pm``, ``memory``)."""
+    of ``feature_set``, ``k``, ``sigma_mult``, ``alpha_rel``, ``dead_band_pm``, ``memory``),
+    ``drift_spec`` (the interrogator's stated stability as a random walk [pm/√day], as
+    ``fbg-trainer train --drift-spec``: the band grows at least as such a drift moves each
+    output; None: the rate the calibration's errors show)."""
 
     _which = "h"
 
