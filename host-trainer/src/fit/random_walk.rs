@@ -91,6 +91,27 @@ pub fn common_rate(per_output: &[StructureSums]) -> Option<f64> {
     (weights > 0.0 && (sum / weights).is_finite()).then(|| (sum / weights).max(0.0))
 }
 
+/// The walk's rate q_d read from `per_output` (each output's sums in its own unit) through the
+/// common-mode sensitivities `common` (s_c, unit per pm; one per output, for every series
+/// alike: a series divided by its own s_c near zero would blow up), and per output the growth
+/// s_c²·q \[unit²/s\] the band takes, q the larger of q_d and the `stated` rate \[pm²/s\]
+/// (`None` for an output when neither is known).
+pub fn growth(per_output: &[StructureSums], common: &[f64], stated: Option<f64>) -> (Option<f64>, Vec<Option<f64>>) {
+    let in_pm: Vec<StructureSums> = per_output
+        .iter()
+        .zip(common)
+        .filter(|(_, s)| s.is_finite() && **s != 0.0)
+        .map(|(w, s)| w.scaled(1.0 / (s * s)))
+        .collect();
+    let read = common_rate(&in_pm);
+    let used = match (read, stated) {
+        (Some(q), Some(spec)) => Some(q.max(spec)),
+        (q, spec) => q.or(spec),
+    };
+    let growth = (0..per_output.len()).map(|c| used.map(|q| common.get(c).map_or(0.0, |s| s * s) * q)).collect();
+    (read, growth)
+}
+
 /// `acc` plus the squared differences of the pairs of (`t_s`, `e`) spaced `lag_s` apart
 /// (within [`LAG_TOLERANCE`]), and their count.
 fn sum_at_lag(t_s: &[f64], e: &[f64], lag_s: f64, acc: (f64, usize)) -> (f64, usize) {
@@ -179,6 +200,29 @@ mod tests {
         let r = common_rate(&[clean, cycled]).unwrap();
         assert!((r / q - 1.0).abs() < 0.5, "common rate {r:e} against {q:e}");
         assert_eq!(common_rate(&[StructureSums::default()]), None);
+    }
+
+    #[test]
+    fn each_output_grows_by_its_sensitivity_squared_times_the_larger_rate() {
+        // One output walking at 1e-6 unit²/s with s = 0.1 unit/pm (1e-4 pm²/s), one whose
+        // common-mode sensitivity is 0 (left out of the read, no growth).
+        let mut t_out = StructureSums::default();
+        for seed in 0..40 {
+            let (t, e) = series(1e-6, 0.0, 0.0, 4.0, seed);
+            t_out.add(&t, &e);
+        }
+        let sums = [t_out, StructureSums::default()];
+        let (read, g) = growth(&sums, &[0.1, 0.0], None);
+        let q = read.unwrap();
+        assert!((q / 1e-4 - 1.0).abs() < 0.35, "{q:e}");
+        assert_eq!(g, vec![Some(0.1 * 0.1 * q), Some(0.0)]);
+        // A stated rate above the one read sets the growth; the rate read is still reported.
+        let (read2, g2) = growth(&sums, &[0.1, 0.0], Some(1e-2));
+        assert_eq!(read2, read);
+        assert_eq!(g2[0], Some(0.1 * 0.1 * 1e-2));
+        // Nothing read and nothing stated: no growth known.
+        assert_eq!(growth(&[StructureSums::default()], &[0.1], None), (None, vec![None]));
+        assert_eq!(growth(&[StructureSums::default()], &[0.1], Some(1e-2)).1, vec![Some(0.1 * 0.1 * 1e-2)]);
     }
 
     #[test]

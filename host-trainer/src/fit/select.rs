@@ -108,9 +108,9 @@ struct FoldCore {
 /// every validation sample.
 type FoldErrors = Vec<Vec<f64>>;
 
-/// One fold's structure sums per output (its errors in the output's unit) and its common-mode
-/// sensitivities.
-type FoldWalk = (Vec<StructureSums>, Vec<f64>);
+/// One fold's structure sums per output (its errors in the output's unit) and, for the last
+/// fold, the common-mode sensitivities.
+type FoldWalk = (Vec<StructureSums>, Option<Vec<f64>>);
 
 /// Model-P's pass over the folds.
 struct ModelPPass {
@@ -248,21 +248,26 @@ impl<'a> Cv<'a> {
     fn model_p_pass(&self, db: f64) -> Result<ModelPPass, TrainerError> {
         let (d, m, cross_terms) = (self.d, self.dims.n_outputs(), self.opts.cross_terms());
         let n = self.dims.gratings();
+        let last = self.folds.len().saturating_sub(1);
         let per_fold: Result<Vec<(FoldCore, FoldErrors, FoldWalk)>, TrainerError> = self
             .folds
             .par_iter()
-            .map(|f| {
+            .enumerate()
+            .map(|(fi, f)| {
                 self.opts.check_cancel()?;
                 let core = poly_core::fit(d, &f.train, cross_terms)?;
                 let core_full = if cross_terms { core.clone() } else { poly_core::fit(d, &f.train, true)? };
                 let p = self.stream_model(&core_full, &f.train, db)?;
                 let ck = self.cache.get(&p, d)?;
                 let est = design::run_with(&p, d, &f.val, Some(&ck))?;
-                // A drift moves every grating and leaves the thermometer: T_amb held.
-                let common: Vec<f64> = sensitivity::core_jacobian(&p, &[0.0; MAX_OUTPUTS])
-                    .iter()
-                    .map(|row| row.iter().take(n).sum())
-                    .collect();
+                // A drift moves every grating and leaves the thermometer: T_amb held. The last
+                // fold's (the closest to the final model) serves every fold.
+                let common: Option<Vec<f64>> = (fi == last).then(|| {
+                    sensitivity::core_jacobian(&p, &[0.0; MAX_OUTPUTS])
+                        .iter()
+                        .map(|row| row.iter().take(n).sum())
+                        .collect()
+                });
                 let t_val: Vec<f64> = f.val.iter().map(|&i| d.t_s[i]).collect();
                 let mut walk = vec![StructureSums::default(); m];
                 let sq = (0..m)
@@ -283,24 +288,9 @@ impl<'a> Cv<'a> {
             cores.push(core);
             errors.push(sq);
             walk.iter_mut().zip(&w).for_each(|(a, b)| a.merge(b));
-            common = s;
+            common = s.unwrap_or(common);
         }
-        // One common-mode sensitivity per output, the last fold's (the closest to the final
-        // model), turns every fold's errors into pm alike: a fold whose own s_c is near zero
-        // would blow its errors up.
-        let in_pm: Vec<StructureSums> = walk
-            .iter()
-            .zip(&common)
-            .filter(|(_, s)| s.is_finite() && **s != 0.0)
-            .map(|(w, s)| w.scaled(1.0 / (s * s)))
-            .collect();
-        let q_d = random_walk::common_rate(&in_pm);
-        // The interrogator's stated stability, when given, is a floor.
-        let used = match (q_d, self.opts.drift_spec_rate_pm2_per_s()) {
-            (Some(q), Some(spec)) => Some(q.max(spec)),
-            (q, spec) => q.or(spec),
-        };
-        let growth = (0..m).map(|c| used.map(|q| common.get(c).map_or(0.0, |s| s * s) * q)).collect();
+        let (q_d, growth) = random_walk::growth(&walk, &common, self.opts.drift_spec_rate_pm2_per_s());
         Ok(ModelPPass { fold_core: cores, sq_p: errors, drift_rate_pm2_per_s: q_d, walk_growth: growth })
     }
 
