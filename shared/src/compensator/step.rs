@@ -8,7 +8,7 @@ use super::sample::Sample;
 use super::state::StreamState;
 use crate::affine::{affine, affine_inputs};
 use crate::flags::Flags;
-use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, MAX_Z, VAR_RANK};
+use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, VAR_RANK};
 use crate::real::Real;
 use nalgebra::SVector;
 
@@ -120,7 +120,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             return None;
         }
         let (latch, y) = self.advance_with_core::<G, M>(state, s);
-        let (z, z_sq) = self.rbf_inputs::<G>(s, latch);
+        let mut z = [F::ZERO; ZP];
+        let z_sq = self.rbf_inputs::<G>(s, &latch, &mut z);
         psi_all(&self.centres, &z, z_sq, usize::from(self.z_groups), psi);
         Some(y)
     }
@@ -135,7 +136,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         if !self.accepts(s) {
             return false;
         }
-        let (z, z_sq) = self.rbf_inputs::<0>(s, *latch);
+        let mut z = [F::ZERO; ZP];
+        let z_sq = self.rbf_inputs::<0>(s, latch, &mut z);
         psi_all(&self.centres, &z, z_sq, usize::from(self.z_groups), psi);
         true
     }
@@ -230,56 +232,59 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         // bounds known at compile time, every other shape as the whole MAX_OUTPUTS × MAX_POLY
         // product (entries beyond the model's outputs and terms are zero, each adding an exact
         // 0). Each row accumulates term by term from 0, as a loop would: the same bits.
-        let phi = SVector::<F, MAX_POLY>::from(poly_features(&g, m));
         if M == 3 {
-            let part = self.b.fixed_view::<3, 10>(0, 0) * phi.fixed_rows::<10>(0);
+            // φ of three guesses built in place (no zeroed MAX_POLY array to fill).
+            let [g0, g1, g2, _] = g;
+            let phi = SVector::<F, 10>::from([
+                F::ONE,
+                g0,
+                g1,
+                g2,
+                g0 * g0,
+                g1 * g1,
+                g2 * g2,
+                g0 * g1,
+                g0 * g2,
+                g1 * g2,
+            ]);
+            let part = self.b.fixed_view::<3, 10>(0, 0) * phi;
             let mut y = [F::ZERO; MAX_OUTPUTS];
             for (o, v) in y.iter_mut().zip(part.iter()) {
                 *o = *v;
             }
             y
         } else {
-            (self.b * phi).into()
+            (self.b * SVector::<F, MAX_POLY>::from(poly_features(&g, m))).into()
         }
     }
 
-    /// The scaled RBF inputs z (unused inputs 0) and ‖z‖².
+    /// The scaled RBF inputs z into `z` (a zeroed array: unused inputs stay 0; written in
+    /// place, not returned, so that the array is not copied), and ‖z‖²: z_i = x_i·gain_i + offset_i over
+    /// the inputs in the layout's order (Δλ_1..N, T_amb, t, latches; an input the model does
+    /// not read counts as 0), summed in that order.
     #[inline(always)]
-    fn rbf_inputs<const G: usize>(&self, s: &Sample<F>, latch: [F; MAX_GRATINGS]) -> ([F; ZP], F) {
+    fn rbf_inputs<const G: usize>(&self, s: &Sample<F>, latch: &[F; MAX_GRATINGS], z: &mut [F; ZP]) -> F {
         let n = self.g::<G>();
-        let mut x_z = [F::ZERO; MAX_Z];
-        let mut i = 0;
-        for (o, &d) in x_z.iter_mut().zip(head(&s.dl_pm, n).iter()) {
-            *o = d;
-            i += 1;
+        let n_z = usize::from(self.n_z);
+        let mut z_sq = F::ZERO;
+        let mut scaled = z.iter_mut().zip(self.z_gain.iter().zip(self.z_offset.iter())).take(n_z);
+        let mut put = |x: F| {
+            if let Some((zi, (&gn, &of))) = scaled.next() {
+                *zi = x.mul_add(gn, of);
+                z_sq = zi.mul_add(*zi, z_sq);
+            }
+        };
+        for &d in head(&s.dl_pm, n) {
+            put(d);
         }
         if self.ambient {
-            if let Some(o) = x_z.get_mut(i) {
-                *o = s.t_amb_c;
-            }
-            i += 1;
+            put(s.t_amb_c);
         }
-        if self.uses_time {
-            if let Some(o) = x_z.get_mut(i) {
-                *o = s.t_s;
-            }
+        put(if self.uses_time { s.t_s } else { F::ZERO });
+        for &l in head(latch, n) {
+            put(if self.uses_latch { l } else { F::ZERO });
         }
-        i += 1;
-        if self.uses_latch {
-            for (o, &l) in x_z.iter_mut().skip(i).zip(head(&latch, n).iter()) {
-                *o = l;
-            }
-        }
-        let mut z = [F::ZERO; ZP];
-        let mut z_sq = F::ZERO;
-        let n_z = usize::from(self.n_z);
-        for (((zi, &x), &gn), &of) in
-            z.iter_mut().zip(x_z.iter()).zip(self.z_gain.iter()).zip(self.z_offset.iter()).take(n_z)
-        {
-            *zi = x.mul_add(gn, of);
-            z_sq = zi.mul_add(*zi, z_sq);
-        }
-        (z, z_sq)
+        z_sq
     }
 
     /// [`PreparedModel::step_with`] for a model of `G` gratings and `M` outputs (0: read from
@@ -296,7 +301,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             Entry::In(e) => e,
         };
         // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
-        let (z, z_sq) = self.rbf_inputs::<G>(s, e.latch);
+        let mut z = [F::ZERO; ZP];
+        let z_sq = self.rbf_inputs::<G>(s, &e.latch, &mut z);
         // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
         let (y, proj, psi_sq) =
             centre_pass::<F, K>(&self.centres, &z, z_sq, usize::from(self.z_groups), e.y, &mut sink);
@@ -415,7 +421,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         let rows = samples.iter().zip(pending.iter()).take(LANES);
         for (lane, (s, p)) in rows.enumerate() {
             if let Entry::In(e) = &p.0 {
-                let (z, z_sq) = self.rbf_inputs::<G>(s, e.latch);
+                let mut z = [F::ZERO; ZP];
+                let z_sq = self.rbf_inputs::<G>(s, &e.latch, &mut z);
                 lanes.put(lane, &z, z_sq, &e.y);
             }
         }
