@@ -56,6 +56,8 @@ pub trait Real:
     fn ln(self) -> Self;
     /// True for values other than NaN and ±∞.
     fn is_finite(self) -> bool;
+    /// |self| (the sign bit cleared: `vabs.f32` on a Cortex-M4F).
+    fn abs(self) -> Self;
     /// `round(self · scale)` as i32, saturating; NaN gives 0.
     fn round_to_i32_scaled(self, scale: f64) -> i32;
     /// Larger of two values (NaN-free inputs assumed).
@@ -122,6 +124,10 @@ impl Real for f64 {
         f64::is_finite(self)
     }
     #[inline(always)]
+    fn abs(self) -> Self {
+        f64::abs(self)
+    }
+    #[inline(always)]
     fn round_to_i32_scaled(self, scale: f64) -> i32 {
         // `libm::round(v) as i32` without the libm call (the latches round three times per
         // sample): truncate, then look at the exact remainder (v − trunc(v) is exact in f64),
@@ -176,6 +182,10 @@ impl Real for f32 {
     #[inline(always)]
     fn is_finite(self) -> bool {
         f32::is_finite(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
     }
     #[inline(always)]
     fn round_to_i32_scaled(self, scale: f64) -> i32 {

@@ -11,7 +11,8 @@ use crate::trust::{TrustSpec, GATE_RATE_FACTOR, GATE_SPAN_MARGIN};
 pub(super) struct Gate<F> {
     lo: [F; MAX_ENVELOPE],
     hi: [F; MAX_ENVELOPE],
-    /// `GATE_RATE_FACTOR` × the calibration's largest |Δx|/Δt [unit/s]; 0 = no rate limit.
+    /// `GATE_RATE_FACTOR` × the calibration's largest |Δx|/Δt [unit/s]; +∞ = no rate limit
+    /// (a calibration rate of 0).
     rate: [F; MAX_ENVELOPE],
     /// Inputs checked (0: the gate is off, every sample passes).
     n: u8,
@@ -65,7 +66,8 @@ impl<F: Real> Gate<F> {
             let span = (h - l).max(F::ZERO);
             *lo = l - margin * span;
             *hi = h + margin * span;
-            *rate = factor * F::from_real(r);
+            let r = factor * F::from_real(r);
+            *rate = if r <= F::ZERO { F::INFINITY } else { r };
         }
         g.n = n as u8;
         g
@@ -87,13 +89,11 @@ impl<F: Real> Gate<F> {
         // decides (a rate test against a negative Δt would lock the stream out).
         let dt = t_s - last.t_s;
         let timed = last.primed && dt.is_finite() && dt > F::ZERO;
+        // Untimed: every step is within an infinite limit (Δx is finite: both samples are).
+        let dt = if timed { dt } else { F::INFINITY };
+        // |Δx| ≤ rate·Δt; a step that overflows to ±∞ fails it against a finite limit.
         head(x, n).iter().zip(self.lo.iter().zip(self.hi.iter())).zip(self.rate.iter().zip(last.x.iter())).all(
-            |((&v, (&lo, &hi)), (&rate, &prev))| {
-                let in_range = v >= lo && v <= hi;
-                let (step, lim) = (v - prev, rate * dt);
-                let slow = !timed || rate <= F::ZERO || (step <= lim && -step <= lim);
-                in_range && slow
-            },
+            |((&v, (&lo, &hi)), (&rate, &prev))| v >= lo && v <= hi && (v - prev).abs() <= rate * dt,
         )
     }
 

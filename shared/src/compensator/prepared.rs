@@ -38,7 +38,10 @@ use crate::real::Real;
 /// `K` is the centre capacity; models with fewer centres load too and cost proportionally less.
 /// Any [`Dims`] within the capacities of [`crate::layout`] loads; a sample whose grating count
 /// differs from the model's is answered as non-finite.
+/// `repr(C)`, the fields a step reads per output first and the large arrays last: a Cortex-M
+/// float load reaches 1 020 bytes past its base, so the small fields stay one load away.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct PreparedModel<F, const K: usize> {
     /// The model's dims ([`Dims::NONE`] before a model is loaded).
     pub(super) dims: Dims,
@@ -52,58 +55,58 @@ pub struct PreparedModel<F, const K: usize> {
     pub(super) n_z: u8,
     /// Groups of four RBF inputs that hold them.
     pub(super) z_groups: u8,
-    /// Stage-1 rows producing *standardised* guesses.
-    pub(super) a: [[F; MAX_STAGE1]; MAX_OUTPUTS],
-    /// B of paper Eq. 3, one row per output over φ's terms (column-major, as nalgebra keeps it).
-    pub(super) b: SMatrix<F, MAX_OUTPUTS, MAX_POLY>,
-    /// Γ (output units per memory-term unit), term-major: `gamma[k][o]`.
-    pub(super) gamma: [[F; MAX_OUTPUTS]; MAX_MEMORY],
-    /// The memory operators (coefficients; their state is the stream's).
-    pub(super) memory: MemoryOperators<F>,
-    /// z_scaled = x · z_gain + z_offset (gain 0 on unused dimensions).
-    pub(super) z_gain: [F; MAX_Z],
-    pub(super) z_offset: [F; MAX_Z],
-    pub(super) centres: Vec<PreparedCentre<F>, K>,
+    pub(super) uses_time: bool,
+    pub(super) uses_latch: bool,
+    /// Whether the band grows with time (the time input is then required).
+    pub(super) band_grows: bool,
+    /// Whether the band decays towards the fallback band beyond the largest validated lead
+    /// (a model with a trust spec).
+    pub(super) fades_beyond_lead: bool,
+    pub(super) fitted: [bool; MAX_OUTPUTS],
+    /// Latch dead band in ticks of 1/1024 pm.
+    pub(super) dead_band: i32,
     pub(super) inv_g_tail: F,
+    /// End of calibration on the calibration record's clock \[s\].
+    pub(super) t_cal_end_s: F,
+    /// The band's lead when the stream's clock is unknown \[s\].
+    pub(super) lead_max_s: F,
+    pub(super) weak_support: F,
+    pub(super) flagged_band_factor: F,
     /// k² · s² per output at the end of calibration.
     pub(super) band_var: [F; MAX_OUTPUTS],
     /// k² · ds²/dt per output [unit²/s].
     pub(super) band_var_growth: [F; MAX_OUTPUTS],
-    /// End of calibration on the calibration record's clock \[s\].
-    pub(super) t_cal_end_s: F,
-    /// Absolute end of calibration (Unix s), when the model knows it.
-    pub(super) cal_end_unix_s: Option<f64>,
-    /// The band's lead when the stream's clock is unknown \[s\].
-    pub(super) lead_max_s: F,
-    /// Whether the band grows with time (the time input is then required).
-    pub(super) band_grows: bool,
-    pub(super) env_lo: [F; MAX_ENVELOPE],
-    pub(super) env_hi: [F; MAX_ENVELOPE],
+    /// The band Model-H fades to: Model-P's k²σ² and its growth per second.
+    pub(super) fallback_var: [F; MAX_OUTPUTS],
+    pub(super) fallback_var_growth: [F; MAX_OUTPUTS],
     /// Plausible range of each output's estimate (±∞ for outputs unchecked or not fitted).
     pub(super) out_lo: [F; MAX_OUTPUTS],
     pub(super) out_hi: [F; MAX_OUTPUTS],
     /// Each output's band must stay below this before widening (∞: only finite).
     pub(super) band_lim: [F; MAX_OUTPUTS],
-    pub(super) weak_support: F,
-    pub(super) flagged_band_factor: F,
-    /// Latch dead band in ticks of 1/1024 pm.
-    pub(super) dead_band: i32,
-    pub(super) uses_time: bool,
-    pub(super) uses_latch: bool,
-    pub(super) fitted: [bool; MAX_OUTPUTS],
+    pub(super) env_lo: [F; MAX_ENVELOPE],
+    pub(super) env_hi: [F; MAX_ENVELOPE],
+    /// Each grating's largest quiet time of the calibration \[s\]; 0 = no fade.
+    pub(super) quiet_max_s: [F; MAX_GRATINGS],
     /// Which samples may move the memory state ([`crate::trust`]); off without a stream state
     /// worth keeping (no memory terms, no latches).
     pub(super) gate: Gate<F>,
-    /// Each grating's largest quiet time of the calibration \[s\]; 0 = no fade.
-    pub(super) quiet_max_s: [F; MAX_GRATINGS],
-    /// The band Model-H fades to: Model-P's k²σ² and its growth per second.
-    pub(super) fallback_var: [F; MAX_OUTPUTS],
-    pub(super) fallback_var_growth: [F; MAX_OUTPUTS],
-    /// Whether the band decays towards the fallback band beyond the largest validated lead
-    /// (a model with a trust spec).
-    pub(super) fades_beyond_lead: bool,
     /// The calibration's pace ([`crate::trust`]); off without a gate.
     pub(super) pace: Pace<F>,
+    /// z_scaled = x · z_gain + z_offset (gain 0 on unused dimensions).
+    pub(super) z_gain: [F; MAX_Z],
+    pub(super) z_offset: [F; MAX_Z],
+    /// Absolute end of calibration (Unix s), when the model knows it.
+    pub(super) cal_end_unix_s: Option<f64>,
+    /// Stage-1 rows producing *standardised* guesses.
+    pub(super) a: [[F; MAX_STAGE1]; MAX_OUTPUTS],
+    /// B of paper Eq. 3, one row per output over φ's terms (column-major, as nalgebra keeps it).
+    pub(super) b: SMatrix<F, MAX_OUTPUTS, MAX_POLY>,
+    /// The memory operators (coefficients; their state is the stream's).
+    pub(super) memory: MemoryOperators<F>,
+    /// Γ (output units per memory-term unit), term-major: `gamma[k][o]`.
+    pub(super) gamma: [[F; MAX_OUTPUTS]; MAX_MEMORY],
+    pub(super) centres: Vec<PreparedCentre<F>, K>,
 }
 
 impl<F: Real, const K: usize> PreparedModel<F, K> {

@@ -201,7 +201,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         let (latches, memory) = state.moving();
         let latch: [F; MAX_GRATINGS] = latches.update(&s.dl_pm, self.g::<G>(), self.dead_band);
         if self.memory.is_active() {
-            self.memory.accumulate(memory, &s.dl_pm, s.t_amb_c, s.t_s, &self.gamma, y);
+            self.memory.accumulate::<MAX_OUTPUTS, G>(memory, &s.dl_pm, s.t_amb_c, s.t_s, &self.gamma, y);
         }
         latch
     }
@@ -473,8 +473,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         let mut y = core;
         let latch = self.advance_state::<G>(state, s, &mut y);
         // Beyond the calibration's quiet time or its pace, what Model-H adds to the core fades.
-        let pace_sq = self.pace_ratio_sq(state);
-        let fade = self.fade::<G>(state, s.t_s, pace_sq);
+        let (pace_sq, slow_sq) = self.pace_ratios_sq(state);
+        let fade = self.fade::<G>(state, s.t_s, pace_sq, slow_sq);
         Entry::In(Entered { flags, lead, core, y, latch, fade, pace_sq })
     }
 
@@ -525,10 +525,16 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// without a pace term.
     #[inline(always)]
     fn pace_ratio_sq(&self, state: &StreamState<F>) -> F {
+        self.pace_ratios_sq(state).0
+    }
+
+    /// ρ² and the slowness σ² of the stream ([`crate::trust`]); both 0 without a pace term.
+    #[inline(always)]
+    fn pace_ratios_sq(&self, state: &StreamState<F>) -> (F, F) {
         if self.pace.is_off() {
-            F::ZERO
+            (F::ZERO, F::ZERO)
         } else {
-            self.pace.ratio_sq(state.gate().swing())
+            self.pace.ratios_sq(state.gate().swing())
         }
     }
 
@@ -547,14 +553,14 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         }
     }
 
-    /// How much of what Model-H adds to the core is kept at `t_s` with the pace ratio² `pace_sq`:
+    /// How much of what Model-H adds to the core is kept at `t_s` with the pace ratio² `pace_sq`
+    /// and the slowness² `slow_sq`:
     /// per grating, 1 while its quiet time is within the calibration's largest, then linearly
     /// down to 0 at twice that; 1 while the pace ratio ρ is within 1, then linearly down to 0 at
     /// ρ = 2; the same for the slowness σ; the smallest of them ([`crate::trust`]).
     #[inline(always)]
-    fn fade<const G: usize>(&self, state: &StreamState<F>, t_s: F, pace_sq: F) -> F {
+    fn fade<const G: usize>(&self, state: &StreamState<F>, t_s: F, pace_sq: F, slow_sq: F) -> F {
         let mut fade = F::ONE;
-        let slow_sq = if self.pace.is_off() { F::ZERO } else { self.pace.slow_ratio_sq(state.gate().swing()) };
         for ratio_sq in [pace_sq, slow_sq] {
             if ratio_sq > F::ONE {
                 let f = fade_beyond(ratio_sq.sqrt());

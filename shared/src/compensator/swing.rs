@@ -15,11 +15,11 @@
 //! low-pass (a ramp of rate r settles at v = r exactly; an oscillation of amplitude A and
 //! angular frequency ω reads A·ω/√(1 + (ωτ_fast)²), growing with ω up to A/τ_fast, and white
 //! noise of σ adds about σ/τ_fast), and its power Q = LP_window(v²). The pace ratio of a
-//! stream is ρ = max_k max(√(P_k / P_max,k), √(Q_k / Q_max,k)) ([`Pace::ratio_sq`] gives ρ²).
+//! stream is ρ = max_k max(√(P_k / P_max,k), √(Q_k / Q_max,k)) ([`Pace::ratios_sq`] gives ρ²).
 //!
 //! A pace slower than the calibration's slowest is outside it too: its slowness is
 //! σ = max_k √(P_min,k / P_k), P_min,k the smallest power of input k over the calibration once
-//! the filters had settled ([`Pace::slow_ratio_sq`] gives σ², at most 4).
+//! the filters had settled ([`Pace::ratios_sq`] gives σ², at most 4).
 
 use crate::layout::{head, MAX_ENVELOPE};
 use crate::real::Real;
@@ -188,29 +188,21 @@ impl<F: Real> Pace<F> {
         self.n == 0
     }
 
-    /// ρ² = max_k max(P_k / P_max,k, Q_k / Q_max,k) of `filter` (0 without a pace term).
+    /// (ρ², σ²) of `filter`: ρ² = max_k max(P_k / P_max,k, Q_k / Q_max,k), and the slowness
+    /// ratio² max_k P_min,k / P_k, at most 4 (where the fade has reached 0; a filter that has
+    /// seen nothing gives the cap, without a division); each 0 without its calibration
+    /// figures. One pass over the inputs.
     #[inline(always)]
-    pub(super) fn ratio_sq(&self, filter: &SwingFilter<F>) -> F {
-        let mut r = F::ZERO;
+    pub(super) fn ratios_sq(&self, filter: &SwingFilter<F>) -> (F, F) {
+        let four = F::from_f64(4.0);
+        let (mut r, mut slow) = (F::ZERO, F::ZERO);
         let n = usize::from(self.n);
-        for (k, (&inv, &inv_speed)) in head(&self.inv_max, n).iter().zip(head(&self.inv_speed_max, n)).enumerate() {
-            let v = (filter.power(k) * inv).max(filter.speed_power(k) * inv_speed);
+        let model = head(&self.inv_max, n).iter().zip(head(&self.inv_speed_max, n)).zip(head(&self.min, n));
+        for (((&inv, &inv_speed), &min), (&p, &q)) in model.zip(filter.power.iter().zip(filter.speed_power.iter())) {
+            let v = (p * inv).max(q * inv_speed);
             if v > r {
                 r = v;
             }
-        }
-        r
-    }
-
-    /// The slowness ratio² max_k P_min,k / P_k of `filter`, at most 4 (where the fade has
-    /// reached 0); 0 without a smallest swing.
-    #[inline(always)]
-    pub(super) fn slow_ratio_sq(&self, filter: &SwingFilter<F>) -> F {
-        let four = F::from_f64(4.0);
-        let mut r = F::ZERO;
-        for (k, &min) in head(&self.min, usize::from(self.n)).iter().enumerate() {
-            let p = filter.power(k);
-            // P ≤ P_min / 4 (a filter that has seen nothing included): the cap, no division.
             let v = if min <= F::ZERO {
                 F::ZERO
             } else if p * four <= min {
@@ -218,10 +210,10 @@ impl<F: Real> Pace<F> {
             } else {
                 min / p
             };
-            if v > r {
-                r = v;
+            if v > slow {
+                slow = v;
             }
         }
-        r
+        (r, slow)
     }
 }

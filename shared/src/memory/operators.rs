@@ -168,7 +168,7 @@ impl<F: Real> MemoryOperators<F> {
     #[inline]
     pub fn update(&self, state: &mut MemoryState<F>, dl_pm: &[F; MAX_GRATINGS], t_amb_c: F, t_s: F) -> [F; MAX_MEMORY] {
         let mut m = [F::ZERO; MAX_MEMORY];
-        self.run(state, dl_pm, t_amb_c, t_s, |k, v| {
+        self.run::<0>(state, dl_pm, t_amb_c, t_s, |k, v| {
             if let Some(o) = m.get_mut(k) {
                 *o = v;
             }
@@ -180,7 +180,7 @@ impl<F: Real> MemoryOperators<F> {
     /// pass).
     #[inline]
     pub fn advance(&self, state: &mut MemoryState<F>, dl_pm: &[F; MAX_GRATINGS], t_amb_c: F, t_s: F) {
-        self.run(state, dl_pm, t_amb_c, t_s, |_, _| {});
+        self.run::<0>(state, dl_pm, t_amb_c, t_s, |_, _| {});
     }
 
     /// [`MemoryOperators::update`] that adds Γm to `y` instead of returning m (`gamma[k][o]` is
@@ -189,7 +189,7 @@ impl<F: Real> MemoryOperators<F> {
     /// without the memory vector's round trip through memory.
     // Out of line: one copy serves the compensator's step and stream advances.
     #[inline(never)]
-    pub fn accumulate<const O: usize>(
+    pub fn accumulate<const O: usize, const G: usize>(
         &self,
         state: &mut MemoryState<F>,
         dl_pm: &[F; MAX_GRATINGS],
@@ -198,19 +198,22 @@ impl<F: Real> MemoryOperators<F> {
         gamma: &[[F; O]; MAX_MEMORY],
         y: &mut [F; O],
     ) {
-        self.run(state, dl_pm, t_amb_c, t_s, |k, v| {
+        // Summed in a local copy: the compiler keeps it in registers across the terms.
+        let mut acc = *y;
+        self.run::<G>(state, dl_pm, t_amb_c, t_s, |k, v| {
             if let Some(col) = gamma.get(k) {
-                for (yo, &g) in y.iter_mut().zip(col.iter()) {
+                for (yo, &g) in acc.iter_mut().zip(col.iter()) {
                     *yo = g.mul_add(v, *yo);
                 }
             }
         });
+        *y = acc;
     }
 
     /// Move every operator by one sample and hand each used term to `sink(k, m_k)` in
     /// memory-vector order (unused terms are not handed over).
     #[inline(always)]
-    fn run(
+    fn run<const G: usize>(
         &self,
         st: &mut MemoryState<F>,
         dl_pm: &[F; MAX_GRATINGS],
@@ -222,7 +225,8 @@ impl<F: Real> MemoryOperators<F> {
             return;
         }
         let t_g = if self.observer_on { self.grating_temperature(dl_pm, t_amb_c) } else { F::ZERO };
-        let n = usize::from(self.gratings);
+        // G > 0: the model's grating count known at compile time (the inner loops unrolled).
+        let n = if G == 0 { usize::from(self.gratings) } else { G };
         let dl = head(dl_pm, n);
         // Memory-vector indices: the layout of `Dims` (grating high-passes, ambient, stop, observer).
         let mem_ambient = n * N_GRATING_TAUS;
