@@ -164,14 +164,14 @@ impl BenchFitOptions {
     pub fn options_named(&self, name: &dyn Fn(&str) -> String) -> Result<(TrainOptions, &'static str), TrainerError> {
         if self.fixed {
             let fs = feature_set_named(&self.feature_set).ok_or_else(|| {
-                TrainerError::fit(format!(
+                TrainerError::options(format!(
                     "{}: unknown feature set `{}` (paper, hysteresis-aware, hysteresis-aware+time)",
                     name("feature-set"),
                     crate::error::quote_cell(&self.feature_set)
                 ))
             })?;
             if self.k == 0 || self.k > fit::HOST_CAP {
-                return Err(TrainerError::fit(format!("{} must be in 1..={}", name("k"), fit::HOST_CAP)));
+                return Err(TrainerError::options(format!("{} must be in 1..={}", name("k"), fit::HOST_CAP)));
             }
             let cfg = Config {
                 feature_set: fs,
@@ -185,17 +185,30 @@ impl BenchFitOptions {
             if !self.memory {
                 opts = opts.to_builder().memory(fit::memory_core::MemoryOptions::off()).check()?;
             }
-            Ok((opts, "fixed"))
+            Ok((self.with_drift_spec(opts, name)?, "fixed"))
         } else {
-            let opts = self.features.train_options(self.max_centres).map_err(TrainerError::fit)?;
-            Ok((opts, "select"))
+            let opts = self
+                .features
+                .train_options(self.max_centres)
+                .map_err(|m| TrainerError::options(format!("{}: {m}", name("max-centres"))))?;
+            Ok((self.with_drift_spec(opts, name)?, "select"))
         }
+    }
+
+    /// `opts` with the stated drift, checked; an error names the option as `name` does.
+    fn with_drift_spec(&self, opts: TrainOptions, name: &dyn Fn(&str) -> String) -> Result<TrainOptions, TrainerError> {
+        if self.drift_spec.is_none() {
+            return Ok(opts);
+        }
+        opts.to_builder()
+            .drift_spec_pm_per_sqrt_day(self.drift_spec)
+            .check()
+            .map_err(|e| TrainerError::options(format!("{}: {e}", name("drift-spec"))))
     }
 
     /// Run the benchmark.
     pub fn run(&self) -> Result<FitBench, TrainerError> {
         let (opts, mode) = self.options()?;
-        let opts = opts.to_builder().drift_spec_pm_per_sqrt_day(self.drift_spec).check()?;
         bench_fit(&self.data, &opts, mode, self.repeats, self.threads, self.holdout_errors.as_deref())
     }
 }

@@ -16,6 +16,10 @@ pub enum TrainerError {
     Dataset { message: String },
     /// A model could not be fitted.
     Fit { message: String },
+    /// An option out of its range, refused before any work (a fit's options, a command's
+    /// flag); the message names the option, so it is printed as it is (no `fit: ` before it),
+    /// and a front end may put its own spelling of the option first (`--drift-spec: …`).
+    Options { message: String },
     /// A model file problem.
     Model { path: String, message: String },
     /// An output that must not be written (DESIGN §9): not a regular file, one of the inputs,
@@ -41,6 +45,9 @@ impl TrainerError {
     pub fn fit(message: impl Into<String>) -> Self {
         TrainerError::Fit { message: message.into() }
     }
+    pub fn options(message: impl Into<String>) -> Self {
+        TrainerError::Options { message: message.into() }
+    }
     pub fn device(message: impl Into<String>) -> Self {
         TrainerError::Device { message: message.into() }
     }
@@ -62,6 +69,7 @@ impl std::fmt::Display for TrainerError {
             }
             TrainerError::Dataset { message } => write!(f, "dataset: {message}"),
             TrainerError::Fit { message } => write!(f, "fit: {message}"),
+            TrainerError::Options { message } => f.write_str(message),
             TrainerError::Model { path, message } => write!(f, "{path}: {message}"),
             TrainerError::Output { path, message } => write!(f, "{}: {message}", path.display()),
             TrainerError::Device { message } => f.write_str(message),

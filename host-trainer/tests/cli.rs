@@ -55,6 +55,48 @@ fn train_on_a_bad_csv_names_line_and_column_and_writes_nothing() {
     assert_eq!(entries.len(), 1, "only the input remains");
 }
 
+/// An option out of its range is refused before any file is read, naming the flag once and
+/// without the `fit: ` of a fit that failed (`--drift-spec: fit: …` before); a negative
+/// number is read as the option's value, not as an unknown flag.
+#[test]
+fn option_errors_name_the_flag_once() {
+    let d = tempfile::tempdir().unwrap();
+    let (csv, model) = (d.path().join("none.csv"), d.path().join("m.fbgm"));
+    let drift = "--drift-spec: the stated drift is -1 pm/√day; give 0 to 1000 pm/√day";
+    let cases: [(&[&str], &str, &str); 6] = [
+        (&["train", "--drift-spec", "-1"], "--drift-spec", drift),
+        (
+            &["train", "--drift-spec=5000"],
+            "--drift-spec",
+            "--drift-spec: the stated drift is 5000 pm/√day; give 0 to 1000 pm/√day",
+        ),
+        (
+            &["train", "--max-centres", "0"],
+            "--max-centres",
+            "--features/--max-centres: max centres must be in 1..=128 (got 0)",
+        ),
+        (&["bench-fit", "--drift-spec", "-1"], "--drift-spec", drift),
+        (
+            &["bench-fit", "--max-centres", "0"],
+            "--max-centres",
+            "--max-centres: max centres must be in 1..=128 (got 0)",
+        ),
+        (&["bench-fit", "--fixed", "--k", "0"], "--k", "--k must be in 1..=128"),
+    ];
+    for (args, flag, message) in cases {
+        let mut cmd = bin();
+        cmd.args(args).arg("--data").arg(&csv);
+        if args[0] == "train" {
+            cmd.arg("--out").arg(&model);
+        }
+        let (ok, _, err) = run(&mut cmd);
+        assert!(!ok, "{args:?}");
+        assert_eq!(err.trim_end(), format!("error: {message}"), "{args:?}");
+        assert_eq!(err.matches(flag).count(), 1, "{args:?}: {err}");
+        assert!(!model.exists());
+    }
+}
+
 #[test]
 fn inspect_rejects_a_corrupt_blob_by_name() {
     let d = tempfile::tempdir().unwrap();

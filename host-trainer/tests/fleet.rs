@@ -306,3 +306,108 @@ fn a_signing_manifest_signs_every_blob_with_its_own_serial() {
     assert_eq!(r.skipped, 2, "signed with the same key: finished");
     assert!(fleet::status(&m, None).all_done, "fleet status reads the signed groups as done");
 }
+
+/// `drift_spec_pm_per_sqrt_day` in `[defaults]` or a group: a number from 0 to 1000
+/// pm/√day, as `train --drift-spec`; anything else is refused naming the file and the key
+/// (checked in `[defaults]` even when every group gives its own), and each group's job is
+/// trained with its own value or the default.
+#[test]
+fn a_stated_drift_in_the_manifest_is_checked_naming_its_key() {
+    let g = |name: &str, extra: &str| {
+        format!("\n[[group]]\nname = \"{name}\"\ndata = \"a.csv\"\nout = \"{name}.fbgm\"\n{extra}")
+    };
+    let key = "drift_spec_pm_per_sqrt_day";
+    for (bad, what) in
+        [("-1", "stated drift is -1"), ("1000.5", "stated drift is 1000.5"), ("nan", "NaN"), ("\"2\"", "number")]
+    {
+        let e = err_of(&format!("[defaults]\n{key} = {bad}\n{}", g("a", "")));
+        assert!(e.contains("m.toml") && e.contains(&format!("defaults.{key}")) && e.contains(what), "{bad}: {e}");
+        let e = err_of(&format!("[defaults]\n{key} = {bad}\n{}", g("a", &format!("{key} = 1\n"))));
+        assert!(e.contains(&format!("defaults.{key}")), "{bad}, overridden: {e}");
+        let e = err_of(&format!("{}{}", g("a", ""), g("b", &format!("{key} = {bad}\n"))));
+        assert!(e.contains("m.toml") && e.contains(&format!("group[1].{key}")) && e.contains(what), "{bad}: {e}");
+        // Named once, with no `fit: ` before the message.
+        assert_eq!(e.matches(key).count(), 1, "{e}");
+        assert!(!e.contains("fit:"), "{e}");
+    }
+    // The bounds themselves, an integer, the default and a group's own value.
+    let d = tempfile::tempdir().unwrap();
+    let text = format!(
+        "[defaults]\n{key} = 1000\n{}{}{}",
+        g("a", ""),
+        g("b", &format!("{key} = 0\n")),
+        g("c", &format!("{key} = 2.5\n"))
+    );
+    let m = Manifest::from_str_at(&text, &d.path().join("m.toml")).unwrap();
+    let specs: Vec<Option<f64>> =
+        m.groups.iter().map(|g| g.train_options().unwrap().drift_spec_pm_per_sqrt_day()).collect();
+    assert_eq!(specs, [Some(1000.0), Some(0.0), Some(2.5)]);
+    let m = Manifest::from_str_at(&g("a", ""), &d.path().join("m.toml")).unwrap();
+    assert_eq!(m.groups[0].train_options().unwrap().drift_spec_pm_per_sqrt_day(), None);
+}
+
+/// A stated drift reaches each group's fit: on the same record the band's growth is exactly
+/// what `train --drift-spec` fits; on temperature (the output a common-mode drift moves most)
+/// it is floored at s_c²·q with q = spec²/86 400 s [pm²/s], far above the fitted growth, four
+/// times as much for twice the stated drift; and nothing but the band changes. A day's record
+/// is too short to read the walk from the errors (`selection.drift_rate_pm2_per_s`, the rate
+/// read before the stated floor, stays null), so without a stated drift the growth is the
+/// fitted one. Adding the stated drift to `[defaults]` redoes only the group that takes it.
+#[test]
+fn a_stated_drift_in_the_manifest_floors_each_groups_band_growth() {
+    let d = tempfile::tempdir().unwrap();
+    short_csv(d.path(), "g", 10);
+    let group = |name: &str, extra: &str| {
+        format!("\n[[group]]\nname = \"{name}\"\ndata = \"g.csv\"\nout = \"models/{name}.fbgm\"\n{extra}")
+    };
+    let head = "[defaults]\nfeatures = \"paper\"\nmax_centres = 8\n";
+    let groups = [
+        group("plain", ""),
+        group("stated", "drift_spec_pm_per_sqrt_day = 200.0\n"),
+        group("doubled", "drift_spec_pm_per_sqrt_day = 400\n"),
+    ]
+    .concat();
+    let path = d.path().join("fleet.toml");
+    std::fs::write(&path, format!("{head}{groups}")).unwrap();
+    let m = Manifest::from_file(&path).unwrap();
+    let r = fleet::run(&m, 2, false).unwrap();
+    assert_eq!((r.trained, r.failed), (3, 0), "{}", r.text());
+    let coef = |name: &str| -> serde_json::Value {
+        let p = d.path().join(format!("models/{name}.coefficients.json"));
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let growth = |c: &serde_json::Value| -> Vec<f64> {
+        c["model_h"]["band"]["resid_var_growth_per_s"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect()
+    };
+    let (plain, stated, doubled) = (coef("plain"), coef("stated"), coef("doubled"));
+    let (g0, g1, g2) = (growth(&plain), growth(&stated), growth(&doubled));
+    // Exactly what `train --features paper --max-centres 8 --drift-spec 200` fits on this record.
+    let record = fbg_trainer::data::Dataset::read_csv(&d.path().join("g.csv")).unwrap();
+    let opts = fbg_trainer::fit::FeatureChoice::Paper
+        .train_options(8)
+        .unwrap()
+        .to_builder()
+        .drift_spec_pm_per_sqrt_day(Some(200.0))
+        .check()
+        .unwrap();
+    let alone = fbg_trainer::fit::train(&record, &opts, &fbg_trainer::fit::Origin::default()).unwrap();
+    let b: Vec<f64> = alone.selection.var_model_h.iter().map(|v| v.b).collect();
+    assert_eq!(g1, b, "the group's band grows as `train --drift-spec 200` makes it");
+    assert!(g1[0] > 10.0 * g0[0], "the stated floor binds on T: {g0:?} → {g1:?}");
+    assert!(g1.iter().zip(&g0).all(|(s, p)| s >= p), "{g0:?} → {g1:?}");
+    assert!((g2[0] / g1[0] - 4.0).abs() < 1e-9, "twice the stated drift, four times the growth: {g1:?} → {g2:?}");
+    for c in [&plain, &stated, &doubled] {
+        assert!(c["selection"]["drift_rate_pm2_per_s"].is_null(), "{}", c["selection"]);
+        assert_eq!(c["model_h"]["poly_B_physical_units"], plain["model_h"]["poly_B_physical_units"]);
+        assert_eq!(c["model_h"]["rbf_centres"], plain["model_h"]["rbf_centres"]);
+    }
+
+    // The default applies to the group without its own: that group alone is redone, and its
+    // band now grows as the group that stated the same drift.
+    std::fs::write(&path, format!("{head}drift_spec_pm_per_sqrt_day = 400\n{groups}")).unwrap();
+    let m = Manifest::from_file(&path).unwrap();
+    let r = fleet::run(&m, 2, false).unwrap();
+    assert_eq!((r.trained, r.skipped), (1, 2), "{}", r.text());
+    assert!(matches!(status(&r, "plain"), Outcome::Trained { .. }));
+    assert_eq!(growth(&coef("plain")), growth(&coef("doubled")));
+}

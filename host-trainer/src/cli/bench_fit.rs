@@ -63,7 +63,7 @@ pub struct BenchFitArgs {
     #[arg(long)]
     holdout_errors: Option<PathBuf>,
     /// The interrogator's stated stability [pm/√day], as `train --drift-spec`.
-    #[arg(long, value_name = "PM_PER_SQRT_DAY")]
+    #[arg(long, value_name = "PM_PER_SQRT_DAY", allow_negative_numbers = true)]
     drift_spec: Option<f64>,
 }
 

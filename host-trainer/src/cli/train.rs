@@ -45,7 +45,7 @@ pub struct TrainArgs {
     /// grow at least as fast as such a drift moves each output (one calibration week shows one
     /// path of the drift, too little to read its rate well). Without it, the rate the
     /// calibration's errors show.
-    #[arg(long, value_name = "PM_PER_SQRT_DAY")]
+    #[arg(long, value_name = "PM_PER_SQRT_DAY", allow_negative_numbers = true)]
     drift_spec: Option<f64>,
     #[command(flatten)]
     sign: SignArgs,
@@ -62,6 +62,10 @@ struct Written {
 impl TrainArgs {
     pub fn run(self) -> Result<()> {
         let (out, data) = (&self.out, &self.data);
+        // The options first: a value out of range is refused before any file is read.
+        let on_outlier = self.on_error.parse().map_err(anyhow::Error::msg)?;
+        let opts =
+            train_options(self.features.0, self.max_centres, !self.json, self.drift_spec)?.with_on_outlier(on_outlier);
         let (base, coef) = (export::baseline_path(out), export::coefficients_path(out));
         let meta_file = meta_path(data);
         let keys = self.sign.key_files();
@@ -72,9 +76,6 @@ impl TrainArgs {
         let d = Dataset::read_calibration_csv(data)?;
         let meta = SimMeta::read_for(data)?;
         let origin = origin_of(data, meta.as_ref());
-        let on_outlier = self.on_error.parse().map_err(anyhow::Error::msg)?;
-        let opts =
-            train_options(self.features.0, self.max_centres, !self.json, self.drift_spec)?.with_on_outlier(on_outlier);
         let t = Instant::now();
         let tr = fit::train_source(&d, &data.display().to_string(), &opts, &origin)?;
         let seconds = t.elapsed().as_secs_f64();

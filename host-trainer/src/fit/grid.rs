@@ -132,7 +132,7 @@ impl CvGrid {
 
     /// Refuse a grid without any point, naming the entry that leaves it empty.
     pub(crate) fn check(&self) -> Result<(), TrainerError> {
-        let empty = |what: &str| Err(TrainerError::fit(format!("empty hyper-parameter grid: no {what}")));
+        let empty = |what: &str| Err(TrainerError::options(format!("empty hyper-parameter grid: no {what}")));
         if self.feature_sets.is_empty() {
             return empty("feature_sets");
         }

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::DEFAULT_MAX_CENTRES;
 use crate::error::{line_col, TrainerError};
-use crate::fit::FeatureChoice;
+use crate::fit::{FeatureChoice, TrainOptions};
 use crate::sign;
 
 #[derive(Deserialize)]
@@ -25,6 +25,8 @@ struct ManifestFile {
 struct Defaults {
     features: Option<String>,
     max_centres: Option<usize>,
+    /// Read as any TOML value, so that a string or a table is refused naming the key.
+    drift_spec_pm_per_sqrt_day: Option<toml::Value>,
     sign: Option<PathBuf>,
     serial_state: Option<PathBuf>,
 }
@@ -37,6 +39,7 @@ struct GroupFile {
     out: PathBuf,
     features: Option<String>,
     max_centres: Option<usize>,
+    drift_spec_pm_per_sqrt_day: Option<toml::Value>,
 }
 
 /// One sensor group of a manifest, paths resolved.
@@ -47,12 +50,27 @@ pub struct Group {
     pub out: PathBuf,
     pub features: FeatureChoice,
     pub max_centres: usize,
+    /// The interrogator's stated stability \[pm/√day\] (as `train --drift-spec`; checked
+    /// 0 ..= 1 000): a floor under the band's growth with the drift's walk.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_spec_pm_per_sqrt_day: Option<f64>,
     /// The key id the group's blobs are signed with (hex), when the run signs.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub signed_by: Option<String>,
 }
 
 impl Group {
+    /// The options the group is trained with: as `train --features F --max-centres K
+    /// [--drift-spec X]`.
+    pub fn train_options(&self) -> Result<TrainOptions, TrainerError> {
+        self.features
+            .train_options(self.max_centres)
+            .map_err(TrainerError::options)?
+            .to_builder()
+            .drift_spec_pm_per_sqrt_day(self.drift_spec_pm_per_sqrt_day)
+            .check()
+    }
+
     /// The Model-P blob beside the Model-H blob (`<stem>-p.fbgm`, as `train`).
     pub fn baseline_path(&self) -> PathBuf {
         crate::export::baseline_path(&self.out)
@@ -91,6 +109,36 @@ fn config_error(origin: &Path, key: impl Into<String>, message: impl Into<String
     TrainerError::Config { origin: origin.display().to_string(), key: key.into(), message: message.into() }
 }
 
+/// The key of the stated drift in `[defaults]` and in a `[[group]]`.
+const DRIFT_SPEC_KEY: &str = "drift_spec_pm_per_sqrt_day";
+
+/// A stated drift \[pm/√day\] as the manifest gives it (an integer or a float), checked as
+/// `train --drift-spec` is; errors name the file and `key`.
+fn drift_spec(path: &Path, key: &str, v: Option<&toml::Value>) -> Result<Option<f64>, TrainerError> {
+    let Some(v) = v else { return Ok(None) };
+    let spec = match v {
+        toml::Value::Float(x) => *x,
+        // Integers beyond 2^53 round; any of them is refused by the range check anyway.
+        toml::Value::Integer(i) => *i as f64,
+        other => {
+            return Err(config_error(
+                path,
+                key,
+                format!(
+                    "must be a number of pm/√day; got the {} `{}`",
+                    other.type_str(),
+                    crate::error::quote_cell(&other.to_string())
+                ),
+            ))
+        }
+    };
+    TrainOptions::builder()
+        .drift_spec_pm_per_sqrt_day(Some(spec))
+        .check_ref()
+        .map_err(|e| config_error(path, key, e.to_string()))?;
+    Ok(Some(spec))
+}
+
 impl Manifest {
     /// Read and validate a manifest file; errors name the file and the key
     /// (`group[2].max_centres`, ...).
@@ -109,6 +157,9 @@ impl Manifest {
         if raw.group.is_empty() {
             return Err(config_error(path, "group", "no [[group]] in the manifest"));
         }
+        // Checked even when every group gives its own.
+        let default_drift =
+            drift_spec(path, &format!("defaults.{DRIFT_SPEC_KEY}"), raw.defaults.drift_spec_pm_per_sqrt_day.as_ref())?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let resolve = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
         let mut groups: Vec<Group> = Vec::with_capacity(raw.group.len());
@@ -141,12 +192,17 @@ impl Manifest {
             if let Err(m) = FeatureChoice::default().train_options(max_centres) {
                 return Err(config_error(path, which("max_centres", own_max), m));
             }
+            let drift_spec_pm_per_sqrt_day = match &g.drift_spec_pm_per_sqrt_day {
+                Some(v) => drift_spec(path, &key(DRIFT_SPEC_KEY), Some(v))?,
+                None => default_drift,
+            };
             let group = Group {
                 name: g.name,
                 data: resolve(&g.data),
                 out: resolve(&g.out),
                 features,
                 max_centres,
+                drift_spec_pm_per_sqrt_day,
                 signed_by: None,
             };
             for p in [lexical(&group.out), lexical(&group.baseline_path())] {

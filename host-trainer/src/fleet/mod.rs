@@ -6,6 +6,7 @@
 //! [defaults]               # optional: what a group does not say itself
 //! features = "memory"      # memory | hysteresis-aware | latch | paper | all (as `train --features`)
 //! max_centres = 32         # as `train --max-centres`
+//! drift_spec_pm_per_sqrt_day = 1.9  # optional: as `train --drift-spec` (0 to 1000 pm/√day)
 //! sign = "keys/lab.key"    # optional: sign every blob (as `train --sign`; `fleet --sign` overrides)
 //! serial_state = "state"   # optional: the serial ledger's directory (as `--serial-state`)
 //!
@@ -15,12 +16,13 @@
 //! out = "models/pier-3.fbgm"
 //! features = "paper"       # optional, overrides the default
 //! max_centres = 16         # optional
+//! drift_spec_pm_per_sqrt_day = 0.5  # optional, overrides the default
 //! ```
 //!
 //! Each group is trained as `train` would (Model-H blob `out`, Model-P blob `<stem>-p.fbgm`,
 //! `<stem>.coefficients.json`) and a sidecar `<stem>.fleet.json` records the group's input
-//! digest (CRC-64/XZ over the CSV bytes and the group's options) and the digest of the blob
-//! written; the four files are one output set ([`crate::data::files::set`]), so the record
+//! digest (CRC-64/XZ over the CSV bytes and the group's options, the stated drift among them)
+//! and the digest of the blob written; the four files are one output set ([`crate::data::files::set`]), so the record
 //! always describes the blobs beside it. A later run skips a group whose blob exists, decodes, matches the
 //! sidecar's blob digest and whose input digest is unchanged; anything else (no sidecar, an
 //! interrupted run, a corrupt or replaced blob, changed data or options) is trained again.

@@ -10,7 +10,7 @@ use crate::fit;
 pub(super) const CRC64: crc::Crc<u64> = crc::Crc::<u64>::new(&crc::CRC_64_XZ);
 
 /// Digest of a group's inputs: the CSV bytes, its `.record.json` sidecar's and the options
-/// that shape the fit.
+/// that shape the fit (features, K limit, stated drift, signing key).
 pub(crate) fn input_digest(g: &Group, csv: &[u8]) -> String {
     let mut d = CRC64.digest();
     d.update(
@@ -20,6 +20,10 @@ pub(crate) fn input_digest(g: &Group, csv: &[u8]) -> String {
     // Only when signing, so that the digests of unsigned runs stay what they were.
     if let Some(id) = &g.signed_by {
         d.update(format!("sign={id};").as_bytes());
+    }
+    // Likewise only when stated, so that the digests of groups without it stay what they were.
+    if let Some(spec) = g.drift_spec_pm_per_sqrt_day {
+        d.update(format!("drift_spec_pm_per_sqrt_day={spec:?};").as_bytes());
     }
     d.update(&(csv.len() as u64).to_le_bytes());
     d.update(csv);

@@ -120,7 +120,7 @@ impl FleetReport {
 
 fn train_group(g: &Group, digest: &str, signer: Option<&BlobSigner>) -> Result<Sidecar, TrainerError> {
     let t = Instant::now();
-    let opts = g.features.train_options(g.max_centres).map_err(TrainerError::fit)?;
+    let opts = g.train_options()?;
     let d = Dataset::read_csv(&g.data)?;
     let origin = match SimMeta::read_for(&g.data)? {
         Some(m) => Origin { scenario: m.scenario.name.clone(), seed: m.seed },
