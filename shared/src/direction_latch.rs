@@ -54,13 +54,14 @@ impl DirectionLatch {
             self.primed = true;
             return self.value();
         }
-        // i64 so that no tick difference can overflow.
-        let (a, x64, db) = (self.anchor as i64, x as i64, dead_band as i64);
-        let rise = x64 > a + db;
-        let fall = x64 < a - db;
+        // Saturating: a limit beyond the i32 range is one no tick count crosses, as in exact
+        // arithmetic (one `qadd`/`qsub` each on a Cortex-M4).
+        let a = self.anchor;
+        let rise = x > a.saturating_add(dead_band);
+        let fall = x < a.saturating_sub(dead_band);
         match self.dir {
-            1 if x64 > a => self.anchor = x,
-            -1 if x64 < a => self.anchor = x,
+            1 if x > a => self.anchor = x,
+            -1 if x < a => self.anchor = x,
             1 | 0 if fall => {
                 self.dir = -1;
                 self.anchor = x;
