@@ -47,6 +47,8 @@ pub struct MemoryOperators<F> {
     /// Whether the model has the ambient input (the ambient high-passes read it).
     ambient: bool,
     grating_on: [bool; N_GRATING_TAUS],
+    /// `grating_on` as bits (bit i: time constant i), so that a step visits only those on.
+    grating_mask: u8,
     ambient_on: [bool; N_AMBIENT_TAUS],
     play_on: [bool; N_PLAYS],
     /// The slot of the narrowest play in use (0 when none, then unused: only slots in use
@@ -68,6 +70,7 @@ impl<F: Real> MemoryOperators<F> {
             gratings: 0,
             ambient: false,
             grating_on: [false; N_GRATING_TAUS],
+            grating_mask: 0,
             ambient_on: [false; N_AMBIENT_TAUS],
             play_on: [false; N_PLAYS],
             // Zero, as every other field: an unloaded bank is all zero bytes (`.bss`).
@@ -108,6 +111,7 @@ impl<F: Real> MemoryOperators<F> {
                 b.narrowest = j as u8;
             }
         }
+        b.grating_mask = b.grating_on.iter().enumerate().fold(0, |m, (i, &on)| if on { m | 1 << i } else { m });
         b.any = b.grating_on.iter().chain(b.ambient_on.iter()).chain(b.play_on.iter()).any(|&o| o) || b.observer_on;
         b
     }
@@ -255,16 +259,16 @@ impl<F: Real> MemoryOperators<F> {
         st.t_prev_s = t_s;
         self.refresh_alphas(&mut st.smoothing, dt);
         let alphas = &st.smoothing;
-        let mut k = 0;
-        for (((lp, &on), &a), s) in
-            self.grating_lp.iter().zip(self.grating_on.iter()).zip(alphas.grating.iter()).zip(st.grating.iter_mut())
-        {
-            if on {
+        // The time constants that are on, in order (a model often keeps none or a few).
+        let mut on = self.grating_mask;
+        while on != 0 {
+            let i = on.trailing_zeros() as usize;
+            on &= on - 1;
+            if let (Some(lp), Some(&a), Some(s)) = (self.grating_lp.get(i), alphas.grating.get(i), st.grating.get_mut(i)) {
                 for (j, (&x, si)) in dl.iter().zip(s.iter_mut()).enumerate() {
-                    sink(k + j, x - lp.update(si, x, a));
+                    sink(i * n + j, x - lp.update(si, x, a));
                 }
             }
-            k += n;
         }
         for (k, (((lp, &on), &a), si)) in (mem_ambient..).zip(
             self.ambient_lp.iter().zip(self.ambient_on.iter()).zip(alphas.ambient.iter()).zip(st.ambient.iter_mut()),
