@@ -222,11 +222,18 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// stage-1 standardised first guesses, then paper Eq. 3 generalised to M guesses.
     #[inline(always)]
     fn core<const G: usize, const M: usize>(&self, s: &Sample<F>) -> [F; MAX_OUTPUTS] {
-        let m = self.m::<M>();
         let (x, n_in) = affine_inputs(&s.dl_pm, self.g::<G>(), self.ambient, s.t_amb_c);
+        self.core_of::<M>(&x, n_in)
+    }
+
+    /// [`PreparedModel::core`] from the sample's affine inputs `x` (`n_in` of them), made once
+    /// per step.
+    #[inline(always)]
+    fn core_of<const M: usize>(&self, x: &[F; MAX_ENVELOPE], n_in: usize) -> [F; MAX_OUTPUTS] {
+        let m = self.m::<M>();
         let mut g = [F::ZERO; MAX_OUTPUTS];
         for (gi, row) in g.iter_mut().zip(self.a.iter()).take(m) {
-            *gi = affine(&x, n_in, row);
+            *gi = affine(x, n_in, row);
         }
         // B·φ (paper Eq. 3) through nalgebra: the paper's shape as a 3 × 10 product with its
         // bounds known at compile time, every other shape as the whole MAX_OUTPUTS × MAX_POLY
@@ -458,7 +465,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             }
         }
         let lead = self.lead(state, s, &mut flags);
-        let core = self.core::<G, M>(s);
+        let core = self.core_of::<M>(&x_env, n_env);
 
         // A sample the gate refuses leaves the stream state as it was and is answered by
         // Model-P's core with Model-P's band (widened as a fault).
