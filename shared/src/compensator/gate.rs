@@ -92,9 +92,11 @@ impl<F: Real> Gate<F> {
         // Untimed: every step is within an infinite limit (Δx is finite: both samples are).
         let dt = if timed { dt } else { F::INFINITY };
         // |Δx| ≤ rate·Δt; a step that overflows to ±∞ fails it against a finite limit.
-        head(x, n).iter().zip(self.lo.iter().zip(self.hi.iter())).zip(self.rate.iter().zip(last.x.iter())).all(
-            |((&v, (&lo, &hi)), (&rate, &prev))| v >= lo && v <= hi && (v - prev).abs() <= rate * dt,
-        )
+        head(x, n)
+            .iter()
+            .zip(self.lo.iter().zip(self.hi.iter()))
+            .zip(self.rate.iter().zip(last.x.iter()))
+            .all(|((&v, (&lo, &hi)), (&rate, &prev))| v >= lo && v <= hi && (v - prev).abs() <= rate * dt)
     }
 
     /// Remember the sample let in, and move the swing by it.

@@ -39,7 +39,7 @@ pub(super) type CentreSums<F> = ([F; MAX_OUTPUTS], [F; VAR_RANK], F);
 #[inline(never)]
 pub(super) fn centre_pass<F: Real, const K: usize>(
     centres: &Vec<PreparedCentre<F>, K>,
-    z: &[F; ZP],
+    z: &[F],
     z_sq: F,
     groups: usize,
     mut y: [F; MAX_OUTPUTS],
@@ -54,7 +54,7 @@ pub(super) fn centre_pass<F: Real, const K: usize>(
     fn one<F: Real>(
         j: usize,
         c: &PreparedCentre<F>,
-        z: &[F; ZP],
+        z: &[F],
         z_sq: F,
         groups: usize,
         sink: &mut impl FnMut(usize, F),
@@ -180,7 +180,7 @@ pub(super) fn centre_pass_lanes<F: Real, const K: usize>(
 /// ψ_j = exp(−‖z − μ_j‖²/(2σ²)) over the first `groups` groups of four inputs, in input order
 /// (an unused or padding input adds an exact 0).
 #[inline(always)]
-pub(super) fn psi_of<F: Real>(c: &PreparedCentre<F>, z: &[F; ZP], z_sq: F, groups: usize) -> F {
+pub(super) fn psi_of<F: Real>(c: &PreparedCentre<F>, z: &[F], z_sq: F, groups: usize) -> F {
     let mut d2 = z_sq + c.mu_sq;
     for (zc, mc) in z.chunks_exact(4).zip(c.m2.chunks_exact(4)).take(groups) {
         if let ([z0, z1, z2, z3], [m0, m1, m2, m3]) = (zc, mc) {
@@ -197,7 +197,7 @@ pub(super) fn psi_of<F: Real>(c: &PreparedCentre<F>, z: &[F; ZP], z_sq: F, group
 #[inline(always)]
 pub(super) fn psi_all<F: Real, const K: usize>(
     centres: &Vec<PreparedCentre<F>, K>,
-    z: &[F; ZP],
+    z: &[F],
     z_sq: F,
     groups: usize,
     psi: &mut [F],
@@ -214,7 +214,7 @@ pub(super) fn psi_all<F: Real, const K: usize>(
 #[inline(always)]
 pub(super) fn weak<F: Real, const K: usize>(
     centres: &Vec<PreparedCentre<F>, K>,
-    z: &[F; ZP],
+    z: &[F],
     z_sq: F,
     groups: usize,
     psi_sq: F,
@@ -233,12 +233,7 @@ pub(super) fn weak<F: Real, const K: usize>(
 }
 
 #[inline(never)]
-fn psi_max_pass<F: Real, const K: usize>(
-    centres: &Vec<PreparedCentre<F>, K>,
-    z: &[F; ZP],
-    z_sq: F,
-    groups: usize,
-) -> F {
+fn psi_max_pass<F: Real, const K: usize>(centres: &Vec<PreparedCentre<F>, K>, z: &[F], z_sq: F, groups: usize) -> F {
     let mut m = F::ZERO;
     for c in centres.iter() {
         m = m.max(psi_of::<F>(c, z, z_sq, groups));

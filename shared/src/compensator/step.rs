@@ -12,6 +12,9 @@ use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, VAR
 use crate::real::Real;
 use nalgebra::SVector;
 
+/// RBF inputs of the paper's shape (3 gratings: 2·3 + 2 at most) in whole groups of four.
+const PAPER_ZP: usize = (2 * 3 + 2usize).div_ceil(4) * 4;
+
 /// A sample let into the stream state, as the RBF pass and the rest of the step need it.
 #[derive(Clone, Copy, Debug)]
 struct Entered<F> {
@@ -242,18 +245,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         if M == 3 {
             // φ of three guesses built in place (no zeroed MAX_POLY array to fill).
             let [g0, g1, g2, _] = g;
-            let phi = SVector::<F, 10>::from([
-                F::ONE,
-                g0,
-                g1,
-                g2,
-                g0 * g0,
-                g1 * g1,
-                g2 * g2,
-                g0 * g1,
-                g0 * g2,
-                g1 * g2,
-            ]);
+            let phi =
+                SVector::<F, 10>::from([F::ONE, g0, g1, g2, g0 * g0, g1 * g1, g2 * g2, g0 * g1, g0 * g2, g1 * g2]);
             let part = self.b.fixed_view::<3, 10>(0, 0) * phi;
             let mut y = [F::ZERO; MAX_OUTPUTS];
             for (o, v) in y.iter_mut().zip(part.iter()) {
@@ -270,7 +263,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// the inputs in the layout's order (Δλ_1..N, T_amb, t, latches; an input the model does
     /// not read counts as 0), summed in that order.
     #[inline(always)]
-    fn rbf_inputs<const G: usize>(&self, s: &Sample<F>, latch: &[F; MAX_GRATINGS], z: &mut [F; ZP]) -> F {
+    fn rbf_inputs<const G: usize>(&self, s: &Sample<F>, latch: &[F; MAX_GRATINGS], z: &mut [F]) -> F {
         let n = self.g::<G>();
         let n_z = usize::from(self.n_z);
         let mut z_sq = F::ZERO;
@@ -307,13 +300,30 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             Entry::Done(e) => return e,
             Entry::In(e) => e,
         };
-        // RBF residual (paper Eq. 5-6) with the variance projections in the same pass.
-        let mut z = [F::ZERO; ZP];
-        let z_sq = self.rbf_inputs::<G>(s, &e.latch, &mut z);
+        // The paper's shape has at most 2·3 + 2 RBF inputs: two groups of four, a smaller
+        // array to clear than every shape's.
+        if G == 3 {
+            self.residual::<G, M>(s, &e, &mut [F::ZERO; PAPER_ZP], &mut sink)
+        } else {
+            self.residual::<G, M>(s, &e, &mut [F::ZERO; ZP], &mut sink)
+        }
+    }
+
+    /// The rest of a step let in: the RBF residual (paper Eq. 5-6) with the variance
+    /// projections in the same pass, over the RBF inputs made in `z` (zeroed, at least the
+    /// model's inputs long), then the band and flags.
+    #[inline(always)]
+    fn residual<const G: usize, const M: usize>(
+        &self,
+        s: &Sample<F>,
+        e: &Entered<F>,
+        z: &mut [F],
+        sink: &mut impl FnMut(usize, F),
+    ) -> Estimate<F> {
+        let z_sq = self.rbf_inputs::<G>(s, &e.latch, z);
         // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
-        let (y, proj, psi_sq) =
-            centre_pass::<F, K>(&self.centres, &z, z_sq, usize::from(self.z_groups), e.y, &mut sink);
-        self.leave::<M>(&e, &z, z_sq, y, &proj, psi_sq)
+        let (y, proj, psi_sq) = centre_pass::<F, K>(&self.centres, z, z_sq, usize::from(self.z_groups), e.y, sink);
+        self.leave::<M>(e, z, z_sq, y, &proj, psi_sq)
     }
 
     /// Compensate `samples` in order, `out[i]` getting what [`PreparedModel::step`] gives for
@@ -492,7 +502,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     fn leave<const M: usize>(
         &self,
         e: &Entered<F>,
-        z: &[F; ZP],
+        z: &[F],
         z_sq: F,
         y: [F; MAX_OUTPUTS],
         proj: &[F; VAR_RANK],

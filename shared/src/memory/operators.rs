@@ -264,7 +264,9 @@ impl<F: Real> MemoryOperators<F> {
         while on != 0 {
             let i = on.trailing_zeros() as usize;
             on &= on - 1;
-            if let (Some(lp), Some(&a), Some(s)) = (self.grating_lp.get(i), alphas.grating.get(i), st.grating.get_mut(i)) {
+            if let (Some(lp), Some(&a), Some(s)) =
+                (self.grating_lp.get(i), alphas.grating.get(i), st.grating.get_mut(i))
+            {
                 for (j, (&x, si)) in dl.iter().zip(s.iter_mut()).enumerate() {
                     sink(i * n + j, x - lp.update(si, x, a));
                 }
