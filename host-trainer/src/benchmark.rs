@@ -17,7 +17,7 @@ use crate::error::TrainerError;
 use crate::eval::parity;
 use crate::eval::score::{channels, evaluate_holdout, ModelEval};
 use crate::export;
-use crate::fit::{self, Config, FeatureChoice, Origin, TrainOptions};
+use crate::fit::{self, Config, FeatureChoice, HyperParam, Origin, TrainOptions};
 use crate::stats::median;
 
 /// Hyper-parameters of a fixed-configuration fit when none are given: what cross-validation
@@ -173,6 +173,11 @@ impl BenchFitOptions {
             if self.k == 0 || self.k > fit::HOST_CAP {
                 return Err(TrainerError::options(format!("{} must be in 1..={}", name("k"), fit::HOST_CAP)));
             }
+            // The values the blob carries, in the ranges its check accepts: refused here, before
+            // the file is read, not by the assembled model's check after the whole fit.
+            HyperParam::SigmaMult.check(self.sigma_mult, &name("sigma-mult"))?;
+            HyperParam::AlphaRel.check(self.alpha_rel, &name("alpha-rel"))?;
+            HyperParam::DeadBandPm.check(self.dead_band_pm, &name("dead-band-pm"))?;
             let cfg = Config {
                 feature_set: fs,
                 dead_band_pm: self.dead_band_pm,

@@ -57,13 +57,17 @@ fn train_on_a_bad_csv_names_line_and_column_and_writes_nothing() {
 
 /// An option out of its range is refused before any file is read, naming the flag once and
 /// without the `fit: ` of a fit that failed (`--drift-spec: fit: …` before); a negative
-/// number is read as the option's value, not as an unknown flag.
+/// number is read as the option's value, not as an unknown flag. `bench-fit --fixed`'s
+/// hyper-parameters are held to the ranges the model blob accepts (they failed after the whole
+/// fit, as `fit: assembled model is invalid: model parameter hyper.alpha …`).
 #[test]
 fn option_errors_name_the_flag_once() {
     let d = tempfile::tempdir().unwrap();
     let (csv, model) = (d.path().join("none.csv"), d.path().join("m.fbgm"));
+    let holdout = d.path().join("holdout.csv");
     let drift = "--drift-spec: the stated drift is -1 pm/√day; give 0 to 1000 pm/√day";
-    let cases: [(&[&str], &str, &str); 6] = [
+    let sigma = "--sigma-mult must be above 0 and at most 1e6";
+    let cases: [(&[&str], &str, &str); 13] = [
         (&["train", "--drift-spec", "-1"], "--drift-spec", drift),
         (
             &["train", "--drift-spec=5000"],
@@ -82,19 +86,137 @@ fn option_errors_name_the_flag_once() {
             "--max-centres: max centres must be in 1..=128 (got 0)",
         ),
         (&["bench-fit", "--fixed", "--k", "0"], "--k", "--k must be in 1..=128"),
+        (&["bench-fit", "--fixed", "--alpha-rel", "-1"], "--alpha-rel", "--alpha-rel must be in 0..=1e12 (got -1)"),
+        (&["bench-fit", "--fixed", "--alpha-rel=-1"], "--alpha-rel", "--alpha-rel must be in 0..=1e12 (got -1)"),
+        (
+            &["bench-fit", "--fixed", "--alpha-rel", "1e13"],
+            "--alpha-rel",
+            "--alpha-rel must be in 0..=1e12 (got 10000000000000)",
+        ),
+        (&["bench-fit", "--fixed", "--sigma-mult", "0"], "--sigma-mult", &format!("{sigma} (got 0)")),
+        (&["bench-fit", "--fixed", "--sigma-mult", "-2"], "--sigma-mult", &format!("{sigma} (got -2)")),
+        // With the memory terms the options went to the fit unchecked.
+        (&["bench-fit", "--fixed", "--memory", "--sigma-mult=inf"], "--sigma-mult", &format!("{sigma} (got inf)")),
+        (
+            &["bench-fit", "--fixed", "--dead-band-pm", "-4"],
+            "--dead-band-pm",
+            "--dead-band-pm must be in 0..=1e6 (got -4)",
+        ),
     ];
     for (args, flag, message) in cases {
         let mut cmd = bin();
         cmd.args(args).arg("--data").arg(&csv);
         if args[0] == "train" {
             cmd.arg("--out").arg(&model);
+        } else {
+            cmd.arg("--holdout-errors").arg(&holdout);
         }
         let (ok, _, err) = run(&mut cmd);
         assert!(!ok, "{args:?}");
         assert_eq!(err.trim_end(), format!("error: {message}"), "{args:?}");
         assert_eq!(err.matches(flag).count(), 1, "{args:?}: {err}");
-        assert!(!model.exists());
+        assert!(!model.exists() && !holdout.exists());
     }
+    let dead_band = ["bench-fit", "--fixed", "--dead-band-pm", "nan", "--data"];
+    let (ok, _, err) = run(bin().args(dead_band).arg(&csv));
+    assert!(!ok && err.trim_end() == "error: --dead-band-pm must be in 0..=1e6 (got NaN)", "{err}");
+}
+
+/// The other commands' options the same way: `fleet --shard` names the option once (it was
+/// `fleet: shard: --shard: shard index …`), and a negative number given to a numeric option
+/// is its value (clap said "unexpected argument '-1'"), refused by the option's range. Every
+/// input is missing, so each error comes before any file is read; nothing is written.
+#[test]
+fn option_errors_of_other_commands_name_the_flag_once() {
+    let d = tempfile::tempdir().unwrap();
+    let p = |name: &str| d.path().join(name).display().to_string();
+    let (manifest, none, out, model) = (p("fleet.toml"), p("none.csv"), p("out.csv"), p("m.fbgm"));
+    let not_below = "--shard 5/2: the index 5 is not below the count 2 (shards count from 0)";
+    let timeout = "--timeout must be a positive number of seconds up to 1e9";
+    let cases: Vec<(Vec<&str>, &str, String)> = vec![
+        (vec!["fleet", "--shard", "5/2", "--manifest", &manifest], "--shard", not_below.into()),
+        (
+            vec!["fleet", "--shard", "0/0", "--manifest", &manifest],
+            "--shard",
+            "--shard 0/0: the count must be at least 1".into(),
+        ),
+        (
+            vec!["fleet", "--shard", "1of2", "--manifest", &manifest],
+            "--shard",
+            "--shard 1of2: not I/N (e.g. 0/4)".into(),
+        ),
+        (vec!["fleet", "--shards", "0", "--manifest", &manifest], "--shards", "--shards must be at least 1".into()),
+        (vec!["simulate", "--pace", "-1", "--out", &out], "--pace", "--pace: -1 is out of range [0.001, 1000]".into()),
+        (vec!["simulate", "--pace", "0", "--out", &out], "--pace", "--pace: 0 is out of range [0.001, 1000]".into()),
+        (
+            vec!["simulate", "--spectra", &none, "--snr-db", "nan", "--out", &out],
+            "--snr-db",
+            "--snr-db: NaN is not a number of dB".into(),
+        ),
+        (
+            vec!["import", "--format", "csv", &none, "--cal-fraction", "-0.5", "--out", &out],
+            "--cal-fraction",
+            "--cal-fraction: -0.5 is not a fraction in (0, 1]".into(),
+        ),
+        (
+            vec!["import", "--format", "csv", &none, "--max-skipped", "-1", "--out", &out],
+            "--max-skipped",
+            "--max-skipped must be a percentage from 0 to 100 (got -1)".into(),
+        ),
+        (
+            vec!["peaks", "--format", "spectra-csv", &none, "--max-skipped", "-1", "--out", &out],
+            "--max-skipped",
+            "--max-skipped must be a percentage from 0 to 100 (got -1)".into(),
+        ),
+        (
+            vec!["recalibrate", "--model", &model, "--data", &none, "--batch-hours", "-1", "--out", &out],
+            "--batch-hours",
+            "--batch-hours must be positive (got -1)".into(),
+        ),
+        (
+            vec!["stream", "--model", &model, "--data", &none, "--port", "1", "--timeout", "-5"],
+            "--timeout",
+            format!("{timeout} (got -5)"),
+        ),
+        (vec!["device", "status", "--port", "1", "--timeout", "-1"], "--timeout", format!("{timeout} (got -1)")),
+        // Beyond what a duration holds: this panicked in `Duration::from_secs_f64`.
+        (vec!["device", "status", "--port", "1", "--timeout", "1e300"], "--timeout", format!("{timeout} (got 1e300)")),
+    ];
+    for (args, flag, message) in cases {
+        let (ok, _, err) = run(bin().args(&args));
+        assert!(!ok, "{args:?}");
+        assert_eq!(err.trim_end(), format!("error: {message}"), "{args:?}");
+        assert_eq!(err.matches(flag).count(), 1, "{args:?}: {err}");
+        let written: Vec<_> = std::fs::read_dir(d.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert!(written.is_empty(), "{args:?}: nothing written, found {written:?}");
+    }
+}
+
+/// A negative number where one makes sense is taken as the option's value, as with `=`: an SNR
+/// below 0 dB (noise above the peak), a calibration split before the first row (no calibration
+/// rows: a field record).
+#[test]
+fn negative_values_that_make_sense_are_accepted() {
+    let d = tempfile::tempdir().unwrap();
+    let cfg = d.path().join("tiny.toml");
+    std::fs::write(&cfg, "name = \"tiny\"\n[clock]\ndays = 0.1\n").unwrap();
+    let (csv, spectra) = (d.path().join("t.csv"), d.path().join("s.csv"));
+    let (ok, _, err) = run(bin()
+        .args(["simulate", "--snr-db", "-3", "--config"])
+        .arg(&cfg)
+        .arg("--spectra")
+        .arg(&spectra)
+        .arg("--out")
+        .arg(&csv));
+    assert!(ok, "{err}");
+    assert!(spectra.exists());
+    let logger = d.path().join("logger.csv");
+    std::fs::write(&logger, "t_s,T_C,T_amb_C,dl1_pm\n0,20.0,19.5,1.5\n10,20.5,19.6,6.5\n20,21.0,19.7,11.5\n").unwrap();
+    let out = d.path().join("field.csv");
+    let (ok, _, err) =
+        run(bin().args(["import", "--format", "csv", "--cal-until", "-1", "--out"]).arg(&out).arg(&logger));
+    assert!(ok, "{err}");
+    assert!(err.contains("split (until -1): cal up to t_s = -1.000 s: 0 cal rows, 3 hold-out rows"), "{err}");
 }
 
 #[test]

@@ -477,7 +477,7 @@ fn the_command_line_paces_steps_and_dumps_the_native_values() {
 
     for (args, words) in [
         (vec!["--pace-of", "p_kPa"], "--pace"),
-        (vec!["--pace", "0"], "pace.factor"),
+        (vec!["--pace", "0"], "--pace: 0 is out of range [0.001, 1000]"),
         (vec!["--pace", "2", "--pace-of", "strain2_ue"], "pace.only"),
         (vec!["--pace", "2", "--pace-of", "banana"], "banana"),
     ] {

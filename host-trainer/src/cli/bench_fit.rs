@@ -44,13 +44,13 @@ pub struct BenchFitArgs {
     #[arg(long, default_value_t = DEFAULT_FIXED.k)]
     k: usize,
     /// With --fixed: σ as a multiple of the median nearest-neighbour distance of the centres.
-    #[arg(long, default_value_t = DEFAULT_FIXED.sigma_mult)]
+    #[arg(long, default_value_t = DEFAULT_FIXED.sigma_mult, allow_negative_numbers = true)]
     sigma_mult: f64,
     /// With --fixed: ridge penalty per calibration sample (α = alpha_rel · n).
-    #[arg(long, default_value_t = DEFAULT_FIXED.alpha_rel)]
+    #[arg(long, default_value_t = DEFAULT_FIXED.alpha_rel, allow_negative_numbers = true)]
     alpha_rel: f64,
     /// With --fixed: direction-latch dead band \[pm\].
-    #[arg(long, default_value_t = DEFAULT_FIXED.dead_band_pm)]
+    #[arg(long, default_value_t = DEFAULT_FIXED.dead_band_pm, allow_negative_numbers = true)]
     dead_band_pm: f64,
     /// Worker threads (0: one per core).
     #[arg(long, default_value_t = 0)]

@@ -36,17 +36,17 @@ pub struct ImportArgs {
     #[arg(long, default_value = "data.csv")]
     out: PathBuf,
     /// Rows up to this time calibrate: seconds from the first row, or a timestamp.
-    #[arg(long, conflicts_with = "cal_fraction")]
+    #[arg(long, conflicts_with = "cal_fraction", allow_negative_numbers = true)]
     cal_until: Option<String>,
     /// Fraction of the record's duration that calibrates [default: 0.5].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     cal_fraction: Option<f64>,
     /// Bad rows: stop with an error naming file, line and column, or skip and count them.
     #[arg(long, value_parser = ["fail", "skip"], default_value = "fail")]
     on_error: String,
     /// With --on-error skip: the largest share of a file's rows, in percent, that may be
     /// skipped; above it the import fails with the counts by reason.
-    #[arg(long, default_value_t = 100.0 * import::DEFAULT_MAX_SKIPPED)]
+    #[arg(long, default_value_t = 100.0 * import::DEFAULT_MAX_SKIPPED, allow_negative_numbers = true)]
     max_skipped: f64,
     /// Zero absolute wavelengths on this model's λ_ref (a field record read against its
     /// calibration's zero) instead of the map's `ref_nm` or the first reading.
@@ -76,6 +76,7 @@ impl ImportArgs {
             Some(t) => SplitChoice::Until(t),
             None => SplitChoice::Fraction(self.cal_fraction.unwrap_or(0.5)),
         };
+        split.check()?;
         let opts = ImportOptions {
             format: self.format.parse().map_err(anyhow::Error::msg)?,
             input: self.file,

@@ -36,7 +36,7 @@ pub struct PeaksArgs {
     on_error: String,
     /// With --on-error skip: the largest share of the file's rows, in percent, that may be
     /// skipped.
-    #[arg(long, default_value_t = 100.0 * import::DEFAULT_MAX_SKIPPED)]
+    #[arg(long, default_value_t = 100.0 * import::DEFAULT_MAX_SKIPPED, allow_negative_numbers = true)]
     max_skipped: f64,
     /// Print the summary (frames, gratings, flagged frames per flag) as JSON on stdout.
     #[arg(long)]

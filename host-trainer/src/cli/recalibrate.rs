@@ -9,6 +9,7 @@ use anyhow::{bail, Result};
 use fbg_shared::layout::Dims;
 use fbg_trainer::data::files::{check_outputs, OutputSet};
 use fbg_trainer::data::Dataset;
+use fbg_trainer::error::ShortNumber;
 use fbg_trainer::eval::score::{channels, evaluate_holdout, units, ModelEval};
 use fbg_trainer::export;
 use fbg_trainer::fit::recalibrate::{first_hours, recalibrate_with, CoreUpdate, Recalibration, Verdict};
@@ -128,7 +129,7 @@ pub struct RecalibrateArgs {
     #[arg(long)]
     data: PathBuf,
     /// Use only the first H hours of the calibration rows as the batch.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     batch_hours: Option<f64>,
     /// Output blob (the recalibrated Model-P goes beside it as `<stem>-p.fbgm`).
     #[arg(long, default_value = "recalibrated.fbgm")]
@@ -159,6 +160,10 @@ struct Outcome {
 
 impl RecalibrateArgs {
     pub fn run(self) -> Result<()> {
+        // The flag's range before any file is read.
+        if let Some(h) = self.batch_hours.filter(|h| h.is_nan() || *h <= 0.0) {
+            bail!("--batch-hours must be positive (got {})", ShortNumber(h));
+        }
         let (model, data, out) = (self.model.as_path(), self.data.as_path(), self.out.as_path());
         let (base, new_base_path) = (export::baseline_path(model), export::baseline_path(out));
         let keys = self.sign.key_files();
@@ -170,8 +175,7 @@ impl RecalibrateArgs {
         let old = export::read_blob(model)?;
         d.inputs_for(&old.dims, &data.display().to_string(), "recalibrate")?;
         let batch = match self.batch_hours {
-            Some(h) if h > 0.0 => first_hours(&d, h),
-            Some(h) => bail!("--batch-hours must be positive (got {h})"),
+            Some(h) => first_hours(&d, h),
             None => d.cal_indices(),
         };
         let h = checked_recalibration(&old, &d, &batch, self.allow_worse)?;

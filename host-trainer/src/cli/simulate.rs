@@ -3,12 +3,14 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 
 use fbg_trainer::data::files::{check_outputs, write_bytes_atomically, OutputSet};
 use fbg_trainer::data::record_meta::sidecar_path;
 use fbg_trainer::data::{Kind, Measurand};
+use fbg_trainer::error::ShortNumber;
 use fbg_trainer::sim::meta::{meta_path, SimMeta};
+use fbg_trainer::sim::scenario::Pace;
 use fbg_trainer::sim::spectrum::csv::write_spectra_csv;
 use fbg_trainer::sim::spectrum::{DetectorModel, FrameSimulator, PixelGrid, SpectrumConfig};
 use fbg_trainer::sim::{self, scenario::ScenarioConfig, Simulation};
@@ -37,7 +39,7 @@ pub struct SimulateArgs {
     /// The same installation at another pace: the measurands' trajectories run F times
     /// faster (periods, holds, ramps and AR times ÷ F; 0.25 = four times slower); the
     /// instrument is unchanged (the scenario's `[pace] factor`).
-    #[arg(long, value_name = "F")]
+    #[arg(long, value_name = "F", allow_negative_numbers = true)]
     pace: Option<f64>,
     /// With --pace: pace only this measurand (a column such as `p_kPa`).
     #[arg(long, value_name = "COLUMN", requires = "pace")]
@@ -62,7 +64,7 @@ pub struct SimulateArgs {
     #[arg(long, requires = "spectra", default_value = "spectrometer", value_parser = parse_grid)]
     grid: PixelGrid,
     /// With --spectra: the detector's SNR [dB], 10·log10(peak height/noise σ).
-    #[arg(long, requires = "spectra", default_value_t = 30.0)]
+    #[arg(long, requires = "spectra", default_value_t = 30.0, allow_negative_numbers = true)]
     snr_db: f64,
 }
 
@@ -97,7 +99,20 @@ impl SimulateArgs {
         Ok(cfg)
     }
 
+    /// The flags' own ranges, checked before any file is read: each error names its flag once.
+    fn check_flags(&self) -> Result<()> {
+        if let Some(f) = self.pace.filter(|&f| !Pace::accepts(f)) {
+            bail!("--pace: {} is out of range [{}, {}]", ShortNumber(f), Pace::FACTOR_MIN, Pace::FACTOR_MAX);
+        }
+        // Any finite SNR (a negative one: noise above the peak), or +∞ for no noise.
+        if self.spectra.is_some() && !(self.snr_db.is_finite() || self.snr_db == f64::INFINITY) {
+            bail!("--snr-db: {} is not a number of dB", ShortNumber(self.snr_db));
+        }
+        Ok(())
+    }
+
     pub fn run(self) -> Result<()> {
+        self.check_flags()?;
         let out = &self.out;
         let side = meta_path(out);
         let record_side = sidecar_path(out);

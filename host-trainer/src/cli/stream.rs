@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Result};
 
+use fbg_trainer::error::ShortNumber;
 use fbg_trainer::stream::{run, StreamOptions};
 
 /// `fbg-trainer stream`: check a running device against the host, sample by sample.
@@ -31,7 +32,7 @@ pub struct StreamArgs {
     /// the answer's last byte, however the device trickles it): the stream fails when any one
     /// sample, model-transfer step or status request is not answered within it (the whole
     /// stream may take longer).
-    #[arg(long, default_value_t = 15.0)]
+    #[arg(long, default_value_t = 15.0, allow_negative_numbers = true)]
     pub timeout: f64,
     /// Print the comparison as JSON on stdout.
     #[arg(long)]
@@ -42,9 +43,7 @@ impl StreamArgs {
     /// Stream, print the comparison (text on stderr, or JSON on stdout), and fail when an
     /// estimate differs from the host beyond tolerance.
     pub fn run(self) -> Result<()> {
-        if !(self.timeout.is_finite() && self.timeout > 0.0) {
-            bail!("--timeout must be a positive number of seconds (got {})", self.timeout);
-        }
+        let timeout = timeout_arg(self.timeout)?;
         let json = self.json;
         let opts = StreamOptions {
             model: self.model,
@@ -53,7 +52,7 @@ impl StreamArgs {
             port: self.port,
             update_first: self.update_first,
             max_samples: self.max_samples,
-            timeout: std::time::Duration::from_secs_f64(self.timeout),
+            timeout,
             progress: !json,
         };
         let r = run(&opts)?;
@@ -101,7 +100,7 @@ pub enum DeviceCommand {
         host: String,
         /// Seconds for the connection and the whole answer together (a device that trickles
         /// its answer byte by byte fails at this deadline like a silent one).
-        #[arg(long, default_value_t = 15.0)]
+        #[arg(long, default_value_t = 15.0, allow_negative_numbers = true)]
         timeout: f64,
         /// Print the status as JSON on stdout.
         #[arg(long)]
@@ -114,10 +113,7 @@ impl DeviceArgs {
     pub fn run(self) -> Result<()> {
         match self.command {
             DeviceCommand::Status { port, host, timeout, json } => {
-                if !(timeout.is_finite() && timeout > 0.0) {
-                    bail!("--timeout must be a positive number of seconds (got {timeout})");
-                }
-                let st = fbg_trainer::stream::device_status(&host, port, std::time::Duration::from_secs_f64(timeout))?;
+                let st = fbg_trainer::stream::device_status(&host, port, timeout_arg(timeout)?)?;
                 if json {
                     println!("{}", serde_json::to_string_pretty(&st)?);
                 } else {
@@ -127,4 +123,16 @@ impl DeviceArgs {
             }
         }
     }
+}
+
+/// Largest `--timeout` \[s\] (about 31 years): far beyond any wait, and far from where a
+/// deadline `Instant::now() + timeout` would overflow (and panic).
+const TIMEOUT_MAX_S: f64 = 1e9;
+
+/// `--timeout` as a duration: a positive number of seconds up to [`TIMEOUT_MAX_S`].
+fn timeout_arg(seconds: f64) -> Result<std::time::Duration> {
+    if !(seconds > 0.0 && seconds <= TIMEOUT_MAX_S) {
+        bail!("--timeout must be a positive number of seconds up to {TIMEOUT_MAX_S:e} (got {})", ShortNumber(seconds));
+    }
+    Ok(std::time::Duration::from_secs_f64(seconds))
 }

@@ -1,9 +1,10 @@
 //! The hyper-parameters cross-validation chooses from: one point of the grid ([`Config`]) and
 //! the grid itself ([`CvGrid`]), the candidates of every hyper-parameter.
 
+use fbg_shared::bounds::{INPUT_MAX, INV_G_MAX, STANDARDISED_MAX};
 use fbg_shared::layout::FeatureSet;
 
-use crate::error::TrainerError;
+use crate::error::{ShortNumber, TrainerError};
 
 /// One point of the hyper-parameter grid.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -130,7 +131,8 @@ impl CvGrid {
         })
     }
 
-    /// Refuse a grid without any point, naming the entry that leaves it empty.
+    /// Refuse a grid without any point, naming the entry that leaves it empty, or with a value a
+    /// model blob cannot carry ([`HyperParam`]), naming the entry and the value.
     pub(crate) fn check(&self) -> Result<(), TrainerError> {
         let empty = |what: &str| Err(TrainerError::options(format!("empty hyper-parameter grid: no {what}")));
         if self.feature_sets.is_empty() {
@@ -148,6 +150,128 @@ impl CvGrid {
         if self.alpha_rels.is_empty() {
             return empty("alpha_rels");
         }
+        for (param, values) in [
+            (HyperParam::SigmaMult, &self.sigma_mults),
+            (HyperParam::AlphaRel, &self.alpha_rels),
+            (HyperParam::DeadBandPm, &self.dead_bands_pm),
+        ] {
+            for &v in values {
+                param.check(v, &format!("hyper-parameter grid: {}", param.grid_entry()))?;
+            }
+        }
         Ok(())
+    }
+}
+
+/// A hyper-parameter of the grid that the model blob carries and bounds. The range each accepts
+/// is the one the blob's check (`fbg_shared::ModelParams::validate`, [`fbg_shared::bounds`])
+/// accepts for the value it stores: σ's multiple as it is, α = alpha_rel · n (n ≥ 1 calibration
+/// samples), the dead band as it is. A value outside it is refused before any work, naming the
+/// option, rather than by the assembled model's check after the whole fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum HyperParam {
+    /// σ as a multiple of the median nearest-neighbour distance: above 0, at most
+    /// [`STANDARDISED_MAX`].
+    SigmaMult,
+    /// Ridge penalty per calibration sample: 0 to [`INV_G_MAX`] (α = alpha_rel · n must stay
+    /// within it; a large batch lowers the largest alpha_rel a fit can use).
+    AlphaRel,
+    /// Direction-latch dead band \[pm\]: 0 to [`INPUT_MAX`].
+    DeadBandPm,
+}
+
+impl HyperParam {
+    /// Whether a model blob can carry `v` (NaN and infinities never).
+    pub fn accepts(self, v: f64) -> bool {
+        match self {
+            HyperParam::SigmaMult => v > 0.0 && v <= STANDARDISED_MAX,
+            HyperParam::AlphaRel => (0.0..=INV_G_MAX).contains(&v),
+            HyperParam::DeadBandPm => (0.0..=INPUT_MAX).contains(&v),
+        }
+    }
+
+    /// The accepted range in words (`in 0..=1e12`), after "must be".
+    pub fn range(self) -> String {
+        match self {
+            HyperParam::SigmaMult => format!("above 0 and at most {STANDARDISED_MAX:e}"),
+            HyperParam::AlphaRel => format!("in 0..={INV_G_MAX:e}"),
+            HyperParam::DeadBandPm => format!("in 0..={INPUT_MAX:e}"),
+        }
+    }
+
+    /// `Ok` when `v` is accepted, else an option's error naming it as `name` (`--alpha-rel`,
+    /// Python's `fixed['alpha_rel']`): `NAME must be in 0..=1e12 (got -1)`.
+    pub fn check(self, v: f64, name: &str) -> Result<(), TrainerError> {
+        if self.accepts(v) {
+            return Ok(());
+        }
+        Err(TrainerError::options(format!("{name} must be {} (got {})", self.range(), ShortNumber(v))))
+    }
+
+    /// The [`CvGrid`] entry holding its candidates (`alpha_rels`).
+    pub fn grid_entry(self) -> &'static str {
+        match self {
+            HyperParam::SigmaMult => "sigma_mults",
+            HyperParam::AlphaRel => "alpha_rels",
+            HyperParam::DeadBandPm => "dead_bands_pm",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fbg_shared::{Error, ModelParams};
+
+    /// The field the blob's check refuses first when the one hyper-parameter `param` is `v`
+    /// and the others (σ, its multiple, α, the dead band) are valid.
+    fn blob_refuses(param: HyperParam, v: f64) -> bool {
+        let mut p = ModelParams::<f64, 4>::empty();
+        (p.hyper.sigma, p.hyper.sigma_mult, p.hyper.alpha, p.hyper.dead_band_pm) = (1.0, 1.0, 0.0, 0.0);
+        let field = match param {
+            HyperParam::SigmaMult => {
+                p.hyper.sigma_mult = v;
+                "hyper.sigma_mult"
+            }
+            // α = alpha_rel · n: a single calibration sample carries alpha_rel itself.
+            HyperParam::AlphaRel => {
+                p.hyper.alpha = v;
+                "hyper.alpha"
+            }
+            HyperParam::DeadBandPm => {
+                p.hyper.dead_band_pm = v;
+                "hyper.dead_band_pm"
+            }
+        };
+        matches!(p.validate(), Err(Error::BadParameter { field: f }) if f == field)
+    }
+
+    #[test]
+    fn the_ranges_are_the_blobs() {
+        let values = [
+            f64::NAN,
+            f64::NEG_INFINITY,
+            -1.0,
+            -0.0,
+            0.0,
+            1e-12,
+            2.0,
+            1e6,
+            1e6 * (1.0 + f64::EPSILON),
+            1e12,
+            1.1e12,
+            f64::INFINITY,
+        ];
+        for param in [HyperParam::SigmaMult, HyperParam::AlphaRel, HyperParam::DeadBandPm] {
+            for v in values {
+                assert_eq!(param.accepts(v), !blob_refuses(param, v), "{param:?} = {v}");
+                assert_eq!(param.check(v, "--x").is_ok(), param.accepts(v));
+            }
+        }
+        let e = HyperParam::AlphaRel.check(-1.0, "--alpha-rel").unwrap_err().to_string();
+        assert_eq!(e, "--alpha-rel must be in 0..=1e12 (got -1)");
+        let e = HyperParam::SigmaMult.check(f64::NAN, "fixed['sigma_mult']").unwrap_err().to_string();
+        assert_eq!(e, "fixed['sigma_mult'] must be above 0 and at most 1e6 (got NaN)");
     }
 }

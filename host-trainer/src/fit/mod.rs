@@ -57,7 +57,7 @@ pub use band::VarModel;
 pub use design::{design_matrix, run, run_on_clock, CheckpointCache, Checkpoints, Gram};
 pub use engine::{Engine, Precision};
 pub use features::FeatureChoice;
-pub use grid::{Config, CvGrid};
+pub use grid::{Config, CvGrid, HyperParam};
 pub use host::{HostCompensator, HostParams, HOST_CAP};
 pub use options::{TrainOptions, TrainOptionsBuilder};
 pub use outcome::Chosen;

@@ -343,6 +343,33 @@ mod tests {
     }
 
     #[test]
+    fn a_grid_value_a_blob_cannot_carry_is_refused_naming_the_entry() {
+        let cases: [(TrainOptionsBuilder, &str); 4] = [
+            (
+                TrainOptions::builder().sigma_mults(vec![1.0, 0.0]),
+                "sigma_mults must be above 0 and at most 1e6 (got 0)",
+            ),
+            (TrainOptions::builder().alpha_rels(vec![f64::NAN]), "alpha_rels must be in 0..=1e12 (got NaN)"),
+            (TrainOptions::builder().alpha_rels(vec![-1e-5]), "alpha_rels must be in 0..=1e12 (got -1e-5)"),
+            (TrainOptions::builder().dead_bands_pm(vec![2.0, -1.0]), "dead_bands_pm must be in 0..=1e6 (got -1)"),
+        ];
+        for (b, message) in cases {
+            let e = b.check().unwrap_err().to_string();
+            assert_eq!(e, format!("hyper-parameter grid: {message}"));
+        }
+        // A fixed configuration is checked too, when its options are.
+        let cfg = Config {
+            feature_set: FeatureSet::HysteresisAware,
+            dead_band_pm: 4.0,
+            k: 8,
+            sigma_mult: f64::INFINITY,
+            alpha_rel: 1e-5,
+            cross_terms: true,
+        };
+        assert!(TrainOptions::fixed(&cfg).to_builder().check().is_err());
+    }
+
+    #[test]
     fn a_fixed_grid_has_one_point_its_config() {
         let cfg = Config {
             feature_set: FeatureSet::Paper,

@@ -321,8 +321,9 @@ pub struct FleetOptions {
 
 /// Read the manifest of `o` and run the fleet (the shard this task runs, when there is one).
 pub fn run_manifest(o: &FleetOptions) -> Result<FleetReport, TrainerError> {
-    let m = Manifest { allow_outside: o.allow_outside, ..Manifest::from_file(&o.manifest)? };
+    // The shard first: a bad `--shard` is refused before the manifest is read.
     let shard = Shard::resolve(o.shard.as_deref(), o.shards, |k| std::env::var(k).ok())?;
+    let m = Manifest { allow_outside: o.allow_outside, ..Manifest::from_file(&o.manifest)? };
     let sign = match &o.sign {
         Some(s) => Some(SignOptions { state_dir: s.state_dir.clone().or_else(|| m.serial_state.clone()), ..s.clone() }),
         None => manifest_sign(&m),

@@ -50,22 +50,26 @@ pub fn shard_of(name: &str, count: usize) -> usize {
 }
 
 impl Shard {
-    /// Build a shard, checking 1 ≤ count and index < count.
+    /// Build a shard, checking 1 ≤ count and index < count (the error follows where the
+    /// numbers came from: `--shard 5/2: the index 5 is not below the count 2 …`).
     pub fn new(index: usize, count: usize) -> Result<Shard, String> {
         if count == 0 {
-            return Err("the shard count must be at least 1".into());
+            return Err("the count must be at least 1".into());
         }
         if index >= count {
-            return Err(format!("shard index {index} is not below the shard count {count} (shards count from 0)"));
+            return Err(format!("the index {index} is not below the count {count} (shards count from 0)"));
         }
         Ok(Shard { index, count })
     }
 
-    /// Parse `I/N` (e.g. `0/4`).
+    /// Parse `I/N` (e.g. `0/4`). The error says what is wrong with `s` without quoting it: the
+    /// caller names the option and its value first (`--shard 5/2: …`).
     pub fn parse(s: &str) -> Result<Shard, String> {
-        let (i, n) = s.split_once('/').ok_or_else(|| format!("`{s}` is not I/N (e.g. 0/4)"))?;
+        let (i, n) = s.split_once('/').ok_or_else(|| "not I/N (e.g. 0/4)".to_string())?;
         let num = |x: &str, what: &str| {
-            x.trim().parse::<usize>().map_err(|_| format!("`{s}`: {what} `{x}` is not a whole number"))
+            x.trim()
+                .parse::<usize>()
+                .map_err(|_| format!("the {what} `{}` is not a whole number", crate::error::quote_cell(x)))
         };
         Shard::new(num(i, "index")?, num(n, "count")?)
     }
@@ -83,10 +87,17 @@ impl Shard {
         var: impl Fn(&str) -> Option<String>,
     ) -> Result<Option<(Shard, ShardSource)>, TrainerError> {
         let bad = |m: String| TrainerError::Config { origin: "fleet".into(), key: "shard".into(), message: m };
+        if shards == Some(0) {
+            return Err(TrainerError::options("--shards must be at least 1"));
+        }
         if let Some(s) = option {
-            let sh = Shard::parse(s).map_err(|m| bad(format!("--shard: {m}")))?;
+            // An option's error names the option once, with its value, and nothing before it.
+            let quoted = crate::error::quote_cell(s);
+            let sh = Shard::parse(s).map_err(|m| TrainerError::options(format!("--shard {quoted}: {m}")))?;
             if let Some(n) = shards.filter(|&n| n != sh.count) {
-                return Err(bad(format!("--shard {s} and --shards {n} disagree on the shard count")));
+                return Err(TrainerError::options(format!(
+                    "--shard {quoted} and --shards {n} disagree on the shard count"
+                )));
             }
             return Ok(Some((sh, ShardSource::Option)));
         }
@@ -189,6 +200,13 @@ mod tests {
         assert!(Shard::resolve(Some("2/3"), Some(4), &none).is_err());
         assert_eq!(Shard::resolve(None, None, &none).unwrap(), None);
         assert!(Shard::resolve(None, Some(4), &none).unwrap_err().to_string().contains("no shard index"));
+        // The option's errors name it once, with its value, and nothing before it.
+        let e =
+            |option: &str, shards: Option<usize>| Shard::resolve(Some(option), shards, &none).unwrap_err().to_string();
+        assert_eq!(e("5/2", None), "--shard 5/2: the index 5 is not below the count 2 (shards count from 0)");
+        assert_eq!(e("1/x", None), "--shard 1/x: the count `x` is not a whole number");
+        assert_eq!(e("1/2", Some(3)), "--shard 1/2 and --shards 3 disagree on the shard count");
+        assert_eq!(e("0/1", Some(0)), "--shards must be at least 1");
     }
 
     #[test]

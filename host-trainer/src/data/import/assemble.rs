@@ -217,13 +217,7 @@ fn split_rule(split: &SplitChoice, d: &Dataset, absolute: bool, t0: f64) -> Resu
     let n = d.len();
     match split {
         SplitChoice::Fraction(f) => {
-            if !(f.is_finite() && *f > 0.0 && *f <= 1.0) {
-                return Err(TrainerError::Config {
-                    origin: "--cal-fraction".into(),
-                    key: String::new(),
-                    message: format!("{f} is not a fraction in (0, 1]"),
-                });
-            }
+            split.check()?;
             Ok((format!("fraction {f}"), f * d.t_s[n - 1]))
         }
         SplitChoice::Until(s) => {

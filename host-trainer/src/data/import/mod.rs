@@ -95,6 +95,21 @@ pub enum SplitChoice {
     Until(String),
 }
 
+impl SplitChoice {
+    /// Refuse a split no record can make right: a fraction outside (0, 1]. Needs no file, so
+    /// it is checked before anything is read (a time is checked against the record).
+    pub fn check(&self) -> Result<(), TrainerError> {
+        match self {
+            SplitChoice::Fraction(f) if !(f.is_finite() && *f > 0.0 && *f <= 1.0) => Err(TrainerError::Config {
+                origin: "--cal-fraction".into(),
+                key: String::new(),
+                message: format!("{} is not a fraction in (0, 1]", crate::error::ShortNumber(*f)),
+            }),
+            _ => Ok(()),
+        }
+    }
+}
+
 impl Default for SplitChoice {
     fn default() -> Self {
         SplitChoice::Fraction(0.5)
@@ -171,6 +186,8 @@ pub fn import_to_csv(opts: &ImportOptions, out: &Path) -> Result<ImportSummary, 
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerError> {
+    // The options that need no file first: refused before anything is read.
+    opts.split.check()?;
     let input_name = opts.input.display().to_string();
     let map_origin = opts.map.as_ref().map(|p| p.display().to_string());
     let map = match &opts.map {
@@ -186,7 +203,7 @@ pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerE
         return Err(TrainerError::Config {
             origin: "--scale".into(),
             key: String::new(),
-            message: "--scale is for the spectrum formats (spectra-csv, enlight-responses, pixels)".into(),
+            message: "only for the spectrum formats (spectra-csv, enlight-responses, pixels)".into(),
         });
     }
     if let (Some(m), Some(o)) = (&map, &map_origin) {

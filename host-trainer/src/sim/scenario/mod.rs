@@ -67,6 +67,18 @@ pub struct Pace {
     pub only: Option<Measurand>,
 }
 
+impl Pace {
+    /// Smallest factor accepted (a thousand times slower).
+    pub const FACTOR_MIN: f64 = 1e-3;
+    /// Largest factor accepted (a thousand times faster).
+    pub const FACTOR_MAX: f64 = 1e3;
+
+    /// Whether `factor` is within [`Pace::FACTOR_MIN`] ..= [`Pace::FACTOR_MAX`] (NaN is not).
+    pub fn accepts(factor: f64) -> bool {
+        (Pace::FACTOR_MIN..=Pace::FACTOR_MAX).contains(&factor)
+    }
+}
+
 /// A steps record: the native calibration part, then a hold-out in which each measurand in
 /// turn steps through `levels` held levels while the others stay at their calibration
 /// medians (no AR wiggle in this part; every instrument artefact stays).

@@ -1,6 +1,6 @@
 //! The ranges and shapes a scenario must keep: the first problem found, named by its key.
 
-use super::{ScenarioConfig, Strain, MAX_NAME_LEN, SIMULATED};
+use super::{Pace, ScenarioConfig, Strain, MAX_NAME_LEN, SIMULATED};
 use crate::data::measurand::{MAX_GRATINGS, MAX_MEASURANDS};
 
 impl ScenarioConfig {
@@ -246,7 +246,7 @@ impl ScenarioConfig {
     fn check_pace_and_name(&self, v: &mut Checker) {
         let m = &self.measurands;
         let pc = &self.pace;
-        v.range("pace.factor", pc.factor, 1e-3, 1e3);
+        v.range("pace.factor", pc.factor, Pace::FACTOR_MIN, Pace::FACTOR_MAX);
         if let Some(o) = pc.only {
             if !m.contains(&o) {
                 let names: Vec<String> = m.iter().map(|x| x.column()).collect();
