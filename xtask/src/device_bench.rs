@@ -47,6 +47,7 @@ pub use size::{size, SizeReport};
 
 pub mod ops;
 mod pack;
+pub mod profile;
 pub mod record;
 mod size;
 pub mod store;

@@ -1,5 +1,5 @@
 //! Just enough ELF32 (little-endian) reading to measure a firmware image: section headers and
-//! their names, and the names of the symbol table. No external tool (arm-none-eabi-size,
+//! their names, and the symbol table (names, addresses, sizes). No external tool (arm-none-eabi-size,
 //! llvm-nm) needed.
 
 use std::path::Path;
@@ -85,24 +85,41 @@ pub fn sections(bytes: &[u8]) -> Result<Vec<Section>> {
     Ok(out)
 }
 
-/// The names in the symbol table (`.symtab`) of an ELF32 LE image, as stored (mangled).
-pub fn symbol_names(bytes: &[u8]) -> Result<Vec<String>> {
+/// One entry of the symbol table: its name as stored (mangled), address and size.
+#[derive(Clone, Debug)]
+pub struct Symbol {
+    pub name: String,
+    pub addr: u32,
+    pub size: u32,
+}
+
+/// The named entries of the symbol table (`.symtab`) of an ELF32 LE image.
+pub fn symbols(bytes: &[u8]) -> Result<Vec<Symbol>> {
     let secs = sections(bytes)?;
     let symtab = secs.iter().find(|s| s.kind == SHT_SYMTAB).context("the image has no symbol table")?;
     let strtab = secs.get(symtab.link as usize).context("the symbol table's string table is missing")?;
     let strings = bytes
         .get(strtab.offset as usize..(strtab.offset + strtab.size) as usize)
         .context("string table outside the file")?;
-    let mut names = Vec::new();
+    let mut out = Vec::new();
     for at in (symtab.offset..symtab.offset + symtab.size).step_by(16) {
         let name = u32_at(bytes, at as usize)? as usize;
         let tail = strings.get(name..).context("symbol name outside the string table")?;
         let end = tail.iter().position(|&c| c == 0).unwrap_or(tail.len());
         if end > 0 {
-            names.push(String::from_utf8_lossy(&tail[..end]).into_owned());
+            out.push(Symbol {
+                name: String::from_utf8_lossy(&tail[..end]).into_owned(),
+                addr: u32_at(bytes, at as usize + 4)?,
+                size: u32_at(bytes, at as usize + 8)?,
+            });
         }
     }
-    Ok(names)
+    Ok(out)
+}
+
+/// The names in the symbol table (`.symtab`) of an ELF32 LE image, as stored (mangled).
+pub fn symbol_names(bytes: &[u8]) -> Result<Vec<String>> {
+    Ok(symbols(bytes)?.into_iter().map(|s| s.name).collect())
 }
 
 /// The symbols of `core::fmt` (the formatting machinery: `Formatter`, `Display`/`Debug`

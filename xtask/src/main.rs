@@ -77,7 +77,13 @@ enum Task {
     /// Only the device part of bench: instructions per step at K = 16/32/64 and of the trained
     /// models of other presets under QEMU -icount, and the footprint; writes
     /// target/bench/device.json
-    DeviceBench,
+    DeviceBench {
+        /// Instead, where the default model's step spends its instructions, per function and
+        /// per inlined phase (QEMU's exec trace; needs llvm-addr2line); writes
+        /// target/bench/device-profile.txt
+        #[arg(long)]
+        profile: bool,
+    },
     /// Every benchmark: host fit times (ours and the scikit-learn peer), host inference
     /// throughput, accuracy peers, band coverage, fleet scaling and the device part; writes
     /// BENCHMARKS.md and BENCHMARKS.json
@@ -148,7 +154,8 @@ fn run_task(task: Task) -> Result<()> {
             let report = device_bench::size(&root)?;
             board::flash_budget(&root, report.footprint.flash)
         }
-        Task::DeviceBench => device_bench::run(&root).map(|_| ()),
+        Task::DeviceBench { profile: true } => device_bench::profile::run(&root),
+        Task::DeviceBench { profile: false } => device_bench::run(&root).map(|_| ()),
         Task::Bench { quick, no_device, markdown_only, spectrum_only, import_memory_only, footprint_only } => {
             bench::run_bench(
                 &root,
