@@ -149,6 +149,8 @@ fn a_sidecar_that_does_not_fit_is_refused_by_file_and_field() {
         ),
         (Box::new(|s| s["t0_utc"] = "yesterday".into()), "t0_utc: `yesterday` is not a UTC timestamp"),
         (Box::new(|s| s["format"] = "v2".into()), "format: `v2` is not"),
+        (Box::new(|s| s["csv_crc32c"] = "xyz".into()), "csv_crc32c: `xyz` is not a CRC-32C"),
+        (Box::new(|s| s["csv_crc32c"] = "1234567".into()), "csv_crc32c: `1234567` is not a CRC-32C"),
         (Box::new(|s| s["extra"] = 1.into()), "unknown field `extra`"),
         (Box::new(|s| s["zero"] = "x".repeat(500).into()), "not a record sidecar"),
     ];
@@ -163,8 +165,12 @@ fn a_sidecar_that_does_not_fit_is_refused_by_file_and_field() {
     std::fs::write(sidecar_path(&csv), "{ not json").unwrap();
     let e = Dataset::read_csv(&csv).unwrap_err().to_string();
     assert!(e.starts_with(&format!("{side}: line 1, column ")), "{e}");
-    // Comment lines and a sidecar that say different things: refused.
-    set_side(&csv, &good);
+    // Comment lines and a sidecar that say different things: refused (the sidecar without the
+    // table's length and digest, as written before them, so that the prepended lines are
+    // not a rewritten table).
+    let mut older = good.clone();
+    older.as_object_mut().unwrap().retain(|k, _| !k.starts_with("csv_"));
+    set_side(&csv, &older);
     let body = std::fs::read_to_string(&csv).unwrap();
     std::fs::write(&csv, format!("# t0_utc: 2020-01-01T00:00:00.000Z\n{body}")).unwrap();
     let e = Dataset::read_csv(&csv).unwrap_err().to_string();
@@ -198,4 +204,104 @@ fn the_csv_and_its_sidecar_are_replaced_together() {
         .filter(|n| n.starts_with(".fbg-"))
         .collect();
     assert!(litter.is_empty(), "{litter:?}");
+}
+
+/// `csv` rewritten by "another tool": the same columns, other rows (the record of another day),
+/// its sidecar left as it was.
+fn rewrite_rows(csv: &Path, seed: u64, same_length: bool) {
+    let mut cfg = Preset::Temperature1.config();
+    cfg.clock.days = 1.0;
+    let other = sim::simulate(&cfg, seed).data;
+    let mut text = Vec::new();
+    other.write_csv_to(&mut text).unwrap();
+    let old = std::fs::read(csv).unwrap();
+    let head = String::from_utf8_lossy(&old).lines().next().unwrap().to_string();
+    assert!(text.starts_with(head.as_bytes()), "the same columns");
+    if same_length {
+        // Same length too: only the digest can tell (the last digit of the first row's t_s).
+        text = old.clone();
+        let at = head.len() + 1 + 7;
+        assert_eq!(&text[head.len() + 1..at + 1], b"0.000000", "{:?}", String::from_utf8_lossy(&text[..at + 10]));
+        text[at] = b'1';
+    } else {
+        assert_ne!(text.len(), old.len(), "another length");
+    }
+    assert_ne!(text, old);
+    std::fs::write(csv, text).unwrap();
+}
+
+#[test]
+fn a_csv_rewritten_by_another_tool_is_refused_naming_both_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = record();
+    let csv = dir.path().join("d.csv");
+    d.write_csv(&csv).unwrap();
+    let side = sidecar_path(&csv).display().to_string();
+    // The sidecar records the table's length and CRC-32C.
+    let s = side_json(&csv);
+    let bytes = std::fs::read(&csv).unwrap();
+    assert_eq!(s["csv_bytes"].as_u64(), Some(bytes.len() as u64));
+    assert_eq!(s["csv_crc32c"].as_str().map(str::len), Some(8));
+    // Unchanged: read, every reader.
+    assert_eq!(Dataset::read_csv(&csv).unwrap().meta, d.meta);
+    assert_eq!(Dataset::read_csv_meta(&csv).unwrap(), d.meta);
+
+    // Other rows of another length: refused as the file is opened, by every reader (the
+    // header-only ones too), naming the sidecar, its field and the CSV, and what to do.
+    rewrite_rows(&csv, 8, false);
+    let new_len = std::fs::metadata(&csv).unwrap().len();
+    let header_only = Dataset::read_csv_meta(&csv).unwrap_err().to_string();
+    let field = Dataset::read_field_csv(&csv).unwrap_err().to_string();
+    let e = Dataset::read_csv(&csv).unwrap_err().to_string();
+    for e in [&e, &header_only, &field] {
+        assert!(e.starts_with(&format!("{side}: csv_bytes: {} is not the table", csv.display())), "{e}");
+        assert!(e.contains(&format!("({} bytes, but it has {new_len})", bytes.len())), "{e}");
+        assert!(e.contains("write the pair again") && e.contains(&format!("or delete {side}")), "{e}");
+    }
+    // Written by the tool again: read.
+    d.write_csv(&csv).unwrap();
+    assert_eq!(Dataset::read_csv(&csv).unwrap().meta, d.meta);
+
+    // Other bytes of the same length: refused once the rows are read (no pass of its own),
+    // by the whole-file readers and the streaming ones (compensate).
+    let m = model(&d, dir.path());
+    let out = dir.path().join("out.csv");
+    rewrite_rows(&csv, 8, true);
+    assert_eq!(std::fs::metadata(&csv).unwrap().len(), bytes.len() as u64);
+    let e = Dataset::read_csv(&csv).unwrap_err().to_string();
+    assert!(e.starts_with(&format!("{side}: csv_crc32c: {} is not the table", csv.display())), "{e}");
+    assert!(e.contains(&format!("(CRC-32C {}, but its bytes give ", s["csv_crc32c"].as_str().unwrap())), "{e}");
+    assert!(e.contains(&format!("or delete {side}")), "{e}");
+    let e = compensate::run(&m, &csv, &out, Precision::F64, FieldOptions::default(), false).unwrap_err().to_string();
+    assert!(e.contains("csv_crc32c") && e.contains(&side), "{e}");
+    assert!(!out.exists(), "nothing written");
+    // Deleting the sidecar, as the message says: the table is read with no zero or clock.
+    std::fs::remove_file(sidecar_path(&csv)).unwrap();
+    assert!(Dataset::read_csv(&csv).unwrap().meta.is_empty());
+}
+
+#[test]
+fn a_sidecar_older_than_the_digest_is_read_without_the_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = record();
+    let csv = dir.path().join("d.csv");
+    d.write_csv(&csv).unwrap();
+    let mut s = side_json(&csv);
+    s.as_object_mut().unwrap().retain(|k, _| !k.starts_with("csv_"));
+    assert_eq!(s.as_object().unwrap().len(), 4, "format, record, zero, t0_utc: {s}");
+    set_side(&csv, &s);
+    let back = Dataset::read_csv(&csv).unwrap();
+    assert_eq!(back.meta, d.meta);
+    assert_eq!(back.meta.sidecar.as_deref(), Some(sidecar_path(&csv).as_path()));
+    // Nothing to tell a rewritten table by: read with the sidecar's zero, as before.
+    rewrite_rows(&csv, 8, false);
+    assert_eq!(Dataset::read_csv(&csv).unwrap().meta, d.meta);
+    // Either field alone is checked.
+    d.write_csv(&csv).unwrap();
+    let mut only_crc = side_json(&csv);
+    only_crc.as_object_mut().unwrap().remove("csv_bytes");
+    set_side(&csv, &only_crc);
+    assert_eq!(Dataset::read_csv(&csv).unwrap().meta, d.meta);
+    rewrite_rows(&csv, 8, true);
+    assert!(Dataset::read_csv(&csv).unwrap_err().to_string().contains("csv_crc32c"));
 }

@@ -92,9 +92,24 @@ pub fn dataset(
     Ok(d)
 }
 
+/// A record's zero as Python sees it: per grating, λ_ref \[nm\] (None when unknown) and its
+/// source (`map`, `first reading`, `model`, `simulated`, `unknown`); empty when it states none.
+pub type Zero = Vec<(Option<f64>, String)>;
+
+/// The zero of `meta` as [`Zero`].
+pub fn zero_of(meta: &RecordMeta) -> Zero {
+    meta.zero.iter().map(|z| (z.known(), z.source.name().to_string())).collect()
+}
+
 /// The columns of `d` as a dict (name -> float64 array) in the CSV's canonical order, with
-/// `split` (`cal`/`holdout` strings) and the record's `t0_unix_s` (None when unknown).
-pub fn to_dict<'py>(py: Python<'py>, d: Dataset) -> PyResult<(Bound<'py, PyDict>, Vec<&'static str>, Option<f64>)> {
+/// `split` (`cal`/`holdout` strings), the record's `t0_unix_s` (None when unknown) and its
+/// zero ([`Zero`]).
+#[allow(clippy::type_complexity)]
+pub fn to_dict<'py>(
+    py: Python<'py>,
+    d: Dataset,
+) -> PyResult<(Bound<'py, PyDict>, Vec<&'static str>, Option<f64>, Zero)> {
+    let zero = zero_of(&d.meta);
     let out = PyDict::new(py);
     out.set_item("t_s", d.t_s.into_pyarray(py))?;
     for r in d.refs {
@@ -107,5 +122,5 @@ pub fn to_dict<'py>(py: Python<'py>, d: Dataset) -> PyResult<(Bound<'py, PyDict>
         out.set_item(grating_column(g + 1), c.into_pyarray(py))?;
     }
     let split = d.split.iter().map(|s| s.as_str()).collect();
-    Ok((out, split, d.meta.t0_unix_s))
+    Ok((out, split, d.meta.t0_unix_s, zero))
 }

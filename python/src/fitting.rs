@@ -24,7 +24,7 @@ use crate::model::Model;
 /// `precision` is only checked (predict's arithmetic, refused here rather than at the first
 /// predict). Runs without the GIL; Ctrl-C stops it.
 #[pyfunction]
-#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None, targets=None, precision="f64", drift_spec=None))]
+#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None, targets=None, precision="f64", drift_spec=None, zero=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -42,6 +42,7 @@ pub fn fit(
     targets: Option<Vec<String>>,
     precision: &str,
     drift_spec: Option<f64>,
+    zero: Option<Vec<(Option<f64>, String)>>,
 ) -> PyResult<(Model, Model, String, String)> {
     crate::stream::precision(precision)?;
     // The columns given as y must all be references: another name would be dropped silently
@@ -49,7 +50,9 @@ pub fn fit(
     for name in targets.iter().flatten() {
         name.parse::<Measurand>().map_err(|e| msg(format!("y: column {e}")))?;
     }
-    let d = columns::dataset(columns, cal, t0_unix_s, source)?;
+    let mut d = columns::dataset(columns, cal, t0_unix_s, source)?;
+    // The record's zero travels into the model, as `train` takes it from the sidecar.
+    crate::records::set_zero(&mut d, zero)?;
     let choice: FeatureChoice = features.parse().map_err(|e: String| msg(format!("features: {e}")))?;
     let mut opts = match fixed {
         None => choice.train_options(max_centres).map_err(|e| msg(format!("features/max_centres: {e}")))?,

@@ -15,8 +15,9 @@ use crate::columns;
 use crate::error::{msg, to_py};
 
 /// Columns (name -> array), the split of each row (`cal`/`holdout`), the absolute time of
-/// `t_s = 0` (Unix s; None when unknown).
-type Columns<'py> = (Bound<'py, PyDict>, Vec<&'static str>, Option<f64>);
+/// `t_s = 0` (Unix s; None when unknown), the record's zero (per grating, λ_ref \[nm\] or None
+/// and its source; empty when it states none).
+type Columns<'py> = (Bound<'py, PyDict>, Vec<&'static str>, Option<f64>, columns::Zero);
 
 /// The built-in scenario names (`simulate --preset`).
 #[pyfunction]
@@ -117,6 +118,13 @@ pub fn write_dataset(
     zero: Option<Vec<(Option<f64>, String)>>,
 ) -> PyResult<()> {
     let mut d = columns::dataset(columns, cal, t0_unix_s, &path.display().to_string())?;
+    set_zero(&mut d, zero)?;
+    d.write_csv(&path).map_err(to_py)
+}
+
+/// Give `d` the zero a frame's `attrs['zero']` states (as [`record_zero`] gives it; None or
+/// empty: unknown), checked grating by grating.
+pub fn set_zero(d: &mut Dataset, zero: Option<Vec<(Option<f64>, String)>>) -> PyResult<()> {
     if let Some(z) = zero.filter(|z| !z.is_empty()) {
         if z.len() != d.n_gratings() {
             return Err(msg(format!(
@@ -133,7 +141,7 @@ pub fn write_dataset(
             })
             .collect::<PyResult<_>>()?;
     }
-    d.write_csv(&path).map_err(to_py)
+    Ok(())
 }
 
 /// The zero a dataset CSV states (its sidecar's): per grating, λ_ref \[nm\] (None when
@@ -141,7 +149,7 @@ pub fn write_dataset(
 #[pyfunction]
 pub fn record_zero(py: Python<'_>, path: PathBuf) -> PyResult<Vec<(Option<f64>, String)>> {
     let meta = py.detach(|| Dataset::read_csv_meta(&path)).map_err(to_py)?;
-    Ok(meta.zero.iter().map(|z| (z.known(), z.source.name().to_string())).collect())
+    Ok(columns::zero_of(&meta))
 }
 
 /// `fbg-trainer import --format F FILE [--map M] [--refs R] [--scale S] [--cal-fraction C]

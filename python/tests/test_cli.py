@@ -100,7 +100,10 @@ def test_train_gives_the_same_blobs(files, trainer, record):
 
     cols = {c: F.column(frame, c) for c in ["t_s"] + INPUTS + OUTPUTS}
     # `train` records the file's stem as the scenario when there is no .meta.json sidecar.
-    h, p, _, _ = _core.fit(cols, list(cal), FIT["features"], FIT["max_centres"], "fail", None, frame.attrs["t0_unix_s"], str(data), "record", 0)
+    h, p, _, _ = _core.fit(
+        cols, list(cal), FIT["features"], FIT["max_centres"], "fail", None, frame.attrs["t0_unix_s"], str(data), "record", 0,
+        zero=[tuple(z) for z in frame.attrs["zero"]],
+    )
     assert h.blob_bytes() == out.read_bytes()
     assert p.blob_bytes() == (out.parent / "model-p.fbgm").read_bytes()
 

@@ -71,8 +71,10 @@ def test_dataframe_and_array_inputs_agree(holdout, fitted):
 
 def test_array_fit_equals_frame_fit(cal, fitted):
     X, y, t = cal[INPUTS].to_numpy(), cal[OUTPUTS].to_numpy(), cal["t_s"].to_numpy()
-    est = fc.HybridCompensator(**FIT).fit(X, y, t=t, t0_unix_s=cal.attrs["t0_unix_s"])
+    est = fc.HybridCompensator(**FIT).fit(X, y, t=t, t0_unix_s=cal.attrs["t0_unix_s"], zero=cal.attrs["zero"])
     assert est.model_.blob_bytes() == fitted.model_.blob_bytes()
+    # Without the record's zero the model does not carry it.
+    assert fc.HybridCompensator(**FIT).fit(X, y, t=t, t0_unix_s=cal.attrs["t0_unix_s"]).model_.blob_bytes() != fitted.model_.blob_bytes()
     # Without the record's start the model does not know its calibration's absolute end.
     other = fc.HybridCompensator(**FIT).fit(X, y, t=t)
     assert other.model_.blob_bytes() != fitted.model_.blob_bytes()

@@ -124,3 +124,30 @@ def test_records_carry_their_zero_and_clock_in_the_sidecar(written):
     # ... and the zero (attrs['zero']), so a record read and written again keeps it.
     assert ours["zero"] == demo["zero"]
     assert back.attrs["zero"] == [[z["lambda_ref_nm"], z["source"]] for z in demo["zero"]]
+
+
+def test_simulated_frames_carry_their_zero_through_write_and_read(tmp_path):
+    frame = fc.simulate("temperature-1", seed=3, days=0.5)
+    # simulate's frame states its zero and clock as read_dataset's does.
+    assert len(frame.attrs["zero"]) == 1 and frame.attrs["zero"][0][1] == "simulated", frame.attrs
+    assert frame.attrs["t0_unix_s"] is not None
+    p = tmp_path / "sim.csv"
+    fc.write_dataset(frame, p)
+    side = json.loads(p.with_suffix(".record.json").read_text())
+    assert [[z["lambda_ref_nm"], z["source"]] for z in side["zero"]] == frame.attrs["zero"]
+    # The sidecar identifies the table it was written with.
+    assert side["csv_bytes"] == p.stat().st_size and len(side["csv_crc32c"]) == 8, side
+    back = fc.read_dataset(p)
+    assert back.attrs["zero"] == frame.attrs["zero"]
+    assert back.attrs["t0_unix_s"] == frame.attrs["t0_unix_s"]
+    # Written again from what was read: the same sidecar.
+    q = tmp_path / "again.csv"
+    fc.write_dataset(back, q)
+    again = json.loads(q.with_suffix(".record.json").read_text())
+    assert again["zero"] == side["zero"] and again["t0_utc"] == side["t0_utc"]
+    # The CSV rewritten by another tool (pandas, other rows) beside its old sidecar: refused,
+    # naming both files.
+    pd.read_csv(p).iloc[::2].to_csv(p, index=False)
+    with pytest.raises(fc.FbgError) as e:
+        fc.read_dataset(p)
+    assert str(p.with_suffix(".record.json")) in str(e.value) and str(p) + " is not the table" in str(e.value), str(e.value)

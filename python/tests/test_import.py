@@ -1,6 +1,7 @@
 """`import_file` against the command line's `import`: the same record from a spectra file
 (peaks found by the detector) and the same error, naming line and column."""
 
+import json
 import subprocess
 
 import numpy as np
@@ -41,6 +42,11 @@ def test_import_file_equals_the_cli(tmp_path, trainer):
     k = np.arange(12)
     assert np.allclose(np.asarray(frame["dl2_pm"]), 4.0 * k, atol=0.1)
     assert frame.attrs["import_summary"]["spectra"] is not None
+    # The zero and clock the CLI writes to the sidecar are the frame's too.
+    side = json.loads(out.with_suffix(".record.json").read_text())
+    assert frame.attrs["zero"] == [[z["lambda_ref_nm"], z["source"]] for z in side["zero"]], (frame.attrs, side)
+    assert frame.attrs["zero"] == cli.attrs["zero"]
+    assert frame.attrs["t0_unix_s"] == cli.attrs["t0_unix_s"]
 
 
 def test_import_file_errors_name_line_and_column(tmp_path):

@@ -15,9 +15,18 @@
 //!     { "column": "dl1_pm", "lambda_ref_nm": 1530.0, "source": "simulated" },
 //!     { "column": "dl2_pm", "lambda_ref_nm": null, "source": "unknown" }
 //!   ],
-//!   "t0_utc": "2026-01-05T00:00:00.000Z"
+//!   "t0_utc": "2026-01-05T00:00:00.000Z",
+//!   "csv_bytes": 1048576,
+//!   "csv_crc32c": "1c291ca3"
 //! }
 //! ```
+//!
+//! `csv_bytes` and `csv_crc32c` identify the table the sidecar was written with (its length
+//! and the CRC-32C of its bytes), so that a CSV rewritten by another tool is not read with
+//! the zero and clock of the table it replaced: a reader refuses a CSV of another length as
+//! it opens it, and one of other bytes when it has read it to the end (the digest is computed
+//! as the rows stream, never in a pass of its own). Sidecars written before these fields
+//! existed are read without the check.
 //!
 //! `zero` is empty when the record says nothing of its zero (its shifts are then taken as from
 //! the model's), `t0_utc` null when its clock is unknown; otherwise `zero` lists every grating
@@ -170,8 +179,9 @@ impl RecordMeta {
         self.zero.is_empty() && self.t0_unix_s.is_none()
     }
 
-    /// The sidecar's text for the CSV `csv` (its file name is recorded, for a reader).
-    pub fn sidecar_json(&self, csv: &Path) -> String {
+    /// The sidecar's text for the CSV `csv` (its file name is recorded, for a reader), whose
+    /// bytes are `table` (their length and digest are recorded: [`TableDigest`]).
+    pub fn sidecar_json(&self, csv: &Path, table: &TableDigest) -> String {
         let side = Sidecar {
             format: SIDECAR_FORMAT.into(),
             record: csv.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
@@ -186,16 +196,24 @@ impl RecordMeta {
                 })
                 .collect(),
             t0_utc: self.t0_unix_s.map(crate::data::timestamp::format_utc),
+            csv_bytes: Some(table.bytes()),
+            csv_crc32c: Some(format!("{:08x}", table.crc32c())),
         };
         let mut text = serde_json::to_string_pretty(&side).unwrap_or_default();
         text.push('\n');
         text
     }
 
-    /// The sidecar of the CSV `csv` ([`sidecar_path`]) when there is one; `gratings`: the
-    /// CSV's grating columns, which a stated zero must list in order. Errors name the sidecar
-    /// and the field.
-    pub fn read_sidecar(csv: &Path, gratings: usize) -> Result<Option<RecordMeta>, TrainerError> {
+    /// The sidecar of the CSV `csv` ([`sidecar_path`]) when there is one, with the digest of
+    /// the table it was written with ([`SidecarTable::check_digest`], `None` in a sidecar
+    /// older than the digest); `gratings`: the CSV's grating columns, which a stated zero must
+    /// list in order; `csv_bytes`: the CSV's length, which must be the one the sidecar records.
+    /// Errors name the sidecar and the field.
+    pub fn read_sidecar(
+        csv: &Path,
+        gratings: usize,
+        csv_bytes: u64,
+    ) -> Result<Option<(RecordMeta, SidecarTable)>, TrainerError> {
         let path = sidecar_path(csv);
         let text = match std::fs::read_to_string(&path) {
             Ok(t) => t,
@@ -216,6 +234,24 @@ impl RecordMeta {
                 format!("`{}` is not `{SIDECAR_FORMAT}`", crate::error::quote_cell(&side.format)),
             ));
         }
+        let table = SidecarTable { sidecar: path.clone(), csv: csv.to_path_buf(), crc32c: None };
+        if let Some(want) = side.csv_bytes {
+            if want != csv_bytes {
+                return Err(bad("csv_bytes".into(), table.stale(&format!("{want} bytes, but it has {csv_bytes}"))));
+            }
+        }
+        let table = match &side.csv_crc32c {
+            None => table,
+            Some(hex) => {
+                let crc = u32::from_str_radix(hex, 16).ok().filter(|_| hex.len() == 8).ok_or_else(|| {
+                    bad(
+                        "csv_crc32c".into(),
+                        format!("`{}` is not a CRC-32C (8 hex digits)", crate::error::quote_cell(hex)),
+                    )
+                })?;
+                SidecarTable { crc32c: Some(crc), ..table }
+            }
+        };
         if !side.zero.is_empty() && side.zero.len() != gratings {
             return Err(bad(
                 "zero".into(),
@@ -257,7 +293,120 @@ impl RecordMeta {
         if let Some(t) = &side.t0_utc {
             meta.t0_unix_s = Some(parse_t0(t).map_err(|m| bad("t0_utc".into(), m))?);
         }
-        Ok(Some(meta))
+        Ok(Some((meta, table)))
+    }
+}
+
+/// What a sidecar says of the table it was written with, for the check a reader makes once
+/// it has read the whole CSV ([`check_digest`](Self::check_digest)).
+#[derive(Clone, Debug)]
+pub struct SidecarTable {
+    sidecar: PathBuf,
+    csv: PathBuf,
+    /// The CRC-32C of the CSV's bytes (`None`: a sidecar older than the digest).
+    crc32c: Option<u32>,
+}
+
+impl SidecarTable {
+    /// Refuse the CSV when its bytes (`digest`, of the whole file) are not the ones the sidecar
+    /// was written with.
+    pub fn check_digest(&self, digest: &TableDigest) -> Result<(), TrainerError> {
+        match self.crc32c {
+            Some(want) if want != digest.crc32c() => Err(TrainerError::Config {
+                origin: self.sidecar.display().to_string(),
+                key: "csv_crc32c".into(),
+                message: self.stale(&format!("CRC-32C {want:08x}, but its bytes give {:08x}", digest.crc32c())),
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// The message of a CSV that is not the table its sidecar describes (`what`: how it differs).
+    fn stale(&self, what: &str) -> String {
+        format!(
+            "{} is not the table this sidecar was written with ({what}): it was rewritten since, so the zero and clock here may not be its own; write the pair again with the tool that writes both (`fbg-trainer simulate`/`import`, Python `write_dataset`), or delete {} to read the table with no stated zero or clock",
+            self.csv.display(),
+            self.sidecar.display()
+        )
+    }
+}
+
+/// CRC-32C (Castagnoli), sliced by 16: the digest of a CSV's bytes in its sidecar.
+static CRC32C: crc::Crc<u32, crc::Table<16>> = crc::Crc::<u32, crc::Table<16>>::new(&crc::CRC_32_ISCSI);
+
+/// The length and CRC-32C of a CSV's bytes, computed as they are written or read
+/// ([`Digesting`]): what its sidecar records to identify it.
+#[derive(Clone)]
+pub struct TableDigest {
+    bytes: u64,
+    crc: crc::Digest<'static, u32, crc::Table<16>>,
+}
+
+impl Default for TableDigest {
+    fn default() -> Self {
+        TableDigest { bytes: 0, crc: CRC32C.digest() }
+    }
+}
+
+impl TableDigest {
+    /// The digest of `bytes` (a whole table).
+    pub fn of(bytes: &[u8]) -> TableDigest {
+        let mut d = TableDigest::default();
+        d.update(bytes);
+        d
+    }
+
+    /// Add the next bytes.
+    pub fn update(&mut self, bytes: &[u8]) {
+        self.bytes += bytes.len() as u64;
+        self.crc.update(bytes);
+    }
+
+    /// Bytes so far.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    /// The CRC-32C of the bytes so far.
+    pub fn crc32c(&self) -> u32 {
+        self.crc.clone().finalize()
+    }
+}
+
+/// A reader or writer that digests the bytes that pass through it ([`TableDigest`]).
+pub struct Digesting<T> {
+    inner: T,
+    digest: TableDigest,
+}
+
+impl<T> Digesting<T> {
+    pub fn new(inner: T) -> Self {
+        Digesting { inner, digest: TableDigest::default() }
+    }
+
+    /// The digest of the bytes so far.
+    pub fn digest(&self) -> &TableDigest {
+        &self.digest
+    }
+}
+
+impl<R: std::io::Read> std::io::Read for Digesting<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.digest.update(&buf[..n]);
+        Ok(n)
+    }
+}
+
+impl<W: std::io::Write> std::io::Write for Digesting<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.digest.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
     }
 }
 
@@ -278,6 +427,12 @@ struct Sidecar {
     record: String,
     zero: Vec<SidecarZero>,
     t0_utc: Option<String>,
+    /// The CSV's length \[bytes\] when written (absent in sidecars written before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    csv_bytes: Option<u64>,
+    /// The CRC-32C of the CSV's bytes when written, 8 hex digits (absent likewise).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    csv_crc32c: Option<String>,
 }
 
 #[derive(Serialize, Deserialize)]

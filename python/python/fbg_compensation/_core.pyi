@@ -43,7 +43,7 @@ class Stream:
     @property
     def outputs(self) -> int: ...
 
-Columns = Tuple[Dict[str, npt.NDArray[np.float64]], List[str], Optional[float]]
+Columns = Tuple[Dict[str, npt.NDArray[np.float64]], List[str], Optional[float], List[Tuple[Optional[float], str]]]
 
 def fit(
     columns: Dict[str, npt.NDArray[np.float64]],
@@ -60,6 +60,7 @@ def fit(
     targets: Optional[List[str]] = None,
     precision: str = "f64",
     drift_spec: Optional[float] = None,
+    zero: Optional[List[Tuple[Optional[float], str]]] = None,
 ) -> Tuple[Model, Model, str, str]: ...
 def simulate(
     preset: str = "paper", seed: int = 7, days: Optional[float] = None, dt_s: Optional[float] = None

@@ -168,9 +168,16 @@ def shape_output(values: np.ndarray, names: Sequence[str], like: Any, index: Any
     return values
 
 
-def frame_of(columns: Dict[str, np.ndarray], split: Optional[List[str]], t0_unix_s: Optional[float]) -> Any:
+def frame_of(
+    columns: Dict[str, np.ndarray],
+    split: Optional[List[str]],
+    t0_unix_s: Optional[float],
+    zero: Optional[List[Tuple[Optional[float], str]]] = None,
+) -> Any:
     """A record's columns as a pandas DataFrame (``attrs['t0_unix_s']`` the absolute time of
-    ``t_s = 0``), or as the dict itself (with ``split``) when pandas is absent."""
+    ``t_s = 0``, ``attrs['zero']`` its zero: ``[lambda_ref_nm or None, source]`` per grating,
+    empty when the record states none), or as the dict itself (with ``split``) when pandas is
+    absent."""
     try:
         import pandas as pd
     except ImportError:  # pragma: no cover - pandas is optional
@@ -182,4 +189,5 @@ def frame_of(columns: Dict[str, np.ndarray], split: Optional[List[str]], t0_unix
     if split is not None:
         df["split"] = pd.Categorical(split, categories=["cal", "holdout"])
     df.attrs["t0_unix_s"] = t0_unix_s
+    df.attrs["zero"] = [list(z) for z in (zero or [])]
     return df

@@ -17,7 +17,7 @@ import numpy as np
 
 from . import _core
 from . import _frames as F
-from .model import Model, Stream, _attrs_t0, _text, _unix_time
+from .model import Model, Stream, _attrs_t0, _attrs_zero, _text, _unix_time
 
 try:  # scikit-learn is optional
     from sklearn.base import BaseEstimator as _Base
@@ -46,6 +46,13 @@ except ImportError:  # pragma: no cover - exercised only without scikit-learn
 
     class _Regressor:  # type: ignore[no-redef]
         """The regressor's mixin; ``score`` is the estimators' own (it takes ``t``)."""
+
+
+class _Attrs:
+    """A stand-in frame whose ``attrs['zero']`` is the ``zero=`` given to ``fit``."""
+
+    def __init__(self, zero: Any):
+        self.attrs = {"zero": zero}
 
 
 class _NotFitted(ValueError, AttributeError):
@@ -88,14 +95,17 @@ class _Compensator(_Base, _Regressor):
         self.drift_spec = drift_spec
 
     # --- fit -------------------------------------------------------------------------------
-    def fit(self, X: Any, y: Any, t: Any = None, *, t0_unix_s: Optional[float] = None, cal: Any = None):
+    def fit(self, X: Any, y: Any, t: Any = None, *, t0_unix_s: Optional[float] = None, zero: Any = None, cal: Any = None):
         """Fit on the calibration rows. ``X``: ``dl1_pm..dlN_pm`` [pm] and ``T_amb_C`` [°C]
         (a frame by name; an array in that order); ``y``: the reference measurands (``T_C``
         [°C], ``strain_ue`` [µε], ``p_kPa`` [kPa], ...; an array's columns named by
         ``outputs``, the paper's three by default); ``t``: time since the start [s] (or a
         ``t_s`` column in X), in order and on the record's clock; ``cal``: a boolean mask of
-        the rows that calibrate (default all; the others still run through the stream).
-        Errors (``FbgError``) carry the trainer's message."""
+        the rows that calibrate (default all; the others still run through the stream);
+        ``t0_unix_s`` and ``zero`` (per grating ``(lambda_ref_nm or None, source)``) the record's
+        clock and calibration zero, by default a frame's ``attrs`` (as :func:`read_dataset`
+        sets them): the model carries both, as ``fbg-trainer train`` takes them from the
+        record. Errors (``FbgError``) carry the trainer's message."""
         # Types and signs here; the trainer checks the range of max_centres.
         max_centres, seed = _whole("max_centres", self.max_centres, 0, 2**31), self.seed
         if seed is not None:
@@ -127,6 +137,7 @@ class _Compensator(_Base, _Regressor):
             targets=list(targets),
             precision=_text("precision", self.precision),
             drift_spec=None if self.drift_spec is None else _number("drift_spec", self.drift_spec),
+            zero=_attrs_zero(X) if zero is None else _attrs_zero(_Attrs(zero)),
         )
         self.model_h_ = Model(h)
         self.model_p_ = Model(p)

@@ -225,6 +225,18 @@ def _attrs_t0(X: Any) -> Optional[float]:
     return None
 
 
+def _attrs_zero(X: Any) -> Optional[list]:
+    """The calibration zero a frame states in ``attrs['zero']`` (as :func:`read_dataset` and
+    :func:`simulate` set it), or None."""
+    attrs = getattr(X, "attrs", None)
+    if isinstance(attrs, dict) and attrs.get("zero") is not None:
+        zero = attrs["zero"]
+        if not isinstance(zero, (list, tuple)):
+            raise ValueError(f"attrs['zero']: {zero!r:.40} is not a list of (lambda_ref_nm, source) per grating")
+        return [tuple(z) for z in zero]
+    return None
+
+
 def compensate(model: Union[Model, PathLike], frame: Any, *, precision: str = "f64", t0_unix_s: Optional[float] = None):
     """``fbg-trainer compensate`` on a frame: a frame with the columns the CLI writes —
     ``t_s``, each measurand and its ``_band95``, ``flags``, ``flag_names`` — holding the same

@@ -1,6 +1,8 @@
 """Records: simulated (``simulate``) and read from dataset CSVs (``read_dataset``), as
 DataFrames with the dataset's columns (``t_s`` [s], the measurands, ``T_amb_C`` [°C],
-``dl1_pm``.. [pm], ``split``); ``attrs['t0_unix_s']`` is the absolute time of ``t_s = 0``."""
+``dl1_pm``.. [pm], ``split``); ``attrs['t0_unix_s']`` is the absolute time of ``t_s = 0``,
+``attrs['zero']`` the record's zero (``[lambda_ref_nm or None, source]`` per grating, empty
+when it states none), which :func:`write_dataset` writes back to the sidecar."""
 
 from __future__ import annotations
 
@@ -27,8 +29,8 @@ def simulate(preset: str = "paper", seed: int = 7, days: Optional[float] = None,
     from .estimators import _whole
 
     seed = _whole("seed", seed, 0, 2**64 - 1)
-    cols, split, t0 = _core.simulate(_text("preset", preset), seed, _number("days", days), _number("dt_s", dt_s))
-    return F.frame_of(cols, split, t0)
+    cols, split, t0, zero = _core.simulate(_text("preset", preset), seed, _number("days", days), _number("dt_s", dt_s))
+    return F.frame_of(cols, split, t0, zero)
 
 
 def read_dataset(path: PathLike, *, field: bool = False) -> Any:
@@ -37,12 +39,9 @@ def read_dataset(path: PathLike, *, field: bool = False) -> Any:
     (``attrs['t0_unix_s']``) and zero (``attrs['zero']``: ``[lambda_ref_nm or None, source]``
     per grating, empty when the record states none). Errors (``FbgError``) name the file, line
     and column, with the command line's message."""
-    cols, split, t0 = _core.read_dataset(os.fspath(path), field)
-    frame = F.frame_of(cols, split, t0)
-    if hasattr(frame, "attrs"):
-        # The record's zero (its sidecar's), so that write_dataset keeps it.
-        frame.attrs["zero"] = [list(z) for z in _core.record_zero(os.fspath(path))]
-    return frame
+    # The record's zero (its sidecar's), read with its rows, so that write_dataset keeps it.
+    cols, split, t0, zero = _core.read_dataset(os.fspath(path), field)
+    return F.frame_of(cols, split, t0, zero)
 
 
 def compensate_file(
@@ -99,9 +98,10 @@ def import_file(
     the output file: an interrogator export (``enlight``, ``csv``) or spectra
     (``spectra-csv``, ``enlight-responses``, ``pixels``, whose peaks the detector finds) as a
     DataFrame with the dataset's columns; the import summary (rows, skips, gratings, flagged
-    frames) in ``attrs['import_summary']``. Errors (``FbgError``) name the file, line and
+    frames) in ``attrs['import_summary']``, its zero and clock in ``attrs['zero']`` and
+    ``attrs['t0_unix_s']`` as :func:`read_dataset` gives them. Errors (``FbgError``) name the file, line and
     column, with the command line's message."""
-    (cols, split, t0), summary = _core.import_file(
+    (cols, split, t0, zero), summary = _core.import_file(
         format,
         os.fspath(path),
         None if map is None else os.fspath(map),
@@ -112,7 +112,7 @@ def import_file(
         max_skipped,
         start_unix_s,
     )
-    frame = F.frame_of(cols, split, t0)
+    frame = F.frame_of(cols, split, t0, zero)
     if hasattr(frame, "attrs"):
         frame.attrs["import_summary"] = json.loads(summary)
     return frame

@@ -35,6 +35,11 @@ impl<R> LineLimit<R> {
     pub(super) fn new(inner: R) -> Self {
         LineLimit { inner, run: 0, line: 1 }
     }
+
+    /// The reader it reads from.
+    pub(super) fn get_ref(&self) -> &R {
+        &self.inner
+    }
 }
 
 impl<R: std::io::Read> std::io::Read for LineLimit<R> {

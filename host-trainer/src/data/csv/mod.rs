@@ -8,7 +8,7 @@ use std::path::Path;
 
 use crate::data::files::{refuse_non_regular, OutputSet};
 use crate::data::measurand::grating_column;
-use crate::data::record_meta::sidecar_path;
+use crate::data::record_meta::{sidecar_path, Digesting, TableDigest};
 use crate::data::{Dataset, Measurand, Split, T_AMB_COLUMN};
 use crate::error::TrainerError;
 pub use line_limit::MAX_LINE_BYTES;
@@ -44,9 +44,19 @@ impl Dataset {
 
     /// Stage the CSV `path` and its sidecar in `set` (as [`write_csv`](Self::write_csv)
     /// writes them): for a caller that writes them with other files.
+    /// The sidecar records the CSV's length and digest as written ([`TableDigest`]), so that
+    /// a reader knows a CSV rewritten since by another tool.
     pub fn stage_csv(&self, set: &OutputSet, path: &Path) -> Result<(), TrainerError> {
-        set.stage(path, |w| self.write_csv_to(w))?;
-        set.stage_bytes(&sidecar_path(path), self.meta.sidecar_json(path).as_bytes())
+        let mut table = TableDigest::default();
+        set.stage(path, |w| {
+            use std::io::Write as _;
+            let mut out = std::io::BufWriter::new(Digesting::new(w));
+            self.write_csv_to(&mut out)?;
+            out.flush()?;
+            table = out.get_ref().digest().clone();
+            Ok(())
+        })?;
+        set.stage_bytes(&sidecar_path(path), self.meta.sidecar_json(path, &table).as_bytes())
     }
 
     /// Write the CSV's table to `w` (one header line, then the rows; the sidecar is

@@ -8,6 +8,7 @@ use fbg_shared::Sample;
 use super::line_limit::{line_error, line_too_long, LineLimit};
 use crate::data::dataset::check_input_row;
 use crate::data::measurand::{grating_column, parse_grating_column};
+use crate::data::record_meta::{Digesting, SidecarTable};
 use crate::data::units::UnitSource;
 use crate::data::{
     check_next_time, Dataset, Measurand, RecordMeta, Reference, Split, MAX_GRATINGS, MAX_MEASURANDS, T_AMB_COLUMN,
@@ -64,7 +65,10 @@ impl Row {
 pub(crate) struct RowReader {
     /// The file's name in messages.
     pub name: String,
-    rdr: csv::Reader<LineLimit<std::fs::File>>,
+    rdr: csv::Reader<LineLimit<Digesting<std::fs::File>>>,
+    /// What the sidecar says of the table it was written with: checked against the digest of
+    /// the bytes read once the last row is read.
+    table: Option<SidecarTable>,
     headers: csv::StringRecord,
     layout: Layout,
     unit_keys: Vec<String>,
@@ -91,7 +95,7 @@ impl RowReader {
             .has_headers(true)
             .trim(csv::Trim::All)
             .comment(Some(b'#'))
-            .from_reader(LineLimit::new(file));
+            .from_reader(LineLimit::new(Digesting::new(file)));
         let headers = match rdr.headers() {
             Ok(h) => h.clone(),
             Err(e) => {
@@ -105,10 +109,11 @@ impl RowReader {
         };
         let layout = Layout::of(&headers).map_err(|(col, m)| TrainerError::data(&name, 1, &quote_cell(&col), m))?;
         let n_g = layout.gratings.len();
-        let meta = with_sidecar(meta, path, n_g)?;
+        let (meta, table) = with_sidecar(meta, path, n_g, file_len)?;
         Ok(RowReader {
             name,
             rdr,
+            table,
             headers,
             unit_keys: (1..=n_g).map(|g| format!("grating[{g}].unit")).collect(),
             abs_nm: vec![crate::data::units::AbsNmCheck::default(); n_g],
@@ -163,6 +168,10 @@ impl RowReader {
             TrainerError::data(name, line, "-", format!("malformed row: {}", quote_cell(&e.to_string())))
         })?;
         if !more {
+            // The whole file is read: its bytes must be the ones its sidecar was written with.
+            if let Some(t) = &self.table {
+                t.check_digest(self.rdr.get_ref().get_ref().digest())?;
+            }
             return Ok(None);
         }
         let (rec, headers, layout) = (&self.rec, &self.headers, &self.layout);
@@ -377,9 +386,15 @@ fn read_meta(f: &mut std::fs::File, name: &str) -> Result<RecordMeta, TrainerErr
 }
 
 /// The record's zero and clock: its sidecar's when there is one (a record with comment lines
-/// too must say the same in both), else its comment lines'.
-fn with_sidecar(mut meta: RecordMeta, path: &Path, gratings: usize) -> Result<RecordMeta, TrainerError> {
-    let Some(side) = RecordMeta::read_sidecar(path, gratings)? else { return Ok(meta) };
+/// too must say the same in both), else its comment lines'; with what the sidecar says of the
+/// table it was written with (`file_len`: the CSV's length, checked here).
+fn with_sidecar(
+    mut meta: RecordMeta,
+    path: &Path,
+    gratings: usize,
+    file_len: u64,
+) -> Result<(RecordMeta, Option<SidecarTable>), TrainerError> {
+    let Some((side, table)) = RecordMeta::read_sidecar(path, gratings, file_len)? else { return Ok((meta, None)) };
     if !meta.is_empty() && meta != side {
         return Err(TrainerError::data(
             &path.display().to_string(),
@@ -394,7 +409,7 @@ fn with_sidecar(mut meta: RecordMeta, path: &Path, gratings: usize) -> Result<Re
     meta.zero = side.zero;
     meta.t0_unix_s = side.t0_unix_s;
     meta.sidecar = side.sidecar;
-    Ok(meta)
+    Ok((meta, Some(table)))
 }
 
 /// The last byte of a file (`None` when empty); the read position is restored to the start.
