@@ -313,6 +313,27 @@ fn a_ten_thousand_group_manifest_is_checked_by_hashing() {
     assert!(e.contains("group[9999].out") && e.contains("group[0].data"), "{e}");
 }
 
+/// The record's sidecar (its zero and clock) is an input of every command that reads the
+/// record: an output onto it is refused before anything is read or written.
+#[test]
+fn the_records_sidecar_is_an_input_of_train_evaluate_and_recalibrate() {
+    let d = tempfile::tempdir().unwrap();
+    let csv = short_csv(d.path());
+    let side = d.path().join("data.record.json");
+    std::fs::write(&side, b"the sidecar, not read before the refusal").unwrap();
+    let model = d.path().join("m.fbgm");
+    std::fs::write(&model, b"not checked before the refusal").unwrap();
+    for (what, args) in [
+        ("train", vec!["train", "--max-centres", "8", "--out"]),
+        ("evaluate", vec!["evaluate", "--model", model.to_str().unwrap(), "--metrics"]),
+        ("recalibrate", vec!["recalibrate", "--model", model.to_str().unwrap(), "--out"]),
+    ] {
+        let (ok, _, err) = run(bin().args(&args).arg(&side).arg("--data").arg(&csv));
+        assert!(!ok && err.contains("data.record.json") && err.contains("also an input"), "{what}: {err}");
+        assert_eq!(std::fs::read(&side).unwrap(), b"the sidecar, not read before the refusal", "{what}");
+    }
+}
+
 #[test]
 fn every_command_refuses_an_output_that_is_an_input_or_another_output() {
     let d = tempfile::tempdir().unwrap();

@@ -46,8 +46,9 @@ impl EvaluateArgs {
         let base = self.baseline.clone().unwrap_or_else(|| export::baseline_path(model));
         let out = self.metrics.clone().unwrap_or_else(|| export::metrics_path(model));
         let meta_file = meta_path(data);
+        let side = fbg_trainer::data::record_meta::sidecar_path(data);
         let inputs: Vec<&Path> =
-            [data.as_path(), &meta_file, model, &base].into_iter().chain(self.trust.inputs()).collect();
+            [data.as_path(), &meta_file, &side, model, &base].into_iter().chain(self.trust.inputs()).collect();
         check_outputs(&[&out], &inputs)?;
         let meta = SimMeta::read_for(data)?;
         // Without a sidecar no quick study needs the whole record: it is streamed (two

@@ -31,7 +31,8 @@ impl GoldenArgs {
     pub fn run(self) -> Result<()> {
         let (data, model, out) = (&self.data, &self.model, &self.out);
         let files = export::golden_files(out);
-        check_outputs(&files.iter().map(PathBuf::as_path).collect::<Vec<_>>(), &[data, model])?;
+        let side = fbg_trainer::data::record_meta::sidecar_path(data);
+        check_outputs(&files.iter().map(PathBuf::as_path).collect::<Vec<_>>(), &[data, &side, model])?;
         let d = Dataset::read_csv(data)?;
         let h = export::read_blob(model)?;
         d.inputs_for(&h.dims, &data.display().to_string(), "golden")?;

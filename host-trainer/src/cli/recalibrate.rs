@@ -167,7 +167,8 @@ impl RecalibrateArgs {
         let (model, data, out) = (self.model.as_path(), self.data.as_path(), self.out.as_path());
         let (base, new_base_path) = (export::baseline_path(model), export::baseline_path(out));
         let keys = self.sign.key_files();
-        let mut inputs = vec![model, data, base.as_path()];
+        let side = fbg_trainer::data::record_meta::sidecar_path(data);
+        let mut inputs = vec![model, data, side.as_path(), base.as_path()];
         inputs.extend(keys.iter().map(PathBuf::as_path));
         check_outputs(&[out, &new_base_path], &inputs)?;
         let signer = self.sign.signer()?;

@@ -49,7 +49,8 @@ impl ReportArgs {
             metrics: self.metrics.or_else(|| model.as_deref().map(export::metrics_path)).unwrap_or(d.metrics),
         };
         let meta = meta_path(&paths.data);
-        let inputs = [&paths.data, &meta, &paths.model_h, &paths.model_p, &paths.metrics];
+        let side = fbg_trainer::data::record_meta::sidecar_path(&paths.data);
+        let inputs = [&paths.data, &meta, &side, &paths.model_h, &paths.model_p, &paths.metrics];
         // A missing directory is not made here: the inputs read from it are missing too.
         if out.is_dir() {
             check_outputs(&[&out.join(report::INDEX_HTML)], &inputs.map(PathBuf::as_path))?;

@@ -69,7 +69,9 @@ impl TrainArgs {
         let (base, coef) = (export::baseline_path(out), export::coefficients_path(out));
         let meta_file = meta_path(data);
         let keys = self.sign.key_files();
-        let mut inputs = vec![data.as_path(), meta_file.as_path()];
+        // The record's sidecar (its zero and clock) is an input too.
+        let side = fbg_trainer::data::record_meta::sidecar_path(data);
+        let mut inputs = vec![data.as_path(), meta_file.as_path(), side.as_path()];
         inputs.extend(keys.iter().map(PathBuf::as_path));
         check_outputs(&[out, &base, &coef], &inputs)?;
         let signer = self.sign.signer()?;
