@@ -8,12 +8,13 @@ use super::sample::Sample;
 use super::state::StreamState;
 use crate::affine::{affine, affine_inputs};
 use crate::flags::Flags;
-use crate::layout::{head, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, VAR_RANK};
+use crate::layout::{head, Dims, MAX_ENVELOPE, MAX_GRATINGS, MAX_OUTPUTS, MAX_POLY, VAR_RANK};
 use crate::real::Real;
 use nalgebra::SVector;
 
-/// RBF inputs of the paper's shape (3 gratings: 2·3 + 2 at most) in whole groups of four.
-const PAPER_ZP: usize = (2 * 3 + 2usize).div_ceil(4) * 4;
+/// RBF inputs of the paper's shape (3 gratings and the ambient input: the most a 3-grating
+/// model has) in whole groups of four.
+const PAPER_ZP: usize = Dims::PAPER.z_len().div_ceil(4) * 4;
 
 /// A sample let into the stream state, as the RBF pass and the rest of the step need it.
 #[derive(Clone, Copy, Debug)]

@@ -7,6 +7,9 @@ use crate::memory::state::Smoothing;
 use crate::memory::{DriftObserver, LowPass, MemorySpec, MemoryState, Play};
 use crate::real::Real;
 
+// `MemoryOperators::grating_on` holds one bit per grating time constant.
+const _: () = assert!(N_GRATING_TAUS <= u8::BITS as usize);
+
 /// Every memory operator of a [`MemorySpec`], ready to step: the low-passes, plays and the drift
 /// observer with which of them the model uses. Immutable while a stream runs: one set of
 /// operators serves any number of streams, each with its own [`MemoryState`].
@@ -46,9 +49,9 @@ pub struct MemoryOperators<F> {
     gratings: u8,
     /// Whether the model has the ambient input (the ambient high-passes read it).
     ambient: bool,
-    grating_on: [bool; N_GRATING_TAUS],
-    /// `grating_on` as bits (bit i: time constant i), so that a step visits only those on.
-    grating_mask: u8,
+    /// The grating high-passes in use, as bits (bit i: time constant i), so that a step
+    /// visits only those.
+    grating_on: u8,
     ambient_on: [bool; N_AMBIENT_TAUS],
     play_on: [bool; N_PLAYS],
     /// The slot of the narrowest play in use (0 when none, then unused: only slots in use
@@ -69,8 +72,7 @@ impl<F: Real> MemoryOperators<F> {
             observer_row: [F::ZERO; MAX_STAGE1],
             gratings: 0,
             ambient: false,
-            grating_on: [false; N_GRATING_TAUS],
-            grating_mask: 0,
+            grating_on: 0,
             ambient_on: [false; N_AMBIENT_TAUS],
             play_on: [false; N_PLAYS],
             // Zero, as every other field: an unloaded bank is all zero bytes (`.bss`).
@@ -92,9 +94,11 @@ impl<F: Real> MemoryOperators<F> {
             ambient: dims.ambient(),
             ..Self::off()
         };
-        for ((lp, on), &tau) in b.grating_lp.iter_mut().zip(b.grating_on.iter_mut()).zip(s.grating_tau_s.iter()) {
+        for (i, (lp, &tau)) in b.grating_lp.iter_mut().zip(s.grating_tau_s.iter()).enumerate() {
             *lp = LowPass::new(tau);
-            *on = tau > F::ZERO;
+            if tau > F::ZERO {
+                b.grating_on |= 1 << i;
+            }
         }
         for ((lp, on), &tau) in b.ambient_lp.iter_mut().zip(b.ambient_on.iter_mut()).zip(s.ambient_tau_s.iter()) {
             *lp = LowPass::new(tau);
@@ -111,8 +115,7 @@ impl<F: Real> MemoryOperators<F> {
                 b.narrowest = j as u8;
             }
         }
-        b.grating_mask = b.grating_on.iter().enumerate().fold(0, |m, (i, &on)| if on { m | 1 << i } else { m });
-        b.any = b.grating_on.iter().chain(b.ambient_on.iter()).chain(b.play_on.iter()).any(|&o| o) || b.observer_on;
+        b.any = b.grating_on != 0 || b.ambient_on.iter().chain(b.play_on.iter()).any(|&o| o) || b.observer_on;
         b
     }
 
@@ -146,8 +149,8 @@ impl<F: Real> MemoryOperators<F> {
     #[inline(never)]
     fn recompute_alphas(&self, cache: &mut Smoothing<F>, dt: F) {
         cache.dt = dt;
-        for ((a, lp), &on) in cache.grating.iter_mut().zip(self.grating_lp.iter()).zip(self.grating_on.iter()) {
-            *a = if on { lp.alpha(dt) } else { F::ZERO };
+        for (i, (a, lp)) in cache.grating.iter_mut().zip(self.grating_lp.iter()).enumerate() {
+            *a = if self.grating_on & (1 << i) != 0 { lp.alpha(dt) } else { F::ZERO };
         }
         for ((a, lp), &on) in cache.ambient.iter_mut().zip(self.ambient_lp.iter()).zip(self.ambient_on.iter()) {
             *a = if on { lp.alpha(dt) } else { F::ZERO };
@@ -191,7 +194,8 @@ impl<F: Real> MemoryOperators<F> {
     /// the coefficient of term k on output o, term-major so that one term updates every output
     /// at once; outputs a model does not have carry 0): what the compensator runs per sample,
     /// without the memory vector's round trip through memory.
-    // Out of line: one copy serves the compensator's step and stream advances.
+    // Out of line: one copy per grating count `G` the step is compiled for (the paper's 3, and
+    // 0: read from the model).
     #[inline(never)]
     pub fn accumulate<const O: usize, const G: usize>(
         &self,
@@ -260,7 +264,7 @@ impl<F: Real> MemoryOperators<F> {
         self.refresh_alphas(&mut st.smoothing, dt);
         let alphas = &st.smoothing;
         // The time constants that are on, in order (a model often keeps none or a few).
-        let mut on = self.grating_mask;
+        let mut on = self.grating_on;
         while on != 0 {
             let i = on.trailing_zeros() as usize;
             on &= on - 1;
