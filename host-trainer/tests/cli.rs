@@ -111,15 +111,21 @@ fn option_errors_name_the_flag_once() {
         } else {
             cmd.arg("--holdout-errors").arg(&holdout);
         }
-        let (ok, _, err) = run(&mut cmd);
-        assert!(!ok, "{args:?}");
-        assert_eq!(err.trim_end(), format!("error: {message}"), "{args:?}");
-        assert_eq!(err.matches(flag).count(), 1, "{args:?}: {err}");
+        refused_naming_once(&mut cmd, args, flag, message);
         assert!(!model.exists() && !holdout.exists());
     }
     let dead_band = ["bench-fit", "--fixed", "--dead-band-pm", "nan", "--data"];
     let (ok, _, err) = run(bin().args(dead_band).arg(&csv));
     assert!(!ok && err.trim_end() == "error: --dead-band-pm must be in 0..=1e6 (got NaN)", "{err}");
+}
+
+/// Run `cmd` (`args` for messages): it fails with exactly `error: {message}`, naming `flag`
+/// once.
+fn refused_naming_once(cmd: &mut std::process::Command, args: &[&str], flag: &str, message: &str) {
+    let (ok, _, err) = run(cmd);
+    assert!(!ok, "{args:?}");
+    assert_eq!(err.trim_end(), format!("error: {message}"), "{args:?}");
+    assert_eq!(err.matches(flag).count(), 1, "{args:?}: {err}");
 }
 
 /// The other commands' options the same way: `fleet --shard` names the option once (it was
@@ -183,10 +189,7 @@ fn option_errors_of_other_commands_name_the_flag_once() {
         (vec!["device", "status", "--port", "1", "--timeout", "1e300"], "--timeout", format!("{timeout} (got 1e300)")),
     ];
     for (args, flag, message) in cases {
-        let (ok, _, err) = run(bin().args(&args));
-        assert!(!ok, "{args:?}");
-        assert_eq!(err.trim_end(), format!("error: {message}"), "{args:?}");
-        assert_eq!(err.matches(flag).count(), 1, "{args:?}: {err}");
+        refused_naming_once(bin().args(&args), &args, flag, &message);
         let written: Vec<_> = std::fs::read_dir(d.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert!(written.is_empty(), "{args:?}: nothing written, found {written:?}");
     }

@@ -242,6 +242,8 @@ fn a_csv_rewritten_by_another_tool_is_refused_naming_both_files() {
     let bytes = std::fs::read(&csv).unwrap();
     assert_eq!(s["csv_bytes"].as_u64(), Some(bytes.len() as u64));
     assert_eq!(s["csv_crc32c"].as_str().map(str::len), Some(8));
+    // The CRC-32C the device's links use (fbg-shared's, written apart from the trainer's).
+    assert_eq!(s["csv_crc32c"].as_str(), Some(format!("{:08x}", fbg_shared::crc32c::crc32c(&bytes)).as_str()));
     // Unchanged: read, every reader.
     assert_eq!(Dataset::read_csv(&csv).unwrap().meta, d.meta);
     assert_eq!(Dataset::read_csv_meta(&csv).unwrap(), d.meta);

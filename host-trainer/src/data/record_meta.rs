@@ -349,13 +349,6 @@ impl Default for TableDigest {
 }
 
 impl TableDigest {
-    /// The digest of `bytes` (a whole table).
-    pub fn of(bytes: &[u8]) -> TableDigest {
-        let mut d = TableDigest::default();
-        d.update(bytes);
-        d
-    }
-
     /// Add the next bytes.
     pub fn update(&mut self, bytes: &[u8]) {
         self.bytes += bytes.len() as u64;
