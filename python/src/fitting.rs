@@ -42,7 +42,7 @@ pub fn fit(
     targets: Option<Vec<String>>,
     precision: &str,
     drift_spec: Option<f64>,
-    zero: Option<Vec<(Option<f64>, String)>>,
+    zero: Option<crate::columns::Zero>,
 ) -> PyResult<(Model, Model, String, String)> {
     crate::stream::precision(precision)?;
     // The columns given as y must all be references: another name would be dropped silently

@@ -115,7 +115,7 @@ pub fn write_dataset(
     path: PathBuf,
     cal: Option<Vec<bool>>,
     t0_unix_s: Option<f64>,
-    zero: Option<Vec<(Option<f64>, String)>>,
+    zero: Option<columns::Zero>,
 ) -> PyResult<()> {
     let mut d = columns::dataset(columns, cal, t0_unix_s, &path.display().to_string())?;
     set_zero(&mut d, zero)?;
@@ -124,7 +124,7 @@ pub fn write_dataset(
 
 /// Give `d` the zero a frame's `attrs['zero']` states (as [`record_zero`] gives it; None or
 /// empty: unknown), checked grating by grating.
-pub fn set_zero(d: &mut Dataset, zero: Option<Vec<(Option<f64>, String)>>) -> PyResult<()> {
+pub fn set_zero(d: &mut Dataset, zero: Option<columns::Zero>) -> PyResult<()> {
     if let Some(z) = zero.filter(|z| !z.is_empty()) {
         if z.len() != d.n_gratings() {
             return Err(msg(format!(
@@ -147,7 +147,7 @@ pub fn set_zero(d: &mut Dataset, zero: Option<Vec<(Option<f64>, String)>>) -> Py
 /// The zero a dataset CSV states (its sidecar's): per grating, λ_ref \[nm\] (None when
 /// unknown) and its source; empty when it states none.
 #[pyfunction]
-pub fn record_zero(py: Python<'_>, path: PathBuf) -> PyResult<Vec<(Option<f64>, String)>> {
+pub fn record_zero(py: Python<'_>, path: PathBuf) -> PyResult<columns::Zero> {
     let meta = py.detach(|| Dataset::read_csv_meta(&path)).map_err(to_py)?;
     Ok(columns::zero_of(&meta))
 }

@@ -17,7 +17,7 @@ import numpy as np
 
 from . import _core
 from . import _frames as F
-from .model import Model, Stream, _attrs_t0, _attrs_zero, _text, _unix_time
+from .model import Model, Stream, _attrs_t0, _attrs_zero, _text, _unix_time, _zero
 
 try:  # scikit-learn is optional
     from sklearn.base import BaseEstimator as _Base
@@ -46,13 +46,6 @@ except ImportError:  # pragma: no cover - exercised only without scikit-learn
 
     class _Regressor:  # type: ignore[no-redef]
         """The regressor's mixin; ``score`` is the estimators' own (it takes ``t``)."""
-
-
-class _Attrs:
-    """A stand-in frame whose ``attrs['zero']`` is the ``zero=`` given to ``fit``."""
-
-    def __init__(self, zero: Any):
-        self.attrs = {"zero": zero}
 
 
 class _NotFitted(ValueError, AttributeError):
@@ -137,7 +130,7 @@ class _Compensator(_Base, _Regressor):
             targets=list(targets),
             precision=_text("precision", self.precision),
             drift_spec=None if self.drift_spec is None else _number("drift_spec", self.drift_spec),
-            zero=_attrs_zero(X) if zero is None else _attrs_zero(_Attrs(zero)),
+            zero=_attrs_zero(X) if zero is None else _zero("zero", zero),
         )
         self.model_h_ = Model(h)
         self.model_p_ = Model(p)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any, Dict, Optional, Union
+from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
@@ -225,16 +225,23 @@ def _attrs_t0(X: Any) -> Optional[float]:
     return None
 
 
-def _attrs_zero(X: Any) -> Optional[list]:
+def _zero(name: str, zero: Any) -> Optional[List[Tuple[Optional[float], str]]]:
+    """A record's zero (``[lambda_ref_nm or None, source]`` per grating, as :func:`read_dataset`
+    sets ``attrs['zero']``) as the trainer takes it, or a ValueError naming ``name``; None for
+    None."""
+    if zero is None:
+        return None
+    try:
+        return [(None if nm is None else float(nm), str(source)) for nm, source in zero]
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: {zero!r:.60} is not a list of [lambda_ref_nm, source] pairs") from None
+
+
+def _attrs_zero(X: Any) -> Optional[List[Tuple[Optional[float], str]]]:
     """The calibration zero a frame states in ``attrs['zero']`` (as :func:`read_dataset` and
     :func:`simulate` set it), or None."""
     attrs = getattr(X, "attrs", None)
-    if isinstance(attrs, dict) and attrs.get("zero") is not None:
-        zero = attrs["zero"]
-        if not isinstance(zero, (list, tuple)):
-            raise ValueError(f"attrs['zero']: {zero!r:.40} is not a list of (lambda_ref_nm, source) per grating")
-        return [tuple(z) for z in zero]
-    return None
+    return _zero("attrs['zero']", attrs.get("zero")) if isinstance(attrs, dict) else None
 
 
 def compensate(model: Union[Model, PathLike], frame: Any, *, precision: str = "f64", t0_unix_s: Optional[float] = None):

@@ -12,7 +12,7 @@ from typing import Any, Dict, List, Optional, Union
 
 from . import _core
 from . import _frames as F
-from .model import _attrs_t0, _number, _text, _unix_time
+from .model import _attrs_t0, _attrs_zero, _number, _text, _unix_time
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -73,13 +73,7 @@ def write_dataset(frame: Any, path: PathLike) -> None:
     cal = None
     if "split" in names:
         cal = [s == "cal" for s in (frame["split"].astype(str) if hasattr(frame["split"], "astype") else frame["split"])]
-    zero = getattr(frame, "attrs", {}).get("zero") if hasattr(frame, "attrs") else None
-    if zero is not None:
-        try:
-            zero = [(None if nm is None else float(nm), str(source)) for nm, source in zero]
-        except (TypeError, ValueError):
-            raise ValueError(f"attrs['zero']: {zero!r:.60} is not a list of [lambda_ref_nm, source] pairs") from None
-    _core.write_dataset(cols, os.fspath(path), cal, _attrs_t0(frame), zero)
+    _core.write_dataset(cols, os.fspath(path), cal, _attrs_t0(frame), _attrs_zero(frame))
 
 
 def import_file(
