@@ -91,10 +91,10 @@ pub fn bench_fit(
         })
         .unwrap_or_default();
     let tr = fits.pop().ok_or_else(|| TrainerError::fit("no fit ran"))?;
-    let (ep, _) = evaluate_holdout(&tr.model_p, &d)?;
+    let (ep, estp) = evaluate_holdout(&tr.model_p, &d)?;
     let (eh, esth) = evaluate_holdout(&tr.model_h, &d)?;
     if let Some(path) = holdout_errors {
-        write_holdout_errors(path, &tr.model_h.dims, &d, &esth)?;
+        write_holdout_errors(path, &tr.model_h.dims, &d, [&esth, &estp])?;
     }
     Ok(FitBench {
         mode: mode.to_string(),
@@ -218,31 +218,34 @@ impl BenchFitOptions {
     }
 }
 
-/// Model-H's hold-out errors (estimate − truth) and band half-widths, one row per scored sample.
+/// Model-H's hold-out errors (estimate − truth) and band half-widths, then Model-P's
+/// (`p_err_*`, `p_band_*`), one row per scored sample.
 fn write_holdout_errors(
     path: &std::path::Path,
     dims: &fbg_shared::layout::Dims,
     d: &Dataset,
-    est: &[Estimate<f64>],
+    est: [&[Estimate<f64>]; 2],
 ) -> Result<(), TrainerError> {
     use std::io::Write;
     let idx: Vec<usize> = d.holdout_indices().into_iter().filter(|&i| d.usable(i)).collect();
     let refs = d.references_of(dims);
     crate::data::files::write_atomically(path, |w| {
         write!(w, "t_s")?;
-        for name in ["err", "band"] {
+        for name in ["err", "band", "p_err", "p_band"] {
             for ch in channels(dims) {
                 write!(w, ",{name}_{ch}")?;
             }
         }
         writeln!(w)?;
-        for (e, &i) in est.iter().zip(&idx) {
+        for (k, &i) in idx.iter().enumerate() {
             write!(w, "{}", d.t_s[i])?;
-            for (c, r) in refs.iter().enumerate() {
-                write!(w, ",{}", e.values[c] - r[i])?;
-            }
-            for c in 0..dims.n_outputs() {
-                write!(w, ",{}", e.band95[c])?;
+            for e in est.iter().filter_map(|e| e.get(k)) {
+                for (c, r) in refs.iter().enumerate() {
+                    write!(w, ",{}", e.values[c] - r[i])?;
+                }
+                for c in 0..dims.n_outputs() {
+                    write!(w, ",{}", e.band95[c])?;
+                }
             }
             writeln!(w)?;
         }

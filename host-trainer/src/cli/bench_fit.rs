@@ -58,8 +58,9 @@ pub struct BenchFitArgs {
     /// Print the figures as JSON on stdout.
     #[arg(long)]
     json: bool,
-    /// Also write Model-H's per-sample hold-out errors and 95 % band half-widths to this CSV
-    /// (`t_s`, `err_<channel>`, `band_<channel>`), for band-coverage studies across seeds.
+    /// Also write the per-sample hold-out errors and 95 % band half-widths to this CSV
+    /// (`t_s`, Model-H's `err_<channel>`, `band_<channel>`, Model-P's `p_err_<channel>`,
+    /// `p_band_<channel>`), for band-coverage studies across seeds.
     #[arg(long)]
     holdout_errors: Option<PathBuf>,
     /// The interrogator's stated stability [pm/√day], as `train --drift-spec`.

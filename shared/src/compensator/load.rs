@@ -172,7 +172,6 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             if guarded { Gate::new(&self.env_lo, &self.env_hi, params.dims.envelope_len(), tr) } else { Gate::off() };
         self.pace = if guarded { Pace::new(tr, params.dims.envelope_len()) } else { Pace::off() };
         let on = self.memory.is_active();
-        self.fades_beyond_lead = guarded && self.lead_max_s > F::ZERO;
         for (o, &q) in self.quiet_max_s.iter_mut().zip(tr.quiet_max_s.iter()) {
             *o = if on { F::from_real(q) } else { F::ZERO };
         }

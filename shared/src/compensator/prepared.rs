@@ -59,9 +59,6 @@ pub struct PreparedModel<F, const K: usize> {
     pub(super) uses_latch: bool,
     /// Whether the band grows with time (the time input is then required).
     pub(super) band_grows: bool,
-    /// Whether the band decays towards the fallback band beyond the largest validated lead
-    /// (a model with a trust spec).
-    pub(super) fades_beyond_lead: bool,
     pub(super) fitted: [bool; MAX_OUTPUTS],
     /// Latch dead band in ticks of 1/1024 pm.
     pub(super) dead_band: i32,
@@ -155,7 +152,6 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             fallback_var: [F::ZERO; MAX_OUTPUTS],
             fallback_var_growth: [F::ZERO; MAX_OUTPUTS],
             pace: Pace::off(),
-            fades_beyond_lead: false,
         }
     }
 

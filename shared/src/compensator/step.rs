@@ -600,8 +600,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     }
 
     /// The estimate from the values `y`, the leverage, the lead, the fade (1: Model-H's
-    /// band; 0: Model-P's, blended in variance between; beyond the largest validated lead the
-    /// band also decays towards Model-P's, [`crate::trust`]) and the factor ≥ 1 beyond the
+    /// band; 0: Model-P's, blended in variance between, [`crate::trust`]) and the factor ≥ 1 beyond the
     /// calibration's pace that multiplies the band's variance: the band, and the plausibility of
     /// the value and the band ([`crate::field`]): three compares per output. An output
     /// unchecked or not fitted has ±∞ bounds and an infinite limit: only a band that overflows
@@ -617,9 +616,6 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         mut flags: Flags,
     ) -> Estimate<F> {
         let m = self.m::<M>();
-        // What the cross-validation showed of Model-H's advantage holds up to the largest lead
-        // it validated; beyond, the band decays towards Model-P's as lead_max / lead.
-        let validated = if self.fades_beyond_lead && lead > self.lead_max_s { self.lead_max_s / lead } else { F::ONE };
         let mut band95 = [F::ZERO; MAX_OUTPUTS];
         let mut implausible = false;
         for ((((bi, (&bv, &bg)), (&v, &lim)), (&lo, &hi)), (&pv, &pg)) in band95
@@ -631,19 +627,9 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             .take(m)
         {
             let own = bg.mul_add(lead, bv) * (F::ONE + lev);
-            let fallback = || pg.mul_add(lead, pv);
             let var = if fade < F::ONE {
-                let p = fallback();
+                let p = pg.mul_add(lead, pv);
                 fade.mul_add(own - p, p)
-            } else if validated < F::ONE {
-                // Beyond the validated lead: never narrower than its own band.
-                let p = fallback();
-                let blend = validated.mul_add(own - p, p);
-                if blend > own {
-                    blend
-                } else {
-                    own
-                }
             } else {
                 own
             };

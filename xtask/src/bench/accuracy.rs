@@ -9,7 +9,7 @@ use anyhow::{bail, Context, Result};
 use fbg_report::FitBench;
 
 use super::report::{
-    Accuracy, Blackbox, Coverage, EnsembleBand, EnsembleChannel, Gain, HybridComparison, ModelHDefault, ModelHPaper,
+    Accuracy, Blackbox, Coverage, DayChannel, EnsembleBand, EnsembleChannel, Gain, HybridComparison, ModelHDefault, ModelHPaper,
     ModelRun, OracleFloor, PeerBlackbox, PresetRun, SeedRun,
 };
 use super::runner::{read_json, Runner, SimMeta};
@@ -133,11 +133,13 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
     let median_h = (0..nc).map(|c| median(&per(c))).collect();
     let seeds_within_95_pm_2 = (0..nc).map(|c| per(c).iter().filter(|v| (*v - 0.95).abs() <= 0.02).count()).collect();
     let files: Vec<PathBuf> = COVERAGE_SEEDS.iter().map(|&s| root.join(holdout_errors_csv("paper", s))).collect();
-    let ensemble_band = Some(ensemble_band_coverage(&files, nc)?);
+    let holdouts = read_holdouts(&files, nc)?;
+    let ensemble_band = Some(ensemble_band_coverage(&holdouts, nc));
+    let by_day = Some(by_day(&holdouts, nc));
     Ok(Accuracy {
         channels,
         presets,
-        coverage_paper: Coverage { per_seed: coverage, mean_h, median_h, seeds_within_95_pm_2, ensemble_band },
+        coverage_paper: Coverage { per_seed: coverage, mean_h, median_h, seeds_within_95_pm_2, ensemble_band, by_day },
         gain_paper: Gain { per_seed: gains, mean_pct, min_pct, seeds_all_channels_25 },
         gb_hybrids_paper,
     })
@@ -176,26 +178,12 @@ fn hybrid_comparisons(runs: &[SeedRun], nc: usize) -> Vec<HybridComparison> {
 /// hold-outs, so no model can have it). Its per-seed coverage shows how much of the seed-to-seed
 /// spread comes from the hold-out week itself (one drift path per seed) rather than from the
 /// band a model estimated from its own calibration batch.
-fn ensemble_band_coverage(files: &[PathBuf], nc: usize) -> Result<EnsembleBand> {
+fn ensemble_band_coverage(holdouts: &[Holdout], nc: usize) -> EnsembleBand {
     // Per seed: (lead from the first hold-out sample [s], |error| per channel).
-    let mut runs: Vec<Vec<(f64, Vec<f64>)>> = Vec::new();
-    for f in files {
-        let text = fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
-        let mut rows = Vec::new();
-        for (n, line) in text.lines().enumerate().skip(1) {
-            let v: Vec<f64> = line
-                .split(',')
-                .map(str::parse)
-                .collect::<Result<_, _>>()
-                .with_context(|| format!("{}:{}: not a number", f.display(), n + 1))?;
-            if v.len() < 1 + 2 * nc {
-                bail!("{}:{}: expected {} columns, found {}", f.display(), n + 1, 1 + 2 * nc, v.len());
-            }
-            rows.push((v[0], v[1..=nc].iter().map(|e| e.abs()).collect()));
-        }
-        let t0 = rows.first().map(|r| r.0).unwrap_or(0.0);
-        runs.push(rows.into_iter().map(|(t, e)| (t - t0, e)).collect());
-    }
+    let runs: Vec<Vec<(f64, Vec<f64>)>> = holdouts
+        .iter()
+        .map(|rows| rows.iter().map(|(t, v)| (*t, v[..nc].iter().map(|e| e.abs()).collect())).collect())
+        .collect();
     let bin = |lead: f64| (lead / ENSEMBLE_BIN_S).max(0.0) as usize;
     let n_bins = runs.iter().flatten().map(|r| bin(r.0) + 1).max().unwrap_or(0);
     let mut per_channel = Vec::new();
@@ -222,5 +210,61 @@ fn ensemble_band_coverage(files: &[PathBuf], nc: usize) -> Result<EnsembleBand> 
             per_seed: cov,
         });
     }
-    Ok(EnsembleBand { bin_seconds: ENSEMBLE_BIN_S, channels: per_channel })
+    EnsembleBand { bin_seconds: ENSEMBLE_BIN_S, channels: per_channel }
+}
+
+/// One seed's hold-out (`bench-fit --holdout-errors`): per sample, the lead from the first
+/// hold-out sample \[s\] and the file's other columns (Model-H's errors and bands, then
+/// Model-P's when the file has them).
+type Holdout = Vec<(f64, Vec<f64>)>;
+
+fn read_holdouts(files: &[PathBuf], nc: usize) -> Result<Vec<Holdout>> {
+    let mut runs = Vec::new();
+    for f in files {
+        let text = fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
+        let mut rows = Vec::new();
+        for (n, line) in text.lines().enumerate().skip(1) {
+            let v: Vec<f64> = line
+                .split(',')
+                .map(str::parse)
+                .collect::<Result<_, _>>()
+                .with_context(|| format!("{}:{}: not a number", f.display(), n + 1))?;
+            if v.len() < 1 + 2 * nc {
+                bail!("{}:{}: expected {} columns, found {}", f.display(), n + 1, 1 + 2 * nc, v.len());
+            }
+            rows.push((v[0], v[1..].to_vec()));
+        }
+        let t0 = rows.first().map(|r| r.0).unwrap_or(0.0);
+        runs.push(rows.into_iter().map(|(t, v)| (t - t0, v)).collect());
+    }
+    Ok(runs)
+}
+
+/// Per channel and whole day of lead, the seeds pooled: the fraction of Model-H's and of
+/// Model-P's errors inside their bands, and Model-H's mean squared error over Model-P's (NaN
+/// where a file has no Model-P columns).
+fn by_day(holdouts: &[Holdout], nc: usize) -> Vec<DayChannel> {
+    let day = |lead: f64| (lead / 86_400.0).max(0.0) as usize;
+    let n_days = holdouts.iter().flatten().map(|r| day(r.0) + 1).max().unwrap_or(0);
+    (0..nc)
+        .map(|c| {
+            // Per day: samples, inside H's band, inside P's band, Σe_H², Σe_P².
+            let mut acc = vec![[0.0f64; 5]; n_days];
+            for (lead, v) in holdouts.iter().flatten() {
+                let a = &mut acc[day(*lead)];
+                let (eh, bh) = (v[c], v[nc + c]);
+                let (ep, bp) = (v.get(2 * nc + c).copied().unwrap_or(f64::NAN), v.get(3 * nc + c).copied().unwrap_or(f64::NAN));
+                a[0] += 1.0;
+                a[1] += f64::from(u8::from(eh.abs() <= bh));
+                a[2] += if bp.is_nan() { f64::NAN } else { f64::from(u8::from(ep.abs() <= bp)) };
+                a[3] += eh * eh;
+                a[4] += ep * ep;
+            }
+            DayChannel {
+                coverage_h: acc.iter().map(|a| a[1] / a[0]).collect(),
+                coverage_p: acc.iter().map(|a| a[2] / a[0]).collect(),
+                mse_ratio: acc.iter().map(|a| a[3] / a[4]).collect(),
+            }
+        })
+        .collect()
 }

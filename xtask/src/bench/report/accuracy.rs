@@ -132,6 +132,22 @@ pub struct Coverage {
     /// The reference band on the lead time alone (absent from files written before it).
     #[serde(default)]
     pub ensemble_band: Option<EnsembleBand>,
+    /// Both models' coverage and error by day since calibration, the seeds pooled (absent
+    /// from files written before it).
+    #[serde(default)]
+    pub by_day: Option<Vec<DayChannel>>,
+}
+
+/// One output's hold-out, the seeds pooled, per whole day since the end of calibration.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct DayChannel {
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub coverage_h: Vec<f64>,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub coverage_p: Vec<f64>,
+    /// Model-H's mean squared error over Model-P's.
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub mse_ratio: Vec<f64>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
