@@ -152,12 +152,34 @@ fn option_errors_of_other_commands_name_the_flag_once() {
             "--shard 1of2: not I/N (e.g. 0/4)".into(),
         ),
         (vec!["fleet", "--shards", "0", "--manifest", &manifest], "--shards", "--shards must be at least 1".into()),
+        (
+            vec!["fleet", "status", "--manifest", &manifest, "--shards", "0"],
+            "--shards",
+            "--shards must be at least 1 (got 0)".into(),
+        ),
         (vec!["simulate", "--pace", "-1", "--out", &out], "--pace", "--pace: -1 is out of range [0.001, 1000]".into()),
         (vec!["simulate", "--pace", "0", "--out", &out], "--pace", "--pace: 0 is out of range [0.001, 1000]".into()),
         (
             vec!["simulate", "--spectra", &none, "--snr-db", "nan", "--out", &out],
             "--snr-db",
             "--snr-db: NaN is not a number of dB".into(),
+        ),
+        // The demo's spectrum flags: clap said "unexpected argument '-0'", and the range error
+        // came from the grating design without the flag's name.
+        (
+            vec!["demo", "--spectra", "--snr-db", "nan", "--out", &out],
+            "--snr-db",
+            "--snr-db: NaN is not a number of dB".into(),
+        ),
+        (
+            vec!["demo", "--spectra", "--reflectivity", "-0.5", "--out", &out],
+            "--reflectivity",
+            "--reflectivity: -0.5 is out of range (0, 0.9999)".into(),
+        ),
+        (
+            vec!["demo", "--spectra", "--reflectivity", "1", "--out", &out],
+            "--reflectivity",
+            "--reflectivity: 1 is out of range (0, 0.9999)".into(),
         ),
         (
             vec!["import", "--format", "csv", &none, "--cal-fraction", "-0.5", "--out", &out],

@@ -6,15 +6,16 @@ mod spectra;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 
 use fbg_shared::spectrum::Method;
 use fbg_trainer::data::files::prepare_output_dir;
 use fbg_trainer::data::Dataset;
+use fbg_trainer::error::ShortNumber;
 use fbg_trainer::eval::studies::{self, Studies};
 use fbg_trainer::fit::TrainOptions;
 use fbg_trainer::sim::meta::SimMeta;
-use fbg_trainer::sim::spectrum::{DetectorModel, PeakFinding, PixelGrid, SpectrumConfig};
+use fbg_trainer::sim::spectrum::{grating, DetectorModel, PeakFinding, PixelGrid, SpectrumConfig};
 use fbg_trainer::{export, report, sim};
 
 use crate::args::ScenarioArgs;
@@ -44,10 +45,10 @@ pub struct DemoArgs {
     #[arg(long, requires = "spectra", default_value = "spectrometer", value_parser = parse_grid)]
     grid: PixelGrid,
     /// With --spectra: the detector's SNR [dB], 10·log10(peak height/noise σ).
-    #[arg(long, requires = "spectra", default_value_t = 30.0)]
+    #[arg(long, requires = "spectra", default_value_t = 30.0, allow_negative_numbers = true)]
     snr_db: f64,
-    /// With --spectra: the gratings' peak reflectivity (0 < R < 1).
-    #[arg(long, requires = "spectra", default_value_t = fbg_trainer::sim::spectrum::grating::DEFAULT_PEAK_REFLECTIVITY)]
+    /// With --spectra: the gratings' peak reflectivity (0 < R < 0.9999).
+    #[arg(long, requires = "spectra", default_value_t = grating::DEFAULT_PEAK_REFLECTIVITY, allow_negative_numbers = true)]
     reflectivity: f64,
     /// With --spectra: refine each peak by a fit of its grating's designed reflection shape (a
     /// template: the simulator's own, so exact, which a datasheet's is not), from the default
@@ -61,7 +62,22 @@ fn parse_grid(s: &str) -> std::result::Result<PixelGrid, String> {
 }
 
 impl DemoArgs {
+    /// The flags' own ranges, checked before anything is simulated: each error names its flag
+    /// once (as `simulate`'s).
+    fn check_flags(&self) -> Result<()> {
+        // Any finite SNR (a negative one: noise above the peak), or +∞ for no noise.
+        if !(self.snr_db.is_finite() || self.snr_db == f64::INFINITY) {
+            bail!("--snr-db: {} is not a number of dB", ShortNumber(self.snr_db));
+        }
+        let r = self.reflectivity;
+        if !(r > 0.0 && r < grating::PEAK_REFLECTIVITY_MAX) {
+            bail!("--reflectivity: {} is out of range (0, {})", ShortNumber(r), grating::PEAK_REFLECTIVITY_MAX);
+        }
+        Ok(())
+    }
+
     pub fn run(self) -> Result<()> {
+        self.check_flags()?;
         if self.spectra {
             let cfg = SpectrumConfig {
                 grid: self.grid,

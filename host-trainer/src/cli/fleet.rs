@@ -98,6 +98,10 @@ impl FleetArgs {
 
 impl StatusArgs {
     fn run(self) -> Result<()> {
+        // Before the manifest is read, naming the flag (the library's own check names a key).
+        if self.shards == Some(0) {
+            anyhow::bail!("--shards must be at least 1 (got 0)");
+        }
         let r = fleet::status_from_file(&self.manifest, self.shards)?;
         if self.json {
             println!("{}", serde_json::to_string_pretty(&r)?);

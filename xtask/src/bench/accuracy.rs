@@ -9,8 +9,8 @@ use anyhow::{bail, Context, Result};
 use fbg_report::FitBench;
 
 use super::report::{
-    Accuracy, Blackbox, Coverage, DayChannel, EnsembleBand, EnsembleChannel, Gain, HybridComparison, ModelHDefault, ModelHPaper,
-    ModelRun, OracleFloor, PeerBlackbox, PresetRun, SeedRun,
+    Accuracy, Blackbox, Coverage, DayChannel, EnsembleBand, EnsembleChannel, Gain, HybridComparison, ModelHDefault,
+    ModelHPaper, ModelRun, OracleFloor, PeerBlackbox, PresetRun, SeedRun,
 };
 use super::runner::{read_json, Runner, SimMeta};
 use super::stats::{at, median};
@@ -253,7 +253,8 @@ fn by_day(holdouts: &[Holdout], nc: usize) -> Vec<DayChannel> {
             for (lead, v) in holdouts.iter().flatten() {
                 let a = &mut acc[day(*lead)];
                 let (eh, bh) = (v[c], v[nc + c]);
-                let (ep, bp) = (v.get(2 * nc + c).copied().unwrap_or(f64::NAN), v.get(3 * nc + c).copied().unwrap_or(f64::NAN));
+                let (ep, bp) =
+                    (v.get(2 * nc + c).copied().unwrap_or(f64::NAN), v.get(3 * nc + c).copied().unwrap_or(f64::NAN));
                 a[0] += 1.0;
                 a[1] += f64::from(u8::from(eh.abs() <= bh));
                 a[2] += if bp.is_nan() { f64::NAN } else { f64::from(u8::from(ep.abs() <= bp)) };

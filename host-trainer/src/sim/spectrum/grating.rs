@@ -104,6 +104,10 @@ pub const DEFAULT_FWHM_NM: f64 = 0.3;
 /// The default peak reflectivity of a simulated grating.
 pub const DEFAULT_PEAK_REFLECTIVITY: f64 = 0.5;
 
+/// Peak reflectivities a design accepts lie strictly between 0 and this: a grating that
+/// reflects everything has no transmission left to read the next one through.
+pub const PEAK_REFLECTIVITY_MAX: f64 = 0.9999;
+
 impl GratingDesign {
     /// AC coupling κ = π·Δn·g/λ \[1/m\] at wavelength `lambda_nm` and apodisation value `g`.
     pub fn kappa_per_m(&self, lambda_nm: f64, g: f64) -> f64 {
@@ -221,8 +225,8 @@ impl GratingDesign {
         if !(fwhm_nm > 0.0 && fwhm_nm < 20.0) {
             return Err(bad(format!("FWHM {fwhm_nm} nm: between 0 and 20 nm")));
         }
-        if !(peak_reflectivity > 0.0 && peak_reflectivity < 0.9999) {
-            return Err(bad(format!("peak reflectivity {peak_reflectivity}: between 0 and 0.9999")));
+        if !(peak_reflectivity > 0.0 && peak_reflectivity < PEAK_REFLECTIVITY_MAX) {
+            return Err(bad(format!("peak reflectivity {peak_reflectivity}: between 0 and {PEAK_REFLECTIVITY_MAX}")));
         }
         if !(bragg_nm > 100.0 && bragg_nm < 10_000.0) {
             return Err(bad(format!("Bragg wavelength {bragg_nm} nm: between 100 and 10 000 nm")));
