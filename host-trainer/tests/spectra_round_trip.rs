@@ -142,3 +142,104 @@ fn discovery_finds_exactly_the_simulated_gratings_down_to_13_db() {
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// A grating's measured shape given to `import` (`[[grating]] shape = "scan.csv"`) refines
+/// each peak by a template fit, as the simulator's design template does: on the 512-pixel
+/// spectrometer (about 166 pm per pixel, where the default method locks to the grid by
+/// several pm) the imported shifts must follow the design-template chain's within
+/// [`TOL_SHAPE_PM`], and their error against the rendered wavelengths must be well under the
+/// default method's. Scans that cannot serve as a
+/// shape, and a shape given to a peaks import, are refused naming the file or the key.
+/// The file's header gives each pixel's wavelength to the pm: a fit over the two or three
+/// pixels a 0.3 nm grating covers moves with that rounding by up to about a pm (the
+/// default method, which weighs the whole window, by under [`TOL_SAME_WINDOWS_PM`]).
+const TOL_SHAPE_PM: f64 = 1.0;
+
+#[test]
+fn a_measured_shape_in_the_map_removes_the_grid_locking() {
+    use fbg_trainer::sim::spectrum::{find_peaks, PeakFinding};
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = Preset::Paper.config();
+    cfg.clock.days = 3.0 / 24.0;
+    let s = sim::simulate(&cfg, 11);
+    let nominal: Vec<f64> = s.data.meta.zero.iter().map(|z| z.nm).collect();
+    let frames = FrameSimulator::new(&SpectrumConfig::default(), &nominal).unwrap();
+    let spectra = dir.path().join("sp.csv");
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&spectra).unwrap());
+    write_spectra_csv(&mut w, &s.data, &frames, 11).unwrap();
+    drop(w);
+    // Each grating's "swept-laser scan": its design at 2 pm steps over ±1.2 nm.
+    let mut map = String::new();
+    for c in 0..frames.channels() {
+        for &g in frames.gratings_of(c) {
+            let (design, bragg) = (&frames.designs()[g], frames.nominal_nm()[g]);
+            let scan: String = (-600..=600)
+                .map(|k| {
+                    let wl = bragg + 0.002 * f64::from(k);
+                    format!("{wl:.4},{}\n", design.reflectivity(bragg, wl))
+                })
+                .collect();
+            std::fs::write(dir.path().join(format!("scan{g}.csv")), format!("wavelength_nm,reflectance\n{scan}"))
+                .unwrap();
+            let win = frames.window(g);
+            map += &format!(
+                "[[grating]]\nchannel = {}\nwindow_nm = [{}, {}]\nshape = \"scan{g}.csv\"\n",
+                c + 1,
+                win.lo_nm,
+                win.hi_nm
+            );
+        }
+    }
+    let map_path = dir.path().join("map.toml");
+    std::fs::write(&map_path, &map).unwrap();
+    let (d, _) = import(&common::import_options(Format::SpectraCsv, spectra.clone(), Some(map_path.clone()))).unwrap();
+    let method = Method::default();
+    let templated = find_peaks(&s.data, &frames, PeakFinding::DesignTemplate(method), 11).unwrap();
+    let plain = find_peaks(&s.data, &frames, PeakFinding::Method(method), 11).unwrap();
+    let order: Vec<usize> = (0..frames.channels()).flat_map(|c| frames.gratings_of(c).to_vec()).collect();
+    for (imported, &g) in d.dl_pm.iter().zip(&order) {
+        let exact = &templated.data.dl_pm[g];
+        let worst = imported
+            .iter()
+            .zip(exact)
+            .filter(|(y, e)| y.is_finite() && e.is_finite())
+            .map(|(y, e)| (y - (e - exact[0])).abs())
+            .fold(0.0f64, f64::max);
+        // The rendered wavelength's shift: the imported one's error against it, and the
+        // default method's (both zeroed on the first frame).
+        let truth: Vec<f64> = exact.iter().zip(&templated.errors_pm[g]).map(|(x, e)| x - e).collect();
+        let rms = |v: &[f64], zero: f64| {
+            let e: Vec<f64> =
+                v.iter().zip(&truth).map(|(x, t)| (x - zero) - (t - truth[0])).filter(|e| e.is_finite()).collect();
+            (e.iter().map(|e| e * e).sum::<f64>() / e.len() as f64).sqrt()
+        };
+        let (with_shape, without) = (rms(imported, 0.0), rms(&plain.data.dl_pm[g], plain.data.dl_pm[g][0]));
+        eprintln!("grating {g}: |import − design-template chain| ≤ {worst:.3} pm; RMS error {with_shape:.2} pm with the shape, {without:.2} pm without");
+        assert!(worst < TOL_SHAPE_PM, "grating {g}: {worst} pm");
+        assert!(with_shape < 0.5 * without, "grating {g}: {with_shape} pm with the shape, {without} pm without");
+    }
+    // Scans that cannot be a shape: each refused naming the file, its line and column.
+    for (text, line, column) in [
+        ("wavelength_nm,reflectance\n1550.0,0.1\n1550.1,0.9\n1550.2,0.1\n", 1, "reflectance"),
+        ("wavelength_nm,reflectance\n1550.0,0.1\n1549.9,0.2\n", 3, "wavelength_nm"),
+        ("wavelength_nm,reflectance\n1550.0,x\n", 2, "reflectance"),
+        ("wl,reflectance\n1550.0,0.1\n", 1, "wavelength_nm"),
+    ] {
+        let scan = dir.path().join("bad.csv");
+        std::fs::write(&scan, text).unwrap();
+        let bad_map = map.replacen("shape = \"scan0.csv\"", "shape = \"bad.csv\"", 1);
+        let bad_map_path = dir.path().join("bad.toml");
+        std::fs::write(&bad_map_path, bad_map).unwrap();
+        let e = import(&common::import_options(Format::SpectraCsv, spectra.clone(), Some(bad_map_path)))
+            .err()
+            .unwrap_or_else(|| panic!("{text:?} accepted"))
+            .to_string();
+        assert!(e.contains("bad.csv") && e.contains(&format!("line {line}, column {column}")), "{text:?}: {e}");
+    }
+    // A shape belongs to spectra, not to a logger's table of wavelengths.
+    let (log, log_map) = (dir.path().join("log.csv"), dir.path().join("log.toml"));
+    std::fs::write(&log, "t_s,l1\n0,1550.0\n60,1550.001\n").unwrap();
+    std::fs::write(&log_map, "[[grating]]\ncolumn = \"l1\"\nunit = \"nm\"\nshape = \"scan0.csv\"\n").unwrap();
+    let e = import(&common::import_options(Format::Csv, log, Some(log_map))).err().unwrap().to_string();
+    assert!(e.contains("log.toml") && e.contains("grating[1].shape"), "{e}");
+}

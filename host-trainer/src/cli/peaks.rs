@@ -18,9 +18,9 @@ pub struct PeaksArgs {
     format: String,
     /// The spectrum file.
     file: PathBuf,
-    /// Map (TOML): the gratings' channels and windows ([[grating]] channel, window_nm) and the
-    /// detector's settings ([spectra]); without it each channel's peaks in its first spectrum
-    /// become the gratings.
+    /// Map (TOML): the gratings' channels and windows ([[grating]] channel, window_nm, and a
+    /// measured shape to refine each peak by: shape) and the detector's settings ([spectra]);
+    /// without it each channel's peaks in its first spectrum become the gratings.
     #[arg(long)]
     map: Option<PathBuf>,
     /// The intensities are linear (counts, mW) or dB [default: the map's [spectra] scale, else

@@ -62,6 +62,10 @@ pub struct Map {
     /// intensity scale and the peak detector's settings.
     #[serde(default)]
     pub spectra: SpectraMap,
+    /// The map file's directory (relative `shape` paths start there); `None` for a map read
+    /// from text.
+    #[serde(skip)]
+    pub dir: Option<std::path::PathBuf>,
 }
 
 /// The time column.
@@ -125,6 +129,10 @@ pub struct GratingMap {
     /// Absolute wavelength \[nm\] at the reference condition; Δλ = (λ − ref_nm) × 1000 pm.
     /// Default: the first valid reading of the grating in the output.
     pub ref_nm: Option<f64>,
+    /// Spectrum files: the grating's measured reflection shape (a CSV with `wavelength_nm`
+    /// and `reflectance`, relative to the map's directory), which refines each frame's peak by
+    /// a template fit (`spectra/shape.rs`).
+    pub shape: Option<std::path::PathBuf>,
 }
 
 /// Settings of an ENLIGHT / Hyperion peaks file.
@@ -205,6 +213,8 @@ pub(crate) struct Window {
     pub lo: f64,
     pub hi: f64,
     pub key: String,
+    /// The measured shape's file, resolved against the map's directory.
+    pub shape: Option<std::path::PathBuf>,
 }
 
 /// The importer a map is checked for.
@@ -220,7 +230,9 @@ impl Map {
     /// Read and check a map file; errors name the file and the key (or TOML line/column).
     pub fn load(path: &Path) -> Result<Map, TrainerError> {
         let text = std::fs::read_to_string(path).map_err(|e| TrainerError::io(path, e))?;
-        Self::from_toml_str(&text, &path.display().to_string())
+        let mut m = Self::from_toml_str(&text, &path.display().to_string())?;
+        m.dir = path.parent().map(Path::to_path_buf);
+        Ok(m)
     }
 
     /// Parse TOML text; `origin` names the source in errors.
@@ -259,6 +271,12 @@ impl Map {
                         format!("{r} is not a wavelength in nm ({}–{} nm)", NM_RANGE.0, NM_RANGE.1),
                     ));
                 }
+            }
+            if g.shape.is_some() && what != For::Spectra {
+                return Err(err(
+                    key("shape"),
+                    "a measured shape refines peaks found in spectra: --format spectra-csv, enlight-responses or pixels".into(),
+                ));
             }
             match what {
                 For::Csv => g.validate_csv().map_err(|(k, m)| err(key(k), m))?,
@@ -377,7 +395,9 @@ impl Map {
             .enumerate()
             .map(|(i, g)| {
                 let [lo, hi] = g.window_nm.unwrap_or([0.0, 0.0]);
-                Window { channel: g.channel.unwrap_or(1).saturating_sub(1), lo, hi, key: format!("grating[{}]", i + 1) }
+                let shape = g.shape.as_ref().map(|p| self.dir.as_deref().map_or_else(|| p.clone(), |d| d.join(p)));
+                let channel = g.channel.unwrap_or(1).saturating_sub(1);
+                Window { channel, lo, hi, key: format!("grating[{}]", i + 1), shape }
             })
             .collect()
     }

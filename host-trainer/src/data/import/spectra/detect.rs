@@ -2,7 +2,7 @@
 //! once (from the map's windows, or from the peaks discovered in the channel's first spectrum)
 //! and reused for every frame; the results kept per grating and frame.
 
-use fbg_shared::spectrum::{DetectorConfig, Peak, PeakDetector, Spectrum, Window};
+use fbg_shared::spectrum::{DetectorConfig, Peak, PeakDetector, PeakFlags, Spectrum, Window};
 
 use super::super::mapping;
 use super::super::problems::{Reason, RowError};
@@ -11,6 +11,7 @@ use super::frames::{SpectrumRow, SpectrumSink, MAX_CHANNELS};
 use super::kept::Kept;
 use crate::data::measurand::MAX_GRATINGS;
 use crate::error::TrainerError;
+use crate::sim::spectrum::chain::{refine, DesignTable};
 
 /// One channel's detector: the windows of its gratings, each tagged with the caller's name of
 /// the grating (`G`), found in every frame of the channel. The import's detection and the
@@ -51,6 +52,8 @@ struct Channel<T> {
     peaks: Vec<Vec<Option<T>>>,
     /// Per frame: the line of this channel's spectrum (0 where the frame lacks it).
     lines: Vec<u64>,
+    /// Per window, the grating's measured shape, when the map gives one.
+    shapes: Vec<Option<DesignTable>>,
     /// Peaks discovered in the first spectrum (discovery only).
     discovered: usize,
     /// Line of the channel's first spectrum.
@@ -62,6 +65,8 @@ pub(crate) struct Detection<T> {
     config: DetectorConfig<f64>,
     /// The map's windows: (grating index, channel 0-based, window); empty: discovery.
     mapped: Vec<(usize, usize, Window<f64>)>,
+    /// Per mapped grating, its measured shape ([`super::shape`]).
+    shapes: Vec<Option<DesignTable>>,
     channels: Vec<Option<Channel<T>>>,
     t: Vec<f64>,
     lines: Vec<u64>,
@@ -98,23 +103,27 @@ pub(crate) struct Detected<T> {
 }
 
 impl<T: Kept> Detection<T> {
-    /// A detection with `config` and the map's windows (none: discovery); `columns` name the
-    /// file's time and channel columns in messages.
+    /// A detection with `config` and the map's windows (none: discovery), each grating's
+    /// measured shape read (errors name its file); `columns` name the file's time and channel
+    /// columns in messages.
     pub(crate) fn new(
         config: DetectorConfig<f64>,
         windows: &[mapping::Window],
         columns: (&'static str, &'static str),
-    ) -> Self {
+    ) -> Result<Self, TrainerError> {
         let mapped = windows.iter().enumerate().map(|(g, w)| (g, w.channel, Window::new(w.lo, w.hi))).collect();
-        Detection {
+        let shapes =
+            windows.iter().map(|w| w.shape.as_deref().map(super::shape::load).transpose()).collect::<Result<_, _>>()?;
+        Ok(Detection {
             config,
             mapped,
+            shapes,
             channels: Vec::new(),
             t: Vec::new(),
             lines: Vec::new(),
             in_frame: Vec::new(),
             columns,
-        }
+        })
     }
 
     /// True before the first spectrum.
@@ -131,7 +140,7 @@ impl<T: Kept> Detection<T> {
         }
         let frames = self.t.len();
         let config = self.config;
-        let mapped = &self.mapped;
+        let (mapped, shapes) = (&self.mapped, &self.shapes);
         let slot = self.channels.get_mut(c)?;
         Some(slot.get_or_insert_with(|| {
             let windows: Vec<(Option<usize>, Window<f64>)> = if mapped.is_empty() {
@@ -140,10 +149,12 @@ impl<T: Kept> Detection<T> {
                 mapped.iter().filter(|m| m.1 == c).map(|m| (Some(m.0), m.2)).collect()
             };
             let discovered = if mapped.is_empty() { windows.len() } else { 0 };
+            let shapes = windows.iter().map(|(g, _)| g.and_then(|g| shapes.get(g).cloned().flatten())).collect();
             let detector = ChannelDetector::new(config, windows);
             let n = detector.as_ref().map_or(0, |d| d.windows().count());
             Channel {
                 detector,
+                shapes,
                 peaks: vec![vec![None; frames]; n],
                 lines: vec![0; frames],
                 discovered,
@@ -289,7 +300,14 @@ impl<T: Kept> SpectrumSink for Detection<T> {
             *l = row.line;
         }
         if let Some(det) = &ch.detector {
-            for (slot, (_, _, p)) in ch.peaks.iter_mut().zip(det.detect(&row.spectrum)) {
+            for ((slot, (_, w, mut p)), shape) in ch.peaks.iter_mut().zip(det.detect(&row.spectrum)).zip(&ch.shapes) {
+                // The measured shape refines the method's estimate; no shape fits: no peak.
+                if let Some(t) = shape.as_ref().and_then(DesignTable::template) {
+                    p.wavelength_nm = refine(&row.spectrum, w, &t, p.pixel).unwrap_or(f64::NAN);
+                    if p.wavelength_nm.is_nan() {
+                        p.flags.insert(PeakFlags::NO_PEAK);
+                    }
+                }
                 if let Some(last) = slot.last_mut() {
                     *last = Some(T::from(p));
                 }
