@@ -3,11 +3,12 @@
 
 use fbg_shared::spectrum::{DetectorConfig, Method, PeakDetector, Spectrum};
 
-use super::chain::{design_tables, refine};
+use super::chain::design_tables;
 use super::detector::{DetectorModel, PixelGrid, FULL_SCALE_COUNTS};
 use super::frames::{row_rng, FrameSimulator};
 use super::grating::Apodisation;
 use super::SpectrumConfig;
+use crate::data::import::spectra::refine;
 use crate::error::TrainerError;
 
 /// The grating's Bragg wavelength in the sweep \[nm\] (the default source's centre: the SNR of

@@ -2,13 +2,12 @@
 //! each grating's λ_ref.
 
 use fbg_shared::layout::MAX_GRATINGS;
-use fbg_shared::spectrum::template::template_fit;
-use fbg_shared::spectrum::{DetectorConfig, Grid, Method, Region, Spectrum, Template, Threshold};
+use fbg_shared::spectrum::{DetectorConfig, Grid, Method, Spectrum, Template};
 use rayon::prelude::*;
 
 use super::detector::FULL_SCALE_COUNTS;
 use super::frames::{row_rng, wavelengths_at, FrameSimulator};
-use crate::data::import::spectra::ChannelDetector;
+use crate::data::import::spectra::{refine, ChannelDetector, ShapeTable};
 use crate::data::Dataset;
 use crate::error::TrainerError;
 
@@ -30,11 +29,6 @@ pub struct SpectrumChain {
     /// ([`fbg_shared::spectrum::template::template_fit`]).
     pub templated: bool,
 }
-
-/// Template tables' step \[nm\] and half-span \[nm\]: 1 pm, a few hundredths of a 512-pixel
-/// spectrometer's pixel, over the main lobe and the first side lobes of a 0.3 nm grating.
-const TEMPLATE_STEP_NM: f64 = 0.001;
-const TEMPLATE_HALF_SPAN_NM: f64 = 1.5;
 
 /// How each grating's peak is found in its window.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,7 +92,7 @@ pub fn find_peaks(
             })
         })
         .collect::<Result<_, _>>()?;
-    let tables: Vec<DesignTable> = match finding {
+    let tables: Vec<ShapeTable> = match finding {
         PeakFinding::Method(_) => Vec::new(),
         PeakFinding::DesignTemplate(_) => design_tables(frames),
     };
@@ -159,76 +153,12 @@ pub fn find_peaks(
     Ok(SpectrumChain { data: d, errors_pm, faults, method, templated: !templates.is_empty() })
 }
 
-/// A grating's reflection shape (its design, or a measured scan), tabulated at
-/// [`TEMPLATE_STEP_NM`] from `first_offset_nm` about its Bragg wavelength.
-#[derive(Clone, Debug)]
-pub(crate) struct DesignTable {
-    values: Vec<f64>,
-    first_offset_nm: f64,
-}
-
-impl DesignTable {
-    pub(crate) fn template(&self) -> Option<Template<'_, f64>> {
-        Template::new(&self.values, self.first_offset_nm, TEMPLATE_STEP_NM)
-    }
-
-    /// A measured shape (a swept-laser scan of the grating: wavelengths \[nm\], increasing,
-    /// and reflectance, any scale) tabulated like a design: at the same step, about the centroid
-    /// of the samples above half the scan's maximum (the wavelength the fit reports), over the
-    /// same half-span or the scan's own range where that is shorter (0 beyond, as a template
-    /// reads). `None` without a positive maximum.
-    pub(crate) fn from_scan(wavelength_nm: &[f64], reflectance: &[f64]) -> Option<DesignTable> {
-        if wavelength_nm.len() < 2 || wavelength_nm.len() != reflectance.len() {
-            return None;
-        }
-        let max = reflectance.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if !(max > 0.0 && max.is_finite()) {
-            return None;
-        }
-        let top = wavelength_nm.iter().zip(reflectance).filter(|(_, &r)| r >= 0.5 * max);
-        let (sum_wr, sum_r) = top.fold((0.0, 0.0), |(a, b), (&w, &r)| (a + w * r, b + r));
-        let centre = sum_wr / sum_r;
-        let (&first, &last) = (wavelength_nm.first()?, wavelength_nm.last()?);
-        let steps = |x: f64| (x / TEMPLATE_STEP_NM).floor() as i64;
-        let lo = (-steps(TEMPLATE_HALF_SPAN_NM)).max(-steps(centre - first));
-        let hi = steps(TEMPLATE_HALF_SPAN_NM).min(steps(last - centre));
-        let values = (lo..=hi)
-            .map(|k| {
-                let x = centre + k as f64 * TEMPLATE_STEP_NM;
-                let j = wavelength_nm.partition_point(|&w| w <= x).clamp(1, wavelength_nm.len() - 1);
-                let (w0, w1, r0, r1) = (wavelength_nm[j - 1], wavelength_nm[j], reflectance[j - 1], reflectance[j]);
-                r0 + (r1 - r0) * (x - w0) / (w1 - w0)
-            })
-            .collect();
-        Some(DesignTable { values, first_offset_nm: lo as f64 * TEMPLATE_STEP_NM })
-    }
-}
-
 /// Each grating's designed shape, tabulated about its nominal wavelength.
-pub(crate) fn design_tables(frames: &FrameSimulator) -> Vec<DesignTable> {
-    let n = (TEMPLATE_HALF_SPAN_NM / TEMPLATE_STEP_NM).round() as i64;
+pub(crate) fn design_tables(frames: &FrameSimulator) -> Vec<ShapeTable> {
     frames
         .designs()
         .iter()
         .zip(frames.nominal_nm())
-        .map(|(d, &bragg)| DesignTable {
-            values: (-n..=n).map(|k| d.reflectivity(bragg, bragg + k as f64 * TEMPLATE_STEP_NM)).collect(),
-            first_offset_nm: -(n as f64) * TEMPLATE_STEP_NM,
-        })
+        .map(|(d, &bragg)| ShapeTable::from_fn(|x_nm| d.reflectivity(bragg, bragg + x_nm)))
         .collect()
-}
-
-/// The template fit in window `w` from the method's peak at `pixel` (of the whole frame);
-/// `None` where the window or the fit fails.
-pub(crate) fn refine(
-    spectrum: &Spectrum<'_, f64>,
-    w: &fbg_shared::spectrum::Window<f64>,
-    t: &Template<'_, f64>,
-    pixel: f64,
-) -> Option<f64> {
-    let span = w.span(spectrum)?;
-    let samples = spectrum.samples().get(span.first..=span.last)?;
-    let region = Region::new(samples, Threshold::default());
-    let e = template_fit(&region, spectrum.grid(), span.first, t, pixel - span.first as f64)?;
-    Some(spectrum.grid().wavelength(span.first as f64 + e.pixel))
 }

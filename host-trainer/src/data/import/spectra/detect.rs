@@ -9,9 +9,9 @@ use super::super::problems::{Reason, RowError};
 use super::discover;
 use super::frames::{SpectrumRow, SpectrumSink, MAX_CHANNELS};
 use super::kept::Kept;
+use super::shape_table::{refine, ShapeTable};
 use crate::data::measurand::MAX_GRATINGS;
 use crate::error::TrainerError;
-use crate::sim::spectrum::chain::{refine, DesignTable};
 
 /// One channel's detector: the windows of its gratings, each tagged with the caller's name of
 /// the grating (`G`), found in every frame of the channel. The import's detection and the
@@ -53,7 +53,7 @@ struct Channel<T> {
     /// Per frame: the line of this channel's spectrum (0 where the frame lacks it).
     lines: Vec<u64>,
     /// Per window, the grating's measured shape, when the map gives one.
-    shapes: Vec<Option<DesignTable>>,
+    shapes: Vec<Option<ShapeTable>>,
     /// Peaks discovered in the first spectrum (discovery only).
     discovered: usize,
     /// Line of the channel's first spectrum.
@@ -66,7 +66,7 @@ pub(crate) struct Detection<T> {
     /// The map's windows: (grating index, channel 0-based, window); empty: discovery.
     mapped: Vec<(usize, usize, Window<f64>)>,
     /// Per mapped grating, its measured shape ([`super::shape`]).
-    shapes: Vec<Option<DesignTable>>,
+    shapes: Vec<Option<ShapeTable>>,
     channels: Vec<Option<Channel<T>>>,
     t: Vec<f64>,
     lines: Vec<u64>,
@@ -302,7 +302,7 @@ impl<T: Kept> SpectrumSink for Detection<T> {
         if let Some(det) = &ch.detector {
             for ((slot, (_, w, mut p)), shape) in ch.peaks.iter_mut().zip(det.detect(&row.spectrum)).zip(&ch.shapes) {
                 // The measured shape refines the method's estimate; no shape fits: no peak.
-                if let Some(t) = shape.as_ref().and_then(DesignTable::template) {
+                if let Some(t) = shape.as_ref().and_then(ShapeTable::template) {
                     p.wavelength_nm = refine(&row.spectrum, w, &t, p.pixel).unwrap_or(f64::NAN);
                     if p.wavelength_nm.is_nan() {
                         p.flags.insert(PeakFlags::NO_PEAK);

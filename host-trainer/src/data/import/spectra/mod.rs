@@ -37,6 +37,7 @@ mod plausible;
 mod responses;
 mod settings;
 mod shape;
+mod shape_table;
 mod spectra_csv;
 mod wide_csv;
 
@@ -54,6 +55,7 @@ use detect::{Detected, Detection};
 use frames::{describe_grid, FileFacts};
 pub(crate) use kept::{Found, Kept};
 use settings::Settings;
+pub(crate) use shape_table::{refine, ShapeTable};
 
 /// A spectrum file read and its peaks detected, each kept as `T` ([`Kept`]).
 pub(crate) struct SpectraRead<T> {

@@ -9,15 +9,15 @@
 
 use std::path::Path;
 
+use super::shape_table::ShapeTable;
 use crate::data::units::NM_RANGE;
 use crate::error::{quote_number, TrainerError};
-use crate::sim::spectrum::chain::DesignTable;
 
 /// Samples above half the scan's maximum below which the scan does not resolve the peak.
 pub const MIN_SAMPLES_ABOVE_HALF: usize = 5;
 
 /// The shape in `path` tabulated as a template; errors name the file, line and column.
-pub(crate) fn load(path: &Path) -> Result<DesignTable, TrainerError> {
+pub(crate) fn load(path: &Path) -> Result<ShapeTable, TrainerError> {
     let name = path.display().to_string();
     let bad = |line: u64, column: &str, message: String| TrainerError::data(&name, line, column, message);
     let mut rd = csv::ReaderBuilder::new().has_headers(true).from_path(path).map_err(|e| match e.into_kind() {
@@ -75,5 +75,5 @@ pub(crate) fn load(path: &Path) -> Result<DesignTable, TrainerError> {
             ),
         ));
     }
-    DesignTable::from_scan(&wl, &r).ok_or_else(|| bad(1, "reflectance", "the scan cannot be tabulated".into()))
+    ShapeTable::from_scan(&wl, &r).ok_or_else(|| bad(1, "reflectance", "the scan cannot be tabulated".into()))
 }
