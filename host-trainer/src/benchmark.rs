@@ -228,6 +228,9 @@ fn write_holdout_errors(
 ) -> Result<(), TrainerError> {
     use std::io::Write;
     let idx: Vec<usize> = d.holdout_indices().into_iter().filter(|&i| d.usable(i)).collect();
+    if est.iter().any(|e| e.len() != idx.len()) {
+        return Err(TrainerError::fit("hold-out errors: the two models scored different rows"));
+    }
     let refs = d.references_of(dims);
     crate::data::files::write_atomically(path, |w| {
         write!(w, "t_s")?;

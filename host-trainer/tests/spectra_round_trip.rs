@@ -219,14 +219,31 @@ fn a_measured_shape_in_the_map_removes_the_grid_locking() {
         assert!(with_shape < 0.5 * without, "grating {g}: {with_shape} pm with the shape, {without} pm without");
     }
     // Scans that cannot be a shape: each refused naming the file, its line and column.
-    for (text, line, column) in [
-        ("wavelength_nm,reflectance\n1550.0,0.1\n1550.1,0.9\n1550.2,0.1\n", 1, "reflectance"),
-        ("wavelength_nm,reflectance\n1550.0,0.1\n1549.9,0.2\n", 3, "wavelength_nm"),
-        ("wavelength_nm,reflectance\n1550.0,x\n", 2, "reflectance"),
-        ("wl,reflectance\n1550.0,0.1\n", 1, "wavelength_nm"),
-    ] {
+    let scan = |r: &[f64]| -> String {
+        let rows: String =
+            r.iter().enumerate().map(|(i, v)| format!("{:.3},{v}\n", 1550.0 + 0.01 * i as f64)).collect();
+        format!("wavelength_nm,reflectance\n{rows}")
+    };
+    let cases: Vec<(String, u64, &str)> = vec![
+        // One sample above half the peak: not resolved (named at the peak's line).
+        (scan(&[0.1, 0.9, 0.1]), 3, "reflectance"),
+        // The peak at the scan's edge: not enclosed.
+        (scan(&[0.9, 0.5, 0.1]), 2, "reflectance"),
+        // A second grating in the scan, named at its line.
+        (scan(&[0.0, 0.6, 0.8, 1.0, 0.8, 0.6, 0.0, 0.0, 0.7, 0.0]), 10, "reflectance"),
+        // dB: the peak is not above 0.
+        (scan(&[-30.0, -20.0, -3.0, -20.0, -30.0]), 4, "reflectance"),
+        ("wavelength_nm,reflectance\n1550.0,0.1\n1549.9,0.2\n".into(), 3, "wavelength_nm"),
+        ("wavelength_nm,reflectance\n1550.0,x\n".into(), 2, "reflectance"),
+        // A blank line counts: the bad cell is on line 4.
+        ("wavelength_nm,reflectance\n1550.0,0.1\n\n1550.1,x\n".into(), 4, "reflectance"),
+        // A missing cell.
+        ("wavelength_nm,reflectance\n1550.0\n".into(), 2, "reflectance"),
+        ("wl,reflectance\n1550.0,0.1\n".into(), 1, "wavelength_nm"),
+    ];
+    for (text, line, column) in cases {
         let scan = dir.path().join("bad.csv");
-        std::fs::write(&scan, text).unwrap();
+        std::fs::write(&scan, &text).unwrap();
         let bad_map = map.replacen("shape = \"scan0.csv\"", "shape = \"bad.csv\"", 1);
         let bad_map_path = dir.path().join("bad.toml");
         std::fs::write(&bad_map_path, bad_map).unwrap();
@@ -234,7 +251,8 @@ fn a_measured_shape_in_the_map_removes_the_grid_locking() {
             .err()
             .unwrap_or_else(|| panic!("{text:?} accepted"))
             .to_string();
-        assert!(e.contains("bad.csv") && e.contains(&format!("line {line}, column {column}")), "{text:?}: {e}");
+        let named = e.contains("bad.toml") && e.contains("grating[1].shape") && e.contains("bad.csv");
+        assert!(named && e.contains(&format!("line {line}, column {column}")), "{text:?}: {e}");
     }
     // A shape belongs to spectra, not to a logger's table of wavelengths.
     let (log, log_map) = (dir.path().join("log.csv"), dir.path().join("log.toml"));

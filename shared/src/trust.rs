@@ -47,7 +47,7 @@
 //!   until its pace is known.
 //! - **The band beyond the validated lead** is Model-H's own, growing with the lead as the
 //!   drift's walk makes it grow; it does not decay towards Model-P's. The cross-validation saw
-//!   leads up to the field context's largest validated lead only (a day or two), but on the
+//!   leads up to the field context's largest validated lead only, but on the
 //!   bench's simulated installations Model-H's error stays the same fraction of Model-P's on
 //!   every day of the week after calibration (BENCHMARKS.md, band coverage by day): its
 //!   advantage does not wear off with the lead, and a band that assumed it did was far wider

@@ -189,6 +189,36 @@ fn inside_the_quiet_time_the_model_is_bit_identical_to_one_without_a_fade() {
     }
 }
 
+/// Beyond the largest validated lead Model-H keeps its own band, growing with the lead: the
+/// same bits whatever that lead is (the band used to decay towards the fallback band there).
+#[test]
+fn beyond_the_validated_lead_the_band_is_model_hs_own() {
+    let (mut p, clean) = trusted(1e9);
+    p.resid_var_growth = [1e-6; fbg_shared::layout::MAX_OUTPUTS];
+    let first = clean.first().map_or(0.0, |s| f64::from(s.t_s));
+    p.t_cal_end_s = first;
+    p.field.lead_max_s = 60.0;
+    p.validate().unwrap();
+    let mut long = p.clone();
+    long.field.lead_max_s = 1e9;
+    // The stream on the calibration record's clock: its lead is known.
+    let on_clock = |p: &Params| {
+        let mut c = Compensator::<f64, MAX_K>::new(p).unwrap();
+        c.set_clock(fbg_shared::StreamClock::Calibration);
+        clean.iter().map(|x| c.step(&x.cast())).collect::<Vec<Estimate<f64>>>()
+    };
+    let (a, b) = (on_clock(&p), on_clock(&long));
+    let last = clean.last().map_or(0.0, |s| f64::from(s.t_s));
+    assert!(last - first > 100.0 * 60.0, "the stream reaches far beyond the validated lead");
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.band95, y.band95);
+        assert_eq!(x.flags, y.flags);
+    }
+    // And the band does grow with the lead.
+    let (head, tail) = (a.first().map_or(0.0, |e| e.band95[0]), a.last().map_or(0.0, |e| e.band95[0]));
+    assert!(tail > head, "{head} → {tail}");
+}
+
 #[test]
 fn at_rest_beyond_the_quiet_time_the_model_is_model_p() {
     // The stream stops moving after sample 600 (every input held, noise only): once a

@@ -240,7 +240,7 @@ fn read_holdouts(files: &[PathBuf], nc: usize) -> Result<Vec<Holdout>> {
     Ok(runs)
 }
 
-/// Per channel and whole day of lead, the seeds pooled: the fraction of Model-H's and of
+/// Per channel and whole day after the first hold-out sample, the seeds pooled: the fraction of Model-H's and of
 /// Model-P's errors inside their bands, and Model-H's mean squared error over Model-P's (NaN
 /// where a file has no Model-P columns).
 fn by_day(holdouts: &[Holdout], nc: usize) -> Vec<DayChannel> {

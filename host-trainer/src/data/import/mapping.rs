@@ -481,6 +481,21 @@ impl GratingMap {
 
 #[cfg(test)]
 mod tests {
+
+    /// A relative `shape` starts at the map's directory; a map read from text leaves it as
+    /// written.
+    #[test]
+    fn a_shape_path_is_relative_to_the_map() {
+        let d = tempfile::tempdir().unwrap();
+        let sub = d.path().join("sub");
+        std::fs::create_dir(&sub).unwrap();
+        let text = "[[grating]]\nchannel = 1\nwindow_nm = [1549.0, 1551.0]\nshape = \"scan.csv\"\n";
+        std::fs::write(sub.join("map.toml"), text).unwrap();
+        let m = Map::load(&sub.join("map.toml")).unwrap();
+        assert_eq!(m.windows()[0].shape.as_deref(), Some(sub.join("scan.csv").as_path()));
+        let m = Map::from_toml_str(text, "m.toml").unwrap();
+        assert_eq!(m.windows()[0].shape.as_deref(), Some(Path::new("scan.csv")));
+    }
     use super::*;
 
     #[test]

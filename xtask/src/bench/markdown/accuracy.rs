@@ -171,7 +171,7 @@ fn by_day(s: &mut String, cp: &crate::bench::report::Coverage, ch: &[String], n:
     out!(s, "#### Band coverage by day since calibration, `paper` preset, {n} seeds pooled\n");
     out!(
         s,
-        "Day d holds the hold-out samples with a lead of d to d + 1 days since the end of calibration. \
+        "Day d holds the hold-out samples d to d + 1 days after the first one (the hold-out starts where calibration ends). \
          Each cell: Model-H's coverage / Model-P's coverage / Model-H's mean squared error over Model-P's. \
          Model-H's band grows with the drift's walk as Model-P's does; it does not decay towards Model-P's \
          beyond the largest validated lead (DESIGN §4), because its error stays the same fraction of \

@@ -155,14 +155,26 @@ pub(super) fn pace_targets(s: &mut String, rep: &Report) {
                 fb.runs[0].train_command,
                 fb.runs[0].evaluate_command
             );
+            // The lowest seed's coverage per channel.
+            let lowest: Vec<f64> = (0..ch.len())
+                .map(|c| {
+                    fb.runs
+                        .iter()
+                        .map(|r| r.coverage_h.get(c).copied().unwrap_or(f64::NAN))
+                        .fold(f64::INFINITY, f64::min)
+                })
+                .collect();
+            let mean_ok =
+                !fb.mean_coverage_h.is_empty() && fb.mean_coverage_h.iter().all(|c| (100.0 * c - 95.0).abs() <= 3.0);
             out!(
                 s,
-                "| `field` preset, seeds {}: mean band coverage of Model-H within 95 ± 3 % per channel (DESIGN §5) | {} % ({}; Model-P {} %) | {} | same runs |",
+                "| `field` preset, seeds {}: Model-H band coverage, mean within 95 ± 3 % per channel, no seed below 85 % (DESIGN §4) | mean {} % ({}; Model-P {} %), lowest seed {} % | {} | same runs |",
                 seed_range(&fb.runs),
                 pcts(&fb.mean_coverage_h),
                 channel_names(ch),
                 pcts(&fb.mean_coverage_p),
-                yes(!fb.mean_coverage_h.is_empty() && fb.mean_coverage_h.iter().all(|c| (100.0 * c - 95.0).abs() <= 3.0))
+                pcts(&lowest),
+                yes(mean_ok && lowest.iter().all(|&c| c >= 0.85))
             );
         }
     }
@@ -357,7 +369,7 @@ pub(super) fn field(s: &mut String, fb: &FieldBench) {
     );
     out!(
         s,
-        "| **coverage mean** | | | | {} % | **{} %** (target 95 ± 2 %) |\n",
+        "| **coverage mean** | | | | {} % | **{} %** (target 95 ± 3 %, no seed below 85 %) |\n",
         pcts(&fb.mean_coverage_p),
         pcts(&fb.mean_coverage_h)
     );

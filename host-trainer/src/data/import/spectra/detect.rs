@@ -104,16 +104,25 @@ pub(crate) struct Detected<T> {
 
 impl<T: Kept> Detection<T> {
     /// A detection with `config` and the map's windows (none: discovery), each grating's
-    /// measured shape read (errors name its file); `columns` name the file's time and channel
-    /// columns in messages.
+    /// measured shape read (errors name the map `origin`, the key and the scan's file);
+    /// `columns` name the file's time and channel columns in messages.
     pub(crate) fn new(
         config: DetectorConfig<f64>,
         windows: &[mapping::Window],
+        origin: &str,
         columns: (&'static str, &'static str),
     ) -> Result<Self, TrainerError> {
         let mapped = windows.iter().enumerate().map(|(g, w)| (g, w.channel, Window::new(w.lo, w.hi))).collect();
-        let shapes =
-            windows.iter().map(|w| w.shape.as_deref().map(super::shape::load).transpose()).collect::<Result<_, _>>()?;
+        // A scan's own errors name its file, line and column; the map's key says which grating.
+        let load = |w: &mapping::Window| {
+            let shape = w.shape.as_deref().map(super::shape::load).transpose();
+            shape.map_err(|e| TrainerError::Config {
+                origin: origin.to_string(),
+                key: format!("{}.shape", w.key),
+                message: e.to_string(),
+            })
+        };
+        let shapes = windows.iter().map(load).collect::<Result<_, _>>()?;
         Ok(Detection {
             config,
             mapped,

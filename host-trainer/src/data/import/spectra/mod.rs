@@ -95,7 +95,7 @@ pub(crate) fn read<T: Kept>(
         Format::EnlightResponses => ("1 (time)", "1 (channel line)"),
         _ => ("1 (t_s)", "2 (channel)"),
     };
-    let mut detection = Detection::<T>::new(settings.config, &m.windows(), columns)?;
+    let mut detection = Detection::<T>::new(settings.config, &m.windows(), origin, columns)?;
     let (facts, channels) = match format {
         Format::SpectraCsv => wide_csv::read(input, scale.0, policy, &spectra_csv::grid_of, &mut detection)?,
         Format::Pixels => {

@@ -36,34 +36,29 @@ impl ShapeTable {
     }
 
     /// A measured shape (a swept-laser scan of the grating: wavelengths \[nm\], increasing,
-    /// and reflectance, any scale) tabulated like a design: at the same step, about the centroid
-    /// of the samples above half the scan's maximum (the wavelength the fit reports), over the
-    /// same half-span or the scan's own range where that is shorter (0 beyond, as a template
-    /// reads). `None` without a positive maximum.
-    pub(crate) fn from_scan(wavelength_nm: &[f64], reflectance: &[f64]) -> Option<ShapeTable> {
+    /// and reflectance, linear) tabulated like a design, at the same step about `centre_nm`
+    /// (the wavelength the fit reports), over the same half-span or the scan's own range where
+    /// that is shorter (0 beyond, as a template reads). `None` when that leaves fewer than two
+    /// values or one that is not finite (the caller checks the scan and picks the centre:
+    /// [`super::shape`]).
+    pub(crate) fn from_scan(wavelength_nm: &[f64], reflectance: &[f64], centre_nm: f64) -> Option<ShapeTable> {
         if wavelength_nm.len() < 2 || wavelength_nm.len() != reflectance.len() {
             return None;
         }
-        let max = reflectance.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if !(max > 0.0 && max.is_finite()) {
-            return None;
-        }
-        let top = wavelength_nm.iter().zip(reflectance).filter(|(_, &r)| r >= 0.5 * max);
-        let (sum_wr, sum_r) = top.fold((0.0, 0.0), |(a, b), (&w, &r)| (a + w * r, b + r));
-        let centre = sum_wr / sum_r;
         let (&first, &last) = (wavelength_nm.first()?, wavelength_nm.last()?);
         let steps = |x: f64| (x / TEMPLATE_STEP_NM).floor() as i64;
-        let lo = (-steps(TEMPLATE_HALF_SPAN_NM)).max(-steps(centre - first));
-        let hi = steps(TEMPLATE_HALF_SPAN_NM).min(steps(last - centre));
-        let values = (lo..=hi)
+        let lo = (-steps(TEMPLATE_HALF_SPAN_NM)).max(-steps(centre_nm - first));
+        let hi = steps(TEMPLATE_HALF_SPAN_NM).min(steps(last - centre_nm));
+        let values: Vec<f64> = (lo..=hi)
             .map(|k| {
-                let x = centre + k as f64 * TEMPLATE_STEP_NM;
+                let x = centre_nm + k as f64 * TEMPLATE_STEP_NM;
                 let j = wavelength_nm.partition_point(|&w| w <= x).clamp(1, wavelength_nm.len() - 1);
                 let (w0, w1, r0, r1) = (wavelength_nm[j - 1], wavelength_nm[j], reflectance[j - 1], reflectance[j]);
                 r0 + (r1 - r0) * (x - w0) / (w1 - w0)
             })
             .collect();
-        Some(ShapeTable { values, first_offset_nm: lo as f64 * TEMPLATE_STEP_NM })
+        let table = ShapeTable { values, first_offset_nm: lo as f64 * TEMPLATE_STEP_NM };
+        (table.values.len() >= 2 && table.template().is_some()).then_some(table)
     }
 }
 
