@@ -143,18 +143,19 @@ fn discovery_finds_exactly_the_simulated_gratings_down_to_13_db() {
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-/// A grating's measured shape given to `import` (`[[grating]] shape = "scan.csv"`) refines
-/// each peak by a template fit, as the simulator's design template does: on the 512-pixel
-/// spectrometer (about 166 pm per pixel, where the default method locks to the grid by
-/// several pm) the imported shifts must follow the design-template chain's within
-/// [`TOL_SHAPE_PM`], and their error against the rendered wavelengths must be well under the
-/// default method's. Scans that cannot serve as a
-/// shape, and a shape given to a peaks import, are refused naming the file or the key.
-/// The file's header gives each pixel's wavelength to the pm: a fit over the two or three
-/// pixels a 0.3 nm grating covers moves with that rounding by up to about a pm (the
-/// default method, which weighs the whole window, by under [`TOL_SAME_WINDOWS_PM`]).
+/// Largest difference \[pm\] between the import with a measured shape and the simulator's
+/// design-template chain: the file's header gives each pixel's wavelength to the pm, and a fit
+/// over the two or three pixels a 0.3 nm grating covers moves with that rounding (the default
+/// method, which weighs the whole window, by under [`TOL_SAME_WINDOWS_PM`]).
 const TOL_SHAPE_PM: f64 = 1.0;
 
+/// A grating's measured shape given to `import` (`[[grating]] shape = "scan.csv"`) refines
+/// each peak by a template fit, as the simulator's design template does: on the 512-pixel
+/// spectrometer, where the default method locks to the pixel grid, the imported shifts must
+/// follow the design-template chain's within [`TOL_SHAPE_PM`], and their error against the
+/// rendered wavelengths must be under half the default method's. Scans that cannot serve as a
+/// shape, and a shape given to a logger CSV, are refused naming the file, line and column or
+/// the key.
 #[test]
 fn a_measured_shape_in_the_map_removes_the_grid_locking() {
     use fbg_trainer::sim::spectrum::{find_peaks, PeakFinding};
