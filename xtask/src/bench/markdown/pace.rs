@@ -139,45 +139,42 @@ pub(super) fn pace_targets(s: &mut String, rep: &Report) {
     }
     match rep.field.as_ref().filter(|f| !f.runs.is_empty()) {
         None => out!(s, "| `field` preset targets | not measured in this BENCHMARKS.json | – | – |"),
-        Some(fb) => {
-            let n = fb.runs.len();
-            let ch = &fb.runs[0].channels;
-            out!(
-                s,
-                "| `field` preset, seeds {}: Model-H never worse than Model-P on any channel | Model-H worse on {} of {n} seeds ({}: {} of {n}); mean gain {} %, smallest {} % | {} | `{}`, then `{}` (each seed) |",
-                seed_range(&fb.runs),
-                fb.seeds_h_worse_any,
-                channel_names(ch),
-                slash(&fb.seeds_h_worse),
-                join(&fb.mean_gain_pct, 1),
-                join(&fb.min_gain_pct, 1),
-                yes(fb.seeds_h_worse_any == 0 && n == COVERAGE_SEEDS.len()),
-                fb.runs[0].train_command,
-                fb.runs[0].evaluate_command
-            );
-            // The lowest seed's coverage per channel.
-            let lowest: Vec<f64> = (0..ch.len())
-                .map(|c| {
-                    fb.runs
-                        .iter()
-                        .map(|r| r.coverage_h.get(c).copied().unwrap_or(f64::NAN))
-                        .fold(f64::INFINITY, f64::min)
-                })
-                .collect();
-            let mean_ok =
-                !fb.mean_coverage_h.is_empty() && fb.mean_coverage_h.iter().all(|c| (100.0 * c - 95.0).abs() <= 3.0);
-            out!(
-                s,
-                "| `field` preset, seeds {}: Model-H band coverage, mean within 95 ± 3 % per channel, no seed below 85 % (DESIGN §4) | mean {} % ({}; Model-P {} %), lowest seed {} % | {} | same runs |",
-                seed_range(&fb.runs),
-                pcts(&fb.mean_coverage_h),
-                channel_names(ch),
-                pcts(&fb.mean_coverage_p),
-                pcts(&lowest),
-                yes(mean_ok && lowest.iter().all(|&c| c >= 0.85))
-            );
-        }
+        Some(fb) => field_targets(s, fb),
     }
+}
+
+/// The target rows of the `field` preset: never worse than Model-P; the band's coverage.
+fn field_targets(s: &mut String, fb: &FieldBench) {
+    let n = fb.runs.len();
+    let ch = &fb.runs[0].channels;
+    out!(
+        s,
+        "| `field` preset, seeds {}: Model-H never worse than Model-P on any channel | Model-H worse on {} of {n} seeds ({}: {} of {n}); mean gain {} %, smallest {} % | {} | `{}`, then `{}` (each seed) |",
+        seed_range(&fb.runs),
+        fb.seeds_h_worse_any,
+        channel_names(ch),
+        slash(&fb.seeds_h_worse),
+        join(&fb.mean_gain_pct, 1),
+        join(&fb.min_gain_pct, 1),
+        yes(fb.seeds_h_worse_any == 0 && n == COVERAGE_SEEDS.len()),
+        fb.runs[0].train_command,
+        fb.runs[0].evaluate_command
+    );
+    // The lowest seed's coverage per channel.
+    let lowest: Vec<f64> = (0..ch.len())
+        .map(|c| fb.runs.iter().map(|r| r.coverage_h.get(c).copied().unwrap_or(f64::NAN)).fold(f64::INFINITY, f64::min))
+        .collect();
+    let mean_ok = !fb.mean_coverage_h.is_empty() && fb.mean_coverage_h.iter().all(|c| (100.0 * c - 95.0).abs() <= 3.0);
+    out!(
+        s,
+        "| `field` preset, seeds {}: Model-H band coverage, mean within 95 ± 3 % per channel, no seed below 85 % (DESIGN §4) | mean {} % ({}; Model-P {} %), lowest seed {} % | {} | same runs |",
+        seed_range(&fb.runs),
+        pcts(&fb.mean_coverage_h),
+        channel_names(ch),
+        pcts(&fb.mean_coverage_p),
+        pcts(&lowest),
+        yes(mean_ok && lowest.iter().all(|&c| c >= 0.85))
+    );
 }
 
 /// The pace study and the `field` preset (absent from files written before them).
