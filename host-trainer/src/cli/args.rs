@@ -142,6 +142,14 @@ impl SignArgs {
     }
 }
 
+/// `--snr-db` of `simulate` and `demo`, checked before anything is simulated, naming the flag.
+pub fn check_snr_db(snr_db: f64) -> Result<()> {
+    if !fbg_trainer::sim::spectrum::DetectorModel::accepts_snr_db(snr_db) {
+        anyhow::bail!("--snr-db: {} is not a number of dB", fbg_trainer::error::ShortNumber(snr_db));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

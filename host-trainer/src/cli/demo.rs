@@ -65,10 +65,7 @@ impl DemoArgs {
     /// The flags' own ranges, checked before anything is simulated: each error names its flag
     /// once (as `simulate`'s).
     fn check_flags(&self) -> Result<()> {
-        // Any finite SNR (a negative one: noise above the peak), or +∞ for no noise.
-        if !(self.snr_db.is_finite() || self.snr_db == f64::INFINITY) {
-            bail!("--snr-db: {} is not a number of dB", ShortNumber(self.snr_db));
-        }
+        crate::args::check_snr_db(self.snr_db)?;
         let r = self.reflectivity;
         if !(r > 0.0 && r < grating::PEAK_REFLECTIVITY_MAX) {
             bail!("--reflectivity: {} is out of range (0, {})", ShortNumber(r), grating::PEAK_REFLECTIVITY_MAX);

@@ -104,9 +104,8 @@ impl SimulateArgs {
         if let Some(f) = self.pace.filter(|&f| !Pace::accepts(f)) {
             bail!("--pace: {} is out of range [{}, {}]", ShortNumber(f), Pace::FACTOR_MIN, Pace::FACTOR_MAX);
         }
-        // Any finite SNR (a negative one: noise above the peak), or +∞ for no noise.
-        if self.spectra.is_some() && !(self.snr_db.is_finite() || self.snr_db == f64::INFINITY) {
-            bail!("--snr-db: {} is not a number of dB", ShortNumber(self.snr_db));
+        if self.spectra.is_some() {
+            crate::args::check_snr_db(self.snr_db)?;
         }
         Ok(())
     }

@@ -103,6 +103,12 @@ impl Default for DetectorModel {
 }
 
 impl DetectorModel {
+    /// Whether `snr_db` is an SNR a detector may have: any finite number of dB (a negative one:
+    /// noise above the peak), or +∞ for no noise.
+    pub fn accepts_snr_db(snr_db: f64) -> bool {
+        snr_db.is_finite() || snr_db == f64::INFINITY
+    }
+
     /// σ \[counts\] = `peak_counts`/10^(SNR/10).
     pub fn sigma_counts(&self) -> f64 {
         self.peak_counts / 10f64.powf(self.snr_db / 10.0)

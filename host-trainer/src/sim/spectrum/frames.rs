@@ -3,7 +3,7 @@
 
 use fbg_shared::spectrum::Window;
 
-use super::detector::PixelGrid;
+use super::detector::{DetectorModel, PixelGrid};
 use super::grating::GratingDesign;
 use super::profile::{ReflectionProfile, PROFILE_HALF_SPAN_NM, PROFILE_STEP_NM};
 use super::SpectrumConfig;
@@ -48,7 +48,7 @@ impl FrameSimulator {
             message,
         };
         let d = &cfg.detector;
-        if !(d.snr_db.is_finite() || d.snr_db == f64::INFINITY) {
+        if !DetectorModel::accepts_snr_db(d.snr_db) {
             return Err(bad("snr_db", format!("{}: a number of dB", d.snr_db)));
         }
         if !(d.peak_counts > 0.0 && d.peak_counts.is_finite() && d.dark_counts >= 0.0 && d.dark_counts.is_finite()) {
