@@ -21,6 +21,19 @@ const TOL_SAME_WINDOWS_PM: f64 = 0.1;
 /// accuracy on these grids is several times coarser (BENCHMARKS.md, `bench-spectrum`).
 const TOL_DISCOVERED_PM: f64 = 1.5;
 
+/// Write `data`'s spectra as `frames` renders them (noise seeded by `seed`) to `path`.
+fn write_spectra(path: &std::path::Path, data: &fbg_trainer::data::Dataset, frames: &FrameSimulator, seed: u64) {
+    let mut w = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    write_spectra_csv(&mut w, data, frames, seed).unwrap();
+}
+
+/// The map entry of grating `g`, on channel `c` (0-based) in its simulator's window, then
+/// `extra` (keys, one per line).
+fn map_entry(frames: &FrameSimulator, c: usize, g: usize, extra: &str) -> String {
+    let w = frames.window(g);
+    format!("[[grating]]\nchannel = {}\nwindow_nm = [{}, {}]\n{extra}", c + 1, w.lo_nm, w.hi_nm)
+}
+
 #[test]
 fn simulated_spectra_of_every_preset_and_grid_import_as_the_detector_reads_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -32,14 +45,11 @@ fn simulated_spectra_of_every_preset_and_grid_import_as_the_detector_reads_them(
             let nominal: Vec<f64> = s.data.meta.zero.iter().map(|z| z.nm).collect();
             let frames = FrameSimulator::new(&SpectrumConfig { grid, ..SpectrumConfig::default() }, &nominal).unwrap();
             let path = dir.path().join(format!("{}-{}.csv", preset.name(), grid.name()));
-            let mut w = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
-            write_spectra_csv(&mut w, &s.data, &frames, 7).unwrap();
-            drop(w);
+            write_spectra(&path, &s.data, &frames, 7);
             let mut map = String::new();
             for c in 0..frames.channels() {
                 for &g in frames.gratings_of(c) {
-                    let w = frames.window(g);
-                    map += &format!("[[grating]]\nchannel = {}\nwindow_nm = [{}, {}]\n", c + 1, w.lo_nm, w.hi_nm);
+                    map += &map_entry(&frames, c, g, "");
                 }
             }
             let map_path = dir.path().join("map.toml");
@@ -121,9 +131,7 @@ fn discovery_finds_exactly_the_simulated_gratings_down_to_13_db() {
                     };
                     let frames = FrameSimulator::new(&spectrum, &nominal).unwrap();
                     let path = dir.path().join("d.csv");
-                    let mut w = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
-                    write_spectra_csv(&mut w, &s.data, &frames, 7).unwrap();
-                    drop(w);
+                    write_spectra(&path, &s.data, &frames, 7);
                     let opts = common::import_options(Format::SpectraCsv, path, None);
                     let case = format!(
                         "{} {} {} R={reflectivity} {snr_db} dB",
@@ -166,9 +174,7 @@ fn a_measured_shape_in_the_map_removes_the_grid_locking() {
     let nominal: Vec<f64> = s.data.meta.zero.iter().map(|z| z.nm).collect();
     let frames = FrameSimulator::new(&SpectrumConfig::default(), &nominal).unwrap();
     let spectra = dir.path().join("sp.csv");
-    let mut w = std::io::BufWriter::new(std::fs::File::create(&spectra).unwrap());
-    write_spectra_csv(&mut w, &s.data, &frames, 11).unwrap();
-    drop(w);
+    write_spectra(&spectra, &s.data, &frames, 11);
     // Each grating's "swept-laser scan": its design at 2 pm steps over ±1.2 nm.
     let mut map = String::new();
     for c in 0..frames.channels() {
@@ -182,13 +188,7 @@ fn a_measured_shape_in_the_map_removes_the_grid_locking() {
                 .collect();
             std::fs::write(dir.path().join(format!("scan{g}.csv")), format!("wavelength_nm,reflectance\n{scan}"))
                 .unwrap();
-            let win = frames.window(g);
-            map += &format!(
-                "[[grating]]\nchannel = {}\nwindow_nm = [{}, {}]\nshape = \"scan{g}.csv\"\n",
-                c + 1,
-                win.lo_nm,
-                win.hi_nm
-            );
+            map += &map_entry(&frames, c, g, &format!("shape = \"scan{g}.csv\"\n"));
         }
     }
     let map_path = dir.path().join("map.toml");
