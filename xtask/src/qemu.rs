@@ -76,8 +76,8 @@ mod store;
 ///
 /// Every image is built first; then the suites run in two lanes at once, each on a thread of
 /// its own (an emulator is one busy thread, and each suite has its own devices, logs and
-/// ports), balanced by their run times: the store and memory suites in one lane, the others
-/// in the other.
+/// ports), balanced by their run times: the 14-day memory stream (the longest) with the
+/// signed updates in one lane, the store, link and spectrum suites in the other.
 pub fn run_all(root: &Path, all: bool, board: bool) -> Result<()> {
     step("firmware: QEMU prerequisites and fixtures");
     let qemu = emulator::ensure_qemu()?;
@@ -102,14 +102,14 @@ pub fn run_all(root: &Path, all: bool, board: bool) -> Result<()> {
         fault_test(root, q, bins)?;
         step("QEMU: golden vectors");
         crate::firmware::golden::golden_test(root, q, bins, fx)?;
+        step(if all {
+            "QEMU: the persistent model store (power cycles, 50 power cuts during an update, 1 000 updates of wear)"
+        } else {
+            "QEMU: the persistent model store (power cycles, 10 of the 50 power cuts, 300 updates of wear; all with --all)"
+        });
+        store::store_tests(root, q, bins, fx, sfx, all)?;
         step("QEMU: link (streaming, garbage and model updates over a loopback TCP serial port)");
         link::link_test(root, q, bins, fx, dfx, sfx)?;
-        step(
-            "QEMU: signed model updates (accepted; unsigned, unknown key, tampered, rollback, swap refused), staging erases and the audit trail",
-        );
-        signed::signed_update_test(root, q, bins, fx, sfx)?;
-        step("QEMU: a bounded rollback (the `rollback` image): accepted over the serial it names only");
-        signed::rollback_test(root, q, bins, sfx)?;
         step("QEMU: spectrum frames (512 pixels, 3 gratings, in chunks) answered bit for bit as the host's f32");
         spectrum::spectrum_test(root, q, &spectrum_product, fx)?;
         spectrum::unsupported_test(root, q, &bins.product)?;
@@ -119,12 +119,12 @@ pub fn run_all(root: &Path, all: bool, board: bool) -> Result<()> {
         Ok(())
     };
     let lane_b = || -> Result<()> {
-        step(if all {
-            "QEMU: the persistent model store (power cycles, 50 power cuts during an update, 1 000 updates of wear)"
-        } else {
-            "QEMU: the persistent model store (power cycles, 10 of the 50 power cuts, 300 updates of wear; all with --all)"
-        });
-        store::store_tests(root, q, bins, fx, sfx, all)?;
+        step(
+            "QEMU: signed model updates (accepted; unsigned, unknown key, tampered, rollback, swap refused), staging erases and the audit trail",
+        );
+        signed::signed_update_test(root, q, bins, fx, sfx)?;
+        step("QEMU: a bounded rollback (the `rollback` image): accepted over the serial it names only");
+        signed::rollback_test(root, q, bins, sfx)?;
         step("QEMU: a memory model over the whole 14-day paper stream (f32 device vs f64 host)");
         memory::long_memory_test(root, q, bins, fx)
     };

@@ -121,33 +121,65 @@ impl GratingDesign {
 
     /// The mean of g over the sections (the midpoint of each): ∫κ dz = κ_max·L·mean.
     fn mean_profile(&self) -> f64 {
-        let m = self.sections.max(1);
-        (0..m).map(|i| self.apodisation.at((i as f64 + 0.5) / m as f64)).sum::<f64>() / m as f64
+        let g = self.section_profile();
+        g.iter().sum::<f64>() / g.len() as f64
     }
 
     /// Power reflectivity R(λ) ∈ \[0, 1\] of the grating at Bragg wavelength `bragg_nm`, by the
     /// transfer-matrix method over [`GratingDesign::sections`] sections (module docs).
     pub fn reflectivity(&self, bragg_nm: f64, lambda_nm: f64) -> f64 {
+        let g = self.section_profile();
+        self.reflectivity_over(&g, bragg_nm, lambda_nm)
+    }
+
+    /// R(λ) at each of `lambdas_nm` ([`GratingDesign::reflectivity`] with the apodisation of
+    /// each section evaluated once for all of them).
+    pub fn reflectivities(&self, bragg_nm: f64, lambdas_nm: impl Iterator<Item = f64>) -> Vec<f64> {
+        let g = self.section_profile();
+        lambdas_nm.map(|l| self.reflectivity_over(&g, bragg_nm, l)).collect()
+    }
+
+    /// The apodisation g at the midpoint of each section.
+    fn section_profile(&self) -> Vec<f64> {
         let m = self.sections.max(1);
-        let dz = self.length_mm * 1e-3 / m as f64;
+        (0..m).map(|i| self.apodisation.at((i as f64 + 0.5) / m as f64)).collect()
+    }
+
+    /// The transfer matrix of the sections of profile `g`. A section's γ² = κ² − σ̂² is real, so
+    /// γ is real (inside the stop band: cosh, sinh) or imaginary (outside: cos, sin): each
+    /// section costs two real functions, not the complex square root, cosh and sinh.
+    fn reflectivity_over(&self, g: &[f64], bragg_nm: f64, lambda_nm: f64) -> f64 {
+        let dz = self.length_mm * 1e-3 / g.len().max(1) as f64;
         let sigma = self.detuning_per_m(bragg_nm, lambda_nm);
         let one = Complex64::new(1.0, 0.0);
         let (mut f11, mut f12, mut f21, mut f22) = (one, Complex64::default(), Complex64::default(), one);
-        for i in 0..m {
-            let kappa = self.kappa_per_m(lambda_nm, self.apodisation.at((i as f64 + 0.5) / m as f64));
-            let gamma = Complex64::new(kappa * kappa - sigma * sigma, 0.0).sqrt();
-            let x = gamma * dz;
-            let ch = x.cosh();
-            // sinh(γΔz)/γ, → Δz as γ → 0.
-            let sh_over_g = if x.norm() < 1e-8 { Complex64::new(dz, 0.0) } else { x.sinh() / gamma };
-            let i_unit = Complex64::i();
-            let a11 = ch - i_unit * sigma * sh_over_g;
-            let a12 = -i_unit * kappa * sh_over_g;
-            let a21 = i_unit * kappa * sh_over_g;
-            let a22 = ch + i_unit * sigma * sh_over_g;
-            // F ← F_i·F (the sections from the far end, z = L, to the input, z = 0).
-            (f11, f12, f21, f22) =
-                (a11 * f11 + a12 * f21, a11 * f12 + a12 * f22, a21 * f11 + a22 * f21, a21 * f12 + a22 * f22);
+        for &gi in g {
+            let kappa = self.kappa_per_m(lambda_nm, gi);
+            let g2 = kappa * kappa - sigma * sigma;
+            // cosh(γΔz) and sinh(γΔz)/γ (→ Δz as γ → 0), both real.
+            let (ch, s) = if g2 >= 0.0 {
+                let gamma = g2.sqrt();
+                let x = gamma * dz;
+                (x.cosh(), if x < 1e-8 { dz } else { x.sinh() / gamma })
+            } else {
+                let q = (-g2).sqrt();
+                let x = q * dz;
+                let (sin, cos) = x.sin_cos();
+                (cos, if x < 1e-8 { dz } else { sin / q })
+            };
+            // A = [[ch − iσ̂s, −iκs], [iκs, ch + iσ̂s]].
+            let a11 = Complex64::new(ch, -sigma * s);
+            let a22 = Complex64::new(ch, sigma * s);
+            let k = kappa * s;
+            let minus_ik = |z: Complex64| Complex64::new(k * z.im, -k * z.re);
+            let plus_ik = |z: Complex64| Complex64::new(-k * z.im, k * z.re);
+            // F ← A·F (the sections from the far end, z = L, to the input, z = 0).
+            (f11, f12, f21, f22) = (
+                a11 * f11 + minus_ik(f21),
+                a11 * f12 + minus_ik(f22),
+                plus_ik(f11) + a22 * f21,
+                plus_ik(f12) + a22 * f22,
+            );
         }
         let r = f21 / f11;
         r.norm_sqr()
