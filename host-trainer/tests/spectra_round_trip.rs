@@ -151,6 +151,11 @@ fn discovery_finds_exactly_the_simulated_gratings_down_to_13_db() {
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
+/// How many gratings the frames render.
+fn order_len(frames: &FrameSimulator) -> usize {
+    (0..frames.channels()).map(|c| frames.gratings_of(c).len()).sum()
+}
+
 /// Largest difference \[pm\] between the import with a measured shape and the simulator's
 /// design-template chain: the file's header gives each pixel's wavelength to the pm, and a fit
 /// over the two or three pixels a 0.3 nm grating covers moves with that rounding (the default
@@ -193,7 +198,24 @@ fn a_measured_shape_in_the_map_removes_the_grid_locking() {
     }
     let map_path = dir.path().join("map.toml");
     std::fs::write(&map_path, &map).unwrap();
-    let (d, _) = import(&common::import_options(Format::SpectraCsv, spectra.clone(), Some(map_path.clone()))).unwrap();
+    let (d, summary) =
+        import(&common::import_options(Format::SpectraCsv, spectra.clone(), Some(map_path.clone()))).unwrap();
+    // The summary names the refined method per grating, as the peaks table's column does; a
+    // map with one grating's shape only refines that grating.
+    let method_of = |m: &str| {
+        std::fs::write(&map_path, m).unwrap();
+        let (_, summary) =
+            import(&common::import_options(Format::SpectraCsv, spectra.clone(), Some(map_path.clone()))).unwrap();
+        summary.spectra.unwrap().flagged.iter().map(|f| f.method.clone()).collect::<Vec<_>>()
+    };
+    let all: Vec<String> = summary.spectra.unwrap().flagged.iter().map(|f| f.method.clone()).collect();
+    assert!(
+        all.len() == order_len(&frames) && all.iter().all(|m| *m == format!("{}+shape", Method::default().name())),
+        "{all:?}"
+    );
+    let first_only = method_of(&map.replace("shape = \"scan", "# shape = \"scan").replacen("# shape", "shape", 1));
+    assert!(first_only.iter().filter(|m| m.ends_with("+shape")).count() == 1, "{first_only:?}");
+    std::fs::write(&map_path, &map).unwrap();
     let method = Method::default();
     let templated = find_peaks(&s.data, &frames, PeakFinding::DesignTemplate(method), 11).unwrap();
     let plain = find_peaks(&s.data, &frames, PeakFinding::Method(method), 11).unwrap();

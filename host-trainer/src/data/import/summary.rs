@@ -158,11 +158,14 @@ pub struct SpectraInfo {
     pub flagged: Vec<FlaggedFrames>,
 }
 
-/// One grating's flagged frames.
+/// One grating's peak method and flagged frames.
 #[derive(Clone, Debug, Serialize)]
 pub struct FlaggedFrames {
     /// Output column (`dl1_pm`, ...).
     pub output: String,
+    /// Its peak method: the file's, `+shape` where the map gives the grating's measured shape
+    /// (the peaks table's `method` column).
+    pub method: String,
     /// Frames holding the grating's channel.
     pub frames: usize,
     /// Frames with any flag raised.
@@ -343,6 +346,11 @@ impl SpectraInfo {
             s.push_str(&format!(", culture {c}"));
         }
         s.push('\n');
+        let shaped: Vec<&str> =
+            sp.flagged.iter().filter(|f| f.method != sp.method).map(|f| f.output.as_str()).collect();
+        if !shaped.is_empty() {
+            s.push_str(&format!("  refined by the measured shape the map gives: {}\n", shaped.join(", ")));
+        }
         for f in sp.flagged.iter().filter(|f| f.flagged > 0 || f.gaps > 0) {
             let by: Vec<String> = f.by_flag.iter().map(|(k, v)| format!("{k} {v}")).collect();
             s.push_str(&format!(

@@ -88,6 +88,8 @@ pub(crate) struct GratingPeaks<T> {
     pub lines: Vec<u64>,
     /// Per frame: the peak is not one the grating can make (`plausible.rs`): a fault.
     pub implausible: Vec<bool>,
+    /// Its peaks are refined by a measured shape the map gives (`[[grating]] shape`).
+    pub shaped: bool,
 }
 
 /// Every frame's time and line, and the gratings' peaks in dataset order.
@@ -214,7 +216,7 @@ impl<T: Kept> Detection<T> {
             let Some(det) = ch.detector else { continue };
             let mut lines = ch.lines;
             lines.resize(frames, 0);
-            for ((g, w), peaks) in det.windows().zip(ch.peaks) {
+            for (((g, w), peaks), shape) in det.windows().zip(ch.peaks).zip(&ch.shapes) {
                 let (index, source) = match g {
                     Some(g) => (g, format!("channel {}, window {}–{} nm", c + 1, w.lo_nm, w.hi_nm)),
                     None => {
@@ -234,7 +236,11 @@ impl<T: Kept> Detection<T> {
                 let mut peaks = peaks;
                 peaks.resize(frames, None);
                 let implausible = super::plausible::implausible(&peaks);
-                out.push((index, GratingPeaks { channel: c, source, peaks, lines: lines.clone(), implausible }));
+                let shaped = shape.is_some();
+                out.push((
+                    index,
+                    GratingPeaks { channel: c, source, peaks, lines: lines.clone(), implausible, shaped },
+                ));
             }
         }
         // A mapped grating whose channel never had a spectrum: gaps throughout.
@@ -243,7 +249,8 @@ impl<T: Kept> Detection<T> {
                 let source =
                     format!("channel {}, window {}–{} nm (no spectrum of the channel)", c + 1, w.lo_nm, w.hi_nm);
                 let (peaks, lines, implausible) = (vec![None; frames], vec![0; frames], vec![false; frames]);
-                out.push((*g, GratingPeaks { channel: *c, source, peaks, lines, implausible }));
+                let shaped = self.shapes.get(*g).is_some_and(Option::is_some);
+                out.push((*g, GratingPeaks { channel: *c, source, peaks, lines, implausible, shaped }));
             }
         }
         out.sort_by_key(|(i, _)| *i);

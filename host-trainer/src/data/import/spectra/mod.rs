@@ -51,7 +51,7 @@ use super::Format;
 use crate::data::measurand::grating_column;
 use crate::error::TrainerError;
 pub(crate) use detect::ChannelDetector;
-use detect::{Detected, Detection};
+use detect::{Detected, Detection, GratingPeaks};
 use frames::{describe_grid, FileFacts};
 pub(crate) use kept::{Found, Kept};
 use settings::Settings;
@@ -131,6 +131,16 @@ fn pixel_polynomial(s: &SpectraMap, origin: &str, have_map: bool) -> Result<Vec<
 }
 
 impl<T: Kept> SpectraRead<T> {
+    /// A grating's peak method: the file's, with `+shape` where a measured shape refines it.
+    pub(crate) fn method_of(&self, gp: &GratingPeaks<T>) -> String {
+        let m = self.settings.config.method.name();
+        if gp.shaped {
+            format!("{m}+shape")
+        } else {
+            m.to_string()
+        }
+    }
+
     /// Each grating's wavelength per frame \[nm\] (NaN: a gap, by the gap rule) and the
     /// summary's facts, with the flagged frames counted.
     pub(crate) fn series(&self, format: Format) -> (Vec<Vec<f64>>, SpectraInfo) {
@@ -140,6 +150,7 @@ impl<T: Kept> SpectraRead<T> {
         for (g, gp) in self.detected.gratings.iter().enumerate() {
             let mut f = FlaggedFrames {
                 output: grating_column(g + 1),
+                method: self.method_of(gp),
                 frames: 0,
                 flagged: 0,
                 gaps: 0,

@@ -83,17 +83,6 @@ pub fn peaks_to_csv(opts: &ImportOptions, out: &Path) -> Result<PeaksSummary, Tr
     let (_, spectra) = read.series(opts.format);
     let d = &read.detected;
     let t0 = d.t.first().copied().unwrap_or(0.0);
-    // A grating with a measured shape in the map: the method's estimate refined by its fit.
-    let shaped: Vec<bool> =
-        map.as_ref().map(|m| m.windows().iter().map(|w| w.shape.is_some()).collect()).unwrap_or_default();
-    let method = |g: usize| {
-        let m = read.settings.config.method.name();
-        if shaped.get(g).copied().unwrap_or(false) {
-            format!("{m}+shape")
-        } else {
-            m.to_string()
-        }
-    };
     let mut rows = 0usize;
     write_atomically(out, |w| {
         writeln!(w, "{PEAKS_HEADER}")?;
@@ -122,7 +111,7 @@ pub fn peaks_to_csv(opts: &ImportOptions, out: &Path) -> Result<PeaksSummary, Tr
                     sci(p.amplitude),
                     sci(p.floor),
                     flags,
-                    method(g)
+                    read.method_of(gp)
                 )?;
                 rows += 1;
             }
