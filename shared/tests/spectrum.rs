@@ -8,7 +8,9 @@
 //! ([`Peak::snr_db`]). The table of every method × grid × shape × SNR is printed by
 //! `cargo test -p fbg-shared --test shared spectrum::accuracy_table -- --nocapture`.
 
-use fbg_shared::spectrum::{DetectorConfig, Grid, Method, Peak, PeakDetector, PeakFlags, Spectrum, Threshold, Window};
+use fbg_shared::spectrum::{
+    DetectorConfig, Grid, Method, Peak, PeakDetector, PeakFlags, Span, Spectrum, Threshold, Window,
+};
 use fbg_testkit::Rng;
 
 /// FWHM of every test peak \[nm\].
@@ -552,4 +554,43 @@ fn polynomial_grid_step_and_inverse() {
     }
     let g32 = Grid::polynomial([1510.0f32, 0.16, 1.2e-5, -2.0e-9, 0.0, 0.0]);
     assert!((g32.pixel(g32.wavelength(300.25)) - 300.25).abs() < 2e-3);
+}
+
+/// A device sets a window's pixels up once (`Window::span_of` on the grid) and detects on them
+/// per frame (`DetectorConfig::detect_span`): the same peak as `detect` bit for bit, on the
+/// whole frame and on a part holding the window's pixels, for every method, on a uniform and a
+/// polynomial grid, in f32 as the device runs it; a span under three pixels or outside the
+/// spectrum gives no peak.
+#[test]
+fn a_span_found_at_set_up_detects_as_the_window_does() {
+    let poly = Case { grid: Grid::polynomial([1510.0, 0.16, 1.2e-5, -2.0e-9, 0.0, 0.0]), name: "polynomial", ..COARSE };
+    let mut rng = Rng::new(23);
+    for case in [FINE, COARSE, poly] {
+        let grid32 = match case.grid {
+            Grid::Uniform { start_nm, step_nm } => Grid::uniform(start_nm as f32, step_nm as f32),
+            Grid::Polynomial { coefficients } => Grid::polynomial(coefficients.map(|c| c as f32)),
+        };
+        let w = Window::centred(case.grid.wavelength(case.nominal_px as f64) as f32, case.half_window_nm as f32);
+        let span = w.span_of(&grid32, 0, case.pixels).unwrap();
+        for method in Method::ALL {
+            let config = DetectorConfig { method, ..DetectorConfig::default() };
+            for k in 0..6 {
+                let centre = case.grid.wavelength(case.nominal_px as f64 + k as f64 / 6.0);
+                let s: Vec<f32> =
+                    spectrum(&case, Shape::Gaussian, centre, Some(25.0), &mut rng).iter().map(|&v| v as f32).collect();
+                let whole = Spectrum::new(&s, grid32);
+                let want = config.detect(&whole, &w);
+                let bits = |p: &Peak<f32>| (p.wavelength_nm.to_bits(), p.fwhm_nm.to_bits(), p.snr.to_bits(), p.flags);
+                assert_eq!(bits(&config.detect_span(&whole, span, |r, px| method.estimate(r, px))), bits(&want));
+                let part = Spectrum::part(&s[span.first..=span.last], grid32, span.first);
+                assert_eq!(bits(&config.detect_span(&part, span, |r, px| method.estimate(r, px))), bits(&want));
+                assert_eq!(bits(&config.detect(&part, &w)), bits(&want), "{} {method:?}", case.name);
+            }
+            let none =
+                |sp: Span| config.detect_span(&Spectrum::new(&[1.0f32; 8], grid32), sp, |r, px| method.estimate(r, px));
+            assert!(none(Span { first: 2, last: 3 }).wavelength_nm.is_nan());
+            assert!(none(Span { first: 6, last: 12 }).wavelength_nm.is_nan());
+            assert!(none(Span { first: 2, last: 4 }).wavelength_nm.is_nan(), "a flat spectrum has no peak");
+        }
+    }
 }

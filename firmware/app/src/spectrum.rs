@@ -23,7 +23,7 @@
 use fbg_shared::layout::MAX_GRATINGS;
 use fbg_shared::protocol::{SpectrumError, SpectrumRefusal, SpectrumStatus, MAX_FRAME_PIXELS};
 use fbg_shared::spectrum::correlation::cross_correlation;
-use fbg_shared::spectrum::{DetectorConfig, Grid, Method, PeakFlags, ShiftRef, Spectrum, Window, POLY_COEFFS};
+use fbg_shared::spectrum::{DetectorConfig, Grid, Method, PeakFlags, ShiftRef, Span, Spectrum, Window, POLY_COEFFS};
 use fbg_shared::{Flags, Sample};
 
 /// Pixels the device keeps of one channel's frame: the windows of the gratings on one channel
@@ -64,7 +64,8 @@ pub struct GratingSetup {
     pub shift: ShiftRef<f32>,
 }
 
-/// A grating as kept: its channel, window, λ_ref and where its pixels go.
+/// A grating as kept: its channel, its window's pixels (the span found at set-up), λ_ref and
+/// where its pixels go.
 #[derive(Clone, Copy, Debug, Default)]
 struct Slot {
     channel: u8,
@@ -74,8 +75,6 @@ struct Slot {
     len: u16,
     /// Where the window's pixels start in the kept pixels.
     at: u16,
-    window_lo: f32,
-    window_hi: f32,
     shift: ShiftRef<f32>,
 }
 
@@ -155,15 +154,8 @@ impl SpectrumFront {
             pixels: 0,
             gratings: 0,
             set: 0,
-            slots: [Slot {
-                channel: 0,
-                first: 0,
-                len: 0,
-                at: 0,
-                window_lo: 0.0,
-                window_hi: 0.0,
-                shift: ShiftRef { hi_nm: 0.0, lo_nm: 0.0 },
-            }; MAX_GRATINGS],
+            slots: [Slot { channel: 0, first: 0, len: 0, at: 0, shift: ShiftRef { hi_nm: 0.0, lo_nm: 0.0 } };
+                MAX_GRATINGS],
             frame: Frame { active: false, channel: 0, seq: 0, t_s: 0.0, t_amb_c: 0.0, received: 0 },
             kept: [0; KEPT_PIXELS],
             reading_t_s: f32::NAN,
@@ -264,8 +256,6 @@ impl SpectrumFront {
             first: u16::try_from(span.first).unwrap_or(u16::MAX),
             len: u16::try_from(len).unwrap_or(0),
             at: u16::try_from(at).unwrap_or(0),
-            window_lo: g.window.lo_nm,
-            window_hi: g.window.hi_nm,
             shift: g.shift,
         };
         self.set |= bit;
@@ -404,7 +394,9 @@ impl SpectrumFront {
         }
         let samples = buf.get(..src.len()).unwrap_or(&[]);
         let part = Spectrum::part(samples, self.grid, usize::from(s.first));
-        let peak = self.config.detect_with(&part, &Window::new(s.window_lo, s.window_hi), cross_correlation);
+        // The span the window's set-up found (`grating`), not found again per frame.
+        let span = Span { first: usize::from(s.first), last: (usize::from(s.first) + len).saturating_sub(1) };
+        let peak = self.config.detect_span(&part, span, cross_correlation);
         (s.shift.shift_pm(peak.wavelength_nm), peak.flags)
     }
 }

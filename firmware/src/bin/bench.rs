@@ -39,7 +39,7 @@ use fbg_shared::spectrum::centroid::maximum;
 #[cfg(feature = "spectrum")]
 use fbg_shared::spectrum::correlation::cross_correlation;
 #[cfg(feature = "spectrum")]
-use fbg_shared::spectrum::{DetectorConfig, Estimate, Grid, Method, Region, ShiftRef, Spectrum, Window};
+use fbg_shared::spectrum::{DetectorConfig, Estimate, Grid, Method, Region, ShiftRef, Span, Spectrum, Window};
 use fbg_shared::{Compensator, MemoryBank, MemoryState, ModelParams, Sample, StreamState};
 
 static PACK: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_pack.bin"));
@@ -195,18 +195,13 @@ fn ingest_loop(front: &mut SpectrumFront, frame: &[u8], n: u32) {
 #[cfg(feature = "spectrum")]
 type EstimateFn = fn(&Region<'_, f32>, f32) -> Estimate<f32>;
 
-/// `n` detections of one window's peak (the first grating's 25 pixels, f32) with `estimate`.
+/// `n` detections of one window's peak (the first grating's 25 pixels, f32) with `estimate`,
+/// on the span its set-up found (as the product detects).
 #[cfg(feature = "spectrum")]
 #[inline(never)]
-fn window_loop(
-    config: &DetectorConfig<f32>,
-    part: &Spectrum<'_, f32>,
-    window: &Window<f32>,
-    estimate: EstimateFn,
-    n: u32,
-) {
+fn window_loop(config: &DetectorConfig<f32>, part: &Spectrum<'_, f32>, span: Span, estimate: EstimateFn, n: u32) {
     for _ in 0..n {
-        black_box(config.detect_with(black_box(part), window, estimate));
+        black_box(config.detect_span(black_box(part), black_box(span), estimate));
     }
 }
 
@@ -245,7 +240,7 @@ fn bench_spectrum_parts(uart: &mut CmsdkUart, front: &mut SpectrumFront, frame: 
     for (what, f) in methods {
         for n in SPECTRUM_RUNS {
             let (te, _) = measure(|| window_empty_loop(&part, n));
-            let (tf, _) = measure(|| window_loop(&config, &part, &window, f, n));
+            let (tf, _) = measure(|| window_loop(&config, &part, span, f, n));
             emit(uart, format_args!("spectrum_part what={} n={} empty_ticks={} ticks={}", what, n, te, tf));
         }
     }

@@ -9,7 +9,7 @@ use super::peak::Peak;
 use super::region::{Region, Threshold};
 use super::shape::{second_peak, HalfWidths};
 use super::view::Spectrum;
-use super::window::Window;
+use super::window::{Span, Window};
 use crate::layout::MAX_GRATINGS;
 use crate::real::Real;
 
@@ -140,9 +140,28 @@ impl<R: Real> DetectorConfig<R> {
         window: &Window<R>,
         estimate: impl Fn(&Region<'_, R>, R) -> Estimate<R>,
     ) -> Peak<R> {
+        match window.span(spectrum) {
+            Some(span) => self.detect_span(spectrum, span, estimate),
+            None => Peak::none(R::NAN, R::NAN, PeakFlags::OK),
+        }
+    }
+
+    /// [`DetectorConfig::detect_with`] on the window's pixels `span`, found once when the
+    /// window was set up ([`Window::span_of`] on the spectrum's grid): a device that keeps a
+    /// window's pixels skips the two inversions of the pixel polynomial per frame. With the
+    /// span [`Window::span`] gives, the result is `detect_with`'s, bit for bit; a span outside
+    /// the spectrum's pixels gives no peak.
+    pub fn detect_span(
+        &self,
+        spectrum: &Spectrum<'_, R>,
+        span: Span,
+        estimate: impl Fn(&Region<'_, R>, R) -> Estimate<R>,
+    ) -> Peak<R> {
         let c = self;
         let nan = R::NAN;
-        let Some(span) = window.span(spectrum) else { return Peak::none(nan, nan, PeakFlags::OK) };
+        if span.last < span.first.saturating_add(2) {
+            return Peak::none(nan, nan, PeakFlags::OK);
+        }
         let off = spectrum.first_pixel();
         let Some(w) = spectrum.samples().get(span.first.wrapping_sub(off)..=span.last.wrapping_sub(off)) else {
             return Peak::none(nan, nan, PeakFlags::OK);

@@ -24,15 +24,19 @@ impl<R: Real> HalfWidths<R> {
     /// linearly in the log of the samples above the floor (exact for a Gaussian's flank between
     /// two samples to second order), linearly where the lower one is not above the floor; a
     /// flank that stays above half to the window's edge crosses at the edge. Cost: a walk over
-    /// the samples above half, 4 logarithms.
+    /// the samples above half, 5 logarithms.
     pub fn of(r: &Region<'_, R>, centre: R, height: R) -> Self {
         let half = R::from_f64(0.5) * height;
+        let ln_half = half.ln();
         let mut i = r.imax;
         while i > 0 && r.above_floor(i - 1) > half {
             i -= 1;
         }
-        let left_x =
-            if i == 0 { R::ZERO } else { real::<R>(i - 1) + crossing(r.above_floor(i - 1), r.above_floor(i), half) };
+        let left_x = if i == 0 {
+            R::ZERO
+        } else {
+            real::<R>(i - 1) + crossing(r.above_floor(i - 1), r.above_floor(i), half, ln_half)
+        };
         let mut j = r.imax;
         while j < r.last() && r.above_floor(j + 1) > half {
             j += 1;
@@ -40,7 +44,7 @@ impl<R: Real> HalfWidths<R> {
         let right_x = if j >= r.last() {
             real(j)
         } else {
-            real::<R>(j + 1) - crossing(r.above_floor(j + 1), r.above_floor(j), half)
+            real::<R>(j + 1) - crossing(r.above_floor(j + 1), r.above_floor(j), half, ln_half)
         };
         HalfWidths { left: centre - left_x, right: right_x - centre }
     }
@@ -63,8 +67,9 @@ impl<R: Real> HalfWidths<R> {
 
 /// Where between a sample `lo` (≤ `level`) and its neighbour `hi` (> `level`) the level is
 /// crossed, as the fraction of the pixel from `lo`'s side.
-fn crossing<R: Real>(lo: R, hi: R, level: R) -> R {
-    let t = if lo > R::ZERO { (level.ln() - lo.ln()) / (hi.ln() - lo.ln()) } else { (level - lo) / (hi - lo) };
+/// `ln_level` is `level.ln()`, taken once for both crossings.
+fn crossing<R: Real>(lo: R, hi: R, level: R, ln_level: R) -> R {
+    let t = if lo > R::ZERO { (ln_level - lo.ln()) / (hi.ln() - lo.ln()) } else { (level - lo) / (hi - lo) };
     super::num::clamp(t, R::ZERO, R::ONE)
 }
 
