@@ -294,6 +294,52 @@ fn compensate_memory_does_not_grow_with_the_record() {
     assert!(b < a + (8 << 20), "{} kB vs {} kB", b >> 10, a >> 10);
 }
 
+/// A logger table is read as a stream: what grows with the file is the columns the map takes,
+/// not its text. Rows with 60 columns the map does not take (≈ 700 B each), 2 000 and 40 000 of
+/// them: the larger import's peak RSS stays under the smaller's plus half the larger file.
+#[cfg(target_os = "linux")]
+#[test]
+fn logger_import_memory_grows_with_the_columns_taken_not_the_text() {
+    let d = tempfile::tempdir().unwrap();
+    let map = d.path().join("map.toml");
+    std::fs::write(
+        &map,
+        "[time]\ncolumn = \"t_s\"\n[[grating]]\ncolumn = \"A\"\nunit = \"shift_pm\"\n[temperature]\ncolumn = \"TC\"\n",
+    )
+    .unwrap();
+    let write = |name: &str, rows: usize| {
+        let path = d.path().join(name);
+        let mut f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+        let extra: Vec<String> = (0..60).map(|i| format!("X{i}")).collect();
+        writeln!(f, "t_s,A,TC,{}", extra.join(",")).unwrap();
+        for k in 0..rows {
+            let cells: Vec<String> = (0..60).map(|i| format!("{:.6}", ((k * 61 + i) % 997) as f64 / 997.0)).collect();
+            writeln!(f, "{},{:.3},{:.2},{}", 60 * k, (k % 50) as f64 * 0.1, 20.0 + (k % 7) as f64, cells.join(","))
+                .unwrap();
+        }
+        drop(f);
+        path
+    };
+    let (small, big) = (write("small.csv", 2_000), write("big.csv", 40_000));
+    let peak = |data: &Path| {
+        let out = d.path().join("out.csv");
+        let (ok, err, rss) =
+            run_peak_rss(bin().args(["import", "--format", "csv", "--map"]).arg(&map).arg(data).arg("--out").arg(&out));
+        assert!(ok, "{err}");
+        rss
+    };
+    let (a, b) = (peak(&small), peak(&big));
+    let size = std::fs::metadata(&big).unwrap().len();
+    eprintln!(
+        "logger import peak RSS: {} kB on 2 000 rows, {} kB on 40 000 rows ({} kB of text)",
+        a >> 10,
+        b >> 10,
+        size >> 10
+    );
+    // Read whole, the text alone (and its copy) was twice the file.
+    assert!(b < a + size / 2, "{} kB vs {} kB, file {} kB", b >> 10, a >> 10, size >> 10);
+}
+
 #[test]
 fn train_reads_the_rows_up_to_the_last_calibration_row() {
     let d = tempfile::tempdir().unwrap();

@@ -104,3 +104,48 @@ fn split_by_time_seconds_or_timestamp() {
     o.split = SplitChoice::Fraction(0.0);
     assert!(failure(&o).contains("--cal-fraction"));
 }
+
+/// The logger table is read as a stream from its header's byte on: the same rows written with
+/// a byte-order mark before a first-line header, with CRLF line ends, with invalid UTF-8 in the
+/// preamble, or found by the map's `header_lines`, import as the file itself does; a last row
+/// cut short is still named as truncated, at its line.
+#[test]
+fn logger_csv_byte_variants_import_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let original = std::fs::read(data("logger.csv")).unwrap();
+    let map = std::fs::read_to_string(data("logger_map.toml")).unwrap();
+    let (want, _) = import(&logger("logger.csv", Some("logger_map.toml"))).unwrap();
+    let text = String::from_utf8(original.clone()).unwrap();
+    let body: String = text.lines().skip(2).map(|l| format!("{l}\n")).collect();
+    let crlf: String = text.lines().map(|l| format!("{l}\r\n")).collect();
+    let mut bad_utf8 = b"Logger \xff\xfe rig\n".to_vec();
+    bad_utf8.extend_from_slice(&original);
+    let mut bom = b"\xEF\xBB\xBF".to_vec();
+    bom.extend_from_slice(body.as_bytes());
+    let cases: Vec<(&str, Vec<u8>, String)> = vec![
+        ("bom", bom, map.clone()),
+        ("crlf", crlf.into_bytes(), map.clone()),
+        ("utf8", bad_utf8, map.clone()),
+        ("header_lines", original.clone(), format!("header_lines = 2\n{map}")),
+    ];
+    for (name, bytes, m) in cases {
+        let (f, mp) = (dir.path().join(format!("{name}.csv")), dir.path().join(format!("{name}.toml")));
+        std::fs::write(&f, bytes).unwrap();
+        std::fs::write(&mp, m).unwrap();
+        let (d, _) =
+            import(&common::import_options(Format::Csv, f, Some(mp))).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(d.t_s, want.t_s, "{name}");
+        for (a, b) in d.dl_pm.iter().zip(&want.dl_pm) {
+            assert!(a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()), "{name}");
+        }
+    }
+    // The last row cut inside a cell and without its line end.
+    let cut = dir.path().join("cut.csv");
+    let trimmed = text.trim_end();
+    std::fs::write(&cut, &trimmed[..trimmed.len() - 2]).unwrap();
+    let mp = dir.path().join("cut.toml");
+    std::fs::write(&mp, &map).unwrap();
+    let e = import(&common::import_options(Format::Csv, cut, Some(mp))).unwrap_err().to_string();
+    let last = text.trim_end().lines().count();
+    assert!(e.contains("truncated") && e.contains(&format!("line {last}")), "{e}");
+}

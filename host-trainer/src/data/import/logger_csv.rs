@@ -1,12 +1,13 @@
 //! A logger CSV read through the map's column mapping: the data file of `--format csv`, or the
 //! `--refs` file of `--format enlight`.
 
+use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 
 use super::mapping::{CsvGrating, Map, RefMap};
 use super::problems::{OnError, Problems, Reason, RowError};
 use super::time_axis::{TimeKind, TimeParser};
-use super::{number, read_text};
+use super::{number, TextLines, READ_BUFFER};
 use crate::data::measurand::{grating_column, parse_grating_column, Measurand, MAX_MEASURANDS};
 use crate::data::timestamp::parse_timestamp;
 use crate::data::units::{
@@ -57,30 +58,34 @@ pub(crate) fn read(
     policy: OnError,
 ) -> Result<LoggerTable, TrainerError> {
     let name = path.display().to_string();
-    let text = read_text(path)?;
     let time_names: Vec<String> = match &map.time.column {
         Some(c) => vec![c.clone()],
         None => TIME_NAMES.iter().map(|s| s.to_string()).collect(),
     };
-    let lines: Vec<&str> = text.split('\n').collect();
-    let (header_idx, delim) = header_position(&lines, map, &name, &time_names)?;
+    // Read as a stream: the header found line by line, the rows by the CSV reader from the
+    // header's byte on, so that only the parsed columns grow with the file.
+    let (header_idx, delim, offset) = header_position(path, map, &name, &time_names)?;
     let header_line = header_idx as u64 + 1;
     // A last line without a line end is truncated: the file ends inside the row, so its last
     // cell may be cut short (`ragged_row`).
-    let truncated_line = match lines.last() {
-        Some(l) if !l.trim().is_empty() => Some(lines.len() as u64),
-        _ => None,
-    };
-    let offset: usize = lines[..header_idx].iter().map(|l| l.len() + 1).sum();
-    let body = &text[offset.min(text.len())..];
-
-    let mut rdr = csv::ReaderBuilder::new()
+    let truncated_line = unended_last_line(path)?;
+    let mut file = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
+    file.seek(SeekFrom::Start(offset)).map_err(|e| TrainerError::io(path, e))?;
+    let rdr = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
         .trim(csv::Trim::All)
         .delimiter(delim)
-        .from_reader(body.as_bytes());
-    let mut records = rdr.records();
+        .from_reader(std::io::BufReader::with_capacity(READ_BUFFER, file));
+    // Invalid UTF-8 replaced, as in a text file read whole; each row keeps its position.
+    let mut records = rdr.into_byte_records().map(|r| {
+        r.map(|b| {
+            let position = b.position().cloned();
+            let mut rec = csv::StringRecord::from_byte_record_lossy(b);
+            rec.set_position(position);
+            rec
+        })
+    });
     let header = match records.next() {
         Some(Ok(h)) => h,
         Some(Err(e)) => {
@@ -102,38 +107,89 @@ pub(crate) fn read(
     Ok(out)
 }
 
-/// The header's index among `lines` and the delimiter: the map's, or found as the first line
-/// naming the time column.
-fn header_position(lines: &[&str], map: &Map, name: &str, time_names: &[String]) -> Result<(usize, u8), TrainerError> {
+/// The header's index (from 0), the delimiter and the byte where the header line starts: the
+/// line `header_lines` of the map, else the first line naming the time column, read line by
+/// line (a byte-order mark before a first-line header is skipped).
+fn header_position(
+    path: &Path,
+    map: &Map,
+    name: &str,
+    time_names: &[String],
+) -> Result<(usize, u8, u64), TrainerError> {
     let map_delim = match &map.delimiter {
         Some(d) => Some(super::mapping::delimiter(d).map_err(|m| TrainerError::data(name, 1, "-", m))?),
         None => None,
     };
-    match map.header_lines {
-        Some(n) => {
-            let Some(l) = lines.get(n) else {
-                return Err(TrainerError::data(
-                    name,
-                    n as u64 + 1,
-                    "-",
-                    format!("the file has {} lines, so there is no header after header_lines = {n}", lines.len()),
-                ));
-            };
-            Ok((n, map_delim.unwrap_or_else(|| most_frequent_delimiter(l))))
+    let mut lines = TextLines::open(path)?;
+    let (mut count, mut ended) = (0usize, true);
+    loop {
+        let start = lines.consumed();
+        let Some((number, text, line_ended)) = lines.next_line()? else { break };
+        let idx = (number - 1) as usize;
+        (count, ended) = (idx + 1, line_ended);
+        let found = match map.header_lines {
+            Some(n) if n == idx => Some(map_delim.unwrap_or_else(|| most_frequent_delimiter(text))),
+            Some(_) => None,
+            None => header_delimiter(text, time_names, map_delim),
+        };
+        if let Some(d) = found {
+            let bom = idx == 0 && starts_with_bom(path)?;
+            return Ok((idx, d, if bom { 3 } else { start }));
         }
-        None => find_header(lines, time_names, map_delim).ok_or_else(|| {
+    }
+    // As the text split at its line ends counts them: a last line end starts an empty line.
+    let count = count + usize::from(ended);
+    match map.header_lines {
+        // The empty line after the last line end, named as the header: no header row.
+        Some(n) if n + 1 == count => Ok((n, map_delim.unwrap_or(b','), std::fs::metadata(path).map_or(0, |m| m.len()))),
+        Some(n) => Err(TrainerError::data(
+            name,
+            n as u64 + 1,
+            "-",
+            format!("the file has {count} lines, so there is no header after header_lines = {n}"),
+        )),
+        None => {
             let what = match &map.time.column {
                 Some(c) => format!("`{c}` (map key time.column)"),
                 None => format!("any of {} (or name it with the map key time.column)", TIME_NAMES.join(", ")),
             };
-            TrainerError::data(
+            Err(TrainerError::data(
                 name,
                 1,
                 &time_names[0],
                 format!("no header line has a cell naming the time column {what}"),
-            )
-        }),
+            ))
+        }
     }
+}
+
+/// Whether the file starts with a UTF-8 byte-order mark.
+fn starts_with_bom(path: &Path) -> Result<bool, TrainerError> {
+    let mut head = [0u8; 3];
+    let mut f = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
+    let n = f.read(&mut head).map_err(|e| TrainerError::io(path, e))?;
+    Ok(n == 3 && head == [0xEF, 0xBB, 0xBF])
+}
+
+/// The number of the file's last line when it is not blank and has no line end (the file
+/// ends inside it), read in blocks: only the last line is held.
+fn unended_last_line(path: &Path) -> Result<Option<u64>, TrainerError> {
+    let mut f = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
+    let mut buf = vec![0u8; READ_BUFFER];
+    let (mut line_ends, mut tail) = (0u64, Vec::new());
+    loop {
+        let n = f.read(&mut buf).map_err(|e| TrainerError::io(path, e))?;
+        let Some(block) = buf.get(..n).filter(|b| !b.is_empty()) else { break };
+        match block.iter().rposition(|&b| b == b'\n') {
+            Some(last) => {
+                line_ends += block.iter().filter(|&&b| b == b'\n').count() as u64;
+                tail.clear();
+                tail.extend_from_slice(block.get(last + 1..).unwrap_or_default());
+            }
+            None => tail.extend_from_slice(block),
+        }
+    }
+    Ok((!String::from_utf8_lossy(&tail).trim().is_empty()).then_some(line_ends + 1))
 }
 
 /// The header row: its cells and its physical line.
@@ -481,19 +537,16 @@ fn cells(line: &str, d: u8) -> Vec<&str> {
     line.split(d as char).map(|c| c.trim().trim_matches('"').trim()).collect()
 }
 
-fn find_header(lines: &[&str], names: &[String], map_delim: Option<u8>) -> Option<(usize, u8)> {
+/// The delimiter by which `line` has a cell naming the time column (`names`), the one giving
+/// the most cells where several do; `None` when none does.
+fn header_delimiter(line: &str, names: &[String], map_delim: Option<u8>) -> Option<u8> {
     let delims: Vec<u8> = map_delim.map_or_else(|| DELIMITERS.to_vec(), |d| vec![d]);
-    for (i, l) in lines.iter().enumerate() {
-        let best = delims
-            .iter()
-            .map(|&d| (d, cells(l, d)))
-            .filter(|(_, cs)| cs.iter().any(|c| names.iter().any(|n| c.eq_ignore_ascii_case(n))))
-            .max_by_key(|(_, cs)| cs.len());
-        if let Some((d, _)) = best {
-            return Some((i, d));
-        }
-    }
-    None
+    delims
+        .iter()
+        .map(|&d| (d, cells(line, d)))
+        .filter(|(_, cs)| cs.iter().any(|c| names.iter().any(|n| c.eq_ignore_ascii_case(n))))
+        .max_by_key(|(_, cs)| cs.len())
+        .map(|(d, _)| d)
 }
 
 fn most_frequent_delimiter(line: &str) -> u8 {

@@ -242,10 +242,12 @@ pub(crate) struct TextLines {
     line: String,
     /// Lines read so far (the number of the line last returned).
     number: u64,
+    /// Bytes read so far (through the end of the line last returned).
+    consumed: u64,
 }
 
 /// Bytes read from a file at a time.
-const READ_BUFFER: usize = 1 << 20;
+pub(crate) const READ_BUFFER: usize = 1 << 20;
 
 impl TextLines {
     /// Open `path`; errors name it.
@@ -257,7 +259,13 @@ impl TextLines {
             bytes: Vec::new(),
             line: String::new(),
             number: 0,
+            consumed: 0,
         })
+    }
+
+    /// Bytes of the file read so far: where the next line starts.
+    pub(crate) fn consumed(&self) -> u64 {
+        self.consumed
     }
 
     /// The next line: its number (from 1), its text without the line end, and whether it
@@ -271,6 +279,7 @@ impl TextLines {
             return Ok(None);
         }
         self.number += 1;
+        self.consumed += n as u64;
         let ended = self.bytes.last() == Some(&b'\n');
         if ended {
             self.bytes.pop();
