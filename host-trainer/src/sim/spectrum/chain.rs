@@ -159,6 +159,9 @@ pub(crate) fn design_tables(frames: &FrameSimulator) -> Vec<ShapeTable> {
         .designs()
         .iter()
         .zip(frames.nominal_nm())
-        .map(|(d, &bragg)| ShapeTable::from_fn(|x_nm| d.reflectivity(bragg, bragg + x_nm)))
+        .map(|(d, &bragg)| {
+            let r = d.spectrum(bragg);
+            ShapeTable::from_fn(|x_nm| r(bragg + x_nm))
+        })
         .collect()
 }

@@ -128,15 +128,14 @@ impl GratingDesign {
     /// Power reflectivity R(λ) ∈ \[0, 1\] of the grating at Bragg wavelength `bragg_nm`, by the
     /// transfer-matrix method over [`GratingDesign::sections`] sections (module docs).
     pub fn reflectivity(&self, bragg_nm: f64, lambda_nm: f64) -> f64 {
-        let g = self.section_profile();
-        self.reflectivity_over(&g, bragg_nm, lambda_nm)
+        self.spectrum(bragg_nm)(lambda_nm)
     }
 
-    /// R(λ) at each of `lambdas_nm` ([`GratingDesign::reflectivity`] with the apodisation of
-    /// each section evaluated once for all of them).
-    pub fn reflectivities(&self, bragg_nm: f64, lambdas_nm: impl Iterator<Item = f64>) -> Vec<f64> {
+    /// λ ↦ R(λ) ([`GratingDesign::reflectivity`]) with the apodisation of each section evaluated
+    /// once for every wavelength asked: what a caller tabulating or searching the spectrum uses.
+    pub fn spectrum(&self, bragg_nm: f64) -> impl Fn(f64) -> f64 + '_ {
         let g = self.section_profile();
-        lambdas_nm.map(|l| self.reflectivity_over(&g, bragg_nm, l)).collect()
+        move |lambda_nm| self.reflectivity_over(&g, bragg_nm, lambda_nm)
     }
 
     /// The apodisation g at the midpoint of each section.
@@ -214,17 +213,18 @@ impl GratingDesign {
     /// Full width at half maximum of the main lobe \[nm\]: the half-maximum crossings either side
     /// of λ_B, bracketed in 1 pm steps and refined by bisection. NaN when none within 20 nm.
     pub fn fwhm_nm(&self, bragg_nm: f64) -> f64 {
-        let half = 0.5 * self.reflectivity(bragg_nm, bragg_nm);
+        let r = self.spectrum(bragg_nm);
+        let half = 0.5 * r(bragg_nm);
         let crossing = |dir: f64| -> f64 {
             let step = 1e-3;
             let mut inside = 0.0;
             for k in 1..=20_000 {
                 let x = k as f64 * step;
-                if self.reflectivity(bragg_nm, bragg_nm + dir * x) < half {
+                if r(bragg_nm + dir * x) < half {
                     let (mut a, mut b) = (inside, x);
                     for _ in 0..50 {
                         let mid = 0.5 * (a + b);
-                        if self.reflectivity(bragg_nm, bragg_nm + dir * mid) >= half {
+                        if r(bragg_nm + dir * mid) >= half {
                             a = mid;
                         } else {
                             b = mid;

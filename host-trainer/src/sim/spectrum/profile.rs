@@ -26,7 +26,8 @@ impl ReflectionProfile {
     /// Tabulate `design` about `bragg_nm`.
     pub fn tabulate(design: &GratingDesign, bragg_nm: f64, half_span_nm: f64, step_nm: f64) -> Self {
         let n = (half_span_nm / step_nm).ceil() as usize;
-        let values = design.reflectivities(bragg_nm, (0..=2 * n).map(|k| bragg_nm + (k as f64 - n as f64) * step_nm));
+        let r = design.spectrum(bragg_nm);
+        let values = (0..=2 * n).map(|k| r(bragg_nm + (k as f64 - n as f64) * step_nm)).collect();
         ReflectionProfile { step_nm, half_span_nm: n as f64 * step_nm, values }
     }
 
