@@ -109,7 +109,7 @@ pub(crate) fn read(
 
 /// The header's index (from 0), the delimiter and the byte where the header line starts: the
 /// line `header_lines` of the map, else the first line naming the time column, read line by
-/// line (a byte-order mark before a first-line header is skipped).
+/// line (the byte is after a first-line header's byte-order mark).
 fn header_position(
     path: &Path,
     map: &Map,
@@ -122,9 +122,7 @@ fn header_position(
     };
     let mut lines = TextLines::open(path)?;
     let (mut count, mut ended) = (0usize, true);
-    loop {
-        let start = lines.consumed();
-        let Some((number, text, line_ended)) = lines.next_line()? else { break };
+    while let Some((number, text, line_ended)) = lines.next_line()? {
         let idx = (number - 1) as usize;
         (count, ended) = (idx + 1, line_ended);
         let found = match map.header_lines {
@@ -133,15 +131,14 @@ fn header_position(
             None => header_delimiter(text, time_names, map_delim),
         };
         if let Some(d) = found {
-            let bom = idx == 0 && starts_with_bom(path)?;
-            return Ok((idx, d, if bom { 3 } else { start }));
+            return Ok((idx, d, lines.text_start()));
         }
     }
     // As the text split at its line ends counts them: a last line end starts an empty line.
     let count = count + usize::from(ended);
     match map.header_lines {
         // The empty line after the last line end, named as the header: no header row.
-        Some(n) if n + 1 == count => Ok((n, map_delim.unwrap_or(b','), std::fs::metadata(path).map_or(0, |m| m.len()))),
+        Some(n) if n + 1 == count => Ok((n, map_delim.unwrap_or(b','), lines.consumed())),
         Some(n) => Err(TrainerError::data(
             name,
             n as u64 + 1,
@@ -161,14 +158,6 @@ fn header_position(
             ))
         }
     }
-}
-
-/// Whether the file starts with a UTF-8 byte-order mark.
-fn starts_with_bom(path: &Path) -> Result<bool, TrainerError> {
-    let mut head = [0u8; 3];
-    let mut f = std::fs::File::open(path).map_err(|e| TrainerError::io(path, e))?;
-    let n = f.read(&mut head).map_err(|e| TrainerError::io(path, e))?;
-    Ok(n == 3 && head == [0xEF, 0xBB, 0xBF])
 }
 
 /// The number of the file's last line when it is not blank and has no line end (the file

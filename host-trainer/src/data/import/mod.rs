@@ -244,6 +244,8 @@ pub(crate) struct TextLines {
     number: u64,
     /// Bytes read so far (through the end of the line last returned).
     consumed: u64,
+    /// The byte where the line last returned starts.
+    line_start: u64,
 }
 
 /// Bytes read from a file at a time.
@@ -260,12 +262,20 @@ impl TextLines {
             line: String::new(),
             number: 0,
             consumed: 0,
+            line_start: 0,
         })
     }
 
-    /// Bytes of the file read so far: where the next line starts.
+    /// Bytes of the file read so far: where the next line starts (the file's length at its end).
     pub(crate) fn consumed(&self) -> u64 {
         self.consumed
+    }
+
+    /// The byte where the text of the line last returned starts: after its byte-order mark on
+    /// the first line, as the text [`TextLines::next_line`] gave.
+    pub(crate) fn text_start(&self) -> u64 {
+        let bom = self.number == 1 && self.bytes.starts_with("\u{feff}".as_bytes());
+        self.line_start + if bom { 3 } else { 0 }
     }
 
     /// The next line: its number (from 1), its text without the line end, and whether it
@@ -279,6 +289,7 @@ impl TextLines {
             return Ok(None);
         }
         self.number += 1;
+        self.line_start = self.consumed;
         self.consumed += n as u64;
         let ended = self.bytes.last() == Some(&b'\n');
         if ended {
