@@ -199,3 +199,32 @@ pub fn content_hash(paths: &[PathBuf]) -> Result<u64> {
     }
     Ok(h.finish())
 }
+
+/// Run `a` and `b` on two threads at once (the `what` lanes: "QEMU", "lint"); both run to their
+/// end, and a failure of either is the result (both, when both fail).
+pub fn in_lanes(
+    what: &str,
+    a: impl FnOnce() -> Result<()> + Send,
+    b: impl FnOnce() -> Result<()> + Send,
+) -> Result<()> {
+    let (ra, rb) = std::thread::scope(|s| {
+        let ha = s.spawn(|| {
+            let r = a();
+            end_step();
+            r
+        });
+        let hb = s.spawn(|| {
+            let r = b();
+            end_step();
+            r
+        });
+        let join = |h: std::thread::ScopedJoinHandle<'_, Result<()>>| {
+            h.join().unwrap_or_else(|_| Err(anyhow::anyhow!("a {what} lane panicked")))
+        };
+        (join(ha), join(hb))
+    });
+    match (ra, rb) {
+        (Err(a), Err(b)) => anyhow::bail!("two {what} lanes failed:\n{a:#}\n{b:#}"),
+        (r, Ok(())) | (Ok(()), r) => r,
+    }
+}

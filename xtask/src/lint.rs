@@ -2,7 +2,7 @@
 //! `--only STEP` runs some): formatting, clippy on every crate and target of the host
 //! workspace, the firmware workspace's clippy (the thumb image and the device logic's host
 //! tests), the feature matrix of `fbg-shared`, rustdoc, the MSRV, the fuzz target, the deploy
-//! files and the source sizes.
+//! files, the source sizes and the Python wheel's reuse of the test build ([`wheel`]).
 //!
 //! The MSRV is checked from both sides ([`msrv`]):
 //! - *dependencies*: every package's declared `rust-version` is at least the largest
@@ -27,6 +27,7 @@ use crate::targets::{PRODUCT_K, THUMB};
 mod fuzz;
 mod msrv;
 pub mod sizes;
+mod wheel;
 
 /// One step of `cargo xtask lint`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -52,11 +53,13 @@ pub enum Step {
     Deploy,
     /// no source file over 800 lines, no function over 120 lines outside tests
     Sizes,
+    /// the Python wheel's build needs no unit of fbg-trainer that the test build does not make
+    Wheel,
 }
 
 impl Step {
     /// Every step, in the order `lint` runs them.
-    pub const ALL: [Step; 9] = [
+    pub const ALL: [Step; 10] = [
         Step::Fmt,
         Step::Clippy,
         Step::Firmware,
@@ -66,38 +69,58 @@ impl Step {
         Step::Fuzz,
         Step::Deploy,
         Step::Sizes,
+        Step::Wheel,
     ];
 }
 
-/// The lint steps `only` names (every step when empty), in their order.
+/// The lint steps `only` names (every step when empty), in their order: formatting first, then
+/// two lanes at once, the steps that build in the host workspace's target directory (where one
+/// cargo runs at a time) beside those that build in a directory of their own (the firmware's,
+/// the fuzz target's) or none; each lane fills the core the other's single-crate stretches
+/// leave idle.
 pub fn run_steps(root: &Path, only: &[Step]) -> Result<()> {
-    for s in Step::ALL.into_iter().filter(|s| only.is_empty() || only.contains(s)) {
-        match s {
-            Step::Fmt => fmt(root)?,
-            Step::Clippy => clippy(root)?,
-            Step::Firmware => firmware_clippy(root, true)?,
-            Step::Features => features(root)?,
-            Step::Doc => doc(root)?,
-            Step::Msrv => {
-                step("lint: MSRV (declared rust-version against the locked dependencies and the toolchain; its build)");
-                msrv::check(root)?
-            }
-            Step::Fuzz => fuzz::check(root)?,
-            Step::Deploy => {
-                step("lint: deploy files (Slurm job script syntax, Kubernetes Job against the API schema)");
-                deploy_files(root)?
-            }
-            Step::Sizes => {
-                step("lint: source sizes (files ≤ 800 lines, functions outside tests ≤ 120 lines)");
-                sizes::check(root)?
-            }
-        }
+    let chosen: Vec<Step> = Step::ALL.into_iter().filter(|s| only.is_empty() || only.contains(s)).collect();
+    if chosen.contains(&Step::Fmt) {
+        run_step(root, Step::Fmt)?;
     }
-    Ok(())
+    let (host, own): (Vec<Step>, Vec<Step>) = chosen
+        .into_iter()
+        .filter(|&s| s != Step::Fmt)
+        .partition(|s| !matches!(s, Step::Firmware | Step::Fuzz | Step::Deploy));
+    let lane = |steps: &[Step]| steps.iter().try_for_each(|&s| run_step(root, s));
+    if host.is_empty() || own.is_empty() {
+        return lane(&host).and_then(|()| lane(&own));
+    }
+    step("lint: two lanes (the host workspace's steps; the firmware's, the fuzz target's, the deploy files)");
+    crate::cmd::in_lanes("lint", || lane(&host), || lane(&own))
+}
+
+fn run_step(root: &Path, s: Step) -> Result<()> {
+    match s {
+        Step::Fmt => fmt(root),
+        Step::Clippy => clippy(root),
+        Step::Firmware => firmware_clippy(root, true),
+        Step::Features => features(root),
+        Step::Doc => doc(root),
+        Step::Msrv => {
+            step("lint: MSRV (declared rust-version against the locked dependencies and the toolchain; its build)");
+            msrv::check(root)
+        }
+        Step::Fuzz => fuzz::check(root),
+        Step::Deploy => {
+            step("lint: deploy files (Slurm job script syntax, Kubernetes Job against the API schema)");
+            deploy_files(root)
+        }
+        Step::Sizes => {
+            step("lint: source sizes (files ≤ 800 lines, functions outside tests ≤ 120 lines)");
+            sizes::check(root)
+        }
+        Step::Wheel => wheel::check(root),
+    }
 }
 
 /// The lint part of the fast tier (`cargo xtask test --fast`): formatting, clippy of the host
-/// workspace and the Python package's, and clippy of the firmware at its default features.
+/// workspace (the Python package's included), and clippy of the firmware at its default features.
 pub fn run_fast(root: &Path) -> Result<()> {
     fmt(root)?;
     clippy(root)?;
@@ -105,34 +128,15 @@ pub fn run_fast(root: &Path) -> Result<()> {
 }
 
 fn fmt(root: &Path) -> Result<()> {
-    step("lint: rustfmt --check (host, firmware and Python-package workspaces, the fuzz target)");
+    step("lint: rustfmt --check (host workspace with the Python package, firmware workspace, the fuzz target)");
     run(cargo().current_dir(root).args(["fmt", "--all", "--check"]))?;
     run(cargo_own_target().current_dir(root.join("firmware")).args(["fmt", "--all", "--check"]))?;
-    run(cargo_own_target().current_dir(root.join("python")).args(["fmt", "--all", "--check"]))?;
     run(cargo_own_target().current_dir(root.join("shared/fuzz")).args(["fmt", "--all", "--check"]))
 }
 
 fn clippy(root: &Path) -> Result<()> {
-    step("lint: clippy (every crate and target of the host workspace and the Python package's, warnings denied)");
-    run(cargo().current_dir(root).args([
-        "clippy",
-        "--workspace",
-        "--all-targets",
-        "--locked",
-        "--",
-        "-D",
-        "warnings",
-    ]))?;
-    // Its own workspace (a PyO3 extension), built into the top target directory by its
-    // `.cargo/config.toml`.
-    run(cargo_own_target().current_dir(root.join("python")).args([
-        "clippy",
-        "--all-targets",
-        "--locked",
-        "--",
-        "-D",
-        "warnings",
-    ]))
+    step("lint: clippy (every crate and target of the host workspace, the Python package's included, warnings denied)");
+    run(cargo().current_dir(root).args(["clippy", "--workspace", "--all-targets", "--locked", "--", "-D", "warnings"]))
 }
 
 /// The firmware workspace: the images for the thumb target (with the environment of the
@@ -172,10 +176,10 @@ fn firmware_clippy(root: &Path, variants: bool) -> Result<()> {
 /// feature that only compiles with another (which the workspace's feature unification would
 /// hide) fails here. `defmt` derives `defmt::Format` as firmware that logs with defmt builds it.
 /// The host needs no matrix of its own: the workspace's clippy checks it with `verify` and
-/// `key-id`, the Python package's with none (the host side of the one target-dependent
-/// function, in `real.rs`).
+/// `key-id`, and this step with none (the host side of the one target-dependent function, in
+/// `real.rs`).
 fn features(root: &Path) -> Result<()> {
-    step("lint: fbg-shared's feature matrix (none, verify, key-id, defmt, all) on the thumb target");
+    step("lint: fbg-shared's feature matrix (none, verify, key-id, defmt, all) on the thumb target; none on the host");
     for features in ["", "verify", "key-id", "defmt", "verify,key-id,defmt"] {
         let mut c = cargo();
         c.current_dir(root).args(["clippy", "-p", "fbg-shared", "--locked", "--no-default-features"]);
@@ -185,7 +189,10 @@ fn features(root: &Path) -> Result<()> {
         }
         run(c.args(["--", "-D", "warnings"]))?;
     }
-    Ok(())
+    run(cargo()
+        .current_dir(root)
+        .args(["clippy", "-p", "fbg-shared", "--locked", "--no-default-features"])
+        .args(["--", "-D", "warnings"]))
 }
 
 fn doc(root: &Path) -> Result<()> {

@@ -183,6 +183,16 @@ fn fixtures_task(write_default: bool) -> Result<()> {
     Ok(())
 }
 
+/// The host workspace's tests: xtask's own in the profile `cargo xtask` was built with (its
+/// dependencies are there already), everything else in release, as the numerics need; the
+/// Python package's from Python ([`python::run_all`]).
+const HOST_TESTS: [&str; 8] =
+    ["test", "--workspace", "--exclude", "xtask", "--exclude", python::PACKAGE, "--release", "--locked"];
+/// [`HOST_TESTS`] compiled, not run; the Python wheel's build reuses what it compiles
+/// (`lint::wheel`).
+pub const HOST_TEST_BUILD: [&str; 9] =
+    ["test", "--workspace", "--exclude", "xtask", "--exclude", python::PACKAGE, "--release", "--locked", "--no-run"];
+
 fn test(skip_qemu: bool, fast: bool) -> Result<()> {
     let root = root();
     ensure_thumb_target()?;
@@ -193,14 +203,11 @@ fn test(skip_qemu: bool, fast: bool) -> Result<()> {
         lint::run_steps(&root, &[])?;
     }
 
-    // xtask's own tests in the profile `cargo xtask` was built with (its dependencies are
-    // there already); everything else in release, as the numerics need.
-    let release = ["test", "--workspace", "--exclude", "xtask", "--release", "--locked"];
     step("host tests: build (whole workspace)");
-    run(cargo().current_dir(&root).args(release).arg("--no-run"))?;
+    run(cargo().current_dir(&root).args(HOST_TEST_BUILD))?;
     fixtures::trainer_built_by_tests();
     step("host tests: run (doctests included)");
-    run(cargo().current_dir(&root).args(release))?;
+    run(cargo().current_dir(&root).args(HOST_TESTS))?;
     run(cargo().current_dir(&root).args(["test", "-p", "xtask", "--locked"]))?;
     if let Some(venv) = venv {
         let _ = venv.join();

@@ -15,6 +15,8 @@ use anyhow::{bail, ensure, Context, Result};
 
 use crate::cmd::{cargo, is_root, run, step, target_dir};
 
+/// The Python package's crate (a member of the workspace, left out of `cargo test`).
+pub const PACKAGE: &str = "fbg-compensation-py";
 /// The requirements file, relative to the workspace root.
 const REQUIREMENTS: &str = "python/requirements-test.txt";
 
@@ -116,26 +118,38 @@ fn install_requirements(root: &Path, venv: &Path, py: &Path) -> Result<()> {
     crate::cmd::write_atomic(&stamp, &wanted)
 }
 
-/// What the wheel is built from: the files of every path package of the Python workspace (the
-/// package, the trainer, the crates it uses), both lockfiles, the top manifest (whose
+/// What the wheel is built from: the files of every path package the Python package depends
+/// on (the package, the trainer, the crates it uses), the lockfile, the top manifest (whose
 /// `[workspace.dependencies]` the trainer's name) and the toolchain.
 fn wheel_stamp(root: &Path) -> Result<String> {
     let out = cargo()
-        .current_dir(root.join("python"))
+        .current_dir(root)
         .args(["metadata", "--format-version", "1", "--locked"])
         .output()
-        .context("running `cargo metadata` in python/")?;
-    ensure!(out.status.success(), "`cargo metadata` in python/ failed: {}", String::from_utf8_lossy(&out.stderr));
+        .context("running `cargo metadata`")?;
+    ensure!(out.status.success(), "`cargo metadata` failed: {}", String::from_utf8_lossy(&out.stderr));
     let meta: serde_json::Value = serde_json::from_slice(&out.stdout)?;
-    let mut paths: Vec<PathBuf> = meta["packages"]
-        .as_array()
-        .context("`cargo metadata` printed no packages")?
+    let packages = meta["packages"].as_array().context("`cargo metadata` printed no packages")?;
+    let nodes = meta["resolve"]["nodes"].as_array().context("`cargo metadata` printed no resolve graph")?;
+    let id_of = |name: &str| packages.iter().find(|p| p["name"] == name).and_then(|p| p["id"].as_str());
+    let root_id = id_of(PACKAGE).with_context(|| format!("no package {PACKAGE} in the workspace"))?;
+    // The package's dependency closure, by package id.
+    let (mut closure, mut todo) = (std::collections::BTreeSet::from([root_id]), vec![root_id]);
+    while let Some(id) = todo.pop() {
+        let node = nodes.iter().find(|n| n["id"] == id);
+        for dep in node.and_then(|n| n["dependencies"].as_array()).into_iter().flatten().filter_map(|d| d.as_str()) {
+            if closure.insert(dep) {
+                todo.push(dep);
+            }
+        }
+    }
+    let mut paths: Vec<PathBuf> = packages
         .iter()
-        .filter(|p| p["source"].is_null())
+        .filter(|p| p["source"].is_null() && p["id"].as_str().is_some_and(|id| closure.contains(id)))
         .filter_map(|p| Path::new(p["manifest_path"].as_str()?).parent().map(Path::to_path_buf))
         .collect();
     paths.sort();
-    paths.extend(["Cargo.toml", "Cargo.lock", "python/Cargo.lock"].map(|f| root.join(f)));
+    paths.extend(["Cargo.toml", "Cargo.lock"].map(|f| root.join(f)));
     let rustc = Command::new("rustc").arg("-vV").output().context("running `rustc -vV`")?;
     Ok(format!("wheel sources {:016x}\n{}", crate::cmd::content_hash(&paths)?, String::from_utf8_lossy(&rustc.stdout)))
 }

@@ -129,7 +129,7 @@ pub fn run_all(root: &Path, all: bool, board: bool) -> Result<()> {
         link::link_test(root, q, bins, fx, dfx, sfx)?;
         Ok(())
     };
-    in_lanes(lane_a, lane_b)?;
+    crate::cmd::in_lanes("QEMU", lane_a, lane_b)?;
     eprintln!("xtask: QEMU tests passed in {:.1} s", started.elapsed().as_secs_f64());
     Ok(())
 }
@@ -144,31 +144,6 @@ pub fn no_core_fmt(bins: &Bins) -> Result<()> {
         "the core::fmt check found nothing in the bench image, which formats its report with core::fmt: the check is broken"
     );
     Ok(())
-}
-
-/// Run `a` and `b` on two threads at once; both run to their end, and a failure of either is
-/// the result (both, when both fail).
-fn in_lanes(a: impl FnOnce() -> Result<()> + Send, b: impl FnOnce() -> Result<()> + Send) -> Result<()> {
-    let (ra, rb) = std::thread::scope(|s| {
-        let ha = s.spawn(|| {
-            let r = a();
-            crate::cmd::end_step();
-            r
-        });
-        let hb = s.spawn(|| {
-            let r = b();
-            crate::cmd::end_step();
-            r
-        });
-        let join = |h: std::thread::ScopedJoinHandle<'_, Result<()>>| {
-            h.join().unwrap_or_else(|_| Err(anyhow::anyhow!("a QEMU lane panicked")))
-        };
-        (join(ha), join(hb))
-    });
-    match (ra, rb) {
-        (Err(a), Err(b)) => bail!("two QEMU lanes failed:\n{a:#}\n{b:#}"),
-        (r, Ok(())) | (Ok(()), r) => r,
-    }
 }
 
 /// The fast tier's firmware part (`cargo xtask test --fast`): the device logic's host tests as
