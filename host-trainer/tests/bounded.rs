@@ -340,6 +340,56 @@ fn logger_import_memory_grows_with_the_columns_taken_not_the_text() {
     assert!(b < a + size / 2, "{} kB vs {} kB, file {} kB", b >> 10, a >> 10, size >> 10);
 }
 
+/// An ENLIGHT peaks export is read as a stream too: what grows with the file is the gratings the
+/// map takes, not its text. Rows of four channels with eight peaks each (≈ 340 B), the map
+/// taking one of them, 2 000 and 40 000 rows: the larger import's peak RSS stays under the
+/// smaller's plus half the larger file.
+#[cfg(target_os = "linux")]
+#[test]
+fn enlight_import_memory_grows_with_the_gratings_taken_not_the_text() {
+    let d = tempfile::tempdir().unwrap();
+    let map = d.path().join("map.toml");
+    std::fs::write(&map, "[[grating]]\nchannel = 1\nwindow_nm = [1549.0, 1551.0]\nref_nm = 1550.0\n").unwrap();
+    let write = |name: &str, rows: usize| {
+        let path = d.path().join(name);
+        let mut f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+        writeln!(f, "Micron Optics ENLIGHT\t1.7.2\nTimestamp\t# CH 1\t# CH 2\t# CH 3\t# CH 4\tPeaks").unwrap();
+        for k in 0..rows {
+            let (h, m, sec) = (k / 3_600, (k / 60) % 60, k % 60);
+            write!(f, "2024-03-01 {h:02}:{m:02}:{sec:02}.000\t8\t8\t8\t8").unwrap();
+            for c in 0..4 {
+                for p in 0..8 {
+                    let nm = 1510.0 + 10.0 * p as f64 + 0.1 * c as f64 + ((k * 7 + p) % 13) as f64 * 1e-4;
+                    write!(f, "\t{nm:.4}").unwrap();
+                }
+            }
+            writeln!(f).unwrap();
+        }
+        drop(f);
+        path
+    };
+    // At most a day of seconds: the clock stays within one date.
+    let (small, big) = (write("small.txt", 2_000), write("big.txt", 40_000));
+    let peak = |data: &Path| {
+        let out = d.path().join("out.csv");
+        let (ok, err, rss) = run_peak_rss(
+            bin().args(["import", "--format", "enlight", "--map"]).arg(&map).arg(data).arg("--out").arg(&out),
+        );
+        assert!(ok, "{err}");
+        rss
+    };
+    let (a, b) = (peak(&small), peak(&big));
+    let size = std::fs::metadata(&big).unwrap().len();
+    eprintln!(
+        "ENLIGHT import peak RSS: {} kB on 2 000 rows, {} kB on 40 000 rows ({} kB of text)",
+        a >> 10,
+        b >> 10,
+        size >> 10
+    );
+    // Read whole, the text alone (and its lines) was more than the file.
+    assert!(b < a + size / 2, "{} kB vs {} kB, file {} kB", b >> 10, a >> 10, size >> 10);
+}
+
 #[test]
 fn train_reads_the_rows_up_to_the_last_calibration_row() {
     let d = tempfile::tempdir().unwrap();

@@ -92,6 +92,14 @@ fn culture_line(l: &str) -> Option<&str> {
     Some(rest.trim().trim_end_matches([',', ';', '\t']).trim().trim_matches('"'))
 }
 
+/// Whether a line may be the first of the data (a digit, then a peak count): where the metadata
+/// in which [`find_culture`] looks for a `Culture:` line ends.
+pub(crate) fn looks_like_data(l: &str, guess_delim: &dyn Fn(&str) -> char) -> bool {
+    let mut cs = l.split(guess_delim(l)).map(str::trim);
+    cs.next().is_some_and(|c| c.starts_with(|ch: char| ch.is_ascii_digit()))
+        && cs.next().is_some_and(|c| c.parse::<usize>().is_ok())
+}
+
 /// The file's culture: its `Culture:` line among the metadata (the lines before the first one
 /// that looks like data, or the map's `header_lines`), or the map's `enlight.culture`. Both
 /// present and different, or a culture not in the table, is an error.
@@ -103,12 +111,8 @@ pub(crate) fn find_culture(
     name: &str,
     guess_delim: &dyn Fn(&str) -> char,
 ) -> Result<Option<Culture>, TrainerError> {
-    let looks_like_data = |l: &str| {
-        let mut cs = l.split(guess_delim(l)).map(str::trim);
-        cs.next().is_some_and(|c| c.starts_with(|ch: char| ch.is_ascii_digit()))
-            && cs.next().is_some_and(|c| c.parse::<usize>().is_ok())
-    };
-    let end = header_lines.unwrap_or_else(|| lines.iter().position(|l| looks_like_data(l)).unwrap_or(lines.len()));
+    let end = header_lines
+        .unwrap_or_else(|| lines.iter().position(|l| looks_like_data(l, guess_delim)).unwrap_or(lines.len()));
     let in_file =
         lines[..end.min(lines.len())].iter().enumerate().find_map(|(i, l)| culture_line(l).map(|v| (i as u64 + 1, v)));
     let known: Vec<&str> = CULTURES.iter().map(|c| c.0).collect();

@@ -5,28 +5,11 @@ use super::culture::Culture;
 use super::time_axis::{dmy_fields, DateOrder};
 use crate::error::TrainerError;
 
-/// The day/month order of the numeric dates of the data lines `data` (the first of which is
-/// line `first + 1`): the culture's, unless some date contradicts it (an error naming the
-/// line), or without a culture order the dates' own: a first field above 12 is a day, a second
-/// field above 12 is a day. Dates that never settle it, or settle it both ways, are an error.
-pub(crate) fn date_order(
-    data: &[&str],
-    first: usize,
-    delim: char,
-    culture: Option<&Culture>,
-    name: &str,
-) -> Result<(DateOrder, String), TrainerError> {
-    let mut probe = DateProbe::new(first, culture, name);
-    for (i, l) in data.iter().enumerate() {
-        if probe.see((first + i) as u64 + 1, l.split(delim).next().unwrap_or(""))? {
-            break;
-        }
-    }
-    probe.finish()
-}
-
-/// [`date_order`] fed one line at a time (a file read line by line): [`DateProbe::see`] each
-/// data line's first cell, then [`DateProbe::finish`].
+/// The day/month order of a file's numeric dates, fed one data line at a time (a file read
+/// line by line): [`DateProbe::see`] each data line's first cell, then [`DateProbe::finish`]:
+/// the culture's order, unless some date contradicts it (an error naming the line), or without
+/// a culture order the dates' own: a first field above 12 is a day, a second field above 12 is
+/// a day. Dates that never settle it, or settle it both ways, are an error.
 pub(crate) struct DateProbe<'a> {
     first: usize,
     culture: Option<&'a Culture>,

@@ -18,12 +18,12 @@
 
 use std::path::Path;
 
-use super::culture::{find_culture, number_in, Culture};
-use super::dates::date_order;
+use super::culture::{find_culture, looks_like_data, number_in, Culture};
+use super::dates::DateProbe;
 use super::mapping::Map;
 use super::problems::{OnError, Problems, Reason, RowError};
-use super::read_text;
 use super::time_axis::{dmy_fields, DateOrder, Dmy, TimeKind, TimeParser, TimeUnit};
+use super::TextLines;
 use crate::data::measurand::MAX_GRATINGS;
 use crate::data::units::{check_wavelength, UnitSource, WlUnit};
 use crate::error::TrainerError;
@@ -67,9 +67,6 @@ struct RawRow {
 /// Read and assign. `map` is `None` without `--map`.
 pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError) -> Result<PeaksFile, TrainerError> {
     let name = path.display().to_string();
-    let text = read_text(path)?;
-    let ends_with_newline = text.ends_with('\n');
-    let lines: Vec<&str> = text.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
     let default_map = Map::default();
     let m = map.unwrap_or(&default_map);
     let map_delim = m
@@ -81,16 +78,26 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         .map_err(|e| TrainerError::data(&name, 1, "-", e))?
         .map(char::from);
     let guess_delim = |l: &str| guess_delimiter(l, map_delim);
+    // The metadata, read as far as the culture's search needs (the map's header lines, or up to
+    // the first line that may be data); the rows are read as a stream further down.
+    let mut head = Head::open(path)?;
+    match m.enlight.header_lines {
+        Some(n) => head.read_to(n)?,
+        None => head.read_until(|l| looks_like_data(l, &guess_delim))?,
+    }
     let culture =
-        find_culture(&lines, m.enlight.header_lines, m.enlight.culture.as_deref(), origin, &name, &guess_delim)?;
+        find_culture(&head.lines(), m.enlight.header_lines, m.enlight.culture.as_deref(), origin, &name, &guess_delim)?;
     let decimal_comma = culture.as_ref().is_some_and(|c| c.decimal_comma);
     let mut clock = TimeParser::new(TimeUnit::Auto, m.enlight.time_format.clone(), None)
         .with_locale(decimal_comma, if m.enlight.time_format.is_some() { Dmy::Off } else { Dmy::Probe });
 
-    let first = first_data_row(&lines, m, &clock, &guess_delim, &name)?;
-    let Some(first_line) = lines.get(first) else {
+    let first = first_data_row(&mut head, m, &clock, &guess_delim, &name)?;
+    head.read_to(first)?;
+    let Some(first_line) = head.line(first).map(str::to_string) else {
         return Err(TrainerError::data(&name, first as u64 + 1, "-", "no data rows after the metadata header"));
     };
+    drop(head);
+    let first_line = first_line.as_str();
     let delim = guess_delim(first_line);
     if let (Some(c), ',') = (&culture, delim) {
         if c.decimal_comma {
@@ -109,7 +116,7 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
     // dates' own (a field above 12); never a guess.
     let first_time = split_cells(first_line, delim).into_iter().next().unwrap_or_default();
     let date_order = if clock.dmy == Dmy::Probe && dmy_fields(&first_time).is_some() {
-        let (order, why) = date_order(&lines[first..], first, delim, culture.as_ref(), &name)?;
+        let (order, why) = date_order(path, first, delim, culture.as_ref(), &name)?;
         clock.dmy = Dmy::Order(order);
         Some((order, why))
     } else {
@@ -145,13 +152,13 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
         culture: culture.as_ref(),
         windows: &windows,
     };
-    let rows = read_rows(&lines, first, ends_with_newline, &spec, &mut clock, Problems::new(&name, policy))?;
+    let rows = read_rows(path, first, &spec, &mut clock, Problems::new(&name, policy))?;
     if rows.t.is_empty() {
         let why = if rows.problems.rows_read == 0 { "no data rows" } else { "every data row was skipped" };
         return Err(TrainerError::data(&name, first as u64 + 1, "-", why));
     }
     let Assigned { nm, layout, unassigned_rows } = if windows.is_empty() {
-        in_order(&rows.raw, channels, rows.lines[0], &name)?
+        in_order(&rows.raw, channels, rows.lines.first().copied().unwrap_or(1), &name)?
     } else {
         let layout =
             windows.iter().map(|w| format!("channel {}, window {}–{} nm", w.channel + 1, w.lo, w.hi)).collect();
@@ -195,31 +202,122 @@ fn guess_delimiter(l: &str, map_delim: Option<char>) -> char {
 }
 
 /// The index of the first data row: the map's `header_lines`, else the first line that is a
-/// time and then a peak count.
+/// time and then a peak count (read on as far as that line, within [`HEAD_LINES`]).
 fn first_data_row(
-    lines: &[&str],
+    head: &mut Head,
     m: &Map,
     clock: &TimeParser,
     guess_delim: &dyn Fn(&str) -> char,
     name: &str,
 ) -> Result<usize, TrainerError> {
-    match m.enlight.header_lines {
-        Some(n) => Ok(n),
-        None => lines
-            .iter()
-            .position(|l| {
-                let cs = split_cells(l, guess_delim(l));
-                cs.len() >= 2 && clock.probe(&cs[0]) && cs[1].parse::<usize>().is_ok()
-            })
-            .ok_or_else(|| {
-                TrainerError::data(
-                    name,
-                    1,
-                    "1 (time)",
-                    "no data row found: a peaks row starts with a time and the peak count of the first channel",
-                )
-            }),
+    if let Some(n) = m.enlight.header_lines {
+        return Ok(n);
     }
+    let is_data = |l: &str| {
+        let cs = split_cells(l, guess_delim(l));
+        cs.len() >= 2 && clock.probe(&cs[0]) && cs[1].parse::<usize>().is_ok()
+    };
+    head.read_until(is_data)?;
+    head.lines().iter().position(|l| is_data(l)).ok_or_else(|| {
+        let within = if head.capped { format!(" in the first {HEAD_LINES} lines") } else { String::new() };
+        TrainerError::data(
+            name,
+            1,
+            "1 (time)",
+            format!(
+                "no data row found{within}: a peaks row starts with a time and the peak count of the first channel"
+            ),
+        )
+    })
+}
+
+/// Lines of metadata before the first data row that a file may have.
+const HEAD_LINES: usize = 100_000;
+
+/// The first lines of a file, read as far as asked (at most [`HEAD_LINES`] + 1).
+struct Head {
+    text: TextLines,
+    lines: Vec<String>,
+    /// The file has no line after the last of `lines`.
+    ended: bool,
+    /// The search stopped at [`HEAD_LINES`].
+    capped: bool,
+}
+
+impl Head {
+    fn open(path: &Path) -> Result<Head, TrainerError> {
+        Ok(Head { text: TextLines::open(path)?, lines: Vec::new(), ended: false, capped: false })
+    }
+
+    /// Read one more line; `false` at the end of the file or the cap.
+    fn more(&mut self) -> Result<bool, TrainerError> {
+        if self.ended || self.lines.len() > HEAD_LINES {
+            self.capped |= !self.ended;
+            return Ok(false);
+        }
+        match self.text.next_line()? {
+            Some((_, l, _)) => self.lines.push(l.to_string()),
+            None => self.ended = true,
+        }
+        Ok(!self.ended)
+    }
+
+    /// Read through line `i` (0-based), if the file has it.
+    fn read_to(&mut self, i: usize) -> Result<(), TrainerError> {
+        while self.lines.len() <= i && self.more()? {}
+        Ok(())
+    }
+
+    /// Read on until a line read so far satisfies `stop`, or to the end (or the cap).
+    fn read_until(&mut self, stop: impl Fn(&str) -> bool) -> Result<(), TrainerError> {
+        if self.lines.iter().any(|l| stop(l)) {
+            return Ok(());
+        }
+        while self.more()? {
+            if self.lines.last().is_some_and(|l| stop(l)) {
+                break;
+            }
+        }
+        Ok(())
+    }
+
+    fn lines(&self) -> Vec<&str> {
+        self.lines.iter().map(String::as_str).collect()
+    }
+
+    fn line(&self, i: usize) -> Option<&str> {
+        self.lines.get(i).map(String::as_str)
+    }
+}
+
+/// The data lines of `path` from line index `first` (0-based) on, each with its number (from
+/// 1) and whether it ended with a line end, to `each`.
+fn data_lines(
+    path: &Path,
+    first: usize,
+    mut each: impl FnMut(u64, &str, bool) -> Result<bool, TrainerError>,
+) -> Result<(), TrainerError> {
+    let mut text = TextLines::open(path)?;
+    while let Some((number, l, ended)) = text.next_line()? {
+        if number as usize > first && !each(number, l, ended)? {
+            break;
+        }
+    }
+    Ok(())
+}
+
+/// The day/month order of the numeric dates of the data lines (every one of them, or until
+/// they settle it both ways), a pass of its own over the file.
+fn date_order(
+    path: &Path,
+    first: usize,
+    delim: char,
+    culture: Option<&Culture>,
+    name: &str,
+) -> Result<(DateOrder, String), TrainerError> {
+    let mut probe = DateProbe::new(first, culture, name);
+    data_lines(path, first, |number, l, _| Ok(!probe.see(number, l.split(delim).next().unwrap_or(""))?))?;
+    probe.finish()
 }
 
 /// How the data rows are read.
@@ -238,17 +336,16 @@ struct RowSpec<'a> {
 struct Rows {
     lines: Vec<u64>,
     t: Vec<f64>,
-    raw: Vec<Vec<Vec<f64>>>,
+    raw: RawPeaks,
     nm: Vec<Vec<f64>>,
     problems: Problems,
 }
 
-/// Every data row from `first` on, checked, parsed and assigned; bad rows fail or are counted
-/// as `problems`' policy says.
+/// Every data row from line index `first` on, checked, parsed and assigned, read as a stream;
+/// bad rows fail or are counted as `problems`' policy says.
 fn read_rows(
-    lines: &[&str],
+    path: &Path,
     first: usize,
-    ends_with_newline: bool,
     spec: &RowSpec,
     clock: &mut TimeParser,
     mut problems: Problems,
@@ -256,17 +353,16 @@ fn read_rows(
     let windows = spec.windows;
     let mut out_lines: Vec<u64> = Vec::new();
     let mut out_t: Vec<f64> = Vec::new();
-    let mut raw: Vec<Vec<Vec<f64>>> = Vec::new();
+    let mut raw = RawPeaks::default();
     let mut nm: Vec<Vec<f64>> = vec![Vec::new(); windows.len()];
-    let last_nonblank = lines.iter().rposition(|l| !l.trim().is_empty()).unwrap_or(0);
-    for (i, l) in lines.iter().enumerate().skip(first) {
+    data_lines(path, first, |line, l, ended| {
         if l.trim().is_empty() {
-            continue;
+            return Ok(true);
         }
-        let line = i as u64 + 1;
         problems.rows_read += 1;
         let cs = split_cells(l, spec.delim);
-        let truncated_tail = i == last_nonblank && !ends_with_newline;
+        // Only the file's last line may lack a line end.
+        let truncated_tail = !ended;
         let row = parse_row(&cs, line, spec, clock, truncated_tail).and_then(|r| {
             if let (Some(&prev), Some(&prev_line)) = (out_t.last(), out_lines.last()) {
                 if r.t < prev {
@@ -294,7 +390,7 @@ fn read_rows(
                 out_lines.push(line);
                 out_t.push(r.t);
                 if windows.is_empty() {
-                    raw.push(r.peaks.into_iter().map(|p| p.into_iter().map(|(v, _)| v).collect()).collect());
+                    raw.push(&r.peaks);
                 } else {
                     for (g, v) in assigned.into_iter().enumerate() {
                         nm[g].push(v);
@@ -303,15 +399,50 @@ fn read_rows(
             }
             Err(e) => problems.reject(e)?,
         }
-    }
+        Ok(true)
+    })?;
     problems.refuse_wrong_unit_columns()?;
     Ok(Rows { lines: out_lines, t: out_t, raw, nm, problems })
 }
 
+/// Without a map, every row's peaks per channel, flat: a row's count per channel, then its
+/// wavelengths \[nm\] channel by channel (no allocation per row).
+#[derive(Default)]
+struct RawPeaks {
+    channels: usize,
+    counts: Vec<u32>,
+    nm: Vec<f64>,
+}
+
+impl RawPeaks {
+    fn push(&mut self, peaks: &[Vec<(f64, usize)>]) {
+        self.channels = peaks.len();
+        for p in peaks {
+            self.counts.push(p.len() as u32);
+            self.nm.extend(p.iter().map(|&(v, _)| v));
+        }
+    }
+
+    /// Each row's peaks, per channel.
+    fn rows(&self) -> impl Iterator<Item = Vec<&[f64]>> + '_ {
+        let mut at = 0;
+        self.counts.chunks(self.channels.max(1)).map(move |counts| {
+            counts
+                .iter()
+                .map(|&n| {
+                    let p = self.nm.get(at..at + n as usize).unwrap_or(&[]);
+                    at += n as usize;
+                    p
+                })
+                .collect()
+        })
+    }
+}
+
 /// Without a map: each channel's usual peak count decides its gratings, in order; a row with
 /// another count on a channel has gaps for that channel's gratings.
-fn in_order(raw: &[Vec<Vec<f64>>], channels: usize, first_line: u64, name: &str) -> Result<Assigned, TrainerError> {
-    let usual: Vec<usize> = (0..channels).map(|c| mode(raw.iter().map(|r| r[c].len()))).collect();
+fn in_order(raw: &RawPeaks, channels: usize, first_line: u64, name: &str) -> Result<Assigned, TrainerError> {
+    let usual: Vec<usize> = (0..channels).map(|c| mode(raw.rows().map(|r| r[c].len()))).collect();
     let gratings: Vec<(usize, usize)> = (0..channels).flat_map(|c| (0..usual[c]).map(move |k| (c, k))).collect();
     if gratings.is_empty() || gratings.len() > MAX_GRATINGS {
         let counts: Vec<String> = usual.iter().map(|n| n.to_string()).collect();
@@ -327,8 +458,9 @@ fn in_order(raw: &[Vec<Vec<f64>>], channels: usize, first_line: u64, name: &str)
         ));
     }
     let mut unassigned_rows = 0;
-    let mut nm = vec![Vec::with_capacity(raw.len()); gratings.len()];
-    for r in raw {
+    let rows = raw.counts.len() / channels.max(1);
+    let mut nm = vec![Vec::with_capacity(rows); gratings.len()];
+    for r in raw.rows() {
         let mut odd = false;
         for (g, &(c, k)) in gratings.iter().enumerate() {
             let v = if r[c].len() == usual[c] { r[c][k] } else { f64::NAN };

@@ -222,7 +222,9 @@ pub fn import(opts: &ImportOptions) -> Result<(Dataset, ImportSummary), TrainerE
     assemble::finish(merged, opts, map_origin)
 }
 
-/// A file as text (invalid UTF-8 replaced, byte-order mark removed).
+/// A file as text (invalid UTF-8 replaced, byte-order mark removed): what [`TextLines`] splits
+/// line by line (its tests compare the two).
+#[cfg(test)]
 pub(crate) fn read_text(path: &Path) -> Result<String, TrainerError> {
     let bytes = std::fs::read(path).map_err(|e| TrainerError::io(path, e))?;
     let text = String::from_utf8_lossy(&bytes).into_owned();
