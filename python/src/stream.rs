@@ -60,6 +60,65 @@ pub fn precision(name: &str) -> PyResult<Precision> {
     }
 }
 
+/// The shifts `Stream.step` takes: rows × gratings in C order, or one array per grating (the
+/// columns of a frame, with no copy into a matrix).
+#[derive(FromPyObject)]
+pub enum ShiftsArg<'py> {
+    /// rows × gratings.
+    Rows(PyReadonlyArray2<'py, f64>),
+    /// One 1-D array per grating.
+    Columns(Vec<PyReadonlyArray1<'py, f64>>),
+}
+
+/// [`ShiftsArg`] as slices.
+enum Shifts<'a> {
+    /// rows × gratings in C order, and the gratings.
+    Rows(&'a [f64], usize),
+    /// One slice per grating.
+    Columns(Vec<&'a [f64]>),
+}
+
+impl<'a> Shifts<'a> {
+    /// The slices of `arg`, each checked to hold `n` rows.
+    fn of(arg: &'a ShiftsArg<'_>, n: usize) -> PyResult<Shifts<'a>> {
+        let shifts = match arg {
+            ShiftsArg::Rows(a) => {
+                let (rows, g) = a.as_array().dim();
+                let d = a.as_slice().map_err(|_| msg("dl_pm: not a C-contiguous float64 array"))?;
+                (rows == n).then_some(Shifts::Rows(d, g))
+            }
+            ShiftsArg::Columns(cs) => {
+                let cs = cs
+                    .iter()
+                    .map(|c| {
+                        c.as_slice().map_err(|_| msg("dl_pm: a grating's column is not a contiguous float64 array"))
+                    })
+                    .collect::<PyResult<Vec<&[f64]>>>()?;
+                cs.iter().all(|c| c.len() == n).then_some(Shifts::Columns(cs))
+            }
+        };
+        shifts.ok_or_else(|| msg(format!("dl_pm needs one row per value of t_s ({n})")))
+    }
+
+    fn gratings(&self) -> usize {
+        match self {
+            Shifts::Rows(_, g) => *g,
+            Shifts::Columns(cs) => cs.len(),
+        }
+    }
+
+    /// Row `i`'s shifts into `out` (one per grating).
+    fn row_into(&self, i: usize, out: &mut [f64]) {
+        match self {
+            Shifts::Rows(d, g) => {
+                let row = d.get(i * g..(i + 1) * g).unwrap_or(&[]);
+                out.iter_mut().zip(row).for_each(|(o, &x)| *o = x);
+            }
+            Shifts::Columns(cs) => out.iter_mut().zip(cs).for_each(|(o, c)| *o = c.get(i).copied().unwrap_or(f64::NAN)),
+        }
+    }
+}
+
 /// The band's clock of a stream starting at `t0_unix_s` (unknown without it).
 pub fn clock(t0_unix_s: Option<f64>) -> StreamClock {
     t0_unix_s.map_or(StreamClock::Unknown, StreamClock::StartUnix)
@@ -77,34 +136,36 @@ impl Stream {
         Stream::of(model.params(), self::precision(precision)?, clock(t0_unix_s))
     }
 
-    /// Compensate the next rows: `dl_pm` (rows × gratings, pm shifts, C order), `t_amb_c`
-    /// (°C per row; None for a model without an ambient input) and `t_s` (s per row). NaN
-    /// inputs are gaps (the row's values are NaN and flagged non-finite). Runs without the GIL,
-    /// in chunks of rows with Ctrl-C looked for between them (a stream stopped partway refuses
-    /// further rows: its state has taken rows whose results were lost).
+    /// Compensate the next rows: `dl_pm` (pm shifts: rows × gratings in C order, or one 1-D
+    /// array per grating), `t_amb_c` (°C per row; None for a model without an ambient input)
+    /// and `t_s` (s per row). NaN inputs are gaps (the row's values are NaN and flagged
+    /// non-finite). Runs without the GIL, in chunks of rows with Ctrl-C looked for between them
+    /// (a stream stopped partway refuses further rows: its state has taken rows whose results
+    /// were lost).
     #[pyo3(signature = (dl_pm, t_amb_c, t_s))]
     fn step<'py>(
         &mut self,
         py: Python<'py>,
-        dl_pm: PyReadonlyArray2<'py, f64>,
+        dl_pm: ShiftsArg<'py>,
         t_amb_c: Option<PyReadonlyArray1<'py, f64>>,
         t_s: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Chunk<'py>> {
-        let (n, g) = dl_pm.as_array().dim();
+        let t = t_s.as_slice().map_err(|_| msg("t_s: not a contiguous float64 array"))?;
+        let n = t.len();
+        let dl = Shifts::of(&dl_pm, n)?;
+        let g = dl.gratings();
         if g != self.gratings || g > MAX_GRATINGS {
             return Err(msg(format!("dl_pm: {g} grating columns; the model reads {}", self.gratings)));
         }
         if self.ambient && t_amb_c.is_none() {
             return Err(msg("T_amb_C: the model reads the ambient thermometer and none was given"));
         }
-        let dl = dl_pm.as_slice().map_err(|_| msg("dl_pm: not a C-contiguous float64 array"))?;
-        let t = t_s.as_slice().map_err(|_| msg("t_s: not a contiguous float64 array"))?;
         let amb = t_amb_c
             .as_ref()
             .map(|a| a.as_slice())
             .transpose()
             .map_err(|_| msg("T_amb_C: not a contiguous float64 array"))?;
-        if t.len() != n || amb.is_some_and(|a| a.len() != n) {
+        if amb.is_some_and(|a| a.len() != n) {
             return Err(msg(format!("t_s and T_amb_C need one value per row of dl_pm ({n})")));
         }
         if self.interrupted {
@@ -120,12 +181,11 @@ impl Stream {
         let mut samples = vec![Sample::<f64>::default(); BLOCK];
         let mut estimates = vec![Estimate::<f64>::default(); BLOCK];
         // In chunks, with the GIL released for each and Ctrl-C looked for between them.
-        let chunks = dl
-            .chunks(interrupt::ROWS_PER_CHUNK * g.max(1))
-            .zip(t.chunks(interrupt::ROWS_PER_CHUNK))
+        let chunks = t
+            .chunks(interrupt::ROWS_PER_CHUNK)
             .zip(values.chunks_mut(interrupt::ROWS_PER_CHUNK * m).zip(band.chunks_mut(interrupt::ROWS_PER_CHUNK * m)))
             .zip(flags.chunks_mut(interrupt::ROWS_PER_CHUNK));
-        for (k, (((dl, t), (values, band)), flags)) in chunks.enumerate() {
+        for (k, ((t, (values, band)), flags)) in chunks.enumerate() {
             if k > 0 {
                 if let Err(e) = py.check_signals() {
                     self.interrupted = true;
@@ -135,24 +195,22 @@ impl Stream {
             }
             let first = k * interrupt::ROWS_PER_CHUNK;
             let engine = &mut self.engine;
-            let (samples, estimates) = (&mut samples, &mut estimates);
+            let (samples, estimates, dl) = (&mut samples, &mut estimates, &dl);
             py.detach(|| {
-                let blocks = dl
-                    .chunks(BLOCK * g.max(1))
-                    .zip(t.chunks(BLOCK))
+                let blocks = t
+                    .chunks(BLOCK)
                     .zip(values.chunks_mut(BLOCK * m).zip(band.chunks_mut(BLOCK * m)))
                     .zip(flags.chunks_mut(BLOCK));
-                for (b, (((dl, t), (values, band)), flags)) in blocks.enumerate() {
+                for (b, ((t, (values, band)), flags)) in blocks.enumerate() {
                     let at = first + b * BLOCK;
-                    let rows = dl.chunks_exact(g).zip(t).zip(samples.iter_mut());
-                    for (i, ((shifts, &t_s), s)) in rows.enumerate() {
+                    for (i, (&t_s, s)) in t.iter().zip(samples.iter_mut()).enumerate() {
                         *s = Sample {
                             dl_pm: [0.0; MAX_GRATINGS],
                             gratings: g as u8,
                             t_amb_c: amb.and_then(|a| a.get(at + i).copied()).unwrap_or(f64::NAN),
                             t_s,
                         };
-                        s.dl_pm.iter_mut().zip(shifts).for_each(|(o, &x)| *o = x);
+                        dl.row_into(at + i, s.dl_pm.get_mut(..g).unwrap_or(&mut []));
                     }
                     let done = engine.step_batch(samples.get(..t.len()).unwrap_or(&[]), estimates);
                     let out = values.chunks_exact_mut(m).zip(band.chunks_exact_mut(m)).zip(flags.iter_mut());

@@ -72,3 +72,23 @@ def test_wrong_inputs_are_refused(holdout, fitted):
         fitted.predict(holdout[["dl1_pm", "dl2_pm", "dl3_pm"]], t=holdout["t_s"])
     with pytest.raises(fc.FbgError, match="precision"):
         fitted.model_.predict(holdout[INPUTS], t=holdout["t_s"], precision="f16")
+
+
+def test_columns_and_matrix_give_the_same_bits(record, fitted_memory):
+    """`predict` hands the frame's columns to the core as they are; `step_arrays` a rows ×
+    gratings matrix: the same rows give the same bits, and a column of the wrong length is
+    refused by name."""
+    m = fitted_memory.model_
+    t0 = record.attrs["t0_unix_s"]
+    whole, band, flags = m.predict(record[INPUTS], t=record["t_s"], t0_unix_s=t0, return_band=True, return_flags=True)
+    dl = np.column_stack([record[c].to_numpy() for c in INPUTS[:-1]])
+    v, b, f = m.stream("f64", t0).step_arrays(dl, record["T_amb_C"].to_numpy(), record["t_s"].to_numpy())
+    assert same_bits(v, whole.to_numpy())
+    assert same_bits(b, band.to_numpy())
+    assert np.array_equal(f, flags)
+    from fbg_compensation import _core
+
+    cols = [np.ascontiguousarray(dl[:, i]) for i in range(dl.shape[1])]
+    cols[1] = cols[1][:-1]
+    with pytest.raises(_core.FbgError, match="dl_pm needs one row per value of t_s"):
+        _core.Stream(m._m, "f64", t0).step(cols, record["T_amb_C"].to_numpy(), record["t_s"].to_numpy())

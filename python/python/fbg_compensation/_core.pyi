@@ -1,6 +1,6 @@
 """Type stubs of the Rust core (``fbg_compensation._core``)."""
 
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -34,7 +34,7 @@ class Stream:
     def __init__(self, model: Model, precision: str = "f64", t0_unix_s: Optional[float] = None) -> None: ...
     def step(
         self,
-        dl_pm: npt.NDArray[np.float64],
+        dl_pm: Union[npt.NDArray[np.float64], Sequence[npt.NDArray[np.float64]]],
         t_amb_c: Optional[npt.NDArray[np.float64]],
         t_s: npt.NDArray[np.float64],
     ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.uint8]]: ...

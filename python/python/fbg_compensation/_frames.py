@@ -160,7 +160,8 @@ def shape_output(values: np.ndarray, names: Sequence[str], like: Any, index: Any
     if kind == "pandas":
         import pandas as pd
 
-        return pd.DataFrame(values, columns=list(names), index=index if index is not None else like.index)
+        # `values` is the caller's own new array: the frame takes it without a copy.
+        return pd.DataFrame(values, columns=list(names), index=index if index is not None else like.index, copy=False)
     if kind == "polars":
         import polars as pl
 

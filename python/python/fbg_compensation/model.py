@@ -63,8 +63,10 @@ class Stream:
             )
         if m.ambient and F.T_AMB not in cols:
             raise _core.FbgError("predict: the model reads the ambient thermometer and X has no T_amb_C column")
-        dl = np.column_stack([cols[F.grating_column(i + 1)] for i in range(g)]) if n else np.zeros((0, g))
-        values, band, flags = self.step_arrays(dl, cols.get(F.T_AMB), tt)
+        # The columns as they are (contiguous float64 each), not copied into a matrix.
+        dl = [cols[F.grating_column(i + 1)] for i in range(g)]
+        amb = cols.get(F.T_AMB)
+        values, band, flags = self._s.step(dl, amb, tt)
         out = [F.shape_output(values, m.outputs, X)]
         if return_band:
             out.append(F.shape_output(band, [f"{o}_band95" for o in m.outputs], X))
