@@ -73,26 +73,10 @@ impl Step {
     ];
 }
 
-/// The lint steps `only` names (every step when empty), in their order: formatting first, then
-/// two lanes at once, the steps that build in the host workspace's target directory (where one
-/// cargo runs at a time) beside those that build in a directory of their own (the firmware's,
-/// the fuzz target's) or none; each lane fills the core the other's single-crate stretches
-/// leave idle.
+/// The lint steps `only` names (every step when empty), in their order, one after another:
+/// in two lanes at once they took as long on two cores (docs/testing.md).
 pub fn run_steps(root: &Path, only: &[Step]) -> Result<()> {
-    let chosen: Vec<Step> = Step::ALL.into_iter().filter(|s| only.is_empty() || only.contains(s)).collect();
-    if chosen.contains(&Step::Fmt) {
-        run_step(root, Step::Fmt)?;
-    }
-    let (host, own): (Vec<Step>, Vec<Step>) = chosen
-        .into_iter()
-        .filter(|&s| s != Step::Fmt)
-        .partition(|s| !matches!(s, Step::Firmware | Step::Fuzz | Step::Deploy));
-    let lane = |steps: &[Step]| steps.iter().try_for_each(|&s| run_step(root, s));
-    if host.is_empty() || own.is_empty() {
-        return lane(&host).and_then(|()| lane(&own));
-    }
-    step("lint: two lanes (the host workspace's steps; the firmware's, the fuzz target's, the deploy files)");
-    crate::cmd::in_lanes("lint", || lane(&host), || lane(&own))
+    Step::ALL.into_iter().filter(|s| only.is_empty() || only.contains(s)).try_for_each(|s| run_step(root, s))
 }
 
 fn run_step(root: &Path, s: Step) -> Result<()> {
