@@ -83,7 +83,7 @@ fn run_step(root: &Path, s: Step) -> Result<()> {
     match s {
         Step::Fmt => fmt(root),
         Step::Clippy => clippy(root),
-        Step::Firmware => firmware_clippy(root, true),
+        Step::Firmware => firmware_clippy(root, true, true),
         Step::Features => features(root),
         Step::Doc => doc(root),
         Step::Msrv => {
@@ -103,12 +103,23 @@ fn run_step(root: &Path, s: Step) -> Result<()> {
     }
 }
 
-/// The lint part of the fast tier (`cargo xtask test --fast`): formatting, clippy of the host
-/// workspace (the Python package's included), and clippy of the firmware at its default features.
+/// The lint part of `cargo xtask test`: every step but the host workspace's clippy, which the
+/// test build does as it compiles (`cmd::cargo_linted`).
+/// Likewise the firmware step leaves out the device logic's host clippy, which its host tests'
+/// build does (`qemu::app_tests`).
+pub fn run_for_tests(root: &Path) -> Result<()> {
+    Step::ALL.into_iter().filter(|s| *s != Step::Clippy).try_for_each(|s| match s {
+        Step::Firmware => firmware_clippy(root, true, false),
+        s => run_step(root, s),
+    })
+}
+
+/// The lint part of the fast tier (`cargo xtask test --fast`): formatting and clippy of the
+/// firmware image at its default features (the host crates' and the device logic's clippy are
+/// their test builds').
 pub fn run_fast(root: &Path) -> Result<()> {
     fmt(root)?;
-    clippy(root)?;
-    firmware_clippy(root, false)
+    firmware_clippy(root, false, false)
 }
 
 fn fmt(root: &Path) -> Result<()> {
@@ -125,12 +136,15 @@ fn clippy(root: &Path) -> Result<()> {
 
 /// The firmware workspace: the images for the thumb target (with the environment of the
 /// product build, so that neither rebuilds the other's build script) and every target of the
-/// device logic (`fbg-firmware-app`, whose tests run on the host); when `variants`, also the
-/// images with spectrum frames and the device logic without them.
-fn firmware_clippy(root: &Path, variants: bool) -> Result<()> {
-    step("lint: clippy of the firmware workspace (thumb image; device logic with its host tests), warnings denied");
+/// device logic (`fbg-firmware-app`, whose tests run on the host; when `host`); when
+/// `variants`, also the images with spectrum frames and the device logic without them.
+fn firmware_clippy(root: &Path, variants: bool, host: bool) -> Result<()> {
+    step(if host {
+        "lint: clippy of the firmware workspace (thumb image; device logic with its host tests), warnings denied"
+    } else {
+        "lint: clippy of the firmware workspace (thumb image; the device logic's host tests build with clippy later), warnings denied"
+    });
     let fw = firmware::dir(root);
-    let host = host_triple()?;
     run(cargo_own_target()
         .current_dir(&fw)
         .args(["clippy", "--workspace", "--release", "--locked", "--", "-D", "warnings"])
@@ -142,6 +156,10 @@ fn firmware_clippy(root: &Path, variants: bool) -> Result<()> {
             .args(["--", "-D", "warnings"])
             .envs(firmware::build_env(root, PRODUCT_K, None)))?;
     }
+    if !host {
+        return Ok(());
+    }
+    let host = host_triple()?;
     run(cargo_own_target()
         .current_dir(&fw)
         .args(["clippy", "-p", "fbg-firmware-app", "--all-targets", "--locked", "--target", &host])

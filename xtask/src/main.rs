@@ -30,7 +30,7 @@ mod signing;
 mod slurm;
 mod targets;
 
-use cmd::{cargo, root, run, step};
+use cmd::{root, run, step};
 use targets::THUMB;
 
 /// The project's tasks.
@@ -190,25 +190,39 @@ const HOST_TESTS: [&str; 8] =
     ["test", "--workspace", "--exclude", "xtask", "--exclude", python::PACKAGE, "--release", "--locked"];
 /// [`HOST_TESTS`] compiled, not run; the Python wheel's build reuses what it compiles
 /// (`lint::wheel`).
-pub const HOST_TEST_BUILD: [&str; 9] =
-    ["test", "--workspace", "--exclude", "xtask", "--exclude", python::PACKAGE, "--release", "--locked", "--no-run"];
+/// Every target (the benches and examples too, as `clippy --all-targets` would check them), through
+/// [`cmd::cargo_linted`].
+pub const HOST_TEST_BUILD: [&str; 10] = [
+    "test",
+    "--workspace",
+    "--exclude",
+    "xtask",
+    "--exclude",
+    python::PACKAGE,
+    "--release",
+    "--locked",
+    "--no-run",
+    "--all-targets",
+];
 
 fn test(skip_qemu: bool, fast: bool) -> Result<()> {
     let root = root();
     ensure_thumb_target()?;
     let venv = (!fast).then(|| python::warm_up(&root));
+    // The host workspace's clippy is not a step of its own here: the builds below compile it
+    // with clippy (`cmd::cargo_linted`), warnings denied.
     if fast {
         lint::run_fast(&root)?;
     } else {
-        lint::run_steps(&root, &[])?;
+        lint::run_for_tests(&root)?;
     }
 
-    step("host tests: build (whole workspace)");
-    run(cargo().current_dir(&root).args(HOST_TEST_BUILD))?;
+    step("host tests: build with clippy (whole workspace, every target, warnings denied)");
+    run(cmd::cargo_linted().current_dir(&root).args(HOST_TEST_BUILD))?;
     fixtures::trainer_built_by_tests();
     step("host tests: run (doctests included)");
-    run(cargo().current_dir(&root).args(HOST_TESTS))?;
-    run(cargo().current_dir(&root).args(["test", "-p", "xtask", "--locked"]))?;
+    run(cmd::cargo_linted().current_dir(&root).args(HOST_TESTS))?;
+    run(cmd::cargo_linted().current_dir(&root).args(["test", "-p", "xtask", "--locked"]))?;
     if let Some(venv) = venv {
         let _ = venv.join();
         python::run_all(&root)?;

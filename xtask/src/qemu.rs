@@ -163,14 +163,15 @@ pub fn run_fast(root: &Path) -> Result<()> {
 
 /// The host tests of the device logic (`fbg-firmware-app`) with its default features (spectrum
 /// frames), and when `both`, also as the default product builds it, without them (they are
-/// refused).
+/// refused). Clippy compiles them, warnings denied (`cmd::with_clippy`): this is the device
+/// logic's host clippy of `cargo xtask test`.
 fn app_tests(root: &Path, fx: &Fixtures, both: bool) -> Result<()> {
-    step("firmware: host tests of the device logic (fbg-firmware-app)");
+    step("firmware: host tests of the device logic (fbg-firmware-app; compiled with clippy)");
     let fw = firmware::dir(root);
     let triple = host_triple()?;
     let variants: &[&[&str]] = if both { &[&[], &["--no-default-features"]] } else { &[&[]] };
     for features in variants {
-        run(cargo_own_target()
+        run(crate::cmd::with_clippy(cargo_own_target())
             .current_dir(&fw)
             .args(["test", "-p", "fbg-firmware-app", "--locked", "--target", &triple])
             .args(*features)
