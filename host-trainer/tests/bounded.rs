@@ -294,6 +294,15 @@ fn compensate_memory_does_not_grow_with_the_record() {
     assert!(b < a + (8 << 20), "{} kB vs {} kB", b >> 10, a >> 10);
 }
 
+/// Peak RSS of `fbg-trainer import --format FORMAT --map MAP DATA --out OUT`, which must succeed.
+#[cfg(target_os = "linux")]
+fn import_peak_rss(format: &str, map: &Path, data: &Path, out: &Path) -> u64 {
+    let (ok, err, rss) =
+        run_peak_rss(bin().args(["import", "--format", format, "--map"]).arg(map).arg(data).arg("--out").arg(out));
+    assert!(ok, "{err}");
+    rss
+}
+
 /// A logger table is read as a stream: what grows with the file is the columns the map takes,
 /// not its text. Rows with 60 columns the map does not take (≈ 700 B each), 2 000 and 40 000 of
 /// them: the larger import's peak RSS stays under the smaller's plus half the larger file.
@@ -321,13 +330,7 @@ fn logger_import_memory_grows_with_the_columns_taken_not_the_text() {
         path
     };
     let (small, big) = (write("small.csv", 2_000), write("big.csv", 40_000));
-    let peak = |data: &Path| {
-        let out = d.path().join("out.csv");
-        let (ok, err, rss) =
-            run_peak_rss(bin().args(["import", "--format", "csv", "--map"]).arg(&map).arg(data).arg("--out").arg(&out));
-        assert!(ok, "{err}");
-        rss
-    };
+    let peak = |data: &Path| import_peak_rss("csv", &map, data, &d.path().join("out.csv"));
     let (a, b) = (peak(&small), peak(&big));
     let size = std::fs::metadata(&big).unwrap().len();
     eprintln!(
@@ -370,14 +373,7 @@ fn enlight_import_memory_grows_with_the_gratings_taken_not_the_text() {
     };
     // At most a day of seconds: the clock stays within one date.
     let (small, big) = (write("small.txt", 2_000), write("big.txt", 40_000));
-    let peak = |data: &Path| {
-        let out = d.path().join("out.csv");
-        let (ok, err, rss) = run_peak_rss(
-            bin().args(["import", "--format", "enlight", "--map"]).arg(&map).arg(data).arg("--out").arg(&out),
-        );
-        assert!(ok, "{err}");
-        rss
-    };
+    let peak = |data: &Path| import_peak_rss("enlight", &map, data, &d.path().join("out.csv"));
     let (a, b) = (peak(&small), peak(&big));
     let size = std::fs::metadata(&big).unwrap().len();
     eprintln!(

@@ -74,8 +74,8 @@ fn unit_graph(c: &mut Command) -> Result<Value> {
     serde_json::from_slice(&out.stdout).context("reading cargo's unit graph")
 }
 
-fn units(graph: &Value) -> Vec<Value> {
-    graph["units"].as_array().cloned().unwrap_or_default()
+fn units(graph: &Value) -> &[Value] {
+    graph["units"].as_array().map(Vec::as_slice).unwrap_or_default()
 }
 
 /// What makes a unit the same compilation: everything but its place in the graph.

@@ -83,7 +83,9 @@ pub(crate) fn read(path: &Path, map: Option<&Map>, origin: &str, policy: OnError
     let mut head = Head::open(path)?;
     match m.enlight.header_lines {
         Some(n) => head.read_to(n)?,
-        None => head.read_until(|l| looks_like_data(l, &guess_delim))?,
+        None => {
+            head.read_until(|l| looks_like_data(l, &guess_delim))?;
+        }
     }
     let culture =
         find_culture(&head.lines(), m.enlight.header_lines, m.enlight.culture.as_deref(), origin, &name, &guess_delim)?;
@@ -217,8 +219,7 @@ fn first_data_row(
         let cs = split_cells(l, guess_delim(l));
         cs.len() >= 2 && clock.probe(&cs[0]) && cs[1].parse::<usize>().is_ok()
     };
-    head.read_until(is_data)?;
-    head.lines().iter().position(|l| is_data(l)).ok_or_else(|| {
+    head.read_until(is_data)?.ok_or_else(|| {
         let within = if head.capped { format!(" in the first {HEAD_LINES} lines") } else { String::new() };
         TrainerError::data(
             name,
@@ -268,17 +269,18 @@ impl Head {
         Ok(())
     }
 
-    /// Read on until a line read so far satisfies `stop`, or to the end (or the cap).
-    fn read_until(&mut self, stop: impl Fn(&str) -> bool) -> Result<(), TrainerError> {
-        if self.lines.iter().any(|l| stop(l)) {
-            return Ok(());
+    /// Read on until a line read so far satisfies `stop`, or to the end (or the cap); the index
+    /// of the first line that does.
+    fn read_until(&mut self, stop: impl Fn(&str) -> bool) -> Result<Option<usize>, TrainerError> {
+        if let Some(i) = self.lines.iter().position(|l| stop(l)) {
+            return Ok(Some(i));
         }
         while self.more()? {
             if self.lines.last().is_some_and(|l| stop(l)) {
-                break;
+                return Ok(Some(self.lines.len() - 1));
             }
         }
-        Ok(())
+        Ok(None)
     }
 
     fn lines(&self) -> Vec<&str> {
