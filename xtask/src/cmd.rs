@@ -42,25 +42,28 @@ pub fn cargo() -> Command {
     Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
 }
 
-/// `cargo` with clippy as the compiler of the workspace's own crates, warnings denied: what it
-/// builds is linted as `cargo clippy -- -D warnings` would lint it, and compiled too, so that
-/// `cargo xtask test` checks the host crates once instead of a `clippy` pass beside the build.
-/// Cargo keeps the wrapper in its fingerprints: a build of the same crates without it compiles
-/// them again, so every build of `cargo xtask test` in the host target directory goes through
-/// here (the tests, their run, xtask's own tests, the Python wheel).
-pub fn cargo_linted() -> Command {
-    with_clippy(cargo())
+/// `c` (a `cargo` command) with clippy as the compiler of its workspace's own crates, warnings
+/// denied: what it builds is linted as `cargo clippy -- -D warnings` would lint it, and compiled
+/// too, so that `cargo xtask test` checks the host crates once instead of a `clippy` pass beside
+/// the build. Cargo keeps the wrapper in its fingerprints: a build of the same crates without it
+/// compiles them again, so every build of `cargo xtask test` in the host target directory goes
+/// through here (the tests, their run, xtask's own tests, the Python wheel).
+pub fn with_clippy(mut c: Command) -> Command {
+    c.envs(clippy_env());
+    c
 }
 
-/// `c` (a `cargo` command) with clippy as the compiler of its workspace's own crates, warnings
-/// denied (see [`cargo_linted`]).
-pub fn with_clippy(mut c: Command) -> Command {
+/// The environment of [`with_clippy`], for a build that cargo runs under another program
+/// (the wheel's, under pip and maturin).
+pub fn clippy_env() -> [(&'static str, std::ffi::OsString); 2] {
     // clippy-driver sits beside the toolchain's cargo (rustup's proxy of it on PATH otherwise).
     let beside = std::env::var_os("CARGO").map(PathBuf::from).map(|p| p.with_file_name("clippy-driver"));
     let driver = beside.filter(|p| p.exists()).unwrap_or_else(|| PathBuf::from("clippy-driver"));
     // The arguments `cargo clippy -- -D warnings` hands the driver, in its own encoding.
-    c.env("RUSTC_WORKSPACE_WRAPPER", driver).env("CLIPPY_ARGS", "-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__");
-    c
+    [
+        ("RUSTC_WORKSPACE_WRAPPER", driver.into_os_string()),
+        ("CLIPPY_ARGS", "-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__".into()),
+    ]
 }
 
 /// `cargo` for the workspaces beside the host one, each with its own `target/` (the firmware,

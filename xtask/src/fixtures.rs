@@ -214,10 +214,15 @@ pub fn trainer_built_by_tests() {
     BUILT_BY_TESTS.store(true, Ordering::Relaxed);
 }
 
+/// Whether the host tests' build made the trainer in this run (with clippy, `cmd::with_clippy`).
+pub fn built_by_tests() -> bool {
+    BUILT_BY_TESTS.load(Ordering::Relaxed)
+}
+
 /// Build the trainer (release), unless the host tests' build has made it, and return its
 /// binary.
 pub fn trainer(root: &Path) -> Result<PathBuf> {
-    if !BUILT_BY_TESTS.load(Ordering::Relaxed) {
+    if !built_by_tests() {
         cmd::run(cmd::cargo().current_dir(root).args(["build", "--release", "--locked", "-p", "fbg-trainer"]))
             .context("building fbg-trainer (it makes the firmware's fixtures)")?;
     }

@@ -104,7 +104,7 @@ fn run_step(root: &Path, s: Step) -> Result<()> {
 }
 
 /// The lint part of `cargo xtask test`: every step but the host workspace's clippy, which the
-/// test build does as it compiles (`cmd::cargo_linted`).
+/// test build does as it compiles (`cmd::with_clippy`).
 /// Likewise the firmware step leaves out the device logic's host clippy, which its host tests'
 /// build does (`qemu::app_tests`).
 pub fn run_for_tests(root: &Path) -> Result<()> {

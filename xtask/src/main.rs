@@ -191,7 +191,7 @@ const HOST_TESTS: [&str; 8] =
 /// [`HOST_TESTS`] compiled, not run; the Python wheel's build reuses what it compiles
 /// (`lint::wheel`).
 /// Every target (the benches and examples too, as `clippy --all-targets` would check them), through
-/// [`cmd::cargo_linted`].
+/// [`cmd::with_clippy`].
 pub const HOST_TEST_BUILD: [&str; 10] = [
     "test",
     "--workspace",
@@ -210,7 +210,7 @@ fn test(skip_qemu: bool, fast: bool) -> Result<()> {
     ensure_thumb_target()?;
     let venv = (!fast).then(|| python::warm_up(&root));
     // The host workspace's clippy is not a step of its own here: the builds below compile it
-    // with clippy (`cmd::cargo_linted`), warnings denied.
+    // with clippy (`cmd::with_clippy`), warnings denied.
     if fast {
         lint::run_fast(&root)?;
     } else {
@@ -218,11 +218,11 @@ fn test(skip_qemu: bool, fast: bool) -> Result<()> {
     }
 
     step("host tests: build with clippy (whole workspace, every target, warnings denied)");
-    run(cmd::cargo_linted().current_dir(&root).args(HOST_TEST_BUILD))?;
+    run(cmd::with_clippy(cmd::cargo()).current_dir(&root).args(HOST_TEST_BUILD))?;
     fixtures::trainer_built_by_tests();
     step("host tests: run (doctests included)");
-    run(cmd::cargo_linted().current_dir(&root).args(HOST_TESTS))?;
-    run(cmd::cargo_linted().current_dir(&root).args(["test", "-p", "xtask", "--locked"]))?;
+    run(cmd::with_clippy(cmd::cargo()).current_dir(&root).args(HOST_TESTS))?;
+    run(cmd::with_clippy(cmd::cargo()).current_dir(&root).args(["test", "-p", "xtask", "--locked"]))?;
     if let Some(venv) = venv {
         let _ = venv.join();
         python::run_all(&root)?;

@@ -23,7 +23,7 @@ const REQUIREMENTS: &str = "python/requirements-test.txt";
 /// Build the wheel into the venv and run the pytest suite.
 pub fn run_all(root: &Path) -> Result<()> {
     step("Python package (wheel into target/python/venv, pytest)");
-    let Some((py, trainer)) = prepare(root, Compiler::Clippy)? else { return Ok(()) };
+    let Some((py, trainer)) = prepare(root)? else { return Ok(()) };
     run(Command::new(&py)
         .current_dir(root.join("python"))
         .args(["-m", "pytest", "-q", "tests"])
@@ -46,18 +46,12 @@ pub fn warm_up(root: &Path) -> std::thread::JoinHandle<()> {
     })
 }
 
-/// How the wheel's Rust is compiled.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Compiler {
-    /// clippy, warnings denied, as `cargo xtask test` builds the host crates (`cmd::cargo_linted`)
-    Clippy,
-    /// rustc, as users and the bench build it
-    Rustc,
-}
-
 /// The venv's interpreter with the package installed from this tree, and the release
-/// `fbg-trainer`; `None` (with a message) when there is no `python3`.
-pub fn prepare(root: &Path, compiler: Compiler) -> Result<Option<(PathBuf, PathBuf)>> {
+/// `fbg-trainer`; `None` (with a message) when there is no `python3`. The wheel is compiled as
+/// the trainer was: with clippy after the host tests' build (`cargo xtask test`,
+/// `cmd::with_clippy`), whose trainer it then reuses; with rustc otherwise (`cargo xtask
+/// python`, the bench), as users build it.
+pub fn prepare(root: &Path) -> Result<Option<(PathBuf, PathBuf)>> {
     if Command::new("python3").arg("--version").output().is_err() {
         eprintln!("xtask: python3 not found: skipping the Python package (install python3 to build and test it)");
         return Ok(None);
@@ -73,22 +67,20 @@ pub fn prepare(root: &Path, compiler: Compiler) -> Result<Option<(PathBuf, PathB
     // The wheel is built and installed again only when its sources changed since the last
     // install (a content hash: a touched or rebuilt but equal tree keeps it).
     let stamp = venv.join("fbg-compensation.installed");
-    let want = format!("{}compiled by {compiler:?}\n", wheel_stamp(root)?);
+    let clippy = crate::fixtures::built_by_tests();
+    let want = format!("{}compiled by {}\n", wheel_stamp(root)?, if clippy { "clippy" } else { "rustc" });
     if std::fs::read_to_string(&stamp).ok().as_deref() == Some(want.as_str()) {
         eprintln!("xtask: the installed wheel is built from these sources ({}); not rebuilt", stamp.display());
     } else {
         let _ = std::fs::remove_file(&stamp);
-        // Under `cargo xtask test` clippy compiles the Python crate, as the test build compiles
-        // the rest (and with the same wrapper, the trainer the tests built is reused).
-        let linted = match compiler {
-            Compiler::Clippy => crate::cmd::cargo_linted(),
-            Compiler::Rustc => cargo(),
-        };
-        run(Command::new(&py)
+        let mut pip = Command::new(&py);
+        if clippy {
+            pip.envs(crate::cmd::clippy_env());
+        }
+        run(pip
             .current_dir(root)
             .args(["-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation", "--force-reinstall"])
             .arg("./python")
-            .envs(linted.get_envs().filter_map(|(k, v)| Some((k, v?))))
             .env("PATH", path)
             .env("CARGO_TARGET_DIR", target_dir()))?;
         crate::cmd::write_atomic(&stamp, want.as_bytes())?;

@@ -24,7 +24,7 @@ pub const TARGET_FIT_RATIO: f64 = 1.2;
 
 /// Run the script; `None` (with a message) where there is no Python.
 pub fn part(root: &Path) -> Result<Option<Value>> {
-    let Some((py, trainer)) = crate::python::prepare(root, crate::python::Compiler::Rustc)? else { return Ok(None) };
+    let Some((py, trainer)) = crate::python::prepare(root)? else { return Ok(None) };
     let mut cmd = Command::new(&py);
     cmd.current_dir(root).arg(SCRIPT).arg("--trainer").arg(&trainer).args(["--workdir", "target/bench/python"]);
     eprintln!("xtask: $ {}", describe(&cmd));
