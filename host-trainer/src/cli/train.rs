@@ -42,9 +42,9 @@ pub struct TrainArgs {
     #[arg(long, value_parser = ["fail", "skip"], default_value = "fail")]
     on_error: String,
     /// The interrogator's stated wavelength stability as a random walk [pm/√day]: the bands
-    /// grow at least as fast as such a drift moves each output (one calibration week shows one
-    /// path of the drift, too little to read its rate well). Without it, the rate the
-    /// calibration's errors show.
+    /// add such a walk through each output, from its offset at the end of calibration on (one
+    /// calibration week shows one path of the drift, too little to read its rate well).
+    /// Without it, the bands grow at the rate the calibration's errors show.
     #[arg(long, value_name = "PM_PER_SQRT_DAY", allow_negative_numbers = true)]
     drift_spec: Option<f64>,
     #[command(flatten)]

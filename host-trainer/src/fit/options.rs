@@ -37,8 +37,8 @@ pub struct TrainOptions {
     /// Set by another thread to stop the fit at its next task (Python's Ctrl-C).
     #[serde(skip)]
     cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
-    /// The interrogator's stated wavelength stability as a random walk \[pm/√day\]: a floor
-    /// under the drift rate the calibration's errors show (`None`: the errors alone).
+    /// The interrogator's stated wavelength stability as a random walk \[pm/√day\]: a walk the
+    /// bands add beside the growth the calibration's errors show (`None`: the errors alone).
     drift_spec_pm_per_sqrt_day: Option<f64>,
 }
 
@@ -260,7 +260,8 @@ impl TrainOptionsBuilder {
 
     /// The interrogator's stated wavelength stability, as a random walk \[pm/√day\] (a
     /// datasheet's "±x pm over a day" is about x/2 as a walk's standard deviation): the bands
-    /// grow at least as a walk of this rate through each output's common-mode sensitivity.
+    /// add a walk of this rate through each output's common-mode sensitivity, Gaussian, from
+    /// the offset it has at the end of calibration on.
     pub fn drift_spec_pm_per_sqrt_day(mut self, spec: Option<f64>) -> Self {
         self.0.drift_spec_pm_per_sqrt_day = spec;
         self

@@ -19,9 +19,11 @@
 //! pooled with weights 1/D(L₁)² (the spread of an output's estimate grows with its own error
 //! in pm), and each output's band grows by s_c²·q_d. A load cycle of several days in the
 //! strain errors then weighs next to nothing, where read alone it would pass for a walk.
-//! A single calibration week holds one path of the drift, so the estimate is rough (see
-//! BENCHMARKS); an interrogator's stated stability can set a floor
-//! ([`super::TrainOptions::drift_spec_pm_per_sqrt_day`]).
+//! A single calibration week holds one path of the drift, so the estimate is rough (many
+//! times the truth where weather or load cycles of several days pass for a walk): it is a floor
+//! under the growth the validation errors calibrate. An interrogator's stated stability
+//! ([`super::TrainOptions::drift_spec_pm_per_sqrt_day`]) is a walk the band adds as it is
+//! ([`WalkGrowth`]).
 
 /// The shorter lag L₁ \[s\]: longer than the hysteresis and thermometer-lag errors' memory.
 pub const LAG_SHORT_S: f64 = 12.0 * 3_600.0;
@@ -91,12 +93,25 @@ pub fn common_rate(per_output: &[StructureSums]) -> Option<f64> {
     (weights > 0.0 && (sum / weights).is_finite()).then(|| (sum / weights).max(0.0))
 }
 
+/// Per output, the band growth the drift's walk adds \[unit²/s\]: s_c²·q for the rate read and
+/// for the stated one. They enter the band differently ([`super::band::VarModel::fit`]): a
+/// rate read from one week is rough (often many times the truth, where slow weather or load
+/// cycles pass for a walk), so it is only a floor under the growth whose 95 % multiplier the
+/// validation errors set; a stated rate is the interrogator's walk, Gaussian, and is added with
+/// the normal multiplier, from the end of calibration and as the offset the walk has there.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WalkGrowth {
+    /// s_c²·q_d with q_d read from the validation errors (`None`: no estimate).
+    pub read: Option<f64>,
+    /// s_c²·q_s with q_s the interrogator's stated stability (`None`: none stated).
+    pub stated: Option<f64>,
+}
+
 /// The walk's rate q_d read from `per_output` (each output's sums in its own unit) through the
 /// common-mode sensitivities `common` (s_c, unit per pm; one per output, for every series
 /// alike: a series divided by its own s_c near zero would blow up), and per output the growth
-/// s_c²·q \[unit²/s\] the band takes, q the larger of q_d and the `stated` rate \[pm²/s\]
-/// (`None` for an output when neither is known).
-pub fn growth(per_output: &[StructureSums], common: &[f64], stated: Option<f64>) -> (Option<f64>, Vec<Option<f64>>) {
+/// s_c²·q \[unit²/s\] of the rate read and of the `stated` one \[pm²/s\].
+pub fn growth(per_output: &[StructureSums], common: &[f64], stated: Option<f64>) -> (Option<f64>, Vec<WalkGrowth>) {
     let in_pm: Vec<StructureSums> = per_output
         .iter()
         .zip(common)
@@ -104,11 +119,12 @@ pub fn growth(per_output: &[StructureSums], common: &[f64], stated: Option<f64>)
         .map(|(w, s)| w.scaled(1.0 / (s * s)))
         .collect();
     let read = common_rate(&in_pm);
-    let used = match (read, stated) {
-        (Some(q), Some(spec)) => Some(q.max(spec)),
-        (q, spec) => q.or(spec),
-    };
-    let growth = (0..per_output.len()).map(|c| used.map(|q| common.get(c).map_or(0.0, |s| s * s) * q)).collect();
+    let growth = (0..per_output.len())
+        .map(|c| {
+            let s2 = common.get(c).map_or(0.0, |s| s * s);
+            WalkGrowth { read: read.map(|q| s2 * q), stated: stated.map(|q| s2 * q) }
+        })
+        .collect();
     (read, growth)
 }
 
@@ -203,7 +219,7 @@ mod tests {
     }
 
     #[test]
-    fn each_output_grows_by_its_sensitivity_squared_times_the_larger_rate() {
+    fn each_output_grows_by_its_sensitivity_squared_times_each_rate() {
         // One output walking at 1e-6 unit²/s with s = 0.1 unit/pm (1e-4 pm²/s), one whose
         // common-mode sensitivity is 0 (left out of the read, no growth).
         let mut t_out = StructureSums::default();
@@ -215,14 +231,18 @@ mod tests {
         let (read, g) = growth(&sums, &[0.1, 0.0], None);
         let q = read.unwrap();
         assert!((q / 1e-4 - 1.0).abs() < 0.35, "{q:e}");
-        assert_eq!(g, vec![Some(0.1 * 0.1 * q), Some(0.0)]);
-        // A stated rate above the one read sets the growth; the rate read is still reported.
+        assert_eq!(g[0], WalkGrowth { read: Some(0.1 * 0.1 * q), stated: None });
+        assert_eq!(g[1], WalkGrowth { read: Some(0.0), stated: None });
+        // A stated rate is carried beside the one read, which is unchanged.
         let (read2, g2) = growth(&sums, &[0.1, 0.0], Some(1e-2));
         assert_eq!(read2, read);
-        assert_eq!(g2[0], Some(0.1 * 0.1 * 1e-2));
+        assert_eq!(g2[0], WalkGrowth { read: Some(0.1 * 0.1 * q), stated: Some(0.1 * 0.1 * 1e-2) });
         // Nothing read and nothing stated: no growth known.
-        assert_eq!(growth(&[StructureSums::default()], &[0.1], None), (None, vec![None]));
-        assert_eq!(growth(&[StructureSums::default()], &[0.1], Some(1e-2)).1, vec![Some(0.1 * 0.1 * 1e-2)]);
+        assert_eq!(growth(&[StructureSums::default()], &[0.1], None), (None, vec![WalkGrowth::default()]));
+        assert_eq!(
+            growth(&[StructureSums::default()], &[0.1], Some(1e-2)).1,
+            vec![WalkGrowth { read: None, stated: Some(0.1 * 0.1 * 1e-2) }]
+        );
     }
 
     #[test]

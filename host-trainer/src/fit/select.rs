@@ -29,7 +29,7 @@ use super::linalg;
 use super::memory_core::{self, MemoryChoice, MemoryCvRow};
 use super::options::TrainOptions;
 use super::poly_core::{self, PolyCore};
-use super::random_walk::{self, StructureSums};
+use super::random_walk::{self, StructureSums, WalkGrowth};
 use super::rbf_inputs::{z_sample, ZSample};
 use super::residual::residual_targets;
 use super::sensitivity;
@@ -120,9 +120,8 @@ struct ModelPPass {
     sq_p: Vec<FoldErrors>,
     /// The drift's common walk rate q_d \[pm²/s\] (`None`: validation stretches too short).
     drift_rate_pm2_per_s: Option<f64>,
-    /// Per output, the band growth the walk adds, s_c²·q_d \[unit²/s\], q_d at least the
-    /// stated stability.
-    walk_growth: Vec<Option<f64>>,
+    /// Per output, the band growth the walk adds \[unit²/s\], read and stated.
+    walk_growth: Vec<WalkGrowth>,
 }
 
 /// Sum of squared errors.
@@ -144,11 +143,16 @@ pub(crate) fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<
     let n_val: usize = cv.folds.iter().map(|f| f.val.len()).sum();
     let cv_rmse_p: Vec<f64> =
         (0..m).map(|c| (sq_p.iter().map(|e| e[c].iter().sum::<f64>()).sum::<f64>() / n_val as f64).sqrt()).collect();
-    let (lead, fold_of) = leads(d, &cv.folds, &fold_core);
+    let (lead, fold_of, walk_age) = leads(d, &cv.folds, &fold_core);
+    // The final models calibrate on every row: the stated walk's offset at their end.
+    let cal_span_s = match (cal.first(), cal.last()) {
+        (Some(&i), Some(&j)) => d.t_s[j] - d.t_s[i],
+        _ => 0.0,
+    };
     let var_model_p: Vec<VarModel> = (0..m)
         .map(|c| {
             let sq: Vec<f64> = sq_p.iter().flat_map(|e| e[c].iter().copied()).collect();
-            VarModel::fit(&lead, &sq, &fold_of, walk[c])
+            VarModel::fit(&lead, &sq, &fold_of, walk[c], &walk_age, cal_span_s)
         })
         .collect();
 
@@ -173,7 +177,14 @@ pub(crate) fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<
     // the short folds' memory coefficients are poorly determined, and their larger errors
     // would widen the band of a final model fitted on the whole batch.
     let band_from = if memory.any() { first_long } else { 0 };
-    let errors = ValidationErrors { lead: &lead, fold_of: &fold_of, sq_p: &sq_p, sqe_h: &sqe_h };
+    let errors = ValidationErrors {
+        lead: &lead,
+        fold_of: &fold_of,
+        walk_age: &walk_age,
+        sq_p: &sq_p,
+        sqe_h: &sqe_h,
+        cal_span_s,
+    };
     let (var_model_h, cv_rmse_p, cv_rmse_h) = errors.band_h(&cv.folds, band_from, &walk, cv_rmse_p, cv_rmse_h);
     Ok(Selection {
         chosen,
@@ -520,6 +531,10 @@ struct ValidationErrors<'e> {
     lead: &'e [f64],
     /// Fold of every validation sample.
     fold_of: &'e [usize],
+    /// Every validation sample's walk age T/3 + lead [s] (T its fold's training span).
+    walk_age: &'e [f64],
+    /// Time from the first to the last calibration row [s].
+    cal_span_s: f64,
     /// Model-P's squared errors per fold and output.
     sq_p: &'e [FoldErrors],
     /// The chosen Model-H's squared errors per output, over all folds in order.
@@ -535,7 +550,7 @@ impl ValidationErrors<'_> {
         &self,
         folds: &[Fold],
         band_from: usize,
-        walk: &[Option<f64>],
+        walk: &[WalkGrowth],
         cv_rmse_p: Vec<f64>,
         cv_rmse_h: Vec<f64>,
     ) -> (Vec<VarModel>, Vec<f64>, Vec<f64>) {
@@ -543,10 +558,11 @@ impl ValidationErrors<'_> {
         let keep: Vec<usize> = (0..self.fold_of.len()).filter(|&r| self.fold_of[r] >= band_from).collect();
         let lead_h: Vec<f64> = keep.iter().map(|&r| self.lead[r]).collect();
         let fold_h: Vec<usize> = keep.iter().map(|&r| self.fold_of[r] - band_from).collect();
+        let age_h: Vec<f64> = keep.iter().map(|&r| self.walk_age[r]).collect();
         let var_model_h: Vec<VarModel> = (0..m)
             .map(|c| {
                 let sq: Vec<f64> = keep.iter().map(|&r| self.sqe_h[c][r]).collect();
-                VarModel::fit(&lead_h, &sq, &fold_h, walk.get(c).copied().flatten())
+                VarModel::fit(&lead_h, &sq, &fold_h, walk.get(c).copied().unwrap_or_default(), &age_h, self.cal_span_s)
             })
             .collect();
         // The reported validation RMSE of both models (what `train` prints and warns on) comes
@@ -567,16 +583,18 @@ impl ValidationErrors<'_> {
     }
 }
 
-/// Lead time of every validation sample after the end of its fold's training, and its fold,
-/// in fold order.
-fn leads(d: &Dataset, fs: &[Fold], cores: &[FoldCore]) -> (Vec<f64>, Vec<usize>) {
-    let mut lead = Vec::new();
-    let mut fold_of = Vec::new();
+/// Lead time of every validation sample after the end of its fold's training, its fold, and
+/// its stated walk's age (the fold's training span / 3 + lead: the variance factor of a walk
+/// whose mean over the training the fold's model absorbed), in fold order.
+fn leads(d: &Dataset, fs: &[Fold], cores: &[FoldCore]) -> (Vec<f64>, Vec<usize>, Vec<f64>) {
+    let (mut lead, mut fold_of, mut walk_age) = (Vec::new(), Vec::new(), Vec::new());
     for (fi, (f, c)) in fs.iter().zip(cores).enumerate() {
+        let span = f.train.first().map_or(0.0, |&i| c.t_end - d.t_s[i]);
         for &i in &f.val {
             lead.push(d.t_s[i] - c.t_end);
             fold_of.push(fi);
+            walk_age.push(span / 3.0 + (d.t_s[i] - c.t_end).max(0.0));
         }
     }
-    (lead, fold_of)
+    (lead, fold_of, walk_age)
 }

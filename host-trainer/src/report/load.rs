@@ -73,6 +73,9 @@ struct VarModelDe {
     /// Absent from metrics written before the band read the errors' random walk.
     #[serde(default)]
     random_walk_rate: Option<F>,
+    /// Absent from metrics written before the band added the stated walk as a walk.
+    #[serde(default)]
+    stated_walk_rate: Option<F>,
 }
 
 impl From<VarModelDe> for VarModel {
@@ -87,6 +90,7 @@ impl From<VarModelDe> for VarModel {
             lead_max_s: v.lead_max_s.map_or(f64::NAN, |x| x.0),
             cv_coverage: v.cv_coverage.map_or(f64::NAN, |x| x.0),
             random_walk_rate: v.random_walk_rate.map_or(f64::NAN, |x| x.0),
+            stated_walk_rate: v.stated_walk_rate.map_or(f64::NAN, |x| x.0),
         }
     }
 }

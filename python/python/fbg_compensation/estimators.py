@@ -242,7 +242,7 @@ class HybridCompensator(_Compensator):
     configuration instead of cross-validation, as ``fbg-trainer bench-fit --fixed``: a dict
     of ``feature_set``, ``k``, ``sigma_mult``, ``alpha_rel``, ``dead_band_pm``, ``memory``),
     ``drift_spec`` (the interrogator's stated stability as a random walk [pm/√day], as
-    ``fbg-trainer train --drift-spec``: the band grows at least as such a drift moves each
+    ``fbg-trainer train --drift-spec``: the band adds such a drift's walk through each
     output; None: the rate the calibration's errors show)."""
 
     _which = "h"
