@@ -1,6 +1,6 @@
 //! The 95 % band's variance model: s²(τ) = a + b·τ over the lead time τ since the end of
 //! training, fitted on cross-validated errors, times a split-conformal multiplier (DESIGN §4),
-//! plus the interrogator's stated walk (see [`VarModel::fit`]).
+//! plus the interrogator's stated walk (see `VarModel::fit`).
 //!
 //! Drift is a random walk, so the error variance grows with the time since calibration. The
 //! cross-validation sees leads up to a day or two, the hold-out and the field a week or more:

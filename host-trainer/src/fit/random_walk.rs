@@ -94,7 +94,7 @@ pub fn common_rate(per_output: &[StructureSums]) -> Option<f64> {
 }
 
 /// Per output, the band growth the drift's walk adds \[unit²/s\]: s_c²·q for the rate read and
-/// for the stated one. They enter the band differently ([`super::band::VarModel::fit`]): a
+/// for the stated one. They enter the band differently (`VarModel::fit` in the band module): a
 /// rate read from one week is rough (often many times the truth, where slow weather or load
 /// cycles pass for a walk), so it is only a floor under the growth whose 95 % multiplier the
 /// validation errors set; a stated rate is the interrogator's walk, Gaussian, and is added with
