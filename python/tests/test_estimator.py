@@ -117,9 +117,10 @@ def test_a_stated_drift_widens_the_band_with_the_lead(cal, holdout, fitted):
     assert same_bits(v0, v1), "the stated drift changes the band only"
     growth0 = b0.to_numpy()[-1] - b0.to_numpy()[0]
     growth1 = b1.to_numpy()[-1] - b1.to_numpy()[0]
-    # The drift moves every grating alike: temperature most; strain, read from the gratings'
-    # difference, hardly (its growth may stay as fitted).
-    assert growth1[0] > growth0[0] and (growth1 >= growth0).all(), (growth0, growth1)
+    # The drift moves every grating alike: temperature most, whose band grows faster and is
+    # wider at the end; strain, read from the gratings' difference, hardly (the rest of its
+    # band is refitted without the walk's share, so its growth may go either way).
+    assert growth1[0] > growth0[0] and b1.to_numpy()[-1, 0] > b0.to_numpy()[-1, 0], (growth0, growth1)
     with pytest.raises(fc.FbgError, match="drift_spec: .*the stated drift is -1"):
         fc.HybridCompensator(**FIT, drift_spec=-1.0).fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
     with pytest.raises(ValueError, match="drift_spec: 'x' is not a number"):
