@@ -109,7 +109,7 @@ impl Real for f64 {
     }
     #[inline(always)]
     fn sqrt(self) -> Self {
-        libm::sqrt(self)
+        sqrt_f64(self)
     }
     #[inline(always)]
     fn exp_neg(self) -> Self {
@@ -206,8 +206,8 @@ impl Real for f32 {
 }
 
 /// IEEE square root: the FPU's `vsqrt.f32` on a hard-float Arm target (one instruction; stable
-/// Rust has no `f32::sqrt` in `core` and libm's `sqrtf` is a software routine there), libm
-/// elsewhere. Both are correctly rounded, so the results are identical.
+/// Rust has no `f32::sqrt` in `core` and libm's `sqrtf` is a software routine there), SSE's on
+/// x86-64 (see [`sqrt_f64`]), libm elsewhere. Both are correctly rounded, so the results are identical.
 #[inline(always)]
 fn sqrt_f32(x: f32) -> f32 {
     #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
@@ -227,9 +227,34 @@ fn sqrt_f32(x: f32) -> f32 {
         }
         f32::from_bits(r)
     }
-    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    #[cfg(target_arch = "x86_64")]
+    {
+        use core::arch::x86_64::{_mm_cvtss_f32, _mm_set_ss, _mm_sqrt_ss};
+        // SAFETY: SSE is part of the x86-64 baseline; register-only arithmetic.
+        unsafe { _mm_cvtss_f32(_mm_sqrt_ss(_mm_set_ss(x))) }
+    }
+    #[cfg(not(any(all(target_arch = "arm", target_abi = "eabihf"), target_arch = "x86_64")))]
     {
         libm::sqrtf(x)
+    }
+}
+
+/// IEEE square root in f64: the SSE2 instruction on x86-64 (baseline there; in a function
+/// compiled with AVX, its VEX form), which the compiler schedules and keeps in the vector
+/// unit's encoding, where libm's is an opaque `asm!` block of the legacy encoding that a host's
+/// batch path stalls on; libm elsewhere. Both are correctly rounded, so the results are
+/// identical.
+#[inline(always)]
+fn sqrt_f64(x: f64) -> f64 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use core::arch::x86_64::{_mm_cvtsd_f64, _mm_set_sd, _mm_sqrt_pd};
+        // SAFETY: SSE2 is part of the x86-64 baseline; register-only arithmetic.
+        unsafe { _mm_cvtsd_f64(_mm_sqrt_pd(_mm_set_sd(x))) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        libm::sqrt(x)
     }
 }
 

@@ -100,6 +100,13 @@ impl<F: Real, const K: usize> Compensator<F, K> {
         &self.state
     }
 
+    /// The model and the stream state apart, for a caller that moves the state by some samples
+    /// ([`PreparedModel::begin_batch`]) while it ends others ([`PreparedModel::end_batch`],
+    /// which reads the model only).
+    pub fn parts_mut(&mut self) -> (&PreparedModel<F, K>, &mut StreamState<F>) {
+        (&self.model, &mut self.state)
+    }
+
     /// The model's dims; `None` when no model is loaded.
     pub fn dims(&self) -> Option<Dims> {
         self.model.dims()

@@ -90,6 +90,7 @@ pub(super) struct Lanes<F> {
     y: [[F; LANES]; MAX_OUTPUTS],
     proj: [[F; LANES]; VAR_RANK],
     psi_sq: [F; LANES],
+    psi_max: [F; LANES],
 }
 
 impl<F: Real> Lanes<F> {
@@ -102,6 +103,7 @@ impl<F: Real> Lanes<F> {
             y: [[F::ZERO; LANES]; MAX_OUTPUTS],
             proj: [[F::ZERO; LANES]; VAR_RANK],
             psi_sq: [F::ZERO; LANES],
+            psi_max: [F::ZERO; LANES],
         }
     }
 
@@ -135,6 +137,13 @@ impl<F: Real> Lanes<F> {
             self.proj.each_ref().map(at),
             at(&self.psi_sq),
         )
+    }
+
+    /// Lane `lane`'s max_j ψ_j (from 0, centre after centre): what the weak-support test
+    /// would otherwise compute again.
+    #[inline(always)]
+    pub(super) fn psi_max(&self, lane: usize) -> F {
+        self.psi_max.get(lane).copied().unwrap_or(F::ZERO)
     }
 }
 
@@ -174,6 +183,9 @@ pub(super) fn centre_pass_lanes<F: Real, const K: usize>(
         for (s, &p) in l.psi_sq.iter_mut().zip(psi.iter()) {
             *s = p.mul_add(p, *s);
         }
+        for (m, &p) in l.psi_max.iter_mut().zip(psi.iter()) {
+            *m = m.max(p);
+        }
     }
 }
 
@@ -210,14 +222,16 @@ pub(super) fn psi_all<F: Real, const K: usize>(
 /// Whether max_j ψ_j < `w` (the weak-support threshold), decided from ‖ψ‖² when it can be:
 /// ψ_j ≥ 0, so max ψ ≤ ‖ψ‖ (weak when ‖ψ‖² < w²) and max ψ ≥ ‖ψ‖/√n (not weak when
 /// ‖ψ‖² ≥ n·w², with a margin for the rounding of the sum); otherwise ψ is computed again,
-/// identically, for its maximum (rare: samples near the weak-support boundary).
+/// identically, for its maximum (samples near the weak-support boundary), unless the caller
+/// kept it (`psi_max`: the batch path's lanes do; the device's step does not, to spare a
+/// comparison per centre on every sample).
 #[inline(always)]
 pub(super) fn weak<F: Real, const K: usize>(
     centres: &Vec<PreparedCentre<F>, K>,
     z: &[F],
     z_sq: F,
     groups: usize,
-    psi_sq: F,
+    (psi_sq, psi_max): (F, Option<F>),
     w: F,
 ) -> bool {
     let w2 = w * w;
@@ -229,7 +243,7 @@ pub(super) fn weak<F: Real, const K: usize>(
     if psi_sq > n * w2 * margin {
         return false;
     }
-    psi_max_pass::<F, K>(centres, z, z_sq, groups) < w
+    psi_max.unwrap_or_else(|| psi_max_pass::<F, K>(centres, z, z_sq, groups)) < w
 }
 
 #[inline(never)]

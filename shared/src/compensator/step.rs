@@ -324,7 +324,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         let z_sq = self.rbf_inputs::<G>(s, &e.latch, z);
         // Unused inputs have zero weight in every centre and zero value: each adds an exact 0.
         let (y, proj, psi_sq) = centre_pass::<F, K>(&self.centres, z, z_sq, usize::from(self.z_groups), e.y, sink);
-        self.leave::<M>(e, z, z_sq, y, &proj, psi_sq)
+        self.leave::<M>(e, z, z_sq, y, &proj, (psi_sq, None))
     }
 
     /// Compensate `samples` in order, `out[i]` getting what [`PreparedModel::step`] gives for
@@ -451,7 +451,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
                 Entry::Done(e) => *e,
                 Entry::In(e) => {
                     let (z, z_sq, y, proj, psi_sq) = lanes.get(lane);
-                    self.leave::<M>(e, &z, z_sq, y, &proj, psi_sq)
+                    self.leave::<M>(e, &z, z_sq, y, &proj, (psi_sq, Some(lanes.psi_max(lane))))
                 }
             };
             n += 1;
@@ -497,8 +497,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     }
 
     /// The rest of a step, after the RBF pass over the sample's inputs `z` (‖z‖² `z_sq`) gave
-    /// `y` (core + Γm + Wψ), the variance projections `proj` and ‖ψ‖² `psi_sq`: weak support,
-    /// leverage, fade, band and flags. Moves no state.
+    /// `y` (core + Γm + Wψ), the variance projections `proj`, ‖ψ‖² `psi_sq` and, when the pass
+    /// kept it, max ψ `psi_max`: weak support, leverage, fade, band and flags. Moves no state.
     #[inline(always)]
     fn leave<const M: usize>(
         &self,
@@ -507,11 +507,12 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         z_sq: F,
         y: [F; MAX_OUTPUTS],
         proj: &[F; VAR_RANK],
-        psi_sq: F,
+        (psi_sq, psi_max): (F, Option<F>),
     ) -> Estimate<F> {
         let mut flags = e.flags;
         let groups = usize::from(self.z_groups);
-        if !self.centres.is_empty() && weak::<F, K>(&self.centres, z, z_sq, groups, psi_sq, self.weak_support) {
+        let psi = (psi_sq, psi_max);
+        if !self.centres.is_empty() && weak::<F, K>(&self.centres, z, z_sq, groups, psi, self.weak_support) {
             flags.insert(Flags::WEAK_SUPPORT);
         }
 
