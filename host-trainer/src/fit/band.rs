@@ -116,6 +116,7 @@ impl VarModel {
         let read_floor = walk.read.map(|q| (q - g_s.unwrap_or(0.0)).max(0.0));
         let mut m = Self::fit_variance(lead_s, &rest, fold, read_floor);
         m.random_walk_rate = walk.read.unwrap_or(f64::NAN);
+        m.stated_walk_rate = g_s.unwrap_or(f64::NAN);
         // A steep slope can leave a tiny intercept (on a short calibration the fold means are
         // explained by growth alone): the band at the end of calibration must still cover the
         // errors the validation saw at its shortest leads.
@@ -155,7 +156,6 @@ impl VarModel {
             let in_k = z2 / k2;
             m.b += in_k * g;
             m.a += in_k * g * span_s.max(0.0) / 3.0;
-            m.stated_walk_rate = g;
         }
         m
     }
@@ -196,16 +196,7 @@ impl VarModel {
         let mean_all = sq_err.iter().sum::<f64>() / sq_err.len().max(1) as f64;
         let floor = 1e-6 * mean_all.max(f64::MIN_POSITIVE);
         let a = me.get(last).copied().unwrap_or(mean_all) - b * mt.get(last).copied().unwrap_or(0.0);
-        VarModel {
-            a: a.max(floor),
-            b,
-            k95: fbg_shared::layout::Z95,
-            b_fitted,
-            b_se: se,
-            random_walk_rate: walk.unwrap_or(f64::NAN),
-            stated_walk_rate: f64::NAN,
-            ..VarModel::default()
-        }
+        VarModel { a: a.max(floor), b, k95: fbg_shared::layout::Z95, b_fitted, b_se: se, ..VarModel::default() }
     }
 
     /// Variance at lead time `tau_s`.

@@ -591,9 +591,10 @@ fn leads(d: &Dataset, fs: &[Fold], cores: &[FoldCore]) -> (Vec<f64>, Vec<usize>,
     for (fi, (f, c)) in fs.iter().zip(cores).enumerate() {
         let span = f.train.first().map_or(0.0, |&i| c.t_end - d.t_s[i]);
         for &i in &f.val {
-            lead.push(d.t_s[i] - c.t_end);
+            let l = d.t_s[i] - c.t_end;
+            lead.push(l);
             fold_of.push(fi);
-            walk_age.push(span / 3.0 + (d.t_s[i] - c.t_end).max(0.0));
+            walk_age.push(span / 3.0 + l.max(0.0));
         }
     }
     (lead, fold_of, walk_age)
