@@ -207,7 +207,8 @@ impl Real for f32 {
 
 /// IEEE square root: the FPU's `vsqrt.f32` on a hard-float Arm target (one instruction; stable
 /// Rust has no `f32::sqrt` in `core` and libm's `sqrtf` is a software routine there), SSE's on
-/// x86-64 (see [`sqrt_f64`]), libm elsewhere. Both are correctly rounded, so the results are identical.
+/// x86-64 (see [`sqrt_f64`]), libm elsewhere. Each is correctly rounded, so the results are
+/// identical.
 #[inline(always)]
 fn sqrt_f32(x: f32) -> f32 {
     #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]

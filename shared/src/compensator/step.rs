@@ -511,8 +511,9 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     ) -> Estimate<F> {
         let mut flags = e.flags;
         let groups = usize::from(self.z_groups);
-        let psi = (psi_sq, psi_max);
-        if !self.centres.is_empty() && weak::<F, K>(&self.centres, z, z_sq, groups, psi, self.weak_support) {
+        if !self.centres.is_empty()
+            && weak::<F, K>(&self.centres, z, z_sq, groups, (psi_sq, psi_max), self.weak_support)
+        {
             flags.insert(Flags::WEAK_SUPPORT);
         }
 

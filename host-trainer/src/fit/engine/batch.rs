@@ -3,7 +3,7 @@
 
 use fbg_shared::Estimate;
 
-use super::super::host::HostCompensator;
+use super::super::host::{HostCompensator, HostPreparedModel};
 use super::Engine;
 
 impl Engine {
@@ -74,21 +74,19 @@ fn batch_f64(c: &mut HostCompensator, samples: &[fbg_shared::Sample<f64>], out: 
                 None => (model.begin_batch(state, s, p), 0),
             };
             done += ended;
-            begun = Some((s, p, o, n));
+            begun = Some((s.get(..n).unwrap_or(&[]), p.get(..n).unwrap_or(&[]), o.get_mut(..n).unwrap_or(&mut [])));
         }
         done + begun.map_or(0, |b| end_par(model, b))
     })
 }
 
-/// A piece of the f64 batch begun and not yet ended: its samples, what their beginning left,
-/// where their estimates go, and how many were begun.
-type Begun<'a> = (&'a [fbg_shared::Sample<f64>], &'a [fbg_shared::Pending<f64>], &'a mut [Estimate<f64>], usize);
+/// A piece of the f64 batch begun and not yet ended: the samples begun, what their beginning
+/// left, and where their estimates go.
+type Begun<'a> = (&'a [fbg_shared::Sample<f64>], &'a [fbg_shared::Pending<f64>], &'a mut [Estimate<f64>]);
 
 /// End a begun piece on every core.
-fn end_par(model: &HostModel, (s, p, o, n): Begun<'_>) -> usize {
+fn end_par(model: &HostPreparedModel, (s, p, o): Begun<'_>) -> usize {
     use rayon::prelude::*;
-    let (s, p) = (s.get(..n).unwrap_or(&[]), p.get(..n).unwrap_or(&[]));
-    let o = o.get_mut(..n).unwrap_or(&mut []);
     s.par_chunks(PAR_SAMPLES)
         .zip(p.par_chunks(PAR_SAMPLES))
         .zip(o.par_chunks_mut(PAR_SAMPLES))
@@ -102,12 +100,9 @@ std::thread_local! {
     static PENDING: std::cell::RefCell<Vec<fbg_shared::Pending<f64>>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
-/// The host's f64 model, apart from a stream's state.
-type HostModel = fbg_shared::PreparedModel<f64, { super::super::host::HOST_CAP }>;
-
 /// [`fbg_shared::PreparedModel::end_batch`], in AVX2 where the processor has it.
 fn end_f64(
-    c: &HostModel,
+    c: &HostPreparedModel,
     samples: &[fbg_shared::Sample<f64>],
     pending: &[fbg_shared::Pending<f64>],
     out: &mut [Estimate<f64>],
@@ -127,7 +122,7 @@ fn end_f64(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn end_f64_avx2(
-    c: &HostModel,
+    c: &HostPreparedModel,
     samples: &[fbg_shared::Sample<f64>],
     pending: &[fbg_shared::Pending<f64>],
     out: &mut [Estimate<f64>],
