@@ -149,6 +149,8 @@ pub struct BenchFitOptions {
     pub threads: usize,
     /// The interrogator's stated stability \[pm/√day\], as `train --drift-spec`.
     pub drift_spec: Option<f64>,
+    /// The drift's relative gain per grating, as `train --drift-gains`.
+    pub drift_gains: Option<Vec<f64>>,
     /// Also write Model-H's per-sample hold-out errors and 95 % band half-widths to this CSV.
     pub holdout_errors: Option<std::path::PathBuf>,
 }
@@ -200,15 +202,25 @@ impl BenchFitOptions {
         }
     }
 
-    /// `opts` with the stated drift, checked; an error names the option as `name` does.
+    /// `opts` with the stated drift and its gains, checked; an error names the option as
+    /// `name` does.
     fn with_drift_spec(&self, opts: TrainOptions, name: &dyn Fn(&str) -> String) -> Result<TrainOptions, TrainerError> {
-        if self.drift_spec.is_none() {
-            return Ok(opts);
+        let opts = match self.drift_spec {
+            None => opts,
+            Some(_) => opts
+                .to_builder()
+                .drift_spec_pm_per_sqrt_day(self.drift_spec)
+                .check()
+                .map_err(|e| TrainerError::options(format!("{}: {e}", name("drift-spec"))))?,
+        };
+        match &self.drift_gains {
+            None => Ok(opts),
+            Some(g) => opts
+                .to_builder()
+                .drift_gains(Some(g.clone()))
+                .check()
+                .map_err(|e| TrainerError::options(format!("{}: {e}", name("drift-gains")))),
         }
-        opts.to_builder()
-            .drift_spec_pm_per_sqrt_day(self.drift_spec)
-            .check()
-            .map_err(|e| TrainerError::options(format!("{}: {e}", name("drift-spec"))))
     }
 
     /// Run the benchmark.

@@ -306,3 +306,36 @@ fn a_week_after_calibration_the_band_grows_with_the_drift() {
         }
     }
 }
+
+/// The drift's gains carry the stated walk to each output as Σᵢ gᵢ·∂y/∂λᵢ: gains of g on
+/// every grating scale it by g² (the plain sum times g), and a count other than the record's
+/// gratings is refused naming the gains. Paper preset, two days, seed 11.
+#[test]
+fn drift_gains_scale_the_stated_walk_through_each_output() {
+    use fbg_trainer::fit::{train, Origin, TrainOptions};
+    let mut cfg = Preset::Paper.config();
+    cfg.clock.days = 2.0;
+    let d = sim::simulate(&cfg, 11).data;
+    let origin = Origin { scenario: "paper".into(), seed: 11 };
+    let opts = |gains: Option<Vec<f64>>| {
+        TrainOptions::builder()
+            .centres(vec![4])
+            .sigma_mults(vec![1.0])
+            .alpha_rels(vec![1e-4])
+            .drift_spec_pm_per_sqrt_day(Some(2.0))
+            .drift_gains(gains)
+            .check()
+            .unwrap()
+    };
+    let rates = |gains: Option<Vec<f64>>| -> Vec<f64> {
+        let t = train(&d, &opts(gains), &origin).unwrap();
+        t.selection.var_model_h.iter().map(|v| v.stated_walk_rate).collect()
+    };
+    let (alike, doubled) = (rates(None), rates(Some(vec![2.0; 3])));
+    assert_eq!(alike.len(), 3);
+    for (a, b) in alike.iter().zip(&doubled) {
+        assert!(*a > 0.0 && (b / a - 4.0).abs() < 1e-9, "{alike:?} {doubled:?}");
+    }
+    let e = train(&d, &opts(Some(vec![1.0, 1.1])), &origin).err().unwrap().to_string();
+    assert!(e.contains("2 drift gains given for the 3 gratings"), "{e}");
+}

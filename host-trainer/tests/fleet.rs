@@ -346,6 +346,38 @@ fn a_stated_drift_in_the_manifest_is_checked_naming_its_key() {
     assert_eq!(m.groups[0].train_options().unwrap().drift_spec_pm_per_sqrt_day(), None);
 }
 
+/// `drift_gains` in `[defaults]` or a group: an array of numbers in -10 ..= 10, as
+/// `train --drift-gains`; anything else is refused naming the file and the key, and each
+/// group's job is trained with its own gains or the default's.
+#[test]
+fn drift_gains_in_the_manifest_are_checked_naming_their_key() {
+    let g = |name: &str, extra: &str| {
+        format!("\n[[group]]\nname = \"{name}\"\ndata = \"a.csv\"\nout = \"{name}.fbgm\"\n{extra}")
+    };
+    let key = "drift_gains";
+    for (bad, what) in [
+        ("1.1", "array of numbers"),
+        ("[1.0, \"x\"]", "array of numbers"),
+        ("[1.0, 11]", "drift gain 2 is 11"),
+        ("[]", "0 drift gains"),
+        ("[1.0, nan]", "NaN"),
+    ] {
+        let e = err_of(&format!("[defaults]\n{key} = {bad}\n{}", g("a", "")));
+        assert!(e.contains("m.toml") && e.contains(&format!("defaults.{key}")) && e.contains(what), "{bad}: {e}");
+        let e = err_of(&format!("{}{}", g("a", ""), g("b", &format!("{key} = {bad}\n"))));
+        assert!(e.contains(&format!("group[1].{key}")) && e.contains(what), "{bad}: {e}");
+    }
+    let d = tempfile::tempdir().unwrap();
+    let text =
+        format!("[defaults]\n{key} = [1, 1.1]\n{}{}", g("a", ""), g("b", &format!("{key} = [1.0, -2.0, 1.5]\n")));
+    let m = Manifest::from_str_at(&text, &d.path().join("m.toml")).unwrap();
+    let gains: Vec<Option<Vec<f64>>> =
+        m.groups.iter().map(|g| g.train_options().unwrap().drift_gains().map(<[f64]>::to_vec)).collect();
+    assert_eq!(gains, [Some(vec![1.0, 1.1]), Some(vec![1.0, -2.0, 1.5])]);
+    let m = Manifest::from_str_at(&g("a", ""), &d.path().join("m.toml")).unwrap();
+    assert_eq!(m.groups[0].train_options().unwrap().drift_gains(), None);
+}
+
 /// A stated drift reaches each group's fit: on the same record the band's growth is exactly
 /// what `train --drift-spec` fits; on temperature and pressure (the outputs a common-mode
 /// drift moves) the band adds the walk s_c²·q with q = spec²/86 400 s [pm²/s], far above the

@@ -20,11 +20,12 @@ use crate::model::Model;
 /// configuration instead of the cross-validated choice, as `bench-fit --fixed` (keys
 /// `feature_set`, `k`, `sigma_mult`, `alpha_rel`, `dead_band_pm`, `memory`). Returns Model-H, Model-P, the
 /// `coefficients.json` text and a JSON summary (chosen hyper-parameters, CV RMSE, warnings).
-/// `drift_spec` is the interrogator's stated stability [pm/√day], as `train --drift-spec`.
+/// `drift_spec` is the interrogator's stated stability [pm/√day], as `train --drift-spec`;
+/// `drift_gains` its relative gain per grating, as `train --drift-gains`.
 /// `precision` is only checked (predict's arithmetic, refused here rather than at the first
 /// predict). Runs without the GIL; Ctrl-C stops it.
 #[pyfunction]
-#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None, targets=None, precision="f64", drift_spec=None, zero=None))]
+#[pyo3(signature = (columns, cal=None, features="memory", max_centres=32, on_outlier="fail", seed=None, t0_unix_s=None, source="<frame>", scenario=None, sim_seed=0, fixed=None, targets=None, precision="f64", drift_spec=None, zero=None, drift_gains=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -43,6 +44,7 @@ pub fn fit(
     precision: &str,
     drift_spec: Option<f64>,
     zero: Option<crate::columns::Zero>,
+    drift_gains: Option<Vec<f64>>,
 ) -> PyResult<(Model, Model, String, String)> {
     crate::stream::precision(precision)?;
     // The columns given as y must all be references: another name would be dropped silently
@@ -70,6 +72,7 @@ pub fn fit(
         .drift_spec_pm_per_sqrt_day(drift_spec)
         .check()
         .map_err(|e| msg(format!("drift_spec: {e}")))?;
+    let opts = opts.to_builder().drift_gains(drift_gains).check().map_err(|e| msg(format!("drift_gains: {e}")))?;
     // The provenance `train` writes: the sidecar's scenario and seed, else the source's name.
     let origin = Origin { scenario: scenario.unwrap_or_else(|| source.to_string()), seed: sim_seed };
     let src = source.to_string();
@@ -107,6 +110,7 @@ fn fixed_options(f: &Bound<'_, PyDict>) -> PyResult<fbg_trainer::fit::TrainOptio
         threads: 0,
         holdout_errors: None,
         drift_spec: None,
+        drift_gains: None,
     };
     for key in f.keys() {
         let k: String = key.extract().map_err(|_| msg(format!("fixed: the key {key} is not a string")))?;

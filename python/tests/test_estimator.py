@@ -31,7 +31,8 @@ def test_params_round_trip_and_clone():
     est = fc.HybridCompensator(features="paper", max_centres=8, seed=3)
     p = est.get_params()
     assert p == dict(
-        features="paper", max_centres=8, on_outlier="fail", seed=3, precision="f64", outputs=None, fixed=None, drift_spec=None
+        features="paper", max_centres=8, on_outlier="fail", seed=3, precision="f64", outputs=None, fixed=None, drift_spec=None,
+        drift_gains=None,
     )
     est.set_params(max_centres=16, precision="f32")
     assert (est.max_centres, est.precision) == (16, "f32")
@@ -125,6 +126,25 @@ def test_a_stated_drift_widens_the_band_with_the_lead(cal, holdout, fitted):
         fc.HybridCompensator(**FIT, drift_spec=-1.0).fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
     with pytest.raises(ValueError, match="drift_spec: 'x' is not a number"):
         fc.HybridCompensator(**FIT, drift_spec="x").fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
+
+
+def test_drift_gains_carry_the_walk_per_grating(cal, holdout):
+    # Gains of one are the plain sum bit for bit; other gains change the band, never the values.
+    fit = lambda **kw: fc.HybridCompensator(**FIT, drift_spec=500.0, **kw).fit(cal[INPUTS], cal[OUTPUTS], t=cal["t_s"])
+    alike, ones, apart = fit(), fit(drift_gains=[1.0, 1.0, 1.0]), fit(drift_gains=(1.0, 1.5, 2.0))
+    v0, b0 = alike.predict(holdout[INPUTS], t=holdout["t_s"], return_band=True)
+    v1, b1 = ones.predict(holdout[INPUTS], t=holdout["t_s"], return_band=True)
+    v2, b2 = apart.predict(holdout[INPUTS], t=holdout["t_s"], return_band=True)
+    assert same_bits(v0, v1) and same_bits(b0, b1)
+    assert same_bits(v0, v2) and not same_bits(b0, b2)
+    with pytest.raises(fc.FbgError, match="2 drift gains given for the 3 gratings"):
+        fit(drift_gains=[1.0, 1.1])
+    with pytest.raises(fc.FbgError, match="drift_gains: drift gain 2 is 11"):
+        fit(drift_gains=[1.0, 11.0, 1.0])
+    with pytest.raises(ValueError, match=r"drift_gains\[1\]: 'x' is not a number"):
+        fit(drift_gains=[1.0, "x", 1.0])
+    with pytest.raises(ValueError, match="drift_gains: '1.0' is not a sequence"):
+        fit(drift_gains="1.0")
 
 
 def test_score_and_model_p(cal, holdout, fitted):

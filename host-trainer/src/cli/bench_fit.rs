@@ -66,6 +66,9 @@ pub struct BenchFitArgs {
     /// The interrogator's stated stability [pm/√day], as `train --drift-spec`.
     #[arg(long, value_name = "PM_PER_SQRT_DAY", allow_negative_numbers = true)]
     drift_spec: Option<f64>,
+    /// The drift's relative gain per grating, as `train --drift-gains`.
+    #[arg(long, value_name = "G1,G2,..", value_delimiter = ',', allow_negative_numbers = true)]
+    drift_gains: Option<Vec<f64>>,
 }
 
 impl BenchFitArgs {
@@ -86,6 +89,7 @@ impl BenchFitArgs {
             threads: self.threads,
             holdout_errors: self.holdout_errors,
             drift_spec: self.drift_spec,
+            drift_gains: self.drift_gains,
         }
         .run()?;
         if json {

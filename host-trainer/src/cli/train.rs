@@ -47,6 +47,12 @@ pub struct TrainArgs {
     /// Without it, the bands grow at the rate the calibration's errors show.
     #[arg(long, value_name = "PM_PER_SQRT_DAY", allow_negative_numbers = true)]
     drift_spec: Option<f64>,
+    /// The drift's relative gain per grating, comma-separated in the record's order (e.g.
+    /// `1.0,1.1,1.2` for an interrogator whose channels drift 10 and 20 % more than the
+    /// first): the bands take the walk through each output as those gains carry it. Without
+    /// it, every grating is taken to drift alike.
+    #[arg(long, value_name = "G1,G2,..", value_delimiter = ',', allow_negative_numbers = true)]
+    drift_gains: Option<Vec<f64>>,
     #[command(flatten)]
     sign: SignArgs,
 }
@@ -65,7 +71,8 @@ impl TrainArgs {
         // The options first: a value out of range is refused before any file is read.
         let on_outlier = self.on_error.parse().map_err(anyhow::Error::msg)?;
         let opts =
-            train_options(self.features.0, self.max_centres, !self.json, self.drift_spec)?.with_on_outlier(on_outlier);
+            train_options(self.features.0, self.max_centres, !self.json, (self.drift_spec, self.drift_gains.clone()))?
+                .with_on_outlier(on_outlier);
         let (base, coef) = (export::baseline_path(out), export::coefficients_path(out));
         let meta_file = meta_path(data);
         let keys = self.sign.key_files();
@@ -175,7 +182,7 @@ fn train_options(
     features: FeatureChoice,
     max_centres: usize,
     progress: bool,
-    drift_spec: Option<f64>,
+    (drift_spec, drift_gains): (Option<f64>, Option<Vec<f64>>),
 ) -> Result<TrainOptions> {
     let o = features.train_options(max_centres).map_err(|e| anyhow::anyhow!("--features/--max-centres: {e}"))?;
     let o = o
@@ -183,5 +190,6 @@ fn train_options(
         .drift_spec_pm_per_sqrt_day(drift_spec)
         .check()
         .map_err(|e| anyhow::anyhow!("--drift-spec: {e}"))?;
+    let o = o.to_builder().drift_gains(drift_gains).check().map_err(|e| anyhow::anyhow!("--drift-gains: {e}"))?;
     Ok(o.with_progress(progress))
 }

@@ -40,11 +40,19 @@ pub struct TrainOptions {
     /// The interrogator's stated wavelength stability as a random walk \[pm/√day\]: a walk the
     /// bands add beside the growth the calibration's errors show (`None`: the errors alone).
     drift_spec_pm_per_sqrt_day: Option<f64>,
+    /// The drift's relative gain per grating, in the record's order (`None`: one gain, every
+    /// grating walks the same path): an interrogator whose channels drift by different amounts
+    /// reaches each output through Σᵢ gᵢ·∂y/∂λᵢ, not through the plain sum.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    drift_gains: Option<Vec<f64>>,
 }
 
 /// Largest stated drift [pm/√day] accepted (a random walk of a nanometre per √day is no
 /// interrogator's specification, but a unit slip).
 pub const DRIFT_SPEC_MAX_PM_PER_SQRT_DAY: f64 = 1_000.0;
+
+/// Largest |relative drift gain| of a grating accepted (the simulator's range).
+pub const DRIFT_GAIN_MAX: f64 = 10.0;
 
 /// The command line's name of the option that leaves outlying rows out.
 pub const CLI_SKIP_OUTLIERS: &str = "train with `--on-error skip`";
@@ -64,6 +72,7 @@ impl Default for TrainOptions {
             skip_outliers_hint: CLI_SKIP_OUTLIERS,
             cancel: None,
             drift_spec_pm_per_sqrt_day: None,
+            drift_gains: None,
         }
     }
 }
@@ -137,6 +146,11 @@ impl TrainOptions {
     /// The interrogator's stated stability \[pm/√day\], if given.
     pub fn drift_spec_pm_per_sqrt_day(&self) -> Option<f64> {
         self.drift_spec_pm_per_sqrt_day
+    }
+
+    /// The drift's stated relative gain per grating, if given.
+    pub fn drift_gains(&self) -> Option<&[f64]> {
+        self.drift_gains.as_deref()
     }
 
     /// The stated stability as a walk rate \[pm²/s\] (`None` when not given).
@@ -267,9 +281,19 @@ impl TrainOptionsBuilder {
         self
     }
 
+    /// The drift's relative gain per grating, in the record's order (the interrogator's
+    /// per-channel stability over the stated one, e.g. `[1.0, 1.1, 1.2]`): the bands take the
+    /// walk through Σᵢ gᵢ·∂y/∂λᵢ instead of assuming every grating drifts alike. The fit
+    /// refuses a count other than the record's gratings.
+    pub fn drift_gains(mut self, gains: Option<Vec<f64>>) -> Self {
+        self.0.drift_gains = gains;
+        self
+    }
+
     /// The options, if the fit can use them: a CV layout of at least two blocks with
-    /// 1 <= `min_train_blocks` < `blocks`, a grid with at least one point, and a stated drift
-    /// (if any) in 0 ..= 1 000 pm/√day.
+    /// 1 <= `min_train_blocks` < `blocks`, a grid with at least one point, a stated drift
+    /// (if any) in 0 ..= 1 000 pm/√day and its gains (if any) finite, in −10 ..= 10, at
+    /// most one per grating a model carries.
     pub fn check(self) -> Result<TrainOptions, TrainerError> {
         self.check_ref()?;
         Ok(self.0)
@@ -285,6 +309,21 @@ impl TrainOptionsBuilder {
             if !(0.0..=DRIFT_SPEC_MAX_PM_PER_SQRT_DAY).contains(&s) {
                 return Err(TrainerError::options(format!(
                     "the stated drift is {s} pm/√day; give 0 to {DRIFT_SPEC_MAX_PM_PER_SQRT_DAY} pm/√day"
+                )));
+            }
+        }
+        if let Some(g) = &o.drift_gains {
+            if g.is_empty() || g.len() > fbg_shared::layout::MAX_GRATINGS {
+                return Err(TrainerError::options(format!(
+                    "{} drift gains given; give one per grating (1 to {})",
+                    g.len(),
+                    fbg_shared::layout::MAX_GRATINGS
+                )));
+            }
+            if let Some((i, v)) = g.iter().enumerate().find(|(_, v)| !(-DRIFT_GAIN_MAX..=DRIFT_GAIN_MAX).contains(*v)) {
+                return Err(TrainerError::options(format!(
+                    "drift gain {} is {v}; give -{DRIFT_GAIN_MAX} to {DRIFT_GAIN_MAX}",
+                    i + 1
                 )));
             }
         }
@@ -314,6 +353,21 @@ mod tests {
         }
         let o = TrainOptions::builder().drift_spec_pm_per_sqrt_day(Some(2.0)).check().unwrap();
         assert!((o.drift_spec_rate_pm2_per_s().unwrap() - 4.0 / 86_400.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn drift_gains_outside_their_range_are_refused_naming_the_gain() {
+        for (bad, says) in [
+            (vec![], "0 drift gains"),
+            (vec![1.0, f64::NAN], "drift gain 2 is NaN"),
+            (vec![1.0, 1.1, 11.0], "drift gain 3 is 11"),
+            (vec![1.0; fbg_shared::layout::MAX_GRATINGS + 1], "drift gains given"),
+        ] {
+            let e = TrainOptions::builder().drift_gains(Some(bad)).check().unwrap_err().to_string();
+            assert!(e.contains(says), "{e}");
+        }
+        let o = TrainOptions::builder().drift_gains(Some(vec![1.0, -1.2])).check().unwrap();
+        assert_eq!(o.drift_gains(), Some(&[1.0, -1.2][..]));
     }
 
     #[test]

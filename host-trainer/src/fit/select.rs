@@ -255,10 +255,11 @@ impl<'a> Cv<'a> {
     /// (without them for the ablation), with Model-P's validation errors; `db` is the dead band
     /// of the latch stream Model-P stands for. Also the drift's walk in the errors
     /// ([`super::random_walk`]): per output the growth s_c²·q_d \[unit²/s\], with s_c the
-    /// common-mode sensitivity of the fold with the largest training set.
+    /// common-mode sensitivity (Σᵢ gᵢ·∂y/∂λᵢ with the stated drift gains, else Σᵢ ∂y/∂λᵢ) of
+    /// the fold with the largest training set.
     fn model_p_pass(&self, db: f64) -> Result<ModelPPass, TrainerError> {
         let (d, m, cross_terms) = (self.d, self.dims.n_outputs(), self.opts.cross_terms());
-        let n = self.dims.gratings();
+        let (n, gains) = (self.dims.gratings(), self.opts.drift_gains());
         let last = self.folds.len().saturating_sub(1);
         let per_fold: Result<Vec<(FoldCore, FoldErrors, FoldWalk)>, TrainerError> = self
             .folds
@@ -271,12 +272,16 @@ impl<'a> Cv<'a> {
                 let p = self.stream_model(&core_full, &f.train, db)?;
                 let ck = self.cache.get(&p, d)?;
                 let est = design::run_with(&p, d, &f.val, Some(&ck))?;
-                // A drift moves every grating and leaves the thermometer: T_amb held. The last
-                // fold's (the closest to the final model) serves every fold.
+                // A drift moves every grating (by its stated gain, else alike) and leaves the
+                // thermometer: T_amb held. The last fold's (the closest to the final model)
+                // serves every fold.
                 let common: Option<Vec<f64>> = (fi == last).then(|| {
                     sensitivity::core_jacobian(&p, &[0.0; MAX_OUTPUTS])
                         .iter()
-                        .map(|row| row.iter().take(n).sum())
+                        .map(|row| match gains {
+                            Some(g) => row.iter().zip(g).map(|(j, g)| j * g).sum(),
+                            None => row.iter().take(n).sum(),
+                        })
                         .collect()
                 });
                 let t_val: Vec<f64> = f.val.iter().map(|&i| d.t_s[i]).collect();

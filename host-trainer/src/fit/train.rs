@@ -51,6 +51,13 @@ pub fn train(d: &Dataset, opts: &TrainOptions, origin: &Origin) -> Result<Traine
 pub fn train_source(d: &Dataset, source: &str, opts: &TrainOptions, origin: &Origin) -> Result<Trained, TrainerError> {
     // The model's dimensions are the data's: a dataset without references cannot be fitted.
     let dims = d.dims(source)?;
+    if let Some(g) = opts.drift_gains().filter(|g| g.len() != dims.gratings()) {
+        return Err(TrainerError::options(format!(
+            "{} drift gains given for the {} gratings of {source}; give one per grating, in its order",
+            g.len(),
+            dims.gratings()
+        )));
+    }
     // The record's input rule (the CSV reader applies it as it reads): a record handed over in
     // memory is held to it here, before an implausible cell's square overflows the fit.
     d.check_inputs().map_err(|(row, column, m)| TrainerError::data(source, outliers::csv_line(d, row), &column, m))?;

@@ -27,6 +27,7 @@ struct Defaults {
     max_centres: Option<usize>,
     /// Read as any TOML value, so that a string or a table is refused naming the key.
     drift_spec_pm_per_sqrt_day: Option<toml::Value>,
+    drift_gains: Option<toml::Value>,
     sign: Option<PathBuf>,
     serial_state: Option<PathBuf>,
 }
@@ -40,6 +41,7 @@ struct GroupFile {
     features: Option<String>,
     max_centres: Option<usize>,
     drift_spec_pm_per_sqrt_day: Option<toml::Value>,
+    drift_gains: Option<toml::Value>,
 }
 
 /// One sensor group of a manifest, paths resolved.
@@ -54,6 +56,10 @@ pub struct Group {
     /// 0 ..= 1 000): a floor under the band's growth with the drift's walk.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub drift_spec_pm_per_sqrt_day: Option<f64>,
+    /// The drift's relative gain per grating (as `train --drift-gains`; an array of numbers,
+    /// one per grating of the group's record).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_gains: Option<Vec<f64>>,
     /// The key id the group's blobs are signed with (hex), when the run signs.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub signed_by: Option<String>,
@@ -61,13 +67,14 @@ pub struct Group {
 
 impl Group {
     /// The options the group is trained with: as `train --features F --max-centres K
-    /// [--drift-spec X]`.
+    /// [--drift-spec X] [--drift-gains G1,..]`.
     pub fn train_options(&self) -> Result<TrainOptions, TrainerError> {
         self.features
             .train_options(self.max_centres)
             .map_err(TrainerError::options)?
             .to_builder()
             .drift_spec_pm_per_sqrt_day(self.drift_spec_pm_per_sqrt_day)
+            .drift_gains(self.drift_gains.clone())
             .check()
     }
 
@@ -139,6 +146,41 @@ fn drift_spec(path: &Path, key: &str, v: Option<&toml::Value>) -> Result<Option<
     Ok(Some(spec))
 }
 
+/// The key of the drift's gains in `[defaults]` and in a `[[group]]`.
+const DRIFT_GAINS_KEY: &str = "drift_gains";
+
+/// The drift's gains as the manifest gives them (an array of numbers), checked as
+/// `train --drift-gains` is (the count against the record's gratings when the group trains);
+/// errors name the file and `key`.
+fn drift_gains(path: &Path, key: &str, v: Option<&toml::Value>) -> Result<Option<Vec<f64>>, TrainerError> {
+    let Some(v) = v else { return Ok(None) };
+    let not_numbers = |what: &toml::Value| {
+        config_error(
+            path,
+            key,
+            format!(
+                "must be an array of numbers, one per grating; got the {} `{}`",
+                what.type_str(),
+                crate::error::quote_cell(&what.to_string())
+            ),
+        )
+    };
+    let toml::Value::Array(items) = v else { return Err(not_numbers(v)) };
+    let gains = items
+        .iter()
+        .map(|x| match x {
+            toml::Value::Float(f) => Ok(*f),
+            toml::Value::Integer(i) => Ok(*i as f64),
+            other => Err(not_numbers(other)),
+        })
+        .collect::<Result<Vec<f64>, TrainerError>>()?;
+    TrainOptions::builder()
+        .drift_gains(Some(gains.clone()))
+        .check_ref()
+        .map_err(|e| config_error(path, key, e.to_string()))?;
+    Ok(Some(gains))
+}
+
 impl Manifest {
     /// Read and validate a manifest file; errors name the file and the key
     /// (`group[2].max_centres`, ...).
@@ -160,6 +202,8 @@ impl Manifest {
         // Checked even when every group gives its own.
         let default_drift =
             drift_spec(path, &format!("defaults.{DRIFT_SPEC_KEY}"), raw.defaults.drift_spec_pm_per_sqrt_day.as_ref())?;
+        let default_gains =
+            drift_gains(path, &format!("defaults.{DRIFT_GAINS_KEY}"), raw.defaults.drift_gains.as_ref())?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let resolve = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
         let mut groups: Vec<Group> = Vec::with_capacity(raw.group.len());
@@ -196,6 +240,10 @@ impl Manifest {
                 Some(v) => drift_spec(path, &key(DRIFT_SPEC_KEY), Some(v))?,
                 None => default_drift,
             };
+            let drift_gains = match &g.drift_gains {
+                Some(v) => drift_gains(path, &key(DRIFT_GAINS_KEY), Some(v))?,
+                None => default_gains.clone(),
+            };
             let group = Group {
                 name: g.name,
                 data: resolve(&g.data),
@@ -203,6 +251,7 @@ impl Manifest {
                 features,
                 max_centres,
                 drift_spec_pm_per_sqrt_day,
+                drift_gains,
                 signed_by: None,
             };
             for p in [lexical(&group.out), lexical(&group.baseline_path())] {

@@ -25,6 +25,9 @@ pub(crate) fn input_digest(g: &Group, csv: &[u8]) -> String {
     if let Some(spec) = g.drift_spec_pm_per_sqrt_day {
         d.update(format!("drift_spec_pm_per_sqrt_day={spec:?};").as_bytes());
     }
+    if let Some(gains) = &g.drift_gains {
+        d.update(format!("drift_gains={gains:?};").as_bytes());
+    }
     d.update(&(csv.len() as u64).to_le_bytes());
     d.update(csv);
     // The record's zero and clock shape the blob too; only when there is a sidecar, so that

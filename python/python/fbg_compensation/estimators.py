@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import numbers
-from typing import Any, Dict, Optional, Sequence
+from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
 
@@ -77,6 +77,7 @@ class _Compensator(_Base, _Regressor):
         outputs: Optional[Sequence[str]] = None,
         fixed: Optional[Dict[str, Any]] = None,
         drift_spec: Optional[float] = None,
+        drift_gains: Optional[Sequence[float]] = None,
     ) -> None:
         self.features = features
         self.max_centres = max_centres
@@ -86,6 +87,7 @@ class _Compensator(_Base, _Regressor):
         self.outputs = outputs
         self.fixed = fixed
         self.drift_spec = drift_spec
+        self.drift_gains = drift_gains
 
     # --- fit -------------------------------------------------------------------------------
     def fit(self, X: Any, y: Any, t: Any = None, *, t0_unix_s: Optional[float] = None, zero: Any = None, cal: Any = None):
@@ -131,6 +133,7 @@ class _Compensator(_Base, _Regressor):
             precision=_text("precision", self.precision),
             drift_spec=None if self.drift_spec is None else _number("drift_spec", self.drift_spec),
             zero=_attrs_zero(X) if zero is None else _zero("zero", zero),
+            drift_gains=_gains("drift_gains", self.drift_gains),
         )
         self.model_h_ = Model(h)
         self.model_p_ = Model(p)
@@ -228,6 +231,16 @@ def _number(name: str, value: Any) -> float:
     return float(value)
 
 
+def _gains(name: str, value: Any) -> Optional[List[float]]:
+    """``value`` (None, or a sequence of numbers) as a list of floats, or a ValueError naming
+    the parameter and the entry; their count and range are the trainer's to check."""
+    if value is None:
+        return None
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise ValueError(f"{name}: {value!r:.40} is not a sequence of numbers (one per grating)")
+    return [_number(f"{name}[{i}]", v) for i, v in enumerate(value)]
+
+
 class HybridCompensator(_Compensator):
     """Model-H, the hybrid compensator (DESIGN §4): the polynomial core on the first-guess
     measurands, its memory terms, and the RBF residual with its 95 % band, fitted as
@@ -243,7 +256,9 @@ class HybridCompensator(_Compensator):
     of ``feature_set``, ``k``, ``sigma_mult``, ``alpha_rel``, ``dead_band_pm``, ``memory``),
     ``drift_spec`` (the interrogator's stated stability as a random walk [pm/√day], as
     ``fbg-trainer train --drift-spec``: the band adds such a drift's walk through each
-    output; None: the rate the calibration's errors show)."""
+    output; None: the rate the calibration's errors show), ``drift_gains`` (the drift's
+    relative gain per grating, in X's order, as ``fbg-trainer train --drift-gains``; None:
+    every grating drifts alike)."""
 
     _which = "h"
 

@@ -14,7 +14,7 @@ use super::report::{
 };
 use super::runner::{read_json, Runner, SimMeta};
 use super::stats::{at, median};
-use super::{holdout_errors_csv, preset_csv, COVERAGE_SEEDS, DRIFT_SPEC_PM_PER_SQRT_DAY};
+use super::{drift_statement, holdout_errors_csv, preset_csv, COVERAGE_SEEDS};
 
 /// Width of the lead-time bins of the ensemble band \[s\].
 const ENSEMBLE_BIN_S: f64 = 7200.0;
@@ -36,22 +36,15 @@ impl SeedRun {
 
 /// `bench-fit --select` on the coverage run of `preset` and `seed`, writing Model-H's hold-out
 /// errors for the ensemble band.
-fn coverage_run(r: &Runner, preset: &str, seed: u64) -> Result<(FitBench, String)> {
+fn coverage_run(root: &Path, r: &Runner, preset: &str, seed: u64) -> Result<(FitBench, String)> {
     let csv = preset_csv(preset, seed);
     let errs = holdout_errors_csv(preset, seed);
-    r.trainer(&[
-        "bench-fit",
-        "--data",
-        &csv,
-        "--select",
-        "--repeats",
-        "1",
-        "--json",
-        "--holdout-errors",
-        &errs,
-        "--drift-spec",
-        DRIFT_SPEC_PM_PER_SQRT_DAY,
-    ])
+    let mut args: Vec<String> =
+        ["bench-fit", "--data", &csv, "--select", "--repeats", "1", "--json", "--holdout-errors", &errs]
+            .map(String::from)
+            .to_vec();
+    args.extend(drift_statement(root, &csv)?);
+    r.trainer(&args)
 }
 
 /// Every table of the part has a column per output: each fit must have the part's outputs.
@@ -71,7 +64,7 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
     let mut channels = Vec::new();
     for preset in ["paper", "harsh"] {
         let csv = preset_csv(preset, 7);
-        let (def, c_def) = coverage_run(r, preset, 7)?;
+        let (def, c_def) = coverage_run(root, r, preset, 7)?;
         let (pap, c_pap): (FitBench, _) =
             r.trainer(&["bench-fit", "--data", &csv, "--select", "--features", "paper", "--repeats", "1", "--json"])?;
         same_outputs(&mut channels, &def, &c_def)?;
@@ -112,7 +105,7 @@ pub fn part(root: &Path, r: &Runner, peer_ok: bool) -> Result<Accuracy> {
         });
     }
     for &seed in &COVERAGE_SEEDS[1..] {
-        let (v, c) = coverage_run(r, "paper", seed)?;
+        let (v, c) = coverage_run(root, r, "paper", seed)?;
         same_outputs(&mut channels, &v, &c)?;
         let mut run = SeedRun::of(seed, &v, c);
         if peer_ok {

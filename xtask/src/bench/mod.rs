@@ -236,6 +236,20 @@ fn data(n: usize) -> String {
 /// (DESIGN §3), 0.05 · √1440 ≈ 1.9 pm/√day, as its datasheet would state it.
 pub const DRIFT_SPEC_PM_PER_SQRT_DAY: &str = "1.9";
 
+/// The interrogator's statement every bench `train` and `bench-fit` is given for the simulated
+/// record `csv`: [`DRIFT_SPEC_PM_PER_SQRT_DAY`] and, from the record's `.meta.json`, the
+/// drift's gain per channel (`--drift-gains`; the simulated interrogator's channels walk by
+/// different gains, as a datasheet's per-channel stability would state).
+fn drift_statement(root: &Path, csv: &str) -> Result<Vec<String>> {
+    let meta: runner::SimMeta = runner::read_json(&root.join(csv.replace(".csv", ".meta.json")))?;
+    let mut args = vec!["--drift-spec".to_string(), DRIFT_SPEC_PM_PER_SQRT_DAY.to_string()];
+    if let Some(s) = meta.scenario {
+        let gains: Vec<String> = s.drift.channel_gain.iter().map(f64::to_string).collect();
+        args.extend(["--drift-gains".to_string(), gains.join(",")]);
+    }
+    Ok(args)
+}
+
 fn preset_csv(preset: &str, seed: u64) -> String {
     format!("target/bench/data/{preset}-s{seed}.csv")
 }

@@ -13,7 +13,7 @@ use fbg_report::{Metrics, ModelEval, PaceRow};
 use super::report::{at_most, EvalRun, FieldBench, PaceBench, PaceSummary};
 use super::runner::Runner;
 use super::stats::{at, fold_nan, mean};
-use super::{preset_csv, COVERAGE_SEEDS, DRIFT_SPEC_PM_PER_SQRT_DAY};
+use super::{drift_statement, preset_csv, COVERAGE_SEEDS};
 
 /// Band coverage Model-H must reach on every channel of every pace record of every seed
 /// (fraction; DESIGN §5: no seed below 85 %).
@@ -28,11 +28,12 @@ fn model_path(preset: &str, seed: u64) -> String {
 
 /// `train`, then `evaluate --quick` (no refit; the pace study re-simulates the installation from
 /// the CSV's `.meta.json`) on the simulated dataset of `preset` and `seed`.
-fn train_eval(r: &Runner, preset: &str, seed: u64) -> Result<EvalRun> {
+fn train_eval(root: &Path, r: &Runner, preset: &str, seed: u64) -> Result<EvalRun> {
     let csv = preset_csv(preset, seed);
     let model = model_path(preset, seed);
-    let (_, train_command): (serde_json::Value, _) =
-        r.trainer(&["train", "--data", &csv, "--out", &model, "--json", "--drift-spec", DRIFT_SPEC_PM_PER_SQRT_DAY])?;
+    let mut args: Vec<String> = ["train", "--data", &csv, "--out", &model, "--json"].map(String::from).to_vec();
+    args.extend(drift_statement(root, &csv)?);
+    let (_, train_command): (serde_json::Value, _) = r.trainer(&args)?;
     let (e, evaluate_command): (Metrics, _) =
         r.trainer(&["evaluate", "--quick", "--data", &csv, "--model", &model, "--json"])?;
     if e.seed != seed {
@@ -59,8 +60,9 @@ fn train_eval(r: &Runner, preset: &str, seed: u64) -> Result<EvalRun> {
 /// its pace studies summarised only.
 pub fn part(root: &Path, r: &Runner) -> Result<(PaceBench, FieldBench)> {
     fs::create_dir_all(root.join("target/bench/models"))?;
-    let runs =
-        |preset: &str| -> Result<Vec<EvalRun>> { COVERAGE_SEEDS.iter().map(|&s| train_eval(r, preset, s)).collect() };
+    let runs = |preset: &str| -> Result<Vec<EvalRun>> {
+        COVERAGE_SEEDS.iter().map(|&s| train_eval(root, r, preset, s)).collect()
+    };
     let paper = runs("paper")?;
     let pace_paper = PaceBench {
         preset: "paper".into(),

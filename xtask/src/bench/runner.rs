@@ -142,6 +142,21 @@ pub struct FleetOut {
 pub struct SimMeta {
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
     pub oracle_floor_holdout: Vec<f64>,
+    /// The scenario the record was simulated from (what the bench reads of it).
+    #[serde(default)]
+    pub scenario: Option<SimScenario>,
+}
+
+/// The part of a simulated record's scenario the bench reads.
+#[derive(Clone, Debug, Deserialize)]
+pub struct SimScenario {
+    pub drift: SimDrift,
+}
+
+/// The simulated interrogator's drift: its gain per channel.
+#[derive(Clone, Debug, Deserialize)]
+pub struct SimDrift {
+    pub channel_gain: Vec<f64>,
 }
 
 /// `sklearn_peer.py versions`.
