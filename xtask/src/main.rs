@@ -110,6 +110,10 @@ enum Task {
         /// xtask board`), into the BENCHMARKS.json already there
         #[arg(long, conflicts_with_all = ["quick", "no_device", "markdown_only", "spectrum_only", "import_memory_only"])]
         footprint_only: bool,
+        /// Only the hold-out band coverage of `array-8` and `strain-pair` over the coverage
+        /// seeds (their records simulated when missing), into the BENCHMARKS.json already there
+        #[arg(long, conflicts_with_all = ["quick", "no_device", "markdown_only", "spectrum_only", "import_memory_only", "footprint_only"])]
+        installations_only: bool,
     },
     /// The sharded fleet on a single-node Slurm started here (installs slurm-wlm and munge;
     /// needs root; not part of test); writes target/slurm/slurm.json
@@ -156,12 +160,26 @@ fn run_task(task: Task) -> Result<()> {
         }
         Task::DeviceBench { profile: true } => device_bench::profile::run(&root),
         Task::DeviceBench { profile: false } => device_bench::run(&root).map(|_| ()),
-        Task::Bench { quick, no_device, markdown_only, spectrum_only, import_memory_only, footprint_only } => {
-            bench::run_bench(
-                &root,
-                &bench::Opts { quick, no_device, markdown_only, spectrum_only, import_memory_only, footprint_only },
-            )
-        }
+        Task::Bench {
+            quick,
+            no_device,
+            markdown_only,
+            spectrum_only,
+            import_memory_only,
+            footprint_only,
+            installations_only,
+        } => bench::run_bench(
+            &root,
+            &bench::Opts {
+                quick,
+                no_device,
+                markdown_only,
+                spectrum_only,
+                import_memory_only,
+                footprint_only,
+                installations_only,
+            },
+        ),
         Task::Slurm => slurm::run_all(&root),
         Task::Board => board::run_all(&root).map(|_| ()),
         Task::Fixtures { write_default } => fixtures_task(write_default),

@@ -36,7 +36,7 @@ impl SeedRun {
 
 /// `bench-fit --select` on the coverage run of `preset` and `seed`, writing Model-H's hold-out
 /// errors for the ensemble band.
-fn coverage_run(root: &Path, r: &Runner, preset: &str, seed: u64) -> Result<(FitBench, String)> {
+pub(super) fn coverage_run(root: &Path, r: &Runner, preset: &str, seed: u64) -> Result<(FitBench, String)> {
     let csv = preset_csv(preset, seed);
     let errs = holdout_errors_csv(preset, seed);
     let mut args: Vec<String> =

@@ -68,7 +68,7 @@ fn median_of(run: Option<&FitRun>) -> f64 {
 }
 
 /// Items joined by " / " (one per output).
-fn slash(v: impl IntoIterator<Item = impl std::fmt::Display>) -> String {
+pub(super) fn slash(v: impl IntoIterator<Item = impl std::fmt::Display>) -> String {
     v.into_iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" / ")
 }
 
@@ -83,7 +83,7 @@ fn pct(v: &[f64], digits: usize) -> String {
 }
 
 /// Fractions as percentages joined by " / ".
-fn pcts(v: &[f64]) -> String {
+pub(super) fn pcts(v: &[f64]) -> String {
     pct(v, 1)
 }
 
@@ -148,7 +148,7 @@ fn short(name: &str) -> &str {
 }
 
 /// The outputs, "T / ε / p".
-fn channel_names(channels: &[String]) -> String {
+pub(super) fn channel_names(channels: &[String]) -> String {
     slash(channels.iter().map(|n| short(n)))
 }
 
@@ -176,6 +176,9 @@ pub fn markdown(rep: &Report) -> String {
     inference(&mut s, &rep.inference_host);
     accuracy(&mut s, &rep.accuracy);
     pace_section(&mut s, rep);
+    if let Some(inst) = &rep.installations {
+        super::installations::markdown(&mut s, inst);
+    }
     device(&mut s, rep);
     fleet(&mut s, &rep.fleet);
     if let Some(m) = &rep.memory {

@@ -383,6 +383,7 @@ mod tests {
             spectrum_only: false,
             import_memory_only: false,
             footprint_only: false,
+            installations_only: false,
         };
         let m = part(&root, &r, &opts).unwrap();
         let mut s = String::new();

@@ -12,7 +12,8 @@
 //!
 //! `cargo xtask bench --spectrum-only [--quick]` measures only the spectrum part
 //! ([`spectrum`]) into the BENCHMARKS.json already there; `--import-memory-only [--quick]`
-//! only the spectra import's peak memory ([`memory::spectra_import`]).
+//! only the spectra import's peak memory ([`memory::spectra_import`]); `--installations-only`
+//! only the hold-out band coverage of `array-8` and `strain-pair` ([`installations`]).
 //!
 //! `cargo xtask bench [--quick] [--no-device]`: `--quick` takes one round of one repeat (for
 //! trying the task out, not for publishing); `--no-device` reuses `target/bench/device.json`
@@ -42,6 +43,7 @@ pub mod accuracy;
 pub mod device;
 pub mod fleet;
 pub mod inference;
+pub mod installations;
 pub mod machine;
 pub mod markdown;
 pub mod memory;
@@ -78,6 +80,8 @@ pub struct Opts {
     pub import_memory_only: bool,
     /// Only the firmware's footprint: the Ed25519 verifier table and the board's figures.
     pub footprint_only: bool,
+    /// Only the hold-out band coverage of the other installations.
+    pub installations_only: bool,
 }
 
 /// `cargo xtask bench`.
@@ -94,6 +98,9 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     }
     if opts.footprint_only {
         return device::footprint_only(root);
+    }
+    if opts.installations_only {
+        return installations::only(root);
     }
     let r = Runner { root: root.to_path_buf() };
     let data_dir = root.join("target/bench/data");
@@ -125,6 +132,9 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
 
     step("bench: accuracy peers and band coverage");
     let accuracy = accuracy::part(root, &r, peer_ok)?;
+
+    step("bench: hold-out band coverage of the other installations (`array-8`, `strain-pair`)");
+    let installations = installations::part(root, &r)?;
 
     step("bench: static fidelity and pace study (train + evaluate --quick), `paper` and `field`");
     let (pace_paper, field) = pace::part(root, &r)?;
@@ -161,6 +171,7 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
         pace_paper: Some(pace_paper),
         spectrum: Some(spectrum),
         field: Some(field),
+        installations: Some(installations),
         slurm: runner::read_json::<Report>(&root.join("BENCHMARKS.json")).ok().and_then(|old| old.slurm),
         python,
     };
@@ -169,8 +180,8 @@ pub fn run_bench(root: &Path, opts: &Opts) -> Result<()> {
     device.map(|_| ())
 }
 
-/// The datasets every part reads: the three sizes of the training study, the `paper` and
-/// `field` presets for every coverage seed and `harsh` for seed 7. The commands that made them.
+/// The datasets every part reads: the three sizes of the training study, the `paper`, `field`,
+/// `array-8` and `strain-pair` presets for every coverage seed and `harsh` for seed 7. The commands that made them.
 fn simulate_datasets(root: &Path, r: &Runner) -> Result<Vec<String>> {
     let data_dir = root.join("target/bench/data");
     let mut cmds = Vec::new();
@@ -179,7 +190,7 @@ fn simulate_datasets(root: &Path, r: &Runner) -> Result<Vec<String>> {
         fs::write(&toml, format!("# {n} samples over the 14 days of the paper clock\n[clock]\ndt_s = {dt}\n"))?;
         cmds.push(r.simulate(&["--config", &rel(&toml, root), "--seed", "7", "--json", "--out", &data(n)])?);
     }
-    for preset in ["paper", "harsh", "field"] {
+    for preset in ["paper", "harsh", "field", installations::PRESETS[0], installations::PRESETS[1]] {
         let seeds: &[u64] = if preset == "harsh" { &[7] } else { &COVERAGE_SEEDS };
         for &seed in seeds {
             let (seed, csv) = (seed.to_string(), preset_csv(preset, seed));

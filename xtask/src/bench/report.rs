@@ -54,6 +54,10 @@ pub struct Report {
     /// `evaluate --quick` per seed (absent from files written before it was measured).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub field: Option<FieldBench>,
+    /// The hold-out band coverage of `array-8` and `strain-pair` over the coverage seeds
+    /// (absent from files written before it was measured).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub installations: Option<Vec<super::installations::InstallationCoverage>>,
     /// Peak detection in spectra: throughput, accuracy table, the spectrum chain
     /// (absent from files written before it was measured).
     #[serde(default, skip_serializing_if = "Option::is_none")]
