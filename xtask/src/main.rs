@@ -87,34 +87,7 @@ enum Task {
     /// Every benchmark: host fit times (ours and the scikit-learn peer), host inference
     /// throughput, accuracy peers, band coverage, fleet scaling and the device part; writes
     /// BENCHMARKS.md and BENCHMARKS.json
-    Bench {
-        /// One round of one repeat (for trying the task out, not for publishing)
-        #[arg(long)]
-        quick: bool,
-        /// Reuse target/bench/device.json instead of running QEMU
-        #[arg(long)]
-        no_device: bool,
-        /// Only BENCHMARKS.md, rendered again from BENCHMARKS.json (measures nothing)
-        #[arg(long, conflicts_with_all = ["quick", "no_device"])]
-        markdown_only: bool,
-        /// Only the spectrum part (detector throughput, accuracy table, the spectrum chain),
-        /// into the BENCHMARKS.json already there
-        #[arg(long, conflicts_with_all = ["no_device", "markdown_only"])]
-        spectrum_only: bool,
-        /// Only the peak memory of `import --format spectra-csv` on a 1 GB spectra file (0.1 GB
-        /// with --quick), into the BENCHMARKS.json already there
-        #[arg(long, conflicts_with_all = ["no_device", "markdown_only", "spectrum_only"])]
-        import_memory_only: bool,
-        /// Only the firmware's footprint (the product images' flash, RAM and stack, the Ed25519
-        /// verifier table from verify-only images, and the STM32F405 board's figures, `cargo
-        /// xtask board`), into the BENCHMARKS.json already there
-        #[arg(long, conflicts_with_all = ["quick", "no_device", "markdown_only", "spectrum_only", "import_memory_only"])]
-        footprint_only: bool,
-        /// Only the hold-out band coverage of `array-8` and `strain-pair` over the coverage
-        /// seeds (their records simulated when missing), into the BENCHMARKS.json already there
-        #[arg(long, conflicts_with_all = ["quick", "no_device", "markdown_only", "spectrum_only", "import_memory_only", "footprint_only"])]
-        installations_only: bool,
-    },
+    Bench(bench::Opts),
     /// The sharded fleet on a single-node Slurm started here (installs slurm-wlm and munge;
     /// needs root; not part of test); writes target/slurm/slurm.json
     Slurm,
@@ -160,26 +133,7 @@ fn run_task(task: Task) -> Result<()> {
         }
         Task::DeviceBench { profile: true } => device_bench::profile::run(&root),
         Task::DeviceBench { profile: false } => device_bench::run(&root).map(|_| ()),
-        Task::Bench {
-            quick,
-            no_device,
-            markdown_only,
-            spectrum_only,
-            import_memory_only,
-            footprint_only,
-            installations_only,
-        } => bench::run_bench(
-            &root,
-            &bench::Opts {
-                quick,
-                no_device,
-                markdown_only,
-                spectrum_only,
-                import_memory_only,
-                footprint_only,
-                installations_only,
-            },
-        ),
+        Task::Bench(opts) => bench::run_bench(&root, &opts),
         Task::Slurm => slurm::run_all(&root),
         Task::Board => board::run_all(&root).map(|_| ()),
         Task::Fixtures { write_default } => fixtures_task(write_default),

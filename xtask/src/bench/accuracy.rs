@@ -14,7 +14,7 @@ use super::report::{
 };
 use super::runner::{read_json, Runner, SimMeta};
 use super::stats::{at, median};
-use super::{drift_statement, holdout_errors_csv, preset_csv, COVERAGE_SEEDS};
+use super::{coverage_run, holdout_errors_csv, preset_csv, COVERAGE_SEEDS};
 
 /// Width of the lead-time bins of the ensemble band \[s\].
 const ENSEMBLE_BIN_S: f64 = 7200.0;
@@ -32,19 +32,6 @@ impl SeedRun {
             gb_hybrids: Vec::new(),
         }
     }
-}
-
-/// `bench-fit --select` on the coverage run of `preset` and `seed`, writing Model-H's hold-out
-/// errors for the ensemble band.
-pub(super) fn coverage_run(root: &Path, r: &Runner, preset: &str, seed: u64) -> Result<(FitBench, String)> {
-    let csv = preset_csv(preset, seed);
-    let errs = holdout_errors_csv(preset, seed);
-    let mut args: Vec<String> =
-        ["bench-fit", "--data", &csv, "--select", "--repeats", "1", "--json", "--holdout-errors", &errs]
-            .map(String::from)
-            .to_vec();
-    args.extend(drift_statement(root, &csv)?);
-    r.trainer(&args)
 }
 
 /// Every table of the part has a column per output: each fit must have the part's outputs.

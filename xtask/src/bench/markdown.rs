@@ -22,6 +22,7 @@ const SEEDS_WITHIN_2: usize = 16;
 mod accuracy;
 mod device;
 mod host;
+mod installations;
 mod pace;
 mod targets;
 
@@ -68,7 +69,7 @@ fn median_of(run: Option<&FitRun>) -> f64 {
 }
 
 /// Items joined by " / " (one per output).
-pub(super) fn slash(v: impl IntoIterator<Item = impl std::fmt::Display>) -> String {
+fn slash(v: impl IntoIterator<Item = impl std::fmt::Display>) -> String {
     v.into_iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" / ")
 }
 
@@ -83,7 +84,7 @@ fn pct(v: &[f64], digits: usize) -> String {
 }
 
 /// Fractions as percentages joined by " / ".
-pub(super) fn pcts(v: &[f64]) -> String {
+fn pcts(v: &[f64]) -> String {
     pct(v, 1)
 }
 
@@ -148,7 +149,7 @@ fn short(name: &str) -> &str {
 }
 
 /// The outputs, "T / ε / p".
-pub(super) fn channel_names(channels: &[String]) -> String {
+fn channel_names(channels: &[String]) -> String {
     slash(channels.iter().map(|n| short(n)))
 }
 
@@ -177,7 +178,7 @@ pub fn markdown(rep: &Report) -> String {
     accuracy(&mut s, &rep.accuracy);
     pace_section(&mut s, rep);
     if let Some(inst) = &rep.installations {
-        super::installations::markdown(&mut s, inst);
+        installations::installations(&mut s, inst);
     }
     device(&mut s, rep);
     fleet(&mut s, &rep.fleet);

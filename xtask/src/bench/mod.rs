@@ -69,18 +69,35 @@ const TRAINER: &str = "target/release/fbg-trainer";
 const PEER: &str = "bench/sklearn_peer.py";
 const VENV_PY: &str = "target/bench/venv/bin/python";
 
-/// The flags of `cargo xtask bench` (`--markdown-only` excludes the others).
+/// The flags of `cargo xtask bench` (`--markdown-only` excludes the others; each `--…-only`
+/// measures one part into the BENCHMARKS.json already there).
+#[derive(Debug, clap::Args)]
 pub struct Opts {
+    /// One round of one repeat (for trying the task out, not for publishing)
+    #[arg(long)]
     pub quick: bool,
+    /// Reuse target/bench/device.json instead of running QEMU
+    #[arg(long)]
     pub no_device: bool,
+    /// Only BENCHMARKS.md, rendered again from BENCHMARKS.json (measures nothing)
+    #[arg(long, conflicts_with_all = ["quick", "no_device"])]
     pub markdown_only: bool,
-    /// Only the spectrum part.
+    /// Only the spectrum part (detector throughput, accuracy table, the spectrum chain),
+    /// into the BENCHMARKS.json already there
+    #[arg(long, conflicts_with_all = ["no_device", "markdown_only"])]
     pub spectrum_only: bool,
-    /// Only the spectra import's peak memory.
+    /// Only the peak memory of `import --format spectra-csv` on a 1 GB spectra file (0.1 GB
+    /// with --quick), into the BENCHMARKS.json already there
+    #[arg(long, conflicts_with_all = ["no_device", "markdown_only", "spectrum_only"])]
     pub import_memory_only: bool,
-    /// Only the firmware's footprint: the Ed25519 verifier table and the board's figures.
+    /// Only the firmware's footprint (the product images' flash, RAM and stack, the Ed25519
+    /// verifier table from verify-only images, and the STM32F405 board's figures, `cargo
+    /// xtask board`), into the BENCHMARKS.json already there
+    #[arg(long, conflicts_with_all = ["quick", "no_device", "markdown_only", "spectrum_only", "import_memory_only"])]
     pub footprint_only: bool,
-    /// Only the hold-out band coverage of the other installations.
+    /// Only the hold-out band coverage of `array-8` and `strain-pair` over the coverage
+    /// seeds (their records simulated when missing), into the BENCHMARKS.json already there
+    #[arg(long, conflicts_with_all = ["quick", "no_device", "markdown_only", "spectrum_only", "import_memory_only", "footprint_only"])]
     pub installations_only: bool,
 }
 
@@ -259,6 +276,19 @@ fn drift_statement(root: &Path, csv: &str) -> Result<Vec<String>> {
         args.extend(["--drift-gains".to_string(), gains.join(",")]);
     }
     Ok(args)
+}
+
+/// `bench-fit --select` on the coverage run of `preset` and `seed`, writing Model-H's hold-out
+/// errors for the ensemble band.
+fn coverage_run(root: &Path, r: &Runner, preset: &str, seed: u64) -> Result<(fbg_report::FitBench, String)> {
+    let csv = preset_csv(preset, seed);
+    let errs = holdout_errors_csv(preset, seed);
+    let mut args: Vec<String> =
+        ["bench-fit", "--data", &csv, "--select", "--repeats", "1", "--json", "--holdout-errors", &errs]
+            .map(String::from)
+            .to_vec();
+    args.extend(drift_statement(root, &csv)?);
+    r.trainer(&args)
 }
 
 fn preset_csv(preset: &str, seed: u64) -> String {

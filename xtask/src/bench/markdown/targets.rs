@@ -11,7 +11,7 @@ pub(super) fn targets(s: &mut String, rep: &Report) {
         accuracy_targets(s, paper, acc);
     }
     if let Some(inst) = &rep.installations {
-        crate::bench::installations::target_row(s, inst);
+        super::installations::target_row(s, inst);
     }
     match rep.device_results() {
         Some(dev) => device_targets(s, dev, acc.presets.first()),
