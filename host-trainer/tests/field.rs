@@ -328,7 +328,9 @@ fn drift_gains_scale_the_stated_walk_through_each_output() {
             .unwrap()
     };
     let rates = |gains: Option<Vec<f64>>| -> Vec<f64> {
-        let t = train(&d, &opts(gains), &origin).unwrap();
+        let t = train(&d, &opts(gains.clone()), &origin).unwrap();
+        // What the bands were told travels with the model, for the audit.
+        assert_eq!((t.selection.stated_drift_pm_per_sqrt_day, &t.selection.stated_drift_gains), (Some(2.0), &gains));
         t.selection.var_model_h.iter().map(|v| v.stated_walk_rate).collect()
     };
     let (alike, doubled) = (rates(None), rates(Some(vec![2.0; 3])));

@@ -560,6 +560,8 @@ fn given_as_trained(
             var_model_p: Default::default(),
             var_model_h: Default::default(),
             drift_rate_pm2_per_s: None,
+            stated_drift_pm_per_sqrt_day: None,
+            stated_drift_gains: None,
             folds: vec![],
             n_cal: h.provenance.n_cal as usize,
             cv_stride: 1,

@@ -231,6 +231,8 @@ mod tests {
             var_model_p: vec![],
             var_model_h: vec![],
             drift_rate_pm2_per_s: None,
+            stated_drift_pm_per_sqrt_day: None,
+            stated_drift_gains: None,
             folds: vec![],
             n_cal: 300,
             cv_stride: 1,

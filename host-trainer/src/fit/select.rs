@@ -73,6 +73,14 @@ pub struct Selection {
     /// (`None`: validation stretches shorter than the structure function's lags), before any
     /// stated floor; the bands grow by at least s_c²·q_d per output.
     pub drift_rate_pm2_per_s: Option<f64>,
+    /// The interrogator's stated stability the bands added \[pm/√day\] (`train --drift-spec`;
+    /// absent when not given).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stated_drift_pm_per_sqrt_day: Option<f64>,
+    /// The drift's stated gain per grating the walk reached each output with (`train
+    /// --drift-gains`; absent when not given: every grating alike).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stated_drift_gains: Option<Vec<f64>>,
     /// Folds as (training samples, validation samples).
     pub folds: Vec<(usize, usize)>,
     /// Calibration samples used.
@@ -196,6 +204,8 @@ pub(crate) fn select(d: &Dataset, cal: &[usize], opts: &TrainOptions) -> Result<
         var_model_h,
         rows,
         drift_rate_pm2_per_s,
+        stated_drift_pm_per_sqrt_day: opts.drift_spec_pm_per_sqrt_day(),
+        stated_drift_gains: opts.drift_gains().map(<[f64]>::to_vec),
         folds: cv.folds.iter().map(|f| (f.train.len(), f.val.len())).collect(),
         n_cal: cal.len(),
         cv_stride: cv.stride,
