@@ -323,6 +323,15 @@ pub fn coefficients_text(
         "sensitivity": sensitivity_json(model_p),
         "warnings": warnings,
     });
+    // The interrogator's statement, only when given (other models' files stay as they were).
+    if let Some(sel) = selection.zip(v.get_mut("selection").and_then(|s| s.as_object_mut())) {
+        if let Some(spec) = sel.0.stated_drift_pm_per_sqrt_day {
+            sel.1.insert("stated_drift_pm_per_sqrt_day".into(), spec.into());
+        }
+        if let Some(g) = &sel.0.stated_drift_gains {
+            sel.1.insert("stated_drift_gains".into(), g.clone().into());
+        }
+    }
     if let (Some(sig), Some(obj)) = (signatures, v.as_object_mut()) {
         obj.insert("signatures".into(), sig);
     }

@@ -308,8 +308,9 @@ fn a_week_after_calibration_the_band_grows_with_the_drift() {
 }
 
 /// The drift's gains carry the stated walk to each output as Σᵢ gᵢ·∂y/∂λᵢ: gains of g on
-/// every grating scale it by g² (the plain sum times g), and a count other than the record's
-/// gratings is refused naming the gains. Paper preset, two days, seed 11.
+/// every grating scale it by g² (the plain sum times g), a gain on one grating alone gives
+/// that grating's sensitivity, and a count other than the record's gratings is refused naming
+/// the gains. Paper preset, two days, seed 11.
 #[test]
 fn drift_gains_scale_the_stated_walk_through_each_output() {
     use fbg_trainer::fit::{train, Origin, TrainOptions};
@@ -339,5 +340,34 @@ fn drift_gains_scale_the_stated_walk_through_each_output() {
         assert!(*a > 0.0 && (b / a - 4.0).abs() < 1e-9, "{alike:?} {doubled:?}");
     }
     let e = train(&d, &opts(Some(vec![1.0, 1.1])), &origin).err().unwrap().to_string();
-    assert!(e.contains("2 drift gains given for the 3 gratings"), "{e}");
+    assert!(e.contains("--drift-gains: 2 drift gains given for the 3 gratings"), "{e}");
+    // Each gain reaches its own grating: the gain of one grating alone gives that grating's
+    // sensitivity, s_c = |∂y_c/∂λᵢ| of the last fold's Model-P (the final Model-P's differ by
+    // up to a fifth on this short record). Strain hardly reads grating 3 and pressure hardly
+    // grating 1 (the final model's sensitivities say so too); a gain paired with another
+    // grating would move those small values to it.
+    let t = train(&d, &opts(None), &origin).unwrap();
+    let jac = fbg_trainer::fit::sensitivity::core_jacobian(&t.model_p, &[0.0; fbg_shared::layout::MAX_OUTPUTS]);
+    let q = 4.0 / 86_400.0;
+    let s: Vec<Vec<f64>> = (0..3)
+        .map(|i| {
+            let mut g = vec![0.0; 3];
+            g[i] = 1.0;
+            rates(Some(g)).iter().map(|r| (r / q).sqrt()).collect()
+        })
+        .collect();
+    for (c, small) in [(1, 2), (2, 0)] {
+        let others = (0..3).filter(|&i| i != small);
+        let least = |v: &dyn Fn(usize) -> f64| others.clone().map(v).fold(f64::INFINITY, f64::min);
+        assert!(jac[c][small].abs() < 0.3 * least(&|i| jac[c][i].abs()), "{jac:?}");
+        assert!(s[small][c] < 0.3 * least(&|i| s[i][c]), "output {c}: {s:?} ({jac:?})");
+    }
+    // The statement is in coefficients.json for the audit; the gains only when given.
+    let coef = |t: &fbg_trainer::fit::Trained| -> serde_json::Value {
+        serde_json::from_str(&fbg_trainer::export::ModelFiles::of(t, None).unwrap().coefficients).unwrap()
+    };
+    let sel = coef(&t)["selection"].clone();
+    assert_eq!((sel["stated_drift_pm_per_sqrt_day"].as_f64(), sel.get("stated_drift_gains")), (Some(2.0), None));
+    let t = train(&d, &opts(Some(vec![1.0, 1.1, 1.2])), &origin).unwrap();
+    assert_eq!(coef(&t)["selection"]["stated_drift_gains"], serde_json::json!([1.0, 1.1, 1.2]));
 }

@@ -72,7 +72,12 @@ pub fn fit(
         .drift_spec_pm_per_sqrt_day(drift_spec)
         .check()
         .map_err(|e| msg(format!("drift_spec: {e}")))?;
-    let opts = opts.to_builder().drift_gains(drift_gains).check().map_err(|e| msg(format!("drift_gains: {e}")))?;
+    let opts = opts
+        .to_builder()
+        .drift_gains(drift_gains)
+        .check()
+        .map_err(|e| msg(format!("drift_gains: {e}")))?
+        .with_drift_gains_name("drift_gains");
     // The provenance `train` writes: the sidecar's scenario and seed, else the source's name.
     let origin = Origin { scenario: scenario.unwrap_or_else(|| source.to_string()), seed: sim_seed };
     let src = source.to_string();

@@ -137,7 +137,7 @@ def test_drift_gains_carry_the_walk_per_grating(cal, holdout):
     v2, b2 = apart.predict(holdout[INPUTS], t=holdout["t_s"], return_band=True)
     assert same_bits(v0, v1) and same_bits(b0, b1)
     assert same_bits(v0, v2) and not same_bits(b0, b2)
-    with pytest.raises(fc.FbgError, match="2 drift gains given for the 3 gratings"):
+    with pytest.raises(fc.FbgError, match="drift_gains: 2 drift gains given for the 3 gratings"):
         fit(drift_gains=[1.0, 1.1])
     with pytest.raises(fc.FbgError, match="drift_gains: drift gain 2 is 11"):
         fit(drift_gains=[1.0, 11.0, 1.0])

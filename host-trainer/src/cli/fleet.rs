@@ -15,7 +15,8 @@ pub struct FleetArgs {
     #[command(subcommand)]
     command: Option<FleetCommand>,
     /// Manifest (TOML): `[[group]]` tables with name, data, out and optional features /
-    /// max_centres / drift_spec_pm_per_sqrt_day; `[defaults]` for the options groups leave out.
+    /// max_centres / drift_spec_pm_per_sqrt_day / drift_gains; `[defaults]` for the options
+    /// groups leave out.
     #[arg(long, required = true)]
     manifest: Option<PathBuf>,
     /// Groups calibrated at once (threads of the pool; 0: one per core).

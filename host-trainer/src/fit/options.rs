@@ -45,6 +45,9 @@ pub struct TrainOptions {
     /// reaches each output through Σᵢ gᵢ·∂y/∂λᵢ, not through the plain sum.
     #[serde(skip_serializing_if = "Option::is_none")]
     drift_gains: Option<Vec<f64>>,
+    /// How a refusal of the gains' count names them (the front end's word).
+    #[serde(skip)]
+    drift_gains_name: &'static str,
 }
 
 /// Largest stated drift [pm/√day] accepted (a random walk of a nanometre per √day is no
@@ -73,6 +76,7 @@ impl Default for TrainOptions {
             cancel: None,
             drift_spec_pm_per_sqrt_day: None,
             drift_gains: None,
+            drift_gains_name: "--drift-gains",
         }
     }
 }
@@ -151,6 +155,17 @@ impl TrainOptions {
     /// The drift's stated relative gain per grating, if given.
     pub fn drift_gains(&self) -> Option<&[f64]> {
         self.drift_gains.as_deref()
+    }
+
+    /// These options naming the drift's gains as `name` when the fit refuses their count
+    /// (default `--drift-gains`; Python and the fleet manifest name theirs).
+    pub fn with_drift_gains_name(self, drift_gains_name: &'static str) -> Self {
+        TrainOptions { drift_gains_name, ..self }
+    }
+
+    /// How a refusal of the gains' count names them.
+    pub(crate) fn drift_gains_name(&self) -> &'static str {
+        self.drift_gains_name
     }
 
     /// The stated stability as a walk rate \[pm²/s\] (`None` when not given).
@@ -326,6 +341,10 @@ impl TrainOptionsBuilder {
                     i + 1
                 )));
             }
+            // All zero would drop the walk from every band, the stated one and the one read.
+            if g.iter().all(|v| *v == 0.0) {
+                return Err(TrainerError::options("every drift gain is 0; give at least one that is not"));
+            }
         }
         o.grid.check()?;
         Ok(o)
@@ -362,6 +381,7 @@ mod tests {
             (vec![1.0, f64::NAN], "drift gain 2 is NaN"),
             (vec![1.0, 1.1, 11.0], "drift gain 3 is 11"),
             (vec![1.0; fbg_shared::layout::MAX_GRATINGS + 1], "drift gains given"),
+            (vec![0.0, -0.0], "every drift gain is 0"),
         ] {
             let e = TrainOptions::builder().drift_gains(Some(bad)).check().unwrap_err().to_string();
             assert!(e.contains(says), "{e}");

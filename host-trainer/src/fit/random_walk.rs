@@ -13,8 +13,10 @@
 //! independent) and leaves out the stationary and daily parts. It needs validation stretches
 //! longer than L₁ + 24 h; a shorter calibration gives no estimate (`None`).
 //!
-//! **One drift for every output.** The interrogator's drift moves every grating alike (DESIGN
-//! Eq. 8), so output c sees it through its common-mode sensitivity s_c = Σᵢ ∂ŷ_c/∂Δλᵢ. Each
+//! **One drift for every output.** The interrogator's drift moves every grating (DESIGN Eq. 8),
+//! each by its gain gᵢ when they are stated (`train --drift-gains`; else alike), so output c
+//! sees it through its common-mode sensitivity s_c = Σᵢ gᵢ·∂ŷ_c/∂Δλᵢ, and q_d is the rate of
+//! a channel of gain 1. Each
 //! output's errors, divided by s_c, estimate the same rate q_d \[pm²/s\]; the estimates are
 //! pooled with weights 1/D(L₁)² (the spread of an output's estimate grows with its own error
 //! in pm), and each output's band grows by s_c²·q_d. A load cycle of several days in the

@@ -53,7 +53,8 @@ pub fn train_source(d: &Dataset, source: &str, opts: &TrainOptions, origin: &Ori
     let dims = d.dims(source)?;
     if let Some(g) = opts.drift_gains().filter(|g| g.len() != dims.gratings()) {
         return Err(TrainerError::options(format!(
-            "{} drift gains given for the {} gratings of {source}; give one per grating, in its order",
+            "{}: {} drift gains given for the {} gratings of {source}; give one per grating, in its order",
+            opts.drift_gains_name(),
             g.len(),
             dims.gratings()
         )));

@@ -76,6 +76,7 @@ impl Group {
             .drift_spec_pm_per_sqrt_day(self.drift_spec_pm_per_sqrt_day)
             .drift_gains(self.drift_gains.clone())
             .check()
+            .map(|o| o.with_drift_gains_name("drift_gains"))
     }
 
     /// The Model-P blob beside the Model-H blob (`<stem>-p.fbgm`, as `train`).

@@ -7,6 +7,7 @@
 //! features = "memory"      # memory | hysteresis-aware | latch | paper | all (as `train --features`)
 //! max_centres = 32         # as `train --max-centres`
 //! drift_spec_pm_per_sqrt_day = 1.9  # optional: as `train --drift-spec` (0 to 1000 pm/√day)
+//! drift_gains = [1.0, 1.1, 1.2]     # optional: as `train --drift-gains` (one per grating)
 //! sign = "keys/lab.key"    # optional: sign every blob (as `train --sign`; `fleet --sign` overrides)
 //! serial_state = "state"   # optional: the serial ledger's directory (as `--serial-state`)
 //!
@@ -17,6 +18,7 @@
 //! features = "paper"       # optional, overrides the default
 //! max_centres = 16         # optional
 //! drift_spec_pm_per_sqrt_day = 0.5  # optional, overrides the default
+//! drift_gains = [1.0, 1.2, 0.9]     # optional, overrides the default
 //! ```
 //!
 //! Each group is trained as `train` would (Model-H blob `out`, Model-P blob `<stem>-p.fbgm`,

@@ -61,6 +61,7 @@ def fit(
     precision: str = "f64",
     drift_spec: Optional[float] = None,
     zero: Optional[List[Tuple[Optional[float], str]]] = None,
+    drift_gains: Optional[List[float]] = None,
 ) -> Tuple[Model, Model, str, str]: ...
 def simulate(
     preset: str = "paper", seed: int = 7, days: Optional[float] = None, dt_s: Optional[float] = None

@@ -257,7 +257,7 @@ class HybridCompensator(_Compensator):
     ``drift_spec`` (the interrogator's stated stability as a random walk [pm/√day], as
     ``fbg-trainer train --drift-spec``: the band adds such a drift's walk through each
     output; None: the rate the calibration's errors show), ``drift_gains`` (the drift's
-    relative gain per grating, in X's order, as ``fbg-trainer train --drift-gains``; None:
+    relative gain per grating, in the order ``dl1_pm..dlN_pm``, as ``fbg-trainer train --drift-gains``; None:
     every grating drifts alike)."""
 
     _which = "h"
