@@ -117,6 +117,16 @@ fn config_error(origin: &Path, key: impl Into<String>, message: impl Into<String
     TrainerError::Config { origin: origin.display().to_string(), key: key.into(), message: message.into() }
 }
 
+/// A TOML integer or float as a number (integers beyond 2^53 round; the range checks refuse
+/// any of them anyway); `None` for any other value.
+fn number(v: &toml::Value) -> Option<f64> {
+    match v {
+        toml::Value::Float(x) => Some(*x),
+        toml::Value::Integer(i) => Some(*i as f64),
+        _ => None,
+    }
+}
+
 /// The key of the stated drift in `[defaults]` and in a `[[group]]`.
 const DRIFT_SPEC_KEY: &str = "drift_spec_pm_per_sqrt_day";
 
@@ -124,21 +134,16 @@ const DRIFT_SPEC_KEY: &str = "drift_spec_pm_per_sqrt_day";
 /// `train --drift-spec` is; errors name the file and `key`.
 fn drift_spec(path: &Path, key: &str, v: Option<&toml::Value>) -> Result<Option<f64>, TrainerError> {
     let Some(v) = v else { return Ok(None) };
-    let spec = match v {
-        toml::Value::Float(x) => *x,
-        // Integers beyond 2^53 round; any of them is refused by the range check anyway.
-        toml::Value::Integer(i) => *i as f64,
-        other => {
-            return Err(config_error(
-                path,
-                key,
-                format!(
-                    "must be a number of pm/√day; got the {} `{}`",
-                    other.type_str(),
-                    crate::error::quote_cell(&other.to_string())
-                ),
-            ))
-        }
+    let Some(spec) = number(v) else {
+        return Err(config_error(
+            path,
+            key,
+            format!(
+                "must be a number of pm/√day; got the {} `{}`",
+                v.type_str(),
+                crate::error::quote_cell(&v.to_string())
+            ),
+        ));
     };
     TrainOptions::builder()
         .drift_spec_pm_per_sqrt_day(Some(spec))
@@ -167,14 +172,8 @@ fn drift_gains(path: &Path, key: &str, v: Option<&toml::Value>) -> Result<Option
         )
     };
     let toml::Value::Array(items) = v else { return Err(not_numbers(v)) };
-    let gains = items
-        .iter()
-        .map(|x| match x {
-            toml::Value::Float(f) => Ok(*f),
-            toml::Value::Integer(i) => Ok(*i as f64),
-            other => Err(not_numbers(other)),
-        })
-        .collect::<Result<Vec<f64>, TrainerError>>()?;
+    let gains =
+        items.iter().map(|x| number(x).ok_or_else(|| not_numbers(x))).collect::<Result<Vec<f64>, TrainerError>>()?;
     TrainOptions::builder()
         .drift_gains(Some(gains.clone()))
         .check_ref()

@@ -119,6 +119,7 @@ pub fn summarise(runs: &[EvalRun]) -> Vec<PaceSummary> {
                 mean_gain_pct: per(&|r, c| r.gain_pct(c), &avg),
                 worst_gain_pct: per(&|r, c| r.gain_pct(c), &min),
                 min_coverage_h: per(&|r, c| at(&r.coverage_h, c), &min),
+                mean_coverage_h: per(&|r, c| at(&r.coverage_h, c), &avg),
                 max_slope_dev_p: if steps { per(&|r, c| dev(&r.slope_p, c), &max) } else { Vec::new() },
                 max_slope_dev_h: if steps { per(&|r, c| dev(&r.slope_h, c), &max) } else { Vec::new() },
                 seeds_slopes_within_1pct: rows.iter().filter(|r| r.slopes_within(SLOPE_TOL)).count(),

@@ -135,7 +135,7 @@ pub(super) fn pace_targets(s: &mut String, rep: &Report) {
                 pb.runs.len(),
                 seeds_verdict(cov_ok == n_rec && n_rec > 0, seeds_cov, &pb.runs)
             );
-            calibrated_coverage_target(s, pb, ch);
+            calibrated_coverage_target(s, "paper", &seed_range(&pb.runs), &pb.summary, ch);
         }
     }
     match rep.field.as_ref().filter(|f| !f.runs.is_empty()) {
@@ -144,45 +144,29 @@ pub(super) fn pace_targets(s: &mut String, rep: &Report) {
     }
 }
 
-/// Model-H's band coverage per record label, mean over the seeds that have the record, per
-/// channel.
-fn mean_coverage_by_record(pb: &PaceBench, nc: usize) -> Vec<(String, Vec<f64>)> {
-    let mut by: Vec<(String, Vec<f64>, usize)> = Vec::new();
-    for row in pb.runs.iter().filter_map(|r| r.pace.as_ref()).flat_map(|p| &p.rows) {
-        let i = match by.iter().position(|b| b.0 == row.label) {
-            Some(i) => i,
-            None => {
-                by.push((row.label.clone(), vec![0.0; nc], 0));
-                by.len() - 1
-            }
-        };
-        let b = &mut by[i];
-        (0..nc).for_each(|c| b.1[c] += row.coverage_h.get(c).copied().unwrap_or(f64::NAN));
-        b.2 += 1;
-    }
-    by.into_iter().map(|(l, sum, n)| (l, sum.iter().map(|v| v / n.max(1) as f64).collect())).collect()
-}
-
-/// DESIGN §4's calibration of the band on every record: the mean over the seeds within
-/// 95 ± 3 % per channel (too wide counts as much as too narrow).
-fn calibrated_coverage_target(s: &mut String, pb: &PaceBench, ch: &[String]) {
-    let means = mean_coverage_by_record(pb, ch.len());
+/// DESIGN §4's calibration of the band on every record of `preset`'s pace study: the mean
+/// over the seeds within 95 ± 3 % per channel (too wide counts as much as too narrow).
+fn calibrated_coverage_target(s: &mut String, preset: &str, seeds: &str, summary: &[PaceSummary], ch: &[String]) {
     let outside = |v: &f64| (v - 0.95).abs() > 0.03 || v.is_nan();
-    let off: Vec<String> =
-        means.iter().filter(|(_, m)| m.iter().any(outside)).map(|(l, m)| format!("{l} {} %", pcts(m))).collect();
-    let (lo, hi) =
-        means.iter().flat_map(|(_, m)| m).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+    let off: Vec<String> = summary
+        .iter()
+        .filter(|r| r.mean_coverage_h.iter().any(outside))
+        .map(|r| format!("{} {} %", r.label, pcts(&r.mean_coverage_h)))
+        .collect();
+    let (lo, hi) = summary
+        .iter()
+        .flat_map(|r| &r.mean_coverage_h)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
     out!(
         s,
-        "| pace (`paper`): Model-H band coverage, mean over seeds {} within 95 ± 3 % per channel on every record (DESIGN §4) | record means {} – {} %; outside on {} of {} records ({}): {} | {} | same runs |",
-        seed_range(&pb.runs),
+        "| pace (`{preset}`): Model-H band coverage, mean over seeds {seeds} within 95 ± 3 % per channel on every record (DESIGN §4) | record means {} – {} %; outside on {} of {} records ({}): {} | {} | same runs |",
         f(100.0 * lo, 1),
         f(100.0 * hi, 1),
         off.len(),
-        means.len(),
+        summary.len(),
         channel_names(ch),
         if off.is_empty() { "none".to_string() } else { off.join("; ") },
-        yes(!means.is_empty() && off.is_empty())
+        yes(!summary.is_empty() && off.is_empty())
     );
 }
 
@@ -218,6 +202,7 @@ fn field_targets(s: &mut String, fb: &FieldBench) {
         pcts(&lowest),
         yes(mean_ok && lowest.iter().all(|&c| c >= 0.85))
     );
+    calibrated_coverage_target(s, "field", &seed_range(&fb.runs), &fb.pace_summary, ch);
 }
 
 /// The pace study and the `field` preset (absent from files written before them).

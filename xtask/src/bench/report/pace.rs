@@ -53,14 +53,16 @@ pub struct PaceSummary {
     /// Seeds on which Model-H's band coverage ≥ `PACE_MIN_COVERAGE` (85 %) on every channel
     /// (the name is the JSON's, from when the bound was 90 %).
     pub seeds_coverage_h_90: usize,
-    /// Per channel over the seeds: the mean and the smallest gain [%], the smallest Model-H
-    /// band coverage (fraction).
+    /// Per channel over the seeds: the mean and the smallest gain [%], the smallest and the
+    /// mean Model-H band coverage (fraction).
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
     pub mean_gain_pct: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
     pub worst_gain_pct: Vec<f64>,
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
     pub min_coverage_h: Vec<f64>,
+    #[serde(default = "nan::missing", deserialize_with = "nan::read")]
+    pub mean_coverage_h: Vec<f64>,
     /// Steps record only: per channel, the largest |slope − 1| over the seeds, each model, and
     /// the seeds on which every slope of both models is within 1 %.
     #[serde(default = "nan::missing", deserialize_with = "nan::read")]
