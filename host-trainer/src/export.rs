@@ -172,7 +172,7 @@ pub fn model_json(p: &HostParams, core: Option<&PolyCore>) -> serde_json::Value 
             "fallback_band_var_at_cal_end": head(&p.trust.fallback_var, dims.n_outputs()),
             "fallback_band_var_growth_per_s": head(&p.trust.fallback_var_growth, dims.n_outputs()),
             "pace": {
-                "meaning": "beyond the calibration's pace (rho = the largest ratio over the inputs of the RMS swing, a band-pass of the input from fast_tau_s to slow_tau_s averaged in square over window_s, or of the RMS speed, the rate of the fast low-pass averaged in square over window_s, to its largest calibration value) what Model-H adds fades to nothing at rho = 2; the band's variance is multiplied by the thermometer's own rho squared where above 1 (the largest over every input when the model reads no thermometer): the lags are the temperature's",
+                "meaning": "beyond the calibration's pace (rho = the largest ratio over the inputs of the RMS swing, a band-pass of the input from fast_tau_s to slow_tau_s averaged in square over window_s, or of the RMS speed, the rate of the fast low-pass averaged in square over window_s, to its largest calibration value) what Model-H adds fades to nothing at rho = 2 and the band's variance is multiplied by rho squared",
                 "fast_tau_s": fbg_shared::compensator::SWING_FAST_TAU_S,
                 "slow_tau_s": fbg_shared::compensator::SWING_SLOW_TAU_S,
                 "window_s": fbg_shared::compensator::PACE_WINDOW_S,

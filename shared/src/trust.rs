@@ -33,15 +33,10 @@
 //!   the swing reads only the amplitude), `speed_rms_max`². Beyond either, with ρ = max over
 //!   the inputs of √(P / P_max) and √(Q / Q_max): what Model-H
 //!   adds to the core fades linearly to nothing at ρ = 2 (flagged
-//!   [`crate::Flags::FALLBACK`], not a fault). The band's variance is multiplied by the
-//!   thermometer's ρ² (its own ratio √(P / P_max), √(Q / Q_max); every input's, the largest,
-//!   when the model reads no thermometer) where that is above 1: a lag error grows at most in
-//!   proportion to the pace and noise does not grow, so a width in proportion to ρ bounds
-//!   what a faster pace can add; and the lags are the temperature's (a thermometer behind the
-//!   air, a structure behind its thermometer, reaching every output through the thermal
-//!   cross-sensitivity), while the gratings read strain and pressure without one, so a strain
-//!   or pressure moving faster than in the calibration leaves the band as it was (the memory
-//!   terms still fade: they were fitted at the calibration's pace).
+//!   [`crate::Flags::FALLBACK`], not a fault), and the band's variance is multiplied by ρ² —
+//!   a lag error grows at most in proportion to the pace and noise does not grow, so the
+//!   band's width in proportion to ρ bounds what the faster pace can add without a model of
+//!   how much of the error was lag.
 //! - **The slowest pace.** A pace slower than any the calibration showed is outside it too
 //!   (the lag and memory terms were fitted on the rates it saw): each envelope input's swing
 //!   power had a smallest value there once the filters had settled, `swing_rms_min`². With the

@@ -198,7 +198,7 @@ fn print_model(p: &HostParams) {
             f32s(fbg_shared::layout::head(&t.fallback_var, p.dims.n_outputs())),
         );
         println!(
-            "trust: the calibration's pace, largest RMS swings [{}] (per input, its unit) and speeds [{}] (its unit per second): beyond either Model-H fades; beyond the thermometer's (every input's without one) the band widens",
+            "trust: the calibration's pace, largest RMS swings [{}] (per input, its unit) and speeds [{}] (its unit per second): beyond either Model-H fades and the band widens",
             f32s(fbg_shared::layout::head(&t.swing_rms_max, ne)),
             f32s(fbg_shared::layout::head(&t.speed_rms_max, ne)),
         );

@@ -170,8 +170,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         let guarded = self.memory.is_active() && tr.rate_max.iter().any(|&r| r > G::ZERO);
         self.gate =
             if guarded { Gate::new(&self.env_lo, &self.env_hi, params.dims.envelope_len(), tr) } else { Gate::off() };
-        self.pace =
-            if guarded { Pace::new(tr, params.dims.envelope_len(), params.dims.ambient()) } else { Pace::off() };
+        self.pace = if guarded { Pace::new(tr, params.dims.envelope_len()) } else { Pace::off() };
         let on = self.memory.is_active();
         for (o, &q) in self.quiet_max_s.iter_mut().zip(tr.quiet_max_s.iter()) {
             *o = if on { F::from_real(q) } else { F::ZERO };

@@ -31,9 +31,8 @@ struct Entered<F> {
     latch: [F; MAX_GRATINGS],
     /// How much of what Model-H adds is kept.
     fade: F,
-    /// The band's ρ², the pace of the inputs that widen it against the calibration's
-    /// ([`crate::trust`]; 0 without a pace term).
-    band_sq: F,
+    /// ρ², the stream's pace against the calibration's (0 without a pace term).
+    pace_sq: F,
 }
 
 /// The first part of a step: the sample answered already (non-finite, refused by the gate) or
@@ -486,15 +485,15 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             if !self.finite_where_fitted(&core) {
                 return Entry::Done(Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE)));
             }
-            let scale = self.pace_ratios_sq(state).2.max(F::ONE);
+            let scale = self.pace_ratio_sq(state).max(F::ONE);
             return Entry::Done(self.finish::<M>(core, F::ZERO, lead, F::ZERO, scale, flags));
         }
         let mut y = core;
         let latch = self.advance_state::<G>(state, s, &mut y);
         // Beyond the calibration's quiet time or its pace, what Model-H adds to the core fades.
-        let (pace_sq, slow_sq, band_sq) = self.pace_ratios_sq(state);
+        let (pace_sq, slow_sq) = self.pace_ratios_sq(state);
         let fade = self.fade::<G>(state, s.t_s, pace_sq, slow_sq);
-        Entry::In(Entered { flags, lead, core, y, latch, fade, band_sq })
+        Entry::In(Entered { flags, lead, core, y, latch, fade, pace_sq })
     }
 
     /// The rest of a step, after the RBF pass over the sample's inputs `z` (‖z‖² `z_sq`) gave
@@ -539,15 +538,21 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         if !self.finite_where_fitted(&y) {
             return Estimate::refused(self.outputs, flags.union(Flags::NON_FINITE));
         }
-        self.finish::<M>(y, lev, e.lead, fade, e.band_sq.max(F::ONE), flags)
+        self.finish::<M>(y, lev, e.lead, fade, e.pace_sq.max(F::ONE), flags)
     }
 
-    /// ρ², the slowness σ² and the band's ρ² of the stream ([`crate::trust`]); each 0 without
-    /// a pace term.
+    /// ρ², the square of the stream's pace against the calibration's ([`crate::trust`]); 0
+    /// without a pace term.
     #[inline(always)]
-    fn pace_ratios_sq(&self, state: &StreamState<F>) -> (F, F, F) {
+    fn pace_ratio_sq(&self, state: &StreamState<F>) -> F {
+        self.pace_ratios_sq(state).0
+    }
+
+    /// ρ² and the slowness σ² of the stream ([`crate::trust`]); both 0 without a pace term.
+    #[inline(always)]
+    fn pace_ratios_sq(&self, state: &StreamState<F>) -> (F, F) {
         if self.pace.is_off() {
-            (F::ZERO, F::ZERO, F::ZERO)
+            (F::ZERO, F::ZERO)
         } else {
             self.pace.ratios_sq(state.gate().swing())
         }

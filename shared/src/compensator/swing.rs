@@ -16,8 +16,6 @@
 //! angular frequency ω reads A·ω/√(1 + (ωτ_fast)²), growing with ω up to A/τ_fast, and white
 //! noise of σ adds about σ/τ_fast), and its power Q = LP_window(v²). The pace ratio of a
 //! stream is ρ = max_k max(√(P_k / P_max,k), √(Q_k / Q_max,k)) ([`Pace::ratios_sq`] gives ρ²).
-//! The band's widening reads the thermometer's ratio alone when the model reads one
-//! ([`crate::trust`], "the pace").
 //!
 //! A pace slower than the calibration's slowest is outside it too: its slowness is
 //! σ = max_k √(P_min,k / P_k), P_min,k the smallest power of input k over the calibration once
@@ -133,7 +131,7 @@ impl<F: Real> SwingFilter<F> {
 }
 
 /// The calibration's pace, folded at load: 1 / P_max and 1 / Q_max of each input (0: not
-/// read), P_min (0: not read), and the first input whose pace widens the band.
+/// read), and P_min (0: not read).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Pace<F> {
     inv_max: [F; MAX_ENVELOPE],
@@ -141,9 +139,6 @@ pub(super) struct Pace<F> {
     min: [F; MAX_ENVELOPE],
     /// Inputs read (0: no pace term).
     n: u8,
-    /// Whether the last input (the thermometer) alone widens the band; every input otherwise
-    /// ([`crate::trust`]).
-    band_last: bool,
 }
 
 impl<F: Real> Pace<F> {
@@ -154,13 +149,12 @@ impl<F: Real> Pace<F> {
             inv_speed_max: [F::ZERO; MAX_ENVELOPE],
             min: [F::ZERO; MAX_ENVELOPE],
             n: 0,
-            band_last: false,
         }
     }
 
-    /// The pace term of a trust spec over `n` envelope inputs, the last of them the thermometer
-    /// when `ambient`; off when no input has a calibration swing or speed, largest or smallest.
-    pub(super) fn new<G: Real>(trust: &TrustSpec<G>, n: usize, ambient: bool) -> Self {
+    /// The pace term of a trust spec over `n` envelope inputs; off when no input has a
+    /// calibration swing or speed, largest or smallest.
+    pub(super) fn new<G: Real>(trust: &TrustSpec<G>, n: usize) -> Self {
         let mut p = Pace::off();
         let pairs = p
             .inv_max
@@ -184,7 +178,6 @@ impl<F: Real> Pace<F> {
         }
         if on {
             p.n = n as u8;
-            p.band_last = ambient;
         }
         p
     }
@@ -195,15 +188,14 @@ impl<F: Real> Pace<F> {
         self.n == 0
     }
 
-    /// (ρ², σ², ρ_band²) of `filter`: ρ² = max_k max(P_k / P_max,k, Q_k / Q_max,k), the
-    /// slowness ratio² max_k P_min,k / P_k, at most 4 (where the fade has reached 0; a filter
-    /// that has seen nothing gives the cap, without a division), and the band's ρ², the same
-    /// maximum over the inputs that widen the band (the thermometer's alone when the model reads
-    /// one); each 0 without its calibration figures. One pass over the inputs.
+    /// (ρ², σ²) of `filter`: ρ² = max_k max(P_k / P_max,k, Q_k / Q_max,k), and the slowness
+    /// ratio² max_k P_min,k / P_k, at most 4 (where the fade has reached 0; a filter that has
+    /// seen nothing gives the cap, without a division); each 0 without its calibration
+    /// figures. One pass over the inputs.
     #[inline(always)]
-    pub(super) fn ratios_sq(&self, filter: &SwingFilter<F>) -> (F, F, F) {
+    pub(super) fn ratios_sq(&self, filter: &SwingFilter<F>) -> (F, F) {
         let four = F::from_f64(4.0);
-        let (mut r, mut slow, mut last) = (F::ZERO, F::ZERO, F::ZERO);
+        let (mut r, mut slow) = (F::ZERO, F::ZERO);
         let n = usize::from(self.n);
         let model = head(&self.inv_max, n).iter().zip(head(&self.inv_speed_max, n)).zip(head(&self.min, n));
         for (((&inv, &inv_speed), &min), (&p, &q)) in model.zip(filter.power.iter().zip(filter.speed_power.iter())) {
@@ -211,7 +203,6 @@ impl<F: Real> Pace<F> {
             if v > r {
                 r = v;
             }
-            last = v;
             let v = if min <= F::ZERO {
                 F::ZERO
             } else if p * four <= min {
@@ -223,6 +214,6 @@ impl<F: Real> Pace<F> {
                 slow = v;
             }
         }
-        (r, slow, if self.band_last { last } else { r })
+        (r, slow)
     }
 }
