@@ -6,6 +6,8 @@
 //!   calibrates with a loop of known length.
 //! - DWT CYCCNT for real hardware (QEMU does not model cycles and reads 0 there).
 
+use core::hint::black_box;
+
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::{DCB, DWT, SYST};
 
@@ -54,4 +56,24 @@ pub fn cycles_start(dcb: &mut DCB, dwt: &mut DWT) -> bool {
 #[inline(always)]
 pub fn cycles_now() -> u32 {
     DWT::cycle_count()
+}
+
+/// Iterations of [`known_loop`] a calibration runs: 2 × this instructions.
+pub const CALIB_ITERS: u32 = 100_000;
+
+/// `iters` iterations of a two-instruction loop (`subs`, `bne`).
+#[inline(never)]
+pub fn known_loop(iters: u32) {
+    let mut n = iters;
+    // SAFETY: register-only arithmetic loop.
+    unsafe {
+        core::arch::asm!(
+            "2:",
+            "subs {n}, {n}, #1",
+            "bne 2b",
+            n = inout(reg) n,
+            options(nomem, nostack)
+        );
+    }
+    black_box(n);
 }

@@ -14,6 +14,7 @@ pub mod counters;
 pub mod led;
 mod logger;
 pub mod product;
+pub mod rfc8032;
 pub mod store_flash;
 pub mod uart;
 

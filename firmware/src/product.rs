@@ -44,3 +44,45 @@ pub fn link_and_alarm() -> (CmsdkUart, FpgaioLed) {
     let alarm = unsafe { FpgaioLed::new(0) };
     (uart, alarm)
 }
+
+/// A product image of this board: `struct $name`, a [`Board`] with the trust policy `$policy`
+/// and its model store on `$flash` (`$open` opens it, called once from `Board::bring_up`).
+/// The images differ only there (the product, the rollback image, the power-cut image); each
+/// adds its `#[entry]` calling `run_product::<$name>()`.
+#[macro_export]
+macro_rules! mps2_board {
+    ($name:ident, policy: $policy:expr, flash: $flash:ty = $open:expr) => {
+        /// The product on the MPS2 board (`fbg_firmware::mps2_board!`).
+        struct $name;
+
+        impl $crate::product::Board for $name {
+            type Link = $crate::uart::CmsdkUart;
+            type Alarm = $crate::led::FpgaioLed;
+            type Flash = $flash;
+            const NAME: &'static str = $crate::product::NAME;
+            const POLICY: fbg_firmware_app::Policy = $policy;
+            const REQUIRE_SIGNED_DEFAULT: bool = $crate::trust::REQUIRE_SIGNED_DEFAULT;
+            const TEST_KEY_ONLY: bool = $crate::trust::TEST_KEY_ONLY;
+
+            fn start_clock() {
+                $crate::product::start_clock()
+            }
+            fn elapsed_us() -> Option<u32> {
+                $crate::product::elapsed_us()
+            }
+            fn bring_up() -> ($crate::uart::CmsdkUart, $crate::led::FpgaioLed, $flash) {
+                let (link, alarm) = $crate::product::link_and_alarm();
+                (link, alarm, $open)
+            }
+            fn device_slot() -> &'static mut core::mem::MaybeUninit<$crate::product::BoardDevice<Self>> {
+                static mut SLOT: core::mem::MaybeUninit<$crate::product::BoardDevice<$name>> =
+                    core::mem::MaybeUninit::uninit();
+                // SAFETY: called once (`run_product`).
+                unsafe { &mut *core::ptr::addr_of_mut!(SLOT) }
+            }
+            fn fatal() -> ! {
+                $crate::exit_failure()
+            }
+        }
+    };
+}

@@ -20,6 +20,7 @@ use core::convert::Infallible;
 use core::ptr::{read_volatile, write_volatile};
 
 use embedded_io::{ErrorType, Read, ReadReady, Write, WriteReady};
+use fbg_firmware_device::link::{read_available, ByteReceiver};
 
 /// Base address of UART0 on the MPS2 AN385/AN386 (QEMU `mps2-an386` serial0).
 pub const UART0_BASE: usize = 0x4000_4000;
@@ -171,30 +172,19 @@ impl ErrorType for CmsdkUart {
     type Error = Infallible;
 }
 
+impl ByteReceiver for CmsdkUart {
+    fn try_read_byte(&mut self) -> Option<u8> {
+        CmsdkUart::try_read_byte(self)
+    }
+    fn idle(&mut self) {
+        CmsdkUart::idle(self)
+    }
+}
+
 impl Read for CmsdkUart {
     /// Block until at least one byte arrived, then return what is there without blocking.
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
-        if buf.is_empty() {
-            return Ok(0);
-        }
-        let mut n = 0;
-        for slot in buf.iter_mut() {
-            let byte = loop {
-                match self.try_read_byte() {
-                    Some(b) => break Some(b),
-                    None if n > 0 => break None,
-                    None => self.idle(),
-                }
-            };
-            match byte {
-                Some(b) => {
-                    *slot = b;
-                    n += 1;
-                }
-                None => break,
-            }
-        }
-        Ok(n)
+        Ok(read_available(self, buf))
     }
 }
 

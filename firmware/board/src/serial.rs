@@ -11,6 +11,7 @@ use core::convert::Infallible;
 use cortex_m::peripheral::NVIC;
 use embedded_hal_nb::serial::{Read as NbRead, Write as NbWrite};
 use embedded_io::{ErrorType, Read, ReadReady, Write, WriteReady};
+use fbg_firmware_device::link::{read_available, ByteReceiver};
 use stm32f4xx_hal::pac::Interrupt;
 use stm32f4xx_hal::serial::{Instance, Rx, RxISR, RxListen, Tx};
 
@@ -81,27 +82,19 @@ impl<U: Instance> ErrorType for Link<U> {
     type Error = Infallible;
 }
 
+impl<U: Instance> ByteReceiver for Link<U> {
+    fn try_read_byte(&mut self) -> Option<u8> {
+        Link::try_read_byte(self)
+    }
+    fn idle(&mut self) {
+        Link::idle(self)
+    }
+}
+
 impl<U: Instance> Read for Link<U> {
     /// Block until at least one byte arrived, then return what is there without blocking.
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, Infallible> {
-        let mut n = 0;
-        for slot in buf.iter_mut() {
-            let byte = loop {
-                match self.try_read_byte() {
-                    Some(b) => break Some(b),
-                    None if n > 0 => break None,
-                    None => self.idle(),
-                }
-            };
-            match byte {
-                Some(b) => {
-                    *slot = b;
-                    n += 1;
-                }
-                None => break,
-            }
-        }
-        Ok(n)
+        Ok(read_available(self, buf))
     }
 }
 

@@ -4,11 +4,15 @@
 //! `#[entry]` calling `run_product::<ItsBoard>()`; a board gives the link, the alarm, the
 //! store's flash, its trust policy, the static the device lives in and its fatal path.
 //!
-//! [`stack`]: the stack high-water mark by painting, which every board reports. [`trust`] and
+//! [`golden`]: the golden-vector run every board's golden image makes. [`link`]: the serial
+//! link's blocking read every board's driver shares. [`stack`]: the stack high-water mark by
+//! painting, which every board reports. [`trust`] and
 //! [`POLICY`]: the signature policy every board's images are built with (the build script).
 
 #![no_std]
 
+pub mod golden;
+pub mod link;
 pub mod stack;
 
 use core::mem::MaybeUninit;

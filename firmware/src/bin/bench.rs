@@ -25,7 +25,9 @@ use core::hint::black_box;
 
 use cortex_m_rt::entry;
 use embedded_io::Write;
-use fbg_firmware::counters::{cycles_now, cycles_start, systick_elapsed, systick_now, systick_start};
+use fbg_firmware::counters::{
+    cycles_now, cycles_start, known_loop, systick_elapsed, systick_now, systick_start, CALIB_ITERS,
+};
 use fbg_firmware::uart::{CmsdkUart, MPS2_PCLK_HZ, UART0_BASE};
 use fbg_firmware::{exit_failure, exit_success, stack, step, K, KERNEL, POLICY, STAGING_LEN};
 #[cfg(feature = "spectrum")]
@@ -46,7 +48,6 @@ static PACK: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_pack.bin"))
 static SIGNED: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bench_signed.fbgm"));
 
 const MAX_SAMPLES: usize = 64;
-const CALIB_ITERS: u32 = 100_000;
 const RUNS: [u32; 2] = [200, 800];
 /// Runs of the spectrum bench (channel frames).
 #[cfg(feature = "spectrum")]
@@ -80,23 +81,6 @@ fn emit(uart: &mut CmsdkUart, args: core::fmt::Arguments<'_>) {
     let _ = l.write_fmt(args);
     let _ = uart.write_all(l.buf.get(..l.len).unwrap_or(&[]));
     let _ = uart.write_all(b"\n");
-}
-
-/// `iters` iterations of a two-instruction loop (`subs`, `bne`).
-#[inline(never)]
-fn known_loop(iters: u32) {
-    let mut n = iters;
-    // SAFETY: register-only arithmetic loop.
-    unsafe {
-        core::arch::asm!(
-            "2:",
-            "subs {n}, {n}, #1",
-            "bne 2b",
-            n = inout(reg) n,
-            options(nomem, nostack)
-        );
-    }
-    black_box(n);
 }
 
 /// The samples replayed: sample `i % len`, its clock moved on by a whole period per pass, and

@@ -16,11 +16,8 @@
 use core::mem::MaybeUninit;
 
 use cortex_m_rt::entry;
-use fbg_firmware::led::FpgaioLed;
-use fbg_firmware::product::{self, run_product, Board, BoardDevice};
+use fbg_firmware::product::run_product;
 use fbg_firmware::store_flash::StoreFlash;
-use fbg_firmware::uart::CmsdkUart;
-use fbg_firmware::{exit_failure, trust, POLICY};
 use fbg_firmware_app::store::PowerCut;
 
 /// Exit code of a run ended by the power cut (1 is a failure, 0 never happens: the product
@@ -63,37 +60,8 @@ fn store_flash() -> PowerCut<StoreFlash> {
     PowerCut::new(unsafe { StoreFlash::open() }, cut, on_cut)
 }
 
-/// The product on the MPS2 board, its store's flash losing power in one operation.
-struct Torture;
-
-impl Board for Torture {
-    type Link = CmsdkUart;
-    type Alarm = FpgaioLed;
-    type Flash = PowerCut<StoreFlash>;
-    const NAME: &'static str = product::NAME;
-    const POLICY: fbg_firmware_app::Policy = POLICY;
-    const REQUIRE_SIGNED_DEFAULT: bool = trust::REQUIRE_SIGNED_DEFAULT;
-    const TEST_KEY_ONLY: bool = trust::TEST_KEY_ONLY;
-
-    fn start_clock() {
-        product::start_clock()
-    }
-    fn elapsed_us() -> Option<u32> {
-        product::elapsed_us()
-    }
-    fn bring_up() -> (CmsdkUart, FpgaioLed, PowerCut<StoreFlash>) {
-        let (link, alarm) = product::link_and_alarm();
-        (link, alarm, store_flash())
-    }
-    fn device_slot() -> &'static mut MaybeUninit<BoardDevice<Self>> {
-        static mut SLOT: MaybeUninit<BoardDevice<Torture>> = MaybeUninit::uninit();
-        // SAFETY: called once (`run_product`).
-        unsafe { &mut *core::ptr::addr_of_mut!(SLOT) }
-    }
-    fn fatal() -> ! {
-        exit_failure()
-    }
-}
+// The product on the MPS2 board, its store's flash losing power in one operation.
+fbg_firmware::mps2_board!(Torture, policy: fbg_firmware::POLICY, flash: PowerCut<StoreFlash> = store_flash());
 
 #[entry]
 fn main() -> ! {

@@ -16,13 +16,11 @@
 #![no_main]
 
 use cortex_m_rt::entry;
-use embedded_io::Write;
-use embedded_storage::nor_flash::{NorFlash, ReadNorFlash};
-use fbg_firmware_app::{load_blob, unloaded, MappedFlash};
+use fbg_firmware_app::unloaded;
 use fbg_firmware_board::board::Board;
-use fbg_firmware_board::store_flash::{StoreError, StoreFlash, ERASE_SIZE, UNITS};
-use fbg_firmware_board::{exit_failure, exit_success, stack, step, K, KERNEL, STAGING_LEN};
-use fbg_shared::protocol::{encode_device, DeviceEstimate, DeviceMsg, DEVICE_MAX_FRAME};
+use fbg_firmware_board::store_flash::{StoreError, ERASE_SIZE, UNITS};
+use fbg_firmware_board::{exit_failure, exit_success, stack, K};
+use fbg_firmware_device::golden::{check_store_flash, compensate_pack, Refusals};
 use fbg_shared::Compensator;
 
 /// The golden pack, in the flash beyond the store (`.spare`, sectors 9–11 in `memory.x`): it is
@@ -30,33 +28,6 @@ use fbg_shared::Compensator;
 #[link_section = ".spare"]
 static PACK: [u8; include_bytes!(concat!(env!("OUT_DIR"), "/golden_pack.bin")).len()] =
     *include_bytes!(concat!(env!("OUT_DIR"), "/golden_pack.bin"));
-
-/// The store's NOR semantics on the target; exits with failure on any surprise.
-fn check_store(store: &mut StoreFlash) {
-    let e = ERASE_SIZE as u32;
-    let word = [0x12, 0x34, 0x56, 0x78];
-    let mut back = [0u8; 4];
-    let checks = [
-        store.capacity() == UNITS * ERASE_SIZE && ERASE_SIZE >= STAGING_LEN,
-        store.erase(0, e).is_ok(),
-        store.contents().get(..ERASE_SIZE).is_some_and(|b| b.iter().all(|&x| x == 0xFF)),
-        store.write(8, &word).is_ok(),
-        store.read(8, &mut back).is_ok() && back == word,
-        store.contents().get(8..12) == Some(&word[..]),
-        store.write(8, &word) == Err(StoreError::NotErased),
-        store.write(2, &word) == Err(StoreError::NotAligned),
-        store.write(8, &word[..3]) == Err(StoreError::NotAligned),
-        store.erase(0, e / 2) == Err(StoreError::NotAligned),
-        store.erase(0, store.capacity() as u32 + e) == Err(StoreError::OutOfBounds),
-        store.erase(0, e).is_ok() && store.write(8, &word).is_ok(),
-        store.erase(0, e).is_ok(),
-    ];
-    if let Some(i) = checks.iter().position(|ok| !ok) {
-        defmt::error!("store flash: check {=usize} failed", i);
-        exit_failure()
-    }
-    defmt::info!("golden: the store flash ({=usize} units of {=usize} B) behaves as NOR flash", UNITS, ERASE_SIZE);
-}
 
 #[entry]
 fn main() -> ! {
@@ -69,36 +40,17 @@ fn main() -> ! {
             exit_failure()
         }
     };
-    check_store(&mut store);
-    if PACK.is_empty() {
-        defmt::error!("golden pack missing (FBG_GOLDEN_PACK)");
+    let refusals = Refusals {
+        not_erased: StoreError::NotErased,
+        not_aligned: StoreError::NotAligned,
+        out_of_bounds: StoreError::OutOfBounds,
+    };
+    if let Err(i) = check_store_flash(&mut store, UNITS, ERASE_SIZE, refusals) {
+        defmt::error!("store flash: check {=usize} failed", i);
         exit_failure()
     }
-    let mut n = 0u32;
-    for (i, rec) in fbg_shared::golden::records(&PACK).enumerate() {
-        let Some(rec) = rec else {
-            defmt::error!("golden pack malformed at record {=usize}", i);
-            exit_failure()
-        };
-        if let Err(r) = load_blob(&KERNEL, MODEL, rec.blob) {
-            defmt::error!("golden model {=usize} rejected: {} (detail {=u32})", i, r.reason, r.detail);
-            exit_failure()
-        }
-        for s in rec.iter() {
-            let e = step(MODEL, &s);
-            let msg = DeviceMsg::Estimate(DeviceEstimate::new(n, &e));
-            let mut buf = [0u8; DEVICE_MAX_FRAME];
-            match encode_device(&msg, &mut buf) {
-                Ok(frame) => {
-                    let _ = link.write_all(frame);
-                }
-                Err(_) => exit_failure(),
-            }
-            n += 1;
-        }
-        defmt::info!("golden: model {=usize}: {=usize} samples compensated", i, rec.len());
-    }
-    let _ = link.flush();
+    defmt::info!("golden: the store flash ({=usize} units of {=usize} B) behaves as NOR flash", UNITS, ERASE_SIZE);
+    let n = compensate_pack(&PACK, MODEL, &mut link, exit_failure);
     defmt::info!("golden: {=u32} samples compensated, stack peak {=u32} B", n, stack::peak_bytes());
     exit_success()
 }
