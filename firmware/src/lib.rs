@@ -18,10 +18,6 @@ pub mod rfc8032;
 pub mod store_flash;
 pub mod uart;
 
-use core::panic::PanicInfo;
-
-use cortex_m_rt::{exception, ExceptionFrame};
-
 /// Centre capacity of this build (env `FBG_K` at build time, default 32), and the step and
 /// blob parser compiled for it for speed (`fbg-firmware-kernel`), with the update limits that
 /// follow from it (`MAX_BLOB`, `STAGING_LEN`, the same for every board).
@@ -67,25 +63,4 @@ extern "C" {
 #[used]
 pub static __INTERRUPTS: [unsafe extern "C" fn(); N_IRQ] = [DefaultHandler; N_IRQ];
 
-#[panic_handler]
-fn panic(info: &PanicInfo) -> ! {
-    // No `core::fmt` here: the location is enough and keeps the formatting machinery out of
-    // flash. The code is written not to panic; reaching this is a bug.
-    match info.location() {
-        Some(l) => defmt::error!("panic at {=str}:{=u32}", l.file(), l.line()),
-        None => defmt::error!("panic"),
-    }
-    exit_failure()
-}
-
-#[exception]
-unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-    defmt::error!("HardFault at pc {=u32:#010x}, lr {=u32:#010x}", ef.pc(), ef.lr());
-    exit_failure()
-}
-
-#[exception]
-unsafe fn DefaultHandler(irqn: i16) {
-    defmt::error!("unexpected exception or interrupt {=i16}", irqn);
-    exit_failure()
-}
+fbg_firmware_device::fault_handlers!(exit_failure);

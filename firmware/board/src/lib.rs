@@ -24,9 +24,6 @@ pub mod board;
 pub mod serial;
 pub mod store_flash;
 
-use core::panic::PanicInfo;
-
-use cortex_m_rt::{exception, ExceptionFrame};
 #[cfg(not(feature = "emulator"))]
 use defmt_rtt as _;
 #[cfg(feature = "emulator")]
@@ -69,25 +66,4 @@ pub fn fatal() -> ! {
     cortex_m::peripheral::SCB::sys_reset()
 }
 
-#[panic_handler]
-fn panic(info: &PanicInfo) -> ! {
-    // No `core::fmt` here: the location is enough and keeps the formatting machinery out of
-    // flash. The code is written not to panic; reaching this is a bug.
-    match info.location() {
-        Some(l) => defmt::error!("panic at {=str}:{=u32}", l.file(), l.line()),
-        None => defmt::error!("panic"),
-    }
-    fatal()
-}
-
-#[exception]
-unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-    defmt::error!("HardFault at pc {=u32:#010x}, lr {=u32:#010x}", ef.pc(), ef.lr());
-    fatal()
-}
-
-#[exception]
-unsafe fn DefaultHandler(irqn: i16) {
-    defmt::error!("unexpected exception or interrupt {=i16}", irqn);
-    fatal()
-}
+fbg_firmware_device::fault_handlers!(fatal);

@@ -160,3 +160,33 @@ fn install<B: Board>(
     };
     B::device_slot().write(Device::new(comp, KERNEL, B::POLICY, reader, ModelInfo::default(), store, alarm))
 }
+
+/// The panic handler and the fault and default exception handlers of a board's images: each
+/// logs what it knows (no `core::fmt`: a panic's location is enough, and keeps the formatting
+/// machinery out of flash), then ends in `$fatal` (a `fn() -> !`). The code is written not
+/// to panic; reaching a handler is a bug. Invoke once, in the board's library.
+#[macro_export]
+macro_rules! fault_handlers {
+    ($fatal:path) => {
+        #[panic_handler]
+        fn panic(info: &core::panic::PanicInfo) -> ! {
+            match info.location() {
+                Some(l) => defmt::error!("panic at {=str}:{=u32}", l.file(), l.line()),
+                None => defmt::error!("panic"),
+            }
+            $fatal()
+        }
+
+        #[cortex_m_rt::exception]
+        unsafe fn HardFault(ef: &cortex_m_rt::ExceptionFrame) -> ! {
+            defmt::error!("HardFault at pc {=u32:#010x}, lr {=u32:#010x}", ef.pc(), ef.lr());
+            $fatal()
+        }
+
+        #[cortex_m_rt::exception]
+        unsafe fn DefaultHandler(irqn: i16) {
+            defmt::error!("unexpected exception or interrupt {=i16}", irqn);
+            $fatal()
+        }
+    };
+}
