@@ -76,7 +76,8 @@ use serde::Serialize;
 use crate::crc32c::{crc32c, Crc32c};
 use crate::error::Error;
 use crate::layout::{
-    head, Dims, Output, Quantity, MAX_GRATINGS, MAX_OUTPUTS, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS, VAR_RANK,
+    head, Dims, Output, Quantity, MAX_GRATINGS, MAX_MEMORY, MAX_OUTPUTS, N_AMBIENT_TAUS, N_GRATING_TAUS, N_PLAYS,
+    VAR_RANK,
 };
 use crate::model::{Centre, ModelParams};
 
@@ -363,7 +364,7 @@ pub fn decode<const K: usize>(bytes: &[u8]) -> Result<ModelParams<f32, K>, Error
 /// can decode an update into a staging slot with a small stack. On error `out` holds a
 /// partial model and must not be used; on success it is fully validated.
 pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) -> Result<(), Error> {
-    let parsed = decode_checked::<K, K>(bytes, out, true)?;
+    let parsed = decode_checked::<K, K, MAX_MEMORY>(bytes, out, true)?;
     if out.centres.len() != usize::from(parsed.header.centres) {
         return Err(Error::WrongDims {
             field: "centres",
@@ -414,17 +415,64 @@ impl Iterator for CentreReader<'_> {
 
 impl ExactSizeIterator for CentreReader<'_> {}
 
-/// [`decode_into`] for a model of up to `K` centres that leaves the centres in `bytes`: every
-/// field but the centres is parsed into `head` (which holds none), and the centres come back
-/// as a [`CentreReader`] over the blob, checked as [`decode_into`] checks them (count against
-/// the header and `K`, every number within its bound, [`Centre::check`]). With [`crate::Compensator::reload_split`] a
-/// device loads a model with one centre at a time on its stack instead of a whole
-/// [`ModelParams`].
-pub fn decode_split<'a, const K: usize>(
+/// Γ of a blob decoded by [`decode_split`] into a slot without Γ (`M` = 0), read from the
+/// blob's own bytes: `m` rows of the model's memory terms, output-major.
+#[derive(Clone, Copy, Debug)]
+pub struct GammaReader<'a> {
     bytes: &'a [u8],
-    head: &mut ModelParams<f32, 0>,
-) -> Result<CentreReader<'a>, Error> {
-    let parsed = decode_checked::<K, 0>(bytes, head, false)?;
+    m: usize,
+    n: usize,
+}
+
+impl GammaReader<'_> {
+    /// Γ's entry for output `o` and memory term `k`; 0 beyond the model's outputs and terms,
+    /// and for a slot that holds Γ itself (`M` > 0).
+    pub fn get(&self, o: usize, k: usize) -> f32 {
+        if o >= self.m || k >= self.n {
+            return 0.0;
+        }
+        let at = (o * self.n + k) * 4;
+        match self.bytes.get(at..at + 4).and_then(|b| <[u8; 4]>::try_from(b).ok()) {
+            Some(b) => f32::from_le_bytes(b),
+            None => 0.0,
+        }
+    }
+
+    /// Every entry as [`ModelParams::validate`] checks Γ, for a model of `dims` with the
+    /// operators `memory`.
+    fn check(&self, memory: &crate::memory::MemorySpec<f32>, dims: &Dims) -> Result<(), Error> {
+        for o in 0..self.m {
+            for k in 0..self.n {
+                if !crate::model::gamma_ok(self.get(o, k), memory, dims, k) {
+                    return Err(Error::BadParameter { field: "gamma" });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What [`decode_split`] leaves in the blob: the centres, and Γ when the slot holds none.
+#[derive(Clone, Debug)]
+pub struct SplitBlob<'a> {
+    /// The RBF centres.
+    pub centres: CentreReader<'a>,
+    /// Γ (every entry 0 when the slot holds Γ itself).
+    pub gamma: GammaReader<'a>,
+}
+
+/// [`decode_into`] for a model of up to `K` centres that leaves the centres, and Γ when `M` is
+/// 0, in `bytes`: every other field is parsed into `head` (which holds no centres), and the
+/// centres come back as a [`CentreReader`] over the blob, checked as [`decode_into`] checks
+/// them (count against the header and `K`, every number within its bound, [`Centre::check`]),
+/// Γ as a [`GammaReader`], checked as [`ModelParams::validate`] checks it. With these a device
+/// loads a model ([`crate::Compensator::reload_blob`]) with one centre at a time on its stack
+/// and no Γ, instead of a whole [`ModelParams`].
+pub fn decode_split<'a, const K: usize, const M: usize>(
+    bytes: &'a [u8],
+    head: &mut ModelParams<f32, 0, M>,
+) -> Result<SplitBlob<'a>, Error> {
+    let parsed = decode_checked::<K, 0, M>(bytes, head, false)?;
     let reader = parsed.centres;
     if reader.remaining() != usize::from(parsed.header.centres) {
         return Err(Error::WrongDims {
@@ -434,21 +482,23 @@ pub fn decode_split<'a, const K: usize>(
         });
     }
     head.validate()?;
+    parsed.gamma.check(&head.memory, &head.dims)?;
     reader.checked?;
-    Ok(reader)
+    Ok(SplitBlob { centres: reader, gamma: parsed.gamma })
 }
 
 /// What [`decode_checked`] found.
 struct Parsed<'a> {
     header: Header,
     centres: CentreReader<'a>,
+    gamma: GammaReader<'a>,
 }
 
 /// Steps 1–4 of [`decode`] and the memory-term check of step 5 (not the centre count or the
 /// parameter ranges): the centres go into `out` when `store`, else only the reader sees them.
-fn decode_checked<'a, const K: usize, const K2: usize>(
+fn decode_checked<'a, const K: usize, const K2: usize, const M: usize>(
     bytes: &'a [u8],
-    out: &mut ModelParams<f32, K2>,
+    out: &mut ModelParams<f32, K2, M>,
     store: bool,
 ) -> Result<Parsed<'a>, Error> {
     // A signed model is a blob followed by its signature trailer: the blob is what is decoded.
@@ -474,7 +524,7 @@ fn decode_checked<'a, const K: usize, const K2: usize>(
     }
     // With a valid CRC these bytes are what the writer wrote: a payload that does not decode
     // (including one that claims more bytes than it has) is malformed, not truncated.
-    let (rest, centres) = parsed.map_err(|e| match e {
+    let (rest, centres, gamma) = parsed.map_err(|e| match e {
         ParseError::Dims(e) => e,
         ParseError::Postcard => Error::BadPayload,
     })?;
@@ -488,7 +538,7 @@ fn decode_checked<'a, const K: usize, const K2: usize>(
             expected: saturate_u16(out.dims.memory_len()),
         });
     }
-    Ok(Parsed { header, centres })
+    Ok(Parsed { header, centres, gamma })
 }
 
 /// Why a payload did not parse.
@@ -510,12 +560,12 @@ impl From<postcard::Error> for ParseError {
 /// vector lengths of the header's dims, returning the unread rest. Every capacity-sized array
 /// is cleared first, so entries beyond the dims are 0.
 #[allow(clippy::type_complexity)]
-fn parse_into<'a, const K: usize>(
+fn parse_into<'a, const K: usize, const M: usize>(
     header: &Header,
     bytes: &'a [u8],
-    out: &mut ModelParams<f32, K>,
+    out: &mut ModelParams<f32, K, M>,
     store: bool,
-) -> Result<(&'a [u8], CentreReader<'a>), ParseError> {
+) -> Result<(&'a [u8], CentreReader<'a>, GammaReader<'a>), ParseError> {
     fn rows<const C: usize>(
         b: &mut &[u8],
         out: &mut [[f32; C]; MAX_OUTPUTS],
@@ -563,8 +613,16 @@ fn parse_into<'a, const K: usize>(
         mem.observer_smooth_s = take(&mut b)?;
         floats(&mut b, crate::layout::head_mut(&mut mem.observer_row, s1))?;
     }
-    // Row by row: a whole-Γ temporary would double the parser's stack frame on the device.
-    rows(&mut b, &mut out.gamma, m, nm)?;
+    // Row by row: a whole-Γ temporary would double the parser's stack frame on the device. A
+    // slot without Γ leaves it in the blob (postcard's f32 is its 4 little-endian bytes).
+    let gamma = if M == 0 {
+        let (g, rest) = b.split_at_checked(m * nm * 4).ok_or(ParseError::Postcard)?;
+        b = rest;
+        GammaReader { bytes: g, m, n: nm }
+    } else {
+        rows(&mut b, &mut out.gamma, m, nm)?;
+        GammaReader { bytes: &[], m: 0, n: 0 }
+    };
     vector(&mut b, &mut out.z_mean, nz)?;
     vector(&mut b, &mut out.z_std, nz)?;
     let n: u32 = take(&mut b)?;
@@ -619,7 +677,7 @@ fn parse_into<'a, const K: usize>(
     floats(&mut b, crate::layout::head_mut(&mut tr.swing_rms_max, ne))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.speed_rms_max, ne))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.swing_rms_min, ne))?;
-    Ok((b, centres))
+    Ok((b, centres, gamma))
 }
 
 fn take<'a, T: serde::Deserialize<'a>>(b: &mut &'a [u8]) -> Result<T, postcard::Error> {

@@ -24,6 +24,12 @@ fn all_within<F: Real>(s: &[F], bound: f64) -> bool {
     s.iter().all(|&v| within(v, bound))
 }
 
+/// Whether `g` may be Γ's entry for memory term `k` of a model of `dims` with the operators
+/// `memory`: within [`bounds::COEF_MAX`], and 0 on a term the operators do not compute.
+pub(crate) fn gamma_ok<F: Real>(g: F, memory: &MemorySpec<F>, dims: &Dims, k: usize) -> bool {
+    within(g, bounds::COEF_MAX) && (g == F::ZERO || memory.term_active(dims, k))
+}
+
 /// Hyper-parameters chosen by blocked time-series cross-validation, plus the flag settings.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Hyper<F> {
@@ -116,8 +122,12 @@ pub struct Provenance {
 ///
 /// Every array is sized to the capacity ([`crate::layout`]); only the entries of the model's
 /// [`Dims`] are used, the rest are 0 (the blob carries only the used ones).
+///
+/// `M` is the capacity of Γ's rows: [`MAX_MEMORY`], or 0 for a parameter slot that leaves Γ
+/// in the blob it was decoded from (a device's load, [`crate::blob::decode_split`]: a third
+/// less stack).
 #[derive(Clone, Debug, PartialEq)]
-pub struct ModelParams<F, const K: usize> {
+pub struct ModelParams<F, const K: usize, const M: usize = MAX_MEMORY> {
     /// Gratings, ambient input and measurands.
     pub dims: Dims,
     /// Chosen hyper-parameters.
@@ -136,8 +146,8 @@ pub struct ModelParams<F, const K: usize> {
     pub memory: MemorySpec<F>,
     /// Γ: per output, the coefficient of each memory term, in output units per term unit
     /// (e.g. °C per pm for a grating high-pass on the T row); 0 for unused terms. Fitted
-    /// jointly with B.
-    pub gamma: [[F; MAX_MEMORY]; MAX_OUTPUTS],
+    /// jointly with B. Empty when `M` is 0.
+    pub gamma: [[F; M]; MAX_OUTPUTS],
     /// Mean of each RBF input over the calibration batch (units of [`Dims::z_name`]; 0 beyond [`Dims::z_len`]).
     pub z_mean: [F; MAX_Z],
     /// Standard deviation of each RBF input (> 0 on used dimensions, ignored elsewhere).
@@ -183,20 +193,20 @@ pub struct ModelParams<F, const K: usize> {
     pub trust: TrustSpec<F>,
 }
 
-impl<F: Real, const K: usize> Default for ModelParams<F, K> {
+impl<F: Real, const K: usize, const M: usize> Default for ModelParams<F, K, M> {
     fn default() -> Self {
         Self::empty()
     }
 }
 
-impl<F: Real, const K: usize> ModelParams<F, K> {
+impl<F: Real, const K: usize, const M: usize> ModelParams<F, K, M> {
     /// The nested arrays of [`ModelParams::empty`] as constants: a constant of zero bytes is
     /// written in place, where a nested repeat `[[F::ZERO; N]; M]` may be built in a temporary
     /// and copied (at the firmware's opt-level "s" it was, deepening the loader's stack frame
     /// by the size of the three arrays; README-firmware.md has the figures).
     const ZERO_STAGE1: [[F; MAX_STAGE1]; MAX_OUTPUTS] = [[F::ZERO; MAX_STAGE1]; MAX_OUTPUTS];
     const ZERO_POLY: [[F; MAX_POLY]; MAX_OUTPUTS] = [[F::ZERO; MAX_POLY]; MAX_OUTPUTS];
-    const ZERO_GAMMA: [[F; MAX_MEMORY]; MAX_OUTPUTS] = [[F::ZERO; MAX_MEMORY]; MAX_OUTPUTS];
+    const ZERO_GAMMA: [[F; M]; MAX_OUTPUTS] = [[F::ZERO; M]; MAX_OUTPUTS];
 
     /// An all-zero placeholder (it does not validate): a staging slot a blob is decoded into,
     /// usable in a `static` (it lands in `.bss`).
@@ -319,7 +329,7 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         }
         for row in self.gamma.iter().take(m) {
             for (k, &g) in row.iter().enumerate() {
-                if !within(g, COEF_MAX) || (g != F::ZERO && !self.memory.term_active(d, k)) {
+                if !gamma_ok(g, &self.memory, d, k) {
                     return bad("gamma");
                 }
             }
@@ -374,7 +384,9 @@ impl<F: Real, const K: usize> ModelParams<F, K> {
         }
         self.field.validate(d, &self.fitted)
     }
+}
 
+impl<F: Real, const K: usize> ModelParams<F, K> {
     /// The same model in another scalar type (f64 → f32 for export, f32 → f64 to audit a blob)
     /// and capacity. Fails with [`Error::TooManyCentres`] when `K2` cannot hold the centres.
     pub fn convert<G: Real, const K2: usize>(&self) -> Result<ModelParams<G, K2>, Error> {

@@ -7,7 +7,7 @@ use crate::common;
 use common::blob::*;
 use fbg_shared::blob::{self, decode, decode_split, Header, CRC_LEN, FORMAT_VERSION, HEADER_LEN};
 use fbg_shared::layout::paper::{MEM_OBSERVER, MEM_STOP};
-use fbg_shared::layout::{pad, Dims, Output, Quantity, MAX_OUTPUTS};
+use fbg_shared::layout::{pad, Dims, Output, Quantity, MAX_MEMORY, MAX_OUTPUTS};
 use fbg_shared::{Compensator, Error, FeatureSet, ModelParams, Sample};
 use fbg_testkit::models::{
     any_model, encode_vec, full_memory_spec, long_provenance, memory_model, model, short_provenance,
@@ -188,7 +188,10 @@ fn implausible_values_are_refused_by_name() {
         let bytes = encode_unchecked(&p);
         assert_eq!(decode::<4>(&bytes).map(|_| ()), want, "{field}");
         let mut head = ModelParams::<f32, 0>::empty();
-        assert_eq!(decode_split::<4>(&bytes, &mut head).map(|_| ()), want, "{field} (split)");
+        assert_eq!(decode_split::<4, MAX_MEMORY>(&bytes, &mut head).map(|_| ()), want, "{field} (split)");
+        // A device's slot, which leaves Γ in the blob too.
+        let mut head = ModelParams::<f32, 0, 0>::empty();
+        assert_eq!(decode_split::<4, 0>(&bytes, &mut head).map(|_| ()), want, "{field} (split, Γ in the blob)");
         // The encoder never writes it.
         let mut buf = vec![0u8; blob::max_len(4)];
         assert_eq!(blob::encode(&p, &mut buf).map(|_| ()), want, "{field} (encode)");

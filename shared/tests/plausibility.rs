@@ -3,7 +3,7 @@
 
 use fbg_shared::blob::{self, decode, decode_split, encode_unchecked};
 use fbg_shared::field::{BAND_LIMIT_OF_MAX, OUTPUT_MARGIN_OF_BAND, OUTPUT_MARGIN_OF_RANGE};
-use fbg_shared::layout::{Dims, Output, Quantity};
+use fbg_shared::layout::{Dims, Output, Quantity, MAX_MEMORY};
 use fbg_shared::{Compensator, Error, Estimate, Flags, ModelParams, Sample, StreamClock};
 use fbg_testkit::installation::{golden_samples, samples, synthetic_params, without_memory, MAX_K};
 
@@ -41,7 +41,9 @@ fn assert_refused(p: &P32, field: &'static str) {
     assert_eq!(blob::stored_crc(&bytes), blob::computed_crc(&bytes), "the CRC holds");
     assert_eq!(decode::<MAX_K>(&bytes).unwrap_err(), want, "{field}");
     let mut head = ModelParams::<f32, 0>::empty();
-    assert_eq!(decode_split::<MAX_K>(&bytes, &mut head).map(|_| ()).unwrap_err(), want, "{field}");
+    assert_eq!(decode_split::<MAX_K, MAX_MEMORY>(&bytes, &mut head).map(|_| ()).unwrap_err(), want, "{field}");
+    let mut head = ModelParams::<f32, 0, 0>::empty();
+    assert_eq!(decode_split::<MAX_K, 0>(&bytes, &mut head).map(|_| ()).unwrap_err(), want, "{field} (Γ in the blob)");
     let good = installation(true);
     let mut dev = Compensator::<f32, MAX_K>::new(&good).unwrap();
     let s = samples(1, 3)[0];

@@ -22,11 +22,11 @@
 //!
 //! A model is loaded — at boot and during the handling of a `ModelCommit`, which carries no
 //! data and is handled outside the frame decoding — by [`load_blob`]: everything but the
-//! centres is parsed into a centre-less parameter slot (`ModelParams<f32, 0>`, about a third
-//! of a whole one) on the loader's stack frame, the centres are read from the staged bytes
-//! one at a time, and [`Compensator::reload_split`] folds it all into the active compensator
-//! in place, checking every number before it writes one: a refused model leaves the active
-//! one serving.
+//! centres and Γ is parsed into a parameter slot without either (`ModelParams<f32, 0, 0>`,
+//! about a fifth of a whole one) on the loader's stack frame, the centres and Γ are read
+//! from the staged bytes, and [`Compensator::reload_blob`] folds it all into the active
+//! compensator in place, checking every number before it writes one: a refused model leaves
+//! the active one serving.
 //!
 //! # Signed updates
 //!
@@ -233,9 +233,10 @@ pub const fn unloaded<const K: usize>() -> Compensator<f32, K> {
 
 /// Load the model in `bytes` into `comp` (at boot, the embedded default into an [`unloaded`]
 /// compensator; later, a committed update) when, and only when, it is entirely valid
-/// (`kernel.load`, i.e. [`Compensator::reload_blob`]): everything but the centres is parsed
-/// into a centre-less parameter slot on the loader's stack frame, the centres are read from
-/// `bytes` one at a time, and every folded number is checked before the first is written. On
+/// (`kernel.load`, i.e. [`Compensator::reload_blob`]): everything but the centres and Γ is
+/// parsed into a parameter slot without either on the loader's stack frame, the centres (one
+/// at a time) and Γ are read from `bytes`, and every folded number is checked before the
+/// first is written. On
 /// any error `comp` keeps its model and stream state.
 #[inline(never)]
 pub fn load<const K: usize>(

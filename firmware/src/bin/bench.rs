@@ -307,7 +307,7 @@ fn emit_sizes(uart: &mut CmsdkUart) {
             size_of::<StreamState<f32>>(),
             size_of::<MemoryBank<f32>>(),
             size_of::<Compensator<f32, K>>(),
-            size_of::<ModelParams<f32, 0>>(),
+            size_of::<ModelParams<f32, 0, 0>>(),
             size_of::<FrameReader<HOST_MAX_FRAME>>(),
             STAGING_LEN
         ),

@@ -28,7 +28,7 @@ fn all_finite<F: Real>(xs: &[F]) -> bool {
 }
 
 impl<F: Real> Folded<F> {
-    pub(super) fn of<G: Real, const K2: usize>(p: &ModelParams<G, K2>) -> Self {
+    pub(super) fn of<G: Real, const K2: usize, const M2: usize>(p: &ModelParams<G, K2, M2>) -> Self {
         let f = |v: G| F::from_real(v);
         let d = &p.dims;
         let (m_out, n_s1, n_poly) = (d.n_outputs(), d.stage1_len(), d.poly_len());

@@ -23,7 +23,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// checked first; on error the old model stays.
     pub fn reload<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) -> Result<(), Error> {
         params.validate()?;
-        self.reload_parts(params, params.centres.len(), || params.centres.iter().copied())
+        self.reload_parts(params, params.centres.len(), || params.centres.iter().copied(), gamma_of(params))
     }
 
     /// [`PreparedModel::reload`] from a model whose centres are read from elsewhere: `head`
@@ -35,30 +35,35 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         head: &ModelParams<G, K2>,
         centres: I,
     ) -> Result<(), Error> {
-        self.reload_parts(head, centres.len(), || centres.clone())
+        self.reload_parts(head, centres.len(), || centres.clone(), gamma_of(head))
     }
 
-    /// Decode a blob ([`crate::blob::decode_split`]: everything but the centres into a
-    /// centre-less parameter slot on this frame, the centres read from `bytes` one at a time)
-    /// and [`PreparedModel::reload_split`] it: what a device does to load a model, with about
-    /// a third of a whole [`ModelParams`] on its stack. Atomic like [`PreparedModel::reload`].
+    /// Decode a blob ([`crate::blob::decode_split`]: everything but the centres and Γ into a
+    /// parameter slot without either on this frame, the centres and Γ read from `bytes`) and
+    /// load it as [`PreparedModel::reload_split`] does: what a device does to load a model,
+    /// with about a fifth of a whole [`ModelParams`] on its stack. Atomic like
+    /// [`PreparedModel::reload`].
     pub fn reload_blob(&mut self, bytes: &[u8]) -> Result<(), Error> {
-        let mut head = ModelParams::<f32, 0>::empty();
-        let centres = crate::blob::decode_split::<K>(bytes, &mut head)?;
-        self.reload_split(&head, centres)
+        let mut head = ModelParams::<f32, 0, 0>::empty();
+        let split = crate::blob::decode_split::<K, 0>(bytes, &mut head)?;
+        let centres = split.centres;
+        let gamma = split.gamma;
+        self.reload_parts(&head, centres.len(), || centres.clone(), |o, k| gamma.get(o, k))
     }
 
-    /// The shared part of the reloads: `n` centres, `centres()` yields them (each time anew).
+    /// The shared part of the reloads: `n` centres, `centres()` yields them (each time anew),
+    /// `gamma(o, k)` is Γ's entry for output `o` and memory term `k`.
     #[inline(always)]
-    fn reload_parts<G: Real, const K2: usize, I: Iterator<Item = Centre<G>>>(
+    fn reload_parts<G: Real, const K2: usize, const M2: usize, I: Iterator<Item = Centre<G>>>(
         &mut self,
-        params: &ModelParams<G, K2>,
+        params: &ModelParams<G, K2, M2>,
         n: usize,
         centres: impl Fn() -> I,
+        gamma: impl Fn(usize, usize) -> G,
     ) -> Result<(), Error> {
-        let folded = Self::checked(params, n, &centres)?;
+        let folded = Self::checked(params, n, &centres, &gamma)?;
         // From here nothing can fail.
-        self.write(params, &folded, centres());
+        self.write(params, &folded, centres(), &gamma);
         Ok(())
     }
 
@@ -67,10 +72,11 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     // Inlined, as the two halves below: one frame for a load, with one folded copy (a device
     // loads with little stack to spare).
     #[inline(always)]
-    fn checked<G: Real, const K2: usize, I: Iterator<Item = Centre<G>>>(
-        params: &ModelParams<G, K2>,
+    fn checked<G: Real, const K2: usize, const M2: usize, I: Iterator<Item = Centre<G>>>(
+        params: &ModelParams<G, K2, M2>,
         n: usize,
         centres: &impl Fn() -> I,
+        gamma: &impl Fn(usize, usize) -> G,
     ) -> Result<Folded<F>, Error> {
         if n > K {
             return Err(Error::TooManyCentres { found: n, capacity: K });
@@ -82,7 +88,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         let active = dims.z_active(params.hyper.feature_set);
         let f = |v: G| F::from_real(v);
         let env_ok = params.envelope_lo.iter().chain(params.envelope_hi.iter()).all(|&v| f(v).is_finite());
-        let gamma_ok = params.gamma.iter().all(|r| r.iter().all(|&v| f(v).is_finite()));
+        let (m_out, n_mem) = (dims.n_outputs(), dims.memory_len());
+        let gamma_ok = (0..m_out).all(|o| (0..n_mem).all(|k| f(gamma(o, k)).is_finite()));
         // A τ or r that overflows this precision would switch its slot off here but not in the
         // trainer's precision.
         let memory_ok = params.memory.convert::<F>().validate(&dims).is_ok();
@@ -101,11 +108,12 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
 
     /// Write a model [`PreparedModel::checked`] accepted (its `centres` at most `K`).
     #[inline(always)]
-    fn write<G: Real, const K2: usize>(
+    fn write<G: Real, const K2: usize, const M2: usize>(
         &mut self,
-        params: &ModelParams<G, K2>,
+        params: &ModelParams<G, K2, M2>,
         folded: &Folded<F>,
         centres: impl Iterator<Item = Centre<G>>,
+        gamma: &impl Fn(usize, usize) -> G,
     ) {
         let dims = params.dims;
         let m_out = dims.n_outputs();
@@ -130,11 +138,8 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         }
         let n_mem = dims.memory_len();
         for (k, col) in self.gamma.iter_mut().enumerate() {
-            for (i, (o, row)) in col.iter_mut().zip(params.gamma.iter()).enumerate() {
-                *o = match row.get(k) {
-                    Some(&v) if i < m_out && k < n_mem => f(v),
-                    _ => F::ZERO,
-                };
+            for (i, o) in col.iter_mut().enumerate() {
+                *o = if i < m_out && k < n_mem { f(gamma(i, k)) } else { F::ZERO };
             }
         }
         self.memory = crate::memory::MemoryOperators::new(&params.memory, &dims);
@@ -165,7 +170,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// hold a bounded state that the next reversal renews. An output without a fallback band
     /// fades to its own.
     #[inline(always)]
-    fn write_trust<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) {
+    fn write_trust<G: Real, const K2: usize, const M2: usize>(&mut self, params: &ModelParams<G, K2, M2>) {
         let tr = &params.trust;
         let guarded = self.memory.is_active() && tr.rate_max.iter().any(|&r| r > G::ZERO);
         self.gate =
@@ -190,7 +195,7 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
     /// The envelope and each output's plausible range and band limit (±∞ and ∞ for an output
     /// the model does not have or did not fit).
     #[inline(always)]
-    fn write_bounds<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) {
+    fn write_bounds<G: Real, const K2: usize, const M2: usize>(&mut self, params: &ModelParams<G, K2, M2>) {
         let n_env = params.dims.envelope_len();
         let m_out = params.dims.n_outputs();
         for (k, (o, &v)) in self.env_lo.iter_mut().zip(params.envelope_lo.iter()).enumerate() {
@@ -210,4 +215,9 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
             (*lo, *hi, *lim) = (F::from_real(l), F::from_real(h), F::from_real(b));
         }
     }
+}
+
+/// Γ's entries of a parameter set that holds them (0 beyond its rows and columns).
+fn gamma_of<G: Real, const K2: usize>(params: &ModelParams<G, K2>) -> impl Fn(usize, usize) -> G + '_ {
+    |o, k| params.gamma.get(o).and_then(|r| r.get(k)).copied().unwrap_or(G::ZERO)
 }
