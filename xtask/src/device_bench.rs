@@ -138,6 +138,14 @@ pub struct TypeSizes {
     pub staging: u64,
 }
 
+/// The sizes of the device's types, as the bench image of capacity 32 reports them (it runs
+/// that capacity's step benches too).
+pub fn type_sizes(root: &Path, q: &Path) -> Result<TypeSizes> {
+    let (mut sizes, mut verify, mut spectrum) = (None, None, None);
+    pack::bench_pack(root, q, 32, &mut sizes, &mut verify, &mut spectrum)?;
+    sizes.context("the bench image reported no type sizes")
+}
+
 /// `cargo xtask bench` (device part): step cost of every bench model, the sizes of the device's
 /// types and the footprint; writes `target/bench/device.json`.
 pub fn run(root: &Path) -> Result<(Vec<StepBench>, SizeReport)> {
@@ -238,7 +246,10 @@ fn print_sizes(t: &TypeSizes) {
     println!("  StreamState<f32>     {:>6} B  (latches + memory state)", t.stream_state);
     println!("  MemoryBank<f32>      {:>6} B  (coefficients, cached factors, state)", t.memory_bank);
     println!("  Compensator<f32, {}> {:>6} B", t.k, t.compensator);
-    println!("  ModelParams<f32, 0> {:>6} B  (centre-less parameter slot, on the stack during a load)", t.model_params);
+    println!(
+        "  ModelParams<f32, 0, 0> {:>6} B  (parameter slot without centres and Γ, on the stack during a load)",
+        t.model_params
+    );
     println!("  FrameReader          {:>6} B  (the link's frame reader)", t.reader);
     println!("  longest staged update {:>5} B  (in the flash slot, not RAM: STAGING_LEN)", t.staging);
 }

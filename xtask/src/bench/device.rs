@@ -66,13 +66,14 @@ pub fn part(root: &Path, opts: &Opts) -> Result<DeviceResults> {
 pub fn footprint_only(root: &Path) -> Result<()> {
     let q = crate::firmware::emulator::ensure_qemu()?;
     let size = device_bench::footprint(root, &q)?;
+    let sizes = device_bench::type_sizes(root, &q)?;
     let verifiers = device_bench::verifiers::measure(root, &q)?;
     let board = crate::board::run_all(root)?;
     super::update(root, |report| {
         let Device::Measured(dev) = &mut report.device else {
             anyhow::bail!("BENCHMARKS.json has no device results to add the footprint to: run `cargo xtask bench`");
         };
-        dev.record.set_footprint(&size);
+        dev.record.set_footprint(&size, &sizes);
         dev.record.verifiers = Some(verifiers);
         dev.record.board = Some(board);
         Ok(())

@@ -90,9 +90,9 @@ pub struct Opts {
     /// with --quick), into the BENCHMARKS.json already there
     #[arg(long, conflicts_with_all = ["no_device", "markdown_only", "spectrum_only"])]
     pub import_memory_only: bool,
-    /// Only the firmware's footprint (the product images' flash, RAM and stack, the Ed25519
-    /// verifier table from verify-only images, and the STM32F405 board's figures, `cargo
-    /// xtask board`), into the BENCHMARKS.json already there
+    /// Only the firmware's footprint (the device types' sizes, the product images' flash, RAM
+    /// and stack, the Ed25519 verifier table from verify-only images, and the STM32F405
+    /// board's figures, `cargo xtask board`), into the BENCHMARKS.json already there
     #[arg(long, conflicts_with_all = ["quick", "no_device", "markdown_only", "spectrum_only", "import_memory_only"])]
     pub footprint_only: bool,
     /// Only the hold-out band coverage of `array-8` and `strain-pair` over the coverage

@@ -255,6 +255,22 @@ pub fn rounded(x: f64, digits: usize) -> f64 {
     format!("{x:.digits$}").parse().unwrap_or(f64::NAN)
 }
 
+impl Sizes {
+    /// The sizes the bench image reported.
+    fn of(t: &TypeSizes) -> Self {
+        Sizes {
+            k: t.k,
+            memory_state_bytes: t.memory_state,
+            stream_state_bytes: t.stream_state,
+            memory_bank_bytes: t.memory_bank,
+            compensator_bytes: t.compensator,
+            model_params_bytes: t.model_params,
+            frame_reader_bytes: t.reader,
+            staging_bytes: t.staging,
+        }
+    }
+}
+
 impl DeviceRecord {
     /// The file of one device bench run.
     pub fn new(
@@ -288,16 +304,7 @@ impl DeviceRecord {
         DeviceRecord {
             method: METHOD.to_string(),
             step,
-            sizes: Sizes {
-                k: t.k,
-                memory_state_bytes: t.memory_state,
-                stream_state_bytes: t.stream_state,
-                memory_bank_bytes: t.memory_bank,
-                compensator_bytes: t.compensator,
-                model_params_bytes: t.model_params,
-                frame_reader_bytes: t.reader,
-                staging_bytes: t.staging,
-            },
+            sizes: Sizes::of(t),
             signature_verification: SignatureVerification {
                 what: VERIFY_WHAT.to_string(),
                 signed_model_bytes: v.bytes,
@@ -380,9 +387,10 @@ fn targets(size: &SizeReport, dk: usize, dins: f64) -> Targets {
 
 impl DeviceRecord {
     /// The product images' figures measured again (`cargo xtask bench --footprint-only`): the
-    /// default product's and the spectrum build's footprint and stack, and the targets that
-    /// follow from them; the step figures stay.
-    pub fn set_footprint(&mut self, size: &SizeReport) {
+    /// device types' sizes, the default product's and the spectrum build's footprint and
+    /// stack, and the targets that follow from them; the step figures stay.
+    pub fn set_footprint(&mut self, size: &SizeReport, t: &TypeSizes) {
+        self.sizes = Sizes::of(t);
         let p = &self.product;
         self.product = product(size, Some((p.default_model_centres, p.default_model_memory_terms)));
         let st = &self.targets.instructions_per_step_default;

@@ -26,7 +26,7 @@ pub(super) fn device(s: &mut String, rep: &Report) {
     let sz = &dev.record.sizes;
     out!(
         s,
-        "\nDevice types (`size_of` on the target, K = {}): memory state `MemoryState<f32>` {} B, stream state (latches + memory) {} B, `MemoryBank<f32>` {} B, `Compensator<f32, {}>` {} B, centre-less parameter slot `ModelParams<f32, 0>` (on the stack during a load; the centres are read from the blob one at a time) {} B, longest staged update {} B (staged in a flash slot outside the image, not in RAM).",
+        "\nDevice types (`size_of` on the target, K = {}): memory state `MemoryState<f32>` {} B, stream state (latches + memory) {} B, `MemoryBank<f32>` {} B, `Compensator<f32, {}>` {} B, parameter slot `ModelParams<f32, 0, 0>` (on the stack during a load; the centres, one at a time, and Γ are read from the blob) {} B, longest staged update {} B (staged in a flash slot outside the image, not in RAM).",
         sz.k,
         sz.memory_state_bytes,
         sz.stream_state_bytes,
