@@ -81,6 +81,10 @@ use crate::layout::{
 };
 use crate::model::{Centre, ModelParams};
 
+mod readers;
+use readers::{floats, parse_centre, take};
+pub use readers::{CentreReader, GammaReader};
+
 /// File magic.
 pub const MAGIC: [u8; 4] = *b"FBGM";
 /// Format version this build writes and reads.
@@ -375,83 +379,6 @@ pub fn decode_into<const K: usize>(bytes: &[u8], out: &mut ModelParams<f32, K>) 
     out.validate()
 }
 
-/// The RBF centres of a blob decoded by [`decode_split`], read one at a time from the blob's
-/// own bytes (each read parses one centre: no centre array is ever materialised).
-#[derive(Clone, Debug)]
-pub struct CentreReader<'a> {
-    bytes: &'a [u8],
-    left: usize,
-    nz: usize,
-    m: usize,
-    /// The first centre's [`Centre::check`] error, if any (checked while parsing).
-    checked: Result<(), Error>,
-}
-
-impl CentreReader<'_> {
-    /// Centres not read yet.
-    pub fn remaining(&self) -> usize {
-        self.left
-    }
-}
-
-impl Iterator for CentreReader<'_> {
-    type Item = Centre<f32>;
-
-    fn next(&mut self) -> Option<Centre<f32>> {
-        if self.left == 0 {
-            return None;
-        }
-        let mut c = Centre::<f32>::default();
-        let rest = parse_centre(self.bytes, &mut c, self.nz, self.m).ok()?;
-        self.bytes = rest;
-        self.left -= 1;
-        Some(c)
-    }
-
-    fn size_hint(&self) -> (usize, Option<usize>) {
-        (self.left, Some(self.left))
-    }
-}
-
-impl ExactSizeIterator for CentreReader<'_> {}
-
-/// Γ of a blob decoded by [`decode_split`] into a slot without Γ (`M` = 0), read from the
-/// blob's own bytes: `m` rows of the model's memory terms, output-major.
-#[derive(Clone, Copy, Debug)]
-pub struct GammaReader<'a> {
-    bytes: &'a [u8],
-    m: usize,
-    n: usize,
-}
-
-impl GammaReader<'_> {
-    /// Γ's entry for output `o` and memory term `k`; 0 beyond the model's outputs and terms,
-    /// and for a slot that holds Γ itself (`M` > 0).
-    pub fn get(&self, o: usize, k: usize) -> f32 {
-        if o >= self.m || k >= self.n {
-            return 0.0;
-        }
-        let at = (o * self.n + k) * 4;
-        match self.bytes.get(at..at + 4).and_then(|b| <[u8; 4]>::try_from(b).ok()) {
-            Some(b) => f32::from_le_bytes(b),
-            None => 0.0,
-        }
-    }
-
-    /// Every entry as [`ModelParams::validate`] checks Γ, for a model of `dims` with the
-    /// operators `memory`.
-    fn check(&self, memory: &crate::memory::MemorySpec<f32>, dims: &Dims) -> Result<(), Error> {
-        for o in 0..self.m {
-            for k in 0..self.n {
-                if !crate::model::gamma_ok(self.get(o, k), memory, dims, k) {
-                    return Err(Error::BadParameter { field: "gamma" });
-                }
-            }
-        }
-        Ok(())
-    }
-}
-
 /// What [`decode_split`] leaves in the blob: the centres, and Γ when the slot holds none.
 #[derive(Clone, Debug)]
 pub struct SplitBlob<'a> {
@@ -678,30 +605,6 @@ fn parse_into<'a, const K: usize, const M: usize>(
     floats(&mut b, crate::layout::head_mut(&mut tr.speed_rms_max, ne))?;
     floats(&mut b, crate::layout::head_mut(&mut tr.swing_rms_min, ne))?;
     Ok((b, centres, gamma))
-}
-
-fn take<'a, T: serde::Deserialize<'a>>(b: &mut &'a [u8]) -> Result<T, postcard::Error> {
-    let (v, rest) = postcard::take_from_bytes::<T>(b)?;
-    *b = rest;
-    Ok(v)
-}
-
-fn floats(b: &mut &[u8], out: &mut [f32]) -> Result<(), postcard::Error> {
-    for o in out.iter_mut() {
-        *o = take(b)?;
-    }
-    Ok(())
-}
-
-/// One centre (μ over the `nz` RBF inputs, `m` weights, the variance components) from the
-/// front of `bytes`; the rest after it. Out of line: one copy serves every reader.
-#[inline(never)]
-fn parse_centre<'a>(bytes: &'a [u8], c: &mut Centre<f32>, nz: usize, m: usize) -> Result<&'a [u8], postcard::Error> {
-    let mut b = bytes;
-    floats(&mut b, crate::layout::head_mut(&mut c.mu, nz))?;
-    floats(&mut b, crate::layout::head_mut(&mut c.w, m))?;
-    floats(&mut b, &mut c.v)?;
-    Ok(b)
 }
 
 fn crc_of(head: &[u8], payload: &[u8]) -> u32 {
