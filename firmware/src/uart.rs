@@ -113,39 +113,9 @@ impl CmsdkUart {
         self.rx_wakeup = Some(line);
     }
 
-    /// Wait for the next event: sleep when wake-ups are enabled, spin otherwise.
-    fn idle(&mut self) {
-        match self.rx_wakeup {
-            Some(line) => {
-                // Clear the previous wake-up, then sleep only if nothing arrived meanwhile (a
-                // byte arriving after this check pends the interrupt, and `wfi` returns at once).
-                self.write_reg(INTSTATUS, INT_RX);
-                cortex_m::peripheral::NVIC::unpend(Line(line));
-                if self.read_reg(STATE) & STATE_RX_FULL == 0 {
-                    cortex_m::asm::wfi();
-                }
-            }
-            None => core::hint::spin_loop(),
-        }
-    }
-
     /// Received bytes lost because the RX buffer was full (hardware only; QEMU never loses).
     pub fn rx_overruns(&self) -> u32 {
         self.rx_overruns
-    }
-
-    /// A received byte, if one is waiting.
-    pub fn try_read_byte(&mut self) -> Option<u8> {
-        let state = self.read_reg(STATE);
-        if state & STATE_RX_OVERRUN != 0 {
-            self.rx_overruns = self.rx_overruns.wrapping_add(1);
-            self.write_reg(STATE, STATE_RX_OVERRUN);
-        }
-        if state & STATE_RX_FULL != 0 {
-            Some((self.read_reg(DATA) & 0xFF) as u8)
-        } else {
-            None
-        }
     }
 
     /// Queue `byte` for transmission if the TX buffer has room.
@@ -173,11 +143,34 @@ impl ErrorType for CmsdkUart {
 }
 
 impl ByteReceiver for CmsdkUart {
+    /// A received byte, if one is waiting.
     fn try_read_byte(&mut self) -> Option<u8> {
-        CmsdkUart::try_read_byte(self)
+        let state = self.read_reg(STATE);
+        if state & STATE_RX_OVERRUN != 0 {
+            self.rx_overruns = self.rx_overruns.wrapping_add(1);
+            self.write_reg(STATE, STATE_RX_OVERRUN);
+        }
+        if state & STATE_RX_FULL != 0 {
+            Some((self.read_reg(DATA) & 0xFF) as u8)
+        } else {
+            None
+        }
     }
+
+    /// Wait for the next event: sleep when wake-ups are enabled, spin otherwise.
     fn idle(&mut self) {
-        CmsdkUart::idle(self)
+        match self.rx_wakeup {
+            Some(line) => {
+                // Clear the previous wake-up, then sleep only if nothing arrived meanwhile (a
+                // byte arriving after this check pends the interrupt, and `wfi` returns at once).
+                self.write_reg(INTSTATUS, INT_RX);
+                cortex_m::peripheral::NVIC::unpend(Line(line));
+                if self.read_reg(STATE) & STATE_RX_FULL == 0 {
+                    cortex_m::asm::wfi();
+                }
+            }
+            None => core::hint::spin_loop(),
+        }
     }
 }
 

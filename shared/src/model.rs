@@ -124,8 +124,8 @@ pub struct Provenance {
 /// [`Dims`] are used, the rest are 0 (the blob carries only the used ones).
 ///
 /// `M` is the capacity of Γ's rows: [`MAX_MEMORY`], or 0 for a parameter slot that leaves Γ
-/// in the blob it was decoded from (a device's load, [`crate::blob::decode_split`]: a third
-/// less stack).
+/// in the blob it was decoded from (a device's load, [`crate::blob::decode_split`]: Γ is about
+/// half of a centre-less slot).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModelParams<F, const K: usize, const M: usize = MAX_MEMORY> {
     /// Gratings, ambient input and measurands.

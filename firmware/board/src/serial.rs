@@ -49,9 +49,15 @@ impl<U: Instance> Link<U> {
     pub fn rx_errors(&self) -> u32 {
         self.rx_errors
     }
+}
 
+impl<U: Instance> ErrorType for Link<U> {
+    type Error = Infallible;
+}
+
+impl<U: Instance> ByteReceiver for Link<U> {
     /// A received byte, if one is waiting.
-    pub fn try_read_byte(&mut self) -> Option<u8> {
+    fn try_read_byte(&mut self) -> Option<u8> {
         match self.rx.read() {
             Ok(b) => Some(b),
             Err(nb::Error::WouldBlock) => None,
@@ -75,19 +81,6 @@ impl<U: Instance> Link<U> {
             }
             None => core::hint::spin_loop(),
         }
-    }
-}
-
-impl<U: Instance> ErrorType for Link<U> {
-    type Error = Infallible;
-}
-
-impl<U: Instance> ByteReceiver for Link<U> {
-    fn try_read_byte(&mut self) -> Option<u8> {
-        Link::try_read_byte(self)
-    }
-    fn idle(&mut self) {
-        Link::idle(self)
     }
 }
 

@@ -24,14 +24,14 @@ pub struct Refusals<E> {
 /// The store flash's NOR semantics: `units` erase units of `erase_size` bytes, each large
 /// enough for the longest update; an erase sets `0xFF`; a write lands and reads back; a second
 /// write over written bytes and unaligned or out-of-bounds operations are refused with
-/// `refusals`. Erases the first unit. `Err(i)`: check `i` failed.
+/// `refusals`. Erases the first unit. The first check that fails is logged and ends in `fatal`.
 pub fn check_store_flash<F>(
     flash: &mut F,
     units: usize,
     erase_size: usize,
     refusals: Refusals<F::Error>,
-) -> Result<(), usize>
-where
+    fatal: fn() -> !,
+) where
     F: MappedFlash,
     F::Error: PartialEq,
 {
@@ -53,10 +53,11 @@ where
         flash.erase(0, e).is_ok() && flash.write(8, &word).is_ok(),
         flash.erase(0, e).is_ok(),
     ];
-    match checks.iter().position(|ok| !ok) {
-        Some(i) => Err(i),
-        None => Ok(()),
+    if let Some(i) = checks.iter().position(|ok| !ok) {
+        defmt::error!("store flash: check {=usize} failed", i);
+        fatal()
     }
+    defmt::info!("golden: the store flash ({=usize} units of {=usize} B) behaves as NOR flash", units, erase_size);
 }
 
 /// Every record of `pack` (`fbg_shared::golden::records`: a model blob and its samples): the

@@ -5,10 +5,10 @@
 //! host compares them with its f64 answers. Exits through semihosting (success after the last
 //! sample, failure if a model is refused or the pack is malformed).
 //!
-//! First it runs the RFC 8032 Ed25519 test vectors (section 7.1, TEST 1, 2, 3 and SHA(abc)) through the
-//! signature verifier as this target builds it (`salty` with its Cortex-M4 assembly, which the
-//! host build of the same code does not use): each must verify, and must fail with one bit of
-//! its signature flipped; anything else ends the run with failure. Then it checks the model
+//! First it runs the RFC 8032 Ed25519 test vectors (section 7.1, TEST 1, 2, 3 and SHA(abc))
+//! through the signature verifier as this target builds it (`salty` with its Cortex-M4
+//! assembly, which the host build of the same code does not use): each must verify, and must
+//! fail with one bit of its signature flipped; anything else ends the run with failure. Then it checks the model
 //! store's flash driver on the target (`fbg_firmware::store_flash`, without its host file):
 //! four sectors each large enough for the longest update, an erase sets `0xFF`, a write lands
 //! and reads back, a second write over written bytes and unaligned or out-of-bounds operations
@@ -67,11 +67,7 @@ fn main() -> ! {
         not_aligned: FlashError::NotAligned,
         out_of_bounds: FlashError::OutOfBounds,
     };
-    if let Err(i) = check_store_flash(&mut flash, 4, ERASE_SIZE, refusals) {
-        defmt::error!("store flash: check {=usize} failed", i);
-        exit_failure()
-    }
-    defmt::info!("golden: the store flash ({=usize} B) behaves as NOR flash", 4 * ERASE_SIZE);
+    check_store_flash(&mut flash, 4, ERASE_SIZE, refusals, exit_failure);
     let n = compensate_pack(PACK, MODEL, &mut uart, exit_failure);
     defmt::info!("golden: {=u32} samples compensated, stack peak {=u32} B", n, stack::peak_bytes());
     exit_success()

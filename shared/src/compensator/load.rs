@@ -5,6 +5,7 @@ use super::fold::Folded;
 use super::gate::Gate;
 use super::prepared::PreparedModel;
 use super::swing::Pace;
+use crate::blob::SplitBlob;
 use crate::error::Error;
 use crate::model::{Centre, ModelParams};
 use crate::real::Real;
@@ -26,28 +27,15 @@ impl<F: Real, const K: usize> PreparedModel<F, K> {
         self.reload_parts(params, params.centres.len(), || params.centres.iter().copied(), gamma_of(params))
     }
 
-    /// [`PreparedModel::reload`] from a model whose centres are read from elsewhere: `head`
-    /// (validated, e.g. by [`crate::blob::decode_split`], and holding no centres itself) and
-    /// its `centres`, read twice (once to check every folded number, once to write them), one
-    /// at a time. The same folding, the same checks and the same atomicity as `reload`.
-    pub fn reload_split<G: Real, const K2: usize, I: ExactSizeIterator<Item = Centre<G>> + Clone>(
-        &mut self,
-        head: &ModelParams<G, K2>,
-        centres: I,
-    ) -> Result<(), Error> {
-        self.reload_parts(head, centres.len(), || centres.clone(), gamma_of(head))
-    }
-
     /// Decode a blob ([`crate::blob::decode_split`]: everything but the centres and Γ into a
-    /// parameter slot without either on this frame, the centres and Γ read from `bytes`) and
-    /// load it as [`PreparedModel::reload_split`] does: what a device does to load a model,
-    /// with about a fifth of a whole [`ModelParams`] on its stack. Atomic like
+    /// parameter slot without either on this frame) and load it, the centres read from `bytes`
+    /// twice, one at a time (once to check every folded number, once to write them), and Γ
+    /// from `bytes` likewise: what a device does to load a model, with about a fifth of a whole
+    /// [`ModelParams`] on its stack. The same folding, checks and atomicity as
     /// [`PreparedModel::reload`].
     pub fn reload_blob(&mut self, bytes: &[u8]) -> Result<(), Error> {
         let mut head = ModelParams::<f32, 0, 0>::empty();
-        let split = crate::blob::decode_split::<K, 0>(bytes, &mut head)?;
-        let centres = split.centres;
-        let gamma = split.gamma;
+        let SplitBlob { centres, gamma } = crate::blob::decode_split::<K, 0>(bytes, &mut head)?;
         self.reload_parts(&head, centres.len(), || centres.clone(), |o, k| gamma.get(o, k))
     }
 

@@ -7,7 +7,7 @@ use super::state::StreamState;
 use crate::clock::StreamClock;
 use crate::error::Error;
 use crate::layout::Dims;
-use crate::model::{Centre, ModelParams};
+use crate::model::ModelParams;
 use crate::real::Real;
 
 /// A loaded model with the state of one stream, ready to compensate samples: a
@@ -60,17 +60,6 @@ impl<F: Real, const K: usize> Compensator<F, K> {
     /// stays, its lead now from the new model.
     pub fn reload<G: Real, const K2: usize>(&mut self, params: &ModelParams<G, K2>) -> Result<(), Error> {
         self.model.reload(params)?;
-        self.restart();
-        Ok(())
-    }
-
-    /// [`Compensator::reload`] from a head and its centres ([`PreparedModel::reload_split`]).
-    pub fn reload_split<G: Real, const K2: usize, I: ExactSizeIterator<Item = Centre<G>> + Clone>(
-        &mut self,
-        head: &ModelParams<G, K2>,
-        centres: I,
-    ) -> Result<(), Error> {
-        self.model.reload_split(head, centres)?;
         self.restart();
         Ok(())
     }

@@ -45,11 +45,7 @@ fn main() -> ! {
         not_aligned: StoreError::NotAligned,
         out_of_bounds: StoreError::OutOfBounds,
     };
-    if let Err(i) = check_store_flash(&mut store, UNITS, ERASE_SIZE, refusals) {
-        defmt::error!("store flash: check {=usize} failed", i);
-        exit_failure()
-    }
-    defmt::info!("golden: the store flash ({=usize} units of {=usize} B) behaves as NOR flash", UNITS, ERASE_SIZE);
+    check_store_flash(&mut store, UNITS, ERASE_SIZE, refusals, exit_failure);
     let n = compensate_pack(&PACK, MODEL, &mut link, exit_failure);
     defmt::info!("golden: {=u32} samples compensated, stack peak {=u32} B", n, stack::peak_bytes());
     exit_success()
