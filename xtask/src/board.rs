@@ -45,8 +45,9 @@ use crate::targets::{verdict, PRODUCT_K, TARGET_BOARD_FLASH, TARGET_RAM_LOAD};
 pub struct BoardImages {
     /// The product image (`fbg-board`).
     pub product: PathBuf,
-    /// The golden-vector image (`fbg-board-golden`).
-    pub golden: PathBuf,
+    /// The golden-vector image (`fbg-board-golden`): the `emulator` build's only (nothing runs
+    /// it on the part, so the part's build links the product alone).
+    pub golden: Option<PathBuf>,
 }
 
 /// The board crate's directory.
@@ -54,27 +55,28 @@ pub fn dir(root: &Path) -> PathBuf {
     firmware::dir(root).join("board")
 }
 
-/// Build the board images, for the part (`emulator` false) or for QEMU's `netduinoplus2`, and
-/// copy them to `target/board/{part,emulator}/`.
+/// Build the board images: for the part (`emulator` false) the product alone, for QEMU's
+/// `netduinoplus2` the product and the golden image; copied to `target/board/{part,emulator}/`.
 pub fn build(root: &Path, emulator: bool) -> Result<BoardImages> {
     let features: &[&str] = if emulator { &["--features", "emulator"] } else { &[] };
     // The firmware's build environment, so that the crates both workspaces' images share
     // (kernel, loader: `FBG_K`) are not rebuilt between them.
-    run(cargo_own_target()
-        .current_dir(dir(root))
-        .args(["build", "--release", "--locked", "-p", "fbg-firmware-board", "--bins"])
-        .args(features)
-        .envs(firmware::build_env(root, PRODUCT_K, None)))?;
+    let names: &[&str] = if emulator { &["fbg-board", "fbg-board-golden"] } else { &["fbg-board"] };
+    let mut c = cargo_own_target();
+    c.current_dir(dir(root)).args(["build", "--release", "--locked", "-p", "fbg-firmware-board"]);
+    for name in names {
+        c.args(["--bin", name]);
+    }
+    run(c.args(features).envs(firmware::build_env(root, PRODUCT_K, None)))?;
     let out = root.join("target").join("board").join(if emulator { "emulator" } else { "part" });
     fs::create_dir_all(&out)?;
-    let mut images = Vec::new();
-    for name in ["fbg-board", "fbg-board-golden"] {
+    let copy = |name: &str| -> Result<PathBuf> {
         let to = out.join(name);
         fs::copy(release_dir(root).join(name), &to).with_context(|| format!("copying {name} to {}", to.display()))?;
-        images.push(to);
-    }
-    let golden = images.pop().context("two images")?;
-    let product = images.pop().context("two images")?;
+        Ok(to)
+    };
+    let product = copy("fbg-board")?;
+    let golden = if emulator { Some(copy("fbg-board-golden")?) } else { None };
     Ok(BoardImages { product, golden })
 }
 
@@ -130,7 +132,8 @@ pub fn run_images(
     elf::ensure_no_core_fmt(&part.product, "the STM32F405 product image")?;
     let emu_footprint = elf::footprint(&emu.product)?;
     step("board: golden vectors on QEMU netduinoplus2 (the `emulator` build)");
-    let golden = run_golden(root, qemu, Machine::NetduinoPlus2, &emu.golden, "board-golden", fx)?;
+    let image = emu.golden.as_ref().context("the emulator build links the golden image")?;
+    let golden = run_golden(root, qemu, Machine::NetduinoPlus2, image, "board-golden", fx)?;
     eprintln!(
         "xtask: board golden on netduinoplus2: {} samples of {} sets identical to the host within tolerance ({:.1} s)",
         golden.samples, golden.sets, golden.run_secs
