@@ -236,8 +236,7 @@ pub const fn unloaded<const K: usize>() -> Compensator<f32, K> {
 /// (`kernel.load`, i.e. [`Compensator::reload_blob`]): everything but the centres and Γ is
 /// parsed into a parameter slot without either on the loader's stack frame, the centres (one
 /// at a time) and Γ are read from `bytes`, and every folded number is checked before the
-/// first is written. On
-/// any error `comp` keeps its model and stream state.
+/// first is written. On any error `comp` keeps its model and stream state.
 #[inline(never)]
 pub fn load<const K: usize>(
     kernel: &Kernel<K>,

@@ -5,14 +5,13 @@
 //! host compares them with its f64 answers. Exits through semihosting (success after the last
 //! sample, failure if a model is refused or the pack is malformed).
 //!
-//! First it runs the RFC 8032 Ed25519 test vectors (section 7.1, TEST 1, 2, 3 and SHA(abc))
-//! through the signature verifier as this target builds it (`salty` with its Cortex-M4
-//! assembly, which the host build of the same code does not use): each must verify, and must
-//! fail with one bit of its signature flipped; anything else ends the run with failure. Then it checks the model
-//! store's flash driver on the target (`fbg_firmware::store_flash`, without its host file):
-//! four sectors each large enough for the longest update, an erase sets `0xFF`, a write lands
-//! and reads back, a second write over written bytes and unaligned or out-of-bounds operations
-//! are refused.
+//! First it runs the RFC 8032 Ed25519 test vectors (section 7.1, TEST 1, 2, 3 and SHA(abc)) through
+//! the signature verifier as this target builds it (`salty` with its Cortex-M4 assembly, which the
+//! host build of the same code does not use): each must verify, and must fail with one bit of its
+//! signature flipped; anything else ends the run with failure. Then it checks the model store's
+//! flash driver on the target (`fbg_firmware::store_flash`, without its host file): four sectors
+//! each large enough for the longest update, an erase sets `0xFF`, a write lands and reads back, a
+//! second write over written bytes and unaligned or out-of-bounds operations are refused.
 
 #![no_std]
 #![no_main]
